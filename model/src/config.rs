@@ -1,0 +1,766 @@
+//! Configuration: the formats of every unit's ports and stages, and its
+//! parameters, from TOML — with an embedded default.
+//!
+//! Each unit declares its fields once ([`UnitDecl`]); that declaration drives
+//! parsing, validation, `config show`, and the overrides given as
+//! `--set unit.field=value` or `--set unit.stage.format=I2F14`. A stage is
+//! written
+//!
+//! ```toml
+//! [normalize]
+//! d = { format = "U1F17", round = "half_even", overflow = "saturate" }
+//! ```
+//!
+//! Every error names the file and line (or the flag), the key, and why.
+//! After parsing, each unit runs once in the counting context with the
+//! configured formats, so an exact intermediate wider than the model holds
+//! ([`crate::datapath::MAX_EXACT_WIDTH`]) is rejected naming the stage it
+//! came from.
+
+use std::fmt;
+use std::path::Path;
+use std::sync::Arc;
+
+use toml_edit::{ImDocument, Item, Value as TomlValue};
+
+use crate::format::Format;
+use crate::quantize::{Overflow, Quant, Rounding};
+
+/// The embedded default configuration.
+pub const DEFAULT_TOML: &str = include_str!("default.toml");
+
+/// What kind of value a field holds.
+#[derive(Clone, Copy, Debug)]
+pub enum FieldKind {
+    /// A quantization step: `{ format, round, overflow }`.
+    Stage,
+    /// A real number in `min ..= max`.
+    Number {
+        /// Smallest accepted value.
+        min: f64,
+        /// Largest accepted value.
+        max: f64,
+    },
+    /// An integer in `min ..= max`.
+    Integer {
+        /// Smallest accepted value.
+        min: i64,
+        /// Largest accepted value.
+        max: i64,
+    },
+    /// One of the listed names.
+    Choice(&'static [&'static str]),
+}
+
+/// One field of a unit's configuration section.
+#[derive(Clone, Copy, Debug)]
+pub struct FieldDecl {
+    /// Key.
+    pub name: &'static str,
+    /// Kind of value.
+    pub kind: FieldKind,
+    /// One line for people (`config show` prints it as a comment).
+    pub doc: &'static str,
+}
+
+/// A unit's configuration section.
+#[derive(Clone, Copy, Debug)]
+pub struct UnitDecl {
+    /// Section name.
+    pub name: &'static str,
+    /// One line for people.
+    pub doc: &'static str,
+    /// Its fields, in the order `config show` prints them.
+    pub fields: &'static [FieldDecl],
+}
+
+impl UnitDecl {
+    fn field(&self, name: &str) -> Option<(usize, &'static FieldDecl)> {
+        self.fields.iter().enumerate().find(|(_, f)| f.name == name)
+    }
+}
+
+/// A configured value.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Value {
+    /// A quantization step.
+    Stage(Quant),
+    /// A real number.
+    Number(f64),
+    /// An integer.
+    Integer(i64),
+    /// A name from a choice list.
+    Choice(&'static str),
+}
+
+/// Where a value came from.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Origin {
+    /// A line of a file (or of the embedded default, named `<default>`).
+    File {
+        /// Path as given.
+        path: Arc<str>,
+        /// 1-based line.
+        line: usize,
+    },
+    /// A `--set` flag.
+    Flag(String),
+}
+
+impl fmt::Display for Origin {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Origin::File { path, line } => write!(f, "{path}:{line}"),
+            Origin::Flag(s) => write!(f, "--set {s}"),
+        }
+    }
+}
+
+/// One configuration problem.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ConfigError {
+    /// The file could not be read.
+    #[error("{path}: cannot read: {reason}")]
+    Read {
+        /// Path.
+        path: String,
+        /// The OS error.
+        reason: String,
+    },
+    /// Not TOML.
+    #[error("{at}: not valid TOML: {msg}")]
+    Syntax {
+        /// Where.
+        at: Origin,
+        /// The parser's message.
+        msg: String,
+    },
+    /// A key no unit declares.
+    #[error("{at}: unknown key `{key}`; expected one of: {expected}")]
+    UnknownKey {
+        /// Where.
+        at: Origin,
+        /// The dotted key.
+        key: String,
+        /// The keys allowed there.
+        expected: String,
+    },
+    /// A declared key that is absent.
+    #[error("{at}: missing key `{key}` ({doc})")]
+    MissingKey {
+        /// The section (or file) that lacks it.
+        at: Origin,
+        /// The dotted key.
+        key: String,
+        /// What the key is for.
+        doc: String,
+    },
+    /// A value of the wrong kind or out of range.
+    #[error("{at}: `{key}`: {msg}")]
+    BadValue {
+        /// Where.
+        at: Origin,
+        /// The dotted key.
+        key: String,
+        /// Why.
+        msg: String,
+    },
+}
+
+/// All problems found in one configuration (at least one).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{}", .0.iter().map(|e| e.to_string()).collect::<Vec<_>>().join("\n"))]
+pub struct ConfigErrors(pub Vec<ConfigError>);
+
+/// One unit's configured values, parallel to its declaration's fields.
+#[derive(Clone, Debug)]
+pub struct UnitConfig {
+    /// The declaration.
+    pub decl: &'static UnitDecl,
+    values: Vec<(Value, Origin)>,
+}
+
+impl UnitConfig {
+    fn get(&self, name: &str) -> &(Value, Origin) {
+        let (i, _) = self
+            .decl
+            .field(name)
+            .unwrap_or_else(|| panic!("unit {} declares no field {name}", self.decl.name));
+        &self.values[i]
+    }
+    /// The quantization step of stage `name` (a declared `Stage` field).
+    pub fn stage(&self, name: &str) -> Quant {
+        match self.get(name).0 {
+            Value::Stage(q) => q,
+            ref v => panic!("{}.{name} is {v:?}, not a stage", self.decl.name),
+        }
+    }
+    /// The real number `name` (a declared `Number` field).
+    pub fn number(&self, name: &str) -> f64 {
+        match self.get(name).0 {
+            Value::Number(x) => x,
+            ref v => panic!("{}.{name} is {v:?}, not a number", self.decl.name),
+        }
+    }
+    /// The integer `name` (a declared `Integer` field).
+    pub fn integer(&self, name: &str) -> i64 {
+        match self.get(name).0 {
+            Value::Integer(x) => x,
+            ref v => panic!("{}.{name} is {v:?}, not an integer", self.decl.name),
+        }
+    }
+    /// The choice `name` (a declared `Choice` field).
+    pub fn choice(&self, name: &str) -> &'static str {
+        match self.get(name).0 {
+            Value::Choice(x) => x,
+            ref v => panic!("{}.{name} is {v:?}, not a choice", self.decl.name),
+        }
+    }
+    /// Where the value of `name` came from.
+    pub fn origin(&self, name: &str) -> &Origin {
+        &self.get(name).1
+    }
+    /// Every field with its value.
+    pub fn iter(&self) -> impl Iterator<Item = (&'static FieldDecl, &Value)> {
+        self.decl
+            .fields
+            .iter()
+            .zip(self.values.iter().map(|(v, _)| v))
+    }
+}
+
+/// A validated configuration: every declared unit, every field.
+#[derive(Clone, Debug)]
+pub struct Config {
+    /// Where it came from: a path, or `<default>`.
+    pub source: String,
+    /// The `--set` overrides applied, in order.
+    pub overrides: Vec<String>,
+    units: Vec<UnitConfig>,
+}
+
+fn line_of(text: &str, offset: usize) -> usize {
+    text.as_bytes()[..offset.min(text.len())]
+        .iter()
+        .filter(|&&b| b == b'\n')
+        .count()
+        + 1
+}
+
+struct Parser<'a> {
+    text: &'a str,
+    path: Arc<str>,
+    errors: Vec<ConfigError>,
+}
+
+impl Parser<'_> {
+    fn at(&self, span: Option<std::ops::Range<usize>>) -> Origin {
+        Origin::File {
+            path: self.path.clone(),
+            line: span.map_or(1, |s| line_of(self.text, s.start)),
+        }
+    }
+}
+
+fn kind_name(v: &TomlValue) -> &'static str {
+    v.type_name()
+}
+
+/// Parse one stage part (`format`, `round`, `overflow`) from a TOML value.
+fn stage_part(part: &str, v: &TomlValue, q: &mut Quant) -> Result<(), String> {
+    let s = v
+        .as_str()
+        .ok_or_else(|| format!("expected a string, found {}", kind_name(v)))?;
+    match part {
+        "format" => q.format = s.parse::<Format>().map_err(|e| e.to_string())?,
+        "round" => {
+            q.round = Rounding::from_name(s).ok_or_else(|| {
+                format!("`{s}` is not a rounding mode; expected one of: trunc, half_up, half_even")
+            })?
+        }
+        "overflow" => {
+            q.overflow = Overflow::from_name(s).ok_or_else(|| {
+                format!("`{s}` is not an overflow mode; expected one of: wrap, saturate")
+            })?
+        }
+        _ => unreachable!("caller checks the part name"),
+    }
+    Ok(())
+}
+
+const STAGE_PARTS: [&str; 3] = ["format", "round", "overflow"];
+
+/// Parse a scalar field's value.
+fn scalar(decl: &FieldDecl, v: &TomlValue) -> Result<Value, String> {
+    match decl.kind {
+        FieldKind::Stage => unreachable!("stages are tables"),
+        FieldKind::Number { min, max } => {
+            let x = match v {
+                TomlValue::Float(f) => *f.value(),
+                TomlValue::Integer(i) => *i.value() as f64,
+                other => return Err(format!("expected a number, found {}", kind_name(other))),
+            };
+            if !(x >= min && x <= max) {
+                return Err(format!("{x} is outside {min}..={max}"));
+            }
+            Ok(Value::Number(x))
+        }
+        FieldKind::Integer { min, max } => {
+            let x = v
+                .as_integer()
+                .ok_or_else(|| format!("expected an integer, found {}", kind_name(v)))?;
+            if !(min..=max).contains(&x) {
+                return Err(format!("{x} is outside {min}..={max}"));
+            }
+            Ok(Value::Integer(x))
+        }
+        FieldKind::Choice(names) => {
+            let s = v
+                .as_str()
+                .ok_or_else(|| format!("expected a string, found {}", kind_name(v)))?;
+            names
+                .iter()
+                .find(|n| **n == s)
+                .map(|n| Value::Choice(n))
+                .ok_or_else(|| format!("`{s}` is not one of: {}", names.join(", ")))
+        }
+    }
+}
+
+impl Config {
+    /// The embedded default.
+    pub fn embedded() -> Config {
+        Self::parse(DEFAULT_TOML, "<default>").expect("the embedded default configuration is valid")
+    }
+
+    /// Read and validate a file.
+    pub fn load(path: &Path) -> Result<Config, ConfigErrors> {
+        let text = std::fs::read_to_string(path).map_err(|e| {
+            ConfigErrors(vec![ConfigError::Read {
+                path: path.display().to_string(),
+                reason: e.to_string(),
+            }])
+        })?;
+        Self::parse(&text, &path.display().to_string())
+    }
+
+    /// Read `path` if given, else the embedded default; then apply `--set`
+    /// overrides and validate the result.
+    pub fn resolve(path: Option<&Path>, overrides: &[String]) -> Result<Config, ConfigErrors> {
+        let mut cfg = match path {
+            Some(p) => Self::load(p)?,
+            None => Self::embedded(),
+        };
+        let mut errors = Vec::new();
+        for o in overrides {
+            if let Err(e) = cfg.apply_override(o) {
+                errors.push(e);
+            }
+        }
+        if errors.is_empty() {
+            errors = cfg.check_units();
+        }
+        if errors.is_empty() {
+            Ok(cfg)
+        } else {
+            Err(ConfigErrors(errors))
+        }
+    }
+
+    /// Parse and validate TOML text; `path` names it in errors.
+    pub fn parse(text: &str, path: &str) -> Result<Config, ConfigErrors> {
+        let mut p = Parser {
+            text,
+            path: Arc::from(path),
+            errors: Vec::new(),
+        };
+        let doc = match ImDocument::parse(text) {
+            Ok(d) => d,
+            Err(e) => {
+                let msg = e.message().trim().to_string();
+                return Err(ConfigErrors(vec![ConfigError::Syntax {
+                    at: p.at(e.span()),
+                    msg,
+                }]));
+            }
+        };
+        let root = doc.as_table();
+        let units = crate::units::UNITS;
+        let unit_names = units
+            .iter()
+            .map(|u| u.decl.name)
+            .collect::<Vec<_>>()
+            .join(", ");
+        let mut parsed: Vec<Option<UnitConfig>> = vec![None; units.len()];
+        for (key, item) in root.iter() {
+            let key_span = root.key(key).and_then(|k| k.span());
+            let Some(ui) = units.iter().position(|u| u.decl.name == key) else {
+                p.errors.push(ConfigError::UnknownKey {
+                    at: p.at(key_span),
+                    key: key.to_string(),
+                    expected: unit_names.clone(),
+                });
+                continue;
+            };
+            parsed[ui] = p.unit(units[ui].decl, item, key_span);
+        }
+        for (u, parsed) in units.iter().zip(&parsed) {
+            let present = root.contains_key(u.decl.name);
+            if !present {
+                p.errors.push(ConfigError::MissingKey {
+                    at: p.at(None),
+                    key: format!("[{}]", u.decl.name),
+                    doc: u.decl.doc.to_string(),
+                });
+            } else if parsed.is_none() && p.errors.is_empty() {
+                unreachable!("a unit that failed to parse reported an error");
+            }
+        }
+        if !p.errors.is_empty() {
+            return Err(ConfigErrors(p.errors));
+        }
+        let cfg = Config {
+            source: path.to_string(),
+            overrides: Vec::new(),
+            units: parsed
+                .into_iter()
+                .map(|u| u.expect("checked above"))
+                .collect(),
+        };
+        let errors = cfg.check_units();
+        if errors.is_empty() {
+            Ok(cfg)
+        } else {
+            Err(ConfigErrors(errors))
+        }
+    }
+
+    /// Run every unit's own check (exact widths in the counting context).
+    fn check_units(&self) -> Vec<ConfigError> {
+        let mut errors = Vec::new();
+        for u in crate::units::UNITS {
+            if let Err(e) = (u.check)(self) {
+                errors.extend(e);
+            }
+        }
+        errors
+    }
+
+    /// Apply one `unit.field=value` or `unit.stage.part=value` override
+    /// (not yet re-checked: [`Config::resolve`] does that).
+    pub fn apply_override(&mut self, spec: &str) -> Result<(), ConfigError> {
+        let at = Origin::Flag(spec.to_string());
+        let bad = |key: &str, msg: String| ConfigError::BadValue {
+            at: at.clone(),
+            key: key.to_string(),
+            msg,
+        };
+        let Some((key, text)) = spec.split_once('=') else {
+            return Err(bad(
+                spec,
+                "expected KEY=VALUE, e.g. normalize.d.format=U1F17".into(),
+            ));
+        };
+        let key = key.trim();
+        let text = text.trim();
+        let value: TomlValue = text
+            .parse()
+            .unwrap_or_else(|_| TomlValue::from(text.to_string()));
+        let parts: Vec<&str> = key.split('.').collect();
+        let unit_names = || {
+            crate::units::UNITS
+                .iter()
+                .map(|u| u.decl.name)
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        let Some(unit) = self.units.iter_mut().find(|u| u.decl.name == parts[0]) else {
+            return Err(ConfigError::UnknownKey {
+                at,
+                key: parts[0].to_string(),
+                expected: unit_names(),
+            });
+        };
+        let field_names = unit
+            .decl
+            .fields
+            .iter()
+            .map(|f| f.name)
+            .collect::<Vec<_>>()
+            .join(", ");
+        let Some((i, decl)) = parts.get(1).and_then(|f| unit.decl.field(f)) else {
+            return Err(ConfigError::UnknownKey {
+                at,
+                key: key.to_string(),
+                expected: field_names,
+            });
+        };
+        let new = match (decl.kind, parts.len()) {
+            (FieldKind::Stage, 3) => {
+                let part = parts[2];
+                if !STAGE_PARTS.contains(&part) {
+                    return Err(ConfigError::UnknownKey {
+                        at,
+                        key: key.to_string(),
+                        expected: STAGE_PARTS.join(", "),
+                    });
+                }
+                let Value::Stage(mut q) = unit.values[i].0 else {
+                    unreachable!("stage fields hold stages")
+                };
+                stage_part(part, &value, &mut q).map_err(|m| bad(key, m))?;
+                Value::Stage(q)
+            }
+            (FieldKind::Stage, 2) => {
+                let t = value.as_inline_table().ok_or_else(|| {
+                    bad(
+                        key,
+                        "expected { format = .., round = .., overflow = .. }".into(),
+                    )
+                })?;
+                let mut q = Quant::new(
+                    decl.name,
+                    Format::new(true, 1, 0).expect("valid"),
+                    Rounding::Trunc,
+                    Overflow::Wrap,
+                );
+                for part in STAGE_PARTS {
+                    let v = t
+                        .get(part)
+                        .ok_or_else(|| bad(key, format!("missing `{part}`")))?;
+                    stage_part(part, v, &mut q).map_err(|m| bad(key, m))?;
+                }
+                Value::Stage(q)
+            }
+            (FieldKind::Stage, _) => {
+                return Err(bad(
+                    key,
+                    "name a stage part: format, round or overflow".into(),
+                ))
+            }
+            (_, 2) => scalar(decl, &value).map_err(|m| bad(key, m))?,
+            _ => return Err(bad(key, format!("`{}` has no parts", parts[..2].join(".")))),
+        };
+        unit.values[i] = (new, at);
+        self.overrides.push(spec.to_string());
+        Ok(())
+    }
+
+    /// The section of the unit declared by `decl`.
+    pub fn unit(&self, name: &str) -> &UnitConfig {
+        self.units
+            .iter()
+            .find(|u| u.decl.name == name)
+            .unwrap_or_else(|| panic!("no unit {name} is registered"))
+    }
+
+    /// Every unit's section, in registry order.
+    pub fn units(&self) -> &[UnitConfig] {
+        &self.units
+    }
+
+    /// The effective configuration as TOML, with each field's doc as a
+    /// comment; parsing it gives the same configuration.
+    pub fn to_toml(&self) -> String {
+        let mut out = String::from("# fxshade configuration\n");
+        out += &format!("# source: {}\n", self.source);
+        for o in &self.overrides {
+            out += &format!("# override: --set {o}\n");
+        }
+        for u in &self.units {
+            out += &format!("\n# {}\n[{}]\n", u.decl.doc, u.decl.name);
+            for (decl, v) in u.iter() {
+                out += &format!("# {}\n{} = {}\n", decl.doc, decl.name, toml_value(v));
+            }
+        }
+        out
+    }
+
+    /// The effective configuration as JSON: `{ unit: { field: value } }`,
+    /// stages as `{ "format": "I2F14", "round": .., "overflow": .. }`.
+    pub fn to_json(&self) -> serde_json::Value {
+        let mut root = serde_json::Map::new();
+        for u in &self.units {
+            let mut m = serde_json::Map::new();
+            for (decl, v) in u.iter() {
+                let j = match v {
+                    Value::Stage(q) => serde_json::to_value(q).expect("serializable"),
+                    Value::Number(x) => serde_json::json!(x),
+                    Value::Integer(x) => serde_json::json!(x),
+                    Value::Choice(s) => serde_json::json!(s),
+                };
+                m.insert(decl.name.to_string(), j);
+            }
+            root.insert(u.decl.name.to_string(), serde_json::Value::Object(m));
+        }
+        serde_json::Value::Object(root)
+    }
+}
+
+fn toml_value(v: &Value) -> String {
+    match v {
+        Value::Stage(q) => format!(
+            "{{ format = \"{}\", round = \"{}\", overflow = \"{}\" }}",
+            q.format,
+            q.round.name(),
+            q.overflow.name()
+        ),
+        Value::Number(x) => {
+            let s = format!("{x:?}");
+            s
+        }
+        Value::Integer(x) => x.to_string(),
+        Value::Choice(s) => format!("\"{s}\""),
+    }
+}
+
+impl Parser<'_> {
+    fn unit(
+        &mut self,
+        decl: &'static UnitDecl,
+        item: &Item,
+        key_span: Option<std::ops::Range<usize>>,
+    ) -> Option<UnitConfig> {
+        let Some(table) = item.as_table_like() else {
+            self.errors.push(ConfigError::BadValue {
+                at: self.at(key_span),
+                key: decl.name.to_string(),
+                msg: "expected a table [".to_string() + decl.name + "]",
+            });
+            return None;
+        };
+        let before = self.errors.len();
+        let mut values: Vec<Option<(Value, Origin)>> = vec![None; decl.fields.len()];
+        let expected = decl
+            .fields
+            .iter()
+            .map(|f| f.name)
+            .collect::<Vec<_>>()
+            .join(", ");
+        for (key, item) in table.iter() {
+            let span = table.key(key).and_then(|k| k.span());
+            let at = self.at(span.clone());
+            let dotted = format!("{}.{key}", decl.name);
+            let Some((i, f)) = decl.field(key) else {
+                self.errors.push(ConfigError::UnknownKey {
+                    at,
+                    key: dotted,
+                    expected: expected.clone(),
+                });
+                continue;
+            };
+            let v = match f.kind {
+                FieldKind::Stage => self.stage(f, item, &dotted, &at),
+                _ => match item.as_value() {
+                    Some(v) => scalar(f, v).map_err(|msg| ConfigError::BadValue {
+                        at: at.clone(),
+                        key: dotted.clone(),
+                        msg,
+                    }),
+                    None => Err(ConfigError::BadValue {
+                        at: at.clone(),
+                        key: dotted.clone(),
+                        msg: "expected a value, found a table".into(),
+                    }),
+                },
+            };
+            match v {
+                Ok(v) => values[i] = Some((v, at)),
+                Err(e) => self.errors.push(e),
+            }
+        }
+        let section_at = self.at(key_span);
+        for (f, v) in decl.fields.iter().zip(&values) {
+            if v.is_none()
+                && !self.errors[before..]
+                    .iter()
+                    .any(|e| error_key(e) == format!("{}.{}", decl.name, f.name))
+            {
+                self.errors.push(ConfigError::MissingKey {
+                    at: section_at.clone(),
+                    key: format!("{}.{}", decl.name, f.name),
+                    doc: f.doc.to_string(),
+                });
+            }
+        }
+        if self.errors.len() > before {
+            return None;
+        }
+        Some(UnitConfig {
+            decl,
+            values: values.into_iter().map(|v| v.expect("checked")).collect(),
+        })
+    }
+
+    fn stage(
+        &self,
+        f: &'static FieldDecl,
+        item: &Item,
+        dotted: &str,
+        at: &Origin,
+    ) -> Result<Value, ConfigError> {
+        let bad = |at: Origin, key: String, msg: String| ConfigError::BadValue { at, key, msg };
+        let Some(t) = item.as_table_like() else {
+            return Err(bad(
+                at.clone(),
+                dotted.to_string(),
+                "expected { format = \"I2F14\", round = \"half_even\", overflow = \"saturate\" }"
+                    .into(),
+            ));
+        };
+        let mut q = Quant::new(
+            f.name,
+            Format::new(true, 1, 0).expect("valid"),
+            Rounding::Trunc,
+            Overflow::Wrap,
+        );
+        for (k, v) in t.iter() {
+            let span = t.key(k).and_then(|k| k.span());
+            let key = format!("{dotted}.{k}");
+            if !STAGE_PARTS.contains(&k) {
+                return Err(ConfigError::UnknownKey {
+                    at: self.at(span),
+                    key,
+                    expected: STAGE_PARTS.join(", "),
+                });
+            }
+            let Some(v) = v.as_value() else {
+                return Err(bad(self.at(span), key, "expected a string".into()));
+            };
+            stage_part(k, v, &mut q).map_err(|m| bad(self.at(span.clone()), key.clone(), m))?;
+        }
+        for part in STAGE_PARTS {
+            if !t.contains_key(part) {
+                return Err(ConfigError::MissingKey {
+                    at: at.clone(),
+                    key: format!("{dotted}.{part}"),
+                    doc: match part {
+                        "format" => "the stage's fixed-point format, e.g. I2F14",
+                        "round" => "trunc, half_up or half_even",
+                        _ => "wrap or saturate",
+                    }
+                    .to_string(),
+                });
+            }
+        }
+        Ok(Value::Stage(q))
+    }
+}
+
+fn error_key(e: &ConfigError) -> String {
+    match e {
+        ConfigError::UnknownKey { key, .. }
+        | ConfigError::MissingKey { key, .. }
+        | ConfigError::BadValue { key, .. } => key.split('.').take(2).collect::<Vec<_>>().join("."),
+        _ => String::new(),
+    }
+}
+
+/// Build the error for a unit check: `msg` about field `field` of `unit`.
+pub fn field_error(cfg: &UnitConfig, field: &str, msg: String) -> ConfigError {
+    ConfigError::BadValue {
+        at: cfg.origin(field).clone(),
+        key: format!("{}.{field}", cfg.decl.name),
+        msg,
+    }
+}

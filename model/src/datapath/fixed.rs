@@ -1,0 +1,285 @@
+//! The bit-accurate fixed-point context.
+
+use super::{Datapath, Table};
+use crate::format::{ConvertError, Format};
+use crate::quantize::{Quant, Rounding};
+
+/// An exact fixed-point value `raw · 2^−frac`. Between quantizations the
+/// binary point moves with the operations (`mul` adds fraction bits, `add`
+/// aligns to the finer operand); only [`Datapath::quantize`] drops bits.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Fx {
+    /// The integer code.
+    pub raw: i128,
+    /// Fraction bits: the value is `raw · 2^−frac`.
+    pub frac: i32,
+}
+
+impl Fx {
+    /// A value from a code in `format` (as read from a vector file).
+    pub fn from_code(code: i128, format: Format) -> Fx {
+        Fx {
+            raw: code,
+            frac: format.frac(),
+        }
+    }
+    /// The value as f64 (rounded to nearest when `raw` has more than 53
+    /// significant bits).
+    pub fn to_f64(self) -> f64 {
+        self.raw as f64 * crate::format::exp2i(-self.frac)
+    }
+}
+
+/// Bit-accurate fixed-point arithmetic on `i128` codes.
+///
+/// Exactness holds while every intermediate fits in [`super::MAX_EXACT_WIDTH`]
+/// bits; configuration validation checks that by running each unit in
+/// [`super::Count`] first, so the inner loop does integer arithmetic with no
+/// per-operation checks. Overflows at quantization steps are counted per
+/// stage name (see [`Fixed::overflows`]).
+#[derive(Clone, Debug, Default)]
+pub struct Fixed {
+    overflows: Vec<(&'static str, u64)>,
+}
+
+impl Fixed {
+    /// A context with no overflows counted.
+    pub fn new() -> Self {
+        Self::default()
+    }
+    /// Overflows counted so far, per stage, in order of first occurrence.
+    pub fn overflows(&self) -> &[(&'static str, u64)] {
+        &self.overflows
+    }
+    /// Total overflows counted so far.
+    pub fn total_overflows(&self) -> u64 {
+        self.overflows.iter().map(|(_, n)| n).sum()
+    }
+    /// Forget the counted overflows.
+    pub fn reset(&mut self) {
+        self.overflows.clear();
+    }
+    /// Add another context's counts to this one's (for parallel batches).
+    pub fn merge(&mut self, other: &Fixed) {
+        for &(stage, n) in &other.overflows {
+            self.count(stage, n);
+        }
+    }
+    #[cold]
+    fn count(&mut self, stage: &'static str, n: u64) {
+        match self.overflows.iter_mut().find(|(s, _)| *s == stage) {
+            Some((_, c)) => *c += n,
+            None => self.overflows.push((stage, n)),
+        }
+    }
+    #[inline]
+    fn finish(&mut self, r: crate::quantize::Quantized, q: &Quant) -> Fx {
+        if r.overflowed {
+            self.count(q.stage, 1);
+        }
+        Fx {
+            raw: r.code,
+            frac: q.format.frac(),
+        }
+    }
+    #[inline]
+    fn align(a: Fx, b: Fx) -> (i128, i128, i32) {
+        if a.frac >= b.frac {
+            (a.raw, b.raw << (a.frac - b.frac), a.frac)
+        } else {
+            (a.raw << (b.frac - a.frac), b.raw, b.frac)
+        }
+    }
+}
+
+/// `⌊num·2^k / den⌋` for `den > 0`: its low 128 bits (exact modulo 2^128,
+/// which is all wrap-around needs), whether a remainder was left, and whether
+/// the quotient's magnitude reached `2^100` (outside every format).
+fn div_scaled_floor(num: i128, den: i128, k: i32) -> (i128, bool, bool) {
+    const LIMIT: u128 = 1 << 100;
+    let neg = num < 0;
+    let mag = num.unsigned_abs();
+    let d = den as u128;
+    let (q, sticky, huge) = if k >= 0 && (k as u32) < 127 && mag.leading_zeros() > k as u32 + 1 {
+        let n = mag << k;
+        (n / d, n % d != 0, n / d >= LIMIT)
+    } else {
+        // Restoring division over the bits of |num|·2^k (k ≥ 0) or
+        // ⌊|num|/2^−k⌋ (k < 0; the bits shifted out go into `sticky`).
+        let (n, mut sticky, extra) = if k >= 0 {
+            (mag, false, k as u32)
+        } else if -k < 128 {
+            let sh = (-k) as u32;
+            (mag >> sh, mag & ((1u128 << sh) - 1) != 0, 0)
+        } else {
+            (0, mag != 0, 0)
+        };
+        let (mut r, mut q, mut huge) = (0u128, 0u128, false);
+        for i in 0..128 + extra {
+            let bit = if i < 128 { (n >> (127 - i)) & 1 } else { 0 };
+            // r < d ≤ 2^127, so 2r + 1 fits in a u128.
+            r = (r << 1) | bit;
+            huge |= q >= LIMIT;
+            q <<= 1;
+            if r >= d {
+                r -= d;
+                q |= 1;
+            }
+        }
+        sticky |= r != 0;
+        (q, sticky, huge || q >= LIMIT)
+    };
+    let q = q as i128;
+    // ⌊−x⌋ = −⌈x⌉.
+    let f = if neg {
+        q.wrapping_neg().wrapping_sub(sticky as i128)
+    } else {
+        q
+    };
+    (f, sticky, huge)
+}
+
+/// Round `f·2^−G` (with more nonzero bits below when `sticky`) to an
+/// integer under `mode`, where `f` is a floor with `G = 2` guard bits.
+fn round_guarded(f: i128, sticky: bool, mode: Rounding) -> i128 {
+    let q = f >> 2;
+    // (wrapping: `f` may be the low bits of a huge quotient)
+    let round_bit = (f >> 1) & 1 == 1;
+    let below = f & 1 == 1 || sticky;
+    let up = match mode {
+        Rounding::Trunc => false,
+        Rounding::HalfUp => round_bit,
+        Rounding::HalfEven => round_bit && (below || q & 1 == 1),
+    };
+    q.wrapping_add(up as i128)
+}
+
+fn overflowed(code: i128) -> crate::quantize::Quantized {
+    crate::quantize::Quantized {
+        code,
+        overflowed: true,
+    }
+}
+
+impl Datapath for Fixed {
+    type V = Fx;
+
+    fn constant(&mut self, x: f64, q: &Quant) -> Result<Fx, ConvertError> {
+        let r = q.apply_f64(x)?;
+        Ok(self.finish(r, q))
+    }
+    #[inline]
+    fn mul(&mut self, a: Fx, b: Fx) -> Fx {
+        Fx {
+            raw: a.raw * b.raw,
+            frac: a.frac + b.frac,
+        }
+    }
+    #[inline]
+    fn add(&mut self, a: Fx, b: Fx) -> Fx {
+        let (x, y, frac) = Self::align(a, b);
+        Fx { raw: x + y, frac }
+    }
+    #[inline]
+    fn sub(&mut self, a: Fx, b: Fx) -> Fx {
+        let (x, y, frac) = Self::align(a, b);
+        Fx { raw: x - y, frac }
+    }
+    #[inline]
+    fn shl(&mut self, a: Fx, n: i32) -> Fx {
+        Fx {
+            raw: a.raw,
+            frac: a.frac - n,
+        }
+    }
+    #[inline]
+    fn max(&mut self, a: Fx, b: Fx) -> Fx {
+        let (x, y, frac) = Self::align(a, b);
+        Fx {
+            raw: x.max(y),
+            frac,
+        }
+    }
+    #[inline]
+    fn quantize(&mut self, a: Fx, q: &Quant) -> Fx {
+        let r = q.apply(a.raw, a.frac);
+        self.finish(r, q)
+    }
+    #[inline]
+    fn table(&mut self, t: &Table, index: Fx) -> Fx {
+        debug_assert_eq!(index.frac, t.index.frac(), "table {} index format", t.name);
+        let addr = (t.index.to_bits(index.raw) as usize) & (t.depth() - 1);
+        Fx {
+            raw: t.codes[addr],
+            frac: t.out.format.frac(),
+        }
+    }
+    fn div(&mut self, a: Fx, b: Fx, q: &Quant) -> Fx {
+        let f = &q.format;
+        let (mut num, mut den) = (a.raw, b.raw);
+        if den == 0 {
+            let code = if num < 0 { f.min_code() } else { f.max_code() };
+            return self.finish(overflowed(code), q);
+        }
+        if den < 0 {
+            // |den| ≤ 2^127 − 1 because codes come from formats of ≤ 126 bits.
+            num = -num;
+            den = -den;
+        }
+        // a/b·2^f = num·2^e / den with e = f + fb − fa; two guard bits.
+        let e = f.frac() + b.frac - a.frac;
+        let (g, sticky, huge) = div_scaled_floor(num, den, e + 2);
+        let code = round_guarded(g, sticky, q.round);
+        if huge {
+            let code = match q.overflow {
+                crate::quantize::Overflow::Wrap => f.wrap(code),
+                crate::quantize::Overflow::Saturate if num < 0 => f.min_code(),
+                crate::quantize::Overflow::Saturate => f.max_code(),
+            };
+            return self.finish(overflowed(code), q);
+        }
+        // `code` is on the target grid already: only the range step remains.
+        let r = q.apply(code, f.frac());
+        self.finish(r, q)
+    }
+    fn sqrt(&mut self, a: Fx, q: &Quant) -> Fx {
+        let f = &q.format;
+        if a.raw < 0 {
+            return self.finish(overflowed(0), q);
+        }
+        // √(ra·2^−fa)·2^F = √x with x = ra·2^e, e = 2F − fa. With
+        // m = ⌊4x⌋ and t = isqrt(m) = ⌊2√x⌋: ⌊√x⌋ = t >> 1,
+        // ⌊√x + ½⌋ = (t + 1) >> 1, and √x + ½ is an integer (a tie) exactly
+        // when 4x is an integer and the square of the odd number t.
+        let ra = a.raw as u128;
+        let k = 2 * f.frac() - a.frac + 2;
+        let (m, exact) = if k >= 0 {
+            if k >= 128 || (ra != 0 && ra.leading_zeros() < k as u32) {
+                // 4x ≥ 2^128: √x ≥ 2^63, beyond every signed format.
+                return self.finish(overflowed(f.max_code()), q);
+            }
+            (ra << k, true)
+        } else if -k < 128 {
+            let sh = (-k) as u32;
+            (ra >> sh, ra & ((1u128 << sh) - 1) == 0)
+        } else {
+            (0, ra == 0)
+        };
+        let t = m.isqrt();
+        let code = match q.round {
+            Rounding::Trunc => t >> 1,
+            Rounding::HalfUp => (t + 1) >> 1,
+            Rounding::HalfEven => {
+                let tie = exact && t & 1 == 1 && t * t == m;
+                let up = (t + 1) >> 1;
+                if tie && up & 1 == 1 {
+                    up - 1
+                } else {
+                    up
+                }
+            }
+        };
+        let r = q.apply(code as i128, f.frac());
+        self.finish(r, q)
+    }
+}

@@ -1,0 +1,176 @@
+//! One datapath description, three runs.
+//!
+//! A unit's arithmetic is written once as a function generic over
+//! [`Datapath`]. The same code then runs
+//!
+//! * in [`Reference`] (f64): real arithmetic, quantization is the identity,
+//!   tables return the exact function — the reference;
+//! * in [`Fixed`]: bit-accurate fixed point — every operation exact on
+//!   `i128` codes, every [`Datapath::quantize`] rounding and
+//!   saturating/wrapping as [`Quant::apply`] specifies, overflows counted
+//!   per stage;
+//! * in [`Count`]: symbolic — values are formats, each operation is recorded
+//!   by kind with its operand widths, and any exact intermediate wider than
+//!   the model can hold ([`MAX_EXACT_WIDTH`]) is reported.
+//!
+//! Operation semantics (identical in every context, up to quantization):
+//!
+//! | op | value | exact result format (in [`Count`]) |
+//! |---|---|---|
+//! | `mul(a, b)` | `a·b` | width `wa + wb`, frac `fa + fb` |
+//! | `add(a, b)`, `sub(a, b)` | `a ± b` | frac `max(fa, fb)`, integer bits `max(ia, ib) + 1` |
+//! | `shl(a, n)` | `a·2^n` | frac `fa − n` (wiring, no hardware) |
+//! | `max(a, b)` | `max(a, b)` | aligned, no growth (one comparator) |
+//! | `quantize(a, q)` | `a` rounded/clipped to `q` | `q.format` |
+//! | `table(t, i)` | `t.exact(i)` quantized at build time | `t.out.format` |
+//! | `div(a, b, q)` | `a / b` correctly rounded to `q` | `q.format` |
+//! | `sqrt(a, q)` | `√a` correctly rounded to `q` | `q.format` |
+
+mod count;
+mod fixed;
+mod reference;
+
+pub use count::{Count, MulShape, OpCounts, Sym, TableShape, WidthError, MAX_EXACT_WIDTH};
+pub use fixed::{Fixed, Fx};
+pub use reference::Reference;
+
+use crate::format::{ConvertError, Format};
+use crate::quantize::Quant;
+
+/// The operations a unit's datapath is written in. See the module page for
+/// the semantics table.
+pub trait Datapath {
+    /// A value flowing through the datapath.
+    type V: Copy + std::fmt::Debug;
+
+    /// A real number entering the datapath in step `q`'s format (an input
+    /// port or a coefficient register). [`Fixed`] quantizes it with `q`'s
+    /// modes; [`Reference`] keeps it exact; [`Count`] records nothing.
+    fn constant(&mut self, x: f64, q: &Quant) -> Result<Self::V, ConvertError>;
+    /// Exact product.
+    fn mul(&mut self, a: Self::V, b: Self::V) -> Self::V;
+    /// Exact sum.
+    fn add(&mut self, a: Self::V, b: Self::V) -> Self::V;
+    /// Exact difference.
+    fn sub(&mut self, a: Self::V, b: Self::V) -> Self::V;
+    /// Exact scaling by `2^n` (a re-labelling of the binary point).
+    fn shl(&mut self, a: Self::V, n: i32) -> Self::V;
+    /// The larger of two values (one comparator and a multiplexer).
+    fn max(&mut self, a: Self::V, b: Self::V) -> Self::V;
+    /// Round and clip to `q` (the only place bits are dropped).
+    fn quantize(&mut self, a: Self::V, q: &Quant) -> Self::V;
+    /// Read table `t` at `index`, a value in `t.index`'s format.
+    fn table(&mut self, t: &Table, index: Self::V) -> Self::V;
+    /// Quotient `a / b`, correctly rounded to `q` (division by zero
+    /// saturates and counts as an overflow).
+    fn div(&mut self, a: Self::V, b: Self::V, q: &Quant) -> Self::V;
+    /// Square root, correctly rounded to `q` (a negative input gives 0 and
+    /// counts as an overflow; a root of `2^63` or more saturates in either
+    /// overflow mode and counts as an overflow).
+    fn sqrt(&mut self, a: Self::V, q: &Quant) -> Self::V;
+
+    /// `a·b + c`, exact: one multiply-add.
+    #[inline]
+    fn mul_add(&mut self, a: Self::V, b: Self::V, c: Self::V) -> Self::V {
+        let p = self.mul(a, b);
+        self.add(p, c)
+    }
+    /// Three-term dot product `a·b`, exact: 3 multiplications, 2 additions.
+    #[inline]
+    fn dot3(&mut self, a: [Self::V; 3], b: [Self::V; 3]) -> Self::V {
+        let x = self.mul(a[0], b[0]);
+        let y = self.mul(a[1], b[1]);
+        let z = self.mul(a[2], b[2]);
+        let xy = self.add(x, y);
+        self.add(xy, z)
+    }
+    /// Quantize each component of a vector with the same step.
+    #[inline]
+    fn quantize3(&mut self, a: [Self::V; 3], q: &Quant) -> [Self::V; 3] {
+        [
+            self.quantize(a[0], q),
+            self.quantize(a[1], q),
+            self.quantize(a[2], q),
+        ]
+    }
+}
+
+/// A read-only table (ROM): `depth = 2^index.width` entries, entry `i` holding
+/// `exact(value of index code i)` quantized with `out`.
+#[derive(Clone, Debug)]
+pub struct Table {
+    /// Name, for reports.
+    pub name: &'static str,
+    /// Format of the index (unsigned, integer codes address the entries).
+    pub index: Format,
+    /// Output step: the entries' format and how they were rounded.
+    pub out: Quant,
+    /// The function tabulated, for the reference run.
+    pub exact: fn(f64) -> f64,
+    /// The entries, as codes of `out.format`.
+    pub codes: Vec<i128>,
+}
+
+/// Why a table could not be built.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum TableError {
+    /// The index must be unsigned and at most 24 bits wide.
+    #[error("table {name}: index format {index} must be unsigned and at most 24 bits wide")]
+    Index {
+        /// Table name.
+        name: &'static str,
+        /// The index format given.
+        index: Format,
+    },
+    /// An entry's exact value was not finite.
+    #[error("table {name}: entry {entry}: {source}")]
+    Entry {
+        /// Table name.
+        name: &'static str,
+        /// Index of the entry.
+        entry: usize,
+        /// The conversion error.
+        source: ConvertError,
+    },
+}
+
+impl Table {
+    /// Tabulate `exact` over every code of `index`, quantizing with `out`.
+    pub fn build(
+        name: &'static str,
+        index: Format,
+        out: Quant,
+        exact: fn(f64) -> f64,
+    ) -> Result<Table, TableError> {
+        if index.signed() || index.width() > 24 {
+            return Err(TableError::Index { name, index });
+        }
+        let depth = 1usize << index.width();
+        let codes = (0..depth)
+            .map(|i| {
+                out.apply_f64(exact(index.to_f64(i as i128)))
+                    .map(|r| r.code)
+                    .map_err(|source| TableError::Entry {
+                        name,
+                        entry: i,
+                        source,
+                    })
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(Table {
+            name,
+            index,
+            out,
+            exact,
+            codes,
+        })
+    }
+    /// Number of entries.
+    pub fn depth(&self) -> usize {
+        self.codes.len()
+    }
+    /// Size in bits: depth × entry width.
+    pub fn bits(&self) -> u64 {
+        self.depth() as u64 * self.out.format.width() as u64
+    }
+}

@@ -1,0 +1,28 @@
+//! # fxshade-model
+//!
+//! A bit-accurate fixed-point model of a per-pixel shading pipeline, beside
+//! an f64 reference. The arithmetic is written down once:
+//!
+//! * [`format`] — fixed-point formats (signedness, width, fraction bits);
+//! * [`quantize`] — the only place bits are dropped: rounding and overflow
+//!   modes, each with the Verilog expression the RTL uses;
+//! * [`datapath`] — the operations every unit is written in, run three ways:
+//!   f64 reference, bit-accurate fixed point, and operation counting;
+//! * [`config`] — formats and parameters from TOML, with an embedded default;
+//! * [`units`] — the registry of units; [`lighting`] is the first.
+//!
+//! `model/ARITHMETIC.md` states the contract the RTL follows.
+#![warn(missing_docs)]
+
+pub mod config;
+pub mod datapath;
+pub mod format;
+pub mod lighting;
+pub mod mad_chain;
+pub mod quantize;
+pub mod units;
+
+pub use config::Config;
+pub use datapath::{Count, Datapath, Fixed, Fx, Reference};
+pub use format::Format;
+pub use quantize::{Overflow, Quant, Rounding};

@@ -1,0 +1,370 @@
+//! Quantization: an exact value `raw · 2^−frac` to a target [`Format`].
+//!
+//! This is the only place in fxshade where bits are dropped. Every datapath
+//! operation is exact; a `quantize` step then applies, in this order,
+//!
+//! 1. **rounding** to the target's grid `2^−F` (a right shift by
+//!    `S = frac − F` bits when `S > 0`; when `S ≤ 0` the value is shifted left,
+//!    exactly), then
+//! 2. **overflow handling** to the target's code range.
+//!
+//! The Verilog the RTL uses for each mode, with `x` the exact value as a
+//! signed wire (width `XW`) and `S > 0` the number of dropped bits:
+//!
+//! | mode | meaning | Verilog |
+//! |---|---|---|
+//! | [`Rounding::Trunc`] | floor, toward −∞ | `r = x >>> S;` |
+//! | [`Rounding::HalfUp`] | nearest, ties toward +∞ | `r = (x >>> S) + x[S-1];` |
+//! | [`Rounding::HalfEven`] | nearest, ties to even | `r = (x >>> S) + (x[S-1] & ((\|x[S-2:0]) \| x[S]));` |
+//! | [`Overflow::Wrap`] | keep the low `W` bits | `y = r[W-1:0];` |
+//! | [`Overflow::Saturate`] | clamp to the range | `y = (r > MAX) ? MAX : (r < MIN) ? MIN : r[W-1:0];` |
+//!
+//! `r` is one bit wider than `x >>> S` so that the rounding increment cannot
+//! overflow. For `S = 1`, the sticky term `|x[S-2:0]` is `1'b0`. See
+//! `model/ARITHMETIC.md` for the contract as a whole.
+
+use crate::format::Format;
+
+/// How the bits below the target's LSB are removed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Rounding {
+    /// Floor: round toward −∞, i.e. drop the bits (Verilog `>>>`).
+    /// `q = ⌊x⌋`. The `fixed` crate's multiplication rounds this way.
+    Trunc,
+    /// Round to nearest, ties toward +∞: `q = ⌊x + ½⌋`.
+    HalfUp,
+    /// Round to nearest, ties to the even code (convergent rounding).
+    HalfEven,
+}
+
+/// What happens to a rounded code outside the target's range.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Overflow {
+    /// Keep the low `width` bits (two's-complement wrap-around).
+    Wrap,
+    /// Clamp to the smallest or largest code.
+    Saturate,
+}
+
+impl Rounding {
+    /// Every mode, in documentation order.
+    pub const ALL: [Rounding; 3] = [Rounding::Trunc, Rounding::HalfUp, Rounding::HalfEven];
+    /// The configuration name (`trunc`, `half_up`, `half_even`).
+    pub const fn name(self) -> &'static str {
+        match self {
+            Rounding::Trunc => "trunc",
+            Rounding::HalfUp => "half_up",
+            Rounding::HalfEven => "half_even",
+        }
+    }
+    /// Parse a configuration name.
+    pub fn from_name(s: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|r| r.name() == s)
+    }
+}
+
+impl Overflow {
+    /// Every mode, in documentation order.
+    pub const ALL: [Overflow; 2] = [Overflow::Wrap, Overflow::Saturate];
+    /// The configuration name (`wrap`, `saturate`).
+    pub const fn name(self) -> &'static str {
+        match self {
+            Overflow::Wrap => "wrap",
+            Overflow::Saturate => "saturate",
+        }
+    }
+    /// Parse a configuration name.
+    pub fn from_name(s: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|r| r.name() == s)
+    }
+}
+
+/// A quantization step: the target format, its modes, and the stage name
+/// under which overflows are counted.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct Quant {
+    /// The stage this step belongs to (a configuration key within its unit).
+    #[serde(skip)]
+    pub stage: &'static str,
+    /// Target format.
+    pub format: Format,
+    /// Rounding mode.
+    pub round: Rounding,
+    /// Overflow mode.
+    pub overflow: Overflow,
+}
+
+/// The result of one quantization.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Quantized {
+    /// The code in the target format.
+    pub code: i128,
+    /// Whether the rounded value lay outside the target range (and was wrapped
+    /// or saturated).
+    pub overflowed: bool,
+}
+
+/// `⌊raw / 2^s⌋` rounded by `mode`, for `s ≥ 1` (exact integer arithmetic).
+///
+/// With `q = raw >>> s` and `rem = raw − q·2^s ∈ [0, 2^s)`:
+/// `Trunc` → `q`; `HalfUp` → `q + [rem ≥ 2^(s−1)]`;
+/// `HalfEven` → `q + [rem > 2^(s−1) ∨ (rem = 2^(s−1) ∧ q odd)]`.
+#[inline]
+pub fn round_shift_right(raw: i128, s: u32, mode: Rounding) -> i128 {
+    debug_assert!(s >= 1);
+    if s >= 128 {
+        // |raw·2^−s| ≤ ½, and = ½ only for raw = i128::MIN, s = 128, where
+        // both nearest modes give 0 (tie up to 0, and 0 is even).
+        return match mode {
+            Rounding::Trunc => {
+                if raw < 0 {
+                    -1
+                } else {
+                    0
+                }
+            }
+            Rounding::HalfUp | Rounding::HalfEven => 0,
+        };
+    }
+    let q = raw >> s;
+    match mode {
+        Rounding::Trunc => q,
+        Rounding::HalfUp => q + ((raw >> (s - 1)) & 1),
+        Rounding::HalfEven => {
+            let round_bit = (raw >> (s - 1)) & 1;
+            let sticky = (raw & ((1i128 << (s - 1)) - 1)) != 0;
+            let odd = (q & 1) != 0;
+            q + (round_bit != 0 && (sticky || odd)) as i128
+        }
+    }
+}
+
+impl Quant {
+    /// A quantization step for `stage`.
+    pub const fn new(
+        stage: &'static str,
+        format: Format,
+        round: Rounding,
+        overflow: Overflow,
+    ) -> Self {
+        Quant {
+            stage,
+            format,
+            round,
+            overflow,
+        }
+    }
+
+    /// Quantize the exact value `raw · 2^−frac` to this step's format.
+    ///
+    /// Exact for every `raw` and `frac`: rounding by [`round_shift_right`]
+    /// when bits are dropped, an exact left shift otherwise, then wrap or
+    /// saturate. `overflowed` is set when the rounded value lay outside the
+    /// format's range, in either overflow mode.
+    #[inline]
+    pub fn apply(&self, raw: i128, frac: i32) -> Quantized {
+        let f = &self.format;
+        let s = frac - f.frac();
+        let (rounded, huge) = if s > 0 {
+            (round_shift_right(raw, s as u32, self.round), false)
+        } else if s == 0 {
+            (raw, false)
+        } else {
+            let l = (-s) as u32;
+            if raw == 0 {
+                (0, false)
+            } else if l >= 127 || raw.unsigned_abs() > (i128::MAX >> l) as u128 {
+                // |raw·2^l| ≥ 2^64: outside every format. Its low bits are
+                // still right for wrapping (all zero when l ≥ 128).
+                (if l >= 128 { 0 } else { raw.wrapping_shl(l) }, true)
+            } else {
+                (raw << l, false)
+            }
+        };
+        let out_of_range = huge || !f.contains(rounded);
+        if !out_of_range {
+            return Quantized {
+                code: rounded,
+                overflowed: false,
+            };
+        }
+        let code = match self.overflow {
+            Overflow::Wrap => f.wrap(rounded),
+            Overflow::Saturate => {
+                if raw < 0 {
+                    f.min_code()
+                } else {
+                    f.max_code()
+                }
+            }
+        };
+        Quantized {
+            code,
+            overflowed: true,
+        }
+    }
+
+    /// Quantize an f64 with this step's rounding and overflow modes; errors
+    /// only for NaN and ±∞. Used to bring real inputs and coefficients into
+    /// the datapath with the same semantics as [`Quant::apply`].
+    pub fn apply_f64(&self, x: f64) -> Result<Quantized, crate::format::ConvertError> {
+        use crate::format::ConvertError;
+        if x.is_nan() {
+            return Err(ConvertError::NaN);
+        }
+        if x.is_infinite() {
+            return Err(ConvertError::Infinite(x));
+        }
+        // An f64 is exactly m·2^e with |m| < 2^53: quantize that.
+        let (m, e) = decompose(x);
+        Ok(self.apply(m, -e))
+    }
+}
+
+/// `x = m · 2^e` exactly, with `m` an integer of at most 53 bits.
+pub fn decompose(x: f64) -> (i128, i32) {
+    if x == 0.0 {
+        return (0, 0);
+    }
+    let bits = x.to_bits();
+    let sign = if bits >> 63 != 0 { -1 } else { 1 };
+    let exp = ((bits >> 52) & 0x7ff) as i32;
+    let frac = bits & ((1u64 << 52) - 1);
+    let (m, e) = if exp == 0 {
+        (frac, -1074)
+    } else {
+        (frac | (1u64 << 52), exp - 1075)
+    };
+    (sign * m as i128, e)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn q(fmt: &str, round: Rounding, overflow: Overflow) -> Quant {
+        Quant::new("t", fmt.parse().unwrap(), round, overflow)
+    }
+
+    #[test]
+    fn rounding_modes_on_ties() {
+        // raw/4 for raw = -6..=6 to an integer format: ties at ±2, ±6 (x.5).
+        let cases: [(i128, i128, i128, i128); 6] = [
+            // raw, trunc, half_up, half_even
+            (6, 1, 2, 2),     // 1.5
+            (2, 0, 1, 0),     // 0.5
+            (-2, -1, 0, 0),   // -0.5
+            (-6, -2, -1, -2), // -1.5
+            (3, 0, 1, 1),     // 0.75
+            (-3, -1, -1, -1), // -0.75
+        ];
+        for (raw, t, u, e) in cases {
+            assert_eq!(
+                q("I8F0", Rounding::Trunc, Overflow::Wrap)
+                    .apply(raw, 2)
+                    .code,
+                t,
+                "{raw}"
+            );
+            assert_eq!(
+                q("I8F0", Rounding::HalfUp, Overflow::Wrap)
+                    .apply(raw, 2)
+                    .code,
+                u,
+                "{raw}"
+            );
+            assert_eq!(
+                q("I8F0", Rounding::HalfEven, Overflow::Wrap)
+                    .apply(raw, 2)
+                    .code,
+                e,
+                "{raw}"
+            );
+        }
+    }
+
+    #[test]
+    fn overflow_modes() {
+        let w = q("I4F0", Rounding::Trunc, Overflow::Wrap);
+        let s = q("I4F0", Rounding::Trunc, Overflow::Saturate);
+        assert_eq!(
+            w.apply(9, 0),
+            Quantized {
+                code: -7,
+                overflowed: true
+            }
+        );
+        assert_eq!(
+            s.apply(9, 0),
+            Quantized {
+                code: 7,
+                overflowed: true
+            }
+        );
+        assert_eq!(
+            s.apply(-9, 0),
+            Quantized {
+                code: -8,
+                overflowed: true
+            }
+        );
+        assert_eq!(
+            s.apply(7, 0),
+            Quantized {
+                code: 7,
+                overflowed: false
+            }
+        );
+        // Left shift far beyond the width.
+        assert_eq!(
+            s.apply(1, -200),
+            Quantized {
+                code: 7,
+                overflowed: true
+            }
+        );
+        assert_eq!(
+            w.apply(1, -200),
+            Quantized {
+                code: 0,
+                overflowed: true
+            }
+        );
+        // Rounding up into overflow: 7.5 half-up is 8.
+        let su = q("I4F0", Rounding::HalfUp, Overflow::Saturate);
+        assert_eq!(
+            su.apply(15, 1),
+            Quantized {
+                code: 7,
+                overflowed: true
+            }
+        );
+        assert_eq!(
+            s.apply(15, 1),
+            Quantized {
+                code: 7,
+                overflowed: false
+            }
+        );
+    }
+
+    #[test]
+    fn huge_right_shifts() {
+        let t = q("I8F0", Rounding::Trunc, Overflow::Wrap);
+        assert_eq!(t.apply(-1, 300).code, -1);
+        assert_eq!(t.apply(i128::MAX, 300).code, 0);
+        let u = q("I8F0", Rounding::HalfUp, Overflow::Wrap);
+        assert_eq!(u.apply(i128::MIN, 128).code, 0);
+        assert_eq!(u.apply(i128::MIN, 127).code, -1);
+    }
+
+    #[test]
+    fn decompose_is_exact() {
+        for x in [1.0, -0.1, 3.5e-310, 1e300, -7.25] {
+            let (m, e) = decompose(x);
+            assert_eq!(m as f64 * crate::format::exp2i(e), x);
+        }
+    }
+}

@@ -1,0 +1,76 @@
+//! The registry of units: each unit's configuration declaration, its
+//! configuration check and its operation-count runs.
+
+use crate::config::{field_error, Config, ConfigError, UnitConfig, UnitDecl};
+use crate::datapath::{Count, OpCounts};
+
+/// Per-pixel work or once-per-triangle set-up.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Phase {
+    /// Once per triangle.
+    Setup,
+    /// Once per pixel.
+    Pixel,
+}
+
+/// What a paper claims a variant costs, for comparison with measured counts.
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct PaperClaim {
+    /// Multiplications.
+    pub mul: u64,
+    /// Additions and subtractions.
+    pub add: u64,
+    /// Divisions.
+    pub div: u64,
+    /// Square roots.
+    pub sqrt: u64,
+    /// Table reads.
+    pub table_read: u64,
+    /// Where the claim is made.
+    pub source: &'static str,
+}
+
+/// Measured operation counts of one variant of one unit.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct OpReport {
+    /// Unit name (its configuration section).
+    pub unit: &'static str,
+    /// Variant.
+    pub variant: &'static str,
+    /// `setup` or `pixel`.
+    pub stage: Phase,
+    /// The counts, from running the datapath in [`Count`].
+    #[serde(flatten)]
+    pub counts: OpCounts,
+    /// The paper's claim, where it makes one.
+    pub paper: Option<PaperClaim>,
+}
+
+/// A registered unit.
+pub struct UnitEntry {
+    /// Its configuration section.
+    pub decl: &'static UnitDecl,
+    /// Validate a configuration beyond syntax (e.g. exact widths).
+    pub check: fn(&Config) -> Result<(), Vec<ConfigError>>,
+    /// Run every variant in the counting context.
+    pub ops: fn(&Config) -> Vec<OpReport>,
+}
+
+/// Every unit, in pipeline order.
+pub static UNITS: &[&UnitEntry] = &[&crate::lighting::UNIT];
+
+/// Map the width errors of a counting run to configuration errors naming the
+/// stage each too-wide intermediate came from.
+pub fn width_errors(cx: &Count, unit: &UnitConfig) -> Result<(), Vec<ConfigError>> {
+    let errs: Vec<ConfigError> = cx
+        .width_errors()
+        .iter()
+        .map(|e| field_error(unit, e.a, e.to_string()))
+        .collect();
+    if errs.is_empty() {
+        Ok(())
+    } else {
+        Err(errs)
+    }
+}
