@@ -1,1 +1,60 @@
-fn main() {}
+//! `fxshade`: the command-line tool over the fxshade model.
+
+mod cmd;
+mod output;
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+use fxshade_model::config::ConfigErrors;
+
+/// fxshade — a bit-accurate fixed-point model of a per-pixel shading
+/// pipeline (fast normalizer, polar tangent-space transform, quadratic normal
+/// interpolation), its Verilog RTL, and the flow that proves they agree.
+///
+/// Widths, rounding and overflow modes are run-time choices: every command
+/// that uses them takes `--config FILE` and `--set KEY=VALUE`; without them
+/// the embedded default is used (`fxshade config show` prints it).
+/// Commands that print figures take `--json` or `--csv`.
+#[derive(Parser, Debug)]
+#[command(name = "fxshade", version, about, long_about)]
+struct Cli {
+    #[command(subcommand)]
+    cmd: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Show or validate a configuration (formats of every port and stage).
+    #[command(subcommand)]
+    Config(cmd::config::ConfigCmd),
+    /// Operation counts of every unit and variant, measured by running the
+    /// datapath in the counting context (not typed in), beside the papers'
+    /// claims.
+    Ops(cmd::ops::OpsArgs),
+    /// Benchmarks of the model's speed.
+    #[command(subcommand)]
+    Bench(cmd::bench::BenchCmd),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let r = match &cli.cmd {
+        Command::Config(c) => cmd::config::run(c),
+        Command::Ops(a) => cmd::ops::run(a),
+        Command::Bench(b) => cmd::bench::run(b),
+    };
+    match r {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            if let Some(ce) = e.downcast_ref::<ConfigErrors>() {
+                for line in ce.0.iter() {
+                    eprintln!("error: {line}");
+                }
+                return ExitCode::from(2);
+            }
+            eprintln!("error: {e:#}");
+            ExitCode::from(1)
+        }
+    }
+}

@@ -272,16 +272,16 @@ fn stage_part(part: &str, v: &TomlValue, q: &mut Quant) -> Result<(), String> {
         .as_str()
         .ok_or_else(|| format!("expected a string, found {}", kind_name(v)))?;
     match part {
-        "format" => q.format = s.parse::<Format>().map_err(|e| e.to_string())?,
+        "format" => *q = q.with_format(s.parse::<Format>().map_err(|e| e.to_string())?),
         "round" => {
-            q.round = Rounding::from_name(s).ok_or_else(|| {
+            *q = q.with_round(Rounding::from_name(s).ok_or_else(|| {
                 format!("`{s}` is not a rounding mode; expected one of: trunc, half_up, half_even")
-            })?
+            })?)
         }
         "overflow" => {
-            q.overflow = Overflow::from_name(s).ok_or_else(|| {
+            *q = q.with_overflow(Overflow::from_name(s).ok_or_else(|| {
                 format!("`{s}` is not an overflow mode; expected one of: wrap, saturate")
-            })?
+            })?)
         }
         _ => unreachable!("caller checks the part name"),
     }
@@ -601,9 +601,9 @@ fn toml_value(v: &Value) -> String {
     match v {
         Value::Stage(q) => format!(
             "{{ format = \"{}\", round = \"{}\", overflow = \"{}\" }}",
-            q.format,
-            q.round.name(),
-            q.overflow.name()
+            q.format(),
+            q.round().name(),
+            q.overflow().name()
         ),
         Value::Number(x) => {
             let s = format!("{x:?}");

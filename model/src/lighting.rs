@@ -161,7 +161,7 @@ mod tests {
     #[test]
     fn fixed_diffuse_tracks_the_reference_within_one_level() {
         let l = Lighting::from_config(Config::embedded().unit("lighting"));
-        let mut fx = Fixed::new();
+        let mut fx = Fixed::<i128>::new();
         let kf = l.consts(&mut fx).unwrap();
         let mut rf = Reference;
         let kr = l.consts(&mut rf).unwrap();

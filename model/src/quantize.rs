@@ -15,7 +15,7 @@
 //! |---|---|---|
 //! | [`Rounding::Trunc`] | floor, toward −∞ | `r = x >>> S;` |
 //! | [`Rounding::HalfUp`] | nearest, ties toward +∞ | `r = (x >>> S) + x[S-1];` |
-//! | [`Rounding::HalfEven`] | nearest, ties to even | `r = (x >>> S) + (x[S-1] & ((\|x[S-2:0]) \| x[S]));` |
+//! | [`Rounding::HalfEven`] | nearest, ties to even | `r = (x + {1'b0, {(S-1){1'b1}}} + x[S]) >>> S;` |
 //! | [`Overflow::Wrap`] | keep the low `W` bits | `y = r[W-1:0];` |
 //! | [`Overflow::Saturate`] | clamp to the range | `y = (r > MAX) ? MAX : (r < MIN) ? MIN : r[W-1:0];` |
 //!
@@ -81,64 +81,154 @@ impl Overflow {
     }
 }
 
+/// An integer type that holds fixed-point codes: `i64` when every exact
+/// intermediate of a datapath fits in 62 bits (the fast path), `i128`
+/// otherwise. The quantization logic is written once over this trait.
+pub trait Raw:
+    Copy
+    + Ord
+    + std::fmt::Debug
+    + Send
+    + Sync
+    + 'static
+    + std::ops::Add<Output = Self>
+    + std::ops::Sub<Output = Self>
+    + std::ops::BitAnd<Output = Self>
+    + std::ops::Shr<u32, Output = Self>
+    + std::ops::Shl<u32, Output = Self>
+{
+    /// Bits in the type.
+    const BITS: u32;
+    /// 0.
+    const ZERO: Self;
+    /// 1.
+    const ONE: Self;
+    /// Truncating conversion (keeps the low `BITS` bits).
+    fn from_i128(x: i128) -> Self;
+    /// Widening conversion.
+    fn to_i128(self) -> i128;
+    /// Shift left, discarding bits shifted out (the shift must be `< BITS`).
+    fn wrapping_shl(self, n: u32) -> Self;
+    /// Logical shift right (for unsigned wrap-around).
+    fn lshr(self, n: u32) -> Self;
+    /// Whether shifting left by `n` loses no bits and keeps the sign.
+    fn shl_fits(self, n: u32) -> bool;
+    /// Product (exact when the result fits, which the counting run
+    /// guarantees for the datapaths it checks).
+    fn mul_raw(self, o: Self) -> Self;
+    /// Sum with wrap-around.
+    fn wrapping_add_raw(self, o: Self) -> Self;
+    /// Whether `lo ≤ self ≤ hi`, as one unsigned comparison.
+    fn in_range(self, lo: Self, hi: Self) -> bool;
+}
+
+macro_rules! impl_raw {
+    ($t:ty, $u:ty) => {
+        impl Raw for $t {
+            const BITS: u32 = <$t>::BITS;
+            const ZERO: Self = 0;
+            const ONE: Self = 1;
+            #[inline(always)]
+            fn from_i128(x: i128) -> Self {
+                x as $t
+            }
+            #[inline(always)]
+            fn to_i128(self) -> i128 {
+                self as i128
+            }
+            #[inline(always)]
+            fn wrapping_shl(self, n: u32) -> Self {
+                <$t>::wrapping_shl(self, n)
+            }
+            #[inline(always)]
+            fn lshr(self, n: u32) -> Self {
+                ((self as $u) >> n) as $t
+            }
+            #[inline(always)]
+            fn shl_fits(self, n: u32) -> bool {
+                n < <$t>::BITS - 1 && (self << n) >> n == self
+            }
+            #[inline(always)]
+            fn mul_raw(self, o: Self) -> Self {
+                self.wrapping_mul(o)
+            }
+            #[inline(always)]
+            fn wrapping_add_raw(self, o: Self) -> Self {
+                self.wrapping_add(o)
+            }
+            #[inline(always)]
+            fn in_range(self, lo: Self, hi: Self) -> bool {
+                (self.wrapping_sub(lo) as $u) <= (hi.wrapping_sub(lo) as $u)
+            }
+        }
+    };
+}
+impl_raw!(i64, u64);
+impl_raw!(i128, u128);
+
+/// `⌊raw / 2^s⌋` rounded by `mode`, for `s ≥ 1` (exact integer arithmetic,
+/// for `|raw| ≤ 2^(BITS−2)`, which the exact-width limit guarantees).
+///
+/// With `q = raw >>> s` and `rem = raw − q·2^s ∈ [0, 2^s)`:
+/// * `Trunc` → `q`;
+/// * `HalfUp` → `q + [rem ≥ 2^(s−1)]` = `((raw >>> (s−1)) + 1) >>> 1`;
+/// * `HalfEven` → `q + [rem > 2^(s−1) ∨ (rem = 2^(s−1) ∧ q odd)]`
+///   = `(raw + 2^(s−1) − 1 + raw[s]) >>> s`: the carry out of the low `s`
+///   bits is 1 exactly when `rem > 2^(s−1)`, or `rem = 2^(s−1)` and `q` is odd.
+#[inline(always)]
+pub fn round_shift_right<R: Raw>(raw: R, s: u32, mode: Rounding) -> R {
+    debug_assert!(s >= 1);
+    if s >= R::BITS {
+        // |raw·2^−s| ≤ ½, and = ½ only for raw = MIN, s = BITS, where both
+        // nearest modes give 0 (tie up to 0, and 0 is even).
+        return match mode {
+            Rounding::Trunc if raw < R::ZERO => R::ZERO - R::ONE,
+            _ => R::ZERO,
+        };
+    }
+    match mode {
+        Rounding::Trunc => raw >> s,
+        Rounding::HalfUp => ((raw >> (s - 1)) + R::ONE) >> 1,
+        Rounding::HalfEven => {
+            let lsb = (raw >> s) & R::ONE;
+            let bias = (R::ONE << (s - 1)) - R::ONE + lsb;
+            raw.wrapping_add_raw(bias) >> s
+        }
+    }
+}
+
 /// A quantization step: the target format, its modes, and the stage name
-/// under which overflows are counted.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+/// under which overflows are counted. Built once per configuration; the code
+/// range is resolved at construction so the inner loop only compares.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Quant {
-    /// The stage this step belongs to (a configuration key within its unit).
-    #[serde(skip)]
-    pub stage: &'static str,
-    /// Target format.
-    pub format: Format,
-    /// Rounding mode.
-    pub round: Rounding,
-    /// Overflow mode.
-    pub overflow: Overflow,
+    stage: &'static str,
+    format: Format,
+    round: Rounding,
+    overflow: Overflow,
+    min: i128,
+    max: i128,
+}
+
+impl serde::Serialize for Quant {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeStruct;
+        let mut st = s.serialize_struct("Quant", 3)?;
+        st.serialize_field("format", &self.format)?;
+        st.serialize_field("round", &self.round)?;
+        st.serialize_field("overflow", &self.overflow)?;
+        st.end()
+    }
 }
 
 /// The result of one quantization.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Quantized {
+pub struct Quantized<R = i128> {
     /// The code in the target format.
-    pub code: i128,
+    pub code: R,
     /// Whether the rounded value lay outside the target range (and was wrapped
     /// or saturated).
     pub overflowed: bool,
-}
-
-/// `⌊raw / 2^s⌋` rounded by `mode`, for `s ≥ 1` (exact integer arithmetic).
-///
-/// With `q = raw >>> s` and `rem = raw − q·2^s ∈ [0, 2^s)`:
-/// `Trunc` → `q`; `HalfUp` → `q + [rem ≥ 2^(s−1)]`;
-/// `HalfEven` → `q + [rem > 2^(s−1) ∨ (rem = 2^(s−1) ∧ q odd)]`.
-#[inline]
-pub fn round_shift_right(raw: i128, s: u32, mode: Rounding) -> i128 {
-    debug_assert!(s >= 1);
-    if s >= 128 {
-        // |raw·2^−s| ≤ ½, and = ½ only for raw = i128::MIN, s = 128, where
-        // both nearest modes give 0 (tie up to 0, and 0 is even).
-        return match mode {
-            Rounding::Trunc => {
-                if raw < 0 {
-                    -1
-                } else {
-                    0
-                }
-            }
-            Rounding::HalfUp | Rounding::HalfEven => 0,
-        };
-    }
-    let q = raw >> s;
-    match mode {
-        Rounding::Trunc => q,
-        Rounding::HalfUp => q + ((raw >> (s - 1)) & 1),
-        Rounding::HalfEven => {
-            let round_bit = (raw >> (s - 1)) & 1;
-            let sticky = (raw & ((1i128 << (s - 1)) - 1)) != 0;
-            let odd = (q & 1) != 0;
-            q + (round_bit != 0 && (sticky || odd)) as i128
-        }
-    }
 }
 
 impl Quant {
@@ -154,7 +244,41 @@ impl Quant {
             format,
             round,
             overflow,
+            min: format.min_code(),
+            max: format.max_code(),
         }
+    }
+    /// The stage (configuration key within its unit).
+    pub const fn stage(&self) -> &'static str {
+        self.stage
+    }
+    /// Target format.
+    pub const fn format(&self) -> Format {
+        self.format
+    }
+    /// Rounding mode.
+    pub const fn round(&self) -> Rounding {
+        self.round
+    }
+    /// Overflow mode.
+    pub const fn overflow(&self) -> Overflow {
+        self.overflow
+    }
+    /// The same step with another format.
+    pub const fn with_format(self, f: Format) -> Self {
+        Self::new(self.stage, f, self.round, self.overflow)
+    }
+    /// The same step with another rounding mode.
+    pub const fn with_round(self, r: Rounding) -> Self {
+        Self::new(self.stage, self.format, r, self.overflow)
+    }
+    /// The same step with another overflow mode.
+    pub const fn with_overflow(self, o: Overflow) -> Self {
+        Self::new(self.stage, self.format, self.round, o)
+    }
+    /// The same step under another stage name.
+    pub const fn with_stage(self, stage: &'static str) -> Self {
+        Self::new(stage, self.format, self.round, self.overflow)
     }
 
     /// Quantize the exact value `raw · 2^−frac` to this step's format.
@@ -165,40 +289,55 @@ impl Quant {
     /// format's range, in either overflow mode.
     #[inline]
     pub fn apply(&self, raw: i128, frac: i32) -> Quantized {
-        let f = &self.format;
-        let s = frac - f.frac();
+        self.apply_raw(raw, frac)
+    }
+
+    /// [`Quant::apply`] on any code type. With `i64` an unsigned format must
+    /// be at most 63 bits wide (the counting run picks `i64` only then).
+    #[inline(always)]
+    pub fn apply_raw<R: Raw>(&self, raw: R, frac: i32) -> Quantized<R> {
+        let s = frac - self.format.frac();
         let (rounded, huge) = if s > 0 {
             (round_shift_right(raw, s as u32, self.round), false)
         } else if s == 0 {
             (raw, false)
         } else {
             let l = (-s) as u32;
-            if raw == 0 {
-                (0, false)
-            } else if l >= 127 || raw.unsigned_abs() > (i128::MAX >> l) as u128 {
-                // |raw·2^l| ≥ 2^64: outside every format. Its low bits are
-                // still right for wrapping (all zero when l ≥ 128).
-                (if l >= 128 { 0 } else { raw.wrapping_shl(l) }, true)
-            } else {
+            if raw.shl_fits(l) {
                 (raw << l, false)
+            } else if raw == R::ZERO {
+                (raw, false)
+            } else {
+                // |raw·2^l| exceeds the code type: outside every format. Its
+                // low bits are still right for wrapping (zero when l ≥ BITS).
+                (
+                    if l >= R::BITS {
+                        R::ZERO
+                    } else {
+                        raw.wrapping_shl(l)
+                    },
+                    true,
+                )
             }
         };
-        let out_of_range = huge || !f.contains(rounded);
-        if !out_of_range {
+        let (min, max) = (R::from_i128(self.min), R::from_i128(self.max));
+        if !huge && rounded.in_range(min, max) {
             return Quantized {
                 code: rounded,
                 overflowed: false,
             };
         }
         let code = match self.overflow {
-            Overflow::Wrap => f.wrap(rounded),
-            Overflow::Saturate => {
-                if raw < 0 {
-                    f.min_code()
+            Overflow::Wrap => {
+                let sh = R::BITS - self.format.width();
+                if self.format.signed() {
+                    (rounded << sh) >> sh
                 } else {
-                    f.max_code()
+                    (rounded << sh).lshr(sh)
                 }
             }
+            Overflow::Saturate if raw < R::ZERO => min,
+            Overflow::Saturate => max,
         };
         Quantized {
             code,

@@ -74,8 +74,12 @@ fn range_step(r: BigInt, f: &Format, ov: Overflow) -> (i128, bool) {
 
 fn oracle_quantize(raw: i128, frac: i32, q: &Quant) -> (i128, bool) {
     let x = BigRational::from_integer(BigInt::from(raw)) * pow2(-frac);
-    let scaled = x * pow2(q.format.frac());
-    range_step(round_rational(&scaled, q.round), &q.format, q.overflow)
+    let scaled = x * pow2(q.format().frac());
+    range_step(
+        round_rational(&scaled, q.round()),
+        &q.format(),
+        q.overflow(),
+    )
 }
 
 fn arb_format() -> impl Strategy<Value = Format> {
@@ -115,43 +119,43 @@ proptest! {
         let got = q.apply_f64(x).unwrap();
         // Every finite f64 is a dyadic rational: BigRational::from_float is exact.
         let xr = BigRational::from_float(x).unwrap();
-        let scaled = xr * pow2(q.format.frac());
-        let (code, ov) = range_step(round_rational(&scaled, q.round), &q.format, q.overflow);
+        let scaled = xr * pow2(q.format().frac());
+        let (code, ov) = range_step(round_rational(&scaled, q.round()), &q.format(), q.overflow());
         prop_assert_eq!((got.code, got.overflowed), (code, ov));
     }
 
     #[test]
     fn div_is_correctly_rounded(a in -1_000_000i128..1_000_000, b in -5000i128..5000, fa in -8i32..30, fb in -8i32..30, q in arb_quant()) {
         prop_assume!(b != 0);
-        let mut cx = Fixed::new();
+        let mut cx = Fixed::<i128>::new();
         let got = cx.div(Fx { raw: a, frac: fa }, Fx { raw: b, frac: fb }, &q);
-        let x = BigRational::new(BigInt::from(a), BigInt::from(b)) * pow2(fb - fa) * pow2(q.format.frac());
-        let (code, ov) = range_step(round_rational(&x, q.round), &q.format, q.overflow);
+        let x = BigRational::new(BigInt::from(a), BigInt::from(b)) * pow2(fb - fa) * pow2(q.format().frac());
+        let (code, ov) = range_step(round_rational(&x, q.round()), &q.format(), q.overflow());
         prop_assert_eq!(got.raw, code);
         prop_assert_eq!(cx.total_overflows(), ov as u64);
     }
 
     #[test]
     fn sqrt_is_correctly_rounded(a in 0i128..(1i128 << 90), fa in -20i32..80, q in arb_quant()) {
-        let mut cx = Fixed::new();
+        let mut cx = Fixed::<i128>::new();
         let got = cx.sqrt(Fx { raw: a, frac: fa }, &q);
         // X = value·2^(2F); the candidate r is right when it brackets √X:
         // trunc: r² ≤ X < (r+1)²; nearest: (r−½)² ≤ X ≤ (r+½)², ties by mode.
-        let xr = BigRational::from_integer(BigInt::from(a)) * pow2(2 * q.format.frac() - fa);
+        let xr = BigRational::from_integer(BigInt::from(a)) * pow2(2 * q.format().frac() - fa);
         let r0 = xr.floor().to_integer().sqrt();
         let half = BigRational::new(BigInt::one(), BigInt::from(2));
         let mut best = None;
         for cand in [r0.clone(), &r0 + 1] {
             let r = BigRational::from_integer(cand.clone());
             let even = (&cand % 2u32).is_zero();
-            let ok = match q.round {
+            let ok = match q.round() {
                 Rounding::Trunc => &r * &r <= xr && (&r + BigRational::one()) * (&r + BigRational::one()) > xr,
                 _ => {
                     let lo = &r - &half;
                     let hi = &r + &half;
-                    let tie_ok = q.round == Rounding::HalfUp || even;
-                    let lo_ok = cand.is_zero() || if q.round == Rounding::HalfUp || even { &lo * &lo <= xr } else { &lo * &lo < xr };
-                    let hi_ok = if tie_ok && q.round != Rounding::HalfUp { &hi * &hi >= xr } else { &hi * &hi > xr };
+                    let tie_ok = q.round() == Rounding::HalfUp || even;
+                    let lo_ok = cand.is_zero() || if q.round() == Rounding::HalfUp || even { &lo * &lo <= xr } else { &lo * &lo < xr };
+                    let hi_ok = if tie_ok && q.round() != Rounding::HalfUp { &hi * &hi >= xr } else { &hi * &hi > xr };
                     lo_ok && hi_ok
                 }
             };
@@ -161,8 +165,8 @@ proptest! {
         // Documented limit: when 4X reaches 2^128 (√X ≥ 2^63) the result
         // saturates in either overflow mode, and the overflow is counted.
         let beyond = xr * BigRational::from_integer(BigInt::from(4)) >= pow2(128);
-        let ov_mode = if beyond { Overflow::Saturate } else { q.overflow };
-        let (code, ov) = range_step(want, &q.format, ov_mode);
+        let ov_mode = if beyond { Overflow::Saturate } else { q.overflow() };
+        let (code, ov) = range_step(want, &q.format(), ov_mode);
         prop_assert_eq!(got.raw, code);
         prop_assert_eq!(cx.total_overflows(), ov as u64);
     }
@@ -177,13 +181,13 @@ fn fmt(s: &str) -> Format {
 /// Multiply exactly, then quantize to the operand format with truncation:
 /// `fixed`'s multiplication rounds toward −∞ the same way.
 fn mul_q(a: i128, b: i128, f: Format, ov: Overflow) -> i128 {
-    let mut cx = Fixed::new();
+    let mut cx = Fixed::<i128>::new();
     let q = Quant::new("m", f, Rounding::Trunc, ov);
     let p = cx.mul(Fx::from_code(a, f), Fx::from_code(b, f));
     cx.quantize(p, &q).raw
 }
 fn add_q(a: i128, b: i128, f: Format, sub: bool) -> i128 {
-    let mut cx = Fixed::new();
+    let mut cx = Fixed::<i128>::new();
     let q = Quant::new("a", f, Rounding::Trunc, Overflow::Wrap);
     let (x, y) = (Fx::from_code(a, f), Fx::from_code(b, f));
     let s = if sub { cx.sub(x, y) } else { cx.add(x, y) };

@@ -28,10 +28,10 @@ pub struct Sym {
 impl Sym {
     fn from_quant(q: &Quant) -> Sym {
         Sym {
-            signed: q.format.signed(),
-            width: q.format.width(),
-            frac: q.format.frac(),
-            origin: q.stage,
+            signed: q.format().signed(),
+            width: q.format().width(),
+            frac: q.format().frac(),
+            origin: q.stage(),
         }
     }
     fn int_bits(&self) -> i32 {
@@ -178,9 +178,20 @@ impl Count {
             .collect();
         c
     }
-    /// The widest exact intermediate seen.
+    /// The widest value seen (exact intermediates, quantized values,
+    /// inputs), in bits of a signed container: an unsigned `W`-bit value
+    /// counts as `W + 1`.
     pub fn max_width(&self) -> u32 {
         self.max_width
+    }
+    /// Whether every value fits the `i64` fast path of [`super::Fixed`]:
+    /// 62 bits, which leaves room for a rounding increment and the sign.
+    pub fn fits_i64(&self) -> bool {
+        self.max_width <= 62
+    }
+    fn seen(&mut self, s: Sym) -> Sym {
+        self.max_width = self.max_width.max(s.width + !s.signed as u32);
+        s
     }
     /// Intermediates too wide for the fixed-point model, in order.
     pub fn width_errors(&self) -> &[WidthError] {
@@ -192,7 +203,7 @@ impl Count {
     }
 
     fn result(&mut self, op: &'static str, a: &Sym, b: &Sym, r: Sym) -> Sym {
-        self.max_width = self.max_width.max(r.width);
+        self.seen(r);
         if r.width > MAX_EXACT_WIDTH
             && !self
                 .errors
@@ -237,7 +248,7 @@ impl Datapath for Count {
         if x.is_infinite() {
             return Err(ConvertError::Infinite(x));
         }
-        Ok(Sym::from_quant(q))
+        Ok(self.seen(Sym::from_quant(q)))
     }
     fn mul(&mut self, a: Sym, b: Sym) -> Sym {
         self.counts.mul += 1;
@@ -274,29 +285,29 @@ impl Datapath for Count {
         self.result("max", &a, &b, r)
     }
     fn quantize(&mut self, a: Sym, q: &Quant) -> Sym {
-        if a.frac > q.format.frac() && q.round != Rounding::Trunc {
+        if a.frac > q.format().frac() && q.round() != Rounding::Trunc {
             self.counts.round += 1;
         }
-        if q.overflow == Overflow::Saturate {
+        if q.overflow() == Overflow::Saturate {
             self.counts.saturate += 1;
         }
-        Sym::from_quant(q)
+        self.seen(Sym::from_quant(q))
     }
     fn table(&mut self, t: &Table, _index: Sym) -> Sym {
         self.counts.table_read += 1;
         let e = self
             .tables
             .entry(t.name)
-            .or_insert((t.depth() as u64, t.out.format.width(), 0));
+            .or_insert((t.depth() as u64, t.out.format().width(), 0));
         e.2 += 1;
-        Sym::from_quant(&t.out)
+        self.seen(Sym::from_quant(&t.out))
     }
     fn div(&mut self, _a: Sym, _b: Sym, q: &Quant) -> Sym {
         self.counts.div += 1;
-        Sym::from_quant(q)
+        self.seen(Sym::from_quant(q))
     }
     fn sqrt(&mut self, _a: Sym, q: &Quant) -> Sym {
         self.counts.sqrt += 1;
-        Sym::from_quant(q)
+        self.seen(Sym::from_quant(q))
     }
 }

@@ -2,47 +2,63 @@
 
 use super::{Datapath, Table};
 use crate::format::{ConvertError, Format};
-use crate::quantize::{Quant, Rounding};
+use crate::quantize::{Quant, Quantized, Raw, Rounding};
 
 /// An exact fixed-point value `raw · 2^−frac`. Between quantizations the
 /// binary point moves with the operations (`mul` adds fraction bits, `add`
 /// aligns to the finer operand); only [`Datapath::quantize`] drops bits.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Fx {
+pub struct Fx<R = i128> {
     /// The integer code.
-    pub raw: i128,
+    pub raw: R,
     /// Fraction bits: the value is `raw · 2^−frac`.
     pub frac: i32,
 }
 
-impl Fx {
+impl<R: Raw> Fx<R> {
     /// A value from a code in `format` (as read from a vector file).
-    pub fn from_code(code: i128, format: Format) -> Fx {
+    pub fn from_code(code: i128, format: Format) -> Self {
         Fx {
-            raw: code,
+            raw: R::from_i128(code),
             frac: format.frac(),
         }
+    }
+    /// The code, widened.
+    pub fn code(self) -> i128 {
+        self.raw.to_i128()
     }
     /// The value as f64 (rounded to nearest when `raw` has more than 53
     /// significant bits).
     pub fn to_f64(self) -> f64 {
-        self.raw as f64 * crate::format::exp2i(-self.frac)
+        self.raw.to_i128() as f64 * crate::format::exp2i(-self.frac)
     }
 }
 
-/// Bit-accurate fixed-point arithmetic on `i128` codes.
+/// Bit-accurate fixed-point arithmetic on integer codes of type `R`.
 ///
-/// Exactness holds while every intermediate fits in [`super::MAX_EXACT_WIDTH`]
-/// bits; configuration validation checks that by running each unit in
-/// [`super::Count`] first, so the inner loop does integer arithmetic with no
-/// per-operation checks. Overflows at quantization steps are counted per
-/// stage name (see [`Fixed::overflows`]).
-#[derive(Clone, Debug, Default)]
-pub struct Fixed {
+/// Exactness holds while every intermediate fits in the code type: 126 bits
+/// for `i128` ([`super::MAX_EXACT_WIDTH`]), 62 bits for `i64`. Configuration
+/// validation runs each unit in [`super::Count`] first, which measures the
+/// widest intermediate ([`super::Count::fits_i64`] picks the fast `i64` path),
+/// so the inner loop does integer arithmetic with no per-operation checks.
+/// Overflows at quantization steps are counted per stage name (see
+/// [`Fixed::overflows`]).
+#[derive(Clone, Debug)]
+pub struct Fixed<R = i128> {
     overflows: Vec<(&'static str, u64)>,
+    _raw: std::marker::PhantomData<R>,
 }
 
-impl Fixed {
+impl<R> Default for Fixed<R> {
+    fn default() -> Self {
+        Fixed {
+            overflows: Vec::new(),
+            _raw: std::marker::PhantomData,
+        }
+    }
+}
+
+impl<R: Raw> Fixed<R> {
     /// A context with no overflows counted.
     pub fn new() -> Self {
         Self::default()
@@ -60,7 +76,7 @@ impl Fixed {
         self.overflows.clear();
     }
     /// Add another context's counts to this one's (for parallel batches).
-    pub fn merge(&mut self, other: &Fixed) {
+    pub fn merge<S>(&mut self, other: &Fixed<S>) {
         for &(stage, n) in &other.overflows {
             self.count(stage, n);
         }
@@ -72,22 +88,32 @@ impl Fixed {
             None => self.overflows.push((stage, n)),
         }
     }
-    #[inline]
-    fn finish(&mut self, r: crate::quantize::Quantized, q: &Quant) -> Fx {
+    #[inline(always)]
+    fn finish(&mut self, r: Quantized<R>, q: &Quant) -> Fx<R> {
         if r.overflowed {
-            self.count(q.stage, 1);
+            self.count(q.stage(), 1);
         }
         Fx {
             raw: r.code,
-            frac: q.format.frac(),
+            frac: q.format().frac(),
         }
     }
-    #[inline]
-    fn align(a: Fx, b: Fx) -> (i128, i128, i32) {
+    #[inline(always)]
+    fn finish_wide(&mut self, r: Quantized, q: &Quant) -> Fx<R> {
+        self.finish(
+            Quantized {
+                code: R::from_i128(r.code),
+                overflowed: r.overflowed,
+            },
+            q,
+        )
+    }
+    #[inline(always)]
+    fn align(a: Fx<R>, b: Fx<R>) -> (R, R, i32) {
         if a.frac >= b.frac {
-            (a.raw, b.raw << (a.frac - b.frac), a.frac)
+            (a.raw, b.raw << (a.frac - b.frac) as u32, a.frac)
         } else {
-            (a.raw << (b.frac - a.frac), b.raw, b.frac)
+            (a.raw << (b.frac - a.frac) as u32, b.raw, b.frac)
         }
     }
 }
@@ -154,132 +180,144 @@ fn round_guarded(f: i128, sticky: bool, mode: Rounding) -> i128 {
     q.wrapping_add(up as i128)
 }
 
-fn overflowed(code: i128) -> crate::quantize::Quantized {
-    crate::quantize::Quantized {
+fn overflowed(code: i128) -> Quantized {
+    Quantized {
         code,
         overflowed: true,
     }
 }
 
-impl Datapath for Fixed {
-    type V = Fx;
+impl<R: Raw> Datapath for Fixed<R> {
+    type V = Fx<R>;
 
-    fn constant(&mut self, x: f64, q: &Quant) -> Result<Fx, ConvertError> {
+    fn constant(&mut self, x: f64, q: &Quant) -> Result<Fx<R>, ConvertError> {
         let r = q.apply_f64(x)?;
-        Ok(self.finish(r, q))
+        Ok(self.finish_wide(r, q))
     }
-    #[inline]
-    fn mul(&mut self, a: Fx, b: Fx) -> Fx {
+    #[inline(always)]
+    fn mul(&mut self, a: Fx<R>, b: Fx<R>) -> Fx<R> {
         Fx {
-            raw: a.raw * b.raw,
+            raw: a.raw.mul_raw(b.raw),
             frac: a.frac + b.frac,
         }
     }
-    #[inline]
-    fn add(&mut self, a: Fx, b: Fx) -> Fx {
+    #[inline(always)]
+    fn add(&mut self, a: Fx<R>, b: Fx<R>) -> Fx<R> {
         let (x, y, frac) = Self::align(a, b);
         Fx { raw: x + y, frac }
     }
-    #[inline]
-    fn sub(&mut self, a: Fx, b: Fx) -> Fx {
+    #[inline(always)]
+    fn sub(&mut self, a: Fx<R>, b: Fx<R>) -> Fx<R> {
         let (x, y, frac) = Self::align(a, b);
         Fx { raw: x - y, frac }
     }
-    #[inline]
-    fn shl(&mut self, a: Fx, n: i32) -> Fx {
+    #[inline(always)]
+    fn shl(&mut self, a: Fx<R>, n: i32) -> Fx<R> {
         Fx {
             raw: a.raw,
             frac: a.frac - n,
         }
     }
-    #[inline]
-    fn max(&mut self, a: Fx, b: Fx) -> Fx {
+    #[inline(always)]
+    fn max(&mut self, a: Fx<R>, b: Fx<R>) -> Fx<R> {
         let (x, y, frac) = Self::align(a, b);
         Fx {
             raw: x.max(y),
             frac,
         }
     }
-    #[inline]
-    fn quantize(&mut self, a: Fx, q: &Quant) -> Fx {
-        let r = q.apply(a.raw, a.frac);
+    #[inline(always)]
+    fn quantize(&mut self, a: Fx<R>, q: &Quant) -> Fx<R> {
+        let r = q.apply_raw(a.raw, a.frac);
         self.finish(r, q)
     }
     #[inline]
-    fn table(&mut self, t: &Table, index: Fx) -> Fx {
+    fn table(&mut self, t: &Table, index: Fx<R>) -> Fx<R> {
         debug_assert_eq!(index.frac, t.index.frac(), "table {} index format", t.name);
-        let addr = (t.index.to_bits(index.raw) as usize) & (t.depth() - 1);
+        let addr = (t.index.to_bits(index.raw.to_i128()) as usize) & (t.depth() - 1);
         Fx {
-            raw: t.codes[addr],
-            frac: t.out.format.frac(),
+            raw: R::from_i128(t.codes[addr]),
+            frac: t.out.format().frac(),
         }
     }
-    fn div(&mut self, a: Fx, b: Fx, q: &Quant) -> Fx {
-        let f = &q.format;
-        let (mut num, mut den) = (a.raw, b.raw);
-        if den == 0 {
-            let code = if num < 0 { f.min_code() } else { f.max_code() };
-            return self.finish(overflowed(code), q);
-        }
-        if den < 0 {
-            // |den| ≤ 2^127 − 1 because codes come from formats of ≤ 126 bits.
-            num = -num;
-            den = -den;
-        }
-        // a/b·2^f = num·2^e / den with e = f + fb − fa; two guard bits.
-        let e = f.frac() + b.frac - a.frac;
-        let (g, sticky, huge) = div_scaled_floor(num, den, e + 2);
-        let code = round_guarded(g, sticky, q.round);
-        if huge {
-            let code = match q.overflow {
-                crate::quantize::Overflow::Wrap => f.wrap(code),
-                crate::quantize::Overflow::Saturate if num < 0 => f.min_code(),
-                crate::quantize::Overflow::Saturate => f.max_code(),
-            };
-            return self.finish(overflowed(code), q);
-        }
-        // `code` is on the target grid already: only the range step remains.
-        let r = q.apply(code, f.frac());
-        self.finish(r, q)
+    fn div(&mut self, a: Fx<R>, b: Fx<R>, q: &Quant) -> Fx<R> {
+        let r = div_exact(a.raw.to_i128(), a.frac, b.raw.to_i128(), b.frac, q);
+        self.finish_wide(r, q)
     }
-    fn sqrt(&mut self, a: Fx, q: &Quant) -> Fx {
-        let f = &q.format;
-        if a.raw < 0 {
-            return self.finish(overflowed(0), q);
-        }
-        // √(ra·2^−fa)·2^F = √x with x = ra·2^e, e = 2F − fa. With
-        // m = ⌊4x⌋ and t = isqrt(m) = ⌊2√x⌋: ⌊√x⌋ = t >> 1,
-        // ⌊√x + ½⌋ = (t + 1) >> 1, and √x + ½ is an integer (a tie) exactly
-        // when 4x is an integer and the square of the odd number t.
-        let ra = a.raw as u128;
-        let k = 2 * f.frac() - a.frac + 2;
-        let (m, exact) = if k >= 0 {
-            if k >= 128 || (ra != 0 && ra.leading_zeros() < k as u32) {
-                // 4x ≥ 2^128: √x ≥ 2^63, beyond every signed format.
-                return self.finish(overflowed(f.max_code()), q);
-            }
-            (ra << k, true)
-        } else if -k < 128 {
-            let sh = (-k) as u32;
-            (ra >> sh, ra & ((1u128 << sh) - 1) == 0)
-        } else {
-            (0, ra == 0)
+    fn sqrt(&mut self, a: Fx<R>, q: &Quant) -> Fx<R> {
+        let r = sqrt_exact(a.raw.to_i128(), a.frac, q);
+        self.finish_wide(r, q)
+    }
+}
+
+/// `(a_raw·2^−a_frac) / (b_raw·2^−b_frac)` correctly rounded to `q`
+/// (division by zero saturates and overflows).
+pub fn div_exact(a_raw: i128, a_frac: i32, b_raw: i128, b_frac: i32, q: &Quant) -> Quantized {
+    let f = q.format();
+    let (mut num, mut den) = (a_raw, b_raw);
+    if den == 0 {
+        let code = if num < 0 { f.min_code() } else { f.max_code() };
+        return overflowed(code);
+    }
+    if den < 0 {
+        // |den| ≤ 2^126 because codes come from formats of ≤ 126 bits.
+        num = -num;
+        den = -den;
+    }
+    // a/b·2^F = num·2^e / den with e = F + fb − fa; two guard bits.
+    let e = f.frac() + b_frac - a_frac;
+    let (g, sticky, huge) = div_scaled_floor(num, den, e + 2);
+    let code = round_guarded(g, sticky, q.round());
+    if huge {
+        let code = match q.overflow() {
+            crate::quantize::Overflow::Wrap => f.wrap(code),
+            crate::quantize::Overflow::Saturate if num < 0 => f.min_code(),
+            crate::quantize::Overflow::Saturate => f.max_code(),
         };
-        let t = m.isqrt();
-        let code = match q.round {
-            Rounding::Trunc => t >> 1,
-            Rounding::HalfUp => (t + 1) >> 1,
-            Rounding::HalfEven => {
-                let tie = exact && t & 1 == 1 && t * t == m;
-                let up = (t + 1) >> 1;
-                if tie && up & 1 == 1 {
-                    up - 1
-                } else {
-                    up
-                }
-            }
-        };
-        let r = q.apply(code as i128, f.frac());
-        self.finish(r, q)
+        return overflowed(code);
     }
+    // `code` is on the target grid already: only the range step remains.
+    q.apply(code, f.frac())
+}
+
+/// `√(raw·2^−frac)` correctly rounded to `q` (a negative input gives 0 and
+/// overflows; a root of 2^63 or more saturates and overflows).
+pub fn sqrt_exact(raw: i128, frac: i32, q: &Quant) -> Quantized {
+    let f = q.format();
+    if raw < 0 {
+        return overflowed(0);
+    }
+    // √(ra·2^−fa)·2^F = √x with x = ra·2^e, e = 2F − fa. With
+    // m = ⌊4x⌋ and t = isqrt(m) = ⌊2√x⌋: ⌊√x⌋ = t >> 1,
+    // ⌊√x + ½⌋ = (t + 1) >> 1, and √x + ½ is an integer (a tie) exactly
+    // when 4x is an integer and the square of the odd number t.
+    let ra = raw as u128;
+    let k = 2 * f.frac() - frac + 2;
+    let (m, exact) = if k >= 0 {
+        if k >= 128 || (ra != 0 && ra.leading_zeros() < k as u32) {
+            // 4x ≥ 2^128: √x ≥ 2^63, beyond every signed format.
+            return overflowed(f.max_code());
+        }
+        (ra << k, true)
+    } else if -k < 128 {
+        let sh = (-k) as u32;
+        (ra >> sh, ra & ((1u128 << sh) - 1) == 0)
+    } else {
+        (0, ra == 0)
+    };
+    let t = m.isqrt();
+    let code = match q.round() {
+        Rounding::Trunc => t >> 1,
+        Rounding::HalfUp => (t + 1) >> 1,
+        Rounding::HalfEven => {
+            let tie = exact && t & 1 == 1 && t * t == m;
+            let up = (t + 1) >> 1;
+            if tie && up & 1 == 1 {
+                up - 1
+            } else {
+                up
+            }
+        }
+    };
+    q.apply(code as i128, f.frac())
 }

@@ -21,10 +21,10 @@
 //! | `add(a, b)`, `sub(a, b)` | `a ± b` | frac `max(fa, fb)`, integer bits `max(ia, ib) + 1` |
 //! | `shl(a, n)` | `a·2^n` | frac `fa − n` (wiring, no hardware) |
 //! | `max(a, b)` | `max(a, b)` | aligned, no growth (one comparator) |
-//! | `quantize(a, q)` | `a` rounded/clipped to `q` | `q.format` |
-//! | `table(t, i)` | `t.exact(i)` quantized at build time | `t.out.format` |
-//! | `div(a, b, q)` | `a / b` correctly rounded to `q` | `q.format` |
-//! | `sqrt(a, q)` | `√a` correctly rounded to `q` | `q.format` |
+//! | `quantize(a, q)` | `a` rounded/clipped to `q` | `q.format()` |
+//! | `table(t, i)` | `t.exact(i)` quantized at build time | `t.out.format()` |
+//! | `div(a, b, q)` | `a / b` correctly rounded to `q` | `q.format()` |
+//! | `sqrt(a, q)` | `√a` correctly rounded to `q` | `q.format()` |
 
 mod count;
 mod fixed;
@@ -171,6 +171,6 @@ impl Table {
     }
     /// Size in bits: depth × entry width.
     pub fn bits(&self) -> u64 {
-        self.depth() as u64 * self.out.format.width() as u64
+        self.depth() as u64 * self.out.format().width() as u64
     }
 }
