@@ -296,9 +296,47 @@ impl Quant {
     /// be at most 63 bits wide (the counting run picks `i64` only then).
     #[inline(always)]
     pub fn apply_raw<R: Raw>(&self, raw: R, frac: i32) -> Quantized<R> {
-        let s = frac - self.format.frac();
+        self.step(frac).apply::<R>(raw, self.round, self.overflow)
+    }
+
+    /// The step resolved for inputs with `frac` fraction bits: the shift and
+    /// the code range, ready for a loop over many values.
+    #[inline(always)]
+    pub fn step(&self, frac: i32) -> Step {
+        Step {
+            shift: frac - self.format.frac(),
+            width: self.format.width(),
+            signed: self.format.signed(),
+            min: self.min,
+            max: self.max,
+        }
+    }
+}
+
+/// A quantization resolved for one input binary point: everything but the
+/// modes, which are passed separately so loops can be specialized on them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Step {
+    /// Bits dropped (`> 0`) or added (`< 0`): input frac − target frac.
+    pub shift: i32,
+    /// Target width.
+    pub width: u32,
+    /// Target signedness.
+    pub signed: bool,
+    /// Smallest code.
+    pub min: i128,
+    /// Largest code.
+    pub max: i128,
+}
+
+impl Step {
+    /// Round and range-limit one code (`round` and `overflow` are constants
+    /// in specialized loops, so the `match`es fold away).
+    #[inline(always)]
+    pub fn apply<R: Raw>(&self, raw: R, round: Rounding, overflow: Overflow) -> Quantized<R> {
+        let s = self.shift;
         let (rounded, huge) = if s > 0 {
-            (round_shift_right(raw, s as u32, self.round), false)
+            (round_shift_right(raw, s as u32, round), false)
         } else if s == 0 {
             (raw, false)
         } else {
@@ -321,30 +359,33 @@ impl Quant {
             }
         };
         let (min, max) = (R::from_i128(self.min), R::from_i128(self.max));
-        if !huge && rounded.in_range(min, max) {
-            return Quantized {
-                code: rounded,
-                overflowed: false,
-            };
-        }
-        let code = match self.overflow {
+        // Branch-free from here, so loops over many codes vectorize.
+        let ok = !huge & rounded.in_range(min, max);
+        let fix = match overflow {
             Overflow::Wrap => {
-                let sh = R::BITS - self.format.width();
-                if self.format.signed() {
+                let sh = R::BITS - self.width;
+                if self.signed {
                     (rounded << sh) >> sh
                 } else {
                     (rounded << sh).lshr(sh)
                 }
             }
-            Overflow::Saturate if raw < R::ZERO => min,
-            Overflow::Saturate => max,
+            Overflow::Saturate => {
+                if raw < R::ZERO {
+                    min
+                } else {
+                    max
+                }
+            }
         };
         Quantized {
-            code,
-            overflowed: true,
+            code: if ok { rounded } else { fix },
+            overflowed: !ok,
         }
     }
+}
 
+impl Quant {
     /// Quantize an f64 with this step's rounding and overflow modes; errors
     /// only for NaN and ±∞. Used to bring real inputs and coefficients into
     /// the datapath with the same semantics as [`Quant::apply`].

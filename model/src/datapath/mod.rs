@@ -9,6 +9,10 @@
 //!   `i128` codes, every [`Datapath::quantize`] rounding and
 //!   saturating/wrapping as [`Quant::apply`] specifies, overflows counted
 //!   per stage;
+//! * compiled for batches ([`Trace`] → [`Program`]): the same bit-accurate
+//!   arithmetic as [`Fixed`], with binary points resolved once into shift
+//!   amounts and each instruction a loop over a block of lanes — the fast
+//!   path for vector generation and error analysis;
 //! * in [`Count`]: symbolic — values are formats, each operation is recorded
 //!   by kind with its operand widths, and any exact intermediate wider than
 //!   the model can hold ([`MAX_EXACT_WIDTH`]) is reported.
@@ -26,12 +30,14 @@
 //! | `div(a, b, q)` | `a / b` correctly rounded to `q` | `q.format()` |
 //! | `sqrt(a, q)` | `√a` correctly rounded to `q` | `q.format()` |
 
+mod batch;
 mod count;
 mod fixed;
 mod reference;
 
+pub use batch::{CompileError, Compiled, Program, Trace, BLOCK, TV};
 pub use count::{Count, MulShape, OpCounts, Sym, TableShape, WidthError, MAX_EXACT_WIDTH};
-pub use fixed::{Fixed, Fx};
+pub use fixed::{div_exact, sqrt_exact, Fixed, Fx};
 pub use reference::Reference;
 
 use crate::format::{ConvertError, Format};
@@ -65,8 +71,8 @@ pub trait Datapath {
     /// saturates and counts as an overflow).
     fn div(&mut self, a: Self::V, b: Self::V, q: &Quant) -> Self::V;
     /// Square root, correctly rounded to `q` (a negative input gives 0 and
-    /// counts as an overflow; a root of `2^63` or more saturates in either
-    /// overflow mode and counts as an overflow).
+    /// counts as an overflow; a root of `2^63` or more saturates to the largest code
+    /// in either overflow mode and counts as an overflow).
     fn sqrt(&mut self, a: Self::V, q: &Quant) -> Self::V;
 
     /// `a·b + c`, exact: one multiply-add.
