@@ -2,6 +2,7 @@
 
 mod cmd;
 mod output;
+mod progress;
 
 use std::process::ExitCode;
 
@@ -32,6 +33,14 @@ enum Command {
     /// datapath in the counting context (not typed in), beside the papers'
     /// claims.
     Ops(cmd::ops::OpsArgs),
+    /// The main job: write the configuration, the operation counts (and, as
+    /// units land, error tables, test vectors and images) into a directory
+    /// with an index page.
+    Report(cmd::report::ReportArgs),
+    /// Every quantization point of every unit: stage, exact input format and
+    /// width, output format, bits dropped, rounding and overflow modes — the
+    /// table the RTL follows.
+    Stages(cmd::ops::StagesArgs),
     /// Benchmarks of the model's speed.
     #[command(subcommand)]
     Bench(cmd::bench::BenchCmd),
@@ -43,6 +52,8 @@ fn main() -> ExitCode {
         Command::Config(c) => cmd::config::run(c),
         Command::Ops(a) => cmd::ops::run(a),
         Command::Bench(b) => cmd::bench::run(b),
+        Command::Report(a) => cmd::report::run(a),
+        Command::Stages(a) => cmd::ops::run_stages(a),
     };
     match r {
         Ok(()) => ExitCode::SUCCESS,

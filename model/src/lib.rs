@@ -16,6 +16,7 @@
 
 pub mod config;
 pub mod datapath;
+pub mod files;
 pub mod format;
 pub mod lighting;
 pub mod mad_chain;

@@ -144,13 +144,13 @@ fn check(cfg: &Config) -> Result<(), Vec<crate::config::ConfigError>> {
 
 fn ops(cfg: &Config) -> Vec<OpReport> {
     let l = Lighting::from_config(cfg.unit(DECL.name));
-    vec![OpReport {
-        unit: DECL.name,
-        variant: "diffuse",
-        stage: Phase::Pixel,
-        counts: l.count().counts(),
-        paper: None,
-    }]
+    vec![OpReport::from_count(
+        DECL.name,
+        "diffuse",
+        Phase::Pixel,
+        &l.count(),
+        None,
+    )]
 }
 
 #[cfg(test)]

@@ -45,6 +45,28 @@ pub struct OpReport {
     pub counts: OpCounts,
     /// The paper's claim, where it makes one.
     pub paper: Option<PaperClaim>,
+    /// Every quantization point, in datapath order.
+    pub quant_points: Vec<crate::datapath::QuantPoint>,
+}
+
+impl OpReport {
+    /// A report from a counting run.
+    pub fn from_count(
+        unit: &'static str,
+        variant: &'static str,
+        stage: Phase,
+        cx: &Count,
+        paper: Option<PaperClaim>,
+    ) -> Self {
+        OpReport {
+            unit,
+            variant,
+            stage,
+            counts: cx.counts(),
+            paper,
+            quant_points: cx.quant_points().to_vec(),
+        }
+    }
 }
 
 /// A registered unit.
@@ -60,12 +82,13 @@ pub struct UnitEntry {
 /// Every unit, in pipeline order.
 pub static UNITS: &[&UnitEntry] = &[&crate::lighting::UNIT];
 
-/// Map the width errors of a counting run to configuration errors naming the
-/// stage each too-wide intermediate came from.
+/// Map the first width error of a counting run (the root cause: later ones
+/// follow from it) to a configuration error naming the stage it came from.
 pub fn width_errors(cx: &Count, unit: &UnitConfig) -> Result<(), Vec<ConfigError>> {
     let errs: Vec<ConfigError> = cx
         .width_errors()
         .iter()
+        .take(1)
         .map(|e| field_error(unit, e.a, e.to_string()))
         .collect();
     if errs.is_empty() {

@@ -3,6 +3,7 @@
 pub mod bench;
 pub mod config;
 pub mod ops;
+pub mod report;
 
 use std::path::PathBuf;
 

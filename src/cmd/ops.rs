@@ -76,9 +76,72 @@ pub fn table(reports: &[OpReport]) -> Table {
     t
 }
 
+/// The quantization points of every report as a table for people.
+pub fn stages_table(reports: &[OpReport]) -> Table {
+    let mut t = Table::new([
+        "unit",
+        "variant",
+        "stage",
+        "exact input",
+        "bits",
+        "output",
+        "dropped bits",
+        "round",
+        "overflow",
+    ])
+    .titled("Quantization points, in datapath order (from the counting run)");
+    for r in reports {
+        for p in &r.quant_points {
+            t.row([
+                r.unit.to_string(),
+                r.variant.to_string(),
+                p.stage.to_string(),
+                p.input.clone(),
+                p.input_width.to_string(),
+                p.output.to_string(),
+                p.dropped_bits.to_string(),
+                p.round.name().to_string(),
+                p.overflow.name().to_string(),
+            ]);
+        }
+    }
+    t
+}
+
 /// Run it.
 pub fn run(a: &OpsArgs) -> anyhow::Result<()> {
     let cfg = a.cfg.resolve()?;
     let r = reports(&cfg);
     emit(a.out, &[table(&r)], &serde_json::to_value(&r)?)
+}
+
+/// `fxshade stages`
+#[derive(Args, Debug)]
+pub struct StagesArgs {
+    #[command(flatten)]
+    cfg: ConfigArgs,
+    #[command(flatten)]
+    out: OutputArgs,
+}
+
+/// Run `fxshade stages`.
+pub fn run_stages(a: &StagesArgs) -> anyhow::Result<()> {
+    let cfg = a.cfg.resolve()?;
+    let r = reports(&cfg);
+    let points: Vec<_> = r
+        .iter()
+        .flat_map(|r| {
+            r.quant_points.iter().map(move |p| {
+                let mut v = serde_json::to_value(p).expect("serializable");
+                v["unit"] = r.unit.into();
+                v["variant"] = r.variant.into();
+                v
+            })
+        })
+        .collect();
+    emit(
+        a.out,
+        &[stages_table(&r)],
+        &serde_json::Value::Array(points),
+    )
 }

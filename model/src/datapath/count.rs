@@ -122,6 +122,27 @@ impl OpCounts {
     }
 }
 
+/// One quantization point of a datapath, as the counting run saw it.
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct QuantPoint {
+    /// The stage (configuration key).
+    pub stage: &'static str,
+    /// The exact input: signedness, width and fraction bits.
+    pub input: String,
+    /// Exact input width in bits.
+    pub input_width: u32,
+    /// Exact input fraction bits.
+    pub input_frac: i32,
+    /// Target format.
+    pub output: crate::format::Format,
+    /// Rounding mode.
+    pub round: Rounding,
+    /// Overflow mode.
+    pub overflow: Overflow,
+    /// Bits dropped below the target LSB (negative: shifted left).
+    pub dropped_bits: i32,
+}
+
 /// An exact intermediate too wide for the fixed-point model.
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
 #[error("the exact result of `{op}` on values from stages `{a}` and `{b}` is {width} bits wide; the model holds at most {max} exact bits")]
@@ -146,6 +167,7 @@ pub struct Count {
     tables: BTreeMap<&'static str, (u64, u32, u64)>,
     max_width: u32,
     errors: Vec<WidthError>,
+    points: Vec<QuantPoint>,
 }
 
 impl Count {
@@ -196,6 +218,11 @@ impl Count {
     /// Intermediates too wide for the fixed-point model, in order.
     pub fn width_errors(&self) -> &[WidthError] {
         &self.errors
+    }
+    /// Every quantization step executed, in order (a step inside a loop
+    /// appears once per execution).
+    pub fn quant_points(&self) -> &[QuantPoint] {
+        &self.points
     }
     /// Forget everything counted.
     pub fn reset(&mut self) {
@@ -285,6 +312,21 @@ impl Datapath for Count {
         self.result("max", &a, &b, r)
     }
     fn quantize(&mut self, a: Sym, q: &Quant) -> Sym {
+        self.points.push(QuantPoint {
+            stage: q.stage(),
+            input: format!(
+                "{}{}F{}",
+                if a.signed { 'I' } else { 'U' },
+                a.int_bits(),
+                a.frac
+            ),
+            input_width: a.width,
+            input_frac: a.frac,
+            output: q.format(),
+            round: q.round(),
+            overflow: q.overflow(),
+            dropped_bits: a.frac - q.format().frac(),
+        });
         if a.frac > q.format().frac() && q.round() != Rounding::Trunc {
             self.counts.round += 1;
         }

@@ -36,7 +36,9 @@ mod fixed;
 mod reference;
 
 pub use batch::{CompileError, Compiled, Program, Trace, BLOCK, TV};
-pub use count::{Count, MulShape, OpCounts, Sym, TableShape, WidthError, MAX_EXACT_WIDTH};
+pub use count::{
+    Count, MulShape, OpCounts, QuantPoint, Sym, TableShape, WidthError, MAX_EXACT_WIDTH,
+};
 pub use fixed::{div_exact, sqrt_exact, Fixed, Fx};
 pub use reference::Reference;
 

@@ -1,0 +1,66 @@
+//! `fxshade report`: the main job — everything a designer needs about a
+//! configuration, in one directory with an index page.
+
+use std::path::PathBuf;
+
+use anyhow::Context;
+use clap::Args;
+use fxshade_model::files::StagedDir;
+
+use super::ConfigArgs;
+
+/// `fxshade report`
+#[derive(Args, Debug)]
+pub struct ReportArgs {
+    #[command(flatten)]
+    cfg: ConfigArgs,
+    /// Output directory (replaced as a whole when the report is complete).
+    #[arg(long, short = 'o', value_name = "DIR")]
+    out: PathBuf,
+}
+
+/// Run it.
+pub fn run(a: &ReportArgs) -> anyhow::Result<()> {
+    let cfg = a.cfg.resolve()?;
+    let dir = StagedDir::new(&a.out)
+        .with_context(|| format!("cannot write the report to {}", a.out.display()))?;
+    let bar = crate::progress::bar(2, "report");
+
+    bar.set_message("configuration");
+    dir.write("config.toml", cfg.to_toml().as_bytes())?;
+    dir.write(
+        "config.json",
+        serde_json::to_string_pretty(&cfg.to_json())?.as_bytes(),
+    )?;
+    bar.inc(1);
+
+    bar.set_message("operation counts");
+    let ops = super::ops::reports(&cfg);
+    let table = super::ops::table(&ops);
+    dir.write("ops.txt", table.render().as_bytes())?;
+    dir.write("ops.csv", table.to_csv()?.as_bytes())?;
+    dir.write("ops.json", serde_json::to_string_pretty(&ops)?.as_bytes())?;
+    let stages = super::ops::stages_table(&ops);
+    dir.write("stages.txt", stages.render().as_bytes())?;
+    dir.write("stages.csv", stages.to_csv()?.as_bytes())?;
+    bar.inc(1);
+
+    let mut index = String::new();
+    index += "# fxshade report\n\n";
+    index += &format!("Configuration: `{}`", cfg.source);
+    if !cfg.overrides.is_empty() {
+        index += &format!(" with overrides `{}`", cfg.overrides.join("`, `"));
+    }
+    index += " — full text in [config.toml](config.toml) ([JSON](config.json)).\n\n";
+    index += "## Operation counts\n\nMeasured by running each datapath in the counting context \
+              ([CSV](ops.csv), [JSON](ops.json)).\n\n```text\n";
+    index += &table.render();
+    index += "```\n\n## Quantization points\n\nThe stages the RTL quantizes at ([CSV](stages.csv)).\n\n```text\n";
+    index += &stages.render();
+    index += "```\n";
+    dir.write("index.md", index.as_bytes())?;
+    bar.finish_and_clear();
+    let out = dir.commit()?;
+    println!("report written to {}/index.md", out.display());
+    Ok(())
+}
