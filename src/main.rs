@@ -37,6 +37,16 @@ enum Command {
     /// units land, error tables, test vectors and images) into a directory
     /// with an index page.
     Report(cmd::report::ReportArgs),
+    /// Error of the bit-accurate model against the f64 reference, per unit.
+    #[command(subcommand)]
+    Error(cmd::error::ErrorCmd),
+    /// Design g(d) ≈ 1/√d coefficients (Chebyshev nodes, Chebyshev series or
+    /// minimax), optionally quantized to a coefficient format by rounding and
+    /// by search.
+    Coeffs(cmd::coeffs::CoeffsArgs),
+    /// The normalization paper's Tables 1–4 beside their reproduction, every
+    /// entry that does not reproduce flagged with the reason.
+    Paper(cmd::paper::PaperArgs),
     /// Every quantization point of every unit: stage, exact input format and
     /// width, output format, bits dropped, rounding and overflow modes — the
     /// table the RTL follows.
@@ -54,6 +64,9 @@ fn main() -> ExitCode {
         Command::Bench(b) => cmd::bench::run(b),
         Command::Report(a) => cmd::report::run(a),
         Command::Stages(a) => cmd::ops::run_stages(a),
+        Command::Error(e) => cmd::error::run(e),
+        Command::Coeffs(a) => cmd::coeffs::run(a),
+        Command::Paper(a) => cmd::paper::run(a),
     };
     match r {
         Ok(()) => ExitCode::SUCCESS,

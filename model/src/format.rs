@@ -106,6 +106,17 @@ impl Format {
         })
     }
 
+    /// A signed integer format of `width` bits (`I<width>F0`), usable in
+    /// constants; panics at compile time for a width outside `1..=64`.
+    pub const fn signed_int(width: u32) -> Self {
+        assert!(width >= 1 && width <= MAX_WIDTH, "width outside 1..=64");
+        Format {
+            signed: true,
+            width,
+            frac: 0,
+        }
+    }
+
     /// Signed (two's complement) or unsigned.
     pub const fn signed(&self) -> bool {
         self.signed

@@ -14,13 +14,18 @@
 //! `model/ARITHMETIC.md` states the contract the RTL follows.
 #![warn(missing_docs)]
 
+pub mod analysis;
+pub mod coeffs;
 pub mod config;
 pub mod datapath;
 pub mod files;
 pub mod format;
 pub mod lighting;
 pub mod mad_chain;
+pub mod normalizer;
+pub mod paper;
 pub mod quantize;
+pub mod sampling;
 pub mod units;
 
 pub use config::Config;

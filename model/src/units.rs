@@ -14,19 +14,20 @@ pub enum Phase {
     Pixel,
 }
 
-/// What a paper claims a variant costs, for comparison with measured counts.
+/// What a paper claims a variant costs, for comparison with measured counts
+/// (`None` where the paper gives no figure).
 #[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
 pub struct PaperClaim {
     /// Multiplications.
-    pub mul: u64,
+    pub mul: Option<u64>,
     /// Additions and subtractions.
-    pub add: u64,
+    pub add: Option<u64>,
     /// Divisions.
-    pub div: u64,
+    pub div: Option<u64>,
     /// Square roots.
-    pub sqrt: u64,
+    pub sqrt: Option<u64>,
     /// Table reads.
-    pub table_read: u64,
+    pub table_read: Option<u64>,
     /// Where the claim is made.
     pub source: &'static str,
 }
@@ -80,7 +81,7 @@ pub struct UnitEntry {
 }
 
 /// Every unit, in pipeline order.
-pub static UNITS: &[&UnitEntry] = &[&crate::lighting::UNIT];
+pub static UNITS: &[&UnitEntry] = &[&crate::normalizer::UNIT, &crate::lighting::UNIT];
 
 /// Map the first width error of a counting run (the root cause: later ones
 /// follow from it) to a configuration error naming the stage it came from.

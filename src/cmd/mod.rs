@@ -1,8 +1,11 @@
 //! One module per subcommand, each thin over the model crate.
 
 pub mod bench;
+pub mod coeffs;
 pub mod config;
+pub mod error;
 pub mod ops;
+pub mod paper;
 pub mod report;
 
 use std::path::PathBuf;

@@ -48,10 +48,17 @@ pub fn table(reports: &[OpReport]) -> Table {
             .collect::<Vec<_>>()
             .join(" ");
         let paper = r.paper.as_ref().map_or(String::from("-"), |p| {
-            format!(
-                "{} mul, {} add, {} div, {} sqrt, {} table ({})",
-                p.mul, p.add, p.div, p.sqrt, p.table_read, p.source
-            )
+            let parts: Vec<String> = [
+                (p.mul, "mul"),
+                (p.add, "add"),
+                (p.div, "div"),
+                (p.sqrt, "sqrt"),
+                (p.table_read, "table"),
+            ]
+            .iter()
+            .filter_map(|(n, what)| n.filter(|&n| n > 0).map(|n| format!("{n} {what}")))
+            .collect();
+            format!("{} ({})", parts.join(", "), p.source)
         });
         t.row([
             r.unit.to_string(),

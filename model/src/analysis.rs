@@ -1,0 +1,321 @@
+//! Error analysis of the bit-accurate model against the f64 reference.
+//!
+//! For the normalizer ([`normalize`]): the scalar `g(d)` stage exhaustively
+//! over every `d` code of the interval, and whole vectors — random triangles
+//! meeting Θ with random barycentrics, points on edges, and corner cases —
+//! through the compiled bit-accurate unit, against exact normalization of the
+//! same (quantized) input in f64. The diffuse term `I0·km·max(0, N·L)` is
+//! computed from the model's output by the bit-accurate lighting unit and
+//! compared, in 8-bit levels, with the f64 value from the exact normal.
+
+use glam::DVec3;
+
+use crate::config::Config;
+use crate::datapath::Compiled;
+use crate::lighting::{Lighting, LEVELS};
+use crate::normalizer::{self, Design, DesignError, Method, Normalizer, Stats};
+use crate::quantize::{Quant, Rounding};
+use crate::sampling::{self, Rng};
+
+/// Error statistics of whole output vectors.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct VectorStats {
+    /// Number of input vectors.
+    pub samples: u64,
+    /// Largest `| |N'| − 1 |`.
+    pub max_rel_err: f64,
+    /// Mean of `| |N'| − 1 |`.
+    pub mean_rel_err: f64,
+    /// RMS of `| |N'| − 1 |`.
+    pub rms_rel_err: f64,
+    /// Largest component error against the exact unit vector, in output LSBs.
+    pub max_lsb_err: f64,
+    /// Largest error of the diffuse term, in 8-bit levels.
+    pub max_diffuse_err_levels: f64,
+    /// Overflows at quantization steps (normalizer and lighting).
+    pub overflows: u64,
+}
+
+/// The normalizer's error report.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct NormalizeReport {
+    /// Method.
+    pub method: Method,
+    /// Θ.
+    pub theta: f64,
+    /// The interval the coefficients were fitted on (`edge` or `triangle`).
+    pub interval_kind: normalizer::Interval,
+    /// `[lo, hi]` of that interval.
+    pub interval: (f64, f64),
+    /// The coefficient values used, highest power first.
+    pub coeffs: Vec<f64>,
+    /// How they were designed (linear and quadratic).
+    pub design: Option<Design>,
+    /// The `g(d)` stage over every `d` code of the interval.
+    pub g_stage: Stats,
+    /// Whole triangles meeting Θ (random barycentrics and corner cases):
+    /// the headline figures, repeated at the top level of the JSON.
+    pub triangles: VectorStats,
+    /// Points on triangle edges only (the paper's setting).
+    pub edges: VectorStats,
+    /// Corner inputs outside every triangle: the largest and smallest
+    /// representable components.
+    pub outside: VectorStats,
+    /// The bound the analysis states for `| |N'| − 1 |` when `d` lies in the
+    /// interval: `E_g + (1 + E_g)·δ_d/2 + √3·e_out`, with `E_g` the g-stage
+    /// maximum, `δ_d` the relative rounding of `d` at the interval's lower
+    /// end and `e_out` one output rounding.
+    pub bound: f64,
+    /// Seed of the random samples.
+    pub seed: u64,
+}
+
+/// The bound of [`NormalizeReport::bound`].
+pub fn length_bound(n: &Normalizer, g_max: f64, lo: f64) -> f64 {
+    let rounding = |q: &Quant| match q.round() {
+        Rounding::Trunc => q.format().ulp(),
+        _ => q.format().ulp() / 2.0,
+    };
+    let delta_d = rounding(&n.q.d) / lo;
+    g_max + (1.0 + g_max) * delta_d / 2.0 + 3f64.sqrt() * rounding(&n.q.out) + 1e-12
+}
+
+struct Sample {
+    n: DVec3,
+    light: DVec3,
+}
+
+fn corners(theta: f64, rng: &mut Rng) -> Vec<DVec3> {
+    let mut v = Vec::new();
+    for _ in 0..16 {
+        let t = sampling::equiangular(theta, rng);
+        // Centroid (smallest d), vertices (d = 1), edge midpoints.
+        v.push(sampling::lerp3(&t, [1.0 / 3.0; 3]));
+        for i in 0..3 {
+            let mut c = [0.0; 3];
+            c[i] = 1.0;
+            v.push(sampling::lerp3(&t, c));
+            let mut m = [0.5; 3];
+            m[i] = 0.0;
+            v.push(sampling::lerp3(&t, m));
+        }
+    }
+    v
+}
+
+/// Run the normalizer and the lighting unit on `samples`; accumulate.
+fn measure(
+    n: &Normalizer,
+    prog: &Compiled,
+    light: &Lighting,
+    lprog: &Compiled,
+    samples: &[Sample],
+) -> Result<VectorStats, crate::format::ConvertError> {
+    let qn = &n.q.normal;
+    let mut cols: [Vec<i128>; 3] = Default::default();
+    for s in samples {
+        for (k, col) in cols.iter_mut().enumerate() {
+            col.push(qn.apply_f64(s.n[k])?.code);
+        }
+    }
+    let (out, ov) = prog.run_i128(&[&cols[0], &cols[1], &cols[2]]);
+    let fo = n.q.out.format();
+    // The normal enters the lighting unit in its own input format.
+    let to_light = |c: i128| light.normal.apply(c, fo.frac()).code;
+    let mut lcols: [Vec<i128>; 6] = Default::default();
+    for (i, s) in samples.iter().enumerate() {
+        for k in 0..3 {
+            lcols[k].push(to_light(out[k][i]));
+            lcols[3 + k].push(light.light.apply_f64(s.light[k])?.code);
+        }
+    }
+    let (lv, lov) = lprog.run_i128(&[
+        &lcols[0], &lcols[1], &lcols[2], &lcols[3], &lcols[4], &lcols[5],
+    ]);
+    let fl = light.level.format();
+    let fin = qn.format();
+    let mut st = VectorStats {
+        samples: samples.len() as u64,
+        overflows: ov.iter().chain(&lov).map(|(_, k)| k).sum(),
+        ..Default::default()
+    };
+    let mut sum = 0.0;
+    let mut sum2 = 0.0;
+    for (i, s) in samples.iter().enumerate() {
+        let nq = DVec3::new(
+            fin.to_f64(cols[0][i]),
+            fin.to_f64(cols[1][i]),
+            fin.to_f64(cols[2][i]),
+        );
+        let exact = nq.normalize_or_zero();
+        let got = DVec3::new(
+            fo.to_f64(out[0][i]),
+            fo.to_f64(out[1][i]),
+            fo.to_f64(out[2][i]),
+        );
+        let e = (got.length() - 1.0).abs();
+        sum += e;
+        sum2 += e * e;
+        st.max_rel_err = st.max_rel_err.max(e);
+        let lsb = (got - exact).abs().max_element() / fo.ulp();
+        st.max_lsb_err = st.max_lsb_err.max(lsb);
+        let want = LEVELS * light.i0_km * exact.dot(s.light).max(0.0);
+        let level = fl.to_f64(lv[0][i]);
+        st.max_diffuse_err_levels = st.max_diffuse_err_levels.max((level - want).abs());
+    }
+    if st.samples > 0 {
+        st.mean_rel_err = sum / st.samples as f64;
+        st.rms_rel_err = (sum2 / st.samples as f64).sqrt();
+    }
+    Ok(st)
+}
+
+/// Why an analysis could not run.
+#[derive(Debug, thiserror::Error)]
+pub enum AnalysisError {
+    /// The normalizer could not be built.
+    #[error(transparent)]
+    Design(#[from] DesignError),
+    /// A datapath is too wide.
+    #[error(transparent)]
+    Compile(#[from] crate::datapath::CompileError),
+    /// An input could not be converted.
+    #[error(transparent)]
+    Convert(#[from] crate::format::ConvertError),
+}
+
+/// Analyse the normalizer a configuration describes: `count` random
+/// whole-triangle samples (and a quarter as many edge samples) from `seed`,
+/// plus corner cases. `progress` is called with the fraction done.
+pub fn normalize(
+    cfg: &Config,
+    count: usize,
+    seed: u64,
+    progress: &mut dyn FnMut(f64),
+) -> Result<NormalizeReport, AnalysisError> {
+    let u = cfg.unit(normalizer::DECL.name);
+    let theta = u.number("theta");
+    let interval_kind = normalizer::Interval::from_name(u.choice("interval")).expect("declared");
+    let (n, design) = normalizer::from_config(cfg)?;
+    progress(0.2);
+    let (lo, hi) = design
+        .as_ref()
+        .map_or(interval_kind.bounds(theta), |d| d.interval);
+    let g_stage = normalizer::g_stage_stats(&n, lo, hi)?;
+    progress(0.3);
+    let light = Lighting::from_config(cfg.unit(crate::lighting::DECL.name));
+    let lprog = {
+        let mut tr = crate::datapath::Trace::new();
+        let nn = [
+            tr.input(&light.normal),
+            tr.input(&light.normal),
+            tr.input(&light.normal),
+        ];
+        let ll = [
+            tr.input(&light.light),
+            tr.input(&light.light),
+            tr.input(&light.light),
+        ];
+        let k = light.consts(&mut tr)?;
+        let lvl = light.diffuse(&mut tr, &k, nn, ll);
+        Compiled::compile(&tr, &[lvl])?
+    };
+    let prog = n.compile()?;
+    let mut rng = Rng::new(seed);
+
+    let mut tri: Vec<Sample> = corners(theta, &mut rng)
+        .into_iter()
+        .map(|n| Sample { n, light: DVec3::Z })
+        .collect();
+    for s in &mut tri {
+        s.light = rng.direction();
+    }
+    let chunk = 1 << 16;
+    let mut triangles = VectorStats::default();
+    let mut done = 0;
+    while done < count || !tri.is_empty() {
+        let m = chunk.min(count - done);
+        for _ in 0..m {
+            let t = sampling::triangle_meeting(theta, &mut rng);
+            let b = rng.barycentric();
+            tri.push(Sample {
+                n: sampling::lerp3(&t, b),
+                light: rng.direction(),
+            });
+        }
+        done += m;
+        let st = measure(&n, &prog, &light, &lprog, &tri)?;
+        triangles = merge(triangles, st);
+        tri.clear();
+        progress(0.3 + 0.5 * done as f64 / count.max(1) as f64);
+    }
+    let edge_samples: Vec<Sample> = (0..(count / 4).max(64))
+        .map(|_| {
+            let t = sampling::triangle_meeting(theta, &mut rng);
+            let s = rng.unit();
+            let i = rng.below(3) as usize;
+            let mut c = [0.0; 3];
+            c[i] = s;
+            c[(i + 1) % 3] = 1.0 - s;
+            Sample {
+                n: sampling::lerp3(&t, c),
+                light: rng.direction(),
+            }
+        })
+        .collect();
+    let edges = measure(&n, &prog, &light, &lprog, &edge_samples)?;
+    progress(0.95);
+    let fin = n.q.normal.format();
+    let (big, small) = (fin.max_value(), fin.ulp());
+    let outside_inputs = [
+        DVec3::new(big, 0.0, 0.0),
+        DVec3::new(fin.min_value(), 0.0, 0.0),
+        DVec3::splat(big),
+        DVec3::new(0.0, big, -big),
+        DVec3::new(small, 0.0, 0.0),
+        DVec3::new(-small, small, 0.0),
+        DVec3::new(0.0, 0.0, small),
+    ];
+    let outside_samples: Vec<Sample> = outside_inputs
+        .iter()
+        .map(|&n| Sample {
+            n,
+            light: DVec3::new(0.0, 0.6, 0.8),
+        })
+        .collect();
+    let outside = measure(&n, &prog, &light, &lprog, &outside_samples)?;
+    progress(1.0);
+    Ok(NormalizeReport {
+        method: n.method,
+        theta,
+        interval_kind,
+        interval: (lo, hi),
+        coeffs: n.coeffs.iter().rev().copied().collect(),
+        bound: length_bound(&n, g_stage.max_rel_err, lo),
+        design,
+        g_stage,
+        triangles,
+        edges,
+        outside,
+        seed,
+    })
+}
+
+fn merge(a: VectorStats, b: VectorStats) -> VectorStats {
+    let n = a.samples + b.samples;
+    if n == 0 {
+        return a;
+    }
+    let w = |x: f64, k: u64| x * k as f64;
+    VectorStats {
+        samples: n,
+        max_rel_err: a.max_rel_err.max(b.max_rel_err),
+        mean_rel_err: (w(a.mean_rel_err, a.samples) + w(b.mean_rel_err, b.samples)) / n as f64,
+        rms_rel_err: ((w(a.rms_rel_err.powi(2), a.samples) + w(b.rms_rel_err.powi(2), b.samples))
+            / n as f64)
+            .sqrt(),
+        max_lsb_err: a.max_lsb_err.max(b.max_lsb_err),
+        max_diffuse_err_levels: a.max_diffuse_err_levels.max(b.max_diffuse_err_levels),
+        overflows: a.overflows + b.overflows,
+    }
+}

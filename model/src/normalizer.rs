@@ -1,0 +1,665 @@
+//! Method A: fast normalization of interpolated normals, `N' = N·g(d)` with
+//! `d = N·N` and `g(d) ≈ 1/√d`.
+//!
+//! Every variant is one datapath, written once:
+//!
+//! ```text
+//! d   = Q_d(Nx² + Ny² + Nz²)                          3 mul, 2 add
+//! g   = exact     Q_g(1 / Q_sqrt(√d))                  1 sqrt, 1 div
+//!       none      (no g: N' = Q_out(N))
+//!       newton    Q_g((3 − d) / 2)                     1 add, a shift
+//!       taylor    Q_g(((3·d − 10)·d + 15) / 8)         2 mul, 2 add, a shift
+//!       linear    Q_g(k·d + p)                         1 mul, 1 add
+//!       quadratic Q_g(Q_horner(a·d + b)·d + c)         2 mul, 2 add (Horner)
+//! N'  = Q_out(N·g)                                     3 mul
+//! ```
+//!
+//! The linear one costs 7 multiplications and 3 additions, the quadratic 8
+//! and 4: measured by [`crate::datapath::Count`] (`fxshade ops`), not typed.
+//! Integer constants (3, 10, 15, 1) are literals: exact, in `I8F0`.
+//!
+//! ## The interval of `d`
+//! Interpolating two unit vectors at angle `φ` along an edge gives
+//! `d ≥ cos²(φ/2) = (1 + cos φ)/2`; the paper fits on `[(1+Θ)/2, 1]`
+//! ([`Interval::Edge`]). Inside a triangle, with barycentrics `c_i ≥ 0`,
+//! `Σ c_i = 1` and unit vertex normals whose pairwise dot products are all at
+//! least `Θ ≥ 0`:
+//!
+//! ```text
+//! d = |Σ c_i N_i|² = Σ c_i² + 2 Σ_{i<j} c_i c_j (N_i·N_j)
+//!   ≥ Σ c_i² + 2Θ Σ_{i<j} c_i c_j = 1 − 2(1 − Θ)·S,   S = Σ_{i<j} c_i c_j,
+//! ```
+//!
+//! using `Σ c_i² = 1 − 2S`. `S` is largest, `1/3`, at the centroid, so
+//! `d ≥ (1 + 2Θ)/3`, with equality at the centroid of a triangle whose three
+//! normals are pairwise at exactly `φ = acos Θ` (such a triangle exists for
+//! every `Θ ≥ −½`). And `d ≤ 1` because `|Σ c_i N_i| ≤ Σ c_i |N_i| = 1`. So
+//! over whole triangles `d ∈ [(1 + 2Θ)/3, 1]` ([`Interval::Triangle`], the
+//! default): at Θ = 0 that is `[1/3, 1]` against the paper's `[1/2, 1]`.
+
+use crate::coeffs::{self, CoeffError, Fit, Poly};
+use crate::config::{Config, ConfigError, FieldDecl, FieldKind, UnitConfig, UnitDecl};
+use crate::datapath::{Compiled, Count, Datapath, Trace};
+use crate::format::{ConvertError, Format};
+use crate::quantize::{Overflow, Quant, Rounding};
+use crate::units::{width_errors, OpReport, PaperClaim, Phase, UnitEntry};
+
+/// The `[normalize]` configuration section.
+pub static DECL: UnitDecl = UnitDecl {
+    name: "normalize",
+    doc: "method A: N' = N·g(d), d = N·N, g ≈ 1/√d (fast normalizer)",
+    fields: &[
+        FieldDecl { name: "normal", kind: FieldKind::Stage, doc: "input port: components of the interpolated normal N" },
+        FieldDecl { name: "d", kind: FieldKind::Stage, doc: "d = N·N after quantization" },
+        FieldDecl { name: "coef", kind: FieldKind::Stage, doc: "coefficient registers (k, p or a, b, c)" },
+        FieldDecl { name: "horner", kind: FieldKind::Stage, doc: "quadratic only: the Horner intermediate a·d + b" },
+        FieldDecl { name: "sqrt", kind: FieldKind::Stage, doc: "exact variant only: √d" },
+        FieldDecl { name: "g", kind: FieldKind::Stage, doc: "g(d) ≈ 1/√d" },
+        FieldDecl { name: "out", kind: FieldKind::Stage, doc: "output port: components of N·g" },
+        FieldDecl {
+            name: "method",
+            kind: FieldKind::Choice(&["exact", "none", "newton", "taylor", "linear", "quadratic"]),
+            doc: "which g(d): exact 1/√d, none, newton (3−d)/2, taylor, linear k·d+p, quadratic a·d²+b·d+c",
+        },
+        FieldDecl {
+            name: "theta",
+            kind: FieldKind::Number { min: 0.0, max: 0.999_999 },
+            doc: "convexity threshold Θ: smallest cosine between vertex normals of a triangle",
+        },
+        FieldDecl { name: "fit", kind: FieldKind::Choice(&["nodes", "series", "minimax"]), doc: "coefficient construction: Chebyshev nodes, Chebyshev series, minimax relative error" },
+        FieldDecl { name: "interval", kind: FieldKind::Choice(&["edge", "triangle"]), doc: "fit d on the paper's edge interval [(1+Θ)/2, 1] or the whole-triangle one [(1+2Θ)/3, 1]" },
+        FieldDecl { name: "coef_quant", kind: FieldKind::Choice(&["round", "search"]), doc: "coefficients: rounded to the coef format, or the best codes found by search" },
+    ],
+};
+
+/// The registry entry.
+pub static UNIT: UnitEntry = UnitEntry {
+    decl: &DECL,
+    check,
+    ops,
+};
+
+/// Which `g(d)`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Method {
+    /// `1/√d` (a square root and a division).
+    Exact,
+    /// No normalization.
+    None,
+    /// One Newton–Raphson step from 1: `(3 − d)/2`.
+    Newton,
+    /// Three Taylor terms about 1: `(15 − 10d + 3d²)/8`.
+    Taylor,
+    /// `k·d + p`.
+    Linear,
+    /// `a·d² + b·d + c`, by Horner.
+    Quadratic,
+}
+
+impl Method {
+    /// Every method.
+    pub const ALL: [Method; 6] = [
+        Method::Exact,
+        Method::None,
+        Method::Newton,
+        Method::Taylor,
+        Method::Linear,
+        Method::Quadratic,
+    ];
+    /// Configuration name.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Method::Exact => "exact",
+            Method::None => "none",
+            Method::Newton => "newton",
+            Method::Taylor => "taylor",
+            Method::Linear => "linear",
+            Method::Quadratic => "quadratic",
+        }
+    }
+    /// Parse a name.
+    pub fn from_name(s: &str) -> Option<Method> {
+        Self::ALL.into_iter().find(|m| m.name() == s)
+    }
+    /// Degree of the designed polynomial, for linear and quadratic.
+    pub const fn degree(self) -> Option<usize> {
+        match self {
+            Method::Linear => Some(1),
+            Method::Quadratic => Some(2),
+            _ => None,
+        }
+    }
+}
+
+/// Which interval of `d` the coefficients are fitted on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Interval {
+    /// `[(1+Θ)/2, 1]`: the paper's, valid on triangle edges.
+    Edge,
+    /// `[(1+2Θ)/3, 1]`: valid over whole triangles.
+    Triangle,
+}
+
+impl Interval {
+    /// Configuration name.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Interval::Edge => "edge",
+            Interval::Triangle => "triangle",
+        }
+    }
+    /// Parse a name.
+    pub fn from_name(s: &str) -> Option<Interval> {
+        [Interval::Edge, Interval::Triangle]
+            .into_iter()
+            .find(|i| i.name() == s)
+    }
+    /// `[lo, 1]` for threshold `theta`.
+    pub fn bounds(self, theta: f64) -> (f64, f64) {
+        match self {
+            Interval::Edge => ((1.0 + theta) / 2.0, 1.0),
+            Interval::Triangle => ((1.0 + 2.0 * theta) / 3.0, 1.0),
+        }
+    }
+}
+
+/// The formats of the normalizer's ports and stages.
+#[derive(Clone, Copy, Debug)]
+pub struct Stages {
+    /// Input components.
+    pub normal: Quant,
+    /// `d`.
+    pub d: Quant,
+    /// Coefficient registers.
+    pub coef: Quant,
+    /// Horner intermediate.
+    pub horner: Quant,
+    /// `√d` (exact variant).
+    pub sqrt: Quant,
+    /// `g`.
+    pub g: Quant,
+    /// Output components.
+    pub out: Quant,
+}
+
+/// Literal integer constants (3, 10, 15, 1): exact.
+const LITERAL: Quant = Quant::new(
+    "literal",
+    Format::signed_int(8),
+    Rounding::Trunc,
+    Overflow::Saturate,
+);
+
+/// A normalizer: method, stage formats and (for linear and quadratic) the
+/// coefficient values its registers hold.
+#[derive(Clone, Debug)]
+pub struct Normalizer {
+    /// Which `g`.
+    pub method: Method,
+    /// Formats.
+    pub q: Stages,
+    /// Coefficient values, lowest power first (exactly representable in
+    /// `q.coef`); empty for the other methods.
+    pub coeffs: Vec<f64>,
+}
+
+/// The coefficient registers and literals, loaded into a context once.
+#[derive(Clone, Debug)]
+pub struct Consts<V> {
+    coef: Vec<V>,
+    one: V,
+    three: V,
+    ten: V,
+    fifteen: V,
+}
+
+impl Normalizer {
+    /// The stage formats of a `[normalize]` section.
+    pub fn stages(u: &UnitConfig) -> Stages {
+        Stages {
+            normal: u.stage("normal"),
+            d: u.stage("d"),
+            coef: u.stage("coef"),
+            horner: u.stage("horner"),
+            sqrt: u.stage("sqrt"),
+            g: u.stage("g"),
+            out: u.stage("out"),
+        }
+    }
+
+    /// Load constants into a context.
+    pub fn consts<C: Datapath>(&self, cx: &mut C) -> Result<Consts<C::V>, ConvertError> {
+        Ok(Consts {
+            coef: self
+                .coeffs
+                .iter()
+                .map(|&c| cx.constant(c, &self.q.coef))
+                .collect::<Result<_, _>>()?,
+            one: cx.constant(1.0, &LITERAL)?,
+            three: cx.constant(3.0, &LITERAL)?,
+            ten: cx.constant(10.0, &LITERAL)?,
+            fifteen: cx.constant(15.0, &LITERAL)?,
+        })
+    }
+
+    /// `g(d)` for a quantized `d` (the scalar stage).
+    #[inline]
+    pub fn g_of_d<C: Datapath>(&self, cx: &mut C, k: &Consts<C::V>, d: C::V) -> C::V {
+        let q = &self.q;
+        match self.method {
+            Method::Exact => {
+                let s = cx.sqrt(d, &q.sqrt);
+                cx.div(k.one, s, &q.g)
+            }
+            Method::None => cx.quantize(k.one, &q.g),
+            Method::Newton => {
+                let t = cx.sub(k.three, d);
+                let t = cx.shl(t, -1);
+                cx.quantize(t, &q.g)
+            }
+            Method::Taylor => {
+                let t = cx.mul(k.three, d);
+                let t = cx.sub(t, k.ten);
+                let t = cx.mul_add(t, d, k.fifteen);
+                let t = cx.shl(t, -3);
+                cx.quantize(t, &q.g)
+            }
+            Method::Linear => {
+                let t = cx.mul_add(k.coef[1], d, k.coef[0]);
+                cx.quantize(t, &q.g)
+            }
+            Method::Quadratic => {
+                let t = cx.mul_add(k.coef[2], d, k.coef[1]);
+                let t = cx.quantize(t, &q.horner);
+                let t = cx.mul_add(t, d, k.coef[0]);
+                cx.quantize(t, &q.g)
+            }
+        }
+    }
+
+    /// `d = Q_d(N·N)`.
+    #[inline]
+    pub fn d_of<C: Datapath>(&self, cx: &mut C, n: [C::V; 3]) -> C::V {
+        let d = cx.dot3(n, n);
+        cx.quantize(d, &self.q.d)
+    }
+
+    /// The whole unit: `N' = Q_out(N·g(Q_d(N·N)))`.
+    #[inline]
+    pub fn eval<C: Datapath>(&self, cx: &mut C, k: &Consts<C::V>, n: [C::V; 3]) -> [C::V; 3] {
+        if self.method == Method::None {
+            return cx.quantize3(n, &self.q.out);
+        }
+        let d = self.d_of(cx, n);
+        let g = self.g_of_d(cx, k, d);
+        let p = [cx.mul(n[0], g), cx.mul(n[1], g), cx.mul(n[2], g)];
+        cx.quantize3(p, &self.q.out)
+    }
+
+    /// Run once in the counting context.
+    pub fn count(&self) -> Result<Count, ConvertError> {
+        let mut cx = Count::new();
+        let k = self.consts(&mut cx)?;
+        let n = [cx.constant(0.0, &self.q.normal)?; 3];
+        self.eval(&mut cx, &k, n);
+        Ok(cx)
+    }
+
+    /// The whole unit compiled for batches: inputs Nx, Ny, Nz; outputs the
+    /// three components.
+    pub fn compile(&self) -> Result<Compiled, crate::datapath::CompileError> {
+        let mut tr = Trace::new();
+        let n = [
+            tr.input(&self.q.normal),
+            tr.input(&self.q.normal),
+            tr.input(&self.q.normal),
+        ];
+        let k = self.consts(&mut tr).expect("finite constants");
+        let out = self.eval(&mut tr, &k, n);
+        Compiled::compile(&tr, &out)
+    }
+
+    /// The scalar `g(d)` stage compiled for batches: input a `d` code,
+    /// output the `g` code.
+    pub fn compile_g(&self) -> Result<Compiled, crate::datapath::CompileError> {
+        let mut tr = Trace::new();
+        let d = tr.input(&self.q.d);
+        let k = self.consts(&mut tr).expect("finite constants");
+        let g = self.g_of_d(&mut tr, &k, d);
+        Compiled::compile(&tr, &[g])
+    }
+}
+
+/// How the coefficients of a linear or quadratic normalizer were obtained.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Design {
+    /// Θ.
+    pub theta: f64,
+    /// The fit.
+    pub fit: Fit,
+    /// The interval kind.
+    pub interval_kind: Interval,
+    /// `[lo, hi]`.
+    pub interval: (f64, f64),
+    /// The real coefficients, lowest power first.
+    pub real: Poly,
+    /// `max |g·√d − 1|` of the real coefficients (exact).
+    pub real_max_rel_err: f64,
+    /// Rounded to the coefficient format.
+    pub rounded: CoeffChoice,
+    /// The best codes found by search (re-ranked by the bit-accurate model).
+    pub searched: CoeffChoice,
+    /// Which of the two the normalizer uses.
+    pub used: &'static str,
+}
+
+/// One quantized coefficient set and its errors.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct CoeffChoice {
+    /// Codes in the coefficient format, lowest power first.
+    pub codes: Vec<i128>,
+    /// Their values, lowest power first.
+    pub values: Vec<f64>,
+    /// `max |g·√d − 1|` in real arithmetic with these values (exact).
+    pub max_rel_err_real: f64,
+    /// `max |g·√d − 1|` through the bit-accurate `g(d)` stage, over every
+    /// `d` code in the interval.
+    pub max_rel_err_model: f64,
+}
+
+/// Why a normalizer could not be built from a configuration.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum DesignError {
+    /// Coefficient design failed.
+    #[error(transparent)]
+    Coeff(#[from] CoeffError),
+    /// The datapath is too wide.
+    #[error(transparent)]
+    Compile(#[from] crate::datapath::CompileError),
+}
+
+/// Design linear or quadratic coefficients for `stages`, and build the
+/// normalizer that uses them (`search` picks the searched set).
+pub fn design(
+    method: Method,
+    stages: Stages,
+    theta: f64,
+    fit: Fit,
+    interval: Interval,
+    search: bool,
+) -> Result<(Normalizer, Option<Design>), DesignError> {
+    design_interval(
+        method,
+        stages,
+        theta,
+        fit,
+        interval,
+        interval.bounds(theta),
+        search,
+    )
+}
+
+/// As [`design`], on an explicit interval `[lo, hi]`.
+pub fn design_interval(
+    method: Method,
+    stages: Stages,
+    theta: f64,
+    fit: Fit,
+    interval: Interval,
+    (lo, hi): (f64, f64),
+    search: bool,
+) -> Result<(Normalizer, Option<Design>), DesignError> {
+    let Some(degree) = method.degree() else {
+        return Ok((
+            Normalizer {
+                method,
+                q: stages,
+                coeffs: Vec::new(),
+            },
+            None,
+        ));
+    };
+    let real = coeffs::design(fit, lo, hi, degree)?;
+    let cf = stages.coef.format();
+    let (rounded, cands) = coeffs::quantize_coeffs(&real, cf, lo, hi)?;
+    let model_err = |values: &[f64]| -> Result<f64, DesignError> {
+        let n = Normalizer {
+            method,
+            q: stages,
+            coeffs: values.to_vec(),
+        };
+        Ok(g_stage_stats(&n, lo, hi)?.max_rel_err)
+    };
+    let choice = |q: &coeffs::Quantized| -> Result<CoeffChoice, DesignError> {
+        Ok(CoeffChoice {
+            codes: q.codes.clone(),
+            values: q.values.clone(),
+            max_rel_err_real: q.max_rel_err,
+            max_rel_err_model: model_err(&q.values)?,
+        })
+    };
+    let rounded = choice(&rounded)?;
+    // Re-rank the search's candidates (and rounding's) by the bit-accurate
+    // model, so the searched set never does worse than rounding.
+    let mut searched = rounded.clone();
+    for c in &cands {
+        let ch = choice(c)?;
+        if ch.max_rel_err_model < searched.max_rel_err_model {
+            searched = ch;
+        }
+    }
+    let used = if search { &searched } else { &rounded };
+    let n = Normalizer {
+        method,
+        q: stages,
+        coeffs: used.values.clone(),
+    };
+    let real_max_rel_err = coeffs::max_rel_err(&real, lo, hi).0;
+    Ok((
+        n,
+        Some(Design {
+            theta,
+            fit,
+            interval_kind: interval,
+            interval: (lo, hi),
+            real,
+            real_max_rel_err,
+            rounded: rounded.clone(),
+            searched,
+            used: if search { "search" } else { "round" },
+        }),
+    ))
+}
+
+/// Statistics of a relative error over a set of samples.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct Stats {
+    /// Number of samples.
+    pub samples: u64,
+    /// Largest.
+    pub max_rel_err: f64,
+    /// Mean.
+    pub mean_rel_err: f64,
+    /// Root mean square.
+    pub rms_rel_err: f64,
+    /// Where (the input value) the largest occurred.
+    pub worst_at: f64,
+    /// Overflows counted at quantization steps.
+    pub overflows: u64,
+}
+
+impl Stats {
+    /// Accumulate one error.
+    pub fn add(&mut self, e: f64, at: f64) {
+        self.samples += 1;
+        if e > self.max_rel_err {
+            self.max_rel_err = e;
+            self.worst_at = at;
+        }
+        self.mean_rel_err += e;
+        self.rms_rel_err += e * e;
+    }
+    /// Turn the sums into a mean and an RMS.
+    pub fn finish(mut self) -> Self {
+        if self.samples > 0 {
+            self.mean_rel_err /= self.samples as f64;
+            self.rms_rel_err = (self.rms_rel_err / self.samples as f64).sqrt();
+        }
+        self
+    }
+}
+
+/// Exhaustive analysis of the scalar stage: every code of the `d` format in
+/// `[lo, hi]` through the bit-accurate `g(d)`, error `|g·√d − 1|` with `d`
+/// the code's exact value.
+pub fn g_stage_stats(n: &Normalizer, lo: f64, hi: f64) -> Result<Stats, DesignError> {
+    let fd = n.q.d.format();
+    let c_lo = (lo / fd.ulp()).ceil() as i128;
+    let c_hi = ((hi / fd.ulp()).floor() as i128).min(fd.max_code());
+    let codes: Vec<i128> = (c_lo.max(fd.min_code())..=c_hi).collect();
+    let prog = n.compile_g()?;
+    let (out, ov) = prog.run_i128(&[&codes]);
+    let fg = n.q.g.format();
+    let mut st = Stats::default();
+    for (&c, &g) in codes.iter().zip(&out[0]) {
+        let d = fd.to_f64(c);
+        st.add((fg.to_f64(g) * d.sqrt() - 1.0).abs(), d);
+    }
+    st.overflows = ov.iter().map(|(_, k)| k).sum();
+    Ok(st.finish())
+}
+
+/// The normalizer a configuration describes (with its design, for linear and
+/// quadratic).
+pub fn from_config(cfg: &Config) -> Result<(Normalizer, Option<Design>), DesignError> {
+    let u = cfg.unit(DECL.name);
+    let method = Method::from_name(u.choice("method")).expect("declared choices");
+    design(
+        method,
+        Normalizer::stages(u),
+        u.number("theta"),
+        Fit::from_name(u.choice("fit")).expect("declared choices"),
+        Interval::from_name(u.choice("interval")).expect("declared choices"),
+        u.choice("coef_quant") == "search",
+    )
+}
+
+/// A normalizer of `method` with the configured stages, and stand-in
+/// coefficients (for counting and width checks, which do not depend on the
+/// values).
+fn with_method(u: &UnitConfig, method: Method) -> Normalizer {
+    Normalizer {
+        method,
+        q: Normalizer::stages(u),
+        coeffs: vec![0.0; method.degree().map_or(0, |d| d + 1)],
+    }
+}
+
+fn check(cfg: &Config) -> Result<(), Vec<ConfigError>> {
+    let u = cfg.unit(DECL.name);
+    for m in Method::ALL {
+        let cx = with_method(u, m)
+            .count()
+            .map_err(|e| vec![crate::config::field_error(u, "coef", e.to_string())])?;
+        width_errors(&cx, u)?;
+    }
+    Ok(())
+}
+
+/// The paper's claims (methods.md, section A).
+fn claim(m: Method) -> Option<PaperClaim> {
+    let c = |mul, add, div, sqrt, source| {
+        Some(PaperClaim {
+            mul: Some(mul),
+            add: Some(add),
+            div: Some(div),
+            sqrt: Some(sqrt),
+            table_read: Some(0),
+            source,
+        })
+    };
+    match m {
+        Method::Linear => c(7, 3, 0, 0, "normalization paper: 7 mul, 3 add"),
+        Method::Quadratic => c(8, 4, 0, 0, "normalization paper: 8 mul, 4 add (Horner)"),
+        Method::Newton => c(
+            9,
+            3,
+            1,
+            0,
+            "paper's count for Hast et al.'s full formula, not (3−d)/2",
+        ),
+        Method::Exact => Some(PaperClaim {
+            mul: None,
+            add: None,
+            div: Some(1),
+            sqrt: Some(1),
+            table_read: Some(0),
+            source: "normalization paper: one square root and one division",
+        }),
+        _ => None,
+    }
+}
+
+fn ops(cfg: &Config) -> Vec<OpReport> {
+    let u = cfg.unit(DECL.name);
+    Method::ALL
+        .into_iter()
+        .filter_map(|m| {
+            let cx = with_method(u, m).count().ok()?;
+            Some(OpReport::from_count(
+                DECL.name,
+                m.name(),
+                Phase::Pixel,
+                &cx,
+                claim(m),
+            ))
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn counts_match_the_paper_for_linear_and_quadratic() {
+        let cfg = Config::embedded();
+        let r = ops(&cfg);
+        let get = |v: &str| r.iter().find(|x| x.variant == v).unwrap();
+        assert_eq!((get("linear").counts.mul, get("linear").counts.add), (7, 3));
+        assert_eq!(
+            (get("quadratic").counts.mul, get("quadratic").counts.add),
+            (8, 4)
+        );
+        assert_eq!((get("exact").counts.sqrt, get("exact").counts.div), (1, 1));
+        assert_eq!(get("none").counts.mul, 0);
+    }
+
+    #[test]
+    fn triangle_interval_holds_by_sampling() {
+        // Equiangular triangles at exactly Θ reach (1+2Θ)/3 at the centroid;
+        // random triangles meeting Θ never go below it.
+        let mut rng = crate::sampling::Rng::new(7);
+        for &theta in &[0.0, 0.5, 0.75, 0.875, 0.9375, 0.96875] {
+            let lo = Interval::Triangle.bounds(theta).0;
+            let tri = crate::sampling::equiangular(theta, &mut rng);
+            let c = crate::sampling::lerp3(&tri, [1.0 / 3.0; 3]);
+            assert!((c.length_squared() - lo).abs() < 1e-12, "{theta}");
+            let mut min: f64 = 1.0;
+            for _ in 0..20_000 {
+                let t = crate::sampling::triangle_meeting(theta, &mut rng);
+                let b = rng.barycentric();
+                let d = crate::sampling::lerp3(&t, b).length_squared();
+                assert!(d >= lo - 1e-12 && d <= 1.0 + 1e-12, "{theta}: {d}");
+                min = min.min(d);
+            }
+            // Sampling gets close to the bound, and the edge bound is beaten.
+            assert!(
+                min < Interval::Edge.bounds(theta).0 || theta > 0.9,
+                "{theta}: {min}"
+            );
+        }
+    }
+}

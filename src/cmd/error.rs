@@ -1,0 +1,132 @@
+//! `fxshade error`: error of the bit-accurate model against the f64
+//! reference.
+
+use clap::{Args, Subcommand};
+use fxshade_model::analysis::{self, NormalizeReport, VectorStats};
+
+use super::ConfigArgs;
+use crate::output::{emit, OutputArgs, Table};
+
+/// `fxshade error ...`
+#[derive(Subcommand, Debug)]
+pub enum ErrorCmd {
+    /// The normalizer (method A): the g(d) stage over every d code of the
+    /// interval, and whole vectors from random triangles meeting Θ, edges and
+    /// corner cases, against exact normalization; the diffuse term in 8-bit
+    /// levels.
+    Normalize(NormalizeArgs),
+}
+
+/// Options of `error normalize`.
+#[derive(Args, Debug)]
+pub struct NormalizeArgs {
+    #[command(flatten)]
+    cfg: ConfigArgs,
+    /// Convexity threshold Θ (sets normalize.theta).
+    #[arg(long)]
+    theta: Option<f64>,
+    /// exact, none, newton, taylor, linear or quadratic (sets normalize.method).
+    #[arg(long)]
+    method: Option<String>,
+    /// edge or triangle: the interval the coefficients are fitted on (sets
+    /// normalize.interval).
+    #[arg(long)]
+    interval: Option<String>,
+    /// Random whole-triangle samples.
+    #[arg(long, default_value_t = 200_000)]
+    count: usize,
+    /// Seed of the random samples.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    #[command(flatten)]
+    out: OutputArgs,
+}
+
+fn row(t: &mut Table, name: &str, s: &VectorStats) {
+    t.row([
+        name.to_string(),
+        s.samples.to_string(),
+        format!("{:.3e}", s.max_rel_err),
+        format!("{:.3e}", s.mean_rel_err),
+        format!("{:.3e}", s.rms_rel_err),
+        format!("{:.2}", s.max_lsb_err),
+        format!("{:.2}", s.max_diffuse_err_levels),
+        s.overflows.to_string(),
+    ]);
+}
+
+/// The report as tables.
+pub fn tables(r: &NormalizeReport) -> Vec<Table> {
+    let mut t = Table::new([
+        "inputs",
+        "samples",
+        "max rel err",
+        "mean rel err",
+        "rms rel err",
+        "max LSB err",
+        "max diffuse err (levels)",
+        "overflows",
+    ])
+    .titled(format!(
+        "normalize, method {}, Θ = {}, coefficients fitted on the {} interval [{:.6}, {:.6}]: {:?}",
+        r.method.name(),
+        r.theta,
+        r.interval_kind.name(),
+        r.interval.0,
+        r.interval.1,
+        r.coeffs
+    ));
+    let g = &r.g_stage;
+    t.row([
+        "g(d) stage, every d code".to_string(),
+        g.samples.to_string(),
+        format!("{:.3e}", g.max_rel_err),
+        format!("{:.3e}", g.mean_rel_err),
+        format!("{:.3e}", g.rms_rel_err),
+        "-".into(),
+        "-".into(),
+        g.overflows.to_string(),
+    ]);
+    row(&mut t, "whole triangles meeting Θ", &r.triangles);
+    row(&mut t, "triangle edges", &r.edges);
+    row(&mut t, "outside (extreme components)", &r.outside);
+    let mut b = Table::new([
+        "stated bound on | |N'| − 1 | for d in the interval",
+        "value",
+    ]);
+    b.row([
+        "E_g + (1 + E_g)·δ_d/2 + √3·e_out".to_string(),
+        format!("{:.3e}", r.bound),
+    ]);
+    vec![t, b]
+}
+
+/// Run it.
+pub fn run(cmd: &ErrorCmd) -> anyhow::Result<()> {
+    let ErrorCmd::Normalize(a) = cmd;
+    let mut cfg_args = a.cfg.clone();
+    if let Some(t) = a.theta {
+        cfg_args.set.push(format!("normalize.theta={t}"));
+    }
+    if let Some(m) = &a.method {
+        cfg_args.set.push(format!("normalize.method=\"{m}\""));
+    }
+    if let Some(i) = &a.interval {
+        cfg_args.set.push(format!("normalize.interval=\"{i}\""));
+    }
+    let cfg = cfg_args.resolve()?;
+    let bar = crate::progress::bar(1000, "error normalize");
+    let r = analysis::normalize(&cfg, a.count, a.seed, &mut |f| {
+        bar.set_position((f * 1000.0) as u64)
+    })?;
+    bar.finish_and_clear();
+    let mut json = serde_json::to_value(&r)?;
+    for (k, v) in serde_json::to_value(r.triangles)?
+        .as_object()
+        .expect("struct")
+        .iter()
+    {
+        json[k] = v.clone();
+    }
+    emit(a.out, &tables(&r), &json)
+}
