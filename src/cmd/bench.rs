@@ -19,6 +19,144 @@ pub enum BenchCmd {
     /// A chain of multiply-adds `x ← Q(a·x + b)` with run-time formats,
     /// bit-accurate, against the same chain in f64 on the same inputs.
     MadChain(MadChainArgs),
+    /// Bit-accurate linear and quadratic normalizations per second (compiled
+    /// batch path) against exact f64 normalization with glam on the same
+    /// inputs; and the exhaustive g(d) analysis of a 20-bit d stage.
+    Normalize(NormalizeBenchArgs),
+}
+
+/// Options of `bench normalize`.
+#[derive(Args, Debug)]
+pub struct NormalizeBenchArgs {
+    /// Number of input normals.
+    #[arg(long, default_value_t = 1 << 16)]
+    inputs: usize,
+    /// Minimum measuring time per variant, in seconds.
+    #[arg(long, default_value_t = 1.0)]
+    seconds: f64,
+    #[command(flatten)]
+    out: OutputArgs,
+}
+
+fn bench_normalize(a: &NormalizeBenchArgs) -> anyhow::Result<()> {
+    use fxshade_model::normalizer::{self, Method};
+    use fxshade_model::sampling::{self, Rng};
+    let cfg = fxshade_model::Config::embedded();
+    let u = cfg.unit(normalizer::DECL.name);
+    let theta = u.number("theta");
+    let mut rng = Rng::new(3);
+    let vs: Vec<glam::DVec3> = (0..a.inputs.max(1))
+        .map(|_| {
+            sampling::lerp3(
+                &sampling::triangle_meeting(theta, &mut rng),
+                rng.barycentric(),
+            )
+        })
+        .collect();
+    let min = Duration::from_secs_f64(a.seconds.max(0.01));
+    let stages = normalizer::Normalizer::stages(u);
+    let codes: Vec<Vec<i128>> = (0..3)
+        .map(|k| {
+            vs.iter()
+                .map(|v| Ok(stages.normal.apply_f64(v[k])?.code))
+                .collect::<anyhow::Result<_>>()
+        })
+        .collect::<anyhow::Result<_>>()?;
+    let fin = stages.normal.format();
+    let exact_in: Vec<glam::DVec3> = (0..vs.len())
+        .map(|i| {
+            glam::DVec3::new(
+                fin.to_f64(codes[0][i]),
+                fin.to_f64(codes[1][i]),
+                fin.to_f64(codes[2][i]),
+            )
+        })
+        .collect();
+    let time = |f: &mut dyn FnMut()| {
+        let (mut reps, start) = (0u64, Instant::now());
+        while start.elapsed() < min || reps == 0 {
+            f();
+            reps += 1;
+        }
+        start.elapsed().as_secs_f64() / (reps as f64 * vs.len() as f64)
+    };
+    let t_glam = time(&mut || {
+        for v in black_box(&exact_in) {
+            black_box(v.normalize());
+        }
+    });
+    let mut t =
+        Table::new(["variant", "ns per normal", "M normals/s", "× glam f64"]).titled(format!(
+            "normalize: {} interpolated normals (Θ = {theta}), default formats, one core",
+            vs.len()
+        ));
+    let mut json = serde_json::json!({ "bench": "normalize", "inputs": vs.len(), "glam_f64_ns": t_glam * 1e9 });
+    t.row([
+        "exact, f64 (glam DVec3::normalize)".to_string(),
+        format!("{:.2}", t_glam * 1e9),
+        format!("{:.1}", 1e-6 / t_glam),
+        "1.00".into(),
+    ]);
+    for m in [Method::Linear, Method::Quadratic] {
+        let (n, _) = normalizer::design(
+            m,
+            stages,
+            theta,
+            fxshade_model::coeffs::Fit::Minimax,
+            normalizer::Interval::Triangle,
+            true,
+        )?;
+        let secs = match n.compile()? {
+            Compiled::Narrow(p) => {
+                let c64: Vec<Vec<i64>> = codes
+                    .iter()
+                    .map(|c| c.iter().map(|&x| x as i64).collect())
+                    .collect();
+                let mut outs = vec![Vec::new(); 3];
+                time(&mut || {
+                    black_box(p.run_into(&[&c64[0], &c64[1], &c64[2]], &mut outs));
+                })
+            }
+            Compiled::Wide(p) => {
+                let mut outs = vec![Vec::new(); 3];
+                time(&mut || {
+                    black_box(p.run_into(&[&codes[0], &codes[1], &codes[2]], &mut outs));
+                })
+            }
+        };
+        t.row([
+            format!("{}, bit-accurate (compiled)", m.name()),
+            format!("{:.2}", secs * 1e9),
+            format!("{:.1}", 1e-6 / secs),
+            format!("{:.2}", secs / t_glam),
+        ]);
+        json[format!("{}_ns", m.name())] = (secs * 1e9).into();
+        json[format!("{}_ratio", m.name())] = (secs / t_glam).into();
+    }
+    // Exhaustive g(d) over every code of a 20-bit d format.
+    let mut st20 = stages;
+    st20.d = st20.d.with_format("U1F19".parse()?);
+    let (n20, _) = normalizer::design(
+        Method::Quadratic,
+        st20,
+        theta,
+        fxshade_model::coeffs::Fit::Minimax,
+        normalizer::Interval::Triangle,
+        true,
+    )?;
+    let fd = st20.d.format();
+    let start = Instant::now();
+    let st = normalizer::g_stage_stats(&n20, fd.ulp(), fd.max_value())?;
+    let t20 = start.elapsed().as_secs_f64();
+    let mut g = Table::new(["exhaustive g(d) analysis", "d codes", "seconds"]);
+    g.row([
+        "quadratic, d in U1F19 (20 bits)".to_string(),
+        st.samples.to_string(),
+        format!("{t20:.3}"),
+    ]);
+    json["g_stage_20bit_codes"] = st.samples.into();
+    json["g_stage_20bit_seconds"] = t20.into();
+    emit(a.out, &[t, g], &json)
 }
 
 /// Options of `bench mad-chain`.
@@ -48,23 +186,6 @@ pub struct MadChainArgs {
 
 fn parse_round(s: &str) -> Result<Rounding, String> {
     Rounding::from_name(s).ok_or_else(|| format!("`{s}` is not trunc, half_up or half_even"))
-}
-
-/// SplitMix64: a small, well-known generator for reproducible inputs.
-pub struct SplitMix(pub u64);
-impl SplitMix {
-    /// Next 64 random bits.
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
-    }
-    /// Uniform in `[lo, hi)`.
-    pub fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
-    }
 }
 
 fn time_per_mad<C: Datapath>(
@@ -125,17 +246,19 @@ fn time_compiled(
     Ok(match prog {
         Compiled::Narrow(p) => {
             let c64: Vec<i64> = codes.iter().map(|&c| c as i64).collect();
+            let mut outs = vec![Vec::new()];
             let (mut reps, start) = (0u64, Instant::now());
             while start.elapsed() < min || reps == 0 {
-                black_box(p.run(&[black_box(&c64)]));
+                black_box(p.run_into(&[black_box(&c64)], &mut outs));
                 reps += 1;
             }
             per(start.elapsed().as_secs_f64(), reps)
         }
         Compiled::Wide(p) => {
+            let mut outs = vec![Vec::new()];
             let (mut reps, start) = (0u64, Instant::now());
             while start.elapsed() < min || reps == 0 {
-                black_box(p.run(&[black_box(&codes)]));
+                black_box(p.run_into(&[black_box(&codes)], &mut outs));
                 reps += 1;
             }
             per(start.elapsed().as_secs_f64(), reps)
@@ -151,7 +274,10 @@ fn load<C: Datapath>(cx: &mut C, vals: &[f64], q: &Quant) -> anyhow::Result<Vec<
 
 /// Run it.
 pub fn run(cmd: &BenchCmd) -> anyhow::Result<()> {
-    let BenchCmd::MadChain(a) = cmd;
+    let a = match cmd {
+        BenchCmd::MadChain(a) => a,
+        BenchCmd::Normalize(a) => return bench_normalize(a),
+    };
     anyhow::ensure!(
         a.inputs > 0 && a.length > 0,
         "--inputs and --length must be positive"
@@ -163,7 +289,7 @@ pub fn run(cmd: &BenchCmd) -> anyhow::Result<()> {
         Rounding::HalfEven,
         Overflow::Saturate,
     );
-    let mut rng = SplitMix(1);
+    let mut rng = fxshade_model::sampling::Rng::new(1);
     let xs: Vec<f64> = (0..a.inputs).map(|_| rng.uniform(-1.0, 1.0)).collect();
     let ab: Vec<(f64, f64)> = (0..a.length)
         .map(|_| (rng.uniform(-0.9, 0.9), rng.uniform(-0.1, 0.1)))

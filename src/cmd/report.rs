@@ -24,7 +24,7 @@ pub fn run(a: &ReportArgs) -> anyhow::Result<()> {
     let cfg = a.cfg.resolve()?;
     let dir = StagedDir::new(&a.out)
         .with_context(|| format!("cannot write the report to {}", a.out.display()))?;
-    let bar = crate::progress::bar(2, "report");
+    let bar = crate::progress::bar(4, "report");
 
     bar.set_message("configuration");
     dir.write("config.toml", cfg.to_toml().as_bytes())?;
@@ -45,6 +45,29 @@ pub fn run(a: &ReportArgs) -> anyhow::Result<()> {
     dir.write("stages.csv", stages.to_csv()?.as_bytes())?;
     bar.inc(1);
 
+    bar.set_message("paper tables");
+    let paper = fxshade_model::paper::reproduce()?;
+    let ptable = super::paper::table(&paper);
+    dir.write("paper.txt", ptable.render().as_bytes())?;
+    dir.write("paper.csv", ptable.to_csv()?.as_bytes())?;
+    dir.write(
+        "paper.json",
+        serde_json::to_string_pretty(&paper)?.as_bytes(),
+    )?;
+    bar.inc(1);
+
+    bar.set_message("normalizer error analysis");
+    let nerr = fxshade_model::analysis::normalize(&cfg, 100_000, 1, &mut |_| {})?;
+    let ntables = super::error::tables(&nerr);
+    let ntext: String = ntables.iter().map(|t| t.render() + "\n").collect();
+    dir.write("error_normalize.txt", ntext.as_bytes())?;
+    dir.write("error_normalize.csv", ntables[0].to_csv()?.as_bytes())?;
+    dir.write(
+        "error_normalize.json",
+        serde_json::to_string_pretty(&nerr)?.as_bytes(),
+    )?;
+    bar.inc(1);
+
     let mut index = String::new();
     index += "# fxshade report\n\n";
     index += &format!("Configuration: `{}`", cfg.source);
@@ -57,6 +80,11 @@ pub fn run(a: &ReportArgs) -> anyhow::Result<()> {
     index += &table.render();
     index += "```\n\n## Quantization points\n\nThe stages the RTL quantizes at ([CSV](stages.csv)).\n\n```text\n";
     index += &stages.render();
+    index += "```\n\n## Normalizer error (bit-accurate model against exact f64)\n\n\
+              ([CSV](error_normalize.csv), [JSON](error_normalize.json))\n\n```text\n";
+    index += &ntext;
+    index += "```\n\n## The normalization paper reproduced\n\n([CSV](paper.csv), [JSON](paper.json))\n\n```text\n";
+    index += &ptable.render();
     index += "```\n";
     dir.write("index.md", index.as_bytes())?;
     bar.finish_and_clear();

@@ -359,13 +359,25 @@ impl<R: Raw> Program<R> {
     /// one length `n`); returns the codes of each output (length `n`) and the
     /// overflows per stage.
     pub fn run(&self, inputs: &[&[R]]) -> (Vec<Vec<R>>, Vec<(&'static str, u64)>) {
+        let mut outs: Vec<Vec<R>> = self.outputs.iter().map(|_| Vec::new()).collect();
+        let ov = self.run_into(inputs, &mut outs);
+        (outs, ov)
+    }
+
+    /// As [`Program::run`], writing into `outs` (one vector per output,
+    /// cleared first; their capacity is reused across calls).
+    pub fn run_into(&self, inputs: &[&[R]], outs: &mut [Vec<R>]) -> Vec<(&'static str, u64)> {
         assert_eq!(inputs.len(), self.inputs.len(), "one slice per input port");
+        assert_eq!(outs.len(), self.outputs.len(), "one vector per output");
         let n = inputs.first().map_or(0, |s| s.len());
         assert!(
             inputs.iter().all(|s| s.len() == n),
             "input slices of equal length"
         );
-        let mut outs: Vec<Vec<R>> = self.outputs.iter().map(|_| Vec::with_capacity(n)).collect();
+        for o in outs.iter_mut() {
+            o.clear();
+            o.reserve(n);
+        }
         let mut ov = vec![0u64; self.stages.len()];
         let mut regs = vec![R::ZERO; self.n_regs * BLOCK];
         for &(d, c) in &self.consts {
@@ -378,19 +390,17 @@ impl<R: Raw> Program<R> {
                 regs[d * BLOCK..d * BLOCK + len].copy_from_slice(&src[start..start + len]);
             }
             self.block(&mut regs, len, &mut ov);
-            for (&(o, _), out) in self.outputs.iter().zip(&mut outs) {
+            for (&(o, _), out) in self.outputs.iter().zip(outs.iter_mut()) {
                 out.extend_from_slice(&regs[o * BLOCK..o * BLOCK + len]);
             }
             start += len;
         }
-        let overflows = self
-            .stages
+        self.stages
             .iter()
             .zip(ov)
             .filter(|(_, n)| *n > 0)
             .map(|(s, n)| (*s, n))
-            .collect();
-        (outs, overflows)
+            .collect()
     }
 
     /// One block of lanes, on the best instruction set this CPU has: the
