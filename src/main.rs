@@ -3,6 +3,7 @@
 mod cmd;
 mod output;
 mod progress;
+mod rtl_flow;
 
 use std::process::ExitCode;
 
@@ -51,6 +52,12 @@ enum Command {
     /// width, output format, bits dropped, rounding and overflow modes — the
     /// table the RTL follows.
     Stages(cmd::ops::StagesArgs),
+    /// Write test vectors (manifest, $readmemh files) and the Verilog
+    /// parameter header of a unit for a configuration.
+    Vectors(cmd::vectors::VectorsArgs),
+    /// Co-simulate a unit's RTL against the model with Verilator or Icarus
+    /// Verilog: exit status 0 only when every vector matches bit for bit.
+    RtlCheck(cmd::rtl_check::RtlCheckArgs),
     /// Benchmarks of the model's speed.
     #[command(subcommand)]
     Bench(cmd::bench::BenchCmd),
@@ -67,6 +74,8 @@ fn main() -> ExitCode {
         Command::Error(e) => cmd::error::run(e),
         Command::Coeffs(a) => cmd::coeffs::run(a),
         Command::Paper(a) => cmd::paper::run(a),
+        Command::Vectors(a) => cmd::vectors::run(a),
+        Command::RtlCheck(a) => cmd::rtl_check::run(a),
     };
     match r {
         Ok(()) => ExitCode::SUCCESS,

@@ -27,6 +27,7 @@ pub mod paper;
 pub mod quantize;
 pub mod sampling;
 pub mod units;
+pub mod vectors;
 
 pub use config::Config;
 pub use datapath::{Count, Datapath, Fixed, Fx, Reference};

@@ -7,6 +7,8 @@ pub mod error;
 pub mod ops;
 pub mod paper;
 pub mod report;
+pub mod rtl_check;
+pub mod vectors;
 
 use std::path::PathBuf;
 

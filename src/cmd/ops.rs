@@ -12,8 +12,167 @@ use crate::output::{emit, OutputArgs, Table};
 pub struct OpsArgs {
     #[command(flatten)]
     cfg: ConfigArgs,
+    /// Also synthesize each RTL unit and variant with Yosys to word-level
+    /// cells and check its multipliers, adders and comparators against the
+    /// counting context (exit status 1 on any disagreement).
+    #[arg(long)]
+    rtl: bool,
     #[command(flatten)]
     out: OutputArgs,
+}
+
+/// Word-level cells of one RTL variant, beside the model's counts.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct NetlistCheck {
+    /// Unit.
+    pub unit: &'static str,
+    /// Variant.
+    pub variant: String,
+    /// `$mul` cells.
+    pub netlist_mul: u64,
+    /// `$add` and `$sub` cells.
+    pub netlist_add: u64,
+    /// `$lt`, `$gt`, `$le` and `$ge` cells.
+    pub netlist_compare: u64,
+    /// Cell types by result width, e.g. `$mul_34: 3`.
+    pub netlist_cells: std::collections::BTreeMap<String, u64>,
+    /// Model multiplications.
+    pub model_mul: u64,
+    /// Model additions plus rounding incrementers.
+    pub model_add: u64,
+    /// Model comparisons plus two range comparators per quantization.
+    pub model_compare: u64,
+    /// Whether all three agree.
+    pub agree: bool,
+}
+
+/// Synthesize every RTL unit and variant with Yosys and compare.
+pub fn netlist_checks(cfg: &fxshade_model::Config) -> anyhow::Result<Vec<NetlistCheck>> {
+    use anyhow::Context;
+    crate::rtl_flow::require_tool("yosys", "yosys")?;
+    let mut out = Vec::new();
+    for u in crate::rtl_flow::RTL_UNITS {
+        for variant in ["linear", "quadratic"] {
+            let mut c = cfg.clone();
+            c.apply_override(&format!("normalize.method=\"{variant}\""))?;
+            let params = (u.params)(&c)?;
+            let dir = std::env::temp_dir().join(format!(
+                "fxshade-yosys-{}-{}-{variant}",
+                std::process::id(),
+                u.name
+            ));
+            let _ = std::fs::remove_dir_all(&dir);
+            let src = crate::rtl_flow::write_sources(u, &params, &dir)?;
+            let files: Vec<String> = u.sources[..u.design_files]
+                .iter()
+                .map(|(rel, _)| src.join(rel).display().to_string())
+                .collect();
+            let script = format!(
+                "read_verilog -I{} {}; hierarchy -top {}; proc; flatten; opt_expr; opt_clean; tee -o {} stat; tee -o {} stat -width",
+                src.display(),
+                files.join(" "),
+                u.top,
+                dir.join("stat.txt").display(),
+                dir.join("width.txt").display()
+            );
+            let o = std::process::Command::new("yosys")
+                .args(["-q", "-p", &script])
+                .output()
+                .context("cannot run yosys")?;
+            anyhow::ensure!(
+                o.status.success(),
+                "yosys failed on {} ({variant}):\n{}",
+                u.name,
+                String::from_utf8_lossy(&o.stderr)
+            );
+            let parse = |f: &str| -> anyhow::Result<std::collections::BTreeMap<String, u64>> {
+                let t = std::fs::read_to_string(dir.join(f))?;
+                Ok(t.lines()
+                    .filter_map(|l| {
+                        let mut w = l.split_whitespace();
+                        let (name, n) = (w.next()?, w.next()?);
+                        if !name.starts_with('$') {
+                            return None;
+                        }
+                        Some((name.to_string(), n.parse().ok()?))
+                    })
+                    .collect())
+            };
+            let stat = parse("stat.txt")?;
+            let widths = parse("width.txt")?;
+            let _ = std::fs::remove_dir_all(&dir);
+            let n = |k: &str| stat.get(k).copied().unwrap_or(0);
+            let model = fxshade_model::normalizer::from_config(&c)?.0.count()?;
+            let mc = model.counts();
+            let (netlist_mul, netlist_add, netlist_compare) = (
+                n("$mul"),
+                n("$add") + n("$sub"),
+                n("$lt") + n("$gt") + n("$le") + n("$ge"),
+            );
+            let (model_mul, model_add, model_compare) = (
+                mc.mul,
+                mc.add + mc.round,
+                mc.compare + 2 * model.quant_points().len() as u64,
+            );
+            out.push(NetlistCheck {
+                unit: u.name,
+                variant: variant.to_string(),
+                netlist_mul,
+                netlist_add,
+                netlist_compare,
+                netlist_cells: widths
+                    .into_iter()
+                    .filter(|(k, _)| {
+                        ["$mul", "$add", "$sub", "$lt", "$gt"]
+                            .iter()
+                            .any(|p| k.starts_with(p))
+                    })
+                    .collect(),
+                model_mul,
+                model_add,
+                model_compare,
+                agree: (netlist_mul, netlist_add, netlist_compare)
+                    == (model_mul, model_add, model_compare),
+            });
+        }
+    }
+    Ok(out)
+}
+
+/// The netlist checks as a table.
+pub fn netlist_table(checks: &[NetlistCheck]) -> Table {
+    let mut t = Table::new([
+        "unit",
+        "variant",
+        "model mul",
+        "netlist $mul",
+        "model add+round",
+        "netlist $add/$sub",
+        "model 2×quantize",
+        "netlist $lt/$gt",
+        "agree",
+        "netlist cells (type_width: count)",
+    ])
+    .titled("RTL netlists (Yosys, word-level cells) beside the counting context");
+    for c in checks {
+        t.row([
+            c.unit.to_string(),
+            c.variant.clone(),
+            c.model_mul.to_string(),
+            c.netlist_mul.to_string(),
+            c.model_add.to_string(),
+            c.netlist_add.to_string(),
+            c.model_compare.to_string(),
+            c.netlist_compare.to_string(),
+            if c.agree { "yes" } else { "NO" }.to_string(),
+            c.netlist_cells
+                .iter()
+                .map(|(k, v)| format!("{k}: {v}"))
+                .collect::<Vec<_>>()
+                .join(", "),
+        ]);
+    }
+    t
 }
 
 /// All reports for a configuration.
@@ -119,7 +278,26 @@ pub fn stages_table(reports: &[OpReport]) -> Table {
 pub fn run(a: &OpsArgs) -> anyhow::Result<()> {
     let cfg = a.cfg.resolve()?;
     let r = reports(&cfg);
-    emit(a.out, &[table(&r)], &serde_json::to_value(&r)?)
+    if !a.rtl {
+        return emit(a.out, &[table(&r)], &serde_json::to_value(&r)?);
+    }
+    let checks = netlist_checks(&cfg)?;
+    emit(
+        a.out,
+        &[table(&r), netlist_table(&checks)],
+        &serde_json::json!({ "model": r, "rtl": checks }),
+    )?;
+    let bad: Vec<String> = checks
+        .iter()
+        .filter(|c| !c.agree)
+        .map(|c| format!("{} ({})", c.unit, c.variant))
+        .collect();
+    anyhow::ensure!(
+        bad.is_empty(),
+        "the RTL and the model are not the same datapath: {}",
+        bad.join(", ")
+    );
+    Ok(())
 }
 
 /// `fxshade stages`

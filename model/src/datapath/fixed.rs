@@ -46,6 +46,7 @@ impl<R: Raw> Fx<R> {
 #[derive(Clone, Debug)]
 pub struct Fixed<R = i128> {
     overflows: Vec<(&'static str, u64)>,
+    ties: Vec<(&'static str, u64)>,
     _raw: std::marker::PhantomData<R>,
 }
 
@@ -53,6 +54,7 @@ impl<R> Default for Fixed<R> {
     fn default() -> Self {
         Fixed {
             overflows: Vec::new(),
+            ties: Vec::new(),
             _raw: std::marker::PhantomData,
         }
     }
@@ -71,9 +73,16 @@ impl<R: Raw> Fixed<R> {
     pub fn total_overflows(&self) -> u64 {
         self.overflows.iter().map(|(_, n)| n).sum()
     }
-    /// Forget the counted overflows.
+    /// Exact rounding ties met so far (a nearest-mode quantization whose
+    /// dropped bits were exactly one half), per stage: the cases that tell
+    /// `half_up` from `half_even`, which test vectors must contain.
+    pub fn ties(&self) -> &[(&'static str, u64)] {
+        &self.ties
+    }
+    /// Forget the counted overflows and ties.
     pub fn reset(&mut self) {
         self.overflows.clear();
+        self.ties.clear();
     }
     /// Add another context's counts to this one's (for parallel batches).
     pub fn merge<S>(&mut self, other: &Fixed<S>) {
@@ -228,6 +237,16 @@ impl<R: Raw> Datapath for Fixed<R> {
     }
     #[inline(always)]
     fn quantize(&mut self, a: Fx<R>, q: &Quant) -> Fx<R> {
+        let s = a.frac - q.format().frac();
+        if s > 0 && q.round() != Rounding::Trunc && (s as u32) < R::BITS {
+            let low = a.raw & ((R::ONE << s as u32) - R::ONE);
+            if low == R::ONE << (s as u32 - 1) {
+                match self.ties.iter_mut().find(|(st, _)| *st == q.stage()) {
+                    Some((_, c)) => *c += 1,
+                    None => self.ties.push((q.stage(), 1)),
+                }
+            }
+        }
         let r = q.apply_raw(a.raw, a.frac);
         self.finish(r, q)
     }

@@ -44,6 +44,8 @@ use crate::format::{ConvertError, Format};
 use crate::quantize::{Overflow, Quant, Rounding};
 use crate::units::{width_errors, OpReport, PaperClaim, Phase, UnitEntry};
 
+pub mod rtl;
+
 /// The `[normalize]` configuration section.
 pub static DECL: UnitDecl = UnitDecl {
     name: "normalize",

@@ -1,0 +1,127 @@
+// fxs_vector_tb.vh: the driver and checker every unit's testbench includes.
+//
+// The including module declares, before this include:
+//   parameter  integer MAXN   vector memory depth (at least N + 1)
+//   localparam integer IN_W   input data bits, OUT_W output data bits
+//   reg  clk, rst_n, in_valid, out_ready; reg [IN_W-1:0] in_data;
+//   wire in_ready, out_valid;             wire [OUT_W-1:0] out_data;
+//   task show(input integer i, input [IN_W-1:0] in,
+//             input [OUT_W-1:0] got, input [OUT_W-1:0] want)  (decodes fields)
+//
+// Files in the working directory (written by `fxshade vectors`):
+//   inputs.hex    one line per vector: {index[31:0], input data}
+//   expected.hex  one line per vector: {index[31:0], output data}
+// Plusargs: +N=<count> (from the manifest; required), +SEED=<n>,
+//   +STALL=<percent of cycles with valid or ready low>, +TRACE=<file>.
+//
+// A vector file shorter or longer than N lines is an error (index fields and
+// an untouched sentinel entry are checked), never a silent pass on
+// uninitialised entries. Ends with the line `P passed, F failed`.
+
+reg [32+IN_W-1:0]  in_mem  [0:MAXN];
+reg [32+OUT_W-1:0] exp_mem [0:MAXN];
+integer in_cycle [0:MAXN];
+integer n, stall, seed, in_idx, out_idx, passed, failed, cycle, lat_min, lat_max, i, bad, nxt, r1, r2;
+reg [8*256-1:0] trace_file;
+
+initial begin
+  clk = 1'b0;
+  rst_n = 1'b0;
+  in_valid = 1'b0;
+  out_ready = 1'b0;
+  in_data = {IN_W{1'b0}};
+  in_idx = 0;
+  out_idx = 0;
+  passed = 0;
+  failed = 0;
+  cycle = 0;
+  lat_min = 1 << 30;
+  lat_max = 0;
+  if (!$value$plusargs("N=%d", n)) begin
+    $display("error: +N=<vector count> is required");
+    $display("0 passed, 1 failed");
+    $finish;
+  end
+  if (n + 1 > MAXN + 1 || n < 1) begin
+    $display("error: +N=%0d outside 1..%0d (MAXN)", n, MAXN);
+    $display("0 passed, %0d failed", n);
+    $finish;
+  end
+  stall = 0;
+  if ($value$plusargs("STALL=%d", stall)) begin end
+  seed = 1;
+  if ($value$plusargs("SEED=%d", seed)) begin end
+  if ($value$plusargs("TRACE=%s", trace_file)) begin
+    $dumpfile(trace_file);
+    $dumpvars(0);
+  end
+  for (i = 0; i <= MAXN; i = i + 1) begin
+    in_mem[i] = {(32 + IN_W){1'b1}};
+    exp_mem[i] = {(32 + OUT_W){1'b1}};
+  end
+  $readmemh("inputs.hex", in_mem);
+  $readmemh("expected.hex", exp_mem);
+  bad = 0;
+  for (i = 0; i < n; i = i + 1) begin
+    if (in_mem[i][32+IN_W-1:IN_W] !== i) bad = bad + 1;
+    if (exp_mem[i][32+OUT_W-1:OUT_W] !== i) bad = bad + 1;
+  end
+  if (in_mem[n] !== {(32 + IN_W){1'b1}} || exp_mem[n] !== {(32 + OUT_W){1'b1}}) bad = bad + 1;
+  if (bad != 0) begin
+    $display("error: inputs.hex and expected.hex must hold exactly %0d vectors, indexed 0..%0d (%0d entries wrong)",
+             n, n - 1, bad);
+    $display("0 passed, %0d failed", n);
+    $finish;
+  end
+  repeat (3) @(posedge clk);
+  rst_n = 1'b1;
+end
+
+always #5 clk = ~clk;
+
+always @(posedge clk) begin
+  cycle <= cycle + 1;
+  if (rst_n) begin
+    // Input side: valid stays high until the transfer.
+    nxt = in_idx;
+    if (in_valid && in_ready) begin
+      in_cycle[in_idx] = cycle;
+      nxt = in_idx + 1;
+    end
+    in_idx <= nxt;
+    if (!in_valid || in_ready) begin
+      r1 = $random(seed);
+      if (nxt < n && ((r1 & 32'h7fffffff) % 100) >= stall) begin
+        in_valid <= 1'b1;
+        in_data <= in_mem[nxt][IN_W-1:0];
+      end else begin
+        in_valid <= 1'b0;
+      end
+    end
+    // Output side: compare every transfer, in order.
+    if (out_valid && out_ready) begin
+      if (out_data === exp_mem[out_idx][OUT_W-1:0]) begin
+        passed = passed + 1;
+      end else begin
+        failed = failed + 1;
+        if (failed <= 5) show(out_idx, in_mem[out_idx][IN_W-1:0], out_data, exp_mem[out_idx][OUT_W-1:0]);
+      end
+      if (cycle - in_cycle[out_idx] < lat_min) lat_min = cycle - in_cycle[out_idx];
+      if (cycle - in_cycle[out_idx] > lat_max) lat_max = cycle - in_cycle[out_idx];
+      out_idx <= out_idx + 1;
+      if (out_idx + 1 == n) begin
+        $display("latency %0d cycles (min), %0d (max, with stalls)", lat_min, lat_max);
+        $display("cycles %0d", cycle);
+        $display("%0d passed, %0d failed", passed, failed);
+        $finish;
+      end
+    end
+    r2 = $random(seed);
+    out_ready <= ((r2 & 32'h7fffffff) % 100) >= stall;
+    if (cycle > 100 + 50 * n) begin
+      $display("error: timeout after %0d cycles with %0d of %0d vectors out", cycle, out_idx, n);
+      $display("%0d passed, %0d failed", passed, n - passed);
+      $finish;
+    end
+  end
+end

@@ -1,0 +1,103 @@
+//! `fxshade rtl-check <unit>`: co-simulate the unit's RTL against the model.
+
+use std::path::PathBuf;
+
+use clap::Args;
+
+use super::ConfigArgs;
+use crate::output::{emit, OutputArgs, Table};
+use crate::rtl_flow::{self, Sim};
+
+/// `fxshade rtl-check`
+#[derive(Args, Debug)]
+pub struct RtlCheckArgs {
+    /// The unit (units with RTL: normalize).
+    unit: String,
+    #[command(flatten)]
+    cfg: ConfigArgs,
+    /// Simulator.
+    #[arg(long, value_enum, default_value_t = Sim::Verilator)]
+    sim: Sim,
+    /// Number of vectors.
+    #[arg(long, default_value_t = 10_000)]
+    count: usize,
+    /// Seed of the vectors and of the testbench's random stalls.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Percent of cycles with valid (input) or ready (output) held low.
+    #[arg(long, default_value_t = 20, value_parser = clap::value_parser!(u32).range(0..=90))]
+    stall: u32,
+    /// Write a waveform (FST with Verilator, VCD with Icarus) to this file
+    /// (default: <unit>.fst or <unit>.vcd).
+    #[arg(long, value_name = "FILE", num_args = 0..=1, default_missing_value = "")]
+    trace: Option<PathBuf>,
+    #[command(flatten)]
+    out: OutputArgs,
+}
+
+/// Run it; exit status 0 only when every vector passed.
+pub fn run(a: &RtlCheckArgs) -> anyhow::Result<()> {
+    let u = rtl_flow::unit(&a.unit)?;
+    let cfg = a.cfg.resolve()?;
+    let v = (u.vectors)(&cfg, a.count, a.seed)?;
+    let trace = a.trace.as_ref().map(|t| {
+        if t.as_os_str().is_empty() {
+            PathBuf::from(format!(
+                "{}.{}",
+                u.name,
+                if a.sim == Sim::Verilator {
+                    "fst"
+                } else {
+                    "vcd"
+                }
+            ))
+        } else {
+            t.clone()
+        }
+    });
+    let r = rtl_flow::check(u, &v, a.sim, a.seed, a.stall, trace.as_deref())?;
+    let mut t = Table::new([
+        "unit",
+        "simulator",
+        "vectors",
+        "passed",
+        "failed",
+        "latency (cycles)",
+        "vectors/s",
+        "build (s)",
+    ])
+    .titled(format!(
+        "rtl-check {} ({}), configuration {}",
+        u.name, v.variant, cfg.source
+    ));
+    t.row([
+        u.name.to_string(),
+        format!("{:?}", a.sim).to_lowercase(),
+        r.count.to_string(),
+        r.passed.to_string(),
+        r.failed.to_string(),
+        r.latency.map_or("-".into(), |l| l.to_string()),
+        format!("{:.0}", r.vectors_per_second),
+        format!("{:.1}", r.build_seconds),
+    ]);
+    if !a.out.json {
+        for m in &r.mismatches {
+            eprintln!("{m}");
+        }
+        for e in &r.errors {
+            eprintln!("{e}");
+        }
+        if let Some(p) = &r.trace {
+            eprintln!("waveform: {}", p.display());
+        }
+    }
+    emit(a.out, &[t], &serde_json::to_value(&r)?)?;
+    anyhow::ensure!(
+        r.ok(),
+        "{} of {} vectors failed ({} passed)",
+        r.count as u64 - r.passed.min(r.count as u64),
+        r.count,
+        r.passed
+    );
+    Ok(())
+}
