@@ -251,10 +251,14 @@ pub struct CheckResult {
     pub latency: Option<u64>,
     /// Clock cycles simulated.
     pub cycles: Option<u64>,
-    /// Seconds the simulation ran.
+    /// Seconds the simulation process ran, loading included.
     pub sim_seconds: f64,
-    /// Vectors per second through the simulation.
+    /// Seconds spent reading the vector files (`$readmemh`) and checking them.
+    pub load_seconds: f64,
+    /// Vectors per second through the simulation, once the files are loaded.
     pub vectors_per_second: f64,
+    /// Vectors per second for the whole simulation process, loading included.
+    pub vectors_per_second_end_to_end: f64,
     /// Seconds spent building (0 when cached).
     pub build_seconds: f64,
     /// The first mismatches, as the testbench printed them.
@@ -319,14 +323,35 @@ pub fn check(
     if let Some(t) = &trace_path {
         c.arg(format!("+TRACE={}", t.display()));
     }
+    // Stream the output to time the load and the simulation separately.
+    use std::io::{BufRead, Read};
     let start = Instant::now();
-    let out = c
-        .output()
+    let mut child = c
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
         .with_context(|| format!("cannot run the {} simulation", sim.name()))?;
+    let mut err_pipe = child.stderr.take().expect("piped");
+    let err_thread = std::thread::spawn(move || {
+        let mut s = String::new();
+        let _ = err_pipe.read_to_string(&mut s);
+        s
+    });
+    let mut loaded_at = None;
+    let mut text = String::new();
+    for line in std::io::BufReader::new(child.stdout.take().expect("piped")).lines() {
+        let line = line.unwrap_or_default();
+        if loaded_at.is_none() && line.starts_with("vectors loaded") {
+            loaded_at = Some(start.elapsed().as_secs_f64());
+        }
+        text += &line;
+        text += "\n";
+    }
+    let status = child.wait()?;
     let secs = start.elapsed().as_secs_f64();
+    text += &err_thread.join().unwrap_or_default();
     let _ = std::fs::remove_dir_all(&run);
-    let text =
-        String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
+    let load = loaded_at.unwrap_or(0.0);
     let mut r = CheckResult {
         unit: u.name,
         sim,
@@ -336,7 +361,9 @@ pub fn check(
         latency: None,
         cycles: None,
         sim_seconds: secs,
-        vectors_per_second: v.count() as f64 / secs.max(1e-9),
+        load_seconds: load,
+        vectors_per_second: v.count() as f64 / (secs - load).max(1e-9),
+        vectors_per_second_end_to_end: v.count() as f64 / secs.max(1e-9),
         build_seconds: b.seconds,
         mismatches: Vec::new(),
         trace: trace_path,
@@ -376,7 +403,7 @@ pub fn check(
         bail!(
             "the {} simulation ended without a `N passed, M failed` line ({}):\n{}",
             sim.name(),
-            out.status,
+            status,
             text.trim_end()
         );
     }

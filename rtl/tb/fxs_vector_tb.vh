@@ -73,6 +73,8 @@ initial begin
     $display("0 passed, %0d failed", n);
     $finish;
   end
+  $display("vectors loaded: %0d", n);
+  $fflush;
   repeat (3) @(posedge clk);
   rst_n = 1'b1;
 end

@@ -78,6 +78,8 @@ pub fn run(a: &RtlCheckArgs) -> anyhow::Result<()> {
         r.failed.to_string(),
         r.latency.map_or("-".into(), |l| l.to_string()),
         format!("{:.0}", r.vectors_per_second),
+        format!("{:.2}", r.load_seconds),
+        format!("{:.0}", r.vectors_per_second_end_to_end),
         format!("{:.1}", r.build_seconds),
     ]);
     if !a.out.json {
