@@ -180,12 +180,24 @@ impl VectorSet {
 
     /// Write the set's files into a staged directory.
     pub fn write_into(&self, d: &StagedDir) -> Result<(), WriteError> {
+        self.write_into_dir(d, "")
+    }
+
+    /// Write the set's files into subdirectory `sub` of a staged directory.
+    pub fn write_into_dir(&self, d: &StagedDir, sub: &str) -> Result<(), WriteError> {
+        let p = |f: &str| {
+            if sub.is_empty() {
+                f.to_string()
+            } else {
+                format!("{sub}/{f}")
+            }
+        };
         let manifest = serde_json::to_string_pretty(&self.manifest()).expect("serializable") + "\n";
-        d.write("manifest.json", manifest.as_bytes())?;
-        d.write("inputs.hex", self.inputs_hex().as_bytes())?;
-        d.write("expected.hex", self.expected_hex().as_bytes())?;
-        d.write(&self.params.name, self.params.text.as_bytes())?;
-        d.write("config.toml", self.config_toml.as_bytes())?;
+        d.write(&p("manifest.json"), manifest.as_bytes())?;
+        d.write(&p("inputs.hex"), self.inputs_hex().as_bytes())?;
+        d.write(&p("expected.hex"), self.expected_hex().as_bytes())?;
+        d.write(&p(&self.params.name), self.params.text.as_bytes())?;
+        d.write(&p("config.toml"), self.config_toml.as_bytes())?;
         Ok(())
     }
 }

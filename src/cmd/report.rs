@@ -24,7 +24,7 @@ pub fn run(a: &ReportArgs) -> anyhow::Result<()> {
     let cfg = a.cfg.resolve()?;
     let dir = StagedDir::new(&a.out)
         .with_context(|| format!("cannot write the report to {}", a.out.display()))?;
-    let bar = crate::progress::bar(4, "report");
+    let bar = crate::progress::bar(5, "report");
 
     bar.set_message("configuration");
     dir.write("config.toml", cfg.to_toml().as_bytes())?;
@@ -68,6 +68,27 @@ pub fn run(a: &ReportArgs) -> anyhow::Result<()> {
     )?;
     bar.inc(1);
 
+    bar.set_message("test vectors");
+    let mut vector_lines = String::new();
+    for u in crate::rtl_flow::RTL_UNITS {
+        match (u.vectors)(&cfg, 1000, 1) {
+            Ok(v) => {
+                v.write_into_dir(&dir, &format!("vectors/{}", u.name))?;
+                vector_lines += &format!(
+                    "* [`vectors/{0}/`](vectors/{0}/manifest.json): {1} vectors ({2} corner cases), variant {3}\n",
+                    u.name,
+                    v.count(),
+                    v.corner_cases,
+                    v.variant
+                );
+            }
+            Err(e) => {
+                vector_lines += &format!("* {}: no vectors for this configuration: {e}\n", u.name)
+            }
+        }
+    }
+    bar.inc(1);
+
     let mut index = String::new();
     index += "# fxshade report\n\n";
     index += &format!("Configuration: `{}`", cfg.source);
@@ -80,7 +101,10 @@ pub fn run(a: &ReportArgs) -> anyhow::Result<()> {
     index += &table.render();
     index += "```\n\n## Quantization points\n\nThe stages the RTL quantizes at ([CSV](stages.csv)).\n\n```text\n";
     index += &stages.render();
-    index += "```\n\n## Normalizer error (bit-accurate model against exact f64)\n\n\
+    index += "```\n\n## Test vectors\n\n";
+    index += &vector_lines;
+    index += "\nRun them through the RTL with `fxshade rtl-check <unit>`.\n";
+    index += "\n## Normalizer error (bit-accurate model against exact f64)\n\n\
               ([CSV](error_normalize.csv), [JSON](error_normalize.json))\n\n```text\n";
     index += &ntext;
     index += "```\n\n## The normalization paper reproduced\n\n([CSV](paper.csv), [JSON](paper.json))\n\n```text\n";
