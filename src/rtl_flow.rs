@@ -31,6 +31,12 @@ pub struct RtlUnit {
     pub vectors: fn(&Config, usize, u64) -> anyhow::Result<VectorSet>,
     /// The parameter header of a configuration.
     pub params: fn(&Config) -> anyhow::Result<ParamsHeader>,
+    /// The variants the RTL implements: name and the `--set` override
+    /// selecting it.
+    pub variants: &'static [(&'static str, &'static str)],
+    /// The counting run of the datapath the RTL implements, for a
+    /// configuration (to compare with its netlist).
+    pub count: fn(&Config) -> anyhow::Result<fxshade_model::Count>,
 }
 
 macro_rules! rtl_source {
@@ -40,20 +46,51 @@ macro_rules! rtl_source {
 }
 
 /// Every unit with RTL.
-pub static RTL_UNITS: &[RtlUnit] = &[RtlUnit {
-    name: "normalize",
-    top: "normalize",
-    tb_top: "normalize_tb",
-    sources: &[
-        rtl_source!("fxs_quant.v"),
-        rtl_source!("normalize.v"),
-        rtl_source!("tb/fxs_vector_tb.vh"),
-        rtl_source!("tb/normalize_tb.v"),
-    ],
-    design_files: 2,
-    vectors: |cfg, n, seed| Ok(fxshade_model::normalizer::rtl::vectors(cfg, n, seed)?),
-    params: |cfg| Ok(fxshade_model::normalizer::rtl::params_header(cfg)?.2),
-}];
+pub static RTL_UNITS: &[RtlUnit] = &[
+    RtlUnit {
+        name: "normalize",
+        top: "normalize",
+        tb_top: "normalize_tb",
+        sources: &[
+            rtl_source!("fxs_quant.v"),
+            rtl_source!("normalize.v"),
+            rtl_source!("tb/fxs_vector_tb.vh"),
+            rtl_source!("tb/normalize_tb.v"),
+        ],
+        design_files: 2,
+        vectors: |cfg, n, seed| Ok(fxshade_model::normalizer::rtl::vectors(cfg, n, seed)?),
+        params: |cfg| Ok(fxshade_model::normalizer::rtl::params_header(cfg)?.2),
+        variants: &[
+            ("linear", "normalize.method=\"linear\""),
+            ("quadratic", "normalize.method=\"quadratic\""),
+        ],
+        count: |cfg| Ok(fxshade_model::normalizer::from_config(cfg)?.0.count()?),
+    },
+    RtlUnit {
+        name: "interp",
+        top: "interp",
+        tb_top: "interp_tb",
+        sources: &[
+            rtl_source!("fxs_quant.v"),
+            rtl_source!("interp.v"),
+            rtl_source!("tb/fxs_vector_tb.vh"),
+            rtl_source!("tb/interp_tb.v"),
+        ],
+        design_files: 2,
+        vectors: |cfg, n, seed| Ok(fxshade_model::interp::rtl::vectors(cfg, n, seed)?),
+        params: |cfg| Ok(fxshade_model::interp::rtl::params_header(cfg)?.1),
+        variants: &[
+            ("linear", "interp.scheme=\"linear\""),
+            ("quadratic", "interp.scheme=\"quadratic\""),
+        ],
+        count: |cfg| {
+            let i = fxshade_model::interp::Interp::from_config(
+                cfg.unit(fxshade_model::interp::DECL.name),
+            );
+            Ok(i.count()?.1)
+        },
+    },
+];
 
 /// Look a unit up by name.
 pub fn unit(name: &str) -> anyhow::Result<&'static RtlUnit> {

@@ -319,3 +319,188 @@ fn merge(a: VectorStats, b: VectorStats) -> VectorStats {
         overflows: a.overflows + b.overflows,
     }
 }
+
+/// Angle statistics, in degrees.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct AngleStats {
+    /// Largest angle.
+    pub max_angle_err_deg: f64,
+    /// Mean angle.
+    pub mean_angle_err_deg: f64,
+}
+
+/// The interpolator's error report: the bit-accurate interpolator followed
+/// by the bit-accurate normalizer, against exact fields.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct InterpReport {
+    /// Interpolation scheme.
+    pub scheme: crate::interp::Scheme,
+    /// Θ of the sampled triangles.
+    pub theta: f64,
+    /// The normalizer after the interpolator.
+    pub normalizer: Method,
+    /// The interval the normalizer's coefficients were fitted on: the
+    /// scheme's range of `d` for triangles meeting Θ.
+    pub interval: (f64, f64),
+    /// The normalizer's coefficients, highest power first.
+    pub coeffs: Vec<f64>,
+    /// The range of `d = |N|²` of the scheme, closed form.
+    pub d_bound: (f64, f64),
+    /// Smallest `d` of the exact scheme field over the samples.
+    pub d_min: f64,
+    /// Largest `d` of the exact scheme field over the samples.
+    pub d_max: f64,
+    /// Pixels evaluated.
+    pub samples: u64,
+    /// Largest `| |N'| − 1 |` of the bit-accurate output.
+    pub max_rel_err: f64,
+    /// Mean of it.
+    pub mean_rel_err: f64,
+    /// RMS of it.
+    pub rms_rel_err: f64,
+    /// Largest direction error against the normalized exact quadratic field.
+    pub max_angle_err_deg: f64,
+    /// Mean direction error against the normalized exact quadratic field.
+    pub mean_angle_err_deg: f64,
+    /// Direction error against normalized exact linear interpolation.
+    pub vs_linear: AngleStats,
+    /// `max | |N| − 1 |` of the exact scheme field with no normalization.
+    pub unnormalized_max_rel_err: f64,
+    /// Overflows at quantization steps.
+    pub overflows: u64,
+    /// Seed.
+    pub seed: u64,
+}
+
+fn angle_deg(a: DVec3, b: DVec3) -> f64 {
+    let (a, b) = (a.normalize_or_zero(), b.normalize_or_zero());
+    // atan2 of the cross and dot products is accurate for tiny angles.
+    a.cross(b).length().atan2(a.dot(b)).to_degrees()
+}
+
+/// Analyse interpolation (`scheme`) followed by normalization (`method`)
+/// for triangles meeting `theta`: `count` random pixels plus corner cases.
+pub fn interp(
+    cfg: &Config,
+    scheme: crate::interp::Scheme,
+    method: Method,
+    theta: f64,
+    count: usize,
+    seed: u64,
+    progress: &mut dyn FnMut(f64),
+) -> Result<InterpReport, AnalysisError> {
+    use crate::interp::{self, Interp};
+    let nu = cfg.unit(normalizer::DECL.name);
+    let ip = Interp {
+        scheme,
+        ..Interp::from_config(cfg.unit(interp::DECL.name))
+    };
+    let d_bound = interp::quadratic_d_range(theta, scheme);
+    let (n, _) = normalizer::design_interval(
+        method,
+        Normalizer::stages(nu),
+        theta,
+        crate::coeffs::Fit::from_name(nu.choice("fit")).expect("declared"),
+        normalizer::Interval::Triangle,
+        d_bound,
+        nu.choice("coef_quant") == "search",
+    )?;
+    progress(0.2);
+    let iprog = ip.compile()?;
+    let nprog = n.compile()?;
+    let mut rng = Rng::new(seed);
+    let mut pix: Vec<(interp::Triangle, [f64; 3])> = Vec::new();
+    for _ in 0..8 {
+        let t = interp::setup(sampling::equiangular(theta, &mut rng)).expect("unit normals");
+        for c in [
+            [1.0 / 3.0; 3],
+            [1.0, 0.0, 0.0],
+            [0.5, 0.5, 0.0],
+            [0.25, 0.25, 0.5],
+        ] {
+            pix.push((t, c));
+        }
+    }
+    for _ in 0..count {
+        let t = interp::setup(sampling::triangle_meeting(theta, &mut rng)).expect("unit normals");
+        pix.push((t, rng.barycentric()));
+    }
+    // Inputs of the compiled interpolator: c1, c2, then 18 components.
+    let code = |q: &Quant, x: f64| q.apply_f64(x).map(|r| r.code);
+    let mut cols: Vec<Vec<i128>> = (0..20).map(|_| Vec::with_capacity(pix.len())).collect();
+    for (t, c) in &pix {
+        cols[0].push(code(&ip.bary, c[0])?);
+        cols[1].push(code(&ip.bary, c[1])?);
+        for (k, v) in t.n.iter().chain(t.mid.iter()).enumerate() {
+            for comp in 0..3 {
+                cols[2 + 3 * k + comp].push(code(&ip.vertex, v[comp])?);
+            }
+        }
+    }
+    let refs: Vec<&[i128]> = cols.iter().map(|c| c.as_slice()).collect();
+    let (iout, iov) = iprog.run_i128(&refs);
+    progress(0.6);
+    // Into the normalizer's input format.
+    let fi = ip.out.format();
+    let ncols: Vec<Vec<i128>> = (0..3)
+        .map(|k| {
+            iout[k]
+                .iter()
+                .map(|&c| n.q.normal.apply(c, fi.frac()).code)
+                .collect()
+        })
+        .collect();
+    let (nout, nov) = nprog.run_i128(&[&ncols[0], &ncols[1], &ncols[2]]);
+    progress(0.9);
+    let fo = n.q.out.format();
+    let mut r = InterpReport {
+        scheme,
+        theta,
+        normalizer: method,
+        interval: d_bound,
+        coeffs: n.coeffs.iter().rev().copied().collect(),
+        d_bound,
+        d_min: f64::INFINITY,
+        d_max: 0.0,
+        samples: pix.len() as u64,
+        max_rel_err: 0.0,
+        mean_rel_err: 0.0,
+        rms_rel_err: 0.0,
+        max_angle_err_deg: 0.0,
+        mean_angle_err_deg: 0.0,
+        vs_linear: AngleStats::default(),
+        unnormalized_max_rel_err: 0.0,
+        overflows: iov.iter().chain(&nov).map(|(_, k)| k).sum(),
+        seed,
+    };
+    let (mut s1, mut s2, mut sa, mut sl) = (0.0, 0.0, 0.0, 0.0);
+    for (i, (t, c)) in pix.iter().enumerate() {
+        let exact = interp::field(t, *c, scheme);
+        let d = exact.length_squared();
+        r.d_min = r.d_min.min(d);
+        r.d_max = r.d_max.max(d);
+        r.unnormalized_max_rel_err = r.unnormalized_max_rel_err.max((d.sqrt() - 1.0).abs());
+        let got = DVec3::new(
+            fo.to_f64(nout[0][i]),
+            fo.to_f64(nout[1][i]),
+            fo.to_f64(nout[2][i]),
+        );
+        let e = (got.length() - 1.0).abs();
+        r.max_rel_err = r.max_rel_err.max(e);
+        s1 += e;
+        s2 += e * e;
+        let a = angle_deg(got, interp::field(t, *c, interp::Scheme::Quadratic));
+        r.max_angle_err_deg = r.max_angle_err_deg.max(a);
+        sa += a;
+        let l = angle_deg(got, interp::field(t, *c, interp::Scheme::Linear));
+        r.vs_linear.max_angle_err_deg = r.vs_linear.max_angle_err_deg.max(l);
+        sl += l;
+    }
+    let k = pix.len().max(1) as f64;
+    r.mean_rel_err = s1 / k;
+    r.rms_rel_err = (s2 / k).sqrt();
+    r.mean_angle_err_deg = sa / k;
+    r.vs_linear.mean_angle_err_deg = sl / k;
+    progress(1.0);
+    Ok(r)
+}

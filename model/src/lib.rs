@@ -20,6 +20,7 @@ pub mod config;
 pub mod datapath;
 pub mod files;
 pub mod format;
+pub mod interp;
 pub mod lighting;
 pub mod mad_chain;
 pub mod normalizer;

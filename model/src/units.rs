@@ -81,7 +81,11 @@ pub struct UnitEntry {
 }
 
 /// Every unit, in pipeline order.
-pub static UNITS: &[&UnitEntry] = &[&crate::normalizer::UNIT, &crate::lighting::UNIT];
+pub static UNITS: &[&UnitEntry] = &[
+    &crate::interp::UNIT,
+    &crate::normalizer::UNIT,
+    &crate::lighting::UNIT,
+];
 
 /// Map the first width error of a counting run (the root cause: later ones
 /// follow from it) to a configuration error naming the stage it came from.

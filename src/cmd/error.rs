@@ -15,6 +15,90 @@ pub enum ErrorCmd {
     /// corner cases, against exact normalization; the diffuse term in 8-bit
     /// levels.
     Normalize(NormalizeArgs),
+    /// The interpolator (method C) followed by a normalizer fitted to the
+    /// scheme's range of d: length error, and direction error against the
+    /// normalized exact quadratic field and against normalized linear
+    /// interpolation; the range of |N|² and the error with no normalization.
+    Interp(InterpArgs),
+}
+
+/// Options of `error interp`.
+#[derive(Args, Debug)]
+pub struct InterpArgs {
+    #[command(flatten)]
+    cfg: ConfigArgs,
+    /// linear or quadratic (default: interp.scheme).
+    #[arg(long)]
+    scheme: Option<String>,
+    /// Convexity threshold Θ of the sampled triangles (default: normalize.theta).
+    #[arg(long)]
+    theta: Option<f64>,
+    /// exact, none, newton, taylor, linear or quadratic (default: normalize.method).
+    #[arg(long)]
+    normalizer: Option<String>,
+    /// Random pixels.
+    #[arg(long, default_value_t = 200_000)]
+    count: usize,
+    /// Seed.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    #[command(flatten)]
+    out: OutputArgs,
+}
+
+fn run_interp(a: &InterpArgs) -> anyhow::Result<()> {
+    use fxshade_model::interp::Scheme;
+    use fxshade_model::normalizer::Method;
+    let mut cfg_args = a.cfg.clone();
+    if let Some(s) = &a.scheme {
+        cfg_args.set.push(format!("interp.scheme=\"{s}\""));
+    }
+    if let Some(m) = &a.normalizer {
+        cfg_args.set.push(format!("normalize.method=\"{m}\""));
+    }
+    if let Some(t) = a.theta {
+        cfg_args.set.push(format!("normalize.theta={t}"));
+    }
+    let cfg = cfg_args.resolve()?;
+    let scheme = Scheme::from_name(cfg.unit("interp").choice("scheme")).expect("declared");
+    let method = Method::from_name(cfg.unit("normalize").choice("method")).expect("declared");
+    let theta = cfg.unit("normalize").number("theta");
+    let bar = crate::progress::bar(1000, "error interp");
+    let r = analysis::interp(&cfg, scheme, method, theta, a.count, a.seed, &mut |f| {
+        bar.set_position((f * 1000.0) as u64)
+    })?;
+    bar.finish_and_clear();
+    let mut t = Table::new([
+        "pixels",
+        "d range (measured)",
+        "d range (bound)",
+        "max rel err",
+        "rms rel err",
+        "max angle vs quadratic (°)",
+        "max angle vs linear (°)",
+        "unnormalized max rel err",
+        "overflows",
+    ])
+    .titled(format!(
+        "interp: {} interpolation, then normalizer {} fitted on d ∈ [{:.6}, {:.6}] (Θ = {})",
+        scheme.name(),
+        method.name(),
+        r.interval.0,
+        r.interval.1,
+        theta
+    ));
+    t.row([
+        r.samples.to_string(),
+        format!("[{:.6}, {:.6}]", r.d_min, r.d_max),
+        format!("[{:.6}, {:.6}]", r.d_bound.0, r.d_bound.1),
+        format!("{:.3e}", r.max_rel_err),
+        format!("{:.3e}", r.rms_rel_err),
+        format!("{:.4}", r.max_angle_err_deg),
+        format!("{:.4}", r.vs_linear.max_angle_err_deg),
+        format!("{:.3e}", r.unnormalized_max_rel_err),
+        r.overflows.to_string(),
+    ]);
+    emit(a.out, &[t], &serde_json::to_value(&r)?)
 }
 
 /// Options of `error normalize`.
@@ -103,7 +187,10 @@ pub fn tables(r: &NormalizeReport) -> Vec<Table> {
 
 /// Run it.
 pub fn run(cmd: &ErrorCmd) -> anyhow::Result<()> {
-    let ErrorCmd::Normalize(a) = cmd;
+    let a = match cmd {
+        ErrorCmd::Normalize(a) => a,
+        ErrorCmd::Interp(a) => return run_interp(a),
+    };
     let mut cfg_args = a.cfg.clone();
     if let Some(t) = a.theta {
         cfg_args.set.push(format!("normalize.theta={t}"));

@@ -52,9 +52,9 @@ pub fn netlist_checks(cfg: &fxshade_model::Config) -> anyhow::Result<Vec<Netlist
     crate::rtl_flow::require_tool("yosys", "yosys")?;
     let mut out = Vec::new();
     for u in crate::rtl_flow::RTL_UNITS {
-        for variant in ["linear", "quadratic"] {
+        for &(variant, set) in u.variants {
             let mut c = cfg.clone();
-            c.apply_override(&format!("normalize.method=\"{variant}\""))?;
+            c.apply_override(set)?;
             let params = (u.params)(&c)?;
             let dir = std::env::temp_dir().join(format!(
                 "fxshade-yosys-{}-{}-{variant}",
@@ -102,7 +102,7 @@ pub fn netlist_checks(cfg: &fxshade_model::Config) -> anyhow::Result<Vec<Netlist
             let widths = parse("width.txt")?;
             let _ = std::fs::remove_dir_all(&dir);
             let n = |k: &str| stat.get(k).copied().unwrap_or(0);
-            let model = fxshade_model::normalizer::from_config(&c)?.0.count()?;
+            let model = (u.count)(&c)?;
             let mc = model.counts();
             let (netlist_mul, netlist_add, netlist_compare) = (
                 n("$mul"),

@@ -63,7 +63,9 @@ pub fn run(a: &RtlCheckArgs) -> anyhow::Result<()> {
         "passed",
         "failed",
         "latency (cycles)",
-        "vectors/s",
+        "vectors/s (simulation)",
+        "load (s)",
+        "vectors/s (with load)",
         "build (s)",
     ])
     .titled(format!(
