@@ -381,14 +381,24 @@ impl Interp {
         Compiled::compile(&tr, &out)
     }
 
-    /// Counting runs: (set-up, per pixel).
+    /// Counting runs: (set-up, per pixel). The set-up of both schemes
+    /// classifies the triangle (`cos φ`: three dot products, two
+    /// comparisons); the quadratic one also computes the midpoint normals
+    /// (whose dot products it shares).
     pub fn count(&self) -> Result<(Count, Count), ConvertError> {
         let mut s = Count::new();
         let n = [[s.constant(0.0, &self.vertex)?; 3]; 3];
-        self.setup_datapath(&mut s, n)?;
-        // cos φ: the three dot products are the set-up's; the minimum is two
-        // comparisons.
         let z = s.constant(0.0, &LITERAL)?;
+        match self.scheme {
+            Scheme::Quadratic => {
+                self.setup_datapath(&mut s, n)?;
+            }
+            Scheme::Linear => {
+                for &(i, j) in &PAIRS {
+                    s.dot3(n[i], n[j]);
+                }
+            }
+        }
         let m = s.max(z, z);
         s.max(m, z);
         let mut p = Count::new();
@@ -417,15 +427,13 @@ fn ops(cfg: &Config) -> Vec<OpReport> {
     let mut v = Vec::new();
     for scheme in [Scheme::Linear, Scheme::Quadratic] {
         if let Ok((s, p)) = (Interp { scheme, ..i }).count() {
-            if scheme == Scheme::Quadratic {
-                v.push(OpReport::from_count(
-                    DECL.name,
-                    "quadratic",
-                    Phase::Setup,
-                    &s,
-                    None,
-                ));
-            }
+            v.push(OpReport::from_count(
+                DECL.name,
+                scheme.name(),
+                Phase::Setup,
+                &s,
+                None,
+            ));
             v.push(OpReport::from_count(
                 DECL.name,
                 scheme.name(),
@@ -526,6 +534,8 @@ mod tests {
         let l = &get("linear", Phase::Pixel).counts;
         assert_eq!((l.mul, l.add), (9, 8));
         let s = &get("quadratic", Phase::Setup).counts;
-        assert_eq!((s.sqrt, s.div, s.mul), (3, 3, 18));
+        assert_eq!((s.sqrt, s.div, s.mul, s.compare), (3, 3, 18, 2));
+        let s = &get("linear", Phase::Setup).counts;
+        assert_eq!((s.sqrt, s.div, s.mul, s.compare), (0, 0, 9, 2));
     }
 }
