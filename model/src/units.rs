@@ -84,6 +84,7 @@ pub struct UnitEntry {
 pub static UNITS: &[&UnitEntry] = &[
     &crate::interp::UNIT,
     &crate::normalizer::UNIT,
+    &crate::polar::UNIT,
     &crate::lighting::UNIT,
 ];
 

@@ -1,0 +1,487 @@
+//! Method B: light and half vectors into tangent space by the polar angles
+//! of the normal, with sin/cos tables — 6 multiplications, 3 additions,
+//! 6 table reads, no normalization.
+//!
+//! A unit vector is `(cos α·sin β, sin α, cos α·cos β)`: `α = asin y`
+//! (elevation), `β = atan2(x, z)` (azimuth about y). Rotating about y by
+//! `−β_N`, then about x by `α_N`, takes `N` to `(0, 0, 1)`; applied to
+//! `L = (α_L, β_L)`:
+//!
+//! ```text
+//! Lyz = Q_lyz(cos α_L · cos(β_L − β_N))
+//! L'x = Q_out(cos α_L · sin(β_L − β_N))
+//! L'y = Q_out(sin α_L · cos α_N − Lyz · sin α_N)
+//! L'z = Q_out(sin α_L · sin α_N + Lyz · cos α_N)
+//! ```
+//!
+//! The implied tangent frame is `T = (cos β_N, 0, −sin β_N)`,
+//! `B = N × T`, `N`: `L' = (L·T, L·B, L·N)` ([`reference`]).
+//!
+//! ## Angles and tables
+//! Angles are binary angle measures: `U0F<k>` codes, fractions of a turn,
+//! which wrap around for free (`β_L − β_N` is taken modulo one turn). A
+//! table read quantizes the angle to the table's index (`index` stage: its
+//! rounding mode picks truncation or rounding to the nearest entry; it must
+//! wrap) and reads `sin` or `cos`. Entries are `Q_table(sin(2π·i/2^t))`
+//! for the first quarter turn (`i = 0 ..= 2^t/4`); every other entry follows
+//! by symmetry (`sin(π − x) = sin x`, `sin(−x) = −sin x`,
+//! `cos x = sin(x + π/2)`), so a full table of `2^t` entries and a
+//! quarter-wave table of `2^t/4 + 1` entries give bit-identical outputs by
+//! construction ([`Tables`]).
+//!
+//! ## Poles and wrap-around
+//! At the poles (`|y| = 1`, `α_N = ±90°`) `β_N` is undefined and the frame
+//! singular: fxshade defines `β = 0` there ([`angles_of`]), so
+//! `T = (1, 0, 0)` and the transform stays a rotation. `β` wraps at ±180°:
+//! the difference `β_L − β_N` is computed modulo a turn, so normals either
+//! side of the seam transform continuously (both tested).
+
+use glam::DVec3;
+
+use crate::config::{Config, ConfigError, FieldDecl, FieldKind, UnitConfig, UnitDecl};
+use crate::datapath::{Compiled, Count, Datapath, Table, Trace};
+use crate::format::{ConvertError, Format};
+use crate::quantize::{Overflow, Quant};
+use crate::units::{width_errors, OpReport, PaperClaim, Phase, UnitEntry};
+
+pub mod frames;
+pub mod rtl;
+
+/// The `[polar]` configuration section.
+pub static DECL: UnitDecl = UnitDecl {
+    name: "polar",
+    doc: "method B: L and H into tangent space by the polar angles of N, with sin/cos tables",
+    fields: &[
+        FieldDecl {
+            name: "angle_bits",
+            kind: FieldKind::Integer { min: 4, max: 24 },
+            doc: "angles are unsigned fractions of a turn of this many bits",
+        },
+        FieldDecl {
+            name: "table_bits",
+            kind: FieldKind::Integer { min: 4, max: 16 },
+            doc: "table index bits: 2^table_bits entries per turn",
+        },
+        FieldDecl {
+            name: "organisation",
+            kind: FieldKind::Choice(&["full", "quarter"]),
+            doc: "sin/cos table: full (2^t entries) or quarter-wave (2^t/4 + 1 entries, by symmetry); bit-identical outputs",
+        },
+        FieldDecl { name: "index", kind: FieldKind::Stage, doc: "angle to table index (format ignored: U0F<table_bits>; round picks the entry; must wrap)" },
+        FieldDecl { name: "table", kind: FieldKind::Stage, doc: "table entries sin, cos" },
+        FieldDecl { name: "lyz", kind: FieldKind::Stage, doc: "Lyz = cos α_L · cos(β_L − β_N)" },
+        FieldDecl { name: "out", kind: FieldKind::Stage, doc: "output port: L' components" },
+    ],
+};
+
+/// The registry entry.
+pub static UNIT: UnitEntry = UnitEntry {
+    decl: &DECL,
+    check,
+    ops,
+};
+
+/// Table organisation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Organisation {
+    /// `2^t` entries.
+    Full,
+    /// `2^t/4 + 1` entries and symmetry.
+    Quarter,
+}
+
+/// The sin and cos tables of a configuration, built from the quarter-wave
+/// entries.
+#[derive(Clone, Debug)]
+pub struct Tables {
+    /// `sin(2π·i/2^t)`.
+    pub sin: Table,
+    /// `cos(2π·i/2^t)`.
+    pub cos: Table,
+    /// The quarter-wave entries `Q(sin(2π·i/2^t))`, `i = 0 ..= 2^t/4`.
+    pub quarter: Vec<i128>,
+    /// Organisation (what the RTL stores).
+    pub organisation: Organisation,
+}
+
+impl Tables {
+    /// Build for `t` index bits with entries quantized by `q`.
+    pub fn build(t: u32, q: Quant, organisation: Organisation) -> Result<Tables, ConvertError> {
+        let n = 1usize << t;
+        let quarter: Vec<i128> = (0..=n / 4)
+            .map(|i| {
+                q.apply_f64((std::f64::consts::TAU * i as f64 / n as f64).sin())
+                    .map(|r| r.code)
+            })
+            .collect::<Result<_, _>>()?;
+        // sin at index i by symmetry from the quarter-wave entries.
+        let sin_at = |i: usize| -> i128 {
+            let (quad, r) = (i / (n / 4), i % (n / 4));
+            let v = if quad % 2 == 0 {
+                quarter[r]
+            } else {
+                quarter[n / 4 - r]
+            };
+            if quad >= 2 {
+                -v
+            } else {
+                v
+            }
+        };
+        let index = Format::new(false, t, t as i32).expect("valid index format");
+        let mk = |name: &'static str, exact: fn(f64) -> f64, codes: Vec<i128>| Table {
+            name,
+            index,
+            out: q,
+            exact,
+            codes,
+        };
+        Ok(Tables {
+            sin: mk(
+                "sin",
+                |x| (std::f64::consts::TAU * x).sin(),
+                (0..n).map(sin_at).collect(),
+            ),
+            cos: mk(
+                "cos",
+                |x| (std::f64::consts::TAU * x).cos(),
+                (0..n).map(|i| sin_at((i + n / 4) % n)).collect(),
+            ),
+            quarter,
+            organisation,
+        })
+    }
+    /// Entries the RTL stores per table.
+    pub fn stored_entries(&self) -> usize {
+        match self.organisation {
+            Organisation::Full => self.sin.depth(),
+            Organisation::Quarter => self.quarter.len(),
+        }
+    }
+    /// Bits the RTL stores per table.
+    pub fn stored_bits(&self) -> u64 {
+        self.stored_entries() as u64 * self.sin.out.format().width() as u64
+    }
+}
+
+/// The polar transform of a configuration.
+#[derive(Clone, Debug)]
+pub struct Polar {
+    /// Angle format `U0F<angle_bits>`.
+    pub angle: Quant,
+    /// Angle → table index.
+    pub index: Quant,
+    /// `Lyz`.
+    pub lyz: Quant,
+    /// Output.
+    pub out: Quant,
+    /// The tables.
+    pub tables: Tables,
+}
+
+/// Why a polar configuration is unusable.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum PolarError {
+    /// A table entry could not be converted.
+    #[error(transparent)]
+    Convert(#[from] ConvertError),
+    /// Inconsistent bit counts or modes.
+    #[error("{0}")]
+    Config(String),
+}
+
+impl Polar {
+    /// From the `[polar]` section.
+    pub fn from_config(u: &UnitConfig) -> Result<Polar, PolarError> {
+        let k = u.integer("angle_bits") as u32;
+        let t = u.integer("table_bits") as u32;
+        if t > k {
+            return Err(PolarError::Config(format!(
+                "polar.table_bits = {t} exceeds polar.angle_bits = {k}"
+            )));
+        }
+        let idx = u.stage("index");
+        if idx.overflow() != Overflow::Wrap {
+            return Err(PolarError::Config(
+                "polar.index.overflow must be \"wrap\": angles wrap around a turn".into(),
+            ));
+        }
+        let angle = Quant::new(
+            "angle",
+            Format::new(false, k, k as i32).expect("1..=24 bits"),
+            idx.round(),
+            Overflow::Wrap,
+        );
+        let index = idx.with_format(Format::new(false, t, t as i32).expect("1..=16 bits"));
+        let org = if u.choice("organisation") == "full" {
+            Organisation::Full
+        } else {
+            Organisation::Quarter
+        };
+        Ok(Polar {
+            angle,
+            index,
+            lyz: u.stage("lyz"),
+            out: u.stage("out"),
+            tables: Tables::build(t, u.stage("table"), org)?,
+        })
+    }
+
+    /// The transform of `L = (α_L, β_L)` into the tangent frame of
+    /// `N = (α_N, β_N)`; angles in the angle format.
+    #[inline]
+    pub fn transform<C: Datapath>(
+        &self,
+        cx: &mut C,
+        a_l: C::V,
+        b_l: C::V,
+        a_n: C::V,
+        b_n: C::V,
+    ) -> [C::V; 3] {
+        let t = &self.tables;
+        let i_al = cx.quantize(a_l, &self.index);
+        let d = cx.sub(b_l, b_n);
+        let i_d = cx.quantize(d, &self.index);
+        let i_an = cx.quantize(a_n, &self.index);
+        let (c_al, s_al) = (cx.table(&t.cos, i_al), cx.table(&t.sin, i_al));
+        let (c_d, s_d) = (cx.table(&t.cos, i_d), cx.table(&t.sin, i_d));
+        let (c_an, s_an) = (cx.table(&t.cos, i_an), cx.table(&t.sin, i_an));
+        let lyz = cx.mul(c_al, c_d);
+        let lyz = cx.quantize(lyz, &self.lyz);
+        let x = cx.mul(c_al, s_d);
+        let x = cx.quantize(x, &self.out);
+        let p = cx.mul(s_al, c_an);
+        let q = cx.mul(lyz, s_an);
+        let y = cx.sub(p, q);
+        let y = cx.quantize(y, &self.out);
+        let p = cx.mul(lyz, c_an);
+        let z = cx.mul_add(s_al, s_an, p);
+        let z = cx.quantize(z, &self.out);
+        [x, y, z]
+    }
+
+    /// Compiled for batches: inputs α_L, β_L, α_N, β_N codes; outputs L'.
+    pub fn compile(&self) -> Result<Compiled, crate::datapath::CompileError> {
+        let mut tr = Trace::new();
+        let a = [0; 4].map(|_| tr.input(&self.angle));
+        let out = self.transform(&mut tr, a[0], a[1], a[2], a[3]);
+        Compiled::compile(&tr, &out)
+    }
+
+    /// One counting run.
+    pub fn count(&self) -> Result<Count, ConvertError> {
+        let mut cx = Count::new();
+        let a = cx.constant(0.0, &self.angle)?;
+        self.transform(&mut cx, a, a, a, a);
+        Ok(cx)
+    }
+}
+
+/// `(α, β)` of a unit vector, in turns: `α = asin y ∈ [−¼, ¼]`,
+/// `β = atan2(x, z) ∈ (−½, ½]`; at the poles (`|y| ≥ 1 − 10⁻¹²`) `β = 0`.
+pub fn angles_of(v: DVec3) -> (f64, f64) {
+    let v = v.normalize();
+    let a = v.y.clamp(-1.0, 1.0).asin() / std::f64::consts::TAU;
+    let b = if v.y.abs() >= 1.0 - 1e-12 {
+        0.0
+    } else {
+        v.x.atan2(v.z) / std::f64::consts::TAU
+    };
+    (a, b)
+}
+
+/// The unit vector of `(α, β)` in turns.
+pub fn vector_of(a: f64, b: f64) -> DVec3 {
+    let (a, b) = (a * std::f64::consts::TAU, b * std::f64::consts::TAU);
+    DVec3::new(a.cos() * b.sin(), a.sin(), a.cos() * b.cos())
+}
+
+/// The implied tangent frame of the normal with azimuth `b_n` (turns):
+/// `T = (cos β, 0, −sin β)`, `B = N × T`, `N`.
+pub fn frame(n: DVec3, b_n: f64) -> (DVec3, DVec3, DVec3) {
+    let b = b_n * std::f64::consts::TAU;
+    let t = DVec3::new(b.cos(), 0.0, -b.sin());
+    (t, n.cross(t), n)
+}
+
+/// The exact tangent-space vector: `(L·T, L·B, L·N)` in the implied frame
+/// of `N = (α_N, β_N)` (angles in turns).
+pub fn reference(a_l: f64, b_l: f64, a_n: f64, b_n: f64) -> DVec3 {
+    let l = vector_of(a_l, b_l);
+    let n = vector_of(a_n, b_n);
+    let (t, b, n) = frame(n, b_n);
+    DVec3::new(l.dot(t), l.dot(b), l.dot(n))
+}
+
+/// The conventional baseline on the datapath: `L' = normalize(M·L)` with
+/// `M = [T; B; N]` given per pixel (9 multiplications and 6 additions for
+/// the matrix, then an exact normalization: 6 multiplications, 2 additions,
+/// a square root and a division).
+pub fn tbn<C: Datapath>(
+    cx: &mut C,
+    q: &Quant,
+    t: [C::V; 3],
+    b: [C::V; 3],
+    n: [C::V; 3],
+    l: [C::V; 3],
+) -> [C::V; 3] {
+    let m = [cx.dot3(t, l), cx.dot3(b, l), cx.dot3(n, l)];
+    let m = cx.quantize3(m, q);
+    let d = cx.dot3(m, m);
+    let s = cx.sqrt(d, q);
+    let literal = Quant::new(
+        "literal",
+        Format::signed_int(8),
+        crate::quantize::Rounding::Trunc,
+        Overflow::Saturate,
+    );
+    let one = cx.constant(1.0, &literal).expect("1 is finite");
+    let g = cx.div(one, s, q);
+    let p = [cx.mul(m[0], g), cx.mul(m[1], g), cx.mul(m[2], g)];
+    cx.quantize3(p, q)
+}
+
+fn check(cfg: &Config) -> Result<(), Vec<ConfigError>> {
+    let u = cfg.unit(DECL.name);
+    let p = Polar::from_config(u)
+        .map_err(|e| vec![crate::config::field_error(u, "table_bits", e.to_string())])?;
+    let cx = p
+        .count()
+        .map_err(|e| vec![crate::config::field_error(u, "table", e.to_string())])?;
+    width_errors(&cx, u)
+}
+
+fn ops(cfg: &Config) -> Vec<OpReport> {
+    let u = cfg.unit(DECL.name);
+    let Ok(p) = Polar::from_config(u) else {
+        return Vec::new();
+    };
+    let mut v = Vec::new();
+    if let Ok(cx) = p.count() {
+        v.push(OpReport::from_count(
+            DECL.name,
+            "polar",
+            Phase::Pixel,
+            &cx,
+            Some(PaperClaim {
+                mul: Some(6),
+                add: Some(3),
+                div: Some(0),
+                sqrt: Some(0),
+                table_read: Some(6),
+                source: "polar paper: 6 mul, 3 add, 6 table reads",
+            }),
+        ));
+    }
+    let mut cx = Count::new();
+    if let Ok(z) = cx.constant(0.0, &p.out) {
+        tbn(&mut cx, &p.out, [z; 3], [z; 3], [z; 3], [z; 3]);
+        v.push(OpReport::from_count(
+            DECL.name,
+            "tbn_baseline",
+            Phase::Pixel,
+            &cx,
+            Some(PaperClaim {
+                mul: Some(9),
+                add: Some(6),
+                div: None,
+                sqrt: None,
+                table_read: Some(0),
+                source: "polar paper: 9 mul, 6 add plus a normalization",
+            }),
+        ));
+    }
+    v
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::datapath::{Fixed, Reference};
+
+    fn polar() -> Polar {
+        Polar::from_config(Config::embedded().unit("polar")).unwrap()
+    }
+
+    #[test]
+    fn counts_match_the_paper() {
+        let r = ops(&Config::embedded());
+        let c = &r.iter().find(|x| x.variant == "polar").unwrap().counts;
+        assert_eq!((c.mul, c.add, c.table_read), (6, 3, 6));
+        let b = &r
+            .iter()
+            .find(|x| x.variant == "tbn_baseline")
+            .unwrap()
+            .counts;
+        assert_eq!((b.mul, b.add, b.sqrt, b.div), (15, 8, 1, 1));
+    }
+
+    #[test]
+    fn the_datapath_in_f64_is_the_exact_frame() {
+        let p = polar();
+        let mut rng = crate::sampling::Rng::new(3);
+        for _ in 0..1000 {
+            let (al, bl) = angles_of(rng.direction());
+            let (an, bn) = angles_of(rng.direction());
+            let got = p.transform(&mut Reference, al, bl, an, bn);
+            let want = reference(al, bl, an, bn);
+            assert!((DVec3::from_array(got) - want).length() < 1e-12);
+            // A rotation: unit length, N maps to +z.
+            assert!((want.length() - 1.0).abs() < 1e-12);
+            let nn = reference(an, bn, an, bn);
+            assert!((nn - DVec3::Z).length() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn full_and_quarter_tables_are_bit_identical() {
+        for t in [4, 6, 10] {
+            let q = Config::embedded().unit("polar").stage("table");
+            let f = Tables::build(t, q, Organisation::Full).unwrap();
+            let h = Tables::build(t, q, Organisation::Quarter).unwrap();
+            assert_eq!(f.sin.codes, h.sin.codes);
+            assert_eq!(f.cos.codes, h.cos.codes);
+            assert_eq!(h.stored_entries(), (1 << t) / 4 + 1);
+            // Entries are the quantized exact values, by symmetry.
+            for (i, &c) in f.sin.codes.iter().enumerate() {
+                let exact = (std::f64::consts::TAU * i as f64 / (1 << t) as f64).sin();
+                assert!((q.format().to_f64(c) - exact).abs() <= q.format().ulp() / 2.0 + 1e-15);
+            }
+        }
+    }
+
+    #[test]
+    fn poles_and_wrap_around() {
+        // Poles: β defined as 0, the frame T = (1, 0, 0), still a rotation.
+        for y in [1.0, -1.0] {
+            let (a, b) = angles_of(DVec3::new(0.0, y, 0.0));
+            assert_eq!(b, 0.0);
+            assert!((a.abs() - 0.25).abs() < 1e-15);
+            let (t, bb, n) = frame(DVec3::new(0.0, y, 0.0), b);
+            assert!(
+                (t - DVec3::X).length() < 1e-15
+                    && (bb.length() - 1.0).abs() < 1e-15
+                    && n.dot(t).abs() < 1e-15
+            );
+            let l = reference(0.1, 0.2, a, b);
+            assert!((l.length() - 1.0).abs() < 1e-12);
+        }
+        // Wrap: β_N just below a full turn and β_L just above zero transform
+        // exactly like the same difference away from the seam.
+        let p = polar();
+        let f = p.angle.format();
+        let turn = 1i128 << f.width();
+        let mut fx = Fixed::<i128>::new();
+        let mut run = |bl: i128, bn: i128| {
+            let v = [300, bl, 120, bn].map(|c| crate::datapath::Fx::from_code(c, f));
+            p.transform(&mut fx, v[0], v[1], v[2], v[3])
+                .map(|x| x.code())
+        };
+        assert_eq!(run(5, turn - 3), run(108, 100));
+        let t = |c: i128| c as f64 / turn as f64;
+        let seam = reference(t(300), t(5), t(120), t(turn - 3) - 1.0);
+        let plain = reference(t(300), t(108), t(120), t(100));
+        assert!((seam - plain).length() < 1e-12);
+    }
+}

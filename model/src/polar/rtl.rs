@@ -1,0 +1,1 @@
+//! The polar transform's RTL side (filled in below).
