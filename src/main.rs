@@ -52,6 +52,9 @@ enum Command {
     /// width, output format, bits dropped, rounding and overflow modes — the
     /// table the RTL follows.
     Stages(cmd::ops::StagesArgs),
+    /// How far the polar transform's implied tangent frame is from the
+    /// UV-aligned frame normal maps are baked in, over a procedural mesh.
+    PolarFrames(cmd::polar_frames::FramesArgs),
     /// Write test vectors (manifest, $readmemh files) and the Verilog
     /// parameter header of a unit for a configuration.
     Vectors(cmd::vectors::VectorsArgs),
@@ -75,6 +78,7 @@ fn main() -> ExitCode {
         Command::Coeffs(a) => cmd::coeffs::run(a),
         Command::Paper(a) => cmd::paper::run(a),
         Command::Vectors(a) => cmd::vectors::run(a),
+        Command::PolarFrames(a) => cmd::polar_frames::run(a),
         Command::RtlCheck(a) => cmd::rtl_check::run(a),
     };
     match r {

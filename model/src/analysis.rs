@@ -182,6 +182,9 @@ pub enum AnalysisError {
     /// An input could not be converted.
     #[error(transparent)]
     Convert(#[from] crate::format::ConvertError),
+    /// The polar configuration is unusable.
+    #[error(transparent)]
+    Polar(crate::polar::PolarError),
 }
 
 /// Analyse the normalizer a configuration describes: `count` random
@@ -503,4 +506,204 @@ pub fn interp(
     r.vs_linear.mean_angle_err_deg = sl / k;
     progress(1.0);
     Ok(r)
+}
+
+/// Error statistics of the polar transform.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct PolarStats {
+    /// Transforms evaluated.
+    pub samples: u64,
+    /// What the samples cover: `all codes`, `all (α_L, β_L−β_N) pairs for 8
+    /// α_N`, or `random`.
+    pub coverage: &'static str,
+    /// Largest component error of L' against the exact implied frame, in
+    /// output LSBs.
+    pub max_lsb_err: f64,
+    /// RMS component error, in output LSBs.
+    pub rms_lsb_err: f64,
+    /// Largest `| |L'| − 1 |`.
+    pub max_len_dev: f64,
+    /// Largest angle between L' and the exact vector, degrees.
+    pub max_angle_err_deg: f64,
+    /// Largest diffuse error `255·I0·km·max(0, n·L')` against a tangent-space
+    /// normal `n`, in 8-bit levels.
+    pub max_diffuse_err_levels: f64,
+    /// Overflows at quantization steps (not counting the index stage, whose
+    /// wrap-around is the modular arithmetic of angles).
+    pub overflows: u64,
+}
+
+/// The polar transform's error report.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct PolarReport {
+    /// Angle bits.
+    pub angle_bits: u32,
+    /// Table index bits.
+    pub table_bits: u32,
+    /// Table entry format.
+    pub table_format: String,
+    /// Table organisation.
+    pub organisation: crate::polar::Organisation,
+    /// Bits stored per table (sin or cos).
+    pub table_size_bits: u64,
+    /// The error figures.
+    #[serde(flatten)]
+    pub stats: PolarStats,
+    /// Seed of the random parts.
+    pub seed: u64,
+}
+
+/// Analyse a polar transform: exhaustive over `(α_L, β_L − β_N, α_N)` when
+/// that is at most 2^22 cases, over `(α_L, β_L − β_N)` for 8 values of `α_N`
+/// when that is at most 2^23, random otherwise (`count` samples).
+pub fn polar_stats(
+    p: &crate::polar::Polar,
+    light: &Lighting,
+    count: usize,
+    seed: u64,
+    allow_exhaustive: bool,
+) -> Result<PolarStats, AnalysisError> {
+    let f = p.angle.format();
+    let k = f.width();
+    let turn = 1i128 << k;
+    let quarter = turn / 4;
+    let mut rng = Rng::new(seed);
+    // Elevation codes in [−¼, ¼] turn, as codes modulo a turn.
+    let elev = |c: i128| c.rem_euclid(turn);
+    let mut rows: Vec<[i128; 4]> = Vec::new();
+    let coverage = if allow_exhaustive && 3 * k as i64 - 2 <= 22 {
+        "all codes"
+    } else if allow_exhaustive && 2 * k as i64 - 1 <= 20 {
+        "all (α_L, β_L−β_N) pairs for 8 α_N"
+    } else {
+        "random"
+    };
+    if coverage == "all codes" {
+        for al in -quarter..=quarter {
+            for d in 0..turn {
+                for an in -quarter..=quarter {
+                    rows.push([elev(al), d, elev(an), 0]);
+                }
+            }
+        }
+    } else if coverage != "random" {
+        let ans: Vec<i128> = (0..8)
+            .map(|_| -quarter + rng.below((2 * quarter + 1) as u64) as i128)
+            .collect();
+        for al in -quarter..=quarter {
+            for d in 0..turn {
+                for &an in &ans {
+                    rows.push([elev(al), d, elev(an), 0]);
+                }
+            }
+        }
+    } else {
+        for _ in 0..count {
+            let al = -quarter + rng.below((2 * quarter + 1) as u64) as i128;
+            let an = -quarter + rng.below((2 * quarter + 1) as u64) as i128;
+            let bl = rng.below(turn as u64) as i128;
+            let bn = rng.below(turn as u64) as i128;
+            rows.push([elev(al), bl, elev(an), bn]);
+        }
+    }
+    let prog = p.compile()?;
+    let lprog = {
+        let mut tr = crate::datapath::Trace::new();
+        let nn = [
+            tr.input(&light.normal),
+            tr.input(&light.normal),
+            tr.input(&light.normal),
+        ];
+        let ll = [
+            tr.input(&light.light),
+            tr.input(&light.light),
+            tr.input(&light.light),
+        ];
+        let kk = light.consts(&mut tr)?;
+        let lvl = light.diffuse(&mut tr, &kk, nn, ll);
+        Compiled::compile(&tr, &[lvl])?
+    };
+    let fo = p.out.format();
+    let fl = light.level.format();
+    let mut st = PolarStats {
+        coverage,
+        ..Default::default()
+    };
+    let mut sum2 = 0.0;
+    for chunk in rows.chunks(1 << 18) {
+        let cols: Vec<Vec<i128>> = (0..4)
+            .map(|j| chunk.iter().map(|r| r[j]).collect())
+            .collect();
+        let (out, ov) = prog.run_i128(&[&cols[0], &cols[1], &cols[2], &cols[3]]);
+        // The index stage wraps by design (angles are modulo a turn).
+        st.overflows += ov
+            .iter()
+            .filter(|(s, _)| *s != "index")
+            .map(|(_, n)| n)
+            .sum::<u64>();
+        // Tangent-space normals of a normal map: the upper hemisphere.
+        let normals: Vec<DVec3> = chunk
+            .iter()
+            .map(|_| rng.in_cone(DVec3::Z, std::f64::consts::FRAC_PI_2))
+            .collect();
+        let mut lcols: [Vec<i128>; 6] = Default::default();
+        let mut exact_l = Vec::with_capacity(chunk.len());
+        for (i, r) in chunk.iter().enumerate() {
+            let t = |c: i128| c as f64 / turn as f64;
+            let want = crate::polar::reference(t(r[0]), t(r[1]), t(r[2]), t(r[3]));
+            exact_l.push(want);
+            let got = DVec3::new(
+                fo.to_f64(out[0][i]),
+                fo.to_f64(out[1][i]),
+                fo.to_f64(out[2][i]),
+            );
+            for c in 0..3 {
+                let e = (got[c] - want[c]) / fo.ulp();
+                st.max_lsb_err = st.max_lsb_err.max(e.abs());
+                sum2 += e * e;
+            }
+            st.max_len_dev = st.max_len_dev.max((got.length() - 1.0).abs());
+            st.max_angle_err_deg = st.max_angle_err_deg.max(angle_deg(got, want));
+            for c in 0..3 {
+                lcols[c].push(light.normal.apply_f64(normals[i][c])?.code);
+                lcols[3 + c].push(light.light.apply(out[c][i], fo.frac()).code);
+            }
+        }
+        let (lv, lov) = lprog.run_i128(&[
+            &lcols[0], &lcols[1], &lcols[2], &lcols[3], &lcols[4], &lcols[5],
+        ]);
+        st.overflows += lov.iter().map(|(_, n)| n).sum::<u64>();
+        for (i, l) in exact_l.iter().enumerate() {
+            let want = LEVELS * light.i0_km * normals[i].dot(*l).max(0.0);
+            st.max_diffuse_err_levels = st
+                .max_diffuse_err_levels
+                .max((fl.to_f64(lv[0][i]) - want).abs());
+        }
+    }
+    st.samples = rows.len() as u64;
+    st.rms_lsb_err = (sum2 / (3.0 * rows.len().max(1) as f64)).sqrt();
+    Ok(st)
+}
+
+/// The polar report for a configuration (`allow_exhaustive`: cover every
+/// code where the space allows, else `count` random samples).
+pub fn polar(
+    cfg: &Config,
+    count: usize,
+    seed: u64,
+    allow_exhaustive: bool,
+) -> Result<PolarReport, AnalysisError> {
+    let u = cfg.unit(crate::polar::DECL.name);
+    let p = crate::polar::Polar::from_config(u).map_err(AnalysisError::Polar)?;
+    let light = Lighting::from_config(cfg.unit(crate::lighting::DECL.name));
+    let stats = polar_stats(&p, &light, count, seed, allow_exhaustive)?;
+    Ok(PolarReport {
+        angle_bits: p.angle.format().width(),
+        table_bits: p.index.format().width(),
+        table_format: p.tables.sin.out.format().to_string(),
+        organisation: p.tables.organisation,
+        table_size_bits: p.tables.stored_bits(),
+        stats,
+        seed,
+    })
 }

@@ -20,6 +20,106 @@ pub enum ErrorCmd {
     /// normalized exact quadratic field and against normalized linear
     /// interpolation; the range of |N|² and the error with no normalization.
     Interp(InterpArgs),
+    /// The polar transform (method B) against the exact implied frame:
+    /// component error in LSBs, |L'| deviation, angle error, and the diffuse
+    /// error against normal-map normals; exhaustive over angle codes where the
+    /// space allows. `--sweep` tabulates the error over table depth and width.
+    Polar(PolarArgs),
+}
+
+/// Options of `error polar`.
+#[derive(Args, Debug)]
+pub struct PolarArgs {
+    #[command(flatten)]
+    cfg: ConfigArgs,
+    /// Random samples when the angle space is too large to cover.
+    #[arg(long, default_value_t = 500_000)]
+    count: usize,
+    /// Seed.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Tabulate over table depth (table_bits 6 ..= angle_bits) and entry
+    /// width (10 to 18 bits), 50 000 random samples each.
+    #[arg(long)]
+    sweep: bool,
+    #[command(flatten)]
+    out: OutputArgs,
+}
+
+fn run_polar(a: &PolarArgs) -> anyhow::Result<()> {
+    let cfg = a.cfg.resolve()?;
+    let stat_cells = |s: &analysis::PolarStats| {
+        vec![
+            s.samples.to_string(),
+            s.coverage.to_string(),
+            format!("{:.2}", s.max_lsb_err),
+            format!("{:.3}", s.rms_lsb_err),
+            format!("{:.3e}", s.max_len_dev),
+            format!("{:.4}", s.max_angle_err_deg),
+            format!("{:.2}", s.max_diffuse_err_levels),
+            s.overflows.to_string(),
+        ]
+    };
+    let head = [
+        "samples",
+        "coverage",
+        "max LSB err",
+        "rms LSB err",
+        "max | |L'| − 1 |",
+        "max angle (°)",
+        "max diffuse err (levels)",
+        "overflows",
+    ];
+    if a.sweep {
+        let base = cfg.unit("polar").integer("angle_bits");
+        let mut rows = Vec::new();
+        let mut t = Table::new(
+            ["table_bits", "table format", "table bits stored"]
+                .into_iter()
+                .chain(head),
+        )
+        .titled(format!(
+            "polar sweep: angle_bits = {base}, organisation {}, 50 000 random samples each",
+            cfg.unit("polar").choice("organisation")
+        ));
+        let bar = crate::progress::bar(((base - 5) * 5) as u64, "error polar --sweep");
+        for tb in 6..=base.min(14) {
+            for w in [10, 12, 14, 16, 18] {
+                let mut c = cfg.clone();
+                c.apply_override(&format!("polar.table_bits={tb}"))?;
+                c.apply_override(&format!("polar.table.format=I2F{}", w - 2))?;
+                let r = analysis::polar(&c, 50_000, a.seed, false)?;
+                let mut cells = vec![
+                    tb.to_string(),
+                    r.table_format.clone(),
+                    r.table_size_bits.to_string(),
+                ];
+                cells.extend(stat_cells(&r.stats));
+                t.row(cells);
+                rows.push(r);
+                bar.inc(1);
+            }
+        }
+        bar.finish_and_clear();
+        return emit(a.out, &[t], &serde_json::to_value(&rows)?);
+    }
+    let bar = crate::progress::bar(1, "error polar");
+    let r = analysis::polar(&cfg, a.count, a.seed, true)?;
+    bar.finish_and_clear();
+    let mut t = Table::new(head).titled(format!(
+        "polar: {}-bit angles, {}-bit table index, {} table of {} entries ({}), {} bits stored per table",
+        r.angle_bits,
+        r.table_bits,
+        match r.organisation {
+            fxshade_model::polar::Organisation::Full => "full",
+            fxshade_model::polar::Organisation::Quarter => "quarter-wave",
+        },
+        1u64 << r.table_bits,
+        r.table_format,
+        r.table_size_bits
+    ));
+    t.row(stat_cells(&r.stats));
+    emit(a.out, &[t], &serde_json::to_value(&r)?)
 }
 
 /// Options of `error interp`.
@@ -190,6 +290,7 @@ pub fn run(cmd: &ErrorCmd) -> anyhow::Result<()> {
     let a = match cmd {
         ErrorCmd::Normalize(a) => a,
         ErrorCmd::Interp(a) => return run_interp(a),
+        ErrorCmd::Polar(a) => return run_polar(a),
     };
     let mut cfg_args = a.cfg.clone();
     if let Some(t) = a.theta {

@@ -6,6 +6,7 @@ pub mod config;
 pub mod error;
 pub mod ops;
 pub mod paper;
+pub mod polar_frames;
 pub mod report;
 pub mod rtl_check;
 pub mod vectors;
