@@ -37,6 +37,12 @@ pub struct RtlUnit {
     /// The counting run of the datapath the RTL implements, for a
     /// configuration (to compare with its netlist).
     pub count: fn(&Config) -> anyhow::Result<fxshade_model::Count>,
+    /// Modules that are table reads (ROMs): kept as black boxes in the
+    /// netlist, counted as table reads, their addressing not as arithmetic.
+    pub blackbox: &'static [&'static str],
+    /// Stages whose overflow the RTL does not observe because they wrap by
+    /// design (the polar transform's angle index): no range comparators.
+    pub unflagged: &'static [&'static str],
 }
 
 macro_rules! rtl_source {
@@ -65,6 +71,8 @@ pub static RTL_UNITS: &[RtlUnit] = &[
             ("quadratic", "normalize.method=\"quadratic\""),
         ],
         count: |cfg| Ok(fxshade_model::normalizer::from_config(cfg)?.0.count()?),
+        blackbox: &[],
+        unflagged: &[],
     },
     RtlUnit {
         name: "interp",
@@ -89,6 +97,35 @@ pub static RTL_UNITS: &[RtlUnit] = &[
             );
             Ok(i.count()?.1)
         },
+        blackbox: &[],
+        unflagged: &[],
+    },
+    RtlUnit {
+        name: "polar",
+        top: "polar",
+        tb_top: "polar_tb",
+        sources: &[
+            rtl_source!("fxs_quant.v"),
+            rtl_source!("fxs_sincos_rom.v"),
+            rtl_source!("polar.v"),
+            rtl_source!("tb/fxs_vector_tb.vh"),
+            rtl_source!("tb/polar_tb.v"),
+        ],
+        design_files: 3,
+        vectors: |cfg, n, seed| Ok(fxshade_model::polar::rtl::vectors(cfg, n, seed)?),
+        params: |cfg| Ok(fxshade_model::polar::rtl::params_header(cfg)?.1),
+        variants: &[
+            ("quarter", "polar.organisation=\"quarter\""),
+            ("full", "polar.organisation=\"full\""),
+        ],
+        count: |cfg| {
+            let p =
+                fxshade_model::polar::Polar::from_config(cfg.unit(fxshade_model::polar::DECL.name))
+                    .map_err(|e| anyhow::anyhow!("{e}"))?;
+            Ok(p.count()?)
+        },
+        blackbox: &["fxs_sincos_rom"],
+        unflagged: &["index"],
     },
 ];
 
@@ -166,6 +203,9 @@ pub fn write_sources(u: &RtlUnit, params: &ParamsHeader, dir: &Path) -> anyhow::
         std::fs::write(src.join(rel), text)?;
     }
     std::fs::write(src.join(&params.name), &params.text)?;
+    for (name, text) in &params.extra {
+        std::fs::write(src.join(name), text)?;
+    }
     Ok(src)
 }
 
@@ -344,6 +384,9 @@ pub fn check(
     std::fs::create_dir_all(&run)?;
     std::fs::write(run.join("inputs.hex"), v.inputs_hex())?;
     std::fs::write(run.join("expected.hex"), v.expected_hex())?;
+    for (name, text) in &v.params.extra {
+        std::fs::write(run.join(name), text)?;
+    }
     let mut c = match sim {
         Sim::Verilator => Command::new(b.dir.join("obj").join("sim")),
         Sim::Icarus => {

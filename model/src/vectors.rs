@@ -44,13 +44,16 @@ impl Field {
     }
 }
 
-/// A generated parameter header: file name and text.
+/// A generated parameter header: file name and text, and any other files
+/// the RTL reads for the configuration (ROM contents).
 #[derive(Clone, Debug, PartialEq)]
 pub struct ParamsHeader {
     /// File name, e.g. `normalize_params.vh`.
     pub name: String,
     /// Contents.
     pub text: String,
+    /// Further generated files (name, contents), e.g. `$readmemh` ROM images.
+    pub extra: Vec<(String, String)>,
 }
 
 /// A set of test vectors for one unit.
@@ -197,6 +200,9 @@ impl VectorSet {
         d.write(&p("inputs.hex"), self.inputs_hex().as_bytes())?;
         d.write(&p("expected.hex"), self.expected_hex().as_bytes())?;
         d.write(&p(&self.params.name), self.params.text.as_bytes())?;
+        for (name, text) in &self.params.extra {
+            d.write(&p(name), text.as_bytes())?;
+        }
         d.write(&p("config.toml"), self.config_toml.as_bytes())?;
         Ok(())
     }

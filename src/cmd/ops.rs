@@ -42,7 +42,11 @@ pub struct NetlistCheck {
     pub model_add: u64,
     /// Model comparisons plus two range comparators per quantization.
     pub model_compare: u64,
-    /// Whether all three agree.
+    /// Table (ROM) instances in the netlist.
+    pub netlist_table_read: u64,
+    /// Model table reads.
+    pub model_table_read: u64,
+    /// Whether all four agree.
     pub agree: bool,
 }
 
@@ -63,12 +67,33 @@ pub fn netlist_checks(cfg: &fxshade_model::Config) -> anyhow::Result<Vec<Netlist
             ));
             let _ = std::fs::remove_dir_all(&dir);
             let src = crate::rtl_flow::write_sources(u, &params, &dir)?;
+            // Table modules are read as black boxes (`read_verilog -lib`): their
+            // instances are counted as table reads, their addressing is not
+            // datapath arithmetic.
+            let is_box = |rel: &str| u.blackbox.iter().any(|b| rel == format!("{b}.v"));
+            // The black box is the real module's header (parameters and
+            // ports, up to the end of its port list) with an empty body.
+            let mut lib = String::new();
+            for (rel, text) in u.sources[..u.design_files]
+                .iter()
+                .filter(|(rel, _)| is_box(rel))
+            {
+                let start = text.find("module ").context("a module")?;
+                let end = start + text[start..].find(");").context("a port list")? + 2;
+                let stub = src.join(format!("{rel}.box.v"));
+                std::fs::write(
+                    &stub,
+                    format!("(* blackbox *)\n{}\nendmodule\n", &text[start..end]),
+                )?;
+                lib += &format!("read_verilog {}; ", stub.display());
+            }
             let files: Vec<String> = u.sources[..u.design_files]
                 .iter()
+                .filter(|(rel, _)| !is_box(rel))
                 .map(|(rel, _)| src.join(rel).display().to_string())
                 .collect();
             let script = format!(
-                "read_verilog -I{} {}; hierarchy -top {}; proc; flatten; opt_expr; opt_clean; tee -o {} stat; tee -o {} stat -width",
+                "{lib}read_verilog -I{} {}; hierarchy -top {}; proc; flatten; opt_expr; opt_clean; tee -o {} stat; tee -o {} stat -width",
                 src.display(),
                 files.join(" "),
                 u.top,
@@ -91,7 +116,7 @@ pub fn netlist_checks(cfg: &fxshade_model::Config) -> anyhow::Result<Vec<Netlist
                     .filter_map(|l| {
                         let mut w = l.split_whitespace();
                         let (name, n) = (w.next()?, w.next()?);
-                        if !name.starts_with('$') {
+                        if !name.starts_with('$') && !u.blackbox.contains(&name) {
                             return None;
                         }
                         Some((name.to_string(), n.parse().ok()?))
@@ -109,11 +134,18 @@ pub fn netlist_checks(cfg: &fxshade_model::Config) -> anyhow::Result<Vec<Netlist
                 n("$add") + n("$sub"),
                 n("$lt") + n("$gt") + n("$le") + n("$ge"),
             );
-            let (model_mul, model_add, model_compare) = (
-                mc.mul,
-                mc.add + mc.round,
-                mc.compare + 2 * model.quant_points().len() as u64,
-            );
+            let flagged = model
+                .quant_points()
+                .iter()
+                .filter(|p| !u.unflagged.contains(&p.stage))
+                .count() as u64;
+            let (model_mul, model_add, model_compare) =
+                (mc.mul, mc.add + mc.round, mc.compare + 2 * flagged);
+            let netlist_tables: u64 = u
+                .blackbox
+                .iter()
+                .map(|b| stat.get(*b).copied().unwrap_or(0))
+                .sum();
             out.push(NetlistCheck {
                 unit: u.name,
                 variant: variant.to_string(),
@@ -131,8 +163,10 @@ pub fn netlist_checks(cfg: &fxshade_model::Config) -> anyhow::Result<Vec<Netlist
                 model_mul,
                 model_add,
                 model_compare,
-                agree: (netlist_mul, netlist_add, netlist_compare)
-                    == (model_mul, model_add, model_compare),
+                netlist_table_read: netlist_tables,
+                model_table_read: mc.table_read,
+                agree: (netlist_mul, netlist_add, netlist_compare, netlist_tables)
+                    == (model_mul, model_add, model_compare, mc.table_read),
             });
         }
     }

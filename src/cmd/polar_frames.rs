@@ -36,16 +36,19 @@ pub fn procedural(spec: &str, axis: Axis) -> anyhow::Result<mesh::Mesh> {
     let (kind, n) = spec
         .split_once(':')
         .with_context(|| format!("--mesh {spec}: write sphere:N or torus:N"))?;
+    if kind != "sphere" && kind != "torus" {
+        bail!("--mesh {spec}: unknown mesh `{kind}`; write sphere:N or torus:N");
+    }
     let n: u32 = n
         .parse()
         .ok()
         .filter(|&n| (4..=4096).contains(&n))
         .with_context(|| format!("--mesh {spec}: N must be a whole number in 4..=4096"))?;
-    match kind {
-        "sphere" => Ok(mesh::sphere(n, axis)),
-        "torus" => Ok(mesh::torus(n, axis)),
-        _ => bail!("--mesh {spec}: unknown mesh `{kind}`; write sphere:N or torus:N"),
-    }
+    Ok(if kind == "sphere" {
+        mesh::sphere(n, axis)
+    } else {
+        mesh::torus(n, axis)
+    })
 }
 
 /// Run it.

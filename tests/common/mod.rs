@@ -81,15 +81,22 @@ pub fn check_all(unit: &str, sim: &str, variants: &[(&str, &str, u64)]) {
     }
 }
 
+/// The design files of `unit` in `rtl/`.
+pub fn design_files(unit: &str) -> Vec<PathBuf> {
+    let rtl = repo().join("rtl");
+    let mut v = vec![rtl.join("fxs_quant.v"), rtl.join(format!("{unit}.v"))];
+    if unit == "polar" {
+        v.push(rtl.join("fxs_sincos_rom.v"));
+    }
+    v
+}
+
 /// Build `unit`'s testbench from the repository's sources and run it on a
 /// vector directory with a given `+N`.
 pub fn run_tb(unit: &str, sim: &str, work: &Path, vectors: &Path, n: usize) -> String {
     let rtl = repo().join("rtl");
-    let files = [
-        rtl.join("fxs_quant.v"),
-        rtl.join(format!("{unit}.v")),
-        rtl.join(format!("tb/{unit}_tb.v")),
-    ];
+    let mut files = design_files(unit);
+    files.push(rtl.join(format!("tb/{unit}_tb.v")));
     let inc = |p: &Path| format!("-I{}", p.display());
     match sim {
         "icarus" => {
@@ -264,8 +271,7 @@ pub fn lint_checks(unit: &str, variants: &[(&str, &str, u64)]) {
             let o = Command::new("verilator")
                 .args(["--lint-only", "-Wall"])
                 .arg(format!("-I{}", out.display()))
-                .arg(repo().join("rtl/fxs_quant.v"))
-                .arg(repo().join(format!("rtl/{unit}.v")))
+                .args(design_files(unit))
                 .output()
                 .expect("verilator runs");
             assert!(

@@ -70,6 +70,7 @@ pub fn params_header(cfg: &Config) -> Result<(Interp, ParamsHeader), RtlError> {
         ParamsHeader {
             name: "interp_params.vh".into(),
             text: t,
+            extra: Vec::new(),
         },
     ))
 }

@@ -105,6 +105,7 @@ pub fn params_header(cfg: &Config) -> Result<(Normalizer, Option<Design>, Params
         ParamsHeader {
             name: "normalize_params.vh".into(),
             text: t,
+            extra: Vec::new(),
         },
     ))
 }
