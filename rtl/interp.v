@@ -45,17 +45,16 @@ module interp (
   localparam integer PW = WE + VE;                 // one product
   localparam integer SW = PW + 3;                  // a sum of up to 6
 
-  reg  [LATENCY-1:0] v_q;
-  wire adv = ~v_q[LATENCY-1] | ready_i;
-  assign ready_o = adv;
-  assign valid_o = v_q[LATENCY-1];
-  always @(posedge clk_i) begin
-    if (!rst_ni) begin
-      v_q <= {LATENCY{1'b0}};
-    end else if (adv) begin
-      v_q <= {v_q[LATENCY-2:0], valid_i};
-    end
-  end
+  wire adv;
+  fxs_pipe_ctrl #(.LATENCY(LATENCY)) u_ctrl (
+    .clk_i  (clk_i),
+    .rst_ni (rst_ni),
+    .valid_i(valid_i),
+    .ready_o(ready_o),
+    .valid_o(valid_o),
+    .ready_i(ready_i),
+    .adv_o  (adv)
+  );
 
   // ---- stage 1: c3 and the weights -----------------------------------------
   wire signed [CE-1:0] one = {{(CE - B_F - 1){1'b0}}, 1'b1, {B_F{1'b0}}};

@@ -50,19 +50,16 @@ module normalize (
   localparam integer HE = H_W + 1;
   localparam integer GE = G_W + 1;
 
-  // Handshake: global advance.
-  reg  [LATENCY-1:0] v_q;
-  wire adv = ~v_q[LATENCY-1] | ready_i;
-  assign ready_o = adv;
-  assign valid_o = v_q[LATENCY-1];
-
-  always @(posedge clk_i) begin
-    if (!rst_ni) begin
-      v_q <= {LATENCY{1'b0}};
-    end else if (adv) begin
-      v_q <= {v_q[LATENCY-2:0], valid_i};
-    end
-  end
+    wire adv;
+  fxs_pipe_ctrl #(.LATENCY(LATENCY)) u_ctrl (
+    .clk_i  (clk_i),
+    .rst_ni (rst_ni),
+    .valid_i(valid_i),
+    .ready_o(ready_o),
+    .valid_o(valid_o),
+    .ready_i(ready_i),
+    .adv_o  (adv)
+  );
 
   // The input normal, delayed to the last stage.
   reg [3*N_W-1:0] n_q [0:LATENCY-2];
@@ -109,10 +106,6 @@ module normalize (
   end
   wire signed [DE-1:0] d_s = {(D_S != 0) & d_q[D_W-1], d_q};
 
-  // A multiply-add m * d + a, exact, with the sum aligned to
-  // max(F_m + D_F, F_a) fraction bits; MW/AW are the signed widths of m, a.
-  // (Written out per use below: Verilog-2005 has no width-generic function.)
-
   localparam [C_W-1:0] C0 = COEF0;
   localparam [C_W-1:0] C1 = COEF1;
   localparam [C_W-1:0] C2 = COEF2;
@@ -130,18 +123,9 @@ module normalize (
   generate
     if (METHOD == 1) begin : g_linear
       // ---- stage 3: g = Q_g(k*d + p), k = c1, p = c0 ------------------------
-      localparam integer MF = C_F + D_F;                 // frac of k*d
-      localparam integer SF = (MF > C_F) ? MF : C_F;     // frac of the sum
-      localparam integer SA = SF - MF;                   // left shifts
-      localparam integer SB = SF - C_F;
-      localparam integer MW = CE + DE;
-      localparam integer SWA = MW + SA;
-      localparam integer SWB = CE + SB;
-      localparam integer SW = ((SWA > SWB) ? SWA : SWB) + 1;
-      wire signed [MW-1:0] m = c1 * d_s;
-      wire signed [SW-1:0] s = ({{(SW - MW){m[MW-1]}}, m} <<< SA) + ({{(SW - CE){c0[CE-1]}}, c0} <<< SB);
-      fxs_quant #(.IW(SW), .SHIFT(SF - G_F), .OW(G_W), .OSIGNED(G_S), .ROUND(G_R), .SAT(G_SAT))
-        u_q_g (.x_i(s), .y_o(g_c), .ovf_o(g_ovf));
+      fxs_mad_q #(.AW(CE), .FA(C_F), .BW(DE), .FB(D_F), .CW(CE), .FC(C_F), .SUB(0),
+                  .OW(G_W), .OF(G_F), .OSIGNED(G_S), .ROUND(G_R), .SAT(G_SAT))
+        u_g (.a_i(c1), .b_i(d_s), .c_i(c0), .y_o(g_c), .ovf_o(g_ovf));
       always @(posedge clk_i) begin
         if (adv) begin
           g_q      <= g_c;
@@ -152,20 +136,11 @@ module normalize (
       wire unused_c2 = ^c2;
     end else begin : g_quadratic
       // ---- stage 3: t = Q_h(a*d + b), a = c2, b = c1 -------------------------
-      localparam integer MF = C_F + D_F;
-      localparam integer SF = (MF > C_F) ? MF : C_F;
-      localparam integer SA = SF - MF;
-      localparam integer SB = SF - C_F;
-      localparam integer MW = CE + DE;
-      localparam integer SWA = MW + SA;
-      localparam integer SWB = CE + SB;
-      localparam integer SW = ((SWA > SWB) ? SWA : SWB) + 1;
-      wire signed [MW-1:0] m = c2 * d_s;
-      wire signed [SW-1:0] s = ({{(SW - MW){m[MW-1]}}, m} <<< SA) + ({{(SW - CE){c1[CE-1]}}, c1} <<< SB);
       wire [H_W-1:0] h_c;
       wire           h_ovf;
-      fxs_quant #(.IW(SW), .SHIFT(SF - H_F), .OW(H_W), .OSIGNED(H_S), .ROUND(H_R), .SAT(H_SAT))
-        u_q_h (.x_i(s), .y_o(h_c), .ovf_o(h_ovf));
+      fxs_mad_q #(.AW(CE), .FA(C_F), .BW(DE), .FB(D_F), .CW(CE), .FC(C_F), .SUB(0),
+                  .OW(H_W), .OF(H_F), .OSIGNED(H_S), .ROUND(H_R), .SAT(H_SAT))
+        u_h (.a_i(c2), .b_i(d_s), .c_i(c1), .y_o(h_c), .ovf_o(h_ovf));
       reg [H_W-1:0] h_q;
       reg [D_W-1:0] d2_q;
       reg [1:0]     ovf_q;
@@ -179,18 +154,9 @@ module normalize (
       // ---- stage 4: g = Q_g(t*d + c), c = c0 --------------------------------
       wire signed [HE-1:0] h_s = {(H_S != 0) & h_q[H_W-1], h_q};
       wire signed [DE-1:0] d2_s = {(D_S != 0) & d2_q[D_W-1], d2_q};
-      localparam integer MF2 = H_F + D_F;
-      localparam integer SF2 = (MF2 > C_F) ? MF2 : C_F;
-      localparam integer SA2 = SF2 - MF2;
-      localparam integer SB2 = SF2 - C_F;
-      localparam integer MW2 = HE + DE;
-      localparam integer SWA2 = MW2 + SA2;
-      localparam integer SWB2 = CE + SB2;
-      localparam integer SW2 = ((SWA2 > SWB2) ? SWA2 : SWB2) + 1;
-      wire signed [MW2-1:0] m2 = h_s * d2_s;
-      wire signed [SW2-1:0] s2 = ({{(SW2 - MW2){m2[MW2-1]}}, m2} <<< SA2) + ({{(SW2 - CE){c0[CE-1]}}, c0} <<< SB2);
-      fxs_quant #(.IW(SW2), .SHIFT(SF2 - G_F), .OW(G_W), .OSIGNED(G_S), .ROUND(G_R), .SAT(G_SAT))
-        u_q_g (.x_i(s2), .y_o(g_c), .ovf_o(g_ovf));
+      fxs_mad_q #(.AW(HE), .FA(H_F), .BW(DE), .FB(D_F), .CW(CE), .FC(C_F), .SUB(0),
+                  .OW(G_W), .OF(G_F), .OSIGNED(G_S), .ROUND(G_R), .SAT(G_SAT))
+        u_g (.a_i(h_s), .b_i(d2_s), .c_i(c0), .y_o(g_c), .ovf_o(g_ovf));
       always @(posedge clk_i) begin
         if (adv) begin
           g_q      <= g_c;

@@ -36,17 +36,16 @@ module polar (
   localparam integer EE = E_W + 1;    // table values, sign-extended
   localparam integer YE = Y_W + 1;
 
-  reg  [LATENCY-1:0] v_q;
-  wire adv = ~v_q[LATENCY-1] | ready_i;
-  assign ready_o = adv;
-  assign valid_o = v_q[LATENCY-1];
-  always @(posedge clk_i) begin
-    if (!rst_ni) begin
-      v_q <= {LATENCY{1'b0}};
-    end else if (adv) begin
-      v_q <= {v_q[LATENCY-2:0], valid_i};
-    end
-  end
+  wire adv;
+  fxs_pipe_ctrl #(.LATENCY(LATENCY)) u_ctrl (
+    .clk_i  (clk_i),
+    .rst_ni (rst_ni),
+    .valid_i(valid_i),
+    .ready_o(ready_o),
+    .valid_o(valid_o),
+    .ready_i(ready_i),
+    .adv_o  (adv)
+  );
 
   // ---- stage 1: table indices (wrapping) ------------------------------------
   wire [K-1:0] al = a_i[4*K-1:3*K];
@@ -126,28 +125,18 @@ module polar (
   wire signed [EE-1:0] c_an  = {(E_S != 0) & c_an3_q[E_W-1], c_an3_q};
   wire signed [EE-1:0] s_an  = {(E_S != 0) & s_an3_q[E_W-1], s_an3_q};
   wire signed [YE-1:0] lyz   = {(Y_S != 0) & lyz_q[Y_W-1], lyz_q};
-  // sin*cos terms at 2*E_F fraction bits, Lyz terms at Y_F + E_F; the sums
-  // are aligned at the larger, as the model aligns them.
-  localparam integer FA = 2 * E_F;
-  localparam integer FB = Y_F + E_F;
-  localparam integer FS = (FA > FB) ? FA : FB;
-  localparam integer WA = PW + FS - FA;
-  localparam integer WB = YE + EE + FS - FB;
-  localparam integer SW = ((WA > WB) ? WA : WB) + 1;
-  wire signed [PW-1:0]    pa_y = s_al3 * c_an;
-  wire signed [PW-1:0]    pa_z = s_al3 * s_an;
-  wire signed [YE+EE-1:0] pb_y = lyz * s_an;
-  wire signed [YE+EE-1:0] pb_z = lyz * c_an;
-  wire signed [SW-1:0] sy = ({{(SW - PW){pa_y[PW-1]}}, pa_y} <<< (FS - FA))
-                          - ({{(SW - YE - EE){pb_y[YE+EE-1]}}, pb_y} <<< (FS - FB));
-  wire signed [SW-1:0] sz = ({{(SW - PW){pa_z[PW-1]}}, pa_z} <<< (FS - FA))
-                          + ({{(SW - YE - EE){pb_z[YE+EE-1]}}, pb_z} <<< (FS - FB));
+  // L'y = Q(sin aL*cos aN - Lyz*sin aN), L'z = Q(sin aL*sin aN + Lyz*cos aN):
+  // the sin*cos product enters each multiply-add as its addend.
+  wire signed [PW-1:0] pa_y = s_al3 * c_an;
+  wire signed [PW-1:0] pa_z = s_al3 * s_an;
   wire [O_W-1:0] y_c, z_c;
   wire y_ovf, z_ovf;
-  fxs_quant #(.IW(SW), .SHIFT(FS - O_F), .OW(O_W), .OSIGNED(O_S), .ROUND(O_R), .SAT(O_SAT))
-    u_q_y (.x_i(sy), .y_o(y_c), .ovf_o(y_ovf));
-  fxs_quant #(.IW(SW), .SHIFT(FS - O_F), .OW(O_W), .OSIGNED(O_S), .ROUND(O_R), .SAT(O_SAT))
-    u_q_z (.x_i(sz), .y_o(z_c), .ovf_o(z_ovf));
+  fxs_mad_q #(.AW(YE), .FA(Y_F), .BW(EE), .FB(E_F), .CW(PW), .FC(2 * E_F), .SUB(1),
+              .OW(O_W), .OF(O_F), .OSIGNED(O_S), .ROUND(O_R), .SAT(O_SAT))
+    u_y (.a_i(lyz), .b_i(s_an), .c_i(pa_y), .y_o(y_c), .ovf_o(y_ovf));
+  fxs_mad_q #(.AW(YE), .FA(Y_F), .BW(EE), .FB(E_F), .CW(PW), .FC(2 * E_F), .SUB(0),
+              .OW(O_W), .OF(O_F), .OSIGNED(O_S), .ROUND(O_R), .SAT(O_SAT))
+    u_z (.a_i(lyz), .b_i(c_an), .c_i(pa_z), .y_o(z_c), .ovf_o(z_ovf));
   reg [3*O_W-1:0] out_q;
   reg [1:0]       ovf_q;
   always @(posedge clk_i) begin

@@ -59,11 +59,13 @@ pub static RTL_UNITS: &[RtlUnit] = &[
         tb_top: "normalize_tb",
         sources: &[
             rtl_source!("fxs_quant.v"),
+            rtl_source!("fxs_pipe_ctrl.v"),
+            rtl_source!("fxs_mad_q.v"),
             rtl_source!("normalize.v"),
             rtl_source!("tb/fxs_vector_tb.vh"),
             rtl_source!("tb/normalize_tb.v"),
         ],
-        design_files: 2,
+        design_files: 4,
         vectors: |cfg, n, seed| Ok(fxshade_model::normalizer::rtl::vectors(cfg, n, seed)?),
         params: |cfg| Ok(fxshade_model::normalizer::rtl::params_header(cfg)?.2),
         variants: &[
@@ -80,11 +82,12 @@ pub static RTL_UNITS: &[RtlUnit] = &[
         tb_top: "interp_tb",
         sources: &[
             rtl_source!("fxs_quant.v"),
+            rtl_source!("fxs_pipe_ctrl.v"),
             rtl_source!("interp.v"),
             rtl_source!("tb/fxs_vector_tb.vh"),
             rtl_source!("tb/interp_tb.v"),
         ],
-        design_files: 2,
+        design_files: 3,
         vectors: |cfg, n, seed| Ok(fxshade_model::interp::rtl::vectors(cfg, n, seed)?),
         params: |cfg| Ok(fxshade_model::interp::rtl::params_header(cfg)?.1),
         variants: &[
@@ -106,12 +109,14 @@ pub static RTL_UNITS: &[RtlUnit] = &[
         tb_top: "polar_tb",
         sources: &[
             rtl_source!("fxs_quant.v"),
+            rtl_source!("fxs_pipe_ctrl.v"),
             rtl_source!("fxs_sincos_rom.v"),
+            rtl_source!("fxs_mad_q.v"),
             rtl_source!("polar.v"),
             rtl_source!("tb/fxs_vector_tb.vh"),
             rtl_source!("tb/polar_tb.v"),
         ],
-        design_files: 3,
+        design_files: 5,
         vectors: |cfg, n, seed| Ok(fxshade_model::polar::rtl::vectors(cfg, n, seed)?),
         params: |cfg| Ok(fxshade_model::polar::rtl::params_header(cfg)?.1),
         variants: &[

@@ -185,6 +185,9 @@ pub enum AnalysisError {
     /// The polar configuration is unusable.
     #[error(transparent)]
     Polar(crate::polar::PolarError),
+    /// The lighting stage could not be compiled.
+    #[error(transparent)]
+    Lighting(#[from] crate::lighting::LightingError),
 }
 
 /// Analyse the normalizer a configuration describes: `count` random
@@ -207,22 +210,7 @@ pub fn normalize(
     let g_stage = normalizer::g_stage_stats(&n, lo, hi)?;
     progress(0.3);
     let light = Lighting::from_config(cfg.unit(crate::lighting::DECL.name));
-    let lprog = {
-        let mut tr = crate::datapath::Trace::new();
-        let nn = [
-            tr.input(&light.normal),
-            tr.input(&light.normal),
-            tr.input(&light.normal),
-        ];
-        let ll = [
-            tr.input(&light.light),
-            tr.input(&light.light),
-            tr.input(&light.light),
-        ];
-        let k = light.consts(&mut tr)?;
-        let lvl = light.diffuse(&mut tr, &k, nn, ll);
-        Compiled::compile(&tr, &[lvl])?
-    };
+    let lprog = light.compile()?;
     let prog = n.compile()?;
     let mut rng = Rng::new(seed);
 
@@ -607,22 +595,7 @@ pub fn polar_stats(
         }
     }
     let prog = p.compile()?;
-    let lprog = {
-        let mut tr = crate::datapath::Trace::new();
-        let nn = [
-            tr.input(&light.normal),
-            tr.input(&light.normal),
-            tr.input(&light.normal),
-        ];
-        let ll = [
-            tr.input(&light.light),
-            tr.input(&light.light),
-            tr.input(&light.light),
-        ];
-        let kk = light.consts(&mut tr)?;
-        let lvl = light.diffuse(&mut tr, &kk, nn, ll);
-        Compiled::compile(&tr, &[lvl])?
-    };
+    let lprog = light.compile()?;
     let fo = p.out.format();
     let fl = light.level.format();
     let mut st = PolarStats {

@@ -80,6 +80,17 @@ pub struct Lighting {
     pub i0_km: f64,
 }
 
+/// Why the lighting stage could not be compiled.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum LightingError {
+    /// A constant could not be converted.
+    #[error(transparent)]
+    Convert(#[from] ConvertError),
+    /// The datapath is too wide.
+    #[error(transparent)]
+    Compile(#[from] crate::datapath::CompileError),
+}
+
 /// Per-batch constants of the lighting stage in a context.
 #[derive(Clone, Copy, Debug)]
 pub struct Consts<V> {
@@ -124,6 +135,25 @@ impl Lighting {
         let d = cx.max(d, k.zero);
         let lvl = cx.mul(d, k.gain);
         cx.quantize(lvl, &self.level)
+    }
+
+    /// Compiled for batches: inputs the normal's three components, then the
+    /// light vector's; output the level.
+    pub fn compile(&self) -> Result<crate::datapath::Compiled, LightingError> {
+        let mut tr = crate::datapath::Trace::new();
+        let n = [
+            tr.input(&self.normal),
+            tr.input(&self.normal),
+            tr.input(&self.normal),
+        ];
+        let l = [
+            tr.input(&self.light),
+            tr.input(&self.light),
+            tr.input(&self.light),
+        ];
+        let k = self.consts(&mut tr)?;
+        let lvl = self.diffuse(&mut tr, &k, n, l);
+        Ok(crate::datapath::Compiled::compile(&tr, &[lvl])?)
     }
 
     /// Run once in the counting context.

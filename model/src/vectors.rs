@@ -333,6 +333,48 @@ pub fn structured_code(f: Format, rng: &mut crate::sampling::Rng) -> i128 {
     }
 }
 
+/// Why RTL parameters or vectors could not be generated, for any unit.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum RtlError {
+    /// An input or constant could not be converted.
+    #[error(transparent)]
+    Convert(#[from] crate::format::ConvertError),
+    /// The normalizer could not be designed.
+    #[error(transparent)]
+    Design(#[from] crate::normalizer::DesignError),
+    /// The polar configuration is unusable.
+    #[error(transparent)]
+    Polar(#[from] crate::polar::PolarError),
+    /// A variant the RTL does not implement.
+    #[error("{unit}.method = \"{method}\": the RTL implements {supported} only")]
+    Method {
+        /// Unit.
+        unit: &'static str,
+        /// The configured variant.
+        method: &'static str,
+        /// What the RTL implements.
+        supported: &'static str,
+    },
+    /// A stage the RTL cannot express.
+    #[error("{unit}.{stage}: {why}")]
+    Stage {
+        /// Unit.
+        unit: &'static str,
+        /// Stage name.
+        stage: &'static str,
+        /// Why.
+        why: String,
+    },
+    /// Too few vectors for the corner cases.
+    #[error("--count {count} is below the {corners} corner cases every set holds")]
+    Count {
+        /// Requested.
+        count: usize,
+        /// Needed at least.
+        corners: usize,
+    },
+}
+
 /// FNV-1a, 64 bits: a stable fingerprint of a configuration or of sources
 /// (for names and build caches, not for security).
 pub fn fingerprint(parts: &[&[u8]]) -> u64 {

@@ -84,9 +84,16 @@ pub fn check_all(unit: &str, sim: &str, variants: &[(&str, &str, u64)]) {
 /// The design files of `unit` in `rtl/`.
 pub fn design_files(unit: &str) -> Vec<PathBuf> {
     let rtl = repo().join("rtl");
-    let mut v = vec![rtl.join("fxs_quant.v"), rtl.join(format!("{unit}.v"))];
+    let mut v = vec![
+        rtl.join("fxs_quant.v"),
+        rtl.join("fxs_pipe_ctrl.v"),
+        rtl.join(format!("{unit}.v")),
+    ];
     if unit == "polar" {
         v.push(rtl.join("fxs_sincos_rom.v"));
+    }
+    if unit == "polar" || unit == "normalize" {
+        v.push(rtl.join("fxs_mad_q.v"));
     }
     v
 }

@@ -4,37 +4,13 @@
 use super::{setup, Interp, Scheme, DECL, PAIRS, THETA_LADDER};
 use crate::config::Config;
 use crate::datapath::{Datapath, Fixed, Fx};
-use crate::format::{ConvertError, Format};
+use crate::format::Format;
 use crate::quantize::Rounding;
 use crate::sampling::{self, Rng};
 use crate::vectors::{
     check_rtl_stages, header_preamble, hunt_ties, stage_params, structured_code, Field,
-    ParamsHeader, VectorSet,
+    ParamsHeader, RtlError, VectorSet,
 };
-
-/// Why RTL parameters or vectors could not be generated.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum RtlError {
-    /// An input could not be converted.
-    #[error(transparent)]
-    Convert(#[from] ConvertError),
-    /// A stage the RTL cannot express.
-    #[error("interp.{stage}: {why}")]
-    Stage {
-        /// Stage name.
-        stage: &'static str,
-        /// Why.
-        why: String,
-    },
-    /// Too few vectors for the corner cases.
-    #[error("--count {count} is below the {corners} corner cases every set holds")]
-    Count {
-        /// Requested.
-        count: usize,
-        /// Needed at least.
-        corners: usize,
-    },
-}
 
 /// The Verilog parameter header `interp_params.vh` for a configuration.
 pub fn params_header(cfg: &Config) -> Result<(Interp, ParamsHeader), RtlError> {
@@ -49,7 +25,11 @@ pub fn params_header(cfg: &Config) -> Result<(Interp, ParamsHeader), RtlError> {
             ("out", i.out.format()),
         ],
     )
-    .map_err(|(stage, why)| RtlError::Stage { stage, why })?;
+    .map_err(|(stage, why)| RtlError::Stage {
+        unit: "interp",
+        stage,
+        why,
+    })?;
     let mut t = header_preamble(
         "interp_params.vh",
         "interp",

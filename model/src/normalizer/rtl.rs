@@ -4,52 +4,26 @@
 
 use glam::DVec3;
 
-use super::{from_config, Design, DesignError, Method, Normalizer, DECL};
+use super::{from_config, Design, Method, Normalizer, DECL};
 use crate::config::Config;
 use crate::datapath::{Fixed, Fx};
-use crate::format::{ConvertError, Format};
+use crate::format::Format;
 use crate::quantize::{Overflow, Quant, Rounding};
 use crate::sampling::{self, Rng};
 use crate::vectors::{
     check_rtl_stages, header_preamble, hunt_ties, stage_params, structured_code, Field,
-    ParamsHeader, VectorSet,
+    ParamsHeader, RtlError, VectorSet,
 };
-
-/// Why RTL parameters or vectors could not be generated.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum RtlError {
-    /// The normalizer could not be built.
-    #[error(transparent)]
-    Design(#[from] DesignError),
-    /// An input could not be converted.
-    #[error(transparent)]
-    Convert(#[from] ConvertError),
-    /// The RTL implements only the multiply-add variants.
-    #[error("normalize.method = \"{0}\": the RTL implements linear and quadratic only")]
-    Method(&'static str),
-    /// A stage the RTL cannot express.
-    #[error("normalize.{stage}: {why}")]
-    Stage {
-        /// Stage name.
-        stage: &'static str,
-        /// Why.
-        why: String,
-    },
-    /// Too few vectors for the corner cases.
-    #[error("--count {count} is below the {corners} corner cases every set holds")]
-    Count {
-        /// Requested.
-        count: usize,
-        /// Needed at least.
-        corners: usize,
-    },
-}
 
 /// The Verilog parameter header `normalize_params.vh` for a configuration.
 pub fn params_header(cfg: &Config) -> Result<(Normalizer, Option<Design>, ParamsHeader), RtlError> {
     let (n, design) = from_config(cfg)?;
     if n.method != Method::Linear && n.method != Method::Quadratic {
-        return Err(RtlError::Method(n.method.name()));
+        return Err(RtlError::Method {
+            unit: "normalize",
+            method: n.method.name(),
+            supported: "linear and quadratic",
+        });
     }
     let q = &n.q;
     check_rtl_stages(
@@ -63,7 +37,11 @@ pub fn params_header(cfg: &Config) -> Result<(Normalizer, Option<Design>, Params
             ("out", q.out.format()),
         ],
     )
-    .map_err(|(stage, why)| RtlError::Stage { stage, why })?;
+    .map_err(|(stage, why)| RtlError::Stage {
+        unit: "normalize",
+        stage,
+        why,
+    })?;
     let mut detail = format!("Method: {}", n.method.name());
     if let Some(d) = &design {
         detail += &format!(

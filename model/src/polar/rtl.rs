@@ -4,39 +4,13 @@
 use super::{Organisation, Polar, DECL};
 use crate::config::Config;
 use crate::datapath::{Fixed, Fx};
-use crate::format::{ConvertError, Format};
+use crate::format::Format;
 use crate::quantize::Rounding;
 use crate::sampling::Rng;
 use crate::vectors::{
-    check_rtl_stages, header_preamble, hunt_ties, stage_params, Field, ParamsHeader, VectorSet,
+    check_rtl_stages, header_preamble, hunt_ties, stage_params, Field, ParamsHeader, RtlError,
+    VectorSet,
 };
-
-/// Why RTL parameters or vectors could not be generated.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum RtlError {
-    /// The configuration is unusable.
-    #[error(transparent)]
-    Polar(#[from] super::PolarError),
-    /// An input could not be converted.
-    #[error(transparent)]
-    Convert(#[from] ConvertError),
-    /// Something the RTL cannot express.
-    #[error("polar.{stage}: {why}")]
-    Stage {
-        /// Stage name.
-        stage: &'static str,
-        /// Why.
-        why: String,
-    },
-    /// Too few vectors for the corner cases.
-    #[error("--count {count} is below the {corners} corner cases every set holds")]
-    Count {
-        /// Requested.
-        count: usize,
-        /// Needed at least.
-        corners: usize,
-    },
-}
 
 fn rom(codes: &[i128], f: Format) -> String {
     codes
@@ -51,6 +25,7 @@ pub fn params_header(cfg: &Config) -> Result<(Polar, ParamsHeader), RtlError> {
     let t = p.index.format().width();
     if t < 3 {
         return Err(RtlError::Stage {
+            unit: "polar",
             stage: "table_bits",
             why: "the RTL needs at least 3 index bits".into(),
         });
@@ -63,7 +38,11 @@ pub fn params_header(cfg: &Config) -> Result<(Polar, ParamsHeader), RtlError> {
             ("out", p.out.format()),
         ],
     )
-    .map_err(|(stage, why)| RtlError::Stage { stage, why })?;
+    .map_err(|(stage, why)| RtlError::Stage {
+        unit: "polar",
+        stage,
+        why,
+    })?;
     let org = match p.tables.organisation {
         Organisation::Full => "full",
         Organisation::Quarter => "quarter-wave",
