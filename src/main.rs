@@ -34,9 +34,10 @@ enum Command {
     /// datapath in the counting context (not typed in), beside the papers'
     /// claims.
     Ops(cmd::ops::OpsArgs),
-    /// The main job: write the configuration, the operation counts (and, as
-    /// units land, error tables, test vectors and images) into a directory
-    /// with an index page.
+    /// The main job: the configuration, operation counts, quantization
+    /// points, the paper's tables reproduced, the error analysis of the
+    /// normalizer and of interpolation, and test vectors of every unit, in a
+    /// directory with an index page.
     Report(cmd::report::ReportArgs),
     /// Error of the bit-accurate model against the f64 reference, per unit.
     #[command(subcommand)]

@@ -3,7 +3,7 @@
 //! A bit-accurate fixed-point model of a per-pixel shading pipeline, beside
 //! an f64 reference. The arithmetic is written down once:
 //!
-//! * [`format`] — fixed-point formats (signedness, width, fraction bits);
+//! * [`format`](mod@format) — fixed-point formats (signedness, width, fraction bits);
 //! * [`quantize`] — the only place bits are dropped: rounding and overflow
 //!   modes, each with the Verilog expression the RTL uses;
 //! * [`datapath`] — the operations every unit is written in, run three ways:

@@ -90,7 +90,7 @@ const COLUMNS: [&str; 14] = [
 /// One row of printed values.
 #[derive(Clone, Debug)]
 pub struct Row {
-    /// Printed text of each column, in [`COLUMNS`] order.
+    /// Printed text of each column, in the CSV's column order.
     pub text: Vec<String>,
     /// Values.
     pub v: Vec<f64>,

@@ -24,7 +24,7 @@ pub fn run(a: &ReportArgs) -> anyhow::Result<()> {
     let cfg = a.cfg.resolve()?;
     let dir = StagedDir::new(&a.out)
         .with_context(|| format!("cannot write the report to {}", a.out.display()))?;
-    let bar = crate::progress::bar(5, "report");
+    let bar = crate::progress::bar(6, "report");
 
     bar.set_message("configuration");
     dir.write("config.toml", cfg.to_toml().as_bytes())?;
@@ -101,6 +101,45 @@ pub fn run(a: &ReportArgs) -> anyhow::Result<()> {
         ierr.unnormalized_max_rel_err
     );
 
+    bar.set_message("polar transform error analysis");
+    let perr = fxshade_model::analysis::polar(&cfg, 200_000, 1, true)?;
+    dir.write(
+        "error_polar.json",
+        serde_json::to_string_pretty(&perr)?.as_bytes(),
+    )?;
+    let frames: Vec<String> = [
+        ("sphere:32", fxshade_model::mesh::Axis::Y),
+        ("torus:64", fxshade_model::mesh::Axis::Y),
+        ("torus:64", fxshade_model::mesh::Axis::Z),
+    ]
+    .iter()
+    .map(|&(m, axis)| -> anyhow::Result<String> {
+        let c = fxshade_model::polar::frames::compare(&super::polar_frames::procedural(m, axis)?);
+        Ok(format!(
+            "* {m} about {axis:?}: {:.1} % of the surface more than 10° apart (mean {:.1}°)\n",
+            100.0 * c.share_over_10_deg,
+            c.mean_deg
+        ))
+    })
+    .collect::<anyhow::Result<_>>()?;
+    let ptext = format!(
+        "{}-bit angles, {}-bit {} tables of {} ({} bits each), {} transforms ({}): max {:.2} LSB, rms {:.3} LSB, \
+         max | |L'| − 1 | {:.2e}, max angle {:.4}°, max diffuse error {:.2} levels, {} overflows\n",
+        perr.angle_bits,
+        perr.table_bits,
+        format!("{:?}", perr.organisation).to_lowercase(),
+        perr.table_format,
+        perr.table_size_bits,
+        perr.stats.samples,
+        perr.stats.coverage,
+        perr.stats.max_lsb_err,
+        perr.stats.rms_lsb_err,
+        perr.stats.max_len_dev,
+        perr.stats.max_angle_err_deg,
+        perr.stats.max_diffuse_err_levels,
+        perr.stats.overflows
+    );
+
     bar.set_message("test vectors");
     let mut vector_lines = String::new();
     for u in crate::rtl_flow::RTL_UNITS {
@@ -142,6 +181,10 @@ pub fn run(a: &ReportArgs) -> anyhow::Result<()> {
     index += &ntext;
     index += "```\n\n## Interpolation error ([JSON](error_interp.json))\n\n";
     index += &itext;
+    index += "\n## Polar transform error ([JSON](error_polar.json))\n\n";
+    index += &ptext;
+    index += "\nImplied tangent frame against the UV-aligned frame normal maps are baked in:\n\n";
+    index += &frames.concat();
     index += "\n## The normalization paper reproduced\n\n([CSV](paper.csv), [JSON](paper.json))\n\n```text\n";
     index += &ptable.render();
     index += "```\n";

@@ -15,7 +15,7 @@
 //! ```
 //!
 //! The implied tangent frame is `T = (cos β_N, 0, −sin β_N)`,
-//! `B = N × T`, `N`: `L' = (L·T, L·B, L·N)` ([`reference`]).
+//! `B = N × T`, `N`: `L' = (L·T, L·B, L·N)` ([`reference()`]).
 //!
 //! ## Angles and tables
 //! Angles are binary angle measures: `U0F<k>` codes, fractions of a turn,
