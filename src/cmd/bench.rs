@@ -6,7 +6,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::Context;
 use clap::{Args, Subcommand};
-use fxshade_model::datapath::{Compiled, Count, Datapath, Fixed, Reference, Trace};
+use fxshade_model::datapath::{Compiled, Count, Datapath, Fixed, Program, Reference, Trace};
 use fxshade_model::mad_chain::mad_chain;
 use fxshade_model::quantize::Raw;
 use fxshade_model::{Format, Overflow, Quant, Rounding};
@@ -83,24 +83,7 @@ fn bench_polar(a: &NormalizeBenchArgs) -> anyhow::Result<()> {
             black_box(glam::DVec3::new(t.dot(*l), b.dot(*l), nn.dot(*l)).normalize());
         }
     });
-    let t_polar = match p.compile()? {
-        Compiled::Narrow(prog) => {
-            let c64: Vec<Vec<i64>> = cols
-                .iter()
-                .map(|c| c.iter().map(|&x| x as i64).collect())
-                .collect();
-            let mut outs = vec![Vec::new(); 3];
-            time(&mut || {
-                black_box(prog.run_into(&[&c64[0], &c64[1], &c64[2], &c64[3]], &mut outs));
-            })
-        }
-        Compiled::Wide(prog) => {
-            let mut outs = vec![Vec::new(); 3];
-            time(&mut || {
-                black_box(prog.run_into(&[&cols[0], &cols[1], &cols[2], &cols[3]], &mut outs));
-            })
-        }
-    };
+    let t_polar = time_program(&p.compile()?, &cols, min) / n as f64;
     let mut t = Table::new(["transform", "ns per vector", "M vectors/s", "× f64 TBN"]).titled(
         format!("polar: {n} light vectors into tangent space, default formats, one core"),
     );
@@ -188,24 +171,7 @@ fn bench_normalize(a: &NormalizeBenchArgs) -> anyhow::Result<()> {
             normalizer::Interval::Triangle,
             true,
         )?;
-        let secs = match n.compile()? {
-            Compiled::Narrow(p) => {
-                let c64: Vec<Vec<i64>> = codes
-                    .iter()
-                    .map(|c| c.iter().map(|&x| x as i64).collect())
-                    .collect();
-                let mut outs = vec![Vec::new(); 3];
-                time(&mut || {
-                    black_box(p.run_into(&[&c64[0], &c64[1], &c64[2]], &mut outs));
-                })
-            }
-            Compiled::Wide(p) => {
-                let mut outs = vec![Vec::new(); 3];
-                time(&mut || {
-                    black_box(p.run_into(&[&codes[0], &codes[1], &codes[2]], &mut outs));
-                })
-            }
-        };
+        let secs = time_program(&n.compile()?, &codes, min) / vs.len() as f64;
         t.row([
             format!("{}, bit-accurate (compiled)", m.name()),
             format!("{:.2}", secs * 1e9),
@@ -324,28 +290,34 @@ fn time_compiled(
         .iter()
         .map(|&v| Ok(q.apply_f64(v)?.code))
         .collect::<anyhow::Result<_>>()?;
-    let per = |t: f64, reps: u64| t * 1e9 / (reps as f64 * xs.len() as f64 * ab.len() as f64);
-    Ok(match prog {
+    let run = time_program(&prog, &[codes], min);
+    Ok(run * 1e9 / (xs.len() as f64 * ab.len() as f64))
+}
+
+/// Seconds per run of `prog` over every lane of `cols` (the codes of each
+/// input port): the codes are converted once to the program's code type,
+/// the output buffers are reused, and the run repeats for at least `min`.
+fn time_program(prog: &Compiled, cols: &[Vec<i128>], min: Duration) -> f64 {
+    fn go<R: Raw>(p: &Program<R>, cols: &[Vec<R>], min: Duration) -> f64 {
+        let refs: Vec<&[R]> = cols.iter().map(|c| c.as_slice()).collect();
+        let mut outs = vec![Vec::new(); p.output_fracs().len()];
+        let (mut reps, start) = (0u64, Instant::now());
+        while start.elapsed() < min || reps == 0 {
+            black_box(p.run_into(black_box(&refs), &mut outs));
+            reps += 1;
+        }
+        start.elapsed().as_secs_f64() / reps as f64
+    }
+    match prog {
         Compiled::Narrow(p) => {
-            let c64: Vec<i64> = codes.iter().map(|&c| c as i64).collect();
-            let mut outs = vec![Vec::new()];
-            let (mut reps, start) = (0u64, Instant::now());
-            while start.elapsed() < min || reps == 0 {
-                black_box(p.run_into(&[black_box(&c64)], &mut outs));
-                reps += 1;
-            }
-            per(start.elapsed().as_secs_f64(), reps)
+            let narrow: Vec<Vec<i64>> = cols
+                .iter()
+                .map(|c| c.iter().map(|&x| x as i64).collect())
+                .collect();
+            go(p, &narrow, min)
         }
-        Compiled::Wide(p) => {
-            let mut outs = vec![Vec::new()];
-            let (mut reps, start) = (0u64, Instant::now());
-            while start.elapsed() < min || reps == 0 {
-                black_box(p.run_into(&[black_box(&codes)], &mut outs));
-                reps += 1;
-            }
-            per(start.elapsed().as_secs_f64(), reps)
-        }
-    })
+        Compiled::Wide(p) => go(p, cols, min),
+    }
 }
 
 fn load<C: Datapath>(cx: &mut C, vals: &[f64], q: &Quant) -> anyhow::Result<Vec<C::V>> {
