@@ -19,9 +19,12 @@
 //                       (the paper's M_ij = 4*N_ij: the 4 is a shift here)
 //   n_o   [3*O_W-1:0]   {x, y, z}, output format (O)
 //   ovf_o [1:0]         overflow at {weight (any), out (any component)}
+//   side_i, side_o [SIDE_W-1:0]  side data carried in lock-step (fxs_side_delay)
 `default_nettype none
 
-module interp (
+module interp #(
+  parameter integer SIDE_W = 1
+) (
   input  wire              clk_i,
   input  wire              rst_ni,
   input  wire              valid_i,
@@ -31,7 +34,9 @@ module interp (
   output wire              valid_o,
   input  wire              ready_i,
   output wire [3*O_W-1:0]  n_o,
-  output wire [1:0]        ovf_o
+  output wire [1:0]        ovf_o,
+  input  wire [SIDE_W-1:0] side_i,
+  output wire [SIDE_W-1:0] side_o
 );
   `include "interp_params.vh"
 
@@ -54,6 +59,9 @@ module interp (
     .valid_o(valid_o),
     .ready_i(ready_i),
     .adv_o  (adv)
+  );
+  fxs_side_delay #(.W(SIDE_W), .LATENCY(LATENCY)) u_side (
+    .clk_i(clk_i), .adv_i(adv), .d_i(side_i), .q_o(side_o)
   );
 
   // ---- stage 1: c3 and the weights -----------------------------------------

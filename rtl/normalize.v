@@ -24,9 +24,14 @@
 //   n_i   [3*N_W-1:0]  {Nx, Ny, Nz}, each in the normal input format
 //   n_o   [3*O_W-1:0]  {N'x, N'y, N'z}, each in the out format
 //   ovf_o [3:0]        overflow at {d, horner, g, out (any component)}
+//   sel_i [SEL_W-1:0]  coefficient set of this vector's triangle (of NSETS in
+//                      COEFS; unused when NSETS = 1; codes >= NSETS read set 0)
+//   side_i, side_o [SIDE_W-1:0]  side data carried in lock-step (fxs_side_delay)
 `default_nettype none
 
-module normalize (
+module normalize #(
+  parameter integer SIDE_W = 1
+) (
   input  wire             clk_i,
   input  wire             rst_ni,
   input  wire             valid_i,
@@ -35,7 +40,10 @@ module normalize (
   output wire             valid_o,
   input  wire             ready_i,
   output wire [3*O_W-1:0] n_o,
-  output wire [3:0]       ovf_o
+  output wire [3:0]       ovf_o,
+  input  wire [SEL_W-1:0] sel_i,
+  input  wire [SIDE_W-1:0] side_i,
+  output wire [SIDE_W-1:0] side_o
 );
   `include "normalize_params.vh"
 
@@ -59,6 +67,9 @@ module normalize (
     .valid_o(valid_o),
     .ready_i(ready_i),
     .adv_o  (adv)
+  );
+  fxs_side_delay #(.W(SIDE_W), .LATENCY(LATENCY)) u_side (
+    .clk_i(clk_i), .adv_i(adv), .d_i(side_i), .q_o(side_o)
   );
 
   // The input normal, delayed to the last stage.
@@ -106,12 +117,40 @@ module normalize (
   end
   wire signed [DE-1:0] d_s = {(D_S != 0) & d_q[D_W-1], d_q};
 
-  localparam [C_W-1:0] C0 = COEF0;
-  localparam [C_W-1:0] C1 = COEF1;
-  localparam [C_W-1:0] C2 = COEF2;
-  wire signed [CE-1:0] c0 = {(C_S != 0) & C0[C_W-1], C0};
-  wire signed [CE-1:0] c1 = {(C_S != 0) & C1[C_W-1], C1};
-  wire signed [CE-1:0] c2 = {(C_S != 0) & C2[C_W-1], C2};
+  // ---- coefficients: {c2, c1, c0} of the vector's set ------------------------
+  // cs3 at stage 3 (sel registered twice), cs4 at stage 4 (three times).
+  wire [3*C_W-1:0] cs3, cs4;
+  generate
+    if (NSETS == 1) begin : g_one_set
+      assign cs3 = COEFS[3*C_W-1:0];
+      assign cs4 = COEFS[3*C_W-1:0];
+      wire unused_sel = ^sel_i;
+    end else begin : g_sets
+      localparam integer NS = 1 << SEL_W;
+      wire [3*C_W-1:0] set_w [0:NS-1];
+      genvar gs;
+      for (gs = 0; gs < NS; gs = gs + 1) begin : g_set
+        assign set_w[gs] = COEFS[((gs < NSETS) ? gs : 0)*3*C_W +: 3*C_W];
+      end
+      reg [SEL_W-1:0] sel_q [0:2];
+      always @(posedge clk_i) begin
+        if (adv) begin
+          sel_q[0] <= sel_i;
+          sel_q[1] <= sel_q[0];
+          sel_q[2] <= sel_q[1];
+        end
+      end
+      assign cs3 = set_w[sel_q[1]];
+      assign cs4 = set_w[sel_q[2]];
+    end
+  endgenerate
+  function automatic signed [CE-1:0] coef(input [3*C_W-1:0] cs, input integer i);
+    coef = {(C_S != 0) & cs[i*C_W+C_W-1], cs[i*C_W +: C_W]};
+  endfunction
+  wire signed [CE-1:0] c0 = coef(cs3, 0);
+  wire signed [CE-1:0] c1 = coef(cs3, 1);
+  wire signed [CE-1:0] c2 = coef(cs3, 2);
+  wire signed [CE-1:0] c0_4 = coef(cs4, 0);
 
   // g and its overflow flags, at stage LATENCY-1's input.
   wire [G_W-1:0] g_c;
@@ -133,7 +172,7 @@ module normalize (
           ovf_dg_q <= {d_ovf_q, 1'b0};
         end
       end
-      wire unused_c2 = ^c2;
+      wire unused_c2 = ^{c2, c0_4};
     end else begin : g_quadratic
       // ---- stage 3: t = Q_h(a*d + b), a = c2, b = c1 -------------------------
       wire [H_W-1:0] h_c;
@@ -151,12 +190,13 @@ module normalize (
           ovf_q <= {d_ovf_q, h_ovf};
         end
       end
-      // ---- stage 4: g = Q_g(t*d + c), c = c0 --------------------------------
+      // ---- stage 4: g = Q_g(t*d + c), c = c0 of the set at this stage -------
+      wire unused_c0 = ^c0;
       wire signed [HE-1:0] h_s = {(H_S != 0) & h_q[H_W-1], h_q};
       wire signed [DE-1:0] d2_s = {(D_S != 0) & d2_q[D_W-1], d2_q};
       fxs_mad_q #(.AW(HE), .FA(H_F), .BW(DE), .FB(D_F), .CW(CE), .FC(C_F), .SUB(0),
                   .OW(G_W), .OF(G_F), .OSIGNED(G_S), .ROUND(G_R), .SAT(G_SAT))
-        u_g (.a_i(h_s), .b_i(d2_s), .c_i(c0), .y_o(g_c), .ovf_o(g_ovf));
+        u_g (.a_i(h_s), .b_i(d2_s), .c_i(c0_4), .y_o(g_c), .ovf_o(g_ovf));
       always @(posedge clk_i) begin
         if (adv) begin
           g_q      <= g_c;

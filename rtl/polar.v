@@ -17,9 +17,12 @@
 //                    elevations a in [-1/4, 1/4] turn as codes modulo a turn
 //   l_o   [3*O_W-1:0] {L'x, L'y, L'z} in the out format
 //   ovf_o [1:0]      overflow at {lyz, out (any component)}
+//   side_i, side_o [SIDE_W-1:0]  side data carried in lock-step (fxs_side_delay)
 `default_nettype none
 
-module polar (
+module polar #(
+  parameter integer SIDE_W = 1
+) (
   input  wire             clk_i,
   input  wire             rst_ni,
   input  wire             valid_i,
@@ -28,7 +31,9 @@ module polar (
   output wire             valid_o,
   input  wire             ready_i,
   output wire [3*O_W-1:0] l_o,
-  output wire [1:0]       ovf_o
+  output wire [1:0]       ovf_o,
+  input  wire [SIDE_W-1:0] side_i,
+  output wire [SIDE_W-1:0] side_o
 );
   `include "polar_params.vh"
 
@@ -45,6 +50,9 @@ module polar (
     .valid_o(valid_o),
     .ready_i(ready_i),
     .adv_o  (adv)
+  );
+  fxs_side_delay #(.W(SIDE_W), .LATENCY(LATENCY)) u_side (
+    .clk_i(clk_i), .adv_i(adv), .d_i(side_i), .q_o(side_o)
   );
 
   // ---- stage 1: table indices (wrapping) ------------------------------------

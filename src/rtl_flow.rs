@@ -60,12 +60,13 @@ pub static RTL_UNITS: &[RtlUnit] = &[
         sources: &[
             rtl_source!("fxs_quant.v"),
             rtl_source!("fxs_pipe_ctrl.v"),
+            rtl_source!("fxs_side_delay.v"),
             rtl_source!("fxs_mad_q.v"),
             rtl_source!("normalize.v"),
             rtl_source!("tb/fxs_vector_tb.vh"),
             rtl_source!("tb/normalize_tb.v"),
         ],
-        design_files: 4,
+        design_files: 5,
         vectors: |cfg, n, seed| Ok(fxshade_model::normalizer::rtl::vectors(cfg, n, seed)?),
         params: |cfg| Ok(fxshade_model::normalizer::rtl::params_header(cfg)?.2),
         variants: &[
@@ -83,11 +84,12 @@ pub static RTL_UNITS: &[RtlUnit] = &[
         sources: &[
             rtl_source!("fxs_quant.v"),
             rtl_source!("fxs_pipe_ctrl.v"),
+            rtl_source!("fxs_side_delay.v"),
             rtl_source!("interp.v"),
             rtl_source!("tb/fxs_vector_tb.vh"),
             rtl_source!("tb/interp_tb.v"),
         ],
-        design_files: 3,
+        design_files: 4,
         vectors: |cfg, n, seed| Ok(fxshade_model::interp::rtl::vectors(cfg, n, seed)?),
         params: |cfg| Ok(fxshade_model::interp::rtl::params_header(cfg)?.1),
         variants: &[
@@ -110,13 +112,14 @@ pub static RTL_UNITS: &[RtlUnit] = &[
         sources: &[
             rtl_source!("fxs_quant.v"),
             rtl_source!("fxs_pipe_ctrl.v"),
+            rtl_source!("fxs_side_delay.v"),
             rtl_source!("fxs_sincos_rom.v"),
             rtl_source!("fxs_mad_q.v"),
             rtl_source!("polar.v"),
             rtl_source!("tb/fxs_vector_tb.vh"),
             rtl_source!("tb/polar_tb.v"),
         ],
-        design_files: 5,
+        design_files: 6,
         vectors: |cfg, n, seed| Ok(fxshade_model::polar::rtl::vectors(cfg, n, seed)?),
         params: |cfg| Ok(fxshade_model::polar::rtl::params_header(cfg)?.1),
         variants: &[
@@ -131,6 +134,39 @@ pub static RTL_UNITS: &[RtlUnit] = &[
         },
         blackbox: &["fxs_sincos_rom"],
         unflagged: &["index"],
+    },
+    RtlUnit {
+        name: "pipeline",
+        top: "pipeline",
+        tb_top: "pipeline_tb",
+        sources: &[
+            rtl_source!("fxs_quant.v"),
+            rtl_source!("fxs_pipe_ctrl.v"),
+            rtl_source!("fxs_side_delay.v"),
+            rtl_source!("fxs_mad_q.v"),
+            rtl_source!("fxs_sincos_rom.v"),
+            rtl_source!("interp.v"),
+            rtl_source!("normalize.v"),
+            rtl_source!("polar.v"),
+            rtl_source!("angle_interp.v"),
+            rtl_source!("lighting.v"),
+            rtl_source!("pipeline.v"),
+            rtl_source!("tb/fxs_vector_tb.vh"),
+            rtl_source!("tb/pipeline_tb.v"),
+        ],
+        design_files: 11,
+        vectors: |cfg, n, seed| Ok(fxshade_model::pipeline::rtl::vectors(cfg, n, seed)?),
+        params: |cfg| Ok(fxshade_model::pipeline::rtl::params_header(cfg)?.2),
+        variants: &[
+            ("smooth", "pipeline.path=\"smooth\""),
+            ("mapped", "pipeline.path=\"mapped\""),
+        ],
+        count: |cfg| {
+            let (p, path, _) = fxshade_model::pipeline::rtl::params_header(cfg)?;
+            Ok(p.count(path)?)
+        },
+        blackbox: &["fxs_sincos_rom"],
+        unflagged: &["index", "angle"],
     },
 ];
 
@@ -239,6 +275,10 @@ pub fn build(
     let mut parts: Vec<&[u8]> = u.sources.iter().map(|(_, t)| t.as_bytes()).collect();
     let tag = format!("{}-{maxn}-{trace}", sim.name());
     parts.push(params.text.as_bytes());
+    for (name, text) in &params.extra {
+        parts.push(name.as_bytes());
+        parts.push(text.as_bytes());
+    }
     parts.push(tag.as_bytes());
     let key = fingerprint(&parts);
     let root = cache_root();
@@ -349,6 +389,9 @@ pub struct CheckResult {
     pub trace: Option<PathBuf>,
     /// The simulator's error lines, if any.
     pub errors: Vec<String>,
+    /// Every output the RTL produced, in order, as hex (with `dump`).
+    #[serde(skip)]
+    pub outputs: Vec<String>,
 }
 
 impl CheckResult {
@@ -374,6 +417,20 @@ pub fn check(
     seed: u64,
     stall: u32,
     trace: Option<&Path>,
+) -> anyhow::Result<CheckResult> {
+    check_with(u, v, sim, seed, stall, trace, false)
+}
+
+/// As [`check`]; with `dump`, also read back every output the RTL produced
+/// ([`CheckResult::outputs`]).
+pub fn check_with(
+    u: &RtlUnit,
+    v: &VectorSet,
+    sim: Sim,
+    seed: u64,
+    stall: u32,
+    trace: Option<&Path>,
+    dump: bool,
 ) -> anyhow::Result<CheckResult> {
     let maxn = (v.count() + 1).next_power_of_two();
     let b = build(u, &v.params, sim, maxn, trace.is_some())?;
@@ -408,6 +465,9 @@ pub fn check(
     if let Some(t) = &trace_path {
         c.arg(format!("+TRACE={}", t.display()));
     }
+    if dump {
+        c.arg("+DUMP=outputs.hex");
+    }
     // Stream the output to time the load and the simulation separately.
     use std::io::{BufRead, Read};
     let start = Instant::now();
@@ -435,6 +495,15 @@ pub fn check(
     let status = child.wait()?;
     let secs = start.elapsed().as_secs_f64();
     text += &err_thread.join().unwrap_or_default();
+    let outputs = if dump {
+        std::fs::read_to_string(run.join("outputs.hex"))
+            .unwrap_or_default()
+            .lines()
+            .map(|l| l.trim().to_string())
+            .collect()
+    } else {
+        Vec::new()
+    };
     let _ = std::fs::remove_dir_all(&run);
     let load = loaded_at.unwrap_or(0.0);
     let mut r = CheckResult {
@@ -453,6 +522,7 @@ pub fn check(
         mismatches: Vec::new(),
         trace: trace_path,
         errors: Vec::new(),
+        outputs,
     };
     let mut verdict = false;
     let mut lines = text.lines().peekable();

@@ -9,7 +9,11 @@
 //! * [`datapath`] — the operations every unit is written in, run three ways:
 //!   f64 reference, bit-accurate fixed point, and operation counting;
 //! * [`config`] — formats and parameters from TOML, with an embedded default;
-//! * [`units`] — the registry of units; [`lighting`] is the first.
+//! * [`units`] — the registry of units: [`interp`] (method C),
+//!   [`normalizer`] (method A), [`polar`] (method B), [`lighting`], and
+//!   [`pipeline`], which chains them;
+//! * [`render`] — a rasterizer that runs the pipeline on every pixel of a
+//!   mesh, beside an f64 reference, with image metrics.
 //!
 //! `model/ARITHMETIC.md` states the contract the RTL follows.
 #![warn(missing_docs)]
@@ -26,8 +30,10 @@ pub mod mad_chain;
 pub mod mesh;
 pub mod normalizer;
 pub mod paper;
+pub mod pipeline;
 pub mod polar;
 pub mod quantize;
+pub mod render;
 pub mod sampling;
 pub mod units;
 pub mod vectors;

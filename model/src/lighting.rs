@@ -1,13 +1,26 @@
-//! The lighting stage: the diffuse term `I = I0·km·max(0, N·L)` as an 8-bit
-//! level (`255·I`, clipped to `0 ..= 255` by the `level` format).
+//! The lighting stage: diffuse `I0·km·max(0, N·L)` plus Blinn–Phong
+//! specular `I0·ks·max(0, N·H)^n`, as an 8-bit level (`255·I`, clipped to
+//! `0 ..= 255` by the `level` format).
 //!
-//! Datapath (3 multiplications and 2 additions for `N·L`, one comparison
-//! for the clamp at zero, one multiplication by the constant `255·I0·km`):
+//! Diffuse only ([`Lighting::diffuse`], used by the unit error analyses):
 //!
 //! ```text
 //! dot   = Q_dot(Nx·Lx + Ny·Ly + Nz·Lz)
 //! level = Q_level(max(dot, 0) · Q_gain(255·I0·km))
 //! ```
+//!
+//! Diffuse and specular ([`Lighting::shade`], the pipeline's last unit):
+//!
+//! ```text
+//! dl    = max(Q_dot(N·L), 0)          dh = max(Q_dot(N·H), 0)
+//! s     = Q_spec(dh)^n                by squaring and multiplying, LSB of n first,
+//!                                     every product quantized with Q_spec
+//! level = Q_level(dl · Q_gain(255·I0·km) + s · Q_gain(255·I0·ks))
+//! ```
+//!
+//! The power takes `⌊log2 n⌋` squarings and `popcount(n) − 1` multiplications
+//! (the first set bit copies the base): for `n = 16`, 4 squarings. The RTL
+//! (`rtl/lighting.v`) has one pipeline stage per bit of `n`.
 
 use crate::config::{Config, FieldDecl, FieldKind, UnitConfig, UnitDecl};
 use crate::datapath::{Count, Datapath};
@@ -49,9 +62,24 @@ pub static DECL: UnitDecl = UnitDecl {
             doc: "output: the 8-bit intensity level",
         },
         FieldDecl {
+            name: "spec",
+            kind: FieldKind::Stage,
+            doc: "specular power chain: max(0, N·H) and every product of (N·H)^n",
+        },
+        FieldDecl {
             name: "i0_km",
             kind: FieldKind::Number { min: 0.0, max: 1.0 },
             doc: "I0·km: light intensity times the material's diffuse coefficient",
+        },
+        FieldDecl {
+            name: "i0_ks",
+            kind: FieldKind::Number { min: 0.0, max: 1.0 },
+            doc: "I0·ks: light intensity times the material's specular coefficient",
+        },
+        FieldDecl {
+            name: "shininess",
+            kind: FieldKind::Integer { min: 1, max: 255 },
+            doc: "Blinn–Phong exponent n of max(0, N·H)^n",
         },
     ],
 };
@@ -76,8 +104,14 @@ pub struct Lighting {
     pub gain: Quant,
     /// The output level.
     pub level: Quant,
+    /// The specular power chain.
+    pub spec: Quant,
     /// `I0·km`.
     pub i0_km: f64,
+    /// `I0·ks`.
+    pub i0_ks: f64,
+    /// The Blinn–Phong exponent `n ≥ 1`.
+    pub shininess: u32,
 }
 
 /// Why the lighting stage could not be compiled.
@@ -96,6 +130,8 @@ pub enum LightingError {
 pub struct Consts<V> {
     /// `255·I0·km` in the `gain` format.
     pub gain: V,
+    /// `255·I0·ks` in the `gain` format.
+    pub gain_s: V,
     /// Zero, for the clamp.
     pub zero: V,
 }
@@ -109,7 +145,10 @@ impl Lighting {
             dot: u.stage("dot"),
             gain: u.stage("gain"),
             level: u.stage("level"),
+            spec: u.stage("spec"),
             i0_km: u.number("i0_km"),
+            i0_ks: u.number("i0_ks"),
+            shininess: u.integer("shininess") as u32,
         }
     }
 
@@ -117,6 +156,7 @@ impl Lighting {
     pub fn consts<C: Datapath>(&self, cx: &mut C) -> Result<Consts<C::V>, ConvertError> {
         Ok(Consts {
             gain: cx.constant(LEVELS * self.i0_km, &self.gain)?,
+            gain_s: cx.constant(LEVELS * self.i0_ks, &self.gain)?,
             zero: cx.constant(0.0, &self.dot)?,
         })
     }
@@ -135,6 +175,72 @@ impl Lighting {
         let d = cx.max(d, k.zero);
         let lvl = cx.mul(d, k.gain);
         cx.quantize(lvl, &self.level)
+    }
+
+    /// `max(Q_dot(a·b), 0)`.
+    #[inline]
+    fn clamped_dot<C: Datapath>(
+        &self,
+        cx: &mut C,
+        k: &Consts<C::V>,
+        a: [C::V; 3],
+        b: [C::V; 3],
+    ) -> C::V {
+        let d = cx.dot3(a, b);
+        let d = cx.quantize(d, &self.dot);
+        cx.max(d, k.zero)
+    }
+
+    /// `x^n` by squaring and multiplying, LSB of `n` first, every product
+    /// quantized with `Q_spec`; `x` is quantized with `Q_spec` first. The
+    /// first set bit copies the base (no multiplication).
+    #[inline]
+    pub fn power<C: Datapath>(&self, cx: &mut C, x: C::V) -> C::V {
+        let mut base = cx.quantize(x, &self.spec);
+        let mut acc = None;
+        let mut e = self.shininess.max(1);
+        loop {
+            if e & 1 == 1 {
+                acc = Some(match acc {
+                    None => base,
+                    Some(a) => {
+                        let p = cx.mul(a, base);
+                        cx.quantize(p, &self.spec)
+                    }
+                });
+            }
+            e >>= 1;
+            if e == 0 {
+                break;
+            }
+            let sq = cx.mul(base, base);
+            base = cx.quantize(sq, &self.spec);
+        }
+        acc.expect("n >= 1 has a set bit")
+    }
+
+    /// Diffuse and specular:
+    /// `Q_level(max(Q_dot(N·L), 0)·gain + Q_spec(max(Q_dot(N·H), 0))^n·gain_s)`.
+    #[inline]
+    pub fn shade<C: Datapath>(
+        &self,
+        cx: &mut C,
+        k: &Consts<C::V>,
+        n: [C::V; 3],
+        l: [C::V; 3],
+        h: [C::V; 3],
+    ) -> C::V {
+        let dl = self.clamped_dot(cx, k, n, l);
+        let dh = self.clamped_dot(cx, k, n, h);
+        let s = self.power(cx, dh);
+        let d = cx.mul(dl, k.gain);
+        let t = cx.mul_add(s, k.gain_s, d);
+        cx.quantize(t, &self.level)
+    }
+
+    /// Number of pipeline stages of the power chain: the bit length of `n`.
+    pub fn power_stages(&self) -> u32 {
+        32 - self.shininess.max(1).leading_zeros()
     }
 
     /// Compiled for batches: inputs the normal's three components, then the
@@ -156,6 +262,28 @@ impl Lighting {
         Ok(crate::datapath::Compiled::compile(&tr, &[lvl])?)
     }
 
+    /// [`Lighting::shade`] compiled for batches: inputs N, L, H (three
+    /// components each); output the level.
+    pub fn compile_shade(&self) -> Result<crate::datapath::Compiled, LightingError> {
+        let mut tr = crate::datapath::Trace::new();
+        let n = [0; 3].map(|_| tr.input(&self.normal));
+        let l = [0; 3].map(|_| tr.input(&self.light));
+        let h = [0; 3].map(|_| tr.input(&self.light));
+        let k = self.consts(&mut tr)?;
+        let lvl = self.shade(&mut tr, &k, n, l, h);
+        Ok(crate::datapath::Compiled::compile(&tr, &[lvl])?)
+    }
+
+    /// [`Lighting::shade`] once in the counting context.
+    pub fn count_shade(&self) -> Count {
+        let mut cx = Count::new();
+        let k = self.consts(&mut cx).expect("finite constants");
+        let n = [cx.constant(0.0, &self.normal).expect("finite"); 3];
+        let l = [cx.constant(0.0, &self.light).expect("finite"); 3];
+        self.shade(&mut cx, &k, n, l, l);
+        cx
+    }
+
     /// Run once in the counting context.
     pub fn count(&self) -> Count {
         let mut cx = Count::new();
@@ -169,18 +297,23 @@ impl Lighting {
 
 fn check(cfg: &Config) -> Result<(), Vec<crate::config::ConfigError>> {
     let u = cfg.unit(DECL.name);
-    width_errors(&Lighting::from_config(u).count(), u)
+    let l = Lighting::from_config(u);
+    width_errors(&l.count(), u)?;
+    width_errors(&l.count_shade(), u)
 }
 
 fn ops(cfg: &Config) -> Vec<OpReport> {
     let l = Lighting::from_config(cfg.unit(DECL.name));
-    vec![OpReport::from_count(
-        DECL.name,
-        "diffuse",
-        Phase::Pixel,
-        &l.count(),
-        None,
-    )]
+    vec![
+        OpReport::from_count(DECL.name, "diffuse", Phase::Pixel, &l.count(), None),
+        OpReport::from_count(
+            DECL.name,
+            "diffuse+specular",
+            Phase::Pixel,
+            &l.count_shade(),
+            None,
+        ),
+    ]
 }
 
 #[cfg(test)]

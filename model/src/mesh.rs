@@ -142,3 +142,272 @@ pub fn areas(m: &Mesh) -> Vec<f64> {
         })
         .collect()
 }
+
+/// Why an OBJ file could not be used.
+#[derive(Debug, thiserror::Error)]
+pub enum ObjError {
+    /// The file could not be opened or read.
+    #[error("{path}: cannot read: {source}")]
+    Read {
+        /// The file.
+        path: String,
+        /// The I/O error.
+        source: std::io::Error,
+    },
+    /// The parser rejected a line.
+    #[error("{path}:{line}: {what} (`{text}`)")]
+    Parse {
+        /// The file.
+        path: String,
+        /// 1-based line number.
+        line: usize,
+        /// The parser's reason.
+        what: String,
+        /// The line's text.
+        text: String,
+    },
+    /// The file parsed but holds no usable triangle.
+    #[error("{path}: {why}")]
+    Content {
+        /// The file.
+        path: String,
+        /// Why.
+        why: String,
+    },
+}
+
+/// A reader that counts the lines its consumer has taken, so a parse error
+/// can name the line it happened on.
+struct LineCounter<R> {
+    inner: R,
+    newlines: usize,
+    /// The last byte taken was a newline (or nothing was taken yet).
+    at_line_start: bool,
+}
+
+impl<R> LineCounter<R> {
+    fn took(&mut self, b: &[u8]) {
+        self.newlines += b.iter().filter(|&&c| c == b'\n').count();
+        if let Some(&last) = b.last() {
+            self.at_line_start = last == b'\n';
+        }
+    }
+    /// The 1-based number of the line being read.
+    fn line(&self) -> usize {
+        if self.at_line_start {
+            self.newlines.max(1)
+        } else {
+            self.newlines + 1
+        }
+    }
+}
+
+impl<R: std::io::BufRead> std::io::Read for LineCounter<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = self.inner.read(buf)?;
+        self.took(&buf[..n]);
+        Ok(n)
+    }
+}
+
+impl<R: std::io::BufRead> std::io::BufRead for LineCounter<R> {
+    fn fill_buf(&mut self) -> std::io::Result<&[u8]> {
+        self.inner.fill_buf()
+    }
+    fn consume(&mut self, amt: usize) {
+        if let Ok(b) = self.inner.fill_buf() {
+            let taken = b[..amt.min(b.len())].to_vec();
+            self.took(&taken);
+        }
+        self.inner.consume(amt);
+    }
+}
+
+/// Load a Wavefront OBJ file with the `tobj` crate: every object merged,
+/// polygons triangulated. Normals missing from the file (or not given for
+/// every vertex) are computed as area-weighted averages of the faces
+/// around each vertex; texture coordinates, when missing, are a spherical
+/// projection about the bounding-box centre. Errors name the file, and for
+/// a parse error the line and its text.
+pub fn load_obj(path: &std::path::Path) -> Result<Mesh, ObjError> {
+    let name = path.display().to_string();
+    let bytes = std::fs::read(path).map_err(|source| ObjError::Read {
+        path: name.clone(),
+        source,
+    })?;
+    let mut rd = LineCounter {
+        inner: std::io::BufReader::new(&bytes[..]),
+        newlines: 0,
+        at_line_start: true,
+    };
+    let opts = tobj::LoadOptions {
+        triangulate: true,
+        single_index: true,
+        ..Default::default()
+    };
+    let (models, _) = tobj::load_obj_buf(&mut rd, &opts, |_| Err(tobj::LoadError::OpenFileFailed))
+        .map_err(|e| {
+            // The line being parsed is the last one consumed (or the first one
+            // not yet ended by a newline).
+            let text = String::from_utf8_lossy(&bytes);
+            let lines: Vec<&str> = text.lines().collect();
+            let line = rd.line().min(lines.len().max(1));
+            ObjError::Parse {
+                path: name.clone(),
+                line,
+                what: e.to_string(),
+                text: lines.get(line - 1).unwrap_or(&"").trim().to_string(),
+            }
+        })?;
+    let mut m = Mesh::default();
+    let mut all_normals = true;
+    let mut all_uvs = true;
+    for model in &models {
+        let me = &model.mesh;
+        let base = m.positions.len() as u32;
+        let nv = me.positions.len() / 3;
+        for k in 0..nv {
+            m.positions.push(DVec3::new(
+                me.positions[3 * k] as f64,
+                me.positions[3 * k + 1] as f64,
+                me.positions[3 * k + 2] as f64,
+            ));
+        }
+        if me.normals.len() == me.positions.len() {
+            for k in 0..nv {
+                m.normals.push(DVec3::new(
+                    me.normals[3 * k] as f64,
+                    me.normals[3 * k + 1] as f64,
+                    me.normals[3 * k + 2] as f64,
+                ));
+            }
+        } else {
+            all_normals = false;
+        }
+        if me.texcoords.len() / 2 == nv {
+            for k in 0..nv {
+                m.uvs.push(DVec2::new(
+                    me.texcoords[2 * k] as f64,
+                    me.texcoords[2 * k + 1] as f64,
+                ));
+            }
+        } else {
+            all_uvs = false;
+        }
+        for t in me.indices.chunks_exact(3) {
+            m.triangles.push([base + t[0], base + t[1], base + t[2]]);
+        }
+    }
+    if m.triangles.is_empty() {
+        return Err(ObjError::Content {
+            path: name,
+            why: "no faces: an OBJ mesh needs `f` lines".into(),
+        });
+    }
+    if let Some(p) = m.positions.iter().position(|p| !p.is_finite()) {
+        return Err(ObjError::Content {
+            path: name,
+            why: format!("vertex {} has a non-finite position", p + 1),
+        });
+    }
+    if !all_normals
+        || m.normals
+            .iter()
+            .any(|n| !n.is_finite() || n.length() < 1e-12)
+    {
+        m.normals = smooth_normals(&m);
+    } else {
+        for n in &mut m.normals {
+            *n = n.normalize();
+        }
+    }
+    if !all_uvs {
+        m.uvs = spherical_uvs(&m);
+    }
+    Ok(m)
+}
+
+/// Area-weighted vertex normals: the sum of the (unnormalized) face normals
+/// around each vertex, normalized; a vertex with no area around it gets +z.
+pub fn smooth_normals(m: &Mesh) -> Vec<DVec3> {
+    let mut acc = vec![DVec3::ZERO; m.positions.len()];
+    for t in &m.triangles {
+        let [a, b, c] = t.map(|i| m.positions[i as usize]);
+        let f = (b - a).cross(c - a);
+        for &i in t {
+            acc[i as usize] += f;
+        }
+    }
+    acc.into_iter()
+        .map(|n| n.try_normalize().unwrap_or(DVec3::Z))
+        .collect()
+}
+
+/// Texture coordinates by spherical projection about the bounding-box
+/// centre: `u` the azimuth about y, `v` the elevation, both in `[0, 1]`.
+pub fn spherical_uvs(m: &Mesh) -> Vec<DVec2> {
+    let (lo, hi) = m.positions.iter().fold(
+        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+        |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+    );
+    let c = (lo + hi) / 2.0;
+    m.positions
+        .iter()
+        .map(|p| {
+            let d = (*p - c).try_normalize().unwrap_or(DVec3::Y);
+            DVec2::new(
+                d.x.atan2(d.z) / std::f64::consts::TAU + 0.5,
+                d.y.clamp(-1.0, 1.0).asin() / std::f64::consts::PI + 0.5,
+            )
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod obj_tests {
+    use super::*;
+
+    fn load(text: &str) -> Result<Mesh, ObjError> {
+        let d = std::env::temp_dir().join(format!("fxshade-obj-{}", std::process::id()));
+        std::fs::create_dir_all(&d).unwrap();
+        let p = d.join(format!(
+            "{:x}.obj",
+            crate::vectors::fingerprint(&[text.as_bytes()])
+        ));
+        std::fs::write(&p, text).unwrap();
+        let r = load_obj(&p);
+        let _ = std::fs::remove_file(&p);
+        r
+    }
+
+    #[test]
+    fn a_tetrahedron_without_normals_gets_outward_smooth_normals() {
+        let m = load("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n")
+            .unwrap();
+        assert_eq!(m.triangles.len(), 4);
+        assert_eq!(m.normals.len(), 4);
+        // Vertex 4 (0,0,1): its faces' normals average to a direction with
+        // positive z; vertex 1 at the origin points into the negative octant.
+        assert!(m.normals[3].z > 0.5, "{:?}", m.normals[3]);
+        assert!(m.normals[0].x < 0.0 && m.normals[0].y < 0.0 && m.normals[0].z < 0.0);
+        for n in &m.normals {
+            assert!((n.length() - 1.0).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn a_bad_line_is_named_with_its_number_and_text() {
+        let e = load("v 0 0 0\nv 1 0 0\nv 0 x 0\nf 1 2 3\n").unwrap_err();
+        let s = e.to_string();
+        assert!(s.contains(":3:") && s.contains("v 0 x 0"), "{s}");
+        let e = load("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n").unwrap_err();
+        let s = e.to_string();
+        assert!(s.contains(":4:") && s.contains("f 1 2 7"), "{s}");
+        let e = load("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 q\nv 1 1 1").unwrap_err();
+        assert!(e.to_string().contains(":4:"), "{e}");
+        let e = load("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nv 1 y 1").unwrap_err();
+        assert!(e.to_string().contains(":5:"), "{e}");
+        let e = load("v 0 0 0\n").unwrap_err();
+        assert!(e.to_string().contains("no faces"), "{e}");
+    }
+}

@@ -86,6 +86,7 @@ pub static UNITS: &[&UnitEntry] = &[
     &crate::normalizer::UNIT,
     &crate::polar::UNIT,
     &crate::lighting::UNIT,
+    &crate::pipeline::UNIT,
 ];
 
 /// Map the first width error of a counting run (the root cause: later ones

@@ -12,7 +12,9 @@
 //   inputs.hex    one line per vector: {index[31:0], input data}
 //   expected.hex  one line per vector: {index[31:0], output data}
 // Plusargs: +N=<count> (from the manifest; required), +SEED=<n>,
-//   +STALL=<percent of cycles with valid or ready low>, +TRACE=<file>.
+//   +STALL=<percent of cycles with valid or ready low>, +TRACE=<file>,
+//   +DUMP=<file> (every output, in order, one hex line each: what the RTL
+//   computed, for a caller that wants the results and not only the verdict).
 //
 // A vector file shorter or longer than N lines is an error (index fields and
 // an untouched sentinel entry are checked), never a silent pass on
@@ -22,7 +24,8 @@ reg [32+IN_W-1:0]  in_mem  [0:MAXN];
 reg [32+OUT_W-1:0] exp_mem [0:MAXN];
 integer in_cycle [0:MAXN];
 integer n, stall, seed, in_idx, out_idx, passed, failed, cycle, lat_min, lat_max, i, bad, nxt, r1, r2;
-reg [8*256-1:0] trace_file;
+reg [8*256-1:0] trace_file, dump_file;
+integer dump_fd;
 
 initial begin
   clk = 1'b0;
@@ -51,6 +54,15 @@ initial begin
   if ($value$plusargs("STALL=%d", stall)) begin end
   seed = 1;
   if ($value$plusargs("SEED=%d", seed)) begin end
+  dump_fd = 0;
+  if ($value$plusargs("DUMP=%s", dump_file)) begin
+    dump_fd = $fopen(dump_file, "w");
+    if (dump_fd == 0) begin
+      $display("error: cannot open +DUMP file");
+      $display("0 passed, %0d failed", n);
+      $finish;
+    end
+  end
   if ($value$plusargs("TRACE=%s", trace_file)) begin
     $dumpfile(trace_file);
     $dumpvars(0);
@@ -102,6 +114,7 @@ always @(posedge clk) begin
     end
     // Output side: compare every transfer, in order.
     if (out_valid && out_ready) begin
+      if (dump_fd != 0) $fwrite(dump_fd, "%h\n", out_data);
       if (out_data === exp_mem[out_idx][OUT_W-1:0]) begin
         passed = passed + 1;
       end else begin
@@ -114,6 +127,7 @@ always @(posedge clk) begin
       if (out_idx + 1 == n) begin
         $display("latency %0d cycles (min), %0d (max, with stalls)", lat_min, lat_max);
         $display("cycles %0d", cycle);
+        if (dump_fd != 0) $fclose(dump_fd);
         $display("%0d passed, %0d failed", passed, failed);
         $finish;
       end

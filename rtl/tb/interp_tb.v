@@ -15,6 +15,7 @@ module interp_tb;
   wire [1:0] ovf;
   wire [OUT_W-1:0] out_data = {ovf, n_out};
 
+  wire unused_side;
   interp dut (
     .clk_i  (clk),
     .rst_ni (rst_n),
@@ -25,7 +26,9 @@ module interp_tb;
     .valid_o(out_valid),
     .ready_i(out_ready),
     .n_o    (n_out),
-    .ovf_o  (ovf)
+    .ovf_o  (ovf),
+    .side_i (1'b0),
+    .side_o (unused_side)
   );
 
   task show(input integer i, input [IN_W-1:0] in, input [OUT_W-1:0] got, input [OUT_W-1:0] want);

@@ -15,6 +15,7 @@ module normalize_tb;
   wire [3:0] ovf;
   wire [OUT_W-1:0] out_data = {ovf, n_out};
 
+  wire unused_side;
   normalize dut (
     .clk_i  (clk),
     .rst_ni (rst_n),
@@ -24,7 +25,10 @@ module normalize_tb;
     .valid_o(out_valid),
     .ready_i(out_ready),
     .n_o    (n_out),
-    .ovf_o  (ovf)
+    .ovf_o  (ovf),
+    .sel_i  ({SEL_W{1'b0}}),
+    .side_i (1'b0),
+    .side_o (unused_side)
   );
 
   task show(input integer i, input [IN_W-1:0] in, input [OUT_W-1:0] got, input [OUT_W-1:0] want);

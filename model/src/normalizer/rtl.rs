@@ -65,18 +65,10 @@ pub fn params_header(cfg: &Config) -> Result<(Normalizer, Option<Design>, Params
     t += &stage_params("H", &q.horner, true);
     t += &stage_params("G", &q.g, true);
     t += &stage_params("O", &q.out, true);
-    let cf = q.coef.format();
-    let mut coeffs = n.coeffs.clone();
-    coeffs.resize(3, 0.0);
-    for (i, c) in coeffs.iter().enumerate() {
-        let code = cf.from_f64(*c, Rounding::HalfEven)?;
-        t += &format!(
-            "localparam [C_W-1:0] COEF{i} = {}'h{:0w$x};  // {c}\n",
-            cf.width(),
-            cf.to_bits(code),
-            w = cf.hex_digits()
-        );
-    }
+    t += &coef_table(
+        q.coef.format(),
+        &[(detail_theta(&design), n.coeffs.clone())],
+    )?;
     Ok((
         n,
         design,
@@ -86,6 +78,54 @@ pub fn params_header(cfg: &Config) -> Result<(Normalizer, Option<Design>, Params
             extra: Vec::new(),
         },
     ))
+}
+
+fn detail_theta(d: &Option<Design>) -> String {
+    d.as_ref()
+        .map_or_else(|| "-".into(), |d| format!("Θ = {}", d.theta))
+}
+
+/// The coefficient table of `rtl/normalize.v`: `NSETS`, `SEL_W` and `COEFS`,
+/// the sets packed `{c2, c1, c0}` each, set 0 in the low bits. `sets` holds
+/// a label and the values (lowest power first, exactly representable in
+/// `cf`) of each set.
+pub fn coef_table(cf: Format, sets: &[(String, Vec<f64>)]) -> Result<String, RtlError> {
+    let nsets = sets.len().max(1);
+    let sel_w = (usize::BITS - (nsets - 1).leading_zeros()).max(1);
+    let mut t = format!("localparam integer NSETS = {nsets}, SEL_W = {sel_w};\n");
+    t += "// Coefficient sets, {c2, c1, c0} each, set 0 in the low bits:\n";
+    // One "c2, c1, c0" group per set; the concatenation lists set NSETS−1
+    // first, so set 0 lands in the low bits.
+    let mut groups = Vec::new();
+    for (k, (label, values)) in sets.iter().enumerate() {
+        let mut v = values.clone();
+        v.resize(3, 0.0);
+        t += &format!(
+            "//   set {k} ({label}): c0 = {}, c1 = {}, c2 = {}\n",
+            v[0], v[1], v[2]
+        );
+        let words = v
+            .iter()
+            .rev()
+            .map(|c| {
+                let code = cf.from_f64(*c, Rounding::HalfEven)?;
+                Ok(format!(
+                    "{}'h{:0w$x}",
+                    cf.width(),
+                    cf.to_bits(code),
+                    w = cf.hex_digits()
+                ))
+            })
+            .collect::<Result<Vec<_>, RtlError>>()?;
+        groups.push(words.join(", "));
+    }
+    groups.reverse();
+    let ordered = groups;
+    t += &format!(
+        "localparam [NSETS*3*C_W-1:0] COEFS = {{{}}};\n",
+        ordered.join(", ")
+    );
+    Ok(t)
 }
 
 /// Inputs with known answers: equiangular triangles (centroid: smallest d;

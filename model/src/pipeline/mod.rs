@@ -1,0 +1,685 @@
+//! The whole per-pixel shading pipeline: the three methods chained, with the
+//! lighting unit at the end, on two paths.
+//!
+//! ## Smooth path (methods A and C)
+//! ```text
+//! set-up, per triangle: unit vertex normals -> midpoint normals (interp::setup),
+//!                       cos φ -> Θ of the ladder -> coefficient set `sel`
+//! per pixel:  N  = interp(c1, c2; N1, N2, N3, N12, N23, N31)      Q_interp.out
+//!             N  = Q_normalize.normal(N)                         (port)
+//!             N' = normalize[sel](N)                             Q_normalize.out
+//!             N' = Q_lighting.normal(N')                         (port)
+//!             level = shade(N', L, H)                            Q_lighting.level
+//! ```
+//! The normalizer's coefficient sets are designed once, one per Θ of
+//! [`THETA_LADDER`], each on the range of `d` that the configured
+//! interpolation scheme produces over triangles meeting that Θ
+//! ([`crate::interp::quadratic_d_range`], with `normalize.interval =
+//! "triangle"`), or on the paper's edge interval (`"edge"`). A triangle
+//! whose `cos φ` is below every Θ of the ladder (`cos φ < 0`) uses the Θ = 0
+//! set and is counted as outside the ladder.
+//!
+//! ## Mapped path (method B)
+//! The polar transform needs the angles of N, L and H at every pixel. fxshade
+//! takes them without any per-pixel arcsine or arctangent:
+//!
+//! * `L` (directional light) and `H = (L + V)/|L + V|` (orthographic viewer)
+//!   are constant over the frame: their angles are set up once per frame;
+//! * the angles of `N` are set up once per **vertex** (`α = asin y`,
+//!   `β = atan2(x, z)`, in the angle format `U0F<k>`), and interpolated
+//!   linearly with the barycentrics, relative to vertex 3:
+//!
+//! ```text
+//! set-up:    Δα_i = wrap(α_i − α_3),  Δβ_i = wrap(β_i − β_3)    i = 1, 2   (I0F<k>)
+//! per pixel: α = Q_angle(α_3 + c1·Δα_1 + c2·Δα_2)                           (U0F<k>, wraps)
+//!            β = Q_angle(β_3 + c1·Δβ_1 + c2·Δβ_2)
+//! ```
+//!
+//! `wrap` takes the difference modulo a turn into `[−½, ½)`: the two's
+//! complement reading of the `k`-bit difference, so the wrap of `β` at ±180°
+//! costs nothing and a triangle straddling the seam interpolates across it,
+//! not around the long way. Then
+//!
+//! ```text
+//!             L' = polar(α_L, β_L; α, β),  H' = polar(α_H, β_H; α, β)    Q_polar.out
+//!             level = shade(n, Q_light(L'), Q_light(H'))              n: normal-map texel
+//! ```
+//!
+//! The cost of this choice (against angles of the exactly interpolated and
+//! normalized normal at every pixel) is measured by the renderer as the
+//! `angle_interp` error; it is largest on triangles at the poles of the
+//! y axis, where `β` is undefined and its interpolation meaningless.
+
+use glam::DVec3;
+
+use crate::config::{Config, ConfigError, FieldDecl, FieldKind, UnitDecl};
+use crate::datapath::{CompileError, Compiled, Count, Datapath, Trace};
+use crate::format::{ConvertError, Format};
+use crate::interp::{self, Interp, Scheme, SetupError, THETA_LADDER};
+use crate::lighting::{Lighting, LightingError};
+use crate::normalizer::{self, Design, DesignError, Interval, Method, Normalizer};
+use crate::polar::{Polar, PolarError};
+use crate::quantize::{Overflow, Quant, Rounding};
+use crate::units::{width_errors, OpReport, Phase, UnitEntry};
+
+pub mod rtl;
+
+/// The `[pipeline]` configuration section.
+pub static DECL: UnitDecl = UnitDecl {
+    name: "pipeline",
+    doc: "the chained pipeline: smooth path interp → normalize → lighting; mapped path angles → polar → lighting",
+    fields: &[
+        FieldDecl {
+            name: "angle",
+            kind: FieldKind::Stage,
+            doc: "interpolated polar angles of N (mapped path): U0F<polar.angle_bits>, wrap; the rounding is yours",
+        },
+        FieldDecl {
+            name: "path",
+            kind: FieldKind::Choice(&["smooth", "mapped"]),
+            doc: "which path the RTL top (rtl/pipeline.v) implements and `fxshade vectors pipeline` generates",
+        },
+    ],
+};
+
+/// The registry entry.
+pub static UNIT: UnitEntry = UnitEntry {
+    decl: &DECL,
+    check,
+    ops,
+};
+
+/// Which path.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Path {
+    /// Interpolated normal, normalized, lit.
+    Smooth,
+    /// Normal-map normal, light and half vectors by the polar transform.
+    Mapped,
+}
+
+impl Path {
+    /// Parse a name.
+    pub fn from_name(s: &str) -> Option<Path> {
+        [Path::Smooth, Path::Mapped]
+            .into_iter()
+            .find(|p| p.name() == s)
+    }
+    /// Name.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Path::Smooth => "smooth",
+            Path::Mapped => "mapped",
+        }
+    }
+}
+
+/// Why a pipeline could not be built.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum PipelineError {
+    /// A normalizer could not be designed.
+    #[error(transparent)]
+    Design(#[from] DesignError),
+    /// The polar section is unusable.
+    #[error(transparent)]
+    Polar(#[from] PolarError),
+    /// The lighting stage failed.
+    #[error(transparent)]
+    Lighting(#[from] LightingError),
+    /// A datapath is too wide.
+    #[error(transparent)]
+    Compile(#[from] CompileError),
+    /// A constant could not be converted.
+    #[error(transparent)]
+    Convert(#[from] ConvertError),
+    /// The angle stage does not match the polar angle format.
+    #[error("pipeline.angle: {0}")]
+    Angle(String),
+}
+
+/// The pipeline of a configuration, with one normalizer per Θ of the ladder.
+#[derive(Clone, Debug)]
+pub struct Pipeline {
+    /// The interpolator.
+    pub interp: Interp,
+    /// The normalizer's method.
+    pub method: Method,
+    /// One normalizer per Θ of [`THETA_LADDER`] (same formats; coefficients
+    /// designed for that Θ where the method has any).
+    pub sets: Vec<Normalizer>,
+    /// How each set's coefficients were designed.
+    pub designs: Vec<Option<Design>>,
+    /// The polar transform.
+    pub polar: Polar,
+    /// The lighting unit.
+    pub light: Lighting,
+    /// The interpolated angle (`U0F<k>`, wraps).
+    pub angle: Quant,
+    /// Set-up angle differences (`I0F<k>`, wraps).
+    pub delta: Quant,
+}
+
+/// The `d` interval a set is fitted on.
+fn fit_interval(kind: Interval, theta: f64, scheme: Scheme) -> (f64, f64) {
+    match kind {
+        Interval::Edge => kind.bounds(theta),
+        Interval::Triangle => interp::quadratic_d_range(theta, scheme),
+    }
+}
+
+impl Pipeline {
+    /// The pipeline of `cfg` with the configured normalizer method.
+    pub fn from_config(cfg: &Config) -> Result<Pipeline, PipelineError> {
+        let m =
+            Method::from_name(cfg.unit(normalizer::DECL.name).choice("method")).expect("declared");
+        Self::with_method(cfg, m)
+    }
+
+    /// The pipeline of `cfg` with normalizer method `method`.
+    pub fn with_method(cfg: &Config, method: Method) -> Result<Pipeline, PipelineError> {
+        let interp = Interp::from_config(cfg.unit(interp::DECL.name));
+        let nu = cfg.unit(normalizer::DECL.name);
+        let stages = Normalizer::stages(nu);
+        let fit = crate::coeffs::Fit::from_name(nu.choice("fit")).expect("declared");
+        let kind = Interval::from_name(nu.choice("interval")).expect("declared");
+        let search = nu.choice("coef_quant") == "search";
+        let mut sets = Vec::new();
+        let mut designs = Vec::new();
+        for &theta in &THETA_LADDER {
+            let (n, d) = normalizer::design_interval(
+                method,
+                stages,
+                theta,
+                fit,
+                kind,
+                fit_interval(kind, theta, interp.scheme),
+                search,
+            )?;
+            sets.push(n);
+            designs.push(d);
+        }
+        let polar = Polar::from_config(cfg.unit(crate::polar::DECL.name))?;
+        let light = Lighting::from_config(cfg.unit(crate::lighting::DECL.name));
+        let angle = cfg.unit(DECL.name).stage("angle");
+        let want = polar.angle.format();
+        if angle.format() != want {
+            return Err(PipelineError::Angle(format!(
+                "format {} must be the polar angle format {want} (polar.angle_bits)",
+                angle.format()
+            )));
+        }
+        if angle.overflow() != Overflow::Wrap {
+            return Err(PipelineError::Angle(
+                "overflow must be \"wrap\": angles wrap around a turn".into(),
+            ));
+        }
+        let k = want.width();
+        let delta = Quant::new(
+            "delta",
+            Format::new(true, k, k as i32).expect("1..=24 bits"),
+            Rounding::Trunc,
+            Overflow::Wrap,
+        );
+        Ok(Pipeline {
+            interp,
+            method,
+            sets,
+            designs,
+            polar,
+            light,
+            angle,
+            delta,
+        })
+    }
+
+    /// The coefficient set for a triangle of Θ `theta` (from
+    /// [`interp::setup`]); `None` (cos φ < 0) takes the Θ = 0 set.
+    pub fn set_of(theta: Option<f64>) -> usize {
+        theta
+            .and_then(|t| THETA_LADDER.iter().position(|&x| x == t))
+            .unwrap_or(0)
+    }
+
+    /// The smooth path for one pixel: `c1, c2` in the bary format, `v` the
+    /// six vertex and midpoint normals in the vertex format, `l` and `h` in
+    /// the lighting `light` format; `set` picks the normalizer.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    pub fn smooth<C: Datapath>(
+        &self,
+        cx: &mut C,
+        set: usize,
+        k: &SmoothConsts<C::V>,
+        c1: C::V,
+        c2: C::V,
+        v: &[[C::V; 3]; 6],
+        l: [C::V; 3],
+        h: [C::V; 3],
+    ) -> C::V {
+        let nz = &self.sets[set];
+        let n = self.interp.eval(cx, k.one, c1, c2, v);
+        let n = cx.quantize3(n, &nz.q.normal);
+        let n = nz.eval(cx, &k.norm[set], n);
+        let n = cx.quantize3(n, &self.light.normal);
+        self.light.shade(cx, &k.light, n, l, h)
+    }
+
+    /// One interpolated angle: `Q_angle(a3 + c1·Δ1 + c2·Δ2)`.
+    #[inline]
+    pub fn angle_of<C: Datapath>(&self, cx: &mut C, c1: C::V, c2: C::V, a: [C::V; 3]) -> C::V {
+        let p = cx.mul(c1, a[1]);
+        let s = cx.add(a[0], p);
+        let s = cx.mul_add(c2, a[2], s);
+        cx.quantize(s, &self.angle)
+    }
+
+    /// The mapped path for one pixel: `c1, c2` in the bary format; `a` and
+    /// `b` the set-up angles of N (`[α3, Δα1, Δα2]`, `[β3, Δβ1, Δβ2]`);
+    /// `lh` the angles `[α_L, β_L, α_H, β_H]`; `n` the normal-map texel in the
+    /// lighting `normal` format.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    pub fn mapped<C: Datapath>(
+        &self,
+        cx: &mut C,
+        k: &crate::lighting::Consts<C::V>,
+        c1: C::V,
+        c2: C::V,
+        a: [C::V; 3],
+        b: [C::V; 3],
+        lh: [C::V; 4],
+        n: [C::V; 3],
+    ) -> C::V {
+        let an = self.angle_of(cx, c1, c2, a);
+        let bn = self.angle_of(cx, c1, c2, b);
+        let l = self.polar.transform(cx, lh[0], lh[1], an, bn);
+        let h = self.polar.transform(cx, lh[2], lh[3], an, bn);
+        let l = cx.quantize3(l, &self.light.light);
+        let h = cx.quantize3(h, &self.light.light);
+        self.light.shade(cx, k, n, l, h)
+    }
+
+    /// Constants of the smooth path in a context.
+    pub fn smooth_consts<C: Datapath>(
+        &self,
+        cx: &mut C,
+    ) -> Result<SmoothConsts<C::V>, ConvertError> {
+        Ok(SmoothConsts {
+            one: cx.constant(1.0, &self.interp.bary)?,
+            norm: self
+                .sets
+                .iter()
+                .map(|n| n.consts(cx))
+                .collect::<Result<_, _>>()?,
+            light: self.light.consts(cx)?,
+        })
+    }
+
+    /// The smooth path compiled for batches, for coefficient set `set`:
+    /// inputs c1, c2, the 18 vertex components, L (3), H (3); output the level.
+    pub fn compile_smooth(&self, set: usize) -> Result<Compiled, PipelineError> {
+        let mut tr = Trace::new();
+        let c1 = tr.input(&self.interp.bary);
+        let c2 = tr.input(&self.interp.bary);
+        let v: [[_; 3]; 6] =
+            std::array::from_fn(|_| std::array::from_fn(|_| tr.input(&self.interp.vertex)));
+        let l = [0; 3].map(|_| tr.input(&self.light.light));
+        let h = [0; 3].map(|_| tr.input(&self.light.light));
+        let k = self.smooth_consts(&mut tr)?;
+        let out = self.smooth(&mut tr, set, &k, c1, c2, &v, l, h);
+        Ok(Compiled::compile(&tr, &[out])?)
+    }
+
+    /// The mapped path compiled for batches: inputs c1, c2, α3, Δα1, Δα2,
+    /// β3, Δβ1, Δβ2, α_L, β_L, α_H, β_H, the texel (3); output the level.
+    pub fn compile_mapped(&self) -> Result<Compiled, PipelineError> {
+        let mut tr = Trace::new();
+        let (c1, c2, a, b, lh, n, k) = self.mapped_inputs(&mut tr)?;
+        let out = self.mapped(&mut tr, &k, c1, c2, a, b, lh, n);
+        Ok(Compiled::compile(&tr, &[out])?)
+    }
+
+    #[allow(clippy::type_complexity)]
+    fn mapped_inputs(
+        &self,
+        tr: &mut Trace,
+    ) -> Result<
+        (
+            crate::datapath::TV,
+            crate::datapath::TV,
+            [crate::datapath::TV; 3],
+            [crate::datapath::TV; 3],
+            [crate::datapath::TV; 4],
+            [crate::datapath::TV; 3],
+            crate::lighting::Consts<crate::datapath::TV>,
+        ),
+        PipelineError,
+    > {
+        let c1 = tr.input(&self.interp.bary);
+        let c2 = tr.input(&self.interp.bary);
+        let a = [
+            tr.input(&self.angle),
+            tr.input(&self.delta),
+            tr.input(&self.delta),
+        ];
+        let b = [
+            tr.input(&self.angle),
+            tr.input(&self.delta),
+            tr.input(&self.delta),
+        ];
+        let lh = [0; 4].map(|_| tr.input(&self.angle));
+        let n = [0; 3].map(|_| tr.input(&self.light.normal));
+        let k = self.light.consts(tr)?;
+        Ok((c1, c2, a, b, lh, n, k))
+    }
+
+    /// Counting runs of the two paths, per pixel.
+    pub fn count(&self, path: Path) -> Result<Count, ConvertError> {
+        let mut cx = Count::new();
+        let c = cx.constant(0.0, &self.interp.bary)?;
+        match path {
+            Path::Smooth => {
+                let k = self.smooth_consts(&mut cx)?;
+                let v = [[cx.constant(0.0, &self.interp.vertex)?; 3]; 6];
+                let l = [cx.constant(0.0, &self.light.light)?; 3];
+                self.smooth(&mut cx, 0, &k, c, c, &v, l, l);
+            }
+            Path::Mapped => {
+                let k = self.light.consts(&mut cx)?;
+                let a0 = cx.constant(0.0, &self.angle)?;
+                let d0 = cx.constant(0.0, &self.delta)?;
+                let n = [cx.constant(0.0, &self.light.normal)?; 3];
+                self.mapped(&mut cx, &k, c, c, [a0, d0, d0], [a0, d0, d0], [a0; 4], n);
+            }
+        }
+        Ok(cx)
+    }
+
+    /// Set up a triangle for the smooth path: vertex and midpoint normals as
+    /// vertex-format codes, the coefficient set, and the set-up triangle.
+    pub fn setup_smooth(&self, n: [DVec3; 3]) -> Result<SmoothTri, SetupError> {
+        let t = interp::setup(n)?;
+        let q = &self.interp.vertex;
+        let code = |x: f64| q.apply_f64(x).map(|r| r.code).unwrap_or(0);
+        let all = [t.n[0], t.n[1], t.n[2], t.mid[0], t.mid[1], t.mid[2]];
+        Ok(SmoothTri {
+            v: all.map(|p| [code(p.x), code(p.y), code(p.z)]),
+            set: Self::set_of(t.theta),
+            tri: t,
+        })
+    }
+
+    /// Angle codes (`U0F<k>`) of a unit vector: `(α, β)` of
+    /// [`crate::polar::angles_of`], quantized and wrapped by the angle stage.
+    pub fn angle_codes(&self, v: DVec3) -> (i128, i128) {
+        let (a, b) = crate::polar::angles_of(v);
+        let code = |x: f64| self.angle.apply_f64(x).map(|r| r.code).unwrap_or(0);
+        (code(a), code(b))
+    }
+
+    /// Set up a triangle for the mapped path: `[α3, Δα1, Δα2]` and
+    /// `[β3, Δβ1, Δβ2]` from the vertex normals' angles.
+    pub fn setup_mapped(&self, n: [DVec3; 3]) -> MappedTri {
+        let k = self.angle.format().width();
+        let codes = n.map(|v| self.angle_codes(v));
+        let wrap = |d: i128| {
+            let m = 1i128 << k;
+            let d = d.rem_euclid(m);
+            if d >= m / 2 {
+                d - m
+            } else {
+                d
+            }
+        };
+        let pack = |f: fn(&(i128, i128)) -> i128| {
+            let x3 = f(&codes[2]);
+            [x3, wrap(f(&codes[0]) - x3), wrap(f(&codes[1]) - x3)]
+        };
+        MappedTri {
+            a: pack(|c| c.0),
+            b: pack(|c| c.1),
+        }
+    }
+}
+
+/// Bits of the coefficient-set index `sel` (enough for [`THETA_LADDER`]).
+pub const SEL_BITS: u32 = 3;
+
+impl Pipeline {
+    /// The per-pixel input fields of `path`, in the order of the rows
+    /// [`Pipeline::run_rows`] takes and the RTL top's input port packs,
+    /// most significant first.
+    pub fn fields(&self, path: Path) -> Vec<crate::vectors::Field> {
+        use crate::vectors::Field;
+        let fb = self.interp.bary.format();
+        let mut f = Vec::new();
+        match path {
+            Path::Smooth => {
+                f.push(Field::new(
+                    "sel",
+                    Format::new(false, SEL_BITS, 0).expect("valid"),
+                ));
+                f.push(Field::new("c1", fb));
+                f.push(Field::new("c2", fb));
+                let fv = self.interp.vertex.format();
+                for v in ["n1", "n2", "n3", "n12", "n23", "n31"] {
+                    for c in ["x", "y", "z"] {
+                        f.push(Field::new(&format!("{v}{c}"), fv));
+                    }
+                }
+                let fl = self.light.light.format();
+                for v in ["l", "h"] {
+                    for c in ["x", "y", "z"] {
+                        f.push(Field::new(&format!("{v}{c}"), fl));
+                    }
+                }
+            }
+            Path::Mapped => {
+                f.push(Field::new("c1", fb));
+                f.push(Field::new("c2", fb));
+                let (fa, fd) = (self.angle.format(), self.delta.format());
+                for v in ["a", "b"] {
+                    f.push(Field::new(&format!("{v}3"), fa));
+                    f.push(Field::new(&format!("d{v}1"), fd));
+                    f.push(Field::new(&format!("d{v}2"), fd));
+                }
+                for v in ["al", "bl", "ah", "bh"] {
+                    f.push(Field::new(v, fa));
+                }
+                let fnm = self.light.normal.format();
+                for c in ["x", "y", "z"] {
+                    f.push(Field::new(&format!("n{c}"), fnm));
+                }
+            }
+        }
+        f
+    }
+
+    /// The set a `sel` code reads: codes past the last set read set 0, as
+    /// the RTL's padded coefficient table does.
+    pub fn set_code(&self, sel: i128) -> usize {
+        if (0..self.sets.len() as i128).contains(&sel) {
+            sel as usize
+        } else {
+            0
+        }
+    }
+
+    /// Run the bit-accurate pipeline on rows of input codes (fields as
+    /// [`Pipeline::fields`]); the levels, in row order. Smooth rows are
+    /// grouped by their coefficient set, each group run through that set's
+    /// compiled program.
+    pub fn run_rows(&self, path: Path, rows: &[Vec<i128>]) -> Result<Vec<i128>, PipelineError> {
+        let width = self.fields(path).len();
+        let mut out = vec![0i128; rows.len()];
+        let groups: Vec<(Option<usize>, Vec<usize>)> = match path {
+            Path::Mapped => vec![(None, (0..rows.len()).collect())],
+            Path::Smooth => {
+                let mut g = vec![Vec::new(); self.sets.len()];
+                for (i, r) in rows.iter().enumerate() {
+                    let set = self.set_code(r[0]);
+                    g[set].push(i);
+                }
+                g.into_iter()
+                    .enumerate()
+                    .filter(|(_, v)| !v.is_empty())
+                    .map(|(s, v)| (Some(s), v))
+                    .collect()
+            }
+        };
+        for (set, idx) in groups {
+            let (prog, skip) = match set {
+                Some(s) => (self.compile_smooth(s)?, 1),
+                None => (self.compile_mapped()?, 0),
+            };
+            let cols: Vec<Vec<i128>> = (skip..width)
+                .map(|k| idx.iter().map(|&i| rows[i][k]).collect())
+                .collect();
+            let refs: Vec<&[i128]> = cols.iter().map(|c| c.as_slice()).collect();
+            let (res, _) = prog.run_i128(&refs);
+            for (j, &i) in idx.iter().enumerate() {
+                out[i] = res[0][j];
+            }
+        }
+        Ok(out)
+    }
+
+    /// The scalar fixed-point run of one row (the readable specification the
+    /// compiled run is tested against).
+    pub fn eval_row(&self, path: Path, row: &[i128]) -> Result<i128, PipelineError> {
+        use crate::datapath::{Fixed, Fx};
+        let mut fx = Fixed::<i128>::new();
+        let f = self.fields(path);
+        let v = |k: usize| Fx::<i128>::from_code(row[k], f[k].format);
+        Ok(match path {
+            Path::Smooth => {
+                let k = self.smooth_consts(&mut fx)?;
+                let set = self.set_code(row[0]);
+                let vv: [[Fx; 3]; 6] =
+                    std::array::from_fn(|i| std::array::from_fn(|c| v(3 + 3 * i + c)));
+                let l = [v(21), v(22), v(23)];
+                let h = [v(24), v(25), v(26)];
+                self.smooth(&mut fx, set, &k, v(1), v(2), &vv, l, h).code()
+            }
+            Path::Mapped => {
+                let k = self.light.consts(&mut fx)?;
+                self.mapped(
+                    &mut fx,
+                    &k,
+                    v(0),
+                    v(1),
+                    [v(2), v(3), v(4)],
+                    [v(5), v(6), v(7)],
+                    [v(8), v(9), v(10), v(11)],
+                    [v(12), v(13), v(14)],
+                )
+                .code()
+            }
+        })
+    }
+}
+
+/// Constants of the smooth path.
+#[derive(Clone, Debug)]
+pub struct SmoothConsts<V> {
+    /// 1 in the bary format.
+    pub one: V,
+    /// Each set's normalizer constants.
+    pub norm: Vec<normalizer::Consts<V>>,
+    /// The lighting constants.
+    pub light: crate::lighting::Consts<V>,
+}
+
+/// A triangle set up for the smooth path.
+#[derive(Clone, Copy, Debug)]
+pub struct SmoothTri {
+    /// `N1, N2, N3, N12, N23, N31` as vertex-format codes.
+    pub v: [[i128; 3]; 6],
+    /// The coefficient set (index into [`THETA_LADDER`]).
+    pub set: usize,
+    /// The exact set-up.
+    pub tri: interp::Triangle,
+}
+
+/// A triangle set up for the mapped path.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MappedTri {
+    /// `[α3, Δα1, Δα2]`: an angle code and two delta codes.
+    pub a: [i128; 3],
+    /// `[β3, Δβ1, Δβ2]`.
+    pub b: [i128; 3],
+}
+
+fn check(cfg: &Config) -> Result<(), Vec<ConfigError>> {
+    let u = cfg.unit(DECL.name);
+    // Formats only: designing coefficients here would make every config
+    // load slow; a design failure surfaces where the pipeline is built.
+    let polar = match Polar::from_config(cfg.unit(crate::polar::DECL.name)) {
+        Ok(p) => p,
+        Err(_) => return Ok(()), // reported by the polar section's own check
+    };
+    if let Ok(p) = Pipeline::with_method(cfg, Method::None) {
+        for path in [Path::Smooth, Path::Mapped] {
+            if let Ok(cx) = p.count(path) {
+                width_errors(&cx, u)?;
+            }
+        }
+    }
+    let a = u.stage("angle");
+    if a.format() != polar.angle.format() {
+        return Err(vec![crate::config::field_error(
+            u,
+            "angle",
+            format!(
+                "format {} must be the polar angle format {} (polar.angle_bits)",
+                a.format(),
+                polar.angle.format()
+            ),
+        )]);
+    }
+    if a.overflow() != Overflow::Wrap {
+        return Err(vec![crate::config::field_error(
+            u,
+            "angle",
+            "overflow must be \"wrap\": angles wrap around a turn".into(),
+        )]);
+    }
+    Ok(())
+}
+
+fn ops(cfg: &Config) -> Vec<OpReport> {
+    ops_for(cfg).unwrap_or_default()
+}
+
+/// Counting runs, per pixel: the smooth path with each normalizer the RTL
+/// implements (linear and quadratic `g`), and the mapped path.
+pub fn ops_for(cfg: &Config) -> Result<Vec<OpReport>, PipelineError> {
+    let mut v = Vec::new();
+    let smooth_methods = [Method::Linear, Method::Quadratic];
+    for m in smooth_methods {
+        let p = Pipeline::with_method(cfg, m)?;
+        let cx = p.count(Path::Smooth)?;
+        let name = if m == Method::Linear {
+            "smooth, linear g"
+        } else {
+            "smooth, quadratic g"
+        };
+        v.push(OpReport::from_count(
+            DECL.name,
+            name,
+            Phase::Pixel,
+            &cx,
+            None,
+        ));
+    }
+    let p = Pipeline::with_method(cfg, Method::None)?;
+    v.push(OpReport::from_count(
+        DECL.name,
+        "mapped",
+        Phase::Pixel,
+        &p.count(Path::Mapped)?,
+        None,
+    ));
+    Ok(v)
+}

@@ -1,0 +1,501 @@
+//! The renderer: rasterize a mesh with barycentric coordinates, run the
+//! bit-accurate pipeline on every covered pixel, and measure the image
+//! against an f64 reference.
+//!
+//! ## Scene
+//! The mesh is centred on its bounding box, scaled to radius 1, turned
+//! [`TILT_DEG`] about x (so the pole of a y-axis sphere and the hole of a
+//! torus are in view), and projected orthographically along −z onto the
+//! image (radius 1 → 45 % of the smaller side). The viewer direction is
+//! `V = +z`, the light `L` is [`LIGHT`] (normalized); both are constant, so
+//! `H = (L + V)/|L + V|` is too. A z-buffer keeps the nearest triangle per
+//! pixel centre; a pixel on a shared edge belongs to the first triangle
+//! drawn at that depth.
+//!
+//! ## What is compared
+//! * smooth path: the reference is
+//!   `255·(I0·km·max(0, N·L) + I0·ks·max(0, N·H)^n)` clipped to `[0, 255]`, with
+//!   `N` the configured interpolation scheme's field at the pixel's exact
+//!   barycentrics, normalized in f64 (glam), independent of the datapath code;
+//! * mapped path: the same lighting with the normal-map texel `n` and
+//!   `L' = (L·T, L·B, L·N)` in the implied frame of that exact `N`
+//!   ([`crate::polar::reference`], with `α`, `β` by `asin`/`atan2` at the pixel);
+//! * the cost of interpolating the angles (the pipeline's choice) is the
+//!   difference between that reference and the same f64 computation with
+//!   angles interpolated as the pipeline does (`angle_interp`).
+//!
+//! Errors are in 8-bit levels against the reference rounded to the nearest
+//! level (the reference image).
+
+use glam::{DVec2, DVec3};
+
+use crate::config::Config;
+use crate::interp::{self, Scheme, THETA_LADDER};
+use crate::mesh::Mesh;
+use crate::normalizer::Method;
+use crate::pipeline::{Path, Pipeline, PipelineError};
+
+/// Tilt of the mesh about x, in degrees (towards the viewer at the top).
+pub const TILT_DEG: f64 = 30.0;
+/// The light direction (normalized before use).
+pub const LIGHT: [f64; 3] = [-0.45, 0.6, 0.66];
+/// The reference intensity below which the relative-error bound is not
+/// judged: below 12.75 levels (5 % of full scale) the 8-bit rounding alone
+/// (half a level) exceeds 4 %.
+pub const REL_FLOOR_LEVELS: f64 = 12.75;
+/// The paper's visual-identity bound on the relative intensity error.
+pub const PAPER_BOUND: f64 = 0.04;
+
+/// A method the renderer runs: a normalizer on the smooth path, or the
+/// mapped path.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RenderMethod {
+    /// Smooth path with this normalizer.
+    Smooth(Method),
+    /// Mapped path (normal map, polar transform).
+    Mapped,
+}
+
+impl RenderMethod {
+    /// Every method, smooth ones first.
+    pub const ALL: [RenderMethod; 7] = [
+        RenderMethod::Smooth(Method::Exact),
+        RenderMethod::Smooth(Method::None),
+        RenderMethod::Smooth(Method::Newton),
+        RenderMethod::Smooth(Method::Taylor),
+        RenderMethod::Smooth(Method::Linear),
+        RenderMethod::Smooth(Method::Quadratic),
+        RenderMethod::Mapped,
+    ];
+    /// The methods the RTL top implements.
+    pub const RTL: [RenderMethod; 3] = [
+        RenderMethod::Smooth(Method::Linear),
+        RenderMethod::Smooth(Method::Quadratic),
+        RenderMethod::Mapped,
+    ];
+    /// Name (`exact`, …, `quadratic`, `mapped`).
+    pub fn name(self) -> &'static str {
+        match self {
+            RenderMethod::Smooth(m) => m.name(),
+            RenderMethod::Mapped => "mapped",
+        }
+    }
+    /// Parse a name.
+    pub fn from_name(s: &str) -> Option<RenderMethod> {
+        Self::ALL.into_iter().find(|m| m.name() == s)
+    }
+    /// The path.
+    pub fn path(self) -> Path {
+        match self {
+            RenderMethod::Smooth(_) => Path::Smooth,
+            RenderMethod::Mapped => Path::Mapped,
+        }
+    }
+}
+
+/// One covered pixel.
+#[derive(Clone, Copy, Debug)]
+pub struct Fragment {
+    /// Pixel index `y·width + x`.
+    pub pixel: usize,
+    /// Triangle index.
+    pub tri: usize,
+    /// Exact barycentrics at the pixel centre.
+    pub c: [f64; 3],
+    /// Interpolated texture coordinates.
+    pub uv: DVec2,
+}
+
+/// A rasterized mesh.
+#[derive(Clone, Debug)]
+pub struct Raster {
+    /// Width in pixels.
+    pub width: usize,
+    /// Height in pixels.
+    pub height: usize,
+    /// Covered pixels, in pixel order.
+    pub fragments: Vec<Fragment>,
+    /// Vertex normals after the scene transform.
+    pub normals: Vec<DVec3>,
+}
+
+/// The scene transform of a direction: the tilt about x.
+fn tilt(v: DVec3) -> DVec3 {
+    let (s, c) = TILT_DEG.to_radians().sin_cos();
+    DVec3::new(v.x, c * v.y - s * v.z, s * v.y + c * v.z)
+}
+
+/// Rasterize `m` at `width × height` (see the module page for the scene).
+pub fn rasterize(m: &Mesh, width: usize, height: usize) -> Raster {
+    let (lo, hi) = m.positions.iter().fold(
+        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+        |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+    );
+    let centre = (lo + hi) / 2.0;
+    let radius = m
+        .positions
+        .iter()
+        .map(|p| (*p - centre).length())
+        .fold(0.0, f64::max)
+        .max(1e-300);
+    let scale = 0.45 * width.min(height) as f64 / radius;
+    let screen: Vec<DVec3> = m
+        .positions
+        .iter()
+        .map(|p| {
+            let q = tilt(*p - centre);
+            DVec3::new(
+                width as f64 / 2.0 + q.x * scale,
+                height as f64 / 2.0 - q.y * scale,
+                q.z,
+            )
+        })
+        .collect();
+    let mut depth = vec![f64::NEG_INFINITY; width * height];
+    let mut owner: Vec<Option<Fragment>> = vec![None; width * height];
+    for (ti, t) in m.triangles.iter().enumerate() {
+        let [p0, p1, p2] = t.map(|i| screen[i as usize]);
+        let area = (p1.x - p0.x) * (p2.y - p0.y) - (p2.x - p0.x) * (p1.y - p0.y);
+        if area.abs() < 1e-12 {
+            continue;
+        }
+        let x0 = p0.x.min(p1.x).min(p2.x).floor().max(0.0) as usize;
+        let x1 = (p0.x.max(p1.x).max(p2.x).ceil() as isize).clamp(0, width as isize) as usize;
+        let y0 = p0.y.min(p1.y).min(p2.y).floor().max(0.0) as usize;
+        let y1 = (p0.y.max(p1.y).max(p2.y).ceil() as isize).clamp(0, height as isize) as usize;
+        for y in y0..y1 {
+            for x in x0..x1 {
+                let (px, py) = (x as f64 + 0.5, y as f64 + 0.5);
+                let e = |a: DVec3, b: DVec3| (b.x - a.x) * (py - a.y) - (px - a.x) * (b.y - a.y);
+                let w0 = e(p1, p2) / area;
+                let w1 = e(p2, p0) / area;
+                let w2 = 1.0 - w0 - w1;
+                if w0 < 0.0 || w1 < 0.0 || w2 < 0.0 {
+                    continue;
+                }
+                let z = w0 * p0.z + w1 * p1.z + w2 * p2.z;
+                let k = y * width + x;
+                if z > depth[k] {
+                    depth[k] = z;
+                    let uv = if m.uvs.len() == m.positions.len() {
+                        m.uvs[t[0] as usize] * w0
+                            + m.uvs[t[1] as usize] * w1
+                            + m.uvs[t[2] as usize] * w2
+                    } else {
+                        DVec2::ZERO
+                    };
+                    owner[k] = Some(Fragment {
+                        pixel: k,
+                        tri: ti,
+                        c: [w0, w1, w2],
+                        uv,
+                    });
+                }
+            }
+        }
+    }
+    Raster {
+        width,
+        height,
+        fragments: owner.into_iter().flatten().collect(),
+        normals: m.normals.iter().map(|n| tilt(*n)).collect(),
+    }
+}
+
+/// The procedural normal map, in the polar transform's implied tangent
+/// frame (x along `T`, y along `B`): the normal of the height field
+/// `h = A·sin(2π·8u)·sin(2π·4v)`, sampled at texel centres of a 256 × 128
+/// texture (nearest texel, wrapping).
+pub fn normal_map(uv: DVec2) -> DVec3 {
+    const W: f64 = 256.0;
+    const H: f64 = 128.0;
+    let tu = ((uv.x * W).floor().rem_euclid(W) + 0.5) / W;
+    let tv = ((uv.y * H).floor().rem_euclid(H) + 0.5) / H;
+    let (a, b) = (
+        std::f64::consts::TAU * 8.0 * tu,
+        std::f64::consts::TAU * 4.0 * tv,
+    );
+    let s = 0.5;
+    DVec3::new(-s * a.cos() * b.sin(), -s * a.sin() * b.cos(), 1.0).normalize()
+}
+
+/// The lighting in f64: `255·(km·max(0, n·l) + ks·max(0, n·h)^e)`, clipped.
+pub fn shade_f64(cfg_light: &crate::lighting::Lighting, n: DVec3, l: DVec3, h: DVec3) -> f64 {
+    let d = n.dot(l).max(0.0);
+    let s = n.dot(h).max(0.0).powi(cfg_light.shininess as i32);
+    (crate::lighting::LEVELS * (cfg_light.i0_km * d + cfg_light.i0_ks * s)).clamp(0.0, 255.0)
+}
+
+/// Image metrics of one method against its reference.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct Metrics {
+    /// Covered pixels compared.
+    pub pixels: usize,
+    /// Largest `|image − reference image|`, in levels.
+    pub max_abs_levels: u32,
+    /// Mean of the same.
+    pub mean_abs_levels: f64,
+    /// Peak signal-to-noise ratio in dB (`None`: identical images).
+    pub psnr_db: Option<f64>,
+    /// Share of pixels off by exactly 0, 1 and 2 levels, and by more.
+    pub off_by: [f64; 4],
+    /// Largest `|image − reference|/reference` over pixels whose f64
+    /// reference is at least [`REL_FLOOR_LEVELS`].
+    pub max_rel_intensity_err: f64,
+    /// Whether that stays under the paper's 4 % bound.
+    pub paper_bound_holds: bool,
+}
+
+impl Metrics {
+    /// Compare `got` (levels) with the f64 reference `want`, pixel by pixel.
+    pub fn compare(got: &[u8], want: &[f64]) -> Metrics {
+        let mut m = Metrics {
+            pixels: got.len(),
+            ..Default::default()
+        };
+        let (mut sum, mut sq) = (0.0, 0.0);
+        let mut hist = [0usize; 4];
+        for (&g, &w) in got.iter().zip(want) {
+            let e = (g as f64 - w.round()).abs() as u32;
+            m.max_abs_levels = m.max_abs_levels.max(e);
+            sum += e as f64;
+            sq += (e * e) as f64;
+            hist[(e as usize).min(3)] += 1;
+            if w >= REL_FLOOR_LEVELS {
+                m.max_rel_intensity_err = m.max_rel_intensity_err.max((g as f64 - w).abs() / w);
+            }
+        }
+        if m.pixels > 0 {
+            let n = m.pixels as f64;
+            m.mean_abs_levels = sum / n;
+            m.off_by = hist.map(|h| h as f64 / n);
+            m.psnr_db = (sq > 0.0).then(|| 10.0 * (255.0f64 * 255.0 / (sq / n)).log10());
+        }
+        m.paper_bound_holds = m.max_rel_intensity_err < PAPER_BOUND;
+        m
+    }
+}
+
+/// The distribution of `cos φ` (smallest dot product of a triangle's vertex
+/// normals) over a mesh's triangles.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct CosPhiStats {
+    /// Triangles.
+    pub triangles: usize,
+    /// Triangles whose normals could not be set up (zero or antiparallel).
+    pub degenerate: usize,
+    /// Smallest `cos φ`.
+    pub min: f64,
+    /// Mean `cos φ`.
+    pub mean: f64,
+    /// Largest `cos φ`.
+    pub max: f64,
+    /// Triangles per Θ of the ladder they meet (the largest), as
+    /// `(Θ, count)`, then those below every Θ (`cos φ < 0`) as `(-1, count)`.
+    pub by_theta: Vec<(f64, usize)>,
+}
+
+/// `cos φ` over the triangles of a mesh.
+pub fn cos_phi_stats(m: &Mesh) -> CosPhiStats {
+    let mut s = CosPhiStats {
+        triangles: m.triangles.len(),
+        min: f64::INFINITY,
+        max: f64::NEG_INFINITY,
+        ..Default::default()
+    };
+    let mut counts = vec![0usize; THETA_LADDER.len() + 1];
+    let mut sum = 0.0;
+    let mut ok = 0;
+    for t in &m.triangles {
+        match interp::setup(t.map(|i| m.normals[i as usize])) {
+            Ok(tri) => {
+                ok += 1;
+                sum += tri.cos_phi;
+                s.min = s.min.min(tri.cos_phi);
+                s.max = s.max.max(tri.cos_phi);
+                match tri.theta {
+                    Some(th) => counts[Pipeline::set_of(Some(th))] += 1,
+                    None => counts[THETA_LADDER.len()] += 1,
+                }
+            }
+            Err(_) => s.degenerate += 1,
+        }
+    }
+    if ok > 0 {
+        s.mean = sum / ok as f64;
+    } else {
+        (s.min, s.max) = (0.0, 0.0);
+    }
+    s.by_theta = THETA_LADDER
+        .iter()
+        .copied()
+        .chain([-1.0])
+        .zip(counts)
+        .collect();
+    s
+}
+
+/// The per-pixel input rows of both paths for a raster, and the f64
+/// references.
+#[derive(Clone, Debug)]
+pub struct Frame {
+    /// The raster.
+    pub raster: Raster,
+    /// Fragments whose triangle could not be set up (shaded 0 in every image).
+    pub skipped: usize,
+    /// Smooth-path input rows (one per fragment; empty for skipped ones).
+    pub smooth_rows: Vec<Vec<i128>>,
+    /// Mapped-path input rows.
+    pub mapped_rows: Vec<Vec<i128>>,
+    /// f64 reference level of the smooth path, per fragment.
+    pub smooth_ref: Vec<f64>,
+    /// f64 reference level of the mapped path (angles of the exact normal).
+    pub mapped_ref: Vec<f64>,
+    /// The mapped path in f64 with angles interpolated as the pipeline does.
+    pub mapped_interp_ref: Vec<f64>,
+}
+
+/// Set up every triangle, and build the rows and references of a raster.
+pub fn frame(p: &Pipeline, raster: Raster, mesh: &Mesh) -> Frame {
+    let l = DVec3::from_array(LIGHT).normalize();
+    let h = (l + DVec3::Z).normalize();
+    let lq = |v: DVec3| {
+        v.to_array()
+            .map(|x| p.light.light.apply_f64(x).map_or(0, |r| r.code))
+    };
+    let (lc, hc) = (lq(l), lq(h));
+    let (al, bl) = p.angle_codes(l);
+    let (ah, bh) = p.angle_codes(h);
+    let (al_f, bl_f) = crate::polar::angles_of(l);
+    let (ah_f, bh_f) = crate::polar::angles_of(h);
+    let tris: Vec<Option<(crate::pipeline::SmoothTri, crate::pipeline::MappedTri)>> = mesh
+        .triangles
+        .iter()
+        .map(|t| {
+            let n = t.map(|i| raster.normals[i as usize]);
+            p.setup_smooth(n).ok().map(|s| (s, p.setup_mapped(n)))
+        })
+        .collect();
+    let scheme = p.interp.scheme;
+    let qb = |x: f64| p.interp.bary.apply_f64(x).map_or(0, |r| r.code);
+    let qn = |x: f64| p.light.normal.apply_f64(x).map_or(0, |r| r.code);
+    let wrap = |d: f64| d - d.round();
+    let mut f = Frame {
+        skipped: 0,
+        smooth_rows: Vec::with_capacity(raster.fragments.len()),
+        mapped_rows: Vec::with_capacity(raster.fragments.len()),
+        smooth_ref: Vec::with_capacity(raster.fragments.len()),
+        mapped_ref: Vec::with_capacity(raster.fragments.len()),
+        mapped_interp_ref: Vec::with_capacity(raster.fragments.len()),
+        raster: raster.clone(),
+    };
+    for fr in &raster.fragments {
+        let Some((st, mt)) = &tris[fr.tri] else {
+            f.skipped += 1;
+            f.smooth_rows.push(Vec::new());
+            f.mapped_rows.push(Vec::new());
+            f.smooth_ref.push(0.0);
+            f.mapped_ref.push(0.0);
+            f.mapped_interp_ref.push(0.0);
+            continue;
+        };
+        let (c1, c2) = (qb(fr.c[0]), qb(fr.c[1]));
+        // Smooth row: sel, c1, c2, the six normals, L, H.
+        let mut r = vec![st.set as i128, c1, c2];
+        for v in &st.v {
+            r.extend_from_slice(v);
+        }
+        r.extend_from_slice(&lc);
+        r.extend_from_slice(&hc);
+        f.smooth_rows.push(r);
+        let n_exact = interp::field(&st.tri, fr.c, scheme).normalize();
+        f.smooth_ref.push(shade_f64(&p.light, n_exact, l, h));
+        // Mapped row: c1, c2, angles of N, of L and H, the texel.
+        let tex = normal_map(fr.uv);
+        let mut r = vec![c1, c2];
+        r.extend_from_slice(&mt.a);
+        r.extend_from_slice(&mt.b);
+        r.extend_from_slice(&[al, bl, ah, bh]);
+        r.extend(tex.to_array().map(qn));
+        f.mapped_rows.push(r);
+        let (an, bn) = crate::polar::angles_of(n_exact);
+        let lp = crate::polar::reference(al_f, bl_f, an, bn);
+        let hp = crate::polar::reference(ah_f, bh_f, an, bn);
+        f.mapped_ref.push(shade_f64(&p.light, tex, lp, hp));
+        // The same with the angles interpolated (f64).
+        let va = st.tri.n.map(crate::polar::angles_of);
+        let ai = va[2].0 + fr.c[0] * (va[0].0 - va[2].0) + fr.c[1] * (va[1].0 - va[2].0);
+        let bi = va[2].1 + fr.c[0] * wrap(va[0].1 - va[2].1) + fr.c[1] * wrap(va[1].1 - va[2].1);
+        let lp = crate::polar::reference(al_f, bl_f, ai, bi);
+        let hp = crate::polar::reference(ah_f, bh_f, ai, bi);
+        f.mapped_interp_ref.push(shade_f64(&p.light, tex, lp, hp));
+    }
+    f
+}
+
+/// One method's image.
+#[derive(Clone, Debug)]
+pub struct MethodImage {
+    /// The method.
+    pub method: RenderMethod,
+    /// Level per fragment (0 for skipped fragments).
+    pub levels: Vec<u8>,
+    /// Against the reference of its path.
+    pub metrics: Metrics,
+}
+
+/// Run the bit-accurate pipeline of `method` over a frame.
+pub fn run_method(
+    cfg: &Config,
+    f: &Frame,
+    method: RenderMethod,
+) -> Result<MethodImage, PipelineError> {
+    let p = match method {
+        RenderMethod::Smooth(m) => Pipeline::with_method(cfg, m)?,
+        RenderMethod::Mapped => Pipeline::with_method(cfg, Method::None)?,
+    };
+    let (rows, want) = match method.path() {
+        Path::Smooth => (&f.smooth_rows, &f.smooth_ref),
+        Path::Mapped => (&f.mapped_rows, &f.mapped_ref),
+    };
+    let levels = levels_of(&p, method.path(), rows)?;
+    let metrics = Metrics::compare(&levels, want);
+    Ok(MethodImage {
+        method,
+        levels,
+        metrics,
+    })
+}
+
+/// Levels of a path's rows (skipped fragments, with empty rows, are 0).
+pub fn levels_of(p: &Pipeline, path: Path, rows: &[Vec<i128>]) -> Result<Vec<u8>, PipelineError> {
+    let idx: Vec<usize> = (0..rows.len()).filter(|&i| !rows[i].is_empty()).collect();
+    let live: Vec<Vec<i128>> = idx.iter().map(|&i| rows[i].clone()).collect();
+    let out = p.run_rows(path, &live)?;
+    let mut levels = vec![0u8; rows.len()];
+    for (k, &i) in idx.iter().enumerate() {
+        levels[i] = out[k].clamp(0, 255) as u8;
+    }
+    Ok(levels)
+}
+
+/// Round an f64 reference to levels.
+pub fn reference_levels(r: &[f64]) -> Vec<u8> {
+    r.iter()
+        .map(|x| x.round().clamp(0.0, 255.0) as u8)
+        .collect()
+}
+
+/// Place per-fragment values into a full image (`background` elsewhere).
+pub fn to_image<T: Copy>(raster: &Raster, v: &[T], background: T) -> Vec<T> {
+    let mut img = vec![background; raster.width * raster.height];
+    for (fr, &x) in raster.fragments.iter().zip(v) {
+        img[fr.pixel] = x;
+    }
+    img
+}
+
+/// Which interpolation scheme a frame's references use.
+pub fn scheme_of(cfg: &Config) -> Scheme {
+    interp::Interp::from_config(cfg.unit(interp::DECL.name)).scheme
+}
