@@ -2,6 +2,7 @@
 
 mod cmd;
 mod output;
+mod picture;
 mod progress;
 mod rtl_flow;
 
@@ -62,6 +63,11 @@ enum Command {
     /// Co-simulate a unit's RTL against the model with Verilator or Icarus
     /// Verilog: exit status 0 only when every vector matches bit for bit.
     RtlCheck(cmd::rtl_check::RtlCheckArgs),
+    /// Rasterize a mesh (sphere:N, torus:N or an OBJ file), run the
+    /// bit-accurate pipeline on every pixel for each method (and with --rtl
+    /// the simulated RTL top, which must give the same image), and write the
+    /// images, error heat-maps and metrics against the f64 reference.
+    Render(cmd::render::RenderArgs),
     /// Benchmarks of the model's speed.
     #[command(subcommand)]
     Bench(cmd::bench::BenchCmd),
@@ -81,6 +87,7 @@ fn main() -> ExitCode {
         Command::Vectors(a) => cmd::vectors::run(a),
         Command::PolarFrames(a) => cmd::polar_frames::run(a),
         Command::RtlCheck(a) => cmd::rtl_check::run(a),
+        Command::Render(a) => cmd::render::run(a),
     };
     match r {
         Ok(()) => ExitCode::SUCCESS,

@@ -14,7 +14,8 @@ fn encode(width: usize, height: usize, ct: png::ColorType, px: &[u8]) -> anyhow:
         e.set_color(ct);
         e.set_depth(png::BitDepth::Eight);
         let mut w = e.write_header().context("cannot encode a PNG header")?;
-        w.write_image_data(px).context("cannot encode a PNG image")?;
+        w.write_image_data(px)
+            .context("cannot encode a PNG image")?;
     }
     Ok(out)
 }

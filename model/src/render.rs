@@ -40,8 +40,7 @@ pub const TILT_DEG: f64 = 30.0;
 /// The light direction (normalized before use).
 pub const LIGHT: [f64; 3] = [-0.45, 0.6, 0.66];
 /// The reference intensity below which the relative-error bound is not
-/// judged: below 12.75 levels (5 % of full scale) the 8-bit rounding alone
-/// (half a level) exceeds 4 %.
+/// judged: 12.75 levels, 5 % of full scale (one level there is already 8 %).
 pub const REL_FLOOR_LEVELS: f64 = 12.75;
 /// The paper's visual-identity bound on the relative intensity error.
 pub const PAPER_BOUND: f64 = 0.04;
@@ -239,8 +238,10 @@ pub struct Metrics {
     pub psnr_db: Option<f64>,
     /// Share of pixels off by exactly 0, 1 and 2 levels, and by more.
     pub off_by: [f64; 4],
-    /// Largest `|image − reference|/reference` over pixels whose f64
-    /// reference is at least [`REL_FLOOR_LEVELS`].
+    /// Largest relative intensity error beyond the 8-bit output's own
+    /// rounding, `max(|image − reference| − ½, 0) / reference`, over pixels
+    /// whose f64 reference is at least [`REL_FLOOR_LEVELS`] (the half level
+    /// is what rounding the exact intensity to 8 bits costs by itself).
     pub max_rel_intensity_err: f64,
     /// Whether that stays under the paper's 4 % bound.
     pub paper_bound_holds: bool,
@@ -262,7 +263,8 @@ impl Metrics {
             sq += (e * e) as f64;
             hist[(e as usize).min(3)] += 1;
             if w >= REL_FLOOR_LEVELS {
-                m.max_rel_intensity_err = m.max_rel_intensity_err.max((g as f64 - w).abs() / w);
+                let beyond = ((g as f64 - w).abs() - 0.5).max(0.0);
+                m.max_rel_intensity_err = m.max_rel_intensity_err.max(beyond / w);
             }
         }
         if m.pixels > 0 {

@@ -7,6 +7,7 @@ pub mod error;
 pub mod ops;
 pub mod paper;
 pub mod polar_frames;
+pub mod render;
 pub mod report;
 pub mod rtl_check;
 pub mod vectors;

@@ -17,14 +17,29 @@ pub struct ReportArgs {
     /// Output directory (replaced as a whole when the report is complete).
     #[arg(long, short = 'o', value_name = "DIR")]
     out: PathBuf,
+    /// Size of the rendered images.
+    #[arg(long, value_name = "WxH", default_value = "256x256")]
+    size: String,
 }
+
+/// The meshes the report renders: each procedural mesh at three
+/// tessellations, so Θ and the error can be seen to change with it.
+pub const REPORT_MESHES: [&str; 6] = [
+    "sphere:6",
+    "sphere:12",
+    "sphere:24",
+    "torus:12",
+    "torus:24",
+    "torus:48",
+];
 
 /// Run it.
 pub fn run(a: &ReportArgs) -> anyhow::Result<()> {
     let cfg = a.cfg.resolve()?;
+    let size = super::render::parse_size(&a.size)?;
     let dir = StagedDir::new(&a.out)
         .with_context(|| format!("cannot write the report to {}", a.out.display()))?;
-    let bar = crate::progress::bar(6, "report");
+    let bar = crate::progress::bar(6 + REPORT_MESHES.len() as u64, "report");
 
     bar.set_message("configuration");
     dir.write("config.toml", cfg.to_toml().as_bytes())?;
@@ -140,6 +155,69 @@ pub fn run(a: &ReportArgs) -> anyhow::Result<()> {
         perr.stats.overflows
     );
 
+    let mut renders = Vec::new();
+    let mut summary = crate::output::Table::new([
+        "mesh",
+        "triangles",
+        "min cos φ",
+        "method",
+        "max |err| (levels)",
+        "mean |err|",
+        "PSNR (dB)",
+        "off by >1",
+        "under 4 %",
+    ])
+    .titled(format!(
+        "Rendered at {}×{}, bit-accurate pipeline against the f64 reference",
+        size.0, size.1
+    ));
+    for spec in REPORT_MESHES {
+        bar.set_message(format!("render {spec}"));
+        let m = super::render::load_mesh(spec)?;
+        let prefix = format!("render/{}/", spec.replace(':', "_"));
+        let r = super::render::render_into(
+            &cfg,
+            spec,
+            &m,
+            size,
+            &fxshade_model::render::RenderMethod::ALL,
+            None,
+            &dir,
+            &prefix,
+            &mut |_| {},
+        )?;
+        dir.write(
+            &format!("{prefix}metrics.csv"),
+            super::render::table(&r).to_csv()?.as_bytes(),
+        )?;
+        let rows = r
+            .methods
+            .iter()
+            .map(|mr| (mr.method, &mr.metrics))
+            .chain(r.angle_interp.as_ref().map(|a| ("angle_interp (f64)", a)));
+        for (method, mm) in rows {
+            summary.row([
+                spec.to_string(),
+                r.cos_phi.triangles.to_string(),
+                format!("{:.4}", r.cos_phi.min),
+                method.to_string(),
+                mm.max_abs_levels.to_string(),
+                format!("{:.4}", mm.mean_abs_levels),
+                mm.psnr_db.map_or("∞".into(), |p| format!("{p:.2}")),
+                format!("{:.2} %", 100.0 * (mm.off_by[2] + mm.off_by[3])),
+                if mm.paper_bound_holds { "yes" } else { "no" }.to_string(),
+            ]);
+        }
+        renders.push((prefix, r));
+        bar.inc(1);
+    }
+    dir.write("render.csv", summary.to_csv()?.as_bytes())?;
+    let rjson: Vec<&super::render::RenderResult> = renders.iter().map(|(_, r)| r).collect();
+    dir.write(
+        "render.json",
+        serde_json::to_string_pretty(&rjson)?.as_bytes(),
+    )?;
+
     bar.set_message("test vectors");
     let mut vector_lines = String::new();
     for u in crate::rtl_flow::RTL_UNITS {
@@ -185,6 +263,25 @@ pub fn run(a: &ReportArgs) -> anyhow::Result<()> {
     index += &ptext;
     index += "\nImplied tangent frame against the UV-aligned frame normal maps are baked in:\n\n";
     index += &frames.concat();
+    index += "\n## Rendered images\n\n";
+    index += "Every pixel through the bit-accurate pipeline; the reference is the same scene in f64 \
+              (exact normalization, polar angles of the exact normal by `asin`/`atan2`). Heat-maps: \
+              error in 8-bit levels. `angle_interp` is what interpolating the polar angles per pixel \
+              (the pipeline's choice, no per-pixel `asin`/`atan2`) costs by itself, in f64 \
+              ([CSV](render.csv), [JSON](render.json)).\n\n```text\n";
+    index += &summary.render();
+    index += "```\n\n";
+    index += "| mesh | reference | quadratic | its error | mapped | its error | angle interpolation error |\n\
+              |---|---|---|---|---|---|---|\n";
+    for (prefix, r) in &renders {
+        index += &format!(
+            "| {} ({} triangles, min cos φ {:.3}) | ![]({prefix}reference.png) | ![]({prefix}quadratic.png) \
+             | ![]({prefix}quadratic_error.png) | ![]({prefix}mapped.png) | ![]({prefix}mapped_error.png) \
+             | ![]({prefix}angle_interp_error.png) |\n",
+            r.mesh, r.cos_phi.triangles, r.cos_phi.min
+        );
+    }
+    index += "\nEvery method's image, heat-map and metrics are in each mesh's directory under `render/`.\n";
     index += "\n## The normalization paper reproduced\n\n([CSV](paper.csv), [JSON](paper.json))\n\n```text\n";
     index += &ptable.render();
     index += "```\n";

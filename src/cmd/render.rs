@@ -1,0 +1,453 @@
+//! `fxshade render`: rasterize a mesh, run the bit-accurate pipeline (or the
+//! simulated RTL top) on every pixel, and write the images, error heat-maps
+//! and metrics against the f64 reference.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::{bail, Context};
+use clap::Args;
+use fxshade_model::files::StagedDir;
+use fxshade_model::mesh::{self, Mesh};
+use fxshade_model::pipeline::{Path, Pipeline};
+use fxshade_model::render::{self, Frame, Metrics, RenderMethod};
+use fxshade_model::vectors::{Field, VectorSet};
+use fxshade_model::Config;
+
+use super::ConfigArgs;
+use crate::output::{emit, OutputArgs, Table};
+use crate::rtl_flow::{self, Sim};
+
+/// `fxshade render`
+#[derive(Args, Debug)]
+pub struct RenderArgs {
+    #[command(flatten)]
+    cfg: ConfigArgs,
+    /// The mesh: `sphere:N` or `torus:N` (N segments around, 4..=4096), or a
+    /// Wavefront OBJ file.
+    #[arg(long, value_name = "PATH.obj|sphere:N|torus:N")]
+    mesh: String,
+    /// Image size.
+    #[arg(long, value_name = "WxH", default_value = "256x256")]
+    size: String,
+    /// Methods, comma-separated: exact, none, newton, taylor, linear,
+    /// quadratic (the normalizer on the smooth path), mapped (the normal-map
+    /// path), or all. Default: all; with --rtl, the ones the RTL implements
+    /// (linear, quadratic, mapped).
+    #[arg(long, value_name = "M[,M…]")]
+    method: Option<String>,
+    /// Also run every pixel through the simulated RTL top
+    /// (`rtl/pipeline.v`); the RTL image must equal the model's, bit for bit.
+    #[arg(long)]
+    rtl: bool,
+    /// Simulator for --rtl.
+    #[arg(long, value_enum, default_value_t = Sim::Verilator, requires = "rtl")]
+    sim: Sim,
+    /// Output directory (replaced as a whole when the render is complete).
+    #[arg(long, short = 'o', value_name = "DIR")]
+    out: PathBuf,
+    #[command(flatten)]
+    fmt: OutputArgs,
+}
+
+/// The mesh named by `--mesh`.
+pub fn load_mesh(spec: &str) -> anyhow::Result<Mesh> {
+    if spec.starts_with("sphere:") || spec.starts_with("torus:") {
+        return super::polar_frames::procedural(spec, mesh::Axis::Y);
+    }
+    let p = std::path::Path::new(spec);
+    if !p.exists() {
+        bail!("--mesh {spec}: no such file; give sphere:N, torus:N or an .obj file");
+    }
+    Ok(mesh::load_obj(p)?)
+}
+
+/// `WxH`.
+pub fn parse_size(s: &str) -> anyhow::Result<(usize, usize)> {
+    let bad = || format!("--size {s}: write WxH with W and H whole numbers in 1..=4096");
+    let (w, h) = s.split_once(['x', 'X']).with_context(bad)?;
+    let w: usize = w
+        .trim()
+        .parse()
+        .ok()
+        .filter(|v| (1..=4096).contains(v))
+        .with_context(bad)?;
+    let h: usize = h
+        .trim()
+        .parse()
+        .ok()
+        .filter(|v| (1..=4096).contains(v))
+        .with_context(bad)?;
+    Ok((w, h))
+}
+
+/// The methods of `--method`.
+pub fn parse_methods(s: Option<&str>, rtl: bool) -> anyhow::Result<Vec<RenderMethod>> {
+    let Some(s) = s.filter(|s| *s != "all") else {
+        return Ok(if rtl {
+            RenderMethod::RTL.to_vec()
+        } else {
+            RenderMethod::ALL.to_vec()
+        });
+    };
+    let names = || {
+        RenderMethod::ALL
+            .iter()
+            .map(|m| m.name())
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let mut v = Vec::new();
+    for name in s.split(',').map(str::trim) {
+        let m = RenderMethod::from_name(name)
+            .with_context(|| format!("--method {name}: unknown; methods: {}, all", names()))?;
+        if rtl && !RenderMethod::RTL.contains(&m) {
+            bail!(
+                "--method {name} with --rtl: the RTL implements linear, quadratic and mapped only"
+            );
+        }
+        if !v.contains(&m) {
+            v.push(m);
+        }
+    }
+    Ok(v)
+}
+
+/// What the RTL run of one method gave.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct RtlOutcome {
+    /// Simulator.
+    pub sim: Sim,
+    /// The RTL image equals the model image, pixel for pixel.
+    pub identical: bool,
+    /// Pixels that differ.
+    pub differing_pixels: usize,
+    /// The testbench's own verdict against the model's levels.
+    pub passed: u64,
+    /// The same, failed.
+    pub failed: u64,
+    /// Seconds simulating (build included).
+    pub seconds: f64,
+}
+
+/// One method's result.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct MethodResult {
+    /// Method name.
+    pub method: &'static str,
+    /// Path.
+    pub path: Path,
+    /// Metrics against the reference of its path.
+    #[serde(flatten)]
+    pub metrics: Metrics,
+    /// The image file.
+    pub image: String,
+    /// The heat-map file.
+    pub heatmap: String,
+    /// The RTL run, with --rtl.
+    pub rtl: Option<RtlOutcome>,
+}
+
+/// A render's results.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct RenderResult {
+    /// The mesh spec.
+    pub mesh: String,
+    /// Width.
+    pub width: usize,
+    /// Height.
+    pub height: usize,
+    /// Covered pixels.
+    pub pixels: usize,
+    /// Pixels of triangles whose normals could not be set up (black).
+    pub skipped_pixels: usize,
+    /// `cos φ` over the mesh's triangles.
+    pub cos_phi: render::CosPhiStats,
+    /// Per method.
+    pub methods: Vec<MethodResult>,
+    /// What interpolating the polar angles costs (mapped path, f64 both).
+    pub angle_interp: Option<Metrics>,
+    /// Reference images written.
+    pub references: Vec<String>,
+    /// Seconds.
+    pub seconds: f64,
+}
+
+/// Render `m` into `dir` under `prefix` (e.g. `render/sphere_16/`).
+#[allow(clippy::too_many_arguments)]
+pub fn render_into(
+    cfg: &Config,
+    spec: &str,
+    m: &Mesh,
+    (w, h): (usize, usize),
+    methods: &[RenderMethod],
+    rtl: Option<Sim>,
+    dir: &StagedDir,
+    prefix: &str,
+    progress: &mut dyn FnMut(&str),
+) -> anyhow::Result<RenderResult> {
+    let start = Instant::now();
+    progress("rasterizing");
+    let base = Pipeline::with_method(cfg, fxshade_model::normalizer::Method::None)?;
+    let raster = render::rasterize(m, w, h);
+    let f = render::frame(&base, raster, m);
+    let png = |name: &str, levels: &[u8]| -> anyhow::Result<String> {
+        let img = render::to_image(&f.raster, levels, 0u8);
+        let file = format!("{prefix}{name}.png");
+        dir.write(&file, &crate::picture::gray_png(w, h, &img)?)?;
+        Ok(file)
+    };
+    let heat = |name: &str, got: &[u8], want: &[f64]| -> anyhow::Result<String> {
+        let errs: Vec<Option<u32>> = got
+            .iter()
+            .zip(want)
+            .map(|(&g, &r)| Some((g as f64 - r.round()).abs() as u32))
+            .collect();
+        let img = render::to_image(&f.raster, &errs, None);
+        let file = format!("{prefix}{name}.png");
+        dir.write(&file, &crate::picture::heatmap_png(w, h, &img)?)?;
+        Ok(file)
+    };
+    let mut references = vec![png("reference", &render::reference_levels(&f.smooth_ref))?];
+    let mut angle_interp = None;
+    if methods.contains(&RenderMethod::Mapped) {
+        references.push(png(
+            "reference_mapped",
+            &render::reference_levels(&f.mapped_ref),
+        )?);
+        let li = render::reference_levels(&f.mapped_interp_ref);
+        angle_interp = Some(Metrics::compare(&li, &f.mapped_ref));
+        references.push(heat("angle_interp_error", &li, &f.mapped_ref)?);
+    }
+    let mut results = Vec::new();
+    for &method in methods {
+        progress(method.name());
+        let img = render::run_method(cfg, &f, method)?;
+        let want = match method.path() {
+            Path::Smooth => &f.smooth_ref,
+            Path::Mapped => &f.mapped_ref,
+        };
+        let image = png(method.name(), &img.levels)?;
+        let heatmap = heat(&format!("{}_error", method.name()), &img.levels, want)?;
+        let rtl = match rtl {
+            None => None,
+            Some(sim) => {
+                progress(&format!("{} on {sim:?}", method.name()).to_lowercase());
+                let (out, levels) = run_rtl(cfg, &f, method, &img.levels, sim)?;
+                png(&format!("{}_rtl", method.name()), &levels)?;
+                Some(out)
+            }
+        };
+        results.push(MethodResult {
+            method: method.name(),
+            path: method.path(),
+            metrics: img.metrics,
+            image,
+            heatmap,
+            rtl,
+        });
+    }
+    Ok(RenderResult {
+        mesh: spec.to_string(),
+        width: w,
+        height: h,
+        pixels: f.raster.fragments.len(),
+        skipped_pixels: f.skipped,
+        cos_phi: render::cos_phi_stats(m),
+        methods: results,
+        angle_interp,
+        references,
+        seconds: start.elapsed().as_secs_f64(),
+    })
+}
+
+/// Run a method's pixels through the simulated RTL top; the outcome and the
+/// RTL's levels per fragment.
+fn run_rtl(
+    cfg: &Config,
+    f: &Frame,
+    method: RenderMethod,
+    model: &[u8],
+    sim: Sim,
+) -> anyhow::Result<(RtlOutcome, Vec<u8>)> {
+    let start = Instant::now();
+    let mut c = cfg.clone();
+    let path = method.path();
+    c.apply_override(&format!("pipeline.path=\"{}\"", path.name()))?;
+    if let RenderMethod::Smooth(m) = method {
+        c.apply_override(&format!("normalize.method=\"{}\"", m.name()))?;
+    }
+    let (p, _, params) = fxshade_model::pipeline::rtl::params_header(&c)?;
+    let rows = match path {
+        Path::Smooth => &f.smooth_rows,
+        Path::Mapped => &f.mapped_rows,
+    };
+    let live: Vec<usize> = (0..rows.len()).filter(|&i| !rows[i].is_empty()).collect();
+    if live.is_empty() {
+        bail!("no pixel of the mesh could be shaded: nothing to simulate");
+    }
+    let v = VectorSet {
+        unit: "pipeline",
+        variant: method.name().to_string(),
+        config_source: c.source.clone(),
+        config_toml: c.to_toml(),
+        seed: 1,
+        inputs: p.fields(path),
+        outputs: vec![Field::new("level", p.light.level.format())],
+        input_rows: live.iter().map(|&i| rows[i].clone()).collect(),
+        output_rows: live.iter().map(|&i| vec![model[i] as i128]).collect(),
+        params,
+        corner_cases: 0,
+    };
+    let u = rtl_flow::unit("pipeline")?;
+    let r = rtl_flow::check_with(u, &v, sim, 1, 0, None, true)?;
+    let mut levels = vec![0u8; rows.len()];
+    let mut differing = live.len().abs_diff(r.outputs.len());
+    for (k, &i) in live.iter().enumerate() {
+        let got = r
+            .outputs
+            .get(k)
+            .and_then(|h| u8::from_str_radix(h, 16).ok());
+        match got {
+            Some(g) => {
+                levels[i] = g;
+                if g != model[i] {
+                    differing += 1;
+                }
+            }
+            None => differing += 1,
+        }
+    }
+    Ok((
+        RtlOutcome {
+            sim,
+            identical: differing == 0,
+            differing_pixels: differing,
+            passed: r.passed,
+            failed: r.failed,
+            seconds: start.elapsed().as_secs_f64(),
+        },
+        levels,
+    ))
+}
+
+/// The metrics table of a render.
+pub fn table(r: &RenderResult) -> Table {
+    let mut t = Table::new([
+        "method",
+        "path",
+        "max |err| (levels)",
+        "mean |err|",
+        "PSNR (dB)",
+        "off by 0",
+        "1",
+        "2",
+        "more",
+        "max rel. err",
+        "under 4 %",
+        "RTL image",
+    ])
+    .titled(format!(
+        "{} at {}×{}: {} pixels; cos φ over {} triangles: min {:.4}, mean {:.4}",
+        r.mesh, r.width, r.height, r.pixels, r.cos_phi.triangles, r.cos_phi.min, r.cos_phi.mean
+    ));
+    let pct = |x: f64| format!("{:.2} %", 100.0 * x);
+    let mut row = |name: &str, path: &str, m: &Metrics, rtl: String| {
+        t.row([
+            name.to_string(),
+            path.to_string(),
+            m.max_abs_levels.to_string(),
+            format!("{:.4}", m.mean_abs_levels),
+            m.psnr_db.map_or("∞".into(), |p| format!("{p:.2}")),
+            pct(m.off_by[0]),
+            pct(m.off_by[1]),
+            pct(m.off_by[2]),
+            pct(m.off_by[3]),
+            format!("{:.3} %", 100.0 * m.max_rel_intensity_err),
+            if m.paper_bound_holds { "yes" } else { "no" }.to_string(),
+            rtl,
+        ]);
+    };
+    for m in &r.methods {
+        let rtl = match &m.rtl {
+            None => "-".to_string(),
+            Some(o) if o.identical => format!("identical ({:?})", o.sim).to_lowercase(),
+            Some(o) => format!("{} pixels differ ({:?})", o.differing_pixels, o.sim).to_lowercase(),
+        };
+        row(m.method, m.path.name(), &m.metrics, rtl);
+    }
+    if let Some(a) = &r.angle_interp {
+        row("angle_interp (f64)", "mapped", a, "-".into());
+    }
+    t
+}
+
+/// The `cos φ` distribution table.
+pub fn cos_phi_table(r: &RenderResult) -> Table {
+    let mut t = Table::new(["Θ met (largest)", "triangles", "share"]).titled(format!(
+        "{}: cos φ per triangle (min {:.4}, mean {:.4}, max {:.4}; {} degenerate)",
+        r.mesh, r.cos_phi.min, r.cos_phi.mean, r.cos_phi.max, r.cos_phi.degenerate
+    ));
+    let n = r.cos_phi.triangles.max(1) as f64;
+    for &(th, k) in &r.cos_phi.by_theta {
+        t.row([
+            if th < 0.0 {
+                "none (cos φ < 0)".to_string()
+            } else {
+                format!("{th}")
+            },
+            k.to_string(),
+            format!("{:.1} %", 100.0 * k as f64 / n),
+        ]);
+    }
+    t
+}
+
+/// Run it.
+pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
+    let cfg = a.cfg.resolve()?;
+    let size = parse_size(&a.size)?;
+    let methods = parse_methods(a.method.as_deref(), a.rtl)?;
+    let m = load_mesh(&a.mesh)?;
+    let dir = StagedDir::new(&a.out)
+        .with_context(|| format!("cannot write the render to {}", a.out.display()))?;
+    let bar = crate::progress::bar(methods.len() as u64 * (1 + a.rtl as u64) + 1, "render");
+    let r = render_into(
+        &cfg,
+        &a.mesh,
+        &m,
+        size,
+        &methods,
+        a.rtl.then_some(a.sim),
+        &dir,
+        "",
+        &mut |what| {
+            bar.set_message(what.to_string());
+            bar.inc(1);
+        },
+    )?;
+    bar.finish_and_clear();
+    let t = table(&r);
+    let ct = cos_phi_table(&r);
+    dir.write("render.json", serde_json::to_string_pretty(&r)?.as_bytes())?;
+    dir.write("metrics.csv", t.to_csv()?.as_bytes())?;
+    dir.write("cos_phi.csv", ct.to_csv()?.as_bytes())?;
+    let out = dir.commit()?;
+    emit(a.fmt, &[t, ct], &serde_json::to_value(&r)?)?;
+    if !a.fmt.json && !a.fmt.csv {
+        println!("images written to {}", out.display());
+    }
+    if let Some(bad) = r
+        .methods
+        .iter()
+        .find(|m| m.rtl.as_ref().is_some_and(|o| !o.identical))
+    {
+        let o = bad.rtl.as_ref().expect("checked");
+        bail!(
+            "the RTL image of {} differs from the model's in {} pixels",
+            bad.method,
+            o.differing_pixels
+        );
+    }
+    Ok(())
+}
