@@ -81,8 +81,10 @@ module lighting (
     u_q_dl (.x_i(dot(n_i, l_i)), .y_o(dl_c), .ovf_o(unused_dot_ovf[1]));
   fxs_quant #(.IW(SW), .SHIFT(LN_F + LL_F - DT_F), .OW(DT_W), .OSIGNED(DT_S), .ROUND(DT_R), .SAT(DT_SAT))
     u_q_dh (.x_i(dot(n_i, h_i)), .y_o(dh_c), .ovf_o(unused_dot_ovf[0]));
-  wire [DT_W-1:0] dl_m = ((DT_S != 0) && dl_c[DT_W-1]) ? {DT_W{1'b0}} : dl_c;
-  wire [DT_W-1:0] dh_m = ((DT_S != 0) && dh_c[DT_W-1]) ? {DT_W{1'b0}} : dh_c;
+  // max(d, 0): one comparator and a multiplexer each, as the model counts
+  // them (synthesis reduces a comparison with zero to the sign bit).
+  wire [DT_W-1:0] dl_m = (ext_d(dl_c) > $signed({DE{1'b0}})) ? dl_c : {DT_W{1'b0}};
+  wire [DT_W-1:0] dh_m = (ext_d(dh_c) > $signed({DE{1'b0}})) ? dh_c : {DT_W{1'b0}};
   wire [SP_W-1:0] b0_c;
   wire            unused_b0_ovf;
   fxs_quant #(.IW(DE), .SHIFT(DT_F - SP_F), .OW(SP_W), .OSIGNED(SP_S), .ROUND(SP_R), .SAT(SP_SAT))

@@ -180,9 +180,9 @@ module pipeline (
       // ---- polar.out -> lighting.light -----------------------------------------
       wire [6*LL_W-1:0] lh_q;
       wire [5:0]        unused_c_ovf;
+      wire [6*PO_W-1:0] lhp = {lp, hp};
       genvar gc;
       for (gc = 0; gc < 6; gc = gc + 1) begin : g_c
-        wire [6*PO_W-1:0] lhp = {lp, hp};
         wire [PO_W-1:0] x = lhp[gc*PO_W +: PO_W];
         fxs_quant #(.IW(PO_W + 1), .SHIFT(PO_F - LL_F), .OW(LL_W), .OSIGNED(LL_S), .ROUND(LL_R), .SAT(LL_SAT))
           u_q (.x_i({(PO_S != 0) & x[PO_W-1], x}), .y_o(lh_q[gc*LL_W +: LL_W]), .ovf_o(unused_c_ovf[gc]));

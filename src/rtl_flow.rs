@@ -43,6 +43,10 @@ pub struct RtlUnit {
     /// Stages whose overflow the RTL does not observe because they wrap by
     /// design (the polar transform's angle index): no range comparators.
     pub unflagged: &'static [&'static str],
+    /// Whether the RTL outputs overflow flags. When it does not (the
+    /// pipeline top outputs the level only), a wrapping quantization needs
+    /// no range comparators and synthesis removes them.
+    pub flags_overflow: bool,
 }
 
 macro_rules! rtl_source {
@@ -76,6 +80,7 @@ pub static RTL_UNITS: &[RtlUnit] = &[
         count: |cfg| Ok(fxshade_model::normalizer::from_config(cfg)?.0.count()?),
         blackbox: &[],
         unflagged: &[],
+        flags_overflow: true,
     },
     RtlUnit {
         name: "interp",
@@ -104,6 +109,7 @@ pub static RTL_UNITS: &[RtlUnit] = &[
         },
         blackbox: &[],
         unflagged: &[],
+        flags_overflow: true,
     },
     RtlUnit {
         name: "polar",
@@ -134,6 +140,7 @@ pub static RTL_UNITS: &[RtlUnit] = &[
         },
         blackbox: &["fxs_sincos_rom"],
         unflagged: &["index"],
+        flags_overflow: true,
     },
     RtlUnit {
         name: "pipeline",
@@ -167,6 +174,7 @@ pub static RTL_UNITS: &[RtlUnit] = &[
         },
         blackbox: &["fxs_sincos_rom"],
         unflagged: &["index", "angle"],
+        flags_overflow: false,
     },
 ];
 

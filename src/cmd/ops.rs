@@ -138,6 +138,9 @@ pub fn netlist_checks(cfg: &fxshade_model::Config) -> anyhow::Result<Vec<Netlist
                 .quant_points()
                 .iter()
                 .filter(|p| !u.unflagged.contains(&p.stage))
+                .filter(|p| {
+                    u.flags_overflow || p.overflow != fxshade_model::quantize::Overflow::Wrap
+                })
                 .count() as u64;
             let (model_mul, model_add, model_compare) =
                 (mc.mul, mc.add + mc.round, mc.compare + 2 * flagged);

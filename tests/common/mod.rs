@@ -87,13 +87,19 @@ pub fn design_files(unit: &str) -> Vec<PathBuf> {
     let mut v = vec![
         rtl.join("fxs_quant.v"),
         rtl.join("fxs_pipe_ctrl.v"),
+        rtl.join("fxs_side_delay.v"),
         rtl.join(format!("{unit}.v")),
     ];
-    if unit == "polar" {
+    if unit == "polar" || unit == "pipeline" {
         v.push(rtl.join("fxs_sincos_rom.v"));
     }
-    if unit == "polar" || unit == "normalize" {
+    if unit == "polar" || unit == "normalize" || unit == "pipeline" {
         v.push(rtl.join("fxs_mad_q.v"));
+    }
+    if unit == "pipeline" {
+        for m in ["interp", "normalize", "polar", "angle_interp", "lighting"] {
+            v.push(rtl.join(format!("{m}.v")));
+        }
     }
     v
 }
@@ -288,8 +294,15 @@ pub fn lint_checks(unit: &str, variants: &[(&str, &str, u64)]) {
             );
         }
     }
+    // As committed: the golden vector directory holds every header the unit
+    // reads (the pipeline's include its units' headers for its own
+    // configuration), then rtl/.
     let o = Command::new("verilator")
         .args(["--lint-only", "-Wall"])
+        .arg(format!(
+            "-I{}",
+            repo().join("testvectors").join(unit).display()
+        ))
         .arg(format!("-I{}", repo().join("rtl").display()))
         .arg(repo().join(format!("rtl/{unit}.v")))
         .output()

@@ -148,7 +148,8 @@ pub struct Pipeline {
     /// One normalizer per Θ of [`THETA_LADDER`] (same formats; coefficients
     /// designed for that Θ where the method has any).
     pub sets: Vec<Normalizer>,
-    /// How each set's coefficients were designed.
+    /// How each set's coefficients were designed (`None` for rounded
+    /// coefficients, which the pipeline takes without the search).
     pub designs: Vec<Option<Design>>,
     /// The polar transform.
     pub polar: Polar,
@@ -176,8 +177,30 @@ impl Pipeline {
         Self::with_method(cfg, m)
     }
 
-    /// The pipeline of `cfg` with normalizer method `method`.
+    /// The pipeline of `cfg` with normalizer method `method`. Designing six
+    /// coefficient sets takes seconds for wide formats, so the result is
+    /// kept for the life of the process, keyed by the configuration's text.
     pub fn with_method(cfg: &Config, method: Method) -> Result<Pipeline, PipelineError> {
+        use std::collections::HashMap;
+        use std::sync::{Mutex, OnceLock};
+        static CACHE: OnceLock<Mutex<HashMap<(String, &'static str), Pipeline>>> = OnceLock::new();
+        let key = (cfg.to_toml(), method.name());
+        let cache = CACHE.get_or_init(|| Mutex::new(HashMap::new()));
+        if let Some(p) = cache
+            .lock()
+            .map_err(|_| PipelineError::Angle("cache poisoned".into()))?
+            .get(&key)
+        {
+            return Ok(p.clone());
+        }
+        let p = Self::build(cfg, method)?;
+        if let Ok(mut c) = cache.lock() {
+            c.insert(key, p.clone());
+        }
+        Ok(p)
+    }
+
+    fn build(cfg: &Config, method: Method) -> Result<Pipeline, PipelineError> {
         let interp = Interp::from_config(cfg.unit(interp::DECL.name));
         let nu = cfg.unit(normalizer::DECL.name);
         let stages = Normalizer::stages(nu);
@@ -187,17 +210,36 @@ impl Pipeline {
         let mut sets = Vec::new();
         let mut designs = Vec::new();
         for &theta in &THETA_LADDER {
-            let (n, d) = normalizer::design_interval(
-                method,
-                stages,
-                theta,
-                fit,
-                kind,
-                fit_interval(kind, theta, interp.scheme),
-                search,
-            )?;
-            sets.push(n);
-            designs.push(d);
+            let (lo, hi) = fit_interval(kind, theta, interp.scheme);
+            match method.degree() {
+                // Rounded coefficients need no search (the search and the
+                // re-ranking of its candidates are what take time).
+                Some(degree) if !search => {
+                    let real =
+                        crate::coeffs::design(fit, lo, hi, degree).map_err(DesignError::from)?;
+                    let q = crate::coeffs::round_coeffs(&real, stages.coef.format(), lo, hi)
+                        .map_err(DesignError::from)?;
+                    sets.push(Normalizer {
+                        method,
+                        q: stages,
+                        coeffs: q.values,
+                    });
+                    designs.push(None);
+                }
+                _ => {
+                    let (n, d) = normalizer::design_interval(
+                        method,
+                        stages,
+                        theta,
+                        fit,
+                        kind,
+                        (lo, hi),
+                        search,
+                    )?;
+                    sets.push(n);
+                    designs.push(d);
+                }
+            }
         }
         let polar = Polar::from_config(cfg.unit(crate::polar::DECL.name))?;
         let light = Lighting::from_config(cfg.unit(crate::lighting::DECL.name));

@@ -134,13 +134,16 @@ pub fn params_header(cfg: &Config) -> Result<(Pipeline, Path, ParamsHeader), Rtl
         (path == Path::Mapped) as u8
     );
     t += &stage_params("B", &p.interp.bary, false);
-    t += &stage_params("V", &p.interp.vertex, false);
+    t += &format!(
+        "localparam integer V_W = {}, LV_W = {};\n",
+        p.interp.vertex.format().width(),
+        p.light.level.format().width()
+    );
     t += &stage_params("IO", &p.interp.out, false);
     t += &stage_params("NN", &nz.normal, true);
     t += &stage_params("NO", &nz.out, false);
     t += &stage_params("LN", &p.light.normal, true);
     t += &stage_params("LL", &p.light.light, true);
-    t += &stage_params("LV", &p.light.level, false);
     t += &stage_params("PO", &p.polar.out, false);
     let r = match p.angle.round() {
         Rounding::Trunc => 0,
@@ -199,7 +202,7 @@ pub fn render_rows(
     rows.into_iter().filter(|r| !r.is_empty()).collect()
 }
 
-/// Test vectors of the configured path: the pixels of a 16 × 16 render of a
+/// Test vectors of the configured path: the pixels of a 12 × 12 render of a
 /// sphere and of a torus (the corner cases: real triangles, every Θ they
 /// meet, the poles and the seam), then random triangles meeting a random Θ
 /// with random barycentrics and random light directions, alternating with
@@ -212,7 +215,7 @@ pub fn vectors(cfg: &Config, count: usize, seed: u64) -> Result<VectorSet, RtlEr
         crate::mesh::sphere(8, crate::mesh::Axis::Y),
         crate::mesh::torus(12, crate::mesh::Axis::Y),
     ] {
-        rows.extend(render_rows(&p, path, &m, 16));
+        rows.extend(render_rows(&p, path, &m, 12));
     }
     let corners = rows.len();
     if count < corners {

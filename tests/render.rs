@@ -1,0 +1,218 @@
+//! The renderer end to end: the model's image equals the simulated RTL
+//! top's on both simulators, the exact-normalization image is within one
+//! level of the f64 reference, the report runs on the default configuration
+//! at a tiny resolution, and bad input (a malformed OBJ file, an unwritable
+//! output directory, unknown methods and sizes) gets a clear error.
+
+mod common;
+use common::*;
+
+fn decode(p: &std::path::Path) -> (usize, usize, Vec<u8>) {
+    let dec = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(p).unwrap()));
+    let mut r = dec.read_info().unwrap();
+    let mut buf = vec![0; r.output_buffer_size()];
+    let info = r.next_frame(&mut buf).unwrap();
+    buf.truncate(info.buffer_size());
+    (info.width as usize, info.height as usize, buf)
+}
+
+fn render(args: &[&str]) -> (std::process::Output, tempfile::TempDir) {
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("r");
+    let mut a = vec!["render"];
+    a.extend_from_slice(args);
+    a.extend(["--out", out.to_str().unwrap()]);
+    (fxshade(&a), d)
+}
+
+#[test]
+fn rtl_images_equal_model_images_on_both_simulators() {
+    for sim in ["verilator", "icarus"] {
+        let (o, d) = render(&[
+            "--mesh", "sphere:6", "--size", "20x16", "--rtl", "--sim", sim, "--json",
+        ]);
+        assert!(o.status.success(), "{sim}: {}", text(&o));
+        let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        let methods = j["methods"].as_array().unwrap();
+        assert_eq!(methods.len(), 3, "linear, quadratic, mapped");
+        for m in methods {
+            assert_eq!(m["rtl"]["identical"], true, "{sim} {m}");
+            assert_eq!(m["rtl"]["failed"], 0, "{sim} {m}");
+            let name = m["method"].as_str().unwrap();
+            let a = decode(&d.path().join(format!("r/{name}.png")));
+            let b = decode(&d.path().join(format!("r/{name}_rtl.png")));
+            assert_eq!(a, b, "{sim} {name}");
+            assert!(a.2.iter().any(|&x| x > 0), "{sim} {name}: the image is lit");
+        }
+    }
+}
+
+#[test]
+fn exact_normalization_is_within_one_level_of_the_f64_reference() {
+    for mesh in ["sphere:6", "sphere:24", "torus:12", "torus:48"] {
+        let (o, d) = render(&[
+            "--mesh", mesh, "--size", "96x80", "--method", "exact", "--json",
+        ]);
+        assert!(o.status.success(), "{mesh}: {}", text(&o));
+        let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        assert_eq!(j["methods"][0]["max_abs_levels"], 1, "{mesh}: {j}");
+        // Pixel by pixel from the PNGs, too.
+        let (w, h, a) = decode(&d.path().join("r/exact.png"));
+        let (_, _, b) = decode(&d.path().join("r/reference.png"));
+        assert_eq!((w, h), (96, 80));
+        let worst = a
+            .iter()
+            .zip(&b)
+            .map(|(&x, &y)| x.abs_diff(y))
+            .max()
+            .unwrap();
+        assert!(worst <= 1, "{mesh}: {worst}");
+        assert!(
+            j["pixels"].as_u64().unwrap() > 1000,
+            "{mesh}: the mesh covers the image"
+        );
+    }
+}
+
+#[test]
+fn skipping_normalization_on_a_coarse_sphere_breaks_the_paper_bound() {
+    // The metrics can fail: with no normalization, linear interpolation on a
+    // 6-segment sphere (cos φ down to 1/8) darkens the middle of each triangle.
+    let (o, _d) = render(&[
+        "--mesh",
+        "sphere:6",
+        "--size",
+        "96x96",
+        "--method",
+        "none,quadratic",
+        "--json",
+        "--set",
+        "interp.scheme=\"linear\"",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(j["methods"][0]["method"], "none");
+    assert_eq!(j["methods"][0]["paper_bound_holds"], false, "{j}");
+    assert!(j["methods"][0]["max_abs_levels"].as_u64().unwrap() > 10);
+    let shares: f64 = j["methods"][0]["off_by"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .sum();
+    assert!((shares - 1.0).abs() < 1e-9);
+}
+
+#[test]
+fn report_runs_end_to_end_at_a_tiny_resolution() {
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("rep");
+    let o = fxshade(&["report", "--size", "24x24", "--out", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", text(&o));
+    let index = std::fs::read_to_string(out.join("index.md")).unwrap();
+    for s in [
+        "## Rendered images",
+        "render/torus_48/mapped_error.png",
+        "angle_interp",
+        "## Test vectors",
+    ] {
+        assert!(index.contains(s), "index.md lacks {s}");
+    }
+    for f in [
+        "render/sphere_6/reference.png",
+        "render/sphere_6/quadratic_error.png",
+        "render/torus_24/mapped.png",
+        "vectors/pipeline/manifest.json",
+        "render.csv",
+        "render.json",
+    ] {
+        assert!(out.join(f).is_file(), "{f} missing");
+    }
+    let (w, h, _) = decode(&out.join("render/sphere_12/exact.png"));
+    assert_eq!((w, h), (24, 24));
+}
+
+#[test]
+fn an_obj_file_renders_and_reports_cos_phi() {
+    let d = tempfile::tempdir().unwrap();
+    let obj = d.path().join("oct.obj");
+    // An octahedron without normals: smooth normals are computed.
+    std::fs::write(
+        &obj,
+        "v 1 0 0\nv -1 0 0\nv 0 1 0\nv 0 -1 0\nv 0 0 1\nv 0 0 -1\n\
+         f 1 3 5\nf 3 2 5\nf 2 4 5\nf 4 1 5\nf 3 1 6\nf 2 3 6\nf 4 2 6\nf 1 4 6\n",
+    )
+    .unwrap();
+    let (o, _r) = render(&["--mesh", obj.to_str().unwrap(), "--size", "32x32", "--json"]);
+    assert!(o.status.success(), "{}", text(&o));
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(j["cos_phi"]["triangles"], 8);
+    // Vertex normals of an octahedron point along the axes: every pair in a
+    // face is orthogonal, cos φ = 0 exactly.
+    assert!(j["cos_phi"]["min"].as_f64().unwrap().abs() < 1e-12, "{j}");
+    assert_eq!(j["cos_phi"]["by_theta"][0][1], 8, "{j}");
+}
+
+#[test]
+fn a_malformed_obj_file_is_named_with_its_line() {
+    let d = tempfile::tempdir().unwrap();
+    let obj = d.path().join("bad.obj");
+    std::fs::write(&obj, "v 0 0 0\nv 1 0 0\nv 0 1 zero\nf 1 2 3\n").unwrap();
+    let (o, r) = render(&["--mesh", obj.to_str().unwrap(), "--size", "8x8"]);
+    assert_eq!(o.status.code(), Some(1));
+    let e = text(&o);
+    assert!(e.contains("bad.obj:3:") && e.contains("v 0 1 zero"), "{e}");
+    assert!(!e.contains("panicked"), "{e}");
+    assert!(!r.path().join("r").exists(), "no output on error");
+    let (o, _) = render(&["--mesh", d.path().join("none.obj").to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(text(&o).contains("no such file"), "{}", text(&o));
+}
+
+#[test]
+fn an_unwritable_output_directory_is_a_clear_error() {
+    let d = tempfile::tempdir().unwrap();
+    let file = d.path().join("plain-file");
+    std::fs::write(&file, "x").unwrap();
+    let out = file.join("images");
+    let o = fxshade(&[
+        "render",
+        "--mesh",
+        "sphere:6",
+        "--size",
+        "8x8",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    let e = text(&o);
+    assert!(
+        e.contains("cannot write the render to") && e.contains("plain-file"),
+        "{e}"
+    );
+    assert!(!e.contains("panicked"), "{e}");
+}
+
+#[test]
+fn bad_methods_and_sizes_are_named() {
+    let cases: [(&[&str], &str); 4] = [
+        (
+            &["--mesh", "sphere:6", "--method", "cubic"],
+            "--method cubic: unknown",
+        ),
+        (
+            &["--mesh", "sphere:6", "--method", "exact", "--rtl"],
+            "the RTL implements linear, quadratic and mapped only",
+        ),
+        (
+            &["--mesh", "sphere:6", "--size", "64"],
+            "--size 64: write WxH",
+        ),
+        (&["--mesh", "cube:3"], "no such file"),
+    ];
+    for (args, want) in cases {
+        let (o, _d) = render(args);
+        assert!(!o.status.success(), "{args:?}");
+        assert!(text(&o).contains(want), "{args:?}: {}", text(&o));
+    }
+}
