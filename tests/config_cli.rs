@@ -159,7 +159,7 @@ fn missing_field_and_missing_stage_part() {
 
 #[test]
 fn bad_values_and_syntax() {
-    let body = default_toml().replace("i0_km = 1.0", "i0_km = \"one\"");
+    let body = default_toml().replace("i0_km = 0.75", "i0_km = \"one\"");
     let (code, err, _) = check(&body);
     assert_eq!(code, 2);
     assert!(
@@ -167,7 +167,7 @@ fn bad_values_and_syntax() {
         "{err}"
     );
 
-    let body = default_toml().replace("i0_km = 1.0", "i0_km = 1.5");
+    let body = default_toml().replace("i0_km = 0.75", "i0_km = 1.5");
     let (_, err, _) = check(&body);
     assert!(err.contains("1.5 is outside 0..=1"), "{err}");
 
@@ -192,7 +192,7 @@ fn bad_values_and_syntax() {
 fn several_errors_are_all_reported() {
     let body = default_toml()
         .replace("\ndot = ", "\ndott = ")
-        .replace("i0_km = 1.0", "i0_km = 7");
+        .replace("i0_km = 0.75", "i0_km = 7");
     let (code, err, _) = check(&body);
     assert_eq!(code, 2);
     assert!(

@@ -60,7 +60,7 @@ use crate::lighting::{Lighting, LightingError};
 use crate::normalizer::{self, Design, DesignError, Interval, Method, Normalizer};
 use crate::polar::{Polar, PolarError};
 use crate::quantize::{Overflow, Quant, Rounding};
-use crate::units::{width_errors, OpReport, Phase, UnitEntry};
+use crate::units::{OpReport, Phase, UnitEntry};
 
 pub mod rtl;
 
@@ -661,13 +661,8 @@ fn check(cfg: &Config) -> Result<(), Vec<ConfigError>> {
         Ok(p) => p,
         Err(_) => return Ok(()), // reported by the polar section's own check
     };
-    if let Ok(p) = Pipeline::with_method(cfg, Method::None) {
-        for path in [Path::Smooth, Path::Mapped] {
-            if let Ok(cx) = p.count(path) {
-                width_errors(&cx, u)?;
-            }
-        }
-    }
+    // Widths: every stage of the chained datapath belongs to a unit whose
+    // own check measures it; the conversions between units only quantize.
     let a = u.stage("angle");
     if a.format() != polar.angle.format() {
         return Err(vec![crate::config::field_error(
@@ -724,4 +719,121 @@ pub fn ops_for(cfg: &Config) -> Result<Vec<OpReport>, PipelineError> {
         None,
     ));
     Ok(v)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::Rng;
+
+    fn cfg(path: &str) -> Config {
+        Config::resolve(None, &[format!("pipeline.path=\"{path}\"")]).unwrap()
+    }
+
+    #[test]
+    fn compiled_rows_equal_the_scalar_fixed_point_run() {
+        for path in ["smooth", "mapped"] {
+            let c = cfg(path);
+            let v = rtl::vectors(&c, 400, 3).unwrap();
+            let p = Pipeline::from_config(&c).unwrap();
+            let pth = Path::from_name(path).unwrap();
+            let got = p.run_rows(pth, &v.input_rows).unwrap();
+            for (row, g) in v.input_rows.iter().zip(&got) {
+                assert_eq!(*g, p.eval_row(pth, row).unwrap(), "{path} {row:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn the_power_chain_squares_and_multiplies_as_the_exponent_says() {
+        for n in [1u32, 2, 5, 16, 40, 255] {
+            let c = Config::resolve(None, &[format!("lighting.shininess={n}")]).unwrap();
+            let l = Lighting::from_config(c.unit("lighting"));
+            let base = l.count().counts().mul;
+            let shade = l.count_shade().counts().mul;
+            // shade = N·L and N·H (6), two gains (2), squarings and products.
+            let squarings = 31 - n.leading_zeros();
+            let products = n.count_ones() - 1;
+            assert_eq!(shade as u32, 6 + 2 + squarings + products, "n = {n}");
+            assert_eq!(base, 4);
+            // In f64 the chain is x^n.
+            let mut rf = crate::datapath::Reference;
+            let x = 0.9;
+            assert!((l.power(&mut rf, x) - x.powi(n as i32)).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn shading_in_fixed_point_tracks_the_closed_form() {
+        let c = Config::embedded();
+        let l = Lighting::from_config(c.unit("lighting"));
+        let prog = l.compile_shade().unwrap();
+        let mut rng = Rng::new(5);
+        let q = |x: f64, s: &Quant| s.apply_f64(x).unwrap().code;
+        let mut cols: [Vec<i128>; 9] = Default::default();
+        let mut want = Vec::new();
+        for _ in 0..2000 {
+            let (n, lv) = (rng.direction(), rng.direction());
+            let h = (lv + DVec3::Z).normalize();
+            for k in 0..3 {
+                cols[k].push(q(n[k], &l.normal));
+                cols[3 + k].push(q(lv[k], &l.light));
+                cols[6 + k].push(q(h[k], &l.light));
+            }
+            want.push(crate::render::shade_f64(&l, n, lv, h));
+        }
+        let refs: Vec<&[i128]> = cols.iter().map(|c| c.as_slice()).collect();
+        let (out, _) = prog.run_i128(&refs);
+        for (g, w) in out[0].iter().zip(&want) {
+            assert!((*g as f64 - w).abs() <= 1.0, "{g} vs {w}");
+        }
+    }
+
+    #[test]
+    fn angles_interpolate_across_the_seam_not_around_it() {
+        let p = Pipeline::from_config(&cfg("mapped")).unwrap();
+        // Normals either side of β = ±180° (x ≈ 0, z < 0).
+        let n = [
+            DVec3::new(0.05, 0.0, -1.0),
+            DVec3::new(-0.05, 0.0, -1.0),
+            DVec3::new(0.0, 0.05, -1.0),
+        ];
+        let t = p.setup_mapped(n);
+        let k = p.angle.format().width();
+        // The deltas are small, not near a half turn.
+        for d in [t.b[1], t.b[2]] {
+            assert!(d.abs() < 1 << (k - 5), "{t:?}");
+        }
+        let mut fx = crate::datapath::Fixed::<i128>::new();
+        let v = |code: i128, f: Format| crate::datapath::Fx::<i128>::from_code(code, f);
+        let fb = p.interp.bary.format();
+        let c = p.interp.bary.apply_f64(0.5).unwrap().code;
+        let b = p.angle_of(
+            &mut fx,
+            v(c, fb),
+            v(c, fb),
+            [
+                v(t.b[0], p.angle.format()),
+                v(t.b[1], p.delta.format()),
+                v(t.b[2], p.delta.format()),
+            ],
+        );
+        // Halfway between the first two vertices: β = ½ turn.
+        let turns = b.code() as f64 / (1u64 << k) as f64;
+        assert!((turns - 0.5).abs() < 2.0 / (1u64 << k) as f64, "{turns}");
+    }
+
+    #[test]
+    fn triangles_pick_the_coefficient_set_of_their_theta() {
+        let p = Pipeline::from_config(&Config::embedded()).unwrap();
+        let mut rng = Rng::new(9);
+        for (i, &th) in THETA_LADDER.iter().enumerate() {
+            let n = crate::sampling::equiangular(th + 1e-9, &mut rng);
+            assert_eq!(p.setup_smooth(n).unwrap().set, i, "Θ = {th}");
+        }
+        // Sets differ where the intervals differ.
+        assert_ne!(p.sets[0].coeffs, p.sets[5].coeffs);
+        assert_eq!(p.set_code(6), 0);
+        assert_eq!(p.set_code(7), 0);
+    }
 }
