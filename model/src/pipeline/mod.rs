@@ -70,9 +70,9 @@ pub static DECL: UnitDecl = UnitDecl {
     doc: "the chained pipeline: smooth path interp → normalize → lighting; mapped path angles → polar → lighting",
     fields: &[
         FieldDecl {
-            name: "angle",
-            kind: FieldKind::Stage,
-            doc: "interpolated polar angles of N (mapped path): U0F<polar.angle_bits>, wrap; the rounding is yours",
+            name: "angle_round",
+            kind: FieldKind::Choice(&["trunc", "half_up", "half_even"]),
+            doc: "rounding of the interpolated polar angles of N (mapped path), in the polar angle format U0F<polar.angle_bits>, wrapping",
         },
         FieldDecl {
             name: "path",
@@ -243,19 +243,13 @@ impl Pipeline {
         }
         let polar = Polar::from_config(cfg.unit(crate::polar::DECL.name))?;
         let light = Lighting::from_config(cfg.unit(crate::lighting::DECL.name));
-        let angle = cfg.unit(DECL.name).stage("angle");
         let want = polar.angle.format();
-        if angle.format() != want {
-            return Err(PipelineError::Angle(format!(
-                "format {} must be the polar angle format {want} (polar.angle_bits)",
-                angle.format()
-            )));
-        }
-        if angle.overflow() != Overflow::Wrap {
-            return Err(PipelineError::Angle(
-                "overflow must be \"wrap\": angles wrap around a turn".into(),
-            ));
-        }
+        let round = match cfg.unit(DECL.name).choice("angle_round") {
+            "trunc" => Rounding::Trunc,
+            "half_up" => Rounding::HalfUp,
+            _ => Rounding::HalfEven,
+        };
+        let angle = Quant::new("angle", want, round, Overflow::Wrap);
         let k = want.width();
         let delta = Quant::new(
             "delta",
@@ -653,35 +647,10 @@ pub struct MappedTri {
     pub b: [i128; 3],
 }
 
-fn check(cfg: &Config) -> Result<(), Vec<ConfigError>> {
-    let u = cfg.unit(DECL.name);
-    // Formats only: designing coefficients here would make every config
-    // load slow; a design failure surfaces where the pipeline is built.
-    let polar = match Polar::from_config(cfg.unit(crate::polar::DECL.name)) {
-        Ok(p) => p,
-        Err(_) => return Ok(()), // reported by the polar section's own check
-    };
+fn check(_cfg: &Config) -> Result<(), Vec<ConfigError>> {
     // Widths: every stage of the chained datapath belongs to a unit whose
-    // own check measures it; the conversions between units only quantize.
-    let a = u.stage("angle");
-    if a.format() != polar.angle.format() {
-        return Err(vec![crate::config::field_error(
-            u,
-            "angle",
-            format!(
-                "format {} must be the polar angle format {} (polar.angle_bits)",
-                a.format(),
-                polar.angle.format()
-            ),
-        )]);
-    }
-    if a.overflow() != Overflow::Wrap {
-        return Err(vec![crate::config::field_error(
-            u,
-            "angle",
-            "overflow must be \"wrap\": angles wrap around a turn".into(),
-        )]);
-    }
+    // own check measures it; the conversions between units only quantize,
+    // and the angle stage takes the polar angle format.
     Ok(())
 }
 
