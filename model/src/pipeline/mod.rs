@@ -133,9 +133,6 @@ pub enum PipelineError {
     /// A constant could not be converted.
     #[error(transparent)]
     Convert(#[from] ConvertError),
-    /// The angle stage does not match the polar angle format.
-    #[error("pipeline.angle: {0}")]
-    Angle(String),
 }
 
 /// The pipeline of a configuration, with one normalizer per Θ of the ladder.
@@ -186,12 +183,8 @@ impl Pipeline {
         static CACHE: OnceLock<Mutex<HashMap<(String, &'static str), Pipeline>>> = OnceLock::new();
         let key = (cfg.to_toml(), method.name());
         let cache = CACHE.get_or_init(|| Mutex::new(HashMap::new()));
-        if let Some(p) = cache
-            .lock()
-            .map_err(|_| PipelineError::Angle("cache poisoned".into()))?
-            .get(&key)
-        {
-            return Ok(p.clone());
+        if let Some(p) = cache.lock().ok().and_then(|c| c.get(&key).cloned()) {
+            return Ok(p);
         }
         let p = Self::build(cfg, method)?;
         if let Ok(mut c) = cache.lock() {
