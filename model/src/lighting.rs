@@ -336,7 +336,8 @@ mod tests {
             let lq = lv.map(|x| fx.constant(x, &l.light).unwrap());
             let got = l.diffuse(&mut fx, &kf, nq, lq);
             let want = l.diffuse(&mut rf, &kr, n, lv);
-            let want_closed = 255.0 * (n[0] * lv[0] + n[1] * lv[1] + n[2] * lv[2]).max(0.0);
+            let want_closed =
+                255.0 * l.i0_km * (n[0] * lv[0] + n[1] * lv[1] + n[2] * lv[2]).max(0.0);
             assert!((want - want_closed).abs() < 1e-9);
             assert!(
                 (got.to_f64() - want).abs() <= 1.0,
