@@ -12,7 +12,7 @@ localparam integer C_W = 18, C_F = 15, C_S = 1;
 localparam integer H_W = 18, H_F = 15, H_S = 1, H_R = 2, H_SAT = 1;
 localparam integer G_W = 18, G_F = 17, G_S = 0, G_R = 2, G_SAT = 1;
 localparam integer O_W = 16, O_F = 14, O_S = 1, O_R = 2, O_SAT = 1;
-localparam integer NSETS = 1, SEL_W = 1;
+localparam integer NSETS = 1, SEL_W = 3;
 // Coefficient sets, {c2, c1, c0} each, set 0 in the low bits:
 //   set 0 (Θ = 0.5): c0 = 2.076171875, c1 = -1.683929443359375, c2 = 0.6083984375
 localparam [NSETS*3*C_W-1:0] COEFS = {18'h04de0, 18'h32875, 18'h109c0};

@@ -91,7 +91,9 @@ fn detail_theta(d: &Option<Design>) -> String {
 /// `cf`) of each set.
 pub fn coef_table(cf: Format, sets: &[(String, Vec<f64>)]) -> Result<String, RtlError> {
     let nsets = sets.len().max(1);
-    let sel_w = (usize::BITS - (nsets - 1).leading_zeros()).max(1);
+    // At least the pipeline's 3-bit `sel` (pipeline::SEL_BITS), so the
+    // standalone header (one set) and the pipeline's agree on the port.
+    let sel_w = (usize::BITS - (nsets - 1).leading_zeros()).max(crate::pipeline::SEL_BITS);
     let mut t = format!("localparam integer NSETS = {nsets}, SEL_W = {sel_w};\n");
     t += "// Coefficient sets, {c2, c1, c0} each, set 0 in the low bits:\n";
     // One "c2, c1, c0" group per set; the concatenation lists set NSETS−1
