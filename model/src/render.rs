@@ -389,7 +389,12 @@ pub fn frame(p: &Pipeline, raster: Raster, mesh: &Mesh) -> Frame {
         smooth_ref: Vec::with_capacity(raster.fragments.len()),
         mapped_ref: Vec::with_capacity(raster.fragments.len()),
         mapped_interp_ref: Vec::with_capacity(raster.fragments.len()),
-        raster: raster.clone(),
+        raster: Raster {
+            width: raster.width,
+            height: raster.height,
+            fragments: Vec::new(),
+            normals: raster.normals.clone(),
+        },
     };
     for fr in &raster.fragments {
         let Some((st, mt)) = &tris[fr.tri] else {
@@ -432,6 +437,7 @@ pub fn frame(p: &Pipeline, raster: Raster, mesh: &Mesh) -> Frame {
         let hp = crate::polar::reference(ah_f, bh_f, ai, bi);
         f.mapped_interp_ref.push(shade_f64(&p.light, tex, lp, hp));
     }
+    f.raster.fragments = raster.fragments;
     f
 }
 
@@ -469,14 +475,24 @@ pub fn run_method(
     })
 }
 
+/// The 8-bit pixel of a code in the `level` format: its value rounded to
+/// the nearest level and clipped to `0 ..= 255`. With the default `U8F0`
+/// the pixel is the code; a level format with fraction bits, or wider or
+/// signed, is shown by value rather than by its raw code. Model and RTL
+/// images both go through this.
+pub fn pixel_of(level: crate::format::Format, code: i128) -> u8 {
+    level.to_f64(code).round().clamp(0.0, 255.0) as u8
+}
+
 /// Levels of a path's rows (skipped fragments, with empty rows, are 0).
 pub fn levels_of(p: &Pipeline, path: Path, rows: &[Vec<i128>]) -> Result<Vec<u8>, PipelineError> {
     let idx: Vec<usize> = (0..rows.len()).filter(|&i| !rows[i].is_empty()).collect();
     let live: Vec<Vec<i128>> = idx.iter().map(|&i| rows[i].clone()).collect();
     let out = p.run_rows(path, &live)?;
+    let fl = p.light.level.format();
     let mut levels = vec![0u8; rows.len()];
     for (k, &i) in idx.iter().enumerate() {
-        levels[i] = out[k].clamp(0, 255) as u8;
+        levels[i] = pixel_of(fl, out[k]);
     }
     Ok(levels)
 }
