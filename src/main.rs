@@ -57,9 +57,11 @@ enum Command {
     /// How far the polar transform's implied tangent frame is from the
     /// UV-aligned frame normal maps are baked in, over a procedural mesh.
     PolarFrames(cmd::polar_frames::FramesArgs),
-    /// Write test vectors (manifest, $readmemh files) and the Verilog
-    /// parameter header of a unit for a configuration.
+    /// Write test vectors (manifest, $readmemh files) with the unit's
+    /// generated Verilog and testbench for a configuration.
     Vectors(cmd::vectors::VectorsArgs),
+    /// Emit a unit's Verilog (and testbench) from its traced datapath.
+    Rtl(cmd::rtl::RtlArgs),
     /// Co-simulate a unit's RTL against the model with Verilator or Icarus
     /// Verilog: exit status 0 only when every vector matches bit for bit.
     RtlCheck(cmd::rtl_check::RtlCheckArgs),
@@ -86,6 +88,7 @@ fn main() -> ExitCode {
         Command::Paper(a) => cmd::paper::run(a),
         Command::Vectors(a) => cmd::vectors::run(a),
         Command::PolarFrames(a) => cmd::polar_frames::run(a),
+        Command::Rtl(a) => cmd::rtl::run(a),
         Command::RtlCheck(a) => cmd::rtl_check::run(a),
         Command::Render(a) => cmd::render::run(a),
     };

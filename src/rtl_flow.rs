@@ -1,195 +1,108 @@
-//! The RTL flow: generate vectors and parameters for a configuration, build
-//! the unit's testbench with Verilator or Icarus Verilog (cached per
-//! configuration), run it, and read back `N passed, M failed`.
+//! The RTL flow: emit a unit's Verilog and testbench from its traced
+//! datapath (or take hand-edited design files from a directory), build the
+//! testbench with Verilator or Icarus Verilog (cached by the sources' hash),
+//! run it on vectors, and read back `N passed, M failed`.
 //!
-//! Adding a unit means adding its Verilog, its testbench and an entry in
-//! [`RTL_UNITS`]; the flow, the vector writer and the testbench driver
-//! (`rtl/tb/fxs_vector_tb.vh`) are shared.
+//! The units are the model's registry ([`fxshade_model::rtl::units`]); the
+//! flow, the vector writer and the testbench driver
+//! (`rtl/tb/fxs_vector_tb.vh`, pasted into every generated testbench) are
+//! shared.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
 
 use anyhow::{bail, Context};
-use fxshade_model::vectors::{fingerprint, ParamsHeader, VectorSet};
-use fxshade_model::Config;
-
-/// A unit with RTL.
-pub struct RtlUnit {
-    /// Unit name (its configuration section, `rtl/<name>.v`).
-    pub name: &'static str,
-    /// Top module of the design.
-    pub top: &'static str,
-    /// Top module of the testbench.
-    pub tb_top: &'static str,
-    /// Sources, relative to `rtl/`, embedded in the binary: design files
-    /// first, testbench files last.
-    pub sources: &'static [(&'static str, &'static str)],
-    /// Number of leading entries of `sources` that are the design.
-    pub design_files: usize,
-    /// The vectors of a configuration.
-    pub vectors: fn(&Config, usize, u64) -> anyhow::Result<VectorSet>,
-    /// The parameter header of a configuration.
-    pub params: fn(&Config) -> anyhow::Result<ParamsHeader>,
-    /// The variants the RTL implements: name and the `--set` override
-    /// selecting it.
-    pub variants: &'static [(&'static str, &'static str)],
-    /// The counting run of the datapath the RTL implements, for a
-    /// configuration (to compare with its netlist).
-    pub count: fn(&Config) -> anyhow::Result<fxshade_model::Count>,
-    /// Modules that are table reads (ROMs): kept as black boxes in the
-    /// netlist, counted as table reads, their addressing not as arithmetic.
-    pub blackbox: &'static [&'static str],
-    /// Stages whose overflow the RTL does not observe because they wrap by
-    /// design (the polar transform's angle index): no range comparators.
-    pub unflagged: &'static [&'static str],
-    /// Whether the RTL outputs overflow flags. When it does not (the
-    /// pipeline top outputs the level only), a wrapping quantization needs
-    /// no range comparators and synthesis removes them.
-    pub flags_overflow: bool,
-}
-
-macro_rules! rtl_source {
-    ($p:literal) => {
-        ($p, include_str!(concat!("../rtl/", $p)))
-    };
-}
-
-/// Every unit with RTL.
-pub static RTL_UNITS: &[RtlUnit] = &[
-    RtlUnit {
-        name: "normalize",
-        top: "normalize",
-        tb_top: "normalize_tb",
-        sources: &[
-            rtl_source!("fxs_quant.v"),
-            rtl_source!("fxs_pipe_ctrl.v"),
-            rtl_source!("fxs_side_delay.v"),
-            rtl_source!("fxs_mad_q.v"),
-            rtl_source!("normalize.v"),
-            rtl_source!("tb/fxs_vector_tb.vh"),
-            rtl_source!("tb/normalize_tb.v"),
-        ],
-        design_files: 5,
-        vectors: |cfg, n, seed| Ok(fxshade_model::normalizer::rtl::vectors(cfg, n, seed)?),
-        params: |cfg| Ok(fxshade_model::normalizer::rtl::params_header(cfg)?.2),
-        variants: &[
-            ("linear", "normalize.method=\"linear\""),
-            ("quadratic", "normalize.method=\"quadratic\""),
-        ],
-        count: |cfg| Ok(fxshade_model::normalizer::from_config(cfg)?.0.count()?),
-        blackbox: &[],
-        unflagged: &[],
-        flags_overflow: true,
-    },
-    RtlUnit {
-        name: "interp",
-        top: "interp",
-        tb_top: "interp_tb",
-        sources: &[
-            rtl_source!("fxs_quant.v"),
-            rtl_source!("fxs_pipe_ctrl.v"),
-            rtl_source!("fxs_side_delay.v"),
-            rtl_source!("interp.v"),
-            rtl_source!("tb/fxs_vector_tb.vh"),
-            rtl_source!("tb/interp_tb.v"),
-        ],
-        design_files: 4,
-        vectors: |cfg, n, seed| Ok(fxshade_model::interp::rtl::vectors(cfg, n, seed)?),
-        params: |cfg| Ok(fxshade_model::interp::rtl::params_header(cfg)?.1),
-        variants: &[
-            ("linear", "interp.scheme=\"linear\""),
-            ("quadratic", "interp.scheme=\"quadratic\""),
-        ],
-        count: |cfg| {
-            let i = fxshade_model::interp::Interp::from_config(
-                cfg.unit(fxshade_model::interp::DECL.name),
-            );
-            Ok(i.count()?.1)
-        },
-        blackbox: &[],
-        unflagged: &[],
-        flags_overflow: true,
-    },
-    RtlUnit {
-        name: "polar",
-        top: "polar",
-        tb_top: "polar_tb",
-        sources: &[
-            rtl_source!("fxs_quant.v"),
-            rtl_source!("fxs_pipe_ctrl.v"),
-            rtl_source!("fxs_side_delay.v"),
-            rtl_source!("fxs_sincos_rom.v"),
-            rtl_source!("fxs_mad_q.v"),
-            rtl_source!("polar.v"),
-            rtl_source!("tb/fxs_vector_tb.vh"),
-            rtl_source!("tb/polar_tb.v"),
-        ],
-        design_files: 6,
-        vectors: |cfg, n, seed| Ok(fxshade_model::polar::rtl::vectors(cfg, n, seed)?),
-        params: |cfg| Ok(fxshade_model::polar::rtl::params_header(cfg)?.1),
-        variants: &[
-            ("quarter", "polar.organisation=\"quarter\""),
-            ("full", "polar.organisation=\"full\""),
-        ],
-        count: |cfg| {
-            let p =
-                fxshade_model::polar::Polar::from_config(cfg.unit(fxshade_model::polar::DECL.name))
-                    .map_err(|e| anyhow::anyhow!("{e}"))?;
-            Ok(p.count()?)
-        },
-        blackbox: &["fxs_sincos_rom"],
-        unflagged: &["index"],
-        flags_overflow: true,
-    },
-    RtlUnit {
-        name: "pipeline",
-        top: "pipeline",
-        tb_top: "pipeline_tb",
-        sources: &[
-            rtl_source!("fxs_quant.v"),
-            rtl_source!("fxs_pipe_ctrl.v"),
-            rtl_source!("fxs_side_delay.v"),
-            rtl_source!("fxs_mad_q.v"),
-            rtl_source!("fxs_sincos_rom.v"),
-            rtl_source!("interp.v"),
-            rtl_source!("normalize.v"),
-            rtl_source!("polar.v"),
-            rtl_source!("angle_interp.v"),
-            rtl_source!("lighting.v"),
-            rtl_source!("pipeline.v"),
-            rtl_source!("tb/fxs_vector_tb.vh"),
-            rtl_source!("tb/pipeline_tb.v"),
-        ],
-        design_files: 11,
-        vectors: |cfg, n, seed| Ok(fxshade_model::pipeline::rtl::vectors(cfg, n, seed)?),
-        params: |cfg| Ok(fxshade_model::pipeline::rtl::params_header(cfg)?.2),
-        variants: &[
-            ("smooth", "pipeline.path=\"smooth\""),
-            ("mapped", "pipeline.path=\"mapped\""),
-        ],
-        count: |cfg| {
-            let (p, path, _) = fxshade_model::pipeline::rtl::params_header(cfg)?;
-            Ok(p.count(path)?)
-        },
-        blackbox: &["fxs_sincos_rom"],
-        unflagged: &["index", "angle"],
-        flags_overflow: false,
-    },
-];
+use fxshade_model::rtl::units::RtlUnit;
+use fxshade_model::vectors::{fingerprint, VectorSet};
 
 /// Look a unit up by name.
 pub fn unit(name: &str) -> anyhow::Result<&'static RtlUnit> {
-    RTL_UNITS.iter().find(|u| u.name == name).with_context(|| {
+    fxshade_model::rtl::units::unit(name).with_context(|| {
         format!(
             "no RTL for unit `{name}`; units with RTL: {}",
-            RTL_UNITS
-                .iter()
-                .map(|u| u.name)
-                .collect::<Vec<_>>()
-                .join(", ")
+            fxshade_model::rtl::units::names()
         )
     })
+}
+
+/// The Verilog a simulation compiles: design files (name, text) and the
+/// testbench's top module; `origin` says where the design came from.
+#[derive(Clone, Debug)]
+pub struct Sources {
+    /// Design files, then the testbench file.
+    pub files: Vec<(String, String)>,
+    /// The testbench's top module.
+    pub tb_top: String,
+    /// `emitted` or the directory the design files were read from.
+    pub origin: String,
+}
+
+impl Sources {
+    /// The emitted design and testbench of a vector set.
+    pub fn emitted(v: &VectorSet) -> Sources {
+        Sources {
+            files: v
+                .rtl
+                .files()
+                .into_iter()
+                .map(|(n, t)| (n, t.to_string()))
+                .collect(),
+            tb_top: format!("{}_tb", v.rtl.module),
+            origin: "emitted by fxshade rtl".into(),
+        }
+    }
+    /// Every `*.v` file of `dir` except testbenches (`*_tb.v`) as the
+    /// design, with the vector set's generated testbench.
+    pub fn from_dir(v: &VectorSet, dir: &Path) -> anyhow::Result<Sources> {
+        let mut files = Vec::new();
+        let rd = std::fs::read_dir(dir)
+            .with_context(|| format!("cannot read --rtl-dir {}", dir.display()))?;
+        let mut names: Vec<PathBuf> = rd
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| {
+                p.extension().is_some_and(|x| x == "v")
+                    && !p
+                        .file_name()
+                        .is_some_and(|n| n.to_string_lossy().ends_with("_tb.v"))
+            })
+            .collect();
+        names.sort();
+        anyhow::ensure!(
+            !names.is_empty(),
+            "--rtl-dir {} holds no .v design files",
+            dir.display()
+        );
+        for p in &names {
+            let text = std::fs::read_to_string(p)
+                .with_context(|| format!("cannot read {}", p.display()))?;
+            files.push((
+                p.file_name()
+                    .expect("a file")
+                    .to_string_lossy()
+                    .into_owned(),
+                text,
+            ));
+        }
+        files.push((format!("{}_tb.v", v.rtl.module), v.rtl.testbench.clone()));
+        Ok(Sources {
+            files,
+            tb_top: format!("{}_tb", v.rtl.module),
+            origin: format!(
+                "{} ({})",
+                dir.display(),
+                names
+                    .iter()
+                    .map(|p| p
+                        .file_name()
+                        .expect("a file")
+                        .to_string_lossy()
+                        .into_owned())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+        })
+    }
 }
 
 /// A simulator.
@@ -244,18 +157,16 @@ fn run_tool(cmd: &mut Command, what: &str) -> anyhow::Result<String> {
     Ok(text)
 }
 
-/// Write the unit's sources and a parameter header into `dir/src`.
-pub fn write_sources(u: &RtlUnit, params: &ParamsHeader, dir: &Path) -> anyhow::Result<PathBuf> {
-    let src = dir.join("src");
-    std::fs::create_dir_all(src.join("tb"))?;
-    for (rel, text) in u.sources {
-        std::fs::write(src.join(rel), text)?;
+/// Write the sources into `dir`; the paths of the files.
+pub fn write_sources(src: &Sources, dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
+    std::fs::create_dir_all(dir)?;
+    let mut paths = Vec::new();
+    for (name, text) in &src.files {
+        let p = dir.join(name);
+        std::fs::write(&p, text).with_context(|| format!("cannot write {}", p.display()))?;
+        paths.push(p);
     }
-    std::fs::write(src.join(&params.name), &params.text)?;
-    for (name, text) in &params.extra {
-        std::fs::write(src.join(name), text)?;
-    }
-    Ok(src)
+    Ok(paths)
 }
 
 /// A built simulation.
@@ -268,8 +179,8 @@ pub struct Build {
 
 /// Build (or reuse) the testbench of `u` for `params` on `sim`.
 pub fn build(
-    u: &RtlUnit,
-    params: &ParamsHeader,
+    name: &str,
+    sources: &Sources,
     sim: Sim,
     maxn: usize,
     trace: bool,
@@ -280,38 +191,30 @@ pub fn build(
             require_tool("iverilog", "iverilog")?;
         }
     }
-    let mut parts: Vec<&[u8]> = u.sources.iter().map(|(_, t)| t.as_bytes()).collect();
-    let tag = format!("{}-{maxn}-{trace}", sim.name());
-    parts.push(params.text.as_bytes());
-    for (name, text) in &params.extra {
-        parts.push(name.as_bytes());
-        parts.push(text.as_bytes());
+    let mut parts: Vec<&[u8]> = Vec::new();
+    for (n, t) in &sources.files {
+        parts.push(n.as_bytes());
+        parts.push(t.as_bytes());
     }
+    let tag = format!("{}-{maxn}-{trace}", sim.name());
     parts.push(tag.as_bytes());
     let key = fingerprint(&parts);
     let root = cache_root();
-    let dir = root.join(format!("{}-{}-{key:016x}", u.name, sim.name()));
+    let dir = root.join(format!("{name}-{}-{key:016x}", sim.name()));
     if dir.join("done").is_file() {
         return Ok(Build { dir, seconds: 0.0 });
     }
     std::fs::create_dir_all(&root)
         .with_context(|| format!("cannot create the build cache {}", root.display()))?;
     let staging = root.join(format!(
-        ".{}-{}-{key:016x}.{}",
-        u.name,
+        ".{name}-{}-{key:016x}.{}",
         sim.name(),
         std::process::id()
     ));
     let _ = std::fs::remove_dir_all(&staging);
     std::fs::create_dir_all(&staging)?;
     let start = Instant::now();
-    let src = write_sources(u, params, &staging)?;
-    let files: Vec<PathBuf> = u
-        .sources
-        .iter()
-        .filter(|(rel, _)| rel.ends_with(".v"))
-        .map(|(rel, _)| src.join(rel))
-        .collect();
+    let files = write_sources(sources, &staging.join("src"))?;
     let result = match sim {
         Sim::Verilator => {
             let mut c = Command::new("verilator");
@@ -327,9 +230,7 @@ pub fn build(
                     "fast",
                 ])
                 .arg("--top-module")
-                .arg(u.tb_top)
-                .arg(format!("-I{}", src.display()))
-                .arg(format!("-I{}", src.join("tb").display()))
+                .arg(&sources.tb_top)
                 .arg(format!("-GMAXN={maxn}"))
                 .args(["--Mdir", "obj", "-o", "sim"]);
             if trace {
@@ -342,9 +243,7 @@ pub fn build(
             let mut c = Command::new("iverilog");
             c.current_dir(&staging)
                 .args(["-g2005", "-o", "sim.vvp"])
-                .arg(format!("-I{}", src.display()))
-                .arg(format!("-I{}", src.join("tb").display()))
-                .arg(format!("-P{}.MAXN={maxn}", u.tb_top))
+                .arg(format!("-P{}.MAXN={maxn}", sources.tb_top))
                 .args(&files);
             run_tool(&mut c, "iverilog")
         }
@@ -369,6 +268,8 @@ pub fn build(
 pub struct CheckResult {
     /// Unit.
     pub unit: &'static str,
+    /// Where the simulated design came from.
+    pub design: String,
     /// Simulator.
     pub sim: Sim,
     /// Vectors in the set.
@@ -417,23 +318,11 @@ fn parse_num(line: &str, prefix: &str) -> Option<u64> {
         .ok()
 }
 
-/// Run the vectors through the unit's testbench.
-pub fn check(
-    u: &RtlUnit,
-    v: &VectorSet,
-    sim: Sim,
-    seed: u64,
-    stall: u32,
-    trace: Option<&Path>,
-) -> anyhow::Result<CheckResult> {
-    check_with(u, v, sim, seed, stall, trace, false)
-}
-
-/// As [`check`]; with `dump`, also read back every output the RTL produced
+/// Run the vectors through the testbench of `sources`; with `dump`, also read back every output the RTL produced
 /// ([`CheckResult::outputs`]).
 pub fn check_with(
-    u: &RtlUnit,
     v: &VectorSet,
+    sources: &Sources,
     sim: Sim,
     seed: u64,
     stall: u32,
@@ -441,7 +330,7 @@ pub fn check_with(
     dump: bool,
 ) -> anyhow::Result<CheckResult> {
     let maxn = (v.count() + 1).next_power_of_two();
-    let b = build(u, &v.params, sim, maxn, trace.is_some())?;
+    let b = build(v.unit, sources, sim, maxn, trace.is_some())?;
     let run = b.dir.join(
         format!(
             "run-{}-{:?}",
@@ -454,9 +343,6 @@ pub fn check_with(
     std::fs::create_dir_all(&run)?;
     std::fs::write(run.join("inputs.hex"), v.inputs_hex())?;
     std::fs::write(run.join("expected.hex"), v.expected_hex())?;
-    for (name, text) in &v.params.extra {
-        std::fs::write(run.join(name), text)?;
-    }
     let mut c = match sim {
         Sim::Verilator => Command::new(b.dir.join("obj").join("sim")),
         Sim::Icarus => {
@@ -515,7 +401,8 @@ pub fn check_with(
     let _ = std::fs::remove_dir_all(&run);
     let load = loaded_at.unwrap_or(0.0);
     let mut r = CheckResult {
-        unit: u.name,
+        unit: v.unit,
+        design: sources.origin.clone(),
         sim,
         count: v.count(),
         passed: 0,

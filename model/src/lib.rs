@@ -34,6 +34,7 @@ pub mod pipeline;
 pub mod polar;
 pub mod quantize;
 pub mod render;
+pub mod rtl;
 pub mod sampling;
 pub mod units;
 pub mod vectors;

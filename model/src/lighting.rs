@@ -170,11 +170,14 @@ impl Lighting {
         n: [C::V; 3],
         l: [C::V; 3],
     ) -> C::V {
+        cx.enter(DECL.name);
         let d = cx.dot3(n, l);
         let d = cx.quantize(d, &self.dot);
         let d = cx.max(d, k.zero);
         let lvl = cx.mul(d, k.gain);
-        cx.quantize(lvl, &self.level)
+        let out = cx.quantize(lvl, &self.level);
+        cx.leave();
+        out
     }
 
     /// `max(Q_dot(a·b), 0)`.
@@ -221,6 +224,8 @@ impl Lighting {
 
     /// Diffuse and specular:
     /// `Q_level(max(Q_dot(N·L), 0)·gain + Q_spec(max(Q_dot(N·H), 0))^n·gain_s)`.
+    /// With `i0_ks = 0` the specular term is exactly zero, so this is
+    /// [`Lighting::diffuse`] (the same codes, without the power chain).
     #[inline]
     pub fn shade<C: Datapath>(
         &self,
@@ -230,12 +235,32 @@ impl Lighting {
         l: [C::V; 3],
         h: [C::V; 3],
     ) -> C::V {
+        if self.i0_ks == 0.0 {
+            return self.diffuse(cx, k, n, l);
+        }
+        cx.enter(DECL.name);
         let dl = self.clamped_dot(cx, k, n, l);
         let dh = self.clamped_dot(cx, k, n, h);
         let s = self.power(cx, dh);
         let d = cx.mul(dl, k.gain);
         let t = cx.mul_add(s, k.gain_s, d);
-        cx.quantize(t, &self.level)
+        let out = cx.quantize(t, &self.level);
+        cx.leave();
+        out
+    }
+
+    /// The unit traced with named ports: inputs `n`, `l`, `h` (`_x, _y, _z`
+    /// each; normal and light formats), output `level`. Diffuse only when
+    /// `i0_ks = 0` (then `h` is not read).
+    pub fn trace(&self) -> Result<crate::datapath::Trace, LightingError> {
+        let mut tr = crate::datapath::Trace::new();
+        let n = tr.input3("n", &self.normal);
+        let l = tr.input3("l", &self.light);
+        let h = tr.input3("h", &self.light);
+        let k = self.consts(&mut tr)?;
+        let lvl = self.shade(&mut tr, &k, n, l, h);
+        tr.output("level", lvl);
+        Ok(tr)
     }
 
     /// Number of pipeline stages of the power chain: the bit length of `n`.
@@ -314,6 +339,95 @@ fn ops(cfg: &Config) -> Vec<OpReport> {
             None,
         ),
     ]
+}
+
+/// The lighting unit's RTL side: its traced design and input vectors.
+pub mod rtl {
+    use super::{Lighting, DECL};
+    use crate::config::Config;
+    use crate::sampling::Rng;
+    use crate::vectors::{structured_code, RtlError};
+    use glam::DVec3;
+
+    /// The unit's traced datapath: diffuse, or diffuse + specular.
+    pub fn design(cfg: &Config) -> Result<crate::rtl::Design, RtlError> {
+        let l = Lighting::from_config(cfg.unit(DECL.name));
+        let variant = if l.i0_ks == 0.0 {
+            "diffuse"
+        } else {
+            "diffuse+specular"
+        };
+        let notes = vec![format!(
+            "I0·km = {}, I0·ks = {}, shininess {}",
+            l.i0_km, l.i0_ks, l.shininess
+        )];
+        Ok(crate::rtl::Design::new(
+            DECL.name,
+            variant,
+            l.trace()?,
+            cfg,
+            notes,
+        ))
+    }
+
+    /// Input vectors: extreme codes and perpendicular or opposite vectors,
+    /// then random unit N, L, H (N within 60° of L half the time), then
+    /// structured random codes.
+    pub fn inputs(
+        cfg: &Config,
+        count: usize,
+        seed: u64,
+    ) -> Result<crate::rtl::units::Inputs, RtlError> {
+        let l = Lighting::from_config(cfg.unit(DECL.name));
+        let (fnm, fl) = (l.normal.format(), l.light.format());
+        let qn = |v: DVec3| {
+            v.to_array()
+                .map(|x| l.normal.apply_f64(x).map_or(0, |r| r.code))
+        };
+        let ql = |v: DVec3| {
+            v.to_array()
+                .map(|x| l.light.apply_f64(x).map_or(0, |r| r.code))
+        };
+        let row = |n: [i128; 3], a: [i128; 3], b: [i128; 3]| [n, a, b].concat();
+        let mut rows = Vec::new();
+        let (z, x, y) = (DVec3::Z, DVec3::X, DVec3::Y);
+        rows.push(row(qn(z), ql(z), ql(z)));
+        rows.push(row(qn(z), ql(x), ql(y)));
+        rows.push(row(qn(z), ql(-z), ql(-z)));
+        rows.push(row(
+            [fnm.max_code(); 3],
+            [fl.max_code(); 3],
+            [fl.max_code(); 3],
+        ));
+        rows.push(row(
+            [fnm.min_code(); 3],
+            [fl.min_code(); 3],
+            [fl.min_code(); 3],
+        ));
+        rows.push(row(
+            [fnm.max_code(); 3],
+            [fl.min_code(); 3],
+            [fl.max_code(); 3],
+        ));
+        let corners = rows.len();
+        if count < corners {
+            return Err(RtlError::Count { count, corners });
+        }
+        let mut rng = Rng::new(seed);
+        while rows.len() < count {
+            if rows.len() % 2 == 0 {
+                let lv = rng.direction();
+                let n = rng.in_cone(lv, 0.5);
+                let h = (lv + rng.in_cone(n, 0.3)).normalize_or(DVec3::Z);
+                rows.push(row(qn(n), ql(lv), ql(h)));
+            } else {
+                let mut r: Vec<i128> = (0..3).map(|_| structured_code(fnm, &mut rng)).collect();
+                r.extend((0..6).map(|_| structured_code(fl, &mut rng)));
+                rows.push(r);
+            }
+        }
+        Ok((rows, corners))
+    }
 }
 
 #[cfg(test)]

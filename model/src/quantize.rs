@@ -548,3 +548,16 @@ mod tests {
         }
     }
 }
+
+/// The exact format of a non-negative integer literal `n`: `U<b>F0` with `b`
+/// the bit length of `n` (at least 1), so `1` is `U1F0` and `15` is `U4F0`.
+/// A constant is a value in a format too; this one holds it exactly.
+pub fn literal(n: u64) -> Quant {
+    let bits = (64 - n.leading_zeros()).max(1);
+    Quant::new(
+        "literal",
+        crate::format::Format::new(false, bits, 0).expect("1..=64 bits"),
+        Rounding::Trunc,
+        Overflow::Saturate,
+    )
+}

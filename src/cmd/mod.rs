@@ -9,6 +9,7 @@ pub mod paper;
 pub mod polar_frames;
 pub mod render;
 pub mod report;
+pub mod rtl;
 pub mod rtl_check;
 pub mod vectors;
 

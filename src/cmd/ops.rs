@@ -21,84 +21,94 @@ pub struct OpsArgs {
     out: OutputArgs,
 }
 
-/// Word-level cells of one RTL variant, beside the model's counts.
+/// One RTL variant's word-level arithmetic, as the emitter built it from the
+/// trace (`model_*`) and as Yosys read it back from the emitted Verilog
+/// (`netlist_*`): every multiplier's operand widths and signedness, every
+/// adder's width, comparators and table reads.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct NetlistCheck {
     /// Unit.
     pub unit: &'static str,
     /// Variant.
     pub variant: String,
-    /// `$mul` cells.
-    pub netlist_mul: u64,
-    /// `$add` and `$sub` cells.
-    pub netlist_add: u64,
-    /// `$lt`, `$gt`, `$le` and `$ge` cells.
-    pub netlist_compare: u64,
-    /// Cell types by result width, e.g. `$mul_34: 3`.
-    pub netlist_cells: std::collections::BTreeMap<String, u64>,
-    /// Model multiplications.
-    pub model_mul: u64,
-    /// Model additions plus rounding incrementers.
-    pub model_add: u64,
-    /// Model comparisons plus two range comparators per quantization.
+    /// Multipliers of the trace, as `wide × narrow signed|unsigned`.
+    pub model_mul: Vec<String>,
+    /// `$mul` cells of the netlist, likewise.
+    pub netlist_mul: Vec<String>,
+    /// Adder, subtractor and rounding-incrementer widths of the trace.
+    pub model_add: Vec<u32>,
+    /// `$add`/`$sub` result widths of the netlist.
+    pub netlist_add: Vec<u32>,
+    /// Comparators (`max`) of the trace.
     pub model_compare: u64,
-    /// Table (ROM) instances in the netlist.
-    pub netlist_table_read: u64,
-    /// Model table reads.
-    pub model_table_read: u64,
-    /// Whether all four agree.
+    /// `$gt`/`$lt`/`$ge`/`$le` cells of the netlist.
+    pub netlist_compare: u64,
+    /// Whether every list agrees.
     pub agree: bool,
 }
 
-/// Synthesize every RTL unit and variant with Yosys and compare.
+/// `(type, parameters)` of every `$mul`, `$add`, `$sub` and comparison
+/// cell in a Yosys RTLIL dump.
+fn parse_cells(dump: &str) -> Vec<(String, std::collections::BTreeMap<String, i64>)> {
+    let mut cells = Vec::new();
+    let mut cur: Option<(String, std::collections::BTreeMap<String, i64>)> = None;
+    for l in dump.lines() {
+        let w: Vec<&str> = l.split_whitespace().collect();
+        match w.as_slice() {
+            ["cell", ty, ..] => cur = Some((ty.to_string(), Default::default())),
+            ["parameter", k, v] => {
+                if let Some((_, p)) = cur.as_mut() {
+                    let v = v.trim_start_matches("32'");
+                    let n = if v.chars().all(|c| c == '0' || c == '1') && v.len() == 32 {
+                        i64::from_str_radix(v, 2).unwrap_or(0)
+                    } else {
+                        v.parse().unwrap_or(0)
+                    };
+                    p.insert(k.trim_start_matches('\\').to_string(), n);
+                }
+            }
+            ["end"] => {
+                if let Some(c) = cur.take() {
+                    cells.push(c);
+                }
+            }
+            _ => {}
+        }
+    }
+    cells
+}
+
+/// Emit every RTL unit and variant, read each back with Yosys (`proc;
+/// flatten; opt_expr; opt_clean`: no width reduction, so the cells have the
+/// widths the Verilog declares) and compare its arithmetic with the trace.
 pub fn netlist_checks(cfg: &fxshade_model::Config) -> anyhow::Result<Vec<NetlistCheck>> {
     use anyhow::Context;
+    use fxshade_model::rtl::units::{emit_unit, RTL_UNITS};
     crate::rtl_flow::require_tool("yosys", "yosys")?;
     let mut out = Vec::new();
-    for u in crate::rtl_flow::RTL_UNITS {
+    for u in RTL_UNITS {
         for &(variant, set) in u.variants {
             let mut c = cfg.clone();
             c.apply_override(set)?;
-            let params = (u.params)(&c)?;
+            let (_, e) = match emit_unit(u, &c) {
+                Ok(x) => x,
+                Err(err) => anyhow::bail!("{} ({variant}): {err}", u.name),
+            };
             let dir = std::env::temp_dir().join(format!(
-                "fxshade-yosys-{}-{}-{variant}",
+                "fxshade-yosys-{}-{}-{}",
                 std::process::id(),
-                u.name
+                u.name,
+                variant.replace('+', "_")
             ));
             let _ = std::fs::remove_dir_all(&dir);
-            let src = crate::rtl_flow::write_sources(u, &params, &dir)?;
-            // Table modules are read as black boxes (`read_verilog -lib`): their
-            // instances are counted as table reads, their addressing is not
-            // datapath arithmetic.
-            let is_box = |rel: &str| u.blackbox.iter().any(|b| rel == format!("{b}.v"));
-            // The black box is the real module's header (parameters and
-            // ports, up to the end of its port list) with an empty body.
-            let mut lib = String::new();
-            for (rel, text) in u.sources[..u.design_files]
-                .iter()
-                .filter(|(rel, _)| is_box(rel))
-            {
-                let start = text.find("module ").context("a module")?;
-                let end = start + text[start..].find(");").context("a port list")? + 2;
-                let stub = src.join(format!("{rel}.box.v"));
-                std::fs::write(
-                    &stub,
-                    format!("(* blackbox *)\n{}\nendmodule\n", &text[start..end]),
-                )?;
-                lib += &format!("read_verilog {}; ", stub.display());
-            }
-            let files: Vec<String> = u.sources[..u.design_files]
-                .iter()
-                .filter(|(rel, _)| !is_box(rel))
-                .map(|(rel, _)| src.join(rel).display().to_string())
-                .collect();
+            std::fs::create_dir_all(&dir)?;
+            let f = dir.join(format!("{}.v", e.module));
+            std::fs::write(&f, &e.verilog)?;
             let script = format!(
-                "{lib}read_verilog -I{} {}; hierarchy -top {}; proc; flatten; opt_expr; opt_clean; tee -o {} stat; tee -o {} stat -width",
-                src.display(),
-                files.join(" "),
-                u.top,
-                dir.join("stat.txt").display(),
-                dir.join("width.txt").display()
+                "read_verilog {}; hierarchy -top {}; proc; flatten; opt_expr; opt_clean; tee -q -o {} dump t:$mul t:$add t:$sub t:$gt t:$lt t:$ge t:$le",
+                f.display(),
+                e.module,
+                dir.join("cells.txt").display()
             );
             let o = std::process::Command::new("yosys")
                 .args(["-q", "-p", &script])
@@ -110,66 +120,54 @@ pub fn netlist_checks(cfg: &fxshade_model::Config) -> anyhow::Result<Vec<Netlist
                 u.name,
                 String::from_utf8_lossy(&o.stderr)
             );
-            let parse = |f: &str| -> anyhow::Result<std::collections::BTreeMap<String, u64>> {
-                let t = std::fs::read_to_string(dir.join(f))?;
-                Ok(t.lines()
-                    .filter_map(|l| {
-                        let mut w = l.split_whitespace();
-                        let (name, n) = (w.next()?, w.next()?);
-                        if !name.starts_with('$') && !u.blackbox.contains(&name) {
-                            return None;
-                        }
-                        Some((name.to_string(), n.parse().ok()?))
-                    })
-                    .collect())
-            };
-            let stat = parse("stat.txt")?;
-            let widths = parse("width.txt")?;
+            let dump = std::fs::read_to_string(dir.join("cells.txt"))?;
             let _ = std::fs::remove_dir_all(&dir);
-            let n = |k: &str| stat.get(k).copied().unwrap_or(0);
-            let model = (u.count)(&c)?;
-            let mc = model.counts();
-            let (netlist_mul, netlist_add, netlist_compare) = (
-                n("$mul"),
-                n("$add") + n("$sub"),
-                n("$lt") + n("$gt") + n("$le") + n("$ge"),
-            );
-            let flagged = model
-                .quant_points()
+            let cells = parse_cells(&dump);
+            let p = |c: &std::collections::BTreeMap<String, i64>, k: &str| {
+                c.get(k).copied().unwrap_or(0)
+            };
+            let mut netlist_mul: Vec<String> = cells
                 .iter()
-                .filter(|p| !u.unflagged.contains(&p.stage))
-                .filter(|p| {
-                    u.flags_overflow || p.overflow != fxshade_model::quantize::Overflow::Wrap
+                .filter(|(t, _)| t == "$mul")
+                .map(|(_, c)| {
+                    let (a, b) = (p(c, "A_WIDTH") as u32, p(c, "B_WIDTH") as u32);
+                    fxshade_model::rtl::MulHw {
+                        a_width: a,
+                        b_width: b,
+                        signed: p(c, "A_SIGNED") == 1 && p(c, "B_SIGNED") == 1,
+                    }
+                    .to_string()
                 })
-                .count() as u64;
-            let (model_mul, model_add, model_compare) =
-                (mc.mul, mc.add + mc.round, mc.compare + 2 * flagged);
-            let netlist_tables: u64 = u
-                .blackbox
+                .collect();
+            netlist_mul.sort();
+            let mut netlist_add: Vec<u32> = cells
                 .iter()
-                .map(|b| stat.get(*b).copied().unwrap_or(0))
-                .sum();
+                .filter(|(t, _)| t == "$add" || t == "$sub")
+                .map(|(_, c)| p(c, "Y_WIDTH") as u32)
+                .collect();
+            netlist_add.sort();
+            let netlist_compare = cells
+                .iter()
+                .filter(|(t, _)| ["$gt", "$lt", "$ge", "$le"].contains(&t.as_str()))
+                .count() as u64;
+            let h = &e.hardware;
+            let mut model_mul: Vec<String> = h.muls.iter().map(|m| m.to_string()).collect();
+            model_mul.sort();
+            let mut model_add: Vec<u32> = h.adders.iter().chain(&h.incrementers).copied().collect();
+            model_add.sort();
+            let agree = model_mul == netlist_mul
+                && model_add == netlist_add
+                && h.compares == netlist_compare;
             out.push(NetlistCheck {
                 unit: u.name,
                 variant: variant.to_string(),
-                netlist_mul,
-                netlist_add,
-                netlist_compare,
-                netlist_cells: widths
-                    .into_iter()
-                    .filter(|(k, _)| {
-                        ["$mul", "$add", "$sub", "$lt", "$gt"]
-                            .iter()
-                            .any(|p| k.starts_with(p))
-                    })
-                    .collect(),
                 model_mul,
+                netlist_mul,
                 model_add,
-                model_compare,
-                netlist_table_read: netlist_tables,
-                model_table_read: mc.table_read,
-                agree: (netlist_mul, netlist_add, netlist_compare, netlist_tables)
-                    == (model_mul, model_add, model_compare, mc.table_read),
+                netlist_add,
+                model_compare: h.compares,
+                netlist_compare,
+                agree,
             });
         }
     }
@@ -181,32 +179,25 @@ pub fn netlist_table(checks: &[NetlistCheck]) -> Table {
     let mut t = Table::new([
         "unit",
         "variant",
-        "model mul",
-        "netlist $mul",
-        "model add+round",
-        "netlist $add/$sub",
-        "model 2×quantize",
-        "netlist $lt/$gt",
+        "multipliers (trace)",
+        "$mul (netlist)",
+        "adder widths (trace)",
+        "$add/$sub widths (netlist)",
+        "compare (trace / netlist)",
         "agree",
-        "netlist cells (type_width: count)",
     ])
-    .titled("RTL netlists (Yosys, word-level cells) beside the counting context");
+    .titled("Emitted RTL read back by Yosys, beside the traced datapath");
+    let join = |v: &[String]| v.join(", ");
     for c in checks {
         t.row([
             c.unit.to_string(),
             c.variant.clone(),
-            c.model_mul.to_string(),
-            c.netlist_mul.to_string(),
-            c.model_add.to_string(),
-            c.netlist_add.to_string(),
-            c.model_compare.to_string(),
-            c.netlist_compare.to_string(),
+            join(&c.model_mul),
+            join(&c.netlist_mul),
+            format!("{:?}", c.model_add),
+            format!("{:?}", c.netlist_add),
+            format!("{} / {}", c.model_compare, c.netlist_compare),
             if c.agree { "yes" } else { "NO" }.to_string(),
-            c.netlist_cells
-                .iter()
-                .map(|(k, v)| format!("{k}: {v}"))
-                .collect::<Vec<_>>()
-                .join(", "),
         ]);
     }
     t

@@ -11,7 +11,7 @@ use fxshade_model::files::StagedDir;
 use fxshade_model::mesh::{self, Mesh};
 use fxshade_model::pipeline::{Path, Pipeline};
 use fxshade_model::render::{self, Frame, Metrics, RenderMethod};
-use fxshade_model::vectors::{Field, VectorSet};
+
 use fxshade_model::Config;
 
 use super::ConfigArgs;
@@ -276,7 +276,9 @@ fn run_rtl(
     if let RenderMethod::Smooth(m) = method {
         c.apply_override(&format!("normalize.method=\"{}\"", m.name()))?;
     }
-    let (p, _, params) = fxshade_model::pipeline::rtl::params_header(&c)?;
+    let p = fxshade_model::pipeline::Pipeline::from_config(&c)?;
+    let design = fxshade_model::pipeline::rtl::design(&c)?;
+    let emitted = fxshade_model::rtl::emit(&design)?;
     let rows = match path {
         Path::Smooth => &f.smooth_rows,
         Path::Mapped => &f.mapped_rows,
@@ -290,21 +292,15 @@ fn run_rtl(
     // the level format).
     let model = p.run_rows(path, &input_rows)?;
     let fl = p.light.level.format();
-    let v = VectorSet {
-        unit: "pipeline",
-        variant: method.name().to_string(),
-        config_source: c.source.clone(),
-        config_toml: c.to_toml(),
-        seed: 1,
-        inputs: p.fields(path),
-        outputs: vec![Field::new("level", p.light.level.format())],
-        output_rows: model.iter().map(|&c| vec![c]).collect(),
-        input_rows,
-        params,
-        corner_cases: 0,
-    };
-    let u = rtl_flow::unit("pipeline")?;
-    let r = rtl_flow::check_with(u, &v, sim, 1, 0, None, true)?;
+    let v = fxshade_model::rtl::units::vector_set(&design, &emitted, input_rows, 0, 1)?;
+    anyhow::ensure!(
+        v.output_rows
+            .iter()
+            .zip(&model)
+            .all(|(r, m)| r.last() == Some(m)),
+        "the compiled trace and the pipeline model disagree"
+    );
+    let r = rtl_flow::check_with(&v, &rtl_flow::Sources::emitted(&v), sim, 1, 0, None, true)?;
     let mut levels = vec![0u8; rows.len()];
     let mut differing = live.len().abs_diff(r.outputs.len());
     for (k, &i) in live.iter().enumerate() {
@@ -312,8 +308,8 @@ fn run_rtl(
         let got = r
             .outputs
             .get(k)
-            .and_then(|h| u64::from_str_radix(h, 16).ok())
-            .map(|b| fl.from_bits(b));
+            .and_then(|h| u128::from_str_radix(h, 16).ok())
+            .map(|b| fl.from_bits((b & ((1u128 << fl.width()) - 1)) as u64));
         match got {
             Some(g) => {
                 levels[i] = render::pixel_of(fl, g);

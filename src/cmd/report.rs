@@ -220,8 +220,8 @@ pub fn run(a: &ReportArgs) -> anyhow::Result<()> {
 
     bar.set_message("test vectors");
     let mut vector_lines = String::new();
-    for u in crate::rtl_flow::RTL_UNITS {
-        match (u.vectors)(&cfg, 1000, 1) {
+    for u in fxshade_model::rtl::units::RTL_UNITS {
+        match fxshade_model::rtl::units::vectors(u, &cfg, 1000, 1) {
             Ok(v) => {
                 v.write_into_dir(&dir, &format!("vectors/{}", u.name))?;
                 vector_lines += &format!(

@@ -11,7 +11,7 @@ use crate::rtl_flow::{self, Sim};
 /// `fxshade rtl-check`
 #[derive(Args, Debug)]
 pub struct RtlCheckArgs {
-    /// The unit (units with RTL: normalize).
+    /// The unit (interp, normalize, polar, lighting, angle_interp, pipeline).
     unit: String,
     #[command(flatten)]
     cfg: ConfigArgs,
@@ -31,6 +31,11 @@ pub struct RtlCheckArgs {
     /// (default: <unit>.fst or <unit>.vcd).
     #[arg(long, value_name = "FILE", num_args = 0..=1, default_missing_value = "")]
     trace: Option<PathBuf>,
+    /// Simulate the design files (`*.v`, testbenches excluded) of this
+    /// directory instead of the Verilog `fxshade rtl` emits (for hand-edited
+    /// RTL); the generated testbench and vectors are used as usual.
+    #[arg(long, value_name = "DIR")]
+    rtl_dir: Option<PathBuf>,
     #[command(flatten)]
     out: OutputArgs,
 }
@@ -39,7 +44,11 @@ pub struct RtlCheckArgs {
 pub fn run(a: &RtlCheckArgs) -> anyhow::Result<()> {
     let u = rtl_flow::unit(&a.unit)?;
     let cfg = a.cfg.resolve()?;
-    let v = (u.vectors)(&cfg, a.count, a.seed)?;
+    let v = fxshade_model::rtl::units::vectors(u, &cfg, a.count, a.seed)?;
+    let sources = match &a.rtl_dir {
+        Some(d) => rtl_flow::Sources::from_dir(&v, d)?,
+        None => rtl_flow::Sources::emitted(&v),
+    };
     let trace = a.trace.as_ref().map(|t| {
         if t.as_os_str().is_empty() {
             PathBuf::from(format!(
@@ -55,7 +64,15 @@ pub fn run(a: &RtlCheckArgs) -> anyhow::Result<()> {
             t.clone()
         }
     });
-    let r = rtl_flow::check(u, &v, a.sim, a.seed, a.stall, trace.as_deref())?;
+    let r = rtl_flow::check_with(
+        &v,
+        &sources,
+        a.sim,
+        a.seed,
+        a.stall,
+        trace.as_deref(),
+        false,
+    )?;
     let mut t = Table::new([
         "unit",
         "simulator",
@@ -85,6 +102,7 @@ pub fn run(a: &RtlCheckArgs) -> anyhow::Result<()> {
         format!("{:.1}", r.build_seconds),
     ]);
     if !a.out.json {
+        eprintln!("design: {}", r.design);
         for m in &r.mismatches {
             eprintln!("{m}");
         }

@@ -1,5 +1,5 @@
-//! `fxshade vectors <unit>`: test vectors and the Verilog parameter header
-//! for a configuration.
+//! `fxshade vectors <unit>`: test vectors, with the unit's generated
+//! Verilog and testbench, for a configuration.
 
 use std::path::PathBuf;
 
@@ -11,7 +11,7 @@ use super::ConfigArgs;
 /// `fxshade vectors`
 #[derive(Args, Debug)]
 pub struct VectorsArgs {
-    /// The unit (units with RTL: normalize).
+    /// The unit (interp, normalize, polar, lighting, angle_interp, pipeline).
     unit: String,
     #[command(flatten)]
     cfg: ConfigArgs,
@@ -31,7 +31,7 @@ pub fn run(a: &VectorsArgs) -> anyhow::Result<()> {
     let u = crate::rtl_flow::unit(&a.unit)?;
     let cfg = a.cfg.resolve()?;
     let start = std::time::Instant::now();
-    let v = (u.vectors)(&cfg, a.count, a.seed)?;
+    let v = fxshade_model::rtl::units::vectors(u, &cfg, a.count, a.seed)?;
     let gen = start.elapsed().as_secs_f64();
     v.write(&a.out)
         .with_context(|| format!("cannot write the vectors to {}", a.out.display()))?;

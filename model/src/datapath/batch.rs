@@ -33,28 +33,75 @@ impl TV {
     }
 }
 
-#[derive(Clone, Debug)]
-enum Op {
-    Input(usize),
-    Const(i128),
-    Mul(TV, TV),
-    Add(TV, TV),
-    Sub(TV, TV),
-    Max(TV, TV),
-    Quant(TV, Quant),
-    Table(TV, usize),
-    Div(TV, TV, Quant),
-    Sqrt(TV, Quant),
+impl TV {
+    /// The node computing this value.
+    pub fn node(&self) -> usize {
+        self.id as usize
+    }
+    /// Its exact format.
+    pub fn sym(&self) -> Sym {
+        self.sym
+    }
 }
 
-/// The recording context. Create inputs with [`Trace::input`], run the
-/// unit's generic code on them, then [`Program::compile`] its outputs.
+/// One recorded operation. Operands are [`TV`]s: a node and the binary point
+/// it is read at (a `shl` moves the point without a node of its own).
+#[derive(Clone, Debug)]
+pub enum Op {
+    /// Input port `slot`.
+    Input(usize),
+    /// A constant code, in the node's format.
+    Const(i128),
+    /// Exact product.
+    Mul(TV, TV),
+    /// Exact sum.
+    Add(TV, TV),
+    /// Exact difference.
+    Sub(TV, TV),
+    /// The larger value.
+    Max(TV, TV),
+    /// Quantization.
+    Quant(TV, Quant),
+    /// Table read: index, table slot.
+    Table(TV, usize),
+    /// Division (no RTL).
+    Div(TV, TV, Quant),
+    /// Square root (no RTL).
+    Sqrt(TV, Quant),
+    /// `options[sel]`, option 0 past the end.
+    Select(TV, Vec<TV>),
+}
+
+/// A named port of a traced datapath.
+#[derive(Clone, Debug)]
+pub struct Port {
+    /// Name (`n_x`, `level`, …): the vector field and, with `_i`/`_o`, the
+    /// Verilog port.
+    pub name: String,
+    /// The value (for inputs: the input node).
+    pub value: TV,
+    /// Its format (an input's quantization step, or an output's format).
+    pub format: Format,
+}
+
+/// The recording context. Create inputs with [`Trace::input`] (or
+/// [`Trace::input_named`]), run the unit's generic code on them, name the
+/// outputs with [`Trace::output`], then [`Program::compile`] them or emit
+/// Verilog from the graph (`crate::rtl`).
+///
+/// Stage ids are qualified by the unit scope they were recorded in
+/// ([`Trace::enter`]): `normalize.g`, `polar.out`.
 #[derive(Clone, Debug, Default)]
 pub struct Trace {
     ops: Vec<Op>,
     fracs: Vec<i32>,
+    syms: Vec<Sym>,
+    stage_ids: Vec<Option<String>>,
     tables: Vec<Table>,
     inputs: Vec<Quant>,
+    input_names: Vec<String>,
+    outputs: Vec<Port>,
+    scope: Vec<&'static str>,
     count: Count,
     const_overflows: Vec<&'static str>,
 }
@@ -65,29 +112,169 @@ impl Trace {
         Self::default()
     }
     fn push(&mut self, op: Op, frac: i32, sym: Sym) -> TV {
+        let stage = match &op {
+            Op::Quant(_, q) | Op::Div(_, _, q) | Op::Sqrt(_, q) => Some(self.qualify(q.stage())),
+            _ => None,
+        };
         self.ops.push(op);
         self.fracs.push(frac);
+        self.syms.push(sym);
+        self.stage_ids.push(stage);
         TV {
             id: (self.ops.len() - 1) as u32,
             frac,
             sym,
         }
     }
-    /// A new input port carrying codes of `q.format()`.
+    fn qualify(&self, stage: &str) -> String {
+        match self.scope.last() {
+            Some(u) => format!("{u}.{stage}"),
+            None => stage.to_string(),
+        }
+    }
+    /// A new input port carrying codes of `q.format()`, named `in<slot>`.
     pub fn input(&mut self, q: &Quant) -> TV {
+        let name = format!("in{}", self.inputs.len());
+        self.input_named(&name, q)
+    }
+    /// A new input port named `name` carrying codes of `q.format()`.
+    pub fn input_named(&mut self, name: &str, q: &Quant) -> TV {
         let slot = self.inputs.len();
         self.inputs.push(*q);
+        self.input_names.push(name.to_string());
         let sym = self.count.constant(0.0, q).expect("0 is finite");
         self.push(Op::Input(slot), q.format().frac(), sym)
+    }
+    /// Three input ports `name_x`, `name_y`, `name_z`.
+    pub fn input3(&mut self, name: &str, q: &Quant) -> [TV; 3] {
+        ["x", "y", "z"].map(|c| self.input_named(&format!("{name}_{c}"), q))
+    }
+    /// Name `v` as an output port. Its format is the value's exact format,
+    /// which must be a valid [`Format`] (at most 64 bits): outputs are
+    /// quantized values.
+    pub fn output(&mut self, name: &str, v: TV) {
+        let format = Format::new(v.sym.signed, v.sym.width, v.sym.frac)
+            .expect("outputs are quantized values, at most 64 bits");
+        self.outputs.push(Port {
+            name: name.to_string(),
+            value: v,
+            format,
+        });
+    }
+    /// Three output ports `name_x`, `name_y`, `name_z`.
+    pub fn output3(&mut self, name: &str, v: [TV; 3]) {
+        for (c, x) in ["x", "y", "z"].into_iter().zip(v) {
+            self.output(&format!("{name}_{c}"), x);
+        }
     }
     /// The counting run that went alongside the trace.
     pub fn count(&self) -> &Count {
         &self.count
     }
+    /// The recorded operations, in order (node `i` is `ops()[i]`).
+    pub fn ops(&self) -> &[Op] {
+        &self.ops
+    }
+    /// The exact format of node `i`.
+    pub fn sym(&self, i: usize) -> Sym {
+        self.syms[i]
+    }
+    /// The qualified stage id of a quantization (or division, square root)
+    /// node.
+    pub fn stage_id(&self, i: usize) -> Option<&str> {
+        self.stage_ids[i].as_deref()
+    }
+    /// The tables read, by slot.
+    pub fn tables(&self) -> &[Table] {
+        &self.tables
+    }
+    /// The input ports, in creation order.
+    pub fn input_ports(&self) -> Vec<Port> {
+        self.ops
+            .iter()
+            .enumerate()
+            .filter_map(|(i, op)| match op {
+                Op::Input(slot) => Some(Port {
+                    name: self.input_names[*slot].clone(),
+                    value: TV {
+                        id: i as u32,
+                        frac: self.fracs[i],
+                        sym: self.syms[i],
+                    },
+                    format: self.inputs[*slot].format(),
+                }),
+                _ => None,
+            })
+            .collect()
+    }
+    /// The named output ports, in the order they were named.
+    pub fn output_ports(&self) -> &[Port] {
+        &self.outputs
+    }
+    /// Which nodes the values `roots` depend on.
+    pub fn live_nodes(&self, roots: &[TV]) -> Vec<bool> {
+        let mut live = vec![false; self.ops.len()];
+        for r in roots {
+            live[r.node()] = true;
+        }
+        for i in (0..self.ops.len()).rev() {
+            if !live[i] {
+                continue;
+            }
+            let mut mark = |t: &TV| live[t.node()] = true;
+            match &self.ops[i] {
+                Op::Input(_) | Op::Const(_) => {}
+                Op::Mul(a, b)
+                | Op::Add(a, b)
+                | Op::Sub(a, b)
+                | Op::Max(a, b)
+                | Op::Div(a, b, _) => {
+                    mark(a);
+                    mark(b);
+                }
+                Op::Quant(a, _) | Op::Table(a, _) | Op::Sqrt(a, _) => mark(a),
+                Op::Select(s, o) => {
+                    mark(s);
+                    o.iter().for_each(mark);
+                }
+            }
+        }
+        live
+    }
+    /// The overflow-flag stages of the values `roots`: every distinct
+    /// qualified stage id of a quantization (division, square root) they
+    /// depend on, in trace order. Flag `k` of a vector is set when any
+    /// quantization of stage `k` overflowed.
+    pub fn flag_stages(&self, roots: &[TV]) -> Vec<String> {
+        let live = self.live_nodes(roots);
+        let mut v: Vec<String> = Vec::new();
+        for (i, s) in self.stage_ids.iter().enumerate() {
+            if let Some(s) = s {
+                if live[i] && !v.contains(s) {
+                    v.push(s.clone());
+                }
+            }
+        }
+        v
+    }
+    /// Compile the named outputs for batches.
+    pub fn compile_outputs(&self) -> Result<Compiled, CompileError> {
+        let outs: Vec<TV> = self.outputs.iter().map(|p| p.value).collect();
+        Compiled::compile(self, &outs)
+    }
 }
 
 impl Datapath for Trace {
     type V = TV;
+
+    /// Stage ids recorded from here on are `unit.stage`; scopes nest and
+    /// the innermost names the stage.
+    fn enter(&mut self, unit: &'static str) {
+        self.scope.push(unit);
+    }
+    fn leave(&mut self) {
+        self.scope.pop();
+    }
 
     fn constant(&mut self, x: f64, q: &Quant) -> Result<TV, ConvertError> {
         let r = q.apply_f64(x)?;
@@ -131,7 +318,7 @@ impl Datapath for Trace {
         let i = match self
             .tables
             .iter()
-            .position(|x| x.name == t.name && x.codes.as_ptr() == t.codes.as_ptr())
+            .position(|x| x.name == t.name && x.codes == t.codes)
         {
             Some(i) => i,
             None => {
@@ -148,6 +335,12 @@ impl Datapath for Trace {
     fn sqrt(&mut self, a: TV, q: &Quant) -> TV {
         let sym = self.count.sqrt(a.sym, q);
         self.push(Op::Sqrt(a, *q), q.format().frac(), sym)
+    }
+    fn select(&mut self, sel: TV, options: &[TV]) -> TV {
+        let syms: Vec<Sym> = options.iter().map(|o| o.sym).collect();
+        let sym = self.count.select(sel.sym, &syms);
+        let frac = options.iter().map(|o| o.frac).max().expect("an option");
+        self.push(Op::Select(sel, options.to_vec()), frac, sym)
     }
 }
 
@@ -180,6 +373,12 @@ enum Instr {
         round: Rounding,
         overflow: Overflow,
         stage: usize,
+        flag: u64,
+    },
+    Select {
+        d: usize,
+        sel: usize,
+        opts: Vec<(usize, u32)>,
     },
     Table {
         d: usize,
@@ -195,6 +394,7 @@ enum Instr {
         fb: i32,
         q: Quant,
         stage: usize,
+        flag: u64,
     },
     Sqrt {
         d: usize,
@@ -202,6 +402,7 @@ enum Instr {
         fa: i32,
         q: Quant,
         stage: usize,
+        flag: u64,
     },
 }
 
@@ -219,6 +420,7 @@ pub struct Program<R> {
     outputs: Vec<(usize, i32)>,
     tables: Vec<Vec<R>>,
     stages: Vec<&'static str>,
+    flag_stages: Vec<String>,
     const_overflows: Vec<&'static str>,
     counts: super::OpCounts,
     max_width: u32,
@@ -233,6 +435,9 @@ pub enum CompileError {
     /// The `i64` fast path was asked for a datapath that needs more bits.
     #[error("the datapath needs {0}-bit intermediates; i64 codes hold 62")]
     TooWideForI64(u32),
+    /// More distinct quantization stages than per-lane flags hold.
+    #[error("the datapath has {0} quantization stages; per-vector overflow flags hold 64")]
+    TooManyStages(usize),
 }
 
 fn stage_index(stages: &mut Vec<&'static str>, s: &'static str) -> usize {
@@ -255,6 +460,21 @@ impl<R: Raw> Program<R> {
             return Err(CompileError::TooWideForI64(trace.count.max_width()));
         }
         let mut stages = Vec::new();
+        let flag_stages = trace.flag_stages(outputs);
+        if flag_stages.len() > 64 {
+            return Err(CompileError::TooManyStages(flag_stages.len()));
+        }
+        let live = trace.live_nodes(outputs);
+        let flag_of = |d: usize| -> u64 {
+            if !live[d] {
+                return 0;
+            }
+            let id = trace.stage_ids[d].as_deref().unwrap_or("");
+            flag_stages
+                .iter()
+                .position(|s| s == id)
+                .map_or(0, |k| 1u64 << k)
+        };
         let mut instrs = Vec::new();
         let mut consts = Vec::new();
         let mut inputs = Vec::new();
@@ -291,6 +511,15 @@ impl<R: Raw> Program<R> {
                     round: q.round(),
                     overflow: q.overflow(),
                     stage: stage_index(&mut stages, q.stage()),
+                    flag: flag_of(d),
+                }),
+                Op::Select(sel, opts) => instrs.push(Instr::Select {
+                    d,
+                    sel: sel.id as usize,
+                    opts: opts
+                        .iter()
+                        .map(|o| (o.id as usize, (f - fr(o)) as u32))
+                        .collect(),
                 }),
                 Op::Table(a, t) => instrs.push(Instr::Table {
                     d,
@@ -306,6 +535,7 @@ impl<R: Raw> Program<R> {
                     fb: b.frac,
                     q: *q,
                     stage: stage_index(&mut stages, q.stage()),
+                    flag: flag_of(d),
                 }),
                 Op::Sqrt(a, q) => instrs.push(Instr::Sqrt {
                     d,
@@ -313,6 +543,7 @@ impl<R: Raw> Program<R> {
                     fa: a.frac,
                     q: *q,
                     stage: stage_index(&mut stages, q.stage()),
+                    flag: flag_of(d),
                 }),
             }
         }
@@ -328,6 +559,7 @@ impl<R: Raw> Program<R> {
                 .map(|t| t.codes.iter().map(|&c| R::from_i128(c)).collect())
                 .collect(),
             stages,
+            flag_stages,
             const_overflows: trace.const_overflows.clone(),
             counts: trace.count.counts(),
             max_width: trace.count.max_width(),
@@ -367,6 +599,31 @@ impl<R: Raw> Program<R> {
     /// As [`Program::run`], writing into `outs` (one vector per output,
     /// cleared first; their capacity is reused across calls).
     pub fn run_into(&self, inputs: &[&[R]], outs: &mut [Vec<R>]) -> Vec<(&'static str, u64)> {
+        self.run_lanes(inputs, outs, None)
+    }
+
+    /// The overflow-flag stages ([`Trace::flag_stages`]): bit `k` of a
+    /// lane's flags is stage `k`.
+    pub fn flag_stages(&self) -> &[String] {
+        &self.flag_stages
+    }
+
+    /// As [`Program::run`], with each lane's overflow flags: bit `k` set
+    /// when a quantization of [`Program::flag_stages`]`[k]` overflowed in
+    /// that lane.
+    pub fn run_flags(&self, inputs: &[&[R]]) -> (Vec<Vec<R>>, Vec<u64>) {
+        let mut outs: Vec<Vec<R>> = self.outputs.iter().map(|_| Vec::new()).collect();
+        let mut flags = Vec::new();
+        self.run_lanes(inputs, &mut outs, Some(&mut flags));
+        (outs, flags)
+    }
+
+    fn run_lanes(
+        &self,
+        inputs: &[&[R]],
+        outs: &mut [Vec<R>],
+        mut lane_flags: Option<&mut Vec<u64>>,
+    ) -> Vec<(&'static str, u64)> {
         assert_eq!(inputs.len(), self.inputs.len(), "one slice per input port");
         assert_eq!(outs.len(), self.outputs.len(), "one vector per output");
         let n = inputs.first().map_or(0, |s| s.len());
@@ -379,6 +636,11 @@ impl<R: Raw> Program<R> {
             o.reserve(n);
         }
         let mut ov = vec![0u64; self.stages.len()];
+        let mut flags = [0u64; BLOCK];
+        if let Some(f) = lane_flags.as_deref_mut() {
+            f.clear();
+            f.reserve(n);
+        }
         let mut regs = vec![R::ZERO; self.n_regs * BLOCK];
         for &(d, c) in &self.consts {
             regs[d * BLOCK..(d + 1) * BLOCK].fill(c);
@@ -389,9 +651,13 @@ impl<R: Raw> Program<R> {
             for (&(d, _), src) in self.inputs.iter().zip(inputs) {
                 regs[d * BLOCK..d * BLOCK + len].copy_from_slice(&src[start..start + len]);
             }
-            self.block(&mut regs, len, &mut ov);
+            flags[..len].fill(0);
+            self.block(&mut regs, len, &mut ov, &mut flags);
             for (&(o, _), out) in self.outputs.iter().zip(outs.iter_mut()) {
                 out.extend_from_slice(&regs[o * BLOCK..o * BLOCK + len]);
+            }
+            if let Some(f) = lane_flags.as_deref_mut() {
+                f.extend_from_slice(&flags[..len]);
             }
             start += len;
         }
@@ -405,17 +671,17 @@ impl<R: Raw> Program<R> {
 
     /// One block of lanes, on the best instruction set this CPU has: the
     /// same body compiled twice, chosen once per process.
-    fn block(&self, regs: &mut [R], len: usize, ov: &mut [u64]) {
+    fn block(&self, regs: &mut [R], len: usize, ov: &mut [u64], flags: &mut [u64]) {
         #[cfg(target_arch = "x86_64")]
         {
             static AVX2: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
             if *AVX2.get_or_init(|| std::arch::is_x86_feature_detected!("avx2")) {
                 // SAFETY: the CPU supports AVX2 (checked just above).
-                unsafe { block_avx2(self, regs, len, ov) };
+                unsafe { block_avx2(self, regs, len, ov, flags) };
                 return;
             }
         }
-        block_body(self, regs, len, ov)
+        block_body(self, regs, len, ov, flags)
     }
 }
 
@@ -423,12 +689,24 @@ impl<R: Raw> Program<R> {
 /// compares and selects let the loops vectorize).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn block_avx2<R: Raw>(p: &Program<R>, regs: &mut [R], len: usize, ov: &mut [u64]) {
-    block_body(p, regs, len, ov)
+fn block_avx2<R: Raw>(
+    p: &Program<R>,
+    regs: &mut [R],
+    len: usize,
+    ov: &mut [u64],
+    flags: &mut [u64],
+) {
+    block_body(p, regs, len, ov, flags)
 }
 
 #[inline(always)]
-fn block_body<R: Raw>(p: &Program<R>, regs: &mut [R], len: usize, ov: &mut [u64]) {
+fn block_body<R: Raw>(
+    p: &Program<R>,
+    regs: &mut [R],
+    len: usize,
+    ov: &mut [u64],
+    flags: &mut [u64],
+) {
     {
         let this = p;
         for ins in &this.instrs {
@@ -484,10 +762,32 @@ fn block_body<R: Raw>(p: &Program<R>, regs: &mut [R], len: usize, ov: &mut [u64]
                     round,
                     overflow,
                     stage,
+                    flag,
                 } => {
                     let (lo, hi) = regs.split_at_mut(d * BLOCK);
                     let src = &lo[a * BLOCK..a * BLOCK + len];
-                    ov[stage] += quant_loop(src, &mut hi[..len], &step, round, overflow);
+                    ov[stage] += quant_loop(
+                        src,
+                        &mut hi[..len],
+                        &mut flags[..len],
+                        flag,
+                        &step,
+                        round,
+                        overflow,
+                    );
+                }
+                Instr::Select { d, sel, ref opts } => {
+                    let (lo, hi) = regs.split_at_mut(d * BLOCK);
+                    let s = &lo[sel * BLOCK..sel * BLOCK + len];
+                    for (k, o) in hi[..len].iter_mut().enumerate() {
+                        let i = s[k].to_i128();
+                        let (src, sh) = if (0..opts.len() as i128).contains(&i) {
+                            opts[i as usize]
+                        } else {
+                            opts[0]
+                        };
+                        *o = lo[src * BLOCK + k] << sh;
+                    }
                 }
                 Instr::Table { d, a, table, index } => {
                     let (lo, hi) = regs.split_at_mut(d * BLOCK);
@@ -506,24 +806,34 @@ fn block_body<R: Raw>(p: &Program<R>, regs: &mut [R], len: usize, ov: &mut [u64]
                     fb,
                     q,
                     stage,
+                    flag,
                 } => {
                     let (lo, hi) = regs.split_at_mut(d * BLOCK);
                     let (x, y) = (
                         &lo[a * BLOCK..a * BLOCK + len],
                         &lo[b * BLOCK..b * BLOCK + len],
                     );
-                    for ((o, &x), &y) in hi[..len].iter_mut().zip(x).zip(y) {
+                    for (k, ((o, &x), &y)) in hi[..len].iter_mut().zip(x).zip(y).enumerate() {
                         let r = div_exact(x.to_i128(), fa, y.to_i128(), fb, &q);
                         ov[stage] += r.overflowed as u64;
+                        flags[k] |= flag * r.overflowed as u64;
                         *o = R::from_i128(r.code);
                     }
                 }
-                Instr::Sqrt { d, a, fa, q, stage } => {
+                Instr::Sqrt {
+                    d,
+                    a,
+                    fa,
+                    q,
+                    stage,
+                    flag,
+                } => {
                     let (lo, hi) = regs.split_at_mut(d * BLOCK);
                     let src = &lo[a * BLOCK..a * BLOCK + len];
-                    for (o, &x) in hi[..len].iter_mut().zip(src) {
+                    for (k, (o, &x)) in hi[..len].iter_mut().zip(src).enumerate() {
                         let r = sqrt_exact(x.to_i128(), fa, &q);
                         ov[stage] += r.overflowed as u64;
+                        flags[k] |= flag * r.overflowed as u64;
                         *o = R::from_i128(r.code);
                     }
                 }
@@ -537,48 +847,69 @@ fn block_body<R: Raw>(p: &Program<R>, regs: &mut [R], len: usize, ov: &mut [u64]
 fn quant_loop<R: Raw>(
     src: &[R],
     dst: &mut [R],
+    flags: &mut [u64],
+    flag: u64,
     st: &Step,
     round: Rounding,
     overflow: Overflow,
 ) -> u64 {
     #[inline(always)]
-    fn go<R: Raw>(src: &[R], dst: &mut [R], st: &Step, round: Rounding, overflow: Overflow) -> u64 {
+    fn go<R: Raw>(
+        src: &[R],
+        dst: &mut [R],
+        flags: &mut [u64],
+        flag: u64,
+        st: &Step,
+        round: Rounding,
+        overflow: Overflow,
+    ) -> u64 {
         #[inline(always)]
         fn lanes<R: Raw>(
             src: &[R],
             dst: &mut [R],
+            flags: &mut [u64],
+            flag: u64,
             st: Step,
             round: Rounding,
             overflow: Overflow,
         ) -> u64 {
             let mut n = 0u64;
-            for (o, &x) in dst.iter_mut().zip(src) {
+            for ((o, f), &x) in dst.iter_mut().zip(flags.iter_mut()).zip(src) {
                 let r = st.apply(x, round, overflow);
                 *o = r.code;
                 n += r.overflowed as u64;
+                *f |= flag * r.overflowed as u64;
             }
             n
         }
         // Separate loops per shift direction, so each body is straight-line.
         let st = *st;
         if st.shift > 0 {
-            lanes(src, dst, st, round, overflow)
+            lanes(src, dst, flags, flag, st, round, overflow)
         } else if st.shift == 0 {
-            lanes(src, dst, Step { shift: 0, ..st }, round, overflow)
+            lanes(
+                src,
+                dst,
+                flags,
+                flag,
+                Step { shift: 0, ..st },
+                round,
+                overflow,
+            )
         } else {
-            lanes(src, dst, st, round, overflow)
+            lanes(src, dst, flags, flag, st, round, overflow)
         }
     }
     use Overflow::*;
     use Rounding::*;
     // Each arm passes constants, so `go` is inlined with the modes folded.
     match (round, overflow) {
-        (Trunc, Wrap) => go(src, dst, st, Trunc, Wrap),
-        (Trunc, Saturate) => go(src, dst, st, Trunc, Saturate),
-        (HalfUp, Wrap) => go(src, dst, st, HalfUp, Wrap),
-        (HalfUp, Saturate) => go(src, dst, st, HalfUp, Saturate),
-        (HalfEven, Wrap) => go(src, dst, st, HalfEven, Wrap),
-        (HalfEven, Saturate) => go(src, dst, st, HalfEven, Saturate),
+        (Trunc, Wrap) => go(src, dst, flags, flag, st, Trunc, Wrap),
+        (Trunc, Saturate) => go(src, dst, flags, flag, st, Trunc, Saturate),
+        (HalfUp, Wrap) => go(src, dst, flags, flag, st, HalfUp, Wrap),
+        (HalfUp, Saturate) => go(src, dst, flags, flag, st, HalfUp, Saturate),
+        (HalfEven, Wrap) => go(src, dst, flags, flag, st, HalfEven, Wrap),
+        (HalfEven, Saturate) => go(src, dst, flags, flag, st, HalfEven, Saturate),
     }
 }
 
@@ -619,6 +950,34 @@ impl Compiled {
                     ov,
                 )
             }
+        }
+    }
+    /// Run on `i128` codes with per-lane overflow flags
+    /// ([`Program::run_flags`]).
+    pub fn run_flags_i128(&self, inputs: &[&[i128]]) -> (Vec<Vec<i128>>, Vec<u64>) {
+        match self {
+            Compiled::Wide(p) => p.run_flags(inputs),
+            Compiled::Narrow(p) => {
+                let ins: Vec<Vec<i64>> = inputs
+                    .iter()
+                    .map(|s| s.iter().map(|&x| x as i64).collect())
+                    .collect();
+                let refs: Vec<&[i64]> = ins.iter().map(|v| v.as_slice()).collect();
+                let (outs, f) = p.run_flags(&refs);
+                (
+                    outs.into_iter()
+                        .map(|o| o.into_iter().map(|x| x as i128).collect())
+                        .collect(),
+                    f,
+                )
+            }
+        }
+    }
+    /// The overflow-flag stages.
+    pub fn flag_stages(&self) -> &[String] {
+        match self {
+            Compiled::Narrow(p) => p.flag_stages(),
+            Compiled::Wide(p) => p.flag_stages(),
         }
     }
     /// Whether the fast `i64` path was chosen.

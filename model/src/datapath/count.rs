@@ -76,6 +76,8 @@ pub struct OpCounts {
     pub compare: u64,
     /// Table reads.
     pub table_read: u64,
+    /// Multiplexers choosing among values by a code (`select`).
+    pub select: u64,
     /// Divisions.
     pub div: u64,
     /// Square roots.
@@ -99,6 +101,7 @@ impl OpCounts {
         self.shift += o.shift;
         self.compare += o.compare;
         self.table_read += o.table_read;
+        self.select += o.select;
         self.div += o.div;
         self.sqrt += o.sqrt;
         self.round += o.round;
@@ -351,5 +354,13 @@ impl Datapath for Count {
     fn sqrt(&mut self, _a: Sym, q: &Quant) -> Sym {
         self.counts.sqrt += 1;
         self.seen(Sym::from_quant(q))
+    }
+    fn select(&mut self, _sel: Sym, options: &[Sym]) -> Sym {
+        self.counts.select += 1;
+        let first = options[0];
+        let r = options[1..]
+            .iter()
+            .fold(first, |acc, o| Self::aligned(&acc, o, false, 0));
+        self.result("select", &first, &first, r)
     }
 }

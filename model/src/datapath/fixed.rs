@@ -267,6 +267,20 @@ impl<R: Raw> Datapath for Fixed<R> {
         let r = sqrt_exact(a.raw.to_i128(), a.frac, q);
         self.finish_wide(r, q)
     }
+    fn select(&mut self, sel: Fx<R>, options: &[Fx<R>]) -> Fx<R> {
+        debug_assert_eq!(sel.frac, 0, "select code is an integer");
+        let frac = options.iter().map(|o| o.frac).max().expect("an option");
+        let s = sel.raw.to_i128();
+        let o = if (0..options.len() as i128).contains(&s) {
+            options[s as usize]
+        } else {
+            options[0]
+        };
+        Fx {
+            raw: o.raw << (frac - o.frac) as u32,
+            frac,
+        }
+    }
 }
 
 /// `(a_raw·2^−a_frac) / (b_raw·2^−b_frac)` correctly rounded to `q`

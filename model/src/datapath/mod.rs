@@ -27,6 +27,7 @@
 //! | `max(a, b)` | `max(a, b)` | aligned, no growth (one comparator) |
 //! | `quantize(a, q)` | `a` rounded/clipped to `q` | `q.format()` |
 //! | `table(t, i)` | `t.exact(i)` quantized at build time | `t.out.format()` |
+//! | `select(s, [v0, v1, …])` | `v_s` (`v0` when `s` is past the end) | aligned, no growth (one multiplexer) |
 //! | `div(a, b, q)` | `a / b` correctly rounded to `q` | `q.format()` |
 //! | `sqrt(a, q)` | `√a` correctly rounded to `q` | `q.format()` |
 
@@ -35,7 +36,7 @@ mod count;
 mod fixed;
 mod reference;
 
-pub use batch::{CompileError, Compiled, Program, Trace, BLOCK, TV};
+pub use batch::{CompileError, Compiled, Op, Port, Program, Trace, BLOCK, TV};
 pub use count::{
     Count, MulShape, OpCounts, QuantPoint, Sym, TableShape, WidthError, MAX_EXACT_WIDTH,
 };
@@ -76,6 +77,20 @@ pub trait Datapath {
     /// counts as an overflow; a root of `2^63` or more saturates to the largest code
     /// in either overflow mode and counts as an overflow).
     fn sqrt(&mut self, a: Self::V, q: &Quant) -> Self::V;
+    /// `options[sel]`: a multiplexer choosing one of several values (e.g.
+    /// one coefficient set per triangle) by an unsigned integer code `sel`
+    /// (format `U<n>F0`). A code past the last option selects option 0. The
+    /// options are aligned to the finest of their binary points; the result
+    /// format holds every option exactly (no growth).
+    fn select(&mut self, sel: Self::V, options: &[Self::V]) -> Self::V;
+
+    /// Record what follows as part of unit `unit` (stage ids become
+    /// `unit.stage` in a [`Trace`]; other contexts ignore it).
+    #[inline]
+    fn enter(&mut self, _unit: &'static str) {}
+    /// Leave the unit scope opened last.
+    #[inline]
+    fn leave(&mut self) {}
 
     /// `a·b + c`, exact: one multiply-add.
     #[inline]
@@ -117,6 +132,23 @@ pub struct Table {
     pub exact: fn(f64) -> f64,
     /// The entries, as codes of `out.format`.
     pub codes: Vec<i128>,
+    /// How the hardware stores the table: every entry, or a quarter wave
+    /// with symmetry logic ([`QuarterWave`]). Both read the same codes.
+    pub storage: Option<QuarterWave>,
+}
+
+/// A sine or cosine table of `2^t` entries stored as the quarter wave
+/// `q[i] = Q(sin(2π·i/2^t))`, `i = 0 ..= 2^t/4`, and read by symmetry:
+/// with `j = i + phase·2^t/4 (mod 2^t)`, quadrant `h = j >> (t−2)` and
+/// `r = j mod 2^t/4`, the entry is `v = q[r]` for even `h`, `q[2^t/4 − r]` for
+/// odd `h`, negated (and brought back into the entry format with its
+/// overflow mode) for `h ≥ 2`. `phase` is 0 for sine, 1 for cosine.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct QuarterWave {
+    /// The `2^t/4 + 1` stored entries.
+    pub entries: Vec<i128>,
+    /// 0: sine; 1: cosine (a quarter turn ahead).
+    pub phase: u32,
 }
 
 /// Why a table could not be built.
@@ -171,6 +203,7 @@ impl Table {
             out,
             exact,
             codes,
+            storage: None,
         })
     }
     /// Number of entries.

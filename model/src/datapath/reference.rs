@@ -58,4 +58,13 @@ impl Datapath for Reference {
     fn sqrt(&mut self, a: f64, _q: &Quant) -> f64 {
         a.max(0.0).sqrt()
     }
+    #[inline]
+    fn select(&mut self, sel: f64, options: &[f64]) -> f64 {
+        let i = sel as usize;
+        if sel >= 0.0 && i < options.len() {
+            options[i]
+        } else {
+            options[0]
+        }
+    }
 }

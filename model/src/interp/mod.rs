@@ -305,7 +305,7 @@ impl Interp {
         cx: &mut C,
         n: [[C::V; 3]; 3],
     ) -> Result<[[C::V; 3]; 3], ConvertError> {
-        let one = cx.constant(1.0, &LITERAL)?;
+        let one = cx.constant(1.0, &crate::quantize::literal(1))?;
         let r_q = self.vertex.with_stage("setup_rsqrt");
         let mut mids = [[one; 3]; 3];
         for (k, &(i, j)) in PAIRS.iter().enumerate() {
@@ -335,6 +335,7 @@ impl Interp {
         c2: C::V,
         v: &[[C::V; 3]; 6],
     ) -> [C::V; 3] {
+        cx.enter(DECL.name);
         let t = cx.sub(one, c1);
         let c3 = cx.sub(t, c2);
         let c = [c1, c2, c3];
@@ -359,26 +360,44 @@ impl Interp {
                 6
             }
         };
-        std::array::from_fn(|comp| {
+        let out = std::array::from_fn(|comp| {
             let mut acc = cx.mul(w[0], v[0][comp]);
             for k in 1..n_terms {
                 acc = cx.mul_add(w[k], v[k][comp], acc);
             }
             cx.quantize(acc, &self.out)
-        })
+        });
+        cx.leave();
+        out
+    }
+
+    /// The constant 1 the evaluation takes, in the format that holds it
+    /// exactly (`U1F0`).
+    pub fn one<C: Datapath>(cx: &mut C) -> C::V {
+        cx.constant(1.0, &crate::quantize::literal(1))
+            .expect("1 is finite")
+    }
+
+    /// The unit traced with named ports: inputs `c1, c2` (bary format),
+    /// then `n1, n2, n3, n12, n23, n31` (`_x, _y, _z` each, vertex format);
+    /// outputs `out_x, out_y, out_z`.
+    pub fn trace(&self) -> Trace {
+        let mut tr = Trace::new();
+        let c1 = tr.input_named("c1", &self.bary);
+        let c2 = tr.input_named("c2", &self.bary);
+        let v: [[_; 3]; 6] = std::array::from_fn(|k| {
+            tr.input3(["n1", "n2", "n3", "n12", "n23", "n31"][k], &self.vertex)
+        });
+        let one = Self::one(&mut tr);
+        let out = self.eval(&mut tr, one, c1, c2, &v);
+        tr.output3("out", out);
+        tr
     }
 
     /// The per-pixel evaluation compiled for batches: inputs c1, c2, then the
     /// 18 vector components (N1..N31, x y z each); outputs x, y, z.
     pub fn compile(&self) -> Result<Compiled, crate::datapath::CompileError> {
-        let mut tr = Trace::new();
-        let c1 = tr.input(&self.bary);
-        let c2 = tr.input(&self.bary);
-        let v: [[_; 3]; 6] =
-            std::array::from_fn(|_| std::array::from_fn(|_| tr.input(&self.vertex)));
-        let one = tr.constant(1.0, &self.bary).expect("1 is finite");
-        let out = self.eval(&mut tr, one, c1, c2, &v);
-        Compiled::compile(&tr, &out)
+        self.trace().compile_outputs()
     }
 
     /// Counting runs: (set-up, per pixel). The set-up of both schemes
@@ -402,7 +421,7 @@ impl Interp {
         let m = s.max(z, z);
         s.max(m, z);
         let mut p = Count::new();
-        let one = p.constant(1.0, &self.bary)?;
+        let one = Self::one(&mut p);
         let c = p.constant(0.0, &self.bary)?;
         let v = [[p.constant(0.0, &self.vertex)?; 3]; 6];
         self.eval(&mut p, one, c, c, &v);

@@ -1,57 +1,22 @@
-//! The interpolator's RTL side: the parameter header of `rtl/interp.v` and
-//! test vectors with per-vector overflow flags.
+//! The interpolator's RTL side: its traced design (the Verilog is emitted
+//! from it, `crate::rtl`) and its input vectors.
 
-use super::{setup, Interp, Scheme, DECL, PAIRS, THETA_LADDER};
+use super::{setup, Interp, DECL, PAIRS, THETA_LADDER};
 use crate::config::Config;
-use crate::datapath::{Datapath, Fixed, Fx};
-use crate::format::Format;
+use crate::datapath::{Fixed, Fx};
 use crate::quantize::Rounding;
 use crate::sampling::{self, Rng};
-use crate::vectors::{
-    check_rtl_stages, header_preamble, hunt_ties, stage_params, structured_code, Field,
-    ParamsHeader, RtlError, VectorSet,
-};
+use crate::vectors::{hunt_ties, structured_code, RtlError};
 
-/// The Verilog parameter header `interp_params.vh` for a configuration.
-pub fn params_header(cfg: &Config) -> Result<(Interp, ParamsHeader), RtlError> {
+/// The unit's traced datapath for a configuration.
+pub fn design(cfg: &Config) -> Result<crate::rtl::Design, RtlError> {
     let i = Interp::from_config(cfg.unit(DECL.name));
-    let (_, p) = i.count()?;
-    check_rtl_stages(
-        &p,
-        &[
-            ("bary", i.bary.format()),
-            ("vertex", i.vertex.format()),
-            ("weight", i.weight.format()),
-            ("out", i.out.format()),
-        ],
-    )
-    .map_err(|(stage, why)| RtlError::Stage {
-        unit: "interp",
-        stage,
-        why,
-    })?;
-    let mut t = header_preamble(
-        "interp_params.vh",
-        "interp",
+    Ok(crate::rtl::Design::new(
         DECL.name,
+        i.scheme.name(),
+        i.trace(),
         cfg,
-        &format!("Scheme: {}", i.scheme.name()),
-    );
-    t += &format!(
-        "localparam integer SCHEME = {};\n",
-        if i.scheme == Scheme::Linear { 1 } else { 2 }
-    );
-    t += &stage_params("B", &i.bary, false);
-    t += &stage_params("V", &i.vertex, false);
-    t += &stage_params("W", &i.weight, true);
-    t += &stage_params("O", &i.out, true);
-    Ok((
-        i,
-        ParamsHeader {
-            name: "interp_params.vh".into(),
-            text: t,
-            extra: Vec::new(),
-        },
+        vec![format!("Scheme: {}", i.scheme.name())],
     ))
 }
 
@@ -82,12 +47,16 @@ fn eval_row(i: &Interp, fx: &mut Fixed<i128>, one: Fx, row: &[i128]) -> [Fx; 3] 
     )
 }
 
-/// Test vectors: corner cases (vertices, edge midpoints, centroids,
+/// Input vectors: corner cases (vertices, edge midpoints, centroids,
 /// extrapolation beyond the triangle, extreme codes, rounding ties at every
 /// nearest-mode stage), then random triangles meeting a random Θ of the
 /// ladder with random barycentrics, alternating with random codes.
-pub fn vectors(cfg: &Config, count: usize, seed: u64) -> Result<VectorSet, RtlError> {
-    let (i, params) = params_header(cfg)?;
+pub fn inputs(
+    cfg: &Config,
+    count: usize,
+    seed: u64,
+) -> Result<crate::rtl::units::Inputs, RtlError> {
+    let i = Interp::from_config(cfg.unit(DECL.name));
     let (fb, fv) = (i.bary.format(), i.vertex.format());
     let mut rng = Rng::new(seed);
     let mut rows: Vec<Row> = Vec::new();
@@ -122,8 +91,7 @@ pub fn vectors(cfg: &Config, count: usize, seed: u64) -> Result<VectorSet, RtlEr
         ]
         .concat(),
     );
-    let mut fx = Fixed::<i128>::new();
-    let one = fx.constant(1.0, &i.bary)?;
+    let one = Interp::one(&mut Fixed::<i128>::new());
     let stages: Vec<&'static str> = i
         .count()?
         .1
@@ -167,43 +135,5 @@ pub fn vectors(cfg: &Config, count: usize, seed: u64) -> Result<VectorSet, RtlEr
             rows.push(r);
         }
     }
-    let output_rows = rows
-        .iter()
-        .map(|row| {
-            fx.reset();
-            let out = eval_row(&i, &mut fx, one, row);
-            let flag = |s: &str| fx.overflows().iter().any(|(st, c)| *st == s && *c > 0) as i128;
-            vec![
-                (flag("weight") << 1) | flag("out"),
-                out[0].code(),
-                out[1].code(),
-                out[2].code(),
-            ]
-        })
-        .collect();
-    let mut inputs = vec![Field::new("c1", fb), Field::new("c2", fb)];
-    for v in ["n1", "n2", "n3", "n12", "n23", "n31"] {
-        for c in ["x", "y", "z"] {
-            inputs.push(Field::new(&format!("{v}{c}"), fv));
-        }
-    }
-    let fo = i.out.format();
-    Ok(VectorSet {
-        unit: DECL.name,
-        variant: i.scheme.name().to_string(),
-        config_source: cfg.source.clone(),
-        config_toml: cfg.to_toml(),
-        seed,
-        inputs,
-        outputs: vec![
-            Field::new("ovf", Format::new(false, 2, 0).expect("valid")),
-            Field::new("ox", fo),
-            Field::new("oy", fo),
-            Field::new("oz", fo),
-        ],
-        input_rows: rows,
-        output_rows,
-        params,
-        corner_cases: corners,
-    })
+    Ok((rows, corners))
 }

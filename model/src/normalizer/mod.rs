@@ -40,8 +40,8 @@
 use crate::coeffs::{self, CoeffError, Fit, Poly};
 use crate::config::{Config, ConfigError, FieldDecl, FieldKind, UnitConfig, UnitDecl};
 use crate::datapath::{Compiled, Count, Datapath, Trace};
-use crate::format::{ConvertError, Format};
-use crate::quantize::{Overflow, Quant, Rounding};
+use crate::format::ConvertError;
+use crate::quantize::{literal, Quant};
 use crate::units::{width_errors, OpReport, PaperClaim, Phase, UnitEntry};
 
 pub mod rtl;
@@ -186,14 +186,6 @@ pub struct Stages {
     pub out: Quant,
 }
 
-/// Literal integer constants (3, 10, 15, 1): exact.
-const LITERAL: Quant = Quant::new(
-    "literal",
-    Format::signed_int(8),
-    Rounding::Trunc,
-    Overflow::Saturate,
-);
-
 /// A normalizer: method, stage formats and (for linear and quadratic) the
 /// coefficient values its registers hold.
 #[derive(Clone, Debug)]
@@ -239,10 +231,10 @@ impl Normalizer {
                 .iter()
                 .map(|&c| cx.constant(c, &self.q.coef))
                 .collect::<Result<_, _>>()?,
-            one: cx.constant(1.0, &LITERAL)?,
-            three: cx.constant(3.0, &LITERAL)?,
-            ten: cx.constant(10.0, &LITERAL)?,
-            fifteen: cx.constant(15.0, &LITERAL)?,
+            one: cx.constant(1.0, &literal(1))?,
+            three: cx.constant(3.0, &literal(3))?,
+            ten: cx.constant(10.0, &literal(10))?,
+            fifteen: cx.constant(15.0, &literal(15))?,
         })
     }
 
@@ -291,13 +283,38 @@ impl Normalizer {
     /// The whole unit: `N' = Q_out(N·g(Q_d(N·N)))`.
     #[inline]
     pub fn eval<C: Datapath>(&self, cx: &mut C, k: &Consts<C::V>, n: [C::V; 3]) -> [C::V; 3] {
-        if self.method == Method::None {
-            return cx.quantize3(n, &self.q.out);
+        cx.enter(DECL.name);
+        let out = if self.method == Method::None {
+            cx.quantize3(n, &self.q.out)
+        } else {
+            let d = self.d_of(cx, n);
+            let g = self.g_of_d(cx, k, d);
+            let p = [cx.mul(n[0], g), cx.mul(n[1], g), cx.mul(n[2], g)];
+            cx.quantize3(p, &self.q.out)
+        };
+        cx.leave();
+        out
+    }
+
+    /// Constants whose coefficients are chosen per vector by `sel` among
+    /// `sets` (one multiplexer per coefficient; a code past the last set
+    /// reads set 0). The literals are the first set's.
+    pub fn select_consts<C: Datapath>(
+        cx: &mut C,
+        sel: C::V,
+        sets: &[Consts<C::V>],
+    ) -> Consts<C::V> {
+        let n = sets[0].coef.len();
+        let coef = (0..n)
+            .map(|j| {
+                let opts: Vec<C::V> = sets.iter().map(|s| s.coef[j]).collect();
+                cx.select(sel, &opts)
+            })
+            .collect();
+        Consts {
+            coef,
+            ..sets[0].clone()
         }
-        let d = self.d_of(cx, n);
-        let g = self.g_of_d(cx, k, d);
-        let p = [cx.mul(n[0], g), cx.mul(n[1], g), cx.mul(n[2], g)];
-        cx.quantize3(p, &self.q.out)
     }
 
     /// Run once in the counting context.
@@ -312,15 +329,18 @@ impl Normalizer {
     /// The whole unit compiled for batches: inputs Nx, Ny, Nz; outputs the
     /// three components.
     pub fn compile(&self) -> Result<Compiled, crate::datapath::CompileError> {
+        self.trace().expect("finite constants").compile_outputs()
+    }
+
+    /// The unit traced with named ports: inputs `n_x, n_y, n_z` (normal
+    /// format), outputs `out_x, out_y, out_z` (out format).
+    pub fn trace(&self) -> Result<Trace, ConvertError> {
         let mut tr = Trace::new();
-        let n = [
-            tr.input(&self.q.normal),
-            tr.input(&self.q.normal),
-            tr.input(&self.q.normal),
-        ];
-        let k = self.consts(&mut tr).expect("finite constants");
+        let n = tr.input3("n", &self.q.normal);
+        let k = self.consts(&mut tr)?;
         let out = self.eval(&mut tr, &k, n);
-        Compiled::compile(&tr, &out)
+        tr.output3("out", out);
+        Ok(tr)
     }
 
     /// The scalar `g(d)` stage compiled for batches: input a `d` code,

@@ -286,21 +286,125 @@ impl Pipeline {
         l: [C::V; 3],
         h: [C::V; 3],
     ) -> C::V {
-        let nz = &self.sets[set];
+        self.smooth_with(cx, &k.norm[set], k, c1, c2, v, l, h)
+    }
+
+    /// The smooth path with the normalizer constants `kn`.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn smooth_with<C: Datapath>(
+        &self,
+        cx: &mut C,
+        kn: &normalizer::Consts<C::V>,
+        k: &SmoothConsts<C::V>,
+        c1: C::V,
+        c2: C::V,
+        v: &[[C::V; 3]; 6],
+        l: [C::V; 3],
+        h: [C::V; 3],
+    ) -> C::V {
+        let nz = &self.sets[0];
         let n = self.interp.eval(cx, k.one, c1, c2, v);
+        cx.enter(normalizer::DECL.name);
         let n = cx.quantize3(n, &nz.q.normal);
-        let n = nz.eval(cx, &k.norm[set], n);
+        cx.leave();
+        let n = nz.eval(cx, kn, n);
+        cx.enter(crate::lighting::DECL.name);
         let n = cx.quantize3(n, &self.light.normal);
+        cx.leave();
         self.light.shade(cx, &k.light, n, l, h)
+    }
+
+    /// The smooth path with the coefficient set chosen per pixel by the
+    /// code `sel` (a multiplexer per coefficient; codes past the last set
+    /// read set 0): what the RTL top builds.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    pub fn smooth_sel<C: Datapath>(
+        &self,
+        cx: &mut C,
+        sel: C::V,
+        k: &SmoothConsts<C::V>,
+        c1: C::V,
+        c2: C::V,
+        v: &[[C::V; 3]; 6],
+        l: [C::V; 3],
+        h: [C::V; 3],
+    ) -> C::V {
+        let kn = Normalizer::select_consts(cx, sel, &k.norm);
+        self.smooth_with(cx, &kn, k, c1, c2, v, l, h)
     }
 
     /// One interpolated angle: `Q_angle(a3 + c1·Δ1 + c2·Δ2)`.
     #[inline]
     pub fn angle_of<C: Datapath>(&self, cx: &mut C, c1: C::V, c2: C::V, a: [C::V; 3]) -> C::V {
+        cx.enter(ANGLE_UNIT);
         let p = cx.mul(c1, a[1]);
         let s = cx.add(a[0], p);
         let s = cx.mul_add(c2, a[2], s);
-        cx.quantize(s, &self.angle)
+        let out = cx.quantize(s, &self.angle);
+        cx.leave();
+        out
+    }
+
+    /// The angle interpolation traced with named ports: inputs `c1, c2`
+    /// (bary format), `a3` (angle format), `d1, d2` (delta format); output
+    /// `angle`.
+    pub fn trace_angle(&self) -> Trace {
+        let mut tr = Trace::new();
+        let c1 = tr.input_named("c1", &self.interp.bary);
+        let c2 = tr.input_named("c2", &self.interp.bary);
+        let a3 = tr.input_named("a3", &self.angle);
+        let d1 = tr.input_named("d1", &self.delta);
+        let d2 = tr.input_named("d2", &self.delta);
+        let a = self.angle_of(&mut tr, c1, c2, [a3, d1, d2]);
+        tr.output("angle", a);
+        tr
+    }
+
+    /// The pipeline of `path` traced with named ports (the fields of
+    /// [`Pipeline::fields`], in that order; `n1_x` for `n1x` and so on);
+    /// output `level`.
+    pub fn trace(&self, path: Path) -> Result<Trace, PipelineError> {
+        let mut tr = Trace::new();
+        match path {
+            Path::Smooth => {
+                let sel = tr.input_named("sel", &sel_quant());
+                let c1 = tr.input_named("c1", &self.interp.bary);
+                let c2 = tr.input_named("c2", &self.interp.bary);
+                let v: [[_; 3]; 6] = std::array::from_fn(|k| {
+                    tr.input3(
+                        ["n1", "n2", "n3", "n12", "n23", "n31"][k],
+                        &self.interp.vertex,
+                    )
+                });
+                let l = tr.input3("l", &self.light.light);
+                let h = tr.input3("h", &self.light.light);
+                let k = self.smooth_consts(&mut tr)?;
+                let out = self.smooth_sel(&mut tr, sel, &k, c1, c2, &v, l, h);
+                tr.output("level", out);
+            }
+            Path::Mapped => {
+                let c1 = tr.input_named("c1", &self.interp.bary);
+                let c2 = tr.input_named("c2", &self.interp.bary);
+                let a = [
+                    tr.input_named("a3", &self.angle),
+                    tr.input_named("da1", &self.delta),
+                    tr.input_named("da2", &self.delta),
+                ];
+                let b = [
+                    tr.input_named("b3", &self.angle),
+                    tr.input_named("db1", &self.delta),
+                    tr.input_named("db2", &self.delta),
+                ];
+                let lh = ["al", "bl", "ah", "bh"].map(|n| tr.input_named(n, &self.angle));
+                let n = tr.input3("n", &self.light.normal);
+                let k = self.light.consts(&mut tr)?;
+                let out = self.mapped(&mut tr, &k, c1, c2, a, b, lh, n);
+                tr.output("level", out);
+            }
+        }
+        Ok(tr)
     }
 
     /// The mapped path for one pixel: `c1, c2` in the bary format; `a` and
@@ -324,8 +428,10 @@ impl Pipeline {
         let bn = self.angle_of(cx, c1, c2, b);
         let l = self.polar.transform(cx, lh[0], lh[1], an, bn);
         let h = self.polar.transform(cx, lh[2], lh[3], an, bn);
+        cx.enter(crate::lighting::DECL.name);
         let l = cx.quantize3(l, &self.light.light);
         let h = cx.quantize3(h, &self.light.light);
+        cx.leave();
         self.light.shade(cx, k, n, l, h)
     }
 
@@ -335,7 +441,7 @@ impl Pipeline {
         cx: &mut C,
     ) -> Result<SmoothConsts<C::V>, ConvertError> {
         Ok(SmoothConsts {
-            one: cx.constant(1.0, &self.interp.bary)?,
+            one: Interp::one(cx),
             norm: self
                 .sets
                 .iter()
@@ -345,62 +451,10 @@ impl Pipeline {
         })
     }
 
-    /// The smooth path compiled for batches, for coefficient set `set`:
-    /// inputs c1, c2, the 18 vertex components, L (3), H (3); output the level.
-    pub fn compile_smooth(&self, set: usize) -> Result<Compiled, PipelineError> {
-        let mut tr = Trace::new();
-        let c1 = tr.input(&self.interp.bary);
-        let c2 = tr.input(&self.interp.bary);
-        let v: [[_; 3]; 6] =
-            std::array::from_fn(|_| std::array::from_fn(|_| tr.input(&self.interp.vertex)));
-        let l = [0; 3].map(|_| tr.input(&self.light.light));
-        let h = [0; 3].map(|_| tr.input(&self.light.light));
-        let k = self.smooth_consts(&mut tr)?;
-        let out = self.smooth(&mut tr, set, &k, c1, c2, &v, l, h);
-        Ok(Compiled::compile(&tr, &[out])?)
-    }
-
-    /// The mapped path compiled for batches: inputs c1, c2, α3, Δα1, Δα2,
-    /// β3, Δβ1, Δβ2, α_L, β_L, α_H, β_H, the texel (3); output the level.
-    pub fn compile_mapped(&self) -> Result<Compiled, PipelineError> {
-        let mut tr = Trace::new();
-        let (c1, c2, a, b, lh, n, k) = self.mapped_inputs(&mut tr)?;
-        let out = self.mapped(&mut tr, &k, c1, c2, a, b, lh, n);
-        Ok(Compiled::compile(&tr, &[out])?)
-    }
-
-    #[allow(clippy::type_complexity)]
-    fn mapped_inputs(
-        &self,
-        tr: &mut Trace,
-    ) -> Result<
-        (
-            crate::datapath::TV,
-            crate::datapath::TV,
-            [crate::datapath::TV; 3],
-            [crate::datapath::TV; 3],
-            [crate::datapath::TV; 4],
-            [crate::datapath::TV; 3],
-            crate::lighting::Consts<crate::datapath::TV>,
-        ),
-        PipelineError,
-    > {
-        let c1 = tr.input(&self.interp.bary);
-        let c2 = tr.input(&self.interp.bary);
-        let a = [
-            tr.input(&self.angle),
-            tr.input(&self.delta),
-            tr.input(&self.delta),
-        ];
-        let b = [
-            tr.input(&self.angle),
-            tr.input(&self.delta),
-            tr.input(&self.delta),
-        ];
-        let lh = [0; 4].map(|_| tr.input(&self.angle));
-        let n = [0; 3].map(|_| tr.input(&self.light.normal));
-        let k = self.light.consts(tr)?;
-        Ok((c1, c2, a, b, lh, n, k))
+    /// The path compiled for batches (inputs as [`Pipeline::fields`],
+    /// output the level).
+    pub fn compile(&self, path: Path) -> Result<Compiled, PipelineError> {
+        Ok(self.trace(path)?.compile_outputs()?)
     }
 
     /// Counting runs of the two paths, per pixel.
@@ -475,6 +529,19 @@ impl Pipeline {
 /// Bits of the coefficient-set index `sel` (enough for [`THETA_LADDER`]).
 pub const SEL_BITS: u32 = 3;
 
+/// The scope (stage-id prefix) of the angle interpolation.
+pub const ANGLE_UNIT: &str = "angle_interp";
+
+/// The `sel` port: an unsigned `SEL_BITS`-bit code.
+pub fn sel_quant() -> Quant {
+    Quant::new(
+        "sel",
+        Format::new(false, SEL_BITS, 0).expect("valid"),
+        Rounding::Trunc,
+        Overflow::Saturate,
+    )
+}
+
 impl Pipeline {
     /// The per-pixel input fields of `path`, in the order of the rows
     /// [`Pipeline::run_rows`] takes and the RTL top's input port packs,
@@ -536,42 +603,18 @@ impl Pipeline {
     }
 
     /// Run the bit-accurate pipeline on rows of input codes (fields as
-    /// [`Pipeline::fields`]); the levels, in row order. Smooth rows are
-    /// grouped by their coefficient set, each group run through that set's
-    /// compiled program.
+    /// [`Pipeline::fields`]); the levels, in row order. One compiled
+    /// program serves every row: the smooth path selects its coefficient
+    /// set by the row's `sel` code, as the RTL does.
     pub fn run_rows(&self, path: Path, rows: &[Vec<i128>]) -> Result<Vec<i128>, PipelineError> {
         let width = self.fields(path).len();
-        let mut out = vec![0i128; rows.len()];
-        let groups: Vec<(Option<usize>, Vec<usize>)> = match path {
-            Path::Mapped => vec![(None, (0..rows.len()).collect())],
-            Path::Smooth => {
-                let mut g = vec![Vec::new(); self.sets.len()];
-                for (i, r) in rows.iter().enumerate() {
-                    let set = self.set_code(r[0]);
-                    g[set].push(i);
-                }
-                g.into_iter()
-                    .enumerate()
-                    .filter(|(_, v)| !v.is_empty())
-                    .map(|(s, v)| (Some(s), v))
-                    .collect()
-            }
-        };
-        for (set, idx) in groups {
-            let (prog, skip) = match set {
-                Some(s) => (self.compile_smooth(s)?, 1),
-                None => (self.compile_mapped()?, 0),
-            };
-            let cols: Vec<Vec<i128>> = (skip..width)
-                .map(|k| idx.iter().map(|&i| rows[i][k]).collect())
-                .collect();
-            let refs: Vec<&[i128]> = cols.iter().map(|c| c.as_slice()).collect();
-            let (res, _) = prog.run_i128(&refs);
-            for (j, &i) in idx.iter().enumerate() {
-                out[i] = res[0][j];
-            }
-        }
-        Ok(out)
+        let prog = self.compile(path)?;
+        let cols: Vec<Vec<i128>> = (0..width)
+            .map(|k| rows.iter().map(|r| r[k]).collect())
+            .collect();
+        let refs: Vec<&[i128]> = cols.iter().map(|c| c.as_slice()).collect();
+        let (mut res, _) = prog.run_i128(&refs);
+        Ok(res.swap_remove(0))
     }
 
     /// The scalar fixed-point run of one row (the readable specification the

@@ -124,18 +124,28 @@ impl Tables {
                 quarter[n / 4 - r]
             };
             if quad >= 2 {
-                -v
+                // The negated entry, brought back into the entry format
+                // with its overflow mode (−(−1.0) does not fit I1F15).
+                q.apply(-v, q.format().frac()).code
             } else {
                 v
             }
         };
         let index = Format::new(false, t, t as i32).expect("valid index format");
+        let storage = |phase: u32| match organisation {
+            Organisation::Full => None,
+            Organisation::Quarter => Some(crate::datapath::QuarterWave {
+                entries: quarter.clone(),
+                phase,
+            }),
+        };
         let mk = |name: &'static str, exact: fn(f64) -> f64, codes: Vec<i128>| Table {
             name,
             index,
             out: q,
             exact,
             codes,
+            storage: storage((name == "cos") as u32),
         };
         Ok(Tables {
             sin: mk(
@@ -239,6 +249,7 @@ impl Polar {
         a_n: C::V,
         b_n: C::V,
     ) -> [C::V; 3] {
+        cx.enter(DECL.name);
         let t = &self.tables;
         let i_al = cx.quantize(a_l, &self.index);
         let d = cx.sub(b_l, b_n);
@@ -258,15 +269,23 @@ impl Polar {
         let p = cx.mul(lyz, c_an);
         let z = cx.mul_add(s_al, s_an, p);
         let z = cx.quantize(z, &self.out);
+        cx.leave();
         [x, y, z]
     }
 
     /// Compiled for batches: inputs α_L, β_L, α_N, β_N codes; outputs L'.
     pub fn compile(&self) -> Result<Compiled, crate::datapath::CompileError> {
+        self.trace().compile_outputs()
+    }
+
+    /// The unit traced with named ports: inputs `a_l, b_l, a_n, b_n`
+    /// (angle format), outputs `out_x, out_y, out_z`.
+    pub fn trace(&self) -> Trace {
         let mut tr = Trace::new();
-        let a = [0; 4].map(|_| tr.input(&self.angle));
+        let a = ["a_l", "b_l", "a_n", "b_n"].map(|n| tr.input_named(n, &self.angle));
         let out = self.transform(&mut tr, a[0], a[1], a[2], a[3]);
-        Compiled::compile(&tr, &out)
+        tr.output3("out", out);
+        tr
     }
 
     /// One counting run.

@@ -1,0 +1,324 @@
+//! Verilog expressions for exact-width fixed-point values: extension,
+//! alignment, rounding and range limiting, each written out bit for bit so
+//! no tool's expression-sizing rules matter.
+
+use crate::quantize::{Overflow, Rounding};
+
+/// A value on a wire: its Verilog expression (a name or a constant),
+/// width, signedness and binary point.
+#[derive(Clone, Debug)]
+pub struct Val {
+    /// A name or a sized literal.
+    pub expr: String,
+    /// Width in bits.
+    pub width: u32,
+    /// Two's complement.
+    pub signed: bool,
+    /// Fraction bits.
+    pub frac: i32,
+}
+
+impl Val {
+    /// Bit `i` (a literal bit for a constant expression would be wrong, so
+    /// callers only take bits of names).
+    pub fn bit(&self, i: u32) -> String {
+        if self.width == 1 {
+            self.expr.clone()
+        } else {
+            format!("{}[{i}]", self.expr)
+        }
+    }
+    /// Bits `hi:lo`.
+    pub fn slice(&self, hi: u32, lo: u32) -> String {
+        if hi == lo {
+            self.bit(hi)
+        } else {
+            format!("{}[{hi}:{lo}]", self.expr)
+        }
+    }
+    /// The sign bit, or `1'b0` for an unsigned value.
+    pub fn sign_bit(&self) -> String {
+        if self.signed {
+            self.bit(self.width - 1)
+        } else {
+            "1'b0".into()
+        }
+    }
+}
+
+/// `e` as a signed expression when `signed` (`$signed(e)`), else `e`: what a
+/// signed wire or register is assigned, so no assignment changes signedness
+/// implicitly.
+pub fn sv(signed: bool, e: &str) -> String {
+    if signed {
+        format!("$signed({e})")
+    } else {
+        e.to_string()
+    }
+}
+
+/// `{n{b}}` without the replication when `n` is 1.
+fn rep(n: u32, b: &str) -> String {
+    if n == 1 {
+        b.to_string()
+    } else {
+        format!("{{{n}{{{b}}}}}")
+    }
+}
+
+/// `v` shifted left by `shift` bits (appending zeros) and sign- or
+/// zero-extended to `width` bits: a concatenation exactly `width` wide.
+pub fn align(v: &Val, shift: u32, width: u32) -> String {
+    let body = v.width + shift;
+    assert!(width >= body, "alignment never drops bits");
+    let mut parts = Vec::new();
+    if width > body {
+        parts.push(rep(width - body, &v.sign_bit()));
+    }
+    parts.push(v.expr.clone());
+    if shift > 0 {
+        parts.push(format!("{shift}'b0"));
+    }
+    if parts.len() == 1 {
+        parts.remove(0)
+    } else {
+        format!("{{{}}}", parts.join(", "))
+    }
+}
+
+/// A sized hex literal of `width` bits holding the two's complement (or
+/// unsigned) code `code`.
+pub fn literal(width: u32, code: i128) -> String {
+    let mask = if width >= 128 {
+        u128::MAX
+    } else {
+        (1u128 << width) - 1
+    };
+    format!("{width}'h{:x}", (code as u128) & mask)
+}
+
+/// The combinational logic of one quantization, as statements, given the
+/// exact input `x` (a wire name), writing `y` (`ow` bits) and `ovf`.
+pub struct QuantLogic {
+    /// Declarations and assigns.
+    pub lines: Vec<String>,
+    /// Bits of `x` the logic does not read (for the `unused` sink).
+    pub unused: Vec<String>,
+    /// Whether a rounding incrementer was built, and its width.
+    pub round_adder: Option<u32>,
+}
+
+/// Quantize `x` to `(ow, os, fo)` with `round` and `overflow`: the result
+/// on wire `y` (`ow` bits), the overflow bit on wire `ovf`; helper wires are
+/// named `{p}_*`.
+///
+/// Rounding (bits dropped, `s = fx − fo > 0`): `t = x >>> s` (a slice), then
+/// `r = t + inc` in `width(t) + 1` bits with `inc = x[s−1]` (half_up) or
+/// `x[s−1] & (x[s] | |x[s−2:0])` (half_even); trunc takes `r = t`. Bits added
+/// (`s ≤ 0`): `r = {x, −s zeros}`. Range: `ovf` when `r` lies outside the
+/// target format; wrap keeps the low `ow` bits of `r` (sign-extended when
+/// narrower), saturate gives the nearest bound on the side of `r`'s sign.
+#[allow(clippy::too_many_arguments)]
+pub fn quantize(
+    x: &Val,
+    p: &str,
+    y: &str,
+    ovf: &str,
+    ow: u32,
+    os: bool,
+    fo: i32,
+    round: Rounding,
+    overflow: Overflow,
+) -> QuantLogic {
+    let mut lines = Vec::new();
+    let mut unused = Vec::new();
+    let mut round_adder = None;
+    let s = x.frac - fo;
+    let sgn = if x.signed { "signed " } else { "" };
+    // r: the rounded value, in rw bits of x's signedness.
+    let (r, rw) = if s <= 0 {
+        let rw = x.width + (-s) as u32;
+        if s == 0 {
+            (x.expr.clone(), rw)
+        } else {
+            let name = format!("{p}_r");
+            lines.push(format!(
+                "wire {sgn}[{}:0] {name} = {};",
+                rw - 1,
+                sv(x.signed, &align(x, (-s) as u32, rw))
+            ));
+            (name, rw)
+        }
+    } else {
+        let s = s as u32;
+        // Extend so at least one bit stays above the dropped ones.
+        let xe = if x.width < s + 1 {
+            let name = format!("{p}_x");
+            let w = s + 1;
+            lines.push(format!(
+                "wire {sgn}[{}:0] {name} = {};",
+                w - 1,
+                sv(x.signed, &align(x, 0, w))
+            ));
+            Val {
+                expr: name,
+                width: w,
+                signed: x.signed,
+                frac: x.frac,
+            }
+        } else {
+            x.clone()
+        };
+        let tw = xe.width - s;
+        let t = xe.slice(xe.width - 1, s);
+        match round {
+            Rounding::Trunc => {
+                unused.push(xe.slice(s - 1, 0));
+                let name = format!("{p}_t");
+                lines.push(format!(
+                    "wire {sgn}[{}:0] {name} = {};",
+                    tw - 1,
+                    sv(xe.signed, &t)
+                ));
+                (name, tw)
+            }
+            Rounding::HalfUp | Rounding::HalfEven => {
+                let inc = format!("{p}_inc");
+                let half = xe.bit(s - 1);
+                let e = if round == Rounding::HalfUp {
+                    if s >= 2 {
+                        unused.push(xe.slice(s - 2, 0));
+                    }
+                    half
+                } else if s >= 2 {
+                    format!("{half} & ({} | (|{}))", xe.bit(s), xe.slice(s - 2, 0))
+                } else {
+                    format!("{half} & {}", xe.bit(s))
+                };
+                lines.push(format!("wire {inc} = {e};"));
+                let name = format!("{p}_r");
+                // One incrementer: t (extended by one bit) plus the round bit.
+                let ext = format!("{{{}, {t}}}", xe.sign_bit());
+                lines.push(format!(
+                    "wire {sgn}[{tw}:0] {name} = {};",
+                    sv(
+                        xe.signed,
+                        &format!("{ext} + {{{}, {inc}}}", rep(tw, "1'b0"))
+                    )
+                ));
+                round_adder = Some(tw + 1);
+                (name, tw + 1)
+            }
+        }
+    };
+    let rv = Val {
+        expr: r,
+        width: rw,
+        signed: x.signed,
+        frac: fo,
+    };
+    // Range check.
+    let ovf_e = match (rv.signed, os) {
+        (true, true) => {
+            if rw > ow {
+                let top = rv.slice(rw - 1, ow - 1);
+                format!("~((&{top}) | ~(|{top}))")
+            } else {
+                "1'b0".into()
+            }
+        }
+        (false, false) => {
+            if rw > ow {
+                format!("|{}", rv.slice(rw - 1, ow))
+            } else {
+                "1'b0".into()
+            }
+        }
+        (true, false) => {
+            if rw - 1 > ow {
+                format!("{} | (|{})", rv.bit(rw - 1), rv.slice(rw - 2, ow))
+            } else {
+                rv.bit(rw - 1)
+            }
+        }
+        (false, true) => {
+            if rw >= ow {
+                format!("|{}", rv.slice(rw - 1, ow - 1))
+            } else {
+                "1'b0".into()
+            }
+        }
+    };
+    lines.push(format!("wire {ovf} = {ovf_e};"));
+    // The in-range value: the low bits, extended when narrower.
+    let fit = if rw >= ow {
+        rv.slice(ow - 1, 0)
+    } else {
+        align(&rv, 0, ow)
+    };
+    let osg = if os { "signed " } else { "" };
+    match overflow {
+        Overflow::Wrap => lines.push(format!("wire {osg}[{}:0] {y} = {};", ow - 1, sv(os, &fit))),
+        Overflow::Saturate => {
+            let (max, min) = if os {
+                (
+                    literal(ow, (1i128 << (ow - 1)) - 1),
+                    literal(ow, -(1i128 << (ow - 1))),
+                )
+            } else {
+                (
+                    literal(
+                        ow,
+                        if ow >= 127 {
+                            i128::MAX
+                        } else {
+                            (1i128 << ow) - 1
+                        },
+                    ),
+                    literal(ow, 0),
+                )
+            };
+            let bound = if rv.signed {
+                format!("({} ? {min} : {max})", rv.bit(rw - 1))
+            } else {
+                max
+            };
+            lines.push(format!(
+                "wire {osg}[{}:0] {y} = {};",
+                ow - 1,
+                sv(os, &format!("{ovf} ? {bound} : {fit}"))
+            ));
+        }
+    }
+    QuantLogic {
+        lines,
+        unused,
+        round_adder,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn alignment_pads_and_extends() {
+        let v = Val {
+            expr: "a".into(),
+            width: 4,
+            signed: true,
+            frac: 2,
+        };
+        assert_eq!(align(&v, 2, 8), "{{2{a[3]}}, a, 2'b0}");
+        assert_eq!(align(&v, 0, 4), "a");
+        let u = Val { signed: false, ..v };
+        assert_eq!(align(&u, 0, 5), "{1'b0, a}");
+    }
+
+    #[test]
+    fn literals_are_masked_to_their_width() {
+        assert_eq!(literal(4, -1), "4'hf");
+        assert_eq!(literal(16, 0x7fff), "16'h7fff");
+        assert_eq!(literal(3, 8), "3'h0");
+    }
+}

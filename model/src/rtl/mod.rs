@@ -1,0 +1,824 @@
+//! Verilog generated from a traced datapath: the RTL view of a unit.
+//!
+//! A unit's datapath is recorded once in [`Trace`] (named input ports, the
+//! operations at their exact formats, quantizations with their modes and
+//! qualified stage ids, constants, selects and table reads, named output
+//! ports). [`emit`] walks that graph and writes one self-contained Verilog
+//! module:
+//!
+//! * every value is a wire of exactly its model format (no spare bits);
+//!   additions align their operands by concatenation to the exact result
+//!   width; a signed × unsigned product zero-extends the unsigned operand by
+//!   one bit (the only extra bit, which a signed multiplier needs);
+//! * every quantization is written out bit for bit ([`bits::quantize`]):
+//!   a slice, one rounding incrementer for a nearest mode, a range check on
+//!   the bits above the target, and wrap or saturate;
+//! * tables are ROM functions in the source (full, or a quarter wave with
+//!   symmetry logic), read through a register;
+//! * pipelining (`compact`): a register after every quantization and every
+//!   table read; values that skip stages are carried by balancing
+//!   registers; the overflow bit of each quantization travels with its
+//!   value to the output, ORed per stage id;
+//! * handshake: valid/ready with one global stall (`ready_o = ~valid_o |
+//!   ready_i`), a valid bit per stage reset by `rst_ni`.
+//!
+//! The module's header names the generator, the configuration (its source
+//! and hash), the latency and every port with its format.
+
+pub mod bits;
+pub mod testbench;
+pub mod units;
+
+use std::collections::HashMap;
+use std::fmt::Write as _;
+
+use crate::datapath::{Op, Port, Table, Trace, TV};
+use crate::format::Format;
+use crate::quantize::{Overflow, Rounding};
+use crate::vectors::{Field, GENERATOR};
+use bits::Val;
+
+/// A unit's datapath, ready to emit: the trace with named ports, and what
+/// the header says about it.
+#[derive(Clone, Debug)]
+pub struct Design {
+    /// Module name (the unit's name).
+    pub module: String,
+    /// Unit (registry name).
+    pub unit: &'static str,
+    /// Variant (method, scheme, path …).
+    pub variant: String,
+    /// The traced datapath, with named inputs and outputs.
+    pub trace: Trace,
+    /// Where the configuration came from, and its overrides.
+    pub config_source: String,
+    /// The effective configuration as TOML (hashed into the header).
+    pub config_toml: String,
+    /// Lines describing the configuration (coefficients, tables …).
+    pub notes: Vec<String>,
+}
+
+/// Why a design cannot be emitted.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum EmitError {
+    /// The datapath divides or takes a square root.
+    #[error("unit {unit} ({variant}) needs a {op}, which has no RTL; choose a variant without division or square root")]
+    NoRtl {
+        /// Unit.
+        unit: &'static str,
+        /// Variant.
+        variant: String,
+        /// `division` or `square root`.
+        op: &'static str,
+    },
+    /// A port has no name or a duplicate name.
+    #[error("unit {0}: the datapath has no named outputs")]
+    NoOutputs(&'static str),
+    /// Too many overflow stages for a port.
+    #[error("unit {unit}: a value is {width} bits wide; the emitter handles at most 126")]
+    TooWide {
+        /// Unit.
+        unit: &'static str,
+        /// The width.
+        width: u32,
+    },
+}
+
+/// One multiplier as the hardware builds it.
+#[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord, serde::Serialize)]
+pub struct MulHw {
+    /// Width of the first operand as built.
+    pub a_width: u32,
+    /// Width of the second operand as built.
+    pub b_width: u32,
+    /// A signed multiplier (either operand signed: an unsigned operand is
+    /// then zero-extended by one bit).
+    pub signed: bool,
+}
+
+impl std::fmt::Display for MulHw {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} × {} {}",
+            self.a_width.max(self.b_width),
+            self.a_width.min(self.b_width),
+            if self.signed { "signed" } else { "unsigned" }
+        )
+    }
+}
+
+/// The arithmetic the emitted module builds, from the trace (what
+/// `fxshade ops --rtl` compares with the synthesized netlist).
+#[derive(Clone, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct Hardware {
+    /// Every multiplier, sorted.
+    pub muls: Vec<MulHw>,
+    /// Every adder and subtractor of the datapath, by result width, sorted.
+    pub adders: Vec<u32>,
+    /// Every rounding incrementer, by result width, sorted.
+    pub incrementers: Vec<u32>,
+    /// Comparators (`max`).
+    pub compares: u64,
+    /// Multiplexers (`select`).
+    pub selects: u64,
+    /// Table reads.
+    pub table_reads: u64,
+    /// Bits stored in ROMs (each distinct ROM once).
+    pub rom_bits: u64,
+    /// Flip-flops of the datapath (data, flags and valid bits).
+    pub flops: u64,
+}
+
+/// An emitted unit: its Verilog, its testbench and its vector layout.
+#[derive(Clone, Debug)]
+pub struct Emitted {
+    /// Module name.
+    pub module: String,
+    /// The module's source (`<module>.v`).
+    pub verilog: String,
+    /// A self-checking testbench (`<module>_tb.v`) for `fxshade vectors`.
+    pub testbench: String,
+    /// Cycles from an input transfer to its output (no stalls).
+    pub latency: u32,
+    /// The overflow-flag stages, flag 0 first; in `ovf_o` stage `k` is bit
+    /// `F−1−k` (the first stage is the most significant bit).
+    pub flags: Vec<String>,
+    /// Input fields of a vector line, most significant first (the input
+    /// ports in order).
+    pub inputs: Vec<Field>,
+    /// Output fields of a vector line: `ovf` (when any stage can overflow),
+    /// then the output ports in order.
+    pub outputs: Vec<Field>,
+    /// What the module builds.
+    pub hardware: Hardware,
+}
+
+fn sanitize(s: &str) -> String {
+    s.chars()
+        .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+        .collect()
+}
+
+fn decl(signed: bool, width: u32) -> String {
+    format!("{}[{}:0]", if signed { "signed " } else { "" }, width - 1)
+}
+
+/// Format of a port, for the header: `I2F14 (16 bits, signed)`.
+fn port_doc(f: Format) -> String {
+    format!(
+        "{f} ({} bit{}, {})",
+        f.width(),
+        if f.width() == 1 { "" } else { "s" },
+        if f.signed() {
+            "two's complement"
+        } else {
+            "unsigned"
+        }
+    )
+}
+
+struct Emitter<'a> {
+    t: &'a Trace,
+    stage: Vec<Option<u32>>,
+    name: Vec<String>,
+    /// `(node, stage)` → the wire or register holding the node's value then.
+    at: HashMap<(usize, u32), String>,
+    /// Overflow bit of a quantization node: `(node, stage)` → name.
+    ovf_at: HashMap<(usize, u32), String>,
+    body: Vec<String>,
+    regs: Vec<String>,
+    unused: Vec<String>,
+    hw: Hardware,
+    roms: Vec<(Vec<i128>, String, Format, u32)>,
+    rom_text: Vec<String>,
+}
+
+impl<'a> Emitter<'a> {
+    fn reg(&mut self, name: &str, signed: bool, width: u32, src: &str) {
+        self.body
+            .push(format!("reg  {} {name};", decl(signed, width)));
+        self.regs.push(format!("{name} <= {src};"));
+        self.hw.flops += width as u64;
+    }
+
+    /// The node's value at `stage` (balancing registers created on demand).
+    fn value_at(&mut self, node: usize, stage: u32) -> String {
+        let Some(s0) = self.stage[node] else {
+            return self.name[node].clone();
+        };
+        assert!(stage >= s0, "values flow forward");
+        if let Some(n) = self.at.get(&(node, stage)) {
+            return n.clone();
+        }
+        let prev = self.value_at(node, stage - 1);
+        let sym = self.t.sym(node);
+        let name = format!("{}_s{stage}", self.name[node]);
+        self.reg(&name, sym.signed, sym.width, &prev);
+        self.at.insert((node, stage), name.clone());
+        name
+    }
+
+    fn ovf_at(&mut self, node: usize, stage: u32) -> String {
+        let s0 = self.stage[node].expect("a quantization has a stage");
+        if let Some(n) = self.ovf_at.get(&(node, stage)) {
+            return n.clone();
+        }
+        assert!(stage > s0);
+        let prev = self.ovf_at(node, stage - 1);
+        let name = format!("{}_ovf_s{stage}", self.name[node]);
+        self.reg(&name, false, 1, &prev);
+        self.ovf_at.insert((node, stage), name.clone());
+        name
+    }
+
+    /// An operand read at `stage`, with its binary point as the TV says.
+    fn operand(&mut self, tv: &TV, stage: u32) -> Val {
+        let expr = self.value_at(tv.node(), stage);
+        let sym = tv.sym();
+        Val {
+            expr,
+            width: sym.width,
+            signed: sym.signed,
+            frac: tv.frac(),
+        }
+    }
+
+    fn rom(&mut self, entries: &[i128], base: &str, f: Format, addr_bits: u32) -> String {
+        if let Some((_, n, _, _)) = self
+            .roms
+            .iter()
+            .find(|(e, _, ff, _)| e == entries && *ff == f)
+        {
+            return n.clone();
+        }
+        let name = format!("{base}_rom");
+        let mut t = String::new();
+        let _ = writeln!(t, "// {name}: {} entries of {f}.", entries.len());
+        let _ = writeln!(
+            t,
+            "function automatic {} {name}(input [{}:0] addr);",
+            decl(f.signed(), f.width()),
+            addr_bits - 1
+        );
+        t += "  begin\n    case (addr)\n";
+        for (i, &c) in entries.iter().enumerate() {
+            let _ = writeln!(
+                t,
+                "      {addr_bits}'d{i}: {name} = {};",
+                bits::sv(f.signed(), &bits::literal(f.width(), c))
+            );
+        }
+        if entries.len() < (1usize << addr_bits) {
+            let _ = writeln!(
+                t,
+                "      default: {name} = {};",
+                bits::sv(f.signed(), &bits::literal(f.width(), 0))
+            );
+        }
+        t += "    endcase\n  end\nendfunction\n";
+        self.rom_text.push(t);
+        self.hw.rom_bits += entries.len() as u64 * f.width() as u64;
+        self.roms
+            .push((entries.to_vec(), name.clone(), f, addr_bits));
+        name
+    }
+
+    fn table_read(&mut self, i: usize, idx: &Val, tb: &Table, s: u32) {
+        let f = tb.out.format();
+        let t = tb.index.width();
+        let base = &self.name[i].clone();
+        let ix = idx.slice(t - 1, 0);
+        let value = match &tb.storage {
+            None => {
+                let rom = self.rom(&tb.codes, tb.name, f, t);
+                format!("{rom}({ix})")
+            }
+            Some(q) => {
+                // j = i + phase·quarter turn; quadrant h = j[t−1:t−2].
+                let j = format!("{base}_j");
+                let jexpr = if q.phase == 0 {
+                    ix.clone()
+                } else {
+                    self.hw.adders.push(2);
+                    format!(
+                        "{{{} + 2'd{}, {}}}",
+                        idx.slice(t - 1, t - 2),
+                        q.phase,
+                        idx.slice(t - 3, 0)
+                    )
+                };
+                self.body.push(format!("wire [{}:0] {j} = {jexpr};", t - 1));
+                let a = format!("{base}_a");
+                // Odd quadrants read the mirror image: 2^(t−2) − r.
+                self.body.push(format!(
+                    "wire [{}:0] {a} = {j}[{}] ? ({} - {{1'b0, {j}[{}:0]}}) : {{1'b0, {j}[{}:0]}};",
+                    t - 2,
+                    t - 2,
+                    bits::literal(t - 1, 1i128 << (t - 2)),
+                    t - 3,
+                    t - 3
+                ));
+                self.hw.adders.push(t - 1);
+                let rom = self.rom(&q.entries, "quarter", f, t - 1);
+                let v = format!("{base}_v");
+                self.body.push(format!(
+                    "wire {} {v} = {rom}({a});",
+                    decl(f.signed(), f.width())
+                ));
+                // Negated in one more bit, then back into the entry format.
+                let n = format!("{base}_n");
+                let vv = Val {
+                    expr: v.clone(),
+                    width: f.width(),
+                    signed: f.signed(),
+                    frac: f.frac(),
+                };
+                self.body.push(format!(
+                    "wire signed [{}:0] {n} = {};",
+                    f.width(),
+                    bits::sv(
+                        true,
+                        &format!(
+                            "{} - {}",
+                            bits::literal(f.width() + 1, 0),
+                            bits::align(&vv, 0, f.width() + 1)
+                        )
+                    )
+                ));
+                self.hw.adders.push(f.width() + 1);
+                let nv = Val {
+                    expr: n,
+                    width: f.width() + 1,
+                    signed: true,
+                    frac: f.frac(),
+                };
+                let ny = format!("{base}_nv");
+                let q = bits::quantize(
+                    &nv,
+                    &format!("{base}_neg"),
+                    &ny,
+                    &format!("unused_{base}_novf"),
+                    f.width(),
+                    f.signed(),
+                    f.frac(),
+                    Rounding::Trunc,
+                    tb.out.overflow(),
+                );
+                self.body.extend(q.lines);
+                bits::sv(f.signed(), &format!("{j}[{}] ? {ny} : {v}", t - 1))
+            }
+        };
+        // Registered read.
+        let out = base.clone();
+        self.reg(&out, f.signed(), f.width(), &value);
+        self.at.insert((i, s + 1), out);
+        self.hw.table_reads += 1;
+    }
+
+    fn node(&mut self, i: usize) -> Result<(), EmitError> {
+        let op = self.t.ops()[i].clone();
+        let sym = self.t.sym(i);
+        let d = decl(sym.signed, sym.width);
+        let stage_of = |e: &Self, tvs: &[&TV]| -> u32 {
+            tvs.iter()
+                .filter_map(|t| e.stage[t.node()])
+                .max()
+                .unwrap_or(0)
+        };
+        let name = self.name[i].clone();
+        match op {
+            Op::Input(_) => {
+                self.stage[i] = Some(0);
+                self.at.insert((i, 0), name);
+            }
+            Op::Const(c) => {
+                self.body.push(format!(
+                    "localparam {d} {name} = {};",
+                    bits::sv(sym.signed, &bits::literal(sym.width, c))
+                ));
+            }
+            Op::Mul(a, b) => {
+                let s = stage_of(self, &[&a, &b]);
+                let (va, vb) = (self.operand(&a, s), self.operand(&b, s));
+                let (ea, eb, hw) = match (va.signed, vb.signed) {
+                    (true, false) => (
+                        va.expr.clone(),
+                        format!("$signed({{1'b0, {}}})", vb.expr),
+                        MulHw {
+                            a_width: va.width,
+                            b_width: vb.width + 1,
+                            signed: true,
+                        },
+                    ),
+                    (false, true) => (
+                        format!("$signed({{1'b0, {}}})", va.expr),
+                        vb.expr.clone(),
+                        MulHw {
+                            a_width: va.width + 1,
+                            b_width: vb.width,
+                            signed: true,
+                        },
+                    ),
+                    (sa, _) => (
+                        va.expr.clone(),
+                        vb.expr.clone(),
+                        MulHw {
+                            a_width: va.width,
+                            b_width: vb.width,
+                            signed: sa,
+                        },
+                    ),
+                };
+                self.hw.muls.push(hw);
+                // No `$signed(...)` around the product: its argument would be
+                // self-determined and the product truncated. Both operands
+                // are of the product's signedness already.
+                self.body.push(format!("wire {d} {name} = {ea} * {eb};"));
+                self.stage[i] = Some(s);
+                self.at.insert((i, s), name);
+            }
+            Op::Add(a, b) | Op::Sub(a, b) | Op::Max(a, b) => {
+                let s = stage_of(self, &[&a, &b]);
+                let (va, vb) = (self.operand(&a, s), self.operand(&b, s));
+                let w = sym.width;
+                let xa = bits::align(&va, (sym.frac - va.frac) as u32, w);
+                let xb = bits::align(&vb, (sym.frac - vb.frac) as u32, w);
+                let e = match op {
+                    Op::Add(..) => {
+                        self.hw.adders.push(w);
+                        format!("{xa} + {xb}")
+                    }
+                    Op::Sub(..) => {
+                        self.hw.adders.push(w);
+                        format!("{xa} - {xb}")
+                    }
+                    _ => {
+                        self.hw.compares += 1;
+                        let (ca, cb) = (format!("{name}_a"), format!("{name}_b"));
+                        self.body
+                            .push(format!("wire {d} {ca} = {};", bits::sv(sym.signed, &xa)));
+                        self.body
+                            .push(format!("wire {d} {cb} = {};", bits::sv(sym.signed, &xb)));
+                        format!("({ca} > {cb}) ? {ca} : {cb}")
+                    }
+                };
+                let e = if matches!(op, Op::Max(..)) {
+                    e
+                } else {
+                    bits::sv(sym.signed, &e)
+                };
+                self.body.push(format!("wire {d} {name} = {e};"));
+                self.stage[i] = Some(s);
+                self.at.insert((i, s), name);
+            }
+            Op::Select(sel, opts) => {
+                let mut all: Vec<&TV> = vec![&sel];
+                all.extend(opts.iter());
+                let s = stage_of(self, &all);
+                let vs = self.operand(&sel, s);
+                let vals: Vec<String> = opts
+                    .iter()
+                    .map(|o| {
+                        let v = self.operand(o, s);
+                        bits::sv(
+                            sym.signed,
+                            &bits::align(&v, (sym.frac - v.frac) as u32, sym.width),
+                        )
+                    })
+                    .collect();
+                self.hw.selects += 1;
+                self.body.push(format!("reg  {d} {name};"));
+                let mut t = "always @* begin\n".to_string();
+                let _ = writeln!(t, "  case ({})", vs.expr);
+                for (k, v) in vals.iter().enumerate().skip(1) {
+                    let _ = writeln!(t, "    {}'d{k}: {name} = {v};", vs.width);
+                }
+                let _ = writeln!(t, "    default: {name} = {};", vals[0]);
+                t += "  endcase\nend";
+                self.body.push(t);
+                self.stage[i] = Some(s);
+                self.at.insert((i, s), name);
+            }
+            Op::Quant(a, q) => {
+                let s = stage_of(self, &[&a]);
+                let va = self.operand(&a, s);
+                let f = q.format();
+                let (yc, oc) = (format!("{name}_c"), format!("{name}_ovf_c"));
+                let ql = bits::quantize(
+                    &va,
+                    &name,
+                    &yc,
+                    &oc,
+                    f.width(),
+                    f.signed(),
+                    f.frac(),
+                    q.round(),
+                    q.overflow(),
+                );
+                self.body.extend(ql.lines);
+                self.unused.extend(ql.unused);
+                if let Some(w) = ql.round_adder {
+                    self.hw.incrementers.push(w);
+                }
+                let _ = Overflow::Wrap;
+                self.reg(&name, f.signed(), f.width(), &yc);
+                let ov = format!("{name}_ovf");
+                self.reg(&ov, false, 1, &oc);
+                self.stage[i] = Some(s + 1);
+                self.at.insert((i, s + 1), name);
+                self.ovf_at.insert((i, s + 1), ov);
+            }
+            Op::Table(a, slot) => {
+                let s = stage_of(self, &[&a]);
+                let va = self.operand(&a, s);
+                let tb = self.t.tables()[slot].clone();
+                self.stage[i] = Some(s + 1);
+                self.table_read(i, &va, &tb, s);
+            }
+            Op::Div(..) | Op::Sqrt(..) => unreachable!("checked before"),
+        }
+        Ok(())
+    }
+}
+
+/// Emit `d` as one Verilog module with the `compact` pipeline.
+pub fn emit(d: &Design) -> Result<Emitted, EmitError> {
+    let t = &d.trace;
+    let outs: Vec<Port> = t.output_ports().to_vec();
+    if outs.is_empty() {
+        return Err(EmitError::NoOutputs(d.unit));
+    }
+    let roots: Vec<TV> = outs.iter().map(|p| p.value).collect();
+    let live = t.live_nodes(&roots);
+    for (i, op) in t.ops().iter().enumerate() {
+        if !live[i] {
+            continue;
+        }
+        let op_name = match op {
+            Op::Div(..) => Some("division"),
+            Op::Sqrt(..) => Some("square root"),
+            _ => None,
+        };
+        if let Some(op) = op_name {
+            return Err(EmitError::NoRtl {
+                unit: d.unit,
+                variant: d.variant.clone(),
+                op,
+            });
+        }
+        if t.sym(i).width > 126 {
+            return Err(EmitError::TooWide {
+                unit: d.unit,
+                width: t.sym(i).width,
+            });
+        }
+    }
+    let inputs = t.input_ports();
+    let mut names = vec![String::new(); t.ops().len()];
+    for (i, op) in t.ops().iter().enumerate() {
+        names[i] = match op {
+            Op::Input(slot) => format!("{}_i", inputs[*slot].name),
+            Op::Const(_) => format!("K{i}"),
+            Op::Quant(..) => format!("{}_{i}", sanitize(t.stage_id(i).unwrap_or("q"))),
+            Op::Table(_, slot) => format!("{}_{i}", t.tables()[*slot].name),
+            _ => format!("t{i}"),
+        };
+    }
+    let mut e = Emitter {
+        t,
+        stage: vec![None; t.ops().len()],
+        name: names,
+        at: HashMap::new(),
+        ovf_at: HashMap::new(),
+        body: Vec::new(),
+        regs: Vec::new(),
+        unused: Vec::new(),
+        hw: Hardware::default(),
+        roms: Vec::new(),
+        rom_text: Vec::new(),
+    };
+    for (i, op) in t.ops().iter().enumerate() {
+        if live[i] || matches!(op, Op::Input(_)) {
+            e.node(i)?;
+        }
+    }
+    for p in &inputs {
+        if !live[p.value.node()] {
+            e.unused.push(e.name[p.value.node()].clone());
+        }
+    }
+    // Latency: the deepest output, at least one register.
+    let latency = roots
+        .iter()
+        .filter_map(|r| e.stage[r.node()])
+        .max()
+        .unwrap_or(0)
+        .max(1);
+    // Flags: every live quantization's stage id, in order.
+    let mut flags: Vec<String> = Vec::new();
+    let mut flag_nodes: Vec<Vec<usize>> = Vec::new();
+    for (i, op) in t.ops().iter().enumerate() {
+        if live[i] && matches!(op, Op::Quant(..)) {
+            let id = t.stage_id(i).unwrap_or("").to_string();
+            match flags.iter().position(|f| *f == id) {
+                Some(k) => flag_nodes[k].push(i),
+                None => {
+                    flags.push(id);
+                    flag_nodes.push(vec![i]);
+                }
+            }
+        }
+    }
+    let mut out_assigns = Vec::new();
+    for p in &outs {
+        let v = e.value_at(p.value.node(), latency);
+        out_assigns.push(format!("assign {}_o = {v};", p.name));
+    }
+    let mut flag_bits = Vec::new();
+    for nodes in &flag_nodes {
+        let parts: Vec<String> = nodes.iter().map(|&n| e.ovf_at(n, latency)).collect();
+        flag_bits.push(parts.join(" | "));
+    }
+    let nf = flags.len();
+    e.hw.flops += latency as u64; // valid bits
+    e.hw.muls.sort();
+    e.hw.adders.sort();
+    e.hw.incrementers.sort();
+
+    // Header.
+    let hash = crate::vectors::fingerprint(&[d.config_toml.as_bytes()]);
+    let mut v = String::new();
+    let _ = writeln!(
+        v,
+        "// {}.v: unit `{}` ({}), generated from its traced datapath.",
+        d.module, d.unit, d.variant
+    );
+    let _ = writeln!(v, "//");
+    let _ = writeln!(
+        v,
+        "// GENERATED by {GENERATOR}. Do not edit: regenerate with"
+    );
+    let _ = writeln!(
+        v,
+        "//   fxshade rtl {} [--config FILE] [--set KEY=VALUE]... --out DIR",
+        d.unit
+    );
+    let _ = writeln!(
+        v,
+        "// Configuration: {} (hash {hash:016x})",
+        d.config_source
+    );
+    for n in &d.notes {
+        let _ = writeln!(v, "// {n}");
+    }
+    let _ = writeln!(v, "//");
+    let _ = writeln!(
+        v,
+        "// Latency {latency} cycles; one vector per clock. Handshake: valid/ready on"
+    );
+    let _ = writeln!(
+        v,
+        "// both sides with one global stall (ready_o = ~valid_o | ready_i)."
+    );
+    let _ = writeln!(
+        v,
+        "// Arithmetic: model/ARITHMETIC.md; every wire has its exact model format."
+    );
+    let _ = writeln!(v, "//");
+    let _ = writeln!(v, "// Ports:");
+    let _ = writeln!(
+        v,
+        "//   clk_i, rst_ni (asynchronous, active low), valid_i/ready_o, valid_o/ready_i"
+    );
+    for p in &inputs {
+        let _ = writeln!(
+            v,
+            "//   {:<12} in   {}",
+            format!("{}_i", p.name),
+            port_doc(p.format)
+        );
+    }
+    for p in &outs {
+        let _ = writeln!(
+            v,
+            "//   {:<12} out  {}",
+            format!("{}_o", p.name),
+            port_doc(p.format)
+        );
+    }
+    if nf > 0 {
+        let _ = writeln!(
+            v,
+            "//   {:<12} out  overflow flags of this vector, one per stage id:",
+            "ovf_o"
+        );
+        for (k, f) in flags.iter().enumerate() {
+            let _ = writeln!(v, "//                  bit {:<2} {f}", nf - 1 - k);
+        }
+    }
+    v += "\n`default_nettype none\n\n";
+    let _ = writeln!(v, "module {} (", d.module);
+    let mut ports = vec![
+        "input  wire clk_i".to_string(),
+        "input  wire rst_ni".to_string(),
+        "input  wire valid_i".to_string(),
+        "output wire ready_o".to_string(),
+    ];
+    for p in &inputs {
+        ports.push(format!(
+            "input  wire {} {}_i",
+            decl(p.format.signed(), p.format.width()),
+            p.name
+        ));
+    }
+    ports.push("output wire valid_o".into());
+    ports.push("input  wire ready_i".into());
+    for p in &outs {
+        ports.push(format!(
+            "output wire {} {}_o",
+            decl(p.format.signed(), p.format.width()),
+            p.name
+        ));
+    }
+    if nf > 0 {
+        ports.push(format!("output wire [{}:0] ovf_o", nf - 1));
+    }
+    let _ = writeln!(v, "  {}", ports.join(",\n  "));
+    v += ");\n\n";
+    for r in &e.rom_text {
+        for l in r.lines() {
+            let _ = writeln!(v, "  {l}");
+        }
+        v += "\n";
+    }
+    v += "  // Handshake: one valid bit per stage, one global stall.\n";
+    let _ = writeln!(v, "  reg  [{}:0] valid_q;", latency - 1);
+    let _ = writeln!(v, "  wire en = ~valid_q[{}] | ready_i;", latency - 1);
+    v += "  assign ready_o = en;\n";
+    let _ = writeln!(v, "  assign valid_o = valid_q[{}];", latency - 1);
+    v += "  always @(posedge clk_i or negedge rst_ni) begin\n";
+    let _ = writeln!(v, "    if (!rst_ni) valid_q <= {latency}'b0;");
+    if latency == 1 {
+        v += "    else if (en) valid_q <= valid_i;\n";
+    } else {
+        let _ = writeln!(
+            v,
+            "    else if (en) valid_q <= {{valid_q[{}:0], valid_i}};",
+            latency - 2
+        );
+    }
+    v += "  end\n\n  // Datapath.\n";
+    for l in &e.body {
+        for ll in l.lines() {
+            let _ = writeln!(v, "  {ll}");
+        }
+    }
+    v += "\n  // Pipeline registers (data: no reset, held while stalled).\n";
+    v += "  always @(posedge clk_i) begin\n    if (en) begin\n";
+    for r in &e.regs {
+        let _ = writeln!(v, "      {r}");
+    }
+    v += "    end\n  end\n\n";
+    for a in &out_assigns {
+        let _ = writeln!(v, "  {a}");
+    }
+    if nf > 0 {
+        let _ = writeln!(v, "  assign ovf_o = {{");
+        let lines: Vec<String> = flag_bits.iter().map(|b| format!("    {b}")).collect();
+        let _ = writeln!(v, "{}", lines.join(",\n"));
+        v += "  };\n";
+    }
+    if !e.unused.is_empty() {
+        let _ = writeln!(
+            v,
+            "\n  // Bits the arithmetic drops (truncation) or does not read.\n  wire unused_bits = ^{{{}}};",
+            e.unused.join(", ")
+        );
+    }
+    v += "endmodule\n\n`default_nettype wire\n";
+
+    let in_fields: Vec<Field> = inputs
+        .iter()
+        .map(|p| Field::new(&p.name, p.format))
+        .collect();
+    let mut out_fields = Vec::new();
+    if nf > 0 {
+        out_fields.push(Field::new(
+            "ovf",
+            Format::new(false, nf as u32, 0).expect("at most 64 flags"),
+        ));
+    }
+    out_fields.extend(outs.iter().map(|p| Field::new(&p.name, p.format)));
+    let testbench = testbench::generate(&d.module, &in_fields, &out_fields, nf);
+    Ok(Emitted {
+        module: d.module.clone(),
+        verilog: v,
+        testbench,
+        latency,
+        flags,
+        inputs: in_fields,
+        outputs: out_fields,
+        hardware: e.hw,
+    })
+}

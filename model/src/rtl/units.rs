@@ -1,0 +1,220 @@
+//! The units with RTL: one registry that the vector flow, `fxshade rtl`,
+//! `rtl-check`, `ops --rtl`, the report and the tests iterate.
+//!
+//! Each entry names the unit, its variants (and the override selecting
+//! each), how to build its traced [`Design`] from a configuration, and how
+//! to draw its input vectors (corner cases first). Expected outputs and
+//! overflow flags always come from the compiled trace, and the vector
+//! layout from the emitted module's ports.
+
+use super::{emit, Design, Emitted};
+use crate::config::Config;
+use crate::vectors::{RtlError, RtlSources, VectorSet};
+
+/// Input rows (codes in the design's input-port order) and how many of them
+/// are corner cases.
+pub type Inputs = (Vec<Vec<i128>>, usize);
+
+/// A unit with RTL.
+pub struct RtlUnit {
+    /// Name: configuration section (or scope), module, vector directory.
+    pub name: &'static str,
+    /// One line for people.
+    pub doc: &'static str,
+    /// Variants: name and the `--set` override selecting it.
+    pub variants: &'static [(&'static str, &'static str)],
+    /// The traced datapath of a configuration.
+    pub design: fn(&Config) -> Result<Design, RtlError>,
+    /// `count` input vectors for a seed, corner cases first.
+    pub inputs: fn(&Config, usize, u64) -> Result<Inputs, RtlError>,
+}
+
+/// Every unit with RTL, in pipeline order, the pipeline top last.
+pub static RTL_UNITS: &[RtlUnit] = &[
+    RtlUnit {
+        name: "interp",
+        doc: "method C: linear or quadratic normal interpolation",
+        variants: &[
+            ("linear", "interp.scheme=\"linear\""),
+            ("quadratic", "interp.scheme=\"quadratic\""),
+        ],
+        design: crate::interp::rtl::design,
+        inputs: crate::interp::rtl::inputs,
+    },
+    RtlUnit {
+        name: "normalize",
+        doc: "method A: N·g(N·N)",
+        variants: &[
+            ("none", "normalize.method=\"none\""),
+            ("newton", "normalize.method=\"newton\""),
+            ("taylor", "normalize.method=\"taylor\""),
+            ("linear", "normalize.method=\"linear\""),
+            ("quadratic", "normalize.method=\"quadratic\""),
+        ],
+        design: crate::normalizer::rtl::design,
+        inputs: crate::normalizer::rtl::inputs,
+    },
+    RtlUnit {
+        name: "polar",
+        doc: "method B: L into the tangent frame of N by polar angles and sin/cos tables",
+        variants: &[
+            ("quarter", "polar.organisation=\"quarter\""),
+            ("full", "polar.organisation=\"full\""),
+        ],
+        design: crate::polar::rtl::design,
+        inputs: crate::polar::rtl::inputs,
+    },
+    RtlUnit {
+        name: "lighting",
+        doc: "diffuse (i0_ks = 0) or diffuse + Blinn-Phong specular shading to a level",
+        variants: &[
+            ("diffuse", "lighting.i0_ks=0"),
+            ("diffuse+specular", "lighting.i0_ks=0.25"),
+        ],
+        design: crate::lighting::rtl::design,
+        inputs: crate::lighting::rtl::inputs,
+    },
+    RtlUnit {
+        name: "angle_interp",
+        doc: "polar angles of N interpolated from per-vertex set-up (mapped path)",
+        variants: &[("linear", "pipeline.angle_round=\"half_even\"")],
+        design: crate::pipeline::rtl::angle_design,
+        inputs: crate::pipeline::rtl::angle_inputs,
+    },
+    RtlUnit {
+        name: "pipeline",
+        doc: "the pipeline top: smooth (interp → normalize → lighting) or mapped (angles → polar → lighting)",
+        variants: &[
+            ("smooth", "pipeline.path=\"smooth\""),
+            ("mapped", "pipeline.path=\"mapped\""),
+        ],
+        design: crate::pipeline::rtl::design,
+        inputs: crate::pipeline::rtl::inputs,
+    },
+];
+
+/// Look a unit up by name.
+pub fn unit(name: &str) -> Option<&'static RtlUnit> {
+    RTL_UNITS.iter().find(|u| u.name == name)
+}
+
+/// The names of every unit with RTL, for messages.
+pub fn names() -> String {
+    RTL_UNITS
+        .iter()
+        .map(|u| u.name)
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// Emit a unit for a configuration.
+pub fn emit_unit(u: &RtlUnit, cfg: &Config) -> Result<(Design, Emitted), RtlError> {
+    let d = (u.design)(cfg)?;
+    let e = emit(&d)?;
+    Ok((d, e))
+}
+
+/// The unit's test vectors: `count` inputs (corner cases first) and the
+/// expected outputs and per-vector overflow flags of the compiled trace.
+pub fn vectors(u: &RtlUnit, cfg: &Config, count: usize, seed: u64) -> Result<VectorSet, RtlError> {
+    let (d, e) = emit_unit(u, cfg)?;
+    let (rows, corners) = (u.inputs)(cfg, count, seed)?;
+    vector_set(&d, &e, rows, corners, seed)
+}
+
+/// A vector set from input rows: outputs and flags from the compiled trace,
+/// fields from the emitted ports.
+pub fn vector_set(
+    d: &Design,
+    e: &Emitted,
+    rows: Vec<Vec<i128>>,
+    corners: usize,
+    seed: u64,
+) -> Result<VectorSet, RtlError> {
+    let outs: Vec<_> = d.trace.output_ports().iter().map(|p| p.value).collect();
+    let prog = crate::datapath::Compiled::compile(&d.trace, &outs)?;
+    assert_eq!(
+        prog.flag_stages(),
+        e.flags.as_slice(),
+        "the compiled trace and the emitted module flag the same stages"
+    );
+    let n_in = e.inputs.len();
+    for (i, r) in rows.iter().enumerate() {
+        for (f, &c) in e.inputs.iter().zip(r) {
+            if !(f.format.min_code()..=f.format.max_code()).contains(&c) {
+                return Err(RtlError::Stage {
+                    unit: d.unit,
+                    stage: "inputs",
+                    why: format!(
+                        "vector {i}: code {c} of field {} lies outside {}",
+                        f.name, f.format
+                    ),
+                });
+            }
+        }
+    }
+    let cols: Vec<Vec<i128>> = (0..n_in)
+        .map(|k| rows.iter().map(|r| r[k]).collect())
+        .collect();
+    let refs: Vec<&[i128]> = cols.iter().map(|c| c.as_slice()).collect();
+    let (res, flags) = prog.run_flags_i128(&refs);
+    let nf = e.flags.len();
+    let output_rows = (0..rows.len())
+        .map(|i| {
+            let mut r = Vec::with_capacity(res.len() + 1);
+            if nf > 0 {
+                // Stage k is bit nf−1−k of the flag field.
+                let f = flags[i];
+                let v = (0..nf).fold(0i128, |acc, k| {
+                    acc | ((((f >> k) & 1) as i128) << (nf - 1 - k))
+                });
+                r.push(v);
+            }
+            r.extend(res.iter().map(|o| o[i]));
+            r
+        })
+        .collect();
+    Ok(VectorSet {
+        unit: d.unit,
+        variant: d.variant.clone(),
+        config_source: d.config_source.clone(),
+        config_toml: d.config_toml.clone(),
+        seed,
+        inputs: e.inputs.clone(),
+        outputs: e.outputs.clone(),
+        input_rows: rows,
+        output_rows,
+        rtl: RtlSources {
+            module: e.module.clone(),
+            verilog: e.verilog.clone(),
+            testbench: e.testbench.clone(),
+            latency: e.latency,
+        },
+        corner_cases: corners,
+    })
+}
+
+impl Design {
+    /// A design of `unit` for `cfg`.
+    pub fn new(
+        unit: &'static str,
+        variant: &str,
+        trace: crate::datapath::Trace,
+        cfg: &Config,
+        notes: Vec<String>,
+    ) -> Design {
+        let mut source = cfg.source.clone();
+        if !cfg.overrides.is_empty() {
+            source += &format!(", overrides: {}", cfg.overrides.join(" "));
+        }
+        Design {
+            module: unit.to_string(),
+            unit,
+            variant: variant.to_string(),
+            trace,
+            config_source: source,
+            config_toml: cfg.to_toml(),
+            notes,
+        }
+    }
+}

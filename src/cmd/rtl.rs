@@ -1,0 +1,130 @@
+//! `fxshade rtl <unit>`: emit a unit's Verilog (and its testbench) from its
+//! traced datapath for a configuration.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use clap::Args;
+use fxshade_model::rtl::units::{self, RtlUnit};
+use fxshade_model::rtl::Emitted;
+
+use super::ConfigArgs;
+use crate::output::{emit, OutputArgs, Table};
+
+/// `fxshade rtl`
+#[derive(Args, Debug)]
+pub struct RtlArgs {
+    /// The unit (interp, normalize, polar, lighting, angle_interp,
+    /// pipeline), or `all`: every unit, and the pipeline top of both paths
+    /// (what `rtl/` holds for the default configuration).
+    unit: String,
+    #[command(flatten)]
+    cfg: ConfigArgs,
+    /// Output directory: `<module>.v` and `<module>_tb.v` are written into
+    /// it (each file replaced atomically; nothing else is touched).
+    #[arg(long, short = 'o', value_name = "DIR")]
+    out: PathBuf,
+    /// Do not write the testbenches.
+    #[arg(long)]
+    no_testbench: bool,
+    #[command(flatten)]
+    fmt: OutputArgs,
+}
+
+/// Write `text` to `path` atomically (a temporary file beside it, then a
+/// rename).
+pub fn write_atomic(path: &Path, text: &str) -> anyhow::Result<()> {
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let tmp = dir.join(format!(
+        ".{}.tmp-{}",
+        path.file_name().expect("a file name").to_string_lossy(),
+        std::process::id()
+    ));
+    std::fs::write(&tmp, text).with_context(|| format!("cannot write {}", tmp.display()))?;
+    std::fs::rename(&tmp, path).with_context(|| {
+        let _ = std::fs::remove_file(&tmp);
+        format!("cannot write {}", path.display())
+    })
+}
+
+/// The emitted modules `fxshade rtl all` writes for a configuration: every
+/// unit, and the pipeline top for both paths.
+pub fn emit_all(cfg: &fxshade_model::Config) -> anyhow::Result<Vec<(&'static RtlUnit, Emitted)>> {
+    let mut out = Vec::new();
+    for u in units::RTL_UNITS {
+        if u.name == "pipeline" {
+            for path in ["smooth", "mapped"] {
+                let mut c = cfg.clone();
+                c.apply_override(&format!("pipeline.path=\"{path}\""))?;
+                out.push((u, units::emit_unit(u, &c)?.1));
+            }
+        } else {
+            out.push((u, units::emit_unit(u, cfg)?.1));
+        }
+    }
+    Ok(out)
+}
+
+/// Run it.
+pub fn run(a: &RtlArgs) -> anyhow::Result<()> {
+    let cfg = a.cfg.resolve()?;
+    let start = std::time::Instant::now();
+    let emitted = if a.unit == "all" {
+        emit_all(&cfg)?
+    } else {
+        let u = crate::rtl_flow::unit(&a.unit)?;
+        vec![(u, units::emit_unit(u, &cfg)?.1)]
+    };
+    let secs = start.elapsed().as_secs_f64();
+    std::fs::create_dir_all(&a.out)
+        .with_context(|| format!("cannot create {}", a.out.display()))?;
+    let mut t = Table::new([
+        "module",
+        "latency",
+        "multipliers",
+        "adders (bits)",
+        "rounding incrementers",
+        "table reads",
+        "ROM bits",
+        "flip-flops",
+        "files",
+    ])
+    .titled(format!(
+        "Verilog emitted from the traced datapaths, configuration {} ({secs:.2} s)",
+        cfg.source
+    ));
+    let mut json = Vec::new();
+    for (_, e) in &emitted {
+        let mut files = vec![format!("{}.v", e.module)];
+        write_atomic(&a.out.join(&files[0]), &e.verilog)?;
+        if !a.no_testbench {
+            files.push(format!("{}_tb.v", e.module));
+            write_atomic(&a.out.join(&files[1]), &e.testbench)?;
+        }
+        let h = &e.hardware;
+        t.row([
+            e.module.clone(),
+            e.latency.to_string(),
+            h.muls
+                .iter()
+                .map(|m| m.to_string())
+                .collect::<Vec<_>>()
+                .join(", "),
+            format!("{:?}", h.adders),
+            format!("{:?}", h.incrementers),
+            h.table_reads.to_string(),
+            h.rom_bits.to_string(),
+            h.flops.to_string(),
+            files.join(" "),
+        ]);
+        json.push(serde_json::json!({
+            "module": e.module,
+            "latency": e.latency,
+            "flags": e.flags,
+            "hardware": h,
+            "files": files,
+            "dir": a.out,
+        }));
+    }
+    emit(a.fmt, &[t], &serde_json::Value::Array(json))
+}
