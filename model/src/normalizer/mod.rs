@@ -16,7 +16,8 @@
 //!
 //! The linear one costs 7 multiplications and 3 additions, the quadratic 8
 //! and 4: measured by [`crate::datapath::Count`] (`fxshade ops`), not typed.
-//! Integer constants (3, 10, 15, 1) are literals: exact, in `I8F0`.
+//! Integer constants (3, 10, 15, 1) are literals, exact in the smallest
+//! unsigned format that holds them (`quantize::literal`: `U2F0` for 3).
 //!
 //! ## The interval of `d`
 //! Interpolating two unit vectors at angle `φ` along an edge gives

@@ -739,11 +739,11 @@ mod tests {
     fn compiled_rows_equal_the_scalar_fixed_point_run() {
         for path in ["smooth", "mapped"] {
             let c = cfg(path);
-            let v = rtl::vectors(&c, 400, 3).unwrap();
+            let (rows, _) = rtl::inputs(&c, 400, 3).unwrap();
             let p = Pipeline::from_config(&c).unwrap();
             let pth = Path::from_name(path).unwrap();
-            let got = p.run_rows(pth, &v.input_rows).unwrap();
-            for (row, g) in v.input_rows.iter().zip(&got) {
+            let got = p.run_rows(pth, &rows).unwrap();
+            for (row, g) in rows.iter().zip(&got) {
                 assert_eq!(*g, p.eval_row(pth, row).unwrap(), "{path} {row:?}");
             }
         }
