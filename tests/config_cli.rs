@@ -135,26 +135,56 @@ fn product_wider_than_the_model_holds_is_rejected() {
     );
 }
 
+/// `config show` of a file (its effective configuration).
+fn show(body: &str) -> String {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("part.toml");
+    std::fs::write(&p, body).unwrap();
+    let o = fxshade(&["config", "show", "--config", p.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    without_source(&text(&o.stdout))
+}
+
+/// A shown configuration without its `# source:` line.
+fn without_source(t: &str) -> String {
+    t.lines()
+        .filter(|l| !l.starts_with("# source:"))
+        .map(|l| format!("{l}\n"))
+        .collect()
+}
+
 #[test]
-fn missing_field_and_missing_stage_part() {
+fn omitted_sections_fields_and_stage_parts_take_the_defaults() {
+    // A field left out: the default's value, not an error.
     let body: String = default_toml()
         .lines()
         .filter(|l| !l.starts_with("gain = "))
         .map(|l| format!("{l}\n"))
         .collect();
-    let (code, err, path) = check(&body);
-    assert_eq!(code, 2);
-    let line = line_of(&body, "[lighting]");
-    assert!(err.contains(&format!("{path}:{line}")), "{err}");
-    assert!(err.contains("missing key `lighting.gain`"), "{err}");
-
+    let (code, err, _) = check(&body);
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(show(&body), without_source(&default_toml()));
+    // A stage part left out: the default stage's part.
     let body = default_toml().replace(
         "round = \"half_even\", overflow = \"saturate\" }\n# register",
         "round = \"half_even\" }\n# register",
     );
-    let (code, err, _) = check(&body);
+    assert_eq!(show(&body), without_source(&default_toml()));
+    // A file with one section and one field: everything else is the default.
+    let shown = show("[normalize]\nmethod = \"linear\"\n");
+    assert_eq!(
+        shown,
+        without_source(&default_toml()).replace("method = \"quadratic\"", "method = \"linear\"")
+    );
+    // An empty file is the default configuration.
+    assert_eq!(show(""), without_source(&default_toml()));
+    // Unknown keys are still errors, with their line.
+    let (code, err, path) = check("[lighting]\ngain2 = 1\n");
     assert_eq!(code, 2);
-    assert!(err.contains("missing key `lighting.dot.overflow`"), "{err}");
+    assert!(
+        err.contains(&format!("{path}:2")) && err.contains("unknown key `lighting.gain2`"),
+        "{err}"
+    );
 }
 
 #[test]

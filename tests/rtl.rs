@@ -298,7 +298,7 @@ fn random_valid_configurations_agree_bit_for_bit() {
     ];
     for k in 0..30 {
         let sets = random_overrides(&mut r);
-        let mut check = vec!["config", "check"];
+        let mut check = vec!["config", "show"];
         for s in &sets {
             check.extend(["--set", s.as_str()]);
         }

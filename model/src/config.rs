@@ -251,6 +251,9 @@ struct Parser<'a> {
     text: &'a str,
     path: Arc<str>,
     errors: Vec<ConfigError>,
+    /// Where omitted sections, fields and stage parts come from (`None`
+    /// while parsing the embedded default itself, which must be complete).
+    defaults: Option<&'a Config>,
 }
 
 impl Parser<'_> {
@@ -328,9 +331,15 @@ fn scalar(decl: &FieldDecl, v: &TomlValue) -> Result<Value, String> {
 }
 
 impl Config {
-    /// The embedded default.
+    /// The embedded default (parsed once per process).
     pub fn embedded() -> Config {
-        Self::parse(DEFAULT_TOML, "<default>").expect("the embedded default configuration is valid")
+        static DEFAULT: std::sync::OnceLock<Config> = std::sync::OnceLock::new();
+        DEFAULT
+            .get_or_init(|| {
+                Self::parse_with(DEFAULT_TOML, "<default>", None)
+                    .expect("the embedded default configuration is valid")
+            })
+            .clone()
     }
 
     /// Read and validate a file.
@@ -367,12 +376,25 @@ impl Config {
         }
     }
 
-    /// Parse and validate TOML text; `path` names it in errors.
+    /// Parse and validate TOML text; `path` names it in errors. A section,
+    /// field or stage part the text omits takes the embedded default's
+    /// value, so a file written for an older fxshade (or listing only what
+    /// it changes) stays valid when units and fields are added.
     pub fn parse(text: &str, path: &str) -> Result<Config, ConfigErrors> {
+        let defaults = Self::embedded();
+        Self::parse_with(text, path, Some(&defaults))
+    }
+
+    fn parse_with(
+        text: &str,
+        path: &str,
+        defaults: Option<&Config>,
+    ) -> Result<Config, ConfigErrors> {
         let mut p = Parser {
             text,
             path: Arc::from(path),
             errors: Vec::new(),
+            defaults,
         };
         let doc = match ImDocument::parse(text) {
             Ok(d) => d,
@@ -404,14 +426,17 @@ impl Config {
             };
             parsed[ui] = p.unit(units[ui].decl, item, key_span);
         }
-        for (u, parsed) in units.iter().zip(&parsed) {
+        for (parsed, u) in parsed.iter_mut().zip(units.iter()) {
             let present = root.contains_key(u.decl.name);
             if !present {
-                p.errors.push(ConfigError::MissingKey {
-                    at: p.at(None),
-                    key: format!("[{}]", u.decl.name),
-                    doc: u.decl.doc.to_string(),
-                });
+                match p.defaults {
+                    Some(d) => *parsed = Some(d.unit(u.decl.name).clone()),
+                    None => p.errors.push(ConfigError::MissingKey {
+                        at: p.at(None),
+                        key: format!("[{}]", u.decl.name),
+                        doc: u.decl.doc.to_string(),
+                    }),
+                }
             } else if parsed.is_none() && p.errors.is_empty() {
                 unreachable!("a unit that failed to parse reported an error");
             }
@@ -670,6 +695,17 @@ impl Parser<'_> {
             }
         }
         let section_at = self.at(key_span);
+        if let Some(d) = self.defaults {
+            for (f, v) in decl.fields.iter().zip(values.iter_mut()) {
+                if v.is_none()
+                    && !self.errors[before..]
+                        .iter()
+                        .any(|e| error_key(e) == format!("{}.{}", decl.name, f.name))
+                {
+                    *v = Some(d.unit(decl.name).get(f.name).clone());
+                }
+            }
+        }
         for (f, v) in decl.fields.iter().zip(&values) {
             if v.is_none()
                 && !self.errors[before..]
@@ -731,6 +767,16 @@ impl Parser<'_> {
         }
         for part in STAGE_PARTS {
             if !t.contains_key(part) {
+                if let Some(d) = self.defaults {
+                    // The default stage's part.
+                    let def = d.unit(dotted.split('.').next().unwrap_or("")).stage(f.name);
+                    q = match part {
+                        "format" => q.with_format(def.format()),
+                        "round" => Quant::new(f.name, q.format(), def.round(), q.overflow()),
+                        _ => Quant::new(f.name, q.format(), q.round(), def.overflow()),
+                    };
+                    continue;
+                }
                 return Err(ConfigError::MissingKey {
                     at: at.clone(),
                     key: format!("{dotted}.{part}"),

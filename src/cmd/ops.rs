@@ -79,8 +79,8 @@ fn parse_cells(dump: &str) -> Vec<(String, std::collections::BTreeMap<String, i6
 }
 
 /// Emit every RTL unit and variant, read each back with Yosys (`proc;
-/// flatten; opt_expr; opt_clean`: no width reduction, so the cells have the
-/// widths the Verilog declares) and compare its arithmetic with the trace.
+/// flatten; opt_clean`: no constant folding or width reduction, so the cells
+/// have the widths the Verilog declares) and compare its arithmetic with the trace.
 pub fn netlist_checks(cfg: &fxshade_model::Config) -> anyhow::Result<Vec<NetlistCheck>> {
     use anyhow::Context;
     use fxshade_model::rtl::units::{emit_unit, RTL_UNITS};
@@ -105,7 +105,7 @@ pub fn netlist_checks(cfg: &fxshade_model::Config) -> anyhow::Result<Vec<Netlist
             let f = dir.join(format!("{}.v", e.module));
             std::fs::write(&f, &e.verilog)?;
             let script = format!(
-                "read_verilog {}; hierarchy -top {}; proc; flatten; opt_expr; opt_clean; tee -q -o {} dump t:$mul t:$add t:$sub t:$gt t:$lt t:$ge t:$le",
+                "read_verilog {}; hierarchy -top {}; proc; flatten; opt_clean; tee -q -o {} dump t:$mul t:$add t:$sub t:$gt t:$lt t:$ge t:$le",
                 f.display(),
                 e.module,
                 dir.join("cells.txt").display()

@@ -77,7 +77,7 @@ pub static DECL: UnitDecl = UnitDecl {
         FieldDecl {
             name: "path",
             kind: FieldKind::Choice(&["smooth", "mapped"]),
-            doc: "which path the RTL top (rtl/pipeline.v) implements and `fxshade vectors pipeline` generates",
+            doc: "which path the RTL top implements (rtl/pipeline_smooth.v or rtl/pipeline_mapped.v) and `fxshade vectors pipeline` generates",
         },
     ],
 };

@@ -262,14 +262,22 @@ impl<'a> Emitter<'a> {
             addr_bits - 1
         );
         t += "  begin\n    case (addr)\n";
+        // A table filling the address space ends with `default:` for its
+        // last entry, so every case has a default and none is unreachable.
+        let full = entries.len() == (1usize << addr_bits);
         for (i, &c) in entries.iter().enumerate() {
+            let label = if full && i + 1 == entries.len() {
+                "default".to_string()
+            } else {
+                format!("{addr_bits}'d{i}")
+            };
             let _ = writeln!(
                 t,
-                "      {addr_bits}'d{i}: {name} = {};",
+                "      {label}: {name} = {};",
                 bits::sv(f.signed(), &bits::literal(f.width(), c))
             );
         }
-        if entries.len() < (1usize << addr_bits) {
+        if !full {
             let _ = writeln!(
                 t,
                 "      default: {name} = {};",
@@ -401,10 +409,22 @@ impl<'a> Emitter<'a> {
             Op::Mul(a, b) => {
                 let s = stage_of(self, &[&a, &b]);
                 let (va, vb) = (self.operand(&a, s), self.operand(&b, s));
+                // The unsigned operand of a signed × unsigned product, zero-
+                // extended on a wire of its own: the multiplier's operand is
+                // then that wire, one bit wider, and no tool widens it to the
+                // product's width.
+                let zext = |e: &mut Self, v: &Val, tag: &str| -> String {
+                    let n = format!("{name}_{tag}");
+                    e.body.push(format!(
+                        "wire signed [{}:0] {n} = $signed({{1'b0, {}}});",
+                        v.width, v.expr
+                    ));
+                    n
+                };
                 let (ea, eb, hw) = match (va.signed, vb.signed) {
                     (true, false) => (
                         va.expr.clone(),
-                        format!("$signed({{1'b0, {}}})", vb.expr),
+                        zext(self, &vb, "b"),
                         MulHw {
                             a_width: va.width,
                             b_width: vb.width + 1,
@@ -412,7 +432,7 @@ impl<'a> Emitter<'a> {
                         },
                     ),
                     (false, true) => (
-                        format!("$signed({{1'b0, {}}})", va.expr),
+                        zext(self, &va, "a"),
                         vb.expr.clone(),
                         MulHw {
                             a_width: va.width + 1,
