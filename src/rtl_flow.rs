@@ -236,6 +236,12 @@ pub fn build(
             if trace {
                 c.arg("--trace-fst");
             }
+            // ccache, when installed, keeps Verilator's runtime library and
+            // unchanged model files compiled across builds (half the time of
+            // a small unit's build).
+            if Command::new("ccache").arg("--version").output().is_ok() {
+                c.args(["-MAKEFLAGS", "OBJCACHE=ccache"]);
+            }
             c.args(&files);
             run_tool(&mut c, "verilator")
         }

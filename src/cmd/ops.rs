@@ -222,18 +222,18 @@ pub fn table(reports: &[OpReport]) -> Table {
         "compare",
         "round",
         "saturate",
-        "multipliers (a×b bits)",
+        "multipliers (count× formats → as built)",
         "paper claims",
     ])
     .titled("Operation counts, measured by running each datapath in the counting context");
     for r in reports {
         let c = &r.counts;
         let shapes = c
-            .mul_shapes
+            .mul_formats
             .iter()
-            .map(|m| format!("{}×({}×{})", m.count, m.a_width, m.b_width))
+            .map(|m| format!("{}× {} × {} → {}", m.count, m.a, m.b, m.hardware))
             .collect::<Vec<_>>()
-            .join(" ");
+            .join("; ");
         let paper = r.paper.as_ref().map_or(String::from("-"), |p| {
             let parts: Vec<String> = [
                 (p.mul, "mul"),

@@ -65,6 +65,18 @@ pub fn emit_all(cfg: &fxshade_model::Config) -> anyhow::Result<Vec<(&'static Rtl
     Ok(out)
 }
 
+/// `3× a, 1× b` for a list of shapes.
+fn grouped(items: impl Iterator<Item = String>) -> String {
+    let mut m: std::collections::BTreeMap<String, usize> = Default::default();
+    for i in items {
+        *m.entry(i).or_default() += 1;
+    }
+    m.iter()
+        .map(|(k, n)| format!("{n}× {k}"))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
 /// Run it.
 pub fn run(a: &RtlArgs) -> anyhow::Result<()> {
     let cfg = a.cfg.resolve()?;
@@ -82,8 +94,8 @@ pub fn run(a: &RtlArgs) -> anyhow::Result<()> {
         "module",
         "latency",
         "multipliers",
-        "adders (bits)",
-        "rounding incrementers",
+        "adders (result bits)",
+        "rounding incrementers (bits)",
         "table reads",
         "ROM bits",
         "flip-flops",
@@ -105,13 +117,9 @@ pub fn run(a: &RtlArgs) -> anyhow::Result<()> {
         t.row([
             e.module.clone(),
             e.latency.to_string(),
-            h.muls
-                .iter()
-                .map(|m| m.to_string())
-                .collect::<Vec<_>>()
-                .join(", "),
-            format!("{:?}", h.adders),
-            format!("{:?}", h.incrementers),
+            grouped(h.muls.iter().map(|m| m.to_string())),
+            grouped(h.adders.iter().map(|w| format!("{w}"))),
+            grouped(h.incrementers.iter().map(|w| format!("{w}"))),
             h.table_reads.to_string(),
             h.rom_bits.to_string(),
             h.flops.to_string(),

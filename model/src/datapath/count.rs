@@ -50,6 +50,23 @@ pub struct MulShape {
     pub count: u64,
 }
 
+/// Multiplications of one pair of operand formats, and the multiplier the
+/// hardware builds for them: both operands as they are when their
+/// signedness agrees; a signed × unsigned product zero-extends the unsigned
+/// operand by one bit into a signed multiplier (what Verilog and a DSP
+/// block's signed ports do), e.g. `I2F14 × U1F17 → 16 × 19 signed`.
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct MulFormats {
+    /// First operand's exact format, e.g. `I2F14`.
+    pub a: String,
+    /// Second operand's exact format.
+    pub b: String,
+    /// The multiplier as built: `16 × 19 signed`.
+    pub hardware: String,
+    /// How many.
+    pub count: u64,
+}
+
 /// Reads of one table.
 #[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
 pub struct TableShape {
@@ -89,6 +106,9 @@ pub struct OpCounts {
     pub saturate: u64,
     /// Multiplications by operand widths.
     pub mul_shapes: Vec<MulShape>,
+    /// Multiplications by operand formats, with the multiplier the
+    /// hardware builds.
+    pub mul_formats: Vec<MulFormats>,
     /// Reads by table.
     pub tables: Vec<TableShape>,
 }
@@ -114,6 +134,16 @@ impl OpCounts {
             {
                 Some(x) => x.count += m.count,
                 None => self.mul_shapes.push(m.clone()),
+            }
+        }
+        for m in &o.mul_formats {
+            match self
+                .mul_formats
+                .iter_mut()
+                .find(|x| (&x.a, &x.b) == (&m.a, &m.b))
+            {
+                Some(x) => x.count += m.count,
+                None => self.mul_formats.push(m.clone()),
             }
         }
         for t in &o.tables {
@@ -167,6 +197,7 @@ pub struct WidthError {
 pub struct Count {
     counts: OpCounts,
     mul_shapes: BTreeMap<(u32, u32), u64>,
+    mul_formats: Vec<MulFormats>,
     tables: BTreeMap<&'static str, (u64, u32, u64)>,
     max_width: u32,
     errors: Vec<WidthError>,
@@ -191,6 +222,7 @@ impl Count {
                 count,
             })
             .collect();
+        c.mul_formats = self.mul_formats.clone();
         c.tables = self
             .tables
             .iter()
@@ -284,6 +316,44 @@ impl Datapath for Count {
         self.counts.mul += 1;
         let shape = (a.width.max(b.width), a.width.min(b.width));
         *self.mul_shapes.entry(shape).or_default() += 1;
+        let fmt = |s: &Sym| {
+            format!(
+                "{}{}F{}",
+                if s.signed { 'I' } else { 'U' },
+                s.int_bits(),
+                s.frac
+            )
+        };
+        let (fa, fb) = (fmt(&a), fmt(&b));
+        match self
+            .mul_formats
+            .iter_mut()
+            .find(|m| (m.a.as_str(), m.b.as_str()) == (fa.as_str(), fb.as_str()))
+        {
+            Some(m) => m.count += 1,
+            None => {
+                let (wa, wb) = match (a.signed, b.signed) {
+                    (true, false) => (a.width, b.width + 1),
+                    (false, true) => (a.width + 1, b.width),
+                    _ => (a.width, b.width),
+                };
+                self.mul_formats.push(MulFormats {
+                    a: fa,
+                    b: fb,
+                    hardware: format!(
+                        "{} × {} {}",
+                        wa.max(wb),
+                        wa.min(wb),
+                        if a.signed || b.signed {
+                            "signed"
+                        } else {
+                            "unsigned"
+                        }
+                    ),
+                    count: 1,
+                })
+            }
+        }
         let r = Sym {
             signed: a.signed || b.signed,
             width: a.width + b.width,

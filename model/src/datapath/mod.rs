@@ -38,7 +38,7 @@ mod reference;
 
 pub use batch::{CompileError, Compiled, Op, Port, Program, Trace, BLOCK, TV};
 pub use count::{
-    Count, MulShape, OpCounts, QuantPoint, Sym, TableShape, WidthError, MAX_EXACT_WIDTH,
+    Count, MulFormats, MulShape, OpCounts, QuantPoint, Sym, TableShape, WidthError, MAX_EXACT_WIDTH,
 };
 pub use fixed::{div_exact, sqrt_exact, Fixed, Fx};
 pub use reference::Reference;

@@ -254,37 +254,29 @@ impl<'a> Emitter<'a> {
         }
         let name = format!("{base}_rom");
         let mut t = String::new();
-        let _ = writeln!(t, "// {name}: {} entries of {f}.", entries.len());
+        // An array initialized once: simulators index it, synthesis reads
+        // it as a ROM (its contents are the model's codes, in the source).
         let _ = writeln!(
             t,
-            "function automatic {} {name}(input [{}:0] addr);",
-            decl(f.signed(), f.width()),
-            addr_bits - 1
+            "// {name}: {} entries of {f}, the model's codes.",
+            entries.len()
         );
-        t += "  begin\n    case (addr)\n";
-        // A table filling the address space ends with `default:` for its
-        // last entry, so every case has a default and none is unreachable.
-        let full = entries.len() == (1usize << addr_bits);
+        let _ = writeln!(
+            t,
+            "reg  {} {name} [0:{}];",
+            decl(f.signed(), f.width()),
+            entries.len() - 1
+        );
+        t += "initial begin\n";
         for (i, &c) in entries.iter().enumerate() {
-            let label = if full && i + 1 == entries.len() {
-                "default".to_string()
-            } else {
-                format!("{addr_bits}'d{i}")
-            };
             let _ = writeln!(
                 t,
-                "      {label}: {name} = {};",
+                "  {name}[{i}] = {};",
                 bits::sv(f.signed(), &bits::literal(f.width(), c))
             );
         }
-        if !full {
-            let _ = writeln!(
-                t,
-                "      default: {name} = {};",
-                bits::sv(f.signed(), &bits::literal(f.width(), 0))
-            );
-        }
-        t += "    endcase\n  end\nendfunction\n";
+        t += "end\n";
+        let _ = addr_bits;
         self.rom_text.push(t);
         self.hw.rom_bits += entries.len() as u64 * f.width() as u64;
         self.roms
@@ -300,7 +292,7 @@ impl<'a> Emitter<'a> {
         let value = match &tb.storage {
             None => {
                 let rom = self.rom(&tb.codes, tb.name, f, t);
-                format!("{rom}({ix})")
+                format!("{rom}[{ix}]")
             }
             Some(q) => {
                 // j = i + phase·quarter turn; quadrant h = j[t−1:t−2].
@@ -331,7 +323,7 @@ impl<'a> Emitter<'a> {
                 let rom = self.rom(&q.entries, "quarter", f, t - 1);
                 let v = format!("{base}_v");
                 self.body.push(format!(
-                    "wire {} {v} = {rom}({a});",
+                    "wire {} {v} = {rom}[{a}];",
                     decl(f.signed(), f.width())
                 ));
                 // Negated in one more bit, then back into the entry format.
