@@ -11,63 +11,72 @@ use std::process::Command;
 
 use common::*;
 
-/// Every unit with RTL and its variants (name, override).
-const UNITS: &[(&str, &[(&str, &str)])] = &[
-    (
-        "interp",
-        &[
-            ("linear", "interp.scheme=\"linear\""),
-            ("quadratic", "interp.scheme=\"quadratic\""),
-        ],
-    ),
-    (
-        "normalize",
-        &[
-            ("none", "normalize.method=\"none\""),
-            ("newton", "normalize.method=\"newton\""),
-            ("taylor", "normalize.method=\"taylor\""),
-            ("linear", "normalize.method=\"linear\""),
-            ("quadratic", "normalize.method=\"quadratic\""),
-        ],
-    ),
-    (
-        "polar",
-        &[
-            ("quarter", "polar.organisation=\"quarter\""),
-            ("full", "polar.organisation=\"full\""),
-        ],
-    ),
-    (
-        "lighting",
-        &[
-            ("diffuse", "lighting.i0_ks=0"),
-            ("specular", "lighting.i0_ks=0.25"),
-        ],
-    ),
-    (
-        "angle_interp",
-        &[("linear", "pipeline.angle_round=\"half_even\"")],
-    ),
-    (
-        "pipeline",
-        &[
-            ("smooth", "pipeline.path=\"smooth\""),
-            ("mapped", "pipeline.path=\"mapped\""),
-        ],
-    ),
-];
+/// Every unit with RTL and its variants (name, override), from the
+/// registry (`fxshade rtl list --json`): a unit added there is tested here.
+fn units() -> Vec<(String, Vec<(String, String)>)> {
+    let o = fxshade(&["rtl", "list", "--json"]);
+    assert!(o.status.success(), "{}", text(&o));
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    j.as_array()
+        .unwrap()
+        .iter()
+        .map(|u| {
+            (
+                u["unit"].as_str().unwrap().to_string(),
+                u["variants"]
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .map(|v| {
+                        (
+                            v["name"].as_str().unwrap().to_string(),
+                            v["set"].as_str().unwrap().to_string(),
+                        )
+                    })
+                    .collect(),
+            )
+        })
+        .collect()
+}
+
+/// A unit's variants as borrowed pairs.
+fn pairs(v: &[(String, String)]) -> Vec<(&str, &str)> {
+    v.iter().map(|(a, b)| (a.as_str(), b.as_str())).collect()
+}
+
+#[test]
+fn the_registry_lists_every_unit_and_variant_the_issue_names() {
+    let u = units();
+    let names: Vec<&str> = u.iter().map(|(n, _)| n.as_str()).collect();
+    assert_eq!(
+        names,
+        [
+            "interp",
+            "normalize",
+            "polar",
+            "lighting",
+            "angle_interp",
+            "pipeline"
+        ]
+    );
+    let normalize: Vec<&str> = u[1].1.iter().map(|(n, _)| n.as_str()).collect();
+    assert_eq!(
+        normalize,
+        ["none", "newton", "taylor", "linear", "quadratic"]
+    );
+}
 
 #[test]
 fn verilator_matches_the_model_for_every_unit_variant_and_configuration() {
-    for (unit, variants) in UNITS {
-        check_all(unit, "verilator", variants, &configs());
+    for (unit, variants) in units() {
+        check_all(&unit, "verilator", &pairs(&variants), &configs());
     }
 }
 
 #[test]
 fn icarus_matches_the_model_for_every_unit_and_variant() {
-    for (unit, variants) in UNITS {
-        check_all(unit, "icarus", variants, &[None]);
+    for (unit, variants) in units() {
+        check_all(&unit, "icarus", &pairs(&variants), &[None]);
     }
 }
 
@@ -79,8 +88,8 @@ fn testbenches_reject_short_long_and_wrong_vector_files() {
 
 #[test]
 fn golden_vectors_regenerate_byte_for_byte() {
-    for (unit, _) in UNITS {
-        golden_checks(unit);
+    for (unit, _) in units() {
+        golden_checks(&unit);
     }
 }
 
@@ -310,7 +319,7 @@ fn random_valid_configurations_agree_bit_for_bit() {
         } else {
             &["verilator"]
         };
-        for unit in units {
+        for unit in &units {
             for sim in sims {
                 let mut args = vec!["rtl-check", unit, "--count", "2000", "--sim", sim, "--json"];
                 for s in &sets {

@@ -89,6 +89,19 @@ pub static UNIT: UnitEntry = UnitEntry {
     decl: &DECL,
     check,
     ops,
+    rtl: &[&RTL],
+};
+
+/// The unit's generated RTL: variants, design and input vectors.
+pub static RTL: crate::rtl::units::RtlUnit = crate::rtl::units::RtlUnit {
+    name: "lighting",
+    doc: "diffuse (i0_ks = 0) or diffuse + Blinn-Phong specular shading to a level",
+    variants: &[
+        ("diffuse", "lighting.i0_ks=0"),
+        ("diffuse+specular", "lighting.i0_ks=0.25"),
+    ],
+    design: crate::lighting::rtl::design,
+    inputs: crate::lighting::rtl::inputs,
 };
 
 /// The lighting stage's formats and constants, resolved from a configuration.

@@ -1,5 +1,7 @@
 //! The registry of units: each unit's configuration declaration, its
-//! configuration check and its operation-count runs.
+//! configuration check, its operation-count runs and its RTL modules. Config
+//! parsing, `ops`, `stages`, the RTL flow, `fxshade rtl`, the report and the
+//! tests (through `fxshade rtl list`) all iterate this one list.
 
 use crate::config::{field_error, Config, ConfigError, UnitConfig, UnitDecl};
 use crate::datapath::{Count, OpCounts};
@@ -78,6 +80,9 @@ pub struct UnitEntry {
     pub check: fn(&Config) -> Result<(), Vec<ConfigError>>,
     /// Run every variant in the counting context.
     pub ops: fn(&Config) -> Vec<OpReport>,
+    /// Its modules with generated RTL (the pipeline section holds two: the
+    /// angle interpolation and the top).
+    pub rtl: &'static [&'static crate::rtl::units::RtlUnit],
 }
 
 /// Every unit, in pipeline order.

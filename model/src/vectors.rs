@@ -94,6 +94,9 @@ pub struct VectorSet {
     pub rtl: RtlSources,
     /// How many of the vectors are corner cases (they come first).
     pub corner_cases: usize,
+    /// The stage id of each bit of the `ovf` output field, most significant
+    /// bit first.
+    pub flags: Vec<String>,
 }
 
 /// `{index[31:0], fields…}` as one hex number, most significant first.
@@ -161,6 +164,8 @@ impl VectorSet {
             "line_format": "{index[31:0], fields most significant first} as one hex number per line",
             "inputs": fields_json(&self.inputs),
             "expected": fields_json(&self.outputs),
+            "ovf_bits_msb_first": self.flags,
+            "latency": self.rtl.latency,
             "files": {
                 "inputs": "inputs.hex", "expected": "expected.hex",
                 "rtl": format!("{}.v", self.rtl.module),

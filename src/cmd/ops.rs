@@ -83,10 +83,10 @@ fn parse_cells(dump: &str) -> Vec<(String, std::collections::BTreeMap<String, i6
 /// have the widths the Verilog declares) and compare its arithmetic with the trace.
 pub fn netlist_checks(cfg: &fxshade_model::Config) -> anyhow::Result<Vec<NetlistCheck>> {
     use anyhow::Context;
-    use fxshade_model::rtl::units::{emit_unit, RTL_UNITS};
+    use fxshade_model::rtl::units::{all, emit_unit};
     crate::rtl_flow::require_tool("yosys", "yosys")?;
     let mut out = Vec::new();
-    for u in RTL_UNITS {
+    for u in all() {
         for &(variant, set) in u.variants {
             let mut c = cfg.clone();
             c.apply_override(set)?;
@@ -275,7 +275,7 @@ pub fn stages_table(reports: &[OpReport]) -> Table {
     let mut t = Table::new([
         "unit",
         "variant",
-        "stage",
+        "stage id",
         "exact input",
         "bits",
         "output",
@@ -289,7 +289,7 @@ pub fn stages_table(reports: &[OpReport]) -> Table {
             t.row([
                 r.unit.to_string(),
                 r.variant.to_string(),
-                p.stage.to_string(),
+                p.id.clone(),
                 p.input.clone(),
                 p.input_width.to_string(),
                 p.output.to_string(),

@@ -220,7 +220,7 @@ pub fn run(a: &ReportArgs) -> anyhow::Result<()> {
 
     bar.set_message("test vectors");
     let mut vector_lines = String::new();
-    for u in fxshade_model::rtl::units::RTL_UNITS {
+    for u in fxshade_model::rtl::units::all() {
         match fxshade_model::rtl::units::vectors(u, &cfg, 1000, 1) {
             Ok(v) => {
                 v.write_into_dir(&dir, &format!("vectors/{}", u.name))?;

@@ -15,15 +15,17 @@ use crate::output::{emit, OutputArgs, Table};
 #[derive(Args, Debug)]
 pub struct RtlArgs {
     /// The unit (interp, normalize, polar, lighting, angle_interp,
-    /// pipeline), or `all`: every unit, and the pipeline top of both paths
-    /// (what `rtl/` holds for the default configuration).
+    /// pipeline); `all`: every unit, and the pipeline top of both paths
+    /// (what `rtl/` holds for the default configuration); `list`: the units
+    /// with RTL and their variants (nothing is written).
     unit: String,
     #[command(flatten)]
     cfg: ConfigArgs,
     /// Output directory: `<module>.v` and `<module>_tb.v` are written into
     /// it (each file replaced atomically; nothing else is touched).
+    /// (Required except with `list`.)
     #[arg(long, short = 'o', value_name = "DIR")]
-    out: PathBuf,
+    out: Option<PathBuf>,
     /// Do not write the testbenches.
     #[arg(long)]
     no_testbench: bool,
@@ -51,7 +53,7 @@ pub fn write_atomic(path: &Path, text: &str) -> anyhow::Result<()> {
 /// unit, and the pipeline top for both paths.
 pub fn emit_all(cfg: &fxshade_model::Config) -> anyhow::Result<Vec<(&'static RtlUnit, Emitted)>> {
     let mut out = Vec::new();
-    for u in units::RTL_UNITS {
+    for u in units::all() {
         if u.name == "pipeline" {
             for path in ["smooth", "mapped"] {
                 let mut c = cfg.clone();
@@ -77,8 +79,38 @@ fn grouped(items: impl Iterator<Item = String>) -> String {
         .join(", ")
 }
 
+/// `fxshade rtl list`: the registry's units with RTL and their variants.
+fn list(a: &RtlArgs) -> anyhow::Result<()> {
+    let mut t =
+        Table::new(["unit", "variants (override)", "what"]).titled("Units with generated RTL");
+    let mut json = Vec::new();
+    for u in units::all() {
+        t.row([
+            u.name.to_string(),
+            u.variants
+                .iter()
+                .map(|(n, s)| format!("{n} ({s})"))
+                .collect::<Vec<_>>()
+                .join(", "),
+            u.doc.to_string(),
+        ]);
+        json.push(serde_json::json!({
+            "unit": u.name,
+            "doc": u.doc,
+            "variants": u.variants.iter().map(|(n, s)| serde_json::json!({"name": n, "set": s})).collect::<Vec<_>>(),
+        }));
+    }
+    emit(a.fmt, &[t], &serde_json::Value::Array(json))
+}
+
 /// Run it.
 pub fn run(a: &RtlArgs) -> anyhow::Result<()> {
+    if a.unit == "list" {
+        return list(a);
+    }
+    let Some(out) = a.out.as_ref() else {
+        anyhow::bail!("--out DIR is required: the directory to write the Verilog into");
+    };
     let cfg = a.cfg.resolve()?;
     let start = std::time::Instant::now();
     let emitted = if a.unit == "all" {
@@ -88,8 +120,7 @@ pub fn run(a: &RtlArgs) -> anyhow::Result<()> {
         vec![(u, units::emit_unit(u, &cfg)?.1)]
     };
     let secs = start.elapsed().as_secs_f64();
-    std::fs::create_dir_all(&a.out)
-        .with_context(|| format!("cannot create {}", a.out.display()))?;
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
     let mut t = Table::new([
         "module",
         "latency",
@@ -108,10 +139,10 @@ pub fn run(a: &RtlArgs) -> anyhow::Result<()> {
     let mut json = Vec::new();
     for (_, e) in &emitted {
         let mut files = vec![format!("{}.v", e.module)];
-        write_atomic(&a.out.join(&files[0]), &e.verilog)?;
+        write_atomic(&out.join(&files[0]), &e.verilog)?;
         if !a.no_testbench {
             files.push(format!("{}_tb.v", e.module));
-            write_atomic(&a.out.join(&files[1]), &e.testbench)?;
+            write_atomic(&out.join(&files[1]), &e.testbench)?;
         }
         let h = &e.hardware;
         t.row([
@@ -131,7 +162,7 @@ pub fn run(a: &RtlArgs) -> anyhow::Result<()> {
             "flags": e.flags,
             "hardware": h,
             "files": files,
-            "dir": a.out,
+            "dir": out,
         }));
     }
     emit(a.fmt, &[t], &serde_json::Value::Array(json))

@@ -158,8 +158,11 @@ impl OpCounts {
 /// One quantization point of a datapath, as the counting run saw it.
 #[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
 pub struct QuantPoint {
-    /// The stage (configuration key).
+    /// The stage (configuration key within its unit).
     pub stage: &'static str,
+    /// The stage id qualified by the unit it belongs to (`normalize.g`,
+    /// `polar.out`): the name the RTL's overflow flags and wires carry.
+    pub id: String,
     /// The exact input: signedness, width and fraction bits.
     pub input: String,
     /// Exact input width in bits.
@@ -202,6 +205,7 @@ pub struct Count {
     max_width: u32,
     errors: Vec<WidthError>,
     points: Vec<QuantPoint>,
+    scope: Vec<&'static str>,
 }
 
 impl Count {
@@ -303,6 +307,13 @@ impl Count {
 impl Datapath for Count {
     type V = Sym;
 
+    fn enter(&mut self, unit: &'static str) {
+        self.scope.push(unit);
+    }
+    fn leave(&mut self) {
+        self.scope.pop();
+    }
+
     fn constant(&mut self, x: f64, q: &Quant) -> Result<Sym, ConvertError> {
         if x.is_nan() {
             return Err(ConvertError::NaN);
@@ -387,6 +398,10 @@ impl Datapath for Count {
     fn quantize(&mut self, a: Sym, q: &Quant) -> Sym {
         self.points.push(QuantPoint {
             stage: q.stage(),
+            id: match self.scope.last() {
+                Some(u) => format!("{u}.{}", q.stage()),
+                None => q.stage().to_string(),
+            },
             input: format!(
                 "{}{}F{}",
                 if a.signed { 'I' } else { 'U' },

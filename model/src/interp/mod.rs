@@ -93,6 +93,19 @@ pub static UNIT: UnitEntry = UnitEntry {
     decl: &DECL,
     check,
     ops,
+    rtl: &[&RTL],
+};
+
+/// The unit's generated RTL: variants, design and input vectors.
+pub static RTL: crate::rtl::units::RtlUnit = crate::rtl::units::RtlUnit {
+    name: "interp",
+    doc: "method C: linear or quadratic normal interpolation",
+    variants: &[
+        ("linear", "interp.scheme=\"linear\""),
+        ("quadratic", "interp.scheme=\"quadratic\""),
+    ],
+    design: crate::interp::rtl::design,
+    inputs: crate::interp::rtl::inputs,
 };
 
 /// The thresholds a triangle can be classified by.

@@ -80,6 +80,22 @@ pub static UNIT: UnitEntry = UnitEntry {
     decl: &DECL,
     check,
     ops,
+    rtl: &[&RTL],
+};
+
+/// The unit's generated RTL: variants, design and input vectors.
+pub static RTL: crate::rtl::units::RtlUnit = crate::rtl::units::RtlUnit {
+    name: "normalize",
+    doc: "method A: N·g(N·N)",
+    variants: &[
+        ("none", "normalize.method=\"none\""),
+        ("newton", "normalize.method=\"newton\""),
+        ("taylor", "normalize.method=\"taylor\""),
+        ("linear", "normalize.method=\"linear\""),
+        ("quadratic", "normalize.method=\"quadratic\""),
+    ],
+    design: crate::normalizer::rtl::design,
+    inputs: crate::normalizer::rtl::inputs,
 };
 
 /// Which `g(d)`.

@@ -87,6 +87,28 @@ pub static UNIT: UnitEntry = UnitEntry {
     decl: &DECL,
     check,
     ops,
+    rtl: &[&ANGLE_RTL, &RTL],
+};
+
+/// The unit's generated RTL: variants, design and input vectors.
+pub static ANGLE_RTL: crate::rtl::units::RtlUnit = crate::rtl::units::RtlUnit {
+    name: "angle_interp",
+    doc: "polar angles of N interpolated from per-vertex set-up (mapped path)",
+    variants: &[("linear", "pipeline.angle_round=\"half_even\"")],
+    design: crate::pipeline::rtl::angle_design,
+    inputs: crate::pipeline::rtl::angle_inputs,
+};
+
+/// The unit's generated RTL: variants, design and input vectors.
+pub static RTL: crate::rtl::units::RtlUnit = crate::rtl::units::RtlUnit {
+    name: "pipeline",
+    doc: "the pipeline top: smooth (interp → normalize → lighting) or mapped (angles → polar → lighting)",
+    variants: &[
+        ("smooth", "pipeline.path=\"smooth\""),
+        ("mapped", "pipeline.path=\"mapped\""),
+    ],
+    design: crate::pipeline::rtl::design,
+    inputs: crate::pipeline::rtl::inputs,
 };
 
 /// Which path.

@@ -79,6 +79,19 @@ pub static UNIT: UnitEntry = UnitEntry {
     decl: &DECL,
     check,
     ops,
+    rtl: &[&RTL],
+};
+
+/// The unit's generated RTL: variants, design and input vectors.
+pub static RTL: crate::rtl::units::RtlUnit = crate::rtl::units::RtlUnit {
+    name: "polar",
+    doc: "method B: L into the tangent frame of N by polar angles and sin/cos tables",
+    variants: &[
+        ("quarter", "polar.organisation=\"quarter\""),
+        ("full", "polar.organisation=\"full\""),
+    ],
+    design: crate::polar::rtl::design,
+    inputs: crate::polar::rtl::inputs,
 };
 
 /// Table organisation.

@@ -29,82 +29,22 @@ pub struct RtlUnit {
     pub inputs: fn(&Config, usize, u64) -> Result<Inputs, RtlError>,
 }
 
-/// Every unit with RTL, in pipeline order, the pipeline top last.
-pub static RTL_UNITS: &[RtlUnit] = &[
-    RtlUnit {
-        name: "interp",
-        doc: "method C: linear or quadratic normal interpolation",
-        variants: &[
-            ("linear", "interp.scheme=\"linear\""),
-            ("quadratic", "interp.scheme=\"quadratic\""),
-        ],
-        design: crate::interp::rtl::design,
-        inputs: crate::interp::rtl::inputs,
-    },
-    RtlUnit {
-        name: "normalize",
-        doc: "method A: N·g(N·N)",
-        variants: &[
-            ("none", "normalize.method=\"none\""),
-            ("newton", "normalize.method=\"newton\""),
-            ("taylor", "normalize.method=\"taylor\""),
-            ("linear", "normalize.method=\"linear\""),
-            ("quadratic", "normalize.method=\"quadratic\""),
-        ],
-        design: crate::normalizer::rtl::design,
-        inputs: crate::normalizer::rtl::inputs,
-    },
-    RtlUnit {
-        name: "polar",
-        doc: "method B: L into the tangent frame of N by polar angles and sin/cos tables",
-        variants: &[
-            ("quarter", "polar.organisation=\"quarter\""),
-            ("full", "polar.organisation=\"full\""),
-        ],
-        design: crate::polar::rtl::design,
-        inputs: crate::polar::rtl::inputs,
-    },
-    RtlUnit {
-        name: "lighting",
-        doc: "diffuse (i0_ks = 0) or diffuse + Blinn-Phong specular shading to a level",
-        variants: &[
-            ("diffuse", "lighting.i0_ks=0"),
-            ("diffuse+specular", "lighting.i0_ks=0.25"),
-        ],
-        design: crate::lighting::rtl::design,
-        inputs: crate::lighting::rtl::inputs,
-    },
-    RtlUnit {
-        name: "angle_interp",
-        doc: "polar angles of N interpolated from per-vertex set-up (mapped path)",
-        variants: &[("linear", "pipeline.angle_round=\"half_even\"")],
-        design: crate::pipeline::rtl::angle_design,
-        inputs: crate::pipeline::rtl::angle_inputs,
-    },
-    RtlUnit {
-        name: "pipeline",
-        doc: "the pipeline top: smooth (interp → normalize → lighting) or mapped (angles → polar → lighting)",
-        variants: &[
-            ("smooth", "pipeline.path=\"smooth\""),
-            ("mapped", "pipeline.path=\"mapped\""),
-        ],
-        design: crate::pipeline::rtl::design,
-        inputs: crate::pipeline::rtl::inputs,
-    },
-];
+/// Every unit with RTL, in pipeline order, the pipeline top last: the
+/// `rtl` modules of [`crate::units::UNITS`].
+pub fn all() -> impl Iterator<Item = &'static RtlUnit> {
+    crate::units::UNITS
+        .iter()
+        .flat_map(|u| u.rtl.iter().copied())
+}
 
 /// Look a unit up by name.
 pub fn unit(name: &str) -> Option<&'static RtlUnit> {
-    RTL_UNITS.iter().find(|u| u.name == name)
+    all().find(|u| u.name == name)
 }
 
 /// The names of every unit with RTL, for messages.
 pub fn names() -> String {
-    RTL_UNITS
-        .iter()
-        .map(|u| u.name)
-        .collect::<Vec<_>>()
-        .join(", ")
+    all().map(|u| u.name).collect::<Vec<_>>().join(", ")
 }
 
 /// Emit a unit for a configuration.
@@ -191,6 +131,7 @@ pub fn vector_set(
             latency: e.latency,
         },
         corner_cases: corners,
+        flags: e.flags.clone(),
     })
 }
 
