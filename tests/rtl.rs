@@ -96,13 +96,7 @@ fn golden_vectors_regenerate_byte_for_byte() {
 #[test]
 fn committed_rtl_is_what_the_emitter_writes_now() {
     let dir = tempfile::tempdir().unwrap();
-    let o = fxshade(&[
-        "rtl",
-        "all",
-        "--no-testbench",
-        "--out",
-        dir.path().to_str().unwrap(),
-    ]);
+    let o = fxshade(&["rtl", "all", "--out", dir.path().to_str().unwrap()]);
     assert!(o.status.success(), "{}", text(&o));
     let mut n = 0;
     for e in std::fs::read_dir(dir.path()).unwrap() {
@@ -112,7 +106,7 @@ fn committed_rtl_is_what_the_emitter_writes_now() {
             .unwrap_or_else(|_| panic!("rtl/{name} is missing"));
         assert!(
             committed == std::fs::read(&p).unwrap(),
-            "rtl/{name} is stale: regenerate with `fxshade rtl all --no-testbench --out rtl`"
+            "rtl/{name} is stale: regenerate with `fxshade rtl all --out rtl`"
         );
         n += 1;
     }
@@ -124,7 +118,7 @@ fn committed_rtl_is_what_the_emitter_writes_now() {
 /// Every emitted file of a configuration passes the four strict tools.
 fn strict_tools(cfg: &Option<String>) {
     let dir = tempfile::tempdir().unwrap();
-    let mut args = vec!["rtl", "all", "--no-testbench"];
+    let mut args = vec!["rtl", "all"];
     if let Some(c) = cfg {
         args.extend(["--config", c]);
     }
@@ -341,13 +335,7 @@ fn random_valid_configurations_agree_bit_for_bit() {
 #[test]
 fn rtl_dir_simulates_hand_edited_files_and_says_so() {
     let dir = tempfile::tempdir().unwrap();
-    let o = fxshade(&[
-        "rtl",
-        "normalize",
-        "--no-testbench",
-        "--out",
-        dir.path().to_str().unwrap(),
-    ]);
+    let o = fxshade(&["rtl", "normalize", "--out", dir.path().to_str().unwrap()]);
     assert!(o.status.success(), "{}", text(&o));
     let f = dir.path().join("normalize.v");
     let o = fxshade(&[

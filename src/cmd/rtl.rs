@@ -21,14 +21,16 @@ pub struct RtlArgs {
     unit: String,
     #[command(flatten)]
     cfg: ConfigArgs,
-    /// Output directory: `<module>.v` and `<module>_tb.v` are written into
-    /// it (each file replaced atomically; nothing else is touched).
+    /// Output directory: `<module>.v` (and with `--testbench`
+    /// `<module>_tb.v`) are written into it, each file replaced atomically;
+    /// nothing else in it is touched.
     /// (Required except with `list`.)
     #[arg(long, short = 'o', value_name = "DIR")]
     out: Option<PathBuf>,
-    /// Do not write the testbenches.
+    /// Also write each module's self-checking testbench (`<module>_tb.v`,
+    /// the one `fxshade vectors` and `rtl-check` use).
     #[arg(long)]
-    no_testbench: bool,
+    testbench: bool,
     #[command(flatten)]
     fmt: OutputArgs,
 }
@@ -140,7 +142,7 @@ pub fn run(a: &RtlArgs) -> anyhow::Result<()> {
     for (_, e) in &emitted {
         let mut files = vec![format!("{}.v", e.module)];
         write_atomic(&out.join(&files[0]), &e.verilog)?;
-        if !a.no_testbench {
+        if a.testbench {
             files.push(format!("{}_tb.v", e.module));
             write_atomic(&out.join(&files[1]), &e.testbench)?;
         }
