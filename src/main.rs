@@ -94,6 +94,16 @@ fn main() -> ExitCode {
     };
     match r {
         Ok(()) => ExitCode::SUCCESS,
+        // A reader that closed the pipe (`fxshade … | head`) wanted no more:
+        // stop quietly, as `ls | head` does.
+        Err(e)
+            if e.chain().any(|c| {
+                c.downcast_ref::<std::io::Error>()
+                    .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+            }) =>
+        {
+            ExitCode::SUCCESS
+        }
         Err(e) => {
             if let Some(ce) = e.downcast_ref::<ConfigErrors>() {
                 for line in ce.0.iter() {

@@ -74,9 +74,32 @@ impl Table {
     }
 }
 
+/// Write `text` to standard output and flush it. A closed pipe surfaces as
+/// an `io::Error` of kind `BrokenPipe` (which `main` turns into a quiet exit
+/// with status 0); any other failure (a full device) is an error naming
+/// standard output.
+pub fn print_out(text: &str) -> anyhow::Result<()> {
+    use anyhow::Context;
+    let mut o = std::io::stdout().lock();
+    o.write_all(text.as_bytes())
+        .and_then(|_| o.flush())
+        .context("cannot write to standard output")
+}
+
 /// Print `tables` for people or as CSV, or `json` as JSON.
 pub fn emit(out: OutputArgs, tables: &[Table], json: &serde_json::Value) -> anyhow::Result<()> {
-    let mut stdout = std::io::stdout().lock();
+    let mut text = String::new();
+    emit_into(&mut text, out, tables, json)?;
+    print_out(&text)
+}
+
+fn emit_into(
+    stdout: &mut String,
+    out: OutputArgs,
+    tables: &[Table],
+    json: &serde_json::Value,
+) -> anyhow::Result<()> {
+    use std::fmt::Write;
     if out.json {
         writeln!(stdout, "{}", serde_json::to_string_pretty(json)?)?;
     } else if out.csv {

@@ -66,6 +66,17 @@ pub enum CoeffError {
     /// Only degrees 1 and 2 are modelled.
     #[error("degree {0} is not modelled; use 1 (linear) or 2 (quadratic)")]
     Degree(usize),
+    /// The fit came out non-finite (the interval spans too many orders of
+    /// magnitude for f64 to represent its polynomial).
+    #[error("the fit on [{lo}, {hi}] is not finite (coefficients {coeffs:?}): the interval spans too many orders of magnitude; keep hi/lo within 1e6")]
+    NotFinite {
+        /// Lower end.
+        lo: f64,
+        /// Upper end.
+        hi: f64,
+        /// The coefficients found, lowest power first.
+        coeffs: Vec<f64>,
+    },
     /// A coefficient does not fit the coefficient format.
     #[error("coefficient {value} does not fit the coefficient format {format}")]
     Range {
@@ -113,11 +124,20 @@ pub fn rsqrt(d: f64) -> f64 {
 /// Design a polynomial of `degree` on `[lo, hi]` with `fit`.
 pub fn design(fit: Fit, lo: f64, hi: f64, degree: usize) -> Result<Poly, CoeffError> {
     check(lo, hi, degree)?;
-    Ok(match fit {
+    let p = match fit {
         Fit::Nodes => chebyshev_nodes(lo, hi, degree),
         Fit::Series => chebyshev_series(lo, hi, degree),
         Fit::Minimax => remez(&|d| rsqrt(d), &|d: f64| d.sqrt(), lo, hi, degree).0,
-    })
+    };
+    let (err, _) = max_rel_err(&p, lo, hi);
+    if p.0.iter().any(|c| !c.is_finite()) || !err.is_finite() {
+        return Err(CoeffError::NotFinite {
+            lo,
+            hi,
+            coeffs: p.0.clone(),
+        });
+    }
+    Ok(p)
 }
 
 /// Interpolation of `1/√d` at the `n+1` Chebyshev nodes (Newton form,

@@ -804,9 +804,22 @@ fn error_key(e: &ConfigError) -> String {
 
 /// Build the error for a unit check: `msg` about field `field` of `unit`.
 pub fn field_error(cfg: &UnitConfig, field: &str, msg: String) -> ConfigError {
-    ConfigError::BadValue {
-        at: cfg.origin(field).clone(),
-        key: format!("{}.{field}", cfg.decl.name),
-        msg,
+    match cfg.decl.field(field) {
+        Some(_) => ConfigError::BadValue {
+            at: cfg.origin(field).clone(),
+            key: format!("{}.{field}", cfg.decl.name),
+            msg,
+        },
+        // A step of the datapath that is not a configuration key (an integer
+        // literal, say): name the section, where the first field stands.
+        None => ConfigError::BadValue {
+            at: cfg
+                .values
+                .first()
+                .map(|(_, o)| o.clone())
+                .unwrap_or(Origin::Flag(String::new())),
+            key: cfg.decl.name.to_string(),
+            msg,
+        },
     }
 }

@@ -101,7 +101,15 @@ pub fn width_errors(cx: &Count, unit: &UnitConfig) -> Result<(), Vec<ConfigError
         .width_errors()
         .iter()
         .take(1)
-        .map(|e| field_error(unit, e.a, e.to_string()))
+        .map(|e| {
+            // Name the operand that is a configuration key (a literal is not).
+            let key = if unit.decl.fields.iter().any(|f| f.name == e.a) {
+                e.a
+            } else {
+                e.b
+            };
+            field_error(unit, key, e.to_string())
+        })
         .collect();
     if errs.is_empty() {
         Ok(())

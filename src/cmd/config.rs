@@ -37,9 +37,9 @@ pub fn run(cmd: &ConfigCmd) -> anyhow::Result<()> {
         ConfigCmd::Show { cfg, json } => {
             let c = cfg.resolve()?;
             if *json {
-                println!("{}", serde_json::to_string_pretty(&c.to_json())?);
+                crate::output::print_out(&(serde_json::to_string_pretty(&c.to_json())? + "\n"))?;
             } else {
-                print!("{}", c.to_toml());
+                crate::output::print_out(&c.to_toml())?;
             }
         }
         ConfigCmd::Check { file, set } => {
@@ -53,11 +53,11 @@ pub fn run(cmd: &ConfigCmd) -> anyhow::Result<()> {
                         .count()
                 })
                 .sum();
-            println!(
-                "{}: ok ({} units, {stages} stages)",
+            crate::output::print_out(&format!(
+                "{}: ok ({} units, {stages} stages)\n",
                 file.display(),
                 c.units().len()
-            );
+            ))?;
         }
     }
     Ok(())

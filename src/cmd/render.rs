@@ -437,7 +437,7 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
     let out = dir.commit()?;
     emit(a.fmt, &[t, ct], &serde_json::to_value(&r)?)?;
     if !a.fmt.json && !a.fmt.csv {
-        println!("images written to {}", out.display());
+        crate::output::print_out(&format!("images written to {}\n", out.display()))?;
     }
     if let Some(bad) = r
         .methods

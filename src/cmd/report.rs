@@ -288,6 +288,5 @@ pub fn run(a: &ReportArgs) -> anyhow::Result<()> {
     dir.write("index.md", index.as_bytes())?;
     bar.finish_and_clear();
     let out = dir.commit()?;
-    println!("report written to {}/index.md", out.display());
-    Ok(())
+    crate::output::print_out(&format!("report written to {}/index.md\n", out.display()))
 }

@@ -35,8 +35,8 @@ pub fn run(a: &VectorsArgs) -> anyhow::Result<()> {
     let gen = start.elapsed().as_secs_f64();
     v.write(&a.out)
         .with_context(|| format!("cannot write the vectors to {}", a.out.display()))?;
-    println!(
-        "{} vectors ({} corner cases) of {} ({}) written to {} in {:.2} s ({:.0} vectors/s generated)",
+    crate::output::print_out(&format!(
+        "{} vectors ({} corner cases) of {} ({}) written to {} in {:.2} s ({:.0} vectors/s generated)\n",
         v.count(),
         v.corner_cases,
         v.unit,
@@ -44,6 +44,5 @@ pub fn run(a: &VectorsArgs) -> anyhow::Result<()> {
         a.out.display(),
         start.elapsed().as_secs_f64(),
         v.count() as f64 / gen.max(1e-9)
-    );
-    Ok(())
+    ))
 }
