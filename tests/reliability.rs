@@ -93,3 +93,52 @@ fn coefficient_fits_that_are_not_finite_are_refused() {
         assert!(o.stdout.is_empty(), "no figures printed: {}", text(&o));
     }
 }
+
+#[test]
+fn a_users_directory_is_never_deleted() {
+    let dir = tempfile::tempdir().unwrap();
+    let mine = dir.path().join("mytb");
+    std::fs::create_dir_all(&mine).unwrap();
+    std::fs::write(mine.join("tb.sv"), b"module tb; endmodule\n").unwrap();
+    std::fs::write(mine.join("notes.txt"), b"mine").unwrap();
+    for args in [
+        vec!["vectors", "normalize", "--count", "200"],
+        vec!["render", "--mesh", "sphere:4", "--size", "16x16"],
+    ] {
+        let mut a = args.clone();
+        a.extend(["--out", mine.to_str().unwrap()]);
+        let o = fxshade(&a);
+        assert_eq!(o.status.code(), Some(1), "{a:?}: {}", text(&o));
+        assert!(
+            text(&o).contains("not written by fxshade") && text(&o).contains("--force"),
+            "{}",
+            text(&o)
+        );
+        assert_eq!(std::fs::read(mine.join("notes.txt")).unwrap(), b"mine");
+        assert_eq!(std::fs::read_dir(&mine).unwrap().count(), 2);
+    }
+    // No staging directory was left beside it.
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+    // --force replaces it; from then on it is fxshade's and needs no flag.
+    let o = fxshade(&[
+        "vectors",
+        "normalize",
+        "--count",
+        "200",
+        "--force",
+        "--out",
+        mine.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(!mine.join("notes.txt").exists() && mine.join("inputs.hex").is_file());
+    let o = fxshade(&[
+        "vectors",
+        "interp",
+        "--count",
+        "200",
+        "--out",
+        mine.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(mine.join("interp.v").is_file() && !mine.join("normalize.v").exists());
+}

@@ -48,10 +48,24 @@ pub fn write_atomic(path: &Path, contents: &[u8]) -> Result<(), WriteError> {
     result
 }
 
+/// The marker file every output directory fxshade writes holds: a
+/// directory with it is fxshade's to replace; a non-empty one without it is
+/// the user's, and is never replaced unless forced.
+pub const MARKER: &str = ".fxshade-output";
+
 /// A directory being filled: files go into a hidden sibling staging
 /// directory, and [`StagedDir::commit`] swaps it into place. Dropped without
 /// commit (an error, an interrupt), the staging directory is removed and the
 /// target is left as it was.
+///
+/// The target must be missing, empty, or a directory fxshade wrote (it holds
+/// [`MARKER`], or a vector manifest written by an older fxshade); anything
+/// else is refused unless [`StagedDir::new_forced`] is used. The commit is
+/// one atomic exchange of the two directories (Linux `renameat2` with
+/// `RENAME_EXCHANGE`), so at every instant the target holds either the old
+/// set or the new one, and concurrent runs to one target never share a
+/// temporary name. Staging directories left by killed runs (their process
+/// gone) are removed when the next run starts.
 #[derive(Debug)]
 pub struct StagedDir {
     target: PathBuf,
@@ -59,9 +73,88 @@ pub struct StagedDir {
     committed: bool,
 }
 
+/// Whether fxshade wrote `dir` (or it is empty).
+fn ours_or_empty(dir: &Path) -> bool {
+    if dir.join(MARKER).is_file() {
+        return true;
+    }
+    let manifest = std::fs::read_to_string(dir.join("manifest.json")).unwrap_or_default();
+    if manifest.contains("\"generator\": \"fxshade") {
+        return true;
+    }
+    std::fs::read_dir(dir).is_ok_and(|mut d| d.next().is_none())
+}
+
+/// Remove `.NAME.staging-PID` siblings whose process is gone and which hold
+/// fxshade's marker.
+fn remove_stale_staging(parent: &Path, name: &str) {
+    let prefix = format!(".{name}.staging-");
+    let Ok(rd) = std::fs::read_dir(parent) else {
+        return;
+    };
+    for e in rd.flatten() {
+        let file = e.file_name().to_string_lossy().into_owned();
+        let Some(pid) = file
+            .strip_prefix(&prefix)
+            .and_then(|p| p.parse::<u32>().ok())
+        else {
+            continue;
+        };
+        let alive = Path::new("/proc").join(pid.to_string()).exists();
+        if !alive && e.path().join(MARKER).is_file() {
+            let _ = std::fs::remove_dir_all(e.path());
+        }
+    }
+}
+
+/// Exchange two paths atomically; `false` when the file system cannot.
+fn exchange(a: &Path, b: &Path) -> std::io::Result<bool> {
+    #[cfg(target_os = "linux")]
+    {
+        use std::ffi::CString;
+        use std::os::unix::ffi::OsStrExt;
+        let ca = CString::new(a.as_os_str().as_bytes())?;
+        let cb = CString::new(b.as_os_str().as_bytes())?;
+        // SAFETY: two valid NUL-terminated paths; renameat2 only reads them.
+        let r = unsafe {
+            libc::renameat2(
+                libc::AT_FDCWD,
+                ca.as_ptr(),
+                libc::AT_FDCWD,
+                cb.as_ptr(),
+                libc::RENAME_EXCHANGE,
+            )
+        };
+        if r == 0 {
+            return Ok(true);
+        }
+        let e = std::io::Error::last_os_error();
+        match e.raw_os_error() {
+            Some(libc::EINVAL) | Some(libc::ENOSYS) => Ok(false),
+            _ => Err(e),
+        }
+    }
+    #[cfg(not(target_os = "linux"))]
+    {
+        let _ = (a, b);
+        Ok(false)
+    }
+}
+
 impl StagedDir {
-    /// Start staging `target` (its parent must exist and be writable).
+    /// Start staging `target` (its parent must exist and be writable);
+    /// refuses a non-empty directory fxshade did not write.
     pub fn new(target: &Path) -> Result<Self, WriteError> {
+        Self::open(target, false)
+    }
+
+    /// As [`StagedDir::new`], replacing whatever directory `target` is
+    /// (`--force`).
+    pub fn new_forced(target: &Path) -> Result<Self, WriteError> {
+        Self::open(target, true)
+    }
+
+    fn open(target: &Path, force: bool) -> Result<Self, WriteError> {
         let parent = target
             .parent()
             .filter(|p| !p.as_os_str().is_empty())
@@ -84,13 +177,33 @@ impl StagedDir {
                 ),
             });
         }
+        if target.is_dir() && !force && !ours_or_empty(target) {
+            return Err(WriteError::Io {
+                path: target.to_path_buf(),
+                reason: std::io::Error::new(
+                    std::io::ErrorKind::AlreadyExists,
+                    "is not empty and was not written by fxshade; nothing was changed \
+                     (choose another directory, or pass --force to replace it)",
+                ),
+            });
+        }
         let name = target
             .file_name()
             .map(|n| n.to_string_lossy().into_owned())
             .unwrap_or_else(|| "out".into());
+        remove_stale_staging(parent, &name);
         let staging = parent.join(format!(".{name}.staging-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&staging);
         std::fs::create_dir_all(&staging).map_err(io(&staging))?;
+        let marker = staging.join(MARKER);
+        std::fs::write(
+            &marker,
+            format!(
+                "written by {}; fxshade replaces this directory as a whole\n",
+                crate::vectors::GENERATOR
+            ),
+        )
+        .map_err(io(&marker))?;
         Ok(StagedDir {
             target: target.to_path_buf(),
             staging,
@@ -110,14 +223,21 @@ impl StagedDir {
         let p = self.path(rel)?;
         std::fs::write(&p, contents).map_err(io(&p))
     }
-    /// Replace the target directory with the staged one.
+    /// Replace the target directory with the staged one: one atomic exchange
+    /// where the file system supports it (then the old set, now in the
+    /// staging path, is removed), else two renames.
     pub fn commit(mut self) -> Result<PathBuf, WriteError> {
         if self.target.exists() {
-            let old = self.staging.with_extension("old");
-            let _ = std::fs::remove_dir_all(&old);
-            std::fs::rename(&self.target, &old).map_err(io(&self.target))?;
-            std::fs::rename(&self.staging, &self.target).map_err(io(&self.target))?;
-            let _ = std::fs::remove_dir_all(&old);
+            if exchange(&self.staging, &self.target).map_err(io(&self.target))? {
+                // The staging path now holds the previous set.
+                let _ = std::fs::remove_dir_all(&self.staging);
+            } else {
+                let old = self.staging.with_extension("old");
+                let _ = std::fs::remove_dir_all(&old);
+                std::fs::rename(&self.target, &old).map_err(io(&self.target))?;
+                std::fs::rename(&self.staging, &self.target).map_err(io(&self.target))?;
+                let _ = std::fs::remove_dir_all(&old);
+            }
         } else {
             std::fs::rename(&self.staging, &self.target).map_err(io(&self.target))?;
         }
@@ -162,6 +282,44 @@ mod tests {
         );
         write_atomic(&base.join("f"), b"x").unwrap();
         assert_eq!(std::fs::read(base.join("f")).unwrap(), b"x");
+        std::fs::remove_dir_all(&base).unwrap();
+    }
+
+    #[test]
+    fn a_directory_fxshade_did_not_write_is_never_replaced_unless_forced() {
+        let base = std::env::temp_dir().join(format!("fxshade-user-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&base);
+        let mine = base.join("mytb");
+        std::fs::create_dir_all(&mine).unwrap();
+        std::fs::write(mine.join("tb.sv"), b"my testbench").unwrap();
+        let e = StagedDir::new(&mine).unwrap_err().to_string();
+        assert!(
+            e.contains("not written by fxshade") && e.contains("--force"),
+            "{e}"
+        );
+        assert_eq!(std::fs::read(mine.join("tb.sv")).unwrap(), b"my testbench");
+        // Forced: replaced as a whole, marked as fxshade's from then on.
+        let s = StagedDir::new_forced(&mine).unwrap();
+        s.write("x", b"1").unwrap();
+        s.commit().unwrap();
+        assert!(!mine.join("tb.sv").exists() && mine.join(MARKER).is_file());
+        let s = StagedDir::new(&mine).unwrap();
+        s.write("y", b"2").unwrap();
+        s.commit().unwrap();
+        assert!(mine.join("y").is_file() && !mine.join("x").exists());
+        // A staging directory of a killed run (no such process) is removed,
+        // one of a live process (this one) or without the marker is kept.
+        let dead = base.join(".mytb.staging-999999999");
+        std::fs::create_dir_all(&dead).unwrap();
+        std::fs::write(dead.join(MARKER), b"").unwrap();
+        let foreign = base.join(".mytb.staging-999999998");
+        std::fs::create_dir_all(&foreign).unwrap();
+        drop(StagedDir::new(&mine).unwrap());
+        assert!(!dead.exists(), "stale staging removed");
+        assert!(
+            foreign.exists(),
+            "a directory without the marker is not ours"
+        );
         std::fs::remove_dir_all(&base).unwrap();
     }
 }

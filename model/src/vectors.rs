@@ -193,9 +193,14 @@ impl VectorSet {
         s
     }
 
-    /// Write the set into `dir` (replaced as a whole, atomically).
-    pub fn write(&self, dir: &Path) -> Result<(), WriteError> {
-        let d = StagedDir::new(dir)?;
+    /// Write the set into `dir` (replaced as a whole, atomically; a
+    /// non-empty directory fxshade did not write is refused unless `force`).
+    pub fn write(&self, dir: &Path, force: bool) -> Result<(), WriteError> {
+        let d = if force {
+            StagedDir::new_forced(dir)?
+        } else {
+            StagedDir::new(dir)?
+        };
         self.write_into(&d)?;
         d.commit()?;
         Ok(())

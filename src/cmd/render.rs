@@ -46,6 +46,9 @@ pub struct RenderArgs {
     /// Output directory (replaced as a whole when the render is complete).
     #[arg(long, short = 'o', value_name = "DIR")]
     out: PathBuf,
+    /// Replace `--out` even when it holds files fxshade did not write.
+    #[arg(long)]
+    force: bool,
     #[command(flatten)]
     fmt: OutputArgs,
 }
@@ -411,8 +414,12 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
     let size = parse_size(&a.size)?;
     let methods = parse_methods(a.method.as_deref(), a.rtl)?;
     let m = load_mesh(&a.mesh)?;
-    let dir = StagedDir::new(&a.out)
-        .with_context(|| format!("cannot write the render to {}", a.out.display()))?;
+    let dir = if a.force {
+        StagedDir::new_forced(&a.out)
+    } else {
+        StagedDir::new(&a.out)
+    }
+    .with_context(|| format!("cannot write the render to {}", a.out.display()))?;
     let bar = crate::progress::bar(methods.len() as u64 * (1 + a.rtl as u64) + 1, "render");
     let r = render_into(
         &cfg,

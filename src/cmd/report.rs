@@ -17,6 +17,9 @@ pub struct ReportArgs {
     /// Output directory (replaced as a whole when the report is complete).
     #[arg(long, short = 'o', value_name = "DIR")]
     out: PathBuf,
+    /// Replace `--out` even when it holds files fxshade did not write.
+    #[arg(long)]
+    force: bool,
     /// Size of the rendered images.
     #[arg(long, value_name = "WxH", default_value = "256x256")]
     size: String,
@@ -37,8 +40,12 @@ pub const REPORT_MESHES: [&str; 6] = [
 pub fn run(a: &ReportArgs) -> anyhow::Result<()> {
     let cfg = a.cfg.resolve()?;
     let size = super::render::parse_size(&a.size)?;
-    let dir = StagedDir::new(&a.out)
-        .with_context(|| format!("cannot write the report to {}", a.out.display()))?;
+    let dir = if a.force {
+        StagedDir::new_forced(&a.out)
+    } else {
+        StagedDir::new(&a.out)
+    }
+    .with_context(|| format!("cannot write the report to {}", a.out.display()))?;
     let bar = crate::progress::bar(6 + REPORT_MESHES.len() as u64, "report");
 
     bar.set_message("configuration");

@@ -21,9 +21,13 @@ pub struct VectorsArgs {
     /// Seed of the random vectors: the same seed gives identical files.
     #[arg(long, default_value_t = 1)]
     seed: u64,
-    /// Output directory (replaced as a whole when the set is complete).
+    /// Output directory (replaced as a whole when the set is complete; a
+    /// non-empty directory fxshade did not write is refused).
     #[arg(long, short = 'o', value_name = "DIR")]
     out: PathBuf,
+    /// Replace `--out` even when it holds files fxshade did not write.
+    #[arg(long)]
+    force: bool,
 }
 
 /// Run it.
@@ -33,7 +37,7 @@ pub fn run(a: &VectorsArgs) -> anyhow::Result<()> {
     let start = std::time::Instant::now();
     let v = fxshade_model::rtl::units::vectors(u, &cfg, a.count, a.seed)?;
     let gen = start.elapsed().as_secs_f64();
-    v.write(&a.out)
+    v.write(&a.out, a.force)
         .with_context(|| format!("cannot write the vectors to {}", a.out.display()))?;
     crate::output::print_out(&format!(
         "{} vectors ({} corner cases) of {} ({}) written to {} in {:.2} s ({:.0} vectors/s generated)\n",
