@@ -136,10 +136,12 @@ pub fn require_tool(tool: &str, package: &str) -> anyhow::Result<()> {
     }
 }
 
-/// Where builds are cached: `$FXSHADE_CACHE_DIR`, else `~/.cache/fxshade`.
+/// Where builds are cached: `$FXSHADE_CACHE_DIR` (made absolute; empty
+/// means unset), else `~/.cache/fxshade`.
 pub fn cache_root() -> PathBuf {
-    if let Some(d) = std::env::var_os("FXSHADE_CACHE_DIR") {
-        return PathBuf::from(d);
+    if let Some(d) = std::env::var_os("FXSHADE_CACHE_DIR").filter(|d| !d.is_empty()) {
+        let p = PathBuf::from(d);
+        return std::path::absolute(&p).unwrap_or(p);
     }
     match std::env::var_os("HOME") {
         Some(h) => PathBuf::from(h).join(".cache").join("fxshade"),
@@ -147,10 +149,53 @@ pub fn cache_root() -> PathBuf {
     }
 }
 
+/// Seconds a simulator build may take before it is stopped:
+/// `$FXSHADE_BUILD_TIMEOUT`, else 900.
+fn build_timeout() -> std::time::Duration {
+    let s = std::env::var("FXSHADE_BUILD_TIMEOUT")
+        .ok()
+        .and_then(|s| s.parse::<u64>().ok())
+        .unwrap_or(900);
+    std::time::Duration::from_secs(s)
+}
+
+/// Run a build tool in a process group of its own, with a time limit: on
+/// timeout the whole group (make, the C++ compiler) is killed.
 fn run_tool(cmd: &mut Command, what: &str) -> anyhow::Result<String> {
-    let out = cmd.output().with_context(|| format!("cannot run {what}"))?;
+    use std::os::unix::process::CommandExt;
+    let limit = build_timeout();
+    let child = cmd
+        .process_group(0)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .with_context(|| format!("cannot run {what}"))?;
+    let pgid = child.id() as i32;
+    let (tx, rx) = std::sync::mpsc::channel::<()>();
+    let watchdog = std::thread::spawn(move || {
+        if rx.recv_timeout(limit).is_err() {
+            // SAFETY: signalling a process group we created; no memory is
+            // touched.
+            unsafe {
+                libc::kill(-pgid, libc::SIGKILL);
+            }
+            true
+        } else {
+            false
+        }
+    });
+    let out = child.wait_with_output();
+    let _ = tx.send(());
+    let timed_out = watchdog.join().unwrap_or(false);
+    let out = out.with_context(|| format!("cannot run {what}"))?;
     let text =
         String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
+    if timed_out {
+        bail!(
+            "{what} did not finish within {} s and was stopped (set FXSHADE_BUILD_TIMEOUT to allow more)",
+            limit.as_secs()
+        );
+    }
     if !out.status.success() {
         bail!("{what} failed ({}):\n{}", out.status, text.trim_end());
     }
@@ -189,6 +234,7 @@ pub fn build(
         Sim::Verilator => require_tool("verilator", "verilator")?,
         Sim::Icarus => {
             require_tool("iverilog", "iverilog")?;
+            require_tool("vvp", "iverilog")?;
         }
     }
     let mut parts: Vec<&[u8]> = Vec::new();
@@ -201,8 +247,22 @@ pub fn build(
     let key = fingerprint(&parts);
     let root = cache_root();
     let dir = root.join(format!("{name}-{}-{key:016x}", sim.name()));
+    let binary = |d: &Path| match sim {
+        Sim::Verilator => d.join("obj").join("sim"),
+        Sim::Icarus => d.join("sim.vvp"),
+    };
     if dir.join("done").is_file() {
-        return Ok(Build { dir, seconds: 0.0 });
+        if binary(&dir).is_file() {
+            return Ok(Build { dir, seconds: 0.0 });
+        }
+        // Marked done but its simulator is gone: build it again.
+        std::fs::remove_dir_all(&dir).with_context(|| {
+            format!(
+                "the cached build {} lacks {} and cannot be removed",
+                dir.display(),
+                binary(&dir).display()
+            )
+        })?;
     }
     std::fs::create_dir_all(&root)
         .with_context(|| format!("cannot create the build cache {}", root.display()))?;
@@ -363,6 +423,18 @@ pub fn check_with(
         .arg(format!("+STALL={stall}"));
     let trace_path = trace.map(|t| std::path::absolute(t).unwrap_or_else(|_| t.to_path_buf()));
     if let Some(t) = &trace_path {
+        // Simulators only warn when they cannot open the waveform: check first.
+        let parent = t.parent().unwrap_or(Path::new("/"));
+        anyhow::ensure!(
+            parent.is_dir(),
+            "cannot write the waveform to {}: {} is not a directory",
+            t.display(),
+            parent.display()
+        );
+        std::fs::write(t, b"")
+            .with_context(|| format!("cannot write the waveform to {}", t.display()))?;
+    }
+    if let Some(t) = &trace_path {
         c.arg(format!("+TRACE={}", t.display()));
     }
     if dump {
@@ -451,7 +523,11 @@ pub fn check_with(
                 }
             }
             r.mismatches.push(m);
-        } else if l.starts_with("error") || l.starts_with("%Error") || l.contains("ERROR") {
+        } else if l.starts_with("error")
+            || l.starts_with("protocol error")
+            || l.starts_with("%Error")
+            || l.contains("ERROR")
+        {
             r.errors.push(l.to_string());
         }
     }
@@ -461,6 +537,16 @@ pub fn check_with(
             sim.name(),
             status,
             text.trim_end()
+        );
+    }
+    if let Some(t) = &r.trace {
+        // A simulator that cannot open the waveform file only warns.
+        let size = std::fs::metadata(t).map(|m| m.len()).unwrap_or(0);
+        anyhow::ensure!(
+            size > 0,
+            "the {} simulation wrote no waveform to {} (is the directory writable, is the disk full?)",
+            sim.name(),
+            t.display()
         );
     }
     Ok(r)

@@ -142,3 +142,167 @@ fn a_users_directory_is_never_deleted() {
     assert!(o.status.success(), "{}", text(&o));
     assert!(mine.join("interp.v").is_file() && !mine.join("normalize.v").exists());
 }
+
+#[test]
+fn waveforms_that_cannot_be_written_are_errors_and_trace_alone_takes_the_default_name() {
+    let dir = tempfile::tempdir().unwrap();
+    for sim in ["verilator", "icarus"] {
+        let bad = dir.path().join("no/such/dir/t.fst");
+        let o = fxshade(&[
+            "rtl-check",
+            "normalize",
+            "--count",
+            "200",
+            "--sim",
+            sim,
+            "--trace",
+            bad.to_str().unwrap(),
+        ]);
+        assert_eq!(o.status.code(), Some(1), "{sim}: {}", text(&o));
+        assert!(
+            text(&o).contains("cannot write the waveform") && text(&o).contains("no/such/dir"),
+            "{sim}: {}",
+            text(&o)
+        );
+    }
+    // `--trace` with no file name: <unit>.fst in the working directory.
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_fxshade"))
+        .args(["rtl-check", "normalize", "--count", "200", "--trace"])
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(dir.path().join("normalize.fst").is_file());
+}
+
+#[test]
+fn a_relative_cache_dir_and_a_cache_entry_without_its_simulator_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |envdir: &str| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_fxshade"))
+            .args([
+                "rtl-check",
+                "angle_interp",
+                "--count",
+                "100",
+                "--sim",
+                "icarus",
+                "--json",
+            ])
+            .current_dir(dir.path())
+            .env("FXSHADE_CACHE_DIR", envdir)
+            .output()
+            .unwrap()
+    };
+    let o = run("rel-cache");
+    assert!(o.status.success(), "{}", text(&o));
+    let cache = dir.path().join("rel-cache");
+    // Delete the simulator of the entry just built: the next run rebuilds.
+    for e in std::fs::read_dir(&cache).unwrap() {
+        let _ = std::fs::remove_file(e.unwrap().path().join("sim.vvp"));
+    }
+    let o = run("rel-cache");
+    assert!(o.status.success(), "{}", text(&o));
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(j["build_seconds"].as_f64().unwrap() > 0.0, "rebuilt: {j}");
+}
+
+/// Emit normalize into a directory, apply `edit` to its Verilog, and run
+/// `rtl-check --rtl-dir` on it with `extra` flags.
+fn check_edited(edit: impl Fn(&str) -> String, extra: &[&str]) -> std::process::Output {
+    let dir = tempfile::tempdir().unwrap();
+    let o = fxshade(&["rtl", "normalize", "--out", dir.path().to_str().unwrap()]);
+    assert!(o.status.success(), "{}", text(&o));
+    let f = dir.path().join("normalize.v");
+    let v = std::fs::read_to_string(&f).unwrap();
+    let e = edit(&v);
+    assert_ne!(v, e, "the edit changed nothing");
+    std::fs::write(&f, e).unwrap();
+    let mut args = vec!["rtl-check", "normalize", "--count", "500", "--rtl-dir"];
+    args.push(dir.path().to_str().unwrap());
+    args.extend_from_slice(extra);
+    let out = fxshade(&args);
+    drop(dir);
+    out
+}
+
+#[test]
+fn the_testbench_catches_data_changing_under_stall_and_extra_outputs() {
+    // Output data that is wrong while stalled and right by the transfer.
+    let o = check_edited(
+        |v| {
+            let line = v
+                .lines()
+                .find(|l| l.starts_with("  assign out_x_o = "))
+                .unwrap();
+            v.replace(
+                line,
+                &format!("{} ^ {{15'b0, ~ready_i}};", line.trim_end_matches(';')),
+            )
+        },
+        &[],
+    );
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(
+        text(&o).contains("data changed while valid_o && !ready_i"),
+        "{}",
+        text(&o)
+    );
+    // Valid that sticks high: with no input bubbles every vector matches,
+    // then outputs keep coming after the last one.
+    let o = check_edited(
+        |v| {
+            v.replacen(
+                "valid_q[2:0], valid_i}",
+                "valid_q[2:0], valid_i | valid_q[0]}",
+                1,
+            )
+        },
+        &["--stall", "0"],
+    );
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(
+        text(&o).contains("an output beyond the 500 vectors"),
+        "{}",
+        text(&o)
+    );
+}
+
+#[test]
+fn the_testbench_catches_extra_lines_and_extra_digits() {
+    let dir = tempfile::tempdir().unwrap();
+    let v = dir.path().join("v");
+    let o = fxshade(&[
+        "vectors",
+        "normalize",
+        "--count",
+        "300",
+        "--out",
+        v.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let exp = v.join("expected.hex");
+    let good = std::fs::read_to_string(&exp).unwrap();
+    let width = good.lines().next().unwrap().len();
+    for sim in ["icarus", "verilator"] {
+        // An extra line of all f (it used to equal the sentinel).
+        std::fs::write(&exp, format!("{good}{}\n", "f".repeat(width))).unwrap();
+        let out = run_tb(sim, dir.path(), &v, 300);
+        assert!(
+            out.contains("must hold exactly 300 vectors"),
+            "{sim}: {out}"
+        );
+        // A line with one extra leading digit ($readmemh truncates it).
+        let mut lines: Vec<String> = good.lines().map(String::from).collect();
+        lines[17].insert(0, '1');
+        std::fs::write(&exp, lines.join("\n") + "\n").unwrap();
+        let out = run_tb(sim, dir.path(), &v, 300);
+        assert!(
+            out.contains("must hold exactly 300 vectors"),
+            "{sim}: {out}"
+        );
+        std::fs::write(&exp, &good).unwrap();
+        let out = run_tb(sim, dir.path(), &v, 300);
+        assert!(out.contains("300 passed, 0 failed"), "{sim}: {out}");
+    }
+}

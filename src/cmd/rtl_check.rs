@@ -29,8 +29,10 @@ pub struct RtlCheckArgs {
     stall: u32,
     /// Write a waveform (FST with Verilator, VCD with Icarus) to this file
     /// (default: <unit>.fst or <unit>.vcd).
+    // A String, not a PathBuf: clap refuses an empty path, and the empty
+    // default_missing_value is what `--trace` alone gives.
     #[arg(long, value_name = "FILE", num_args = 0..=1, default_missing_value = "")]
-    trace: Option<PathBuf>,
+    trace: Option<String>,
     /// Simulate the design files (`*.v`, testbenches excluded) of this
     /// directory instead of the Verilog `fxshade rtl` emits (for hand-edited
     /// RTL); the generated testbench and vectors are used as usual.
@@ -50,7 +52,7 @@ pub fn run(a: &RtlCheckArgs) -> anyhow::Result<()> {
         None => rtl_flow::Sources::emitted(&v),
     };
     let trace = a.trace.as_ref().map(|t| {
-        if t.as_os_str().is_empty() {
+        if t.is_empty() {
             PathBuf::from(format!(
                 "{}.{}",
                 u.name,
@@ -61,7 +63,7 @@ pub fn run(a: &RtlCheckArgs) -> anyhow::Result<()> {
                 }
             ))
         } else {
-            t.clone()
+            PathBuf::from(t)
         }
     });
     let r = rtl_flow::check_with(

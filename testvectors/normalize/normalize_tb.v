@@ -59,10 +59,18 @@ module normalize_tb;
   //
   // A vector file shorter or longer than N lines is an error (index fields and
   // an untouched sentinel entry are checked), never a silent pass on
-  // uninitialised entries. Ends with the line `P passed, F failed`.
+  // uninitialised entries. Memory words are 32 bits wider than a line, so a
+  // line with extra leading digits (which $readmemh would truncate) and an
+  // extra line of any value (even all f) show in those bits.
+  // The output handshake is checked too: while valid_o && !ready_i the data
+  // must hold and valid must stay high, and no output may follow the N-th.
+  // Ends with the line `P passed, F failed`.
 
-  reg [32+IN_W-1:0]  in_mem  [0:MAXN];
-  reg [32+OUT_W-1:0] exp_mem [0:MAXN];
+  reg [64+IN_W-1:0]  in_mem  [0:MAXN];
+  reg [64+OUT_W-1:0] exp_mem [0:MAXN];
+  reg [OUT_W-1:0] held_data;
+  reg held;
+  integer proto, extra, drain;
   integer in_cycle [0:MAXN];
   integer n, stall, seed, in_idx, out_idx, passed, failed, cycle, lat_min, lat_max, i, bad, nxt, r1, r2;
   reg [8*256-1:0] trace_file, dump_file;
@@ -76,6 +84,11 @@ module normalize_tb;
     in_data = {IN_W{1'b0}};
     in_idx = 0;
     out_idx = 0;
+    held = 1'b0;
+    held_data = {OUT_W{1'b0}};
+    proto = 0;
+    extra = 0;
+    drain = -1;
     passed = 0;
     failed = 0;
     cycle = 0;
@@ -109,17 +122,18 @@ module normalize_tb;
       $dumpvars(0);
     end
     for (i = 0; i <= MAXN; i = i + 1) begin
-      in_mem[i] = {(32 + IN_W){1'b1}};
-      exp_mem[i] = {(32 + OUT_W){1'b1}};
+      in_mem[i] = {(64 + IN_W){1'b1}};
+      exp_mem[i] = {(64 + OUT_W){1'b1}};
     end
     $readmemh("inputs.hex", in_mem);
     $readmemh("expected.hex", exp_mem);
     bad = 0;
     for (i = 0; i < n; i = i + 1) begin
-      if (in_mem[i][32+IN_W-1:IN_W] !== i) bad = bad + 1;
-      if (exp_mem[i][32+OUT_W-1:OUT_W] !== i) bad = bad + 1;
+      // The pad (top 32 bits) must be zero and the index field i.
+      if (in_mem[i][64+IN_W-1:IN_W] !== {32'd0, i}) bad = bad + 1;
+      if (exp_mem[i][64+OUT_W-1:OUT_W] !== {32'd0, i}) bad = bad + 1;
     end
-    if (in_mem[n] !== {(32 + IN_W){1'b1}} || exp_mem[n] !== {(32 + OUT_W){1'b1}}) bad = bad + 1;
+    if (in_mem[n] !== {(64 + IN_W){1'b1}} || exp_mem[n] !== {(64 + OUT_W){1'b1}}) bad = bad + 1;
     if (bad != 0) begin
       $display("error: inputs.hex and expected.hex must hold exactly %0d vectors, indexed 0..%0d (%0d entries wrong)",
                n, n - 1, bad);
@@ -153,6 +167,31 @@ module normalize_tb;
           in_valid <= 1'b0;
         end
       end
+      // Output handshake: data and valid hold while stalled.
+      if (held) begin
+        if (!out_valid || out_data !== held_data) begin
+          proto = proto + 1;
+          if (proto <= 5)
+            $display("protocol error at cycle %0d: output %0d %s while valid_o && !ready_i",
+                     cycle, out_idx, out_valid ? "data changed" : "valid dropped");
+        end
+      end
+      held <= out_valid && !out_ready;
+      held_data <= out_data;
+      // After the N-th output: any further output is one too many.
+      if (drain >= 0) begin
+        if (out_valid && out_ready) begin
+          extra = extra + 1;
+          if (extra <= 5) $display("error: an output beyond the %0d vectors at cycle %0d", n, cycle);
+        end
+        if (drain == 0) begin
+          if (dump_fd != 0) $fclose(dump_fd);
+          $display("%0d passed, %0d failed", passed - ((proto + extra) > passed ? passed : (proto + extra)),
+                   failed + proto + extra);
+          $finish;
+        end
+        drain = drain - 1;
+      end else
       // Output side: compare every transfer, in order.
       if (out_valid && out_ready) begin
         if (dump_fd != 0) $fwrite(dump_fd, "%h\n", out_data);
@@ -168,13 +207,12 @@ module normalize_tb;
         if (out_idx + 1 == n) begin
           $display("latency %0d cycles (min), %0d (max, with stalls)", lat_min, lat_max);
           $display("cycles %0d", cycle);
-          if (dump_fd != 0) $fclose(dump_fd);
-          $display("%0d passed, %0d failed", passed, failed);
-          $finish;
+          // Keep reading for a while: nothing more may come out.
+          drain = 64;
         end
       end
       r2 = $random(seed);
-      out_ready <= ((r2 & 32'h7fffffff) % 100) >= stall;
+      out_ready <= (drain >= 0) || (((r2 & 32'h7fffffff) % 100) >= stall);
       if (cycle > 100 + 50 * n) begin
         $display("error: timeout after %0d cycles with %0d of %0d vectors out", cycle, out_idx, n);
         $display("%0d passed, %0d failed", passed, n - passed);
