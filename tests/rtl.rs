@@ -125,7 +125,13 @@ fn strict_tools(cfg: &Option<String>) {
     args.extend(["--out", dir.path().to_str().unwrap()]);
     let o = fxshade(&args);
     assert!(o.status.success(), "{}", text(&o));
-    for e in std::fs::read_dir(dir.path()).unwrap() {
+    strict_tools_on(dir.path(), &format!("{cfg:?}"));
+}
+
+/// Verilator lint, Icarus, Yosys and slang on every `.v` file of `dir`.
+fn strict_tools_on(dir: &std::path::Path, what: &str) {
+    let cfg = what;
+    for e in std::fs::read_dir(dir).unwrap() {
         let p = e.unwrap().path();
         let module = p.file_stem().unwrap().to_string_lossy().into_owned();
         let o = Command::new("verilator")
@@ -178,6 +184,22 @@ fn emitted_rtl_passes_verilator_icarus_yosys_and_slang() {
     for cfg in configs() {
         strict_tools(&cfg);
     }
+    // Every variant of every unit, default configuration otherwise.
+    for (unit, variants) in units() {
+        for (name, set) in variants {
+            let dir = tempfile::tempdir().unwrap();
+            let o = fxshade(&[
+                "rtl",
+                &unit,
+                "--set",
+                &set,
+                "--out",
+                dir.path().to_str().unwrap(),
+            ]);
+            assert!(o.status.success(), "{}", text(&o));
+            strict_tools_on(dir.path(), &format!("{unit} {name}"));
+        }
+    }
 }
 
 #[test]
@@ -226,60 +248,80 @@ impl Lcg {
     }
 }
 
-/// A random valid configuration: overrides of formats, modes and methods.
+/// A random configuration: formats (integer and fraction bits), rounding
+/// and overflow modes of every stage, methods, Θ, fits, intervals, table
+/// organisation and depth, lighting constants. Not every draw is valid: the
+/// test keeps the ones `config check` accepts.
 fn random_overrides(r: &mut Lcg) -> Vec<String> {
     let round = ["\"trunc\"", "\"half_up\"", "\"half_even\""];
     let ovf = ["\"wrap\"", "\"saturate\""];
     let mut v = Vec::new();
     for (stage, signed, ints, fracs) in [
-        ("interp.vertex", true, 2, 10..16),
-        ("interp.weight", true, 2, 12..18),
-        ("interp.out", true, 2, 10..16),
-        ("normalize.normal", true, 2, 10..16),
-        ("normalize.d", false, 1, 12..20),
-        ("normalize.g", false, 1, 12..20),
-        ("normalize.out", true, 2, 10..16),
-        ("polar.lyz", true, 2, 10..16),
-        ("polar.out", true, 2, 10..16),
-        ("lighting.dot", true, 2, 10..16),
-        ("lighting.spec", false, 1, 10..18),
+        ("interp.vertex", true, 2..4, 10..16),
+        ("interp.weight", true, 2..4, 12..18),
+        ("interp.out", true, 2..4, 10..16),
+        ("normalize.normal", true, 2..4, 10..16),
+        ("normalize.d", false, 1..3, 12..20),
+        ("normalize.coef", true, 2..5, 8..18),
+        ("normalize.horner", true, 2..5, 10..18),
+        ("normalize.g", false, 1..3, 12..20),
+        ("normalize.out", true, 2..4, 10..16),
+        ("polar.table", true, 1..3, 10..16),
+        ("polar.lyz", true, 2..4, 10..16),
+        ("polar.out", true, 2..4, 10..16),
+        ("lighting.normal", true, 2..4, 10..16),
+        ("lighting.light", true, 2..4, 10..16),
+        ("lighting.dot", true, 2..4, 10..16),
+        ("lighting.gain", false, 8..10, 4..10),
+        ("lighting.spec", false, 1..3, 10..18),
     ] {
+        let i = ints.start + r.below((ints.end - ints.start) as u64) as i32;
         let f = fracs.start + r.below((fracs.end - fracs.start) as u64) as i32;
         v.push(format!(
-            "{stage}.format={}{ints}F{f}",
+            "{stage}.format={}{i}F{f}",
             if signed { "I" } else { "U" }
         ));
         v.push(format!("{stage}.round={}", r.pick(&round)));
         v.push(format!("{stage}.overflow={}", r.pick(&ovf)));
     }
     v.push(format!("interp.bary.format=U1F{}", 10 + r.below(7)));
-    v.push(format!(
-        "normalize.method={}",
-        r.pick(&[
+    let pick = |r: &mut Lcg, key: &str, options: &[&str]| format!("{key}={}", r.pick(options));
+    v.push(pick(
+        r,
+        "normalize.method",
+        &[
             "\"none\"",
             "\"newton\"",
             "\"taylor\"",
             "\"linear\"",
-            "\"quadratic\""
-        ])
+            "\"quadratic\"",
+        ],
     ));
-    v.push("normalize.coef_quant=\"round\"".into());
-    v.push(format!(
-        "interp.scheme={}",
-        r.pick(&["\"linear\"", "\"quadratic\""])
+    v.push(pick(
+        r,
+        "normalize.theta",
+        &["0", "0.25", "0.5", "0.75", "0.9"],
     ));
+    v.push(pick(
+        r,
+        "normalize.fit",
+        &["\"nodes\"", "\"series\"", "\"minimax\""],
+    ));
+    v.push(pick(r, "normalize.interval", &["\"edge\"", "\"triangle\""]));
+    v.push(pick(
+        r,
+        "normalize.coef_quant",
+        &["\"round\"", "\"round\"", "\"search\""],
+    ));
+    v.push(pick(r, "interp.scheme", &["\"linear\"", "\"quadratic\""]));
     let t = 6 + r.below(5);
     v.push(format!("polar.angle_bits={}", t + r.below(3)));
     v.push(format!("polar.table_bits={t}"));
-    v.push(format!(
-        "polar.organisation={}",
-        r.pick(&["\"full\"", "\"quarter\""])
-    ));
-    v.push(format!(
-        "pipeline.path={}",
-        r.pick(&["\"smooth\"", "\"mapped\""])
-    ));
+    v.push(pick(r, "polar.organisation", &["\"full\"", "\"quarter\""]));
+    v.push(pick(r, "pipeline.path", &["\"smooth\"", "\"mapped\""]));
+    v.push(pick(r, "pipeline.angle_round", &round));
     v.push(format!("lighting.shininess={}", 1 + r.below(40)));
+    v.push(pick(r, "lighting.i0_ks", &["0", "0.25", "0.5"]));
     v
 }
 
@@ -291,22 +333,26 @@ fn random_valid_configurations_agree_bit_for_bit() {
         .unwrap_or(20261122u64);
     println!("random configurations: seed {seed} (FXSHADE_RANDOM_SEED to change)");
     let mut r = Lcg(seed);
-    let units = [
-        "interp",
-        "normalize",
-        "polar",
-        "lighting",
-        "angle_interp",
-        "pipeline",
-    ];
-    for k in 0..30 {
+    let units: Vec<String> = units().into_iter().map(|(u, _)| u).collect();
+    let (mut k, mut draws) = (0, 0);
+    while k < 30 {
+        draws += 1;
+        assert!(
+            draws < 300,
+            "fewer than 30 of 300 random configurations were valid"
+        );
         let sets = random_overrides(&mut r);
-        let mut check = vec!["config", "show"];
+        // Keep what `config check` accepts (an empty file is the default).
+        let mut check = vec!["config", "check", "/dev/null"];
         for s in &sets {
             check.extend(["--set", s.as_str()]);
         }
         let o = fxshade(&check);
-        assert!(o.status.success(), "config {k}: {sets:?}: {}", text(&o));
+        assert!(!text(&o).contains("panicked"), "{}", text(&o));
+        if !o.status.success() {
+            assert_eq!(o.status.code(), Some(2), "{sets:?}: {}", text(&o));
+            continue;
+        }
         // Every unit on Verilator; the first ten configurations on Icarus too.
         let sims: &[&str] = if k < 10 {
             &["verilator", "icarus"]
@@ -329,7 +375,9 @@ fn random_valid_configurations_agree_bit_for_bit() {
                 assert_eq!(j["passed"], 2000, "config {k}, {unit} on {sim}");
             }
         }
+        k += 1;
     }
+    println!("{k} valid configurations of {draws} drawn");
 }
 
 #[test]

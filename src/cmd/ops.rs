@@ -35,10 +35,12 @@ pub struct NetlistCheck {
     pub model_mul: Vec<String>,
     /// `$mul` cells of the netlist, likewise.
     pub netlist_mul: Vec<String>,
-    /// Adder, subtractor and rounding-incrementer widths of the trace.
-    pub model_add: Vec<u32>,
-    /// `$add`/`$sub` result widths of the netlist.
-    pub netlist_add: Vec<u32>,
+    /// Adders, subtractors and rounding incrementers of the trace, as
+    /// `A + B → Y` operand and result widths (every operand is brought to the
+    /// result width by an explicit concatenation, so `A = B = Y`).
+    pub model_add: Vec<String>,
+    /// `$add`/`$sub` cells of the netlist, likewise.
+    pub netlist_add: Vec<String>,
     /// Comparators (`max`) of the trace.
     pub model_compare: u64,
     /// `$gt`/`$lt`/`$ge`/`$le` cells of the netlist.
@@ -140,10 +142,17 @@ pub fn netlist_checks(cfg: &fxshade_model::Config) -> anyhow::Result<Vec<Netlist
                 })
                 .collect();
             netlist_mul.sort();
-            let mut netlist_add: Vec<u32> = cells
+            let mut netlist_add: Vec<String> = cells
                 .iter()
                 .filter(|(t, _)| t == "$add" || t == "$sub")
-                .map(|(_, c)| p(c, "Y_WIDTH") as u32)
+                .map(|(_, c)| {
+                    format!(
+                        "{} + {} → {}",
+                        p(c, "A_WIDTH"),
+                        p(c, "B_WIDTH"),
+                        p(c, "Y_WIDTH")
+                    )
+                })
                 .collect();
             netlist_add.sort();
             let netlist_compare = cells
@@ -153,7 +162,12 @@ pub fn netlist_checks(cfg: &fxshade_model::Config) -> anyhow::Result<Vec<Netlist
             let h = &e.hardware;
             let mut model_mul: Vec<String> = h.muls.iter().map(|m| m.to_string()).collect();
             model_mul.sort();
-            let mut model_add: Vec<u32> = h.adders.iter().chain(&h.incrementers).copied().collect();
+            let mut model_add: Vec<String> = h
+                .adders
+                .iter()
+                .chain(&h.incrementers)
+                .map(|w| format!("{w} + {w} → {w}"))
+                .collect();
             model_add.sort();
             let agree = model_mul == netlist_mul
                 && model_add == netlist_add
@@ -181,8 +195,8 @@ pub fn netlist_table(checks: &[NetlistCheck]) -> Table {
         "variant",
         "multipliers (trace)",
         "$mul (netlist)",
-        "adder widths (trace)",
-        "$add/$sub widths (netlist)",
+        "adders A + B → Y (trace)",
+        "$add/$sub A + B → Y (netlist)",
         "compare (trace / netlist)",
         "agree",
     ])
@@ -194,8 +208,8 @@ pub fn netlist_table(checks: &[NetlistCheck]) -> Table {
             c.variant.clone(),
             join(&c.model_mul),
             join(&c.netlist_mul),
-            format!("{:?}", c.model_add),
-            format!("{:?}", c.netlist_add),
+            c.model_add.join(", "),
+            c.netlist_add.join(", "),
             format!("{} / {}", c.model_compare, c.netlist_compare),
             if c.agree { "yes" } else { "NO" }.to_string(),
         ]);

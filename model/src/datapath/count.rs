@@ -352,9 +352,7 @@ impl Datapath for Count {
                     a: fa,
                     b: fb,
                     hardware: format!(
-                        "{} × {} {}",
-                        wa.max(wb),
-                        wa.min(wb),
+                        "{wa} × {wb} {}",
                         if a.signed || b.signed {
                             "signed"
                         } else {

@@ -616,6 +616,53 @@ fn check(cfg: &Config) -> Result<(), Vec<ConfigError>> {
             .map_err(|e| vec![crate::config::field_error(u, "coef", e.to_string())])?;
         width_errors(&cx, u)?;
     }
+    coefficients_fit(cfg)
+}
+
+/// The linear and quadratic coefficients every command may design — for
+/// the configured Θ on its interval, and for each Θ of the pipeline's ladder
+/// on the range the configured interpolation produces — must be finite and
+/// fit `normalize.coef.format` once rounded (the search starts there). Cheap:
+/// the real fits and one rounding, no bit-accurate scoring.
+fn coefficients_fit(cfg: &Config) -> Result<(), Vec<ConfigError>> {
+    use crate::config::field_error;
+    let u = cfg.unit(DECL.name);
+    let fit = Fit::from_name(u.choice("fit")).expect("declared choices");
+    let kind = Interval::from_name(u.choice("interval")).expect("declared choices");
+    let scheme =
+        crate::interp::Scheme::from_name(cfg.unit(crate::interp::DECL.name).choice("scheme"))
+            .expect("declared choices");
+    let cf = u.stage("coef").format();
+    let theta = u.number("theta");
+    let mut cases = vec![(theta, kind.bounds(theta))];
+    for &t in &crate::interp::THETA_LADDER {
+        let range = match kind {
+            Interval::Edge => kind.bounds(t),
+            Interval::Triangle => crate::interp::quadratic_d_range(t, scheme),
+        };
+        cases.push((t, range));
+    }
+    for degree in [1usize, 2] {
+        let what = if degree == 1 { "linear" } else { "quadratic" };
+        for &(t, (lo, hi)) in &cases {
+            let real = coeffs::design(fit, lo, hi, degree).map_err(|e| {
+                vec![field_error(
+                    u,
+                    "theta",
+                    format!("the {what} g(d) for Θ = {t} on [{lo}, {hi}]: {e}"),
+                )]
+            })?;
+            coeffs::round_coeffs(&real, cf, lo, hi).map_err(|e| {
+                vec![field_error(
+                    u,
+                    "coef",
+                    format!(
+                        "the {what} g(d) for Θ = {t}: {e}; widen the integer part of the format"
+                    ),
+                )]
+            })?;
+        }
+    }
     Ok(())
 }
 

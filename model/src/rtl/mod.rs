@@ -101,8 +101,8 @@ impl std::fmt::Display for MulHw {
         write!(
             f,
             "{} × {} {}",
-            self.a_width.max(self.b_width),
-            self.a_width.min(self.b_width),
+            self.a_width,
+            self.b_width,
             if self.signed { "signed" } else { "unsigned" }
         )
     }
