@@ -923,6 +923,26 @@ pub enum Compiled {
     Wide(Program<i128>),
 }
 
+/// Run `f` on `inputs` converted to `i64` codes (they fit: the program was
+/// compiled narrow), and its outputs back to `i128`.
+fn on_i64<T>(
+    inputs: &[&[i128]],
+    f: impl FnOnce(&[&[i64]]) -> (Vec<Vec<i64>>, T),
+) -> (Vec<Vec<i128>>, T) {
+    let ins: Vec<Vec<i64>> = inputs
+        .iter()
+        .map(|s| s.iter().map(|&x| x as i64).collect())
+        .collect();
+    let refs: Vec<&[i64]> = ins.iter().map(|v| v.as_slice()).collect();
+    let (outs, extra) = f(&refs);
+    (
+        outs.into_iter()
+            .map(|o| o.into_iter().map(|x| x as i128).collect())
+            .collect(),
+        extra,
+    )
+}
+
 impl Compiled {
     /// Compile on the narrowest code type that holds the datapath.
     pub fn compile(trace: &Trace, outputs: &[TV]) -> Result<Self, CompileError> {
@@ -936,20 +956,7 @@ impl Compiled {
     pub fn run_i128(&self, inputs: &[&[i128]]) -> (Vec<Vec<i128>>, Vec<(&'static str, u64)>) {
         match self {
             Compiled::Wide(p) => p.run(inputs),
-            Compiled::Narrow(p) => {
-                let ins: Vec<Vec<i64>> = inputs
-                    .iter()
-                    .map(|s| s.iter().map(|&x| x as i64).collect())
-                    .collect();
-                let refs: Vec<&[i64]> = ins.iter().map(|v| v.as_slice()).collect();
-                let (outs, ov) = p.run(&refs);
-                (
-                    outs.into_iter()
-                        .map(|o| o.into_iter().map(|x| x as i128).collect())
-                        .collect(),
-                    ov,
-                )
-            }
+            Compiled::Narrow(p) => on_i64(inputs, |refs| p.run(refs)),
         }
     }
     /// Run on `i128` codes with per-lane overflow flags
@@ -957,20 +964,7 @@ impl Compiled {
     pub fn run_flags_i128(&self, inputs: &[&[i128]]) -> (Vec<Vec<i128>>, Vec<u64>) {
         match self {
             Compiled::Wide(p) => p.run_flags(inputs),
-            Compiled::Narrow(p) => {
-                let ins: Vec<Vec<i64>> = inputs
-                    .iter()
-                    .map(|s| s.iter().map(|&x| x as i64).collect())
-                    .collect();
-                let refs: Vec<&[i64]> = ins.iter().map(|v| v.as_slice()).collect();
-                let (outs, f) = p.run_flags(&refs);
-                (
-                    outs.into_iter()
-                        .map(|o| o.into_iter().map(|x| x as i128).collect())
-                        .collect(),
-                    f,
-                )
-            }
+            Compiled::Narrow(p) => on_i64(inputs, |refs| p.run_flags(refs)),
         }
     }
     /// The overflow-flag stages.
