@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use clap::Args;
+use fxshade_model::files;
 use fxshade_model::rtl::units::{self, RtlUnit};
 use fxshade_model::rtl::Emitted;
 
@@ -35,20 +36,11 @@ pub struct RtlArgs {
     fmt: OutputArgs,
 }
 
-/// Write `text` to `path` atomically (a temporary file beside it, then a
-/// rename).
-pub fn write_atomic(path: &Path, text: &str) -> anyhow::Result<()> {
-    let dir = path.parent().unwrap_or(Path::new("."));
-    let tmp = dir.join(format!(
-        ".{}.tmp-{}",
-        path.file_name().expect("a file name").to_string_lossy(),
-        std::process::id()
-    ));
-    std::fs::write(&tmp, text).with_context(|| format!("cannot write {}", tmp.display()))?;
-    std::fs::rename(&tmp, path).with_context(|| {
-        let _ = std::fs::remove_file(&tmp);
-        format!("cannot write {}", path.display())
-    })
+/// Write `text` to `path` atomically (the model's [`files::write_atomic`]:
+/// a synced temporary file beside it, then a rename).
+fn write_atomic(path: &Path, text: &str) -> anyhow::Result<()> {
+    files::write_atomic(path, text.as_bytes())
+        .with_context(|| format!("cannot write {}", path.display()))
 }
 
 /// The emitted modules `fxshade rtl all` writes for a configuration: every
