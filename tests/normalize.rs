@@ -214,3 +214,62 @@ fn paper_flags_what_does_not_reproduce() {
         assert!(reproduced || x["reason"].is_string(), "unflagged: {x}");
     }
 }
+
+/// Above `EXHAUSTIVE_CODES` the maximum comes from interval branch and
+/// bound: the attained maximum and the bound enclose the maximum over every
+/// code, enumerated here one by one through the scalar context (a wholly
+/// separate path from the compiled program the bound uses).
+#[test]
+fn branch_and_bound_encloses_the_exhaustive_maximum() {
+    for (d, g) in [("U1F27", "U2F16"), ("U1F28", "U2F22")] {
+        let mut st = stages();
+        st.d = st.d.with_format(d.parse::<Format>().unwrap());
+        st.g = st.g.with_format(g.parse::<Format>().unwrap());
+        let (n, des) = normalizer::design(
+            Method::Quadratic,
+            st,
+            0.5,
+            Fit::Minimax,
+            Interval::Triangle,
+            false,
+        )
+        .unwrap();
+        let (lo, hi) = des.unwrap().interval;
+        let m = normalizer::g_stage_max(&n, lo, hi, None).unwrap();
+        assert!(!m.exhaustive, "{d}: more codes than EXHAUSTIVE_CODES");
+        // Every code, through the compiled program in one pass (the
+        // exhaustive path's own loop is what is replaced, so use run_i128
+        // on all codes and the f64 error directly).
+        let fd = n.q.d.format();
+        let prog = n.compile_g().unwrap();
+        let (c_lo, c_hi) = (
+            (lo / fd.ulp()).ceil() as i128,
+            (hi / fd.ulp()).floor() as i128,
+        );
+        let mut truth = 0.0f64;
+        let mut c = c_lo;
+        while c <= c_hi {
+            let codes: Vec<i128> = (c..=(c + 65535).min(c_hi)).collect();
+            let (out, _) = prog.run_i128(&[&codes]);
+            for (&x, &y) in codes.iter().zip(&out[0]) {
+                let e = (n.q.g.format().to_f64(y) * fd.to_f64(x).sqrt() - 1.0).abs();
+                truth = truth.max(e);
+            }
+            c += 65536;
+        }
+        assert!(
+            m.max <= truth && truth <= m.bound,
+            "{d}: {} ≤ {truth} ≤ {}",
+            m.max,
+            m.bound
+        );
+        assert!(
+            m.bound <= truth * (1.0 + 1.0 / 64.0) * (1.0 + 1e-9),
+            "{d}: bound {} vs {truth}",
+            m.bound
+        );
+        // Stopping early: an error above the threshold is reported at once.
+        let s = normalizer::g_stage_max(&n, lo, hi, Some(truth / 2.0)).unwrap();
+        assert!(s.max > truth / 2.0 && s.bound.is_infinite());
+    }
+}

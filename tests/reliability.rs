@@ -13,8 +13,6 @@ fn no_panic(o: &std::process::Output) {
 #[test]
 fn a_very_wide_d_is_a_clear_result_not_a_panic() {
     for set in ["normalize.d.format=U1F58", "normalize.d.format=U3F60"] {
-        // (`ops` and `stages` design coefficients over every d code: hours at U1F58,
-        // issue #13 item 2, not fixed yet.)
         for cmd in [&["config", "show"][..], &["config", "show", "--json"][..]] {
             let mut args = cmd.to_vec();
             args.extend(["--set", set]);
@@ -305,4 +303,70 @@ fn the_testbench_catches_extra_lines_and_extra_digits() {
         let out = run_tb(sim, dir.path(), &v, 300);
         assert!(out.contains("300 passed, 0 failed"), "{sim}: {out}");
     }
+}
+
+/// Run fxshade with a hang guard: `timeout` kills it after `secs`.
+fn fxshade_within(secs: u32, args: &[&str]) -> std::process::Output {
+    Command::new("timeout")
+        .arg(secs.to_string())
+        .arg(env!("CARGO_BIN_EXE_fxshade"))
+        .args(args)
+        .output()
+        .expect("runs")
+}
+
+/// Configurations `config check` accepts whose coefficient design used to
+/// score every `d` code (hours at U1F40) or walk millions of coefficient
+/// codes (95 s at I3F24) finish every command. The limit is a hang guard,
+/// far above the seconds they take (BENCHMARKS.md has the times).
+#[test]
+fn wide_accepted_configurations_finish() {
+    let out = tempfile::tempdir().unwrap();
+    for set in [
+        "normalize.d.format=U1F32",
+        "normalize.d.format=U1F58",
+        "normalize.coef.format=I3F24",
+    ] {
+        let o = fxshade(&["config", "check", "/dev/null", "--set", set]);
+        assert_eq!(o.status.code(), Some(0), "{set}: {}", text(&o));
+        let dir = out.path().join(set.replace(['.', '='], "_"));
+        let dir = dir.to_str().unwrap();
+        for args in [
+            &[
+                "vectors",
+                "normalize",
+                "--count",
+                "200",
+                "--out",
+                dir,
+                "--force",
+            ][..],
+            &[
+                "vectors", "pipeline", "--count", "200", "--out", dir, "--force",
+            ][..],
+            &["ops"][..],
+            &["stages"][..],
+            &["error", "normalize", "--count", "2000"][..],
+        ] {
+            let mut a = args.to_vec();
+            a.extend(["--set", set]);
+            let o = fxshade_within(120, &a);
+            no_panic(&o);
+            assert_eq!(o.status.code(), Some(0), "{a:?}: {}", text(&o));
+        }
+    }
+    // With a wide d the maximum is bounded, and the table says so.
+    let o = fxshade(&[
+        "error",
+        "normalize",
+        "--count",
+        "2000",
+        "--set",
+        "normalize.d.format=U1F32",
+    ]);
+    assert!(
+        text(&o).contains("branch and bound") && text(&o).contains("(≤ "),
+        "{}",
+        text(&o)
+    );
 }

@@ -282,7 +282,11 @@ pub fn normalize(
         interval_kind,
         interval: (lo, hi),
         coeffs: n.coeffs.iter().rev().copied().collect(),
-        bound: length_bound(&n, g_stage.max_rel_err, lo),
+        bound: length_bound(
+            &n,
+            g_stage.max_rel_err_bound.unwrap_or(g_stage.max_rel_err),
+            lo,
+        ),
         design,
         g_stage,
         triangles,

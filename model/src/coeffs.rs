@@ -510,6 +510,11 @@ pub fn discrete_minimax(xs: &[f64], fs: &[f64], ws: &[f64], n: usize) -> (Vec<f6
 /// axis of the error's level sets; this does not, and it never does worse
 /// than rounding on these points. Returns the best `keep` candidates, best
 /// first.
+///
+/// The search visits at most [`SEARCH_LEAVES`] complete code sets, nearest
+/// the optimum first; with a fine coefficient format the error's level sets
+/// are so long that an exhaustive walk takes minutes. [`search_codes_full`]
+/// says whether the walk finished.
 pub fn search_codes(
     p: &Poly,
     f: Format,
@@ -517,6 +522,21 @@ pub fn search_codes(
     hi: f64,
     keep: usize,
 ) -> Result<Vec<Vec<i128>>, CoeffError> {
+    Ok(search_codes_full(p, f, lo, hi, keep)?.0)
+}
+
+/// Complete code sets [`search_codes`] evaluates at most.
+pub const SEARCH_LEAVES: usize = 4096;
+
+/// As [`search_codes`], and whether the search was exhaustive (it stopped
+/// on its bound, not on [`SEARCH_LEAVES`]).
+pub fn search_codes_full(
+    p: &Poly,
+    f: Format,
+    lo: f64,
+    hi: f64,
+    keep: usize,
+) -> Result<(Vec<Vec<i128>>, bool), CoeffError> {
     let rounded = round_coeffs(p, f, lo, hi)?;
     let n = p.degree();
     let grid = search_grid(lo, hi);
@@ -528,12 +548,15 @@ pub fn search_codes(
         f,
         keep: keep.max(1),
         best: Vec::new(),
+        leaves: 0,
+        ulp_err: f.ulp() * hi.sqrt() * (0..=n).map(|j| hi.powi(j as i32)).sum::<f64>(),
     };
     let e0 = s.error(&rounded.codes);
     s.offer(rounded.codes.clone(), e0);
     let mut fixed = vec![0i128; n + 1];
     s.descend(n, &mut fixed);
-    Ok(s.best.into_iter().map(|(c, _)| c).collect())
+    let complete = s.leaves <= SEARCH_LEAVES;
+    Ok((s.best.into_iter().map(|(c, _)| c).collect(), complete))
 }
 
 /// The 513 Chebyshev-spaced points of `[lo, hi]` (ends included) the search
@@ -569,6 +592,11 @@ struct Search<'a> {
     f: Format,
     keep: usize,
     best: Vec<(Vec<i128>, f64)>,
+    /// How much one ulp of every coefficient can move the error:
+    /// `h·√hi·Σ_j hi^j`.
+    ulp_err: f64,
+    /// Complete code sets evaluated so far.
+    leaves: usize,
 }
 
 impl Search<'_> {
@@ -588,9 +616,12 @@ impl Search<'_> {
     /// Errors at or above this cannot enter the kept list.
     fn bound(&self) -> f64 {
         if self.best.len() < self.keep {
-            self.best
-                .first()
-                .map_or(f64::INFINITY, |b| b.1 * 1.25 + 1e-15)
+            // Candidates within a quarter of the best error, but no more
+            // than 16 ulps of every coefficient away from it: with a fine
+            // format, the quarter would hold millions of code sets.
+            self.best.first().map_or(f64::INFINITY, |b| {
+                (b.1 * 1.25).min(b.1 + 16.0 * self.ulp_err) + 1e-15
+            })
         } else {
             self.best.last().map_or(f64::INFINITY, |b| b.1)
         }
@@ -630,7 +661,11 @@ impl Search<'_> {
         discrete_minimax(self.grid, &r, self.sq, j - 1).1
     }
     fn descend(&mut self, j: usize, fixed: &mut [i128]) {
+        if self.leaves > SEARCH_LEAVES {
+            return;
+        }
         if j == 0 {
+            self.leaves += 1;
             // Constant term: the smallest T for which all c·h ∈ [r_i − T/s_i,
             // r_i + T/s_i] intersect, by bisection; then the codes around it.
             let r = self.residual(fixed, 1);
@@ -673,31 +708,35 @@ impl Search<'_> {
             let r = self.residual(fixed, j + 1);
             discrete_minimax(self.grid, &r, self.sq, j).0[j] / self.h
         };
-        let span = 64.0 + real.abs() * 1e-2;
-        let (mut a, mut b) = (
-            ((real - span).floor() as i128).max(self.f.min_code()),
-            ((real + span).ceil() as i128).min(self.f.max_code()),
-        );
+        // The bound is convex in the code and smallest at `real`, so its
+        // integer minimum is next to it; a window around `real` that grows
+        // while the minimum sits on its edge absorbs the exchange
+        // algorithm's rounding.
         let lb = |code: i128, fixed: &mut [i128]| {
             fixed[j] = code;
             self.lower_bound(fixed, j)
         };
-        while b - a > 2 {
-            let m1 = a + (b - a) / 3;
-            let m2 = b - (b - a) / 3;
-            if lb(m1, fixed) < lb(m2, fixed) {
-                b = m2;
-            } else {
-                a = m1;
+        let clamp = |c: i128| c.clamp(self.f.min_code(), self.f.max_code());
+        let mut w = 2i128;
+        let start = loop {
+            let (a, b) = (
+                clamp(real.floor() as i128 - w),
+                clamp(real.ceil() as i128 + w),
+            );
+            let best = (a..=b)
+                .min_by(|&x, &y| lb(x, fixed).total_cmp(&lb(y, fixed)))
+                .expect("non-empty");
+            let on_edge =
+                (best == a && a > self.f.min_code()) || (best == b && b < self.f.max_code());
+            if !on_edge || w > 1 << 20 {
+                break best;
             }
-        }
-        let start = (a..=b)
-            .min_by(|&x, &y| lb(x, fixed).total_cmp(&lb(y, fixed)))
-            .expect("non-empty");
+            w *= 4;
+        };
         // Walk right, then left, while the bound can still beat the best.
         for dir in [1i128, -1] {
             let mut code = if dir == 1 { start } else { start - 1 };
-            while self.f.contains(code) {
+            while self.f.contains(code) && self.leaves <= SEARCH_LEAVES {
                 fixed[j] = code;
                 if self.lower_bound(fixed, j) >= self.bound() {
                     break;
@@ -712,18 +751,20 @@ impl Search<'_> {
 /// Both quantizations of `p`'s coefficients to format `f`: plain rounding
 /// and the searched best codes (by real-arithmetic error; the caller may
 /// re-rank the returned candidates with the bit-accurate model).
+/// The `bool` says whether the search was exhaustive ([`search_codes_full`]).
 pub fn quantize_coeffs(
     p: &Poly,
     f: Format,
     lo: f64,
     hi: f64,
-) -> Result<(Quantized, Vec<Quantized>), CoeffError> {
+) -> Result<(Quantized, Vec<Quantized>, bool), CoeffError> {
     let rounded = round_coeffs(p, f, lo, hi)?;
-    let cands = search_codes(p, f, lo, hi, 8)?
+    let (cands, complete) = search_codes_full(p, f, lo, hi, 8)?;
+    let cands = cands
         .into_iter()
         .map(|c| from_codes(c, f, lo, hi))
         .collect();
-    Ok((rounded, cands))
+    Ok((rounded, cands, complete))
 }
 
 #[cfg(test)]

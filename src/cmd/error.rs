@@ -262,9 +262,15 @@ pub fn tables(r: &NormalizeReport) -> Vec<Table> {
     ));
     let g = &r.g_stage;
     t.row([
-        "g(d) stage, every d code".to_string(),
+        match g.max_rel_err_bound {
+            None => "g(d) stage, every d code".to_string(),
+            Some(_) => "g(d) stage, every k-th d code (max: branch and bound)".to_string(),
+        },
         g.samples.to_string(),
-        format!("{:.3e}", g.max_rel_err),
+        match g.max_rel_err_bound {
+            None => format!("{:.3e}", g.max_rel_err),
+            Some(b) => format!("{:.3e} (≤ {b:.3e})", g.max_rel_err),
+        },
         format!("{:.3e}", g.mean_rel_err),
         format!("{:.3e}", g.rms_rel_err),
         "-".into(),

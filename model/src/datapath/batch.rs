@@ -17,6 +17,8 @@ use super::{Datapath, Table, WidthError};
 use crate::format::{ConvertError, Format};
 use crate::quantize::{Overflow, Quant, Raw, Rounding, Step};
 
+mod interval;
+
 /// A value in a trace: the node that computes it, its binary point, and its
 /// symbolic format.
 #[derive(Clone, Copy, Debug)]
@@ -965,6 +967,14 @@ impl Compiled {
         match self {
             Compiled::Wide(p) => p.run_flags(inputs),
             Compiled::Narrow(p) => on_i64(inputs, |refs| p.run_flags(refs)),
+        }
+    }
+    /// Bounds on every output over a box of input codes
+    /// ([`Program::run_interval`]).
+    pub fn run_interval(&self, inputs: &[(i128, i128)]) -> Option<Vec<(i128, i128)>> {
+        match self {
+            Compiled::Narrow(p) => p.run_interval(inputs),
+            Compiled::Wide(p) => p.run_interval(inputs),
         }
     }
     /// The overflow-flag stages.

@@ -390,6 +390,9 @@ pub struct Design {
     pub rounded: CoeffChoice,
     /// The best codes found by search (re-ranked by the bit-accurate model).
     pub searched: CoeffChoice,
+    /// Whether the code search was exhaustive (false: it stopped after
+    /// [`coeffs::SEARCH_LEAVES`] code sets, nearest the optimum first).
+    pub search_complete: bool,
     /// Which of the two the normalizer uses.
     pub used: &'static str,
 }
@@ -403,9 +406,13 @@ pub struct CoeffChoice {
     pub values: Vec<f64>,
     /// `max |g·√d − 1|` in real arithmetic with these values (exact).
     pub max_rel_err_real: f64,
-    /// `max |g·√d − 1|` through the bit-accurate `g(d)` stage, over every
-    /// `d` code in the interval.
+    /// `max |g·√d − 1|` through the bit-accurate `g(d)` stage over the `d`
+    /// codes in the interval: attained at a code ([`g_stage_max`]; every
+    /// code up to [`EXHAUSTIVE_CODES`]).
     pub max_rel_err_model: f64,
+    /// A rigorous upper bound on it (equal when every code was evaluated,
+    /// within 1/64 above otherwise).
+    pub max_rel_err_model_bound: f64,
 }
 
 /// Why a normalizer could not be built from a configuration.
@@ -462,31 +469,37 @@ pub fn design_interval(
     };
     let real = coeffs::design(fit, lo, hi, degree)?;
     let cf = stages.coef.format();
-    let (rounded, cands) = coeffs::quantize_coeffs(&real, cf, lo, hi)?;
-    let model_err = |values: &[f64]| -> Result<f64, DesignError> {
+    let (rounded, cands, search_complete) = coeffs::quantize_coeffs(&real, cf, lo, hi)?;
+    // The bit-accurate error of a coefficient set; `None` when it is known
+    // to exceed `stop` (the set cannot win).
+    let model_err = |values: &[f64], stop: Option<f64>| -> Result<Option<GMax>, DesignError> {
         let n = Normalizer {
             method,
             q: stages,
             coeffs: values.to_vec(),
         };
-        Ok(g_stage_stats(&n, lo, hi)?.max_rel_err)
+        let m = g_stage_max(&n, lo, hi, stop)?;
+        Ok((m.bound.is_finite()).then_some(m))
     };
-    let choice = |q: &coeffs::Quantized| -> Result<CoeffChoice, DesignError> {
-        Ok(CoeffChoice {
-            codes: q.codes.clone(),
-            values: q.values.clone(),
-            max_rel_err_real: q.max_rel_err,
-            max_rel_err_model: model_err(&q.values)?,
-        })
+    let choice = |q: &coeffs::Quantized, m: GMax| CoeffChoice {
+        codes: q.codes.clone(),
+        values: q.values.clone(),
+        max_rel_err_real: q.max_rel_err,
+        max_rel_err_model: m.max,
+        max_rel_err_model_bound: m.bound,
     };
-    let rounded = choice(&rounded)?;
+    let m = model_err(&rounded.values, None)?.expect("no stop: always measured");
+    let rounded = choice(&rounded, m);
     // Re-rank the search's candidates (and rounding's) by the bit-accurate
-    // model, so the searched set never does worse than rounding.
+    // model's guaranteed bound, so the searched set never does worse than
+    // rounding; a candidate is dropped as soon as one of its errors exceeds
+    // the best bound so far.
     let mut searched = rounded.clone();
     for c in &cands {
-        let ch = choice(c)?;
-        if ch.max_rel_err_model < searched.max_rel_err_model {
-            searched = ch;
+        if let Some(m) = model_err(&c.values, Some(searched.max_rel_err_model_bound))? {
+            if m.bound < searched.max_rel_err_model_bound {
+                searched = choice(c, m);
+            }
         }
     }
     let used = if search { &searched } else { &rounded };
@@ -507,6 +520,7 @@ pub fn design_interval(
             real_max_rel_err,
             rounded: rounded.clone(),
             searched,
+            search_complete,
             used: if search { "search" } else { "round" },
         }),
     ))
@@ -527,6 +541,11 @@ pub struct Stats {
     pub worst_at: f64,
     /// Overflows counted at quantization steps.
     pub overflows: u64,
+    /// When the samples are a subset of the inputs: a rigorous upper bound
+    /// on the error over every input (`max_rel_err` is then the largest
+    /// error found).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_rel_err_bound: Option<f64>,
 }
 
 impl Stats {
@@ -550,36 +569,237 @@ impl Stats {
     }
 }
 
-/// Exhaustive analysis of the scalar stage: every code of the `d` format in
-/// `[lo, hi]` through the bit-accurate `g(d)`, error `|g·√d − 1|` with `d`
-/// the code's exact value.
-pub fn g_stage_stats(n: &Normalizer, lo: f64, hi: f64) -> Result<Stats, DesignError> {
+/// Codes of `d` up to which the `g(d)` stage is analysed code by code; above
+/// it, [`g_stage_max`] bounds the maximum by interval branch-and-bound and
+/// [`g_stage_stats`] takes the mean and RMS from an even subsample.
+pub const EXHAUSTIVE_CODES: i128 = 1 << 22;
+
+/// The largest error `|g·√d − 1|` of the bit-accurate `g(d)` stage over the
+/// `d` codes of an interval.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct GMax {
+    /// The largest error found at a code (attained: it is an actual code's
+    /// error).
+    pub max: f64,
+    /// The `d` value where it occurs.
+    pub at: f64,
+    /// A rigorous upper bound on every code's error (`== max` when every
+    /// code was evaluated).
+    pub bound: f64,
+    /// Whether every code was evaluated.
+    pub exhaustive: bool,
+}
+
+/// The codes of `d` in `[lo, hi]`.
+fn d_codes(n: &Normalizer, lo: f64, hi: f64) -> (i128, i128) {
     let fd = n.q.d.format();
-    let c_lo = (lo / fd.ulp()).ceil() as i128;
+    let c_lo = ((lo / fd.ulp()).ceil() as i128).max(fd.min_code());
     let c_hi = ((hi / fd.ulp()).floor() as i128).min(fd.max_code());
+    (c_lo, c_hi)
+}
+
+/// Largest error of the `g(d)` stage over the `d` codes in `[lo, hi]`.
+///
+/// Up to [`EXHAUSTIVE_CODES`] codes every code is evaluated. Above, a
+/// branch-and-bound over ranges of codes: each range's outputs are bounded by
+/// [`Compiled::run_interval`] (rigorous: every quantization is monotonic),
+/// which bounds `g·√d − 1` over the range; ranges whose bound cannot exceed
+/// the largest error found so far are dropped, the others split (and
+/// enumerated once they hold at most 4096 codes). It stops when no range's
+/// bound exceeds the largest error found by more than 1/64 of it, so
+/// `max ≤ true maximum ≤ bound ≤ max·(1 + 1/64)` (plus a relative 10⁻¹²
+/// for the f64 evaluation of the bound).
+///
+/// With `stop_above`, returns as soon as an error above it is found (the
+/// caller only needs to know the set is worse than that): `max` is then
+/// that error, and `bound` is `f64::INFINITY`.
+pub fn g_stage_max(
+    n: &Normalizer,
+    lo: f64,
+    hi: f64,
+    stop_above: Option<f64>,
+) -> Result<GMax, DesignError> {
+    let prog = n.compile_g()?;
+    let (c_lo, c_hi) = d_codes(n, lo, hi);
+    let (ud, ug) = (n.q.d.format().ulp(), n.q.g.format().ulp());
+    let stop = stop_above.unwrap_or(f64::INFINITY);
+    let err = |c: i128, g: i128| {
+        let d = c as f64 * ud;
+        ((g as f64 * ug) * d.sqrt() - 1.0).abs()
+    };
+    let mut best = GMax {
+        max: 0.0,
+        at: lo,
+        bound: 0.0,
+        exhaustive: true,
+    };
+    // Every code of [a, b]; false when it found an error above `stop`.
+    let enumerate = |a: i128, b: i128, best: &mut GMax| -> bool {
+        const CHUNK: i128 = 1 << 12;
+        let mut codes: Vec<i128> = Vec::with_capacity(CHUNK as usize);
+        let mut start = a;
+        while start <= b {
+            let end = (start + CHUNK - 1).min(b);
+            codes.clear();
+            codes.extend(start..=end);
+            let (out, _) = prog.run_i128(&[&codes]);
+            for (&c, &g) in codes.iter().zip(&out[0]) {
+                let e = err(c, g);
+                if e > best.max {
+                    best.max = e;
+                    best.at = c as f64 * ud;
+                }
+            }
+            if best.max > stop {
+                return false;
+            }
+            start = end + 1;
+        }
+        true
+    };
+    if c_lo > c_hi {
+        return Ok(best);
+    }
+    if c_hi - c_lo < EXHAUSTIVE_CODES {
+        if !enumerate(c_lo, c_hi, &mut best) {
+            best.bound = f64::INFINITY;
+            return Ok(best);
+        }
+        best.bound = best.max;
+        return Ok(best);
+    }
+    // Branch and bound.
+    let range_bound = |a: i128, b: i128| -> Option<f64> {
+        let (g0, g1) = prog.run_interval(&[(a, b)])?[0];
+        let (s0, s1) = ((a as f64 * ud).sqrt(), (b as f64 * ud).sqrt());
+        let (g0, g1) = (g0 as f64 * ug, g1 as f64 * ug);
+        let p = [g0 * s0, g0 * s1, g1 * s0, g1 * s1];
+        let pmin = p.iter().cloned().fold(f64::INFINITY, f64::min);
+        let pmax = p.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+        Some((pmin - 1.0).abs().max((pmax - 1.0).abs()) * (1.0 + 1e-12))
+    };
+    #[derive(PartialEq)]
+    struct Range(f64, i128, i128);
+    impl Eq for Range {}
+    impl PartialOrd for Range {
+        fn partial_cmp(&self, o: &Self) -> Option<std::cmp::Ordering> {
+            Some(self.cmp(o))
+        }
+    }
+    impl Ord for Range {
+        fn cmp(&self, o: &Self) -> std::cmp::Ordering {
+            self.0.total_cmp(&o.0)
+        }
+    }
+    let mut heap = std::collections::BinaryHeap::new();
+    let split = |a: i128,
+                 b: i128,
+                 best: &mut GMax,
+                 heap: &mut std::collections::BinaryHeap<Range>|
+     -> bool {
+        const WAYS: i128 = 16;
+        let step = ((b - a + 1) + WAYS - 1) / WAYS;
+        let mut bounds = Vec::new();
+        let mut x = a;
+        while x <= b {
+            let y = (x + step - 1).min(b);
+            bounds.push((x, y));
+            x = y + 1;
+        }
+        // Exact errors at the ends of every part: the attained maximum.
+        let ends: Vec<i128> = bounds.iter().flat_map(|&(x, y)| [x, y]).collect();
+        let (out, _) = prog.run_i128(&[&ends]);
+        for (&c, &g) in ends.iter().zip(&out[0]) {
+            let e = err(c, g);
+            if e > best.max {
+                best.max = e;
+                best.at = c as f64 * ud;
+            }
+        }
+        if best.max > stop {
+            return false;
+        }
+        for (x, y) in bounds {
+            if y - x < 4096 {
+                heap.push(Range(f64::INFINITY, x, y));
+            } else {
+                heap.push(Range(range_bound(x, y).unwrap_or(f64::INFINITY), x, y));
+            }
+        }
+        true
+    };
+    if !split(c_lo, c_hi, &mut best, &mut heap) {
+        best.bound = f64::INFINITY;
+        best.exhaustive = false;
+        return Ok(best);
+    }
+    best.exhaustive = false;
+    while let Some(Range(u, a, b)) = heap.pop() {
+        if u <= best.max * (1.0 + 1.0 / 64.0) {
+            best.bound = u.max(best.max);
+            return Ok(best);
+        }
+        let ok = if b - a < 4096 {
+            enumerate(a, b, &mut best)
+        } else {
+            split(a, b, &mut best, &mut heap)
+        };
+        if !ok {
+            best.bound = f64::INFINITY;
+            return Ok(best);
+        }
+    }
+    // Every range was enumerated.
+    best.bound = best.max;
+    best.exhaustive = true;
+    Ok(best)
+}
+
+/// Analysis of the scalar stage over the `d` codes in `[lo, hi]` through
+/// the bit-accurate `g(d)`, error `|g·√d − 1|` with `d` the code's exact
+/// value. Up to [`EXHAUSTIVE_CODES`] codes, every code; above, the mean and
+/// RMS come from every k-th code (an even subsample of about
+/// [`EXHAUSTIVE_CODES`] codes, `samples` says how many) and the maximum from
+/// [`g_stage_max`] (`max_rel_err` attained, `max_rel_err_bound` rigorous).
+pub fn g_stage_stats(n: &Normalizer, lo: f64, hi: f64) -> Result<Stats, DesignError> {
+    let (c_lo, c_hi) = d_codes(n, lo, hi);
+    let fd = n.q.d.format();
     let prog = n.compile_g()?;
     let fg = n.q.g.format();
     let mut st = Stats::default();
+    let stride = ((c_hi - c_lo + 1) / EXHAUSTIVE_CODES).max(1);
     // In chunks: a wide `d` format has tens of millions of codes.
     // Codes of at most 64 bits convert to f64 through i64 (exactly as
     // `Format::to_f64` does for them, and far faster than from i128).
     const CHUNK: i128 = 1 << 12;
     let (ud, ug) = (fd.ulp(), fg.ulp());
     let mut codes: Vec<i128> = Vec::with_capacity(CHUNK as usize);
-    let mut start = c_lo.max(fd.min_code());
+    let mut start = c_lo;
     while start <= c_hi {
-        let end = (start + CHUNK - 1).min(c_hi);
         codes.clear();
-        codes.extend(start..=end);
+        let mut c = start;
+        while c <= c_hi && codes.len() < CHUNK as usize {
+            codes.push(c);
+            c += stride;
+        }
         let (out, ov) = prog.run_i128(&[&codes]);
         for (&c, &g) in codes.iter().zip(&out[0]) {
             let d = c as i64 as f64 * ud;
             st.add((g as i64 as f64 * ug * d.sqrt() - 1.0).abs(), d);
         }
         st.overflows += ov.iter().map(|(_, k)| k).sum::<u64>();
-        start = end + 1;
+        start = c;
     }
-    Ok(st.finish())
+    let mut st = st.finish();
+    if stride > 1 {
+        let m = g_stage_max(n, lo, hi, None)?;
+        if m.max >= st.max_rel_err {
+            st.max_rel_err = m.max;
+            st.worst_at = m.at;
+        }
+        st.max_rel_err_bound = Some(m.bound.max(st.max_rel_err));
+    }
+    Ok(st)
 }
 
 /// The normalizer a configuration describes (with its design, for linear and
