@@ -246,3 +246,142 @@ fn a_level_format_with_fraction_bits_is_shown_by_value() {
         "mid-range levels present"
     );
 }
+
+fn obj(dir: &std::path::Path, name: &str, text: &str) -> String {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p.to_str().unwrap().to_string()
+}
+
+/// Two triangles of one square; the first has antiparallel vertex normals.
+const ANTIPARALLEL: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\n\
+vn 0 0 1\nvn 0 0 -1\nvn 0 0 1\nvn 0 0 1\n\
+f 1//1 2//2 3//3\nf 2//4 4//4 3//3\n";
+
+/// Pixels of a triangle that cannot be set up are counted, named and left
+/// out of every metric; with none left, nothing is claimed.
+#[test]
+fn skipped_pixels_are_counted_and_excluded_not_exact() {
+    let d = tempfile::tempdir().unwrap();
+    let half = obj(d.path(), "half.obj", ANTIPARALLEL);
+    let (o, _t) = render(&[
+        "--mesh",
+        &half,
+        "--size",
+        "32x32",
+        "--method",
+        "quadratic",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(
+        text(&o).contains("triangle 1 (face on line 9)"),
+        "{}",
+        text(&o)
+    );
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let (total, skipped) = (
+        j["pixels"].as_u64().unwrap(),
+        j["skipped_pixels"].as_u64().unwrap(),
+    );
+    let m = &j["methods"][0];
+    assert!(skipped > 0 && skipped < total, "{j}");
+    assert_eq!(m["skipped"].as_u64().unwrap(), skipped);
+    assert_eq!(
+        m["pixels"].as_u64().unwrap(),
+        total - skipped,
+        "only set-up pixels compared"
+    );
+    // Every triangle degenerate: no pixel compared, no claim.
+    let all = obj(
+        d.path(),
+        "all.obj",
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nvn 0 0 -1\nvn 0 0 1\nf 1//1 2//2 3//3\n",
+    );
+    let (o, _t) = render(&["--mesh", &all, "--size", "32x32", "--method", "quadratic"]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(
+        text(&o).contains("no pixel compared") && !text(&o).contains(" yes "),
+        "{}",
+        text(&o)
+    );
+    let (o, _t) = render(&[
+        "--mesh",
+        &all,
+        "--size",
+        "32x32",
+        "--method",
+        "quadratic",
+        "--json",
+    ]);
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(j["methods"][0]["pixels"], 0);
+    assert_eq!(j["methods"][0]["paper_bound_holds"], false);
+}
+
+/// Bad OBJ content is refused with the line that holds it: a zero-length
+/// normal, a face of two vertices, an index past the end (named on its own
+/// line, not at the end of the file).
+#[test]
+fn bad_obj_lines_are_named() {
+    let d = tempfile::tempdir().unwrap();
+    let base = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\n";
+    for (body, line, what) in [
+        ("vn 0 0 0\nf 1//1 2//2 3//1\n", 5, "zero-length"),
+        ("f 1 2\n", 5, "at least 3 vertices"),
+        ("f 1 2 3\nf 1 2 4\n# end\n", 6, "vertex index 4"),
+    ] {
+        let p = obj(d.path(), "bad.obj", &format!("{base}{body}"));
+        let (o, _t) = render(&["--mesh", &p, "--size", "16x16"]);
+        assert_eq!(o.status.code(), Some(1), "{body:?}: {}", text(&o));
+        assert!(
+            text(&o).contains(&format!("bad.obj:{line}:")) && text(&o).contains(what),
+            "{body:?}: {}",
+            text(&o)
+        );
+    }
+}
+
+/// The scene is flags: the light, the viewer, the tilt and the normal map
+/// change the image; a zero direction is refused by name.
+#[test]
+fn the_scene_is_flags_with_defaults() {
+    let img = |extra: &[&str]| {
+        let mut a = vec![
+            "--mesh", "sphere:8", "--size", "24x24", "--method", "mapped",
+        ];
+        a.extend_from_slice(extra);
+        let (o, t) = render(&a);
+        assert!(o.status.success(), "{extra:?}: {}", text(&o));
+        decode(&t.path().join("r").join("mapped.png")).2
+    };
+    let default = img(&[]);
+    assert_eq!(
+        default,
+        img(&[
+            "--light",
+            "-0.45,0.6,0.66",
+            "--view",
+            "0,0,1",
+            "--tilt",
+            "30"
+        ])
+    );
+    for extra in [
+        &["--light", "0,0,1"][..],
+        &["--view", "0.3,0,1"][..],
+        &["--tilt", "-20"][..],
+        &["--normal-map", "flat"][..],
+    ] {
+        assert_ne!(default, img(extra), "{extra:?} changes the image");
+    }
+    for (flag, v) in [
+        ("--light", "0,0,0"),
+        ("--view", "1,2"),
+        ("--light", "nan,0,1"),
+    ] {
+        let (o, _t) = render(&["--mesh", "sphere:8", "--size", "8x8", flag, v]);
+        assert_eq!(o.status.code(), Some(1), "{flag} {v}: {}", text(&o));
+        assert!(text(&o).contains(flag), "{flag} {v}: {}", text(&o));
+    }
+}

@@ -14,6 +14,20 @@ pub struct Mesh {
     pub uvs: Vec<DVec2>,
     /// Triangles, counter-clockwise seen from outside.
     pub triangles: Vec<[u32; 3]>,
+    /// For a mesh read from a file: the 1-based line of the face each
+    /// triangle came from (empty for procedural meshes).
+    pub source_lines: Vec<usize>,
+}
+
+impl Mesh {
+    /// How to name triangle `t` (0-based) in a message: its file line when
+    /// known, else its 1-based index.
+    pub fn describe_triangle(&self, t: usize) -> String {
+        match self.source_lines.get(t) {
+            Some(l) => format!("triangle {} (face on line {l})", t + 1),
+            None => format!("triangle {}", t + 1),
+        }
+    }
 }
 
 /// The axis a procedural mesh is built around.
@@ -223,6 +237,101 @@ impl<R: std::io::BufRead> std::io::BufRead for LineCounter<R> {
     }
 }
 
+/// Check what the `tobj` parser accepts silently or reports on the wrong
+/// line, naming the line: faces of fewer than three vertices, vertex,
+/// texture or normal indices that are zero or outside the file's elements,
+/// non-finite positions, and normals (`vn`) that are not finite or have zero
+/// length (one such normal would otherwise make the loader discard every
+/// normal of the file). Returns, for each triangle the fan triangulation of
+/// the faces yields (in file order), its face's line.
+fn prescan_obj(path: &str, text: &str) -> Result<Vec<usize>, ObjError> {
+    let lines: Vec<&str> = text.lines().collect();
+    let count = |kw: &str| {
+        lines
+            .iter()
+            .filter(|l| l.split_whitespace().next() == Some(kw))
+            .count() as i64
+    };
+    let totals = [count("v"), count("vt"), count("vn")];
+    let mut seen = [0i64; 3];
+    let mut face_lines = Vec::new();
+    for (i, raw) in lines.iter().enumerate() {
+        let line = i + 1;
+        let err = |what: String| ObjError::Parse {
+            path: path.to_string(),
+            line,
+            what,
+            text: raw.trim().to_string(),
+        };
+        let mut tok = raw.split_whitespace();
+        let Some(kw) = tok.next() else { continue };
+        let nums = |tok: std::str::SplitWhitespace| -> Vec<Option<f64>> {
+            tok.take(3).map(|x| x.parse::<f64>().ok()).collect()
+        };
+        match kw {
+            "v" | "vn" => {
+                let v = nums(tok);
+                let k = if kw == "v" { 0 } else { 2 };
+                seen[k] += 1;
+                if v.len() < 3 || v.iter().any(|x| x.is_none()) {
+                    continue; // tobj names these itself
+                }
+                let v: Vec<f64> = v.into_iter().flatten().collect();
+                if v.iter().any(|x| !x.is_finite()) {
+                    return Err(err(format!("{kw}: components must be finite")));
+                }
+                if kw == "vn" && v.iter().all(|&x| x == 0.0) {
+                    return Err(err(
+                        "vn: a zero-length normal has no direction; give a unit normal, or leave the file's normals out to have them computed".into(),
+                    ));
+                }
+            }
+            "vt" => seen[1] += 1,
+            "f" => {
+                let verts: Vec<&str> = tok.collect();
+                if verts.len() < 3 {
+                    return Err(err(format!(
+                        "a face needs at least 3 vertices; this one has {}",
+                        verts.len()
+                    )));
+                }
+                for v in &verts {
+                    for (k, part) in v.split('/').enumerate().take(3) {
+                        if part.is_empty() {
+                            continue;
+                        }
+                        let what = ["vertex", "texture coordinate", "normal"][k];
+                        let Ok(idx) = part.parse::<i64>() else {
+                            return Err(err(format!(
+                                "`{v}`: the {what} index `{part}` is not an integer"
+                            )));
+                        };
+                        let ok = if idx > 0 {
+                            idx <= totals[k]
+                        } else {
+                            idx < 0 && seen[k] + idx >= 0
+                        };
+                        if !ok {
+                            return Err(err(format!(
+                                "`{v}`: {what} index {idx} does not exist ({} {what}s {})",
+                                if idx > 0 { totals[k] } else { seen[k] },
+                                if idx > 0 {
+                                    "in the file"
+                                } else {
+                                    "before this line"
+                                }
+                            )));
+                        }
+                    }
+                }
+                face_lines.extend(std::iter::repeat_n(line, verts.len() - 2));
+            }
+            _ => {}
+        }
+    }
+    Ok(face_lines)
+}
+
 /// Load a Wavefront OBJ file with the `tobj` crate: every object merged,
 /// polygons triangulated. Normals missing from the file (or not given for
 /// every vertex) are computed as area-weighted averages of the faces
@@ -235,6 +344,7 @@ pub fn load_obj(path: &std::path::Path) -> Result<Mesh, ObjError> {
         path: name.clone(),
         source,
     })?;
+    let face_lines = prescan_obj(&name, &String::from_utf8_lossy(&bytes))?;
     let mut rd = LineCounter {
         inner: std::io::BufReader::new(&bytes[..]),
         newlines: 0,
@@ -310,11 +420,16 @@ pub fn load_obj(path: &std::path::Path) -> Result<Mesh, ObjError> {
             why: format!("vertex {} has a non-finite position", p + 1),
         });
     }
+    if m.triangles.len() == face_lines.len() {
+        m.source_lines = face_lines;
+    }
     if !all_normals
         || m.normals
             .iter()
             .any(|n| !n.is_finite() || n.length() < 1e-12)
     {
+        // Normals missing for some vertex (every given `vn` was checked
+        // above): computed for all, as the loader's documentation says.
         m.normals = smooth_normals(&m);
     } else {
         for n in &mut m.normals {
@@ -409,5 +524,29 @@ mod obj_tests {
         assert!(e.to_string().contains(":5:"), "{e}");
         let e = load("v 0 0 0\n").unwrap_err();
         assert!(e.to_string().contains("no faces"), "{e}");
+    }
+
+    #[test]
+    fn short_faces_bad_normals_and_bad_indices_name_their_line() {
+        let tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nvn 0 0 1\n";
+        for (body, line, what) in [
+            ("f 1 2\n", 6, "at least 3 vertices"),
+            ("f 1\n", 6, "at least 3 vertices"),
+            ("vn 0 0 0\nf 1//1 2//2 3//3\n", 6, "zero-length"),
+            ("vn nan 0 1\nf 1//1 2//2 3//3\n", 6, "finite"),
+            ("f 1 2 3\nf 1 2 9\n# end\n# more\n", 7, "vertex index 9"),
+            ("f 1//1 2//7 3//1\n# end\n", 6, "normal index 7"),
+            ("f 1 2 0\n", 6, "vertex index 0"),
+            ("f -1 -2 -4\n", 6, "vertex index -4"),
+        ] {
+            let e = load(&format!("{tri}{body}")).unwrap_err().to_string();
+            assert!(
+                e.contains(&format!(":{line}:")) && e.contains(what),
+                "{body:?}: {e}"
+            );
+        }
+        // Relative indices and quads are fine, and each triangle knows its line.
+        let m = load(&format!("{tri}v 1 1 0\nf -4 -3 -1 -2\nf 1 2 3\n")).unwrap();
+        assert_eq!(m.source_lines, vec![7, 7, 8]);
     }
 }

@@ -3,12 +3,15 @@
 //! against an f64 reference.
 //!
 //! ## Scene
-//! The mesh is centred on its bounding box, scaled to radius 1, turned
-//! [`TILT_DEG`] about x (so the pole of a y-axis sphere and the hole of a
-//! torus are in view), and projected orthographically along −z onto the
-//! image (radius 1 → 45 % of the smaller side). The viewer direction is
-//! `V = +z`, the light `L` is [`LIGHT`] (normalized); both are constant, so
-//! `H = (L + V)/|L + V|` is too. A z-buffer keeps the nearest triangle per
+//! A [`Scene`] (defaults: [`Scene::default`]; `fxshade render --light
+//! --view --tilt --normal-map`). The mesh is centred on its bounding box,
+//! scaled to radius 1, turned `tilt` degrees about x (default [`TILT_DEG`],
+//! so the pole of a y-axis sphere and the hole of a torus are in view), then
+//! seen from the viewer direction `V` (default `+z`): the scene is rotated
+//! by the shortest rotation taking `V` to `+z` and projected orthographically
+//! along −z onto the image (radius 1 → 45 % of the smaller side). The light
+//! `L` (default [`LIGHT`], normalized) is given in the same world frame as
+//! `V`; both are constant, so `H = (L + V)/|L + V|` is too. A z-buffer keeps the nearest triangle per
 //! pixel centre; a pixel on a shared edge belongs to the first triangle
 //! drawn at that depth.
 //!
@@ -118,14 +121,134 @@ pub struct Raster {
     pub normals: Vec<DVec3>,
 }
 
-/// The scene transform of a direction: the tilt about x.
-fn tilt(v: DVec3) -> DVec3 {
-    let (s, c) = TILT_DEG.to_radians().sin_cos();
-    DVec3::new(v.x, c * v.y - s * v.z, s * v.y + c * v.z)
+/// The normal map the mapped path samples.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum NormalMap {
+    /// The procedural bumps of [`normal_map`].
+    Bumps,
+    /// `(0, 0, 1)` everywhere: the mapped path then shades the interpolated
+    /// normal itself.
+    Flat,
+}
+
+impl NormalMap {
+    /// Every map.
+    pub const ALL: [NormalMap; 2] = [NormalMap::Bumps, NormalMap::Flat];
+    /// Its name.
+    pub fn name(self) -> &'static str {
+        match self {
+            NormalMap::Bumps => "bumps",
+            NormalMap::Flat => "flat",
+        }
+    }
+    /// The texel at `uv`.
+    pub fn at(self, uv: DVec2) -> DVec3 {
+        match self {
+            NormalMap::Bumps => normal_map(uv),
+            NormalMap::Flat => DVec3::Z,
+        }
+    }
+}
+
+/// Where the light and the viewer are and how the mesh is posed.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct Scene {
+    /// Direction towards the light, world frame, unit length.
+    pub light: DVec3,
+    /// Direction towards the viewer, world frame, unit length.
+    pub view: DVec3,
+    /// Tilt of the mesh about x, in degrees, before viewing.
+    pub tilt_deg: f64,
+    /// The normal map of the mapped path.
+    pub normal_map: NormalMap,
+}
+
+impl Default for Scene {
+    /// [`LIGHT`], `V = +z`, [`TILT_DEG`], the bumps.
+    fn default() -> Self {
+        Scene {
+            light: DVec3::from_array(LIGHT).normalize(),
+            view: DVec3::Z,
+            tilt_deg: TILT_DEG,
+            normal_map: NormalMap::Bumps,
+        }
+    }
+}
+
+/// Why a scene is unusable.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SceneError {
+    /// A direction that is zero or not finite.
+    #[error("--{what} {x},{y},{z}: a direction needs finite components, not all zero")]
+    Direction {
+        /// `light` or `view`.
+        what: &'static str,
+        /// x.
+        x: f64,
+        /// y.
+        y: f64,
+        /// z.
+        z: f64,
+    },
+    /// A tilt that is not finite.
+    #[error("--tilt {0}: give a finite angle in degrees")]
+    Tilt(f64),
+}
+
+impl Scene {
+    /// A scene from raw directions (normalized here) and a tilt.
+    pub fn new(
+        light: DVec3,
+        view: DVec3,
+        tilt_deg: f64,
+        normal_map: NormalMap,
+    ) -> Result<Scene, SceneError> {
+        let unit = |what, v: DVec3| {
+            if v.is_finite() && v.length() > 1e-300 {
+                Ok(v.normalize())
+            } else {
+                Err(SceneError::Direction {
+                    what,
+                    x: v.x,
+                    y: v.y,
+                    z: v.z,
+                })
+            }
+        };
+        if !tilt_deg.is_finite() {
+            return Err(SceneError::Tilt(tilt_deg));
+        }
+        Ok(Scene {
+            light: unit("light", light)?,
+            view: unit("view", view)?,
+            tilt_deg,
+            normal_map,
+        })
+    }
+    /// The rotation taking the viewer to `+z`.
+    fn to_camera(&self) -> glam::DQuat {
+        glam::DQuat::from_rotation_arc(self.view, DVec3::Z)
+    }
+    /// World to camera frame for a mesh direction: tilt, then view.
+    fn pose(&self, v: DVec3) -> DVec3 {
+        let (s, c) = self.tilt_deg.to_radians().sin_cos();
+        self.to_camera() * DVec3::new(v.x, c * v.y - s * v.z, s * v.y + c * v.z)
+    }
+    /// The light in the camera frame (the viewer is `+z` there).
+    pub fn light_camera(&self) -> DVec3 {
+        (self.to_camera() * self.light).normalize()
+    }
+}
+
+/// Rasterize `m` at `width × height` in the default [`Scene`].
+pub fn rasterize(m: &Mesh, width: usize, height: usize) -> Raster {
+    rasterize_in(&Scene::default(), m, width, height)
 }
 
 /// Rasterize `m` at `width × height` (see the module page for the scene).
-pub fn rasterize(m: &Mesh, width: usize, height: usize) -> Raster {
+pub fn rasterize_in(scene: &Scene, m: &Mesh, width: usize, height: usize) -> Raster {
+    let tilt = |v: DVec3| scene.pose(v);
     let (lo, hi) = m.positions.iter().fold(
         (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
         |(lo, hi), p| (lo.min(*p), hi.max(*p)),
@@ -230,6 +353,9 @@ pub fn shade_f64(cfg_light: &crate::lighting::Lighting, n: DVec3, l: DVec3, h: D
 pub struct Metrics {
     /// Covered pixels compared.
     pub pixels: usize,
+    /// Covered pixels not compared: their triangle could not be set up
+    /// (the reference is NaN there).
+    pub skipped: usize,
     /// Largest `|image − reference image|`, in levels.
     pub max_abs_levels: u32,
     /// Mean of the same.
@@ -248,15 +374,20 @@ pub struct Metrics {
 }
 
 impl Metrics {
-    /// Compare `got` (levels) with the f64 reference `want`, pixel by pixel.
+    /// Compare `got` (levels) with the f64 reference `want`, pixel by pixel;
+    /// pixels whose reference is NaN are counted in `skipped` and left out.
+    /// With no pixel compared, nothing is claimed: `paper_bound_holds` is
+    /// false and `psnr_db` is `None`.
     pub fn compare(got: &[u8], want: &[f64]) -> Metrics {
-        let mut m = Metrics {
-            pixels: got.len(),
-            ..Default::default()
-        };
+        let mut m = Metrics::default();
         let (mut sum, mut sq) = (0.0, 0.0);
         let mut hist = [0usize; 4];
         for (&g, &w) in got.iter().zip(want) {
+            if w.is_nan() {
+                m.skipped += 1;
+                continue;
+            }
+            m.pixels += 1;
             let e = (g as f64 - w.round()).abs() as u32;
             m.max_abs_levels = m.max_abs_levels.max(e);
             sum += e as f64;
@@ -273,7 +404,7 @@ impl Metrics {
             m.off_by = hist.map(|h| h as f64 / n);
             m.psnr_db = (sq > 0.0).then(|| 10.0 * (255.0f64 * 255.0 / (sq / n)).log10());
         }
-        m.paper_bound_holds = m.max_rel_intensity_err < PAPER_BOUND;
+        m.paper_bound_holds = m.pixels > 0 && m.max_rel_intensity_err < PAPER_BOUND;
         m
     }
 }
@@ -343,8 +474,11 @@ pub fn cos_phi_stats(m: &Mesh) -> CosPhiStats {
 pub struct Frame {
     /// The raster.
     pub raster: Raster,
-    /// Fragments whose triangle could not be set up (shaded 0 in every image).
+    /// Fragments whose triangle could not be set up (shaded 0 in every image,
+    /// NaN in the references, excluded from the metrics).
     pub skipped: usize,
+    /// Those triangles (0-based indices into the mesh), in raster order.
+    pub skipped_triangles: Vec<usize>,
     /// Smooth-path input rows (one per fragment; empty for skipped ones).
     pub smooth_rows: Vec<Vec<i128>>,
     /// Mapped-path input rows.
@@ -357,9 +491,17 @@ pub struct Frame {
     pub mapped_interp_ref: Vec<f64>,
 }
 
-/// Set up every triangle, and build the rows and references of a raster.
+/// [`frame_in`] the default [`Scene`].
 pub fn frame(p: &Pipeline, raster: Raster, mesh: &Mesh) -> Frame {
-    let l = DVec3::from_array(LIGHT).normalize();
+    frame_in(&Scene::default(), p, raster, mesh)
+}
+
+/// Set up every triangle, and build the rows and references of a raster
+/// (rasterized in the same `scene`). Fragments of triangles that cannot be
+/// set up (zero or antiparallel vertex normals) get empty rows and NaN
+/// references: [`Metrics::compare`] counts them as skipped, never as exact.
+pub fn frame_in(scene: &Scene, p: &Pipeline, raster: Raster, mesh: &Mesh) -> Frame {
+    let l = scene.light_camera();
     let h = (l + DVec3::Z).normalize();
     let lq = |v: DVec3| {
         v.to_array()
@@ -384,6 +526,7 @@ pub fn frame(p: &Pipeline, raster: Raster, mesh: &Mesh) -> Frame {
     let wrap = |d: f64| d - d.round();
     let mut f = Frame {
         skipped: 0,
+        skipped_triangles: Vec::new(),
         smooth_rows: Vec::with_capacity(raster.fragments.len()),
         mapped_rows: Vec::with_capacity(raster.fragments.len()),
         smooth_ref: Vec::with_capacity(raster.fragments.len()),
@@ -399,11 +542,14 @@ pub fn frame(p: &Pipeline, raster: Raster, mesh: &Mesh) -> Frame {
     for fr in &raster.fragments {
         let Some((st, mt)) = &tris[fr.tri] else {
             f.skipped += 1;
+            if !f.skipped_triangles.contains(&fr.tri) {
+                f.skipped_triangles.push(fr.tri);
+            }
             f.smooth_rows.push(Vec::new());
             f.mapped_rows.push(Vec::new());
-            f.smooth_ref.push(0.0);
-            f.mapped_ref.push(0.0);
-            f.mapped_interp_ref.push(0.0);
+            f.smooth_ref.push(f64::NAN);
+            f.mapped_ref.push(f64::NAN);
+            f.mapped_interp_ref.push(f64::NAN);
             continue;
         };
         let (c1, c2) = (qb(fr.c[0]), qb(fr.c[1]));
@@ -418,7 +564,7 @@ pub fn frame(p: &Pipeline, raster: Raster, mesh: &Mesh) -> Frame {
         let n_exact = interp::field(&st.tri, fr.c, scheme).normalize();
         f.smooth_ref.push(shade_f64(&p.light, n_exact, l, h));
         // Mapped row: c1, c2, angles of N, of L and H, the texel.
-        let tex = normal_map(fr.uv);
+        let tex = scene.normal_map.at(fr.uv);
         let mut r = vec![c1, c2];
         r.extend_from_slice(&mt.a);
         r.extend_from_slice(&mt.b);

@@ -50,7 +50,66 @@ pub struct RenderArgs {
     #[arg(long)]
     force: bool,
     #[command(flatten)]
+    scene: SceneArgs,
+    #[command(flatten)]
     fmt: OutputArgs,
+}
+
+/// The scene flags (defaults: the module page of `fxshade_model::render`).
+#[derive(Args, Debug, Clone)]
+pub struct SceneArgs {
+    /// Direction towards the light, world frame (normalized).
+    #[arg(
+        long,
+        value_name = "X,Y,Z",
+        default_value = "-0.45,0.6,0.66",
+        allow_hyphen_values = true
+    )]
+    light: String,
+    /// Direction towards the viewer, world frame (normalized); the image
+    /// looks along its opposite.
+    #[arg(
+        long,
+        value_name = "X,Y,Z",
+        default_value = "0,0,1",
+        allow_hyphen_values = true
+    )]
+    view: String,
+    /// Tilt of the mesh about x before viewing, in degrees.
+    #[arg(long, value_name = "DEG", default_value_t = render::TILT_DEG, allow_hyphen_values = true)]
+    tilt: f64,
+    /// The mapped path's normal map: bumps (procedural) or flat.
+    #[arg(long, value_name = "MAP", default_value = "bumps", value_parser = parse_normal_map)]
+    normal_map: render::NormalMap,
+}
+
+fn parse_normal_map(s: &str) -> Result<render::NormalMap, String> {
+    render::NormalMap::ALL
+        .into_iter()
+        .find(|m| m.name() == s)
+        .ok_or_else(|| format!("`{s}`: normal maps are bumps, flat"))
+}
+
+fn parse_vec3(flag: &str, s: &str) -> anyhow::Result<glam::DVec3> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| anyhow::anyhow!("--{flag} {s}: write X,Y,Z with three numbers"))?;
+    anyhow::ensure!(v.len() == 3, "--{flag} {s}: write X,Y,Z with three numbers");
+    Ok(glam::DVec3::new(v[0], v[1], v[2]))
+}
+
+impl SceneArgs {
+    /// The scene the flags describe.
+    pub fn scene(&self) -> anyhow::Result<render::Scene> {
+        Ok(render::Scene::new(
+            parse_vec3("light", &self.light)?,
+            parse_vec3("view", &self.view)?,
+            self.tilt,
+            self.normal_map,
+        )?)
+    }
 }
 
 /// The mesh named by `--mesh`.
@@ -162,8 +221,13 @@ pub struct RenderResult {
     pub height: usize,
     /// Covered pixels.
     pub pixels: usize,
-    /// Pixels of triangles whose normals could not be set up (black).
+    /// Pixels of triangles whose normals could not be set up (black, and
+    /// left out of every metric).
     pub skipped_pixels: usize,
+    /// Those triangles (1-based, with the OBJ line of their face).
+    pub skipped_triangles: Vec<String>,
+    /// The scene.
+    pub scene: render::Scene,
     /// `cos φ` over the mesh's triangles.
     pub cos_phi: render::CosPhiStats,
     /// Per method.
@@ -180,6 +244,7 @@ pub struct RenderResult {
 #[allow(clippy::too_many_arguments)]
 pub fn render_into(
     cfg: &Config,
+    scene: &render::Scene,
     spec: &str,
     m: &Mesh,
     (w, h): (usize, usize),
@@ -192,8 +257,8 @@ pub fn render_into(
     let start = Instant::now();
     progress("rasterizing");
     let base = Pipeline::with_method(cfg, fxshade_model::normalizer::Method::None)?;
-    let raster = render::rasterize(m, w, h);
-    let f = render::frame(&base, raster, m);
+    let raster = render::rasterize_in(scene, m, w, h);
+    let f = render::frame_in(scene, &base, raster, m);
     let png = |name: &str, levels: &[u8]| -> anyhow::Result<String> {
         let img = render::to_image(&f.raster, levels, 0u8);
         let file = format!("{prefix}{name}.png");
@@ -204,7 +269,7 @@ pub fn render_into(
         let errs: Vec<Option<u32>> = got
             .iter()
             .zip(want)
-            .map(|(&g, &r)| Some((g as f64 - r.round()).abs() as u32))
+            .map(|(&g, &r)| (!r.is_nan()).then(|| (g as f64 - r.round()).abs() as u32))
             .collect();
         let img = render::to_image(&f.raster, &errs, None);
         let file = format!("{prefix}{name}.png");
@@ -256,6 +321,12 @@ pub fn render_into(
         height: h,
         pixels: f.raster.fragments.len(),
         skipped_pixels: f.skipped,
+        skipped_triangles: f
+            .skipped_triangles
+            .iter()
+            .map(|&t| m.describe_triangle(t))
+            .collect(),
+        scene: *scene,
         cos_phi: render::cos_phi_stats(m),
         methods: results,
         angle_interp,
@@ -353,8 +424,22 @@ pub fn table(r: &RenderResult) -> Table {
         "RTL image",
     ])
     .titled(format!(
-        "{} at {}×{}: {} pixels; cos φ over {} triangles: min {:.4}, mean {:.4}",
-        r.mesh, r.width, r.height, r.pixels, r.cos_phi.triangles, r.cos_phi.min, r.cos_phi.mean
+        "{} at {}×{}: {} pixels{}; cos φ over {} triangles: min {:.4}, mean {:.4}",
+        r.mesh,
+        r.width,
+        r.height,
+        r.pixels,
+        if r.skipped_pixels > 0 {
+            format!(
+                " ({} skipped: triangles whose vertex normals cannot be interpolated, left out of every metric)",
+                r.skipped_pixels
+            )
+        } else {
+            String::new()
+        },
+        r.cos_phi.triangles,
+        r.cos_phi.min,
+        r.cos_phi.mean
     ));
     let pct = |x: f64| format!("{:.2} %", 100.0 * x);
     let mut row = |name: &str, path: &str, m: &Metrics, rtl: String| {
@@ -363,13 +448,24 @@ pub fn table(r: &RenderResult) -> Table {
             path.to_string(),
             m.max_abs_levels.to_string(),
             format!("{:.4}", m.mean_abs_levels),
-            m.psnr_db.map_or("∞".into(), |p| format!("{p:.2}")),
+            if m.pixels == 0 {
+                "-".into()
+            } else {
+                m.psnr_db.map_or("∞".into(), |p| format!("{p:.2}"))
+            },
             pct(m.off_by[0]),
             pct(m.off_by[1]),
             pct(m.off_by[2]),
             pct(m.off_by[3]),
             format!("{:.3} %", 100.0 * m.max_rel_intensity_err),
-            if m.paper_bound_holds { "yes" } else { "no" }.to_string(),
+            if m.pixels == 0 {
+                "no pixel compared"
+            } else if m.paper_bound_holds {
+                "yes"
+            } else {
+                "no"
+            }
+            .to_string(),
             rtl,
         ]);
     };
@@ -413,6 +509,7 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
     let cfg = a.cfg.resolve()?;
     let size = parse_size(&a.size)?;
     let methods = parse_methods(a.method.as_deref(), a.rtl)?;
+    let scene = a.scene.scene()?;
     let m = load_mesh(&a.mesh)?;
     let dir = if a.force {
         StagedDir::new_forced(&a.out)
@@ -423,6 +520,7 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
     let bar = crate::progress::bar(methods.len() as u64 * (1 + a.rtl as u64) + 1, "render");
     let r = render_into(
         &cfg,
+        &scene,
         &a.mesh,
         &m,
         size,
@@ -436,6 +534,21 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
         },
     )?;
     bar.finish_and_clear();
+    if !r.skipped_triangles.is_empty() {
+        let list: Vec<&str> = r
+            .skipped_triangles
+            .iter()
+            .take(10)
+            .map(|t| t.as_str())
+            .collect();
+        eprintln!(
+            "warning: {} pixels of {} triangle(s) skipped, and left out of every metric (vertex normals antiparallel: they cannot be interpolated): {}{}",
+            r.skipped_pixels,
+            r.skipped_triangles.len(),
+            list.join(", "),
+            if r.skipped_triangles.len() > 10 { ", …" } else { "" }
+        );
+    }
     let t = table(&r);
     let ct = cos_phi_table(&r);
     dir.write("render.json", serde_json::to_string_pretty(&r)?.as_bytes())?;

@@ -184,6 +184,7 @@ pub fn run(a: &ReportArgs) -> anyhow::Result<()> {
         let prefix = format!("render/{}/", spec.replace(':', "_"));
         let r = super::render::render_into(
             &cfg,
+            &fxshade_model::render::Scene::default(),
             spec,
             &m,
             size,
