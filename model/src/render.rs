@@ -227,17 +227,17 @@ impl Scene {
         })
     }
     /// The rotation taking the viewer to `+z`.
-    fn to_camera(&self) -> glam::DQuat {
+    fn camera_rotation(&self) -> glam::DQuat {
         glam::DQuat::from_rotation_arc(self.view, DVec3::Z)
     }
     /// World to camera frame for a mesh direction: tilt, then view.
     fn pose(&self, v: DVec3) -> DVec3 {
         let (s, c) = self.tilt_deg.to_radians().sin_cos();
-        self.to_camera() * DVec3::new(v.x, c * v.y - s * v.z, s * v.y + c * v.z)
+        self.camera_rotation() * DVec3::new(v.x, c * v.y - s * v.z, s * v.y + c * v.z)
     }
     /// The light in the camera frame (the viewer is `+z` there).
     pub fn light_camera(&self) -> DVec3 {
-        (self.to_camera() * self.light).normalize()
+        (self.camera_rotation() * self.light).normalize()
     }
 }
 
