@@ -65,6 +65,11 @@ enum Command {
     /// Co-simulate a unit's RTL against the model with Verilator or Icarus
     /// Verilog: exit status 0 only when every vector matches bit for bit.
     RtlCheck(cmd::rtl_check::RtlCheckArgs),
+    /// Mutation testing of the vectors on the RTL: every mutant (a changed
+    /// rounding mode, a flipped overflow mode, an off-by-one shift, one
+    /// quantizer at a time) must fail the unit's vectors; exit status 0 only
+    /// when all do.
+    Mutate(cmd::mutate::MutateArgs),
     /// Rasterize a mesh (sphere:N, torus:N or an OBJ file), run the
     /// bit-accurate pipeline on every pixel for each method (and with --rtl
     /// the simulated RTL top, which must give the same image), and write the
@@ -90,6 +95,7 @@ fn main() -> ExitCode {
         Command::PolarFrames(a) => cmd::polar_frames::run(a),
         Command::Rtl(a) => cmd::rtl::run(a),
         Command::RtlCheck(a) => cmd::rtl_check::run(a),
+        Command::Mutate(a) => cmd::mutate::run(a),
         Command::Render(a) => cmd::render::run(a),
     };
     match r {

@@ -395,6 +395,21 @@ pub fn check_with(
     trace: Option<&Path>,
     dump: bool,
 ) -> anyhow::Result<CheckResult> {
+    check_with_args(v, sources, sim, seed, stall, trace, dump, &[])
+}
+
+/// As [`check_with`], passing `extra` plusargs to the simulation.
+#[allow(clippy::too_many_arguments)]
+pub fn check_with_args(
+    v: &VectorSet,
+    sources: &Sources,
+    sim: Sim,
+    seed: u64,
+    stall: u32,
+    trace: Option<&Path>,
+    dump: bool,
+    extra: &[String],
+) -> anyhow::Result<CheckResult> {
     let maxn = (v.count() + 1).next_power_of_two();
     let b = build(v.unit, sources, sim, maxn, trace.is_some())?;
     let run = b.dir.join(
@@ -420,7 +435,8 @@ pub fn check_with(
     c.current_dir(&run)
         .arg(format!("+N={}", v.count()))
         .arg(format!("+SEED={}", seed as u32 as i32))
-        .arg(format!("+STALL={stall}"));
+        .arg(format!("+STALL={stall}"))
+        .args(extra);
     let trace_path = trace.map(|t| std::path::absolute(t).unwrap_or_else(|_| t.to_path_buf()));
     if let Some(t) = &trace_path {
         // Simulators only warn when they cannot open the waveform: check first.

@@ -18,6 +18,8 @@ use crate::format::{ConvertError, Format};
 use crate::quantize::{Overflow, Quant, Raw, Rounding, Step};
 
 mod interval;
+mod mutation;
+pub use mutation::{Mutation, MutationKind};
 
 /// A value in a trace: the node that computes it, its binary point, and its
 /// symbolic format.
@@ -620,6 +622,46 @@ impl<R: Raw> Program<R> {
         (outs, flags)
     }
 
+    /// The exact (unquantized) operand of each quantization node in
+    /// `nodes`, per lane: what the quantizer at that node received. For
+    /// looking inside the datapath (rounding ties, overflows) without
+    /// re-running it in the scalar context.
+    pub fn probe(&self, inputs: &[&[R]], nodes: &[usize]) -> Vec<Vec<i128>> {
+        let operand: Vec<usize> = nodes
+            .iter()
+            .map(|&n| {
+                self.instrs
+                    .iter()
+                    .find_map(|ins| match *ins {
+                        Instr::Quant { d, a, .. } if d == n => Some(a),
+                        _ => None,
+                    })
+                    .unwrap_or_else(|| panic!("node {n} is not a quantization of the program"))
+            })
+            .collect();
+        let n = inputs.first().map_or(0, |s| s.len());
+        let mut probes: Vec<Vec<i128>> = nodes.iter().map(|_| Vec::with_capacity(n)).collect();
+        let mut ov = vec![0u64; self.stages.len()];
+        let mut flags = [0u64; BLOCK];
+        let mut regs = vec![R::ZERO; self.n_regs * BLOCK];
+        for &(d, c) in &self.consts {
+            regs[d * BLOCK..(d + 1) * BLOCK].fill(c);
+        }
+        let mut start = 0;
+        while start < n {
+            let len = BLOCK.min(n - start);
+            for (&(d, _), src) in self.inputs.iter().zip(inputs) {
+                regs[d * BLOCK..d * BLOCK + len].copy_from_slice(&src[start..start + len]);
+            }
+            self.block(&mut regs, len, &mut ov, &mut flags);
+            for (p, &a) in probes.iter_mut().zip(&operand) {
+                p.extend(regs[a * BLOCK..a * BLOCK + len].iter().map(|x| x.to_i128()));
+            }
+            start += len;
+        }
+        probes
+    }
+
     fn run_lanes(
         &self,
         inputs: &[&[R]],
@@ -975,6 +1017,28 @@ impl Compiled {
         match self {
             Compiled::Narrow(p) => p.run_interval(inputs),
             Compiled::Wide(p) => p.run_interval(inputs),
+        }
+    }
+    /// Per node, whether a quantization can overflow over a box of input
+    /// codes ([`Program::may_overflow`]).
+    pub fn may_overflow(&self, inputs: &[(i128, i128)]) -> Vec<bool> {
+        match self {
+            Compiled::Narrow(p) => p.may_overflow(inputs),
+            Compiled::Wide(p) => p.may_overflow(inputs),
+        }
+    }
+    /// The operands of quantization nodes per lane ([`Program::probe`]).
+    pub fn probe_i128(&self, inputs: &[&[i128]], nodes: &[usize]) -> Vec<Vec<i128>> {
+        match self {
+            Compiled::Wide(p) => p.probe(inputs, nodes),
+            Compiled::Narrow(p) => {
+                let conv: Vec<Vec<i64>> = inputs
+                    .iter()
+                    .map(|c| c.iter().map(|&x| x as i64).collect())
+                    .collect();
+                let refs: Vec<&[i64]> = conv.iter().map(|c| c.as_slice()).collect();
+                p.probe(&refs, nodes)
+            }
         }
     }
     /// The overflow-flag stages.

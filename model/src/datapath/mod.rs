@@ -36,7 +36,9 @@ mod count;
 mod fixed;
 mod reference;
 
-pub use batch::{CompileError, Compiled, Op, Port, Program, Trace, BLOCK, TV};
+pub use batch::{
+    CompileError, Compiled, Mutation, MutationKind, Op, Port, Program, Trace, BLOCK, TV,
+};
 pub use count::{
     Count, MulFormats, MulShape, OpCounts, QuantPoint, Sym, TableShape, WidthError, MAX_EXACT_WIDTH,
 };

@@ -26,13 +26,14 @@
 //! and hash), the latency and every port with its format.
 
 pub mod bits;
+pub mod mutants;
 pub mod testbench;
 pub mod units;
 
 use std::collections::HashMap;
 use std::fmt::Write as _;
 
-use crate::datapath::{Op, Port, Table, Trace, TV};
+use crate::datapath::{Mutation, MutationKind, Op, Port, Table, Trace, TV};
 use crate::format::Format;
 use crate::quantize::{Overflow, Rounding};
 use crate::vectors::{Field, GENERATOR};
@@ -192,6 +193,9 @@ struct Emitter<'a> {
     hw: Hardware,
     roms: Vec<(Vec<i128>, String, Format, u32)>,
     rom_text: Vec<String>,
+    /// Mutants of each quantization node: `(number, mutation)`, numbers
+    /// from 1 (the `mutant_i` value selecting it).
+    mutants: HashMap<usize, Vec<(usize, Mutation)>>,
 }
 
 impl<'a> Emitter<'a> {
@@ -517,17 +521,58 @@ impl<'a> Emitter<'a> {
                 let va = self.operand(&a, s);
                 let f = q.format();
                 let (yc, oc) = (format!("{name}_c"), format!("{name}_ovf_c"));
+                let muts = self.mutants.get(&i).cloned().unwrap_or_default();
+                let (y0, o0) = if muts.is_empty() {
+                    (yc.clone(), oc.clone())
+                } else {
+                    (format!("{name}_c0"), format!("{name}_ovf_c0"))
+                };
                 let ql = bits::quantize(
                     &va,
                     &name,
-                    &yc,
-                    &oc,
+                    &y0,
+                    &o0,
                     f.width(),
                     f.signed(),
                     f.frac(),
                     q.round(),
                     q.overflow(),
                 );
+                if !muts.is_empty() {
+                    // Mutation schema: each mutant's quantizer beside the
+                    // original, chosen by `mutant_i`.
+                    let (mut ysel, mut osel) = (y0.clone(), o0.clone());
+                    for (k, m) in &muts {
+                        let (mut va_m, mut r, mut o) = (va.clone(), q.round(), q.overflow());
+                        match m.kind {
+                            MutationKind::Round(x) => r = x,
+                            MutationKind::Overflow(x) => o = x,
+                            MutationKind::Shift => va_m.frac += 1,
+                        }
+                        let (ym, om) = (format!("{name}_m{k}"), format!("{name}_ovf_m{k}"));
+                        let ml = bits::quantize(
+                            &va_m,
+                            &format!("{name}_m{k}"),
+                            &ym,
+                            &om,
+                            f.width(),
+                            f.signed(),
+                            f.frac(),
+                            r,
+                            o,
+                        );
+                        self.body.push(format!("// mutant {k}: {m}"));
+                        self.body.extend(ml.lines);
+                        self.unused.extend(ml.unused);
+                        ysel = format!("(mutant_i == 16'd{k}) ? {ym} : {ysel}");
+                        osel = format!("(mutant_i == 16'd{k}) ? {om} : {osel}");
+                    }
+                    self.body.push(format!(
+                        "wire {} {yc} = {ysel};",
+                        decl(f.signed(), f.width())
+                    ));
+                    self.body.push(format!("wire {oc} = {osel};"));
+                }
                 self.body.extend(ql.lines);
                 self.unused.extend(ql.unused);
                 if let Some(w) = ql.round_adder {
@@ -556,6 +601,19 @@ impl<'a> Emitter<'a> {
 
 /// Emit `d` as one Verilog module with the `compact` pipeline.
 pub fn emit(d: &Design) -> Result<Emitted, EmitError> {
+    emit_with(d, &[])
+}
+
+/// Emit `d` with every mutation of `muts` built in beside the original
+/// logic (a mutation schema): an extra input `mutant_i[15:0]` selects
+/// mutant `k` (`muts[k − 1]`), 0 the unmutated design. One simulator build
+/// then runs every mutant; the testbench takes `+MUTANT=k`.
+pub fn emit_mutants(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
+    assert!(muts.len() < 1 << 16, "mutant numbers fit mutant_i");
+    emit_with(d, muts)
+}
+
+fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
     let t = &d.trace;
     let outs: Vec<Port> = t.output_ports().to_vec();
     if outs.is_empty() {
@@ -609,7 +667,14 @@ pub fn emit(d: &Design) -> Result<Emitted, EmitError> {
         hw: Hardware::default(),
         roms: Vec::new(),
         rom_text: Vec::new(),
+        mutants: HashMap::new(),
     };
+    for (k, m) in muts.iter().enumerate() {
+        e.mutants
+            .entry(m.node)
+            .or_default()
+            .push((k + 1, m.clone()));
+    }
     for (i, op) in t.ops().iter().enumerate() {
         if live[i] || matches!(op, Op::Input(_)) {
             e.node(i)?;
@@ -719,6 +784,13 @@ pub fn emit(d: &Design) -> Result<Emitted, EmitError> {
             port_doc(p.format)
         );
     }
+    if !muts.is_empty() {
+        let _ = writeln!(
+            v,
+            "//   {:<12} in   [15:0] mutant selector (0: the design; k: mutant k, listed at its quantizer)",
+            "mutant_i"
+        );
+    }
     if nf > 0 {
         let _ = writeln!(
             v,
@@ -755,6 +827,9 @@ pub fn emit(d: &Design) -> Result<Emitted, EmitError> {
     }
     if nf > 0 {
         ports.push(format!("output wire [{}:0] ovf_o", nf - 1));
+    }
+    if !muts.is_empty() {
+        ports.push("input  wire [15:0] mutant_i".into());
     }
     let _ = writeln!(v, "  {}", ports.join(",\n  "));
     v += ");\n\n";
@@ -822,7 +897,7 @@ pub fn emit(d: &Design) -> Result<Emitted, EmitError> {
         ));
     }
     out_fields.extend(outs.iter().map(|p| Field::new(&p.name, p.format)));
-    let testbench = testbench::generate(&d.module, &in_fields, &out_fields, nf);
+    let testbench = testbench::generate(&d.module, &in_fields, &out_fields, nf, !muts.is_empty());
     Ok(Emitted {
         module: d.module.clone(),
         verilog: v,

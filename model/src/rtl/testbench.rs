@@ -43,8 +43,16 @@ fn decode(var: &str, fields: &[Field]) -> (String, Vec<String>) {
     (fmt.join(", "), args)
 }
 
-/// The testbench module `<module>_tb` for the given vector layout.
-pub fn generate(module: &str, inputs: &[Field], outputs: &[Field], nflags: usize) -> String {
+/// The testbench module `<module>_tb` for the given vector layout; with
+/// `mutant_port`, the DUT's `mutant_i` is driven from `+MUTANT=<k>`
+/// (default 0).
+pub fn generate(
+    module: &str,
+    inputs: &[Field],
+    outputs: &[Field],
+    nflags: usize,
+    mutant_port: bool,
+) -> String {
     let in_w: u32 = inputs.iter().map(|f| f.format.width()).sum();
     let out_w: u32 = outputs.iter().map(|f| f.format.width()).sum();
     let mut t = String::new();
@@ -78,6 +86,12 @@ pub fn generate(module: &str, inputs: &[Field], outputs: &[Field], nflags: usize
     let _ = writeln!(t, "  localparam integer OUT_W = {out_w};");
     t += "\n  reg clk, rst_n, in_valid, out_ready;\n  reg [IN_W-1:0] in_data;\n";
     t += "  wire in_ready, out_valid;\n  wire [OUT_W-1:0] out_data;\n\n";
+    if mutant_port {
+        t += "  reg [15:0] mutant;\n  integer mutant_arg;\n";
+        t += "  initial begin\n    mutant_arg = 0;\n";
+        t += "    if ($value$plusargs(\"MUTANT=%d\", mutant_arg)) begin end\n";
+        t += "    mutant = mutant_arg[15:0];\n  end\n\n";
+    }
     let _ = writeln!(t, "  {module} dut (");
     let mut conns = vec![
         ".clk_i(clk)".to_string(),
@@ -87,6 +101,9 @@ pub fn generate(module: &str, inputs: &[Field], outputs: &[Field], nflags: usize
     ];
     for (f, (m, l)) in inputs.iter().zip(ranges(inputs)) {
         conns.push(format!(".{}_i(in_data[{m}:{l}])", f.name));
+    }
+    if mutant_port {
+        conns.push(".mutant_i(mutant)".into());
     }
     conns.push(".valid_o(out_valid)".into());
     conns.push(".ready_i(out_ready)".into());

@@ -58,8 +58,53 @@ pub fn emit_unit(u: &RtlUnit, cfg: &Config) -> Result<(Design, Emitted), RtlErro
 /// expected outputs and per-vector overflow flags of the compiled trace.
 pub fn vectors(u: &RtlUnit, cfg: &Config, count: usize, seed: u64) -> Result<VectorSet, RtlError> {
     let (d, e) = emit_unit(u, cfg)?;
-    let (rows, corners) = (u.inputs)(cfg, count, seed)?;
+    let (rows, corners) = inputs(u, &d, cfg, count, seed)?;
     vector_set(&d, &e, rows, corners, seed)
+}
+
+/// Random inputs searched for mutant killers ([`inputs`]).
+pub const MUTANT_POOL: usize = 16384;
+
+/// The unit's input rows for `count` vectors: its own corner cases, then
+/// the inputs that tell apart every mutant of the design
+/// ([`super::mutants::killers`], searched among [`MUTANT_POOL`] random
+/// inputs of another seed) which the corner cases do not, then its random
+/// inputs. The corner part (returned count) does not depend on `count`.
+pub fn inputs(
+    u: &RtlUnit,
+    d: &Design,
+    cfg: &Config,
+    count: usize,
+    seed: u64,
+) -> Result<(Vec<Vec<i128>>, usize), RtlError> {
+    let (rows, corners) = (u.inputs)(cfg, count, seed)?;
+    // Half the pool from the unit's own distribution, half codes over every
+    // input's whole range with random trailing zeros (rounding ties and
+    // overflows live there).
+    let (pool, pc) = (u.inputs)(cfg, corners + MUTANT_POOL / 2, seed ^ 0x6d75_7461_6e74)?;
+    let mut pool = pool[pc..].to_vec();
+    let mut rng = crate::sampling::Rng::new(seed ^ 0x7469_6573);
+    let formats: Vec<_> = d.trace.input_ports().iter().map(|p| p.format).collect();
+    for _ in 0..MUTANT_POOL / 2 {
+        pool.push(
+            formats
+                .iter()
+                .map(|&f| crate::vectors::structured_code(f, &mut rng))
+                .collect(),
+        );
+    }
+    let (mut killers, missed) = super::mutants::killers(d, &rows[..corners], &pool)?;
+    let (more, _missed) = super::mutants::directed_killers(d, &missed, seed)?;
+    killers.extend(more);
+    let n = corners + killers.len();
+    if count < n {
+        return Err(RtlError::Count { count, corners: n });
+    }
+    let mut out = Vec::with_capacity(count);
+    out.extend_from_slice(&rows[..corners]);
+    out.extend(killers);
+    out.extend(rows[corners..].iter().take(count - n).cloned());
+    Ok((out, n))
 }
 
 /// A vector set from input rows: outputs and flags from the compiled trace,

@@ -101,6 +101,97 @@ impl<R: Raw> Program<R> {
     }
 }
 
+impl<R: Raw> Program<R> {
+    /// For every node, whether a quantization there can overflow for some
+    /// input in the box `inputs` (a sound over-approximation: `false`
+    /// proves it never does). Where one may overflow, its output is taken
+    /// as its whole format (true of wrap and saturate alike); table reads
+    /// span their contents, selections the union of their options, and
+    /// divisions and square roots are assumed to overflow.
+    pub fn may_overflow(&self, inputs: &[(i128, i128)]) -> Vec<bool> {
+        let mut r = vec![(0i128, 0i128); self.n_regs];
+        let mut may = vec![false; self.n_regs];
+        for &(d, c) in &self.consts {
+            r[d] = (c.to_i128(), c.to_i128());
+        }
+        for (&(d, _), &(lo, hi)) in self.inputs.iter().zip(inputs) {
+            r[d] = (lo, hi);
+        }
+        let hull = |v: &[i128]| {
+            (
+                *v.iter().min().expect("some"),
+                *v.iter().max().expect("some"),
+            )
+        };
+        for ins in &self.instrs {
+            match *ins {
+                Instr::Mul { d, a, b } => {
+                    let (x, y) = (r[a], r[b]);
+                    r[d] = hull(&[x.0 * y.0, x.0 * y.1, x.1 * y.0, x.1 * y.1]);
+                }
+                Instr::AddSub {
+                    d,
+                    a,
+                    sa,
+                    b,
+                    sb,
+                    sub,
+                } => {
+                    let x = (r[a].0 << sa, r[a].1 << sa);
+                    let y = (r[b].0 << sb, r[b].1 << sb);
+                    r[d] = if sub {
+                        (x.0 - y.1, x.1 - y.0)
+                    } else {
+                        (x.0 + y.0, x.1 + y.1)
+                    };
+                }
+                Instr::Max { d, a, sa, b, sb } => {
+                    let x = (r[a].0 << sa, r[a].1 << sa);
+                    let y = (r[b].0 << sb, r[b].1 << sb);
+                    r[d] = (x.0.max(y.0), x.1.max(y.1));
+                }
+                Instr::Quant {
+                    d,
+                    a,
+                    step,
+                    round,
+                    overflow,
+                    ..
+                } => {
+                    let lo = step.apply(r[a].0, round, overflow);
+                    let hi = step.apply(r[a].1, round, overflow);
+                    if lo.overflowed || hi.overflowed {
+                        may[d] = true;
+                        r[d] = (step.min, step.max);
+                    } else {
+                        r[d] = (lo.code, hi.code);
+                    }
+                }
+                Instr::Select {
+                    d,
+                    sel: _,
+                    ref opts,
+                } => {
+                    let v: Vec<i128> = opts
+                        .iter()
+                        .flat_map(|&(o, sh)| [r[o].0 << sh, r[o].1 << sh])
+                        .collect();
+                    r[d] = hull(&v);
+                }
+                Instr::Table { d, table, .. } => {
+                    let v: Vec<i128> = self.tables[table].iter().map(|c| c.to_i128()).collect();
+                    r[d] = hull(&v);
+                }
+                Instr::Div { d, q, .. } | Instr::Sqrt { d, q, .. } => {
+                    may[d] = true;
+                    r[d] = (q.format().min_code(), q.format().max_code());
+                }
+            }
+        }
+        may
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use crate::datapath::{Compiled, Datapath, Trace};

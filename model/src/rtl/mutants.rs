@@ -1,0 +1,251 @@
+//! Mutation testing of a unit's vectors: every mutant of the traced
+//! datapath ([`Trace::mutations`]: a changed rounding mode, a flipped
+//! overflow mode, an off-by-one shift, one quantizer at a time) against the
+//! vectors, in the model; and the inputs that tell apart the mutants a
+//! vector set would otherwise miss. The RTL side ([`super::emit_mutants`])
+//! builds every mutant into one module, so one simulator build checks them
+//! all (`fxshade mutate`).
+
+use super::Design;
+use crate::datapath::{Compiled, Mutation, Trace, TV};
+use crate::vectors::RtlError;
+
+fn columns(rows: &[Vec<i128>], n: usize) -> Vec<Vec<i128>> {
+    (0..n)
+        .map(|k| rows.iter().map(|r| r[k]).collect())
+        .collect()
+}
+
+/// Outputs and per-lane overflow flags of `trace` on `rows`.
+fn run(
+    trace: &Trace,
+    roots: &[TV],
+    cols: &[Vec<i128>],
+) -> Result<(Vec<Vec<i128>>, Vec<u64>), RtlError> {
+    let prog = Compiled::compile(trace, roots)?;
+    let refs: Vec<&[i128]> = cols.iter().map(|c| c.as_slice()).collect();
+    Ok(prog.run_flags_i128(&refs))
+}
+
+/// The first lane whose outputs or flags differ.
+fn first_difference(
+    a: &(Vec<Vec<i128>>, Vec<u64>),
+    b: &(Vec<Vec<i128>>, Vec<u64>),
+) -> Option<usize> {
+    let n = a.1.len();
+    (0..n).find(|&i| a.1[i] != b.1[i] || a.0.iter().zip(&b.0).any(|(x, y)| x[i] != y[i]))
+}
+
+/// Every mutant of `d` and the first of `rows` that tells it apart from
+/// the design (outputs or overflow flags differ), if any.
+pub fn model_kills(
+    d: &Design,
+    rows: &[Vec<i128>],
+) -> Result<Vec<(Mutation, Option<usize>)>, RtlError> {
+    let roots: Vec<TV> = d.trace.output_ports().iter().map(|p| p.value).collect();
+    let cols = columns(rows, d.trace.input_ports().len());
+    let want = run(&d.trace, &roots, &cols)?;
+    d.trace
+        .mutations(&roots)
+        .into_iter()
+        .map(|m| {
+            let got = run(&d.trace.mutated(&m), &roots, &cols)?;
+            Ok((m.clone(), first_difference(&want, &got)))
+        })
+        .collect()
+}
+
+/// Inputs from `pool` that tell apart every mutant `base` does not (at most
+/// one per mutant, the first found; a row that kills several is taken
+/// once), and the mutants no row of `base` or `pool` tells apart.
+pub fn killers(
+    d: &Design,
+    base: &[Vec<i128>],
+    pool: &[Vec<i128>],
+) -> Result<(Vec<Vec<i128>>, Vec<Mutation>), RtlError> {
+    let roots: Vec<TV> = d.trace.output_ports().iter().map(|p| p.value).collect();
+    let n_in = d.trace.input_ports().len();
+    let base_cols = columns(base, n_in);
+    let pool_cols = columns(pool, n_in);
+    let base_want = run(&d.trace, &roots, &base_cols)?;
+    let mut pool_want = None;
+    let mut chosen: Vec<Vec<i128>> = Vec::new();
+    let mut missed = Vec::new();
+    for m in d.trace.mutations(&roots) {
+        let t = d.trace.mutated(&m);
+        if !base.is_empty() && first_difference(&base_want, &run(&t, &roots, &base_cols)?).is_some()
+        {
+            continue;
+        }
+        if !chosen.is_empty() {
+            let cc = columns(&chosen, n_in);
+            if first_difference(&run(&d.trace, &roots, &cc)?, &run(&t, &roots, &cc)?).is_some() {
+                continue;
+            }
+        }
+        if pool.is_empty() {
+            missed.push(m);
+            continue;
+        }
+        if pool_want.is_none() {
+            pool_want = Some(run(&d.trace, &roots, &pool_cols)?);
+        }
+        let pw = pool_want.as_ref().expect("just set");
+        match first_difference(pw, &run(&t, &roots, &pool_cols)?) {
+            Some(i) => chosen.push(pool[i].clone()),
+            None => missed.push(m),
+        }
+    }
+    Ok((chosen, missed))
+}
+
+/// Why mutant `m` of `d` cannot be told apart from the design by any
+/// input, when that is proven: an overflow mode flipped at a quantization
+/// that the interval analysis ([`Compiled::may_overflow`], over every code
+/// of every input port) shows never overflows. `None`: not proven.
+pub fn equivalent(d: &Design, m: &Mutation) -> Result<Option<&'static str>, RtlError> {
+    if !matches!(m.kind, crate::datapath::MutationKind::Overflow(_)) {
+        return Ok(None);
+    }
+    let roots: Vec<TV> = d.trace.output_ports().iter().map(|p| p.value).collect();
+    let prog = Compiled::compile(&d.trace, &roots)?;
+    let box_: Vec<(i128, i128)> = d
+        .trace
+        .input_ports()
+        .iter()
+        .map(|p| (p.format.min_code(), p.format.max_code()))
+        .collect();
+    Ok((!prog.may_overflow(&box_)[m.node]).then_some(
+        "equivalent: interval analysis over every input code proves the stage never overflows",
+    ))
+}
+
+/// Lanes the directed search of [`directed_killers`] looks through at most.
+pub const DIRECTED_LANES: usize = 1 << 18;
+
+/// Whether the quantizer of `m` meets, on operand `x`, the event that makes
+/// the mutant differ there: a tie with an even floor (half_even against
+/// half_up), the half bit set (trunc against half_up), an overflow (wrap
+/// against saturate).
+fn event(m: &Mutation, q: &crate::quantize::Quant, frac: i32, x: i128) -> bool {
+    use crate::datapath::MutationKind;
+    use crate::quantize::Rounding;
+    let st = q.step(frac);
+    match m.kind {
+        MutationKind::Round(_) => {
+            if st.shift <= 0 {
+                return false;
+            }
+            let s = st.shift as u32;
+            if s >= 127 {
+                return false;
+            }
+            let low = x & ((1i128 << s) - 1);
+            let half = 1i128 << (s - 1);
+            match q.round() {
+                Rounding::Trunc => low >= half,
+                _ => low == half && (x >> s) & 1 == 0,
+            }
+        }
+        MutationKind::Overflow(_) => st.apply(x, q.round(), q.overflow()).overflowed,
+        MutationKind::Shift => true,
+    }
+}
+
+/// A random input: each field a random code with random trailing zeros, an
+/// extreme (min, max, 0, ±1, one inside the ends) or any code.
+fn wild_row(formats: &[crate::format::Format], rng: &mut crate::sampling::Rng) -> Vec<i128> {
+    formats
+        .iter()
+        .map(|&f| match rng.below(3) {
+            0 => crate::vectors::structured_code(f, rng),
+            1 => {
+                let c = [
+                    f.min_code(),
+                    f.max_code(),
+                    0,
+                    1,
+                    -1,
+                    f.min_code() + 1,
+                    f.max_code() - 1,
+                ][rng.below(7) as usize];
+                c.clamp(f.min_code(), f.max_code())
+            }
+            _ => f.min_code() + rng.below((f.max_code() - f.min_code() + 1) as u64) as i128,
+        })
+        .collect()
+}
+
+/// Inputs that kill `survivors` (mutants no earlier vector tells apart),
+/// found by looking inside the design: random inputs ([`wild_row`], up to
+/// [`DIRECTED_LANES`]) run once through the original, the operand of each
+/// survivor's quantizer examined for the event that makes it differ
+/// ([`event`]), and each candidate confirmed by running the mutant on it
+/// (an event does not always reach an output). Returns the inputs and the
+/// mutants still not told apart.
+pub fn directed_killers(
+    d: &Design,
+    survivors: &[Mutation],
+    seed: u64,
+) -> Result<(Vec<Vec<i128>>, Vec<Mutation>), RtlError> {
+    if survivors.is_empty() {
+        return Ok((Vec::new(), Vec::new()));
+    }
+    let roots: Vec<TV> = d.trace.output_ports().iter().map(|p| p.value).collect();
+    let prog = Compiled::compile(&d.trace, &roots)?;
+    let formats: Vec<_> = d.trace.input_ports().iter().map(|p| p.format).collect();
+    let n_in = formats.len();
+    let nodes: Vec<usize> = survivors.iter().map(|m| m.node).collect();
+    let quants: Vec<(crate::quantize::Quant, i32)> = survivors
+        .iter()
+        .map(|m| match &d.trace.ops()[m.node] {
+            crate::datapath::Op::Quant(a, q) => (*q, a.frac()),
+            _ => unreachable!("mutations are of quantizations"),
+        })
+        .collect();
+    let mut rng = crate::sampling::Rng::new(seed ^ 0x6469_7265_6374);
+    let mut found: Vec<Option<Vec<i128>>> = vec![None; survivors.len()];
+    let mut mutant_traces: Vec<Option<Trace>> = vec![None; survivors.len()];
+    const CHUNK: usize = 8192;
+    let mut looked = 0;
+    while looked < DIRECTED_LANES && found.iter().any(|f| f.is_none()) {
+        let rows: Vec<Vec<i128>> = (0..CHUNK).map(|_| wild_row(&formats, &mut rng)).collect();
+        looked += CHUNK;
+        let cols = columns(&rows, n_in);
+        let refs: Vec<&[i128]> = cols.iter().map(|c| c.as_slice()).collect();
+        let open: Vec<usize> = (0..survivors.len())
+            .filter(|&k| found[k].is_none())
+            .collect();
+        let probe_nodes: Vec<usize> = open.iter().map(|&k| nodes[k]).collect();
+        let probes = prog.probe_i128(&refs, &probe_nodes);
+        for (p, &k) in probes.iter().zip(&open) {
+            let (q, frac) = &quants[k];
+            let cands: Vec<usize> = (0..CHUNK)
+                .filter(|&i| event(&survivors[k], q, *frac, p[i]))
+                .take(64)
+                .collect();
+            if cands.is_empty() {
+                continue;
+            }
+            let sub: Vec<Vec<i128>> = cands.iter().map(|&i| rows[i].clone()).collect();
+            let sc = columns(&sub, n_in);
+            let t = mutant_traces[k].get_or_insert_with(|| d.trace.mutated(&survivors[k]));
+            if let Some(i) = first_difference(&run(&d.trace, &roots, &sc)?, &run(t, &roots, &sc)?) {
+                found[k] = Some(sub[i].clone());
+            }
+        }
+    }
+    let mut killers: Vec<Vec<i128>> = Vec::new();
+    let mut missed = Vec::new();
+    for (k, f) in found.into_iter().enumerate() {
+        match f {
+            Some(r) => {
+                if !killers.contains(&r) {
+                    killers.push(r)
+                }
+            }
+            None => missed.push(survivors[k].clone()),
+        }
+    }
+    Ok((killers, missed))
+}

@@ -1,0 +1,252 @@
+//! `fxshade mutate <unit>|all`: mutation testing of the vectors on the RTL.
+//! Every mutant of each variant's traced datapath (a changed rounding mode,
+//! a flipped overflow mode, an off-by-one shift, one quantizer at a time)
+//! is built into one module beside the original logic and simulated on the
+//! unit's vectors; a mutant is killed when the testbench reports a
+//! mismatch. The model predicts the same outcome from the mutated trace, and
+//! the two must agree.
+
+use anyhow::Context;
+use clap::Args;
+use fxshade_model::rtl::{self, mutants};
+
+use super::ConfigArgs;
+use crate::output::{emit, OutputArgs, Table};
+use crate::rtl_flow::{self, Sim};
+
+/// `fxshade mutate`
+#[derive(Args, Debug)]
+pub struct MutateArgs {
+    /// The unit, or `all`.
+    unit: String,
+    #[command(flatten)]
+    cfg: ConfigArgs,
+    /// Only this variant (default: every variant of the unit).
+    #[arg(long)]
+    variant: Option<String>,
+    /// Vectors per run (the default of `rtl-check` and `vectors`).
+    #[arg(long, default_value_t = 10_000)]
+    count: usize,
+    /// Seed of the vectors.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Simulator.
+    #[arg(long, value_enum, default_value_t = Sim::Verilator)]
+    sim: Sim,
+    #[command(flatten)]
+    out: OutputArgs,
+}
+
+/// One mutant's outcome.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct MutantResult {
+    /// Its number (`+MUTANT=k`).
+    pub number: usize,
+    /// What it changes.
+    pub mutation: String,
+    /// The RTL testbench saw a mismatch.
+    pub killed: bool,
+    /// The first vector that tells it apart in the model, if any.
+    pub model_first_kill: Option<usize>,
+    /// Why no input can kill it, when that is proven.
+    pub equivalent: Option<&'static str>,
+}
+
+/// One variant's mutation score.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct VariantResult {
+    /// Unit.
+    pub unit: &'static str,
+    /// Variant.
+    pub variant: String,
+    /// Vectors.
+    pub count: usize,
+    /// Mutants.
+    pub mutants: usize,
+    /// Killed on the RTL.
+    pub killed: usize,
+    /// Proven equivalent (no input can kill them; not in the score).
+    pub equivalent: usize,
+    /// `killed / (mutants − equivalent)`.
+    pub score: f64,
+    /// Each mutant.
+    pub results: Vec<MutantResult>,
+    /// Seconds (build included).
+    pub seconds: f64,
+}
+
+fn run_variant(
+    u: &'static rtl::units::RtlUnit,
+    variant: &str,
+    cfg: &fxshade_model::Config,
+    a: &MutateArgs,
+    bar: &indicatif::ProgressBar,
+) -> anyhow::Result<VariantResult> {
+    let start = std::time::Instant::now();
+    let d = (u.design)(cfg)?;
+    let v = rtl::units::vectors(u, cfg, a.count, a.seed)?;
+    let model = mutants::model_kills(&d, &v.input_rows)?;
+    let muts: Vec<_> = model.iter().map(|(m, _)| m.clone()).collect();
+    let schema = rtl::emit_mutants(&d, &muts)?;
+    let sources = rtl_flow::Sources {
+        files: vec![
+            (format!("{}.v", schema.module), schema.verilog.clone()),
+            (format!("{}_tb.v", schema.module), schema.testbench.clone()),
+        ],
+        tb_top: format!("{}_tb", schema.module),
+        origin: format!("mutation schema of {} ({variant})", u.name),
+    };
+    let mut results = Vec::new();
+    // Mutant 0 is the design itself: it must pass.
+    for k in 0..=muts.len() {
+        bar.set_message(format!("{} ({variant}) mutant {k}/{}", u.name, muts.len()));
+        let r = rtl_flow::check_with_args(
+            &v,
+            &sources,
+            a.sim,
+            a.seed,
+            20,
+            None,
+            false,
+            &[format!("+MUTANT={k}")],
+        )
+        .with_context(|| format!("{} ({variant}), mutant {k}", u.name))?;
+        if k == 0 {
+            anyhow::ensure!(
+                r.ok(),
+                "{} ({variant}): the mutation schema with no mutant selected fails its vectors ({} failed)",
+                u.name,
+                r.failed
+            );
+            continue;
+        }
+        let (m, first) = &model[k - 1];
+        let killed = !r.ok();
+        anyhow::ensure!(
+            killed == first.is_some(),
+            "{} ({variant}) mutant {k} ({m}): the RTL {} it but the mutated model {}",
+            u.name,
+            if killed { "catches" } else { "misses" },
+            if first.is_some() {
+                "differs"
+            } else {
+                "does not"
+            }
+        );
+        let equivalent = mutants::equivalent(&d, m)?;
+        anyhow::ensure!(
+            !(killed && equivalent.is_some()),
+            "{} ({variant}) mutant {k} ({m}) is killed though proven equivalent",
+            u.name
+        );
+        results.push(MutantResult {
+            number: k,
+            mutation: m.to_string(),
+            killed,
+            model_first_kill: *first,
+            equivalent,
+        });
+    }
+    let killed = results.iter().filter(|r| r.killed).count();
+    let equivalent = results.iter().filter(|r| r.equivalent.is_some()).count();
+    let live = muts.len() - equivalent;
+    Ok(VariantResult {
+        unit: u.name,
+        variant: variant.to_string(),
+        count: v.count(),
+        mutants: muts.len(),
+        killed,
+        equivalent,
+        score: if live == 0 {
+            1.0
+        } else {
+            killed as f64 / live as f64
+        },
+        results,
+        seconds: start.elapsed().as_secs_f64(),
+    })
+}
+
+/// Run it; exit status 0 only when every mutant is killed.
+pub fn run(a: &MutateArgs) -> anyhow::Result<()> {
+    let base = a.cfg.resolve()?;
+    let units: Vec<&'static rtl::units::RtlUnit> = if a.unit == "all" {
+        rtl::units::all().collect()
+    } else {
+        vec![rtl_flow::unit(&a.unit)?]
+    };
+    let mut jobs = Vec::new();
+    for u in &units {
+        for (name, set) in u.variants {
+            if a.variant.as_deref().is_some_and(|v| v != *name) {
+                continue;
+            }
+            jobs.push((*u, *name, *set));
+        }
+    }
+    anyhow::ensure!(
+        !jobs.is_empty(),
+        "--variant {}: no such variant of {}",
+        a.variant.as_deref().unwrap_or(""),
+        a.unit
+    );
+    let bar = crate::progress::bar(jobs.len() as u64, "mutate");
+    let mut out = Vec::new();
+    for (u, name, set) in jobs {
+        let mut cfg = base.clone();
+        if !set.is_empty() {
+            cfg.apply_override(set)?;
+        }
+        out.push(run_variant(u, name, &cfg, a, &bar)?);
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    let mut t = Table::new([
+        "unit",
+        "variant",
+        "vectors",
+        "mutants",
+        "equivalent",
+        "killed",
+        "score",
+        "s",
+    ])
+    .titled(format!("mutation score on {:?}", a.sim).to_lowercase());
+    let mut s = Table::new(["unit", "variant", "mutant", "survives"]).titled("surviving mutants");
+    for r in &out {
+        t.row([
+            r.unit.to_string(),
+            r.variant.clone(),
+            r.count.to_string(),
+            r.mutants.to_string(),
+            r.equivalent.to_string(),
+            r.killed.to_string(),
+            format!("{:.1} %", 100.0 * r.score),
+            format!("{:.1}", r.seconds),
+        ]);
+        for m in r
+            .results
+            .iter()
+            .filter(|m| !m.killed && m.equivalent.is_none())
+        {
+            s.row([
+                r.unit.to_string(),
+                r.variant.clone(),
+                m.number.to_string(),
+                m.mutation.clone(),
+            ]);
+        }
+    }
+    let tables = if s.rows.is_empty() {
+        vec![t]
+    } else {
+        vec![t, s]
+    };
+    emit(a.out, &tables, &serde_json::to_value(&out)?)?;
+    let survivors: usize = out
+        .iter()
+        .map(|r| r.mutants - r.killed - r.equivalent)
+        .sum();
+    anyhow::ensure!(survivors == 0, "{survivors} mutants survive the vectors");
+    Ok(())
+}
