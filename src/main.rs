@@ -70,6 +70,9 @@ enum Command {
     /// quantizer at a time) must fail the unit's vectors; exit status 0 only
     /// when all do.
     Mutate(cmd::mutate::MutateArgs),
+    /// Add up the `--json` outputs of `rtl-check --shard K/N` runs: fails
+    /// unless every shard of one run is there and every vector passed.
+    Merge(cmd::merge::MergeArgs),
     /// Rasterize a mesh (sphere:N, torus:N or an OBJ file), run the
     /// bit-accurate pipeline on every pixel for each method (and with --rtl
     /// the simulated RTL top, which must give the same image), and write the
@@ -96,6 +99,7 @@ fn main() -> ExitCode {
         Command::Rtl(a) => cmd::rtl::run(a),
         Command::RtlCheck(a) => cmd::rtl_check::run(a),
         Command::Mutate(a) => cmd::mutate::run(a),
+        Command::Merge(a) => cmd::merge::run(a),
         Command::Render(a) => cmd::render::run(a),
     };
     match r {

@@ -14,7 +14,7 @@ use std::time::Instant;
 
 use anyhow::{bail, Context};
 use fxshade_model::rtl::units::RtlUnit;
-use fxshade_model::vectors::{fingerprint, VectorSet};
+use fxshade_model::vectors::{fingerprint, RtlSources, VectorSource};
 
 /// Look a unit up by name.
 pub fn unit(name: &str) -> anyhow::Result<&'static RtlUnit> {
@@ -40,21 +40,20 @@ pub struct Sources {
 
 impl Sources {
     /// The emitted design and testbench of a vector set.
-    pub fn emitted(v: &VectorSet) -> Sources {
+    pub fn emitted(rtl: &RtlSources) -> Sources {
         Sources {
-            files: v
-                .rtl
+            files: rtl
                 .files()
                 .into_iter()
                 .map(|(n, t)| (n, t.to_string()))
                 .collect(),
-            tb_top: format!("{}_tb", v.rtl.module),
+            tb_top: format!("{}_tb", rtl.module),
             origin: "emitted by fxshade rtl".into(),
         }
     }
     /// Every `*.v` file of `dir` except testbenches (`*_tb.v`) as the
     /// design, with the vector set's generated testbench.
-    pub fn from_dir(v: &VectorSet, dir: &Path) -> anyhow::Result<Sources> {
+    pub fn from_dir(rtl: &RtlSources, dir: &Path) -> anyhow::Result<Sources> {
         let mut files = Vec::new();
         let rd = std::fs::read_dir(dir)
             .with_context(|| format!("cannot read --rtl-dir {}", dir.display()))?;
@@ -84,10 +83,10 @@ impl Sources {
                 text,
             ));
         }
-        files.push((format!("{}_tb.v", v.rtl.module), v.rtl.testbench.clone()));
+        files.push((format!("{}_tb.v", rtl.module), rtl.testbench.clone()));
         Ok(Sources {
             files,
-            tb_top: format!("{}_tb", v.rtl.module),
+            tb_top: format!("{}_tb", rtl.module),
             origin: format!(
                 "{} ({})",
                 dir.display(),
@@ -223,13 +222,7 @@ pub struct Build {
 }
 
 /// Build (or reuse) the testbench of `u` for `params` on `sim`.
-pub fn build(
-    name: &str,
-    sources: &Sources,
-    sim: Sim,
-    maxn: usize,
-    trace: bool,
-) -> anyhow::Result<Build> {
+pub fn build(name: &str, sources: &Sources, sim: Sim, trace: bool) -> anyhow::Result<Build> {
     match sim {
         Sim::Verilator => require_tool("verilator", "verilator")?,
         Sim::Icarus => {
@@ -242,7 +235,7 @@ pub fn build(
         parts.push(n.as_bytes());
         parts.push(t.as_bytes());
     }
-    let tag = format!("{}-{maxn}-{trace}", sim.name());
+    let tag = format!("{}-stream-{trace}", sim.name());
     parts.push(tag.as_bytes());
     let key = fingerprint(&parts);
     let root = cache_root();
@@ -291,7 +284,6 @@ pub fn build(
                 ])
                 .arg("--top-module")
                 .arg(&sources.tb_top)
-                .arg(format!("-GMAXN={maxn}"))
                 .args(["--Mdir", "obj", "-o", "sim"]);
             if trace {
                 c.arg("--trace-fst");
@@ -309,7 +301,6 @@ pub fn build(
             let mut c = Command::new("iverilog");
             c.current_dir(&staging)
                 .args(["-g2005", "-o", "sim.vvp"])
-                .arg(format!("-P{}.MAXN={maxn}", sources.tb_top))
                 .args(&files);
             run_tool(&mut c, "iverilog")
         }
@@ -338,8 +329,10 @@ pub struct CheckResult {
     pub design: String,
     /// Simulator.
     pub sim: Sim,
-    /// Vectors in the set.
+    /// Vectors in the run.
     pub count: usize,
+    /// Index of the first vector in the whole stream (a shard's start).
+    pub first: usize,
     /// Vectors whose every output bit matched.
     pub passed: u64,
     /// Vectors that did not.
@@ -348,16 +341,22 @@ pub struct CheckResult {
     pub latency: Option<u64>,
     /// Clock cycles simulated.
     pub cycles: Option<u64>,
-    /// Seconds the simulation process ran, loading included.
-    pub sim_seconds: f64,
-    /// Seconds spent reading the vector files (`$readmemh`) and checking them.
-    pub load_seconds: f64,
-    /// Vectors per second through the simulation, once the files are loaded.
+    /// Wall-clock seconds from the start of streaming to the simulation's
+    /// end (generation and simulation overlap).
+    pub seconds: f64,
+    /// CPU seconds of the simulator process (user + system): simulation,
+    /// reading the records and checking them, without waiting for them.
+    pub sim_cpu_seconds: f64,
+    /// Seconds the generator spent making and encoding vectors.
+    pub generate_seconds: f64,
+    /// Vectors per simulator CPU second: the simulation-only rate.
     pub vectors_per_second: f64,
-    /// Vectors per second for the whole simulation process, loading included.
+    /// Vectors per wall-clock second, generation included (end to end).
     pub vectors_per_second_end_to_end: f64,
     /// Seconds spent building (0 when cached).
     pub build_seconds: f64,
+    /// Peak resident memory of the simulator process, in KiB.
+    pub sim_max_rss_kib: u64,
     /// The first mismatches, as the testbench printed them.
     pub mismatches: Vec<String>,
     /// The waveform, when traced.
@@ -384,10 +383,10 @@ fn parse_num(line: &str, prefix: &str) -> Option<u64> {
         .ok()
 }
 
-/// Run the vectors through the testbench of `sources`; with `dump`, also read back every output the RTL produced
-/// ([`CheckResult::outputs`]).
+/// Run the vectors through the testbench of `sources`; with `dump`, also
+/// read back every output the RTL produced ([`CheckResult::outputs`]).
 pub fn check_with(
-    v: &VectorSet,
+    v: &dyn VectorSource,
     sources: &Sources,
     sim: Sim,
     seed: u64,
@@ -398,10 +397,62 @@ pub fn check_with(
     check_with_args(v, sources, sim, seed, stall, trace, dump, &[])
 }
 
+/// Vectors per generated chunk.
+const CHUNK: usize = 8192;
+
+/// Threads generating vectors for one simulation: `$FXSHADE_GEN_THREADS`,
+/// else the machine's cores (the simulator takes one; generation usually
+/// costs more per vector than simulation).
+fn generator_workers() -> usize {
+    std::env::var("FXSHADE_GEN_THREADS")
+        .ok()
+        .and_then(|s| s.parse::<usize>().ok())
+        .filter(|&n| n >= 1)
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+        .min(16)
+}
+
+/// Open a named pipe for writing without blocking forever: retry while no
+/// reader has opened it, give up once `gone` is set (the simulation ended
+/// without opening it).
+fn open_fifo(p: &Path, gone: &std::sync::atomic::AtomicBool) -> Option<std::fs::File> {
+    use std::os::unix::fs::OpenOptionsExt;
+    use std::os::unix::io::AsRawFd;
+    loop {
+        match std::fs::OpenOptions::new()
+            .write(true)
+            .custom_flags(libc::O_NONBLOCK)
+            .open(p)
+        {
+            Ok(f) => {
+                // SAFETY: fcntl on a descriptor we own.
+                unsafe {
+                    let fl = libc::fcntl(f.as_raw_fd(), libc::F_GETFL);
+                    libc::fcntl(f.as_raw_fd(), libc::F_SETFL, fl & !libc::O_NONBLOCK);
+                }
+                return Some(f);
+            }
+            Err(e) if e.raw_os_error() == Some(libc::ENXIO) => {
+                if gone.load(std::sync::atomic::Ordering::SeqCst) {
+                    return None;
+                }
+                std::thread::sleep(std::time::Duration::from_millis(1));
+            }
+            Err(_) => return None,
+        }
+    }
+}
+
 /// As [`check_with`], passing `extra` plusargs to the simulation.
+///
+/// The vectors are streamed: a generator thread draws them chunk by chunk
+/// from `v` and encodes the binary records, two writer threads feed them
+/// through named pipes to the testbench's `$fread`, and the simulation runs
+/// meanwhile. Memory stays bounded whatever the count, and nothing is
+/// written to disk.
 #[allow(clippy::too_many_arguments)]
 pub fn check_with_args(
-    v: &VectorSet,
+    v: &dyn VectorSource,
     sources: &Sources,
     sim: Sim,
     seed: u64,
@@ -410,8 +461,14 @@ pub fn check_with_args(
     dump: bool,
     extra: &[String],
 ) -> anyhow::Result<CheckResult> {
-    let maxn = (v.count() + 1).next_power_of_two();
-    let b = build(v.unit, sources, sim, maxn, trace.is_some())?;
+    use std::io::{BufRead, Read, Write};
+    use std::sync::atomic::{AtomicBool, Ordering};
+    anyhow::ensure!(
+        v.len() < (1 << 31),
+        "{} vectors in one run: at most 2^31 − 1 (split the run with --shard)",
+        v.len()
+    );
+    let b = build(v.unit(), sources, sim, trace.is_some())?;
     let run = b.dir.join(
         format!(
             "run-{}-{:?}",
@@ -422,8 +479,18 @@ pub fn check_with_args(
     );
     let _ = std::fs::remove_dir_all(&run);
     std::fs::create_dir_all(&run)?;
-    std::fs::write(run.join("inputs.hex"), v.inputs_hex())?;
-    std::fs::write(run.join("expected.hex"), v.expected_hex())?;
+    let (fin, fexp) = (run.join("inputs.bin"), run.join("expected.bin"));
+    for f in [&fin, &fexp] {
+        let c = std::ffi::CString::new(f.as_os_str().as_encoded_bytes()).expect("no NUL");
+        // SAFETY: a valid C string; mkfifo touches no memory of ours.
+        if unsafe { libc::mkfifo(c.as_ptr(), 0o600) } != 0 {
+            bail!(
+                "cannot create the pipe {}: {}",
+                f.display(),
+                std::io::Error::last_os_error()
+            );
+        }
+    }
     let mut c = match sim {
         Sim::Verilator => Command::new(b.dir.join("obj").join("sim")),
         Sim::Icarus => {
@@ -433,7 +500,10 @@ pub fn check_with_args(
         }
     };
     c.current_dir(&run)
-        .arg(format!("+N={}", v.count()))
+        .arg(format!("+N={}", v.len()))
+        .arg(format!("+FIRST={}", v.first() as u32))
+        .arg(format!("+IN={}", fin.display()))
+        .arg(format!("+EXP={}", fexp.display()))
         .arg(format!("+SEED={}", seed as u32 as i32))
         .arg(format!("+STALL={stall}"))
         .args(extra);
@@ -449,40 +519,111 @@ pub fn check_with_args(
         );
         std::fs::write(t, b"")
             .with_context(|| format!("cannot write the waveform to {}", t.display()))?;
-    }
-    if let Some(t) = &trace_path {
         c.arg(format!("+TRACE={}", t.display()));
     }
     if dump {
         c.arg("+DUMP=outputs.hex");
     }
-    // Stream the output to time the load and the simulation separately.
-    use std::io::{BufRead, Read};
     let start = Instant::now();
     let mut child = c
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped())
         .spawn()
         .with_context(|| format!("cannot run the {} simulation", sim.name()))?;
-    let mut err_pipe = child.stderr.take().expect("piped");
-    let err_thread = std::thread::spawn(move || {
-        let mut s = String::new();
-        let _ = err_pipe.read_to_string(&mut s);
-        s
-    });
-    let mut loaded_at = None;
+    let pid = child.id() as i32;
+    let gone = AtomicBool::new(false);
+    let (in_rb, out_rb) = (
+        fxshade_model::vectors::record_bytes(v.input_fields()),
+        fxshade_model::vectors::record_bytes(v.output_fields()),
+    );
     let mut text = String::new();
-    for line in std::io::BufReader::new(child.stdout.take().expect("piped")).lines() {
-        let line = line.unwrap_or_default();
-        if loaded_at.is_none() && line.starts_with("vectors loaded") {
-            loaded_at = Some(start.elapsed().as_secs_f64());
+    let mut gen_result: anyhow::Result<f64> = Ok(0.0);
+    let mut rusage: libc::rusage = unsafe { std::mem::zeroed() };
+    let mut status = 0i32;
+    // Generator workers: chunk k is made by worker k mod W; the writers
+    // take the chunks back in order.
+    let workers = generator_workers();
+    std::thread::scope(|s| {
+        let mut rx_ins = Vec::new();
+        let mut rx_exps = Vec::new();
+        let mut generators = Vec::new();
+        for w in 0..workers {
+            let (tx_in, rx_in) = std::sync::mpsc::sync_channel::<Vec<u8>>(2);
+            let (tx_exp, rx_exp) = std::sync::mpsc::sync_channel::<Vec<u8>>(2);
+            rx_ins.push(rx_in);
+            rx_exps.push(rx_exp);
+            generators.push(s.spawn(move || -> anyhow::Result<f64> {
+                let mut busy = 0.0;
+                let mut start = w * CHUNK;
+                while start < v.len() {
+                    let t0 = Instant::now();
+                    let len = CHUNK.min(v.len() - start);
+                    let (rows, exp) = v.chunk(start, len)?;
+                    let mut bi = Vec::with_capacity(len * in_rb);
+                    let mut be = Vec::with_capacity(len * out_rb);
+                    for (k, (r, e)) in rows.iter().zip(&exp).enumerate() {
+                        let idx = (v.first() + start + k) as u32;
+                        fxshade_model::vectors::push_record(&mut bi, idx, v.input_fields(), r);
+                        fxshade_model::vectors::push_record(&mut be, idx, v.output_fields(), e);
+                    }
+                    busy += t0.elapsed().as_secs_f64();
+                    if tx_in.send(bi).is_err() || tx_exp.send(be).is_err() {
+                        break;
+                    }
+                    start += workers * CHUNK;
+                }
+                Ok(busy)
+            }));
         }
-        text += &line;
-        text += "\n";
-    }
-    let status = child.wait()?;
+        let gone = &gone;
+        let writer = |path: PathBuf, rxs: Vec<std::sync::mpsc::Receiver<Vec<u8>>>| {
+            move || {
+                let Some(mut f) = open_fifo(&path, gone) else {
+                    return;
+                };
+                // Chunks in order: worker 0, 1, …, W−1, 0, …
+                for k in 0.. {
+                    let Ok(buf) = rxs[k % rxs.len()].recv() else {
+                        return;
+                    };
+                    // A simulation that stopped reading (it ended early)
+                    // closes the pipe: stop writing.
+                    if f.write_all(&buf).is_err() {
+                        return;
+                    }
+                }
+            }
+        };
+        s.spawn(writer(fin.clone(), rx_ins));
+        s.spawn(writer(fexp.clone(), rx_exps));
+        let mut err_pipe = child.stderr.take().expect("piped");
+        let err_thread = s.spawn(move || {
+            let mut s = String::new();
+            let _ = err_pipe.read_to_string(&mut s);
+            s
+        });
+        for line in std::io::BufReader::new(child.stdout.take().expect("piped")).lines() {
+            text += &line.unwrap_or_default();
+            text += "\n";
+        }
+        // SAFETY: reaping our own child, with out-pointers to locals.
+        unsafe {
+            libc::wait4(pid, &mut status, 0, &mut rusage);
+        }
+        gone.store(true, Ordering::SeqCst);
+        text += &err_thread.join().unwrap_or_default();
+        gen_result = generators.into_iter().try_fold(0.0, |acc, g| {
+            Ok(acc
+                + g.join()
+                    .unwrap_or_else(|_| Err(anyhow::anyhow!("the vector generator panicked")))?)
+        });
+    });
     let secs = start.elapsed().as_secs_f64();
-    text += &err_thread.join().unwrap_or_default();
+    let cpu = rusage.ru_utime.tv_sec as f64
+        + rusage.ru_utime.tv_usec as f64 * 1e-6
+        + rusage.ru_stime.tv_sec as f64
+        + rusage.ru_stime.tv_usec as f64 * 1e-6;
+    let generate_seconds = gen_result?;
     let outputs = if dump {
         std::fs::read_to_string(run.join("outputs.hex"))
             .unwrap_or_default()
@@ -493,21 +634,24 @@ pub fn check_with_args(
         Vec::new()
     };
     let _ = std::fs::remove_dir_all(&run);
-    let load = loaded_at.unwrap_or(0.0);
+    let n = v.len();
     let mut r = CheckResult {
-        unit: v.unit,
+        unit: v.unit(),
         design: sources.origin.clone(),
         sim,
-        count: v.count(),
+        count: n,
+        first: v.first(),
         passed: 0,
         failed: 0,
         latency: None,
         cycles: None,
-        sim_seconds: secs,
-        load_seconds: load,
-        vectors_per_second: v.count() as f64 / (secs - load).max(1e-9),
-        vectors_per_second_end_to_end: v.count() as f64 / secs.max(1e-9),
+        seconds: secs,
+        sim_cpu_seconds: cpu,
+        generate_seconds,
+        vectors_per_second: n as f64 / cpu.max(1e-9),
+        vectors_per_second_end_to_end: n as f64 / secs.max(1e-9),
         build_seconds: b.seconds,
+        sim_max_rss_kib: rusage.ru_maxrss as u64,
         mismatches: Vec::new(),
         trace: trace_path,
         errors: Vec::new(),
@@ -549,9 +693,8 @@ pub fn check_with_args(
     }
     if !verdict {
         bail!(
-            "the {} simulation ended without a `N passed, M failed` line ({}):\n{}",
+            "the {} simulation ended without a `N passed, M failed` line (wait status {status}):\n{}",
             sim.name(),
-            status,
             text.trim_end()
         );
     }

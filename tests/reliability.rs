@@ -216,7 +216,15 @@ fn check_edited(edit: impl Fn(&str) -> String, extra: &[&str]) -> std::process::
     let e = edit(&v);
     assert_ne!(v, e, "the edit changed nothing");
     std::fs::write(&f, e).unwrap();
-    let mut args = vec!["rtl-check", "normalize", "--count", "500", "--rtl-dir"];
+    let mut args = vec![
+        "rtl-check",
+        "normalize",
+        "--count",
+        "500",
+        "--jobs",
+        "1",
+        "--rtl-dir",
+    ];
     args.push(dir.path().to_str().unwrap());
     args.extend_from_slice(extra);
     let out = fxshade(&args);
@@ -266,8 +274,11 @@ fn the_testbench_catches_data_changing_under_stall_and_extra_outputs() {
     );
 }
 
+/// The streamed records are checked one by one: an extra record (even one
+/// of all ones), a record with a wrong pad or index (what a shifted or
+/// corrupted file gives), and a missing tail are errors on both simulators.
 #[test]
-fn the_testbench_catches_extra_lines_and_extra_digits() {
+fn the_testbench_catches_extra_wrong_and_missing_records() {
     let dir = tempfile::tempdir().unwrap();
     let v = dir.path().join("v");
     let o = fxshade(&[
@@ -279,26 +290,41 @@ fn the_testbench_catches_extra_lines_and_extra_digits() {
         v.to_str().unwrap(),
     ]);
     assert!(o.status.success(), "{}", text(&o));
-    let exp = v.join("expected.hex");
-    let good = std::fs::read_to_string(&exp).unwrap();
-    let width = good.lines().next().unwrap().len();
+    let exp = v.join("expected.bin");
+    let good = std::fs::read(&exp).unwrap();
+    let rb = good.len() / 300;
     for sim in ["icarus", "verilator"] {
-        // An extra line of all f (it used to equal the sentinel).
-        std::fs::write(&exp, format!("{good}{}\n", "f".repeat(width))).unwrap();
+        // An extra record of all ones.
+        std::fs::write(&exp, [good.clone(), vec![0xff; rb]].concat()).unwrap();
         let out = run_tb(sim, dir.path(), &v, 300);
         assert!(
-            out.contains("must hold exactly 300 vectors"),
+            out.contains("holds more than 300 vectors") && out.contains("299 passed, 1 failed"),
             "{sim}: {out}"
         );
-        // A line with one extra leading digit ($readmemh truncates it).
-        let mut lines: Vec<String> = good.lines().map(String::from).collect();
-        lines[17].insert(0, '1');
-        std::fs::write(&exp, lines.join("\n") + "\n").unwrap();
+        // One byte more at the start: every record shifts (pad and index wrong).
+        std::fs::write(&exp, [vec![0u8], good.clone()].concat()).unwrap();
         let out = run_tb(sim, dir.path(), &v, 300);
         assert!(
-            out.contains("must hold exactly 300 vectors"),
+            out.contains("index or pad wrong") && out.contains(" passed, 30"),
             "{sim}: {out}"
         );
+        // Record 17's index changed.
+        // The index's lowest bit sits just above the W data bits.
+        let m: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(v.join("manifest.json")).unwrap()).unwrap();
+        let w = m["expected"]["width"].as_u64().unwrap() as usize;
+        let mut bad = good.clone();
+        bad[17 * rb + rb - 1 - w / 8] ^= 1 << (w % 8);
+        std::fs::write(&exp, &bad).unwrap();
+        let out = run_tb(sim, dir.path(), &v, 300);
+        assert!(
+            out.contains("record 17: index or pad wrong"),
+            "{sim}: {out}"
+        );
+        // The last 10 records missing.
+        std::fs::write(&exp, &good[..290 * rb]).unwrap();
+        let out = run_tb(sim, dir.path(), &v, 300);
+        assert!(out.contains("holds 290 of the 300 vectors"), "{sim}: {out}");
         std::fs::write(&exp, &good).unwrap();
         let out = run_tb(sim, dir.path(), &v, 300);
         assert!(out.contains("300 passed, 0 failed"), "{sim}: {out}");

@@ -334,8 +334,8 @@ fn random_valid_configurations_agree_bit_for_bit() {
     println!("random configurations: seed {seed} (FXSHADE_RANDOM_SEED to change)");
     let mut r = Lcg(seed);
     let units: Vec<String> = units().into_iter().map(|(u, _)| u).collect();
-    let (mut k, mut draws) = (0, 0);
-    while k < 30 {
+    let (mut valid, mut draws) = (Vec::new(), 0);
+    while valid.len() < 30 {
         draws += 1;
         assert!(
             draws < 300,
@@ -353,31 +353,53 @@ fn random_valid_configurations_agree_bit_for_bit() {
             assert_eq!(o.status.code(), Some(2), "{sets:?}: {}", text(&o));
             continue;
         }
-        // Every unit on Verilator; the first ten configurations on Icarus too.
-        let sims: &[&str] = if k < 10 {
-            &["verilator", "icarus"]
-        } else {
-            &["verilator"]
-        };
-        for unit in &units {
-            for sim in sims {
-                let mut args = vec!["rtl-check", unit, "--count", "2000", "--sim", sim, "--json"];
-                for s in &sets {
-                    args.extend(["--set", s.as_str()]);
-                }
-                let o = fxshade(&args);
-                assert!(
-                    o.status.success(),
-                    "config {k} (seed {seed}), {unit} on {sim}: {sets:?}\n{}",
-                    text(&o)
-                );
-                let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-                assert_eq!(j["passed"], 2000, "config {k}, {unit} on {sim}");
-            }
-        }
-        k += 1;
+        valid.push(sets);
     }
-    println!("{k} valid configurations of {draws} drawn");
+    // Both cores: configuration k on worker k mod 2 (each simulation build
+    // is single-threaded for most of its time).
+    let valid = &valid;
+    let units = &units;
+    std::thread::scope(|s| {
+        for w in 0..2 {
+            s.spawn(move || {
+                for (k, sets) in valid.iter().enumerate().filter(|(k, _)| k % 2 == w) {
+                    // Every unit on Verilator; the first ten configurations on Icarus too.
+                    let sims: &[&str] = if k < 10 {
+                        &["verilator", "icarus"]
+                    } else {
+                        &["verilator"]
+                    };
+                    for unit in units {
+                        for sim in sims {
+                            let mut args = vec![
+                                "rtl-check",
+                                unit,
+                                "--count",
+                                "2000",
+                                "--jobs",
+                                "1",
+                                "--sim",
+                                sim,
+                                "--json",
+                            ];
+                            for s in sets {
+                                args.extend(["--set", s.as_str()]);
+                            }
+                            let o = fxshade(&args);
+                            assert!(
+                                o.status.success(),
+                                "config {k} (seed {seed}), {unit} on {sim}: {sets:?}\n{}",
+                                text(&o)
+                            );
+                            let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+                            assert_eq!(j["passed"], 2000, "config {k}, {unit} on {sim}");
+                        }
+                    }
+                }
+            });
+        }
+    });
+    println!("{} valid configurations of {draws} drawn", valid.len());
 }
 
 #[test]
@@ -508,4 +530,163 @@ fn mutants_are_killed_and_survivors_are_named() {
         "{}",
         text(&o)
     );
+}
+
+/// Shards are disjoint slices of one stream: the records of `vectors
+/// --shard k/3` put together are the unsharded set's, byte for byte, and
+/// the corner cases are in shard 0. `rtl-check --shard` runs add up with
+/// `merge`, which refuses a missing or repeated shard.
+#[test]
+fn shards_cover_the_stream_and_merge() {
+    let dir = tempfile::tempdir().unwrap();
+    let gen = |name: &str, shard: Option<&str>| {
+        let out = dir.path().join(name);
+        let mut a = vec![
+            "vectors",
+            "polar",
+            "--count",
+            "1000",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        if let Some(s) = shard {
+            a.extend(["--shard", s]);
+        }
+        let o = fxshade(&a);
+        assert!(o.status.success(), "{}", text(&o));
+        out
+    };
+    let all = gen("all", None);
+    for f in ["inputs.bin", "expected.bin", "inputs.hex", "expected.hex"] {
+        let whole = std::fs::read(all.join(f)).unwrap();
+        let parts: Vec<u8> = (0..3)
+            .flat_map(|k| {
+                std::fs::read(gen(&format!("s{k}"), Some(&format!("{k}/3"))).join(f)).unwrap()
+            })
+            .collect();
+        assert!(
+            whole == parts,
+            "{f}: the shards differ from the whole stream"
+        );
+    }
+    let m: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("s1/manifest.json")).unwrap())
+            .unwrap();
+    assert_eq!(
+        (
+            m["first"].as_u64(),
+            m["count"].as_u64(),
+            m["total"].as_u64()
+        ),
+        (Some(333), Some(333), Some(1000))
+    );
+    assert_eq!(m["corner_cases"], 0);
+    // rtl-check shards and merge.
+    let mut files = Vec::new();
+    for k in 0..3 {
+        let o = fxshade(&[
+            "rtl-check",
+            "polar",
+            "--count",
+            "3000",
+            "--shard",
+            &format!("{k}/3"),
+            "--json",
+        ]);
+        assert!(o.status.success(), "{}", text(&o));
+        let f = dir.path().join(format!("r{k}.json"));
+        std::fs::write(&f, &o.stdout).unwrap();
+        files.push(f.to_str().unwrap().to_string());
+    }
+    let mut a = vec!["merge"];
+    a.extend(files.iter().map(|s| s.as_str()));
+    let o = fxshade(&a);
+    assert!(
+        o.status.success() && text(&o).contains("3000"),
+        "{}",
+        text(&o)
+    );
+    let o = fxshade(&["merge", &files[0], &files[2]]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(text(&o).contains("shards missing: 1/3"), "{}", text(&o));
+    let o = fxshade(&["merge", &files[0], &files[0], &files[2]]);
+    assert!(text(&o).contains("given twice"), "{}", text(&o));
+    for bad in ["3/3", "1/0", "x"] {
+        let o = fxshade(&["rtl-check", "polar", "--shard", bad]);
+        assert_eq!(o.status.code(), Some(2), "{bad}: {}", text(&o));
+    }
+}
+
+/// The vectors stream through the simulation: a new count reuses the
+/// build, memory stays flat at a million vectors (simulator and fxshade),
+/// and a count the disk cannot hold is refused before anything is written.
+#[test]
+fn streaming_needs_no_rebuild_no_memory_and_checks_the_disk() {
+    let run = |count: &str| {
+        let o = fxshade(&[
+            "rtl-check",
+            "angle_interp",
+            "--count",
+            count,
+            "--jobs",
+            "1",
+            "--json",
+        ]);
+        assert!(o.status.success(), "{}", text(&o));
+        serde_json::from_slice::<serde_json::Value>(&o.stdout).unwrap()
+    };
+    run("3000");
+    let j = run("5001");
+    assert_eq!(j["build_seconds"], 0.0, "a new count rebuilt: {j}");
+    let o = std::process::Command::new("/usr/bin/time")
+        .args(["-f", "maxrss %M"])
+        .arg(env!("CARGO_BIN_EXE_fxshade"))
+        .args([
+            "rtl-check",
+            "normalize",
+            "--count",
+            "1000000",
+            "--jobs",
+            "1",
+            "--stall",
+            "0",
+            "--json",
+        ])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", text(&o));
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(j["passed"], 1_000_000);
+    let rss: u64 = text(&o)
+        .lines()
+        .find_map(|l| l.strip_prefix("maxrss "))
+        .unwrap()
+        .trim()
+        .parse()
+        .unwrap();
+    assert!(
+        rss < 100_000,
+        "fxshade peaked at {rss} KiB for a million vectors"
+    );
+    assert!(
+        j["runs"][0]["sim_max_rss_kib"].as_u64().unwrap() < 100_000,
+        "{j}"
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("huge");
+    let o = fxshade(&[
+        "vectors",
+        "normalize",
+        "--count",
+        "100000000000000",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(
+        text(&o).contains("GB free: nothing was written"),
+        "{}",
+        text(&o)
+    );
+    assert!(!out.exists());
 }

@@ -24,7 +24,7 @@ use crate::format::Format;
 use crate::quantize::{Overflow, Quant, Rounding};
 
 /// How the real coefficients are constructed.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Fit {
     /// Interpolation at the Chebyshev nodes.
@@ -121,8 +121,25 @@ pub fn rsqrt(d: f64) -> f64 {
     1.0 / d.sqrt()
 }
 
-/// Design a polynomial of `degree` on `[lo, hi]` with `fit`.
+/// Design a polynomial of `degree` on `[lo, hi]` with `fit` (remembered
+/// for the life of the process: a Remez exchange takes milliseconds, and
+/// the pipeline asks for the same six fits on every set-up).
 pub fn design(fit: Fit, lo: f64, hi: f64, degree: usize) -> Result<Poly, CoeffError> {
+    type Memo = std::collections::HashMap<(Fit, u64, u64, usize), Result<Poly, CoeffError>>;
+    static MEMO: std::sync::OnceLock<std::sync::Mutex<Memo>> = std::sync::OnceLock::new();
+    let key = (fit, lo.to_bits(), hi.to_bits(), degree);
+    let memo = MEMO.get_or_init(Default::default);
+    if let Some(r) = memo.lock().unwrap_or_else(|e| e.into_inner()).get(&key) {
+        return r.clone();
+    }
+    let r = design_uncached(fit, lo, hi, degree);
+    memo.lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .insert(key, r.clone());
+    r
+}
+
+fn design_uncached(fit: Fit, lo: f64, hi: f64, degree: usize) -> Result<Poly, CoeffError> {
     check(lo, hi, degree)?;
     let p = match fit {
         Fit::Nodes => chebyshev_nodes(lo, hi, degree),

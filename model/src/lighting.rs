@@ -358,6 +358,7 @@ fn ops(cfg: &Config) -> Vec<OpReport> {
 pub mod rtl {
     use super::{Lighting, DECL};
     use crate::config::Config;
+    use crate::rtl::units::Part;
     use crate::sampling::Rng;
     use crate::vectors::{structured_code, RtlError};
     use glam::DVec3;
@@ -388,9 +389,9 @@ pub mod rtl {
     /// structured random codes.
     pub fn inputs(
         cfg: &Config,
-        count: usize,
+        part: crate::rtl::units::Part,
         seed: u64,
-    ) -> Result<crate::rtl::units::Inputs, RtlError> {
+    ) -> Result<Vec<Vec<i128>>, RtlError> {
         let l = Lighting::from_config(cfg.unit(DECL.name));
         let (fnm, fl) = (l.normal.format(), l.light.format());
         let qn = |v: DVec3| {
@@ -422,10 +423,10 @@ pub mod rtl {
             [fl.min_code(); 3],
             [fl.max_code(); 3],
         ));
-        let corners = rows.len();
-        if count < corners {
-            return Err(RtlError::Count { count, corners });
-        }
+        let Part::Random(count) = part else {
+            return Ok(rows);
+        };
+        rows.clear();
         let mut rng = Rng::new(seed);
         while rows.len() < count {
             if rows.len() % 2 == 0 {
@@ -439,7 +440,7 @@ pub mod rtl {
                 rows.push(r);
             }
         }
-        Ok((rows, corners))
+        Ok(rows)
     }
 }
 

@@ -99,32 +99,142 @@ pub struct VectorSet {
     pub flags: Vec<String>,
 }
 
-/// `{index[31:0], fields…}` as one hex number, most significant first.
-pub fn hex_line(index: u32, fields: &[Field], row: &[i128]) -> String {
-    // Pack into bits, LSB first, then print nibbles MSB first.
+/// `{index[31:0], fields…}` packed LSB first into 64-bit words (on the
+/// stack up to 2048 bits).
+fn pack(index: u32, fields: &[Field], row: &[i128]) -> (Words, usize) {
     let total: usize = 32
         + fields
             .iter()
             .map(|f| f.format.width() as usize)
             .sum::<usize>();
-    let mut bits = vec![false; total.div_ceil(4) * 4];
-    let mut pos = 0;
-    for (f, &code) in fields.iter().zip(row).rev() {
-        let b = f.format.to_bits(code);
-        for k in 0..f.format.width() as usize {
-            bits[pos + k] = (b >> k) & 1 == 1;
+    let n = total.div_ceil(64) + 1;
+    let mut w = if n <= 32 {
+        Words::Stack([0; 32])
+    } else {
+        Words::Heap(vec![0; n])
+    };
+    let mut pos = 0usize;
+    let mut put = |bits: u64, width: usize, pos: &mut usize| {
+        if width == 0 {
+            return;
         }
-        pos += f.format.width() as usize;
+        let (k, o) = (*pos / 64, *pos % 64);
+        w[k] |= bits << o;
+        if o + width > 64 && o > 0 {
+            w[k + 1] |= bits >> (64 - o);
+        }
+        *pos += width;
+    };
+    for (f, &code) in fields.iter().zip(row).rev() {
+        put(f.format.to_bits(code), f.format.width() as usize, &mut pos);
     }
-    for k in 0..32 {
-        bits[pos + k] = (index >> k) & 1 == 1;
+    put(index as u64, 32, &mut pos);
+    (w, total)
+}
+
+/// Packed words.
+#[allow(clippy::large_enum_variant)] // the stack variant is the point
+enum Words {
+    Stack([u64; 32]),
+    Heap(Vec<u64>),
+}
+
+impl std::ops::Deref for Words {
+    type Target = [u64];
+    fn deref(&self) -> &[u64] {
+        match self {
+            Words::Stack(a) => a,
+            Words::Heap(v) => v,
+        }
     }
-    let mut s = String::with_capacity(bits.len() / 4);
-    for nib in (0..bits.len() / 4).rev() {
-        let v = (0..4).fold(0u8, |acc, k| acc | ((bits[nib * 4 + k] as u8) << k));
+}
+
+impl std::ops::DerefMut for Words {
+    fn deref_mut(&mut self) -> &mut [u64] {
+        match self {
+            Words::Stack(a) => a,
+            Words::Heap(v) => v,
+        }
+    }
+}
+
+/// `{index[31:0], fields…}` as one hex number, most significant first.
+pub fn hex_line(index: u32, fields: &[Field], row: &[i128]) -> String {
+    let (w, total) = pack(index, fields, row);
+    let digits = total.div_ceil(4);
+    let mut s = String::with_capacity(digits);
+    for d in (0..digits).rev() {
+        let v = (w[d * 4 / 64] >> ((d * 4) % 64)) & 0xf;
         s.push(char::from_digit(v as u32, 16).expect("nibble"));
     }
     s
+}
+
+/// Bytes of one binary record of `fields`: `ceil((32 + W) / 8)`.
+pub fn record_bytes(fields: &[Field]) -> usize {
+    (32 + fields
+        .iter()
+        .map(|f| f.format.width() as usize)
+        .sum::<usize>())
+    .div_ceil(8)
+}
+
+/// Append the binary record `{zero pad, index[31:0], fields…}`, big endian,
+/// [`record_bytes`] long: what the testbench reads with `$fread`.
+pub fn push_record(out: &mut Vec<u8>, index: u32, fields: &[Field], row: &[i128]) {
+    let (w, total) = pack(index, fields, row);
+    for b in (0..total.div_ceil(8)).rev() {
+        out.push((w[b / 8] >> ((b % 8) * 8)) as u8);
+    }
+}
+
+/// Input rows and expected output rows of a run of vectors.
+pub type Rows = (Vec<Vec<i128>>, Vec<Vec<i128>>);
+
+/// Vectors as the RTL flow reads them: a slice `[first, first + count)` of
+/// a unit's stream, drawn in chunks (so a source need not hold them all).
+pub trait VectorSource: Sync {
+    /// Unit.
+    fn unit(&self) -> &'static str;
+    /// Input fields, most significant first.
+    fn input_fields(&self) -> &[Field];
+    /// Output fields (the `ovf` flags first when there are any).
+    fn output_fields(&self) -> &[Field];
+    /// Index of the first vector in the whole stream.
+    fn first(&self) -> usize;
+    /// Vectors in this slice.
+    fn len(&self) -> usize;
+    /// Whether the slice is empty.
+    fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+    /// Input and expected rows of vectors `[start, start + len)` of the
+    /// slice (relative to [`VectorSource::first`]).
+    fn chunk(&self, start: usize, len: usize) -> Result<Rows, RtlError>;
+}
+
+impl VectorSource for VectorSet {
+    fn unit(&self) -> &'static str {
+        self.unit
+    }
+    fn input_fields(&self) -> &[Field] {
+        &self.inputs
+    }
+    fn output_fields(&self) -> &[Field] {
+        &self.outputs
+    }
+    fn first(&self) -> usize {
+        0
+    }
+    fn len(&self) -> usize {
+        self.count()
+    }
+    fn chunk(&self, start: usize, len: usize) -> Result<Rows, RtlError> {
+        Ok((
+            self.input_rows[start..start + len].to_vec(),
+            self.output_rows[start..start + len].to_vec(),
+        ))
+    }
 }
 
 fn fields_json(fields: &[Field]) -> serde_json::Value {
@@ -161,13 +271,17 @@ impl VectorSet {
             "count": self.count(),
             "corner_cases": self.corner_cases,
             "seed": self.seed,
+            "first": 0,
+            "total": self.count(),
             "line_format": "{index[31:0], fields most significant first} as one hex number per line",
+            "record_format": "{zero pad, index[31:0], fields most significant first}, big endian, ceil((32 + width) / 8) bytes per vector",
             "inputs": fields_json(&self.inputs),
             "expected": fields_json(&self.outputs),
             "ovf_bits_msb_first": self.flags,
             "latency": self.rtl.latency,
             "files": {
                 "inputs": "inputs.hex", "expected": "expected.hex",
+                "inputs_bin": "inputs.bin", "expected_bin": "expected.bin",
                 "rtl": format!("{}.v", self.rtl.module),
                 "testbench": format!("{}_tb.v", self.rtl.module),
                 "config": "config.toml",
@@ -182,6 +296,24 @@ impl VectorSet {
             let _ = writeln!(s, "{}", hex_line(i as u32, &self.inputs, r));
         }
         s
+    }
+
+    /// The `inputs.bin` records.
+    pub fn inputs_bin(&self) -> Vec<u8> {
+        let mut v = Vec::with_capacity(self.count() * record_bytes(&self.inputs));
+        for (i, r) in self.input_rows.iter().enumerate() {
+            push_record(&mut v, i as u32, &self.inputs, r);
+        }
+        v
+    }
+
+    /// The `expected.bin` records.
+    pub fn expected_bin(&self) -> Vec<u8> {
+        let mut v = Vec::with_capacity(self.count() * record_bytes(&self.outputs));
+        for (i, r) in self.output_rows.iter().enumerate() {
+            push_record(&mut v, i as u32, &self.outputs, r);
+        }
+        v
     }
 
     /// The `expected.hex` text.
@@ -224,6 +356,8 @@ impl VectorSet {
         d.write(&p("manifest.json"), manifest.as_bytes())?;
         d.write(&p("inputs.hex"), self.inputs_hex().as_bytes())?;
         d.write(&p("expected.hex"), self.expected_hex().as_bytes())?;
+        d.write(&p("inputs.bin"), &self.inputs_bin())?;
+        d.write(&p("expected.bin"), &self.expected_bin())?;
         for (name, text) in self.rtl.files() {
             d.write(&p(&name), text.as_bytes())?;
         }

@@ -1,39 +1,55 @@
 // fxs_vector_tb.vh: the driver and checker every unit's testbench includes.
 //
 // The including module declares, before this include:
-//   parameter  integer MAXN   vector memory depth (at least N + 1)
 //   localparam integer IN_W   input data bits, OUT_W output data bits
 //   reg  clk, rst_n, in_valid, out_ready; reg [IN_W-1:0] in_data;
 //   wire in_ready, out_valid;             wire [OUT_W-1:0] out_data;
 //   task show(input integer i, input [IN_W-1:0] in,
 //             input [OUT_W-1:0] got, input [OUT_W-1:0] want)  (decodes fields)
 //
-// Files in the working directory (written by `fxshade vectors`):
-//   inputs.hex    one line per vector: {index[31:0], input data}
-//   expected.hex  one line per vector: {index[31:0], output data}
-// Plusargs: +N=<count> (from the manifest; required), +SEED=<n>,
-//   +STALL=<percent of cycles with valid or ready low>, +TRACE=<file>,
-//   +DUMP=<file> (every output, in order, one hex line each: what the RTL
-//   computed, for a caller that wants the results and not only the verdict).
+// Vectors are streamed, one binary record per vector read with $fread when
+// it is needed (files or named pipes; memory does not grow with the count,
+// and the count is a plusarg, so a new count never means a new build):
+//   inputs.bin    per vector {zero pad, index[31:0], input data}, big endian,
+//                 IN_RB = ceil((32 + IN_W) / 8) bytes
+//   expected.bin  per vector {zero pad, index[31:0], output data}, OUT_RB bytes
+// Plusargs: +N=<count> (required, below 2^31), +FIRST=<index of the first
+//   record> (a shard's start; indices are taken mod 2^32), +IN=<file>,
+//   +EXP=<file>, +SEED=<n>, +STALL=<percent of cycles with valid or ready
+//   low>, +TRACE=<file>, +DUMP=<file> (every output, in order, one hex line
+//   each: what the RTL computed).
 //
-// A vector file shorter or longer than N lines is an error (index fields and
-// an untouched sentinel entry are checked), never a silent pass on
-// uninitialised entries. Memory words are 32 bits wider than a line, so a
-// line with extra leading digits (which $readmemh would truncate) and an
-// extra line of any value (even all f) show in those bits.
-// The output handshake is checked too: while valid_o && !ready_i the data
-// must hold and valid must stay high, and no output may follow the N-th.
+// A record that is short, has a non-zero pad or the wrong index, and a file
+// with more than N records, are errors, never a silent pass. The output
+// handshake is checked too: while valid_o && !ready_i the data must hold and
+// valid must stay high, and no output may follow the N-th.
 // Ends with the line `P passed, F failed`.
 
-reg [64+IN_W-1:0]  in_mem  [0:MAXN];
-reg [64+OUT_W-1:0] exp_mem [0:MAXN];
+localparam integer IN_RB = (32 + IN_W + 7) / 8;
+localparam integer OUT_RB = (32 + OUT_W + 7) / 8;
+localparam integer RING = 1024;
+
+reg [8*IN_RB-1:0]  in_rec;
+reg [8*OUT_RB-1:0] exp_rec;
+reg [IN_W-1:0] in_ring [0:RING-1];
+integer in_cycle [0:RING-1];
 reg [OUT_W-1:0] held_data;
-reg held;
-integer proto, extra, drain;
-integer in_cycle [0:MAXN];
-integer n, stall, seed, in_idx, out_idx, passed, failed, cycle, lat_min, lat_max, i, bad, nxt, r1, r2;
-reg [8*256-1:0] trace_file, dump_file;
-integer dump_fd;
+reg [IN_W-1:0] next_data;
+reg [31:0] first, want_idx;
+reg held, next_loaded, aborted;
+integer proto, extra, drain, quiet;
+integer n, stall, seed, in_idx, out_idx, passed, failed, cycle, lat_min, lat_max, nxt, r1, r2, got;
+integer fd_in, fd_exp, dump_fd;
+reg [8*1024-1:0] trace_file, dump_file, in_file, exp_file;
+
+task abort_run(input integer failures);
+  begin
+    if (dump_fd != 0) $fclose(dump_fd);
+    $display("%0d passed, %0d failed", passed, failures);
+    aborted = 1'b1;
+    $finish;
+  end
+endtask
 
 initial begin
   clk = 1'b0;
@@ -41,6 +57,9 @@ initial begin
   in_valid = 1'b0;
   out_ready = 1'b0;
   in_data = {IN_W{1'b0}};
+  next_data = {IN_W{1'b0}};
+  next_loaded = 1'b0;
+  aborted = 1'b0;
   in_idx = 0;
   out_idx = 0;
   held = 1'b0;
@@ -48,58 +67,49 @@ initial begin
   proto = 0;
   extra = 0;
   drain = -1;
+  quiet = 0;
   passed = 0;
   failed = 0;
   cycle = 0;
   lat_min = 1 << 30;
   lat_max = 0;
+  dump_fd = 0;
   if (!$value$plusargs("N=%d", n)) begin
     $display("error: +N=<vector count> is required");
-    $display("0 passed, 1 failed");
-    $finish;
+    abort_run(1);
   end
-  if (n + 1 > MAXN + 1 || n < 1) begin
-    $display("error: +N=%0d outside 1..%0d (MAXN)", n, MAXN);
-    $display("0 passed, %0d failed", n);
-    $finish;
+  if (n < 1) begin
+    $display("error: +N=%0d: at least one vector", n);
+    abort_run(1);
   end
+  first = 32'd0;
+  if ($value$plusargs("FIRST=%d", first)) begin end
   stall = 0;
   if ($value$plusargs("STALL=%d", stall)) begin end
   seed = 1;
   if ($value$plusargs("SEED=%d", seed)) begin end
-  dump_fd = 0;
+  in_file = "inputs.bin";
+  if ($value$plusargs("IN=%s", in_file)) begin end
+  exp_file = "expected.bin";
+  if ($value$plusargs("EXP=%s", exp_file)) begin end
+  fd_in = $fopen(in_file, "rb");
+  fd_exp = $fopen(exp_file, "rb");
+  if (fd_in == 0 || fd_exp == 0) begin
+    $display("error: cannot open the vector files (+IN, +EXP)");
+    abort_run(n);
+  end
   if ($value$plusargs("DUMP=%s", dump_file)) begin
     dump_fd = $fopen(dump_file, "w");
     if (dump_fd == 0) begin
       $display("error: cannot open +DUMP file");
-      $display("0 passed, %0d failed", n);
-      $finish;
+      abort_run(n);
     end
   end
   if ($value$plusargs("TRACE=%s", trace_file)) begin
     $dumpfile(trace_file);
     $dumpvars(0);
   end
-  for (i = 0; i <= MAXN; i = i + 1) begin
-    in_mem[i] = {(64 + IN_W){1'b1}};
-    exp_mem[i] = {(64 + OUT_W){1'b1}};
-  end
-  $readmemh("inputs.hex", in_mem);
-  $readmemh("expected.hex", exp_mem);
-  bad = 0;
-  for (i = 0; i < n; i = i + 1) begin
-    // The pad (top 32 bits) must be zero and the index field i.
-    if (in_mem[i][64+IN_W-1:IN_W] !== {32'd0, i}) bad = bad + 1;
-    if (exp_mem[i][64+OUT_W-1:OUT_W] !== {32'd0, i}) bad = bad + 1;
-  end
-  if (in_mem[n] !== {(64 + IN_W){1'b1}} || exp_mem[n] !== {(64 + OUT_W){1'b1}}) bad = bad + 1;
-  if (bad != 0) begin
-    $display("error: inputs.hex and expected.hex must hold exactly %0d vectors, indexed 0..%0d (%0d entries wrong)",
-             n, n - 1, bad);
-    $display("0 passed, %0d failed", n);
-    $finish;
-  end
-  $display("vectors loaded: %0d", n);
+  $display("vectors streaming: %0d from index %0d", n, first);
   $fflush;
   repeat (3) @(posedge clk);
   rst_n = 1'b1;
@@ -109,19 +119,41 @@ always #5 clk = ~clk;
 
 always @(posedge clk) begin
   cycle <= cycle + 1;
-  if (rst_n) begin
+  if (rst_n && !aborted) begin
     // Input side: valid stays high until the transfer.
     nxt = in_idx;
     if (in_valid && in_ready) begin
-      in_cycle[in_idx] = cycle;
+      in_ring[in_idx % RING] = in_data;
+      in_cycle[in_idx % RING] = cycle;
       nxt = in_idx + 1;
+      next_loaded = 1'b0;
     end
     in_idx <= nxt;
+    if (nxt - out_idx >= RING) begin
+      $display("error: more than %0d vectors in flight", RING);
+      abort_run(n - passed);
+    end
     if (!in_valid || in_ready) begin
+      if (nxt < n && !next_loaded) begin
+        // Read vector nxt's record once, when it is first needed.
+        got = $fread(in_rec, fd_in);
+        want_idx = first + nxt;
+        if (got != IN_RB) begin
+          $display("error: %0s holds %0d of the %0d vectors (record %0d is %0d of %0d bytes)",
+                   in_file, nxt, n, nxt, got < 0 ? 0 : got, IN_RB);
+          abort_run(n - passed);
+        end
+        if ((in_rec >> IN_W) !== {{(8*IN_RB-32){1'b0}}, want_idx}) begin
+          $display("error: %0s record %0d: index or pad wrong (want index %0d)", in_file, nxt, want_idx);
+          abort_run(n - passed);
+        end
+        next_data = in_rec[IN_W-1:0];
+        next_loaded = 1'b1;
+      end
       r1 = $random(seed);
       if (nxt < n && ((r1 & 32'h7fffffff) % 100) >= stall) begin
         in_valid <= 1'b1;
-        in_data <= in_mem[nxt][IN_W-1:0];
+        in_data <= next_data;
       end else begin
         in_valid <= 1'b0;
       end
@@ -137,6 +169,7 @@ always @(posedge clk) begin
     end
     held <= out_valid && !out_ready;
     held_data <= out_data;
+    quiet = quiet + 1;
     // After the N-th output: any further output is one too many.
     if (drain >= 0) begin
       if (out_valid && out_ready) begin
@@ -144,6 +177,17 @@ always @(posedge clk) begin
         if (extra <= 5) $display("error: an output beyond the %0d vectors at cycle %0d", n, cycle);
       end
       if (drain == 0) begin
+        // Nothing may follow the N-th record in either file.
+        got = $fread(in_rec, fd_in);
+        if (got > 0) begin
+          extra = extra + 1;
+          $display("error: %0s holds more than %0d vectors", in_file, n);
+        end
+        got = $fread(exp_rec, fd_exp);
+        if (got > 0) begin
+          extra = extra + 1;
+          $display("error: %0s holds more than %0d vectors", exp_file, n);
+        end
         if (dump_fd != 0) $fclose(dump_fd);
         $display("%0d passed, %0d failed", passed - ((proto + extra) > passed ? passed : (proto + extra)),
                  failed + proto + extra);
@@ -153,15 +197,27 @@ always @(posedge clk) begin
     end else
     // Output side: compare every transfer, in order.
     if (out_valid && out_ready) begin
+      quiet = 0;
       if (dump_fd != 0) $fwrite(dump_fd, "%h\n", out_data);
-      if (out_data === exp_mem[out_idx][OUT_W-1:0]) begin
+      got = $fread(exp_rec, fd_exp);
+      want_idx = first + out_idx;
+      if (got != OUT_RB) begin
+        $display("error: %0s holds %0d of the %0d vectors (record %0d is %0d of %0d bytes)",
+                 exp_file, out_idx, n, out_idx, got < 0 ? 0 : got, OUT_RB);
+        abort_run(n - passed);
+      end
+      if ((exp_rec >> OUT_W) !== {{(8*OUT_RB-32){1'b0}}, want_idx}) begin
+        $display("error: %0s record %0d: index or pad wrong (want index %0d)", exp_file, out_idx, want_idx);
+        abort_run(n - passed);
+      end
+      if (out_data === exp_rec[OUT_W-1:0]) begin
         passed = passed + 1;
       end else begin
         failed = failed + 1;
-        if (failed <= 5) show(out_idx, in_mem[out_idx][IN_W-1:0], out_data, exp_mem[out_idx][OUT_W-1:0]);
+        if (failed <= 5) show(first + out_idx, in_ring[out_idx % RING], out_data, exp_rec[OUT_W-1:0]);
       end
-      if (cycle - in_cycle[out_idx] < lat_min) lat_min = cycle - in_cycle[out_idx];
-      if (cycle - in_cycle[out_idx] > lat_max) lat_max = cycle - in_cycle[out_idx];
+      if (cycle - in_cycle[out_idx % RING] < lat_min) lat_min = cycle - in_cycle[out_idx % RING];
+      if (cycle - in_cycle[out_idx % RING] > lat_max) lat_max = cycle - in_cycle[out_idx % RING];
       out_idx <= out_idx + 1;
       if (out_idx + 1 == n) begin
         $display("latency %0d cycles (min), %0d (max, with stalls)", lat_min, lat_max);
@@ -172,10 +228,10 @@ always @(posedge clk) begin
     end
     r2 = $random(seed);
     out_ready <= (drain >= 0) || (((r2 & 32'h7fffffff) % 100) >= stall);
-    if (cycle > 100 + 50 * n) begin
-      $display("error: timeout after %0d cycles with %0d of %0d vectors out", cycle, out_idx, n);
-      $display("%0d passed, %0d failed", passed, n - passed);
-      $finish;
+    // A stuck design: no output for this many cycles (stalls last a few).
+    if (quiet > 100000) begin
+      $display("error: no output for %0d cycles, %0d of %0d vectors out", quiet, out_idx, n);
+      abort_run(n - passed);
     end
   end
 end

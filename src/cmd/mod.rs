@@ -4,6 +4,7 @@ pub mod bench;
 pub mod coeffs;
 pub mod config;
 pub mod error;
+pub mod merge;
 pub mod mutate;
 pub mod ops;
 pub mod paper;

@@ -374,7 +374,15 @@ fn run_rtl(
             .all(|(r, m)| r.last() == Some(m)),
         "the compiled trace and the pipeline model disagree"
     );
-    let r = rtl_flow::check_with(&v, &rtl_flow::Sources::emitted(&v), sim, 1, 0, None, true)?;
+    let r = rtl_flow::check_with(
+        &v,
+        &rtl_flow::Sources::emitted(&v.rtl),
+        sim,
+        1,
+        0,
+        None,
+        true,
+    )?;
     let mut levels = vec![0u8; rows.len()];
     let mut differing = live.len().abs_diff(r.outputs.len());
     for (k, &i) in live.iter().enumerate() {

@@ -2,11 +2,13 @@
 
 use std::path::PathBuf;
 
+use anyhow::Context;
 use clap::Args;
+use fxshade_model::rtl::units::VectorStream;
 
 use super::ConfigArgs;
 use crate::output::{emit, OutputArgs, Table};
-use crate::rtl_flow::{self, Sim};
+use crate::rtl_flow::{self, CheckResult, Sim};
 
 /// `fxshade rtl-check`
 #[derive(Args, Debug)]
@@ -18,17 +20,27 @@ pub struct RtlCheckArgs {
     /// Simulator.
     #[arg(long, value_enum, default_value_t = Sim::Verilator)]
     sim: Sim,
-    /// Number of vectors.
+    /// Number of vectors in the whole stream (streamed: memory does not
+    /// grow with it).
     #[arg(long, default_value_t = 10_000)]
     count: usize,
     /// Seed of the vectors and of the testbench's random stalls.
     #[arg(long, default_value_t = 1)]
     seed: u64,
+    /// Check only shard K of N (0-based): a deterministic, disjoint slice of
+    /// the same stream; the corner cases are in shard 0. Combine the
+    /// shards' `--json` outputs with `fxshade merge`.
+    #[arg(long, value_name = "K/N", value_parser = parse_shard)]
+    shard: Option<(usize, usize)>,
+    /// Simulations to run at once, each on a slice of the run (default:
+    /// the machine's cores).
+    #[arg(long, value_name = "J")]
+    jobs: Option<usize>,
     /// Percent of cycles with valid (input) or ready (output) held low.
     #[arg(long, default_value_t = 20, value_parser = clap::value_parser!(u32).range(0..=90))]
     stall: u32,
     /// Write a waveform (FST with Verilator, VCD with Icarus) to this file
-    /// (default: <unit>.fst or <unit>.vcd).
+    /// (default: <unit>.fst or <unit>.vcd). Runs one job.
     // A String, not a PathBuf: clap refuses an empty path, and the empty
     // default_missing_value is what `--trace` alone gives.
     #[arg(long, value_name = "FILE", num_args = 0..=1, default_missing_value = "")]
@@ -42,14 +54,72 @@ pub struct RtlCheckArgs {
     out: OutputArgs,
 }
 
+/// `K/N` with `K < N`.
+pub fn parse_shard(s: &str) -> Result<(usize, usize), String> {
+    let bad = || format!("`{s}`: write K/N with 0 ≤ K < N (shard K of N, 0-based)");
+    let (k, n) = s.split_once('/').ok_or_else(bad)?;
+    let (k, n): (usize, usize) = (
+        k.trim().parse().map_err(|_| bad())?,
+        n.trim().parse().map_err(|_| bad())?,
+    );
+    if n == 0 || k >= n {
+        return Err(bad());
+    }
+    Ok((k, n))
+}
+
+/// One run's (or one shard's) summary, as `--json` prints it and `fxshade
+/// merge` reads it.
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
+pub struct RunSummary {
+    /// Unit.
+    pub unit: String,
+    /// Variant.
+    pub variant: String,
+    /// Simulator.
+    pub sim: String,
+    /// Hash of the effective configuration.
+    pub config_hash: String,
+    /// Seed.
+    pub seed: u64,
+    /// Vectors in the whole stream.
+    pub total: usize,
+    /// `[K, N]` when one shard was checked.
+    pub shard: Option<(usize, usize)>,
+    /// First vector checked.
+    pub first: usize,
+    /// Vectors checked.
+    pub count: usize,
+    /// Passed.
+    pub passed: u64,
+    /// Failed.
+    pub failed: u64,
+    /// Smallest input-to-output latency seen, in cycles.
+    pub latency: Option<u64>,
+    /// Jobs.
+    pub jobs: usize,
+    /// Wall-clock seconds of the run, building excluded.
+    pub seconds: f64,
+    /// Vectors per simulator CPU second (all jobs).
+    pub vectors_per_second: f64,
+    /// Vectors per wall-clock second, generation included.
+    pub vectors_per_second_end_to_end: f64,
+    /// Seconds building.
+    pub build_seconds: f64,
+    /// Each job's result.
+    #[serde(default, skip_deserializing)]
+    pub runs: Vec<CheckResult>,
+}
+
 /// Run it; exit status 0 only when every vector passed.
 pub fn run(a: &RtlCheckArgs) -> anyhow::Result<()> {
     let u = rtl_flow::unit(&a.unit)?;
     let cfg = a.cfg.resolve()?;
-    let v = fxshade_model::rtl::units::vectors(u, &cfg, a.count, a.seed)?;
+    let stream = VectorStream::new(u, &cfg, a.count, a.seed, a.shard)?;
+    let rtl = stream.rtl();
     let sources = match &a.rtl_dir {
-        Some(d) => rtl_flow::Sources::from_dir(&v, d)?,
-        None => rtl_flow::Sources::emitted(&v),
+        Some(d) => rtl_flow::Sources::from_dir(&rtl, d)?,
+        None => rtl_flow::Sources::emitted(&rtl),
     };
     let trace = a.trace.as_ref().map(|t| {
         if t.is_empty() {
@@ -66,15 +136,65 @@ pub fn run(a: &RtlCheckArgs) -> anyhow::Result<()> {
             PathBuf::from(t)
         }
     });
-    let r = rtl_flow::check_with(
-        &v,
-        &sources,
-        a.sim,
-        a.seed,
-        a.stall,
-        trace.as_deref(),
-        false,
-    )?;
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let jobs = if trace.is_some() {
+        1
+    } else {
+        a.jobs
+            .unwrap_or(cores)
+            .clamp(1, 256)
+            .min(stream.count.max(1))
+    };
+    anyhow::ensure!(a.jobs != Some(0), "--jobs 0: give at least 1");
+    // Build once, before the jobs share it.
+    let b = rtl_flow::build(u.name, &sources, a.sim, trace.is_some())?;
+    let start = std::time::Instant::now();
+    let results: Vec<anyhow::Result<CheckResult>> = std::thread::scope(|s| {
+        let handles: Vec<_> = (0..jobs)
+            .map(|j| {
+                let slice = stream.slice(j, jobs);
+                let (sources, trace) = (&sources, trace.as_deref());
+                s.spawn(move || {
+                    rtl_flow::check_with(&slice, sources, a.sim, a.seed, a.stall, trace, false)
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| {
+                h.join()
+                    .unwrap_or_else(|_| Err(anyhow::anyhow!("a job panicked")))
+            })
+            .collect()
+    });
+    let seconds = start.elapsed().as_secs_f64();
+    let runs: Vec<CheckResult> = results.into_iter().collect::<anyhow::Result<_>>()?;
+    let passed: u64 = runs.iter().map(|r| r.passed).sum();
+    let failed: u64 = runs.iter().map(|r| r.failed).sum();
+    let cpu: f64 = runs.iter().map(|r| r.sim_cpu_seconds).sum();
+    let summary = RunSummary {
+        unit: u.name.to_string(),
+        variant: stream.design.variant.clone(),
+        sim: format!("{:?}", a.sim).to_lowercase(),
+        config_hash: format!(
+            "{:016x}",
+            fxshade_model::vectors::fingerprint(&[stream.design.config_toml.as_bytes()])
+        ),
+        seed: a.seed,
+        total: a.count,
+        shard: a.shard,
+        first: stream.first,
+        count: stream.count,
+        passed,
+        failed,
+        latency: runs.iter().filter_map(|r| r.latency).min(),
+        jobs,
+        seconds,
+        vectors_per_second: stream.count as f64 / cpu.max(1e-9) * jobs as f64,
+        vectors_per_second_end_to_end: stream.count as f64 / seconds.max(1e-9),
+        build_seconds: b.seconds,
+        runs,
+    };
     let mut t = Table::new([
         "unit",
         "simulator",
@@ -82,46 +202,67 @@ pub fn run(a: &RtlCheckArgs) -> anyhow::Result<()> {
         "passed",
         "failed",
         "latency (cycles)",
-        "vectors/s (simulation)",
-        "load (s)",
-        "vectors/s (with load)",
+        "jobs",
+        "vectors/s (simulation, per job)",
+        "vectors/s (end to end)",
         "build (s)",
     ])
     .titled(format!(
-        "rtl-check {} ({}), configuration {}",
-        u.name, v.variant, cfg.source
+        "rtl-check {} ({}), configuration {}{}",
+        u.name,
+        stream.design.variant,
+        cfg.source,
+        match a.shard {
+            Some((k, n)) => format!(
+                ", shard {k}/{n}: vectors {}..{}",
+                stream.first,
+                stream.first + stream.count
+            ),
+            None => String::new(),
+        }
     ));
     t.row([
         u.name.to_string(),
-        format!("{:?}", a.sim).to_lowercase(),
-        r.count.to_string(),
-        r.passed.to_string(),
-        r.failed.to_string(),
-        r.latency.map_or("-".into(), |l| l.to_string()),
-        format!("{:.0}", r.vectors_per_second),
-        format!("{:.2}", r.load_seconds),
-        format!("{:.0}", r.vectors_per_second_end_to_end),
-        format!("{:.1}", r.build_seconds),
+        summary.sim.clone(),
+        stream.count.to_string(),
+        passed.to_string(),
+        failed.to_string(),
+        summary
+            .runs
+            .iter()
+            .filter_map(|r| r.latency)
+            .min()
+            .map_or("-".into(), |l| l.to_string()),
+        jobs.to_string(),
+        format!("{:.0}", summary.vectors_per_second / jobs as f64),
+        format!("{:.0}", summary.vectors_per_second_end_to_end),
+        format!("{:.1}", b.seconds),
     ]);
     if !a.out.json {
-        eprintln!("design: {}", r.design);
-        for m in &r.mismatches {
-            eprintln!("{m}");
-        }
-        for e in &r.errors {
-            eprintln!("{e}");
-        }
-        if let Some(p) = &r.trace {
-            eprintln!("waveform: {}", p.display());
+        eprintln!("design: {}", sources.origin);
+        for r in &summary.runs {
+            for m in &r.mismatches {
+                eprintln!("{m}");
+            }
+            for e in &r.errors {
+                eprintln!("{e}");
+            }
+            if let Some(p) = &r.trace {
+                eprintln!("waveform: {}", p.display());
+            }
         }
     }
-    emit(a.out, &[t], &serde_json::to_value(&r)?)?;
+    emit(
+        a.out,
+        &[t],
+        &serde_json::to_value(&summary).context("summary")?,
+    )?;
     anyhow::ensure!(
-        r.ok(),
+        failed == 0 && passed == stream.count as u64,
         "{} of {} vectors failed ({} passed)",
-        r.count as u64 - r.passed.min(r.count as u64),
-        r.count,
-        r.passed
+        stream.count as u64 - passed.min(stream.count as u64),
+        stream.count,
+        passed
     );
     Ok(())
 }

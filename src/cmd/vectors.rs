@@ -1,10 +1,14 @@
 //! `fxshade vectors <unit>`: test vectors, with the unit's generated
 //! Verilog and testbench, for a configuration.
 
-use std::path::PathBuf;
+use std::io::Write;
+use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use clap::Args;
+use fxshade_model::files::StagedDir;
+use fxshade_model::rtl::units::VectorStream;
+use fxshade_model::vectors::{hex_line, push_record, record_bytes, VectorSource};
 
 use super::ConfigArgs;
 
@@ -15,12 +19,22 @@ pub struct VectorsArgs {
     unit: String,
     #[command(flatten)]
     cfg: ConfigArgs,
-    /// Number of vectors (corner cases first, then random).
+    /// Number of vectors in the whole stream (corner cases first, then
+    /// random; written as they are generated: memory does not grow with it).
     #[arg(long, default_value_t = 10_000)]
     count: usize,
     /// Seed of the random vectors: the same seed gives identical files.
     #[arg(long, default_value_t = 1)]
     seed: u64,
+    /// Write only shard K of N (0-based): a deterministic, disjoint slice of
+    /// the same stream (its records carry their stream indices; the
+    /// manifest says `first` and `total`).
+    #[arg(long, value_name = "K/N", value_parser = super::rtl_check::parse_shard)]
+    shard: Option<(usize, usize)>,
+    /// Leave out `inputs.hex` and `expected.hex` (the testbench reads the
+    /// binary records; the text files are for people and `$readmemh`).
+    #[arg(long)]
+    no_hex: bool,
     /// Output directory (replaced as a whole when the set is complete; a
     /// non-empty directory fxshade did not write is refused).
     #[arg(long, short = 'o', value_name = "DIR")]
@@ -30,23 +44,151 @@ pub struct VectorsArgs {
     force: bool,
 }
 
+/// Bytes free for an unprivileged user on the file system holding `dir`.
+fn free_bytes(dir: &Path) -> Option<u64> {
+    let c = std::ffi::CString::new(dir.as_os_str().as_encoded_bytes()).ok()?;
+    // SAFETY: statvfs writes into the struct we pass; the path is a valid C
+    // string.
+    unsafe {
+        let mut s: libc::statvfs = std::mem::zeroed();
+        (libc::statvfs(c.as_ptr(), &mut s) == 0).then(|| s.f_bavail as u64 * s.f_frsize as u64)
+    }
+}
+
+/// Vectors per chunk written.
+const CHUNK: usize = 8192;
+
 /// Run it.
 pub fn run(a: &VectorsArgs) -> anyhow::Result<()> {
     let u = crate::rtl_flow::unit(&a.unit)?;
     let cfg = a.cfg.resolve()?;
     let start = std::time::Instant::now();
-    let v = fxshade_model::rtl::units::vectors(u, &cfg, a.count, a.seed)?;
-    let gen = start.elapsed().as_secs_f64();
-    v.write(&a.out, a.force)
+    let s = VectorStream::new(u, &cfg, a.count, a.seed, a.shard)?;
+    let (ib, eb) = (
+        record_bytes(s.input_fields()),
+        record_bytes(s.output_fields()),
+    );
+    let hex = |fields: &[fxshade_model::vectors::Field]| {
+        (32 + fields
+            .iter()
+            .map(|f| f.format.width() as usize)
+            .sum::<usize>())
+        .div_ceil(4)
+            + 1
+    };
+    let per = ib
+        + eb
+        + if a.no_hex {
+            0
+        } else {
+            hex(s.input_fields()) + hex(s.output_fields())
+        };
+    let need = (s.count as u64) * per as u64 + (1 << 20);
+    let parent = a
+        .out
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    if let Some(free) = free_bytes(parent) {
+        anyhow::ensure!(
+            need <= free,
+            "{} vectors of {} need {:.2} GB ({per} bytes each{}), and the file system of {} has {:.2} GB free: nothing was written \
+             (use --no-hex, fewer vectors, or --shard)",
+            s.count,
+            u.name,
+            need as f64 / 1e9,
+            if a.no_hex { "" } else { " with the hex files" },
+            parent.display(),
+            free as f64 / 1e9
+        );
+    }
+    let d = if a.force {
+        StagedDir::new_forced(&a.out)
+    } else {
+        StagedDir::new(&a.out)
+    }
+    .with_context(|| format!("cannot write the vectors to {}", a.out.display()))?;
+    let io = |p: &Path| format!("cannot write {}", p.display());
+    let mut m = s.manifest();
+    if a.no_hex {
+        m["files"]["inputs"] = serde_json::Value::Null;
+        m["files"]["expected"] = serde_json::Value::Null;
+    }
+    d.write(
+        "manifest.json",
+        (serde_json::to_string_pretty(&m)? + "\n").as_bytes(),
+    )?;
+    d.write("config.toml", s.design.config_toml.as_bytes())?;
+    for (name, text) in s.rtl().files() {
+        d.write(&name, text.as_bytes())?;
+    }
+    let open = |name: &str| -> anyhow::Result<(PathBuf, std::io::BufWriter<std::fs::File>)> {
+        let p = d.path(name)?;
+        let f = std::fs::File::create(&p).with_context(|| io(&p))?;
+        Ok((p.clone(), std::io::BufWriter::with_capacity(1 << 20, f)))
+    };
+    let mut bins = [open("inputs.bin")?, open("expected.bin")?];
+    let mut hexes = if a.no_hex {
+        Vec::new()
+    } else {
+        vec![open("inputs.hex")?, open("expected.hex")?]
+    };
+    let bar = (s.count >= 1_000_000).then(|| crate::progress::bar(s.count as u64, "vectors"));
+    let mut done = 0;
+    while done < s.count {
+        let len = CHUNK.min(s.count - done);
+        let (rows, exp) = s.chunk(done, len)?;
+        let (mut bi, mut be) = (Vec::with_capacity(len * ib), Vec::with_capacity(len * eb));
+        let (mut hi, mut he) = (String::new(), String::new());
+        for (k, (r, e)) in rows.iter().zip(&exp).enumerate() {
+            let idx = (s.first + done + k) as u32;
+            push_record(&mut bi, idx, s.input_fields(), r);
+            push_record(&mut be, idx, s.output_fields(), e);
+            if !a.no_hex {
+                hi += &hex_line(idx, s.input_fields(), r);
+                hi.push('\n');
+                he += &hex_line(idx, s.output_fields(), e);
+                he.push('\n');
+            }
+        }
+        for ((p, w), buf) in bins.iter_mut().zip([&bi, &be]) {
+            w.write_all(buf).with_context(|| io(p))?;
+        }
+        for ((p, w), buf) in hexes.iter_mut().zip([&hi, &he]) {
+            w.write_all(buf.as_bytes()).with_context(|| io(p))?;
+        }
+        done += len;
+        if let Some(b) = &bar {
+            b.set_position(done as u64);
+        }
+    }
+    for (p, w) in bins.iter_mut().chain(hexes.iter_mut()) {
+        w.flush().with_context(|| io(p))?;
+    }
+    drop((bins, hexes));
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
+    d.commit()
         .with_context(|| format!("cannot write the vectors to {}", a.out.display()))?;
+    let secs = start.elapsed().as_secs_f64();
     crate::output::print_out(&format!(
-        "{} vectors ({} corner cases) of {} ({}) written to {} in {:.2} s ({:.0} vectors/s generated)\n",
-        v.count(),
-        v.corner_cases,
-        v.unit,
-        v.variant,
+        "{} vectors ({} corner cases){} of {} ({}) written to {} in {:.2} s ({:.0} vectors/s)\n",
+        s.count,
+        s.corners.len().saturating_sub(s.first).min(s.count),
+        match a.shard {
+            Some((k, n)) => format!(
+                ", shard {k}/{n} = indices {}..{} of {}",
+                s.first,
+                s.first + s.count,
+                s.total
+            ),
+            None => String::new(),
+        },
+        u.name,
+        s.design.variant,
         a.out.display(),
-        start.elapsed().as_secs_f64(),
-        v.count() as f64 / gen.max(1e-9)
+        secs,
+        s.count as f64 / secs.max(1e-9)
     ))
 }

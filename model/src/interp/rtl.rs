@@ -5,6 +5,7 @@ use super::{setup, Interp, DECL, PAIRS, THETA_LADDER};
 use crate::config::Config;
 use crate::datapath::{Fixed, Fx};
 use crate::quantize::Rounding;
+use crate::rtl::units::Part;
 use crate::sampling::{self, Rng};
 use crate::vectors::{hunt_ties, structured_code, RtlError};
 
@@ -53,13 +54,29 @@ fn eval_row(i: &Interp, fx: &mut Fixed<i128>, one: Fx, row: &[i128]) -> [Fx; 3] 
 /// ladder with random barycentrics, alternating with random codes.
 pub fn inputs(
     cfg: &Config,
-    count: usize,
+    part: crate::rtl::units::Part,
     seed: u64,
-) -> Result<crate::rtl::units::Inputs, RtlError> {
+) -> Result<Vec<Vec<i128>>, RtlError> {
     let i = Interp::from_config(cfg.unit(DECL.name));
     let (fb, fv) = (i.bary.format(), i.vertex.format());
     let mut rng = Rng::new(seed);
     let mut rows: Vec<Row> = Vec::new();
+    let (bmax, vmax, vmin) = (fb.max_code(), fv.max_code(), fv.min_code());
+    if let Part::Random(count) = part {
+        let (bspan, vspan) = ((bmax + 1) as u64, (vmax - vmin + 1) as u64);
+        while rows.len() < count {
+            if rows.len() % 2 == 0 {
+                let theta = THETA_LADDER[rng.below(THETA_LADDER.len() as u64) as usize];
+                let c = rng.barycentric();
+                rows.push(triangle_row(&i, theta, c, &mut rng));
+            } else {
+                let mut r = vec![rng.below(bspan) as i128, rng.below(bspan) as i128];
+                r.extend((0..18).map(|_| vmin + rng.below(vspan) as i128));
+                rows.push(r);
+            }
+        }
+        return Ok(rows);
+    }
     let mut bary_corners = vec![
         [1.0, 0.0, 0.0],
         [0.0, 1.0, 0.0],
@@ -78,7 +95,6 @@ pub fn inputs(
         }
     }
     // Extrapolation (c1 + c2 > 1, c3 < 0) and extreme codes.
-    let (bmax, vmax, vmin) = (fb.max_code(), fv.max_code(), fv.min_code());
     rows.push([vec![bmax, bmax], vec![vmax; 18]].concat());
     rows.push([vec![bmax, bmax], vec![vmin; 18]].concat());
     rows.push([vec![0, 0], vec![vmin; 18]].concat());
@@ -119,21 +135,5 @@ pub fn inputs(
             eval_row(&i, fx, one, row);
         },
     ));
-    let corners = rows.len();
-    if count < corners {
-        return Err(RtlError::Count { count, corners });
-    }
-    let (bspan, vspan) = ((bmax + 1) as u64, (vmax - vmin + 1) as u64);
-    while rows.len() < count {
-        if rows.len() % 2 == 0 {
-            let theta = THETA_LADDER[rng.below(THETA_LADDER.len() as u64) as usize];
-            let c = rng.barycentric();
-            rows.push(triangle_row(&i, theta, c, &mut rng));
-        } else {
-            let mut r = vec![rng.below(bspan) as i128, rng.below(bspan) as i128];
-            r.extend((0..18).map(|_| vmin + rng.below(vspan) as i128));
-            rows.push(r);
-        }
-    }
-    Ok((rows, corners))
+    Ok(rows)
 }

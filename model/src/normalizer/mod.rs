@@ -448,7 +448,41 @@ pub fn design(
 }
 
 /// As [`design`], on an explicit interval `[lo, hi]`.
+///
+/// Designs are remembered for the life of the process (keyed by every
+/// argument, f64s by their bits): the coefficient search and the
+/// bit-accurate scoring take up to seconds, and a vector stream, a render
+/// or a sweep asks for the same design many times.
 pub fn design_interval(
+    method: Method,
+    stages: Stages,
+    theta: f64,
+    fit: Fit,
+    interval: Interval,
+    (lo, hi): (f64, f64),
+    search: bool,
+) -> Result<(Normalizer, Option<Design>), DesignError> {
+    type Memo =
+        std::collections::HashMap<String, Result<(Normalizer, Option<Design>), DesignError>>;
+    static MEMO: std::sync::OnceLock<std::sync::Mutex<Memo>> = std::sync::OnceLock::new();
+    let key = format!(
+        "{method:?}|{stages:?}|{:x}|{fit:?}|{interval:?}|{:x}|{:x}|{search}",
+        theta.to_bits(),
+        lo.to_bits(),
+        hi.to_bits()
+    );
+    let memo = MEMO.get_or_init(Default::default);
+    if let Some(r) = memo.lock().unwrap_or_else(|e| e.into_inner()).get(&key) {
+        return r.clone();
+    }
+    let r = design_uncached(method, stages, theta, fit, interval, (lo, hi), search);
+    memo.lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .insert(key, r.clone());
+    r
+}
+
+fn design_uncached(
     method: Method,
     stages: Stages,
     theta: f64,

@@ -8,6 +8,7 @@ use crate::config::Config;
 use crate::datapath::{Fixed, Fx};
 use crate::format::Format;
 use crate::quantize::{Overflow, Quant, Rounding};
+use crate::rtl::units::Part;
 use crate::sampling::{self, Rng};
 use crate::vectors::{hunt_ties, structured_code, RtlError};
 
@@ -113,20 +114,20 @@ fn tie_inputs(n: &Normalizer, per_stage: usize, rng: &mut Rng) -> Result<Vec<[i1
 /// whole input range, alternating; `count` in all.
 pub fn inputs(
     cfg: &Config,
-    count: usize,
+    part: crate::rtl::units::Part,
     seed: u64,
-) -> Result<crate::rtl::units::Inputs, RtlError> {
+) -> Result<Vec<Vec<i128>>, RtlError> {
     let (n, _design) = from_config(cfg)?;
     let theta = cfg.unit(DECL.name).number("theta");
     let f = n.q.normal.format();
     let mut rng = Rng::new(seed);
-    let mut inputs = corner_inputs(theta, f, &mut rng);
-    inputs.extend(tie_inputs(&n, 8, &mut rng)?);
-    let corners = inputs.len();
-    if count < corners {
-        return Err(RtlError::Count { count, corners });
-    }
+    let Part::Random(count) = part else {
+        let mut inputs = corner_inputs(theta, f, &mut rng);
+        inputs.extend(tie_inputs(&n, 8, &mut rng)?);
+        return Ok(inputs.into_iter().map(|c| c.to_vec()).collect());
+    };
     let span = (f.max_code() - f.min_code() + 1) as u64;
+    let mut inputs: Vec<[i128; 3]> = Vec::with_capacity(count);
     while inputs.len() < count {
         if inputs.len() % 2 == 0 {
             let t = sampling::triangle_meeting(theta, &mut rng);
@@ -136,5 +137,5 @@ pub fn inputs(
             inputs.push([0; 3].map(|_| f.min_code() + rng.below(span) as i128));
         }
     }
-    Ok((inputs.into_iter().map(|c| c.to_vec()).collect(), corners))
+    Ok(inputs.into_iter().map(|c| c.to_vec()).collect())
 }

@@ -9,6 +9,7 @@ use super::{Path, Pipeline, DECL};
 use crate::config::Config;
 use crate::interp::THETA_LADDER;
 use crate::normalizer::Method;
+use crate::rtl::units::Part;
 use crate::sampling::Rng;
 use crate::vectors::{structured_code, RtlError};
 
@@ -67,9 +68,9 @@ pub fn angle_design(cfg: &Config) -> Result<crate::rtl::Design, RtlError> {
 /// structured random codes (many trailing zeros, so rounding ties occur).
 pub fn angle_inputs(
     cfg: &Config,
-    count: usize,
+    part: crate::rtl::units::Part,
     seed: u64,
-) -> Result<crate::rtl::units::Inputs, RtlError> {
+) -> Result<Vec<Vec<i128>>, RtlError> {
     let p = Pipeline::with_method(cfg, Method::None)?;
     let (fb, fa, fd) = (p.interp.bary.format(), p.angle.format(), p.delta.format());
     let mut rows = Vec::new();
@@ -81,10 +82,10 @@ pub fn angle_inputs(
             }
         }
     }
-    let corners = rows.len();
-    if count < corners {
-        return Err(RtlError::Count { count, corners });
-    }
+    let Part::Random(count) = part else {
+        return Ok(rows);
+    };
+    rows.clear();
     let mut rng = Rng::new(seed);
     while rows.len() < count {
         rows.push(vec![
@@ -95,7 +96,7 @@ pub fn angle_inputs(
             structured_code(fd, &mut rng),
         ]);
     }
-    Ok((rows, corners))
+    Ok(rows)
 }
 
 /// Input rows of `path` for the pixels of a small render of `mesh`.
@@ -121,23 +122,40 @@ pub fn render_rows(
 /// random codes in every field.
 pub fn inputs(
     cfg: &Config,
-    count: usize,
+    part: crate::rtl::units::Part,
     seed: u64,
-) -> Result<crate::rtl::units::Inputs, RtlError> {
+) -> Result<Vec<Vec<i128>>, RtlError> {
     let path = path_of(cfg);
-    let p = Pipeline::from_config(cfg)?;
+    // Building the pipeline (six coefficient sets, tables) costs more than
+    // a chunk of random rows: keep the last one.
+    type Last = Option<(String, std::sync::Arc<Pipeline>)>;
+    static LAST: std::sync::Mutex<Last> = std::sync::Mutex::new(None);
+    let key = cfg.to_toml();
+    let cached = LAST
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .as_ref()
+        .filter(|(k, _)| *k == key)
+        .map(|(_, p)| p.clone());
+    let p = match cached {
+        Some(p) => p,
+        None => {
+            let p = std::sync::Arc::new(Pipeline::from_config(cfg)?);
+            *LAST.lock().unwrap_or_else(|e| e.into_inner()) = Some((key, p.clone()));
+            p
+        }
+    };
     let mut rng = Rng::new(seed);
     let mut rows = Vec::new();
-    for m in [
-        crate::mesh::sphere(8, crate::mesh::Axis::Y),
-        crate::mesh::torus(12, crate::mesh::Axis::Y),
-    ] {
-        rows.extend(render_rows(&p, path, &m, 12));
-    }
-    let corners = rows.len();
-    if count < corners {
-        return Err(RtlError::Count { count, corners });
-    }
+    let Part::Random(count) = part else {
+        for m in [
+            crate::mesh::sphere(8, crate::mesh::Axis::Y),
+            crate::mesh::torus(12, crate::mesh::Axis::Y),
+        ] {
+            rows.extend(render_rows(&p, path, &m, 12));
+        }
+        return Ok(rows);
+    };
     let fields = p.fields(path);
     let light_code = |v: DVec3| {
         v.to_array()
@@ -188,5 +206,5 @@ pub fn inputs(
             );
         }
     }
-    Ok((rows, corners))
+    Ok(rows)
 }

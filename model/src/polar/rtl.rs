@@ -5,6 +5,7 @@ use super::{Organisation, Polar, DECL};
 use crate::config::Config;
 use crate::datapath::{Fixed, Fx};
 use crate::quantize::Rounding;
+use crate::rtl::units::Part;
 use crate::sampling::Rng;
 use crate::vectors::{hunt_ties, RtlError};
 
@@ -45,15 +46,33 @@ fn eval(p: &Polar, fx: &mut Fixed<i128>, row: &[i128]) -> [Fx; 3] {
 /// arbitrary codes.
 pub fn inputs(
     cfg: &Config,
-    count: usize,
+    part: crate::rtl::units::Part,
     seed: u64,
-) -> Result<crate::rtl::units::Inputs, RtlError> {
+) -> Result<Vec<Vec<i128>>, RtlError> {
     let p = Polar::from_config(cfg.unit(DECL.name))?;
     let f = p.angle.format();
     let turn = 1i128 << f.width();
     let q = turn / 4;
     let m = |c: i128| c.rem_euclid(turn);
     let mut rows: Vec<Vec<i128>> = Vec::new();
+    if let Part::Random(count) = part {
+        let mut rng = Rng::new(seed);
+        while rows.len() < count {
+            if rows.len() % 2 == 0 {
+                let el = |rng: &mut Rng| m(-q + rng.below((2 * q + 1) as u64) as i128);
+                let (al, an) = (el(&mut rng), el(&mut rng));
+                rows.push(vec![
+                    al,
+                    rng.below(turn as u64) as i128,
+                    an,
+                    rng.below(turn as u64) as i128,
+                ]);
+            } else {
+                rows.push((0..4).map(|_| rng.below(turn as u64) as i128).collect());
+            }
+        }
+        return Ok(rows);
+    }
     // Poles of N and of L, the seam of β, quadrant boundaries.
     for &an in &[q, m(-q), 0, 1, m(-1), q - 1] {
         for &(bl, bn) in &[
@@ -69,7 +88,6 @@ pub fn inputs(
             }
         }
     }
-    let mut rng = Rng::new(seed);
     let stages: Vec<&'static str> = {
         let mut s: Vec<&'static str> = p
             .count()?
@@ -91,23 +109,5 @@ pub fn inputs(
             eval(&p, fx, r);
         },
     ));
-    let corners = rows.len();
-    if count < corners {
-        return Err(RtlError::Count { count, corners });
-    }
-    while rows.len() < count {
-        if rows.len() % 2 == 0 {
-            let el = |rng: &mut Rng| m(-q + rng.below((2 * q + 1) as u64) as i128);
-            let (al, an) = (el(&mut rng), el(&mut rng));
-            rows.push(vec![
-                al,
-                rng.below(turn as u64) as i128,
-                an,
-                rng.below(turn as u64) as i128,
-            ]);
-        } else {
-            rows.push((0..4).map(|_| rng.below(turn as u64) as i128).collect());
-        }
-    }
-    Ok((rows, corners))
+    Ok(rows)
 }

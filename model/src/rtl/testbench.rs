@@ -62,7 +62,7 @@ pub fn generate(
     );
     let _ = writeln!(
         t,
-        "// Input line:  {{index[31:0], {}}}",
+        "// Input record:  {{pad, index[31:0], {}}}",
         inputs
             .iter()
             .map(|f| f.name.as_str())
@@ -71,7 +71,7 @@ pub fn generate(
     );
     let _ = writeln!(
         t,
-        "// Output line: {{index[31:0], {}}}",
+        "// Output record: {{pad, index[31:0], {}}}",
         outputs
             .iter()
             .map(|f| f.name.as_str())
@@ -81,7 +81,6 @@ pub fn generate(
     t += "// The driver below is rtl/tb/fxs_vector_tb.vh, pasted in.\n";
     t += "`default_nettype none\n\n";
     let _ = writeln!(t, "module {module}_tb;");
-    t += "  parameter integer MAXN = 1024;\n";
     let _ = writeln!(t, "  localparam integer IN_W = {in_w};");
     let _ = writeln!(t, "  localparam integer OUT_W = {out_w};");
     t += "\n  reg clk, rst_n, in_valid, out_ready;\n  reg [IN_W-1:0] in_data;\n";

@@ -9,11 +9,21 @@
 
 use super::{emit, Design, Emitted};
 use crate::config::Config;
-use crate::vectors::{RtlError, RtlSources, VectorSet};
+use crate::vectors::{RtlError, RtlSources, VectorSet, VectorSource as _};
 
-/// Input rows (codes in the design's input-port order) and how many of them
-/// are corner cases.
-pub type Inputs = (Vec<Vec<i128>>, usize);
+/// Which input rows a unit's generator makes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Part {
+    /// The corner cases: a fixed list for a configuration and seed.
+    Corners,
+    /// `n` random rows (the random part of a vector stream is drawn in
+    /// chunks, each from a seed of its own).
+    Random(usize),
+}
+
+/// A unit's input generator: rows (codes in input-port order) of a part
+/// of the stream, for a seed.
+pub type InputsFn = fn(&Config, Part, u64) -> Result<Vec<Vec<i128>>, RtlError>;
 
 /// A unit with RTL.
 pub struct RtlUnit {
@@ -25,8 +35,9 @@ pub struct RtlUnit {
     pub variants: &'static [(&'static str, &'static str)],
     /// The traced datapath of a configuration.
     pub design: fn(&Config) -> Result<Design, RtlError>,
-    /// `count` input vectors for a seed, corner cases first.
-    pub inputs: fn(&Config, usize, u64) -> Result<Inputs, RtlError>,
+    /// Input rows (codes in the input-port order) for a seed: the corner
+    /// cases, or random rows.
+    pub inputs: InputsFn,
 }
 
 /// Every unit with RTL, in pipeline order, the pipeline top last: the
@@ -56,33 +67,44 @@ pub fn emit_unit(u: &RtlUnit, cfg: &Config) -> Result<(Design, Emitted), RtlErro
 
 /// The unit's test vectors: `count` inputs (corner cases first) and the
 /// expected outputs and per-vector overflow flags of the compiled trace.
-pub fn vectors(u: &RtlUnit, cfg: &Config, count: usize, seed: u64) -> Result<VectorSet, RtlError> {
-    let (d, e) = emit_unit(u, cfg)?;
-    let (rows, corners) = inputs(u, &d, cfg, count, seed)?;
-    vector_set(&d, &e, rows, corners, seed)
-}
-
-/// Random inputs searched for mutant killers ([`inputs`]).
-pub const MUTANT_POOL: usize = 16384;
-
-/// The unit's input rows for `count` vectors: its own corner cases, then
-/// the inputs that tell apart every mutant of the design
-/// ([`super::mutants::killers`], searched among [`MUTANT_POOL`] random
-/// inputs of another seed) which the corner cases do not, then its random
-/// inputs. The corner part (returned count) does not depend on `count`.
-pub fn inputs(
-    u: &RtlUnit,
-    d: &Design,
+pub fn vectors(
+    u: &'static RtlUnit,
     cfg: &Config,
     count: usize,
     seed: u64,
-) -> Result<(Vec<Vec<i128>>, usize), RtlError> {
-    let (rows, corners) = (u.inputs)(cfg, count, seed)?;
+) -> Result<VectorSet, RtlError> {
+    VectorStream::new(u, cfg, count, seed, None)?.collect()
+}
+
+/// Random inputs searched for mutant killers ([`corner_rows`]).
+pub const MUTANT_POOL: usize = 16384;
+
+/// Random rows are drawn in chunks of this many, chunk `c` from its own
+/// seed ([`chunk_seed`]): any slice of a stream is generated without the
+/// rows before it.
+pub const RANDOM_CHUNK: usize = 4096;
+
+/// The seed of random chunk `c` of a stream seeded `seed`.
+pub fn chunk_seed(seed: u64, c: u64) -> u64 {
+    crate::vectors::fingerprint(&[&seed.to_le_bytes(), &c.to_le_bytes(), b"chunk"])
+}
+
+/// The corner part of a unit's stream: its own corner cases, then the
+/// inputs that tell apart every mutant of the design
+/// ([`super::mutants::killers`], searched among [`MUTANT_POOL`] random
+/// inputs of another seed, then [`super::mutants::directed_killers`])
+/// which the corner cases do not. It does not depend on the count.
+pub fn corner_rows(
+    u: &RtlUnit,
+    d: &Design,
+    cfg: &Config,
+    seed: u64,
+) -> Result<Vec<Vec<i128>>, RtlError> {
+    let mut rows = (u.inputs)(cfg, Part::Corners, seed)?;
     // Half the pool from the unit's own distribution, half codes over every
     // input's whole range with random trailing zeros (rounding ties and
     // overflows live there).
-    let (pool, pc) = (u.inputs)(cfg, corners + MUTANT_POOL / 2, seed ^ 0x6d75_7461_6e74)?;
-    let mut pool = pool[pc..].to_vec();
+    let mut pool = (u.inputs)(cfg, Part::Random(MUTANT_POOL / 2), seed ^ 0x6d75_7461_6e74)?;
     let mut rng = crate::sampling::Rng::new(seed ^ 0x7469_6573);
     let formats: Vec<_> = d.trace.input_ports().iter().map(|p| p.format).collect();
     for _ in 0..MUTANT_POOL / 2 {
@@ -93,18 +115,57 @@ pub fn inputs(
                 .collect(),
         );
     }
-    let (mut killers, missed) = super::mutants::killers(d, &rows[..corners], &pool)?;
+    let (killers, missed) = super::mutants::killers(d, &rows, &pool)?;
     let (more, _missed) = super::mutants::directed_killers(d, &missed, seed)?;
-    killers.extend(more);
-    let n = corners + killers.len();
+    rows.extend(killers);
+    rows.extend(more);
+    Ok(rows)
+}
+
+/// Rows `[start, start + len)` of the stream whose first `corners.len()`
+/// rows are `corners` and whose rest are random chunks.
+pub fn stream_rows(
+    u: &RtlUnit,
+    cfg: &Config,
+    corners: &[Vec<i128>],
+    seed: u64,
+    start: usize,
+    len: usize,
+) -> Result<Vec<Vec<i128>>, RtlError> {
+    let mut out = Vec::with_capacity(len);
+    let end = start + len;
+    let mut i = start;
+    while i < end.min(corners.len()) {
+        out.push(corners[i].clone());
+        i += 1;
+    }
+    while i < end {
+        let r = i - corners.len();
+        let c = r / RANDOM_CHUNK;
+        let mut chunk = (u.inputs)(cfg, Part::Random(RANDOM_CHUNK), chunk_seed(seed, c as u64))?;
+        let from = r % RANDOM_CHUNK;
+        let take = (RANDOM_CHUNK - from).min(end - i);
+        out.extend(chunk.drain(from..from + take));
+        i += take;
+    }
+    Ok(out)
+}
+
+/// The unit's input rows for `count` vectors: [`corner_rows`], then random
+/// chunks; and how many are corner rows.
+pub fn inputs(
+    u: &RtlUnit,
+    d: &Design,
+    cfg: &Config,
+    count: usize,
+    seed: u64,
+) -> Result<(Vec<Vec<i128>>, usize), RtlError> {
+    let corners = corner_rows(u, d, cfg, seed)?;
+    let n = corners.len();
     if count < n {
         return Err(RtlError::Count { count, corners: n });
     }
-    let mut out = Vec::with_capacity(count);
-    out.extend_from_slice(&rows[..corners]);
-    out.extend(killers);
-    out.extend(rows[corners..].iter().take(count - n).cloned());
-    Ok((out, n))
+    Ok((stream_rows(u, cfg, &corners, seed, 0, count)?, n))
 }
 
 /// A vector set from input rows: outputs and flags from the compiled trace,
@@ -138,27 +199,7 @@ pub fn vector_set(
             }
         }
     }
-    let cols: Vec<Vec<i128>> = (0..n_in)
-        .map(|k| rows.iter().map(|r| r[k]).collect())
-        .collect();
-    let refs: Vec<&[i128]> = cols.iter().map(|c| c.as_slice()).collect();
-    let (res, flags) = prog.run_flags_i128(&refs);
-    let nf = e.flags.len();
-    let output_rows = (0..rows.len())
-        .map(|i| {
-            let mut r = Vec::with_capacity(res.len() + 1);
-            if nf > 0 {
-                // Stage k is bit nf−1−k of the flag field.
-                let f = flags[i];
-                let v = (0..nf).fold(0i128, |acc, k| {
-                    acc | ((((f >> k) & 1) as i128) << (nf - 1 - k))
-                });
-                r.push(v);
-            }
-            r.extend(res.iter().map(|o| o[i]));
-            r
-        })
-        .collect();
+    let output_rows = expected_rows(&prog, e.flags.len(), n_in, &rows);
     Ok(VectorSet {
         unit: d.unit,
         variant: d.variant.clone(),
@@ -202,5 +243,219 @@ impl Design {
             config_toml: cfg.to_toml(),
             notes,
         }
+    }
+}
+
+/// Expected output rows (the `ovf` field first when there are `nf` flag
+/// stages, stage k at bit nf−1−k) of `rows` through the compiled trace.
+fn expected_rows(
+    prog: &crate::datapath::Compiled,
+    nf: usize,
+    n_in: usize,
+    rows: &[Vec<i128>],
+) -> Vec<Vec<i128>> {
+    let cols: Vec<Vec<i128>> = (0..n_in)
+        .map(|k| rows.iter().map(|r| r[k]).collect())
+        .collect();
+    let refs: Vec<&[i128]> = cols.iter().map(|c| c.as_slice()).collect();
+    let (res, flags) = prog.run_flags_i128(&refs);
+    (0..rows.len())
+        .map(|i| {
+            let mut r = Vec::with_capacity(res.len() + 1);
+            if nf > 0 {
+                let f = flags[i];
+                let v = (0..nf).fold(0i128, |acc, k| {
+                    acc | ((((f >> k) & 1) as i128) << (nf - 1 - k))
+                });
+                r.push(v);
+            }
+            r.extend(res.iter().map(|o| o[i]));
+            r
+        })
+        .collect()
+}
+
+/// A unit's vector stream, or the slice of it one shard covers, generated
+/// chunk by chunk on demand: memory does not grow with the count. Vector
+/// `i` of the stream is the same whatever the count or the shard (corner
+/// part first, then random chunks with seeds of their own), so shard `k` of
+/// `n` covers `[k·total/n, (k+1)·total/n)` and the shards together are
+/// exactly the unsharded stream.
+#[derive(Clone)]
+pub struct VectorStream {
+    /// The unit.
+    pub unit: &'static RtlUnit,
+    cfg: Config,
+    /// The traced design.
+    pub design: Design,
+    /// Its emitted module and testbench.
+    pub emitted: Emitted,
+    prog: crate::datapath::Compiled,
+    /// The corner part of the stream.
+    pub corners: Vec<Vec<i128>>,
+    /// Seed.
+    pub seed: u64,
+    /// Vectors in the whole stream.
+    pub total: usize,
+    /// First vector of this slice.
+    pub first: usize,
+    /// Vectors in this slice.
+    pub count: usize,
+}
+
+impl VectorStream {
+    /// The stream of `total` vectors, or with `shard = Some((k, n))` its
+    /// `k`-th of `n` slices (`k < n`).
+    pub fn new(
+        u: &'static RtlUnit,
+        cfg: &Config,
+        total: usize,
+        seed: u64,
+        shard: Option<(usize, usize)>,
+    ) -> Result<VectorStream, RtlError> {
+        let (design, emitted) = emit_unit(u, cfg)?;
+        let corners = corner_rows(u, &design, cfg, seed)?;
+        if total < corners.len() {
+            return Err(RtlError::Count {
+                count: total,
+                corners: corners.len(),
+            });
+        }
+        let outs: Vec<_> = design
+            .trace
+            .output_ports()
+            .iter()
+            .map(|p| p.value)
+            .collect();
+        let prog = crate::datapath::Compiled::compile(&design.trace, &outs)?;
+        let (first, end) = match shard {
+            None => (0, total),
+            Some((k, n)) => (
+                (total as u128 * k as u128 / n as u128) as usize,
+                (total as u128 * (k as u128 + 1) / n as u128) as usize,
+            ),
+        };
+        Ok(VectorStream {
+            unit: u,
+            cfg: cfg.clone(),
+            design,
+            emitted,
+            prog,
+            corners,
+            seed,
+            total,
+            first,
+            count: end - first,
+        })
+    }
+
+    /// Slice `k` of `n` of this slice (`[first + k·count/n, first +
+    /// (k+1)·count/n)`), sharing its corner part: for splitting a run over
+    /// jobs.
+    pub fn slice(&self, k: usize, n: usize) -> VectorStream {
+        assert!(k < n, "slice k of n");
+        let a = (self.count as u128 * k as u128 / n as u128) as usize;
+        let b = (self.count as u128 * (k as u128 + 1) / n as u128) as usize;
+        let mut s = self.clone();
+        s.first = self.first + a;
+        s.count = b - a;
+        s
+    }
+
+    /// The RTL the vectors are for.
+    pub fn rtl(&self) -> RtlSources {
+        RtlSources {
+            module: self.emitted.module.clone(),
+            verilog: self.emitted.verilog.clone(),
+            testbench: self.emitted.testbench.clone(),
+            latency: self.emitted.latency,
+        }
+    }
+
+    /// The whole slice in memory (for small counts).
+    pub fn collect(&self) -> Result<VectorSet, RtlError> {
+        let (input_rows, output_rows) = self.chunk(0, self.count)?;
+        Ok(VectorSet {
+            unit: self.design.unit,
+            variant: self.design.variant.clone(),
+            config_source: self.design.config_source.clone(),
+            config_toml: self.design.config_toml.clone(),
+            seed: self.seed,
+            inputs: self.emitted.inputs.clone(),
+            outputs: self.emitted.outputs.clone(),
+            input_rows,
+            output_rows,
+            rtl: self.rtl(),
+            corner_cases: self
+                .corners
+                .len()
+                .saturating_sub(self.first)
+                .min(self.count),
+            flags: self.emitted.flags.clone(),
+        })
+    }
+
+    /// The manifest of this slice (the fields of [`VectorSet::manifest`],
+    /// with `first` and `total` saying which slice of the stream it is).
+    pub fn manifest(&self) -> serde_json::Value {
+        let empty = VectorSet {
+            unit: self.design.unit,
+            variant: self.design.variant.clone(),
+            config_source: self.design.config_source.clone(),
+            config_toml: self.design.config_toml.clone(),
+            seed: self.seed,
+            inputs: self.emitted.inputs.clone(),
+            outputs: self.emitted.outputs.clone(),
+            input_rows: Vec::new(),
+            output_rows: Vec::new(),
+            rtl: self.rtl(),
+            corner_cases: self
+                .corners
+                .len()
+                .saturating_sub(self.first)
+                .min(self.count),
+            flags: self.emitted.flags.clone(),
+        };
+        let mut m = empty.manifest();
+        m["count"] = self.count.into();
+        m["first"] = self.first.into();
+        m["total"] = self.total.into();
+        m
+    }
+}
+
+impl crate::vectors::VectorSource for VectorStream {
+    fn unit(&self) -> &'static str {
+        self.design.unit
+    }
+    fn input_fields(&self) -> &[crate::vectors::Field] {
+        &self.emitted.inputs
+    }
+    fn output_fields(&self) -> &[crate::vectors::Field] {
+        &self.emitted.outputs
+    }
+    fn first(&self) -> usize {
+        self.first
+    }
+    fn len(&self) -> usize {
+        self.count
+    }
+    fn chunk(&self, start: usize, len: usize) -> Result<crate::vectors::Rows, RtlError> {
+        assert!(start + len <= self.count, "inside the slice");
+        let rows = stream_rows(
+            self.unit,
+            &self.cfg,
+            &self.corners,
+            self.seed,
+            self.first + start,
+            len,
+        )?;
+        let out = expected_rows(
+            &self.prog,
+            self.emitted.flags.len(),
+            self.emitted.inputs.len(),
+            &rows,
+        );
+        Ok((rows, out))
     }
 }
