@@ -170,6 +170,18 @@ fn run_tool(cmd: &mut Command, what: &str) -> anyhow::Result<String> {
         .spawn()
         .with_context(|| format!("cannot run {what}"))?;
     let pgid = child.id() as i32;
+    // A guard process outlives us: it waits on a pipe that only we hold, and
+    // when the pipe closes — we finished, or we were killed, even by
+    // SIGKILL — it kills the build's whole process group, so no verilator,
+    // make or compiler is left behind.
+    let mut guard = Command::new("sh")
+        .arg("-c")
+        .arg(format!("read _ ; kill -KILL -{pgid} 2>/dev/null"))
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .ok();
     let (tx, rx) = std::sync::mpsc::channel::<()>();
     let watchdog = std::thread::spawn(move || {
         if rx.recv_timeout(limit).is_err() {
@@ -186,6 +198,12 @@ fn run_tool(cmd: &mut Command, what: &str) -> anyhow::Result<String> {
     let out = child.wait_with_output();
     let _ = tx.send(());
     let timed_out = watchdog.join().unwrap_or(false);
+    if let Some(g) = guard.as_mut() {
+        // The group's leader has been reaped; stop the guard before its
+        // `kill` could reach a reused group id.
+        let _ = g.kill();
+        let _ = g.wait();
+    }
     let out = out.with_context(|| format!("cannot run {what}"))?;
     let text =
         String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
