@@ -33,6 +33,10 @@ pub struct MutateArgs {
     /// Simulator.
     #[arg(long, value_enum, default_value_t = Sim::Verilator)]
     sim: Sim,
+    /// Input boxes the branch and bound examines per surviving mutant, to
+    /// prove it equivalent or find an input that kills it.
+    #[arg(long, default_value_t = 20_000)]
+    box_budget: usize,
     #[command(flatten)]
     out: OutputArgs,
 }
@@ -50,6 +54,9 @@ pub struct MutantResult {
     pub model_first_kill: Option<usize>,
     /// Why no input can kill it, when that is proven.
     pub equivalent: Option<&'static str>,
+    /// For a survivor: an input that would kill it, found by the box search
+    /// (the vectors missed it).
+    pub killer_exists: Option<Vec<i128>>,
 }
 
 /// One variant's mutation score.
@@ -133,7 +140,21 @@ fn run_variant(
                 "does not"
             }
         );
-        let equivalent = mutants::equivalent(&d, m)?;
+        let mut equivalent = mutants::equivalent(&d, m)?;
+        let mut killer = None;
+        if !killed && equivalent.is_none() {
+            // A survivor: search every input box for one that kills it, or
+            // prove none exists.
+            match mutants::box_search(&d, m, a.box_budget, a.seed)? {
+                mutants::BoxOutcome::Proven => {
+                    equivalent = Some(
+                        "equivalent: interval branch and bound over every input code finds no input meeting the event that changes it",
+                    )
+                }
+                mutants::BoxOutcome::Killer(r) => killer = Some(r),
+                mutants::BoxOutcome::Unknown => {}
+            }
+        }
         anyhow::ensure!(
             !(killed && equivalent.is_some()),
             "{} ({variant}) mutant {k} ({m}) is killed though proven equivalent",
@@ -145,6 +166,7 @@ fn run_variant(
             killed,
             model_first_kill: *first,
             equivalent,
+            killer_exists: killer,
         });
     }
     let killed = results.iter().filter(|r| r.killed).count();
@@ -212,7 +234,8 @@ pub fn run(a: &MutateArgs) -> anyhow::Result<()> {
         "s",
     ])
     .titled(format!("mutation score on {:?}", a.sim).to_lowercase());
-    let mut s = Table::new(["unit", "variant", "mutant", "survives"]).titled("surviving mutants");
+    let mut s = Table::new(["unit", "variant", "mutant", "survives", "an input kills it"])
+        .titled("surviving mutants");
     for r in &out {
         t.row([
             r.unit.to_string(),

@@ -1027,6 +1027,18 @@ impl Compiled {
             Compiled::Wide(p) => p.may_overflow(inputs),
         }
     }
+    /// The range of a quantization's operand over a box of input codes
+    /// ([`Program::quant_operand_range`]).
+    pub fn quant_operand_range(
+        &self,
+        inputs: &[(i128, i128)],
+        node: usize,
+    ) -> Option<(i128, i128)> {
+        match self {
+            Compiled::Narrow(p) => p.quant_operand_range(inputs, node),
+            Compiled::Wide(p) => p.quant_operand_range(inputs, node),
+        }
+    }
     /// The operands of quantization nodes per lane ([`Program::probe`]).
     pub fn probe_i128(&self, inputs: &[&[i128]], nodes: &[usize]) -> Vec<Vec<i128>> {
         match self {

@@ -761,7 +761,8 @@ mod tests {
     fn compiled_rows_equal_the_scalar_fixed_point_run() {
         for path in ["smooth", "mapped"] {
             let c = cfg(path);
-            let (rows, _) = rtl::inputs(&c, 400, 3).unwrap();
+            let mut rows = rtl::inputs(&c, crate::rtl::units::Part::Corners, 3).unwrap();
+            rows.extend(rtl::inputs(&c, crate::rtl::units::Part::Random(400), 3).unwrap());
             let p = Pipeline::from_config(&c).unwrap();
             let pth = Path::from_name(path).unwrap();
             let got = p.run_rows(pth, &rows).unwrap();

@@ -249,3 +249,126 @@ pub fn directed_killers(
     }
     Ok((killers, missed))
 }
+
+/// What a box search ([`box_search`]) concluded about one mutant.
+#[derive(Clone, Debug, PartialEq)]
+pub enum BoxOutcome {
+    /// An input that tells the mutant apart (confirmed by running it).
+    Killer(Vec<i128>),
+    /// No input meets the event that makes the mutant differ: it is
+    /// equivalent (the interval bounds prove it over every input code).
+    Proven,
+    /// Neither within the budget.
+    Unknown,
+}
+
+/// Whether some code in `[lo, hi]` meets the event of `m` at a quantizer
+/// of step `st` (see [`event`]).
+fn range_meets(
+    m: &Mutation,
+    q: &crate::quantize::Quant,
+    st: &crate::quantize::Step,
+    lo: i128,
+    hi: i128,
+) -> bool {
+    use crate::datapath::MutationKind;
+    use crate::quantize::Rounding;
+    let has_residue = |c: i128, modulus: i128| lo + (c - lo).rem_euclid(modulus) <= hi;
+    match m.kind {
+        MutationKind::Round(_) => {
+            if st.shift <= 0 || st.shift >= 120 {
+                return false;
+            }
+            let s = st.shift as u32;
+            let half = 1i128 << (s - 1);
+            match q.round() {
+                Rounding::Trunc => {
+                    // Some v with v mod 2^s ≥ half.
+                    let r = lo.rem_euclid(1i128 << s);
+                    r >= half || lo + (half - r) <= hi
+                }
+                _ => has_residue(half, 1i128 << (s + 1)),
+            }
+        }
+        MutationKind::Overflow(_) => {
+            st.apply(lo, q.round(), q.overflow()).overflowed
+                || st.apply(hi, q.round(), q.overflow()).overflowed
+        }
+        MutationKind::Shift => true,
+    }
+}
+
+/// Branch and bound over boxes of input codes for mutant `m`: a box whose
+/// operand range at the mutated quantizer cannot meet the mutant's event
+/// ([`event`]: a tie with an even floor, the half bit, an overflow) is
+/// dropped; the others are split along their widest input until they are
+/// single inputs, which are run on the mutant. Ends with a killer, with a
+/// proof that no input meets the event (every box dropped: the mutant is
+/// equivalent), or after `budget` boxes.
+pub fn box_search(
+    d: &Design,
+    m: &Mutation,
+    budget: usize,
+    seed: u64,
+) -> Result<BoxOutcome, RtlError> {
+    let roots: Vec<TV> = d.trace.output_ports().iter().map(|p| p.value).collect();
+    let prog = Compiled::compile(&d.trace, &roots)?;
+    let (q, frac) = match &d.trace.ops()[m.node] {
+        crate::datapath::Op::Quant(a, q) => (*q, a.frac()),
+        _ => unreachable!("mutations are of quantizations"),
+    };
+    let st = q.step(frac);
+    let n_in = d.trace.input_ports().len();
+    let full: Vec<(i128, i128)> = d
+        .trace
+        .input_ports()
+        .iter()
+        .map(|p| (p.format.min_code(), p.format.max_code()))
+        .collect();
+    let mut rng = crate::sampling::Rng::new(seed ^ 0x0062_6f78);
+    let mut stack = vec![full];
+    let mut masked = false;
+    let mut mutant: Option<Trace> = None;
+    let mut evals = 0;
+    while let Some(b) = stack.pop() {
+        evals += 1;
+        if evals > budget {
+            return Ok(BoxOutcome::Unknown);
+        }
+        let Some((lo, hi)) = prog.quant_operand_range(&b, m.node) else {
+            return Ok(BoxOutcome::Unknown);
+        };
+        if !range_meets(m, &q, &st, lo, hi) {
+            continue;
+        }
+        let widest = (0..n_in).max_by_key(|&k| b[k].1 - b[k].0).expect("inputs");
+        if b[widest].1 == b[widest].0 {
+            // A single input: run it.
+            let row: Vec<i128> = b.iter().map(|x| x.0).collect();
+            let cols = columns(std::slice::from_ref(&row), n_in);
+            let t = mutant.get_or_insert_with(|| d.trace.mutated(m));
+            if first_difference(&run(&d.trace, &roots, &cols)?, &run(t, &roots, &cols)?).is_some() {
+                return Ok(BoxOutcome::Killer(row));
+            }
+            masked = true;
+            continue;
+        }
+        let (a, z) = b[widest];
+        let mid = a + (z - a) / 2;
+        let (mut left, mut right) = (b.clone(), b);
+        left[widest] = (a, mid);
+        right[widest] = (mid + 1, z);
+        if rng.below(2) == 0 {
+            stack.push(left);
+            stack.push(right);
+        } else {
+            stack.push(right);
+            stack.push(left);
+        }
+    }
+    Ok(if masked {
+        BoxOutcome::Unknown
+    } else {
+        BoxOutcome::Proven
+    })
+}

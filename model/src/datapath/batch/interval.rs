@@ -109,6 +109,27 @@ impl<R: Raw> Program<R> {
     /// span their contents, selections the union of their options, and
     /// divisions and square roots are assumed to overflow.
     pub fn may_overflow(&self, inputs: &[(i128, i128)]) -> Vec<bool> {
+        self.box_ranges(inputs).1
+    }
+
+    /// The range of the exact operand of the quantization at `node` over the
+    /// box `inputs` (sound, as [`Program::may_overflow`]), or `None` when
+    /// `node` is not a quantization of the program.
+    pub fn quant_operand_range(
+        &self,
+        inputs: &[(i128, i128)],
+        node: usize,
+    ) -> Option<(i128, i128)> {
+        let a = self.instrs.iter().find_map(|ins| match *ins {
+            Instr::Quant { d, a, .. } if d == node => Some(a),
+            _ => None,
+        })?;
+        Some(self.box_ranges(inputs).0[a])
+    }
+
+    /// Every node's range over the box, and whether each quantization may
+    /// overflow there.
+    fn box_ranges(&self, inputs: &[(i128, i128)]) -> (Vec<(i128, i128)>, Vec<bool>) {
         let mut r = vec![(0i128, 0i128); self.n_regs];
         let mut may = vec![false; self.n_regs];
         for &(d, c) in &self.consts {
@@ -167,6 +188,15 @@ impl<R: Raw> Program<R> {
                         r[d] = (lo.code, hi.code);
                     }
                 }
+                Instr::Select { d, sel, ref opts } if r[sel].0 == r[sel].1 => {
+                    let s0 = r[sel].0;
+                    let (o, sh) = if (0..opts.len() as i128).contains(&s0) {
+                        opts[s0 as usize]
+                    } else {
+                        opts[0]
+                    };
+                    r[d] = (r[o].0 << sh, r[o].1 << sh);
+                }
                 Instr::Select {
                     d,
                     sel: _,
@@ -188,7 +218,7 @@ impl<R: Raw> Program<R> {
                 }
             }
         }
-        may
+        (r, may)
     }
 }
 
