@@ -643,16 +643,11 @@ impl<R: Raw> Program<R> {
         let mut probes: Vec<Vec<i128>> = nodes.iter().map(|_| Vec::with_capacity(n)).collect();
         let mut ov = vec![0u64; self.stages.len()];
         let mut flags = [0u64; BLOCK];
-        let mut regs = vec![R::ZERO; self.n_regs * BLOCK];
-        for &(d, c) in &self.consts {
-            regs[d * BLOCK..(d + 1) * BLOCK].fill(c);
-        }
+        let mut regs = self.fresh_regs();
         let mut start = 0;
         while start < n {
             let len = BLOCK.min(n - start);
-            for (&(d, _), src) in self.inputs.iter().zip(inputs) {
-                regs[d * BLOCK..d * BLOCK + len].copy_from_slice(&src[start..start + len]);
-            }
+            self.load_block(&mut regs, inputs, start, len);
             self.block(&mut regs, len, &mut ov, &mut flags);
             for (p, &a) in probes.iter_mut().zip(&operand) {
                 p.extend(regs[a * BLOCK..a * BLOCK + len].iter().map(|x| x.to_i128()));
@@ -660,6 +655,22 @@ impl<R: Raw> Program<R> {
             start += len;
         }
         probes
+    }
+
+    /// A block of registers with the constants loaded.
+    fn fresh_regs(&self) -> Vec<R> {
+        let mut regs = vec![R::ZERO; self.n_regs * BLOCK];
+        for &(d, c) in &self.consts {
+            regs[d * BLOCK..(d + 1) * BLOCK].fill(c);
+        }
+        regs
+    }
+
+    /// Lanes `start..start + len` of the inputs into their registers.
+    fn load_block(&self, regs: &mut [R], inputs: &[&[R]], start: usize, len: usize) {
+        for (&(d, _), src) in self.inputs.iter().zip(inputs) {
+            regs[d * BLOCK..d * BLOCK + len].copy_from_slice(&src[start..start + len]);
+        }
     }
 
     fn run_lanes(
@@ -685,16 +696,11 @@ impl<R: Raw> Program<R> {
             f.clear();
             f.reserve(n);
         }
-        let mut regs = vec![R::ZERO; self.n_regs * BLOCK];
-        for &(d, c) in &self.consts {
-            regs[d * BLOCK..(d + 1) * BLOCK].fill(c);
-        }
+        let mut regs = self.fresh_regs();
         let mut start = 0;
         while start < n {
             let len = BLOCK.min(n - start);
-            for (&(d, _), src) in self.inputs.iter().zip(inputs) {
-                regs[d * BLOCK..d * BLOCK + len].copy_from_slice(&src[start..start + len]);
-            }
+            self.load_block(&mut regs, inputs, start, len);
             flags[..len].fill(0);
             self.block(&mut regs, len, &mut ov, &mut flags);
             for (&(o, _), out) in self.outputs.iter().zip(outs.iter_mut()) {

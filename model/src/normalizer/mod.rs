@@ -667,6 +667,18 @@ pub fn g_stage_max(
         bound: 0.0,
         exhaustive: true,
     };
+    // The errors of `codes` into `best`; false when one is above `stop`.
+    let score = |codes: &[i128], best: &mut GMax| -> bool {
+        let (out, _) = prog.run_i128(&[codes]);
+        for (&c, &g) in codes.iter().zip(&out[0]) {
+            let e = err(c, g);
+            if e > best.max {
+                best.max = e;
+                best.at = c as f64 * ud;
+            }
+        }
+        best.max <= stop
+    };
     // Every code of [a, b]; false when it found an error above `stop`.
     let enumerate = |a: i128, b: i128, best: &mut GMax| -> bool {
         const CHUNK: i128 = 1 << 12;
@@ -676,15 +688,7 @@ pub fn g_stage_max(
             let end = (start + CHUNK - 1).min(b);
             codes.clear();
             codes.extend(start..=end);
-            let (out, _) = prog.run_i128(&[&codes]);
-            for (&c, &g) in codes.iter().zip(&out[0]) {
-                let e = err(c, g);
-                if e > best.max {
-                    best.max = e;
-                    best.at = c as f64 * ud;
-                }
-            }
-            if best.max > stop {
+            if !score(&codes, best) {
                 return false;
             }
             start = end + 1;
@@ -742,15 +746,7 @@ pub fn g_stage_max(
         }
         // Exact errors at the ends of every part: the attained maximum.
         let ends: Vec<i128> = bounds.iter().flat_map(|&(x, y)| [x, y]).collect();
-        let (out, _) = prog.run_i128(&[&ends]);
-        for (&c, &g) in ends.iter().zip(&out[0]) {
-            let e = err(c, g);
-            if e > best.max {
-                best.max = e;
-                best.at = c as f64 * ud;
-            }
-        }
-        if best.max > stop {
+        if !score(&ends, best) {
             return false;
         }
         for (x, y) in bounds {

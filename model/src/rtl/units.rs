@@ -375,7 +375,12 @@ impl VectorStream {
     /// The whole slice in memory (for small counts).
     pub fn collect(&self) -> Result<VectorSet, RtlError> {
         let (input_rows, output_rows) = self.chunk(0, self.count)?;
-        Ok(VectorSet {
+        Ok(self.set_of(input_rows, output_rows))
+    }
+
+    /// A vector set of this stream's unit and layout holding `rows`.
+    fn set_of(&self, input_rows: Vec<Vec<i128>>, output_rows: Vec<Vec<i128>>) -> VectorSet {
+        VectorSet {
             unit: self.design.unit,
             variant: self.design.variant.clone(),
             config_source: self.design.config_source.clone(),
@@ -392,31 +397,13 @@ impl VectorStream {
                 .saturating_sub(self.first)
                 .min(self.count),
             flags: self.emitted.flags.clone(),
-        })
+        }
     }
 
     /// The manifest of this slice (the fields of [`VectorSet::manifest`],
     /// with `first` and `total` saying which slice of the stream it is).
     pub fn manifest(&self) -> serde_json::Value {
-        let empty = VectorSet {
-            unit: self.design.unit,
-            variant: self.design.variant.clone(),
-            config_source: self.design.config_source.clone(),
-            config_toml: self.design.config_toml.clone(),
-            seed: self.seed,
-            inputs: self.emitted.inputs.clone(),
-            outputs: self.emitted.outputs.clone(),
-            input_rows: Vec::new(),
-            output_rows: Vec::new(),
-            rtl: self.rtl(),
-            corner_cases: self
-                .corners
-                .len()
-                .saturating_sub(self.first)
-                .min(self.count),
-            flags: self.emitted.flags.clone(),
-        };
-        let mut m = empty.manifest();
+        let mut m = self.set_of(Vec::new(), Vec::new()).manifest();
         m["count"] = self.count.into();
         m["first"] = self.first.into();
         m["total"] = self.total.into();

@@ -26,78 +26,21 @@ impl<R: Raw> Program<R> {
     /// square root, a non-constant selector).
     pub fn run_interval(&self, inputs: &[(i128, i128)]) -> Option<Vec<(i128, i128)>> {
         assert_eq!(inputs.len(), self.inputs.len(), "one range per input port");
-        let mut r = vec![(0i128, 0i128); self.n_regs];
-        for &(d, c) in &self.consts {
-            r[d] = (c.to_i128(), c.to_i128());
-        }
-        for (&(d, _), &(lo, hi)) in self.inputs.iter().zip(inputs) {
-            assert!(lo <= hi, "an input range is ordered");
-            r[d] = (lo, hi);
-        }
-        for ins in &self.instrs {
-            match *ins {
-                Instr::Mul { d, a, b } => {
-                    let (x, y) = (r[a], r[b]);
-                    let p = [
-                        x.0.checked_mul(y.0)?,
-                        x.0.checked_mul(y.1)?,
-                        x.1.checked_mul(y.0)?,
-                        x.1.checked_mul(y.1)?,
-                    ];
-                    r[d] = (*p.iter().min()?, *p.iter().max()?);
-                }
-                Instr::AddSub {
-                    d,
-                    a,
-                    sa,
-                    b,
-                    sb,
-                    sub,
-                } => {
-                    let x = (r[a].0 << sa, r[a].1 << sa);
-                    let y = (r[b].0 << sb, r[b].1 << sb);
-                    r[d] = if sub {
-                        (x.0 - y.1, x.1 - y.0)
-                    } else {
-                        (x.0 + y.0, x.1 + y.1)
-                    };
-                }
-                Instr::Max { d, a, sa, b, sb } => {
-                    let x = (r[a].0 << sa, r[a].1 << sa);
-                    let y = (r[b].0 << sb, r[b].1 << sb);
-                    r[d] = (x.0.max(y.0), x.1.max(y.1));
-                }
-                Instr::Quant {
-                    d,
-                    a,
-                    step,
-                    round,
-                    overflow,
-                    ..
-                } => {
-                    let lo = step.apply(r[a].0, round, overflow);
-                    let hi = step.apply(r[a].1, round, overflow);
-                    if overflow == Overflow::Wrap && (lo.overflowed || hi.overflowed) {
-                        return None;
-                    }
-                    r[d] = (lo.code, hi.code);
-                }
-                Instr::Select { d, sel, ref opts } => {
-                    let (s0, s1) = r[sel];
-                    if s0 != s1 {
-                        return None;
-                    }
-                    let (src, sh) = if (0..opts.len() as i128).contains(&s0) {
-                        opts[s0 as usize]
-                    } else {
-                        opts[0]
-                    };
-                    r[d] = (r[src].0 << sh, r[src].1 << sh);
-                }
-                Instr::Table { .. } | Instr::Div { .. } | Instr::Sqrt { .. } => return None,
-            }
-        }
-        Some(self.outputs.iter().map(|&(o, _)| r[o]).collect())
+        assert!(
+            inputs.iter().all(|r| r.0 <= r.1),
+            "input ranges are ordered"
+        );
+        let (r, may) = self.box_ranges(inputs);
+        // A quantization that may wrap: the bound would be its whole
+        // format, useless to a caller that splits ranges instead.
+        let wraps = self.instrs.iter().any(|ins| {
+            matches!(*ins, Instr::Quant { d, overflow: Overflow::Wrap, .. } if may[d])
+                || matches!(
+                    ins,
+                    Instr::Table { .. } | Instr::Div { .. } | Instr::Sqrt { .. }
+                )
+        });
+        (!wraps).then(|| self.outputs.iter().map(|&(o, _)| r[o]).collect())
     }
 }
 
@@ -181,12 +124,14 @@ impl<R: Raw> Program<R> {
                 } => {
                     let lo = step.apply(r[a].0, round, overflow);
                     let hi = step.apply(r[a].1, round, overflow);
-                    if lo.overflowed || hi.overflowed {
-                        may[d] = true;
-                        r[d] = (step.min, step.max);
+                    may[d] = lo.overflowed || hi.overflowed;
+                    // Rounding and saturation are monotonic; wrap-around is
+                    // not, and may then land anywhere in the format.
+                    r[d] = if may[d] && overflow == Overflow::Wrap {
+                        (step.min, step.max)
                     } else {
-                        r[d] = (lo.code, hi.code);
-                    }
+                        (lo.code, hi.code)
+                    };
                 }
                 Instr::Select { d, sel, ref opts } if r[sel].0 == r[sel].1 => {
                     let s0 = r[sel].0;
