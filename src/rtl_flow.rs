@@ -576,14 +576,9 @@ pub fn check_with_args(
                 while start < v.len() {
                     let t0 = Instant::now();
                     let len = CHUNK.min(v.len() - start);
-                    let (rows, exp) = v.chunk(start, len)?;
                     let mut bi = Vec::with_capacity(len * in_rb);
                     let mut be = Vec::with_capacity(len * out_rb);
-                    for (k, (r, e)) in rows.iter().zip(&exp).enumerate() {
-                        let idx = (v.first() + start + k) as u32;
-                        fxshade_model::vectors::push_record(&mut bi, idx, v.input_fields(), r);
-                        fxshade_model::vectors::push_record(&mut be, idx, v.output_fields(), e);
-                    }
+                    v.records(start, len, &mut bi, &mut be)?;
                     busy += t0.elapsed().as_secs_f64();
                     if tx_in.send(bi).is_err() || tx_exp.send(be).is_err() {
                         break;

@@ -211,6 +211,23 @@ pub trait VectorSource: Sync {
     /// Input and expected rows of vectors `[start, start + len)` of the
     /// slice (relative to [`VectorSource::first`]).
     fn chunk(&self, start: usize, len: usize) -> Result<Rows, RtlError>;
+    /// The binary records ([`push_record`]) of vectors `[start, start +
+    /// len)`, appended to `inputs` and `expected`.
+    fn records(
+        &self,
+        start: usize,
+        len: usize,
+        inputs: &mut Vec<u8>,
+        expected: &mut Vec<u8>,
+    ) -> Result<(), RtlError> {
+        let (rows, exp) = self.chunk(start, len)?;
+        for (k, (r, e)) in rows.iter().zip(&exp).enumerate() {
+            let idx = (self.first() + start + k) as u32;
+            push_record(inputs, idx, self.input_fields(), r);
+            push_record(expected, idx, self.output_fields(), e);
+        }
+        Ok(())
+    }
 }
 
 impl VectorSource for VectorSet {

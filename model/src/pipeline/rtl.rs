@@ -118,8 +118,8 @@ pub fn render_rows(
 /// Input vectors of the configured path: the pixels of a 12 × 12 render of a
 /// sphere and of a torus (the corner cases: real triangles, every Θ they
 /// meet, the poles and the seam), then random triangles meeting a random Θ
-/// with random barycentrics and random light directions, alternating with
-/// random codes in every field.
+/// with a random light, four pixels each at random barycentrics, alternating
+/// (four and four) with random codes in every field.
 pub fn inputs(
     cfg: &Config,
     part: crate::rtl::units::Part,
@@ -161,43 +161,51 @@ pub fn inputs(
         v.to_array()
             .map(|x| p.light.light.apply_f64(x).map_or(0, |r| r.code))
     };
+    // As a renderer feeds it: a triangle (its set-up done once) and a light
+    // for a few pixels, then as many random codes in every field.
+    const PIXELS: usize = 4;
+    let qb = |x: f64| p.interp.bary.apply_f64(x).map_or(0, |r| r.code);
     while rows.len() < count {
-        if rows.len() % 2 == 0 {
-            let theta = THETA_LADDER[rng.below(THETA_LADDER.len() as u64) as usize];
-            let n = crate::sampling::triangle_meeting(theta, &mut rng);
-            let c = rng.barycentric();
-            let qb = |x: f64| p.interp.bary.apply_f64(x).map_or(0, |r| r.code);
-            let l = rng.direction();
-            let h = (l + rng.direction()).normalize_or(DVec3::Z);
-            let row = match path {
-                Path::Smooth => {
-                    let Ok(st) = p.setup_smooth(n) else { continue };
-                    let mut r = vec![st.set as i128, qb(c[0]), qb(c[1])];
-                    for v in &st.v {
-                        r.extend_from_slice(v);
-                    }
-                    r.extend_from_slice(&light_code(l));
-                    r.extend_from_slice(&light_code(h));
-                    r
+        let theta = THETA_LADDER[rng.below(THETA_LADDER.len() as u64) as usize];
+        let n = crate::sampling::triangle_meeting(theta, &mut rng);
+        let l = rng.direction();
+        let h = (l + rng.direction()).normalize_or(DVec3::Z);
+        match path {
+            Path::Smooth => {
+                let Ok(st) = p.setup_smooth(n) else { continue };
+                let mut tail = Vec::with_capacity(24);
+                for v in &st.v {
+                    tail.extend_from_slice(v);
                 }
-                Path::Mapped => {
-                    let mt = p.setup_mapped(n);
+                tail.extend_from_slice(&light_code(l));
+                tail.extend_from_slice(&light_code(h));
+                for _ in 0..PIXELS {
+                    let c = rng.barycentric();
+                    let mut r = vec![st.set as i128, qb(c[0]), qb(c[1])];
+                    r.extend_from_slice(&tail);
+                    rows.push(r);
+                }
+            }
+            Path::Mapped => {
+                let mt = p.setup_mapped(n);
+                let (al, bl) = p.angle_codes(l);
+                let (ah, bh) = p.angle_codes(h);
+                for _ in 0..PIXELS {
+                    let c = rng.barycentric();
                     let mut r = vec![qb(c[0]), qb(c[1])];
                     r.extend_from_slice(&mt.a);
                     r.extend_from_slice(&mt.b);
-                    let (al, bl) = p.angle_codes(l);
-                    let (ah, bh) = p.angle_codes(h);
                     r.extend_from_slice(&[al, bl, ah, bh]);
                     let t = rng.in_cone(DVec3::Z, 0.6);
                     r.extend(
                         t.to_array()
                             .map(|x| p.light.normal.apply_f64(x).map_or(0, |r| r.code)),
                     );
-                    r
+                    rows.push(r);
                 }
-            };
-            rows.push(row);
-        } else {
+            }
+        }
+        for _ in 0..PIXELS {
             rows.push(
                 fields
                     .iter()
@@ -206,5 +214,6 @@ pub fn inputs(
             );
         }
     }
+    rows.truncate(count);
     Ok(rows)
 }
