@@ -418,6 +418,10 @@ pub fn check_with(
 /// Vectors per generated chunk.
 const CHUNK: usize = 8192;
 
+/// A bar the generators of every running check advance by the vectors they
+/// hand to the simulation (set by long `rtl-check` runs).
+pub static PROGRESS: std::sync::Mutex<Option<indicatif::ProgressBar>> = std::sync::Mutex::new(None);
+
 /// Threads generating vectors for one simulation: `$FXSHADE_GEN_THREADS`,
 /// else the machine's cores (the simulator takes one; generation usually
 /// costs more per vector than simulation).
@@ -580,6 +584,9 @@ pub fn check_with_args(
                     let mut be = Vec::with_capacity(len * out_rb);
                     v.records(start, len, &mut bi, &mut be)?;
                     busy += t0.elapsed().as_secs_f64();
+                    if let Some(b) = PROGRESS.lock().unwrap_or_else(|e| e.into_inner()).as_ref() {
+                        b.inc(len as u64);
+                    }
                     if tx_in.send(bi).is_err() || tx_exp.send(be).is_err() {
                         break;
                     }

@@ -149,6 +149,10 @@ pub fn run(a: &RtlCheckArgs) -> anyhow::Result<()> {
     // Build once, before the jobs share it.
     let b = rtl_flow::build(u.name, &sources, a.sim, trace.is_some())?;
     let start = std::time::Instant::now();
+    if stream.count >= 1_000_000 {
+        *rtl_flow::PROGRESS.lock().unwrap_or_else(|e| e.into_inner()) =
+            Some(crate::progress::bar(stream.count as u64, "rtl-check"));
+    }
     let results: Vec<anyhow::Result<CheckResult>> = std::thread::scope(|s| {
         let handles: Vec<_> = (0..jobs)
             .map(|j| {
@@ -168,6 +172,13 @@ pub fn run(a: &RtlCheckArgs) -> anyhow::Result<()> {
             .collect()
     });
     let seconds = start.elapsed().as_secs_f64();
+    if let Some(b) = rtl_flow::PROGRESS
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .take()
+    {
+        b.finish_and_clear();
+    }
     let runs: Vec<CheckResult> = results.into_iter().collect::<anyhow::Result<_>>()?;
     let passed: u64 = runs.iter().map(|r| r.passed).sum();
     let failed: u64 = runs.iter().map(|r| r.failed).sum();
