@@ -37,6 +37,16 @@ pub struct MutateArgs {
     /// prove it equivalent or find an input that kills it.
     #[arg(long, default_value_t = 20_000)]
     box_budget: usize,
+    /// Seconds z3 may take per surviving mutant (the bit-vector query "does
+    /// any input meet the event that changes it"; skipped when z3 is not
+    /// installed).
+    #[arg(long, default_value_t = 20)]
+    smt_seconds: u32,
+    /// Also ask z3 about every killed mutant, and fail if it claims one
+    /// equivalent, or returns an input the model's own probe says misses the
+    /// event: a check of the encoding, not of the vectors.
+    #[arg(long)]
+    smt_audit: bool,
     #[command(flatten)]
     out: OutputArgs,
 }
@@ -80,6 +90,73 @@ pub struct VariantResult {
     pub results: Vec<MutantResult>,
     /// Seconds (build included).
     pub seconds: f64,
+}
+
+/// What z3 says about a mutant's event.
+enum Smt {
+    /// No input meets it: the mutant is equivalent.
+    Unsat,
+    /// This input meets it.
+    Sat(Vec<i128>),
+    /// Unknown, timed out, not encodable, or z3 missing.
+    Unknown,
+}
+
+/// Ask z3 (if installed) whether any input meets the event of `m`.
+fn smt(d: &rtl::Design, m: &fxshade_model::datapath::Mutation, seconds: u32) -> Smt {
+    use std::io::Write;
+    let Some(script) = d.trace.smt_event(m) else {
+        return Smt::Unknown;
+    };
+    let Ok(mut child) = std::process::Command::new("z3")
+        .args(["-in", "-smt2", &format!("-T:{seconds}")])
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+    else {
+        return Smt::Unknown;
+    };
+    if let Some(mut i) = child.stdin.take() {
+        let _ = i.write_all(script.as_bytes());
+    }
+    let Ok(out) = child.wait_with_output() else {
+        return Smt::Unknown;
+    };
+    let text = String::from_utf8_lossy(&out.stdout);
+    let mut lines = text.lines();
+    match lines.next().map(str::trim) {
+        Some("unsat") => Smt::Unsat,
+        Some("sat") => {
+            let rest: String = lines.collect::<Vec<_>>().join(" ");
+            let formats: Vec<_> = d.trace.input_ports().iter().map(|p| p.format).collect();
+            let mut row = Vec::new();
+            for (slot, f) in formats.iter().enumerate() {
+                let key = format!("(in{slot} ");
+                let Some(pos) = rest.find(&key) else {
+                    return Smt::Unknown;
+                };
+                let v = rest[pos + key.len()..]
+                    .split(')')
+                    .next()
+                    .unwrap_or("")
+                    .trim();
+                let bits = if let Some(h) = v.strip_prefix("#x") {
+                    u64::from_str_radix(h, 16).ok()
+                } else if let Some(b) = v.strip_prefix("#b") {
+                    u64::from_str_radix(b, 2).ok()
+                } else {
+                    None
+                };
+                let Some(bits) = bits else {
+                    return Smt::Unknown;
+                };
+                row.push(f.from_bits(bits));
+            }
+            Smt::Sat(row)
+        }
+        _ => Smt::Unknown,
+    }
 }
 
 fn run_variant(
@@ -140,19 +217,49 @@ fn run_variant(
                 "does not"
             }
         );
+        if a.smt_audit {
+            match smt(&d, m, a.smt_seconds) {
+                Smt::Unsat => anyhow::ensure!(
+                    !killed,
+                    "{} ({variant}) mutant {k} ({m}): z3 says no input meets its event, yet the vectors kill it: the encoding is wrong",
+                    u.name
+                ),
+                Smt::Sat(r) => anyhow::ensure!(
+                    mutants::meets_event(&d, m, &r)?,
+                    "{} ({variant}) mutant {k} ({m}): z3's input {r:?} does not meet the event in the model: the encoding is wrong",
+                    u.name
+                ),
+                Smt::Unknown => {}
+            }
+        }
         let mut equivalent = mutants::equivalent(&d, m)?;
         let mut killer = None;
         if !killed && equivalent.is_none() {
             // A survivor: search every input box for one that kills it, or
             // prove none exists.
-            match mutants::box_search(&d, m, a.box_budget, a.seed)? {
-                mutants::BoxOutcome::Proven => {
+            match smt(&d, m, a.smt_seconds) {
+                Smt::Unsat => {
                     equivalent = Some(
-                        "equivalent: interval branch and bound over every input code finds no input meeting the event that changes it",
+                        "equivalent: z3 proves no input meets the event that changes it (bit-vector encoding of the trace)",
                     )
                 }
-                mutants::BoxOutcome::Killer(r) => killer = Some(r),
-                mutants::BoxOutcome::Unknown => {}
+                Smt::Sat(r) => {
+                    if mutants::tells_apart(&d, m, &r)? {
+                        killer = Some(r);
+                    }
+                }
+                Smt::Unknown => {}
+            }
+            if equivalent.is_none() && killer.is_none() {
+                match mutants::box_search(&d, m, a.box_budget, a.seed)? {
+                    mutants::BoxOutcome::Proven => {
+                        equivalent = Some(
+                            "equivalent: interval branch and bound over every input code finds no input meeting the event that changes it",
+                        )
+                    }
+                    mutants::BoxOutcome::Killer(r) => killer = Some(r),
+                    mutants::BoxOutcome::Unknown => {}
+                }
             }
         }
         anyhow::ensure!(

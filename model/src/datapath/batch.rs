@@ -19,6 +19,7 @@ use crate::quantize::{Overflow, Quant, Raw, Rounding, Step};
 
 mod interval;
 mod mutation;
+mod smt;
 pub use mutation::{Mutation, MutationKind};
 
 /// A value in a trace: the node that computes it, its binary point, and its

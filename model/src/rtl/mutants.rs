@@ -372,3 +372,29 @@ pub fn box_search(
         BoxOutcome::Proven
     })
 }
+
+/// Whether `row` tells mutant `m` apart from the design (outputs or flags).
+pub fn tells_apart(d: &Design, m: &Mutation, row: &[i128]) -> Result<bool, RtlError> {
+    let roots: Vec<TV> = d.trace.output_ports().iter().map(|p| p.value).collect();
+    let cols = columns(&[row.to_vec()], d.trace.input_ports().len());
+    Ok(first_difference(
+        &run(&d.trace, &roots, &cols)?,
+        &run(&d.trace.mutated(m), &roots, &cols)?,
+    )
+    .is_some())
+}
+
+/// Whether `row` makes the quantizer of `m` meet `m`'s event (computed by
+/// probing the compiled design, independently of any solver).
+pub fn meets_event(d: &Design, m: &Mutation, row: &[i128]) -> Result<bool, RtlError> {
+    let roots: Vec<TV> = d.trace.output_ports().iter().map(|p| p.value).collect();
+    let prog = Compiled::compile(&d.trace, &roots)?;
+    let cols = columns(&[row.to_vec()], d.trace.input_ports().len());
+    let refs: Vec<&[i128]> = cols.iter().map(|c| c.as_slice()).collect();
+    let x = prog.probe_i128(&refs, &[m.node])[0][0];
+    let (q, frac) = match &d.trace.ops()[m.node] {
+        crate::datapath::Op::Quant(a, q) => (*q, a.frac()),
+        _ => unreachable!("mutations are of quantizations"),
+    };
+    Ok(event(m, &q, frac, x))
+}
