@@ -148,6 +148,13 @@ pub fn cache_root() -> PathBuf {
     }
 }
 
+/// Whether Verilator models are compiled without optimization
+/// (`FXSHADE_QUICK_BUILD=1`, which the test suite sets: hundreds of builds,
+/// each run on a few thousand vectors).
+fn quick_build() -> bool {
+    std::env::var("FXSHADE_QUICK_BUILD").is_ok_and(|v| v == "1")
+}
+
 /// Seconds a simulator build may take before it is stopped:
 /// `$FXSHADE_BUILD_TIMEOUT`, else 900.
 fn build_timeout() -> std::time::Duration {
@@ -253,7 +260,8 @@ pub fn build(name: &str, sources: &Sources, sim: Sim, trace: bool) -> anyhow::Re
         parts.push(n.as_bytes());
         parts.push(t.as_bytes());
     }
-    let tag = format!("{}-stream-{trace}", sim.name());
+    let quick = quick_build();
+    let tag = format!("{}-stream-{trace}-{quick}", sim.name());
     parts.push(tag.as_bytes());
     let key = fingerprint(&parts);
     let root = cache_root();
@@ -311,6 +319,11 @@ pub fn build(name: &str, sources: &Sources, sim: Sim, trace: bool) -> anyhow::Re
             // a small unit's build).
             if Command::new("ccache").arg("--version").output().is_ok() {
                 c.args(["-MAKEFLAGS", "OBJCACHE=ccache"]);
+            }
+            if quick {
+                // Compile the model without optimization: a quarter less
+                // build time, a slower simulation (for many short runs).
+                c.args(["-MAKEFLAGS", "OPT_FAST=-O0 OPT_SLOW=-O0"]);
             }
             c.args(&files);
             run_tool(&mut c, "verilator")
