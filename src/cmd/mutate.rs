@@ -108,6 +108,13 @@ fn smt(d: &rtl::Design, m: &fxshade_model::datapath::Mutation, seconds: u32) -> 
     let Some(script) = d.trace.smt_event(m) else {
         return Smt::Unknown;
     };
+    // FXSHADE_SMT_DUMP=DIR keeps each query, to rerun it with `z3 FILE`.
+    if let Some(dir) = std::env::var_os("FXSHADE_SMT_DUMP") {
+        let _ = std::fs::write(
+            std::path::Path::new(&dir).join(format!("node{}-{:?}.smt2", m.node, m.kind)),
+            &script,
+        );
+    }
     let Ok(mut child) = std::process::Command::new("z3")
         .args(["-in", "-smt2", &format!("-T:{seconds}")])
         .stdin(std::process::Stdio::piped())

@@ -6,9 +6,9 @@
 //! Node `i` is a signed bit-vector one bit wider than its exact width (so
 //! unsigned values fit), computed exactly: products and sums at the node's
 //! width, alignment by left shifts, quantization as the emitter writes it
-//! (slice, one increment, range check, wrap or saturate). Only the cone of
-//! the asked node is encoded; a table read, division or square root in it
-//! is not (`None`).
+//! (slice, one increment, range check, wrap or saturate), table reads as
+//! arrays of their entries. Only the cone of the asked node is encoded; a
+//! division or square root in it is not (`None`).
 
 use super::{Mutation, MutationKind, Op, Trace, TV};
 use crate::quantize::{Overflow, Rounding};
@@ -53,12 +53,12 @@ impl Trace {
                     mark(a);
                     mark(b);
                 }
-                Op::Quant(a, _) => mark(a),
+                Op::Quant(a, _) | Op::Table(a, _) => mark(a),
                 Op::Select(s, o) => {
                     mark(s);
                     o.iter().for_each(mark);
                 }
-                Op::Table(..) | Op::Div(..) | Op::Sqrt(..) => return None,
+                Op::Div(..) | Op::Sqrt(..) => return None,
                 Op::Input(_) | Op::Const(_) => {}
             }
         }
@@ -184,7 +184,34 @@ impl Trace {
                         ),
                     }
                 }
-                Op::Table(..) | Op::Div(..) | Op::Sqrt(..) => return None,
+                Op::Table(a, slot) => {
+                    // Entry `codes[index bits mod len]`, as the compiled
+                    // program reads it: an array of the entries.
+                    let t = &self.tables[*slot];
+                    let k = t.codes.len().trailing_zeros().max(1);
+                    let name = format!("tab{slot}_{wi}");
+                    if !s.contains(&format!("(declare-const {name} ")) {
+                        let mut decl = format!(
+                            "(declare-const {name} (Array (_ BitVec {k}) (_ BitVec {wi})))\n"
+                        );
+                        for (j, &c) in t.codes.iter().enumerate() {
+                            decl += &format!(
+                                "(assert (= (select {name} {}) {}))\n",
+                                lit(j as i128, k),
+                                lit(c, wi)
+                            );
+                        }
+                        s += &decl;
+                    }
+                    let wa = w(a.node());
+                    let idx = if wa >= k {
+                        format!("((_ extract {} 0) n{})", k - 1, a.node())
+                    } else {
+                        format!("((_ zero_extend {}) n{})", k - wa, a.node())
+                    };
+                    format!("(select {name} {idx})")
+                }
+                Op::Div(..) | Op::Sqrt(..) => return None,
             };
             s += &format!("(define-fun n{i} () (_ BitVec {wi}) {e})\n");
         }
@@ -210,6 +237,9 @@ impl Trace {
             }
             _ => return None,
         };
+        if s.contains("(Array ") {
+            s = s.replacen("(set-logic QF_BV)", "(set-logic QF_ABV)", 1);
+        }
         s += &format!("(assert {event})\n(check-sat)\n(get-value (");
         for slot in 0..self.inputs.len() {
             s += &format!(" in{slot}");
