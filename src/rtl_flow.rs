@@ -428,6 +428,30 @@ pub fn check_with(
     check_with_args(v, sources, sim, seed, stall, trace, dump, &[])
 }
 
+/// Remove the run directories (named pipes, dumps) of killed checks: a
+/// `run-<pid>-…` whose process no longer exists.
+fn remove_dead_runs(dir: &Path) {
+    let Ok(rd) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for e in rd.flatten() {
+        let name = e.file_name().to_string_lossy().into_owned();
+        let Some(pid) = name
+            .strip_prefix("run-")
+            .and_then(|r| r.split('-').next())
+            .and_then(|p| p.parse::<i32>().ok())
+        else {
+            continue;
+        };
+        // SAFETY: signal 0 only asks whether the process exists.
+        let gone = unsafe { libc::kill(pid, 0) } != 0
+            && std::io::Error::last_os_error().raw_os_error() == Some(libc::ESRCH);
+        if gone {
+            let _ = std::fs::remove_dir_all(e.path());
+        }
+    }
+}
+
 /// Vectors per generated chunk.
 const CHUNK: usize = 8192;
 
@@ -504,6 +528,7 @@ pub fn check_with_args(
         v.len()
     );
     let b = build(v.unit(), sources, sim, trace.is_some())?;
+    remove_dead_runs(&b.dir);
     let run = b.dir.join(
         format!(
             "run-{}-{:?}",
@@ -514,6 +539,15 @@ pub fn check_with_args(
     );
     let _ = std::fs::remove_dir_all(&run);
     std::fs::create_dir_all(&run)?;
+    // Removed however this function returns (a killed process's is removed
+    // by the next check, [`remove_dead_runs`]).
+    struct RunDir(PathBuf);
+    impl Drop for RunDir {
+        fn drop(&mut self) {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+    let _run_dir = RunDir(run.clone());
     let (fin, fexp) = (run.join("inputs.bin"), run.join("expected.bin"));
     for f in [&fin, &fexp] {
         let c = std::ffi::CString::new(f.as_os_str().as_encoded_bytes()).expect("no NUL");
@@ -666,7 +700,6 @@ pub fn check_with_args(
     } else {
         Vec::new()
     };
-    let _ = std::fs::remove_dir_all(&run);
     let n = v.len();
     let mut r = CheckResult {
         unit: v.unit(),

@@ -17,7 +17,6 @@
 //! manifest's count (a short `$readmemh` file otherwise passes silently on
 //! uninitialised entries).
 
-use std::fmt::Write as _;
 use std::path::Path;
 
 use crate::files::{StagedDir, WriteError};
@@ -306,45 +305,9 @@ impl VectorSet {
         })
     }
 
-    /// The `inputs.hex` text.
-    pub fn inputs_hex(&self) -> String {
-        let mut s = String::new();
-        for (i, r) in self.input_rows.iter().enumerate() {
-            let _ = writeln!(s, "{}", hex_line(i as u32, &self.inputs, r));
-        }
-        s
-    }
-
-    /// The `inputs.bin` records.
-    pub fn inputs_bin(&self) -> Vec<u8> {
-        let mut v = Vec::with_capacity(self.count() * record_bytes(&self.inputs));
-        for (i, r) in self.input_rows.iter().enumerate() {
-            push_record(&mut v, i as u32, &self.inputs, r);
-        }
-        v
-    }
-
-    /// The `expected.bin` records.
-    pub fn expected_bin(&self) -> Vec<u8> {
-        let mut v = Vec::with_capacity(self.count() * record_bytes(&self.outputs));
-        for (i, r) in self.output_rows.iter().enumerate() {
-            push_record(&mut v, i as u32, &self.outputs, r);
-        }
-        v
-    }
-
-    /// The `expected.hex` text.
-    pub fn expected_hex(&self) -> String {
-        let mut s = String::new();
-        for (i, r) in self.output_rows.iter().enumerate() {
-            let _ = writeln!(s, "{}", hex_line(i as u32, &self.outputs, r));
-        }
-        s
-    }
-
     /// Write the set into `dir` (replaced as a whole, atomically; a
     /// non-empty directory fxshade did not write is refused unless `force`).
-    pub fn write(&self, dir: &Path, force: bool) -> Result<(), WriteError> {
+    pub fn write(&self, dir: &Path, force: bool) -> Result<(), SetError> {
         let d = if force {
             StagedDir::new_forced(dir)?
         } else {
@@ -356,31 +319,113 @@ impl VectorSet {
     }
 
     /// Write the set's files into a staged directory.
-    pub fn write_into(&self, d: &StagedDir) -> Result<(), WriteError> {
+    pub fn write_into(&self, d: &StagedDir) -> Result<(), SetError> {
         self.write_into_dir(d, "")
     }
 
-    /// Write the set's files into subdirectory `sub` of a staged directory.
-    pub fn write_into_dir(&self, d: &StagedDir, sub: &str) -> Result<(), WriteError> {
-        let p = |f: &str| {
-            if sub.is_empty() {
-                f.to_string()
-            } else {
-                format!("{sub}/{f}")
-            }
-        };
-        let manifest = serde_json::to_string_pretty(&self.manifest()).expect("serializable") + "\n";
-        d.write(&p("manifest.json"), manifest.as_bytes())?;
-        d.write(&p("inputs.hex"), self.inputs_hex().as_bytes())?;
-        d.write(&p("expected.hex"), self.expected_hex().as_bytes())?;
-        d.write(&p("inputs.bin"), &self.inputs_bin())?;
-        d.write(&p("expected.bin"), &self.expected_bin())?;
-        for (name, text) in self.rtl.files() {
-            d.write(&p(&name), text.as_bytes())?;
-        }
-        d.write(&p("config.toml"), self.config_toml.as_bytes())?;
-        Ok(())
+    /// Write the set's files into subdirectory `sub` of a staged directory
+    /// ([`write_set`]).
+    pub fn write_into_dir(&self, d: &StagedDir, sub: &str) -> Result<(), SetError> {
+        write_set(
+            d,
+            sub,
+            self,
+            &self.manifest(),
+            &self.config_toml,
+            &self.rtl,
+            true,
+            &mut |_| {},
+        )
     }
+}
+
+/// Why a vector set could not be written.
+#[derive(Debug, thiserror::Error)]
+pub enum SetError {
+    /// A file could not be written.
+    #[error(transparent)]
+    Write(#[from] WriteError),
+    /// The vectors could not be generated.
+    #[error(transparent)]
+    Vectors(#[from] RtlError),
+}
+
+/// Vectors per chunk [`write_set`] generates and writes at a time.
+pub const WRITE_CHUNK: usize = 8192;
+
+/// Write a vector set into subdirectory `sub` (empty: the top) of a staged
+/// directory: `manifest.json`, `config.toml`, the RTL and its testbench,
+/// the binary records `inputs.bin` and `expected.bin` ([`push_record`]),
+/// and with `hex` the same as `inputs.hex` and `expected.hex`
+/// ([`hex_line`]). The records are drawn from `src` [`WRITE_CHUNK`] at a
+/// time and written as they come, so memory does not grow with the count;
+/// `progress` gets the vectors written so far.
+#[allow(clippy::too_many_arguments)]
+pub fn write_set(
+    d: &StagedDir,
+    sub: &str,
+    src: &dyn VectorSource,
+    manifest: &serde_json::Value,
+    config_toml: &str,
+    rtl: &RtlSources,
+    hex: bool,
+    progress: &mut dyn FnMut(usize),
+) -> Result<(), SetError> {
+    use std::io::Write;
+    let p = |f: &str| {
+        if sub.is_empty() {
+            f.to_string()
+        } else {
+            format!("{sub}/{f}")
+        }
+    };
+    let m = serde_json::to_string_pretty(manifest).expect("serializable") + "\n";
+    d.write(&p("manifest.json"), m.as_bytes())?;
+    d.write(&p("config.toml"), config_toml.as_bytes())?;
+    for (name, text) in rtl.files() {
+        d.write(&p(&name), text.as_bytes())?;
+    }
+    let io = |path: &Path| {
+        let path = path.to_path_buf();
+        move |reason| WriteError::Io { path, reason }
+    };
+    let open = |name: &str| -> Result<(std::path::PathBuf, std::io::BufWriter<std::fs::File>), WriteError> {
+        let path = d.path(&p(name))?;
+        let f = std::fs::File::create(&path).map_err(io(&path))?;
+        Ok((path, std::io::BufWriter::with_capacity(1 << 20, f)))
+    };
+    let mut files = vec![open("inputs.bin")?, open("expected.bin")?];
+    if hex {
+        files.push(open("inputs.hex")?);
+        files.push(open("expected.hex")?);
+    }
+    let (ins, outs) = (src.input_fields(), src.output_fields());
+    let mut done = 0;
+    while done < src.len() {
+        let len = WRITE_CHUNK.min(src.len() - done);
+        let (rows, exp) = src.chunk(done, len)?;
+        let mut bufs: Vec<Vec<u8>> = vec![Vec::new(); files.len()];
+        for (k, (r, e)) in rows.iter().zip(&exp).enumerate() {
+            let idx = (src.first() + done + k) as u32;
+            push_record(&mut bufs[0], idx, ins, r);
+            push_record(&mut bufs[1], idx, outs, e);
+            if hex {
+                bufs[2].extend_from_slice(hex_line(idx, ins, r).as_bytes());
+                bufs[2].push(b'\n');
+                bufs[3].extend_from_slice(hex_line(idx, outs, e).as_bytes());
+                bufs[3].push(b'\n');
+            }
+        }
+        for ((path, w), b) in files.iter_mut().zip(&bufs) {
+            w.write_all(b).map_err(io(path))?;
+        }
+        done += len;
+        progress(done);
+    }
+    for (path, w) in files.iter_mut() {
+        w.flush().map_err(io(path))?;
+    }
+    Ok(())
 }
 
 /// Inputs that make each of `stages` meet an exact rounding tie (a

@@ -92,14 +92,19 @@ pub struct VariantResult {
     pub seconds: f64,
 }
 
+/// Whether the missing-z3 warning was printed.
+static WARNED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
 /// What z3 says about a mutant's event.
 enum Smt {
     /// No input meets it: the mutant is equivalent.
     Unsat,
     /// This input meets it.
     Sat(Vec<i128>),
-    /// Unknown, timed out, not encodable, or z3 missing.
+    /// Unknown, timed out, or not encodable.
     Unknown,
+    /// z3 is not installed.
+    Missing,
 }
 
 /// Ask z3 (if installed) whether any input meets the event of `m`.
@@ -122,7 +127,7 @@ fn smt(d: &rtl::Design, m: &fxshade_model::datapath::Mutation, seconds: u32) -> 
         .stderr(std::process::Stdio::null())
         .spawn()
     else {
-        return Smt::Unknown;
+        return Smt::Missing;
     };
     if let Some(mut i) = child.stdin.take() {
         let _ = i.write_all(script.as_bytes());
@@ -236,6 +241,9 @@ fn run_variant(
                     "{} ({variant}) mutant {k} ({m}): z3's input {r:?} does not meet the event in the model: the encoding is wrong",
                     u.name
                 ),
+                Smt::Missing => anyhow::bail!(
+                    "--smt-audit needs z3: install it with `sudo apt-get install z3` (Debian; ./scripts/test does it when run as root)"
+                ),
                 Smt::Unknown => {}
             }
         }
@@ -253,6 +261,13 @@ fn run_variant(
                 Smt::Sat(r) => {
                     if mutants::tells_apart(&d, m, &r)? {
                         killer = Some(r);
+                    }
+                }
+                Smt::Missing => {
+                    if !WARNED.swap(true, std::sync::atomic::Ordering::SeqCst) {
+                        eprintln!(
+                            "warning: z3 is not installed (`sudo apt-get install z3`): surviving mutants are not checked for equivalence"
+                        );
                     }
                 }
                 Smt::Unknown => {}

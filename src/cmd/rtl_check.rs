@@ -116,6 +116,13 @@ pub fn run(a: &RtlCheckArgs) -> anyhow::Result<()> {
     let u = rtl_flow::unit(&a.unit)?;
     let cfg = a.cfg.resolve()?;
     let stream = VectorStream::new(u, &cfg, a.count, a.seed, a.shard)?;
+    if let Some((k, n)) = a.shard {
+        anyhow::ensure!(
+            stream.count > 0,
+            "--shard {k}/{n} of --count {}: this shard holds no vector (use fewer shards than vectors)",
+            a.count
+        );
+    }
     let rtl = stream.rtl();
     let sources = match &a.rtl_dir {
         Some(d) => rtl_flow::Sources::from_dir(&rtl, d)?,

@@ -1,14 +1,13 @@
 //! `fxshade vectors <unit>`: test vectors, with the unit's generated
 //! Verilog and testbench, for a configuration.
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use clap::Args;
 use fxshade_model::files::StagedDir;
 use fxshade_model::rtl::units::VectorStream;
-use fxshade_model::vectors::{hex_line, push_record, record_bytes, VectorSource};
+use fxshade_model::vectors::{record_bytes, write_set, VectorSource};
 
 use super::ConfigArgs;
 
@@ -54,9 +53,6 @@ fn free_bytes(dir: &Path) -> Option<u64> {
         (libc::statvfs(c.as_ptr(), &mut s) == 0).then(|| s.f_bavail as u64 * s.f_frsize as u64)
     }
 }
-
-/// Vectors per chunk written.
-const CHUNK: usize = 8192;
 
 /// Run it.
 pub fn run(a: &VectorsArgs) -> anyhow::Result<()> {
@@ -108,64 +104,27 @@ pub fn run(a: &VectorsArgs) -> anyhow::Result<()> {
         StagedDir::new(&a.out)
     }
     .with_context(|| format!("cannot write the vectors to {}", a.out.display()))?;
-    let io = |p: &Path| format!("cannot write {}", p.display());
     let mut m = s.manifest();
     if a.no_hex {
         m["files"]["inputs"] = serde_json::Value::Null;
         m["files"]["expected"] = serde_json::Value::Null;
     }
-    d.write(
-        "manifest.json",
-        (serde_json::to_string_pretty(&m)? + "\n").as_bytes(),
-    )?;
-    d.write("config.toml", s.design.config_toml.as_bytes())?;
-    for (name, text) in s.rtl().files() {
-        d.write(&name, text.as_bytes())?;
-    }
-    let open = |name: &str| -> anyhow::Result<(PathBuf, std::io::BufWriter<std::fs::File>)> {
-        let p = d.path(name)?;
-        let f = std::fs::File::create(&p).with_context(|| io(&p))?;
-        Ok((p.clone(), std::io::BufWriter::with_capacity(1 << 20, f)))
-    };
-    let mut bins = [open("inputs.bin")?, open("expected.bin")?];
-    let mut hexes = if a.no_hex {
-        Vec::new()
-    } else {
-        vec![open("inputs.hex")?, open("expected.hex")?]
-    };
     let bar = (s.count >= 1_000_000).then(|| crate::progress::bar(s.count as u64, "vectors"));
-    let mut done = 0;
-    while done < s.count {
-        let len = CHUNK.min(s.count - done);
-        let (rows, exp) = s.chunk(done, len)?;
-        let (mut bi, mut be) = (Vec::with_capacity(len * ib), Vec::with_capacity(len * eb));
-        let (mut hi, mut he) = (String::new(), String::new());
-        for (k, (r, e)) in rows.iter().zip(&exp).enumerate() {
-            let idx = (s.first + done + k) as u32;
-            push_record(&mut bi, idx, s.input_fields(), r);
-            push_record(&mut be, idx, s.output_fields(), e);
-            if !a.no_hex {
-                hi += &hex_line(idx, s.input_fields(), r);
-                hi.push('\n');
-                he += &hex_line(idx, s.output_fields(), e);
-                he.push('\n');
+    write_set(
+        &d,
+        "",
+        &s,
+        &m,
+        &s.design.config_toml,
+        &s.rtl(),
+        !a.no_hex,
+        &mut |done| {
+            if let Some(b) = &bar {
+                b.set_position(done as u64);
             }
-        }
-        for ((p, w), buf) in bins.iter_mut().zip([&bi, &be]) {
-            w.write_all(buf).with_context(|| io(p))?;
-        }
-        for ((p, w), buf) in hexes.iter_mut().zip([&hi, &he]) {
-            w.write_all(buf.as_bytes()).with_context(|| io(p))?;
-        }
-        done += len;
-        if let Some(b) = &bar {
-            b.set_position(done as u64);
-        }
-    }
-    for (p, w) in bins.iter_mut().chain(hexes.iter_mut()) {
-        w.flush().with_context(|| io(p))?;
-    }
-    drop((bins, hexes));
+        },
+    )
+    .with_context(|| format!("cannot write the vectors to {}", a.out.display()))?;
     if let Some(b) = bar {
         b.finish_and_clear();
     }

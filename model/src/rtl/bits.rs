@@ -112,6 +112,29 @@ pub struct QuantLogic {
 /// on wire `y` (`ow` bits), the overflow bit on wire `ovf`; helper wires are
 /// named `{p}_*`.
 ///
+/// Width of the rounded value `r` of [`quantize`] for an operand of `xw`
+/// bits with `s` bits dropped (`s > 0`: the kept bits, at least one, plus
+/// one for a nearest mode's increment) or added (`s ≤ 0`).
+pub fn rounded_width(xw: u32, s: i32, round: Rounding) -> u32 {
+    if s <= 0 {
+        xw + (-s) as u32
+    } else {
+        let s = s as u32;
+        xw.max(s + 1) - s + (round != Rounding::Trunc) as u32
+    }
+}
+
+/// Whether a rounded value of `rw` bits (signed or not) can lie outside a
+/// format of `ow` bits (signed or not): where not, [`quantize`]'s range
+/// check is the constant 0 and the overflow mode changes nothing.
+pub fn can_leave(rw: u32, rsigned: bool, ow: u32, osigned: bool) -> bool {
+    match (rsigned, osigned) {
+        (true, true) | (false, false) => rw > ow,
+        (true, false) => true,
+        (false, true) => rw >= ow,
+    }
+}
+
 /// Rounding (bits dropped, `s = fx − fo > 0`): `t = x >>> s` (a slice), then
 /// `r = t + inc` in `width(t) + 1` bits with `inc = x[s−1]` (half_up) or
 /// `x[s−1] & (x[s] | |x[s−2:0])` (half_even); trunc takes `r = t`. Bits added
@@ -217,35 +240,40 @@ pub fn quantize(
         signed: x.signed,
         frac: fo,
     };
+    debug_assert_eq!(rw, rounded_width(x.width, s, round));
     // Range check.
-    let ovf_e = match (rv.signed, os) {
-        (true, true) => {
-            if rw > ow {
-                let top = rv.slice(rw - 1, ow - 1);
-                format!("~((&{top}) | ~(|{top}))")
-            } else {
-                "1'b0".into()
+    let ovf_e = if !can_leave(rw, rv.signed, ow, os) {
+        "1'b0".to_string()
+    } else {
+        match (rv.signed, os) {
+            (true, true) => {
+                if rw > ow {
+                    let top = rv.slice(rw - 1, ow - 1);
+                    format!("~((&{top}) | ~(|{top}))")
+                } else {
+                    "1'b0".into()
+                }
             }
-        }
-        (false, false) => {
-            if rw > ow {
-                format!("|{}", rv.slice(rw - 1, ow))
-            } else {
-                "1'b0".into()
+            (false, false) => {
+                if rw > ow {
+                    format!("|{}", rv.slice(rw - 1, ow))
+                } else {
+                    "1'b0".into()
+                }
             }
-        }
-        (true, false) => {
-            if rw - 1 > ow {
-                format!("{} | (|{})", rv.bit(rw - 1), rv.slice(rw - 2, ow))
-            } else {
-                rv.bit(rw - 1)
+            (true, false) => {
+                if rw - 1 > ow {
+                    format!("{} | (|{})", rv.bit(rw - 1), rv.slice(rw - 2, ow))
+                } else {
+                    rv.bit(rw - 1)
+                }
             }
-        }
-        (false, true) => {
-            if rw >= ow {
-                format!("|{}", rv.slice(rw - 1, ow - 1))
-            } else {
-                "1'b0".into()
+            (false, true) => {
+                if rw >= ow {
+                    format!("|{}", rv.slice(rw - 1, ow - 1))
+                } else {
+                    "1'b0".into()
+                }
             }
         }
     };

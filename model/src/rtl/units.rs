@@ -151,23 +151,6 @@ pub fn stream_rows(
     Ok(out)
 }
 
-/// The unit's input rows for `count` vectors: [`corner_rows`], then random
-/// chunks; and how many are corner rows.
-pub fn inputs(
-    u: &RtlUnit,
-    d: &Design,
-    cfg: &Config,
-    count: usize,
-    seed: u64,
-) -> Result<(Vec<Vec<i128>>, usize), RtlError> {
-    let corners = corner_rows(u, d, cfg, seed)?;
-    let n = corners.len();
-    if count < n {
-        return Err(RtlError::Count { count, corners: n });
-    }
-    Ok((stream_rows(u, cfg, &corners, seed, 0, count)?, n))
-}
-
 /// A vector set from input rows: outputs and flags from the compiled trace,
 /// fields from the emitted ports.
 pub fn vector_set(

@@ -114,19 +114,8 @@ impl Trace {
 
 /// Whether the rounded value (width `xw` before rounding, `dropped` bits
 /// dropped or added) can lie outside `q`'s format: the emitter's range
-/// check is then not a constant 0.
+/// check is then not a constant 0 (the emitter's own width rules).
 fn can_overflow(xw: u32, xs: bool, dropped: i32, q: &crate::quantize::Quant) -> bool {
-    let (ow, os) = (q.format().width(), q.format().signed());
-    let rw = if dropped <= 0 {
-        xw + (-dropped) as u32
-    } else {
-        let s = dropped as u32;
-        let tw = xw.max(s + 1) - s;
-        tw + (q.round() != Rounding::Trunc) as u32
-    };
-    match (xs, os) {
-        (true, true) | (false, false) => rw > ow,
-        (true, false) => true,
-        (false, true) => rw >= ow,
-    }
+    let rw = crate::rtl::bits::rounded_width(xw, dropped, q.round());
+    crate::rtl::bits::can_leave(rw, xs, q.format().width(), q.format().signed())
 }
