@@ -10,7 +10,8 @@
 //!   f64 reference, bit-accurate fixed point, and operation counting;
 //! * [`config`] — formats and parameters from TOML, with an embedded default;
 //! * [`units`] — the registry of units: [`interp`] (method C),
-//!   [`normalizer`] (method A), [`polar`] (method B), [`lighting`], and
+//!   [`normalizer`] (method A), [`angles`] (CORDIC polar angles of N),
+//!   [`polar`] (method B), [`lighting`], and
 //!   [`pipeline`], which chains them;
 //! * [`render`] — a rasterizer that runs the pipeline on every pixel of a
 //!   mesh, beside an f64 reference, with image metrics.
@@ -19,6 +20,7 @@
 #![warn(missing_docs)]
 
 pub mod analysis;
+pub mod angles;
 pub mod coeffs;
 pub mod config;
 pub mod datapath;

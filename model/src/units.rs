@@ -89,6 +89,7 @@ pub struct UnitEntry {
 pub static UNITS: &[&UnitEntry] = &[
     &crate::interp::UNIT,
     &crate::normalizer::UNIT,
+    &crate::angles::UNIT,
     &crate::polar::UNIT,
     &crate::lighting::UNIT,
     &crate::pipeline::UNIT,

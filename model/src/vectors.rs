@@ -490,6 +490,9 @@ pub enum RtlError {
     /// The polar configuration is unusable.
     #[error(transparent)]
     Polar(#[from] crate::polar::PolarError),
+    /// The angles configuration is unusable.
+    #[error(transparent)]
+    Angles(#[from] crate::angles::AnglesError),
     /// A variant the RTL does not implement.
     #[error("{unit}.method = \"{method}\": the RTL implements {supported} only")]
     Method {

@@ -65,6 +65,9 @@ pub enum Op {
     Sub(TV, TV),
     /// The larger value.
     Max(TV, TV),
+    /// `a + σ·b`, `σ = −1` when the third operand is negative (inverted
+    /// when the flag is set).
+    AddSigned(TV, TV, TV, bool),
     /// Quantization.
     Quant(TV, Quant),
     /// Table read: index, table slot.
@@ -242,6 +245,11 @@ impl Trace {
                     mark(s);
                     o.iter().for_each(mark);
                 }
+                Op::AddSigned(a, b, s, _) => {
+                    mark(a);
+                    mark(b);
+                    mark(s);
+                }
             }
         }
         live
@@ -314,6 +322,10 @@ impl Datapath for Trace {
         let sym = self.count.max(a.sym, b.sym);
         self.push(Op::Max(a, b), a.frac.max(b.frac), sym)
     }
+    fn add_signed(&mut self, a: TV, b: TV, s: TV, flip: bool) -> TV {
+        let sym = self.count.add_signed(a.sym, b.sym, s.sym, flip);
+        self.push(Op::AddSigned(a, b, s, flip), a.frac.max(b.frac), sym)
+    }
     fn quantize(&mut self, a: TV, q: &Quant) -> TV {
         let sym = self.count.quantize(a.sym, q);
         self.push(Op::Quant(a, *q), q.format().frac(), sym)
@@ -370,6 +382,15 @@ enum Instr {
         sa: u32,
         b: usize,
         sb: u32,
+    },
+    AddSigned {
+        d: usize,
+        a: usize,
+        sa: u32,
+        b: usize,
+        sb: u32,
+        s: usize,
+        flip: bool,
     },
     Quant {
         d: usize,
@@ -508,6 +529,15 @@ impl<R: Raw> Program<R> {
                     sa: (f - fr(a)) as u32,
                     b: b.id as usize,
                     sb: (f - fr(b)) as u32,
+                }),
+                Op::AddSigned(a, b, s, flip) => instrs.push(Instr::AddSigned {
+                    d,
+                    a: a.id as usize,
+                    sa: (f - fr(a)) as u32,
+                    b: b.id as usize,
+                    sb: (f - fr(b)) as u32,
+                    s: s.id as usize,
+                    flip: *flip,
                 }),
                 Op::Quant(a, q) => instrs.push(Instr::Quant {
                     d,
@@ -804,6 +834,29 @@ fn block_body<R: Raw>(
                     );
                     for ((o, &x), &y) in hi[..len].iter_mut().zip(x).zip(y) {
                         *o = (x << sa).max(y << sb);
+                    }
+                }
+                Instr::AddSigned {
+                    d,
+                    a,
+                    sa,
+                    b,
+                    sb,
+                    s,
+                    flip,
+                } => {
+                    let (lo, hi) = regs.split_at_mut(d * BLOCK);
+                    let (x, y, sg) = (
+                        &lo[a * BLOCK..a * BLOCK + len],
+                        &lo[b * BLOCK..b * BLOCK + len],
+                        &lo[s * BLOCK..s * BLOCK + len],
+                    );
+                    for (((o, &x), &y), &sg) in hi[..len].iter_mut().zip(x).zip(y).zip(sg) {
+                        *o = if (sg < R::ZERO) != flip {
+                            (x << sa) - (y << sb)
+                        } else {
+                            (x << sa) + (y << sb)
+                        };
                     }
                 }
                 Instr::Quant {

@@ -388,6 +388,11 @@ impl Datapath for Count {
             ..a
         }
     }
+    fn add_signed(&mut self, a: Sym, b: Sym, _s: Sym, _flip: bool) -> Sym {
+        self.counts.add += 1;
+        let r = Self::aligned(&a, &b, true, 1);
+        self.result("add_signed", &a, &b, r)
+    }
     fn max(&mut self, a: Sym, b: Sym) -> Sym {
         self.counts.compare += 1;
         let r = Self::aligned(&a, &b, false, 0);

@@ -236,6 +236,15 @@ impl<R: Raw> Datapath for Fixed<R> {
         }
     }
     #[inline(always)]
+    fn add_signed(&mut self, a: Fx<R>, b: Fx<R>, s: Fx<R>, flip: bool) -> Fx<R> {
+        let (x, y, frac) = Self::align(a, b);
+        let neg = (s.raw < R::ZERO) != flip;
+        Fx {
+            raw: if neg { x - y } else { x + y },
+            frac,
+        }
+    }
+    #[inline(always)]
     fn quantize(&mut self, a: Fx<R>, q: &Quant) -> Fx<R> {
         let s = a.frac - q.format().frac();
         if s > 0 && q.round() != Rounding::Trunc && (s as u32) < R::BITS {

@@ -25,6 +25,7 @@
 //! | `add(a, b)`, `sub(a, b)` | `a ± b` | frac `max(fa, fb)`, integer bits `max(ia, ib) + 1` |
 //! | `shl(a, n)` | `a·2^n` | frac `fa − n` (wiring, no hardware) |
 //! | `max(a, b)` | `max(a, b)` | aligned, no growth (one comparator) |
+//! | `add_signed(a, b, s, flip)` | `a + σ·b`, `σ = −1` if `s < 0` (inverted by `flip`), else `+1` | as `sub` (one adder/subtracter steered by the sign bit of `s`) |
 //! | `quantize(a, q)` | `a` rounded/clipped to `q` | `q.format()` |
 //! | `table(t, i)` | `t.exact(i)` quantized at build time | `t.out.format()` |
 //! | `select(s, [v0, v1, …])` | `v_s` (`v0` when `s` is past the end) | aligned, no growth (one multiplexer) |
@@ -68,6 +69,12 @@ pub trait Datapath {
     fn shl(&mut self, a: Self::V, n: i32) -> Self::V;
     /// The larger of two values (one comparator and a multiplexer).
     fn max(&mut self, a: Self::V, b: Self::V) -> Self::V;
+    /// `a + σ·b`, exact, where `σ = −1` when `s < 0` and `σ = +1` when
+    /// `s ≥ 0`; `flip` inverts `σ`. One adder/subtracter whose mode is the
+    /// sign bit of `s` (a CORDIC micro-rotation). Result format as
+    /// [`Datapath::sub`]: signed, `max` of the fraction bits, one more
+    /// integer bit than the wider operand.
+    fn add_signed(&mut self, a: Self::V, b: Self::V, s: Self::V, flip: bool) -> Self::V;
     /// Round and clip to `q` (the only place bits are dropped).
     fn quantize(&mut self, a: Self::V, q: &Quant) -> Self::V;
     /// Read table `t` at `index`, a value in `t.index`'s format.

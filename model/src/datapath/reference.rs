@@ -43,6 +43,14 @@ impl Datapath for Reference {
         a.max(b)
     }
     #[inline]
+    fn add_signed(&mut self, a: f64, b: f64, s: f64, flip: bool) -> f64 {
+        if (s < 0.0) != flip {
+            a - b
+        } else {
+            a + b
+        }
+    }
+    #[inline]
     fn quantize(&mut self, a: f64, _q: &Quant) -> f64 {
         a
     }

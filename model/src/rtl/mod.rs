@@ -488,6 +488,41 @@ impl<'a> Emitter<'a> {
                 self.stage[i] = Some(s);
                 self.at.insert((i, s), name);
             }
+            Op::AddSigned(a, b, sg, flip) => {
+                let s = stage_of(self, &[&a, &b, &sg]);
+                let (va, vb, vs) = (
+                    self.operand(&a, s),
+                    self.operand(&b, s),
+                    self.operand(&sg, s),
+                );
+                let w = sym.width;
+                let xa = bits::align(&va, (sym.frac - va.frac) as u32, w);
+                let xb = bits::align(&vb, (sym.frac - vb.frac) as u32, w);
+                // One adder/subtracter: its mode is the sign bit of `sg`
+                // (Yosys's opt_share merges the pair into one $alu).
+                self.hw.adders.push(w);
+                self.hw.adders.push(w);
+                let neg = format!("{name}_sub");
+                let bit = vs.sign_bit();
+                // Only the sign of `sg` is read here; where nothing else
+                // reads the rest (CORDIC's last `v`), the sink takes it.
+                if vs.width > 1 {
+                    let rest = vs.slice(vs.width - 2, 0);
+                    if !self.unused.contains(&rest) {
+                        self.unused.push(rest);
+                    }
+                }
+                let mode = if flip { format!("~{bit}") } else { bit };
+                self.body.push(format!("wire {neg} = {mode};"));
+                let (sub, add) = (
+                    bits::sv(true, &format!("{xa} - {xb}")),
+                    bits::sv(true, &format!("{xa} + {xb}")),
+                );
+                self.body
+                    .push(format!("wire {d} {name} = {neg} ? {sub} : {add};"));
+                self.stage[i] = Some(s);
+                self.at.insert((i, s), name);
+            }
             Op::Select(sel, opts) => {
                 let mut all: Vec<&TV> = vec![&sel];
                 all.extend(opts.iter());

@@ -114,6 +114,28 @@ impl<R: Raw> Program<R> {
                     let y = (r[b].0 << sb, r[b].1 << sb);
                     r[d] = (x.0.max(y.0), x.1.max(y.1));
                 }
+                Instr::AddSigned {
+                    d,
+                    a,
+                    sa,
+                    b,
+                    sb,
+                    s,
+                    flip,
+                } => {
+                    let x = (r[a].0 << sa, r[a].1 << sa);
+                    let y = (r[b].0 << sb, r[b].1 << sb);
+                    let add = (x.0 + y.0, x.1 + y.1);
+                    let sub = (x.0 - y.1, x.1 - y.0);
+                    // The sign of `s` over its range: known, or either.
+                    let (neg, pos) = (r[s].0 < 0, r[s].1 >= 0);
+                    let (can_sub, can_add) = if flip { (pos, neg) } else { (neg, pos) };
+                    r[d] = match (can_sub, can_add) {
+                        (true, false) => sub,
+                        (false, true) => add,
+                        _ => (add.0.min(sub.0), add.1.max(sub.1)),
+                    };
+                }
                 Instr::Quant {
                     d,
                     a,

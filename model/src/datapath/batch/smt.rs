@@ -58,6 +58,11 @@ impl Trace {
                     mark(s);
                     o.iter().for_each(mark);
                 }
+                Op::AddSigned(a, b, s, _) => {
+                    mark(a);
+                    mark(b);
+                    mark(s);
+                }
                 Op::Div(..) | Op::Sqrt(..) => return None,
                 Op::Input(_) | Op::Const(_) => {}
             }
@@ -151,6 +156,16 @@ impl Trace {
                 Op::Max(a, b) => {
                     let (x, y) = (aligned(a), aligned(b));
                     format!("(ite (bvsge {x} {y}) {x} {y})")
+                }
+                Op::AddSigned(a, b, sg, flip) => {
+                    let (x, y) = (aligned(a), aligned(b));
+                    let neg = format!("(bvslt n{} {})", sg.node(), lit(0, w(sg.node())));
+                    let (sub, add) = (format!("(bvsub {x} {y})"), format!("(bvadd {x} {y})"));
+                    if *flip {
+                        format!("(ite {neg} {add} {sub})")
+                    } else {
+                        format!("(ite {neg} {sub} {add})")
+                    }
                 }
                 Op::Select(sel, opts) => {
                     let sw = w(sel.node());
