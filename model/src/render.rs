@@ -36,7 +36,7 @@ use crate::config::Config;
 use crate::interp::{self, Scheme, THETA_LADDER};
 use crate::mesh::Mesh;
 use crate::normalizer::Method;
-use crate::pipeline::{Path, Pipeline, PipelineError};
+use crate::pipeline::{AngleSource, Path, Pipeline, PipelineError};
 
 /// Tilt of the mesh about x, in degrees (towards the viewer at the top).
 pub const TILT_DEG: f64 = 30.0;
@@ -48,39 +48,54 @@ pub const REL_FLOOR_LEVELS: f64 = 12.75;
 /// The paper's visual-identity bound on the relative intensity error.
 pub const PAPER_BOUND: f64 = 0.04;
 
-/// A method the renderer runs: a normalizer on the smooth path, or the
-/// mapped path.
+/// A method the renderer runs: a normalizer on the smooth path, the mapped
+/// path with its angles of `N` by CORDIC or interpolated, or the mapped
+/// path's conventional baseline (an interpolated TBN matrix and a
+/// normalization).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum RenderMethod {
     /// Smooth path with this normalizer.
     Smooth(Method),
-    /// Mapped path (normal map, polar transform).
-    Mapped,
+    /// Mapped path (normal map, polar transform) with the angles of `N`
+    /// from this source.
+    Mapped(AngleSource),
+    /// The conventional mapped path: per-vertex `T, B, N` interpolated,
+    /// `L' = normalize(M·L)`, bit-accurate (no RTL).
+    Tbn,
 }
 
 impl RenderMethod {
     /// Every method, smooth ones first.
-    pub const ALL: [RenderMethod; 7] = [
+    pub const ALL: [RenderMethod; 9] = [
         RenderMethod::Smooth(Method::Exact),
         RenderMethod::Smooth(Method::None),
         RenderMethod::Smooth(Method::Newton),
         RenderMethod::Smooth(Method::Taylor),
         RenderMethod::Smooth(Method::Linear),
         RenderMethod::Smooth(Method::Quadratic),
-        RenderMethod::Mapped,
+        RenderMethod::Mapped(AngleSource::Cordic),
+        RenderMethod::Mapped(AngleSource::Interpolate),
+        RenderMethod::Tbn,
     ];
     /// The methods the RTL top implements.
-    pub const RTL: [RenderMethod; 3] = [
+    pub const RTL: [RenderMethod; 4] = [
         RenderMethod::Smooth(Method::Linear),
         RenderMethod::Smooth(Method::Quadratic),
-        RenderMethod::Mapped,
+        RenderMethod::Mapped(AngleSource::Cordic),
+        RenderMethod::Mapped(AngleSource::Interpolate),
     ];
-    /// Name (`exact`, …, `quadratic`, `mapped`).
+    /// Name (`exact`, …, `quadratic`, `mapped`, `mapped-interp`, `tbn`).
     pub fn name(self) -> &'static str {
         match self {
             RenderMethod::Smooth(m) => m.name(),
-            RenderMethod::Mapped => "mapped",
+            RenderMethod::Mapped(AngleSource::Cordic) => "mapped",
+            RenderMethod::Mapped(AngleSource::Interpolate) => "mapped-interp",
+            RenderMethod::Tbn => "tbn",
         }
+    }
+    /// Whether it renders the normal map (its reference is the mapped one).
+    pub fn is_mapped(self) -> bool {
+        !matches!(self, RenderMethod::Smooth(_))
     }
     /// Parse a name.
     pub fn from_name(s: &str) -> Option<RenderMethod> {
@@ -90,7 +105,7 @@ impl RenderMethod {
     pub fn path(self) -> Path {
         match self {
             RenderMethod::Smooth(_) => Path::Smooth,
-            RenderMethod::Mapped => Path::Mapped,
+            RenderMethod::Mapped(_) | RenderMethod::Tbn => Path::Mapped,
         }
     }
 }
@@ -379,10 +394,19 @@ impl Metrics {
     /// With no pixel compared, nothing is claimed: `paper_bound_holds` is
     /// false and `psnr_db` is `None`.
     pub fn compare(got: &[u8], want: &[f64]) -> Metrics {
+        Self::compare_where(got, want, |_| true)
+    }
+
+    /// [`Metrics::compare`] over the pixels `k` with `keep(k)` only (the
+    /// others are not counted at all, not even as skipped).
+    pub fn compare_where(got: &[u8], want: &[f64], keep: impl Fn(usize) -> bool) -> Metrics {
         let mut m = Metrics::default();
         let (mut sum, mut sq) = (0.0, 0.0);
         let mut hist = [0usize; 4];
-        for (&g, &w) in got.iter().zip(want) {
+        for (k, (&g, &w)) in got.iter().zip(want).enumerate() {
+            if !keep(k) {
+                continue;
+            }
             if w.is_nan() {
                 m.skipped += 1;
                 continue;
@@ -481,14 +505,52 @@ pub struct Frame {
     pub skipped_triangles: Vec<usize>,
     /// Smooth-path input rows (one per fragment; empty for skipped ones).
     pub smooth_rows: Vec<Vec<i128>>,
-    /// Mapped-path input rows.
+    /// Mapped-path input rows with CORDIC angles (the six normals).
     pub mapped_rows: Vec<Vec<i128>>,
+    /// Mapped-path input rows with interpolated angles (the angle set-up).
+    pub mapped_interp_rows: Vec<Vec<i128>>,
+    /// Rows of the conventional baseline: `c1, c2`, per vertex `T, B, N`,
+    /// then `L`, `H` and the texel.
+    pub tbn_rows: Vec<Vec<i128>>,
+    /// Whether the exactly interpolated normal lies within
+    /// [`POLAR_CAP_DEG`] of the y axis, where `β` and the implied frame are
+    /// singular.
+    pub polar_cap: Vec<bool>,
     /// f64 reference level of the smooth path, per fragment.
     pub smooth_ref: Vec<f64>,
     /// f64 reference level of the mapped path (angles of the exact normal).
     pub mapped_ref: Vec<f64>,
     /// The mapped path in f64 with angles interpolated as the pipeline does.
     pub mapped_interp_ref: Vec<f64>,
+    /// The conventional baseline in f64 (interpolated TBN, exact
+    /// normalization).
+    pub tbn_ref: Vec<f64>,
+}
+
+/// The polar cap: pixels whose normal is within this many degrees of the y
+/// axis. There the azimuth β, and with it the implied tangent frame, is
+/// singular; the mapped path's targets are judged outside it and the cap is
+/// reported on its own.
+pub const POLAR_CAP_DEG: f64 = 2.0;
+
+impl Frame {
+    /// The input rows of a method.
+    pub fn rows(&self, method: RenderMethod) -> &[Vec<i128>] {
+        match method {
+            RenderMethod::Smooth(_) => &self.smooth_rows,
+            RenderMethod::Mapped(AngleSource::Cordic) => &self.mapped_rows,
+            RenderMethod::Mapped(AngleSource::Interpolate) => &self.mapped_interp_rows,
+            RenderMethod::Tbn => &self.tbn_rows,
+        }
+    }
+    /// The f64 reference a method is judged against.
+    pub fn reference(&self, method: RenderMethod) -> &[f64] {
+        if method.is_mapped() {
+            &self.mapped_ref
+        } else {
+            &self.smooth_ref
+        }
+    }
 }
 
 /// [`frame_in`] the default [`Scene`].
@@ -529,6 +591,10 @@ pub fn frame_in(scene: &Scene, p: &Pipeline, raster: Raster, mesh: &Mesh) -> Fra
         skipped_triangles: Vec::new(),
         smooth_rows: Vec::with_capacity(raster.fragments.len()),
         mapped_rows: Vec::with_capacity(raster.fragments.len()),
+        mapped_interp_rows: Vec::with_capacity(raster.fragments.len()),
+        tbn_rows: Vec::with_capacity(raster.fragments.len()),
+        polar_cap: Vec::with_capacity(raster.fragments.len()),
+        tbn_ref: Vec::with_capacity(raster.fragments.len()),
         smooth_ref: Vec::with_capacity(raster.fragments.len()),
         mapped_ref: Vec::with_capacity(raster.fragments.len()),
         mapped_interp_ref: Vec::with_capacity(raster.fragments.len()),
@@ -547,9 +613,13 @@ pub fn frame_in(scene: &Scene, p: &Pipeline, raster: Raster, mesh: &Mesh) -> Fra
             }
             f.smooth_rows.push(Vec::new());
             f.mapped_rows.push(Vec::new());
+            f.mapped_interp_rows.push(Vec::new());
+            f.tbn_rows.push(Vec::new());
+            f.polar_cap.push(false);
             f.smooth_ref.push(f64::NAN);
             f.mapped_ref.push(f64::NAN);
             f.mapped_interp_ref.push(f64::NAN);
+            f.tbn_ref.push(f64::NAN);
             continue;
         };
         let (c1, c2) = (qb(fr.c[0]), qb(fr.c[1]));
@@ -563,14 +633,40 @@ pub fn frame_in(scene: &Scene, p: &Pipeline, raster: Raster, mesh: &Mesh) -> Fra
         f.smooth_rows.push(r);
         let n_exact = interp::field(&st.tri, fr.c, scheme).normalize();
         f.smooth_ref.push(shade_f64(&p.light, n_exact, l, h));
-        // Mapped row: c1, c2, angles of N, of L and H, the texel.
+        // Mapped rows: c1, c2, the normals (CORDIC) or the angle set-up
+        // (interpolated angles), angles of L and H, the texel.
         let tex = scene.normal_map.at(fr.uv);
+        let texc = tex.to_array().map(qn);
+        let lh = [al, bl, ah, bh];
+        f.mapped_rows
+            .push(p.mapped_row_of(AngleSource::Cordic, [c1, c2], st, mt, lh, texc));
+        f.mapped_interp_rows.push(p.mapped_row_of(
+            AngleSource::Interpolate,
+            [c1, c2],
+            st,
+            mt,
+            lh,
+            texc,
+        ));
+        let cap = (POLAR_CAP_DEG.to_radians()).cos();
+        f.polar_cap.push(n_exact.y.abs() >= cap);
+        // The conventional baseline: the implied frame of each vertex.
+        let frames = st.tri.n.map(|nv| {
+            let (_, b) = crate::polar::angles_of(nv);
+            crate::polar::frame(nv, b)
+        });
+        let qv = |x: f64| p.interp.vertex.apply_f64(x).map_or(0, |r| r.code);
         let mut r = vec![c1, c2];
-        r.extend_from_slice(&mt.a);
-        r.extend_from_slice(&mt.b);
-        r.extend_from_slice(&[al, bl, ah, bh]);
-        r.extend(tex.to_array().map(qn));
-        f.mapped_rows.push(r);
+        for (t, b, n) in &frames {
+            for v in [t, b, n] {
+                r.extend(v.to_array().map(qv));
+            }
+        }
+        r.extend_from_slice(&lc);
+        r.extend_from_slice(&hc);
+        r.extend_from_slice(&texc);
+        f.tbn_rows.push(r);
+        f.tbn_ref.push(tbn_f64(&p.light, frames, fr.c, l, h, tex));
         let (an, bn) = crate::polar::angles_of(n_exact);
         let lp = crate::polar::reference(al_f, bl_f, an, bn);
         let hp = crate::polar::reference(ah_f, bh_f, an, bn);
@@ -587,6 +683,26 @@ pub fn frame_in(scene: &Scene, p: &Pipeline, raster: Raster, mesh: &Mesh) -> Fra
     f
 }
 
+/// The conventional baseline in f64: `M = Σ c_k·[T_k; B_k; N_k]`,
+/// `L' = M·L / |M·L|`, `H'` likewise, then [`shade_f64`].
+pub fn tbn_f64(
+    light: &crate::lighting::Lighting,
+    frames: [(DVec3, DVec3, DVec3); 3],
+    c: [f64; 3],
+    l: DVec3,
+    h: DVec3,
+    tex: DVec3,
+) -> f64 {
+    let mut m = [DVec3::ZERO; 3];
+    for (k, (t, b, n)) in frames.iter().enumerate() {
+        m[0] += *t * c[k];
+        m[1] += *b * c[k];
+        m[2] += *n * c[k];
+    }
+    let xf = |v: DVec3| DVec3::new(m[0].dot(v), m[1].dot(v), m[2].dot(v)).normalize_or_zero();
+    shade_f64(light, tex, xf(l), xf(h))
+}
+
 /// One method's image.
 #[derive(Clone, Debug)]
 pub struct MethodImage {
@@ -596,6 +712,10 @@ pub struct MethodImage {
     pub levels: Vec<u8>,
     /// Against the reference of its path.
     pub metrics: Metrics,
+    /// Mapped methods: the same outside the polar cap (the targets).
+    pub outside_cap: Option<Metrics>,
+    /// Mapped methods: inside the polar cap alone.
+    pub cap: Option<Metrics>,
 }
 
 /// Run the bit-accurate pipeline of `method` over a frame.
@@ -604,20 +724,42 @@ pub fn run_method(
     f: &Frame,
     method: RenderMethod,
 ) -> Result<MethodImage, PipelineError> {
-    let p = match method {
+    let mut p = match method {
         RenderMethod::Smooth(m) => Pipeline::with_method(cfg, m)?,
-        RenderMethod::Mapped => Pipeline::with_method(cfg, Method::None)?,
+        _ => Pipeline::with_method(cfg, Method::None)?,
     };
-    let (rows, want) = match method.path() {
-        Path::Smooth => (&f.smooth_rows, &f.smooth_ref),
-        Path::Mapped => (&f.mapped_rows, &f.mapped_ref),
+    if let RenderMethod::Mapped(src) = method {
+        p.angles = src;
+    }
+    let (rows, want) = (f.rows(method), f.reference(method));
+    let levels = if method == RenderMethod::Tbn {
+        let idx: Vec<usize> = (0..rows.len()).filter(|&i| !rows[i].is_empty()).collect();
+        let live: Vec<Vec<i128>> = idx.iter().map(|&i| rows[i].clone()).collect();
+        let out = p.run_tbn_rows(&live)?;
+        let fl = p.light.level.format();
+        let mut levels = vec![0u8; rows.len()];
+        for (k, &i) in idx.iter().enumerate() {
+            levels[i] = pixel_of(fl, out[k]);
+        }
+        levels
+    } else {
+        levels_of(&p, method.path(), rows)?
     };
-    let levels = levels_of(&p, method.path(), rows)?;
     let metrics = Metrics::compare(&levels, want);
+    let (outside_cap, cap) = if method.is_mapped() {
+        (
+            Some(Metrics::compare_where(&levels, want, |k| !f.polar_cap[k])),
+            Some(Metrics::compare_where(&levels, want, |k| f.polar_cap[k])),
+        )
+    } else {
+        (None, None)
+    };
     Ok(MethodImage {
         method,
         levels,
         metrics,
+        outside_cap,
+        cap,
     })
 }
 

@@ -165,7 +165,7 @@ pub fn parse_methods(s: Option<&str>, rtl: bool) -> anyhow::Result<Vec<RenderMet
             .with_context(|| format!("--method {name}: unknown; methods: {}, all", names()))?;
         if rtl && !RenderMethod::RTL.contains(&m) {
             bail!(
-                "--method {name} with --rtl: the RTL implements linear, quadratic and mapped only"
+                "--method {name} with --rtl: the RTL implements linear, quadratic, mapped and mapped-interp only"
             );
         }
         if !v.contains(&m) {
@@ -202,6 +202,11 @@ pub struct MethodResult {
     /// Metrics against the reference of its path.
     #[serde(flatten)]
     pub metrics: Metrics,
+    /// Mapped methods: the metrics outside the polar cap (pixels whose
+    /// normal is more than `polar_cap_deg` from the y axis).
+    pub outside_cap: Option<Metrics>,
+    /// Mapped methods: the metrics inside the polar cap alone.
+    pub cap: Option<Metrics>,
     /// The image file.
     pub image: String,
     /// The heat-map file.
@@ -234,6 +239,13 @@ pub struct RenderResult {
     pub methods: Vec<MethodResult>,
     /// What interpolating the polar angles costs (mapped path, f64 both).
     pub angle_interp: Option<Metrics>,
+    /// The conventional baseline (interpolated TBN, exact normalization) in
+    /// f64 against the mapped reference.
+    pub tbn_f64: Option<Metrics>,
+    /// The polar cap's half-angle, degrees.
+    pub polar_cap_deg: f64,
+    /// Pixels inside the polar cap.
+    pub polar_cap_pixels: usize,
     /// Reference images written.
     pub references: Vec<String>,
     /// Seconds.
@@ -278,7 +290,8 @@ pub fn render_into(
     };
     let mut references = vec![png("reference", &render::reference_levels(&f.smooth_ref))?];
     let mut angle_interp = None;
-    if methods.contains(&RenderMethod::Mapped) {
+    let mut tbn_f64 = None;
+    if methods.iter().any(|m| m.is_mapped()) {
         references.push(png(
             "reference_mapped",
             &render::reference_levels(&f.mapped_ref),
@@ -286,15 +299,15 @@ pub fn render_into(
         let li = render::reference_levels(&f.mapped_interp_ref);
         angle_interp = Some(Metrics::compare(&li, &f.mapped_ref));
         references.push(heat("angle_interp_error", &li, &f.mapped_ref)?);
+        let lt = render::reference_levels(&f.tbn_ref);
+        tbn_f64 = Some(Metrics::compare(&lt, &f.mapped_ref));
+        references.push(heat("tbn_f64_error", &lt, &f.mapped_ref)?);
     }
     let mut results = Vec::new();
     for &method in methods {
         progress(method.name());
         let img = render::run_method(cfg, &f, method)?;
-        let want = match method.path() {
-            Path::Smooth => &f.smooth_ref,
-            Path::Mapped => &f.mapped_ref,
-        };
+        let want = f.reference(method);
         let image = png(method.name(), &img.levels)?;
         let heatmap = heat(&format!("{}_error", method.name()), &img.levels, want)?;
         let rtl = match rtl {
@@ -310,6 +323,8 @@ pub fn render_into(
             method: method.name(),
             path: method.path(),
             metrics: img.metrics,
+            outside_cap: img.outside_cap,
+            cap: img.cap,
             image,
             heatmap,
             rtl,
@@ -330,6 +345,9 @@ pub fn render_into(
         cos_phi: render::cos_phi_stats(m),
         methods: results,
         angle_interp,
+        tbn_f64,
+        polar_cap_deg: render::POLAR_CAP_DEG,
+        polar_cap_pixels: f.polar_cap.iter().filter(|&&c| c).count(),
         references,
         seconds: start.elapsed().as_secs_f64(),
     })
@@ -347,16 +365,19 @@ fn run_rtl(
     let mut c = cfg.clone();
     let path = method.path();
     c.apply_override(&format!("pipeline.path=\"{}\"", path.name()))?;
-    if let RenderMethod::Smooth(m) = method {
-        c.apply_override(&format!("normalize.method=\"{}\"", m.name()))?;
+    match method {
+        RenderMethod::Smooth(m) => {
+            c.apply_override(&format!("normalize.method=\"{}\"", m.name()))?;
+        }
+        RenderMethod::Mapped(src) => {
+            c.apply_override(&format!("pipeline.angles=\"{}\"", src.name()))?;
+        }
+        RenderMethod::Tbn => bail!("the conventional baseline (tbn) has no RTL"),
     }
     let p = fxshade_model::pipeline::Pipeline::from_config(&c)?;
     let design = fxshade_model::pipeline::rtl::design(&c)?;
     let emitted = fxshade_model::rtl::emit(&design)?;
-    let rows = match path {
-        Path::Smooth => &f.smooth_rows,
-        Path::Mapped => &f.mapped_rows,
-    };
+    let rows = f.rows(method);
     let live: Vec<usize> = (0..rows.len()).filter(|&i| !rows[i].is_empty()).collect();
     if live.is_empty() {
         bail!("no pixel of the mesh could be shaded: nothing to simulate");
@@ -483,10 +504,27 @@ pub fn table(r: &RenderResult) -> Table {
             Some(o) if o.identical => format!("identical ({:?})", o.sim).to_lowercase(),
             Some(o) => format!("{} pixels differ ({:?})", o.differing_pixels, o.sim).to_lowercase(),
         };
-        row(m.method, m.path.name(), &m.metrics, rtl);
+        row(m.method, m.path.name(), &m.metrics, rtl.clone());
+        if let (Some(o), Some(c)) = (&m.outside_cap, &m.cap) {
+            row(
+                &format!("  {}, outside the {}° polar cap", m.method, r.polar_cap_deg),
+                "mapped",
+                o,
+                "-".into(),
+            );
+            row(
+                &format!("  {}, inside the cap ({} px)", m.method, r.polar_cap_pixels),
+                "mapped",
+                c,
+                "-".into(),
+            );
+        }
     }
     if let Some(a) = &r.angle_interp {
         row("angle_interp (f64)", "mapped", a, "-".into());
+    }
+    if let Some(a) = &r.tbn_f64 {
+        row("tbn (f64)", "mapped", a, "-".into());
     }
     t
 }

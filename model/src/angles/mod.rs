@@ -145,9 +145,7 @@ fn require_angle(key: &'static str, q: &Quant) -> Result<(), AnglesError> {
     if f.signed() || f.int_bits() != 0 || f.width() > 32 {
         return Err(AnglesError::Config {
             key,
-            why: format!(
-                "format {f} must be U0F<k> with k ≤ 32: an angle is a fraction of a turn"
-            ),
+            why: format!("format {f} must be U0F<k> with k ≤ 32: an angle is a fraction of a turn"),
         });
     }
     if q.overflow() != Overflow::Wrap {
@@ -274,10 +272,12 @@ impl Angles {
 
     /// Compiled for batches: inputs `n_x, n_y, n_z` codes; outputs α, β.
     pub fn compile(&self) -> Result<Compiled, AnglesError> {
-        self.trace()?.compile_outputs().map_err(|e| AnglesError::Config {
-            key: "xy",
-            why: e.to_string(),
-        })
+        self.trace()?
+            .compile_outputs()
+            .map_err(|e| AnglesError::Config {
+                key: "xy",
+                why: e.to_string(),
+            })
     }
 
     /// One counting run.
@@ -431,7 +431,10 @@ mod tests {
         // β wraps at ±180°: just either side of half a turn.
         let (_, _, _, b1) = run(&a, DVec3::new(1e-3, 0.0, -1.0));
         let (_, _, _, b2) = run(&a, DVec3::new(-1e-3, 0.0, -1.0));
-        assert!((b1 - half).abs() <= 1 && (b2 - half).abs() <= 1, "{b1} {b2}");
+        assert!(
+            (b1 - half).abs() <= 1 && (b2 - half).abs() <= 1,
+            "{b1} {b2}"
+        );
         // Axes.
         let q = 1i128 << (kk - 2);
         assert_eq!(run(&a, DVec3::Z).3, 0);
@@ -449,9 +452,7 @@ mod tests {
                 + a.theta.apply_f64(0.25).unwrap().code;
             let _ = x;
             let turn_t = 1i128 << t.width();
-            a.out
-                .apply(codes.rem_euclid(turn_t), t.frac())
-                .code
+            a.out.apply(codes.rem_euclid(turn_t), t.frac()).code
         };
         for y in [1.0, -1.0] {
             let (_, _, ac, bc) = run(&a, DVec3::new(0.0, y, 0.0));

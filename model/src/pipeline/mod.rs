@@ -52,6 +52,7 @@
 
 use glam::DVec3;
 
+use crate::angles::{Angles, AnglesError};
 use crate::config::{Config, ConfigError, FieldDecl, FieldKind, UnitDecl};
 use crate::datapath::{CompileError, Compiled, Count, Datapath, Trace};
 use crate::format::{ConvertError, Format};
@@ -73,6 +74,11 @@ pub static DECL: UnitDecl = UnitDecl {
             name: "angle_round",
             kind: FieldKind::Choice(&["trunc", "half_up", "half_even"]),
             doc: "rounding of the interpolated polar angles of N (mapped path), in the polar angle format U0F<polar.angle_bits>, wrapping",
+        },
+        FieldDecl {
+            name: "angles",
+            kind: FieldKind::Choice(&["cordic", "interpolate"]),
+            doc: "mapped path: the polar angles of N by CORDIC from the interpolated normal at every pixel (the angles unit), or interpolated from per-vertex angles (angle_interp)",
         },
         FieldDecl {
             name: "path",
@@ -155,6 +161,36 @@ pub enum PipelineError {
     /// A constant could not be converted.
     #[error(transparent)]
     Convert(#[from] ConvertError),
+    /// The angles unit is unusable.
+    #[error(transparent)]
+    Angles(#[from] AnglesError),
+}
+
+/// Where the mapped path takes the polar angles of `N` from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum AngleSource {
+    /// CORDIC vectoring on the interpolated normal at every pixel
+    /// ([`crate::angles`]).
+    Cordic,
+    /// Per-vertex angles interpolated linearly ([`Pipeline::angle_of`]).
+    Interpolate,
+}
+
+impl AngleSource {
+    /// Parse a name.
+    pub fn from_name(s: &str) -> Option<AngleSource> {
+        [AngleSource::Cordic, AngleSource::Interpolate]
+            .into_iter()
+            .find(|p| p.name() == s)
+    }
+    /// Name.
+    pub const fn name(self) -> &'static str {
+        match self {
+            AngleSource::Cordic => "cordic",
+            AngleSource::Interpolate => "interpolate",
+        }
+    }
 }
 
 /// The pipeline of a configuration, with one normalizer per Θ of the ladder.
@@ -178,6 +214,10 @@ pub struct Pipeline {
     pub angle: Quant,
     /// Set-up angle differences (`I0F<k>`, wraps).
     pub delta: Quant,
+    /// Where the mapped path's angles of `N` come from.
+    pub angles: AngleSource,
+    /// The CORDIC angle unit.
+    pub cordic: Angles,
 }
 
 /// The `d` interval a set is fitted on.
@@ -272,6 +312,9 @@ impl Pipeline {
             Rounding::Trunc,
             Overflow::Wrap,
         );
+        let angles =
+            AngleSource::from_name(cfg.unit(DECL.name).choice("angles")).expect("declared");
+        let cordic = Angles::of(cfg)?;
         Ok(Pipeline {
             interp,
             method,
@@ -281,6 +324,8 @@ impl Pipeline {
             light,
             angle,
             delta,
+            angles,
+            cordic,
         })
     }
 
@@ -406,6 +451,21 @@ impl Pipeline {
                 let out = self.smooth_sel(&mut tr, sel, &k, c1, c2, &v, l, h);
                 tr.output("level", out);
             }
+            Path::Mapped if self.angles == AngleSource::Cordic => {
+                let c1 = tr.input_named("c1", &self.interp.bary);
+                let c2 = tr.input_named("c2", &self.interp.bary);
+                let v: [[_; 3]; 6] = std::array::from_fn(|k| {
+                    tr.input3(
+                        ["n1", "n2", "n3", "n12", "n23", "n31"][k],
+                        &self.interp.vertex,
+                    )
+                });
+                let lh = ["al", "bl", "ah", "bh"].map(|n| tr.input_named(n, &self.angle));
+                let n = tr.input3("n", &self.light.normal);
+                let k = self.mapped_consts(&mut tr)?;
+                let out = self.mapped_cordic(&mut tr, &k, c1, c2, &v, lh, n);
+                tr.output("level", out);
+            }
             Path::Mapped => {
                 let c1 = tr.input_named("c1", &self.interp.bary);
                 let c2 = tr.input_named("c2", &self.interp.bary);
@@ -457,6 +517,152 @@ impl Pipeline {
         self.light.shade(cx, k, n, l, h)
     }
 
+    /// The mapped path with CORDIC angles for one pixel: `c1, c2` in the
+    /// bary format; `v` the six vertex and midpoint normals in the vertex
+    /// format (as the smooth path); `lh` the angles `[α_L, β_L, α_H, β_H]`;
+    /// `n` the normal-map texel in the lighting `normal` format.
+    ///
+    /// ```text
+    /// N      = interp(c1, c2; N1, N2, N3, N12, N23, N31)   Q_interp.out (not normalized)
+    /// N      = Q_angles.normal(N)                           (port)
+    /// (α, β) = cordic(N)                                    Q_angles.out = U0F<polar.angle_bits>
+    /// L' = polar(α_L, β_L; α, β),  H' = polar(α_H, β_H; α, β)
+    /// level  = shade(n, Q_light(L'), Q_light(H'))
+    /// ```
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    pub fn mapped_cordic<C: Datapath>(
+        &self,
+        cx: &mut C,
+        k: &MappedConsts<C::V>,
+        c1: C::V,
+        c2: C::V,
+        v: &[[C::V; 3]; 6],
+        lh: [C::V; 4],
+        n: [C::V; 3],
+    ) -> C::V {
+        let nn = self.interp.eval(cx, k.one, c1, c2, v);
+        cx.enter(crate::angles::DECL.name);
+        let nn = cx.quantize3(nn, &self.cordic.normal);
+        cx.leave();
+        let [an, bn] = self.cordic.eval(cx, &k.angles, nn);
+        let l = self.polar.transform(cx, lh[0], lh[1], an, bn);
+        let h = self.polar.transform(cx, lh[2], lh[3], an, bn);
+        cx.enter(crate::lighting::DECL.name);
+        let l = cx.quantize3(l, &self.light.light);
+        let h = cx.quantize3(h, &self.light.light);
+        cx.leave();
+        self.light.shade(cx, &k.light, n, l, h)
+    }
+
+    /// The conventional baseline of the mapped path for one pixel: the
+    /// per-vertex tangent frames `f[k] = [T_k, B_k, N_k]` (vertex format)
+    /// interpolated linearly (`Q_interp.out`), `L' = normalize(M·L)` and
+    /// `H' = normalize(M·H)` with `M = [T; B; N]` ([`crate::polar::tbn`]:
+    /// 9 multiplications and 6 additions, then a correctly rounded square
+    /// root and division in `Q_polar.out`), then the same lighting with the
+    /// texel `n`. `l`, `h` in the lighting `light` format. No RTL: the
+    /// division and square root are what method B avoids.
+    #[allow(clippy::too_many_arguments)]
+    pub fn mapped_tbn<C: Datapath>(
+        &self,
+        cx: &mut C,
+        k: &crate::lighting::Consts<C::V>,
+        one: C::V,
+        c1: C::V,
+        c2: C::V,
+        f: &[[[C::V; 3]; 3]; 3],
+        l: [C::V; 3],
+        h: [C::V; 3],
+        n: [C::V; 3],
+    ) -> C::V {
+        let lin = Interp {
+            scheme: Scheme::Linear,
+            ..self.interp.clone()
+        };
+        let axis = |cx: &mut C, a: usize| {
+            let v = [f[0][a], f[1][a], f[2][a], f[0][a], f[0][a], f[0][a]];
+            lin.eval(cx, one, c1, c2, &v)
+        };
+        let (t, b, nn) = (axis(cx, 0), axis(cx, 1), axis(cx, 2));
+        cx.enter(crate::polar::DECL.name);
+        let lp = crate::polar::tbn(cx, &self.polar.out, t, b, nn, l);
+        let hp = crate::polar::tbn(cx, &self.polar.out, t, b, nn, h);
+        cx.leave();
+        cx.enter(crate::lighting::DECL.name);
+        let lp = cx.quantize3(lp, &self.light.light);
+        let hp = cx.quantize3(hp, &self.light.light);
+        cx.leave();
+        self.light.shade(cx, k, n, lp, hp)
+    }
+
+    /// The conventional baseline traced: inputs `c1, c2`, then `t1, b1, n1,
+    /// t2, …, n3` (vertex format), `l`, `h` (light format), `n` (texel);
+    /// output `level`. Compiles (division and square root included); the
+    /// emitter refuses it.
+    pub fn trace_tbn(&self) -> Result<Trace, ConvertError> {
+        let mut tr = Trace::new();
+        let c1 = tr.input_named("c1", &self.interp.bary);
+        let c2 = tr.input_named("c2", &self.interp.bary);
+        let f: [[[_; 3]; 3]; 3] = std::array::from_fn(|v| {
+            std::array::from_fn(|a| {
+                tr.input3(
+                    &format!("{}{}", ["t", "b", "n"][a], v + 1),
+                    &self.interp.vertex,
+                )
+            })
+        });
+        let l = tr.input3("l", &self.light.light);
+        let h = tr.input3("h", &self.light.light);
+        let n = tr.input3("tex", &self.light.normal);
+        let k = self.light.consts(&mut tr)?;
+        let one = Interp::one(&mut tr);
+        let out = self.mapped_tbn(&mut tr, &k, one, c1, c2, &f, l, h, n);
+        tr.output("level", out);
+        Ok(tr)
+    }
+
+    /// Levels of the conventional baseline on rows of codes (fields as
+    /// [`Pipeline::trace_tbn`]'s inputs).
+    pub fn run_tbn_rows(&self, rows: &[Vec<i128>]) -> Result<Vec<i128>, PipelineError> {
+        let prog = self.trace_tbn()?.compile_outputs()?;
+        let width = rows.first().map_or(0, |r| r.len());
+        let cols: Vec<Vec<i128>> = (0..width)
+            .map(|k| rows.iter().map(|r| r[k]).collect())
+            .collect();
+        let refs: Vec<&[i128]> = cols.iter().map(|c| c.as_slice()).collect();
+        if refs.is_empty() {
+            return Ok(Vec::new());
+        }
+        let (mut res, _) = prog.run_i128(&refs);
+        Ok(res.swap_remove(0))
+    }
+
+    /// Counting run of the conventional baseline, per pixel.
+    pub fn count_tbn(&self) -> Result<Count, ConvertError> {
+        let mut cx = Count::new();
+        let c = cx.constant(0.0, &self.interp.bary)?;
+        let v = cx.constant(0.0, &self.interp.vertex)?;
+        let l = [cx.constant(0.0, &self.light.light)?; 3];
+        let n = [cx.constant(0.0, &self.light.normal)?; 3];
+        let k = self.light.consts(&mut cx)?;
+        let one = Interp::one(&mut cx);
+        self.mapped_tbn(&mut cx, &k, one, c, c, &[[[v; 3]; 3]; 3], l, l, n);
+        Ok(cx)
+    }
+
+    /// Constants of the mapped path with CORDIC angles in a context.
+    pub fn mapped_consts<C: Datapath>(
+        &self,
+        cx: &mut C,
+    ) -> Result<MappedConsts<C::V>, ConvertError> {
+        Ok(MappedConsts {
+            one: Interp::one(cx),
+            angles: self.cordic.consts(cx)?,
+            light: self.light.consts(cx)?,
+        })
+    }
+
     /// Constants of the smooth path in a context.
     pub fn smooth_consts<C: Datapath>(
         &self,
@@ -490,6 +696,13 @@ impl Pipeline {
                 let l = [cx.constant(0.0, &self.light.light)?; 3];
                 self.smooth(&mut cx, 0, &k, c, c, &v, l, l);
             }
+            Path::Mapped if self.angles == AngleSource::Cordic => {
+                let k = self.mapped_consts(&mut cx)?;
+                let v = [[cx.constant(0.0, &self.interp.vertex)?; 3]; 6];
+                let a0 = cx.constant(0.0, &self.angle)?;
+                let n = [cx.constant(0.0, &self.light.normal)?; 3];
+                self.mapped_cordic(&mut cx, &k, c, c, &v, [a0; 4], n);
+            }
             Path::Mapped => {
                 let k = self.light.consts(&mut cx)?;
                 let a0 = cx.constant(0.0, &self.angle)?;
@@ -521,6 +734,49 @@ impl Pipeline {
         let (a, b) = crate::polar::angles_of(v);
         let code = |x: f64| self.angle.apply_f64(x).map(|r| r.code).unwrap_or(0);
         (code(a), code(b))
+    }
+
+    /// The mapped path's input row of one pixel (fields as
+    /// [`Pipeline::fields`]): `c1, c2` bary codes, the triangle set up for
+    /// both paths, the angle codes `[α_L, β_L, α_H, β_H]` and the texel
+    /// codes. With CORDIC angles the row carries the six normals of the
+    /// smooth set-up; with interpolated angles, the angle set-up.
+    pub fn mapped_row(
+        &self,
+        c: [i128; 2],
+        st: &SmoothTri,
+        mt: &MappedTri,
+        lh: [i128; 4],
+        tex: [i128; 3],
+    ) -> Vec<i128> {
+        self.mapped_row_of(self.angles, c, st, mt, lh, tex)
+    }
+
+    /// [`Pipeline::mapped_row`] for the angle source `src`.
+    pub fn mapped_row_of(
+        &self,
+        src: AngleSource,
+        c: [i128; 2],
+        st: &SmoothTri,
+        mt: &MappedTri,
+        lh: [i128; 4],
+        tex: [i128; 3],
+    ) -> Vec<i128> {
+        let mut r = c.to_vec();
+        match src {
+            AngleSource::Cordic => {
+                for v in &st.v {
+                    r.extend_from_slice(v);
+                }
+            }
+            AngleSource::Interpolate => {
+                r.extend_from_slice(&mt.a);
+                r.extend_from_slice(&mt.b);
+            }
+        }
+        r.extend_from_slice(&lh);
+        r.extend_from_slice(&tex);
+        r
     }
 
     /// Set up a triangle for the mapped path: `[α3, Δα1, Δα2]` and
@@ -593,6 +849,24 @@ impl Pipeline {
                     }
                 }
             }
+            Path::Mapped if self.angles == AngleSource::Cordic => {
+                f.push(Field::new("c1", fb));
+                f.push(Field::new("c2", fb));
+                let fv = self.interp.vertex.format();
+                for v in ["n1", "n2", "n3", "n12", "n23", "n31"] {
+                    for c in ["x", "y", "z"] {
+                        f.push(Field::new(&format!("{v}{c}"), fv));
+                    }
+                }
+                let fa = self.angle.format();
+                for v in ["al", "bl", "ah", "bh"] {
+                    f.push(Field::new(v, fa));
+                }
+                let fnm = self.light.normal.format();
+                for c in ["x", "y", "z"] {
+                    f.push(Field::new(&format!("n{c}"), fnm));
+                }
+            }
             Path::Mapped => {
                 f.push(Field::new("c1", fb));
                 f.push(Field::new("c2", fb));
@@ -656,6 +930,21 @@ impl Pipeline {
                 let h = [v(24), v(25), v(26)];
                 self.smooth(&mut fx, set, &k, v(1), v(2), &vv, l, h).code()
             }
+            Path::Mapped if self.angles == AngleSource::Cordic => {
+                let k = self.mapped_consts(&mut fx)?;
+                let vv: [[Fx; 3]; 6] =
+                    std::array::from_fn(|i| std::array::from_fn(|c| v(2 + 3 * i + c)));
+                self.mapped_cordic(
+                    &mut fx,
+                    &k,
+                    v(0),
+                    v(1),
+                    &vv,
+                    [v(20), v(21), v(22), v(23)],
+                    [v(24), v(25), v(26)],
+                )
+                .code()
+            }
             Path::Mapped => {
                 let k = self.light.consts(&mut fx)?;
                 self.mapped(
@@ -672,6 +961,17 @@ impl Pipeline {
             }
         })
     }
+}
+
+/// Constants of the mapped path with CORDIC angles.
+#[derive(Clone, Debug)]
+pub struct MappedConsts<V> {
+    /// 1 in the bary format.
+    pub one: V,
+    /// The CORDIC constants.
+    pub angles: crate::angles::Consts<V>,
+    /// The lighting constants.
+    pub light: crate::lighting::Consts<V>,
 }
 
 /// Constants of the smooth path.
@@ -737,12 +1037,26 @@ pub fn ops_for(cfg: &Config) -> Result<Vec<OpReport>, PipelineError> {
             None,
         ));
     }
+    for (src, name) in [
+        (AngleSource::Cordic, "mapped, cordic angles"),
+        (AngleSource::Interpolate, "mapped, interpolated angles"),
+    ] {
+        let mut p = Pipeline::with_method(cfg, Method::None)?;
+        p.angles = src;
+        v.push(OpReport::from_count(
+            DECL.name,
+            name,
+            Phase::Pixel,
+            &p.count(Path::Mapped)?,
+            None,
+        ));
+    }
     let p = Pipeline::with_method(cfg, Method::None)?;
     v.push(OpReport::from_count(
         DECL.name,
-        "mapped",
+        "mapped, conventional TBN (baseline, no RTL)",
         Phase::Pixel,
-        &p.count(Path::Mapped)?,
+        &p.count_tbn()?,
         None,
     ));
     Ok(v)

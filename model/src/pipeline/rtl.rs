@@ -38,7 +38,7 @@ pub fn design(cfg: &Config) -> Result<crate::rtl::Design, RtlError> {
     }
     let variant = match path {
         Path::Smooth => format!("smooth ({} g)", p.method.name()),
-        Path::Mapped => "mapped".into(),
+        Path::Mapped => format!("mapped ({} angles)", p.angles.name()),
     };
     let mut d = crate::rtl::Design::new(DECL.name, &variant, p.trace(path)?, cfg, notes);
     d.module = format!("pipeline_{}", path.name());
@@ -110,7 +110,10 @@ pub fn render_rows(
     let f = crate::render::frame(p, r, mesh);
     let rows = match path {
         Path::Smooth => f.smooth_rows,
-        Path::Mapped => f.mapped_rows,
+        Path::Mapped => match p.angles {
+            super::AngleSource::Cordic => f.mapped_rows,
+            super::AngleSource::Interpolate => f.mapped_interp_rows,
+        },
     };
     rows.into_iter().filter(|r| !r.is_empty()).collect()
 }
@@ -187,21 +190,17 @@ pub fn inputs(
                 }
             }
             Path::Mapped => {
+                let Ok(st) = p.setup_smooth(n) else { continue };
                 let mt = p.setup_mapped(n);
                 let (al, bl) = p.angle_codes(l);
                 let (ah, bh) = p.angle_codes(h);
                 for _ in 0..PIXELS {
                     let c = rng.barycentric();
-                    let mut r = vec![qb(c[0]), qb(c[1])];
-                    r.extend_from_slice(&mt.a);
-                    r.extend_from_slice(&mt.b);
-                    r.extend_from_slice(&[al, bl, ah, bh]);
                     let t = rng.in_cone(DVec3::Z, 0.6);
-                    r.extend(
-                        t.to_array()
-                            .map(|x| p.light.normal.apply_f64(x).map_or(0, |r| r.code)),
-                    );
-                    rows.push(r);
+                    let tex = t
+                        .to_array()
+                        .map(|x| p.light.normal.apply_f64(x).map_or(0, |r| r.code));
+                    rows.push(p.mapped_row([qb(c[0]), qb(c[1])], &st, &mt, [al, bl, ah, bh], tex));
                 }
             }
         }
