@@ -578,7 +578,7 @@ impl Pipeline {
     ) -> C::V {
         let lin = Interp {
             scheme: Scheme::Linear,
-            ..self.interp.clone()
+            ..self.interp
         };
         let axis = |cx: &mut C, a: usize| {
             let v = [f[0][a], f[1][a], f[2][a], f[0][a], f[0][a], f[0][a]];
