@@ -34,7 +34,7 @@ fn rtl_images_equal_model_images_on_both_simulators() {
         assert!(o.status.success(), "{sim}: {}", text(&o));
         let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
         let methods = j["methods"].as_array().unwrap();
-        assert_eq!(methods.len(), 3, "linear, quadratic, mapped");
+        assert_eq!(methods.len(), 4, "linear, quadratic, mapped, mapped-interp");
         for m in methods {
             assert_eq!(m["rtl"]["identical"], true, "{sim} {m}");
             assert_eq!(m["rtl"]["failed"], 0, "{sim} {m}");

@@ -188,6 +188,9 @@ pub enum AnalysisError {
     /// The lighting stage could not be compiled.
     #[error(transparent)]
     Lighting(#[from] crate::lighting::LightingError),
+    /// The angles configuration is unusable.
+    #[error(transparent)]
+    Angles(crate::angles::AnglesError),
 }
 
 /// Analyse the normalizer a configuration describes: `count` random
@@ -681,6 +684,235 @@ pub fn polar(
         organisation: p.tables.organisation,
         table_size_bits: p.tables.stored_bits(),
         stats,
+        seed,
+    })
+}
+
+/// Inputs shorter than this are reported apart by [`angles`]: quadratic
+/// interpolation at Θ = 0 never makes a normal shorter than about 0.7.
+pub const SHORTEST_NORMAL: f64 = 0.25;
+
+/// The CORDIC angle unit's error figures over a set of input normals.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct AnglesStats {
+    /// Normals evaluated.
+    pub samples: u64,
+    /// `all codes` or `random and corners`.
+    pub coverage: &'static str,
+    /// Largest `|α − asin(y/|N|)|`, output LSBs (over inputs at least
+    /// [`SHORTEST_NORMAL`] long, as every figure but the last three).
+    pub max_alpha_lsb: f64,
+    /// Largest `|β − atan2(x, z)|` (wrapped), output LSBs, over normals
+    /// outside the polar cap (more than [`crate::render::POLAR_CAP_DEG`]
+    /// from the y axis).
+    pub max_beta_lsb: f64,
+    /// Largest β error inside the cap (the zero vector and exact poles
+    /// excluded: β is undefined there).
+    pub max_beta_lsb_cap: f64,
+    /// RMS of the α and β errors (outside the cap), LSBs.
+    pub rms_lsb: f64,
+    /// Largest α error in degrees.
+    pub max_alpha_deg: f64,
+    /// Largest β error outside the cap, degrees.
+    pub max_beta_deg: f64,
+    /// Largest angle between the direction `(α, β)` names and the exact
+    /// normal, degrees: the error the polar transform sees (β's error
+    /// shrinks by `cos α` towards the poles). Over every normal but the
+    /// zero vector.
+    pub max_direction_deg: f64,
+    /// Non-zero inputs shorter than [`SHORTEST_NORMAL`] (extreme and
+    /// near-zero codes, not normals any interpolation produces), left out
+    /// of the figures above.
+    pub short_inputs: u64,
+    /// Their largest α or β error (β outside the cap), LSBs.
+    pub max_short_lsb: f64,
+    /// Normals whose coordinates overflowed `xy` (left out of the error
+    /// figures: their angles are not defined by the arithmetic). The
+    /// accumulator and the outputs wrap by design and are not counted.
+    pub overflows: u64,
+}
+
+/// The CORDIC angle unit's error report for one configuration.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct AnglesReport {
+    /// Micro-rotations per angle.
+    pub iterations: u32,
+    /// Coordinate format.
+    pub xy: String,
+    /// Accumulator format.
+    pub theta: String,
+    /// Output format.
+    pub out: String,
+    /// Output angle bits.
+    pub angle_bits: u32,
+    /// Adder/subtracter bits of the generated RTL (its hardware summary).
+    pub adder_bits: u64,
+    /// Flip-flops of the generated RTL.
+    pub flops: u64,
+    /// Latency of the generated RTL, cycles.
+    pub latency: u32,
+    /// The error figures.
+    #[serde(flatten)]
+    pub stats: AnglesStats,
+    /// Seed of the random part.
+    pub seed: u64,
+}
+
+/// Input normals for the angle analysis, in the `normal` format's codes:
+/// every code when `3·width ≤ 21`, else corner cases (axes, poles, the
+/// zero vector, the β seam either side, octant boundaries, a few LSBs
+/// around the poles, the extreme codes) and `count` random directions with
+/// lengths from the shortest to the longest normal quadratic interpolation
+/// produces at Θ = 0 (`[√d_min, √d_max]`).
+pub fn angles_inputs(
+    a: &crate::angles::Angles,
+    count: usize,
+    seed: u64,
+) -> (Vec<[i128; 3]>, &'static str) {
+    let f = a.normal.format();
+    if 3 * f.width() <= 21 {
+        let mut v = Vec::new();
+        for x in f.min_code()..=f.max_code() {
+            for y in f.min_code()..=f.max_code() {
+                for z in f.min_code()..=f.max_code() {
+                    v.push([x, y, z]);
+                }
+            }
+        }
+        return (v, "all codes");
+    }
+    let cfg = Config::embedded();
+    let mut rows: Vec<[i128; 3]> =
+        crate::angles::rtl::inputs(&cfg, crate::rtl::units::Part::Corners, 0)
+            .unwrap_or_default()
+            .into_iter()
+            .filter(|r| r.len() == 3)
+            .map(|r| [r[0], r[1], r[2]])
+            .collect();
+    // The corners above are in the default format; re-quantize them when
+    // the configured one differs.
+    if cfg.unit(crate::angles::DECL.name).stage("normal").format() != f {
+        rows.clear();
+    }
+    let (dlo, dhi) = crate::interp::quadratic_d_range(0.0, crate::interp::Scheme::Quadratic);
+    let (lo, hi) = (dlo.sqrt(), dhi.sqrt());
+    let code = |x: f64| a.normal.apply_f64(x).map_or(0, |r| r.code);
+    let mut rng = Rng::new(seed);
+    for k in 0..count {
+        let d = rng.direction();
+        let len = if k % 4 == 0 {
+            [lo, hi][k / 4 % 2]
+        } else {
+            lo + (hi - lo) * rng.unit()
+        };
+        let v = d * len;
+        rows.push([code(v.x), code(v.y), code(v.z)]);
+    }
+    (rows, "random and corners")
+}
+
+/// Error of the CORDIC angles of `cfg` against `asin`/`atan2` of the exact
+/// (input) normal.
+pub fn angles(cfg: &Config, count: usize, seed: u64) -> Result<AnglesReport, AnalysisError> {
+    let a = crate::angles::Angles::of(cfg).map_err(AnalysisError::Angles)?;
+    let prog = a.compile().map_err(AnalysisError::Angles)?;
+    let f = a.normal.format();
+    let (inputs, coverage) = angles_inputs(&a, count, seed);
+    let k = a.out.format().width();
+    let turn = (1u64 << k) as f64;
+    let mut st = AnglesStats {
+        coverage,
+        ..Default::default()
+    };
+    let cap = crate::render::POLAR_CAP_DEG.to_radians().sin();
+    let xy_stage = format!("{}.{}", crate::angles::DECL.name, a.xy.stage());
+    let xy_flag = prog
+        .flag_stages()
+        .iter()
+        .position(|s| *s == xy_stage)
+        .map_or(0, |k| 1u64 << k);
+    let mut sq = 0.0;
+    let mut nsq = 0u64;
+    for chunk in inputs.chunks(1 << 16) {
+        let cols: [Vec<i128>; 3] = std::array::from_fn(|c| chunk.iter().map(|r| r[c]).collect());
+        let (out, flags) = prog.run_flags_i128(&[&cols[0], &cols[1], &cols[2]]);
+        for (i, r) in chunk.iter().enumerate() {
+            st.samples += 1;
+            // The accumulator and the outputs wrap by design (angles are
+            // taken modulo a turn): only the coordinates can overflow.
+            if flags[i] & xy_flag != 0 {
+                st.overflows += 1;
+                continue;
+            }
+            let n = DVec3::new(f.to_f64(r[0]), f.to_f64(r[1]), f.to_f64(r[2]));
+            if n.length() == 0.0 {
+                continue;
+            }
+            let (ea, eb) = crate::angles::Angles::exact(n);
+            if n.length() < SHORTEST_NORMAL {
+                // A few LSBs long: truncation of the shifted operands
+                // dominates; reported apart.
+                let (ga, gb) = (out[0][i] as f64 / turn, out[1][i] as f64 / turn);
+                let wrap = |d: f64| (d + 0.5).rem_euclid(1.0) - 0.5;
+                st.short_inputs += 1;
+                st.max_short_lsb = st.max_short_lsb.max(wrap(ga - ea).abs() * turn);
+                if n.x.hypot(n.z) / n.length() >= cap {
+                    st.max_short_lsb = st.max_short_lsb.max(wrap(gb - eb).abs() * turn);
+                }
+                continue;
+            }
+            let (ga, gb) = (out[0][i] as f64 / turn, out[1][i] as f64 / turn);
+            let wrap = |d: f64| (d + 0.5).rem_euclid(1.0) - 0.5;
+            let da = wrap(ga - ea).abs() * turn;
+            st.max_alpha_lsb = st.max_alpha_lsb.max(da);
+            sq += da * da;
+            nsq += 1;
+            let r_xz = n.x.hypot(n.z) / n.length();
+            if r_xz > 0.0 {
+                let db = wrap(gb - eb).abs() * turn;
+                if r_xz >= cap {
+                    st.max_beta_lsb = st.max_beta_lsb.max(db);
+                    sq += db * db;
+                    nsq += 1;
+                } else {
+                    st.max_beta_lsb_cap = st.max_beta_lsb_cap.max(db);
+                }
+            }
+            let dir = crate::polar::vector_of(ga, gb);
+            let ang = dir.dot(n.normalize()).clamp(-1.0, 1.0).acos().to_degrees();
+            st.max_direction_deg = st.max_direction_deg.max(ang);
+        }
+    }
+    st.rms_lsb = if nsq > 0 {
+        (sq / nsq as f64).sqrt()
+    } else {
+        0.0
+    };
+    st.max_alpha_deg = st.max_alpha_lsb * 360.0 / turn;
+    st.max_beta_deg = st.max_beta_lsb * 360.0 / turn;
+    let design = crate::angles::rtl::design(cfg).map_err(|e| {
+        AnalysisError::Angles(crate::angles::AnglesError::Config {
+            key: "xy",
+            why: e.to_string(),
+        })
+    })?;
+    let em = crate::rtl::emit(&design).map_err(|e| {
+        AnalysisError::Angles(crate::angles::AnglesError::Config {
+            key: "xy",
+            why: e.to_string(),
+        })
+    })?;
+    let hw = &em.hardware;
+    Ok(AnglesReport {
+        iterations: a.iterations,
+        xy: a.xy.format().to_string(),
+        theta: a.theta.format().to_string(),
+        out: a.out.format().to_string(),
+        angle_bits: k,
+        adder_bits: hw.adders.iter().map(|&w| w as u64).sum::<u64>() / 2,
+        flops: hw.flops,
+        latency: em.latency,
+        stats: st,
         seed,
     })
 }

@@ -25,6 +25,152 @@ pub enum ErrorCmd {
     /// error against normal-map normals; exhaustive over angle codes where the
     /// space allows. `--sweep` tabulates the error over table depth and width.
     Polar(PolarArgs),
+    /// The CORDIC angle unit (method B's per-pixel angles of N): α and β
+    /// error in output LSBs and degrees against asin/atan2 of the exact
+    /// input normal, over every input code where the space allows, else
+    /// corner cases (poles, axes, the β seam, octant boundaries, extreme
+    /// codes) and random normals as long and as short as quadratic
+    /// interpolation makes them. `--sweep` tabulates the error and the
+    /// generated RTL's adder bits over output width, iterations and guard
+    /// bits, and marks the cheapest setting within 1 LSB per width.
+    Angles(AnglesArgs),
+}
+
+/// Options of `error angles`.
+#[derive(Args, Debug)]
+pub struct AnglesArgs {
+    #[command(flatten)]
+    cfg: ConfigArgs,
+    /// Random normals (beside the corner cases) when the input space is
+    /// too large to cover.
+    #[arg(long, default_value_t = 500_000)]
+    count: usize,
+    /// Seed.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Tabulate over output angle bits (8, 10, 11, 12, 14), iterations
+    /// (bits − 3 ..= bits + 3) and guard bits (1 to 5: coordinates
+    /// I4F<14 + g>, accumulator U0F<bits + g>), 20 000 random normals each.
+    #[arg(long)]
+    sweep: bool,
+    #[command(flatten)]
+    out: OutputArgs,
+}
+
+fn run_angles(a: &AnglesArgs) -> anyhow::Result<()> {
+    let cfg = a.cfg.resolve()?;
+    let head = [
+        "angle bits",
+        "iterations",
+        "xy",
+        "theta",
+        "adder bits",
+        "flip-flops",
+        "latency",
+        "samples",
+        "max α err (LSB)",
+        "max β err (LSB)",
+        "max β err in cap (LSB)",
+        "rms (LSB)",
+        "max α (°)",
+        "max β (°)",
+        "max direction (°)",
+        "short inputs",
+        "max err short (LSB)",
+        "overflows",
+    ];
+    let cells = |r: &analysis::AnglesReport, mark: &str| {
+        let s = &r.stats;
+        vec![
+            r.angle_bits.to_string(),
+            r.iterations.to_string(),
+            r.xy.clone(),
+            r.theta.clone(),
+            format!("{}{mark}", r.adder_bits),
+            r.flops.to_string(),
+            r.latency.to_string(),
+            s.samples.to_string(),
+            format!("{:.3}", s.max_alpha_lsb),
+            format!("{:.3}", s.max_beta_lsb),
+            format!("{:.2}", s.max_beta_lsb_cap),
+            format!("{:.3}", s.rms_lsb),
+            format!("{:.4}", s.max_alpha_deg),
+            format!("{:.4}", s.max_beta_deg),
+            format!("{:.4}", s.max_direction_deg),
+            s.short_inputs.to_string(),
+            format!("{:.1}", s.max_short_lsb),
+            s.overflows.to_string(),
+        ]
+    };
+    if !a.sweep {
+        let bar = crate::progress::bar(1, "error angles");
+        let r = analysis::angles(&cfg, a.count, a.seed)?;
+        bar.finish_and_clear();
+        let mut t = Table::new(head).titled(format!(
+            "angles: CORDIC vectoring, {} iterations, coordinates {}, accumulator {}, out {}; coverage: {}",
+            r.iterations, r.xy, r.theta, r.out, r.stats.coverage
+        ));
+        t.row(cells(&r, ""));
+        return emit(a.out, &[t], &serde_json::to_value(&r)?);
+    }
+    let widths = [8u32, 10, 11, 12, 14];
+    let guards = [1u32, 2, 3, 4, 5];
+    let nf = cfg.unit("angles").stage("normal").format().frac();
+    let bar = crate::progress::bar(
+        (widths.len() * 7 * guards.len()) as u64,
+        "error angles --sweep",
+    );
+    let mut rows: Vec<analysis::AnglesReport> = Vec::new();
+    for &k in &widths {
+        for n in k - 3..=k + 3 {
+            for &g in &guards {
+                let mut c = cfg.clone();
+                for o in [
+                    format!("polar.angle_bits={k}"),
+                    format!("polar.table_bits={}", k.min(16)),
+                    format!("polar.index.format=\"U0F{}\"", k.min(16)),
+                    format!("angles.out.format=\"U0F{k}\""),
+                    format!("angles.iterations={n}"),
+                    format!("angles.xy.format=\"I4F{}\"", nf + g as i32),
+                    format!("angles.theta.format=\"U0F{}\"", k + g),
+                ] {
+                    c.apply_override(&o)?;
+                }
+                rows.push(analysis::angles(&c, 20_000, a.seed)?);
+                bar.inc(1);
+            }
+        }
+    }
+    bar.finish_and_clear();
+    // The cheapest setting (adder bits) per width with α and β within 1 LSB.
+    let mut best: Vec<Option<usize>> = vec![None; widths.len()];
+    for (i, r) in rows.iter().enumerate() {
+        let w = widths
+            .iter()
+            .position(|&k| k == r.angle_bits)
+            .expect("swept");
+        let ok = r.stats.max_alpha_lsb <= 1.0 && r.stats.max_beta_lsb <= 1.0;
+        if ok && best[w].is_none_or(|b| rows[b].adder_bits > r.adder_bits) {
+            best[w] = Some(i);
+        }
+    }
+    let mut t = Table::new(head).titled(format!(
+        "angles sweep: 20 000 random normals and the corner cases each; * marks the fewest adder bits with α and β within 1 LSB (β outside the {}° polar cap)",
+        fxshade_model::render::POLAR_CAP_DEG
+    ));
+    for (i, r) in rows.iter().enumerate() {
+        let mark = if best.contains(&Some(i)) { " *" } else { "" };
+        t.row(cells(r, mark));
+    }
+    let json = serde_json::json!({
+        "points": rows,
+        "cheapest_within_1_lsb": best
+            .iter()
+            .zip(widths)
+            .map(|(b, k)| serde_json::json!({"angle_bits": k, "point": b}))
+            .collect::<Vec<_>>(),
+    });
+    emit(a.out, &[t], &json)
 }
 
 /// Options of `error polar`.
@@ -297,6 +443,7 @@ pub fn run(cmd: &ErrorCmd) -> anyhow::Result<()> {
         ErrorCmd::Normalize(a) => a,
         ErrorCmd::Interp(a) => return run_interp(a),
         ErrorCmd::Polar(a) => return run_polar(a),
+        ErrorCmd::Angles(a) => return run_angles(a),
     };
     let mut cfg_args = a.cfg.clone();
     if let Some(t) = a.theta {

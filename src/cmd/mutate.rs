@@ -345,8 +345,8 @@ pub fn run(a: &MutateArgs) -> anyhow::Result<()> {
     let mut out = Vec::new();
     for (u, name, set) in jobs {
         let mut cfg = base.clone();
-        if !set.is_empty() {
-            cfg.apply_override(set)?;
+        for o in rtl::units::overrides(set) {
+            cfg.apply_override(o)?;
         }
         out.push(run_variant(u, name, &cfg, a, &bar)?);
         bar.inc(1);

@@ -91,7 +91,9 @@ pub fn netlist_checks(cfg: &fxshade_model::Config) -> anyhow::Result<Vec<Netlist
     for u in all() {
         for &(variant, set) in u.variants {
             let mut c = cfg.clone();
-            c.apply_override(set)?;
+            for o in fxshade_model::rtl::units::overrides(set) {
+                c.apply_override(o)?;
+            }
             let (_, e) = match emit_unit(u, &c) {
                 Ok(x) => x,
                 Err(err) => anyhow::bail!("{} ({variant}): {err}", u.name),

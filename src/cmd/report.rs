@@ -36,6 +36,127 @@ pub const REPORT_MESHES: [&str; 6] = [
     "torus:48",
 ];
 
+/// The mapped path three ways, side by side: op counts per pixel (from the
+/// counting runs) and the image metrics outside and inside the polar cap,
+/// with images.
+fn method_b_section(
+    cfg: &fxshade_model::Config,
+    renders: &[(String, super::render::RenderResult)],
+) -> anyhow::Result<String> {
+    let mut s = String::from(
+        "`mapped`: per-pixel angles of the interpolated normal by CORDIC (the default, \
+         `pipeline.angles = \"cordic\"`); `mapped-interp`: per-vertex angles interpolated \
+         (`\"interpolate\"`); `tbn`: the conventional transform, per-vertex tangent frames \
+         interpolated, `L' = normalize(M·L)` with a square root and a division (no RTL). \
+         Operations per pixel, measured by the counting runs:\n\n```text\n",
+    );
+    let ops = fxshade_model::pipeline::ops_for(cfg)?;
+    let mut t = crate::output::Table::new([
+        "variant",
+        "mul",
+        "add/sub",
+        "shift",
+        "table reads",
+        "sqrt",
+        "div",
+    ]);
+    for r in ops.iter().filter(|r| r.variant.starts_with("mapped")) {
+        let c = &r.counts;
+        t.row([
+            r.variant.to_string(),
+            c.mul.to_string(),
+            c.add.to_string(),
+            c.shift.to_string(),
+            c.table_read.to_string(),
+            c.sqrt.to_string(),
+            c.div.to_string(),
+        ]);
+    }
+    s += &t.render();
+    s += "```\n\nThe transforms alone, per vector (L or H) and per pixel (the angles of N), \
+          from the units' counting runs:\n\n```text\n";
+    let mut u = crate::output::Table::new([
+        "unit",
+        "variant",
+        "mul",
+        "add/sub",
+        "shift",
+        "table reads",
+        "sqrt",
+        "div",
+        "paper",
+    ]);
+    for r in super::ops::reports(cfg)
+        .iter()
+        .filter(|r| r.unit == "polar" || r.unit == "angles")
+    {
+        let c = &r.counts;
+        u.row([
+            r.unit.to_string(),
+            r.variant.to_string(),
+            c.mul.to_string(),
+            c.add.to_string(),
+            c.shift.to_string(),
+            c.table_read.to_string(),
+            c.sqrt.to_string(),
+            c.div.to_string(),
+            r.paper
+                .as_ref()
+                .map_or("-".into(), |p| p.source.to_string()),
+        ]);
+    }
+    s += &u.render();
+    s += &format!(
+        "```\n\nAgainst the mapped f64 reference (angles of the exact normal), outside the \
+         {cap}° polar cap and inside it (where β and the implied frame are singular):\n\n```text\n",
+        cap = fxshade_model::render::POLAR_CAP_DEG
+    );
+    let mut m = crate::output::Table::new([
+        "mesh",
+        "method",
+        "max |err| outside",
+        "mean |err| outside",
+        "max rel. err outside",
+        "under 4 % outside",
+        "cap pixels",
+        "max |err| in cap",
+    ]);
+    for (_, r) in renders {
+        for mr in r.methods.iter().filter(|x| x.outside_cap.is_some()) {
+            let (o, c) = (
+                mr.outside_cap.as_ref().expect("filtered"),
+                mr.cap.as_ref().expect("with outside_cap"),
+            );
+            m.row([
+                r.mesh.clone(),
+                mr.method.to_string(),
+                o.max_abs_levels.to_string(),
+                format!("{:.4}", o.mean_abs_levels),
+                format!("{:.3} %", 100.0 * o.max_rel_intensity_err),
+                if o.paper_bound_holds { "yes" } else { "no" }.to_string(),
+                c.pixels.to_string(),
+                if c.pixels == 0 {
+                    "-".into()
+                } else {
+                    c.max_abs_levels.to_string()
+                },
+            ]);
+        }
+    }
+    s += &m.render();
+    s += "```\n\n| mesh | mapped reference | mapped (CORDIC) | its error | mapped-interp | its error | tbn | its error | tbn in f64: error |\n\
+          |---|---|---|---|---|---|---|---|---|\n";
+    for (prefix, r) in renders {
+        s += &format!(
+            "| {} | ![]({prefix}reference_mapped.png) | ![]({prefix}mapped.png) | ![]({prefix}mapped_error.png) \
+             | ![]({prefix}mapped-interp.png) | ![]({prefix}mapped-interp_error.png) | ![]({prefix}tbn.png) \
+             | ![]({prefix}tbn_error.png) | ![]({prefix}tbn_f64_error.png) |\n",
+            r.mesh
+        );
+    }
+    Ok(s)
+}
+
 /// Run it.
 pub fn run(a: &ReportArgs) -> anyhow::Result<()> {
     let cfg = a.cfg.resolve()?;
@@ -46,7 +167,7 @@ pub fn run(a: &ReportArgs) -> anyhow::Result<()> {
         StagedDir::new(&a.out)
     }
     .with_context(|| format!("cannot write the report to {}", a.out.display()))?;
-    let bar = crate::progress::bar(6 + REPORT_MESHES.len() as u64, "report");
+    let bar = crate::progress::bar(7 + REPORT_MESHES.len() as u64, "report");
 
     bar.set_message("configuration");
     dir.write("config.toml", cfg.to_toml().as_bytes())?;
@@ -161,6 +282,33 @@ pub fn run(a: &ReportArgs) -> anyhow::Result<()> {
         perr.stats.max_diffuse_err_levels,
         perr.stats.overflows
     );
+    bar.inc(1);
+
+    bar.set_message("CORDIC angle error analysis");
+    let aerr = fxshade_model::analysis::angles(&cfg, 200_000, 1)?;
+    dir.write(
+        "error_angles.json",
+        serde_json::to_string_pretty(&aerr)?.as_bytes(),
+    )?;
+    let atext = format!(
+ "{} iterations, coordinates {}, accumulator {}, angles {} ({} normals, {}): max α error {:.3} LSB ({:.4}°), max β error {:.3} LSB ({:.4}°) more than {}° from the y axis, {:.2} LSB inside; direction error at most {:.4}°; generated RTL: {} adder bits, {} flip-flops, latency {} cycles\n",
+        aerr.iterations,
+        aerr.xy,
+        aerr.theta,
+        aerr.out,
+        aerr.stats.samples,
+        aerr.stats.coverage,
+        aerr.stats.max_alpha_lsb,
+        aerr.stats.max_alpha_deg,
+        aerr.stats.max_beta_lsb,
+        aerr.stats.max_beta_deg,
+        fxshade_model::render::POLAR_CAP_DEG,
+        aerr.stats.max_beta_lsb_cap,
+        aerr.stats.max_direction_deg,
+        aerr.adder_bits,
+        aerr.flops,
+        aerr.latency
+    );
 
     let mut renders = Vec::new();
     let mut summary = crate::output::Table::new([
@@ -202,7 +350,8 @@ pub fn run(a: &ReportArgs) -> anyhow::Result<()> {
             .methods
             .iter()
             .map(|mr| (mr.method, &mr.metrics))
-            .chain(r.angle_interp.as_ref().map(|a| ("angle_interp (f64)", a)));
+            .chain(r.angle_interp.as_ref().map(|a| ("angle_interp (f64)", a)))
+            .chain(r.tbn_f64.as_ref().map(|a| ("tbn (f64)", a)));
         for (method, mm) in rows {
             summary.row([
                 spec.to_string(),
@@ -271,6 +420,10 @@ pub fn run(a: &ReportArgs) -> anyhow::Result<()> {
     index += &ptext;
     index += "\nImplied tangent frame against the UV-aligned frame normal maps are baked in:\n\n";
     index += &frames.concat();
+    index += "\n## CORDIC angles of N ([JSON](error_angles.json))\n\n";
+    index += &atext;
+    index += "\n## Method B: three ways to the tangent-space L and H\n\n";
+    index += &method_b_section(&cfg, &renders)?;
     index += "\n## Rendered images\n\n";
     index += "Every pixel through the bit-accurate pipeline; the reference is the same scene in f64 \
               (exact normalization, polar angles of the exact normal by `asin`/`atan2`). Heat-maps: \

@@ -46,28 +46,34 @@ pub fn configs() -> Vec<Option<String>> {
     ]
 }
 
+/// A variant's selector (`a=1; b="x"`) as `--set` flags.
+pub fn sets(set: &str) -> Vec<&str> {
+    set.split(';')
+        .map(str::trim)
+        .filter(|s| !s.is_empty())
+        .flat_map(|s| ["--set", s])
+        .collect()
+}
+
 /// Co-simulate `unit` on `sim` for every configuration and every variant
 /// (`variants`: name, `--set` override): all vectors pass, and the latency
 /// the testbench measures is the one the module's header declares.
 pub fn check_all(unit: &str, sim: &str, variants: &[(&str, &str)], cfgs: &[Option<String>]) {
     for cfg in cfgs {
         for &(name, set) in variants {
-            let args = with_config(
-                vec![
-                    "rtl-check",
-                    unit,
-                    "--sim",
-                    sim,
-                    "--count",
-                    "2000",
-                    "--seed",
-                    "7",
-                    "--set",
-                    set,
-                    "--json",
-                ],
-                cfg,
-            );
+            let mut a = vec![
+                "rtl-check",
+                unit,
+                "--sim",
+                sim,
+                "--count",
+                "2000",
+                "--seed",
+                "7",
+                "--json",
+            ];
+            a.extend(sets(set));
+            let args = with_config(a, cfg);
             let o = fxshade(&args);
             assert!(
                 o.status.success(),
@@ -78,7 +84,9 @@ pub fn check_all(unit: &str, sim: &str, variants: &[(&str, &str)], cfgs: &[Optio
             assert_eq!(j["failed"], 0, "{unit} {sim} {cfg:?} {name}");
             assert_eq!(j["passed"], 2000, "{unit} {sim} {cfg:?} {name}");
             let dir = tempfile::tempdir().unwrap();
-            let mut args = with_config(vec!["rtl", unit, "--set", set, "--json"], cfg);
+            let mut a = vec!["rtl", unit, "--json"];
+            a.extend(sets(set));
+            let mut args = with_config(a, cfg);
             args.extend(["--out", dir.path().to_str().unwrap()]);
             let o = fxshade(&args);
             assert!(o.status.success(), "{}", text(&o));

@@ -111,7 +111,14 @@ pub static RTL: crate::rtl::units::RtlUnit = crate::rtl::units::RtlUnit {
     doc: "the pipeline top: smooth (interp → normalize → lighting) or mapped (angles → polar → lighting)",
     variants: &[
         ("smooth", "pipeline.path=\"smooth\""),
-        ("mapped", "pipeline.path=\"mapped\""),
+        (
+            "mapped",
+            "pipeline.path=\"mapped\"; pipeline.angles=\"cordic\"",
+        ),
+        (
+            "mapped-interp",
+            "pipeline.path=\"mapped\"; pipeline.angles=\"interpolate\"",
+        ),
     ],
     design: crate::pipeline::rtl::design,
     inputs: crate::pipeline::rtl::inputs,

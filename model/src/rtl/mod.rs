@@ -488,6 +488,49 @@ impl<'a> Emitter<'a> {
                 self.stage[i] = Some(s);
                 self.at.insert((i, s), name);
             }
+            Op::AddSigned(a, b, sg, flip)
+                if matches!(
+                    (&self.t.ops()[a.node()], &self.t.ops()[b.node()]),
+                    (Op::Const(_), Op::Const(_))
+                ) =>
+            {
+                // Both operands constant: a choice of two constants, no
+                // adder (CORDIC's starting angle ±¼ turn).
+                let (Op::Const(ca), Op::Const(cb)) =
+                    (&self.t.ops()[a.node()], &self.t.ops()[b.node()])
+                else {
+                    unreachable!("matched above")
+                };
+                let s = stage_of(self, &[&sg]);
+                let vs = self.operand(&sg, s);
+                let (xa, xb) = (ca << (sym.frac - a.frac()), cb << (sym.frac - b.frac()));
+                let lit = |c: i128| bits::sv(sym.signed, &bits::literal(sym.width, c));
+                let neg = format!("{name}_sub");
+                let bit = vs.sign_bit();
+                let mode = if flip { format!("~{bit}") } else { bit };
+                self.body.push(format!("wire {neg} = {mode};"));
+                if vs.width > 1 {
+                    let rest = vs.slice(vs.width - 2, 0);
+                    if !self.unused.contains(&rest) {
+                        self.unused.push(rest);
+                    }
+                }
+                self.hw.selects += 1;
+                self.body.push(format!(
+                    "wire {d} {name} = {neg} ? {} : {};",
+                    lit(xa - xb),
+                    lit(xa + xb)
+                ));
+                // Folded here: the constants' own parameters may go unread.
+                for c in [a.node(), b.node()] {
+                    let k = self.name[c].clone();
+                    if !self.unused.contains(&k) {
+                        self.unused.push(k);
+                    }
+                }
+                self.stage[i] = Some(s);
+                self.at.insert((i, s), name);
+            }
             Op::AddSigned(a, b, sg, flip) => {
                 let s = stage_of(self, &[&a, &b, &sg]);
                 let (va, vb, vs) = (

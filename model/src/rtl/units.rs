@@ -31,13 +31,19 @@ pub struct RtlUnit {
     pub name: &'static str,
     /// One line for people.
     pub doc: &'static str,
-    /// Variants: name and the `--set` override selecting it.
+    /// Variants: name and the `--set` overrides selecting it, separated by
+    /// `;` (none: the empty string); [`overrides`] splits them.
     pub variants: &'static [(&'static str, &'static str)],
     /// The traced datapath of a configuration.
     pub design: fn(&Config) -> Result<Design, RtlError>,
     /// Input rows (codes in the input-port order) for a seed: the corner
     /// cases, or random rows.
     pub inputs: InputsFn,
+}
+
+/// The `--set` overrides of a variant's selector (`a=1; b="x"`).
+pub fn overrides(set: &str) -> impl Iterator<Item = &str> {
+    set.split(';').map(str::trim).filter(|s| !s.is_empty())
 }
 
 /// Every unit with RTL, in pipeline order, the pipeline top last: the
