@@ -12,7 +12,15 @@ fn json(args: &[&str]) -> serde_json::Value {
 
 #[test]
 fn error_polar_reports_the_figures_and_covers_small_spaces() {
-    let j = json(&["error", "polar", "--json"]);
+    let j = json(&[
+        "error",
+        "polar",
+        "--set",
+        "polar.angle_bits=10",
+        "--set",
+        "polar.table_bits=10",
+        "--json",
+    ]);
     for k in [
         "max_lsb_err",
         "rms_lsb_err",
@@ -105,7 +113,14 @@ fn ops_shows_the_transform_and_the_baseline() {
 
 #[test]
 fn bad_polar_configurations_are_clear_errors() {
-    let o = fxshade(&["error", "polar", "--set", "polar.table_bits=12"]);
+    let o = fxshade(&[
+        "error",
+        "polar",
+        "--set",
+        "polar.table_bits=12",
+        "--set",
+        "polar.angle_bits=10",
+    ]);
     assert_eq!(o.status.code(), Some(2));
     assert!(
         text(&o).contains("table_bits = 12 exceeds polar.angle_bits = 10"),

@@ -5,8 +5,8 @@
 `default_nettype none
 
 module angle_interp_tb;
-  localparam integer IN_W = 62;
-  localparam integer OUT_W = 11;
+  localparam integer IN_W = 65;
+  localparam integer OUT_W = 12;
 
   reg clk, rst_n, in_valid, out_ready;
   reg [IN_W-1:0] in_data;
@@ -18,23 +18,23 @@ module angle_interp_tb;
     .rst_ni(rst_n),
     .valid_i(in_valid),
     .ready_o(in_ready),
-    .c1_i(in_data[61:46]),
-    .c2_i(in_data[45:30]),
-    .a3_i(in_data[29:20]),
-    .d1_i(in_data[19:10]),
-    .d2_i(in_data[9:0]),
+    .c1_i(in_data[64:49]),
+    .c2_i(in_data[48:33]),
+    .a3_i(in_data[32:22]),
+    .d1_i(in_data[21:11]),
+    .d2_i(in_data[10:0]),
     .valid_o(out_valid),
     .ready_i(out_ready),
-    .ovf_o(out_data[10:10]),
-    .angle_o(out_data[9:0])
+    .ovf_o(out_data[11:11]),
+    .angle_o(out_data[10:0])
   );
 
   task show(input integer i, input [IN_W-1:0] in, input [OUT_W-1:0] got, input [OUT_W-1:0] want);
     begin
       $display("mismatch at vector %0d", i);
-      $display("  in:   c1 = %0d, c2 = %0d, a3 = %0d, d1 = %0d, d2 = %0d", in[61:46], in[45:30], in[29:20], $signed(in[19:10]), $signed(in[9:0]));
-      $display("  got:  ovf = %b, angle = %0d", got[10:10], got[9:0]);
-      $display("  want: ovf = %b, angle = %0d", want[10:10], want[9:0]);
+      $display("  in:   c1 = %0d, c2 = %0d, a3 = %0d, d1 = %0d, d2 = %0d", in[64:49], in[48:33], in[32:22], $signed(in[21:11]), $signed(in[10:0]));
+      $display("  got:  ovf = %b, angle = %0d", got[11:11], got[10:0]);
+      $display("  want: ovf = %b, angle = %0d", want[11:11], want[10:0]);
     end
   endtask
 

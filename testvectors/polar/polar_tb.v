@@ -5,7 +5,7 @@
 `default_nettype none
 
 module polar_tb;
-  localparam integer IN_W = 40;
+  localparam integer IN_W = 44;
   localparam integer OUT_W = 51;
 
   reg clk, rst_n, in_valid, out_ready;
@@ -18,10 +18,10 @@ module polar_tb;
     .rst_ni(rst_n),
     .valid_i(in_valid),
     .ready_o(in_ready),
-    .a_l_i(in_data[39:30]),
-    .b_l_i(in_data[29:20]),
-    .a_n_i(in_data[19:10]),
-    .b_n_i(in_data[9:0]),
+    .a_l_i(in_data[43:33]),
+    .b_l_i(in_data[32:22]),
+    .a_n_i(in_data[21:11]),
+    .b_n_i(in_data[10:0]),
     .valid_o(out_valid),
     .ready_i(out_ready),
     .ovf_o(out_data[50:48]),
@@ -33,7 +33,7 @@ module polar_tb;
   task show(input integer i, input [IN_W-1:0] in, input [OUT_W-1:0] got, input [OUT_W-1:0] want);
     begin
       $display("mismatch at vector %0d", i);
-      $display("  in:   a_l = %0d, b_l = %0d, a_n = %0d, b_n = %0d", in[39:30], in[29:20], in[19:10], in[9:0]);
+      $display("  in:   a_l = %0d, b_l = %0d, a_n = %0d, b_n = %0d", in[43:33], in[32:22], in[21:11], in[10:0]);
       $display("  got:  ovf = %b, out_x = %0d, out_y = %0d, out_z = %0d", got[50:48], $signed(got[47:32]), $signed(got[31:16]), $signed(got[15:0]));
       $display("  want: ovf = %b, out_x = %0d, out_y = %0d, out_z = %0d", want[50:48], $signed(want[47:32]), $signed(want[31:16]), $signed(want[15:0]));
     end

@@ -61,7 +61,7 @@ pub static DECL: UnitDecl = UnitDecl {
         FieldDecl { name: "xy", kind: FieldKind::Stage, doc: "micro-rotation coordinates u, v and K·y: each sum rounded once (trunc = arithmetic shift right)" },
         FieldDecl { name: "gain", kind: FieldKind::Stage, doc: "the CORDIC gain K_n = ∏ √(1 + 2^−2i), a constant multiplying y so both vectorings see the same scale" },
         FieldDecl { name: "theta", kind: FieldKind::Stage, doc: "angle accumulator and arctangent constants, a fraction of a turn (unsigned, 0 integer bits; must wrap)" },
-        FieldDecl { name: "out", kind: FieldKind::Stage, doc: "output angles α, β: U0F<k>, a fraction of a turn (must wrap; in the pipeline k = polar.angle_bits)" },
+        FieldDecl { name: "out", kind: FieldKind::Stage, doc: "output angles α, β, a fraction of a turn: rounding (format U0F<polar.angle_bits>, the polar transform's angle format; must wrap)" },
     ],
 };
 
@@ -158,15 +158,19 @@ fn require_angle(key: &'static str, q: &Quant) -> Result<(), AnglesError> {
 }
 
 impl Angles {
-    /// From the `[angles]` section.
-    pub fn from_config(u: &UnitConfig) -> Result<Angles, AnglesError> {
+    /// From the `[angles]` section, with `angle_bits`-bit output angles
+    /// (`polar.angle_bits` in a whole configuration).
+    pub fn from_config(u: &UnitConfig, angle_bits: u32) -> Result<Angles, AnglesError> {
+        let k = angle_bits.clamp(1, 32);
         let a = Angles {
             iterations: u.integer("iterations") as u32,
             normal: u.stage("normal"),
             xy: u.stage("xy"),
             gain: u.stage("gain"),
             theta: u.stage("theta"),
-            out: u.stage("out"),
+            out: u
+                .stage("out")
+                .with_format(Format::new(false, k, k as i32).expect("1..=32 bits")),
         };
         require_angle("theta", &a.theta)?;
         require_angle("out", &a.out)?;
@@ -194,9 +198,11 @@ impl Angles {
         Ok(a)
     }
 
-    /// From a whole configuration.
+    /// From a whole configuration: the output format is the polar angle
+    /// format `U0F<polar.angle_bits>`.
     pub fn of(cfg: &Config) -> Result<Angles, AnglesError> {
-        Self::from_config(cfg.unit(DECL.name))
+        let k = cfg.unit(crate::polar::DECL.name).integer("angle_bits") as u32;
+        Self::from_config(cfg.unit(DECL.name), k)
     }
 
     /// The constants in a context.
@@ -304,28 +310,29 @@ impl Angles {
 
 fn check(cfg: &Config) -> Result<(), Vec<ConfigError>> {
     let u = cfg.unit(DECL.name);
-    let a = Angles::from_config(u).map_err(|e| match e {
+    // The output format follows polar.angle_bits; one written by the user
+    // (a file or a flag) must agree with it.
+    let k = cfg.unit(crate::polar::DECL.name).integer("angle_bits") as u32;
+    let want = Format::new(false, k, k as i32).expect("1..=24 bits");
+    let given = u.stage("out").format();
+    let from_default = matches!(u.origin("out"), crate::config::Origin::File { path, .. } if &**path == "<default>");
+    if given != want && !from_default {
+        return Err(vec![crate::config::field_error(
+            u,
+            "out",
+            format!(
+                "format {given} must be {want}, the polar angle format (polar.angle_bits = {k})"
+            ),
+        )]);
+    }
+    let a = Angles::of(cfg).map_err(|e| match e {
         AnglesError::Config { key, why } => vec![crate::config::field_error(u, key, why)],
         AnglesError::Convert(c) => vec![crate::config::field_error(u, "theta", c.to_string())],
     })?;
     let cx = a
         .count()
         .map_err(|e| vec![crate::config::field_error(u, "theta", e.to_string())])?;
-    width_errors(&cx, u)?;
-    // In the pipeline the angles feed the polar transform.
-    let k = cfg.unit(crate::polar::DECL.name).integer("angle_bits") as u32;
-    let want = Format::new(false, k, k as i32).expect("1..=24 bits");
-    if a.out.format() != want {
-        return Err(vec![crate::config::field_error(
-            u,
-            "out",
-            format!(
-                "format {} must be {want}, the polar angle format (polar.angle_bits = {k})",
-                a.out.format()
-            ),
-        )]);
-    }
-    Ok(())
+    width_errors(&cx, u)
 }
 
 fn ops(cfg: &Config) -> Vec<OpReport> {
