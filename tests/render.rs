@@ -256,7 +256,7 @@ fn bad_methods_and_sizes_are_named() {
         ),
         (
             &["--mesh", "sphere:6", "--method", "exact", "--rtl"],
-            "the RTL implements linear, quadratic and mapped only",
+            "the RTL implements linear, quadratic, mapped and mapped-interp only",
         ),
         (
             &["--mesh", "sphere:6", "--size", "64"],

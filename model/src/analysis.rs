@@ -689,7 +689,7 @@ pub fn polar(
 }
 
 /// Inputs shorter than this are reported apart by [`angles`]: quadratic
-/// interpolation at Θ = 0 never makes a normal shorter than about 0.7.
+/// interpolation at Θ = 0 never makes a normal shorter than √0.803 ≈ 0.9.
 pub const SHORTEST_NORMAL: f64 = 0.25;
 
 /// The CORDIC angle unit's error figures over a set of input normals.
