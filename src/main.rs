@@ -57,6 +57,11 @@ enum Command {
     /// How far the polar transform's implied tangent frame is from the
     /// UV-aligned frame normal maps are baked in, over a procedural mesh.
     PolarFrames(cmd::polar_frames::FramesArgs),
+    /// Rewrite a tangent-space normal map baked in a UV-aligned frame into
+    /// the polar transform's implied frame through a mesh's UV layout, and
+    /// report the texels where that is impossible (seams, texels shared by
+    /// triangles with different frames, the poles).
+    BakeImplied(cmd::bake::BakeArgs),
     /// Write test vectors (manifest, $readmemh files) with the unit's
     /// generated Verilog and testbench for a configuration.
     Vectors(cmd::vectors::VectorsArgs),
@@ -96,6 +101,7 @@ fn main() -> ExitCode {
         Command::Paper(a) => cmd::paper::run(a),
         Command::Vectors(a) => cmd::vectors::run(a),
         Command::PolarFrames(a) => cmd::polar_frames::run(a),
+        Command::BakeImplied(a) => cmd::bake::run(a),
         Command::Rtl(a) => cmd::rtl::run(a),
         Command::RtlCheck(a) => cmd::rtl_check::run(a),
         Command::Mutate(a) => cmd::mutate::run(a),

@@ -144,6 +144,107 @@ pub fn heatmap_png(width: usize, height: usize, err: &[Option<u32>]) -> anyhow::
     encode(w, h, png::ColorType::Rgb, &c.px)
 }
 
+/// Read a tangent-space normal map from a PNG file: RGB or RGBA, 8 or 16
+/// bits per channel (palette and grey images are refused), decoded with the
+/// given green convention.
+pub fn read_normal_map(
+    path: &std::path::Path,
+    green: fxshade_model::texture::Green,
+) -> anyhow::Result<fxshade_model::texture::NormalTexture> {
+    let file = std::fs::File::open(path)
+        .with_context(|| format!("--normal-map {}: cannot open", path.display()))?;
+    let mut dec = png::Decoder::new(std::io::BufReader::new(file));
+    dec.set_transformations(png::Transformations::IDENTITY);
+    let mut r = dec
+        .read_info()
+        .with_context(|| format!("--normal-map {}: not a PNG file", path.display()))?;
+    let (ct, depth) = r.output_color_type();
+    let channels = match ct {
+        png::ColorType::Rgb => 3,
+        png::ColorType::Rgba => 4,
+        other => anyhow::bail!(
+            "--normal-map {}: colour type {other:?}; a normal map is RGB or RGBA",
+            path.display()
+        ),
+    };
+    let bits = match depth {
+        png::BitDepth::Eight => 8,
+        png::BitDepth::Sixteen => 16,
+        other => anyhow::bail!(
+            "--normal-map {}: {other:?} bits per channel; give 8 or 16",
+            path.display()
+        ),
+    };
+    let mut buf = vec![0; r.output_buffer_size()];
+    let info = r
+        .next_frame(&mut buf)
+        .with_context(|| format!("--normal-map {}: corrupt image data", path.display()))?;
+    buf.truncate(info.buffer_size());
+    let data: Vec<u16> = if bits == 8 {
+        buf.iter().map(|&b| b as u16).collect()
+    } else {
+        buf.chunks_exact(2)
+            .map(|c| u16::from_be_bytes([c[0], c[1]]))
+            .collect()
+    };
+    let max = (1u32 << bits) - 1;
+    fxshade_model::texture::NormalTexture::from_channels(
+        info.width as usize,
+        info.height as usize,
+        channels,
+        max,
+        &data,
+        green,
+    )
+    .map_err(|e| anyhow::anyhow!("--normal-map {}: {e}", path.display()))
+}
+
+/// Encode a normal map as an RGB PNG of `bits` (8 or 16) per channel.
+pub fn normal_map_png(
+    t: &fxshade_model::texture::NormalTexture,
+    bits: u32,
+    green: fxshade_model::texture::Green,
+) -> anyhow::Result<Vec<u8>> {
+    let samples = t.to_channels(bits, green);
+    let mut out = Vec::new();
+    {
+        let mut e = png::Encoder::new(&mut out, t.width as u32, t.height as u32);
+        e.set_color(png::ColorType::Rgb);
+        let data: Vec<u8> = if bits == 8 {
+            e.set_depth(png::BitDepth::Eight);
+            samples.iter().map(|&s| s as u8).collect()
+        } else {
+            e.set_depth(png::BitDepth::Sixteen);
+            samples.iter().flat_map(|s| s.to_be_bytes()).collect()
+        };
+        let mut w = e.write_header().context("cannot encode a PNG header")?;
+        w.write_image_data(&data)
+            .context("cannot encode a PNG image")?;
+    }
+    Ok(out)
+}
+
+/// The texel flags of a baked map as an RGB picture: converted texels grey,
+/// unused black, seams yellow, ambiguous texels red, poles blue.
+pub fn flags_png(
+    width: usize,
+    height: usize,
+    flags: &[fxshade_model::texture::TexelFlag],
+) -> anyhow::Result<Vec<u8>> {
+    use fxshade_model::texture::TexelFlag as F;
+    let px: Vec<u8> = flags
+        .iter()
+        .flat_map(|f| match f {
+            F::Converted => [128, 128, 128],
+            F::Unused => [0, 0, 0],
+            F::Seam => [235, 205, 40],
+            F::Ambiguous => [215, 35, 30],
+            F::Pole => [40, 90, 220],
+        })
+        .collect();
+    encode(width, height, png::ColorType::Rgb, &px)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

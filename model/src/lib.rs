@@ -38,6 +38,7 @@ pub mod quantize;
 pub mod render;
 pub mod rtl;
 pub mod sampling;
+pub mod texture;
 pub mod units;
 pub mod vectors;
 

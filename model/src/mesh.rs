@@ -53,9 +53,11 @@ impl Axis {
     }
 }
 
-fn grid(n_u: u32, n_v: u32, f: impl Fn(f64, f64) -> (DVec3, DVec3), wrap_v: bool) -> Mesh {
+/// A `n_u × n_v` grid of quads over `(u, v) ∈ [0, 1]²`, two triangles each;
+/// the vertices of `u = 1` and `v = 1` are separate from those of 0 (UV seams).
+fn grid(n_u: u32, n_v: u32, f: impl Fn(f64, f64) -> (DVec3, DVec3)) -> Mesh {
     let mut m = Mesh::default();
-    let rows = if wrap_v { n_v } else { n_v + 1 };
+    let rows = n_v + 1;
     for j in 0..rows {
         for i in 0..=n_u {
             let (u, v) = (i as f64 / n_u as f64, j as f64 / n_v as f64);
@@ -67,7 +69,7 @@ fn grid(n_u: u32, n_v: u32, f: impl Fn(f64, f64) -> (DVec3, DVec3), wrap_v: bool
     }
     let w = n_u + 1;
     for j in 0..n_v {
-        let j1 = if wrap_v { (j + 1) % n_v } else { j + 1 };
+        let j1 = j + 1;
         for i in 0..n_u {
             let (a, b, c, d) = (j * w + i, j * w + i + 1, j1 * w + i, j1 * w + i + 1);
             m.triangles.push([a, b, d]);
@@ -90,7 +92,6 @@ pub fn sphere(n: u32, axis: Axis) -> Mesh {
             let p = (e1 * phi.cos() + e2 * phi.sin()) * th.cos() + a * th.sin();
             (p, p)
         },
-        false,
     );
     // Drop the degenerate triangles at the poles.
     let pos = m.positions.clone();
@@ -113,9 +114,11 @@ pub fn torus(n: u32, axis: Axis) -> Mesh {
             let (phi, th) = (u * std::f64::consts::TAU, v * std::f64::consts::TAU);
             let radial = e1 * phi.cos() + e2 * phi.sin();
             let nrm = radial * th.cos() + a * th.sin();
+            // The closing band of triangles gets its own row of vertices at
+            // v = 1, so its texture coordinates run on to 1 instead of
+            // jumping back across the whole map (a UV seam, like u's).
             (radial + nrm * 0.4, nrm)
         },
-        true,
     )
 }
 

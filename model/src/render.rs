@@ -136,38 +136,87 @@ pub struct Raster {
     pub normals: Vec<DVec3>,
 }
 
-/// The normal map the mapped path samples.
+/// The frame an image normal map was baked in.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
+pub enum MapFrame {
+    /// The polar transform's implied frame (e.g. written by
+    /// `fxshade bake-implied`): texels are used as they are.
+    Implied,
+    /// A UV-aligned frame ([`crate::texture::uv_frame`]): the renderer
+    /// converts the map into the implied frame through the mesh's UV layout
+    /// ([`crate::texture::bake_implied`]) for the mapped path, and renders
+    /// the original map with the UV-frame TBN transform in f64 beside it.
+    Uv,
+}
+
+/// A normal map read from an image file.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MapImage {
+    /// The file, as given.
+    pub name: String,
+    /// The texels.
+    pub texture: crate::texture::NormalTexture,
+    /// The frame it was baked in.
+    pub frame: MapFrame,
+    /// Its green convention (already applied to the texels).
+    pub green: crate::texture::Green,
+}
+
+/// The normal map the mapped path samples.
+#[derive(Clone, Debug, PartialEq)]
 pub enum NormalMap {
     /// The procedural bumps of [`normal_map`].
     Bumps,
     /// `(0, 0, 1)` everywhere: the mapped path then shades the interpolated
     /// normal itself.
     Flat,
+    /// An image, laid out by the mesh's texture coordinates.
+    Image(std::sync::Arc<MapImage>),
+}
+
+impl serde::Serialize for NormalMap {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self {
+            NormalMap::Image(m) => {
+                use serde::ser::SerializeStruct;
+                let mut st = s.serialize_struct("NormalMap", 5)?;
+                st.serialize_field("file", &m.name)?;
+                st.serialize_field("width", &m.texture.width)?;
+                st.serialize_field("height", &m.texture.height)?;
+                st.serialize_field("frame", &m.frame)?;
+                st.serialize_field("green", &m.green)?;
+                st.end()
+            }
+            other => s.serialize_str(other.name()),
+        }
+    }
 }
 
 impl NormalMap {
-    /// Every map.
+    /// The procedural maps.
     pub const ALL: [NormalMap; 2] = [NormalMap::Bumps, NormalMap::Flat];
-    /// Its name.
-    pub fn name(self) -> &'static str {
+    /// Its name (`bumps`, `flat`, or the image's file).
+    pub fn name(&self) -> &str {
         match self {
             NormalMap::Bumps => "bumps",
             NormalMap::Flat => "flat",
+            NormalMap::Image(m) => &m.name,
         }
     }
-    /// The texel at `uv`.
-    pub fn at(self, uv: DVec2) -> DVec3 {
+    /// The texel at `uv`, as stored (an image in the UV frame is converted
+    /// by [`frame_in`], not here).
+    pub fn at(&self, uv: DVec2) -> DVec3 {
         match self {
             NormalMap::Bumps => normal_map(uv),
             NormalMap::Flat => DVec3::Z,
+            NormalMap::Image(m) => m.texture.at(uv),
         }
     }
 }
 
 /// Where the light and the viewer are and how the mesh is posed.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct Scene {
     /// Direction towards the light, world frame, unit length.
     pub light: DVec3,
@@ -253,6 +302,13 @@ impl Scene {
     /// The light in the camera frame (the viewer is `+z` there).
     pub fn light_camera(&self) -> DVec3 {
         (self.camera_rotation() * self.light).normalize()
+    }
+    /// Camera frame back to the mesh's own (object) frame: the inverse of
+    /// the pose (view, then tilt).
+    pub fn unpose(&self, v: DVec3) -> DVec3 {
+        let w = self.camera_rotation().inverse() * v;
+        let (s, c) = self.tilt_deg.to_radians().sin_cos();
+        DVec3::new(w.x, c * w.y + s * w.z, -s * w.y + c * w.z)
     }
 }
 
@@ -525,6 +581,15 @@ pub struct Frame {
     /// The conventional baseline in f64 (interpolated TBN, exact
     /// normalization).
     pub tbn_ref: Vec<f64>,
+    /// With an image map in the UV frame: the original map rendered in f64
+    /// with the exact UV-aligned frame at each pixel (empty otherwise).
+    pub uv_ref: Vec<f64>,
+    /// With such a map: pixels left out of the comparison with
+    /// [`Frame::uv_ref`] (their texel could not be converted cleanly, or
+    /// they lie in the polar cap).
+    pub uv_excluded: Vec<bool>,
+    /// With such a map: what the conversion did, texel by texel.
+    pub bake: Option<crate::texture::BakeCounts>,
 }
 
 /// The polar cap: pixels whose normal is within this many degrees of the y
@@ -563,41 +628,76 @@ pub fn frame(p: &Pipeline, raster: Raster, mesh: &Mesh) -> Frame {
 /// set up (zero or antiparallel vertex normals) get empty rows and NaN
 /// references: [`Metrics::compare`] counts them as skipped, never as exact.
 pub fn frame_in(scene: &Scene, p: &Pipeline, raster: Raster, mesh: &Mesh) -> Frame {
+    // The smooth path shades in the camera frame. The mapped path works in
+    // the mesh's own frame, where the implied tangent frame (fixed by the
+    // y axis) is the one a normal map is baked for: L and H are brought
+    // there once per frame.
     let l = scene.light_camera();
     let h = (l + DVec3::Z).normalize();
+    let lo = scene.unpose(l).normalize();
+    let ho = scene.unpose(h).normalize();
     let lq = |v: DVec3| {
         v.to_array()
             .map(|x| p.light.light.apply_f64(x).map_or(0, |r| r.code))
     };
     let (lc, hc) = (lq(l), lq(h));
-    let (al, bl) = p.angle_codes(l);
-    let (ah, bh) = p.angle_codes(h);
-    let (al_f, bl_f) = crate::polar::angles_of(l);
-    let (ah_f, bh_f) = crate::polar::angles_of(h);
-    let tris: Vec<Option<(crate::pipeline::SmoothTri, crate::pipeline::MappedTri)>> = mesh
+    let (loc, hoc) = (lq(lo), lq(ho));
+    let (al, bl) = p.angle_codes(lo);
+    let (ah, bh) = p.angle_codes(ho);
+    let (al_f, bl_f) = crate::polar::angles_of(lo);
+    let (ah_f, bh_f) = crate::polar::angles_of(ho);
+    type Tri = (
+        crate::pipeline::SmoothTri,
+        crate::pipeline::SmoothTri,
+        crate::pipeline::MappedTri,
+    );
+    let tris: Vec<Option<Tri>> = mesh
         .triangles
         .iter()
         .map(|t| {
             let n = t.map(|i| raster.normals[i as usize]);
-            p.setup_smooth(n).ok().map(|s| (s, p.setup_mapped(n)))
+            let no = t.map(|i| mesh.normals[i as usize]);
+            let s = p.setup_smooth(n).ok()?;
+            let so = p.setup_smooth(no).ok()?;
+            Some((s, so, p.setup_mapped(no)))
         })
         .collect();
     let scheme = p.interp.scheme;
+    // An image map in the UV frame: converted for the mapped path, the
+    // original kept for the UV-frame reference.
+    let image = match &scene.normal_map {
+        NormalMap::Image(m) => Some(m.clone()),
+        _ => None,
+    };
+    let baked = image
+        .as_ref()
+        .filter(|m| m.frame == MapFrame::Uv)
+        .map(|m| crate::texture::bake_implied(mesh, &m.texture, scheme));
+    let tangents = if baked.is_some() {
+        crate::mesh::uv_tangents(mesh)
+    } else {
+        Vec::new()
+    };
     let qb = |x: f64| p.interp.bary.apply_f64(x).map_or(0, |r| r.code);
     let qn = |x: f64| p.light.normal.apply_f64(x).map_or(0, |r| r.code);
+    let qv = |x: f64| p.interp.vertex.apply_f64(x).map_or(0, |r| r.code);
     let wrap = |d: f64| d - d.round();
+    let n = raster.fragments.len();
     let mut f = Frame {
         skipped: 0,
         skipped_triangles: Vec::new(),
-        smooth_rows: Vec::with_capacity(raster.fragments.len()),
-        mapped_rows: Vec::with_capacity(raster.fragments.len()),
-        mapped_interp_rows: Vec::with_capacity(raster.fragments.len()),
-        tbn_rows: Vec::with_capacity(raster.fragments.len()),
-        polar_cap: Vec::with_capacity(raster.fragments.len()),
-        tbn_ref: Vec::with_capacity(raster.fragments.len()),
-        smooth_ref: Vec::with_capacity(raster.fragments.len()),
-        mapped_ref: Vec::with_capacity(raster.fragments.len()),
-        mapped_interp_ref: Vec::with_capacity(raster.fragments.len()),
+        smooth_rows: Vec::with_capacity(n),
+        mapped_rows: Vec::with_capacity(n),
+        mapped_interp_rows: Vec::with_capacity(n),
+        tbn_rows: Vec::with_capacity(n),
+        polar_cap: Vec::with_capacity(n),
+        tbn_ref: Vec::with_capacity(n),
+        smooth_ref: Vec::with_capacity(n),
+        mapped_ref: Vec::with_capacity(n),
+        mapped_interp_ref: Vec::with_capacity(n),
+        uv_ref: Vec::new(),
+        uv_excluded: Vec::new(),
+        bake: baked.as_ref().map(|b| b.counts),
         raster: Raster {
             width: raster.width,
             height: raster.height,
@@ -605,8 +705,9 @@ pub fn frame_in(scene: &Scene, p: &Pipeline, raster: Raster, mesh: &Mesh) -> Fra
             normals: raster.normals.clone(),
         },
     };
+    let cap = (POLAR_CAP_DEG.to_radians()).cos();
     for fr in &raster.fragments {
-        let Some((st, mt)) = &tris[fr.tri] else {
+        let Some((st, so, mt)) = &tris[fr.tri] else {
             f.skipped += 1;
             if !f.skipped_triangles.contains(&fr.tri) {
                 f.skipped_triangles.push(fr.tri);
@@ -620,6 +721,10 @@ pub fn frame_in(scene: &Scene, p: &Pipeline, raster: Raster, mesh: &Mesh) -> Fra
             f.mapped_ref.push(f64::NAN);
             f.mapped_interp_ref.push(f64::NAN);
             f.tbn_ref.push(f64::NAN);
+            if baked.is_some() {
+                f.uv_ref.push(f64::NAN);
+                f.uv_excluded.push(true);
+            }
             continue;
         };
         let (c1, c2) = (qb(fr.c[0]), qb(fr.c[1]));
@@ -633,46 +738,104 @@ pub fn frame_in(scene: &Scene, p: &Pipeline, raster: Raster, mesh: &Mesh) -> Fra
         f.smooth_rows.push(r);
         let n_exact = interp::field(&st.tri, fr.c, scheme).normalize();
         f.smooth_ref.push(shade_f64(&p.light, n_exact, l, h));
-        // Mapped rows: c1, c2, the normals (CORDIC) or the angle set-up
-        // (interpolated angles), angles of L and H, the texel.
-        let tex = scene.normal_map.at(fr.uv);
+        // Mapped rows (object frame): c1, c2, the normals (CORDIC) or the
+        // angle set-up (interpolated angles), angles of L and H, the texel.
+        let n_obj = interp::field(&so.tri, fr.c, scheme).normalize();
+        let (tex, texel_ok) = match &baked {
+            Some(b) => {
+                let m = image.as_ref().expect("baked from an image");
+                let (x, y) = m.texture.texel_of(fr.uv);
+                let k = y * m.texture.width + x;
+                let t = b.texture.texels[k];
+                (
+                    if t.length() > 1e-12 {
+                        t.normalize()
+                    } else {
+                        DVec3::Z
+                    },
+                    b.flags[k] == crate::texture::TexelFlag::Converted,
+                )
+            }
+            None => (scene.normal_map.at(fr.uv), true),
+        };
         let texc = tex.to_array().map(qn);
         let lh = [al, bl, ah, bh];
         f.mapped_rows
-            .push(p.mapped_row_of(AngleSource::Cordic, [c1, c2], st, mt, lh, texc));
+            .push(p.mapped_row_of(AngleSource::Cordic, [c1, c2], so, mt, lh, texc));
         f.mapped_interp_rows.push(p.mapped_row_of(
             AngleSource::Interpolate,
             [c1, c2],
-            st,
+            so,
             mt,
             lh,
             texc,
         ));
-        let cap = (POLAR_CAP_DEG.to_radians()).cos();
-        f.polar_cap.push(n_exact.y.abs() >= cap);
-        // The conventional baseline: the implied frame of each vertex.
-        let frames = st.tri.n.map(|nv| {
-            let (_, b) = crate::polar::angles_of(nv);
-            crate::polar::frame(nv, b)
-        });
-        let qv = |x: f64| p.interp.vertex.apply_f64(x).map_or(0, |r| r.code);
+        let in_cap = n_obj.y.abs() >= cap;
+        f.polar_cap.push(in_cap);
+        // The conventional baseline: a frame per vertex (the implied one, or
+        // for a UV-frame map the UV one with the original texel).
+        let orig = image.as_ref().map(|m| m.texture.at(fr.uv));
+        let (frames, tbn_tex) = match (&baked, orig) {
+            (Some(_), Some(o)) => {
+                let idx = mesh.triangles[fr.tri].map(|i| i as usize);
+                let fr3: Option<Vec<_>> = (0..3)
+                    .map(|k| {
+                        let mut c = [0.0; 3];
+                        c[k] = 1.0;
+                        crate::texture::uv_frame(mesh, &tangents, fr.tri, c, scheme)
+                    })
+                    .collect();
+                let fr3 = fr3.unwrap_or_else(|| {
+                    idx.map(|i| {
+                        let nv = mesh.normals[i].normalize_or_zero();
+                        let (_, b) = crate::polar::angles_of(nv);
+                        crate::polar::frame(nv, b)
+                    })
+                    .to_vec()
+                });
+                ([fr3[0], fr3[1], fr3[2]], o)
+            }
+            _ => (
+                so.tri.n.map(|nv| {
+                    let (_, b) = crate::polar::angles_of(nv);
+                    crate::polar::frame(nv, b)
+                }),
+                tex,
+            ),
+        };
         let mut r = vec![c1, c2];
         for (t, b, n) in &frames {
             for v in [t, b, n] {
                 r.extend(v.to_array().map(qv));
             }
         }
-        r.extend_from_slice(&lc);
-        r.extend_from_slice(&hc);
-        r.extend_from_slice(&texc);
+        r.extend_from_slice(&loc);
+        r.extend_from_slice(&hoc);
+        r.extend_from_slice(&tbn_tex.to_array().map(qn));
         f.tbn_rows.push(r);
-        f.tbn_ref.push(tbn_f64(&p.light, frames, fr.c, l, h, tex));
-        let (an, bn) = crate::polar::angles_of(n_exact);
+        f.tbn_ref
+            .push(tbn_f64(&p.light, frames, fr.c, lo, ho, tbn_tex));
+        let (an, bn) = crate::polar::angles_of(n_obj);
         let lp = crate::polar::reference(al_f, bl_f, an, bn);
         let hp = crate::polar::reference(ah_f, bh_f, an, bn);
         f.mapped_ref.push(shade_f64(&p.light, tex, lp, hp));
+        // The original map in its UV frame, exactly.
+        if let (Some(_), Some(o)) = (&baked, orig) {
+            let uvf = crate::texture::uv_frame(mesh, &tangents, fr.tri, fr.c, scheme);
+            match uvf {
+                Some((t, b, nn)) => {
+                    let ts = |v: DVec3| DVec3::new(v.dot(t), v.dot(b), v.dot(nn));
+                    f.uv_ref.push(shade_f64(&p.light, o, ts(lo), ts(ho)));
+                    f.uv_excluded.push(in_cap || !texel_ok);
+                }
+                None => {
+                    f.uv_ref.push(f64::NAN);
+                    f.uv_excluded.push(true);
+                }
+            }
+        }
         // The same with the angles interpolated (f64).
-        let va = st.tri.n.map(crate::polar::angles_of);
+        let va = so.tri.n.map(crate::polar::angles_of);
         let ai = va[2].0 + fr.c[0] * (va[0].0 - va[2].0) + fr.c[1] * (va[1].0 - va[2].0);
         let bi = va[2].1 + fr.c[0] * wrap(va[0].1 - va[2].1) + fr.c[1] * wrap(va[1].1 - va[2].1);
         let lp = crate::polar::reference(al_f, bl_f, ai, bi);

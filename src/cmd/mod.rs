@@ -1,5 +1,6 @@
 //! One module per subcommand, each thin over the model crate.
 
+pub mod bake;
 pub mod bench;
 pub mod coeffs;
 pub mod config;

@@ -23,8 +23,8 @@ use crate::rtl_flow::{self, Sim};
 pub struct RenderArgs {
     #[command(flatten)]
     cfg: ConfigArgs,
-    /// The mesh: `sphere:N` or `torus:N` (N segments around, 4..=4096), or a
-    /// Wavefront OBJ file.
+    /// The mesh: `sphere:N` or `torus:N` (N segments around, 4..=4096,
+    /// built about y; `torus:N:z` about z), or a Wavefront OBJ file.
     #[arg(long, value_name = "PATH.obj|sphere:N|torus:N")]
     mesh: String,
     /// Image size.
@@ -78,16 +78,21 @@ pub struct SceneArgs {
     /// Tilt of the mesh about x before viewing, in degrees.
     #[arg(long, value_name = "DEG", default_value_t = render::TILT_DEG, allow_hyphen_values = true)]
     tilt: f64,
-    /// The mapped path's normal map: bumps (procedural) or flat.
-    #[arg(long, value_name = "MAP", default_value = "bumps", value_parser = parse_normal_map)]
-    normal_map: render::NormalMap,
-}
-
-fn parse_normal_map(s: &str) -> Result<render::NormalMap, String> {
-    render::NormalMap::ALL
-        .into_iter()
-        .find(|m| m.name() == s)
-        .ok_or_else(|| format!("`{s}`: normal maps are bumps, flat"))
+    /// The mapped path's normal map: bumps (procedural), flat, or a
+    /// tangent-space normal map image (RGB or RGBA PNG, 8 or 16 bits per
+    /// channel) laid out by the mesh's texture coordinates.
+    #[arg(long, value_name = "bumps|flat|FILE.png", default_value = "bumps")]
+    normal_map: String,
+    /// The frame an image map was baked in: `implied` (the polar
+    /// transform's, e.g. from `fxshade bake-implied`) or `uv` (UV-aligned,
+    /// MikkTSpace-style: converted for the mapped path, and the original
+    /// rendered in f64 with the UV frame beside it for comparison).
+    #[arg(long, value_name = "FRAME", default_value = "implied", value_parser = ["implied", "uv"])]
+    normal_map_frame: String,
+    /// Green convention of an image map: opengl (+y up) or directx (+y
+    /// down).
+    #[arg(long, value_name = "CONV", default_value = "opengl", value_parser = ["opengl", "directx"])]
+    green: String,
 }
 
 fn parse_vec3(flag: &str, s: &str) -> anyhow::Result<glam::DVec3> {
@@ -107,15 +112,56 @@ impl SceneArgs {
             parse_vec3("light", &self.light)?,
             parse_vec3("view", &self.view)?,
             self.tilt,
-            self.normal_map,
+            self.map()?,
         )?)
+    }
+    fn map(&self) -> anyhow::Result<render::NormalMap> {
+        if let Some(m) = render::NormalMap::ALL
+            .iter()
+            .find(|m| m.name() == self.normal_map)
+        {
+            return Ok(m.clone());
+        }
+        let path = std::path::Path::new(&self.normal_map);
+        if !path.exists() {
+            bail!(
+                "--normal-map {}: no such file; give bumps, flat or a PNG file",
+                self.normal_map
+            );
+        }
+        let green = fxshade_model::texture::Green::from_name(&self.green).expect("clap checked");
+        let texture = crate::picture::read_normal_map(path, green)?;
+        Ok(render::NormalMap::Image(std::sync::Arc::new(
+            render::MapImage {
+                name: self.normal_map.clone(),
+                texture,
+                frame: if self.normal_map_frame == "uv" {
+                    render::MapFrame::Uv
+                } else {
+                    render::MapFrame::Implied
+                },
+                green,
+            },
+        )))
     }
 }
 
 /// The mesh named by `--mesh`.
 pub fn load_mesh(spec: &str) -> anyhow::Result<Mesh> {
     if spec.starts_with("sphere:") || spec.starts_with("torus:") {
-        return super::polar_frames::procedural(spec, mesh::Axis::Y);
+        // `torus:24:z` builds it about another axis (default y).
+        let mut parts = spec.splitn(3, ':');
+        let (kind, n, axis) = (parts.next(), parts.next(), parts.next());
+        let axis = match axis {
+            None | Some("y") => mesh::Axis::Y,
+            Some("x") => mesh::Axis::X,
+            Some("z") => mesh::Axis::Z,
+            Some(a) => bail!("--mesh {spec}: axis `{a}`; give x, y or z"),
+        };
+        return super::polar_frames::procedural(
+            &format!("{}:{}", kind.unwrap_or(""), n.unwrap_or("")),
+            axis,
+        );
     }
     let p = std::path::Path::new(spec);
     if !p.exists() {
@@ -242,6 +288,17 @@ pub struct RenderResult {
     /// The conventional baseline (interpolated TBN, exact normalization) in
     /// f64 against the mapped reference.
     pub tbn_f64: Option<Metrics>,
+    /// With an image map in the UV frame: what converting it into the
+    /// implied frame did, texel by texel.
+    pub normal_map_bake: Option<fxshade_model::texture::BakeCounts>,
+    /// With such a map: the mapped path (bit-accurate, converted map, polar
+    /// transform) against the original map rendered in f64 with the exact
+    /// UV-aligned frame, over the pixels whose texel converted cleanly and
+    /// that lie outside the polar cap.
+    pub uv_frame_check: Option<Metrics>,
+    /// Pixels that comparison leaves out (seams, ambiguous or unused
+    /// texels, the polar cap).
+    pub uv_frame_excluded: usize,
     /// The polar cap's half-angle, degrees.
     pub polar_cap_deg: f64,
     /// Pixels inside the polar cap.
@@ -303,12 +360,30 @@ pub fn render_into(
         tbn_f64 = Some(Metrics::compare(&lt, &f.mapped_ref));
         references.push(heat("tbn_f64_error", &lt, &f.mapped_ref)?);
     }
+    let mut uv_frame_check = None;
+    if !f.uv_ref.is_empty() {
+        references.push(png("reference_uv", &render::reference_levels(&f.uv_ref))?);
+    }
     let mut results = Vec::new();
     for &method in methods {
         progress(method.name());
         let img = render::run_method(cfg, &f, method)?;
         let want = f.reference(method);
         let image = png(method.name(), &img.levels)?;
+        if method == RenderMethod::Mapped(fxshade_model::pipeline::AngleSource::Cordic)
+            && !f.uv_ref.is_empty()
+        {
+            uv_frame_check = Some(Metrics::compare_where(&img.levels, &f.uv_ref, |k| {
+                !f.uv_excluded[k]
+            }));
+            let masked: Vec<f64> = f
+                .uv_ref
+                .iter()
+                .zip(&f.uv_excluded)
+                .map(|(&r, &x)| if x { f64::NAN } else { r })
+                .collect();
+            references.push(heat("mapped_vs_uv_error", &img.levels, &masked)?);
+        }
         let heatmap = heat(&format!("{}_error", method.name()), &img.levels, want)?;
         let rtl = match rtl {
             None => None,
@@ -341,11 +416,14 @@ pub fn render_into(
             .iter()
             .map(|&t| m.describe_triangle(t))
             .collect(),
-        scene: *scene,
+        scene: scene.clone(),
         cos_phi: render::cos_phi_stats(m),
         methods: results,
         angle_interp,
         tbn_f64,
+        normal_map_bake: f.bake,
+        uv_frame_check,
+        uv_frame_excluded: f.uv_excluded.iter().filter(|&&x| x).count(),
         polar_cap_deg: render::POLAR_CAP_DEG,
         polar_cap_pixels: f.polar_cap.iter().filter(|&&c| c).count(),
         references,
@@ -525,6 +603,17 @@ pub fn table(r: &RenderResult) -> Table {
     }
     if let Some(a) = &r.tbn_f64 {
         row("tbn (f64)", "mapped", a, "-".into());
+    }
+    if let Some(a) = &r.uv_frame_check {
+        row(
+            &format!(
+                "mapped vs the UV-frame original (f64; {} px left out)",
+                r.uv_frame_excluded
+            ),
+            "mapped",
+            a,
+            "-".into(),
+        );
     }
     t
 }
