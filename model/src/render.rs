@@ -20,12 +20,20 @@
 //!   `255·(I0·km·max(0, N·L) + I0·ks·max(0, N·H)^n)` clipped to `[0, 255]`, with
 //!   `N` the configured interpolation scheme's field at the pixel's exact
 //!   barycentrics, normalized in f64 (glam), independent of the datapath code;
-//! * mapped path: the same lighting with the normal-map texel `n` and
-//!   `L' = (L·T, L·B, L·N)` in the implied frame of that exact `N`
-//!   ([`crate::polar::reference`], with `α`, `β` by `asin`/`atan2` at the pixel);
-//! * the cost of interpolating the angles (the pipeline's choice) is the
-//!   difference between that reference and the same f64 computation with
-//!   angles interpolated as the pipeline does (`angle_interp`).
+//! * mapped path, in the mesh's own (object) frame, where the implied frame
+//!   a normal map is baked for is fixed by the y axis: `L` and `H` are
+//!   brought there by [`Scene::unpose`]; the reference is the same lighting
+//!   with the normal-map texel `n` and `L' = (L·T, L·B, L·N)` in the implied
+//!   frame of the exact object-space `N` ([`crate::polar::reference`], with
+//!   `α`, `β` by `asin`/`atan2` at the pixel); mapped methods are also judged
+//!   outside and inside the polar cap ([`POLAR_CAP_DEG`]);
+//! * beside it, in f64: the angles interpolated per vertex
+//!   (`angle_interp`) and the conventional transform with per-vertex frames
+//!   interpolated ([`tbn_f64`]);
+//! * with an image map baked in the UV frame ([`MapFrame::Uv`]): the
+//!   original map rendered in f64 with the exact UV-aligned frame
+//!   ([`crate::texture::uv_frame`]), against which the mapped path on the
+//!   converted map is compared ([`Frame::uv_ref`]).
 //!
 //! Errors are in 8-bit levels against the reference rounded to the nearest
 //! level (the reference image).
