@@ -144,6 +144,9 @@ pub fn heatmap_png(width: usize, height: usize, err: &[Option<u32>]) -> anyhow::
     encode(w, h, png::ColorType::Rgb, &c.px)
 }
 
+/// The largest normal map read: 64 Mi texels (8192 × 8192).
+pub const MAX_MAP_TEXELS: u64 = 1 << 26;
+
 /// Read a tangent-space normal map from a PNG file: RGB or RGBA, 8 or 16
 /// bits per channel (palette and grey images are refused), decoded with the
 /// given green convention.
@@ -155,9 +158,23 @@ pub fn read_normal_map(
         .with_context(|| format!("--normal-map {}: cannot open", path.display()))?;
     let mut dec = png::Decoder::new(std::io::BufReader::new(file));
     dec.set_transformations(png::Transformations::IDENTITY);
-    let mut r = dec
-        .read_info()
-        .with_context(|| format!("--normal-map {}: not a PNG file", path.display()))?;
+    let mut r = dec.read_info().map_err(|e| {
+        anyhow::anyhow!(
+            "--normal-map {}: not a PNG file I can read: {e}",
+            path.display()
+        )
+    })?;
+    {
+        let i = r.info();
+        let texels = i.width as u64 * i.height as u64;
+        anyhow::ensure!(
+            texels <= MAX_MAP_TEXELS,
+            "--normal-map {}: {}×{} texels; at most {MAX_MAP_TEXELS} are read",
+            path.display(),
+            i.width,
+            i.height
+        );
+    }
     let (ct, depth) = r.output_color_type();
     let channels = match ct {
         png::ColorType::Rgb => 3,
@@ -178,7 +195,7 @@ pub fn read_normal_map(
     let mut buf = vec![0; r.output_buffer_size()];
     let info = r
         .next_frame(&mut buf)
-        .with_context(|| format!("--normal-map {}: corrupt image data", path.display()))?;
+        .map_err(|e| anyhow::anyhow!("--normal-map {}: corrupt image data: {e}", path.display()))?;
     buf.truncate(info.buffer_size());
     let data: Vec<u16> = if bits == 8 {
         buf.iter().map(|&b| b as u16).collect()

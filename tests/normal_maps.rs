@@ -262,6 +262,82 @@ fn bad_normal_map_files_are_named() {
         assert!(text(&o).contains(want), "{map}: {}", text(&o));
         assert!(!text(&o).contains("panicked"), "{map}: {}", text(&o));
     }
+    // A mesh without texture coordinates cannot lay a map out.
+    let good = d.path().join("good.png");
+    write_map(&good, 8, 4, false, procedural);
+    let obj = d.path().join("novt.obj");
+    std::fs::write(
+        &obj,
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//1\n",
+    )
+    .unwrap();
+    for args in [
+        vec![
+            "render",
+            "--mesh",
+            obj.to_str().unwrap(),
+            "--size",
+            "8x8",
+            "--normal-map",
+            good.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        vec![
+            "bake-implied",
+            "--mesh",
+            obj.to_str().unwrap(),
+            "--normal-map",
+            good.to_str().unwrap(),
+            "--out",
+            d.path().join("b.png").to_str().unwrap(),
+        ],
+    ] {
+        let o = fxshade(&args);
+        assert!(!o.status.success(), "{args:?}");
+        assert!(
+            text(&o).contains("no texture coordinates"),
+            "{args:?}: {}",
+            text(&o)
+        );
+    }
+    assert!(!d.path().join("b.png").exists());
+    // Image-map flags on a procedural map, and a UV-frame comparison
+    // without the method it compares, are refused.
+    for (args, want) in [
+        (
+            vec!["--normal-map", "bumps", "--green", "directx"],
+            "procedural",
+        ),
+        (
+            vec![
+                "--normal-map",
+                good.to_str().unwrap(),
+                "--normal-map-frame",
+                "uv",
+                "--method",
+                "quadratic",
+            ],
+            "include mapped",
+        ),
+    ] {
+        let mut a = vec![
+            "render",
+            "--mesh",
+            "sphere:6",
+            "--size",
+            "8x8",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        a.extend(args);
+        let o = fxshade(&a);
+        assert!(
+            !o.status.success() && text(&o).contains(want),
+            "{a:?}: {}",
+            text(&o)
+        );
+    }
     let o = fxshade(&[
         "bake-implied",
         "--mesh",

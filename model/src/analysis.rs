@@ -191,6 +191,9 @@ pub enum AnalysisError {
     /// The angles configuration is unusable.
     #[error(transparent)]
     Angles(crate::angles::AnglesError),
+    /// The unit's RTL could not be generated for its cost figures.
+    #[error("generating the RTL: {0}")]
+    Rtl(String),
 }
 
 /// Analyse the normalizer a configuration describes: `count` random
@@ -717,8 +720,9 @@ pub struct AnglesStats {
     pub max_beta_deg: f64,
     /// Largest angle between the direction `(α, β)` names and the exact
     /// normal, degrees: the error the polar transform sees (β's error
-    /// shrinks by `cos α` towards the poles). Over every normal but the
-    /// zero vector.
+    /// shrinks by `cos α` towards the poles). Over the inputs of the other
+    /// figures (at least [`SHORTEST_NORMAL`] long, no overflow), the polar
+    /// cap included.
     pub max_direction_deg: f64,
     /// Non-zero inputs shorter than [`SHORTEST_NORMAL`] (extreme and
     /// near-zero codes, not normals any interpolation produces), left out
@@ -745,7 +749,8 @@ pub struct AnglesReport {
     pub out: String,
     /// Output angle bits.
     pub angle_bits: u32,
-    /// Adder/subtracter bits of the generated RTL (its hardware summary).
+    /// Bits of the generated RTL's adders and add/subtracters (its hardware
+    /// summary; each add/subtracter once).
     pub adder_bits: u64,
     /// Flip-flops of the generated RTL.
     pub flops: u64,
@@ -890,18 +895,8 @@ pub fn angles(cfg: &Config, count: usize, seed: u64) -> Result<AnglesReport, Ana
     };
     st.max_alpha_deg = st.max_alpha_lsb * 360.0 / turn;
     st.max_beta_deg = st.max_beta_lsb * 360.0 / turn;
-    let design = crate::angles::rtl::design(cfg).map_err(|e| {
-        AnalysisError::Angles(crate::angles::AnglesError::Config {
-            key: "xy",
-            why: e.to_string(),
-        })
-    })?;
-    let em = crate::rtl::emit(&design).map_err(|e| {
-        AnalysisError::Angles(crate::angles::AnglesError::Config {
-            key: "xy",
-            why: e.to_string(),
-        })
-    })?;
+    let design = crate::angles::rtl::design(cfg).map_err(|e| AnalysisError::Rtl(e.to_string()))?;
+    let em = crate::rtl::emit(&design).map_err(|e| AnalysisError::Rtl(e.to_string()))?;
     let hw = &em.hardware;
     Ok(AnglesReport {
         iterations: a.iterations,
@@ -909,7 +904,12 @@ pub fn angles(cfg: &Config, count: usize, seed: u64) -> Result<AnglesReport, Ana
         theta: a.theta.format().to_string(),
         out: a.out.format().to_string(),
         angle_bits: k,
-        adder_bits: hw.adders.iter().map(|&w| w as u64).sum::<u64>() / 2,
+        adder_bits: hw
+            .adders
+            .iter()
+            .chain(&hw.add_subs)
+            .map(|&w| w as u64)
+            .sum::<u64>(),
         flops: hw.flops,
         latency: em.latency,
         stats: st,

@@ -12,6 +12,9 @@ pub struct Mesh {
     pub normals: Vec<DVec3>,
     /// Texture coordinates.
     pub uvs: Vec<DVec2>,
+    /// The texture coordinates were made up (an OBJ file without `vt`:
+    /// [`spherical_uvs`]), not given: no normal map can be laid out by them.
+    pub uvs_generated: bool,
     /// Triangles, counter-clockwise seen from outside.
     pub triangles: Vec<[u32; 3]>,
     /// For a mesh read from a file: the 1-based line of the face each
@@ -84,15 +87,11 @@ fn grid(n_u: u32, n_v: u32, f: impl Fn(f64, f64) -> (DVec3, DVec3)) -> Mesh {
 pub fn sphere(n: u32, axis: Axis) -> Mesh {
     let (e1, a, e2) = axis.basis();
     let n = n.max(4);
-    let mut m = grid(
-        n,
-        n / 2,
-        |u, v| {
-            let (phi, th) = (u * std::f64::consts::TAU, (v - 0.5) * std::f64::consts::PI);
-            let p = (e1 * phi.cos() + e2 * phi.sin()) * th.cos() + a * th.sin();
-            (p, p)
-        },
-    );
+    let mut m = grid(n, n / 2, |u, v| {
+        let (phi, th) = (u * std::f64::consts::TAU, (v - 0.5) * std::f64::consts::PI);
+        let p = (e1 * phi.cos() + e2 * phi.sin()) * th.cos() + a * th.sin();
+        (p, p)
+    });
     // Drop the degenerate triangles at the poles.
     let pos = m.positions.clone();
     m.triangles.retain(|t| {
@@ -107,19 +106,15 @@ pub fn sphere(n: u32, axis: Axis) -> Mesh {
 pub fn torus(n: u32, axis: Axis) -> Mesh {
     let (e1, a, e2) = axis.basis();
     let n = n.max(6);
-    grid(
-        n,
-        n / 2,
-        |u, v| {
-            let (phi, th) = (u * std::f64::consts::TAU, v * std::f64::consts::TAU);
-            let radial = e1 * phi.cos() + e2 * phi.sin();
-            let nrm = radial * th.cos() + a * th.sin();
-            // The closing band of triangles gets its own row of vertices at
-            // v = 1, so its texture coordinates run on to 1 instead of
-            // jumping back across the whole map (a UV seam, like u's).
-            (radial + nrm * 0.4, nrm)
-        },
-    )
+    grid(n, n / 2, |u, v| {
+        let (phi, th) = (u * std::f64::consts::TAU, v * std::f64::consts::TAU);
+        let radial = e1 * phi.cos() + e2 * phi.sin();
+        let nrm = radial * th.cos() + a * th.sin();
+        // The closing band of triangles gets its own row of vertices at
+        // v = 1, so its texture coordinates run on to 1 instead of
+        // jumping back across the whole map (a UV seam, like u's).
+        (radial + nrm * 0.4, nrm)
+    })
 }
 
 /// Per-vertex tangents from the texture coordinates (the usual UV-aligned
@@ -441,6 +436,7 @@ pub fn load_obj(path: &std::path::Path) -> Result<Mesh, ObjError> {
     }
     if !all_uvs {
         m.uvs = spherical_uvs(&m);
+        m.uvs_generated = true;
     }
     Ok(m)
 }

@@ -680,7 +680,7 @@ pub fn frame_in(scene: &Scene, p: &Pipeline, raster: Raster, mesh: &Mesh) -> Fra
     let baked = image
         .as_ref()
         .filter(|m| m.frame == MapFrame::Uv)
-        .map(|m| crate::texture::bake_implied(mesh, &m.texture, scheme));
+        .and_then(|m| crate::texture::bake_implied(mesh, &m.texture, scheme).ok());
     let tangents = if baked.is_some() {
         crate::mesh::uv_tangents(mesh)
     } else {
@@ -785,7 +785,6 @@ pub fn frame_in(scene: &Scene, p: &Pipeline, raster: Raster, mesh: &Mesh) -> Fra
         let orig = image.as_ref().map(|m| m.texture.at(fr.uv));
         let (frames, tbn_tex) = match (&baked, orig) {
             (Some(_), Some(o)) => {
-                let idx = mesh.triangles[fr.tri].map(|i| i as usize);
                 let fr3: Option<Vec<_>> = (0..3)
                     .map(|k| {
                         let mut c = [0.0; 3];
@@ -793,15 +792,15 @@ pub fn frame_in(scene: &Scene, p: &Pipeline, raster: Raster, mesh: &Mesh) -> Fra
                         crate::texture::uv_frame(mesh, &tangents, fr.tri, c, scheme)
                     })
                     .collect();
-                let fr3 = fr3.unwrap_or_else(|| {
-                    idx.map(|i| {
-                        let nv = mesh.normals[i].normalize_or_zero();
-                        let (_, b) = crate::polar::angles_of(nv);
-                        crate::polar::frame(nv, b)
-                    })
-                    .to_vec()
-                });
-                ([fr3[0], fr3[1], fr3[2]], o)
+                match fr3 {
+                    Some(v) => ([v[0], v[1], v[2]], o),
+                    // No UV frame on this triangle (degenerate UVs): the
+                    // baseline has nothing to transform with.
+                    None => {
+                        let z = (DVec3::ZERO, DVec3::ZERO, DVec3::ZERO);
+                        ([z, z, z], o)
+                    }
+                }
             }
             _ => (
                 so.tri.n.map(|nv| {
@@ -820,9 +819,14 @@ pub fn frame_in(scene: &Scene, p: &Pipeline, raster: Raster, mesh: &Mesh) -> Fra
         r.extend_from_slice(&loc);
         r.extend_from_slice(&hoc);
         r.extend_from_slice(&tbn_tex.to_array().map(qn));
-        f.tbn_rows.push(r);
-        f.tbn_ref
-            .push(tbn_f64(&p.light, frames, fr.c, lo, ho, tbn_tex));
+        if frames[0].2 == DVec3::ZERO {
+            f.tbn_rows.push(Vec::new());
+            f.tbn_ref.push(f64::NAN);
+        } else {
+            f.tbn_rows.push(r);
+            f.tbn_ref
+                .push(tbn_f64(&p.light, frames, fr.c, lo, ho, tbn_tex));
+        }
         let (an, bn) = crate::polar::angles_of(n_obj);
         let lp = crate::polar::reference(al_f, bl_f, an, bn);
         let hp = crate::polar::reference(ah_f, bh_f, an, bn);

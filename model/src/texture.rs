@@ -53,7 +53,15 @@ pub enum TextureError {
     /// Sizes disagree with the data.
     #[error("{0}")]
     Shape(String),
+    /// The mesh cannot lay a map out.
+    #[error("{0}")]
+    Layout(String),
 }
+
+/// Texture coordinates beyond `±UV_LIMIT` are refused: a map repeats a
+/// few times over a mesh, not thousands (and the texels a triangle covers
+/// are enumerated).
+pub const UV_LIMIT: f64 = 16.0;
 
 /// A decoded normal map: `width × height` texels, row 0 at the top.
 #[derive(Clone, Debug, PartialEq)]
@@ -215,8 +223,10 @@ pub struct Baked {
 /// `m`: the surface normal `N` of the configured interpolation `scheme`,
 /// normalized; `T` the vertex tangents `tangents` (from
 /// [`crate::mesh::uv_tangents`]) interpolated linearly and made orthogonal
-/// to `N`; `B = s·(N × T)` with `s` the sign of the triangle's UV area.
-/// `None` where the triangle cannot be set up or its UVs are degenerate.
+/// to `N`; `B = s·(N × T)` with `s = sign((N × T)·∂P/∂v)`, the handedness
+/// of the UV layout (as MikkTSpace's bitangent sign; it does not depend on
+/// the triangle's winding). `None` where the triangle cannot be set up or
+/// its UVs are degenerate.
 pub fn uv_frame(
     m: &Mesh,
     tangents: &[DVec3],
@@ -233,20 +243,28 @@ pub fn uv_frame(
         .map(|(&i, ci)| tangents[i] * ci)
         .sum::<DVec3>();
     let tan = (tv - n * n.dot(tv)).normalize_or_zero();
-    let (a, b, cc) = (m.uvs[idx[0]], m.uvs[idx[1]], m.uvs[idx[2]]);
-    let area = (b - a).perp_dot(cc - a);
-    if n == DVec3::ZERO || tan == DVec3::ZERO || area.abs() < 1e-18 {
+    let (d1, d2) = (m.uvs[idx[1]] - m.uvs[idx[0]], m.uvs[idx[2]] - m.uvs[idx[0]]);
+    let (e1, e2) = (
+        m.positions[idx[1]] - m.positions[idx[0]],
+        m.positions[idx[2]] - m.positions[idx[0]],
+    );
+    let det = d1.x * d2.y - d2.x * d1.y;
+    if n == DVec3::ZERO || tan == DVec3::ZERO || det.abs() < 1e-18 {
         return None;
     }
-    Some((tan, n.cross(tan) * area.signum(), n))
+    let dpdv = (e2 * d1.x - e1 * d2.x) / det;
+    let b = n.cross(tan);
+    Some((tan, if b.dot(dpdv) < 0.0 { -b } else { b }, n))
 }
 
 /// Rewrite a map baked in the UV-aligned frame of `m` ([`uv_frame`]) into
 /// the implied frame of the surface normal at each texel centre:
 /// `n_implied = (w·T_i, w·B_i, w·N_i)` with `w = T·n.x + B·n.y + N·n.z`.
 /// Texels no triangle covers are copied unchanged; see [`TexelFlag`] for
-/// what is flagged.
-pub fn bake_implied(m: &Mesh, map: &NormalTexture, scheme: Scheme) -> Baked {
+/// what is flagged. Refused: a mesh whose texture coordinates were made up
+/// ([`Mesh::uvs_generated`]) or reach beyond [`UV_LIMIT`].
+pub fn bake_implied(m: &Mesh, map: &NormalTexture, scheme: Scheme) -> Result<Baked, TextureError> {
+    check_layout(m)?;
     let tangents = crate::mesh::uv_tangents(m);
     let (w, h) = (map.width, map.height);
     let mut out = map.clone();
@@ -382,11 +400,41 @@ pub fn bake_implied(m: &Mesh, map: &NormalTexture, scheme: Scheme) -> Baked {
             TexelFlag::Pole => counts.pole += 1,
         }
     }
-    Baked {
+    Ok(Baked {
         texture: out,
         flags,
         counts,
+    })
+}
+
+/// Whether `m`'s texture coordinates can lay a normal map out.
+pub fn check_layout(m: &Mesh) -> Result<(), TextureError> {
+    if m.uvs_generated {
+        return Err(TextureError::Layout(
+            "the mesh has no texture coordinates (`vt`): a normal map cannot be laid out on it"
+                .into(),
+        ));
     }
+    if m.uvs.len() != m.positions.len() {
+        return Err(TextureError::Layout(format!(
+            "{} texture coordinates for {} vertices",
+            m.uvs.len(),
+            m.positions.len()
+        )));
+    }
+    if let Some((i, uv)) = m
+        .uvs
+        .iter()
+        .enumerate()
+        .find(|(_, uv)| !uv.is_finite() || uv.abs().max_element() > UV_LIMIT)
+    {
+        return Err(TextureError::Layout(format!(
+            "texture coordinate {} of vertex {} is beyond ±{UV_LIMIT}",
+            uv,
+            i + 1
+        )));
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -428,6 +476,57 @@ mod tests {
     /// the implied frame and the original in the UV frame name the same
     /// vector at each texel centre (an independent recomputation of both
     /// frames with f64 geometry).
+    /// On a torus about z the UV frame and the implied frame have closed
+    /// forms: `P = R(φ)(1 + 0.4 cos θ) + 0.4 sin θ·z`, `T_uv = ∂P/∂φ`
+    /// normalized `= (−sin φ, cos φ, 0)`, `B_uv = ∂N/∂θ = −R(φ) sin θ +
+    /// z cos θ`, `N = R(φ) cos θ + z sin θ`; the implied frame is
+    /// `T = (cos β, 0, −sin β)`, `β = atan2(N_x, N_z)`, `B = N × T`. Every
+    /// cleanly converted texel must be the texel rotated between the two
+    /// (within the mesh's own discretization: 1.5°, reached next to the
+    /// u seam where the vertex tangents average one side only).
+    #[test]
+    fn baking_matches_the_closed_form_frames_of_a_torus() {
+        let m = torus(48, Axis::Z);
+        let (w, h) = (256, 128);
+        let src = DVec3::new(0.35, -0.25, 0.9).normalize();
+        let map = NormalTexture {
+            width: w,
+            height: h,
+            texels: vec![src; w * h],
+        };
+        let b = bake_implied(&m, &map, Scheme::Quadratic).unwrap();
+        let mut checked = 0;
+        for y in 0..h {
+            for x in 0..w {
+                let k = y * w + x;
+                if b.flags[k] != TexelFlag::Converted {
+                    continue;
+                }
+                let uv = map.uv_of(x, y);
+                let (phi, th) = (uv.x * std::f64::consts::TAU, uv.y * std::f64::consts::TAU);
+                let r = DVec3::new(phi.cos(), phi.sin(), 0.0);
+                let n = r * th.cos() + DVec3::Z * th.sin();
+                let t_uv = DVec3::new(-phi.sin(), phi.cos(), 0.0);
+                let b_uv = -r * th.sin() + DVec3::Z * th.cos();
+                let world = t_uv * src.x + b_uv * src.y + n * src.z;
+                let beta = n.x.atan2(n.z);
+                let ti = DVec3::new(beta.cos(), 0.0, -beta.sin());
+                let bi = n.cross(ti);
+                let want = DVec3::new(world.dot(ti), world.dot(bi), world.dot(n));
+                let got = b.texture.texels[k];
+                let err = got
+                    .normalize()
+                    .dot(want)
+                    .clamp(-1.0, 1.0)
+                    .acos()
+                    .to_degrees();
+                assert!(err < 1.5, "texel ({x}, {y}): {got} vs {want} ({err}°)");
+                checked += 1;
+            }
+        }
+        assert!(checked > w * h / 2, "{checked}");
+    }
+
     #[test]
     fn baking_keeps_the_world_normal_and_flags_seams_and_poles() {
         for m in [sphere(24, Axis::Y), torus(24, Axis::Z)] {
@@ -440,7 +539,7 @@ mod tests {
                 height: h,
                 texels: (0..w * h).map(|_| rng.in_cone(DVec3::Z, 0.7)).collect(),
             };
-            let b = bake_implied(&m, &map, Scheme::Quadratic);
+            let b = bake_implied(&m, &map, Scheme::Quadratic).unwrap();
             let c = b.counts;
             assert_eq!(
                 c.converted + c.unused + c.seam + c.ambiguous + c.pole,
@@ -466,7 +565,7 @@ mod tests {
             height: 128,
             texels: vec![DVec3::new(0.3, 0.2, 0.93).normalize(); 64 * 128],
         };
-        let b = bake_implied(&m, &map, Scheme::Quadratic);
+        let b = bake_implied(&m, &map, Scheme::Quadratic).unwrap();
         for (k, f) in b.flags.iter().enumerate() {
             if *f == TexelFlag::Converted {
                 let d = b.texture.texels[k]
@@ -484,6 +583,12 @@ mod tests {
             height: 256,
             texels: vec![DVec3::Z; 128 * 256],
         };
-        assert!(bake_implied(&m, &map, Scheme::Quadratic).counts.pole > 0);
+        assert!(
+            bake_implied(&m, &map, Scheme::Quadratic)
+                .unwrap()
+                .counts
+                .pole
+                > 0
+        );
     }
 }

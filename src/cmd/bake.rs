@@ -49,14 +49,22 @@ pub fn run(a: &BakeArgs) -> anyhow::Result<()> {
     let map = crate::picture::read_normal_map(&a.normal_map, green)?;
     let scheme = fxshade_model::render::scheme_of(&cfg);
     let bar = crate::progress::bar(1, "bake-implied");
-    let b = bake_implied(&mesh, &map, scheme);
+    let b =
+        bake_implied(&mesh, &map, scheme).map_err(|e| anyhow::anyhow!("--mesh {}: {e}", a.mesh))?;
     bar.finish_and_clear();
     let bits: u32 = a.bits.parse().expect("clap checked");
+    // Both pictures are encoded before either is written.
     let png = crate::picture::normal_map_png(&b.texture, bits, green)?;
+    let flags = match &a.flags {
+        Some(f) => Some((
+            f,
+            crate::picture::flags_png(map.width, map.height, &b.flags)?,
+        )),
+        None => None,
+    };
     fxshade_model::files::write_atomic(&a.out, &png)
         .with_context(|| format!("cannot write {}", a.out.display()))?;
-    if let Some(f) = &a.flags {
-        let p = crate::picture::flags_png(map.width, map.height, &b.flags)?;
+    if let Some((f, p)) = flags {
         fxshade_model::files::write_atomic(f, &p)
             .with_context(|| format!("cannot write {}", f.display()))?;
     }
@@ -74,7 +82,7 @@ pub fn run(a: &BakeArgs) -> anyhow::Result<()> {
         ("converted", c.converted, "rewritten in the implied frame"),
         ("seam", c.seam, "within a texel of a UV seam: converted from one side; a sample near it may land across the seam"),
         ("ambiguous", c.ambiguous, "covered by several triangles whose frames differ by more than 1°: one texel cannot hold both"),
-        ("pole", c.pole, "normal within 2° of the y axis: the implied frame is singular there"),
+        ("pole", c.pole, "near a pole of the implied frame: normal within 2° of the y axis, or the frame turning more than 2° from one texel to the next"),
         ("unused", c.unused, "no triangle covers it: copied unchanged"),
     ] {
         t.row([name.to_string(), n.to_string(), pct(n), what.to_string()]);

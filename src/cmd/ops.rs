@@ -164,10 +164,12 @@ pub fn netlist_checks(cfg: &fxshade_model::Config) -> anyhow::Result<Vec<Netlist
             let h = &e.hardware;
             let mut model_mul: Vec<String> = h.muls.iter().map(|m| m.to_string()).collect();
             model_mul.sort();
+            // An add/subtracter is written as an add and a subtract.
             let mut model_add: Vec<String> = h
                 .adders
                 .iter()
                 .chain(&h.incrementers)
+                .chain(h.add_subs.iter().flat_map(|w| [w, w]))
                 .map(|w| format!("{w} + {w} → {w}"))
                 .collect();
             model_add.sort();

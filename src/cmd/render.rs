@@ -87,12 +87,13 @@ pub struct SceneArgs {
     /// transform's, e.g. from `fxshade bake-implied`) or `uv` (UV-aligned,
     /// MikkTSpace-style: converted for the mapped path, and the original
     /// rendered in f64 with the UV frame beside it for comparison).
-    #[arg(long, value_name = "FRAME", default_value = "implied", value_parser = ["implied", "uv"])]
-    normal_map_frame: String,
+    /// Default: implied.
+    #[arg(long, value_name = "FRAME", value_parser = ["implied", "uv"])]
+    normal_map_frame: Option<String>,
     /// Green convention of an image map: opengl (+y up) or directx (+y
-    /// down).
-    #[arg(long, value_name = "CONV", default_value = "opengl", value_parser = ["opengl", "directx"])]
-    green: String,
+    /// down). Default: opengl.
+    #[arg(long, value_name = "CONV", value_parser = ["opengl", "directx"])]
+    green: Option<String>,
 }
 
 fn parse_vec3(flag: &str, s: &str) -> anyhow::Result<glam::DVec3> {
@@ -120,6 +121,12 @@ impl SceneArgs {
             .iter()
             .find(|m| m.name() == self.normal_map)
         {
+            if self.normal_map_frame.is_some() || self.green.is_some() {
+                bail!(
+                    "--normal-map-frame and --green describe an image map; --normal-map {} is procedural",
+                    self.normal_map
+                );
+            }
             return Ok(m.clone());
         }
         let path = std::path::Path::new(&self.normal_map);
@@ -129,13 +136,15 @@ impl SceneArgs {
                 self.normal_map
             );
         }
-        let green = fxshade_model::texture::Green::from_name(&self.green).expect("clap checked");
+        let green =
+            fxshade_model::texture::Green::from_name(self.green.as_deref().unwrap_or("opengl"))
+                .expect("clap checked");
         let texture = crate::picture::read_normal_map(path, green)?;
         Ok(render::NormalMap::Image(std::sync::Arc::new(
             render::MapImage {
                 name: self.normal_map.clone(),
                 texture,
-                frame: if self.normal_map_frame == "uv" {
+                frame: if self.normal_map_frame.as_deref() == Some("uv") {
                     render::MapFrame::Uv
                 } else {
                     render::MapFrame::Implied
@@ -646,6 +655,18 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
     let methods = parse_methods(a.method.as_deref(), a.rtl)?;
     let scene = a.scene.scene()?;
     let m = load_mesh(&a.mesh)?;
+    if let render::NormalMap::Image(img) = &scene.normal_map {
+        fxshade_model::texture::check_layout(&m).map_err(|e| {
+            anyhow::anyhow!("--mesh {} with --normal-map {}: {e}", a.mesh, img.name)
+        })?;
+        if img.frame == render::MapFrame::Uv
+            && !methods.contains(&RenderMethod::Mapped(
+                fxshade_model::pipeline::AngleSource::Cordic,
+            ))
+        {
+            bail!("--normal-map-frame uv compares the mapped method with the UV-frame original: include mapped in --method");
+        }
+    }
     let dir = if a.force {
         StagedDir::new_forced(&a.out)
     } else {

@@ -44,14 +44,17 @@ fn write_atomic(path: &Path, text: &str) -> anyhow::Result<()> {
 }
 
 /// The emitted modules `fxshade rtl all` writes for a configuration: every
-/// unit, and the pipeline top for both paths.
+/// unit, and the pipeline top of every variant (smooth, mapped with CORDIC
+/// angles, mapped with interpolated angles).
 pub fn emit_all(cfg: &fxshade_model::Config) -> anyhow::Result<Vec<(&'static RtlUnit, Emitted)>> {
     let mut out = Vec::new();
     for u in units::all() {
         if u.name == "pipeline" {
-            for path in ["smooth", "mapped"] {
+            for (_, set) in u.variants {
                 let mut c = cfg.clone();
-                c.apply_override(&format!("pipeline.path=\"{path}\""))?;
+                for o in units::overrides(set) {
+                    c.apply_override(o)?;
+                }
                 out.push((u, units::emit_unit(u, &c)?.1));
             }
         } else {
@@ -120,6 +123,7 @@ pub fn run(a: &RtlArgs) -> anyhow::Result<()> {
         "latency",
         "multipliers",
         "adders (result bits)",
+        "add/subtracters (bits)",
         "rounding incrementers (bits)",
         "table reads",
         "ROM bits",
@@ -144,6 +148,7 @@ pub fn run(a: &RtlArgs) -> anyhow::Result<()> {
             e.latency.to_string(),
             grouped(h.muls.iter().map(|m| m.to_string())),
             grouped(h.adders.iter().map(|w| format!("{w}"))),
+            grouped(h.add_subs.iter().map(|w| format!("{w}"))),
             grouped(h.incrementers.iter().map(|w| format!("{w}"))),
             h.table_reads.to_string(),
             h.rom_bits.to_string(),

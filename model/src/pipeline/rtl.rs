@@ -41,7 +41,10 @@ pub fn design(cfg: &Config) -> Result<crate::rtl::Design, RtlError> {
         Path::Mapped => format!("mapped ({} angles)", p.angles.name()),
     };
     let mut d = crate::rtl::Design::new(DECL.name, &variant, p.trace(path)?, cfg, notes);
-    d.module = format!("pipeline_{}", path.name());
+    d.module = match (path, p.angles) {
+        (Path::Mapped, super::AngleSource::Interpolate) => "pipeline_mapped_interp".into(),
+        _ => format!("pipeline_{}", path.name()),
+    };
     Ok(d)
 }
 

@@ -117,6 +117,10 @@ pub struct Hardware {
     pub muls: Vec<MulHw>,
     /// Every adder and subtractor of the datapath, by result width, sorted.
     pub adders: Vec<u32>,
+    /// Every adder/subtracter steered by a sign bit (`add_signed`), by
+    /// result width, sorted: one unit each, written as an add and a
+    /// subtract under a `? :` that synthesis merges (Yosys's `opt_share`).
+    pub add_subs: Vec<u32>,
     /// Every rounding incrementer, by result width, sorted.
     pub incrementers: Vec<u32>,
     /// Comparators (`max`).
@@ -543,8 +547,7 @@ impl<'a> Emitter<'a> {
                 let xb = bits::align(&vb, (sym.frac - vb.frac) as u32, w);
                 // One adder/subtracter: its mode is the sign bit of `sg`
                 // (Yosys's opt_share merges the pair into one $alu).
-                self.hw.adders.push(w);
-                self.hw.adders.push(w);
+                self.hw.add_subs.push(w);
                 let neg = format!("{name}_sub");
                 let bit = vs.sign_bit();
                 // Only the sign of `sg` is read here; where nothing else
@@ -799,6 +802,7 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
     e.hw.flops += latency as u64; // valid bits
     e.hw.muls.sort();
     e.hw.adders.sort();
+    e.hw.add_subs.sort();
     e.hw.incrementers.sort();
 
     // Header.
