@@ -19,7 +19,12 @@
 //!
 //! `K_n = ∏ √(1 + 2^−2i)` is the gain of `n` micro-rotations; it is folded
 //! into one constant product `K·y` (`gain` stage: the constant's format) so
-//! both arguments of the second vectoring carry the same scale. The shifted
+//! both arguments of the second vectoring carry the same scale. With
+//! `gain_mode = "shift_add"` the same product `K_q·y` (`K_q` the gain
+//! code) is built from the canonical signed-digit form of `K_q`:
+//! `Σ d_j·(y·2^e_j)`, `d_j = ±1`, shifts and one addition or subtraction per
+//! digit after the first, no multiplier — bit-identical to `"product"`
+//! ([`csd`]). The shifted
 //! operand `v·2^−i` is added exactly and the sum rounded once by `Q_xy` (with
 //! `trunc` that is the usual arithmetic shift right). Each micro-rotation is
 //! one adder/subtracter per coordinate steered by the sign bit of `v`
@@ -59,7 +64,12 @@ pub static DECL: UnitDecl = UnitDecl {
         },
         FieldDecl { name: "normal", kind: FieldKind::Stage, doc: "input port: the normal's components (any length)" },
         FieldDecl { name: "xy", kind: FieldKind::Stage, doc: "micro-rotation coordinates u, v and K·y: each sum rounded once (trunc = arithmetic shift right)" },
-        FieldDecl { name: "gain", kind: FieldKind::Stage, doc: "the CORDIC gain K_n = ∏ √(1 + 2^−2i), a constant multiplying y so both vectorings see the same scale" },
+        FieldDecl { name: "gain", kind: FieldKind::Stage, doc: "the CORDIC gain K_n = ∏ √(1 + 2^−2i), a constant multiplying y so both vectorings see the same scale (its format sets the constant's precision)" },
+        FieldDecl {
+            name: "gain_mode",
+            kind: FieldKind::Choice(&["product", "shift_add"]),
+            doc: "K·y by a constant multiplier, or by shifts and additions of K's canonical signed digits (the same value, no multiplier)",
+        },
         FieldDecl { name: "theta", kind: FieldKind::Stage, doc: "angle accumulator and arctangent constants, a fraction of a turn (unsigned, 0 integer bits; must wrap)" },
         FieldDecl { name: "out", kind: FieldKind::Stage, doc: "output angles α, β, a fraction of a turn: rounding (format U0F<polar.angle_bits>, the polar transform's angle format; must wrap)" },
     ],
@@ -77,7 +87,10 @@ pub static UNIT: UnitEntry = UnitEntry {
 pub static RTL: crate::rtl::units::RtlUnit = crate::rtl::units::RtlUnit {
     name: "angles",
     doc: "polar angles α, β of the normal by CORDIC vectoring (method B's per-pixel angles)",
-    variants: &[("cordic", "")],
+    variants: &[
+        ("product", "angles.gain_mode=\"product\""),
+        ("shift_add", "angles.gain_mode=\"shift_add\""),
+    ],
     design: crate::angles::rtl::design,
     inputs: crate::angles::rtl::inputs,
 };
@@ -109,6 +122,9 @@ pub struct Angles {
     pub xy: Quant,
     /// Format of the gain constant.
     pub gain: Quant,
+    /// `K·y` by a multiplier (`false`) or by shifts and additions of the
+    /// signed digits of `K_q` (`true`).
+    pub shift_add: bool,
     /// Angle accumulator.
     pub theta: Quant,
     /// Output angles.
@@ -133,6 +149,26 @@ pub fn gain(n: u32) -> f64 {
     (0..n)
         .map(|i| (1.0 + (-2.0 * i as f64).exp2()).sqrt())
         .product()
+}
+
+/// The canonical signed-digit form of `code`: `(d, e)` pairs with
+/// `code = Σ d·2^e`, `d = ±1`, no two exponents adjacent, most significant
+/// first (the fewest non-zero digits of any signed-digit form).
+pub fn csd(code: i128) -> Vec<(i8, u32)> {
+    let mut v = Vec::new();
+    let (mut c, mut e) = (code, 0u32);
+    while c != 0 {
+        if c & 1 == 1 {
+            // 01 → +1; 11 → −1 and carry.
+            let d: i8 = if c & 3 == 3 { -1 } else { 1 };
+            v.push((d, e));
+            c -= d as i128;
+        }
+        c >>= 1;
+        e += 1;
+    }
+    v.reverse();
+    v
 }
 
 /// `atan(2^−i)` as a fraction of a turn.
@@ -167,6 +203,7 @@ impl Angles {
             normal: u.stage("normal"),
             xy: u.stage("xy"),
             gain: u.stage("gain"),
+            shift_add: u.choice("gain_mode") == "shift_add",
             theta: u.stage("theta"),
             out: u
                 .stage("out")
@@ -254,7 +291,27 @@ impl Angles {
         let v = cx.quantize(v, &self.xy);
         let t = cx.quantize(t, &self.theta);
         let (r, beta) = self.vectoring(cx, k, u, v, t);
-        let ky = cx.mul(k.gain, y);
+        let ky = if self.shift_add {
+            // Σ d_j·y·2^e_j over the signed digits of the gain code.
+            let f = self.gain.format();
+            let code = self
+                .gain
+                .apply_f64(gain(self.iterations))
+                .map_or(0, |r| r.code);
+            let mut acc: Option<C::V> = None;
+            for (d, e) in csd(code) {
+                let t = cx.shl(y, e as i32 - f.frac());
+                acc = Some(match acc {
+                    None if d > 0 => t,
+                    None => cx.sub(k.zero, t),
+                    Some(a) if d > 0 => cx.add(a, t),
+                    Some(a) => cx.sub(a, t),
+                });
+            }
+            acc.unwrap_or(k.zero)
+        } else {
+            cx.mul(k.gain, y)
+        };
         let ky = cx.quantize(ky, &self.xy);
         let t0 = cx.quantize(k.zero, &self.theta);
         let (_, alpha) = self.vectoring(cx, k, r, ky, t0);
@@ -349,7 +406,11 @@ fn ops(cfg: &Config) -> Vec<OpReport> {
     };
     vec![OpReport::from_count(
         DECL.name,
-        "cordic",
+        if a.shift_add {
+            "cordic, gain by shifts and additions"
+        } else {
+            "cordic, gain by a multiplier"
+        },
         Phase::Pixel,
         &cx,
         None,
@@ -369,6 +430,48 @@ mod tests {
     /// Turn difference wrapped into [−½, ½).
     fn dturn(a: f64, b: f64) -> f64 {
         (a - b + 0.5).rem_euclid(1.0) - 0.5
+    }
+
+    #[test]
+    fn signed_digits_sum_to_the_code_and_are_never_adjacent() {
+        for c in [0i128, 1, 2, 3, 7, 215_847, 0b1011_0111, 65_535] {
+            let d = csd(c);
+            assert_eq!(
+                d.iter()
+                    .map(|&(s, e)| s as i128 * (1i128 << e))
+                    .sum::<i128>(),
+                c
+            );
+            assert!(d.windows(2).all(|w| w[0].1 > w[1].1 + 1), "{c}: {d:?}");
+        }
+        // 7 = 8 − 1: two digits, not three.
+        assert_eq!(csd(7), vec![(1, 3), (-1, 0)]);
+    }
+
+    #[test]
+    fn shift_add_gain_is_bit_identical_to_the_product_and_needs_no_multiplier() {
+        let c = Config::resolve(None, &["angles.gain_mode=\"shift_add\"".into()]).unwrap();
+        let sa = Angles::of(&c).unwrap();
+        let pr = unit();
+        let counts = sa.count().unwrap().counts();
+        assert_eq!(counts.mul, 0);
+        let f = pr.gain.format();
+        let code = pr.gain.apply_f64(gain(pr.iterations)).unwrap().code;
+        let digits = csd(code).len() as u64;
+        let n = pr.iterations as u64;
+        assert_eq!(counts.add, 3 + 6 * n + digits - 1, "{f}");
+        let (ps, ss) = (pr.compile().unwrap(), sa.compile().unwrap());
+        let mut rng = crate::sampling::Rng::new(12);
+        let q = |x: f64| pr.normal.apply_f64(x).unwrap().code;
+        let mut cols: [Vec<i128>; 3] = Default::default();
+        for _ in 0..20_000 {
+            let d = rng.direction() * (0.9 + 0.2 * rng.unit());
+            for k in 0..3 {
+                cols[k].push(q(d[k]));
+            }
+        }
+        let refs: Vec<&[i128]> = cols.iter().map(|c| c.as_slice()).collect();
+        assert_eq!(ps.run_i128(&refs).0, ss.run_i128(&refs).0);
     }
 
     #[test]

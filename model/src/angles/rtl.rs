@@ -13,17 +13,22 @@ use crate::vectors::RtlError;
 pub fn design(cfg: &Config) -> Result<crate::rtl::Design, RtlError> {
     let a = Angles::of(cfg)?;
     let notes = vec![format!(
-        "{} micro-rotations per angle; coordinates {}, accumulator {}, gain K = {:.6} in {}; outputs {}",
+        "{} micro-rotations per angle; coordinates {}, accumulator {}, gain K = {:.6} in {} ({}); outputs {}",
         a.iterations,
         a.xy.format(),
         a.theta.format(),
         super::gain(a.iterations),
         a.gain.format(),
+        if a.shift_add {
+            "shifts and additions of its signed digits"
+        } else {
+            "a constant multiplier"
+        },
         a.out.format()
     )];
     Ok(crate::rtl::Design::new(
         DECL.name,
-        "cordic",
+        if a.shift_add { "shift_add" } else { "product" },
         a.trace()?,
         cfg,
         notes,
