@@ -31,13 +31,15 @@ pub struct RenderArgs {
     #[arg(long, value_name = "WxH", default_value = "256x256")]
     size: String,
     /// Methods, comma-separated: exact, none, newton, taylor, linear,
-    /// quadratic (the normalizer on the smooth path), mapped (the normal-map
-    /// path), or all. Default: all; with --rtl, the ones the RTL implements
-    /// (linear, quadratic, mapped).
+    /// quadratic (the normalizer on the smooth path); mapped (the normal-map
+    /// path, angles of N by CORDIC), mapped-interp (angles interpolated per
+    /// vertex), tbn (the conventional interpolated TBN transform with a
+    /// normalization, no RTL); or all. Default: all; with --rtl, the ones
+    /// the RTL implements (linear, quadratic, mapped, mapped-interp).
     #[arg(long, value_name = "M[,M…]")]
     method: Option<String>,
     /// Also run every pixel through the simulated RTL top
-    /// (`rtl/pipeline.v`); the RTL image must equal the model's, bit for bit.
+    /// (`rtl/pipeline_*.v`); the RTL image must equal the model's, bit for bit.
     #[arg(long)]
     rtl: bool,
     /// Simulator for --rtl.
