@@ -36,6 +36,17 @@ fn error_angles_is_within_a_least_significant_bit_of_atan2() {
     assert!(j["max_beta_lsb"].as_f64().unwrap() <= 1.0, "{j}");
     // Inside the polar cap β is ill-conditioned: reported, larger.
     assert!(j["max_beta_lsb_cap"].as_f64().unwrap() > j["max_beta_lsb"].as_f64().unwrap());
+    // Another input format keeps its corner cases (poles, axes, seam).
+    let o = json(&[
+        "error",
+        "angles",
+        "--count",
+        "1000",
+        "--set",
+        "angles.normal.format=I2F12",
+        "--json",
+    ]);
+    assert!(o["samples"].as_u64().unwrap() > 1000, "{o}");
     // A narrow input format is covered code by code.
     let n = json(&[
         "error",

@@ -769,11 +769,10 @@ pub struct AnglesReport {
 /// around the poles, the extreme codes) and `count` random directions with
 /// lengths from the shortest to the longest normal quadratic interpolation
 /// produces at Θ = 0 (`[√d_min, √d_max]`).
-pub fn angles_inputs(
-    a: &crate::angles::Angles,
-    count: usize,
-    seed: u64,
-) -> (Vec<[i128; 3]>, &'static str) {
+pub fn angles_inputs(cfg: &Config, count: usize, seed: u64) -> (Vec<[i128; 3]>, &'static str) {
+    let Ok(a) = crate::angles::Angles::of(cfg) else {
+        return (Vec::new(), "none");
+    };
     let f = a.normal.format();
     if 3 * f.width() <= 21 {
         let mut v = Vec::new();
@@ -786,19 +785,14 @@ pub fn angles_inputs(
         }
         return (v, "all codes");
     }
-    let cfg = Config::embedded();
+    // The unit's own corner cases, in the configured input format.
     let mut rows: Vec<[i128; 3]> =
-        crate::angles::rtl::inputs(&cfg, crate::rtl::units::Part::Corners, 0)
+        crate::angles::rtl::inputs(cfg, crate::rtl::units::Part::Corners, 0)
             .unwrap_or_default()
             .into_iter()
             .filter(|r| r.len() == 3)
             .map(|r| [r[0], r[1], r[2]])
             .collect();
-    // The corners above are in the default format; re-quantize them when
-    // the configured one differs.
-    if cfg.unit(crate::angles::DECL.name).stage("normal").format() != f {
-        rows.clear();
-    }
     let (dlo, dhi) = crate::interp::quadratic_d_range(0.0, crate::interp::Scheme::Quadratic);
     let (lo, hi) = (dlo.sqrt(), dhi.sqrt());
     let code = |x: f64| a.normal.apply_f64(x).map_or(0, |r| r.code);
@@ -822,7 +816,7 @@ pub fn angles(cfg: &Config, count: usize, seed: u64) -> Result<AnglesReport, Ana
     let a = crate::angles::Angles::of(cfg).map_err(AnalysisError::Angles)?;
     let prog = a.compile().map_err(AnalysisError::Angles)?;
     let f = a.normal.format();
-    let (inputs, coverage) = angles_inputs(&a, count, seed);
+    let (inputs, coverage) = angles_inputs(cfg, count, seed);
     let k = a.out.format().width();
     let turn = (1u64 << k) as f64;
     let mut st = AnglesStats {

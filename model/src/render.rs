@@ -751,17 +751,10 @@ pub fn frame_in(scene: &Scene, p: &Pipeline, raster: Raster, mesh: &Mesh) -> Fra
         let n_obj = interp::field(&so.tri, fr.c, scheme).normalize();
         let (tex, texel_ok) = match &baked {
             Some(b) => {
-                let m = image.as_ref().expect("baked from an image");
-                let (x, y) = m.texture.texel_of(fr.uv);
-                let k = y * m.texture.width + x;
-                let t = b.texture.texels[k];
+                let (x, y) = b.texture.texel_of(fr.uv);
                 (
-                    if t.length() > 1e-12 {
-                        t.normalize()
-                    } else {
-                        DVec3::Z
-                    },
-                    b.flags[k] == crate::texture::TexelFlag::Converted,
+                    b.texture.at(fr.uv),
+                    b.flags[y * b.texture.width + x] == crate::texture::TexelFlag::Converted,
                 )
             }
             None => (scene.normal_map.at(fr.uv), true),
