@@ -1,8 +1,10 @@
 //! `fxshade`: the command-line tool over the fxshade model.
 
 mod cmd;
+mod explore;
 mod output;
 mod picture;
+mod plot;
 mod progress;
 mod rtl_flow;
 
@@ -83,6 +85,11 @@ enum Command {
     /// the simulated RTL top, which must give the same image), and write the
     /// images, error heat-maps and metrics against the f64 reference.
     Render(cmd::render::RenderArgs),
+    /// Design exploration: sweep any configuration key, width group,
+    /// method or table depth; measure each point's error (unit analyses,
+    /// rendered images) and hardware cost; Pareto fronts and plots; with
+    /// --optimize, the cheapest per-stage widths meeting goals.
+    Explore(cmd::explore::ExploreArgs),
     /// Benchmarks of the model's speed.
     #[command(subcommand)]
     Bench(cmd::bench::BenchCmd),
@@ -107,6 +114,7 @@ fn main() -> ExitCode {
         Command::Mutate(a) => cmd::mutate::run(a),
         Command::Merge(a) => cmd::merge::run(a),
         Command::Render(a) => cmd::render::run(a),
+        Command::Explore(a) => cmd::explore::run(a),
     };
     match r {
         Ok(()) => ExitCode::SUCCESS,
@@ -125,6 +133,10 @@ fn main() -> ExitCode {
                 for line in ce.0.iter() {
                     eprintln!("error: {line}");
                 }
+                return ExitCode::from(2);
+            }
+            if let Some(u) = e.downcast_ref::<output::UsageError>() {
+                eprintln!("error: {u}");
                 return ExitCode::from(2);
             }
             eprintln!("error: {e:#}");

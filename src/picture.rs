@@ -20,24 +20,59 @@ fn encode(width: usize, height: usize, ct: png::ColorType, px: &[u8]) -> anyhow:
     Ok(out)
 }
 
-/// The heat-map's classes: label and colour, by error in levels.
-pub const CLASSES: [(&str, [u8; 3]); 6] = [
-    ("0", [25, 45, 120]),
-    ("1", [40, 170, 80]),
-    ("2", [235, 205, 40]),
-    ("3", [245, 130, 30]),
-    ("4-7", [215, 35, 30]),
-    ("8+", [255, 0, 255]),
+/// Colours of the heat-map's classes, in order: exact, 1, 2, 3 levels,
+/// then the classes above 3 from red to white.
+pub const PALETTE: [[u8; 3]; 10] = [
+    [25, 45, 120],
+    [40, 170, 80],
+    [235, 205, 40],
+    [245, 130, 30],
+    [215, 35, 30],
+    [255, 0, 255],
+    [160, 60, 255],
+    [120, 200, 255],
+    [200, 200, 200],
+    [255, 255, 255],
 ];
 /// Colour of pixels no triangle covers.
 pub const BACKGROUND: [u8; 3] = [0, 0, 0];
 
-/// The class of an error of `e` levels.
-pub fn class_of(e: u32) -> usize {
-    match e {
-        0..=3 => e as usize,
-        4..=7 => 4,
-        _ => 5,
+/// The heat-map's classes for a largest error of `max` levels, as
+/// inclusive `(lo, hi)` ranges: `0`, `1`, `2`, `3`, then doubling ranges
+/// `4–7`, `8–15`, … of which the last ends at `max` itself, so the legend
+/// shows the actual largest error (an 83-level error reads `64-83`, not
+/// `8+`). Only classes up to `max` are listed (at least `0`).
+pub fn classes(max: u32) -> Vec<(u32, u32)> {
+    let mut c: Vec<(u32, u32)> = (0..=max.min(3)).map(|e| (e, e)).collect();
+    let mut lo = 4u32;
+    while lo <= max && c.len() < PALETTE.len() {
+        let hi = if c.len() + 1 == PALETTE.len() {
+            max
+        } else {
+            lo.saturating_mul(2).saturating_sub(1).min(max)
+        };
+        c.push((lo, hi));
+        lo = match hi.checked_add(1) {
+            Some(l) => l,
+            None => break,
+        };
+    }
+    c
+}
+
+/// The class of an error of `e` levels among `classes`.
+pub fn class_of(classes: &[(u32, u32)], e: u32) -> usize {
+    classes
+        .iter()
+        .position(|&(lo, hi)| (lo..=hi).contains(&e))
+        .unwrap_or(classes.len() - 1)
+}
+
+fn label((lo, hi): (u32, u32)) -> String {
+    if lo == hi {
+        lo.to_string()
+    } else {
+        format!("{lo}-{hi}")
     }
 }
 
@@ -105,19 +140,21 @@ impl Canvas {
 const S: usize = 2;
 const PAD: usize = 4;
 
-fn legend_width() -> usize {
+fn legend_width(classes: &[(u32, u32)]) -> usize {
     let mut w = PAD;
-    for (label, _) in CLASSES {
-        w += 5 * S + 2 * S + label.len() * 4 * S + 3 * S;
+    for &c in classes {
+        w += 5 * S + 2 * S + label(c).len() * 4 * S + 3 * S;
     }
     w + "LEVELS".len() * 4 * S + PAD
 }
 
 /// An error heat-map as PNG: `err[pixel]` in levels (`None`: not covered),
-/// coloured by [`CLASSES`], with a legend strip below the image.
+/// coloured by the [`classes`] of its largest error, with a legend strip
+/// below the image that prints each class's bounds.
 pub fn heatmap_png(width: usize, height: usize, err: &[Option<u32>]) -> anyhow::Result<Vec<u8>> {
+    let classes = classes(err.iter().flatten().copied().max().unwrap_or(0));
     let legend_h = 5 * S + 2 * PAD;
-    let w = width.max(legend_width());
+    let w = width.max(legend_width(&classes));
     let h = height + legend_h;
     let mut c = Canvas {
         w,
@@ -129,16 +166,16 @@ pub fn heatmap_png(width: usize, height: usize, err: &[Option<u32>]) -> anyhow::
         for x in 0..width {
             let col = match err[y * width + x] {
                 None => BACKGROUND,
-                Some(e) => CLASSES[class_of(e)].1,
+                Some(e) => PALETTE[class_of(&classes, e)],
             };
             c.set(x0 + x, y, col);
         }
     }
     let white = [235, 235, 235];
     let (mut x, y) = (PAD, height + PAD);
-    for (label, col) in CLASSES {
-        c.rect(x, y, 5 * S, 5 * S, col);
-        x = c.text(x + 5 * S + 2 * S, y, S, label, white) + 2 * S;
+    for (k, &cl) in classes.iter().enumerate() {
+        c.rect(x, y, 5 * S, 5 * S, PALETTE[k]);
+        x = c.text(x + 5 * S + 2 * S, y, S, &label(cl), white) + 2 * S;
     }
     c.text(x, y, S, "LEVELS", white);
     encode(w, h, png::ColorType::Rgb, &c.px)
@@ -275,14 +312,42 @@ mod tests {
         let mut buf = vec![0; r.output_buffer_size()];
         let info = r.next_frame(&mut buf).unwrap();
         let w = info.width as usize;
-        assert!(w >= legend_width() && info.height as usize > 1);
+        assert!(w >= legend_width(&classes(300)) && info.height as usize > 1);
         let x0 = (w - 6) / 2;
         let px = |x: usize| [buf[3 * x], buf[3 * x + 1], buf[3 * x + 2]];
         assert_eq!(px(x0), BACKGROUND);
-        assert_eq!(px(x0 + 1), CLASSES[0].1);
-        assert_eq!(px(x0 + 2), CLASSES[1].1);
-        assert_eq!(px(x0 + 3), CLASSES[2].1);
-        assert_eq!(px(x0 + 4), CLASSES[4].1);
-        assert_eq!(px(x0 + 5), CLASSES[5].1);
+        assert_eq!(px(x0 + 1), PALETTE[0]);
+        assert_eq!(px(x0 + 2), PALETTE[1]);
+        assert_eq!(px(x0 + 3), PALETTE[2]);
+        assert_eq!(px(x0 + 4), PALETTE[4]);
+        // 300 levels: the last class, 128-300.
+        assert_eq!(px(x0 + 5), PALETTE[9]);
+    }
+
+    #[test]
+    fn heat_map_classes_end_at_the_largest_error() {
+        assert_eq!(classes(0), [(0, 0)]);
+        assert_eq!(classes(2), [(0, 0), (1, 1), (2, 2)]);
+        assert_eq!(
+            classes(83),
+            [
+                (0, 0),
+                (1, 1),
+                (2, 2),
+                (3, 3),
+                (4, 7),
+                (8, 15),
+                (16, 31),
+                (32, 63),
+                (64, 83)
+            ]
+        );
+        // 13 and 83 levels no longer share a class.
+        let c = classes(83);
+        assert_ne!(class_of(&c, 13), class_of(&c, 83));
+        // At most one class per colour; the last still ends at the maximum.
+        let c = classes(u32::MAX);
+        assert_eq!(c.len(), PALETTE.len());
+        assert_eq!(c.last().unwrap().1, u32::MAX);
     }
 }

@@ -13,3 +13,17 @@ pub fn bar(len: u64, what: &str) -> ProgressBar {
     b.set_prefix(what.to_string());
     b
 }
+
+/// A bar of `len` steps labelled `what`, with the rate and the time left.
+pub fn bar_eta(len: u64, what: &str) -> ProgressBar {
+    let b = ProgressBar::new(len);
+    b.set_style(
+        ProgressStyle::with_template(
+            "{prefix} [{bar:30}] {pos}/{len} {msg} ({elapsed}, about {eta} left)",
+        )
+        .expect("valid template")
+        .progress_chars("=> "),
+    );
+    b.set_prefix(what.to_string());
+    b
+}

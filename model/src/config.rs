@@ -72,7 +72,25 @@ pub struct UnitDecl {
     pub doc: &'static str,
     /// Its fields, in the order `config show` prints them.
     pub fields: &'static [FieldDecl],
+    /// The named width groups its stage fields belong to, as
+    /// `(group, fields)`: `fxshade explore --vary width.<group>=W` sets the
+    /// total width of every member of the group, in every unit, to `W`
+    /// bits, keeping each member's integer bits (see [`WIDTH_GROUPS`]).
+    pub groups: &'static [(&'static str, &'static [&'static str])],
 }
+
+/// The width groups and what they carry, in the order `explore` lists them.
+/// A group's members are declared by the units ([`UnitDecl::groups`]).
+pub const WIDTH_GROUPS: &[(&str, &str)] = &[
+    ("normals", "every format that carries a normal: vertex normals, the interpolated normal, the normalizer's input and output, the lighting unit's N, the CORDIC input"),
+    ("light", "unit light and half vectors and their tangent-space images: lighting.light, polar.lyz, polar.out"),
+    ("normalizer", "the g(d) datapath: d, the coefficients, the Horner intermediate, g"),
+    ("interp", "the barycentrics and the quadratic weights"),
+    ("tables", "the sin/cos table entries"),
+    ("cordic", "the CORDIC coordinates and angle accumulator"),
+    ("shading", "N·L, N·H and the specular power chain"),
+    ("level", "the output intensity level: 8 integer bits for the 8-bit pixel, and any fraction bits beyond it (U8F0 is the pixel itself)"),
+];
 
 impl UnitDecl {
     fn field(&self, name: &str) -> Option<(usize, &'static FieldDecl)> {
@@ -569,6 +587,56 @@ impl Config {
         unit.values[i] = (new, at);
         self.overrides.push(spec.to_string());
         Ok(())
+    }
+
+    /// The members of width group `group` ([`WIDTH_GROUPS`]) as
+    /// `unit.field` keys with their configured stages, in registry order;
+    /// `None` for a group no unit declares.
+    pub fn group_members(&self, group: &str) -> Option<Vec<(String, Quant)>> {
+        let members: Vec<(String, Quant)> = self
+            .units
+            .iter()
+            .flat_map(|u| {
+                u.decl
+                    .groups
+                    .iter()
+                    .filter(|(g, _)| *g == group)
+                    .flat_map(|(_, fields)| fields.iter())
+                    .map(move |f| (format!("{}.{f}", u.decl.name), u.stage(f)))
+            })
+            .collect();
+        (!members.is_empty()).then_some(members)
+    }
+
+    /// The `--set` overrides that give every member of `group` a total
+    /// width of `width` bits: each member keeps its signedness and integer
+    /// bits (`I2F14` at 12 bits is `I2F10`). An error names a member whose
+    /// integer bits leave no room (or a group no unit declares).
+    pub fn group_overrides(&self, group: &str, width: u32) -> Result<Vec<String>, String> {
+        let members = self.group_members(group).ok_or_else(|| {
+            format!(
+                "no width group `{group}`; the groups are {}",
+                WIDTH_GROUPS
+                    .iter()
+                    .map(|(g, _)| *g)
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )
+        })?;
+        members
+            .iter()
+            .map(|(key, q)| {
+                let f = q.format();
+                let frac = width as i32 - f.int_bits();
+                Format::new(f.signed(), width, frac)
+                    .map(|nf| format!("{key}.format={nf}"))
+                    .map_err(|e| {
+                        format!(
+                            "width.{group}={width}: {key} ({f}) cannot keep its integer bits: {e}"
+                        )
+                    })
+            })
+            .collect()
     }
 
     /// The section of the unit declared by `decl`.

@@ -82,6 +82,12 @@ pub static DECL: UnitDecl = UnitDecl {
             doc: "Blinn–Phong exponent n of max(0, N·H)^n",
         },
     ],
+    groups: &[
+        ("normals", &["normal"]),
+        ("light", &["light"]),
+        ("shading", &["dot", "spec"]),
+        ("level", &["level"]),
+    ],
 };
 
 /// The registry entry.

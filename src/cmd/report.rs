@@ -36,20 +36,12 @@ pub const REPORT_MESHES: [&str; 6] = [
     "torus:48",
 ];
 
-/// The mapped path three ways, side by side: op counts per pixel (from the
-/// counting runs) and the image metrics outside and inside the polar cap,
-/// with images.
-fn method_b_section(
+/// The mapped path three ways: op counts per pixel of each variant, the
+/// transforms alone, and image metrics outside and inside the polar cap.
+pub fn method_b_tables(
     cfg: &fxshade_model::Config,
     renders: &[(String, super::render::RenderResult)],
-) -> anyhow::Result<String> {
-    let mut s = String::from(
-        "`mapped`: per-pixel angles of the interpolated normal by CORDIC (the default, \
-         `pipeline.angles = \"cordic\"`); `mapped-interp`: per-vertex angles interpolated \
-         (`\"interpolate\"`); `tbn`: the conventional transform, per-vertex tangent frames \
-         interpolated, `L' = normalize(M·L)` with a square root and a division (no RTL). \
-         Operations per pixel, measured by the counting runs:\n\n```text\n",
-    );
+) -> anyhow::Result<[crate::output::Table; 3]> {
     let ops = fxshade_model::pipeline::ops_for(cfg)?;
     let mut t = crate::output::Table::new([
         "variant",
@@ -59,7 +51,8 @@ fn method_b_section(
         "table reads",
         "sqrt",
         "div",
-    ]);
+    ])
+    .titled("Operations per pixel (counting runs)");
     for r in ops.iter().filter(|r| r.variant.starts_with("mapped")) {
         let c = &r.counts;
         t.row([
@@ -72,9 +65,6 @@ fn method_b_section(
             c.div.to_string(),
         ]);
     }
-    s += &t.render();
-    s += "```\n\nThe transforms alone, per vector (L or H) and per pixel (the angles of N), \
-          from the units' counting runs:\n\n```text\n";
     let mut u = crate::output::Table::new([
         "unit",
         "variant",
@@ -85,7 +75,8 @@ fn method_b_section(
         "sqrt",
         "div",
         "paper",
-    ]);
+    ])
+    .titled("The transforms alone, per vector (L or H) and per pixel (the angles of N)");
     for r in super::ops::reports(cfg)
         .iter()
         .filter(|r| r.unit == "polar" || r.unit == "angles")
@@ -105,12 +96,6 @@ fn method_b_section(
                 .map_or("-".into(), |p| p.source.to_string()),
         ]);
     }
-    s += &u.render();
-    s += &format!(
-        "```\n\nAgainst the mapped f64 reference (angles of the exact normal), outside the \
-         {cap}° polar cap and inside it (where β and the implied frame are singular):\n\n```text\n",
-        cap = fxshade_model::render::POLAR_CAP_DEG
-    );
     let mut m = crate::output::Table::new([
         "mesh",
         "method",
@@ -120,7 +105,11 @@ fn method_b_section(
         "under 4 % outside",
         "cap pixels",
         "max |err| in cap",
-    ]);
+    ])
+    .titled(format!(
+        "Against the mapped f64 reference, outside the {}° polar cap and inside it",
+        fxshade_model::render::POLAR_CAP_DEG
+    ));
     for (_, r) in renders {
         for mr in r.methods.iter().filter(|x| x.outside_cap.is_some()) {
             let (o, c) = (
@@ -143,6 +132,25 @@ fn method_b_section(
             ]);
         }
     }
+    Ok([t, u, m])
+}
+
+/// The mapped path three ways, side by side, as Markdown.
+fn method_b_section(
+    cfg: &fxshade_model::Config,
+    renders: &[(String, super::render::RenderResult)],
+) -> anyhow::Result<String> {
+    let [t, u, m] = method_b_tables(cfg, renders)?;
+    let mut s = String::from(
+        "`mapped`: per-pixel angles of the interpolated normal by CORDIC (the default, \
+         `pipeline.angles = \"cordic\"`); `mapped-interp`: per-vertex angles interpolated \
+         (`\"interpolate\"`); `tbn`: the conventional transform, per-vertex tangent frames \
+         interpolated, `L' = normalize(M·L)` with a square root and a division (no RTL).\n\n```text\n",
+    );
+    s += &t.render();
+    s += "```\n\n```text\n";
+    s += &u.render();
+    s += "```\n\n```text\n";
     s += &m.render();
     s += "```\n\n| mesh | mapped reference | mapped (CORDIC) | its error | mapped-interp | its error | tbn | its error | tbn in f64: error |\n\
           |---|---|---|---|---|---|---|---|---|\n";
@@ -157,6 +165,322 @@ fn method_b_section(
     Ok(s)
 }
 
+/// The summary's recommendation as Markdown.
+fn summary_markdown(sweeps: &[MethodSweep]) -> String {
+    let mut s = String::from(
+        "## Summary\n\nThe cheapest uniform width (every stage of a width group on the method's path; \
+         the output stays the 8-bit pixel) meeting the paper's 4 % bound and ±1 level on sphere:12 and \
+         torus:24 at 128×128, from a sweep of 9 to 18 bits:\n\n\
+         | method | width | bit products | adder bits | table bits | flip-flops | max error (levels) | max rel. error |\n\
+         |---|---|---|---|---|---|---|---|\n",
+    );
+    for m in sweeps {
+        match m.recommended {
+            Some(k) => {
+                let (w, r) = &m.points[k];
+                let g = |n: &str| r.get(n).map_or("-".into(), |v| format!("{v}"));
+                s += &format!(
+                    "| {} | {w} | {} | {} | {} | {} | {} | {:.2} % |\n",
+                    m.method,
+                    g("bit_products"),
+                    g("adder_bits"),
+                    g("table_bits"),
+                    g("ff"),
+                    g("pipeline.max_err_levels"),
+                    100.0 * r.get("pipeline.max_rel_err").unwrap_or(f64::NAN)
+                );
+            }
+            None => s += &format!("| {} | none of 9–18 bits | | | | | | |\n", m.method),
+        }
+    }
+    s + "\n"
+}
+
+/// Plots of the summary sweep (`plots/`) and the error histogram.
+fn write_summary_plots(
+    dir: &StagedDir,
+    sweeps: &[MethodSweep],
+    renders: &[(String, super::render::RenderResult)],
+) -> anyhow::Result<()> {
+    use crate::plot::{plot, Frame, Series};
+    let series = |metric: &str, scale: f64| -> Vec<Series> {
+        sweeps
+            .iter()
+            .map(|m| {
+                (
+                    m.method.to_string(),
+                    m.points
+                        .iter()
+                        .filter_map(|(w, r)| Some((*w as f64, scale * r.get(metric)?)))
+                        .collect(),
+                )
+            })
+            .collect()
+    };
+    let w0 = *SUMMARY_WIDTHS.start() as f64;
+    let w1 = *SUMMARY_WIDTHS.end() as f64;
+    let mut rel = series("pipeline.max_rel_err", 100.0);
+    rel.push(("the paper's 4 % bound".into(), vec![(w0, 4.0), (w1, 4.0)]));
+    let mut out = vec![
+        (
+            "plots/error_vs_width",
+            plot(
+                &Frame {
+                    title: "Largest relative intensity error against uniform width",
+                    x: "width of every stage (bits)",
+                    y: "max relative error (%)",
+                    log_y: true,
+                },
+                &rel,
+                &[],
+                &[],
+            )?,
+        ),
+        (
+            "plots/levels_vs_width",
+            plot(
+                &Frame {
+                    title: "Largest error in levels against uniform width",
+                    x: "width of every stage (bits)",
+                    y: "max |error| (levels)",
+                    log_y: true,
+                },
+                &series("pipeline.max_err_levels", 1.0),
+                &[],
+                &[],
+            )?,
+        ),
+        (
+            "plots/cost_vs_width",
+            plot(
+                &Frame {
+                    title: "Multiplier bit products against uniform width",
+                    x: "width of every stage (bits)",
+                    y: "bit products",
+                    log_y: false,
+                },
+                &series("bit_products", 1.0),
+                &[],
+                &[],
+            )?,
+        ),
+    ];
+    let rows: Vec<crate::explore::Row> = sweeps
+        .iter()
+        .flat_map(|m| m.points.iter().map(|(_, r)| r.clone()))
+        .collect();
+    let front = crate::explore::pareto(&rows, "pipeline.max_rel_err", "bit_products");
+    let pt = |r: &crate::explore::Row| {
+        Some((
+            r.get("bit_products")?,
+            100.0 * r.get("pipeline.max_rel_err")?,
+        ))
+    };
+    let all: Vec<(f64, f64)> = rows.iter().filter_map(pt).collect();
+    let line: Vec<(f64, f64)> = front.iter().filter_map(|&i| pt(&rows[i])).collect();
+    let marks: Vec<(String, f64, f64)> = sweeps
+        .iter()
+        .filter_map(|m| {
+            let (w, r) = &m.points[m.recommended?];
+            let (x, y) = pt(r)?;
+            Some((format!("recommended: {} at {w} bits", m.method), x, y))
+        })
+        .collect();
+    out.push((
+        "plots/pareto",
+        plot(
+            &Frame {
+                title: "Error against cost, every method and width",
+                x: "bit products",
+                y: "max relative error (%)",
+                log_y: true,
+            },
+            &[("Pareto front".into(), line)],
+            &all,
+            &marks,
+        )?,
+    ));
+    if let Some((_, r)) = renders.iter().find(|(_, r)| r.mesh == "torus:24") {
+        let hist: Vec<(String, Vec<u64>)> = r
+            .methods
+            .iter()
+            .filter(|m| {
+                ["linear", "quadratic", "mapped", "mapped-interp", "tbn"].contains(&m.method)
+            })
+            .map(|m| {
+                let mm = m.outside_cap.as_ref().unwrap_or(&m.metrics);
+                (
+                    m.method.to_string(),
+                    mm.off_by
+                        .iter()
+                        .map(|&f| (f * mm.pixels as f64).round() as u64)
+                        .collect(),
+                )
+            })
+            .collect();
+        out.push((
+            "plots/error_histogram",
+            crate::plot::histogram(
+                "Pixels by error on torus:24 (0, 1, 2, more than 2 levels)",
+                "|error| in levels (3 = more than 2)",
+                &hist,
+            )?,
+        ));
+    }
+    for (stem, (png, svg)) in out {
+        dir.write(&format!("{stem}.png"), &png)?;
+        dir.write(&format!("{stem}.svg"), svg.as_bytes())?;
+    }
+    Ok(())
+}
+
+/// The methods the report's summary recommends a width for, with the
+/// overrides that select each (the RTL tops).
+pub const SUMMARY_METHODS: [(&str, &str); 4] = [
+    (
+        "quadratic",
+        "pipeline.path=smooth; normalize.method=quadratic",
+    ),
+    ("linear", "pipeline.path=smooth; normalize.method=linear"),
+    ("mapped", "pipeline.path=mapped; pipeline.angles=cordic"),
+    (
+        "mapped-interp",
+        "pipeline.path=mapped; pipeline.angles=interpolate",
+    ),
+];
+
+/// The uniform widths the summary sweeps.
+pub const SUMMARY_WIDTHS: std::ops::RangeInclusive<u32> = 9..=18;
+
+/// One method's uniform-width sweep.
+pub struct MethodSweep {
+    /// Method name.
+    pub method: &'static str,
+    /// The overrides selecting it.
+    pub select: Vec<String>,
+    /// `(width, point)` per width.
+    pub points: Vec<(u32, crate::explore::Row)>,
+    /// The smallest width meeting both goals.
+    pub recommended: Option<usize>,
+}
+
+/// Whether a point meets the summary's goals: the paper's 4 % bound and
+/// ±1 level on every mesh.
+pub fn meets_summary_goals(r: &crate::explore::Row) -> bool {
+    r.error.is_none()
+        && r.get("pipeline.paper_bound") == Some(1.0)
+        && r.get("pipeline.max_err_levels").is_some_and(|v| v <= 1.0)
+}
+
+/// Sweep every stage of a width group on each method's path (the output
+/// level stays the 8-bit pixel) over [`SUMMARY_WIDTHS`], measured on the
+/// explore command's default meshes, through the explore cache.
+pub fn summary_sweep(base: &crate::explore::Base) -> anyhow::Result<Vec<MethodSweep>> {
+    use crate::explore::{self, optimize, sweep::Point, Cache, Options};
+    let o = Options {
+        analyses: vec!["pipeline".into(), "cost".into()],
+        meshes: super::explore::DEFAULT_MESHES
+            .iter()
+            .map(|s| s.to_string())
+            .collect(),
+        size: (128, 128),
+        samples: None,
+    };
+    let meshes = explore::load_meshes(&o)?;
+    let cache = Cache::new(Some(Cache::default_dir())).or_else(|_| Cache::new(None))?;
+    let mut plan = Vec::new();
+    let mut points = Vec::new();
+    for (method, sel) in SUMMARY_METHODS {
+        let select: Vec<String> = fxshade_model::rtl::units::overrides(sel)
+            .map(str::to_string)
+            .collect();
+        let cfg = base
+            .resolve(&select)
+            .map_err(|e| anyhow::anyhow!("{method}: {e}"))?;
+        let (vars, _) = optimize::vars(&cfg);
+        let vars: Vec<optimize::Var> = vars
+            .into_iter()
+            .filter(|v| v.key != "lighting.level")
+            .collect();
+        for w in SUMMARY_WIDTHS {
+            let widths: Vec<u32> = vars.iter().map(|v| w.max(v.min_width())).collect();
+            let mut overrides = select.clone();
+            overrides.extend(optimize::overrides(&vars, &widths).unwrap_or_default());
+            points.push(Point {
+                index: points.len(),
+                labels: vec![
+                    ("method".into(), method.into()),
+                    ("width".into(), w.to_string()),
+                ],
+                overrides,
+            });
+        }
+        plan.push((method, select));
+    }
+    let rows = explore::measure(base, &points, &o, &meshes, &cache, &|| {});
+    let n = SUMMARY_WIDTHS.count();
+    Ok(plan
+        .into_iter()
+        .enumerate()
+        .map(|(k, (method, select))| {
+            let pts: Vec<(u32, crate::explore::Row)> = SUMMARY_WIDTHS
+                .zip(rows[k * n..(k + 1) * n].iter().cloned())
+                .collect();
+            let recommended = pts.iter().position(|(_, r)| meets_summary_goals(r));
+            MethodSweep {
+                method,
+                select,
+                points: pts,
+                recommended,
+            }
+        })
+        .collect())
+}
+
+/// RTL co-simulation results: `(unit, variant, vectors, passed, failed)`
+/// per module, or why none were run.
+pub type RtlChecks = Result<Vec<(String, String, usize, u64, u64)>, String>;
+
+/// Co-simulate every unit and the three pipeline tops on Icarus Verilog
+/// (300 vectors each, random stalls): `(unit, variant, count, passed,
+/// failed)`, or why not.
+pub fn rtl_checks(cfg: &fxshade_model::Config) -> RtlChecks {
+    use crate::rtl_flow;
+    rtl_flow::require_tool("iverilog", "iverilog").map_err(|e| e.to_string())?;
+    let mut out = Vec::new();
+    let mut jobs: Vec<(
+        &'static fxshade_model::rtl::units::RtlUnit,
+        fxshade_model::Config,
+    )> = Vec::new();
+    for u in fxshade_model::rtl::units::all() {
+        if u.name == "pipeline" {
+            for (_, sel) in u.variants {
+                let mut c = cfg.clone();
+                for o in fxshade_model::rtl::units::overrides(sel) {
+                    c.apply_override(o).map_err(|e| e.to_string())?;
+                }
+                jobs.push((u, c));
+            }
+        } else {
+            jobs.push((u, cfg.clone()));
+        }
+    }
+    for (u, c) in jobs {
+        let run = || -> anyhow::Result<(String, usize, u64, u64)> {
+            let stream = fxshade_model::rtl::units::VectorStream::new(u, &c, 300, 1, None)?;
+            let sources = rtl_flow::Sources::emitted(&stream.rtl());
+            let r =
+                rtl_flow::check_with(&stream, &sources, rtl_flow::Sim::Icarus, 1, 20, None, false)?;
+            Ok((stream.design.variant.clone(), r.count, r.passed, r.failed))
+        };
+        match run() {
+            Ok((v, n, p, f)) => out.push((u.name.to_string(), v, n, p, f)),
+            Err(e) => return Err(format!("{}: {e:#}", u.name)),
+        }
+    }
+    Ok(out)
+}
+
 /// Run it.
 pub fn run(a: &ReportArgs) -> anyhow::Result<()> {
     let cfg = a.cfg.resolve()?;
@@ -167,7 +491,7 @@ pub fn run(a: &ReportArgs) -> anyhow::Result<()> {
         StagedDir::new(&a.out)
     }
     .with_context(|| format!("cannot write the report to {}", a.out.display()))?;
-    let bar = crate::progress::bar(7 + REPORT_MESHES.len() as u64, "report");
+    let bar = crate::progress::bar(9 + REPORT_MESHES.len() as u64, "report");
 
     bar.set_message("configuration");
     dir.write("config.toml", cfg.to_toml().as_bytes())?;
@@ -396,8 +720,42 @@ pub fn run(a: &ReportArgs) -> anyhow::Result<()> {
     }
     bar.inc(1);
 
+    bar.set_message("width sweep per method");
+    let base = crate::explore::Base {
+        config: a.cfg.config.clone(),
+        set: a.cfg.set.clone(),
+    };
+    let sweeps = summary_sweep(&base)?;
+    write_summary_plots(&dir, &sweeps, &renders)?;
+    bar.inc(1);
+
+    bar.set_message("RTL checks on Icarus Verilog");
+    let rtl = rtl_checks(&cfg);
+    bar.inc(1);
+
+    let html = super::report_html::page(&super::report_html::Data {
+        cfg: &cfg,
+        ops: &table,
+        stages: &stages,
+        paper: &ptable,
+        normalize: &ntables,
+        interp: &itext,
+        polar: &ptext,
+        frames: &frames.concat(),
+        angles: &atext,
+        summary: &summary,
+        renders: &renders,
+        vectors: &vector_lines,
+        sweeps: &sweeps,
+        rtl: &rtl,
+        method_b: &method_b_tables(&cfg, &renders)?,
+    });
+    dir.write("index.html", html.as_bytes())?;
+
     let mut index = String::new();
     index += "# fxshade report\n\n";
+    index += "The same report as an HTML page, with plots and a recommendation: [index.html](index.html).\n\n";
+    index += &summary_markdown(&sweeps);
     index += &format!("Configuration: `{}`", cfg.source);
     if !cfg.overrides.is_empty() {
         index += &format!(" with overrides `{}`", cfg.overrides.join("`, `"));
@@ -449,5 +807,8 @@ pub fn run(a: &ReportArgs) -> anyhow::Result<()> {
     dir.write("index.md", index.as_bytes())?;
     bar.finish_and_clear();
     let out = dir.commit()?;
-    crate::output::print_out(&format!("report written to {}/index.md\n", out.display()))
+    crate::output::print_out(&format!(
+        "report written to {0}/index.html (and {0}/index.md)\n",
+        out.display()
+    ))
 }

@@ -73,6 +73,7 @@ pub static DECL: UnitDecl = UnitDecl {
         FieldDecl { name: "theta", kind: FieldKind::Stage, doc: "angle accumulator and arctangent constants, a fraction of a turn (unsigned, 0 integer bits; must wrap)" },
         FieldDecl { name: "out", kind: FieldKind::Stage, doc: "output angles α, β, a fraction of a turn: rounding (format U0F<polar.angle_bits>, the polar transform's angle format; must wrap)" },
     ],
+    groups: &[("normals", &["normal"]), ("cordic", &["xy", "theta"])],
 };
 
 /// The registry entry.

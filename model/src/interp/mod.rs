@@ -86,6 +86,10 @@ pub static DECL: UnitDecl = UnitDecl {
             doc: "interpolation scheme",
         },
     ],
+    groups: &[
+        ("normals", &["vertex", "out"]),
+        ("interp", &["bary", "weight"]),
+    ],
 };
 
 /// The registry entry.

@@ -73,6 +73,7 @@ pub static DECL: UnitDecl = UnitDecl {
         FieldDecl { name: "interval", kind: FieldKind::Choice(&["edge", "triangle"]), doc: "fit d on the paper's edge interval [(1+Θ)/2, 1] or the whole-triangle one [(1+2Θ)/3, 1]" },
         FieldDecl { name: "coef_quant", kind: FieldKind::Choice(&["round", "search"]), doc: "coefficients: rounded to the coef format, or the best codes found by search" },
     ],
+    groups: &[("normals", &["normal", "out"]), ("normalizer", &["d", "coef", "horner", "g"])],
 };
 
 /// The registry entry.

@@ -86,6 +86,7 @@ pub static DECL: UnitDecl = UnitDecl {
             doc: "which path the RTL top implements (rtl/pipeline_smooth.v or rtl/pipeline_mapped.v) and `fxshade vectors pipeline` generates",
         },
     ],
+    groups: &[],
 };
 
 /// The registry entry.

@@ -72,6 +72,7 @@ pub static DECL: UnitDecl = UnitDecl {
         FieldDecl { name: "lyz", kind: FieldKind::Stage, doc: "Lyz = cos α_L · cos(β_L − β_N)" },
         FieldDecl { name: "out", kind: FieldKind::Stage, doc: "output port: L' components" },
     ],
+    groups: &[("light", &["lyz", "out"]), ("tables", &["table"])],
 };
 
 /// The registry entry.

@@ -1,0 +1,929 @@
+//! `fxshade explore`: sweeps, Pareto fronts, word-length optimization.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context};
+use clap::Args;
+use fxshade_model::files::StagedDir;
+use fxshade_model::rtl::units::VectorStream;
+
+use super::ConfigArgs;
+use crate::explore::{self, eval, optimize, sweep, Base, Cache, Goal, Options, Row};
+use crate::output::{OutputArgs, Table, UsageError};
+use crate::rtl_flow::{self, Sim};
+
+/// The meshes rendered when a goal or a Pareto metric needs `pipeline.*`
+/// and no `--mesh` is given.
+pub const DEFAULT_MESHES: [&str; 2] = ["sphere:12", "torus:24"];
+
+/// `fxshade explore`
+#[derive(Args, Debug)]
+pub struct ExploreArgs {
+    #[command(flatten)]
+    cfg: ConfigArgs,
+    /// A swept key and its values (repeatable; the sweep is the product):
+    /// `normalize.d.format=U1F13..U1F21`, `width.normals=10..16`,
+    /// `normalize.method=linear,quadratic`, `normalize.theta=0.3..0.6:0.1`,
+    /// `polar.table_bits=8..12`. `width.<group>` sets every member of a
+    /// width group (`--list-metrics` lists the groups).
+    #[arg(long, value_name = "KEY=SPEC")]
+    vary: Vec<String>,
+    /// A sweep file (TOML) with any of `vary`, `set`, `mesh` (lists of
+    /// strings), `size`, `samples`, `analyses`, `pareto`, `goal`,
+    /// `minimize`; flags add to its lists and override its values.
+    #[arg(long, value_name = "FILE")]
+    sweep: Option<PathBuf>,
+    /// Render this mesh for the `pipeline.*` image metrics (repeatable):
+    /// sphere:N, torus:N[:AXIS] or an OBJ file.
+    #[arg(long, value_name = "MESH")]
+    mesh: Vec<String>,
+    /// Size of those renders.
+    #[arg(long, value_name = "WxH")]
+    size: Option<String>,
+    /// Random samples per unit analysis (default: each `fxshade error`
+    /// command's own, so the figures are exactly what it prints).
+    #[arg(long, value_name = "N")]
+    samples: Option<usize>,
+    /// Analyses to run, comma-separated: normalize, interp, polar, angles,
+    /// lighting, pipeline, cost (default: all; pipeline when meshes are
+    /// given).
+    #[arg(long, value_delimiter = ',', value_name = "A,B")]
+    analyses: Vec<String>,
+    /// An error metric and a cost metric whose Pareto front to compute and
+    /// plot (repeatable), e.g. `pipeline.max_err_levels:bit_products`.
+    #[arg(long, value_name = "ERR:COST")]
+    pareto: Vec<String>,
+    /// A goal, `METRIC<=VALUE` (or <, >=, >; repeatable): the sweep marks
+    /// the cheapest point meeting all; `--optimize` searches for one.
+    #[arg(long, value_name = "METRIC<=V")]
+    goal: Vec<String>,
+    /// The cost `--optimize` minimizes and the sweep's Pareto fronts use by
+    /// default: bit_products, adder_bits, table_bits, ff, muls, latency.
+    #[arg(long, value_name = "COST")]
+    minimize: Option<String>,
+    /// Word-length optimization: the cheapest per-stage widths meeting every
+    /// `--goal`, checked on both simulators, written as a configuration.
+    #[arg(long)]
+    optimize: bool,
+    /// Most points `--optimize` measures.
+    #[arg(long, default_value_t = 400, value_name = "N")]
+    max_evals: usize,
+    /// Vectors the winner's RTL is checked on, per simulator.
+    #[arg(long, default_value_t = 2000, value_name = "N")]
+    rtl_count: usize,
+    /// Do not check the winner's RTL (say so in the output).
+    #[arg(long)]
+    no_rtl_check: bool,
+    /// Measure only shard K of N (0-based) of the sweep's points; combine
+    /// the shards' `explore.json` with `--merge`.
+    #[arg(long, value_name = "K/N", value_parser = super::rtl_check::parse_shard)]
+    shard: Option<(usize, usize)>,
+    /// Combine the `explore.json` files (or directories holding one) of the
+    /// shards of one sweep: fails if a shard is missing or repeated, or if
+    /// they belong to different sweeps.
+    #[arg(long, value_name = "FILE", num_args = 1..)]
+    merge: Vec<PathBuf>,
+    /// Where results are cached per configuration (default:
+    /// $FXSHADE_CACHE_DIR/explore or ~/.cache/fxshade/explore).
+    #[arg(long, value_name = "DIR")]
+    cache: Option<PathBuf>,
+    /// Measure every point again, and cache nothing.
+    #[arg(long)]
+    no_cache: bool,
+    /// Points measured at once (default: all cores).
+    #[arg(long, value_name = "J")]
+    jobs: Option<usize>,
+    /// Print every metric and width group, and exit.
+    #[arg(long)]
+    list_metrics: bool,
+    /// Output directory: explore.json, points.csv, pareto CSVs and plots
+    /// (with --optimize: optimized.toml and optimize.json).
+    #[arg(long, short = 'o', value_name = "DIR")]
+    out: Option<PathBuf>,
+    /// Replace `--out` even when it holds files fxshade did not write.
+    #[arg(long)]
+    force: bool,
+    #[command(flatten)]
+    output: OutputArgs,
+}
+
+/// A sweep file's fields.
+#[derive(Default, Debug)]
+struct SweepFile {
+    vary: Vec<(String, String)>,
+    set: Vec<String>,
+    mesh: Vec<String>,
+    size: Option<String>,
+    samples: Option<usize>,
+    analyses: Vec<String>,
+    pareto: Vec<String>,
+    goal: Vec<String>,
+    minimize: Option<String>,
+}
+
+fn read_sweep(path: &Path) -> anyhow::Result<SweepFile> {
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("cannot read the sweep file {}", path.display()))?;
+    let doc = toml_edit::ImDocument::parse(text.as_str()).map_err(|e: toml_edit::TomlError| {
+        let line = e.span().map_or(1, |s| {
+            text[..s.start.min(text.len())].matches('\n').count() + 1
+        });
+        UsageError(format!("{}:{line}: {}", path.display(), e.message()))
+    })?;
+    let line_of = |item: &toml_edit::Item| {
+        item.span().map_or(1, |s| {
+            text[..s.start.min(text.len())].matches('\n').count() + 1
+        })
+    };
+    let mut f = SweepFile::default();
+    for (key, item) in doc.iter() {
+        let at = format!("{}:{}", path.display(), line_of(item));
+        let strings = || -> anyhow::Result<Vec<String>> {
+            let arr = item.as_array().ok_or_else(|| {
+                UsageError(format!(
+                    "{at}: `{key}` is a list of strings, e.g. {key} = [\"…\"]"
+                ))
+            })?;
+            arr.iter()
+                .map(|v| {
+                    v.as_str().map(str::to_string).ok_or_else(|| {
+                        UsageError(format!("{at}: `{key}` holds a value that is not a string"))
+                            .into()
+                    })
+                })
+                .collect()
+        };
+        match key {
+            "vary" => f.vary = strings()?.into_iter().map(|s| (s, at.clone())).collect(),
+            "set" => f.set = strings()?,
+            "mesh" => f.mesh = strings()?,
+            "analyses" => f.analyses = strings()?,
+            "pareto" => f.pareto = strings()?,
+            "goal" => f.goal = strings()?,
+            "size" | "minimize" => {
+                let s = item
+                    .as_str()
+                    .ok_or_else(|| UsageError(format!("{at}: `{key}` is a string")))?;
+                if key == "size" {
+                    f.size = Some(s.into());
+                } else {
+                    f.minimize = Some(s.into());
+                }
+            }
+            "samples" => {
+                f.samples = Some(
+                    item.as_integer()
+                        .filter(|&n| n > 0)
+                        .ok_or_else(|| UsageError(format!("{at}: `samples` is a positive integer")))?
+                        as usize,
+                )
+            }
+            _ => {
+                return Err(UsageError(format!(
+                    "{at}: unknown key `{key}`; expected vary, set, mesh, size, samples, analyses, pareto, goal, minimize"
+                ))
+                .into())
+            }
+        }
+    }
+    Ok(f)
+}
+
+/// Everything a run needs, from the flags and the sweep file.
+struct Plan {
+    base: Base,
+    axes: Vec<sweep::Axis>,
+    options: Options,
+    pareto: Vec<(String, String)>,
+    goals: Vec<Goal>,
+    minimize: String,
+}
+
+fn plan(a: &ExploreArgs) -> anyhow::Result<Plan> {
+    let file = match &a.sweep {
+        Some(p) => read_sweep(p)?,
+        None => SweepFile::default(),
+    };
+    let base = Base {
+        config: a.cfg.config.clone(),
+        set: file.set.iter().chain(&a.cfg.set).cloned().collect(),
+    };
+    let base_cfg = fxshade_model::Config::resolve(base.config.as_deref(), &base.set)?;
+    let mut axes = Vec::new();
+    for (spec, at) in file
+        .vary
+        .iter()
+        .cloned()
+        .chain(a.vary.iter().map(|s| (s.clone(), "--vary".to_string())))
+    {
+        axes.push(
+            sweep::parse_axis(&spec, &base_cfg, &at).map_err(|e| UsageError(format!("{e:#}")))?,
+        );
+    }
+    let goals: Vec<Goal> = file
+        .goal
+        .iter()
+        .chain(&a.goal)
+        .map(|g| Goal::parse(g).map_err(|e| UsageError(format!("{e:#}")).into()))
+        .collect::<anyhow::Result<_>>()?;
+    let minimize = a
+        .minimize
+        .clone()
+        .or(file.minimize)
+        .unwrap_or_else(|| "bit_products".into());
+    explore::check_metric("--minimize", &minimize).map_err(|e| UsageError(e.to_string()))?;
+    let mut pareto = Vec::new();
+    for p in file.pareto.iter().chain(&a.pareto) {
+        let (e, c) = p.split_once(':').ok_or_else(|| {
+            UsageError(format!(
+                "--pareto `{p}`: write ERR:COST, e.g. pipeline.max_err_levels:bit_products"
+            ))
+        })?;
+        explore::check_metric("--pareto", e.trim()).map_err(|e| UsageError(e.to_string()))?;
+        explore::check_metric("--pareto", c.trim()).map_err(|e| UsageError(e.to_string()))?;
+        pareto.push((e.trim().to_string(), c.trim().to_string()));
+    }
+    let mut meshes: Vec<String> = file.mesh.iter().chain(&a.mesh).cloned().collect();
+    let mut analyses: Vec<String> = file.analyses.iter().chain(&a.analyses).cloned().collect();
+    for x in &analyses {
+        if !eval::ANALYSES.contains(&x.as_str()) {
+            return Err(UsageError(format!(
+                "--analyses `{x}`: expected {}",
+                eval::ANALYSES.join(", ")
+            ))
+            .into());
+        }
+    }
+    let needed: Vec<String> = goals
+        .iter()
+        .map(|g| g.metric.clone())
+        .chain(pareto.iter().flat_map(|(e, c)| [e.clone(), c.clone()]))
+        .chain(std::iter::once(minimize.clone()))
+        .collect();
+    if analyses.is_empty() {
+        analyses = if a.optimize {
+            vec!["cost".into()]
+        } else {
+            eval::ANALYSES
+                .iter()
+                .filter(|&&x| x != "pipeline" || !meshes.is_empty())
+                .map(|s| s.to_string())
+                .collect()
+        };
+    }
+    for m in &needed {
+        let g = eval::group_of(m).to_string();
+        if !analyses.contains(&g) {
+            analyses.push(g);
+        }
+    }
+    if analyses.iter().any(|x| x == "pipeline") && meshes.is_empty() {
+        meshes = DEFAULT_MESHES.iter().map(|s| s.to_string()).collect();
+    }
+    if pareto.is_empty() {
+        let err = goals.first().map(|g| g.metric.clone()).unwrap_or_else(|| {
+            if analyses.iter().any(|x| x == "pipeline") {
+                "pipeline.max_err_levels".into()
+            } else {
+                "normalize.max_rel_err".into()
+            }
+        });
+        if analyses.contains(&eval::group_of(&err).to_string()) {
+            pareto.push((err, minimize.clone()));
+        }
+    }
+    let size = super::render::parse_size(
+        a.size
+            .as_deref()
+            .or(file.size.as_deref())
+            .unwrap_or("128x128"),
+    )?;
+    let samples = a.samples.or(file.samples);
+    if samples == Some(0) {
+        return Err(UsageError("--samples 0: give at least 1".into()).into());
+    }
+    // Order the analyses as declared, so the options (and the cache keys)
+    // do not depend on the order they were asked in.
+    let analyses = eval::ANALYSES
+        .iter()
+        .filter(|x| analyses.iter().any(|y| y == *x))
+        .map(|s| s.to_string())
+        .collect();
+    Ok(Plan {
+        base,
+        axes,
+        options: Options {
+            analyses,
+            meshes,
+            size,
+            samples,
+        },
+        pareto,
+        goals,
+        minimize,
+    })
+}
+
+/// The sweep's identity: shards of one sweep share it.
+fn sweep_id(p: &Plan, total: usize) -> String {
+    let j = serde_json::json!({
+        "base": p.base, "axes": p.axes, "options": p.options, "total": total,
+    });
+    format!(
+        "{:016x}",
+        fxshade_model::vectors::fingerprint(&[j.to_string().as_bytes()])
+    )
+}
+
+/// The file written as `explore.json` (and read by `--merge`).
+#[derive(serde::Serialize, serde::Deserialize)]
+struct Results {
+    sweep_id: String,
+    total: usize,
+    shard: Option<(usize, usize)>,
+    axes: Vec<String>,
+    base: Base,
+    options: Options,
+    pareto_metrics: Vec<(String, String)>,
+    goals: Vec<Goal>,
+    minimize: String,
+    rows: Vec<Row>,
+    #[serde(default)]
+    pareto: Vec<serde_json::Value>,
+    #[serde(default)]
+    cheapest_meeting_goals: Option<usize>,
+}
+
+/// Run it.
+pub fn run(a: &ExploreArgs) -> anyhow::Result<()> {
+    if a.list_metrics {
+        let mut t = Table::new(["metric", "meaning"]);
+        for (n, d) in eval::METRICS {
+            t.row([*n, *d]);
+        }
+        let mut g = Table::new([
+            "width group",
+            "members (default configuration)",
+            "what it carries",
+        ]);
+        let cfg = fxshade_model::Config::embedded();
+        for (name, doc) in fxshade_model::config::WIDTH_GROUPS {
+            let m = cfg
+                .group_members(name)
+                .unwrap_or_default()
+                .iter()
+                .map(|(k, q)| format!("{k} {}", q.format()))
+                .collect::<Vec<_>>()
+                .join(", ");
+            g.row([format!("width.{name}"), m, doc.to_string()]);
+        }
+        let json = serde_json::json!({
+            "metrics": eval::METRICS.iter().map(|(n, d)| serde_json::json!({"name": n, "meaning": d})).collect::<Vec<_>>(),
+            "groups": fxshade_model::config::WIDTH_GROUPS.iter().map(|(n, d)| serde_json::json!({"name": n, "meaning": d})).collect::<Vec<_>>(),
+        });
+        return crate::output::emit(a.output, &[t, g], &json);
+    }
+    if let Some(j) = a.jobs {
+        if j == 0 {
+            return Err(UsageError("--jobs 0: give at least 1".into()).into());
+        }
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(j)
+            .build_global()
+            .context("cannot start the worker threads")?;
+    }
+    let cache = Cache::new(if a.no_cache {
+        None
+    } else {
+        Some(a.cache.clone().unwrap_or_else(Cache::default_dir))
+    })?;
+    if !a.merge.is_empty() {
+        return merge(a);
+    }
+    let p = plan(a)?;
+    let Some(out) = &a.out else {
+        return Err(UsageError("--out DIR: where to write the results".into()).into());
+    };
+    if a.optimize {
+        return run_optimize(a, &p, &cache, out);
+    }
+    let points = sweep::points(&p.axes)?;
+    let total = points.len();
+    let mine: Vec<sweep::Point> = match a.shard {
+        Some((k, n)) => points.into_iter().filter(|x| x.index % n == k).collect(),
+        None => points,
+    };
+    let meshes = explore::load_meshes(&p.options)?;
+    let bar = crate::progress::bar_eta(mine.len() as u64, "explore");
+    let rows = explore::measure(&p.base, &mine, &p.options, &meshes, &cache, &|| bar.inc(1));
+    bar.finish_and_clear();
+    let res = Results {
+        sweep_id: sweep_id(&p, total),
+        total,
+        shard: a.shard,
+        axes: p.axes.iter().map(|x| x.key.clone()).collect(),
+        base: p.base.clone(),
+        options: p.options.clone(),
+        pareto_metrics: p.pareto.clone(),
+        goals: p.goals.clone(),
+        minimize: p.minimize.clone(),
+        rows,
+        pareto: Vec::new(),
+        cheapest_meeting_goals: None,
+    };
+    finish(a, res, out)
+}
+
+/// The cheapest row meeting every goal (by the cost minimized).
+fn cheapest(rows: &[Row], goals: &[Goal], cost: &str) -> Option<usize> {
+    if goals.is_empty() {
+        return None;
+    }
+    rows.iter()
+        .enumerate()
+        .filter(|(_, r)| goals.iter().all(|g| g.met(r)))
+        .filter_map(|(i, r)| Some((i, r.get(cost)?)))
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|(i, _)| i)
+}
+
+fn label(r: &Row) -> String {
+    r.labels
+        .iter()
+        .map(|(k, v)| format!("{k}={v}"))
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+/// Pareto fronts, plots, files and the printed table.
+fn finish(a: &ExploreArgs, mut res: Results, out: &Path) -> anyhow::Result<()> {
+    res.rows.sort_by_key(|r| r.index);
+    let dir = staged(a, out)?;
+    res.cheapest_meeting_goals = cheapest(&res.rows, &res.goals, &res.minimize);
+    let mut pareto_json = Vec::new();
+    for (k, (e, c)) in res.pareto_metrics.iter().enumerate() {
+        let front = explore::pareto(&res.rows, e, c);
+        let mut t = csv::Writer::from_writer(Vec::new());
+        t.write_record(["index", "point", e.as_str(), c.as_str()])?;
+        for &i in &front {
+            let r = &res.rows[i];
+            t.write_record([
+                r.index.to_string(),
+                label(r),
+                format!("{}", r.get(e).unwrap_or(f64::NAN)),
+                format!("{}", r.get(c).unwrap_or(f64::NAN)),
+            ])?;
+        }
+        let stem = if k == 0 {
+            "pareto".to_string()
+        } else {
+            format!("pareto_{k}")
+        };
+        dir.write(&format!("{stem}.csv"), &t.into_inner()?)?;
+        let all: Vec<(f64, f64)> = res
+            .rows
+            .iter()
+            .filter(|r| r.error.is_none())
+            .filter_map(|r| Some((r.get(c)?, r.get(e)?)))
+            .collect();
+        let line: Vec<(f64, f64)> = front
+            .iter()
+            .filter_map(|&i| Some((res.rows[i].get(c)?, res.rows[i].get(e)?)))
+            .collect();
+        let marks: Vec<(String, f64, f64)> = res
+            .cheapest_meeting_goals
+            .and_then(|i| {
+                let r = &res.rows[i];
+                Some((
+                    format!("cheapest meeting the goals: {}", label(r)),
+                    r.get(c)?,
+                    r.get(e)?,
+                ))
+            })
+            .into_iter()
+            .collect();
+        let log = all.iter().all(|p| p.1 > 0.0) && !explore::higher_is_better(e);
+        let (png, svg) = crate::plot::plot(
+            &crate::plot::Frame {
+                title: &format!("Pareto front: {e} against {c}"),
+                x: c,
+                y: e,
+                log_y: log,
+            },
+            &[("Pareto front".into(), line)],
+            &all,
+            &marks,
+        )?;
+        dir.write(&format!("{stem}.png"), &png)?;
+        dir.write(&format!("{stem}.svg"), svg.as_bytes())?;
+        pareto_json.push(serde_json::json!({
+            "error": e, "cost": c, "points": front.iter().map(|&i| res.rows[i].index).collect::<Vec<_>>(),
+            "csv": format!("{stem}.csv"), "png": format!("{stem}.png"), "svg": format!("{stem}.svg"),
+        }));
+    }
+    res.pareto = pareto_json;
+    // Error against the first axis, one curve per value of the others.
+    if let Some(first) = res.axes.first() {
+        let xs: Option<Vec<f64>> = res
+            .rows
+            .iter()
+            .map(|r| explore::axis_x(&r.labels[0].1))
+            .collect();
+        if let Some(xs) = xs {
+            let metrics: Vec<String> = {
+                let mut m: Vec<String> =
+                    res.pareto_metrics.iter().map(|(e, _)| e.clone()).collect();
+                m.dedup();
+                m
+            };
+            for (k, metric) in metrics.iter().enumerate() {
+                let mut series: Vec<crate::plot::Series> = Vec::new();
+                for (r, &x) in res.rows.iter().zip(&xs) {
+                    let Some(y) = r.get(metric).filter(|_| r.error.is_none()) else {
+                        continue;
+                    };
+                    let name = r.labels[1..]
+                        .iter()
+                        .map(|(k, v)| format!("{k}={v}"))
+                        .collect::<Vec<_>>()
+                        .join(" ");
+                    let name = if name.is_empty() {
+                        metric.clone()
+                    } else {
+                        name
+                    };
+                    match series.iter_mut().find(|s| s.0 == name) {
+                        Some(s) => s.1.push((x, y)),
+                        None => series.push((name, vec![(x, y)])),
+                    }
+                }
+                let log = series.iter().flat_map(|s| &s.1).all(|p| p.1 > 0.0)
+                    && !explore::higher_is_better(metric);
+                let xl = if res.rows[0].labels[0]
+                    .1
+                    .parse::<fxshade_model::format::Format>()
+                    .is_ok()
+                    || first.starts_with("width.")
+                {
+                    format!("{first} (total bits)")
+                } else {
+                    first.clone()
+                };
+                let (png, svg) = crate::plot::plot(
+                    &crate::plot::Frame {
+                        title: &format!("{metric} against {first}"),
+                        x: &xl,
+                        y: metric,
+                        log_y: log,
+                    },
+                    &series,
+                    &[],
+                    &[],
+                )?;
+                let stem = if k == 0 {
+                    "error_vs_axis".to_string()
+                } else {
+                    format!("error_vs_axis_{k}")
+                };
+                dir.write(&format!("{stem}.png"), &png)?;
+                dir.write(&format!("{stem}.svg"), svg.as_bytes())?;
+            }
+        }
+    }
+    dir.write(
+        "points.csv",
+        explore::to_csv(&res.axes, &res.rows)?.as_bytes(),
+    )?;
+    dir.write(
+        "explore.json",
+        serde_json::to_string_pretty(&res)?.as_bytes(),
+    )?;
+    dir.commit()?;
+    // The printed table: the axes, the Pareto metrics and the goals' metrics.
+    let mut shown: Vec<String> = Vec::new();
+    for (e, c) in &res.pareto_metrics {
+        for m in [e, c] {
+            if !shown.contains(m) {
+                shown.push(m.clone());
+            }
+        }
+    }
+    for g in &res.goals {
+        if !shown.contains(&g.metric) {
+            shown.push(g.metric.clone());
+        }
+    }
+    let mut header = vec!["#".to_string()];
+    header.extend(res.axes.iter().cloned());
+    header.extend(shown.iter().cloned());
+    header.push("note".into());
+    let mut t = Table::new(header).titled(format!(
+        "{} of {} points{} (every metric: {}/points.csv)",
+        res.rows.len(),
+        res.total,
+        res.shard
+            .map_or(String::new(), |(k, n)| format!(", shard {k}/{n}")),
+        out.display()
+    ));
+    let fronts: Vec<&serde_json::Value> = res.pareto.iter().collect();
+    for (i, r) in res.rows.iter().enumerate() {
+        let mut row = vec![r.index.to_string()];
+        row.extend(r.labels.iter().map(|(_, v)| v.clone()));
+        for m in &shown {
+            row.push(r.get(m).map_or("-".into(), fmt_num));
+        }
+        let mut note = Vec::new();
+        if let Some(e) = &r.error {
+            note.push(e.chars().take(80).collect::<String>());
+        }
+        if fronts
+            .first()
+            .and_then(|f| f["points"].as_array())
+            .is_some_and(|p| p.iter().any(|x| x.as_u64() == Some(r.index as u64)))
+        {
+            note.push("pareto".into());
+        }
+        if res.cheapest_meeting_goals == Some(i) {
+            note.push("cheapest meeting the goals".into());
+        }
+        row.push(note.join("; "));
+        t.row(row);
+    }
+    crate::output::emit(a.output, &[t], &serde_json::to_value(&res)?)
+}
+
+fn fmt_num(v: f64) -> String {
+    if v == v.trunc() && v.abs() < 1e9 {
+        format!("{v}")
+    } else if v.abs() >= 0.01 {
+        format!("{v:.4}")
+    } else {
+        format!("{v:.3e}")
+    }
+}
+
+fn staged(a: &ExploreArgs, out: &Path) -> anyhow::Result<StagedDir> {
+    if a.force {
+        StagedDir::new_forced(out)
+    } else {
+        StagedDir::new(out)
+    }
+    .with_context(|| format!("cannot write the results to {}", out.display()))
+}
+
+/// `--merge`: the shards' rows as one sweep.
+fn merge(a: &ExploreArgs) -> anyhow::Result<()> {
+    let Some(out) = &a.out else {
+        return Err(UsageError("--out DIR: where to write the merged results".into()).into());
+    };
+    let mut parts: Vec<(PathBuf, Results)> = Vec::new();
+    for f in &a.merge {
+        let f = if f.is_dir() {
+            f.join("explore.json")
+        } else {
+            f.clone()
+        };
+        let text =
+            std::fs::read_to_string(&f).with_context(|| format!("cannot read {}", f.display()))?;
+        let r: Results = serde_json::from_str(&text).with_context(|| {
+            format!("{}: not an explore.json of `fxshade explore`", f.display())
+        })?;
+        parts.push((f, r));
+    }
+    let (f0, r0) = &parts[0];
+    let n = match r0.shard {
+        Some((_, n)) => n,
+        None => bail!(
+            "{}: not a shard (run `fxshade explore --shard K/N`)",
+            f0.display()
+        ),
+    };
+    let mut seen = vec![None::<PathBuf>; n];
+    for (f, r) in &parts {
+        if r.sweep_id != r0.sweep_id {
+            bail!(
+                "{} and {} are shards of different sweeps (axes, options or base differ)",
+                f0.display(),
+                f.display()
+            );
+        }
+        let Some((k, nn)) = r.shard else {
+            bail!("{}: not a shard", f.display());
+        };
+        if nn != n {
+            bail!(
+                "{}: shard {k}/{nn}, but {} is of {n} shards",
+                f.display(),
+                f0.display()
+            );
+        }
+        if let Some(prev) = &seen[k] {
+            bail!(
+                "shard {k}/{n} is given twice: {} and {}",
+                prev.display(),
+                f.display()
+            );
+        }
+        seen[k] = Some(f.clone());
+    }
+    let missing: Vec<String> = (0..n)
+        .filter(|&k| seen[k].is_none())
+        .map(|k| format!("{k}/{n}"))
+        .collect();
+    if !missing.is_empty() {
+        bail!("missing shard(s) {}", missing.join(", "));
+    }
+    let mut rows: Vec<Row> = parts
+        .iter()
+        .flat_map(|(_, r)| r.rows.iter().cloned())
+        .collect();
+    rows.sort_by_key(|r| r.index);
+    if rows.len() != r0.total || rows.iter().enumerate().any(|(i, r)| r.index != i) {
+        bail!(
+            "the shards hold {} points of {}: not one whole sweep",
+            rows.len(),
+            r0.total
+        );
+    }
+    let (_, first) = parts.swap_remove(0);
+    let res = Results {
+        shard: None,
+        rows,
+        pareto: Vec::new(),
+        cheapest_meeting_goals: None,
+        ..first
+    };
+    finish(a, res, out)
+}
+
+/// `--optimize`.
+fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow::Result<()> {
+    if p.goals.is_empty() {
+        return Err(UsageError("--optimize needs at least one --goal METRIC<=VALUE".into()).into());
+    }
+    if !p.axes.is_empty() || a.shard.is_some() {
+        return Err(UsageError(
+            "--optimize searches widths itself: give no --vary or --shard".into(),
+        )
+        .into());
+    }
+    let cfg = fxshade_model::Config::resolve(p.base.config.as_deref(), &p.base.set)?;
+    let meshes = explore::load_meshes(&p.options)?;
+    let bar = crate::progress::bar_eta(a.max_evals as u64, "optimize");
+    let o = optimize::run(
+        &p.base,
+        &cfg,
+        &p.goals,
+        &p.minimize,
+        &p.options,
+        &meshes,
+        cache,
+        a.max_evals,
+        &|what| {
+            bar.set_message(what.to_string());
+            bar.inc(1);
+        },
+    );
+    bar.finish_and_clear();
+    let o = o?;
+    let win_cfg = p
+        .base
+        .resolve(&o.winner.overrides)
+        .map_err(|e| anyhow::anyhow!("the winner's configuration: {e}"))?;
+    // Check the winner's RTL top on both simulators.
+    let mut checks = Vec::new();
+    if !a.no_rtl_check {
+        let u = rtl_flow::unit("pipeline")?;
+        let stream = VectorStream::new(u, &win_cfg, a.rtl_count, 1, None)?;
+        let sources = rtl_flow::Sources::emitted(&stream.rtl());
+        for sim in [Sim::Verilator, Sim::Icarus] {
+            let r = rtl_flow::check_with(&stream, &sources, sim, 1, 20, None, false)
+                .with_context(|| format!("checking the winner's RTL on {sim:?}"))?;
+            checks.push(serde_json::json!({
+                "sim": format!("{sim:?}").to_lowercase(), "count": r.count,
+                "passed": r.passed, "failed": r.failed, "ok": r.ok(),
+            }));
+            if !r.ok() {
+                bail!(
+                    "the winner's RTL fails on {sim:?}: {} of {} vectors ({})",
+                    r.failed,
+                    r.count,
+                    r.mismatches.first().cloned().unwrap_or_default()
+                );
+            }
+        }
+    }
+    let dir = staged(a, out)?;
+    let mut toml = format!(
+        "# fxshade explore --optimize: the cheapest widths found ({} = {}) meeting {}\n# uniform baseline: {} bits, {} = {}; saving {:.1} %\n",
+        o.minimize,
+        o.winner.get(&o.minimize).unwrap_or(f64::NAN),
+        o.goals.iter().map(|g| g.to_string()).collect::<Vec<_>>().join(", "),
+        o.baseline_width,
+        o.minimize,
+        o.baseline.get(&o.minimize).unwrap_or(f64::NAN),
+        100.0 * o.saving
+    );
+    toml += &win_cfg.to_toml();
+    dir.write("optimized.toml", toml.as_bytes())?;
+    let json = serde_json::json!({
+        "outcome": o,
+        "rtl_check": if a.no_rtl_check { serde_json::json!("skipped (--no-rtl-check)") } else { serde_json::json!(checks) },
+        "options": p.options,
+    });
+    dir.write(
+        "optimize.json",
+        serde_json::to_string_pretty(&json)?.as_bytes(),
+    )?;
+    // Cost of each uniform width, with the baseline and the winner marked.
+    let uni: Vec<(f64, f64)> = o
+        .uniform
+        .iter()
+        .filter_map(|&(w, _, c)| Some((w as f64, c?)))
+        .collect();
+    let ok: Vec<(f64, f64)> = o
+        .uniform
+        .iter()
+        .filter(|u| u.1)
+        .filter_map(|&(w, _, c)| Some((w as f64, c?)))
+        .collect();
+    let wc = o.winner.get(&o.minimize).unwrap_or(f64::NAN);
+    let (png, svg) = crate::plot::plot(
+        &crate::plot::Frame {
+            title: &format!(
+                "{} of uniform widths and of the optimized widths",
+                o.minimize
+            ),
+            x: "uniform width (bits)",
+            y: &o.minimize,
+            log_y: false,
+        },
+        &[
+            ("every stage at one width".into(), uni),
+            ("uniform widths meeting the goals".into(), ok),
+        ],
+        &[],
+        &[(format!("optimized: {wc}"), o.baseline_width as f64, wc)],
+    )?;
+    dir.write("optimize.png", &png)?;
+    dir.write("optimize.svg", svg.as_bytes())?;
+    dir.commit()?;
+    let mut t = Table::new(["stage", "baseline", "optimized"]).titled(format!(
+        "Cheapest widths meeting {} ({} = {} against {} at a uniform {} bits: {:.1} % less; {} points measured)",
+        o.goals.iter().map(|g| g.to_string()).collect::<Vec<_>>().join(", "),
+        o.minimize,
+        fmt_num(wc),
+        fmt_num(o.baseline.get(&o.minimize).unwrap_or(f64::NAN)),
+        o.baseline_width,
+        100.0 * o.saving,
+        o.evaluations
+    ));
+    let (vars, _) = optimize::vars(&cfg);
+    let bw: Vec<u32> = vars
+        .iter()
+        .map(|v| o.baseline_width.max(v.min_width()))
+        .collect();
+    let bo = optimize::overrides(&vars, &bw).unwrap_or_default();
+    let wo = optimize::overrides(&vars, &o.widths).unwrap_or_default();
+    for (k, v) in vars.iter().enumerate() {
+        let f = |s: &[String]| {
+            s.get(k)
+                .and_then(|x| x.split_once('='))
+                .map_or("-".to_string(), |x| x.1.to_string())
+        };
+        t.row([v.key.clone(), f(&bo), f(&wo)]);
+    }
+    let mut m = Table::new(["metric", "baseline", "optimized"]);
+    let mut names: Vec<String> = o.goals.iter().map(|g| g.metric.clone()).collect();
+    for c in ["bit_products", "adder_bits", "table_bits", "ff"] {
+        if !names.iter().any(|n| n == c) {
+            names.push(c.into());
+        }
+    }
+    for n in names {
+        m.row([
+            n.clone(),
+            o.baseline.get(&n).map_or("-".into(), fmt_num),
+            o.winner.get(&n).map_or("-".into(), fmt_num),
+        ]);
+    }
+    let mut c = Table::new(["RTL check of the optimized top", "vectors", "passed"]);
+    if a.no_rtl_check {
+        c.row(["skipped (--no-rtl-check)", "-", "-"]);
+    }
+    for ch in &checks {
+        c.row([
+            ch["sim"].as_str().unwrap_or("").to_string(),
+            ch["count"].to_string(),
+            ch["passed"].to_string(),
+        ]);
+    }
+    crate::output::emit(a.output, &[t, m, c], &json)?;
+    if !a.output.json {
+        crate::output::print_out(&format!(
+            "configuration written to {}/optimized.toml\n",
+            out.display()
+        ))?;
+    }
+    Ok(())
+}

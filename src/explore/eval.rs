@@ -1,0 +1,323 @@
+//! The metrics of one configuration: each unit's error analysis against
+//! f64, rendered-image error on chosen meshes, and the hardware cost of the
+//! generated RTL. Every figure is measured here (never typed in).
+//!
+//! Metric names are `unit.metric` for errors (`normalize.max_rel_err`,
+//! `pipeline.max_err_levels`) and bare names for costs (`bit_products`,
+//! `adder_bits`, `table_bits`, `ff`, and with `--synth` `lut`, `dsp`,
+//! `bram`, `synth_ff`).
+
+use std::collections::BTreeMap;
+
+use anyhow::Context;
+use fxshade_model::lighting::{Lighting, LEVELS};
+use fxshade_model::pipeline::{AngleSource, Path};
+use fxshade_model::render::{self, Metrics, RenderMethod};
+use fxshade_model::sampling::Rng;
+use fxshade_model::Config;
+
+/// Analysis groups a point may measure.
+pub const ANALYSES: [&str; 7] = [
+    "normalize",
+    "interp",
+    "polar",
+    "angles",
+    "lighting",
+    "pipeline",
+    "cost",
+];
+
+/// Every metric name with its meaning (for `explore --list-metrics`, the
+/// CSV header and the docs).
+pub const METRICS: &[(&str, &str)] = &[
+    ("normalize.max_rel_err", "normalizer on whole triangles meeting Θ: largest | |N'| − 1 |"),
+    ("normalize.mean_rel_err", "… its mean"),
+    ("normalize.rms_rel_err", "… its RMS"),
+    ("normalize.max_lsb_err", "… largest component error, output LSBs"),
+    ("normalize.max_diffuse_err_levels", "… largest diffuse error, 8-bit levels"),
+    ("normalize.g_max_rel_err", "the g(d) stage over every d code: largest relative error"),
+    ("normalize.overflows", "overflows at the normalizer's and lighting's quantizers"),
+    ("interp.max_rel_err", "interpolation then normalization: largest | |N'| − 1 |"),
+    ("interp.max_angle_err_deg", "… largest direction error against the exact field, degrees"),
+    ("polar.max_lsb_err", "polar transform: largest component error of L', LSBs"),
+    ("polar.rms_lsb_err", "… RMS component error, LSBs"),
+    ("polar.max_angle_err_deg", "… largest angle error, degrees"),
+    ("polar.max_diffuse_err_levels", "… largest diffuse error, 8-bit levels"),
+    ("angles.max_alpha_lsb", "CORDIC angles: largest α error, output LSBs"),
+    ("angles.max_beta_lsb", "… largest β error outside the polar cap, output LSBs"),
+    ("angles.max_direction_deg", "… largest direction error, degrees"),
+    ("lighting.max_diffuse_err_levels", "lighting on unit N, L quantized to their ports: largest diffuse error, 8-bit levels"),
+    ("lighting.max_specular_err_levels", "… largest specular error (I0·km = 0), 8-bit levels"),
+    ("pipeline.max_err_levels", "rendered meshes, the configured path and method against f64: largest |error|, levels (mapped: outside the polar cap)"),
+    ("pipeline.mean_err_levels", "… mean |error| over every compared pixel, levels"),
+    ("pipeline.psnr_db", "… smallest PSNR over the meshes, dB (999 for identical images)"),
+    ("pipeline.off_by_gt1", "… largest share of pixels off by more than 1 level"),
+    ("pipeline.max_rel_err", "… largest relative intensity error beyond 8-bit rounding"),
+    ("pipeline.paper_bound", "… 1 when every mesh stays under the paper's 4 % bound, else 0"),
+    ("bit_products", "the RTL top of the configured path: Σ a_width × b_width over its multipliers"),
+    ("muls", "… its multipliers"),
+    ("adder_bits", "… Σ width over adders, add/subtracts and rounding incrementers"),
+    ("table_bits", "… bits stored in its ROMs"),
+    ("ff", "… its flip-flops (data, flags, valid bits)"),
+    ("latency", "… cycles from input to output"),
+];
+
+/// What a point measures and how.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize, PartialEq)]
+pub struct Options {
+    /// Analysis groups ([`ANALYSES`]).
+    pub analyses: Vec<String>,
+    /// Meshes rendered for the `pipeline.*` metrics.
+    pub meshes: Vec<String>,
+    /// Their image size.
+    pub size: (usize, usize),
+    /// Random samples per unit analysis (`None`: each analysis at the
+    /// default of its `fxshade error` command, so a point's figures are
+    /// exactly what `fxshade error <unit>` prints for its configuration).
+    pub samples: Option<usize>,
+}
+
+/// The default sample counts of `fxshade error normalize`, `interp`,
+/// `polar` and `angles`, and of the lighting analysis here.
+pub const DEFAULT_SAMPLES: [(&str, usize); 5] = [
+    ("normalize", 200_000),
+    ("interp", 200_000),
+    ("polar", 500_000),
+    ("angles", 500_000),
+    ("lighting", 100_000),
+];
+
+impl Options {
+    /// The sample count of analysis `a`.
+    pub fn samples_of(&self, a: &str) -> usize {
+        self.samples.unwrap_or_else(|| {
+            DEFAULT_SAMPLES
+                .iter()
+                .find(|(n, _)| *n == a)
+                .map_or(100_000, |x| x.1)
+        })
+    }
+}
+
+impl Options {
+    /// Whether group `g` is measured.
+    pub fn has(&self, g: &str) -> bool {
+        self.analyses.iter().any(|a| a == g)
+    }
+}
+
+/// The analysis group a metric belongs to (`cost` for bare names).
+pub fn group_of(metric: &str) -> &str {
+    metric.split_once('.').map_or("cost", |(g, _)| g)
+}
+
+/// The render method a configuration's pipeline top implements.
+pub fn method_of(cfg: &Config) -> RenderMethod {
+    match fxshade_model::pipeline::rtl::path_of(cfg) {
+        Path::Smooth => RenderMethod::Smooth(
+            fxshade_model::normalizer::Method::from_name(cfg.unit("normalize").choice("method"))
+                .expect("declared"),
+        ),
+        Path::Mapped => RenderMethod::Mapped(
+            AngleSource::from_name(cfg.unit("pipeline").choice("angles")).expect("declared"),
+        ),
+    }
+}
+
+fn put(m: &mut BTreeMap<String, f64>, k: &str, v: f64) {
+    m.insert(k.to_string(), v);
+}
+
+/// Lighting on unit vectors quantized to the ports: the diffuse level
+/// (I0·ks = 0) and the specular level (I0·km = 0) against f64, `count`
+/// random (N, L, H) with `N·L` and `N·H` spread over `[0, 1]`.
+fn lighting(cfg: &Config, count: usize, m: &mut BTreeMap<String, f64>) -> anyhow::Result<()> {
+    let base = Lighting::from_config(cfg.unit("lighting"));
+    let mut rng = Rng::new(1);
+    let mut cols: Vec<Vec<i128>> = (0..9).map(|_| Vec::with_capacity(count)).collect();
+    let mut exact = Vec::with_capacity(count);
+    for _ in 0..count {
+        let n = rng.direction();
+        let l = rng.direction();
+        let h = (l + rng.direction()).normalize_or_zero();
+        let h = if h == glam::DVec3::ZERO { l } else { h };
+        for (k, (v, q)) in [(n, base.normal), (l, base.light), (h, base.light)]
+            .into_iter()
+            .enumerate()
+        {
+            for (c, x) in v.to_array().into_iter().enumerate() {
+                let f = q.format();
+                let code = f
+                    .from_f64(x, fxshade_model::quantize::Rounding::HalfEven)
+                    .unwrap_or(if x < 0.0 { f.min_code() } else { f.max_code() })
+                    .clamp(f.min_code(), f.max_code());
+                cols[3 * k + c].push(code);
+            }
+        }
+        exact.push((n, l, h));
+    }
+    let refs: Vec<&[i128]> = cols.iter().map(|c| c.as_slice()).collect();
+    for (name, km, ks) in [
+        ("lighting.max_diffuse_err_levels", base.i0_km, 0.0),
+        ("lighting.max_specular_err_levels", 0.0, base.i0_ks),
+    ] {
+        let mut li = base;
+        li.i0_km = km;
+        li.i0_ks = ks;
+        let prog = li.compile_shade().context("compiling the lighting unit")?;
+        let (out, _) = prog.run_i128(&refs);
+        let fl = li.level.format();
+        let worst = out[0]
+            .iter()
+            .zip(&exact)
+            .map(|(&c, &(n, l, h))| (fl.to_f64(c) - render::shade_f64(&li, n, l, h)).abs())
+            .fold(0.0, f64::max);
+        put(m, name, worst);
+    }
+    let _ = LEVELS;
+    Ok(())
+}
+
+/// Render every mesh with the configured path and method; the aggregate
+/// image metrics.
+fn pipeline(
+    cfg: &Config,
+    o: &Options,
+    meshes: &[(String, fxshade_model::mesh::Mesh)],
+    m: &mut BTreeMap<String, f64>,
+) -> anyhow::Result<()> {
+    let method = method_of(cfg);
+    let scene = render::Scene::default();
+    let base = fxshade_model::pipeline::Pipeline::with_method(
+        cfg,
+        fxshade_model::normalizer::Method::None,
+    )?;
+    let (mut max, mut sum, mut n, mut psnr, mut off, mut rel, mut bound) =
+        (0u32, 0.0, 0usize, f64::INFINITY, 0.0f64, 0.0f64, true);
+    for (spec, mesh) in meshes {
+        let raster = render::rasterize_in(&scene, mesh, o.size.0, o.size.1);
+        let f = render::frame_in(&scene, &base, raster, mesh);
+        let img =
+            render::run_method(cfg, &f, method).with_context(|| format!("rendering {spec}"))?;
+        let mm: &Metrics = img.outside_cap.as_ref().unwrap_or(&img.metrics);
+        max = max.max(mm.max_abs_levels);
+        sum += mm.mean_abs_levels * mm.pixels as f64;
+        n += mm.pixels;
+        psnr = psnr.min(mm.psnr_db.unwrap_or(999.0));
+        off = off.max(mm.off_by[2] + mm.off_by[3]);
+        rel = rel.max(mm.max_rel_intensity_err);
+        bound &= mm.paper_bound_holds;
+    }
+    put(m, "pipeline.max_err_levels", max as f64);
+    put(
+        m,
+        "pipeline.mean_err_levels",
+        if n == 0 { 0.0 } else { sum / n as f64 },
+    );
+    put(m, "pipeline.psnr_db", psnr);
+    put(m, "pipeline.off_by_gt1", off);
+    put(m, "pipeline.max_rel_err", rel);
+    put(m, "pipeline.paper_bound", if bound { 1.0 } else { 0.0 });
+    Ok(())
+}
+
+/// The model's hardware cost of the configured pipeline top.
+fn cost(cfg: &Config, m: &mut BTreeMap<String, f64>) -> anyhow::Result<()> {
+    let design = fxshade_model::pipeline::rtl::design(cfg)?;
+    let e = fxshade_model::rtl::emit(&design)?;
+    let hw = &e.hardware;
+    put(
+        m,
+        "bit_products",
+        hw.muls.iter().map(|x| (x.a_width * x.b_width) as f64).sum(),
+    );
+    put(m, "muls", hw.muls.len() as f64);
+    put(
+        m,
+        "adder_bits",
+        hw.adders
+            .iter()
+            .chain(&hw.add_subs)
+            .chain(&hw.incrementers)
+            .map(|&w| w as f64)
+            .sum(),
+    );
+    put(m, "table_bits", hw.rom_bits as f64);
+    put(m, "ff", hw.flops as f64);
+    put(m, "latency", e.latency as f64);
+    Ok(())
+}
+
+/// Measure one configuration. `meshes` are the loaded `o.meshes`.
+/// An analysis that fails makes the whole point fail, with its name.
+pub fn evaluate(
+    cfg: &Config,
+    o: &Options,
+    meshes: &[(String, fxshade_model::mesh::Mesh)],
+) -> anyhow::Result<BTreeMap<String, f64>> {
+    let mut m = BTreeMap::new();
+    let n = |a: &str| o.samples_of(a).max(1);
+    if o.has("normalize") {
+        let r = fxshade_model::analysis::normalize(cfg, n("normalize"), 1, &mut |_| {})
+            .context("normalize analysis")?;
+        let t = &r.triangles;
+        put(&mut m, "normalize.max_rel_err", t.max_rel_err);
+        put(&mut m, "normalize.mean_rel_err", t.mean_rel_err);
+        put(&mut m, "normalize.rms_rel_err", t.rms_rel_err);
+        put(&mut m, "normalize.max_lsb_err", t.max_lsb_err);
+        put(
+            &mut m,
+            "normalize.max_diffuse_err_levels",
+            t.max_diffuse_err_levels,
+        );
+        put(&mut m, "normalize.g_max_rel_err", r.g_stage.max_rel_err);
+        put(&mut m, "normalize.overflows", t.overflows as f64);
+    }
+    if o.has("interp") {
+        let r = fxshade_model::analysis::interp(
+            cfg,
+            render::scheme_of(cfg),
+            fxshade_model::normalizer::Method::from_name(cfg.unit("normalize").choice("method"))
+                .expect("declared"),
+            cfg.unit("normalize").number("theta"),
+            n("interp"),
+            1,
+            &mut |_| {},
+        )
+        .context("interp analysis")?;
+        put(&mut m, "interp.max_rel_err", r.max_rel_err);
+        put(&mut m, "interp.max_angle_err_deg", r.max_angle_err_deg);
+    }
+    if o.has("polar") {
+        let r =
+            fxshade_model::analysis::polar(cfg, n("polar"), 1, true).context("polar analysis")?;
+        put(&mut m, "polar.max_lsb_err", r.stats.max_lsb_err);
+        put(&mut m, "polar.rms_lsb_err", r.stats.rms_lsb_err);
+        put(&mut m, "polar.max_angle_err_deg", r.stats.max_angle_err_deg);
+        put(
+            &mut m,
+            "polar.max_diffuse_err_levels",
+            r.stats.max_diffuse_err_levels,
+        );
+    }
+    if o.has("angles") {
+        let r = fxshade_model::analysis::angles(cfg, n("angles"), 1).context("angles analysis")?;
+        put(&mut m, "angles.max_alpha_lsb", r.stats.max_alpha_lsb);
+        put(&mut m, "angles.max_beta_lsb", r.stats.max_beta_lsb);
+        put(
+            &mut m,
+            "angles.max_direction_deg",
+            r.stats.max_direction_deg,
+        );
+    }
+    if o.has("lighting") {
+        lighting(cfg, n("lighting"), &mut m).context("lighting analysis")?;
+    }
+    if o.has("pipeline") && !meshes.is_empty() {
+        pipeline(cfg, o, meshes, &mut m)?;
+    }
+    if o.has("cost") {
+        cost(cfg, &mut m).context("generating the RTL top for its cost")?;
+    }
+    Ok(m)
+}

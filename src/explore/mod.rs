@@ -1,0 +1,400 @@
+//! Design-space exploration: sweeps over configuration keys and width
+//! groups ([`sweep`]), the measured metrics of each point ([`eval`]), a
+//! per-configuration result cache, Pareto fronts, goals, and word-length
+//! optimization ([`optimize`]).
+
+pub mod eval;
+pub mod optimize;
+pub mod sweep;
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::sync::OnceLock;
+
+use anyhow::{bail, Context};
+use fxshade_model::Config;
+use rayon::prelude::*;
+
+pub use eval::Options;
+
+/// Bumped when a metric's definition changes: cached results of older
+/// definitions are not reused.
+const CACHE_VERSION: u32 = 1;
+
+/// One measured point.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct Row {
+    /// Position in the full sweep.
+    pub index: usize,
+    /// `(axis key, value)` per axis.
+    pub labels: Vec<(String, String)>,
+    /// The overrides that make the point's configuration from the base.
+    pub overrides: Vec<String>,
+    /// Hash of the effective configuration (as in RTL headers).
+    pub config_hash: String,
+    /// Every metric, by name.
+    pub metrics: BTreeMap<String, f64>,
+    /// Why the point could not be measured (the configuration is rejected,
+    /// or an analysis failed).
+    pub error: Option<String>,
+    /// Seconds it took to measure (0 when it came from the cache).
+    pub seconds: f64,
+    /// Whether it came from the cache.
+    pub cached: bool,
+}
+
+impl Row {
+    /// The metric `name`, when measured.
+    pub fn get(&self, name: &str) -> Option<f64> {
+        self.metrics.get(name).copied()
+    }
+}
+
+/// What identifies this build of fxshade (cached results of another build
+/// are not trusted: its model may differ).
+fn build_id() -> &'static str {
+    static ID: OnceLock<String> = OnceLock::new();
+    ID.get_or_init(|| {
+        let meta = std::env::current_exe().and_then(std::fs::metadata);
+        let stamp = meta
+            .as_ref()
+            .ok()
+            .and_then(|m| m.modified().ok())
+            .and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok())
+            .map_or(0, |d| d.as_nanos());
+        format!(
+            "{}-{}-{}-{stamp}",
+            env!("CARGO_PKG_VERSION"),
+            CACHE_VERSION,
+            meta.map_or(0, |m| m.len())
+        )
+    })
+}
+
+/// The configuration as TOML without its comment lines (source, overrides):
+/// two routes to the same values give the same text.
+pub fn canonical(cfg: &Config) -> String {
+    cfg.to_toml()
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+/// Results cached per configuration and options, one JSON file each, in
+/// `<dir>/<key>.json`; written atomically, so an interrupted run leaves only
+/// whole entries and a re-run computes only what is missing.
+pub struct Cache {
+    dir: Option<PathBuf>,
+}
+
+#[derive(serde::Serialize, serde::Deserialize)]
+struct Entry {
+    metrics: BTreeMap<String, f64>,
+    error: Option<String>,
+}
+
+impl Cache {
+    /// A cache in `dir` (`None`: no caching).
+    pub fn new(dir: Option<PathBuf>) -> anyhow::Result<Cache> {
+        if let Some(d) = &dir {
+            std::fs::create_dir_all(d)
+                .with_context(|| format!("cannot create the explore cache {}", d.display()))?;
+        }
+        Ok(Cache { dir })
+    }
+
+    /// The default: `<fxshade cache>/explore`.
+    pub fn default_dir() -> PathBuf {
+        crate::rtl_flow::cache_root().join("explore")
+    }
+
+    fn key(canon: &str, o: &Options) -> u64 {
+        let opts = serde_json::to_string(o).expect("serializable");
+        fxshade_model::vectors::fingerprint(&[
+            canon.as_bytes(),
+            opts.as_bytes(),
+            build_id().as_bytes(),
+        ])
+    }
+
+    fn get(&self, key: u64) -> Option<Entry> {
+        let p = self.dir.as_ref()?.join(format!("{key:016x}.json"));
+        serde_json::from_slice(&std::fs::read(p).ok()?).ok()
+    }
+
+    fn put(&self, key: u64, e: &Entry) {
+        if let Some(d) = &self.dir {
+            // A cache that cannot be written only costs time on the next run.
+            let _ = fxshade_model::files::write_atomic(
+                &d.join(format!("{key:016x}.json")),
+                &serde_json::to_vec(e).expect("serializable"),
+            );
+        }
+    }
+}
+
+/// The base of a sweep: a configuration file and overrides.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct Base {
+    /// `--config`.
+    pub config: Option<PathBuf>,
+    /// `--set`, applied before each point's overrides.
+    pub set: Vec<String>,
+}
+
+impl Base {
+    /// The configuration of a point (the base's overrides, then its own).
+    pub fn resolve(&self, overrides: &[String]) -> Result<Config, String> {
+        let all: Vec<String> = self.set.iter().chain(overrides).cloned().collect();
+        Config::resolve(self.config.as_deref(), &all).map_err(|e| e.to_string())
+    }
+}
+
+/// Load the meshes of `o`.
+pub fn load_meshes(o: &Options) -> anyhow::Result<Vec<(String, fxshade_model::mesh::Mesh)>> {
+    o.meshes
+        .iter()
+        .map(|s| Ok((s.clone(), crate::cmd::render::load_mesh(s)?)))
+        .collect()
+}
+
+/// Measure `points` in parallel (rayon, all cores), each configuration
+/// once, from the cache where it can; `tick` is called after each point.
+pub fn measure(
+    base: &Base,
+    points: &[sweep::Point],
+    o: &Options,
+    meshes: &[(String, fxshade_model::mesh::Mesh)],
+    cache: &Cache,
+    tick: &(dyn Fn() + Sync),
+) -> Vec<Row> {
+    points
+        .par_iter()
+        .map(|p| {
+            let row = measure_one(base, p, o, meshes, cache);
+            tick();
+            row
+        })
+        .collect()
+}
+
+/// Measure one point.
+pub fn measure_one(
+    base: &Base,
+    p: &sweep::Point,
+    o: &Options,
+    meshes: &[(String, fxshade_model::mesh::Mesh)],
+    cache: &Cache,
+) -> Row {
+    let start = std::time::Instant::now();
+    let mut row = Row {
+        index: p.index,
+        labels: p.labels.clone(),
+        overrides: p.overrides.clone(),
+        config_hash: String::new(),
+        metrics: BTreeMap::new(),
+        error: None,
+        seconds: 0.0,
+        cached: false,
+    };
+    let cfg = match base.resolve(&p.overrides) {
+        Ok(c) => c,
+        Err(e) => {
+            row.error = Some(e.trim().replace('\n', "; "));
+            return row;
+        }
+    };
+    let canon = canonical(&cfg);
+    row.config_hash = format!(
+        "{:016x}",
+        fxshade_model::vectors::fingerprint(&[canon.as_bytes()])
+    );
+    let key = Cache::key(&canon, o);
+    if let Some(e) = cache.get(key) {
+        row.metrics = e.metrics;
+        row.error = e.error;
+        row.cached = true;
+        return row;
+    }
+    match eval::evaluate(&cfg, o, meshes) {
+        Ok(m) => row.metrics = m,
+        Err(e) => row.error = Some(format!("{e:#}")),
+    }
+    cache.put(
+        key,
+        &Entry {
+            metrics: row.metrics.clone(),
+            error: row.error.clone(),
+        },
+    );
+    row.seconds = start.elapsed().as_secs_f64();
+    row
+}
+
+/// Whether a larger value of `metric` is better (PSNR, the paper-bound
+/// flag, Fmax); every other metric is minimized.
+pub fn higher_is_better(metric: &str) -> bool {
+    metric.ends_with("psnr_db") || metric.ends_with("paper_bound") || metric.ends_with("fmax_mhz")
+}
+
+/// The Pareto front of `rows` over an error and a cost metric (both
+/// minimized, or maximized where [`higher_is_better`]): the indices into
+/// `rows` of every measured point no other point beats on one metric
+/// without losing on the other, by increasing cost.
+pub fn pareto(rows: &[Row], err: &str, cost: &str) -> Vec<usize> {
+    let key = |r: &Row, m: &str| {
+        r.get(m)
+            .filter(|v| v.is_finite())
+            .map(|v| if higher_is_better(m) { -v } else { v })
+    };
+    let mut pts: Vec<(usize, f64, f64)> = rows
+        .iter()
+        .enumerate()
+        .filter(|(_, r)| r.error.is_none())
+        .filter_map(|(i, r)| Some((i, key(r, cost)?, key(r, err)?)))
+        .collect();
+    pts.sort_by(|a, b| {
+        a.1.total_cmp(&b.1)
+            .then(a.2.total_cmp(&b.2))
+            .then(a.0.cmp(&b.0))
+    });
+    let mut front = Vec::new();
+    let mut best = f64::INFINITY;
+    for (i, _, e) in pts {
+        if e < best {
+            best = e;
+            front.push(i);
+        }
+    }
+    front
+}
+
+/// A goal: `metric<=value` (also `<`, `>=`, `>`).
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize, PartialEq)]
+pub struct Goal {
+    /// The metric.
+    pub metric: String,
+    /// `<=`, `<`, `>=` or `>`.
+    pub op: String,
+    /// The bound.
+    pub value: f64,
+}
+
+impl Goal {
+    /// Parse `metric<=value`; the error names the flag and the metrics.
+    pub fn parse(s: &str) -> anyhow::Result<Goal> {
+        for op in ["<=", ">=", "<", ">"] {
+            if let Some((m, v)) = s.split_once(op) {
+                let metric = m.trim().to_string();
+                if !eval::METRICS.iter().any(|(n, _)| *n == metric) {
+                    bail!(
+                        "--goal `{s}`: no metric `{metric}`; `fxshade explore --list-metrics` lists them"
+                    );
+                }
+                let value: f64 = v
+                    .trim()
+                    .parse()
+                    .ok()
+                    .filter(|x: &f64| x.is_finite())
+                    .with_context(|| format!("--goal `{s}`: `{}` is not a number", v.trim()))?;
+                return Ok(Goal {
+                    metric,
+                    op: op.to_string(),
+                    value,
+                });
+            }
+        }
+        bail!("--goal `{s}`: write METRIC<=VALUE (or <, >=, >), e.g. pipeline.max_err_levels<=1")
+    }
+
+    /// Whether `row` meets it (a point without the metric does not).
+    pub fn met(&self, row: &Row) -> bool {
+        let Some(v) = row.get(&self.metric).filter(|_| row.error.is_none()) else {
+            return false;
+        };
+        match self.op.as_str() {
+            "<=" => v <= self.value,
+            "<" => v < self.value,
+            ">=" => v >= self.value,
+            _ => v > self.value,
+        }
+    }
+}
+
+impl std::fmt::Display for Goal {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}{}{}", self.metric, self.op, self.value)
+    }
+}
+
+/// Check a metric name given on the command line.
+pub fn check_metric(flag: &str, m: &str) -> anyhow::Result<()> {
+    if eval::METRICS.iter().any(|(n, _)| *n == m) {
+        Ok(())
+    } else {
+        bail!("{flag} `{m}`: no such metric; `fxshade explore --list-metrics` lists them")
+    }
+}
+
+/// Every metric name measured by any row, in a stable order (the declared
+/// order of [`eval::METRICS`], then any other).
+pub fn metric_columns(rows: &[Row]) -> Vec<String> {
+    let mut seen: std::collections::BTreeSet<&str> = std::collections::BTreeSet::new();
+    for r in rows {
+        seen.extend(r.metrics.keys().map(|k| k.as_str()));
+    }
+    let mut cols: Vec<String> = eval::METRICS
+        .iter()
+        .filter(|(n, _)| seen.contains(n))
+        .map(|(n, _)| n.to_string())
+        .collect();
+    for s in seen {
+        if !cols.iter().any(|c| c == s) {
+            cols.push(s.to_string());
+        }
+    }
+    cols
+}
+
+/// The rows as CSV: index, one column per axis, `error`, every metric (as
+/// numbers), `config_hash`, `seconds`, `cached`.
+pub fn to_csv(axes: &[String], rows: &[Row]) -> anyhow::Result<String> {
+    let cols = metric_columns(rows);
+    let mut w = csv::Writer::from_writer(Vec::new());
+    let mut header = vec!["index".to_string()];
+    header.extend(axes.iter().cloned());
+    header.push("error".into());
+    header.extend(cols.iter().cloned());
+    header.extend(["config_hash".into(), "seconds".into(), "cached".into()]);
+    w.write_record(&header)?;
+    for r in rows {
+        let mut rec = vec![r.index.to_string()];
+        for a in axes {
+            rec.push(
+                r.labels
+                    .iter()
+                    .find(|(k, _)| k == a)
+                    .map_or(String::new(), |(_, v)| v.clone()),
+            );
+        }
+        rec.push(r.error.clone().unwrap_or_default());
+        for c in &cols {
+            rec.push(r.get(c).map_or(String::new(), |v| format!("{v}")));
+        }
+        rec.push(r.config_hash.clone());
+        rec.push(format!("{:.3}", r.seconds));
+        rec.push(r.cached.to_string());
+        w.write_record(&rec)?;
+    }
+    Ok(String::from_utf8(w.into_inner()?)?)
+}
+
+/// The numeric x of an axis label: the width of a format (`U1F15` → 16),
+/// else the number itself.
+pub fn axis_x(label: &str) -> Option<f64> {
+    if let Ok(f) = label.parse::<fxshade_model::format::Format>() {
+        return Some(f.width() as f64);
+    }
+    label.parse::<f64>().ok().filter(|x| x.is_finite())
+}

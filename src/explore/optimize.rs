@@ -1,0 +1,316 @@
+//! Word-length optimization: the cheapest per-stage widths that meet every
+//! goal, against a measured cost.
+//!
+//! The variables are the total widths of the stages in width groups on the
+//! configured path (each keeps its signedness and integer bits). The search,
+//! in the manner of MATLAB's `fxpopt` but against the chosen cost:
+//!
+//! 1. **Uniform baseline.** Every variable at one width `W`, for `W` from
+//!    [`UNIFORM_MIN`] to [`UNIFORM_MAX`] (measured in parallel); the
+//!    smallest `W` meeting every goal is the baseline, and the safe start.
+//! 2. **Greedy narrowing.** Each variable in turn is narrowed as far as the
+//!    goals allow with the others fixed (bisection, assuming error grows as
+//!    a width shrinks; every accepted step is measured, so a wrong guess
+//!    costs only optimality, never a goal).
+//! 3. **Local refinement.** For each variable: widen it by one bit, then
+//!    narrow every other by one bit where the goals still hold; kept when
+//!    the cost falls. Repeated until nothing improves or the evaluation
+//!    budget is spent.
+//!
+//! Costs compare lexicographically: the chosen cost, then the total of
+//! `bit_products + adder_bits + table_bits + ff`, so a narrowing that the
+//! chosen cost does not see is still taken when it saves hardware.
+
+use anyhow::bail;
+use fxshade_model::Config;
+use rayon::prelude::*;
+
+use super::sweep::Point;
+use super::{Base, Cache, Goal, Options, Row};
+
+/// Narrowest uniform width tried.
+pub const UNIFORM_MIN: u32 = 8;
+/// Widest uniform width tried.
+pub const UNIFORM_MAX: u32 = 26;
+
+/// One variable: a stage's total width.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Var {
+    /// `unit.field`.
+    pub key: String,
+    /// Signed format.
+    pub signed: bool,
+    /// Integer bits kept (sign included).
+    pub int_bits: i32,
+}
+
+impl Var {
+    /// Narrowest width tried: the integer part alone (no fraction bits),
+    /// and at least two bits.
+    pub fn min_width(&self) -> u32 {
+        self.int_bits.max(2) as u32
+    }
+    fn format(&self, w: u32) -> Option<fxshade_model::format::Format> {
+        fxshade_model::format::Format::new(self.signed, w, w as i32 - self.int_bits).ok()
+    }
+}
+
+/// The units the configured pipeline path runs through.
+fn path_units(cfg: &Config) -> &'static [&'static str] {
+    match super::eval::method_of(cfg) {
+        fxshade_model::render::RenderMethod::Smooth(_) => &["interp", "normalize", "lighting"],
+        fxshade_model::render::RenderMethod::Mapped(
+            fxshade_model::pipeline::AngleSource::Cordic,
+        ) => &["interp", "angles", "polar", "lighting"],
+        _ => &["polar", "lighting"],
+    }
+}
+
+/// The variables of a configuration: every width-group member of the units
+/// on its path, and their current widths.
+pub fn vars(cfg: &Config) -> (Vec<Var>, Vec<u32>) {
+    let units = path_units(cfg);
+    let mut v = Vec::new();
+    let mut w = Vec::new();
+    for (g, _) in fxshade_model::config::WIDTH_GROUPS {
+        for (key, q) in cfg.group_members(g).unwrap_or_default() {
+            let unit = key.split('.').next().unwrap_or("");
+            if units.contains(&unit) && !v.iter().any(|x: &Var| x.key == key) {
+                let f = q.format();
+                v.push(Var {
+                    key,
+                    signed: f.signed(),
+                    int_bits: f.int_bits(),
+                });
+                w.push(f.width());
+            }
+        }
+    }
+    (v, w)
+}
+
+/// The overrides that give the variables these widths.
+pub fn overrides(vars: &[Var], widths: &[u32]) -> Option<Vec<String>> {
+    vars.iter()
+        .zip(widths)
+        .map(|(v, &w)| Some(format!("{}.format={}", v.key, v.format(w)?)))
+        .collect()
+}
+
+/// What the search found.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Outcome {
+    /// The goals.
+    pub goals: Vec<Goal>,
+    /// The cost minimized.
+    pub minimize: String,
+    /// The variables.
+    pub vars: Vec<Var>,
+    /// Every uniform width tried, with whether it met the goals and its cost.
+    pub uniform: Vec<(u32, bool, Option<f64>)>,
+    /// The smallest uniform width meeting every goal.
+    pub baseline_width: u32,
+    /// Its point.
+    pub baseline: Row,
+    /// The cheapest point found: per-variable widths.
+    pub widths: Vec<u32>,
+    /// Its point.
+    pub winner: Row,
+    /// `1 − cost(winner) / cost(baseline)`.
+    pub saving: f64,
+    /// Points measured (cache hits included).
+    pub evaluations: usize,
+}
+
+/// The search state: measures points and keeps count.
+struct Search<'a> {
+    base: &'a Base,
+    o: &'a Options,
+    meshes: &'a [(String, fxshade_model::mesh::Mesh)],
+    cache: &'a Cache,
+    goals: &'a [Goal],
+    minimize: &'a str,
+    vars: &'a [Var],
+    evaluations: std::sync::atomic::AtomicUsize,
+    tick: &'a (dyn Fn(&str) + Sync),
+}
+
+impl Search<'_> {
+    fn measure(&self, widths: &[u32], label: &str) -> Option<Row> {
+        let overrides = overrides(self.vars, widths)?;
+        let p = Point {
+            index: self
+                .evaluations
+                .fetch_add(1, std::sync::atomic::Ordering::Relaxed),
+            labels: vec![("point".into(), label.to_string())],
+            overrides,
+        };
+        let r = super::measure_one(self.base, &p, self.o, self.meshes, self.cache);
+        (self.tick)(label);
+        Some(r)
+    }
+    fn feasible(&self, r: &Row) -> bool {
+        r.error.is_none() && self.goals.iter().all(|g| g.met(r))
+    }
+    fn cost(&self, r: &Row) -> (f64, f64) {
+        let total = ["bit_products", "adder_bits", "table_bits", "ff"]
+            .iter()
+            .map(|m| r.get(m).unwrap_or(0.0))
+            .sum();
+        (r.get(self.minimize).unwrap_or(f64::INFINITY), total)
+    }
+    fn cheaper(&self, a: &Row, b: &Row) -> bool {
+        let (x, y) = (self.cost(a), self.cost(b));
+        x.0 < y.0 || (x.0 == y.0 && x.1 < y.1)
+    }
+    fn not_dearer(&self, a: &Row, b: &Row) -> bool {
+        !self.cheaper(b, a)
+    }
+}
+
+/// Run the search. `tick` reports each measured point.
+#[allow(clippy::too_many_arguments)]
+pub fn run(
+    base: &Base,
+    cfg: &Config,
+    goals: &[Goal],
+    minimize: &str,
+    o: &Options,
+    meshes: &[(String, fxshade_model::mesh::Mesh)],
+    cache: &Cache,
+    max_evals: usize,
+    tick: &(dyn Fn(&str) + Sync),
+) -> anyhow::Result<Outcome> {
+    let (vars, _) = vars(cfg);
+    if vars.is_empty() {
+        bail!("the configured path has no width-group stage to optimize");
+    }
+    let s = Search {
+        base,
+        o,
+        meshes,
+        cache,
+        goals,
+        minimize,
+        vars: &vars,
+        evaluations: 0.into(),
+        tick,
+    };
+    // 1. Uniform widths, in parallel.
+    let tried: Vec<(u32, Option<Row>)> = (UNIFORM_MIN..=UNIFORM_MAX)
+        .into_par_iter()
+        .map(|w| {
+            let widths: Vec<u32> = vars.iter().map(|v| w.max(v.min_width())).collect();
+            (w, s.measure(&widths, &format!("uniform {w}")))
+        })
+        .collect();
+    let uniform: Vec<(u32, bool, Option<f64>)> = tried
+        .iter()
+        .map(|(w, r)| {
+            (
+                *w,
+                r.as_ref().is_some_and(|r| s.feasible(r)),
+                r.as_ref().and_then(|r| r.get(minimize)),
+            )
+        })
+        .collect();
+    let Some((bw, Some(brow))) = tried
+        .iter()
+        .find(|(_, r)| r.as_ref().is_some_and(|r| s.feasible(r)))
+        .cloned()
+    else {
+        let why = tried
+            .last()
+            .and_then(|(_, r)| r.as_ref())
+            .map(|r| match &r.error {
+                Some(e) => e.clone(),
+                None => goals
+                    .iter()
+                    .filter(|g| !g.met(r))
+                    .map(|g| format!("{} = {}", g.metric, r.get(&g.metric).unwrap_or(f64::NAN)))
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            })
+            .unwrap_or_default();
+        bail!(
+            "no uniform width from {UNIFORM_MIN} to {UNIFORM_MAX} bits meets every goal (at {UNIFORM_MAX}: {why})"
+        );
+    };
+    let mut cur: Vec<u32> = vars.iter().map(|v| bw.max(v.min_width())).collect();
+    let mut best = brow.clone();
+    let budget = |s: &Search| s.evaluations.load(std::sync::atomic::Ordering::Relaxed) < max_evals;
+
+    // 2. Greedy narrowing, one variable at a time, by bisection.
+    for i in 0..vars.len() {
+        let (mut lo, mut hi) = (vars[i].min_width(), cur[i]);
+        let mut hi_row = best.clone();
+        while lo < hi && budget(&s) {
+            let mid = (lo + hi) / 2;
+            let mut t = cur.clone();
+            t[i] = mid;
+            match s.measure(&t, &format!("narrow {} to {mid}", vars[i].key)) {
+                Some(r) if s.feasible(&r) && s.not_dearer(&r, &hi_row) => {
+                    hi = mid;
+                    hi_row = r;
+                }
+                _ => lo = mid + 1,
+            }
+        }
+        if hi < cur[i] && s.cheaper(&hi_row, &best) {
+            cur[i] = hi;
+            best = hi_row;
+        }
+    }
+
+    // 3. Local refinement: widen one, narrow the others.
+    let mut improved = true;
+    while improved && budget(&s) {
+        improved = false;
+        for i in 0..vars.len() {
+            if !budget(&s) {
+                break;
+            }
+            let mut t = cur.clone();
+            t[i] += 1;
+            let mut t_row = None;
+            let mut narrowed = false;
+            for j in (0..vars.len()).filter(|&j| j != i) {
+                if t[j] <= vars[j].min_width() || !budget(&s) {
+                    continue;
+                }
+                let mut u = t.clone();
+                u[j] -= 1;
+                if let Some(r) = s.measure(
+                    &u,
+                    &format!("refine {} +1, {} −1", vars[i].key, vars[j].key),
+                ) {
+                    if s.feasible(&r) {
+                        t = u;
+                        t_row = Some(r);
+                        narrowed = true;
+                    }
+                }
+            }
+            if let (true, Some(r)) = (narrowed, t_row) {
+                if s.cheaper(&r, &best) {
+                    cur = t;
+                    best = r;
+                    improved = true;
+                }
+            }
+        }
+    }
+    let (bc, wc) = (s.cost(&brow).0, s.cost(&best).0);
+    Ok(Outcome {
+        goals: goals.to_vec(),
+        minimize: minimize.to_string(),
+        uniform,
+        baseline_width: bw,
+        baseline: brow,
+        widths: cur,
+        winner: best,
+        saving: if bc > 0.0 { 1.0 - wc / bc } else { 0.0 },
+        evaluations: s.evaluations.load(std::sync::atomic::Ordering::Relaxed),
+        vars,
+    })
+}

@@ -1,0 +1,272 @@
+//! Plots as PNG and SVG (plotters): error against width, Pareto fronts,
+//! histograms. Text is drawn with the DejaVu Sans font built into the
+//! binary, so a machine without fonts draws the same pictures.
+
+use anyhow::Context;
+use plotters::prelude::*;
+
+static FONT: &[u8] = include_bytes!("../assets/fonts/DejaVuSans.ttf");
+
+fn register() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        // The bytes are a valid TrueType file, checked by the tests.
+        let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT);
+    });
+}
+
+/// Image size of every plot.
+pub const SIZE: (u32, u32) = (720, 440);
+
+/// One curve: its name and `(x, y)` points.
+pub type Series = (String, Vec<(f64, f64)>);
+
+/// A plot's axes and title.
+pub struct Frame<'a> {
+    /// Title.
+    pub title: &'a str,
+    /// x-axis label.
+    pub x: &'a str,
+    /// y-axis label.
+    pub y: &'a str,
+    /// A logarithmic y axis (points ≤ 0 are left out).
+    pub log_y: bool,
+}
+
+fn colour(k: usize) -> RGBColor {
+    const C: [RGBColor; 8] = [
+        RGBColor(31, 119, 180),
+        RGBColor(255, 127, 14),
+        RGBColor(44, 160, 44),
+        RGBColor(214, 39, 40),
+        RGBColor(148, 103, 189),
+        RGBColor(140, 86, 75),
+        RGBColor(227, 119, 194),
+        RGBColor(127, 127, 127),
+    ];
+    C[k % C.len()]
+}
+
+fn range(v: impl Iterator<Item = f64> + Clone, log: bool) -> (f64, f64) {
+    let (lo, hi) = v
+        .filter(|x| x.is_finite() && (!log || *x > 0.0))
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
+            (a.min(x), b.max(x))
+        });
+    if !lo.is_finite() {
+        return if log { (0.1, 1.0) } else { (0.0, 1.0) };
+    }
+    if log {
+        (lo / 1.5, hi * 1.5)
+    } else if lo == hi {
+        (lo - 1.0, hi + 1.0)
+    } else {
+        let pad = 0.05 * (hi - lo);
+        (lo - pad, hi + pad)
+    }
+}
+
+/// Draw lines (with markers) and, optionally, highlighted points: `marks`
+/// are `(label, x, y)` drawn as large red circles.
+fn draw<DB: DrawingBackend>(
+    root: DrawingArea<DB, plotters::coord::Shift>,
+    f: &Frame,
+    series: &[Series],
+    scatter: &[(f64, f64)],
+    marks: &[(String, f64, f64)],
+) -> anyhow::Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    root.fill(&WHITE).map_err(|e| anyhow::anyhow!("{e:?}"))?;
+    let xs = series
+        .iter()
+        .flat_map(|s| s.1.iter().map(|p| p.0))
+        .chain(scatter.iter().map(|p| p.0))
+        .collect::<Vec<_>>();
+    let ys = series
+        .iter()
+        .flat_map(|s| s.1.iter().map(|p| p.1))
+        .chain(scatter.iter().map(|p| p.1))
+        .collect::<Vec<_>>();
+    let (x0, x1) = range(xs.iter().copied(), false);
+    let (y0, y1) = range(ys.iter().copied(), f.log_y);
+    let keep = |p: &(f64, f64)| p.0.is_finite() && p.1.is_finite() && (!f.log_y || p.1 > 0.0);
+    let mut b = ChartBuilder::on(&root);
+    b.caption(f.title, ("sans-serif", 18))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(70);
+    macro_rules! body {
+        ($chart:expr) => {{
+            let mut chart = $chart;
+            chart
+                .configure_mesh()
+                .x_desc(f.x)
+                .y_desc(f.y)
+                .label_style(("sans-serif", 13))
+                .draw()
+                .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+            if !scatter.is_empty() {
+                chart
+                    .draw_series(
+                        scatter.iter().filter(|p| keep(p)).map(|&(x, y)| {
+                            Circle::new((x, y), 3, RGBColor(150, 150, 150).filled())
+                        }),
+                    )
+                    .map_err(|e| anyhow::anyhow!("{e:?}"))?
+                    .label("every point")
+                    .legend(|(x, y)| Circle::new((x, y), 3, RGBColor(150, 150, 150).filled()));
+            }
+            for (k, (name, pts)) in series.iter().enumerate() {
+                let c = colour(k);
+                let pts: Vec<(f64, f64)> = pts.iter().copied().filter(|p| keep(p)).collect();
+                chart
+                    .draw_series(LineSeries::new(pts.clone(), c.stroke_width(2)))
+                    .map_err(|e| anyhow::anyhow!("{e:?}"))?
+                    .label(name.as_str())
+                    .legend(move |(x, y)| {
+                        PathElement::new(vec![(x, y), (x + 18, y)], c.stroke_width(2))
+                    });
+                chart
+                    .draw_series(pts.iter().map(|&(x, y)| Circle::new((x, y), 3, c.filled())))
+                    .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+            }
+            for (label, x, y) in marks.iter().filter(|m| keep(&(m.1, m.2))) {
+                chart
+                    .draw_series(std::iter::once(Circle::new(
+                        (*x, *y),
+                        7,
+                        RED.stroke_width(3),
+                    )))
+                    .map_err(|e| anyhow::anyhow!("{e:?}"))?
+                    .label(label.as_str())
+                    .legend(|(x, y)| Circle::new((x, y), 5, RED.stroke_width(2)));
+            }
+            chart
+                .configure_series_labels()
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK)
+                .label_font(("sans-serif", 12))
+                .position(SeriesLabelPosition::UpperRight)
+                .draw()
+                .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+        }};
+    }
+    if f.log_y {
+        body!(b
+            .build_cartesian_2d(x0..x1, (y0..y1).log_scale())
+            .map_err(|e| anyhow::anyhow!("{e:?}"))?);
+    } else {
+        body!(b
+            .build_cartesian_2d(x0..x1, y0..y1)
+            .map_err(|e| anyhow::anyhow!("{e:?}"))?);
+    }
+    root.present().map_err(|e| anyhow::anyhow!("{e:?}"))?;
+    Ok(())
+}
+
+/// The plot as `(PNG bytes, SVG text)`.
+pub fn plot(
+    f: &Frame,
+    series: &[Series],
+    scatter: &[(f64, f64)],
+    marks: &[(String, f64, f64)],
+) -> anyhow::Result<(Vec<u8>, String)> {
+    register();
+    let (w, h) = SIZE;
+    let mut rgb = vec![255u8; (3 * w * h) as usize];
+    draw(
+        BitMapBackend::with_buffer(&mut rgb, (w, h)).into_drawing_area(),
+        f,
+        series,
+        scatter,
+        marks,
+    )
+    .with_context(|| format!("drawing the plot `{}`", f.title))?;
+    let mut svg = String::new();
+    draw(
+        SVGBackend::with_string(&mut svg, (w, h)).into_drawing_area(),
+        f,
+        series,
+        scatter,
+        marks,
+    )
+    .with_context(|| format!("drawing the plot `{}` as SVG", f.title))?;
+    let mut png = Vec::new();
+    {
+        let mut e = png::Encoder::new(&mut png, w, h);
+        e.set_color(png::ColorType::Rgb);
+        e.set_depth(png::BitDepth::Eight);
+        let mut wr = e.write_header().context("cannot encode a PNG header")?;
+        wr.write_image_data(&rgb)
+            .context("cannot encode a PNG image")?;
+    }
+    Ok((png, svg))
+}
+
+/// A histogram as bars: `counts[k]` of the bin `labels[k]`, drawn as a
+/// line over bin indices (plots it through [`plot`]).
+pub fn histogram(
+    title: &str,
+    x: &str,
+    series: &[(String, Vec<u64>)],
+) -> anyhow::Result<(Vec<u8>, String)> {
+    let s: Vec<Series> = series
+        .iter()
+        .map(|(n, c)| {
+            let total: u64 = c.iter().sum::<u64>().max(1);
+            (
+                n.clone(),
+                c.iter()
+                    .enumerate()
+                    .map(|(k, &v)| (k as f64, v as f64 / total as f64))
+                    .collect(),
+            )
+        })
+        .collect();
+    plot(
+        &Frame {
+            title,
+            x,
+            y: "share of pixels",
+            log_y: true,
+        },
+        &s,
+        &[],
+        &[],
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_built_in_font_loads_and_plots_draw_text() {
+        // ab_glyph accepts the embedded bytes as a font.
+        assert!(plotters::style::register_font("check", FontStyle::Normal, FONT).is_ok());
+        let (png, svg) = plot(
+            &Frame {
+                title: "t",
+                x: "width",
+                y: "error",
+                log_y: true,
+            },
+            &[("a".into(), vec![(10.0, 1e-3), (12.0, 1e-4), (14.0, 2e-5)])],
+            &[(11.0, 1e-3)],
+            &[("chosen".into(), 12.0, 1e-4)],
+        )
+        .unwrap();
+        assert_eq!(&png[1..4], b"PNG");
+        assert!(svg.starts_with("<svg") && svg.contains("<text") && svg.contains("width"));
+        // The PNG holds more than the white background and the lines: text
+        // pixels are grey levels a plain line plot would not have.
+        let dec = png::Decoder::new(&png[..]);
+        let mut r = dec.read_info().unwrap();
+        let mut buf = vec![0; r.output_buffer_size()];
+        r.next_frame(&mut buf).unwrap();
+        let dark = buf.chunks(3).filter(|p| p.iter().all(|&c| c < 100)).count();
+        assert!(dark > 500, "{dark} dark pixels: no text or axes drawn");
+    }
+}
