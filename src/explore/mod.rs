@@ -398,3 +398,59 @@ pub fn axis_x(label: &str) -> Option<f64> {
     }
     label.parse::<f64>().ok().filter(|x| x.is_finite())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(i: usize, err: f64, cost: f64) -> Row {
+        Row {
+            index: i,
+            labels: vec![],
+            overrides: vec![],
+            config_hash: String::new(),
+            metrics: [("e".to_string(), err), ("c".to_string(), cost)].into(),
+            error: None,
+            seconds: 0.0,
+            cached: false,
+        }
+    }
+
+    #[test]
+    fn pareto_front_keeps_exactly_the_undominated_points() {
+        // (err, cost): 0 (5, 1) and 2 (1, 5) and 4 (2, 3) are undominated;
+        // 1 (5, 2) loses to 0; 3 (3, 4) loses to 4; 5 is a duplicate of 4
+        // with a later index; 6 failed.
+        let mut rows = vec![
+            row(0, 5.0, 1.0),
+            row(1, 5.0, 2.0),
+            row(2, 1.0, 5.0),
+            row(3, 3.0, 4.0),
+            row(4, 2.0, 3.0),
+            row(5, 2.0, 3.0),
+            row(6, 0.0, 0.0),
+        ];
+        rows[6].error = Some("rejected".into());
+        assert_eq!(pareto(&rows, "e", "c"), [0, 4, 2]);
+    }
+
+    #[test]
+    fn goals_parse_and_compare() {
+        let g = Goal::parse("pipeline.max_err_levels<=1").unwrap();
+        assert!(g.met(&Row {
+            metrics: [("pipeline.max_err_levels".to_string(), 1.0)].into(),
+            ..row(0, 0.0, 0.0)
+        }));
+        assert!(!g.met(&Row {
+            metrics: [("pipeline.max_err_levels".to_string(), 1.5)].into(),
+            ..row(0, 0.0, 0.0)
+        }));
+        // A point without the metric does not meet it.
+        assert!(!g.met(&row(0, 0.0, 0.0)));
+        let g = Goal::parse("pipeline.psnr_db > 40").unwrap();
+        assert_eq!((g.op.as_str(), g.value), (">", 40.0));
+        assert!(Goal::parse("nothing<=1").is_err());
+        assert!(Goal::parse("pipeline.max_err_levels=1").is_err());
+        assert!(Goal::parse("pipeline.max_err_levels<=x").is_err());
+    }
+}

@@ -1,0 +1,435 @@
+//! `fxshade explore`: sweeps, width groups, the cache, shards, bad input,
+//! and word-length optimization checked by other commands.
+
+mod common;
+
+use common::{fxshade, text};
+use serde_json::Value;
+
+fn json(o: &std::process::Output) -> Value {
+    assert!(o.status.success(), "{}", text(o));
+    serde_json::from_slice(&o.stdout).unwrap_or_else(|e| panic!("{e}: {}", text(o)))
+}
+
+fn metric(row: &Value, m: &str) -> f64 {
+    row["metrics"][m]
+        .as_f64()
+        .unwrap_or_else(|| panic!("no {m} in {row}"))
+}
+
+/// Σ a × b over the multipliers the hardware builds, from `fxshade ops
+/// --json` (the counting context's operand formats, not the emitter's).
+fn ops_bit_products(sets: &[&str], variant: &str) -> f64 {
+    let mut args = vec!["ops", "--json"];
+    args.extend(sets);
+    let ops = json(&fxshade(&args));
+    let r = ops
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|r| r["unit"] == "pipeline" && r["variant"] == variant)
+        .expect("pipeline variant");
+    r["mul_formats"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| {
+            let hw = m["hardware"].as_str().unwrap();
+            let (a, rest) = hw.split_once(" × ").unwrap();
+            let b = rest.split_whitespace().next().unwrap();
+            a.parse::<f64>().unwrap() * b.parse::<f64>().unwrap() * m["count"].as_f64().unwrap()
+        })
+        .sum()
+}
+
+/// The six formats that carry a normal, at 12 bits, written out here.
+const NORMALS_12: [&str; 12] = [
+    "--set",
+    "interp.vertex.format=I2F10",
+    "--set",
+    "interp.out.format=I2F10",
+    "--set",
+    "normalize.normal.format=I2F10",
+    "--set",
+    "normalize.out.format=I2F10",
+    "--set",
+    "angles.normal.format=I2F10",
+    "--set",
+    "lighting.normal.format=I2F10",
+];
+
+#[test]
+fn twelve_against_sixteen_bit_normals_in_one_command() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("x");
+    let r = json(&fxshade(&[
+        "explore",
+        "--vary",
+        "width.normals=12,16",
+        "--analyses",
+        "normalize,interp,cost",
+        "--samples",
+        "20000",
+        "--no-cache",
+        "--out",
+        out.to_str().unwrap(),
+        "--json",
+    ]));
+    let rows = r["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 2);
+    assert_eq!(rows[0]["labels"][0][1], "12");
+    assert_eq!(rows[1]["labels"][0][1], "16");
+    // The 12-bit point is the configuration the six flags make: the
+    // `error interp` command on it prints the same figures.
+    let mut args = vec!["error", "interp", "--count", "20000", "--json"];
+    args.extend(NORMALS_12);
+    let e = json(&fxshade(&args));
+    assert_eq!(
+        e["max_angle_err_deg"].as_f64().unwrap(),
+        metric(&rows[0], "interp.max_angle_err_deg")
+    );
+    // Fewer bits: more error, fewer bit products.
+    assert!(
+        metric(&rows[0], "interp.max_angle_err_deg") > metric(&rows[1], "interp.max_angle_err_deg")
+    );
+    // The emitter's bit products equal the counting context's.
+    assert_eq!(
+        metric(&rows[1], "bit_products"),
+        ops_bit_products(&[], "smooth, quadratic g")
+    );
+    assert_eq!(
+        metric(&rows[0], "bit_products"),
+        ops_bit_products(&NORMALS_12, "smooth, quadratic g")
+    );
+    assert!(metric(&rows[0], "bit_products") < metric(&rows[1], "bit_products"));
+    // Files: one CSV row per point with the metrics as numbers, a Pareto
+    // front, and plots.
+    let csv = std::fs::read_to_string(out.join("points.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = header.iter().position(|h| *h == "bit_products").unwrap();
+    let first: Vec<&str> = lines.next().unwrap().split(',').collect();
+    assert_eq!(
+        first[col].parse::<f64>().unwrap(),
+        metric(&rows[0], "bit_products")
+    );
+    for f in [
+        "pareto.csv",
+        "pareto.png",
+        "pareto.svg",
+        "error_vs_axis.png",
+        "explore.json",
+    ] {
+        assert!(out.join(f).is_file(), "{f} missing");
+    }
+}
+
+fn sweep(cache: &std::path::Path, out: &std::path::Path, vary: &str, extra: &[&str]) -> Value {
+    let mut args = vec![
+        "explore",
+        "--vary",
+        vary,
+        "--analyses",
+        "polar,cost",
+        "--samples",
+        "5000",
+        "--cache",
+        cache.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--force",
+        "--json",
+    ];
+    args.extend(extra);
+    json(&fxshade(&args))
+}
+
+#[test]
+fn an_extended_sweep_computes_only_the_new_points() {
+    let dir = tempfile::tempdir().unwrap();
+    let (cache, out) = (dir.path().join("cache"), dir.path().join("out"));
+    let a = sweep(&cache, &out, "polar.table_bits=8..9", &[]);
+    assert!(a["rows"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .all(|r| r["cached"] == false));
+    let b = sweep(&cache, &out, "polar.table_bits=8..10", &[]);
+    let rows = b["rows"].as_array().unwrap();
+    let cached: Vec<bool> = rows
+        .iter()
+        .map(|r| r["cached"].as_bool().unwrap())
+        .collect();
+    assert_eq!(cached, [true, true, false]);
+    for k in 0..2 {
+        assert_eq!(a["rows"][k]["metrics"], rows[k]["metrics"]);
+    }
+    // Deeper tables: a smaller polar error.
+    assert!(
+        metric(&rows[0], "polar.max_angle_err_deg") > metric(&rows[2], "polar.max_angle_err_deg")
+    );
+}
+
+#[test]
+fn shards_merge_into_the_whole_sweep_and_nothing_else() {
+    let dir = tempfile::tempdir().unwrap();
+    let cache = dir.path().join("cache");
+    let d = |n: &str| dir.path().join(n);
+    let vary = "polar.table_bits=8..10";
+    let whole = sweep(&cache, &d("whole"), vary, &["--no-cache"]);
+    let s0 = sweep(&cache, &d("s0"), vary, &["--shard", "0/2"]);
+    let s1 = sweep(&cache, &d("s1"), vary, &["--shard", "1/2"]);
+    assert_eq!(s0["rows"].as_array().unwrap().len(), 2);
+    assert_eq!(s1["rows"].as_array().unwrap().len(), 1);
+    let merged = json(&fxshade(&[
+        "explore",
+        "--merge",
+        d("s0").to_str().unwrap(),
+        d("s1").to_str().unwrap(),
+        "--out",
+        d("m").to_str().unwrap(),
+        "--json",
+    ]));
+    let (m, w) = (
+        merged["rows"].as_array().unwrap(),
+        whole["rows"].as_array().unwrap(),
+    );
+    assert_eq!(m.len(), 3);
+    for (a, b) in m.iter().zip(w) {
+        assert_eq!(a["index"], b["index"]);
+        assert_eq!(a["metrics"], b["metrics"]);
+    }
+    // A missing shard, a repeated one, and shards of another sweep fail.
+    let missing = fxshade(&[
+        "explore",
+        "--merge",
+        d("s0").to_str().unwrap(),
+        "--out",
+        d("m2").to_str().unwrap(),
+    ]);
+    assert!(
+        !missing.status.success() && text(&missing).contains("missing shard"),
+        "{}",
+        text(&missing)
+    );
+    let twice = fxshade(&[
+        "explore",
+        "--merge",
+        d("s0").to_str().unwrap(),
+        d("s0").to_str().unwrap(),
+        "--out",
+        d("m3").to_str().unwrap(),
+    ]);
+    assert!(
+        !twice.status.success() && text(&twice).contains("twice"),
+        "{}",
+        text(&twice)
+    );
+    let other = sweep(
+        &cache,
+        &d("o1"),
+        "polar.table_bits=8..11",
+        &["--shard", "1/2"],
+    );
+    assert!(other["rows"].is_array());
+    let mixed = fxshade(&[
+        "explore",
+        "--merge",
+        d("s0").to_str().unwrap(),
+        d("o1").to_str().unwrap(),
+        "--out",
+        d("m4").to_str().unwrap(),
+    ]);
+    assert!(
+        !mixed.status.success() && text(&mixed).contains("different sweeps"),
+        "{}",
+        text(&mixed)
+    );
+}
+
+#[test]
+fn bad_sweeps_are_refused_with_the_flag_or_the_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("o");
+    let o = out.to_str().unwrap();
+    for (args, says) in [
+        (vec!["--vary", "normalize.nothing=1,2"], "nothing"),
+        (
+            vec!["--vary", "normalize.d.format=U1F13..I1F17"],
+            "keeps the sign",
+        ),
+        (
+            vec!["--vary", "width.hands=10..12"],
+            "no width group `hands`",
+        ),
+        (vec!["--vary", "normalize.theta=0.3..0.6"], "needs a step"),
+        (vec!["--goal", "nothing<=1"], "no metric `nothing`"),
+        (vec!["--pareto", "normalize.max_rel_err"], "ERR:COST"),
+        (vec!["--optimize"], "needs at least one --goal"),
+        (vec!["--analyses", "everything"], "--analyses `everything`"),
+    ] {
+        let mut a = vec!["explore", "--out", o];
+        a.extend(args.iter());
+        let r = fxshade(&a);
+        assert_eq!(r.status.code(), Some(2), "{args:?}: {}", text(&r));
+        assert!(text(&r).contains(says), "{args:?}: {}", text(&r));
+        assert!(!out.exists(), "{args:?} wrote {o}");
+    }
+    let f = dir.path().join("sweep.toml");
+    std::fs::write(
+        &f,
+        "vary = [\"polar.table_bits=8..9\"]\nmeshes = [\"sphere:12\"]\n",
+    )
+    .unwrap();
+    let r = fxshade(&["explore", "--sweep", f.to_str().unwrap(), "--out", o]);
+    assert_eq!(r.status.code(), Some(2), "{}", text(&r));
+    assert!(
+        text(&r).contains("sweep.toml:2") && text(&r).contains("unknown key `meshes`"),
+        "{}",
+        text(&r)
+    );
+    std::fs::write(&f, "vary = [\"polar.table_bits=8..x\"]\n").unwrap();
+    let r = fxshade(&["explore", "--sweep", f.to_str().unwrap(), "--out", o]);
+    assert_eq!(r.status.code(), Some(2), "{}", text(&r));
+    assert!(text(&r).contains("sweep.toml:1"), "{}", text(&r));
+}
+
+#[test]
+fn a_sweep_file_gives_the_same_points_as_flags() {
+    let dir = tempfile::tempdir().unwrap();
+    let f = dir.path().join("sweep.toml");
+    std::fs::write(
+        &f,
+        "vary = [\"normalize.method=linear,quadratic\"]\nanalyses = [\"normalize\", \"cost\"]\nsamples = 5000\n",
+    )
+    .unwrap();
+    let a = json(&fxshade(&[
+        "explore",
+        "--sweep",
+        f.to_str().unwrap(),
+        "--no-cache",
+        "--out",
+        dir.path().join("a").to_str().unwrap(),
+        "--json",
+    ]));
+    let b = json(&fxshade(&[
+        "explore",
+        "--vary",
+        "normalize.method=linear,quadratic",
+        "--analyses",
+        "normalize,cost",
+        "--samples",
+        "5000",
+        "--no-cache",
+        "--out",
+        dir.path().join("b").to_str().unwrap(),
+        "--json",
+    ]));
+    assert_eq!(a["rows"].as_array().unwrap().len(), 2);
+    for k in 0..2 {
+        assert_eq!(a["rows"][k]["metrics"], b["rows"][k]["metrics"]);
+    }
+    // The linear normalizer errs more than the quadratic one.
+    assert!(
+        metric(&a["rows"][0], "normalize.max_rel_err")
+            > metric(&a["rows"][1], "normalize.max_rel_err")
+    );
+}
+
+#[test]
+fn optimize_meets_both_goals_beats_the_uniform_width_and_passes_the_rtl() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("opt");
+    let r = json(&fxshade(&[
+        "explore",
+        "--optimize",
+        "--goal",
+        "pipeline.max_err_levels<=1",
+        "--goal",
+        "normalize.max_diffuse_err_levels<=0.5",
+        "--minimize",
+        "bit_products",
+        "--mesh",
+        "sphere:12",
+        "--mesh",
+        "torus:24",
+        "--size",
+        "64x64",
+        "--samples",
+        "20000",
+        "--max-evals",
+        "120",
+        "--rtl-count",
+        "300",
+        "--cache",
+        dir.path().join("cache").to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--json",
+    ]));
+    let o = &r["outcome"];
+    let (base, win) = (&o["baseline"], &o["winner"]);
+    assert!(
+        metric(win, "bit_products") < metric(base, "bit_products"),
+        "{o}"
+    );
+    assert!(o["saving"].as_f64().unwrap() > 0.0);
+    for c in r["rtl_check"].as_array().unwrap() {
+        assert_eq!(c["ok"], true, "{c}");
+    }
+    // Every narrower uniform width misses a goal.
+    for u in o["uniform"].as_array().unwrap() {
+        if u[0].as_u64() < o["baseline_width"].as_u64() {
+            assert_eq!(u[1], false, "{u}");
+        }
+    }
+    // The written configuration meets the goals by the error command and a
+    // render, and its RTL passes rtl-check.
+    let cfg = out.join("optimized.toml");
+    let c = cfg.to_str().unwrap();
+    let e = json(&fxshade(&[
+        "error",
+        "normalize",
+        "--config",
+        c,
+        "--count",
+        "20000",
+        "--json",
+    ]));
+    assert!(
+        e["triangles"]["max_diffuse_err_levels"].as_f64().unwrap() <= 0.5,
+        "{e}"
+    );
+    for mesh in ["sphere:12", "torus:24"] {
+        let img = dir.path().join(mesh.replace(':', "_"));
+        let rj = json(&fxshade(&[
+            "render",
+            "--mesh",
+            mesh,
+            "--size",
+            "64x64",
+            "--method",
+            "quadratic",
+            "--config",
+            c,
+            "--out",
+            img.to_str().unwrap(),
+            "--json",
+        ]));
+        assert!(
+            rj["methods"][0]["max_abs_levels"].as_u64().unwrap() <= 1,
+            "{mesh}: {rj}"
+        );
+    }
+    let chk = fxshade(&[
+        "rtl-check",
+        "pipeline",
+        "--config",
+        c,
+        "--count",
+        "500",
+        "--sim",
+        "icarus",
+    ]);
+    assert!(chk.status.success(), "{}", text(&chk));
+}

@@ -1,0 +1,115 @@
+//! `fxshade report`: the HTML page opens in headless Chromium with every
+//! image loaded and every link resolving, and it recommends.
+
+mod common;
+
+use std::process::Command;
+
+use common::{fxshade, text};
+
+/// Chromium's binary (Debian's `chromium`); the test fails without it.
+fn chromium() -> &'static str {
+    for c in ["chromium", "chromium-browser", "google-chrome"] {
+        if Command::new(c).arg("--version").output().is_ok() {
+            return c;
+        }
+    }
+    panic!("no Chromium: install it with `sudo apt-get install chromium` (./scripts/test does it as root)");
+}
+
+/// Every `href="…"` and `src="…"` of a page.
+fn targets(html: &str) -> Vec<String> {
+    let mut v = Vec::new();
+    for attr in ["href=\"", "src=\""] {
+        let mut rest = html;
+        while let Some(i) = rest.find(attr) {
+            rest = &rest[i + attr.len()..];
+            let end = rest.find('"').expect("closed attribute");
+            v.push(rest[..end].replace("&amp;", "&"));
+            rest = &rest[end..];
+        }
+    }
+    v
+}
+
+#[test]
+fn the_html_report_renders_in_headless_chromium_with_every_image() {
+    let browser = chromium();
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("report");
+    let r = fxshade(&["report", "--out", out.to_str().unwrap(), "--size", "64x64"]);
+    assert!(r.status.success(), "{}", text(&r));
+    let html = std::fs::read_to_string(out.join("index.html")).unwrap();
+
+    // Links and images: local files that exist, or anchors on the page;
+    // nothing outside the report.
+    let t = targets(&html);
+    let images = html.matches("<img ").count();
+    assert!(images > 50, "{images} images");
+    for target in &t {
+        if let Some(id) = target.strip_prefix('#') {
+            assert!(html.contains(&format!("id=\"{id}\"")), "no anchor {target}");
+            continue;
+        }
+        assert!(
+            !target.contains("://") && !target.starts_with('/'),
+            "{target} leaves the report"
+        );
+        assert!(out.join(target).is_file(), "{target} is missing");
+    }
+
+    // The browser: a screenshot, and the page's own count of loaded and
+    // broken images after the load event.
+    let shot = dir.path().join("shot.png");
+    let url = format!("file://{}", out.join("index.html").display());
+    let s = Command::new(browser)
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--hide-scrollbars",
+        ])
+        .arg("--window-size=1280,2000")
+        .arg(format!("--screenshot={}", shot.display()))
+        .arg(&url)
+        .output()
+        .unwrap();
+    assert!(s.status.success(), "{}", text(&s));
+    let png = std::fs::read(&shot).expect("a screenshot");
+    assert_eq!(&png[1..4], b"PNG");
+    assert!(
+        png.len() > 50_000,
+        "a near-empty screenshot ({} bytes)",
+        png.len()
+    );
+    let d = Command::new(browser)
+        .args(["--headless", "--no-sandbox", "--disable-gpu", "--dump-dom"])
+        .arg(&url)
+        .output()
+        .unwrap();
+    let dom = String::from_utf8_lossy(&d.stdout);
+    assert!(
+        dom.contains(&format!("data-images-loaded=\"{images}\"")),
+        "not every image loaded: {}",
+        dom.split("data-images")
+            .nth(1)
+            .unwrap_or("no load marker")
+            .chars()
+            .take(400)
+            .collect::<String>()
+    );
+    assert!(dom.contains("data-images-broken=\"\""), "broken images");
+
+    // It recommends, per method, with costs, and shows the plots.
+    for needle in [
+        "Recommended width per method",
+        "<td>quadratic</td>",
+        "<td>mapped</td>",
+        "plots/error_vs_width.png",
+        "plots/pareto.png",
+        "<details>",
+        "x, y, z",
+    ] {
+        assert!(html.contains(needle), "no {needle}");
+    }
+}
