@@ -1,5 +1,6 @@
 //! `fxshade report`: the HTML page opens in headless Chromium with every
-//! image loaded and every link resolving, and it recommends.
+//! image loaded and every link resolving, it recommends, and the README's
+//! generated section is what it measures.
 
 mod common;
 
@@ -37,9 +38,25 @@ fn the_html_report_renders_in_headless_chromium_with_every_image() {
     let browser = chromium();
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("report");
-    let r = fxshade(&["report", "--out", out.to_str().unwrap(), "--size", "64x64"]);
+    let r = fxshade(&["report", "--out", out.to_str().unwrap()]);
     assert!(r.status.success(), "{}", text(&r));
     let html = std::fs::read_to_string(out.join("index.html")).unwrap();
+
+    // The README's generated section is this report's `found.md`.
+    let readme = std::fs::read_to_string(common::repo().join("README.md")).unwrap();
+    let begin = readme
+        .find("<!-- BEGIN found")
+        .expect("a BEGIN found line in README.md");
+    let begin = begin + readme[begin..].find('\n').unwrap();
+    let end = readme
+        .find("<!-- END found -->")
+        .expect("an END found line in README.md");
+    let found = std::fs::read_to_string(out.join("found.md")).unwrap();
+    assert!(
+        readme[begin..end].trim() == found.trim(),
+        "README.md's generated section differs from a fresh report's found.md: \
+         run `cargo run --release -- report --out report --readme README.md`"
+    );
 
     // Links and images: local files that exist, or anchors on the page;
     // nothing outside the report.

@@ -13,6 +13,7 @@ pub mod paper;
 pub mod polar_frames;
 pub mod render;
 pub mod report;
+pub mod report_found;
 pub mod report_html;
 pub mod rtl;
 pub mod rtl_check;

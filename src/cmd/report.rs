@@ -23,6 +23,11 @@ pub struct ReportArgs {
     /// Size of the rendered images.
     #[arg(long, value_name = "WxH", default_value = "256x256")]
     size: String,
+    /// Also rewrite the generated "what the report found" block of this
+    /// README (between its BEGIN found / END found lines) with the
+    /// report's figures (`found.md`).
+    #[arg(long, value_name = "FILE")]
+    readme: Option<PathBuf>,
 }
 
 /// The meshes the report renders: each procedural mesh at three
@@ -733,6 +738,31 @@ pub fn run(a: &ReportArgs) -> anyhow::Result<()> {
     let rtl = rtl_checks(&cfg);
     bar.inc(1);
 
+    let found = super::report_found::section(&super::report_found::Inputs {
+        cfg: &cfg,
+        normalize: &nerr,
+        interp: &ierr,
+        polar: &perr,
+        angles: &aerr,
+        paper: &paper,
+        ops: &ops,
+        renders: &renders,
+        sweeps: &sweeps,
+    })?;
+    dir.write("found.md", found.as_bytes())?;
+    let readme = match &a.readme {
+        Some(p) => {
+            let text = std::fs::read_to_string(p)
+                .with_context(|| format!("cannot read --readme {}", p.display()))?;
+            Some((
+                p,
+                super::report_found::splice(&text, &found)
+                    .map_err(|e| anyhow::anyhow!("--readme {}: {e}", p.display()))?,
+            ))
+        }
+        None => None,
+    };
+
     let html = super::report_html::page(&super::report_html::Data {
         cfg: &cfg,
         ops: &table,
@@ -807,6 +837,10 @@ pub fn run(a: &ReportArgs) -> anyhow::Result<()> {
     dir.write("index.md", index.as_bytes())?;
     bar.finish_and_clear();
     let out = dir.commit()?;
+    if let Some((p, text)) = readme {
+        fxshade_model::files::write_atomic(p, text.as_bytes())
+            .with_context(|| format!("cannot write --readme {}", p.display()))?;
+    }
     crate::output::print_out(&format!(
         "report written to {0}/index.html (and {0}/index.md)\n",
         out.display()
