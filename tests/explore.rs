@@ -267,6 +267,7 @@ fn bad_sweeps_are_refused_with_the_flag_or_the_line() {
         (vec!["--pareto", "normalize.max_rel_err"], "ERR:COST"),
         (vec!["--optimize"], "needs at least one --goal"),
         (vec!["--analyses", "everything"], "--analyses `everything`"),
+        (vec!["--synth", "ice40-hx8k"], "fxshade synth"),
     ] {
         let mut a = vec!["explore", "--out", o];
         a.extend(args.iter());

@@ -93,6 +93,11 @@ pub struct ExploreArgs {
     /// Points measured at once (default: all cores).
     #[arg(long, value_name = "J")]
     jobs: Option<usize>,
+    /// Synthesize every point for LUT, FF, DSP, block-RAM counts and Fmax.
+    /// Not available yet: it needs `fxshade synth` (the hardware issue);
+    /// refused with that reason. Every point carries the model's costs.
+    #[arg(long, value_name = "TARGET")]
+    synth: Option<String>,
     /// Print every metric and width group, and exit.
     #[arg(long)]
     list_metrics: bool,
@@ -382,6 +387,14 @@ pub fn run(a: &ExploreArgs) -> anyhow::Result<()> {
             "groups": fxshade_model::config::WIDTH_GROUPS.iter().map(|(n, d)| serde_json::json!({"name": n, "meaning": d})).collect::<Vec<_>>(),
         });
         return crate::output::emit(a.output, &[t, g], &json);
+    }
+    if let Some(t) = &a.synth {
+        return Err(UsageError(format!(
+            "--synth {t}: synthesized costs need `fxshade synth` (Yosys and nextpnr, the hardware issue), \
+             which fxshade does not have yet; every point carries the model's costs instead \
+             (bit_products, adder_bits, table_bits, ff, latency)"
+        ))
+        .into());
     }
     if let Some(j) = a.jobs {
         if j == 0 {
