@@ -83,11 +83,13 @@ where
         .iter()
         .flat_map(|s| s.1.iter().map(|p| p.0))
         .chain(scatter.iter().map(|p| p.0))
+        .chain(marks.iter().map(|m| m.1))
         .collect::<Vec<_>>();
     let ys = series
         .iter()
         .flat_map(|s| s.1.iter().map(|p| p.1))
         .chain(scatter.iter().map(|p| p.1))
+        .chain(marks.iter().map(|m| m.2))
         .collect::<Vec<_>>();
     let (x0, x1) = range(xs.iter().copied(), false);
     let (y0, y1) = range(ys.iter().copied(), f.log_y);

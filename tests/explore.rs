@@ -161,8 +161,11 @@ fn an_extended_sweep_computes_only_the_new_points() {
         .map(|r| r["cached"].as_bool().unwrap())
         .collect();
     assert_eq!(cached, [true, true, false]);
-    for k in 0..2 {
-        assert_eq!(a["rows"][k]["metrics"], rows[k]["metrics"]);
+    // The cached points are what measuring them again gives.
+    let fresh = sweep(&cache, &out, "polar.table_bits=8..10", &["--no-cache"]);
+    for k in 0..3 {
+        assert_eq!(fresh["rows"][k]["metrics"], rows[k]["metrics"], "point {k}");
+        assert_eq!(fresh["rows"][k]["cached"], false);
     }
     // Deeper tables: a smaller polar error.
     assert!(
@@ -268,6 +271,17 @@ fn bad_sweeps_are_refused_with_the_flag_or_the_line() {
         (vec!["--optimize"], "needs at least one --goal"),
         (vec!["--analyses", "everything"], "--analyses `everything`"),
         (vec!["--synth", "ice40-hx8k"], "fxshade synth"),
+        (
+            vec![
+                "--vary",
+                "width.normals=12",
+                "--vary",
+                "normalize.out.format=I2F12",
+            ],
+            "both set normalize.out",
+        ),
+        (vec!["--minimize", "pipeline.psnr_db"], "not a cost"),
+        (vec!["--vary", "width.level=4"], "give at least 8 bits"),
     ] {
         let mut a = vec!["explore", "--out", o];
         a.extend(args.iter());
@@ -289,10 +303,56 @@ fn bad_sweeps_are_refused_with_the_flag_or_the_line() {
         "{}",
         text(&r)
     );
+    std::fs::write(
+        &f,
+        "vary = [\n  \"polar.table_bits=8..9\",\n  \"polar.angle_bits=8..x\",\n]\n",
+    )
+    .unwrap();
+    let r = fxshade(&["explore", "--sweep", f.to_str().unwrap(), "--out", o]);
+    assert_eq!(r.status.code(), Some(2), "{}", text(&r));
+    assert!(
+        text(&r).contains("sweep.toml:3"),
+        "the entry's own line: {}",
+        text(&r)
+    );
+    std::fs::write(
+        &f,
+        "goal = [\"pipeline.max_err_levels<=1\", \"nothing<=2\"]\n",
+    )
+    .unwrap();
+    let r = fxshade(&["explore", "--sweep", f.to_str().unwrap(), "--out", o]);
+    assert_eq!(r.status.code(), Some(2), "{}", text(&r));
+    assert!(
+        text(&r).contains("sweep.toml:1") && text(&r).contains("nothing"),
+        "{}",
+        text(&r)
+    );
     std::fs::write(&f, "vary = [\"polar.table_bits=8..x\"]\n").unwrap();
     let r = fxshade(&["explore", "--sweep", f.to_str().unwrap(), "--out", o]);
     assert_eq!(r.status.code(), Some(2), "{}", text(&r));
     assert!(text(&r).contains("sweep.toml:1"), "{}", text(&r));
+}
+
+#[test]
+fn a_shard_with_no_points_writes_an_empty_result() {
+    let dir = tempfile::tempdir().unwrap();
+    let r = json(&fxshade(&[
+        "explore",
+        "--vary",
+        "polar.table_bits=8..9",
+        "--analyses",
+        "polar,cost",
+        "--samples",
+        "1000",
+        "--shard",
+        "2/3",
+        "--no-cache",
+        "--json",
+        "--out",
+        dir.path().join("s").to_str().unwrap(),
+    ]));
+    assert_eq!(r["rows"].as_array().unwrap().len(), 0);
+    assert_eq!(r["total"], 2);
 }
 
 #[test]
@@ -378,12 +438,56 @@ fn optimize_meets_both_goals_beats_the_uniform_width_and_passes_the_rtl() {
     for c in r["rtl_check"].as_array().unwrap() {
         assert_eq!(c["ok"], true, "{c}");
     }
-    // Every narrower uniform width misses a goal.
-    for u in o["uniform"].as_array().unwrap() {
-        if u[0].as_u64() < o["baseline_width"].as_u64() {
-            assert_eq!(u[1], false, "{u}");
+    // Measured again without the cache, through the width groups: the
+    // baseline's uniform width meets both goals and one bit less does not.
+    let w = o["baseline_width"].as_u64().unwrap();
+    assert!(w > 8, "baseline at the narrowest width tried: {o}");
+    let uniform = |w: u64| {
+        let mut args: Vec<String> = [
+            "explore",
+            "--goal",
+            "pipeline.max_err_levels<=1",
+            "--goal",
+            "normalize.max_diffuse_err_levels<=0.5",
+            "--mesh",
+            "sphere:12",
+            "--mesh",
+            "torus:24",
+            "--size",
+            "64x64",
+            "--samples",
+            "20000",
+            "--analyses",
+            "normalize,pipeline,cost",
+            "--no-cache",
+            "--json",
+            "--out",
+        ]
+        .map(String::from)
+        .to_vec();
+        args.push(dir.path().join(format!("u{w}")).display().to_string());
+        for g in [
+            "normals",
+            "light",
+            "normalizer",
+            "interp",
+            "shading",
+            "level",
+        ] {
+            args.push("--vary".into());
+            args.push(format!("width.{g}={w}"));
         }
-    }
+        let a: Vec<&str> = args.iter().map(|s| s.as_str()).collect();
+        json(&fxshade(&a))
+    };
+    let at = uniform(w);
+    assert_eq!(at["cheapest_meeting_goals"], 0, "{at}");
+    assert_eq!(
+        metric(&at["rows"][0], "bit_products"),
+        metric(base, "bit_products")
+    );
+    let below = uniform(w - 1);
+    assert!(below["cheapest_meeting_goals"].is_null(), "{below}");
     // The written configuration meets the goals by the error command and a
     // render, and its RTL passes rtl-check.
     let cfg = out.join("optimized.toml");

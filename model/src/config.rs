@@ -628,6 +628,13 @@ impl Config {
             .map(|(key, q)| {
                 let f = q.format();
                 let frac = width as i32 - f.int_bits();
+                if frac < 0 {
+                    return Err(format!(
+                        "width.{group}={width}: {key} ({f}) has {} integer bits: give at least {} bits",
+                        f.int_bits(),
+                        f.int_bits()
+                    ));
+                }
                 Format::new(f.signed(), width, frac)
                     .map(|nf| format!("{key}.format={nf}"))
                     .map_err(|e| {

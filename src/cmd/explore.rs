@@ -65,7 +65,8 @@ pub struct ExploreArgs {
     /// `--goal`, checked on both simulators, written as a configuration.
     #[arg(long)]
     optimize: bool,
-    /// Most points `--optimize` measures.
+    /// Most points `--optimize` measures after the uniform widths (which
+    /// are always measured: one point per width from 8 to 26 bits).
     #[arg(long, default_value_t = 400, value_name = "N")]
     max_evals: usize,
     /// Vectors the winner's RTL is checked on, per simulator.
@@ -112,54 +113,63 @@ pub struct ExploreArgs {
     output: OutputArgs,
 }
 
-/// A sweep file's fields.
+/// A value and where it came from (`--goal`, `sweep.toml:4`).
+type Given = (String, String);
+
+/// A sweep file's fields, each entry with its file and line.
 #[derive(Default, Debug)]
 struct SweepFile {
-    vary: Vec<(String, String)>,
-    set: Vec<String>,
-    mesh: Vec<String>,
-    size: Option<String>,
+    vary: Vec<Given>,
+    set: Vec<Given>,
+    mesh: Vec<Given>,
+    size: Option<Given>,
     samples: Option<usize>,
-    analyses: Vec<String>,
-    pareto: Vec<String>,
-    goal: Vec<String>,
-    minimize: Option<String>,
+    analyses: Vec<Given>,
+    pareto: Vec<Given>,
+    goal: Vec<Given>,
+    minimize: Option<Given>,
 }
 
 fn read_sweep(path: &Path) -> anyhow::Result<SweepFile> {
     let text = std::fs::read_to_string(path)
         .with_context(|| format!("cannot read the sweep file {}", path.display()))?;
-    let doc = toml_edit::ImDocument::parse(text.as_str()).map_err(|e: toml_edit::TomlError| {
-        let line = e.span().map_or(1, |s| {
-            text[..s.start.min(text.len())].matches('\n').count() + 1
-        });
-        UsageError(format!("{}:{line}: {}", path.display(), e.message()))
-    })?;
-    let line_of = |item: &toml_edit::Item| {
-        item.span().map_or(1, |s| {
+    let line = |span: Option<std::ops::Range<usize>>| {
+        span.map_or(1, |s| {
             text[..s.start.min(text.len())].matches('\n').count() + 1
         })
     };
+    let doc = toml_edit::ImDocument::parse(text.as_str()).map_err(|e: toml_edit::TomlError| {
+        UsageError(format!(
+            "{}:{}: {}",
+            path.display(),
+            line(e.span()),
+            e.message()
+        ))
+    })?;
+    let at = |span| format!("{}:{}", path.display(), line(span));
     let mut f = SweepFile::default();
     for (key, item) in doc.iter() {
-        let at = format!("{}:{}", path.display(), line_of(item));
-        let strings = || -> anyhow::Result<Vec<String>> {
+        let here = at(item.span());
+        let strings = || -> anyhow::Result<Vec<Given>> {
             let arr = item.as_array().ok_or_else(|| {
                 UsageError(format!(
-                    "{at}: `{key}` is a list of strings, e.g. {key} = [\"…\"]"
+                    "{here}: `{key}` is a list of strings, e.g. {key} = [\"…\"]"
                 ))
             })?;
             arr.iter()
                 .map(|v| {
-                    v.as_str().map(str::to_string).ok_or_else(|| {
-                        UsageError(format!("{at}: `{key}` holds a value that is not a string"))
-                            .into()
-                    })
+                    let vat = at(v.span());
+                    v.as_str()
+                        .map(|s| (s.to_string(), vat.clone()))
+                        .ok_or_else(|| {
+                            UsageError(format!("{vat}: `{key}` holds a value that is not a string"))
+                                .into()
+                        })
                 })
                 .collect()
         };
         match key {
-            "vary" => f.vary = strings()?.into_iter().map(|s| (s, at.clone())).collect(),
+            "vary" => f.vary = strings()?,
             "set" => f.set = strings()?,
             "mesh" => f.mesh = strings()?,
             "analyses" => f.analyses = strings()?,
@@ -168,24 +178,25 @@ fn read_sweep(path: &Path) -> anyhow::Result<SweepFile> {
             "size" | "minimize" => {
                 let s = item
                     .as_str()
-                    .ok_or_else(|| UsageError(format!("{at}: `{key}` is a string")))?;
+                    .ok_or_else(|| UsageError(format!("{here}: `{key}` is a string")))?;
+                let g = Some((s.to_string(), here.clone()));
                 if key == "size" {
-                    f.size = Some(s.into());
+                    f.size = g;
                 } else {
-                    f.minimize = Some(s.into());
+                    f.minimize = g;
                 }
             }
             "samples" => {
                 f.samples = Some(
                     item.as_integer()
                         .filter(|&n| n > 0)
-                        .ok_or_else(|| UsageError(format!("{at}: `samples` is a positive integer")))?
+                        .ok_or_else(|| UsageError(format!("{here}: `samples` is a positive integer")))?
                         as usize,
                 )
             }
             _ => {
                 return Err(UsageError(format!(
-                    "{at}: unknown key `{key}`; expected vary, set, mesh, size, samples, analyses, pareto, goal, minimize"
+                    "{here}: unknown key `{key}`; expected vary, set, mesh, size, samples, analyses, pareto, goal, minimize"
                 ))
                 .into())
             }
@@ -204,61 +215,127 @@ struct Plan {
     minimize: String,
 }
 
+/// The sweep file's entries, then the flag's (named `flag`).
+fn given(file: &[Given], flags: &[String], flag: &str) -> Vec<Given> {
+    file.iter()
+        .cloned()
+        .chain(flags.iter().map(|s| (s.clone(), flag.to_string())))
+        .collect()
+}
+
+fn usage(e: anyhow::Error) -> anyhow::Error {
+    UsageError(format!("{e:#}")).into()
+}
+
+/// Goals, Pareto pairs (error, cost) and the cost to minimize.
+type Targets = (Vec<Goal>, Vec<(String, String)>, String);
+
+/// Goals, the Pareto pairs and the cost to minimize, from the sweep file
+/// and the flags.
+fn targets(a: &ExploreArgs, file: &SweepFile) -> anyhow::Result<Targets> {
+    let goals: Vec<Goal> = given(&file.goal, &a.goal, "--goal")
+        .iter()
+        .map(|(g, at)| Goal::parse(g, at).map_err(usage))
+        .collect::<anyhow::Result<_>>()?;
+    let (minimize, at) = a
+        .minimize
+        .clone()
+        .map(|m| (m, "--minimize".to_string()))
+        .or(file.minimize.clone())
+        .unwrap_or_else(|| ("bit_products".into(), "--minimize".into()));
+    explore::check_metric(&at, &minimize).map_err(usage)?;
+    if eval::group_of(&minimize) != "cost" {
+        return Err(UsageError(format!(
+            "{at} `{minimize}`: not a cost; minimize one of {}",
+            eval::METRICS
+                .iter()
+                .filter(|(n, _)| eval::group_of(n) == "cost")
+                .map(|(n, _)| *n)
+                .collect::<Vec<_>>()
+                .join(", ")
+        ))
+        .into());
+    }
+    let mut pareto = Vec::new();
+    for (p, at) in given(&file.pareto, &a.pareto, "--pareto") {
+        let (e, c) = p.split_once(':').ok_or_else(|| {
+            UsageError(format!(
+                "{at} `{p}`: write ERR:COST, e.g. pipeline.max_err_levels:bit_products"
+            ))
+        })?;
+        explore::check_metric(&at, e.trim()).map_err(usage)?;
+        explore::check_metric(&at, c.trim()).map_err(usage)?;
+        pareto.push((e.trim().to_string(), c.trim().to_string()));
+    }
+    Ok((goals, pareto, minimize))
+}
+
+/// Refuse two axes that set the same `unit.field`: the later one would
+/// silently win and the earlier one's labels would be wrong.
+fn check_disjoint(axes: &[sweep::Axis]) -> anyhow::Result<()> {
+    let fields = |ax: &sweep::Axis| -> std::collections::BTreeSet<String> {
+        ax.values
+            .iter()
+            .flat_map(|v| v.overrides.iter())
+            .filter_map(|o| o.split_once('=').map(|(k, _)| k.trim()))
+            .map(|k| k.split('.').take(2).collect::<Vec<_>>().join("."))
+            .collect()
+    };
+    for (i, x) in axes.iter().enumerate() {
+        for y in &axes[..i] {
+            if let Some(f) = fields(x).intersection(&fields(y)).next() {
+                return Err(UsageError(format!(
+                    "--vary {} and --vary {} both set {f}: sweep it on one axis",
+                    y.key, x.key
+                ))
+                .into());
+            }
+        }
+    }
+    Ok(())
+}
+
 fn plan(a: &ExploreArgs) -> anyhow::Result<Plan> {
     let file = match &a.sweep {
         Some(p) => read_sweep(p)?,
         None => SweepFile::default(),
     };
+    for (s, at) in &file.set {
+        fxshade_model::Config::embedded()
+            .apply_override(s)
+            .map_err(|e| UsageError(format!("{at}: {e}")))?;
+    }
     let base = Base {
         config: a.cfg.config.clone(),
-        set: file.set.iter().chain(&a.cfg.set).cloned().collect(),
+        set: file
+            .set
+            .iter()
+            .map(|(s, _)| s.clone())
+            .chain(a.cfg.set.iter().cloned())
+            .collect(),
     };
     let base_cfg = fxshade_model::Config::resolve(base.config.as_deref(), &base.set)?;
     let mut axes = Vec::new();
-    for (spec, at) in file
-        .vary
-        .iter()
-        .cloned()
-        .chain(a.vary.iter().map(|s| (s.clone(), "--vary".to_string())))
-    {
-        axes.push(
-            sweep::parse_axis(&spec, &base_cfg, &at).map_err(|e| UsageError(format!("{e:#}")))?,
-        );
+    for (spec, at) in given(&file.vary, &a.vary, "--vary") {
+        axes.push(sweep::parse_axis(&spec, &base_cfg, &at).map_err(usage)?);
     }
-    let goals: Vec<Goal> = file
-        .goal
-        .iter()
-        .chain(&a.goal)
-        .map(|g| Goal::parse(g).map_err(|e| UsageError(format!("{e:#}")).into()))
-        .collect::<anyhow::Result<_>>()?;
-    let minimize = a
-        .minimize
-        .clone()
-        .or(file.minimize)
-        .unwrap_or_else(|| "bit_products".into());
-    explore::check_metric("--minimize", &minimize).map_err(|e| UsageError(e.to_string()))?;
-    let mut pareto = Vec::new();
-    for p in file.pareto.iter().chain(&a.pareto) {
-        let (e, c) = p.split_once(':').ok_or_else(|| {
-            UsageError(format!(
-                "--pareto `{p}`: write ERR:COST, e.g. pipeline.max_err_levels:bit_products"
-            ))
-        })?;
-        explore::check_metric("--pareto", e.trim()).map_err(|e| UsageError(e.to_string()))?;
-        explore::check_metric("--pareto", c.trim()).map_err(|e| UsageError(e.to_string()))?;
-        pareto.push((e.trim().to_string(), c.trim().to_string()));
-    }
-    let mut meshes: Vec<String> = file.mesh.iter().chain(&a.mesh).cloned().collect();
-    let mut analyses: Vec<String> = file.analyses.iter().chain(&a.analyses).cloned().collect();
-    for x in &analyses {
+    check_disjoint(&axes)?;
+    let (goals, mut pareto, minimize) = targets(a, &file)?;
+    let mut meshes: Vec<String> = given(&file.mesh, &a.mesh, "--mesh")
+        .into_iter()
+        .map(|(m, _)| m)
+        .collect();
+    let asked = given(&file.analyses, &a.analyses, "--analyses");
+    for (x, at) in &asked {
         if !eval::ANALYSES.contains(&x.as_str()) {
             return Err(UsageError(format!(
-                "--analyses `{x}`: expected {}",
+                "{at} `{x}`: expected {}",
                 eval::ANALYSES.join(", ")
             ))
             .into());
         }
     }
+    let mut analyses: Vec<String> = asked.into_iter().map(|(x, _)| x).collect();
     let needed: Vec<String> = goals
         .iter()
         .map(|g| g.metric.clone())
@@ -297,12 +374,13 @@ fn plan(a: &ExploreArgs) -> anyhow::Result<Plan> {
             pareto.push((err, minimize.clone()));
         }
     }
-    let size = super::render::parse_size(
-        a.size
-            .as_deref()
-            .or(file.size.as_deref())
-            .unwrap_or("128x128"),
-    )?;
+    let (size, size_at) = match (&a.size, &file.size) {
+        (Some(s), _) => (s.clone(), "--size".to_string()),
+        (None, Some((s, at))) => (s.clone(), at.clone()),
+        (None, None) => ("128x128".into(), "--size".into()),
+    };
+    let size =
+        super::render::parse_size(&size).map_err(|e| UsageError(format!("{size_at}: {e:#}")))?;
     let samples = a.samples.or(file.samples);
     if samples == Some(0) {
         return Err(UsageError("--samples 0: give at least 1".into()).into());
@@ -314,6 +392,7 @@ fn plan(a: &ExploreArgs) -> anyhow::Result<Plan> {
         .filter(|x| analyses.iter().any(|y| y == *x))
         .map(|s| s.to_string())
         .collect();
+    let inputs = explore::inputs_fingerprint(base.config.as_deref(), &meshes)?;
     Ok(Plan {
         base,
         axes,
@@ -322,6 +401,7 @@ fn plan(a: &ExploreArgs) -> anyhow::Result<Plan> {
             meshes,
             size,
             samples,
+            inputs,
         },
         pareto,
         goals,
@@ -356,6 +436,7 @@ struct Results {
     #[serde(default)]
     pareto: Vec<serde_json::Value>,
     #[serde(default)]
+    /// The sweep index of the cheapest point meeting every goal.
     cheapest_meeting_goals: Option<usize>,
 }
 
@@ -472,7 +553,8 @@ fn label(r: &Row) -> String {
 fn finish(a: &ExploreArgs, mut res: Results, out: &Path) -> anyhow::Result<()> {
     res.rows.sort_by_key(|r| r.index);
     let dir = staged(a, out)?;
-    res.cheapest_meeting_goals = cheapest(&res.rows, &res.goals, &res.minimize);
+    let best = cheapest(&res.rows, &res.goals, &res.minimize);
+    res.cheapest_meeting_goals = best.map(|i| res.rows[i].index);
     let mut pareto_json = Vec::new();
     for (k, (e, c)) in res.pareto_metrics.iter().enumerate() {
         let front = explore::pareto(&res.rows, e, c);
@@ -503,8 +585,7 @@ fn finish(a: &ExploreArgs, mut res: Results, out: &Path) -> anyhow::Result<()> {
             .iter()
             .filter_map(|&i| Some((res.rows[i].get(c)?, res.rows[i].get(e)?)))
             .collect();
-        let marks: Vec<(String, f64, f64)> = res
-            .cheapest_meeting_goals
+        let marks: Vec<(String, f64, f64)> = best
             .and_then(|i| {
                 let r = &res.rows[i];
                 Some((
@@ -536,7 +617,7 @@ fn finish(a: &ExploreArgs, mut res: Results, out: &Path) -> anyhow::Result<()> {
     }
     res.pareto = pareto_json;
     // Error against the first axis, one curve per value of the others.
-    if let Some(first) = res.axes.first() {
+    if let (Some(first), false) = (res.axes.first(), res.rows.is_empty()) {
         let xs: Option<Vec<f64>> = res
             .rows
             .iter()
@@ -656,7 +737,7 @@ fn finish(a: &ExploreArgs, mut res: Results, out: &Path) -> anyhow::Result<()> {
         {
             note.push("pareto".into());
         }
-        if res.cheapest_meeting_goals == Some(i) {
+        if best == Some(i) {
             note.push("cheapest meeting the goals".into());
         }
         row.push(note.join("; "));
@@ -759,13 +840,25 @@ fn merge(a: &ExploreArgs) -> anyhow::Result<()> {
         );
     }
     let (_, first) = parts.swap_remove(0);
-    let res = Results {
+    let mut res = Results {
         shard: None,
         rows,
         pareto: Vec::new(),
         cheapest_meeting_goals: None,
         ..first
     };
+    // Goals, Pareto pairs and the cost given to --merge replace the shards'
+    // (they do not change what was measured, only what is marked).
+    let (goals, pareto, minimize) = targets(a, &SweepFile::default())?;
+    if !a.goal.is_empty() {
+        res.goals = goals;
+    }
+    if !a.pareto.is_empty() {
+        res.pareto_metrics = pareto;
+    }
+    if a.minimize.is_some() {
+        res.minimize = minimize;
+    }
     finish(a, res, out)
 }
 
@@ -861,6 +954,10 @@ fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow:
         .filter_map(|&(w, _, c)| Some((w as f64, c?)))
         .collect();
     let wc = o.winner.get(&o.minimize).unwrap_or(f64::NAN);
+    let span: Vec<(f64, f64)> = [optimize::UNIFORM_MIN, optimize::UNIFORM_MAX]
+        .iter()
+        .map(|&w| (w as f64, wc))
+        .collect();
     let (png, svg) = crate::plot::plot(
         &crate::plot::Frame {
             title: &format!(
@@ -874,9 +971,10 @@ fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow:
         &[
             ("every stage at one width".into(), uni),
             ("uniform widths meeting the goals".into(), ok),
+            (format!("optimized per-stage widths: {}", fmt_num(wc)), span),
         ],
         &[],
-        &[(format!("optimized: {wc}"), o.baseline_width as f64, wc)],
+        &[],
     )?;
     dir.write("optimize.png", &png)?;
     dir.write("optimize.svg", svg.as_bytes())?;

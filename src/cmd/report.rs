@@ -390,6 +390,10 @@ pub fn summary_sweep(base: &crate::explore::Base) -> anyhow::Result<Vec<MethodSw
             .collect(),
         size: (128, 128),
         samples: None,
+        inputs: crate::explore::inputs_fingerprint(
+            base.config.as_deref(),
+            &super::explore::DEFAULT_MESHES.map(String::from),
+        )?,
     };
     let meshes = explore::load_meshes(&o)?;
     let cache = Cache::new(Some(Cache::default_dir())).or_else(|_| Cache::new(None))?;
@@ -410,7 +414,10 @@ pub fn summary_sweep(base: &crate::explore::Base) -> anyhow::Result<Vec<MethodSw
         for w in SUMMARY_WIDTHS {
             let widths: Vec<u32> = vars.iter().map(|v| w.max(v.min_width())).collect();
             let mut overrides = select.clone();
-            overrides.extend(optimize::overrides(&vars, &widths).unwrap_or_default());
+            overrides.extend(
+                optimize::overrides(&vars, &widths)
+                    .ok_or_else(|| anyhow::anyhow!("{method}: a stage cannot take {w} bits"))?,
+            );
             points.push(Point {
                 index: points.len(),
                 labels: vec![

@@ -38,11 +38,13 @@ pub struct Inputs<'a> {
     pub sweeps: &'a [MethodSweep],
 }
 
+/// A fraction as a percentage: two decimals, or three significant digits
+/// below 0.1 %.
 fn pct(x: f64) -> String {
     if x >= 0.001 {
         format!("{:.2} %", 100.0 * x)
     } else {
-        format!("{:.2e}", x)
+        format!("{:.2e} %", 100.0 * x)
     }
 }
 
@@ -330,10 +332,9 @@ pub fn splice(text: &str, section: &str) -> Result<String, String> {
     let b = text
         .find(BEGIN)
         .ok_or_else(|| format!("no line `{BEGIN}`"))?;
-    let e = text.find(END).ok_or_else(|| format!("no line `{END}`"))?;
-    if e < b {
-        return Err("the END marker comes before the BEGIN marker".into());
-    }
+    let e = b + text[b..]
+        .find(END)
+        .ok_or_else(|| format!("no line `{END}` after `{BEGIN}`"))?;
     Ok(format!(
         "{}{BEGIN}\n\n{}\n{}",
         &text[..b],
@@ -346,8 +347,8 @@ pub fn splice(text: &str, section: &str) -> Result<String, String> {
 #[cfg(test)]
 pub fn current(text: &str) -> Option<&str> {
     let b = text.find(BEGIN)? + BEGIN.len();
-    let e = text.find(END)?;
-    (e >= b).then(|| text[b..e].trim())
+    let e = b + text[b..].find(END)?;
+    Some(text[b..e].trim())
 }
 
 #[cfg(test)]

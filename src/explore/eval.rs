@@ -4,8 +4,7 @@
 //!
 //! Metric names are `unit.metric` for errors (`normalize.max_rel_err`,
 //! `pipeline.max_err_levels`) and bare names for costs (`bit_products`,
-//! `adder_bits`, `table_bits`, `ff`, and with `--synth` `lut`, `dsp`,
-//! `bram`, `synth_ff`).
+//! `muls`, `adder_bits`, `table_bits`, `ff`, `latency`).
 
 use std::collections::BTreeMap;
 
@@ -75,6 +74,10 @@ pub struct Options {
     /// default of its `fxshade error` command, so a point's figures are
     /// exactly what `fxshade error <unit>` prints for its configuration).
     pub samples: Option<usize>,
+    /// Fingerprint of the configuration file and OBJ meshes read
+    /// ([`super::inputs_fingerprint`]).
+    #[serde(default)]
+    pub inputs: String,
 }
 
 /// The default sample counts of `fxshade error normalize`, `interp`,
@@ -129,8 +132,10 @@ fn put(m: &mut BTreeMap<String, f64>, k: &str, v: f64) {
 }
 
 /// Lighting on unit vectors quantized to the ports: the diffuse level
-/// (I0·ks = 0) and the specular level (I0·km = 0) against f64, `count`
-/// random (N, L, H) with `N·L` and `N·H` spread over `[0, 1]`.
+/// (I0·ks = 0) and the specular level (I0·km = 0) against f64, over `count`
+/// random directions N and L (uniform on the sphere, so about half face
+/// away: the clamp to 0 is exercised too) and H halfway between L and a
+/// random viewer.
 fn lighting(cfg: &Config, count: usize, m: &mut BTreeMap<String, f64>) -> anyhow::Result<()> {
     let base = Lighting::from_config(cfg.unit("lighting"));
     let mut rng = Rng::new(1);

@@ -30,7 +30,9 @@ pub struct Row {
     pub labels: Vec<(String, String)>,
     /// The overrides that make the point's configuration from the base.
     pub overrides: Vec<String>,
-    /// Hash of the effective configuration (as in RTL headers).
+    /// Hash of the effective configuration's values (its TOML without the
+    /// comment lines that name its source and overrides): two routes to
+    /// the same configuration have the same hash.
     pub config_hash: String,
     /// Every metric, by name.
     pub metrics: BTreeMap<String, f64>,
@@ -159,8 +161,9 @@ pub fn load_meshes(o: &Options) -> anyhow::Result<Vec<(String, fxshade_model::me
         .collect()
 }
 
-/// Measure `points` in parallel (rayon, all cores), each configuration
-/// once, from the cache where it can; `tick` is called after each point.
+/// Measure `points` in parallel (rayon, all cores), from the cache where
+/// it can (two points with the same configuration may both be measured
+/// when they run at once); `tick` is called after each point.
 pub fn measure(
     base: &Base,
     points: &[sweep::Point],
@@ -282,14 +285,15 @@ pub struct Goal {
 }
 
 impl Goal {
-    /// Parse `metric<=value`; the error names the flag and the metrics.
-    pub fn parse(s: &str) -> anyhow::Result<Goal> {
+    /// Parse `metric<=value`; the error names where it came from (`at`:
+    /// `--goal`, or a sweep file's `file:line`).
+    pub fn parse(s: &str, at: &str) -> anyhow::Result<Goal> {
         for op in ["<=", ">=", "<", ">"] {
             if let Some((m, v)) = s.split_once(op) {
                 let metric = m.trim().to_string();
                 if !eval::METRICS.iter().any(|(n, _)| *n == metric) {
                     bail!(
-                        "--goal `{s}`: no metric `{metric}`; `fxshade explore --list-metrics` lists them"
+                        "{at} `{s}`: no metric `{metric}`; `fxshade explore --list-metrics` lists them"
                     );
                 }
                 let value: f64 = v
@@ -297,7 +301,7 @@ impl Goal {
                     .parse()
                     .ok()
                     .filter(|x: &f64| x.is_finite())
-                    .with_context(|| format!("--goal `{s}`: `{}` is not a number", v.trim()))?;
+                    .with_context(|| format!("{at} `{s}`: `{}` is not a number", v.trim()))?;
                 return Ok(Goal {
                     metric,
                     op: op.to_string(),
@@ -305,7 +309,7 @@ impl Goal {
                 });
             }
         }
-        bail!("--goal `{s}`: write METRIC<=VALUE (or <, >=, >), e.g. pipeline.max_err_levels<=1")
+        bail!("{at} `{s}`: write METRIC<=VALUE (or <, >=, >), e.g. pipeline.max_err_levels<=1")
     }
 
     /// Whether `row` meets it (a point without the metric does not).
@@ -326,6 +330,33 @@ impl std::fmt::Display for Goal {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(f, "{}{}{}", self.metric, self.op, self.value)
     }
+}
+
+/// A fingerprint of the files a sweep reads besides its flags: the
+/// configuration file and every OBJ mesh (procedural meshes are named by
+/// their spec alone). Part of the cache key and the sweep's identity, so an
+/// edited file is measured again.
+pub fn inputs_fingerprint(
+    config: Option<&std::path::Path>,
+    meshes: &[String],
+) -> anyhow::Result<String> {
+    let mut parts: Vec<Vec<u8>> = Vec::new();
+    if let Some(c) = config {
+        parts.push(
+            std::fs::read(c)
+                .with_context(|| format!("cannot read the configuration {}", c.display()))?,
+        );
+    }
+    for m in meshes {
+        if !(m.starts_with("sphere:") || m.starts_with("torus:")) {
+            parts.push(std::fs::read(m).with_context(|| format!("cannot read the mesh {m}"))?);
+        }
+    }
+    let refs: Vec<&[u8]> = parts.iter().map(|p| p.as_slice()).collect();
+    Ok(format!(
+        "{:016x}",
+        fxshade_model::vectors::fingerprint(&refs)
+    ))
 }
 
 /// Check a metric name given on the command line.
@@ -436,7 +467,7 @@ mod tests {
 
     #[test]
     fn goals_parse_and_compare() {
-        let g = Goal::parse("pipeline.max_err_levels<=1").unwrap();
+        let g = Goal::parse("pipeline.max_err_levels<=1", "--goal").unwrap();
         assert!(g.met(&Row {
             metrics: [("pipeline.max_err_levels".to_string(), 1.0)].into(),
             ..row(0, 0.0, 0.0)
@@ -447,10 +478,10 @@ mod tests {
         }));
         // A point without the metric does not meet it.
         assert!(!g.met(&row(0, 0.0, 0.0)));
-        let g = Goal::parse("pipeline.psnr_db > 40").unwrap();
+        let g = Goal::parse("pipeline.psnr_db > 40", "--goal").unwrap();
         assert_eq!((g.op.as_str(), g.value), (">", 40.0));
-        assert!(Goal::parse("nothing<=1").is_err());
-        assert!(Goal::parse("pipeline.max_err_levels=1").is_err());
-        assert!(Goal::parse("pipeline.max_err_levels<=x").is_err());
+        assert!(Goal::parse("nothing<=1", "--goal").is_err());
+        assert!(Goal::parse("pipeline.max_err_levels=1", "--goal").is_err());
+        assert!(Goal::parse("pipeline.max_err_levels<=x", "--goal").is_err());
     }
 }

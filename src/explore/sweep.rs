@@ -75,7 +75,8 @@ fn values(key: &str, spec: &str) -> anyhow::Result<Vec<String>> {
                 })
                 .collect();
         }
-        if let (Ok(ia), Ok(ib)) = (a.parse::<i64>(), b.parse::<i64>()) {
+        let whole_step = step.is_none_or(|s| s.parse::<i64>().is_ok());
+        if let (true, Ok(ia), Ok(ib)) = (whole_step, a.parse::<i64>(), b.parse::<i64>()) {
             let step: i64 = match step {
                 Some(s) => s.parse().ok().filter(|&s| s > 0).with_context(|| {
                     format!("step `{s}`: an integer range steps by a positive integer")
