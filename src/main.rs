@@ -90,6 +90,11 @@ enum Command {
     /// rendered images) and hardware cost; Pareto fronts and plots; with
     /// --optimize, the cheapest per-stage widths meeting goals.
     Explore(cmd::explore::ExploreArgs),
+    /// Synthesize a unit's generated RTL with Yosys for a target and, where
+    /// an open flow exists (nextpnr-ice40, nextpnr-ecp5), place and route it
+    /// in a harness that registers every port: LUT, FF, DSP and block-RAM
+    /// counts, Fmax, latency and throughput, cached per configuration.
+    Synth(cmd::synth::SynthArgs),
     /// Benchmarks of the model's speed.
     #[command(subcommand)]
     Bench(cmd::bench::BenchCmd),
@@ -115,6 +120,7 @@ fn main() -> ExitCode {
         Command::Merge(a) => cmd::merge::run(a),
         Command::Render(a) => cmd::render::run(a),
         Command::Explore(a) => cmd::explore::run(a),
+        Command::Synth(a) => cmd::synth::run(a),
     };
     match r {
         Ok(()) => ExitCode::SUCCESS,

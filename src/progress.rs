@@ -27,3 +27,16 @@ pub fn bar_eta(len: u64, what: &str) -> ProgressBar {
     b.set_prefix(what.to_string());
     b
 }
+
+/// A spinner for work of unknown length labelled `what`: its message says
+/// which step runs, with the time elapsed.
+pub fn spinner(what: &str) -> ProgressBar {
+    let b = ProgressBar::new_spinner();
+    b.set_style(
+        ProgressStyle::with_template("{prefix} {spinner} {msg} ({elapsed})")
+            .expect("valid template"),
+    );
+    b.set_prefix(what.to_string());
+    b.enable_steady_tick(std::time::Duration::from_millis(200));
+    b
+}

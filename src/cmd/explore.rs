@@ -94,11 +94,16 @@ pub struct ExploreArgs {
     /// Points measured at once (default: all cores).
     #[arg(long, value_name = "J")]
     jobs: Option<usize>,
-    /// Synthesize every point for LUT, FF, DSP, block-RAM counts and Fmax.
-    /// Not available yet: it needs `fxshade synth` (the hardware issue);
-    /// refused with that reason. Every point carries the model's costs.
-    #[arg(long, value_name = "TARGET")]
-    synth: Option<String>,
+    /// Also synthesize every point with `fxshade synth` for this target
+    /// (generic, ice40-hx8k, ice40-up5k, ecp5, xc7): the metrics lut,
+    /// synth_ff, dsp, bram and (where a place and route exists) fmax_mhz.
+    /// Synthesis is cached per configuration like every other figure.
+    #[arg(long, value_enum, value_name = "TARGET")]
+    synth: Option<super::synth::Target>,
+    /// The module `--synth` synthesizes: a unit, or `pipeline` (the top of
+    /// the configured path, the default).
+    #[arg(long, value_name = "UNIT", default_value = "pipeline")]
+    synth_unit: String,
     /// Print every metric and width group, and exit.
     #[arg(long)]
     list_metrics: bool,
@@ -244,7 +249,7 @@ fn targets(a: &ExploreArgs, file: &SweepFile) -> anyhow::Result<Targets> {
         .or(file.minimize.clone())
         .unwrap_or_else(|| ("bit_products".into(), "--minimize".into()));
     explore::check_metric(&at, &minimize).map_err(usage)?;
-    if eval::group_of(&minimize) != "cost" {
+    if eval::group_of(&minimize) != "cost" || explore::higher_is_better(&minimize) {
         return Err(UsageError(format!(
             "{at} `{minimize}`: not a cost; minimize one of {}",
             eval::METRICS
@@ -353,6 +358,21 @@ fn plan(a: &ExploreArgs) -> anyhow::Result<Plan> {
                 .collect()
         };
     }
+    if a.synth.is_none() {
+        if let Some(m) = needed
+            .iter()
+            .find(|m| eval::SYNTH_METRICS.contains(&m.as_str()))
+        {
+            return Err(UsageError(format!(
+                "`{m}` is measured by synthesis: add --synth TARGET (e.g. --synth ice40-hx8k)"
+            ))
+            .into());
+        }
+    }
+    if a.synth.is_some() {
+        crate::rtl_flow::unit(&a.synth_unit)
+            .map_err(|e| UsageError(format!("--synth-unit: {e:#}")))?;
+    }
     for m in &needed {
         let g = eval::group_of(m).to_string();
         if !analyses.contains(&g) {
@@ -402,6 +422,9 @@ fn plan(a: &ExploreArgs) -> anyhow::Result<Plan> {
             size,
             samples,
             inputs,
+            synth: a
+                .synth
+                .map(|t| (t.name().to_string(), a.synth_unit.clone())),
         },
         pareto,
         goals,
@@ -468,14 +491,6 @@ pub fn run(a: &ExploreArgs) -> anyhow::Result<()> {
             "groups": fxshade_model::config::WIDTH_GROUPS.iter().map(|(n, d)| serde_json::json!({"name": n, "meaning": d})).collect::<Vec<_>>(),
         });
         return crate::output::emit(a.output, &[t, g], &json);
-    }
-    if let Some(t) = &a.synth {
-        return Err(UsageError(format!(
-            "--synth {t}: synthesized costs need `fxshade synth` (Yosys and nextpnr, the hardware issue), \
-             which fxshade does not have yet; every point carries the model's costs instead \
-             (bit_products, adder_bits, table_bits, ff, latency)"
-        ))
-        .into());
     }
     if let Some(j) = a.jobs {
         if j == 0 {

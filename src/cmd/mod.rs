@@ -17,6 +17,7 @@ pub mod report_found;
 pub mod report_html;
 pub mod rtl;
 pub mod rtl_check;
+pub mod synth;
 pub mod vectors;
 
 use std::path::PathBuf;

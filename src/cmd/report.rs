@@ -394,6 +394,7 @@ pub fn summary_sweep(base: &crate::explore::Base) -> anyhow::Result<Vec<MethodSw
             base.config.as_deref(),
             &super::explore::DEFAULT_MESHES.map(String::from),
         )?,
+        synth: None,
     };
     let meshes = explore::load_meshes(&o)?;
     let cache = Cache::new(Some(Cache::default_dir())).or_else(|_| Cache::new(None))?;

