@@ -450,6 +450,22 @@ pub fn summary_sweep(base: &crate::explore::Base) -> anyhow::Result<Vec<MethodSw
         .collect())
 }
 
+/// Every cached `fxshade synth` result (one seed, 100 MHz goal, place and
+/// route where it exists) of this configuration's units and pipeline tops.
+fn cached_synthesis(cfg: &fxshade_model::Config) -> Vec<super::synth::SynthResult> {
+    use super::synth::{lookup, Target};
+    if std::process::Command::new("yosys").arg("-V").output().is_err() {
+        return Vec::new();
+    }
+    let mut out = Vec::new();
+    for u in fxshade_model::rtl::units::all() {
+        for t in [Target::Generic, Target::Ice40Hx8k, Target::Ice40Up5k, Target::Ecp5, Target::Xc7] {
+            out.extend(lookup(u.name, cfg, t));
+        }
+    }
+    out
+}
+
 /// RTL co-simulation results: `(unit, variant, vectors, passed, failed)`
 /// per module, or why none were run.
 pub type RtlChecks = Result<Vec<(String, String, usize, u64, u64)>, String>;
@@ -787,6 +803,7 @@ pub fn run(a: &ReportArgs) -> anyhow::Result<()> {
         sweeps: &sweeps,
         rtl: &rtl,
         method_b: &method_b_tables(&cfg, &renders)?,
+        synth: &cached_synthesis(&cfg),
     });
     dir.write("index.html", html.as_bytes())?;
 

@@ -228,6 +228,8 @@ pub struct Data<'a> {
     pub rtl: &'a super::report::RtlChecks,
     /// Method B's tables.
     pub method_b: &'a [Table; 3],
+    /// Cached synthesis results of this configuration.
+    pub synth: &'a [super::synth::SynthResult],
 }
 
 /// A Markdown list line `* [`text`](link): rest` as HTML.
@@ -431,10 +433,37 @@ pub fn page(d: &Data) -> String {
              (./scripts/test does it when run as root), then run the report again."
         )),
     }
-    p.p("Synthesis is not run by the report: with Debian's Yosys 0.23, synth_ice40 takes 17 s on the \
-         normalizer and 4 minutes on the smooth top on this 2-core machine, and the place-and-route flow \
-         (`fxshade synth`) belongs to the hardware issue. The costs above are counted from the emitted \
-         datapath: bit products, adder bits, ROM bits and flip-flops.");
+    let synth: Vec<Vec<String>> = d
+        .synth
+        .iter()
+        .map(|r| {
+            vec![
+                r.unit.clone(),
+                r.device.clone(),
+                r.lut.to_string(),
+                (r.ff - r.harness_ff.min(r.ff)).to_string(),
+                r.dsp.to_string(),
+                r.bram.to_string(),
+                r.fmax_mhz.map_or("-".into(), |f| format!("{f:.1}")),
+                r.latency.to_string(),
+            ]
+        })
+        .collect();
+    if synth.is_empty() {
+        p.p("Synthesis is not run by the report (Yosys takes from seconds to minutes per module on this \
+             2-core machine). `fxshade synth <unit> --target ice40-hx8k|ice40-up5k|ecp5|xc7|generic` runs \
+             Yosys and, for iCE40, nextpnr in a harness that registers every port; its results for this \
+             configuration appear here once cached.");
+    } else {
+        p.p("Synthesis results of this configuration from the cache of `fxshade synth` (Yosys; nextpnr-ice40 \
+             for iCE40, one seed at a 100 MHz goal; flip-flops without the harness's). Run `fxshade synth` \
+             for the other units and targets.");
+        p.table_rows(
+            None,
+            &["unit", "device", "LUT", "FF", "DSP", "BRAM", "Fmax (MHz)", "latency"].map(String::from),
+            &synth,
+        );
+    }
 
     // Op counts and quantization points.
     p.h2("ops", "Operation counts, per unit");

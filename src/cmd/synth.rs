@@ -467,6 +467,41 @@ pub fn synthesize(
     Ok(r)
 }
 
+fn cache_entry(
+    e: &Emitted,
+    target: Target,
+    seeds: u32,
+    freq: f64,
+    pnr: bool,
+) -> PathBuf {
+    static VERSIONS: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    let versions = VERSIONS.get_or_init(|| {
+        format!(
+            "{:?} {:?}",
+            tool_version("yosys", "-V"),
+            tool_version("nextpnr-ice40", "--version")
+        )
+    });
+    let key = fxshade_model::vectors::fingerprint(&[
+        e.verilog.as_bytes(),
+        target.name().as_bytes(),
+        format!("{seeds} {freq} {pnr} {versions}").as_bytes(),
+    ]);
+    crate::rtl_flow::cache_root()
+        .join("synth")
+        .join(format!("{key:016x}.json"))
+}
+
+/// A cached result of `fxshade synth` for this unit, configuration and
+/// target (one seed at 100 MHz, with place and route), without running
+/// any tool but `-V`.
+pub fn lookup(unit: &str, cfg: &fxshade_model::Config, target: Target) -> Option<SynthResult> {
+    let u = crate::rtl_flow::unit(unit).ok()?;
+    let (_, e) = fxshade_model::rtl::units::emit_unit(u, cfg).ok()?;
+    let entry = cache_entry(&e, target, 1, 100.0, true);
+    serde_json::from_slice(&std::fs::read(entry).ok()?).ok()
+}
+
 /// Synthesize a unit of a configuration, from the cache when it can: the
 /// key holds the emitted Verilog, the target, the seeds, the clock asked
 /// for and the tool versions.
@@ -484,18 +519,7 @@ pub fn cached(
 ) -> anyhow::Result<(SynthResult, bool)> {
     let u = crate::rtl_flow::unit(unit)?;
     let (_, e) = fxshade_model::rtl::units::emit_unit(u, cfg)?;
-    let versions = format!(
-        "{:?} {:?}",
-        tool_version("yosys", "-V"),
-        tool_version("nextpnr-ice40", "--version")
-    );
-    let key = fxshade_model::vectors::fingerprint(&[
-        e.verilog.as_bytes(),
-        target.name().as_bytes(),
-        format!("{seeds} {freq} {pnr} {versions}").as_bytes(),
-    ]);
-    let cache_dir = crate::rtl_flow::cache_root().join("synth");
-    let entry = cache_dir.join(format!("{key:016x}.json"));
+    let entry = cache_entry(&e, target, seeds, freq, pnr);
     if use_cache && keep.is_none() {
         if let Some(r) = std::fs::read(&entry)
             .ok()
@@ -517,7 +541,9 @@ pub fn cached(
     };
     let r = synthesize(unit, &e, target, seeds, freq, pnr, &dir, progress)?;
     if use_cache {
-        let _ = std::fs::create_dir_all(&cache_dir);
+        if let Some(d) = entry.parent() {
+            let _ = std::fs::create_dir_all(d);
+        }
         let _ = fxshade_model::files::write_atomic(&entry, &serde_json::to_vec(&r)?);
     }
     Ok((r, false))
