@@ -42,8 +42,8 @@ module polar (
   output wire [2:0] ovf_o
 );
 
-  // quarter_rom: 513 entries of I2F14, the model's codes.
-  reg  signed [15:0] quarter_rom [0:512];
+  // quarter_rom: 512 entries of I2F14, the model's codes.
+  (* rom_style = "block" *) reg  signed [15:0] quarter_rom [0:511];
   initial begin
     quarter_rom[0] = $signed(16'h0);
     quarter_rom[1] = $signed(16'h32);
@@ -557,7 +557,6 @@ module polar (
     quarter_rom[509] = $signed(16'h3fff);
     quarter_rom[510] = $signed(16'h4000);
     quarter_rom[511] = $signed(16'h4000);
-    quarter_rom[512] = $signed(16'h4000);
   end
 
   // Handshake: one valid bit per stage, one global stall.
@@ -586,46 +585,64 @@ module polar (
   reg  [0:0] polar_index_7_ovf;
   wire [10:0] cos_8_j = {polar_index_4[10:9] + 2'd1, polar_index_4[8:0]};
   wire [9:0] cos_8_a = cos_8_j[9] ? (10'h200 - {1'b0, cos_8_j[8:0]}) : {1'b0, cos_8_j[8:0]};
-  wire signed [15:0] cos_8_v = quarter_rom[cos_8_a];
+  reg  signed [15:0] cos_8_raw;
+  reg  [0:0] cos_8_top;
+  reg  [0:0] cos_8_neg_q;
+  wire signed [15:0] cos_8_v = cos_8_top ? $signed(16'h4000) : cos_8_raw;
   wire signed [16:0] cos_8_n = $signed(17'h0 - {cos_8_v[15], cos_8_v});
   wire unused_cos_8_novf = ~((&cos_8_n[16:15]) | ~(|cos_8_n[16:15]));
   wire signed [15:0] cos_8_nv = $signed(unused_cos_8_novf ? (cos_8_n[16] ? 16'h8000 : 16'h7fff) : cos_8_n[15:0]);
-  reg  signed [15:0] cos_8;
+  wire signed [15:0] cos_8 = $signed(cos_8_neg_q ? cos_8_nv : cos_8_v);
   wire [10:0] sin_9_j = polar_index_4[10:0];
   wire [9:0] sin_9_a = sin_9_j[9] ? (10'h200 - {1'b0, sin_9_j[8:0]}) : {1'b0, sin_9_j[8:0]};
-  wire signed [15:0] sin_9_v = quarter_rom[sin_9_a];
+  reg  signed [15:0] sin_9_raw;
+  reg  [0:0] sin_9_top;
+  reg  [0:0] sin_9_neg_q;
+  wire signed [15:0] sin_9_v = sin_9_top ? $signed(16'h4000) : sin_9_raw;
   wire signed [16:0] sin_9_n = $signed(17'h0 - {sin_9_v[15], sin_9_v});
   wire unused_sin_9_novf = ~((&sin_9_n[16:15]) | ~(|sin_9_n[16:15]));
   wire signed [15:0] sin_9_nv = $signed(unused_sin_9_novf ? (sin_9_n[16] ? 16'h8000 : 16'h7fff) : sin_9_n[15:0]);
-  reg  signed [15:0] sin_9;
+  wire signed [15:0] sin_9 = $signed(sin_9_neg_q ? sin_9_nv : sin_9_v);
   wire [10:0] cos_10_j = {polar_index_6[10:9] + 2'd1, polar_index_6[8:0]};
   wire [9:0] cos_10_a = cos_10_j[9] ? (10'h200 - {1'b0, cos_10_j[8:0]}) : {1'b0, cos_10_j[8:0]};
-  wire signed [15:0] cos_10_v = quarter_rom[cos_10_a];
+  reg  signed [15:0] cos_10_raw;
+  reg  [0:0] cos_10_top;
+  reg  [0:0] cos_10_neg_q;
+  wire signed [15:0] cos_10_v = cos_10_top ? $signed(16'h4000) : cos_10_raw;
   wire signed [16:0] cos_10_n = $signed(17'h0 - {cos_10_v[15], cos_10_v});
   wire unused_cos_10_novf = ~((&cos_10_n[16:15]) | ~(|cos_10_n[16:15]));
   wire signed [15:0] cos_10_nv = $signed(unused_cos_10_novf ? (cos_10_n[16] ? 16'h8000 : 16'h7fff) : cos_10_n[15:0]);
-  reg  signed [15:0] cos_10;
+  wire signed [15:0] cos_10 = $signed(cos_10_neg_q ? cos_10_nv : cos_10_v);
   wire [10:0] sin_11_j = polar_index_6[10:0];
   wire [9:0] sin_11_a = sin_11_j[9] ? (10'h200 - {1'b0, sin_11_j[8:0]}) : {1'b0, sin_11_j[8:0]};
-  wire signed [15:0] sin_11_v = quarter_rom[sin_11_a];
+  reg  signed [15:0] sin_11_raw;
+  reg  [0:0] sin_11_top;
+  reg  [0:0] sin_11_neg_q;
+  wire signed [15:0] sin_11_v = sin_11_top ? $signed(16'h4000) : sin_11_raw;
   wire signed [16:0] sin_11_n = $signed(17'h0 - {sin_11_v[15], sin_11_v});
   wire unused_sin_11_novf = ~((&sin_11_n[16:15]) | ~(|sin_11_n[16:15]));
   wire signed [15:0] sin_11_nv = $signed(unused_sin_11_novf ? (sin_11_n[16] ? 16'h8000 : 16'h7fff) : sin_11_n[15:0]);
-  reg  signed [15:0] sin_11;
+  wire signed [15:0] sin_11 = $signed(sin_11_neg_q ? sin_11_nv : sin_11_v);
   wire [10:0] cos_12_j = {polar_index_7[10:9] + 2'd1, polar_index_7[8:0]};
   wire [9:0] cos_12_a = cos_12_j[9] ? (10'h200 - {1'b0, cos_12_j[8:0]}) : {1'b0, cos_12_j[8:0]};
-  wire signed [15:0] cos_12_v = quarter_rom[cos_12_a];
+  reg  signed [15:0] cos_12_raw;
+  reg  [0:0] cos_12_top;
+  reg  [0:0] cos_12_neg_q;
+  wire signed [15:0] cos_12_v = cos_12_top ? $signed(16'h4000) : cos_12_raw;
   wire signed [16:0] cos_12_n = $signed(17'h0 - {cos_12_v[15], cos_12_v});
   wire unused_cos_12_novf = ~((&cos_12_n[16:15]) | ~(|cos_12_n[16:15]));
   wire signed [15:0] cos_12_nv = $signed(unused_cos_12_novf ? (cos_12_n[16] ? 16'h8000 : 16'h7fff) : cos_12_n[15:0]);
-  reg  signed [15:0] cos_12;
+  wire signed [15:0] cos_12 = $signed(cos_12_neg_q ? cos_12_nv : cos_12_v);
   wire [10:0] sin_13_j = polar_index_7[10:0];
   wire [9:0] sin_13_a = sin_13_j[9] ? (10'h200 - {1'b0, sin_13_j[8:0]}) : {1'b0, sin_13_j[8:0]};
-  wire signed [15:0] sin_13_v = quarter_rom[sin_13_a];
+  reg  signed [15:0] sin_13_raw;
+  reg  [0:0] sin_13_top;
+  reg  [0:0] sin_13_neg_q;
+  wire signed [15:0] sin_13_v = sin_13_top ? $signed(16'h4000) : sin_13_raw;
   wire signed [16:0] sin_13_n = $signed(17'h0 - {sin_13_v[15], sin_13_v});
   wire unused_sin_13_novf = ~((&sin_13_n[16:15]) | ~(|sin_13_n[16:15]));
   wire signed [15:0] sin_13_nv = $signed(unused_sin_13_novf ? (sin_13_n[16] ? 16'h8000 : 16'h7fff) : sin_13_n[15:0]);
-  reg  signed [15:0] sin_13;
+  wire signed [15:0] sin_13 = $signed(sin_13_neg_q ? sin_13_nv : sin_13_v);
   wire signed [31:0] t14 = cos_8 * cos_10;
   wire polar_lyz_15_inc = t14[13] & (t14[14] | (|t14[12:0]));
   wire signed [18:0] polar_lyz_15_r = $signed({t14[31], t14[31:14]} + {{18{1'b0}}, polar_lyz_15_inc});
@@ -684,12 +701,24 @@ module polar (
       polar_index_6_ovf <= polar_index_6_ovf_c;
       polar_index_7 <= polar_index_7_c;
       polar_index_7_ovf <= polar_index_7_ovf_c;
-      cos_8 <= $signed(cos_8_j[10] ? cos_8_nv : cos_8_v);
-      sin_9 <= $signed(sin_9_j[10] ? sin_9_nv : sin_9_v);
-      cos_10 <= $signed(cos_10_j[10] ? cos_10_nv : cos_10_v);
-      sin_11 <= $signed(sin_11_j[10] ? sin_11_nv : sin_11_v);
-      cos_12 <= $signed(cos_12_j[10] ? cos_12_nv : cos_12_v);
-      sin_13 <= $signed(sin_13_j[10] ? sin_13_nv : sin_13_v);
+      cos_8_raw <= quarter_rom[cos_8_a[8:0]];
+      cos_8_top <= cos_8_a[9];
+      cos_8_neg_q <= cos_8_j[10];
+      sin_9_raw <= quarter_rom[sin_9_a[8:0]];
+      sin_9_top <= sin_9_a[9];
+      sin_9_neg_q <= sin_9_j[10];
+      cos_10_raw <= quarter_rom[cos_10_a[8:0]];
+      cos_10_top <= cos_10_a[9];
+      cos_10_neg_q <= cos_10_j[10];
+      sin_11_raw <= quarter_rom[sin_11_a[8:0]];
+      sin_11_top <= sin_11_a[9];
+      sin_11_neg_q <= sin_11_j[10];
+      cos_12_raw <= quarter_rom[cos_12_a[8:0]];
+      cos_12_top <= cos_12_a[9];
+      cos_12_neg_q <= cos_12_j[10];
+      sin_13_raw <= quarter_rom[sin_13_a[8:0]];
+      sin_13_top <= sin_13_a[9];
+      sin_13_neg_q <= sin_13_j[10];
       polar_lyz_15 <= polar_lyz_15_c;
       polar_lyz_15_ovf <= polar_lyz_15_ovf_c;
       polar_out_17 <= polar_out_17_c;

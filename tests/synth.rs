@@ -151,3 +151,28 @@ fn explore_synthesizes_every_point() {
         assert!(row["metrics"]["lut"].as_f64().unwrap() > 0.0);
     }
 }
+
+#[test]
+fn the_polar_tables_go_to_block_ram() {
+    // The quarter wave's 512 registered reads (the quarter-turn entry is a
+    // constant beside the ROM, so the depth is a power of two).
+    for (target, cell) in [("ice40-up5k", "SB_RAM40_4K"), ("xc7", "RAMB18E1")] {
+        let r = json(&fxshade(&[
+            "synth",
+            "polar",
+            "--target",
+            target,
+            "--no-pnr",
+            "--no-cache",
+            "--json",
+        ]));
+        let cells = r["cells"].as_array().unwrap();
+        let n = cells
+            .iter()
+            .find(|c| c[0] == cell)
+            .and_then(|c| c[1].as_u64())
+            .unwrap_or(0);
+        assert!(n > 0, "{target}: no {cell} in {cells:?}");
+        assert_eq!(r["bram"].as_u64(), Some(n), "{target}");
+    }
+}

@@ -454,12 +454,22 @@ pub fn summary_sweep(base: &crate::explore::Base) -> anyhow::Result<Vec<MethodSw
 /// route where it exists) of this configuration's units and pipeline tops.
 fn cached_synthesis(cfg: &fxshade_model::Config) -> Vec<super::synth::SynthResult> {
     use super::synth::{lookup, Target};
-    if std::process::Command::new("yosys").arg("-V").output().is_err() {
+    if std::process::Command::new("yosys")
+        .arg("-V")
+        .output()
+        .is_err()
+    {
         return Vec::new();
     }
     let mut out = Vec::new();
     for u in fxshade_model::rtl::units::all() {
-        for t in [Target::Generic, Target::Ice40Hx8k, Target::Ice40Up5k, Target::Ecp5, Target::Xc7] {
+        for t in [
+            Target::Generic,
+            Target::Ice40Hx8k,
+            Target::Ice40Up5k,
+            Target::Ecp5,
+            Target::Xc7,
+        ] {
             out.extend(lookup(u.name, cfg, t));
         }
     }

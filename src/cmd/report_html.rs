@@ -460,7 +460,17 @@ pub fn page(d: &Data) -> String {
              for the other units and targets.");
         p.table_rows(
             None,
-            &["unit", "device", "LUT", "FF", "DSP", "BRAM", "Fmax (MHz)", "latency"].map(String::from),
+            &[
+                "unit",
+                "device",
+                "LUT",
+                "FF",
+                "DSP",
+                "BRAM",
+                "Fmax (MHz)",
+                "latency",
+            ]
+            .map(String::from),
             &synth,
         );
     }

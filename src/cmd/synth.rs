@@ -269,6 +269,29 @@ fn parse_stat(text: &str) -> Vec<(String, u64)> {
     cells
 }
 
+fn e_module(unit: &str) -> String {
+    format!("`{unit}`")
+}
+
+/// The resources a nextpnr utilisation report shows over 100 %:
+/// `ICESTORM_DSP 20/8`.
+pub fn overfull(log: &str) -> Vec<String> {
+    log.lines()
+        .filter_map(|l| {
+            let t = l.trim_start_matches("Info:").trim();
+            let (name, rest) = t.split_once(':')?;
+            if !rest.contains('/') || !rest.trim_end().ends_with('%') {
+                return None;
+            }
+            let rest = rest.replace('/', " ");
+            let mut it = rest.split_whitespace();
+            let used: u64 = it.next()?.parse().ok()?;
+            let avail: u64 = it.next()?.parse().ok()?;
+            (used > avail).then(|| format!("{} {used}/{avail}", name.trim()))
+        })
+        .collect()
+}
+
 /// The last "Max frequency for clock" figure of a nextpnr log, MHz.
 pub fn parse_fmax(log: &str) -> Option<f64> {
     log.lines()
@@ -449,7 +472,24 @@ pub fn synthesize(
             .args(["--seed", &seed.to_string()])
             .current_dir(dir);
         }
-        let log = run_logged(&mut cmd, &dir.join(format!("nextpnr_seed{seed}.log")), tool)?;
+        let log_path = dir.join(format!("nextpnr_seed{seed}.log"));
+        let log = match run_logged(&mut cmd, &log_path, tool) {
+            Ok(l) => l,
+            Err(e) => {
+                let text = std::fs::read_to_string(&log_path).unwrap_or_default();
+                let over = overfull(&text);
+                if over.is_empty() {
+                    return Err(e);
+                }
+                bail!(
+                    "{} does not fit the {}: {} (log: {})",
+                    e_module(unit),
+                    target.device(),
+                    over.join(", "),
+                    log_path.display()
+                );
+            }
+        };
         let f = parse_fmax(&log).with_context(|| {
             format!(
                 "{tool} reported no Fmax (log: {})",
@@ -467,13 +507,7 @@ pub fn synthesize(
     Ok(r)
 }
 
-fn cache_entry(
-    e: &Emitted,
-    target: Target,
-    seeds: u32,
-    freq: f64,
-    pnr: bool,
-) -> PathBuf {
+fn cache_entry(e: &Emitted, target: Target, seeds: u32, freq: f64, pnr: bool) -> PathBuf {
     static VERSIONS: std::sync::OnceLock<String> = std::sync::OnceLock::new();
     let versions = VERSIONS.get_or_init(|| {
         format!(
@@ -528,18 +562,29 @@ pub fn cached(
             return Ok((r, true));
         }
     }
-    let tmp;
+    let mut tmp = None;
     let dir = match keep {
         Some(d) => d.to_path_buf(),
         None => {
-            tmp = tempfile::Builder::new()
+            let t = tempfile::Builder::new()
                 .prefix("fxshade-synth-")
                 .tempdir()
                 .context("cannot create a temporary directory")?;
-            tmp.path().to_path_buf()
+            let p = t.path().to_path_buf();
+            tmp = Some(t);
+            p
         }
     };
-    let r = synthesize(unit, &e, target, seeds, freq, pnr, &dir, progress)?;
+    let r = match synthesize(unit, &e, target, seeds, freq, pnr, &dir, progress) {
+        Ok(r) => r,
+        Err(err) => {
+            // Keep the logs the error names.
+            if let Some(t) = tmp.take() {
+                let _ = t.keep();
+            }
+            return Err(err);
+        }
+    };
     if use_cache {
         if let Some(d) = entry.parent() {
             let _ = std::fs::create_dir_all(d);
@@ -629,5 +674,7 @@ mod tests {
                    Info: Max frequency for clock 'clk_i$SB_IO_IN_$glb_clk': 58.91 MHz (FAIL at 100.00 MHz)\n";
         assert_eq!(parse_fmax(log), Some(58.91));
         assert_eq!(parse_fmax("nothing"), None);
+        let log = "Info: \t        ICESTORM_PLL:     0/    1     0%\nInfo: \t        ICESTORM_DSP:    20/    8   250%\n";
+        assert_eq!(overfull(log), ["ICESTORM_DSP 20/8"]);
     }
 }

@@ -183,6 +183,11 @@ fn port_doc(f: Format) -> String {
     )
 }
 
+/// ROMs of at least this many entries carry `(* rom_style = "block" *)`:
+/// synthesis maps them to block RAM (iCE40 SB_RAM40_4K, 7-series RAMB18E1,
+/// ECP5 DP16KD); smaller ones stay in logic.
+pub const BLOCK_ROM_ENTRIES: usize = 128;
+
 struct Emitter<'a> {
     t: &'a Trace,
     stage: Vec<Option<u32>>,
@@ -269,9 +274,17 @@ impl<'a> Emitter<'a> {
             "// {name}: {} entries of {f}, the model's codes.",
             entries.len()
         );
+        // Deep ROMs go to block RAM (their reads are registered straight
+        // from the array); Yosys's cost model would otherwise build a ROM
+        // read by six ports from logic.
         let _ = writeln!(
             t,
-            "reg  {} {name} [0:{}];",
+            "{}reg  {} {name} [0:{}];",
+            if entries.len() >= BLOCK_ROM_ENTRIES {
+                "(* rom_style = \"block\" *) "
+            } else {
+                ""
+            },
             decl(f.signed(), f.width()),
             entries.len() - 1
         );
@@ -328,11 +341,31 @@ impl<'a> Emitter<'a> {
                     t - 3
                 ));
                 self.hw.adders.push(t - 1);
-                let rom = self.rom(&q.entries, "quarter", f, t - 1);
+                // The ROM holds the first 2^(t−2) entries, a power of two a
+                // block RAM holds exactly; the quarter-turn entry (address
+                // 2^(t−2), the only one with that bit set) is a constant.
+                // The read is registered straight from the ROM, so synthesis
+                // can map it to a block RAM's registered read port; the
+                // quarter-turn choice and the sign are applied after that
+                // register, in the next stage, by the reading operation.
+                let depth = 1usize << (t - 2);
+                let rom = self.rom(&q.entries[..depth], "quarter", f, t - 2);
+                let raw = format!("{base}_raw");
+                self.reg(
+                    &raw,
+                    f.signed(),
+                    f.width(),
+                    &format!("{rom}[{a}[{}:0]]", t - 3),
+                );
+                let top = format!("{base}_top");
+                self.reg(&top, false, 1, &format!("{a}[{}]", t - 2));
+                let neg = format!("{base}_neg_q");
+                self.reg(&neg, false, 1, &format!("{j}[{}]", t - 1));
                 let v = format!("{base}_v");
                 self.body.push(format!(
-                    "wire {} {v} = {rom}[{a}];",
-                    decl(f.signed(), f.width())
+                    "wire {} {v} = {top} ? {} : {raw};",
+                    decl(f.signed(), f.width()),
+                    bits::sv(f.signed(), &bits::literal(f.width(), q.entries[depth]))
                 ));
                 // Negated in one more bit, then back into the entry format.
                 let n = format!("{base}_n");
@@ -362,7 +395,7 @@ impl<'a> Emitter<'a> {
                     frac: f.frac(),
                 };
                 let ny = format!("{base}_nv");
-                let q = bits::quantize(
+                let qz = bits::quantize(
                     &nv,
                     &format!("{base}_neg"),
                     &ny,
@@ -373,8 +406,16 @@ impl<'a> Emitter<'a> {
                     Rounding::Trunc,
                     tb.out.overflow(),
                 );
-                self.body.extend(q.lines);
-                bits::sv(f.signed(), &format!("{j}[{}] ? {ny} : {v}", t - 1))
+                self.body.extend(qz.lines);
+                let out = base.clone();
+                self.body.push(format!(
+                    "wire {} {out} = {};",
+                    decl(f.signed(), f.width()),
+                    bits::sv(f.signed(), &format!("{neg} ? {ny} : {v}"))
+                ));
+                self.at.insert((i, s + 1), out);
+                self.hw.table_reads += 1;
+                return;
             }
         };
         // Registered read.
