@@ -800,14 +800,12 @@ fn merge(a: &ExploreArgs) -> anyhow::Result<()> {
         parts.push((f, r));
     }
     let (f0, r0) = &parts[0];
-    let n = match r0.shard {
-        Some((_, n)) => n,
-        None => bail!(
+    if r0.shard.is_none() {
+        bail!(
             "{}: not a shard (run `fxshade explore --shard K/N`)",
             f0.display()
-        ),
-    };
-    let mut seen = vec![None::<PathBuf>; n];
+        );
+    }
     for (f, r) in &parts {
         if r.sweep_id != r0.sweep_id {
             bail!(
@@ -816,32 +814,13 @@ fn merge(a: &ExploreArgs) -> anyhow::Result<()> {
                 f.display()
             );
         }
-        let Some((k, nn)) = r.shard else {
-            bail!("{}: not a shard", f.display());
-        };
-        if nn != n {
-            bail!(
-                "{}: shard {k}/{nn}, but {} is of {n} shards",
-                f.display(),
-                f0.display()
-            );
-        }
-        if let Some(prev) = &seen[k] {
-            bail!(
-                "shard {k}/{n} is given twice: {} and {}",
-                prev.display(),
-                f.display()
-            );
-        }
-        seen[k] = Some(f.clone());
     }
-    let missing: Vec<String> = (0..n)
-        .filter(|&k| seen[k].is_none())
-        .map(|k| format!("{k}/{n}"))
-        .collect();
-    if !missing.is_empty() {
-        bail!("missing shard(s) {}", missing.join(", "));
-    }
+    super::merge::check_shards(
+        &parts
+            .iter()
+            .map(|(f, r)| (f.clone(), r.shard))
+            .collect::<Vec<_>>(),
+    )?;
     let mut rows: Vec<Row> = parts
         .iter()
         .flat_map(|(_, r)| r.rows.iter().cloned())

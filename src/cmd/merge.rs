@@ -40,6 +40,46 @@ pub struct Merged {
     pub failed: u64,
 }
 
+/// Check that `shards` (file, its `(K, N)`) are every shard of one split,
+/// each once: errors name the files. Returns N.
+pub fn check_shards(shards: &[(PathBuf, Option<(usize, usize)>)]) -> anyhow::Result<usize> {
+    let Some((f0, first)) = shards.first() else {
+        bail!("no shard given");
+    };
+    let Some((_, n)) = *first else {
+        bail!("{}: a run without --shard", f0.display());
+    };
+    let mut seen = vec![None::<&PathBuf>; n];
+    for (f, shard) in shards {
+        let Some((k, nk)) = *shard else {
+            bail!("{}: a run without --shard", f.display());
+        };
+        if nk != n {
+            bail!(
+                "{}: shard {k}/{nk}, but {} is one of {n}",
+                f.display(),
+                f0.display()
+            );
+        }
+        if let Some(prev) = seen[k] {
+            bail!(
+                "shard {k}/{n} given twice: {} and {}",
+                prev.display(),
+                f.display()
+            );
+        }
+        seen[k] = Some(f);
+    }
+    let missing: Vec<String> = (0..n)
+        .filter(|&k| seen[k].is_none())
+        .map(|k| format!("{k}/{n}"))
+        .collect();
+    if !missing.is_empty() {
+        bail!("shards missing: {}", missing.join(", "));
+    }
+    Ok(n)
+}
+
 /// Run it: exit status 0 only when every shard is there, they belong to
 /// one run, and every vector passed.
 pub fn run(a: &MergeArgs) -> anyhow::Result<()> {
@@ -56,13 +96,12 @@ pub fn run(a: &MergeArgs) -> anyhow::Result<()> {
         runs.push((f.clone(), r));
     }
     let (f0, r0) = &runs[0];
-    let Some((_, n)) = r0.shard else {
+    if r0.shard.is_none() {
         bail!(
             "{}: a run without --shard; merge takes the shards of one run",
             f0.display()
         );
-    };
-    let mut seen = vec![None::<PathBuf>; n];
+    }
     for (f, r) in &runs {
         for (what, a, b) in [
             ("unit", &r.unit, &r0.unit),
@@ -89,32 +128,13 @@ pub fn run(a: &MergeArgs) -> anyhow::Result<()> {
                 r0.total
             );
         }
-        let Some((k, nk)) = r.shard else {
-            bail!("{}: a run without --shard", f.display());
-        };
-        if nk != n {
-            bail!(
-                "{}: shard {k}/{nk}, but {} is one of {n}",
-                f.display(),
-                f0.display()
-            );
-        }
-        if let Some(prev) = &seen[k] {
-            bail!(
-                "shard {k}/{n} given twice: {} and {}",
-                prev.display(),
-                f.display()
-            );
-        }
-        seen[k] = Some(f.clone());
     }
-    let missing: Vec<String> = (0..n)
-        .filter(|&k| seen[k].is_none())
-        .map(|k| format!("{k}/{n}"))
-        .collect();
-    if !missing.is_empty() {
-        bail!("shards missing: {}", missing.join(", "));
-    }
+    let n = check_shards(
+        &runs
+            .iter()
+            .map(|(f, r)| (f.clone(), r.shard))
+            .collect::<Vec<_>>(),
+    )?;
     let checked: usize = runs.iter().map(|(_, r)| r.count).sum();
     anyhow::ensure!(
         checked == r0.total,

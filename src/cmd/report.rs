@@ -172,33 +172,10 @@ fn method_b_section(
 
 /// The summary's recommendation as Markdown.
 fn summary_markdown(sweeps: &[MethodSweep]) -> String {
-    let mut s = String::from(
-        "## Summary\n\nThe cheapest uniform width (every stage of a width group on the method's path; \
-         the output stays the 8-bit pixel) meeting the paper's 4 % bound and ±1 level on sphere:12 and \
-         torus:24 at 128×128, from a sweep of 9 to 18 bits:\n\n\
-         | method | width | bit products | adder bits | table bits | flip-flops | max error (levels) | max rel. error |\n\
-         |---|---|---|---|---|---|---|---|\n",
-    );
-    for m in sweeps {
-        match m.recommended {
-            Some(k) => {
-                let (w, r) = &m.points[k];
-                let g = |n: &str| r.get(n).map_or("-".into(), |v| format!("{v}"));
-                s += &format!(
-                    "| {} | {w} | {} | {} | {} | {} | {} | {:.2} % |\n",
-                    m.method,
-                    g("bit_products"),
-                    g("adder_bits"),
-                    g("table_bits"),
-                    g("ff"),
-                    g("pipeline.max_err_levels"),
-                    100.0 * r.get("pipeline.max_rel_err").unwrap_or(f64::NAN)
-                );
-            }
-            None => s += &format!("| {} | none of 9–18 bits | | | | | | |\n", m.method),
-        }
-    }
-    s + "\n"
+    format!(
+        "## Summary\n\n{}\n",
+        super::report_found::recommendation(sweeps)
+    )
 }
 
 /// Plots of the summary sweep (`plots/`) and the error histogram.

@@ -290,14 +290,21 @@ pub fn section(d: &Inputs) -> anyhow::Result<String> {
           whose reference is at least 5 % of full scale.\n\n";
 
     s += "### What to build\n\n";
-    s += &format!(
+    s += &recommendation(d.sweeps);
+    Ok(s)
+}
+
+/// The recommendation per method as Markdown: the narrowest uniform width
+/// meeting the 4 % bound and ±1 level, with its cost and error.
+pub fn recommendation(sweeps: &[MethodSweep]) -> String {
+    let mut s = format!(
         "The narrowest uniform width (every stage of a width group on the method's path; the output stays \
          the 8-bit pixel) meeting the 4 % bound and ±1 level on {} at 128 × 128:\n\n\
          | method | width | bit products | adder bits | table bits | flip-flops | max error (levels) | max rel. error |\n\
          |---|---|---|---|---|---|---|---|\n",
         super::explore::DEFAULT_MESHES.join(" and ")
     );
-    for m in d.sweeps {
+    for m in sweeps {
         match m.recommended {
             Some(k) => {
                 let (w, r) = &m.points[k];
@@ -323,7 +330,7 @@ pub fn section(d: &Inputs) -> anyhow::Result<String> {
             }
         }
     }
-    Ok(s)
+    s
 }
 
 /// `text` with the block between [`BEGIN`] and [`END`] replaced by
