@@ -126,7 +126,8 @@ pub struct SynthArgs {
     /// Keep the harness, scripts and logs in this directory.
     #[arg(long, value_name = "DIR")]
     keep: Option<PathBuf>,
-    /// Measure again even when a cached result exists.
+    /// Measure again even when a cached result exists (the new result
+    /// replaces it).
     #[arg(long)]
     no_cache: bool,
     #[command(flatten)]
@@ -585,12 +586,11 @@ pub fn cached(
             return Err(err);
         }
     };
-    if use_cache {
-        if let Some(d) = entry.parent() {
-            let _ = std::fs::create_dir_all(d);
-        }
-        let _ = fxshade_model::files::write_atomic(&entry, &serde_json::to_vec(&r)?);
+    // Measured afresh (with or without --no-cache): the cache keeps it.
+    if let Some(d) = entry.parent() {
+        let _ = std::fs::create_dir_all(d);
     }
+    let _ = fxshade_model::files::write_atomic(&entry, &serde_json::to_vec(&r)?);
     Ok((r, false))
 }
 
