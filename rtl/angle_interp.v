@@ -62,9 +62,10 @@ module angle_interp (
   reg  [10:0] angle_interp_angle_9;
   reg  [0:0] angle_interp_angle_9_ovf;
 
-  // Pipeline registers (data: no reset, held while stalled).
+  // Pipeline registers (data: no reset, held while stalled). A stage's
+  // registers load only with a valid item, so bubbles do not toggle them.
   always @(posedge clk_i) begin
-    if (en) begin
+    if (en & valid_i) begin
       angle_interp_angle_9 <= angle_interp_angle_9_c;
       angle_interp_angle_9_ovf <= angle_interp_angle_9_ovf_c;
     end

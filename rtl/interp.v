@@ -212,9 +212,10 @@ module interp (
   reg  [0:0] interp_weight_35_ovf_s2;
   reg  [0:0] interp_weight_37_ovf_s2;
 
-  // Pipeline registers (data: no reset, held while stalled).
+  // Pipeline registers (data: no reset, held while stalled). A stage's
+  // registers load only with a valid item, so bubbles do not toggle them.
   always @(posedge clk_i) begin
-    if (en) begin
+    if (en & valid_i) begin
       interp_weight_25 <= interp_weight_25_c;
       interp_weight_25_ovf <= interp_weight_25_ovf_c;
       interp_weight_28 <= interp_weight_28_c;
@@ -233,22 +234,24 @@ module interp (
       n12_x_i_s1 <= n12_x_i;
       n23_x_i_s1 <= n23_x_i;
       n31_x_i_s1 <= n31_x_i;
-      interp_out_49 <= interp_out_49_c;
-      interp_out_49_ovf <= interp_out_49_ovf_c;
       n1_y_i_s1 <= n1_y_i;
       n2_y_i_s1 <= n2_y_i;
       n3_y_i_s1 <= n3_y_i;
       n12_y_i_s1 <= n12_y_i;
       n23_y_i_s1 <= n23_y_i;
       n31_y_i_s1 <= n31_y_i;
-      interp_out_61 <= interp_out_61_c;
-      interp_out_61_ovf <= interp_out_61_ovf_c;
       n1_z_i_s1 <= n1_z_i;
       n2_z_i_s1 <= n2_z_i;
       n3_z_i_s1 <= n3_z_i;
       n12_z_i_s1 <= n12_z_i;
       n23_z_i_s1 <= n23_z_i;
       n31_z_i_s1 <= n31_z_i;
+    end
+    if (en & valid_q[0]) begin
+      interp_out_49 <= interp_out_49_c;
+      interp_out_49_ovf <= interp_out_49_ovf_c;
+      interp_out_61 <= interp_out_61_c;
+      interp_out_61_ovf <= interp_out_61_ovf_c;
       interp_out_73 <= interp_out_73_c;
       interp_out_73_ovf <= interp_out_73_ovf_c;
       interp_weight_25_ovf_s2 <= interp_weight_25_ovf;

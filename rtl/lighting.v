@@ -166,55 +166,68 @@ module lighting (
   reg  [0:0] lighting_spec_32_ovf_s7;
   reg  [0:0] lighting_spec_34_ovf_s7;
 
-  // Pipeline registers (data: no reset, held while stalled).
+  // Pipeline registers (data: no reset, held while stalled). A stage's
+  // registers load only with a valid item, so bubbles do not toggle them.
   always @(posedge clk_i) begin
-    if (en) begin
+    if (en & valid_i) begin
       lighting_dot_17 <= lighting_dot_17_c;
       lighting_dot_17_ovf <= lighting_dot_17_ovf_c;
       lighting_dot_24 <= lighting_dot_24_c;
       lighting_dot_24_ovf <= lighting_dot_24_ovf_c;
+    end
+    if (en & valid_q[0]) begin
       lighting_spec_26 <= lighting_spec_26_c;
       lighting_spec_26_ovf <= lighting_spec_26_ovf_c;
+      t35_s2 <= t35;
+      lighting_dot_17_ovf_s2 <= lighting_dot_17_ovf;
+      lighting_dot_24_ovf_s2 <= lighting_dot_24_ovf;
+    end
+    if (en & valid_q[1]) begin
       lighting_spec_28 <= lighting_spec_28_c;
       lighting_spec_28_ovf <= lighting_spec_28_ovf_c;
+      t35_s3 <= t35_s2;
+      lighting_dot_17_ovf_s3 <= lighting_dot_17_ovf_s2;
+      lighting_dot_24_ovf_s3 <= lighting_dot_24_ovf_s2;
+      lighting_spec_26_ovf_s3 <= lighting_spec_26_ovf;
+    end
+    if (en & valid_q[2]) begin
       lighting_spec_30 <= lighting_spec_30_c;
       lighting_spec_30_ovf <= lighting_spec_30_ovf_c;
+      t35_s4 <= t35_s3;
+      lighting_dot_17_ovf_s4 <= lighting_dot_17_ovf_s3;
+      lighting_dot_24_ovf_s4 <= lighting_dot_24_ovf_s3;
+      lighting_spec_26_ovf_s4 <= lighting_spec_26_ovf_s3;
+      lighting_spec_28_ovf_s4 <= lighting_spec_28_ovf;
+    end
+    if (en & valid_q[3]) begin
       lighting_spec_32 <= lighting_spec_32_c;
       lighting_spec_32_ovf <= lighting_spec_32_ovf_c;
+      t35_s5 <= t35_s4;
+      lighting_dot_17_ovf_s5 <= lighting_dot_17_ovf_s4;
+      lighting_dot_24_ovf_s5 <= lighting_dot_24_ovf_s4;
+      lighting_spec_26_ovf_s5 <= lighting_spec_26_ovf_s4;
+      lighting_spec_28_ovf_s5 <= lighting_spec_28_ovf_s4;
+      lighting_spec_30_ovf_s5 <= lighting_spec_30_ovf;
+    end
+    if (en & valid_q[4]) begin
       lighting_spec_34 <= lighting_spec_34_c;
       lighting_spec_34_ovf <= lighting_spec_34_ovf_c;
-      t35_s2 <= t35;
-      t35_s3 <= t35_s2;
-      t35_s4 <= t35_s3;
-      t35_s5 <= t35_s4;
       t35_s6 <= t35_s5;
+      lighting_dot_17_ovf_s6 <= lighting_dot_17_ovf_s5;
+      lighting_dot_24_ovf_s6 <= lighting_dot_24_ovf_s5;
+      lighting_spec_26_ovf_s6 <= lighting_spec_26_ovf_s5;
+      lighting_spec_28_ovf_s6 <= lighting_spec_28_ovf_s5;
+      lighting_spec_30_ovf_s6 <= lighting_spec_30_ovf_s5;
+      lighting_spec_32_ovf_s6 <= lighting_spec_32_ovf;
+    end
+    if (en & valid_q[5]) begin
       lighting_level_38 <= lighting_level_38_c;
       lighting_level_38_ovf <= lighting_level_38_ovf_c;
-      lighting_dot_17_ovf_s2 <= lighting_dot_17_ovf;
-      lighting_dot_17_ovf_s3 <= lighting_dot_17_ovf_s2;
-      lighting_dot_17_ovf_s4 <= lighting_dot_17_ovf_s3;
-      lighting_dot_17_ovf_s5 <= lighting_dot_17_ovf_s4;
-      lighting_dot_17_ovf_s6 <= lighting_dot_17_ovf_s5;
       lighting_dot_17_ovf_s7 <= lighting_dot_17_ovf_s6;
-      lighting_dot_24_ovf_s2 <= lighting_dot_24_ovf;
-      lighting_dot_24_ovf_s3 <= lighting_dot_24_ovf_s2;
-      lighting_dot_24_ovf_s4 <= lighting_dot_24_ovf_s3;
-      lighting_dot_24_ovf_s5 <= lighting_dot_24_ovf_s4;
-      lighting_dot_24_ovf_s6 <= lighting_dot_24_ovf_s5;
       lighting_dot_24_ovf_s7 <= lighting_dot_24_ovf_s6;
-      lighting_spec_26_ovf_s3 <= lighting_spec_26_ovf;
-      lighting_spec_26_ovf_s4 <= lighting_spec_26_ovf_s3;
-      lighting_spec_26_ovf_s5 <= lighting_spec_26_ovf_s4;
-      lighting_spec_26_ovf_s6 <= lighting_spec_26_ovf_s5;
       lighting_spec_26_ovf_s7 <= lighting_spec_26_ovf_s6;
-      lighting_spec_28_ovf_s4 <= lighting_spec_28_ovf;
-      lighting_spec_28_ovf_s5 <= lighting_spec_28_ovf_s4;
-      lighting_spec_28_ovf_s6 <= lighting_spec_28_ovf_s5;
       lighting_spec_28_ovf_s7 <= lighting_spec_28_ovf_s6;
-      lighting_spec_30_ovf_s5 <= lighting_spec_30_ovf;
-      lighting_spec_30_ovf_s6 <= lighting_spec_30_ovf_s5;
       lighting_spec_30_ovf_s7 <= lighting_spec_30_ovf_s6;
-      lighting_spec_32_ovf_s6 <= lighting_spec_32_ovf;
       lighting_spec_32_ovf_s7 <= lighting_spec_32_ovf_s6;
       lighting_spec_34_ovf_s7 <= lighting_spec_34_ovf;
     end

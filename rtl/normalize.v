@@ -127,35 +127,42 @@ module normalize (
   reg  [0:0] normalize_horner_18_ovf_s4;
   reg  [0:0] normalize_g_21_ovf_s4;
 
-  // Pipeline registers (data: no reset, held while stalled).
+  // Pipeline registers (data: no reset, held while stalled). A stage's
+  // registers load only with a valid item, so bubbles do not toggle them.
   always @(posedge clk_i) begin
-    if (en) begin
+    if (en & valid_i) begin
       normalize_d_15 <= normalize_d_15_c;
       normalize_d_15_ovf <= normalize_d_15_ovf_c;
+      n_x_i_s1 <= n_x_i;
+      n_y_i_s1 <= n_y_i;
+      n_z_i_s1 <= n_z_i;
+    end
+    if (en & valid_q[0]) begin
       normalize_horner_18 <= normalize_horner_18_c;
       normalize_horner_18_ovf <= normalize_horner_18_ovf_c;
       normalize_d_15_s2 <= normalize_d_15;
+      n_x_i_s2 <= n_x_i_s1;
+      n_y_i_s2 <= n_y_i_s1;
+      n_z_i_s2 <= n_z_i_s1;
+      normalize_d_15_ovf_s2 <= normalize_d_15_ovf;
+    end
+    if (en & valid_q[1]) begin
       normalize_g_21 <= normalize_g_21_c;
       normalize_g_21_ovf <= normalize_g_21_ovf_c;
-      n_x_i_s1 <= n_x_i;
-      n_x_i_s2 <= n_x_i_s1;
       n_x_i_s3 <= n_x_i_s2;
-      n_y_i_s1 <= n_y_i;
-      n_y_i_s2 <= n_y_i_s1;
       n_y_i_s3 <= n_y_i_s2;
-      n_z_i_s1 <= n_z_i;
-      n_z_i_s2 <= n_z_i_s1;
       n_z_i_s3 <= n_z_i_s2;
+      normalize_d_15_ovf_s3 <= normalize_d_15_ovf_s2;
+      normalize_horner_18_ovf_s3 <= normalize_horner_18_ovf;
+    end
+    if (en & valid_q[2]) begin
       normalize_out_25 <= normalize_out_25_c;
       normalize_out_25_ovf <= normalize_out_25_ovf_c;
       normalize_out_26 <= normalize_out_26_c;
       normalize_out_26_ovf <= normalize_out_26_ovf_c;
       normalize_out_27 <= normalize_out_27_c;
       normalize_out_27_ovf <= normalize_out_27_ovf_c;
-      normalize_d_15_ovf_s2 <= normalize_d_15_ovf;
-      normalize_d_15_ovf_s3 <= normalize_d_15_ovf_s2;
       normalize_d_15_ovf_s4 <= normalize_d_15_ovf_s3;
-      normalize_horner_18_ovf_s3 <= normalize_horner_18_ovf;
       normalize_horner_18_ovf_s4 <= normalize_horner_18_ovf_s3;
       normalize_g_21_ovf_s4 <= normalize_g_21_ovf;
     end

@@ -692,15 +692,18 @@ module polar (
   reg  [0:0] polar_lyz_15_ovf_s4;
   reg  [0:0] polar_out_17_ovf_s4;
 
-  // Pipeline registers (data: no reset, held while stalled).
+  // Pipeline registers (data: no reset, held while stalled). A stage's
+  // registers load only with a valid item, so bubbles do not toggle them.
   always @(posedge clk_i) begin
-    if (en) begin
+    if (en & valid_i) begin
       polar_index_4 <= polar_index_4_c;
       polar_index_4_ovf <= polar_index_4_ovf_c;
       polar_index_6 <= polar_index_6_c;
       polar_index_6_ovf <= polar_index_6_ovf_c;
       polar_index_7 <= polar_index_7_c;
       polar_index_7_ovf <= polar_index_7_ovf_c;
+    end
+    if (en & valid_q[0]) begin
       cos_8_raw <= quarter_rom[cos_8_a[8:0]];
       cos_8_top <= cos_8_a[9];
       cos_8_neg_q <= cos_8_j[10];
@@ -719,27 +722,31 @@ module polar (
       sin_13_raw <= quarter_rom[sin_13_a[8:0]];
       sin_13_top <= sin_13_a[9];
       sin_13_neg_q <= sin_13_j[10];
+      polar_index_4_ovf_s2 <= polar_index_4_ovf;
+      polar_index_6_ovf_s2 <= polar_index_6_ovf;
+      polar_index_7_ovf_s2 <= polar_index_7_ovf;
+    end
+    if (en & valid_q[1]) begin
       polar_lyz_15 <= polar_lyz_15_c;
       polar_lyz_15_ovf <= polar_lyz_15_ovf_c;
       polar_out_17 <= polar_out_17_c;
       polar_out_17_ovf <= polar_out_17_ovf_c;
       sin_13_s3 <= sin_13;
       t18_s3 <= t18;
-      polar_out_21 <= polar_out_21_c;
-      polar_out_21_ovf <= polar_out_21_ovf_c;
       cos_12_s3 <= cos_12;
       t23_s3 <= t23;
+      polar_index_4_ovf_s3 <= polar_index_4_ovf_s2;
+      polar_index_6_ovf_s3 <= polar_index_6_ovf_s2;
+      polar_index_7_ovf_s3 <= polar_index_7_ovf_s2;
+    end
+    if (en & valid_q[2]) begin
+      polar_out_21 <= polar_out_21_c;
+      polar_out_21_ovf <= polar_out_21_ovf_c;
       polar_out_25 <= polar_out_25_c;
       polar_out_25_ovf <= polar_out_25_ovf_c;
       polar_out_17_s4 <= polar_out_17;
-      polar_index_4_ovf_s2 <= polar_index_4_ovf;
-      polar_index_4_ovf_s3 <= polar_index_4_ovf_s2;
       polar_index_4_ovf_s4 <= polar_index_4_ovf_s3;
-      polar_index_6_ovf_s2 <= polar_index_6_ovf;
-      polar_index_6_ovf_s3 <= polar_index_6_ovf_s2;
       polar_index_6_ovf_s4 <= polar_index_6_ovf_s3;
-      polar_index_7_ovf_s2 <= polar_index_7_ovf;
-      polar_index_7_ovf_s3 <= polar_index_7_ovf_s2;
       polar_index_7_ovf_s4 <= polar_index_7_ovf_s3;
       polar_lyz_15_ovf_s4 <= polar_lyz_15_ovf;
       polar_out_17_ovf_s4 <= polar_out_17_ovf;

@@ -197,7 +197,9 @@ struct Emitter<'a> {
     /// Overflow bit of a quantization node: `(node, stage)` → name.
     ovf_at: HashMap<(usize, u32), String>,
     body: Vec<String>,
-    regs: Vec<String>,
+    /// Register assignments with the stage each register belongs to (it
+    /// holds the value of the item in that stage).
+    regs: Vec<(u32, String)>,
     unused: Vec<String>,
     hw: Hardware,
     roms: Vec<(Vec<i128>, String, Format, u32)>,
@@ -208,10 +210,10 @@ struct Emitter<'a> {
 }
 
 impl<'a> Emitter<'a> {
-    fn reg(&mut self, name: &str, signed: bool, width: u32, src: &str) {
+    fn reg(&mut self, stage: u32, name: &str, signed: bool, width: u32, src: &str) {
         self.body
             .push(format!("reg  {} {name};", decl(signed, width)));
-        self.regs.push(format!("{name} <= {src};"));
+        self.regs.push((stage, format!("{name} <= {src};")));
         self.hw.flops += width as u64;
     }
 
@@ -227,7 +229,7 @@ impl<'a> Emitter<'a> {
         let prev = self.value_at(node, stage - 1);
         let sym = self.t.sym(node);
         let name = format!("{}_s{stage}", self.name[node]);
-        self.reg(&name, sym.signed, sym.width, &prev);
+        self.reg(stage, &name, sym.signed, sym.width, &prev);
         self.at.insert((node, stage), name.clone());
         name
     }
@@ -240,7 +242,7 @@ impl<'a> Emitter<'a> {
         assert!(stage > s0);
         let prev = self.ovf_at(node, stage - 1);
         let name = format!("{}_ovf_s{stage}", self.name[node]);
-        self.reg(&name, false, 1, &prev);
+        self.reg(stage, &name, false, 1, &prev);
         self.ovf_at.insert((node, stage), name.clone());
         name
     }
@@ -352,15 +354,16 @@ impl<'a> Emitter<'a> {
                 let rom = self.rom(&q.entries[..depth], "quarter", f, t - 2);
                 let raw = format!("{base}_raw");
                 self.reg(
+                    s + 1,
                     &raw,
                     f.signed(),
                     f.width(),
                     &format!("{rom}[{a}[{}:0]]", t - 3),
                 );
                 let top = format!("{base}_top");
-                self.reg(&top, false, 1, &format!("{a}[{}]", t - 2));
+                self.reg(s + 1, &top, false, 1, &format!("{a}[{}]", t - 2));
                 let neg = format!("{base}_neg_q");
-                self.reg(&neg, false, 1, &format!("{j}[{}]", t - 1));
+                self.reg(s + 1, &neg, false, 1, &format!("{j}[{}]", t - 1));
                 let v = format!("{base}_v");
                 self.body.push(format!(
                     "wire {} {v} = {top} ? {} : {raw};",
@@ -420,7 +423,7 @@ impl<'a> Emitter<'a> {
         };
         // Registered read.
         let out = base.clone();
-        self.reg(&out, f.signed(), f.width(), &value);
+        self.reg(s + 1, &out, f.signed(), f.width(), &value);
         self.at.insert((i, s + 1), out);
         self.hw.table_reads += 1;
     }
@@ -701,9 +704,9 @@ impl<'a> Emitter<'a> {
                     self.hw.incrementers.push(w);
                 }
                 let _ = Overflow::Wrap;
-                self.reg(&name, f.signed(), f.width(), &yc);
+                self.reg(s + 1, &name, f.signed(), f.width(), &yc);
                 let ov = format!("{name}_ovf");
-                self.reg(&ov, false, 1, &oc);
+                self.reg(s + 1, &ov, false, 1, &oc);
                 self.stage[i] = Some(s + 1);
                 self.at.insert((i, s + 1), name);
                 self.ovf_at.insert((i, s + 1), ov);
@@ -984,12 +987,35 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
             let _ = writeln!(v, "  {ll}");
         }
     }
-    v += "\n  // Pipeline registers (data: no reset, held while stalled).\n";
-    v += "  always @(posedge clk_i) begin\n    if (en) begin\n";
-    for r in &e.regs {
-        let _ = writeln!(v, "      {r}");
+    v += "\n  // Pipeline registers (data: no reset, held while stalled). A stage's\n";
+    v += "  // registers load only with a valid item, so bubbles do not toggle them.\n";
+    v += "  always @(posedge clk_i) begin\n";
+    assert!(
+        e.regs.iter().all(|(st, _)| (1..=latency).contains(st)),
+        "every register belongs to a stage of the pipeline"
+    );
+    for k in 1..=latency {
+        let regs: Vec<&String> = e
+            .regs
+            .iter()
+            .filter(|(st, _)| *st == k)
+            .map(|(_, r)| r)
+            .collect();
+        if regs.is_empty() {
+            continue;
+        }
+        let load = if k == 1 {
+            "valid_i".to_string()
+        } else {
+            format!("valid_q[{}]", k - 2)
+        };
+        let _ = writeln!(v, "    if (en & {load}) begin");
+        for r in regs {
+            let _ = writeln!(v, "      {r}");
+        }
+        v += "    end\n";
     }
-    v += "    end\n  end\n\n";
+    v += "  end\n\n";
     for a in &out_assigns {
         let _ = writeln!(v, "  {a}");
     }
