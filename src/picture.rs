@@ -7,6 +7,11 @@ pub fn gray_png(width: usize, height: usize, px: &[u8]) -> anyhow::Result<Vec<u8
     encode(width, height, png::ColorType::Grayscale, px)
 }
 
+/// Encode an RGB image (3 bytes a pixel) as PNG.
+pub fn rgb_png(width: usize, height: usize, px: &[u8]) -> anyhow::Result<Vec<u8>> {
+    encode(width, height, png::ColorType::Rgb, px)
+}
+
 fn encode(width: usize, height: usize, ct: png::ColorType, px: &[u8]) -> anyhow::Result<Vec<u8>> {
     let mut out = Vec::new();
     {

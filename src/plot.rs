@@ -195,16 +195,7 @@ pub fn plot(
         marks,
     )
     .with_context(|| format!("drawing the plot `{}` as SVG", f.title))?;
-    let mut png = Vec::new();
-    {
-        let mut e = png::Encoder::new(&mut png, w, h);
-        e.set_color(png::ColorType::Rgb);
-        e.set_depth(png::BitDepth::Eight);
-        let mut wr = e.write_header().context("cannot encode a PNG header")?;
-        wr.write_image_data(&rgb)
-            .context("cannot encode a PNG image")?;
-    }
-    Ok((png, svg))
+    Ok((crate::picture::rgb_png(w as usize, h as usize, &rgb)?, svg))
 }
 
 /// A histogram as bars: `counts[k]` of the bin `labels[k]`, drawn as a

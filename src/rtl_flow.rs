@@ -168,8 +168,25 @@ fn build_timeout() -> std::time::Duration {
 /// Run a build tool in a process group of its own, with a time limit: on
 /// timeout the whole group (make, the C++ compiler) is killed.
 fn run_tool(cmd: &mut Command, what: &str) -> anyhow::Result<String> {
-    use std::os::unix::process::CommandExt;
     let limit = build_timeout();
+    let (status, text) = run_limited(cmd, what, limit, "FXSHADE_BUILD_TIMEOUT")?;
+    if !status.success() {
+        bail!("{what} failed ({status}):\n{}", text.trim_end());
+    }
+    Ok(text)
+}
+
+/// Run a tool in a process group of its own with a time limit (`env` names
+/// the variable that raises it, for the error): its exit status and its
+/// stdout and stderr together. On timeout, or when fxshade itself is
+/// killed, the whole group is killed, so no tool is left behind.
+pub fn run_limited(
+    cmd: &mut Command,
+    what: &str,
+    limit: std::time::Duration,
+    env: &str,
+) -> anyhow::Result<(std::process::ExitStatus, String)> {
+    use std::os::unix::process::CommandExt;
     let child = cmd
         .process_group(0)
         .stdout(std::process::Stdio::piped())
@@ -216,14 +233,11 @@ fn run_tool(cmd: &mut Command, what: &str) -> anyhow::Result<String> {
         String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
     if timed_out {
         bail!(
-            "{what} did not finish within {} s and was stopped (set FXSHADE_BUILD_TIMEOUT to allow more)",
+            "{what} did not finish within {} s and was stopped (set {env} to allow more)",
             limit.as_secs()
         );
     }
-    if !out.status.success() {
-        bail!("{what} failed ({}):\n{}", out.status, text.trim_end());
-    }
-    Ok(text)
+    Ok((out.status, text))
 }
 
 /// Write the sources into `dir`; the paths of the files.

@@ -266,11 +266,15 @@ pub fn page(d: &Data) -> String {
 
     // Summary and recommendation.
     p.h2("summary", "Summary: what to build");
-    p.p("For each method the RTL implements: the narrowest uniform width — every stage of a width group on \
+    p.p(&format!(
+        "For each method the RTL implements: the narrowest uniform width — every stage of a width group on \
          the method's path at that many bits, each keeping its integer bits; the output stays the 8-bit \
          pixel — that meets the paper's 4 % bound on the relative intensity error and stays within ±1 \
-         level of the f64 reference on sphere:12 and torus:24 (128 × 128; mapped methods outside the 2° \
-         polar cap). Costs are the generated RTL top's, counted from the emitted datapath.");
+         level of the f64 reference on {} (128 × 128; mapped methods outside the {}° polar cap). Costs \
+         are the generated RTL top's, counted from the emitted datapath.",
+        super::explore::DEFAULT_MESHES.join(" and "),
+        fxshade_model::render::POLAR_CAP_DEG
+    ));
     let mut rows = Vec::new();
     for m in d.sweeps {
         match m.recommended {

@@ -123,7 +123,7 @@ pub struct SynthArgs {
     /// Stop after synthesis (no place and route).
     #[arg(long)]
     no_pnr: bool,
-    /// Keep the harness, scripts and logs in this directory.
+    /// Keep the harness, scripts and logs in this directory (new or empty).
     #[arg(long, value_name = "DIR")]
     keep: Option<PathBuf>,
     /// Measure again even when a cached result exists (the new result
@@ -331,10 +331,7 @@ pub fn synthesize(
     dir: &Path,
     progress: &dyn Fn(&str),
 ) -> anyhow::Result<SynthResult> {
-    require(
-        "yosys",
-        "install it with `sudo apt-get install yosys` (./scripts/test does it when run as root)",
-    )?;
+    crate::rtl_flow::require_tool("yosys", "yosys")?;
     let pnr_tool = match target {
         Target::Ice40Hx8k | Target::Ice40Up5k if pnr => Some("nextpnr-ice40"),
         Target::Ecp5 if pnr => Some("nextpnr-ecp5"),
@@ -601,6 +598,15 @@ pub fn run(a: &SynthArgs) -> anyhow::Result<()> {
     }
     let cfg = a.cfg.resolve()?;
     let bar = crate::progress::spinner("synth");
+    if let Some(k) = &a.keep {
+        if std::fs::read_dir(k).is_ok_and(|mut d| d.next().is_some()) {
+            return Err(UsageError(format!(
+                "--keep {}: the directory is not empty; give a new or empty one (synth writes its harness, scripts and logs there)",
+                k.display()
+            ))
+            .into());
+        }
+    }
     let r = cached(
         &a.unit,
         &cfg,

@@ -162,12 +162,8 @@ fn lighting(cfg: &Config, count: usize, m: &mut BTreeMap<String, f64>) -> anyhow
             .enumerate()
         {
             for (c, x) in v.to_array().into_iter().enumerate() {
-                let f = q.format();
-                let code = f
-                    .from_f64(x, fxshade_model::quantize::Rounding::HalfEven)
-                    .unwrap_or(if x < 0.0 { f.min_code() } else { f.max_code() })
-                    .clamp(f.min_code(), f.max_code());
-                cols[3 * k + c].push(code);
+                // The port's own quantization (its rounding and overflow).
+                cols[3 * k + c].push(q.apply_f64(x)?.code);
             }
         }
         exact.push((n, l, h));
