@@ -95,6 +95,10 @@ enum Command {
     /// in a harness that registers every port: LUT, FF, DSP and block-RAM
     /// counts, Fmax, latency and throughput, cached per configuration.
     Synth(cmd::synth::SynthArgs),
+    /// Prove the handshake properties of a unit's generated RTL (no item
+    /// created, lost or duplicated; outputs held under stall; the pipeline
+    /// drains) with Yosys, yosys-smtbmc and z3, by k-induction.
+    Formal(cmd::formal::FormalArgs),
     /// Benchmarks of the model's speed.
     #[command(subcommand)]
     Bench(cmd::bench::BenchCmd),
@@ -121,6 +125,7 @@ fn main() -> ExitCode {
         Command::Render(a) => cmd::render::run(a),
         Command::Explore(a) => cmd::explore::run(a),
         Command::Synth(a) => cmd::synth::run(a),
+        Command::Formal(a) => cmd::formal::run(a),
     };
     match r {
         Ok(()) => ExitCode::SUCCESS,

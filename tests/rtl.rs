@@ -81,6 +81,85 @@ fn icarus_matches_the_model_for_every_unit_and_variant() {
     }
 }
 
+/// The target-pipelined configuration of the tests (ECP5 at 8 ns).
+fn pipelined() -> Option<String> {
+    Some(
+        repo()
+            .join("tests/configs/pipelined.toml")
+            .display()
+            .to_string(),
+    )
+}
+
+#[test]
+fn target_pipelined_rtl_matches_the_model_on_both_simulators() {
+    // Every module `rtl all` writes: each unit's first variant and the
+    // pipeline top of every path.
+    for (unit, variants) in units() {
+        let v = pairs(&variants);
+        let v = if unit == "pipeline" { &v[..] } else { &v[..1] };
+        for sim in ["verilator", "icarus"] {
+            check_all(&unit, sim, v, &[pipelined()]);
+        }
+    }
+    // The registers moved: the header states the policy and the model's
+    // prediction, and the latency differs from the compact policy's.
+    let dir = tempfile::tempdir().unwrap();
+    let p = pipelined().unwrap();
+    let o = fxshade(&[
+        "rtl",
+        "normalize",
+        "--config",
+        &p,
+        "--out",
+        dir.path().to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let v = std::fs::read_to_string(dir.path().join("normalize.v")).unwrap();
+    assert!(v.contains("// Pipelining: target ecp5 at 8 ns"), "{v}");
+    assert!(v.contains("// Delay model: slowest stage"), "{v}");
+    let compact = std::fs::read_to_string(repo().join("rtl/normalize.v")).unwrap();
+    let latency = |t: &str| {
+        t.lines()
+            .find_map(|l| l.strip_prefix("// Latency "))
+            .and_then(|l| l.split(' ').next())
+            .and_then(|n| n.parse::<u32>().ok())
+            .unwrap()
+    };
+    assert!(latency(&v) > latency(&compact), "more stages for 8 ns");
+    // The flags give the same configuration as the file.
+    let d2 = tempfile::tempdir().unwrap();
+    let o = fxshade(&[
+        "rtl",
+        "normalize",
+        "--target",
+        "ecp5",
+        "--clock-ns",
+        "8",
+        "--out",
+        d2.path().to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let v2 = std::fs::read_to_string(d2.path().join("normalize.v")).unwrap();
+    let body = |t: &str| t.split_once("`default_nettype none").unwrap().1.to_string();
+    assert_eq!(body(&v), body(&v2));
+    // `--pipeline compact` overrides the file.
+    let d3 = tempfile::tempdir().unwrap();
+    let o = fxshade(&[
+        "rtl",
+        "normalize",
+        "--config",
+        &p,
+        "--pipeline",
+        "compact",
+        "--out",
+        d3.path().to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let v3 = std::fs::read_to_string(d3.path().join("normalize.v")).unwrap();
+    assert_eq!(body(&v3), body(&compact));
+}
+
 #[test]
 fn testbenches_reject_short_long_and_wrong_vector_files() {
     testbench_checks("normalize");
@@ -182,7 +261,7 @@ fn strict_tools_on(dir: &std::path::Path, what: &str) {
 
 #[test]
 fn emitted_rtl_passes_verilator_icarus_yosys_and_slang() {
-    for cfg in configs() {
+    for cfg in configs().into_iter().chain([pipelined()]) {
         strict_tools(&cfg);
     }
     // Every variant of every unit, default configuration otherwise.

@@ -6,6 +6,7 @@ pub mod coeffs;
 pub mod config;
 pub mod error;
 pub mod explore;
+pub mod formal;
 pub mod merge;
 pub mod mutate;
 pub mod ops;
@@ -43,4 +44,62 @@ impl ConfigArgs {
     pub fn resolve(&self) -> Result<Config, ConfigErrors> {
         Config::resolve(self.config.as_deref(), &self.set)
     }
+
+    /// The effective configuration with `extra` overrides after `--set`'s.
+    pub fn resolve_with(&self, extra: &[String]) -> Result<Config, ConfigErrors> {
+        let mut all = self.set.clone();
+        all.extend(extra.iter().cloned());
+        Config::resolve(self.config.as_deref(), &all)
+    }
+}
+
+/// How the generated RTL is pipelined: shorthands for the `[rtl]` section.
+#[derive(Args, Debug, Clone, Default)]
+pub struct PipelineArgs {
+    /// `compact`: a register after every quantization and table read;
+    /// `target`: registers where the delay model of `--target` needs them
+    /// for `--clock-ns` (sets `rtl.pipeline`).
+    #[arg(long, value_parser = ["compact", "target"])]
+    pub pipeline: Option<String>,
+    /// The technology whose delay model places the registers (sets
+    /// `rtl.target`; implies `--pipeline target`).
+    #[arg(long, value_parser = fxshade_model::rtl::timing::Target::NAMES)]
+    pub target: Option<String>,
+    /// The requested clock period in ns (sets `rtl.clock_ns`; implies
+    /// `--pipeline target`).
+    #[arg(long = "clock-ns", value_name = "NS")]
+    pub clock_ns: Option<f64>,
+}
+
+impl PipelineArgs {
+    /// The flags as configuration overrides, applied after `--set`.
+    pub fn overrides(&self) -> Vec<String> {
+        pipeline_overrides(
+            self.pipeline.as_deref(),
+            self.target.as_deref(),
+            self.clock_ns,
+        )
+    }
+}
+
+/// `rtl.*` overrides for a pipelining policy, a target and a period; a
+/// target or a period alone implies `rtl.pipeline = "target"`.
+pub fn pipeline_overrides(
+    pipeline: Option<&str>,
+    target: Option<&str>,
+    clock_ns: Option<f64>,
+) -> Vec<String> {
+    let mut o = Vec::new();
+    if let Some(t) = target {
+        o.push(format!("rtl.target=\"{t}\""));
+    }
+    if let Some(c) = clock_ns {
+        o.push(format!("rtl.clock_ns={c:?}"));
+    }
+    match pipeline {
+        Some(p) => o.push(format!("rtl.pipeline=\"{p}\"")),
+        None if target.is_some() || clock_ns.is_some() => o.push("rtl.pipeline=\"target\"".into()),
+        None => {}
+    }
+    o
 }

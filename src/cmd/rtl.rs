@@ -9,7 +9,7 @@ use fxshade_model::files;
 use fxshade_model::rtl::units::{self, RtlUnit};
 use fxshade_model::rtl::Emitted;
 
-use super::ConfigArgs;
+use super::{ConfigArgs, PipelineArgs};
 use crate::output::{emit, OutputArgs, Table};
 
 /// `fxshade rtl`
@@ -22,6 +22,8 @@ pub struct RtlArgs {
     unit: String,
     #[command(flatten)]
     cfg: ConfigArgs,
+    #[command(flatten)]
+    pipe: PipelineArgs,
     /// Output directory: `<module>.v` (and with `--testbench`
     /// `<module>_tb.v`) are written into it, each file replaced atomically;
     /// nothing else in it is touched.
@@ -108,7 +110,7 @@ pub fn run(a: &RtlArgs) -> anyhow::Result<()> {
     let Some(out) = a.out.as_ref() else {
         anyhow::bail!("--out DIR is required: the directory to write the Verilog into");
     };
-    let cfg = a.cfg.resolve()?;
+    let cfg = a.cfg.resolve_with(&a.pipe.overrides())?;
     let start = std::time::Instant::now();
     let emitted = if a.unit == "all" {
         emit_all(&cfg)?

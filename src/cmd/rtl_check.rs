@@ -6,7 +6,7 @@ use anyhow::Context;
 use clap::Args;
 use fxshade_model::rtl::units::VectorStream;
 
-use super::ConfigArgs;
+use super::{ConfigArgs, PipelineArgs};
 use crate::output::{emit, OutputArgs, Table};
 use crate::rtl_flow::{self, CheckResult, Sim};
 
@@ -17,6 +17,8 @@ pub struct RtlCheckArgs {
     unit: String,
     #[command(flatten)]
     cfg: ConfigArgs,
+    #[command(flatten)]
+    pipe: PipelineArgs,
     /// Simulator.
     #[arg(long, value_enum, default_value_t = Sim::Verilator)]
     sim: Sim,
@@ -114,7 +116,7 @@ pub struct RunSummary {
 /// Run it; exit status 0 only when every vector passed.
 pub fn run(a: &RtlCheckArgs) -> anyhow::Result<()> {
     let u = rtl_flow::unit(&a.unit)?;
-    let cfg = a.cfg.resolve()?;
+    let cfg = a.cfg.resolve_with(&a.pipe.overrides())?;
     let stream = VectorStream::new(u, &cfg, a.count, a.seed, a.shard)?;
     if let Some((k, n)) = a.shard {
         anyhow::ensure!(

@@ -107,7 +107,9 @@ impl Target {
 #[derive(Args, Debug)]
 pub struct SynthArgs {
     /// Unit (`fxshade rtl list`); the pipeline top of the configured path
-    /// for `pipeline`.
+    /// for `pipeline`; `calibrate`: the delay model's probes (one operation
+    /// between two registers each), measured against the model's
+    /// prediction.
     unit: String,
     /// Target.
     #[arg(long, value_enum, default_value = "generic")]
@@ -117,9 +119,19 @@ pub struct SynthArgs {
     /// Place-and-route seeds (the median Fmax is reported).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=15))]
     seeds: u32,
-    /// Clock the placer aims for, MHz.
-    #[arg(long, default_value_t = 100.0)]
-    freq: f64,
+    /// Clock the placer aims for, MHz (default 100, or the one of
+    /// `--clock-ns`).
+    #[arg(long)]
+    freq: Option<f64>,
+    /// Pipeline the RTL for this target's delay model at this clock
+    /// period, ns (sets rtl.pipeline = "target", rtl.target to --target
+    /// and rtl.clock_ns).
+    #[arg(long = "clock-ns", value_name = "NS")]
+    clock_ns: Option<f64>,
+    /// `compact` or `target` (sets rtl.pipeline; the configuration's
+    /// rtl.target and rtl.clock_ns apply).
+    #[arg(long, value_parser = ["compact", "target"])]
+    pipeline: Option<String>,
     /// Stop after synthesis (no place and route).
     #[arg(long)]
     no_pnr: bool,
@@ -551,7 +563,25 @@ pub fn cached(
 ) -> anyhow::Result<(SynthResult, bool)> {
     let u = crate::rtl_flow::unit(unit)?;
     let (_, e) = fxshade_model::rtl::units::emit_unit(u, cfg)?;
-    let entry = cache_entry(&e, target, seeds, freq, pnr);
+    cached_emitted(
+        unit, &e, target, seeds, freq, pnr, keep, use_cache, progress,
+    )
+}
+
+/// [`cached`] for an emitted module.
+#[allow(clippy::too_many_arguments)]
+fn cached_emitted(
+    unit: &str,
+    e: &Emitted,
+    target: Target,
+    seeds: u32,
+    freq: f64,
+    pnr: bool,
+    keep: Option<&Path>,
+    use_cache: bool,
+    progress: &dyn Fn(&str),
+) -> anyhow::Result<(SynthResult, bool)> {
+    let entry = cache_entry(e, target, seeds, freq, pnr);
     if use_cache && keep.is_none() {
         if let Some(r) = std::fs::read(&entry)
             .ok()
@@ -573,7 +603,7 @@ pub fn cached(
             p
         }
     };
-    let r = match synthesize(unit, &e, target, seeds, freq, pnr, &dir, progress) {
+    let r = match synthesize(unit, e, target, seeds, freq, pnr, &dir, progress) {
         Ok(r) => r,
         Err(err) => {
             // Keep the logs the error names.
@@ -591,12 +621,52 @@ pub fn cached(
     Ok((r, false))
 }
 
+impl Target {
+    /// The delay model's technology for this target (none for generic).
+    pub fn timing(self) -> Option<fxshade_model::rtl::timing::Target> {
+        use fxshade_model::rtl::timing::Target as T;
+        match self {
+            Target::Generic => None,
+            Target::Ice40Hx8k => Some(T::Ice40Hx8k),
+            Target::Ice40Up5k => Some(T::Ice40Up5k),
+            Target::Ecp5 => Some(T::Ecp5),
+            Target::Xc7 => Some(T::Xc7),
+        }
+    }
+}
+
 /// Run it.
 pub fn run(a: &SynthArgs) -> anyhow::Result<()> {
-    if !(a.freq.is_finite() && a.freq > 0.0) {
-        return Err(UsageError(format!("--freq {}: give a clock in MHz above 0", a.freq)).into());
+    let freq = match (a.freq, a.clock_ns) {
+        (Some(f), _) => f,
+        (None, Some(c)) if c > 0.0 => 1000.0 / c,
+        _ => 100.0,
+    };
+    if !(freq.is_finite() && freq > 0.0) {
+        return Err(UsageError(format!("--freq {freq}: give a clock in MHz above 0")).into());
     }
-    let cfg = a.cfg.resolve()?;
+    let tt = a.target.timing();
+    if a.clock_ns.is_some() && tt.is_none() {
+        return Err(UsageError(
+            "--clock-ns: the generic target has no delay model; give --target ice40-hx8k, ice40-up5k, ecp5 or xc7".into(),
+        )
+        .into());
+    }
+    if a.unit == "calibrate" {
+        let Some(tt) = tt else {
+            return Err(UsageError(
+                "synth calibrate: give --target ice40-hx8k, ice40-up5k, ecp5 or xc7 (the generic target has no delay model)".into(),
+            )
+            .into());
+        };
+        return calibrate(a, tt, freq);
+    }
+    let extra = super::pipeline_overrides(
+        a.pipeline.as_deref(),
+        a.clock_ns.map(|_| tt.expect("checked").name()),
+        a.clock_ns,
+    );
+    let cfg = a.cfg.resolve_with(&extra)?;
     let bar = crate::progress::spinner("synth");
     if let Some(k) = &a.keep {
         if std::fs::read_dir(k).is_ok_and(|mut d| d.next().is_some()) {
@@ -612,7 +682,7 @@ pub fn run(a: &SynthArgs) -> anyhow::Result<()> {
         &cfg,
         a.target,
         a.seeds,
-        a.freq,
+        freq,
         !a.no_pnr,
         a.keep.as_deref(),
         !a.no_cache,
@@ -658,6 +728,75 @@ pub fn run(a: &SynthArgs) -> anyhow::Result<()> {
     ]);
     let mut json = serde_json::to_value(&r)?;
     json["cached"] = serde_json::json!(was_cached);
+    emit(a.out, &[t], &json)
+}
+
+/// `fxshade synth calibrate`: every probe of the delay model placed and
+/// routed, the measured period beside the predicted one.
+fn calibrate(
+    a: &SynthArgs,
+    tt: fxshade_model::rtl::timing::Target,
+    freq: f64,
+) -> anyhow::Result<()> {
+    if a.no_pnr {
+        return Err(UsageError("synth calibrate measures periods: drop --no-pnr".into()).into());
+    }
+    let probes = fxshade_model::rtl::calibrate::probes(tt);
+    let bar = crate::progress::bar(probes.len() as u64, "calibrate");
+    let mut t = Table::new([
+        "probe",
+        "predicted (ns)",
+        "measured (ns)",
+        "measured / predicted",
+        "LUT",
+        "DSP",
+    ])
+    .titled(format!(
+        "Delay model of {tt} against place and route on {} (median of {} seed{})",
+        a.target.device(),
+        a.seeds,
+        if a.seeds == 1 { "" } else { "s" }
+    ));
+    let mut rows = Vec::new();
+    for p in &probes {
+        bar.set_message(p.label.clone());
+        let e = fxshade_model::rtl::emit(&p.design)?;
+        let (r, _) = cached_emitted(
+            "probe",
+            &e,
+            a.target,
+            a.seeds,
+            freq,
+            true,
+            None,
+            !a.no_cache,
+            &|_| {},
+        )?;
+        bar.inc(1);
+        let measured = r.fmax_mhz.map(|f| 1000.0 / f);
+        t.row([
+            p.label.clone(),
+            format!("{:.2}", p.predicted_ns),
+            measured.map_or("-".into(), |m| format!("{m:.2}")),
+            measured.map_or("-".into(), |m| format!("{:.2}", m / p.predicted_ns)),
+            r.lut.to_string(),
+            r.dsp.to_string(),
+        ]);
+        rows.push(serde_json::json!({
+            "probe": p.label,
+            "predicted_ns": p.predicted_ns,
+            "measured_ns": measured,
+            "lut": r.lut,
+            "dsp": r.dsp,
+        }));
+    }
+    bar.finish_and_clear();
+    let json = serde_json::json!({
+        "target": tt.name(),
+        "device": a.target.device(),
+        "model": tt.model(),
+        "probes": rows,
+    });
     emit(a.out, &[t], &json)
 }
 

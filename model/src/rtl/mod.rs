@@ -26,8 +26,10 @@
 //! and hash), the latency and every port with its format.
 
 pub mod bits;
+pub mod calibrate;
 pub mod mutants;
 pub mod testbench;
+pub mod timing;
 pub mod units;
 
 use std::collections::HashMap;
@@ -57,6 +59,8 @@ pub struct Design {
     pub config_toml: String,
     /// Lines describing the configuration (coefficients, tables …).
     pub notes: Vec<String>,
+    /// Where the pipeline registers go (`[rtl]`).
+    pub pipelining: timing::Pipelining,
 }
 
 /// Why a design cannot be emitted.
@@ -146,6 +150,13 @@ pub struct Emitted {
     pub testbench: String,
     /// Cycles from an input transfer to its output (no stalls).
     pub latency: u32,
+    /// Where the pipeline registers went.
+    pub pipelining: timing::Pipelining,
+    /// Target pipelining: the delay model's slowest stage, register
+    /// overhead included, ns.
+    pub predicted_ns: Option<f64>,
+    /// Target pipelining: operations slower than the period by themselves.
+    pub too_slow: Vec<String>,
     /// The overflow-flag stages, flag 0 first; in `ovf_o` stage `k` is bit
     /// `F−1−k` (the first stage is the most significant bit).
     pub flags: Vec<String>,
@@ -157,6 +168,11 @@ pub struct Emitted {
     pub outputs: Vec<Field>,
     /// What the module builds.
     pub hardware: Hardware,
+}
+
+/// Nanoseconds to two decimals.
+fn fmt_ns(t: f64) -> String {
+    format!("{t:.2}")
 }
 
 fn sanitize(s: &str) -> String {
@@ -207,6 +223,15 @@ struct Emitter<'a> {
     /// Mutants of each quantization node: `(number, mutation)`, numbers
     /// from 1 (the `mutant_i` value selecting it).
     mutants: HashMap<usize, Vec<(usize, Mutation)>>,
+    /// Nanoseconds after its stage's registers at which each node's value
+    /// is ready (0: a register or a port).
+    arrival: Vec<f64>,
+    /// Target pipelining: the delay model and the time per stage.
+    timing: Option<(timing::DelayModel, f64)>,
+    /// The longest predicted stage delay (combinational part), ns.
+    worst: f64,
+    /// Operations slower than a whole stage by themselves.
+    too_slow: Vec<String>,
 }
 
 impl<'a> Emitter<'a> {
@@ -245,6 +270,44 @@ impl<'a> Emitter<'a> {
         self.reg(stage, &name, false, 1, &prev);
         self.ovf_at.insert((node, stage), name.clone());
         name
+    }
+
+    /// Where an operation of delay `d` on `operands` goes: the stage of its
+    /// latest operand and the time its inputs are ready there; with target
+    /// pipelining, the next stage (operands registered, ready at 0) when
+    /// `d` would not fit after them.
+    fn place(&mut self, operands: &[usize], d: f64) -> (u32, f64) {
+        let s = operands
+            .iter()
+            .filter_map(|&n| self.stage[n])
+            .max()
+            .unwrap_or(0);
+        let a = operands
+            .iter()
+            .filter(|&&n| self.stage[n] == Some(s))
+            .map(|&n| self.arrival[n])
+            .fold(0.0, f64::max);
+        match self.timing {
+            Some((_, budget)) if a > 0.0 && a + d > budget => (s + 1, 0.0),
+            _ => (s, a),
+        }
+    }
+
+    /// Record that node `i` is ready `t` ns into its stage.
+    fn ready(&mut self, i: usize, t: f64, what: &str) {
+        self.arrival[i] = t;
+        self.worst = self.worst.max(t);
+        if let Some((_, budget)) = self.timing {
+            if t > budget + 1e-9 {
+                self.too_slow
+                    .push(format!("{what} ({} ns > {budget:.2} ns)", fmt_ns(t)));
+            }
+        }
+    }
+
+    /// The delay model, when pipelining for a target.
+    fn model(&self) -> Option<timing::DelayModel> {
+        self.timing.map(|(m, _)| m)
     }
 
     /// An operand read at `stage`, with its binary point as the TV says.
@@ -428,16 +491,262 @@ impl<'a> Emitter<'a> {
         self.hw.table_reads += 1;
     }
 
+    /// A quantization under target pipelining: its output is a wire (the
+    /// next operation registers it if it must); the rounding incrementer
+    /// and the range check with saturation share a stage when they fit,
+    /// else the rounded value is registered between them.
+    fn quant_timed(&mut self, i: usize, a: &TV, q: &crate::quantize::Quant) {
+        let (m, budget) = self.timing.expect("target pipelining");
+        let name = self.name[i].clone();
+        let f = q.format();
+        let sa = a.sym();
+        let drop = a.frac() - f.frac();
+        let rw = bits::rounded_width(sa.width, drop, q.round());
+        let nearest = q.round() != Rounding::Trunc;
+        let dr = m.round(drop.max(0) as u32, rw, nearest);
+        let checked = if bits::can_leave(rw, sa.signed, f.width(), f.signed()) {
+            rw.saturating_sub(f.width()) + 1
+        } else {
+            0
+        };
+        let ds = m.saturate(checked, q.overflow() == Overflow::Saturate);
+        let (s0, a0) = self.place(&[a.node()], 0.0);
+        let both = dr > 0.0 && ds > 0.0;
+        let (s, t, split) = if a0 + dr + ds <= budget {
+            (s0, a0, false)
+        } else if both && a0 + dr <= budget {
+            (s0, a0, true)
+        } else if a0 == 0.0 {
+            (s0, 0.0, both && dr + ds > budget)
+        } else {
+            (s0 + 1, 0.0, both && dr + ds > budget)
+        };
+        let va = self.operand(a, s);
+        let (yc, oc) = (format!("{name}_c"), format!("{name}_ovf_c"));
+        let (src, stage, t_end) = if split {
+            // Round into a format wide enough never to overflow, register,
+            // then check the range and saturate: the same function.
+            let rname = format!("{name}_rw");
+            let r = bits::quantize(
+                &va,
+                &format!("{name}_rnd"),
+                &rname,
+                &format!("{name}_rnd_ovf"),
+                rw,
+                sa.signed,
+                f.frac(),
+                q.round(),
+                Overflow::Wrap,
+            );
+            self.body.extend(r.lines);
+            self.unused.extend(r.unused);
+            self.unused.push(format!("{name}_rnd_ovf"));
+            if let Some(w) = r.round_adder {
+                self.hw.incrementers.push(w);
+            }
+            let rq = format!("{name}_rq");
+            self.reg(s + 1, &rq, sa.signed, rw, &rname);
+            self.worst = self.worst.max(t + dr);
+            (
+                Val {
+                    expr: rq,
+                    width: rw,
+                    signed: sa.signed,
+                    frac: f.frac(),
+                },
+                s + 1,
+                ds,
+            )
+        } else {
+            (va, s, t + dr + ds)
+        };
+        let (round, _) = if split {
+            (Rounding::Trunc, ())
+        } else {
+            (q.round(), ())
+        };
+        let ql = bits::quantize(
+            &src,
+            &name,
+            &yc,
+            &oc,
+            f.width(),
+            f.signed(),
+            f.frac(),
+            round,
+            q.overflow(),
+        );
+        self.body.extend(ql.lines);
+        self.unused.extend(ql.unused);
+        if let Some(w) = ql.round_adder {
+            self.hw.incrementers.push(w);
+        }
+        self.stage[i] = Some(stage);
+        self.at.insert((i, stage), yc);
+        self.ovf_at.insert((i, stage), oc);
+        self.ready(i, t_end, &name);
+    }
+
+    /// A multiplier too slow for a stage on a target without DSP blocks:
+    /// partial products of a few bits of the narrower operand each
+    /// (`a × b = Σ a × b_j · 2^(c·j)`, the top chunk signed when `b` is),
+    /// registered, then summed by a tree of adders in the product's width
+    /// (exact: the product fits it), with registers between tree levels
+    /// where the period needs them. Returns false when no split helps.
+    fn split_mul(
+        &mut self,
+        i: usize,
+        va: &Val,
+        vb: &Val,
+        s: u32,
+        m: timing::DelayModel,
+        budget: f64,
+    ) -> bool {
+        let (x, y) = if va.width >= vb.width {
+            (va, vb)
+        } else {
+            (vb, va)
+        };
+        let mut c = y.width;
+        while c > 1 && m.lut_mul(x.width + 1, c + 1) > budget {
+            c -= 1;
+        }
+        if c >= y.width || y.expr.contains('\'') {
+            return false;
+        }
+        let name = self.name[i].clone();
+        let sym = self.t.sym(i);
+        let w = sym.width;
+        let k = y.width.div_ceil(c);
+        let mut parts: Vec<String> = Vec::new();
+        let mut slowest: f64 = 0.0;
+        let mut xz: Option<String> = None;
+        for j in 0..k {
+            let lo = j * c;
+            let hi = (lo + c).min(y.width) - 1;
+            let cw = hi - lo + 1;
+            let csigned = y.signed && j == k - 1;
+            let ps = x.signed || csigned;
+            let chunk = format!("{name}_b{j}");
+            let (ce, cwb) = if ps && !csigned {
+                self.body.push(format!(
+                    "wire signed [{cw}:0] {chunk} = $signed({{1'b0, {}}});",
+                    y.slice(hi, lo)
+                ));
+                (chunk, cw + 1)
+            } else {
+                self.body.push(format!(
+                    "wire {} {chunk} = {};",
+                    decl(csigned, cw),
+                    bits::sv(csigned, &y.slice(hi, lo))
+                ));
+                (chunk, cw)
+            };
+            let (xe, xw) = if ps && !x.signed {
+                let n = xz.get_or_insert_with(|| format!("{name}_az")).clone();
+                if !self.body.iter().any(|l| l.contains(&format!(" {n} = "))) {
+                    self.body.push(format!(
+                        "wire signed [{}:0] {n} = $signed({{1'b0, {}}});",
+                        x.width, x.expr
+                    ));
+                }
+                (n, x.width + 1)
+            } else {
+                (x.expr.clone(), x.width)
+            };
+            let pw = xw + cwb;
+            let pp = format!("{name}_pp{j}");
+            self.body
+                .push(format!("wire {} {pp} = {xe} * {ce};", decl(ps, pw)));
+            self.hw.muls.push(MulHw {
+                a_width: xw,
+                b_width: cwb,
+                signed: ps,
+            });
+            slowest = slowest.max(m.lut_mul(xw, cwb));
+            let q = format!("{pp}_q");
+            self.reg(s + 1, &q, ps, pw, &pp);
+            // Aligned to the product's width: the partial's weight 2^(c·j),
+            // extended by its own signedness, top bits beyond w dropped.
+            let v = Val {
+                expr: q,
+                width: pw,
+                signed: ps,
+                frac: 0,
+            };
+            let body = pw + lo;
+            if body <= w {
+                parts.push(bits::align(&v, lo, w));
+            } else {
+                // Wider than the product (a full-width partial): its low
+                // bits, shifted; the rest is exactly the carry-out.
+                let keep = w - lo;
+                let kept = Val {
+                    expr: v.slice(keep - 1, 0),
+                    width: keep,
+                    signed: false,
+                    frac: 0,
+                };
+                parts.push(bits::align(&kept, lo, w));
+                self.unused.push(v.slice(pw - 1, keep));
+            }
+        }
+        self.worst = self.worst.max(slowest);
+        if slowest > budget + 1e-9 {
+            self.too_slow.push(format!(
+                "{name}: a 1-bit partial product ({} ns > {budget:.2} ns)",
+                fmt_ns(slowest)
+            ));
+        }
+        // The adder tree, level by level.
+        let (mut stage, mut t) = (s + 1, 0.0);
+        let mut level = 0;
+        while parts.len() > 1 {
+            if t > 0.0 && t + m.add(w) > budget {
+                let mut regd = Vec::new();
+                for (n, p) in parts.iter().enumerate() {
+                    let q = format!("{name}_l{level}_{n}_q");
+                    self.reg(stage + 1, &q, sym.signed, w, p);
+                    regd.push(q);
+                }
+                parts = regd;
+                stage += 1;
+                t = 0.0;
+            }
+            let mut next = Vec::new();
+            for (n, pair) in parts.chunks(2).enumerate() {
+                if pair.len() == 1 {
+                    next.push(pair[0].clone());
+                    continue;
+                }
+                let sum = format!("{name}_l{level}_{n}");
+                self.body.push(format!(
+                    "wire {} {sum} = {};",
+                    decl(sym.signed, w),
+                    bits::sv(sym.signed, &format!("{} + {}", pair[0], pair[1]))
+                ));
+                self.hw.adders.push(w);
+                next.push(sum);
+            }
+            parts = next;
+            t += m.add(w);
+            level += 1;
+        }
+        self.body.push(format!(
+            "wire {} {name} = {};",
+            decl(sym.signed, w),
+            bits::sv(sym.signed, &parts[0])
+        ));
+        self.stage[i] = Some(stage);
+        self.at.insert((i, stage), name.clone());
+        self.ready(i, t, &name);
+        true
+    }
+
     fn node(&mut self, i: usize) -> Result<(), EmitError> {
         let op = self.t.ops()[i].clone();
         let sym = self.t.sym(i);
         let d = decl(sym.signed, sym.width);
-        let stage_of = |e: &Self, tvs: &[&TV]| -> u32 {
-            tvs.iter()
-                .filter_map(|t| e.stage[t.node()])
-                .max()
-                .unwrap_or(0)
-        };
         let name = self.name[i].clone();
         match op {
             Op::Input(_) => {
@@ -451,8 +760,24 @@ impl<'a> Emitter<'a> {
                 ));
             }
             Op::Mul(a, b) => {
-                let s = stage_of(self, &[&a, &b]);
+                let (sa, sb) = (a.sym(), b.sym());
+                // Operand widths as built: a mixed product extends its
+                // unsigned operand by one bit.
+                let (wa, wb) = (
+                    sa.width + (sb.signed && !sa.signed) as u32,
+                    sb.width + (sa.signed && !sb.signed) as u32,
+                );
+                let dm = self.model().map_or(0.0, |m| m.mul(wa, wb));
+                let (s, t0) = self.place(&[a.node(), b.node()], dm);
                 let (va, vb) = (self.operand(&a, s), self.operand(&b, s));
+                if let Some((m, budget)) = self.timing {
+                    if m.dsp.is_none()
+                        && t0 + dm > budget
+                        && self.split_mul(i, &va, &vb, s, m, budget)
+                    {
+                        return Ok(());
+                    }
+                }
                 // The unsigned operand of a signed × unsigned product, zero-
                 // extended on a wire of its own: the multiplier's operand is
                 // then that wire, one bit wider, and no tool widens it to the
@@ -500,10 +825,18 @@ impl<'a> Emitter<'a> {
                 // are of the product's signedness already.
                 self.body.push(format!("wire {d} {name} = {ea} * {eb};"));
                 self.stage[i] = Some(s);
-                self.at.insert((i, s), name);
+                self.at.insert((i, s), name.clone());
+                self.ready(i, t0 + dm, &name);
             }
             Op::Add(a, b) | Op::Sub(a, b) | Op::Max(a, b) => {
-                let s = stage_of(self, &[&a, &b]);
+                let dl = self.model().map_or(0.0, |m| {
+                    if matches!(op, Op::Max(..)) {
+                        m.max(sym.width)
+                    } else {
+                        m.add(sym.width)
+                    }
+                });
+                let (s, t0) = self.place(&[a.node(), b.node()], dl);
                 let (va, vb) = (self.operand(&a, s), self.operand(&b, s));
                 let w = sym.width;
                 let xa = bits::align(&va, (sym.frac - va.frac) as u32, w);
@@ -534,7 +867,8 @@ impl<'a> Emitter<'a> {
                 };
                 self.body.push(format!("wire {d} {name} = {e};"));
                 self.stage[i] = Some(s);
-                self.at.insert((i, s), name);
+                self.at.insert((i, s), name.clone());
+                self.ready(i, t0 + dl, &name);
             }
             Op::AddSigned(a, b, sg, flip)
                 if matches!(
@@ -549,7 +883,8 @@ impl<'a> Emitter<'a> {
                 else {
                     unreachable!("matched above")
                 };
-                let s = stage_of(self, &[&sg]);
+                let dl = self.model().map_or(0.0, |m| m.select(2));
+                let (s, t0) = self.place(&[sg.node()], dl);
                 let vs = self.operand(&sg, s);
                 let (xa, xb) = (ca << (sym.frac - a.frac()), cb << (sym.frac - b.frac()));
                 let lit = |c: i128| bits::sv(sym.signed, &bits::literal(sym.width, c));
@@ -577,10 +912,12 @@ impl<'a> Emitter<'a> {
                     }
                 }
                 self.stage[i] = Some(s);
-                self.at.insert((i, s), name);
+                self.at.insert((i, s), name.clone());
+                self.ready(i, t0 + dl, &name);
             }
             Op::AddSigned(a, b, sg, flip) => {
-                let s = stage_of(self, &[&a, &b, &sg]);
+                let dl = self.model().map_or(0.0, |m| m.add_signed(sym.width));
+                let (s, t0) = self.place(&[a.node(), b.node(), sg.node()], dl);
                 let (va, vb, vs) = (
                     self.operand(&a, s),
                     self.operand(&b, s),
@@ -611,12 +948,14 @@ impl<'a> Emitter<'a> {
                 self.body
                     .push(format!("wire {d} {name} = {neg} ? {sub} : {add};"));
                 self.stage[i] = Some(s);
-                self.at.insert((i, s), name);
+                self.at.insert((i, s), name.clone());
+                self.ready(i, t0 + dl, &name);
             }
             Op::Select(sel, opts) => {
-                let mut all: Vec<&TV> = vec![&sel];
-                all.extend(opts.iter());
-                let s = stage_of(self, &all);
+                let mut all: Vec<usize> = vec![sel.node()];
+                all.extend(opts.iter().map(|o| o.node()));
+                let dl = self.model().map_or(0.0, |m| m.select(opts.len() as u32));
+                let (s, t0) = self.place(&all, dl);
                 let vs = self.operand(&sel, s);
                 let vals: Vec<String> = opts
                     .iter()
@@ -639,10 +978,14 @@ impl<'a> Emitter<'a> {
                 t += "  endcase\nend";
                 self.body.push(t);
                 self.stage[i] = Some(s);
-                self.at.insert((i, s), name);
+                self.at.insert((i, s), name.clone());
+                self.ready(i, t0 + dl, &name);
+            }
+            Op::Quant(a, q) if self.timing.is_some() && !self.mutants.contains_key(&i) => {
+                self.quant_timed(i, &a, &q);
             }
             Op::Quant(a, q) => {
-                let s = stage_of(self, &[&a]);
+                let s = self.place(&[a.node()], 0.0).0;
                 let va = self.operand(&a, s);
                 let f = q.format();
                 let (yc, oc) = (format!("{name}_c"), format!("{name}_ovf_c"));
@@ -712,16 +1055,109 @@ impl<'a> Emitter<'a> {
                 self.ovf_at.insert((i, s + 1), ov);
             }
             Op::Table(a, slot) => {
-                let s = stage_of(self, &[&a]);
-                let va = self.operand(&a, s);
                 let tb = self.t.tables()[slot].clone();
+                let t = tb.index.width();
+                let f = tb.out.format();
+                // Address logic before the registered read (the quarter
+                // wave's phase and mirror), and after it (the quarter-turn
+                // choice and the sign).
+                let (before, after) = self.model().map_or((0.0, 0.0), |m| match tb.storage {
+                    None => (0.0, m.bram),
+                    Some(_) => (
+                        m.carry(2) + m.lut + m.carry(t - 1),
+                        m.bram + m.lut + m.carry(f.width() + 1) + m.lut,
+                    ),
+                });
+                let (s, _) = self.place(&[a.node()], before);
+                let va = self.operand(&a, s);
                 self.stage[i] = Some(s + 1);
                 self.table_read(i, &va, &tb, s);
+                let n = self.name[i].clone();
+                self.ready(i, after, &n);
             }
             Op::Div(..) | Op::Sqrt(..) => unreachable!("checked before"),
         }
         Ok(())
     }
+}
+
+/// The module's formal properties, inside `ifdef FORMAL` (Yosys's
+/// `read_verilog -formal` defines it; simulators and synthesis never see
+/// them). `fxshade formal` proves them for every unit and top with
+/// yosys-smtbmc and z3, by a bounded check from reset and k-induction:
+///
+/// * `ready_o = ~valid_o | ready_i`, and `valid_o` is the last stage's
+///   valid bit;
+/// * the valid bits move one stage in a cycle with `en` (the first taking
+///   `valid_i`) and hold otherwise: an item enters only by an input
+///   transfer, never skips, splits or swaps a stage;
+/// * an item leaves the last stage only by an output transfer;
+/// * while `valid_o && !ready_i`, the next cycle keeps `valid_o` and every
+///   output port unchanged;
+/// * the pipeline drains: after `j` cycles in a row with `ready_i` high
+///   and no input transfer, its first `j` stages are empty.
+///
+/// Together: every accepted item leaves once, in order, and none is made
+/// up. (A first version also stated that the transfers in flight equal the
+/// number of valid bits; z3 needs minutes to prove that popcount identity
+/// on the deep tops, and the per-stage statements above imply it.)
+fn formal_block(latency: u32, outs: &[Port], nf: usize) -> String {
+    let l = latency;
+    let cw = 32 - (l + 1).leading_zeros();
+    let mut v = String::new();
+    v += "\n`ifdef FORMAL\n";
+    v += "  // Handshake properties, proved by `fxshade formal` (yosys-smtbmc, z3): no\n";
+    v += "  // item is made up, lost, duplicated or reordered; outputs hold under stall.\n";
+    v += "  reg f_past_valid = 1'b0;\n";
+    v += "  always @(posedge clk_i) f_past_valid <= 1'b1;\n";
+    v += "  always @(*) if (!f_past_valid) assume (!rst_ni);\n";
+    v += "  wire f_in = valid_i & ready_o;\n";
+    let _ = writeln!(v, "  reg  [{}:0] f_idle;", cw - 1);
+    v += "  always @(posedge clk_i or negedge rst_ni) begin\n";
+    let _ = writeln!(v, "    if (!rst_ni) f_idle <= {cw}'d0;");
+    let _ = writeln!(
+        v,
+        "    else f_idle <= (ready_i & ~f_in) ? ((f_idle == {cw}'d{l}) ? f_idle : f_idle + {cw}'d1) : {cw}'d0;"
+    );
+    v += "  end\n";
+    v += "  always @(*) begin\n";
+    v += "    assert (ready_o == (~valid_o | ready_i));\n";
+    let _ = writeln!(v, "    assert (valid_o == valid_q[{}]);", l - 1);
+    v += "  end\n";
+    v += "  always @(posedge clk_i) begin\n";
+    v += "    if (f_past_valid && rst_ni) begin\n";
+    let _ = writeln!(
+        v,
+        "      assert ((valid_q & ~({{{l}{{1'b1}}}} << f_idle)) == {l}'d0);"
+    );
+    v += "    end\n";
+    v += "    if (f_past_valid && rst_ni && $past(rst_ni)) begin\n";
+    let shifted = if l == 1 {
+        "$past(valid_i)".to_string()
+    } else {
+        format!("{{$past(valid_q[{}:0]), $past(valid_i)}}", l - 2)
+    };
+    let _ = writeln!(v, "      if ($past(en)) assert (valid_q == {shifted});");
+    v += "      else assert ($stable(valid_q));\n";
+    let _ = writeln!(
+        v,
+        "      if ($past(en & valid_q[{}])) assert ($past(ready_i));",
+        l - 1
+    );
+    v += "      if ($past(valid_o & ~ready_i)) begin\n";
+    v += "        assert (valid_o);\n";
+    for p in outs {
+        let _ = writeln!(v, "        assert ($stable({}_o));", p.name);
+    }
+    if nf > 0 {
+        v += "        assert ($stable(ovf_o));\n";
+    }
+    v += "      end\n";
+    v += "    end\n";
+    v += "    if (f_past_valid && rst_ni) cover (valid_o & ready_i);\n";
+    v += "  end\n";
+    v += "`endif\n";
+    v
 }
 
 /// Emit `d` as one Verilog module with the `compact` pipeline.
@@ -793,6 +1229,16 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
         roms: Vec::new(),
         rom_text: Vec::new(),
         mutants: HashMap::new(),
+        arrival: vec![0.0; t.ops().len()],
+        timing: match d.pipelining {
+            timing::Pipelining::Target { target, clock_ns } if muts.is_empty() => {
+                let m = target.model();
+                Some((m, m.budget(clock_ns)))
+            }
+            _ => None,
+        },
+        worst: 0.0,
+        too_slow: Vec::new(),
     };
     for (k, m) in muts.iter().enumerate() {
         e.mutants
@@ -811,9 +1257,23 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
         }
     }
     // Latency: the deepest output, at least one register.
+    // An output still combinational in its stage (target pipelining) is
+    // registered once more, so every output port leaves a register.
     let latency = roots
         .iter()
-        .filter_map(|r| e.stage[r.node()])
+        .filter_map(|r| {
+            let n = r.node();
+            e.stage[n].map(|s| {
+                let wire = e.timing.is_some()
+                    && e.at.get(&(n, s)).is_some_and(|w| {
+                        !e.regs
+                            .iter()
+                            .any(|(_, a)| a.starts_with(&format!("{w} <= ")))
+                    })
+                    && !matches!(t.ops()[n], Op::Input(_));
+                s + wire as u32
+            })
+        })
         .max()
         .unwrap_or(0)
         .max(1);
@@ -876,6 +1336,21 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
         let _ = writeln!(v, "// {n}");
     }
     let _ = writeln!(v, "//");
+    let predicted_ns = e.timing.map(|(m, _)| e.worst + m.reg);
+    let _ = writeln!(v, "// Pipelining: {}.", d.pipelining.describe());
+    if let Some(p) = predicted_ns {
+        let _ = writeln!(
+            v,
+            "// Delay model: slowest stage {} ns predicted ({:.1} MHz){}.",
+            fmt_ns(p),
+            1000.0 / p,
+            if e.too_slow.is_empty() {
+                String::new()
+            } else {
+                format!("; slower than the period: {}", e.too_slow.join(", "))
+            }
+        );
+    }
     let _ = writeln!(
         v,
         "// Latency {latency} cycles; one vector per clock. Handshake: valid/ready on"
@@ -1025,6 +1500,7 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
         let _ = writeln!(v, "{}", lines.join(",\n"));
         v += "  };\n";
     }
+    v += &formal_block(latency, &outs, nf);
     if !e.unused.is_empty() {
         let _ = writeln!(
             v,
@@ -1052,6 +1528,13 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
         verilog: v,
         testbench,
         latency,
+        pipelining: if muts.is_empty() {
+            d.pipelining
+        } else {
+            timing::Pipelining::Compact
+        },
+        predicted_ns,
+        too_slow: e.too_slow,
         flags,
         inputs: in_fields,
         outputs: out_fields,

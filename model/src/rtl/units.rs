@@ -231,6 +231,7 @@ impl Design {
             config_source: source,
             config_toml: cfg.to_toml(),
             notes,
+            pipelining: super::timing::Pipelining::from_config(cfg),
         }
     }
 }

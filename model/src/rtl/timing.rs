@@ -1,0 +1,382 @@
+//! Target-driven pipelining: a delay model per target, in the spirit of
+//! FloPoCo's `Target` classes, and the policy the emitter follows.
+//!
+//! The emitter walks the traced datapath in order and keeps, for every
+//! value, the stage it is computed in and its *arrival*: nanoseconds after
+//! that stage's registers. An operation whose inputs arrive at `a` and
+//! which takes `d` joins their stage while `a + d ≤ budget`
+//! ([`DelayModel::budget`]: the clock period less the register overhead);
+//! otherwise its operands are registered first and it starts the next
+//! stage. A quantization may be cut between its rounding incrementer and
+//! its range check and saturation; a multiplier too slow for the period on
+//! a target without DSP blocks is split into partial products (a few bits
+//! of the narrower operand each), registered, and summed by a tree of
+//! adders over the following stages. A table read is registered (block
+//! RAM); the value leaves the RAM [`DelayModel::bram`] after the clock.
+//!
+//! Delays of one operation, in nanoseconds (`w` a result width):
+//!
+//! | operation | delay |
+//! |---|---|
+//! | add, subtract | `carry(w)` = `carry_base + w·carry_bit` |
+//! | add/subtract steered by a sign | `lut + carry(w)` |
+//! | max | `carry(w) + lut` |
+//! | select of n | `lut · ⌈log2 n / 2⌉` |
+//! | multiply, LUTs, `a × b` bits | `⌈log2 min(a,b)⌉·mul_row + carry(a+b)` |
+//! | multiply, DSP | `dsp.comb`, plus `dsp.combine` per level of DSP tiles summed |
+//! | rounding (nearest) | `lut·⌈log4 s⌉ + carry(w)`, `s` dropped bits |
+//! | range check and saturate | `lut·⌈log4 k⌉ + lut`, `k` bits checked |
+//!
+//! The constants are calibrated against nextpnr by `fxshade synth
+//! --calibrate TARGET` (BENCHMARKS.md lists predicted against measured).
+
+/// A technology the delay model describes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub enum Target {
+    /// Lattice iCE40 HX8K: LUT4 and carry chains, no multipliers.
+    Ice40Hx8k,
+    /// Lattice iCE40 UP5K: LUT4, carry chains, eight SB_MAC16 (16 × 16).
+    Ice40Up5k,
+    /// Lattice ECP5: LUT4, carry chains, MULT18X18D (18 × 18).
+    Ecp5,
+    /// Xilinx 7-series: LUT6, CARRY4, DSP48E1 (25 × 18).
+    Xc7,
+    /// A generic standard-cell process (about 28 nm): gates, no blocks.
+    Asic,
+}
+
+impl Target {
+    /// Every target, in the order of [`Target::NAMES`].
+    pub const ALL: [Target; 5] = [
+        Target::Ice40Hx8k,
+        Target::Ice40Up5k,
+        Target::Ecp5,
+        Target::Xc7,
+        Target::Asic,
+    ];
+    /// The configuration names (`rtl.target`).
+    pub const NAMES: [&'static str; 5] = ["ice40-hx8k", "ice40-up5k", "ecp5", "xc7", "asic"];
+
+    /// The configuration name.
+    pub fn name(self) -> &'static str {
+        Self::NAMES[Self::ALL.iter().position(|t| *t == self).expect("listed")]
+    }
+
+    /// The target of a configuration name.
+    pub fn from_name(s: &str) -> Option<Target> {
+        Self::NAMES
+            .iter()
+            .position(|n| *n == s)
+            .map(|k| Self::ALL[k])
+    }
+
+    /// The target's delay model.
+    pub fn model(self) -> DelayModel {
+        match self {
+            // Calibrated on nextpnr-ice40 0.4 (Debian bookworm), HX8K ct256.
+            Target::Ice40Hx8k => DelayModel {
+                reg: 1.6,
+                lut: 1.0,
+                carry_base: 1.3,
+                carry_bit: 0.13,
+                mul_row: 1.7,
+                dsp: None,
+                bram: 3.0,
+            },
+            // Calibrated on nextpnr-ice40 0.4, UP5K sg48 (a slower part).
+            Target::Ice40Up5k => DelayModel {
+                reg: 3.0,
+                lut: 2.4,
+                carry_base: 5.0,
+                carry_bit: 0.3,
+                mul_row: 2.6,
+                dsp: Some(Dsp {
+                    a: 16,
+                    b: 16,
+                    comb: 9.2,
+                    combine: 2.5,
+                }),
+                bram: 5.0,
+            },
+            // Calibrated on nextpnr-ecp5 (yowasp), LFE5U-85F speed grade 6.
+            Target::Ecp5 => DelayModel {
+                reg: 0.9,
+                lut: 1.1,
+                carry_base: 2.0,
+                carry_bit: 0.035,
+                mul_row: 1.0,
+                dsp: Some(Dsp {
+                    a: 18,
+                    b: 18,
+                    comb: 7.0,
+                    combine: 1.5,
+                }),
+                bram: 3.5,
+            },
+            // Not calibrated (no open place and route): datasheet-class
+            // figures for a -1 Artix-7.
+            Target::Xc7 => DelayModel {
+                reg: 0.6,
+                lut: 0.5,
+                carry_base: 0.6,
+                carry_bit: 0.03,
+                mul_row: 0.35,
+                dsp: Some(Dsp {
+                    a: 25,
+                    b: 18,
+                    comb: 3.4,
+                    combine: 1.0,
+                }),
+                bram: 2.2,
+            },
+            // Not calibrated: order-of-magnitude gate delays, 28 nm library.
+            Target::Asic => DelayModel {
+                reg: 0.08,
+                lut: 0.04,
+                carry_base: 0.05,
+                carry_bit: 0.012,
+                mul_row: 0.03,
+                dsp: None,
+                bram: 0.3,
+            },
+        }
+    }
+}
+
+impl std::fmt::Display for Target {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// A hard multiplier block.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct Dsp {
+    /// Widest first operand (signed) of one block.
+    pub a: u32,
+    /// Widest second operand (signed) of one block.
+    pub b: u32,
+    /// Delay through the block without its internal registers, ns.
+    pub comb: f64,
+    /// Each level of summing the tiles of a product wider than one block.
+    pub combine: f64,
+}
+
+/// Delays of one target, in nanoseconds (module documentation).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct DelayModel {
+    /// Clock-to-output plus set-up of a flip-flop, and clock skew.
+    pub reg: f64,
+    /// One LUT level with its share of routing.
+    pub lut: f64,
+    /// Entering and leaving a carry chain.
+    pub carry_base: f64,
+    /// Each bit of a carry chain.
+    pub carry_bit: f64,
+    /// Each level of the partial-product tree of a multiplier built from
+    /// LUTs and carry chains.
+    pub mul_row: f64,
+    /// The hard multiplier, if the target has one.
+    pub dsp: Option<Dsp>,
+    /// Clock to output of a registered block-RAM read.
+    pub bram: f64,
+}
+
+fn ceil_log(n: u32, base: u32) -> u32 {
+    let mut levels = 0;
+    let mut reach = 1u64;
+    while reach < n as u64 {
+        reach *= base as u64;
+        levels += 1;
+    }
+    levels
+}
+
+impl DelayModel {
+    /// Combinational time per stage for a clock period of `clock_ns`.
+    pub fn budget(&self, clock_ns: f64) -> f64 {
+        clock_ns - self.reg
+    }
+    /// A carry chain of `w` bits.
+    pub fn carry(&self, w: u32) -> f64 {
+        self.carry_base + w as f64 * self.carry_bit
+    }
+    /// An adder or subtractor of `w` result bits.
+    pub fn add(&self, w: u32) -> f64 {
+        self.carry(w)
+    }
+    /// An adder/subtractor steered by a sign bit.
+    pub fn add_signed(&self, w: u32) -> f64 {
+        self.lut + self.carry(w)
+    }
+    /// `max` of two `w`-bit values: a comparison and a multiplexer.
+    pub fn max(&self, w: u32) -> f64 {
+        self.carry(w) + self.lut
+    }
+    /// A multiplexer of `n` inputs.
+    pub fn select(&self, n: u32) -> f64 {
+        self.lut * ceil_log(n, 4).max(1) as f64
+    }
+    /// A multiplier of `a × b` bits (as built: an unsigned operand of a
+    /// mixed product is already extended by its bit).
+    pub fn mul(&self, a: u32, b: u32) -> f64 {
+        match self.dsp {
+            Some(d) => {
+                let tiles = a.div_ceil(d.a).max(1) * b.div_ceil(d.b).max(1);
+                let tiles = if tiles > 1 {
+                    // Either orientation: the block fits one way or both.
+                    tiles.min(a.div_ceil(d.b) * b.div_ceil(d.a))
+                } else {
+                    1
+                };
+                d.comb + ceil_log(tiles, 2) as f64 * d.combine
+            }
+            None => self.lut_mul(a, b),
+        }
+    }
+    /// A multiplier built from LUTs and carry chains: a tree of
+    /// `⌈log2 min(a, b)⌉` levels of partial-product adders, then the final
+    /// carry chain.
+    pub fn lut_mul(&self, a: u32, b: u32) -> f64 {
+        ceil_log(a.min(b), 2).max(1) as f64 * self.mul_row + self.carry(a + b)
+    }
+    /// The rounding incrementer of a nearest mode dropping `s` bits into a
+    /// `w`-bit result (`s = 0` or truncation: no logic).
+    pub fn round(&self, s: u32, w: u32, nearest: bool) -> f64 {
+        if !nearest || s == 0 {
+            0.0
+        } else {
+            self.lut * ceil_log(s, 4).max(1) as f64 + self.carry(w)
+        }
+    }
+    /// The range check of `k` bits and the saturating multiplexer (none
+    /// when `k` is 0: the value cannot leave the format).
+    pub fn saturate(&self, k: u32, saturate: bool) -> f64 {
+        if k == 0 {
+            0.0
+        } else {
+            self.lut * ceil_log(k + 1, 4).max(1) as f64 + if saturate { self.lut } else { 0.0 }
+        }
+    }
+}
+
+/// How the emitter places pipeline registers.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub enum Pipelining {
+    /// A register after every quantization and every table read: one stage
+    /// per arithmetic step, whatever its delay.
+    Compact,
+    /// Registers where the delay model needs them for `clock_ns` on
+    /// `target`.
+    Target {
+        /// The technology.
+        target: Target,
+        /// The requested clock period, ns.
+        clock_ns: f64,
+    },
+}
+
+impl Pipelining {
+    /// The policy of a configuration's `[rtl]` section.
+    pub fn from_config(cfg: &crate::Config) -> Pipelining {
+        match cfg.unit("rtl").choice("pipeline") {
+            "target" => Pipelining::Target {
+                target: Target::from_name(cfg.unit("rtl").choice("target"))
+                    .expect("the configuration checks the name"),
+                clock_ns: cfg.unit("rtl").number("clock_ns"),
+            },
+            _ => Pipelining::Compact,
+        }
+    }
+
+    /// One line for headers and reports.
+    pub fn describe(&self) -> String {
+        match self {
+            Pipelining::Compact => {
+                "compact (a register after every quantization and table read)".into()
+            }
+            Pipelining::Target { target, clock_ns } => format!(
+                "target {target} at {clock_ns} ns ({:.1} MHz)",
+                1000.0 / clock_ns
+            ),
+        }
+    }
+}
+
+/// The `[rtl]` configuration section: how the generated RTL is pipelined.
+pub static DECL: crate::config::UnitDecl = crate::config::UnitDecl {
+    name: "rtl",
+    doc: "how the generated RTL is pipelined (every unit and top)",
+    fields: &[
+        crate::config::FieldDecl {
+            name: "pipeline",
+            kind: crate::config::FieldKind::Choice(&["compact", "target"]),
+            doc: "compact: a register after every quantization and table read; target: registers where the delay model of rtl.target needs them for rtl.clock_ns",
+        },
+        crate::config::FieldDecl {
+            name: "target",
+            kind: crate::config::FieldKind::Choice(&Target::NAMES),
+            doc: "the technology whose delay model places the registers (rtl.pipeline = \"target\")",
+        },
+        crate::config::FieldDecl {
+            name: "clock_ns",
+            kind: crate::config::FieldKind::Number {
+                min: 0.1,
+                max: 1000.0,
+            },
+            doc: "the requested clock period in ns (rtl.pipeline = \"target\")",
+        },
+    ],
+    groups: &[],
+};
+
+fn check(_: &crate::Config) -> Result<(), Vec<crate::config::ConfigError>> {
+    Ok(())
+}
+
+fn ops(_: &crate::Config) -> Vec<crate::units::OpReport> {
+    Vec::new()
+}
+
+/// The registry entry of the `[rtl]` section (no datapath of its own).
+pub static UNIT: crate::units::UnitEntry = crate::units::UnitEntry {
+    decl: &DECL,
+    check,
+    ops,
+    rtl: &[],
+};
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_round_trip() {
+        for t in Target::ALL {
+            assert_eq!(Target::from_name(t.name()), Some(t));
+        }
+        assert_eq!(Target::from_name("ice40"), None);
+    }
+
+    #[test]
+    fn levels_are_ceilings() {
+        assert_eq!(ceil_log(1, 4), 0);
+        assert_eq!(ceil_log(4, 4), 1);
+        assert_eq!(ceil_log(5, 4), 2);
+        assert_eq!(ceil_log(16, 4), 2);
+        assert_eq!(ceil_log(3, 2), 2);
+    }
+
+    #[test]
+    fn a_dsp_tile_is_one_block_and_wider_products_sum_tiles() {
+        let m = Target::Ecp5.model();
+        let d = m.dsp.unwrap();
+        assert_eq!(m.mul(18, 18), d.comb);
+        // 19 × 18 needs two tiles and one level summing them.
+        assert!((m.mul(19, 18) - d.comb - d.combine).abs() < 1e-12);
+        // LUT multipliers grow with the narrower operand.
+        let h = Target::Ice40Hx8k.model();
+        assert!(h.mul(16, 8) < h.mul(16, 16));
+        assert_eq!(h.mul(16, 8), h.mul(8, 16));
+    }
+}

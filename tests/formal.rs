@@ -1,0 +1,89 @@
+//! The handshake proofs: `fxshade formal` proves the properties every
+//! generated module carries (tests below), for the compact policy and a
+//! target-pipelined configuration, and fails on modules broken by hand.
+
+mod common;
+
+use common::{fxshade, repo, text};
+
+fn proves_all(extra: &[&str]) {
+    let mut a = vec!["formal", "all", "--json"];
+    a.extend(extra);
+    let o = fxshade(&a);
+    assert!(o.status.success(), "{extra:?}: {}", text(&o));
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(j["ok"], true);
+    let m = j["modules"].as_array().unwrap();
+    assert_eq!(m.len(), 9, "six units and three tops");
+    for p in m {
+        assert_eq!(p["bmc"], true, "{p}");
+        assert_eq!(p["induction"], true, "{p}");
+    }
+}
+
+#[test]
+fn every_module_proves_its_handshake_properties_compact() {
+    proves_all(&[]);
+}
+
+#[test]
+fn every_module_proves_its_handshake_properties_target_pipelined() {
+    let cfg = repo().join("tests/configs/pipelined.toml");
+    proves_all(&["--config", cfg.to_str().unwrap()]);
+}
+
+/// Each edit breaks the handshake in one way; the proof must fail and name
+/// the property (a file and line of an assertion).
+#[test]
+fn broken_handshakes_fail_the_proof() {
+    let dir = tempfile::tempdir().unwrap();
+    let ok = dir.path().join("ok");
+    let o = fxshade(&["rtl", "normalize", "--out", ok.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", text(&o));
+    let v = std::fs::read_to_string(ok.join("normalize.v")).unwrap();
+    let o = fxshade(&["formal", "normalize", "--rtl-dir", ok.to_str().unwrap()]);
+    assert!(o.status.success(), "the unedited module: {}", text(&o));
+    let edits = [
+        // The last stage is overwritten while the output is stalled.
+        (
+            "  wire en = ~valid_q[3] | ready_i;",
+            "  wire en = ~valid_q[3] | ready_i | valid_q[0];",
+        ),
+        // Stage 3's item is duplicated into stage 4 (stage 3's dropped).
+        (
+            "valid_q <= {valid_q[2:0], valid_i};",
+            "valid_q <= {valid_q[1], valid_q[1:0], valid_i};",
+        ),
+        // The output registers load while stalled.
+        (
+            "    if (en & valid_q[2]) begin",
+            "    if (valid_q[2]) begin",
+        ),
+        // Inputs accepted while the pipe cannot move.
+        (
+            "  assign ready_o = en;",
+            "  assign ready_o = en | valid_q[1];",
+        ),
+    ];
+    for (k, (from, to)) in edits.iter().enumerate() {
+        assert!(v.contains(from), "edit {k}: `{from}` is not in normalize.v");
+        let d = dir.path().join(format!("edit{k}"));
+        std::fs::create_dir(&d).unwrap();
+        std::fs::write(d.join("normalize.v"), v.replacen(from, to, 1)).unwrap();
+        let o = fxshade(&["formal", "normalize", "--rtl-dir", d.to_str().unwrap()]);
+        assert!(!o.status.success(), "edit {k} ({to}) was proved");
+        let t = text(&o);
+        assert!(
+            t.contains("the handshake properties fail") && t.contains("normalize.v:"),
+            "edit {k}: {t}"
+        );
+    }
+    // A module without properties is refused, not passed.
+    let d = dir.path().join("bare");
+    std::fs::create_dir(&d).unwrap();
+    let bare = v.split("`ifdef FORMAL").next().unwrap().to_string() + "endmodule\n";
+    std::fs::write(d.join("normalize.v"), bare).unwrap();
+    let o = fxshade(&["formal", "normalize", "--rtl-dir", d.to_str().unwrap()]);
+    assert!(!o.status.success());
+    assert!(text(&o).contains("no `ifdef FORMAL block"), "{}", text(&o));
+}
