@@ -370,7 +370,11 @@ impl<'a> Emitter<'a> {
         name
     }
 
-    fn table_read(&mut self, i: usize, idx: &Val, tb: &Table, s: u32) {
+    /// A table read at stage `s`, registered into `s + 1`. With `late`,
+    /// the raw entry and its quadrant bits are registered once more, into
+    /// `s + 2`, before the quarter-turn choice and the sign (a period too
+    /// short for the block RAM's clock-to-output and that logic).
+    fn table_read(&mut self, i: usize, idx: &Val, tb: &Table, s: u32, late: bool) {
         let f = tb.out.format();
         let t = tb.index.width();
         let base = &self.name[i].clone();
@@ -427,6 +431,19 @@ impl<'a> Emitter<'a> {
                 self.reg(s + 1, &top, false, 1, &format!("{a}[{}]", t - 2));
                 let neg = format!("{base}_neg_q");
                 self.reg(s + 1, &neg, false, 1, &format!("{j}[{}]", t - 1));
+                let (raw, top, neg, so) = if late {
+                    let (r2, t2, n2) = (
+                        format!("{raw}_s{}", s + 2),
+                        format!("{top}_s{}", s + 2),
+                        format!("{neg}_s{}", s + 2),
+                    );
+                    self.reg(s + 2, &r2, f.signed(), f.width(), &raw);
+                    self.reg(s + 2, &t2, false, 1, &top);
+                    self.reg(s + 2, &n2, false, 1, &neg);
+                    (r2, t2, n2, s + 2)
+                } else {
+                    (raw, top, neg, s + 1)
+                };
                 let v = format!("{base}_v");
                 self.body.push(format!(
                     "wire {} {v} = {top} ? {} : {raw};",
@@ -479,7 +496,8 @@ impl<'a> Emitter<'a> {
                     decl(f.signed(), f.width()),
                     bits::sv(f.signed(), &format!("{neg} ? {ny} : {v}"))
                 ));
-                self.at.insert((i, s + 1), out);
+                self.stage[i] = Some(so);
+                self.at.insert((i, so), out);
                 self.hw.table_reads += 1;
                 return;
             }
@@ -768,7 +786,21 @@ impl<'a> Emitter<'a> {
                     sb.width + (sa.signed && !sb.signed) as u32,
                 );
                 let dm = self.model().map_or(0.0, |m| m.mul(wa, wb));
-                let (s, t0) = self.place(&[a.node(), b.node()], dm);
+                let (mut s, t0) = self.place(&[a.node(), b.node()], dm);
+                // A DSP's operand registers sit in the block: an operand
+                // that arrives late in the stage before is registered in
+                // the fabric first (one more stage).
+                if let (Some((m, budget)), true) = (self.timing, t0 == 0.0) {
+                    if let Some(dsp) = m.dsp {
+                        let late = [a.node(), b.node()].iter().any(|&n| {
+                            self.stage[n].is_some_and(|sn| sn + 1 == s)
+                                && self.arrival[n] + dsp.route_in > budget
+                        });
+                        if late {
+                            s += 1;
+                        }
+                    }
+                }
                 let (va, vb) = (self.operand(&a, s), self.operand(&b, s));
                 if let Some((m, budget)) = self.timing {
                     if m.dsp.is_none()
@@ -1071,9 +1103,19 @@ impl<'a> Emitter<'a> {
                 let (s, _) = self.place(&[a.node()], before);
                 let va = self.operand(&a, s);
                 self.stage[i] = Some(s + 1);
-                self.table_read(i, &va, &tb, s);
+                // The logic after a quarter-wave read gets a stage of its
+                // own when the RAM's clock-to-output and it do not fit one.
+                let late = match (self.timing, &tb.storage) {
+                    (Some((m, budget)), Some(_)) => after > budget && after - m.bram > 0.0,
+                    _ => false,
+                };
+                self.table_read(i, &va, &tb, s, late);
                 let n = self.name[i].clone();
-                self.ready(i, after, &n);
+                let t_out = match self.model() {
+                    Some(m) if late => after - m.bram,
+                    _ => after,
+                };
+                self.ready(i, t_out, &n);
             }
             Op::Div(..) | Op::Sqrt(..) => unreachable!("checked before"),
         }

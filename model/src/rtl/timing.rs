@@ -75,7 +75,7 @@ impl Target {
         match self {
             // Calibrated on nextpnr-ice40 0.4 (Debian bookworm), HX8K ct256.
             Target::Ice40Hx8k => DelayModel {
-                reg: 1.6,
+                reg: 2.2,
                 lut: 1.0,
                 carry_base: 1.3,
                 carry_bit: 0.13,
@@ -95,6 +95,7 @@ impl Target {
                     b: 16,
                     comb: 9.2,
                     combine: 2.5,
+                    route_in: 5.0,
                 }),
                 bram: 5.0,
             },
@@ -110,6 +111,7 @@ impl Target {
                     b: 18,
                     comb: 7.0,
                     combine: 1.5,
+                    route_in: 1.5,
                 }),
                 bram: 3.5,
             },
@@ -126,6 +128,7 @@ impl Target {
                     b: 18,
                     comb: 3.4,
                     combine: 1.0,
+                    route_in: 0.5,
                 }),
                 bram: 2.2,
             },
@@ -160,6 +163,10 @@ pub struct Dsp {
     pub comb: f64,
     /// Each level of summing the tiles of a product wider than one block.
     pub combine: f64,
+    /// Routing from the fabric into the block's input registers: an
+    /// operand computed in the stage before must be ready this much before
+    /// the period ends, else it is registered in the fabric first.
+    pub route_in: f64,
 }
 
 /// Delays of one target, in nanoseconds (module documentation).
