@@ -61,20 +61,14 @@ pub fn sets(set: &str) -> Vec<&str> {
 pub fn check_all(unit: &str, sim: &str, variants: &[(&str, &str)], cfgs: &[Option<String>]) {
     for cfg in cfgs {
         for &(name, set) in variants {
-            let mut a = vec![
-                "rtl-check",
-                unit,
-                "--sim",
-                sim,
-                "--count",
-                "2000",
-                "--seed",
-                "7",
-                "--json",
-            ];
-            a.extend(sets(set));
-            let args = with_config(a, cfg);
-            let o = fxshade(&args);
+            // `rtl-check` of this unit, variant and configuration.
+            let check = |extra: &[&'static str]| {
+                let mut a = vec!["rtl-check", unit, "--sim", sim, "--json"];
+                a.extend(extra);
+                a.extend(sets(set));
+                fxshade(&with_config(a, cfg))
+            };
+            let o = check(&["--count", "2000", "--seed", "7"]);
             assert!(
                 o.status.success(),
                 "{unit} {sim} {cfg:?} {name}: {}",
@@ -96,19 +90,7 @@ pub fn check_all(unit: &str, sim: &str, variants: &[(&str, &str)], cfgs: &[Optio
             // The header's latency, measured without stalls (with random
             // stalls a deep pipe rarely passes an item untouched, so the
             // smallest latency seen can exceed it).
-            let mut a = vec![
-                "rtl-check",
-                unit,
-                "--sim",
-                sim,
-                "--count",
-                "500",
-                "--stall",
-                "0",
-                "--json",
-            ];
-            a.extend(sets(set));
-            let o = fxshade(&with_config(a, cfg));
+            let o = check(&["--count", "500", "--stall", "0"]);
             assert!(o.status.success(), "{unit} {name}: {}", text(&o));
             let j0: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
             let declared = format!("// Latency {} cycles", j0["latency"]);

@@ -605,12 +605,17 @@ impl<'a> Emitter<'a> {
         self.ready(i, t_end, &name);
     }
 
-    /// A multiplier too slow for a stage on a target without DSP blocks:
-    /// partial products of a few bits of the narrower operand each
-    /// (`a × b = Σ a × b_j · 2^(c·j)`, the top chunk signed when `b` is),
-    /// registered, then summed by a tree of adders in the product's width
-    /// (exact: the product fits it), with registers between tree levels
-    /// where the period needs them. Returns false when no split helps.
+    /// A multiplier too slow for a stage, split into partial products:
+    /// `a × b = Σ a_i × b_j · 2^(lo_i + lo_j)` over chunks of each operand
+    /// (the top chunk of a signed operand signed, the others unsigned and
+    /// zero-extended by one bit when their partner is signed), each partial
+    /// product registered, then summed by a tree of adders in the product's
+    /// width (exact: the product fits it), with registers between tree
+    /// levels where the period needs them. On a target without DSP blocks
+    /// the narrower operand is cut into chunks short enough for a LUT
+    /// multiplier to fit the period; on a DSP target both operands are cut
+    /// to the block's size, so every partial product is one block. Returns
+    /// false when no split helps.
     fn split_mul(
         &mut self,
         i: usize,
@@ -625,94 +630,82 @@ impl<'a> Emitter<'a> {
         } else {
             (vb, va)
         };
-        let mut c = y.width;
-        while c > 1 && m.lut_mul(x.width + 1, c + 1) > budget {
-            c -= 1;
+        if x.expr.contains('\'') || y.expr.contains('\'') {
+            return false;
         }
-        if c >= y.width || y.expr.contains('\'') {
+        let (cx, cy) = match m.dsp {
+            None => {
+                let mut c = y.width;
+                while c > 1 && m.lut_mul(x.width + 1, c + 1) > budget {
+                    c -= 1;
+                }
+                (x.width, c)
+            }
+            Some(d) => {
+                // Chunks that fit the block with the extension bit; an
+                // operand that fits whole stays whole.
+                let fit = |v: &Val, max: u32| if v.width < max { v.width } else { max - 1 };
+                (fit(x, d.a), fit(y, d.b))
+            }
+        };
+        if cx >= x.width && cy >= y.width {
             return false;
         }
         let name = self.name[i].clone();
         let sym = self.t.sym(i);
         let w = sym.width;
-        let k = y.width.div_ceil(c);
+        let xs = self.chunks(&name, x, cx, "a");
+        let ys = self.chunks(&name, y, cy, "b");
         let mut parts: Vec<String> = Vec::new();
         let mut slowest: f64 = 0.0;
-        let mut xz: Option<String> = None;
-        for j in 0..k {
-            let lo = j * c;
-            let hi = (lo + c).min(y.width) - 1;
-            let cw = hi - lo + 1;
-            let csigned = y.signed && j == k - 1;
-            let ps = x.signed || csigned;
-            let chunk = format!("{name}_b{j}");
-            let (ce, cwb) = if ps && !csigned {
-                self.body.push(format!(
-                    "wire signed [{cw}:0] {chunk} = $signed({{1'b0, {}}});",
-                    y.slice(hi, lo)
-                ));
-                (chunk, cw + 1)
-            } else {
-                self.body.push(format!(
-                    "wire {} {chunk} = {};",
-                    decl(csigned, cw),
-                    bits::sv(csigned, &y.slice(hi, lo))
-                ));
-                (chunk, cw)
-            };
-            let (xe, xw) = if ps && !x.signed {
-                let n = xz.get_or_insert_with(|| format!("{name}_az")).clone();
-                if !self.body.iter().any(|l| l.contains(&format!(" {n} = "))) {
-                    self.body.push(format!(
-                        "wire signed [{}:0] {n} = $signed({{1'b0, {}}});",
-                        x.width, x.expr
-                    ));
-                }
-                (n, x.width + 1)
-            } else {
-                (x.expr.clone(), x.width)
-            };
-            let pw = xw + cwb;
-            let pp = format!("{name}_pp{j}");
-            self.body
-                .push(format!("wire {} {pp} = {xe} * {ce};", decl(ps, pw)));
-            self.hw.muls.push(MulHw {
-                a_width: xw,
-                b_width: cwb,
-                signed: ps,
-            });
-            slowest = slowest.max(m.lut_mul(xw, cwb));
-            let q = format!("{pp}_q");
-            self.reg(s + 1, &q, ps, pw, &pp);
-            // Aligned to the product's width: the partial's weight 2^(c·j),
-            // extended by its own signedness, top bits beyond w dropped.
-            let v = Val {
-                expr: q,
-                width: pw,
-                signed: ps,
-                frac: 0,
-            };
-            let body = pw + lo;
-            if body <= w {
-                parts.push(bits::align(&v, lo, w));
-            } else {
-                // Wider than the product (a full-width partial): its low
-                // bits, shifted; the rest is exactly the carry-out.
-                let keep = w - lo;
-                let kept = Val {
-                    expr: v.slice(keep - 1, 0),
-                    width: keep,
-                    signed: false,
+        for (jx, (xe, xw, xsg, xlo)) in xs.iter().enumerate() {
+            for (jy, (ye, yw, ysg, ylo)) in ys.iter().enumerate() {
+                // Both factors of one signedness: a signed one extends an
+                // unsigned partner by its bit.
+                let ps = *xsg || *ysg;
+                let (xe, xw) = self.extended(&name, xe, *xw, ps && !*xsg, &format!("az{jx}_{jy}"));
+                let (ye, yw) = self.extended(&name, ye, *yw, ps && !*ysg, &format!("bz{jx}_{jy}"));
+                let pw = xw + yw;
+                let pp = format!("{name}_pp{jx}_{jy}");
+                self.body
+                    .push(format!("wire {} {pp} = {xe} * {ye};", decl(ps, pw)));
+                self.hw.muls.push(MulHw {
+                    a_width: xw,
+                    b_width: yw,
+                    signed: ps,
+                });
+                slowest = slowest.max(m.mul(xw, yw));
+                let q = format!("{pp}_q");
+                self.reg(s + 1, &q, ps, pw, &pp);
+                let lo = xlo + ylo;
+                // Aligned to the product's width: the partial's weight
+                // 2^lo, extended by its own signedness, bits beyond w
+                // dropped (the sum is exact modulo 2^w).
+                let v = Val {
+                    expr: q,
+                    width: pw,
+                    signed: ps,
                     frac: 0,
                 };
-                parts.push(bits::align(&kept, lo, w));
-                self.unused.push(v.slice(pw - 1, keep));
+                if pw + lo <= w {
+                    parts.push(bits::align(&v, lo, w));
+                } else {
+                    let keep = w - lo;
+                    let kept = Val {
+                        expr: v.slice(keep - 1, 0),
+                        width: keep,
+                        signed: false,
+                        frac: 0,
+                    };
+                    parts.push(bits::align(&kept, lo, w));
+                    self.unused.push(v.slice(pw - 1, keep));
+                }
             }
         }
         self.worst = self.worst.max(slowest);
         if slowest > budget + 1e-9 {
             self.too_slow.push(format!(
-                "{name}: a 1-bit partial product ({} ns > {budget:.2} ns)",
+                "{name}: its smallest partial products ({} ns > {budget:.2} ns)",
                 fmt_ns(slowest)
             ));
         }
@@ -761,6 +754,43 @@ impl<'a> Emitter<'a> {
         true
     }
 
+    /// The chunks of operand `v`, `c` bits each from the bottom: (name,
+    /// width, signed, weight). The top chunk of a signed operand is signed;
+    /// the others are unsigned. One chunk is the operand itself.
+    fn chunks(&mut self, name: &str, v: &Val, c: u32, tag: &str) -> Vec<(String, u32, bool, u32)> {
+        let k = v.width.div_ceil(c);
+        if k == 1 {
+            return vec![(v.expr.clone(), v.width, v.signed, 0)];
+        }
+        let mut out = Vec::new();
+        for j in 0..k {
+            let lo = j * c;
+            let hi = (lo + c).min(v.width) - 1;
+            let cw = hi - lo + 1;
+            let csigned = v.signed && j == k - 1;
+            let n = format!("{name}_{tag}{j}");
+            self.body.push(format!(
+                "wire {} {n} = {};",
+                decl(csigned, cw),
+                bits::sv(csigned, &v.slice(hi, lo))
+            ));
+            out.push((n, cw, csigned, lo));
+        }
+        out
+    }
+
+    /// `e` (`w` bits, unsigned) zero-extended into a signed wire of `w + 1`
+    /// bits when `zext`, else `e` itself.
+    fn extended(&mut self, name: &str, e: &str, w: u32, zext: bool, tag: &str) -> (String, u32) {
+        if !zext {
+            return (e.to_string(), w);
+        }
+        let n = format!("{name}_{tag}");
+        self.body
+            .push(format!("wire signed [{w}:0] {n} = $signed({{1'b0, {e}}});"));
+        (n, w + 1)
+    }
+
     fn node(&mut self, i: usize) -> Result<(), EmitError> {
         let op = self.t.ops()[i].clone();
         let sym = self.t.sym(i);
@@ -803,10 +833,7 @@ impl<'a> Emitter<'a> {
                 }
                 let (va, vb) = (self.operand(&a, s), self.operand(&b, s));
                 if let Some((m, budget)) = self.timing {
-                    if m.dsp.is_none()
-                        && t0 + dm > budget
-                        && self.split_mul(i, &va, &vb, s, m, budget)
-                    {
+                    if t0 + dm > budget && self.split_mul(i, &va, &vb, s, m, budget) {
                         return Ok(());
                     }
                 }
