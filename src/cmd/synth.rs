@@ -637,6 +637,11 @@ impl Target {
 
 /// Run it.
 pub fn run(a: &SynthArgs) -> anyhow::Result<()> {
+    if let Some(c) = a.clock_ns {
+        if !(c.is_finite() && c > 0.0) {
+            return Err(UsageError(format!("--clock-ns {c}: give a period in ns above 0")).into());
+        }
+    }
     let freq = match (a.freq, a.clock_ns) {
         (Some(f), _) => f,
         (None, Some(c)) if c > 0.0 => 1000.0 / c,

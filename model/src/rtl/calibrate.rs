@@ -44,8 +44,8 @@ fn design(label: &str, trace: Trace) -> Design {
     }
 }
 
-/// The probes for `target`: adders, multipliers (DSP-sized and not),
-/// a rounding incrementer with saturation, and a 4-way select.
+/// The probes for `target`: adders, multipliers (DSP-sized and not), and
+/// a rounding incrementer with saturation.
 pub fn probes(target: Target) -> Vec<Probe> {
     let m = target.model();
     let mut out = Vec::new();

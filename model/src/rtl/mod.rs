@@ -170,6 +170,16 @@ pub struct Emitted {
     pub hardware: Hardware,
 }
 
+/// `e` as a plain bit vector: a bare name becomes a one-part
+/// concatenation (unsigned), so the partial-product sums mix no signedness.
+fn as_bits(e: String) -> String {
+    if e.starts_with('{') {
+        e
+    } else {
+        format!("{{{e}}}")
+    }
+}
+
 /// Nanoseconds to two decimals.
 fn fmt_ns(t: f64) -> String {
     format!("{t:.2}")
@@ -578,11 +588,7 @@ impl<'a> Emitter<'a> {
         } else {
             (va, s, t + dr + ds)
         };
-        let (round, _) = if split {
-            (Rounding::Trunc, ())
-        } else {
-            (q.round(), ())
-        };
+        let round = if split { Rounding::Trunc } else { q.round() };
         let ql = bits::quantize(
             &src,
             &name,
@@ -688,7 +694,7 @@ impl<'a> Emitter<'a> {
                     frac: 0,
                 };
                 if pw + lo <= w {
-                    parts.push(bits::align(&v, lo, w));
+                    parts.push(as_bits(bits::align(&v, lo, w)));
                 } else {
                     let keep = w - lo;
                     let kept = Val {
@@ -697,7 +703,7 @@ impl<'a> Emitter<'a> {
                         signed: false,
                         frac: 0,
                     };
-                    parts.push(bits::align(&kept, lo, w));
+                    parts.push(as_bits(bits::align(&kept, lo, w)));
                     self.unused.push(v.slice(pw - 1, keep));
                 }
             }
@@ -717,8 +723,8 @@ impl<'a> Emitter<'a> {
                 let mut regd = Vec::new();
                 for (n, p) in parts.iter().enumerate() {
                     let q = format!("{name}_l{level}_{n}_q");
-                    self.reg(stage + 1, &q, sym.signed, w, p);
-                    regd.push(q);
+                    self.reg(stage + 1, &q, sym.signed, w, &bits::sv(sym.signed, p));
+                    regd.push(format!("{{{q}}}"));
                 }
                 parts = regd;
                 stage += 1;
@@ -737,7 +743,7 @@ impl<'a> Emitter<'a> {
                     bits::sv(sym.signed, &format!("{} + {}", pair[0], pair[1]))
                 ));
                 self.hw.adders.push(w);
-                next.push(sum);
+                next.push(format!("{{{sum}}}"));
             }
             parts = next;
             t += m.add(w);

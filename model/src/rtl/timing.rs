@@ -8,10 +8,11 @@
 //! ([`DelayModel::budget`]: the clock period less the register overhead);
 //! otherwise its operands are registered first and it starts the next
 //! stage. A quantization may be cut between its rounding incrementer and
-//! its range check and saturation; a multiplier too slow for the period on
-//! a target without DSP blocks is split into partial products (a few bits
-//! of the narrower operand each), registered, and summed by a tree of
-//! adders over the following stages. A table read is registered (block
+//! its range check and saturation; a multiplier too slow for the period is
+//! split into partial products (on a target without DSP blocks a few bits
+//! of the narrower operand each, on a DSP target block-sized tiles of both
+//! operands), registered, and summed by a tree of adders over the following
+//! stages. A table read is registered (block
 //! RAM); the value leaves the RAM [`DelayModel::bram`] after the clock.
 //!
 //! Delays of one operation, in nanoseconds (`w` a result width):
@@ -28,7 +29,7 @@
 //! | range check and saturate | `lut·⌈log4 k⌉ + lut`, `k` bits checked |
 //!
 //! The constants are calibrated against nextpnr by `fxshade synth
-//! --calibrate TARGET` (BENCHMARKS.md lists predicted against measured).
+//! calibrate --target T` (BENCHMARKS.md lists predicted against measured).
 
 /// A technology the delay model describes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
