@@ -1258,7 +1258,6 @@ module pipeline_smooth (
     if (f_past_valid && rst_ni && $past(rst_ni)) begin
       if ($past(en)) assert (valid_q == {$past(valid_q[13:0]), $past(valid_i)});
       else assert ($stable(valid_q));
-      if ($past(en & valid_q[14])) assert ($past(ready_i));
       if ($past(valid_o & ~ready_i)) begin
         assert (valid_o);
         assert ($stable(level_o));

@@ -786,7 +786,6 @@ module polar (
     if (f_past_valid && rst_ni && $past(rst_ni)) begin
       if ($past(en)) assert (valid_q == {$past(valid_q[2:0]), $past(valid_i)});
       else assert ($stable(valid_q));
-      if ($past(en & valid_q[3])) assert ($past(ready_i));
       if ($past(valid_o & ~ready_i)) begin
         assert (valid_o);
         assert ($stable(out_x_o));

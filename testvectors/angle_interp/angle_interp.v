@@ -100,7 +100,6 @@ module angle_interp (
     if (f_past_valid && rst_ni && $past(rst_ni)) begin
       if ($past(en)) assert (valid_q == $past(valid_i));
       else assert ($stable(valid_q));
-      if ($past(en & valid_q[0])) assert ($past(ready_i));
       if ($past(valid_o & ~ready_i)) begin
         assert (valid_o);
         assert ($stable(angle_o));

@@ -1166,7 +1166,8 @@ impl<'a> Emitter<'a> {
 /// * the valid bits move one stage in a cycle with `en` (the first taking
 ///   `valid_i`) and hold otherwise: an item enters only by an input
 ///   transfer, never skips, splits or swaps a stage;
-/// * an item leaves the last stage only by an output transfer;
+///   with `ready_o` above, an item leaves the last stage only in a cycle
+///   with `ready_i`, an output transfer;
 /// * while `valid_o && !ready_i`, the next cycle keeps `valid_o` and every
 ///   output port unchanged;
 /// * the pipeline drains: after `j` cycles in a row with `ready_i` high
@@ -1214,11 +1215,6 @@ fn formal_block(latency: u32, outs: &[Port], nf: usize) -> String {
     };
     let _ = writeln!(v, "      if ($past(en)) assert (valid_q == {shifted});");
     v += "      else assert ($stable(valid_q));\n";
-    let _ = writeln!(
-        v,
-        "      if ($past(en & valid_q[{}])) assert ($past(ready_i));",
-        l - 1
-    );
     v += "      if ($past(valid_o & ~ready_i)) begin\n";
     v += "        assert (valid_o);\n";
     for p in outs {
