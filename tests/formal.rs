@@ -87,3 +87,37 @@ fn broken_handshakes_fail_the_proof() {
     assert!(!o.status.success());
     assert!(text(&o).contains("no `ifdef FORMAL block"), "{}", text(&o));
 }
+
+/// A set-up port that accepts a record one stage too early (an item still
+/// reads the registers) fails the proof; the emitted one is proved.
+#[test]
+fn a_set_up_port_loading_under_a_reader_fails_the_proof() {
+    let dir = tempfile::tempdir().unwrap();
+    let ok = dir.path().join("ok");
+    let o = fxshade(&["rtl", "pipeline", "--out", ok.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", text(&o));
+    let v = std::fs::read_to_string(ok.join("pipeline_smooth.v")).unwrap();
+    let line = v
+        .lines()
+        .find(|l| l.starts_with("  assign tri_ready_o = ~|valid_q["))
+        .expect("a drained set-up port");
+    let top: u32 = line
+        .trim_start_matches("  assign tri_ready_o = ~|valid_q[")
+        .split(':')
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(top >= 1, "{line}");
+    let early = format!("  assign tri_ready_o = ~|valid_q[{}:0];", top - 1);
+    let d = dir.path().join("early");
+    std::fs::create_dir(&d).unwrap();
+    std::fs::write(d.join("pipeline_smooth.v"), v.replacen(line, &early, 1)).unwrap();
+    let o = fxshade(&["formal", "pipeline", "--rtl-dir", d.to_str().unwrap()]);
+    assert!(!o.status.success(), "{early} was proved");
+    assert!(
+        text(&o).contains("pipeline_smooth.v:"),
+        "the failing assertion is named: {}",
+        text(&o)
+    );
+}

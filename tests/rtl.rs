@@ -67,17 +67,21 @@ fn the_registry_lists_every_unit_and_variant_the_issue_names() {
     );
 }
 
+/// Every unit and variant on both simulators with the default
+/// configuration; the narrow and wide configurations on Icarus (its builds
+/// take a second, Verilator's many: the random configurations below run
+/// Verilator on other widths).
 #[test]
-fn verilator_matches_the_model_for_every_unit_variant_and_configuration() {
+fn verilator_matches_the_model_for_every_unit_and_variant() {
     for (unit, variants) in units() {
-        check_all(&unit, "verilator", &pairs(&variants), &configs());
+        check_all(&unit, "verilator", &pairs(&variants), &[None]);
     }
 }
 
 #[test]
-fn icarus_matches_the_model_for_every_unit_and_variant() {
+fn icarus_matches_the_model_for_every_unit_variant_and_configuration() {
     for (unit, variants) in units() {
-        check_all(&unit, "icarus", &pairs(&variants), &[None]);
+        check_all(&unit, "icarus", &pairs(&variants), &configs());
     }
 }
 
@@ -158,6 +162,119 @@ fn target_pipelined_rtl_matches_the_model_on_both_simulators() {
     assert!(o.status.success(), "{}", text(&o));
     let v3 = std::fs::read_to_string(d3.path().join("normalize.v")).unwrap();
     assert_eq!(body(&v3), body(&compact));
+}
+
+/// The pipeline tops' set-up ports (the default, `rtl.setup = "port"`):
+/// per-frame and per-triangle fields load through handshakes of their own
+/// into one register each, and no pipeline register carries them with the
+/// pixels. `rtl.setup = "pixel"` carries them as before; both are
+/// bit-exact, and a port that loads while items still read it is caught.
+#[test]
+fn set_up_ports_hold_frame_and_triangle_values_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let emit = |path: &str, setup: &str| -> (serde_json::Value, String) {
+        let out = dir.path().join(format!("{path}-{setup}"));
+        let o = fxshade(&[
+            "rtl",
+            "pipeline",
+            "--set",
+            &format!("pipeline.path=\"{path}\""),
+            "--set",
+            &format!("rtl.setup=\"{setup}\""),
+            "--json",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", text(&o));
+        let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        let m = j[0]["module"].as_str().unwrap().to_string();
+        let v = std::fs::read_to_string(out.join(format!("{m}.v"))).unwrap();
+        (j[0].clone(), v)
+    };
+    for path in ["smooth", "mapped"] {
+        let (jp, vp) = emit(path, "port");
+        let (jx, vx) = emit(path, "pixel");
+        let ports = jp["setup_ports"].as_array().unwrap();
+        let names: Vec<&str> = ports.iter().map(|p| p["name"].as_str().unwrap()).collect();
+        assert_eq!(names, ["frame", "tri"], "{path}");
+        assert_eq!(jx["setup_ports"].as_array().unwrap().len(), 0);
+        let mut carried_before = 0;
+        for p in ports {
+            let n = p["name"].as_str().unwrap();
+            assert!(
+                vp.contains(&format!("input  wire {n}_valid_i")),
+                "{path} {n}"
+            );
+            assert!(
+                vp.contains(&format!("output wire {n}_ready_o")),
+                "{path} {n}"
+            );
+            assert!(!vx.contains(&format!("{n}_valid_i")), "{path} {n}");
+            for f in p["fields"].as_array().unwrap() {
+                let f = f.as_str().unwrap();
+                assert!(vp.contains(&format!("      {f}_q <= {f}_i;")), "{path} {f}");
+                assert!(!vp.contains(&format!("{f}_i_s")), "{path}: {f} carried");
+                carried_before += vx.matches(&format!("reg  signed [15:0] {f}_i_s")).count();
+            }
+        }
+        assert!(
+            carried_before > 0,
+            "{path}: the pixel top carries set-up fields"
+        );
+        let (fp, fx) = (
+            jp["hardware"]["flops"].as_u64().unwrap(),
+            jx["hardware"]["flops"].as_u64().unwrap(),
+        );
+        assert!(fp < fx, "{path}: {fp} flip-flops with ports, {fx} without");
+        if path == "smooth" {
+            // The issue's target: at least 35 % fewer.
+            assert!(fp * 100 <= fx * 65, "smooth: {fp} against {fx}");
+        }
+    }
+    // Carried with the pixels, the top is bit-exact too.
+    for sim in ["verilator", "icarus"] {
+        let o = fxshade(&[
+            "rtl-check",
+            "pipeline",
+            "--set",
+            "rtl.setup=\"pixel\"",
+            "--sim",
+            sim,
+            "--count",
+            "2000",
+            "--json",
+        ]);
+        assert!(o.status.success(), "{}", text(&o));
+        let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        assert_eq!(j["passed"], 2000);
+    }
+    // A triangle port that never waits for the pipe: pixels in flight read
+    // the next triangle's normals, and the vectors see it.
+    let (_, v) = emit("smooth", "port");
+    let line = v
+        .lines()
+        .find(|l| l.starts_with("  assign tri_ready_o = "))
+        .unwrap()
+        .to_string();
+    let bad = dir.path().join("bad");
+    std::fs::create_dir(&bad).unwrap();
+    std::fs::write(
+        bad.join("pipeline_smooth.v"),
+        v.replacen(&line, "  assign tri_ready_o = 1'b1;", 1),
+    )
+    .unwrap();
+    let o = fxshade(&[
+        "rtl-check",
+        "pipeline",
+        "--rtl-dir",
+        bad.to_str().unwrap(),
+        "--count",
+        "2000",
+        "--json",
+    ]);
+    assert!(!o.status.success(), "a port that never waits passed");
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(j["failed"].as_u64().unwrap() > 0, "{j}");
 }
 
 #[test]
@@ -407,15 +524,23 @@ fn random_valid_configurations_agree_bit_for_bit() {
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(20261122u64);
-    println!("random configurations: seed {seed} (FXSHADE_RANDOM_SEED to change)");
+    // Twelve configurations keep the suite inside its time budget (each is
+    // seven simulator builds); FXSHADE_RANDOM_CONFIGS runs more.
+    let wanted = std::env::var("FXSHADE_RANDOM_CONFIGS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(12usize);
+    println!(
+        "random configurations: {wanted}, seed {seed} (FXSHADE_RANDOM_CONFIGS, FXSHADE_RANDOM_SEED to change)"
+    );
     let mut r = Lcg(seed);
     let units: Vec<String> = units().into_iter().map(|(u, _)| u).collect();
     let (mut valid, mut draws) = (Vec::new(), 0);
-    while valid.len() < 30 {
+    while valid.len() < wanted {
         draws += 1;
         assert!(
-            draws < 300,
-            "fewer than 30 of 300 random configurations were valid"
+            draws < 10 * wanted.max(30),
+            "fewer than {wanted} of {draws} random configurations were valid"
         );
         let sets = random_overrides(&mut r);
         // Keep what `config check` accepts (an empty file is the default).
@@ -439,8 +564,8 @@ fn random_valid_configurations_agree_bit_for_bit() {
         for w in 0..2 {
             s.spawn(move || {
                 for (k, sets) in valid.iter().enumerate().filter(|(k, _)| k % 2 == w) {
-                    // Every unit on Verilator; the first ten configurations on Icarus too.
-                    let sims: &[&str] = if k < 10 {
+                    // Every unit on Verilator; the first four configurations on Icarus too.
+                    let sims: &[&str] = if k < 4 {
                         &["verilator", "icarus"]
                     } else {
                         &["verilator"]

@@ -56,6 +56,9 @@ pub struct RtlSources {
     pub testbench: String,
     /// Cycles from input to output.
     pub latency: u32,
+    /// The module's set-up ports (empty: every field travels with the
+    /// item).
+    pub setup: Vec<crate::rtl::SetupPort>,
 }
 
 impl RtlSources {
@@ -295,6 +298,12 @@ impl VectorSet {
             "expected": fields_json(&self.outputs),
             "ovf_bits_msb_first": self.flags,
             "latency": self.rtl.latency,
+            "setup_ports": self.rtl.setup,
+            "setup_stream": if self.rtl.setup.is_empty() {
+                "none: every field travels with each vector"
+            } else {
+                "each vector carries every field; before a vector whose fields of a set-up port differ from the ones that port last accepted (or when it accepted none), the port is sent them (ports in the listed order), then the vector's item goes; records stay in file order"
+            },
             "files": {
                 "inputs": "inputs.hex", "expected": "expected.hex",
                 "inputs_bin": "inputs.bin", "expected_bin": "expected.bin",

@@ -162,6 +162,7 @@ pub fn run(a: &RtlArgs) -> anyhow::Result<()> {
             "latency": e.latency,
             "flags": e.flags,
             "hardware": h,
+            "setup_ports": e.setup,
             "files": files,
             "dir": out,
         }));

@@ -217,6 +217,16 @@ pub fn harness(e: &Emitted) -> String {
         ".valid_i(valid_q)".into(),
         ".ready_o(ready_d)".into(),
     ];
+    // Set-up ports load with the item's valid; their readies fold into
+    // ready_o.
+    let mut readies = vec!["ready_d".to_string()];
+    let mut wires = String::new();
+    for g in &e.setup {
+        conns.push(format!(".{}_valid_i(valid_q)", g.name));
+        conns.push(format!(".{n}_ready_o({n}_ready_d)", n = g.name));
+        wires += &format!("  wire {}_ready_d;\n", g.name);
+        readies.push(format!("{}_ready_d", g.name));
+    }
     let mut at = 0;
     for f in &e.inputs {
         let w = f.format.width();
@@ -244,15 +254,16 @@ pub fn harness(e: &Emitted) -> String {
          module fxs_harness (\n  input  wire clk_i,\n  input  wire rst_ni,\n  input  wire din_i,\n  \
          input  wire valid_i,\n  input  wire ready_i,\n  output reg  dout_o,\n  output reg  valid_o,\n  \
          output reg  ready_o\n);\n\
-         \x20 reg  [{iw1}:0] in_q;\n  reg  valid_q, ready_q;\n  wire [{ow1}:0] out_d;\n  wire valid_d, ready_d;\n  \
+         \x20 reg  [{iw1}:0] in_q;\n  reg  valid_q, ready_q;\n  wire [{ow1}:0] out_d;\n  wire valid_d, ready_d;\n{wires}  \
          reg  [{ow1}:0] out_q;\n\n\
          \x20 always @(posedge clk_i) begin\n    in_q <= {shift};\n    valid_q <= valid_i;\n    ready_q <= ready_i;\n    \
-         out_q <= out_d;\n    dout_o <= ^out_q;\n    valid_o <= valid_d;\n    ready_o <= ready_d;\n  end\n\n\
+         out_q <= out_d;\n    dout_o <= ^out_q;\n    valid_o <= valid_d;\n    ready_o <= {ready};\n  end\n\n\
          \x20 {m} dut (\n    {conns}\n  );\nendmodule\n",
         m = e.module,
         iw1 = in_w.max(1) - 1,
         ow1 = out_w - 1,
         conns = conns.join(",\n    "),
+        ready = readies.join(" & "),
     )
 }
 
@@ -528,6 +539,7 @@ fn cache_entry(e: &Emitted, target: Target, seeds: u32, freq: f64, pnr: bool) ->
     });
     let key = fxshade_model::vectors::fingerprint(&[
         e.verilog.as_bytes(),
+        harness(e).as_bytes(),
         target.name().as_bytes(),
         format!("{seeds} {freq} {pnr} {versions}").as_bytes(),
     ]);

@@ -41,11 +41,62 @@ pub fn design(cfg: &Config) -> Result<crate::rtl::Design, RtlError> {
         Path::Mapped => format!("mapped ({} angles)", p.angles.name()),
     };
     let mut d = crate::rtl::Design::new(DECL.name, &variant, p.trace(path)?, cfg, notes);
+    if cfg.unit("rtl").choice("setup") == "port" {
+        d.setup = setup_groups(path, p.angles);
+    }
     d.module = match (path, p.angles) {
         (Path::Mapped, super::AngleSource::Interpolate) => "pipeline_mapped_interp".into(),
         _ => format!("pipeline_{}", path.name()),
     };
     Ok(d)
+}
+
+/// The set-up ports of a pipeline top: the light and half vectors (or
+/// their angles) per frame; the vertex and midpoint normals, the
+/// coefficient set (or the angle set-up) per triangle. The barycentrics
+/// and the texel travel with each pixel.
+pub fn setup_groups(path: Path, angles: super::AngleSource) -> Vec<crate::rtl::SetupGroup> {
+    let xyz = |v: &[&str]| -> Vec<String> {
+        v.iter()
+            .flat_map(|n| ["x", "y", "z"].map(|c| format!("{n}_{c}")))
+            .collect()
+    };
+    let normals = xyz(&["n1", "n2", "n3", "n12", "n23", "n31"]);
+    let angles_lh: Vec<String> = ["al", "bl", "ah", "bh"].map(String::from).to_vec();
+    let (frame, tri, frame_doc, tri_doc) = match (path, angles) {
+        (Path::Smooth, _) => (
+            xyz(&["l", "h"]),
+            std::iter::once("sel".to_string()).chain(normals).collect(),
+            "the light and half vectors L and H, per frame",
+            "the coefficient set and the vertex and midpoint normals, per triangle",
+        ),
+        (Path::Mapped, super::AngleSource::Cordic) => (
+            angles_lh,
+            normals,
+            "the polar angles of L and H, per frame",
+            "the vertex and midpoint normals, per triangle",
+        ),
+        (Path::Mapped, super::AngleSource::Interpolate) => (
+            angles_lh,
+            ["a3", "da1", "da2", "b3", "db1", "db2"]
+                .map(String::from)
+                .to_vec(),
+            "the polar angles of L and H, per frame",
+            "the angle set-up (the third vertex's angles and the deltas), per triangle",
+        ),
+    };
+    vec![
+        crate::rtl::SetupGroup {
+            name: "frame",
+            doc: frame_doc,
+            fields: frame,
+        },
+        crate::rtl::SetupGroup {
+            name: "tri",
+            doc: tri_doc,
+            fields: tri,
+        },
+    ]
 }
 
 /// The angle interpolation's traced datapath (`c1, c2, a3, d1, d2 → angle`).

@@ -41,6 +41,7 @@ fn design(label: &str, trace: Trace) -> Design {
         config_toml: String::new(),
         notes: vec![format!("Delay-model calibration probe: {label}.")],
         pipelining: super::timing::Pipelining::Compact,
+        setup: Vec::new(),
     }
 }
 

@@ -61,6 +61,47 @@ pub struct Design {
     pub notes: Vec<String>,
     /// Where the pipeline registers go (`[rtl]`).
     pub pipelining: timing::Pipelining,
+    /// Set-up ports: groups of inputs loaded through a handshake of their
+    /// own and held in registers, rather than carried with every item
+    /// (empty: every input travels with the item).
+    pub setup: Vec<SetupGroup>,
+}
+
+/// A group of inputs loaded through a set-up port of its own (per frame,
+/// per triangle): `<name>_valid_i` / `<name>_ready_o` and the group's
+/// input ports, held in registers `<field>_q` that every pipeline stage
+/// reads directly.
+///
+/// The port accepts a record only while the stages that read the group's
+/// registers are empty (`<name>_ready_o = ~|valid_q[U−1:0]`, `U` the last
+/// stage reading them, see [`SetupPort::drain`]), so an item always
+/// computes with the set-up values that were loaded when it entered. An
+/// item accepted in the same cycle as a set-up record still reads the
+/// values held before it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SetupGroup {
+    /// Port name (`frame`, `tri`).
+    pub name: &'static str,
+    /// One line for the header: what the group holds and when it changes.
+    pub doc: &'static str,
+    /// Its input ports (trace input names).
+    pub fields: Vec<String>,
+}
+
+/// A set-up port as emitted.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct SetupPort {
+    /// Port name (`frame`, `tri`).
+    pub name: &'static str,
+    /// What it holds.
+    pub doc: &'static str,
+    /// Its fields (input ports), in vector-field order.
+    pub fields: Vec<String>,
+    /// The last stage reading its registers: the port accepts a record
+    /// only when stages `1..=drain` are empty (0: always).
+    pub drain: u32,
+    /// Flip-flops holding its values.
+    pub flops: u64,
 }
 
 /// Why a design cannot be emitted.
@@ -168,6 +209,29 @@ pub struct Emitted {
     pub outputs: Vec<Field>,
     /// What the module builds.
     pub hardware: Hardware,
+    /// Set-up ports (empty: every input travels with the item).
+    pub setup: Vec<SetupPort>,
+}
+
+/// `text` as comment lines of at most 78 columns, each starting with
+/// `lead`.
+fn comment(lead: &str, text: &str) -> String {
+    let mut out = String::new();
+    let mut line = String::new();
+    for w in text.split_whitespace() {
+        if !line.is_empty() && lead.len() + line.len() + 1 + w.len() > 78 {
+            out += &format!("{lead}{line}\n");
+            line.clear();
+        }
+        if !line.is_empty() {
+            line.push(' ');
+        }
+        line += w;
+    }
+    if !line.is_empty() {
+        out += &format!("{lead}{line}\n");
+    }
+    out
 }
 
 /// `e` as a plain bit vector: a bare name becomes a one-part
@@ -242,6 +306,12 @@ struct Emitter<'a> {
     worst: f64,
     /// Operations slower than a whole stage by themselves.
     too_slow: Vec<String>,
+    /// Set-up groups each node depends on (bit `g`: group `g`), for the
+    /// set-up inputs and the combinational logic computed from them alone
+    /// (no stage: read directly at every stage).
+    groups: Vec<u32>,
+    /// The last stage reading each set-up group's registers.
+    drain: Vec<u32>,
 }
 
 impl<'a> Emitter<'a> {
@@ -255,6 +325,12 @@ impl<'a> Emitter<'a> {
     /// The node's value at `stage` (balancing registers created on demand).
     fn value_at(&mut self, node: usize, stage: u32) -> String {
         let Some(s0) = self.stage[node] else {
+            let g = self.groups[node];
+            for (k, d) in self.drain.iter_mut().enumerate() {
+                if g >> k & 1 == 1 {
+                    *d = (*d).max(stage);
+                }
+            }
             return self.name[node].clone();
         };
         assert!(stage >= s0, "values flow forward");
@@ -292,13 +368,22 @@ impl<'a> Emitter<'a> {
             .filter_map(|&n| self.stage[n])
             .max()
             .unwrap_or(0);
+        // Set-up values (no stage) are read at any stage, their logic
+        // after their registers.
         let a = operands
             .iter()
-            .filter(|&&n| self.stage[n] == Some(s))
+            .filter(|&&n| self.stage[n] == Some(s) || self.stage[n].is_none())
             .map(|&n| self.arrival[n])
             .fold(0.0, f64::max);
         match self.timing {
-            Some((_, budget)) if a > 0.0 && a + d > budget => (s + 1, 0.0),
+            Some((_, budget)) if a > 0.0 && a + d > budget => {
+                let held = operands
+                    .iter()
+                    .filter(|&&n| self.stage[n].is_none())
+                    .map(|&n| self.arrival[n])
+                    .fold(0.0, f64::max);
+                (s + 1, held)
+            }
             _ => (s, a),
         }
     }
@@ -798,11 +883,39 @@ impl<'a> Emitter<'a> {
     }
 
     fn node(&mut self, i: usize) -> Result<(), EmitError> {
+        // Combinational logic of set-up values alone is itself a set-up
+        // value: no stage, read directly wherever it is needed.
         let op = self.t.ops()[i].clone();
+        let operands: Vec<usize> = match &op {
+            Op::Mul(a, b) | Op::Add(a, b) | Op::Sub(a, b) | Op::Max(a, b) => {
+                vec![a.node(), b.node()]
+            }
+            Op::AddSigned(a, b, c, _) => vec![a.node(), b.node(), c.node()],
+            Op::Select(s, o) => std::iter::once(s.node())
+                .chain(o.iter().map(|v| v.node()))
+                .collect(),
+            _ => Vec::new(),
+        };
+        let mask = operands.iter().fold(0, |m, &n| m | self.groups[n]);
+        let held = mask != 0 && operands.iter().all(|&n| self.stage[n].is_none());
+        self.node_op(i, op, held)?;
+        if held {
+            if let Some(s) = self.stage[i].take() {
+                self.at.remove(&(i, s));
+            }
+            self.groups[i] = mask;
+        }
+        Ok(())
+    }
+
+    fn node_op(&mut self, i: usize, op: Op, held: bool) -> Result<(), EmitError> {
         let sym = self.t.sym(i);
         let d = decl(sym.signed, sym.width);
         let name = self.name[i].clone();
         match op {
+            Op::Input(_) if self.groups[i] != 0 => {
+                // A set-up register: no stage.
+            }
             Op::Input(_) => {
                 self.stage[i] = Some(0);
                 self.at.insert((i, 0), name);
@@ -839,7 +952,7 @@ impl<'a> Emitter<'a> {
                 }
                 let (va, vb) = (self.operand(&a, s), self.operand(&b, s));
                 if let Some((m, budget)) = self.timing {
-                    if t0 + dm > budget && self.split_mul(i, &va, &vb, s, m, budget) {
+                    if !held && t0 + dm > budget && self.split_mul(i, &va, &vb, s, m, budget) {
                         return Ok(());
                     }
                 }
@@ -1171,13 +1284,16 @@ impl<'a> Emitter<'a> {
 /// * while `valid_o && !ready_i`, the next cycle keeps `valid_o` and every
 ///   output port unchanged;
 /// * the pipeline drains: after `j` cycles in a row with `ready_i` high
-///   and no input transfer, its first `j` stages are empty.
+///   and no input transfer, its first `j` stages are empty;
+/// * set-up registers (`setup`: the last stage reading them, their names)
+///   hold in every cycle that starts with an item in stages `1..=drain`:
+///   an item computes with the set-up values of the cycle it entered.
 ///
 /// Together: every accepted item leaves once, in order, and none is made
 /// up. (A first version also stated that the transfers in flight equal the
 /// number of valid bits; z3 needs minutes to prove that popcount identity
 /// on the deep tops, and the per-stage statements above imply it.)
-fn formal_block(latency: u32, outs: &[Port], nf: usize) -> String {
+fn formal_block(latency: u32, outs: &[Port], nf: usize, setup: &[(u32, Vec<String>)]) -> String {
     let l = latency;
     let cw = 32 - (l + 1).leading_zeros();
     let mut v = String::new();
@@ -1224,6 +1340,18 @@ fn formal_block(latency: u32, outs: &[Port], nf: usize) -> String {
         v += "        assert ($stable(ovf_o));\n";
     }
     v += "      end\n";
+    // Set-up registers: unchanged while an item is in the stages reading
+    // them.
+    for (drain, regs) in setup {
+        if *drain > 0 && !regs.is_empty() {
+            let _ = writeln!(
+                v,
+                "      if ($past(|valid_q[{}:0])) assert ($stable({{{}}}));",
+                drain - 1,
+                regs.join(", ")
+            );
+        }
+    }
     v += "    end\n";
     v += "    if (f_past_valid && rst_ni) cover (valid_o & ready_i);\n";
     v += "  end\n";
@@ -1277,9 +1405,25 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
         }
     }
     let inputs = t.input_ports();
+    for g in &d.setup {
+        for f in &g.fields {
+            assert!(
+                inputs.iter().any(|p| p.name == *f),
+                "set-up field {f} is an input port"
+            );
+        }
+    }
+    let setup_of = |port: &str| {
+        d.setup
+            .iter()
+            .position(|g| g.fields.iter().any(|f| f == port))
+    };
     let mut names = vec![String::new(); t.ops().len()];
     for (i, op) in t.ops().iter().enumerate() {
         names[i] = match op {
+            Op::Input(slot) if setup_of(&inputs[*slot].name).is_some() => {
+                format!("{}_q", inputs[*slot].name)
+            }
             Op::Input(slot) => format!("{}_i", inputs[*slot].name),
             Op::Const(_) => format!("K{i}"),
             Op::Quant(..) => format!("{}_{i}", sanitize(t.stage_id(i).unwrap_or("q"))),
@@ -1310,6 +1454,15 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
         },
         worst: 0.0,
         too_slow: Vec::new(),
+        groups: t
+            .ops()
+            .iter()
+            .map(|op| match op {
+                Op::Input(slot) => setup_of(&inputs[*slot].name).map_or(0, |g| 1 << g),
+                _ => 0,
+            })
+            .collect(),
+        drain: vec![0; d.setup.len()],
     };
     for (k, m) in muts.iter().enumerate() {
         e.mutants
@@ -1324,7 +1477,7 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
     }
     for p in &inputs {
         if !live[p.value.node()] {
-            e.unused.push(e.name[p.value.node()].clone());
+            e.unused.push(format!("{}_i", p.name));
         }
     }
     // Latency: the deepest output, at least one register.
@@ -1375,6 +1528,61 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
     }
     let nf = flags.len();
     e.hw.flops += latency as u64; // valid bits
+                                  // Set-up ports: the registers of their live fields.
+    let mut setup = Vec::new();
+    let mut setup_text = String::new();
+    for (g, grp) in d.setup.iter().enumerate() {
+        let drain = e.drain[g].min(latency);
+        let mut regs = Vec::new();
+        let mut fields = Vec::new();
+        let mut flops = 0;
+        for p in inputs.iter().filter(|p| grp.fields.contains(&p.name)) {
+            fields.push(p.name.clone());
+            if live[p.value.node()] {
+                let f = p.format;
+                regs.push((format!("{}_q", p.name), format!("{}_i", p.name), f));
+                flops += f.width() as u64;
+            }
+        }
+        e.hw.flops += flops;
+        let ready = if drain == 0 {
+            "1'b1".to_string()
+        } else {
+            format!("~|valid_q[{}:0]", drain - 1)
+        };
+        setup_text += &comment(
+            "  // ",
+            &format!(
+                "Set-up port `{n}`: {doc}. It accepts a record only while stages 1..{drain}, which read these registers, are empty.",
+                n = grp.name,
+                doc = grp.doc,
+            ),
+        );
+        let _ = writeln!(setup_text, "  assign {}_ready_o = {ready};", grp.name);
+        for (q, _, f) in &regs {
+            let _ = writeln!(setup_text, "  reg  {} {q};", decl(f.signed(), f.width()));
+        }
+        if !regs.is_empty() {
+            setup_text += "  always @(posedge clk_i) begin\n";
+            let _ = writeln!(
+                setup_text,
+                "    if ({n}_valid_i & {n}_ready_o) begin",
+                n = grp.name
+            );
+            for (q, i, _) in &regs {
+                let _ = writeln!(setup_text, "      {q} <= {i};");
+            }
+            setup_text += "    end\n  end\n";
+        }
+        setup_text += "\n";
+        setup.push(SetupPort {
+            name: grp.name,
+            doc: grp.doc,
+            fields,
+            drain,
+            flops,
+        });
+    }
     e.hw.muls.sort();
     e.hw.adders.sort();
     e.hw.add_subs.sort();
@@ -1430,6 +1638,17 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
         v,
         "// both sides with one global stall (ready_o = ~valid_o | ready_i)."
     );
+    for p in &setup {
+        v += &comment(
+            "// ",
+            &format!(
+                "Set-up port `{n}` ({n}_valid_i/{n}_ready_o): {}. Held in registers; a record is accepted while stages 1..{} are empty, so an item computes with the set-up values held when it was accepted.",
+                p.doc,
+                p.drain,
+                n = p.name
+            ),
+        );
+    }
     let _ = writeln!(
         v,
         "// Arithmetic: model/ARITHMETIC.md; every wire has its exact model format."
@@ -1440,10 +1659,21 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
         v,
         "//   clk_i, rst_ni (asynchronous, active low), valid_i/ready_o, valid_o/ready_i"
     );
-    for p in &inputs {
+    for g in &setup {
         let _ = writeln!(
             v,
-            "//   {:<12} in   {}",
+            "//   {n}_valid_i/{n}_ready_o: set-up port `{n}`, loads the fields marked [{n}]",
+            n = g.name
+        );
+    }
+    for p in &inputs {
+        let group = setup
+            .iter()
+            .find(|g| g.fields.contains(&p.name))
+            .map_or(String::new(), |g| format!(" [{}]", g.name));
+        let _ = writeln!(
+            v,
+            "//   {:<12} in   {}{group}",
             format!("{}_i", p.name),
             port_doc(p.format)
         );
@@ -1481,6 +1711,10 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
         "input  wire valid_i".to_string(),
         "output wire ready_o".to_string(),
     ];
+    for g in &setup {
+        ports.push(format!("input  wire {}_valid_i", g.name));
+        ports.push(format!("output wire {}_ready_o", g.name));
+    }
     for p in &inputs {
         ports.push(format!(
             "input  wire {} {}_i",
@@ -1527,7 +1761,9 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
             latency - 2
         );
     }
-    v += "  end\n\n  // Datapath.\n";
+    v += "  end\n\n";
+    v += &setup_text;
+    v += "  // Datapath.\n";
     for l in &e.body {
         for ll in l.lines() {
             let _ = writeln!(v, "  {ll}");
@@ -1571,7 +1807,19 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
         let _ = writeln!(v, "{}", lines.join(",\n"));
         v += "  };\n";
     }
-    v += &formal_block(latency, &outs, nf);
+    let formal_setup: Vec<(u32, Vec<String>)> = setup
+        .iter()
+        .map(|p| {
+            let regs = p
+                .fields
+                .iter()
+                .filter(|f| inputs.iter().any(|q| &q.name == *f && live[q.value.node()]))
+                .map(|f| format!("{f}_q"))
+                .collect();
+            (p.drain, regs)
+        })
+        .collect();
+    v += &formal_block(latency, &outs, nf, &formal_setup);
     if !e.unused.is_empty() {
         let _ = writeln!(
             v,
@@ -1593,7 +1841,14 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
         ));
     }
     out_fields.extend(outs.iter().map(|p| Field::new(&p.name, p.format)));
-    let testbench = testbench::generate(&d.module, &in_fields, &out_fields, nf, !muts.is_empty());
+    let testbench = testbench::generate(
+        &d.module,
+        &in_fields,
+        &out_fields,
+        nf,
+        !muts.is_empty(),
+        &setup,
+    );
     Ok(Emitted {
         module: d.module.clone(),
         verilog: v,
@@ -1610,5 +1865,6 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
         inputs: in_fields,
         outputs: out_fields,
         hardware: e.hw,
+        setup,
     })
 }

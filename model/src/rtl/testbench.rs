@@ -46,12 +46,20 @@ fn decode(var: &str, fields: &[Field]) -> (String, Vec<String>) {
 /// The testbench module `<module>_tb` for the given vector layout; with
 /// `mutant_port`, the DUT's `mutant_i` is driven from `+MUTANT=<k>`
 /// (default 0).
+///
+/// With set-up ports, a vector still carries every field (its frame's and
+/// triangle's values with each item), and the testbench turns the vectors
+/// into one stream of set-up and item records: before an item whose
+/// set-up fields differ from the ones the DUT last accepted on a port (or
+/// when none were), it sends them on that port, in port order, waiting
+/// for its `ready_o`; the item follows. Records stay in file order.
 pub fn generate(
     module: &str,
     inputs: &[Field],
     outputs: &[Field],
     nflags: usize,
     mutant_port: bool,
+    setup: &[super::SetupPort],
 ) -> String {
     let in_w: u32 = inputs.iter().map(|f| f.format.width()).sum();
     let out_w: u32 = outputs.iter().map(|f| f.format.width()).sum();
@@ -91,13 +99,20 @@ pub fn generate(
         t += "    if ($value$plusargs(\"MUTANT=%d\", mutant_arg)) begin end\n";
         t += "    mutant = mutant_arg[15:0];\n  end\n\n";
     }
+    let mut conns = vec![".clk_i(clk)".to_string(), ".rst_ni(rst_n)".into()];
+    if setup.is_empty() {
+        conns.push(".valid_i(in_valid)".into());
+        conns.push(".ready_o(in_ready)".into());
+    } else {
+        t += &setup_glue(inputs, setup);
+        conns.push(".valid_i(item_valid)".into());
+        conns.push(".ready_o(item_ready)".into());
+        for g in setup {
+            conns.push(format!(".{n}_valid_i({n}_valid)", n = g.name));
+            conns.push(format!(".{n}_ready_o({n}_ready)", n = g.name));
+        }
+    }
     let _ = writeln!(t, "  {module} dut (");
-    let mut conns = vec![
-        ".clk_i(clk)".to_string(),
-        ".rst_ni(rst_n)".into(),
-        ".valid_i(in_valid)".into(),
-        ".ready_o(in_ready)".into(),
-    ];
     for (f, (m, l)) in inputs.iter().zip(ranges(inputs)) {
         conns.push(format!(".{}_i(in_data[{m}:{l}])", f.name));
     }
@@ -133,5 +148,69 @@ pub fn generate(
         }
     }
     t += "endmodule\n\n`default_nettype wire\n";
+    t
+}
+
+/// The set-up sequencer between the shared driver (one record per vector,
+/// every field) and a DUT with set-up ports: port `g` is sent the vector's
+/// `g` fields when they differ from the ones it last accepted (or none
+/// were), ports in order, then the item goes; `in_ready` says when the
+/// item itself was accepted.
+fn setup_glue(inputs: &[Field], setup: &[super::SetupPort]) -> String {
+    let r = ranges(inputs);
+    let mut t = String::new();
+    t += "  // Set-up sequencer: a vector whose set-up fields differ from the ones\n";
+    t += "  // the DUT holds is preceded by a set-up transfer on that port.\n";
+    t += "  wire item_ready;\n";
+    let mut earlier: Vec<String> = Vec::new();
+    for g in setup {
+        let slices: Vec<String> = g
+            .fields
+            .iter()
+            .map(|f| {
+                let k = inputs.iter().position(|x| &x.name == f).expect("a field");
+                format!("in_data[{}:{}]", r[k].0, r[k].1)
+            })
+            .collect();
+        let w: u32 = g
+            .fields
+            .iter()
+            .map(|f| {
+                inputs
+                    .iter()
+                    .find(|x| &x.name == f)
+                    .expect("a field")
+                    .format
+                    .width()
+            })
+            .sum();
+        let n = g.name;
+        let _ = writeln!(
+            t,
+            "  wire [{}:0] {n}_rec = {{{}}};",
+            w - 1,
+            slices.join(", ")
+        );
+        let _ = writeln!(t, "  reg  [{}:0] {n}_held;", w - 1);
+        let _ = writeln!(t, "  reg  {n}_set;\n  wire {n}_ready;");
+        let _ = writeln!(t, "  wire {n}_new = ~{n}_set | ({n}_held != {n}_rec);");
+        let before = if earlier.is_empty() {
+            String::new()
+        } else {
+            format!(" & ~({})", earlier.join(" | "))
+        };
+        let _ = writeln!(t, "  wire {n}_valid = in_valid & {n}_new{before};");
+        t += "  always @(posedge clk) begin\n";
+        let _ = writeln!(t, "    if (!rst_n) {n}_set <= 1'b0;");
+        let _ = writeln!(
+            t,
+            "    else if ({n}_valid & {n}_ready) begin\n      {n}_held <= {n}_rec;\n      {n}_set <= 1'b1;\n    end"
+        );
+        t += "  end\n";
+        earlier.push(format!("{n}_new"));
+    }
+    let busy = earlier.join(" | ");
+    let _ = writeln!(t, "  wire item_valid = in_valid & ~({busy});");
+    let _ = writeln!(t, "  assign in_ready = item_ready & ~({busy});\n");
     t
 }

@@ -334,6 +334,11 @@ pub static DECL: crate::config::UnitDecl = crate::config::UnitDecl {
             },
             doc: "the requested clock period in ns (rtl.pipeline = \"target\")",
         },
+        crate::config::FieldDecl {
+            name: "setup",
+            kind: crate::config::FieldKind::Choice(&["port", "pixel"]),
+            doc: "the pipeline tops' per-frame and per-triangle values: port: loaded through set-up ports (frame_valid_i, tri_valid_i) into registers every stage reads; pixel: carried with every pixel through the pipeline registers",
+        },
     ],
     groups: &[],
 };

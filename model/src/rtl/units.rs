@@ -204,6 +204,7 @@ pub fn vector_set(
             verilog: e.verilog.clone(),
             testbench: e.testbench.clone(),
             latency: e.latency,
+            setup: e.setup.clone(),
         },
         corner_cases: corners,
         flags: e.flags.clone(),
@@ -232,6 +233,7 @@ impl Design {
             config_toml: cfg.to_toml(),
             notes,
             pipelining: super::timing::Pipelining::from_config(cfg),
+            setup: Vec::new(),
         }
     }
 }
@@ -359,6 +361,7 @@ impl VectorStream {
             verilog: self.emitted.verilog.clone(),
             testbench: self.emitted.testbench.clone(),
             latency: self.emitted.latency,
+            setup: self.emitted.setup.clone(),
         }
     }
 
