@@ -32,6 +32,45 @@ fn every_module_proves_its_handshake_properties_target_pipelined() {
     proves_all(&["--config", cfg.to_str().unwrap()]);
 }
 
+/// The FIFO handshake (`tests/configs/wide.toml`: `rtl.handshake =
+/// "fifo"`) has properties of its own: no overflow, shift, hold.
+#[test]
+fn every_module_proves_its_handshake_properties_fifo() {
+    let cfg = repo().join("tests/configs/wide.toml");
+    proves_all(&["--config", cfg.to_str().unwrap()]);
+}
+
+/// A FIFO that admits one item too many can overflow when the output
+/// stalls: the proof fails.
+#[test]
+fn an_overfull_fifo_fails_the_proof() {
+    let dir = tempfile::tempdir().unwrap();
+    let ok = dir.path().join("ok");
+    let o = fxshade(&[
+        "rtl",
+        "normalize",
+        "--set",
+        "rtl.handshake=\"fifo\"",
+        "--out",
+        ok.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let v = std::fs::read_to_string(ok.join("normalize.v")).unwrap();
+    let line = v
+        .lines()
+        .find(|l| l.starts_with("  assign ready_o = (wr_q - rd_q) <= "))
+        .expect("the FIFO's admission check")
+        .to_string();
+    let (head, n) = line.trim_end_matches(';').rsplit_once('d').unwrap();
+    let more = format!("{head}d{};", n.parse::<u32>().unwrap() + 1);
+    let d = dir.path().join("over");
+    std::fs::create_dir(&d).unwrap();
+    std::fs::write(d.join("normalize.v"), v.replacen(&line, &more, 1)).unwrap();
+    let o = fxshade(&["formal", "normalize", "--rtl-dir", d.to_str().unwrap()]);
+    assert!(!o.status.success(), "{more} was proved");
+    assert!(text(&o).contains("normalize.v:"), "{}", text(&o));
+}
+
 /// Each edit breaks the handshake in one way; the proof must fail and name
 /// the property (a file and line of an assertion).
 #[test]

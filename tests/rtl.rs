@@ -515,6 +515,8 @@ fn random_overrides(r: &mut Lcg) -> Vec<String> {
     v.push(pick(r, "pipeline.angle_round", &round));
     v.push(format!("lighting.shininess={}", 1 + r.below(40)));
     v.push(pick(r, "lighting.i0_ks", &["0", "0.25", "0.5"]));
+    v.push(pick(r, "rtl.handshake", &["\"stall\"", "\"fifo\""]));
+    v.push(pick(r, "rtl.setup", &["\"port\"", "\"pixel\""]));
     v
 }
 

@@ -42,6 +42,7 @@ fn design(label: &str, trace: Trace) -> Design {
         notes: vec![format!("Delay-model calibration probe: {label}.")],
         pipelining: super::timing::Pipelining::Compact,
         setup: Vec::new(),
+        handshake: super::timing::Handshake::Stall,
     }
 }
 

@@ -65,6 +65,8 @@ pub struct Design {
     /// own and held in registers, rather than carried with every item
     /// (empty: every input travels with the item).
     pub setup: Vec<SetupGroup>,
+    /// How the stages hand items on (`[rtl]`).
+    pub handshake: timing::Handshake,
 }
 
 /// A group of inputs loaded through a set-up port of its own (per frame,
@@ -1359,6 +1361,201 @@ fn formal_block(latency: u32, outs: &[Port], nf: usize, setup: &[(u32, Vec<Strin
     v
 }
 
+/// The FIFO handshake's control: the valid bits shift every cycle into an
+/// output FIFO of `depth ≥ l + 2` entries, whose pointers `wr_q`, `rd_q`
+/// are registers; `ready_o` admits an item only while the FIFO holds at
+/// most `depth − l − 1`, so it has room for the item when it arrives `l`
+/// cycles later whatever else arrives meanwhile, and `ready_o` does not
+/// depend on `ready_i`.
+fn fifo_handshake(l: u32, depth: u32) -> String {
+    let aw = depth.trailing_zeros();
+    let mut v = String::new();
+    v += "  // Handshake: the pipeline never stalls (a stage's registers load whenever\n";
+    v += "  // its item is valid) and ends in an output FIFO; ready_o admits an item\n";
+    v += "  // while the FIFO has room for it and for every item ahead of it.\n";
+    let _ = writeln!(v, "  reg  [{}:0] valid_q;", l - 1);
+    let _ = writeln!(v, "  reg  [{aw}:0] wr_q, rd_q;");
+    v += "  wire in_xfer = valid_i & ready_o;\n";
+    v += "  wire out_xfer = valid_o & ready_i;\n";
+    let _ = writeln!(
+        v,
+        "  assign ready_o = (wr_q - rd_q) <= {}'d{};",
+        aw + 1,
+        depth - l - 1
+    );
+    v += "  assign valid_o = wr_q != rd_q;\n";
+    v += "  always @(posedge clk_i or negedge rst_ni) begin\n";
+    v += "    if (!rst_ni) begin\n";
+    let _ = writeln!(v, "      valid_q <= {l}'b0;");
+    let _ = writeln!(
+        v,
+        "      wr_q <= {}'d0;\n      rd_q <= {}'d0;",
+        aw + 1,
+        aw + 1
+    );
+    v += "    end else begin\n";
+    if l == 1 {
+        v += "      valid_q <= in_xfer;\n";
+    } else {
+        let _ = writeln!(v, "      valid_q <= {{valid_q[{}:0], in_xfer}};", l - 2);
+    }
+    let _ = writeln!(
+        v,
+        "      if (valid_q[{}]) wr_q <= wr_q + {}'d1;",
+        l - 1,
+        aw + 1
+    );
+    let _ = writeln!(v, "      if (out_xfer) rd_q <= rd_q + {}'d1;", aw + 1);
+    v += "    end\n  end\n\n";
+    v
+}
+
+/// The FIFO handshake's output FIFO: written from the last stage's
+/// registers; the output ports are its head.
+fn fifo_outputs(l: u32, depth: u32, outs: &[Port], vals: &[String], flags: &[String]) -> String {
+    let aw = depth.trailing_zeros();
+    let mut parts: Vec<String> = vals.to_vec();
+    parts.extend(flags.iter().map(|f| format!("({f})")));
+    let mut widths: Vec<(String, u32, bool)> = outs
+        .iter()
+        .map(|p| (format!("{}_o", p.name), p.format.width(), p.format.signed()))
+        .collect();
+    if !flags.is_empty() {
+        widths.push(("ovf_o".into(), flags.len() as u32, false));
+    }
+    let w: u32 = widths.iter().map(|x| x.1).sum();
+    let mut v = String::new();
+    v += "  // Output FIFO: written by the last stage, read by ready_i.\n";
+    let _ = writeln!(v, "  reg  [{}:0] fifo_q [0:{}];", w - 1, depth - 1);
+    let _ = writeln!(
+        v,
+        "  wire [{}:0] fifo_in = {{{}}};",
+        w - 1,
+        parts.join(", ")
+    );
+    let _ = writeln!(
+        v,
+        "  wire [{}:0] fifo_out = fifo_q[rd_q[{}:0]];",
+        w - 1,
+        aw - 1
+    );
+    v += "  always @(posedge clk_i) begin\n";
+    let _ = writeln!(
+        v,
+        "    if (valid_q[{}]) fifo_q[wr_q[{}:0]] <= fifo_in;",
+        l - 1,
+        aw - 1
+    );
+    v += "  end\n";
+    let mut msb = w;
+    for (name, width, signed) in widths {
+        let lsb = msb - width;
+        let slice = format!("fifo_out[{}:{lsb}]", msb - 1);
+        let e = if signed {
+            format!("$signed({slice})")
+        } else {
+            slice
+        };
+        let _ = writeln!(v, "  assign {name} = {e};");
+        msb = lsb;
+    }
+    v
+}
+
+/// The FIFO handshake's formal properties (`ifdef FORMAL`, proved by
+/// `fxshade formal` as [`formal_block`]'s):
+///
+/// * the valid bits shift one stage every cycle, the first taking the
+///   input transfer;
+/// * the FIFO never overflows: it holds at most `depth` items, and an item
+///   at stage `k` finds it holding fewer than `depth − (l − k)` (each
+///   stage ahead of it adds at most one item before it arrives);
+/// * while `valid_o && !ready_i`, the next cycle keeps `valid_o` and every
+///   output port unchanged;
+/// * after `j` cycles without an input transfer the first `j` stages are
+///   empty; set-up registers hold while an item is in the stages reading
+///   them.
+fn formal_block_fifo(
+    l: u32,
+    depth: u32,
+    outs: &[Port],
+    nf: usize,
+    setup: &[(u32, Vec<String>)],
+) -> String {
+    let aw = depth.trailing_zeros();
+    let cw = 32 - (l + 1).leading_zeros();
+    let mut v = String::new();
+    v += "\n`ifdef FORMAL\n";
+    v += "  // Handshake properties, proved by `fxshade formal` (yosys-smtbmc, z3): no\n";
+    v += "  // item is made up, lost, duplicated or reordered; outputs hold under stall.\n";
+    v += "  reg f_past_valid = 1'b0;\n";
+    v += "  always @(posedge clk_i) f_past_valid <= 1'b1;\n";
+    v += "  always @(*) if (!f_past_valid) assume (!rst_ni);\n";
+    v += "  wire f_in = valid_i & ready_o;\n";
+    let _ = writeln!(v, "  reg  [{}:0] f_idle;", cw - 1);
+    v += "  always @(posedge clk_i or negedge rst_ni) begin\n";
+    let _ = writeln!(v, "    if (!rst_ni) f_idle <= {cw}'d0;");
+    let _ = writeln!(
+        v,
+        "    else f_idle <= ~f_in ? ((f_idle == {cw}'d{l}) ? f_idle : f_idle + {cw}'d1) : {cw}'d0;"
+    );
+    v += "  end\n";
+    // The FIFO never overflows: an item at stage k finds room when it
+    // arrives, whatever the l − k stages ahead of it bring first.
+    let _ = writeln!(v, "  wire [{aw}:0] f_count = wr_q - rd_q;");
+    v += "  always @(*) begin\n";
+    let _ = writeln!(v, "    assert (f_count <= {}'d{depth});", aw + 1);
+    for k in 1..=l {
+        let _ = writeln!(
+            v,
+            "    assert (!valid_q[{}] || {{1'b0, f_count}} + {}'d{} < {}'d{depth});",
+            k - 1,
+            aw + 2,
+            l - k,
+            aw + 2
+        );
+    }
+    v += "  end\n";
+    v += "  always @(posedge clk_i) begin\n";
+    v += "    if (f_past_valid && rst_ni) begin\n";
+    let _ = writeln!(
+        v,
+        "      assert ((valid_q & ~({{{l}{{1'b1}}}} << f_idle)) == {l}'d0);"
+    );
+    v += "    end\n";
+    v += "    if (f_past_valid && rst_ni && $past(rst_ni)) begin\n";
+    let shifted = if l == 1 {
+        "$past(f_in)".to_string()
+    } else {
+        format!("{{$past(valid_q[{}:0]), $past(f_in)}}", l - 2)
+    };
+    let _ = writeln!(v, "      assert (valid_q == {shifted});");
+    v += "      if ($past(valid_o & ~ready_i)) begin\n";
+    v += "        assert (valid_o);\n";
+    for p in outs {
+        let _ = writeln!(v, "        assert ($stable({}_o));", p.name);
+    }
+    if nf > 0 {
+        v += "        assert ($stable(ovf_o));\n";
+    }
+    v += "      end\n";
+    for (drain, regs) in setup {
+        if *drain > 0 && !regs.is_empty() {
+            let _ = writeln!(
+                v,
+                "      if ($past(|valid_q[{}:0])) assert ($stable({{{}}}));",
+                drain - 1,
+                regs.join(", ")
+            );
+        }
+    }
+    v += "    end\n";
+    v += "    if (f_past_valid && rst_ni) cover (valid_o & ready_i);\n";
+    v += "  end\n";
+    v += "`endif\n";
+    v
+}
+
 /// Emit `d` as one Verilog module with the `compact` pipeline.
 pub fn emit(d: &Design) -> Result<Emitted, EmitError> {
     emit_with(d, &[])
@@ -1516,10 +1713,9 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
             }
         }
     }
-    let mut out_assigns = Vec::new();
+    let mut out_vals = Vec::new();
     for p in &outs {
-        let v = e.value_at(p.value.node(), latency);
-        out_assigns.push(format!("assign {}_o = {v};", p.name));
+        out_vals.push(e.value_at(p.value.node(), latency));
     }
     let mut flag_bits = Vec::new();
     for nodes in &flag_nodes {
@@ -1528,7 +1724,19 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
     }
     let nf = flags.len();
     e.hw.flops += latency as u64; // valid bits
-                                  // Set-up ports: the registers of their live fields.
+                                  // The FIFO handshake: an output FIFO with room for every item in
+                                  // flight (a power of two above the pipeline's depth), one cycle more.
+    let fifo = d.handshake == timing::Handshake::Fifo && muts.is_empty();
+    let depth = (latency + 2).next_power_of_two();
+    let aw = depth.trailing_zeros();
+    let out_w: u32 = outs.iter().map(|p| p.format.width()).sum::<u32>() + nf as u32;
+    if fifo {
+        // Pointers and the FIFO's entries.
+        e.hw.flops += 2 * (aw as u64 + 1) + depth as u64 * out_w as u64;
+    }
+    let pipe_latency = latency;
+    let latency = latency + fifo as u32;
+    // Set-up ports: the registers of their live fields.
     let mut setup = Vec::new();
     let mut setup_text = String::new();
     for (g, grp) in d.setup.iter().enumerate() {
@@ -1634,10 +1842,19 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
         v,
         "// Latency {latency} cycles; one vector per clock. Handshake: valid/ready on"
     );
-    let _ = writeln!(
-        v,
-        "// both sides with one global stall (ready_o = ~valid_o | ready_i)."
-    );
+    if fifo {
+        let _ = writeln!(
+            v,
+            "// both sides; the pipeline never stalls and ends in an output FIFO of\n\
+             // {depth} entries; ready_o is a compare of its registered pointers (no path\n\
+             // from ready_i)."
+        );
+    } else {
+        let _ = writeln!(
+            v,
+            "// both sides with one global stall (ready_o = ~valid_o | ready_i)."
+        );
+    }
     for p in &setup {
         v += &comment(
             "// ",
@@ -1745,23 +1962,27 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
         }
         v += "\n";
     }
-    v += "  // Handshake: one valid bit per stage, one global stall.\n";
-    let _ = writeln!(v, "  reg  [{}:0] valid_q;", latency - 1);
-    let _ = writeln!(v, "  wire en = ~valid_q[{}] | ready_i;", latency - 1);
-    v += "  assign ready_o = en;\n";
-    let _ = writeln!(v, "  assign valid_o = valid_q[{}];", latency - 1);
-    v += "  always @(posedge clk_i or negedge rst_ni) begin\n";
-    let _ = writeln!(v, "    if (!rst_ni) valid_q <= {latency}'b0;");
-    if latency == 1 {
-        v += "    else if (en) valid_q <= valid_i;\n";
+    if fifo {
+        v += &fifo_handshake(pipe_latency, depth);
     } else {
-        let _ = writeln!(
-            v,
-            "    else if (en) valid_q <= {{valid_q[{}:0], valid_i}};",
-            latency - 2
-        );
+        v += "  // Handshake: one valid bit per stage, one global stall.\n";
+        let _ = writeln!(v, "  reg  [{}:0] valid_q;", latency - 1);
+        let _ = writeln!(v, "  wire en = ~valid_q[{}] | ready_i;", latency - 1);
+        v += "  assign ready_o = en;\n";
+        let _ = writeln!(v, "  assign valid_o = valid_q[{}];", latency - 1);
+        v += "  always @(posedge clk_i or negedge rst_ni) begin\n";
+        let _ = writeln!(v, "    if (!rst_ni) valid_q <= {latency}'b0;");
+        if latency == 1 {
+            v += "    else if (en) valid_q <= valid_i;\n";
+        } else {
+            let _ = writeln!(
+                v,
+                "    else if (en) valid_q <= {{valid_q[{}:0], valid_i}};",
+                latency - 2
+            );
+        }
+        v += "  end\n\n";
     }
-    v += "  end\n\n";
     v += &setup_text;
     v += "  // Datapath.\n";
     for l in &e.body {
@@ -1773,10 +1994,10 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
     v += "  // registers load only with a valid item, so bubbles do not toggle them.\n";
     v += "  always @(posedge clk_i) begin\n";
     assert!(
-        e.regs.iter().all(|(st, _)| (1..=latency).contains(st)),
+        e.regs.iter().all(|(st, _)| (1..=pipe_latency).contains(st)),
         "every register belongs to a stage of the pipeline"
     );
-    for k in 1..=latency {
+    for k in 1..=pipe_latency {
         let regs: Vec<&String> = e
             .regs
             .iter()
@@ -1786,26 +2007,31 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
         if regs.is_empty() {
             continue;
         }
-        let load = if k == 1 {
-            "valid_i".to_string()
-        } else {
-            format!("valid_q[{}]", k - 2)
+        let load = match (k, fifo) {
+            (1, false) => "en & valid_i".to_string(),
+            (1, true) => "in_xfer".to_string(),
+            (_, false) => format!("en & valid_q[{}]", k - 2),
+            (_, true) => format!("valid_q[{}]", k - 2),
         };
-        let _ = writeln!(v, "    if (en & {load}) begin");
+        let _ = writeln!(v, "    if ({load}) begin");
         for r in regs {
             let _ = writeln!(v, "      {r}");
         }
         v += "    end\n";
     }
     v += "  end\n\n";
-    for a in &out_assigns {
-        let _ = writeln!(v, "  {a}");
-    }
-    if nf > 0 {
-        let _ = writeln!(v, "  assign ovf_o = {{");
-        let lines: Vec<String> = flag_bits.iter().map(|b| format!("    {b}")).collect();
-        let _ = writeln!(v, "{}", lines.join(",\n"));
-        v += "  };\n";
+    if fifo {
+        v += &fifo_outputs(pipe_latency, depth, &outs, &out_vals, &flag_bits);
+    } else {
+        for (p, val) in outs.iter().zip(&out_vals) {
+            let _ = writeln!(v, "  assign {}_o = {val};", p.name);
+        }
+        if nf > 0 {
+            let _ = writeln!(v, "  assign ovf_o = {{");
+            let lines: Vec<String> = flag_bits.iter().map(|b| format!("    {b}")).collect();
+            let _ = writeln!(v, "{}", lines.join(",\n"));
+            v += "  };\n";
+        }
     }
     let formal_setup: Vec<(u32, Vec<String>)> = setup
         .iter()
@@ -1819,7 +2045,11 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
             (p.drain, regs)
         })
         .collect();
-    v += &formal_block(latency, &outs, nf, &formal_setup);
+    v += &if fifo {
+        formal_block_fifo(pipe_latency, depth, &outs, nf, &formal_setup)
+    } else {
+        formal_block(latency, &outs, nf, &formal_setup)
+    };
     if !e.unused.is_empty() {
         let _ = writeln!(
             v,

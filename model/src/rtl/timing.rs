@@ -311,6 +311,27 @@ impl Pipelining {
     }
 }
 
+/// How a generated module's stages hand items on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub enum Handshake {
+    /// One global stall: every stage holds while the output is stalled
+    /// (`ready_o = ~valid_o | ready_i`).
+    Stall,
+    /// A pipeline that never stalls, ending in an output FIFO with room
+    /// for every item in flight; `ready_o` is a registered credit check.
+    Fifo,
+}
+
+impl Handshake {
+    /// The handshake of a configuration's `[rtl]` section.
+    pub fn from_config(cfg: &crate::Config) -> Handshake {
+        match cfg.unit("rtl").choice("handshake") {
+            "fifo" => Handshake::Fifo,
+            _ => Handshake::Stall,
+        }
+    }
+}
+
 /// The `[rtl]` configuration section: how the generated RTL is pipelined.
 pub static DECL: crate::config::UnitDecl = crate::config::UnitDecl {
     name: "rtl",
@@ -333,6 +354,11 @@ pub static DECL: crate::config::UnitDecl = crate::config::UnitDecl {
                 max: 1000.0,
             },
             doc: "the requested clock period in ns (rtl.pipeline = \"target\")",
+        },
+        crate::config::FieldDecl {
+            name: "handshake",
+            kind: crate::config::FieldKind::Choice(&["stall", "fifo"]),
+            doc: "stall: one global stall, every stage holds while the output is stalled (ready_o = ~valid_o | ready_i); fifo: the pipeline never stalls and ends in an output FIFO with room for every item in flight, ready_o a registered credit check (latency one more)",
         },
         crate::config::FieldDecl {
             name: "setup",

@@ -234,6 +234,7 @@ impl Design {
             notes,
             pipelining: super::timing::Pipelining::from_config(cfg),
             setup: Vec::new(),
+            handshake: super::timing::Handshake::from_config(cfg),
         }
     }
 }
