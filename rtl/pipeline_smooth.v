@@ -4,7 +4,7 @@
 //   fxshade rtl pipeline [--config FILE] [--set KEY=VALUE]... --out DIR
 // Configuration: <default>, overrides: pipeline.path="smooth" (hash e80286a9fab778dc)
 // Path: smooth
-// Normalizer quadratic with 6 coefficient sets, chosen per pixel by sel (Θ = [0.0, 0.5, 0.75, 0.875, 0.9375, 0.96875]; codes past the last read set 0)
+// Normalizer quadratic with 6 coefficient sets, chosen by sel, a per-triangle value (Θ = [0.0, 0.5, 0.75, 0.875, 0.9375, 0.96875]; codes past the last read set 0)
 //   set 0 (Θ = 0): [1.980072021484375, -1.468780517578125, 0.488800048828125]
 //   set 1 (Θ = 0.5): [1.88824462890625, -1.276611328125, 0.38836669921875]
 //   set 2 (Θ = 0.75): [1.876861572265625, -1.25372314453125, 0.376861572265625]

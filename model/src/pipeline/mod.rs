@@ -390,7 +390,7 @@ impl Pipeline {
         self.light.shade(cx, &k.light, n, l, h)
     }
 
-    /// The smooth path with the coefficient set chosen per pixel by the
+    /// The smooth path with the coefficient set chosen by the
     /// code `sel` (a multiplexer per coefficient; codes past the last set
     /// read set 0): what the RTL top builds.
     #[allow(clippy::too_many_arguments)]

@@ -25,7 +25,7 @@ pub fn design(cfg: &Config) -> Result<crate::rtl::Design, RtlError> {
     let mut notes = vec![format!("Path: {}", path.name())];
     if path == Path::Smooth {
         notes.push(format!(
-            "Normalizer {} with {} coefficient sets, chosen per pixel by sel (Θ = {:?}; codes past the last read set 0)",
+            "Normalizer {} with {} coefficient sets, chosen by sel, a per-triangle value (Θ = {:?}; codes past the last read set 0)",
             p.method.name(),
             p.sets.len(),
             THETA_LADDER
