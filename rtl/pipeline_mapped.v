@@ -10,11 +10,13 @@
 // both sides with one global stall (ready_o = ~valid_o | ready_i).
 // Set-up port `frame` (frame_valid_i/frame_ready_o): the polar angles of L
 // and H, per frame. Held in registers; a record is accepted while stages
-// 1..17 are empty, so an item computes with the set-up values held when it
-// was accepted.
+// 1..17 are empty and no item is offered (an item offered in the same cycle
+// goes first), so an item computes with the set-up values held when it was
+// accepted.
 // Set-up port `tri` (tri_valid_i/tri_ready_o): the vertex and midpoint
 // normals, per triangle. Held in registers; a record is accepted while stages
-// 1..1 are empty, so an item computes with the set-up values held when it was
+// 1..1 are empty and no item is offered (an item offered in the same cycle
+// goes first), so an item computes with the set-up values held when it was
 // accepted.
 // Arithmetic: model/ARITHMETIC.md; every wire has its exact model format.
 //
@@ -637,8 +639,9 @@ module pipeline_mapped (
   end
 
   // Set-up port `frame`: the polar angles of L and H, per frame. It accepts a
-  // record only while stages 1..17, which read these registers, are empty.
-  assign frame_ready_o = ~|valid_q[16:0];
+  // record only while stages 1..17, which read these registers, are empty and
+  // no item is offered (an item offered in the same cycle goes first).
+  assign frame_ready_o = ~|valid_q[16:0] & ~valid_i;
   reg  [10:0] al_q;
   reg  [10:0] bl_q;
   reg  [10:0] ah_q;
@@ -654,8 +657,9 @@ module pipeline_mapped (
 
   // Set-up port `tri`: the vertex and midpoint normals, per triangle. It
   // accepts a record only while stages 1..1, which read these registers, are
-  // empty.
-  assign tri_ready_o = ~|valid_q[0:0];
+  // empty and no item is offered (an item offered in the same cycle goes
+  // first).
+  assign tri_ready_o = ~|valid_q[0:0] & ~valid_i;
   reg  signed [15:0] n1_x_q;
   reg  signed [15:0] n1_y_q;
   reg  signed [15:0] n1_z_q;
@@ -7871,8 +7875,8 @@ module pipeline_mapped (
         assert ($stable(level_o));
         assert ($stable(ovf_o));
       end
-      if ($past(|valid_q[16:0])) assert ($stable({al_q, bl_q, ah_q, bh_q}));
-      if ($past(|valid_q[0:0])) assert ($stable({n1_x_q, n1_y_q, n1_z_q, n2_x_q, n2_y_q, n2_z_q, n3_x_q, n3_y_q, n3_z_q, n12_x_q, n12_y_q, n12_z_q, n23_x_q, n23_y_q, n23_z_q, n31_x_q, n31_y_q, n31_z_q}));
+      if ($past((|valid_q[16:0]) | f_in)) assert ($stable({al_q, bl_q, ah_q, bh_q}));
+      if ($past((|valid_q[0:0]) | f_in)) assert ($stable({n1_x_q, n1_y_q, n1_z_q, n2_x_q, n2_y_q, n2_z_q, n3_x_q, n3_y_q, n3_z_q, n12_x_q, n12_y_q, n12_z_q, n23_x_q, n23_y_q, n23_z_q, n31_x_q, n31_y_q, n31_z_q}));
     end
     if (f_past_valid && rst_ni) cover (valid_o & ready_i);
   end

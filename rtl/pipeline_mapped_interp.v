@@ -10,12 +10,14 @@
 // both sides with one global stall (ready_o = ~valid_o | ready_i).
 // Set-up port `frame` (frame_valid_i/frame_ready_o): the polar angles of L
 // and H, per frame. Held in registers; a record is accepted while stages 1..1
-// are empty, so an item computes with the set-up values held when it was
+// are empty and no item is offered (an item offered in the same cycle goes
+// first), so an item computes with the set-up values held when it was
 // accepted.
 // Set-up port `tri` (tri_valid_i/tri_ready_o): the angle set-up (the third
 // vertex's angles and the deltas), per triangle. Held in registers; a record
-// is accepted while stages 1..0 are empty, so an item computes with the
-// set-up values held when it was accepted.
+// is accepted while stages 1..0 are empty and no item is offered (an item
+// offered in the same cycle goes first), so an item computes with the set-up
+// values held when it was accepted.
 // Arithmetic: model/ARITHMETIC.md; every wire has its exact model format.
 //
 // Ports:
@@ -608,8 +610,9 @@ module pipeline_mapped_interp (
   end
 
   // Set-up port `frame`: the polar angles of L and H, per frame. It accepts a
-  // record only while stages 1..1, which read these registers, are empty.
-  assign frame_ready_o = ~|valid_q[0:0];
+  // record only while stages 1..1, which read these registers, are empty and
+  // no item is offered (an item offered in the same cycle goes first).
+  assign frame_ready_o = ~|valid_q[0:0] & ~valid_i;
   reg  [10:0] al_q;
   reg  [10:0] bl_q;
   reg  [10:0] ah_q;
@@ -625,7 +628,8 @@ module pipeline_mapped_interp (
 
   // Set-up port `tri`: the angle set-up (the third vertex's angles and the
   // deltas), per triangle. It accepts a record only while stages 1..0, which
-  // read these registers, are empty.
+  // read these registers, are empty and no item is offered (an item offered
+  // in the same cycle goes first).
   assign tri_ready_o = 1'b1;
   reg  [10:0] a3_q;
   reg  signed [10:0] da1_q;
@@ -1679,7 +1683,7 @@ module pipeline_mapped_interp (
         assert ($stable(level_o));
         assert ($stable(ovf_o));
       end
-      if ($past(|valid_q[0:0])) assert ($stable({al_q, bl_q, ah_q, bh_q}));
+      if ($past((|valid_q[0:0]) | f_in)) assert ($stable({al_q, bl_q, ah_q, bh_q}));
     end
     if (f_past_valid && rst_ni) cover (valid_o & ready_i);
   end

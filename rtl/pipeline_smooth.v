@@ -17,11 +17,13 @@
 // both sides with one global stall (ready_o = ~valid_o | ready_i).
 // Set-up port `frame` (frame_valid_i/frame_ready_o): the light and half
 // vectors L and H, per frame. Held in registers; a record is accepted while
-// stages 1..8 are empty, so an item computes with the set-up values held when
-// it was accepted.
+// stages 1..8 are empty and no item is offered (an item offered in the same
+// cycle goes first), so an item computes with the set-up values held when it
+// was accepted.
 // Set-up port `tri` (tri_valid_i/tri_ready_o): the coefficient set and the
 // vertex and midpoint normals, per triangle. Held in registers; a record is
-// accepted while stages 1..5 are empty, so an item computes with the set-up
+// accepted while stages 1..5 are empty and no item is offered (an item
+// offered in the same cycle goes first), so an item computes with the set-up
 // values held when it was accepted.
 // Arithmetic: model/ARITHMETIC.md; every wire has its exact model format.
 //
@@ -126,8 +128,9 @@ module pipeline_smooth (
 
   // Set-up port `frame`: the light and half vectors L and H, per frame. It
   // accepts a record only while stages 1..8, which read these registers, are
-  // empty.
-  assign frame_ready_o = ~|valid_q[7:0];
+  // empty and no item is offered (an item offered in the same cycle goes
+  // first).
+  assign frame_ready_o = ~|valid_q[7:0] & ~valid_i;
   reg  signed [15:0] l_x_q;
   reg  signed [15:0] l_y_q;
   reg  signed [15:0] l_z_q;
@@ -147,8 +150,9 @@ module pipeline_smooth (
 
   // Set-up port `tri`: the coefficient set and the vertex and midpoint
   // normals, per triangle. It accepts a record only while stages 1..5, which
-  // read these registers, are empty.
-  assign tri_ready_o = ~|valid_q[4:0];
+  // read these registers, are empty and no item is offered (an item offered
+  // in the same cycle goes first).
+  assign tri_ready_o = ~|valid_q[4:0] & ~valid_i;
   reg  [2:0] sel_q;
   reg  signed [15:0] n1_x_q;
   reg  signed [15:0] n1_y_q;
@@ -1187,8 +1191,8 @@ module pipeline_smooth (
         assert ($stable(level_o));
         assert ($stable(ovf_o));
       end
-      if ($past(|valid_q[7:0])) assert ($stable({l_x_q, l_y_q, l_z_q, h_x_q, h_y_q, h_z_q}));
-      if ($past(|valid_q[4:0])) assert ($stable({sel_q, n1_x_q, n1_y_q, n1_z_q, n2_x_q, n2_y_q, n2_z_q, n3_x_q, n3_y_q, n3_z_q, n12_x_q, n12_y_q, n12_z_q, n23_x_q, n23_y_q, n23_z_q, n31_x_q, n31_y_q, n31_z_q}));
+      if ($past((|valid_q[7:0]) | f_in)) assert ($stable({l_x_q, l_y_q, l_z_q, h_x_q, h_y_q, h_z_q}));
+      if ($past((|valid_q[4:0]) | f_in)) assert ($stable({sel_q, n1_x_q, n1_y_q, n1_z_q, n2_x_q, n2_y_q, n2_z_q, n3_x_q, n3_y_q, n3_z_q, n12_x_q, n12_y_q, n12_z_q, n23_x_q, n23_y_q, n23_z_q, n31_x_q, n31_y_q, n31_z_q}));
     end
     if (f_past_valid && rst_ni) cover (valid_o & ready_i);
   end

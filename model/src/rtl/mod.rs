@@ -75,11 +75,11 @@ pub struct Design {
 /// reads directly.
 ///
 /// The port accepts a record only while the stages that read the group's
-/// registers are empty (`<name>_ready_o = ~|valid_q[U−1:0]`, `U` the last
-/// stage reading them, see [`SetupPort::drain`]), so an item always
-/// computes with the set-up values that were loaded when it entered. An
-/// item accepted in the same cycle as a set-up record still reads the
-/// values held before it.
+/// registers are empty and no item is offered (`<name>_ready_o =
+/// ~|valid_q[U−1:0] & ~valid_i`, `U` the last stage reading them, see
+/// [`SetupPort::drain`]; `1` when only stage 0 reads them), so an item
+/// always computes with the set-up values that were loaded when it
+/// entered: when both are offered, the item goes first.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SetupGroup {
     /// Port name (`frame`, `tri`).
@@ -100,7 +100,8 @@ pub struct SetupPort {
     /// Its fields (input ports), in vector-field order.
     pub fields: Vec<String>,
     /// The last stage reading its registers: the port accepts a record
-    /// only when stages `1..=drain` are empty (0: always).
+    /// only when stages `1..=drain` are empty and no item is offered (0:
+    /// always).
     pub drain: u32,
     /// Flip-flops holding its values.
     pub flops: u64,
@@ -365,6 +366,7 @@ impl<'a> Emitter<'a> {
     /// pipelining, the next stage (operands registered, ready at 0) when
     /// `d` would not fit after them.
     fn place(&mut self, operands: &[usize], d: f64) -> (u32, f64) {
+        let staged = operands.iter().any(|&n| self.stage[n].is_some());
         let s = operands
             .iter()
             .filter_map(|&n| self.stage[n])
@@ -378,7 +380,9 @@ impl<'a> Emitter<'a> {
             .map(|&n| self.arrival[n])
             .fold(0.0, f64::max);
         match self.timing {
-            Some((_, budget)) if a > 0.0 && a + d > budget => {
+            // Set-up values alone (no stage): no register to add before
+            // them, so the operation stays at stage 0.
+            Some((_, budget)) if staged && a > 0.0 && a + d > budget => {
                 let held = operands
                     .iter()
                     .filter(|&&n| self.stage[n].is_none())
@@ -631,8 +635,10 @@ impl<'a> Emitter<'a> {
             (s0, a0, false)
         } else if both && a0 + dr <= budget {
             (s0, a0, true)
-        } else if a0 == 0.0 {
-            (s0, 0.0, both && dr + ds > budget)
+        } else if a0 == 0.0 || self.stage[a.node()].is_none() {
+            // Nothing to register before the operand (a register, or a
+            // set-up value read wherever it is needed).
+            (s0, a0, both && dr + ds > budget)
         } else {
             (s0 + 1, 0.0, both && dr + ds > budget)
         };
@@ -1288,8 +1294,9 @@ impl<'a> Emitter<'a> {
 /// * the pipeline drains: after `j` cycles in a row with `ready_i` high
 ///   and no input transfer, its first `j` stages are empty;
 /// * set-up registers (`setup`: the last stage reading them, their names)
-///   hold in every cycle that starts with an item in stages `1..=drain`:
-///   an item computes with the set-up values of the cycle it entered.
+///   hold in every cycle that starts with an item in stages `1..=drain`
+///   or an item entering: an item computes with the set-up values of the
+///   cycle it entered.
 ///
 /// Together: every accepted item leaves once, in order, and none is made
 /// up. (A first version also stated that the transfers in flight equal the
@@ -1348,7 +1355,7 @@ fn formal_block(latency: u32, outs: &[Port], nf: usize, setup: &[(u32, Vec<Strin
         if *drain > 0 && !regs.is_empty() {
             let _ = writeln!(
                 v,
-                "      if ($past(|valid_q[{}:0])) assert ($stable({{{}}}));",
+                "      if ($past((|valid_q[{}:0]) | f_in)) assert ($stable({{{}}}));",
                 drain - 1,
                 regs.join(", ")
             );
@@ -1543,7 +1550,7 @@ fn formal_block_fifo(
         if *drain > 0 && !regs.is_empty() {
             let _ = writeln!(
                 v,
-                "      if ($past(|valid_q[{}:0])) assert ($stable({{{}}}));",
+                "      if ($past((|valid_q[{}:0]) | f_in)) assert ($stable({{{}}}));",
                 drain - 1,
                 regs.join(", ")
             );
@@ -1753,15 +1760,17 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
             }
         }
         e.hw.flops += flops;
+        // An item offered in the same cycle goes first: with drain > 0 its
+        // later stages would read the new values, its stage 0 the old.
         let ready = if drain == 0 {
             "1'b1".to_string()
         } else {
-            format!("~|valid_q[{}:0]", drain - 1)
+            format!("~|valid_q[{}:0] & ~valid_i", drain - 1)
         };
         setup_text += &comment(
             "  // ",
             &format!(
-                "Set-up port `{n}`: {doc}. It accepts a record only while stages 1..{drain}, which read these registers, are empty.",
+                "Set-up port `{n}`: {doc}. It accepts a record only while stages 1..{drain}, which read these registers, are empty and no item is offered (an item offered in the same cycle goes first).",
                 n = grp.name,
                 doc = grp.doc,
             ),
@@ -1859,7 +1868,7 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
         v += &comment(
             "// ",
             &format!(
-                "Set-up port `{n}` ({n}_valid_i/{n}_ready_o): {}. Held in registers; a record is accepted while stages 1..{} are empty, so an item computes with the set-up values held when it was accepted.",
+                "Set-up port `{n}` ({n}_valid_i/{n}_ready_o): {}. Held in registers; a record is accepted while stages 1..{} are empty and no item is offered (an item offered in the same cycle goes first), so an item computes with the set-up values held when it was accepted.",
                 p.doc,
                 p.drain,
                 n = p.name
