@@ -159,4 +159,14 @@ fn a_set_up_port_loading_under_a_reader_fails_the_proof() {
         "the failing assertion is named: {}",
         text(&o)
     );
+    // A port that loads in the same cycle as an entering item: the item's
+    // stage 0 reads the old values, its later stages the new ones.
+    let same = line.replacen(" & ~valid_i;", ";", 1);
+    assert_ne!(same, line, "the port waits for ~valid_i: {line}");
+    let d = dir.path().join("same-cycle");
+    std::fs::create_dir(&d).unwrap();
+    std::fs::write(d.join("pipeline_smooth.v"), v.replacen(line, &same, 1)).unwrap();
+    let o = fxshade(&["formal", "pipeline", "--rtl-dir", d.to_str().unwrap()]);
+    assert!(!o.status.success(), "{same} was proved");
+    assert!(text(&o).contains("pipeline_smooth.v:"), "{}", text(&o));
 }
