@@ -1304,6 +1304,27 @@ impl<'a> Emitter<'a> {
 /// on the deep tops, and the per-stage statements above imply it.)
 fn formal_block(latency: u32, outs: &[Port], nf: usize, setup: &[(u32, Vec<String>)]) -> String {
     let l = latency;
+    let mut v = formal_prelude(l, "ready_i & ~f_in");
+    v += "  always @(*) begin\n";
+    v += "    assert (ready_o == (~valid_o | ready_i));\n";
+    let _ = writeln!(v, "    assert (valid_o == valid_q[{}]);", l - 1);
+    v += "  end\n";
+    let shifted = if l == 1 {
+        "$past(valid_i)".to_string()
+    } else {
+        format!("{{$past(valid_q[{}:0]), $past(valid_i)}}", l - 2)
+    };
+    let shift = format!(
+        "      if ($past(en)) assert (valid_q == {shifted});\n      else assert ($stable(valid_q));\n"
+    );
+    v += &formal_clocked(l, &shift, outs, nf, setup);
+    v
+}
+
+/// The opening of a formal block: `f_past_valid` (reset first), `f_in`
+/// (an input transfer) and `f_idle`, the cycles in a row (up to `l`) with
+/// `idle` true.
+fn formal_prelude(l: u32, idle: &str) -> String {
     let cw = 32 - (l + 1).leading_zeros();
     let mut v = String::new();
     v += "\n`ifdef FORMAL\n";
@@ -1318,13 +1339,23 @@ fn formal_block(latency: u32, outs: &[Port], nf: usize, setup: &[(u32, Vec<Strin
     let _ = writeln!(v, "    if (!rst_ni) f_idle <= {cw}'d0;");
     let _ = writeln!(
         v,
-        "    else f_idle <= (ready_i & ~f_in) ? ((f_idle == {cw}'d{l}) ? f_idle : f_idle + {cw}'d1) : {cw}'d0;"
+        "    else f_idle <= ({idle}) ? ((f_idle == {cw}'d{l}) ? f_idle : f_idle + {cw}'d1) : {cw}'d0;"
     );
     v += "  end\n";
-    v += "  always @(*) begin\n";
-    v += "    assert (ready_o == (~valid_o | ready_i));\n";
-    let _ = writeln!(v, "    assert (valid_o == valid_q[{}]);", l - 1);
-    v += "  end\n";
+    v
+}
+
+/// The clocked properties both handshakes share, around `shift` (how the
+/// valid bits move): the drain, output hold under stall, set-up registers
+/// held while an item reads them, and the cover; closes the block.
+fn formal_clocked(
+    l: u32,
+    shift: &str,
+    outs: &[Port],
+    nf: usize,
+    setup: &[(u32, Vec<String>)],
+) -> String {
+    let mut v = String::new();
     v += "  always @(posedge clk_i) begin\n";
     v += "    if (f_past_valid && rst_ni) begin\n";
     let _ = writeln!(
@@ -1333,13 +1364,7 @@ fn formal_block(latency: u32, outs: &[Port], nf: usize, setup: &[(u32, Vec<Strin
     );
     v += "    end\n";
     v += "    if (f_past_valid && rst_ni && $past(rst_ni)) begin\n";
-    let shifted = if l == 1 {
-        "$past(valid_i)".to_string()
-    } else {
-        format!("{{$past(valid_q[{}:0]), $past(valid_i)}}", l - 2)
-    };
-    let _ = writeln!(v, "      if ($past(en)) assert (valid_q == {shifted});");
-    v += "      else assert ($stable(valid_q));\n";
+    v += shift;
     v += "      if ($past(valid_o & ~ready_i)) begin\n";
     v += "        assert (valid_o);\n";
     for p in outs {
@@ -1350,7 +1375,7 @@ fn formal_block(latency: u32, outs: &[Port], nf: usize, setup: &[(u32, Vec<Strin
     }
     v += "      end\n";
     // Set-up registers: unchanged while an item is in the stages reading
-    // them.
+    // them or entering.
     for (drain, regs) in setup {
         if *drain > 0 && !regs.is_empty() {
             let _ = writeln!(
@@ -1490,23 +1515,7 @@ fn formal_block_fifo(
     setup: &[(u32, Vec<String>)],
 ) -> String {
     let aw = depth.trailing_zeros();
-    let cw = 32 - (l + 1).leading_zeros();
-    let mut v = String::new();
-    v += "\n`ifdef FORMAL\n";
-    v += "  // Handshake properties, proved by `fxshade formal` (yosys-smtbmc, z3): no\n";
-    v += "  // item is made up, lost, duplicated or reordered; outputs hold under stall.\n";
-    v += "  reg f_past_valid = 1'b0;\n";
-    v += "  always @(posedge clk_i) f_past_valid <= 1'b1;\n";
-    v += "  always @(*) if (!f_past_valid) assume (!rst_ni);\n";
-    v += "  wire f_in = valid_i & ready_o;\n";
-    let _ = writeln!(v, "  reg  [{}:0] f_idle;", cw - 1);
-    v += "  always @(posedge clk_i or negedge rst_ni) begin\n";
-    let _ = writeln!(v, "    if (!rst_ni) f_idle <= {cw}'d0;");
-    let _ = writeln!(
-        v,
-        "    else f_idle <= ~f_in ? ((f_idle == {cw}'d{l}) ? f_idle : f_idle + {cw}'d1) : {cw}'d0;"
-    );
-    v += "  end\n";
+    let mut v = formal_prelude(l, "~f_in");
     // The FIFO never overflows: an item at stage k finds room when it
     // arrives, whatever the l − k stages ahead of it bring first.
     let _ = writeln!(v, "  wire [{aw}:0] f_count = wr_q - rd_q;");
@@ -1523,43 +1532,13 @@ fn formal_block_fifo(
         );
     }
     v += "  end\n";
-    v += "  always @(posedge clk_i) begin\n";
-    v += "    if (f_past_valid && rst_ni) begin\n";
-    let _ = writeln!(
-        v,
-        "      assert ((valid_q & ~({{{l}{{1'b1}}}} << f_idle)) == {l}'d0);"
-    );
-    v += "    end\n";
-    v += "    if (f_past_valid && rst_ni && $past(rst_ni)) begin\n";
     let shifted = if l == 1 {
         "$past(f_in)".to_string()
     } else {
         format!("{{$past(valid_q[{}:0]), $past(f_in)}}", l - 2)
     };
-    let _ = writeln!(v, "      assert (valid_q == {shifted});");
-    v += "      if ($past(valid_o & ~ready_i)) begin\n";
-    v += "        assert (valid_o);\n";
-    for p in outs {
-        let _ = writeln!(v, "        assert ($stable({}_o));", p.name);
-    }
-    if nf > 0 {
-        v += "        assert ($stable(ovf_o));\n";
-    }
-    v += "      end\n";
-    for (drain, regs) in setup {
-        if *drain > 0 && !regs.is_empty() {
-            let _ = writeln!(
-                v,
-                "      if ($past((|valid_q[{}:0]) | f_in)) assert ($stable({{{}}}));",
-                drain - 1,
-                regs.join(", ")
-            );
-        }
-    }
-    v += "    end\n";
-    v += "    if (f_past_valid && rst_ni) cover (valid_o & ready_i);\n";
-    v += "  end\n";
-    v += "`endif\n";
+    let shift = format!("      assert (valid_q == {shifted});\n");
+    v += &formal_clocked(l, &shift, outs, nf, setup);
     v
 }
 
