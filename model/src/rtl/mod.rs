@@ -163,7 +163,9 @@ impl std::fmt::Display for MulHw {
 pub struct Hardware {
     /// Every multiplier, sorted.
     pub muls: Vec<MulHw>,
-    /// Every adder and subtractor of the datapath, by result width, sorted.
+    /// Every adder and subtractor of the datapath (with the FIFO
+    /// handshake, also the FIFO's pointer arithmetic), by result width,
+    /// sorted.
     pub adders: Vec<u32>,
     /// Every adder/subtracter steered by a sign bit (`add_signed`), by
     /// result width, sorted: one unit each, written as an add and a
@@ -171,7 +173,7 @@ pub struct Hardware {
     pub add_subs: Vec<u32>,
     /// Every rounding incrementer, by result width, sorted.
     pub incrementers: Vec<u32>,
-    /// Comparators (`max`).
+    /// Comparators (`max`; with the FIFO handshake, its admission check).
     pub compares: u64,
     /// Multiplexers (`select`).
     pub selects: u64,
@@ -1717,8 +1719,11 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
     let aw = depth.trailing_zeros();
     let out_w: u32 = outs.iter().map(|p| p.format.width()).sum::<u32>() + nf as u32;
     if fifo {
-        // Pointers and the FIFO's entries.
+        // Pointers and the FIFO's entries; the pointers' two incrementers,
+        // their difference and its compare with the admission bound.
         e.hw.flops += 2 * (aw as u64 + 1) + depth as u64 * out_w as u64;
+        e.hw.adders.extend([aw + 1; 3]);
+        e.hw.compares += 1;
     }
     let pipe_latency = latency;
     let latency = latency + fifo as u32;
