@@ -526,12 +526,12 @@ fn random_valid_configurations_agree_bit_for_bit() {
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(20261122u64);
-    // Twelve configurations keep the suite inside its time budget (each is
+    // Ten configurations keep the suite inside its time budget (each is
     // seven simulator builds); FXSHADE_RANDOM_CONFIGS runs more.
     let wanted = std::env::var("FXSHADE_RANDOM_CONFIGS")
         .ok()
         .and_then(|s| s.parse().ok())
-        .unwrap_or(12usize);
+        .unwrap_or(10usize);
     println!(
         "random configurations: {wanted}, seed {seed} (FXSHADE_RANDOM_CONFIGS, FXSHADE_RANDOM_SEED to change)"
     );
