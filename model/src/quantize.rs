@@ -15,7 +15,7 @@
 //! |---|---|---|
 //! | [`Rounding::Trunc`] | floor, toward −∞ | `r = x >>> S;` |
 //! | [`Rounding::HalfUp`] | nearest, ties toward +∞ | `r = (x >>> S) + x[S-1];` |
-//! | [`Rounding::HalfEven`] | nearest, ties to even | `r = (x + {1'b0, {(S-1){1'b1}}} + x[S]) >>> S;` |
+//! | [`Rounding::HalfEven`] | nearest, ties to even | `u = (x >>> S) + x[S-1]; r = {u[..1], u[0] & ~tie};` with `tie = x[S-1] & ~\|x[S-2:0]` |
 //! | [`Overflow::Wrap`] | keep the low `W` bits | `y = r[W-1:0];` |
 //! | [`Overflow::Saturate`] | clamp to the range | `y = (r > MAX) ? MAX : (r < MIN) ? MIN : r[W-1:0];` |
 //!

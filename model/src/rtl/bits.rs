@@ -136,8 +136,10 @@ pub fn can_leave(rw: u32, rsigned: bool, ow: u32, osigned: bool) -> bool {
 }
 
 /// Rounding (bits dropped, `s = fx − fo > 0`): `t = x >>> s` (a slice), then
-/// `r = t + inc` in `width(t) + 1` bits with `inc = x[s−1]` (half_up) or
-/// `x[s−1] & (x[s] | |x[s−2:0])` (half_even); trunc takes `r = t`. Bits added
+/// `u = t + x[s−1]` in `width(t) + 1` bits (the incrementer's carry chain
+/// starts at `x`); half_up takes `r = u`, half_even clears `u`'s LSB on a
+/// tie, `r = {u[tw:1], u[0] & ~tie}` with `tie = x[s−1] & ~|x[s−2:0]`;
+/// trunc takes `r = t`. Bits added
 /// (`s ≤ 0`): `r = {x, −s zeros}`. Range: `ovf` when `r` lies outside the
 /// target format; wrap keeps the low `ow` bits of `r` (sign-extended when
 /// narrower), saturate gives the nearest bound on the side of `r`'s sign.
@@ -206,29 +208,40 @@ pub fn quantize(
                 (name, tw)
             }
             Rounding::HalfUp | Rounding::HalfEven => {
-                let inc = format!("{p}_inc");
+                // Both nearest modes add the half bit x[s−1] straight from
+                // x, so the incrementer's carry chain starts at x's
+                // register. Half-even then clears the sum's LSB on an exact
+                // tie (x[s−1] set, x[s−2:0] zero): t + 1 with its LSB
+                // cleared is t when t is even and t + 1 when t is odd. The
+                // tie detect runs beside the chain and meets it at bit 0.
                 let half = xe.bit(s - 1);
-                let e = if round == Rounding::HalfUp {
+                let name = format!("{p}_r");
+                // One incrementer: t (extended by one bit) plus the half bit.
+                let ext = format!("{{{}, {t}}}", xe.sign_bit());
+                let sum = format!("{ext} + {{{}, {half}}}", rep(tw, "1'b0"));
+                if round == Rounding::HalfUp {
                     if s >= 2 {
                         unused.push(xe.slice(s - 2, 0));
                     }
-                    half
-                } else if s >= 2 {
-                    format!("{half} & ({} | (|{}))", xe.bit(s), xe.slice(s - 2, 0))
+                    lines.push(format!(
+                        "wire {sgn}[{tw}:0] {name} = {};",
+                        sv(xe.signed, &sum)
+                    ));
                 } else {
-                    format!("{half} & {}", xe.bit(s))
-                };
-                lines.push(format!("wire {inc} = {e};"));
-                let name = format!("{p}_r");
-                // One incrementer: t (extended by one bit) plus the round bit.
-                let ext = format!("{{{}, {t}}}", xe.sign_bit());
-                lines.push(format!(
-                    "wire {sgn}[{tw}:0] {name} = {};",
-                    sv(
-                        xe.signed,
-                        &format!("{ext} + {{{}, {inc}}}", rep(tw, "1'b0"))
-                    )
-                ));
+                    let tie = format!("{p}_tie");
+                    let e = if s >= 2 {
+                        format!("{half} & ~(|{})", xe.slice(s - 2, 0))
+                    } else {
+                        half
+                    };
+                    lines.push(format!("wire {tie} = {e};"));
+                    let up = format!("{p}_up");
+                    lines.push(format!("wire [{tw}:0] {up} = {sum};"));
+                    lines.push(format!(
+                        "wire {sgn}[{tw}:0] {name} = {};",
+                        sv(xe.signed, &format!("{{{up}[{tw}:1], {up}[0] & ~{tie}}}"))
+                    ));
+                }
                 round_adder = Some(tw + 1);
                 (name, tw + 1)
             }

@@ -25,7 +25,7 @@
 //! | select of n | `lut · ⌈log2 n / 2⌉` |
 //! | multiply, LUTs, `a × b` bits | `⌈log2 min(a,b)⌉·mul_row + carry(a+b)` |
 //! | multiply, DSP | `dsp.comb`, plus `dsp.combine` per level of DSP tiles summed |
-//! | rounding (nearest) | `lut·⌈log4 s⌉ + carry(w)`, `s` dropped bits |
+//! | rounding (nearest) | `max(carry(w), lut·(⌈log4 s⌉ + 1))`, `s` dropped bits |
 //! | range check and saturate | `lut·⌈log4 k⌉ + lut`, `k` bits checked |
 //!
 //! The constants are calibrated against nextpnr by `fxshade synth
@@ -249,12 +249,16 @@ impl DelayModel {
         ceil_log(a.min(b), 2).max(1) as f64 * self.mul_row + self.carry(a + b)
     }
     /// The rounding incrementer of a nearest mode dropping `s` bits into a
-    /// `w`-bit result (`s = 0` or truncation: no logic).
+    /// `w`-bit result (`s = 0` or truncation: no logic): a carry chain fed
+    /// straight by the half bit; half-even's tie detect over the `s − 1`
+    /// bits below it runs beside the chain and clears the LSB with one more
+    /// LUT, so the slower of the two counts.
     pub fn round(&self, s: u32, w: u32, nearest: bool) -> f64 {
         if !nearest || s == 0 {
             0.0
         } else {
-            self.lut * ceil_log(s, 4).max(1) as f64 + self.carry(w)
+            self.carry(w)
+                .max(self.lut * (ceil_log(s, 4).max(1) + 1) as f64)
         }
     }
     /// The range check of `k` bits and the saturating multiplexer (none
