@@ -305,6 +305,10 @@ struct Emitter<'a> {
     /// Nanoseconds after its stage's registers at which each node's value
     /// is ready (0: a register or a port).
     arrival: Vec<f64>,
+    /// Products built as one DSP block (target pipelining on a DSP
+    /// target): the register after one sits in the block, so logic reading
+    /// it in the next stage starts [`timing::Dsp::route_out`] late.
+    dsp_out: Vec<bool>,
     /// Target pipelining: the delay model and the time per stage.
     timing: Option<(timing::DelayModel, f64)>,
     /// The longest predicted stage delay (combinational part), ns.
@@ -374,25 +378,37 @@ impl<'a> Emitter<'a> {
             .filter_map(|&n| self.stage[n])
             .max()
             .unwrap_or(0);
-        // Set-up values (no stage) are read at any stage, their logic
-        // after their registers.
         let a = operands
             .iter()
-            .filter(|&&n| self.stage[n] == Some(s) || self.stage[n].is_none())
-            .map(|&n| self.arrival[n])
+            .map(|&n| self.arrival_at(n, s))
             .fold(0.0, f64::max);
         match self.timing {
             // Set-up values alone (no stage): no register to add before
             // them, so the operation stays at stage 0.
             Some((_, budget)) if staged && a > 0.0 && a + d > budget => {
-                let held = operands
+                let a1 = operands
                     .iter()
-                    .filter(|&&n| self.stage[n].is_none())
-                    .map(|&n| self.arrival[n])
+                    .map(|&n| self.arrival_at(n, s + 1))
                     .fold(0.0, f64::max);
-                (s + 1, held)
+                (s + 1, a1)
             }
             _ => (s, a),
+        }
+    }
+
+    /// When node `n`'s value is ready at `stage` (at or after its own):
+    /// its arrival in its own stage; a set-up value's at any stage (its
+    /// logic after its registers); 0 from a register, except the one right
+    /// after a DSP product, which sits in the block ([`Self::dsp_out`]).
+    fn arrival_at(&self, n: usize, stage: u32) -> f64 {
+        match self.stage[n] {
+            None => self.arrival[n],
+            Some(s0) if s0 == stage => self.arrival[n],
+            Some(s0) if s0 + 1 == stage && self.dsp_out[n] => self
+                .model()
+                .and_then(|m| m.dsp)
+                .map_or(0.0, |d| d.route_out),
+            Some(_) => 0.0,
         }
     }
 
@@ -810,8 +826,9 @@ impl<'a> Emitter<'a> {
                 fmt_ns(slowest)
             ));
         }
-        // The adder tree, level by level.
-        let (mut stage, mut t) = (s + 1, 0.0);
+        // The adder tree, level by level, from the partial products'
+        // registers: in the DSP blocks, so the first level starts late.
+        let (mut stage, mut t) = (s + 1, m.dsp.map_or(0.0, |d| d.route_out));
         let mut level = 0;
         while parts.len() > 1 {
             if t > 0.0 && t + m.add(w) > budget {
@@ -1012,6 +1029,7 @@ impl<'a> Emitter<'a> {
                 // self-determined and the product truncated. Both operands
                 // are of the product's signedness already.
                 self.body.push(format!("wire {d} {name} = {ea} * {eb};"));
+                self.dsp_out[i] = self.model().is_some_and(|m| m.dsp.is_some());
                 self.stage[i] = Some(s);
                 self.at.insert((i, s), name.clone());
                 self.ready(i, t0 + dm, &name);
@@ -1399,31 +1417,36 @@ fn formal_clocked(
 /// output FIFO of `depth ≥ l + 2` entries, whose pointers `wr_q`, `rd_q`
 /// are registers; `ready_o` admits an item only while the FIFO holds at
 /// most `depth − l − 1`, so it has room for the item when it arrives `l`
-/// cycles later whatever else arrives meanwhile, and `ready_o` does not
-/// depend on `ready_i`.
+/// cycles later whatever else arrives meanwhile. `ready_o` is a register
+/// (`ready_q`), loaded with that test on the pointers' next values, so it
+/// equals the test on the pointers themselves; no path reaches it from a
+/// port in the same cycle.
 fn fifo_handshake(l: u32, depth: u32) -> String {
     let aw = depth.trailing_zeros();
     let mut v = String::new();
     v += "  // Handshake: the pipeline never stalls (a stage's registers load whenever\n";
     v += "  // its item is valid) and ends in an output FIFO; ready_o admits an item\n";
-    v += "  // while the FIFO has room for it and for every item ahead of it.\n";
+    v += "  // while the FIFO has room for it and for every item ahead of it. ready_o\n";
+    v += "  // is a register: the admission test is made on the pointers' next values.\n";
     let _ = writeln!(v, "  reg  [{}:0] valid_q;", l - 1);
     let _ = writeln!(v, "  reg  [{aw}:0] wr_q, rd_q;");
+    v += "  reg  ready_q;\n";
     v += "  wire in_xfer = valid_i & ready_o;\n";
     v += "  wire out_xfer = valid_o & ready_i;\n";
     let _ = writeln!(
         v,
-        "  assign ready_o = (wr_q - rd_q) <= {}'d{};",
-        aw + 1,
-        depth - l - 1
+        "  wire [{aw}:0] wr_d = wr_q + {{{aw}'d0, valid_q[{}]}};",
+        l - 1
     );
+    let _ = writeln!(v, "  wire [{aw}:0] rd_d = rd_q + {{{aw}'d0, out_xfer}};");
+    v += "  assign ready_o = ready_q;\n";
     v += "  assign valid_o = wr_q != rd_q;\n";
     v += "  always @(posedge clk_i or negedge rst_ni) begin\n";
     v += "    if (!rst_ni) begin\n";
     let _ = writeln!(v, "      valid_q <= {l}'b0;");
     let _ = writeln!(
         v,
-        "      wr_q <= {}'d0;\n      rd_q <= {}'d0;",
+        "      wr_q <= {}'d0;\n      rd_q <= {}'d0;\n      ready_q <= 1'b1;",
         aw + 1,
         aw + 1
     );
@@ -1433,13 +1456,13 @@ fn fifo_handshake(l: u32, depth: u32) -> String {
     } else {
         let _ = writeln!(v, "      valid_q <= {{valid_q[{}:0], in_xfer}};", l - 2);
     }
+    v += "      wr_q <= wr_d;\n      rd_q <= rd_d;\n";
     let _ = writeln!(
         v,
-        "      if (valid_q[{}]) wr_q <= wr_q + {}'d1;",
-        l - 1,
-        aw + 1
+        "      ready_q <= (wr_d - rd_d) <= {}'d{};",
+        aw + 1,
+        depth - l - 1
     );
-    let _ = writeln!(v, "      if (out_xfer) rd_q <= rd_q + {}'d1;", aw + 1);
     v += "    end\n  end\n\n";
     v
 }
@@ -1523,6 +1546,13 @@ fn formal_block_fifo(
     let _ = writeln!(v, "  wire [{aw}:0] f_count = wr_q - rd_q;");
     v += "  always @(*) begin\n";
     let _ = writeln!(v, "    assert (f_count <= {}'d{depth});", aw + 1);
+    // The registered admission test is the test on the pointers.
+    let _ = writeln!(
+        v,
+        "    assert (ready_q == (f_count <= {}'d{}));",
+        aw + 1,
+        depth - l - 1
+    );
     for k in 1..=l {
         let _ = writeln!(
             v,
@@ -1630,6 +1660,7 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
         rom_text: Vec::new(),
         mutants: HashMap::new(),
         arrival: vec![0.0; t.ops().len()],
+        dsp_out: vec![false; t.ops().len()],
         timing: match d.pipelining {
             timing::Pipelining::Target { target, clock_ns } if muts.is_empty() => {
                 let m = target.model();
@@ -1719,9 +1750,10 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
     let aw = depth.trailing_zeros();
     let out_w: u32 = outs.iter().map(|p| p.format.width()).sum::<u32>() + nf as u32;
     if fifo {
-        // Pointers and the FIFO's entries; the pointers' two incrementers,
-        // their difference and its compare with the admission bound.
-        e.hw.flops += 2 * (aw as u64 + 1) + depth as u64 * out_w as u64;
+        // Pointers, the registered admission bit and the FIFO's entries;
+        // the pointers' two incrementers, the difference of their next
+        // values and its compare with the admission bound.
+        e.hw.flops += 2 * (aw as u64 + 1) + 1 + depth as u64 * out_w as u64;
         e.hw.adders.extend([aw + 1; 3]);
         e.hw.compares += 1;
     }
@@ -1839,8 +1871,8 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
         let _ = writeln!(
             v,
             "// both sides; the pipeline never stalls and ends in an output FIFO of\n\
-             // {depth} entries; ready_o is a compare of its registered pointers (no path\n\
-             // from ready_i)."
+             // {depth} entries; ready_o is a register (the FIFO's room, computed from\n\
+             // its pointers' next values): no path from ready_i or valid_i."
         );
     } else {
         let _ = writeln!(

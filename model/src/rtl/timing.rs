@@ -25,6 +25,8 @@
 //! | select of n | `lut · ⌈log2 n / 2⌉` |
 //! | multiply, LUTs, `a × b` bits | `⌈log2 min(a,b)⌉·mul_row + carry(a+b)` |
 //! | multiply, DSP | `dsp.comb`, plus `dsp.combine` per level of DSP tiles summed |
+//! | into a DSP's input register | `dsp.route_in` before the period ends |
+//! | out of a DSP's output register | logic after it starts at `dsp.route_out` |
 //! | rounding (nearest) | `max(carry(w), lut·(⌈log4 s⌉ + 1))`, `s` dropped bits |
 //! | range check and saturate | `lut·⌈log4 k⌉ + lut`, `k` bits checked |
 //!
@@ -97,6 +99,7 @@ impl Target {
                     comb: 9.2,
                     combine: 2.5,
                     route_in: 5.0,
+                    route_out: 2.4,
                 }),
                 bram: 5.0,
             },
@@ -112,7 +115,8 @@ impl Target {
                     b: 18,
                     comb: 7.0,
                     combine: 1.5,
-                    route_in: 1.5,
+                    route_in: 3.2,
+                    route_out: 3.4,
                 }),
                 bram: 3.5,
             },
@@ -130,6 +134,7 @@ impl Target {
                     comb: 3.4,
                     combine: 1.0,
                     route_in: 0.5,
+                    route_out: 0.5,
                 }),
                 bram: 2.2,
             },
@@ -168,6 +173,10 @@ pub struct Dsp {
     /// operand computed in the stage before must be ready this much before
     /// the period ends, else it is registered in the fabric first.
     pub route_in: f64,
+    /// Routing from the block's output register back into the fabric: a
+    /// product registered in the block reaches the logic of the next stage
+    /// this late (a fabric register after it hides it).
+    pub route_out: f64,
 }
 
 /// Delays of one target, in nanoseconds (module documentation).

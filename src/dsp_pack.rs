@@ -1,0 +1,544 @@
+//! Register packing into ECP5 `MULT18X18D` blocks, on Yosys's JSON netlist.
+//!
+//! Yosys's `synth_ecp5` maps every product to a combinational
+//! `MULT18X18D` and leaves the registers around it in the fabric (it has
+//! no ECP5 counterpart of `ice40_dsp` or `xilinx_dsp`). A product then
+//! pays the routing from a fabric flip-flop into the block and back out
+//! on top of the multiplier itself: about 3.2 + 3.9 + 3.2 ns on an
+//! LFE5U-85F, 92 MHz at best. This pass moves those registers into the
+//! block, as a vendor flow does:
+//!
+//! * **Inputs.** When every non-constant bit of `A` and of `B` comes from
+//!   a plain flip-flop (`TRELLIS_FF`: clocked on the rising edge, no set or
+//!   reset in use, power-up 0, enable from a net or always on), all on one
+//!   clock and with one enable per operand, the block registers its
+//!   operands itself (`REG_INPUTA_CLK`/`REG_INPUTB_CLK = "CLK0"`) from those
+//!   flip-flops' `D` nets. A flip-flop that still feeds other logic stays
+//!   (the block holds a copy); one that no longer feeds anything is removed.
+//!   Both operands or neither: nextpnr times a block with one registered
+//!   operand as if neither were.
+//! * **Output.** When every used bit of `P` feeds exactly one plain
+//!   flip-flop's `D`, on the same clock, with one enable, those flip-flops
+//!   become the block's output register (`REG_OUTPUT_CLK = "CLK0"`) and are
+//!   removed; the block drives their `Q` nets.
+//!
+//! Each distinct enable takes one of the block's `CE0`–`CE3` (an enable
+//! that is always on ties its pin to 1); `RST0` is tied to 0. The function
+//! is unchanged cycle for cycle from the first load of every register on:
+//! only power-up contents may differ, which the pipeline's valid bits
+//! ignore (tests/synth.rs simulates a packed netlist against the vectors).
+
+use anyhow::{bail, Context, Result};
+use serde_json::{json, Map, Value};
+use std::collections::{BTreeMap, HashMap};
+
+/// What the pass did.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct PackStats {
+    /// Blocks that took their operand registers.
+    pub inputs: usize,
+    /// Blocks that took their output register.
+    pub outputs: usize,
+    /// Fabric flip-flops removed (moved into blocks, or left without a
+    /// load by the move).
+    pub ffs_removed: usize,
+}
+
+/// A bit of a connection: a net number or a constant (`"0"`, `"1"`, `"x"`).
+#[derive(Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+enum Bit {
+    Net(u64),
+    Const(String),
+}
+
+impl Bit {
+    fn of(v: &Value) -> Result<Bit> {
+        match v {
+            Value::Number(n) => Ok(Bit::Net(n.as_u64().context("a net number")?)),
+            Value::String(s) => Ok(Bit::Const(s.clone())),
+            _ => bail!("netlist: a connection bit is neither a net nor a constant"),
+        }
+    }
+    fn value(&self) -> Value {
+        match self {
+            Bit::Net(n) => json!(n),
+            Bit::Const(s) => json!(s),
+        }
+    }
+}
+
+/// A block pin and the flip-flop it connects to.
+type PinFf = (String, String);
+
+/// A flip-flop's enable: a net, or always on.
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+enum Enable {
+    Always,
+    Net(Bit),
+}
+
+fn param<'a>(c: &'a Value, k: &str) -> Option<&'a str> {
+    // Yosys pads a string parameter that looks like a bit pattern ("1 ").
+    c["parameters"][k].as_str().map(str::trim_end)
+}
+
+fn conn(c: &Value, port: &str) -> Result<Vec<Bit>> {
+    match c["connections"].get(port) {
+        None => Ok(Vec::new()),
+        Some(Value::Array(a)) => a.iter().map(Bit::of).collect(),
+        Some(_) => bail!("netlist: port {port} is not a bit list"),
+    }
+}
+
+fn one(c: &Value, port: &str) -> Result<Option<Bit>> {
+    Ok(conn(c, port)?.into_iter().next())
+}
+
+/// `(clock, enable)` of a plain flip-flop, or None.
+fn plain_ff(c: &Value) -> Result<Option<(Bit, Enable)>> {
+    if c["type"] != "TRELLIS_FF"
+        || param(c, "CLKMUX").unwrap_or("CLK") != "CLK"
+        || param(c, "REGSET").unwrap_or("RESET") != "RESET"
+    {
+        return Ok(None);
+    }
+    let lsr = one(c, "LSR")?;
+    if param(c, "LSRMUX").unwrap_or("LSR") != "LSR"
+        || !(lsr.is_none() || lsr == Some(Bit::Const("0".into())))
+    {
+        return Ok(None);
+    }
+    let Some(clk @ Bit::Net(_)) = one(c, "CLK")? else {
+        return Ok(None);
+    };
+    let en = match param(c, "CEMUX").unwrap_or("1") {
+        "1" => Enable::Always,
+        "CE" => match one(c, "CE")? {
+            Some(Bit::Const(z)) if z == "1" => Enable::Always,
+            Some(b) => Enable::Net(b),
+            None => return Ok(None),
+        },
+        _ => return Ok(None),
+    };
+    Ok(Some((clk, en)))
+}
+
+/// Pack registers into every `MULT18X18D` of module `top` (see the module
+/// documentation). Deterministic: blocks in name order.
+pub fn pack_mult18(netlist: &mut Value, top: &str) -> Result<PackStats> {
+    let module = netlist["modules"]
+        .get_mut(top)
+        .with_context(|| format!("netlist has no module {top}"))?;
+    let mut loads: HashMap<Bit, Vec<(String, String)>> = HashMap::new();
+    let mut drivers: HashMap<Bit, (String, String)> = HashMap::new();
+    if let Some(ports) = module["ports"].as_object() {
+        for (name, p) in ports {
+            for b in p["bits"].as_array().into_iter().flatten() {
+                let b = Bit::of(b)?;
+                if p["direction"] == "input" {
+                    drivers.insert(b, ("$port".into(), name.clone()));
+                } else {
+                    loads
+                        .entry(b)
+                        .or_default()
+                        .push(("$port".into(), name.clone()));
+                }
+            }
+        }
+    }
+    let cells = module["cells"]
+        .as_object_mut()
+        .context("netlist module has no cells")?;
+    for (name, c) in cells.iter() {
+        let dirs = c["port_directions"].as_object();
+        for (port, bits) in c["connections"].as_object().into_iter().flatten() {
+            let out = dirs
+                .and_then(|d| d.get(port))
+                .is_some_and(|d| d == "output");
+            for b in bits.as_array().into_iter().flatten() {
+                let b = Bit::of(b)?;
+                if matches!(b, Bit::Const(_)) {
+                    continue;
+                }
+                if out {
+                    drivers.insert(b, (name.clone(), port.clone()));
+                } else {
+                    loads
+                        .entry(b)
+                        .or_default()
+                        .push((name.clone(), port.clone()));
+                }
+            }
+        }
+    }
+    let mults: Vec<String> = {
+        let mut v: Vec<String> = cells
+            .iter()
+            .filter(|(_, c)| c["type"] == "MULT18X18D")
+            .map(|(n, _)| n.clone())
+            .collect();
+        v.sort();
+        v
+    };
+    let mut st = PackStats::default();
+    let mut removed = 0usize;
+    for m in mults {
+        let mc = &cells[&m];
+        let untouched = [
+            "REG_INPUTA_CLK",
+            "REG_INPUTB_CLK",
+            "REG_OUTPUT_CLK",
+            "REG_PIPELINE_CLK",
+        ]
+        .iter()
+        .all(|k| param(mc, k).unwrap_or("NONE") == "NONE");
+        if !untouched {
+            continue;
+        }
+        let mut clock: Option<Bit> = None;
+        let mut same_clock = |c: &Bit| match &clock {
+            None => {
+                clock = Some(c.clone());
+                true
+            }
+            Some(k) => k == c,
+        };
+        // Operand registers: per operand, (pin, flip-flop) and the enable.
+        let mut operands: Vec<(Vec<PinFf>, Option<Enable>)> = Vec::new();
+        let mut inputs_ok = true;
+        for op in ["A", "B"] {
+            let mut regs = Vec::new();
+            let mut en: Option<Enable> = None;
+            for k in 0..18 {
+                let pin = format!("{op}{k}");
+                let Some(b) = one(mc, &pin)? else { continue };
+                if matches!(b, Bit::Const(_)) {
+                    continue;
+                }
+                let ok = match drivers.get(&b) {
+                    Some((ff, port)) if port == "Q" && ff != "$port" => match plain_ff(&cells[ff])?
+                    {
+                        Some((clk, e))
+                            if same_clock(&clk) && en.as_ref().is_none_or(|x| *x == e) =>
+                        {
+                            en = Some(e);
+                            regs.push((pin, ff.clone()));
+                            true
+                        }
+                        _ => false,
+                    },
+                    _ => false,
+                };
+                if !ok {
+                    inputs_ok = false;
+                }
+            }
+            operands.push((regs, en));
+        }
+        // Output register: each used P bit feeds one plain flip-flop.
+        let mut outs: Vec<(String, String)> = Vec::new();
+        let mut out_en: Option<Enable> = None;
+        let mut outputs_ok = true;
+        for k in 0..36 {
+            let pin = format!("P{k}");
+            let Some(b) = one(mc, &pin)? else { continue };
+            let l = loads.get(&b).map(Vec::as_slice).unwrap_or(&[]);
+            match l {
+                [] => {}
+                [(ff, port)] if port == "DI" && ff != "$port" => match plain_ff(&cells[ff])? {
+                    Some((clk, e))
+                        if same_clock(&clk) && out_en.as_ref().is_none_or(|x| *x == e) =>
+                    {
+                        out_en = Some(e);
+                        outs.push((pin, ff.clone()));
+                    }
+                    _ => outputs_ok = false,
+                },
+                _ => outputs_ok = false,
+            }
+        }
+        let outputs_ok = outputs_ok && !outs.is_empty();
+        let inputs_ok = inputs_ok && operands.iter().any(|(r, _)| !r.is_empty());
+        if !inputs_ok && !outputs_ok {
+            continue;
+        }
+        let clk = clock.clone().expect("a packed register has a clock");
+        // Enables onto CE0..CE3.
+        let mut ces: Vec<Enable> = Vec::new();
+        let mut ce_pin = |e: &Enable| -> String {
+            let k = ces.iter().position(|x| x == e).unwrap_or_else(|| {
+                ces.push(e.clone());
+                ces.len() - 1
+            });
+            format!("CE{k}")
+        };
+        let mut params: BTreeMap<String, String> = BTreeMap::new();
+        let mut rewire: Vec<(String, Bit)> = Vec::new();
+        if inputs_ok {
+            let fallback = operands
+                .iter()
+                .find_map(|(_, e)| e.clone())
+                .expect("an operand register");
+            for ((regs, en), op) in operands.iter().zip(["A", "B"]) {
+                let pin = ce_pin(en.as_ref().unwrap_or(&fallback));
+                params.insert(format!("REG_INPUT{op}_CLK"), "CLK0".into());
+                params.insert(format!("REG_INPUT{op}_CE"), pin);
+                params.insert(format!("REG_INPUT{op}_RST"), "RST0".into());
+                for (p, ff) in regs {
+                    let d = one(&cells[ff], "DI")?.context("a flip-flop without D")?;
+                    rewire.push((p.clone(), d));
+                }
+            }
+            st.inputs += 1;
+        }
+        let mut dead_outs = Vec::new();
+        if outputs_ok {
+            let pin = ce_pin(out_en.as_ref().expect("an output register"));
+            params.insert("REG_OUTPUT_CLK".into(), "CLK0".into());
+            params.insert("REG_OUTPUT_CE".into(), pin);
+            params.insert("REG_OUTPUT_RST".into(), "RST0".into());
+            for (p, ff) in &outs {
+                let q = one(&cells[ff], "Q")?.context("a flip-flop without Q")?;
+                rewire.push((p.clone(), q));
+                dead_outs.push(ff.clone());
+            }
+            st.outputs += 1;
+        }
+        // Apply: loads and drivers follow the rewiring.
+        for (p, new) in &rewire {
+            let old = one(&cells[&m], p)?.expect("connected");
+            if let Some(l) = loads.get_mut(&old) {
+                l.retain(|(c, q)| !(c == &m && q == p));
+            }
+            if p.starts_with('P') {
+                drivers.insert(new.clone(), (m.clone(), p.clone()));
+            } else if matches!(new, Bit::Net(_)) {
+                loads
+                    .entry(new.clone())
+                    .or_default()
+                    .push((m.clone(), p.clone()));
+            }
+        }
+        for ff in &dead_outs {
+            for b in conn(&cells[ff], "DI")?
+                .into_iter()
+                .chain(conn(&cells[ff], "CE")?)
+                .chain(conn(&cells[ff], "CLK")?)
+            {
+                if let Some(l) = loads.get_mut(&b) {
+                    l.retain(|(c, _)| c != ff);
+                }
+            }
+            cells.remove(ff);
+            removed += 1;
+        }
+        let mc = cells.get_mut(&m).expect("the block");
+        for (p, b) in &rewire {
+            mc["connections"][p] = json!([b.value()]);
+        }
+        mc["connections"]["CLK0"] = json!([clk.value()]);
+        mc["connections"]["RST0"] = json!(["0"]);
+        for (k, e) in ces.iter().enumerate() {
+            let v = match e {
+                Enable::Always => json!("1"),
+                Enable::Net(b) => b.value(),
+            };
+            mc["connections"][format!("CE{k}")] = json!([v]);
+            if let Enable::Net(b @ Bit::Net(_)) = e {
+                loads
+                    .entry(b.clone())
+                    .or_default()
+                    .push((m.clone(), format!("CE{k}")));
+            }
+        }
+        if let Some(Bit::Net(_)) = clock {
+            loads
+                .entry(clk.clone())
+                .or_default()
+                .push((m.clone(), "CLK0".into()));
+        }
+        let present: Vec<&str> = ["CLK0", "RST0", "CE0", "CE1", "CE2", "CE3"]
+            .into_iter()
+            .filter(|k| mc["connections"].get(k).is_some())
+            .collect();
+        let dirs = mc["port_directions"]
+            .as_object_mut()
+            .context("a cell without port directions")?;
+        for k in present {
+            dirs.entry(k.to_string()).or_insert(json!("input"));
+        }
+        let ps = mc["parameters"]
+            .as_object_mut()
+            .context("a cell without parameters")?;
+        for (k, v) in params {
+            ps.insert(k, json!(v));
+        }
+    }
+    // Flip-flops left without a load (their only load was a block's
+    // operand, now registered in the block).
+    loop {
+        let dead: Vec<String> = cells
+            .iter()
+            .filter(|(_, c)| c["type"] == "TRELLIS_FF")
+            .filter_map(|(n, c)| {
+                let q = one(c, "Q").ok().flatten()?;
+                loads
+                    .get(&q)
+                    .is_none_or(|l| l.is_empty())
+                    .then(|| n.clone())
+            })
+            .collect();
+        if dead.is_empty() {
+            break;
+        }
+        for ff in dead {
+            let c = &cells[&ff];
+            let ins: Vec<Bit> = ["DI", "CE", "CLK", "LSR"]
+                .iter()
+                .flat_map(|p| conn(c, p).unwrap_or_default())
+                .collect();
+            for b in ins {
+                if let Some(l) = loads.get_mut(&b) {
+                    l.retain(|(x, _)| x != &ff);
+                }
+            }
+            cells.remove(&ff);
+            removed += 1;
+        }
+    }
+    st.ffs_removed = removed;
+    Ok(st)
+}
+
+/// The cells of a module by type (after packing: the netlist that is
+/// placed).
+pub fn cell_counts(netlist: &Value, top: &str) -> Vec<(String, u64)> {
+    let mut m: BTreeMap<String, u64> = BTreeMap::new();
+    for c in netlist["modules"][top]["cells"]
+        .as_object()
+        .into_iter()
+        .flat_map(Map::values)
+    {
+        if let Some(t) = c["type"].as_str() {
+            *m.entry(t.to_string()).or_default() += 1;
+        }
+    }
+    m.into_iter().collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ff(d: Value, q: u64, ce: Option<u64>) -> Value {
+        let mut c = json!({
+            "type": "TRELLIS_FF",
+            "parameters": {"CLKMUX": "CLK", "GSR": "DISABLED", "LSRMUX": "LSR", "REGSET": "RESET",
+                           "CEMUX": if ce.is_some() { "CE" } else { "1 " }},
+            "port_directions": {"CLK": "input", "DI": "input", "LSR": "input", "Q": "output", "CE": "input"},
+            "connections": {"CLK": [2], "DI": [d], "LSR": ["0"], "Q": [q]}
+        });
+        if let Some(e) = ce {
+            c["connections"]["CE"] = json!([e]);
+        }
+        c
+    }
+
+    /// A two-bit product: operand flip-flops (a1 also feeds a port), a
+    /// product flip-flop on P0 and P1, P2 unused.
+    fn netlist(p1_extra_load: bool) -> Value {
+        let mut cells = Map::new();
+        cells.insert("fa0".into(), ff(json!(10), 20, Some(5)));
+        cells.insert("fa1".into(), ff(json!(11), 21, Some(5)));
+        cells.insert("fb0".into(), ff(json!(12), 22, None));
+        cells.insert("fp0".into(), ff(json!(30), 40, Some(6)));
+        cells.insert("fp1".into(), ff(json!(31), 41, Some(6)));
+        let mut conns = Map::new();
+        conns.insert("A0".into(), json!([20]));
+        conns.insert("A1".into(), json!([21]));
+        conns.insert("A2".into(), json!(["0"]));
+        conns.insert("B0".into(), json!([22]));
+        conns.insert("P0".into(), json!([30]));
+        conns.insert("P1".into(), json!([31]));
+        conns.insert("P2".into(), json!([32]));
+        let mut dirs = Map::new();
+        for k in ["A0", "A1", "A2", "B0"] {
+            dirs.insert(k.into(), json!("input"));
+        }
+        for k in ["P0", "P1", "P2"] {
+            dirs.insert(k.into(), json!("output"));
+        }
+        cells.insert(
+            "m".into(),
+            json!({"type": "MULT18X18D", "parameters": {}, "port_directions": dirs, "connections": conns}),
+        );
+        let mut outs = vec![40, 41, 21];
+        if p1_extra_load {
+            outs.push(31);
+        }
+        json!({"modules": {"top": {
+            "ports": {
+                "clk": {"direction": "input", "bits": [2]},
+                "i": {"direction": "input", "bits": [10, 11, 12, 5, 6]},
+                "o": {"direction": "output", "bits": outs}
+            },
+            "cells": cells
+        }}})
+    }
+
+    #[test]
+    fn packs_operand_and_product_registers() {
+        let mut n = netlist(false);
+        let st = pack_mult18(&mut n, "top").unwrap();
+        assert_eq!(
+            st,
+            PackStats {
+                inputs: 1,
+                outputs: 1,
+                ffs_removed: 4
+            }
+        );
+        let cells = &n["modules"]["top"]["cells"];
+        let m = &cells["m"];
+        // Operands from the flip-flops' D nets; the constant bit stays.
+        assert_eq!(m["connections"]["A0"], json!([10]));
+        assert_eq!(m["connections"]["A1"], json!([11]));
+        assert_eq!(m["connections"]["A2"], json!(["0"]));
+        assert_eq!(m["connections"]["B0"], json!([12]));
+        // The product drives the removed flip-flops' Q nets.
+        assert_eq!(m["connections"]["P0"], json!([40]));
+        assert_eq!(m["connections"]["P1"], json!([41]));
+        assert_eq!(m["connections"]["CLK0"], json!([2]));
+        // A's enable, B's (always on), the output's: three pins.
+        assert_eq!(m["parameters"]["REG_INPUTA_CE"], "CE0");
+        assert_eq!(m["connections"]["CE0"], json!([5]));
+        assert_eq!(m["parameters"]["REG_INPUTB_CE"], "CE1");
+        assert_eq!(m["connections"]["CE1"], json!(["1"]));
+        assert_eq!(m["parameters"]["REG_OUTPUT_CE"], "CE2");
+        assert_eq!(m["connections"]["CE2"], json!([6]));
+        assert_eq!(m["port_directions"]["CE2"], "input");
+        // fa1 also feeds a port: it stays; fa0 and fb0 have no load left.
+        let left: Vec<&String> = cells.as_object().unwrap().keys().collect();
+        assert_eq!(left, vec!["fa1", "m"]);
+    }
+
+    #[test]
+    fn a_product_bit_with_two_loads_keeps_the_output_register_out() {
+        let mut n = netlist(true);
+        let st = pack_mult18(&mut n, "top").unwrap();
+        assert_eq!(st.outputs, 0);
+        assert_eq!(st.inputs, 1);
+        let m = &n["modules"]["top"]["cells"]["m"];
+        assert_eq!(m["parameters"].get("REG_OUTPUT_CLK"), None);
+        assert_eq!(m["connections"]["P1"], json!([31]));
+    }
+
+    #[test]
+    fn a_flip_flop_with_a_reset_is_not_packed() {
+        let mut n = netlist(false);
+        n["modules"]["top"]["cells"]["fa0"]["connections"]["LSR"] = json!([7]);
+        let st = pack_mult18(&mut n, "top").unwrap();
+        assert_eq!(st.inputs, 0, "A0 comes from a flip-flop with a reset");
+        assert_eq!(st.outputs, 1);
+    }
+}
