@@ -1417,38 +1417,36 @@ fn formal_clocked(
 /// output FIFO of `depth ≥ l + 2` entries, whose pointers `wr_q`, `rd_q`
 /// are registers; `ready_o` admits an item only while the FIFO holds at
 /// most `depth − l − 1`, so it has room for the item when it arrives `l`
-/// cycles later whatever else arrives meanwhile. `ready_o` is a register
-/// (`ready_q`), loaded with that test on the pointers' next values, so it
-/// equals the test on the pointers themselves; no path reaches it from a
-/// port in the same cycle.
+/// cycles later whatever else arrives meanwhile. A count `cnt_q` (=
+/// `wr_q − rd_q`) gives `valid_o = |cnt_q`; `ready_o` is a register
+/// (`ready_q`) loaded with the room test on the next count, picked from
+/// tests of the current count against `K − 1`, `K + 1` and `K` by whether
+/// an item enters the FIFO and whether one leaves, so it equals the test
+/// on the pointers themselves and only a multiplexer follows `ready_i`.
 fn fifo_handshake(l: u32, depth: u32) -> String {
     let aw = depth.trailing_zeros();
     let mut v = String::new();
+    let k = depth - l - 1;
+    let w = aw + 1;
     v += "  // Handshake: the pipeline never stalls (a stage's registers load whenever\n";
     v += "  // its item is valid) and ends in an output FIFO; ready_o admits an item\n";
     v += "  // while the FIFO has room for it and for every item ahead of it. ready_o\n";
-    v += "  // is a register: the admission test is made on the pointers' next values.\n";
+    v += "  // is a register: the room test on the next count, chosen from three tests\n";
+    v += "  // of the current count by what enters and leaves this cycle.\n";
     let _ = writeln!(v, "  reg  [{}:0] valid_q;", l - 1);
-    let _ = writeln!(v, "  reg  [{aw}:0] wr_q, rd_q;");
+    let _ = writeln!(v, "  reg  [{aw}:0] wr_q, rd_q, cnt_q;");
     v += "  reg  ready_q;\n";
+    let _ = writeln!(v, "  wire f_wr = valid_q[{}];", l - 1);
     v += "  wire in_xfer = valid_i & ready_o;\n";
     v += "  wire out_xfer = valid_o & ready_i;\n";
-    let _ = writeln!(
-        v,
-        "  wire [{aw}:0] wr_d = wr_q + {{{aw}'d0, valid_q[{}]}};",
-        l - 1
-    );
-    let _ = writeln!(v, "  wire [{aw}:0] rd_d = rd_q + {{{aw}'d0, out_xfer}};");
     v += "  assign ready_o = ready_q;\n";
-    v += "  assign valid_o = wr_q != rd_q;\n";
+    v += "  assign valid_o = |cnt_q;\n";
     v += "  always @(posedge clk_i or negedge rst_ni) begin\n";
     v += "    if (!rst_ni) begin\n";
     let _ = writeln!(v, "      valid_q <= {l}'b0;");
     let _ = writeln!(
         v,
-        "      wr_q <= {}'d0;\n      rd_q <= {}'d0;\n      ready_q <= 1'b1;",
-        aw + 1,
-        aw + 1
+        "      wr_q <= {w}'d0;\n      rd_q <= {w}'d0;\n      cnt_q <= {w}'d0;\n      ready_q <= 1'b1;"
     );
     v += "    end else begin\n";
     if l == 1 {
@@ -1456,12 +1454,17 @@ fn fifo_handshake(l: u32, depth: u32) -> String {
     } else {
         let _ = writeln!(v, "      valid_q <= {{valid_q[{}:0], in_xfer}};", l - 2);
     }
-    v += "      wr_q <= wr_d;\n      rd_q <= rd_d;\n";
+    let _ = writeln!(v, "      wr_q <= wr_q + {{{aw}'d0, f_wr}};");
+    let _ = writeln!(v, "      rd_q <= rd_q + {{{aw}'d0, out_xfer}};");
     let _ = writeln!(
         v,
-        "      ready_q <= (wr_d - rd_d) <= {}'d{};",
-        aw + 1,
-        depth - l - 1
+        "      cnt_q <= cnt_q + {{{aw}'d0, f_wr}} - {{{aw}'d0, out_xfer}};"
+    );
+    let _ = writeln!(
+        v,
+        "      ready_q <= (f_wr & ~out_xfer) ? (cnt_q <= {w}'d{}) :\n                 (~f_wr & out_xfer) ? (cnt_q <= {w}'d{}) : (cnt_q <= {w}'d{k});",
+        k - 1,
+        k + 1
     );
     v += "    end\n  end\n\n";
     v
@@ -1546,7 +1549,8 @@ fn formal_block_fifo(
     let _ = writeln!(v, "  wire [{aw}:0] f_count = wr_q - rd_q;");
     v += "  always @(*) begin\n";
     let _ = writeln!(v, "    assert (f_count <= {}'d{depth});", aw + 1);
-    // The registered admission test is the test on the pointers.
+    // The count and the registered admission test follow the pointers.
+    v += "    assert (cnt_q == f_count);\n";
     let _ = writeln!(
         v,
         "    assert (ready_q == (f_count <= {}'d{}));",
@@ -1750,12 +1754,12 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
     let aw = depth.trailing_zeros();
     let out_w: u32 = outs.iter().map(|p| p.format.width()).sum::<u32>() + nf as u32;
     if fifo {
-        // Pointers, the registered admission bit and the FIFO's entries;
-        // the pointers' two incrementers, the difference of their next
-        // values and its compare with the admission bound.
-        e.hw.flops += 2 * (aw as u64 + 1) + 1 + depth as u64 * out_w as u64;
-        e.hw.adders.extend([aw + 1; 3]);
-        e.hw.compares += 1;
+        // Pointers, the count, the registered admission bit and the FIFO's
+        // entries; the pointers' two incrementers, the count's add and
+        // subtract, and its three compares with the admission bounds.
+        e.hw.flops += 3 * (aw as u64 + 1) + 1 + depth as u64 * out_w as u64;
+        e.hw.adders.extend([aw + 1; 4]);
+        e.hw.compares += 3;
     }
     let pipe_latency = latency;
     let latency = latency + fifo as u32;
@@ -1871,8 +1875,8 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
         let _ = writeln!(
             v,
             "// both sides; the pipeline never stalls and ends in an output FIFO of\n\
-             // {depth} entries; ready_o is a register (the FIFO's room, computed from\n\
-             // its pointers' next values): no path from ready_i or valid_i."
+             // {depth} entries; ready_o is a register (the FIFO's room on its next\n\
+             // count): no path from ready_i or valid_i."
         );
     } else {
         let _ = writeln!(
