@@ -26,7 +26,8 @@
 //! that is always on ties its pin to 1); `RST0` is tied to 0. The function
 //! is unchanged cycle for cycle from the first load of every register on:
 //! only power-up contents may differ, which the pipeline's valid bits
-//! ignore (tests/synth.rs simulates a packed netlist against the vectors).
+//! ignore. Checked by the unit tests below on small netlists; no gate-level
+//! simulation of a packed design exists yet.
 
 use anyhow::{bail, Context, Result};
 use serde_json::{json, Map, Value};
