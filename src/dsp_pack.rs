@@ -26,8 +26,9 @@
 //! that is always on ties its pin to 1); `RST0` is tied to 0. The function
 //! is unchanged cycle for cycle from the first load of every register on:
 //! only power-up contents may differ, which the pipeline's valid bits
-//! ignore. Checked by the unit tests below on small netlists; no gate-level
-//! simulation of a packed design exists yet.
+//! ignore. Checked by the unit tests below on small netlists, and by
+//! gate-level co-simulation of packed units against the model
+//! (`fxshade synth --netlist`, [`crate::netlist`]; `tests/synth.rs`).
 
 use anyhow::{bail, Context, Result};
 use serde_json::{json, Map, Value};

@@ -3,6 +3,7 @@
 mod cmd;
 mod dsp_pack;
 mod explore;
+mod netlist;
 mod output;
 mod picture;
 mod plot;

@@ -176,3 +176,137 @@ fn the_polar_tables_go_to_block_ram() {
         assert_eq!(r["bram"].as_u64(), Some(n), "{target}");
     }
 }
+
+/// Write the ECP5 gate-level netlist of `unit` into a new directory.
+fn ecp5_netlist(unit: &str, clock_ns: &str, extra: &[&str]) -> (tempfile::TempDir, Value) {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("gl");
+    let mut args = vec![
+        "synth",
+        unit,
+        "--target",
+        "ecp5",
+        "--clock-ns",
+        clock_ns,
+        "--no-pnr",
+        "--json",
+        "--netlist",
+        out.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    let r = json(&fxshade(&args));
+    (dir, r)
+}
+
+/// `rtl-check` of the netlist in `dir/gl` on Icarus: (passed, failed).
+fn gate_level_check(unit: &str, clock_ns: &str, dir: &std::path::Path, n: usize) -> (u64, u64) {
+    let o = fxshade(&[
+        "rtl-check",
+        unit,
+        "--target",
+        "ecp5",
+        "--clock-ns",
+        clock_ns,
+        "--sim",
+        "icarus",
+        "--count",
+        &n.to_string(),
+        "--rtl-dir",
+        dir.join("gl").to_str().unwrap(),
+        "--json",
+    ]);
+    let r: Value =
+        serde_json::from_slice(&o.stdout).unwrap_or_else(|e| panic!("{e}: {}", text(&o)));
+    (
+        r["passed"].as_u64().expect("passed"),
+        r["failed"].as_u64().expect("failed"),
+    )
+}
+
+/// Replace the first occurrence of `from` in `dir/gl/file`.
+fn sabotage(dir: &std::path::Path, file: &str, from: &str, to: &str) {
+    let p = dir.join("gl").join(file);
+    let t = std::fs::read_to_string(&p).unwrap();
+    assert!(t.contains(from), "{file} holds no {from}");
+    std::fs::write(&p, t.replacen(from, to, 1)).unwrap();
+}
+
+#[test]
+fn ecp5_gate_level_netlists_compute_what_the_model_computes() {
+    // normalize at 8 ns: products with packed operand and output registers.
+    let n = 1500;
+    let (d, r) = ecp5_netlist("normalize", "8", &[]);
+    let p = &r["netlist"]["packed"];
+    assert!(
+        p["inputs"].as_u64().unwrap() > 0 && p["outputs"].as_u64().unwrap() > 0,
+        "something to check: {r}"
+    );
+    assert_eq!(
+        gate_level_check("normalize", "8", d.path(), n),
+        (n as u64, 0)
+    );
+    // The same unit as Yosys maps it, every product register in the fabric:
+    // the multiplier model's arithmetic alone.
+    let (u, r) = ecp5_netlist("normalize", "8", &["--no-dsp-pack"]);
+    assert!(r["netlist"]["packed"].is_null(), "{r}");
+    assert_eq!(
+        gate_level_check("normalize", "8", u.path(), n),
+        (n as u64, 0)
+    );
+    // A block whose output register is dropped again (as if the packer had
+    // moved a register without making the block's) is caught.
+    sabotage(d.path(), "normalize.v", ".REG_OUTPUT_CLK(\"CLK0\"),", "");
+    let (_, failed) = gate_level_check("normalize", "8", d.path(), n);
+    assert!(failed > 0, "an unregistered product passed");
+
+    // polar at 8 ns: sin/cos tables in DP16KD block RAM, registered reads.
+    let (d, r) = ecp5_netlist("polar", "8", &[]);
+    assert!(r["bram"].as_u64().unwrap() > 0, "{r}");
+    assert!(d.path().join("gl").join("DP16KD.v").is_file());
+    assert_eq!(gate_level_check("polar", "8", d.path(), n), (n as u64, 0));
+    // One row of a table's contents cleared: the model reads INITVAL as
+    // the netlist lays it out.
+    let t = std::fs::read_to_string(d.path().join("gl").join("polar.v")).unwrap();
+    let row = t
+        .lines()
+        .find(|l| l.contains(".INITVAL_01(320'h") && !l.contains("320'h0000000000"))
+        .expect("a filled table row")
+        .trim()
+        .to_string();
+    sabotage(
+        d.path(),
+        "polar.v",
+        &row,
+        &format!(".INITVAL_01(320'h{}),", "0".repeat(80)),
+    );
+    let (_, failed) = gate_level_check("polar", "8", d.path(), n);
+    assert!(failed > 0, "a cleared table row passed");
+}
+
+#[test]
+fn netlist_flags_are_refused_off_ecp5_and_into_a_used_directory() {
+    let o = fxshade(&["synth", "angle_interp", "--target", "xc7", "--netlist", "x"]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(
+        text(&o).contains("--netlist") && text(&o).contains("ecp5"),
+        "{}",
+        text(&o)
+    );
+    let d = tempfile::tempdir().unwrap();
+    std::fs::write(d.path().join("mine.v"), "keep me").unwrap();
+    let o = fxshade(&[
+        "synth",
+        "angle_interp",
+        "--target",
+        "ecp5",
+        "--no-pnr",
+        "--netlist",
+        d.path().to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("not empty"), "{}", text(&o));
+    assert_eq!(
+        std::fs::read_to_string(d.path().join("mine.v")).unwrap(),
+        "keep me"
+    );
+}

@@ -138,6 +138,18 @@ pub struct SynthArgs {
     /// Keep the harness, scripts and logs in this directory (new or empty).
     #[arg(long, value_name = "DIR")]
     keep: Option<PathBuf>,
+    /// ECP5: leave every product register in the fabric, as Yosys maps
+    /// it (by default they move into the MULT18X18D blocks; see
+    /// `dsp_packed` in the JSON).
+    #[arg(long)]
+    no_dsp_pack: bool,
+    /// ECP5: also write the unit's gate-level netlist (after the register
+    /// packing, unless --no-dsp-pack) into this directory (new or empty),
+    /// with the simulation models of its cells, for a gate-level
+    /// co-simulation: `fxshade rtl-check <unit> --sim icarus --rtl-dir
+    /// DIR` with the same configuration and pipelining.
+    #[arg(long, value_name = "DIR")]
+    netlist: Option<PathBuf>,
     /// Measure again even when a cached result exists (the new result
     /// replaces it).
     #[arg(long)]
@@ -346,18 +358,46 @@ fn run_logged(cmd: &mut Command, log: &Path, what: &str) -> anyhow::Result<Strin
     Ok(text)
 }
 
+/// How a unit is synthesized, placed and routed (part of the cache key).
+#[derive(Clone, Copy, Debug)]
+pub struct Flow {
+    /// Place-and-route seeds (the median Fmax is reported).
+    pub seeds: u32,
+    /// The clock the placer aims for, MHz.
+    pub freq: f64,
+    /// Place and route (false: synthesis only).
+    pub pnr: bool,
+    /// ECP5: move product registers into the MULT18X18D blocks
+    /// ([`crate::dsp_pack`]).
+    pub dsp_pack: bool,
+}
+
+impl Flow {
+    /// One seed at 100 MHz, placed and routed, packed: what the report and
+    /// `explore` look up.
+    pub const DEFAULT: Flow = Flow {
+        seeds: 1,
+        freq: 100.0,
+        pnr: true,
+        dsp_pack: true,
+    };
+}
+
 /// Synthesize (and place and route) `e` for `target` in `dir`.
-#[allow(clippy::too_many_arguments)]
 pub fn synthesize(
     unit: &str,
     e: &Emitted,
     target: Target,
-    seeds: u32,
-    freq: f64,
-    pnr: bool,
+    flow: Flow,
     dir: &Path,
     progress: &dyn Fn(&str),
 ) -> anyhow::Result<SynthResult> {
+    let Flow {
+        seeds,
+        freq,
+        pnr,
+        dsp_pack,
+    } = flow;
     crate::rtl_flow::require_tool("yosys", "yosys")?;
     let pnr_tool = match target {
         Target::Ice40Hx8k | Target::Ice40Up5k if pnr => Some("nextpnr-ice40"),
@@ -408,7 +448,7 @@ pub fn synthesize(
         std::fs::read_to_string(dir.join("stat.txt")).context("yosys wrote no statistics")?;
     let mut cells = parse_stat(&stat);
     let mut dsp_packed = None;
-    if target == Target::Ecp5 {
+    if target == Target::Ecp5 && dsp_pack {
         // Yosys leaves a product's registers in the fabric on ECP5: move
         // them into the MULT18X18D blocks (crate::dsp_pack). The netlist
         // Yosys wrote stays beside it as harness_yosys.json.
@@ -552,7 +592,13 @@ pub fn synthesize(
 /// again.
 const FLOW: &str = "ecp5-mult18-pack-1";
 
-fn cache_entry(e: &Emitted, target: Target, seeds: u32, freq: f64, pnr: bool) -> PathBuf {
+fn cache_entry(e: &Emitted, target: Target, flow: Flow) -> PathBuf {
+    let Flow {
+        seeds,
+        freq,
+        pnr,
+        dsp_pack,
+    } = flow;
     static VERSIONS: std::sync::OnceLock<String> = std::sync::OnceLock::new();
     let versions = VERSIONS.get_or_init(|| {
         format!(
@@ -565,7 +611,7 @@ fn cache_entry(e: &Emitted, target: Target, seeds: u32, freq: f64, pnr: bool) ->
         e.verilog.as_bytes(),
         harness(e).as_bytes(),
         target.name().as_bytes(),
-        format!("{seeds} {freq} {pnr} {versions} {FLOW}").as_bytes(),
+        format!("{seeds} {freq} {pnr} {dsp_pack} {versions} {FLOW}").as_bytes(),
     ]);
     crate::rtl_flow::cache_root()
         .join("synth")
@@ -578,46 +624,38 @@ fn cache_entry(e: &Emitted, target: Target, seeds: u32, freq: f64, pnr: bool) ->
 pub fn lookup(unit: &str, cfg: &fxshade_model::Config, target: Target) -> Option<SynthResult> {
     let u = crate::rtl_flow::unit(unit).ok()?;
     let (_, e) = fxshade_model::rtl::units::emit_unit(u, cfg).ok()?;
-    let entry = cache_entry(&e, target, 1, 100.0, true);
+    let entry = cache_entry(&e, target, Flow::DEFAULT);
     serde_json::from_slice(&std::fs::read(entry).ok()?).ok()
 }
 
 /// Synthesize a unit of a configuration, from the cache when it can: the
 /// key holds the emitted Verilog, the target, the seeds, the clock asked
 /// for and the tool versions.
-#[allow(clippy::too_many_arguments)]
 pub fn cached(
     unit: &str,
     cfg: &fxshade_model::Config,
     target: Target,
-    seeds: u32,
-    freq: f64,
-    pnr: bool,
+    flow: Flow,
     keep: Option<&Path>,
     use_cache: bool,
     progress: &dyn Fn(&str),
 ) -> anyhow::Result<(SynthResult, bool)> {
     let u = crate::rtl_flow::unit(unit)?;
     let (_, e) = fxshade_model::rtl::units::emit_unit(u, cfg)?;
-    cached_emitted(
-        unit, &e, target, seeds, freq, pnr, keep, use_cache, progress,
-    )
+    cached_emitted(unit, &e, target, flow, keep, use_cache, progress)
 }
 
 /// [`cached`] for an emitted module.
-#[allow(clippy::too_many_arguments)]
 fn cached_emitted(
     unit: &str,
     e: &Emitted,
     target: Target,
-    seeds: u32,
-    freq: f64,
-    pnr: bool,
+    flow: Flow,
     keep: Option<&Path>,
     use_cache: bool,
     progress: &dyn Fn(&str),
 ) -> anyhow::Result<(SynthResult, bool)> {
-    let entry = cache_entry(e, target, seeds, freq, pnr);
+    let entry = cache_entry(e, target, flow);
     if use_cache && keep.is_none() {
         if let Some(r) = std::fs::read(&entry)
             .ok()
@@ -639,7 +677,7 @@ fn cached_emitted(
             p
         }
     };
-    let r = match synthesize(unit, e, target, seeds, freq, pnr, &dir, progress) {
+    let r = match synthesize(unit, e, target, flow, &dir, progress) {
         Ok(r) => r,
         Err(err) => {
             // Keep the logs the error names.
@@ -708,6 +746,29 @@ pub fn run(a: &SynthArgs) -> anyhow::Result<()> {
         a.clock_ns,
     );
     let cfg = a.cfg.resolve_with(&extra)?;
+    if a.netlist.is_some() && a.target != Target::Ecp5 {
+        return Err(UsageError(format!(
+            "--netlist: gate-level netlists are written for --target ecp5 only (not {})",
+            a.target.name()
+        ))
+        .into());
+    }
+    if a.no_dsp_pack && a.target != Target::Ecp5 {
+        return Err(UsageError(format!(
+            "--no-dsp-pack: register packing is done for --target ecp5 only (not {})",
+            a.target.name()
+        ))
+        .into());
+    }
+    if let Some(k) = &a.netlist {
+        if std::fs::read_dir(k).is_ok_and(|mut d| d.next().is_some()) {
+            return Err(UsageError(format!(
+                "--netlist {}: the directory is not empty; give a new or empty one (synth writes the netlist and its cell models there)",
+                k.display()
+            ))
+            .into());
+        }
+    }
     let bar = crate::progress::spinner("synth");
     if let Some(k) = &a.keep {
         if std::fs::read_dir(k).is_ok_and(|mut d| d.next().is_some()) {
@@ -722,15 +783,38 @@ pub fn run(a: &SynthArgs) -> anyhow::Result<()> {
         &a.unit,
         &cfg,
         a.target,
-        a.seeds,
-        freq,
-        !a.no_pnr,
+        Flow {
+            seeds: a.seeds,
+            freq,
+            pnr: !a.no_pnr,
+            dsp_pack: !a.no_dsp_pack,
+        },
         a.keep.as_deref(),
         !a.no_cache,
         &|m| bar.set_message(m.to_string()),
     );
-    bar.finish_and_clear();
     let (r, was_cached) = r?;
+    let written = match &a.netlist {
+        Some(dir) => {
+            bar.set_message("gate-level netlist (Yosys)");
+            let u = crate::rtl_flow::unit(&a.unit)?;
+            let (_, e) = fxshade_model::rtl::units::emit_unit(u, &cfg)?;
+            std::fs::create_dir_all(dir)
+                .with_context(|| format!("--netlist: cannot create {}", dir.display()))?;
+            let work = tempfile::Builder::new()
+                .prefix("fxshade-netlist-")
+                .tempdir()
+                .context("cannot create a temporary directory")?;
+            let w = crate::netlist::write(&e, !a.no_dsp_pack, work.path(), dir);
+            if w.is_err() {
+                // Keep the logs the error names.
+                let _ = work.keep();
+            }
+            Some(w?)
+        }
+        None => None,
+    };
+    bar.finish_and_clear();
     let mut t = Table::new([
         "unit",
         "device",
@@ -769,7 +853,31 @@ pub fn run(a: &SynthArgs) -> anyhow::Result<()> {
     ]);
     let mut json = serde_json::to_value(&r)?;
     json["cached"] = serde_json::json!(was_cached);
-    emit(a.out, &[t], &json)
+    let mut tables = vec![t];
+    if let Some(w) = &written {
+        json["netlist"] = serde_json::to_value(w)?;
+        let mut n = Table::new(["file", "what"]).titled(format!(
+            "Gate-level netlist of {} (check it: fxshade rtl-check {} --sim icarus --rtl-dir {} with the same configuration)",
+            r.module,
+            a.unit,
+            a.netlist.as_ref().expect("written").display()
+        ));
+        n.row([
+            w.netlist.display().to_string(),
+            match w.packed {
+                Some(p) => format!(
+                    "netlist, {} blocks with operand registers and {} with output registers packed",
+                    p.inputs, p.outputs
+                ),
+                None => "netlist, no register packing".into(),
+            },
+        ]);
+        for m in &w.models {
+            n.row([m.display().to_string(), "cell models".into()]);
+        }
+        tables.push(n);
+    }
+    emit(a.out, &tables, &json)
 }
 
 /// `fxshade synth calibrate`: every probe of the delay model placed and
@@ -806,9 +914,12 @@ fn calibrate(
             "probe",
             &e,
             a.target,
-            a.seeds,
-            freq,
-            true,
+            Flow {
+                seeds: a.seeds,
+                freq,
+                pnr: true,
+                dsp_pack: !a.no_dsp_pack,
+            },
             None,
             !a.no_cache,
             &|_| {},

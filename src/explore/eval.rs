@@ -334,8 +334,16 @@ pub fn evaluate(
     if let Some((target, unit)) = &o.synth {
         let t = <crate::cmd::synth::Target as clap::ValueEnum>::from_str(target, false)
             .map_err(|e| anyhow::anyhow!("--synth {target}: {e}"))?;
-        let (r, _) = crate::cmd::synth::cached(unit, cfg, t, 1, 100.0, true, None, true, &|_| {})
-            .with_context(|| format!("synthesizing {unit} for {target}"))?;
+        let (r, _) = crate::cmd::synth::cached(
+            unit,
+            cfg,
+            t,
+            crate::cmd::synth::Flow::DEFAULT,
+            None,
+            true,
+            &|_| {},
+        )
+        .with_context(|| format!("synthesizing {unit} for {target}"))?;
         put(&mut m, "lut", r.lut as f64);
         put(&mut m, "synth_ff", (r.ff - r.harness_ff.min(r.ff)) as f64);
         put(&mut m, "dsp", r.dsp as f64);
