@@ -1471,8 +1471,20 @@ fn fifo_handshake(l: u32, depth: u32) -> String {
 }
 
 /// The FIFO handshake's output FIFO: written from the last stage's
-/// registers; the output ports are its head.
-fn fifo_outputs(l: u32, depth: u32, outs: &[Port], vals: &[String], flags: &[String]) -> String {
+/// registers; the output ports are its head, read asynchronously. With
+/// `distributed` (a target with LUT RAM: ECP5, xc7) the memory carries
+/// `ram_style = "distributed"`: otherwise Yosys folds the register that
+/// takes the outputs into the read port and maps the FIFO to block RAM,
+/// whose unregistered read (5.6 ns clock to output on ECP5) then starts
+/// every path out of the unit.
+fn fifo_outputs(
+    l: u32,
+    depth: u32,
+    outs: &[Port],
+    vals: &[String],
+    flags: &[String],
+    distributed: bool,
+) -> String {
     let aw = depth.trailing_zeros();
     let mut parts: Vec<String> = vals.to_vec();
     parts.extend(flags.iter().map(|f| format!("({f})")));
@@ -1486,6 +1498,9 @@ fn fifo_outputs(l: u32, depth: u32, outs: &[Port], vals: &[String], flags: &[Str
     let w: u32 = widths.iter().map(|x| x.1).sum();
     let mut v = String::new();
     v += "  // Output FIFO: written by the last stage, read by ready_i.\n";
+    if distributed {
+        v += "  (* ram_style = \"distributed\" *)\n";
+    }
     let _ = writeln!(v, "  reg  [{}:0] fifo_q [0:{}];", w - 1, depth - 1);
     let _ = writeln!(
         v,
@@ -2050,7 +2065,21 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
     }
     v += "  end\n\n";
     if fifo {
-        v += &fifo_outputs(pipe_latency, depth, &outs, &out_vals, &flag_bits);
+        let distributed = matches!(
+            d.pipelining,
+            timing::Pipelining::Target {
+                target: timing::Target::Ecp5 | timing::Target::Xc7,
+                ..
+            }
+        );
+        v += &fifo_outputs(
+            pipe_latency,
+            depth,
+            &outs,
+            &out_vals,
+            &flag_bits,
+            distributed,
+        );
     } else {
         for (p, val) in outs.iter().zip(&out_vals) {
             let _ = writeln!(v, "  assign {}_o = {val};", p.name);
