@@ -1418,7 +1418,10 @@ fn formal_clocked(
 /// are registers; `ready_o` admits an item only while the FIFO holds at
 /// most `depth − l − 1`, so it has room for the item when it arrives `l`
 /// cycles later whatever else arrives meanwhile. A count `cnt_q` (=
-/// `wr_q − rd_q`) gives `valid_o = |cnt_q`; `ready_o` is a register
+/// `wr_q − rd_q`); `valid_o` is a register (`out_valid_q`) loaded with
+/// `next count ≠ 0`, which is `f_wr | (cnt_q ≥ 2) | (valid_o & ~ready_i)`,
+/// so no reduction of the count lies between `ready_i` and the pointers;
+/// `ready_o` is a register
 /// (`ready_q`) loaded with the room test on the next count, picked from
 /// tests of the current count against `K − 1`, `K + 1` and `K` by whether
 /// an item enters the FIFO and whether one leaves, so it equals the test
@@ -1432,21 +1435,22 @@ fn fifo_handshake(l: u32, depth: u32) -> String {
     v += "  // its item is valid) and ends in an output FIFO; ready_o admits an item\n";
     v += "  // while the FIFO has room for it and for every item ahead of it. ready_o\n";
     v += "  // is a register: the room test on the next count, chosen from three tests\n";
-    v += "  // of the current count by what enters and leaves this cycle.\n";
+    v += "  // of the current count by what enters and leaves this cycle. valid_o is a\n";
+    v += "  // register too: the next count is not zero.\n";
     let _ = writeln!(v, "  reg  [{}:0] valid_q;", l - 1);
     let _ = writeln!(v, "  reg  [{aw}:0] wr_q, rd_q, cnt_q;");
-    v += "  reg  ready_q;\n";
+    v += "  reg  ready_q, out_valid_q;\n";
     let _ = writeln!(v, "  wire f_wr = valid_q[{}];", l - 1);
     v += "  wire in_xfer = valid_i & ready_o;\n";
     v += "  wire out_xfer = valid_o & ready_i;\n";
     v += "  assign ready_o = ready_q;\n";
-    v += "  assign valid_o = |cnt_q;\n";
+    v += "  assign valid_o = out_valid_q;\n";
     v += "  always @(posedge clk_i or negedge rst_ni) begin\n";
     v += "    if (!rst_ni) begin\n";
     let _ = writeln!(v, "      valid_q <= {l}'b0;");
     let _ = writeln!(
         v,
-        "      wr_q <= {w}'d0;\n      rd_q <= {w}'d0;\n      cnt_q <= {w}'d0;\n      ready_q <= 1'b1;"
+        "      wr_q <= {w}'d0;\n      rd_q <= {w}'d0;\n      cnt_q <= {w}'d0;\n      ready_q <= 1'b1;\n      out_valid_q <= 1'b0;"
     );
     v += "    end else begin\n";
     if l == 1 {
@@ -1465,6 +1469,10 @@ fn fifo_handshake(l: u32, depth: u32) -> String {
         "      ready_q <= (f_wr & ~out_xfer) ? (cnt_q <= {w}'d{}) :\n                 (~f_wr & out_xfer) ? (cnt_q <= {w}'d{}) : (cnt_q <= {w}'d{k});",
         k - 1,
         k + 1
+    );
+    let _ = writeln!(
+        v,
+        "      out_valid_q <= f_wr | (cnt_q >= {w}'d2) | (out_valid_q & ~ready_i);"
     );
     v += "    end\n  end\n\n";
     v
@@ -1566,6 +1574,7 @@ fn formal_block_fifo(
     let _ = writeln!(v, "    assert (f_count <= {}'d{depth});", aw + 1);
     // The count and the registered admission test follow the pointers.
     v += "    assert (cnt_q == f_count);\n";
+    v += "    assert (out_valid_q == (f_count != 0));\n";
     let _ = writeln!(
         v,
         "    assert (ready_q == (f_count <= {}'d{}));",
@@ -1769,12 +1778,13 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
     let aw = depth.trailing_zeros();
     let out_w: u32 = outs.iter().map(|p| p.format.width()).sum::<u32>() + nf as u32;
     if fifo {
-        // Pointers, the count, the registered admission bit and the FIFO's
-        // entries; the pointers' two incrementers, the count's add and
-        // subtract, and its three compares with the admission bounds.
-        e.hw.flops += 3 * (aw as u64 + 1) + 1 + depth as u64 * out_w as u64;
+        // Pointers, the count, the registered admission and output-valid
+        // bits and the FIFO's entries; the pointers' two incrementers, the
+        // count's add and subtract, its three compares with the admission
+        // bounds and the one with 2 for valid_o.
+        e.hw.flops += 3 * (aw as u64 + 1) + 2 + depth as u64 * out_w as u64;
         e.hw.adders.extend([aw + 1; 4]);
-        e.hw.compares += 3;
+        e.hw.compares += 4;
     }
     let pipe_latency = latency;
     let latency = latency + fifo as u32;
