@@ -112,22 +112,8 @@ fn words(text: &str) -> impl Iterator<Item = &str> {
 }
 
 fn run(cmd: &mut Command, dir: &Path, what: &str) -> anyhow::Result<()> {
-    let o = cmd
-        .current_dir(dir)
-        .output()
-        .with_context(|| format!("cannot run {what}"))?;
-    let text = String::from_utf8_lossy(&o.stdout).to_string() + &String::from_utf8_lossy(&o.stderr);
     let log = dir.join(format!("{what}.log"));
-    std::fs::write(&log, &text).with_context(|| format!("cannot write {}", log.display()))?;
-    if !o.status.success() {
-        let tail: Vec<&str> = text.lines().rev().take(15).collect();
-        bail!(
-            "{what} failed (log: {}):\n{}",
-            log.display(),
-            tail.into_iter().rev().collect::<Vec<_>>().join("\n")
-        );
-    }
-    Ok(())
+    crate::cmd::synth::run_logged(cmd.current_dir(dir), &log, what).map(|_| ())
 }
 
 /// Synthesize `e` alone for ECP5, pack it (when `pack`), and write the

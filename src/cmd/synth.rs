@@ -343,7 +343,9 @@ pub fn parse_fmax(log: &str) -> Option<f64> {
         .next_back()
 }
 
-fn run_logged(cmd: &mut Command, log: &Path, what: &str) -> anyhow::Result<String> {
+/// Run `cmd`, write its output to `log`, and fail with the output's last
+/// lines when it fails.
+pub fn run_logged(cmd: &mut Command, log: &Path, what: &str) -> anyhow::Result<String> {
     let o = cmd.output().with_context(|| format!("cannot run {what}"))?;
     let text = String::from_utf8_lossy(&o.stdout).to_string() + &String::from_utf8_lossy(&o.stderr);
     std::fs::write(log, &text).with_context(|| format!("cannot write {}", log.display()))?;
@@ -746,39 +748,45 @@ pub fn run(a: &SynthArgs) -> anyhow::Result<()> {
         a.clock_ns,
     );
     let cfg = a.cfg.resolve_with(&extra)?;
-    if a.netlist.is_some() && a.target != Target::Ecp5 {
-        return Err(UsageError(format!(
-            "--netlist: gate-level netlists are written for --target ecp5 only (not {})",
-            a.target.name()
-        ))
-        .into());
-    }
-    if a.no_dsp_pack && a.target != Target::Ecp5 {
-        return Err(UsageError(format!(
-            "--no-dsp-pack: register packing is done for --target ecp5 only (not {})",
-            a.target.name()
-        ))
-        .into());
-    }
-    if let Some(k) = &a.netlist {
-        if std::fs::read_dir(k).is_ok_and(|mut d| d.next().is_some()) {
+    for (flag, given, what) in [
+        (
+            "--netlist",
+            a.netlist.is_some(),
+            "gate-level netlists are written",
+        ),
+        ("--no-dsp-pack", a.no_dsp_pack, "register packing is done"),
+    ] {
+        if given && a.target != Target::Ecp5 {
             return Err(UsageError(format!(
-                "--netlist {}: the directory is not empty; give a new or empty one (synth writes the netlist and its cell models there)",
-                k.display()
+                "{flag}: {what} for --target ecp5 only (not {})",
+                a.target.name()
             ))
             .into());
+        }
+    }
+    for (flag, dir, what) in [
+        (
+            "--netlist",
+            &a.netlist,
+            "synth writes the netlist and its cell models there",
+        ),
+        (
+            "--keep",
+            &a.keep,
+            "synth writes its harness, scripts and logs there",
+        ),
+    ] {
+        if let Some(k) = dir {
+            if std::fs::read_dir(k).is_ok_and(|mut d| d.next().is_some()) {
+                return Err(UsageError(format!(
+                    "{flag} {}: the directory is not empty; give a new or empty one ({what})",
+                    k.display()
+                ))
+                .into());
+            }
         }
     }
     let bar = crate::progress::spinner("synth");
-    if let Some(k) = &a.keep {
-        if std::fs::read_dir(k).is_ok_and(|mut d| d.next().is_some()) {
-            return Err(UsageError(format!(
-                "--keep {}: the directory is not empty; give a new or empty one (synth writes its harness, scripts and logs there)",
-                k.display()
-            ))
-            .into());
-        }
-    }
     let r = cached(
         &a.unit,
         &cfg,
