@@ -68,6 +68,7 @@ fn dsp_targets_map_every_multiplier_to_a_dsp_block() {
             "--json",
         ]));
         assert_eq!(r["dsp"].as_u64(), Some(n), "{target}: {r}");
+        assert!(r["predicted_mhz"].is_null(), "compact: no prediction: {r}");
         assert!(
             r["fmax_mhz"].is_null() && r["fmax_note"].is_string(),
             "{target}: {r}"
@@ -236,6 +237,30 @@ fn ecp5_gate_level_netlists_compute_what_the_model_computes() {
     // normalize at 8 ns: products with packed operand and output registers.
     let n = 1500;
     let (d, r) = ecp5_netlist("normalize", "8", &[]);
+    // The delay model's prediction is the one the emitted RTL's header
+    // states.
+    let rtl = tempfile::tempdir().unwrap();
+    let o = fxshade(&[
+        "rtl",
+        "normalize",
+        "--target",
+        "ecp5",
+        "--clock-ns",
+        "8",
+        "--out",
+        rtl.path().to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let v = std::fs::read_to_string(rtl.path().join("normalize.v")).unwrap();
+    let stated = v
+        .split("ns predicted (")
+        .nth(1)
+        .and_then(|t| t.split(" MHz").next())
+        .expect("a predicted Fmax in the header");
+    let predicted = r["predicted_mhz"]
+        .as_f64()
+        .expect("a prediction at --clock-ns");
+    assert_eq!(format!("{predicted:.1}"), stated, "{r}");
     let p = &r["netlist"]["packed"];
     assert!(
         p["inputs"].as_u64().unwrap() > 0 && p["outputs"].as_u64().unwrap() > 0,

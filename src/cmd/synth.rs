@@ -186,6 +186,11 @@ pub struct SynthResult {
     pub cells: Vec<(String, u64)>,
     /// Median Fmax over the seeds, MHz (None: no place and route).
     pub fmax_mhz: Option<f64>,
+    /// Target pipelining: the Fmax the delay model predicts (its slowest
+    /// stage, register overhead included), MHz, to set beside `fmax_mhz`;
+    /// None for the compact pipeline.
+    #[serde(default)]
+    pub predicted_mhz: Option<f64>,
     /// Fmax per seed.
     pub fmax_seeds: Vec<f64>,
     /// Why there is no Fmax, when there is none.
@@ -491,6 +496,7 @@ pub fn synthesize(
         carry,
         cells,
         fmax_mhz: None,
+        predicted_mhz: e.predicted_ns.map(|t| 1000.0 / t),
         fmax_seeds: Vec::new(),
         fmax_note: None,
         latency: e.latency,
@@ -659,10 +665,12 @@ fn cached_emitted(
 ) -> anyhow::Result<(SynthResult, bool)> {
     let entry = cache_entry(e, target, flow);
     if use_cache && keep.is_none() {
-        if let Some(r) = std::fs::read(&entry)
+        if let Some(mut r) = std::fs::read(&entry)
             .ok()
             .and_then(|b| serde_json::from_slice::<SynthResult>(&b).ok())
         {
+            // Entries cached before the prediction was recorded lack it.
+            r.predicted_mhz = e.predicted_ns.map(|t| 1000.0 / t);
             return Ok((r, true));
         }
     }
@@ -832,6 +840,7 @@ pub fn run(a: &SynthArgs) -> anyhow::Result<()> {
         "BRAM",
         "carry",
         "Fmax (MHz)",
+        "predicted (MHz)",
         "latency",
         "Mvectors/s",
     ])
@@ -856,6 +865,8 @@ pub fn run(a: &SynthArgs) -> anyhow::Result<()> {
             || format!("- ({})", r.fmax_note.clone().unwrap_or_default()),
             |f| format!("{f:.1}"),
         ),
+        r.predicted_mhz
+            .map_or("- (compact)".into(), |f| format!("{f:.1}")),
         r.latency.to_string(),
         r.throughput_mps.map_or("-".into(), |f| format!("{f:.1}")),
     ]);
