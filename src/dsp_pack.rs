@@ -23,7 +23,11 @@
 //!   removed; the block drives their `Q` nets.
 //!
 //! Each distinct enable takes one of the block's `CE0`–`CE3` (an enable
-//! that is always on ties its pin to 1); `RST0` is tied to 0. The function
+//! that is always on ties its pin to 1), the output register's `CE0`:
+//! nextpnr writes `REG_INPUTA_CE`, `REG_INPUTB_CE` and `REG_PIPELINE_CE`
+//! into the bitstream but no `REG_OUTPUT_CE`, so the block's output
+//! register runs on its default enable, `CE0`, whatever the netlist says
+//! (and fxshade's simulation model refuses any other). `RST0` is tied to 0. The function
 //! is unchanged cycle for cycle from the first load of every register on:
 //! only power-up contents may differ, which the pipeline's valid bits
 //! ignore. Checked by the unit tests below on small netlists, and by
@@ -274,6 +278,10 @@ pub fn pack_mult18(netlist: &mut Value, top: &str) -> Result<PackStats> {
             });
             format!("CE{k}")
         };
+        // The output register's enable first, so it is CE0: nextpnr writes
+        // no REG_OUTPUT_CE into the bitstream, so the block uses its
+        // default, CE0, whatever the netlist says.
+        let out_pin = outputs_ok.then(|| ce_pin(out_en.as_ref().expect("an output register")));
         let mut params: BTreeMap<String, String> = BTreeMap::new();
         let mut rewire: Vec<(String, Bit)> = Vec::new();
         if inputs_ok {
@@ -294,8 +302,7 @@ pub fn pack_mult18(netlist: &mut Value, top: &str) -> Result<PackStats> {
             st.inputs += 1;
         }
         let mut dead_outs = Vec::new();
-        if outputs_ok {
-            let pin = ce_pin(out_en.as_ref().expect("an output register"));
+        if let Some(pin) = out_pin {
             params.insert("REG_OUTPUT_CLK".into(), "CLK0".into());
             params.insert("REG_OUTPUT_CE".into(), pin);
             params.insert("REG_OUTPUT_RST".into(), "RST0".into());
@@ -511,13 +518,14 @@ mod tests {
         assert_eq!(m["connections"]["P0"], json!([40]));
         assert_eq!(m["connections"]["P1"], json!([41]));
         assert_eq!(m["connections"]["CLK0"], json!([2]));
-        // A's enable, B's (always on), the output's: three pins.
-        assert_eq!(m["parameters"]["REG_INPUTA_CE"], "CE0");
-        assert_eq!(m["connections"]["CE0"], json!([5]));
-        assert_eq!(m["parameters"]["REG_INPUTB_CE"], "CE1");
-        assert_eq!(m["connections"]["CE1"], json!(["1"]));
-        assert_eq!(m["parameters"]["REG_OUTPUT_CE"], "CE2");
-        assert_eq!(m["connections"]["CE2"], json!([6]));
+        // The output's enable (on CE0, the only one the bitstream honours
+        // for it), A's, B's (always on): three pins.
+        assert_eq!(m["parameters"]["REG_OUTPUT_CE"], "CE0");
+        assert_eq!(m["connections"]["CE0"], json!([6]));
+        assert_eq!(m["parameters"]["REG_INPUTA_CE"], "CE1");
+        assert_eq!(m["connections"]["CE1"], json!([5]));
+        assert_eq!(m["parameters"]["REG_INPUTB_CE"], "CE2");
+        assert_eq!(m["connections"]["CE2"], json!(["1"]));
         assert_eq!(m["port_directions"]["CE2"], "input");
         // fa1 also feeds a port: it stays; fa0 and fb0 have no load left.
         let left: Vec<&String> = cells.as_object().unwrap().keys().collect();

@@ -335,3 +335,116 @@ fn netlist_flags_are_refused_off_ecp5_and_into_a_used_directory() {
         "keep me"
     );
 }
+
+/// Yosys's ECP5 `cells_sim.v` without its behaviourless DP16KD, which
+/// `rtl/sim/DP16KD.v` replaces; and the directory of its includes.
+fn ecp5_cells_without_dp16kd() -> (String, std::path::PathBuf) {
+    let path = std::env::var_os("PATH").unwrap();
+    let bin = std::env::split_paths(&path)
+        .map(|d| d.join("yosys"))
+        .find(|p| p.is_file())
+        .expect("yosys on PATH");
+    let bin = std::fs::canonicalize(&bin).unwrap();
+    let lib = bin.parent().unwrap().join("../share/yosys/ecp5");
+    let text = std::fs::read_to_string(lib.join("cells_sim.v")).expect("Yosys's ECP5 cells_sim.v");
+    let start = text
+        .find("module DP16KD(")
+        .expect("a DP16KD in cells_sim.v");
+    let end = start + text[start..].find("endmodule").unwrap() + "endmodule".len();
+    (format!("{}{}", &text[..start], &text[end..]), lib)
+}
+
+#[test]
+fn the_dp16kd_model_simulates_yosys_mapped_rams_as_their_rtl() {
+    // Two RAMs as Yosys maps them onto DP16KD: 1024 × 18, single port (a
+    // read and a write of one address on one port: the write mode
+    // decides what is read), its read register cleared by an asynchronous
+    // reset (Yosys 0.23 keeps that register in the fabric); and 2048 × 9
+    // (DATA_WIDTH 9: the half of an 18-bit row ADx[3] names), read and
+    // written at random addresses on two ports.
+    let rtl = "module ram (input clk, input rst, input we, input re, input [10:0] wa, input [10:0] ra,\n\
+               \x20 input [17:0] wd, output reg [17:0] q, output reg [8:0] q9);\n\
+               \x20 reg [17:0] mem [0:1023];\n\
+               \x20 reg [8:0] mem9 [0:2047];\n\
+               \x20 always @(posedge clk) if (we) mem[wa[9:0]] <= wd;\n\
+               \x20 always @(posedge clk or posedge rst) if (rst) q <= 18'd0; else if (re) q <= mem[wa[9:0]];\n\
+               \x20 always @(posedge clk) begin if (we) mem9[wa] <= wd[8:0]; if (re) q9 <= mem9[ra]; end\n\
+               endmodule\n";
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path();
+    std::fs::write(p.join("ram.v"), rtl).unwrap();
+    let o = std::process::Command::new("yosys")
+        .current_dir(p)
+        .args([
+            "-q",
+            "-p",
+            "read_verilog ram.v; synth_ecp5 -top ram -json n.json",
+        ])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", text(&o));
+    let o = std::process::Command::new("yosys")
+        .current_dir(p)
+        .args([
+            "-q",
+            "-p",
+            "read_json n.json; rename ram ram_gl; write_verilog -noattr net.v",
+        ])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", text(&o));
+    let net = std::fs::read_to_string(p.join("net.v")).unwrap();
+    assert!(
+        net.matches("DP16KD #(").count() >= 2,
+        "block RAMs: {net:.400}"
+    );
+    assert!(net.contains(".DATA_WIDTH_A(32'd9)") && net.contains(".RESETMODE(\"ASYNC\")"));
+    let tb = "`timescale 1ns/1ps\nmodule tb;\n\
+              \x20 reg clk = 0, rst = 1, we = 0, re = 0; reg [10:0] wa = 0, ra = 0; reg [17:0] wd = 0;\n\
+              \x20 wire [17:0] q, qg; wire [8:0] q9, q9g; integer i, bad = 0, checked = 0;\n\
+              \x20 ram r (.clk(clk), .rst(rst), .we(we), .re(re), .wa(wa), .ra(ra), .wd(wd), .q(q), .q9(q9));\n\
+              \x20 ram_gl g (.clk(clk), .rst(rst), .we(we), .re(re), .wa(wa), .ra(ra), .wd(wd), .q(qg), .q9(q9g));\n\
+              \x20 initial begin\n\
+              \x20   #1 rst = 0;\n\
+              \x20   for (i = 0; i < 20000; i = i + 1) begin\n\
+              \x20     we = $random; re = $random; wa = $random; ra = $random; wd = $random;\n\
+              \x20     if (i % 8 == 0) begin wa = ra; end\n\
+              \x20     rst = ($random % 16) == 0;\n\
+              \x20     #1 clk = 1; #1;\n\
+              \x20     // Words never written are x in the RTL, 0 in the block.\n\
+              \x20     if (i > 4 && ((^q !== 1'bx && q !== qg) || (^q9 !== 1'bx && q9 !== q9g))) bad = bad + 1;\n\
+              \x20     if (^q !== 1'bx) checked = checked + 1;\n\
+              \x20     clk = 0;\n\
+              \x20   end\n\
+              \x20   $display(\"MISMATCHES %0d CHECKED %0d\", bad, checked);\n\
+              \x20   $finish;\n\
+              \x20 end\nendmodule\n";
+    std::fs::write(p.join("tb.v"), tb).unwrap();
+    let (cells, inc) = ecp5_cells_without_dp16kd();
+    std::fs::write(p.join("cells.v"), cells).unwrap();
+    let model = common::repo().join("rtl").join("sim").join("DP16KD.v");
+    let o = std::process::Command::new("iverilog")
+        .current_dir(p)
+        .args(["-g2005", "-o", "sim.vvp", "-I"])
+        .arg(&inc)
+        .args(["tb.v", "ram.v", "net.v", "cells.v"])
+        .arg(&model)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", text(&o));
+    let o = std::process::Command::new("vvp")
+        .current_dir(p)
+        .arg("sim.vvp")
+        .output()
+        .unwrap();
+    let out = text(&o);
+    assert!(out.contains("MISMATCHES 0 "), "{out}");
+    // Most cycles compare a defined word.
+    let checked: u32 = out
+        .split("CHECKED ")
+        .nth(1)
+        .and_then(|t| t.split_whitespace().next())
+        .and_then(|t| t.parse().ok())
+        .expect("a count");
+    assert!(checked > 10_000, "{out}");
+}

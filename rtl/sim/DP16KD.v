@@ -374,12 +374,17 @@ module DP16KD (
   wire [17:0] new_a = (old_a & ~mask_a) | (wdata_a & mask_a);
   wire [17:0] new_b = (old_b & ~mask_b) | (wdata_b & mask_b);
 
+  // Writes do not depend on the reset, which clears only the output
+  // latches: Yosys maps an asynchronous read reset without `block_wr`
+  // (brams.txt), so a write may coincide with it.
+  always @(posedge CLKA) if (wr_a) mem[row_a] <= new_a;
+  always @(posedge CLKB) if (wr_b) mem[row_b] <= new_b;
+
   always @(posedge CLKA or posedge (RSTA & async_rst)) begin
     if (RSTA) begin
       lat_a <= 18'd0;
       out_a <= 18'd0;
     end else begin
-      if (wr_a) mem[row_a] <= new_a;
       if (CEA && sel_a && !(wr_a && WRITEMODE_A == "NORMAL"))
         lat_a <= read_word(DATA_WIDTH_A, half_a,
                            wr_a && WRITEMODE_A == "WRITETHROUGH" ? new_a : old_a);
@@ -391,7 +396,6 @@ module DP16KD (
       lat_b <= 18'd0;
       out_b <= 18'd0;
     end else begin
-      if (wr_b) mem[row_b] <= new_b;
       if (CEB && sel_b && !(wr_b && WRITEMODE_B == "NORMAL"))
         lat_b <= read_word(DATA_WIDTH_B, half_b,
                            wr_b && WRITEMODE_B == "WRITETHROUGH" ? new_b : old_b);

@@ -10,10 +10,14 @@
 //   REG_*_CE ("CE0".."CE3") and its synchronous reset by REG_*_RST
 //   ("RST0".."RST3"); registers power up to 0.
 //
-// SIGNEDA and SIGNEDB are taken as they are (Yosys ties them to
-// constants). Any other setting (CLK1..CLK3, SOURCEA/SOURCEB shifting,
-// asynchronous reset, the C input) stops the simulation with a message
-// rather than simulate something the model does not know.
+// SIGNEDA and SIGNEDB are registered with their operands; SIGNEDP is not
+// pipelined (Yosys leaves it unused). SOURCEA/SOURCEB (shifting operands
+// in from a neighbour; Yosys ties them to 0), the cascade outputs and the
+// C input are not modelled. A register setting the model does not know
+// (CLK1..CLK3, asynchronous reset, a registered C, MULT_BYPASS) stops the
+// simulation with a message, and so does an output register on any enable
+// but CE0: nextpnr writes no REG_OUTPUT_CE to the bitstream, so the
+// block's own default, CE0, is what the hardware uses.
 `default_nettype none
 
 module MULT18X18D (
@@ -95,6 +99,7 @@ module MULT18X18D (
         || !(M_REG || REG_PIPELINE_CLK == "NONE") || !(P_REG || REG_OUTPUT_CLK == "NONE")
         || REG_INPUTC_CLK != "NONE" || A_CE > 3 || A_RST > 3 || B_CE > 3 || B_RST > 3
         || M_CE > 3 || M_RST > 3 || P_CE > 3 || P_RST > 3 || RESETMODE != "SYNC"
+        || (P_REG && P_CE != 0)
         || MULT_BYPASS != "DISABLED") begin
       $display("MULT18X18D %m: a setting this model does not simulate");
       $finish;

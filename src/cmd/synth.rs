@@ -598,7 +598,7 @@ pub fn synthesize(
 
 /// The flow's own steps, in the cache key: a change to them measures
 /// again.
-const FLOW: &str = "ecp5-mult18-pack-1";
+const FLOW: &str = "ecp5-mult18-pack-2";
 
 fn cache_entry(e: &Emitted, target: Target, flow: Flow) -> PathBuf {
     let Flow {
