@@ -118,7 +118,9 @@ fn run(cmd: &mut Command, dir: &Path, what: &str) -> anyhow::Result<()> {
 
 /// Synthesize `e` alone for ECP5, pack it (when `pack`), and write the
 /// netlist and its cell models into `out` (which must exist); `work` is a
-/// scratch directory for Yosys's files and logs.
+/// scratch directory for Yosys's files and logs. Nothing is written into
+/// `out` until every file's text is ready, and each file is replaced
+/// atomically.
 pub fn write(e: &Emitted, pack: bool, work: &Path, out: &Path) -> anyhow::Result<Written> {
     crate::rtl_flow::require_tool("yosys", "yosys")?;
     let datdir = yosys_datdir()?;
@@ -172,12 +174,11 @@ pub fn write(e: &Emitted, pack: bool, work: &Path, out: &Path) -> anyhow::Result
             " (no register packing)"
         }
     );
-    fxshade_model::files::write_atomic(&netlist_path, (header + &body).as_bytes())?;
+    let netlist_text = header + &body;
     // The cell models the netlist needs.
     let types: BTreeSet<&str> = cells.iter().map(|(t, _)| t.as_str()).collect();
     let lib = std::fs::read_to_string(datdir.join("ecp5").join("cells_sim.v"))
         .context("cannot read Yosys's ECP5 cells_sim.v")?;
-    let mut models = Vec::new();
     let mut text = format!(
         "// Simulation models of the ECP5 cells `{m}.v` instantiates, taken\n\
          // from Yosys's {}.\n`default_nettype wire\n\n",
@@ -210,14 +211,11 @@ pub fn write(e: &Emitted, pack: bool, work: &Path, out: &Path) -> anyhow::Result
         }
     }
     found.retain(|n| lib.iter().any(|(l, _)| l == n));
-    for (name, model) in MODELS {
-        if types.contains(name) {
-            let p = out.join(format!("{name}.v"));
-            fxshade_model::files::write_atomic(&p, model.as_bytes())?;
-            models.push(p);
-            found.insert(name.to_string());
-        }
-    }
+    let ours_used: Vec<(&str, &str)> = MODELS
+        .into_iter()
+        .filter(|(name, _)| types.contains(name))
+        .collect();
+    found.extend(ours_used.iter().map(|(name, _)| name.to_string()));
     let missing: Vec<&str> = types
         .iter()
         .filter(|t| !found.contains(**t))
@@ -230,9 +228,14 @@ pub fn write(e: &Emitted, pack: bool, work: &Path, out: &Path) -> anyhow::Result
             missing.join(", ")
         );
     }
-    let p = out.join("fxs_ecp5_cells.v");
-    fxshade_model::files::write_atomic(&p, text.as_bytes())?;
-    models.insert(0, p);
+    let mut models = vec![out.join("fxs_ecp5_cells.v")];
+    fxshade_model::files::write_atomic(&models[0], text.as_bytes())?;
+    for (name, model) in ours_used {
+        let p = out.join(format!("{name}.v"));
+        fxshade_model::files::write_atomic(&p, model.as_bytes())?;
+        models.push(p);
+    }
+    fxshade_model::files::write_atomic(&netlist_path, netlist_text.as_bytes())?;
     Ok(Written {
         netlist: netlist_path,
         models,

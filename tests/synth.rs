@@ -317,6 +317,9 @@ fn netlist_flags_are_refused_off_ecp5_and_into_a_used_directory() {
         "{}",
         text(&o)
     );
+    let o = fxshade(&["synth", "calibrate", "--target", "ecp5", "--netlist", "x"]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("calibrate"), "{}", text(&o));
     let d = tempfile::tempdir().unwrap();
     std::fs::write(d.path().join("mine.v"), "keep me").unwrap();
     let o = fxshade(&[
@@ -447,4 +450,46 @@ fn the_dp16kd_model_simulates_yosys_mapped_rams_as_their_rtl() {
         .and_then(|t| t.parse().ok())
         .expect("a count");
     assert!(checked > 10_000, "{out}");
+}
+
+#[test]
+fn the_output_fifo_is_lut_ram_on_ecp5_and_block_ram_on_ice40() {
+    // On ECP5 the FIFO is marked distributed: Yosys would otherwise fold
+    // the harness's output register into a DP16KD read port (the smooth
+    // top's 128-entry FIFO did so before the mark; a FIFO as short as
+    // normalize's stays in LUT RAM either way). iCE40 has no LUT RAM, and
+    // its FIFO goes to SB_RAM40_4K.
+    let r = json(&fxshade(&[
+        "synth",
+        "pipeline",
+        "--target",
+        "ecp5",
+        "--clock-ns",
+        "7",
+        "--set",
+        "rtl.handshake=fifo",
+        "--no-pnr",
+        "--json",
+    ]));
+    assert_eq!(r["bram"], 0, "{r}");
+    let lutram = r["cells"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|c| c[0] == "TRELLIS_DPR16X4")
+        .and_then(|c| c[1].as_u64());
+    assert!(lutram.is_some_and(|n| n > 0), "{r}");
+    let r = json(&fxshade(&[
+        "synth",
+        "normalize",
+        "--target",
+        "ice40-up5k",
+        "--clock-ns",
+        "20",
+        "--set",
+        "rtl.handshake=fifo",
+        "--no-pnr",
+        "--json",
+    ]));
+    assert!(r["bram"].as_u64().unwrap() > 0, "{r}");
 }

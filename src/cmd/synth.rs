@@ -741,21 +741,6 @@ pub fn run(a: &SynthArgs) -> anyhow::Result<()> {
         )
         .into());
     }
-    if a.unit == "calibrate" {
-        let Some(tt) = tt else {
-            return Err(UsageError(
-                "synth calibrate: give --target ice40-hx8k, ice40-up5k, ecp5 or xc7 (the generic target has no delay model)".into(),
-            )
-            .into());
-        };
-        return calibrate(a, tt, freq);
-    }
-    let extra = super::pipeline_overrides(
-        a.pipeline.as_deref(),
-        a.clock_ns.map(|_| tt.expect("checked").name()),
-        a.clock_ns,
-    );
-    let cfg = a.cfg.resolve_with(&extra)?;
     for (flag, given, what) in [
         (
             "--netlist",
@@ -794,6 +779,27 @@ pub fn run(a: &SynthArgs) -> anyhow::Result<()> {
             }
         }
     }
+    if a.unit == "calibrate" {
+        if a.netlist.is_some() {
+            return Err(UsageError(
+                "synth calibrate: --netlist writes a unit's netlist; give a unit instead of calibrate".into(),
+            )
+            .into());
+        }
+        let Some(tt) = tt else {
+            return Err(UsageError(
+                "synth calibrate: give --target ice40-hx8k, ice40-up5k, ecp5 or xc7 (the generic target has no delay model)".into(),
+            )
+            .into());
+        };
+        return calibrate(a, tt, freq);
+    }
+    let extra = super::pipeline_overrides(
+        a.pipeline.as_deref(),
+        a.clock_ns.map(|_| tt.expect("checked").name()),
+        a.clock_ns,
+    );
+    let cfg = a.cfg.resolve_with(&extra)?;
     let bar = crate::progress::spinner("synth");
     let r = cached(
         &a.unit,
