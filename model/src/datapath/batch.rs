@@ -17,6 +17,7 @@ use super::{Datapath, Table, WidthError};
 use crate::format::{ConvertError, Format};
 use crate::quantize::{Overflow, Quant, Raw, Rounding, Step};
 
+mod cut;
 mod interval;
 mod mutation;
 mod smt;
@@ -430,6 +431,23 @@ enum Instr {
         stage: usize,
         flag: u64,
     },
+}
+
+impl Instr {
+    /// The register an instruction writes.
+    fn dest(&self) -> usize {
+        match *self {
+            Instr::Mul { d, .. }
+            | Instr::AddSub { d, .. }
+            | Instr::Max { d, .. }
+            | Instr::AddSigned { d, .. }
+            | Instr::Quant { d, .. }
+            | Instr::Select { d, .. }
+            | Instr::Table { d, .. }
+            | Instr::Div { d, .. }
+            | Instr::Sqrt { d, .. } => d,
+        }
+    }
 }
 
 /// Lanes per block: registers of a block stay in the L1 cache.
@@ -1097,6 +1115,26 @@ impl Compiled {
         match self {
             Compiled::Narrow(p) => p.quant_operand_range(inputs, node),
             Compiled::Wide(p) => p.quant_operand_range(inputs, node),
+        }
+    }
+    /// A congruence of a quantization's operand over a box of input codes
+    /// ([`Program::quant_operand_congruence`]).
+    pub fn quant_operand_congruence(
+        &self,
+        inputs: &[(i128, i128)],
+        node: usize,
+    ) -> Option<(i128, i128)> {
+        match self {
+            Compiled::Narrow(p) => p.quant_operand_congruence(inputs, node),
+            Compiled::Wide(p) => p.quant_operand_congruence(inputs, node),
+        }
+    }
+    /// Low bits known zero in a quantization's operand over a box of input
+    /// codes ([`Program::quant_operand_zeros`]).
+    pub fn quant_operand_zeros(&self, inputs: &[(i128, i128)], node: usize) -> Option<u32> {
+        match self {
+            Compiled::Narrow(p) => p.quant_operand_zeros(inputs, node),
+            Compiled::Wide(p) => p.quant_operand_zeros(inputs, node),
         }
     }
     /// The operands of quantization nodes per lane ([`Program::probe`]).

@@ -70,6 +70,204 @@ impl<R: Raw> Program<R> {
         Some(self.box_ranges(inputs).0[a])
     }
 
+    /// Bits known to be zero at the bottom of the exact operand of the
+    /// quantization at `node`, for every input in the box `inputs` (a
+    /// sound under-count; 127 for an operand that is always 0), or `None`
+    /// when `node` is not a quantization of the program. A rounding that
+    /// drops no more bits than this never rounds.
+    pub fn quant_operand_zeros(&self, inputs: &[(i128, i128)], node: usize) -> Option<u32> {
+        let a = self.instrs.iter().find_map(|ins| match *ins {
+            Instr::Quant { d, a, .. } if d == node => Some(a),
+            _ => None,
+        })?;
+        Some(self.known_zeros(inputs)[a])
+    }
+
+    /// For every node, how many low bits of its code are zero for every
+    /// input in the box: a constant's trailing zeros, a product's sum of
+    /// its operands', a sum's least of its aligned operands', a
+    /// quantization's operand's less the bits it drops (none left when it
+    /// rounds or may saturate). Capped at 127.
+    fn known_zeros(&self, inputs: &[(i128, i128)]) -> Vec<u32> {
+        const CAP: u32 = 127;
+        let tz = |c: i128| {
+            if c == 0 {
+                CAP
+            } else {
+                c.trailing_zeros().min(CAP)
+            }
+        };
+        let (_, may) = self.box_ranges(inputs);
+        let mut z = vec![0u32; self.n_regs];
+        for &(d, c) in &self.consts {
+            z[d] = tz(c.to_i128());
+        }
+        for (&(d, _), &(lo, hi)) in self.inputs.iter().zip(inputs) {
+            z[d] = if lo == hi { tz(lo) } else { 0 };
+        }
+        let sh = |v: u32, s: u32| (v + s).min(CAP);
+        for ins in &self.instrs {
+            match *ins {
+                Instr::Mul { d, a, b } => z[d] = (z[a] + z[b]).min(CAP),
+                Instr::AddSub {
+                    d, a, sa, b, sb, ..
+                }
+                | Instr::Max { d, a, sa, b, sb } => z[d] = sh(z[a], sa).min(sh(z[b], sb)),
+                Instr::AddSigned {
+                    d, a, sa, b, sb, ..
+                } => z[d] = sh(z[a], sa).min(sh(z[b], sb)),
+                Instr::Quant {
+                    d,
+                    a,
+                    step,
+                    overflow,
+                    ..
+                } => {
+                    let kept = if step.shift <= 0 {
+                        sh(z[a], (-step.shift) as u32)
+                    } else {
+                        z[a].saturating_sub(step.shift as u32)
+                    };
+                    // Saturation replaces the code by an end of the format;
+                    // wrap-around keeps the low bits.
+                    z[d] = if may[d] && overflow == Overflow::Saturate {
+                        0
+                    } else {
+                        kept.min(step.width)
+                    };
+                }
+                Instr::Select { d, ref opts, .. } => {
+                    z[d] = opts.iter().map(|&(o, s)| sh(z[o], s)).min().unwrap_or(0)
+                }
+                Instr::Table { d, table, .. } => {
+                    z[d] = self.tables[table]
+                        .iter()
+                        .map(|c| tz(c.to_i128()))
+                        .min()
+                        .unwrap_or(0)
+                }
+                Instr::Div { d, .. } | Instr::Sqrt { d, .. } => z[d] = 0,
+            }
+        }
+        z
+    }
+
+    /// A congruence `x ≡ offset (mod stride)` every value of the exact
+    /// operand of the quantization at `node` satisfies, for every input in
+    /// the box `inputs` (`stride` 0: the operand is the single value
+    /// `offset`; `stride` 1: nothing known), or `None` when `node` is not a
+    /// quantization of the program. With the operand's interval it decides
+    /// exactly whether an affine operand can meet a rounding tie
+    /// (`16320·K ≡ 2^24 (mod 2^26)` has one solution `K` where the
+    /// interval alone admits one in every 4 112).
+    pub fn quant_operand_congruence(
+        &self,
+        inputs: &[(i128, i128)],
+        node: usize,
+    ) -> Option<(i128, i128)> {
+        let a = self.instrs.iter().find_map(|ins| match *ins {
+            Instr::Quant { d, a, .. } if d == node => Some(a),
+            _ => None,
+        })?;
+        Some(self.congruences(inputs)[a])
+    }
+
+    /// For every node, `(stride, offset)` with every value `≡ offset (mod
+    /// stride)` over the box (the congruence domain: a product of
+    /// `o₁ + s₁·i` and `o₂ + s₂·j` is `o₁o₂` modulo `gcd(o₁s₂, o₂s₁,
+    /// s₁s₂)`, a sum `o₁ + o₂` modulo `gcd(s₁, s₂)`; a quantization keeps
+    /// the congruence only when it cannot overflow and its stride is a
+    /// multiple of twice the step, so that every value rounds alike).
+    fn congruences(&self, inputs: &[(i128, i128)]) -> Vec<(i128, i128)> {
+        let (_, may) = self.box_ranges(inputs);
+        let mut c = vec![(1i128, 0i128); self.n_regs];
+        for &(d, k) in &self.consts {
+            c[d] = (0, k.to_i128());
+        }
+        for (&(d, _), &(lo, hi)) in self.inputs.iter().zip(inputs) {
+            c[d] = if lo == hi { (0, lo) } else { (1, 0) };
+        }
+        for ins in &self.instrs {
+            let r = match *ins {
+                Instr::Mul { a, b, .. } => {
+                    let ((sa, oa), (sb, ob)) = (c[a], c[b]);
+                    (|| {
+                        let s = gcd(
+                            gcd(oa.checked_mul(sb)?, ob.checked_mul(sa)?),
+                            sa.checked_mul(sb)?,
+                        );
+                        Some((s, oa.checked_mul(ob)?))
+                    })()
+                }
+                Instr::AddSub {
+                    a, sa, b, sb, sub, ..
+                } => (|| {
+                    let (x, y) = (shl(c[a], sa)?, shl(c[b], sb)?);
+                    let o = if sub {
+                        x.1.checked_sub(y.1)?
+                    } else {
+                        x.1.checked_add(y.1)?
+                    };
+                    Some((gcd(x.0, y.0), o))
+                })(),
+                Instr::Max { a, sa, b, sb, .. } => (|| {
+                    let (x, y) = (shl(c[a], sa)?, shl(c[b], sb)?);
+                    Some((gcd(gcd(x.0, y.0), x.1.checked_sub(y.1)?), x.1))
+                })(),
+                Instr::AddSigned { a, sa, b, sb, .. } => (|| {
+                    let (x, y) = (shl(c[a], sa)?, shl(c[b], sb)?);
+                    Some((
+                        gcd(gcd(x.0, y.0), y.1.checked_mul(2)?),
+                        x.1.checked_add(y.1)?,
+                    ))
+                })(),
+                Instr::Quant {
+                    d,
+                    a,
+                    step,
+                    round,
+                    overflow,
+                    ..
+                } => {
+                    let (sx, ox) = c[a];
+                    if may[d] {
+                        None
+                    } else if sx == 0 {
+                        Some((0, step.apply(ox, round, overflow).code))
+                    } else if step.shift <= 0 {
+                        shl((sx, ox), (-step.shift) as u32)
+                    } else if step.shift < 126 && sx % (1i128 << (step.shift + 1)) == 0 {
+                        Some((
+                            sx >> step.shift,
+                            crate::quantize::round_shift_right(ox, step.shift as u32, round),
+                        ))
+                    } else {
+                        None
+                    }
+                }
+                Instr::Select { ref opts, .. } => (|| {
+                    let mut acc: Option<(i128, i128)> = None;
+                    for &(o, sh) in opts {
+                        let x = shl(c[o], sh)?;
+                        acc = Some(match acc {
+                            None => x,
+                            Some(p) => (gcd(gcd(p.0, x.0), p.1.checked_sub(x.1)?), p.1),
+                        });
+                    }
+                    acc
+                })(),
+                Instr::Table { .. } | Instr::Div { .. } | Instr::Sqrt { .. } => None,
+            };
+            let d = ins.dest();
+            c[d] = match r {
+                Some((0, o)) => (0, o),
+                Some((s, o)) => (s.abs(), o.rem_euclid(s.abs())),
+                None => (1, 0),
+            };
+        }
+        c
+    }
+
     /// Every node's range over the box, and whether each quantization may
     /// overflow there.
     fn box_ranges(&self, inputs: &[(i128, i128)]) -> (Vec<(i128, i128)>, Vec<bool>) {
@@ -175,8 +373,19 @@ impl<R: Raw> Program<R> {
                         .collect();
                     r[d] = hull(&v);
                 }
-                Instr::Table { d, table, .. } => {
-                    let v: Vec<i128> = self.tables[table].iter().map(|c| c.to_i128()).collect();
+                Instr::Table { d, a, table, index } => {
+                    // The entries the index range reads (every entry when
+                    // it spans the table).
+                    let t = &self.tables[table];
+                    let (lo, hi) = r[a];
+                    let v: Vec<i128> = if hi - lo < t.len() as i128 {
+                        let mask = t.len() - 1;
+                        (lo..=hi)
+                            .map(|x| t[index.to_bits(x) as usize & mask].to_i128())
+                            .collect()
+                    } else {
+                        t.iter().map(|c| c.to_i128()).collect()
+                    };
                     r[d] = hull(&v);
                 }
                 Instr::Div { d, q, .. } | Instr::Sqrt { d, q, .. } => {
@@ -187,6 +396,21 @@ impl<R: Raw> Program<R> {
         }
         (r, may)
     }
+}
+
+/// Greatest common divisor (of absolute values; `gcd(0, x) = |x|`).
+fn gcd(a: i128, b: i128) -> i128 {
+    let (mut a, mut b) = (a.unsigned_abs(), b.unsigned_abs());
+    while b != 0 {
+        (a, b) = (b, a % b);
+    }
+    a.min(i128::MAX as u128) as i128
+}
+
+/// A congruence scaled by `2^s`, if it fits.
+fn shl((s, o): (i128, i128), sh: u32) -> Option<(i128, i128)> {
+    let k = 1i128.checked_shl(sh)?;
+    Some((s.checked_mul(k)?, o.checked_mul(k)?))
 }
 
 #[cfg(test)]
@@ -233,6 +457,83 @@ mod tests {
             );
             if lo == hi {
                 assert_eq!(b, (mn as i128, mx as i128), "a point is evaluated exactly");
+            }
+        }
+    }
+
+    /// The congruence, known-zero and table-range analyses hold on every
+    /// lane: over random boxes (points among them) of a datapath with
+    /// products, sums, a maximum, exact and rounding quantizations and a
+    /// table read, every quantizer operand lies in its interval, is `≡
+    /// offset (mod stride)`, and has its known low zero bits.
+    #[test]
+    fn congruences_and_zeros_hold_on_every_lane() {
+        let q = |s, f: &str, r| Quant::new(s, f.parse::<Format>().unwrap(), r, Overflow::Saturate);
+        let mut tr = Trace::new();
+        let a = tr.input(&q("a", "I1F7", Rounding::Trunc));
+        let b = tr.input(&q("b", "U0F8", Rounding::Trunc));
+        let k = tr
+            .constant(0.75, &q("k", "U0F4", Rounding::HalfEven))
+            .unwrap();
+        let w = tr.quantize(a, &q("w", "I3F11", Rounding::Trunc));
+        let p = tr.mul(w, k);
+        let bb = tr.mul(b, b);
+        let s = tr.add(p, bb);
+        let r1 = tr.quantize(s, &q("r1", "I3F9", Rounding::HalfEven));
+        let m = tr.max(r1, w);
+        let r2 = tr.quantize(m, &q("r2", "U0F6", Rounding::HalfUp));
+        fn f(x: f64) -> f64 {
+            (x * 3.0).sin()
+        }
+        let t = crate::datapath::Table::build(
+            "t",
+            "U0F6".parse().unwrap(),
+            q("t", "I1F10", Rounding::HalfEven),
+            f,
+        )
+        .unwrap();
+        let tbl = tr.table(&t, r2);
+        let e = tr.mul(tbl, b);
+        let r3 = tr.quantize(e, &q("r3", "I1F6", Rounding::HalfEven));
+        let nodes = [w.node(), r1.node(), r2.node(), r3.node()];
+        let c = Compiled::compile(&tr, &[r3]).unwrap();
+        let mut rng = crate::sampling::Rng::new(5);
+        for round in 0..200 {
+            let pick = |rng: &mut crate::sampling::Rng, lo: i128, hi: i128| {
+                let x = lo + rng.below((hi - lo + 1) as u64) as i128;
+                let y = if round % 3 == 0 {
+                    x
+                } else {
+                    lo + rng.below((hi - lo + 1) as u64) as i128
+                };
+                (x.min(y), x.max(y))
+            };
+            let bx = [pick(&mut rng, -128, 127), pick(&mut rng, 0, 255)];
+            let lanes: Vec<(i128, i128)> = (bx[0].0..=bx[0].1)
+                .flat_map(|x| (bx[1].0..=bx[1].1).map(move |y| (x, y)))
+                .collect();
+            let ca: Vec<i128> = lanes.iter().map(|l| l.0).collect();
+            let cb: Vec<i128> = lanes.iter().map(|l| l.1).collect();
+            let probes = c.probe_i128(&[&ca, &cb], &nodes);
+            for (k, &n) in nodes.iter().enumerate() {
+                let (lo, hi) = c.quant_operand_range(&bx, n).unwrap();
+                let (st, off) = c.quant_operand_congruence(&bx, n).unwrap();
+                let z = c.quant_operand_zeros(&bx, n).unwrap();
+                for &x in &probes[k] {
+                    assert!(
+                        lo <= x && x <= hi,
+                        "node {n} box {bx:?}: {x} outside {lo}..{hi}"
+                    );
+                    if st == 0 {
+                        assert_eq!(x, off, "node {n} box {bx:?}");
+                    } else {
+                        assert_eq!(x.rem_euclid(st), off, "node {n} box {bx:?}: {x} mod {st}");
+                    }
+                    assert!(
+                        x == 0 || x.trailing_zeros() >= z,
+                        "node {n} box {bx:?}: {x} has fewer than {z} zeros"
+                    );
+                }
             }
         }
     }
