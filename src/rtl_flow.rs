@@ -135,17 +135,9 @@ pub fn require_tool(tool: &str, package: &str) -> anyhow::Result<()> {
     }
 }
 
-/// Where builds are cached: `$FXSHADE_CACHE_DIR` (made absolute; empty
-/// means unset), else `~/.cache/fxshade`.
+/// Where builds are cached: [`fxshade_model::files::cache_root`].
 pub fn cache_root() -> PathBuf {
-    if let Some(d) = std::env::var_os("FXSHADE_CACHE_DIR").filter(|d| !d.is_empty()) {
-        let p = PathBuf::from(d);
-        return std::path::absolute(&p).unwrap_or(p);
-    }
-    match std::env::var_os("HOME") {
-        Some(h) => PathBuf::from(h).join(".cache").join("fxshade"),
-        None => std::env::temp_dir().join("fxshade-cache"),
-    }
+    fxshade_model::files::cache_root()
 }
 
 /// Whether Verilator models are compiled without optimization

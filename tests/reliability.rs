@@ -449,3 +449,71 @@ fn a_killed_build_leaves_no_orphans() {
     }
     assert_eq!(left, 0, "processes of the killed build are still running");
 }
+
+/// The inputs searched for mutant killers are cached (`$FXSHADE_CACHE_DIR
+/// /corners`): a second run reads them and writes the same vectors, and an
+/// entry that is cut short or garbled is ignored and rewritten whole.
+#[test]
+fn searched_rows_are_cached_and_a_bad_entry_is_recomputed() {
+    let dir = tempfile::tempdir().unwrap();
+    let cache = dir.path().join("cache");
+    let run = |out: &str| {
+        let o = Command::new(env!("CARGO_BIN_EXE_fxshade"))
+            .args([
+                "vectors",
+                "normalize",
+                "--set",
+                "normalize.method=\"linear\"",
+                "--count",
+                "300",
+                "--out",
+                dir.path().join(out).to_str().unwrap(),
+            ])
+            .env("FXSHADE_CACHE_DIR", &cache)
+            .output()
+            .unwrap();
+        no_panic(&o);
+        assert!(o.status.success(), "{}", text(&o));
+        std::fs::read(dir.path().join(out).join("inputs.hex")).unwrap()
+    };
+    let entries = || -> Vec<std::path::PathBuf> {
+        std::fs::read_dir(cache.join("corners"))
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .collect()
+    };
+    let first = run("a");
+    let files = entries();
+    assert_eq!(files.len(), 1, "{files:?}");
+    let whole = std::fs::read_to_string(&files[0]).unwrap();
+    assert!(whole.starts_with("fxshade searched rows 1\n") && whole.ends_with("end\n"));
+    assert_eq!(run("b"), first, "read from the cache");
+    // A first row whose first code is far outside its input format.
+    let lines: Vec<&str> = whole.lines().collect();
+    let row = lines[1].split_once(' ').map_or("", |(_, rest)| rest);
+    let huge = format!(
+        "{}\n99999999999 {row}\n{}\n",
+        lines[0],
+        lines[2..].join("\n")
+    );
+    for bad in [
+        whole.trim_end_matches("end\n").to_string(),
+        whole.replacen(' ', " x", 1),
+        huge,
+        String::new(),
+    ] {
+        std::fs::write(&files[0], &bad).unwrap();
+        assert_eq!(
+            run("c"),
+            first,
+            "recomputed past {:?}",
+            &bad[..bad.len().min(40)]
+        );
+        std::fs::remove_dir_all(dir.path().join("c")).unwrap();
+        assert_eq!(
+            std::fs::read_to_string(&files[0]).unwrap(),
+            whole,
+            "rewritten"
+        );
+    }
+}

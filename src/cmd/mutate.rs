@@ -8,7 +8,7 @@
 
 use anyhow::Context;
 use clap::Args;
-use fxshade_model::rtl::{self, mutants};
+use fxshade_model::rtl::{self, mutants, search};
 
 use super::ConfigArgs;
 use crate::output::{emit, OutputArgs, Table};
@@ -37,14 +37,19 @@ pub struct MutateArgs {
     /// prove it equivalent or find an input that kills it.
     #[arg(long, default_value_t = 20_000)]
     box_budget: usize,
+    /// Seconds the branch and bound over the supports of a surviving
+    /// mutant's quantizer may take to prove it equivalent (before z3).
+    #[arg(long, default_value_t = 20)]
+    proof_seconds: u32,
     /// Seconds z3 may take per surviving mutant (the bit-vector query "does
     /// any input meet the event that changes it"; skipped when z3 is not
     /// installed).
     #[arg(long, default_value_t = 20)]
     smt_seconds: u32,
-    /// Also ask z3 about every killed mutant, and fail if it claims one
-    /// equivalent, or returns an input the model's own probe says misses the
-    /// event: a check of the encoding, not of the vectors.
+    /// Also ask z3 and the support branch and bound about every killed
+    /// mutant, and fail if either claims one equivalent, or z3 returns an
+    /// input the model's own probe says misses the event: a check of the
+    /// proofs, not of the vectors.
     #[arg(long)]
     smt_audit: bool,
     #[command(flatten)]
@@ -249,9 +254,44 @@ fn run_variant(
         }
         let mut equivalent = mutants::equivalent(&d, m)?;
         let mut killer = None;
+        let mut cut = None;
+        if equivalent.is_none() {
+            match search::event_cut(&d, m)? {
+                search::CutOutcome::Proven(_) => {
+                    equivalent = Some(
+                        "equivalent: its operand depends on the inputs through one quantization only, and on no code of it does the mutant change what leaves that quantization's region (exhaustive)",
+                    )
+                }
+                search::CutOutcome::Event(c) => cut = Some(c),
+                search::CutOutcome::NoCut => {}
+            }
+        }
+        if a.smt_audit && killed {
+            // The proofs are checked too: none may claim a killed mutant.
+            anyhow::ensure!(
+                !search::support_proof(
+                    &d,
+                    m,
+                    std::time::Instant::now() + std::time::Duration::from_secs(a.proof_seconds.into()),
+                )?,
+                "{} ({variant}) mutant {k} ({m}): the support branch and bound proves it equivalent, yet the vectors kill it",
+                u.name
+            );
+        }
         if !killed && equivalent.is_none() {
-            // A survivor: search every input box for one that kills it, or
-            // prove none exists.
+            // A survivor: prove it equivalent, or search every input box
+            // for one that kills it.
+            if search::support_proof(
+                &d,
+                m,
+                std::time::Instant::now() + std::time::Duration::from_secs(a.proof_seconds.into()),
+            )? {
+                equivalent = Some(
+                    "equivalent: a branch and bound over the codes of the quantizations its operand is computed from (taken as independent) finds none where the mutant changes what leaves their region",
+                );
+            }
+        }
+        if !killed && equivalent.is_none() {
             match smt(&d, m, a.smt_seconds) {
                 Smt::Unsat => {
                     equivalent = Some(
@@ -271,6 +311,17 @@ fn run_variant(
                     }
                 }
                 Smt::Unknown => {}
+            }
+            if equivalent.is_none() && killer.is_none() {
+                killer = search::line_search(
+                    &d,
+                    m,
+                    cut.as_ref(),
+                    &v.input_rows,
+                    a.box_budget,
+                    search::SWEEP_WORK,
+                    a.seed,
+                )?;
             }
             if equivalent.is_none() && killer.is_none() {
                 match mutants::box_search(&d, m, a.box_budget, a.seed)? {

@@ -28,6 +28,7 @@
 pub mod bits;
 pub mod calibrate;
 pub mod mutants;
+pub mod search;
 pub mod testbench;
 pub mod timing;
 pub mod units;

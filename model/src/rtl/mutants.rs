@@ -10,14 +10,14 @@ use super::Design;
 use crate::datapath::{Compiled, Mutation, Trace, TV};
 use crate::vectors::RtlError;
 
-fn columns(rows: &[Vec<i128>], n: usize) -> Vec<Vec<i128>> {
+pub(super) fn columns(rows: &[Vec<i128>], n: usize) -> Vec<Vec<i128>> {
     (0..n)
         .map(|k| rows.iter().map(|r| r[k]).collect())
         .collect()
 }
 
 /// Outputs and per-lane overflow flags of `trace` on `rows`.
-fn run(
+pub(super) fn run(
     trace: &Trace,
     roots: &[TV],
     cols: &[Vec<i128>],
@@ -28,7 +28,7 @@ fn run(
 }
 
 /// The first lane whose outputs or flags differ.
-fn first_difference(
+pub(super) fn first_difference(
     a: &(Vec<Vec<i128>>, Vec<u64>),
     b: &(Vec<Vec<i128>>, Vec<u64>),
 ) -> Option<usize> {
@@ -102,11 +102,11 @@ pub fn killers(
 /// Why mutant `m` of `d` cannot be told apart from the design by any
 /// input, when that is proven: an overflow mode flipped at a quantization
 /// that the interval analysis ([`Compiled::may_overflow`], over every code
-/// of every input port) shows never overflows. `None`: not proven.
+/// of every input port) shows never overflows, or a rounding mode changed
+/// at a quantization whose dropped bits are known to be zero for every
+/// input ([`Compiled::quant_operand_zeros`]). `None`: not proven.
 pub fn equivalent(d: &Design, m: &Mutation) -> Result<Option<&'static str>, RtlError> {
-    if !matches!(m.kind, crate::datapath::MutationKind::Overflow(_)) {
-        return Ok(None);
-    }
+    use crate::datapath::MutationKind;
     let roots: Vec<TV> = d.trace.output_ports().iter().map(|p| p.value).collect();
     let prog = Compiled::compile(&d.trace, &roots)?;
     let box_: Vec<(i128, i128)> = d
@@ -115,9 +115,22 @@ pub fn equivalent(d: &Design, m: &Mutation) -> Result<Option<&'static str>, RtlE
         .iter()
         .map(|p| (p.format.min_code(), p.format.max_code()))
         .collect();
-    Ok((!prog.may_overflow(&box_)[m.node]).then_some(
-        "equivalent: interval analysis over every input code proves the stage never overflows",
-    ))
+    Ok(match m.kind {
+        MutationKind::Overflow(_) => (!prog.may_overflow(&box_)[m.node]).then_some(
+            "equivalent: interval analysis over every input code proves the stage never overflows",
+        ),
+        MutationKind::Round(_) => {
+            let crate::datapath::Op::Quant(a, q) = &d.trace.ops()[m.node] else {
+                unreachable!("mutations are of quantizations")
+            };
+            let shift = q.step(a.frac()).shift;
+            let zeros = prog.quant_operand_zeros(&box_, m.node).unwrap_or(0);
+            (shift <= 0 || zeros >= shift as u32).then_some(
+                "equivalent: the bits the stage drops are zero for every input code (known-zero bit analysis), so it never rounds",
+            )
+        }
+        MutationKind::Shift => None,
+    })
 }
 
 /// Lanes the directed search of [`directed_killers`] looks through at most.
@@ -127,7 +140,7 @@ pub const DIRECTED_LANES: usize = 1 << 18;
 /// the mutant differ there: a tie with an even floor (half_even against
 /// half_up), the half bit set (trunc against half_up), an overflow (wrap
 /// against saturate).
-fn event(m: &Mutation, q: &crate::quantize::Quant, frac: i32, x: i128) -> bool {
+pub(super) fn event(m: &Mutation, q: &crate::quantize::Quant, frac: i32, x: i128) -> bool {
     use crate::datapath::MutationKind;
     use crate::quantize::Rounding;
     let st = q.step(frac);
@@ -154,7 +167,10 @@ fn event(m: &Mutation, q: &crate::quantize::Quant, frac: i32, x: i128) -> bool {
 
 /// A random input: each field a random code with random trailing zeros, an
 /// extreme (min, max, 0, ±1, one inside the ends) or any code.
-fn wild_row(formats: &[crate::format::Format], rng: &mut crate::sampling::Rng) -> Vec<i128> {
+pub(super) fn wild_row(
+    formats: &[crate::format::Format],
+    rng: &mut crate::sampling::Rng,
+) -> Vec<i128> {
     formats
         .iter()
         .map(|&f| match rng.below(3) {
@@ -264,7 +280,7 @@ pub enum BoxOutcome {
 
 /// Whether some code in `[lo, hi]` meets the event of `m` at a quantizer
 /// of step `st` (see [`event`]).
-fn range_meets(
+pub(super) fn range_meets(
     m: &Mutation,
     q: &crate::quantize::Quant,
     st: &crate::quantize::Step,
@@ -295,6 +311,67 @@ fn range_meets(
                 || st.apply(hi, q.round(), q.overflow()).overflowed
         }
         MutationKind::Shift => true,
+    }
+}
+
+/// [`range_meets`] knowing also that every operand value is `≡ off (mod
+/// stride)` (`stride` 0: the operand is `off`): a rounding tie is then a
+/// pair of congruences, solved exactly (Chinese remainder), and a half bit
+/// is fixed when the stride is a multiple of the step.
+pub(super) fn range_meets_mod(
+    m: &Mutation,
+    q: &crate::quantize::Quant,
+    st: &crate::quantize::Step,
+    lo: i128,
+    hi: i128,
+    (stride, off): (i128, i128),
+) -> bool {
+    use crate::datapath::MutationKind;
+    use crate::quantize::Rounding;
+    if stride == 0 {
+        return lo <= off && off <= hi && range_meets(m, q, st, off, off);
+    }
+    let coarse = range_meets(m, q, st, lo, hi);
+    if stride == 1 || !coarse || !matches!(m.kind, MutationKind::Round(_)) {
+        return coarse;
+    }
+    let s = st.shift as u32;
+    let half = 1i128 << (s - 1);
+    // The first operand value ≥ lo that is ≡ x0 (mod l), within hi?
+    let has = |x0: i128, l: i128| lo + (x0 - lo).rem_euclid(l) <= hi;
+    if q.round() == Rounding::Trunc {
+        let step = 1i128 << s;
+        return if stride % step == 0 {
+            off.rem_euclid(step) >= half && has(off, stride)
+        } else {
+            coarse
+        };
+    }
+    // x ≡ off (mod stride) and x ≡ half (mod 2^(s+1)).
+    let big_m = 1i128 << (s + 1);
+    let g = 1i128 << stride.trailing_zeros().min(s + 1);
+    if (half - off).rem_euclid(g) != 0 {
+        return false;
+    }
+    let mg = big_m / g;
+    let t0 = if mg == 1 {
+        0
+    } else {
+        // (stride/g)·t ≡ (half − off)/g (mod mg), stride/g odd.
+        let a = (stride / g) as u128;
+        let mut inv = a;
+        for _ in 0..7 {
+            inv = inv.wrapping_mul(2u128.wrapping_sub(a.wrapping_mul(inv)));
+        }
+        let rhs = ((half - off) / g).rem_euclid(mg) as u128;
+        (rhs.wrapping_mul(inv) & (mg as u128 - 1)) as i128
+    };
+    match (stride.checked_mul(t0), (stride / g).checked_mul(big_m)) {
+        (Some(st0), Some(l)) => match off.checked_add(st0) {
+            Some(x0) => has(x0, l),
+            None => coarse,
+        },
+        _ => coarse,
     }
 }
 
@@ -339,6 +416,10 @@ pub fn box_search(
             return Ok(BoxOutcome::Unknown);
         };
         if !range_meets(m, &q, &st, lo, hi) {
+            continue;
+        }
+        let cong = prog.quant_operand_congruence(&b, m.node).unwrap_or((1, 0));
+        if !range_meets_mod(m, &q, &st, lo, hi, cong) {
             continue;
         }
         let widest = (0..n_in).max_by_key(|&k| b[k].1 - b[k].0).expect("inputs");

@@ -98,8 +98,8 @@ pub fn chunk_seed(seed: u64, c: u64) -> u64 {
 /// The corner part of a unit's stream: its own corner cases, then the
 /// inputs that tell apart every mutant of the design
 /// ([`super::mutants::killers`], searched among [`MUTANT_POOL`] random
-/// inputs of another seed, then [`super::mutants::directed_killers`])
-/// which the corner cases do not. It does not depend on the count.
+/// inputs of another seed, then [`super::mutants::directed_killers`], then
+/// [`super::search::killers`]) which the corner cases do not. It does not depend on the count.
 pub fn corner_rows(
     u: &RtlUnit,
     d: &Design,
@@ -121,11 +121,111 @@ pub fn corner_rows(
                 .collect(),
         );
     }
+    let key = corner_key(d, &rows, &pool, seed);
+    if let Some(found) = read_corner_cache(key, &formats) {
+        rows.extend(found);
+        return Ok(rows);
+    }
     let (killers, missed) = super::mutants::killers(d, &rows, &pool)?;
-    let (more, _missed) = super::mutants::directed_killers(d, &missed, seed)?;
-    rows.extend(killers);
-    rows.extend(more);
+    let (more, missed) = super::mutants::directed_killers(d, &missed, seed)?;
+    let (found, _missed) = super::search::killers(d, &missed, &pool, seed)?;
+    let mut searched = killers;
+    searched.extend(more);
+    searched.extend(found);
+    write_corner_cache(key, &searched);
+    rows.extend(searched);
     Ok(rows)
+}
+
+/// The cache key of a unit's searched rows: a fingerprint of everything
+/// they depend on — the traced design (operations, tables, ports), the
+/// corner cases and the random pool, the seed, and the source of the
+/// searches and the compiled arithmetic they run, so that a change to any
+/// of them misses the cache.
+fn corner_key(d: &Design, corners: &[Vec<i128>], pool: &[Vec<i128>], seed: u64) -> u64 {
+    // Tables by their contents (their `Debug` holds a function address).
+    let tables: Vec<_> = d
+        .trace
+        .tables()
+        .iter()
+        .map(|t| (t.name, t.index, t.out, &t.codes, &t.storage))
+        .collect();
+    let design = format!(
+        "{:?}{:?}{:?}{:?}",
+        d.trace.ops(),
+        tables,
+        d.trace.input_ports(),
+        d.trace.output_ports()
+    );
+    let rows = format!("{corners:?}{pool:?}");
+    crate::vectors::fingerprint(&[
+        env!("CARGO_PKG_VERSION").as_bytes(),
+        include_str!("mutants.rs").as_bytes(),
+        include_str!("search.rs").as_bytes(),
+        include_str!("units.rs").as_bytes(),
+        include_str!("../datapath/batch.rs").as_bytes(),
+        include_str!("../datapath/batch/interval.rs").as_bytes(),
+        include_str!("../datapath/batch/cut.rs").as_bytes(),
+        include_str!("../quantize.rs").as_bytes(),
+        design.as_bytes(),
+        rows.as_bytes(),
+        &seed.to_le_bytes(),
+    ])
+}
+
+/// The file of a cache key: `<cache>/corners/<key>.txt`, one row per line.
+fn corner_cache_file(key: u64) -> std::path::PathBuf {
+    crate::files::cache_root()
+        .join("corners")
+        .join(format!("{key:016x}.txt"))
+}
+
+/// The rows cached under `key`, if a whole, readable entry is there whose
+/// rows are codes of `formats`.
+fn read_corner_cache(key: u64, formats: &[crate::format::Format]) -> Option<Vec<Vec<i128>>> {
+    let text = std::fs::read_to_string(corner_cache_file(key)).ok()?;
+    let mut lines = text.lines();
+    if lines.next()? != "fxshade searched rows 1" {
+        return None;
+    }
+    let mut rows = Vec::new();
+    for l in lines {
+        if l == "end" {
+            return Some(rows);
+        }
+        let row = l
+            .split(' ')
+            .map(|c| c.parse::<i128>().ok())
+            .collect::<Option<Vec<_>>>()?;
+        let fits = row.len() == formats.len()
+            && row
+                .iter()
+                .zip(formats)
+                .all(|(&c, f)| (f.min_code()..=f.max_code()).contains(&c));
+        if !fits {
+            return None;
+        }
+        rows.push(row);
+    }
+    None
+}
+
+/// Cache `rows` under `key` (atomically; a cache that cannot be written is
+/// only a slower next run).
+fn write_corner_cache(key: u64, rows: &[Vec<i128>]) {
+    let mut text = String::from("fxshade searched rows 1\n");
+    for r in rows {
+        let codes: Vec<String> = r.iter().map(|c| c.to_string()).collect();
+        text.push_str(&codes.join(" "));
+        text.push('\n');
+    }
+    text.push_str("end\n");
+    let path = corner_cache_file(key);
+    if let Some(dir) = path.parent() {
+        if std::fs::create_dir_all(dir).is_ok() {
+            let _ = crate::files::write_atomic(&path, text.as_bytes());
+        }
+    }
 }
 
 /// Rows `[start, start + len)` of the stream whose first `corners.len()`

@@ -1,0 +1,105 @@
+//! Development aid: the mutants the default vectors miss, in the model
+//! (no simulator): `cargo run --release -p fxshade-model --example survivors [unit]`.
+use fxshade_model::config::Config;
+use fxshade_model::rtl::{mutants, search, units};
+
+fn main() {
+    let only = std::env::args().nth(1).filter(|s| s != "all");
+    let deep = std::env::args().nth(2).is_some();
+    let mut total = (0, 0, 0);
+    for u in units::all() {
+        if only.as_deref().is_some_and(|o| o != u.name) {
+            continue;
+        }
+        for (name, set) in u.variants {
+            let mut cfg = Config::embedded();
+            for o in units::overrides(set) {
+                cfg.apply_override(o).unwrap();
+            }
+            let t = std::time::Instant::now();
+            let v = units::vectors(u, &cfg, 10_000, 1).unwrap();
+            let gen = t.elapsed().as_secs_f64();
+            let d = (u.design)(&cfg).unwrap();
+            let mk = mutants::model_kills(&d, &v.input_rows).unwrap();
+            let mut eq = 0;
+            let mut surv = Vec::new();
+            for (m, first) in &mk {
+                if first.is_some() {
+                    continue;
+                }
+                if mutants::equivalent(&d, m).unwrap().is_some()
+                    || matches!(
+                        search::event_cut(&d, m).unwrap(),
+                        search::CutOutcome::Proven(_)
+                    )
+                {
+                    eq += 1;
+                    continue;
+                }
+                let t = std::time::Instant::now();
+                if search::support_proof(
+                    &d,
+                    m,
+                    std::time::Instant::now() + std::time::Duration::from_secs(20),
+                )
+                .unwrap()
+                {
+                    println!("    SUPPORT-PROVEN {m} [{:.2}s]", t.elapsed().as_secs_f64());
+                    eq += 1;
+                    continue;
+                }
+                println!("    not proven {m} [{:.2}s]", t.elapsed().as_secs_f64());
+                surv.push(m.clone());
+            }
+            println!(
+                "{} {}: {} mutants, {} equivalent (interval), {} survive  [gen {:.2}s]",
+                u.name,
+                name,
+                mk.len(),
+                eq,
+                surv.len(),
+                gen
+            );
+            let bases = v.input_rows.clone();
+            for m in surv.iter().filter(|_| deep) {
+                let t = std::time::Instant::now();
+                let cut = search::event_cut(&d, m).unwrap();
+                let desc = match &cut {
+                    search::CutOutcome::Proven(c) => {
+                        format!("PROVEN via cut {} range {:?}", c.node, c.range)
+                    }
+                    search::CutOutcome::Event(c) => {
+                        format!("cut {} range {:?} {} codes", c.node, c.range, c.codes.len())
+                    }
+                    search::CutOutcome::NoCut => "no cut".to_string(),
+                };
+                let killer = match &cut {
+                    search::CutOutcome::Proven(_) => None,
+                    search::CutOutcome::Event(c) => {
+                        search::line_search(&d, m, Some(c), &bases, 20_000, search::SWEEP_WORK, 1)
+                            .unwrap()
+                    }
+                    search::CutOutcome::NoCut => {
+                        search::line_search(&d, m, None, &bases, 20_000, search::SWEEP_WORK, 1)
+                            .unwrap()
+                    }
+                };
+                println!(
+                    "    node {} {}: {} killer {:?} [{:.2}s]",
+                    m.node,
+                    m,
+                    desc,
+                    killer,
+                    t.elapsed().as_secs_f64()
+                );
+            }
+            total.0 += mk.len();
+            total.1 += eq;
+            total.2 += surv.len();
+        }
+    }
+    println!(
+        "total {} mutants, {} equivalent, {} survive",
+        total.0, total.1, total.2
+    );
+}

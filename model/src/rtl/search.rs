@@ -1,0 +1,921 @@
+//! Searching the inputs for the mutants random vectors miss, and proving
+//! the others equivalent, through cuts of the datapath.
+//!
+//! A mutant differs from the design only where its quantizer meets the
+//! mutant's event (a tie with an even floor, the half bit, an overflow:
+//! [`super::mutants`]), and then only if the change survives to an output
+//! or a flag.
+//!
+//! **One cut.** When every input reaches the quantizer's operand through
+//! one quantization `c` (a *cut*, [`Trace::cuts`]: `d` before the linear
+//! normalizer's `g = c0 + c1·d`, the dot product before the specular power
+//! chain), everything from `c` up to where other inputs join in (the
+//! region's *frontier*, [`Trace::cut_frontier`]) is a function of `c`'s
+//! code alone. [`event_cut`] runs design and mutant over every code `c` can
+//! take (at most [`MAX_CUT_CODES`]) and keeps the codes where the frontier
+//! differs:
+//!
+//! - none: the mutant is **equivalent** (sound: the codes tried cover
+//!   every code interval analysis allows at `c` over every input);
+//! - some: they are rare among random inputs (4 codes of `d` in 2^18), and
+//!   [`line_search`] finds inputs that produce them: it fixes every input
+//!   but one at a random value and bisects the remaining input's range,
+//!   keeping the halves whose interval at `c` still holds such a code, down
+//!   to single inputs; those are run on the mutant, and when the change is
+//!   masked further on, every input of the row is swept over its range.
+//!
+//! **Several cuts.** [`support_proof`] takes the quantizations the operand
+//! is computed from as independent inputs and branches and bounds over
+//! their codes, with intervals, congruences (`x ≡ r (mod s)`, which decide
+//! a tie of an affine operand exactly) and table ranges, comparing the
+//! region's frontier at the points left: none differs, the mutant is
+//! equivalent.
+//!
+//! [`Trace::cuts`]: crate::datapath::Trace::cuts
+//! [`Trace::cut_frontier`]: crate::datapath::Trace::cut_frontier
+
+use super::mutants::{columns, first_difference, range_meets, range_meets_mod, wild_row};
+use super::Design;
+use crate::datapath::{Compiled, Mutation, MutationKind, Op, TV};
+use crate::vectors::RtlError;
+
+/// The most codes of a cut [`event_cut`] enumerates.
+pub const MAX_CUT_CODES: i128 = 1 << 22;
+
+/// The codes of a cut at which the mutant's quantizer meets its event.
+#[derive(Clone, Debug, PartialEq)]
+pub struct EventCut {
+    /// The cut: a quantization or input node through which every input
+    /// reaches the mutant's quantizer.
+    pub node: usize,
+    /// Every code the cut can take (interval analysis over every input).
+    pub range: (i128, i128),
+    /// The codes in `range` that meet the event, ascending.
+    pub codes: Vec<i128>,
+}
+
+/// What [`event_cut`] found.
+#[derive(Clone, Debug, PartialEq)]
+pub enum CutOutcome {
+    /// No code of the cut meets the event: the mutant is equivalent.
+    Proven(EventCut),
+    /// These codes do.
+    Event(EventCut),
+    /// No cut with at most [`MAX_CUT_CODES`] codes (or a shift mutant,
+    /// whose event is every input).
+    NoCut,
+}
+
+/// The quantization of mutant `m` and the binary point of its operand.
+fn quant_of(d: &Design, m: &Mutation) -> (crate::quantize::Quant, i32, usize) {
+    match &d.trace.ops()[m.node] {
+        Op::Quant(a, q) => (*q, a.frac(), a.node()),
+        _ => unreachable!("mutations are of quantizations"),
+    }
+}
+
+/// The full box of input codes of `d`.
+fn full_box(d: &Design) -> Vec<(i128, i128)> {
+    d.trace
+        .input_ports()
+        .iter()
+        .map(|p| (p.format.min_code(), p.format.max_code()))
+        .collect()
+}
+
+/// Bounds on the code of node `c` (a quantization or an input) over the
+/// box `b`, from `prog` (compiled with `c` among its outputs' cone).
+fn code_range(d: &Design, prog: &Compiled, b: &[(i128, i128)], c: usize) -> Option<(i128, i128)> {
+    match &d.trace.ops()[c] {
+        Op::Input(_) => {
+            let pos = d.trace.ops()[..c]
+                .iter()
+                .filter(|op| matches!(op, Op::Input(_)))
+                .count();
+            Some(b[pos])
+        }
+        Op::Quant(a, q) => {
+            let (lo, hi) = prog.quant_operand_range(b, c)?;
+            let (ql, qh) = (q.apply(lo, a.frac()), q.apply(hi, a.frac()));
+            let f = q.format();
+            if (ql.overflowed || qh.overflowed) && q.overflow() == crate::quantize::Overflow::Wrap {
+                Some((f.min_code(), f.max_code()))
+            } else {
+                Some((ql.code, qh.code))
+            }
+        }
+        _ => None,
+    }
+}
+
+/// The nearest cut of mutant `m`'s operand with at most [`MAX_CUT_CODES`]
+/// codes, and the codes of it that meet `m`'s event (see the module
+/// documentation).
+pub fn event_cut(d: &Design, m: &Mutation) -> Result<CutOutcome, RtlError> {
+    if m.kind == MutationKind::Shift {
+        return Ok(CutOutcome::NoCut);
+    }
+    let (_, _, x) = quant_of(d, m);
+    let full = full_box(d);
+    let roots: Vec<TV> = d.trace.output_ports().iter().map(|p| p.value).collect();
+    for c in d.trace.cuts(x) {
+        let prog = Compiled::compile(&d.trace, &[d.trace.value(c)])?;
+        let Some((lo, hi)) = code_range(d, &prog, &full, c) else {
+            continue;
+        };
+        if hi - lo + 1 > MAX_CUT_CODES {
+            continue;
+        }
+        let (t, pos) = d.trace.cut_at(c);
+        let front: Vec<TV> = d
+            .trace
+            .cut_frontier(c, &roots)
+            .into_iter()
+            .map(|f| t.value(f))
+            .collect();
+        let orig = Compiled::compile(&t, &front)?;
+        let mutant = Compiled::compile(&t.mutated(m), &front)?;
+        let n_in = t
+            .ops()
+            .iter()
+            .filter(|op| matches!(op, Op::Input(_)))
+            .count();
+        const CHUNK: i128 = 1 << 16;
+        let mut codes = Vec::new();
+        let mut start = lo;
+        while start <= hi {
+            let end = (start + CHUNK - 1).min(hi);
+            let len = (end - start + 1) as usize;
+            let mut cols = vec![vec![0i128; len]; n_in];
+            cols[pos] = (start..=end).collect();
+            let refs: Vec<&[i128]> = cols.iter().map(|c| c.as_slice()).collect();
+            let (a, b) = (orig.run_flags_i128(&refs), mutant.run_flags_i128(&refs));
+            codes.extend(
+                (0..len)
+                    .filter(|&i| differs(&a, &b, i))
+                    .map(|i| start + i as i128),
+            );
+            start = end + 1;
+        }
+        let cut = EventCut {
+            node: c,
+            range: (lo, hi),
+            codes,
+        };
+        return Ok(if cut.codes.is_empty() {
+            CutOutcome::Proven(cut)
+        } else {
+            CutOutcome::Event(cut)
+        });
+    }
+    Ok(CutOutcome::NoCut)
+}
+
+/// Whether mutant `m` is proven equivalent through the *supports* of its
+/// quantizer's operand ([`crate::datapath::Trace::supports`]: the nearest
+/// quantizations and inputs it is computed from, `spec` and `dot` for the
+/// lighting level `255·(ks·spec + kd·max(dot, 0))`), taken as independent
+/// inputs, each over every code interval analysis allows it. A branch and
+/// bound over boxes of support codes drops the boxes where the operand's
+/// interval cannot meet the mutant's event; the single points left are
+/// run through the design and the mutant from the supports on, and
+/// compared where the supports' region meets the rest of the datapath
+/// ([`crate::datapath::Trace::cut_set_frontier`]). `Ok(true)`: no point
+/// differs, so no input can (the supports of any input are one of the
+/// points). `Ok(false)`: a point differs, or the search is not done by
+/// `deadline`.
+pub fn support_proof(
+    d: &Design,
+    m: &Mutation,
+    deadline: std::time::Instant,
+) -> Result<bool, RtlError> {
+    if m.kind == MutationKind::Shift {
+        return Ok(false);
+    }
+    let (q, frac, x) = quant_of(d, m);
+    let st = q.step(frac);
+    let sup = d.trace.supports(x);
+    if sup.is_empty() {
+        return Ok(false);
+    }
+    let full = full_box(d);
+    let vals: Vec<TV> = sup.iter().map(|&c| d.trace.value(c)).collect();
+    let prog = Compiled::compile(&d.trace, &vals)?;
+    let mut ranges = Vec::new();
+    for &c in &sup {
+        match code_range(d, &prog, &full, c) {
+            Some(r) => ranges.push(r),
+            None => return Ok(false),
+        }
+    }
+    // The trace with every support made an input.
+    let mut t = d.trace.clone();
+    for &c in &sup {
+        t = t.cut_at(c).0;
+    }
+    let inputs: Vec<usize> = (0..t.ops().len())
+        .filter(|&i| matches!(t.ops()[i], Op::Input(_)))
+        .collect();
+    let pos: Vec<usize> = sup
+        .iter()
+        .map(|c| {
+            inputs
+                .iter()
+                .position(|i| i == c)
+                .expect("a support is an input")
+        })
+        .collect();
+    let roots: Vec<TV> = d.trace.output_ports().iter().map(|p| p.value).collect();
+    let front: Vec<TV> = d
+        .trace
+        .cut_set_frontier(&sup, &roots)
+        .into_iter()
+        .map(|f| t.value(f))
+        .collect();
+    let xprog = Compiled::compile(&t, &[t.value(m.node)])?;
+    let orig = Compiled::compile(&t, &front)?;
+    let mutant = Compiled::compile(&t.mutated(m), &front)?;
+    let mut b: Vec<(i128, i128)> = vec![(0, 0); inputs.len()];
+    // How much the operand spreads per code of each support, the others
+    // held at their lowest code (exact where the operand is affine in the
+    // supports, a heuristic elsewhere).
+    let slope: Vec<f64> = (0..ranges.len())
+        .map(|k| {
+            for (j, &p) in pos.iter().enumerate() {
+                b[p] = if j == k {
+                    ranges[j]
+                } else {
+                    (ranges[j].0, ranges[j].0)
+                };
+            }
+            let w = (ranges[k].1 - ranges[k].0).max(1) as f64;
+            xprog
+                .quant_operand_range(&b, m.node)
+                .map_or(1.0, |(lo, hi)| (hi - lo) as f64 / w)
+                .max(1e-9)
+        })
+        .collect();
+    let mut stack = vec![ranges];
+    let mut points: Vec<Vec<i128>> = Vec::new();
+    let mut boxes = 0;
+    let flush = |points: &mut Vec<Vec<i128>>| -> bool {
+        if points.is_empty() {
+            return false;
+        }
+        let mut cols = vec![vec![0i128; points.len()]; inputs.len()];
+        for (j, p) in points.iter().enumerate() {
+            for (k, &v) in p.iter().enumerate() {
+                cols[pos[k]][j] = v;
+            }
+        }
+        let refs: Vec<&[i128]> = cols.iter().map(|c| c.as_slice()).collect();
+        let (a, z) = (orig.run_flags_i128(&refs), mutant.run_flags_i128(&refs));
+        let n = points.len();
+        points.clear();
+        (0..n).any(|i| differs(&a, &z, i))
+    };
+    while let Some(r) = stack.pop() {
+        boxes += 1;
+        if boxes % 4096 == 0 && std::time::Instant::now() > deadline {
+            return Ok(false);
+        }
+        for (k, &p) in pos.iter().enumerate() {
+            b[p] = r[k];
+        }
+        let Some((lo, hi)) = xprog.quant_operand_range(&b, m.node) else {
+            return Ok(false);
+        };
+        if !range_meets(m, &q, &st, lo, hi) {
+            continue;
+        }
+        let cong = xprog.quant_operand_congruence(&b, m.node).unwrap_or((1, 0));
+        if !range_meets_mod(m, &q, &st, lo, hi, cong) {
+            continue;
+        }
+        // Split the support that spreads the operand most: its width
+        // times its spread per code over the whole box.
+        let widest = (0..r.len())
+            .filter(|&k| r[k].0 < r[k].1)
+            .max_by(|&i, &j| {
+                let w = |k: usize| (r[k].1 - r[k].0) as f64 * slope[k];
+                w(i).total_cmp(&w(j))
+            })
+            .unwrap_or(0);
+        if r[widest].0 == r[widest].1 {
+            points.push(r.iter().map(|v| v.0).collect());
+            if points.len() >= 4096 && flush(&mut points) {
+                return Ok(false);
+            }
+            continue;
+        }
+        let (a, z) = r[widest];
+        let mid = a + (z - a).div_euclid(2);
+        let (mut left, mut right) = (r.clone(), r);
+        left[widest] = (a, mid);
+        right[widest] = (mid + 1, z);
+        stack.push(left);
+        stack.push(right);
+    }
+    Ok(!flush(&mut points))
+}
+
+/// Whether lane `i` of two runs differs in an output or a flag.
+fn differs(a: &(Vec<Vec<i128>>, Vec<u64>), b: &(Vec<Vec<i128>>, Vec<u64>), i: usize) -> bool {
+    a.1[i] != b.1[i] || a.0.iter().zip(&b.0).any(|(x, y)| x[i] != y[i])
+}
+
+/// Whether `codes` (ascending) holds a code in `[lo, hi]`.
+fn holds(codes: &[i128], lo: i128, hi: i128) -> bool {
+    let i = codes.partition_point(|&c| c < lo);
+    i < codes.len() && codes[i] <= hi
+}
+
+/// Leaves one line contributes at most (spread over the line, they tell
+/// apart masking that depends on where along it the event falls).
+const LEAVES_PER_LINE: usize = 8;
+
+/// Lane·operations [`line_search`] spends on sweeps at most per mutant
+/// (about a second).
+pub const SWEEP_WORK: usize = 1 << 29;
+
+/// Codes of one input a sweep runs at most (all of a 16-bit input).
+const SWEEP_CODES: i128 = 1 << 16;
+
+/// Rows that differ from `row` in one input, `inputs` of the inputs in
+/// turn (in a random order), that input running over its whole range (or
+/// [`SWEEP_CODES`] codes spread over it): the first that tells the two
+/// programs apart. Adds the lanes run to `swept`.
+#[allow(clippy::too_many_arguments)]
+fn sweep(
+    row: &[i128],
+    formats: &[crate::format::Format],
+    inputs: usize,
+    orig: &Compiled,
+    mutant: &Compiled,
+    rng: &mut crate::sampling::Rng,
+    swept: &mut usize,
+    limit: usize,
+) -> Option<Vec<i128>> {
+    const CHUNK: i128 = 4096;
+    let n = formats.len();
+    let mut order: Vec<usize> = (0..n).collect();
+    for i in (1..n).rev() {
+        order.swap(i, rng.below(i as u64 + 1) as usize);
+    }
+    let mut cols: Vec<Vec<i128>> = row.iter().map(|&v| vec![v; CHUNK as usize]).collect();
+    for k in order.into_iter().take(inputs) {
+        let (lo, hi) = (formats[k].min_code(), formats[k].max_code());
+        let span = hi - lo + 1;
+        let total = span.min(SWEEP_CODES);
+        let mut done = 0;
+        while done < total {
+            if *swept >= limit {
+                return None;
+            }
+            let len = (total - done).min(CHUNK) as usize;
+            for (i, c) in cols[k][..len].iter_mut().enumerate() {
+                *c = if span <= SWEEP_CODES {
+                    lo + done + i as i128
+                } else {
+                    lo + rng.below(span.min(u64::MAX as i128) as u64) as i128
+                };
+            }
+            done += len as i128;
+            *swept += len;
+            let refs: Vec<&[i128]> = cols.iter().map(|c| &c[..len]).collect();
+            let (a, b) = (orig.run_flags_i128(&refs), mutant.run_flags_i128(&refs));
+            if let Some(i) = (0..len).find(|&i| differs(&a, &b, i)) {
+                let mut r = row.to_vec();
+                r[k] = cols[k][i];
+                return Some(r);
+            }
+        }
+        cols[k].fill(row[k]);
+    }
+    None
+}
+
+/// An input that tells mutant `m` apart from the design, found by line
+/// search (module documentation) towards the event codes of `cut`, or
+/// towards the event at the mutant's own quantizer when `cut` is `None`;
+/// at most `budget` interval evaluations. `bases` are rows to start lines
+/// from (the unit's own inputs) besides random ones.
+pub fn line_search(
+    d: &Design,
+    m: &Mutation,
+    cut: Option<&EventCut>,
+    bases: &[Vec<i128>],
+    budget: usize,
+    sweep_work: usize,
+    seed: u64,
+) -> Result<Option<Vec<i128>>, RtlError> {
+    let (q, frac, x) = quant_of(d, m);
+    let st = q.step(frac);
+    let target = cut.map_or(m.node, |c| c.node);
+    let tprog = Compiled::compile(&d.trace, &[d.trace.value(target)])?;
+    let hits = |b: &[(i128, i128)]| -> bool {
+        match cut {
+            Some(c) => {
+                code_range(d, &tprog, b, c.node).is_some_and(|(lo, hi)| holds(&c.codes, lo, hi))
+            }
+            None => tprog
+                .quant_operand_range(b, m.node)
+                .is_some_and(|(lo, hi)| {
+                    range_meets(m, &q, &st, lo, hi)
+                        && range_meets_mod(
+                            m,
+                            &q,
+                            &st,
+                            lo,
+                            hi,
+                            tprog.quant_operand_congruence(b, m.node).unwrap_or((1, 0)),
+                        )
+                }),
+        }
+    };
+    let ports = d.trace.input_ports();
+    let formats: Vec<_> = ports.iter().map(|p| p.format).collect();
+    let cone = d
+        .trace
+        .live_nodes(&[d.trace.value(if cut.is_some() { target } else { x })]);
+    let dims: Vec<usize> = (0..ports.len())
+        .filter(|&k| cone[ports[k].value.node()])
+        .collect();
+    if dims.is_empty() {
+        return Ok(None);
+    }
+    let roots: Vec<TV> = d.trace.output_ports().iter().map(|p| p.value).collect();
+    let orig = Compiled::compile(&d.trace, &roots)?;
+    let mutant = Compiled::compile(&d.trace.mutated(m), &roots)?;
+    let n_in = ports.len();
+    let sweep_lanes = sweep_work / d.trace.ops().len().max(1);
+    let mut rng = crate::sampling::Rng::new(seed ^ 0x6c69_6e65);
+    let mut evals = 0;
+    let mut swept = 0usize;
+    let mut line = 0usize;
+    // Random-row sweeps are for roundings only (see below).
+    let random_sweeps = !matches!(m.kind, MutationKind::Overflow(_));
+    while evals < budget || (random_sweeps && swept < sweep_lanes) {
+        let base = if !bases.is_empty() && line % 2 == 1 {
+            bases[rng.below(bases.len() as u64) as usize].clone()
+        } else {
+            wild_row(&formats, &mut rng)
+        };
+        line += 1;
+        let k = dims[rng.below(dims.len() as u64) as usize];
+        let mut b: Vec<(i128, i128)> = base.iter().map(|&v| (v, v)).collect();
+        let mut stack = if evals < budget {
+            vec![(formats[k].min_code(), formats[k].max_code())]
+        } else {
+            Vec::new()
+        };
+        let mut leaves = Vec::new();
+        while let Some((lo, hi)) = stack.pop() {
+            evals += 1;
+            if evals > budget {
+                break;
+            }
+            b[k] = (lo, hi);
+            if !hits(&b) {
+                continue;
+            }
+            if lo == hi {
+                leaves.push(lo);
+                if leaves.len() >= LEAVES_PER_LINE {
+                    break;
+                }
+                continue;
+            }
+            let mid = lo + (hi - lo) / 2;
+            if rng.below(2) == 0 {
+                stack.push((lo, mid));
+                stack.push((mid + 1, hi));
+            } else {
+                stack.push((mid + 1, hi));
+                stack.push((lo, mid));
+            }
+        }
+        if leaves.is_empty() {
+            // No event on this line: sweep one input of the base row (not
+            // for an overflow, which the bisection finds wherever one can
+            // happen; a rounding's change may need the rest of the row to
+            // line up, which a sweep tries).
+            if swept < sweep_lanes && random_sweeps {
+                if let Some(r) = sweep(
+                    &base,
+                    &formats,
+                    1,
+                    &orig,
+                    &mutant,
+                    &mut rng,
+                    &mut swept,
+                    sweep_lanes,
+                ) {
+                    return Ok(Some(r));
+                }
+            }
+            continue;
+        }
+        let rows: Vec<Vec<i128>> = leaves
+            .iter()
+            .map(|&v| {
+                let mut r = base.clone();
+                r[k] = v;
+                r
+            })
+            .collect();
+        let cols = columns(&rows, ports.len());
+        let refs: Vec<&[i128]> = cols.iter().map(|c| c.as_slice()).collect();
+        if let Some(i) =
+            first_difference(&orig.run_flags_i128(&refs), &mutant.run_flags_i128(&refs))
+        {
+            return Ok(Some(rows[i].clone()));
+        }
+        // The event reaches the cut's frontier but is masked further on
+        // (a ±1 difference that a later rounding absorbs): sweep every
+        // input of one such row over its range, the other inputs held.
+        if swept < sweep_lanes {
+            let row = &rows[rng.below(rows.len() as u64) as usize];
+            if let Some(r) = sweep(
+                row,
+                &formats,
+                n_in,
+                &orig,
+                &mutant,
+                &mut rng,
+                &mut swept,
+                sweep_lanes,
+            ) {
+                return Ok(Some(r));
+            }
+        }
+    }
+    Ok(None)
+}
+
+/// Interval evaluations [`killers`] spends on line bisection per mutant.
+pub const LINE_EVALS: usize = 4000;
+
+/// Time [`killers`] gives [`support_proof`] per mutant before searching.
+pub const KILLER_PROOF_TIME: std::time::Duration = std::time::Duration::from_millis(100);
+
+/// Lane·operations [`killers`] spends on sweeps per mutant.
+pub const KILLER_SWEEP_WORK: usize = 1 << 27;
+
+/// Inputs that tell apart `survivors` (mutants no earlier vector tells
+/// apart), found through cuts and line search ([`event_cut`],
+/// [`line_search`], small budgets: this runs whenever vectors are made),
+/// starting lines from `bases` as well as random rows. Mutants proven
+/// equivalent on the way are skipped. Returns the inputs (one per mutant
+/// found, each taken once) and the mutants still not told apart.
+pub fn killers(
+    d: &Design,
+    survivors: &[Mutation],
+    bases: &[Vec<i128>],
+    seed: u64,
+) -> Result<(Vec<Vec<i128>>, Vec<Mutation>), RtlError> {
+    let one = |i: usize, m: &Mutation| -> Result<Option<Option<Vec<i128>>>, RtlError> {
+        if super::mutants::equivalent(d, m)?.is_some() {
+            return Ok(None);
+        }
+        let cut = match event_cut(d, m)? {
+            CutOutcome::Proven(_) => return Ok(None),
+            CutOutcome::Event(c) => Some(c),
+            CutOutcome::NoCut => None,
+        };
+        // A proof that ends in time saves the search; one that does not
+        // changes nothing (the search would find no input either way).
+        if cut.is_none() && support_proof(d, m, std::time::Instant::now() + KILLER_PROOF_TIME)? {
+            return Ok(None);
+        }
+        let s = seed.wrapping_add(i as u64);
+        Ok(Some(line_search(
+            d,
+            m,
+            cut.as_ref(),
+            bases,
+            LINE_EVALS,
+            KILLER_SWEEP_WORK,
+            s,
+        )?))
+    };
+    // Each mutant's search is seeded on its own, so the result does not
+    // depend on how the work is shared among threads.
+    let results = parallel_map(survivors, one)?;
+    let mut rows: Vec<Vec<i128>> = Vec::new();
+    let mut missed = Vec::new();
+    for (m, r) in survivors.iter().zip(results) {
+        match r {
+            None => {}
+            Some(Some(row)) if !rows.contains(&row) => rows.push(row),
+            Some(Some(_)) => {}
+            Some(None) => missed.push(m.clone()),
+        }
+    }
+    Ok((rows, missed))
+}
+
+/// `f(i, x)` for every element of `xs`, in order, on as many threads as
+/// the machine has cores.
+pub fn parallel_map<T: Sync, U: Send>(
+    xs: &[T],
+    f: impl Fn(usize, &T) -> Result<U, RtlError> + Sync,
+) -> Result<Vec<U>, RtlError> {
+    let threads = std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .min(xs.len().max(1));
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let mut out: Vec<Option<Result<U, RtlError>>> = (0..xs.len()).map(|_| None).collect();
+    let parts: Vec<Vec<(usize, Result<U, RtlError>)>> = std::thread::scope(|sc| {
+        let handles: Vec<_> = (0..threads)
+            .map(|_| {
+                sc.spawn(|| {
+                    let mut v = Vec::new();
+                    loop {
+                        let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                        if i >= xs.len() {
+                            break;
+                        }
+                        v.push((i, f(i, &xs[i])));
+                    }
+                    v
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().expect("a search thread panicked"))
+            .collect()
+    });
+    for (i, r) in parts.into_iter().flatten() {
+        out[i] = Some(r);
+    }
+    out.into_iter()
+        .map(|r| r.expect("every element mapped"))
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::Config;
+    use crate::datapath::{Datapath, Trace};
+    use crate::format::Format;
+    use crate::quantize::{Overflow, Quant, Rounding};
+
+    fn design(trace: Trace) -> Design {
+        Design {
+            module: "t".into(),
+            unit: "t",
+            variant: String::new(),
+            trace,
+            config_source: String::new(),
+            config_toml: String::new(),
+            notes: Vec::new(),
+            pipelining: super::super::timing::Pipelining::Compact,
+            setup: Vec::new(),
+            handshake: super::super::timing::Handshake::Stall,
+        }
+    }
+
+    fn q(stage: &'static str, f: &str, r: Rounding, o: Overflow) -> Quant {
+        Quant::new(stage, f.parse::<Format>().unwrap(), r, o)
+    }
+
+    /// Every input of a design with two 8-bit inputs, and whether each
+    /// mutant's outputs or flags differ on some input (exhaustive).
+    fn killable(d: &Design) -> Vec<(Mutation, bool)> {
+        let rows: Vec<Vec<i128>> = (-128..128)
+            .flat_map(|a| (0..256).map(move |b| vec![a, b]))
+            .collect();
+        super::super::mutants::model_kills(d, &rows)
+            .unwrap()
+            .into_iter()
+            .map(|(m, first)| (m, first.is_some()))
+            .collect()
+    }
+
+    /// A small datapath with a chain of roundings on one input (`a²`
+    /// quantized twice, then `(a²)²`) joined by a second input at the end:
+    /// the cut analysis is sound (a proven mutant differs on no input, by
+    /// exhaustive simulation) and complete on this chain (every mutant
+    /// some input kills has event codes, and the line search finds a
+    /// killer for it, checked by running it).
+    #[test]
+    fn cut_proofs_are_sound_and_line_search_finds_killers() {
+        let mut t = Trace::new();
+        let a = t.input_named("a", &q("a", "I1F7", Rounding::Trunc, Overflow::Saturate));
+        let b = t.input_named("b", &q("b", "U0F8", Rounding::Trunc, Overflow::Saturate));
+        let sq = t.mul(a, a);
+        let s1 = t.quantize(sq, &q("s1", "U1F9", Rounding::HalfEven, Overflow::Saturate));
+        let s2 = t.quantize(s1, &q("s2", "U1F6", Rounding::HalfEven, Overflow::Saturate));
+        let p = t.mul(s2, s2);
+        let s3 = t.quantize(p, &q("s3", "U0F5", Rounding::Trunc, Overflow::Saturate));
+        let e = t.mul(s3, b);
+        let y = t.quantize(e, &q("y", "U0F6", Rounding::HalfEven, Overflow::Wrap));
+        t.output("y", y);
+        let d = design(t);
+        let mut proven = 0;
+        let mut found = 0;
+        for (m, kill) in killable(&d) {
+            match event_cut(&d, &m).unwrap() {
+                CutOutcome::Proven(_) => {
+                    assert!(!kill, "{m} is proven equivalent, yet an input kills it");
+                    proven += 1;
+                }
+                CutOutcome::Event(c) if kill => {
+                    let r = line_search(&d, &m, Some(&c), &[], 4000, 1 << 20, 7)
+                        .unwrap()
+                        .unwrap_or_else(|| panic!("{m}: no killer found"));
+                    assert!(super::super::mutants::tells_apart(&d, &m, &r).unwrap());
+                    found += 1;
+                }
+                _ => {}
+            }
+        }
+        eprintln!("proven {proven}, found {found}");
+        assert!(proven >= 2 && found >= 3, "proven {proven}, found {found}");
+    }
+
+    /// The linear normalizer's `g = c0 + c1·d` rounded half_up instead of
+    /// half_even (the mutant random vectors missed): the event codes of
+    /// its cut `d` are exactly those a closed form gives — `c1·d + c0·2^17`
+    /// with low 15 bits `2^14` and bit 15 clear — and the input the line
+    /// search returns makes `d = round_half_even(N·N / 2^11)` one of them.
+    #[test]
+    fn linear_normalizer_g_tie_is_found() {
+        let mut cfg = Config::embedded();
+        cfg.apply_override("normalize.method=\"linear\"").unwrap();
+        let u = super::super::units::unit("normalize").unwrap();
+        let d = (u.design)(&cfg).unwrap();
+        let t = &d.trace;
+        let g = (0..t.ops().len())
+            .find(|&i| t.stage_id(i) == Some("normalize.g"))
+            .unwrap();
+        let m = t
+            .mutations(&[t.value(g)])
+            .into_iter()
+            .find(|m| m.node == g && matches!(m.kind, MutationKind::Round(Rounding::HalfUp)))
+            .unwrap();
+        let consts: Vec<i128> = t
+            .ops()
+            .iter()
+            .filter_map(|op| match op {
+                Op::Const(c) => Some(*c),
+                _ => None,
+            })
+            .collect();
+        let (c0, c1) = (consts[0], consts[1]);
+        // g's operand: c1 (I?F15) · d (U1F17) + c0 (F15) aligned to F32.
+        let tie = |dc: i128| {
+            let x = c1 * dc + (c0 << 17);
+            x & 0x7fff == 0x4000 && (x >> 15) & 1 == 0
+        };
+        let want: Vec<i128> = (0..1 << 18).filter(|&dc| tie(dc)).collect();
+        assert!(!want.is_empty());
+        let CutOutcome::Event(c) = event_cut(&d, &m).unwrap() else {
+            panic!("no event codes")
+        };
+        assert_eq!(c.codes, want);
+        let r = line_search(&d, &m, Some(&c), &[], 4000, 1 << 22, 1)
+            .unwrap()
+            .expect("a killer");
+        let nn: i128 = r.iter().map(|v| v * v).sum();
+        let (fl, rem) = (nn >> 11, nn & 0x7ff);
+        let dc = if rem > 0x400 || (rem == 0x400 && fl & 1 == 1) {
+            fl + 1
+        } else {
+            fl
+        };
+        assert!(tie(dc.min((1 << 18) - 1)), "{r:?}: d = {dc}");
+    }
+
+    /// Known-zero bits: an I2F14 input widened to I4F18 and shifted right
+    /// by 1..4 drops only zero bits, so a rounding mode changed there is
+    /// proven equivalent; shifted by 5 it is not (and an input kills it).
+    #[test]
+    fn known_zero_bits_prove_exact_shifts() {
+        for (shift, exact) in [(1, true), (4, true), (5, false)] {
+            let mut t = Trace::new();
+            let a = t.input_named("a", &q("in", "I2F14", Rounding::Trunc, Overflow::Saturate));
+            let w = t.quantize(a, &q("xy", "I4F18", Rounding::Trunc, Overflow::Saturate));
+            let half = t
+                .constant(
+                    0.5f64.powi(shift),
+                    &q(
+                        "k",
+                        &format!("U0F{shift}"),
+                        Rounding::Trunc,
+                        Overflow::Saturate,
+                    ),
+                )
+                .unwrap();
+            let p = t.mul(w, half);
+            let y = t.quantize(p, &q("y", "I4F18", Rounding::Trunc, Overflow::Saturate));
+            t.output("y", y);
+            let d = design(t);
+            let m = d
+                .trace
+                .mutations(&[d.trace.value(y.node())])
+                .into_iter()
+                .find(|m| m.node == y.node() && matches!(m.kind, MutationKind::Round(_)))
+                .unwrap();
+            let proven = super::super::mutants::equivalent(&d, &m).unwrap().is_some();
+            assert_eq!(proven, exact, "shift {shift}");
+            let rows: Vec<Vec<i128>> = (-32768..32768).map(|v| vec![v]).collect();
+            let killed = super::super::mutants::model_kills(&d, &rows)
+                .unwrap()
+                .into_iter()
+                .any(|(mm, f)| mm == m && f.is_some());
+            assert_eq!(killed, !exact, "shift {shift}");
+        }
+    }
+
+    /// The congruence-aware event test against brute force: for rounding
+    /// ties (half_even against half_up) it is exact, for the half bit
+    /// (trunc against half_up) it is sound, and exact when the stride is a
+    /// multiple of the step.
+    #[test]
+    fn congruence_event_test_matches_brute_force() {
+        use super::super::mutants::{event, range_meets_mod};
+        let mut rng = crate::sampling::Rng::new(3);
+        for (round, kind) in [
+            (Rounding::HalfEven, Rounding::HalfUp),
+            (Rounding::Trunc, Rounding::HalfUp),
+        ] {
+            let m = Mutation {
+                node: 0,
+                stage: String::new(),
+                kind: MutationKind::Round(kind),
+            };
+            for _ in 0..20000 {
+                let s = 1 + rng.below(5) as i32;
+                let qq = q("x", "I40F0", round, Overflow::Saturate);
+                let st = qq.step(s);
+                let stride = rng.below(70) as i128;
+                let off = if stride == 0 {
+                    rng.below(400) as i128 - 200
+                } else {
+                    rng.below(stride as u64) as i128
+                };
+                let lo = rng.below(400) as i128 - 200;
+                let hi = lo + rng.below(150) as i128;
+                let brute = (lo..=hi).any(|x| {
+                    (if stride == 0 {
+                        x == off
+                    } else {
+                        x.rem_euclid(stride) == off
+                    }) && event(&m, &qq, s, x)
+                });
+                let got = range_meets_mod(&m, &qq, &st, lo, hi, (stride, off));
+                assert!(
+                    got || !brute,
+                    "{round:?} s {s} stride {stride} off {off} [{lo}, {hi}]: missed"
+                );
+                let exact = round != Rounding::Trunc || stride == 0 || stride % (1 << s) == 0;
+                if exact {
+                    assert_eq!(
+                        got, brute,
+                        "{round:?} s {s} stride {stride} off {off} [{lo}, {hi}]"
+                    );
+                }
+            }
+        }
+    }
+
+    /// The lighting level `Q(16320·spec + 391680·max(dot, 0))` (F25 to
+    /// U8F0) rounded half_up instead of half_even: a closed form shows the
+    /// only tie with an even floor is at `spec + 24·dot = 786432`, where
+    /// the level (382.5) saturates to 255 either way, so the mutant is
+    /// equivalent — and the support branch and bound proves it. With a
+    /// 10-bit level the tie is no longer masked, and the proof fails.
+    #[test]
+    fn support_proof_of_the_lighting_level_tie() {
+        let ties: Vec<i128> = (0..=262143 + 24 * 32767)
+            .filter(|k: &i128| (16320 * k) % (1 << 26) == 1 << 24)
+            .collect();
+        assert_eq!(ties, [786432]);
+        assert!((16320i128 * 786432) >> 25 > 255);
+        for (set, provable) in [(None, true), (Some("lighting.level.format=U10F0"), false)] {
+            let mut cfg = Config::embedded();
+            if let Some(o) = set {
+                cfg.apply_override(o).unwrap();
+            }
+            let u = super::super::units::unit("lighting").unwrap();
+            let d = (u.design)(&cfg).unwrap();
+            let t = &d.trace;
+            let roots: Vec<TV> = t.output_ports().iter().map(|p| p.value).collect();
+            let m = t
+                .mutations(&roots)
+                .into_iter()
+                .find(|m| m.stage == "lighting.level" && matches!(m.kind, MutationKind::Round(_)))
+                .unwrap();
+            let deadline = std::time::Instant::now() + std::time::Duration::from_secs(120);
+            assert_eq!(
+                support_proof(&d, &m, deadline).unwrap(),
+                provable,
+                "{set:?}"
+            );
+        }
+    }
+}
