@@ -553,11 +553,16 @@ pub fn line_search(
     Ok(None)
 }
 
-/// Interval evaluations [`killers`] spends on line bisection per mutant.
+/// Interval evaluations [`killers`] spends on line bisection per mutant, at
+/// most.
 pub const LINE_EVALS: usize = 4000;
 
+/// Interval evaluations times the design's nodes [`killers`] spends on
+/// line bisection per mutant (fewer evaluations for a large design).
+pub const LINE_WORK: usize = 1 << 18;
+
 /// Time [`killers`] gives [`support_proof`] per mutant before searching.
-pub const KILLER_PROOF_TIME: std::time::Duration = std::time::Duration::from_millis(100);
+pub const KILLER_PROOF_TIME: std::time::Duration = std::time::Duration::from_millis(30);
 
 /// Lane·operations [`killers`] spends on sweeps per mutant.
 pub const KILLER_SWEEP_WORK: usize = 1 << 27;
@@ -594,7 +599,7 @@ pub fn killers(
             m,
             cut.as_ref(),
             bases,
-            LINE_EVALS,
+            LINE_EVALS.min(LINE_WORK / d.trace.ops().len().max(1)),
             KILLER_SWEEP_WORK,
             s,
         )?))
