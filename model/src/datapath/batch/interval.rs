@@ -55,6 +55,14 @@ impl<R: Raw> Program<R> {
         self.box_ranges(inputs).1
     }
 
+    /// The register of the operand of the quantization at `node`.
+    fn quant_operand(&self, node: usize) -> Option<usize> {
+        self.instrs.iter().find_map(|ins| match *ins {
+            Instr::Quant { d, a, .. } if d == node => Some(a),
+            _ => None,
+        })
+    }
+
     /// The range of the exact operand of the quantization at `node` over the
     /// box `inputs` (sound, as [`Program::may_overflow`]), or `None` when
     /// `node` is not a quantization of the program.
@@ -63,10 +71,7 @@ impl<R: Raw> Program<R> {
         inputs: &[(i128, i128)],
         node: usize,
     ) -> Option<(i128, i128)> {
-        let a = self.instrs.iter().find_map(|ins| match *ins {
-            Instr::Quant { d, a, .. } if d == node => Some(a),
-            _ => None,
-        })?;
+        let a = self.quant_operand(node)?;
         Some(self.box_ranges(inputs).0[a])
     }
 
@@ -76,10 +81,7 @@ impl<R: Raw> Program<R> {
     /// when `node` is not a quantization of the program. A rounding that
     /// drops no more bits than this never rounds.
     pub fn quant_operand_zeros(&self, inputs: &[(i128, i128)], node: usize) -> Option<u32> {
-        let a = self.instrs.iter().find_map(|ins| match *ins {
-            Instr::Quant { d, a, .. } if d == node => Some(a),
-            _ => None,
-        })?;
+        let a = self.quant_operand(node)?;
         Some(self.known_zeros(inputs)[a])
     }
 
@@ -165,10 +167,7 @@ impl<R: Raw> Program<R> {
         inputs: &[(i128, i128)],
         node: usize,
     ) -> Option<(i128, i128)> {
-        let a = self.instrs.iter().find_map(|ins| match *ins {
-            Instr::Quant { d, a, .. } if d == node => Some(a),
-            _ => None,
-        })?;
+        let a = self.quant_operand(node)?;
         Some(self.congruences(inputs)[a])
     }
 
