@@ -276,7 +276,7 @@ pub fn support_proof(
     };
     while let Some(r) = stack.pop() {
         boxes += 1;
-        if boxes % 4096 == 0 && std::time::Instant::now() > deadline {
+        if boxes % 256 == 0 && std::time::Instant::now() > deadline {
             return Ok(false);
         }
         for (k, &p) in pos.iter().enumerate() {
