@@ -40,11 +40,53 @@ fn main() {
                 if search::support_proof(
                     &d,
                     m,
-                    std::time::Instant::now() + std::time::Duration::from_secs(20),
+                    std::time::Instant::now()
+                        + std::time::Duration::from_secs(
+                            std::env::var("PROOF_SECS")
+                                .ok()
+                                .and_then(|s| s.parse().ok())
+                                .unwrap_or(20),
+                        ),
                 )
                 .unwrap()
                 {
                     println!("    SUPPORT-PROVEN {m} [{:.2}s]", t.elapsed().as_secs_f64());
+                    eq += 1;
+                    continue;
+                }
+                let t = std::time::Instant::now();
+                if search::input_proof(
+                    &d,
+                    m,
+                    std::time::Instant::now()
+                        + std::time::Duration::from_secs(
+                            std::env::var("PROOF_SECS")
+                                .ok()
+                                .and_then(|s| s.parse().ok())
+                                .unwrap_or(20),
+                        ),
+                )
+                .unwrap()
+                {
+                    println!("    INPUT-PROVEN {m} [{:.2}s]", t.elapsed().as_secs_f64());
+                    eq += 1;
+                    continue;
+                }
+                let t = std::time::Instant::now();
+                if search::layer_proof(
+                    &d,
+                    m,
+                    std::time::Instant::now()
+                        + std::time::Duration::from_secs(
+                            std::env::var("PROOF_SECS")
+                                .ok()
+                                .and_then(|s| s.parse().ok())
+                                .unwrap_or(20),
+                        ),
+                )
+                .unwrap()
+                {
+                    println!("    LAYER-PROVEN {m} [{:.2}s]", t.elapsed().as_secs_f64());
                     eq += 1;
                     continue;
                 }

@@ -37,8 +37,9 @@ pub struct MutateArgs {
     /// prove it equivalent or find an input that kills it.
     #[arg(long, default_value_t = 20_000)]
     box_budget: usize,
-    /// Seconds the branch and bound over the supports of a surviving
-    /// mutant's quantizer may take to prove it equivalent (before z3).
+    /// Seconds each branch and bound may take to prove a surviving mutant
+    /// equivalent, before z3: over the supports of its quantizer, over the
+    /// input codes, over an earlier layer of quantizations.
     #[arg(long, default_value_t = 20)]
     proof_seconds: u32,
     /// Seconds z3 may take per surviving mutant (the bit-vector query "does
@@ -277,6 +278,24 @@ fn run_variant(
                 "{} ({variant}) mutant {k} ({m}): the support branch and bound proves it equivalent, yet the vectors kill it",
                 u.name
             );
+            anyhow::ensure!(
+                !search::input_proof(
+                    &d,
+                    m,
+                    std::time::Instant::now() + std::time::Duration::from_secs(a.proof_seconds.into()),
+                )?,
+                "{} ({variant}) mutant {k} ({m}): the input branch and bound proves it equivalent, yet the vectors kill it",
+                u.name
+            );
+            anyhow::ensure!(
+                !search::layer_proof(
+                    &d,
+                    m,
+                    std::time::Instant::now() + std::time::Duration::from_secs(a.proof_seconds.into()),
+                )?,
+                "{} ({variant}) mutant {k} ({m}): the layer branch and bound proves it equivalent, yet the vectors kill it",
+                u.name
+            );
         }
         if !killed && equivalent.is_none() {
             // A survivor: prove it equivalent, or search every input box
@@ -288,6 +307,22 @@ fn run_variant(
             )? {
                 equivalent = Some(
                     "equivalent: a branch and bound over the codes of the quantizations its operand is computed from (taken as independent) finds none where the mutant changes what leaves their region",
+                );
+            } else if search::input_proof(
+                &d,
+                m,
+                std::time::Instant::now() + std::time::Duration::from_secs(a.proof_seconds.into()),
+            )? {
+                equivalent = Some(
+                    "equivalent: a branch and bound over boxes of the input codes finds none where the mutant changes an output or a flag",
+                );
+            } else if search::layer_proof(
+                &d,
+                m,
+                std::time::Instant::now() + std::time::Duration::from_secs(a.proof_seconds.into()),
+            )? {
+                equivalent = Some(
+                    "equivalent: a branch and bound over the codes of an earlier layer of quantizations (a CORDIC rotation's inputs) finds none where the mutant changes what leaves their region",
                 );
             }
         }

@@ -1105,6 +1105,14 @@ impl Compiled {
             Compiled::Wide(p) => p.may_overflow(inputs),
         }
     }
+    /// The range of a node's code over a box of input codes
+    /// ([`Program::node_range`]).
+    pub fn node_range(&self, inputs: &[(i128, i128)], node: usize) -> (i128, i128) {
+        match self {
+            Compiled::Narrow(p) => p.node_range(inputs, node),
+            Compiled::Wide(p) => p.node_range(inputs, node),
+        }
+    }
     /// The range of a quantization's operand over a box of input codes
     /// ([`Program::quant_operand_range`]).
     pub fn quant_operand_range(

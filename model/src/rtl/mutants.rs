@@ -129,7 +129,25 @@ pub fn equivalent(d: &Design, m: &Mutation) -> Result<Option<&'static str>, RtlE
                 "equivalent: the bits the stage drops are zero for every input code (known-zero bit analysis), so it never rounds",
             )
         }
-        MutationKind::Shift => None,
+        MutationKind::Shift => {
+            // A stage that quantizes a constant (the zero a CORDIC's angle
+            // starts from): one evaluation settles it.
+            let crate::datapath::Op::Quant(a, _) = &d.trace.ops()[m.node] else {
+                unreachable!("mutations are of quantizations")
+            };
+            if d.trace.inputs_of(a.node()).is_empty() {
+                let node = [d.trace.value(m.node)];
+                let cols: Vec<Vec<i128>> = box_.iter().map(|r| vec![r.0]).collect();
+                let refs: Vec<&[i128]> = cols.iter().map(|c| c.as_slice()).collect();
+                let want = Compiled::compile(&d.trace, &node)?.run_flags_i128(&refs);
+                let got = Compiled::compile(&d.trace.mutated(m), &node)?.run_flags_i128(&refs);
+                (want == got).then_some(
+                    "equivalent: the stage quantizes a constant, and the mutant gives it the same code",
+                )
+            } else {
+                None
+            }
+        }
     })
 }
 

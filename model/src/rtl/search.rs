@@ -29,7 +29,11 @@
 //! their codes, with intervals, congruences (`x ≡ r (mod s)`, which decide
 //! a tie of an affine operand exactly) and table ranges, comparing the
 //! region's frontier at the points left: none differs, the mutant is
-//! equivalent.
+//! equivalent. Where the supports are correlated (a CORDIC's `x` and `y`,
+//! whose rotation keeps `y` shrinking and `x` below `K·|v|`),
+//! [`input_proof`] branches over the input ports themselves instead: the
+//! interval analysis splits each micro-rotation at the sign that steers
+//! it, so on small enough boxes it follows the rotation.
 //!
 //! [`Trace::cuts`]: crate::datapath::Trace::cuts
 //! [`Trace::cut_frontier`]: crate::datapath::Trace::cut_frontier
@@ -192,9 +196,84 @@ pub fn support_proof(
     if m.kind == MutationKind::Shift {
         return Ok(false);
     }
-    let (q, frac, x) = quant_of(d, m);
+    let (_, _, x) = quant_of(d, m);
+    proof_over(d, m, &d.trace.supports(x), deadline)
+}
+
+/// Whether mutant `m` is proven equivalent by the branch and bound of
+/// [`support_proof`] over the design's own input ports in the cone of
+/// its operand: slower than over the supports where they are narrow, but
+/// exact about every correlation between them (a CORDIC's rotation
+/// invariant, lost when its coordinates are taken as independent).
+pub fn input_proof(
+    d: &Design,
+    m: &Mutation,
+    deadline: std::time::Instant,
+) -> Result<bool, RtlError> {
+    if m.kind == MutationKind::Shift {
+        return Ok(false);
+    }
+    let (_, _, x) = quant_of(d, m);
+    proof_over(d, m, &d.trace.inputs_of(x), deadline)
+}
+
+/// Whether mutant `m` is proven equivalent by the branch and bound of
+/// [`support_proof`] over the deepest *layer* of quantizations its operand
+/// is computed from that reads no input port directly and has at most
+/// three nodes: layer 0 is the operand's supports, layer `k + 1` the
+/// supports of layer `k`'s operands. Between [`support_proof`] (one step
+/// back, correlations lost) and [`input_proof`] (exact, but long cones):
+/// for a CORDIC's second rotation it is that rotation's own inputs.
+pub fn layer_proof(
+    d: &Design,
+    m: &Mutation,
+    deadline: std::time::Instant,
+) -> Result<bool, RtlError> {
+    if m.kind == MutationKind::Shift {
+        return Ok(false);
+    }
+    let (_, _, x) = quant_of(d, m);
+    let t = &d.trace;
+    let mut layer = t.supports(x);
+    let mut best = None;
+    for _ in 0..256 {
+        let mut next: Vec<usize> = Vec::new();
+        for &c in &layer {
+            match &t.ops()[c] {
+                Op::Quant(a, _) => next.extend(t.supports(a.node())),
+                _ => next.push(c),
+            }
+        }
+        next.sort_unstable();
+        next.dedup();
+        if next.is_empty() || next.iter().any(|&c| matches!(t.ops()[c], Op::Input(_))) {
+            break;
+        }
+        if next.len() <= 3 {
+            best = Some(next.clone());
+        }
+        if next == layer {
+            break;
+        }
+        layer = next;
+    }
+    match best {
+        Some(b) => proof_over(d, m, &b, deadline),
+        None => Ok(false),
+    }
+}
+
+/// The branch and bound of [`support_proof`] over the cuts `sup` of `m`'s
+/// operand (quantizations or inputs that together determine it).
+fn proof_over(
+    d: &Design,
+    m: &Mutation,
+    sup: &[usize],
+    deadline: std::time::Instant,
+) -> Result<bool, RtlError> {
+    let (q, frac, _) = quant_of(d, m);
     let st = q.step(frac);
-    let sup = d.trace.supports(x);
+    let sup = sup.to_vec();
     if sup.is_empty() {
         return Ok(false);
     }
@@ -288,9 +367,13 @@ pub fn support_proof(
         if !range_meets(m, &q, &st, lo, hi) {
             continue;
         }
-        let cong = xprog.quant_operand_congruence(&b, m.node).unwrap_or((1, 0));
-        if !range_meets_mod(m, &q, &st, lo, hi, cong) {
-            continue;
+        // Congruences decide rounding ties; an overflow is a matter of
+        // range alone (and the congruence costs another interval pass).
+        if matches!(m.kind, MutationKind::Round(_)) {
+            let cong = xprog.quant_operand_congruence(&b, m.node).unwrap_or((1, 0));
+            if !range_meets_mod(m, &q, &st, lo, hi, cong) {
+                continue;
+            }
         }
         // Split the support that spreads the operand most: its width
         // times its spread per code over the whole box.
@@ -561,11 +644,14 @@ pub const LINE_EVALS: usize = 4000;
 /// line bisection per mutant (fewer evaluations for a large design).
 pub const LINE_WORK: usize = 1 << 18;
 
-/// Time [`killers`] gives [`support_proof`] per mutant before searching.
+/// Time [`killers`] gives [`support_proof`], [`input_proof`] and
+/// [`layer_proof`] each, per mutant, before searching.
 pub const KILLER_PROOF_TIME: std::time::Duration = std::time::Duration::from_millis(30);
 
-/// Lane·operations [`killers`] spends on sweeps per mutant.
-pub const KILLER_SWEEP_WORK: usize = 1 << 27;
+/// Lane·operations [`killers`] spends on sweeps per mutant (rounding and
+/// shift mutants only: about a second each; the rows found are cached).
+/// A late CORDIC rounding is told apart by about one row in 10^6.
+pub const KILLER_SWEEP_WORK: usize = 1 << 29;
 
 /// Inputs that tell apart `survivors` (mutants no earlier vector tells
 /// apart), found through cuts and line search ([`event_cut`],
@@ -590,7 +676,11 @@ pub fn killers(
         };
         // A proof that ends in time saves the search; one that does not
         // changes nothing (the search would find no input either way).
-        if cut.is_none() && support_proof(d, m, std::time::Instant::now() + KILLER_PROOF_TIME)? {
+        if cut.is_none()
+            && (support_proof(d, m, std::time::Instant::now() + KILLER_PROOF_TIME)?
+                || input_proof(d, m, std::time::Instant::now() + KILLER_PROOF_TIME)?
+                || layer_proof(d, m, std::time::Instant::now() + KILLER_PROOF_TIME)?)
+        {
             return Ok(None);
         }
         let s = seed.wrapping_add(i as u64);
@@ -740,6 +830,101 @@ mod tests {
         }
         eprintln!("proven {proven}, found {found}");
         assert!(proven >= 2 && found >= 3, "proven {proven}, found {found}");
+    }
+
+    /// A five-step CORDIC in vectoring mode (`x ± y·2^-i`, `y ∓ x·2^-i`,
+    /// steered by `y`'s sign; `x` from an 8-bit unsigned input, `y` from
+    /// an 8-bit signed one; coordinates `I2F7` saturating; the angle `U0F8`
+    /// wrapping), checked against every input: no mutant the input or
+    /// layer branch and bound proves equivalent is killable, and the input
+    /// branch and bound proves overflow mutants the support branch and
+    /// bound cannot (its coordinates, taken as independent, lose the
+    /// rotation that keeps `y` shrinking).
+    #[test]
+    fn input_and_layer_proofs_are_sound_on_a_cordic() {
+        let mut t = Trace::new();
+        let a = t.input_named("a", &q("a", "I1F7", Rounding::Trunc, Overflow::Saturate));
+        let b = t.input_named("b", &q("b", "U0F8", Rounding::Trunc, Overflow::Saturate));
+        let xy = q("xy", "I2F7", Rounding::Trunc, Overflow::Saturate);
+        let th = q("th", "U0F8", Rounding::HalfEven, Overflow::Wrap);
+        let mut x = t.quantize(b, &xy);
+        let mut y = t.quantize(a, &xy);
+        let mut th_v = t.constant(0.0, &th).unwrap();
+        for i in 0..5 {
+            let at = t
+                .constant(0.5f64.powi(i).atan() / std::f64::consts::TAU, &th)
+                .unwrap();
+            let ys = t.shl(y, -i);
+            let xs = t.shl(x, -i);
+            let nx = t.add_signed(x, ys, y, false);
+            let ny = t.add_signed(y, xs, y, true);
+            let nt = t.add_signed(th_v, at, y, false);
+            x = t.quantize(nx, &xy);
+            y = t.quantize(ny, &xy);
+            th_v = t.quantize(nt, &th);
+        }
+        let out = t.quantize(th_v, &q("out", "U0F5", Rounding::HalfEven, Overflow::Wrap));
+        t.output("angle", out);
+        let d = design(t);
+        let deadline = || std::time::Instant::now() + std::time::Duration::from_secs(5);
+        let mut gained = 0;
+        for (m, kill) in killable(&d) {
+            let by_input = input_proof(&d, &m, deadline()).unwrap();
+            let by_layer = layer_proof(&d, &m, deadline()).unwrap();
+            assert!(
+                !(kill && by_input),
+                "{m}: the input proof claims a killable mutant"
+            );
+            assert!(
+                !(kill && by_layer),
+                "{m}: the layer proof claims a killable mutant"
+            );
+            if by_input && !support_proof(&d, &m, deadline()).unwrap() {
+                gained += 1;
+            }
+        }
+        assert!(
+            gained >= 1,
+            "the input proof proved nothing the support proof could not"
+        );
+    }
+
+    /// An off-by-one shift of a stage that quantizes a constant is
+    /// equivalent when the constant is zero (the start of a CORDIC's
+    /// angle) and killable otherwise; `equivalent` tells them apart by
+    /// evaluating the stage once, and exhaustion agrees.
+    #[test]
+    fn shifted_constant_stages() {
+        let mut t = Trace::new();
+        let a = t.input_named("a", &q("a", "I1F7", Rounding::Trunc, Overflow::Saturate));
+        let _b = t.input_named("b", &q("b", "U0F8", Rounding::Trunc, Overflow::Saturate));
+        let k = q("k", "U0F4", Rounding::HalfEven, Overflow::Saturate);
+        let zero = t.constant(0.0, &k).unwrap();
+        let z = t.quantize(
+            zero,
+            &q("z", "U0F6", Rounding::HalfEven, Overflow::Saturate),
+        );
+        let three = t.constant(0.75, &k).unwrap();
+        let h = t.quantize(
+            three,
+            &q("h", "U0F6", Rounding::HalfEven, Overflow::Saturate),
+        );
+        let s = t.add(a, z);
+        let s = t.add(s, h);
+        let y = t.quantize(s, &q("y", "I2F7", Rounding::Trunc, Overflow::Saturate));
+        t.output("y", y);
+        let d = design(t);
+        let mut seen = 0;
+        for (m, kill) in killable(&d) {
+            if m.kind != MutationKind::Shift || !(m.node == z.node() || m.node == h.node()) {
+                continue;
+            }
+            let eq = super::super::mutants::equivalent(&d, &m).unwrap().is_some();
+            assert_eq!(eq, m.node == z.node(), "{m}");
+            assert_eq!(kill, !eq, "{m}");
+            seen += 1;
+        }
+        assert!(seen >= 2, "{seen} shift mutants of the constant stages");
     }
 
     /// The linear normalizer's `g = c0 + c1·d` rounded half_up instead of

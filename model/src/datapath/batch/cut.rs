@@ -62,6 +62,15 @@ impl Trace {
             .collect()
     }
 
+    /// The input port nodes in the cone of node `x` (every node `x` is
+    /// computed from), in node order.
+    pub fn inputs_of(&self, x: usize) -> Vec<usize> {
+        let cone = self.cone(x, None);
+        (0..=x)
+            .filter(|&i| cone[i] && matches!(self.ops[i], Op::Input(_)))
+            .collect()
+    }
+
     /// The quantizations and input ports node `x` reads through operations
     /// that are not quantizations (its operands, their operands, … up to
     /// the first quantization or input on each path; `x` itself when it is

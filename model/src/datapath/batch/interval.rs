@@ -17,7 +17,7 @@
 //! output bound shrinks with the width of the input range.
 
 use super::{Instr, Program};
-use crate::quantize::{Overflow, Raw};
+use crate::quantize::{Overflow, Raw, Step};
 
 impl<R: Raw> Program<R> {
     /// Bounds `[lo, hi]` on every output code over the box of input codes
@@ -73,6 +73,13 @@ impl<R: Raw> Program<R> {
     ) -> Option<(i128, i128)> {
         let a = self.quant_operand(node)?;
         Some(self.box_ranges(inputs).0[a])
+    }
+
+    /// The range of node `node`'s code over the box `inputs` (sound, as
+    /// [`Program::may_overflow`]; a quantization that may wrap across a
+    /// period of its format gets the whole format).
+    pub fn node_range(&self, inputs: &[(i128, i128)], node: usize) -> (i128, i128) {
+        self.box_ranges(inputs).0[node]
     }
 
     /// Bits known to be zero at the bottom of the exact operand of the
@@ -229,10 +236,15 @@ impl<R: Raw> Program<R> {
                     ..
                 } => {
                     let (sx, ox) = c[a];
-                    if may[d] {
-                        None
-                    } else if sx == 0 {
-                        Some((0, step.apply(ox, round, overflow).code))
+                    // The rounded code's congruence, overflow aside.
+                    let rounded = if sx == 0 {
+                        let wide = Step {
+                            min: i128::MIN,
+                            max: i128::MAX,
+                            ..step
+                        };
+                        let q = wide.apply(ox, round, Overflow::Saturate);
+                        (!q.overflowed).then_some((0, q.code))
                     } else if step.shift <= 0 {
                         shl((sx, ox), (-step.shift) as u32)
                     } else if step.shift < 126 && sx % (1i128 << (step.shift + 1)) == 0 {
@@ -240,6 +252,15 @@ impl<R: Raw> Program<R> {
                             sx >> step.shift,
                             crate::quantize::round_shift_right(ox, step.shift as u32, round),
                         ))
+                    } else {
+                        None
+                    };
+                    if !may[d] {
+                        rounded
+                    } else if overflow == Overflow::Wrap && step.width < 126 {
+                        // Wrapping subtracts a multiple of 2^width, which
+                        // keeps the code's class modulo any divisor of it.
+                        rounded.map(|(s, o)| (gcd(s, 1i128 << step.width), o))
                     } else {
                         None
                     }
@@ -320,17 +341,32 @@ impl<R: Raw> Program<R> {
                     s,
                     flip,
                 } => {
-                    let x = (r[a].0 << sa, r[a].1 << sa);
-                    let y = (r[b].0 << sb, r[b].1 << sb);
-                    let add = (x.0 + y.0, x.1 + y.1);
-                    let sub = (x.0 - y.1, x.1 - y.0);
-                    // The sign of `s` over its range: known, or either.
-                    let (neg, pos) = (r[s].0 < 0, r[s].1 >= 0);
-                    let (can_sub, can_add) = if flip { (pos, neg) } else { (neg, pos) };
-                    r[d] = match (can_sub, can_add) {
-                        (true, false) => sub,
-                        (false, true) => add,
-                        _ => (add.0.min(sub.0), add.1.max(sub.1)),
+                    // `a ± b` for `s` in `rs`: subtract when `s < 0`
+                    // (`s ≥ 0` with `flip`), an operand that is `s` itself
+                    // taken over `rs` only.
+                    let half = |rs: (i128, i128), sub: bool| {
+                        let pick = |n: usize| if n == s { rs } else { r[n] };
+                        let (ra, rb) = (pick(a), pick(b));
+                        let x = (ra.0 << sa, ra.1 << sa);
+                        let y = (rb.0 << sb, rb.1 << sb);
+                        if sub {
+                            (x.0 - y.1, x.1 - y.0)
+                        } else {
+                            (x.0 + y.0, x.1 + y.1)
+                        }
+                    };
+                    let rs = r[s];
+                    r[d] = if rs.1 < 0 {
+                        half(rs, !flip)
+                    } else if rs.0 >= 0 {
+                        half(rs, flip)
+                    } else {
+                        // Either sign: each half of `s`'s range on its own
+                        // (a CORDIC step `y ∓ x·2^-i` steered by `y`'s sign
+                        // moves `y` towards zero, which the hull of the two
+                        // whole-range results loses).
+                        let (n, p) = (half((rs.0, -1), !flip), half((0, rs.1), flip));
+                        (n.0.min(p.0), n.1.max(p.1))
                     };
                 }
                 Instr::Quant {
@@ -345,9 +381,29 @@ impl<R: Raw> Program<R> {
                     let hi = step.apply(r[a].1, round, overflow);
                     may[d] = lo.overflowed || hi.overflowed;
                     // Rounding and saturation are monotonic; wrap-around is
-                    // not, and may then land anywhere in the format.
+                    // monotonic only within one period of 2^width codes, and
+                    // may land anywhere in the format when the rounded
+                    // interval spans two periods.
                     r[d] = if may[d] && overflow == Overflow::Wrap {
-                        (step.min, step.max)
+                        let wide = Step {
+                            min: i128::MIN,
+                            max: i128::MAX,
+                            ..step
+                        };
+                        let (rl, rh) = (
+                            wide.apply(r[a].0, round, Overflow::Saturate),
+                            wide.apply(r[a].1, round, Overflow::Saturate),
+                        );
+                        let one_period = !rl.overflowed
+                            && !rh.overflowed
+                            && step.width < 126
+                            && rh.code - rl.code < 1i128 << step.width
+                            && lo.code <= hi.code;
+                        if one_period {
+                            (lo.code, hi.code)
+                        } else {
+                            (step.min, step.max)
+                        }
                     } else {
                         (lo.code, hi.code)
                     };
@@ -458,6 +514,110 @@ mod tests {
                 assert_eq!(b, (mn as i128, mx as i128), "a point is evaluated exactly");
             }
         }
+    }
+
+    /// Three CORDIC vectoring steps (`x ± y·2^-i`, `y ∓ x·2^-i`, steered
+    /// by `y`'s own sign, as in `angles`) and an angle accumulator that
+    /// wraps modulo its format, and a product wrapped into 5 bits: over
+    /// random boxes, straddling zero or not, every quantizer operand lies
+    /// in its interval and every quantized code in its node's range (the analysis splits a self-steered step
+    /// at zero and keeps a wrap inside one period monotonic). The bound on
+    /// the last `y` is also checked to be tighter than the hull of both
+    /// steering choices.
+    #[test]
+    fn self_steered_steps_and_one_period_wraps_hold_on_every_lane() {
+        let q = |s, f: &str, r, o| Quant::new(s, f.parse::<Format>().unwrap(), r, o);
+        let mut tr = Trace::new();
+        let x0 = tr.input(&q("x", "U1F6", Rounding::Trunc, Overflow::Saturate));
+        let y0 = tr.input(&q("y", "I1F6", Rounding::Trunc, Overflow::Saturate));
+        let zero = tr
+            .constant(0.0, &q("t", "U0F8", Rounding::HalfEven, Overflow::Wrap))
+            .unwrap();
+        let xy = q("xy", "I3F8", Rounding::Trunc, Overflow::Saturate);
+        let th = q("th", "U0F8", Rounding::HalfEven, Overflow::Wrap);
+        let (mut x, mut y, mut t) = (x0, y0, zero);
+        let mut quants = Vec::new();
+        let mut thetas = Vec::new();
+        for i in 0..3 {
+            let at = tr
+                .constant(
+                    (0.5f64.powi(i)).atan() / std::f64::consts::TAU,
+                    &q("a", "U0F8", Rounding::HalfEven, Overflow::Wrap),
+                )
+                .unwrap();
+            let ys = tr.shl(y, -i);
+            let xs = tr.shl(x, -i);
+            let nx = tr.add_signed(x, ys, y, false);
+            let ny = tr.add_signed(y, xs, y, true);
+            let nt = tr.add_signed(t, at, y, false);
+            x = tr.quantize(nx, &xy);
+            y = tr.quantize(ny, &xy);
+            t = tr.quantize(nt, &th);
+            quants.extend([x.node(), y.node(), t.node()]);
+            thetas.push(t.node());
+        }
+        // A product wrapped into few bits: its range spans many periods
+        // over a wide box, one over a narrow one.
+        let p = tr.mul(x0, y0);
+        let pw = tr.quantize(p, &q("p", "I1F3", Rounding::HalfUp, Overflow::Wrap));
+        quants.push(pw.node());
+        let c = Compiled::compile(&tr, &[x, y, t, pw]).unwrap();
+        let tvs: Vec<_> = quants.iter().map(|&n| tr.value(n)).collect();
+        let all = Compiled::compile(&tr, &tvs).unwrap();
+        let mut rng = crate::sampling::Rng::new(7);
+        let mut tighter = false;
+        for round in 0..300 {
+            let pick = |rng: &mut crate::sampling::Rng, lo: i128, hi: i128| {
+                let a = lo + rng.below((hi - lo + 1) as u64) as i128;
+                let b = if round % 4 == 0 {
+                    a
+                } else {
+                    lo + rng.below((hi - lo + 1) as u64) as i128
+                };
+                (a.min(b), a.max(b))
+            };
+            let bx = [pick(&mut rng, 0, 127), pick(&mut rng, -128, 127)];
+            let lanes: Vec<(i128, i128)> = (bx[0].0..=bx[0].1)
+                .flat_map(|a| (bx[1].0..=bx[1].1).map(move |b| (a, b)))
+                .collect();
+            let ca: Vec<i128> = lanes.iter().map(|l| l.0).collect();
+            let cb: Vec<i128> = lanes.iter().map(|l| l.1).collect();
+            let operands = c.probe_i128(&[&ca, &cb], &quants);
+            let (probes, _) = all.run_flags_i128(&[&ca, &cb]);
+            for (k, &n) in quants.iter().enumerate() {
+                let (rl, rh) = c.node_range(&bx, n);
+                for &v in &probes[k] {
+                    assert!(
+                        rl <= v && v <= rh,
+                        "node {n} box {bx:?}: {v} outside {rl}..{rh}"
+                    );
+                }
+                let (lo, hi) = c.quant_operand_range(&bx, n).unwrap();
+                let (st, off) = c.quant_operand_congruence(&bx, n).unwrap();
+                for &v in &operands[k] {
+                    assert!(
+                        lo <= v && v <= hi,
+                        "operand of {n} box {bx:?}: {v} outside {lo}..{hi}"
+                    );
+                    assert!(
+                        st == 0 && v == off || st > 0 && v.rem_euclid(st) == off,
+                        "operand of {n} box {bx:?}: {v} not ≡ {off} mod {st}"
+                    );
+                }
+            }
+            // The angle's parity survives the wraps: odd after ±32, ±19.
+            let last = *thetas.last().unwrap();
+            let (st, off) = c.quant_operand_congruence(&bx, last).unwrap();
+            assert!(st == 2 && off == 1 || st == 0 && off % 2 == 1, "{st} {off}");
+            // The last y: a box straddling y = 0 is where splitting at the
+            // sign pays.
+            if bx[1].0 < 0 && bx[1].1 >= 0 && bx[0].0 > 16 {
+                let (lo, hi) = c.node_range(&bx, y.node());
+                let hull = (bx[1].1 - bx[1].0) + 2 * bx[0].1 * 4;
+                tighter |= hi - lo < hull;
+            }
+        }
+        assert!(tighter, "the split bound was never tighter than the hull");
     }
 
     /// The congruence, known-zero and table-range analyses hold on every
