@@ -1,5 +1,6 @@
 //! Development aid: the mutants the default vectors miss, in the model
-//! (no simulator): `cargo run --release -p fxshade-model --example survivors [unit]`.
+//! (no simulator), and which proof takes each (`PROOF_SECS`, default 20, bounds each):
+//! `cargo run --release -p fxshade-model --example survivors [unit|all] [deep]`.
 use fxshade_model::config::Config;
 use fxshade_model::rtl::{mutants, search, units};
 
@@ -36,61 +37,35 @@ fn main() {
                     eq += 1;
                     continue;
                 }
-                let t = std::time::Instant::now();
-                if search::support_proof(
-                    &d,
-                    m,
-                    std::time::Instant::now()
-                        + std::time::Duration::from_secs(
-                            std::env::var("PROOF_SECS")
-                                .ok()
-                                .and_then(|s| s.parse().ok())
-                                .unwrap_or(20),
-                        ),
-                )
-                .unwrap()
-                {
-                    println!("    SUPPORT-PROVEN {m} [{:.2}s]", t.elapsed().as_secs_f64());
+                let secs = std::env::var("PROOF_SECS")
+                    .ok()
+                    .and_then(|s| s.parse().ok())
+                    .unwrap_or(20);
+                type Proof = fn(
+                    &fxshade_model::rtl::Design,
+                    &fxshade_model::datapath::Mutation,
+                    std::time::Instant,
+                ) -> Result<bool, fxshade_model::vectors::RtlError>;
+                let proofs: [(Proof, &str); 3] = [
+                    (search::support_proof, "SUPPORT"),
+                    (search::input_proof, "INPUT"),
+                    (search::layer_proof, "LAYER"),
+                ];
+                let mut proven = false;
+                for (proof, name) in proofs {
+                    let t = std::time::Instant::now();
+                    let deadline = t + std::time::Duration::from_secs(secs);
+                    if proof(&d, m, deadline).unwrap() {
+                        println!("    {name}-PROVEN {m} [{:.2}s]", t.elapsed().as_secs_f64());
+                        proven = true;
+                        break;
+                    }
+                }
+                if proven {
                     eq += 1;
                     continue;
                 }
-                let t = std::time::Instant::now();
-                if search::input_proof(
-                    &d,
-                    m,
-                    std::time::Instant::now()
-                        + std::time::Duration::from_secs(
-                            std::env::var("PROOF_SECS")
-                                .ok()
-                                .and_then(|s| s.parse().ok())
-                                .unwrap_or(20),
-                        ),
-                )
-                .unwrap()
-                {
-                    println!("    INPUT-PROVEN {m} [{:.2}s]", t.elapsed().as_secs_f64());
-                    eq += 1;
-                    continue;
-                }
-                let t = std::time::Instant::now();
-                if search::layer_proof(
-                    &d,
-                    m,
-                    std::time::Instant::now()
-                        + std::time::Duration::from_secs(
-                            std::env::var("PROOF_SECS")
-                                .ok()
-                                .and_then(|s| s.parse().ok())
-                                .unwrap_or(20),
-                        ),
-                )
-                .unwrap()
-                {
-                    println!("    LAYER-PROVEN {m} [{:.2}s]", t.elapsed().as_secs_f64());
-                    eq += 1;
-                    continue;
-                }
-                println!("    not proven {m} [{:.2}s]", t.elapsed().as_secs_f64());
+                println!("    not proven {m}");
                 surv.push(m.clone());
             }
             println!(

@@ -113,6 +113,33 @@ enum Smt {
     Missing,
 }
 
+/// A branch and bound that proves a mutant equivalent by its deadline.
+type Proof = fn(
+    &rtl::Design,
+    &fxshade_model::datapath::Mutation,
+    std::time::Instant,
+) -> Result<bool, fxshade_model::vectors::RtlError>;
+
+/// The branch and bound proofs tried on a survivor, in order: the proof,
+/// its name, and what a success says.
+const PROOFS: [(Proof, &str, &str); 3] = [
+    (
+        search::support_proof,
+        "support",
+        "equivalent: a branch and bound over the codes of the quantizations its operand is computed from (taken as independent) finds none where the mutant changes what leaves their region",
+    ),
+    (
+        search::input_proof,
+        "input",
+        "equivalent: a branch and bound over boxes of the input codes finds none where the mutant changes an output or a flag",
+    ),
+    (
+        search::layer_proof,
+        "layer",
+        "equivalent: a branch and bound over the codes of an earlier layer of quantizations (a CORDIC rotation's inputs) finds none where the mutant changes what leaves their region",
+    ),
+];
+
 /// Ask z3 (if installed) whether any input meets the event of `m`.
 fn smt(d: &rtl::Design, m: &fxshade_model::datapath::Mutation, seconds: u32) -> Smt {
     use std::io::Write;
@@ -267,63 +294,26 @@ fn run_variant(
                 search::CutOutcome::NoCut => {}
             }
         }
+        let deadline =
+            || std::time::Instant::now() + std::time::Duration::from_secs(a.proof_seconds.into());
         if a.smt_audit && killed {
             // The proofs are checked too: none may claim a killed mutant.
-            anyhow::ensure!(
-                !search::support_proof(
-                    &d,
-                    m,
-                    std::time::Instant::now() + std::time::Duration::from_secs(a.proof_seconds.into()),
-                )?,
-                "{} ({variant}) mutant {k} ({m}): the support branch and bound proves it equivalent, yet the vectors kill it",
-                u.name
-            );
-            anyhow::ensure!(
-                !search::input_proof(
-                    &d,
-                    m,
-                    std::time::Instant::now() + std::time::Duration::from_secs(a.proof_seconds.into()),
-                )?,
-                "{} ({variant}) mutant {k} ({m}): the input branch and bound proves it equivalent, yet the vectors kill it",
-                u.name
-            );
-            anyhow::ensure!(
-                !search::layer_proof(
-                    &d,
-                    m,
-                    std::time::Instant::now() + std::time::Duration::from_secs(a.proof_seconds.into()),
-                )?,
-                "{} ({variant}) mutant {k} ({m}): the layer branch and bound proves it equivalent, yet the vectors kill it",
-                u.name
-            );
+            for (proof, name, _) in PROOFS {
+                anyhow::ensure!(
+                    !proof(&d, m, deadline())?,
+                    "{} ({variant}) mutant {k} ({m}): the {name} branch and bound proves it equivalent, yet the vectors kill it",
+                    u.name
+                );
+            }
         }
         if !killed && equivalent.is_none() {
             // A survivor: prove it equivalent, or search every input box
             // for one that kills it.
-            if search::support_proof(
-                &d,
-                m,
-                std::time::Instant::now() + std::time::Duration::from_secs(a.proof_seconds.into()),
-            )? {
-                equivalent = Some(
-                    "equivalent: a branch and bound over the codes of the quantizations its operand is computed from (taken as independent) finds none where the mutant changes what leaves their region",
-                );
-            } else if search::input_proof(
-                &d,
-                m,
-                std::time::Instant::now() + std::time::Duration::from_secs(a.proof_seconds.into()),
-            )? {
-                equivalent = Some(
-                    "equivalent: a branch and bound over boxes of the input codes finds none where the mutant changes an output or a flag",
-                );
-            } else if search::layer_proof(
-                &d,
-                m,
-                std::time::Instant::now() + std::time::Duration::from_secs(a.proof_seconds.into()),
-            )? {
-                equivalent = Some(
-                    "equivalent: a branch and bound over the codes of an earlier layer of quantizations (a CORDIC rotation's inputs) finds none where the mutant changes what leaves their region",
-                );
+            for (proof, _, why) in PROOFS {
+                if proof(&d, m, deadline())? {
+                    equivalent = Some(why);
+                    break;
+                }
             }
         }
         if !killed && equivalent.is_none() {

@@ -193,11 +193,7 @@ pub fn support_proof(
     m: &Mutation,
     deadline: std::time::Instant,
 ) -> Result<bool, RtlError> {
-    if m.kind == MutationKind::Shift {
-        return Ok(false);
-    }
-    let (_, _, x) = quant_of(d, m);
-    proof_over(d, m, &d.trace.supports(x), deadline)
+    proof_over(d, m, &d.trace.supports(quant_of(d, m).2), deadline)
 }
 
 /// Whether mutant `m` is proven equivalent by the branch and bound of
@@ -210,11 +206,7 @@ pub fn input_proof(
     m: &Mutation,
     deadline: std::time::Instant,
 ) -> Result<bool, RtlError> {
-    if m.kind == MutationKind::Shift {
-        return Ok(false);
-    }
-    let (_, _, x) = quant_of(d, m);
-    proof_over(d, m, &d.trace.inputs_of(x), deadline)
+    proof_over(d, m, &d.trace.inputs_of(quant_of(d, m).2), deadline)
 }
 
 /// Whether mutant `m` is proven equivalent by the branch and bound of
@@ -229,12 +221,8 @@ pub fn layer_proof(
     m: &Mutation,
     deadline: std::time::Instant,
 ) -> Result<bool, RtlError> {
-    if m.kind == MutationKind::Shift {
-        return Ok(false);
-    }
-    let (_, _, x) = quant_of(d, m);
     let t = &d.trace;
-    let mut layer = t.supports(x);
+    let mut layer = t.supports(quant_of(d, m).2);
     let mut best = None;
     for _ in 0..256 {
         let mut next: Vec<usize> = Vec::new();
@@ -271,6 +259,9 @@ fn proof_over(
     sup: &[usize],
     deadline: std::time::Instant,
 ) -> Result<bool, RtlError> {
+    if m.kind == MutationKind::Shift {
+        return Ok(false);
+    }
     let (q, frac, _) = quant_of(d, m);
     let st = q.step(frac);
     let sup = sup.to_vec();
