@@ -474,6 +474,29 @@ mod tests {
     use crate::format::Format;
     use crate::quantize::{Overflow, Quant, Rounding};
 
+    /// A random sub-range of `lo..=hi` (a single code when `point`).
+    fn random_range(
+        rng: &mut crate::sampling::Rng,
+        lo: i128,
+        hi: i128,
+        point: bool,
+    ) -> (i128, i128) {
+        let a = lo + rng.below((hi - lo + 1) as u64) as i128;
+        let b = if point {
+            a
+        } else {
+            lo + rng.below((hi - lo + 1) as u64) as i128
+        };
+        (a.min(b), a.max(b))
+    }
+
+    /// Every point of a two-input box, as two input columns.
+    fn box_lanes(bx: &[(i128, i128); 2]) -> (Vec<i128>, Vec<i128>) {
+        (bx[0].0..=bx[0].1)
+            .flat_map(|a| (bx[1].0..=bx[1].1).map(move |b| (a, b)))
+            .unzip()
+    }
+
     /// The bounds contain every output of every input in the range
     /// (checked against the lane-by-lane run), for a Horner quadratic.
     #[test]
@@ -567,21 +590,12 @@ mod tests {
         let mut rng = crate::sampling::Rng::new(7);
         let mut tighter = false;
         for round in 0..300 {
-            let pick = |rng: &mut crate::sampling::Rng, lo: i128, hi: i128| {
-                let a = lo + rng.below((hi - lo + 1) as u64) as i128;
-                let b = if round % 4 == 0 {
-                    a
-                } else {
-                    lo + rng.below((hi - lo + 1) as u64) as i128
-                };
-                (a.min(b), a.max(b))
-            };
-            let bx = [pick(&mut rng, 0, 127), pick(&mut rng, -128, 127)];
-            let lanes: Vec<(i128, i128)> = (bx[0].0..=bx[0].1)
-                .flat_map(|a| (bx[1].0..=bx[1].1).map(move |b| (a, b)))
-                .collect();
-            let ca: Vec<i128> = lanes.iter().map(|l| l.0).collect();
-            let cb: Vec<i128> = lanes.iter().map(|l| l.1).collect();
+            let point = round % 4 == 0;
+            let bx = [
+                random_range(&mut rng, 0, 127, point),
+                random_range(&mut rng, -128, 127, point),
+            ];
+            let (ca, cb) = box_lanes(&bx);
             let operands = c.probe_i128(&[&ca, &cb], &quants);
             let (probes, _) = all.run_flags_i128(&[&ca, &cb]);
             for (k, &n) in quants.iter().enumerate() {
@@ -658,21 +672,12 @@ mod tests {
         let c = Compiled::compile(&tr, &[r3]).unwrap();
         let mut rng = crate::sampling::Rng::new(5);
         for round in 0..200 {
-            let pick = |rng: &mut crate::sampling::Rng, lo: i128, hi: i128| {
-                let x = lo + rng.below((hi - lo + 1) as u64) as i128;
-                let y = if round % 3 == 0 {
-                    x
-                } else {
-                    lo + rng.below((hi - lo + 1) as u64) as i128
-                };
-                (x.min(y), x.max(y))
-            };
-            let bx = [pick(&mut rng, -128, 127), pick(&mut rng, 0, 255)];
-            let lanes: Vec<(i128, i128)> = (bx[0].0..=bx[0].1)
-                .flat_map(|x| (bx[1].0..=bx[1].1).map(move |y| (x, y)))
-                .collect();
-            let ca: Vec<i128> = lanes.iter().map(|l| l.0).collect();
-            let cb: Vec<i128> = lanes.iter().map(|l| l.1).collect();
+            let point = round % 3 == 0;
+            let bx = [
+                random_range(&mut rng, -128, 127, point),
+                random_range(&mut rng, 0, 255, point),
+            ];
+            let (ca, cb) = box_lanes(&bx);
             let probes = c.probe_i128(&[&ca, &cb], &nodes);
             for (k, &n) in nodes.iter().enumerate() {
                 let (lo, hi) = c.quant_operand_range(&bx, n).unwrap();
