@@ -628,13 +628,12 @@ pub fn line_search(
 }
 
 /// Interval evaluations [`killers`] spends on line bisection per mutant, at
-/// most (`mutate`'s deeper search spends as many: at 4000 the vectors
-/// missed killers it found in the pipeline tops).
-pub const LINE_EVALS: usize = 20_000;
+/// most.
+pub const LINE_EVALS: usize = 4000;
 
 /// Interval evaluations times the design's nodes [`killers`] spends on
 /// line bisection per mutant (fewer evaluations for a large design).
-pub const LINE_WORK: usize = 1 << 23;
+pub const LINE_WORK: usize = 1 << 18;
 
 /// Time [`killers`] gives [`support_proof`], [`input_proof`] and
 /// [`layer_proof`] each, per mutant, before searching.
