@@ -495,7 +495,8 @@ fn stage_index(stages: &mut Vec<&'static str>, s: &'static str) -> usize {
 }
 
 impl<R: Raw> Program<R> {
-    /// Compile the trace for the given outputs.
+    /// Compile the trace for the given outputs: the operations they read
+    /// (every input port keeps its place among the program's inputs).
     pub fn compile(trace: &Trace, outputs: &[TV]) -> Result<Self, CompileError> {
         if let Some(e) = trace.count.width_errors().first() {
             return Err(e.clone().into());
@@ -525,6 +526,11 @@ impl<R: Raw> Program<R> {
         let fr = |v: &TV| v.frac;
         for (d, op) in trace.ops.iter().enumerate() {
             let f = trace.fracs[d];
+            // Operations no output reads are left out (their registers
+            // stay zero); inputs keep their places, constants cost nothing.
+            if !live[d] && !matches!(op, Op::Input(_) | Op::Const(_)) {
+                continue;
+            }
             match op {
                 Op::Input(slot) => inputs.push((d, trace.inputs[*slot])),
                 Op::Const(c) => consts.push((d, R::from_i128(*c))),
@@ -1111,6 +1117,14 @@ impl Compiled {
         match self {
             Compiled::Narrow(p) => p.node_range(inputs, node),
             Compiled::Wide(p) => p.node_range(inputs, node),
+        }
+    }
+    /// The ranges of several nodes' codes over a box of input codes
+    /// ([`Program::node_ranges`]).
+    pub fn node_ranges(&self, inputs: &[(i128, i128)], nodes: &[usize]) -> Vec<(i128, i128)> {
+        match self {
+            Compiled::Narrow(p) => p.node_ranges(inputs, nodes),
+            Compiled::Wide(p) => p.node_ranges(inputs, nodes),
         }
     }
     /// The range of a quantization's operand over a box of input codes

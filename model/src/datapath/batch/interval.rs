@@ -82,6 +82,12 @@ impl<R: Raw> Program<R> {
         self.box_ranges(inputs).0[node]
     }
 
+    /// [`Program::node_range`] of each of `nodes`, from one evaluation.
+    pub fn node_ranges(&self, inputs: &[(i128, i128)], nodes: &[usize]) -> Vec<(i128, i128)> {
+        let r = self.box_ranges(inputs).0;
+        nodes.iter().map(|&n| r[n]).collect()
+    }
+
     /// Bits known to be zero at the bottom of the exact operand of the
     /// quantization at `node`, for every input in the box `inputs` (a
     /// sound under-count; 127 for an operand that is always 0), or `None`
