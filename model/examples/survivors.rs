@@ -1,5 +1,6 @@
 //! Development aid: the mutants the default vectors miss, in the model
-//! (no simulator), and which proof takes each (`PROOF_SECS`, default 20, bounds each):
+//! (no simulator), and which proof takes each (`PROOF_SECS`, default 20, bounds each;
+//! `VARIANT` picks one variant):
 //! `cargo run --release -p fxshade-model --example survivors [unit|all] [deep]`.
 use fxshade_model::config::Config;
 use fxshade_model::rtl::{mutants, search, units};
@@ -13,6 +14,9 @@ fn main() {
             continue;
         }
         for (name, set) in u.variants {
+            if std::env::var("VARIANT").is_ok_and(|v| v != *name) {
+                continue;
+            }
             let mut cfg = Config::embedded();
             for o in units::overrides(set) {
                 cfg.apply_override(o).unwrap();
@@ -101,8 +105,22 @@ fn main() {
                             .unwrap()
                     }
                 };
+                let (killer, how) = match killer {
+                    Some(k) => (Some(k), "line"),
+                    None => (
+                        fxshade_model::rtl::witness::witness_search(
+                            &d,
+                            m,
+                            &bases,
+                            search::SWEEP_WORK,
+                            1,
+                        )
+                        .unwrap(),
+                        "witness",
+                    ),
+                };
                 println!(
-                    "    node {} {}: {} killer {:?} [{:.2}s]",
+                    "    node {} {}: {} {how} killer {:?} [{:.2}s]",
                     m.node,
                     m,
                     desc,

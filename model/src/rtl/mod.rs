@@ -32,6 +32,7 @@ pub mod search;
 pub mod testbench;
 pub mod timing;
 pub mod units;
+pub mod witness;
 
 use std::collections::HashMap;
 use std::fmt::Write as _;

@@ -71,7 +71,7 @@ pub enum CutOutcome {
 }
 
 /// The quantization of mutant `m` and the binary point of its operand.
-fn quant_of(d: &Design, m: &Mutation) -> (crate::quantize::Quant, i32, usize) {
+pub(super) fn quant_of(d: &Design, m: &Mutation) -> (crate::quantize::Quant, i32, usize) {
     match &d.trace.ops()[m.node] {
         Op::Quant(a, q) => (*q, a.frac(), a.node()),
         _ => unreachable!("mutations are of quantizations"),
@@ -79,7 +79,7 @@ fn quant_of(d: &Design, m: &Mutation) -> (crate::quantize::Quant, i32, usize) {
 }
 
 /// The full box of input codes of `d`.
-fn full_box(d: &Design) -> Vec<(i128, i128)> {
+pub(super) fn full_box(d: &Design) -> Vec<(i128, i128)> {
     d.trace
         .input_ports()
         .iter()
@@ -394,7 +394,11 @@ fn proof_over(
 }
 
 /// Whether lane `i` of two runs differs in an output or a flag.
-fn differs(a: &(Vec<Vec<i128>>, Vec<u64>), b: &(Vec<Vec<i128>>, Vec<u64>), i: usize) -> bool {
+pub(super) fn differs(
+    a: &(Vec<Vec<i128>>, Vec<u64>),
+    b: &(Vec<Vec<i128>>, Vec<u64>),
+    i: usize,
+) -> bool {
     a.1[i] != b.1[i] || a.0.iter().zip(&b.0).any(|(x, y)| x[i] != y[i])
 }
 
@@ -406,7 +410,7 @@ fn holds(codes: &[i128], lo: i128, hi: i128) -> bool {
 
 /// Leaves one line contributes at most (spread over the line, they tell
 /// apart masking that depends on where along it the event falls).
-const LEAVES_PER_LINE: usize = 8;
+pub(super) const LEAVES_PER_LINE: usize = 8;
 
 /// Lane·operations [`line_search`] spends on sweeps at most per mutant
 /// (about a second).
@@ -415,14 +419,15 @@ pub const SWEEP_WORK: usize = 1 << 29;
 /// Codes of one input a sweep runs at most (all of a 16-bit input).
 const SWEEP_CODES: i128 = 1 << 16;
 
-/// Rows that differ from `row` in one input, `inputs` of the inputs in
-/// turn (in a random order), that input running over its whole range (or
-/// [`SWEEP_CODES`] codes spread over it): the first that tells the two
-/// programs apart. Adds the lanes run to `swept`.
+/// Rows that differ from `row` in one input, `inputs` of the input ports
+/// `among` in turn (in a random order), that input running over its whole
+/// range (or [`SWEEP_CODES`] codes spread over it): the first that tells
+/// the two programs apart. Adds the lanes run to `swept`.
 #[allow(clippy::too_many_arguments)]
-fn sweep(
+pub(super) fn sweep(
     row: &[i128],
     formats: &[crate::format::Format],
+    among: &[usize],
     inputs: usize,
     orig: &Compiled,
     mutant: &Compiled,
@@ -431,9 +436,8 @@ fn sweep(
     limit: usize,
 ) -> Option<Vec<i128>> {
     const CHUNK: i128 = 4096;
-    let n = formats.len();
-    let mut order: Vec<usize> = (0..n).collect();
-    for i in (1..n).rev() {
+    let mut order = among.to_vec();
+    for i in (1..order.len()).rev() {
         order.swap(i, rng.below(i as u64 + 1) as usize);
     }
     let mut cols: Vec<Vec<i128>> = row.iter().map(|&v| vec![v; CHUNK as usize]).collect();
@@ -522,6 +526,7 @@ pub fn line_search(
     let orig = Compiled::compile(&d.trace, &roots)?;
     let mutant = Compiled::compile(&d.trace.mutated(m), &roots)?;
     let n_in = ports.len();
+    let all_inputs: Vec<usize> = (0..n_in).collect();
     let sweep_lanes = sweep_work / d.trace.ops().len().max(1);
     let mut rng = crate::sampling::Rng::new(seed ^ 0x6c69_6e65);
     let mut evals = 0;
@@ -578,6 +583,7 @@ pub fn line_search(
                 if let Some(r) = sweep(
                     &base,
                     &formats,
+                    &all_inputs,
                     1,
                     &orig,
                     &mutant,
@@ -613,6 +619,7 @@ pub fn line_search(
             if let Some(r) = sweep(
                 row,
                 &formats,
+                &all_inputs,
                 n_in,
                 &orig,
                 &mutant,
@@ -629,11 +636,11 @@ pub fn line_search(
 
 /// Interval evaluations [`killers`] spends on line bisection per mutant, at
 /// most.
-pub const LINE_EVALS: usize = 4000;
+pub const LINE_EVALS: usize = 20_000;
 
 /// Interval evaluations times the design's nodes [`killers`] spends on
 /// line bisection per mutant (fewer evaluations for a large design).
-pub const LINE_WORK: usize = 1 << 18;
+pub const LINE_WORK: usize = 1 << 23;
 
 /// Time [`killers`] gives [`support_proof`], [`input_proof`] and
 /// [`layer_proof`] each, per mutant, before searching.
@@ -644,9 +651,20 @@ pub const KILLER_PROOF_TIME: std::time::Duration = std::time::Duration::from_mil
 /// A late CORDIC rounding is told apart by about one row in 10^6.
 pub const KILLER_SWEEP_WORK: usize = 1 << 29;
 
+/// Lane·operations [`killers`] spends on [`super::witness::witness_search`]
+/// per rounding or shift mutant the line search misses (about a second);
+/// an overflow gets one part in [`OVERFLOW_WITNESS_SHARE`] (the line
+/// search's bisection finds an overflow wherever one can happen, so the
+/// witnesses seldom add one).
+pub const KILLER_WITNESS_WORK: usize = 1 << 29;
+
+/// See [`KILLER_WITNESS_WORK`].
+pub const OVERFLOW_WITNESS_SHARE: usize = 16;
+
 /// Inputs that tell apart `survivors` (mutants no earlier vector tells
-/// apart), found through cuts and line search ([`event_cut`],
-/// [`line_search`], small budgets: this runs whenever vectors are made),
+/// apart), found through cuts, line search and witnesses ([`event_cut`],
+/// [`line_search`], [`super::witness::witness_search`], small budgets: this runs whenever
+/// vectors are made),
 /// starting lines from `bases` as well as random rows. Mutants proven
 /// equivalent on the way are skipped. Returns the inputs (one per mutant
 /// found, each taken once) and the mutants still not told apart.
@@ -675,13 +693,26 @@ pub fn killers(
             return Ok(None);
         }
         let s = seed.wrapping_add(i as u64);
-        Ok(Some(line_search(
+        if let Some(row) = line_search(
             d,
             m,
             cut.as_ref(),
             bases,
             LINE_EVALS.min(LINE_WORK / d.trace.ops().len().max(1)),
             KILLER_SWEEP_WORK,
+            s,
+        )? {
+            return Ok(Some(Some(row)));
+        }
+        Ok(Some(super::witness::witness_search(
+            d,
+            m,
+            bases,
+            if matches!(m.kind, MutationKind::Overflow(_)) {
+                KILLER_WITNESS_WORK / OVERFLOW_WITNESS_SHARE
+            } else {
+                KILLER_WITNESS_WORK
+            },
             s,
         )?))
     };
@@ -698,8 +729,46 @@ pub fn killers(
             Some(None) => missed.push(m.clone()),
         }
     }
-    Ok((rows, missed))
+    // The roundings and shifts no row found tells apart get a second
+    // witness search on another seed: its success depends on the witnesses
+    // it happens to start from (a polar tie: about nine runs in ten).
+    let roots: Vec<TV> = d.trace.output_ports().iter().map(|p| p.value).collect();
+    let cols = columns(&rows, d.trace.input_ports().len());
+    let want = super::mutants::run(&d.trace, &roots, &cols)?;
+    let mut again = Vec::new();
+    let mut left = Vec::new();
+    for m in missed {
+        let told = !rows.is_empty()
+            && first_difference(
+                &want,
+                &super::mutants::run(&d.trace.mutated(&m), &roots, &cols)?,
+            )
+            .is_some();
+        if told {
+            continue;
+        }
+        if matches!(m.kind, MutationKind::Overflow(_)) {
+            left.push(m);
+        } else {
+            again.push(m);
+        }
+    }
+    let second = parallel_map(&again, |i, m| {
+        let s = seed.wrapping_add(i as u64) ^ SECOND_ROUND_SEED;
+        super::witness::witness_search(d, m, bases, KILLER_WITNESS_WORK, s)
+    })?;
+    for (m, r) in again.into_iter().zip(second) {
+        match r {
+            Some(row) if !rows.contains(&row) => rows.push(row),
+            Some(_) => {}
+            None => left.push(m),
+        }
+    }
+    Ok((rows, left))
 }
+
+/// Mixed into the seeds of [`killers`]' second round.
+const SECOND_ROUND_SEED: u64 = 0x7365_636f_6e64;
 
 /// `f(i, x)` for every element of `xs`, in order, on as many threads as
 /// the machine has cores.
@@ -742,14 +811,15 @@ pub fn parallel_map<T: Sync, U: Send>(
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use crate::config::Config;
     use crate::datapath::{Datapath, Trace};
     use crate::format::Format;
     use crate::quantize::{Overflow, Quant, Rounding};
 
-    fn design(trace: Trace) -> Design {
+    /// A design around `trace`, for tests.
+    pub(in crate::rtl) fn design(trace: Trace) -> Design {
         Design {
             module: "t".into(),
             unit: "t",

@@ -117,6 +117,24 @@ impl Trace {
 }
 
 impl Trace {
+    /// This trace with each of the nodes `cs` (quantizations or input
+    /// ports) made an input port ([`Trace::cut_at`]) and every other input
+    /// port made the constant code 0: the function from `cs` to the nodes
+    /// of their region ([`Trace::cut_set_frontier`]), which read no other
+    /// port. The compiled program's inputs are `cs` in node order.
+    pub fn from_cuts(&self, cs: &[usize]) -> Trace {
+        let mut t = self.clone();
+        for &c in cs {
+            t = t.cut_at(c).0;
+        }
+        for (i, op) in t.ops.iter_mut().enumerate() {
+            if matches!(op, Op::Input(_)) && !cs.contains(&i) {
+                *op = Op::Const(0);
+            }
+        }
+        t
+    }
+
     /// The frontier of the region of cut `c` towards the values `roots`:
     /// the region is every node that depends on `c` and on no other input
     /// port (and `c`), the frontier every node of it that is a root or an
