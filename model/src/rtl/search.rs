@@ -196,6 +196,11 @@ pub fn support_proof(
     proof_over(d, m, &d.trace.supports(quant_of(d, m).2), deadline)
 }
 
+/// Inputs of at most this many bits may join [`layer_proof`]'s second
+/// layer (the normalizer's 3-bit segment selector beside three 16-bit
+/// coordinates).
+const NARROW_INPUT_BITS: u32 = 4;
+
 /// Whether mutant `m` is proven equivalent by the branch and bound of
 /// [`support_proof`] over the design's own input ports in the cone of
 /// its operand: slower than over the supports where they are narrow, but
@@ -216,6 +221,13 @@ pub fn input_proof(
 /// supports of layer `k`'s operands. Between [`support_proof`] (one step
 /// back, correlations lost) and [`input_proof`] (exact, but long cones):
 /// for a CORDIC's second rotation it is that rotation's own inputs.
+/// Failing that, the same over a layer grown one node at a time: the
+/// latest quantization of the layer replaced by its supports (constant
+/// stages left inside, an input of at most [`NARROW_INPUT_BITS`] joining),
+/// the last such layer with at most three other nodes. For the
+/// normalizer's output `n_x·g(d)` it is `{n_x, n_y, n_z}` and the segment
+/// selector: `g` back to `d`, `d` back to the normal `n_x` belongs to,
+/// where the layers above hold `n_x` and `g` as independent.
 pub fn layer_proof(
     d: &Design,
     m: &Mutation,
@@ -245,9 +257,46 @@ pub fn layer_proof(
         }
         layer = next;
     }
-    match best {
-        Some(b) => proof_over(d, m, &b, deadline),
-        None => Ok(false),
+    if let Some(b) = &best {
+        if proof_over(d, m, b, deadline)? {
+            return Ok(true);
+        }
+    }
+    // Constant stages (no input in their cone) stay inside the region.
+    let varying = |v: Vec<usize>| -> Vec<usize> {
+        v.into_iter()
+            .filter(|&c| !t.inputs_of(c).is_empty())
+            .collect()
+    };
+    let mut layer = varying(t.supports(quant_of(d, m).2));
+    let mut latest = None;
+    // A narrow input (a segment selector) may join the layer; a wide one
+    // ends the expansion there.
+    let narrow = |c: usize| t.value(c).sym().width <= NARROW_INPUT_BITS;
+    let wide_input = |c: usize| matches!(t.ops()[c], Op::Input(_)) && !narrow(c);
+    while let Some(c) = layer
+        .iter()
+        .copied()
+        .filter(|&c| match &t.ops()[c] {
+            Op::Quant(a, _) => !t.supports(a.node()).into_iter().any(wide_input),
+            _ => false,
+        })
+        .max()
+    {
+        let Op::Quant(a, _) = &t.ops()[c] else {
+            unreachable!("filtered to quantizations")
+        };
+        layer.retain(|&x| x != c);
+        layer.extend(varying(t.supports(a.node())));
+        layer.sort_unstable();
+        layer.dedup();
+        if layer.iter().filter(|&&c| !narrow(c)).count() <= 3 {
+            latest = Some(layer.clone());
+        }
+    }
+    match latest {
+        Some(b) if Some(&b) != best.as_ref() => proof_over(d, m, &b, deadline),
+        _ => Ok(false),
     }
 }
 
@@ -947,6 +996,63 @@ pub(super) mod tests {
         assert!(
             gained >= 1,
             "the input proof proved nothing the support proof could not"
+        );
+    }
+
+    /// A normalizer `n·g(d)`, `d = n·n`, `g = 2.5 − 1.5·d` (saturating
+    /// stages; `n` three 7-bit signed inputs, each rounded to 6 bits, the
+    /// output `I2F5`: `|n_x·g|` stays below 1.25, though `|n_x| ≤ 1` and
+    /// `g ≤ 2.5` apart allow 2.5), checked against every input: no mutant the layer
+    /// branch and bound proves equivalent is killable, and it proves an
+    /// output overflow the support branch and bound cannot (its supports,
+    /// `n_x` and `g`, taken as independent, lose that `g` is small where
+    /// `n` is long). The layer it needs is `{n_x, n_y, n_z}`: `g`
+    /// expanded back to `d`, `d` back to the normal.
+    #[test]
+    fn layer_proof_follows_a_normalizer_back_to_its_normal() {
+        let mut t = Trace::new();
+        let fin = q("n", "I1F6", Rounding::Trunc, Overflow::Saturate);
+        let ins: Vec<TV> = ["x", "y", "z"]
+            .iter()
+            .map(|&n| t.input_named(n, &fin))
+            .collect();
+        let nq = q("normal", "I1F5", Rounding::HalfEven, Overflow::Saturate);
+        let n: Vec<TV> = ins.iter().map(|&v| t.quantize(v, &nq)).collect();
+        let sq: Vec<TV> = n.iter().map(|&v| t.mul(v, v)).collect();
+        let s01 = t.add(sq[0], sq[1]);
+        let s = t.add(s01, sq[2]);
+        let d = t.quantize(s, &q("d", "U2F6", Rounding::HalfEven, Overflow::Saturate));
+        let gq = q("g", "U2F6", Rounding::HalfEven, Overflow::Saturate);
+        let c0 = t.constant(2.5, &gq).unwrap();
+        let c1 = t.constant(1.5, &gq).unwrap();
+        let c1d = t.mul(c1, d);
+        let gs = t.sub(c0, c1d);
+        let g = t.quantize(gs, &gq);
+        let oq = q("out", "I2F5", Rounding::HalfEven, Overflow::Saturate);
+        for (name, &v) in ["ox", "oy", "oz"].iter().zip(&n) {
+            let p = t.mul(v, g);
+            let o = t.quantize(p, &oq);
+            t.output(name, o);
+        }
+        let dsg = design(t);
+        let rows: Vec<Vec<i128>> = (-64..64)
+            .flat_map(|x| (-64..64).flat_map(move |y| (-64..64).map(move |z| vec![x, y, z])))
+            .collect();
+        let deadline = || std::time::Instant::now() + std::time::Duration::from_secs(5);
+        let mut gained = 0;
+        for (m, first) in super::super::mutants::model_kills(&dsg, &rows).unwrap() {
+            let by_layer = layer_proof(&dsg, &m, deadline()).unwrap();
+            assert!(
+                !(first.is_some() && by_layer),
+                "{m}: the layer proof claims a killable mutant"
+            );
+            if by_layer && !support_proof(&dsg, &m, deadline()).unwrap() {
+                gained += 1;
+            }
+        }
+        assert!(
+            gained >= 1,
+            "the layer proof proved nothing the support proof could not"
         );
     }
 
