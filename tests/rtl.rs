@@ -717,7 +717,9 @@ fn trace_writes_a_waveform() {
 /// Mutation testing on Verilator: every mutant of the units whose vectors
 /// kill them all is killed (the interpolator, the angle interpolator, the
 /// quadratic normalizer, whose `g` stage rounded half_up passed the old
-/// vectors, and the linear one, whose `g` tie only the cut search finds),
+/// vectors, the linear one, whose `g` tie only the cut search finds, and
+/// the mapped-interp pipeline top, whose polar ties behind the table reads
+/// only the witness search finds),
 /// the unmutated schema passes, and the RTL and the mutated model agree on
 /// every mutant (the command fails otherwise). A unit with survivors is
 /// reported with them and a non-zero exit.
@@ -728,6 +730,7 @@ fn mutants_are_killed_and_survivors_are_named() {
         ("angle_interp", None),
         ("normalize", Some("quadratic")),
         ("normalize", Some("linear")),
+        ("pipeline", Some("mapped-interp")),
     ] {
         let mut a = vec!["mutate", unit, "--json"];
         if let Some(v) = variant {

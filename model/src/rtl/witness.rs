@@ -17,6 +17,11 @@
 //!   lane whose supports are a witness is realized already (supports that
 //!   share ports, which the first way would move apart).
 //!
+//! When the supports take at most [`LISTED_POINTS`] tuples of codes (two
+//! 11-bit table indices), every tuple is run once ([`Search::list`]): none
+//! is a witness, and the search ends; some are, and the first way realizes
+//! those, one support at a time, instead of moving a support.
+//!
 //! A realized witness whose change a later rounding masks is *carried* to
 //! an output ([`Search::carry`]): the ports no support reads are swept over
 //! their ranges (they keep the witness), and the ports a support reads are
@@ -78,17 +83,25 @@ pub fn witness_search(
         // Every tuple of support codes was run: none is a witness.
         return Ok(None);
     }
+    // Passes alternate: a support moved (or a listed witness realized)
+    // from a random row, then a port moved from one of `bases` (a random
+    // row when there are none).
     let mut pass = 0usize;
     while s.spent < s.work {
-        let base = if !bases.is_empty() && pass % 2 == 1 {
-            bases[s.rng.below(bases.len() as u64) as usize].clone()
+        let found = if pass % 2 == 0 {
+            let base = wild_row(&s.formats, &mut s.rng);
+            if s.listed.is_some() {
+                s.listed_witness(&base)
+            } else {
+                s.move_support(&base)
+            }
         } else {
-            wild_row(&s.formats, &mut s.rng)
-        };
-        let found = match (pass % 2, s.listed.is_some()) {
-            (0, true) => s.listed_witness(&base),
-            (0, false) => s.move_support(&base),
-            _ => s.move_port(&base),
+            let base = if bases.is_empty() {
+                wild_row(&s.formats, &mut s.rng)
+            } else {
+                bases[s.rng.below(bases.len() as u64) as usize].clone()
+            };
+            s.move_port(&base)
         };
         pass += 1;
         if found.is_some() {
