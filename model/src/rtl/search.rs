@@ -344,13 +344,7 @@ fn proof_over(
                 .expect("a support is an input")
         })
         .collect();
-    let roots: Vec<TV> = d.trace.output_ports().iter().map(|p| p.value).collect();
-    let front: Vec<TV> = d
-        .trace
-        .cut_set_frontier(&sup, &roots)
-        .into_iter()
-        .map(|f| t.value(f))
-        .collect();
+    let front = frontier_in(d, &sup, &t);
     let xprog = Compiled::compile(&t, &[t.value(m.node)])?;
     let orig = Compiled::compile(&t, &front)?;
     let mutant = Compiled::compile(&t.mutated(m), &front)?;
@@ -440,6 +434,18 @@ fn proof_over(
         stack.push(right);
     }
     Ok(!flush(&mut points))
+}
+
+/// The frontier of the region of the cuts `sup` towards `d`'s outputs
+/// ([`crate::datapath::Trace::cut_set_frontier`]), as values of `t` (`d`'s
+/// trace with `sup` made inputs).
+pub(super) fn frontier_in(d: &Design, sup: &[usize], t: &crate::datapath::Trace) -> Vec<TV> {
+    let roots: Vec<TV> = d.trace.output_ports().iter().map(|p| p.value).collect();
+    d.trace
+        .cut_set_frontier(sup, &roots)
+        .into_iter()
+        .map(|f| t.value(f))
+        .collect()
 }
 
 /// Whether lane `i` of two runs differs in an output or a flag.
@@ -685,11 +691,11 @@ pub fn line_search(
 
 /// Interval evaluations [`killers`] spends on line bisection per mutant, at
 /// most.
-pub const LINE_EVALS: usize = 20_000;
+pub const LINE_EVALS: usize = 4000;
 
 /// Interval evaluations times the design's nodes [`killers`] spends on
 /// line bisection per mutant (fewer evaluations for a large design).
-pub const LINE_WORK: usize = 1 << 23;
+pub const LINE_WORK: usize = 1 << 18;
 
 /// Time [`killers`] gives [`support_proof`], [`input_proof`] and
 /// [`layer_proof`] each, per mutant, before searching.
@@ -701,11 +707,12 @@ pub const KILLER_PROOF_TIME: std::time::Duration = std::time::Duration::from_mil
 pub const KILLER_SWEEP_WORK: usize = 1 << 29;
 
 /// Lane·operations [`killers`] spends on [`super::witness::witness_search`]
-/// per rounding or shift mutant the line search misses (about a second);
+/// per rounding or shift mutant the line search misses (about half a
+/// second; twice that in the second round);
 /// an overflow gets one part in [`OVERFLOW_WITNESS_SHARE`] (the line
 /// search's bisection finds an overflow wherever one can happen, so the
 /// witnesses seldom add one).
-pub const KILLER_WITNESS_WORK: usize = 1 << 29;
+pub const KILLER_WITNESS_WORK: usize = 1 << 28;
 
 /// See [`KILLER_WITNESS_WORK`].
 pub const OVERFLOW_WITNESS_SHARE: usize = 16;
@@ -779,8 +786,10 @@ pub fn killers(
         }
     }
     // The roundings and shifts no row found tells apart get a second
-    // witness search on another seed: its success depends on the witnesses
-    // it happens to start from (a polar tie: about nine runs in ten).
+    // witness search on another seed with twice the work: its success
+    // depends on the witnesses it happens to start from (a polar tie:
+    // about nine runs in ten; a CORDIC rounding in `angles`, node 150 of
+    // shift_add, only here).
     let roots: Vec<TV> = d.trace.output_ports().iter().map(|p| p.value).collect();
     let cols = columns(&rows, d.trace.input_ports().len());
     let want = super::mutants::run(&d.trace, &roots, &cols)?;
@@ -804,7 +813,7 @@ pub fn killers(
     }
     let second = parallel_map(&again, |i, m| {
         let s = seed.wrapping_add(i as u64) ^ SECOND_ROUND_SEED;
-        super::witness::witness_search(d, m, bases, KILLER_WITNESS_WORK, s)
+        super::witness::witness_search(d, m, bases, 2 * KILLER_WITNESS_WORK, s)
     })?;
     for (m, r) in again.into_iter().zip(second) {
         match r {

@@ -28,7 +28,7 @@
 //! moved at random, the witness realized again through another port.
 
 use super::mutants::{columns, wild_row};
-use super::search::{differs, full_box, quant_of, sweep, LEAVES_PER_LINE};
+use super::search::{differs, frontier_in, full_box, quant_of, sweep, LEAVES_PER_LINE};
 use super::Design;
 use crate::datapath::{Compiled, Mutation, TV};
 use crate::format::Format;
@@ -165,12 +165,7 @@ impl Search {
         let mut order: Vec<usize> = (0..sup.len()).collect();
         order.sort_by_key(|&j| sup[j]);
         let roots: Vec<TV> = d.trace.output_ports().iter().map(|p| p.value).collect();
-        let front: Vec<TV> = d
-            .trace
-            .cut_set_frontier(&sup, &roots)
-            .into_iter()
-            .map(|f| t.value(f))
-            .collect();
+        let front = frontier_in(d, &sup, &t);
         let reads: Vec<Vec<usize>> = vals
             .iter()
             .map(|&v| {
@@ -305,6 +300,15 @@ impl Search {
         self.witness_lanes(&sup_cols)
     }
 
+    /// The first [`WITNESSES_PER_PASS`] of `points` that are witnesses.
+    fn first_witnesses(&mut self, points: &[Vec<i128>]) -> Vec<usize> {
+        let hits = self.witnesses(points);
+        (0..points.len())
+            .filter(|&i| hits[i])
+            .take(WITNESSES_PER_PASS)
+            .collect()
+    }
+
     /// [`Search::witnesses`] of the tuples given as one column of codes
     /// per support.
     fn witness_lanes(&mut self, sup_cols: &[Vec<i128>]) -> Vec<bool> {
@@ -346,12 +350,7 @@ impl Search {
         for (p, &c) in points.iter_mut().zip(&codes) {
             p[j] = c;
         }
-        let hits = self.witnesses(&points);
-        let found: Vec<usize> = (0..rows.len())
-            .filter(|&i| hits[i])
-            .take(WITNESSES_PER_PASS)
-            .collect();
-        for i in found {
+        for i in self.first_witnesses(&points) {
             let movable = self.reads[j].clone();
             let all = vec![true; self.sup.len()];
             if let Some(row) = self.realize(&points[i], &all, &rows[i], &movable) {
@@ -383,12 +382,7 @@ impl Search {
             return Some(rows[i].clone());
         }
         let points = self.supports_of(&rows);
-        let hits = self.witnesses(&points);
-        let found: Vec<usize> = (0..rows.len())
-            .filter(|&i| hits[i])
-            .take(WITNESSES_PER_PASS)
-            .collect();
-        for i in found {
+        for i in self.first_witnesses(&points) {
             if let Some(k) = self.carry(rows[i].clone(), &points[i]) {
                 return Some(k);
             }
