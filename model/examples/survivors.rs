@@ -50,7 +50,8 @@ fn main() {
                     &fxshade_model::datapath::Mutation,
                     std::time::Instant,
                 ) -> Result<bool, fxshade_model::vectors::RtlError>;
-                let proofs: [(Proof, &str); 3] = [
+                let proofs: [(Proof, &str); 4] = [
+                    (fxshade_model::rtl::direction::direction_proof, "DIRECTION"),
                     (search::support_proof, "SUPPORT"),
                     (search::input_proof, "INPUT"),
                     (search::layer_proof, "LAYER"),

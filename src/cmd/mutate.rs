@@ -122,7 +122,12 @@ type Proof = fn(
 
 /// The branch and bound proofs tried on a survivor, in order: the proof,
 /// its name, and what a success says.
-const PROOFS: [(Proof, &str, &str); 3] = [
+const PROOFS: [(Proof, &str, &str); 4] = [
+    (
+        rtl::direction::direction_proof,
+        "direction",
+        rtl::direction::WHY,
+    ),
     (
         search::support_proof,
         "support",

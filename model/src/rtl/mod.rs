@@ -27,6 +27,7 @@
 
 pub mod bits;
 pub mod calibrate;
+pub mod direction;
 pub mod mutants;
 pub mod search;
 pub mod testbench;

@@ -104,7 +104,9 @@ pub fn killers(
 /// that the interval analysis ([`Compiled::may_overflow`], over every code
 /// of every input port) shows never overflows, or a rounding mode changed
 /// at a quantization whose dropped bits are known to be zero for every
-/// input ([`Compiled::quant_operand_zeros`]). `None`: not proven.
+/// input ([`Compiled::quant_operand_zeros`]), or any change at a stage the
+/// outputs read only as a CORDIC step's direction when the mutant keeps
+/// every operand's sign ([`super::direction::sign_only`]). `None`: not proven.
 pub fn equivalent(d: &Design, m: &Mutation) -> Result<Option<&'static str>, RtlError> {
     use crate::datapath::MutationKind;
     let roots: Vec<TV> = d.trace.output_ports().iter().map(|p| p.value).collect();
@@ -115,6 +117,9 @@ pub fn equivalent(d: &Design, m: &Mutation) -> Result<Option<&'static str>, RtlE
         .iter()
         .map(|p| (p.format.min_code(), p.format.max_code()))
         .collect();
+    if super::direction::sign_only(d, m)? {
+        return Ok(Some(super::direction::WHY));
+    }
     Ok(match m.kind {
         MutationKind::Overflow(_) => (!prog.may_overflow(&box_)[m.node]).then_some(
             "equivalent: interval analysis over every input code proves the stage never overflows",

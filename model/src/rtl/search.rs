@@ -701,6 +701,12 @@ pub const LINE_WORK: usize = 1 << 18;
 /// [`layer_proof`] each, per mutant, before searching.
 pub const KILLER_PROOF_TIME: std::time::Duration = std::time::Duration::from_millis(30);
 
+/// Time [`killers`] gives [`super::direction::direction_proof`] (a branch
+/// and bound over the inputs of a CORDIC rotation: 0.6 s for the default
+/// angles unit's last fold, which the search would spend seconds on in
+/// vain).
+pub const KILLER_DIRECTION_TIME: std::time::Duration = std::time::Duration::from_secs(2);
+
 /// Lane·operations [`killers`] spends on sweeps per mutant (rounding and
 /// shift mutants only: about a second each; the rows found are cached).
 /// A late CORDIC rounding is told apart by about one row in 10^6.
@@ -742,7 +748,11 @@ pub fn killers(
         // A proof that ends in time saves the search; one that does not
         // changes nothing (the search would find no input either way).
         if cut.is_none()
-            && (support_proof(d, m, std::time::Instant::now() + KILLER_PROOF_TIME)?
+            && (super::direction::direction_proof(
+                d,
+                m,
+                std::time::Instant::now() + KILLER_DIRECTION_TIME,
+            )? || support_proof(d, m, std::time::Instant::now() + KILLER_PROOF_TIME)?
                 || input_proof(d, m, std::time::Instant::now() + KILLER_PROOF_TIME)?
                 || layer_proof(d, m, std::time::Instant::now() + KILLER_PROOF_TIME)?)
         {
