@@ -1,10 +1,11 @@
 //! Development aid: how often the witness search finds a killer for the
 //! rounding and shift mutants of one node, over seeds, and how long it takes:
 //! `cargo run --release -p fxshade-model --example witness UNIT NODE [override…]`
-//! (`WORK=29` sets the budget to 2^29 lane·operations, `SEEDS=8` the runs).
+//! (`WORK=29` sets the budget to 2^29 lane·operations, `SEEDS=8` the runs;
+//! `PROBE=1` runs the random probe instead).
 use fxshade_model::config::Config;
 use fxshade_model::datapath::MutationKind;
-use fxshade_model::rtl::{units, witness};
+use fxshade_model::rtl::{probe, units, witness};
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
@@ -29,7 +30,11 @@ fn main() {
         }
         for seed in 0..env("SEEDS", 8) as u64 {
             let t = std::time::Instant::now();
-            let r = witness::witness_search(&d, &m, &[], work, seed).unwrap();
+            let r = if std::env::var_os("PROBE").is_some() {
+                probe::random_probe(&d, &m, work, seed).unwrap()
+            } else {
+                witness::witness_search(&d, &m, &[], work, seed).unwrap()
+            };
             println!(
                 "{m} seed {seed}: {} [{:.2}s]",
                 if r.is_some() { "found" } else { "none" },

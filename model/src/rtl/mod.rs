@@ -29,6 +29,7 @@ pub mod bits;
 pub mod calibrate;
 pub mod direction;
 pub mod mutants;
+pub mod probe;
 pub mod search;
 pub mod testbench;
 pub mod timing;

@@ -35,6 +35,12 @@
 //! interval analysis splits each micro-rotation at the sign that steers
 //! it, so on small enough boxes it follows the rotation.
 //!
+//! **Last resorts.** What neither steers nor proves goes to witnesses
+//! ([`super::witness`]: codes of the supports where the mutant differs,
+//! realized as inputs) and then to plain random rows
+//! ([`super::probe`]), which beat any steering where several rare
+//! conditions in low bits must meet (a late CORDIC rounding).
+//!
 //! [`Trace::cuts`]: crate::datapath::Trace::cuts
 //! [`Trace::cut_frontier`]: crate::datapath::Trace::cut_frontier
 
@@ -89,7 +95,12 @@ pub(super) fn full_box(d: &Design) -> Vec<(i128, i128)> {
 
 /// Bounds on the code of node `c` (a quantization or an input) over the
 /// box `b`, from `prog` (compiled with `c` among its outputs' cone).
-fn code_range(d: &Design, prog: &Compiled, b: &[(i128, i128)], c: usize) -> Option<(i128, i128)> {
+pub(super) fn code_range(
+    d: &Design,
+    prog: &Compiled,
+    b: &[(i128, i128)],
+    c: usize,
+) -> Option<(i128, i128)> {
     match &d.trace.ops()[c] {
         Op::Input(_) => {
             let pos = d.trace.ops()[..c]
@@ -234,29 +245,7 @@ pub fn layer_proof(
     deadline: std::time::Instant,
 ) -> Result<bool, RtlError> {
     let t = &d.trace;
-    let mut layer = t.supports(quant_of(d, m).2);
-    let mut best = None;
-    for _ in 0..256 {
-        let mut next: Vec<usize> = Vec::new();
-        for &c in &layer {
-            match &t.ops()[c] {
-                Op::Quant(a, _) => next.extend(t.supports(a.node())),
-                _ => next.push(c),
-            }
-        }
-        next.sort_unstable();
-        next.dedup();
-        if next.is_empty() || next.iter().any(|&c| matches!(t.ops()[c], Op::Input(_))) {
-            break;
-        }
-        if next.len() <= 3 {
-            best = Some(next.clone());
-        }
-        if next == layer {
-            break;
-        }
-        layer = next;
-    }
+    let best = narrow_layer(t, quant_of(d, m).2);
     if let Some(b) = &best {
         if proof_over(d, m, b, deadline)? {
             return Ok(true);
@@ -298,6 +287,38 @@ pub fn layer_proof(
         Some(b) if Some(&b) != best.as_ref() => proof_over(d, m, &b, deadline),
         _ => Ok(false),
     }
+}
+
+/// The deepest layer of quantizations node `x` is computed from that reads
+/// no input port directly and has at most three nodes ([`layer_proof`]:
+/// layer 0 is `x`'s supports, layer `k + 1` the supports of layer `k`'s
+/// operands), or `None` when there is none: for a CORDIC's first rotation,
+/// the normal it is given.
+pub(super) fn narrow_layer(t: &crate::datapath::Trace, x: usize) -> Option<Vec<usize>> {
+    let mut layer = t.supports(x);
+    let mut best = None;
+    for _ in 0..256 {
+        let mut next: Vec<usize> = Vec::new();
+        for &c in &layer {
+            match &t.ops()[c] {
+                Op::Quant(a, _) => next.extend(t.supports(a.node())),
+                _ => next.push(c),
+            }
+        }
+        next.sort_unstable();
+        next.dedup();
+        if next.is_empty() || next.iter().any(|&c| matches!(t.ops()[c], Op::Input(_))) {
+            break;
+        }
+        if next.len() <= 3 {
+            best = Some(next.clone());
+        }
+        if next == layer {
+            break;
+        }
+        layer = next;
+    }
+    best
 }
 
 /// The branch and bound of [`support_proof`] over the cuts `sup` of `m`'s
@@ -725,10 +746,12 @@ pub const OVERFLOW_WITNESS_SHARE: usize = 16;
 
 /// Inputs that tell apart `survivors` (mutants no earlier vector tells
 /// apart), found through cuts, line search and witnesses ([`event_cut`],
-/// [`line_search`], [`super::witness::witness_search`], small budgets: this runs whenever
-/// vectors are made),
-/// starting lines from `bases` as well as random rows. Mutants proven
-/// equivalent on the way are skipped. Returns the inputs (one per mutant
+/// [`line_search`], [`super::witness::witness_search`], small budgets: this
+/// runs whenever vectors are made), starting lines from `bases` as well as
+/// random rows; the roundings and shifts still missed get a second witness
+/// search, then random rows ([`super::probe::random_probe`]). Mutants
+/// proven equivalent on the way ([`super::direction`] among the proofs)
+/// are skipped. Returns the inputs (one per mutant
 /// found, each taken once) and the mutants still not told apart.
 pub fn killers(
     d: &Design,
@@ -825,15 +848,51 @@ pub fn killers(
         let s = seed.wrapping_add(i as u64) ^ SECOND_ROUND_SEED;
         super::witness::witness_search(d, m, bases, 2 * KILLER_WITNESS_WORK, s)
     })?;
+    let mut third = Vec::new();
     for (m, r) in again.into_iter().zip(second) {
         match r {
             Some(row) if !rows.contains(&row) => rows.push(row),
             Some(_) => {}
-            None => left.push(m),
+            None => third.push(m),
+        }
+    }
+    // What is left is killed, if at all, where several rare conditions in
+    // low bits meet (a late CORDIC rounding): random rows find it faster
+    // than any steering ([`super::probe`]).
+    let probed = parallel_map(&third, |i, m| {
+        // A proof given more time first: the random rows cost seconds.
+        let late = || std::time::Instant::now() + KILLER_LATE_PROOF_TIME;
+        if support_proof(d, m, late())? || input_proof(d, m, late())? || layer_proof(d, m, late())?
+        {
+            return Ok(None);
+        }
+        let s = seed.wrapping_add(i as u64) ^ PROBE_ROUND_SEED;
+        super::probe::random_probe(d, m, KILLER_PROBE_WORK, s).map(Some)
+    })?;
+    for (m, r) in third.into_iter().zip(probed) {
+        match r {
+            Some(Some(row)) if !rows.contains(&row) => rows.push(row),
+            Some(None) => left.push(m),
+            _ => {}
         }
     }
     Ok((rows, left))
 }
+
+/// Time [`killers`] gives each proof again before its third round (the
+/// support proof takes the pipeline top's `lighting.level` half_up in
+/// 0.13 s, where the random rows would spend 8 s in vain).
+pub const KILLER_LATE_PROOF_TIME: std::time::Duration = std::time::Duration::from_millis(300);
+
+/// Mixed into the seeds of [`killers`]' third round.
+const PROBE_ROUND_SEED: u64 = 0x0074_6869_7264;
+
+/// Lane·operations of [`super::probe::random_probe`] per rounding or shift
+/// mutant the witness searches miss: 3.5 s on the `angles` unit where
+/// nothing is found, about 24 million rows; the late CORDIC roundings it is
+/// for are killed by 1.6 rows in 10 million (measured), found in 0.1–2.6 s
+/// over six seeds each.
+pub const KILLER_PROBE_WORK: usize = 1 << 33;
 
 /// Mixed into the seeds of [`killers`]' second round.
 const SECOND_ROUND_SEED: u64 = 0x7365_636f_6e64;

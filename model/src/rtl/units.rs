@@ -163,6 +163,8 @@ fn corner_key(d: &Design, corners: &[Vec<i128>], pool: &[Vec<i128>], seed: u64) 
         include_str!("mutants.rs").as_bytes(),
         include_str!("search.rs").as_bytes(),
         include_str!("witness.rs").as_bytes(),
+        include_str!("direction.rs").as_bytes(),
+        include_str!("probe.rs").as_bytes(),
         include_str!("units.rs").as_bytes(),
         include_str!("../datapath/batch.rs").as_bytes(),
         include_str!("../datapath/batch/interval.rs").as_bytes(),

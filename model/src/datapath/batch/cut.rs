@@ -30,6 +30,17 @@ impl Trace {
         }
     }
 
+    /// The nodes computed from node `x` (itself included): where a change
+    /// of `x` can show.
+    pub fn downstream(&self, x: usize) -> Vec<bool> {
+        let mut down = vec![false; self.ops.len()];
+        down[x] = true;
+        for i in x + 1..self.ops.len() {
+            down[i] = self.operands(i).iter().any(|&o| down[o]);
+        }
+        down
+    }
+
     /// The nodes node `x` depends on (itself included), not looking
     /// through `stop`.
     fn cone(&self, x: usize, stop: Option<usize>) -> Vec<bool> {

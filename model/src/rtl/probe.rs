@@ -1,0 +1,197 @@
+//! The last resort of the killer search ([`super::search::killers`]):
+//! random input rows, run through the design and the mutant side by side,
+//! until one tells them apart or the work runs out.
+//!
+//! Some mutants are killed only where several rare things meet, each in
+//! low bits no interval analysis or bisection steers: `angles`' late CORDIC
+//! roundings (`x_9` rounded half_up instead of truncated) change an output
+//! only where the `+1` survives the next truncation of `y` (one row in
+//! 512), lands on `y = −1` so that a later step turns the other way (one in
+//! about 3 000), and moves the angle across a rounding boundary of the
+//! output (one in three): about 1.6 rows in ten million, measured. The
+//! design runs ten million rows a second, so a plain random search finds
+//! such a row in about a second, where the witness search
+//! ([`super::witness`]), steering one support at a time, finds it in one
+//! seed out of four with 2^31 lane·operations.
+
+use super::Design;
+use crate::datapath::{Compiled, Mutation, TV};
+use crate::sampling::Rng;
+use crate::vectors::RtlError;
+
+/// Rows per batch.
+const BLOCK: usize = 1 << 14;
+
+/// Share of the work a carry ([`super::search::sweep`] of the free ports)
+/// may take.
+const CARRY_SHARE: usize = 8;
+
+/// A row of input codes on which mutant `m` gives an output of `d` another
+/// code than the design does, or `None` when none is found within `work`
+/// lane·operations (rows times the operations run).
+///
+/// Rows are drawn uniformly over every input port's codes (seeded by
+/// `seed`). When some ports do not reach the mutated stage (the light and
+/// half vectors beside the normal a CORDIC reads in the pipeline top), the
+/// rows are first run only to the *checkpoints*: the values the stage
+/// reaches that the other ports do not (the CORDIC's angles), where they
+/// meet the rest of the datapath or leave as outputs. A row that changes
+/// a checkpoint is carried to an output by sweeping the free ports one at
+/// a time.
+pub fn random_probe(
+    d: &Design,
+    m: &Mutation,
+    work: usize,
+    seed: u64,
+) -> Result<Option<Vec<i128>>, RtlError> {
+    let t = &d.trace;
+    let n = t.ops().len();
+    let down = t.downstream(m.node);
+    let outs: Vec<TV> = t
+        .output_ports()
+        .iter()
+        .map(|p| p.value)
+        .filter(|v| down[v.node()])
+        .collect();
+    if outs.is_empty() {
+        return Ok(None);
+    }
+    // The ports each node is computed from, as bits.
+    let ports = t.input_ports();
+    let mut mask = vec![0u128; n];
+    for i in 0..n {
+        mask[i] = t.operands(i).iter().fold(0, |a, &o| a | mask[o]);
+        if let Some(k) = ports.iter().position(|p| p.value.node() == i) {
+            mask[i] |= 1 << k.min(127);
+        }
+    }
+    let near = mask[m.node];
+    let free: Vec<usize> = (0..ports.len())
+        .filter(|&k| near >> k.min(127) & 1 == 0)
+        .collect();
+    let live = t.live_nodes(&outs);
+    let targets: Vec<TV> = if free.is_empty() {
+        outs.clone()
+    } else {
+        (0..n)
+            .filter(|&i| down[i] && mask[i] & !near == 0)
+            .filter(|&i| {
+                outs.iter().any(|o| o.node() == i)
+                    || (i + 1..n)
+                        .any(|j| live[j] && mask[j] & !near != 0 && t.operands(j).contains(&i))
+            })
+            .map(|i| t.value(i))
+            .collect()
+    };
+    let mutant = t.mutated(m);
+    let cost = |roots: &[TV]| t.live_nodes(roots).iter().filter(|&&l| l).count().max(1) * 2;
+    let (want, got) = (
+        Compiled::compile(t, &targets)?,
+        Compiled::compile(&mutant, &targets)?,
+    );
+    let whole = if free.is_empty() {
+        None
+    } else {
+        Some((
+            Compiled::compile(t, &outs)?,
+            Compiled::compile(&mutant, &outs)?,
+        ))
+    };
+    let (per_row, per_lane) = (cost(&targets), cost(&outs));
+    let formats: Vec<crate::format::Format> = ports.iter().map(|p| p.format).collect();
+    let mut rng = Rng::new(seed ^ 0x0070_726f_6265);
+    let mut spent = 0;
+    while spent < work {
+        let cols: Vec<Vec<i128>> = formats
+            .iter()
+            .map(|f| {
+                let (lo, hi) = (f.min_code(), f.max_code());
+                let span = (hi - lo + 1) as u64;
+                (0..BLOCK).map(|_| lo + rng.below(span) as i128).collect()
+            })
+            .collect();
+        let refs: Vec<&[i128]> = cols.iter().map(|c| c.as_slice()).collect();
+        let (a, b) = (want.run_i128(&refs).0, got.run_i128(&refs).0);
+        spent += BLOCK * per_row;
+        for i in (0..BLOCK).filter(|&i| a.iter().zip(&b).any(|(x, y)| x[i] != y[i])) {
+            let row: Vec<i128> = cols.iter().map(|c| c[i]).collect();
+            let Some((w, g)) = &whole else {
+                return Ok(Some(row));
+            };
+            let mut swept = 0;
+            let found = super::search::sweep(
+                &row,
+                &formats,
+                &free,
+                free.len(),
+                w,
+                g,
+                &mut rng,
+                &mut swept,
+                work / (CARRY_SHARE * per_lane),
+            );
+            spent += swept * per_lane;
+            if found.is_some() || spent >= work {
+                return Ok(found);
+            }
+        }
+    }
+    Ok(None)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::datapath::{Datapath, MutationKind, Trace};
+    use crate::format::Format;
+    use crate::quantize::{Overflow, Quant, Rounding};
+
+    fn q(stage: &'static str, f: &str, r: Rounding, o: Overflow) -> Quant {
+        Quant::new(stage, f.parse::<Format>().unwrap(), r, o)
+    }
+
+    /// `y = round(a·b)` to 7 bits, then `z = round(y·c)` to 3 fraction bits
+    /// (the design of the witness search's test): `y`'s mutants reach the
+    /// output only through `c`, so the probe meets them at `y` and carries
+    /// them by sweeping `c`. Against every input (exhaustive): each row
+    /// the probe returns kills its mutant, it finds one for every killable
+    /// rounding or shift, and none for the others.
+    #[test]
+    fn probe_rows_kill_and_reach_every_killable_mutant() {
+        let mut t = Trace::new();
+        let a = t.input_named("a", &q("a", "U0F6", Rounding::Trunc, Overflow::Saturate));
+        let b = t.input_named("b", &q("b", "U0F6", Rounding::Trunc, Overflow::Saturate));
+        let c = t.input_named("c", &q("c", "I1F5", Rounding::Trunc, Overflow::Saturate));
+        let p = t.mul(a, b);
+        let y = t.quantize(p, &q("y", "U0F7", Rounding::HalfEven, Overflow::Saturate));
+        let z = t.mul(y, c);
+        let out = t.quantize(z, &q("z", "I1F3", Rounding::HalfEven, Overflow::Saturate));
+        t.output("z", out);
+        let d = crate::rtl::search::tests::design(t);
+        let rows: Vec<Vec<i128>> = (0..64)
+            .flat_map(|a| (0..64).flat_map(move |b| (-32..32).map(move |c| vec![a, b, c])))
+            .collect();
+        let mut carried = 0;
+        for (m, first) in crate::rtl::mutants::model_kills(&d, &rows).unwrap() {
+            if matches!(m.kind, MutationKind::Overflow(_)) {
+                continue;
+            }
+            let r = random_probe(&d, &m, 1 << 26, 5).unwrap();
+            if let Some(row) = &r {
+                assert!(
+                    crate::rtl::mutants::tells_apart(&d, &m, row).unwrap(),
+                    "{m}: {row:?} is no killer"
+                );
+            }
+            assert_eq!(
+                r.is_some(),
+                first.is_some(),
+                "{m}: killable {first:?}, found {r:?}"
+            );
+            if r.is_some() && m.node == y.node() {
+                carried += 1;
+            }
+        }
+        assert!(carried >= 2, "{carried} of y's mutants found");
+    }
+}
