@@ -14,6 +14,16 @@ pub fn fxshade(args: &[&str]) -> Output {
         .expect("runs")
 }
 
+/// [`fxshade`] with a quick killer search (`FXSHADE_SEARCH=quick`: no
+/// random rows), for checks of RTL against model over many configurations.
+pub fn fxshade_quick(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_fxshade"))
+        .args(args)
+        .env("FXSHADE_SEARCH", "quick")
+        .output()
+        .expect("runs")
+}
+
 /// The repository root.
 pub fn repo() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))

@@ -22,121 +22,167 @@ use crate::vectors::RtlError;
 /// Rows per batch.
 const BLOCK: usize = 1 << 14;
 
-/// Share of the work a carry ([`super::search::sweep`] of the free ports)
-/// may take.
-const CARRY_SHARE: usize = 8;
+/// Lane·operations a carry ([`super::search::sweep`] of the free ports)
+/// may take per row that changes a checkpoint.
+const CARRY_WORK: usize = 1 << 30;
 
 /// A row of input codes on which mutant `m` gives an output of `d` another
 /// code than the design does, or `None` when none is found within `work`
-/// lane·operations (rows times the operations run).
-///
-/// Rows are drawn uniformly over every input port's codes (seeded by
-/// `seed`). When some ports do not reach the mutated stage (the light and
-/// half vectors beside the normal a CORDIC reads in the pipeline top), the
-/// rows are first run only to the *checkpoints*: the values the stage
-/// reaches that the other ports do not (the CORDIC's angles), where they
-/// meet the rest of the datapath or leave as outputs. A row that changes
-/// a checkpoint is carried to an output by sweeping the free ports one at
-/// a time.
+/// lane·operations (rows times the operations run): [`Probe::run`] from
+/// [`Probe::new`].
 pub fn random_probe(
     d: &Design,
     m: &Mutation,
     work: usize,
     seed: u64,
 ) -> Result<Option<Vec<i128>>, RtlError> {
-    let t = &d.trace;
-    let n = t.ops().len();
-    let down = t.downstream(m.node);
-    let outs: Vec<TV> = t
-        .output_ports()
-        .iter()
-        .map(|p| p.value)
-        .filter(|v| down[v.node()])
-        .collect();
-    if outs.is_empty() {
-        return Ok(None);
-    }
-    // The ports each node is computed from, as bits.
-    let ports = t.input_ports();
-    let mut mask = vec![0u128; n];
-    for i in 0..n {
-        mask[i] = t.operands(i).iter().fold(0, |a, &o| a | mask[o]);
-        if let Some(k) = ports.iter().position(|p| p.value.node() == i) {
-            mask[i] |= 1 << k.min(127);
-        }
-    }
-    let near = mask[m.node];
-    let free: Vec<usize> = (0..ports.len())
-        .filter(|&k| near >> k.min(127) & 1 == 0)
-        .collect();
-    let live = t.live_nodes(&outs);
-    let targets: Vec<TV> = if free.is_empty() {
-        outs.clone()
-    } else {
-        (0..n)
-            .filter(|&i| down[i] && mask[i] & !near == 0)
-            .filter(|&i| {
-                outs.iter().any(|o| o.node() == i)
-                    || (i + 1..n)
-                        .any(|j| live[j] && mask[j] & !near != 0 && t.operands(j).contains(&i))
-            })
-            .map(|i| t.value(i))
-            .collect()
-    };
-    let mutant = t.mutated(m);
-    let cost = |roots: &[TV]| t.live_nodes(roots).iter().filter(|&&l| l).count().max(1) * 2;
-    let (want, got) = (
-        Compiled::compile(t, &targets)?,
-        Compiled::compile(&mutant, &targets)?,
-    );
-    let whole = if free.is_empty() {
-        None
-    } else {
-        Some((
-            Compiled::compile(t, &outs)?,
-            Compiled::compile(&mutant, &outs)?,
-        ))
-    };
-    let (per_row, per_lane) = (cost(&targets), cost(&outs));
-    let formats: Vec<crate::format::Format> = ports.iter().map(|p| p.format).collect();
-    let mut rng = Rng::new(seed ^ 0x0070_726f_6265);
-    let mut spent = 0;
-    while spent < work {
-        let cols: Vec<Vec<i128>> = formats
+    Ok(match Probe::new(d, m, seed)? {
+        Some(mut p) => p.run(work),
+        None => None,
+    })
+}
+
+/// A random search for an input that tells one mutant apart, run in
+/// pieces ([`Probe::run`]) so that several can share a budget
+/// deterministically.
+///
+/// Rows are drawn uniformly over every input port's codes. When some ports
+/// do not reach the mutated stage (the light and half vectors beside the
+/// normal a CORDIC reads in the pipeline top), the rows are first run only
+/// to the *checkpoints*: the values the stage reaches that the other ports
+/// do not (the CORDIC's angles), where they meet the rest of the datapath
+/// or leave as outputs. A row that changes a checkpoint is carried to an
+/// output by sweeping the free ports one at a time.
+pub struct Probe {
+    /// Design and mutant to the checkpoints.
+    near: (Compiled, Compiled),
+    /// Design and mutant to the outputs the stage reaches, when there are
+    /// free ports.
+    whole: Option<(Compiled, Compiled)>,
+    free: Vec<usize>,
+    formats: Vec<crate::format::Format>,
+    /// Operations per row to the checkpoints, per lane to the outputs.
+    per_row: usize,
+    per_lane: usize,
+    rng: Rng,
+    /// Lane·operations run so far.
+    pub spent: usize,
+}
+
+impl Probe {
+    /// The search for mutant `m` of `d`, seeded by `seed`; `None` when no
+    /// output depends on the stage.
+    pub fn new(d: &Design, m: &Mutation, seed: u64) -> Result<Option<Probe>, RtlError> {
+        let t = &d.trace;
+        let n = t.ops().len();
+        let down = t.downstream(m.node);
+        let outs: Vec<TV> = t
+            .output_ports()
             .iter()
-            .map(|f| {
-                let (lo, hi) = (f.min_code(), f.max_code());
-                let span = (hi - lo + 1) as u64;
-                (0..BLOCK).map(|_| lo + rng.below(span) as i128).collect()
-            })
+            .map(|p| p.value)
+            .filter(|v| down[v.node()])
             .collect();
-        let refs: Vec<&[i128]> = cols.iter().map(|c| c.as_slice()).collect();
-        let (a, b) = (want.run_i128(&refs).0, got.run_i128(&refs).0);
-        spent += BLOCK * per_row;
-        for i in (0..BLOCK).filter(|&i| a.iter().zip(&b).any(|(x, y)| x[i] != y[i])) {
-            let row: Vec<i128> = cols.iter().map(|c| c[i]).collect();
-            let Some((w, g)) = &whole else {
-                return Ok(Some(row));
-            };
-            let mut swept = 0;
-            let found = super::search::sweep(
-                &row,
-                &formats,
-                &free,
-                free.len(),
-                w,
-                g,
-                &mut rng,
-                &mut swept,
-                work / (CARRY_SHARE * per_lane),
-            );
-            spent += swept * per_lane;
-            if found.is_some() || spent >= work {
-                return Ok(found);
+        if outs.is_empty() {
+            return Ok(None);
+        }
+        // The ports each node is computed from, as bits.
+        let ports = t.input_ports();
+        let mut mask = vec![0u128; n];
+        for i in 0..n {
+            mask[i] = t.operands(i).iter().fold(0, |a, &o| a | mask[o]);
+            if let Some(k) = ports.iter().position(|p| p.value.node() == i) {
+                mask[i] |= 1 << k.min(127);
             }
         }
+        let near = mask[m.node];
+        let free: Vec<usize> = (0..ports.len())
+            .filter(|&k| near >> k.min(127) & 1 == 0)
+            .collect();
+        let live = t.live_nodes(&outs);
+        let targets: Vec<TV> = if free.is_empty() {
+            outs.clone()
+        } else {
+            (0..n)
+                .filter(|&i| down[i] && mask[i] & !near == 0)
+                .filter(|&i| {
+                    outs.iter().any(|o| o.node() == i)
+                        || (i + 1..n)
+                            .any(|j| live[j] && mask[j] & !near != 0 && t.operands(j).contains(&i))
+                })
+                .map(|i| t.value(i))
+                .collect()
+        };
+        let mutant = t.mutated(m);
+        let cost = |roots: &[TV]| t.live_nodes(roots).iter().filter(|&&l| l).count().max(1) * 2;
+        let whole = if free.is_empty() {
+            None
+        } else {
+            Some((
+                Compiled::compile(t, &outs)?,
+                Compiled::compile(&mutant, &outs)?,
+            ))
+        };
+        Ok(Some(Probe {
+            near: (
+                Compiled::compile(t, &targets)?,
+                Compiled::compile(&mutant, &targets)?,
+            ),
+            whole,
+            free,
+            formats: ports.iter().map(|p| p.format).collect(),
+            per_row: cost(&targets),
+            per_lane: cost(&outs),
+            rng: Rng::new(seed ^ 0x0070_726f_6265),
+            spent: 0,
+        }))
     }
-    Ok(None)
+
+    /// Search on until a row is found or `work` more lane·operations are
+    /// spent (whole batches of rows: it may run over by one).
+    pub fn run(&mut self, work: usize) -> Option<Vec<i128>> {
+        let stop = self.spent + work;
+        while self.spent < stop {
+            let rng = &mut self.rng;
+            let cols: Vec<Vec<i128>> = self
+                .formats
+                .iter()
+                .map(|f| {
+                    let (lo, hi) = (f.min_code(), f.max_code());
+                    let span = (hi - lo + 1) as u64;
+                    (0..BLOCK).map(|_| lo + rng.below(span) as i128).collect()
+                })
+                .collect();
+            let refs: Vec<&[i128]> = cols.iter().map(|c| c.as_slice()).collect();
+            let (a, b) = (self.near.0.run_i128(&refs).0, self.near.1.run_i128(&refs).0);
+            self.spent += BLOCK * self.per_row;
+            for i in (0..BLOCK).filter(|&i| a.iter().zip(&b).any(|(x, y)| x[i] != y[i])) {
+                let row: Vec<i128> = cols.iter().map(|c| c[i]).collect();
+                let Some((w, g)) = &self.whole else {
+                    return Some(row);
+                };
+                let mut swept = 0;
+                let found = super::search::sweep(
+                    &row,
+                    &self.formats,
+                    &self.free,
+                    self.free.len(),
+                    w,
+                    g,
+                    &mut self.rng,
+                    &mut swept,
+                    CARRY_WORK / self.per_lane,
+                );
+                self.spent += swept * self.per_lane;
+                if found.is_some() {
+                    return found;
+                }
+                if self.spent >= stop {
+                    return None;
+                }
+            }
+        }
+        None
+    }
 }
 
 #[cfg(test)]

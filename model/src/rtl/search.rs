@@ -774,7 +774,12 @@ pub fn killers(
             && (super::direction::direction_proof(
                 d,
                 m,
-                std::time::Instant::now() + KILLER_DIRECTION_TIME,
+                std::time::Instant::now()
+                    + if quick() {
+                        KILLER_PROOF_TIME
+                    } else {
+                        KILLER_DIRECTION_TIME
+                    },
             )? || support_proof(d, m, std::time::Instant::now() + KILLER_PROOF_TIME)?
                 || input_proof(d, m, std::time::Instant::now() + KILLER_PROOF_TIME)?
                 || layer_proof(d, m, std::time::Instant::now() + KILLER_PROOF_TIME)?)
@@ -859,24 +864,76 @@ pub fn killers(
     // What is left is killed, if at all, where several rare conditions in
     // low bits meet (a late CORDIC rounding): random rows find it faster
     // than any steering ([`super::probe`]).
-    let probed = parallel_map(&third, |i, m| {
-        // A proof given more time first: the random rows cost seconds.
-        let late = || std::time::Instant::now() + KILLER_LATE_PROOF_TIME;
-        if support_proof(d, m, late())? || input_proof(d, m, late())? || layer_proof(d, m, late())?
-        {
-            return Ok(None);
+    // Random rows: every mutant runs a piece at a time, in lockstep, from a
+    // pool shared by all (so a design with many survivors stays bounded,
+    // and which rows are found does not depend on timing). A quick search
+    // skips them.
+    if quick() {
+        left.extend(third);
+        return Ok((rows, left));
+    }
+    let late = parallel_map(&third, |_, m| {
+        let t = || std::time::Instant::now() + KILLER_LATE_PROOF_TIME;
+        Ok(support_proof(d, m, t())? || input_proof(d, m, t())? || layer_proof(d, m, t())?)
+    })?;
+    let mut probes = Vec::new();
+    for (i, (m, proven)) in third.into_iter().zip(late).enumerate() {
+        if proven {
+            continue;
         }
         let s = seed.wrapping_add(i as u64) ^ PROBE_ROUND_SEED;
-        super::probe::random_probe(d, m, KILLER_PROBE_WORK, s).map(Some)
-    })?;
-    for (m, r) in third.into_iter().zip(probed) {
-        match r {
-            Some(Some(row)) if !rows.contains(&row) => rows.push(row),
-            Some(None) => left.push(m),
-            _ => {}
+        match super::probe::Probe::new(d, &m, s)? {
+            Some(p) => probes.push((m, std::sync::Mutex::new(p))),
+            None => left.push(m),
+        }
+    }
+    let mut pool = KILLER_PROBE_POOL;
+    let mut done = vec![false; probes.len()];
+    loop {
+        let active: Vec<usize> = (0..probes.len())
+            .filter(|&k| !done[k] && probes[k].1.lock().expect("probe").spent < KILLER_PROBE_WORK)
+            .collect();
+        if active.is_empty() || pool == 0 {
+            break;
+        }
+        let found = parallel_map(&active, |_, &k| {
+            let mut p = probes[k].1.lock().expect("probe");
+            let before = p.spent;
+            let r = p.run(KILLER_PROBE_PIECE);
+            Ok((r, p.spent - before))
+        })?;
+        for (&k, (r, used)) in active.iter().zip(found) {
+            pool = pool.saturating_sub(used);
+            if let Some(row) = r {
+                done[k] = true;
+                if !rows.contains(&row) {
+                    rows.push(row);
+                }
+            }
+        }
+    }
+    for ((m, _), done) in probes.into_iter().zip(done) {
+        if !done {
+            left.push(m);
         }
     }
     Ok((rows, left))
+}
+
+/// Lane·operations one piece of [`killers`]' random rows runs per mutant.
+const KILLER_PROBE_PIECE: usize = 1 << 29;
+
+/// Lane·operations of random rows [`killers`] spends per design, over every
+/// mutant: two mutants' full budgets (about 7 s).
+pub const KILLER_PROBE_POOL: usize = 2 * KILLER_PROBE_WORK;
+
+/// Whether `FXSHADE_SEARCH=quick` asks for a quick search: no random rows
+/// and the direction proof given no more time than the others. For checks
+/// of RTL against model over many configurations, where the rarest killers
+/// matter less than the time (the suite's random configurations); the
+/// vectors differ, and are cached apart.
+pub fn quick() -> bool {
+    std::env::var_os("FXSHADE_SEARCH").is_some_and(|v| v == "quick")
 }
 
 /// Time [`killers`] gives each proof again before its third round (the

@@ -173,6 +173,11 @@ fn corner_key(d: &Design, corners: &[Vec<i128>], pool: &[Vec<i128>], seed: u64) 
         design.as_bytes(),
         rows.as_bytes(),
         &seed.to_le_bytes(),
+        if super::search::quick() {
+            b"quick".as_slice()
+        } else {
+            b"full".as_slice()
+        },
     ])
 }
 
