@@ -188,35 +188,17 @@ impl Probe {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::datapath::{Datapath, MutationKind, Trace};
-    use crate::format::Format;
-    use crate::quantize::{Overflow, Quant, Rounding};
-
-    fn q(stage: &'static str, f: &str, r: Rounding, o: Overflow) -> Quant {
-        Quant::new(stage, f.parse::<Format>().unwrap(), r, o)
-    }
+    use crate::datapath::MutationKind;
 
     /// `y = round(a·b)` to 7 bits, then `z = round(y·c)` to 3 fraction bits
-    /// (the design of the witness search's test): `y`'s mutants reach the
+    /// (`search::tests::masked_tie`, as for the witness search): `y`'s mutants reach the
     /// output only through `c`, so the probe meets them at `y` and carries
     /// them by sweeping `c`. Against every input (exhaustive): each row
     /// the probe returns kills its mutant, it finds one for every killable
     /// rounding or shift, and none for the others.
     #[test]
     fn probe_rows_kill_and_reach_every_killable_mutant() {
-        let mut t = Trace::new();
-        let a = t.input_named("a", &q("a", "U0F6", Rounding::Trunc, Overflow::Saturate));
-        let b = t.input_named("b", &q("b", "U0F6", Rounding::Trunc, Overflow::Saturate));
-        let c = t.input_named("c", &q("c", "I1F5", Rounding::Trunc, Overflow::Saturate));
-        let p = t.mul(a, b);
-        let y = t.quantize(p, &q("y", "U0F7", Rounding::HalfEven, Overflow::Saturate));
-        let z = t.mul(y, c);
-        let out = t.quantize(z, &q("z", "I1F3", Rounding::HalfEven, Overflow::Saturate));
-        t.output("z", out);
-        let d = crate::rtl::search::tests::design(t);
-        let rows: Vec<Vec<i128>> = (0..64)
-            .flat_map(|a| (0..64).flat_map(move |b| (-32..32).map(move |c| vec![a, b, c])))
-            .collect();
+        let (d, y, rows) = crate::rtl::search::tests::masked_tie();
         let mut carried = 0;
         for (m, first) in crate::rtl::mutants::model_kills(&d, &rows).unwrap() {
             if matches!(m.kind, MutationKind::Overflow(_)) {

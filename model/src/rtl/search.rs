@@ -1022,6 +1022,27 @@ pub(super) mod tests {
         Quant::new(stage, f.parse::<Format>().unwrap(), r, o)
     }
 
+    /// `y = round(a·b)` to 7 bits (a tie needs the product's low five bits
+    /// to be `10000`), then `z = round(y·c)` to 3 fraction bits, which
+    /// masks most changes of `y`; `a`, `b` 6-bit unsigned, `c` 6-bit
+    /// signed: the design, `y`, and every input (for the witness search's
+    /// and the random rows' tests).
+    pub(in crate::rtl) fn masked_tie() -> (Design, TV, Vec<Vec<i128>>) {
+        let mut t = Trace::new();
+        let a = t.input_named("a", &q("a", "U0F6", Rounding::Trunc, Overflow::Saturate));
+        let b = t.input_named("b", &q("b", "U0F6", Rounding::Trunc, Overflow::Saturate));
+        let c = t.input_named("c", &q("c", "I1F5", Rounding::Trunc, Overflow::Saturate));
+        let p = t.mul(a, b);
+        let y = t.quantize(p, &q("y", "U0F7", Rounding::HalfEven, Overflow::Saturate));
+        let z = t.mul(y, c);
+        let out = t.quantize(z, &q("z", "I1F3", Rounding::HalfEven, Overflow::Saturate));
+        t.output("z", out);
+        let rows = (0..64)
+            .flat_map(|a| (0..64).flat_map(move |b| (-32..32).map(move |c| vec![a, b, c])))
+            .collect();
+        (design(t), y, rows)
+    }
+
     /// Every input of a design with two 8-bit inputs, and whether each
     /// mutant's outputs or flags differ on some input (exhaustive).
     fn killable(d: &Design) -> Vec<(Mutation, bool)> {

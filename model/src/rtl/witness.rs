@@ -532,36 +532,17 @@ impl Search {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::datapath::{Datapath, Trace};
-    use crate::quantize::{Overflow, Quant, Rounding};
-
-    fn q(stage: &'static str, f: &str, r: Rounding, o: Overflow) -> Quant {
-        Quant::new(stage, f.parse::<Format>().unwrap(), r, o)
-    }
 
     /// `y = round(a·b)` to 7 bits (a tie needs the product's low five bits
     /// to be `10000`), then `z = round(y·c)` to 3 fraction bits, which
-    /// masks most changes of `y`; `a`, `b` 6-bit unsigned, `c` 6-bit
-    /// signed. Every input is run on design and mutant (exhaustive): a row
+    /// masks most changes of `y` (`search::tests::masked_tie`). Every input is run on design and mutant (exhaustive): a row
     /// the witness search returns tells its mutant apart, and it finds a
     /// row for every killable rounding mutant, among them `y`'s
     /// half_even → half_up, which 287 of the 2^18 inputs kill (counted
     /// apart from fxshade, by a script of the same arithmetic).
     #[test]
     fn witnesses_are_killers_and_found_behind_a_masking_rounding() {
-        let mut t = Trace::new();
-        let a = t.input_named("a", &q("a", "U0F6", Rounding::Trunc, Overflow::Saturate));
-        let b = t.input_named("b", &q("b", "U0F6", Rounding::Trunc, Overflow::Saturate));
-        let c = t.input_named("c", &q("c", "I1F5", Rounding::Trunc, Overflow::Saturate));
-        let p = t.mul(a, b);
-        let y = t.quantize(p, &q("y", "U0F7", Rounding::HalfEven, Overflow::Saturate));
-        let z = t.mul(y, c);
-        let out = t.quantize(z, &q("z", "I1F3", Rounding::HalfEven, Overflow::Saturate));
-        t.output("z", out);
-        let d = crate::rtl::search::tests::design(t);
-        let rows: Vec<Vec<i128>> = (0..64)
-            .flat_map(|a| (0..64).flat_map(move |b| (-32..32).map(move |c| vec![a, b, c])))
-            .collect();
+        let (d, y, rows) = crate::rtl::search::tests::masked_tie();
         let kills = crate::rtl::mutants::model_kills(&d, &rows).unwrap();
         let (mut found, mut tie) = (0, false);
         for (m, first) in kills {
