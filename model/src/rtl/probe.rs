@@ -148,7 +148,9 @@ impl Probe {
                 .iter()
                 .map(|f| {
                     let (lo, hi) = (f.min_code(), f.max_code());
-                    let span = (hi - lo + 1) as u64;
+                    // A port of 64 bits or more: the lowest 2^64 − 1 codes
+                    // (as the sweeps do), not a span cast to zero.
+                    let span = (hi - lo + 1).min(u64::MAX as i128) as u64;
                     (0..BLOCK).map(|_| lo + rng.below(span) as i128).collect()
                 })
                 .collect();
