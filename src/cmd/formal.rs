@@ -46,6 +46,10 @@ pub struct FormalArgs {
     /// `fxshade rtl` emits.
     #[arg(long, value_name = "DIR")]
     rtl_dir: Option<std::path::PathBuf>,
+    /// Modules to prove at once (default: the machine's cores); each runs
+    /// Yosys and yosys-smtbmc on one core.
+    #[arg(long, value_name = "J")]
+    jobs: Option<usize>,
     #[command(flatten)]
     out: OutputArgs,
 }
@@ -221,34 +225,57 @@ pub fn run(a: &FormalArgs) -> anyhow::Result<()> {
         .prefix("fxshade-formal-")
         .tempdir()
         .context("cannot create a temporary directory")?;
-    let bar = crate::progress::bar(modules.len() as u64, "formal");
-    let mut proofs = Vec::new();
-    for e in &modules {
-        bar.set_message(e.module.clone());
-        let text = match &a.rtl_dir {
-            None => e.verilog.clone(),
-            Some(d) => {
-                let f = d.join(format!("{}.v", e.module));
-                std::fs::read_to_string(&f)
-                    .with_context(|| format!("--rtl-dir: cannot read {}", f.display()))?
+    // Every module's text first, so that a missing file or property block
+    // is an error before any proof starts.
+    let texts = modules
+        .iter()
+        .map(|e| {
+            let text = match &a.rtl_dir {
+                None => e.verilog.clone(),
+                Some(d) => {
+                    let f = d.join(format!("{}.v", e.module));
+                    std::fs::read_to_string(&f)
+                        .with_context(|| format!("--rtl-dir: cannot read {}", f.display()))?
+                }
+            };
+            if !text.contains("`ifdef FORMAL") {
+                bail!(
+                    "{}: the module has no `ifdef FORMAL block of properties to prove",
+                    e.module
+                );
             }
-        };
-        if !text.contains("`ifdef FORMAL") {
-            bail!(
-                "{}: the module has no `ifdef FORMAL block of properties to prove",
-                e.module
-            );
-        }
-        proofs.push(prove(
-            &e.module,
-            &text,
-            e.latency,
-            a.depth,
-            a.cover,
-            dir.path(),
-        )?);
-        bar.inc(1);
-    }
+            Ok(text)
+        })
+        .collect::<anyhow::Result<Vec<String>>>()?;
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let jobs = match a.jobs {
+        Some(0) => bail!("--jobs 0: give at least 1"),
+        Some(j) => j.min(256),
+        None => cores,
+    };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(jobs)
+        .build()
+        .context("cannot start the worker threads")?;
+    let bar = crate::progress::bar(modules.len() as u64, "formal");
+    // Each module in a scratch directory of its own; results in the
+    // modules' order.
+    let proofs = pool.install(|| {
+        use rayon::prelude::*;
+        modules
+            .par_iter()
+            .zip(&texts)
+            .enumerate()
+            .map(|(k, (e, text))| {
+                let sub = dir.path().join(k.to_string());
+                std::fs::create_dir(&sub).context("cannot create a scratch directory")?;
+                let p = prove(&e.module, text, e.latency, a.depth, a.cover, &sub)?;
+                bar.set_message(e.module.clone());
+                bar.inc(1);
+                Ok(p)
+            })
+            .collect::<anyhow::Result<Vec<Proof>>>()
+    })?;
     bar.finish_and_clear();
     let mut t = Table::new([
         "module",
