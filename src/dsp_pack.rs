@@ -32,7 +32,7 @@
 //! only power-up contents may differ, which the pipeline's valid bits
 //! ignore. Checked by the unit tests below on small netlists, and by
 //! gate-level co-simulation of packed units against the model
-//! (`fxshade synth --netlist`, [`crate::netlist`]; `tests/synth.rs`).
+//! (`fxshade synth --netlist`, [`crate::netlist`]; `tests/suite/synth.rs`).
 
 use anyhow::{bail, Context, Result};
 use serde_json::{json, Map, Value};

@@ -7,9 +7,7 @@
 //! than the rounded value; simulated on Icarus (every case) and Verilator
 //! (a quarter of them: its builds are slow).
 
-mod common;
-
-use common::text;
+use crate::common::text;
 use fxshade_model::quantize::{Overflow, Rounding};
 use fxshade_model::rtl::bits::{quantize, Val};
 use std::fmt::Write as _;

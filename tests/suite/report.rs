@@ -2,11 +2,9 @@
 //! image loaded and every link resolving, it recommends, and the README's
 //! generated section is what it measures.
 
-mod common;
-
 use std::process::Command;
 
-use common::{fxshade, text};
+use crate::common::{fxshade, text};
 
 /// Chromium's binary (Debian's `chromium`); the test fails without it.
 fn chromium() -> &'static str {
@@ -43,7 +41,7 @@ fn the_html_report_renders_in_headless_chromium_with_every_image() {
     let html = std::fs::read_to_string(out.join("index.html")).unwrap();
 
     // The README's generated section is this report's `found.md`.
-    let readme = std::fs::read_to_string(common::repo().join("README.md")).unwrap();
+    let readme = std::fs::read_to_string(crate::common::repo().join("README.md")).unwrap();
     let begin = readme
         .find("<!-- BEGIN found")
         .expect("a BEGIN found line in README.md");

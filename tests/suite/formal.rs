@@ -2,9 +2,7 @@
 //! generated module carries (tests below), for the compact policy and a
 //! target-pipelined configuration, and fails on modules broken by hand.
 
-mod common;
-
-use common::{fxshade, repo, text};
+use crate::common::{fxshade, repo, text};
 
 fn proves_all(extra: &[&str]) {
     let mut a = vec!["formal", "all", "--json"];

@@ -1,10 +1,9 @@
 //! Bad input and hostile output streams: a clear error or the right result,
 //! never a panic (issue #13's reproduction commands that are fixed so far).
 
-mod common;
 use std::process::{Command, Stdio};
 
-use common::*;
+use crate::common::*;
 
 fn no_panic(o: &std::process::Output) {
     assert!(!text(o).contains("panicked"), "panic: {}", text(o));

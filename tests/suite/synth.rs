@@ -1,9 +1,7 @@
 //! `fxshade synth`: Yosys and nextpnr on the generated RTL, in a harness
 //! that registers every port; and `explore --synth`.
 
-mod common;
-
-use common::{fxshade, text};
+use crate::common::{fxshade, text};
 use serde_json::Value;
 
 fn json(o: &std::process::Output) -> Value {
@@ -425,7 +423,10 @@ fn the_dp16kd_model_simulates_yosys_mapped_rams_as_their_rtl() {
     std::fs::write(p.join("tb.v"), tb).unwrap();
     let (cells, inc) = ecp5_cells_without_dp16kd();
     std::fs::write(p.join("cells.v"), cells).unwrap();
-    let model = common::repo().join("rtl").join("sim").join("DP16KD.v");
+    let model = crate::common::repo()
+        .join("rtl")
+        .join("sim")
+        .join("DP16KD.v");
     let o = std::process::Command::new("iverilog")
         .current_dir(p)
         .args(["-g2005", "-o", "sim.vvp", "-I"])

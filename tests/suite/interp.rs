@@ -1,7 +1,6 @@
 //! The interpolator (method C): `fxshade error interp` and `fxshade ops`.
 
-mod common;
-use common::*;
+use crate::common::*;
 
 fn json(args: &[&str]) -> serde_json::Value {
     let o = fxshade(args);

@@ -4,8 +4,7 @@
 //! code under test: one procedural, one from a height field, both baked in
 //! the mesh's UV-aligned frame.
 
-mod common;
-use common::*;
+use crate::common::*;
 use std::path::Path;
 
 /// Write `n(u, v)` (unit normals, OpenGL green) as a 16-bit RGB PNG of

@@ -4,8 +4,7 @@
 //! at a tiny resolution, and bad input (a malformed OBJ file, an unwritable
 //! output directory, unknown methods and sizes) gets a clear error.
 
-mod common;
-use common::*;
+use crate::common::*;
 
 fn decode(p: &std::path::Path) -> (usize, usize, Vec<u8>) {
     let dec = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(p).unwrap()));

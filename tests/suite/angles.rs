@@ -2,8 +2,7 @@
 //! angles`, its sweep, its configuration errors and its operation counts.
 //! Co-simulation, lint and golden vectors run with every unit (`rtl.rs`).
 
-mod common;
-use common::*;
+use crate::common::*;
 
 fn json(args: &[&str]) -> serde_json::Value {
     let o = fxshade(args);

@@ -6,10 +6,9 @@
 //! hand-written RTL. These run the real tools and never skip: a missing tool
 //! fails them (./scripts/test installs them).
 
-mod common;
 use std::process::Command;
 
-use common::*;
+use crate::common::*;
 
 /// Every unit with RTL and its variants (name, override), from the
 /// registry (`fxshade rtl list --json`): a unit added there is tested here.

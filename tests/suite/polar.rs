@@ -1,8 +1,7 @@
 //! The polar transform (method B): `fxshade error polar`, `polar-frames`
 //! and `ops`.
 
-mod common;
-use common::*;
+use crate::common::*;
 
 fn json(args: &[&str]) -> serde_json::Value {
     let o = fxshade(args);

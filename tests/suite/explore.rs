@@ -1,9 +1,7 @@
 //! `fxshade explore`: sweeps, width groups, the cache, shards, bad input,
 //! and word-length optimization checked by other commands.
 
-mod common;
-
-use common::{fxshade, text};
+use crate::common::{fxshade, text};
 use serde_json::Value;
 
 fn json(o: &std::process::Output) -> Value {
