@@ -86,10 +86,16 @@ fn parse_cells(dump: &str) -> Vec<(String, std::collections::BTreeMap<String, i6
 pub fn netlist_checks(cfg: &fxshade_model::Config) -> anyhow::Result<Vec<NetlistCheck>> {
     use anyhow::Context;
     use fxshade_model::rtl::units::{all, emit_unit};
+    use rayon::prelude::*;
     crate::rtl_flow::require_tool("yosys", "yosys")?;
-    let mut out = Vec::new();
-    for u in all() {
-        for &(variant, set) in u.variants {
+    // Every unit and variant, each read back by a Yosys of its own on a
+    // core of its own; results in the registry's order.
+    let pairs: Vec<_> = all()
+        .flat_map(|u| u.variants.iter().map(move |&(v, s)| (u, v, s)))
+        .collect();
+    pairs
+        .par_iter()
+        .map(|&(u, variant, set)| -> anyhow::Result<NetlistCheck> {
             let mut c = cfg.clone();
             for o in fxshade_model::rtl::units::overrides(set) {
                 c.apply_override(o)?;
@@ -176,7 +182,7 @@ pub fn netlist_checks(cfg: &fxshade_model::Config) -> anyhow::Result<Vec<Netlist
             let agree = model_mul == netlist_mul
                 && model_add == netlist_add
                 && h.compares == netlist_compare;
-            out.push(NetlistCheck {
+            Ok(NetlistCheck {
                 unit: u.name,
                 variant: variant.to_string(),
                 model_mul,
@@ -186,10 +192,9 @@ pub fn netlist_checks(cfg: &fxshade_model::Config) -> anyhow::Result<Vec<Netlist
                 model_compare: h.compares,
                 netlist_compare,
                 agree,
-            });
-        }
-    }
-    Ok(out)
+            })
+        })
+        .collect()
 }
 
 /// The netlist checks as a table.
