@@ -30,12 +30,15 @@ fn every_module_proves_its_handshake_properties_target_pipelined() {
     proves_all(&["--config", cfg.to_str().unwrap()]);
 }
 
-/// The FIFO handshake (`tests/configs/wide.toml`: `rtl.handshake =
-/// "fifo"`) has properties of its own: no overflow, shift, hold.
+/// The FIFO handshake (`rtl.handshake = "fifo"`) has properties of its
+/// own: no overflow, shift, hold. On the default widths: the datapath is
+/// cut, so widths do not enter the proof, and the 4096-entry tables of
+/// `tests/configs/wide.toml` (also a FIFO configuration, co-simulated in
+/// `rtl.rs`) cost Yosys's front end 6 s a module (`fxshade formal all
+/// --config tests/configs/wide.toml` proves them in 28 s).
 #[test]
 fn every_module_proves_its_handshake_properties_fifo() {
-    let cfg = repo().join("tests/configs/wide.toml");
-    proves_all(&["--config", cfg.to_str().unwrap()]);
+    proves_all(&["--set", "rtl.handshake=\"fifo\""]);
 }
 
 /// A FIFO that admits one item too many can overflow when the output
