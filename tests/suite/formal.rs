@@ -41,6 +41,14 @@ fn every_module_proves_its_handshake_properties_fifo() {
     proves_all(&["--set", "rtl.handshake=\"fifo\""]);
 }
 
+/// `--jobs 0` is refused with the flag named, before any proof.
+#[test]
+fn no_jobs_is_a_clear_error() {
+    let o = fxshade(&["formal", "normalize", "--jobs", "0"]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(text(&o).contains("--jobs 0"), "{}", text(&o));
+}
+
 /// A FIFO that admits one item too many can overflow when the output
 /// stalls: the proof fails.
 #[test]

@@ -932,10 +932,9 @@ pub const KILLER_PROBE_POOL: usize = 2 * KILLER_PROBE_WORK;
 /// round, no random rows, and [`QUICK_PROOF_TIME`] for every proof, the
 /// direction proof included (the mapped pipeline top on the narrow
 /// configuration: 1.9 s against 16 s for the full search, 3.1 CPU-s
-/// against 30). For checks of RTL
-/// against model over many configurations, where the rarest killers matter
-/// less than the time (the suite's co-simulation checks); the vectors
-/// differ, and are cached apart.
+/// against 30). For checks of RTL against model over many configurations,
+/// where the rarest killers matter less than the time (the suite's
+/// co-simulation checks); the vectors differ, and are cached apart.
 pub fn quick() -> bool {
     std::env::var_os("FXSHADE_SEARCH").is_some_and(|v| v == "quick")
 }
