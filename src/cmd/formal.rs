@@ -21,7 +21,7 @@ use anyhow::{bail, Context};
 use clap::Args;
 
 use super::{ConfigArgs, PipelineArgs};
-use crate::output::{emit, OutputArgs, Table};
+use crate::output::{emit, OutputArgs, Table, UsageError};
 
 /// `fxshade formal`
 #[derive(Args, Debug)]
@@ -204,6 +204,9 @@ fn prove(
 
 /// Run it.
 pub fn run(a: &FormalArgs) -> anyhow::Result<()> {
+    if a.jobs == Some(0) {
+        return Err(UsageError("--jobs 0: give at least 1".into()).into());
+    }
     crate::rtl_flow::require_tool("yosys", "yosys")?;
     if Command::new("yosys-smtbmc").arg("-h").output().is_err() {
         bail!("yosys-smtbmc is not installed: it comes with Debian's yosys (`sudo apt-get install yosys`)");
@@ -248,11 +251,7 @@ pub fn run(a: &FormalArgs) -> anyhow::Result<()> {
         })
         .collect::<anyhow::Result<Vec<String>>>()?;
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let jobs = match a.jobs {
-        Some(0) => bail!("--jobs 0: give at least 1"),
-        Some(j) => j.min(256),
-        None => cores,
-    };
+    let jobs = a.jobs.map_or(cores, |j| j.min(256));
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(jobs)
         .build()

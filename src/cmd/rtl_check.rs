@@ -115,6 +115,9 @@ pub struct RunSummary {
 
 /// Run it; exit status 0 only when every vector passed.
 pub fn run(a: &RtlCheckArgs) -> anyhow::Result<()> {
+    if a.jobs == Some(0) {
+        return Err(crate::output::UsageError("--jobs 0: give at least 1".into()).into());
+    }
     let u = rtl_flow::unit(&a.unit)?;
     let cfg = a.cfg.resolve_with(&a.pipe.overrides())?;
     let stream = VectorStream::new(u, &cfg, a.count, a.seed, a.shard)?;
@@ -154,7 +157,6 @@ pub fn run(a: &RtlCheckArgs) -> anyhow::Result<()> {
             .clamp(1, 256)
             .min(stream.count.max(1))
     };
-    anyhow::ensure!(a.jobs != Some(0), "--jobs 0: give at least 1");
     // Build once, before the jobs share it.
     let b = rtl_flow::build(u.name, &sources, a.sim, trace.is_some())?;
     let start = std::time::Instant::now();

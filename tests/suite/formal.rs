@@ -31,22 +31,32 @@ fn every_module_proves_its_handshake_properties_target_pipelined() {
 }
 
 /// The FIFO handshake (`rtl.handshake = "fifo"`) has properties of its
-/// own: no overflow, shift, hold. On the default widths: the datapath is
-/// cut, so widths do not enter the proof, and the 4096-entry tables of
-/// `tests/configs/wide.toml` (also a FIFO configuration, co-simulated in
-/// `rtl.rs`) cost Yosys's front end 6 s a module (`fxshade formal all
-/// --config tests/configs/wide.toml` proves them in 28 s).
+/// own: no overflow, shift, hold; with the set-up values carried through
+/// the pipeline (`rtl.setup = "pixel"`, the tops' other register
+/// structure). The handshake and set-up of `tests/configs/wide.toml`, on the
+/// default widths: the datapath is cut, so widths do not enter the proof,
+/// and that file's 4096-entry tables cost Yosys's front end 6 s a module
+/// (`fxshade formal all --config tests/configs/wide.toml` proves them in
+/// 28 s).
 #[test]
 fn every_module_proves_its_handshake_properties_fifo() {
-    proves_all(&["--set", "rtl.handshake=\"fifo\""]);
+    proves_all(&[
+        "--set",
+        "rtl.handshake=\"fifo\"",
+        "--set",
+        "rtl.setup=\"pixel\"",
+    ]);
 }
 
-/// `--jobs 0` is refused with the flag named, before any proof.
+/// `--jobs 0` is refused with the flag named and status 2 (a bad flag),
+/// before any proof; `rtl-check` says the same.
 #[test]
 fn no_jobs_is_a_clear_error() {
-    let o = fxshade(&["formal", "normalize", "--jobs", "0"]);
-    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
-    assert!(text(&o).contains("--jobs 0"), "{}", text(&o));
+    for cmd in ["formal", "rtl-check"] {
+        let o = fxshade(&[cmd, "normalize", "--jobs", "0"]);
+        assert_eq!(o.status.code(), Some(2), "{cmd}: {}", text(&o));
+        assert!(text(&o).contains("--jobs 0"), "{cmd}: {}", text(&o));
+    }
 }
 
 /// A FIFO that admits one item too many can overflow when the output

@@ -337,8 +337,9 @@ fn fxshade_within(secs: u32, args: &[&str]) -> std::process::Output {
         .arg(env!("CARGO_BIN_EXE_fxshade"))
         .args(args);
     // Vectors with a quick killer search: what this checks is the
-    // coefficient design, which both searches share (the full one adds a
-    // constant budget of random rows and witnesses: 6–19 s a run here).
+    // coefficient design, which both searches share (the full one adds
+    // bounded budgets of witnesses and random rows for the mutants it can
+    // neither kill nor prove: up to 17 s a run here).
     if args.first() == Some(&"vectors") {
         c.env("FXSHADE_SEARCH", "quick");
     }

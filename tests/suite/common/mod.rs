@@ -14,8 +14,9 @@ pub fn fxshade(args: &[&str]) -> Output {
         .expect("runs")
 }
 
-/// [`fxshade`] with a quick killer search (`FXSHADE_SEARCH=quick`: no
-/// random rows), for checks of RTL against model over many configurations.
+/// [`fxshade`] with a quick killer search (`FXSHADE_SEARCH=quick`: a
+/// sixteenth of the budgets, 10 ms proofs, no random rows), for checks of
+/// RTL against model over many configurations.
 pub fn fxshade_quick(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_fxshade"))
         .args(args)
