@@ -456,6 +456,49 @@ fn a_killed_build_leaves_no_orphans() {
     assert_eq!(left, 0, "processes of the killed build are still running");
 }
 
+/// Quick and full killer searches are cached apart: the co-simulation
+/// tests' quick search (`FXSHADE_SEARCH=quick`) finds fewer rows for the
+/// `angles` unit, and a full run after it in the same cache still writes
+/// the golden vectors byte for byte.
+#[test]
+fn quick_and_full_searches_are_cached_apart() {
+    let dir = tempfile::tempdir().unwrap();
+    let cache = dir.path().join("cache");
+    let run = |out: &str, quick: bool| -> std::path::PathBuf {
+        let out = dir.path().join(out);
+        let mut c = Command::new(env!("CARGO_BIN_EXE_fxshade"));
+        c.args([
+            "vectors", "angles", "--count", "256", "--seed", "1", "--out",
+        ])
+        .arg(&out)
+        .env("FXSHADE_CACHE_DIR", &cache);
+        if quick {
+            c.env("FXSHADE_SEARCH", "quick");
+        }
+        let o = c.output().unwrap();
+        no_panic(&o);
+        assert!(o.status.success(), "{}", text(&o));
+        out
+    };
+    let golden = repo().join("testvectors/angles");
+    let read = |d: &std::path::Path, f: &str| std::fs::read(d.join(f)).unwrap();
+    let quick = run("quick", true);
+    assert_ne!(
+        read(&quick, "inputs.hex"),
+        read(&golden, "inputs.hex"),
+        "the quick search found every row the full one does"
+    );
+    let full = run("full", false);
+    for f in std::fs::read_dir(&golden).unwrap() {
+        let name = f.unwrap().file_name();
+        let name = name.to_str().unwrap();
+        assert!(
+            read(&full, name) == read(&golden, name),
+            "{name}: the full run took the quick run's rows"
+        );
+    }
+}
+
 /// The inputs searched for mutant killers are cached (`$FXSHADE_CACHE_DIR
 /// /corners`): a second run reads them and writes the same vectors, and an
 /// entry that is cut short or garbled is ignored and rewritten whole.

@@ -535,8 +535,9 @@ mod tests {
 
     /// `y = round(a·b)` to 7 bits (a tie needs the product's low five bits
     /// to be `10000`), then `z = round(y·c)` to 3 fraction bits, which
-    /// masks most changes of `y` (`search::tests::masked_tie`). Every input is run on design and mutant (exhaustive): a row
-    /// the witness search returns tells its mutant apart, and it finds a
+    /// masks most changes of `y` (`search::tests::masked_tie`). Every input
+    /// is run on design and mutant (exhaustive): a row the witness search
+    /// returns tells its mutant apart, and it finds a
     /// row for every killable rounding mutant, among them `y`'s
     /// half_even → half_up, which 287 of the 2^18 inputs kill (counted
     /// apart from fxshade, by a script of the same arithmetic).
