@@ -7,6 +7,7 @@ mod netlist;
 mod output;
 mod picture;
 mod plot;
+mod proc;
 mod progress;
 mod rtl_flow;
 

@@ -62,8 +62,8 @@ fn yosys_datdir() -> anyhow::Result<PathBuf> {
             }
         }
     }
-    if let Ok(o) = Command::new("yosys-config").arg("--datdir").output() {
-        let d = PathBuf::from(String::from_utf8_lossy(&o.stdout).trim());
+    if let Ok(Some(o)) = crate::proc::probe("yosys-config", "--datdir") {
+        let d = PathBuf::from(o.stdout.trim());
         if o.status.success() && has_lib(&d) {
             return Ok(d);
         }

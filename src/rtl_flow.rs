@@ -123,21 +123,16 @@ impl Sim {
     }
 }
 
-/// Fail with the install command when a tool is missing.
+/// Fail with the install command when a tool is missing (or hangs).
 pub fn require_tool(tool: &str, package: &str) -> anyhow::Result<()> {
-    match Command::new(tool).arg("-V").output() {
-        Ok(_) => Ok(()),
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => bail!(
-            "{tool} is not installed: install it with `sudo apt-get install {package}` \
+    crate::proc::require(
+        tool,
+        "-V",
+        &format!(
+            "install it with `sudo apt-get install {package}` \
              (Debian; ./scripts/test does it when run as root)"
         ),
-        Err(e) => bail!("cannot run {tool}: {e}"),
-    }
-}
-
-/// Where builds are cached: [`fxshade_model::files::cache_root`].
-pub fn cache_root() -> PathBuf {
-    fxshade_model::files::cache_root()
+    )
 }
 
 /// Whether Verilator models are compiled without optimization
@@ -147,89 +142,10 @@ fn quick_build() -> bool {
     std::env::var("FXSHADE_QUICK_BUILD").is_ok_and(|v| v == "1")
 }
 
-/// Seconds a simulator build may take before it is stopped:
-/// `$FXSHADE_BUILD_TIMEOUT`, else 900.
-fn build_timeout() -> std::time::Duration {
-    let s = std::env::var("FXSHADE_BUILD_TIMEOUT")
-        .ok()
-        .and_then(|s| s.parse::<u64>().ok())
-        .unwrap_or(900);
-    std::time::Duration::from_secs(s)
-}
-
-/// Run a build tool in a process group of its own, with a time limit: on
-/// timeout the whole group (make, the C++ compiler) is killed.
+/// Run a build tool under [`crate::proc::Limit::build`]: on timeout the
+/// whole group (make, the C++ compiler) is killed.
 fn run_tool(cmd: &mut Command, what: &str) -> anyhow::Result<String> {
-    let limit = build_timeout();
-    let (status, text) = run_limited(cmd, what, limit, "FXSHADE_BUILD_TIMEOUT")?;
-    if !status.success() {
-        bail!("{what} failed ({status}):\n{}", text.trim_end());
-    }
-    Ok(text)
-}
-
-/// Run a tool in a process group of its own with a time limit (`env` names
-/// the variable that raises it, for the error): its exit status and its
-/// stdout and stderr together. On timeout, or when fxshade itself is
-/// killed, the whole group is killed, so no tool is left behind.
-pub fn run_limited(
-    cmd: &mut Command,
-    what: &str,
-    limit: std::time::Duration,
-    env: &str,
-) -> anyhow::Result<(std::process::ExitStatus, String)> {
-    use std::os::unix::process::CommandExt;
-    let child = cmd
-        .process_group(0)
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .with_context(|| format!("cannot run {what}"))?;
-    let pgid = child.id() as i32;
-    // A guard process outlives us: it waits on a pipe that only we hold, and
-    // when the pipe closes — we finished, or we were killed, even by
-    // SIGKILL — it kills the build's whole process group, so no verilator,
-    // make or compiler is left behind.
-    let mut guard = Command::new("sh")
-        .arg("-c")
-        .arg(format!("read _ ; kill -KILL -{pgid} 2>/dev/null"))
-        .stdin(std::process::Stdio::piped())
-        .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::null())
-        .spawn()
-        .ok();
-    let (tx, rx) = std::sync::mpsc::channel::<()>();
-    let watchdog = std::thread::spawn(move || {
-        if rx.recv_timeout(limit).is_err() {
-            // SAFETY: signalling a process group we created; no memory is
-            // touched.
-            unsafe {
-                libc::kill(-pgid, libc::SIGKILL);
-            }
-            true
-        } else {
-            false
-        }
-    });
-    let out = child.wait_with_output();
-    let _ = tx.send(());
-    let timed_out = watchdog.join().unwrap_or(false);
-    if let Some(g) = guard.as_mut() {
-        // The group's leader has been reaped; stop the guard before its
-        // `kill` could reach a reused group id.
-        let _ = g.kill();
-        let _ = g.wait();
-    }
-    let out = out.with_context(|| format!("cannot run {what}"))?;
-    let text =
-        String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
-    if timed_out {
-        bail!(
-            "{what} did not finish within {} s and was stopped (set {env} to allow more)",
-            limit.as_secs()
-        );
-    }
-    Ok((out.status, text))
+    crate::proc::run_ok(cmd, what, crate::proc::Limit::build())
 }
 
 /// Write the sources into `dir`; the paths of the files.
@@ -252,8 +168,37 @@ pub struct Build {
     pub seconds: f64,
 }
 
-/// Build (or reuse) the testbench of `u` for `params` on `sim`.
+/// The file of a build that is run: the Verilator executable, or the
+/// Icarus program `vvp` loads.
+fn binary_rel(sim: Sim) -> &'static str {
+    match sim {
+        Sim::Verilator => "obj/sim",
+        Sim::Icarus => "sim.vvp",
+    }
+}
+
+/// Build (or reuse) the testbench of `sources` on `sim`.
+///
+/// Builds are cached in the user's private cache ([`fxshade_model::cache`])
+/// under a key of the sources, the simulator and the build options. An
+/// entry is used only when its seal verifies: it is the user's own and its
+/// binary still hashes to what was recorded when it was complete; anything
+/// else is rebuilt. A build is staged, its binary synced and hashed, and
+/// the seal written last, so a full file system or a killed build leaves no
+/// entry that looks complete.
 pub fn build(name: &str, sources: &Sources, sim: Sim, trace: bool) -> anyhow::Result<Build> {
+    build_with(name, sources, sim, trace, false)
+}
+
+/// [`build`]; with `fresh`, the cached entry (if any) is removed first.
+fn build_with(
+    name: &str,
+    sources: &Sources,
+    sim: Sim,
+    trace: bool,
+    fresh: bool,
+) -> anyhow::Result<Build> {
+    use fxshade_model::cache::{self, Seal};
     match sim {
         Sim::Verilator => require_tool("verilator", "verilator")?,
         Sim::Icarus => {
@@ -270,91 +215,232 @@ pub fn build(name: &str, sources: &Sources, sim: Sim, trace: bool) -> anyhow::Re
     let tag = format!("{}-stream-{trace}-{quick}", sim.name());
     parts.push(tag.as_bytes());
     let key = fingerprint(&parts);
-    let root = cache_root();
+    let root = cache::root()?;
     let dir = root.join(format!("{name}-{}-{key:016x}", sim.name()));
-    let binary = |d: &Path| match sim {
-        Sim::Verilator => d.join("obj").join("sim"),
-        Sim::Icarus => d.join("sim.vvp"),
-    };
-    if dir.join("done").is_file() {
-        if binary(&dir).is_file() {
+    if fresh {
+        remove_entry(&dir)?;
+    } else if dir.exists() {
+        if Seal::verify(&dir)? {
             return Ok(Build { dir, seconds: 0.0 });
         }
-        // Marked done but its simulator is gone: build it again.
-        std::fs::remove_dir_all(&dir).with_context(|| {
-            format!(
-                "the cached build {} lacks {} and cannot be removed",
-                dir.display(),
-                binary(&dir).display()
-            )
-        })?;
+        // Not sealed, or its binary changed since: build it again.
+        remove_entry(&dir)?;
     }
-    std::fs::create_dir_all(&root)
-        .with_context(|| format!("cannot create the build cache {}", root.display()))?;
     let staging = root.join(format!(
         ".{name}-{}-{key:016x}.{}",
         sim.name(),
         std::process::id()
     ));
     let _ = std::fs::remove_dir_all(&staging);
-    std::fs::create_dir_all(&staging)?;
+    cache::ensure_private_dir(&staging, cache::uid())?;
     let start = Instant::now();
-    let files = write_sources(sources, &staging.join("src"))?;
-    let result = match sim {
-        Sim::Verilator => {
-            let mut c = Command::new("verilator");
-            c.current_dir(&staging)
-                .args([
-                    "--binary",
-                    "-j",
-                    "2",
-                    "-O3",
-                    "--x-assign",
-                    "fast",
-                    "--x-initial",
-                    "fast",
-                ])
-                .arg("--top-module")
-                .arg(&sources.tb_top)
-                .args(["--Mdir", "obj", "-o", "sim"]);
-            if trace {
-                c.arg("--trace-fst");
+    let result = (|| -> anyhow::Result<()> {
+        let files = write_sources(sources, &staging.join("src"))?;
+        match sim {
+            Sim::Verilator => {
+                let mut c = Command::new("verilator");
+                c.current_dir(&staging)
+                    .args([
+                        "--binary",
+                        "-j",
+                        "2",
+                        "-O3",
+                        "--x-assign",
+                        "fast",
+                        "--x-initial",
+                        "fast",
+                    ])
+                    .arg("--top-module")
+                    .arg(&sources.tb_top)
+                    .args(["--Mdir", "obj", "-o", "sim"]);
+                if trace {
+                    c.arg("--trace-fst");
+                }
+                // ccache, when installed, keeps Verilator's runtime library
+                // and unchanged model files compiled across builds (half the
+                // time of a small unit's build).
+                if crate::proc::has("ccache", "--version") {
+                    c.args(["-MAKEFLAGS", "OBJCACHE=ccache"]);
+                }
+                if quick {
+                    // Compile the model without optimization: a quarter less
+                    // build time, a slower simulation (for many short runs).
+                    c.args(["-MAKEFLAGS", "OPT_FAST=-O0 OPT_SLOW=-O0"]);
+                }
+                c.args(&files);
+                run_tool(&mut c, "verilator")?;
             }
-            // ccache, when installed, keeps Verilator's runtime library and
-            // unchanged model files compiled across builds (half the time of
-            // a small unit's build).
-            if Command::new("ccache").arg("--version").output().is_ok() {
-                c.args(["-MAKEFLAGS", "OBJCACHE=ccache"]);
+            Sim::Icarus => {
+                let mut c = Command::new("iverilog");
+                c.current_dir(&staging)
+                    .args(["-g2005", "-o", "sim.vvp"])
+                    .args(&files);
+                run_tool(&mut c, "iverilog")?;
             }
-            if quick {
-                // Compile the model without optimization: a quarter less
-                // build time, a slower simulation (for many short runs).
-                c.args(["-MAKEFLAGS", "OPT_FAST=-O0 OPT_SLOW=-O0"]);
-            }
-            c.args(&files);
-            run_tool(&mut c, "verilator")
         }
-        Sim::Icarus => {
-            let mut c = Command::new("iverilog");
-            c.current_dir(&staging)
-                .args(["-g2005", "-o", "sim.vvp"])
-                .args(&files);
-            run_tool(&mut c, "iverilog")
+        // A tool that ran out of space may still exit 0 with a truncated
+        // output: a full file system is an error, never an entry.
+        check_space(&staging)?;
+        let bin = staging.join(binary_rel(sim));
+        if let Err(why) = binary_complete(sim, &bin) {
+            return Err(fxshade_model::cache::CacheError::Full { path: bin.clone() })
+                .with_context(|| format!("{} is incomplete ({why})", bin.display()));
         }
-    };
+        Seal::write(&staging, &[binary_rel(sim)])?;
+        Ok(())
+    })();
     if let Err(e) = result {
         let _ = std::fs::remove_dir_all(&staging);
         return Err(e);
     }
-    std::fs::write(staging.join("done"), b"")?;
     if std::fs::rename(&staging, &dir).is_err() {
-        // Another process built the same key meanwhile: use theirs.
+        // Another process built the same key meanwhile: use theirs if it
+        // verifies.
         let _ = std::fs::remove_dir_all(&staging);
+        anyhow::ensure!(
+            Seal::verify(&dir)?,
+            "the cached build {} appeared while building and does not verify",
+            dir.display()
+        );
     }
     Ok(Build {
         dir,
         seconds: start.elapsed().as_secs_f64(),
     })
+}
+
+/// Whether a built simulator is whole: for Verilator an ELF file whose
+/// section header table (the last thing the linker writes) lies inside
+/// it; for Icarus a program that ends with its whole `:file_names N;`
+/// table.
+pub fn binary_complete(sim: Sim, path: &Path) -> Result<(), String> {
+    let b = std::fs::read(path).map_err(|e| e.to_string())?;
+    match sim {
+        Sim::Verilator => {
+            if b.len() < 64 || &b[..4] != b"\x7fELF" || b[4] != 2 {
+                return Err("not a 64-bit ELF file".into());
+            }
+            let le = b[5] == 1;
+            let u16_at = |o: usize| {
+                let a = [b[o], b[o + 1]];
+                if le {
+                    u16::from_le_bytes(a)
+                } else {
+                    u16::from_be_bytes(a)
+                }
+            };
+            let a: [u8; 8] = b[0x28..0x30].try_into().expect("8 bytes");
+            let shoff = if le {
+                u64::from_le_bytes(a)
+            } else {
+                u64::from_be_bytes(a)
+            };
+            let end = shoff + u64::from(u16_at(0x3a)) * u64::from(u16_at(0x3c));
+            if shoff == 0 || end > b.len() as u64 {
+                return Err(format!(
+                    "its section headers end at byte {end}, the file at {}",
+                    b.len()
+                ));
+            }
+            Ok(())
+        }
+        Sim::Icarus => {
+            let text = String::from_utf8_lossy(&b);
+            let Some(pos) = text.rfind("\n:file_names ") else {
+                return Err("no file name table".into());
+            };
+            let mut lines = text[pos + 1..].lines();
+            let n: usize = lines
+                .next()
+                .and_then(|l| l.strip_prefix(":file_names "))
+                .and_then(|l| l.strip_suffix(';'))
+                .and_then(|l| l.trim().parse().ok())
+                .ok_or("a malformed file name table")?;
+            let names = lines
+                .filter(|l| l.trim_start().starts_with('"') && l.ends_with("\";"))
+                .count();
+            if names != n || !text.ends_with('\n') {
+                return Err(format!("{names} of its {n} file names"));
+            }
+            Ok(())
+        }
+    }
+}
+
+/// Remove a cache entry (an error names it when it cannot be removed).
+fn remove_entry(dir: &Path) -> anyhow::Result<()> {
+    match std::fs::remove_dir_all(dir) {
+        Ok(()) => Ok(()),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
+        Err(e) => Err(e).with_context(|| {
+            format!(
+                "the cached build {} must be rebuilt and cannot be removed",
+                dir.display()
+            )
+        }),
+    }
+}
+
+/// Fail when the file system holding `dir` has no free block left (a
+/// build there may have been cut short without an error).
+fn check_space(dir: &Path) -> anyhow::Result<()> {
+    use std::os::unix::ffi::OsStrExt;
+    let c = std::ffi::CString::new(dir.as_os_str().as_bytes())?;
+    // SAFETY: a zeroed statvfs is a valid out-parameter for statvfs.
+    let mut st: libc::statvfs = unsafe { std::mem::zeroed() };
+    // SAFETY: a valid C string and out-pointer.
+    let ok = unsafe { libc::statvfs(c.as_ptr(), &mut st) } == 0;
+    // Blocks this user may still write (root may use the reserved ones).
+    let free = if fxshade_model::cache::uid() == 0 {
+        st.f_bfree
+    } else {
+        st.f_bavail
+    };
+    if ok && free == 0 {
+        return Err(fxshade_model::cache::CacheError::Full {
+            path: dir.to_path_buf(),
+        }
+        .into());
+    }
+    Ok(())
+}
+
+/// Whether the FST file at `path` is whole: a sequence of blocks, each a
+/// type byte and a big-endian 64-bit length that counts itself (the format
+/// of GTKWave's `fstapi`, which Verilator and Icarus both use), ending
+/// exactly at the end of the file, with no block left unfinished (type
+/// 255, `FST_BL_SKIP`).
+pub fn fst_complete(path: &Path) -> Result<(), String> {
+    let b = std::fs::read(path).map_err(|e| e.to_string())?;
+    if b.first() != Some(&0) {
+        return Err("no FST header block".into());
+    }
+    let mut pos = 0usize;
+    let mut blocks = 0;
+    while pos < b.len() {
+        let Some(len) = b.get(pos + 1..pos + 9) else {
+            return Err(format!("a block header cut short at byte {pos}"));
+        };
+        let len = u64::from_be_bytes(len.try_into().expect("8 bytes"));
+        if b[pos] == 255 {
+            return Err(format!("an unfinished block at byte {pos}"));
+        }
+        let end = (pos as u64 + 1).checked_add(len).filter(|_| len >= 8);
+        match end {
+            Some(e) if e <= b.len() as u64 => pos = e as usize,
+            _ => {
+                return Err(format!(
+                    "block {blocks} at byte {pos} claims {len} bytes, the file ends at {}",
+                    b.len()
+                ))
+            }
+        }
+        blocks += 1;
+    }
+    if blocks < 2 {
+        return Err("no value-change block".into());
+    }
+    Ok(())
 }
 
 /// The outcome of one co-simulation.
@@ -526,14 +612,57 @@ pub fn check_with_args(
     dump: bool,
     extra: &[String],
 ) -> anyhow::Result<CheckResult> {
-    use std::io::{BufRead, Read, Write};
-    use std::sync::atomic::{AtomicBool, Ordering};
     anyhow::ensure!(
         v.len() < (1 << 31),
         "{} vectors in one run: at most 2^31 − 1 (split the run with --shard)",
         v.len()
     );
     let b = build(v.unit(), sources, sim, trace.is_some())?;
+    match run_built(v, sources, sim, seed, stall, trace, dump, extra, &b) {
+        // A cached simulator that does not load (a file cut short before
+        // its entry was sealed by an older fxshade, say): build it again,
+        // once.
+        Err(e) if b.seconds == 0.0 && e.downcast_ref::<NoVerdict>().is_some() => {
+            let b = build_with(v.unit(), sources, sim, trace.is_some(), true)?;
+            run_built(v, sources, sim, seed, stall, trace, dump, extra, &b)
+        }
+        r => r,
+    }
+}
+
+/// A simulation that ended without its verdict line.
+#[derive(Debug)]
+pub struct NoVerdict(pub String);
+
+impl std::fmt::Display for NoVerdict {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for NoVerdict {}
+
+/// Milliseconds since `t0`, at least 1 (0 means "not set").
+fn ms_since(t0: Instant) -> u64 {
+    t0.elapsed().as_millis() as u64 + 1
+}
+
+/// [`check_with_args`] on a built simulator.
+#[allow(clippy::too_many_arguments)]
+fn run_built(
+    v: &dyn VectorSource,
+    sources: &Sources,
+    sim: Sim,
+    seed: u64,
+    stall: u32,
+    trace: Option<&Path>,
+    dump: bool,
+    extra: &[String],
+    b: &Build,
+) -> anyhow::Result<CheckResult> {
+    use std::io::{BufRead, Read, Write};
+    use std::os::unix::process::CommandExt;
+    use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
     remove_dead_runs(&b.dir);
     let run = b.dir.join(
         format!(
@@ -594,6 +723,11 @@ pub fn check_with_args(
         );
         std::fs::write(t, b"")
             .with_context(|| format!("cannot write the waveform to {}", t.display()))?;
+        if sim == Sim::Icarus {
+            // Icarus writes VCD unless told otherwise: FST on both
+            // simulators, so one check tells a whole waveform.
+            c.arg("-fst");
+        }
         c.arg(format!("+TRACE={}", t.display()));
     }
     if dump {
@@ -601,12 +735,22 @@ pub fn check_with_args(
     }
     let start = Instant::now();
     let mut child = c
+        .process_group(0)
+        .stdin(std::process::Stdio::null())
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped())
         .spawn()
         .with_context(|| format!("cannot run the {} simulation", sim.name()))?;
     let pid = child.id() as i32;
+    let group = crate::proc::Group::watch(child.id());
+    let idle = crate::proc::Limit::sim_idle();
     let gone = AtomicBool::new(false);
+    // When each writer began the write it is blocked in (0: none), and
+    // when both had written everything: a simulation that takes nothing
+    // for `idle` while vectors wait for it is stuck, and is stopped.
+    let blocked: [AtomicU64; 2] = [AtomicU64::new(0), AtomicU64::new(0)];
+    let finished = [AtomicU64::new(0), AtomicU64::new(0)];
+    let stuck = AtomicBool::new(false);
     let (in_rb, out_rb) = (
         fxshade_model::vectors::record_bytes(v.input_fields()),
         fxshade_model::vectors::record_bytes(v.output_fields()),
@@ -649,7 +793,8 @@ pub fn check_with_args(
             }));
         }
         let gone = &gone;
-        let writer = |path: PathBuf, rxs: Vec<std::sync::mpsc::Receiver<Vec<u8>>>| {
+        let (blocked, finished, stuck, group) = (&blocked, &finished, &stuck, &group);
+        let writer = |path: PathBuf, rxs: Vec<std::sync::mpsc::Receiver<Vec<u8>>>, w: usize| {
             move || {
                 let Some(mut f) = open_fifo(&path, gone) else {
                     return;
@@ -657,18 +802,41 @@ pub fn check_with_args(
                 // Chunks in order: worker 0, 1, …, W−1, 0, …
                 for k in 0.. {
                     let Ok(buf) = rxs[k % rxs.len()].recv() else {
+                        finished[w].store(ms_since(start), Ordering::SeqCst);
                         return;
                     };
                     // A simulation that stopped reading (it ended early)
                     // closes the pipe: stop writing.
-                    if f.write_all(&buf).is_err() {
+                    blocked[w].store(ms_since(start), Ordering::SeqCst);
+                    let r = f.write_all(&buf);
+                    blocked[w].store(0, Ordering::SeqCst);
+                    if r.is_err() {
                         return;
                     }
                 }
             }
         };
-        s.spawn(writer(fin.clone(), rx_ins));
-        s.spawn(writer(fexp.clone(), rx_exps));
+        s.spawn(writer(fin.clone(), rx_ins, 0));
+        s.spawn(writer(fexp.clone(), rx_exps, 1));
+        let (done_tx, done_rx) = std::sync::mpsc::channel::<()>();
+        s.spawn(move || {
+            let limit = idle.time.as_millis() as u64;
+            while let Err(std::sync::mpsc::RecvTimeoutError::Timeout) =
+                done_rx.recv_timeout(std::time::Duration::from_millis(500))
+            {
+                let now = ms_since(start);
+                let waited = |a: &AtomicU64| {
+                    let t = a.load(Ordering::SeqCst);
+                    t != 0 && now.saturating_sub(t) > limit
+                };
+                let all_written = finished.iter().all(|f| f.load(Ordering::SeqCst) != 0);
+                if blocked.iter().any(waited) || (all_written && finished.iter().all(waited)) {
+                    stuck.store(true, Ordering::SeqCst);
+                    group.kill();
+                    return;
+                }
+            }
+        });
         let mut err_pipe = child.stderr.take().expect("piped");
         let err_thread = s.spawn(move || {
             let mut s = String::new();
@@ -683,6 +851,7 @@ pub fn check_with_args(
         unsafe {
             libc::wait4(pid, &mut status, 0, &mut rusage);
         }
+        let _ = done_tx.send(());
         gone.store(true, Ordering::SeqCst);
         text += &err_thread.join().unwrap_or_default();
         gen_result = generators.into_iter().try_fold(0.0, |acc, g| {
@@ -763,12 +932,21 @@ pub fn check_with_args(
             r.errors.push(l.to_string());
         }
     }
-    if !verdict {
+    if stuck.load(Ordering::SeqCst) {
         bail!(
+            "the {} simulation read no vector for {} s and was stopped (set {} to allow more)",
+            sim.name(),
+            idle.time.as_secs(),
+            idle.var
+        );
+    }
+    if !verdict {
+        return Err(NoVerdict(format!(
             "the {} simulation ended without a `N passed, M failed` line (wait status {status}):\n{}",
             sim.name(),
             text.trim_end()
-        );
+        ))
+        .into());
     }
     if let Some(t) = &r.trace {
         // A simulator that cannot open the waveform file only warns.
@@ -779,6 +957,15 @@ pub fn check_with_args(
             sim.name(),
             t.display()
         );
+        // Simulators do not report a failed write to the waveform either (a
+        // full file system cuts it short): check its structure.
+        if let Err(why) = fst_complete(t) {
+            let _ = std::fs::remove_file(t);
+            bail!(
+                "the waveform {} is incomplete ({why}) and was removed: is the file system full?",
+                t.display()
+            );
+        }
     }
     Ok(r)
 }

@@ -24,21 +24,6 @@ fn io(path: &Path) -> impl FnOnce(std::io::Error) -> WriteError + '_ {
     }
 }
 
-/// Where fxshade caches what it can recompute (simulator builds, searched
-/// test-vector inputs): `$FXSHADE_CACHE_DIR` (made absolute; empty means
-/// unset), else `~/.cache/fxshade`, else a directory under the system's
-/// temporary directory.
-pub fn cache_root() -> PathBuf {
-    if let Some(d) = std::env::var_os("FXSHADE_CACHE_DIR").filter(|d| !d.is_empty()) {
-        let p = PathBuf::from(d);
-        return std::path::absolute(&p).unwrap_or(p);
-    }
-    match std::env::var_os("HOME") {
-        Some(h) => PathBuf::from(h).join(".cache").join("fxshade"),
-        None => std::env::temp_dir().join("fxshade-cache"),
-    }
-}
-
 /// Write `contents` to `path` through a temporary file in the same
 /// directory, synced and renamed into place.
 pub fn write_atomic(path: &Path, contents: &[u8]) -> Result<(), WriteError> {

@@ -534,6 +534,9 @@ pub enum RtlError {
     /// The lighting unit cannot be built.
     #[error(transparent)]
     Lighting(#[from] crate::lighting::LightingError),
+    /// The cache cannot be used.
+    #[error("{0}")]
+    Cache(String),
     /// Too few vectors for the corner cases.
     #[error("--count {count} is below the {corners} corner cases every set holds")]
     Count {
@@ -542,6 +545,12 @@ pub enum RtlError {
         /// Needed at least.
         corners: usize,
     },
+}
+
+impl From<crate::cache::CacheError> for RtlError {
+    fn from(e: crate::cache::CacheError) -> Self {
+        RtlError::Cache(e.to_string())
+    }
 }
 
 /// FNV-1a, 64 bits: a stable fingerprint of a configuration or of sources

@@ -504,7 +504,10 @@ pub fn run(a: &ExploreArgs) -> anyhow::Result<()> {
     let cache = Cache::new(if a.no_cache {
         None
     } else {
-        Some(a.cache.clone().unwrap_or_else(Cache::default_dir))
+        Some(match &a.cache {
+            Some(c) => c.clone(),
+            None => Cache::default_dir()?,
+        })
     })?;
     if !a.merge.is_empty() {
         return merge(a);

@@ -15,7 +15,7 @@
 
 use std::path::Path;
 use std::process::Command;
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use anyhow::{bail, Context};
 use clap::Args;
@@ -106,18 +106,9 @@ pub fn yosys_script(file: &str, top: &str, wires: &[String], out: &str) -> Strin
 }
 
 fn smtbmc(dir: &Path, args: &[&str], what: &str) -> anyhow::Result<(bool, String)> {
-    let limit = std::env::var("FXSHADE_FORMAL_TIMEOUT")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(900);
     let mut c = Command::new("yosys-smtbmc");
     c.current_dir(dir).args(["-s", "z3", "--unroll"]).args(args);
-    let (_, text) = crate::rtl_flow::run_limited(
-        &mut c,
-        what,
-        Duration::from_secs(limit),
-        "FXSHADE_FORMAL_TIMEOUT",
-    )?;
+    let text = crate::proc::run(&mut c, what, crate::proc::Limit::formal(), None)?.text();
     let status = text
         .lines()
         .rev()
@@ -168,13 +159,14 @@ fn prove(
     std::fs::write(dir.join("formal.ys"), ys).context("cannot write the Yosys script")?;
     let mut y = Command::new("yosys");
     y.current_dir(dir).args(["-q", "-s", "formal.ys"]);
-    let (st, text) = crate::rtl_flow::run_limited(
+    let o = crate::proc::run(
         &mut y,
         "yosys (formal model)",
-        Duration::from_secs(900),
-        "FXSHADE_FORMAL_TIMEOUT",
+        crate::proc::Limit::formal(),
+        None,
     )?;
-    if !st.success() {
+    let text = o.text();
+    if !o.status.success() {
         bail!("yosys could not build the formal model of {module}:\n{text}");
     }
     let d = depth.to_string();
@@ -208,10 +200,10 @@ pub fn run(a: &FormalArgs) -> anyhow::Result<()> {
         return Err(UsageError("--jobs 0: give at least 1".into()).into());
     }
     crate::rtl_flow::require_tool("yosys", "yosys")?;
-    if Command::new("yosys-smtbmc").arg("-h").output().is_err() {
+    if !crate::proc::has("yosys-smtbmc", "-h") {
         bail!("yosys-smtbmc is not installed: it comes with Debian's yosys (`sudo apt-get install yosys`)");
     }
-    if Command::new("z3").arg("--version").output().is_err() {
+    if !crate::proc::has("z3", "--version") {
         bail!("z3 is not installed: install it with `sudo apt-get install z3` (./scripts/test does it when run as root)");
     }
     let cfg = a.cfg.resolve_with(&a.pipe.overrides())?;

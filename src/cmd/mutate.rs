@@ -147,7 +147,6 @@ const PROOFS: [(Proof, &str, &str); 4] = [
 
 /// Ask z3 (if installed) whether any input meets the event of `m`.
 fn smt(d: &rtl::Design, m: &fxshade_model::datapath::Mutation, seconds: u32) -> Smt {
-    use std::io::Write;
     let Some(script) = d.trace.smt_event(m) else {
         return Smt::Unknown;
     };
@@ -158,22 +157,18 @@ fn smt(d: &rtl::Design, m: &fxshade_model::datapath::Mutation, seconds: u32) -> 
             &script,
         );
     }
-    let Ok(mut child) = std::process::Command::new("z3")
-        .args(["-in", "-smt2", &format!("-T:{seconds}")])
-        .stdin(std::process::Stdio::piped())
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::null())
-        .spawn()
-    else {
+    if !crate::proc::has("z3", "--version") {
         return Smt::Missing;
-    };
-    if let Some(mut i) = child.stdin.take() {
-        let _ = i.write_all(script.as_bytes());
     }
-    let Ok(out) = child.wait_with_output() else {
+    let Ok(out) = crate::proc::run(
+        std::process::Command::new("z3").args(["-in", "-smt2", &format!("-T:{seconds}")]),
+        "z3",
+        crate::proc::Limit::formal(),
+        Some(script.as_bytes()),
+    ) else {
         return Smt::Unknown;
     };
-    let text = String::from_utf8_lossy(&out.stdout);
+    let text = &out.stdout;
     let mut lines = text.lines();
     match lines.next().map(str::trim) {
         Some("unsat") => Smt::Unsat,

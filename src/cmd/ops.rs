@@ -104,34 +104,36 @@ pub fn netlist_checks(cfg: &fxshade_model::Config) -> anyhow::Result<Vec<Netlist
                 Ok(x) => x,
                 Err(err) => anyhow::bail!("{} ({variant}): {err}", u.name),
             };
-            let dir = std::env::temp_dir().join(format!(
-                "fxshade-yosys-{}-{}-{}",
-                std::process::id(),
-                u.name,
-                variant.replace('+', "_")
-            ));
-            let _ = std::fs::remove_dir_all(&dir);
-            std::fs::create_dir_all(&dir)?;
-            let f = dir.join(format!("{}.v", e.module));
-            std::fs::write(&f, &e.verilog)?;
+            // A private scratch directory (no predictable name to race
+            // for), and the tool run inside it on relative names, so a
+            // space or a quote in TMPDIR never reaches its script.
+            let tmp = tempfile::Builder::new()
+                .prefix("fxshade-yosys-")
+                .tempdir()
+                .context("cannot create a temporary directory")?;
+            let dir = tmp.path();
+            let file = format!("{}.v", e.module);
+            std::fs::write(dir.join(&file), &e.verilog)?;
             let script = format!(
-                "read_verilog {}; hierarchy -top {}; proc; flatten; opt_clean; tee -q -o {} dump t:$mul t:$add t:$sub t:$gt t:$lt t:$ge t:$le",
-                f.display(),
+                "read_verilog {file}; hierarchy -top {}; proc; flatten; opt_clean; tee -q -o cells.txt dump t:$mul t:$add t:$sub t:$gt t:$lt t:$ge t:$le",
                 e.module,
-                dir.join("cells.txt").display()
             );
-            let o = std::process::Command::new("yosys")
-                .args(["-q", "-p", &script])
-                .output()
-                .context("cannot run yosys")?;
+            let o = crate::proc::run(
+                std::process::Command::new("yosys")
+                    .args(["-q", "-p", &script])
+                    .current_dir(dir),
+                "yosys",
+                crate::proc::Limit::build(),
+                None,
+            )?;
             anyhow::ensure!(
                 o.status.success(),
                 "yosys failed on {} ({variant}):\n{}",
                 u.name,
-                String::from_utf8_lossy(&o.stderr)
+                o.stderr
             );
             let dump = std::fs::read_to_string(dir.join("cells.txt"))?;
-            let _ = std::fs::remove_dir_all(&dir);
+            drop(tmp);
             let cells = parse_cells(&dump);
             let p = |c: &std::collections::BTreeMap<String, i64>, k: &str| {
                 c.get(k).copied().unwrap_or(0)

@@ -374,7 +374,7 @@ pub fn summary_sweep(base: &crate::explore::Base) -> anyhow::Result<Vec<MethodSw
         synth: None,
     };
     let meshes = explore::load_meshes(&o)?;
-    let cache = Cache::new(Some(Cache::default_dir())).or_else(|_| Cache::new(None))?;
+    let cache = Cache::new(Some(Cache::default_dir()?))?;
     let mut plan = Vec::new();
     let mut points = Vec::new();
     for (method, sel) in SUMMARY_METHODS {
@@ -431,11 +431,7 @@ pub fn summary_sweep(base: &crate::explore::Base) -> anyhow::Result<Vec<MethodSw
 /// route where it exists) of this configuration's units and pipeline tops.
 fn cached_synthesis(cfg: &fxshade_model::Config) -> Vec<super::synth::SynthResult> {
     use super::synth::{lookup, Target};
-    if std::process::Command::new("yosys")
-        .arg("-V")
-        .output()
-        .is_err()
-    {
+    if !crate::proc::has("yosys", "-V") {
         return Vec::new();
     }
     let mut out = Vec::new();

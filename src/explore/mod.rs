@@ -97,18 +97,19 @@ struct Entry {
 }
 
 impl Cache {
-    /// A cache in `dir` (`None`: no caching).
+    /// A cache in `dir` (`None`: no caching), created private to the user
+    /// when missing and refused when someone else could write to it.
     pub fn new(dir: Option<PathBuf>) -> anyhow::Result<Cache> {
         if let Some(d) = &dir {
-            std::fs::create_dir_all(d)
-                .with_context(|| format!("cannot create the explore cache {}", d.display()))?;
+            fxshade_model::cache::ensure_private_dir(d, fxshade_model::cache::uid())
+                .with_context(|| format!("cannot use the explore cache {}", d.display()))?;
         }
         Ok(Cache { dir })
     }
 
     /// The default: `<fxshade cache>/explore`.
-    pub fn default_dir() -> PathBuf {
-        crate::rtl_flow::cache_root().join("explore")
+    pub fn default_dir() -> anyhow::Result<PathBuf> {
+        Ok(fxshade_model::cache::subdir("explore")?)
     }
 
     fn key(canon: &str, o: &Options) -> u64 {
@@ -122,13 +123,19 @@ impl Cache {
 
     fn get(&self, key: u64) -> Option<Entry> {
         let p = self.dir.as_ref()?.join(format!("{key:016x}.json"));
-        serde_json::from_slice(&std::fs::read(p).ok()?).ok()
+        // The directory was checked private when the cache was opened; an
+        // entry someone else wrote into it is not read.
+        let bytes = fxshade_model::cache::read(&p).ok()??;
+        let e: Entry = serde_json::from_slice(&bytes).ok()?;
+        // An entry must hold its metrics or its error (a partial one is
+        // measured again).
+        (e.error.is_some() || !e.metrics.is_empty()).then_some(e)
     }
 
     fn put(&self, key: u64, e: &Entry) {
         if let Some(d) = &self.dir {
             // A cache that cannot be written only costs time on the next run.
-            let _ = fxshade_model::files::write_atomic(
+            let _ = fxshade_model::cache::write(
                 &d.join(format!("{key:016x}.json")),
                 &serde_json::to_vec(e).expect("serializable"),
             );

@@ -20,3 +20,4 @@ mod render;
 mod report;
 mod rtl;
 mod synth;
+mod trust;

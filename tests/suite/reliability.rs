@@ -403,59 +403,6 @@ fn wide_accepted_configurations_finish() {
     );
 }
 
-/// SIGKILL during a simulator build leaves no verilator, make or compiler
-/// behind: a guard process kills the build's process group when fxshade
-/// dies.
-#[test]
-fn a_killed_build_leaves_no_orphans() {
-    let cache = tempfile::tempdir().unwrap();
-    let marker = cache.path().to_str().unwrap().to_string();
-    let mut child = Command::new(env!("CARGO_BIN_EXE_fxshade"))
-        .args([
-            "rtl-check",
-            "pipeline",
-            "--count",
-            "1000",
-            "--set",
-            "normalize.g.format=U1F19",
-        ])
-        .env("FXSHADE_CACHE_DIR", &marker)
-        .env("CCACHE_DISABLE", "1")
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
-    let running = || {
-        let o = Command::new("pgrep")
-            .args(["-f", &marker])
-            .output()
-            .unwrap();
-        String::from_utf8_lossy(&o.stdout).lines().count()
-    };
-    // Wait for the build to start.
-    let mut seen = false;
-    for _ in 0..300 {
-        if running() > 0 {
-            seen = true;
-            break;
-        }
-        std::thread::sleep(std::time::Duration::from_millis(50));
-    }
-    assert!(seen, "the build never started");
-    std::thread::sleep(std::time::Duration::from_millis(500));
-    child.kill().unwrap(); // SIGKILL
-    let _ = child.wait();
-    let mut left = running();
-    for _ in 0..100 {
-        if left == 0 {
-            break;
-        }
-        std::thread::sleep(std::time::Duration::from_millis(50));
-        left = running();
-    }
-    assert_eq!(left, 0, "processes of the killed build are still running");
-}
-
 /// Quick and full killer searches are cached apart: the co-simulation
 /// tests' quick search (`FXSHADE_SEARCH=quick`) finds fewer rows for the
 /// `angles` unit, and a full run after it in the same cache still writes

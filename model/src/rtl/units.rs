@@ -122,7 +122,7 @@ pub fn corner_rows(
         );
     }
     let key = corner_key(d, &rows, &pool, seed);
-    if let Some(found) = read_corner_cache(key, &formats) {
+    if let Some(found) = read_corner_cache(key, &formats)? {
         rows.extend(found);
         return Ok(rows);
     }
@@ -132,7 +132,7 @@ pub fn corner_rows(
     let mut searched = killers;
     searched.extend(more);
     searched.extend(found);
-    write_corner_cache(key, &searched);
+    write_corner_cache(key, &searched)?;
     rows.extend(searched);
     Ok(rows)
 }
@@ -181,46 +181,55 @@ fn corner_key(d: &Design, corners: &[Vec<i128>], pool: &[Vec<i128>], seed: u64) 
     ])
 }
 
-/// The file of a cache key: `<cache>/corners/<key>.txt`, one row per line.
-fn corner_cache_file(key: u64) -> std::path::PathBuf {
-    crate::files::cache_root()
-        .join("corners")
-        .join(format!("{key:016x}.txt"))
+/// The file of a cache key: `<cache>/corners/<key>.txt`, one row per line
+/// ([`crate::cache`]: a private directory of the user's own, or an error).
+fn corner_cache_file(key: u64) -> Result<std::path::PathBuf, RtlError> {
+    Ok(crate::cache::subdir("corners")?.join(format!("{key:016x}.txt")))
 }
 
 /// The rows cached under `key`, if a whole, readable entry is there whose
-/// rows are codes of `formats`.
-fn read_corner_cache(key: u64, formats: &[crate::format::Format]) -> Option<Vec<Vec<i128>>> {
-    let text = std::fs::read_to_string(corner_cache_file(key)).ok()?;
+/// rows are codes of `formats` (a cache entry someone else could have
+/// written is an error, not a miss).
+fn read_corner_cache(
+    key: u64,
+    formats: &[crate::format::Format],
+) -> Result<Option<Vec<Vec<i128>>>, RtlError> {
+    let Some(bytes) = crate::cache::read(&corner_cache_file(key)?)? else {
+        return Ok(None);
+    };
+    let text = String::from_utf8_lossy(&bytes);
     let mut lines = text.lines();
-    if lines.next()? != "fxshade searched rows 1" {
-        return None;
+    if lines.next() != Some("fxshade searched rows 1") {
+        return Ok(None);
     }
     let mut rows = Vec::new();
     for l in lines {
         if l == "end" {
-            return Some(rows);
+            return Ok(Some(rows));
         }
-        let row = l
+        let Some(row) = l
             .split(' ')
             .map(|c| c.parse::<i128>().ok())
-            .collect::<Option<Vec<_>>>()?;
+            .collect::<Option<Vec<_>>>()
+        else {
+            return Ok(None);
+        };
         let fits = row.len() == formats.len()
             && row
                 .iter()
                 .zip(formats)
                 .all(|(&c, f)| (f.min_code()..=f.max_code()).contains(&c));
         if !fits {
-            return None;
+            return Ok(None);
         }
         rows.push(row);
     }
-    None
+    Ok(None)
 }
 
-/// Cache `rows` under `key` (atomically; a cache that cannot be written is
-/// only a slower next run).
-fn write_corner_cache(key: u64, rows: &[Vec<i128>]) {
+/// Cache `rows` under `key` (whole or not at all). A full file system is
+/// only a slower next run, so it is not an error; an unsafe cache is.
+fn write_corner_cache(key: u64, rows: &[Vec<i128>]) -> Result<(), RtlError> {
     let mut text = String::from("fxshade searched rows 1\n");
     for r in rows {
         let codes: Vec<String> = r.iter().map(|c| c.to_string()).collect();
@@ -228,11 +237,12 @@ fn write_corner_cache(key: u64, rows: &[Vec<i128>]) {
         text.push('\n');
     }
     text.push_str("end\n");
-    let path = corner_cache_file(key);
-    if let Some(dir) = path.parent() {
-        if std::fs::create_dir_all(dir).is_ok() {
-            let _ = crate::files::write_atomic(&path, text.as_bytes());
+    match crate::cache::write(&corner_cache_file(key)?, text.as_bytes()) {
+        Ok(())
+        | Err(crate::cache::CacheError::Full { .. } | crate::cache::CacheError::Io { .. }) => {
+            Ok(())
         }
+        Err(e) => Err(e.into()),
     }
 }
 

@@ -1,0 +1,378 @@
+//! Issue #30's reproductions, each a test: a verdict cannot be forged
+//! through the cache, a full disk cannot poison it, a hung tool cannot hang
+//! fxshade, sizes are checked before work, outputs are whole or absent, no
+//! file of the user's is lost, and user strings cannot inject into
+//! generated files.
+
+use std::os::unix::fs::PermissionsExt;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+
+use crate::common::*;
+
+fn no_panic(o: &std::process::Output) {
+    assert!(!text(o).contains("panicked"), "panic: {}", text(o));
+}
+
+/// A command running the fxshade binary with a scratch cache.
+fn fx(cache: &Path) -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_fxshade"));
+    c.env("FXSHADE_CACHE_DIR", cache);
+    c
+}
+
+/// Write an executable shell script.
+fn script(path: &Path, body: &str) {
+    std::fs::write(path, format!("#!/bin/sh\n{body}\n")).unwrap();
+    std::fs::set_permissions(path, std::fs::Permissions::from_mode(0o755)).unwrap();
+}
+
+/// `PATH` with `dir` first.
+fn path_with(dir: &Path) -> String {
+    format!(
+        "{}:{}",
+        dir.display(),
+        std::env::var("PATH").unwrap_or_default()
+    )
+}
+
+/// Whether a process exists (a zombie counts as gone).
+fn alive(pid: i32) -> bool {
+    std::fs::read_to_string(format!("/proc/{pid}/stat"))
+        .map(|s| {
+            // The state field follows the parenthesised command name.
+            let state = s.rsplit(')').next().unwrap_or("").trim_start();
+            !state.starts_with('Z') && !state.starts_with('X')
+        })
+        .unwrap_or(false)
+}
+
+/// Wait until `pid` is gone. The bound is a hang guard for a broken build
+/// of fxshade, far above the microseconds a SIGKILL takes: the outcome
+/// does not depend on the machine's load.
+fn wait_gone(pid: i32) -> bool {
+    for _ in 0..6000 {
+        if !alive(pid) {
+            return true;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    false
+}
+
+/// Wait until `file` exists and holds a line (no deadline but a hang
+/// guard: the test waits for an event, not for a time).
+fn wait_for_line(file: &Path) -> String {
+    for _ in 0..6000 {
+        if let Ok(s) = std::fs::read_to_string(file) {
+            if s.ends_with('\n') {
+                return s;
+            }
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    panic!("{} never appeared", file.display());
+}
+
+/// The cache entry directories of `unit` on `sim` under `cache`.
+fn entries(cache: &Path, unit: &str, sim: &str) -> Vec<PathBuf> {
+    let prefix = format!("{unit}-{sim}-");
+    let mut v: Vec<PathBuf> = std::fs::read_dir(cache)
+        .map(|rd| {
+            rd.flatten()
+                .map(|e| e.path())
+                .filter(|p| {
+                    p.file_name()
+                        .is_some_and(|n| n.to_string_lossy().starts_with(&prefix))
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    v.sort();
+    v
+}
+
+/// #30.1: a simulator planted (or replaced) in a cache entry is never run:
+/// a cache hit verifies the binary's hash recorded when it was built, a
+/// cache directory someone else could write is refused, and the old shared
+/// fallback under the temporary directory is not looked at.
+#[test]
+fn a_planted_simulator_is_never_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let cache = dir.path().join("cache");
+    let run = |extra: &[(&str, &str)]| {
+        let mut c = fx(&cache);
+        c.args([
+            "rtl-check",
+            "normalize",
+            "--count",
+            "200",
+            "--jobs",
+            "1",
+            "--json",
+        ]);
+        for (k, v) in extra {
+            c.env(k, v);
+        }
+        c.output().unwrap()
+    };
+    let o = run(&[]);
+    assert!(o.status.success(), "{}", text(&o));
+    let e = entries(&cache, "normalize", "verilator");
+    assert_eq!(e.len(), 1, "{e:?}");
+    // Replace the built simulator with a forger that says everything passed.
+    let forged = dir.path().join("forger-ran");
+    let sim = e[0].join("obj/sim");
+    script(
+        &sim,
+        &format!(
+            "echo ran > '{}'\necho '200 passed, 0 failed'\necho 'latency 4'",
+            forged.display()
+        ),
+    );
+    let o = run(&[]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(!forged.exists(), "the planted simulator was run");
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(
+        j["build_seconds"].as_f64().unwrap() > 0.0,
+        "rebuilt, not trusted: {j}"
+    );
+    // An entry whose seal is the old empty `done` is rebuilt too.
+    let e = entries(&cache, "normalize", "verilator");
+    std::fs::write(e[0].join("done"), b"").unwrap();
+    script(
+        &e[0].join("obj/sim"),
+        &format!("echo ran > '{}'", forged.display()),
+    );
+    let o = run(&[]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(!forged.exists(), "an unsealed entry was run");
+
+    // A cache others can write is refused, with the fix named.
+    std::fs::set_permissions(&cache, std::fs::Permissions::from_mode(0o777)).unwrap();
+    let o = run(&[]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(
+        text(&o).contains("not safe to use") && text(&o).contains("others can write"),
+        "{}",
+        text(&o)
+    );
+    std::fs::set_permissions(&cache, std::fs::Permissions::from_mode(0o700)).unwrap();
+    // Another user's cache directory or entry (root can make one; other
+    // users are checked by the mode test above and the model's unit test).
+    if unsafe { libc::geteuid() } == 0 {
+        let e = entries(&cache, "normalize", "verilator");
+        std::os::unix::fs::chown(&e[0], Some(65534), Some(65534)).unwrap();
+        let o = run(&[]);
+        assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+        assert!(text(&o).contains("owned by uid 65534"), "{}", text(&o));
+        let theirs = dir.path().join("theirs");
+        std::fs::create_dir(&theirs).unwrap();
+        std::os::unix::fs::chown(&theirs, Some(65534), Some(65534)).unwrap();
+        let mut c = fx(&theirs);
+        let o = c
+            .args(["rtl-check", "normalize", "--count", "200"])
+            .output()
+            .unwrap();
+        assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+        assert!(text(&o).contains("owned by uid 65534"), "{}", text(&o));
+    }
+
+    // With no HOME and no cache variable, the old shared fallback
+    // `$TMPDIR/fxshade-cache` is not where fxshade looks: an entry planted
+    // there (under the key a real run uses) is never run.
+    let tmp = dir.path().join("tmp");
+    std::fs::create_dir(&tmp).unwrap();
+    let home = dir.path().join("home");
+    let mut c = Command::new(env!("CARGO_BIN_EXE_fxshade"));
+    c.args(["rtl-check", "normalize", "--count", "200", "--jobs", "1"])
+        .env_clear()
+        .env("PATH", std::env::var("PATH").unwrap())
+        .env("FXSHADE_QUICK_BUILD", "1")
+        .env("TMPDIR", &tmp)
+        .env("HOME", &home);
+    let o = c.output().unwrap();
+    assert!(o.status.success(), "{}", text(&o));
+    let real = entries(&home.join(".cache/fxshade"), "normalize", "verilator");
+    assert_eq!(real.len(), 1);
+    let planted = tmp.join("fxshade-cache").join(real[0].file_name().unwrap());
+    std::fs::create_dir_all(planted.join("obj")).unwrap();
+    std::fs::write(planted.join("done"), b"").unwrap();
+    script(
+        &planted.join("obj/sim"),
+        &format!("echo ran > '{}'", forged.display()),
+    );
+    let o = c.env_remove("HOME").output().unwrap();
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(!forged.exists(), "the shared fallback was used");
+}
+
+/// Run `sh_script` in a private mount namespace (so it may mount a small
+/// tmpfs), as the user itself where user namespaces allow, else as root.
+fn in_mount_namespace(sh_script: &str) -> std::process::Output {
+    let try_ = |args: &[&str]| {
+        Command::new("unshare")
+            .args(args)
+            .args(["sh", "-c", sh_script])
+            .output()
+    };
+    let probe = |args: &[&str]| {
+        Command::new("unshare")
+            .args(args)
+            .args(["sh", "-c", "mount -t tmpfs -o size=64k tmpfs /mnt"])
+            .output()
+            .is_ok_and(|o| o.status.success())
+    };
+    if probe(&["-rm"]) {
+        try_(&["-rm"]).unwrap()
+    } else if probe(&["-m"]) {
+        try_(&["-m"]).unwrap()
+    } else {
+        panic!(
+            "this test needs a mount namespace for a small tmpfs: run it as root, or enable \
+             unprivileged user namespaces (sysctl kernel.unprivileged_userns_clone=1)"
+        )
+    }
+}
+
+/// #30.2 and #30.5: on a full file system a simulator build is an error
+/// that says so and leaves no entry marked complete (the next run, with
+/// space, builds and passes), and a waveform cut short is an error, not a
+/// success.
+#[test]
+fn a_full_disk_is_an_error_and_poisons_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let mnt = dir.path().join("mnt");
+    std::fs::create_dir(&mnt).unwrap();
+    let fx = env!("CARGO_BIN_EXE_fxshade");
+    let m = mnt.display();
+    // Icarus's program for normalize is a few hundred KiB: a 2 MiB file
+    // system with all but 40 KiB filled cuts it short.
+    let sh = format!(
+        "set -u
+mount -t tmpfs -o size=2m tmpfs '{m}' || exit 99
+mkdir '{m}/cache'
+head -c $(( 2048*1024 - 40*1024 )) /dev/zero > '{m}/filler' 2>/dev/null
+echo '--- full'
+FXSHADE_CACHE_DIR='{m}/cache' '{fx}' rtl-check normalize --sim icarus --count 200 --jobs 1 2>&1
+echo \"status $?\"
+ls -a '{m}/cache'/normalize-icarus-* 2>/dev/null | grep -c '^done$' | sed 's/^/sealed /'
+rm '{m}/filler'
+echo '--- free'
+FXSHADE_CACHE_DIR='{m}/cache' '{fx}' rtl-check normalize --sim icarus --count 200 --jobs 1 2>&1
+echo \"status $?\"
+echo '--- trace'
+head -c $(( 2048*1024 - 300*1024 )) /dev/zero > '{m}/filler' 2>/dev/null
+FXSHADE_CACHE_DIR='{dir}/cache2' '{fx}' rtl-check normalize --count 3000 --jobs 1 --trace '{m}/t.fst' 2>&1
+echo \"status $?\"
+ls '{m}/t.fst' 2>/dev/null | sed 's/^/left /'
+",
+        dir = dir.path().display()
+    );
+    let o = in_mount_namespace(&sh);
+    let out = text(&o);
+    assert_ne!(o.status.code(), Some(99), "{out}");
+    let part = |name: &str| {
+        out.split(&format!("--- {name}\n"))
+            .nth(1)
+            .unwrap_or("")
+            .split("\n--- ")
+            .next()
+            .unwrap_or("")
+            .to_string()
+    };
+    let full = part("full");
+    assert!(full.contains("status 1"), "{out}");
+    assert!(
+        full.contains("full") && full.contains("no space left"),
+        "the error says the disk is full: {out}"
+    );
+    assert!(!full.contains("sealed 1"), "an entry was sealed: {out}");
+    assert!(!full.contains("panicked"), "{out}");
+    let free = part("free");
+    assert!(
+        free.contains("status 0"),
+        "with space, it builds and passes: {out}"
+    );
+    let trace = part("trace");
+    assert!(trace.contains("status 1"), "{out}");
+    assert!(
+        trace.contains("waveform") && trace.contains("full"),
+        "a waveform cut short is an error: {out}"
+    );
+    assert!(
+        !trace.contains("left "),
+        "the partial waveform stays: {out}"
+    );
+}
+
+/// #30.3: a tool that hangs (a licence server, a stale NFS mount) stops
+/// fxshade with an error naming it and the variable that raises the limit,
+/// and nothing it started is left running; SIGKILL of fxshade during a
+/// build leaves no tool behind either. A fake `verilator` stands in for a
+/// hung one: what it does does not depend on time, so neither does the
+/// test.
+#[test]
+fn a_hung_tool_stops_with_an_error_and_leaves_nothing_behind() {
+    let dir = tempfile::tempdir().unwrap();
+    let bin = dir.path().join("bin");
+    std::fs::create_dir(&bin).unwrap();
+    let pids = dir.path().join("pids");
+    // Hangs on the version probe, with a child of its own.
+    script(
+        &bin.join("verilator"),
+        &format!(
+            "sleep 100000 &\necho \"$$ $!\" >> '{}'\nwait",
+            pids.display()
+        ),
+    );
+    let o = fx(&dir.path().join("cache"))
+        .args(["rtl-check", "normalize", "--count", "200"])
+        .env("PATH", path_with(&bin))
+        .env("FXSHADE_PROBE_TIMEOUT", "2")
+        .output()
+        .unwrap();
+    no_panic(&o);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(
+        text(&o).contains("verilator -V") && text(&o).contains("FXSHADE_PROBE_TIMEOUT"),
+        "{}",
+        text(&o)
+    );
+    let line = wait_for_line(&pids);
+    for pid in line.split_whitespace() {
+        assert!(
+            wait_gone(pid.parse().unwrap()),
+            "process {pid} left running"
+        );
+    }
+
+    // A build that is under way when fxshade is killed: answers the probe,
+    // then blocks in the build.
+    std::fs::remove_file(&pids).unwrap();
+    script(
+        &bin.join("verilator"),
+        &format!(
+            "[ \"$1\" = -V ] && {{ echo 'Verilator 5.0'; exit 0; }}\n\
+             sleep 100000 &\necho \"$$ $!\" >> '{}'\nwait",
+            pids.display()
+        ),
+    );
+    let mut child = fx(&dir.path().join("cache"))
+        .args(["rtl-check", "interp", "--count", "200"])
+        .env("PATH", path_with(&bin))
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let line = wait_for_line(&pids);
+    child.kill().unwrap(); // SIGKILL
+    let _ = child.wait();
+    for pid in line.split_whitespace() {
+        assert!(
+            wait_gone(pid.parse().unwrap()),
+            "process {pid} of the killed build left running"
+        );
+    }
+}
