@@ -153,6 +153,14 @@ fn main() -> ExitCode {
                 eprintln!("error: {u}");
                 return ExitCode::from(2);
             }
+            // A count too large for the vectors' index or for memory is a
+            // bad flag too.
+            if let Some(r @ fxshade_model::vectors::RtlError::TooMany { .. }) =
+                e.downcast_ref::<fxshade_model::vectors::RtlError>()
+            {
+                eprintln!("error: {r}");
+                return ExitCode::from(2);
+            }
             eprintln!("error: {e:#}");
             ExitCode::from(1)
         }

@@ -246,21 +246,28 @@ pub fn normalize(
         tri.clear();
         progress(0.3 + 0.5 * done as f64 / count.max(1) as f64);
     }
-    let edge_samples: Vec<Sample> = (0..(count / 4).max(64))
-        .map(|_| {
-            let t = sampling::triangle_meeting(theta, &mut rng);
-            let s = rng.unit();
-            let i = rng.below(3) as usize;
-            let mut c = [0.0; 3];
-            c[i] = s;
-            c[(i + 1) % 3] = 1.0 - s;
-            Sample {
-                n: sampling::lerp3(&t, c),
-                light: rng.direction(),
-            }
-        })
-        .collect();
-    let edges = measure(&n, &prog, &light, &lprog, &edge_samples)?;
+    let n_edges = (count / 4).max(64);
+    let mut edges = VectorStats::default();
+    let mut done = 0;
+    while done < n_edges {
+        let m = chunk.min(n_edges - done);
+        let edge_samples: Vec<Sample> = (0..m)
+            .map(|_| {
+                let t = sampling::triangle_meeting(theta, &mut rng);
+                let s = rng.unit();
+                let i = rng.below(3) as usize;
+                let mut c = [0.0; 3];
+                c[i] = s;
+                c[(i + 1) % 3] = 1.0 - s;
+                Sample {
+                    n: sampling::lerp3(&t, c),
+                    light: rng.direction(),
+                }
+            })
+            .collect();
+        edges = merge(edges, measure(&n, &prog, &light, &lprog, &edge_samples)?);
+        done += m;
+    }
     progress(0.95);
     let fin = n.q.normal.format();
     let (big, small) = (fin.max_value(), fin.ulp());
@@ -422,37 +429,6 @@ pub fn interp(
             pix.push((t, c));
         }
     }
-    for _ in 0..count {
-        let t = interp::setup(sampling::triangle_meeting(theta, &mut rng)).expect("unit normals");
-        pix.push((t, rng.barycentric()));
-    }
-    // Inputs of the compiled interpolator: c1, c2, then 18 components.
-    let code = |q: &Quant, x: f64| q.apply_f64(x).map(|r| r.code);
-    let mut cols: Vec<Vec<i128>> = (0..20).map(|_| Vec::with_capacity(pix.len())).collect();
-    for (t, c) in &pix {
-        cols[0].push(code(&ip.bary, c[0])?);
-        cols[1].push(code(&ip.bary, c[1])?);
-        for (k, v) in t.n.iter().chain(t.mid.iter()).enumerate() {
-            for comp in 0..3 {
-                cols[2 + 3 * k + comp].push(code(&ip.vertex, v[comp])?);
-            }
-        }
-    }
-    let refs: Vec<&[i128]> = cols.iter().map(|c| c.as_slice()).collect();
-    let (iout, iov) = iprog.run_i128(&refs);
-    progress(0.6);
-    // Into the normalizer's input format.
-    let fi = ip.out.format();
-    let ncols: Vec<Vec<i128>> = (0..3)
-        .map(|k| {
-            iout[k]
-                .iter()
-                .map(|&c| n.q.normal.apply(c, fi.frac()).code)
-                .collect()
-        })
-        .collect();
-    let (nout, nov) = nprog.run_i128(&[&ncols[0], &ncols[1], &ncols[2]]);
-    progress(0.9);
     let fo = n.q.out.format();
     let mut r = InterpReport {
         scheme,
@@ -463,7 +439,7 @@ pub fn interp(
         d_bound,
         d_min: f64::INFINITY,
         d_max: 0.0,
-        samples: pix.len() as u64,
+        samples: 0,
         max_rel_err: 0.0,
         mean_rel_err: 0.0,
         rms_rel_err: 0.0,
@@ -471,33 +447,78 @@ pub fn interp(
         mean_angle_err_deg: 0.0,
         vs_linear: AngleStats::default(),
         unnormalized_max_rel_err: 0.0,
-        overflows: iov.iter().chain(&nov).map(|(_, k)| k).sum(),
+        overflows: 0,
         seed,
     };
     let (mut s1, mut s2, mut sa, mut sl) = (0.0, 0.0, 0.0, 0.0);
-    for (i, (t, c)) in pix.iter().enumerate() {
-        let exact = interp::field(t, *c, scheme);
-        let d = exact.length_squared();
-        r.d_min = r.d_min.min(d);
-        r.d_max = r.d_max.max(d);
-        r.unnormalized_max_rel_err = r.unnormalized_max_rel_err.max((d.sqrt() - 1.0).abs());
-        let got = DVec3::new(
-            fo.to_f64(nout[0][i]),
-            fo.to_f64(nout[1][i]),
-            fo.to_f64(nout[2][i]),
-        );
-        let e = (got.length() - 1.0).abs();
-        r.max_rel_err = r.max_rel_err.max(e);
-        s1 += e;
-        s2 += e * e;
-        let a = angle_deg(got, interp::field(t, *c, interp::Scheme::Quadratic));
-        r.max_angle_err_deg = r.max_angle_err_deg.max(a);
-        sa += a;
-        let l = angle_deg(got, interp::field(t, *c, interp::Scheme::Linear));
-        r.vs_linear.max_angle_err_deg = r.vs_linear.max_angle_err_deg.max(l);
-        sl += l;
+    // The corner pixels, then the random ones a chunk at a time (memory
+    // stays flat whatever the count; the samples are those of one pass).
+    let mut done = 0;
+    let total = count;
+    loop {
+        let m = SAMPLE_CHUNK.min(total - done);
+        for _ in 0..m {
+            let t =
+                interp::setup(sampling::triangle_meeting(theta, &mut rng)).expect("unit normals");
+            pix.push((t, rng.barycentric()));
+        }
+        done += m;
+        // Inputs of the compiled interpolator: c1, c2, then 18 components.
+        let code = |q: &Quant, x: f64| q.apply_f64(x).map(|r| r.code);
+        let mut cols: Vec<Vec<i128>> = (0..20).map(|_| Vec::with_capacity(pix.len())).collect();
+        for (t, c) in &pix {
+            cols[0].push(code(&ip.bary, c[0])?);
+            cols[1].push(code(&ip.bary, c[1])?);
+            for (k, v) in t.n.iter().chain(t.mid.iter()).enumerate() {
+                for comp in 0..3 {
+                    cols[2 + 3 * k + comp].push(code(&ip.vertex, v[comp])?);
+                }
+            }
+        }
+        let refs: Vec<&[i128]> = cols.iter().map(|c| c.as_slice()).collect();
+        let (iout, iov) = iprog.run_i128(&refs);
+        // Into the normalizer's input format.
+        let fi = ip.out.format();
+        let ncols: Vec<Vec<i128>> = (0..3)
+            .map(|k| {
+                iout[k]
+                    .iter()
+                    .map(|&c| n.q.normal.apply(c, fi.frac()).code)
+                    .collect()
+            })
+            .collect();
+        let (nout, nov) = nprog.run_i128(&[&ncols[0], &ncols[1], &ncols[2]]);
+        r.overflows += iov.iter().chain(&nov).map(|(_, k)| k).sum::<u64>();
+        r.samples += pix.len() as u64;
+        for (i, (t, c)) in pix.iter().enumerate() {
+            let exact = interp::field(t, *c, scheme);
+            let d = exact.length_squared();
+            r.d_min = r.d_min.min(d);
+            r.d_max = r.d_max.max(d);
+            r.unnormalized_max_rel_err = r.unnormalized_max_rel_err.max((d.sqrt() - 1.0).abs());
+            let got = DVec3::new(
+                fo.to_f64(nout[0][i]),
+                fo.to_f64(nout[1][i]),
+                fo.to_f64(nout[2][i]),
+            );
+            let e = (got.length() - 1.0).abs();
+            r.max_rel_err = r.max_rel_err.max(e);
+            s1 += e;
+            s2 += e * e;
+            let a = angle_deg(got, interp::field(t, *c, interp::Scheme::Quadratic));
+            r.max_angle_err_deg = r.max_angle_err_deg.max(a);
+            sa += a;
+            let l = angle_deg(got, interp::field(t, *c, interp::Scheme::Linear));
+            r.vs_linear.max_angle_err_deg = r.vs_linear.max_angle_err_deg.max(l);
+            sl += l;
+        }
+        pix.clear();
+        progress(0.2 + 0.8 * done as f64 / total.max(1) as f64);
+        if done >= total {
+            break;
+        }
     }
-    let k = pix.len().max(1) as f64;
+    let k = r.samples.max(1) as f64;
     r.mean_rel_err = s1 / k;
     r.rms_rel_err = (s2 / k).sqrt();
     r.mean_angle_err_deg = sa / k;
@@ -568,7 +589,6 @@ pub fn polar_stats(
     let mut rng = Rng::new(seed);
     // Elevation codes in [−¼, ¼] turn, as codes modulo a turn.
     let elev = |c: i128| c.rem_euclid(turn);
-    let mut rows: Vec<[i128; 4]> = Vec::new();
     let coverage = if allow_exhaustive && 3 * k as i64 - 2 <= 22 {
         "all codes"
     } else if allow_exhaustive && 2 * k as i64 - 1 <= 20 {
@@ -576,34 +596,35 @@ pub fn polar_stats(
     } else {
         "random"
     };
-    if coverage == "all codes" {
-        for al in -quarter..=quarter {
-            for d in 0..turn {
-                for an in -quarter..=quarter {
-                    rows.push([elev(al), d, elev(an), 0]);
-                }
-            }
-        }
-    } else if coverage != "random" {
-        let ans: Vec<i128> = (0..8)
+    let elevs = (2 * quarter + 1) as usize;
+    let ans: Vec<i128> = if coverage == "all (α_L, β_L−β_N) pairs for 8 α_N" {
+        (0..8)
             .map(|_| -quarter + rng.below((2 * quarter + 1) as u64) as i128)
-            .collect();
-        for al in -quarter..=quarter {
-            for d in 0..turn {
-                for &an in &ans {
-                    rows.push([elev(al), d, elev(an), 0]);
-                }
-            }
-        }
+            .collect()
     } else {
-        for _ in 0..count {
-            let al = -quarter + rng.below((2 * quarter + 1) as u64) as i128;
-            let an = -quarter + rng.below((2 * quarter + 1) as u64) as i128;
-            let bl = rng.below(turn as u64) as i128;
-            let bn = rng.below(turn as u64) as i128;
-            rows.push([elev(al), bl, elev(an), bn]);
-        }
-    }
+        Vec::new()
+    };
+    let total = match coverage {
+        "all codes" => elevs * turn as usize * elevs,
+        "random" => count,
+        _ => elevs * turn as usize * ans.len(),
+    };
+    // Row `i` of an exhaustive coverage, from its index (no table of rows).
+    let row_at = |i: usize| -> [i128; 4] {
+        let inner = if coverage == "all codes" {
+            elevs
+        } else {
+            ans.len()
+        };
+        let (al, rest) = (i / (turn as usize * inner), i % (turn as usize * inner));
+        let (d, j) = (rest / inner, rest % inner);
+        let an = if coverage == "all codes" {
+            -quarter + j as i128
+        } else {
+            ans[j]
+        };
+        [elev(-quarter + al as i128), d as i128, elev(an), 0]
+    };
     let prog = p.compile()?;
     let lprog = light.compile()?;
     let fo = p.out.format();
@@ -613,7 +634,27 @@ pub fn polar_stats(
         ..Default::default()
     };
     let mut sum2 = 0.0;
-    for chunk in rows.chunks(1 << 18) {
+    // The tangent-space normals the diffuse term is judged against come
+    // from a stream of their own.
+    let mut nrng = Rng::new(seed ^ 0x6e6f_726d_616c);
+    let mut done = 0;
+    let mut chunk: Vec<[i128; 4]> = Vec::with_capacity(1 << 18);
+    while done < total {
+        let m = (1usize << 18).min(total - done);
+        chunk.clear();
+        for i in done..done + m {
+            chunk.push(if coverage == "random" {
+                let al = -quarter + rng.below((2 * quarter + 1) as u64) as i128;
+                let an = -quarter + rng.below((2 * quarter + 1) as u64) as i128;
+                let bl = rng.below(turn as u64) as i128;
+                let bn = rng.below(turn as u64) as i128;
+                [elev(al), bl, elev(an), bn]
+            } else {
+                row_at(i)
+            });
+        }
+        done += m;
+        let chunk = &chunk;
         let cols: Vec<Vec<i128>> = (0..4)
             .map(|j| chunk.iter().map(|r| r[j]).collect())
             .collect();
@@ -627,7 +668,7 @@ pub fn polar_stats(
         // Tangent-space normals of a normal map: the upper hemisphere.
         let normals: Vec<DVec3> = chunk
             .iter()
-            .map(|_| rng.in_cone(DVec3::Z, std::f64::consts::FRAC_PI_2))
+            .map(|_| nrng.in_cone(DVec3::Z, std::f64::consts::FRAC_PI_2))
             .collect();
         let mut lcols: [Vec<i128>; 6] = Default::default();
         let mut exact_l = Vec::with_capacity(chunk.len());
@@ -663,8 +704,8 @@ pub fn polar_stats(
                 .max((fl.to_f64(lv[0][i]) - want).abs());
         }
     }
-    st.samples = rows.len() as u64;
-    st.rms_lsb_err = (sum2 / (3.0 * rows.len().max(1) as f64)).sqrt();
+    st.samples = total as u64;
+    st.rms_lsb_err = (sum2 / (3.0 * total.max(1) as f64)).sqrt();
     Ok(st)
 }
 
@@ -689,6 +730,25 @@ pub fn polar(
         stats,
         seed,
     })
+}
+
+/// Random samples an analysis draws and measures at a time: memory stays
+/// flat whatever the count.
+pub const SAMPLE_CHUNK: usize = 1 << 16;
+
+/// The most random samples an analysis takes (`--count`, `explore
+/// --samples`): 2^32, hours of work; more is refused before any work.
+pub const MAX_SAMPLES: usize = 1 << 32;
+
+/// Refuse a sample count above [`MAX_SAMPLES`], naming `flag`.
+pub fn check_samples(flag: &str, count: usize) -> Result<(), String> {
+    if count > MAX_SAMPLES {
+        return Err(format!(
+            "{flag} {count}: at most {MAX_SAMPLES} (2^32) random samples; the figures of \
+             every analysis are stable long before that"
+        ));
+    }
+    Ok(())
 }
 
 /// Inputs shorter than this are reported apart by [`angles`]: quadratic
@@ -768,46 +828,99 @@ pub struct AnglesReport {
 /// zero vector, the β seam either side, octant boundaries, a few LSBs
 /// around the poles, the extreme codes) and `count` random directions with
 /// lengths from the shortest to the longest normal quadratic interpolation
-/// produces at Θ = 0 (`[√d_min, √d_max]`).
-pub fn angles_inputs(cfg: &Config, count: usize, seed: u64) -> (Vec<[i128; 3]>, &'static str) {
-    let Ok(a) = crate::angles::Angles::of(cfg) else {
-        return (Vec::new(), "none");
-    };
-    let f = a.normal.format();
-    if 3 * f.width() <= 21 {
-        let mut v = Vec::new();
-        for x in f.min_code()..=f.max_code() {
-            for y in f.min_code()..=f.max_code() {
-                for z in f.min_code()..=f.max_code() {
-                    v.push([x, y, z]);
+/// produces at Θ = 0 (`[√d_min, √d_max]`). Drawn a chunk at a time
+/// ([`AnglesInputs::next_chunk`]), so memory does not grow with the count.
+pub struct AnglesInputs {
+    fixed: Vec<[i128; 3]>,
+    fixed_done: bool,
+    random: usize,
+    drawn: usize,
+    rng: Rng,
+    normal: Quant,
+    lo: f64,
+    hi: f64,
+    /// What the inputs cover: `all codes`, `random and corners` or `none`.
+    pub coverage: &'static str,
+}
+
+impl AnglesInputs {
+    /// The inputs of the analysis of `cfg`.
+    pub fn new(cfg: &Config, count: usize, seed: u64) -> AnglesInputs {
+        let (dlo, dhi) = crate::interp::quadratic_d_range(0.0, crate::interp::Scheme::Quadratic);
+        let mut me = AnglesInputs {
+            fixed: Vec::new(),
+            fixed_done: false,
+            random: 0,
+            drawn: 0,
+            rng: Rng::new(seed),
+            normal: Quant::new(
+                "normal",
+                crate::format::Format::new(true, 2, 0).expect("valid"),
+                Rounding::Trunc,
+                crate::quantize::Overflow::Saturate,
+            ),
+            lo: dlo.sqrt(),
+            hi: dhi.sqrt(),
+            coverage: "none",
+        };
+        let Ok(a) = crate::angles::Angles::of(cfg) else {
+            return me;
+        };
+        me.normal = a.normal;
+        let f = a.normal.format();
+        if 3 * f.width() <= 21 {
+            for x in f.min_code()..=f.max_code() {
+                for y in f.min_code()..=f.max_code() {
+                    for z in f.min_code()..=f.max_code() {
+                        me.fixed.push([x, y, z]);
+                    }
                 }
             }
+            me.coverage = "all codes";
+            return me;
         }
-        return (v, "all codes");
-    }
-    // The unit's own corner cases, in the configured input format.
-    let mut rows: Vec<[i128; 3]> =
-        crate::angles::rtl::inputs(cfg, crate::rtl::units::Part::Corners, 0)
+        // The unit's own corner cases, in the configured input format.
+        me.fixed = crate::angles::rtl::inputs(cfg, crate::rtl::units::Part::Corners, 0)
             .unwrap_or_default()
             .into_iter()
             .filter(|r| r.len() == 3)
             .map(|r| [r[0], r[1], r[2]])
             .collect();
-    let (dlo, dhi) = crate::interp::quadratic_d_range(0.0, crate::interp::Scheme::Quadratic);
-    let (lo, hi) = (dlo.sqrt(), dhi.sqrt());
-    let code = |x: f64| a.normal.apply_f64(x).map_or(0, |r| r.code);
-    let mut rng = Rng::new(seed);
-    for k in 0..count {
-        let d = rng.direction();
-        let len = if k % 4 == 0 {
-            [lo, hi][k / 4 % 2]
-        } else {
-            lo + (hi - lo) * rng.unit()
-        };
-        let v = d * len;
-        rows.push([code(v.x), code(v.y), code(v.z)]);
+        me.random = count;
+        me.coverage = "random and corners";
+        me
     }
-    (rows, "random and corners")
+
+    /// The next chunk of inputs into `out` (cleared first); `false` when
+    /// there are none left.
+    pub fn next_chunk(&mut self, out: &mut Vec<[i128; 3]>) -> bool {
+        out.clear();
+        if !self.fixed_done {
+            self.fixed_done = true;
+            out.append(&mut self.fixed);
+            if !out.is_empty() {
+                return true;
+            }
+        }
+        let m = SAMPLE_CHUNK.min(self.random - self.drawn);
+        let code = |q: &Quant, x: f64| q.apply_f64(x).map_or(0, |r| r.code);
+        for k in self.drawn..self.drawn + m {
+            let d = self.rng.direction();
+            let len = if k % 4 == 0 {
+                [self.lo, self.hi][k / 4 % 2]
+            } else {
+                self.lo + (self.hi - self.lo) * self.rng.unit()
+            };
+            let v = d * len;
+            out.push([
+                code(&self.normal, v.x),
+                code(&self.normal, v.y),
+                code(&self.normal, v.z),
+            ]);
+        }
+        self.drawn += m;
+        !out.is_empty()
+    }
 }
 
 /// Error of the CORDIC angles of `cfg` against `asin`/`atan2` of the exact
@@ -816,7 +929,8 @@ pub fn angles(cfg: &Config, count: usize, seed: u64) -> Result<AnglesReport, Ana
     let a = crate::angles::Angles::of(cfg).map_err(AnalysisError::Angles)?;
     let prog = a.compile().map_err(AnalysisError::Angles)?;
     let f = a.normal.format();
-    let (inputs, coverage) = angles_inputs(cfg, count, seed);
+    let mut inputs = AnglesInputs::new(cfg, count, seed);
+    let coverage = inputs.coverage;
     let k = a.out.format().width();
     let turn = (1u64 << k) as f64;
     let mut st = AnglesStats {
@@ -832,7 +946,9 @@ pub fn angles(cfg: &Config, count: usize, seed: u64) -> Result<AnglesReport, Ana
         .map_or(0, |k| 1u64 << k);
     let mut sq = 0.0;
     let mut nsq = 0u64;
-    for chunk in inputs.chunks(1 << 16) {
+    let mut buf = Vec::new();
+    while inputs.next_chunk(&mut buf) {
+        let chunk = &buf;
         let cols: [Vec<i128>; 3] = std::array::from_fn(|c| chunk.iter().map(|r| r[c]).collect());
         let (out, flags) = prog.run_flags_i128(&[&cols[0], &cols[1], &cols[2]]);
         for (i, r) in chunk.iter().enumerate() {

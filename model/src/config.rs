@@ -362,10 +362,10 @@ impl Config {
 
     /// Read and validate a file.
     pub fn load(path: &Path) -> Result<Config, ConfigErrors> {
-        let text = std::fs::read_to_string(path).map_err(|e| {
+        let text = crate::files::read_text_limited(path).map_err(|reason| {
             ConfigErrors(vec![ConfigError::Read {
                 path: path.display().to_string(),
-                reason: e.to_string(),
+                reason,
             }])
         })?;
         Self::parse(&text, &path.display().to_string())

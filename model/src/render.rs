@@ -659,15 +659,23 @@ pub fn frame_in(scene: &Scene, p: &Pipeline, raster: Raster, mesh: &Mesh) -> Fra
         crate::pipeline::SmoothTri,
         crate::pipeline::MappedTri,
     );
-    let tris: Vec<Option<Tri>> = mesh
-        .triangles
-        .iter()
-        .map(|t| {
+    // Only the triangles some pixel shows are set up (a fine mesh in a
+    // small image has millions of triangles and a few thousand pixels).
+    let mut shown: Vec<usize> = raster.fragments.iter().map(|f| f.tri).collect();
+    shown.sort_unstable();
+    shown.dedup();
+    let tris: std::collections::HashMap<usize, Option<Tri>> = shown
+        .into_iter()
+        .map(|ti| {
+            let t = mesh.triangles[ti];
             let n = t.map(|i| raster.normals[i as usize]);
             let no = t.map(|i| mesh.normals[i as usize]);
-            let s = p.setup_smooth(n).ok()?;
-            let so = p.setup_smooth(no).ok()?;
-            Some((s, so, p.setup_mapped(no)))
+            let setup = (|| {
+                let s = p.setup_smooth(n).ok()?;
+                let so = p.setup_smooth(no).ok()?;
+                Some((s, so, p.setup_mapped(no)))
+            })();
+            (ti, setup)
         })
         .collect();
     let scheme = p.interp.scheme;
@@ -715,7 +723,7 @@ pub fn frame_in(scene: &Scene, p: &Pipeline, raster: Raster, mesh: &Mesh) -> Fra
     };
     let cap = (POLAR_CAP_DEG.to_radians()).cos();
     for fr in &raster.fragments {
-        let Some((st, so, mt)) = &tris[fr.tri] else {
+        let Some((st, so, mt)) = tris.get(&fr.tri).and_then(|t| t.as_ref()) else {
             f.skipped += 1;
             if !f.skipped_triangles.contains(&fr.tri) {
                 f.skipped_triangles.push(fr.tri);

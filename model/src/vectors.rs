@@ -534,6 +534,14 @@ pub enum RtlError {
     /// The lighting unit cannot be built.
     #[error(transparent)]
     Lighting(#[from] crate::lighting::LightingError),
+    /// More vectors than can be made.
+    #[error("--count {count}: too many vectors: {why}")]
+    TooMany {
+        /// The count asked for.
+        count: u128,
+        /// Why it is too many.
+        why: String,
+    },
     /// The cache cannot be used.
     #[error("{0}")]
     Cache(String),

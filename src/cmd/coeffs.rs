@@ -13,7 +13,7 @@ use crate::output::{emit, OutputArgs, Table};
 #[derive(Args, Debug)]
 pub struct CoeffsArgs {
     /// Convexity threshold Θ (the interval follows from it and --interval).
-    #[arg(long, default_value_t = 0.5)]
+    #[arg(long, default_value_t = 0.5, value_parser = super::finite_f64)]
     theta: f64,
     /// 1 (linear k·d + p) or 2 (quadratic a·d² + b·d + c).
     #[arg(long, default_value_t = 2)]
@@ -26,10 +26,10 @@ pub struct CoeffsArgs {
     #[arg(long, default_value = "triangle", value_parser = parse_interval)]
     interval: Interval,
     /// Explicit lower end of the interval (with --hi; overrides Θ).
-    #[arg(long, requires = "hi")]
+    #[arg(long, requires = "hi", value_parser = super::finite_f64)]
     lo: Option<f64>,
     /// Explicit upper end of the interval.
-    #[arg(long, requires = "lo")]
+    #[arg(long, requires = "lo", value_parser = super::finite_f64)]
     hi: Option<f64>,
     /// Quantize the coefficients to this format (e.g. I3F15): rounding and
     /// search, each evaluated by the bit-accurate g(d) stage of the

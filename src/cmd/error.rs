@@ -58,6 +58,8 @@ pub struct AnglesArgs {
 }
 
 fn run_angles(a: &AnglesArgs) -> anyhow::Result<()> {
+    fxshade_model::analysis::check_samples("--count", a.count)
+        .map_err(crate::output::UsageError)?;
     let cfg = a.cfg.resolve()?;
     let head = [
         "angle bits",
@@ -193,6 +195,8 @@ pub struct PolarArgs {
 }
 
 fn run_polar(a: &PolarArgs) -> anyhow::Result<()> {
+    fxshade_model::analysis::check_samples("--count", a.count)
+        .map_err(crate::output::UsageError)?;
     let cfg = a.cfg.resolve()?;
     let stat_cells = |s: &analysis::PolarStats| {
         vec![
@@ -277,7 +281,7 @@ pub struct InterpArgs {
     #[arg(long)]
     scheme: Option<String>,
     /// Convexity threshold Θ of the sampled triangles (default: normalize.theta).
-    #[arg(long)]
+    #[arg(long, value_parser = super::finite_f64)]
     theta: Option<f64>,
     /// exact, none, newton, taylor, linear or quadratic (default: normalize.method).
     #[arg(long)]
@@ -293,6 +297,8 @@ pub struct InterpArgs {
 }
 
 fn run_interp(a: &InterpArgs) -> anyhow::Result<()> {
+    fxshade_model::analysis::check_samples("--count", a.count)
+        .map_err(crate::output::UsageError)?;
     use fxshade_model::interp::Scheme;
     use fxshade_model::normalizer::Method;
     let mut cfg_args = a.cfg.clone();
@@ -353,7 +359,7 @@ pub struct NormalizeArgs {
     #[command(flatten)]
     cfg: ConfigArgs,
     /// Convexity threshold Θ (sets normalize.theta).
-    #[arg(long)]
+    #[arg(long, value_parser = super::finite_f64)]
     theta: Option<f64>,
     /// exact, none, newton, taylor, linear or quadratic (sets normalize.method).
     #[arg(long)]
@@ -445,6 +451,8 @@ pub fn run(cmd: &ErrorCmd) -> anyhow::Result<()> {
         ErrorCmd::Polar(a) => return run_polar(a),
         ErrorCmd::Angles(a) => return run_angles(a),
     };
+    fxshade_model::analysis::check_samples("--count", a.count)
+        .map_err(crate::output::UsageError)?;
     let mut cfg_args = a.cfg.clone();
     if let Some(t) = a.theta {
         cfg_args.set.push(format!("normalize.theta={t}"));

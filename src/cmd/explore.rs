@@ -136,8 +136,12 @@ struct SweepFile {
 }
 
 fn read_sweep(path: &Path) -> anyhow::Result<SweepFile> {
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("cannot read the sweep file {}", path.display()))?;
+    let text = fxshade_model::files::read_text_limited(path).map_err(|e| {
+        UsageError(format!(
+            "--sweep {}: cannot read the sweep file: {e}",
+            path.display()
+        ))
+    })?;
     let line = |span: Option<std::ops::Range<usize>>| {
         span.map_or(1, |s| {
             text[..s.start.min(text.len())].matches('\n').count() + 1
@@ -404,6 +408,9 @@ fn plan(a: &ExploreArgs) -> anyhow::Result<Plan> {
     let samples = a.samples.or(file.samples);
     if samples == Some(0) {
         return Err(UsageError("--samples 0: give at least 1".into()).into());
+    }
+    if let Some(n) = samples {
+        fxshade_model::analysis::check_samples("--samples", n).map_err(UsageError)?;
     }
     // Order the analyses as declared, so the options (and the cache keys)
     // do not depend on the order they were asked in.
@@ -795,8 +802,8 @@ fn merge(a: &ExploreArgs) -> anyhow::Result<()> {
         } else {
             f.clone()
         };
-        let text =
-            std::fs::read_to_string(&f).with_context(|| format!("cannot read {}", f.display()))?;
+        let text = fxshade_model::files::read_text_limited(&f)
+            .map_err(|e| UsageError(format!("--merge {}: cannot read: {e}", f.display())))?;
         let r: Results = serde_json::from_str(&text).with_context(|| {
             format!("{}: not an explore.json of `fxshade explore`", f.display())
         })?;

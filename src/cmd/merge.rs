@@ -85,8 +85,8 @@ pub fn check_shards(shards: &[(PathBuf, Option<(usize, usize)>)]) -> anyhow::Res
 pub fn run(a: &MergeArgs) -> anyhow::Result<()> {
     let mut runs = Vec::new();
     for f in &a.files {
-        let text =
-            std::fs::read_to_string(f).with_context(|| format!("cannot read {}", f.display()))?;
+        let text = fxshade_model::files::read_text_limited(f)
+            .map_err(|e| crate::output::UsageError(format!("{}: cannot read: {e}", f.display())))?;
         let r: RunSummary = serde_json::from_str(&text).with_context(|| {
             format!(
                 "{}: not the --json output of `fxshade rtl-check --shard K/N`",

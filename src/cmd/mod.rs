@@ -26,6 +26,19 @@ use std::path::PathBuf;
 use clap::Args;
 use fxshade_model::config::{Config, ConfigErrors};
 
+/// A finite number for a flag (clap names the flag when this refuses one:
+/// `nan` and `inf` parse as `f64` but mean nothing to any flag).
+pub fn finite_f64(s: &str) -> Result<f64, String> {
+    let x: f64 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{s}` is not a number"))?;
+    if !x.is_finite() {
+        return Err(format!("`{s}` is not a finite number"));
+    }
+    Ok(x)
+}
+
 /// `--config FILE` and `--set KEY=VALUE`, on every command that uses a
 /// configuration.
 #[derive(Args, Debug, Clone, Default)]
@@ -67,7 +80,7 @@ pub struct PipelineArgs {
     pub target: Option<String>,
     /// The requested clock period in ns (sets `rtl.clock_ns`; implies
     /// `--pipeline target`).
-    #[arg(long = "clock-ns", value_name = "NS")]
+    #[arg(long = "clock-ns", value_name = "NS", value_parser = finite_f64)]
     pub clock_ns: Option<f64>,
 }
 

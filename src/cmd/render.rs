@@ -78,7 +78,7 @@ pub struct SceneArgs {
     )]
     view: String,
     /// Tilt of the mesh about x before viewing, in degrees.
-    #[arg(long, value_name = "DEG", default_value_t = render::TILT_DEG, allow_hyphen_values = true)]
+    #[arg(long, value_name = "DEG", default_value_t = render::TILT_DEG, allow_hyphen_values = true, value_parser = super::finite_f64)]
     tilt: f64,
     /// The mapped path's normal map: bumps (procedural), flat, or a
     /// tangent-space normal map image (RGB or RGBA PNG, 8 or 16 bits per
@@ -99,12 +99,19 @@ pub struct SceneArgs {
 }
 
 fn parse_vec3(flag: &str, s: &str) -> anyhow::Result<glam::DVec3> {
+    let bad = || {
+        crate::output::UsageError(format!(
+            "--{flag} {s}: write X,Y,Z with three finite numbers"
+        ))
+    };
     let v: Vec<f64> = s
         .split(',')
-        .map(|x| x.trim().parse::<f64>())
+        .map(|x| super::finite_f64(x))
         .collect::<Result<_, _>>()
-        .map_err(|_| anyhow::anyhow!("--{flag} {s}: write X,Y,Z with three numbers"))?;
-    anyhow::ensure!(v.len() == 3, "--{flag} {s}: write X,Y,Z with three numbers");
+        .map_err(|_| bad())?;
+    if v.len() != 3 {
+        return Err(bad().into());
+    }
     Ok(glam::DVec3::new(v[0], v[1], v[2]))
 }
 

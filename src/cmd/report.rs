@@ -497,6 +497,28 @@ pub fn rtl_checks(cfg: &fxshade_model::Config) -> RtlChecks {
 pub fn run(a: &ReportArgs) -> anyhow::Result<()> {
     let cfg = a.cfg.resolve()?;
     let size = super::render::parse_size(&a.size)?;
+    // Every input is checked before minutes of work: the README to splice
+    // the findings into must be readable, writable and have the markers.
+    let readme_text = match &a.readme {
+        Some(p) => {
+            let text = fxshade_model::files::read_text_limited(p).map_err(|e| {
+                crate::output::UsageError(format!("--readme {}: cannot read: {e}", p.display()))
+            })?;
+            super::report_found::splice(&text, "")
+                .map_err(|e| crate::output::UsageError(format!("--readme {}: {e}", p.display())))?;
+            std::fs::OpenOptions::new()
+                .append(true)
+                .open(p)
+                .map_err(|e| {
+                    crate::output::UsageError(format!(
+                        "--readme {}: cannot be written: {e}",
+                        p.display()
+                    ))
+                })?;
+            Some(text)
+        }
+        None => None,
+    };
     let dir = if a.force {
         StagedDir::new_forced(&a.out)
     } else {
@@ -757,17 +779,13 @@ pub fn run(a: &ReportArgs) -> anyhow::Result<()> {
         sweeps: &sweeps,
     })?;
     dir.write("found.md", found.as_bytes())?;
-    let readme = match &a.readme {
-        Some(p) => {
-            let text = std::fs::read_to_string(p)
-                .with_context(|| format!("cannot read --readme {}", p.display()))?;
-            Some((
-                p,
-                super::report_found::splice(&text, &found)
-                    .map_err(|e| anyhow::anyhow!("--readme {}: {e}", p.display()))?,
-            ))
-        }
-        None => None,
+    let readme = match (&a.readme, &readme_text) {
+        (Some(p), Some(text)) => Some((
+            p,
+            super::report_found::splice(text, &found)
+                .map_err(|e| anyhow::anyhow!("--readme {}: {e}", p.display()))?,
+        )),
+        _ => None,
     };
 
     let html = super::report_html::page(&super::report_html::Data {

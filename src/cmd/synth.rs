@@ -121,12 +121,12 @@ pub struct SynthArgs {
     seeds: u32,
     /// Clock the placer aims for, MHz (default 100, or the one of
     /// `--clock-ns`).
-    #[arg(long)]
+    #[arg(long, value_parser = super::finite_f64)]
     freq: Option<f64>,
     /// Pipeline the RTL for this target's delay model at this clock
     /// period, ns (sets rtl.pipeline = "target", rtl.target to --target
     /// and rtl.clock_ns).
-    #[arg(long = "clock-ns", value_name = "NS")]
+    #[arg(long = "clock-ns", value_name = "NS", value_parser = super::finite_f64)]
     clock_ns: Option<f64>,
     /// `compact` or `target` (sets rtl.pipeline; the configuration's
     /// rtl.target and rtl.clock_ns apply).

@@ -7,7 +7,7 @@ use anyhow::Context;
 use clap::Args;
 use fxshade_model::files::StagedDir;
 use fxshade_model::rtl::units::VectorStream;
-use fxshade_model::vectors::{record_bytes, write_set, VectorSource};
+use fxshade_model::vectors::{record_bytes, write_set};
 
 use super::ConfigArgs;
 
@@ -59,10 +59,14 @@ pub fn run(a: &VectorsArgs) -> anyhow::Result<()> {
     let u = crate::rtl_flow::unit(&a.unit)?;
     let cfg = a.cfg.resolve()?;
     let start = std::time::Instant::now();
-    let s = VectorStream::new(u, &cfg, a.count, a.seed, a.shard)?;
+    // Sizes first, before the search for mutant killers: the count, then
+    // the disk space the records need.
+    fxshade_model::rtl::units::check_total(a.count)
+        .map_err(|e| crate::output::UsageError(e.to_string()))?;
+    let (_, emitted) = fxshade_model::rtl::units::emit_unit(u, &cfg)?;
     let (ib, eb) = (
-        record_bytes(s.input_fields()),
-        record_bytes(s.output_fields()),
+        record_bytes(&emitted.inputs),
+        record_bytes(&emitted.outputs),
     );
     let hex = |fields: &[fxshade_model::vectors::Field]| {
         (32 + fields
@@ -77,9 +81,17 @@ pub fn run(a: &VectorsArgs) -> anyhow::Result<()> {
         + if a.no_hex {
             0
         } else {
-            hex(s.input_fields()) + hex(s.output_fields())
+            hex(&emitted.inputs) + hex(&emitted.outputs)
         };
-    let need = (s.count as u64) * per as u64 + (1 << 20);
+    let count = match a.shard {
+        Some((k, n)) => {
+            (a.count as u128 * (k as u128 + 1) / n as u128
+                - a.count as u128 * k as u128 / n as u128) as u64
+        }
+        None => a.count as u64,
+    };
+    // At most 2^32 records of at most a few KiB: no overflow in u128.
+    let need = count as u128 * per as u128 + (1 << 20);
     let parent = a
         .out
         .parent()
@@ -87,10 +99,10 @@ pub fn run(a: &VectorsArgs) -> anyhow::Result<()> {
         .unwrap_or(Path::new("."));
     if let Some(free) = free_bytes(parent) {
         anyhow::ensure!(
-            need <= free,
+            need <= free as u128,
             "{} vectors of {} need {:.2} GB ({per} bytes each{}), and the file system of {} has {:.2} GB free: nothing was written \
              (use --no-hex, fewer vectors, or --shard)",
-            s.count,
+            count,
             u.name,
             need as f64 / 1e9,
             if a.no_hex { "" } else { " with the hex files" },
@@ -104,6 +116,7 @@ pub fn run(a: &VectorsArgs) -> anyhow::Result<()> {
         StagedDir::new(&a.out)
     }
     .with_context(|| format!("cannot write the vectors to {}", a.out.display()))?;
+    let s = VectorStream::new(u, &cfg, a.count, a.seed, a.shard)?;
     let mut m = s.manifest();
     if a.no_hex {
         m["files"]["inputs"] = serde_json::Value::Null;

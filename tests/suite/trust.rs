@@ -376,3 +376,96 @@ fn a_hung_tool_stops_with_an_error_and_leaves_nothing_behind() {
         );
     }
 }
+
+/// #30.4: every size is checked before work starts and refused with the
+/// flag, the limit and the reason (status 2); nothing is read without
+/// bound; a fine procedural mesh renders within memory.
+#[test]
+fn sizes_are_checked_before_any_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("v");
+    let o_ = out.to_str().unwrap();
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (
+            vec![
+                "vectors",
+                "normalize",
+                "--count",
+                "18446744073709551615",
+                "--no-hex",
+                "--out",
+                o_,
+            ],
+            "2^32",
+        ),
+        (
+            // One past the 32-bit index: it would wrap to 0.
+            vec!["vectors", "normalize", "--count", "4294967297", "--out", o_],
+            "32-bit index",
+        ),
+        (
+            vec!["mutate", "normalize", "--count", "99999999999"],
+            "--count 99999999999",
+        ),
+        (
+            vec!["rtl-check", "normalize", "--count", "99999999999"],
+            "2^32",
+        ),
+        (
+            vec!["explore", "--samples", "18446744073709551615", "--out", o_],
+            "--samples",
+        ),
+        (vec!["error", "interp", "--count", "99999999999"], "--count"),
+        (
+            vec!["error", "normalize", "--count", "99999999999"],
+            "--count",
+        ),
+        (vec!["error", "polar", "--count", "99999999999"], "--count"),
+        (vec!["error", "angles", "--count", "99999999999"], "--count"),
+        (vec!["config", "check", "/dev/zero"], "larger than 64 MiB"),
+        (
+            vec!["explore", "--sweep", "/dev/zero", "--out", o_],
+            "larger than 64 MiB",
+        ),
+        (
+            vec!["explore", "--merge", "/dev/zero", "--out", o_],
+            "larger than 64 MiB",
+        ),
+        (vec!["merge", "/dev/zero"], "larger than 64 MiB"),
+        (vec!["config", "check", "/tmp"], "is a directory"),
+        (vec!["error", "normalize", "--theta", "nan"], "--theta"),
+        (
+            vec![
+                "render", "--mesh", "sphere:8", "--light", "nan,1,1", "--out", o_,
+            ],
+            "--light",
+        ),
+    ];
+    for (args, want) in cases {
+        let o = fxshade(&args);
+        no_panic(&o);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", text(&o));
+        assert!(text(&o).contains(want), "{args:?}: {}", text(&o));
+        assert!(
+            !text(&o).contains("os error 21): Is a directory"),
+            "{}",
+            text(&o)
+        );
+    }
+    assert!(!out.exists(), "nothing was written");
+    // The documented largest procedural mesh renders (its triangles are set
+    // up only where pixels show them).
+    let o = fxshade(&[
+        "render",
+        "--mesh",
+        "sphere:4096",
+        "--size",
+        "32x32",
+        "--method",
+        "quadratic",
+        "--out",
+        o_,
+    ]);
+    no_panic(&o);
+    assert!(o.status.success(), "{}", text(&o));
+}

@@ -79,7 +79,44 @@ pub fn vectors(
     count: usize,
     seed: u64,
 ) -> Result<VectorSet, RtlError> {
+    check_total(count)?;
+    // Held in memory: refuse before any work when they cannot fit.
+    let (d, _) = emit_unit(u, cfg)?;
+    let fields = d.trace.input_ports().len() + d.trace.output_ports().len() + 1;
+    let row = std::mem::size_of::<Vec<i128>>() * 2 + std::mem::size_of::<i128>() * fields;
+    let need = (count as u128) * row as u128;
+    if let Some(avail) = crate::files::memory_available() {
+        if need > avail as u128 {
+            return Err(RtlError::TooMany {
+                count: count as u128,
+                why: format!(
+                    "held in memory they need {:.1} GB ({row} bytes each) and {:.1} GB is \
+                     available",
+                    need as f64 / 1e9,
+                    avail as f64 / 1e9
+                ),
+            });
+        }
+    }
     VectorStream::new(u, cfg, count, seed, None)?.collect()
+}
+
+/// The most vectors a stream holds: their records' index field is 32 bits
+/// wide, so index 2^32 would wrap to 0.
+pub const MAX_STREAM: u64 = 1 << 32;
+
+/// Refuse a stream of more than [`MAX_STREAM`] vectors.
+pub fn check_total(total: usize) -> Result<(), RtlError> {
+    if total as u128 > MAX_STREAM as u128 {
+        return Err(RtlError::TooMany {
+            count: total as u128,
+            why: format!(
+                "a stream holds at most {MAX_STREAM} (2^32) vectors, the range of the records' \
+                 32-bit index"
+            ),
+        });
+    }
+    Ok(())
 }
 
 /// Random inputs searched for mutant killers ([`corner_rows`]).
@@ -424,6 +461,7 @@ impl VectorStream {
         seed: u64,
         shard: Option<(usize, usize)>,
     ) -> Result<VectorStream, RtlError> {
+        check_total(total)?;
         let (design, emitted) = emit_unit(u, cfg)?;
         let corners = corner_rows(u, &design, cfg, seed)?;
         if total < corners.len() {
