@@ -106,7 +106,7 @@ fn parse_vec3(flag: &str, s: &str) -> anyhow::Result<glam::DVec3> {
     };
     let v: Vec<f64> = s
         .split(',')
-        .map(|x| super::finite_f64(x))
+        .map(super::finite_f64)
         .collect::<Result<_, _>>()
         .map_err(|_| bad())?;
     if v.len() != 3 {
