@@ -721,6 +721,15 @@ fn run_built(
             t.display(),
             parent.display()
         );
+        // Only a waveform is replaced: any other file there is the user's.
+        if std::fs::metadata(t).is_ok_and(|m| m.len() > 0) && fst_complete(t).is_err() {
+            return Err(crate::output::UsageError(format!(
+                "--trace {}: the file exists and is not an FST waveform; nothing was written \
+                 (name another file)",
+                t.display()
+            ))
+            .into());
+        }
         std::fs::write(t, b"")
             .with_context(|| format!("cannot write the waveform to {}", t.display()))?;
         if sim == Sim::Icarus {

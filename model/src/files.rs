@@ -24,6 +24,30 @@ fn io(path: &Path) -> impl FnOnce(std::io::Error) -> WriteError + '_ {
     }
 }
 
+/// Whether two paths name the same file: the same device and inode when
+/// both exist, else the same absolute path (`a/../b` and `b` alike).
+pub fn same_file(a: &Path, b: &Path) -> bool {
+    use std::os::unix::fs::MetadataExt;
+    if let (Ok(x), Ok(y)) = (std::fs::metadata(a), std::fs::metadata(b)) {
+        return x.dev() == y.dev() && x.ino() == y.ino();
+    }
+    let norm = |p: &Path| {
+        let abs = std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf());
+        let mut out = PathBuf::new();
+        for c in abs.components() {
+            match c {
+                std::path::Component::ParentDir => {
+                    out.pop();
+                }
+                std::path::Component::CurDir => {}
+                c => out.push(c),
+            }
+        }
+        out
+    };
+    norm(a) == norm(b)
+}
+
 /// Bytes of memory available to a new allocation (`MemAvailable` of
 /// `/proc/meminfo`), where the system says.
 pub fn memory_available() -> Option<u64> {
@@ -89,6 +113,83 @@ pub fn write_atomic(path: &Path, contents: &[u8]) -> Result<(), WriteError> {
     result
 }
 
+/// The record of the files fxshade wrote into a directory it shares with
+/// other files (`fxshade rtl --out DIR`): `DIR/.fxshade-files`, one
+/// `sha256 <hex> <name>` line per file. A file is replaced only when it is
+/// missing, already holds the new text, or still holds what fxshade wrote
+/// (its hash is the recorded one); a file someone edited or wrote is never
+/// replaced without `force`.
+#[derive(Debug)]
+pub struct FilesRecord {
+    dir: PathBuf,
+    hashes: std::collections::BTreeMap<String, String>,
+}
+
+/// The name of a [`FilesRecord`].
+pub const FILES_RECORD: &str = ".fxshade-files";
+
+fn sha256(bytes: &[u8]) -> String {
+    crate::cache::sha256_key(&[bytes])
+}
+
+impl FilesRecord {
+    /// The record of `dir` (empty when it has none).
+    pub fn open(dir: &Path) -> FilesRecord {
+        let mut hashes = std::collections::BTreeMap::new();
+        if let Ok(text) = std::fs::read_to_string(dir.join(FILES_RECORD)) {
+            for l in text.lines() {
+                let mut w = l.splitn(3, ' ');
+                if let (Some("sha256"), Some(h), Some(n)) = (w.next(), w.next(), w.next()) {
+                    hashes.insert(n.to_string(), h.to_string());
+                }
+            }
+        }
+        FilesRecord {
+            dir: dir.to_path_buf(),
+            hashes,
+        }
+    }
+
+    /// Why `name` may not be replaced by `new` (`None`: it may).
+    pub fn blocks(&self, name: &str, new: &[u8]) -> Option<String> {
+        let p = self.dir.join(name);
+        let Ok(old) = std::fs::read(&p) else {
+            return (p.exists() || p.is_symlink())
+                .then(|| format!("{} exists and cannot be read", p.display()));
+        };
+        if old == new {
+            return None;
+        }
+        match self.hashes.get(name) {
+            Some(h) if *h == sha256(&old) => None,
+            Some(_) => Some(format!(
+                "{} was changed since fxshade wrote it",
+                p.display()
+            )),
+            None => Some(format!("{} was not written by fxshade", p.display())),
+        }
+    }
+
+    /// Write `name` atomically and record it.
+    pub fn write(&mut self, name: &str, contents: &[u8]) -> Result<(), WriteError> {
+        write_atomic(&self.dir.join(name), contents)?;
+        self.hashes.insert(name.to_string(), sha256(contents));
+        Ok(())
+    }
+
+    /// Save the record (atomically).
+    pub fn save(&self) -> Result<(), WriteError> {
+        let mut text = format!(
+            "# files {} wrote here; it replaces one only while it holds what was written\n",
+            crate::vectors::GENERATOR
+        );
+        for (n, h) in &self.hashes {
+            text += &format!("sha256 {h} {n}\n");
+        }
+        write_atomic(&self.dir.join(FILES_RECORD), text.as_bytes())
+    }
+}
+
 /// The marker file every output directory fxshade writes holds: a
 /// directory with it is fxshade's to replace; a non-empty one without it is
 /// the user's, and is never replaced unless forced.
@@ -114,35 +215,122 @@ pub struct StagedDir {
     committed: bool,
 }
 
-/// Whether fxshade wrote `dir` (or it is empty).
-fn ours_or_empty(dir: &Path) -> bool {
-    if dir.join(MARKER).is_file() {
-        return true;
+/// The first line of a [`MARKER`] that lists the files fxshade wrote.
+const MARKER_HEADER: &str = "fxshade output 2";
+
+/// Every file under `dir` (relative paths, `/`-separated), the marker
+/// excepted, with its size and modification time in nanoseconds.
+fn listing(dir: &Path) -> std::io::Result<Vec<(String, u64, i128)>> {
+    fn walk(base: &Path, rel: &str, out: &mut Vec<(String, u64, i128)>) -> std::io::Result<()> {
+        let here = if rel.is_empty() {
+            base.to_path_buf()
+        } else {
+            base.join(rel)
+        };
+        let mut names: Vec<_> = std::fs::read_dir(&here)?
+            .map(|e| e.map(|e| e.file_name()))
+            .collect::<Result<_, _>>()?;
+        names.sort();
+        for n in names {
+            let n = n.to_string_lossy().into_owned();
+            let r = if rel.is_empty() {
+                n.clone()
+            } else {
+                format!("{rel}/{n}")
+            };
+            if r == MARKER {
+                continue;
+            }
+            let m = std::fs::symlink_metadata(base.join(&r))?;
+            if m.is_dir() {
+                walk(base, &r, out)?;
+            } else {
+                let t = m
+                    .modified()
+                    .ok()
+                    .and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok())
+                    .map_or(0, |d| d.as_nanos() as i128);
+                out.push((r, m.len(), t));
+            }
+        }
+        Ok(())
     }
-    let manifest = std::fs::read_to_string(dir.join("manifest.json")).unwrap_or_default();
-    if manifest.contains("\"generator\": \"fxshade") {
-        return true;
-    }
-    std::fs::read_dir(dir).is_ok_and(|mut d| d.next().is_none())
+    let mut out = Vec::new();
+    walk(dir, "", &mut out)?;
+    Ok(out)
 }
 
-/// Remove `.NAME.staging-PID` siblings whose process is gone and which hold
-/// fxshade's marker.
-fn remove_stale_staging(parent: &Path, name: &str) {
-    let prefix = format!(".{name}.staging-");
+/// Why fxshade may not replace `dir` (`None`: it may: empty, or holding
+/// exactly the files fxshade wrote there, unchanged). A file fxshade did
+/// not write, or one changed since (another size or modification time),
+/// is named.
+fn not_ours(dir: &Path) -> Option<String> {
+    let files = match listing(dir) {
+        Ok(f) => f,
+        Err(e) => return Some(format!("cannot be listed ({e})")),
+    };
+    let marker = std::fs::read_to_string(dir.join(MARKER)).ok();
+    let Some(marker) = marker else {
+        if files.is_empty() {
+            return None;
+        }
+        // A vector set written by an fxshade older than the marker.
+        let manifest = std::fs::read_to_string(dir.join("manifest.json")).unwrap_or_default();
+        if manifest.contains("\"generator\": \"fxshade") {
+            return None;
+        }
+        return Some("is not empty and was not written by fxshade".into());
+    };
+    let mut lines = marker.lines();
+    if lines.next() != Some(MARKER_HEADER) {
+        // The marker of an older fxshade, which did not list its files.
+        return None;
+    }
+    let mut written = std::collections::BTreeMap::new();
+    for l in lines {
+        let mut w = l.splitn(4, ' ');
+        if let (Some("file"), Some(size), Some(t), Some(name)) =
+            (w.next(), w.next(), w.next(), w.next())
+        {
+            if let (Ok(size), Ok(t)) = (size.parse::<u64>(), t.parse::<i128>()) {
+                written.insert(name.to_string(), (size, t));
+            }
+        }
+    }
+    for (name, size, t) in files {
+        match written.get(&name) {
+            None => return Some(format!("holds {name}, which fxshade did not write")),
+            Some(&(s, wt)) if s != size || wt != t => {
+                return Some(format!("holds {name}, changed since fxshade wrote it"))
+            }
+            Some(_) => {}
+        }
+    }
+    None
+}
+
+/// Whether `pid` is a live process.
+fn alive(pid: u32) -> bool {
+    Path::new("/proc").join(pid.to_string()).exists()
+}
+
+/// Remove the staging directories (`.NAME.staging-PID`, any NAME) in
+/// `parent` of processes that are gone and that hold fxshade's marker: what
+/// a killed run left.
+fn remove_stale_staging(parent: &Path) {
     let Ok(rd) = std::fs::read_dir(parent) else {
         return;
     };
     for e in rd.flatten() {
         let file = e.file_name().to_string_lossy().into_owned();
         let Some(pid) = file
-            .strip_prefix(&prefix)
-            .and_then(|p| p.parse::<u32>().ok())
+            .strip_prefix('.')
+            .and_then(|f| f.rsplit_once(".staging-"))
+            .and_then(|(_, p)| p.parse::<u32>().ok())
         else {
             continue;
         };
-        let alive = Path::new("/proc").join(pid.to_string()).exists();
-        if !alive && e.path().join(MARKER).is_file() {
+        if !alive(pid) && e.path().join(MARKER).is_file() {
             let _ = std::fs::remove_dir_all(e.path());
         }
     }
@@ -218,21 +406,25 @@ impl StagedDir {
                 ),
             });
         }
-        if target.is_dir() && !force && !ours_or_empty(target) {
-            return Err(WriteError::Io {
-                path: target.to_path_buf(),
-                reason: std::io::Error::new(
-                    std::io::ErrorKind::AlreadyExists,
-                    "is not empty and was not written by fxshade; nothing was changed \
-                     (choose another directory, or pass --force to replace it)",
-                ),
-            });
+        if target.is_dir() && !force {
+            if let Some(why) = not_ours(target) {
+                return Err(WriteError::Io {
+                    path: target.to_path_buf(),
+                    reason: std::io::Error::new(
+                        std::io::ErrorKind::AlreadyExists,
+                        format!(
+                            "{why}; nothing was changed (choose another directory, or pass \
+                             --force to replace it as a whole)"
+                        ),
+                    ),
+                });
+            }
         }
         let name = target
             .file_name()
             .map(|n| n.to_string_lossy().into_owned())
             .unwrap_or_else(|| "out".into());
-        remove_stale_staging(parent, &name);
+        remove_stale_staging(parent);
         let staging = parent.join(format!(".{name}.staging-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&staging);
         std::fs::create_dir_all(&staging).map_err(io(&staging))?;
@@ -268,6 +460,18 @@ impl StagedDir {
     /// where the file system supports it (then the old set, now in the
     /// staging path, is removed), else two renames.
     pub fn commit(mut self) -> Result<PathBuf, WriteError> {
+        // The marker lists every file written, so a file added or changed
+        // later is never replaced without --force.
+        let files = listing(&self.staging).map_err(io(&self.staging))?;
+        let mut text = format!(
+            "{MARKER_HEADER}\n# written by {}; fxshade replaces this directory as a whole while it \
+             holds exactly these files, unchanged\n",
+            crate::vectors::GENERATOR
+        );
+        for (name, size, t) in files {
+            text += &format!("file {size} {t} {name}\n");
+        }
+        write_atomic(&self.staging.join(MARKER), text.as_bytes())?;
         if self.target.exists() {
             if exchange(&self.staging, &self.target).map_err(io(&self.target))? {
                 // The staging path now holds the previous set.

@@ -44,6 +44,26 @@ pub struct BakeArgs {
 /// Run it.
 pub fn run(a: &BakeArgs) -> anyhow::Result<()> {
     let cfg = a.cfg.resolve()?;
+    // No output may overwrite the input or the other output.
+    let same = fxshade_model::files::same_file;
+    let clash = |what: &str, x: &std::path::Path, y: &std::path::Path| {
+        crate::output::UsageError(format!(
+            "{what}: {} and {} are the same file; nothing was written (name another)",
+            x.display(),
+            y.display()
+        ))
+    };
+    if same(&a.out, &a.normal_map) {
+        return Err(clash("--out and --normal-map", &a.out, &a.normal_map).into());
+    }
+    if let Some(f) = &a.flags {
+        if same(f, &a.out) {
+            return Err(clash("--flags and --out", f, &a.out).into());
+        }
+        if same(f, &a.normal_map) {
+            return Err(clash("--flags and --normal-map", f, &a.normal_map).into());
+        }
+    }
     let mesh = super::render::load_mesh(&a.mesh)?;
     let green = Green::from_name(&a.green).expect("clap checked");
     let map = crate::picture::read_normal_map(&a.normal_map, green)?;

@@ -1,7 +1,7 @@
 //! `fxshade rtl <unit>`: emit a unit's Verilog (and its testbench) from its
 //! traced datapath for a configuration.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::Context;
 use clap::Args;
@@ -34,15 +34,12 @@ pub struct RtlArgs {
     /// the one `fxshade vectors` and `rtl-check` use).
     #[arg(long)]
     testbench: bool,
+    /// Replace files in `--out` that fxshade did not write or that were
+    /// edited since (refused otherwise, naming the file).
+    #[arg(long)]
+    force: bool,
     #[command(flatten)]
     fmt: OutputArgs,
-}
-
-/// Write `text` to `path` atomically (the model's [`files::write_atomic`]:
-/// a synced temporary file beside it, then a rename).
-fn write_atomic(path: &Path, text: &str) -> anyhow::Result<()> {
-    files::write_atomic(path, text.as_bytes())
-        .with_context(|| format!("cannot write {}", path.display()))
 }
 
 /// The emitted modules `fxshade rtl all` writes for a configuration: every
@@ -137,12 +134,38 @@ pub fn run(a: &RtlArgs) -> anyhow::Result<()> {
         cfg.source
     ));
     let mut json = Vec::new();
+    // Every file is checked before any is written: a file of the user's
+    // (or one edited since fxshade wrote it) is never replaced unless forced.
+    let mut record = files::FilesRecord::open(out);
+    let mut writes: Vec<(String, &str)> = Vec::new();
+    for (_, e) in &emitted {
+        writes.push((format!("{}.v", e.module), &e.verilog));
+        if a.testbench {
+            writes.push((format!("{}_tb.v", e.module), &e.testbench));
+        }
+    }
+    if !a.force {
+        for (name, text) in &writes {
+            if let Some(why) = record.blocks(name, text.as_bytes()) {
+                return Err(crate::output::UsageError(format!(
+                    "{why}; nothing was written (write elsewhere, or pass --force to replace it)"
+                ))
+                .into());
+            }
+        }
+    }
+    for (name, text) in &writes {
+        record
+            .write(name, text.as_bytes())
+            .with_context(|| format!("cannot write {}", out.join(name).display()))?;
+    }
+    record
+        .save()
+        .with_context(|| format!("cannot write {}", out.join(files::FILES_RECORD).display()))?;
     for (_, e) in &emitted {
         let mut files = vec![format!("{}.v", e.module)];
-        write_atomic(&out.join(&files[0]), &e.verilog)?;
         if a.testbench {
             files.push(format!("{}_tb.v", e.module));
-            write_atomic(&out.join(&files[1]), &e.testbench)?;
         }
         let h = &e.hardware;
         t.row([

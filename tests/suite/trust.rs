@@ -469,3 +469,139 @@ fn sizes_are_checked_before_any_work() {
     no_panic(&o);
     assert!(o.status.success(), "{}", text(&o));
 }
+
+/// #30.6: no file of the user's is lost: a file added to (or changed in) a
+/// directory fxshade wrote, a hand-edited module in `rtl --out`, a picture
+/// that would overwrite another output or the input, a user's file at the
+/// `--trace` path: each is refused, named, unless `--force`; a killed run's
+/// staging directory is removed by the next run in the same parent,
+/// whatever its name.
+#[test]
+fn no_file_of_the_users_is_lost() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().join("d");
+    let ds = d.to_str().unwrap();
+    let vectors = |seed: &str, force: bool| {
+        let mut a = vec![
+            "vectors",
+            "normalize",
+            "--count",
+            "200",
+            "--seed",
+            seed,
+            "--out",
+            ds,
+        ];
+        if force {
+            a.push("--force");
+        }
+        fxshade(&a)
+    };
+    assert!(vectors("1", false).status.success());
+    std::fs::write(d.join("mine.txt"), b"mine").unwrap();
+    let o = vectors("2", false);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(
+        text(&o).contains("mine.txt") && text(&o).contains("--force"),
+        "{}",
+        text(&o)
+    );
+    assert_eq!(std::fs::read(d.join("mine.txt")).unwrap(), b"mine");
+    std::fs::remove_file(d.join("mine.txt")).unwrap();
+    // A file fxshade wrote, then edited.
+    std::fs::write(d.join("inputs.hex"), b"edited\n").unwrap();
+    let o = vectors("2", false);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(
+        text(&o).contains("inputs.hex") && text(&o).contains("changed since"),
+        "{}",
+        text(&o)
+    );
+    assert!(vectors("2", true).status.success());
+    assert!(
+        vectors("3", false).status.success(),
+        "its own files, unchanged"
+    );
+
+    // `rtl --out`: a hand-edited module, and a user's own file of that name.
+    let r = dir.path().join("r");
+    let rs = r.to_str().unwrap();
+    assert!(fxshade(&["rtl", "normalize", "--out", rs]).status.success());
+    let v = std::fs::read_to_string(r.join("normalize.v")).unwrap();
+    std::fs::write(r.join("normalize.v"), v.replace("GENERATED", "EDITED")).unwrap();
+    let o = fxshade(&[
+        "rtl",
+        "normalize",
+        "--set",
+        "normalize.theta=0.4",
+        "--out",
+        rs,
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(
+        text(&o).contains("normalize.v") && text(&o).contains("changed since"),
+        "{}",
+        text(&o)
+    );
+    assert!(std::fs::read_to_string(r.join("normalize.v"))
+        .unwrap()
+        .contains("EDITED"));
+    let o = fxshade(&["rtl", "normalize", "--force", "--out", rs]);
+    assert!(o.status.success(), "{}", text(&o));
+    // Unchanged since: replaced without a flag.
+    let o = fxshade(&[
+        "rtl",
+        "normalize",
+        "--set",
+        "normalize.theta=0.4",
+        "--out",
+        rs,
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    std::fs::write(r.join("interp.v"), b"module interp; endmodule\n").unwrap();
+    let o = fxshade(&["rtl", "all", "--out", rs]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("interp.v") && text(&o).contains("not written by fxshade"));
+    assert!(!r.join("angles.v").exists(), "nothing was written");
+
+    // bake-implied: the flags picture onto the converted map, or either
+    // onto the input.
+    // (The clash is refused before the input is read.)
+    let png = dir.path().join("in.png");
+    std::fs::write(&png, b"not read").unwrap();
+    let x = dir.path().join("x.png");
+    let (xs, ps) = (x.to_str().unwrap(), png.to_str().unwrap());
+    for args in [
+        vec!["--normal-map", ps, "--out", xs, "--flags", xs],
+        vec!["--normal-map", ps, "--out", ps],
+        vec!["--normal-map", ps, "--out", xs, "--flags", ps],
+    ] {
+        let mut a = vec!["bake-implied", "--mesh", "sphere:8"];
+        a.extend(args);
+        let o = fxshade(&a);
+        assert_eq!(o.status.code(), Some(2), "{a:?}: {}", text(&o));
+        assert!(text(&o).contains("are the same file"), "{}", text(&o));
+    }
+    assert!(!x.exists());
+
+    // A user's file at the --trace path.
+    let mine = dir.path().join("notes.fst");
+    std::fs::write(&mine, b"my notes").unwrap();
+    let o = fxshade(&[
+        "rtl-check",
+        "normalize",
+        "--count",
+        "200",
+        "--trace",
+        mine.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert_eq!(std::fs::read(&mine).unwrap(), b"my notes");
+
+    // A staging directory a killed run left beside another output.
+    let stale = dir.path().join(".report.staging-999999999");
+    std::fs::create_dir(&stale).unwrap();
+    std::fs::write(stale.join(".fxshade-output"), b"").unwrap();
+    assert!(vectors("1", false).status.success());
+    assert!(!stale.exists(), "the dead run's staging directory is left");
+}
