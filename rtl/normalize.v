@@ -4,7 +4,7 @@
 //   fxshade rtl normalize [--config FILE] [--set KEY=VALUE]... --out DIR
 // Configuration: <default> (hash 3235b7c1c8026d63)
 // Method: quadratic
-// Coefficients: minimax fit on the triangle interval [0.6666666666666666, 1] for Θ = 0.5, by search
+// Coefficients: minimax fit on the triangle interval [0.6666666666666666, 1] for Theta = 0.5, by search
 // g(d) coefficients, lowest power first (I3F15): [2.076171875, -1.683929443359375, 0.6083984375]
 //
 // Pipelining: compact (a register after every quantization and table read).

@@ -329,6 +329,13 @@ pub fn sha256_file(path: &Path) -> Result<String, CacheError> {
     Ok(hex(&h.finalize()))
 }
 
+/// The SHA-256 of `bytes`, as 64 lowercase hex digits (what `sha256sum`
+/// prints).
+pub fn sha256_bytes(bytes: &[u8]) -> String {
+    use sha2::Digest;
+    hex(&sha2::Sha256::digest(bytes))
+}
+
 /// The SHA-256 of `parts` (each length-prefixed, so the split is part of
 /// the hash), as 64 lowercase hex digits: the key of a cache entry.
 pub fn sha256_key(parts: &[&[u8]]) -> String {

@@ -250,7 +250,9 @@ impl UnitConfig {
 /// A validated configuration: every declared unit, every field.
 #[derive(Clone, Debug)]
 pub struct Config {
-    /// Where it came from: a path, or `<default>`.
+    /// Where it came from: a path (escaped to one printable line by
+    /// [`crate::escape::line`], as it appears in errors and generated
+    /// files), or `<default>`.
     pub source: String,
     /// The `--set` overrides applied, in order.
     pub overrides: Vec<String>,
@@ -364,7 +366,7 @@ impl Config {
     pub fn load(path: &Path) -> Result<Config, ConfigErrors> {
         let text = crate::files::read_text_limited(path).map_err(|reason| {
             ConfigErrors(vec![ConfigError::Read {
-                path: path.display().to_string(),
+                path: crate::escape::line(&path.display().to_string()),
                 reason,
             }])
         })?;
@@ -408,6 +410,10 @@ impl Config {
         path: &str,
         defaults: Option<&Config>,
     ) -> Result<Config, ConfigErrors> {
+        // The path as it appears in errors and generated files: escaped,
+        // so a newline in it cannot end a comment there.
+        let path = crate::escape::line(path);
+        let path = path.as_str();
         let mut p = Parser {
             text,
             path: Arc::from(path),
@@ -498,6 +504,16 @@ impl Config {
             key: key.to_string(),
             msg,
         };
+        if let Some(c) = crate::escape::control_char(spec) {
+            return Err(ConfigError::BadValue {
+                at: Origin::Flag(crate::escape::line(spec)),
+                key: crate::escape::line(spec.split('=').next().unwrap_or(spec)),
+                msg: format!(
+                    "holds the control character {:?}; a configuration value never does",
+                    c
+                ),
+            });
+        }
         let Some((key, text)) = spec.split_once('=') else {
             return Err(bad(
                 spec,
@@ -654,6 +670,19 @@ impl Config {
             .unwrap_or_else(|| panic!("no unit {name} is registered"))
     }
 
+    /// Where the configuration came from, with its overrides, as one
+    /// printable line (`<default>`, `my.toml with --set a=1 --set b=2`).
+    pub fn describe(&self) -> String {
+        let mut s = self.source.clone();
+        for o in &self.overrides {
+            s += &format!(" --set {}", crate::escape::line(o));
+        }
+        if !self.overrides.is_empty() {
+            s = s.replacen(" --set ", " with --set ", 1);
+        }
+        s
+    }
+
     /// Every unit's section, in registry order.
     pub fn units(&self) -> &[UnitConfig] {
         &self.units
@@ -665,7 +694,7 @@ impl Config {
         let mut out = String::from("# fxshade configuration\n");
         out += &format!("# source: {}\n", self.source);
         for o in &self.overrides {
-            out += &format!("# override: --set {o}\n");
+            out += &format!("# override: --set {}\n", crate::escape::line(o));
         }
         for u in &self.units {
             out += &format!("\n# {}\n[{}]\n", u.decl.doc, u.decl.name);

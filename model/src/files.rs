@@ -129,7 +129,7 @@ pub struct FilesRecord {
 pub const FILES_RECORD: &str = ".fxshade-files";
 
 fn sha256(bytes: &[u8]) -> String {
-    crate::cache::sha256_key(&[bytes])
+    crate::cache::sha256_bytes(bytes)
 }
 
 impl FilesRecord {
@@ -218,10 +218,16 @@ pub struct StagedDir {
 /// The first line of a [`MARKER`] that lists the files fxshade wrote.
 const MARKER_HEADER: &str = "fxshade output 2";
 
+/// Files up to this size are recorded in a [`MARKER`] by content
+/// (SHA-256), larger ones by modification time.
+const HASHED_UP_TO: u64 = 64 << 20;
+
 /// Every file under `dir` (relative paths, `/`-separated), the marker
-/// excepted, with its size and modification time in nanoseconds.
-fn listing(dir: &Path) -> std::io::Result<Vec<(String, u64, i128)>> {
-    fn walk(base: &Path, rel: &str, out: &mut Vec<(String, u64, i128)>) -> std::io::Result<()> {
+/// excepted, with its size and its identity: `sha256:<hex>` of its content
+/// up to [`HASHED_UP_TO`] bytes (so a checkout elsewhere still matches),
+/// else `mtime:<ns>`.
+fn listing(dir: &Path) -> std::io::Result<Vec<(String, u64, String)>> {
+    fn walk(base: &Path, rel: &str, out: &mut Vec<(String, u64, String)>) -> std::io::Result<()> {
         let here = if rel.is_empty() {
             base.to_path_buf()
         } else {
@@ -245,12 +251,17 @@ fn listing(dir: &Path) -> std::io::Result<Vec<(String, u64, i128)>> {
             if m.is_dir() {
                 walk(base, &r, out)?;
             } else {
-                let t = m
-                    .modified()
-                    .ok()
-                    .and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok())
-                    .map_or(0, |d| d.as_nanos() as i128);
-                out.push((r, m.len(), t));
+                let id = if m.len() <= HASHED_UP_TO && m.is_file() {
+                    format!("sha256:{}", sha256(&std::fs::read(base.join(&r))?))
+                } else {
+                    let t = m
+                        .modified()
+                        .ok()
+                        .and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok())
+                        .map_or(0, |d| d.as_nanos());
+                    format!("mtime:{t}")
+                };
+                out.push((r, m.len(), id));
             }
         }
         Ok(())
@@ -289,18 +300,18 @@ fn not_ours(dir: &Path) -> Option<String> {
     let mut written = std::collections::BTreeMap::new();
     for l in lines {
         let mut w = l.splitn(4, ' ');
-        if let (Some("file"), Some(size), Some(t), Some(name)) =
+        if let (Some("file"), Some(size), Some(id), Some(name)) =
             (w.next(), w.next(), w.next(), w.next())
         {
-            if let (Ok(size), Ok(t)) = (size.parse::<u64>(), t.parse::<i128>()) {
-                written.insert(name.to_string(), (size, t));
+            if let Ok(size) = size.parse::<u64>() {
+                written.insert(name.to_string(), (size, id.to_string()));
             }
         }
     }
-    for (name, size, t) in files {
+    for (name, size, id) in files {
         match written.get(&name) {
             None => return Some(format!("holds {name}, which fxshade did not write")),
-            Some(&(s, wt)) if s != size || wt != t => {
+            Some((s, wid)) if *s != size || *wid != id => {
                 return Some(format!("holds {name}, changed since fxshade wrote it"))
             }
             Some(_) => {}
@@ -468,8 +479,8 @@ impl StagedDir {
              holds exactly these files, unchanged\n",
             crate::vectors::GENERATOR
         );
-        for (name, size, t) in files {
-            text += &format!("file {size} {t} {name}\n");
+        for (name, size, id) in files {
+            text += &format!("file {size} {id} {name}\n");
         }
         write_atomic(&self.staging.join(MARKER), text.as_bytes())?;
         if self.target.exists() {

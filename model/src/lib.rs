@@ -25,6 +25,7 @@ pub mod cache;
 pub mod coeffs;
 pub mod config;
 pub mod datapath;
+pub mod escape;
 pub mod files;
 pub mod format;
 pub mod interp;

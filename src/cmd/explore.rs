@@ -924,13 +924,16 @@ fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow:
         }
     }
     let dir = staged(a, out)?;
+    // Comment lines: the user's goal and metric names escaped to one line.
     let mut toml = format!(
         "# fxshade explore --optimize: the cheapest widths found ({} = {}) meeting {}\n# uniform baseline: {} bits, {} = {}; saving {:.1} %\n",
-        o.minimize,
+        fxshade_model::escape::line(&o.minimize),
         o.winner.get(&o.minimize).unwrap_or(f64::NAN),
-        o.goals.iter().map(|g| g.to_string()).collect::<Vec<_>>().join(", "),
+        fxshade_model::escape::line(
+            &o.goals.iter().map(|g| g.to_string()).collect::<Vec<_>>().join(", ")
+        ),
         o.baseline_width,
-        o.minimize,
+        fxshade_model::escape::line(&o.minimize),
         o.baseline.get(&o.minimize).unwrap_or(f64::NAN),
         100.0 * o.saving
     );

@@ -812,10 +812,10 @@ pub fn run(a: &ReportArgs) -> anyhow::Result<()> {
     index += "# fxshade report\n\n";
     index += "The same report as an HTML page, with plots and a recommendation: [index.html](index.html).\n\n";
     index += &summary_markdown(&sweeps);
-    index += &format!("Configuration: `{}`", cfg.source);
-    if !cfg.overrides.is_empty() {
-        index += &format!(" with overrides `{}`", cfg.overrides.join("`, `"));
-    }
+    index += &format!(
+        "Configuration: {}",
+        fxshade_model::escape::markdown(&cfg.describe())
+    );
     index += " — full text in [config.toml](config.toml) ([JSON](config.json)).\n\n";
     index += "## Operation counts\n\nMeasured by running each datapath in the counting context \
               ([CSV](ops.csv), [JSON](ops.json)).\n\n```text\n";

@@ -253,11 +253,8 @@ fn md_item(line: &str) -> String {
 /// The page.
 pub fn page(d: &Data) -> String {
     let mut p = Page::default();
-    let mut cfg_line = format!("Configuration: {}", d.cfg.source);
-    if !d.cfg.overrides.is_empty() {
-        cfg_line += &format!(" with overrides {}", d.cfg.overrides.join(", "));
-    }
-    p.p(&cfg_line);
+    // Escaped for HTML by `p`, and to one printable line first.
+    p.p(&format!("Configuration: {}", d.cfg.describe()));
     p.files(&[
         ("config.toml", "config.toml"),
         ("config.json", "config.json"),

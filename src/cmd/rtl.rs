@@ -131,7 +131,7 @@ pub fn run(a: &RtlArgs) -> anyhow::Result<()> {
     ])
     .titled(format!(
         "Verilog emitted from the traced datapaths, configuration {} ({secs:.2} s)",
-        cfg.source
+        cfg.describe()
     ));
     let mut json = Vec::new();
     // Every file is checked before any is written: a file of the user's

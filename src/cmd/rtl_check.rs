@@ -233,7 +233,7 @@ pub fn run(a: &RtlCheckArgs) -> anyhow::Result<()> {
         "rtl-check {} ({}), configuration {}{}",
         u.name,
         stream.design.variant,
-        cfg.source,
+        cfg.describe(),
         match a.shard {
             Some((k, n)) => format!(
                 ", shard {k}/{n}: vectors {}..{}",

@@ -36,9 +36,28 @@ fn the_html_report_renders_in_headless_chromium_with_every_image() {
     let browser = chromium();
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("report");
-    let r = fxshade(&["report", "--out", out.to_str().unwrap()]);
+    // The default configuration, from a path made to inject into the page
+    // (#30.7): it must show escaped.
+    let nasty = dir.path().join("cfg\n<b>x</b> `y` $(z)");
+    std::fs::create_dir_all(&nasty).unwrap();
+    let cfg = nasty.join("default.toml");
+    let shown = fxshade(&["config", "show"]);
+    std::fs::write(&cfg, &shown.stdout).unwrap();
+    let r = fxshade(&[
+        "report",
+        "--config",
+        cfg.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
     assert!(r.status.success(), "{}", text(&r));
     let html = std::fs::read_to_string(out.join("index.html")).unwrap();
+    assert!(
+        !html.contains("<b>x</b>") && html.contains("&lt;b&gt;x&lt;/b&gt;"),
+        "the configuration's path is escaped in the page"
+    );
+    let md = std::fs::read_to_string(out.join("index.md")).unwrap();
+    assert!(md.contains("cfg\\n\\<b\\>x"), "escaped in Markdown: {md}");
 
     // The README's generated section is this report's `found.md`.
     let readme = std::fs::read_to_string(crate::common::repo().join("README.md")).unwrap();

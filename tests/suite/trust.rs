@@ -605,3 +605,164 @@ fn no_file_of_the_users_is_lost() {
     assert!(vectors("1", false).status.success());
     assert!(!stale.exists(), "the dead run's staging directory is left");
 }
+
+/// A directory name holding everything that could end a comment, start a
+/// directive or run a command in a generated file: newlines, `*/`, a
+/// backtick directive, quotes, `$()`, HTML.
+const NASTY: &str =
+    "d\n`define EVIL 1\nmodule evil; endmodule\n*/ \"q\" 'q' $(touch PWNED) <b>x</b> \u{398}";
+
+/// Every generated text file under `dir`: no line that an injected string
+/// could have made live, nothing non-ASCII in Verilog, and every TOML file
+/// parses as a configuration again.
+fn check_generated(dir: &Path, what: &str) {
+    let mut stack = vec![dir.to_path_buf()];
+    let mut n = 0;
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap().flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                stack.push(p);
+                continue;
+            }
+            let Ok(t) = std::fs::read_to_string(&p) else {
+                continue;
+            };
+            n += 1;
+            for l in t.lines() {
+                let l = l.trim_start();
+                assert!(
+                    !l.starts_with("`define EVIL") && !l.starts_with("module evil"),
+                    "{what}: {} has a live injected line: {l}",
+                    p.display()
+                );
+            }
+            let ext = p.extension().map(|x| x.to_string_lossy().into_owned());
+            if ext.as_deref() == Some("html") {
+                assert!(
+                    !t.contains("<b>x</b>"),
+                    "{what}: raw HTML in {}",
+                    p.display()
+                );
+            }
+            match ext.as_deref() {
+                Some("v") => assert!(t.is_ascii(), "{what}: non-ASCII in {}", p.display()),
+                Some("toml") => {
+                    let o = fxshade(&["config", "check", p.to_str().unwrap()]);
+                    assert!(o.status.success(), "{what}: {}: {}", p.display(), text(&o));
+                }
+                _ => {}
+            }
+        }
+    }
+    assert!(n > 0, "{what}: no files under {}", dir.display());
+}
+
+/// #30.7: user strings (a configuration path, a mesh path, a waveform path,
+/// `--set` values) cannot inject into any generated file: they are escaped
+/// for the file's syntax, and control characters in a value are refused.
+#[test]
+fn user_strings_cannot_inject_into_generated_files() {
+    let dir = tempfile::tempdir().unwrap();
+    // (`*/` makes a directory `*` in the path: the slash is a separator.)
+    let nasty = dir.path().join(NASTY);
+    std::fs::create_dir_all(&nasty).unwrap();
+    let cfg = nasty.join("my config.toml");
+    std::fs::write(&cfg, "[normalize]\ntheta = 0.5\n").unwrap();
+    let obj = nasty.join("tri.obj");
+    std::fs::write(
+        &obj,
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nvn 0.1 0 1\nvn 0 0.1 1\nvt 0 0\nvt 1 0\nvt 0 1\n\
+         f 1/1/1 2/2/2 3/3/3\n",
+    )
+    .unwrap();
+    let c = cfg.to_str().unwrap();
+    let out = |n: &str| nasty.join(n).to_str().unwrap().to_string();
+    let runs: Vec<Vec<String>> = vec![
+        vec![
+            "rtl".into(),
+            "all".into(),
+            "--testbench".into(),
+            "--config".into(),
+            c.into(),
+            "--out".into(),
+            out("rtl"),
+        ],
+        vec![
+            "vectors".into(),
+            "normalize".into(),
+            "--count".into(),
+            "200".into(),
+            "--config".into(),
+            c.into(),
+            "--out".into(),
+            out("vec"),
+        ],
+        vec![
+            "render".into(),
+            "--mesh".into(),
+            obj.to_str().unwrap().into(),
+            "--size".into(),
+            "16x16".into(),
+            "--config".into(),
+            c.into(),
+            "--out".into(),
+            out("render"),
+        ],
+        vec![
+            "explore".into(),
+            "--vary".into(),
+            "normalize.theta=0.4,0.5".into(),
+            "--analyses".into(),
+            "normalize".into(),
+            "--samples".into(),
+            "2000".into(),
+            "--config".into(),
+            c.into(),
+            "--no-cache".into(),
+            "--out".into(),
+            out("explore"),
+        ],
+    ];
+    for args in &runs {
+        let a: Vec<&str> = args.iter().map(|s| s.as_str()).collect();
+        let o = fxshade_quick(&a);
+        no_panic(&o);
+        assert!(o.status.success(), "{:?}: {}", a[0], text(&o));
+        check_generated(Path::new(args.last().unwrap()), a[0]);
+    }
+    // The generated Verilog still passes a strict tool (copied to a plain
+    // path: Verilator itself cannot open a file under that directory).
+    let plain = dir.path().join("normalize.v");
+    std::fs::copy(nasty.join("rtl/normalize.v"), &plain).unwrap();
+    let o = Command::new("verilator")
+        .args(["--lint-only", "-Wall"])
+        .arg(&plain)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", text(&o));
+    // A waveform into that directory.
+    let o = fxshade(&[
+        "rtl-check",
+        "normalize",
+        "--count",
+        "200",
+        "--trace",
+        &out("t.fst"),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(nasty.join("t.fst").is_file());
+    // Nothing ran the `$()`.
+    assert!(!Path::new("PWNED").exists() && !dir.path().join("PWNED").exists());
+    // A control character in a value is refused, naming the flag.
+    for set in [
+        "normalize.theta=0.5\n\n",
+        "normalize.method=\"quadratic\r\"",
+        "normalize.theta\n=0.5",
+    ] {
+        let o = fxshade(&["config", "show", "--set", set]);
+        assert_eq!(o.status.code(), Some(2), "{set:?}: {}", text(&o));
+        assert!(text(&o).contains("control character"), "{}", text(&o));
+        assert!(!text(&o).contains('\r'), "the error itself is escaped");
+    }
+}

@@ -4,13 +4,13 @@
 //   fxshade rtl pipeline [--config FILE] [--set KEY=VALUE]... --out DIR
 // Configuration: <default> (hash 3235b7c1c8026d63)
 // Path: smooth
-// Normalizer quadratic with 6 coefficient sets, chosen by sel, a per-triangle value (Θ = [0.0, 0.5, 0.75, 0.875, 0.9375, 0.96875]; codes past the last read set 0)
-//   set 0 (Θ = 0): [1.980072021484375, -1.468780517578125, 0.488800048828125]
-//   set 1 (Θ = 0.5): [1.88824462890625, -1.276611328125, 0.38836669921875]
-//   set 2 (Θ = 0.75): [1.876861572265625, -1.25372314453125, 0.376861572265625]
-//   set 3 (Θ = 0.875): [1.875396728515625, -1.25079345703125, 0.375396728515625]
-//   set 4 (Θ = 0.9375): [1.875152587890625, -1.25030517578125, 0.375152587890625]
-//   set 5 (Θ = 0.96875): [1.875030517578125, -1.25006103515625, 0.375030517578125]
+// Normalizer quadratic with 6 coefficient sets, chosen by sel, a per-triangle value (Theta = [0.0, 0.5, 0.75, 0.875, 0.9375, 0.96875]; codes past the last read set 0)
+//   set 0 (Theta = 0): [1.980072021484375, -1.468780517578125, 0.488800048828125]
+//   set 1 (Theta = 0.5): [1.88824462890625, -1.276611328125, 0.38836669921875]
+//   set 2 (Theta = 0.75): [1.876861572265625, -1.25372314453125, 0.376861572265625]
+//   set 3 (Theta = 0.875): [1.875396728515625, -1.25079345703125, 0.375396728515625]
+//   set 4 (Theta = 0.9375): [1.875152587890625, -1.25030517578125, 0.375152587890625]
+//   set 5 (Theta = 0.96875): [1.875030517578125, -1.25006103515625, 0.375030517578125]
 //
 // Pipelining: compact (a register after every quantization and table read).
 // Latency 15 cycles; one vector per clock. Handshake: valid/ready on

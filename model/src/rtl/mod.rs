@@ -1878,7 +1878,8 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
         d.config_source
     );
     for n in &d.notes {
-        let _ = writeln!(v, "// {n}");
+        // Printable ASCII only (lowRISC): the notes' symbols spelled out.
+        let _ = writeln!(v, "// {}", crate::escape::ascii(n));
     }
     let _ = writeln!(v, "//");
     let predicted_ns = e.timing.map(|(m, _)| e.worst + m.reg);

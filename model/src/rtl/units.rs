@@ -375,9 +375,15 @@ impl Design {
         cfg: &Config,
         notes: Vec<String>,
     ) -> Design {
+        // Printable ASCII only: this goes into generated headers.
         let mut source = cfg.source.clone();
         if !cfg.overrides.is_empty() {
-            source += &format!(", overrides: {}", cfg.overrides.join(" "));
+            let o: Vec<String> = cfg
+                .overrides
+                .iter()
+                .map(|o| crate::escape::line(o))
+                .collect();
+            source += &format!(", overrides: {}", o.join(" "));
         }
         Design {
             module: unit.to_string(),
