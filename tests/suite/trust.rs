@@ -766,3 +766,132 @@ fn user_strings_cannot_inject_into_generated_files() {
         assert!(!text(&o).contains('\r'), "the error itself is escaped");
     }
 }
+
+/// Decode the records of a vector file with the manifest's field layout:
+/// `{zero pad, index[31:0], fields MSB first}`, big endian, each field
+/// sign-extended when its format is signed. Written here from the
+/// manifest's description, not with the writer's code.
+fn decode(
+    bytes: &[u8],
+    layout: &serde_json::Value,
+) -> Vec<std::collections::BTreeMap<String, i128>> {
+    let width = layout["width"].as_u64().unwrap() as usize;
+    let rb = (32 + width).div_ceil(8);
+    assert_eq!(bytes.len() % rb, 0, "whole records");
+    bytes
+        .chunks(rb)
+        .map(|rec| {
+            let bit = |k: usize| (rec[rb - 1 - k / 8] >> (k % 8)) & 1;
+            layout["fields"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|f| {
+                    let (msb, lsb) = (
+                        f["msb"].as_u64().unwrap() as usize,
+                        f["lsb"].as_u64().unwrap() as usize,
+                    );
+                    let mut v: i128 = 0;
+                    for k in (lsb..=msb).rev() {
+                        v = (v << 1) | bit(k) as i128;
+                    }
+                    let w = msb - lsb + 1;
+                    if f["signed"].as_bool().unwrap() && (v >> (w - 1)) & 1 == 1 {
+                        v -= 1i128 << w;
+                    }
+                    (f["name"].as_str().unwrap().to_string(), v)
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// #30.8: every input a vector file holds is the value the model computed
+/// its expected outputs from, for every unit and every accepted
+/// configuration of the ports' formats (a barycentric port that cannot
+/// hold 1.0 among them: its corner rows used to carry 1.0 in the model and
+/// 0 in the file). The expected outputs are computed again here from the
+/// decoded inputs through the model's compiled trace and must be the
+/// file's.
+#[test]
+fn vector_inputs_are_the_values_the_model_used() {
+    use fxshade_model::rtl::units;
+    let mut seed = 0x5eed_u64;
+    let mut next = |n: u64| {
+        seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (seed >> 33) % n
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let mut checked = 0;
+    for k in 0..4 {
+        // Port formats drawn wide and narrow; the first has the issue's
+        // U0F16 barycentrics.
+        let mut sets = vec![if k == 0 {
+            "interp.bary.format=U0F16".to_string()
+        } else {
+            format!("interp.bary.format=U{}F{}", next(2), 8 + next(9))
+        }];
+        sets.push(format!("interp.vertex.format=I2F{}", 8 + next(8)));
+        sets.push(format!("normalize.normal.format=I2F{}", 8 + next(8)));
+        sets.push(format!("lighting.light.format=I2F{}", 8 + next(8)));
+        sets.push(format!("angles.normal.format=I2F{}", 8 + next(8)));
+        let mut check = vec!["config", "check", "/dev/null"];
+        for s in &sets {
+            check.extend(["--set", s.as_str()]);
+        }
+        if !fxshade(&check).status.success() {
+            continue;
+        }
+        for u in units::all() {
+            for (variant, vset) in u.variants.iter().take(if k == 0 { 9 } else { 1 }) {
+                let out = dir.path().join(format!("{k}-{}-{variant}", u.name));
+                let mut a = vec!["vectors", u.name, "--count", "400", "--no-hex"];
+                for s in &sets {
+                    a.extend(["--set", s.as_str()]);
+                }
+                a.extend(crate::common::sets(vset));
+                a.extend(["--out", out.to_str().unwrap()]);
+                let o = fxshade_quick(&a);
+                assert!(o.status.success(), "{a:?}: {}", text(&o));
+                let m: serde_json::Value =
+                    serde_json::from_slice(&std::fs::read(out.join("manifest.json")).unwrap())
+                        .unwrap();
+                let ins = decode(
+                    &std::fs::read(out.join("inputs.bin")).unwrap(),
+                    &m["inputs"],
+                );
+                let exp = decode(
+                    &std::fs::read(out.join("expected.bin")).unwrap(),
+                    &m["expected"],
+                );
+                // The model, on the decoded inputs.
+                let mut all: Vec<String> = sets.clone();
+                all.extend(units::overrides(vset).map(str::to_string));
+                let cfg = fxshade_model::Config::resolve(None, &all).unwrap();
+                let d = (u.design)(&cfg).unwrap();
+                let ports = d.trace.input_ports();
+                let cols: Vec<Vec<i128>> = ports
+                    .iter()
+                    .map(|p| ins.iter().map(|r| r[&p.name]).collect())
+                    .collect();
+                let refs: Vec<&[i128]> = cols.iter().map(|c| c.as_slice()).collect();
+                let outs: Vec<_> = d.trace.output_ports().iter().map(|p| p.value).collect();
+                let prog = fxshade_model::datapath::Compiled::compile(&d.trace, &outs).unwrap();
+                let (got, _) = prog.run_i128(&refs);
+                for (j, p) in d.trace.output_ports().iter().enumerate() {
+                    for (i, e) in exp.iter().enumerate() {
+                        assert_eq!(
+                            got[j][i], e[&p.name],
+                            "{} {variant} {sets:?}: vector {i}, output {}: the file's inputs are not the model's",
+                            u.name, p.name
+                        );
+                    }
+                }
+                checked += 1;
+            }
+        }
+    }
+    assert!(checked >= 15, "{checked} sets checked");
+}

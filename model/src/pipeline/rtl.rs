@@ -128,7 +128,12 @@ pub fn angle_inputs(
     let p = Pipeline::with_method(cfg, Method::None)?;
     let (fb, fa, fd) = (p.interp.bary.format(), p.angle.format(), p.delta.format());
     let mut rows = Vec::new();
-    for c in [0, fb.max_code(), 1 << fb.frac().max(0)] {
+    // 0, the largest code, and 1.0 where the port holds it.
+    for c in [
+        0,
+        fb.max_code(),
+        (1i128 << fb.frac().max(0)).min(fb.max_code()),
+    ] {
         for a in [0, fa.max_code()] {
             for d in [fd.min_code(), 0, fd.max_code()] {
                 rows.push(vec![c, c, a, d, d]);

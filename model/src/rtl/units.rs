@@ -9,6 +9,7 @@
 
 use super::{emit, Design, Emitted};
 use crate::config::Config;
+use crate::format::Format;
 use crate::vectors::{RtlError, RtlSources, VectorSet, VectorSource as _};
 
 /// Which input rows a unit's generator makes.
@@ -143,13 +144,19 @@ pub fn corner_rows(
     cfg: &Config,
     seed: u64,
 ) -> Result<Vec<Vec<i128>>, RtlError> {
-    let mut rows = (u.inputs)(cfg, Part::Corners, seed)?;
+    let formats: Vec<_> = d.trace.input_ports().iter().map(|p| p.format).collect();
+    let mut rows = unit_inputs(u, cfg, Part::Corners, seed, &formats)?;
     // Half the pool from the unit's own distribution, half codes over every
     // input's whole range with random trailing zeros (rounding ties and
     // overflows live there).
-    let mut pool = (u.inputs)(cfg, Part::Random(MUTANT_POOL / 2), seed ^ 0x6d75_7461_6e74)?;
+    let mut pool = unit_inputs(
+        u,
+        cfg,
+        Part::Random(MUTANT_POOL / 2),
+        seed ^ 0x6d75_7461_6e74,
+        &formats,
+    )?;
     let mut rng = crate::sampling::Rng::new(seed ^ 0x7469_6573);
-    let formats: Vec<_> = d.trace.input_ports().iter().map(|p| p.format).collect();
     for _ in 0..MUTANT_POOL / 2 {
         pool.push(
             formats
@@ -283,8 +290,40 @@ fn write_corner_cache(key: u64, rows: &[Vec<i128>]) -> Result<(), RtlError> {
     }
 }
 
+/// A unit's input rows (`u.inputs`), every code made one its port can
+/// hold: a corner case a port cannot hold (a barycentric 1.0 on a `U0F16`
+/// port) becomes the nearest code it can, so the vector files, the RTL and
+/// the model all see the same value. A row of the wrong length is an error.
+pub fn unit_inputs(
+    u: &RtlUnit,
+    cfg: &Config,
+    part: Part,
+    seed: u64,
+    formats: &[Format],
+) -> Result<Vec<Vec<i128>>, RtlError> {
+    let mut rows = (u.inputs)(cfg, part, seed)?;
+    for (i, r) in rows.iter_mut().enumerate() {
+        if r.len() != formats.len() {
+            return Err(RtlError::Stage {
+                unit: u.name,
+                stage: "inputs",
+                why: format!(
+                    "row {i} has {} codes for {} input ports",
+                    r.len(),
+                    formats.len()
+                ),
+            });
+        }
+        for (c, f) in r.iter_mut().zip(formats) {
+            *c = (*c).clamp(f.min_code(), f.max_code());
+        }
+    }
+    Ok(rows)
+}
+
 /// Rows `[start, start + len)` of the stream whose first `corners.len()`
-/// rows are `corners` and whose rest are random chunks.
+/// rows are `corners` and whose rest are random chunks (codes of
+/// `formats`, [`unit_inputs`]).
 pub fn stream_rows(
     u: &RtlUnit,
     cfg: &Config,
@@ -292,6 +331,7 @@ pub fn stream_rows(
     seed: u64,
     start: usize,
     len: usize,
+    formats: &[Format],
 ) -> Result<Vec<Vec<i128>>, RtlError> {
     let mut out = Vec::with_capacity(len);
     let end = start + len;
@@ -303,7 +343,13 @@ pub fn stream_rows(
     while i < end {
         let r = i - corners.len();
         let c = r / RANDOM_CHUNK;
-        let mut chunk = (u.inputs)(cfg, Part::Random(RANDOM_CHUNK), chunk_seed(seed, c as u64))?;
+        let mut chunk = unit_inputs(
+            u,
+            cfg,
+            Part::Random(RANDOM_CHUNK),
+            chunk_seed(seed, c as u64),
+            formats,
+        )?;
         let from = r % RANDOM_CHUNK;
         let take = (RANDOM_CHUNK - from).min(end - i);
         out.extend(chunk.drain(from..from + take));
@@ -592,6 +638,13 @@ impl crate::vectors::VectorSource for VectorStream {
             self.seed,
             self.first + start,
             len,
+            &self
+                .design
+                .trace
+                .input_ports()
+                .iter()
+                .map(|p| p.format)
+                .collect::<Vec<_>>(),
         )?;
         let out = expected_rows(
             &self.prog,
