@@ -68,7 +68,7 @@ pub enum CoeffError {
     Degree(usize),
     /// The fit came out non-finite (the interval spans too many orders of
     /// magnitude for f64 to represent its polynomial).
-    #[error("the fit on [{lo}, {hi}] is not finite (coefficients {coeffs:?}): the interval spans too many orders of magnitude; keep hi/lo within 1e6")]
+    #[error("the fit on [{lo}, {hi}] is not finite (coefficients {coeffs:?}): the interval spans too many orders of magnitude for f64; keep hi/lo within 1e6")]
     NotFinite {
         /// Lower end.
         lo: f64,
@@ -139,8 +139,36 @@ pub fn design(fit: Fit, lo: f64, hi: f64, degree: usize) -> Result<Poly, CoeffEr
     r
 }
 
+/// Intervals narrower than this, relative to their upper end, are fitted by
+/// the Taylor polynomial at their midpoint ([`taylor_at`]): there every
+/// fit degenerates (their linear systems lose all precision) while the
+/// Taylor polynomial's error, `O((width/mid)^(degree+1))`, is below f64's
+/// resolution.
+pub const NARROW: f64 = 1e-6;
+
+/// The Taylor polynomial of `1/√d` of `degree` at `m`, in monomials:
+/// `m^(−1/2)·(1 − t/2 + 3t²/8)` with `t = (d − m)/m`, the quadratic term
+/// for degree 2.
+pub fn taylor_at(m: f64, degree: usize) -> Poly {
+    let a0 = 1.0 / m.sqrt();
+    let a1 = -0.5 * a0 / m;
+    let a2 = if degree >= 2 {
+        0.375 * a0 / (m * m)
+    } else {
+        0.0
+    };
+    let mut c = vec![a0 - a1 * m + a2 * m * m, a1 - 2.0 * a2 * m];
+    if degree >= 2 {
+        c.push(a2);
+    }
+    Poly(c)
+}
+
 fn design_uncached(fit: Fit, lo: f64, hi: f64, degree: usize) -> Result<Poly, CoeffError> {
     check(lo, hi, degree)?;
+    if hi - lo < NARROW * hi {
+        return Ok(taylor_at((lo + hi) / 2.0, degree));
+    }
     let p = match fit {
         Fit::Nodes => chebyshev_nodes(lo, hi, degree),
         Fit::Series => chebyshev_series(lo, hi, degree),

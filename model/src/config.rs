@@ -915,15 +915,38 @@ pub fn field_error(cfg: &UnitConfig, field: &str, msg: String) -> ConfigError {
             msg,
         },
         // A step of the datapath that is not a configuration key (an integer
-        // literal, say): name the section, where the first field stands.
-        None => ConfigError::BadValue {
-            at: cfg
-                .values
-                .first()
-                .map(|(_, o)| o.clone())
-                .unwrap_or(Origin::Flag(String::new())),
-            key: cfg.decl.name.to_string(),
-            msg,
-        },
+        // literal, say): the embedded default is valid, so a value given
+        // by a flag is the likeliest cause (the last one), then a value of
+        // the file; else the section, where its first field stands.
+        None => {
+            let given = |flag: bool| {
+                cfg.decl
+                    .fields
+                    .iter()
+                    .zip(&cfg.values)
+                    .rev()
+                    .find(|(_, (_, o))| match o {
+                        Origin::Flag(_) => flag,
+                        Origin::File { path, .. } => !flag && &**path != "<default>",
+                    })
+                    .map(|(f, (_, o))| (f.name, o.clone()))
+            };
+            match given(true).or_else(|| given(false)) {
+                Some((name, at)) => ConfigError::BadValue {
+                    at,
+                    key: format!("{}.{name}", cfg.decl.name),
+                    msg,
+                },
+                None => ConfigError::BadValue {
+                    at: cfg
+                        .values
+                        .first()
+                        .map(|(_, o)| o.clone())
+                        .unwrap_or(Origin::Flag(String::new())),
+                    key: cfg.decl.name.to_string(),
+                    msg,
+                },
+            }
+        }
     }
 }

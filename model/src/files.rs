@@ -394,7 +394,15 @@ impl StagedDir {
         Self::open(target, true)
     }
 
-    fn open(target: &Path, force: bool) -> Result<Self, WriteError> {
+    /// Whether [`StagedDir::new`] (`force`: [`StagedDir::new_forced`])
+    /// would accept `target`, without creating anything: for commands
+    /// that check their output before long work.
+    pub fn check(target: &Path, force: bool) -> Result<(), WriteError> {
+        Self::checked_parent(target, force).map(|_| ())
+    }
+
+    /// The checks of [`StagedDir::open`]; the parent directory.
+    fn checked_parent(target: &Path, force: bool) -> Result<&Path, WriteError> {
         let parent = target
             .parent()
             .filter(|p| !p.as_os_str().is_empty())
@@ -431,6 +439,11 @@ impl StagedDir {
                 });
             }
         }
+        Ok(parent)
+    }
+
+    fn open(target: &Path, force: bool) -> Result<Self, WriteError> {
+        let parent = Self::checked_parent(target, force)?;
         let name = target
             .file_name()
             .map(|n| n.to_string_lossy().into_owned())

@@ -188,6 +188,17 @@ pub enum ObjError {
     },
 }
 
+/// A line of the file as an error shows it: escaped to printable ASCII
+/// and at most 80 characters.
+fn shown(line: &str) -> String {
+    let s = crate::escape::line(line.trim());
+    if s.chars().count() > 80 {
+        s.chars().take(77).collect::<String>() + "..."
+    } else {
+        s
+    }
+}
+
 /// A reader that counts the lines its consumer has taken, so a parse error
 /// can name the line it happened on.
 struct LineCounter<R> {
@@ -259,7 +270,7 @@ fn prescan_obj(path: &str, text: &str) -> Result<Vec<usize>, ObjError> {
             path: path.to_string(),
             line,
             what,
-            text: raw.trim().to_string(),
+            text: shown(raw),
         };
         let mut tok = raw.split_whitespace();
         let Some(kw) = tok.next() else { continue };
@@ -337,11 +348,38 @@ fn prescan_obj(path: &str, text: &str) -> Result<Vec<usize>, ObjError> {
 /// projection about the bounding-box centre. Errors name the file, and for
 /// a parse error the line and its text.
 pub fn load_obj(path: &std::path::Path) -> Result<Mesh, ObjError> {
-    let name = path.display().to_string();
+    let name = crate::escape::line(&path.display().to_string());
+    // A regular file only (a device such as /dev/zero never ends).
+    let meta = std::fs::metadata(path).map_err(|source| ObjError::Read {
+        path: name.clone(),
+        source,
+    })?;
+    if !meta.is_file() {
+        return Err(ObjError::Content {
+            path: name,
+            why: "not a regular file".into(),
+        });
+    }
     let bytes = std::fs::read(path).map_err(|source| ObjError::Read {
         path: name.clone(),
         source,
     })?;
+    // An OBJ is text: a binary file is named, not printed.
+    if let Some(at) = bytes.iter().position(|&b| b == 0) {
+        return Err(ObjError::Content {
+            path: name,
+            why: format!("not a text OBJ file (byte {at} is NUL)"),
+        });
+    }
+    if let Err(e) = std::str::from_utf8(&bytes) {
+        return Err(ObjError::Content {
+            path: name,
+            why: format!(
+                "not a text OBJ file (byte {} is not UTF-8)",
+                e.valid_up_to()
+            ),
+        });
+    }
     let face_lines = prescan_obj(&name, &String::from_utf8_lossy(&bytes))?;
     let mut rd = LineCounter {
         inner: std::io::BufReader::new(&bytes[..]),
@@ -364,7 +402,7 @@ pub fn load_obj(path: &std::path::Path) -> Result<Mesh, ObjError> {
                 path: name.clone(),
                 line,
                 what: e.to_string(),
-                text: lines.get(line - 1).unwrap_or(&"").trim().to_string(),
+                text: shown(lines.get(line - 1).unwrap_or(&"")),
             }
         })?;
     let mut m = Mesh::default();

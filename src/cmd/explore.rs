@@ -102,7 +102,7 @@ pub struct ExploreArgs {
     synth: Option<super::synth::Target>,
     /// The module `--synth` synthesizes: a unit, or `pipeline` (the top of
     /// the configured path, the default).
-    #[arg(long, value_name = "UNIT", default_value = "pipeline")]
+    #[arg(long, value_name = "UNIT", default_value = "pipeline", value_parser = super::unit_arg(&[]))]
     synth_unit: String,
     /// Print every metric and width group, and exit.
     #[arg(long)]
@@ -330,10 +330,18 @@ fn plan(a: &ExploreArgs) -> anyhow::Result<Plan> {
     }
     check_disjoint(&axes)?;
     let (goals, mut pareto, minimize) = targets(a, &file)?;
-    let mut meshes: Vec<String> = given(&file.mesh, &a.mesh, "--mesh")
-        .into_iter()
-        .map(|(m, _)| m)
-        .collect();
+    let given_meshes = given(&file.mesh, &a.mesh, "--mesh");
+    // Each mesh is checked here, named by where it was given.
+    for (m, at) in &given_meshes {
+        let procedural = m.starts_with("sphere:") || m.starts_with("torus:");
+        if !(procedural || std::path::Path::new(m).is_file()) {
+            return Err(UsageError(format!(
+                "{at}: mesh `{m}`: no such file; give sphere:N, torus:N or an .obj file"
+            ))
+            .into());
+        }
+    }
+    let mut meshes: Vec<String> = given_meshes.into_iter().map(|(m, _)| m).collect();
     let asked = given(&file.analyses, &a.analyses, "--analyses");
     for (x, at) in &asked {
         if !eval::ANALYSES.contains(&x.as_str()) {
@@ -441,8 +449,14 @@ fn plan(a: &ExploreArgs) -> anyhow::Result<Plan> {
 
 /// The sweep's identity: shards of one sweep share it.
 fn sweep_id(p: &Plan, total: usize) -> String {
+    sweep_id_of(&p.base, &p.axes, &p.options, total)
+}
+
+/// The fingerprint of a sweep: its base, its axes with their values, its
+/// options and its size.
+fn sweep_id_of(base: &Base, axes: &[sweep::Axis], options: &Options, total: usize) -> String {
     let j = serde_json::json!({
-        "base": p.base, "axes": p.axes, "options": p.options, "total": total,
+        "base": base, "axes": axes, "options": options, "total": total,
     });
     format!(
         "{:016x}",
@@ -457,6 +471,10 @@ struct Results {
     total: usize,
     shard: Option<(usize, usize)>,
     axes: Vec<String>,
+    /// The axes with their values (what `--merge` checks each row
+    /// against).
+    #[serde(default)]
+    sweep: Vec<sweep::Axis>,
     base: Base,
     options: Options,
     pareto_metrics: Vec<(String, String)>,
@@ -519,10 +537,24 @@ pub fn run(a: &ExploreArgs) -> anyhow::Result<()> {
     if !a.merge.is_empty() {
         return merge(a);
     }
-    let p = plan(a)?;
+    // Everything the plan reads (the sweep file, the configuration, the
+    // meshes it names) is input: a problem with it is a usage error
+    // (status 2), whatever its cause.
+    let p = plan(a).map_err(|e| {
+        if e.downcast_ref::<UsageError>().is_some()
+            || e.downcast_ref::<fxshade_model::config::ConfigErrors>()
+                .is_some()
+        {
+            e
+        } else {
+            usage(e)
+        }
+    })?;
     let Some(out) = &a.out else {
         return Err(UsageError("--out DIR: where to write the results".into()).into());
     };
+    // The output directory is checked before any point is measured.
+    StagedDir::check(out, a.force).map_err(|e| UsageError(format!("--out: {e}")))?;
     if a.optimize {
         return run_optimize(a, &p, &cache, out);
     }
@@ -532,7 +564,7 @@ pub fn run(a: &ExploreArgs) -> anyhow::Result<()> {
         Some((k, n)) => points.into_iter().filter(|x| x.index % n == k).collect(),
         None => points,
     };
-    let meshes = explore::load_meshes(&p.options)?;
+    let meshes = explore::load_meshes(&p.options).map_err(usage)?;
     let bar = crate::progress::bar_eta(mine.len() as u64, "explore");
     let rows = explore::measure(&p.base, &mine, &p.options, &meshes, &cache, &|| bar.inc(1));
     bar.finish_and_clear();
@@ -541,6 +573,7 @@ pub fn run(a: &ExploreArgs) -> anyhow::Result<()> {
         total,
         shard: a.shard,
         axes: p.axes.iter().map(|x| x.key.clone()).collect(),
+        sweep: p.axes.clone(),
         base: p.base.clone(),
         options: p.options.clone(),
         pareto_metrics: p.pareto.clone(),
@@ -823,6 +856,35 @@ fn merge(a: &ExploreArgs) -> anyhow::Result<()> {
                 f0.display(),
                 f.display()
             );
+        }
+        // The sweep a shard names is the one its fingerprint says, and
+        // every row is the point its index names in it.
+        if r.sweep.is_empty() && r.total > 1 {
+            bail!(
+                "{}: written by an older fxshade without the sweep's values: measure it again",
+                f.display()
+            );
+        }
+        if sweep_id_of(&r.base, &r.sweep, &r.options, r.total) != r.sweep_id {
+            bail!(
+                "{}: its sweep does not match its fingerprint (edited?)",
+                f.display()
+            );
+        }
+        let points = sweep::points(&r.sweep)?;
+        for row in &r.rows {
+            let ok = points
+                .get(row.index)
+                .is_some_and(|p| p.labels == row.labels && p.overrides == row.overrides);
+            if !ok {
+                bail!(
+                    "{}: row {} ({}) is not point {} of the sweep",
+                    f.display(),
+                    row.index,
+                    label(row),
+                    row.index
+                );
+            }
         }
     }
     super::merge::check_shards(

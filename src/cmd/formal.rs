@@ -26,8 +26,9 @@ use crate::output::{emit, OutputArgs, Table, UsageError};
 /// `fxshade formal`
 #[derive(Args, Debug)]
 pub struct FormalArgs {
-    /// The unit (`fxshade rtl list`), or `all`: every module `fxshade rtl
-    /// all` writes (every unit and the pipeline top of every path).
+    /// The unit, or `all`: every module `fxshade rtl all` writes (every
+    /// unit and the pipeline top of every path).
+    #[arg(value_parser = super::unit_arg(&["all"]))]
     unit: String,
     #[command(flatten)]
     cfg: ConfigArgs,

@@ -26,6 +26,17 @@ use std::path::PathBuf;
 use clap::Args;
 use fxshade_model::config::{Config, ConfigErrors};
 
+/// The unit names of the registry ([`fxshade_model::rtl::units::all`]),
+/// and `extra` words, as a flag's possible values: `--help` lists them and
+/// a wrong name is refused with them, so a new unit appears everywhere.
+pub fn unit_arg(extra: &'static [&'static str]) -> clap::builder::PossibleValuesParser {
+    let mut v: Vec<clap::builder::PossibleValue> = fxshade_model::rtl::units::all()
+        .map(|u| clap::builder::PossibleValue::new(u.name).help(u.doc))
+        .collect();
+    v.extend(extra.iter().map(|e| clap::builder::PossibleValue::new(*e)));
+    clap::builder::PossibleValuesParser::new(v)
+}
+
 /// A finite number for a flag (clap names the flag when this refuses one:
 /// `nan` and `inf` parse as `f64` but mean nothing to any flag).
 pub fn finite_f64(s: &str) -> Result<f64, String> {

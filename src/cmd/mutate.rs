@@ -18,6 +18,7 @@ use crate::rtl_flow::{self, Sim};
 #[derive(Args, Debug)]
 pub struct MutateArgs {
     /// The unit, or `all`.
+    #[arg(value_parser = super::unit_arg(&["all"]))]
     unit: String,
     #[command(flatten)]
     cfg: ConfigArgs,
@@ -37,16 +38,19 @@ pub struct MutateArgs {
     /// prove it equivalent or find an input that kills it.
     #[arg(long, default_value_t = 20_000)]
     box_budget: usize,
-    /// Seconds each branch and bound may take to prove a surviving mutant
+    /// Boxes each branch and bound may examine to prove a surviving mutant
     /// equivalent, before z3: over the supports of its quantizer, over the
-    /// input codes, over an earlier layer of quantizations.
-    #[arg(long, default_value_t = 20)]
-    proof_seconds: u32,
-    /// Seconds z3 may take per surviving mutant (the bit-vector query "does
-    /// any input meet the event that changes it"; skipped when z3 is not
-    /// installed).
-    #[arg(long, default_value_t = 20)]
-    smt_seconds: u32,
+    /// input codes, over an earlier layer of quantizations (a count, not a
+    /// time, so the score is the same on any machine at any load: 2^24
+    /// boxes take 15-35 s here).
+    #[arg(long, default_value_t = 1 << 24)]
+    proof_boxes: u64,
+    /// z3's resource limit per surviving mutant (its `rlimit`: a count of
+    /// internal steps, deterministic where a time limit is not), for the
+    /// bit-vector query "does any input meet the event that changes it";
+    /// skipped when z3 is not installed.
+    #[arg(long, default_value_t = SMT_RLIMIT)]
+    smt_rlimit: u64,
     /// Also ask z3 and the support branch and bound about every killed
     /// mutant, and fail if either claims one equivalent, or z3 returns an
     /// input the model's own probe says misses the event: a check of the
@@ -98,6 +102,11 @@ pub struct VariantResult {
     pub seconds: f64,
 }
 
+/// z3's default resource limit per query ([`MutateArgs::smt_rlimit`]):
+/// about 18 s of z3 4.8.12 here (3.3 M units a second on the lighting
+/// level's tie, which needs 33 s), the 20 s it replaces.
+pub const SMT_RLIMIT: u64 = 60_000_000;
+
 /// Whether the missing-z3 warning was printed.
 static WARNED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
 
@@ -113,11 +122,12 @@ enum Smt {
     Missing,
 }
 
-/// A branch and bound that proves a mutant equivalent by its deadline.
+/// A branch and bound that proves a mutant equivalent within its box
+/// budget.
 type Proof = fn(
     &rtl::Design,
     &fxshade_model::datapath::Mutation,
-    std::time::Instant,
+    u64,
 ) -> Result<bool, fxshade_model::vectors::RtlError>;
 
 /// The branch and bound proofs tried on a survivor, in order: the proof,
@@ -146,7 +156,7 @@ const PROOFS: [(Proof, &str, &str); 4] = [
 ];
 
 /// Ask z3 (if installed) whether any input meets the event of `m`.
-fn smt(d: &rtl::Design, m: &fxshade_model::datapath::Mutation, seconds: u32) -> Smt {
+fn smt(d: &rtl::Design, m: &fxshade_model::datapath::Mutation, rlimit: u64) -> Smt {
     let Some(script) = d.trace.smt_event(m) else {
         return Smt::Unknown;
     };
@@ -161,7 +171,7 @@ fn smt(d: &rtl::Design, m: &fxshade_model::datapath::Mutation, seconds: u32) -> 
         return Smt::Missing;
     }
     let Ok(out) = crate::proc::run(
-        std::process::Command::new("z3").args(["-in", "-smt2", &format!("-T:{seconds}")]),
+        std::process::Command::new("z3").args(["-in", "-smt2", &format!("rlimit={rlimit}")]),
         "z3",
         crate::proc::Limit::formal(),
         Some(script.as_bytes()),
@@ -263,7 +273,7 @@ fn run_variant(
             }
         );
         if a.smt_audit {
-            match smt(&d, m, a.smt_seconds) {
+            match smt(&d, m, a.smt_rlimit) {
                 Smt::Unsat => anyhow::ensure!(
                     !killed,
                     "{} ({variant}) mutant {k} ({m}): z3 says no input meets its event, yet the vectors kill it: the encoding is wrong",
@@ -294,13 +304,12 @@ fn run_variant(
                 search::CutOutcome::NoCut => {}
             }
         }
-        let deadline =
-            || std::time::Instant::now() + std::time::Duration::from_secs(a.proof_seconds.into());
+        let budget = || a.proof_boxes;
         if a.smt_audit && killed {
             // The proofs are checked too: none may claim a killed mutant.
             for (proof, name, _) in PROOFS {
                 anyhow::ensure!(
-                    !proof(&d, m, deadline())?,
+                    !proof(&d, m, budget())?,
                     "{} ({variant}) mutant {k} ({m}): the {name} branch and bound proves it equivalent, yet the vectors kill it",
                     u.name
                 );
@@ -310,14 +319,14 @@ fn run_variant(
             // A survivor: prove it equivalent, or search every input box
             // for one that kills it.
             for (proof, _, why) in PROOFS {
-                if proof(&d, m, deadline())? {
+                if proof(&d, m, budget())? {
                     equivalent = Some(why);
                     break;
                 }
             }
         }
         if !killed && equivalent.is_none() {
-            match smt(&d, m, a.smt_seconds) {
+            match smt(&d, m, a.smt_rlimit) {
                 Smt::Unsat => {
                     equivalent = Some(
                         "equivalent: z3 proves no input meets the event that changes it (bit-vector encoding of the trace)",

@@ -15,10 +15,10 @@ use crate::output::{emit, OutputArgs, Table};
 /// `fxshade rtl`
 #[derive(Args, Debug)]
 pub struct RtlArgs {
-    /// The unit (interp, normalize, polar, lighting, angle_interp,
-    /// pipeline); `all`: every unit, and the pipeline top of both paths
+    /// The unit; `all`: every unit, and the pipeline top of every path
     /// (what `rtl/` holds for the default configuration); `list`: the units
     /// with RTL and their variants (nothing is written).
+    #[arg(value_parser = super::unit_arg(&["all", "list"]))]
     unit: String,
     #[command(flatten)]
     cfg: ConfigArgs,

@@ -13,7 +13,8 @@ use crate::rtl_flow::{self, CheckResult, Sim};
 /// `fxshade rtl-check`
 #[derive(Args, Debug)]
 pub struct RtlCheckArgs {
-    /// The unit (interp, normalize, polar, lighting, angle_interp, pipeline).
+    /// The unit.
+    #[arg(value_parser = super::unit_arg(&[]))]
     unit: String,
     #[command(flatten)]
     cfg: ConfigArgs,

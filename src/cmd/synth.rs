@@ -106,10 +106,10 @@ impl Target {
 /// `fxshade synth`
 #[derive(Args, Debug)]
 pub struct SynthArgs {
-    /// Unit (`fxshade rtl list`); the pipeline top of the configured path
-    /// for `pipeline`; `calibrate`: the delay model's probes (one operation
-    /// between two registers each), measured against the model's
-    /// prediction.
+    /// Unit; the pipeline top of the configured path for `pipeline`;
+    /// `calibrate`: the delay model's probes (one operation between two
+    /// registers each), measured against the model's prediction.
+    #[arg(value_parser = super::unit_arg(&["calibrate"]))]
     unit: String,
     /// Target.
     #[arg(long, value_enum, default_value = "generic")]

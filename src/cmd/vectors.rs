@@ -14,7 +14,8 @@ use super::ConfigArgs;
 /// `fxshade vectors`
 #[derive(Args, Debug)]
 pub struct VectorsArgs {
-    /// The unit (interp, normalize, polar, lighting, angle_interp, pipeline).
+    /// The unit.
+    #[arg(value_parser = super::unit_arg(&[]))]
     unit: String,
     #[command(flatten)]
     cfg: ConfigArgs,

@@ -16,7 +16,7 @@ use fxshade_model::Config;
 pub const MAX_POINTS: usize = 100_000;
 
 /// One value of an axis: its label and the overrides it applies.
-#[derive(Clone, Debug, serde::Serialize)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct AxisValue {
     /// As printed (`U1F15`, `12`, `quadratic`).
     pub label: String,
@@ -25,7 +25,7 @@ pub struct AxisValue {
 }
 
 /// One swept key.
-#[derive(Clone, Debug, serde::Serialize)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct Axis {
     /// The key as given (`normalize.d.format`, `width.normals`).
     pub key: String,

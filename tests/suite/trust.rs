@@ -895,3 +895,255 @@ fn vector_inputs_are_the_values_the_model_used() {
     }
     assert!(checked >= 15, "{checked} sets checked");
 }
+
+/// #30.10: no result depends on the clock. The model crate (every
+/// analysis, search, proof and vector generator) reads no clock at all:
+/// its budgets are counts, so the same configuration and seed give the
+/// same vectors, proofs and scores on any machine at any load; and an
+/// exploration measured twice gives the same metrics to the last digit.
+#[test]
+fn no_result_depends_on_the_clock() {
+    let mut stack = vec![repo().join("model/src")];
+    let mut files = 0;
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap().flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                stack.push(p);
+            } else if p.extension().is_some_and(|x| x == "rs") {
+                files += 1;
+                let t = std::fs::read_to_string(&p).unwrap();
+                for bad in ["Instant", "SystemTime::now", ".elapsed()"] {
+                    assert!(
+                        !t.contains(bad),
+                        "{} reads the clock ({bad}): a budget must be a count",
+                        p.display()
+                    );
+                }
+            }
+        }
+    }
+    assert!(files > 30);
+    let dir = tempfile::tempdir().unwrap();
+    let run = |n: &str| {
+        let out = dir.path().join(n);
+        let o = fxshade(&[
+            "explore",
+            "--vary",
+            "normalize.theta=0.4,0.5",
+            "--mesh",
+            "sphere:12",
+            "--mesh",
+            "torus:12",
+            "--no-cache",
+            "--jobs",
+            "2",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", text(&o));
+        let j: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(out.join("explore.json")).unwrap()).unwrap();
+        j["rows"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|r| r["metrics"].to_string())
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(run("a"), run("b"), "the same sweep measured twice differs");
+}
+
+/// #30.9 and #30.11: errors name the flag or the file and the key that
+/// caused them, every input is checked before work, bad inputs exit 2 with
+/// one clear reason, and a command says which configuration it ran.
+#[test]
+fn errors_name_their_cause() {
+    let dir = tempfile::tempdir().unwrap();
+    let err = |args: &[&str], code: i32, want: &[&str]| {
+        let o = fxshade(args);
+        no_panic(&o);
+        assert_eq!(o.status.code(), Some(code), "{args:?}: {}", text(&o));
+        for w in want {
+            assert!(text(&o).contains(w), "{args:?}: no `{w}` in: {}", text(&o));
+        }
+        text(&o)
+    };
+    // The flag and the key at fault, not the embedded default's lines.
+    let t = err(
+        &["config", "show", "--set", "polar.index.overflow=saturate"],
+        2,
+        &["--set polar.index.overflow=saturate", "`polar.index`"],
+    );
+    assert!(!t.contains("<default>") && !t.contains("table_bits"), "{t}");
+    let t = err(
+        &["config", "show", "--set", "normalize.d.format=U0F60"],
+        2,
+        &["--set normalize.d.format=U0F60", "`normalize.d`"],
+    );
+    assert!(!t.contains("<default>"), "{t}");
+    // A Θ config check accepts works everywhere (its d interval is too
+    // narrow for a Remez exchange; the Taylor polynomial serves).
+    let cfg = dir.path().join("t.toml");
+    std::fs::write(&cfg, "[normalize]\ntheta = 0.9995\n").unwrap();
+    err(&["config", "check", cfg.to_str().unwrap()], 0, &["ok"]);
+    for cmd in [
+        &["error", "interp", "--count", "2000"][..],
+        &["error", "normalize", "--count", "2000"][..],
+        &["error", "polar", "--count", "2000"][..],
+    ] {
+        let mut a = cmd.to_vec();
+        a.extend(["--config", cfg.to_str().unwrap()]);
+        err(&a, 0, &[]);
+    }
+    // One reason, once.
+    let t = err(
+        &["config", "check", dir.path().to_str().unwrap()],
+        2,
+        &["is a directory"],
+    );
+    assert_eq!(t.matches("irectory").count(), 1, "{t}");
+    // --readme is checked before the report's minutes of work.
+    let readme = dir.path().join("R.md");
+    std::fs::write(&readme, "no markers here\n").unwrap();
+    let rep = dir.path().join("rep");
+    err(
+        &[
+            "report",
+            "--readme",
+            readme.to_str().unwrap(),
+            "--out",
+            rep.to_str().unwrap(),
+        ],
+        2,
+        &["--readme", "BEGIN found"],
+    );
+    assert!(!rep.exists());
+    // explore's --out is checked before any point is measured.
+    let mine = dir.path().join("mine");
+    std::fs::create_dir(&mine).unwrap();
+    std::fs::write(mine.join("notes.txt"), b"mine").unwrap();
+    err(
+        &[
+            "explore",
+            "--vary",
+            "normalize.theta=0.4,0.5",
+            "--out",
+            mine.to_str().unwrap(),
+        ],
+        2,
+        &["--out", "not written by fxshade"],
+    );
+    // A bad sweep file exits 2 whatever the cause.
+    for (body, want) in [
+        (
+            "vary = [\"normalize.theta=0.4,0.5\"]\nbogus = 1\n",
+            "unknown key",
+        ),
+        ("vary = [\n", "s.toml:2"),
+        ("mesh = [\"/no/such.obj\"]\n", "no such file"),
+        ("set = [\"normalize.theta=7\"]\n", "normalize.theta"),
+    ] {
+        let f = dir.path().join("s.toml");
+        std::fs::write(&f, body).unwrap();
+        err(
+            &[
+                "explore",
+                "--sweep",
+                f.to_str().unwrap(),
+                "--out",
+                dir.path().join("e").to_str().unwrap(),
+            ],
+            2,
+            &[want],
+        );
+    }
+    // A binary OBJ is named, not printed.
+    let bin = dir.path().join("b.obj");
+    let mut bytes = b"v 0 0 0\n".to_vec();
+    bytes.extend((0..=255u8).cycle().take(2048));
+    std::fs::write(&bin, bytes).unwrap();
+    let o = fxshade(&[
+        "render",
+        "--mesh",
+        bin.to_str().unwrap(),
+        "--out",
+        dir.path().join("r").to_str().unwrap(),
+    ]);
+    assert_ne!(o.status.code(), Some(0));
+    assert!(
+        o.stderr.iter().all(|b| b.is_ascii()),
+        "raw bytes on the terminal"
+    );
+    assert!(text(&o).contains("not a text OBJ file"), "{}", text(&o));
+    // A command run with --set says so.
+    let o = fxshade(&[
+        "rtl",
+        "normalize",
+        "--set",
+        "normalize.theta=0.4",
+        "--out",
+        dir.path().join("v").to_str().unwrap(),
+    ]);
+    assert!(
+        text(&o).contains("<default> with --set normalize.theta=0.4"),
+        "{}",
+        text(&o)
+    );
+}
+
+/// #30.9: `explore --merge` refuses a shard whose rows are not the points
+/// of its sweep (a row's value edited, or the sweep's values edited).
+#[test]
+fn a_forged_explore_shard_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let shard = |k: usize| {
+        let out = dir.path().join(format!("s{k}"));
+        let o = fxshade(&[
+            "explore",
+            "--vary",
+            "normalize.theta=0.4,0.5",
+            "--analyses",
+            "normalize",
+            "--samples",
+            "500",
+            "--no-cache",
+            "--shard",
+            &format!("{k}/2"),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", text(&o));
+        out.join("explore.json")
+    };
+    let (a, b) = (shard(0), shard(1));
+    let merged = dir.path().join("m");
+    let merge = |b: &Path| {
+        fxshade(&[
+            "explore",
+            "--merge",
+            a.to_str().unwrap(),
+            b.to_str().unwrap(),
+            "--out",
+            merged.to_str().unwrap(),
+            "--force",
+        ])
+    };
+    assert!(merge(&b).status.success());
+    let text0 = std::fs::read_to_string(&b).unwrap();
+    for (from, to) in [
+        ("\"0.5\"", "\"0.9\""),
+        ("normalize.theta=0.5", "normalize.theta=0.9"),
+    ] {
+        assert!(text0.contains(from), "{from}");
+        let forged = dir.path().join("forged.json");
+        std::fs::write(&forged, text0.replacen(from, to, 1)).unwrap();
+        let o = merge(&forged);
+        assert_ne!(o.status.code(), Some(0), "{from} -> {to}: {}", text(&o));
+        assert!(
+            text(&o).contains("not point") || text(&o).contains("fingerprint"),
+            "{}",
+            text(&o)
+        );
+    }
+}

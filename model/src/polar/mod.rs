@@ -210,9 +210,14 @@ pub enum PolarError {
     /// A table entry could not be converted.
     #[error(transparent)]
     Convert(#[from] ConvertError),
-    /// Inconsistent bit counts or modes.
-    #[error("{0}")]
-    Config(String),
+    /// Inconsistent bit counts or modes of field `key`.
+    #[error("{why}")]
+    Config {
+        /// The field of `[polar]` at fault.
+        key: &'static str,
+        /// Why.
+        why: String,
+    },
 }
 
 impl Polar {
@@ -221,15 +226,17 @@ impl Polar {
         let k = u.integer("angle_bits") as u32;
         let t = u.integer("table_bits") as u32;
         if t > k {
-            return Err(PolarError::Config(format!(
-                "polar.table_bits = {t} exceeds polar.angle_bits = {k}"
-            )));
+            return Err(PolarError::Config {
+                key: "table_bits",
+                why: format!("polar.table_bits = {t} exceeds polar.angle_bits = {k}"),
+            });
         }
         let idx = u.stage("index");
         if idx.overflow() != Overflow::Wrap {
-            return Err(PolarError::Config(
-                "polar.index.overflow must be \"wrap\": angles wrap around a turn".into(),
-            ));
+            return Err(PolarError::Config {
+                key: "index",
+                why: "polar.index.overflow must be \"wrap\": angles wrap around a turn".into(),
+            });
         }
         let angle = Quant::new(
             "angle",
@@ -377,8 +384,13 @@ pub fn tbn<C: Datapath>(
 
 fn check(cfg: &Config) -> Result<(), Vec<ConfigError>> {
     let u = cfg.unit(DECL.name);
-    let p = Polar::from_config(u)
-        .map_err(|e| vec![crate::config::field_error(u, "table_bits", e.to_string())])?;
+    let p = Polar::from_config(u).map_err(|e| {
+        let key = match &e {
+            PolarError::Config { key, .. } => key,
+            PolarError::Convert(_) => "table",
+        };
+        vec![crate::config::field_error(u, key, e.to_string())]
+    })?;
     let cx = p
         .count()
         .map_err(|e| vec![crate::config::field_error(u, "table", e.to_string())])?;
