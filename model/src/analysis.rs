@@ -943,7 +943,7 @@ pub fn angles(cfg: &Config, count: usize, seed: u64) -> Result<AnglesReport, Ana
         .flag_stages()
         .iter()
         .position(|s| *s == xy_stage)
-        .map_or(0, |k| 1u64 << k);
+        .map_or(0, |k| 1u64 << (prog.flag_stages().len() - 1 - k));
     let mut sq = 0.0;
     let mut nsq = 0u64;
     let mut buf = Vec::new();

@@ -53,6 +53,28 @@ pub struct OpReport {
 }
 
 impl OpReport {
+    /// Mark which quantization points an output of `trace` reads: `trace`
+    /// is the same datapath run in the tracing context, whose `k`-th
+    /// quantization is the counting run's `k`-th point (nothing is marked
+    /// when their numbers differ).
+    pub fn with_liveness(mut self, trace: &crate::datapath::Trace) -> Self {
+        let roots: Vec<_> = trace.output_ports().iter().map(|p| p.value).collect();
+        let live = trace.live_nodes(&roots);
+        let quants: Vec<bool> = trace
+            .ops()
+            .iter()
+            .enumerate()
+            .filter(|(_, o)| matches!(o, crate::datapath::Op::Quant(..)))
+            .map(|(i, _)| live[i])
+            .collect();
+        if quants.len() == self.quant_points.len() {
+            for (p, l) in self.quant_points.iter_mut().zip(quants) {
+                p.live = Some(l);
+            }
+        }
+        self
+    }
+
     /// A report from a counting run.
     pub fn from_count(
         unit: &'static str,

@@ -59,6 +59,8 @@ pub struct RtlSources {
     /// The module's set-up ports (empty: every field travels with the
     /// item).
     pub setup: Vec<crate::rtl::SetupPort>,
+    /// The unit's parameters ([`crate::rtl::Design::parameters`]).
+    pub parameters: serde_json::Value,
 }
 
 impl RtlSources {
@@ -297,6 +299,7 @@ impl VectorSet {
             "inputs": fields_json(&self.inputs),
             "expected": fields_json(&self.outputs),
             "ovf_bits_msb_first": self.flags,
+            "parameters": self.rtl.parameters,
             "latency": self.rtl.latency,
             "setup_ports": self.rtl.setup,
             "setup_stream": if self.rtl.setup.is_empty() {

@@ -307,8 +307,12 @@ pub fn stages_table(reports: &[OpReport]) -> Table {
         "dropped bits",
         "round",
         "overflow",
+        "in RTL",
     ])
-    .titled("Quantization points, in datapath order (from the counting run)");
+    .titled(
+        "Quantization points, in datapath order (from the counting run); \
+         `dead`: no output reads it, so the RTL has no such register and no flag",
+    );
     for r in reports {
         for p in &r.quant_points {
             t.row([
@@ -321,6 +325,12 @@ pub fn stages_table(reports: &[OpReport]) -> Table {
                 p.dropped_bits.to_string(),
                 p.round.name().to_string(),
                 p.overflow.name().to_string(),
+                match p.live {
+                    Some(true) => "yes",
+                    Some(false) => "dead",
+                    None => "-",
+                }
+                .to_string(),
             ]);
         }
     }

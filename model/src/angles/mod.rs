@@ -405,7 +405,7 @@ fn ops(cfg: &Config) -> Vec<OpReport> {
     let Ok(cx) = a.count() else {
         return Vec::new();
     };
-    vec![OpReport::from_count(
+    let r = OpReport::from_count(
         DECL.name,
         if a.shift_add {
             "cordic, gain by shifts and additions"
@@ -415,7 +415,13 @@ fn ops(cfg: &Config) -> Vec<OpReport> {
         Phase::Pixel,
         &cx,
         None,
-    )]
+    );
+    // The last step's coordinates are dead (only the next step would read
+    // them): marked so `fxshade stages` says they are not in the RTL.
+    vec![match a.trace() {
+        Ok(t) => r.with_liveness(&t),
+        Err(_) => r,
+    }]
 }
 
 #[cfg(test)]

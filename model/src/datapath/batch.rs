@@ -510,6 +510,9 @@ impl<R: Raw> Program<R> {
             return Err(CompileError::TooManyStages(flag_stages.len()));
         }
         let live = trace.live_nodes(outputs);
+        // Stage k is bit n−1−k: the first stage is the most significant
+        // bit, as in the RTL's `ovf_o` and the vector files' `ovf` field.
+        let n = flag_stages.len();
         let flag_of = |d: usize| -> u64 {
             if !live[d] {
                 return 0;
@@ -518,7 +521,7 @@ impl<R: Raw> Program<R> {
             flag_stages
                 .iter()
                 .position(|s| s == id)
-                .map_or(0, |k| 1u64 << k)
+                .map_or(0, |k| 1u64 << (n - 1 - k))
         };
         let mut instrs = Vec::new();
         let mut consts = Vec::new();
@@ -661,15 +664,16 @@ impl<R: Raw> Program<R> {
         self.run_lanes(inputs, outs, None)
     }
 
-    /// The overflow-flag stages ([`Trace::flag_stages`]): bit `k` of a
-    /// lane's flags is stage `k`.
+    /// The overflow-flag stages ([`Trace::flag_stages`]): stage `k` of `n`
+    /// is bit `n − 1 − k` of a lane's flags (the first stage the most
+    /// significant bit, as in the RTL's `ovf_o` and the vector files).
     pub fn flag_stages(&self) -> &[String] {
         &self.flag_stages
     }
 
-    /// As [`Program::run`], with each lane's overflow flags: bit `k` set
-    /// when a quantization of [`Program::flag_stages`]`[k]` overflowed in
-    /// that lane.
+    /// As [`Program::run`], with each lane's overflow flags: bit `n − 1 − k`
+    /// set when a quantization of [`Program::flag_stages`]`[k]` (of `n`)
+    /// overflowed in that lane — the word the RTL's `ovf_o` carries.
     pub fn run_flags(&self, inputs: &[&[R]]) -> (Vec<Vec<R>>, Vec<u64>) {
         let mut outs: Vec<Vec<R>> = self.outputs.iter().map(|_| Vec::new()).collect();
         let mut flags = Vec::new();

@@ -177,6 +177,11 @@ pub struct QuantPoint {
     pub overflow: Overflow,
     /// Bits dropped below the target LSB (negative: shifted left).
     pub dropped_bits: i32,
+    /// Whether an output reads it (`None`: not known, the report came from
+    /// a counting run alone). A dead quantization (the last CORDIC step's
+    /// coordinates, whose only reader is the next step) is in the datapath
+    /// as written but not in the RTL, and raises no overflow flag.
+    pub live: Option<bool>,
 }
 
 /// An exact intermediate too wide for the fixed-point model.
@@ -417,6 +422,7 @@ impl Datapath for Count {
             round: q.round(),
             overflow: q.overflow(),
             dropped_bits: a.frac - q.format().frac(),
+            live: None,
         });
         if a.frac > q.format().frac() && q.round() != Rounding::Trunc {
             self.counts.round += 1;

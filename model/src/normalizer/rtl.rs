@@ -36,13 +36,28 @@ pub fn design(cfg: &Config) -> Result<crate::rtl::Design, RtlError> {
             n.coeffs
         ));
     }
-    Ok(crate::rtl::Design::new(
-        DECL.name,
-        n.method.name(),
-        n.trace()?,
-        cfg,
-        notes,
-    ))
+    let mut d = crate::rtl::Design::new(DECL.name, n.method.name(), n.trace()?, cfg, notes);
+    d.parameters = serde_json::json!({
+        "method": n.method.name(),
+        "coefficients": coefficients(&n),
+    });
+    Ok(d)
+}
+
+/// The normalizer's `g(d)` coefficients, machine-readable: the format,
+/// then each coefficient lowest power first (`c0 + c1·d + c2·d²`) as its
+/// code and its value (`null` for a method without coefficients).
+pub fn coefficients(n: &Normalizer) -> serde_json::Value {
+    if n.coeffs.is_empty() {
+        return serde_json::Value::Null;
+    }
+    let q = &n.q.coef;
+    serde_json::json!({
+        "order": "lowest power first: g(d) = c0 + c1*d + c2*d^2",
+        "format": q.format().to_string(),
+        "codes": n.coeffs.iter().map(|&c| q.apply_f64(c).map_or(0, |r| r.code) as i64).collect::<Vec<_>>(),
+        "values": n.coeffs,
+    })
 }
 
 /// Inputs with known answers: equiangular triangles (centroid: smallest d;

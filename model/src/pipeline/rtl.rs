@@ -41,6 +41,17 @@ pub fn design(cfg: &Config) -> Result<crate::rtl::Design, RtlError> {
         Path::Mapped => format!("mapped ({} angles)", p.angles.name()),
     };
     let mut d = crate::rtl::Design::new(DECL.name, &variant, p.trace(path)?, cfg, notes);
+    if path == Path::Smooth {
+        d.parameters = serde_json::json!({
+            "method": p.method.name(),
+            "coefficient_sets": p.sets.iter().zip(THETA_LADDER).enumerate().map(|(k, (n, th))| serde_json::json!({
+                "sel": k,
+                "theta": th,
+                "coefficients": crate::normalizer::rtl::coefficients(n),
+            })).collect::<Vec<_>>(),
+            "sel_past_the_last": 0,
+        });
+    }
     if cfg.unit("rtl").choice("setup") == "port" {
         d.setup = setup_groups(path, p.angles);
     }

@@ -43,6 +43,7 @@ fn design(label: &str, trace: Trace) -> Design {
         pipelining: super::timing::Pipelining::Compact,
         setup: Vec::new(),
         handshake: super::timing::Handshake::Stall,
+        parameters: serde_json::Value::Null,
     }
 }
 

@@ -400,7 +400,7 @@ mod tests {
                 let by_sign = sign_only(&d, &m).unwrap();
                 let by_bound = direction_proof(&d, &m, budget()).unwrap();
                 // The same over the layer the rotation starts from.
-                let by_layer = proof(&d, &m, deadline(), 0).unwrap();
+                let by_layer = proof(&d, &m, budget(), 0).unwrap();
                 assert_eq!(
                     by_layer, by_bound,
                     "xy frac {frac}: {m}: over the ports {by_bound}, over the layer {by_layer}"

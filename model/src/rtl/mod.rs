@@ -71,6 +71,10 @@ pub struct Design {
     pub setup: Vec<SetupGroup>,
     /// How the stages hand items on (`[rtl]`).
     pub handshake: timing::Handshake,
+    /// The unit's parameters in machine-readable form (the normalizer's
+    /// coefficient codes and values, lowest power first): the vector
+    /// manifest's `parameters` (`null` when there are none).
+    pub parameters: serde_json::Value,
 }
 
 /// A group of inputs loaded through a set-up port of its own (per frame,

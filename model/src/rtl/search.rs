@@ -1032,6 +1032,7 @@ pub(super) mod tests {
             pipelining: super::super::timing::Pipelining::Compact,
             setup: Vec::new(),
             handshake: super::super::timing::Handshake::Stall,
+            parameters: serde_json::Value::Null,
         }
     }
 

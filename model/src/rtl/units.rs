@@ -406,6 +406,7 @@ pub fn vector_set(
             testbench: e.testbench.clone(),
             latency: e.latency,
             setup: e.setup.clone(),
+            parameters: d.parameters.clone(),
         },
         corner_cases: corners,
         flags: e.flags.clone(),
@@ -442,6 +443,7 @@ impl Design {
             pipelining: super::timing::Pipelining::from_config(cfg),
             setup: Vec::new(),
             handshake: super::timing::Handshake::from_config(cfg),
+            parameters: serde_json::Value::Null,
         }
     }
 }
@@ -463,11 +465,8 @@ fn expected_rows(
         .map(|i| {
             let mut r = Vec::with_capacity(res.len() + 1);
             if nf > 0 {
-                let f = flags[i];
-                let v = (0..nf).fold(0i128, |acc, k| {
-                    acc | ((((f >> k) & 1) as i128) << (nf - 1 - k))
-                });
-                r.push(v);
+                // The model's flag word is the RTL's `ovf_o`.
+                r.push(flags[i] as i128);
             }
             r.extend(res.iter().map(|o| o[i]));
             r
@@ -571,6 +570,7 @@ impl VectorStream {
             testbench: self.emitted.testbench.clone(),
             latency: self.emitted.latency,
             setup: self.emitted.setup.clone(),
+            parameters: self.design.parameters.clone(),
         }
     }
 
