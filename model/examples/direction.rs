@@ -20,8 +20,7 @@ fn main() {
         .filter(|m| m.node == node)
     {
         let t = std::time::Instant::now();
-        let deadline = t + std::time::Duration::from_secs(60);
-        let r = direction::direction_proof(&d, &m, deadline).unwrap();
+        let r = direction::direction_proof(&d, &m, 1 << 26).unwrap();
         println!("{m}: {r} [{:.2}s]", t.elapsed().as_secs_f64());
     }
 }

@@ -41,14 +41,15 @@ fn main() {
                     eq += 1;
                     continue;
                 }
-                let secs = std::env::var("PROOF_SECS")
+                // A budget in boxes (PROOF_BOXES, default 2^24, as mutate).
+                let boxes = std::env::var("PROOF_BOXES")
                     .ok()
                     .and_then(|s| s.parse().ok())
-                    .unwrap_or(20);
+                    .unwrap_or(1u64 << 24);
                 type Proof = fn(
                     &fxshade_model::rtl::Design,
                     &fxshade_model::datapath::Mutation,
-                    std::time::Instant,
+                    u64,
                 ) -> Result<bool, fxshade_model::vectors::RtlError>;
                 let proofs: [(Proof, &str); 4] = [
                     (fxshade_model::rtl::direction::direction_proof, "DIRECTION"),
@@ -59,8 +60,7 @@ fn main() {
                 let mut proven = false;
                 for (proof, name) in proofs {
                     let t = std::time::Instant::now();
-                    let deadline = t + std::time::Duration::from_secs(secs);
-                    if proof(&d, m, deadline).unwrap() {
+                    if proof(&d, m, boxes).unwrap() {
                         println!("    {name}-PROVEN {m} [{:.2}s]", t.elapsed().as_secs_f64());
                         proven = true;
                         break;

@@ -420,6 +420,19 @@ pub fn decompose(x: f64) -> (i128, i32) {
     (sign * m as i128, e)
 }
 
+/// The exact format of a non-negative integer literal `n`: `U<b>F0` with `b`
+/// the bit length of `n` (at least 1), so `1` is `U1F0` and `15` is `U4F0`.
+/// A constant is a value in a format too; this one holds it exactly.
+pub fn literal(n: u64) -> Quant {
+    let bits = (64 - n.leading_zeros()).max(1);
+    Quant::new(
+        "literal",
+        crate::format::Format::new(false, bits, 0).expect("1..=64 bits"),
+        Rounding::Trunc,
+        Overflow::Saturate,
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -547,17 +560,4 @@ mod tests {
             assert_eq!(m as f64 * crate::format::exp2i(e), x);
         }
     }
-}
-
-/// The exact format of a non-negative integer literal `n`: `U<b>F0` with `b`
-/// the bit length of `n` (at least 1), so `1` is `U1F0` and `15` is `U4F0`.
-/// A constant is a value in a format too; this one holds it exactly.
-pub fn literal(n: u64) -> Quant {
-    let bits = (64 - n.leading_zeros()).max(1);
-    Quant::new(
-        "literal",
-        crate::format::Format::new(false, bits, 0).expect("1..=64 bits"),
-        Rounding::Trunc,
-        Overflow::Saturate,
-    )
 }

@@ -1430,7 +1430,10 @@ pub(super) mod tests {
             .filter(|k: &i128| (16320 * k) % (1 << 26) == 1 << 24)
             .collect();
         assert_eq!(ties, [786432]);
-        assert!((16320i128 * 786432) >> 25 > 255);
+        assert!(
+            (16320 * ties[0]) >> 25 > 255,
+            "the tie lies above the largest level"
+        );
         for (set, provable) in [(None, true), (Some("lighting.level.format=U10F0"), false)] {
             let mut cfg = Config::embedded();
             if let Some(o) = set {
