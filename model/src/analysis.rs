@@ -61,23 +61,17 @@ pub struct NormalizeReport {
     /// Corner inputs outside every triangle: the largest and smallest
     /// representable components.
     pub outside: VectorStats,
-    /// The bound the analysis states for `| |N'| − 1 |` when `d` lies in the
-    /// interval: `E_g + (1 + E_g)·δ_d/2 + √3·e_out`, with `E_g` the g-stage
-    /// maximum, `δ_d` the relative rounding of `d` at the interval's lower
-    /// end and `e_out` one output rounding.
+    /// The proven bound on `| |N'| − 1 |` over whole triangles
+    /// ([`NormalizeReport::proven_triangles`]`.length`): every quantized
+    /// input whose exact vector has `|N|²` in the whole-triangle range.
     pub bound: f64,
+    /// Proven bounds over whole triangles (`|N|² ∈ [(1+2Θ)/3, 1]`): length,
+    /// vector and diffuse error for every input, not a sample.
+    pub proven_triangles: crate::bounds::NormalizeBound,
+    /// The same over triangle edges (`|N|² ∈ [(1+Θ)/2, 1]`).
+    pub proven_edges: crate::bounds::NormalizeBound,
     /// Seed of the random samples.
     pub seed: u64,
-}
-
-/// The bound of [`NormalizeReport::bound`].
-pub fn length_bound(n: &Normalizer, g_max: f64, lo: f64) -> f64 {
-    let rounding = |q: &Quant| match q.round() {
-        Rounding::Trunc => q.format().ulp(),
-        _ => q.format().ulp() / 2.0,
-    };
-    let delta_d = rounding(&n.q.d) / lo;
-    g_max + (1.0 + g_max) * delta_d / 2.0 + 3f64.sqrt() * rounding(&n.q.out) + 1e-12
 }
 
 struct Sample {
@@ -288,6 +282,14 @@ pub fn normalize(
         })
         .collect();
     let outside = measure(&n, &prog, &light, &lprog, &outside_samples)?;
+    let proven_triangles = crate::bounds::normalize(
+        &n,
+        &light,
+        normalizer::Interval::Triangle.bounds(theta).0,
+        1.0,
+    )?;
+    let proven_edges =
+        crate::bounds::normalize(&n, &light, normalizer::Interval::Edge.bounds(theta).0, 1.0)?;
     progress(1.0);
     Ok(NormalizeReport {
         method: n.method,
@@ -295,11 +297,9 @@ pub fn normalize(
         interval_kind,
         interval: (lo, hi),
         coeffs: n.coeffs.iter().rev().copied().collect(),
-        bound: length_bound(
-            &n,
-            g_stage.max_rel_err_bound.unwrap_or(g_stage.max_rel_err),
-            lo,
-        ),
+        bound: proven_triangles.length,
+        proven_triangles,
+        proven_edges,
         design,
         g_stage,
         triangles,
@@ -550,6 +550,11 @@ pub struct PolarStats {
     /// Overflows at quantization steps (not counting the index stage, whose
     /// wrap-around is the modular arithmetic of angles).
     pub overflows: u64,
+    /// Largest `|L' − L|` (exhaustive coverage only; 0 otherwise).
+    pub max_vector_err: f64,
+    /// Whether [`PolarStats::max_diffuse_err_levels`] is a proven bound
+    /// (exhaustive coverage) rather than the largest of the samples.
+    pub diffuse_is_bound: bool,
 }
 
 /// The polar transform's error report.
@@ -572,15 +577,26 @@ pub struct PolarReport {
     pub seed: u64,
 }
 
-/// Analyse a polar transform: exhaustive over `(α_L, β_L − β_N, α_N)` when
-/// that is at most 2^22 cases, over `(α_L, β_L − β_N)` for 8 values of `α_N`
-/// when that is at most 2^23, random otherwise (`count` samples).
+/// The most `(α_L, β_L − β_N, α_N)` code triples `error polar` and the
+/// report cover one by one: 11-bit angles (2.15·10^9 triples, 76 CPU-s,
+/// 39 s on two cores here); above, samples.
+pub const POLAR_EXHAUSTIVE: u64 = 1 << 32;
+
+/// The most triples an exploration point covers one by one (each point is
+/// measured: the samples serve above).
+pub const POLAR_EXHAUSTIVE_CHEAP: u64 = 1 << 22;
+
+/// Analyse a polar transform: exhaustive over `(α_L, β_L − β_N, α_N)` (the
+/// output depends on `β_L − β_N` alone) when there are at most
+/// `exhaustive_up_to` such triples ([`polar_every_code`]), else `count`
+/// random samples (the diffuse error then against random tangent-space
+/// normals: a sampled maximum).
 pub fn polar_stats(
     p: &crate::polar::Polar,
     light: &Lighting,
     count: usize,
     seed: u64,
-    allow_exhaustive: bool,
+    exhaustive_up_to: u64,
 ) -> Result<PolarStats, AnalysisError> {
     let f = p.angle.format();
     let k = f.width();
@@ -589,42 +605,12 @@ pub fn polar_stats(
     let mut rng = Rng::new(seed);
     // Elevation codes in [−¼, ¼] turn, as codes modulo a turn.
     let elev = |c: i128| c.rem_euclid(turn);
-    let coverage = if allow_exhaustive && 3 * k as i64 - 2 <= 22 {
-        "all codes"
-    } else if allow_exhaustive && 2 * k as i64 - 1 <= 20 {
-        "all (α_L, β_L−β_N) pairs for 8 α_N"
-    } else {
-        "random"
-    };
-    let elevs = (2 * quarter + 1) as usize;
-    let ans: Vec<i128> = if coverage == "all (α_L, β_L−β_N) pairs for 8 α_N" {
-        (0..8)
-            .map(|_| -quarter + rng.below((2 * quarter + 1) as u64) as i128)
-            .collect()
-    } else {
-        Vec::new()
-    };
-    let total = match coverage {
-        "all codes" => elevs * turn as usize * elevs,
-        "random" => count,
-        _ => elevs * turn as usize * ans.len(),
-    };
-    // Row `i` of an exhaustive coverage, from its index (no table of rows).
-    let row_at = |i: usize| -> [i128; 4] {
-        let inner = if coverage == "all codes" {
-            elevs
-        } else {
-            ans.len()
-        };
-        let (al, rest) = (i / (turn as usize * inner), i % (turn as usize * inner));
-        let (d, j) = (rest / inner, rest % inner);
-        let an = if coverage == "all codes" {
-            -quarter + j as i128
-        } else {
-            ans[j]
-        };
-        [elev(-quarter + al as i128), d as i128, elev(an), 0]
-    };
+    let triples = (2 * quarter + 1) as u64 * turn as u64 * (2 * quarter + 1) as u64;
+    if triples <= exhaustive_up_to {
+        return polar_every_code(p, light);
+    }
+    let coverage = "random";
+    let total = count;
     let prog = p.compile()?;
     let lprog = light.compile()?;
     let fo = p.out.format();
@@ -642,16 +628,12 @@ pub fn polar_stats(
     while done < total {
         let m = (1usize << 18).min(total - done);
         chunk.clear();
-        for i in done..done + m {
-            chunk.push(if coverage == "random" {
-                let al = -quarter + rng.below((2 * quarter + 1) as u64) as i128;
-                let an = -quarter + rng.below((2 * quarter + 1) as u64) as i128;
-                let bl = rng.below(turn as u64) as i128;
-                let bn = rng.below(turn as u64) as i128;
-                [elev(al), bl, elev(an), bn]
-            } else {
-                row_at(i)
-            });
+        for _ in 0..m {
+            let al = -quarter + rng.below((2 * quarter + 1) as u64) as i128;
+            let an = -quarter + rng.below((2 * quarter + 1) as u64) as i128;
+            let bl = rng.below(turn as u64) as i128;
+            let bn = rng.below(turn as u64) as i128;
+            chunk.push([elev(al), bl, elev(an), bn]);
         }
         done += m;
         let chunk = &chunk;
@@ -709,18 +691,200 @@ pub fn polar_stats(
     Ok(st)
 }
 
-/// The polar report for a configuration (`allow_exhaustive`: cover every
-/// code where the space allows, else `count` random samples).
+/// [`polar_stats`] over every code triple `(α_L, β_L − β_N, α_N)` (`α` in
+/// `[−¼, ¼]` turn, `β_N = 0`), on every core: the largest component error
+/// in output LSBs, the RMS, `| |L'| − 1 |` and the angle are exact maxima
+/// over every input the transform can get. The diffuse error, which
+/// depends on a continuous tangent-space normal too, is a proven bound
+/// from the exhaustive vector error: `e_level + G_q·(e_dot +
+/// √3·e_n·(1 + v) + v + √3·e_c) + |G_q − G|`, `v = max |L' − L|`, `e_n` the
+/// normal's quantization into `lighting.normal`, `e_c` the conversion of
+/// `L'` into `lighting.light`.
+pub fn polar_every_code(
+    p: &crate::polar::Polar,
+    light: &Lighting,
+) -> Result<PolarStats, AnalysisError> {
+    let f = p.angle.format();
+    let k = f.width();
+    let turn = 1i128 << k;
+    let quarter = turn / 4;
+    let prog = p.compile()?;
+    let fo = p.out.format();
+    let ulp = fo.ulp();
+    let t = |c: i128| c as f64 / turn as f64;
+    // The exact frames of every α_N (β_N = 0), and the exact L of every
+    // (α_L, Δβ) row, from the one reference (polar::vector_of, frame).
+    let frames: Vec<(DVec3, DVec3, DVec3)> = (-quarter..=quarter)
+        .map(|an| crate::polar::frame(crate::polar::vector_of(t(an), 0.0), 0.0))
+        .collect();
+    let elevs = frames.len();
+    let rows = (-quarter..=quarter).collect::<Vec<i128>>();
+    // One α_L at a time: (max LSB, sum of squares, min and max |L'|², max
+    // sin² of the angle, max |L' − L|², overflows). Squares, not lengths:
+    // the square roots are taken once, of the extremes.
+    type Acc = (f64, f64, f64, f64, f64, f64, u64);
+    // Δβ rows run BLOCK at a time (one batch of BLOCK·elevs lanes), on i64
+    // codes where the program is narrow.
+    const BLOCK: i64 = 64;
+    let a_n1: Vec<i64> = (-quarter..=quarter)
+        .map(|c| c.rem_euclid(turn) as i64)
+        .collect();
+    let run = |cols: [&[i64]; 4]| -> (Vec<Vec<i64>>, u64) {
+        let ov_of = |ov: Vec<(&'static str, u64)>| {
+            ov.iter()
+                .filter(|(s, _)| *s != "index")
+                .map(|(_, n)| n)
+                .sum::<u64>()
+        };
+        match &prog {
+            crate::datapath::Compiled::Narrow(p) => {
+                let (o, ov) = p.run(&cols);
+                (o, ov_of(ov))
+            }
+            crate::datapath::Compiled::Wide(p) => {
+                let c: Vec<Vec<i128>> = cols
+                    .iter()
+                    .map(|c| c.iter().map(|&x| x as i128).collect())
+                    .collect();
+                let r: Vec<&[i128]> = c.iter().map(|v| v.as_slice()).collect();
+                let (o, ov) = p.run(&r);
+                (
+                    o.into_iter()
+                        .map(|v| v.into_iter().map(|x| x as i64).collect())
+                        .collect(),
+                    ov_of(ov),
+                )
+            }
+        }
+    };
+    let one_row = |al: i128| -> Acc {
+        let mut acc: Acc = (0.0, 0.0, f64::INFINITY, 0.0, 0.0, 0.0, 0);
+        let turn64 = turn as i64;
+        let mut d0 = 0i64;
+        while d0 < turn64 {
+            let ds: Vec<i64> = (d0..(d0 + BLOCK).min(turn64)).collect();
+            d0 += BLOCK;
+            let lanes = ds.len() * elevs;
+            let a_l = vec![al.rem_euclid(turn) as i64; lanes];
+            let b_n = vec![0i64; lanes];
+            let b_l: Vec<i64> = ds
+                .iter()
+                .flat_map(|&d| std::iter::repeat_n(d, elevs))
+                .collect();
+            let a_n: Vec<i64> = ds.iter().flat_map(|_| a_n1.iter().copied()).collect();
+            let (out, ov) = run([&a_l, &b_l, &a_n, &b_n]);
+            acc.6 += ov;
+            for (r, &d) in ds.iter().enumerate() {
+                let l = crate::polar::vector_of(t(al), t(d as i128));
+                for (j, (ft, fb, fnn)) in frames.iter().enumerate() {
+                    let i = r * elevs + j;
+                    let want = DVec3::new(l.dot(*ft), l.dot(*fb), l.dot(*fnn));
+                    let got = DVec3::new(
+                        out[0][i] as f64 * ulp,
+                        out[1][i] as f64 * ulp,
+                        out[2][i] as f64 * ulp,
+                    );
+                    let e = got - want;
+                    let e2 = e.length_squared();
+                    acc.0 = acc.0.max(e.abs().max_element());
+                    acc.1 += e2;
+                    let g2 = got.length_squared();
+                    acc.2 = acc.2.min(g2);
+                    acc.3 = acc.3.max(g2);
+                    let w2 = want.length_squared();
+                    if g2 > 0.0 && w2 > 0.0 {
+                        // sin² of the angle between them (its maximum gives
+                        // the largest angle, for angles below 90°).
+                        acc.4 = acc.4.max(got.cross(want).length_squared() / (g2 * w2));
+                    }
+                    acc.5 = acc.5.max(e2);
+                }
+            }
+        }
+        acc
+    };
+    let workers = std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .min(rows.len());
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let mut results: Vec<Option<Acc>> = vec![None; rows.len()];
+    let parts: Vec<Vec<(usize, Acc)>> = std::thread::scope(|s| {
+        let hs: Vec<_> = (0..workers)
+            .map(|_| {
+                s.spawn(|| {
+                    let mut v = Vec::new();
+                    loop {
+                        let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                        if i >= rows.len() {
+                            break;
+                        }
+                        v.push((i, one_row(rows[i])));
+                    }
+                    v
+                })
+            })
+            .collect();
+        hs.into_iter()
+            .map(|h| h.join().expect("a polar worker panicked"))
+            .collect()
+    });
+    for (i, a) in parts.into_iter().flatten() {
+        results[i] = Some(a);
+    }
+    // Combined in row order, so the sums do not depend on the threads.
+    let mut st = PolarStats {
+        coverage: "every code (exhaustive)",
+        samples: (rows.len() * turn as usize * elevs) as u64,
+        ..Default::default()
+    };
+    let (mut sum2, mut sin2, mut e2max) = (0.0, 0.0f64, 0.0f64);
+    let (mut g2min, mut g2max) = (f64::INFINITY, 0.0f64);
+    for a in results.into_iter().map(|a| a.expect("every row")) {
+        st.max_lsb_err = st.max_lsb_err.max(a.0 / ulp);
+        sum2 += a.1;
+        g2min = g2min.min(a.2);
+        g2max = g2max.max(a.3);
+        sin2 = sin2.max(a.4);
+        e2max = e2max.max(a.5);
+        st.overflows += a.6;
+    }
+    let vec_err = e2max.sqrt();
+    st.max_len_dev = (g2max.sqrt() - 1.0).max(1.0 - g2min.sqrt());
+    st.rms_lsb_err = (sum2 / (3.0 * st.samples as f64)).sqrt() / ulp;
+    st.max_angle_err_deg = sin2.sqrt().min(1.0).asin().to_degrees();
+    st.max_vector_err = vec_err;
+    let s3 = 3f64.sqrt();
+    let b = |q: &Quant| crate::bounds::rounding_error(q);
+    let e_c = if light.light.format().frac() < fo.frac() {
+        b(&light.light)
+    } else {
+        0.0
+    };
+    let g_exact = LEVELS * light.i0_km;
+    let g_q = light
+        .gain
+        .apply_f64(g_exact)
+        .map_or(g_exact, |r| light.gain.format().to_f64(r.code));
+    st.max_diffuse_err_levels = b(&light.level)
+        + g_q * (b(&light.dot) + s3 * b(&light.normal) * (1.0 + vec_err) + vec_err + s3 * e_c)
+        + (g_q - g_exact).abs();
+    st.diffuse_is_bound = true;
+    Ok(st)
+}
+
+/// The polar report for a configuration: every code triple where there
+/// are at most `exhaustive_up_to` of them ([`polar_every_code`]), else
+/// `count` random samples (or the α_N subsets of [`polar_stats`]).
 pub fn polar(
     cfg: &Config,
     count: usize,
     seed: u64,
-    allow_exhaustive: bool,
+    exhaustive_up_to: u64,
 ) -> Result<PolarReport, AnalysisError> {
     let u = cfg.unit(crate::polar::DECL.name);
     let p = crate::polar::Polar::from_config(u).map_err(AnalysisError::Polar)?;
     let light = Lighting::from_config(cfg.unit(crate::lighting::DECL.name));
-    let stats = polar_stats(&p, &light, count, seed, allow_exhaustive)?;
+    let stats = polar_stats(&p, &light, count, seed, exhaustive_up_to)?;
     Ok(PolarReport {
         angle_bits: p.angle.format().width(),
         table_bits: p.index.format().width(),
@@ -794,6 +958,158 @@ pub struct AnglesStats {
     /// figures: their angles are not defined by the arithmetic). The
     /// accumulator and the outputs wrap by design and are not counted.
     pub overflows: u64,
+}
+
+/// The lengths of the normals the angle analyses cover: from the shortest
+/// to the longest normal quadratic interpolation produces at Θ = 0,
+/// `[√d_min, √d_max]`.
+pub fn angles_length_range() -> (f64, f64) {
+    let (dlo, dhi) = crate::interp::quadratic_d_range(0.0, crate::interp::Scheme::Quadratic);
+    (dlo.sqrt(), dhi.sqrt())
+}
+
+/// β over every input code: [`angles_beta_every_code`].
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct BetaExhaustive {
+    /// `(x, z)` code pairs run, `x ≥ 0` (a pair `(−x, −z)` gives the same
+    /// core input and an angle half a turn away, exactly: the same error).
+    pub pairs: u64,
+    /// `(x, z)` code pairs of the whole domain this covers: the pairs run,
+    /// those with `x > 0` twice (their mirrors lie in the format: the
+    /// domain is far from its most negative code).
+    pub covered: u64,
+    /// The range of `√(x² + z²)` covered: every pair whose normal can be
+    /// more than the cap from the y axis with a length in `[lo, hi]`.
+    pub r_range: (f64, f64),
+    /// Largest `|β − atan2(x, z)|` (wrapped), output LSBs: an exhaustive
+    /// maximum.
+    pub max_beta_lsb: f64,
+    /// In degrees.
+    pub max_beta_deg: f64,
+    /// Where: the `(x, z)` codes.
+    pub worst: (i64, i64),
+    /// Pairs whose coordinates overflowed `xy` (left out).
+    pub overflows: u64,
+}
+
+/// β of the CORDIC angles unit over every `(x, z)` input code pair whose
+/// normal can lie more than [`crate::render::POLAR_CAP_DEG`] from the y
+/// axis with a length in `[lo, hi]` (`√(x² + z²) ∈ [sin(cap)·lo', hi']`,
+/// `lo'`, `hi'` widened by the input rounding: a superset), on every core.
+/// β depends on `x` and `z` alone, so this is its exhaustive maximum over
+/// every such normal; `x < 0` needs no run of its own (see
+/// [`BetaExhaustive::pairs`]).
+pub fn angles_beta_every_code(
+    cfg: &Config,
+    lo: f64,
+    hi: f64,
+) -> Result<BetaExhaustive, AnalysisError> {
+    let a = crate::angles::Angles::of(cfg).map_err(AnalysisError::Angles)?;
+    let tr = a.trace().map_err(|e| AnalysisError::Angles(e.into()))?;
+    let beta = tr
+        .output_ports()
+        .iter()
+        .find(|p| p.name == "beta")
+        .expect("the unit's beta port")
+        .value;
+    let prog = crate::datapath::Compiled::compile(&tr, &[beta])?;
+    let f = a.normal.format();
+    let (ulp, k) = (f.ulp(), a.out.format().width());
+    let turn = (1u64 << k) as f64;
+    let e_in = crate::bounds::rounding_error(&a.normal);
+    let cap = crate::render::POLAR_CAP_DEG.to_radians().sin();
+    let r_lo = (cap * (lo - 3f64.sqrt() * e_in)).max(0.0);
+    let r_hi = hi + 3f64.sqrt() * e_in;
+    let xy_stage = format!("{}.{}", crate::angles::DECL.name, a.xy.stage());
+    let nf = prog.flag_stages().len();
+    let xy_flag = prog
+        .flag_stages()
+        .iter()
+        .position(|s| *s == xy_stage)
+        .map_or(0, |k| 1u64 << (nf - 1 - k));
+    let (c_lo, c_hi) = (r_lo / ulp, r_hi / ulp);
+    let x_max = (c_hi.floor() as i128).min(f.max_code());
+    // (max error, worst x, worst z, pairs, overflows, covered) of one x.
+    type Acc = (f64, i64, i64, u64, u64, u64);
+    let one_x = |x: i128| -> Acc {
+        let mut acc: Acc = (0.0, 0, 0, 0, 0, 0);
+        let xf = x as f64;
+        let zmax = (c_hi * c_hi - xf * xf).max(0.0).sqrt().floor() as i128;
+        let zmin = (c_lo * c_lo - xf * xf).max(0.0).sqrt().ceil() as i128;
+        let zs: Vec<i128> = (-zmax..=-zmin)
+            .chain(zmin..=zmax)
+            .filter(|&z| {
+                let r2 = xf * xf + (z * z) as f64;
+                (f.min_code()..=f.max_code()).contains(&z) && r2 >= c_lo * c_lo && r2 <= c_hi * c_hi
+            })
+            .collect();
+        // (zmin = 0 puts z = 0 in both halves: once only.)
+        let zs: Vec<i128> = {
+            let mut v = zs;
+            v.dedup();
+            v
+        };
+        for chunk in zs.chunks(1 << 15) {
+            let xs = vec![x; chunk.len()];
+            let ys = vec![0i128; chunk.len()];
+            let (out, flags) = prog.run_flags_i128(&[&xs, &ys, chunk]);
+            for (i, &z) in chunk.iter().enumerate() {
+                if flags[i] & xy_flag != 0 {
+                    acc.4 += 1;
+                    continue;
+                }
+                acc.3 += 1;
+                acc.5 += if x == 0 { 1 } else { 2 };
+                let exact = xf.atan2(z as f64) / std::f64::consts::TAU;
+                let got = out[0][i] as f64 / turn;
+                let e = ((got - exact + 0.5).rem_euclid(1.0) - 0.5).abs() * turn;
+                if e > acc.0 {
+                    (acc.0, acc.1, acc.2) = (e, x as i64, z as i64);
+                }
+            }
+        }
+        acc
+    };
+    let xs: Vec<i128> = (0..=x_max).collect();
+    let workers = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let parts: Vec<Vec<(usize, Acc)>> = std::thread::scope(|s| {
+        let hs: Vec<_> = (0..workers)
+            .map(|_| {
+                s.spawn(|| {
+                    let mut v = Vec::new();
+                    loop {
+                        let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                        if i >= xs.len() {
+                            break;
+                        }
+                        v.push((i, one_x(xs[i])));
+                    }
+                    v
+                })
+            })
+            .collect();
+        hs.into_iter()
+            .map(|h| h.join().expect("an angles worker panicked"))
+            .collect()
+    });
+    let mut rows: Vec<(usize, Acc)> = parts.into_iter().flatten().collect();
+    rows.sort_by_key(|r| r.0);
+    let mut b = BetaExhaustive {
+        r_range: (r_lo, r_hi),
+        ..Default::default()
+    };
+    for (_, a) in rows {
+        if a.0 > b.max_beta_lsb {
+            b.max_beta_lsb = a.0;
+            b.worst = (a.1, a.2);
+        }
+        b.pairs += a.3;
+        b.overflows += a.4;
+        b.covered += a.5;
+    }
+    b.max_beta_deg = b.max_beta_lsb * 360.0 / turn;
+    Ok(b)
 }
 
 /// The CORDIC angle unit's error report for one configuration.

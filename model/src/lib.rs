@@ -21,6 +21,7 @@
 
 pub mod analysis;
 pub mod angles;
+pub mod bounds;
 pub mod cache;
 pub mod coeffs;
 pub mod config;

@@ -53,6 +53,10 @@ pub struct AnglesArgs {
     /// I4F<14 + g>, accumulator U0F<bits + g>), 20 000 random normals each.
     #[arg(long)]
     sweep: bool,
+    /// Skip β over every input code pair (the exhaustive maximum beside
+    /// the samples: about 10 s on two cores for 16-bit normals).
+    #[arg(long)]
+    sampled: bool,
     #[command(flatten)]
     out: OutputArgs,
 }
@@ -107,13 +111,46 @@ fn run_angles(a: &AnglesArgs) -> anyhow::Result<()> {
     if !a.sweep {
         let bar = crate::progress::bar(1, "error angles");
         let r = analysis::angles(&cfg, a.count, a.seed)?;
+        let (lo, hi) = analysis::angles_length_range();
+        let beta = if a.sampled {
+            None
+        } else {
+            Some(analysis::angles_beta_every_code(&cfg, lo, hi)?)
+        };
         bar.finish_and_clear();
         let mut t = Table::new(head).titled(format!(
-            "angles: CORDIC vectoring, {} iterations, coordinates {}, accumulator {}, out {}; coverage: {}",
+            "angles: CORDIC vectoring, {} iterations, coordinates {}, accumulator {}, out {}; \
+             coverage: {} (every figure a maximum over these samples)",
             r.iterations, r.xy, r.theta, r.out, r.stats.coverage
         ));
         t.row(cells(&r, ""));
-        return emit(a.out, &[t], &serde_json::to_value(&r)?);
+        let mut tables = vec![t];
+        let mut json = serde_json::to_value(&r)?;
+        if let Some(b) = &beta {
+            let mut e = Table::new([
+                "inputs",
+                "basis",
+                "max β err (LSB)",
+                "max β (°)",
+                "at (x, z) codes",
+                "overflows",
+            ])
+            .titled("β over every input code (it depends on x and z alone): an exhaustive maximum");
+            e.row([
+                format!(
+                    "every (x, z) with |N| in [{lo:.4}, {hi:.4}] more than {}° from the y axis",
+                    fxshade_model::render::POLAR_CAP_DEG
+                ),
+                format!("exhaustive: {} code pairs", b.covered),
+                format!("{:.3}", b.max_beta_lsb),
+                format!("{:.4}", b.max_beta_deg),
+                format!("({}, {})", b.worst.0, b.worst.1),
+                b.overflows.to_string(),
+            ]);
+            tables.push(e);
+            json["beta_every_code"] = serde_json::to_value(b)?;
+        }
+        return emit(a.out, &tables, &json);
     }
     let widths = [8u32, 10, 11, 12, 14];
     let guards = [1u32, 2, 3, 4, 5];
@@ -190,6 +227,10 @@ pub struct PolarArgs {
     /// width (10 to 18 bits), 50 000 random samples each.
     #[arg(long)]
     sweep: bool,
+    /// Random samples (`--count`) even where every code triple can be
+    /// covered (11-bit angles and fewer: 39 s on two cores for 11 bits).
+    #[arg(long)]
+    sampled: bool,
     #[command(flatten)]
     out: OutputArgs,
 }
@@ -238,7 +279,7 @@ fn run_polar(a: &PolarArgs) -> anyhow::Result<()> {
                 let mut c = cfg.clone();
                 c.apply_override(&format!("polar.table_bits={tb}"))?;
                 c.apply_override(&format!("polar.table.format=I2F{}", w - 2))?;
-                let r = analysis::polar(&c, 50_000, a.seed, false)?;
+                let r = analysis::polar(&c, 50_000, a.seed, 0)?;
                 let mut cells = vec![
                     tb.to_string(),
                     r.table_format.clone(),
@@ -254,7 +295,16 @@ fn run_polar(a: &PolarArgs) -> anyhow::Result<()> {
         return emit(a.out, &[t], &serde_json::to_value(&rows)?);
     }
     let bar = crate::progress::bar(1, "error polar");
-    let r = analysis::polar(&cfg, a.count, a.seed, true)?;
+    let r = analysis::polar(
+        &cfg,
+        a.count,
+        a.seed,
+        if a.sampled {
+            0
+        } else {
+            analysis::POLAR_EXHAUSTIVE
+        },
+    )?;
     bar.finish_and_clear();
     let mut t = Table::new(head).titled(format!(
         "polar: {}-bit angles, {}-bit table index, {} table of {} entries ({}), {} bits stored per table",
@@ -381,7 +431,7 @@ pub struct NormalizeArgs {
 fn row(t: &mut Table, name: &str, s: &VectorStats) {
     t.row([
         name.to_string(),
-        s.samples.to_string(),
+        format!("max over {} samples", s.samples),
         format!("{:.3e}", s.max_rel_err),
         format!("{:.3e}", s.mean_rel_err),
         format!("{:.3e}", s.rms_rel_err),
@@ -395,7 +445,7 @@ fn row(t: &mut Table, name: &str, s: &VectorStats) {
 pub fn tables(r: &NormalizeReport) -> Vec<Table> {
     let mut t = Table::new([
         "inputs",
-        "samples",
+        "basis",
         "max rel err",
         "mean rel err",
         "rms rel err",
@@ -414,11 +464,11 @@ pub fn tables(r: &NormalizeReport) -> Vec<Table> {
     ));
     let g = &r.g_stage;
     t.row([
+        "g(d) stage".to_string(),
         match g.max_rel_err_bound {
-            None => "g(d) stage, every d code".to_string(),
-            Some(_) => "g(d) stage, every k-th d code (max: branch and bound)".to_string(),
+            None => format!("exhaustive: every d code ({})", g.samples),
+            Some(_) => format!("{} d codes; max proven by branch and bound", g.samples),
         },
-        g.samples.to_string(),
         match g.max_rel_err_bound {
             None => format!("{:.3e}", g.max_rel_err),
             Some(b) => format!("{:.3e} (≤ {b:.3e})", g.max_rel_err),
@@ -433,13 +483,31 @@ pub fn tables(r: &NormalizeReport) -> Vec<Table> {
     row(&mut t, "triangle edges", &r.edges);
     row(&mut t, "outside (extreme components)", &r.outside);
     let mut b = Table::new([
-        "stated bound on | |N'| − 1 | for d in the interval",
-        "value",
-    ]);
-    b.row([
-        "E_g + (1 + E_g)·δ_d/2 + √3·e_out".to_string(),
-        format!("{:.3e}", r.bound),
-    ]);
+        "inputs",
+        "basis",
+        "| |N'| − 1 | ≤",
+        "|N' − N̂| ≤",
+        "diffuse err (levels) ≤",
+    ])
+    .titled(
+        "Proven bounds, for every input code quantized from a vector of the range (not samples): \
+         the scale error per d code, plus one output rounding in each component",
+    );
+    for (name, p) in [
+        ("whole triangles meeting Θ", &r.proven_triangles),
+        ("triangle edges", &r.proven_edges),
+    ] {
+        b.row([
+            format!("{name}: |N|² in [{:.6}, {:.6}]", p.exact_d.0, p.exact_d.1),
+            format!("proven: {} ({} codes)", p.how, p.codes),
+            format!("{:.3e}", p.length),
+            format!("{:.3e}", p.vector),
+            format!(
+                "{:.2} (of which {} rounding)",
+                p.diffuse_levels, p.level_rounding
+            ),
+        ]);
+    }
     vec![t, b]
 }
 

@@ -118,12 +118,14 @@ fn parse_vec3(flag: &str, s: &str) -> anyhow::Result<glam::DVec3> {
 impl SceneArgs {
     /// The scene the flags describe.
     pub fn scene(&self) -> anyhow::Result<render::Scene> {
-        Ok(render::Scene::new(
+        // A light or view the scene cannot use is a bad flag (status 2).
+        render::Scene::new(
             parse_vec3("light", &self.light)?,
             parse_vec3("view", &self.view)?,
             self.tilt,
             self.map()?,
-        )?)
+        )
+        .map_err(|e| crate::output::UsageError(e.to_string()).into())
     }
     fn map(&self) -> anyhow::Result<render::NormalMap> {
         if let Some(m) = render::NormalMap::ALL

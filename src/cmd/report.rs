@@ -603,7 +603,12 @@ pub fn run(a: &ReportArgs) -> anyhow::Result<()> {
     );
 
     bar.set_message("polar transform error analysis");
-    let perr = fxshade_model::analysis::polar(&cfg, 200_000, 1, true)?;
+    let perr = fxshade_model::analysis::polar(
+        &cfg,
+        200_000,
+        1,
+        fxshade_model::analysis::POLAR_EXHAUSTIVE,
+    )?;
     dir.write(
         "error_polar.json",
         serde_json::to_string_pretty(&perr)?.as_bytes(),
@@ -644,12 +649,17 @@ pub fn run(a: &ReportArgs) -> anyhow::Result<()> {
 
     bar.set_message("CORDIC angle error analysis");
     let aerr = fxshade_model::analysis::angles(&cfg, 200_000, 1)?;
+    let beta_lengths = fxshade_model::analysis::angles_length_range();
+    let beta =
+        fxshade_model::analysis::angles_beta_every_code(&cfg, beta_lengths.0, beta_lengths.1)?;
+    let mut aj = serde_json::to_value(&aerr)?;
+    aj["beta_every_code"] = serde_json::to_value(&beta)?;
     dir.write(
         "error_angles.json",
-        serde_json::to_string_pretty(&aerr)?.as_bytes(),
+        serde_json::to_string_pretty(&aj)?.as_bytes(),
     )?;
     let atext = format!(
- "{} iterations, coordinates {}, accumulator {}, angles {} ({} normals, {}): max α error {:.3} LSB ({:.4}°), max β error {:.3} LSB ({:.4}°) more than {}° from the y axis, {:.2} LSB inside; direction error at most {:.4}°; generated RTL: {} adder bits, {} flip-flops, latency {} cycles\n",
+ "{} iterations, coordinates {}, accumulator {}, angles {} (sampled: {} normals, {}): max α error {:.3} LSB ({:.4}°), max β error {:.3} LSB ({:.4}°) more than {}° from the y axis, {:.2} LSB inside; direction error at most {:.4}°; β over every (x, z) code pair (exhaustive): {:.3} LSB; generated RTL: {} adder bits, {} flip-flops, latency {} cycles\n",
         aerr.iterations,
         aerr.xy,
         aerr.theta,
@@ -663,6 +673,7 @@ pub fn run(a: &ReportArgs) -> anyhow::Result<()> {
         fxshade_model::render::POLAR_CAP_DEG,
         aerr.stats.max_beta_lsb_cap,
         aerr.stats.max_direction_deg,
+        beta.max_beta_lsb,
         aerr.adder_bits,
         aerr.flops,
         aerr.latency
@@ -768,6 +779,8 @@ pub fn run(a: &ReportArgs) -> anyhow::Result<()> {
     bar.inc(1);
 
     let found = super::report_found::section(&super::report_found::Inputs {
+        beta: &beta,
+        beta_lengths,
         cfg: &cfg,
         normalize: &nerr,
         interp: &ierr,

@@ -28,6 +28,10 @@ pub struct Inputs<'a> {
     pub polar: &'a PolarReport,
     /// Its CORDIC analysis.
     pub angles: &'a fxshade_model::analysis::AnglesReport,
+    /// β of the CORDIC over every input code pair.
+    pub beta: &'a fxshade_model::analysis::BetaExhaustive,
+    /// The normal lengths that covers.
+    pub beta_lengths: (f64, f64),
     /// The paper's tables reproduced.
     pub paper: &'a [fxshade_model::paper::Entry],
     /// Operation counts.
@@ -48,21 +52,29 @@ fn pct(x: f64) -> String {
     }
 }
 
-/// `max | |N'| − 1 |` over whole triangles and over edges for the
-/// configuration with `overrides`.
+/// Proven bounds on `| |N'| − 1 |` over whole triangles and over edges
+/// ([`fxshade_model::bounds::normalize`]: every input, not samples) for
+/// the configuration with `overrides`.
 fn normalizer_at(cfg: &Config, overrides: &[&str]) -> anyhow::Result<(f64, f64)> {
+    use fxshade_model::normalizer::Interval;
     let mut c = cfg.clone();
     for o in overrides {
         c.apply_override(o)?;
     }
-    let r = fxshade_model::analysis::normalize(&c, 50_000, 1, &mut |_| {})?;
-    Ok((r.triangles.max_rel_err, r.edges.max_rel_err))
+    let (n, _) = fxshade_model::normalizer::from_config(&c)?;
+    let light = fxshade_model::lighting::Lighting::from_config(c.unit("lighting"));
+    let theta = c.unit("normalize").number("theta");
+    let b = |i: Interval| fxshade_model::bounds::normalize(&n, &light, i.bounds(theta).0, 1.0);
+    Ok((b(Interval::Triangle)?.length, b(Interval::Edge)?.length))
 }
 
 /// The Markdown section (without the markers).
 pub fn section(d: &Inputs) -> anyhow::Result<String> {
     let n = d.normalize;
     let mut s = String::new();
+    s += "Every error figure says what it is: **proven** (a bound that holds for every input, \
+          derived from the formats and the model's codes), **exhaustive** (the maximum over every \
+          input code), or **sampled** (the largest of the samples named: a lower estimate).\n\n";
     s += "### The normalizer (method A)\n\n";
     let (edge_tri, edge_edges) = normalizer_at(
         d.cfg,
@@ -83,8 +95,8 @@ pub fn section(d: &Inputs) -> anyhow::Result<String> {
     s += &format!(
         "* The paper fits `g(d)` on `d ∈ [(1+Θ)/2, 1]`, which holds on triangle edges only; over whole \
          triangles `d ∈ [(1+2Θ)/3, 1]`. At Θ = 0 the quadratic normalizer fitted on the paper's interval \
-         errs {} on edges but **{}** inside triangles; fitted on the whole-triangle interval (the default) \
-         it errs {} there.\n",
+         errs at most {} on edges but up to **{}** inside triangles; fitted on the whole-triangle interval \
+         (the default) at most {} there (`| |N'| − 1 |`, proven bounds).\n",
         pct(edge_edges),
         pct(edge_tri),
         pct(tri_tri)
@@ -96,20 +108,24 @@ pub fn section(d: &Inputs) -> anyhow::Result<String> {
         fits.push(format!("{fit} {}", pct(t)));
     }
     s += &format!(
-        "* At Θ = {theta}, with `{}` coefficients, the three constructions err (largest `| |N'| − 1 |` \
-         over whole triangles): {}.\n",
+        "* At Θ = {theta}, with `{}` coefficients, the three constructions err (`| |N'| − 1 |` over whole \
+         triangles, proven bounds): {}.\n",
         d.cfg.unit("normalize").stage("coef").format(),
         fits.join(", ")
     );
     s += &format!(
-        "* The configured normalizer ({}, Θ = {theta}): the g(d) stage over every one of its {} `d` codes \
-         errs at most {}; over whole triangles `| |N'| − 1 |` is at most {} (the stated bound {}) and the \
-         diffuse term at most {:.2} levels, of which 0.5 is the 8-bit output's own rounding.\n",
+        "* The configured normalizer ({}, Θ = {theta}): the g(d) stage errs at most {} over every one of \
+         its {} `d` codes (exhaustive); over whole triangles `| |N'| − 1 |` is at most {} and the diffuse \
+         term at most {:.2} levels, of which {} is the 8-bit output's own rounding (proven bounds; the \
+         largest of {} samples: {} and {:.2} levels).\n",
         n.method.name(),
-        n.g_stage.samples,
         pct(n.g_stage.max_rel_err),
+        n.g_stage.samples,
+        pct(n.proven_triangles.length),
+        n.proven_triangles.diffuse_levels,
+        n.proven_triangles.level_rounding,
+        n.triangles.samples,
         pct(n.triangles.max_rel_err),
-        pct(n.bound),
         n.triangles.max_diffuse_err_levels
     );
     let count =
@@ -140,21 +156,23 @@ pub fn section(d: &Inputs) -> anyhow::Result<String> {
     };
     let scheme = format!("{:?}", i.scheme);
     s += &format!(
-        "* {} interpolation over triangles meeting Θ = {}: `d = |N|²` stays within [{:.4}, {:.4}] over the \
-         samples (closed-form range [{:.4}, {:.4}]); after the {} normalizer `| |N'| − 1 |` is at most {} \
-         and the direction at most {:.4}° from the normalized exact field ({:.4}° from normalized linear \
-         interpolation); with no normalization the field is up to {} short.\n",
+        "* {} interpolation over triangles meeting Θ = {}: `d = |N|²` of the exact field lies in [{:.4}, \
+         {:.4}] (closed form; [{:.4}, {:.4}] over the samples), so with no normalization the field is up to \
+         {} short (closed form). After the {} normalizer, over {} sampled pixels (sampled): `| |N'| − 1 |` at \
+         most {} and the direction at most {:.4}° from the normalized exact field ({:.4}° from normalized \
+         linear interpolation).\n",
         scheme,
         i.theta,
-        i.d_min,
-        i.d_max,
         i.d_bound.0,
         i.d_bound.1,
+        i.d_min,
+        i.d_max,
+        pct(1.0 - i.d_bound.0.sqrt()),
         i.normalizer.name(),
+        i.samples,
         pct(i.max_rel_err),
         i.max_angle_err_deg,
         i.vs_linear.max_angle_err_deg,
-        pct(i.unnormalized_max_rel_err)
     );
     if let (Some(q), Some(l)) = (ops_of("interp", "quadratic"), ops_of("interp", "linear")) {
         s += &format!(
@@ -189,32 +207,51 @@ pub fn section(d: &Inputs) -> anyhow::Result<String> {
     let organisation = format!("{:?}", p.organisation).to_lowercase();
     s += &format!(
         "* With {}-bit angles and {}-bit {} tables of `{}` ({} bits each), over {} transforms ({}): at most \
-         {:.2} output LSBs ({:.4}°), RMS {:.3} LSB, diffuse error at most {:.2} levels.\n",
+         {:.2} output LSBs ({:.4}°), RMS {:.3} LSB{}; diffuse error at most {:.2} levels ({}).\n",
         p.angle_bits,
         p.table_bits,
         organisation,
         p.table_format,
         p.table_size_bits,
         p.stats.samples,
-        p.stats.coverage,
+        if p.stats.diffuse_is_bound {
+            "every code triple `(α_L, β_L − β_N, α_N)`"
+        } else {
+            "random"
+        },
         p.stats.max_lsb_err,
         p.stats.max_angle_err_deg,
         p.stats.rms_lsb_err,
-        p.stats.max_diffuse_err_levels
+        if p.stats.diffuse_is_bound {
+            " (exhaustive)"
+        } else {
+            " (sampled)"
+        },
+        p.stats.max_diffuse_err_levels,
+        if p.stats.diffuse_is_bound {
+            "proven bound, from the exhaustive vector error"
+        } else {
+            "sampled"
+        }
     );
     let a = d.angles;
     s += &format!(
-        "* The CORDIC angles of N ({} iterations, coordinates `{}`, angles `{}`), over {} normals: α within \
-         {:.2} LSB ({:.3}°), β within {:.2} LSB more than {}° from the y axis; {} adder bits, {} flip-flops, \
-         latency {} cycles.\n\n",
+        "* The CORDIC angles of N ({} iterations, coordinates `{}`, angles `{}`), for normals from {:.3} to \
+         {:.3} long: β within {:.3} LSB ({:.3}°) more than {}° from the y axis (exhaustive: every one of the \
+         {} `(x, z)` code pairs, β depending on them alone); α within {:.3} LSB ({:.3}°) (sampled: the \
+         largest of {} normals); {} adder bits, {} flip-flops, latency {} cycles.\n\n",
         a.iterations,
         a.xy,
         a.out,
-        a.stats.samples,
+        d.beta_lengths.0,
+        d.beta_lengths.1,
+        d.beta.max_beta_lsb,
+        d.beta.max_beta_deg,
+        fxshade_model::render::POLAR_CAP_DEG,
+        d.beta.covered,
         a.stats.max_alpha_lsb,
         a.stats.max_alpha_deg,
-        a.stats.max_beta_lsb,
-        fxshade_model::render::POLAR_CAP_DEG,
+        a.stats.samples,
         a.adder_bits,
         a.flops,
         a.latency
@@ -253,7 +290,8 @@ pub fn section(d: &Inputs) -> anyhow::Result<String> {
         s += &format!(
             "{} × {}, every pixel of the bit-accurate pipeline against the f64 reference of its path \
              (mapped methods: pixels more than {}° from the y axis). Largest error in levels / largest \
-             relative intensity error beyond the 8-bit rounding:\n\n",
+             relative intensity error beyond the 8-bit rounding (exhaustive over every pixel of these \
+             images):\n\n",
             r0.width,
             r0.height,
             fxshade_model::render::POLAR_CAP_DEG

@@ -301,8 +301,13 @@ pub fn evaluate(
         put(&mut m, "interp.max_angle_err_deg", r.max_angle_err_deg);
     }
     if o.has("polar") {
-        let r =
-            fxshade_model::analysis::polar(cfg, n("polar"), 1, true).context("polar analysis")?;
+        let r = fxshade_model::analysis::polar(
+            cfg,
+            n("polar"),
+            1,
+            fxshade_model::analysis::POLAR_EXHAUSTIVE_CHEAP,
+        )
+        .context("polar analysis")?;
         put(&mut m, "polar.max_lsb_err", r.stats.max_lsb_err);
         put(&mut m, "polar.rms_lsb_err", r.stats.rms_lsb_err);
         put(&mut m, "polar.max_angle_err_deg", r.stats.max_angle_err_deg);

@@ -12,7 +12,15 @@ fn json(args: &[&str]) -> serde_json::Value {
 
 #[test]
 fn error_angles_is_within_a_least_significant_bit_of_atan2() {
-    let j = json(&["error", "angles", "--count", "100000", "--json"]);
+    let j = json(&[
+        "error",
+        "angles",
+        "--count",
+        "100000",
+        "--sampled",
+        "--json",
+    ]);
+    assert!(j.get("beta_every_code").is_none(), "--sampled skips it");
     for k in [
         "max_alpha_lsb",
         "max_beta_lsb",
@@ -56,6 +64,64 @@ fn error_angles_is_within_a_least_significant_bit_of_atan2() {
     ]);
     assert_eq!(n["coverage"], "all codes");
     assert_eq!(n["samples"], 64 * 64 * 64);
+}
+
+/// β over every `(x, z)` code pair covers half the plane (`x ≥ 0`): a pair
+/// `(−x, −z)` meets the same CORDIC core input and an angle half a turn
+/// away. Checked here on 10-bit normals against both halves enumerated
+/// (with the same length filter), through the model's compiled unit.
+#[test]
+fn beta_over_every_code_pair_is_the_maximum_over_both_halves() {
+    let j = json(&[
+        "error",
+        "angles",
+        "--count",
+        "1000",
+        "--set",
+        "angles.normal.format=I2F8",
+        "--json",
+    ]);
+    let b = &j["beta_every_code"];
+    let (r_lo, r_hi) = (
+        b["r_range"][0].as_f64().unwrap(),
+        b["r_range"][1].as_f64().unwrap(),
+    );
+    let mut cfg = fxshade_model::Config::embedded();
+    cfg.apply_override("angles.normal.format=I2F8").unwrap();
+    let a = fxshade_model::angles::Angles::of(&cfg).unwrap();
+    let tr = a.trace().unwrap();
+    let beta = tr
+        .output_ports()
+        .iter()
+        .find(|p| p.name == "beta")
+        .unwrap()
+        .value;
+    let prog = fxshade_model::datapath::Compiled::compile(&tr, &[beta]).unwrap();
+    let (mut xs, mut zs) = (Vec::new(), Vec::new());
+    for x in -512i128..512 {
+        for z in -512i128..512 {
+            let r = ((x * x + z * z) as f64).sqrt() / 256.0;
+            if r >= r_lo && r <= r_hi {
+                xs.push(x);
+                zs.push(z);
+            }
+        }
+    }
+    let ys = vec![0i128; xs.len()];
+    let (out, _) = prog.run_i128(&[&xs, &ys, &zs]);
+    let turn = 2048.0;
+    let mut worst: f64 = 0.0;
+    for i in 0..xs.len() {
+        let exact = (xs[i] as f64).atan2(zs[i] as f64) / std::f64::consts::TAU;
+        let e = ((out[0][i] as f64 / turn - exact + 0.5).rem_euclid(1.0) - 0.5).abs() * turn;
+        worst = worst.max(e);
+    }
+    assert_eq!(b["covered"].as_u64().unwrap(), xs.len() as u64);
+    assert!(
+        (b["max_beta_lsb"].as_f64().unwrap() - worst).abs() < 1e-9,
+        "half plane {} against both halves {worst}",
+        b["max_beta_lsb"]
+    );
 }
 
 #[test]

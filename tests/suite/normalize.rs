@@ -5,10 +5,9 @@
 use std::process::Command;
 use std::sync::OnceLock;
 
-use fxshade_model::analysis::length_bound;
 use fxshade_model::coeffs::Fit;
 use fxshade_model::datapath::{Datapath, Fixed};
-use fxshade_model::normalizer::{self, g_stage_stats, Interval, Method, Normalizer};
+use fxshade_model::normalizer::{self, Interval, Method, Normalizer};
 use fxshade_model::sampling::{self, Rng};
 use fxshade_model::{Config, Format};
 use proptest::prelude::*;
@@ -72,9 +71,14 @@ fn designs() -> &'static Vec<Case> {
                 let (n, d) =
                     normalizer::design(m, stages(), theta, Fit::Minimax, Interval::Triangle, true)
                         .unwrap();
-                let (lo, hi) = d.unwrap().interval;
-                let g = g_stage_stats(&n, lo, hi).unwrap().max_rel_err;
-                let bound = length_bound(&n, g, lo);
+                let (lo, _) = d.unwrap().interval;
+                let light = fxshade_model::lighting::Lighting::from_config(
+                    Config::embedded().unit("lighting"),
+                );
+                // The proven bound for inputs quantized from |N|² in [lo, 1].
+                let bound = fxshade_model::bounds::normalize(&n, &light, lo, 1.0)
+                    .unwrap()
+                    .length;
                 v.push((theta, m, n, lo, bound));
             }
         }

@@ -431,7 +431,8 @@ fn the_scene_is_flags_with_defaults() {
         ("--light", "nan,0,1"),
     ] {
         let (o, _t) = render(&["--mesh", "sphere:8", "--size", "8x8", flag, v]);
-        assert_eq!(o.status.code(), Some(1), "{flag} {v}: {}", text(&o));
+        // A bad flag value: status 2, as every usage error.
+        assert_eq!(o.status.code(), Some(2), "{flag} {v}: {}", text(&o));
         assert!(text(&o).contains(flag), "{flag} {v}: {}", text(&o));
     }
 }

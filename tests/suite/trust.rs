@@ -990,7 +990,7 @@ fn errors_name_their_cause() {
     for cmd in [
         &["error", "interp", "--count", "2000"][..],
         &["error", "normalize", "--count", "2000"][..],
-        &["error", "polar", "--count", "2000"][..],
+        &["error", "polar", "--count", "2000", "--sampled"][..],
     ] {
         let mut a = cmd.to_vec();
         a.extend(["--config", cfg.to_str().unwrap()]);
