@@ -188,6 +188,9 @@ pub enum AnalysisError {
     /// The unit's RTL could not be generated for its cost figures.
     #[error("generating the RTL: {0}")]
     Rtl(String),
+    /// The cache cannot be used.
+    #[error("{0}")]
+    Cache(String),
 }
 
 /// Analyse the normalizer a configuration describes: `count` random
@@ -607,7 +610,19 @@ pub fn polar_stats(
     let elev = |c: i128| c.rem_euclid(turn);
     let triples = (2 * quarter + 1) as u64 * turn as u64 * (2 * quarter + 1) as u64;
     if triples <= exhaustive_up_to {
-        return polar_every_code(p, light);
+        // Remembered: the transform is fixed by the polar and lighting
+        // stages' formats, modes and tables.
+        // (Not `{p:?}`: a table's Debug holds its function's address,
+        // which changes from run to run.)
+        let t = &p.tables;
+        let key = format!(
+            "{:?} {:?} {:?} {:?} {:?} {:?} {:?} {:?} {light:?}",
+            p.angle, p.index, p.lyz, p.out, t.sin.out, t.sin.codes, t.cos.codes, t.organisation
+        );
+        let r: PolarExhaustive = remembered("polar-every-code", &[key.as_bytes()], || {
+            polar_every_code(p, light).map(PolarExhaustive::from)
+        })?;
+        return Ok(r.into());
     }
     let coverage = "random";
     let total = count;
@@ -689,6 +704,51 @@ pub fn polar_stats(
     st.samples = total as u64;
     st.rms_lsb_err = (sum2 / (3.0 * total.max(1) as f64)).sqrt();
     Ok(st)
+}
+
+/// [`PolarStats`] of [`polar_every_code`], as the cache keeps it.
+#[derive(serde::Serialize, serde::Deserialize)]
+struct PolarExhaustive {
+    samples: u64,
+    max_lsb_err: f64,
+    rms_lsb_err: f64,
+    max_len_dev: f64,
+    max_angle_err_deg: f64,
+    max_diffuse_err_levels: f64,
+    overflows: u64,
+    max_vector_err: f64,
+}
+
+impl From<PolarStats> for PolarExhaustive {
+    fn from(s: PolarStats) -> Self {
+        PolarExhaustive {
+            samples: s.samples,
+            max_lsb_err: s.max_lsb_err,
+            rms_lsb_err: s.rms_lsb_err,
+            max_len_dev: s.max_len_dev,
+            max_angle_err_deg: s.max_angle_err_deg,
+            max_diffuse_err_levels: s.max_diffuse_err_levels,
+            overflows: s.overflows,
+            max_vector_err: s.max_vector_err,
+        }
+    }
+}
+
+impl From<PolarExhaustive> for PolarStats {
+    fn from(s: PolarExhaustive) -> Self {
+        PolarStats {
+            samples: s.samples,
+            coverage: "every code (exhaustive)",
+            max_lsb_err: s.max_lsb_err,
+            rms_lsb_err: s.rms_lsb_err,
+            max_len_dev: s.max_len_dev,
+            max_angle_err_deg: s.max_angle_err_deg,
+            max_diffuse_err_levels: s.max_diffuse_err_levels,
+            overflows: s.overflows,
+            max_vector_err: s.max_vector_err,
+            diffuse_is_bound: true,
+        }
+    }
 }
 
 /// [`polar_stats`] over every code triple `(α_L, β_L − β_N, α_N)` (`α` in
@@ -872,6 +932,73 @@ pub fn polar_every_code(
     Ok(st)
 }
 
+/// A deterministic analysis `f` remembered in the user's cache
+/// ([`crate::cache`], `analyses/`) under a key of `parts`, the hash of
+/// the running executable ([`crate::cache::program_fingerprint`]: any
+/// rebuild recomputes), the source of the analyses and fxshade's version: the
+/// exhaustive runs take a minute and the report asks for them every time.
+/// A cache that cannot be written only costs the next run its time; one
+/// someone else could write is an error.
+fn remembered<T: serde::Serialize + serde::de::DeserializeOwned>(
+    what: &str,
+    parts: &[&[u8]],
+    f: impl FnOnce() -> Result<T, AnalysisError>,
+) -> Result<T, AnalysisError> {
+    let Some(program) = crate::cache::program_fingerprint() else {
+        return f();
+    };
+    let mut all: Vec<&[u8]> = vec![
+        program.as_bytes(),
+        crate::vectors::GENERATOR.as_bytes(),
+        include_str!("analysis.rs").as_bytes(),
+        include_str!("angles/mod.rs").as_bytes(),
+        include_str!("polar/mod.rs").as_bytes(),
+        include_str!("lighting.rs").as_bytes(),
+        include_str!("datapath/batch.rs").as_bytes(),
+        include_str!("quantize.rs").as_bytes(),
+        what.as_bytes(),
+    ];
+    all.extend_from_slice(parts);
+    let key = crate::cache::sha256_key(&all);
+    let dir = crate::cache::subdir("analyses").map_err(|e| AnalysisError::Cache(e.to_string()))?;
+    let path = dir.join(format!("{what}-{}.json", &key[..32]));
+    if let Some(bytes) =
+        crate::cache::read(&path).map_err(|e| AnalysisError::Cache(e.to_string()))?
+    {
+        if let Ok(v) = serde_json::from_slice::<T>(&bytes) {
+            return Ok(v);
+        }
+    }
+    // Another fxshade computing the same entry (parallel tests, a sweep's
+    // workers): wait for it rather than compute twice. The lock is advisory
+    // and only saves time; without it everything still comes out right.
+    let lock = {
+        use std::os::unix::fs::OpenOptionsExt;
+        std::fs::OpenOptions::new()
+            .create(true)
+            .truncate(false)
+            .write(true)
+            .mode(0o600)
+            .open(path.with_extension("lock"))
+            .ok()
+            .filter(|l| l.lock().is_ok())
+    };
+    if lock.is_some() {
+        if let Ok(Some(bytes)) = crate::cache::read(&path) {
+            if let Ok(v) = serde_json::from_slice::<T>(&bytes) {
+                return Ok(v);
+            }
+        }
+    }
+    let v = f()?;
+    let bytes = serde_json::to_vec(&v).expect("serializable");
+    match crate::cache::write(&path, &bytes) {
+        Ok(())
+        | Err(crate::cache::CacheError::Full { .. } | crate::cache::CacheError::Io { .. }) => Ok(v),
+        Err(e) => Err(AnalysisError::Cache(e.to_string())),
+    }
+}
+
 /// The polar report for a configuration: every code triple where there
 /// are at most `exhaustive_up_to` of them ([`polar_every_code`]), else
 /// `count` random samples (or the α_N subsets of [`polar_stats`]).
@@ -969,7 +1096,7 @@ pub fn angles_length_range() -> (f64, f64) {
 }
 
 /// β over every input code: [`angles_beta_every_code`].
-#[derive(Clone, Debug, Default, serde::Serialize)]
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct BetaExhaustive {
     /// `(x, z)` code pairs run, `x ≥ 0` (a pair `(−x, −z)` gives the same
     /// core input and an angle half a turn away, exactly: the same error).
@@ -1005,6 +1132,18 @@ pub fn angles_beta_every_code(
     hi: f64,
 ) -> Result<BetaExhaustive, AnalysisError> {
     let a = crate::angles::Angles::of(cfg).map_err(AnalysisError::Angles)?;
+    // Remembered: β is fixed by the unit's stages and the range.
+    let key = format!("{a:?} {lo:?} {hi:?}");
+    remembered("angles-beta-every-code", &[key.as_bytes()], || {
+        beta_every_code(&a, lo, hi)
+    })
+}
+
+fn beta_every_code(
+    a: &crate::angles::Angles,
+    lo: f64,
+    hi: f64,
+) -> Result<BetaExhaustive, AnalysisError> {
     let tr = a.trace().map_err(|e| AnalysisError::Angles(e.into()))?;
     let beta = tr
         .output_ports()

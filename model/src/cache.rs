@@ -329,6 +329,20 @@ pub fn sha256_file(path: &Path) -> Result<String, CacheError> {
     Ok(hex(&h.finalize()))
 }
 
+/// SHA-256 of the running program's executable, computed once: a cache
+/// entry whose result depends on the code that computed it carries it in
+/// its key, so a rebuilt program never reads an older program's result.
+/// `None` when the executable cannot be read (the caller then does not
+/// cache).
+pub fn program_fingerprint() -> Option<&'static str> {
+    static FP: std::sync::OnceLock<Option<String>> = std::sync::OnceLock::new();
+    FP.get_or_init(|| {
+        let exe = std::env::current_exe().ok()?;
+        sha256_file(&exe).ok()
+    })
+    .as_deref()
+}
+
 /// The SHA-256 of `bytes`, as 64 lowercase hex digits (what `sha256sum`
 /// prints).
 pub fn sha256_bytes(bytes: &[u8]) -> String {

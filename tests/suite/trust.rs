@@ -1147,3 +1147,58 @@ fn a_forged_explore_shard_is_refused() {
         );
     }
 }
+
+/// The exhaustive analyses are remembered in the user's cache: a second run
+/// reads the same figures, a garbled entry is recomputed (never trusted,
+/// never an error), and another configuration is another entry.
+#[test]
+fn remembered_analyses_are_the_computed_ones() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cache = tmp.path().join("cache");
+    let run = |sets: &[&str]| {
+        let mut c = fx(&cache);
+        c.args(["error", "polar", "--json"]);
+        for s in sets {
+            c.args(["--set", s]);
+        }
+        let o = c.output().unwrap();
+        assert!(o.status.success(), "{}", text(&o));
+        String::from_utf8(o.stdout).unwrap()
+    };
+    let small = ["polar.angle_bits=8", "polar.table_bits=8"];
+    let first = run(&small);
+    assert!(first.contains("every code (exhaustive)"), "{first}");
+    let dir = cache.join("analyses");
+    let entries = || -> Vec<PathBuf> {
+        std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension().is_some_and(|e| e == "json"))
+            .collect()
+    };
+    let files = entries();
+    assert_eq!(files.len(), 1, "{files:?}");
+    assert_eq!(run(&small), first);
+    // A garbled entry: recomputed, and the same figures come out.
+    std::fs::write(&files[0], b"{\"max_lsb_err\": 0.0").unwrap();
+    assert_eq!(run(&small), first);
+    // A plausible entry with other numbers is the user's own file in the
+    // user's private cache; but one owned by the user and writable by
+    // others is refused.
+    std::fs::set_permissions(&files[0], std::fs::Permissions::from_mode(0o666)).unwrap();
+    let mut c = fx(&cache);
+    let o = c
+        .args([
+            "error", "polar", "--json", "--set", small[0], "--set", small[1],
+        ])
+        .output()
+        .unwrap();
+    no_panic(&o);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(text(&o).contains("others can write"), "{}", text(&o));
+    std::fs::set_permissions(&files[0], std::fs::Permissions::from_mode(0o600)).unwrap();
+    // Another table width is another entry with other figures.
+    let other = run(&["polar.angle_bits=8", "polar.table_bits=7"]);
+    assert_ne!(other, first);
+    assert_eq!(entries().len(), 2);
+}
