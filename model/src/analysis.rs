@@ -981,7 +981,12 @@ fn remembered<T: serde::Serialize + serde::de::DeserializeOwned>(
             .mode(0o600)
             .open(path.with_extension("lock"))
             .ok()
-            .filter(|l| l.lock().is_ok())
+            .filter(|l| {
+                use std::os::fd::AsRawFd;
+                // SAFETY: flock on a descriptor this function owns; the lock
+                // is released when the file is closed.
+                unsafe { libc::flock(l.as_raw_fd(), libc::LOCK_EX) == 0 }
+            })
     };
     if lock.is_some() {
         if let Ok(Some(bytes)) = crate::cache::read(&path) {
