@@ -10,6 +10,7 @@ mod plot;
 mod proc;
 mod progress;
 mod rtl_flow;
+mod shard;
 
 use std::process::ExitCode;
 
@@ -80,9 +81,15 @@ enum Command {
     /// quantizer at a time) must fail the unit's vectors; exit status 0 only
     /// when all do.
     Mutate(cmd::mutate::MutateArgs),
-    /// Add up the `--json` outputs of `rtl-check --shard K/N` runs: fails
-    /// unless every shard of one run is there and every vector passed.
+    /// Add up the results of `rtl-check --shard K/N` runs (files or
+    /// `--result` directories): fails unless every shard of one run (one
+    /// design, configuration, stream, simulator and fxshade) is there and
+    /// every vector passed, and names the missing, stopped, failing or odd
+    /// shards, with the line that resubmits them.
     Merge(cmd::merge::MergeArgs),
+    /// Evaluate one point of `explore --launcher` (what the launcher runs).
+    #[command(hide = true)]
+    ExplorePoint(explore::launch::PointArgs),
     /// Rasterize a mesh (sphere:N, torus:N or an OBJ file), run the
     /// bit-accurate pipeline on every pixel for each method (and with --rtl
     /// the simulated RTL top, which must give the same image), and write the
@@ -125,6 +132,7 @@ fn main() -> ExitCode {
         Command::RtlCheck(a) => cmd::rtl_check::run(a),
         Command::Mutate(a) => cmd::mutate::run(a),
         Command::Merge(a) => cmd::merge::run(a),
+        Command::ExplorePoint(a) => explore::launch::run_point(a),
         Command::Render(a) => cmd::render::run(a),
         Command::Explore(a) => cmd::explore::run(a),
         Command::Synth(a) => cmd::synth::run(a),

@@ -56,6 +56,12 @@ impl Limit {
     pub fn synth() -> Limit {
         Self::from_env("FXSHADE_SYNTH_TIMEOUT", 7200)
     }
+    /// One point's evaluation started through `explore --launcher` (which
+    /// may wait in a cluster's queue): `$FXSHADE_LAUNCH_TIMEOUT`, else
+    /// 86400 s.
+    pub fn launch() -> Limit {
+        Self::from_env("FXSHADE_LAUNCH_TIMEOUT", 86_400)
+    }
     /// A simulation that reads nothing for this long is stopped:
     /// `$FXSHADE_SIM_IDLE_TIMEOUT`, else 600 s (the simulation itself may
     /// run as long as it keeps reading vectors).

@@ -39,6 +39,20 @@ pub struct Sources {
 }
 
 impl Sources {
+    /// The design fingerprint: SHA-256 over every simulated file's name and
+    /// text (design files, then the testbench) and the testbench's top, as
+    /// 64 hex digits. Shards of one regression share it; `fxshade merge`
+    /// refuses a mix.
+    pub fn fingerprint(&self) -> String {
+        let mut parts: Vec<&[u8]> = Vec::new();
+        for (n, t) in &self.files {
+            parts.push(n.as_bytes());
+            parts.push(t.as_bytes());
+        }
+        parts.push(self.tb_top.as_bytes());
+        fxshade_model::cache::sha256_key(&parts)
+    }
+
     /// The emitted design and testbench of a vector set.
     pub fn emitted(rtl: &RtlSources) -> Sources {
         Sources {
@@ -115,11 +129,26 @@ pub enum Sim {
 }
 
 impl Sim {
-    fn name(self) -> &'static str {
+    /// `verilator` or `icarus`.
+    pub fn name(self) -> &'static str {
         match self {
             Sim::Verilator => "verilator",
             Sim::Icarus => "icarus",
         }
+    }
+
+    /// The simulator's version line (`Verilator 5.006 2023-01-22`,
+    /// `Icarus Verilog version 11.0 (stable) ()`), probed once per process;
+    /// `unknown` when it does not answer.
+    pub fn version(self) -> &'static str {
+        static V: std::sync::OnceLock<[String; 2]> = std::sync::OnceLock::new();
+        let v = V.get_or_init(|| {
+            [
+                crate::proc::version("verilator", "--version").unwrap_or_else(|| "unknown".into()),
+                crate::proc::version("iverilog", "-V").unwrap_or_else(|| "unknown".into()),
+            ]
+        });
+        &v[self as usize]
     }
 }
 
@@ -212,7 +241,8 @@ fn build_with(
         parts.push(t.as_bytes());
     }
     let quick = quick_build();
-    let tag = format!("{}-stream-{trace}-{quick}", sim.name());
+    // A new simulator version builds anew.
+    let tag = format!("{}-{}-stream-{trace}-{quick}", sim.name(), sim.version());
     parts.push(tag.as_bytes());
     let key = fingerprint(&parts);
     let root = cache::root()?;

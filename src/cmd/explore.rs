@@ -75,10 +75,10 @@ pub struct ExploreArgs {
     /// Do not check the winner's RTL (say so in the output).
     #[arg(long)]
     no_rtl_check: bool,
-    /// Measure only shard K of N (0-based) of the sweep's points; combine
-    /// the shards' `explore.json` with `--merge`.
-    #[arg(long, value_name = "K/N", value_parser = super::rtl_check::parse_shard)]
-    shard: Option<(usize, usize)>,
+    /// `--shard K/N|auto`: measure only shard K of N (0-based) of the
+    /// sweep's points; combine the shards' `explore.json` with `--merge`.
+    #[command(flatten)]
+    shard: crate::shard::ShardArgs,
     /// Combine the `explore.json` files (or directories holding one) of the
     /// shards of one sweep: fails if a shard is missing or repeated, or if
     /// they belong to different sweeps.
@@ -91,6 +91,18 @@ pub struct ExploreArgs {
     /// Measure every point again, and cache nothing.
     #[arg(long)]
     no_cache: bool,
+    /// Start every point's evaluation through this command (split as a
+    /// shell would): `'srun -N1 -n1 --quiet'`, `'bsub -K -q short'`,
+    /// `'qrsh -now no'`, or a script; it is given the fxshade executable and
+    /// `explore-point JOB RESULT`, which both must be visible where it runs
+    /// (a shared file system). `--jobs` points run at once (default: the
+    /// machine's cores); results are the same as a local run's.
+    #[arg(long, value_name = "CMD")]
+    launcher: Option<String>,
+    /// Where `--launcher`'s job files go (a private directory is made in
+    /// it and removed at the end; default: the current directory).
+    #[arg(long, value_name = "DIR", requires = "launcher")]
+    launch_dir: Option<PathBuf>,
     /// Points measured at once (default: all cores).
     #[arg(long, value_name = "J")]
     jobs: Option<usize>,
@@ -470,6 +482,12 @@ struct Results {
     sweep_id: String,
     total: usize,
     shard: Option<(usize, usize)>,
+    /// Where the shard came from (its scheduler's task numbering).
+    #[serde(default)]
+    scheduler: Option<crate::shard::Scheduler>,
+    /// fxshade's version: shards of one sweep share it.
+    #[serde(default)]
+    fxshade_version: String,
     axes: Vec<String>,
     /// The axes with their values (what `--merge` checks each row
     /// against).
@@ -490,6 +508,12 @@ struct Results {
 
 /// Run it.
 pub fn run(a: &ExploreArgs) -> anyhow::Result<()> {
+    let r = run_all(a);
+    crate::explore::launch::cleanup();
+    r
+}
+
+fn run_all(a: &ExploreArgs) -> anyhow::Result<()> {
     if a.list_metrics {
         let mut t = Table::new(["metric", "meaning"]);
         for (n, d) in eval::METRICS {
@@ -526,6 +550,9 @@ pub fn run(a: &ExploreArgs) -> anyhow::Result<()> {
             .build_global()
             .context("cannot start the worker threads")?;
     }
+    if let Some(l) = &a.launcher {
+        crate::explore::launch::install(l, a.launch_dir.as_deref())?;
+    }
     let cache = Cache::new(if a.no_cache {
         None
     } else {
@@ -560,7 +587,8 @@ pub fn run(a: &ExploreArgs) -> anyhow::Result<()> {
     }
     let points = sweep::points(&p.axes)?;
     let total = points.len();
-    let mine: Vec<sweep::Point> = match a.shard {
+    let shard = a.shard.resolve()?;
+    let mine: Vec<sweep::Point> = match shard.as_ref().map(|s| (s.k, s.n)) {
         Some((k, n)) => points.into_iter().filter(|x| x.index % n == k).collect(),
         None => points,
     };
@@ -571,7 +599,9 @@ pub fn run(a: &ExploreArgs) -> anyhow::Result<()> {
     let res = Results {
         sweep_id: sweep_id(&p, total),
         total,
-        shard: a.shard,
+        shard: shard.as_ref().map(|s| (s.k, s.n)),
+        scheduler: shard.map(|s| s.scheduler),
+        fxshade_version: env!("CARGO_PKG_VERSION").to_string(),
         axes: p.axes.iter().map(|x| x.key.clone()).collect(),
         sweep: p.axes.clone(),
         base: p.base.clone(),
@@ -850,6 +880,23 @@ fn merge(a: &ExploreArgs) -> anyhow::Result<()> {
         );
     }
     for (f, r) in &parts {
+        if r.fxshade_version != r0.fxshade_version {
+            bail!(
+                "{}: measured by fxshade {}, but {} by fxshade {}: measure the odd shard again",
+                f.display(),
+                if r.fxshade_version.is_empty() {
+                    "(older)"
+                } else {
+                    &r.fxshade_version
+                },
+                f0.display(),
+                if r0.fxshade_version.is_empty() {
+                    "(older)"
+                } else {
+                    &r0.fxshade_version
+                },
+            );
+        }
         if r.sweep_id != r0.sweep_id {
             bail!(
                 "{} and {} are shards of different sweeps (axes, options or base differ)",
@@ -890,7 +937,7 @@ fn merge(a: &ExploreArgs) -> anyhow::Result<()> {
     super::merge::check_shards(
         &parts
             .iter()
-            .map(|(f, r)| (f.clone(), r.shard))
+            .map(|(f, r)| (f.clone(), r.shard, r.scheduler.clone()))
             .collect::<Vec<_>>(),
     )?;
     let mut rows: Vec<Row> = parts
@@ -908,6 +955,7 @@ fn merge(a: &ExploreArgs) -> anyhow::Result<()> {
     let (_, first) = parts.swap_remove(0);
     let mut res = Results {
         shard: None,
+        scheduler: None,
         rows,
         pareto: Vec::new(),
         cheapest_meeting_goals: None,
@@ -933,7 +981,7 @@ fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow:
     if p.goals.is_empty() {
         return Err(UsageError("--optimize needs at least one --goal METRIC<=VALUE".into()).into());
     }
-    if !p.axes.is_empty() || a.shard.is_some() {
+    if !p.axes.is_empty() || a.shard.shard.is_some() {
         return Err(UsageError(
             "--optimize searches widths itself: give no --vary or --shard".into(),
         )

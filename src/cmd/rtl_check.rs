@@ -30,11 +30,21 @@ pub struct RtlCheckArgs {
     /// Seed of the vectors and of the testbench's random stalls.
     #[arg(long, default_value_t = 1)]
     seed: u64,
-    /// Check only shard K of N (0-based): a deterministic, disjoint slice of
-    /// the same stream; the corner cases are in shard 0. Combine the
-    /// shards' `--json` outputs with `fxshade merge`.
-    #[arg(long, value_name = "K/N", value_parser = parse_shard)]
-    shard: Option<(usize, usize)>,
+    /// `--shard K/N|auto`: check only shard K of N (0-based), a
+    /// deterministic, disjoint slice of the same stream (the corner cases
+    /// are in shard 0). Combine the shards' results with `fxshade merge`.
+    #[command(flatten)]
+    shard: crate::shard::ShardArgs,
+    /// Build the simulator into the cache and exit (a dependency job run
+    /// once before a job array, so its tasks do not all build it).
+    #[arg(long)]
+    prebuild: bool,
+    /// Also write the summary (`--json`'s) to `DIR/shard-K-of-N.json`
+    /// (`DIR/run.json` without `--shard`), whole or not at all — a failed
+    /// run too, and a run that stopped with an error writes a record of
+    /// the error there — for `fxshade merge DIR`.
+    #[arg(long, value_name = "DIR")]
+    result: Option<PathBuf>,
     /// Simulations to run at once, each on a slice of the run (default:
     /// the machine's cores).
     #[arg(long, value_name = "J")]
@@ -57,20 +67,6 @@ pub struct RtlCheckArgs {
     out: OutputArgs,
 }
 
-/// `K/N` with `K < N`.
-pub fn parse_shard(s: &str) -> Result<(usize, usize), String> {
-    let bad = || format!("`{s}`: write K/N with 0 ≤ K < N (shard K of N, 0-based)");
-    let (k, n) = s.split_once('/').ok_or_else(bad)?;
-    let (k, n): (usize, usize) = (
-        k.trim().parse().map_err(|_| bad())?,
-        n.trim().parse().map_err(|_| bad())?,
-    );
-    if n == 0 || k >= n {
-        return Err(bad());
-    }
-    Ok((k, n))
-}
-
 /// One run's (or one shard's) summary, as `--json` prints it and `fxshade
 /// merge` reads it.
 #[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
@@ -89,6 +85,17 @@ pub struct RunSummary {
     pub total: usize,
     /// `[K, N]` when one shard was checked.
     pub shard: Option<(usize, usize)>,
+    /// Where the shard came from and how its scheduler numbers tasks.
+    pub scheduler: Option<crate::shard::Scheduler>,
+    /// SHA-256 of the simulated design files and testbench
+    /// ([`rtl_flow::Sources::fingerprint`]).
+    pub design_fingerprint: String,
+    /// Where the design came from (`emitted by fxshade rtl` or a directory).
+    pub design_origin: String,
+    /// The simulator's version line.
+    pub simulator_version: String,
+    /// fxshade's version.
+    pub fxshade_version: String,
     /// First vector checked.
     pub first: usize,
     /// Vectors checked.
@@ -114,15 +121,93 @@ pub struct RunSummary {
     pub runs: Vec<CheckResult>,
 }
 
-/// Run it; exit status 0 only when every vector passed.
+/// A run that stopped with an error, as `--result` records it for
+/// `fxshade merge`.
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
+pub struct RunError {
+    /// Always `error`.
+    pub outcome: String,
+    /// Unit.
+    pub unit: String,
+    /// `[K, N]`.
+    pub shard: Option<(usize, usize)>,
+    /// Where the shard came from.
+    pub scheduler: Option<crate::shard::Scheduler>,
+    /// The error, with its causes.
+    pub error: String,
+}
+
+/// The file `--result DIR` writes for `shard`.
+pub fn result_file(dir: &std::path::Path, shard: Option<(usize, usize)>) -> PathBuf {
+    match shard {
+        Some((k, n)) => dir.join(format!("shard-{k}-of-{n}.json")),
+        None => dir.join("run.json"),
+    }
+}
+
+/// Write `text` to `path` whole or not at all (a temporary file beside it,
+/// synced, renamed).
+fn write_whole(path: &std::path::Path, text: &str) -> anyhow::Result<()> {
+    use std::io::Write;
+    let dir = path.parent().unwrap_or(std::path::Path::new("."));
+    let mut t = tempfile::NamedTempFile::new_in(dir)
+        .with_context(|| format!("cannot write {}", path.display()))?;
+    t.write_all(text.as_bytes())
+        .and_then(|()| t.as_file().sync_all())
+        .with_context(|| format!("cannot write {}", path.display()))?;
+    t.persist(path)
+        .map_err(|e| e.error)
+        .with_context(|| format!("cannot write {}", path.display()))?;
+    Ok(())
+}
+
+/// Run it; exit status 0 only when every vector passed. With `--result`,
+/// a run that stops with an error leaves a record of it.
 pub fn run(a: &RtlCheckArgs) -> anyhow::Result<()> {
+    let shard = a.shard.resolve()?;
+    if let Some(dir) = &a.result {
+        // Refuse a result directory that cannot be written before any work.
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("--result {}: cannot create it", dir.display()))?;
+    }
+    let r = run_shard(a, shard.as_ref());
+    if let (Err(e), Some(dir)) = (&r, &a.result) {
+        if e.downcast_ref::<Failed>().is_none() {
+            let rec = RunError {
+                outcome: "error".into(),
+                unit: a.unit.clone(),
+                shard: shard.as_ref().map(|s| (s.k, s.n)),
+                scheduler: shard.as_ref().map(|s| s.scheduler.clone()),
+                error: format!("{e:#}"),
+            };
+            let path = result_file(dir, rec.shard);
+            let _ = write_whole(&path, &serde_json::to_string_pretty(&rec)?);
+        }
+    }
+    r
+}
+
+/// Vectors failed (the summary is written; not a run error).
+#[derive(Debug)]
+struct Failed(String);
+
+impl std::fmt::Display for Failed {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for Failed {}
+
+fn run_shard(a: &RtlCheckArgs, shard: Option<&crate::shard::Shard>) -> anyhow::Result<()> {
     if a.jobs == Some(0) {
         return Err(crate::output::UsageError("--jobs 0: give at least 1".into()).into());
     }
+    let kn = shard.map(|s| (s.k, s.n));
     let u = rtl_flow::unit(&a.unit)?;
     let cfg = a.cfg.resolve_with(&a.pipe.overrides())?;
-    let stream = VectorStream::new(u, &cfg, a.count, a.seed, a.shard)?;
-    if let Some((k, n)) = a.shard {
+    let stream = VectorStream::new(u, &cfg, a.count, a.seed, kn)?;
+    if let Some((k, n)) = kn {
         anyhow::ensure!(
             stream.count > 0,
             "--shard {k}/{n} of --count {}: this shard holds no vector (use fewer shards than vectors)",
@@ -160,6 +245,22 @@ pub fn run(a: &RtlCheckArgs) -> anyhow::Result<()> {
     };
     // Build once, before the jobs share it.
     let b = rtl_flow::build(u.name, &sources, a.sim, trace.is_some())?;
+    if a.prebuild {
+        crate::output::print_out(&format!(
+            "{} ({}) on {}: {} in {} ({:.1} s)\n",
+            u.name,
+            stream.design.variant,
+            a.sim.version(),
+            if b.seconds > 0.0 {
+                "built"
+            } else {
+                "already built"
+            },
+            b.dir.display(),
+            b.seconds
+        ))?;
+        return Ok(());
+    }
     let start = std::time::Instant::now();
     if stream.count >= 1_000_000 {
         *rtl_flow::PROGRESS.lock().unwrap_or_else(|e| e.into_inner()) =
@@ -205,7 +306,12 @@ pub fn run(a: &RtlCheckArgs) -> anyhow::Result<()> {
         ),
         seed: a.seed,
         total: a.count,
-        shard: a.shard,
+        shard: kn,
+        scheduler: shard.map(|s| s.scheduler.clone()),
+        design_fingerprint: sources.fingerprint(),
+        design_origin: sources.origin.clone(),
+        simulator_version: a.sim.version().to_string(),
+        fxshade_version: env!("CARGO_PKG_VERSION").to_string(),
         first: stream.first,
         count: stream.count,
         passed,
@@ -235,7 +341,7 @@ pub fn run(a: &RtlCheckArgs) -> anyhow::Result<()> {
         u.name,
         stream.design.variant,
         cfg.describe(),
-        match a.shard {
+        match kn {
             Some((k, n)) => format!(
                 ", shard {k}/{n}: vectors {}..{}",
                 stream.first,
@@ -275,17 +381,19 @@ pub fn run(a: &RtlCheckArgs) -> anyhow::Result<()> {
             }
         }
     }
-    emit(
-        a.out,
-        &[t],
-        &serde_json::to_value(&summary).context("summary")?,
-    )?;
-    anyhow::ensure!(
-        failed == 0 && passed == stream.count as u64,
-        "{} of {} vectors failed ({} passed)",
-        stream.count as u64 - passed.min(stream.count as u64),
-        stream.count,
-        passed
-    );
+    let json = serde_json::to_value(&summary).context("summary")?;
+    if let Some(dir) = &a.result {
+        write_whole(&result_file(dir, kn), &serde_json::to_string_pretty(&json)?)?;
+    }
+    emit(a.out, &[t], &json)?;
+    if failed != 0 || passed != stream.count as u64 {
+        return Err(Failed(format!(
+            "{} of {} vectors failed ({} passed)",
+            stream.count as u64 - passed.min(stream.count as u64),
+            stream.count,
+            passed
+        ))
+        .into());
+    }
     Ok(())
 }

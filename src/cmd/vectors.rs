@@ -26,11 +26,11 @@ pub struct VectorsArgs {
     /// Seed of the random vectors: the same seed gives identical files.
     #[arg(long, default_value_t = 1)]
     seed: u64,
-    /// Write only shard K of N (0-based): a deterministic, disjoint slice of
-    /// the same stream (its records carry their stream indices; the
-    /// manifest says `first` and `total`).
-    #[arg(long, value_name = "K/N", value_parser = super::rtl_check::parse_shard)]
-    shard: Option<(usize, usize)>,
+    /// `--shard K/N|auto`: write only shard K of N (0-based), a
+    /// deterministic, disjoint slice of the same stream (its records carry
+    /// their stream indices; the manifest says `first` and `total`).
+    #[command(flatten)]
+    shard: crate::shard::ShardArgs,
     /// Leave out `inputs.hex` and `expected.hex` (the testbench reads the
     /// binary records; the text files are for people and `$readmemh`).
     #[arg(long)]
@@ -57,6 +57,7 @@ fn free_bytes(dir: &Path) -> Option<u64> {
 
 /// Run it.
 pub fn run(a: &VectorsArgs) -> anyhow::Result<()> {
+    let shard = a.shard.resolve()?.map(|s| (s.k, s.n));
     let u = crate::rtl_flow::unit(&a.unit)?;
     let cfg = a.cfg.resolve()?;
     let start = std::time::Instant::now();
@@ -84,7 +85,7 @@ pub fn run(a: &VectorsArgs) -> anyhow::Result<()> {
         } else {
             hex(&emitted.inputs) + hex(&emitted.outputs)
         };
-    let count = match a.shard {
+    let count = match shard {
         Some((k, n)) => {
             (a.count as u128 * (k as u128 + 1) / n as u128
                 - a.count as u128 * k as u128 / n as u128) as u64
@@ -117,7 +118,7 @@ pub fn run(a: &VectorsArgs) -> anyhow::Result<()> {
         StagedDir::new(&a.out)
     }
     .with_context(|| format!("cannot write the vectors to {}", a.out.display()))?;
-    let s = VectorStream::new(u, &cfg, a.count, a.seed, a.shard)?;
+    let s = VectorStream::new(u, &cfg, a.count, a.seed, shard)?;
     let mut m = s.manifest();
     if a.no_hex {
         m["files"]["inputs"] = serde_json::Value::Null;
@@ -149,7 +150,7 @@ pub fn run(a: &VectorsArgs) -> anyhow::Result<()> {
         "{} vectors ({} corner cases){} of {} ({}) written to {} in {:.2} s ({:.0} vectors/s)\n",
         s.count,
         s.corners.len().saturating_sub(s.first).min(s.count),
-        match a.shard {
+        match shard {
             Some((k, n)) => format!(
                 ", shard {k}/{n} = indices {}..{} of {}",
                 s.first,

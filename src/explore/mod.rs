@@ -4,6 +4,7 @@
 //! optimization ([`optimize`]).
 
 pub mod eval;
+pub mod launch;
 pub mod optimize;
 pub mod sweep;
 
@@ -227,9 +228,21 @@ pub fn measure_one(
         row.cached = true;
         return row;
     }
-    match eval::evaluate(&cfg, o, meshes) {
+    let verdict = match launch::get() {
+        None => eval::evaluate(&cfg, o, meshes).map_err(|e| format!("{e:#}")),
+        Some(l) => match l.evaluate(&cfg, o) {
+            Ok(v) => v,
+            Err(e) => {
+                // A failed launch says nothing about the point: not cached.
+                row.error = Some(format!("{e:#}"));
+                row.seconds = start.elapsed().as_secs_f64();
+                return row;
+            }
+        },
+    };
+    match verdict {
         Ok(m) => row.metrics = m,
-        Err(e) => row.error = Some(format!("{e:#}")),
+        Err(e) => row.error = Some(e),
     }
     cache.put(
         key,

@@ -210,7 +210,7 @@ fn shards_merge_into_the_whole_sweep_and_nothing_else() {
     );
     assert_eq!(other["rows"].as_array().unwrap().len(), 2);
     for (shards, says) in [
-        (vec!["s0"], "shards missing"),
+        (vec!["s0"], "missing 1/2: run again with --shard 1/2"),
         (vec!["s0", "s0"], "twice"),
         (vec!["s0", "o1"], "different sweeps"),
     ] {

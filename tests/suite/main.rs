@@ -7,6 +7,7 @@
 mod common;
 
 mod angles;
+mod cluster;
 mod config_cli;
 mod explore;
 mod formal;

@@ -911,7 +911,11 @@ fn shards_cover_the_stream_and_merge() {
     );
     let o = fxshade(&["merge", &files[0], &files[2]]);
     assert_eq!(o.status.code(), Some(1));
-    assert!(text(&o).contains("shards missing: 1/3"), "{}", text(&o));
+    assert!(
+        text(&o).contains("missing 1/3: run again with --shard 1/3"),
+        "{}",
+        text(&o)
+    );
     let o = fxshade(&["merge", &files[0], &files[0], &files[2]]);
     assert!(text(&o).contains("given twice"), "{}", text(&o));
     for bad in ["3/3", "1/0", "x"] {

@@ -1,0 +1,15 @@
+#!/bin/bash
+# fxshade on Slurm in one line: prebuild, an N-task shard array, the merge.
+#   scripts/cluster/slurm/submit.sh 8 results normalize --count 8000000
+# prints the merge job's id; its exit status and output are the verdict
+# (sacct -j ID, or the fxshade-merge-ID.out file).
+set -euo pipefail
+here=$(cd "$(dirname "$0")" && pwd)
+n=${1:?usage: submit.sh N RESULT_DIR UNIT [rtl-check arguments]}
+results=${2:?usage: submit.sh N RESULT_DIR UNIT [rtl-check arguments]}
+shift 2
+mkdir -p "$results"
+pre=$(sbatch --parsable "$here/prebuild.sbatch" "$@")
+array=$(sbatch --parsable --dependency="afterok:$pre" --array="0-$((n - 1))" \
+  "$here/shard.sbatch" "$results" "$@")
+sbatch --parsable --dependency="afterany:$array" "$here/merge.sbatch" "$results"
