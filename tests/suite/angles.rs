@@ -51,6 +51,7 @@ fn error_angles_is_within_a_least_significant_bit_of_atan2() {
         "1000",
         "--set",
         "angles.normal.format=I2F12",
+        "--sampled",
         "--json",
     ]);
     assert!(o["samples"].as_u64().unwrap() > 1000, "{o}");
@@ -196,6 +197,7 @@ fn the_output_format_follows_the_polar_angle_width() {
         "polar.table_bits=10",
         "--set",
         "angles.out.round=\"trunc\"",
+        "--sampled",
         "--json",
     ]);
     assert_eq!(j["out"], "U0F10");

@@ -251,7 +251,21 @@ fn regressions_and_sweeps_run_on_a_live_slurm() {
         text(&o)
     );
 
-    // 4. A sweep whose points run as `srun` job steps gives the local
+    // 4. A prebuild that fails cancels the array instead of leaving it
+    // pending, and the merge still runs and says no shard ran.
+    let none = c.work.join("none");
+    let id = c.submit(
+        4,
+        &none,
+        &["normalize", "--sim", "nonesuch"],
+        Path::new(BIN),
+    );
+    let (state, _) = c.wait(&id);
+    let out = c.output(&format!("fxshade-merge-{id}.out"));
+    assert_eq!(state, "FAILED", "{out}");
+    assert!(out.contains("no *.json result in it"), "{out}");
+
+    // 5. A sweep whose points run as `srun` job steps gives the local
     // sweep's points.
     let sweep = [
         "explore",

@@ -10,6 +10,9 @@ results=${2:?usage: submit.sh N RESULT_DIR UNIT [rtl-check arguments]}
 shift 2
 mkdir -p "$results"
 pre=$(sbatch --parsable "$here/prebuild.sbatch" "$@")
-array=$(sbatch --parsable --dependency="afterok:$pre" --array="0-$((n - 1))" \
+# If the prebuild fails the array is cancelled (not left pending), and the
+# merge still runs and reports that no shard ran.
+array=$(sbatch --parsable --dependency="afterok:$pre" --kill-on-invalid-dep=yes \
+  --array="0-$((n - 1))" \
   "$here/shard.sbatch" "$results" "$@")
 sbatch --parsable --dependency="afterany:$array" "$here/merge.sbatch" "$results"
