@@ -340,7 +340,9 @@ fn shard_auto_reads_every_scheduler() {
     let manifest = |d: &Path| -> serde_json::Value {
         serde_json::from_slice(&std::fs::read(d.join("manifest.json")).unwrap()).unwrap()
     };
-    let cases: [(&[(&str, &str)], &[&str], (u64, u64)); 6] = [
+    // (variables, extra flags, the shard they name)
+    type Case<'a> = (&'a [(&'a str, &'a str)], &'a [&'a str], (u64, u64));
+    let cases: [Case; 6] = [
         (
             &[
                 ("SLURM_ARRAY_TASK_ID", "3"),
