@@ -67,7 +67,10 @@ impl Scheduler {
                  I in {list}"
             ),
             "kubernetes" => {
-                format!("run them again, e.g. one Job each with FXSHADE_SHARD=K/{n}, K in {list}")
+                format!(
+                    "run them again as plain Jobs (not Indexed) with FXSHADE_SHARD=K/{n} and \
+                     --shard auto without --shards, K in {list}"
+                )
             }
             _ => format!(
                 "run again with {}",
@@ -179,12 +182,17 @@ pub fn detect(env: &BTreeMap<String, String>, shards: Option<usize>) -> Result<S
     let num = |k: &str| -> Result<Option<i64>, String> {
         match get(k) {
             None => Ok(None),
-            Some(v) => v
-                .parse::<i64>()
-                .map(Some)
-                .map_err(|_| format!("{k}={v}: not a whole number")),
+            // Bounded, so the index arithmetic below cannot overflow.
+            Some(v) => match v.parse::<i64>() {
+                Ok(n) if (-(1i64 << 40)..=1i64 << 40).contains(&n) => Ok(Some(n)),
+                Ok(_) => Err(format!("{k}={v}: out of range")),
+                Err(_) => Err(format!("{k}={v}: not a whole number")),
+            },
         }
     };
+    if shards.is_some_and(|n| !(1..=1 << 40).contains(&n)) {
+        return Err("--shards N: give 1 ≤ N".into());
+    }
     let shards = match (shards, num("FXSHADE_SHARDS")?) {
         (Some(a), Some(b)) if a as i64 != b => {
             return Err(format!("--shards {a} and FXSHADE_SHARDS={b} disagree"))
@@ -218,6 +226,11 @@ pub fn detect(env: &BTreeMap<String, String>, shards: Option<usize>) -> Result<S
     };
     if let Some(v) = get("FXSHADE_SHARD") {
         let (k, n) = parse_kn(&v).map_err(|e| format!("FXSHADE_SHARD: {e}"))?;
+        if let Some(m) = shards.filter(|&m| m != n as i64) {
+            return Err(format!(
+                "FXSHADE_SHARD={v} names {n} shards, but --shards or FXSHADE_SHARDS says {m}"
+            ));
+        }
         found.push(Shard {
             k,
             n,

@@ -639,6 +639,7 @@ fn label(r: &Row) -> String {
 
 /// Pareto fronts, plots, files and the printed table.
 fn finish(a: &ExploreArgs, mut res: Results, out: &Path) -> anyhow::Result<()> {
+    launch_failures()?;
     res.rows.sort_by_key(|r| r.index);
     let dir = staged(a, out)?;
     let best = cheapest(&res.rows, &res.goals, &res.minimize);
@@ -853,6 +854,23 @@ fn staged(a: &ExploreArgs, out: &Path) -> anyhow::Result<StagedDir> {
     .with_context(|| format!("cannot write the results to {}", out.display()))
 }
 
+/// Fail when a point could not be launched (`--launcher`): its row would
+/// read as the model's verdict. Nothing is written; what was measured is
+/// cached, so a re-run measures only the rest.
+fn launch_failures() -> anyhow::Result<()> {
+    let f = crate::explore::launch::failures();
+    if !f.is_empty() {
+        bail!(
+            "{} point{} could not be launched, so nothing was written (a re-run measures only \
+             them):\n{}",
+            f.len(),
+            if f.len() == 1 { "" } else { "s" },
+            f.join("\n")
+        );
+    }
+    Ok(())
+}
+
 /// `--merge`: the shards' rows as one sweep.
 fn merge(a: &ExploreArgs) -> anyhow::Result<()> {
     let Some(out) = &a.out else {
@@ -1005,6 +1023,7 @@ fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow:
         },
     );
     bar.finish_and_clear();
+    launch_failures()?;
     let o = o?;
     let win_cfg = p
         .base

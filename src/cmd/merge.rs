@@ -63,6 +63,10 @@ pub struct Merged {
     pub resubmit: Option<String>,
 }
 
+/// Most shards a merge takes (a run has at most 2^32 vectors; a million
+/// shards is far more than any scheduler runs).
+const MAX_SHARDS: usize = 1 << 20;
+
 /// A result file, its `(K, N)` and its scheduler.
 pub type ShardOf = (PathBuf, Option<(usize, usize)>, Option<Scheduler>);
 
@@ -76,11 +80,17 @@ pub fn check_shards(shards: &[ShardOf]) -> anyhow::Result<usize> {
     let Some((_, n)) = *first else {
         bail!("{}: a run without --shard", f0.display());
     };
+    if n > MAX_SHARDS {
+        bail!("{}: {n} shards: more than {MAX_SHARDS}", f0.display());
+    }
     let mut seen = vec![None::<&PathBuf>; n];
     for (f, shard, _) in shards {
         let Some((k, nk)) = *shard else {
             bail!("{}: a run without --shard", f.display());
         };
+        if k >= nk {
+            bail!("{}: shard {k}/{nk} cannot be (0 ≤ K < N)", f.display());
+        }
         if nk != n {
             bail!(
                 "{}: shard {k}/{nk}, but {} is one of {n}",
@@ -271,6 +281,22 @@ pub fn run(a: &MergeArgs) -> anyhow::Result<()> {
             );
         }
     }
+    // A stopped shard's record holds only its unit and shard: it must at
+    // least be of this run's unit.
+    let unit = runs
+        .first()
+        .map(|(_, r)| r.unit.clone())
+        .or_else(|| stopped.first().map(|(_, e)| e.unit.clone()));
+    for (f, e) in &stopped {
+        if Some(&e.unit) != unit.as_ref() {
+            bail!(
+                "{}: a stopped run of {}, but the other shards are of {}: not shards of one run",
+                f.display(),
+                e.unit,
+                unit.unwrap_or_default()
+            );
+        }
+    }
     let n = runs
         .iter()
         .filter_map(|(_, r)| r.shard.map(|s| s.1))
@@ -280,6 +306,9 @@ pub fn run(a: &MergeArgs) -> anyhow::Result<()> {
         .ok_or_else(|| {
             UsageError("no shard's result says how many shards: give --shards N".into())
         })?;
+    if n == 0 || n > MAX_SHARDS {
+        return Err(UsageError(format!("{n} shards: give 1 to {MAX_SHARDS}")).into());
+    }
     if let Some(s) = a.shards {
         if s != n {
             return Err(
@@ -361,7 +390,7 @@ pub fn run(a: &MergeArgs) -> anyhow::Result<()> {
     .titled(format!(
         "merged rtl-check, configuration {}, design {}, seed {}",
         m.config_hash,
-        &m.design_fingerprint[..m.design_fingerprint.len().min(16)],
+        m.design_fingerprint.chars().take(16).collect::<String>(),
         m.seed
     ));
     t.row([

@@ -172,7 +172,10 @@ pub fn run(a: &RtlCheckArgs) -> anyhow::Result<()> {
     }
     let r = run_shard(a, shard.as_ref());
     if let (Err(e), Some(dir)) = (&r, &a.result) {
-        if e.downcast_ref::<Failed>().is_none() {
+        // An error after the summary was written (printing it to a closed
+        // stdout) leaves the summary: it is the run's result.
+        let written = RESULT_WRITTEN.load(std::sync::atomic::Ordering::SeqCst);
+        if e.downcast_ref::<Failed>().is_none() && !written {
             let rec = RunError {
                 outcome: "error".into(),
                 unit: a.unit.clone(),
@@ -186,6 +189,9 @@ pub fn run(a: &RtlCheckArgs) -> anyhow::Result<()> {
     }
     r
 }
+
+/// Set once `--result`'s summary is written.
+static RESULT_WRITTEN: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
 
 /// Vectors failed (the summary is written; not a run error).
 #[derive(Debug)]
@@ -384,6 +390,7 @@ fn run_shard(a: &RtlCheckArgs, shard: Option<&crate::shard::Shard>) -> anyhow::R
     let json = serde_json::to_value(&summary).context("summary")?;
     if let Some(dir) = &a.result {
         write_whole(&result_file(dir, kn), &serde_json::to_string_pretty(&json)?)?;
+        RESULT_WRITTEN.store(true, std::sync::atomic::Ordering::SeqCst);
     }
     emit(a.out, &[t], &json)?;
     if failed != 0 || passed != stream.count as u64 {

@@ -35,11 +35,31 @@ struct Job {
     options: Options,
 }
 
-/// What `explore-point` writes.
+/// What `explore-point` writes. Metrics are text (Rust's shortest
+/// round-trip form, `inf` and `NaN` included: JSON numbers cannot hold
+/// them), read back bit for bit.
 #[derive(serde::Serialize, serde::Deserialize)]
 struct Outcome {
-    metrics: BTreeMap<String, f64>,
+    metrics: BTreeMap<String, String>,
     error: Option<String>,
+    /// The error is the node's (a mesh it cannot read, a configuration it
+    /// cannot parse), not the model's verdict on the point: not cached.
+    #[serde(default)]
+    environment: bool,
+}
+
+/// Points whose launch failed, with why (`explore` fails at the end when
+/// there are any: their rows would otherwise read as the model's).
+static FAILED: std::sync::Mutex<Vec<String>> = std::sync::Mutex::new(Vec::new());
+
+/// The launch failures so far.
+pub fn failures() -> Vec<String> {
+    FAILED.lock().unwrap_or_else(|e| e.into_inner()).clone()
+}
+
+/// Record a failed launch.
+pub fn record_failure(why: String) {
+    FAILED.lock().unwrap_or_else(|e| e.into_inner()).push(why);
 }
 
 /// A launcher: the command prefix and the directory of job files.
@@ -69,7 +89,9 @@ pub fn install(line: &str, dir: Option<&Path>) -> anyhow::Result<()> {
              --launcher 'srun -N1 -n1 --quiet')"
             ))
         })?;
-    let parent = dir.map_or_else(|| PathBuf::from("."), Path::to_path_buf);
+    // Absolute: a launcher may start the command in another directory.
+    let parent = std::path::absolute(dir.unwrap_or(Path::new(".")))
+        .context("--launch-dir: cannot resolve it")?;
     let dir = tempfile::Builder::new()
         .prefix(".fxshade-launch-")
         .tempdir_in(&parent)
@@ -135,8 +157,22 @@ impl Launcher {
             .ok()
             .and_then(|b| serde_json::from_slice::<Outcome>(&b).ok())
         {
+            Some(Outcome {
+                error: Some(e),
+                environment: true,
+                ..
+            }) => bail!("{what}: the launched evaluation could not run: {e}"),
             Some(Outcome { error: Some(e), .. }) => Ok(Err(e)),
-            Some(Outcome { metrics, .. }) if out.status.success() => Ok(Ok(metrics)),
+            Some(Outcome { metrics, .. }) if out.status.success() => {
+                let mut m = BTreeMap::new();
+                for (k, v) in metrics {
+                    let x: f64 = v.parse().map_err(|_| {
+                        anyhow::anyhow!("{what}: metric {k} = {v:?} is not a number")
+                    })?;
+                    m.insert(k, x);
+                }
+                Ok(Ok(m))
+            }
             _ => {
                 let tail: Vec<&str> = out.stderr.lines().rev().take(5).collect();
                 let tail: Vec<&str> = tail.into_iter().rev().collect();
@@ -185,21 +221,29 @@ pub fn run_point(a: &PointArgs) -> anyhow::Result<()> {
             env!("CARGO_PKG_VERSION")
         );
     }
+    let node_error = |e: String| Outcome {
+        metrics: BTreeMap::new(),
+        error: Some(e),
+        environment: true,
+    };
     let outcome = match Config::parse(&job.config, &a.job.display().to_string()) {
-        Err(e) => Outcome {
-            metrics: BTreeMap::new(),
-            error: Some(e.to_string().trim().replace('\n', "; ")),
-        },
-        Ok(cfg) => match super::load_meshes(&job.options)
-            .and_then(|m| eval::evaluate(&cfg, &job.options, &m))
-        {
-            Ok(metrics) => Outcome {
-                metrics,
-                error: None,
-            },
-            Err(e) => Outcome {
-                metrics: BTreeMap::new(),
-                error: Some(format!("{e:#}")),
+        Err(e) => node_error(e.to_string().trim().replace('\n', "; ")),
+        Ok(cfg) => match super::load_meshes(&job.options) {
+            Err(e) => node_error(format!("{e:#}")),
+            Ok(meshes) => match eval::evaluate(&cfg, &job.options, &meshes) {
+                Ok(metrics) => Outcome {
+                    metrics: metrics
+                        .into_iter()
+                        .map(|(k, v)| (k, v.to_string()))
+                        .collect(),
+                    error: None,
+                    environment: false,
+                },
+                Err(e) => Outcome {
+                    metrics: BTreeMap::new(),
+                    error: Some(format!("{e:#}")),
+                    environment: false,
+                },
             },
         },
     };

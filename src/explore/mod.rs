@@ -233,7 +233,9 @@ pub fn measure_one(
         Some(l) => match l.evaluate(&cfg, o) {
             Ok(v) => v,
             Err(e) => {
-                // A failed launch says nothing about the point: not cached.
+                // A failed launch says nothing about the point: not cached,
+                // and the run fails at the end.
+                launch::record_failure(format!("point {}: {e:#}", p.index));
                 row.error = Some(format!("{e:#}"));
                 row.seconds = start.elapsed().as_secs_f64();
                 return row;

@@ -68,10 +68,11 @@ impl Cluster {
     }
 
     /// Wait until job `id` (and everything before it) has left the queue;
-    /// its state and exit code (`COMPLETED`, `0:0`). The bound only turns a
-    /// stuck cluster into a failure with its logs.
+    /// its state and exit code (`COMPLETED`, `0:0`). The bound (an hour,
+    /// far beyond any load) only turns a stuck cluster into a failure with
+    /// its logs.
     fn wait(&self, id: &str) -> (String, String) {
-        for _ in 0..3000 {
+        for _ in 0..18_000 {
             let o = self.run(self.cmd("squeue").args(["-h", "-o", "%i"]));
             if String::from_utf8_lossy(&o.stdout).trim().is_empty() {
                 let o = self.run(self.cmd("scontrol").args(["show", "job", id]));
@@ -86,7 +87,7 @@ impl Cluster {
             }
             std::thread::sleep(std::time::Duration::from_millis(200));
         }
-        panic!("job {id} did not finish in 10 minutes: {}", self.logs());
+        panic!("job {id} did not finish in an hour: {}", self.logs());
     }
 
     fn logs(&self) -> String {
@@ -481,4 +482,90 @@ fn shard_auto_reads_every_scheduler() {
         t.contains("resubmit with bsub -J \"<name>[2]\" -env \"all,FXSHADE_SHARDS=3\""),
         "{t}"
     );
+}
+
+/// A point whose launch fails fails the sweep (nothing written, nothing
+/// cached), a shard numbered beyond its count is refused without a panic,
+/// and shard counts that disagree are refused.
+#[test]
+fn failed_launches_and_impossible_shards_are_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let cache = dir.path().join("cache");
+    let sweep = |out: &Path, extra: &[&str]| {
+        let mut c = Command::new(BIN);
+        for v in ARRAY_VARS {
+            c.env_remove(v);
+        }
+        c.args([
+            "explore",
+            "--vary",
+            "polar.table_bits=7..8",
+            "--analyses",
+            "polar",
+        ])
+        .arg("--cache")
+        .arg(&cache)
+        .args(extra)
+        .arg("--out")
+        .arg(out)
+        .output()
+        .unwrap()
+    };
+    let out = dir.path().join("failed");
+    let o = sweep(
+        &out,
+        &[
+            "--launcher",
+            "false",
+            "--launch-dir",
+            dir.path().to_str().unwrap(),
+        ],
+    );
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(
+        text(&o).contains("2 points could not be launched"),
+        "{}",
+        text(&o)
+    );
+    assert!(!out.exists(), "a failed sweep wrote {}", out.display());
+    // Nothing was cached: the local run measures both points.
+    let o = sweep(&dir.path().join("local"), &["--shard", "0/2"]);
+    assert!(o.status.success(), "{}", text(&o));
+    // No job directory is left behind.
+    let left: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .filter(|e| {
+            e.file_name()
+                .to_string_lossy()
+                .starts_with(".fxshade-launch-")
+        })
+        .collect();
+    assert!(left.is_empty(), "{left:?}");
+    // A shard [4, 4] (edited) is refused by name.
+    let f = dir.path().join("local/explore.json");
+    let mut j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&f).unwrap()).unwrap();
+    j["shard"] = serde_json::json!([4, 4]);
+    std::fs::write(&f, j.to_string()).unwrap();
+    let o = fx_env(
+        &[],
+        &[
+            "explore",
+            "--merge",
+            f.to_str().unwrap(),
+            "--out",
+            dir.path().join("m").to_str().unwrap(),
+        ],
+    );
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(!text(&o).contains("panicked"), "{}", text(&o));
+    assert!(text(&o).contains("shard 4/4"), "{}", text(&o));
+    // FXSHADE_SHARD's N against --shards.
+    let o = fx_env(
+        &[("FXSHADE_SHARD", "1/3"), ("FXSHADE_SHARDS", "4")],
+        &["rtl-check", "normalize", "--shard", "auto"],
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("names 3 shards"), "{}", text(&o));
 }

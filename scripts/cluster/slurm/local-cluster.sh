@@ -47,6 +47,12 @@ for t in munged mungekey slurmctld slurmd sbatch; do
 done
 mkdir -p "$dir"
 dir=$(cd "$dir" && pwd)
+case "$dir" in
+*[[:space:]#=]*)
+  echo "local-cluster.sh: $dir: slurm.conf cannot hold a path with spaces, # or =" >&2
+  exit 2
+  ;;
+esac
 mkdir -p "$dir"/{munge,state,spool,log,run}
 chmod 700 "$dir/munge"
 trap 'stop' ERR
@@ -54,7 +60,12 @@ trap 'stop' ERR
 munged --force --socket="$dir/munge/munge.socket" --key-file="$dir/munge/munge.key" \
   --pid-file="$dir/run/munged.pid" --log-file="$dir/log/munged.log" \
   --seed-file="$dir/munge/munged.seed"
-port() { python3 -c 'import socket; s=socket.socket(); s.bind(("", 0)); print(s.getsockname()[1])'; }
+# Two distinct free ports, found while both are held.
+read -r ctld_port d_port < <(python3 -c '
+import socket
+a, b = socket.socket(), socket.socket()
+a.bind(("", 0)); b.bind(("", 0))
+print(a.getsockname()[1], b.getsockname()[1])')
 host=$(hostname -s)
 cpus=$(nproc)
 cat > "$dir/slurm.conf" <<CONF
@@ -75,8 +86,8 @@ SlurmctldPidFile=$dir/run/slurmctld.pid
 SlurmdPidFile=$dir/run/slurmd.pid
 SlurmctldLogFile=$dir/log/slurmctld.log
 SlurmdLogFile=$dir/log/slurmd.log
-SlurmctldPort=$(port)
-SlurmdPort=$(port)
+SlurmctldPort=$ctld_port
+SlurmdPort=$d_port
 JobCompType=jobcomp/none
 JobAcctGatherType=jobacct_gather/none
 AccountingStorageType=accounting_storage/none
@@ -89,7 +100,8 @@ export SLURM_CONF="$dir/slurm.conf"
 slurmctld -f "$SLURM_CONF" -i
 slurmd -f "$SLURM_CONF"
 # Ready when the node takes jobs.
-for _ in $(seq 300); do
+# (A bound only so that a broken set-up ends: 10 minutes.)
+for _ in $(seq 3000); do
   if sinfo -h -o %T 2>/dev/null | grep -qE '^(idle|mixed|allocated)'; then
     echo "export SLURM_CONF=$SLURM_CONF"
     exit 0

@@ -8,6 +8,12 @@ here=$(cd "$(dirname "$0")" && pwd)
 n=${1:?usage: submit.sh N RESULT_DIR UNIT [rtl-check arguments]}
 results=${2:?usage: submit.sh N RESULT_DIR UNIT [rtl-check arguments]}
 shift 2
+case "$n" in
+'' | *[!0-9]* | 0)
+  echo "submit.sh: N = $n: give the number of shards, 1 or more" >&2
+  exit 2
+  ;;
+esac
 mkdir -p "$results"
 pre=$(sbatch --parsable "$here/prebuild.sbatch" "$@")
 # If the prebuild fails the array is cancelled (not left pending), and the
