@@ -80,12 +80,25 @@ pub fn check_shards(shards: &[ShardOf]) -> anyhow::Result<usize> {
     let Some((_, n)) = *first else {
         bail!("{}: a run without --shard", f0.display());
     };
-    if n > MAX_SHARDS {
-        bail!("{}: {n} shards: more than {MAX_SHARDS}", f0.display());
+    let keyed: Vec<(&Path, Option<(usize, usize)>)> =
+        shards.iter().map(|(f, s, _)| (f.as_path(), *s)).collect();
+    let missing = missing_of(&keyed, n)?;
+    if !missing.is_empty() {
+        let sched = shards.iter().find_map(|(_, _, s)| s.clone());
+        bail!("{}", missing_line(&missing, n, sched.as_ref()));
     }
-    let mut seen = vec![None::<&PathBuf>; n];
-    for (f, shard, _) in shards {
-        let Some((k, nk)) = *shard else {
+    Ok(n)
+}
+
+/// The shards of `0..n` no file holds, after checking that every file
+/// (its `(K, N)`) is a shard of `n`, each once; errors name the files.
+fn missing_of(shards: &[(&Path, Option<(usize, usize)>)], n: usize) -> anyhow::Result<Vec<usize>> {
+    if n == 0 || n > MAX_SHARDS {
+        bail!("{n} shards: a run has 1 to {MAX_SHARDS}");
+    }
+    let mut seen = vec![None::<&Path>; n];
+    for &(f, shard) in shards {
+        let Some((k, nk)) = shard else {
             bail!("{}: a run without --shard", f.display());
         };
         if k >= nk {
@@ -93,9 +106,8 @@ pub fn check_shards(shards: &[ShardOf]) -> anyhow::Result<usize> {
         }
         if nk != n {
             bail!(
-                "{}: shard {k}/{nk}, but {} is one of {n}",
-                f.display(),
-                f0.display()
+                "{}: shard {k}/{nk}, but the others are shards of {n}",
+                f.display()
             );
         }
         if let Some(prev) = seen[k] {
@@ -107,12 +119,7 @@ pub fn check_shards(shards: &[ShardOf]) -> anyhow::Result<usize> {
         }
         seen[k] = Some(f);
     }
-    let missing: Vec<usize> = (0..n).filter(|&k| seen[k].is_none()).collect();
-    if !missing.is_empty() {
-        let sched = shards.iter().find_map(|(_, _, s)| s.clone());
-        bail!("{}", missing_line(&missing, n, sched.as_ref()));
-    }
-    Ok(n)
+    Ok((0..n).filter(|&k| seen[k].is_none()).collect())
 }
 
 /// `missing 3/8 and 7/8: resubmit with sbatch --array=3,7 …`.
@@ -316,35 +323,16 @@ pub fn run(a: &MergeArgs) -> anyhow::Result<()> {
             );
         }
     }
-    let mut seen: Vec<Option<&Path>> = vec![None; n];
-    let keyed = runs
+    let keyed: Vec<(&Path, Option<(usize, usize)>)> = runs
         .iter()
-        .map(|(f, r)| (f, r.shard))
-        .chain(stopped.iter().map(|(f, e)| (f, e.shard)));
-    for (f, shard) in keyed {
-        let Some((k, nk)) = shard else {
-            bail!("{}: a run without --shard", f.display());
-        };
-        if nk != n || k >= n {
-            bail!(
-                "{}: shard {k}/{nk}, but the others are shards of {n}",
-                f.display()
-            );
-        }
-        if let Some(prev) = seen[k] {
-            bail!(
-                "shard {k}/{n} given twice: {} and {}",
-                prev.display(),
-                f.display()
-            );
-        }
-        seen[k] = Some(f);
-    }
+        .map(|(f, r)| (f.as_path(), r.shard))
+        .chain(stopped.iter().map(|(f, e)| (f.as_path(), e.shard)))
+        .collect();
+    let missing = missing_of(&keyed, n)?;
     let sched = runs
         .iter()
         .find_map(|(_, r)| r.scheduler.clone())
         .or_else(|| stopped.iter().find_map(|(_, e)| e.scheduler.clone()));
-    let missing: Vec<usize> = (0..n).filter(|&k| seen[k].is_none()).collect();
     let mut again = missing.clone();
     again.extend(stopped.iter().filter_map(|(_, e)| e.shard.map(|s| s.0)));
     again.sort_unstable();
