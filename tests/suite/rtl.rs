@@ -585,14 +585,14 @@ fn random_valid_configurations_agree_bit_for_bit() {
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(20261122u64);
-    // Six configurations keep the suite inside its 15-minute budget (each
+    // Four configurations keep the suite inside its 15-minute budget (each
     // is eight to fourteen simulator builds and their killer searches,
     // about 20 CPU-s); FXSHADE_RANDOM_CONFIGS runs more, and
     // FXSHADE_RANDOM_SEED others.
     let wanted = std::env::var("FXSHADE_RANDOM_CONFIGS")
         .ok()
         .and_then(|s| s.parse().ok())
-        .unwrap_or(6usize);
+        .unwrap_or(4usize);
     println!(
         "random configurations: {wanted}, seed {seed} (FXSHADE_RANDOM_CONFIGS, FXSHADE_RANDOM_SEED to change)"
     );
