@@ -376,10 +376,28 @@ impl Config {
     /// Read `path` if given, else the embedded default; then apply `--set`
     /// overrides and validate the result.
     pub fn resolve(path: Option<&Path>, overrides: &[String]) -> Result<Config, ConfigErrors> {
-        let mut cfg = match path {
+        let cfg = match path {
             Some(p) => Self::load(p)?,
             None => Self::embedded(),
         };
+        cfg.with_overrides(overrides)
+    }
+
+    /// Parse TOML `text` (named `name` in errors), then apply `--set`
+    /// overrides and validate the result, as [`Config::resolve`] does for a
+    /// file.
+    pub fn resolve_text(
+        text: &str,
+        name: &str,
+        overrides: &[String],
+    ) -> Result<Config, ConfigErrors> {
+        Self::parse(text, name)?.with_overrides(overrides)
+    }
+
+    /// This configuration with `--set` overrides applied in order, then
+    /// validated: every override's error and then every unit's.
+    pub fn with_overrides(self, overrides: &[String]) -> Result<Config, ConfigErrors> {
+        let mut cfg = self;
         let mut errors = Vec::new();
         for o in overrides {
             if let Err(e) = cfg.apply_override(o) {

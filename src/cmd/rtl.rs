@@ -34,6 +34,12 @@ pub struct RtlArgs {
     /// the one `fxshade vectors` and `rtl-check` use).
     #[arg(long)]
     testbench: bool,
+    /// Also write each module's SystemVerilog DPI-C package
+    /// (`<module>_dpi_pkg.sv`: the model through the C ABI library
+    /// `libfxshade_capi`, typed by the module's ports) and a scoreboard
+    /// testbench driving the module against it (`<module>_dpi_tb.sv`).
+    #[arg(long)]
+    dpi: bool,
     /// Replace files in `--out` that fxshade did not write or that were
     /// edited since (refused otherwise, naming the file).
     #[arg(long)]
@@ -46,6 +52,17 @@ pub struct RtlArgs {
 /// unit, and the pipeline top of every variant (smooth, mapped with CORDIC
 /// angles, mapped with interpolated angles).
 pub fn emit_all(cfg: &fxshade_model::Config) -> anyhow::Result<Vec<(&'static RtlUnit, Emitted)>> {
+    configs_all(cfg)?
+        .into_iter()
+        .map(|(u, c)| Ok((u, units::emit_unit(u, &c)?.1)))
+        .collect()
+}
+
+/// The units and configurations of [`emit_all`]: every unit with `cfg`,
+/// and the pipeline top with each variant's overrides applied.
+fn configs_all(
+    cfg: &fxshade_model::Config,
+) -> anyhow::Result<Vec<(&'static RtlUnit, fxshade_model::Config)>> {
     let mut out = Vec::new();
     for u in units::all() {
         if u.name == "pipeline" {
@@ -54,10 +71,10 @@ pub fn emit_all(cfg: &fxshade_model::Config) -> anyhow::Result<Vec<(&'static Rtl
                 for o in units::overrides(set) {
                     c.apply_override(o)?;
                 }
-                out.push((u, units::emit_unit(u, &c)?.1));
+                out.push((u, c));
             }
         } else {
-            out.push((u, units::emit_unit(u, cfg)?.1));
+            out.push((u, cfg.clone()));
         }
     }
     Ok(out)
@@ -109,12 +126,24 @@ pub fn run(a: &RtlArgs) -> anyhow::Result<()> {
     };
     let cfg = a.cfg.resolve_with(&a.pipe.overrides())?;
     let start = std::time::Instant::now();
-    let emitted = if a.unit == "all" {
-        emit_all(&cfg)?
+    let configs = if a.unit == "all" {
+        configs_all(&cfg)?
     } else {
-        let u = crate::rtl_flow::unit(&a.unit)?;
-        vec![(u, units::emit_unit(u, &cfg)?.1)]
+        vec![(crate::rtl_flow::unit(&a.unit)?, cfg.clone())]
     };
+    let mut emitted = Vec::new();
+    let mut dpi = Vec::new();
+    for (u, c) in &configs {
+        if a.dpi {
+            let m = fxshade_model::rtl::unit_model::UnitModel::of(u, c)?;
+            let pkg = fxshade_model::rtl::dpi::package(&m)?;
+            let tb = fxshade_model::rtl::dpi::scoreboard(&m)?;
+            dpi.push((m.module().to_string(), pkg, tb));
+            emitted.push((*u, m.emitted));
+        } else {
+            emitted.push((*u, units::emit_unit(u, c)?.1));
+        }
+    }
     let secs = start.elapsed().as_secs_f64();
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
     let mut t = Table::new([
@@ -144,6 +173,10 @@ pub fn run(a: &RtlArgs) -> anyhow::Result<()> {
             writes.push((format!("{}_tb.v", e.module), &e.testbench));
         }
     }
+    for (module, pkg, tb) in &dpi {
+        writes.push((format!("{module}_dpi_pkg.sv"), pkg));
+        writes.push((format!("{module}_dpi_tb.sv"), tb));
+    }
     if !a.force {
         for (name, text) in &writes {
             if let Some(why) = record.blocks(name, text.as_bytes()) {
@@ -166,6 +199,10 @@ pub fn run(a: &RtlArgs) -> anyhow::Result<()> {
         let mut files = vec![format!("{}.v", e.module)];
         if a.testbench {
             files.push(format!("{}_tb.v", e.module));
+        }
+        if a.dpi {
+            files.push(format!("{}_dpi_pkg.sv", e.module));
+            files.push(format!("{}_dpi_tb.sv", e.module));
         }
         let h = &e.hardware;
         t.row([

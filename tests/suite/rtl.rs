@@ -1014,3 +1014,62 @@ fn streaming_needs_no_rebuild_no_memory_and_checks_the_disk() {
     );
     assert!(!out.exists());
 }
+
+/// `fxshade rtl all --dpi`: every module's DPI-C package and scoreboard
+/// (capi/tests/dpi.rs runs them) are clean under Verilator's `-Wall` lint
+/// and slang, with lines of at most 100 columns, ASCII only.
+#[test]
+fn dpi_packages_and_scoreboards_pass_verilator_lint_and_slang() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = fxshade(&["rtl", "all", "--dpi", "--out", dir.path().to_str().unwrap()]);
+    assert!(o.status.success(), "{}", text(&o));
+    let mut modules: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .filter_map(|e| {
+            let name = e.unwrap().file_name().to_string_lossy().into_owned();
+            name.strip_suffix("_dpi_pkg.sv").map(str::to_string)
+        })
+        .collect();
+    modules.sort();
+    let mut n = 0;
+    {
+        for m in modules {
+            let files: Vec<std::path::PathBuf> = [
+                format!("{m}_dpi_pkg.sv"),
+                format!("{m}.v"),
+                format!("{m}_dpi_tb.sv"),
+            ]
+            .iter()
+            .map(|f| dir.path().join(f))
+            .collect();
+            for f in [&files[0], &files[2]] {
+                let t = std::fs::read_to_string(f)
+                    .unwrap_or_else(|_| panic!("{} was not written", f.display()));
+                assert!(t.is_ascii(), "{}", f.display());
+                assert!(t.lines().all(|l| l.len() <= 100), "{}", f.display());
+            }
+            let o = Command::new("verilator")
+                .args(["--lint-only", "-Wall", "--timing", "--top-module"])
+                .arg(format!("{m}_dpi_tb"))
+                .args(&files)
+                .output()
+                .expect("verilator runs");
+            assert!(
+                o.status.success() && text(&o).trim().is_empty(),
+                "verilator {m}: {}",
+                text(&o)
+            );
+            let o = Command::new(repo().join("scripts/slang-check"))
+                .args(&files)
+                .output()
+                .expect("scripts/slang-check runs (pip install pyslang)");
+            assert!(
+                o.status.success() && text(&o).contains("0 errors, 0 warnings"),
+                "slang {m}: {}",
+                text(&o)
+            );
+            n += 1;
+        }
+    }
+    assert_eq!(n, 9, "six units, the pipeline top of three variants");
+}

@@ -16,26 +16,34 @@ module pipeline_smooth_tb;
   // Set-up sequencer: a vector whose set-up fields differ from the ones
   // the DUT holds is preceded by a set-up transfer on that port.
   wire item_ready;
-  wire [95:0] frame_rec = {in_data[95:80], in_data[79:64], in_data[63:48], in_data[47:32], in_data[31:16], in_data[15:0]};
+  wire [95:0] frame_rec = {
+    in_data[95:80], in_data[79:64], in_data[63:48], in_data[47:32], in_data[31:16],
+    in_data[15:0]
+  };
   reg  [95:0] frame_held;
   reg  frame_set;
   wire frame_ready;
   wire frame_new = ~frame_set | (frame_held != frame_rec);
   wire frame_valid = in_valid & frame_new;
-  always @(posedge clk) begin
+  always @(posedge clk or negedge rst_n) begin
     if (!rst_n) frame_set <= 1'b0;
     else if (frame_valid & frame_ready) begin
       frame_held <= frame_rec;
       frame_set <= 1'b1;
     end
   end
-  wire [290:0] tri_rec = {in_data[418:416], in_data[383:368], in_data[367:352], in_data[351:336], in_data[335:320], in_data[319:304], in_data[303:288], in_data[287:272], in_data[271:256], in_data[255:240], in_data[239:224], in_data[223:208], in_data[207:192], in_data[191:176], in_data[175:160], in_data[159:144], in_data[143:128], in_data[127:112], in_data[111:96]};
+  wire [290:0] tri_rec = {
+    in_data[418:416], in_data[383:368], in_data[367:352], in_data[351:336], in_data[335:320],
+    in_data[319:304], in_data[303:288], in_data[287:272], in_data[271:256], in_data[255:240],
+    in_data[239:224], in_data[223:208], in_data[207:192], in_data[191:176], in_data[175:160],
+    in_data[159:144], in_data[143:128], in_data[127:112], in_data[111:96]
+  };
   reg  [290:0] tri_held;
   reg  tri_set;
   wire tri_ready;
   wire tri_new = ~tri_set | (tri_held != tri_rec);
   wire tri_valid = in_valid & tri_new & ~(frame_new);
-  always @(posedge clk) begin
+  always @(posedge clk or negedge rst_n) begin
     if (!rst_n) tri_set <= 1'b0;
     else if (tri_valid & tri_ready) begin
       tri_held <= tri_rec;

@@ -28,11 +28,13 @@
 pub mod bits;
 pub mod calibrate;
 pub mod direction;
+pub mod dpi;
 pub mod mutants;
 pub mod probe;
 pub mod search;
 pub mod testbench;
 pub mod timing;
+pub mod unit_model;
 pub mod units;
 pub mod witness;
 
@@ -228,7 +230,7 @@ pub struct Emitted {
 
 /// `text` as comment lines of at most 78 columns, each starting with
 /// `lead`.
-fn comment(lead: &str, text: &str) -> String {
+pub(crate) fn comment(lead: &str, text: &str) -> String {
     let mut out = String::new();
     let mut line = String::new();
     for w in text.split_whitespace() {

@@ -11,7 +11,7 @@ use crate::vectors::{Field, GENERATOR};
 pub const DRIVER: &str = include_str!("../../../rtl/tb/fxs_vector_tb.vh");
 
 /// Bit ranges `(msb, lsb)` of fields packed most significant first.
-fn ranges(fields: &[Field]) -> Vec<(u32, u32)> {
+pub(crate) fn ranges(fields: &[Field]) -> Vec<(u32, u32)> {
     let total: u32 = fields.iter().map(|f| f.format.width()).sum();
     let mut msb = total;
     fields
@@ -99,37 +99,7 @@ pub fn generate(
         t += "    if ($value$plusargs(\"MUTANT=%d\", mutant_arg)) begin end\n";
         t += "    mutant = mutant_arg[15:0];\n  end\n\n";
     }
-    let mut conns = vec![".clk_i(clk)".to_string(), ".rst_ni(rst_n)".into()];
-    if setup.is_empty() {
-        conns.push(".valid_i(in_valid)".into());
-        conns.push(".ready_o(in_ready)".into());
-    } else {
-        t += &setup_glue(inputs, setup);
-        conns.push(".valid_i(item_valid)".into());
-        conns.push(".ready_o(item_ready)".into());
-        for g in setup {
-            conns.push(format!(".{n}_valid_i({n}_valid)", n = g.name));
-            conns.push(format!(".{n}_ready_o({n}_ready)", n = g.name));
-        }
-    }
-    let _ = writeln!(t, "  {module} dut (");
-    for (f, (m, l)) in inputs.iter().zip(ranges(inputs)) {
-        conns.push(format!(".{}_i(in_data[{m}:{l}])", f.name));
-    }
-    if mutant_port {
-        conns.push(".mutant_i(mutant)".into());
-    }
-    conns.push(".valid_o(out_valid)".into());
-    conns.push(".ready_i(out_ready)".into());
-    for (f, (m, l)) in outputs.iter().zip(ranges(outputs)) {
-        if f.name == "ovf" && nflags > 0 {
-            conns.push(format!(".ovf_o(out_data[{m}:{l}])"));
-        } else {
-            conns.push(format!(".{}_o(out_data[{m}:{l}])", f.name));
-        }
-    }
-    let _ = writeln!(t, "    {}", conns.join(",\n    "));
-    t += "  );\n\n";
+    t += &instance(module, inputs, outputs, nflags, mutant_port, setup, false);
     t += "  task show(input integer i, input [IN_W-1:0] in, input [OUT_W-1:0] got, input [OUT_W-1:0] want);\n";
     t += "    begin\n";
     t += "      $display(\"mismatch at vector %0d\", i);\n";
@@ -148,6 +118,66 @@ pub fn generate(
         }
     }
     t += "endmodule\n\n`default_nettype wire\n";
+    t
+}
+
+/// The DUT instance `dut` of a testbench, its ports wired to the shared
+/// signals `clk`, `rst_n`, `in_valid`/`in_ready`/`in_data` and
+/// `out_valid`/`out_ready`/`out_data` (the fields packed most significant
+/// first); with set-up ports, preceded by the set-up sequencer
+/// ([`setup_glue`]). With `members`, `in_data` and `out_data` are packed
+/// structs and the ports connect to their members (no signedness change
+/// at a port).
+pub(crate) fn instance(
+    module: &str,
+    inputs: &[Field],
+    outputs: &[Field],
+    nflags: usize,
+    mutant_port: bool,
+    setup: &[super::SetupPort],
+    members: bool,
+) -> String {
+    let mut t = String::new();
+    let mut conns = vec![".clk_i(clk)".to_string(), ".rst_ni(rst_n)".into()];
+    if setup.is_empty() {
+        conns.push(".valid_i(in_valid)".into());
+        conns.push(".ready_o(in_ready)".into());
+    } else {
+        t += &setup_glue(inputs, setup);
+        conns.push(".valid_i(item_valid)".into());
+        conns.push(".ready_o(item_ready)".into());
+        for g in setup {
+            conns.push(format!(".{n}_valid_i({n}_valid)", n = g.name));
+            conns.push(format!(".{n}_ready_o({n}_ready)", n = g.name));
+        }
+    }
+    let _ = writeln!(t, "  {module} dut (");
+    for (f, (m, l)) in inputs.iter().zip(ranges(inputs)) {
+        if members {
+            conns.push(format!(".{0}_i(in_data.{0})", f.name));
+        } else {
+            conns.push(format!(".{}_i(in_data[{m}:{l}])", f.name));
+        }
+    }
+    if mutant_port {
+        conns.push(".mutant_i(mutant)".into());
+    }
+    conns.push(".valid_o(out_valid)".into());
+    conns.push(".ready_i(out_ready)".into());
+    for (f, (m, l)) in outputs.iter().zip(ranges(outputs)) {
+        let port = if f.name == "ovf" && nflags > 0 {
+            "ovf".to_string()
+        } else {
+            f.name.clone()
+        };
+        if members {
+            conns.push(format!(".{port}_o(out_data.{})", f.name));
+        } else {
+            conns.push(format!(".{port}_o(out_data[{m}:{l}])"));
+        }
+    }
+    let _ = writeln!(t, "    {}", conns.join(",\n    "));
+    t += "  );\n\n";
     t
 }
 
@@ -185,11 +215,13 @@ fn setup_glue(inputs: &[Field], setup: &[super::SetupPort]) -> String {
             })
             .sum();
         let n = g.name;
+        // Five fields a line: lines stay under 100 columns.
+        let lines: Vec<String> = slices.chunks(5).map(|c| c.join(", ")).collect();
         let _ = writeln!(
             t,
-            "  wire [{}:0] {n}_rec = {{{}}};",
+            "  wire [{}:0] {n}_rec = {{\n    {}\n  }};",
             w - 1,
-            slices.join(", ")
+            lines.join(",\n    ")
         );
         let _ = writeln!(t, "  reg  [{}:0] {n}_held;", w - 1);
         let _ = writeln!(t, "  reg  {n}_set;\n  wire {n}_ready;");
@@ -200,7 +232,7 @@ fn setup_glue(inputs: &[Field], setup: &[super::SetupPort]) -> String {
             format!(" & ~({})", earlier.join(" | "))
         };
         let _ = writeln!(t, "  wire {n}_valid = in_valid & {n}_new{before};");
-        t += "  always @(posedge clk) begin\n";
+        t += "  always @(posedge clk or negedge rst_n) begin\n";
         let _ = writeln!(t, "    if (!rst_n) {n}_set <= 1'b0;");
         let _ = writeln!(
             t,
