@@ -216,6 +216,53 @@ impl Trace {
             })
             .collect()
     }
+    /// The real-arithmetic value of `outputs` for real input values
+    /// `inputs` (by input slot, the order of [`Trace::input_ports`]): every
+    /// node evaluated in f64 as [`super::Reference`] does (products, sums,
+    /// differences and maxima exact up to f64 rounding; every quantization
+    /// the identity, so no rounding and no saturation; a table read is its
+    /// exact function of the index value; division and square root IEEE),
+    /// constants at the value of their code. So the model's error against
+    /// it is the quantization error of the datapath's formats alone. A
+    /// select takes option `round(sel)` (option 0 past the end).
+    pub fn run_f64(&self, inputs: &[f64], outputs: &[TV]) -> Vec<f64> {
+        let mut v = vec![0f64; self.ops.len()];
+        let read = |v: &[f64], t: &TV| {
+            let i = t.node();
+            v[i] * crate::format::exp2i(self.fracs[i] - t.frac)
+        };
+        for (i, op) in self.ops.iter().enumerate() {
+            v[i] = match op {
+                Op::Input(slot) => inputs.get(*slot).copied().unwrap_or(0.0),
+                Op::Const(c) => *c as f64 * crate::format::exp2i(-self.fracs[i]),
+                Op::Mul(a, b) => read(&v, a) * read(&v, b),
+                Op::Add(a, b) => read(&v, a) + read(&v, b),
+                Op::Sub(a, b) => read(&v, a) - read(&v, b),
+                Op::Max(a, b) => read(&v, a).max(read(&v, b)),
+                Op::AddSigned(a, b, s, flip) => {
+                    if (read(&v, s) < 0.0) != *flip {
+                        read(&v, a) - read(&v, b)
+                    } else {
+                        read(&v, a) + read(&v, b)
+                    }
+                }
+                Op::Quant(a, _) => read(&v, a),
+                Op::Table(ix, slot) => (self.tables[*slot].exact)(read(&v, ix)),
+                Op::Div(a, b, _) => read(&v, a) / read(&v, b),
+                Op::Sqrt(a, _) => read(&v, a).sqrt(),
+                Op::Select(sel, options) => {
+                    let k = read(&v, sel).round();
+                    let k = if k >= 0.0 && (k as usize) < options.len() {
+                        k as usize
+                    } else {
+                        0
+                    };
+                    read(&v, &options[k])
+                }
+            };
+        }
+        outputs.iter().map(|t| read(&v, t)).collect()
+    }
     /// The named output ports, in the order they were named.
     pub fn output_ports(&self) -> &[Port] {
         &self.outputs

@@ -129,6 +129,8 @@ pub struct UnitModel {
     pub emitted: Emitted,
     prog: Compiled,
     outputs: Vec<Field>,
+    /// The trace's input slot of each input field.
+    slots: Vec<usize>,
 }
 
 impl UnitModel {
@@ -171,12 +173,28 @@ impl UnitModel {
                 });
             }
         }
+        let ports = design.trace.input_ports();
+        let slots = emitted
+            .inputs
+            .iter()
+            .map(|f| {
+                let p = ports
+                    .iter()
+                    .find(|p| p.name == f.name)
+                    .expect("every input field is a traced input port");
+                match design.trace.ops()[p.value.node()] {
+                    crate::datapath::Op::Input(slot) => slot,
+                    _ => unreachable!("an input port is an input node"),
+                }
+            })
+            .collect();
         Ok(UnitModel {
             unit: u,
             design,
             emitted,
             prog,
             outputs,
+            slots,
         })
     }
 
@@ -263,6 +281,52 @@ impl UnitModel {
         m["layout"] = self.layout().into();
         m["abi_version"] = ABI_VERSION.into();
         m
+    }
+
+    /// The real-arithmetic reference of `n` rows of input values (`n ×
+    /// inputs().len()`, row by row) into `outputs` (`n × outputs().len()`):
+    /// the traced datapath with every quantization the identity and every
+    /// table its exact function ([`crate::datapath::Trace::run_f64`]), so
+    /// the bit-exact model's error against it is the error of its formats.
+    pub fn reference(
+        &self,
+        n: usize,
+        inputs: &[f64],
+        outputs: &mut [f64],
+    ) -> Result<(), ModelError> {
+        let ni = self.inputs().len();
+        let no = self.outputs().len();
+        if inputs.len() != n * ni {
+            return Err(ModelError::Shape {
+                what: "inputs",
+                expected: n * ni,
+                got: inputs.len(),
+            });
+        }
+        if outputs.len() != n * no {
+            return Err(ModelError::Shape {
+                what: "outputs",
+                expected: n * no,
+                got: outputs.len(),
+            });
+        }
+        let outs: Vec<_> = self
+            .design
+            .trace
+            .output_ports()
+            .iter()
+            .map(|p| p.value)
+            .collect();
+        let nslots = self.slots.iter().max().map_or(0, |m| m + 1);
+        let mut row = vec![0f64; nslots];
+        for i in 0..n {
+            for (k, &s) in self.slots.iter().enumerate() {
+                row[s] = inputs[i * ni + k];
+            }
+            let r = self.design.trace.run_f64(&row, &outs);
+            outputs[i * no..(i + 1) * no].copy_from_slice(&r);
+        }
+        Ok(())
     }
 
     /// Evaluate `n` rows: `inputs` holds `n × inputs().len()` codes row by
