@@ -65,6 +65,25 @@ impl Sources {
             origin: "emitted by fxshade rtl".into(),
         }
     }
+    /// The same design behind its AXI4-Stream wrapper: the wrapper
+    /// (`<module>_axis.v`) after the design files, and the vector
+    /// testbench that drives the wrapper instead of the module's.
+    pub fn with_axis(mut self, unit: &str, e: &fxshade_model::rtl::Emitted) -> Sources {
+        let tb = self.files.pop();
+        debug_assert!(tb.is_some_and(|(n, _)| n.ends_with("_tb.v")));
+        let m = &e.module;
+        self.files.push((
+            format!("{m}_axis.v"),
+            fxshade_model::rtl::axis::wrapper(unit, e),
+        ));
+        self.files.push((
+            format!("{m}_axis_tb.v"),
+            fxshade_model::rtl::axis::testbench(e),
+        ));
+        self.tb_top = format!("{m}_axis_tb");
+        self.origin += ", behind its AXI4-Stream wrapper";
+        self
+    }
     /// Every `*.v` file of `dir` except testbenches (`*_tb.v`) as the
     /// design, with the vector set's generated testbench.
     pub fn from_dir(rtl: &RtlSources, dir: &Path) -> anyhow::Result<Sources> {

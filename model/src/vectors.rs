@@ -25,6 +25,12 @@ use crate::format::Format;
 /// Generator name and version, recorded in manifests and headers.
 pub const GENERATOR: &str = concat!("fxshade ", env!("CARGO_PKG_VERSION"));
 
+/// The version of the manifest's layout (`manifest.json` of a vector set,
+/// the C ABI's `fxs_manifest`, the Python `Unit.manifest_json`), whose JSON
+/// Schema is `schema/manifest.schema.json`: a field's meaning never changes
+/// within a version.
+pub const MANIFEST_VERSION: u32 = 1;
+
 /// One field of a vector line.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct Field {
@@ -282,9 +288,11 @@ impl VectorSet {
         self.input_rows.len()
     }
 
-    /// The manifest.
+    /// The manifest: described by `schema/manifest.schema.json`, version
+    /// [`MANIFEST_VERSION`].
     pub fn manifest(&self) -> serde_json::Value {
         serde_json::json!({
+            "manifest_version": MANIFEST_VERSION,
             "generator": GENERATOR,
             "unit": self.unit,
             "variant": self.variant,

@@ -91,6 +91,35 @@ def eval_gives_the_vector_files_values_for_every_unit_and_variant():
 
 
 @test
+def manifests_follow_the_schema():
+    import jsonschema
+
+    schema = json.loads((REPO / "schema/manifest.schema.json").read_text())
+    jsonschema.Draft202012Validator.check_schema(schema)
+    v = jsonschema.Draft202012Validator(schema)
+    manifests = [(str(p), json.loads(p.read_text())) for p in sorted(REPO.glob("testvectors/*/manifest.json"))]
+    assert len(manifests) == 7, manifests
+    for name in fxshade.units():
+        m = json.loads(fxshade.Unit(name).manifest_json())
+        manifests.append((f"Unit({name!r}).manifest_json()", m))
+        assert m["layout"] == fxshade.Unit(name).layout
+    with tempfile.TemporaryDirectory() as tmp:
+        d = Path(tmp) / "s"
+        run("vectors", "pipeline", "--count", "300", "--shard", "1/2", "--no-hex", "--out", str(d))
+        manifests.append(("a shard without hex files", json.loads((d / "manifest.json").read_text())))
+    for what, m in manifests:
+        errors = [e.message for e in v.iter_errors(m)]
+        assert not errors, (what, errors)
+        assert m["manifest_version"] == 1, what
+    # The schema has teeth: an unknown field, a bad format are refused.
+    m = dict(manifests[0][1], extra=1)
+    assert list(v.iter_errors(m)), "an unknown key passed"
+    m = json.loads(json.dumps(manifests[0][1]))
+    m["inputs"]["fields"][0]["format"] = "X2F14"
+    assert list(v.iter_errors(m)), "a bad format passed"
+
+
+@test
 def reference_is_the_closed_form_of_the_quadratic_normalizer():
     unit = fxshade.Unit("normalize")
     m = json.loads(unit.manifest_json())

@@ -51,6 +51,10 @@ pub struct FormalArgs {
     /// Yosys and yosys-smtbmc on one core.
     #[arg(long, value_name = "J")]
     jobs: Option<usize>,
+    /// Prove each module behind an interface wrapper (`axis`): the
+    /// wrapper's AXI4-Stream master rules with the module's properties.
+    #[arg(long, value_enum, value_name = "KIND")]
+    wrap: Option<super::Wrap>,
     #[command(flatten)]
     out: OutputArgs,
 }
@@ -208,14 +212,18 @@ pub fn run(a: &FormalArgs) -> anyhow::Result<()> {
         bail!("z3 is not installed: install it with `sudo apt-get install z3` (./scripts/test does it when run as root)");
     }
     let cfg = a.cfg.resolve_with(&a.pipe.overrides())?;
-    let modules: Vec<fxshade_model::rtl::Emitted> = if a.unit == "all" {
+    let (units, modules): (Vec<&'static str>, Vec<fxshade_model::rtl::Emitted>) = if a.unit == "all"
+    {
         super::rtl::emit_all(&cfg)?
             .into_iter()
-            .map(|(_, e)| e)
-            .collect()
+            .map(|(u, e)| (u.name, e))
+            .unzip()
     } else {
         let u = crate::rtl_flow::unit(&a.unit)?;
-        vec![fxshade_model::rtl::units::emit_unit(u, &cfg)?.1]
+        (
+            vec![u.name],
+            vec![fxshade_model::rtl::units::emit_unit(u, &cfg)?.1],
+        )
     };
     let dir = tempfile::Builder::new()
         .prefix("fxshade-formal-")
@@ -242,7 +250,19 @@ pub fn run(a: &FormalArgs) -> anyhow::Result<()> {
             }
             Ok(text)
         })
-        .collect::<anyhow::Result<Vec<String>>>()?;
+        .zip(&units)
+        .zip(&modules)
+        .map(|((text, unit), e)| {
+            let text = text?;
+            Ok(match a.wrap {
+                Some(super::Wrap::Axis) => (
+                    format!("{}_axis", e.module),
+                    text + "\n" + &fxshade_model::rtl::axis::wrapper(unit, e),
+                ),
+                None => (e.module.clone(), text),
+            })
+        })
+        .collect::<anyhow::Result<Vec<(String, String)>>>()?;
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     let jobs = a.jobs.map_or(cores, |j| j.min(256));
     let pool = rayon::ThreadPoolBuilder::new()
@@ -258,11 +278,11 @@ pub fn run(a: &FormalArgs) -> anyhow::Result<()> {
             .par_iter()
             .zip(&texts)
             .enumerate()
-            .map(|(k, (e, text))| {
+            .map(|(k, (e, (top, text)))| {
                 let sub = dir.path().join(k.to_string());
                 std::fs::create_dir(&sub).context("cannot create a scratch directory")?;
-                let p = prove(&e.module, text, e.latency, a.depth, a.cover, &sub)?;
-                bar.set_message(e.module.clone());
+                let p = prove(top, text, e.latency, a.depth, a.cover, &sub)?;
+                bar.set_message(top.clone());
                 bar.inc(1);
                 Ok(p)
             })

@@ -50,6 +50,15 @@ pub fn finite_f64(s: &str) -> Result<f64, String> {
     Ok(x)
 }
 
+/// `--wrap`: an interface wrapper around an emitted module.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Wrap {
+    /// AXI4-Stream: `s_axis_*` in (a stream per set-up port of a pipeline
+    /// top), `m_axis_*` out, `m_axis_tuser` the overflow flags; byte-aligned
+    /// `tdata` (`fxshade_model::rtl::axis`).
+    Axis,
+}
+
 /// `--config FILE` and `--set KEY=VALUE`, on every command that uses a
 /// configuration.
 #[derive(Args, Debug, Clone, Default)]

@@ -40,6 +40,11 @@ pub struct RtlArgs {
     /// testbench driving the module against it (`<module>_dpi_tb.sv`).
     #[arg(long)]
     dpi: bool,
+    /// Also write each module behind an interface wrapper:
+    /// `<module>_axis.v` (AXI4-Stream; with `--testbench` also
+    /// `<module>_axis_tb.v`, the vector testbench driving the wrapper).
+    #[arg(long, value_enum, value_name = "KIND")]
+    wrap: Option<super::Wrap>,
     /// Replace files in `--out` that fxshade did not write or that were
     /// edited since (refused otherwise, naming the file).
     #[arg(long)]
@@ -131,7 +136,7 @@ pub fn run(a: &RtlArgs) -> anyhow::Result<()> {
     } else {
         vec![(crate::rtl_flow::unit(&a.unit)?, cfg.clone())]
     };
-    let mut emitted = Vec::new();
+    let mut emitted: Vec<(&'static RtlUnit, Emitted)> = Vec::new();
     let mut dpi = Vec::new();
     for (u, c) in &configs {
         if a.dpi {
@@ -177,6 +182,25 @@ pub fn run(a: &RtlArgs) -> anyhow::Result<()> {
         writes.push((format!("{module}_dpi_pkg.sv"), pkg));
         writes.push((format!("{module}_dpi_tb.sv"), tb));
     }
+    let wrapped: Vec<(String, String, String)> = match a.wrap {
+        Some(super::Wrap::Axis) => emitted
+            .iter()
+            .map(|(u, e)| {
+                (
+                    e.module.clone(),
+                    fxshade_model::rtl::axis::wrapper(u.name, e),
+                    fxshade_model::rtl::axis::testbench(e),
+                )
+            })
+            .collect(),
+        None => Vec::new(),
+    };
+    for (module, w, tb) in &wrapped {
+        writes.push((format!("{module}_axis.v"), w));
+        if a.testbench {
+            writes.push((format!("{module}_axis_tb.v"), tb));
+        }
+    }
     if !a.force {
         for (name, text) in &writes {
             if let Some(why) = record.blocks(name, text.as_bytes()) {
@@ -204,6 +228,12 @@ pub fn run(a: &RtlArgs) -> anyhow::Result<()> {
             files.push(format!("{}_dpi_pkg.sv", e.module));
             files.push(format!("{}_dpi_tb.sv", e.module));
         }
+        if a.wrap.is_some() {
+            files.push(format!("{}_axis.v", e.module));
+            if a.testbench {
+                files.push(format!("{}_axis_tb.v", e.module));
+            }
+        }
         let h = &e.hardware;
         t.row([
             e.module.clone(),
@@ -219,6 +249,9 @@ pub fn run(a: &RtlArgs) -> anyhow::Result<()> {
         ]);
         json.push(serde_json::json!({
             "module": e.module,
+            "inputs": e.inputs.len(),
+            "outputs": e.outputs.iter().filter(|f| f.name != "ovf" || e.flags.is_empty()).count(),
+            "axis": a.wrap.map(|_| fxshade_model::rtl::axis::streams(e)),
             "latency": e.latency,
             "flags": e.flags,
             "hardware": h,

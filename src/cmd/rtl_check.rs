@@ -63,6 +63,10 @@ pub struct RtlCheckArgs {
     /// RTL); the generated testbench and vectors are used as usual.
     #[arg(long, value_name = "DIR")]
     rtl_dir: Option<PathBuf>,
+    /// Simulate the module behind an interface wrapper (`axis`:
+    /// AXI4-Stream), the vectors driven through the wrapper's ports.
+    #[arg(long, value_enum, value_name = "KIND")]
+    wrap: Option<super::Wrap>,
     #[command(flatten)]
     out: OutputArgs,
 }
@@ -224,6 +228,10 @@ fn run_shard(a: &RtlCheckArgs, shard: Option<&crate::shard::Shard>) -> anyhow::R
     let sources = match &a.rtl_dir {
         Some(d) => rtl_flow::Sources::from_dir(&rtl, d)?,
         None => rtl_flow::Sources::emitted(&rtl),
+    };
+    let sources = match a.wrap {
+        Some(super::Wrap::Axis) => sources.with_axis(u.name, &stream.emitted),
+        None => sources,
     };
     let trace = a.trace.as_ref().map(|t| {
         if t.is_empty() {

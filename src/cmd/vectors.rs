@@ -42,6 +42,12 @@ pub struct VectorsArgs {
     /// Replace `--out` even when it holds files fxshade did not write.
     #[arg(long)]
     force: bool,
+    /// Also write `<module>.core`, a FuseSoC CAPI2 core of the directory
+    /// (`fxshade:<unit>:<variant>:<config hash>`; filesets for the module,
+    /// the testbench and the vectors; targets `sim` on Icarus and `lint` on
+    /// Verilator): `fusesoc --cores-root DIR run --target sim NAME`.
+    #[arg(long)]
+    core: bool,
 }
 
 /// Bytes free for an unprivileged user on the file system holding `dir`.
@@ -58,6 +64,12 @@ fn free_bytes(dir: &Path) -> Option<u64> {
 /// Run it.
 pub fn run(a: &VectorsArgs) -> anyhow::Result<()> {
     let shard = a.shard.resolve()?.map(|s| (s.k, s.n));
+    if a.core && shard.is_some() {
+        return Err(crate::output::UsageError(
+            "--core describes a whole vector set: leave out --shard".into(),
+        )
+        .into());
+    }
     let u = crate::rtl_flow::unit(&a.unit)?;
     let cfg = a.cfg.resolve()?;
     let start = std::time::Instant::now();
@@ -142,6 +154,17 @@ pub fn run(a: &VectorsArgs) -> anyhow::Result<()> {
     .with_context(|| format!("cannot write the vectors to {}", a.out.display()))?;
     if let Some(b) = bar {
         b.finish_and_clear();
+    }
+    if a.core {
+        let core = fxshade_model::rtl::core::capi2(
+            u.name,
+            &s.design.variant,
+            &s.emitted.module,
+            &s.design.config_toml,
+            s.count,
+        );
+        d.write(&format!("{}.core", s.emitted.module), core.as_bytes())
+            .with_context(|| format!("cannot write the vectors to {}", a.out.display()))?;
     }
     d.commit()
         .with_context(|| format!("cannot write the vectors to {}", a.out.display()))?;

@@ -11,6 +11,7 @@ mod cluster;
 mod config_cli;
 mod explore;
 mod formal;
+mod integrate;
 mod interp;
 mod normal_maps;
 mod normalize;

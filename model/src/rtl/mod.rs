@@ -25,8 +25,10 @@
 //! The module's header names the generator, the configuration (its source
 //! and hash), the latency and every port with its format.
 
+pub mod axis;
 pub mod bits;
 pub mod calibrate;
+pub mod core;
 pub mod direction;
 pub mod dpi;
 pub mod mutants;

@@ -61,6 +61,20 @@ pub fn generate(
     mutant_port: bool,
     setup: &[super::SetupPort],
 ) -> String {
+    let inst = instance(module, inputs, outputs, nflags, mutant_port, setup, false);
+    with_instance(module, inputs, outputs, mutant_port, &inst)
+}
+
+/// The testbench `<top>_tb` of the vector layout `inputs`/`outputs` around
+/// the DUT instance text `inst` (wired to the shared signals, see
+/// [`instance`]).
+pub(crate) fn with_instance(
+    module: &str,
+    inputs: &[Field],
+    outputs: &[Field],
+    mutant_port: bool,
+    inst: &str,
+) -> String {
     let in_w: u32 = inputs.iter().map(|f| f.format.width()).sum();
     let out_w: u32 = outputs.iter().map(|f| f.format.width()).sum();
     let mut t = String::new();
@@ -99,7 +113,7 @@ pub fn generate(
         t += "    if ($value$plusargs(\"MUTANT=%d\", mutant_arg)) begin end\n";
         t += "    mutant = mutant_arg[15:0];\n  end\n\n";
     }
-    t += &instance(module, inputs, outputs, nflags, mutant_port, setup, false);
+    t += inst;
     t += "  task show(input integer i, input [IN_W-1:0] in, input [OUT_W-1:0] got, input [OUT_W-1:0] want);\n";
     t += "    begin\n";
     t += "      $display(\"mismatch at vector %0d\", i);\n";
@@ -186,7 +200,7 @@ pub(crate) fn instance(
 /// `g` fields when they differ from the ones it last accepted (or none
 /// were), ports in order, then the item goes; `in_ready` says when the
 /// item itself was accepted.
-fn setup_glue(inputs: &[Field], setup: &[super::SetupPort]) -> String {
+pub(crate) fn setup_glue(inputs: &[Field], setup: &[super::SetupPort]) -> String {
     let r = ranges(inputs);
     let mut t = String::new();
     t += "  // Set-up sequencer: a vector whose set-up fields differ from the ones\n";
