@@ -15,7 +15,16 @@ use fxshade_model::rtl::units;
 /// `target/<profile>`: where cargo put the libraries and `fxshade`.
 fn target_dir() -> PathBuf {
     let exe = std::env::current_exe().unwrap();
-    exe.parent().unwrap().parent().unwrap().to_path_buf()
+    let dir = exe.parent().unwrap().parent().unwrap().to_path_buf();
+    for lib in ["libfxshade_capi.so", "libfxshade_capi.a"] {
+        assert!(
+            dir.join(lib).exists(),
+            "{} is missing: cargo test builds only the Rust library; run \
+             `cargo build --release -p fxshade-capi` first (scripts/test builds it)",
+            dir.join(lib).display()
+        );
+    }
+    dir
 }
 
 fn repo() -> PathBuf {

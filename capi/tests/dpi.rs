@@ -11,7 +11,16 @@ use fxshade_model::rtl::unit_model::{ConfigSource, UnitModel};
 
 fn target_dir() -> PathBuf {
     let exe = std::env::current_exe().unwrap();
-    exe.parent().unwrap().parent().unwrap().to_path_buf()
+    let dir = exe.parent().unwrap().parent().unwrap().to_path_buf();
+    for lib in ["libfxshade_capi.so", "libfxshade_capi.a"] {
+        assert!(
+            dir.join(lib).exists(),
+            "{} is missing: cargo test builds only the Rust library; run \
+             `cargo build --release -p fxshade-capi` first (scripts/test builds it)",
+            dir.join(lib).display()
+        );
+    }
+    dir
 }
 
 /// Build `<module>_dpi_tb` from `dir` (module, package, scoreboard) and

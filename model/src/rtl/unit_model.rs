@@ -152,13 +152,7 @@ impl UnitModel {
     /// The model of `u` for a resolved configuration.
     pub fn of(u: &'static RtlUnit, cfg: &Config) -> Result<Self, ModelError> {
         let (design, emitted) = units::emit_unit(u, cfg)?;
-        let outs: Vec<_> = design
-            .trace
-            .output_ports()
-            .iter()
-            .map(|p| p.value)
-            .collect();
-        let prog = Compiled::compile(&design.trace, &outs).map_err(RtlError::from)?;
+        let prog = units::compile_outputs(&design)?;
         let outputs: Vec<Field> = emitted
             .outputs
             .iter()

@@ -367,8 +367,7 @@ pub fn vector_set(
     corners: usize,
     seed: u64,
 ) -> Result<VectorSet, RtlError> {
-    let outs: Vec<_> = d.trace.output_ports().iter().map(|p| p.value).collect();
-    let prog = crate::datapath::Compiled::compile(&d.trace, &outs)?;
+    let prog = compile_outputs(d)?;
     assert_eq!(
         prog.flag_stages(),
         e.flags.as_slice(),
@@ -448,6 +447,13 @@ impl Design {
     }
 }
 
+/// The design's output ports compiled: what computes the expected outputs
+/// and flags of its vectors.
+pub fn compile_outputs(d: &Design) -> Result<crate::datapath::Compiled, RtlError> {
+    let outs: Vec<_> = d.trace.output_ports().iter().map(|p| p.value).collect();
+    Ok(crate::datapath::Compiled::compile(&d.trace, &outs)?)
+}
+
 /// Expected output rows (the `ovf` field first when there are `nf` flag
 /// stages, stage k at bit nf−1−k) of `rows` through the compiled trace.
 fn expected_rows(
@@ -521,13 +527,7 @@ impl VectorStream {
                 corners: corners.len(),
             });
         }
-        let outs: Vec<_> = design
-            .trace
-            .output_ports()
-            .iter()
-            .map(|p| p.value)
-            .collect();
-        let prog = crate::datapath::Compiled::compile(&design.trace, &outs)?;
+        let prog = compile_outputs(&design)?;
         let (first, end) = match shard {
             None => (0, total),
             Some((k, n)) => (
