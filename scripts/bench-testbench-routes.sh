@@ -20,7 +20,7 @@ fxshade rtl normalize --dpi --out "$work/dpi" >/dev/null
   verilator --binary -j 2 -O3 --top-module normalize_dpi_tb -Wno-fatal \
     -LDFLAGS "-L$L -lfxshade_capi -Wl,-rpath,$L" \
     normalize_dpi_pkg.sv normalize.v normalize_dpi_tb.sv >/dev/null
-  /usr/bin/time -f "dpi-c scoreboard: %e s wall, %U s user" ./obj_dir/Vnormalize_dpi_tb +N="$N" +STALL=25 | tail -1
+  /usr/bin/time -f "dpi-c scoreboard: %e s wall, %U s user" ./obj_dir/Vnormalize_dpi_tb +N="$N" +STALL=25 | grep passed
 )
 echo "== rtl-check on the same module (Verilator, --jobs 1, --stall 25), $N vectors"
 fxshade rtl-check normalize --count "$N" --jobs 1 --stall 25 --json \
