@@ -23,7 +23,9 @@
 // with more than N records, are errors, never a silent pass. The output
 // handshake is checked too: while valid_o && !ready_i the data must hold and
 // valid must stay high, and no output may follow the N-th.
-// Ends with the line `P passed, F failed`.
+// Ends with the line `P passed, F failed`; defined FXS_FATAL_ON_FAIL, a run
+// with F > 0 then ends in $fatal (a non-zero exit status: the FuseSoC core's
+// sim target defines it).
 
 localparam integer IN_RB = (32 + IN_W + 7) / 8;
 localparam integer OUT_RB = (32 + OUT_W + 7) / 8;
@@ -47,6 +49,9 @@ task abort_run(input integer failures);
     if (dump_fd != 0) $fclose(dump_fd);
     $display("%0d passed, %0d failed", passed, failures);
     aborted = 1'b1;
+`ifdef FXS_FATAL_ON_FAIL
+    if (failures != 0) $fatal(1, "%0d failed", failures);
+`endif
     $finish;
   end
 endtask
@@ -191,6 +196,9 @@ always @(posedge clk) begin
         if (dump_fd != 0) $fclose(dump_fd);
         $display("%0d passed, %0d failed", passed - ((proto + extra) > passed ? passed : (proto + extra)),
                  failed + proto + extra);
+`ifdef FXS_FATAL_ON_FAIL
+        if (failed + proto + extra != 0) $fatal(1, "%0d failed", failed + proto + extra);
+`endif
         $finish;
       end
       drain = drain - 1;

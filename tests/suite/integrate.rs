@@ -208,7 +208,8 @@ fn fusesoc_core_simulates_and_lints() {
         format!("{}{flipped}{}", &v[..h + 1], &v[end - 1..]),
     )
     .unwrap();
-    let (_, out) = fusesoc(&vec, dir.path(), "sim", &name);
+    let (ok, out) = fusesoc(&vec, dir.path(), "sim", &name);
+    assert!(!ok, "a failing run exits non-zero: {out}");
     let line = out
         .lines()
         .find(|l| l.ends_with(" failed") && l.contains(" passed, "))

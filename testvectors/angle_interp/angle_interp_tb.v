@@ -63,7 +63,9 @@ module angle_interp_tb;
   // with more than N records, are errors, never a silent pass. The output
   // handshake is checked too: while valid_o && !ready_i the data must hold and
   // valid must stay high, and no output may follow the N-th.
-  // Ends with the line `P passed, F failed`.
+  // Ends with the line `P passed, F failed`; defined FXS_FATAL_ON_FAIL, a run
+  // with F > 0 then ends in $fatal (a non-zero exit status: the FuseSoC core's
+  // sim target defines it).
 
   localparam integer IN_RB = (32 + IN_W + 7) / 8;
   localparam integer OUT_RB = (32 + OUT_W + 7) / 8;
@@ -87,6 +89,9 @@ module angle_interp_tb;
       if (dump_fd != 0) $fclose(dump_fd);
       $display("%0d passed, %0d failed", passed, failures);
       aborted = 1'b1;
+  `ifdef FXS_FATAL_ON_FAIL
+      if (failures != 0) $fatal(1, "%0d failed", failures);
+  `endif
       $finish;
     end
   endtask
@@ -231,6 +236,9 @@ module angle_interp_tb;
           if (dump_fd != 0) $fclose(dump_fd);
           $display("%0d passed, %0d failed", passed - ((proto + extra) > passed ? passed : (proto + extra)),
                    failed + proto + extra);
+  `ifdef FXS_FATAL_ON_FAIL
+          if (failed + proto + extra != 0) $fatal(1, "%0d failed", failed + proto + extra);
+  `endif
           $finish;
         end
         drain = drain - 1;

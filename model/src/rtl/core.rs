@@ -60,7 +60,8 @@ pub fn capi2(unit: &str, variant: &str, module: &str, config_toml: &str, count: 
     );
     t += "# Regenerate with: fxshade vectors UNIT [--config FILE] [--set KEY=VALUE]... --core --out DIR\n";
     t += "# Targets: sim (Icarus, the self-checking testbench on the vectors; the log ends\n";
-    t += "# `P passed, F failed`), lint (Verilator -Wall), default (the module alone).\n";
+    t += "# `P passed, F failed`, and F > 0 exits non-zero), lint (Verilator -Wall),\n";
+    t += "# default (the module alone).\n";
     let _ = writeln!(t, "name: {}", yaml_str(&name));
     let _ = writeln!(
         t,
@@ -104,7 +105,7 @@ pub fn capi2(unit: &str, variant: &str, module: &str, config_toml: &str, count: 
         t,
         "  sim:\n    default_tool: icarus\n    filesets: [rtl, tb, vectors]\n    \
          parameters: [N, STALL, SEED]\n    toplevel: {module}_tb\n    tools:\n      icarus:\n        \
-         iverilog_options: [-g2005]"
+         iverilog_options: [-g2005, -DFXS_FATAL_ON_FAIL]"
     );
     t
 }
