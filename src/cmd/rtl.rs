@@ -45,6 +45,12 @@ pub struct RtlArgs {
     /// `<module>_axis_tb.v`, the vector testbench driving the wrapper).
     #[arg(long, value_enum, value_name = "KIND")]
     wrap: Option<super::Wrap>,
+    /// Also write `<module>.core`, a FuseSoC CAPI2 core of the module
+    /// (`fxshade:<unit>:<variant>_<config hash>:<fxshade version>`, targets `default` and
+    /// `lint`); `fxshade vectors --core` writes one with the testbench, the
+    /// vectors and a `sim` target.
+    #[arg(long)]
+    core: bool,
     /// Replace files in `--out` that fxshade did not write or that were
     /// edited since (refused otherwise, naming the file).
     #[arg(long)]
@@ -195,6 +201,30 @@ pub fn run(a: &RtlArgs) -> anyhow::Result<()> {
             .collect(),
         None => Vec::new(),
     };
+    let cores: Vec<(String, String)> = if a.core {
+        configs
+            .iter()
+            .zip(&emitted)
+            .map(|((u, c), (_, e))| {
+                let variant = units::emit_unit(u, c)?.0.variant;
+                Ok((
+                    format!("{}.core", e.module),
+                    fxshade_model::rtl::core::capi2(
+                        u.name,
+                        &variant,
+                        &e.module,
+                        &c.to_toml(),
+                        None,
+                    ),
+                ))
+            })
+            .collect::<anyhow::Result<_>>()?
+    } else {
+        Vec::new()
+    };
+    for (name, text) in &cores {
+        writes.push((name.clone(), text));
+    }
     for (module, w, tb) in &wrapped {
         writes.push((format!("{module}_axis.v"), w));
         if a.testbench {
@@ -227,6 +257,9 @@ pub fn run(a: &RtlArgs) -> anyhow::Result<()> {
         if a.dpi {
             files.push(format!("{}_dpi_pkg.sv", e.module));
             files.push(format!("{}_dpi_tb.sv", e.module));
+        }
+        if a.core {
+            files.push(format!("{}.core", e.module));
         }
         if a.wrap.is_some() {
             files.push(format!("{}_axis.v", e.module));

@@ -43,7 +43,7 @@ pub struct VectorsArgs {
     #[arg(long)]
     force: bool,
     /// Also write `<module>.core`, a FuseSoC CAPI2 core of the directory
-    /// (`fxshade:<unit>:<variant>:<config hash>`; filesets for the module,
+    /// (`fxshade:<unit>:<variant>_<config hash>:<fxshade version>`; filesets for the module,
     /// the testbench and the vectors; targets `sim` on Icarus and `lint` on
     /// Verilator): `fusesoc --cores-root DIR run --target sim NAME`.
     #[arg(long)]
@@ -161,7 +161,7 @@ pub fn run(a: &VectorsArgs) -> anyhow::Result<()> {
             &s.design.variant,
             &s.emitted.module,
             &s.design.config_toml,
-            s.count,
+            Some(s.count),
         );
         d.write(&format!("{}.core", s.emitted.module), core.as_bytes())
             .with_context(|| format!("cannot write the vectors to {}", a.out.display()))?;

@@ -185,13 +185,24 @@ fn fusesoc_core_simulates_and_lints() {
         .unwrap()
         .trim_matches('"')
         .to_string();
-    // fxshade:<unit>:<variant>:<the configuration hash in the header>.
+    // fxshade:<unit>:<variant>_<the configuration hash in the header>:<version>.
     let v = std::fs::read_to_string(vec.join("normalize.v")).unwrap();
     let hash = v.split("(hash ").nth(1).unwrap().split(')').next().unwrap();
-    assert_eq!(name, format!("fxshade:normalize:quadratic:{hash}"));
+    assert_eq!(
+        name,
+        format!(
+            "fxshade:normalize:quadratic_{hash}:{}",
+            env!("CARGO_PKG_VERSION")
+        )
+    );
     let (ok, out) = fusesoc(&vec, dir.path(), "sim", &name);
     assert!(ok && out.contains("600 passed, 0 failed"), "{out}");
-    let (ok, out) = fusesoc(&vec, dir.path(), "lint", &name);
+    // The lint target, from a root holding every module's core (`rtl all
+    // --core`: nine cores side by side).
+    let all = dir.path().join("all");
+    let o = fxshade(&["rtl", "all", "--core", "--out", all.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", text(&o));
+    let (ok, out) = fusesoc(&all, dir.path(), "lint", &name);
     assert!(ok, "{out}");
     // A mutant: one coefficient bit flipped; the log says how many failed.
     let at = v.find("localparam signed").unwrap();
