@@ -66,16 +66,19 @@ impl Sources {
         }
     }
     /// The same design behind its AXI4-Stream wrapper: the wrapper
-    /// (`<module>_axis.v`) after the design files, and the vector
-    /// testbench that drives the wrapper instead of the module's.
+    /// (`<module>_axis.v`; the design's own when its files hold one, as
+    /// with `--rtl-dir`) after the design files, and the vector testbench
+    /// that drives the wrapper instead of the module's.
     pub fn with_axis(mut self, unit: &str, e: &fxshade_model::rtl::Emitted) -> Sources {
         let tb = self.files.pop();
         debug_assert!(tb.is_some_and(|(n, _)| n.ends_with("_tb.v")));
         let m = &e.module;
-        self.files.push((
-            format!("{m}_axis.v"),
-            fxshade_model::rtl::axis::wrapper(unit, e),
-        ));
+        // A design directory that holds its own wrapper keeps it.
+        let name = format!("{m}_axis.v");
+        if !self.files.iter().any(|(n, _)| *n == name) {
+            self.files
+                .push((name, fxshade_model::rtl::axis::wrapper(unit, e)));
+        }
         self.files.push((
             format!("{m}_axis_tb.v"),
             fxshade_model::rtl::axis::testbench(e),

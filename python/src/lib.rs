@@ -50,6 +50,28 @@ fn port_dict<'py>(py: Python<'py>, f: &Field, group: Option<&str>) -> PyResult<B
     Ok(d)
 }
 
+/// `x` as a numpy array of `dtype` (`"int64"`, `"float64"`): any array or
+/// sequence numpy casts to it without loss (`casting="safe"`: int32, uint8
+/// or bool to int64, any integer or float32 to float64); anything else is a
+/// `TypeError` naming the dtype wanted.
+fn as_array<'py, T: numpy::Element>(
+    x: &Bound<'py, PyAny>,
+    dtype: &str,
+    what: &str,
+) -> PyResult<PyReadonlyArrayDyn<'py, T>> {
+    let py = x.py();
+    let np = py.import("numpy")?;
+    let a = np.call_method1("asarray", (x,))?;
+    let kw = PyDict::new(py);
+    kw.set_item("casting", "safe")?;
+    let a = a.call_method("astype", (dtype,), Some(&kw)).map_err(|e| {
+        pyo3::exceptions::PyTypeError::new_err(format!(
+            "{what}: an array numpy can cast to {dtype} without loss ({e})"
+        ))
+    })?;
+    a.extract::<PyReadonlyArrayDyn<'py, T>>()
+}
+
 /// An `(n, k)` array of `T` from a 1-D row or a 2-D array.
 fn rows<T: numpy::Element + Copy>(
     a: &PyReadonlyArrayDyn<'_, T>,
@@ -114,6 +136,11 @@ impl Unit {
         set: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
         let sets = overrides(set)?;
+        if toml.is_some() && config.is_some() {
+            return Err(PyValueError::new_err(
+                "give the configuration as config (a file) or as toml (text), not both",
+            ));
+        }
         let path_name = config.as_ref().map(|p| p.display().to_string());
         let model = py
             .allow_threads(|| {
@@ -189,11 +216,8 @@ impl Unit {
     }
 
     /// Evaluate rows of input codes: `(outputs int64 (n, O), flags uint64 (n,))`.
-    fn eval<'py>(
-        &self,
-        py: Python<'py>,
-        codes: PyReadonlyArrayDyn<'py, i64>,
-    ) -> PyResult<Evaluated<'py>> {
+    fn eval<'py>(&self, py: Python<'py>, codes: &Bound<'py, PyAny>) -> PyResult<Evaluated<'py>> {
+        let codes = as_array::<i64>(codes, "int64", "codes")?;
         let (n, ins) = rows(&codes, self.model.inputs().len(), "codes")?;
         let no = self.model.outputs().len();
         let (outs, flags) = py
@@ -218,8 +242,9 @@ impl Unit {
     fn reference<'py>(
         &self,
         py: Python<'py>,
-        values: PyReadonlyArrayDyn<'py, f64>,
+        values: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let values = as_array::<f64>(values, "float64", "values")?;
         let (n, ins) = rows(&values, self.model.inputs().len(), "values")?;
         let no = self.model.outputs().len();
         let outs = py
@@ -237,28 +262,33 @@ impl Unit {
     fn input_values<'py>(
         &self,
         py: Python<'py>,
-        codes: PyReadonlyArrayDyn<'py, i64>,
+        codes: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        values_of(py, self.model.inputs(), &codes)
+        values_of(py, self.model.inputs(), &as_array(codes, "int64", "codes")?)
     }
 
     /// Output codes as real values: `code · 2^-frac` per column.
     fn output_values<'py>(
         &self,
         py: Python<'py>,
-        codes: PyReadonlyArrayDyn<'py, i64>,
+        codes: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        values_of(py, self.model.outputs(), &codes)
+        values_of(
+            py,
+            self.model.outputs(),
+            &as_array(codes, "int64", "codes")?,
+        )
     }
 
     /// Real input values as codes of the input ports' formats, rounded to
-    /// nearest with ties to even; a value outside a format's range raises
-    /// ValueError (nothing saturates silently).
+    /// nearest with ties to even; a value whose rounded code lies outside
+    /// its format raises ValueError (nothing saturates silently).
     fn input_codes<'py>(
         &self,
         py: Python<'py>,
-        values: PyReadonlyArrayDyn<'py, f64>,
+        values: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyArray2<i64>>> {
+        let values = as_array::<f64>(values, "float64", "values")?;
         let fields = self.model.inputs();
         let (n, v) = rows(&values, fields.len(), "values")?;
         let k = fields.len();
@@ -296,11 +326,21 @@ fn values_of<'py>(
 ) -> PyResult<Bound<'py, PyArray2<f64>>> {
     let (n, c) = rows(codes, fields.len(), "codes")?;
     let k = fields.len();
-    let v: Vec<f64> = c
-        .iter()
-        .enumerate()
-        .map(|(i, &x)| fields[i % k].format.to_f64(x as i128))
-        .collect();
+    let mut v = Vec::with_capacity(c.len());
+    for (i, &x) in c.iter().enumerate() {
+        let f = &fields[i % k];
+        if !f.format.contains(x as i128) {
+            return Err(PyValueError::new_err(format!(
+                "row {}: code {x} of {} lies outside {} (codes {}..={})",
+                i / k,
+                f.name,
+                f.format,
+                f.format.min_code(),
+                f.format.max_code()
+            )));
+        }
+        v.push(f.format.to_f64(x as i128));
+    }
     Ok(Array2::from_shape_vec((n, k), v)
         .expect("n × k values")
         .into_pyarray(py))

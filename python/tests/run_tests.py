@@ -179,6 +179,26 @@ def errors_are_the_command_lines_and_codes_are_never_wrapped():
             raise AssertionError(f"{codes} was evaluated")
         except ValueError as e:
             assert what in str(e), e
+    # Any integer array numpy casts to int64 without loss is taken; a float
+    # array is not (it would be truncated).
+    out32, _ = unit.eval(np.array([[9000, -12000, 3000]], dtype=np.int32))
+    out64, _ = unit.eval(np.array([[9000, -12000, 3000]], dtype=np.int64))
+    assert np.array_equal(out32, out64)
+    try:
+        unit.eval(np.array([[0.5, 0.0, 0.0]]))
+        raise AssertionError("a float array was evaluated")
+    except TypeError as e:
+        assert "int64" in str(e), e
+    try:
+        unit.output_values(np.array([[10**15, 0, 0]]))
+        raise AssertionError("a code outside its format was decoded")
+    except ValueError as e:
+        assert "out_x" in str(e) and "outside" in str(e), e
+    try:
+        fxshade.Unit("normalize", config="a.toml", toml="")
+        raise AssertionError("config and toml together were accepted")
+    except ValueError as e:
+        assert "not both" in str(e), e
     with tempfile.NamedTemporaryFile("w", suffix=".toml", delete=False) as f:
         f.write("[normalize\n")
     try:

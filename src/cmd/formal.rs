@@ -255,10 +255,21 @@ pub fn run(a: &FormalArgs) -> anyhow::Result<()> {
         .map(|((text, unit), e)| {
             let text = text?;
             Ok(match a.wrap {
-                Some(super::Wrap::Axis) => (
-                    format!("{}_axis", e.module),
-                    text + "\n" + &fxshade_model::rtl::axis::wrapper(unit, e),
-                ),
+                Some(super::Wrap::Axis) => {
+                    // The wrapper of --rtl-dir when it holds one, else the
+                    // emitted one.
+                    let own = a
+                        .rtl_dir
+                        .as_ref()
+                        .map(|d| d.join(format!("{}_axis.v", e.module)))
+                        .filter(|f| f.exists());
+                    let wrapper = match own {
+                        Some(f) => std::fs::read_to_string(&f)
+                            .with_context(|| format!("--rtl-dir: cannot read {}", f.display()))?,
+                        None => fxshade_model::rtl::axis::wrapper(unit, e),
+                    };
+                    (format!("{}_axis", e.module), text + "\n" + &wrapper)
+                }
                 None => (e.module.clone(), text),
             })
         })

@@ -183,10 +183,8 @@ pub fn package(m: &UnitModel) -> Result<String, DpiError> {
     t += "// (README.md, \"Use the model in your own testbench\").\n";
     t += &super::comment(
         "// ",
-        &format!(
-            "Configuration: {}",
-            crate::escape::line(&m.design.config_source)
-        ),
+        // Escaped once already (Design::new), as in the module's header.
+        &format!("Configuration: {}", m.design.config_source),
     );
     let _ = writeln!(t, "// Latency of {module}: {} cycles.", m.latency());
     if nf > 0 {
@@ -375,6 +373,7 @@ pub fn scoreboard(m: &UnitModel) -> Result<String, DpiError> {
     quiet = 0;
     n = 1000;
     if ($value$plusargs("N=%d", n)) begin end
+    if (n < 1) $fatal(1, "+N=%0d: at least one vector", n);
     seed = 1;
     if ($value$plusargs("SEED=%d", seed)) begin end
     stall = 25;
@@ -417,7 +416,10 @@ pub fn scoreboard(m: &UnitModel) -> Result<String, DpiError> {
       if (checked == n || quiet > 100000) begin
         $display("%0d passed, %0d failed", checked - mism, mism + orphan + (n - checked));
         fxs_dpi_close(model);
-        if (mism + orphan + (n - checked) != 0) $fatal(1, "the module disagrees with the model");
+        if (checked < n)
+          $fatal(1, "no output for 100000 cycles after %0d of %0d (+STALL=%0d)", checked, n,
+                 stall);
+        if (mism + orphan != 0) $fatal(1, "the module disagrees with the model");
         $finish;
       end
       @(negedge clk);

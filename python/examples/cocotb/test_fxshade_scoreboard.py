@@ -56,7 +56,8 @@ async def scoreboard(dut):
     ref = unit.reference(unit.input_values(codes))
     err = np.abs(unit.output_values(want) - ref).max(axis=0)
     dut._log.info(
-        "model against its f64 reference, max over %d rows: %s",
+        "model against its f64 reference, max over these %d uniformly random rows "
+        "(near-zero or out-of-range inputs make it large; for information): %s",
         n,
         ", ".join(f"{p['name']} {e:.3g}" for p, e in zip(outs, err)),
     )
