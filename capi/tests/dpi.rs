@@ -3,25 +3,14 @@
 //! under random valid/ready against the model, pass on the emitted RTL and
 //! fail on a mutant (one coefficient bit changed).
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
 use fxshade_model::rtl::dpi;
 use fxshade_model::rtl::unit_model::{ConfigSource, UnitModel};
 
-fn target_dir() -> PathBuf {
-    let exe = std::env::current_exe().unwrap();
-    let dir = exe.parent().unwrap().parent().unwrap().to_path_buf();
-    for lib in ["libfxshade_capi.so", "libfxshade_capi.a"] {
-        assert!(
-            dir.join(lib).exists(),
-            "{} is missing: cargo test builds only the Rust library; run \
-             `cargo build --release -p fxshade-capi` first (scripts/test builds it)",
-            dir.join(lib).display()
-        );
-    }
-    dir
-}
+mod common;
+use common::target_dir;
 
 /// Build `<module>_dpi_tb` from `dir` (module, package, scoreboard) and
 /// run it: (exit success, output).
