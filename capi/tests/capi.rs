@@ -220,48 +220,40 @@ fn a_c_program_links_the_library_shared_and_static() {
         &c,
         r#"#include <stdio.h>
 #include "fxshade.h"
+/* Reads rows of three input codes on stdin, prints the outputs and flags. */
 int main(void) {
   const char *sets[] = {"normalize.method=\"linear\""};
   FxsUnit *u = fxs_open("normalize", NULL, NULL, sets, 1);
   if (!u) { fprintf(stderr, "%s\n", fxs_last_error()); return 2; }
-  int64_t in[6] = {16384, 0, 0, 9000, -12000, 3000};
-  int64_t out[6];
-  uint64_t flags[2];
-  if (fxs_eval(u, 2, in, out, flags) != 0) { fprintf(stderr, "%s\n", fxs_last_error()); return 3; }
-  for (int i = 0; i < 2; i++)
-    printf("%lld %lld %lld %llu\n", (long long)out[3 * i], (long long)out[3 * i + 1],
-           (long long)out[3 * i + 2], (unsigned long long)flags[i]);
+  long long a, b, c;
+  while (scanf("%lld %lld %lld", &a, &b, &c) == 3) {
+    int64_t in[3] = {a, b, c}, out[3];
+    uint64_t flags;
+    if (fxs_eval(u, 1, in, out, &flags) != 0) { fprintf(stderr, "%s\n", fxs_last_error()); return 3; }
+    printf("%lld %lld %lld %llu\n", (long long)out[0], (long long)out[1], (long long)out[2],
+           (unsigned long long)flags);
+  }
   fxs_close(u);
   return 0;
 }
 "#,
     )
     .unwrap();
-    let m = UnitModel::open(
-        "normalize",
-        ConfigSource::Default,
-        &["normalize.method=\"linear\"".to_string()],
-    )
-    .unwrap();
-    let mut outs = [0i64; 6];
-    let mut flags = [0u64; 2];
-    m.eval(
-        2,
-        &[16384, 0, 0, 9000, -12000, 3000],
-        &mut outs,
-        Some(&mut flags),
-    )
-    .unwrap();
-    let want: String = (0..2)
-        .map(|i| {
-            format!(
-                "{} {} {} {}\n",
-                outs[3 * i],
-                outs[3 * i + 1],
-                outs[3 * i + 2],
-                flags[i]
-            )
-        })
+    // Expected: the vector set's rows (corner cases, mutant killers and
+    // random rows), which the simulators check against the RTL.
+    let cfg =
+        fxshade_model::Config::resolve(None, &["normalize.method=\"linear\"".to_string()]).unwrap();
+    let vs = units::vectors(units::unit("normalize").unwrap(), &cfg, 300, 11).unwrap();
+    let stdin: String = vs
+        .input_rows
+        .iter()
+        .map(|r| format!("{} {} {}\n", r[0], r[1], r[2]))
+        .collect();
+    // Output rows are `ovf` first, then the three outputs.
+    let want: String = vs
+        .output_rows
+        .iter()
+        .map(|r| format!("{} {} {} {}\n", r[1], r[2], r[3], r[0]))
         .collect();
     let lib = target_dir();
     let inc = repo().join("capi/include");
@@ -298,7 +290,22 @@ int main(void) {
             "{kind}: {}",
             String::from_utf8_lossy(&o.stderr)
         );
-        let o = Command::new(&exe).output().unwrap();
+        let mut child = Command::new(&exe)
+            .stdin(std::process::Stdio::piped())
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        {
+            use std::io::Write;
+            child
+                .stdin
+                .take()
+                .unwrap()
+                .write_all(stdin.as_bytes())
+                .unwrap();
+        }
+        let o = child.wait_with_output().unwrap();
         assert!(
             o.status.success(),
             "{kind}: {}",
