@@ -11,6 +11,7 @@ mod proc;
 mod progress;
 mod rtl_flow;
 mod shard;
+mod smt;
 
 use std::process::ExitCode;
 
@@ -109,6 +110,11 @@ enum Command {
     /// created, lost or duplicated; outputs held under stall; the pipeline
     /// drains) with Yosys, yosys-smtbmc and z3, by k-induction.
     Formal(cmd::formal::FormalArgs),
+    /// Prove a unit's generated RTL equal to its traced datapath for every
+    /// input value (Yosys's model of the Verilog against the trace's own
+    /// SMT encoding, z3 or Bitwuzla): proved, a counterexample with a
+    /// vector set that reproduces it, or unknown.
+    Equiv(cmd::equiv::EquivArgs),
     /// Benchmarks of the model's speed.
     #[command(subcommand)]
     Bench(cmd::bench::BenchCmd),
@@ -137,6 +143,7 @@ fn main() -> ExitCode {
         Command::Explore(a) => cmd::explore::run(a),
         Command::Synth(a) => cmd::synth::run(a),
         Command::Formal(a) => cmd::formal::run(a),
+        Command::Equiv(a) => cmd::equiv::run(a),
     };
     match r {
         Ok(()) => ExitCode::SUCCESS,

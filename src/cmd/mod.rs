@@ -4,6 +4,7 @@ pub mod bake;
 pub mod bench;
 pub mod coeffs;
 pub mod config;
+pub mod equiv;
 pub mod error;
 pub mod explore;
 pub mod formal;

@@ -170,43 +170,21 @@ fn smt(d: &rtl::Design, m: &fxshade_model::datapath::Mutation, rlimit: u64) -> S
     if !crate::proc::has("z3", "--version") {
         return Smt::Missing;
     }
-    let Ok(out) = crate::proc::run(
-        std::process::Command::new("z3").args(["-in", "-smt2", &format!("rlimit={rlimit}")]),
-        "z3",
-        crate::proc::Limit::formal(),
-        Some(script.as_bytes()),
-    ) else {
-        return Smt::Unknown;
-    };
-    let text = &out.stdout;
-    let mut lines = text.lines();
-    match lines.next().map(str::trim) {
-        Some("unsat") => Smt::Unsat,
-        Some("sat") => {
-            let rest: String = lines.collect::<Vec<_>>().join(" ");
+    match crate::smt::Solver::Z3.check_limited(&script, 0, rlimit) {
+        Ok(crate::smt::Reply::Unsat) => Smt::Unsat,
+        Ok(crate::smt::Reply::Sat(values)) => {
             let formats: Vec<_> = d.trace.input_ports().iter().map(|p| p.format).collect();
             let mut row = Vec::new();
             for (slot, f) in formats.iter().enumerate() {
-                let key = format!("(in{slot} ");
-                let Some(pos) = rest.find(&key) else {
-                    return Smt::Unknown;
-                };
-                let v = rest[pos + key.len()..]
-                    .split(')')
-                    .next()
-                    .unwrap_or("")
-                    .trim();
-                let bits = if let Some(h) = v.strip_prefix("#x") {
-                    u64::from_str_radix(h, 16).ok()
-                } else if let Some(b) = v.strip_prefix("#b") {
-                    u64::from_str_radix(b, 2).ok()
-                } else {
-                    None
-                };
-                let Some(bits) = bits else {
-                    return Smt::Unknown;
-                };
-                row.push(f.from_bits(bits));
+                let name = format!("in{slot}");
+                let bits = values
+                    .iter()
+                    .find(|(t, _)| t.atom() == Some(name.as_str()))
+                    .and_then(|(_, v)| v.bits());
+                match bits {
+                    Some((b, w)) if w == f.width() => row.push(f.from_bits(b as u64)),
+                    _ => return Smt::Unknown,
+                }
             }
             Smt::Sat(row)
         }

@@ -71,7 +71,7 @@ pub fn emit_all(cfg: &fxshade_model::Config) -> anyhow::Result<Vec<(&'static Rtl
 
 /// The units and configurations of [`emit_all`]: every unit with `cfg`,
 /// and the pipeline top with each variant's overrides applied.
-fn configs_all(
+pub fn configs_all(
     cfg: &fxshade_model::Config,
 ) -> anyhow::Result<Vec<(&'static RtlUnit, fxshade_model::Config)>> {
     let mut out = Vec::new();

@@ -9,6 +9,7 @@ mod common;
 mod angles;
 mod cluster;
 mod config_cli;
+mod equiv;
 mod explore;
 mod formal;
 mod integrate;

@@ -22,6 +22,7 @@ mod interval;
 mod mutation;
 mod smt;
 pub use mutation::{Mutation, MutationKind};
+pub use smt::SmtFunction;
 
 /// A value in a trace: the node that computes it, its binary point, and its
 /// symbolic format.

@@ -228,6 +228,11 @@ pub struct Emitted {
     pub hardware: Hardware,
     /// Set-up ports (empty: every input travels with the item).
     pub setup: Vec<SetupPort>,
+    /// Where each live operation's value first appears: (trace node,
+    /// stage `k`, the signal carrying it). With no stalls, the signal holds
+    /// the value of the item that entered `k` cycles earlier. `fxshade
+    /// equiv` cuts its proof there; a wrong entry can only fail a proof.
+    pub cuts: Vec<(usize, u32, String)>,
 }
 
 /// `text` as comment lines of at most 78 columns, each starting with
@@ -2160,6 +2165,21 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
         !muts.is_empty(),
         &setup,
     );
+    // Cut points: the first name of each live operation that is a signal
+    // of its own.
+    let mut cuts = Vec::new();
+    for (i, op) in t.ops().iter().enumerate() {
+        if !live[i] || matches!(op, Op::Input(_) | Op::Const(_)) {
+            continue;
+        }
+        if let Some(s0) = e.stage[i] {
+            if let Some(n) = e.at.get(&(i, s0)) {
+                if n.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
+                    cuts.push((i, s0, n.clone()));
+                }
+            }
+        }
+    }
     Ok(Emitted {
         module: d.module.clone(),
         verilog: v,
@@ -2177,5 +2197,6 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
         outputs: out_fields,
         hardware: e.hw,
         setup,
+        cuts,
     })
 }

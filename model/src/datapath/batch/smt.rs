@@ -1,11 +1,15 @@
-//! SMT-LIB 2 bit-vector encodings of a traced datapath, to ask a solver
-//! (z3) whether any input makes a quantizer meet the event that tells a
-//! mutant from the design ([`super::MutationKind`]): `unsat` proves the
-//! mutant equivalent, a model is an input that may kill it.
+//! SMT-LIB 2 bit-vector encodings of a traced datapath: to ask a solver
+//! whether any input makes a quantizer meet the event that tells a mutant
+//! from the design ([`super::MutationKind`]: `unsat` proves the mutant
+//! equivalent, a model is an input that may kill it), and the whole
+//! function — every output and overflow flag of its inputs
+//! ([`Trace::smt_function`]) — that `fxshade equiv` proves the emitted
+//! Verilog equal to.
 //!
-//! Node `i` is a signed bit-vector one bit wider than its exact width (so
-//! unsigned values fit), computed exactly: products and sums at the node's
-//! width, alignment by left shifts, quantization as the emitter writes it
+//! Node `i` is a bit-vector of its exact width (two's complement when its
+//! format is signed, extended by its signedness where read wider),
+//! computed exactly: products and sums at the node's width, alignment by
+//! left shifts, quantization as [`crate::quantize::Quant`] defines it
 //! (slice, one increment, range check, wrap or saturate), table reads as
 //! arrays of their entries. Only the cone of the asked node is encoded; a
 //! division or square root in it is not (`None`).
@@ -32,106 +36,105 @@ fn ext(e: &str, from: u32, to: u32) -> String {
     }
 }
 
-impl Trace {
-    /// The SMT-LIB 2 script asking whether some input makes the quantizer of
-    /// `m` meet `m`'s event, or `None` when its cone holds an operation the
-    /// encoding lacks. Inputs are `in<slot>` of their formats' widths.
-    pub fn smt_event(&self, m: &Mutation) -> Option<String> {
-        let Op::Quant(op_a, q) = &self.ops[m.node] else {
-            return None;
+/// The rounded value of `x` (a node of `wa` bits read at `fa` fraction
+/// bits) for quantizer `q`, before its range check: (term, width,
+/// overflow term).
+fn quant_term(x: &str, wa: u32, fa: i32, q: &crate::quantize::Quant) -> (String, u32, String) {
+    let sh = fa - q.format().frac();
+    let (r, rw) = if sh > 0 {
+        let sh = sh as u32;
+        let xe = if wa < sh + 1 {
+            ext(x, wa, sh + 1)
+        } else {
+            x.to_string()
         };
-        // The cone.
-        let mut need = vec![false; self.ops.len()];
-        need[op_a.node()] = true;
-        for i in (0..self.ops.len()).rev() {
-            if !need[i] {
-                continue;
-            }
-            let mut mark = |t: &TV| need[t.node()] = true;
-            match &self.ops[i] {
-                Op::Mul(a, b) | Op::Add(a, b) | Op::Sub(a, b) | Op::Max(a, b) => {
-                    mark(a);
-                    mark(b);
-                }
-                Op::Quant(a, _) | Op::Table(a, _) => mark(a),
-                Op::Select(s, o) => {
-                    mark(s);
-                    o.iter().for_each(mark);
-                }
-                Op::AddSigned(a, b, s, _) => {
-                    mark(a);
-                    mark(b);
-                    mark(s);
-                }
-                Op::Div(..) | Op::Sqrt(..) => return None,
-                Op::Input(_) | Op::Const(_) => {}
-            }
+        let xw = wa.max(sh + 1);
+        let t = format!("((_ extract {} {sh}) {xe})", xw - 1);
+        let tw = xw - sh + 1;
+        let t = ext(&t, xw - sh, tw);
+        let bit = |k: u32| format!("((_ extract {k} {k}) {xe})");
+        let inc = match q.round() {
+            Rounding::Trunc => None,
+            Rounding::HalfUp => Some(bit(sh - 1)),
+            Rounding::HalfEven => Some(if sh >= 2 {
+                format!(
+                    "(bvand {} (bvor {} (ite (= ((_ extract {} 0) {xe}) {}) #b0 #b1)))",
+                    bit(sh - 1),
+                    bit(sh),
+                    sh - 2,
+                    lit(0, sh - 1)
+                )
+            } else {
+                format!("(bvand {} {})", bit(sh - 1), bit(sh))
+            }),
+        };
+        match inc {
+            None => (t, tw),
+            Some(i) => (format!("(bvadd {t} ((_ zero_extend {}) {i}))", tw - 1), tw),
         }
-        let w = |i: usize| self.syms[i].width + 1;
-        let mut s = String::from("(set-logic QF_BV)\n");
+    } else {
+        let l = (-sh) as u32;
+        let rw = wa + l;
+        (
+            format!("(bvshl {} {})", ext(x, wa, rw), lit(l as i128, rw)),
+            rw,
+        )
+    };
+    let f = q.format();
+    let cw = rw.max(f.width() + 2);
+    let re = ext(&r, rw, cw);
+    let ovf = format!(
+        "(or (bvslt {re} {}) (bvsgt {re} {}))",
+        lit(f.min_code(), cw),
+        lit(f.max_code(), cw)
+    );
+    (re, cw, ovf)
+}
+
+/// A traced datapath as one SMT-LIB 2 function of its inputs
+/// ([`Trace::smt_function`]).
+#[derive(Clone, Debug)]
+pub struct SmtFunction {
+    /// Declarations (`in<slot>`, table arrays) and definitions (`n<i>`
+    /// for each node, `o<i>` for each quantization's overflow): no
+    /// `set-logic`, no `check-sat`.
+    pub defs: String,
+    /// The input constants, slot order: name and width (the format's).
+    pub inputs: Vec<(String, u32)>,
+    /// Each output port: its name, the term of its code's bits and their
+    /// width (the port format's).
+    pub outputs: Vec<(String, String, u32)>,
+    /// Each overflow-flag stage ([`Trace::flag_stages`] of the outputs, in
+    /// order): its id and a `Bool` term, true when any quantization of
+    /// that stage overflows.
+    pub flags: Vec<(String, String)>,
+    /// Whether the definitions use arrays (table reads): logic `QF_ABV`,
+    /// else `QF_BV`.
+    pub arrays: bool,
+}
+
+impl Trace {
+    /// Declarations of the inputs and definitions `n<i>` of every node in
+    /// `need` (and `o<i>`, the overflow of each quantization among them),
+    /// appended to `s`; `None` when one is a division or square root.
+    fn smt_nodes(&self, need: &[bool], cut: &[bool], s: &mut String) -> Option<()> {
+        if need
+            .iter()
+            .zip(&self.ops)
+            .any(|(n, op)| *n && matches!(op, Op::Div(..) | Op::Sqrt(..)))
+        {
+            return None;
+        }
+        let w = |i: usize| self.syms[i].width;
         for (slot, q) in self.inputs.iter().enumerate() {
-            s += &format!(
+            *s += &format!(
                 "(declare-const in{slot} (_ BitVec {}))\n",
                 q.format().width()
             );
         }
-        // The rounded value of `x` (node a read at frac fa) for quantizer q:
-        // (expression, width, overflow expression).
-        let quant =
-            |x: &str, wa: u32, fa: i32, q: &crate::quantize::Quant| -> (String, u32, String) {
-                let sh = fa - q.format().frac();
-                let (r, rw) = if sh > 0 {
-                    let sh = sh as u32;
-                    let xe = if wa < sh + 1 {
-                        ext(x, wa, sh + 1)
-                    } else {
-                        x.to_string()
-                    };
-                    let xw = wa.max(sh + 1);
-                    let t = format!("((_ extract {} {sh}) {xe})", xw - 1);
-                    let tw = xw - sh + 1;
-                    let t = ext(&t, xw - sh, tw);
-                    let bit = |k: u32| format!("((_ extract {k} {k}) {xe})");
-                    let inc = match q.round() {
-                        Rounding::Trunc => None,
-                        Rounding::HalfUp => Some(bit(sh - 1)),
-                        Rounding::HalfEven => Some(if sh >= 2 {
-                            format!(
-                                "(bvand {} (bvor {} (ite (= ((_ extract {} 0) {xe}) {}) #b0 #b1)))",
-                                bit(sh - 1),
-                                bit(sh),
-                                sh - 2,
-                                lit(0, sh - 1)
-                            )
-                        } else {
-                            format!("(bvand {} {})", bit(sh - 1), bit(sh))
-                        }),
-                    };
-                    match inc {
-                        None => (t, tw),
-                        Some(i) => (format!("(bvadd {t} ((_ zero_extend {}) {i}))", tw - 1), tw),
-                    }
-                } else {
-                    let l = (-sh) as u32;
-                    let rw = wa + l;
-                    (
-                        format!("(bvshl {} {})", ext(x, wa, rw), lit(l as i128, rw)),
-                        rw,
-                    )
-                };
-                let f = q.format();
-                let cw = rw.max(f.width() + 2);
-                let re = ext(&r, rw, cw);
-                let ovf = format!(
-                    "(or (bvslt {re} {}) (bvsgt {re} {}))",
-                    lit(f.min_code(), cw),
-                    lit(f.max_code(), cw)
-                );
-                (re, cw, ovf)
-            };
         for (i, _) in need.iter().enumerate().filter(|(_, n)| **n) {
             let wi = w(i);
-            let val = |t: &TV, to: u32| ext(&format!("n{}", t.node()), w(t.node()), to);
+            let val = |t: &TV, to: u32| self.smt_val(t.node(), to);
             let aligned = |t: &TV| {
                 let sh = (self.fracs[i] - t.frac()) as u32;
                 if sh == 0 {
@@ -140,14 +143,14 @@ impl Trace {
                     format!("(bvshl {} {})", val(t, wi), lit(sh as i128, wi))
                 }
             };
+            let mut ovf_def = None;
             let e = match &self.ops[i] {
                 Op::Input(slot) => {
-                    let f = self.inputs[*slot].format();
-                    if f.signed() {
-                        ext(&format!("in{slot}"), f.width(), wi)
-                    } else {
-                        format!("((_ zero_extend {}) in{slot})", wi - f.width())
+                    let fw = self.inputs[*slot].format().width();
+                    if fw != wi {
+                        return None;
                     }
+                    format!("in{slot}")
                 }
                 Op::Const(c) => lit(*c, wi),
                 Op::Mul(a, b) => format!("(bvmul {} {})", val(a, wi), val(b, wi)),
@@ -155,11 +158,20 @@ impl Trace {
                 Op::Sub(a, b) => format!("(bvsub {} {})", aligned(a), aligned(b)),
                 Op::Max(a, b) => {
                     let (x, y) = (aligned(a), aligned(b));
-                    format!("(ite (bvsge {x} {y}) {x} {y})")
+                    let ge = if self.syms[i].signed {
+                        "bvsge"
+                    } else {
+                        "bvuge"
+                    };
+                    format!("(ite ({ge} {x} {y}) {x} {y})")
                 }
                 Op::AddSigned(a, b, sg, flip) => {
                     let (x, y) = (aligned(a), aligned(b));
-                    let neg = format!("(bvslt n{} {})", sg.node(), lit(0, w(sg.node())));
+                    let neg = if self.syms[sg.node()].signed {
+                        format!("(bvslt n{} {})", sg.node(), lit(0, w(sg.node())))
+                    } else {
+                        "false".to_string()
+                    };
                     let (sub, add) = (format!("(bvsub {x} {y})"), format!("(bvadd {x} {y})"));
                     if *flip {
                         format!("(ite {neg} {add} {sub})")
@@ -171,6 +183,9 @@ impl Trace {
                     let sw = w(sel.node());
                     let mut e = aligned(&opts[0]);
                     for (k, o) in opts.iter().enumerate().skip(1).rev() {
+                        if sw < 64 && k as u64 >= 1u64 << sw {
+                            continue;
+                        }
                         e = format!(
                             "(ite (= n{} {}) {} {e})",
                             sel.node(),
@@ -181,15 +196,14 @@ impl Trace {
                     e
                 }
                 Op::Quant(a, q) => {
-                    let (re, cw, ovf) = quant(&format!("n{}", a.node()), w(a.node()), a.frac(), q);
+                    let wa = w(a.node()) + 1;
+                    let (re, cw, ovf) = quant_term(&val(a, wa), wa, a.frac(), q);
                     let f = q.format();
-                    let low = format!("((_ extract {} 0) {re})", f.width() - 1);
-                    let fit = if f.signed() {
-                        ext(&low, f.width(), wi)
-                    } else {
-                        format!("((_ zero_extend {}) {low})", wi - f.width())
-                    };
-                    match q.overflow() {
+                    if f.width() != wi {
+                        return None;
+                    }
+                    let fit = format!("((_ extract {} 0) {re})", f.width() - 1);
+                    let e = match q.overflow() {
                         Overflow::Wrap => fit,
                         Overflow::Saturate => format!(
                             "(ite {ovf} (ite (bvslt {re} {}) {} {}) {fit})",
@@ -197,7 +211,9 @@ impl Trace {
                             lit(f.min_code(), wi),
                             lit(f.max_code(), wi)
                         ),
-                    }
+                    };
+                    ovf_def = Some(ovf);
+                    e
                 }
                 Op::Table(a, slot) => {
                     // Entry `codes[index bits mod len]`, as the compiled
@@ -216,25 +232,141 @@ impl Trace {
                                 lit(c, wi)
                             );
                         }
-                        s += &decl;
+                        *s += &decl;
                     }
-                    let wa = w(a.node());
-                    let idx = if wa >= k {
-                        format!("((_ extract {} 0) n{})", k - 1, a.node())
-                    } else {
-                        format!("((_ zero_extend {}) n{})", k - wa, a.node())
-                    };
+                    let idx = val(a, k.max(w(a.node())));
+                    let idx = format!("((_ extract {} 0) {idx})", k - 1);
                     format!("(select {name} {idx})")
                 }
                 Op::Div(..) | Op::Sqrt(..) => return None,
             };
-            s += &format!("(define-fun n{i} () (_ BitVec {wi}) {e})\n");
+            if cut.get(i).copied().unwrap_or(false) {
+                // A cut: the node is a free value `c<i>`; `f<i>` is what
+                // the datapath computes for it from its operands.
+                *s += &format!("(declare-const c{i} (_ BitVec {wi}))\n");
+                *s += &format!("(define-fun f{i} () (_ BitVec {wi}) {e})\n");
+                *s += &format!("(define-fun n{i} () (_ BitVec {wi}) c{i})\n");
+            } else {
+                *s += &format!("(define-fun n{i} () (_ BitVec {wi}) {e})\n");
+            }
+            if let Some(o) = ovf_def {
+                // The overflow reads only the operand, defined above.
+                *s += &format!("(define-fun o{i} () Bool {o})\n");
+            }
         }
-        let xa = format!("n{}", op_a.node());
-        let wa = w(op_a.node());
+        Some(())
+    }
+
+    /// Node `i`'s value `n<i>` (its exact width, two's complement when its
+    /// format is signed) as `to` bits: extended by its signedness, or its
+    /// low bits.
+    fn smt_val(&self, i: usize, to: u32) -> String {
+        let from = self.syms[i].width;
+        let x = format!("n{i}");
+        if to > from {
+            let how = if self.syms[i].signed {
+                "sign_extend"
+            } else {
+                "zero_extend"
+            };
+            format!("((_ {how} {}) {x})", to - from)
+        } else if to == from {
+            x
+        } else {
+            format!("((_ extract {} 0) {x})", to - 1)
+        }
+    }
+
+    /// Every output port and overflow flag of the trace as SMT-LIB 2 terms
+    /// of its inputs `in<slot>`, or `None` when a node the outputs read is
+    /// a division or square root.
+    ///
+    /// Node `i` is `n<i>`, a bit-vector of its exact width (two's
+    /// complement when its format is signed), computed exactly: products and sums
+    /// at the node's width, alignment by left shifts, each quantization as
+    /// [`crate::quantize::Quant`] defines it (the dropped bits rounded by
+    /// one increment, then the range check: wrap or saturate), a table read
+    /// as an array of its entries, a select as `option[sel]` (option 0 past
+    /// the end), as the compiled program computes them. An output is its
+    /// node (its port format's width); flag `k` is the OR
+    /// of the overflows of every live quantization whose stage id is
+    /// `flag_stages[k]`. Only nodes the outputs read are encoded.
+    pub fn smt_function(&self) -> Option<SmtFunction> {
+        self.smt_function_cut(&[])
+    }
+
+    /// As [`Trace::smt_function`], with every node `i` where `cut[i]` is
+    /// true cut: `n<i>` is a free constant `c<i>` (declared), and `f<i>`
+    /// is the term the datapath computes for it from its operands (which
+    /// read the cuts before it). A proof by stages asks, for each cut, that
+    /// the hardware's value equals `f<i>` when every cut equals its
+    /// hardware value.
+    pub fn smt_function_cut(&self, cut: &[bool]) -> Option<SmtFunction> {
+        let roots: Vec<TV> = self.outputs.iter().map(|p| p.value).collect();
+        let need = self.live_nodes(&roots);
+        let mut defs = String::new();
+        self.smt_nodes(&need, cut, &mut defs)?;
+        let inputs = self
+            .inputs
+            .iter()
+            .enumerate()
+            .map(|(slot, q)| (format!("in{slot}"), q.format().width()))
+            .collect();
+        let outputs = self
+            .outputs
+            .iter()
+            .map(|p| {
+                let n = p.value.node();
+                let fw = p.format.width();
+                (p.name.clone(), self.smt_val(n, fw), fw)
+            })
+            .collect();
+        let flags = self
+            .flag_stages(&roots)
+            .into_iter()
+            .map(|id| {
+                let terms: Vec<String> = (0..self.ops.len())
+                    .filter(|&i| {
+                        need[i]
+                            && matches!(self.ops[i], Op::Quant(..))
+                            && self.stage_ids[i].as_deref() == Some(id.as_str())
+                    })
+                    .map(|i| format!("o{i}"))
+                    .collect();
+                let t = match terms.len() {
+                    0 => "false".to_string(),
+                    1 => terms[0].clone(),
+                    _ => format!("(or {})", terms.join(" ")),
+                };
+                (id, t)
+            })
+            .collect();
+        let arrays = defs.contains("(Array ");
+        Some(SmtFunction {
+            defs,
+            inputs,
+            outputs,
+            flags,
+            arrays,
+        })
+    }
+
+    /// The SMT-LIB 2 script asking whether some input makes the quantizer of
+    /// `m` meet `m`'s event, or `None` when its cone holds an operation the
+    /// encoding lacks. Inputs are `in<slot>` of their formats' widths.
+    pub fn smt_event(&self, m: &Mutation) -> Option<String> {
+        let Op::Quant(op_a, q) = &self.ops[m.node] else {
+            return None;
+        };
+        let need = self.live_nodes(&[*op_a]);
+        let mut s = String::from("(set-logic QF_BV)\n");
+        self.smt_nodes(&need, &[], &mut s)?;
+        // The operand as a signed value one bit wider than its format.
+        let wa = self.syms[op_a.node()].width + 1;
+        let xa = self.smt_val(op_a.node(), wa);
         let sh = op_a.frac() - q.format().frac();
         let event = match m.kind {
-            MutationKind::Overflow(_) => quant(&xa, wa, op_a.frac(), q).2,
+            MutationKind::Overflow(_) => quant_term(&xa, wa, op_a.frac(), q).2,
             MutationKind::Round(_) if sh > 0 => {
                 let sh = sh as u32;
                 let xw = wa.max(sh + 1);
@@ -261,5 +393,123 @@ impl Trace {
         }
         s += "))\n";
         Some(s)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::rtl::units::{self, Part};
+
+    /// The codes of every `#b…`/`#x…` literal of a solver's output, in
+    /// order.
+    fn literals(text: &str) -> Vec<u128> {
+        text.split(|c: char| c.is_whitespace() || c == '(' || c == ')')
+            .filter_map(|t| {
+                if let Some(b) = t.strip_prefix("#b") {
+                    u128::from_str_radix(b, 2).ok()
+                } else if let Some(h) = t.strip_prefix("#x") {
+                    u128::from_str_radix(h, 16).ok()
+                } else {
+                    None
+                }
+            })
+            .collect()
+    }
+
+    /// The SMT encoding that `fxshade equiv` proves the RTL against is the
+    /// compiled trace's function: for every unit of the default
+    /// configuration, z3 evaluates [`super::SmtFunction`] on the corner
+    /// cases and random rows, and every output and flag equals the
+    /// compiled program's (the program the vectors check the RTL against).
+    #[test]
+    fn the_smt_function_is_the_compiled_trace() {
+        assert!(
+            std::process::Command::new("z3")
+                .arg("--version")
+                .output()
+                .is_ok(),
+            "z3 is not installed: `sudo apt-get install z3` (./scripts/test does it as root)"
+        );
+        let cfg = crate::Config::embedded();
+        for u in units::all() {
+            let d = (u.design)(&cfg).unwrap();
+            let f = d.trace.smt_function().expect("no division in an RTL unit");
+            let mut rows = (u.inputs)(&cfg, Part::Corners, 7).unwrap();
+            rows.truncate(40);
+            rows.extend((u.inputs)(&cfg, Part::Random(40), 7).unwrap());
+            let prog = units::compile_outputs(&d).unwrap();
+            let cols: Vec<Vec<i128>> = (0..f.inputs.len())
+                .map(|k| rows.iter().map(|r| r[k]).collect())
+                .collect();
+            let refs: Vec<&[i128]> = cols.iter().map(|c| c.as_slice()).collect();
+            let (outs, flags) = prog.run_flags_i128(&refs);
+            let mut s = String::from(if f.arrays {
+                "(set-logic QF_ABV)\n"
+            } else {
+                "(set-logic QF_BV)\n"
+            });
+            s += &f.defs;
+            // Named, so the echoed terms hold no literals.
+            let mut asked = Vec::new();
+            for (k, (_, t, w)) in f.outputs.iter().enumerate() {
+                s += &format!("(define-fun out{k} () (_ BitVec {w}) {t})\n");
+                asked.push(format!("out{k}"));
+            }
+            for (k, (_, t)) in f.flags.iter().enumerate() {
+                s += &format!("(define-fun flag{k} () (_ BitVec 1) (ite {t} #b1 #b0))\n");
+                asked.push(format!("flag{k}"));
+            }
+            for r in &rows {
+                s += "(push 1)\n";
+                for (k, (name, w)) in f.inputs.iter().enumerate() {
+                    s += &format!("(assert (= {name} {}))\n", super::lit(r[k], *w));
+                }
+                s += &format!("(check-sat)\n(get-value ({}))\n(pop 1)\n", asked.join(" "));
+            }
+            let o = std::process::Command::new("z3")
+                .args(["-in", "-smt2"])
+                .stdin(std::process::Stdio::piped())
+                .stdout(std::process::Stdio::piped())
+                .spawn()
+                .and_then(|mut c| {
+                    use std::io::Write;
+                    c.stdin.take().unwrap().write_all(s.as_bytes())?;
+                    c.wait_with_output()
+                })
+                .unwrap();
+            let text = String::from_utf8_lossy(&o.stdout);
+            assert_eq!(
+                text.matches("unsat").count(),
+                0,
+                "{}: an input row has no model",
+                u.name
+            );
+            let vals = literals(&text);
+            assert_eq!(vals.len(), rows.len() * asked.len(), "{}: {text}", u.name);
+            let nf = f.flags.len();
+            for (j, got) in vals.chunks(asked.len()).enumerate() {
+                for (k, (name, _, w)) in f.outputs.iter().enumerate() {
+                    let fmt = d.trace.output_ports()[k].format;
+                    assert_eq!(
+                        fmt.from_bits(got[k] as u64),
+                        outs[k][j],
+                        "{}: output {name} of row {:?} ({w} bits)",
+                        u.name,
+                        rows[j]
+                    );
+                }
+                for k in 0..nf {
+                    let want = (flags[j] >> (nf - 1 - k)) & 1;
+                    assert_eq!(
+                        got[f.outputs.len() + k] as u64,
+                        want,
+                        "{}: flag {} of row {:?}",
+                        u.name,
+                        f.flags[k].0,
+                        rows[j]
+                    );
+                }
+            }
+        }
     }
 }

@@ -1,0 +1,891 @@
+//! `fxshade equiv <unit>|all`: prove that each emitted module computes its
+//! traced datapath's function for every input value.
+//!
+//! Two sides meet in one SMT-LIB 2 query (a miter):
+//!
+//! * the **model**: the trace's outputs and overflow flags as bit-vector
+//!   terms of its inputs, by the trace's own encoder
+//!   ([`fxshade_model::datapath::Trace::smt_function`]), which reads the
+//!   trace and never the Verilog;
+//! * the **RTL**: the module's transition relation as Yosys reads the
+//!   Verilog (`prep; memory_map; async2sync; dffunmap; write_smt2 -stbv`:
+//!   word-level, one state vector per cycle), unrolled over the latency.
+//!
+//! The RTL starts in an arbitrary state (every register free), is reset in
+//! cycle 0, then takes one item per cycle with `ready_i` high throughout
+//! (no stalls): the first item (cycle 1, or cycle 2 after the set-up ports
+//! load in cycle 1) is the model's input, the later ones are free. The
+//! query asks for an input where `valid_o` is low `L` cycles later or an
+//! output or `ovf_o` differs from the model's. `unsat` is a proof for every
+//! input value, whatever the later items and the registers' power-up
+//! values; a model is a counterexample, checked against the compiled trace
+//! and replayed on Verilator. Stalls are the handshake proofs' part
+//! (`fxshade formal`): they show that a stall never changes what an item
+//! computes, so together the two cover every input sequence.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{bail, Context};
+use clap::Args;
+use fxshade_model::rtl::{units, Design, Emitted};
+
+use super::{ConfigArgs, PipelineArgs};
+use crate::output::{emit, OutputArgs, Table, UsageError};
+use crate::smt::{Reply, SExpr, Solver};
+
+/// `fxshade equiv`
+#[derive(Args, Debug)]
+pub struct EquivArgs {
+    /// The unit, or `all`: every module `fxshade rtl all` writes (every
+    /// unit and the pipeline top of every path).
+    #[arg(value_parser = super::unit_arg(&["all"]))]
+    unit: String,
+    #[command(flatten)]
+    cfg: ConfigArgs,
+    #[command(flatten)]
+    pipe: PipelineArgs,
+    /// Prove the modules in this directory (`<module>.v`, e.g. hand-edited
+    /// RTL) instead of the Verilog `fxshade rtl` emits.
+    #[arg(long, value_name = "DIR")]
+    rtl_dir: Option<PathBuf>,
+    /// The SMT solver.
+    #[arg(long, value_enum, default_value_t = Solver::Bitwuzla)]
+    solver: Solver,
+    /// The solver's time limit per module, seconds (0: none); a module
+    /// past it is `unknown`, never proved. The limit is wall time: on a
+    /// loaded machine a proof near it may come out `unknown`.
+    #[arg(long, value_name = "S", default_value_t = 600)]
+    timeout: u64,
+    /// Where a counterexample's vector set is written, one directory per
+    /// module (`DIR/<module>`, replaced if fxshade wrote it).
+    #[arg(long, value_name = "DIR", default_value = "equiv-cex")]
+    cex_dir: PathBuf,
+    /// Modules to prove at once (default: the machine's cores).
+    #[arg(long, value_name = "J")]
+    jobs: Option<usize>,
+    #[command(flatten)]
+    out: OutputArgs,
+}
+
+/// A proof's outcome.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Verdict {
+    /// Equal for every input value.
+    Proved,
+    /// An input where they differ.
+    Counterexample,
+    /// The solver gave up or hit the time limit.
+    Unknown,
+}
+
+/// An input where the module and the model differ.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Counterexample {
+    /// The item's input codes, by port.
+    pub inputs: Vec<(String, i128)>,
+    /// What the RTL gives `L` cycles later: each output's code, `ovf`
+    /// (when there are flags) and `valid`.
+    pub rtl: Vec<(String, i128)>,
+    /// What the model gives (the compiled trace).
+    pub model: Vec<(String, i128)>,
+    /// The vector set reproducing it (the item and the free items after
+    /// it that the solver chose).
+    pub vectors: Option<String>,
+    /// Whether Verilator, run on that vector set with no stalls, reports
+    /// a mismatch (`None`: not run).
+    pub reproduced: Option<bool>,
+}
+
+/// One module's result.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Equiv {
+    /// Module.
+    pub module: String,
+    /// Latency, cycles.
+    pub latency: u32,
+    /// The outcome.
+    pub verdict: Verdict,
+    /// The solver.
+    pub solver: Solver,
+    /// Seconds (Yosys and the solver).
+    pub seconds: f64,
+    /// Why unknown, when it is.
+    pub reason: Option<String>,
+    /// The counterexample, when there is one.
+    pub counterexample: Option<Counterexample>,
+    /// Products abstracted (model and RTL together): each an application
+    /// of one uninterpreted function of its operand values.
+    pub products: usize,
+    /// How it was proved (or last tried).
+    pub method: Method,
+}
+
+/// How a module was proved.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Method {
+    /// One query for the whole module.
+    Whole,
+    /// By stages: one query per cut (a quantization's signal), each with
+    /// every cut free and equal on both sides, then the outputs.
+    Stages(usize),
+}
+
+impl std::fmt::Display for Method {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Method::Whole => f.write_str("whole"),
+            Method::Stages(n) => write!(f, "by stages ({n} cuts)"),
+        }
+    }
+}
+
+/// A module to prove: its design, as emitted, and the Verilog text read.
+pub struct Module {
+    /// The design (its trace is the model side).
+    pub design: Design,
+    /// The emitted module (ports, latency, set-up ports).
+    pub emitted: Emitted,
+    /// The Verilog proved.
+    pub text: String,
+}
+
+/// The ports Yosys's SMT-LIB 2 model declares: (name, width), inputs and
+/// outputs.
+/// Ports as (name, width).
+type Ports = Vec<(String, u32)>;
+
+fn smt2_ports(smt2: &str) -> (Ports, Ports) {
+    let mut ins = Vec::new();
+    let mut outs = Vec::new();
+    for l in smt2.lines() {
+        for (tag, v) in [
+            ("; yosys-smt2-input ", &mut ins),
+            ("; yosys-smt2-output ", &mut outs),
+        ] {
+            if let Some(r) = l.strip_prefix(tag) {
+                let mut it = r.split_whitespace();
+                if let (Some(n), Some(w)) = (it.next(), it.next().and_then(|w| w.parse().ok())) {
+                    v.push((n.to_string(), w));
+                }
+            }
+        }
+    }
+    (ins, outs)
+}
+
+/// The RTL side: Yosys's word-level model of `text` (module `module`), as
+/// SMT-LIB 2 with one bit-vector per state.
+pub fn rtl_smt2(module: &str, text: &str, dir: &Path) -> anyhow::Result<String> {
+    let file = format!("{module}.v");
+    std::fs::write(dir.join(&file), text).context("cannot write the module")?;
+    let smt = format!("{module}.smt2");
+    // No optimization: `opt_expr` and `wreduce` would rewrite products
+    // (a constant's trailing zeros become a shift), and products are
+    // matched by their operand values.
+    let ys = format!(
+        "read_verilog -sv {file}\nhierarchy -check -top {module}\nproc\nflatten\n\
+         opt_clean\nmemory -nomap\nmemory_map\nopt_clean\nasync2sync\ndffunmap\n\
+         write_smt2 -stbv -wires {smt}\n"
+    );
+    std::fs::write(dir.join("equiv.ys"), ys).context("cannot write the Yosys script")?;
+    let mut y = std::process::Command::new("yosys");
+    y.current_dir(dir).args(["-q", "-s", "equiv.ys"]);
+    let o = crate::proc::run(
+        &mut y,
+        "yosys (equivalence model)",
+        crate::proc::Limit::formal(),
+        None,
+    )?;
+    if !o.status.success() {
+        bail!("yosys could not read {module}:\n{}", o.text().trim_end());
+    }
+    std::fs::read_to_string(dir.join(&smt)).context("yosys wrote no SMT-LIB 2 model")
+}
+
+/// A miter: the script and what to read back from a model.
+struct Miter {
+    /// The whole-module query: `check-sat` and `get-value`.
+    script: String,
+    /// The proof by stages: one `check-sat` per cut, then the outputs'
+    /// (each between `push` and `pop`); `None` with no cuts.
+    staged: Option<String>,
+    /// The cuts' modules, in the order of `staged`'s queries.
+    cut_names: Vec<String>,
+    /// The step whose outputs are compared.
+    last: u32,
+    /// The step the item enters.
+    first: u32,
+}
+
+/// `t` (a bit-vector of width `w`) as the port's sort: Yosys declares
+/// one-bit ports `Bool`.
+fn as_port(t: &str, w: u32) -> String {
+    if w == 1 {
+        format!("(= {t} #b1)")
+    } else {
+        t.to_string()
+    }
+}
+
+/// Build the miter of module `m` (Yosys's model `smt2`): the whole
+/// query, and the proof by stages (every cut of the emitter whose signal
+/// Yosys's model names).
+fn miter(m: &Module, smt2: &str) -> anyhow::Result<Miter> {
+    let e = &m.emitted;
+    let module = &e.module;
+    let no_rtl = || format!("{module}: the datapath divides or takes a square root (no RTL)");
+    let f = m.design.trace.smt_function().with_context(no_rtl)?;
+    let mut cut = vec![false; m.design.trace.ops().len()];
+    let mut cuts = Vec::new();
+    for (i, k, name) in &e.cuts {
+        if smt2.contains(&format!("(define-fun |{module}_n {name}| ")) {
+            cut[*i] = true;
+            cuts.push((*i, *k, name.clone()));
+        }
+    }
+    let fc = m.design.trace.smt_function_cut(&cut).with_context(no_rtl)?;
+    let (ins, outs) = smt2_ports(smt2);
+    let width = |list: &[(String, u32)], p: &str| {
+        list.iter()
+            .find(|(n, _)| n == p)
+            .map(|(_, w)| *w)
+            .with_context(|| format!("{module}: the RTL has no port {p}"))
+    };
+    let at = |p: &str, k: u32| format!("(|{module}_n {p}| s{k})");
+    let first = if e.setup.is_empty() { 1 } else { 2 };
+    let last = first + e.latency;
+    let mut s = String::new();
+    s += "\n; The RTL unrolled: reset in step 0, then one item per cycle.\n";
+    for k in 0..=last {
+        let _ = writeln!(s, "(declare-const s{k} |{module}_s|)");
+    }
+    for k in 0..last {
+        let _ = writeln!(s, "(assert (|{module}_t| s{k} s{}))", k + 1);
+    }
+    for p in ["rst_ni", "ready_i", "valid_i"] {
+        width(&ins, p)?;
+    }
+    let _ = writeln!(s, "(assert (not {}))", at("rst_ni", 0));
+    for k in 1..=last {
+        let _ = writeln!(s, "(assert {})", at("rst_ni", k));
+        let _ = writeln!(s, "(assert {})", at("ready_i", k));
+        let v = at("valid_i", k);
+        if k >= first {
+            let _ = writeln!(s, "(assert {v})");
+        } else {
+            let _ = writeln!(s, "(assert (not {v}))");
+        }
+        for g in &e.setup {
+            let gv = at(&format!("{}_valid_i", g.name), k);
+            if k == 1 {
+                let _ = writeln!(s, "(assert {gv})");
+            } else {
+                let _ = writeln!(s, "(assert (not {gv}))");
+            }
+        }
+    }
+    // The item's inputs are the model's.
+    let ports = m.design.trace.input_ports();
+    for (slot, p) in ports.iter().enumerate() {
+        let port = format!("{}_i", p.name);
+        let w = width(&ins, &port)?;
+        anyhow::ensure!(
+            w == f.inputs[slot].1,
+            "{module}: port {port} is {w} bits, the model's input {}",
+            f.inputs[slot].1
+        );
+        let setup = e.setup.iter().any(|g| g.fields.contains(&p.name));
+        let k = if setup { 1 } else { first };
+        let _ = writeln!(
+            s,
+            "(assert (= {} {}))",
+            at(&port, k),
+            as_port(&f.inputs[slot].0, w)
+        );
+    }
+    // Equal outputs, flags and valid at the last step, or a counterexample.
+    let mut eq = vec![at("valid_o", last)];
+    for (name, term, w) in &f.outputs {
+        let port = format!("{name}_o");
+        let pw = width(&outs, &port)?;
+        anyhow::ensure!(
+            pw == *w,
+            "{module}: port {port} is {pw} bits, the model's output {w}"
+        );
+        eq.push(format!("(= {} {})", at(&port, last), as_port(term, pw)));
+    }
+    if !f.flags.is_empty() {
+        let pw = width(&outs, "ovf_o")?;
+        anyhow::ensure!(
+            pw as usize == f.flags.len(),
+            "{module}: ovf_o is {pw} bits, the model has {} flag stages",
+            f.flags.len()
+        );
+        let bits: Vec<String> = f
+            .flags
+            .iter()
+            .map(|(_, t)| format!("(ite {t} #b1 #b0)"))
+            .collect();
+        let model = if bits.len() == 1 {
+            bits[0].clone()
+        } else {
+            format!("(concat {})", bits.join(" "))
+        };
+        eq.push(format!("(= {} {})", at("ovf_o", last), as_port(&model, pw)));
+    }
+    let goal = format!("(not (and {}))", eq.join(" "));
+    let unrolled = s;
+    let head = |defs: &str| {
+        let mut h = String::new();
+        h += if f.arrays {
+            "(set-logic QF_ABV)\n"
+        } else {
+            "(set-logic QF_BV)\n"
+        };
+        h += smt2;
+        h += "\n; The model: the traced datapath's function.\n";
+        h += defs;
+        h += &unrolled;
+        h
+    };
+    let staged = (!cuts.is_empty()).then(|| {
+        let mut t = head(&fc.defs);
+        t += "; Cuts: each quantization's signal in its stage is a free value.\n";
+        let sig = |k: u32, name: &str| format!("(|{module}_n {name}| s{})", first + k);
+        let w = |i: usize| m.design.trace.sym(i).width;
+        for (i, k, name) in &cuts {
+            let _ = writeln!(
+                t,
+                "(assert (= {} {}))",
+                sig(*k, name),
+                as_port(&format!("c{i}"), w(*i))
+            );
+        }
+        for (i, k, name) in &cuts {
+            let _ = writeln!(
+                t,
+                "(push 1)\n(assert (not (= {} {})))\n(check-sat)\n(pop 1)",
+                sig(*k, name),
+                as_port(&format!("f{i}"), w(*i))
+            );
+        }
+        let _ = writeln!(t, "(push 1)\n(assert {goal})\n(check-sat)\n(pop 1)");
+        t
+    });
+    let mut s = head(&f.defs);
+    let _ = writeln!(s, "(assert {goal})");
+    s += "(check-sat)\n(get-value (";
+    for (n, _) in &f.inputs {
+        let _ = write!(s, " {n}");
+    }
+    // The later items (for the replay) and what the RTL gives.
+    for k in first..=last {
+        for p in &ports {
+            if !e.setup.iter().any(|g| g.fields.contains(&p.name)) {
+                let _ = write!(s, " {}", at(&format!("{}_i", p.name), k));
+            }
+        }
+    }
+    for (name, _, _) in &f.outputs {
+        let _ = write!(s, " {}", at(&format!("{name}_o"), last));
+    }
+    if !f.flags.is_empty() {
+        let _ = write!(s, " {}", at("ovf_o", last));
+    }
+    let _ = write!(s, " {}", at("valid_o", last));
+    s += "))\n";
+    Ok(Miter {
+        script: s,
+        staged,
+        cut_names: cuts.into_iter().map(|(_, _, n)| n).collect(),
+        last,
+        first,
+    })
+}
+
+/// The value of `term` in a model.
+fn value(pairs: &[(SExpr, SExpr)], term: &str) -> anyhow::Result<u128> {
+    pairs
+        .iter()
+        .find(|(t, _)| t.to_string() == term)
+        .and_then(|(_, v)| v.bits())
+        .map(|(b, _)| b)
+        .with_context(|| format!("the solver's model has no value for {term}"))
+}
+
+/// Prove one module in `dir` (a scratch directory); with a
+/// counterexample, also the vector rows that replay it.
+pub fn prove(
+    m: &Module,
+    solver: Solver,
+    timeout: u64,
+    dir: &Path,
+) -> anyhow::Result<(Equiv, Vec<Vec<i128>>)> {
+    let t0 = Instant::now();
+    let e = &m.emitted;
+    let smt2 = rtl_smt2(&e.module, &m.text, dir)?;
+    let mi = miter(m, &smt2)?;
+    if let Some(d) = std::env::var_os("FXSHADE_SMT_DUMP") {
+        let _ = std::fs::write(
+            Path::new(&d).join(format!("{}-equiv.smt2", e.module)),
+            &mi.script,
+        );
+    }
+    // Products abstracted; a model of the whole query is checked on the
+    // real products with every free input fixed to the model's values.
+    let abstracted = |script: &str| -> anyhow::Result<(String, usize)> {
+        let (abs, n) = crate::smt::abstract_products(script)?;
+        let decl = crate::smt::product_declarations();
+        let abs = abs
+            .replacen(
+                "(set-logic QF_BV)",
+                &format!("(set-logic QF_UFBV)\n{decl}"),
+                1,
+            )
+            .replacen(
+                "(set-logic QF_ABV)",
+                &format!("(set-logic QF_AUFBV)\n{decl}"),
+                1,
+            );
+        Ok((abs, n))
+    };
+    let (abs, n_products) = abstracted(&mi.script)?;
+    let dump = |name: &str, text: &str| {
+        if let Some(d) = std::env::var_os("FXSHADE_SMT_DUMP") {
+            let _ = std::fs::write(
+                Path::new(&d).join(format!("{}-{name}.smt2", e.module)),
+                text,
+            );
+        }
+    };
+    dump("equiv-abs", &abs);
+    // First by stages: every cut, then the outputs from the cuts.
+    let mut staged_note = None;
+    if let Some(st) = &mi.staged {
+        let (st, _) = abstracted(st)?;
+        dump("equiv-staged", &st);
+        let answers = solver.check_each(&st, timeout)?;
+        let n = mi.cut_names.len() + 1;
+        if answers.len() == n && answers.iter().all(|r| *r == Reply::Unsat) {
+            return Ok((
+                Equiv {
+                    module: e.module.clone(),
+                    latency: e.latency,
+                    verdict: Verdict::Proved,
+                    solver,
+                    seconds: t0.elapsed().as_secs_f64(),
+                    reason: None,
+                    counterexample: None,
+                    products: n_products,
+                    method: Method::Stages(mi.cut_names.len()),
+                },
+                Vec::new(),
+            ));
+        }
+        let bad = answers.iter().position(|r| *r != Reply::Unsat).map_or(
+            "the outputs".to_string(),
+            |k| {
+                mi.cut_names
+                    .get(k)
+                    .map_or("the outputs".to_string(), |c| format!("cut {c}"))
+            },
+        );
+        staged_note = Some(format!("by stages: {bad} not proved"));
+    }
+    let reply = solver.check(&abs, timeout)?;
+    let mut rows = Vec::new();
+    let mut out = Equiv {
+        module: e.module.clone(),
+        latency: e.latency,
+        verdict: Verdict::Unknown,
+        solver,
+        seconds: 0.0,
+        reason: None,
+        counterexample: None,
+        products: n_products,
+        method: Method::Whole,
+    };
+    let left = |t0: Instant| {
+        if timeout == 0 {
+            0
+        } else {
+            timeout.saturating_sub(t0.elapsed().as_secs()).max(1)
+        }
+    };
+    match reply {
+        Reply::Unsat => out.verdict = Verdict::Proved,
+        Reply::Unknown(why) => {
+            out.reason = Some(format!(
+                "{} answered {why} after {:.0} s",
+                solver.name(),
+                t0.elapsed().as_secs_f64()
+            ))
+        }
+        Reply::Sat(pairs) => {
+            // Fix the free inputs to the model's and ask with the real
+            // products.
+            let mut fix = String::new();
+            for (t, v) in &pairs {
+                let is_input = t.atom().is_some_and(|a| a.starts_with("in"))
+                    || (t
+                        .to_string()
+                        .ends_with(|c: char| c.is_ascii_digit() || c == ')')
+                        && t.head().is_some_and(|h| h.ends_with("_i|")));
+                if is_input {
+                    let _ = writeln!(fix, "(assert (= {t} {v}))");
+                }
+            }
+            let concrete =
+                mi.script
+                    .replacen("\n(check-sat)\n", &format!("\n{fix}(check-sat)\n"), 1);
+            match solver.check(&concrete, left(t0))? {
+                Reply::Sat(pairs) => {
+                    out.verdict = Verdict::Counterexample;
+                    let (c, r) = counterexample(m, &mi, &pairs)?;
+                    out.counterexample = Some(c);
+                    rows = r;
+                }
+                Reply::Unsat => {
+                    // The abstraction's difference is not real at those
+                    // inputs: ask with the real products and every input
+                    // free (slow: the solver bit-blasts the multipliers).
+                    match solver.check(&mi.script, left(t0))? {
+                        Reply::Sat(pairs) => {
+                            out.verdict = Verdict::Counterexample;
+                            let (c, r) = counterexample(m, &mi, &pairs)?;
+                            out.counterexample = Some(c);
+                            rows = r;
+                        }
+                        Reply::Unsat => out.verdict = Verdict::Proved,
+                        Reply::Unknown(why) => {
+                            out.reason = Some(format!(
+                                "{} answered {why} on the real products after {:.0} s \
+                                 (the products' abstraction alone admits a difference)",
+                                solver.name(),
+                                t0.elapsed().as_secs_f64()
+                            ))
+                        }
+                    }
+                }
+                Reply::Unknown(why) => {
+                    out.reason = Some(format!(
+                        "{} answered {why} on the real products after {:.0} s",
+                        solver.name(),
+                        t0.elapsed().as_secs_f64()
+                    ))
+                }
+            }
+        }
+    }
+    if out.verdict == Verdict::Unknown {
+        if let Some(n) = staged_note {
+            out.reason = Some(format!(
+                "{n}; whole: {}",
+                out.reason.take().unwrap_or_default()
+            ));
+        }
+    }
+    out.seconds = t0.elapsed().as_secs_f64();
+    Ok((out, rows))
+}
+
+/// Read a counterexample from the solver's model and check the model side
+/// against the compiled trace.
+/// Also the stream that replays it: the item and the later items the
+/// solver chose, as vector rows.
+fn counterexample(
+    m: &Module,
+    mi: &Miter,
+    pairs: &[(SExpr, SExpr)],
+) -> anyhow::Result<(Counterexample, Vec<Vec<i128>>)> {
+    let e = &m.emitted;
+    let module = &e.module;
+    let ports = m.design.trace.input_ports();
+    let mut item = Vec::new();
+    for (slot, p) in ports.iter().enumerate() {
+        let b = value(pairs, &format!("in{slot}"))?;
+        item.push(p.format.from_bits(b as u64));
+    }
+    // The compiled trace's outputs and flags for the item.
+    let prog = units::compile_outputs(&m.design)?;
+    let cols: Vec<Vec<i128>> = item.iter().map(|&c| vec![c]).collect();
+    let refs: Vec<&[i128]> = cols.iter().map(|c| c.as_slice()).collect();
+    let (outs, flags) = prog.run_flags_i128(&refs);
+    let mut model = Vec::new();
+    let mut rtl = Vec::new();
+    let at = |p: &str| format!("(|{module}_n {p}| s{})", mi.last);
+    for (k, p) in m.design.trace.output_ports().iter().enumerate() {
+        model.push((p.name.clone(), outs[k][0]));
+        let b = value(pairs, &at(&format!("{}_o", p.name)))?;
+        rtl.push((p.name.clone(), p.format.from_bits(b as u64)));
+    }
+    if !e.flags.is_empty() {
+        model.push(("ovf".into(), flags[0] as i128));
+        rtl.push(("ovf".into(), value(pairs, &at("ovf_o"))? as i128));
+    }
+    model.push(("valid".into(), 1));
+    rtl.push(("valid".into(), value(pairs, &at("valid_o"))? as i128));
+    if model == rtl {
+        bail!(
+            "{module}: the solver's counterexample is none: the RTL gives what the compiled \
+             trace gives ({model:?}), so the SMT encoding of the trace is wrong"
+        );
+    }
+    let inputs = ports
+        .iter()
+        .zip(&item)
+        .map(|(p, &c)| (p.name.clone(), c))
+        .collect();
+    // The stream the solver chose: the item, then the later items (set-up
+    // fields as loaded).
+    let mut rows = Vec::new();
+    for k in mi.first..=mi.last {
+        let mut row = Vec::new();
+        for (slot, p) in ports.iter().enumerate() {
+            let setup = e.setup.iter().any(|g| g.fields.contains(&p.name));
+            if setup || k == mi.first {
+                row.push(item[slot]);
+            } else {
+                let b = value(pairs, &format!("(|{module}_n {}_i| s{k})", p.name))?;
+                row.push(p.format.from_bits(b as u64));
+            }
+        }
+        // Vector rows are in the emitted input fields' order.
+        let by_field: Vec<i128> = e
+            .inputs
+            .iter()
+            .map(|fl| {
+                ports
+                    .iter()
+                    .position(|p| p.name == fl.name)
+                    .map(|i| row[i])
+                    .with_context(|| format!("{module}: no input port for field {}", fl.name))
+            })
+            .collect::<anyhow::Result<_>>()?;
+        rows.push(by_field);
+    }
+    Ok((
+        Counterexample {
+            inputs,
+            rtl,
+            model,
+            vectors: None,
+            reproduced: None,
+        },
+        rows,
+    ))
+}
+
+/// Write a counterexample's stream as a vector set in `dir` and replay it
+/// on Verilator (when installed) with no stalls.
+fn replay(
+    m: &Module,
+    rows: Vec<Vec<i128>>,
+    dir: &Path,
+    c: &mut Counterexample,
+) -> anyhow::Result<()> {
+    let mut set = units::vector_set(&m.design, &m.emitted, rows, 0, 1)?;
+    set.rtl.verilog = m.text.clone();
+    let d = fxshade_model::files::StagedDir::new(dir)
+        .with_context(|| format!("cannot write the counterexample to {}", dir.display()))?;
+    fxshade_model::vectors::write_set(
+        &d,
+        "",
+        &set,
+        &set.manifest(),
+        &set.config_toml,
+        &set.rtl,
+        true,
+        &mut |_| {},
+    )
+    .with_context(|| format!("cannot write the counterexample to {}", dir.display()))?;
+    d.commit()
+        .with_context(|| format!("cannot write the counterexample to {}", dir.display()))?;
+    c.vectors = Some(dir.display().to_string());
+    if crate::proc::has("verilator", "--version") {
+        let src = crate::rtl_flow::Sources::emitted(&set.rtl);
+        let r = crate::rtl_flow::check_with(
+            &set,
+            &src,
+            crate::rtl_flow::Sim::Verilator,
+            1,
+            0,
+            None,
+            false,
+        )?;
+        c.reproduced = Some(r.failed > 0);
+    }
+    Ok(())
+}
+
+/// Every module of `unit` (or `all`) for `cfg`, with the text to prove.
+pub fn modules(
+    unit: &str,
+    cfg: &fxshade_model::Config,
+    rtl_dir: Option<&Path>,
+) -> anyhow::Result<Vec<Module>> {
+    let list: Vec<(&'static units::RtlUnit, fxshade_model::Config)> = if unit == "all" {
+        super::rtl::configs_all(cfg)?
+    } else {
+        vec![(crate::rtl_flow::unit(unit)?, cfg.clone())]
+    };
+    list.into_iter()
+        .map(|(u, c)| {
+            let (design, emitted) = units::emit_unit(u, &c)?;
+            let text = match rtl_dir {
+                None => emitted.verilog.clone(),
+                Some(d) => {
+                    let f = d.join(format!("{}.v", emitted.module));
+                    std::fs::read_to_string(&f)
+                        .with_context(|| format!("--rtl-dir: cannot read {}", f.display()))?
+                }
+            };
+            Ok(Module {
+                design,
+                emitted,
+                text,
+            })
+        })
+        .collect()
+}
+
+/// Prove `modules` with `jobs` at once; counterexamples written under
+/// `cex_dir` (none: not written or replayed).
+pub fn prove_all(
+    modules: &[Module],
+    solver: Solver,
+    timeout: u64,
+    jobs: usize,
+    cex_dir: Option<&Path>,
+) -> anyhow::Result<Vec<Equiv>> {
+    let dir = tempfile::Builder::new()
+        .prefix("fxshade-equiv-")
+        .tempdir()
+        .context("cannot create a temporary directory")?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(jobs)
+        .build()
+        .context("cannot start the worker threads")?;
+    let bar = crate::progress::bar(modules.len() as u64, "equiv");
+    let res = pool.install(|| {
+        use rayon::prelude::*;
+        modules
+            .par_iter()
+            .enumerate()
+            .map(|(k, m)| {
+                let sub = dir.path().join(k.to_string());
+                std::fs::create_dir(&sub).context("cannot create a scratch directory")?;
+                let (mut p, rows) = prove(m, solver, timeout, &sub)?;
+                if let Some(c) = p.counterexample.as_mut() {
+                    if let Some(cd) = cex_dir {
+                        replay(m, rows, &cd.join(&m.emitted.module), c)?;
+                    }
+                }
+                bar.set_message(m.emitted.module.clone());
+                bar.inc(1);
+                Ok(p)
+            })
+            .collect::<anyhow::Result<Vec<Equiv>>>()
+    });
+    bar.finish_and_clear();
+    res
+}
+
+/// Run it.
+pub fn run(a: &EquivArgs) -> anyhow::Result<()> {
+    if a.jobs == Some(0) {
+        return Err(UsageError("--jobs 0: give at least 1".into()).into());
+    }
+    crate::rtl_flow::require_tool("yosys", "yosys")?;
+    a.solver.version()?;
+    let cfg = a.cfg.resolve_with(&a.pipe.overrides())?;
+    let mods = modules(&a.unit, &cfg, a.rtl_dir.as_deref())?;
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let jobs = a.jobs.map_or(cores, |j| j.min(256));
+    let res = prove_all(&mods, a.solver, a.timeout, jobs, Some(&a.cex_dir))?;
+    let mut t = Table::new([
+        "module",
+        "latency",
+        "equivalence",
+        "method",
+        "solver",
+        "seconds",
+    ])
+    .titled(
+        "Equivalence of the RTL with the traced datapath, every input value (no stalls; \
+         stalls: `fxshade formal`)",
+    );
+    for p in &res {
+        t.row([
+            p.module.clone(),
+            p.latency.to_string(),
+            match p.verdict {
+                Verdict::Proved => "proved".to_string(),
+                Verdict::Counterexample => "COUNTEREXAMPLE".to_string(),
+                Verdict::Unknown => format!("unknown after {:.0} s", p.seconds),
+            },
+            p.method.to_string(),
+            p.solver.name().to_string(),
+            format!("{:.1}", p.seconds),
+        ]);
+    }
+    let mut tables = vec![t];
+    for p in &res {
+        if let Some(c) = &p.counterexample {
+            let mut ct = Table::new(["port", "value"]).titled(format!(
+                "{}: counterexample{}",
+                p.module,
+                match (&c.vectors, c.reproduced) {
+                    (Some(v), Some(true)) => format!(" (vectors in {v}; Verilator fails on them)"),
+                    (Some(v), Some(false)) => format!(
+                        " (vectors in {v}; Verilator passes them: the difference needs the \
+                         registers' power-up values)"
+                    ),
+                    (Some(v), None) => format!(" (vectors in {v})"),
+                    (None, _) => String::new(),
+                }
+            ));
+            for (n, v) in &c.inputs {
+                ct.row([format!("in {n}"), v.to_string()]);
+            }
+            for ((n, r), (_, mv)) in c.rtl.iter().zip(&c.model) {
+                ct.row([
+                    format!("out {n}"),
+                    format!(
+                        "rtl {r}, model {mv}{}",
+                        if r == mv { "" } else { "  <- differs" }
+                    ),
+                ]);
+            }
+            tables.push(ct);
+        }
+    }
+    let ok = res.iter().all(|p| p.verdict == Verdict::Proved);
+    emit(
+        a.out,
+        &tables,
+        &serde_json::json!({ "ok": ok, "modules": res }),
+    )?;
+    if !ok {
+        let bad: Vec<String> = res
+            .iter()
+            .filter(|p| p.verdict != Verdict::Proved)
+            .map(|p| {
+                format!(
+                    "{}: {}",
+                    p.module,
+                    match p.verdict {
+                        Verdict::Counterexample => "counterexample".to_string(),
+                        _ => p.reason.clone().unwrap_or_else(|| "unknown".into()),
+                    }
+                )
+            })
+            .collect();
+        bail!("not proved: {}", bad.join("; "));
+    }
+    Ok(())
+}

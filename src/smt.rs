@@ -1,0 +1,711 @@
+//! The SMT back end: one SMT-LIB 2 script to a solver process, its reply
+//! read with an s-expression parser. `fxshade equiv` and `fxshade mutate`
+//! both ask through here.
+//!
+//! Solvers ([`Solver`]): z3 (Debian's `z3`, run as `z3 -in -smt2`) and
+//! Bitwuzla (PyPI's `bitwuzla` module, whose SMT-LIB 2 parser runs the
+//! script: `python3 -m pip install bitwuzla`). A time limit, when given,
+//! is the solver's own (z3 `-t:`, Bitwuzla `time-limit-per`), so a query
+//! past it answers `unknown` rather than being killed; the process limit
+//! ([`crate::proc::Limit::formal`]) only stops a hung solver.
+
+use std::process::Command;
+
+use anyhow::{bail, Context};
+
+/// A solver.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Solver {
+    /// z3 (`apt-get install z3`).
+    Z3,
+    /// Bitwuzla through its Python module (`pip install bitwuzla`).
+    Bitwuzla,
+}
+
+/// Runs an SMT-LIB 2 script from standard input with Bitwuzla's parser;
+/// argv[1] is the time limit per query in milliseconds (0: none).
+const BITWUZLA_DRIVER: &str = r#"
+import sys
+import bitwuzla as b
+tm = b.TermManager()
+o = b.Options()
+o.set(b.Option.PRODUCE_MODELS, True)
+if int(sys.argv[1]) > 0:
+    o.set(b.Option.TIME_LIMIT_PER, int(sys.argv[1]))
+p = b.Parser(tm, o)
+try:
+    p.parse(sys.stdin.read(), False, False)
+except b.BitwuzlaException as e:
+    sys.stdout.flush()
+    print('(error "' + str(e).replace('"', "'") + '")')
+    sys.exit(1)
+sys.stdout.flush()
+"#;
+
+impl Solver {
+    /// Its name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Solver::Z3 => "z3",
+            Solver::Bitwuzla => "bitwuzla",
+        }
+    }
+    /// Its version, or an error saying how to install it.
+    pub fn version(self) -> anyhow::Result<String> {
+        let (mut c, how) = match self {
+            Solver::Z3 => {
+                let mut c = Command::new("z3");
+                c.arg("--version");
+                (
+                    c,
+                    "z3 is not installed: `sudo apt-get install z3` (./scripts/test does it when run as root)",
+                )
+            }
+            Solver::Bitwuzla => {
+                let mut c = Command::new("python3");
+                c.args(["-c", "import bitwuzla; print(bitwuzla.version())"]);
+                (
+                    c,
+                    "bitwuzla is not installed: `python3 -m pip install bitwuzla` (./scripts/test does it when run as root)",
+                )
+            }
+        };
+        match crate::proc::run(&mut c, self.name(), crate::proc::Limit::probe(), None) {
+            Ok(o) if o.status.success() => Ok(o.stdout.trim().to_string()),
+            _ => bail!("{how}"),
+        }
+    }
+
+    /// Run `script` (which ends with `(check-sat)` and, for a model,
+    /// `(get-value (…))`), with a time limit per query of `timeout_s`
+    /// seconds (0: none).
+    pub fn check(self, script: &str, timeout_s: u64) -> anyhow::Result<Reply> {
+        self.check_limited(script, timeout_s, 0)
+    }
+
+    /// As [`Solver::check`], with z3's resource limit `rlimit` too (0:
+    /// none; a count of z3's internal steps, the same on every machine, so
+    /// an answer never depends on the machine's load; Bitwuzla has none
+    /// and ignores it).
+    pub fn check_limited(self, script: &str, timeout_s: u64, rlimit: u64) -> anyhow::Result<Reply> {
+        let mut c = match self {
+            Solver::Z3 => {
+                let mut c = Command::new("z3");
+                c.args(["-in", "-smt2"]);
+                if timeout_s > 0 {
+                    c.arg(format!("-t:{}", timeout_s.saturating_mul(1000)));
+                }
+                if rlimit > 0 {
+                    c.arg(format!("rlimit={rlimit}"));
+                }
+                c
+            }
+            Solver::Bitwuzla => {
+                let mut c = Command::new("python3");
+                c.args([
+                    "-c",
+                    BITWUZLA_DRIVER,
+                    &timeout_s.saturating_mul(1000).to_string(),
+                ]);
+                c
+            }
+        };
+        let Some(o) = run_within(&mut c, self.name(), script, timeout_s)? else {
+            return Ok(Reply::Unknown("timeout".into()));
+        };
+        Reply::parse(&o.stdout).with_context(|| format!("{}: {}", self.name(), o.text().trim_end()))
+    }
+}
+
+impl Solver {
+    /// Run `script` of several `(check-sat)` commands (no `get-value`),
+    /// all of them within `timeout_s` seconds (0: no limit): the answers
+    /// in order, each `Unsat`, `Unknown` or `Sat` (no values); a run
+    /// stopped at the limit ends with one `Unknown`.
+    pub fn check_each(self, script: &str, timeout_s: u64) -> anyhow::Result<Vec<Reply>> {
+        let mut c = match self {
+            Solver::Z3 => {
+                let mut c = Command::new("z3");
+                c.args(["-in", "-smt2"]);
+                if timeout_s > 0 {
+                    c.arg(format!("-t:{}", timeout_s.saturating_mul(1000)));
+                }
+                c
+            }
+            Solver::Bitwuzla => {
+                let mut c = Command::new("python3");
+                c.args([
+                    "-c",
+                    BITWUZLA_DRIVER,
+                    &timeout_s.saturating_mul(1000).to_string(),
+                ]);
+                c
+            }
+        };
+        // The whole run within the limit too (every query at once): past
+        // it, the answers so far.
+        let Some(o) = run_within(&mut c, self.name(), script, timeout_s)? else {
+            return Ok(vec![Reply::Unknown("timeout".into())]);
+        };
+        let exprs = SExpr::parse_all(&o.stdout)
+            .with_context(|| format!("{}: {}", self.name(), o.text().trim_end()))?;
+        if let Some(e) = exprs.iter().find(|e| e.head() == Some("error")) {
+            bail!("{} reports an error: {e}", self.name());
+        }
+        exprs
+            .iter()
+            .map(|e| match e.atom() {
+                Some("unsat") => Ok(Reply::Unsat),
+                Some("sat") => Ok(Reply::Sat(Vec::new())),
+                Some(w @ ("unknown" | "timeout")) => Ok(Reply::Unknown(w.to_string())),
+                _ => bail!("{}: unexpected answer {e}", self.name()),
+            })
+            .collect()
+    }
+}
+
+/// Run a solver on `script`, stopped (with every process it started) when
+/// it runs `timeout_s` seconds and 5 more (z3's own limit is soft: inside
+/// a large bit-blast it can overrun by minutes): `None` then. With no
+/// limit (0), the process limit of [`crate::proc::Limit::formal`] only.
+fn run_within(
+    c: &mut Command,
+    what: &str,
+    script: &str,
+    timeout_s: u64,
+) -> anyhow::Result<Option<crate::proc::Output>> {
+    let limit = if timeout_s > 0 {
+        crate::proc::Limit {
+            time: std::time::Duration::from_secs(timeout_s.saturating_add(5)),
+            var: "--timeout",
+        }
+    } else {
+        crate::proc::Limit::formal()
+    };
+    match crate::proc::run(c, what, limit, Some(script.as_bytes())) {
+        Ok(o) => Ok(Some(o)),
+        Err(e) if timeout_s > 0 && e.to_string().contains("did not finish within") => Ok(None),
+        Err(e) => Err(e),
+    }
+}
+
+/// A solver's answer to `(check-sat)` (and `(get-value …)`).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Reply {
+    /// Satisfiable, with the values asked for: (term, value) pairs.
+    Sat(Vec<(SExpr, SExpr)>),
+    /// Unsatisfiable.
+    Unsat,
+    /// Unknown (a time limit, or the solver gave up), with its reason.
+    Unknown(String),
+}
+
+impl Reply {
+    /// Read a solver's standard output: `sat` and a get-value list,
+    /// `unsat`, `unknown` (or `timeout`); an `(error …)` fails.
+    pub fn parse(text: &str) -> anyhow::Result<Reply> {
+        let exprs = SExpr::parse_all(text)?;
+        if let Some(e) = exprs.iter().find(|e| e.head() == Some("error")) {
+            bail!("the solver reports an error: {e}");
+        }
+        match exprs.first().and_then(SExpr::atom) {
+            Some("unsat") => Ok(Reply::Unsat),
+            Some("sat") => {
+                let mut pairs = Vec::new();
+                for e in &exprs[1..] {
+                    let SExpr::List(items) = e else {
+                        bail!("unexpected reply after sat: {e}");
+                    };
+                    for it in items {
+                        match it {
+                            SExpr::List(p) if p.len() == 2 => {
+                                pairs.push((p[0].clone(), p[1].clone()));
+                            }
+                            _ => bail!("a get-value entry is not a (term value) pair: {it}"),
+                        }
+                    }
+                }
+                Ok(Reply::Sat(pairs))
+            }
+            Some(w @ ("unknown" | "timeout")) => Ok(Reply::Unknown(w.to_string())),
+            _ => bail!("no check-sat answer in the solver's reply"),
+        }
+    }
+}
+
+/// An s-expression: an atom (symbol, numeral, `#b…`/`#x…` literal,
+/// `|quoted symbol|`, `"string"`) or a list.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum SExpr {
+    /// An atom, as written (quoted symbols and strings keep their quotes).
+    Atom(String),
+    /// A parenthesised list.
+    List(Vec<SExpr>),
+}
+
+impl std::fmt::Display for SExpr {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            SExpr::Atom(a) => f.write_str(a),
+            SExpr::List(l) => {
+                f.write_str("(")?;
+                for (k, e) in l.iter().enumerate() {
+                    if k > 0 {
+                        f.write_str(" ")?;
+                    }
+                    write!(f, "{e}")?;
+                }
+                f.write_str(")")
+            }
+        }
+    }
+}
+
+impl SExpr {
+    /// The atom's text.
+    pub fn atom(&self) -> Option<&str> {
+        match self {
+            SExpr::Atom(a) => Some(a),
+            SExpr::List(_) => None,
+        }
+    }
+    /// A list's first atom.
+    pub fn head(&self) -> Option<&str> {
+        match self {
+            SExpr::List(l) => l.first().and_then(SExpr::atom),
+            SExpr::Atom(_) => None,
+        }
+    }
+
+    /// Every s-expression of `text`, in order (`;` comments skipped).
+    pub fn parse_all(text: &str) -> anyhow::Result<Vec<SExpr>> {
+        let b = text.as_bytes();
+        let mut i = 0;
+        let mut stack: Vec<Vec<SExpr>> = vec![Vec::new()];
+        while i < b.len() {
+            let c = b[i];
+            match c {
+                b' ' | b'\t' | b'\n' | b'\r' => i += 1,
+                b';' => {
+                    while i < b.len() && b[i] != b'\n' {
+                        i += 1;
+                    }
+                }
+                b'(' => {
+                    stack.push(Vec::new());
+                    i += 1;
+                }
+                b')' => {
+                    if stack.len() < 2 {
+                        bail!("unbalanced ')' at byte {i}");
+                    }
+                    let l = stack.pop().expect("checked");
+                    stack.last_mut().expect("checked").push(SExpr::List(l));
+                    i += 1;
+                }
+                b'|' | b'"' => {
+                    let j = b[i + 1..]
+                        .iter()
+                        .position(|&x| x == c)
+                        .with_context(|| format!("unterminated {} at byte {i}", c as char))?;
+                    let end = i + 1 + j + 1;
+                    stack
+                        .last_mut()
+                        .expect("non-empty")
+                        .push(SExpr::Atom(text[i..end].to_string()));
+                    i = end;
+                }
+                _ => {
+                    let s = i;
+                    while i < b.len() && !b" \t\n\r();|\"".contains(&b[i]) {
+                        i += 1;
+                    }
+                    stack
+                        .last_mut()
+                        .expect("non-empty")
+                        .push(SExpr::Atom(text[s..i].to_string()));
+                }
+            }
+        }
+        if stack.len() != 1 {
+            bail!("{} unclosed '('", stack.len() - 1);
+        }
+        Ok(stack.pop().expect("one"))
+    }
+
+    /// A bit-vector value (`#b…`, `#x…`, `(_ bvN W)`) or Boolean
+    /// (`true`/`false`: 1/0) as its unsigned bits, with its width.
+    pub fn bits(&self) -> Option<(u128, u32)> {
+        match self {
+            SExpr::Atom(a) => {
+                if let Some(h) = a.strip_prefix("#x") {
+                    (h.len() <= 32)
+                        .then(|| u128::from_str_radix(h, 16).ok())
+                        .flatten()
+                        .map(|v| (v, 4 * h.len() as u32))
+                } else if let Some(d) = a.strip_prefix("#b") {
+                    (d.len() <= 128)
+                        .then(|| u128::from_str_radix(d, 2).ok())
+                        .flatten()
+                        .map(|v| (v, d.len() as u32))
+                } else {
+                    match a.as_str() {
+                        "true" => Some((1, 1)),
+                        "false" => Some((0, 1)),
+                        _ => None,
+                    }
+                }
+            }
+            SExpr::List(l) => match l.as_slice() {
+                [SExpr::Atom(u), SExpr::Atom(v), SExpr::Atom(w)] if u == "_" => {
+                    let v = v.strip_prefix("bv")?.parse().ok()?;
+                    Some((v, w.parse().ok()?))
+                }
+                _ => None,
+            },
+        }
+    }
+}
+
+/// Bits of operand in [`abstract_products`]: products of operands up to
+/// this wide are abstracted.
+pub const PRODUCT_OPERAND_BITS: u32 = 128;
+
+/// The declarations [`abstract_products`] refers to: `fxs_mul`, an
+/// uninterpreted function of two `PRODUCT_OPERAND_BITS`-bit operands to
+/// twice as many bits (the exact product, for the proof any function), and
+/// `fxs_mulc`, which orders its operands first (a product commutes).
+pub fn product_declarations() -> String {
+    let w = PRODUCT_OPERAND_BITS;
+    format!(
+        "(declare-fun fxs_mul ((_ BitVec {w}) (_ BitVec {w})) (_ BitVec {}))\n\
+         (define-fun fxs_mulc ((a (_ BitVec {w})) (b (_ BitVec {w}))) (_ BitVec {})\n  \
+         (ite (bvslt a b) (fxs_mul a b) (fxs_mul b a)))\n",
+        2 * w,
+        2 * w
+    )
+}
+
+/// Every `(bvmul x y)` of width `W` ≤ [`PRODUCT_OPERAND_BITS`] in `script`
+/// replaced by the low `W` bits of `fxs_mulc(sext(x), sext(y))`, the
+/// operands sign-extended to `PRODUCT_OPERAND_BITS`; returns the script
+/// and how many products it replaced.
+///
+/// The replacement is exact when `fxs_mul` is the product (x·y mod 2^W
+/// depends only on x and y mod 2^W, and sign extension keeps them), so a
+/// proof with `fxs_mul` uninterpreted — for every function — holds for the
+/// product: an abstraction, sound for `unsat`. Two products of the same
+/// operand values, however written (widths, extensions, order), become one
+/// application, so the solver matches identical multipliers instead of
+/// bit-blasting them; a model, though, may owe to the abstraction and must
+/// be checked on the real products.
+pub fn abstract_products(script: &str) -> anyhow::Result<(String, usize)> {
+    let exprs = SExpr::parse_all(script)?;
+    let mut globals: std::collections::HashMap<String, u32> = std::collections::HashMap::new();
+    let mut sorts: std::collections::HashMap<String, u32> = std::collections::HashMap::new();
+    let mut out = String::with_capacity(script.len() + script.len() / 4);
+    let mut count = 0;
+    for e in exprs {
+        let e = match (e.head(), &e) {
+            (Some("define-sort"), SExpr::List(l)) if l.len() == 4 => {
+                if let (Some(n), Some(w)) = (l[1].atom(), sort_width(&l[3], &sorts)) {
+                    sorts.insert(n.to_string(), w);
+                }
+                e
+            }
+            (Some("declare-const"), SExpr::List(l)) if l.len() == 3 => {
+                if let (Some(n), Some(w)) = (l[1].atom(), sort_width(&l[2], &sorts)) {
+                    globals.insert(n.to_string(), w);
+                } else if let (Some(n), Some(w)) = (l[1].atom(), array_elem_width(&l[2])) {
+                    globals.insert(format!("select:{n}"), w);
+                }
+                e
+            }
+            (Some("declare-fun"), SExpr::List(l)) if l.len() == 4 => {
+                if let (Some(n), Some(w)) = (l[1].atom(), sort_width(&l[3], &sorts)) {
+                    globals.insert(n.to_string(), w);
+                }
+                e
+            }
+            (Some("define-fun"), SExpr::List(l)) if l.len() == 5 => {
+                let mut locals = std::collections::HashMap::new();
+                if let SExpr::List(args) = &l[2] {
+                    for a in args {
+                        if let SExpr::List(p) = a {
+                            if let (Some(n), Some(w)) = (
+                                p.first().and_then(SExpr::atom),
+                                p.get(1).and_then(|s| sort_width(s, &sorts)),
+                            ) {
+                                locals.insert(n.to_string(), w);
+                            }
+                        }
+                    }
+                }
+                let body = rewrite_mul(&l[4], &globals, &mut locals, &mut count);
+                if let (Some(n), Some(w)) = (l[1].atom(), sort_width(&l[3], &sorts)) {
+                    globals.insert(n.to_string(), w);
+                }
+                SExpr::List(vec![
+                    l[0].clone(),
+                    l[1].clone(),
+                    l[2].clone(),
+                    l[3].clone(),
+                    body,
+                ])
+            }
+            (Some("assert"), SExpr::List(l)) if l.len() == 2 => {
+                let body = rewrite_mul(
+                    &l[1],
+                    &globals,
+                    &mut std::collections::HashMap::new(),
+                    &mut count,
+                );
+                SExpr::List(vec![l[0].clone(), body])
+            }
+            _ => e,
+        };
+        out += &e.to_string();
+        out.push('\n');
+    }
+    Ok((out, count))
+}
+
+/// The width of a bit-vector sort (`(_ BitVec w)` or a defined sort).
+fn sort_width(s: &SExpr, sorts: &std::collections::HashMap<String, u32>) -> Option<u32> {
+    match s {
+        SExpr::List(l)
+            if l.len() == 3 && l[0].atom() == Some("_") && l[1].atom() == Some("BitVec") =>
+        {
+            l[2].atom()?.parse().ok()
+        }
+        SExpr::Atom(a) => sorts.get(a).copied(),
+        _ => None,
+    }
+}
+
+/// The element width of `(Array I (_ BitVec w))`.
+fn array_elem_width(s: &SExpr) -> Option<u32> {
+    match s {
+        SExpr::List(l) if l.len() == 3 && l[0].atom() == Some("Array") => {
+            sort_width(&l[2], &std::collections::HashMap::new())
+        }
+        _ => None,
+    }
+}
+
+/// The bit-vector width of term `t` (`None`: Boolean or not known).
+fn term_width(
+    t: &SExpr,
+    globals: &std::collections::HashMap<String, u32>,
+    locals: &std::collections::HashMap<String, u32>,
+) -> Option<u32> {
+    let w = |x: &SExpr| term_width(x, globals, locals);
+    match t {
+        SExpr::Atom(a) => {
+            if let Some(b) = a.strip_prefix("#b") {
+                Some(b.len() as u32)
+            } else if let Some(h) = a.strip_prefix("#x") {
+                Some(4 * h.len() as u32)
+            } else {
+                locals.get(a).or_else(|| globals.get(a)).copied()
+            }
+        }
+        SExpr::List(l) => {
+            let head = l.first()?;
+            match head {
+                SExpr::List(h) if h.first().and_then(SExpr::atom) == Some("_") => {
+                    let op = h.get(1)?.atom()?;
+                    let n = |k: usize| h.get(k).and_then(SExpr::atom)?.parse::<u32>().ok();
+                    match op {
+                        "extract" => Some(n(2)? - n(3)? + 1),
+                        "sign_extend" | "zero_extend" => Some(n(2)? + w(l.get(1)?)?),
+                        "repeat" => Some(n(2)? * w(l.get(1)?)?),
+                        "rotate_left" | "rotate_right" => w(l.get(1)?),
+                        _ => None,
+                    }
+                }
+                SExpr::Atom(a) => match a.as_str() {
+                    "_" => l.get(2)?.atom()?.parse().ok(),
+                    "concat" => l[1..].iter().map(w).sum(),
+                    "ite" => w(l.get(2)?).or_else(|| w(l.get(3)?)),
+                    "bvcomp" => Some(1),
+                    "select" => globals
+                        .get(&format!("select:{}", l.get(1)?.atom()?))
+                        .copied(),
+                    "let" => {
+                        let mut inner = locals.clone();
+                        if let Some(SExpr::List(bs)) = l.get(1) {
+                            for b in bs {
+                                if let SExpr::List(p) = b {
+                                    if let (Some(n), Some(x)) =
+                                        (p.first().and_then(SExpr::atom), p.get(1))
+                                    {
+                                        if let Some(bw) = term_width(x, globals, &inner) {
+                                            inner.insert(n.to_string(), bw);
+                                        }
+                                    }
+                                }
+                            }
+                        }
+                        term_width(l.get(2)?, globals, &inner)
+                    }
+                    op if op.starts_with("bv") => match op {
+                        "bvult" | "bvule" | "bvugt" | "bvuge" | "bvslt" | "bvsle" | "bvsgt"
+                        | "bvsge" => None,
+                        _ => w(l.get(1)?),
+                    },
+                    f => globals.get(f).copied(),
+                },
+                _ => None,
+            }
+        }
+    }
+}
+
+/// [`abstract_products`] on one term.
+fn rewrite_mul(
+    t: &SExpr,
+    globals: &std::collections::HashMap<String, u32>,
+    locals: &mut std::collections::HashMap<String, u32>,
+    count: &mut usize,
+) -> SExpr {
+    let SExpr::List(l) = t else {
+        return t.clone();
+    };
+    // `let` bindings are in scope in the body.
+    if l.first().and_then(SExpr::atom) == Some("let") && l.len() == 3 {
+        let mut inner = locals.clone();
+        let mut binds = Vec::new();
+        if let SExpr::List(bs) = &l[1] {
+            for b in bs {
+                if let SExpr::List(p) = b {
+                    if p.len() == 2 {
+                        let x = rewrite_mul(&p[1], globals, locals, count);
+                        if let (Some(n), Some(bw)) =
+                            (p[0].atom(), term_width(&p[1], globals, locals))
+                        {
+                            inner.insert(n.to_string(), bw);
+                        }
+                        binds.push(SExpr::List(vec![p[0].clone(), x]));
+                        continue;
+                    }
+                }
+                binds.push(b.clone());
+            }
+        }
+        let body = rewrite_mul(&l[2], globals, &mut inner, count);
+        return SExpr::List(vec![l[0].clone(), SExpr::List(binds), body]);
+    }
+    let items: Vec<SExpr> = l
+        .iter()
+        .map(|x| rewrite_mul(x, globals, locals, count))
+        .collect();
+    if items.len() == 3 && items[0].atom() == Some("bvmul") {
+        if let Some(w) = term_width(&l[1], globals, locals).filter(|&w| w <= PRODUCT_OPERAND_BITS) {
+            *count += 1;
+            let ext = |x: &SExpr| {
+                if w == PRODUCT_OPERAND_BITS {
+                    x.to_string()
+                } else {
+                    format!("((_ sign_extend {}) {x})", PRODUCT_OPERAND_BITS - w)
+                }
+            };
+            let text = format!(
+                "((_ extract {} 0) (fxs_mulc {} {}))",
+                w - 1,
+                ext(&items[1]),
+                ext(&items[2])
+            );
+            return SExpr::parse_all(&text)
+                .ok()
+                .and_then(|mut v| v.pop())
+                .unwrap_or(SExpr::List(items));
+        }
+    }
+    SExpr::List(items)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn replies_parse_into_values() {
+        let r = Reply::parse("sat\n((in0 #b0101) (|m_n out_o| #x0f) ((f s) (_ bv7 8)) (v true))\n")
+            .unwrap();
+        let Reply::Sat(p) = r else { panic!("{r:?}") };
+        assert_eq!(p.len(), 4);
+        assert_eq!(p[0].0, SExpr::Atom("in0".into()));
+        assert_eq!(p[0].1.bits(), Some((5, 4)));
+        assert_eq!(p[1].0.to_string(), "|m_n out_o|");
+        assert_eq!(p[1].1.bits(), Some((15, 8)));
+        assert_eq!(p[2].0.to_string(), "(f s)");
+        assert_eq!(p[2].1.bits(), Some((7, 8)));
+        assert_eq!(p[3].1.bits(), Some((1, 1)));
+        assert_eq!(Reply::parse("unsat\n").unwrap(), Reply::Unsat);
+        assert_eq!(
+            Reply::parse("unknown\n").unwrap(),
+            Reply::Unknown("unknown".into())
+        );
+        assert!(Reply::parse("(error \"line 3: bad\")\n").is_err());
+        assert!(Reply::parse("sat\n((x #b1)").is_err());
+        assert!(Reply::parse("").is_err());
+    }
+
+    /// Both solvers answer a small query the same way, with a model that
+    /// satisfies it (3x = 9 mod 256 has the one root x = 3).
+    #[test]
+    fn every_installed_solver_finds_the_one_root() {
+        let q = "(set-logic QF_BV)\n(declare-const x (_ BitVec 8))\n\
+                 (assert (= (bvmul x #x03) #x09))\n(check-sat)\n(get-value (x))\n";
+        let u = "(set-logic QF_BV)\n(declare-const x (_ BitVec 8))\n\
+                 (assert (= (bvmul x #x02) #x09))\n(check-sat)\n";
+        for s in [Solver::Z3, Solver::Bitwuzla] {
+            s.version().unwrap_or_else(|e| panic!("{e}"));
+            let Reply::Sat(p) = s.check(q, 0).unwrap() else {
+                panic!("{} did not find x", s.name())
+            };
+            assert_eq!(p[0].1.bits(), Some((3, 8)), "{}", s.name());
+            assert_eq!(s.check(u, 0).unwrap(), Reply::Unsat, "{}", s.name());
+        }
+    }
+
+    /// Products abstracted: the same product written two ways (operands
+    /// swapped, widths and extensions different) is matched, so the
+    /// equality is proved; a sum is not a product, so its difference is
+    /// found.
+    #[test]
+    fn abstracted_products_match_whatever_their_form() {
+        let base = "(set-logic QF_BV)\n(declare-const x (_ BitVec 8))\n\
+                    (declare-const y (_ BitVec 6))\n\
+                    (define-fun p () (_ BitVec 14) (bvmul ((_ sign_extend 6) x) ((_ sign_extend 8) y)))\n\
+                    (define-fun q () (_ BitVec 16) (bvmul ((_ sign_extend 10) y) ((_ sign_extend 8) x)))\n";
+        let same = format!("{base}(assert (not (= p ((_ extract 13 0) q))))\n(check-sat)\n");
+        let (abs, n) = abstract_products(&same).unwrap();
+        assert_eq!(n, 2);
+        assert!(!abs.contains("bvmul"));
+        let abs = abs.replacen(
+            "(set-logic QF_BV)",
+            &format!("(set-logic QF_UFBV)\n{}", product_declarations()),
+            1,
+        );
+        let other = format!(
+            "{base}(assert (not (= p (bvadd ((_ sign_extend 6) x) ((_ sign_extend 8) y)))))\n(check-sat)\n"
+        );
+        let (other, _) = abstract_products(&other).unwrap();
+        let other = other.replacen(
+            "(set-logic QF_BV)",
+            &format!("(set-logic QF_UFBV)\n{}", product_declarations()),
+            1,
+        );
+        for s in [Solver::Z3, Solver::Bitwuzla] {
+            assert_eq!(s.check(&abs, 0).unwrap(), Reply::Unsat, "{}", s.name());
+            assert!(
+                matches!(s.check(&other, 0).unwrap(), Reply::Sat(_)),
+                "{}",
+                s.name()
+            );
+        }
+    }
+}
