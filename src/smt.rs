@@ -89,7 +89,19 @@ impl Solver {
     /// an answer never depends on the machine's load; Bitwuzla has none
     /// and ignores it).
     pub fn check_limited(self, script: &str, timeout_s: u64, rlimit: u64) -> anyhow::Result<Reply> {
-        let mut c = match self {
+        let mut c = self.command(timeout_s, rlimit);
+        let Some(o) = run_within(&mut c, self.name(), script, timeout_s)? else {
+            return Ok(Reply::Unknown("timeout".into()));
+        };
+        Reply::parse(&o.stdout).with_context(|| format!("{}: {}", self.name(), o.text().trim_end()))
+    }
+}
+
+impl Solver {
+    /// The solver's command reading a script from standard input, with a
+    /// time limit per query (0: none) and z3's resource limit (0: none).
+    fn command(self, timeout_s: u64, rlimit: u64) -> Command {
+        match self {
             Solver::Z3 => {
                 let mut c = Command::new("z3");
                 c.args(["-in", "-smt2"]);
@@ -110,39 +122,15 @@ impl Solver {
                 ]);
                 c
             }
-        };
-        let Some(o) = run_within(&mut c, self.name(), script, timeout_s)? else {
-            return Ok(Reply::Unknown("timeout".into()));
-        };
-        Reply::parse(&o.stdout).with_context(|| format!("{}: {}", self.name(), o.text().trim_end()))
+        }
     }
-}
 
-impl Solver {
     /// Run `script` of several `(check-sat)` commands (no `get-value`),
     /// all of them within `timeout_s` seconds (0: no limit): the answers
     /// in order, each `Unsat`, `Unknown` or `Sat` (no values); a run
     /// stopped at the limit ends with one `Unknown`.
     pub fn check_each(self, script: &str, timeout_s: u64) -> anyhow::Result<Vec<Reply>> {
-        let mut c = match self {
-            Solver::Z3 => {
-                let mut c = Command::new("z3");
-                c.args(["-in", "-smt2"]);
-                if timeout_s > 0 {
-                    c.arg(format!("-t:{}", timeout_s.saturating_mul(1000)));
-                }
-                c
-            }
-            Solver::Bitwuzla => {
-                let mut c = Command::new("python3");
-                c.args([
-                    "-c",
-                    BITWUZLA_DRIVER,
-                    &timeout_s.saturating_mul(1000).to_string(),
-                ]);
-                c
-            }
-        };
+        let mut c = self.command(timeout_s, 0);
         // The whole run within the limit too (every query at once): past
         // it, the answers so far.
         let Some(o) = run_within(&mut c, self.name(), script, timeout_s)? else {
