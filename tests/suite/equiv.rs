@@ -1,6 +1,8 @@
 //! Equivalence proofs: `fxshade equiv` proves each emitted unit equal to
 //! its traced datapath for every input value, and finds a counterexample
-//! (that Verilator then fails on) in modules broken by hand.
+//! (that Verilator then fails on) in modules broken by hand. Every run
+//! here has `--timeout 0`: no wall-clock limit, so a loaded machine only
+//! makes the tests slower, never changes a verdict.
 
 use crate::common::{fxshade, text};
 
@@ -28,7 +30,7 @@ fn verdicts(o: &std::process::Output) -> Vec<(String, String, serde_json::Value)
 #[test]
 fn every_unit_of_the_default_is_proved() {
     for unit in ["interp", "normalize", "angles", "lighting", "angle_interp"] {
-        let o = fxshade(&["equiv", unit, "--json"]);
+        let o = fxshade(&["equiv", unit, "--timeout", "0", "--json"]);
         assert!(o.status.success(), "{unit}: {}", text(&o));
         for (m, v, j) in verdicts(&o) {
             assert_eq!(v, "proved", "{m}: {j}");
@@ -52,6 +54,8 @@ fn a_target_pipelined_unit_is_proved() {
             "ecp5",
             "--clock-ns",
             "12",
+            "--timeout",
+            "0",
             "--json",
         ]);
         assert!(o.status.success(), "{unit}: {}", text(&o));
@@ -67,7 +71,15 @@ fn a_target_pipelined_unit_is_proved() {
 fn another_accepted_configuration_is_proved() {
     let cfg = crate::common::repo().join("tests/configs/wide.toml");
     for unit in ["normalize", "lighting", "interp"] {
-        let o = fxshade(&["equiv", unit, "--config", cfg.to_str().unwrap(), "--json"]);
+        let o = fxshade(&[
+            "equiv",
+            unit,
+            "--config",
+            cfg.to_str().unwrap(),
+            "--timeout",
+            "0",
+            "--json",
+        ]);
         assert!(o.status.success(), "{unit}: {}", text(&o));
         for (m, v, j) in verdicts(&o) {
             assert_eq!(v, "proved", "{m}: {j}");
@@ -118,6 +130,8 @@ fn each_sabotage_gives_a_counterexample_that_fails_on_verilator() {
             bad.path().to_str().unwrap(),
             "--cex-dir",
             cex.path().to_str().unwrap(),
+            "--timeout",
+            "0",
             "--json",
         ]);
         assert_eq!(o.status.code(), Some(1), "{what}: {}", text(&o));
