@@ -24,18 +24,29 @@ fn verdicts(o: &std::process::Output) -> Vec<(String, String, serde_json::Value)
         .collect()
 }
 
+/// `equiv <unit> … --timeout 0 --json` proves every module of each unit.
+fn proves(units: &[&str], extra: &[&str]) {
+    for unit in units {
+        let mut args = vec!["equiv", unit];
+        args.extend(extra);
+        args.extend(["--timeout", "0", "--json"]);
+        let o = fxshade(&args);
+        assert!(o.status.success(), "{unit} {extra:?}: {}", text(&o));
+        for (m, v, j) in verdicts(&o) {
+            assert_eq!(v, "proved", "{m} {extra:?}: {j}");
+        }
+    }
+}
+
 /// Every unit of the default configuration but the polar transform (five
 /// minutes: its table-read cuts; in BENCHMARKS.md with the tops) is
 /// proved.
 #[test]
 fn every_unit_of_the_default_is_proved() {
-    for unit in ["interp", "normalize", "angles", "lighting", "angle_interp"] {
-        let o = fxshade(&["equiv", unit, "--timeout", "0", "--json"]);
-        assert!(o.status.success(), "{unit}: {}", text(&o));
-        for (m, v, j) in verdicts(&o) {
-            assert_eq!(v, "proved", "{m}: {j}");
-        }
-    }
+    proves(
+        &["interp", "normalize", "angles", "lighting", "angle_interp"],
+        &[],
+    );
 }
 
 /// A target-pipelined configuration (registers placed by the ECP5 delay
@@ -44,25 +55,17 @@ fn every_unit_of_the_default_is_proved() {
 /// partial products, which the proof does not match yet.)
 #[test]
 fn a_target_pipelined_unit_is_proved() {
-    for unit in ["normalize", "lighting"] {
-        let o = fxshade(&[
-            "equiv",
-            unit,
+    proves(
+        &["normalize", "lighting"],
+        &[
             "--pipeline",
             "target",
             "--target",
             "ecp5",
             "--clock-ns",
             "12",
-            "--timeout",
-            "0",
-            "--json",
-        ]);
-        assert!(o.status.success(), "{unit}: {}", text(&o));
-        for (m, v, j) in verdicts(&o) {
-            assert_eq!(v, "proved", "{m}: {j}");
-        }
-    }
+        ],
+    );
 }
 
 /// Wider and narrower formats, other rounding and overflow modes: the
@@ -70,21 +73,10 @@ fn a_target_pipelined_unit_is_proved() {
 #[test]
 fn another_accepted_configuration_is_proved() {
     let cfg = crate::common::repo().join("tests/configs/wide.toml");
-    for unit in ["normalize", "lighting", "interp"] {
-        let o = fxshade(&[
-            "equiv",
-            unit,
-            "--config",
-            cfg.to_str().unwrap(),
-            "--timeout",
-            "0",
-            "--json",
-        ]);
-        assert!(o.status.success(), "{unit}: {}", text(&o));
-        for (m, v, j) in verdicts(&o) {
-            assert_eq!(v, "proved", "{m}: {j}");
-        }
-    }
+    proves(
+        &["normalize", "lighting", "interp"],
+        &["--config", cfg.to_str().unwrap()],
+    );
 }
 
 /// Each sabotage of the emitted normalizer — a wrong rounding (half up for
