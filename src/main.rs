@@ -12,6 +12,7 @@ mod progress;
 mod rtl_flow;
 mod shard;
 mod smt;
+mod smt2_model;
 
 use std::process::ExitCode;
 

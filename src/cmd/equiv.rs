@@ -34,6 +34,8 @@ use fxshade_model::rtl::{units, Design, Emitted};
 use super::{ConfigArgs, PipelineArgs};
 use crate::output::{emit, OutputArgs, Table, UsageError};
 use crate::smt::{Reply, SExpr, Solver};
+use crate::smt2_model::Smt2Model;
+use std::collections::{HashMap, HashSet};
 
 /// `fxshade equiv`
 #[derive(Args, Debug)]
@@ -263,9 +265,6 @@ fn miter(m: &Module, smt2: &str) -> anyhow::Result<Miter> {
     for k in 0..=last {
         let _ = writeln!(s, "(declare-const s{k} |{module}_s|)");
     }
-    for k in 0..last {
-        let _ = writeln!(s, "(assert (|{module}_t| s{k} s{}))", k + 1);
-    }
     for p in ["rst_ni", "ready_i", "valid_i"] {
         width(&ins, p)?;
     }
@@ -339,6 +338,10 @@ fn miter(m: &Module, smt2: &str) -> anyhow::Result<Miter> {
     }
     let goal = format!("(not (and {}))", eq.join(" "));
     let unrolled = s;
+    let mut whole_trans = String::new();
+    for k in 0..last {
+        let _ = writeln!(whole_trans, "(assert (|{module}_t| s{k} s{}))", k + 1);
+    }
     let head = |defs: &str| {
         let mut h = String::new();
         h += if f.arrays {
@@ -352,31 +355,63 @@ fn miter(m: &Module, smt2: &str) -> anyhow::Result<Miter> {
         h += &unrolled;
         h
     };
+    // By stages: each query holds only its cone of influence, back to the
+    // cuts it reads (their signals in their stages, each equal to a free
+    // value `c<i>`: a definition, so sound for any cut list) and no
+    // further; registers outside the cone are free in every cycle (an
+    // assumption dropped, so `unsat` is still a proof).
     let staged = (!cuts.is_empty()).then(|| {
-        let mut t = head(&fc.defs);
-        t += "; Cuts: each quantization's signal in its stage is a free value.\n";
-        let sig = |k: u32, name: &str| format!("(|{module}_n {name}| s{})", first + k);
-        let w = |i: usize| m.design.trace.sym(i).width;
-        for (i, k, name) in &cuts {
-            let _ = writeln!(
-                t,
-                "(assert (= {} {}))",
-                sig(*k, name),
-                as_port(&format!("c{i}"), w(*i))
-            );
+        let g = Smt2Model::parse(module, smt2);
+        let wire = |name: &str| format!("{module}_n {name}");
+        let mut stop_of: HashMap<(String, u32), usize> = HashMap::new();
+        for (n, (_, k, name)) in cuts.iter().enumerate() {
+            stop_of.insert((g.resolve(&wire(name)).to_string(), first + k), n);
         }
+        let stops: HashSet<(String, u32)> = stop_of.keys().cloned().collect();
+        let w = |i: usize| m.design.trace.sym(i).width;
+        let mut t = head(&fc.defs);
+        t += "; By stages: one query per cut, then the outputs, each over its cone.\n";
+        let query = |t: &mut String, roots: &[(String, u32)], enter: bool, goal: &str| {
+            let (trans, hit) = g.cone(roots, &stops, enter);
+            t.push_str("(push 1)\n");
+            for (next, field, k) in &trans {
+                let _ = writeln!(t, "(assert (= (|{next}| s{k}) (|{field}| s{})))", k + 1);
+            }
+            for h in &hit {
+                let (i, k, name) = &cuts[stop_of[h]];
+                let _ = writeln!(
+                    t,
+                    "(assert (= (|{}| s{}) {}))",
+                    wire(name),
+                    first + k,
+                    as_port(&format!("c{i}"), w(*i))
+                );
+            }
+            let _ = writeln!(t, "(assert {goal})\n(check-sat)\n(pop 1)");
+        };
         for (i, k, name) in &cuts {
-            let _ = writeln!(
-                t,
-                "(push 1)\n(assert (not (= {} {})))\n(check-sat)\n(pop 1)",
-                sig(*k, name),
+            let goal = format!(
+                "(not (= (|{}| s{}) {}))",
+                wire(name),
+                first + k,
                 as_port(&format!("f{i}"), w(*i))
             );
+            query(&mut t, &[(wire(name), first + k)], true, &goal);
         }
-        let _ = writeln!(t, "(push 1)\n(assert {goal})\n(check-sat)\n(pop 1)");
+        let mut roots: Vec<(String, u32)> = f
+            .outputs
+            .iter()
+            .map(|(name, _, _)| (wire(&format!("{name}_o")), last))
+            .collect();
+        roots.push((wire("valid_o"), last));
+        if !f.flags.is_empty() {
+            roots.push((wire("ovf_o"), last));
+        }
+        query(&mut t, &roots, false, &goal);
         t
     });
     let mut s = head(&f.defs);
+    s += &whole_trans;
     let _ = writeln!(s, "(assert {goal})");
     s += "(check-sat)\n(get-value (";
     for (n, _) in &f.inputs {
@@ -415,6 +450,36 @@ fn value(pairs: &[(SExpr, SExpr)], term: &str) -> anyhow::Result<u128> {
         .and_then(|(_, v)| v.bits())
         .map(|(b, _)| b)
         .with_context(|| format!("the solver's model has no value for {term}"))
+}
+
+/// Answer the staged script `st` (a prefix, then one `(push 1) …
+/// (check-sat) (pop 1)` block per query), its queries split over the
+/// worker threads (each part one solver run with the prefix), in order.
+/// A part that does not finish answers `unknown` for each of its queries.
+fn check_staged(solver: Solver, st: &str, timeout: u64) -> anyhow::Result<Vec<Reply>> {
+    let mut parts = st.split("\n(push 1)\n");
+    let prefix = parts.next().unwrap_or_default();
+    let blocks: Vec<&str> = parts.collect();
+    let threads = rayon::current_num_threads().max(1);
+    // At least 8 queries a run: each run reads the whole prefix.
+    let per = blocks.len().div_ceil(threads).max(8);
+    use rayon::prelude::*;
+    let answers: Vec<Vec<Reply>> = blocks
+        .par_chunks(per.max(1))
+        .map(|chunk| {
+            let mut script = String::with_capacity(prefix.len() + chunk.len() * 1024);
+            script += prefix;
+            for b in chunk {
+                script += "\n(push 1)\n";
+                script += b;
+            }
+            script.push('\n');
+            let mut a = solver.check_each(&script, timeout)?;
+            a.resize(chunk.len(), Reply::Unknown("timeout".into()));
+            Ok(a)
+        })
+        .collect::<anyhow::Result<_>>()?;
+    Ok(answers.into_iter().flatten().collect())
 }
 
 /// Prove one module in `dir` (a scratch directory); with a
@@ -468,7 +533,7 @@ pub fn prove(
     if let Some(st) = &mi.staged {
         let (st, _) = abstracted(st)?;
         dump("equiv-staged", &st);
-        let answers = solver.check_each(&st, timeout)?;
+        let answers = check_staged(solver, &st, timeout)?;
         let n = mi.cut_names.len() + 1;
         if answers.len() == n && answers.iter().all(|r| *r == Reply::Unsat) {
             return Ok((
@@ -486,15 +551,24 @@ pub fn prove(
                 Vec::new(),
             ));
         }
-        let bad = answers.iter().position(|r| *r != Reply::Unsat).map_or(
-            "the outputs".to_string(),
-            |k| {
-                mi.cut_names
-                    .get(k)
-                    .map_or("the outputs".to_string(), |c| format!("cut {c}"))
-            },
-        );
-        staged_note = Some(format!("by stages: {bad} not proved"));
+        let what = |k: usize| {
+            mi.cut_names
+                .get(k)
+                .map_or("the outputs".to_string(), |c| format!("cut {c}"))
+        };
+        let bad = match answers.iter().position(|r| *r != Reply::Unsat) {
+            Some(k) if answers[k] == Reply::Sat(Vec::new()) => format!("{} differs", what(k)),
+            Some(k) => format!(
+                "{} unknown ({})",
+                what(k),
+                match &answers[k] {
+                    Reply::Unknown(why) => why.as_str(),
+                    _ => "no answer",
+                }
+            ),
+            None => format!("{} of {n} queries answered", answers.len()),
+        };
+        staged_note = Some(format!("by stages: {bad}"));
     }
     let reply = solver.check(&abs, timeout)?;
     let mut rows = Vec::new();

@@ -11,7 +11,8 @@
 //! computed exactly: products and sums at the node's width, alignment by
 //! left shifts, quantization as [`crate::quantize::Quant`] defines it
 //! (slice, one increment, range check, wrap or saturate), table reads as
-//! arrays of their entries. Only the cone of the asked node is encoded; a
+//! arrays of their entries (mutation events) or as trees of `ite` on the
+//! index bits (the functions equivalence proofs use). Only the cone of the asked node is encoded; a
 //! division or square root in it is not (`None`).
 
 use super::{Mutation, MutationKind, Op, Trace, TV};
@@ -113,11 +114,41 @@ pub struct SmtFunction {
     pub arrays: bool,
 }
 
+/// The entry `entry(base + j)` for `j` the low `bits` bits of `a`, as a
+/// binary tree of `ite` on `a`'s bits (bit `bits - 1` first); equal
+/// halves are one subtree.
+fn mux_tree(bits: u32, base: usize, entry: &dyn Fn(usize) -> String) -> String {
+    if bits == 0 {
+        return entry(base);
+    }
+    let b = bits - 1;
+    let lo = mux_tree(b, base, entry);
+    let hi = mux_tree(b, base | (1 << b), entry);
+    if lo == hi {
+        lo
+    } else {
+        format!("(ite (= ((_ extract {b} {b}) a) #b1) {hi} {lo})")
+    }
+}
+
 impl Trace {
     /// Declarations of the inputs and definitions `n<i>` of every node in
     /// `need` (and `o<i>`, the overflow of each quantization among them),
     /// appended to `s`; `None` when one is a division or square root.
-    fn smt_nodes(&self, need: &[bool], cut: &[bool], s: &mut String) -> Option<()> {
+    ///
+    /// A table read is `(select tab<slot>_<w> index)` of an array whose
+    /// entries are asserted, or with `mux_tables` `(tab<slot>_<w> index)`,
+    /// a function that is a binary tree of `ite` on the index bits, most
+    /// significant first (equal halves shared): the form a ROM takes in
+    /// hardware, which a solver compares with the RTL's tables some 20
+    /// times faster than an array.
+    fn smt_nodes(
+        &self,
+        need: &[bool],
+        cut: &[bool],
+        mux_tables: bool,
+        s: &mut String,
+    ) -> Option<()> {
         if need
             .iter()
             .zip(&self.ops)
@@ -221,22 +252,33 @@ impl Trace {
                     let t = &self.tables[*slot];
                     let k = t.codes.len().trailing_zeros().max(1);
                     let name = format!("tab{slot}_{wi}");
-                    if !s.contains(&format!("(declare-const {name} ")) {
-                        let mut decl = format!(
-                            "(declare-const {name} (Array (_ BitVec {k}) (_ BitVec {wi})))\n"
-                        );
-                        for (j, &c) in t.codes.iter().enumerate() {
-                            decl += &format!(
-                                "(assert (= (select {name} {}) {}))\n",
-                                lit(j as i128, k),
-                                lit(c, wi)
-                            );
-                        }
-                        *s += &decl;
-                    }
                     let idx = val(a, k.max(w(a.node())));
                     let idx = format!("((_ extract {} 0) {idx})", k - 1);
-                    format!("(select {name} {idx})")
+                    if mux_tables {
+                        if !s.contains(&format!("(define-fun {name} ")) {
+                            let entry = |j: usize| lit(t.codes.get(j).copied().unwrap_or(0), wi);
+                            *s += &format!(
+                                "(define-fun {name} ((a (_ BitVec {k}))) (_ BitVec {wi}) {})\n",
+                                mux_tree(k, 0, &entry)
+                            );
+                        }
+                        format!("({name} {idx})")
+                    } else {
+                        if !s.contains(&format!("(declare-const {name} ")) {
+                            let mut decl = format!(
+                                "(declare-const {name} (Array (_ BitVec {k}) (_ BitVec {wi})))\n"
+                            );
+                            for (j, &c) in t.codes.iter().enumerate() {
+                                decl += &format!(
+                                    "(assert (= (select {name} {}) {}))\n",
+                                    lit(j as i128, k),
+                                    lit(c, wi)
+                                );
+                            }
+                            *s += &decl;
+                        }
+                        format!("(select {name} {idx})")
+                    }
                 }
                 Op::Div(..) | Op::Sqrt(..) => return None,
             };
@@ -286,7 +328,7 @@ impl Trace {
     /// at the node's width, alignment by left shifts, each quantization as
     /// [`crate::quantize::Quant`] defines it (the dropped bits rounded by
     /// one increment, then the range check: wrap or saturate), a table read
-    /// as an array of its entries, a select as `option[sel]` (option 0 past
+    /// as a tree of `ite` on its index bits (`tab<slot>_<w>`), a select as `option[sel]` (option 0 past
     /// the end), as the compiled program computes them. An output is its
     /// node (its port format's width); flag `k` is the OR
     /// of the overflows of every live quantization whose stage id is
@@ -305,7 +347,7 @@ impl Trace {
         let roots: Vec<TV> = self.outputs.iter().map(|p| p.value).collect();
         let need = self.live_nodes(&roots);
         let mut defs = String::new();
-        self.smt_nodes(&need, cut, &mut defs)?;
+        self.smt_nodes(&need, cut, true, &mut defs)?;
         let inputs = self
             .inputs
             .iter()
@@ -360,7 +402,7 @@ impl Trace {
         };
         let need = self.live_nodes(&[*op_a]);
         let mut s = String::from("(set-logic QF_BV)\n");
-        self.smt_nodes(&need, &[], &mut s)?;
+        self.smt_nodes(&need, &[], false, &mut s)?;
         // The operand as a signed value one bit wider than its format.
         let wa = self.syms[op_a.node()].width + 1;
         let xa = self.smt_val(op_a.node(), wa);
