@@ -4,6 +4,7 @@ mod cmd;
 mod dsp_pack;
 mod explore;
 mod netlist;
+mod netlist_equiv;
 mod output;
 mod picture;
 mod plot;

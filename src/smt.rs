@@ -387,7 +387,8 @@ pub fn product_declarations() -> String {
 /// operand values, however written (widths, extensions, order), become one
 /// application, so the solver matches identical multipliers instead of
 /// bit-blasting them; a model, though, may owe to the abstraction and must
-/// be checked on the real products.
+/// be checked on the real products. A product with an operand of at most
+/// two significant bits (a selection) is left as it is.
 pub fn abstract_products(script: &str) -> anyhow::Result<(String, usize)> {
     let exprs = SExpr::parse_all(script)?;
     let mut globals: std::collections::HashMap<String, u32> = std::collections::HashMap::new();
@@ -483,6 +484,38 @@ fn array_elem_width(s: &SExpr) -> Option<u32> {
 }
 
 /// The bit-vector width of term `t` (`None`: Boolean or not known).
+/// The bits of `t` that carry its value: its width less the bits an
+/// outermost extension (`zero_extend`, `sign_extend`, or a `concat` with a
+/// zero constant first) added.
+fn significant_bits(
+    t: &SExpr,
+    globals: &std::collections::HashMap<String, u32>,
+    locals: &std::collections::HashMap<String, u32>,
+) -> Option<u32> {
+    let w = term_width(t, globals, locals)?;
+    let SExpr::List(l) = t else {
+        return Some(w);
+    };
+    if let Some(SExpr::List(h)) = l.first() {
+        if h.first().and_then(SExpr::atom) == Some("_")
+            && matches!(
+                h.get(1).and_then(SExpr::atom),
+                Some("zero_extend" | "sign_extend")
+            )
+        {
+            return significant_bits(l.get(1)?, globals, locals);
+        }
+    }
+    if l.first().and_then(SExpr::atom) == Some("concat") && l.len() == 3 {
+        if let Some(c) = l[1].atom().and_then(|a| a.strip_prefix("#b")) {
+            if c.chars().all(|ch| ch == '0') {
+                return significant_bits(&l[2], globals, locals);
+            }
+        }
+    }
+    Some(w)
+}
+
 fn term_width(
     t: &SExpr,
     globals: &std::collections::HashMap<String, u32>,
@@ -589,7 +622,13 @@ fn rewrite_mul(
         .iter()
         .map(|x| rewrite_mul(x, globals, locals, count))
         .collect();
-    if items.len() == 3 && items[0].atom() == Some("bvmul") {
+    // A product with an operand of at most 2 significant bits is a
+    // selection (or a negation): left to the solver, as a synthesizer
+    // leaves it in the fabric.
+    let narrow = items.len() == 3
+        && (significant_bits(&l[1], globals, locals).is_some_and(|b| b <= 2)
+            || significant_bits(&l[2], globals, locals).is_some_and(|b| b <= 2));
+    if items.len() == 3 && items[0].atom() == Some("bvmul") && !narrow {
         if let Some(w) = term_width(&l[1], globals, locals).filter(|&w| w <= PRODUCT_OPERAND_BITS) {
             *count += 1;
             let ext = |x: &SExpr| {

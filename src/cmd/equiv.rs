@@ -52,6 +52,13 @@ pub struct EquivArgs {
     /// RTL) instead of the Verilog `fxshade rtl` emits.
     #[arg(long, value_name = "DIR")]
     rtl_dir: Option<PathBuf>,
+    /// Prove the gate-level netlist in this directory (what `fxshade synth
+    /// <unit> --target ecp5 --netlist DIR` wrote: `<module>.v` and its cell
+    /// models) equivalent to the RTL, sequentially (registers moved),
+    /// instead of the RTL against the model. Give the configuration and
+    /// pipelining the netlist was synthesized with.
+    #[arg(long, value_name = "DIR")]
+    netlist: Option<PathBuf>,
     /// The SMT solver.
     #[arg(long, value_enum, default_value_t = Solver::Bitwuzla)]
     solver: Solver,
@@ -91,7 +98,8 @@ pub struct Counterexample {
     /// What the RTL gives `L` cycles later: each output's code, `ovf`
     /// (when there are flags) and `valid`.
     pub rtl: Vec<(String, i128)>,
-    /// What the model gives (the compiled trace).
+    /// What the model gives (the compiled trace); for a netlist, what the
+    /// netlist gives.
     pub model: Vec<(String, i128)>,
     /// The vector set reproducing it (the item and the free items after
     /// it that the solver chose).
@@ -134,6 +142,9 @@ pub enum Method {
     /// By stages: one query per cut (a quantization's signal), each with
     /// every cut free and equal on both sides, then the outputs.
     Stages(usize),
+    /// A netlist against its RTL: unrolled from reset over this many
+    /// cycles, and an induction step of as many.
+    Netlist(u32),
 }
 
 impl std::fmt::Display for Method {
@@ -141,6 +152,7 @@ impl std::fmt::Display for Method {
         match self {
             Method::Whole => f.write_str("whole"),
             Method::Stages(n) => write!(f, "by stages ({n} cuts)"),
+            Method::Netlist(d) => write!(f, "netlist, {d}-induction"),
         }
     }
 }
@@ -880,7 +892,43 @@ pub fn run(a: &EquivArgs) -> anyhow::Result<()> {
     let mods = modules(&a.unit, &cfg, a.rtl_dir.as_deref())?;
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     let jobs = a.jobs.map_or(cores, |j| j.min(256));
-    let res = prove_all(&mods, a.solver, a.timeout, jobs, Some(&a.cex_dir))?;
+    let res = match &a.netlist {
+        None => prove_all(&mods, a.solver, a.timeout, jobs, Some(&a.cex_dir))?,
+        Some(dir) => {
+            if a.rtl_dir.is_some() {
+                return Err(UsageError(
+                    "--netlist proves a netlist against the emitted RTL; give --netlist or \
+                     --rtl-dir, not both"
+                        .into(),
+                )
+                .into());
+            }
+            if mods.len() != 1 {
+                return Err(UsageError(format!(
+                    "--netlist {}: give the one unit the netlist is of, not `{}`",
+                    dir.display(),
+                    a.unit
+                ))
+                .into());
+            }
+            let scratch = tempfile::Builder::new()
+                .prefix("fxshade-equiv-")
+                .tempdir()
+                .context("cannot create a temporary directory")?;
+            vec![crate::netlist_equiv::prove(
+                &mods[0],
+                dir,
+                a.solver,
+                a.timeout,
+                scratch.path(),
+            )?]
+        }
+    };
+    let versus = if a.netlist.is_some() {
+        "netlist"
+    } else {
+        "model"
+    };
     let mut t = Table::new([
         "module",
         "latency",
@@ -889,10 +937,13 @@ pub fn run(a: &EquivArgs) -> anyhow::Result<()> {
         "solver",
         "seconds",
     ])
-    .titled(
+    .titled(if a.netlist.is_some() {
+        "Equivalence of the gate-level netlist with the RTL, every input sequence from reset \
+         (no stalls)"
+    } else {
         "Equivalence of the RTL with the traced datapath, every input value (no stalls; \
-         stalls: `fxshade formal`)",
-    );
+         stalls: `fxshade formal`)"
+    });
     for p in &res {
         t.row([
             p.module.clone(),
@@ -930,7 +981,7 @@ pub fn run(a: &EquivArgs) -> anyhow::Result<()> {
                 ct.row([
                     format!("out {n}"),
                     format!(
-                        "rtl {r}, model {mv}{}",
+                        "rtl {r}, {versus} {mv}{}",
                         if r == mv { "" } else { "  <- differs" }
                     ),
                 ]);

@@ -486,9 +486,9 @@ fn the_hand_written_rtl_disagreements_are_bit_exact_now() {
 }
 
 /// A small deterministic generator for the random configurations.
-struct Lcg(u64);
+pub(crate) struct Lcg(pub(crate) u64);
 impl Lcg {
-    fn below(&mut self, n: u64) -> u64 {
+    pub(crate) fn below(&mut self, n: u64) -> u64 {
         self.0 = self
             .0
             .wrapping_mul(6364136223846793005)
@@ -504,7 +504,7 @@ impl Lcg {
 /// and overflow modes of every stage, methods, Θ, fits, intervals, table
 /// organisation and depth, lighting constants. Not every draw is valid: the
 /// test keeps the ones `config check` accepts.
-fn random_overrides(r: &mut Lcg) -> Vec<String> {
+pub(crate) fn random_overrides(r: &mut Lcg) -> Vec<String> {
     let round = ["\"trunc\"", "\"half_up\"", "\"half_even\""];
     let ovf = ["\"wrap\"", "\"saturate\""];
     let mut v = Vec::new();
