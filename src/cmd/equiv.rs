@@ -866,6 +866,7 @@ pub fn prove_all(
                 let sub = dir.path().join(k.to_string());
                 std::fs::create_dir(&sub).context("cannot create a scratch directory")?;
                 let (mut p, rows) = prove(m, solver, timeout, &sub)?;
+                record(m, &p);
                 if let Some(c) = p.counterexample.as_mut() {
                     if let Some(cd) = cex_dir {
                         replay(m, rows, &cd.join(&m.emitted.module), c)?;
@@ -879,6 +880,67 @@ pub fn prove_all(
     });
     bar.finish_and_clear();
     res
+}
+
+/// The cache key of a proof of `m`: this program's fingerprint, the
+/// module's name and Verilog, and the model's SMT function (so a proof is
+/// found again only for the same program, RTL text and model); `None`
+/// when the program cannot be fingerprinted or the model has no function.
+fn proof_key(m: &Module) -> Option<String> {
+    let fp = fxshade_model::cache::program_fingerprint()?;
+    let f = m.design.trace.smt_function()?;
+    Some(fxshade_model::cache::sha256_key(&[
+        b"equiv-proof-1",
+        fp.as_bytes(),
+        m.emitted.module.as_bytes(),
+        m.text.as_bytes(),
+        f.defs.as_bytes(),
+    ]))
+}
+
+/// Record a proof of `m` in the user's private cache (`equiv/<key>.json`),
+/// where `rtl-check` finds it. Only proofs are recorded; a cache that
+/// cannot be used records nothing.
+fn record(m: &Module, p: &Equiv) {
+    if p.verdict != Verdict::Proved {
+        return;
+    }
+    let (Some(key), Ok(dir)) = (proof_key(m), fxshade_model::cache::subdir("equiv")) else {
+        return;
+    };
+    if let Ok(text) = serde_json::to_vec_pretty(p) {
+        let _ = fxshade_model::cache::write(&dir.join(format!("{key}.json")), &text);
+    }
+}
+
+/// The recorded proof of `m`, when this program proved this Verilog
+/// against this model before (the user's private cache; an entry anyone
+/// else could have written is refused).
+pub fn recorded(m: &Module) -> Option<serde_json::Value> {
+    let key = proof_key(m)?;
+    let dir = fxshade_model::cache::subdir("equiv").ok()?;
+    let bytes = fxshade_model::cache::read(&dir.join(format!("{key}.json"))).ok()??;
+    let v: serde_json::Value = serde_json::from_slice(&bytes).ok()?;
+    (v["verdict"] == "proved" && v["module"] == m.emitted.module.as_str()).then_some(v)
+}
+
+/// What `rtl-check` prints for `m`: `proved (…)`, or how to prove it.
+pub fn status_line(m: &Module, unit: &str) -> String {
+    match recorded(m) {
+        Some(v) => format!(
+            "proved ({}, {}, {:.1} s)",
+            v["method"]
+                .as_object()
+                .and_then(|o| o.iter().next())
+                .map_or_else(
+                    || v["method"].as_str().unwrap_or("?").to_string(),
+                    |(k, n)| format!("{k} {n}")
+                ),
+            v["solver"].as_str().unwrap_or("?"),
+            v["seconds"].as_f64().unwrap_or(0.0)
+        ),
+        None => format!("not proved: run `fxshade equiv {unit}` with this configuration"),
+    }
 }
 
 /// Run it.

@@ -449,9 +449,11 @@ fn cached_synthesis(cfg: &fxshade_model::Config) -> Vec<super::synth::SynthResul
     out
 }
 
-/// RTL co-simulation results: `(unit, variant, vectors, passed, failed)`
-/// per module, or why none were run.
-pub type RtlChecks = Result<Vec<(String, String, usize, u64, u64)>, String>;
+/// RTL co-simulation results: `(unit, variant, vectors, passed, failed,
+/// equivalence)` per module, or why none were run; `equivalence` is what
+/// `fxshade equiv` recorded for this Verilog and model (the report does not
+/// run the proofs: `fxshade equiv all` does, two to three minutes).
+pub type RtlChecks = Result<Vec<(String, String, usize, u64, u64, String)>, String>;
 
 /// Co-simulate every unit and the three pipeline tops on Icarus Verilog
 /// (300 vectors each, random stalls): `(unit, variant, count, passed,
@@ -478,6 +480,18 @@ pub fn rtl_checks(cfg: &fxshade_model::Config) -> RtlChecks {
         }
     }
     for (u, c) in jobs {
+        let equivalence = fxshade_model::rtl::units::emit_unit(u, &c)
+            .ok()
+            .map(|(design, emitted)| super::equiv::Module {
+                text: emitted.verilog.clone(),
+                design,
+                emitted,
+            })
+            .and_then(|m| super::equiv::recorded(&m))
+            .map_or_else(
+                || "not proved (run `fxshade equiv all`)".to_string(),
+                |v| format!("proved ({:.1} s)", v["seconds"].as_f64().unwrap_or(0.0)),
+            );
         let run = || -> anyhow::Result<(String, usize, u64, u64)> {
             let stream = fxshade_model::rtl::units::VectorStream::new(u, &c, 300, 1, None)?;
             let sources = rtl_flow::Sources::emitted(&stream.rtl());
@@ -486,7 +500,7 @@ pub fn rtl_checks(cfg: &fxshade_model::Config) -> RtlChecks {
             Ok((stream.design.variant.clone(), r.count, r.passed, r.failed))
         };
         match run() {
-            Ok((v, n, p, f)) => out.push((u.name.to_string(), v, n, p, f)),
+            Ok((v, n, p, f)) => out.push((u.name.to_string(), v, n, p, f, equivalence)),
             Err(e) => return Err(format!("{}: {e:#}", u.name)),
         }
     }

@@ -412,7 +412,7 @@ pub fn page(d: &Data) -> String {
                  `fxshade rtl-check <unit> --sim verilator` runs the same on Verilator.");
             let rows: Vec<Vec<String>> = v
                 .iter()
-                .map(|(u, var, n, pa, f)| {
+                .map(|(u, var, n, pa, f, eq)| {
                     vec![
                         u.clone(),
                         var.clone(),
@@ -420,12 +420,14 @@ pub fn page(d: &Data) -> String {
                         pa.to_string(),
                         f.to_string(),
                         if *f == 0 && *pa == *n as u64 { "bit-exact" } else { "FAILS" }.to_string(),
+                        eq.clone(),
                     ]
                 })
                 .collect();
             p.table_rows(
                 None,
-                &["unit", "variant", "vectors", "passed", "failed", "verdict"].map(String::from),
+                &["unit", "variant", "vectors", "passed", "failed", "verdict", "equivalence"]
+                    .map(String::from),
                 &rows,
             );
         }

@@ -395,7 +395,20 @@ fn run_shard(a: &RtlCheckArgs, shard: Option<&crate::shard::Shard>) -> anyhow::R
             }
         }
     }
-    let json = serde_json::to_value(&summary).context("summary")?;
+    // Whether `fxshade equiv` proved this module (this Verilog, this
+    // model, this program) before: read from the user's private cache.
+    let equivalence = super::equiv::modules(&a.unit, &cfg, a.rtl_dir.as_deref())
+        .ok()
+        .and_then(|ms| ms.into_iter().next())
+        .map_or_else(
+            || "not proved (no model function)".to_string(),
+            |m| super::equiv::status_line(&m, &a.unit),
+        );
+    if !a.out.json {
+        eprintln!("equivalence with the model: {equivalence}");
+    }
+    let mut json = serde_json::to_value(&summary).context("summary")?;
+    json["equivalence"] = serde_json::Value::String(equivalence);
     if let Some(dir) = &a.result {
         write_whole(&result_file(dir, kn), &serde_json::to_string_pretty(&json)?)?;
         RESULT_WRITTEN.store(true, std::sync::atomic::Ordering::SeqCst);

@@ -209,3 +209,57 @@ fn bad_input_is_a_clear_error() {
     let o = fxshade(&["equiv", "normalize", "--solver", "cvc9"]);
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
 }
+
+/// `rtl-check` says whether the module it checks is proved: not before
+/// `fxshade equiv` ran on this configuration, and proved after (the proof
+/// is recorded in the user's private cache under a key of the program, the
+/// Verilog and the model). A cache of its own, so no earlier run counts.
+#[test]
+fn rtl_check_says_whether_the_module_is_proved() {
+    let cache = tempfile::tempdir().unwrap();
+    let run = |args: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_fxshade"))
+            .args(args)
+            .env("FXSHADE_CACHE_DIR", cache.path())
+            .output()
+            .expect("runs")
+    };
+    let check = |theta: &str| {
+        let set = format!("normalize.theta={theta}");
+        let o = run(&[
+            "rtl-check",
+            "normalize",
+            "--sim",
+            "icarus",
+            "--count",
+            "200",
+            "--json",
+            "--set",
+            &set,
+        ]);
+        assert!(o.status.success(), "{}", text(&o));
+        let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        j["equivalence"]
+            .as_str()
+            .expect("an equivalence line")
+            .to_string()
+    };
+    let before = check("0.25");
+    assert!(before.starts_with("not proved"), "{before}");
+    assert!(before.contains("fxshade equiv normalize"), "{before}");
+    let o = run(&[
+        "equiv",
+        "normalize",
+        "--timeout",
+        "0",
+        "--json",
+        "--set",
+        "normalize.theta=0.25",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let after = check("0.25");
+    assert!(after.starts_with("proved (stages"), "{after}");
+    // Another configuration's proof is not this one's.
+    let other = check("0.75");
+    assert!(other.starts_with("not proved"), "{other}");
+}
