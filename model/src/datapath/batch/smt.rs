@@ -344,10 +344,16 @@ impl Trace {
     /// the hardware's value equals `f<i>` when every cut equals its
     /// hardware value.
     pub fn smt_function_cut(&self, cut: &[bool]) -> Option<SmtFunction> {
+        self.smt_function_tables(cut, true)
+    }
+
+    /// As [`Trace::smt_function_cut`], tables as `ite` trees when
+    /// `mux_tables`, else as arrays whose entries are asserted.
+    fn smt_function_tables(&self, cut: &[bool], mux_tables: bool) -> Option<SmtFunction> {
         let roots: Vec<TV> = self.outputs.iter().map(|p| p.value).collect();
         let need = self.live_nodes(&roots);
         let mut defs = String::new();
-        self.smt_nodes(&need, cut, true, &mut defs)?;
+        self.smt_nodes(&need, cut, mux_tables, &mut defs)?;
         let inputs = self
             .inputs
             .iter()
@@ -458,13 +464,8 @@ mod tests {
             .collect()
     }
 
-    /// The SMT encoding that `fxshade equiv` proves the RTL against is the
-    /// compiled trace's function: for every unit of the default
-    /// configuration, z3 evaluates [`super::SmtFunction`] on the corner
-    /// cases and random rows, and every output and flag equals the
-    /// compiled program's (the program the vectors check the RTL against).
-    #[test]
-    fn the_smt_function_is_the_compiled_trace() {
+    /// Runs z3 on `script`, its standard output.
+    fn z3(script: &str) -> String {
         assert!(
             std::process::Command::new("z3")
                 .arg("--version")
@@ -472,10 +473,82 @@ mod tests {
                 .is_ok(),
             "z3 is not installed: `sudo apt-get install z3` (./scripts/test does it as root)"
         );
+        let o = std::process::Command::new("z3")
+            .args(["-in", "-smt2"])
+            .stdin(std::process::Stdio::piped())
+            .stdout(std::process::Stdio::piped())
+            .spawn()
+            .and_then(|mut c| {
+                use std::io::Write;
+                c.stdin.take().unwrap().write_all(script.as_bytes())?;
+                c.wait_with_output()
+            })
+            .unwrap();
+        String::from_utf8_lossy(&o.stdout).into_owned()
+    }
+
+    /// The two forms of a table read agree: for every table of every unit
+    /// of the default configuration, z3 finds no index where the `ite`
+    /// tree `fxshade equiv` uses differs from the array of the entries
+    /// (the form the evaluation test below checks row by row).
+    #[test]
+    fn table_trees_are_the_table_arrays() {
+        let cfg = crate::Config::embedded();
+        let mut tables = 0;
+        for u in units::all() {
+            let d = (u.design)(&cfg).unwrap();
+            let t = &d.trace;
+            let all = vec![true; t.ops.len()];
+            let (mut tree, mut arr) = (String::new(), String::new());
+            t.smt_nodes(&all, &[], true, &mut tree).unwrap();
+            t.smt_nodes(&all, &[], false, &mut arr).unwrap();
+            for line in tree.lines().filter(|l| l.starts_with("(define-fun tab")) {
+                // `(define-fun tab<slot>_<w> ((a (_ BitVec k))) …`
+                let name = line.split_whitespace().nth(1).unwrap();
+                let k: u32 = line
+                    .split("BitVec ")
+                    .nth(1)
+                    .and_then(|r| r.split(')').next())
+                    .unwrap()
+                    .parse()
+                    .unwrap();
+                let decl: String = arr
+                    .lines()
+                    .filter(|l| {
+                        l.starts_with(&format!("(declare-const {name} "))
+                            || l.starts_with(&format!("(assert (= (select {name} "))
+                    })
+                    .map(|l| format!("{l}\n"))
+                    .collect();
+                assert!(decl.contains("declare-const"), "{}: {name}", u.name);
+                let script = format!(
+                    "(set-logic QF_ABV)\n{decl}{}\n(declare-const x (_ BitVec {k}))\n\
+                     (assert (distinct (tree_{name} x) (select {name} x)))\n(check-sat)\n",
+                    line.replacen("define-fun tab", "define-fun tree_tab", 1)
+                );
+                let out = z3(&script);
+                assert_eq!(out.trim(), "unsat", "{}: {name}: {out}", u.name);
+                tables += 1;
+            }
+        }
+        assert!(tables >= 2, "only {tables} tables found");
+    }
+
+    /// The SMT encoding that `fxshade equiv` proves the RTL against is the
+    /// compiled trace's function: for every unit of the default
+    /// configuration, z3 evaluates [`super::SmtFunction`] (tables as
+    /// arrays; the test above shows the `ite` trees equal them) on the
+    /// corner cases and random rows, and every output and flag equals the
+    /// compiled program's (the program the vectors check the RTL against).
+    #[test]
+    fn the_smt_function_is_the_compiled_trace() {
         let cfg = crate::Config::embedded();
         for u in units::all() {
             let d = (u.design)(&cfg).unwrap();
-            let f = d.trace.smt_function().expect("no division in an RTL unit");
+            let f = d
+                .trace
+                .smt_function_tables(&[], false)
+                .expect("no division in an RTL unit");
             let mut rows = (u.inputs)(&cfg, Part::Corners, 7).unwrap();
             rows.truncate(40);
             rows.extend((u.inputs)(&cfg, Part::Random(40), 7).unwrap());
@@ -508,18 +581,7 @@ mod tests {
                 }
                 s += &format!("(check-sat)\n(get-value ({}))\n(pop 1)\n", asked.join(" "));
             }
-            let o = std::process::Command::new("z3")
-                .args(["-in", "-smt2"])
-                .stdin(std::process::Stdio::piped())
-                .stdout(std::process::Stdio::piped())
-                .spawn()
-                .and_then(|mut c| {
-                    use std::io::Write;
-                    c.stdin.take().unwrap().write_all(s.as_bytes())?;
-                    c.wait_with_output()
-                })
-                .unwrap();
-            let text = String::from_utf8_lossy(&o.stdout);
+            let text = z3(&s);
             assert_eq!(
                 text.matches("unsat").count(),
                 0,
