@@ -5,23 +5,33 @@
 //!
 //! Yosys reads both, the netlist with the cell models written beside it,
 //! and builds a miter (`miter -equiv -make_outputs`): one circuit holding
-//! both, same inputs, both outputs. fxshade unrolls its SMT-LIB 2 model
-//! (products abstracted as in the RTL proof) and asks, with `ready_i` high
-//! (no stalls: the RTL's handshake proofs cover those),
+//! both, same inputs, both outputs, with `ready_i` tied high (no stalls:
+//! the RTL's handshake proofs cover those) and the logic that makes
+//! constant removed. A *difference* is a `valid` or `ready` output that
+//! differs, or (while the RTL's `valid_o` is high) a data output or
+//! `ovf_o` that differs: data under a low `valid_o` is nobody's to read.
+//! With D the latency and 2, fxshade asks two queries of its SMT-LIB 2
+//! model:
 //!
-//! 1. **from reset** (`rst_ni` low in cycle 0, every input free after),
-//!    for a difference in cycles 1‥D;
-//! 2. **induction**: from *any* pair of states, `rst_ni` high, for a
-//!    difference in cycle D.
+//! 1. **From reset**: `rst_ni` low in cycle 0 (the state before it free),
+//!    high after, every other input free in every cycle: a difference in
+//!    cycles 1‥D? This covers every run up to D cycles after a reset.
+//! 2. **Window**: two runs of the miter from *any* two states in cycle 1,
+//!    the same inputs in cycles 1‥D (`rst_ni` high): does either circuit's
+//!    `valid`/`ready` output in cycle D differ between the runs, or its
+//!    data while its `valid_o` is high? `unsat` says each circuit's
+//!    compared outputs in cycle D are a function of the inputs of cycles
+//!    1‥D alone: a pipeline forgets its state in D cycles.
 //!
-//! A difference is a `valid`/`ready` output that differs, or (while the
-//! RTL's `valid_o` is high) a data output or `ovf_o` that differs: data
-//! under a low `valid_o` is nobody's to read. D is the latency and 2: with
-//! `ready_i` high every pipeline register loads each cycle, so after the
-//! latency both circuits' state is a function of the inputs alone. Both
-//! `unsat`: equal at every cycle of every run from reset. A model of (1)
-//! is a counterexample from reset, checked on the real products; a model
-//! of (2) alone is not (the states may be unreachable): `unknown`.
+//! Both `unsat` is a proof for every run: in cycle t ≥ D of any run, each
+//! circuit's outputs are (by 2) what they would be had a reset happened
+//! D cycles before, the same inputs since, which (by 1) agree. Products
+//! are abstracted first as in the RTL proof, the same function of equal
+//! operands being equal; a difference under the abstraction is checked on
+//! the real products (with its inputs, then all free). A model of (1) is
+//! a counterexample; a model of (2) is not (it names no run from reset):
+//! `unknown`, as for a top whose set-up registers keep their value while
+//! pixels stream.
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -33,7 +43,8 @@ use crate::cmd::equiv::{Counterexample, Equiv, Method, Module, Verdict};
 use crate::smt::{Reply, Solver};
 
 /// The miter's SMT-LIB 2 model: Yosys reads the RTL (`fxs_gold`) and the
-/// netlist with its cell models (`fxs_gate`) from `netlist` and writes it.
+/// netlist with its cell models (`fxs_gate`) from `netlist`, ties
+/// `ready_i` high and writes it.
 fn miter_smt2(m: &Module, netlist: &Path, dir: &Path) -> anyhow::Result<String> {
     let module = &m.emitted.module;
     let top = netlist.join(format!("{module}.v"));
@@ -55,7 +66,16 @@ fn miter_smt2(m: &Module, netlist: &Path, dir: &Path) -> anyhow::Result<String> 
     }
     models.sort();
     std::fs::write(dir.join("gold.v"), &m.text).context("cannot write the RTL")?;
-    let q = |p: &Path| format!("\"{}\"", p.display().to_string().replace('"', "\\\""));
+    // Yosys script arguments: quoted; a newline or quote would end them.
+    for p in models.iter().chain(std::iter::once(&top)) {
+        let t = p.display().to_string();
+        anyhow::ensure!(
+            !t.contains(['\n', '\r', '"']),
+            "--netlist: the path {t:?} holds a newline or a double quote, which a Yosys \
+             script cannot quote; rename it"
+        );
+    }
+    let q = |p: &Path| format!("\"{}\"", p.display());
     let mut ys = String::new();
     let _ = writeln!(ys, "read_verilog -sv gold.v\nrename {module} fxs_gold");
     for p in &models {
@@ -66,7 +86,9 @@ fn miter_smt2(m: &Module, netlist: &Path, dir: &Path) -> anyhow::Result<String> 
         "read_verilog {}\nrename {module} fxs_gate\nhierarchy -check\nproc\n\
          miter -equiv -flatten -make_outputs fxs_gold fxs_gate fxs_miter\n\
          hierarchy -top fxs_miter\nproc\nopt_clean\nmemory -nomap\nmemory_map\nopt_clean\n\
-         async2sync\ndffunmap\nwrite_smt2 -stbv -wires miter.smt2",
+         async2sync\ndffunmap\ndelete -port fxs_miter/in_ready_i\ncd fxs_miter\n\
+         connect -set in_ready_i 1'b1\ncd ..\nopt_clean\n\
+         write_smt2 -stbv -wires miter.smt2",
         q(&std::fs::canonicalize(&top)?)
     );
     std::fs::write(dir.join("miter.ys"), ys).context("cannot write the Yosys script")?;
@@ -87,8 +109,9 @@ fn miter_smt2(m: &Module, netlist: &Path, dir: &Path) -> anyhow::Result<String> 
     std::fs::read_to_string(dir.join("miter.smt2")).context("yosys wrote no miter model")
 }
 
-/// The miter's unrolled queries: (from reset, induction, the inputs to read
-/// back from a model as (port, cycle), the output pairs compared).
+/// The miter's queries over `depth` cycles: (from reset, the window
+/// query), and the terms to read back from a model of the first (every
+/// input and output pair in every cycle).
 fn queries(m: &Module, smt2: &str, depth: u32) -> anyhow::Result<(String, String, Vec<String>)> {
     let mut ins = Vec::new();
     let mut outs = Vec::new();
@@ -104,7 +127,7 @@ fn queries(m: &Module, smt2: &str, depth: u32) -> anyhow::Result<(String, String
         }
     }
     let at = |p: &str, k: u32| format!("(|fxs_miter_n {p}| s{k})");
-    for p in ["in_rst_ni", "in_ready_i", "in_clk_i"] {
+    for p in ["in_rst_ni", "in_clk_i"] {
         anyhow::ensure!(
             ins.iter().any(|i| i == p),
             "{}: the miter has no input {p}",
@@ -136,28 +159,65 @@ fn queries(m: &Module, smt2: &str, depth: u32) -> anyhow::Result<(String, String
         }
         format!("(or {})", any.join(" "))
     };
-    let unroll = |reset: bool| {
-        let mut s = String::from("(set-logic QF_BV)\n");
-        s += smt2;
-        for k in 0..=depth {
-            let _ = writeln!(s, "(declare-const s{k} |fxs_miter_s|)");
-        }
-        for k in 0..depth {
-            let _ = writeln!(s, "(assert (|fxs_miter_t| s{k} s{}))", k + 1);
-        }
-        for k in 0..=depth {
-            let _ = writeln!(s, "(assert {})", at("in_ready_i", k));
-            if reset && k == 0 {
-                let _ = writeln!(s, "(assert (not {}))", at("in_rst_ni", k));
-            } else {
-                let _ = writeln!(s, "(assert {})", at("in_rst_ni", k));
-            }
-        }
-        s
-    };
-    let mut from_reset = unroll(true);
+    let mut from_reset = String::from("(set-logic QF_BV)\n");
+    from_reset += smt2;
+    for k in 0..=depth {
+        let _ = writeln!(from_reset, "(declare-const s{k} |fxs_miter_s|)");
+    }
+    for k in 0..depth {
+        let _ = writeln!(from_reset, "(assert (|fxs_miter_t| s{k} s{}))", k + 1);
+    }
+    let _ = writeln!(from_reset, "(assert (not {}))", at("in_rst_ni", 0));
+    for k in 1..=depth {
+        let _ = writeln!(from_reset, "(assert {})", at("in_rst_ni", k));
+    }
     let d: Vec<String> = (1..=depth).map(differs).collect();
     let _ = writeln!(from_reset, "(assert (or {}))\n(check-sat)", d.join(" "));
+    // Two runs of the miter from any two states in cycle 1, the same
+    // inputs (`rst_ni` high): each circuit's outputs in cycle D.
+    let mut window = String::from("(set-logic QF_BV)\n");
+    window += smt2;
+    for c in ["s", "r"] {
+        for k in 1..=depth {
+            let _ = writeln!(window, "(declare-const {c}{k} |fxs_miter_s|)");
+        }
+        for k in 1..depth {
+            let _ = writeln!(window, "(assert (|fxs_miter_t| {c}{k} {c}{}))", k + 1);
+        }
+    }
+    let on = |p: &str, c: &str, k: u32| format!("(|fxs_miter_n {p}| {c}{k})");
+    for k in 1..=depth {
+        let _ = writeln!(window, "(assert {})", on("in_rst_ni", "s", k));
+        let _ = writeln!(window, "(assert {})", on("in_rst_ni", "r", k));
+        for i in &ins {
+            if i != "in_clk_i" && i != "in_rst_ni" {
+                let _ = writeln!(window, "(assert (= {} {}))", on(i, "s", k), on(i, "r", k));
+            }
+        }
+    }
+    let mut diff = Vec::new();
+    for side in ["gold_", "gate_"] {
+        let mut data = Vec::new();
+        for (n, _) in &outs {
+            let Some(port) = n.strip_prefix(side) else {
+                continue;
+            };
+            let ne = format!("(not (= {} {}))", on(n, "s", depth), on(n, "r", depth));
+            if port.ends_with("valid_o") || port.ends_with("ready_o") {
+                diff.push(ne);
+            } else {
+                data.push(ne);
+            }
+        }
+        if !data.is_empty() {
+            diff.push(format!(
+                "(and {} (or {}))",
+                on(&format!("{side}valid_o"), "s", depth),
+                data.join(" ")
+            ));
+        }
+    }
+    let _ = writeln!(window, "(assert (or {}))\n(check-sat)", diff.join(" "));
     // The values to read back: every input in every cycle, every output
     // pair in every cycle.
     let mut want = Vec::new();
@@ -174,26 +234,12 @@ fn queries(m: &Module, smt2: &str, depth: u32) -> anyhow::Result<(String, String
         }
     }
     let _ = writeln!(from_reset, "(get-value ({}))", want.join(" "));
-    let mut induction = unroll(false);
-    let _ = writeln!(induction, "(assert {})\n(check-sat)", differs(depth));
-    let last: Vec<&String> = want
-        .iter()
-        .filter(|t| t.ends_with(&format!(" s{depth})")))
-        .collect();
-    let _ = writeln!(
-        induction,
-        "(get-value ({}))",
-        last.iter()
-            .map(|t| t.as_str())
-            .collect::<Vec<_>>()
-            .join(" ")
-    );
-    Ok((from_reset, induction, want))
+    Ok((from_reset, window, want))
 }
 
 /// Abstract the products of `script` (as the RTL proof does).
 fn abstracted(script: &str) -> anyhow::Result<String> {
-    let (abs, _) = crate::smt::abstract_products(script)?;
+    let (abs, _) = crate::smt::abstract_products_with(script, true)?;
     Ok(abs.replacen(
         "(set-logic QF_BV)",
         &format!(
@@ -216,7 +262,7 @@ pub fn prove(
     let t0 = Instant::now();
     let smt2 = miter_smt2(m, netlist, dir)?;
     let depth = m.emitted.latency + 2;
-    let (from_reset, induction, want) = queries(m, &smt2, depth)?;
+    let (from_reset, window, want) = queries(m, &smt2, depth)?;
     let mut out = Equiv {
         module: m.emitted.module.clone(),
         latency: m.emitted.latency,
@@ -235,22 +281,23 @@ pub fn prove(
             timeout.saturating_sub(t0.elapsed().as_secs()).max(1)
         }
     };
+    let (abs_reset, abs_window) = (abstracted(&from_reset)?, abstracted(&window)?);
     if let Some(d) = std::env::var_os("FXSHADE_SMT_DUMP") {
         let d = Path::new(&d);
-        let _ = std::fs::write(
-            d.join(format!("{}-netlist-reset.smt2", out.module)),
-            &from_reset,
-        );
-        let _ = std::fs::write(
-            d.join(format!("{}-netlist-step.smt2", out.module)),
-            &induction,
-        );
+        for (what, q) in [
+            ("reset", &from_reset),
+            ("reset-abstract", &abs_reset),
+            ("window", &window),
+            ("window-abstract", &abs_window),
+        ] {
+            let _ = std::fs::write(d.join(format!("{}-netlist-{what}.smt2", out.module)), q);
+        }
     }
-    let abs = abstracted(&from_reset)?;
-    out.products = abs.matches("(fxs_mulc ").count();
-    let base = match solver.check(&abs, left())? {
+    out.products = abs_reset.matches("(fxs_mulc ").count();
+    // From reset: under the abstraction; a difference there is checked on
+    // the real products with its inputs, then with every input free.
+    let base = match solver.check(&abs_reset, left())? {
         Reply::Sat(pairs) => {
-            // Check it on the real products, every input fixed.
             let mut fix = String::new();
             for (t, v) in &pairs {
                 if t.to_string().contains("|fxs_miter_n in_") {
@@ -259,7 +306,10 @@ pub fn prove(
             }
             let concrete =
                 from_reset.replacen("\n(check-sat)\n", &format!("\n{fix}(check-sat)\n"), 1);
-            solver.check(&concrete, left())?
+            match solver.check(&concrete, left())? {
+                Reply::Sat(p) => Reply::Sat(p),
+                _ => solver.check(&from_reset, left())?,
+            }
         }
         r => r,
     };
@@ -271,18 +321,30 @@ pub fn prove(
         Reply::Unknown(why) => {
             out.reason = Some(format!("from reset: {} answered {why}", solver.name()));
         }
-        Reply::Unsat => match solver.check(&abstracted(&induction)?, left())? {
-            Reply::Unsat => out.verdict = Verdict::Proved,
-            Reply::Sat(_) => {
-                out.reason = Some(format!(
-                    "equal for {depth} cycles from reset, but the induction step fails \
-                     (two states, maybe unreachable, that differ {depth} cycles on)"
-                ))
+        Reply::Unsat => {
+            // The window: under the abstraction (the same function of the
+            // same operands in both runs), else on the real products.
+            let w = match solver.check(&abs_window, left())? {
+                Reply::Sat(_) => solver.check(&window, left())?,
+                r => r,
+            };
+            match w {
+                Reply::Unsat => out.verdict = Verdict::Proved,
+                Reply::Sat(_) => {
+                    out.reason = Some(format!(
+                        "equal for {depth} cycles from reset, but an output in cycle {depth} \
+                         still depends on the state of cycle 1 (a register that keeps its \
+                         value), so the check from reset does not cover every run"
+                    ))
+                }
+                Reply::Unknown(why) => {
+                    out.reason = Some(format!(
+                        "equal for {depth} cycles from reset; window: {} answered {why}",
+                        solver.name()
+                    ))
+                }
             }
-            Reply::Unknown(why) => {
-                out.reason = Some(format!("induction: {} answered {why}", solver.name()))
-            }
-        },
+        }
     }
     out.seconds = t0.elapsed().as_secs_f64();
     Ok(out)

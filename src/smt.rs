@@ -390,6 +390,19 @@ pub fn product_declarations() -> String {
 /// be checked on the real products. A product with an operand of at most
 /// two significant bits (a selection) is left as it is.
 pub fn abstract_products(script: &str) -> anyhow::Result<(String, usize)> {
+    abstract_products_with(script, false)
+}
+
+/// As [`abstract_products`], and with `odd_constants` a product by a
+/// literal constant `c = c'·2^k` (`c'` odd) becomes `(bvshl P k)`, `P`
+/// the abstracted product by `c'`: a synthesizer that multiplies by `c'`
+/// and shifts the result in the wiring (Yosys's `wreduce` does) then
+/// meets the same application as the RTL's product by `c`. Exact: `x·c
+/// mod 2^W = (x·c' mod 2^W)·2^k mod 2^W`.
+pub fn abstract_products_with(
+    script: &str,
+    odd_constants: bool,
+) -> anyhow::Result<(String, usize)> {
     let exprs = SExpr::parse_all(script)?;
     let mut globals: std::collections::HashMap<String, u32> = std::collections::HashMap::new();
     let mut sorts: std::collections::HashMap<String, u32> = std::collections::HashMap::new();
@@ -431,7 +444,7 @@ pub fn abstract_products(script: &str) -> anyhow::Result<(String, usize)> {
                         }
                     }
                 }
-                let body = rewrite_mul(&l[4], &globals, &mut locals, &mut count);
+                let body = rewrite_mul(&l[4], &globals, &mut locals, &mut count, odd_constants);
                 if let (Some(n), Some(w)) = (l[1].atom(), sort_width(&l[3], &sorts)) {
                     globals.insert(n.to_string(), w);
                 }
@@ -449,6 +462,7 @@ pub fn abstract_products(script: &str) -> anyhow::Result<(String, usize)> {
                     &globals,
                     &mut std::collections::HashMap::new(),
                     &mut count,
+                    odd_constants,
                 );
                 SExpr::List(vec![l[0].clone(), body])
             }
@@ -590,6 +604,7 @@ fn rewrite_mul(
     globals: &std::collections::HashMap<String, u32>,
     locals: &mut std::collections::HashMap<String, u32>,
     count: &mut usize,
+    odd: bool,
 ) -> SExpr {
     let SExpr::List(l) = t else {
         return t.clone();
@@ -602,7 +617,7 @@ fn rewrite_mul(
             for b in bs {
                 if let SExpr::List(p) = b {
                     if p.len() == 2 {
-                        let x = rewrite_mul(&p[1], globals, locals, count);
+                        let x = rewrite_mul(&p[1], globals, locals, count, odd);
                         if let (Some(n), Some(bw)) =
                             (p[0].atom(), term_width(&p[1], globals, locals))
                         {
@@ -615,12 +630,12 @@ fn rewrite_mul(
                 binds.push(b.clone());
             }
         }
-        let body = rewrite_mul(&l[2], globals, &mut inner, count);
+        let body = rewrite_mul(&l[2], globals, &mut inner, count, odd);
         return SExpr::List(vec![l[0].clone(), SExpr::List(binds), body]);
     }
     let items: Vec<SExpr> = l
         .iter()
-        .map(|x| rewrite_mul(x, globals, locals, count))
+        .map(|x| rewrite_mul(x, globals, locals, count, odd))
         .collect();
     // A product with an operand of at most 2 significant bits is a
     // selection (or a negation): left to the solver, as a synthesizer
@@ -638,12 +653,36 @@ fn rewrite_mul(
                     format!("((_ sign_extend {}) {x})", PRODUCT_OPERAND_BITS - w)
                 }
             };
-            let text = format!(
+            // A literal operand's trailing zeros as a shift of the product.
+            let shift = |x: &SExpr| -> Option<(String, u32)> {
+                let (v, bw) = x.bits()?;
+                if !odd || v == 0 || bw != w || v.trailing_zeros() == 0 {
+                    return None;
+                }
+                let k = v.trailing_zeros();
+                // Signed w-bit value, shifted right arithmetically.
+                let sv = ((v << (128 - w)) as i128) >> (128 - w);
+                let c = (sv >> k) as u128 & (u128::MAX >> (128 - w));
+                Some((format!("(_ bv{c} {w})"), k))
+            };
+            let (a, b, k) = match (shift(&items[1]), shift(&items[2])) {
+                (_, Some((c, k))) => (items[1].to_string(), c, k),
+                (Some((c, k)), None) => (c, items[2].to_string(), k),
+                (None, None) => (items[1].to_string(), items[2].to_string(), 0),
+            };
+            let parse = |t: String| SExpr::parse_all(&t).ok().and_then(|mut v| v.pop());
+            let (Some(a), Some(b)) = (parse(a), parse(b)) else {
+                return SExpr::List(items);
+            };
+            let mut text = format!(
                 "((_ extract {} 0) (fxs_mulc {} {}))",
                 w - 1,
-                ext(&items[1]),
-                ext(&items[2])
+                ext(&a),
+                ext(&b)
             );
+            if k > 0 {
+                text = format!("(bvshl {text} (_ bv{k} {w}))");
+            }
             return SExpr::parse_all(&text)
                 .ok()
                 .and_then(|mut v| v.pop())
@@ -695,6 +734,32 @@ mod tests {
             };
             assert_eq!(p[0].1.bits(), Some((3, 8)), "{}", s.name());
             assert_eq!(s.check(u, 0).unwrap(), Reply::Unsat, "{}", s.name());
+        }
+    }
+
+    /// With odd constants, a product by 20 (or −20) and the product by 5
+    /// (−5) shifted left by 2, as a synthesizer writes it, are one
+    /// application: Bitwuzla proves them equal under the abstraction, and
+    /// without the option it cannot.
+    #[test]
+    fn products_by_constants_meet_their_odd_factor() {
+        for (c, odd) in [("#x14", "#x05"), ("#xec", "#xfb")] {
+            let q = format!(
+                "(set-logic QF_BV)\n(declare-const x (_ BitVec 8))\n\
+                 (assert (not (= (bvmul x {c}) (bvshl (bvmul {odd} x) #x02))))\n(check-sat)\n"
+            );
+            let ask = |odd_constants: bool| {
+                let (abs, n) = abstract_products_with(&q, odd_constants).unwrap();
+                assert_eq!(n, 2);
+                let abs = abs.replacen(
+                    "(set-logic QF_BV)",
+                    &format!("(set-logic QF_UFBV)\n{}", product_declarations()),
+                    1,
+                );
+                Solver::Bitwuzla.check(&abs, 0).unwrap()
+            };
+            assert_eq!(ask(true), Reply::Unsat, "{c}");
+            assert!(matches!(ask(false), Reply::Sat(_)), "{c}");
         }
     }
 

@@ -143,7 +143,8 @@ pub enum Method {
     /// every cut free and equal on both sides, then the outputs.
     Stages(usize),
     /// A netlist against its RTL: unrolled from reset over this many
-    /// cycles, and an induction step of as many.
+    /// cycles, and the window query of as many (two runs from any states
+    /// agree in the last).
     Netlist(u32),
 }
 
@@ -152,7 +153,7 @@ impl std::fmt::Display for Method {
         match self {
             Method::Whole => f.write_str("whole"),
             Method::Stages(n) => write!(f, "by stages ({n} cuts)"),
-            Method::Netlist(d) => write!(f, "netlist, {d}-induction"),
+            Method::Netlist(d) => write!(f, "netlist, {d}-cycle window"),
         }
     }
 }
