@@ -75,6 +75,14 @@ pub struct ExploreArgs {
     /// Do not check the winner's RTL (say so in the output).
     #[arg(long)]
     no_rtl_check: bool,
+    /// Do not prove the winner's pipeline top equivalent to its model
+    /// (`fxshade equiv pipeline` on the winner; say so in the output).
+    #[arg(long)]
+    no_equiv: bool,
+    /// Time limit of the winner's proof, seconds (0: none); past it the
+    /// proof is reported `unknown after T s` and the run still succeeds.
+    #[arg(long, value_name = "S", default_value_t = 600)]
+    equiv_timeout: u64,
     /// `--shard K/N|auto`: measure only shard K of N (0-based) of the
     /// sweep's points; combine the shards' `explore.json` with `--merge`.
     #[command(flatten)]
@@ -1052,6 +1060,41 @@ fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow:
             }
         }
     }
+    // Prove the winner's top against its model: a counterexample fails the
+    // run (the emitter wrote RTL that is not the model); unknown is said.
+    let equiv = if a.no_equiv {
+        serde_json::json!("skipped (--no-equiv)")
+    } else {
+        let mods = super::equiv::modules("pipeline", &win_cfg, None)?;
+        let res = super::equiv::prove_all(
+            &mods,
+            crate::smt::Solver::Bitwuzla,
+            a.equiv_timeout,
+            1,
+            None,
+        )
+        .context("proving the winner's pipeline top")?;
+        for e in &res {
+            match e.verdict {
+                super::equiv::Verdict::Counterexample => bail!(
+                    "the winner's {} is NOT its model: a counterexample (run `fxshade equiv \
+                     pipeline --config optimized.toml` for it)",
+                    e.module
+                ),
+                super::equiv::Verdict::Proved => eprintln!(
+                    "explore: the winner's {} is proved equivalent to its model ({:.1} s)",
+                    e.module, e.seconds
+                ),
+                super::equiv::Verdict::Unknown => eprintln!(
+                    "explore: the winner's {} is unknown after {:.0} s ({})",
+                    e.module,
+                    e.seconds,
+                    e.reason.as_deref().unwrap_or("")
+                ),
+            }
+        }
+        serde_json::to_value(&res)?
+    };
     let dir = staged(a, out)?;
     // Comment lines: the user's goal and metric names escaped to one line.
     let mut toml = format!(
@@ -1071,6 +1114,7 @@ fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow:
     let json = serde_json::json!({
         "outcome": o,
         "rtl_check": if a.no_rtl_check { serde_json::json!("skipped (--no-rtl-check)") } else { serde_json::json!(checks) },
+        "equivalence": equiv,
         "options": p.options,
     });
     dir.write(

@@ -401,6 +401,9 @@ fn optimize_meets_both_goals_beats_the_uniform_width_and_passes_the_rtl() {
         "120",
         "--rtl-count",
         "300",
+        // No wall-clock limit: a loaded machine must not make it unknown.
+        "--equiv-timeout",
+        "0",
         "--cache",
         dir.path().join("cache").to_str().unwrap(),
         "--out",
@@ -417,6 +420,11 @@ fn optimize_meets_both_goals_beats_the_uniform_width_and_passes_the_rtl() {
     for c in r["rtl_check"].as_array().unwrap() {
         assert_eq!(c["ok"], true, "{c}");
     }
+    // The winner's pipeline top is proved to compute its model.
+    let eq = r["equivalence"].as_array().expect("the winner is proved");
+    assert_eq!(eq.len(), 1, "{eq:?}");
+    assert_eq!(eq[0]["module"], "pipeline_smooth", "{eq:?}");
+    assert_eq!(eq[0]["verdict"], "proved", "{eq:?}");
     // Measured again without the cache, through the width groups: the
     // baseline's uniform width meets both goals and one bit less does not.
     let w = o["baseline_width"].as_u64().unwrap();
