@@ -316,7 +316,7 @@ pub fn prove(
     match base {
         Reply::Sat(pairs) => {
             out.verdict = Verdict::Counterexample;
-            out.counterexample = Some(counterexample(&pairs, &want));
+            out.counterexample = Some(counterexample(m, &pairs, &want));
         }
         Reply::Unknown(why) => {
             out.reason = Some(format!("from reset: {} answered {why}", solver.name()));
@@ -352,7 +352,29 @@ pub fn prove(
 
 /// The first cycle where the two differ, from a model of the query from
 /// reset: the inputs of every cycle up to it, and both circuits' outputs.
+/// A port's code from its bits: two's complement when the field it
+/// carries is signed (a port `n_x_i` carries field `nx`: names compared
+/// without `_` and the `_i`/`_o` suffix); other ports as unsigned bits.
+fn code(m: &Module, port: &str, bits: i128) -> i128 {
+    let key = |n: &str| n.replace('_', "");
+    let bare = port
+        .strip_suffix("_i")
+        .or_else(|| port.strip_suffix("_o"))
+        .unwrap_or(port);
+    let f = m
+        .emitted
+        .inputs
+        .iter()
+        .chain(&m.emitted.outputs)
+        .find(|f| key(&f.name) == key(bare));
+    match f {
+        Some(f) if bits >= 0 && f.format.width() < 64 => f.format.from_bits(bits as u64),
+        _ => bits,
+    }
+}
+
 fn counterexample(
+    m: &Module,
     pairs: &[(crate::smt::SExpr, crate::smt::SExpr)],
     want: &[String],
 ) -> Counterexample {
@@ -402,12 +424,12 @@ fn counterexample(
             continue;
         }
         if let Some(p) = n.strip_prefix("in_") {
-            c.inputs.push((format!("{p}@{k}"), *v));
+            c.inputs.push((format!("{p}@{k}"), code(m, p, *v)));
         } else if *k == first {
             if let Some(p) = n.strip_prefix("gold_") {
-                c.rtl.push((p.to_string(), *v));
+                c.rtl.push((p.to_string(), code(m, p, *v)));
             } else if let Some(p) = n.strip_prefix("gate_") {
-                c.model.push((p.to_string(), *v));
+                c.model.push((p.to_string(), code(m, p, *v)));
             }
         }
     }
