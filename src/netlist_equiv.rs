@@ -40,7 +40,9 @@ use std::time::Instant;
 use anyhow::{bail, Context};
 
 use crate::cmd::equiv::{Counterexample, Equiv, Method, Module, Verdict};
-use crate::smt::{Reply, Solver};
+use std::collections::HashSet;
+
+use crate::smt::{Reply, SExpr, Solver};
 
 /// The miter's SMT-LIB 2 model: Yosys reads the RTL (`fxs_gold`) and the
 /// netlist with its cell models (`fxs_gate`) from `netlist`, ties
@@ -237,17 +239,119 @@ fn queries(m: &Module, smt2: &str, depth: u32) -> anyhow::Result<(String, String
     Ok((from_reset, window, want))
 }
 
-/// Abstract the products of `script` (as the RTL proof does).
-fn abstracted(script: &str) -> anyhow::Result<String> {
-    let (abs, _) = crate::smt::abstract_products_with(script, true)?;
-    Ok(abs.replacen(
+/// `query` with its products abstracted as the RTL proof does (a product
+/// by a constant `c·2^k` as the product by `c` shifted: synthesis writes
+/// it so), except those numbered in `keep`, and the products that are
+/// whole function bodies.
+fn abstracted(
+    query: &str,
+    keep: &HashSet<usize>,
+) -> anyhow::Result<(String, Vec<crate::smt::ProductSite>)> {
+    let (abs, _, sites) = crate::smt::abstract_products_sites(query, true, keep)?;
+    let abs = abs.replacen(
         "(set-logic QF_BV)",
         &format!(
             "(set-logic QF_UFBV)\n{}",
             crate::smt::product_declarations()
         ),
         1,
-    ))
+    );
+    Ok((abs, sites))
+}
+
+/// What [`solve_refined`] asks of a model whose products are all exact.
+type Confirm<'a> = dyn Fn(&[(SExpr, SExpr)]) -> anyhow::Result<Reply> + 'a;
+
+/// `query` (one `check-sat`) under the product abstraction, refined: when
+/// a model gives an abstracted product a value that is not the product of
+/// its operands' values (in some state `<p><k>`, `p` in `states`, `k` in
+/// `cycles`), that product is made exact and the query asked again. A
+/// model whose read-back products are all exact goes to `confirm`, whose
+/// `Sat` is the answer; otherwise the query is asked with every product
+/// exact. Returns the reply and how many products stayed abstract.
+fn solve_refined(
+    solver: Solver,
+    query: &str,
+    states: &[&str],
+    cycles: std::ops::RangeInclusive<u32>,
+    left: &dyn Fn() -> u64,
+    confirm: &Confirm,
+) -> anyhow::Result<(Reply, usize)> {
+    let mut keep = HashSet::new();
+    loop {
+        let (abs, sites) = abstracted(query, &keep)?;
+        let live: Vec<&crate::smt::ProductSite> =
+            sites.iter().filter(|s| !keep.contains(&s.number)).collect();
+        // Each live product's operands as functions of the state, and the
+        // terms to read back: (number, width, product, a, b).
+        let mut defs = String::new();
+        let mut terms = Vec::new();
+        for site in &live {
+            let w = site.width;
+            for (x, t) in [("a", &site.a), ("b", &site.b)] {
+                let _ = writeln!(
+                    defs,
+                    "(define-fun fxs_site{}_{x} (({} {})) (_ BitVec {w}) {t})",
+                    site.number, site.arg, site.arg_sort
+                );
+            }
+            for p in states {
+                for k in cycles.clone() {
+                    let at = |f: &str| format!("({f} {p}{k})");
+                    terms.push((
+                        site.number,
+                        w,
+                        at(&format!("|{}|", site.function)),
+                        at(&format!("fxs_site{}_a", site.number)),
+                        at(&format!("fxs_site{}_b", site.number)),
+                    ));
+                }
+            }
+        }
+        let gv: Vec<&str> = terms
+            .iter()
+            .flat_map(|(_, _, p, a, b)| [p.as_str(), a.as_str(), b.as_str()])
+            .collect();
+        let mut script = abs.replacen("(check-sat)", &format!("{defs}(check-sat)"), 1);
+        if !gv.is_empty() {
+            script = if script.contains("(get-value (") {
+                script.replacen("(get-value (", &format!("(get-value ({} ", gv.join(" ")), 1)
+            } else {
+                format!("{}\n(get-value ({}))\n", script.trim_end(), gv.join(" "))
+            };
+        }
+        let reply = solver.check(&script, left())?;
+        let Reply::Sat(pairs) = reply else {
+            return Ok((reply, live.len()));
+        };
+        let val = |t: &str| {
+            pairs
+                .iter()
+                .find(|(k, _)| k.to_string() == t)
+                .and_then(|(_, v)| v.bits())
+                .map(|(b, _)| b)
+        };
+        let mut wrong = HashSet::new();
+        for (n, w, p, a, b) in &terms {
+            if let (Some(p), Some(a), Some(b)) = (val(p), val(a), val(b)) {
+                let mask = if *w >= 128 {
+                    u128::MAX
+                } else {
+                    (1u128 << w) - 1
+                };
+                if a.wrapping_mul(b) & mask != p & mask {
+                    wrong.insert(*n);
+                }
+            }
+        }
+        if wrong.is_empty() {
+            return match confirm(&pairs)? {
+                Reply::Sat(p) => Ok((Reply::Sat(p), live.len())),
+                _ => Ok((solver.check(query, left())?, 0)),
+            };
+        }
+        keep.extend(wrong);
+    }
 }
 
 /// Prove the netlist in `netlist` equivalent to `m`'s RTL (scratch files in
@@ -281,38 +385,26 @@ pub fn prove(
             timeout.saturating_sub(t0.elapsed().as_secs()).max(1)
         }
     };
-    let (abs_reset, abs_window) = (abstracted(&from_reset)?, abstracted(&window)?);
     if let Some(d) = std::env::var_os("FXSHADE_SMT_DUMP") {
         let d = Path::new(&d);
-        for (what, q) in [
-            ("reset", &from_reset),
-            ("reset-abstract", &abs_reset),
-            ("window", &window),
-            ("window-abstract", &abs_window),
-        ] {
+        for (what, q) in [("reset", &from_reset), ("window", &window)] {
             let _ = std::fs::write(d.join(format!("{}-netlist-{what}.smt2", out.module)), q);
         }
     }
-    out.products = abs_reset.matches("(fxs_mulc ").count();
-    // From reset: under the abstraction; a difference there is checked on
-    // the real products with its inputs, then with every input free.
-    let base = match solver.check(&abs_reset, left())? {
-        Reply::Sat(pairs) => {
-            let mut fix = String::new();
-            for (t, v) in &pairs {
-                if t.to_string().contains("|fxs_miter_n in_") {
-                    let _ = writeln!(fix, "(assert (= {t} {v}))");
-                }
-            }
-            let concrete =
-                from_reset.replacen("\n(check-sat)\n", &format!("\n{fix}(check-sat)\n"), 1);
-            match solver.check(&concrete, left())? {
-                Reply::Sat(p) => Reply::Sat(p),
-                _ => solver.check(&from_reset, left())?,
+    // From reset: a model whose products are all exact is checked on the
+    // circuit with its inputs fixed (the free initial state aside).
+    let confirm = |pairs: &[(SExpr, SExpr)]| -> anyhow::Result<Reply> {
+        let mut fix = String::new();
+        for (t, v) in pairs {
+            if t.to_string().contains("|fxs_miter_n in_") {
+                let _ = writeln!(fix, "(assert (= {t} {v}))");
             }
         }
-        r => r,
+        let q = from_reset.replacen("\n(check-sat)\n", &format!("\n{fix}(check-sat)\n"), 1);
+        solver.check(&q, left())
     };
+    let (base, n) = solve_refined(solver, &from_reset, &["s"], 0..=depth, &left, &confirm)?;
+    out.products = n;
     match base {
         Reply::Sat(pairs) => {
             out.verdict = Verdict::Counterexample;
@@ -322,12 +414,11 @@ pub fn prove(
             out.reason = Some(format!("from reset: {} answered {why}", solver.name()));
         }
         Reply::Unsat => {
-            // The window: under the abstraction (the same function of the
-            // same operands in both runs), else on the real products.
-            let w = match solver.check(&abs_window, left())? {
-                Reply::Sat(_) => solver.check(&window, left())?,
-                r => r,
-            };
+            // The window: a model with every product exact is a real
+            // dependence on the state.
+            let (w, _) = solve_refined(solver, &window, &["s", "r"], 1..=depth, &left, &|p| {
+                Ok(Reply::Sat(p.to_vec()))
+            })?;
             match w {
                 Reply::Unsat => out.verdict = Verdict::Proved,
                 Reply::Sat(_) => {
@@ -350,8 +441,6 @@ pub fn prove(
     Ok(out)
 }
 
-/// The first cycle where the two differ, from a model of the query from
-/// reset: the inputs of every cycle up to it, and both circuits' outputs.
 /// A port's code from its bits: two's complement when the field it
 /// carries is signed (a port `n_x_i` carries field `nx`: names compared
 /// without `_` and the `_i`/`_o` suffix); other ports as unsigned bits.
@@ -373,6 +462,8 @@ fn code(m: &Module, port: &str, bits: i128) -> i128 {
     }
 }
 
+/// The first cycle where the two differ, from a model of the query from
+/// reset: the inputs of every cycle up to it, and both circuits' outputs.
 fn counterexample(
     m: &Module,
     pairs: &[(crate::smt::SExpr, crate::smt::SExpr)],
@@ -434,4 +525,33 @@ fn counterexample(
         }
     }
     c
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `6·x` against `2x + 4x` as an adder tree: the abstraction admits a
+    /// difference (the product is any function of `x`), the refinement
+    /// finds the product's value wrong in the model, makes it exact and
+    /// proves the two equal.
+    #[test]
+    fn refinement_makes_a_wrongly_valued_product_exact() {
+        let q = "(set-logic QF_BV)\n(define-sort S () (_ BitVec 8))\n\
+                 (define-fun x ((state S)) (_ BitVec 8) state)\n\
+                 (define-fun p ((state S)) (_ BitVec 8) (bvmul (x state) #x06))\n\
+                 (declare-const s0 S)\n\
+                 (assert (not (= (p s0) (bvadd (bvshl (x s0) #x01) (bvshl (x s0) #x02)))))\n\
+                 (check-sat)\n";
+        let solver = Solver::Bitwuzla;
+        let (abs, sites) = abstracted(q, &HashSet::new()).unwrap();
+        assert_eq!(sites.len(), 1);
+        assert!(matches!(solver.check(&abs, 0).unwrap(), Reply::Sat(_)));
+        let (r, abstract_left) = solve_refined(solver, q, &["s"], 0..=0, &|| 0, &|p| {
+            Ok(Reply::Sat(p.to_vec()))
+        })
+        .unwrap();
+        assert_eq!(r, Reply::Unsat);
+        assert_eq!(abstract_left, 0);
+    }
 }

@@ -403,11 +403,64 @@ pub fn abstract_products_with(
     script: &str,
     odd_constants: bool,
 ) -> anyhow::Result<(String, usize)> {
+    abstract_products_keep(script, odd_constants, &std::collections::HashSet::new())
+}
+
+/// As [`abstract_products_with`], the products numbered in `keep` left as
+/// they are. Products are numbered in the order they appear, every
+/// product [`abstract_products`] would abstract counted (kept or not), so
+/// a number names the same product in every call on one script.
+pub fn abstract_products_keep(
+    script: &str,
+    odd_constants: bool,
+    keep: &std::collections::HashSet<usize>,
+) -> anyhow::Result<(String, usize)> {
+    let (out, n, _) = abstract_products_sites(script, odd_constants, keep)?;
+    Ok((out, n))
+}
+
+/// A product [`abstract_products_sites`] found that is the whole body of
+/// a function of one argument (`(define-fun |f| ((state S)) (_ BitVec w)
+/// (bvmul a b))`, as Yosys writes a `$mul` cell): its number, the
+/// function, and its operands as terms of that argument (abstracted as
+/// the script is).
+#[derive(Clone, Debug)]
+pub struct ProductSite {
+    /// The product's number (see [`abstract_products_keep`]).
+    pub number: usize,
+    /// The function whose body it is.
+    pub function: String,
+    /// The function's argument.
+    pub arg: String,
+    /// Its sort.
+    pub arg_sort: String,
+    /// The operands.
+    pub a: SExpr,
+    /// The second operand.
+    pub b: SExpr,
+    /// Width of the operands and the product.
+    pub width: u32,
+}
+
+/// As [`abstract_products_keep`], with the products that are whole
+/// function bodies listed.
+pub fn abstract_products_sites(
+    script: &str,
+    odd_constants: bool,
+    keep: &std::collections::HashSet<usize>,
+) -> anyhow::Result<(String, usize, Vec<ProductSite>)> {
+    let mut ctx = MulCtx {
+        odd: odd_constants,
+        keep,
+        site: 0,
+        count: 0,
+        body: None,
+        sites: Vec::new(),
+    };
     let exprs = SExpr::parse_all(script)?;
     let mut globals: std::collections::HashMap<String, u32> = std::collections::HashMap::new();
     let mut sorts: std::collections::HashMap<String, u32> = std::collections::HashMap::new();
     let mut out = String::with_capacity(script.len() + script.len() / 4);
-    let mut count = 0;
     for e in exprs {
         let e = match (e.head(), &e) {
             (Some("define-sort"), SExpr::List(l)) if l.len() == 4 => {
@@ -444,7 +497,21 @@ pub fn abstract_products_with(
                         }
                     }
                 }
-                let body = rewrite_mul(&l[4], &globals, &mut locals, &mut count, odd_constants);
+                // A one-argument function whose body is a product.
+                ctx.body = match (&l[2], l[1].atom()) {
+                    (SExpr::List(args), Some(f)) if args.len() == 1 => match &args[0] {
+                        SExpr::List(p) if p.len() == 2 => Some((
+                            f.trim_matches('|').to_string(),
+                            p[0].to_string(),
+                            p[1].to_string(),
+                            &l[4] as *const SExpr,
+                        )),
+                        _ => None,
+                    },
+                    _ => None,
+                };
+                let body = rewrite_mul(&l[4], &globals, &mut locals, &mut ctx);
+                ctx.body = None;
                 if let (Some(n), Some(w)) = (l[1].atom(), sort_width(&l[3], &sorts)) {
                     globals.insert(n.to_string(), w);
                 }
@@ -461,8 +528,7 @@ pub fn abstract_products_with(
                     &l[1],
                     &globals,
                     &mut std::collections::HashMap::new(),
-                    &mut count,
-                    odd_constants,
+                    &mut ctx,
                 );
                 SExpr::List(vec![l[0].clone(), body])
             }
@@ -471,7 +537,7 @@ pub fn abstract_products_with(
         out += &e.to_string();
         out.push('\n');
     }
-    Ok((out, count))
+    Ok((out, ctx.count, ctx.sites))
 }
 
 /// The width of a bit-vector sort (`(_ BitVec w)` or a defined sort).
@@ -598,13 +664,25 @@ fn term_width(
     }
 }
 
+/// What [`rewrite_mul`] carries: the options, the next product's number
+/// and how many it abstracted.
+struct MulCtx<'a> {
+    odd: bool,
+    keep: &'a std::collections::HashSet<usize>,
+    site: usize,
+    count: usize,
+    /// The function whose body is being rewritten, its argument, and the
+    /// body (a product there is a site).
+    body: Option<(String, String, String, *const SExpr)>,
+    sites: Vec<ProductSite>,
+}
+
 /// [`abstract_products`] on one term.
 fn rewrite_mul(
     t: &SExpr,
     globals: &std::collections::HashMap<String, u32>,
     locals: &mut std::collections::HashMap<String, u32>,
-    count: &mut usize,
-    odd: bool,
+    ctx: &mut MulCtx,
 ) -> SExpr {
     let SExpr::List(l) = t else {
         return t.clone();
@@ -617,7 +695,7 @@ fn rewrite_mul(
             for b in bs {
                 if let SExpr::List(p) = b {
                     if p.len() == 2 {
-                        let x = rewrite_mul(&p[1], globals, locals, count, odd);
+                        let x = rewrite_mul(&p[1], globals, locals, ctx);
                         if let (Some(n), Some(bw)) =
                             (p[0].atom(), term_width(&p[1], globals, locals))
                         {
@@ -630,12 +708,12 @@ fn rewrite_mul(
                 binds.push(b.clone());
             }
         }
-        let body = rewrite_mul(&l[2], globals, &mut inner, count, odd);
+        let body = rewrite_mul(&l[2], globals, &mut inner, ctx);
         return SExpr::List(vec![l[0].clone(), SExpr::List(binds), body]);
     }
     let items: Vec<SExpr> = l
         .iter()
-        .map(|x| rewrite_mul(x, globals, locals, count, odd))
+        .map(|x| rewrite_mul(x, globals, locals, ctx))
         .collect();
     // A product with an operand of at most 2 significant bits is a
     // selection (or a negation): left to the solver, as a synthesizer
@@ -645,7 +723,23 @@ fn rewrite_mul(
             || significant_bits(&l[2], globals, locals).is_some_and(|b| b <= 2));
     if items.len() == 3 && items[0].atom() == Some("bvmul") && !narrow {
         if let Some(w) = term_width(&l[1], globals, locals).filter(|&w| w <= PRODUCT_OPERAND_BITS) {
-            *count += 1;
+            ctx.site += 1;
+            if let Some((f, arg, sort, _)) = ctx.body.as_ref().filter(|b| std::ptr::eq(b.3, t)) {
+                ctx.sites.push(ProductSite {
+                    number: ctx.site - 1,
+                    function: f.clone(),
+                    arg: arg.clone(),
+                    arg_sort: sort.clone(),
+                    a: items[1].clone(),
+                    b: items[2].clone(),
+                    width: w,
+                });
+            }
+            if ctx.keep.contains(&(ctx.site - 1)) {
+                return SExpr::List(items);
+            }
+            ctx.count += 1;
+            let odd = ctx.odd;
             let ext = |x: &SExpr| {
                 if w == PRODUCT_OPERAND_BITS {
                     x.to_string()
@@ -761,6 +855,33 @@ mod tests {
             assert_eq!(ask(true), Reply::Unsat, "{c}");
             assert!(matches!(ask(false), Reply::Sat(_)), "{c}");
         }
+    }
+
+    /// Products are numbered in order, kept ones left as `bvmul`, and the
+    /// products that are a one-argument function's whole body are listed
+    /// with their operands (a nested one is not).
+    #[test]
+    fn product_sites_are_numbered_listed_and_kept() {
+        let q = "(set-logic QF_BV)\n(declare-sort S 0)\n\
+                 (declare-fun x (S) (_ BitVec 8))\n(declare-fun y (S) (_ BitVec 8))\n\
+                 (define-fun p ((state S)) (_ BitVec 8) (bvmul (x state) (y state)))\n\
+                 (define-fun q ((state S)) (_ BitVec 8) (bvadd (bvmul (x state) #x03) #x01))\n\
+                 (check-sat)\n";
+        let none = std::collections::HashSet::new();
+        let (abs, n, sites) = abstract_products_sites(q, false, &none).unwrap();
+        assert_eq!(n, 2);
+        assert!(!abs.contains("bvmul"));
+        assert_eq!(sites.len(), 1, "{sites:?}");
+        let s = &sites[0];
+        assert_eq!((s.number, s.function.as_str(), s.width), (0, "p", 8));
+        assert_eq!((s.arg.as_str(), s.arg_sort.as_str()), ("state", "S"));
+        assert_eq!(s.a.to_string(), "(x state)");
+        assert_eq!(s.b.to_string(), "(y state)");
+        let keep: std::collections::HashSet<usize> = [1].into_iter().collect();
+        let (abs, n, _) = abstract_products_sites(q, false, &keep).unwrap();
+        assert_eq!(n, 1);
+        assert_eq!(abs.matches("bvmul").count(), 1);
+        assert!(abs.contains("(bvmul (x state) #x03)"), "{abs}");
     }
 
     /// Products abstracted: the same product written two ways (operands
