@@ -1,10 +1,112 @@
-//! Progress bars on long work (drawn only when stderr is a terminal).
+//! Progress bars on long work: drawn when stderr is a terminal, else a
+//! plain line of the bar's state every [`LOG_EVERY`] (so a log of a long
+//! run, `2> log` or a batch job's output, shows it is alive and how far
+//! it is, without a line per redraw).
 
-use indicatif::{ProgressBar, ProgressStyle};
+use std::io::{IsTerminal, Write};
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
+
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle, TermLike};
+
+/// How often a bar writes its state as a line when stderr is not a
+/// terminal (the first line after this long: short work writes none).
+pub const LOG_EVERY: Duration = Duration::from_secs(10);
+
+/// A draw target that keeps the last drawn state and writes it as one
+/// line to `out` when `every` has passed since the last line (or since it
+/// was made).
+struct LogLines {
+    state: Mutex<(String, Instant)>,
+    every: Duration,
+    out: Mutex<Box<dyn Write + Send>>,
+}
+
+impl std::fmt::Debug for LogLines {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("LogLines")
+            .field("every", &self.every)
+            .finish()
+    }
+}
+
+impl LogLines {
+    fn new(every: Duration, out: Box<dyn Write + Send>) -> Self {
+        LogLines {
+            state: Mutex::new((String::new(), Instant::now())),
+            every,
+            out: Mutex::new(out),
+        }
+    }
+}
+
+impl TermLike for LogLines {
+    fn width(&self) -> u16 {
+        100
+    }
+    fn move_cursor_up(&self, _: usize) -> std::io::Result<()> {
+        Ok(())
+    }
+    fn move_cursor_down(&self, _: usize) -> std::io::Result<()> {
+        Ok(())
+    }
+    fn move_cursor_right(&self, _: usize) -> std::io::Result<()> {
+        Ok(())
+    }
+    fn move_cursor_left(&self, _: usize) -> std::io::Result<()> {
+        Ok(())
+    }
+    fn write_line(&self, s: &str) -> std::io::Result<()> {
+        self.write_str(s)?;
+        self.write_str(" | ")
+    }
+    fn write_str(&self, s: &str) -> std::io::Result<()> {
+        if let Ok(mut st) = self.state.lock() {
+            st.0.push_str(s);
+        }
+        Ok(())
+    }
+    fn clear_line(&self) -> std::io::Result<()> {
+        if let Ok(mut st) = self.state.lock() {
+            st.0.clear();
+        }
+        Ok(())
+    }
+    /// The end of a redraw: the state written as a line when it is due;
+    /// a closed or full stderr is ignored (progress is not a result).
+    fn flush(&self) -> std::io::Result<()> {
+        let Ok(mut st) = self.state.lock() else {
+            return Ok(());
+        };
+        let line = st.0.trim().trim_end_matches('|').trim().to_string();
+        st.0.clear();
+        if !line.is_empty() && st.1.elapsed() >= self.every {
+            st.1 = Instant::now();
+            if let Ok(mut out) = self.out.lock() {
+                let _ = writeln!(out, "{line}");
+                let _ = out.flush();
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Where a bar draws: stderr when it is a terminal, else a line every
+/// [`LOG_EVERY`].
+fn target() -> ProgressDrawTarget {
+    if std::io::stderr().is_terminal() {
+        ProgressDrawTarget::stderr()
+    } else {
+        ProgressDrawTarget::term_like(Box::new(LogLines::new(
+            LOG_EVERY,
+            Box::new(std::io::stderr()),
+        )))
+    }
+}
 
 /// A bar of `len` steps labelled `what`.
 pub fn bar(len: u64, what: &str) -> ProgressBar {
-    let b = ProgressBar::new(len);
+    let b = ProgressBar::with_draw_target(Some(len), target());
     b.set_style(
         ProgressStyle::with_template("{prefix} [{bar:30}] {pos}/{len} {msg} ({elapsed})")
             .expect("valid template")
@@ -16,7 +118,7 @@ pub fn bar(len: u64, what: &str) -> ProgressBar {
 
 /// A bar of `len` steps labelled `what`, with the rate and the time left.
 pub fn bar_eta(len: u64, what: &str) -> ProgressBar {
-    let b = ProgressBar::new(len);
+    let b = ProgressBar::with_draw_target(Some(len), target());
     b.set_style(
         ProgressStyle::with_template(
             "{prefix} [{bar:30}] {pos}/{len} {msg} ({elapsed}, about {eta} left)",
@@ -31,7 +133,7 @@ pub fn bar_eta(len: u64, what: &str) -> ProgressBar {
 /// A spinner for work of unknown length labelled `what`: its message says
 /// which step runs, with the time elapsed.
 pub fn spinner(what: &str) -> ProgressBar {
-    let b = ProgressBar::new_spinner();
+    let b = ProgressBar::with_draw_target(None, target());
     b.set_style(
         ProgressStyle::with_template("{prefix} {spinner} {msg} ({elapsed})")
             .expect("valid template"),
@@ -39,4 +141,52 @@ pub fn spinner(what: &str) -> ProgressBar {
     b.set_prefix(what.to_string());
     b.enable_steady_tick(std::time::Duration::from_millis(200));
     b
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::Arc;
+
+    /// A writer into a shared buffer.
+    #[derive(Clone, Default)]
+    struct Shared(Arc<Mutex<Vec<u8>>>);
+    impl Write for Shared {
+        fn write(&mut self, b: &[u8]) -> std::io::Result<usize> {
+            self.0.lock().unwrap().extend_from_slice(b);
+            Ok(b.len())
+        }
+        fn flush(&mut self) -> std::io::Result<()> {
+            Ok(())
+        }
+    }
+
+    /// A bar drawn to a log writes its state as one line when due, and
+    /// nothing before (short work leaves no line).
+    #[test]
+    fn a_bar_in_a_log_is_one_line_when_due() {
+        let out = Shared::default();
+        let log = LogLines::new(Duration::ZERO, Box::new(out.clone()));
+        let b =
+            ProgressBar::with_draw_target(Some(3), ProgressDrawTarget::term_like(Box::new(log)));
+        b.set_style(ProgressStyle::with_template("{prefix} {pos}/{len} {msg}").unwrap());
+        b.set_prefix("equiv");
+        b.set_message("polar");
+        b.inc(1);
+        b.finish_and_clear();
+        let text = String::from_utf8(out.0.lock().unwrap().clone()).unwrap();
+        assert!(text.lines().any(|l| l == "equiv 1/3 polar"), "{text:?}");
+        assert!(
+            text.lines().all(|l| !l.is_empty() && !l.contains('\r')),
+            "{text:?}"
+        );
+        // Not due for an hour: nothing is written.
+        let quiet = Shared::default();
+        let log = LogLines::new(Duration::from_secs(3600), Box::new(quiet.clone()));
+        let b =
+            ProgressBar::with_draw_target(Some(3), ProgressDrawTarget::term_like(Box::new(log)));
+        b.inc(2);
+        b.finish();
+        assert!(quiet.0.lock().unwrap().is_empty());
+    }
 }
