@@ -93,15 +93,7 @@ fn miter_smt2(m: &Module, netlist: &Path, dir: &Path) -> anyhow::Result<String> 
          write_smt2 -stbv -wires miter.smt2",
         q(&std::fs::canonicalize(&top)?)
     );
-    std::fs::write(dir.join("miter.ys"), ys).context("cannot write the Yosys script")?;
-    let mut y = std::process::Command::new("yosys");
-    y.current_dir(dir).args(["-q", "-s", "miter.ys"]);
-    let o = crate::proc::run(
-        &mut y,
-        "yosys (netlist miter)",
-        crate::proc::Limit::formal(),
-        None,
-    )?;
+    let o = crate::proc::yosys_script(dir, "miter.ys", &ys, "yosys (netlist miter)")?;
     if !o.status.success() {
         bail!(
             "yosys could not build the miter of {module} and its netlist:\n{}",

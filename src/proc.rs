@@ -10,6 +10,7 @@
 //! are read from the environment here, in one place ([`Limit`]).
 
 use std::io::{Read, Write};
+use std::path::Path;
 use std::process::{Command, ExitStatus, Stdio};
 use std::time::Duration;
 
@@ -210,6 +211,16 @@ pub fn run_ok(cmd: &mut Command, what: &str, limit: Limit) -> anyhow::Result<Str
         bail!("{what} failed ({}):\n{}", o.status, o.text().trim_end());
     }
     Ok(o.text())
+}
+
+/// Write `script` to `dir/name` and run it with Yosys (`yosys -q -s
+/// name`, in `dir`) under the formal tools' limit; `what` names the run in
+/// errors. The caller reads the status and the output.
+pub fn yosys_script(dir: &Path, name: &str, script: &str, what: &str) -> anyhow::Result<Output> {
+    std::fs::write(dir.join(name), script).context("cannot write the Yosys script")?;
+    let mut y = Command::new("yosys");
+    y.current_dir(dir).args(["-q", "-s", name]);
+    run(&mut y, what, Limit::formal(), None)
 }
 
 /// Whether `tool` is installed: `tool arg` run as a probe. `Ok(None)` when

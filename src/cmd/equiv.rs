@@ -206,15 +206,7 @@ pub fn rtl_smt2(module: &str, text: &str, dir: &Path) -> anyhow::Result<String> 
          opt_clean\nmemory -nomap\nmemory_map\nopt_clean\nasync2sync\ndffunmap\n\
          write_smt2 -stbv -wires {smt}\n"
     );
-    std::fs::write(dir.join("equiv.ys"), ys).context("cannot write the Yosys script")?;
-    let mut y = std::process::Command::new("yosys");
-    y.current_dir(dir).args(["-q", "-s", "equiv.ys"]);
-    let o = crate::proc::run(
-        &mut y,
-        "yosys (equivalence model)",
-        crate::proc::Limit::formal(),
-        None,
-    )?;
+    let o = crate::proc::yosys_script(dir, "equiv.ys", &ys, "yosys (equivalence model)")?;
     if !o.status.success() {
         bail!("yosys could not read {module}:\n{}", o.text().trim_end());
     }

@@ -161,15 +161,7 @@ fn prove(
     std::fs::write(dir.join(&file), verilog).context("cannot write the module")?;
     let smt = format!("{module}.smt2");
     let ys = yosys_script(&file, module, &datapath_wires(verilog), &smt);
-    std::fs::write(dir.join("formal.ys"), ys).context("cannot write the Yosys script")?;
-    let mut y = Command::new("yosys");
-    y.current_dir(dir).args(["-q", "-s", "formal.ys"]);
-    let o = crate::proc::run(
-        &mut y,
-        "yosys (formal model)",
-        crate::proc::Limit::formal(),
-        None,
-    )?;
+    let o = crate::proc::yosys_script(dir, "formal.ys", &ys, "yosys (formal model)")?;
     let text = o.text();
     if !o.status.success() {
         bail!("yosys could not build the formal model of {module}:\n{text}");
