@@ -13,6 +13,7 @@ use std::process::Command;
 use std::time::Instant;
 
 use anyhow::{bail, Context};
+use fxshade_model::rtl::testbench::Harness;
 use fxshade_model::rtl::units::RtlUnit;
 use fxshade_model::vectors::{fingerprint, RtlSources, VectorSource};
 
@@ -36,6 +37,9 @@ pub struct Sources {
     pub tb_top: String,
     /// `emitted` or the directory the design files were read from.
     pub origin: String,
+    /// The testbench driven from C++, which Verilator runs instead of the
+    /// Verilog testbench (`None`: the testbench on both simulators).
+    pub harness: Option<Harness>,
 }
 
 impl Sources {
@@ -63,6 +67,7 @@ impl Sources {
                 .collect(),
             tb_top: format!("{}_tb", rtl.module),
             origin: "emitted by fxshade rtl".into(),
+            harness: Some(rtl.harness.clone()),
         }
     }
     /// The same design behind its AXI4-Stream wrapper: the wrapper
@@ -85,6 +90,8 @@ impl Sources {
         ));
         self.tb_top = format!("{m}_axis_tb");
         self.origin += ", behind its AXI4-Stream wrapper";
+        // The wrapper's testbench is Verilog on both simulators.
+        self.harness = None;
         self
     }
     /// Every `*.v` file of `dir` except testbenches (`*_tb.v`) as the
@@ -123,6 +130,7 @@ impl Sources {
         Ok(Sources {
             files,
             tb_top: format!("{}_tb", rtl.module),
+            harness: Some(rtl.harness.clone()),
             origin: format!(
                 "{} ({})",
                 dir.display(),
@@ -263,8 +271,21 @@ fn build_with(
         parts.push(t.as_bytes());
     }
     let quick = quick_build();
+    let harness = match sim {
+        Sim::Verilator => sources.harness.as_ref().map(Harness::files),
+        Sim::Icarus => None,
+    };
+    for (n, t) in harness.iter().flatten() {
+        parts.push(n.as_bytes());
+        parts.push(t.as_bytes());
+    }
     // A new simulator version builds anew.
-    let tag = format!("{}-{}-stream-{trace}-{quick}", sim.name(), sim.version());
+    let tag = format!(
+        "{}-{}-stream-{trace}-{quick}-{}",
+        sim.name(),
+        sim.version(),
+        if harness.is_some() { "cpp" } else { "tb" }
+    );
     parts.push(tag.as_bytes());
     let key = fingerprint(&parts);
     let root = cache::root()?;
@@ -287,24 +308,44 @@ fn build_with(
     cache::ensure_private_dir(&staging, cache::uid())?;
     let start = Instant::now();
     let result = (|| -> anyhow::Result<()> {
-        let files = write_sources(sources, &staging.join("src"))?;
+        let mut files = write_sources(sources, &staging.join("src"))?;
         match sim {
             Sim::Verilator => {
                 let mut c = Command::new("verilator");
-                c.current_dir(&staging)
-                    .args([
-                        "--binary",
-                        "-j",
-                        "2",
-                        "-O3",
-                        "--x-assign",
-                        "fast",
-                        "--x-initial",
-                        "fast",
-                    ])
-                    .arg("--top-module")
-                    .arg(&sources.tb_top)
-                    .args(["--Mdir", "obj", "-o", "sim"]);
+                c.current_dir(&staging);
+                let top = match (&harness, &sources.harness) {
+                    (Some(h), Some(hs)) => {
+                        // The design files, the shell and the C++ driver
+                        // instead of the Verilog testbench: no timing
+                        // scheduler, records read in bulk.
+                        let tb = staging.join("src").join(format!("{}.v", sources.tb_top));
+                        files.retain(|p| *p != tb);
+                        for (n, t) in h {
+                            let p = staging.join("src").join(n);
+                            std::fs::write(&p, t)
+                                .with_context(|| format!("cannot write {}", p.display()))?;
+                            files.push(p);
+                        }
+                        c.args(["--cc", "--exe", "--build", "--no-timing"]);
+                        hs.top()
+                    }
+                    _ => {
+                        c.arg("--binary");
+                        sources.tb_top.clone()
+                    }
+                };
+                c.args([
+                    "-j",
+                    "2",
+                    "-O3",
+                    "--x-assign",
+                    "fast",
+                    "--x-initial",
+                    "fast",
+                ])
+                .arg("--top-module")
+                .arg(&top)
+                .args(["--Mdir", "obj", "-o", "sim"]);
                 if trace {
                     c.arg("--trace-fst");
                 }

@@ -60,6 +60,8 @@ pub struct RtlSources {
     pub verilog: String,
     /// The testbench's Verilog.
     pub testbench: String,
+    /// The Verilator harness: the same testbench driven from C++.
+    pub harness: crate::rtl::testbench::Harness,
     /// Cycles from input to output.
     pub latency: u32,
     /// The module's set-up ports (empty: every field travels with the
@@ -320,6 +322,8 @@ impl VectorSet {
                 "inputs_bin": "inputs.bin", "expected_bin": "expected.bin",
                 "rtl": format!("{}.v", self.rtl.module),
                 "testbench": format!("{}_tb.v", self.rtl.module),
+                "verilator_shell": format!("{}_shell.v", self.rtl.module),
+                "verilator_main": format!("{}_main.cpp", self.rtl.module),
                 "config": "config.toml",
             },
         })
@@ -403,6 +407,9 @@ pub fn write_set(
     d.write(&p("manifest.json"), m.as_bytes())?;
     d.write(&p("config.toml"), config_toml.as_bytes())?;
     for (name, text) in rtl.files() {
+        d.write(&p(&name), text.as_bytes())?;
+    }
+    for (name, text) in rtl.harness.files() {
         d.write(&p(&name), text.as_bytes())?;
     }
     let io = |path: &Path| {

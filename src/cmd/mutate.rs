@@ -212,6 +212,7 @@ fn run_variant(
         ],
         tb_top: format!("{}_tb", schema.module),
         origin: format!("mutation schema of {} ({variant})", u.name),
+        harness: Some(schema.harness.clone()),
     };
     let mut results = Vec::new();
     // Mutant 0 is the design itself: it must pass.

@@ -292,7 +292,7 @@ fn the_testbench_catches_extra_wrong_and_missing_records() {
     let exp = v.join("expected.bin");
     let good = std::fs::read(&exp).unwrap();
     let rb = good.len() / 300;
-    for sim in ["icarus", "verilator"] {
+    for sim in ["icarus", "verilator", "verilator-cpp"] {
         // An extra record of all ones.
         std::fs::write(&exp, [good.clone(), vec![0xff; rb]].concat()).unwrap();
         let out = run_tb(sim, dir.path(), &v, 300);

@@ -206,6 +206,9 @@ pub struct Emitted {
     pub verilog: String,
     /// A self-checking testbench (`<module>_tb.v`) for `fxshade vectors`.
     pub testbench: String,
+    /// The same checks driven from C++ for Verilator (`<module>_shell.v`,
+    /// `<module>_main.cpp`).
+    pub harness: testbench::Harness,
     /// Cycles from an input transfer to its output (no stalls).
     pub latency: u32,
     /// Where the pipeline registers went.
@@ -2165,6 +2168,14 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
         !muts.is_empty(),
         &setup,
     );
+    let harness = testbench::harness(
+        &d.module,
+        &in_fields,
+        &out_fields,
+        nf,
+        !muts.is_empty(),
+        &setup,
+    );
     // Cut points: the first name of each live operation that is a signal
     // of its own.
     let mut cuts = Vec::new();
@@ -2184,6 +2195,7 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
         module: d.module.clone(),
         verilog: v,
         testbench,
+        harness,
         latency,
         pipelining: if muts.is_empty() {
             d.pipelining

@@ -157,6 +157,34 @@ pub fn run_tb(sim: &str, work: &Path, vectors: &Path, n: usize) -> String {
                     .unwrap(),
             )
         }
+        "verilator-cpp" => {
+            // The C++ harness `vectors` writes beside the testbench, built
+            // as its manifest says (once per work directory: only the
+            // vector files change between runs).
+            let obj = work.join("objcpp");
+            if !obj.join("sim").exists() {
+                let o = Command::new("verilator")
+                    .args(["--cc", "--exe", "--build", "--no-timing", "-j", "2"])
+                    .arg("--top-module")
+                    .arg(format!("{module}_shell"))
+                    .arg("--Mdir")
+                    .arg(&obj)
+                    .args(["-o", "sim"])
+                    .arg(&files[0])
+                    .arg(vectors.join(format!("{module}_shell.v")))
+                    .arg(vectors.join(format!("{module}_main.cpp")))
+                    .output()
+                    .expect("verilator runs (install: apt-get install verilator)");
+                assert!(o.status.success(), "{}", text(&o));
+            }
+            text(
+                &Command::new(obj.join("sim"))
+                    .arg(format!("+N={n}"))
+                    .current_dir(vectors)
+                    .output()
+                    .unwrap(),
+            )
+        }
         _ => {
             let obj = work.join("obj");
             let o = Command::new("verilator")
@@ -189,7 +217,8 @@ pub fn run_tb(sim: &str, work: &Path, vectors: &Path, n: usize) -> String {
 /// that hold more or fewer vectors than `+N`, a truncated expected file, and
 /// one flipped bit (decoded in the report).
 pub fn testbench_checks(unit: &str) {
-    for sim in ["icarus", "verilator"] {
+    let mut decoded = Vec::new();
+    for sim in ["icarus", "verilator", "verilator-cpp"] {
         let work = tempfile::tempdir().unwrap();
         let vec_dir = work.path().join("v");
         let o = fxshade(&[
@@ -231,6 +260,21 @@ pub fn testbench_checks(unit: &str) {
             out.contains("299 passed, 1 failed") && out.contains("mismatch at vector 200"),
             "{unit} {sim}: {out}"
         );
+        // The mismatch decoded field by field: the C++ driver's lines are
+        // the Verilog testbench's `$display` lines.
+        let lines: Vec<&str> = out
+            .lines()
+            .skip_while(|l| !l.starts_with("mismatch at vector 200"))
+            .take(4)
+            .collect();
+        assert_eq!(lines.len(), 4, "{unit} {sim}: {out}");
+        decoded.push((sim, lines.join("\n")));
+    }
+    for (sim, d) in &decoded[1..] {
+        assert_eq!(
+            d, &decoded[0].1,
+            "{unit}: {sim} decodes a mismatch as icarus does not"
+        );
     }
 }
 
@@ -266,6 +310,8 @@ pub fn golden_checks(unit: &str) {
         "expected.bin".into(),
         format!("{module}.v"),
         format!("{module}_tb.v"),
+        format!("{module}_shell.v"),
+        format!("{module}_main.cpp"),
         "config.toml".into(),
     ] {
         let a = std::fs::read(golden.join(&f)).unwrap();
