@@ -227,6 +227,14 @@ pub struct Build {
     pub seconds: f64,
 }
 
+impl Build {
+    /// The program a Verilator build runs (`obj/sim`), or the file `vvp`
+    /// loads for Icarus.
+    pub fn binary(&self, sim: Sim) -> PathBuf {
+        self.dir.join(binary_rel(sim))
+    }
+}
+
 /// The file of a build that is run: the Verilator executable, or the
 /// Icarus program `vvp` loads.
 fn binary_rel(sim: Sim) -> &'static str {
@@ -281,7 +289,7 @@ fn build_with(
     }
     // A new simulator version builds anew.
     let tag = format!(
-        "{}-{}-stream-{trace}-{quick}-{}",
+        "{}-{}-stream-{trace}-{quick}-{}-O2",
         sim.name(),
         sim.version(),
         if harness.is_some() { "cpp" } else { "tb" }
@@ -359,6 +367,10 @@ fn build_with(
                     // Compile the model without optimization: a quarter less
                     // build time, a slower simulation (for many short runs).
                     c.args(["-MAKEFLAGS", "OPT_FAST=-O0 OPT_SLOW=-O0"]);
+                } else {
+                    // The model's per-cycle code and the driver at -O2
+                    // (Verilator's default is -Os).
+                    c.args(["-MAKEFLAGS", "OPT_FAST=-O2"]);
                 }
                 c.args(&files);
                 run_tool(&mut c, "verilator")?;

@@ -31,6 +31,7 @@
 // clock falls. Ends with `P passed, F failed` (exit status 0 only when
 // every vector passed).
 
+#include <cerrno>
 #include <cinttypes>
 #include <cstdint>
 #include <cstdio>
@@ -38,6 +39,8 @@
 #include <cstring>
 #include <string>
 #include <vector>
+
+#include <unistd.h>
 
 #include "verilated.h"
 #if VM_TRACE
@@ -181,6 +184,40 @@ static void hex(std::FILE* f, const Words& x, int width) {
     std::fputc('\n', f);
 }
 
+// Records read in bulk: one read of what the file or pipe holds (up to a
+// megabyte) at a time, a pointer into the buffer per record.
+struct Reader {
+    std::FILE* f = nullptr;
+    std::vector<unsigned char> buf = std::vector<unsigned char>(1 << 20);
+    size_t pos = 0, len = 0;
+    bool eof = false;
+
+    // The next `rb` bytes, or null when fewer are left (`got` says how many).
+    const unsigned char* next(size_t rb, size_t& got) {
+        if (len - pos < rb && !eof) {
+            std::memmove(buf.data(), buf.data() + pos, len - pos);
+            len -= pos;
+            pos = 0;
+            while (len < rb && !eof) {
+                // read(2), not fread: a pipe gives what it holds, and the
+                // other pipe's writer is never left waiting on us.
+                const ssize_t r = ::read(fileno(f), buf.data() + len, buf.size() - len);
+                if (r < 0 && errno == EINTR) continue;
+                if (r <= 0) eof = true;
+                else len += size_t(r);
+            }
+        }
+        if (len - pos < rb) {
+            got = len - pos;
+            return nullptr;
+        }
+        const unsigned char* p = buf.data() + pos;
+        pos += rb;
+        got = rb;
+        return p;
+    }
+};
+
 static bool plusarg(int argc, char** argv, const char* name, std::string& v) {
     const size_t n = std::strlen(name);
     for (int i = 1; i < argc; ++i) {
@@ -210,7 +247,7 @@ class Run {
 
   private:
     int finish(uint64_t passed, uint64_t failed);
-    bool read(std::FILE* f, unsigned char* buf, int rb, const char* what, int64_t k);
+    const unsigned char* read(Reader& r, int rb, const char* what, int64_t k);
     void step();
 
     int argc_;
@@ -248,13 +285,14 @@ int Run::finish(uint64_t passed, uint64_t failed) {
     return failed == 0 ? 0 : 1;
 }
 
-bool Run::read(std::FILE* f, unsigned char* buf, int rb, const char* what, int64_t k) {
-    const size_t got = std::fread(buf, 1, size_t(rb), f);
-    if (got == size_t(rb)) return true;
+const unsigned char* Run::read(Reader& r, int rb, const char* what, int64_t k) {
+    size_t got = 0;
+    const unsigned char* p = r.next(size_t(rb), got);
+    if (p) return p;
     std::printf("error: %s holds %" PRId64 " of the %lld vectors (record %" PRId64
                 " is %zu of %d bytes)\n",
                 what, k, n_, k, got, rb);
-    return false;
+    return nullptr;
 }
 
 int Run::main() {
@@ -283,9 +321,9 @@ int Run::main() {
                     n);
         return 1;
     }
-    // Records are read in bulk: one system call per megabyte.
-    std::setvbuf(fin, nullptr, _IOFBF, 1 << 20);
-    std::setvbuf(fexp, nullptr, _IOFBF, 1 << 20);
+    Reader rin, rexp;
+    rin.f = fin;
+    rexp.f = fexp;
     std::string trace;
     const bool tracing = plusarg(argc_, argv_, "TRACE", trace);
 #if VM_TRACE
@@ -317,7 +355,6 @@ int Run::main() {
     Rng rng{uint64_t(seed) * 0x2545f4914f6cdd1dULL + 1};
     std::vector<Words> in_ring(RING);
     std::vector<int64_t> in_cycle(RING);
-    unsigned char rec[IN_RB > OUT_RB ? IN_RB : OUT_RB];
     Words x{}, next_data{}, in_data{}, held_data{}, out{}, want{};
     bool in_valid = false, out_ready = false, held = false, next_loaded = false;
     int64_t in_idx = 0, out_idx = 0, cycle = 0, lat_min = int64_t(1) << 30, lat_max = 0;
@@ -351,7 +388,8 @@ int Run::main() {
         // The outputs of this cycle, settled with the clock low.
         const bool in_ready = top_->in_ready;
         const bool out_valid = top_->out_valid;
-        get(top_->out_data, out, OUT_W);
+        // The data matter only with valid (checked, or held under stall).
+        if (out_valid) get(top_->out_data, out, OUT_W);
         // Input side: valid stays high until the transfer.
         int64_t nxt = in_idx;
         if (in_valid && in_ready) {
@@ -369,9 +407,8 @@ int Run::main() {
         if (!in_valid || in_ready) {
             if (nxt < n && !next_loaded) {
                 // Read vector nxt's record once, when it is first needed.
-                if (!read(fin, rec, IN_RB, in_file.c_str(), nxt)) {
-                    return finish(passed, uint64_t(n) - passed);
-                }
+                const unsigned char* rec = read(rin, IN_RB, in_file.c_str(), nxt);
+                if (!rec) return finish(passed, uint64_t(n) - passed);
                 from_be(rec, IN_RB, x);
                 const uint32_t want_idx = first32 + uint32_t(nxt);
                 if (bits(x, IN_W, 32) != want_idx || !zero_from(x, IN_W + 32, 8 * IN_RB)) {
@@ -411,11 +448,12 @@ int Run::main() {
             }
             if (drain == 0) {
                 // Nothing may follow the N-th record in either file.
-                if (std::fread(rec, 1, 1, fin) > 0) {
+                size_t left = 0;
+                if (rin.next(1, left) != nullptr) {
                     ++extra;
                     std::printf("error: %s holds more than %lld vectors\n", in_file.c_str(), n);
                 }
-                if (std::fread(rec, 1, 1, fexp) > 0) {
+                if (rexp.next(1, left) != nullptr) {
                     ++extra;
                     std::printf("error: %s holds more than %lld vectors\n", exp_file.c_str(),
                                 n);
@@ -428,9 +466,8 @@ int Run::main() {
             // Output side: compare every transfer, in order.
             quiet = 0;
             if (dump_) hex(dump_, out, OUT_W);
-            if (!read(fexp, rec, OUT_RB, exp_file.c_str(), out_idx)) {
-                return finish(passed, uint64_t(n) - passed);
-            }
+            const unsigned char* rec = read(rexp, OUT_RB, exp_file.c_str(), out_idx);
+            if (!rec) return finish(passed, uint64_t(n) - passed);
             from_be(rec, OUT_RB, want);
             const uint32_t want_idx = first32 + uint32_t(out_idx);
             if (bits(want, OUT_W, 32) != want_idx || !zero_from(want, OUT_W + 32, 8 * OUT_RB)) {

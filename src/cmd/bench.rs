@@ -27,6 +27,10 @@ pub enum BenchCmd {
     /// against the conventional f64 transform (T, B, N given: three dot
     /// products and a normalization, glam) on the same inputs.
     Polar(NormalizeBenchArgs),
+    /// Co-simulation on Verilator: fxshade's harness against a minimal
+    /// C++ harness and the Verilog testbench on the same modules and
+    /// records, and `rtl-check`'s end-to-end rate against simulation only.
+    Cosim(super::bench_cosim::CosimArgs),
 }
 
 /// Options of `bench normalize`.
@@ -332,6 +336,7 @@ pub fn run(cmd: &BenchCmd) -> anyhow::Result<()> {
         BenchCmd::MadChain(a) => a,
         BenchCmd::Normalize(a) => return bench_normalize(a),
         BenchCmd::Polar(a) => return bench_polar(a),
+        BenchCmd::Cosim(a) => return super::bench_cosim::run(a),
     };
     anyhow::ensure!(
         a.inputs > 0 && a.length > 0,

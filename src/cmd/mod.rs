@@ -2,6 +2,7 @@
 
 pub mod bake;
 pub mod bench;
+pub mod bench_cosim;
 pub mod coeffs;
 pub mod config;
 pub mod equiv;

@@ -1073,3 +1073,40 @@ fn dpi_packages_and_scoreboards_pass_verilator_lint_and_slang() {
     }
     assert_eq!(n, 9, "six units, the pipeline top of three variants");
 }
+
+/// `bench cosim` builds fxshade's Verilator harness and the minimal one on
+/// the same module and records, and fails unless both pass every vector;
+/// its JSON names the rates the table prints (no figure is asserted: a
+/// benchmark is not a test of time).
+#[test]
+fn bench_cosim_runs_both_harnesses_on_the_same_vectors() {
+    let o = fxshade(&[
+        "bench",
+        "cosim",
+        "normalize",
+        "--count",
+        "3000",
+        "--repeats",
+        "1",
+        "--no-verilog-tb",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let u = &j["units"][0];
+    assert_eq!(u["unit"], "normalize", "{j}");
+    assert_eq!(u["count"], 3000, "{j}");
+    for k in [
+        "fxshade_per_cpu_second",
+        "minimal_per_cpu_second",
+        "ratio_to_minimal",
+        "simulation_only_per_wall_second",
+        "end_to_end_per_wall_second",
+    ] {
+        assert!(u[k].as_f64().is_some_and(|x| x > 0.0), "{k}: {j}");
+    }
+    // No stalls: one cycle per vector once the pipeline is full.
+    let cpv = u["cycles_per_vector"].as_f64().unwrap();
+    assert!((1.0..1.1).contains(&cpv), "{j}");
+    assert!(u["verilog_tb_per_cpu_second"].is_null(), "{j}");
+}

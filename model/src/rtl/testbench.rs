@@ -284,6 +284,9 @@ pub struct Harness {
     /// The generated part of `<module>_main.cpp`: the model's class, the
     /// widths and the fields a mismatch is decoded by.
     pub prelude: String,
+    /// Build the minimal harness ([`MINIMAL_CPP`], a benchmark baseline)
+    /// instead of the checking driver.
+    pub minimal: bool,
 }
 
 impl Harness {
@@ -302,11 +305,19 @@ impl Harness {
         format!("{}{MINIMAL_CPP}", self.prelude)
     }
 
-    /// `(file name, text)` of the shell and the driver.
+    /// `(file name, text)` of the shell and the driver (the minimal
+    /// harness with [`Self::minimal`]).
     pub fn files(&self) -> [(String, String); 2] {
         [
             (format!("{}_shell.v", self.module), self.shell.clone()),
-            (format!("{}_main.cpp", self.module), self.main()),
+            (
+                format!("{}_main.cpp", self.module),
+                if self.minimal {
+                    self.minimal_main()
+                } else {
+                    self.main()
+                },
+            ),
         ]
     }
 }
@@ -409,5 +420,6 @@ pub fn harness(
         module: module.to_string(),
         shell: s,
         prelude: p,
+        minimal: false,
     }
 }
