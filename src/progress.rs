@@ -15,9 +15,13 @@ pub const LOG_EVERY: Duration = Duration::from_secs(10);
 
 /// A draw target that keeps the last drawn state and writes it as one
 /// line to `out` when `every` has passed since the last line (or since it
-/// was made).
+/// was made), and whenever the bar's step changes (its text other than
+/// counts, bar and elapsed time: a report's or an explore's steps each get
+/// a line as they start, a long count one every `every`).
 struct LogLines {
-    state: Mutex<(String, Instant)>,
+    /// The line being drawn, when the last line was written, and the step
+    /// of the last line drawn.
+    state: Mutex<(String, Instant, Option<String>)>,
     every: Duration,
     out: Mutex<Box<dyn Write + Send>>,
 }
@@ -33,7 +37,7 @@ impl std::fmt::Debug for LogLines {
 impl LogLines {
     fn new(every: Duration, out: Box<dyn Write + Send>) -> Self {
         LogLines {
-            state: Mutex::new((String::new(), Instant::now())),
+            state: Mutex::new((String::new(), Instant::now(), None)),
             every,
             out: Mutex::new(out),
         }
@@ -80,7 +84,14 @@ impl TermLike for LogLines {
         };
         let line = st.0.trim().trim_end_matches('|').trim().to_string();
         st.0.clear();
-        if !line.is_empty() && st.1.elapsed() >= self.every {
+        if line.is_empty() {
+            return Ok(());
+        }
+        let step = step_of(&line);
+        // The first state drawn only sets the step: short work writes none.
+        let new_step = st.2.as_ref().is_some_and(|k| *k != step);
+        st.2 = Some(step);
+        if new_step || st.1.elapsed() >= self.every {
             st.1 = Instant::now();
             if let Ok(mut out) = self.out.lock() {
                 let _ = writeln!(out, "{line}");
@@ -93,6 +104,22 @@ impl TermLike for LogLines {
 
 /// Where a bar draws: stderr when it is a terminal, else a line every
 /// [`LOG_EVERY`].
+/// The step a drawn line shows: its letters outside parentheses (the
+/// message and prefix, without counts, bar glyphs or elapsed time).
+fn step_of(line: &str) -> String {
+    let mut depth = 0usize;
+    let mut k = String::new();
+    for c in line.chars() {
+        match c {
+            '(' => depth += 1,
+            ')' => depth = depth.saturating_sub(1),
+            c if depth == 0 && c.is_alphabetic() => k.push(c),
+            _ => {}
+        }
+    }
+    k
+}
+
 fn target() -> ProgressDrawTarget {
     if std::io::stderr().is_terminal() {
         ProgressDrawTarget::stderr()
@@ -188,5 +215,35 @@ mod tests {
         b.inc(2);
         b.finish();
         assert!(quiet.0.lock().unwrap().is_empty());
+    }
+
+    /// Not due for an hour, a bar still writes a line when its step
+    /// changes, and none while only its count moves.
+    #[test]
+    fn a_new_step_is_a_line_at_once() {
+        let out = Shared::default();
+        let log = LogLines::new(Duration::from_secs(3600), Box::new(out.clone()));
+        let b =
+            ProgressBar::with_draw_target(Some(9), ProgressDrawTarget::term_like(Box::new(log)));
+        b.set_style(ProgressStyle::with_template("{prefix} [{bar:9}] {pos}/{len} {msg}").unwrap());
+        b.set_prefix("report");
+        b.set_message("operation counts");
+        b.inc(1);
+        b.inc(1);
+        b.set_message("render sphere:12");
+        b.inc(1);
+        b.inc(1);
+        b.set_message("render torus:48");
+        b.finish_and_clear();
+        let text = String::from_utf8(out.0.lock().unwrap().clone()).unwrap();
+        let lines: Vec<&str> = text.lines().collect();
+        // One line per step (the first message is a step too: the bar
+        // was drawn with its prefix alone first), none for the counts.
+        assert_eq!(lines.len(), 3, "{text:?}");
+        assert!(lines[0].ends_with("operation counts"), "{text:?}");
+        assert!(lines[1].ends_with("render sphere:12"), "{text:?}");
+        assert!(lines[2].ends_with("render torus:48"), "{text:?}");
+        assert_eq!(step_of("report [==> ] 5/15 polar (18s)"), "reportpolar");
+        assert_eq!(step_of("x (1m 5s, about 3s left) y"), "xy");
     }
 }

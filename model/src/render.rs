@@ -626,16 +626,94 @@ impl Frame {
     }
 }
 
+/// What a frame computes: the input rows of the methods asked for, and the
+/// references those methods (and the reports that go with them) read.
+/// Rows are most of a frame's memory (tens of 128-bit codes per pixel and
+/// method), so a method nobody renders costs nothing.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Wanted {
+    /// Smooth-path rows ([`Frame::smooth_rows`]).
+    pub smooth: bool,
+    /// Mapped-path rows with CORDIC angles.
+    pub mapped: bool,
+    /// Mapped-path rows with interpolated angles.
+    pub mapped_interp: bool,
+    /// Rows of the conventional baseline.
+    pub tbn: bool,
+    /// The mapped path's references (`mapped_ref`, `mapped_interp_ref`,
+    /// `tbn_ref`): read by every mapped method and the baseline.
+    pub mapped_refs: bool,
+}
+
+impl Wanted {
+    /// Everything (every method's rows and every reference).
+    pub const ALL: Wanted = Wanted {
+        smooth: true,
+        mapped: true,
+        mapped_interp: true,
+        tbn: true,
+        mapped_refs: true,
+    };
+
+    /// What `methods` need.
+    pub fn methods(methods: &[RenderMethod]) -> Wanted {
+        let has = |f: &dyn Fn(RenderMethod) -> bool| methods.iter().any(|&m| f(m));
+        Wanted {
+            smooth: has(&|m| matches!(m, RenderMethod::Smooth(_))),
+            mapped: has(&|m| m == RenderMethod::Mapped(AngleSource::Cordic)),
+            mapped_interp: has(&|m| m == RenderMethod::Mapped(AngleSource::Interpolate)),
+            tbn: has(&|m| m == RenderMethod::Tbn),
+            mapped_refs: has(&|m| m.is_mapped() || m == RenderMethod::Tbn),
+        }
+    }
+}
+
 /// [`frame_in`] the default [`Scene`].
 pub fn frame(p: &Pipeline, raster: Raster, mesh: &Mesh) -> Frame {
     frame_in(&Scene::default(), p, raster, mesh)
+}
+
+/// [`frame_wanted`] with everything.
+pub fn frame_in(scene: &Scene, p: &Pipeline, raster: Raster, mesh: &Mesh) -> Frame {
+    frame_wanted(scene, p, raster, mesh, Wanted::ALL)
 }
 
 /// Set up every triangle, and build the rows and references of a raster
 /// (rasterized in the same `scene`). Fragments of triangles that cannot be
 /// set up (zero or antiparallel vertex normals) get empty rows and NaN
 /// references: [`Metrics::compare`] counts them as skipped, never as exact.
-pub fn frame_in(scene: &Scene, p: &Pipeline, raster: Raster, mesh: &Mesh) -> Frame {
+/// Only the rows and references `want` names are built (the others stay
+/// empty: one entry-less vector each); those that are built are the same
+/// whatever else is wanted.
+pub fn frame_wanted(
+    scene: &Scene,
+    p: &Pipeline,
+    raster: Raster,
+    mesh: &Mesh,
+    want: Wanted,
+) -> Frame {
+    match frame_core(scene, p, raster, mesh, want, usize::MAX, &mut |_| Ok(())) {
+        Ok(f) => f,
+        Err(_) => unreachable!("a sink that never fails"),
+    }
+}
+
+/// Fragments per chunk of [`levels_streamed`].
+pub const CHUNK: usize = 16_384;
+
+/// [`frame_wanted`] with the rows handed to `sink` every `chunk` fragments
+/// (and once for the rest): when `sink` is called, the frame's row vectors
+/// hold the rows of the fragments since the previous call only, and they
+/// are emptied after it. The returned frame holds no rows.
+fn frame_core(
+    scene: &Scene,
+    p: &Pipeline,
+    raster: Raster,
+    mesh: &Mesh,
+    want: Wanted,
+    chunk: usize,
+    sink: &mut dyn FnMut(&Frame) -> Result<(), PipelineError>,
+) -> Result<Frame, PipelineError> {
     // The smooth path shades in the camera frame. The mapped path works in
     // the mesh's own frame, where the implied tangent frame (fixed by the
     // y axis) is the one a normal map is baked for: L and H are brought
@@ -699,18 +777,19 @@ pub fn frame_in(scene: &Scene, p: &Pipeline, raster: Raster, mesh: &Mesh) -> Fra
     let qv = |x: f64| p.interp.vertex.apply_f64(x).map_or(0, |r| r.code);
     let wrap = |d: f64| d - d.round();
     let n = raster.fragments.len();
+    let cap_if = |b: bool| if b { n } else { 0 };
     let mut f = Frame {
         skipped: 0,
         skipped_triangles: Vec::new(),
-        smooth_rows: Vec::with_capacity(n),
-        mapped_rows: Vec::with_capacity(n),
-        mapped_interp_rows: Vec::with_capacity(n),
-        tbn_rows: Vec::with_capacity(n),
+        smooth_rows: Vec::with_capacity(cap_if(want.smooth)),
+        mapped_rows: Vec::with_capacity(cap_if(want.mapped)),
+        mapped_interp_rows: Vec::with_capacity(cap_if(want.mapped_interp)),
+        tbn_rows: Vec::with_capacity(cap_if(want.tbn)),
         polar_cap: Vec::with_capacity(n),
-        tbn_ref: Vec::with_capacity(n),
+        tbn_ref: Vec::with_capacity(cap_if(want.mapped_refs)),
         smooth_ref: Vec::with_capacity(n),
-        mapped_ref: Vec::with_capacity(n),
-        mapped_interp_ref: Vec::with_capacity(n),
+        mapped_ref: Vec::with_capacity(cap_if(want.mapped_refs)),
+        mapped_interp_ref: Vec::with_capacity(cap_if(want.mapped_refs)),
         uv_ref: Vec::new(),
         uv_excluded: Vec::new(),
         bake: baked.as_ref().map(|b| b.counts),
@@ -722,21 +801,46 @@ pub fn frame_in(scene: &Scene, p: &Pipeline, raster: Raster, mesh: &Mesh) -> Fra
         },
     };
     let cap = (POLAR_CAP_DEG.to_radians()).cos();
+    let streamed = chunk != usize::MAX;
+    let mut in_chunk = 0usize;
+    let flush = |f: &mut Frame, sink: &mut dyn FnMut(&Frame) -> Result<(), PipelineError>| {
+        sink(f)?;
+        f.smooth_rows.clear();
+        f.mapped_rows.clear();
+        f.mapped_interp_rows.clear();
+        f.tbn_rows.clear();
+        Ok::<(), PipelineError>(())
+    };
     for fr in &raster.fragments {
+        if streamed && in_chunk == chunk {
+            flush(&mut f, sink)?;
+            in_chunk = 0;
+        }
+        in_chunk += 1;
         let Some((st, so, mt)) = tris.get(&fr.tri).and_then(|t| t.as_ref()) else {
             f.skipped += 1;
             if !f.skipped_triangles.contains(&fr.tri) {
                 f.skipped_triangles.push(fr.tri);
             }
-            f.smooth_rows.push(Vec::new());
-            f.mapped_rows.push(Vec::new());
-            f.mapped_interp_rows.push(Vec::new());
-            f.tbn_rows.push(Vec::new());
+            if want.smooth {
+                f.smooth_rows.push(Vec::new());
+            }
+            if want.mapped {
+                f.mapped_rows.push(Vec::new());
+            }
+            if want.mapped_interp {
+                f.mapped_interp_rows.push(Vec::new());
+            }
+            if want.tbn {
+                f.tbn_rows.push(Vec::new());
+            }
             f.polar_cap.push(false);
             f.smooth_ref.push(f64::NAN);
-            f.mapped_ref.push(f64::NAN);
-            f.mapped_interp_ref.push(f64::NAN);
-            f.tbn_ref.push(f64::NAN);
+            if want.mapped_refs {
+                f.mapped_ref.push(f64::NAN);
+                f.mapped_interp_ref.push(f64::NAN);
+                f.tbn_ref.push(f64::NAN);
+            }
             if baked.is_some() {
                 f.uv_ref.push(f64::NAN);
                 f.uv_excluded.push(true);
@@ -745,13 +849,16 @@ pub fn frame_in(scene: &Scene, p: &Pipeline, raster: Raster, mesh: &Mesh) -> Fra
         };
         let (c1, c2) = (qb(fr.c[0]), qb(fr.c[1]));
         // Smooth row: sel, c1, c2, the six normals, L, H.
-        let mut r = vec![st.set as i128, c1, c2];
-        for v in &st.v {
-            r.extend_from_slice(v);
+        if want.smooth {
+            let mut r = Vec::with_capacity(3 + 3 * st.v.len() + 6);
+            r.extend_from_slice(&[st.set as i128, c1, c2]);
+            for v in &st.v {
+                r.extend_from_slice(v);
+            }
+            r.extend_from_slice(&lc);
+            r.extend_from_slice(&hc);
+            f.smooth_rows.push(r);
         }
-        r.extend_from_slice(&lc);
-        r.extend_from_slice(&hc);
-        f.smooth_rows.push(r);
         let n_exact = interp::field(&st.tri, fr.c, scheme).normalize();
         f.smooth_ref.push(shade_f64(&p.light, n_exact, l, h));
         // Mapped rows (object frame): c1, c2, the normals (CORDIC) or the
@@ -769,18 +876,25 @@ pub fn frame_in(scene: &Scene, p: &Pipeline, raster: Raster, mesh: &Mesh) -> Fra
         };
         let texc = tex.to_array().map(qn);
         let lh = [al, bl, ah, bh];
-        f.mapped_rows
-            .push(p.mapped_row_of(AngleSource::Cordic, [c1, c2], so, mt, lh, texc));
-        f.mapped_interp_rows.push(p.mapped_row_of(
-            AngleSource::Interpolate,
-            [c1, c2],
-            so,
-            mt,
-            lh,
-            texc,
-        ));
+        if want.mapped {
+            f.mapped_rows
+                .push(p.mapped_row_of(AngleSource::Cordic, [c1, c2], so, mt, lh, texc));
+        }
+        if want.mapped_interp {
+            f.mapped_interp_rows.push(p.mapped_row_of(
+                AngleSource::Interpolate,
+                [c1, c2],
+                so,
+                mt,
+                lh,
+                texc,
+            ));
+        }
         let in_cap = n_obj.y.abs() >= cap;
         f.polar_cap.push(in_cap);
+        if !(want.tbn || want.mapped_refs || baked.is_some()) {
+            continue;
+        }
         // The conventional baseline: a frame per vertex (the implied one, or
         // for a UV-frame map the UV one with the original texel).
         let orig = image.as_ref().map(|m| m.texture.at(fr.uv));
@@ -820,18 +934,21 @@ pub fn frame_in(scene: &Scene, p: &Pipeline, raster: Raster, mesh: &Mesh) -> Fra
         r.extend_from_slice(&loc);
         r.extend_from_slice(&hoc);
         r.extend_from_slice(&tbn_tex.to_array().map(qn));
-        if frames[0].2 == DVec3::ZERO {
-            f.tbn_rows.push(Vec::new());
-            f.tbn_ref.push(f64::NAN);
-        } else {
-            f.tbn_rows.push(r);
-            f.tbn_ref
-                .push(tbn_f64(&p.light, frames, fr.c, lo, ho, tbn_tex));
+        let degenerate = frames[0].2 == DVec3::ZERO;
+        if want.tbn {
+            f.tbn_rows.push(if degenerate { Vec::new() } else { r });
         }
-        let (an, bn) = crate::polar::angles_of(n_obj);
-        let lp = crate::polar::reference(al_f, bl_f, an, bn);
-        let hp = crate::polar::reference(ah_f, bh_f, an, bn);
-        f.mapped_ref.push(shade_f64(&p.light, tex, lp, hp));
+        if want.mapped_refs {
+            f.tbn_ref.push(if degenerate {
+                f64::NAN
+            } else {
+                tbn_f64(&p.light, frames, fr.c, lo, ho, tbn_tex)
+            });
+            let (an, bn) = crate::polar::angles_of(n_obj);
+            let lp = crate::polar::reference(al_f, bl_f, an, bn);
+            let hp = crate::polar::reference(ah_f, bh_f, an, bn);
+            f.mapped_ref.push(shade_f64(&p.light, tex, lp, hp));
+        }
         // The original map in its UV frame, exactly.
         if let (Some(_), Some(o)) = (&baked, orig) {
             let uvf = crate::texture::uv_frame(mesh, &tangents, fr.tri, fr.c, scheme);
@@ -847,6 +964,9 @@ pub fn frame_in(scene: &Scene, p: &Pipeline, raster: Raster, mesh: &Mesh) -> Fra
                 }
             }
         }
+        if !want.mapped_refs {
+            continue;
+        }
         // The same with the angles interpolated (f64).
         let va = so.tri.n.map(crate::polar::angles_of);
         let ai = va[2].0 + fr.c[0] * (va[0].0 - va[2].0) + fr.c[1] * (va[1].0 - va[2].0);
@@ -855,8 +975,77 @@ pub fn frame_in(scene: &Scene, p: &Pipeline, raster: Raster, mesh: &Mesh) -> Fra
         let hp = crate::polar::reference(ah_f, bh_f, ai, bi);
         f.mapped_interp_ref.push(shade_f64(&p.light, tex, lp, hp));
     }
+    if streamed {
+        flush(&mut f, sink)?;
+        f.smooth_rows = Vec::new();
+        f.mapped_rows = Vec::new();
+        f.mapped_interp_rows = Vec::new();
+        f.tbn_rows = Vec::new();
+    }
     f.raster.fragments = raster.fragments;
-    f
+    Ok(f)
+}
+
+/// Render `methods` without keeping their input rows: the frame is built
+/// [`CHUNK`] fragments at a time, each chunk's rows run through every
+/// method's pipeline and dropped, so memory grows with the image (a level
+/// per fragment and method, the references) and not with the rows. The
+/// levels are those of [`run_method`] on a whole frame (the pipeline is
+/// per row); the frame returned holds no rows.
+pub fn levels_streamed(
+    cfg: &Config,
+    scene: &Scene,
+    base: &Pipeline,
+    raster: Raster,
+    mesh: &Mesh,
+    methods: &[RenderMethod],
+) -> Result<(Frame, Vec<Vec<u8>>), PipelineError> {
+    let pipes: Vec<Pipeline> = methods
+        .iter()
+        .map(|&m| method_pipeline(cfg, m))
+        .collect::<Result<_, _>>()?;
+    let n = raster.fragments.len();
+    let mut levels: Vec<Vec<u8>> = methods.iter().map(|_| Vec::with_capacity(n)).collect();
+    let want = Wanted::methods(methods);
+    let f = frame_core(scene, base, raster, mesh, want, CHUNK, &mut |f| {
+        for ((&m, p), out) in methods.iter().zip(&pipes).zip(levels.iter_mut()) {
+            out.extend(method_levels(p, m, f.rows(m))?);
+        }
+        Ok(())
+    })?;
+    Ok((f, levels))
+}
+
+/// The pipeline a method runs.
+fn method_pipeline(cfg: &Config, method: RenderMethod) -> Result<Pipeline, PipelineError> {
+    let mut p = match method {
+        RenderMethod::Smooth(m) => Pipeline::with_method(cfg, m)?,
+        _ => Pipeline::with_method(cfg, Method::None)?,
+    };
+    if let RenderMethod::Mapped(src) = method {
+        p.angles = src;
+    }
+    Ok(p)
+}
+
+/// The levels of `rows` (skipped fragments, with empty rows, are 0).
+fn method_levels(
+    p: &Pipeline,
+    method: RenderMethod,
+    rows: &[Vec<i128>],
+) -> Result<Vec<u8>, PipelineError> {
+    if method != RenderMethod::Tbn {
+        return levels_of(p, method.path(), rows);
+    }
+    let idx: Vec<usize> = (0..rows.len()).filter(|&i| !rows[i].is_empty()).collect();
+    let live: Vec<Vec<i128>> = idx.iter().map(|&i| rows[i].clone()).collect();
+    let out = p.run_tbn_rows(&live)?;
+    let fl = p.light.level.format();
+    let mut levels = vec![0u8; rows.len()];
+    for (k, &i) in idx.iter().enumerate() {
+        levels[i] = pixel_of(fl, out[k]);
+    }
+    Ok(levels)
 }
 
 /// The conventional baseline in f64: `M = Σ c_k·[T_k; B_k; N_k]`,
@@ -900,27 +1089,26 @@ pub fn run_method(
     f: &Frame,
     method: RenderMethod,
 ) -> Result<MethodImage, PipelineError> {
-    let mut p = match method {
-        RenderMethod::Smooth(m) => Pipeline::with_method(cfg, m)?,
-        _ => Pipeline::with_method(cfg, Method::None)?,
-    };
-    if let RenderMethod::Mapped(src) = method {
-        p.angles = src;
-    }
-    let (rows, want) = (f.rows(method), f.reference(method));
-    let levels = if method == RenderMethod::Tbn {
-        let idx: Vec<usize> = (0..rows.len()).filter(|&i| !rows[i].is_empty()).collect();
-        let live: Vec<Vec<i128>> = idx.iter().map(|&i| rows[i].clone()).collect();
-        let out = p.run_tbn_rows(&live)?;
-        let fl = p.light.level.format();
-        let mut levels = vec![0u8; rows.len()];
-        for (k, &i) in idx.iter().enumerate() {
-            levels[i] = pixel_of(fl, out[k]);
-        }
-        levels
-    } else {
-        levels_of(&p, method.path(), rows)?
-    };
+    let p = method_pipeline(cfg, method)?;
+    let rows = f.rows(method);
+    assert!(
+        rows.len() == f.raster.fragments.len(),
+        "the frame was built without the rows of {}",
+        method.name()
+    );
+    let levels = method_levels(&p, method, rows)?;
+    Ok(image_of(f, method, levels))
+}
+
+/// A method's image from its levels: the metrics against its path's
+/// reference (and, for mapped methods, outside and inside the polar cap).
+pub fn image_of(f: &Frame, method: RenderMethod, levels: Vec<u8>) -> MethodImage {
+    let want = f.reference(method);
+    assert!(
+        want.len() == levels.len(),
+        "the frame was built without the references of {}",
+        method.name()
+    );
     let metrics = Metrics::compare(&levels, want);
     let (outside_cap, cap) = if method.is_mapped() {
         (
@@ -930,13 +1118,13 @@ pub fn run_method(
     } else {
         (None, None)
     };
-    Ok(MethodImage {
+    MethodImage {
         method,
         levels,
         metrics,
         outside_cap,
         cap,
-    })
+    }
 }
 
 /// The 8-bit pixel of a code in the `level` format: its value rounded to
@@ -951,8 +1139,14 @@ pub fn pixel_of(level: crate::format::Format, code: i128) -> u8 {
 /// Levels of a path's rows (skipped fragments, with empty rows, are 0).
 pub fn levels_of(p: &Pipeline, path: Path, rows: &[Vec<i128>]) -> Result<Vec<u8>, PipelineError> {
     let idx: Vec<usize> = (0..rows.len()).filter(|&i| !rows[i].is_empty()).collect();
-    let live: Vec<Vec<i128>> = idx.iter().map(|&i| rows[i].clone()).collect();
-    let out = p.run_rows(path, &live)?;
+    // Rows are copied only when some are skipped (they are most of a
+    // frame's memory).
+    let out = if idx.len() == rows.len() {
+        p.run_rows(path, rows)?
+    } else {
+        let live: Vec<Vec<i128>> = idx.iter().map(|&i| rows[i].clone()).collect();
+        p.run_rows(path, &live)?
+    };
     let fl = p.light.level.format();
     let mut levels = vec![0u8; rows.len()];
     for (k, &i) in idx.iter().enumerate() {

@@ -31,6 +31,9 @@ pub enum BenchCmd {
     /// C++ harness and the Verilog testbench on the same modules and
     /// records, and `rtl-check`'s end-to-end rate against simulation only.
     Cosim(super::bench_cosim::CosimArgs),
+    /// The renderer (one method, no RTL) per covered pixel against a
+    /// simple f64 shader of the same image, and its peak memory.
+    Render(super::bench_render::RenderBenchArgs),
 }
 
 /// Options of `bench normalize`.
@@ -337,6 +340,7 @@ pub fn run(cmd: &BenchCmd) -> anyhow::Result<()> {
         BenchCmd::Normalize(a) => return bench_normalize(a),
         BenchCmd::Polar(a) => return bench_polar(a),
         BenchCmd::Cosim(a) => return super::bench_cosim::run(a),
+        BenchCmd::Render(a) => return super::bench_render::run(a),
     };
     anyhow::ensure!(
         a.inputs > 0 && a.length > 0,

@@ -351,7 +351,15 @@ pub fn render_into(
     progress("rasterizing");
     let base = Pipeline::with_method(cfg, fxshade_model::normalizer::Method::None)?;
     let raster = render::rasterize_in(scene, m, w, h);
-    let f = render::frame_in(scene, &base, raster, m);
+    // Without the RTL, rows are made and shaded a chunk at a time and never
+    // kept (memory in proportion to the image); the RTL needs them whole.
+    let (f, mut streamed) = if rtl.is_none() {
+        let (f, levels) = render::levels_streamed(cfg, scene, &base, raster, m, methods)?;
+        (f, Some(levels))
+    } else {
+        let want = render::Wanted::methods(methods);
+        (render::frame_wanted(scene, &base, raster, m, want), None)
+    };
     let png = |name: &str, levels: &[u8]| -> anyhow::Result<String> {
         let img = render::to_image(&f.raster, levels, 0u8);
         let file = format!("{prefix}{name}.png");
@@ -389,9 +397,12 @@ pub fn render_into(
         references.push(png("reference_uv", &render::reference_levels(&f.uv_ref))?);
     }
     let mut results = Vec::new();
-    for &method in methods {
+    for (k, &method) in methods.iter().enumerate() {
         progress(method.name());
-        let img = render::run_method(cfg, &f, method)?;
+        let img = match &mut streamed {
+            Some(levels) => render::image_of(&f, method, std::mem::take(&mut levels[k])),
+            None => render::run_method(cfg, &f, method)?,
+        };
         let want = f.reference(method);
         let image = png(method.name(), &img.levels)?;
         if method == RenderMethod::Mapped(fxshade_model::pipeline::AngleSource::Cordic)

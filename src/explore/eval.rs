@@ -208,7 +208,13 @@ fn pipeline(
         (0u32, 0.0, 0usize, f64::INFINITY, 0.0f64, 0.0f64, true);
     for (spec, mesh) in meshes {
         let raster = render::rasterize_in(&scene, mesh, o.size.0, o.size.1);
-        let f = render::frame_in(&scene, &base, raster, mesh);
+        let f = render::frame_wanted(
+            &scene,
+            &base,
+            raster,
+            mesh,
+            render::Wanted::methods(&[method]),
+        );
         let img =
             render::run_method(cfg, &f, method).with_context(|| format!("rendering {spec}"))?;
         let mm: &Metrics = img.outside_cap.as_ref().unwrap_or(&img.metrics);

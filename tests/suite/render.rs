@@ -436,3 +436,85 @@ fn the_scene_is_flags_with_defaults() {
         assert!(text(&o).contains(flag), "{flag} {v}: {}", text(&o));
     }
 }
+
+/// `render` without the RTL shades its rows a chunk at a time and drops
+/// them: the levels and metrics are those of every method run on the whole
+/// frame (the path `--rtl` and the report's earlier renders took), across
+/// chunk boundaries (a 256 × 256 torus covers more than one chunk) and with
+/// every method at once, and a frame built for some methods leaves the
+/// others' rows empty.
+#[test]
+fn streamed_rendering_gives_the_whole_frame_levels() {
+    use fxshade_model::render::{self, RenderMethod};
+    let cfg = fxshade_model::Config::embedded();
+    let mesh = fxshade_model::mesh::torus(48, fxshade_model::mesh::Axis::Y);
+    let scene = render::Scene::default();
+    let base = fxshade_model::pipeline::Pipeline::with_method(
+        &cfg,
+        fxshade_model::normalizer::Method::None,
+    )
+    .unwrap();
+    let raster = render::rasterize_in(&scene, &mesh, 256, 256);
+    assert!(raster.fragments.len() > render::CHUNK, "one chunk only");
+    let methods: Vec<RenderMethod> = ["quadratic", "linear", "mapped", "mapped-interp", "tbn"]
+        .iter()
+        .map(|m| RenderMethod::from_name(m).unwrap())
+        .collect();
+    let whole = render::frame_in(&scene, &base, raster.clone(), &mesh);
+    let (f, levels) =
+        render::levels_streamed(&cfg, &scene, &base, raster.clone(), &mesh, &methods).unwrap();
+    assert!(f.smooth_rows.is_empty() && f.mapped_rows.is_empty() && f.tbn_rows.is_empty());
+    for (m, got) in methods.iter().zip(levels) {
+        let want = render::run_method(&cfg, &whole, *m).unwrap();
+        assert_eq!(got, want.levels, "{}", m.name());
+        let img = render::image_of(&f, *m, got);
+        assert_eq!(
+            format!("{:?}", img.metrics),
+            format!("{:?}", want.metrics),
+            "{}",
+            m.name()
+        );
+    }
+    let only = render::frame_wanted(
+        &scene,
+        &base,
+        raster,
+        &mesh,
+        render::Wanted::methods(&methods[..1]),
+    );
+    assert_eq!(only.smooth_rows, whole.smooth_rows);
+    assert!(only.mapped_rows.is_empty() && only.tbn_rows.is_empty());
+    assert_eq!(only.smooth_ref, whole.smooth_ref);
+}
+
+/// `bench render` times the renderer and the f64 baseline on the same
+/// raster and says how many pixels it shaded; two methods at once are
+/// refused (it measures one).
+#[test]
+fn bench_render_measures_one_method_beside_the_baseline() {
+    let o = fxshade(&[
+        "bench",
+        "render",
+        "--mesh",
+        "sphere:8",
+        "--size",
+        "64x64",
+        "--repeats",
+        "1",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(j["covered_pixels"].as_u64().unwrap() > 1000, "{j}");
+    for k in [
+        "fxshade_ns_per_pixel",
+        "baseline_ns_per_pixel",
+        "ratio",
+        "peak_rss_mib",
+    ] {
+        assert!(j[k].as_f64().is_some_and(|x| x > 0.0), "{k}: {j}");
+    }
+    let o = fxshade(&["bench", "render", "--method", "quadratic,linear"]);
+    assert!(!o.status.success());
+    assert!(text(&o).contains("one method"), "{}", text(&o));
+}

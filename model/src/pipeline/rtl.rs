@@ -177,7 +177,14 @@ pub fn render_rows(
     size: usize,
 ) -> Vec<Vec<i128>> {
     let r = crate::render::rasterize(mesh, size, size);
-    let f = crate::render::frame(p, r, mesh);
+    let want = crate::render::Wanted {
+        smooth: path == Path::Smooth,
+        mapped: path == Path::Mapped && p.angles == super::AngleSource::Cordic,
+        mapped_interp: path == Path::Mapped && p.angles == super::AngleSource::Interpolate,
+        tbn: false,
+        mapped_refs: false,
+    };
+    let f = crate::render::frame_wanted(&crate::render::Scene::default(), p, r, mesh, want);
     let rows = match path {
         Path::Smooth => f.smooth_rows,
         Path::Mapped => match p.angles {
