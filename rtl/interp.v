@@ -221,6 +221,11 @@ module interp (
   reg  [0:0] interp_weight_33_ovf_s2;
   reg  [0:0] interp_weight_35_ovf_s2;
   reg  [0:0] interp_weight_37_ovf_s2;
+  wire ovf0_or_s2 =
+      interp_weight_25_ovf_s2 | interp_weight_28_ovf_s2 | interp_weight_31_ovf_s2 | interp_weight_33_ovf_s2
+      | interp_weight_35_ovf_s2 | interp_weight_37_ovf_s2;
+  wire ovf1_or_s2 =
+      interp_out_49_ovf | interp_out_61_ovf | interp_out_73_ovf;
 
   // Pipeline registers (data: no reset, held while stalled). A stage's
   // registers load only with a valid item, so bubbles do not toggle them.
@@ -277,8 +282,8 @@ module interp (
   assign out_y_o = interp_out_61;
   assign out_z_o = interp_out_73;
   assign ovf_o = {
-    interp_weight_25_ovf_s2 | interp_weight_28_ovf_s2 | interp_weight_31_ovf_s2 | interp_weight_33_ovf_s2 | interp_weight_35_ovf_s2 | interp_weight_37_ovf_s2,
-    interp_out_49_ovf | interp_out_61_ovf | interp_out_73_ovf
+    ovf0_or_s2,
+    ovf1_or_s2
   };
 
 `ifdef FORMAL

@@ -147,32 +147,31 @@ module lighting (
   reg  [7:0] lighting_level_38;
   reg  [0:0] lighting_level_38_ovf;
   reg  [0:0] lighting_dot_17_ovf_s2;
-  reg  [0:0] lighting_dot_17_ovf_s3;
-  reg  [0:0] lighting_dot_17_ovf_s4;
-  reg  [0:0] lighting_dot_17_ovf_s5;
-  reg  [0:0] lighting_dot_17_ovf_s6;
-  reg  [0:0] lighting_dot_17_ovf_s7;
   reg  [0:0] lighting_dot_24_ovf_s2;
-  reg  [0:0] lighting_dot_24_ovf_s3;
-  reg  [0:0] lighting_dot_24_ovf_s4;
-  reg  [0:0] lighting_dot_24_ovf_s5;
-  reg  [0:0] lighting_dot_24_ovf_s6;
-  reg  [0:0] lighting_dot_24_ovf_s7;
+  wire ovf0_or_s2 =
+      lighting_dot_17_ovf_s2 | lighting_dot_24_ovf_s2;
+  reg  [0:0] ovf0_s3;
+  reg  [0:0] ovf0_s4;
+  reg  [0:0] ovf0_s5;
+  reg  [0:0] ovf0_s6;
+  reg  [0:0] ovf0_s7;
   reg  [0:0] lighting_spec_26_ovf_s3;
-  reg  [0:0] lighting_spec_26_ovf_s4;
-  reg  [0:0] lighting_spec_26_ovf_s5;
-  reg  [0:0] lighting_spec_26_ovf_s6;
-  reg  [0:0] lighting_spec_26_ovf_s7;
   reg  [0:0] lighting_spec_28_ovf_s4;
-  reg  [0:0] lighting_spec_28_ovf_s5;
-  reg  [0:0] lighting_spec_28_ovf_s6;
-  reg  [0:0] lighting_spec_28_ovf_s7;
   reg  [0:0] lighting_spec_30_ovf_s5;
-  reg  [0:0] lighting_spec_30_ovf_s6;
-  reg  [0:0] lighting_spec_30_ovf_s7;
   reg  [0:0] lighting_spec_32_ovf_s6;
-  reg  [0:0] lighting_spec_32_ovf_s7;
   reg  [0:0] lighting_spec_34_ovf_s7;
+  reg  [0:0] ovf1_s4;
+  wire ovf1_or_s4 =
+      ovf1_s4 | lighting_spec_28_ovf_s4;
+  reg  [0:0] ovf1_s5;
+  wire ovf1_or_s5 =
+      ovf1_s5 | lighting_spec_30_ovf_s5;
+  reg  [0:0] ovf1_s6;
+  wire ovf1_or_s6 =
+      ovf1_s6 | lighting_spec_32_ovf_s6;
+  reg  [0:0] ovf1_s7;
+  wire ovf1_or_s7 =
+      ovf1_s7 | lighting_spec_34_ovf_s7;
 
   // Pipeline registers (data: no reset, held while stalled). A stage's
   // registers load only with a valid item, so bubbles do not toggle them.
@@ -194,57 +193,46 @@ module lighting (
       lighting_spec_28 <= lighting_spec_28_c;
       lighting_spec_28_ovf <= lighting_spec_28_ovf_c;
       t35_s3 <= t35_s2;
-      lighting_dot_17_ovf_s3 <= lighting_dot_17_ovf_s2;
-      lighting_dot_24_ovf_s3 <= lighting_dot_24_ovf_s2;
+      ovf0_s3 <= ovf0_or_s2;
       lighting_spec_26_ovf_s3 <= lighting_spec_26_ovf;
     end
     if (en & valid_q[2]) begin
       lighting_spec_30 <= lighting_spec_30_c;
       lighting_spec_30_ovf <= lighting_spec_30_ovf_c;
       t35_s4 <= t35_s3;
-      lighting_dot_17_ovf_s4 <= lighting_dot_17_ovf_s3;
-      lighting_dot_24_ovf_s4 <= lighting_dot_24_ovf_s3;
-      lighting_spec_26_ovf_s4 <= lighting_spec_26_ovf_s3;
+      ovf0_s4 <= ovf0_s3;
       lighting_spec_28_ovf_s4 <= lighting_spec_28_ovf;
+      ovf1_s4 <= lighting_spec_26_ovf_s3;
     end
     if (en & valid_q[3]) begin
       lighting_spec_32 <= lighting_spec_32_c;
       lighting_spec_32_ovf <= lighting_spec_32_ovf_c;
       t35_s5 <= t35_s4;
-      lighting_dot_17_ovf_s5 <= lighting_dot_17_ovf_s4;
-      lighting_dot_24_ovf_s5 <= lighting_dot_24_ovf_s4;
-      lighting_spec_26_ovf_s5 <= lighting_spec_26_ovf_s4;
-      lighting_spec_28_ovf_s5 <= lighting_spec_28_ovf_s4;
+      ovf0_s5 <= ovf0_s4;
       lighting_spec_30_ovf_s5 <= lighting_spec_30_ovf;
+      ovf1_s5 <= ovf1_or_s4;
     end
     if (en & valid_q[4]) begin
       lighting_spec_34 <= lighting_spec_34_c;
       lighting_spec_34_ovf <= lighting_spec_34_ovf_c;
       t35_s6 <= t35_s5;
-      lighting_dot_17_ovf_s6 <= lighting_dot_17_ovf_s5;
-      lighting_dot_24_ovf_s6 <= lighting_dot_24_ovf_s5;
-      lighting_spec_26_ovf_s6 <= lighting_spec_26_ovf_s5;
-      lighting_spec_28_ovf_s6 <= lighting_spec_28_ovf_s5;
-      lighting_spec_30_ovf_s6 <= lighting_spec_30_ovf_s5;
+      ovf0_s6 <= ovf0_s5;
       lighting_spec_32_ovf_s6 <= lighting_spec_32_ovf;
+      ovf1_s6 <= ovf1_or_s5;
     end
     if (en & valid_q[5]) begin
       lighting_level_38 <= lighting_level_38_c;
       lighting_level_38_ovf <= lighting_level_38_ovf_c;
-      lighting_dot_17_ovf_s7 <= lighting_dot_17_ovf_s6;
-      lighting_dot_24_ovf_s7 <= lighting_dot_24_ovf_s6;
-      lighting_spec_26_ovf_s7 <= lighting_spec_26_ovf_s6;
-      lighting_spec_28_ovf_s7 <= lighting_spec_28_ovf_s6;
-      lighting_spec_30_ovf_s7 <= lighting_spec_30_ovf_s6;
-      lighting_spec_32_ovf_s7 <= lighting_spec_32_ovf_s6;
+      ovf0_s7 <= ovf0_s6;
       lighting_spec_34_ovf_s7 <= lighting_spec_34_ovf;
+      ovf1_s7 <= ovf1_or_s6;
     end
   end
 
   assign level_o = lighting_level_38;
   assign ovf_o = {
-    lighting_dot_17_ovf_s7 | lighting_dot_24_ovf_s7,
-    lighting_spec_26_ovf_s7 | lighting_spec_28_ovf_s7 | lighting_spec_30_ovf_s7 | lighting_spec_32_ovf_s7 | lighting_spec_34_ovf_s7,
+    ovf0_s7,
+    ovf1_or_s7,
     lighting_level_38_ovf
   };
 

@@ -128,11 +128,13 @@ module normalize (
   reg  signed [15:0] normalize_out_27;
   reg  [0:0] normalize_out_27_ovf;
   reg  [0:0] normalize_d_15_ovf_s2;
-  reg  [0:0] normalize_d_15_ovf_s3;
-  reg  [0:0] normalize_d_15_ovf_s4;
+  reg  [0:0] ovf0_s3;
+  reg  [0:0] ovf0_s4;
   reg  [0:0] normalize_horner_18_ovf_s3;
-  reg  [0:0] normalize_horner_18_ovf_s4;
+  reg  [0:0] ovf1_s4;
   reg  [0:0] normalize_g_21_ovf_s4;
+  wire ovf3_or_s4 =
+      normalize_out_25_ovf | normalize_out_26_ovf | normalize_out_27_ovf;
 
   // Pipeline registers (data: no reset, held while stalled). A stage's
   // registers load only with a valid item, so bubbles do not toggle them.
@@ -159,7 +161,7 @@ module normalize (
       n_x_i_s3 <= n_x_i_s2;
       n_y_i_s3 <= n_y_i_s2;
       n_z_i_s3 <= n_z_i_s2;
-      normalize_d_15_ovf_s3 <= normalize_d_15_ovf_s2;
+      ovf0_s3 <= normalize_d_15_ovf_s2;
       normalize_horner_18_ovf_s3 <= normalize_horner_18_ovf;
     end
     if (en & valid_q[2]) begin
@@ -169,8 +171,8 @@ module normalize (
       normalize_out_26_ovf <= normalize_out_26_ovf_c;
       normalize_out_27 <= normalize_out_27_c;
       normalize_out_27_ovf <= normalize_out_27_ovf_c;
-      normalize_d_15_ovf_s4 <= normalize_d_15_ovf_s3;
-      normalize_horner_18_ovf_s4 <= normalize_horner_18_ovf_s3;
+      ovf0_s4 <= ovf0_s3;
+      ovf1_s4 <= normalize_horner_18_ovf_s3;
       normalize_g_21_ovf_s4 <= normalize_g_21_ovf;
     end
   end
@@ -179,10 +181,10 @@ module normalize (
   assign out_y_o = normalize_out_26;
   assign out_z_o = normalize_out_27;
   assign ovf_o = {
-    normalize_d_15_ovf_s4,
-    normalize_horner_18_ovf_s4,
+    ovf0_s4,
+    ovf1_s4,
     normalize_g_21_ovf_s4,
-    normalize_out_25_ovf | normalize_out_26_ovf | normalize_out_27_ovf
+    ovf3_or_s4
   };
 
 `ifdef FORMAL

@@ -686,16 +686,16 @@ module polar (
   reg  [0:0] polar_out_25_ovf;
   reg  signed [15:0] polar_out_17_s4;
   reg  [0:0] polar_index_4_ovf_s2;
-  reg  [0:0] polar_index_4_ovf_s3;
-  reg  [0:0] polar_index_4_ovf_s4;
   reg  [0:0] polar_index_6_ovf_s2;
-  reg  [0:0] polar_index_6_ovf_s3;
-  reg  [0:0] polar_index_6_ovf_s4;
   reg  [0:0] polar_index_7_ovf_s2;
-  reg  [0:0] polar_index_7_ovf_s3;
-  reg  [0:0] polar_index_7_ovf_s4;
+  wire ovf0_or_s2 =
+      polar_index_4_ovf_s2 | polar_index_6_ovf_s2 | polar_index_7_ovf_s2;
+  reg  [0:0] ovf0_s3;
+  reg  [0:0] ovf0_s4;
   reg  [0:0] polar_lyz_15_ovf_s4;
   reg  [0:0] polar_out_17_ovf_s4;
+  wire ovf2_or_s4 =
+      polar_out_17_ovf_s4 | polar_out_21_ovf | polar_out_25_ovf;
 
   // Pipeline registers (data: no reset, held while stalled). A stage's
   // registers load only with a valid item, so bubbles do not toggle them.
@@ -740,9 +740,7 @@ module polar (
       t18_s3 <= t18;
       cos_12_s3 <= cos_12;
       t23_s3 <= t23;
-      polar_index_4_ovf_s3 <= polar_index_4_ovf_s2;
-      polar_index_6_ovf_s3 <= polar_index_6_ovf_s2;
-      polar_index_7_ovf_s3 <= polar_index_7_ovf_s2;
+      ovf0_s3 <= ovf0_or_s2;
     end
     if (en & valid_q[2]) begin
       polar_out_21 <= polar_out_21_c;
@@ -750,9 +748,7 @@ module polar (
       polar_out_25 <= polar_out_25_c;
       polar_out_25_ovf <= polar_out_25_ovf_c;
       polar_out_17_s4 <= polar_out_17;
-      polar_index_4_ovf_s4 <= polar_index_4_ovf_s3;
-      polar_index_6_ovf_s4 <= polar_index_6_ovf_s3;
-      polar_index_7_ovf_s4 <= polar_index_7_ovf_s3;
+      ovf0_s4 <= ovf0_s3;
       polar_lyz_15_ovf_s4 <= polar_lyz_15_ovf;
       polar_out_17_ovf_s4 <= polar_out_17_ovf;
     end
@@ -762,9 +758,9 @@ module polar (
   assign out_y_o = polar_out_21;
   assign out_z_o = polar_out_25;
   assign ovf_o = {
-    polar_index_4_ovf_s4 | polar_index_6_ovf_s4 | polar_index_7_ovf_s4,
+    ovf0_s4,
     polar_lyz_15_ovf_s4,
-    polar_out_17_ovf_s4 | polar_out_21_ovf | polar_out_25_ovf
+    ovf2_or_s4
   };
 
 `ifdef FORMAL
