@@ -248,7 +248,9 @@ class Run {
   private:
     int finish(uint64_t passed, uint64_t failed);
     const unsigned char* read(Reader& r, int rb, const char* what, int64_t k);
-    void step();
+    void rise();
+    void fall();
+    void tick();
 
     int argc_;
     char** argv_;
@@ -262,10 +264,19 @@ class Run {
     std::FILE* dump_ = nullptr;
 };
 
-void Run::step() {
-    // Rising edge with the inputs of this cycle, then the next inputs are
-    // applied by the caller and the falling edge settles them.
+void Run::rise() {
+    // The rising edge, on the inputs of this cycle; the caller then applies
+    // the next cycle's inputs and fall() settles them.
     top_->clk = 1;
+    tick();
+}
+
+void Run::fall() {
+    top_->clk = 0;
+    tick();
+}
+
+void Run::tick() {
     top_->eval();
 #if VM_TRACE
     if (fst_) fst_->dump(time_);
@@ -373,13 +384,8 @@ int Run::main() {
 #endif
     top_->eval();
     for (int r = 0; r < 3; ++r) {
-        step();
-        top_->clk = 0;
-        top_->eval();
-#if VM_TRACE
-        if (fst_) fst_->dump(time_);
-#endif
-        ++time_;
+        rise();
+        fall();
         ++cycle;
     }
     top_->rst_n = 1;
@@ -505,17 +511,12 @@ int Run::main() {
             return finish(passed, uint64_t(n) - passed);
         }
         // The clock rises on this cycle's inputs; then the next cycle's.
-        step();
+        rise();
         in_valid = next_valid;
         top_->in_valid = in_valid;
         put(top_->in_data, in_data, IN_W);
         top_->out_ready = out_ready;
-        top_->clk = 0;
-        top_->eval();
-#if VM_TRACE
-        if (fst_) fst_->dump(time_);
-#endif
-        ++time_;
+        fall();
         ++cycle;
     }
 }
