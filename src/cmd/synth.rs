@@ -186,6 +186,15 @@ pub struct SynthResult {
     pub bram: u64,
     /// Carry cells (SB_CARRY, CCU2C, CARRY4).
     pub carry: u64,
+    /// Logic cells of the placed design as the device counts them
+    /// ([`logic_cells`]: ECP5 TRELLIS_COMB, CCU2C counted twice; iCE40
+    /// ICESTORM_LC), the median over the seeds; None without place and
+    /// route. `lut` counts LUT4 cells only.
+    #[serde(default)]
+    pub logic_cells: Option<u64>,
+    /// LUT-RAM cells (ECP5 TRELLIS_DPR16X4), apart from the logic.
+    #[serde(default)]
+    pub lut_ram: u64,
     /// Every cell type and its count.
     pub cells: Vec<(String, u64)>,
     /// Median Fmax over the seeds, MHz (None: no place and route).
@@ -317,9 +326,9 @@ fn e_module(unit: &str) -> String {
     format!("`{unit}`")
 }
 
-/// The resources a nextpnr utilisation report shows over 100 %:
-/// `ICESTORM_DSP 20/8`.
-pub fn overfull(log: &str) -> Vec<String> {
+/// A nextpnr utilisation report: `(resource, used, available)` per line
+/// `Info: \t  TRELLIS_COMB:  4521/83640     5%`.
+pub fn utilisation(log: &str) -> Vec<(String, u64, u64)> {
     log.lines()
         .filter_map(|l| {
             let t = l.trim_start_matches("Info:").trim();
@@ -331,9 +340,29 @@ pub fn overfull(log: &str) -> Vec<String> {
             let mut it = rest.split_whitespace();
             let used: u64 = it.next()?.parse().ok()?;
             let avail: u64 = it.next()?.parse().ok()?;
-            (used > avail).then(|| format!("{} {used}/{avail}", name.trim()))
+            Some((name.trim().to_string(), used, avail))
         })
         .collect()
+}
+
+/// The resources a nextpnr utilisation report shows over 100 %:
+/// `ICESTORM_DSP 20/8`.
+pub fn overfull(log: &str) -> Vec<String> {
+    utilisation(log)
+        .into_iter()
+        .filter(|(_, used, avail)| used > avail)
+        .map(|(name, used, avail)| format!("{name} {used}/{avail}"))
+        .collect()
+}
+
+/// The logic cells the placed design uses as the device counts them, from
+/// the placer's utilisation report: ECP5 `TRELLIS_COMB` (a LUT4 slot: a
+/// CCU2C carry cell takes two, LUT RAM its own), iCE40 `ICESTORM_LC`.
+pub fn logic_cells(log: &str) -> Option<u64> {
+    utilisation(log)
+        .into_iter()
+        .find(|(n, _, _)| n == "TRELLIS_COMB" || n == "ICESTORM_LC")
+        .map(|(_, used, _)| used)
 }
 
 /// The last "Max frequency for clock" figure of a nextpnr log, MHz.
@@ -487,6 +516,12 @@ pub fn synthesize(
         dsp,
         bram,
         carry,
+        logic_cells: None,
+        lut_ram: cells
+            .iter()
+            .filter(|(n, _)| n == "TRELLIS_DPR16X4")
+            .map(|(_, c)| c)
+            .sum(),
         cells,
         fmax_mhz: None,
         predicted_mhz: e.predicted_ns.map(|t| 1000.0 / t),
@@ -517,6 +552,7 @@ pub fn synthesize(
         return Ok(r);
     };
     let t1 = Instant::now();
+    let mut placed_logic = Vec::new();
     for seed in 1..=seeds {
         progress(&format!("nextpnr, seed {seed} of {seeds}"));
         let mut cmd = Command::new(if ecp5_pnr {
@@ -579,7 +615,12 @@ pub fn synthesize(
             )
         })?;
         r.fmax_seeds.push(f);
+        if let Some(n) = logic_cells(&log) {
+            placed_logic.push(n);
+        }
     }
+    placed_logic.sort_unstable();
+    r.logic_cells = placed_logic.get(placed_logic.len() / 2).copied();
     r.pnr_seconds = t1.elapsed().as_secs_f64();
     let mut s = r.fmax_seeds.clone();
     s.sort_by(f64::total_cmp);
@@ -591,7 +632,7 @@ pub fn synthesize(
 
 /// The flow's own steps, in the cache key: a change to them measures
 /// again.
-const FLOW: &str = "ecp5-mult18-pack-2";
+const FLOW: &str = "ecp5-mult18-pack-3-logic-cells";
 
 fn cache_entry(e: &Emitted, target: Target, flow: Flow) -> anyhow::Result<PathBuf> {
     let Flow {
@@ -835,7 +876,9 @@ pub fn run(a: &SynthArgs) -> anyhow::Result<()> {
     let mut t = Table::new([
         "unit",
         "device",
-        "LUT",
+        "LUT4",
+        "logic cells (placed)",
+        "LUT RAM",
         "FF",
         "DSP",
         "BRAM",
@@ -858,6 +901,8 @@ pub fn run(a: &SynthArgs) -> anyhow::Result<()> {
         r.unit.clone(),
         r.device.clone(),
         r.lut.to_string(),
+        r.logic_cells.map_or("-".into(), |n| n.to_string()),
+        r.lut_ram.to_string(),
         r.ff.to_string(),
         r.dsp.to_string(),
         r.bram.to_string(),
@@ -993,5 +1038,15 @@ mod tests {
         assert_eq!(parse_fmax("nothing"), None);
         let log = "Info: \t        ICESTORM_PLL:     0/    1     0%\nInfo: \t        ICESTORM_DSP:    20/    8   250%\n";
         assert_eq!(overfull(log), ["ICESTORM_DSP 20/8"]);
+        assert_eq!(logic_cells(log), None);
+        // nextpnr-ecp5 0.11's report (from a placed smooth top).
+        let log = "Info: Device utilisation:\n\
+                   Info: \t          TRELLIS_IO:     7/  365     1%\n\
+                   Info: \t        TRELLIS_COMB:  4521/83640     5%\n\
+                   Info: \t          TRELLIS_FF: 10631/83640    12%\n";
+        assert_eq!(logic_cells(log), Some(4521));
+        assert!(overfull(log).is_empty());
+        let log = "Info: \t         ICESTORM_LC:  1234/ 7680    16%\n";
+        assert_eq!(logic_cells(log), Some(1234));
     }
 }

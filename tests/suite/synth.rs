@@ -37,6 +37,13 @@ fn ice40_place_and_route_gives_cells_fmax_and_latency() {
     let f = r["fmax_mhz"].as_f64().expect("an Fmax");
     assert!(f > 10.0 && f < 500.0, "{f} MHz");
     assert_eq!(r["throughput_mps"].as_f64(), Some(f));
+    // The placer's logic cells: every LUT4 and every flip-flop sits in an
+    // ICESTORM_LC (one LUT4, one carry and one flip-flop each), so there
+    // are at least as many as the larger count and at most all three.
+    let lc = r["logic_cells"].as_u64().expect("logic cells from nextpnr");
+    let (lut, ff) = (r["lut"].as_u64().unwrap(), r["ff"].as_u64().unwrap());
+    let carry = r["carry"].as_u64().unwrap();
+    assert!(lc >= lut.max(ff) && lc <= lut + ff + carry, "{lc} LCs: {r}");
     // Again: from the cache, the same figures.
     let c = json(&fxshade(&[
         "synth",
