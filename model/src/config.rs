@@ -544,6 +544,30 @@ impl Config {
             .parse()
             .unwrap_or_else(|_| TomlValue::from(text.to_string()));
         let parts: Vec<&str> = key.split('.').collect();
+        if parts[0] == "width" {
+            // A width group: every member's format at that total width,
+            // each keeping its signedness and integer bits (as `explore
+            // --vary width.<group>=W` does), recorded as the one override.
+            let Some(group) = parts.get(1).filter(|_| parts.len() == 2) else {
+                return Err(bad(
+                    key,
+                    "name a width group: width.<group>=BITS, e.g. width.normals=12".into(),
+                ));
+            };
+            let w: u32 = text
+                .parse()
+                .ok()
+                .filter(|&w| w > 0)
+                .ok_or_else(|| bad(key, "a width is a positive number of bits".into()))?;
+            let sets = self.group_overrides(group, w).map_err(|m| bad(key, m))?;
+            let before = self.overrides.len();
+            for o in &sets {
+                self.apply_override(o)?;
+            }
+            self.overrides.truncate(before);
+            self.overrides.push(spec.to_string());
+            return Ok(());
+        }
         let unit_names = || {
             crate::units::UNITS
                 .iter()

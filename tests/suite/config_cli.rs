@@ -315,3 +315,72 @@ fn report_writes_an_index_and_refuses_bad_directories() {
     assert_eq!(o.status.code(), Some(1));
     assert!(text(&o.stderr).contains("cannot write the report"));
 }
+
+/// `width.<group>=W` is accepted by every command's `--set`, not only by
+/// `explore --vary`: the README's members of `normals` (vertex normals,
+/// the interpolated normal, the normalizer's input and output, the lighting
+/// unit's N, the CORDIC input: `I2F14` by default) become 12 bits with
+/// their two integer bits, other formats stay; `ops` and `vectors` take it;
+/// a bad group, width or spelling is named.
+#[test]
+fn width_groups_are_accepted_by_every_set() {
+    let both = |o: &Output| text(&o.stdout) + &text(&o.stderr);
+    let o = fxshade(&["config", "show", "--set", "width.normals=12"]);
+    assert!(o.status.success(), "{}", both(&o));
+    let t = String::from_utf8_lossy(&o.stdout).to_string();
+    let d = String::from_utf8_lossy(&fxshade(&["config", "show"]).stdout).to_string();
+    // The stage line of `key` in section `sec`.
+    let line = |t: &str, sec: &str, key: &str| -> String {
+        t.lines()
+            .skip_while(|l| *l != format!("[{sec}]"))
+            .find(|l| l.starts_with(&format!("{key} = ")))
+            .unwrap_or_else(|| panic!("[{sec}] {key}"))
+            .to_string()
+    };
+    for (sec, key) in [
+        ("interp", "vertex"),
+        ("interp", "out"),
+        ("normalize", "normal"),
+        ("normalize", "out"),
+        ("angles", "normal"),
+        ("lighting", "normal"),
+    ] {
+        assert!(
+            line(&d, sec, key).contains("\"I2F14\""),
+            "default {sec}.{key}"
+        );
+        assert!(line(&t, sec, key).contains("\"I2F10\""), "{sec}.{key}: {t}");
+    }
+    assert_eq!(line(&t, "normalize", "d"), line(&d, "normalize", "d"));
+    for cmd in [
+        vec!["ops", "--set", "width.normals=12"],
+        vec![
+            "vectors",
+            "normalize",
+            "--count",
+            "300",
+            "--set",
+            "width.normals=12",
+            "--out",
+        ],
+    ] {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("v");
+        let mut args = cmd.clone();
+        if args.last() == Some(&"--out") {
+            args.push(out.to_str().unwrap());
+        }
+        let o = fxshade(&args);
+        assert!(o.status.success(), "{args:?}: {}", both(&o));
+    }
+    for (set, want) in [
+        ("width.nothing=12", "no width group `nothing`"),
+        ("width.normals=0", "a positive number of bits"),
+        ("width.normals=1", "give at least 2 bits"),
+        ("width=12", "name a width group"),
+    ] {
+        let o = fxshade(&["ops", "--set", set]);
+        assert_eq!(o.status.code(), Some(2), "{set}: {}", both(&o));
+        assert!(both(&o).contains(want), "{set}: {}", both(&o));
+    }
+}
