@@ -5,7 +5,7 @@
 // Configuration: <default> (hash 3235b7c1c8026d63)
 // Method: quadratic
 // Coefficients: minimax fit on the triangle interval [0.6666666666666666, 1] for Theta = 0.5, by search
-// g(d) coefficients, lowest power first (I3F15): [2.076171875, -1.683929443359375, 0.6083984375]
+// g(d) coefficients (I3F15), highest power first: g(d) = a*d^2 + b*d + c (linear: a*d + b): a = 0.6083984375, b = -1.683929443359375, c = 2.076171875
 //
 // Pipelining: compact (a register after every quantization and table read).
 // Latency 4 cycles; one vector per clock. Handshake: valid/ready on

@@ -106,6 +106,24 @@ impl Poly {
     }
 }
 
+/// The one order fxshade shows coefficients in, everywhere (RTL headers,
+/// `coeffs`, `error normalize`, the manifest's `parameters`): highest power
+/// first, named as the paper writes `g(d)`: `a*d^2 + b*d + c` (linear
+/// `a*d + b`).
+pub const ORDER: &str = "highest power first: g(d) = a*d^2 + b*d + c (linear: a*d + b)";
+
+/// `values` (lowest power first, as [`Poly`] holds them) in the order of
+/// [`ORDER`], named: `a = 0.6083984375, b = -1.68, c = 2.07` (ASCII).
+pub fn named_highest_first(values: &[f64]) -> String {
+    values
+        .iter()
+        .rev()
+        .enumerate()
+        .map(|(k, v)| format!("{} = {v}", (b'a' + k as u8) as char))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
 fn check(lo: f64, hi: f64, degree: usize) -> Result<(), CoeffError> {
     if !(lo > 0.0 && hi > lo && hi.is_finite()) {
         return Err(CoeffError::Interval { lo, hi });

@@ -123,7 +123,7 @@ def manifests_follow_the_schema():
 def reference_is_the_closed_form_of_the_quadratic_normalizer():
     unit = fxshade.Unit("normalize")
     m = json.loads(unit.manifest_json())
-    c0, c1, c2 = m["parameters"]["coefficients"]["values"]  # lowest power first
+    c2, c1, c0 = m["parameters"]["coefficients"]["values"]  # highest power first: a, b, c
     rng = np.random.default_rng(5)
     v = rng.uniform(-1.2, 1.2, size=(1000, 3))
     d = (v * v).sum(axis=1, keepdims=True)

@@ -64,7 +64,7 @@ pub fn run(a: &CoeffsArgs) -> anyhow::Result<()> {
     let (err, at) = coeffs::max_rel_err(&p, lo, hi);
     let mut json = serde_json::json!({
         "fit": a.fit.name(), "degree": a.degree, "theta": a.theta,
-        "interval": [lo, hi], "coeffs": p.highest_first(), "max_rel_err": err, "worst_d": at,
+        "interval": [lo, hi], "coeffs": p.highest_first(), "coeffs_order": fxshade_model::coeffs::ORDER, "max_rel_err": err, "worst_d": at,
     });
     let names = if a.degree == 1 {
         vec!["k", "p"]

@@ -454,13 +454,16 @@ pub fn tables(r: &NormalizeReport) -> Vec<Table> {
         "overflows",
     ])
     .titled(format!(
-        "normalize, method {}, Θ = {}, coefficients fitted on the {} interval [{:.6}, {:.6}]: {:?}",
+        "normalize, method {}, Θ = {}, coefficients fitted on the {} interval [{:.6}, {:.6}], {}: {}",
         r.method.name(),
         r.theta,
         r.interval_kind.name(),
         r.interval.0,
         r.interval.1,
-        r.coeffs
+        fxshade_model::coeffs::ORDER,
+        fxshade_model::coeffs::named_highest_first(
+            &r.coeffs.iter().rev().copied().collect::<Vec<_>>()
+        )
     ));
     let g = &r.g_stage;
     t.row([
@@ -538,6 +541,9 @@ pub fn run(cmd: &ErrorCmd) -> anyhow::Result<()> {
     })?;
     bar.finish_and_clear();
     let mut json = serde_json::to_value(&r)?;
+    // One coefficient order everywhere (the report's are highest power
+    // first already): stated.
+    json["coeffs_order"] = serde_json::json!(fxshade_model::coeffs::ORDER);
     for (k, v) in serde_json::to_value(r.triangles)?
         .as_object()
         .expect("struct")

@@ -277,3 +277,67 @@ fn branch_and_bound_encloses_the_exhaustive_maximum() {
         assert!(s.max > truth / 2.0 && s.bound.is_infinite());
     }
 }
+
+/// One coefficient order everywhere, stated: the RTL header, the vector
+/// manifest, `error normalize --json` and `coeffs --json` all give g(d)'s
+/// coefficients highest power first (`a*d^2 + b*d + c`), the same values,
+/// and in that order they evaluate to about 1/sqrt(d) (a closed form, not
+/// the code's own order) on the default's interval.
+#[test]
+fn coefficients_are_highest_power_first_everywhere() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("v");
+    let o = fxshade(&[
+        "vectors",
+        "normalize",
+        "--count",
+        "300",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let m: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("manifest.json")).unwrap()).unwrap();
+    let c = &m["parameters"]["coefficients"];
+    assert!(
+        c["order"]
+            .as_str()
+            .unwrap()
+            .starts_with("highest power first"),
+        "{c}"
+    );
+    let v: Vec<f64> = c["values"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    assert_eq!(v.len(), 3, "{c}");
+    for d in [0.7f64, 0.85, 1.0] {
+        let g = v[0] * d * d + v[1] * d + v[2];
+        assert!((g - 1.0 / d.sqrt()).abs() < 2e-3, "g({d}) = {g}: {c}");
+    }
+    let header = std::fs::read_to_string(out.join("normalize.v")).unwrap();
+    let line = header
+        .lines()
+        .find(|l| l.contains("g(d) coefficients"))
+        .expect("the coefficients in the header");
+    assert!(line.contains("highest power first"), "{line}");
+    assert!(
+        line.contains(&format!("a = {}, b = {}, c = {}", v[0], v[1], v[2])),
+        "{line}"
+    );
+    let o = fxshade(&["error", "normalize", "--count", "300", "--json"]);
+    let e: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let ev: Vec<f64> = e["coeffs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    assert_eq!(ev, v, "{e}");
+    assert_eq!(e["coeffs_order"], c["order"]);
+    let o = fxshade(&["coeffs", "--json"]);
+    let k: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(k["coeffs_order"], c["order"]);
+}

@@ -383,7 +383,9 @@ pub struct Design {
     pub interval_kind: Interval,
     /// `[lo, hi]`.
     pub interval: (f64, f64),
-    /// The real coefficients, lowest power first.
+    /// The real coefficients, lowest power first (serialized highest power
+    /// first, [`coeffs::ORDER`]).
+    #[serde(serialize_with = "poly_highest_first")]
     pub real: Poly,
     /// `max |g·√d − 1|` of the real coefficients (exact).
     pub real_max_rel_err: f64,
@@ -398,12 +400,28 @@ pub struct Design {
     pub used: &'static str,
 }
 
+/// A coefficient vector held lowest power first, written in the one order
+/// fxshade shows ([`coeffs::ORDER`]: highest power first).
+fn highest_first<S: serde::Serializer, T: serde::Serialize>(
+    v: &[T],
+    s: S,
+) -> Result<S::Ok, S::Error> {
+    s.collect_seq(v.iter().rev())
+}
+
+fn poly_highest_first<S: serde::Serializer>(p: &Poly, s: S) -> Result<S::Ok, S::Error> {
+    highest_first(&p.0, s)
+}
+
 /// One quantized coefficient set and its errors.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct CoeffChoice {
-    /// Codes in the coefficient format, lowest power first.
+    /// Codes in the coefficient format, lowest power first (serialized
+    /// highest power first, [`coeffs::ORDER`]).
+    #[serde(serialize_with = "highest_first")]
     pub codes: Vec<i128>,
-    /// Their values, lowest power first.
+    /// Their values, lowest power first (serialized highest first).
+    #[serde(serialize_with = "highest_first")]
     pub values: Vec<f64>,
     /// `max |g·√d − 1|` in real arithmetic with these values (exact).
     pub max_rel_err_real: f64,

@@ -31,9 +31,10 @@ pub fn design(cfg: &Config) -> Result<crate::rtl::Design, RtlError> {
     }
     if !n.coeffs.is_empty() {
         notes.push(format!(
-            "g(d) coefficients, lowest power first ({}): {:?}",
+            "g(d) coefficients ({}), {}: {}",
             n.q.coef.format(),
-            n.coeffs
+            crate::coeffs::ORDER,
+            crate::coeffs::named_highest_first(&n.coeffs)
         ));
     }
     let mut d = crate::rtl::Design::new(DECL.name, n.method.name(), n.trace()?, cfg, notes);
@@ -45,18 +46,19 @@ pub fn design(cfg: &Config) -> Result<crate::rtl::Design, RtlError> {
 }
 
 /// The normalizer's `g(d)` coefficients, machine-readable: the format,
-/// then each coefficient lowest power first (`c0 + c1·d + c2·d²`) as its
-/// code and its value (`null` for a method without coefficients).
+/// then each coefficient in [`crate::coeffs::ORDER`] (highest power first,
+/// `a`, `b`, `c`) as its code and its value (`null` for a method without
+/// coefficients).
 pub fn coefficients(n: &Normalizer) -> serde_json::Value {
     if n.coeffs.is_empty() {
         return serde_json::Value::Null;
     }
     let q = &n.q.coef;
     serde_json::json!({
-        "order": "lowest power first: g(d) = c0 + c1*d + c2*d^2",
+        "order": crate::coeffs::ORDER,
         "format": q.format().to_string(),
-        "codes": n.coeffs.iter().map(|&c| q.apply_f64(c).map_or(0, |r| r.code) as i64).collect::<Vec<_>>(),
-        "values": n.coeffs,
+        "codes": n.coeffs.iter().rev().map(|&c| q.apply_f64(c).map_or(0, |r| r.code) as i64).collect::<Vec<_>>(),
+        "values": n.coeffs.iter().rev().collect::<Vec<_>>(),
     })
 }
 

@@ -76,7 +76,7 @@ pub struct Design {
     /// How the stages hand items on (`[rtl]`).
     pub handshake: timing::Handshake,
     /// The unit's parameters in machine-readable form (the normalizer's
-    /// coefficient codes and values, lowest power first): the vector
+    /// coefficient codes and values, highest power first): the vector
     /// manifest's `parameters` (`null` when there are none).
     pub parameters: serde_json::Value,
 }
