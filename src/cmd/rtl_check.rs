@@ -45,10 +45,9 @@ pub struct RtlCheckArgs {
     /// the error there — for `fxshade merge DIR`.
     #[arg(long, value_name = "DIR")]
     result: Option<PathBuf>,
-    /// Simulations to run at once, each on a slice of the run (default:
-    /// as many as make the run faster than one, from the simulator and
-    /// generator costs the last long run of this unit measured: see
-    /// `jobs_for`; one on Verilator and one per core on Icarus until then).
+    /// Simulations to run at once, each on a slice of the run (default: one
+    /// on Verilator, whose simulator costs less than generating the
+    /// vectors; one per core on Icarus).
     #[arg(long, value_name = "J")]
     jobs: Option<usize>,
     /// Percent of cycles with valid (input) or ready (output) held low.
@@ -219,80 +218,17 @@ impl std::fmt::Display for Failed {
 
 impl std::error::Error for Failed {}
 
-/// CPU seconds per vector of a unit's simulator and generator, measured
-/// by the last run of 10^5 vectors or more (a hint kept in the user's
-/// private cache: it sets the default `--jobs`, never a result).
-#[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize)]
-struct Costs {
-    simulator_cpu_per_vector: f64,
-    generator_cpu_per_vector: f64,
-}
-
-fn costs_path(key: &str) -> Option<PathBuf> {
-    let safe: String = key
-        .chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() || c == '-' {
-                c
-            } else {
-                '_'
-            }
-        })
-        .collect();
-    Some(
-        fxshade_model::cache::subdir("costs")
-            .ok()?
-            .join(format!("{safe}.json")),
-    )
-}
-
-fn load_costs(key: &str) -> Option<Costs> {
-    let bytes = fxshade_model::cache::read(&costs_path(key)?).ok()??;
-    let c: Costs = serde_json::from_slice(&bytes).ok()?;
-    (c.simulator_cpu_per_vector.is_finite()
-        && c.generator_cpu_per_vector.is_finite()
-        && c.simulator_cpu_per_vector > 0.0
-        && c.generator_cpu_per_vector >= 0.0)
-        .then_some(c)
-}
-
-fn save_costs(key: &str, c: Costs) -> Option<()> {
-    let p = costs_path(key)?;
-    let text = serde_json::to_vec(&c).ok()?;
-    fxshade_model::cache::write(&p, &text).ok()
-}
-
-/// Jobs that make a run on `cores` cores no slower than one job, given
-/// simulator cost `s` and generator cost `g` per vector (CPU seconds).
-///
-/// With `J` jobs the run takes at least `N·s/J` (each simulator is one
-/// thread) and at least `N·(s + g)/cores` (all the work on all cores):
-/// more jobs help only while the first bound is the larger, so
-/// `J = ⌈s·cores/(s + g)⌉`, at least 1 and at most `cores`. Verilator's
-/// simulator costs a fraction of the generator for every unit (one job);
-/// Icarus's costs several times more (one per core).
-pub fn jobs_for(s: f64, g: f64, cores: usize) -> usize {
-    let cores = cores.max(1);
-    if !(s > 0.0 && g >= 0.0) {
-        return 1;
-    }
-    ((s * cores as f64 / (s + g)).ceil() as usize).clamp(1, cores)
-}
-
-/// The default `--jobs`: from the costs the last long run of this unit,
-/// variant and simulator measured; without one, one job on Verilator and
-/// one per core on Icarus.
-fn default_jobs(key: &str, sim: Sim, cores: usize) -> usize {
-    match load_costs(key) {
-        Some(c) => jobs_for(
-            c.simulator_cpu_per_vector,
-            c.generator_cpu_per_vector,
-            cores,
-        ),
-        None => match sim {
-            Sim::Verilator => 1,
-            Sim::Icarus => cores,
-        },
+/// The default `--jobs`: one simulation on Verilator, whose simulator
+/// costs a fraction of the vector generator for every unit (a second job
+/// only competes with the generator threads for the cores: 5 % slower on
+/// interp here, BENCHMARKS.md), and one per core on Icarus, which costs
+/// several times the generator. A constant of the simulator, never of a
+/// measured time: the slices (and with them the stall patterns each
+/// simulation draws) must not depend on the machine's load.
+fn default_jobs(sim: Sim, cores: usize) -> usize {
+    match sim {
+        Sim::Verilator => 1,
+        Sim::Icarus => cores,
     }
 }
 
@@ -336,12 +272,11 @@ fn run_shard(a: &RtlCheckArgs, shard: Option<&crate::shard::Shard>) -> anyhow::R
         }
     });
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let cost_key = format!("{}-{}-{}", u.name, stream.design.variant, a.sim.name());
     let jobs = if trace.is_some() {
         1
     } else {
         a.jobs
-            .unwrap_or_else(|| default_jobs(&cost_key, a.sim, cores))
+            .unwrap_or_else(|| default_jobs(a.sim, cores))
             .clamp(1, 256)
             .min(stream.count.max(1))
     };
@@ -398,19 +333,6 @@ fn run_shard(a: &RtlCheckArgs, shard: Option<&crate::shard::Shard>) -> anyhow::R
     let passed: u64 = runs.iter().map(|r| r.passed).sum();
     let failed: u64 = runs.iter().map(|r| r.failed).sum();
     let cpu: f64 = runs.iter().map(|r| r.sim_cpu_seconds).sum();
-    if stream.count >= 100_000 && trace.is_none() {
-        // Costs of a run long enough to measure them: the next run's
-        // default --jobs. A cache that cannot be written only loses the
-        // hint.
-        let generate: f64 = runs.iter().map(|r| r.generate_seconds).sum();
-        let _ = save_costs(
-            &cost_key,
-            Costs {
-                simulator_cpu_per_vector: cpu / stream.count as f64,
-                generator_cpu_per_vector: generate / stream.count as f64,
-            },
-        );
-    }
     let summary = RunSummary {
         unit: u.name.to_string(),
         variant: stream.design.variant.clone(),
@@ -528,44 +450,4 @@ fn run_shard(a: &RtlCheckArgs, shard: Option<&crate::shard::Shard>) -> anyhow::R
         .into());
     }
     Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::jobs_for;
-
-    /// The smallest J in 1..=cores whose simulator bound `s/J` is within
-    /// the all-cores bound `(s+g)/cores` (or `cores` when none is): the
-    /// rule stated by brute force.
-    fn brute(s: f64, g: f64, cores: usize) -> usize {
-        (1..=cores)
-            .find(|&j| s / j as f64 <= (s + g) / cores as f64 + 1e-15)
-            .unwrap_or(cores)
-    }
-
-    #[test]
-    fn jobs_follow_the_cost_ratio() {
-        // Measured on this machine (BENCHMARKS.md, 10^6 vectors, CPU s):
-        // normalize simulates in 0.074 s and generates in 0.47 s: one job;
-        // the smooth top simulates in 1.05 s and generates in 0.68 s: two.
-        assert_eq!(jobs_for(0.074, 0.47, 2), 1);
-        assert_eq!(jobs_for(1.05, 0.68, 2), 2);
-        // Nothing to generate: one simulator per core.
-        assert_eq!(jobs_for(1.0, 0.0, 8), 8);
-        // Icarus-like: 20 times the generator on 8 cores: ⌈8·20/21⌉ = 8.
-        assert_eq!(jobs_for(20.0, 1.0, 8), 8);
-        // A ratio of 1 on 4 cores: ⌈4/2⌉ = 2.
-        assert_eq!(jobs_for(1.0, 1.0, 4), 2);
-        // Nonsense costs fall back to one job.
-        assert_eq!(jobs_for(f64::NAN, 1.0, 4), 1);
-        assert_eq!(jobs_for(0.0, 1.0, 4), 1);
-        for cores in 1..=16 {
-            for si in 1..40 {
-                for gi in 0..40 {
-                    let (s, g) = (si as f64 * 0.37, gi as f64 * 0.53);
-                    assert_eq!(jobs_for(s, g, cores), brute(s, g, cores), "{s} {g} {cores}");
-                }
-            }
-        }
-    }
 }
