@@ -174,7 +174,9 @@ fn broken_handshakes_fail_the_proof() {
 }
 
 /// A set-up port that accepts a record one stage too early (an item still
-/// reads the registers) fails the proof; the emitted one is proved.
+/// reads the registers) fails the proof; the emitted one is proved. The
+/// per-frame port waits for the pipe; the per-triangle port is
+/// double-buffered, and loading the bank an item still reads fails too.
 #[test]
 fn a_set_up_port_loading_under_a_reader_fails_the_proof() {
     let dir = tempfile::tempdir().unwrap();
@@ -184,35 +186,57 @@ fn a_set_up_port_loading_under_a_reader_fails_the_proof() {
     let v = std::fs::read_to_string(ok.join("pipeline_smooth.v")).unwrap();
     let line = v
         .lines()
-        .find(|l| l.starts_with("  assign tri_ready_o = ~|valid_q["))
+        .find(|l| l.starts_with("  assign frame_ready_o = ~|valid_q["))
         .expect("a drained set-up port");
     let top: u32 = line
-        .trim_start_matches("  assign tri_ready_o = ~|valid_q[")
+        .trim_start_matches("  assign frame_ready_o = ~|valid_q[")
         .split(':')
         .next()
         .unwrap()
         .parse()
         .unwrap();
     assert!(top >= 1, "{line}");
-    let early = format!("  assign tri_ready_o = ~|valid_q[{}:0];", top - 1);
-    let d = dir.path().join("early");
-    std::fs::create_dir(&d).unwrap();
-    std::fs::write(d.join("pipeline_smooth.v"), v.replacen(line, &early, 1)).unwrap();
-    let o = fxshade(&["formal", "pipeline", "--rtl-dir", d.to_str().unwrap()]);
-    assert!(!o.status.success(), "{early} was proved");
-    assert!(
-        text(&o).contains("pipeline_smooth.v:"),
-        "the failing assertion is named: {}",
-        text(&o)
-    );
+    let early = format!("  assign frame_ready_o = ~|valid_q[{}:0];", top - 1);
+    let fails = |name: &str, text_v: String, what: &str| {
+        let d = dir.path().join(name);
+        std::fs::create_dir(&d).unwrap();
+        std::fs::write(d.join("pipeline_smooth.v"), text_v).unwrap();
+        let o = fxshade(&["formal", "pipeline", "--rtl-dir", d.to_str().unwrap()]);
+        assert!(!o.status.success(), "{what} was proved");
+        assert!(
+            text(&o).contains("pipeline_smooth.v:"),
+            "the failing assertion is named: {}",
+            text(&o)
+        );
+    };
+    fails("early", v.replacen(line, &early, 1), &early);
     // A port that loads in the same cycle as an entering item: the item's
     // stage 0 reads the old values, its later stages the new ones.
     let same = line.replacen(" & ~valid_i;", ";", 1);
     assert_ne!(same, line, "the port waits for ~valid_i: {line}");
-    let d = dir.path().join("same-cycle");
-    std::fs::create_dir(&d).unwrap();
-    std::fs::write(d.join("pipeline_smooth.v"), v.replacen(line, &same, 1)).unwrap();
-    let o = fxshade(&["formal", "pipeline", "--rtl-dir", d.to_str().unwrap()]);
-    assert!(!o.status.success(), "{same} was proved");
-    assert!(text(&o).contains("pipeline_smooth.v:"), "{}", text(&o));
+    fails("same-cycle", v.replacen(line, &same, 1), &same);
+    // The triangle port: a ready that ignores the items' tags (and the
+    // invariant saying what it stands for, so only the banks can fail),
+    // and a record written into the current bank instead of the other.
+    let ready = v
+        .lines()
+        .find(|l| l.trim_start().starts_with("tri_ready_q <= ~|"))
+        .expect("the banked port's ready");
+    let inv = v
+        .lines()
+        .find(|l| l.trim_start().starts_with("assert (tri_ready_q == "))
+        .expect("the ready's invariant");
+    let blind = v.replacen(ready, "      tri_ready_q <= 1'b1;", 1).replacen(
+        inv,
+        "      assert (tri_ready_q);",
+        1,
+    );
+    fails("blind", blind, "a ready blind to the tags");
+    let load = "    if (tri_load & tri_cur_q) begin";
+    assert!(v.contains(load));
+    fails(
+        "current-bank",
+        v.replacen(load, "    if (tri_load & ~tri_cur_q) begin", 1),
+        "a load into the current bank",
+    );
 }

@@ -505,7 +505,8 @@ fn the_output_fifo_is_lut_ram_on_ecp5_and_block_ram_on_ice40() {
 /// The synthesis harness drives each set-up port's valid from a register
 /// of its own, so the set-up registers can load and stay in the netlist
 /// with their load enable timed: in the ECP5 netlist Yosys writes for the
-/// smooth top at 7 ns, every set-up register bit (`X_q <= X_i`) is a
+/// smooth top at 7 ns, every set-up register bit (`X_q <= X_i`, both
+/// banks `X_b0_q`, `X_b1_q` of the triangle port) is a
 /// TRELLIS_FF whose CE is a net, never a constant. (With the item's valid
 /// on the set-up ports too, as before, all 387 had CE tied to 0.)
 #[test]
@@ -531,7 +532,12 @@ fn set_up_registers_load_in_the_synthesis_harness() {
         .filter_map(|l| {
             let (q, d) = l.trim().split_once(" <= ")?;
             let base = q.strip_suffix("_q")?;
-            (d == format!("{base}_i;")).then(|| q.to_string())
+            // The triangle port's two banks load `X_b0_q`, `X_b1_q`.
+            let field = base
+                .strip_suffix("_b0")
+                .or_else(|| base.strip_suffix("_b1"))
+                .unwrap_or(base);
+            (d == format!("{field}_i;")).then(|| q.to_string())
         })
         .collect();
     assert!(

@@ -52,8 +52,10 @@ pub fn design(cfg: &Config) -> Result<crate::rtl::Design, RtlError> {
             "sel_past_the_last": 0,
         });
     }
-    if cfg.unit("rtl").choice("setup") == "port" {
-        d.setup = setup_groups(path, p.angles);
+    match cfg.unit("rtl").choice("setup") {
+        "port" => d.setup = setup_groups(path, p.angles, true),
+        "hold" => d.setup = setup_groups(path, p.angles, false),
+        _ => {}
     }
     d.module = match (path, p.angles) {
         (Path::Mapped, super::AngleSource::Interpolate) => "pipeline_mapped_interp".into(),
@@ -64,9 +66,14 @@ pub fn design(cfg: &Config) -> Result<crate::rtl::Design, RtlError> {
 
 /// The set-up ports of a pipeline top: the light and half vectors (or
 /// their angles) per frame; the vertex and midpoint normals, the
-/// coefficient set (or the angle set-up) per triangle. The barycentrics
-/// and the texel travel with each pixel.
-pub fn setup_groups(path: Path, angles: super::AngleSource) -> Vec<crate::rtl::SetupGroup> {
+/// coefficient set (or the angle set-up) per triangle, double-buffered
+/// with `banked` (`rtl.setup = "port"`; `"hold"`: one register a field).
+/// The barycentrics and the texel travel with each pixel.
+pub fn setup_groups(
+    path: Path,
+    angles: super::AngleSource,
+    banked: bool,
+) -> Vec<crate::rtl::SetupGroup> {
     let xyz = |v: &[&str]| -> Vec<String> {
         v.iter()
             .flat_map(|n| ["x", "y", "z"].map(|c| format!("{n}_{c}")))
@@ -101,11 +108,13 @@ pub fn setup_groups(path: Path, angles: super::AngleSource) -> Vec<crate::rtl::S
             name: "frame",
             doc: frame_doc,
             fields: frame,
+            banked: false,
         },
         crate::rtl::SetupGroup {
             name: "tri",
             doc: tri_doc,
             fields: tri,
+            banked,
         },
     ]
 }

@@ -100,6 +100,13 @@ pub struct SetupGroup {
     pub doc: &'static str,
     /// Its input ports (trace input names).
     pub fields: Vec<String>,
+    /// Double-buffered: two banks `<field>_b0_q`, `<field>_b1_q`; a record
+    /// loads the bank no item in the reading stages uses, and every item
+    /// carries a tag naming the bank it reads (`<name>_tag_q`), so the next
+    /// record loads while the last one's items are still in flight. For
+    /// per-triangle values, where waiting for the pipe costs every
+    /// triangle; a per-frame group waits (one drain a frame).
+    pub banked: bool,
 }
 
 /// A set-up port as emitted.
@@ -113,9 +120,14 @@ pub struct SetupPort {
     pub fields: Vec<String>,
     /// The last stage reading its registers: the port accepts a record
     /// only when stages `1..=drain` are empty and no item is offered (0:
-    /// always).
+    /// always); with two banks, only when no item in stages `1..=drain`
+    /// reads the bank it loads.
     pub drain: u32,
-    /// Flip-flops holding its values.
+    /// Banks of registers: 2 when double-buffered (the port then waits
+    /// only for the items of the bank it loads), else 1.
+    pub banks: u32,
+    /// Flip-flops holding its values (both banks, the tags and the
+    /// port's state).
     pub flops: u64,
 }
 
@@ -341,6 +353,21 @@ struct Emitter<'a> {
     groups: Vec<u32>,
     /// The last stage reading each set-up group's registers.
     drain: Vec<u32>,
+    /// Whether each set-up group is double-buffered ([`SetupGroup::banked`]).
+    banked: Vec<bool>,
+    /// A banked set-up input read at a stage: `(node, stage)` → the wire
+    /// choosing the bank of the item in that stage.
+    bank_at: HashMap<(usize, u32), String>,
+    /// Selections of constants by a banked set-up input (the normalizer's
+    /// coefficient set by `sel`): built where they are read, from the
+    /// selector carried with the item ([`Self::lazy_select`]).
+    lazy: Vec<bool>,
+    /// A banked set-up input carried with the item: `(node, stage)` → name.
+    carried: HashMap<(usize, u32), String>,
+    /// A lazy selection materialized at a stage: `(node, stage)` → name.
+    lazy_at: HashMap<(usize, u32), String>,
+    /// The set-up groups' port names.
+    group_names: Vec<&'static str>,
 }
 
 impl<'a> Emitter<'a> {
@@ -353,7 +380,13 @@ impl<'a> Emitter<'a> {
 
     /// The node's value at `stage` (balancing registers created on demand).
     fn value_at(&mut self, node: usize, stage: u32) -> String {
+        if self.lazy[node] {
+            return self.lazy_select(node, stage);
+        }
         let Some(s0) = self.stage[node] else {
+            if let Some(g) = self.banked_group(node) {
+                return self.bank_read(node, g, stage);
+            }
             let g = self.groups[node];
             for (k, d) in self.drain.iter_mut().enumerate() {
                 if g >> k & 1 == 1 {
@@ -371,6 +404,117 @@ impl<'a> Emitter<'a> {
         let name = format!("{}_s{stage}", self.name[node]);
         self.reg(stage, &name, sym.signed, sym.width, &prev);
         self.at.insert((node, stage), name.clone());
+        name
+    }
+
+    /// The banked set-up group of a set-up input, if its group is banked.
+    fn banked_group(&self, node: usize) -> Option<usize> {
+        if !matches!(self.t.ops()[node], Op::Input(_)) {
+            return None;
+        }
+        let g = self.groups[node];
+        (0..self.banked.len()).find(|&k| g >> k & 1 == 1 && self.banked[k])
+    }
+
+    /// A banked set-up input as the item in `stage` sees it: bank 1 when
+    /// the item's tag (`<group>_cur_q` at stage 0, `<group>_tag_q[s−1]`
+    /// after) is 1, else bank 0. Reading it at `stage` makes the group's
+    /// port wait for that stage (its drain).
+    fn bank_read(&mut self, node: usize, g: usize, stage: u32) -> String {
+        self.drain[g] = self.drain[g].max(stage);
+        if let Some(n) = self.bank_at.get(&(node, stage)) {
+            return n.clone();
+        }
+        let field = self.name[node].trim_end_matches("_q").to_string();
+        let group = self.group_names[g];
+        let tag = if stage == 0 {
+            format!("{group}_cur_q")
+        } else {
+            format!("{group}_tag_q[{}]", stage - 1)
+        };
+        let sym = self.t.sym(node);
+        let name = format!("{field}_bank_s{stage}");
+        self.body.push(format!(
+            "wire {} {name} = {tag} ? {field}_b1_q : {field}_b0_q;",
+            decl(sym.signed, sym.width)
+        ));
+        self.bank_at.insert((node, stage), name.clone());
+        name
+    }
+
+    /// A banked set-up input taken from its bank at stage 0 and carried
+    /// with the item to `stage` (one register a stage).
+    fn carried(&mut self, node: usize, stage: u32) -> String {
+        if stage == 0 {
+            let g = self.banked_group(node).expect("a banked set-up input");
+            return self.bank_read(node, g, 0);
+        }
+        if let Some(n) = self.carried.get(&(node, stage)) {
+            return n.clone();
+        }
+        let prev = self.carried(node, stage - 1);
+        let field = self.name[node].trim_end_matches("_q").to_string();
+        let sym = self.t.sym(node);
+        let name = format!("{field}_c_s{stage}");
+        self.reg(stage, &name, sym.signed, sym.width, &prev);
+        self.carried.insert((node, stage), name.clone());
+        name
+    }
+
+    /// A selection of constants by a banked set-up input, read at `stage`:
+    /// the selector is carried with the item (a few bits instead of the
+    /// selected value's width, and no bank for later stages to wait for),
+    /// and, pipelined for a target, the multiplexer sits in the stage
+    /// before and its result is a register of `stage` (compact, or at stage
+    /// 0, it is combinational in `stage`). So the normalizer's coefficient
+    /// set costs one multiplexer (and register) per reading stage, and for
+    /// a target no path runs from a set-up register through the
+    /// multiplexer into a multiplier.
+    fn lazy_select(&mut self, node: usize, stage: u32) -> String {
+        if let Some(n) = self.lazy_at.get(&(node, stage)) {
+            return n.clone();
+        }
+        let Op::Select(sel, opts) = self.t.ops()[node].clone() else {
+            unreachable!("a lazy node is a selection")
+        };
+        let sym = self.t.sym(node);
+        // Pipelined for a target, the multiplexer gets a stage of its own
+        // (it is off the multiplier's path); compact, it sits in the
+        // reading stage.
+        let registered = stage > 0 && self.timing.is_some();
+        let at = if registered { stage - 1 } else { stage };
+        let vs = self.carried(sel.node(), at);
+        let vals: Vec<String> = opts
+            .iter()
+            .map(|o| {
+                let v = self.operand(o, at);
+                bits::sv(
+                    sym.signed,
+                    &bits::align(&v, (sym.frac - v.frac) as u32, sym.width),
+                )
+            })
+            .collect();
+        let base = &self.name[node];
+        let mux = format!("{base}_m{at}");
+        let d = decl(sym.signed, sym.width);
+        self.hw.selects += 1;
+        self.body.push(format!("reg  {d} {mux};"));
+        let mut t = "always @* begin\n".to_string();
+        let _ = writeln!(t, "  case ({vs})");
+        for (k, v) in vals.iter().enumerate().skip(1) {
+            let _ = writeln!(t, "    {}'d{k}: {mux} = {v};", sel.sym().width);
+        }
+        let _ = writeln!(t, "    default: {mux} = {};", vals[0]);
+        t += "  endcase\nend";
+        self.body.push(t);
+        let name = if !registered {
+            mux
+        } else {
+            let r = format!("{base}_s{stage}");
+            self.reg(stage, &r, sym.signed, sym.width, &mux);
+            r
+        };
+        self.lazy_at.insert((node, stage), name.clone());
         name
     }
 
@@ -995,6 +1139,23 @@ impl<'a> Emitter<'a> {
         };
         let mask = operands.iter().fold(0, |m, &n| m | self.groups[n]);
         let held = mask != 0 && operands.iter().all(|&n| self.stage[n].is_none());
+        let banked = (0..self.banked.len()).any(|k| mask >> k & 1 == 1 && self.banked[k]);
+        if held && banked {
+            // A banked group's values differ from item to item (two
+            // triangles may be in flight): a selection of constants by one
+            // of its inputs is built where it is read; any other logic of
+            // them is an ordinary stage-0 operation on the banks' reads.
+            if let Op::Select(s, o) = &op {
+                let consts = o
+                    .iter()
+                    .all(|v| matches!(self.t.ops()[v.node()], Op::Const(_)));
+                if consts && self.banked_group(s.node()).is_some() {
+                    self.lazy[i] = true;
+                    return Ok(());
+                }
+            }
+            return self.node_op(i, op, false);
+        }
         self.node_op(i, op, held)?;
         if held {
             if let Some(s) = self.stage[i].take() {
@@ -1392,7 +1553,7 @@ impl<'a> Emitter<'a> {
 /// up. (A first version also stated that the transfers in flight equal the
 /// number of valid bits; z3 needs minutes to prove that popcount identity
 /// on the deep tops, and the per-stage statements above imply it.)
-fn formal_block(latency: u32, outs: &[Port], nf: usize, setup: &[(u32, Vec<String>)]) -> String {
+fn formal_block(latency: u32, outs: &[Port], nf: usize, setup: &[String]) -> String {
     let l = latency;
     let mut v = formal_prelude(l, "ready_i & ~f_in");
     v += "  always @(*) begin\n";
@@ -1438,13 +1599,7 @@ fn formal_prelude(l: u32, idle: &str) -> String {
 /// The clocked properties both handshakes share, around `shift` (how the
 /// valid bits move): the drain, output hold under stall, set-up registers
 /// held while an item reads them, and the cover; closes the block.
-fn formal_clocked(
-    l: u32,
-    shift: &str,
-    outs: &[Port],
-    nf: usize,
-    setup: &[(u32, Vec<String>)],
-) -> String {
+fn formal_clocked(l: u32, shift: &str, outs: &[Port], nf: usize, setup: &[String]) -> String {
     let mut v = String::new();
     v += "  always @(posedge clk_i) begin\n";
     v += "    if (f_past_valid && rst_ni) begin\n";
@@ -1452,6 +1607,11 @@ fn formal_clocked(
         v,
         "      assert ((valid_q & ~({{{l}{{1'b1}}}} << f_idle)) == {l}'d0);"
     );
+    // Invariants of the set-up ports (no `$past`: they hold in every
+    // cycle after reset, so induction may assume them one cycle back).
+    for line in setup.iter().filter(|l| l.starts_with("assert")) {
+        let _ = writeln!(v, "      {line}");
+    }
     v += "    end\n";
     v += "    if (f_past_valid && rst_ni && $past(rst_ni)) begin\n";
     v += shift;
@@ -1466,15 +1626,8 @@ fn formal_clocked(
     v += "      end\n";
     // Set-up registers: unchanged while an item is in the stages reading
     // them or entering.
-    for (drain, regs) in setup {
-        if *drain > 0 && !regs.is_empty() {
-            let _ = writeln!(
-                v,
-                "      if ($past((|valid_q[{}:0]) | f_in)) assert ($stable({{{}}}));",
-                drain - 1,
-                regs.join(", ")
-            );
-        }
+    for line in setup.iter().filter(|l| !l.starts_with("assert")) {
+        let _ = writeln!(v, "      {line}");
     }
     v += "    end\n";
     v += "    if (f_past_valid && rst_ni) cover (valid_o & ready_i);\n";
@@ -1628,13 +1781,7 @@ fn fifo_outputs(
 /// * after `j` cycles without an input transfer the first `j` stages are
 ///   empty; set-up registers hold while an item is in the stages reading
 ///   them.
-fn formal_block_fifo(
-    l: u32,
-    depth: u32,
-    outs: &[Port],
-    nf: usize,
-    setup: &[(u32, Vec<String>)],
-) -> String {
+fn formal_block_fifo(l: u32, depth: u32, outs: &[Port], nf: usize, setup: &[String]) -> String {
     let aw = depth.trailing_zeros();
     let mut v = formal_prelude(l, "~f_in");
     // The FIFO never overflows: an item at stage k finds room when it
@@ -1670,6 +1817,128 @@ fn formal_block_fifo(
     let shift = format!("      assert (valid_q == {shifted});\n");
     v += &formal_clocked(l, &shift, outs, nf, setup);
     v
+}
+
+/// A double-buffered set-up port `n` whose banks are read up to stage
+/// `w` ([`SetupGroup::banked`]): the banks, the current bank `<n>_cur_q`
+/// (the one an item accepted now reads), one tag bit per stage 1..`w`
+/// (the bank of the item there) and the registered ready. A record loads
+/// the other bank and makes it current; it is accepted while no item in
+/// stages 1..`w` reads that bank, so an item accepted in the same cycle
+/// keeps the old bank, and the ready is the same test on the next cycle's
+/// state, held in a register (no path from an input port to it). Returns
+/// the text and the flip-flops besides the banks.
+fn banked_port(
+    n: &str,
+    doc: &str,
+    w: u32,
+    regs: &[(String, String, Format)],
+    fifo: bool,
+) -> (String, u64) {
+    let mut t = comment(
+        "  // ",
+        &format!(
+            "Set-up port `{n}`: {doc}. Two banks: a record loads the bank the items in stages 1..{w} do not read and makes it the current one; each item carries the bank it read (a tag per stage), so the next record loads while the last one's items are in flight. Ready is a register."
+        ),
+    );
+    let _ = writeln!(t, "  reg  {n}_cur_q;");
+    let _ = writeln!(t, "  reg  {n}_ready_q;");
+    let _ = writeln!(t, "  wire {n}_load = {n}_valid_i & {n}_ready_q;");
+    let _ = writeln!(t, "  wire {n}_cur_d = {n}_cur_q ^ {n}_load;");
+    let _ = writeln!(t, "  assign {n}_ready_o = {n}_ready_q;");
+    let mut extra = 2;
+    if w == 0 {
+        // Only stage 0 reads the banks: the other one is always free.
+        t += "  always @(posedge clk_i or negedge rst_ni) begin
+";
+        let _ = writeln!(
+            t,
+            "    if (!rst_ni) begin
+      {n}_cur_q <= 1'b0;
+      {n}_ready_q <= 1'b1;
+    end else begin
+      {n}_cur_q <= {n}_cur_d;
+      {n}_ready_q <= 1'b1;
+    end"
+        );
+        t += "  end
+";
+    } else {
+        extra += w as u64;
+        let (step, shift_in) = if fifo {
+            ("1'b1", "in_xfer")
+        } else {
+            ("en", "valid_i")
+        };
+        let shift = |reg: &str, bit: &str| {
+            if w == 1 {
+                bit.to_string()
+            } else {
+                format!("{{{reg}[{}:0], {bit}}}", w - 2)
+            }
+        };
+        let _ = writeln!(t, "  reg  [{}:0] {n}_tag_q;", w - 1);
+        let _ = writeln!(
+            t,
+            "  wire [{}:0] {n}_tag_d = {step} ? {} : {n}_tag_q;",
+            w - 1,
+            shift(&format!("{n}_tag_q"), &format!("{n}_cur_q"))
+        );
+        let _ = writeln!(
+            t,
+            "  wire [{}:0] {n}_busy_d = {step} ? {} : valid_q[{}:0];",
+            w - 1,
+            shift("valid_q", shift_in),
+            w - 1
+        );
+        t += "  always @(posedge clk_i or negedge rst_ni) begin
+";
+        let _ = writeln!(
+            t,
+            "    if (!rst_ni) begin
+      {n}_cur_q <= 1'b0;
+      {n}_tag_q <= {w}'b0;
+      {n}_ready_q <= 1'b1;
+    end else begin
+      {n}_cur_q <= {n}_cur_d;
+      {n}_tag_q <= {n}_tag_d;"
+        );
+        let _ = writeln!(
+            t,
+            "      {n}_ready_q <= ~|({n}_busy_d & ({n}_tag_d ^ {{{w}{{{n}_cur_d}}}}));
+    end"
+        );
+        t += "  end
+";
+    }
+    for (q, _, f) in regs {
+        let base = q.trim_end_matches("_q");
+        for b in 0..2 {
+            let _ = writeln!(t, "  reg  {} {base}_b{b}_q;", decl(f.signed(), f.width()));
+        }
+    }
+    if !regs.is_empty() {
+        t += "  always @(posedge clk_i) begin
+";
+        let _ = writeln!(t, "    if ({n}_load & {n}_cur_q) begin");
+        for (q, i, _) in regs {
+            let _ = writeln!(t, "      {}_b0_q <= {i};", q.trim_end_matches("_q"));
+        }
+        let _ = writeln!(
+            t,
+            "    end
+    if ({n}_load & ~{n}_cur_q) begin"
+        );
+        for (q, i, _) in regs {
+            let _ = writeln!(t, "      {}_b1_q <= {i};", q.trim_end_matches("_q"));
+        }
+        t += "    end
+  end
+";
+    }
+    t += "
+";
+    (t, extra)
 }
 
 /// Emit `d` as one Verilog module with the `compact` pipeline.
@@ -1777,6 +2046,12 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
             })
             .collect(),
         drain: vec![0; d.setup.len()],
+        banked: d.setup.iter().map(|g| g.banked).collect(),
+        bank_at: HashMap::new(),
+        lazy: vec![false; t.ops().len()],
+        carried: HashMap::new(),
+        lazy_at: HashMap::new(),
+        group_names: d.setup.iter().map(|g| g.name).collect(),
     };
     for (k, m) in muts.iter().enumerate() {
         e.mutants
@@ -1873,6 +2148,21 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
                 flops += f.width() as u64;
             }
         }
+        if grp.banked {
+            let (text, extra) = banked_port(grp.name, grp.doc, drain, &regs, fifo);
+            setup_text += &text;
+            flops = 2 * flops + extra;
+            e.hw.flops += flops;
+            setup.push(SetupPort {
+                name: grp.name,
+                doc: grp.doc,
+                fields,
+                drain,
+                banks: 2,
+                flops,
+            });
+            continue;
+        }
         e.hw.flops += flops;
         // An item offered in the same cycle goes first: with drain > 0 its
         // later stages would read the new values, its stage 0 the old.
@@ -1911,6 +2201,7 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
             doc: grp.doc,
             fields,
             drain,
+            banks: 1,
             flops,
         });
     }
@@ -1980,15 +2271,22 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
         );
     }
     for p in &setup {
-        v += &comment(
-            "// ",
-            &format!(
+        let text = if p.banks == 2 {
+            format!(
+                "Set-up port `{n}` ({n}_valid_i/{n}_ready_o): {}. Two banks of registers: a record loads the bank no item in stages 1..{} reads and makes it current, so the next record loads while the last one's items are in flight; an item computes with the values current when it was accepted (an item accepted in the same cycle as a record keeps the old ones). {n}_ready_o is a register.",
+                p.doc,
+                p.drain,
+                n = p.name
+            )
+        } else {
+            format!(
                 "Set-up port `{n}` ({n}_valid_i/{n}_ready_o): {}. Held in registers; a record is accepted while stages 1..{} are empty and no item is offered (an item offered in the same cycle goes first), so an item computes with the set-up values held when it was accepted.",
                 p.doc,
                 p.drain,
                 n = p.name
-            ),
-        );
+            )
+        };
+        v += &comment("// ", &text);
     }
     let _ = writeln!(
         v,
@@ -2171,18 +2469,50 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
             v += "  };\n";
         }
     }
-    let formal_setup: Vec<(u32, Vec<String>)> = setup
-        .iter()
-        .map(|p| {
-            let regs = p
-                .fields
-                .iter()
-                .filter(|f| inputs.iter().any(|q| &q.name == *f && live[q.value.node()]))
-                .map(|f| format!("{f}_q"))
-                .collect();
-            (p.drain, regs)
-        })
-        .collect();
+    // Set-up registers: unchanged while an item is in the stages reading
+    // them or entering; with banks, each bank while an item tagged with it
+    // is there (and the registered ready is the test it stands for).
+    let mut formal_setup: Vec<String> = Vec::new();
+    for p in &setup {
+        let regs: Vec<&String> = p
+            .fields
+            .iter()
+            .filter(|f| inputs.iter().any(|q| &q.name == *f && live[q.value.node()]))
+            .collect();
+        let n = p.name;
+        let w = p.drain;
+        if p.banks == 2 {
+            if w > 0 {
+                formal_setup.push(format!(
+                    "assert ({n}_ready_q == ~|(valid_q[{}:0] & ({n}_tag_q ^ {{{w}{{{n}_cur_q}}}})));",
+                    w - 1
+                ));
+            }
+            for b in 0..2 {
+                if regs.is_empty() {
+                    continue;
+                }
+                let mine = if b == 0 { "~" } else { "" };
+                let busy = if w == 0 {
+                    String::new()
+                } else {
+                    format!("(|(valid_q[{}:0] & {mine}{n}_tag_q)) | ", w - 1)
+                };
+                let list: Vec<String> = regs.iter().map(|f| format!("{f}_b{b}_q")).collect();
+                formal_setup.push(format!(
+                    "if ($past({busy}(f_in & {mine}{n}_cur_q))) assert ($stable({{{}}}));",
+                    list.join(", ")
+                ));
+            }
+        } else if w > 0 && !regs.is_empty() {
+            let list: Vec<String> = regs.iter().map(|f| format!("{f}_q")).collect();
+            formal_setup.push(format!(
+                "if ($past((|valid_q[{}:0]) | f_in)) assert ($stable({{{}}}));",
+                w - 1,
+                list.join(", ")
+            ));
+        }
+    }
     v += &if fifo {
         formal_block_fifo(pipe_latency, depth, &outs, nf, &formal_setup)
     } else {

@@ -375,8 +375,8 @@ pub static DECL: crate::config::UnitDecl = crate::config::UnitDecl {
         },
         crate::config::FieldDecl {
             name: "setup",
-            kind: crate::config::FieldKind::Choice(&["port", "pixel"]),
-            doc: "the pipeline tops' per-frame and per-triangle values: port: loaded through set-up ports (frame_valid_i, tri_valid_i) into registers every stage reads; pixel: carried with every pixel through the pipeline registers",
+            kind: crate::config::FieldKind::Choice(&["port", "hold", "pixel"]),
+            doc: "the pipeline tops' per-frame and per-triangle values: port: loaded through set-up ports (frame_valid_i, tri_valid_i) into registers the stages read, the triangle's double-buffered (two banks, a tag per stage: the next triangle loads while the last one's pixels are in flight); hold: the same ports with one register a field (a triangle waits until the stages reading them have drained: fewer flip-flops, more cycles per pixel on small triangles); pixel: carried with every pixel through the pipeline registers",
         },
     ],
     groups: &[],
