@@ -1,6 +1,7 @@
 //! `fxshade`: the command-line tool over the fxshade model.
 
 mod cmd;
+mod critical_path;
 mod dsp_pack;
 mod explore;
 mod netlist;

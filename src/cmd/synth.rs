@@ -223,6 +223,14 @@ pub struct SynthResult {
     pub dsp_packed: Option<crate::dsp_pack::PackStats>,
     /// Tool versions.
     pub tools: Vec<String>,
+    /// The median seed's critical path, from nextpnr's JSON report, with
+    /// the emitted signals it runs through (None without place and route).
+    #[serde(default)]
+    pub critical_path: Option<crate::critical_path::CriticalPath>,
+    /// The median Fmax against the clock asked for (`--freq`, or
+    /// `1000 / --clock-ns`); None without place and route.
+    #[serde(default, skip_deserializing)]
+    pub verdict: Option<crate::critical_path::Verdict>,
 }
 
 fn tool_version(tool: &str, arg: &str) -> Option<String> {
@@ -532,6 +540,8 @@ pub fn synthesize(
         synth_seconds,
         pnr_seconds: 0.0,
         dsp_packed,
+        critical_path: None,
+        verdict: None,
         tools: [tool_version("yosys", "-V")]
             .into_iter()
             .chain(pnr_tool.map(|t| {
@@ -565,9 +575,11 @@ pub fn synthesize(
             Target::Ice40Up5k => cmd.args(["--up5k", "--package", "sg48"]),
             _ => cmd.args(["--85k", "--package", "CABGA381"]),
         };
+        let report = format!("report_seed{seed}.json");
         cmd.args(["--json", "harness.json", "--freq"])
             .arg(format!("{freq}"))
             .args(["--seed", &seed.to_string()])
+            .args(["--report", &report])
             .args(["--pcf-allow-unconstrained", "--timing-allow-fail"])
             .current_dir(dir);
         if target == Target::Ecp5 {
@@ -588,6 +600,7 @@ pub fn synthesize(
             ])
             .arg(format!("{freq}"))
             .args(["--seed", &seed.to_string()])
+            .args(["--report", &report])
             .current_dir(dir);
         }
         let log_path = dir.join(format!("nextpnr_seed{seed}.log"));
@@ -627,12 +640,30 @@ pub fn synthesize(
     let med = s[s.len() / 2];
     r.fmax_mhz = Some(med);
     r.throughput_mps = Some(med);
+    // The median seed's critical path (the first seed with that Fmax).
+    let seed = r
+        .fmax_seeds
+        .iter()
+        .position(|&f| f == med)
+        .expect("the median is a seed")
+        + 1;
+    let report = dir.join(format!("report_seed{seed}.json"));
+    let bytes = std::fs::read(&report)
+        .with_context(|| format!("{tool} wrote no timing report {}", report.display()))?;
+    r.critical_path = Some(
+        crate::critical_path::parse(&bytes, seed as u64).with_context(|| {
+            format!(
+                "{}: no clock-to-clock critical path in it",
+                report.display()
+            )
+        })?,
+    );
     Ok(r)
 }
 
 /// The flow's own steps, in the cache key: a change to them measures
 /// again.
-const FLOW: &str = "ecp5-mult18-pack-3-logic-cells";
+const FLOW: &str = "ecp5-mult18-pack-3-logic-cells-critical-path";
 
 fn cache_entry(e: &Emitted, target: Target, flow: Flow) -> anyhow::Result<PathBuf> {
     let Flow {
@@ -687,8 +718,15 @@ pub fn cached(
     progress: &dyn Fn(&str),
 ) -> anyhow::Result<(SynthResult, bool)> {
     let u = crate::rtl_flow::unit(unit)?;
-    let (_, e) = fxshade_model::rtl::units::emit_unit(u, cfg)?;
-    cached_emitted(unit, &e, target, flow, keep, use_cache, progress)
+    let (d, e) = fxshade_model::rtl::units::emit_unit(u, cfg)?;
+    let (mut r, hit) = cached_emitted(unit, &e, target, flow, keep, use_cache, progress)?;
+    if let Some(p) = &mut r.critical_path {
+        p.map_signals(&d.trace);
+    }
+    r.verdict = r
+        .fmax_mhz
+        .map(|f| crate::critical_path::Verdict::new(flow.freq, f, &r.fmax_seeds));
+    Ok((r, hit))
 }
 
 /// [`cached`] for an emitted module.
@@ -919,6 +957,28 @@ pub fn run(a: &SynthArgs) -> anyhow::Result<()> {
     let mut json = serde_json::to_value(&r)?;
     json["cached"] = serde_json::json!(was_cached);
     let mut tables = vec![t];
+    if let (Some(v), Some(p)) = (&r.verdict, &r.critical_path) {
+        let mut c = Table::new(["signal", "stage id", "node", "operation", "ns"]).titled(format!(
+            "Timing: {}. Critical path of seed {}: {:.2} ns ({:.2} in cells, {:.2} routing), {} -> {}",
+            v.line(),
+            p.seed,
+            p.delay_ns,
+            p.logic_ns,
+            p.routing_ns,
+            crate::critical_path::signal_of(&p.from),
+            crate::critical_path::signal_of(&p.to),
+        ));
+        for s in &p.signals {
+            c.row([
+                s.name.clone(),
+                s.stage_id.clone().unwrap_or_else(|| "-".into()),
+                s.node.map_or("-".into(), |n| n.to_string()),
+                s.op.clone(),
+                format!("{:.2}", s.delay_ns),
+            ]);
+        }
+        tables.push(c);
+    }
     if let Some(w) = &written {
         json["netlist"] = serde_json::to_value(w)?;
         let mut n = Table::new(["file", "what"]).titled(format!(

@@ -577,3 +577,88 @@ fn set_up_registers_load_in_the_synthesis_harness() {
     }
     assert!(bits >= 200, "{bits} set-up register bits");
 }
+
+/// `synth --freq F` gives a verdict (met, or missed by how much) and the
+/// median seed's critical path from nextpnr's JSON report, mapped back to
+/// the emitted signals, their trace nodes and stage ids: on `angle_interp`
+/// (iCE40 HX8K, about 54 MHz), 20 MHz is met and 500 MHz missed by the
+/// difference; the path's delay is the period of the Fmax nextpnr's log
+/// states, and the signals it names are the module's own.
+#[test]
+fn synth_gives_a_timing_verdict_and_the_critical_path_by_stage_id() {
+    let dir = tempfile::tempdir().unwrap();
+    let rtl = dir.path().join("rtl");
+    let o = fxshade(&["rtl", "angle_interp", "--out", rtl.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", text(&o));
+    let verilog = std::fs::read_to_string(rtl.join("angle_interp.v")).unwrap();
+    for (freq, met) in [("20", true), ("500", false)] {
+        let o = fxshade(&[
+            "synth",
+            "angle_interp",
+            "--target",
+            "ice40-hx8k",
+            "--freq",
+            freq,
+            "--no-cache",
+            "--json",
+        ]);
+        assert!(o.status.success(), "{}", text(&o));
+        let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        let fmax = j["fmax_mhz"].as_f64().unwrap();
+        let target: f64 = freq.parse().unwrap();
+        let v = &j["verdict"];
+        assert_eq!(v["met"], met, "{v}");
+        assert_eq!(v["met"], fmax >= target, "{v}");
+        assert!((v["margin_mhz"].as_f64().unwrap() - (fmax - target)).abs() < 1e-6);
+        let p = &j["critical_path"];
+        let delay = p["delay_ns"].as_f64().unwrap();
+        assert!(
+            (1000.0 / delay - fmax).abs() / fmax < 0.02,
+            "path {delay} ns against Fmax {fmax} MHz"
+        );
+        let routing = p["routing_ns"].as_f64().unwrap();
+        assert!(routing > 0.0 && routing < delay, "{p}");
+        let signals = p["signals"].as_array().unwrap();
+        assert!(signals.len() >= 2, "{p}");
+        let mut staged = 0;
+        for s in signals {
+            let name = s["name"].as_str().unwrap();
+            if name.starts_with("harness:") {
+                continue;
+            }
+            // Every signal named is one the emitted module declares.
+            assert!(
+                verilog.contains(&format!(" {name} ")) || verilog.contains(&format!(" {name};")),
+                "{name} is not a signal of angle_interp.v"
+            );
+            if let Some(id) = s["stage_id"].as_str() {
+                // A stage id of the unit: its overflow flag is in the header.
+                assert!(verilog.contains(&format!(" {id}\n")), "{id}");
+                let node = s["node"].as_u64().unwrap();
+                assert!(name.contains(&format!("_{node}")), "{name} {node}");
+                staged += 1;
+            }
+        }
+        assert!(staged > 0, "no stage id on the path: {p}");
+        // The human output states the verdict.
+        let o = fxshade(&[
+            "synth",
+            "angle_interp",
+            "--target",
+            "ice40-hx8k",
+            "--freq",
+            freq,
+        ]);
+        assert!(o.status.success(), "{}", text(&o));
+        let want = if met {
+            "Timing: met "
+        } else {
+            "Timing: MISSED "
+        };
+        assert!(
+            String::from_utf8_lossy(&o.stdout).contains(want),
+            "{}",
+            text(&o)
+        );
+    }
+}
