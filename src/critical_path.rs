@@ -232,8 +232,11 @@ impl CriticalPath {
         let mut out: Vec<Signal> = Vec::new();
         for s in &self.steps {
             let name = signal_of(&s.name);
+            // A net Yosys left unnamed (`$abc$…`) belongs to the signal
+            // before it.
+            let unnamed = name == "harness:" || name.is_empty();
             match out.last_mut() {
-                Some(last) if last.name == name => last.delay_ns += s.delay_ns,
+                Some(last) if last.name == name || unnamed => last.delay_ns += s.delay_ns,
                 _ => {
                     let (node, op, stage_id) = node_of(trace, &name);
                     out.push(Signal {

@@ -420,24 +420,38 @@ impl<'a> Emitter<'a> {
     /// the item's tag (`<group>_cur_q` at stage 0, `<group>_tag_q[s−1]`
     /// after) is 1, else bank 0. Reading it at `stage` makes the group's
     /// port wait for that stage (its drain).
+    ///
+    /// Pipelined for a target, a read at stage `s ≥ 1` is a register of
+    /// stage `s` loaded from the banks as the item in stage `s − 1` sees
+    /// them: the value then leaves a flip-flop, as a DSP block's operand
+    /// register needs (a multiplexer in front of the multiplier keeps its
+    /// operand registers in the fabric and the product combinational), and
+    /// the port waits for stage `s − 1` only.
     fn bank_read(&mut self, node: usize, g: usize, stage: u32) -> String {
-        self.drain[g] = self.drain[g].max(stage);
         if let Some(n) = self.bank_at.get(&(node, stage)) {
             return n.clone();
         }
+        let registered = stage > 0 && self.timing.is_some();
+        let read = if registered { stage - 1 } else { stage };
+        self.drain[g] = self.drain[g].max(read);
         let field = self.name[node].trim_end_matches("_q").to_string();
         let group = self.group_names[g];
-        let tag = if stage == 0 {
+        let tag = if read == 0 {
             format!("{group}_cur_q")
         } else {
-            format!("{group}_tag_q[{}]", stage - 1)
+            format!("{group}_tag_q[{}]", read - 1)
         };
         let sym = self.t.sym(node);
+        let mux = format!("{tag} ? {field}_b1_q : {field}_b0_q");
         let name = format!("{field}_bank_s{stage}");
-        self.body.push(format!(
-            "wire {} {name} = {tag} ? {field}_b1_q : {field}_b0_q;",
-            decl(sym.signed, sym.width)
-        ));
+        if registered {
+            self.reg(stage, &name, sym.signed, sym.width, &mux);
+        } else {
+            self.body.push(format!(
+                "wire {} {name} = {mux};",
+                decl(sym.signed, sym.width)
+            ));
+        }
         self.bank_at.insert((node, stage), name.clone());
         name
     }
@@ -1193,7 +1207,18 @@ impl<'a> Emitter<'a> {
                     sb.width + (sa.signed && !sb.signed) as u32,
                 );
                 let dm = self.model().map_or(0.0, |m| m.mul(wa, wb));
-                let (mut s, t0) = self.place(&[a.node(), b.node()], dm);
+                let (mut s, mut t0) = self.place(&[a.node(), b.node()], dm);
+                // On a DSP target the model's multiplier delay is the
+                // block's with its operand registers packed, which needs
+                // operands straight from flip-flops: an operand computed
+                // by logic in this stage (or leaving another block) is
+                // registered first, and the product starts the next stage.
+                if let Some((m, _)) = self.timing {
+                    if m.dsp.is_some() && t0 > 0.0 && !held {
+                        s += 1;
+                        t0 = 0.0;
+                    }
+                }
                 // A DSP's operand registers sit in the block: an operand
                 // that arrives late in the stage before is registered in
                 // the fabric first (one more stage).
@@ -1264,6 +1289,13 @@ impl<'a> Emitter<'a> {
                 self.stage[i] = Some(s);
                 self.at.insert((i, s), name.clone());
                 self.ready(i, t0 + dm, &name);
+                // Logic of this stage reading the product waits for it to
+                // leave the block unregistered: the routing out comes on
+                // top (in the next stage, from the block's output
+                // register, `arrival_at` charges the same).
+                if let Some(dsp) = self.model().and_then(|m| m.dsp) {
+                    self.arrival[i] += dsp.route_out;
+                }
             }
             Op::Add(a, b) | Op::Sub(a, b) | Op::Max(a, b) => {
                 let dl = self.model().map_or(0.0, |m| {

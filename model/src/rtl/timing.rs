@@ -104,6 +104,12 @@ impl Target {
                 bram: 5.0,
             },
             // Calibrated on nextpnr-ecp5 (yowasp), LFE5U-85F speed grade 6.
+            // The multiplier as the flow builds it, operand and product
+            // registers packed into the MULT18X18D (`synth calibrate
+            // --target ecp5`, packed column of BENCHMARKS.md): one block
+            // measures 2.87-4.16 ns register to register, so `comb` = 4.16
+            // less `reg`; a 24 x 18 product (two tiles, one sum) 7.08 ns, so
+            // `combine` = 7.08 - 4.16. (Before packing: 7.0 and 1.5.)
             Target::Ecp5 => DelayModel {
                 reg: 0.9,
                 lut: 1.1,
@@ -113,8 +119,8 @@ impl Target {
                 dsp: Some(Dsp {
                     a: 18,
                     b: 18,
-                    comb: 7.0,
-                    combine: 1.5,
+                    comb: 3.3,
+                    combine: 2.9,
                     route_in: 3.2,
                     route_out: 3.4,
                 }),
