@@ -203,7 +203,7 @@ fn quick_build() -> bool {
 
 /// Run a build tool under [`crate::proc::Limit::build`]: on timeout the
 /// whole group (make, the C++ compiler) is killed.
-fn run_tool(cmd: &mut Command, what: &str) -> anyhow::Result<String> {
+pub(crate) fn run_tool(cmd: &mut Command, what: &str) -> anyhow::Result<String> {
     crate::proc::run_ok(cmd, what, crate::proc::Limit::build())
 }
 

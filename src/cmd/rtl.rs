@@ -51,6 +51,14 @@ pub struct RtlArgs {
     /// vectors and a `sim` target.
     #[arg(long)]
     core: bool,
+    /// Also write each module's datasheet: `<module>_datasheet.md` (ports
+    /// and formats, handshakes, reset, latency and throughput, and a timing
+    /// diagram simulated on the module with Icarus), `<module>_wave.json`
+    /// (the diagram as WaveDrom) and the clock constraint for `rtl.target`
+    /// at `rtl.clock_ns` (`<module>.lpf` on ECP5, `.pcf` on iCE40, `.sdc`
+    /// otherwise).
+    #[arg(long)]
+    datasheet: bool,
     /// Replace files in `--out` that fxshade did not write or that were
     /// edited since (refused otherwise, naming the file).
     #[arg(long)]
@@ -125,6 +133,53 @@ fn list(a: &RtlArgs) -> anyhow::Result<()> {
         }));
     }
     emit(a.fmt, &[t], &serde_json::Value::Array(json))
+}
+
+/// The datasheet files of one module: the Markdown, the WaveDrom JSON
+/// and the constraints, the diagram simulated on Icarus.
+fn datasheet(
+    u: &RtlUnit,
+    c: &fxshade_model::Config,
+    e: &Emitted,
+) -> anyhow::Result<Vec<(String, String)>> {
+    use fxshade_model::rtl::datasheet as ds;
+    use fxshade_model::rtl::timing::Target;
+    crate::rtl_flow::require_tool("iverilog", "iverilog")?;
+    crate::rtl_flow::require_tool("vvp", "iverilog")?;
+    let d = units::emit_unit(u, c)?.0;
+    let dir = tempfile::Builder::new()
+        .prefix("fxshade-datasheet-")
+        .tempdir()
+        .context("cannot create a temporary directory")?;
+    let m = &e.module;
+    std::fs::write(dir.path().join(format!("{m}.v")), &e.verilog)?;
+    std::fs::write(dir.path().join("tb.v"), ds::stimulus(e))?;
+    let mut ic = std::process::Command::new("iverilog");
+    ic.current_dir(dir.path())
+        .args(["-g2012", "-o", "sim", "tb.v"])
+        .arg(format!("{m}.v"));
+    crate::rtl_flow::run_tool(&mut ic, "iverilog")?;
+    let mut vc = std::process::Command::new("vvp");
+    vc.current_dir(dir.path()).args(["-n", "sim"]);
+    let out = crate::rtl_flow::run_tool(&mut vc, "vvp")?;
+    let wave = ds::Wave::parse(ds::signals(e), &out).with_context(|| {
+        format!(
+            "{m}: the datasheet's simulation printed no wave:\n{}",
+            out.lines().take(12).collect::<Vec<_>>().join("\n")
+        )
+    })?;
+    let rtl = c.unit("rtl");
+    let target = Target::from_name(rtl.choice("target")).expect("the configuration checks it");
+    let clock = rtl.number("clock_ns");
+    let (ext, text) = ds::constraints(m, target, clock);
+    Ok(vec![
+        (
+            format!("{m}_datasheet.md"),
+            ds::markdown(e, u.name, &d.variant, d.handshake, target, clock, &wave),
+        ),
+        (format!("{m}_wave.json"), wave.wavedrom()),
+        (format!("{m}.{ext}"), text),
+    ])
 }
 
 /// Run it.
@@ -223,6 +278,18 @@ pub fn run(a: &RtlArgs) -> anyhow::Result<()> {
         Vec::new()
     };
     for (name, text) in &cores {
+        writes.push((name.clone(), text));
+    }
+    let sheets: Vec<(String, String)> = if a.datasheet {
+        let mut v = Vec::new();
+        for ((u, c), (_, e)) in configs.iter().zip(&emitted) {
+            v.extend(datasheet(u, c, e)?);
+        }
+        v
+    } else {
+        Vec::new()
+    };
+    for (name, text) in &sheets {
         writes.push((name.clone(), text));
     }
     for (module, w, tb) in &wrapped {

@@ -1169,3 +1169,164 @@ fn bench_cosim_runs_both_harnesses_on_the_same_vectors() {
     assert!((1.0..1.1).contains(&cpv), "{j}");
     assert!(u["verilog_tb_per_cpu_second"].is_null(), "{j}");
 }
+
+/// `rtl --datasheet`: every port of the module with the format its header
+/// states, a timing diagram simulated on the module (the first result
+/// leaves exactly the header's latency after the first item is taken, and
+/// holds while `ready_i` is low), and a clock constraint nextpnr reads.
+#[test]
+fn datasheets_list_ports_show_a_simulated_diagram_and_constrain_the_clock() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().join("ds");
+    let o = fxshade(&[
+        "rtl",
+        "pipeline",
+        "--datasheet",
+        "--out",
+        d.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let v = std::fs::read_to_string(d.join("pipeline_smooth.v")).unwrap();
+    let md = std::fs::read_to_string(d.join("pipeline_smooth_datasheet.md")).unwrap();
+    // Ports: each declared port is a row, with the header's format.
+    let mut ports = 0;
+    for l in v.lines() {
+        let l = l.trim();
+        let Some(rest) = l
+            .strip_prefix("input  wire ")
+            .or_else(|| l.strip_prefix("output wire "))
+        else {
+            continue;
+        };
+        let name = rest
+            .trim_end_matches(',')
+            .split_whitespace()
+            .last()
+            .unwrap();
+        let row = md
+            .lines()
+            .find(|r| r.starts_with(&format!("| `{name}` |")))
+            .unwrap_or_else(|| panic!("{name} has no row"));
+        if let Some(h) = v.lines().find(|h| h.starts_with(&format!("//   {name} "))) {
+            let fmt = h.split_whitespace().nth(3).unwrap();
+            // (`ovf_o`'s line lists its flags instead of a format.)
+            if fmt.starts_with(['U', 'I']) && fmt[1..].contains('F') {
+                assert!(
+                    row.contains(&format!("| {fmt} |")),
+                    "{name}: {row} against {h}"
+                );
+            }
+        }
+        ports += 1;
+    }
+    assert!(ports > 20, "{ports} ports");
+    // The diagram.
+    let latency: usize = v
+        .lines()
+        .find_map(|l| l.strip_prefix("// Latency "))
+        .and_then(|l| l.split(' ').next())
+        .unwrap()
+        .parse()
+        .unwrap();
+    let diagram = md
+        .split("```text\n")
+        .nth(1)
+        .unwrap()
+        .split("```")
+        .next()
+        .unwrap();
+    let row = |name: &str| -> Vec<char> {
+        let l = diagram
+            .lines()
+            .find(|l| l.split_whitespace().next() == Some(name))
+            .unwrap_or_else(|| panic!("{name} is not in the diagram"));
+        l.split_whitespace().nth(1).unwrap().chars().collect()
+    };
+    let (vi, ro, vo, ri) = (
+        row("valid_i"),
+        row("ready_o"),
+        row("valid_o"),
+        row("ready_i"),
+    );
+    let first_in = (0..vi.len())
+        .find(|&c| vi[c] == '#' && ro[c] == '#')
+        .unwrap();
+    let first_out = (0..vo.len()).find(|&c| vo[c] == '#').unwrap();
+    assert!(
+        !row("valid_o")[..first_out].contains(&'~'),
+        "no elided cycles before the first result"
+    );
+    assert_eq!(first_out - first_in, latency, "{diagram}");
+    let stall = (0..ri.len())
+        .find(|&c| ri[c] == '_' && c > first_out)
+        .unwrap();
+    assert_eq!(vo[stall], '#', "the result holds under stall: {diagram}");
+    assert_eq!(vo[stall + 1], '#', "{diagram}");
+    assert!(row("tri_ready_o").contains(&'#') && row("frame_valid_i").contains(&'#'));
+    // The WaveDrom source is JSON with the same signals.
+    let w: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("pipeline_smooth_wave.json")).unwrap())
+            .unwrap();
+    assert_eq!(
+        w["signal"].as_array().unwrap().len(),
+        diagram.lines().count() - 2
+    );
+
+    // The constraint: nextpnr-ice40 reads the clock from the .pcf.
+    let d2 = dir.path().join("ai");
+    let o = fxshade(&[
+        "rtl",
+        "angle_interp",
+        "--datasheet",
+        "--out",
+        d2.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let pcf = std::fs::read_to_string(d2.join("angle_interp.pcf")).unwrap();
+    assert!(pcf.contains("set_frequency clk_i 71.43"), "{pcf}");
+    let y = std::process::Command::new("yosys")
+        .current_dir(&d2)
+        .args([
+            "-q",
+            "-p",
+            "synth_ice40 -top angle_interp -json n.json",
+            "angle_interp.v",
+        ])
+        .output()
+        .unwrap();
+    assert!(y.status.success(), "{}", String::from_utf8_lossy(&y.stderr));
+    let p = std::process::Command::new("nextpnr-ice40")
+        .current_dir(&d2)
+        .args([
+            "--hx8k",
+            "--package",
+            "ct256",
+            "--json",
+            "n.json",
+            "--pcf",
+            "angle_interp.pcf",
+        ])
+        .args(["--pcf-allow-unconstrained", "--timing-allow-fail"])
+        .output()
+        .unwrap();
+    let log = String::from_utf8_lossy(&p.stderr);
+    assert!(p.status.success(), "{log}");
+    assert!(
+        log.contains("at 71.43 MHz)"),
+        "the constraint was not read: {log}"
+    );
+    // ECP5: an .lpf.
+    let d3 = dir.path().join("e");
+    let o = fxshade(&[
+        "rtl",
+        "angle_interp",
+        "--datasheet",
+        "--set",
+        "rtl.target=\"ecp5\"",
+        "--out",
+        d3.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let lpf = std::fs::read_to_string(d3.join("angle_interp.lpf")).unwrap();
+    assert!(lpf.contains("FREQUENCY PORT \"clk_i\" 71.43 MHz;"), "{lpf}");
+}

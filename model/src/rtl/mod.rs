@@ -29,6 +29,7 @@ pub mod axis;
 pub mod bits;
 pub mod calibrate;
 pub mod core;
+pub mod datasheet;
 pub mod direction;
 pub mod dpi;
 pub mod mutants;
