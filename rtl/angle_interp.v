@@ -43,10 +43,11 @@ module angle_interp (
   reg  [0:0] valid_q;
   wire en = ~valid_q[0] | ready_i;
   assign ready_o = en;
+  wire in_take = valid_i & ready_o;
   assign valid_o = valid_q[0];
   always @(posedge clk_i or negedge rst_ni) begin
     if (!rst_ni) valid_q <= 1'b0;
-    else if (en) valid_q <= valid_i;
+    else if (en) valid_q <= in_take;
   end
 
   // Datapath.
@@ -67,7 +68,7 @@ module angle_interp (
   // Pipeline registers (data: no reset, held while stalled). A stage's
   // registers load only with a valid item, so bubbles do not toggle them.
   always @(posedge clk_i) begin
-    if (en & valid_i) begin
+    if (in_take) begin
       angle_interp_angle_9 <= angle_interp_angle_9_c;
       angle_interp_angle_9_ovf <= angle_interp_angle_9_ovf_c;
     end
@@ -99,7 +100,7 @@ module angle_interp (
       assert ((valid_q & ~({1{1'b1}} << f_idle)) == 1'd0);
     end
     if (f_past_valid && rst_ni && $past(rst_ni)) begin
-      if ($past(en)) assert (valid_q == $past(valid_i));
+      if ($past(en)) assert (valid_q == $past(f_in));
       else assert ($stable(valid_q));
       if ($past(valid_o & ~ready_i)) begin
         assert (valid_o);

@@ -43,10 +43,11 @@ module angles (
   reg  [25:0] valid_q;
   wire en = ~valid_q[25] | ready_i;
   assign ready_o = en;
+  wire in_take = valid_i & ready_o;
   assign valid_o = valid_q[25];
   always @(posedge clk_i or negedge rst_ni) begin
     if (!rst_ni) valid_q <= 26'b0;
-    else if (en) valid_q <= {valid_q[24:0], valid_i};
+    else if (en) valid_q <= {valid_q[24:0], in_take};
   end
 
   // Datapath.
@@ -830,7 +831,7 @@ module angles (
   // Pipeline registers (data: no reset, held while stalled). A stage's
   // registers load only with a valid item, so bubbles do not toggle them.
   always @(posedge clk_i) begin
-    if (en & valid_i) begin
+    if (in_take) begin
       angles_xy_21 <= angles_xy_21_c;
       angles_xy_21_ovf <= angles_xy_21_ovf_c;
       angles_xy_22 <= angles_xy_22_c;
@@ -1232,7 +1233,7 @@ module angles (
       assert ((valid_q & ~({26{1'b1}} << f_idle)) == 26'd0);
     end
     if (f_past_valid && rst_ni && $past(rst_ni)) begin
-      if ($past(en)) assert (valid_q == {$past(valid_q[24:0]), $past(valid_i)});
+      if ($past(en)) assert (valid_q == {$past(valid_q[24:0]), $past(f_in)});
       else assert ($stable(valid_q));
       if ($past(valid_o & ~ready_i)) begin
         assert (valid_o);

@@ -53,10 +53,11 @@ module lighting (
   reg  [6:0] valid_q;
   wire en = ~valid_q[6] | ready_i;
   assign ready_o = en;
+  wire in_take = valid_i & ready_o;
   assign valid_o = valid_q[6];
   always @(posedge clk_i or negedge rst_ni) begin
     if (!rst_ni) valid_q <= 7'b0;
-    else if (en) valid_q <= {valid_q[5:0], valid_i};
+    else if (en) valid_q <= {valid_q[5:0], in_take};
   end
 
   // Datapath.
@@ -176,7 +177,7 @@ module lighting (
   // Pipeline registers (data: no reset, held while stalled). A stage's
   // registers load only with a valid item, so bubbles do not toggle them.
   always @(posedge clk_i) begin
-    if (en & valid_i) begin
+    if (in_take) begin
       lighting_dot_17 <= lighting_dot_17_c;
       lighting_dot_17_ovf <= lighting_dot_17_ovf_c;
       lighting_dot_24 <= lighting_dot_24_c;
@@ -257,7 +258,7 @@ module lighting (
       assert ((valid_q & ~({7{1'b1}} << f_idle)) == 7'd0);
     end
     if (f_past_valid && rst_ni && $past(rst_ni)) begin
-      if ($past(en)) assert (valid_q == {$past(valid_q[5:0]), $past(valid_i)});
+      if ($past(en)) assert (valid_q == {$past(valid_q[5:0]), $past(f_in)});
       else assert ($stable(valid_q));
       if ($past(valid_o & ~ready_i)) begin
         assert (valid_o);

@@ -9,10 +9,10 @@
 // Latency 40 cycles; one vector per clock. Handshake: valid/ready on
 // both sides with one global stall (ready_o = ~valid_o | ready_i).
 // Set-up port `frame` (frame_valid_i/frame_ready_o): the polar angles of L
-// and H, per frame. Held in registers; a record is accepted while stages
-// 1..17 are empty and no item is offered (an item offered in the same cycle
-// goes first), so an item computes with the set-up values held when it was
-// accepted.
+// and H, per frame. Held in registers; frame_ready_o is a register, raised
+// the cycle after a record is offered if stages 1..17 will then be empty, and
+// no item is taken in the cycle the record loads, so an item computes with
+// the set-up values held when it was accepted.
 // Set-up port `tri` (tri_valid_i/tri_ready_o): the vertex and midpoint
 // normals, per triangle. Two banks of registers: a record loads the bank no
 // item in stages 1..1 reads and makes it current, so the next record loads
@@ -632,17 +632,26 @@ module pipeline_mapped (
   // Handshake: one valid bit per stage, one global stall.
   reg  [39:0] valid_q;
   wire en = ~valid_q[39] | ready_i;
-  assign ready_o = en;
+  wire setup_lock;
+  assign ready_o = en & ~setup_lock;
+  wire in_take = valid_i & ready_o;
   assign valid_o = valid_q[39];
   always @(posedge clk_i or negedge rst_ni) begin
     if (!rst_ni) valid_q <= 40'b0;
-    else if (en) valid_q <= {valid_q[38:0], valid_i};
+    else if (en) valid_q <= {valid_q[38:0], in_take};
   end
 
-  // Set-up port `frame`: the polar angles of L and H, per frame. It accepts a
-  // record only while stages 1..17, which read these registers, are empty and
-  // no item is offered (an item offered in the same cycle goes first).
-  assign frame_ready_o = ~|valid_q[16:0] & ~valid_i;
+  // Set-up port `frame`: the polar angles of L and H, per frame.
+  // frame_ready_o is a register, raised the cycle after a record is offered
+  // if stages 1..17, which read these registers, will be empty; in that cycle
+  // the record loads and no item is taken.
+  reg  frame_ready_q;
+  wire [16:0] frame_busy_d = en ? {valid_q[15:0], in_take} : valid_q[16:0];
+  always @(posedge clk_i or negedge rst_ni) begin
+    if (!rst_ni) frame_ready_q <= 1'b0;
+    else frame_ready_q <= frame_valid_i & ~frame_ready_q & ~|frame_busy_d;
+  end
+  assign frame_ready_o = frame_ready_q;
   reg  [10:0] al_q;
   reg  [10:0] bl_q;
   reg  [10:0] ah_q;
@@ -668,7 +677,7 @@ module pipeline_mapped (
   assign tri_ready_o = tri_ready_q;
   reg  [0:0] tri_tag_q;
   wire [0:0] tri_tag_d = en ? tri_cur_q : tri_tag_q;
-  wire [0:0] tri_busy_d = en ? valid_i : valid_q[0:0];
+  wire [0:0] tri_busy_d = en ? in_take : valid_q[0:0];
   always @(posedge clk_i or negedge rst_ni) begin
     if (!rst_ni) begin
       tri_cur_q <= 1'b0;
@@ -758,6 +767,9 @@ module pipeline_mapped (
       n31_z_b1_q <= n31_z_i;
     end
   end
+
+  // No item is taken in the cycle a held set-up port loads.
+  assign setup_lock = frame_ready_q;
 
   // Datapath.
   localparam [0:0] K27 = 1'h1;
@@ -2551,7 +2563,7 @@ module pipeline_mapped (
   // Pipeline registers (data: no reset, held while stalled). A stage's
   // registers load only with a valid item, so bubbles do not toggle them.
   always @(posedge clk_i) begin
-    if (en & valid_i) begin
+    if (in_take) begin
       interp_weight_50 <= interp_weight_50_c;
       interp_weight_50_ovf <= interp_weight_50_ovf_c;
       interp_weight_53 <= interp_weight_53_c;
@@ -3609,16 +3621,17 @@ module pipeline_mapped (
     else f_idle <= (ready_i & ~f_in) ? ((f_idle == 6'd40) ? f_idle : f_idle + 6'd1) : 6'd0;
   end
   always @(*) begin
-    assert (ready_o == (~valid_o | ready_i));
+    assert (ready_o == ((~valid_o | ready_i) & ~setup_lock));
     assert (valid_o == valid_q[39]);
   end
   always @(posedge clk_i) begin
     if (f_past_valid && rst_ni) begin
       assert ((valid_q & ~({40{1'b1}} << f_idle)) == 40'd0);
+      assert (!frame_ready_q || valid_q[16:0] == 17'd0);
       assert (tri_ready_q == ~|(valid_q[0:0] & (tri_tag_q ^ {1{tri_cur_q}})));
     end
     if (f_past_valid && rst_ni && $past(rst_ni)) begin
-      if ($past(en)) assert (valid_q == {$past(valid_q[38:0]), $past(valid_i)});
+      if ($past(en)) assert (valid_q == {$past(valid_q[38:0]), $past(f_in)});
       else assert ($stable(valid_q));
       if ($past(valid_o & ~ready_i)) begin
         assert (valid_o);

@@ -9,10 +9,10 @@
 // Latency 13 cycles; one vector per clock. Handshake: valid/ready on
 // both sides with one global stall (ready_o = ~valid_o | ready_i).
 // Set-up port `frame` (frame_valid_i/frame_ready_o): the polar angles of L
-// and H, per frame. Held in registers; a record is accepted while stages 1..1
-// are empty and no item is offered (an item offered in the same cycle goes
-// first), so an item computes with the set-up values held when it was
-// accepted.
+// and H, per frame. Held in registers; frame_ready_o is a register, raised
+// the cycle after a record is offered if stages 1..1 will then be empty, and
+// no item is taken in the cycle the record loads, so an item computes with
+// the set-up values held when it was accepted.
 // Set-up port `tri` (tri_valid_i/tri_ready_o): the angle set-up (the third
 // vertex's angles and the deltas), per triangle. Two banks of registers: a
 // record loads the bank no item in stages 1..0 reads and makes it current, so
@@ -603,17 +603,26 @@ module pipeline_mapped_interp (
   // Handshake: one valid bit per stage, one global stall.
   reg  [12:0] valid_q;
   wire en = ~valid_q[12] | ready_i;
-  assign ready_o = en;
+  wire setup_lock;
+  assign ready_o = en & ~setup_lock;
+  wire in_take = valid_i & ready_o;
   assign valid_o = valid_q[12];
   always @(posedge clk_i or negedge rst_ni) begin
     if (!rst_ni) valid_q <= 13'b0;
-    else if (en) valid_q <= {valid_q[11:0], valid_i};
+    else if (en) valid_q <= {valid_q[11:0], in_take};
   end
 
-  // Set-up port `frame`: the polar angles of L and H, per frame. It accepts a
-  // record only while stages 1..1, which read these registers, are empty and
-  // no item is offered (an item offered in the same cycle goes first).
-  assign frame_ready_o = ~|valid_q[0:0] & ~valid_i;
+  // Set-up port `frame`: the polar angles of L and H, per frame.
+  // frame_ready_o is a register, raised the cycle after a record is offered
+  // if stages 1..1, which read these registers, will be empty; in that cycle
+  // the record loads and no item is taken.
+  reg  frame_ready_q;
+  wire [0:0] frame_busy_d = en ? in_take : valid_q[0:0];
+  always @(posedge clk_i or negedge rst_ni) begin
+    if (!rst_ni) frame_ready_q <= 1'b0;
+    else frame_ready_q <= frame_valid_i & ~frame_ready_q & ~|frame_busy_d;
+  end
+  assign frame_ready_o = frame_ready_q;
   reg  [10:0] al_q;
   reg  [10:0] bl_q;
   reg  [10:0] ah_q;
@@ -676,6 +685,9 @@ module pipeline_mapped_interp (
       db2_b1_q <= db2_i;
     end
   end
+
+  // No item is taken in the cycle a held set-up port loads.
+  assign setup_lock = frame_ready_q;
 
   // Datapath.
   localparam [15:0] K15 = 16'hbf40;
@@ -1185,7 +1197,7 @@ module pipeline_mapped_interp (
   // Pipeline registers (data: no reset, held while stalled). A stage's
   // registers load only with a valid item, so bubbles do not toggle them.
   always @(posedge clk_i) begin
-    if (en & valid_i) begin
+    if (in_take) begin
       angle_interp_angle_22 <= angle_interp_angle_22_c;
       angle_interp_angle_22_ovf <= angle_interp_angle_22_ovf_c;
       angle_interp_angle_27 <= angle_interp_angle_27_c;
@@ -1453,15 +1465,16 @@ module pipeline_mapped_interp (
     else f_idle <= (ready_i & ~f_in) ? ((f_idle == 4'd13) ? f_idle : f_idle + 4'd1) : 4'd0;
   end
   always @(*) begin
-    assert (ready_o == (~valid_o | ready_i));
+    assert (ready_o == ((~valid_o | ready_i) & ~setup_lock));
     assert (valid_o == valid_q[12]);
   end
   always @(posedge clk_i) begin
     if (f_past_valid && rst_ni) begin
       assert ((valid_q & ~({13{1'b1}} << f_idle)) == 13'd0);
+      assert (!frame_ready_q || valid_q[0:0] == 1'd0);
     end
     if (f_past_valid && rst_ni && $past(rst_ni)) begin
-      if ($past(en)) assert (valid_q == {$past(valid_q[11:0]), $past(valid_i)});
+      if ($past(en)) assert (valid_q == {$past(valid_q[11:0]), $past(f_in)});
       else assert ($stable(valid_q));
       if ($past(valid_o & ~ready_i)) begin
         assert (valid_o);

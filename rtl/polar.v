@@ -564,10 +564,11 @@ module polar (
   reg  [3:0] valid_q;
   wire en = ~valid_q[3] | ready_i;
   assign ready_o = en;
+  wire in_take = valid_i & ready_o;
   assign valid_o = valid_q[3];
   always @(posedge clk_i or negedge rst_ni) begin
     if (!rst_ni) valid_q <= 4'b0;
-    else if (en) valid_q <= {valid_q[2:0], valid_i};
+    else if (en) valid_q <= {valid_q[2:0], in_take};
   end
 
   // Datapath.
@@ -700,7 +701,7 @@ module polar (
   // Pipeline registers (data: no reset, held while stalled). A stage's
   // registers load only with a valid item, so bubbles do not toggle them.
   always @(posedge clk_i) begin
-    if (en & valid_i) begin
+    if (in_take) begin
       polar_index_4 <= polar_index_4_c;
       polar_index_4_ovf <= polar_index_4_ovf_c;
       polar_index_6 <= polar_index_6_c;
@@ -784,7 +785,7 @@ module polar (
       assert ((valid_q & ~({4{1'b1}} << f_idle)) == 4'd0);
     end
     if (f_past_valid && rst_ni && $past(rst_ni)) begin
-      if ($past(en)) assert (valid_q == {$past(valid_q[2:0]), $past(valid_i)});
+      if ($past(en)) assert (valid_q == {$past(valid_q[2:0]), $past(f_in)});
       else assert ($stable(valid_q));
       if ($past(valid_o & ~ready_i)) begin
         assert (valid_o);

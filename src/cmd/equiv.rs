@@ -263,7 +263,12 @@ fn miter(m: &Module, smt2: &str) -> anyhow::Result<Miter> {
             .with_context(|| format!("{module}: the RTL has no port {p}"))
     };
     let at = |p: &str, k: u32| format!("(|{module}_n {p}| s{k})");
-    let first = if e.setup.is_empty() { 1 } else { 2 };
+    // Set-up records from cycle 1, each offered until taken: a banked or
+    // stage-0 port takes it at once, a held port with a drain the cycle
+    // after (its ready is a register). The item follows them.
+    let held = |g: &fxshade_model::rtl::SetupPort| g.banks == 1 && g.drain > 0;
+    let setup_cycles = |g: &fxshade_model::rtl::SetupPort| if held(g) { 2 } else { 1 };
+    let first = 1 + e.setup.iter().map(setup_cycles).max().unwrap_or(0);
     let last = first + e.latency;
     let mut s = String::new();
     s += "\n; The RTL unrolled: reset in step 0, then one item per cycle.\n";
@@ -285,7 +290,7 @@ fn miter(m: &Module, smt2: &str) -> anyhow::Result<Miter> {
         }
         for g in &e.setup {
             let gv = at(&format!("{}_valid_i", g.name), k);
-            if k == 1 {
+            if k <= setup_cycles(g) {
                 let _ = writeln!(s, "(assert {gv})");
             } else {
                 let _ = writeln!(s, "(assert (not {gv}))");
@@ -302,14 +307,19 @@ fn miter(m: &Module, smt2: &str) -> anyhow::Result<Miter> {
             "{module}: port {port} is {w} bits, the model's input {}",
             f.inputs[slot].1
         );
-        let setup = e.setup.iter().any(|g| g.fields.contains(&p.name));
-        let k = if setup { 1 } else { first };
-        let _ = writeln!(
-            s,
-            "(assert (= {} {}))",
-            at(&port, k),
-            as_port(&f.inputs[slot].0, w)
-        );
+        let group = e.setup.iter().find(|g| g.fields.contains(&p.name));
+        let ks: Vec<u32> = match group {
+            Some(g) => (1..=setup_cycles(g)).collect(),
+            None => vec![first],
+        };
+        for k in ks {
+            let _ = writeln!(
+                s,
+                "(assert (= {} {}))",
+                at(&port, k),
+                as_port(&f.inputs[slot].0, w)
+            );
+        }
     }
     // Equal outputs, flags and valid at the last step, or a counterexample.
     let mut eq = vec![at("valid_o", last)];

@@ -136,8 +136,8 @@ fn broken_handshakes_fail_the_proof() {
         ),
         // Stage 3's item is duplicated into stage 4 (stage 3's dropped).
         (
-            "valid_q <= {valid_q[2:0], valid_i};",
-            "valid_q <= {valid_q[1], valid_q[1:0], valid_i};",
+            "valid_q <= {valid_q[2:0], in_take};",
+            "valid_q <= {valid_q[1], valid_q[1:0], in_take};",
         ),
         // The output registers load while stalled.
         (
@@ -184,19 +184,24 @@ fn a_set_up_port_loading_under_a_reader_fails_the_proof() {
     let o = fxshade(&["rtl", "pipeline", "--out", ok.to_str().unwrap()]);
     assert!(o.status.success(), "{}", text(&o));
     let v = std::fs::read_to_string(ok.join("pipeline_smooth.v")).unwrap();
+    // The frame port: its registered ready tests the next cycle's stages
+    // 1..U (`frame_busy_d`); testing one stage fewer loads the registers
+    // under an item's last reading stage.
     let line = v
         .lines()
-        .find(|l| l.starts_with("  assign frame_ready_o = ~|valid_q["))
-        .expect("a drained set-up port");
+        .find(|l| l.starts_with("  wire [") && l.contains(" frame_busy_d = "))
+        .expect("a held set-up port");
     let top: u32 = line
-        .trim_start_matches("  assign frame_ready_o = ~|valid_q[")
+        .trim_start_matches("  wire [")
         .split(':')
         .next()
         .unwrap()
         .parse()
         .unwrap();
     assert!(top >= 1, "{line}");
-    let early = format!("  assign frame_ready_o = ~|valid_q[{}:0];", top - 1);
+    let test = "~|frame_busy_d;";
+    assert!(v.contains(test));
+    let early = format!("~|frame_busy_d[{}:0];", top - 1);
     let fails = |name: &str, text_v: String, what: &str| {
         let d = dir.path().join(name);
         std::fs::create_dir(&d).unwrap();
@@ -209,12 +214,16 @@ fn a_set_up_port_loading_under_a_reader_fails_the_proof() {
             text(&o)
         );
     };
-    fails("early", v.replacen(line, &early, 1), &early);
-    // A port that loads in the same cycle as an entering item: the item's
+    fails("early", v.replacen(test, &early, 1), &early);
+    // A port that lets an item in during the cycle it loads: the item's
     // stage 0 reads the old values, its later stages the new ones.
-    let same = line.replacen(" & ~valid_i;", ";", 1);
-    assert_ne!(same, line, "the port waits for ~valid_i: {line}");
-    fails("same-cycle", v.replacen(line, &same, 1), &same);
+    let lock = "  assign setup_lock = frame_ready_q;";
+    assert!(v.contains(lock), "items wait while the frame loads");
+    fails(
+        "same-cycle",
+        v.replacen(lock, "  assign setup_lock = 1'b0;", 1),
+        "no lock",
+    );
     // The triangle port: a ready that ignores the items' tags (and the
     // invariant saying what it stands for, so only the banks can fail),
     // and a record written into the current bank instead of the other.

@@ -258,8 +258,8 @@ fn the_testbench_catches_data_changing_under_stall_and_extra_outputs() {
     let o = check_edited(
         |v| {
             v.replacen(
-                "valid_q[2:0], valid_i}",
-                "valid_q[2:0], valid_i | valid_q[0]}",
+                "valid_q[2:0], in_take}",
+                "valid_q[2:0], in_take | valid_q[0]}",
                 1,
             )
         },

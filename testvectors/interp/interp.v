@@ -78,10 +78,11 @@ module interp (
   reg  [1:0] valid_q;
   wire en = ~valid_q[1] | ready_i;
   assign ready_o = en;
+  wire in_take = valid_i & ready_o;
   assign valid_o = valid_q[1];
   always @(posedge clk_i or negedge rst_ni) begin
     if (!rst_ni) valid_q <= 2'b0;
-    else if (en) valid_q <= {valid_q[0:0], valid_i};
+    else if (en) valid_q <= {valid_q[0:0], in_take};
   end
 
   // Datapath.
@@ -230,7 +231,7 @@ module interp (
   // Pipeline registers (data: no reset, held while stalled). A stage's
   // registers load only with a valid item, so bubbles do not toggle them.
   always @(posedge clk_i) begin
-    if (en & valid_i) begin
+    if (in_take) begin
       interp_weight_25 <= interp_weight_25_c;
       interp_weight_25_ovf <= interp_weight_25_ovf_c;
       interp_weight_28 <= interp_weight_28_c;
@@ -307,7 +308,7 @@ module interp (
       assert ((valid_q & ~({2{1'b1}} << f_idle)) == 2'd0);
     end
     if (f_past_valid && rst_ni && $past(rst_ni)) begin
-      if ($past(en)) assert (valid_q == {$past(valid_q[0:0]), $past(valid_i)});
+      if ($past(en)) assert (valid_q == {$past(valid_q[0:0]), $past(f_in)});
       else assert ($stable(valid_q));
       if ($past(valid_o & ~ready_i)) begin
         assert (valid_o);

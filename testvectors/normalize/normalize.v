@@ -48,10 +48,11 @@ module normalize (
   reg  [3:0] valid_q;
   wire en = ~valid_q[3] | ready_i;
   assign ready_o = en;
+  wire in_take = valid_i & ready_o;
   assign valid_o = valid_q[3];
   always @(posedge clk_i or negedge rst_ni) begin
     if (!rst_ni) valid_q <= 4'b0;
-    else if (en) valid_q <= {valid_q[2:0], valid_i};
+    else if (en) valid_q <= {valid_q[2:0], in_take};
   end
 
   // Datapath.
@@ -139,7 +140,7 @@ module normalize (
   // Pipeline registers (data: no reset, held while stalled). A stage's
   // registers load only with a valid item, so bubbles do not toggle them.
   always @(posedge clk_i) begin
-    if (en & valid_i) begin
+    if (in_take) begin
       normalize_d_15 <= normalize_d_15_c;
       normalize_d_15_ovf <= normalize_d_15_ovf_c;
       n_x_i_s1 <= n_x_i;
@@ -208,7 +209,7 @@ module normalize (
       assert ((valid_q & ~({4{1'b1}} << f_idle)) == 4'd0);
     end
     if (f_past_valid && rst_ni && $past(rst_ni)) begin
-      if ($past(en)) assert (valid_q == {$past(valid_q[2:0]), $past(valid_i)});
+      if ($past(en)) assert (valid_q == {$past(valid_q[2:0]), $past(f_in)});
       else assert ($stable(valid_q));
       if ($past(valid_o & ~ready_i)) begin
         assert (valid_o);

@@ -427,7 +427,7 @@ pub fn markdown(
         if g.banks == 2 {
             let _ = writeln!(t, "Set-up port `{n}` ({}): two banks. A record loads the bank that no item in stages 1..{} reads and becomes current; every item computes with the record current when it was taken (one taken in the same cycle as a record keeps the old one). `{n}_ready_o` is a register.\n", g.doc, g.drain, n = g.name);
         } else {
-            let _ = writeln!(t, "Set-up port `{n}` ({}): one register a field. A record is taken only while stages 1..{} are empty and no item is offered (an item offered in the same cycle goes first); every item computes with the record current when it was taken.\n", g.doc, g.drain, n = g.name);
+            let _ = writeln!(t, "Set-up port `{n}` ({}): one register a field. `{n}_ready_o` is a register: it rises the cycle after a record is offered, once stages 1..{} will be empty, and in that cycle the record is taken and no item is (`ready_o` low); every item computes with the record current when it was taken.\n", g.doc, g.drain, n = g.name);
         }
     }
     if !e.setup.is_empty() {

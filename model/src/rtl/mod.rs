@@ -87,12 +87,14 @@ pub struct Design {
 /// input ports, held in registers `<field>_q` that every pipeline stage
 /// reads directly.
 ///
-/// The port accepts a record only while the stages that read the group's
-/// registers are empty and no item is offered (`<name>_ready_o =
-/// ~|valid_q[U−1:0] & ~valid_i`, `U` the last stage reading them, see
-/// [`SetupPort::drain`]; `1` when only stage 0 reads them), so an item
+/// A held port (not [`SetupGroup::banked`]) accepts a record only when
+/// the stages that read the group's registers are empty: `<name>_ready_o`
+/// is a register (`<name>_ready_q`), raised the cycle after a record is
+/// offered if stages `1..U` (`U` the last stage reading them, see
+/// [`SetupPort::drain`]) will then be empty, and no item is taken in the
+/// cycle the record loads (`setup_lock` lowers `ready_o`), so an item
 /// always computes with the set-up values that were loaded when it
-/// entered: when both are offered, the item goes first.
+/// entered. With `U = 0` the port is always ready.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SetupGroup {
     /// Port name (`frame`, `tri`).
@@ -120,9 +122,9 @@ pub struct SetupPort {
     /// Its fields (input ports), in vector-field order.
     pub fields: Vec<String>,
     /// The last stage reading its registers: the port accepts a record
-    /// only when stages `1..=drain` are empty and no item is offered (0:
-    /// always); with two banks, only when no item in stages `1..=drain`
-    /// reads the bank it loads.
+    /// only when stages `1..=drain` are empty (0: always), and no item is
+    /// taken in that cycle; with two banks, only when no item in stages
+    /// `1..=drain` reads the bank it loads.
     pub drain: u32,
     /// Banks of registers: 2 when double-buffered (the port then waits
     /// only for the items of the bank it loads), else 1.
@@ -1586,17 +1588,21 @@ impl<'a> Emitter<'a> {
 /// up. (A first version also stated that the transfers in flight equal the
 /// number of valid bits; z3 needs minutes to prove that popcount identity
 /// on the deep tops, and the per-stage statements above imply it.)
-fn formal_block(latency: u32, outs: &[Port], nf: usize, setup: &[String]) -> String {
+fn formal_block(latency: u32, outs: &[Port], nf: usize, setup: &[String], lock: bool) -> String {
     let l = latency;
     let mut v = formal_prelude(l, "ready_i & ~f_in");
     v += "  always @(*) begin\n";
-    v += "    assert (ready_o == (~valid_o | ready_i));\n";
+    if lock {
+        v += "    assert (ready_o == ((~valid_o | ready_i) & ~setup_lock));\n";
+    } else {
+        v += "    assert (ready_o == (~valid_o | ready_i));\n";
+    }
     let _ = writeln!(v, "    assert (valid_o == valid_q[{}]);", l - 1);
     v += "  end\n";
     let shifted = if l == 1 {
-        "$past(valid_i)".to_string()
+        "$past(f_in)".to_string()
     } else {
-        format!("{{$past(valid_q[{}:0]), $past(valid_i)}}", l - 2)
+        format!("{{$past(valid_q[{}:0]), $past(f_in)}}", l - 2)
     };
     let shift = format!(
         "      if ($past(en)) assert (valid_q == {shifted});\n      else assert ($stable(valid_q));\n"
@@ -1682,7 +1688,7 @@ fn formal_clocked(l: u32, shift: &str, outs: &[Port], nf: usize, setup: &[String
 /// tests of the current count against `K − 1`, `K + 1` and `K` by whether
 /// an item enters the FIFO and whether one leaves, so it equals the test
 /// on the pointers themselves and only a multiplexer follows `ready_i`.
-fn fifo_handshake(l: u32, depth: u32) -> String {
+fn fifo_handshake(l: u32, depth: u32, lock: bool) -> String {
     let aw = depth.trailing_zeros();
     let mut v = String::new();
     let k = depth - l - 1;
@@ -1699,7 +1705,11 @@ fn fifo_handshake(l: u32, depth: u32) -> String {
     let _ = writeln!(v, "  wire f_wr = valid_q[{}];", l - 1);
     v += "  wire in_xfer = valid_i & ready_o;\n";
     v += "  wire out_xfer = valid_o & ready_i;\n";
-    v += "  assign ready_o = ready_q;\n";
+    if lock {
+        v += "  wire setup_lock;\n  assign ready_o = ready_q & ~setup_lock;\n";
+    } else {
+        v += "  assign ready_o = ready_q;\n";
+    }
     v += "  assign valid_o = out_valid_q;\n";
     v += "  always @(posedge clk_i or negedge rst_ni) begin\n";
     v += "    if (!rst_ni) begin\n";
@@ -1901,7 +1911,7 @@ fn banked_port(
         let (step, shift_in) = if fifo {
             ("1'b1", "in_xfer")
         } else {
-            ("en", "valid_i")
+            ("en", "in_take")
         };
         let shift = |reg: &str, bit: &str| {
             if w == 1 {
@@ -2167,6 +2177,8 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
     let latency = latency + fifo as u32;
     // Set-up ports: the registers of their live fields.
     let mut setup = Vec::new();
+    // Held ports whose ready, while high, keeps items out.
+    let mut locks: Vec<String> = Vec::new();
     let mut setup_text = String::new();
     for (g, grp) in d.setup.iter().enumerate() {
         let drain = e.drain[g].min(latency);
@@ -2197,22 +2209,52 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
             continue;
         }
         e.hw.flops += flops;
-        // An item offered in the same cycle goes first: with drain > 0 its
-        // later stages would read the new values, its stage 0 the old.
-        let ready = if drain == 0 {
-            "1'b1".to_string()
+        let n = grp.name;
+        if drain == 0 {
+            // Only stage 0 reads the registers: an item taken in the same
+            // cycle reads the old values, the next one the new.
+            setup_text += &comment(
+                "  // ",
+                &format!("Set-up port `{n}`: {}. Only stage 0 reads these registers: it accepts a record in any cycle.", grp.doc),
+            );
+            let _ = writeln!(setup_text, "  assign {n}_ready_o = 1'b1;");
         } else {
-            format!("~|valid_q[{}:0] & ~valid_i", drain - 1)
-        };
-        setup_text += &comment(
-            "  // ",
-            &format!(
-                "Set-up port `{n}`: {doc}. It accepts a record only while stages 1..{drain}, which read these registers, are empty and no item is offered (an item offered in the same cycle goes first).",
-                n = grp.name,
-                doc = grp.doc,
-            ),
-        );
-        let _ = writeln!(setup_text, "  assign {}_ready_o = {ready};", grp.name);
+            // Ready is a register: raised the cycle after a record is
+            // offered when stages 1..drain will be empty; in that cycle the
+            // record loads and no item is taken (`setup_lock`), so every
+            // item computes with the values held when it was taken.
+            e.hw.flops += 1;
+            let (step, shift_in) = if fifo {
+                ("1'b1", "in_xfer")
+            } else {
+                ("en", "in_take")
+            };
+            let busy = if drain == 1 {
+                shift_in.to_string()
+            } else {
+                format!("{{valid_q[{}:0], {shift_in}}}", drain - 2)
+            };
+            setup_text += &comment(
+                "  // ",
+                &format!(
+                    "Set-up port `{n}`: {}. {n}_ready_o is a register, raised the cycle after a record is offered if stages 1..{drain}, which read these registers, will be empty; in that cycle the record loads and no item is taken.",
+                    grp.doc
+                ),
+            );
+            let _ = writeln!(setup_text, "  reg  {n}_ready_q;");
+            let _ = writeln!(
+                setup_text,
+                "  wire [{}:0] {n}_busy_d = {step} ? {busy} : valid_q[{}:0];",
+                drain - 1,
+                drain - 1
+            );
+            let _ = writeln!(
+                setup_text,
+                "  always @(posedge clk_i or negedge rst_ni) begin\n    if (!rst_ni) {n}_ready_q <= 1'b0;\n    else {n}_ready_q <= {n}_valid_i & ~{n}_ready_q & ~|{n}_busy_d;\n  end"
+            );
+            let _ = writeln!(setup_text, "  assign {n}_ready_o = {n}_ready_q;");
+            locks.push(format!("{n}_ready_q"));
+        }
         for (q, _, f) in &regs {
             let _ = writeln!(setup_text, "  reg  {} {q};", decl(f.signed(), f.width()));
         }
@@ -2311,9 +2353,15 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
                 p.drain,
                 n = p.name
             )
+        } else if p.drain == 0 {
+            format!(
+                "Set-up port `{n}` ({n}_valid_i/{n}_ready_o): {}. Held in registers that only stage 0 reads; a record is accepted in any cycle (an item taken in the same cycle keeps the old values).",
+                p.doc,
+                n = p.name
+            )
         } else {
             format!(
-                "Set-up port `{n}` ({n}_valid_i/{n}_ready_o): {}. Held in registers; a record is accepted while stages 1..{} are empty and no item is offered (an item offered in the same cycle goes first), so an item computes with the set-up values held when it was accepted.",
+                "Set-up port `{n}` ({n}_valid_i/{n}_ready_o): {}. Held in registers; {n}_ready_o is a register, raised the cycle after a record is offered if stages 1..{} will then be empty, and no item is taken in the cycle the record loads, so an item computes with the set-up values held when it was accepted.",
                 p.doc,
                 p.drain,
                 n = p.name
@@ -2417,28 +2465,45 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
         }
         v += "\n";
     }
+    let lock = &locks;
     if fifo {
-        v += &fifo_handshake(pipe_latency, depth);
+        v += &fifo_handshake(pipe_latency, depth, !lock.is_empty());
     } else {
         v += "  // Handshake: one valid bit per stage, one global stall.\n";
         let _ = writeln!(v, "  reg  [{}:0] valid_q;", latency - 1);
         let _ = writeln!(v, "  wire en = ~valid_q[{}] | ready_i;", latency - 1);
-        v += "  assign ready_o = en;\n";
+        if lock.is_empty() {
+            v += "  assign ready_o = en;\n";
+        } else {
+            let _ = writeln!(
+                v,
+                "  wire setup_lock;\n  assign ready_o = en & ~setup_lock;"
+            );
+        }
+        v += "  wire in_take = valid_i & ready_o;\n";
         let _ = writeln!(v, "  assign valid_o = valid_q[{}];", latency - 1);
         v += "  always @(posedge clk_i or negedge rst_ni) begin\n";
         let _ = writeln!(v, "    if (!rst_ni) valid_q <= {latency}'b0;");
         if latency == 1 {
-            v += "    else if (en) valid_q <= valid_i;\n";
+            v += "    else if (en) valid_q <= in_take;\n";
         } else {
             let _ = writeln!(
                 v,
-                "    else if (en) valid_q <= {{valid_q[{}:0], valid_i}};",
+                "    else if (en) valid_q <= {{valid_q[{}:0], in_take}};",
                 latency - 2
             );
         }
         v += "  end\n\n";
     }
+
     v += &setup_text;
+    if !lock.is_empty() {
+        let _ = writeln!(
+            v,
+            "  // No item is taken in the cycle a held set-up port loads.\n  assign setup_lock = {};\n",
+            lock.join(" | ")
+        );
+    }
     v += "  // Datapath.\n";
     for l in &e.body {
         for ll in l.lines() {
@@ -2463,7 +2528,7 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
             continue;
         }
         let load = match (k, fifo) {
-            (1, false) => "en & valid_i".to_string(),
+            (1, false) => "in_take".to_string(),
             (1, true) => "in_xfer".to_string(),
             (_, false) => format!("en & valid_q[{}]", k - 2),
             (_, true) => format!("valid_q[{}]", k - 2),
@@ -2538,6 +2603,11 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
                 ));
             }
         } else if w > 0 && !regs.is_empty() {
+            // The registered ready stands for "stages 1..U are empty".
+            formal_setup.push(format!(
+                "assert (!{n}_ready_q || valid_q[{}:0] == {w}'d0);",
+                w - 1
+            ));
             let list: Vec<String> = regs.iter().map(|f| format!("{f}_q")).collect();
             formal_setup.push(format!(
                 "if ($past((|valid_q[{}:0]) | f_in)) assert ($stable({{{}}}));",
@@ -2549,7 +2619,7 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
     v += &if fifo {
         formal_block_fifo(pipe_latency, depth, &outs, nf, &formal_setup)
     } else {
-        formal_block(latency, &outs, nf, &formal_setup)
+        formal_block(latency, &outs, nf, &formal_setup, !lock.is_empty())
     };
     if !e.unused.is_empty() {
         let _ = writeln!(
