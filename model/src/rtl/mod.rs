@@ -501,29 +501,9 @@ impl<'a> Emitter<'a> {
         let registered = stage > 0 && self.timing.is_some();
         let at = if registered { stage - 1 } else { stage };
         let vs = self.carried(sel.node(), at);
-        let vals: Vec<String> = opts
-            .iter()
-            .map(|o| {
-                let v = self.operand(o, at);
-                bits::sv(
-                    sym.signed,
-                    &bits::align(&v, (sym.frac - v.frac) as u32, sym.width),
-                )
-            })
-            .collect();
-        let base = &self.name[node];
+        let base = self.name[node].clone();
         let mux = format!("{base}_m{at}");
-        let d = decl(sym.signed, sym.width);
-        self.hw.selects += 1;
-        self.body.push(format!("reg  {d} {mux};"));
-        let mut t = "always @* begin\n".to_string();
-        let _ = writeln!(t, "  case ({vs})");
-        for (k, v) in vals.iter().enumerate().skip(1) {
-            let _ = writeln!(t, "    {}'d{k}: {mux} = {v};", sel.sym().width);
-        }
-        let _ = writeln!(t, "    default: {mux} = {};", vals[0]);
-        t += "  endcase\nend";
-        self.body.push(t);
+        self.case_select(node, &mux, &vs, sel.sym().width, &opts, at);
         let name = if !registered {
             mux
         } else {
@@ -533,6 +513,42 @@ impl<'a> Emitter<'a> {
         };
         self.lazy_at.insert((node, stage), name.clone());
         name
+    }
+
+    /// The multiplexer of selection `node` as a `case` on `sel` (`width`
+    /// bits) into `reg name`, its options read at `stage` and aligned to
+    /// the node's format; option 0 past the last.
+    fn case_select(
+        &mut self,
+        node: usize,
+        name: &str,
+        sel: &str,
+        width: u32,
+        opts: &[TV],
+        stage: u32,
+    ) {
+        let sym = self.t.sym(node);
+        let vals: Vec<String> = opts
+            .iter()
+            .map(|o| {
+                let v = self.operand(o, stage);
+                bits::sv(
+                    sym.signed,
+                    &bits::align(&v, (sym.frac - v.frac) as u32, sym.width),
+                )
+            })
+            .collect();
+        self.hw.selects += 1;
+        self.body
+            .push(format!("reg  {} {name};", decl(sym.signed, sym.width)));
+        let mut t = "always @* begin\n".to_string();
+        let _ = writeln!(t, "  case ({sel})");
+        for (k, v) in vals.iter().enumerate().skip(1) {
+            let _ = writeln!(t, "    {width}'d{k}: {name} = {v};");
+        }
+        let _ = writeln!(t, "    default: {name} = {};", vals[0]);
+        t += "  endcase\nend";
+        self.body.push(t);
     }
 
     fn ovf_at(&mut self, node: usize, stage: u32) -> String {
@@ -1429,26 +1445,7 @@ impl<'a> Emitter<'a> {
                 let dl = self.model().map_or(0.0, |m| m.select(opts.len() as u32));
                 let (s, t0) = self.place(&all, dl);
                 let vs = self.operand(&sel, s);
-                let vals: Vec<String> = opts
-                    .iter()
-                    .map(|o| {
-                        let v = self.operand(o, s);
-                        bits::sv(
-                            sym.signed,
-                            &bits::align(&v, (sym.frac - v.frac) as u32, sym.width),
-                        )
-                    })
-                    .collect();
-                self.hw.selects += 1;
-                self.body.push(format!("reg  {d} {name};"));
-                let mut t = "always @* begin\n".to_string();
-                let _ = writeln!(t, "  case ({})", vs.expr);
-                for (k, v) in vals.iter().enumerate().skip(1) {
-                    let _ = writeln!(t, "    {}'d{k}: {name} = {v};", vs.width);
-                }
-                let _ = writeln!(t, "    default: {name} = {};", vals[0]);
-                t += "  endcase\nend";
-                self.body.push(t);
+                self.case_select(i, &name, &vs.expr, vs.width, &opts, s);
                 self.stage[i] = Some(s);
                 self.at.insert((i, s), name.clone());
                 self.ready(i, t0 + dl, &name);
