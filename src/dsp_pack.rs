@@ -8,16 +8,22 @@
 //! LFE5U-85F, 92 MHz at best. This pass moves those registers into the
 //! block, as a vendor flow does:
 //!
+//! * **Which registers.** Only a plain flip-flop (`TRELLIS_FF`: clocked on
+//!   the rising edge, no set or reset in use, power-up 0) whose enable is
+//!   always on or is a pipeline stage's own load (a net the emitted RTL
+//!   names `load_s<k>`: the item entering stage `k` is valid and the
+//!   stages move), so a register whose enable Yosys built from other logic
+//!   (a set-up bank's load, a folded multiplexer) stays in the fabric.
 //! * **Inputs.** When every non-constant bit of `A` and of `B` comes from
-//!   a plain flip-flop (`TRELLIS_FF`: clocked on the rising edge, no set or
-//!   reset in use, power-up 0, enable from a net or always on), all on one
-//!   clock and with one enable per operand, the block registers its
-//!   operands itself (`REG_INPUTA_CLK`/`REG_INPUTB_CLK = "CLK0"`) from those
-//!   flip-flops' `D` nets. A flip-flop that still feeds other logic stays
-//!   (the block holds a copy); one that no longer feeds anything is removed.
-//!   Both operands or neither: nextpnr times a block with one registered
-//!   operand as if neither were.
-//! * **Output.** When every used bit of `P` feeds exactly one plain
+//!   such a flip-flop, all on one clock, with one enable per operand, and
+//!   every one of those flip-flops feeds only this block's operand pins,
+//!   the block registers its operands itself
+//!   (`REG_INPUTA_CLK`/`REG_INPUTB_CLK = "CLK0"`) from the flip-flops' `D`
+//!   nets and the flip-flops are removed. A register with any other load
+//!   is never copied into a block: the netlist keeps exactly the
+//!   registers the RTL has. Both operands or neither: nextpnr times a
+//!   block with one registered operand as if neither were.
+//! * **Output.** When every used bit of `P` feeds exactly one such
 //!   flip-flop's `D`, on the same clock, with one enable, those flip-flops
 //!   become the block's output register (`REG_OUTPUT_CLK = "CLK0"`) and are
 //!   removed; the block drives their `Q` nets.
@@ -48,6 +54,14 @@ pub struct PackStats {
     /// Fabric flip-flops removed (moved into blocks, or left without a
     /// load by the move).
     pub ffs_removed: usize,
+    /// Blocks whose operand registers stay in the fabric because one of
+    /// them has a load besides the block (it is not copied).
+    #[serde(default)]
+    pub kept_shared: usize,
+    /// Blocks with a register left in the fabric because its enable is
+    /// neither always on nor a stage's load.
+    #[serde(default)]
+    pub kept_enable: usize,
 }
 
 /// A bit of a connection: a net number or a constant (`"0"`, `"1"`, `"x"`).
@@ -100,6 +114,25 @@ fn one(c: &Value, port: &str) -> Result<Option<Bit>> {
     Ok(conn(c, port)?.into_iter().next())
 }
 
+/// The nets the emitted RTL names as a stage's load (`load_s<k>`, any
+/// hierarchy prefix): the only enables a packed register may have besides
+/// always on.
+fn stage_loads(module: &Value) -> Result<std::collections::HashSet<Bit>> {
+    let mut set = std::collections::HashSet::new();
+    for (name, n) in module["netnames"].as_object().into_iter().flatten() {
+        let leaf = name.rsplit('.').next().unwrap_or(name);
+        let is_load = leaf
+            .strip_prefix("load_s")
+            .is_some_and(|k| !k.is_empty() && k.bytes().all(|b| b.is_ascii_digit()));
+        if is_load {
+            for b in n["bits"].as_array().into_iter().flatten() {
+                set.insert(Bit::of(b)?);
+            }
+        }
+    }
+    Ok(set)
+}
+
 /// `(clock, enable)` of a plain flip-flop, or None.
 fn plain_ff(c: &Value) -> Result<Option<(Bit, Enable)>> {
     if c["type"] != "TRELLIS_FF"
@@ -135,6 +168,11 @@ pub fn pack_mult18(netlist: &mut Value, top: &str) -> Result<PackStats> {
     let module = netlist["modules"]
         .get_mut(top)
         .with_context(|| format!("netlist has no module {top}"))?;
+    let stage_load = stage_loads(module)?;
+    let enable_ok = |e: &Enable| match e {
+        Enable::Always => true,
+        Enable::Net(b) => stage_load.contains(b),
+    };
     let mut loads: HashMap<Bit, Vec<(String, String)>> = HashMap::new();
     let mut drivers: HashMap<Bit, (String, String)> = HashMap::new();
     if let Some(ports) = module["ports"].as_object() {
@@ -212,6 +250,8 @@ pub fn pack_mult18(netlist: &mut Value, top: &str) -> Result<PackStats> {
         // Operand registers: per operand, (pin, flip-flop) and the enable.
         let mut operands: Vec<(Vec<PinFf>, Option<Enable>)> = Vec::new();
         let mut inputs_ok = true;
+        let mut shared = false;
+        let mut foreign_enable = false;
         for op in ["A", "B"] {
             let mut regs = Vec::new();
             let mut en: Option<Enable> = None;
@@ -224,12 +264,26 @@ pub fn pack_mult18(netlist: &mut Value, top: &str) -> Result<PackStats> {
                 let ok = match drivers.get(&b) {
                     Some((ff, port)) if port == "Q" && ff != "$port" => match plain_ff(&cells[ff])?
                     {
+                        Some((_, e)) if !enable_ok(&e) => {
+                            foreign_enable = true;
+                            false
+                        }
                         Some((clk, e))
                             if same_clock(&clk) && en.as_ref().is_none_or(|x| *x == e) =>
                         {
+                            // Every load of the flip-flop is an operand pin
+                            // of this block: nothing else would keep it.
+                            let only_here = loads.get(&b).is_none_or(|l| {
+                                l.iter().all(|(c, p)| {
+                                    c == &m && (p.starts_with('A') || p.starts_with('B'))
+                                })
+                            });
+                            if !only_here {
+                                shared = true;
+                            }
                             en = Some(e);
                             regs.push((pin, ff.clone()));
-                            true
+                            only_here
                         }
                         _ => false,
                     },
@@ -252,6 +306,10 @@ pub fn pack_mult18(netlist: &mut Value, top: &str) -> Result<PackStats> {
             match l {
                 [] => {}
                 [(ff, port)] if port == "DI" && ff != "$port" => match plain_ff(&cells[ff])? {
+                    Some((_, e)) if !enable_ok(&e) => {
+                        foreign_enable = true;
+                        outputs_ok = false;
+                    }
                     Some((clk, e))
                         if same_clock(&clk) && out_en.as_ref().is_none_or(|x| *x == e) =>
                     {
@@ -265,6 +323,8 @@ pub fn pack_mult18(netlist: &mut Value, top: &str) -> Result<PackStats> {
         }
         let outputs_ok = outputs_ok && !outs.is_empty();
         let inputs_ok = inputs_ok && operands.iter().any(|(r, _)| !r.is_empty());
+        st.kept_shared += shared as usize;
+        st.kept_enable += foreign_enable as usize;
         if !inputs_ok && !outputs_ok {
             continue;
         }
@@ -453,9 +513,10 @@ mod tests {
         c
     }
 
-    /// A two-bit product: operand flip-flops (a1 also feeds a port), a
-    /// product flip-flop on P0 and P1, P2 unused.
-    fn netlist(p1_extra_load: bool) -> Value {
+    /// A two-bit product: operand flip-flops (a1 also feeds a port when
+    /// `a1_extra_load`), a product flip-flop on P0 and P1, P2 unused; the
+    /// enables 5 and 6 are stage loads (`load_s2`, `load_s3`).
+    fn netlist(p1_extra_load: bool, a1_extra_load: bool) -> Value {
         let mut cells = Map::new();
         cells.insert("fa0".into(), ff(json!(10), 20, Some(5)));
         cells.insert("fa1".into(), ff(json!(11), 21, Some(5)));
@@ -481,7 +542,10 @@ mod tests {
             "m".into(),
             json!({"type": "MULT18X18D", "parameters": {}, "port_directions": dirs, "connections": conns}),
         );
-        let mut outs = vec![40, 41, 21];
+        let mut outs = vec![40, 41];
+        if a1_extra_load {
+            outs.push(21);
+        }
         if p1_extra_load {
             outs.push(31);
         }
@@ -491,20 +555,27 @@ mod tests {
                 "i": {"direction": "input", "bits": [10, 11, 12, 5, 6]},
                 "o": {"direction": "output", "bits": outs}
             },
+            "netnames": {
+                "dut.load_s2": {"bits": [5]},
+                "dut.load_s3": {"bits": [6]},
+                "i": {"bits": [10, 11, 12, 5, 6]}
+            },
             "cells": cells
         }}})
     }
 
     #[test]
     fn packs_operand_and_product_registers() {
-        let mut n = netlist(false);
+        let mut n = netlist(false, false);
         let st = pack_mult18(&mut n, "top").unwrap();
         assert_eq!(
             st,
             PackStats {
                 inputs: 1,
                 outputs: 1,
-                ffs_removed: 4
+                ffs_removed: 5,
+                kept_shared: 0,
+                kept_enable: 0,
             }
         );
         let cells = &n["modules"]["top"]["cells"];
@@ -527,14 +598,45 @@ mod tests {
         assert_eq!(m["parameters"]["REG_INPUTB_CE"], "CE2");
         assert_eq!(m["connections"]["CE2"], json!(["1"]));
         assert_eq!(m["port_directions"]["CE2"], "input");
-        // fa1 also feeds a port: it stays; fa0 and fb0 have no load left.
+        // Every moved flip-flop is gone.
         let left: Vec<&String> = cells.as_object().unwrap().keys().collect();
-        assert_eq!(left, vec!["fa1", "m"]);
+        assert_eq!(left, vec!["m"]);
+    }
+
+    /// An operand register that also feeds a port is never copied into
+    /// the block: both operands stay in the fabric, the product register
+    /// still moves.
+    #[test]
+    fn an_operand_register_with_another_load_is_not_copied() {
+        let mut n = netlist(false, true);
+        let st = pack_mult18(&mut n, "top").unwrap();
+        assert_eq!((st.inputs, st.outputs, st.kept_shared), (0, 1, 1));
+        let cells = &n["modules"]["top"]["cells"];
+        let m = &cells["m"];
+        assert_eq!(m["parameters"].get("REG_INPUTA_CLK"), None);
+        assert_eq!(m["connections"]["A1"], json!([21]));
+        let left: Vec<&String> = cells.as_object().unwrap().keys().collect();
+        assert_eq!(left, vec!["fa0", "fa1", "fb0", "m"]);
+    }
+
+    /// A register whose enable is not a stage's load (here the product
+    /// register's, once the net loses its `load_s3` name) stays out.
+    #[test]
+    fn a_register_whose_enable_is_not_a_stage_load_is_not_packed() {
+        let mut n = netlist(false, false);
+        let names = n["modules"]["top"]["netnames"].as_object_mut().unwrap();
+        names.remove("dut.load_s3");
+        names.insert("dut.bank_load".into(), json!({"bits": [6]}));
+        let st = pack_mult18(&mut n, "top").unwrap();
+        assert_eq!((st.inputs, st.outputs, st.kept_enable), (1, 0, 1));
+        let cells = &n["modules"]["top"]["cells"];
+        assert_eq!(cells["m"]["parameters"].get("REG_OUTPUT_CLK"), None);
+        assert!(cells.get("fp0").is_some() && cells.get("fp1").is_some());
     }
 
     #[test]
     fn a_product_bit_with_two_loads_keeps_the_output_register_out() {
-        let mut n = netlist(true);
+        let mut n = netlist(true, false);
         let st = pack_mult18(&mut n, "top").unwrap();
         assert_eq!(st.outputs, 0);
         assert_eq!(st.inputs, 1);
@@ -545,7 +647,7 @@ mod tests {
 
     #[test]
     fn a_flip_flop_with_a_reset_is_not_packed() {
-        let mut n = netlist(false);
+        let mut n = netlist(false, false);
         n["modules"]["top"]["cells"]["fa0"]["connections"]["LSR"] = json!([7]);
         let st = pack_mult18(&mut n, "top").unwrap();
         assert_eq!(st.inputs, 0, "A0 comes from a flip-flop with a reset");

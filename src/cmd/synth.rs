@@ -663,7 +663,7 @@ pub fn synthesize(
 
 /// The flow's own steps, in the cache key: a change to them measures
 /// again.
-const FLOW: &str = "ecp5-mult18-pack-3-logic-cells-critical-path";
+const FLOW: &str = "ecp5-mult18-pack-4-stage-loads-no-copies-output-buffer";
 
 fn cache_entry(e: &Emitted, target: Target, flow: Flow) -> anyhow::Result<PathBuf> {
     let Flow {

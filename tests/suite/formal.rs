@@ -95,9 +95,9 @@ fn an_overfull_fifo_fails_the_proof() {
         .lines()
         .scan(false, |cont, l| {
             let hit = *cont
-                || l.starts_with("      ready_q <= (f_wr")
-                || l.starts_with("    assert (ready_q == (f_count <= ");
-            *cont = l.starts_with("      ready_q <= (f_wr");
+                || l.starts_with("      ready_q <= ((f_wr")
+                || l.starts_with("    assert (ready_q == ((f_count <= ");
+            *cont = l.starts_with("      ready_q <= ((f_wr");
             n += hit as usize;
             Some(if hit { bump(l) } else { l.to_string() } + "\n")
         })
@@ -129,10 +129,11 @@ fn broken_handshakes_fail_the_proof() {
     let o = fxshade(&["formal", "normalize", "--rtl-dir", ok.to_str().unwrap()]);
     assert!(o.status.success(), "the unedited module: {}", text(&o));
     let edits = [
-        // The last stage is overwritten while the output is stalled.
+        // The stages keep moving while the skid register holds an item:
+        // the item that arrives next overwrites it.
         (
-            "  wire en = ~valid_q[3] | ready_i;",
-            "  wire en = ~valid_q[3] | ready_i | valid_q[0];",
+            "  wire en_d = out_load | (en_q & ~out_arrive);",
+            "  wire en_d = out_load | en_q;",
         ),
         // Stage 3's item is duplicated into stage 4 (stage 3's dropped).
         (
@@ -141,8 +142,8 @@ fn broken_handshakes_fail_the_proof() {
         ),
         // The output registers load while stalled.
         (
-            "    if (en & valid_q[2]) begin",
-            "    if (valid_q[2]) begin",
+            "    if (out_load & (skid_valid | out_arrive)) out_q <=",
+            "    if (skid_valid | out_arrive) out_q <=",
         ),
         // Inputs accepted while the pipe cannot move.
         (
@@ -217,11 +218,11 @@ fn a_set_up_port_loading_under_a_reader_fails_the_proof() {
     fails("early", v.replacen(test, &early, 1), &early);
     // A port that lets an item in during the cycle it loads: the item's
     // stage 0 reads the old values, its later stages the new ones.
-    let lock = "  assign setup_lock = frame_ready_q;";
+    let lock = "  assign setup_lock_d = frame_ready_d;";
     assert!(v.contains(lock), "items wait while the frame loads");
     fails(
         "same-cycle",
-        v.replacen(lock, "  assign setup_lock = 1'b0;", 1),
+        v.replacen(lock, "  assign setup_lock_d = 1'b0;", 1),
         "no lock",
     );
     // The triangle port: a ready that ignores the items' tags (and the

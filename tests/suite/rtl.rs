@@ -1350,3 +1350,111 @@ fn datasheets_list_ports_show_a_simulated_diagram_and_constrain_the_clock() {
     let lpf = std::fs::read_to_string(d3.join("angle_interp.lpf")).unwrap();
     assert!(lpf.contains("FREQUENCY PORT \"clk_i\" 71.43 MHz;"), "{lpf}");
 }
+
+/// The output ports of `module` (in `file`) that are not driven straight
+/// by a flip-flop's `Q` or a constant, bit by bit, from Yosys's reading
+/// (`proc`, no optimization that could move logic across a register):
+/// `name[bit] <- cell type`. Empty: every output is a register.
+fn unregistered_outputs(file: &std::path::Path, module: &str) -> Vec<String> {
+    let dir = tempfile::tempdir().unwrap();
+    let json = dir.path().join("n.json");
+    let o = Command::new("yosys")
+        .args(["-q", "-p"])
+        .arg(format!(
+            "read_verilog -sv {}; hierarchy -check -top {module}; proc; opt_clean; write_json {}",
+            file.display(),
+            json.display()
+        ))
+        .output()
+        .expect("yosys runs");
+    assert!(o.status.success(), "yosys {module}: {}", text(&o));
+    let n: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    let m = &n["modules"][module];
+    // Which cell output drives each net bit, and whether it is a Q.
+    let mut driver = std::collections::HashMap::new();
+    for c in m["cells"].as_object().unwrap().values() {
+        let ty = c["type"].as_str().unwrap().to_string();
+        for (port, dir) in c["port_directions"].as_object().unwrap() {
+            if dir == "output" {
+                for b in c["connections"][port].as_array().unwrap() {
+                    if let Some(b) = b.as_u64() {
+                        driver.insert(b, (ty.clone(), port.clone()));
+                    }
+                }
+            }
+        }
+    }
+    let mut bad = Vec::new();
+    for (name, p) in m["ports"].as_object().unwrap() {
+        if p["direction"] != "output" {
+            continue;
+        }
+        for (k, b) in p["bits"].as_array().unwrap().iter().enumerate() {
+            let Some(b) = b.as_u64() else {
+                continue; // a constant
+            };
+            match driver.get(&b) {
+                Some((ty, port)) if ty.contains("dff") && port == "Q" => {}
+                Some((ty, port)) => bad.push(format!("{name}[{k}] <- {ty}.{port}")),
+                None => bad.push(format!("{name}[{k}] <- an input port")),
+            }
+        }
+    }
+    bad
+}
+
+/// Every output port of every emitted module is a register (or a
+/// constant): `ready_o`, `valid_o`, the set-up ports' readies and the
+/// data outputs, for the stall handshake (the output buffer's head) and
+/// the FIFO handshake (the FIFO's head register), compact and pipelined
+/// for ECP5 at 8 ns. So no input port reaches an output port through
+/// logic. The check itself fails on a module whose output is logic after
+/// a register, or an input.
+#[test]
+fn every_output_port_of_every_emitted_module_is_a_register() {
+    let probe = tempfile::tempdir().unwrap();
+    let f = probe.path().join("probe.v");
+    std::fs::write(
+        &f,
+        "module probe (input wire clk_i, input wire a_i, output wire y_o, output wire z_o,\n\
+         output wire w_o);\n  reg q;\n  always @(posedge clk_i) q <= a_i;\n\
+         assign y_o = q & a_i;\n  assign z_o = a_i;\n  assign w_o = q;\nendmodule\n",
+    )
+    .unwrap();
+    let bad = unregistered_outputs(&f, "probe");
+    assert_eq!(bad.len(), 2, "{bad:?}");
+    assert!(bad.iter().any(|b| b.starts_with("y_o[0]")), "{bad:?}");
+    assert!(
+        bad.iter().any(|b| b.starts_with("z_o[0] <- an input")),
+        "{bad:?}"
+    );
+    let pipelined = repo().join("tests/configs/pipelined.toml");
+    let mut checked = 0;
+    for cfg in [None, Some(pipelined.to_str().unwrap())] {
+        for handshake in ["stall", "fifo"] {
+            let dir = tempfile::tempdir().unwrap();
+            let set = format!("rtl.handshake={handshake}");
+            let mut a = vec!["rtl", "all", "--set", &set];
+            if let Some(c) = cfg {
+                a.extend(["--config", c]);
+            }
+            a.extend(["--out", dir.path().to_str().unwrap()]);
+            let o = fxshade(&a);
+            assert!(o.status.success(), "{}", text(&o));
+            for e in std::fs::read_dir(dir.path()).unwrap() {
+                let p = e.unwrap().path();
+                if p.extension().is_none_or(|x| x != "v") {
+                    continue;
+                }
+                let module = p.file_stem().unwrap().to_string_lossy().into_owned();
+                let bad = unregistered_outputs(&p, &module);
+                assert!(
+                    bad.is_empty(),
+                    "{cfg:?} {handshake} {module}: outputs not from a register: {bad:?}"
+                );
+                checked += 1;
+            }
+        }
+    }
+    assert_eq!(checked, 4 * 9, "modules checked");
+}

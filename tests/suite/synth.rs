@@ -26,12 +26,13 @@ fn ice40_place_and_route_gives_cells_fmax_and_latency() {
     assert_eq!(r["dsp"], 0, "HX8K has no DSP: {r}");
     assert!(r["lut"].as_u64().unwrap() > 100, "two LUT multipliers: {r}");
     assert!(r["carry"].as_u64().unwrap() > 0);
-    // The unit's own flip-flops: one stage (latency 1) holding the 11-bit
-    // angle, one overflow flag and the valid bit.
-    assert_eq!(r["latency"], 1);
+    // The unit's own flip-flops: one stage holding the 11-bit angle, one
+    // overflow flag and the valid bit; the output buffer's head and skid
+    // register (11 + 1 each) and its two state bits (latency 1 + 1).
+    assert_eq!(r["latency"], 2);
     assert_eq!(
         r["ff"].as_u64().unwrap() - r["harness_ff"].as_u64().unwrap(),
-        11 + 1 + 1,
+        11 + 1 + 1 + 2 * (11 + 1) + 2,
         "{r}"
     );
     let f = r["fmax_mhz"].as_f64().expect("an Fmax");

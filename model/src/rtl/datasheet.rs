@@ -352,8 +352,8 @@ pub fn markdown(
         }
     );
     let _ = writeln!(t, "| handshake | {} |", match handshake {
-        Handshake::Stall => "stall: one global stall, `ready_o = ~valid_o | ready_i`",
-        Handshake::Fifo => "fifo: the pipeline never stalls and ends in an output FIFO; `ready_o` and `valid_o` are registers",
+        Handshake::Stall => "stall: one global stall, a register: the stages stop while the two-entry output buffer is full; `ready_o`, `valid_o` and every output port are registers (no path from any input port to any output port)",
+        Handshake::Fifo => "fifo: the pipeline never stalls and ends in an output FIFO with a head register; `ready_o`, `valid_o` and every output port are registers (no path from any input port to any output port)",
     });
     let _ = writeln!(t, "| flip-flops (emitter's count) | {} |", e.hardware.flops);
     let _ = writeln!(t, "| multipliers | {} |", e.hardware.muls.len());

@@ -1565,17 +1565,18 @@ impl<'a> Emitter<'a> {
 /// them). `fxshade formal` proves them for every unit and top with
 /// yosys-smtbmc and z3, by a bounded check from reset and k-induction:
 ///
-/// * `ready_o = ~valid_o | ready_i`, and `valid_o` is the last stage's
-///   valid bit;
+/// * `ready_o = en` (`& ~setup_lock` with a held set-up port), and the
+///   skid register holds an item only behind the head;
 /// * the valid bits move one stage in a cycle with `en` (the first taking
 ///   `valid_i`) and hold otherwise: an item enters only by an input
-///   transfer, never skips, splits or swaps a stage;
-///   with `ready_o` above, an item leaves the last stage only in a cycle
-///   with `ready_i`, an output transfer;
+///   transfer, never skips, splits or swaps a stage; an item leaving the
+///   last stage lands in the head or the skid register, the skid
+///   register's item moves to the head when it is free, and `en` is high
+///   the cycle after one with `ready_i`;
 /// * while `valid_o && !ready_i`, the next cycle keeps `valid_o` and every
 ///   output port unchanged;
-/// * the pipeline drains: after `j` cycles in a row with `ready_i` high
-///   and no input transfer, its first `j` stages are empty;
+/// * the pipeline drains: after `j` cycles in a row with `en` high and no
+///   input transfer, its first `j` stages are empty;
 /// * set-up registers (`setup`: the last stage reading them, their names)
 ///   hold in every cycle that starts with an item in stages `1..=drain`
 ///   or an item entering: an item computes with the set-up values of the
@@ -1585,16 +1586,22 @@ impl<'a> Emitter<'a> {
 /// up. (A first version also stated that the transfers in flight equal the
 /// number of valid bits; z3 needs minutes to prove that popcount identity
 /// on the deep tops, and the per-stage statements above imply it.)
-fn formal_block(latency: u32, outs: &[Port], nf: usize, setup: &[String], lock: bool) -> String {
+fn formal_block(
+    latency: u32,
+    outs: &[Port],
+    nf: usize,
+    setup: &[String],
+    lock: &[String],
+) -> String {
     let l = latency;
-    let mut v = formal_prelude(l, "ready_i & ~f_in");
+    let mut v = formal_prelude(l, "en & ~f_in");
     v += "  always @(*) begin\n";
-    if lock {
-        v += "    assert (ready_o == ((~valid_o | ready_i) & ~setup_lock));\n";
+    if !lock.is_empty() {
+        let _ = writeln!(v, "    assert (ready_o == (en & ~({})));", lock.join(" | "));
     } else {
-        v += "    assert (ready_o == (~valid_o | ready_i));\n";
+        v += "    assert (ready_o == en);\n";
     }
-    let _ = writeln!(v, "    assert (valid_o == valid_q[{}]);", l - 1);
+    v += "    assert (!skid_valid || out_valid_q);\n";
     v += "  end\n";
     let shifted = if l == 1 {
         "$past(f_in)".to_string()
@@ -1602,7 +1609,14 @@ fn formal_block(latency: u32, outs: &[Port], nf: usize, setup: &[String], lock: 
         format!("{{$past(valid_q[{}:0]), $past(f_in)}}", l - 2)
     };
     let shift = format!(
-        "      if ($past(en)) assert (valid_q == {shifted});\n      else assert ($stable(valid_q));\n"
+        "      if ($past(en)) assert (valid_q == {shifted});\n      else assert ($stable(valid_q));\n\
+         \x20     if ($past(ready_i)) assert (en);\n\
+         \x20     if ($past(out_arrive & ~out_load)) assert (skid_valid);\n\
+         \x20     if ($past(out_load & (out_arrive | skid_valid))) assert (out_valid_q);\n\
+         \x20     if ($past(skid_valid & ~out_load)) assert (skid_valid && $stable(skid_q));\n\
+         \x20     if ($past(out_load & skid_valid)) assert (out_q == $past(skid_q));\n\
+         \x20     if ($past(out_load & ~skid_valid & out_arrive)) assert (out_q == $past(last_d));\n\
+         \x20     if ($past(~out_load & out_arrive)) assert (skid_q == $past(last_d));\n"
     );
     v += &formal_clocked(l, &shift, outs, nf, setup);
     v
@@ -1672,20 +1686,140 @@ fn formal_clocked(l: u32, shift: &str, outs: &[Port], nf: usize, setup: &[String
     v
 }
 
+/// The stall handshake's control: one valid bit per stage and one global
+/// enable `en`, which is a register (`en_q`, low while the skid register holds an item): the
+/// stages move unless the output buffer's second entry, the skid
+/// register, holds an item. The output ports are the buffer's head
+/// register `out_q` ([`stall_outputs`]); an item leaving the last stage
+/// goes to the head when it is free or taken this cycle, else to the skid
+/// register, and the stages stop until the skid register empties, which
+/// it does in the cycle after one with `ready_i`. `valid_o` is
+/// `out_valid_q`; `ready_o` is `en` (with a held set-up port, a register
+/// `ready_q` loaded with the next `en & ~setup_lock`). So no input port
+/// reaches an output port, and `ready_i` reaches only the buffer's
+/// controls, not the stages' enables. Latency `l + 1`.
+fn stall_handshake(l: u32, lock: bool) -> String {
+    let mut v = String::new();
+    v += "  // Handshake: one valid bit per stage and one global stall, en, which is a\n";
+    v += "  // register: the stages move unless the output buffer's skid register holds\n";
+    v += "  // an item. The output ports are the buffer's head, out_q; an item leaving\n";
+    v += "  // the last stage goes to the head when it is free or taken this cycle, else\n";
+    v += "  // to the skid register. ready_o and valid_o are registers: no input port\n";
+    v += "  // reaches an output port, and ready_i reaches only the buffer.\n";
+    let _ = writeln!(v, "  reg  [{}:0] valid_q;", l - 1);
+    v += "  reg  out_valid_q, en_q;\n";
+    v += "  wire en = en_q;\n";
+    v += "  wire skid_valid = ~en_q;\n";
+    let _ = writeln!(v, "  wire out_arrive = en & valid_q[{}];", l - 1);
+    v += "  wire out_load = ~out_valid_q | ready_i;\n";
+    v += "  wire en_d = out_load | (en_q & ~out_arrive);\n";
+    if lock {
+        v += "  wire setup_lock_d;\n";
+        v += "  reg  ready_q;\n";
+        v += "  assign ready_o = ready_q;\n";
+    } else {
+        v += "  assign ready_o = en;\n";
+    }
+    v += "  wire in_take = valid_i & ready_o;\n";
+    v += "  assign valid_o = out_valid_q;\n";
+    v += "  always @(posedge clk_i or negedge rst_ni) begin\n";
+    v += "    if (!rst_ni) begin\n";
+    let _ = writeln!(v, "      valid_q <= {l}'b0;");
+    v += "      out_valid_q <= 1'b0;\n      en_q <= 1'b1;\n";
+    if lock {
+        v += "      ready_q <= 1'b1;\n";
+    }
+    v += "    end else begin\n";
+    if l == 1 {
+        v += "      if (en) valid_q <= in_take;\n";
+    } else {
+        let _ = writeln!(
+            v,
+            "      if (en) valid_q <= {{valid_q[{}:0], in_take}};",
+            l - 2
+        );
+    }
+    v += "      out_valid_q <= ~out_load | skid_valid | out_arrive;\n";
+    v += "      en_q <= en_d;\n";
+    if lock {
+        v += "      ready_q <= en_d & ~setup_lock_d;\n";
+    }
+    v += "    end\n  end\n\n";
+    v
+}
+
+/// The stall handshake's output buffer: the head `out_q`, which drives
+/// the output ports, and the skid register `skid_q`, both loaded only
+/// with an item (`last_d`: the last stage's results and flags).
+fn stall_outputs(outs: &[Port], vals: &[String], flags: &[String]) -> String {
+    let (w, parts, ports) = out_record(outs, vals, flags);
+    let mut v = String::new();
+    v += "  // Output buffer: the head drives the ports; the skid register takes the\n";
+    v += "  // item that leaves the last stage while the head is stalled.\n";
+    let _ = writeln!(v, "  wire [{}:0] last_d = {{{}}};", w - 1, parts.join(", "));
+    let _ = writeln!(v, "  reg  [{}:0] out_q, skid_q;", w - 1);
+    v += "  always @(posedge clk_i) begin\n";
+    v += "    if (out_load & (skid_valid | out_arrive)) out_q <= skid_valid ? skid_q : last_d;\n";
+    v += "    if (~out_load & out_arrive) skid_q <= last_d;\n";
+    v += "  end\n";
+    v += &ports;
+    v
+}
+
+/// The output record of `outs` and the flags: its width, its parts
+/// (values, then the flags' ORs) for a concatenation, and the port
+/// assignments from `out_q`.
+fn out_record(outs: &[Port], vals: &[String], flags: &[String]) -> (u32, Vec<String>, String) {
+    let mut parts: Vec<String> = vals.to_vec();
+    parts.extend(flags.iter().map(|f| format!("({f})")));
+    let mut widths: Vec<(String, u32, bool)> = outs
+        .iter()
+        .map(|p| (format!("{}_o", p.name), p.format.width(), p.format.signed()))
+        .collect();
+    if !flags.is_empty() {
+        widths.push(("ovf_o".into(), flags.len() as u32, false));
+    }
+    let w: u32 = widths.iter().map(|x| x.1).sum();
+    let mut v = String::new();
+    let mut msb = w;
+    for (name, width, signed) in widths {
+        let lsb = msb - width;
+        let slice = format!("out_q[{}:{lsb}]", msb - 1);
+        let e = if signed {
+            format!("$signed({slice})")
+        } else {
+            slice
+        };
+        let _ = writeln!(v, "  assign {name} = {e};");
+        msb = lsb;
+    }
+    (w, parts, v)
+}
+
 /// The FIFO handshake's control: the valid bits shift every cycle into an
-/// output FIFO of `depth ≥ l + 2` entries, whose pointers `wr_q`, `rd_q`
-/// are registers; `ready_o` admits an item only while the FIFO holds at
-/// most `depth − l − 1`, so it has room for the item when it arrives `l`
-/// cycles later whatever else arrives meanwhile. A count `cnt_q` (=
-/// `wr_q − rd_q`); `valid_o` is a register (`out_valid_q`) loaded with
-/// `next count ≠ 0`, which is `f_wr | (cnt_q ≥ 2) | (valid_o & ~ready_i)`,
-/// so no reduction of the count lies between `ready_i` and the pointers;
-/// `ready_o` is a register
-/// (`ready_q`) loaded with the room test on the next count, picked from
-/// tests of the current count against `K − 1`, `K + 1` and `K` by whether
-/// an item enters the FIFO and whether one leaves, so it equals the test
-/// on the pointers themselves and only a multiplexer follows `ready_i`.
-fn fifo_handshake(l: u32, depth: u32, lock: bool) -> String {
+/// output FIFO: a memory of `depth ≥ l + 2` entries, whose pointers
+/// `wr_q`, `rd_q` are registers, and the head register `out_q`
+/// ([`fifo_outputs`]), which drives the output ports. `ready_o` admits an
+/// item only while the FIFO holds at most `depth − l − 1`, so it has room
+/// for the item when it arrives `l` cycles later whatever else arrives
+/// meanwhile. A count `cnt_q` of the items in the memory and the head;
+/// `valid_o` is a register (`out_valid_q`) loaded with `next count ≠ 0`,
+/// which is `f_wr | (cnt_q ≥ 2) | (valid_o & ~ready_i)`, so no reduction
+/// of the count lies between `ready_i` and the pointers; `ready_o` is a
+/// register (`ready_q`) loaded with the room test on the next count,
+/// picked from tests of the current count against `K − 1`, `K + 1` and
+/// `K` by whether an item enters the FIFO and whether one leaves, so only
+/// a multiplexer follows `ready_i` (and, with a held set-up port, ANDed
+/// with the next `~setup_lock`).
+///
+/// With `block` (a target whose memories are block RAM with a registered
+/// read: iCE40) every item goes through the memory and the head loads
+/// only from it, so the read is synchronous and maps to a RAM block; an
+/// item then reaches the head one cycle later (latency `l + 2`), and
+/// `valid_o` follows the head's loads. Otherwise (LUT RAM or flip-flops)
+/// an item arriving at an empty memory goes straight to the head (latency
+/// `l + 1`).
+fn fifo_handshake(l: u32, depth: u32, lock: bool, block: bool) -> String {
     let aw = depth.trailing_zeros();
     let mut v = String::new();
     let k = depth - l - 1;
@@ -1695,18 +1829,26 @@ fn fifo_handshake(l: u32, depth: u32, lock: bool) -> String {
     v += "  // while the FIFO has room for it and for every item ahead of it. ready_o\n";
     v += "  // is a register: the room test on the next count, chosen from three tests\n";
     v += "  // of the current count by what enters and leaves this cycle. valid_o is a\n";
-    v += "  // register too: the next count is not zero.\n";
+    v += "  // register too: the next count is not zero. The output ports are the\n";
+    v += "  // FIFO's head register, out_q.\n";
     let _ = writeln!(v, "  reg  [{}:0] valid_q;", l - 1);
     let _ = writeln!(v, "  reg  [{aw}:0] wr_q, rd_q, cnt_q;");
     v += "  reg  ready_q, out_valid_q;\n";
     let _ = writeln!(v, "  wire f_wr = valid_q[{}];", l - 1);
     v += "  wire in_xfer = valid_i & ready_o;\n";
     v += "  wire out_xfer = valid_o & ready_i;\n";
-    if lock {
-        v += "  wire setup_lock;\n  assign ready_o = ready_q & ~setup_lock;\n";
+    v += "  wire out_load = ~out_valid_q | ready_i;\n";
+    v += "  wire mem_empty = wr_q == rd_q;\n";
+    if block {
+        v += "  wire mem_wr = f_wr;\n";
     } else {
-        v += "  assign ready_o = ready_q;\n";
+        v += "  wire mem_wr = f_wr & ~(out_load & mem_empty);\n";
     }
+    v += "  wire mem_rd = out_load & ~mem_empty;\n";
+    if lock {
+        v += "  wire setup_lock_d;\n";
+    }
+    v += "  assign ready_o = ready_q;\n";
     v += "  assign valid_o = out_valid_q;\n";
     v += "  always @(posedge clk_i or negedge rst_ni) begin\n";
     v += "    if (!rst_ni) begin\n";
@@ -1721,90 +1863,70 @@ fn fifo_handshake(l: u32, depth: u32, lock: bool) -> String {
     } else {
         let _ = writeln!(v, "      valid_q <= {{valid_q[{}:0], in_xfer}};", l - 2);
     }
-    let _ = writeln!(v, "      wr_q <= wr_q + {{{aw}'d0, f_wr}};");
-    let _ = writeln!(v, "      rd_q <= rd_q + {{{aw}'d0, out_xfer}};");
+    let _ = writeln!(v, "      wr_q <= wr_q + {{{aw}'d0, mem_wr}};");
+    let _ = writeln!(v, "      rd_q <= rd_q + {{{aw}'d0, mem_rd}};");
     let _ = writeln!(
         v,
         "      cnt_q <= cnt_q + {{{aw}'d0, f_wr}} - {{{aw}'d0, out_xfer}};"
     );
+    let unlock = if lock { " & ~setup_lock_d" } else { "" };
     let _ = writeln!(
         v,
-        "      ready_q <= (f_wr & ~out_xfer) ? (cnt_q <= {w}'d{}) :\n                 (~f_wr & out_xfer) ? (cnt_q <= {w}'d{}) : (cnt_q <= {w}'d{k});",
+        "      ready_q <= ((f_wr & ~out_xfer) ? (cnt_q <= {w}'d{}) :\n                  (~f_wr & out_xfer) ? (cnt_q <= {w}'d{}) : (cnt_q <= {w}'d{k})){unlock};",
         k - 1,
         k + 1
     );
-    let _ = writeln!(
-        v,
-        "      out_valid_q <= f_wr | (cnt_q >= {w}'d2) | (out_valid_q & ~ready_i);"
-    );
+    if block {
+        v += "      out_valid_q <= mem_rd | (out_valid_q & ~ready_i);\n";
+    } else {
+        let _ = writeln!(
+            v,
+            "      out_valid_q <= f_wr | (cnt_q >= {w}'d2) | (out_valid_q & ~ready_i);"
+        );
+    }
     v += "    end\n  end\n\n";
     v
 }
 
-/// The FIFO handshake's output FIFO: written from the last stage's
-/// registers; the output ports are its head, read asynchronously. With
+/// The FIFO handshake's output FIFO: the memory, written from the last
+/// stage's registers, and the head register `out_q`, which drives the
+/// output ports: it loads the memory's oldest entry when it is free or
+/// taken, or the arriving item straight when the memory is empty. With
 /// `distributed` (a target with LUT RAM: ECP5, xc7) the memory carries
-/// `ram_style = "distributed"`: otherwise Yosys folds the register that
-/// takes the outputs into the read port and maps the FIFO to block RAM,
-/// whose unregistered read (5.6 ns clock to output on ECP5) then starts
-/// every path out of the unit.
+/// `ram_style = "distributed"`, so its asynchronous read feeds the head;
+/// with `block` ([`fifo_handshake`]) the head loads only from the memory.
 fn fifo_outputs(
-    l: u32,
     depth: u32,
     outs: &[Port],
     vals: &[String],
     flags: &[String],
     distributed: bool,
+    block: bool,
 ) -> String {
     let aw = depth.trailing_zeros();
-    let mut parts: Vec<String> = vals.to_vec();
-    parts.extend(flags.iter().map(|f| format!("({f})")));
-    let mut widths: Vec<(String, u32, bool)> = outs
-        .iter()
-        .map(|p| (format!("{}_o", p.name), p.format.width(), p.format.signed()))
-        .collect();
-    if !flags.is_empty() {
-        widths.push(("ovf_o".into(), flags.len() as u32, false));
-    }
-    let w: u32 = widths.iter().map(|x| x.1).sum();
+    let (w, parts, ports) = out_record(outs, vals, flags);
     let mut v = String::new();
-    v += "  // Output FIFO: written by the last stage, read by ready_i.\n";
+    v += "  // Output FIFO: the memory, written by the last stage when the head is\n";
+    v += "  // busy, and the head register, which drives the ports.\n";
     if distributed {
         v += "  (* ram_style = \"distributed\" *)\n";
     }
     let _ = writeln!(v, "  reg  [{}:0] fifo_q [0:{}];", w - 1, depth - 1);
+    let _ = writeln!(v, "  reg  [{}:0] out_q;", w - 1);
     let _ = writeln!(
         v,
         "  wire [{}:0] fifo_in = {{{}}};",
         w - 1,
         parts.join(", ")
     );
-    let _ = writeln!(
-        v,
-        "  wire [{}:0] fifo_out = fifo_q[rd_q[{}:0]];",
-        w - 1,
-        aw - 1
-    );
     v += "  always @(posedge clk_i) begin\n";
-    let _ = writeln!(
-        v,
-        "    if (valid_q[{}]) fifo_q[wr_q[{}:0]] <= fifo_in;",
-        l - 1,
-        aw - 1
-    );
-    v += "  end\n";
-    let mut msb = w;
-    for (name, width, signed) in widths {
-        let lsb = msb - width;
-        let slice = format!("fifo_out[{}:{lsb}]", msb - 1);
-        let e = if signed {
-            format!("$signed({slice})")
-        } else {
-            slice
-        };
-        let _ = writeln!(v, "  assign {name} = {e};");
-        msb = lsb;
+    let _ = writeln!(v, "    if (mem_wr) fifo_q[wr_q[{}:0]] <= fifo_in;", aw - 1);
+    let _ = writeln!(v, "    if (mem_rd) out_q <= fifo_q[rd_q[{}:0]];", aw - 1);
+    if !block {
+        v += "    else if (out_load & f_wr) out_q <= fifo_in;\n";
     }
+    v += "  end\n";
+    v += &ports;
     v
 }
 
@@ -1821,31 +1943,51 @@ fn fifo_outputs(
 /// * after `j` cycles without an input transfer the first `j` stages are
 ///   empty; set-up registers hold while an item is in the stages reading
 ///   them.
-fn formal_block_fifo(l: u32, depth: u32, outs: &[Port], nf: usize, setup: &[String]) -> String {
+fn formal_block_fifo(
+    l: u32,
+    depth: u32,
+    outs: &[Port],
+    nf: usize,
+    setup: &[String],
+    lock: &[String],
+    block: bool,
+) -> String {
     let aw = depth.trailing_zeros();
+    let cw = aw + 2;
     let mut v = formal_prelude(l, "~f_in");
     // The FIFO never overflows: an item at stage k finds room when it
-    // arrives, whatever the l − k stages ahead of it bring first.
-    let _ = writeln!(v, "  wire [{aw}:0] f_count = wr_q - rd_q;");
-    v += "  always @(*) begin\n";
-    let _ = writeln!(v, "    assert (f_count <= {}'d{depth});", aw + 1);
-    // The count and the registered admission test follow the pointers.
-    v += "    assert (cnt_q == f_count);\n";
-    v += "    assert (out_valid_q == (f_count != 0));\n";
+    // arrives, whatever the l − k stages ahead of it bring first. The
+    // count is the memory's (the pointers') and the head's.
     let _ = writeln!(
         v,
-        "    assert (ready_q == (f_count <= {}'d{}));",
-        aw + 1,
+        "  wire [{}:0] f_count = {{1'b0, wr_q - rd_q}} + {{{}'d0, out_valid_q}};",
+        cw - 1,
+        cw - 1
+    );
+    v += "  always @(*) begin\n";
+    let _ = writeln!(v, "    assert (f_count <= {cw}'d{depth});");
+    // The count and the registered admission test follow the pointers;
+    // the head holds an item whenever the memory does.
+    let _ = writeln!(v, "    assert ({{1'b0, cnt_q}} == f_count);");
+    if !block {
+        v += "    assert (mem_empty || out_valid_q);\n";
+    }
+    let unlock = if lock.is_empty() {
+        String::new()
+    } else {
+        format!(" & ~({})", lock.join(" | "))
+    };
+    let _ = writeln!(
+        v,
+        "    assert (ready_q == ((f_count <= {cw}'d{}){unlock}));",
         depth - l - 1
     );
     for k in 1..=l {
         let _ = writeln!(
             v,
-            "    assert (!valid_q[{}] || {{1'b0, f_count}} + {}'d{} < {}'d{depth});",
+            "    assert (!valid_q[{}] || f_count + {cw}'d{} < {cw}'d{depth});",
             k - 1,
-            aw + 2,
             l - k,
-            aw + 2
         );
     }
     v += "  end\n";
@@ -2156,29 +2298,46 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
     let nf = flags.len();
     e.hw.flops += latency as u64; // valid bits
                                   // The FIFO handshake: an output FIFO with room for every item in
-                                  // flight (a power of two above the pipeline's depth), one cycle more.
+                                  // flight (a power of two above the pipeline's depth) and a head
+                                  // register; the stall handshake: an output buffer of two registers
+                                  // (the head and the skid). Either way the ports are registers, one
+                                  // cycle more.
     let fifo = d.handshake == timing::Handshake::Fifo && muts.is_empty();
+    // A FIFO for a target whose memories are block RAM reads it
+    // synchronously (one cycle more).
+    let block = fifo
+        && matches!(
+            d.pipelining,
+            timing::Pipelining::Target {
+                target: timing::Target::Ice40Hx8k | timing::Target::Ice40Up5k,
+                ..
+            }
+        );
     let depth = (latency + 2).next_power_of_two();
     let aw = depth.trailing_zeros();
     let out_w: u32 = outs.iter().map(|p| p.format.width()).sum::<u32>() + nf as u32;
     if fifo {
         // Pointers, the count, the registered admission and output-valid
-        // bits and the FIFO's entries; the pointers' two incrementers, the
-        // count's add and subtract, its three compares with the admission
-        // bounds and the one with 2 for valid_o.
-        e.hw.flops += 3 * (aw as u64 + 1) + 2 + depth as u64 * out_w as u64;
+        // bits, the FIFO's entries and its head; the pointers' two
+        // incrementers, the count's add and subtract, its three compares
+        // with the admission bounds and the one with 2 for valid_o (the
+        // pointers' equality is not an ordered compare).
+        e.hw.flops += 3 * (aw as u64 + 1) + 2 + (depth as u64 + 1) * out_w as u64;
         e.hw.adders.extend([aw + 1; 4]);
         e.hw.compares += 4;
+    } else {
+        // The head and the skid register with their valid bits.
+        e.hw.flops += 2 * out_w as u64 + 2;
     }
     let pipe_latency = latency;
-    let latency = latency + fifo as u32;
+    let latency = latency + 1 + block as u32;
     // Set-up ports: the registers of their live fields.
     let mut setup = Vec::new();
     // Held ports whose ready, while high, keeps items out.
     let mut locks: Vec<String> = Vec::new();
     let mut setup_text = String::new();
     for (g, grp) in d.setup.iter().enumerate() {
-        let drain = e.drain[g].min(latency);
+        let drain = e.drain[g].min(pipe_latency);
         let mut regs = Vec::new();
         let mut fields = Vec::new();
         let mut flops = 0;
@@ -2247,7 +2406,7 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
             );
             let _ = writeln!(
                 setup_text,
-                "  always @(posedge clk_i or negedge rst_ni) begin\n    if (!rst_ni) {n}_ready_q <= 1'b0;\n    else {n}_ready_q <= {n}_valid_i & ~{n}_ready_q & ~|{n}_busy_d;\n  end"
+                "  wire {n}_ready_d = {n}_valid_i & ~{n}_ready_q & ~|{n}_busy_d;\n  always @(posedge clk_i or negedge rst_ni) begin\n    if (!rst_ni) {n}_ready_q <= 1'b0;\n    else {n}_ready_q <= {n}_ready_d;\n  end"
             );
             let _ = writeln!(setup_text, "  assign {n}_ready_o = {n}_ready_q;");
             locks.push(format!("{n}_ready_q"));
@@ -2333,13 +2492,15 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
         let _ = writeln!(
             v,
             "// both sides; the pipeline never stalls and ends in an output FIFO of\n\
-             // {depth} entries; ready_o is a register (the FIFO's room on its next\n\
-             // count): no path from ready_i or valid_i."
+             // {depth} entries and a head register; ready_o is a register (the FIFO's\n\
+             // room on its next count): no path from ready_i or valid_i."
         );
     } else {
         let _ = writeln!(
             v,
-            "// both sides with one global stall (ready_o = ~valid_o | ready_i)."
+            "// both sides with one global stall, a register: the stages stop while the\n\
+             // output buffer (a head and a skid register) is full. ready_o, valid_o\n\
+             // and the outputs are registers: no path from ready_i or valid_i."
         );
     }
     for p in &setup {
@@ -2464,41 +2625,20 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
     }
     let lock = &locks;
     if fifo {
-        v += &fifo_handshake(pipe_latency, depth, !lock.is_empty());
+        v += &fifo_handshake(pipe_latency, depth, !lock.is_empty(), block);
     } else {
-        v += "  // Handshake: one valid bit per stage, one global stall.\n";
-        let _ = writeln!(v, "  reg  [{}:0] valid_q;", latency - 1);
-        let _ = writeln!(v, "  wire en = ~valid_q[{}] | ready_i;", latency - 1);
-        if lock.is_empty() {
-            v += "  assign ready_o = en;\n";
-        } else {
-            let _ = writeln!(
-                v,
-                "  wire setup_lock;\n  assign ready_o = en & ~setup_lock;"
-            );
-        }
-        v += "  wire in_take = valid_i & ready_o;\n";
-        let _ = writeln!(v, "  assign valid_o = valid_q[{}];", latency - 1);
-        v += "  always @(posedge clk_i or negedge rst_ni) begin\n";
-        let _ = writeln!(v, "    if (!rst_ni) valid_q <= {latency}'b0;");
-        if latency == 1 {
-            v += "    else if (en) valid_q <= in_take;\n";
-        } else {
-            let _ = writeln!(
-                v,
-                "    else if (en) valid_q <= {{valid_q[{}:0], in_take}};",
-                latency - 2
-            );
-        }
-        v += "  end\n\n";
+        v += &stall_handshake(pipe_latency, !lock.is_empty());
     }
 
     v += &setup_text;
     if !lock.is_empty() {
         let _ = writeln!(
             v,
-            "  // No item is taken in the cycle a held set-up port loads.\n  assign setup_lock = {};\n",
-            lock.join(" | ")
+            "  // No item is taken in the cycle a held set-up port loads.\n  assign setup_lock_d = {};\n",
+            lock.iter()
+                .map(|q| format!("{}_d", q.trim_end_matches("_q")))
+                .collect::<Vec<_>>()
+                .join(" | ")
         );
     }
     v += "  // Datapath.\n";
@@ -2507,29 +2647,37 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
             let _ = writeln!(v, "  {ll}");
         }
     }
-    v += "\n  // Pipeline registers (data: no reset, held while stalled). A stage's\n";
-    v += "  // registers load only with a valid item, so bubbles do not toggle them.\n";
-    v += "  always @(posedge clk_i) begin\n";
     assert!(
         e.regs.iter().all(|(st, _)| (1..=pipe_latency).contains(st)),
         "every register belongs to a stage of the pipeline"
     );
-    for k in 1..=pipe_latency {
-        let regs: Vec<&String> = e
-            .regs
-            .iter()
-            .filter(|(st, _)| *st == k)
-            .map(|(_, r)| r)
-            .collect();
-        if regs.is_empty() {
-            continue;
-        }
+    let stages: Vec<u32> = (1..=pipe_latency)
+        .filter(|k| e.regs.iter().any(|(st, _)| st == k))
+        .collect();
+    // Each stage's load, a wire of its own, so the enable of every
+    // pipeline register keeps a name in the netlist (`synth --netlist`
+    // moves into a DSP block only registers loaded by one of these).
+    v += "\n  // Stage loads: the item entering stage k is valid and the stages move.\n";
+    for &k in &stages {
         let load = match (k, fifo) {
             (1, false) => "in_take".to_string(),
             (1, true) => "in_xfer".to_string(),
             (_, false) => format!("en & valid_q[{}]", k - 2),
             (_, true) => format!("valid_q[{}]", k - 2),
         };
+        let _ = writeln!(v, "  wire load_s{k} = {load};");
+    }
+    v += "\n  // Pipeline registers (data: no reset, held while stalled). A stage's\n";
+    v += "  // registers load only with a valid item, so bubbles do not toggle them.\n";
+    v += "  always @(posedge clk_i) begin\n";
+    for k in stages {
+        let regs: Vec<&String> = e
+            .regs
+            .iter()
+            .filter(|(st, _)| *st == k)
+            .map(|(_, r)| r)
+            .collect();
+        let load = format!("load_s{k}");
         let _ = writeln!(v, "    if ({load}) begin");
         for r in regs {
             let _ = writeln!(v, "      {r}");
@@ -2545,24 +2693,9 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
                 ..
             }
         );
-        v += &fifo_outputs(
-            pipe_latency,
-            depth,
-            &outs,
-            &out_vals,
-            &flag_bits,
-            distributed,
-        );
+        v += &fifo_outputs(depth, &outs, &out_vals, &flag_bits, distributed, block);
     } else {
-        for (p, val) in outs.iter().zip(&out_vals) {
-            let _ = writeln!(v, "  assign {}_o = {val};", p.name);
-        }
-        if nf > 0 {
-            let _ = writeln!(v, "  assign ovf_o = {{");
-            let lines: Vec<String> = flag_bits.iter().map(|b| format!("    {b}")).collect();
-            let _ = writeln!(v, "{}", lines.join(",\n"));
-            v += "  };\n";
-        }
+        v += &stall_outputs(&outs, &out_vals, &flag_bits);
     }
     // Set-up registers: unchanged while an item is in the stages reading
     // them or entering; with banks, each bank while an item tagged with it
@@ -2614,9 +2747,9 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
         }
     }
     v += &if fifo {
-        formal_block_fifo(pipe_latency, depth, &outs, nf, &formal_setup)
+        formal_block_fifo(pipe_latency, depth, &outs, nf, &formal_setup, lock, block)
     } else {
-        formal_block(latency, &outs, nf, &formal_setup, !lock.is_empty())
+        formal_block(pipe_latency, &outs, nf, &formal_setup, lock)
     };
     if !e.unused.is_empty() {
         let _ = writeln!(

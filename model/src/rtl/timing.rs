@@ -333,11 +333,13 @@ impl Pipelining {
 /// How a generated module's stages hand items on.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 pub enum Handshake {
-    /// One global stall: every stage holds while the output is stalled
-    /// (`ready_o = ~valid_o | ready_i`).
+    /// One global stall, a register: every stage holds while the
+    /// two-entry output buffer (the head register, which drives the
+    /// ports, and a skid register) is full; `ready_o = en`.
     Stall,
     /// A pipeline that never stalls, ending in an output FIFO with room
-    /// for every item in flight; `ready_o` is a registered credit check.
+    /// for every item in flight and a head register; `ready_o` is a
+    /// registered credit check.
     Fifo,
 }
 
@@ -377,7 +379,7 @@ pub static DECL: crate::config::UnitDecl = crate::config::UnitDecl {
         crate::config::FieldDecl {
             name: "handshake",
             kind: crate::config::FieldKind::Choice(&["stall", "fifo"]),
-            doc: "stall: one global stall, every stage holds while the output is stalled (ready_o = ~valid_o | ready_i); fifo: the pipeline never stalls and ends in an output FIFO with room for every item in flight, ready_o a registered credit check (latency one more)",
+            doc: "stall: one global stall, a register: every stage holds while the two-entry output buffer (head and skid register) is full; fifo: the pipeline never stalls and ends in an output FIFO with room for every item in flight and a head register, ready_o a registered credit check. Either way ready_o, valid_o and the outputs are registers, latency one more than the stages",
         },
         crate::config::FieldDecl {
             name: "setup",
