@@ -10,10 +10,12 @@
 //!
 //! * **Which registers.** Only a plain flip-flop (`TRELLIS_FF`: clocked on
 //!   the rising edge, no set or reset in use, power-up 0) whose enable is
-//!   always on or is a pipeline stage's own load (a net the emitted RTL
-//!   names `load_s<k>`: the item entering stage `k` is valid and the
-//!   stages move), so a register whose enable Yosys built from other logic
-//!   (a set-up bank's load, a folded multiplexer) stays in the fabric.
+//!   always on, a pipeline stage's own load (a net the emitted RTL names
+//!   `load_s<k>`: the item entering stage `k` is valid and the stages
+//!   move) or the stages' move itself (`en`, which loads a product's own
+//!   operand registers), so a register whose enable Yosys built from other
+//!   logic (a set-up port's load, a folded multiplexer) stays in the
+//!   fabric.
 //! * **Inputs.** When every non-constant bit of `A` and of `B` comes from
 //!   such a flip-flop, all on one clock, with one enable per operand, and
 //!   every one of those flip-flops feeds only this block's operand pins,
@@ -115,15 +117,16 @@ fn one(c: &Value, port: &str) -> Result<Option<Bit>> {
 }
 
 /// The nets the emitted RTL names as a stage's load (`load_s<k>`, any
-/// hierarchy prefix): the only enables a packed register may have besides
-/// always on.
+/// hierarchy prefix) or the stages' move (`en`): the only enables a packed
+/// register may have besides always on.
 fn stage_loads(module: &Value) -> Result<std::collections::HashSet<Bit>> {
     let mut set = std::collections::HashSet::new();
     for (name, n) in module["netnames"].as_object().into_iter().flatten() {
         let leaf = name.rsplit('.').next().unwrap_or(name);
-        let is_load = leaf
-            .strip_prefix("load_s")
-            .is_some_and(|k| !k.is_empty() && k.bytes().all(|b| b.is_ascii_digit()));
+        let is_load = leaf == "en"
+            || leaf
+                .strip_prefix("load_s")
+                .is_some_and(|k| !k.is_empty() && k.bytes().all(|b| b.is_ascii_digit()));
         if is_load {
             for b in n["bits"].as_array().into_iter().flatten() {
                 set.insert(Bit::of(b)?);

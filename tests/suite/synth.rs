@@ -577,6 +577,94 @@ fn set_up_registers_load_in_the_synthesis_harness() {
         }
     }
     assert!(bits >= 200, "{bits} set-up register bits");
+    packer_rules_hold(&keep);
+}
+
+/// The packer's rules on the netlists of `dir` (`harness_yosys.json` as
+/// Yosys wrote it, `harness.json` after `dsp_pack`): every enable a
+/// MULT18X18D's registers use is a net the RTL names a stage's load
+/// (`load_s<k>`) or the stages' move (`en`), or constant 1; and a register
+/// moved into a block is gone from the fabric: every flip-flop that drove
+/// the operand pins of a block that now registers its operands is absent
+/// from the packed netlist (had it other loads, the block's register would
+/// be a copy, which the packer never makes). Most blocks take their
+/// operand registers in (the emitter gives every product registers of its
+/// own on ECP5).
+fn packer_rules_hold(dir: &std::path::Path) {
+    let read = |f: &str| -> serde_json::Value {
+        serde_json::from_slice(&std::fs::read(dir.join(f)).unwrap()).unwrap()
+    };
+    let (before, after) = (read("harness_yosys.json"), read("harness.json"));
+    let (mb, m) = (
+        &before["modules"]["fxs_harness"],
+        &after["modules"]["fxs_harness"],
+    );
+    let mut allowed = std::collections::HashSet::new();
+    for (name, net) in m["netnames"].as_object().unwrap() {
+        let leaf = name.rsplit('.').next().unwrap();
+        let load = leaf
+            .strip_prefix("load_s")
+            .is_some_and(|k| k.parse::<u32>().is_ok());
+        if load || leaf == "en" {
+            for b in net["bits"].as_array().unwrap() {
+                allowed.insert(b.clone());
+            }
+        }
+    }
+    assert!(allowed.len() > 10, "stage loads: {}", allowed.len());
+    // Which flip-flop drove each net before packing.
+    let mut ff_of = std::collections::HashMap::new();
+    for (name, c) in mb["cells"].as_object().unwrap() {
+        if c["type"] == "TRELLIS_FF" {
+            ff_of.insert(c["connections"]["Q"][0].clone(), name.clone());
+        }
+    }
+    let cells = m["cells"].as_object().unwrap();
+    let (mut blocks, mut with_inputs) = (0, 0);
+    for (name, c) in cells {
+        if c["type"] != "MULT18X18D" {
+            continue;
+        }
+        blocks += 1;
+        let p = &c["parameters"];
+        let on = |k: &str| p[k].as_str().is_some_and(|v| v.trim() == "CLK0");
+        let (reg_in, reg_out) = (on("REG_INPUTA_CLK"), on("REG_OUTPUT_CLK"));
+        for k in 0..4 {
+            let pin = format!("CE{k}");
+            let used = ["REG_INPUTA_CE", "REG_INPUTB_CE", "REG_OUTPUT_CE"]
+                .iter()
+                .any(|q| p[*q].as_str().is_some_and(|v| v.trim() == pin));
+            if used && (reg_in || reg_out) {
+                let ce = &c["connections"][&pin][0];
+                assert!(
+                    ce == "1" || allowed.contains(ce),
+                    "{name}: {pin} is {ce}, not a stage's load"
+                );
+            }
+        }
+        if !reg_in {
+            continue;
+        }
+        with_inputs += 1;
+        let old = &mb["cells"][name]["connections"];
+        for (pin, bits) in old.as_object().unwrap() {
+            if !(pin.starts_with('A') || pin.starts_with('B')) {
+                continue;
+            }
+            for b in bits.as_array().unwrap() {
+                if let Some(ff) = ff_of.get(b) {
+                    assert!(
+                        !cells.contains_key(ff),
+                        "{ff}, moved into {name} ({pin}), is still in the fabric"
+                    );
+                }
+            }
+        }
+    }
+    assert!(
+        blocks > 40 && with_inputs * 10 >= blocks * 9,
+        "{with_inputs} of {blocks} blocks take their operand registers in"
+    );
 }
 
 /// `synth --freq F` gives a verdict (met, or missed by how much) and the

@@ -371,6 +371,14 @@ struct Emitter<'a> {
     lazy_at: HashMap<(usize, u32), String>,
     /// The set-up groups' port names.
     group_names: Vec<&'static str>,
+    /// Products read operand registers of their own
+    /// ([`Emitter::mul_operand`]): pipelined for ECP5, whose DSP blocks
+    /// `synth --netlist` fills with them.
+    own_operands: bool,
+    /// Those registers, `(stage, "q <= d;")`: written in a block of their
+    /// own marked `keep`, so that Yosys does not merge equal copies back
+    /// into one register that several blocks would share.
+    own_regs: Vec<(u32, String)>,
 }
 
 impl<'a> Emitter<'a> {
@@ -378,6 +386,15 @@ impl<'a> Emitter<'a> {
         self.body
             .push(format!("reg  {} {name};", decl(signed, width)));
         self.regs.push((stage, format!("{name} <= {src};")));
+        self.hw.flops += width as u64;
+    }
+
+    /// [`Self::reg`] for a product's own operand register
+    /// ([`Self::own_regs`]).
+    fn own_reg(&mut self, stage: u32, name: &str, signed: bool, width: u32, src: &str) {
+        self.body
+            .push(format!("reg  {} {name};", decl(signed, width)));
+        self.own_regs.push((stage, format!("{name} <= {src};")));
         self.hw.flops += width as u64;
     }
 
@@ -983,17 +1000,18 @@ impl<'a> Emitter<'a> {
     fn split_mul(
         &mut self,
         i: usize,
-        va: &Val,
-        vb: &Val,
+        oa: &Opnd,
+        ob: &Opnd,
         s: u32,
         m: timing::DelayModel,
         budget: f64,
     ) -> bool {
-        let (x, y) = if va.width >= vb.width {
-            (va, vb)
+        let (ox, oy) = if oa.val().width >= ob.val().width {
+            (oa, ob)
         } else {
-            (vb, va)
+            (ob, oa)
         };
+        let (x, y) = (ox.val(), oy.val());
         if x.expr.contains('\'') || y.expr.contains('\'') {
             return false;
         }
@@ -1018,12 +1036,31 @@ impl<'a> Emitter<'a> {
         let name = self.name[i].clone();
         let sym = self.t.sym(i);
         let w = sym.width;
-        let xs = self.chunks(&name, x, cx, "a");
-        let ys = self.chunks(&name, y, cy, "b");
+        // Operands read at stage s: chunk wires of the shared value; own
+        // operands: each partial product registers its two chunks.
+        let xs = match ox {
+            Opnd::At(v) => self.chunks(&name, v, cx, "a"),
+            Opnd::Own(p) => chunk_slices(p, cx),
+        };
+        let ys = match oy {
+            Opnd::At(v) => self.chunks(&name, v, cy, "b"),
+            Opnd::Own(p) => chunk_slices(p, cy),
+        };
         let mut parts: Vec<String> = Vec::new();
         let mut slowest: f64 = 0.0;
         for (jx, (xe, xw, xsg, xlo)) in xs.iter().enumerate() {
             for (jy, (ye, yw, ysg, ylo)) in ys.iter().enumerate() {
+                let own = |e: &mut Self, o: &Opnd, src: &str, w: u32, sg: bool, tag: &str| {
+                    if matches!(o, Opnd::Own(_)) {
+                        let q = format!("{name}_{tag}{jx}_{jy}_q");
+                        e.own_reg(s, &q, sg, w, src);
+                        q
+                    } else {
+                        src.to_string()
+                    }
+                };
+                let xe = &own(self, ox, xe, *xw, *xsg, "a");
+                let ye = &own(self, oy, ye, *yw, *ysg, "b");
                 // Both factors of one signedness: a signed one extends an
                 // unsigned partner by its bit.
                 let ps = *xsg || *ysg;
@@ -1117,6 +1154,40 @@ impl<'a> Emitter<'a> {
         self.at.insert((i, stage), name.clone());
         self.ready(i, t, &name);
         true
+    }
+
+    /// A product's operand `tv` at stage `s`: with `own`, when its value
+    /// comes from a register at `s` (a staged value from an earlier stage,
+    /// or a held set-up value), the value the stage before holds, for the
+    /// product to register on its own ([`Opnd::Own`]); else the value at
+    /// `s` itself (a constant, a banked or per-triangle selected value,
+    /// which are registers of their own already, or stage 0).
+    fn mul_operand(&mut self, tv: &TV, s: u32, own: bool) -> Opnd {
+        let n = tv.node();
+        let staged_before = self.stage[n].is_some_and(|s0| s0 < s);
+        let setup = self.stage[n].is_none()
+            && self.banked_group(n).is_none()
+            && !matches!(self.t.ops()[n], Op::Const(_));
+        if own && !self.lazy[n] && (staged_before || setup) {
+            Opnd::Own(self.operand(tv, s - 1))
+        } else {
+            Opnd::At(self.operand(tv, s))
+        }
+    }
+
+    /// The operand itself at stage `s`: [`Opnd::Own`] registered whole
+    /// into `name` (a register of stage `s`).
+    fn own_operand(&mut self, o: Opnd, s: u32, name: &str) -> Val {
+        match o {
+            Opnd::At(v) => v,
+            Opnd::Own(p) => {
+                self.own_reg(s, name, p.signed, p.width, &p.expr);
+                Val {
+                    expr: name.to_string(),
+                    ..p
+                }
+            }
+        }
     }
 
     /// The chunks of operand `v`, `c` bits each from the bottom: (name,
@@ -1252,12 +1323,21 @@ impl<'a> Emitter<'a> {
                         }
                     }
                 }
-                let (va, vb) = (self.operand(&a, s), self.operand(&b, s));
+                // On a DSP target every product reads operand registers of
+                // its own (`<product>_a_q`, `_b_q`; a split product one pair
+                // per partial product), loaded from the value the stage
+                // before holds: the block takes them in as its operand
+                // registers, and no register is shared between blocks or
+                // with other logic (`synth --netlist` never copies one).
+                let own = s >= 1 && !held && self.own_operands;
+                let (oa, ob) = (self.mul_operand(&a, s, own), self.mul_operand(&b, s, own));
                 if let Some((m, budget)) = self.timing {
-                    if !held && t0 + dm > budget && self.split_mul(i, &va, &vb, s, m, budget) {
+                    if !held && t0 + dm > budget && self.split_mul(i, &oa, &ob, s, m, budget) {
                         return Ok(());
                     }
                 }
+                let va = self.own_operand(oa, s, &format!("{name}_a_q"));
+                let vb = self.own_operand(ob, s, &format!("{name}_b_q"));
                 // The unsigned operand of a signed × unsigned product, zero-
                 // extended on a wire of its own: the multiplier's operand is
                 // then that wire, one bit wider, and no tool widens it to the
@@ -1558,6 +1638,39 @@ impl<'a> Emitter<'a> {
         }
         Ok(())
     }
+}
+
+/// A product's operand as [`Emitter::mul_operand`] finds it.
+enum Opnd {
+    /// The value at the product's stage, as every reader there sees it.
+    At(Val),
+    /// The value the stage before holds: the product registers it (or
+    /// each of its partial products its chunks) into registers of its own.
+    Own(Val),
+}
+
+impl Opnd {
+    fn val(&self) -> &Val {
+        match self {
+            Opnd::At(v) | Opnd::Own(v) => v,
+        }
+    }
+}
+
+/// [`Emitter::chunks`] of `v` as slices of its expression (no wires): for
+/// registers that load them.
+fn chunk_slices(v: &Val, c: u32) -> Vec<(String, u32, bool, u32)> {
+    let k = v.width.div_ceil(c);
+    if k == 1 {
+        return vec![(v.expr.clone(), v.width, v.signed, 0)];
+    }
+    (0..k)
+        .map(|j| {
+            let lo = j * c;
+            let hi = (lo + c).min(v.width) - 1;
+            (v.slice(hi, lo), hi - lo + 1, v.signed && j == k - 1, lo)
+        })
+        .collect()
 }
 
 /// The module's formal properties, inside `ifdef FORMAL` (Yosys's
@@ -2217,6 +2330,15 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
             }
             _ => None,
         },
+        own_operands: muts.is_empty()
+            && matches!(
+                d.pipelining,
+                timing::Pipelining::Target {
+                    target: timing::Target::Ecp5,
+                    ..
+                }
+            ),
+        own_regs: Vec::new(),
         worst: 0.0,
         too_slow: Vec::new(),
         groups: t
@@ -2670,21 +2792,47 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
     v += "\n  // Pipeline registers (data: no reset, held while stalled). A stage's\n";
     v += "  // registers load only with a valid item, so bubbles do not toggle them.\n";
     v += "  always @(posedge clk_i) begin\n";
-    for k in stages {
-        let regs: Vec<&String> = e
-            .regs
-            .iter()
-            .filter(|(st, _)| *st == k)
-            .map(|(_, r)| r)
-            .collect();
-        let load = format!("load_s{k}");
-        let _ = writeln!(v, "    if ({load}) begin");
-        for r in regs {
-            let _ = writeln!(v, "      {r}");
+    let write_regs = |v: &mut String, regs: &[(u32, String)]| {
+        for &k in &stages {
+            let regs: Vec<&String> = regs
+                .iter()
+                .filter(|(st, _)| *st == k)
+                .map(|(_, r)| r)
+                .collect();
+            if regs.is_empty() {
+                continue;
+            }
+            let _ = writeln!(v, "    if (load_s{k}) begin");
+            for r in regs {
+                let _ = writeln!(v, "      {r}");
+            }
+            *v += "    end\n";
         }
-        v += "    end\n";
+        *v += "  end\n\n";
+    };
+    write_regs(&mut v, &e.regs);
+    if !e.own_regs.is_empty() {
+        // They load whenever the stages move (an item or a bubble): a
+        // product's operand registers then hold the stage before's values
+        // of the item in the product's stage, and their enable is not a
+        // stage's load, so Yosys cannot merge one with the balancing
+        // register of the same value (which several loads would share).
+        v += "  // Each product's own operand registers (a DSP block takes them in):\n";
+        v += "  // loaded whenever the stages move, kept apart from equal copies.\n";
+        v += "  (* keep *)\n  always @(posedge clk_i) begin\n";
+        if !fifo {
+            v += "    if (en) begin\n";
+        }
+        let mut own = e.own_regs.clone();
+        own.sort_by_key(|(st, _)| *st);
+        for (_, r) in &own {
+            let _ = writeln!(v, "{}{r}", if fifo { "    " } else { "      " });
+        }
+        if !fifo {
+            v += "    end\n";
+        }
+        v += "  end\n\n";
     }
-    v += "  end\n\n";
     if fifo {
         let distributed = matches!(
             d.pipelining,
