@@ -21,14 +21,14 @@
 //! |---|---|
 //! | add, subtract | `carry(w)` = `carry_base + w·carry_bit` |
 //! | add/subtract steered by a sign | `lut + carry(w)` |
-//! | max | `carry(w) + lut` |
+//! | max | `carry(w) + lut + word_select` |
 //! | select of n | `lut · ⌈log2 n / 2⌉` |
 //! | multiply, LUTs, `a × b` bits | `⌈log2 min(a,b)⌉·mul_row + carry(a+b)` |
 //! | multiply, DSP | `dsp.comb`, plus `dsp.combine` per level of DSP tiles summed |
 //! | into a DSP's input register | `dsp.route_in` before the period ends |
 //! | out of a DSP's output register | logic after it starts at `dsp.route_out` |
 //! | rounding (nearest) | `max(carry(w), lut·(⌈log4 s⌉ + 1))`, `s` dropped bits |
-//! | range check and saturate | `lut·⌈log4 k⌉ + lut`, `k` bits checked |
+//! | range check and saturate | `lut·⌈log4 k⌉ + lut + word_select`, `k` bits checked |
 //!
 //! The constants are calibrated against nextpnr by `fxshade synth
 //! calibrate --target T` (BENCHMARKS.md lists predicted against measured).
@@ -85,6 +85,7 @@ impl Target {
                 mul_row: 1.7,
                 dsp: None,
                 bram: 3.0,
+                word_select: 0.0,
             },
             // Calibrated on nextpnr-ice40 0.4, UP5K sg48 (a slower part).
             Target::Ice40Up5k => DelayModel {
@@ -102,6 +103,7 @@ impl Target {
                     route_out: 2.4,
                 }),
                 bram: 5.0,
+                word_select: 0.0,
             },
             // Calibrated on nextpnr-ecp5 (yowasp), LFE5U-85F speed grade 6.
             // The multiplier as the flow builds it, operand and product
@@ -110,6 +112,10 @@ impl Target {
             // measures 2.87-4.16 ns register to register, so `comb` = 4.16
             // less `reg`; a 24 x 18 product (two tiles, one sum) 7.08 ns, so
             // `combine` = 7.08 - 4.16. (Before packing: 7.0 and 1.5.)
+            // word_select: the smooth top at 8 ns (issue #37) measured 11.2 ns
+            // on a range check, saturating multiplexer and maximum that the
+            // model put at 7.9 (nextpnr: 5.9 ns of it routing, most of it the
+            // two selects' fan-out to 16 bits); 1.5 ns a word select.
             Target::Ecp5 => DelayModel {
                 reg: 0.9,
                 lut: 1.1,
@@ -125,6 +131,7 @@ impl Target {
                     route_out: 3.4,
                 }),
                 bram: 3.5,
+                word_select: 1.5,
             },
             // Not calibrated (no open place and route): datasheet-class
             // figures for a -1 Artix-7.
@@ -143,6 +150,7 @@ impl Target {
                     route_out: 0.5,
                 }),
                 bram: 2.2,
+                word_select: 0.0,
             },
             // Not calibrated: order-of-magnitude gate delays, 28 nm library.
             Target::Asic => DelayModel {
@@ -153,6 +161,7 @@ impl Target {
                 mul_row: 0.03,
                 dsp: None,
                 bram: 0.3,
+                word_select: 0.0,
             },
         }
     }
@@ -203,6 +212,10 @@ pub struct DelayModel {
     pub dsp: Option<Dsp>,
     /// Clock to output of a registered block-RAM read.
     pub bram: f64,
+    /// A select that steers a whole word (the saturating multiplexer after
+    /// a range check, the one after a maximum's compare): the routing of
+    /// its fan-out to every bit, on top of the LUT level.
+    pub word_select: f64,
 }
 
 fn ceil_log(n: u32, base: u32) -> u32 {
@@ -234,7 +247,7 @@ impl DelayModel {
     }
     /// `max` of two `w`-bit values: a comparison and a multiplexer.
     pub fn max(&self, w: u32) -> f64 {
-        self.carry(w) + self.lut
+        self.carry(w) + self.lut + self.word_select
     }
     /// A multiplexer of `n` inputs.
     pub fn select(&self, n: u32) -> f64 {
@@ -282,7 +295,12 @@ impl DelayModel {
         if k == 0 {
             0.0
         } else {
-            self.lut * ceil_log(k + 1, 4).max(1) as f64 + if saturate { self.lut } else { 0.0 }
+            self.lut * ceil_log(k + 1, 4).max(1) as f64
+                + if saturate {
+                    self.lut + self.word_select
+                } else {
+                    0.0
+                }
         }
     }
 }
