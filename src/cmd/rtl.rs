@@ -59,6 +59,12 @@ pub struct RtlArgs {
     /// otherwise).
     #[arg(long)]
     datasheet: bool,
+    /// With `--datasheet`: the targets of its resource table, each a Yosys
+    /// synthesis of the module without place and route (comma-separated
+    /// names as `synth --target` takes them; default: the configuration's
+    /// `rtl.target`; `none`: no table).
+    #[arg(long, value_name = "TARGETS", requires = "datasheet")]
+    resources: Option<String>,
     /// Replace files in `--out` that fxshade did not write or that were
     /// edited since (refused otherwise, naming the file).
     #[arg(long)]
@@ -141,6 +147,7 @@ fn datasheet(
     u: &RtlUnit,
     c: &fxshade_model::Config,
     e: &Emitted,
+    resources: Option<&str>,
 ) -> anyhow::Result<Vec<(String, String)>> {
     use fxshade_model::rtl::datasheet as ds;
     use fxshade_model::rtl::timing::Target;
@@ -172,10 +179,64 @@ fn datasheet(
     let target = Target::from_name(rtl.choice("target")).expect("the configuration checks it");
     let clock = rtl.number("clock_ns");
     let (ext, text) = ds::constraints(m, target, clock);
+    use super::synth::Target as SynthTarget;
+    use clap::ValueEnum;
+    let targets: Vec<SynthTarget> = match resources {
+        Some("none") => Vec::new(),
+        // The configured target (a process without an open flow: Yosys's
+        // generic LUT mapping).
+        None => vec![SynthTarget::from_str(target.name(), false).unwrap_or(SynthTarget::Generic)],
+        Some(list) => list
+            .split(',')
+            .map(|n| {
+                SynthTarget::from_str(n.trim(), false).map_err(|_| {
+                    let names: Vec<&str> = SynthTarget::value_variants()
+                        .iter()
+                        .map(|t| t.name())
+                        .collect();
+                    anyhow::anyhow!(
+                        "--resources: unknown target `{}` (one of {}, or none)",
+                        n.trim(),
+                        names.join(", ")
+                    )
+                })
+            })
+            .collect::<anyhow::Result<_>>()?,
+    };
+    let mut rows = Vec::new();
+    for t in targets {
+        let flow = super::synth::Flow {
+            seeds: 1,
+            freq: 1000.0 / clock,
+            pnr: false,
+            dsp_pack: true,
+        };
+        let (r, _) = super::synth::cached(u.name, c, t, flow, None, true, &|_| {})
+            .with_context(|| format!("{m}: synthesis for the resource table ({})", t.name()))?;
+        rows.push(ds::Resources {
+            target: r.target.clone(),
+            device: r.device.clone(),
+            lut4: r.lut,
+            carry: r.carry,
+            lut_ram: r.lut_ram,
+            ff: r.ff - r.harness_ff,
+            dsp: r.dsp,
+            bram: r.bram,
+        });
+    }
     Ok(vec![
         (
             format!("{m}_datasheet.md"),
-            ds::markdown(e, u.name, &d.variant, d.handshake, target, clock, &wave),
+            ds::markdown(
+                e,
+                u.name,
+                &d.variant,
+                d.handshake,
+                target,
+                clock,
+                &wave,
+                &rows,
+            ),
         ),
         (format!("{m}_wave.json"), wave.wavedrom()),
         (format!("{m}.{ext}"), text),
@@ -283,7 +344,7 @@ pub fn run(a: &RtlArgs) -> anyhow::Result<()> {
     let sheets: Vec<(String, String)> = if a.datasheet {
         let mut v = Vec::new();
         for ((u, c), (_, e)) in configs.iter().zip(&emitted) {
-            v.extend(datasheet(u, c, e)?);
+            v.extend(datasheet(u, c, e, a.resources.as_deref())?);
         }
         v
     } else {

@@ -1182,6 +1182,8 @@ fn datasheets_list_ports_show_a_simulated_diagram_and_constrain_the_clock() {
         "rtl",
         "pipeline",
         "--datasheet",
+        "--resources",
+        "none",
         "--out",
         d.to_str().unwrap(),
     ]);
@@ -1298,6 +1300,8 @@ fn datasheets_list_ports_show_a_simulated_diagram_and_constrain_the_clock() {
         "rtl",
         "angle_interp",
         "--datasheet",
+        "--resources",
+        "none",
         "--out",
         d2.to_str().unwrap(),
     ]);
@@ -1341,6 +1345,8 @@ fn datasheets_list_ports_show_a_simulated_diagram_and_constrain_the_clock() {
         "rtl",
         "angle_interp",
         "--datasheet",
+        "--resources",
+        "none",
         "--set",
         "rtl.target=\"ecp5\"",
         "--out",
@@ -1457,4 +1463,78 @@ fn every_output_port_of_every_emitted_module_is_a_register() {
         }
     }
     assert_eq!(checked, 4 * 9, "modules checked");
+}
+
+/// `rtl --datasheet --resources`: a row per target with what `synth
+/// --no-pnr` measures for the same module (its flip-flops without the
+/// harness's); `none` leaves the table out with the command that fills it;
+/// an unknown target is refused, naming the flag.
+#[test]
+fn datasheets_state_the_resources_synth_measures_per_target() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().join("ds");
+    let o = fxshade(&[
+        "rtl",
+        "angle_interp",
+        "--datasheet",
+        "--resources",
+        "ecp5,ice40-hx8k",
+        "--out",
+        d.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let md = std::fs::read_to_string(d.join("angle_interp_datasheet.md")).unwrap();
+    for target in ["ecp5", "ice40-hx8k"] {
+        let o = fxshade(&[
+            "synth",
+            "angle_interp",
+            "--target",
+            target,
+            "--no-pnr",
+            "--json",
+        ]);
+        assert!(o.status.success(), "{}", text(&o));
+        let r: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        let row = md
+            .lines()
+            .find(|l| l.starts_with(&format!("| {target} |")))
+            .unwrap_or_else(|| panic!("no {target} row:\n{md}"));
+        let cols: Vec<&str> = row.split('|').map(str::trim).collect();
+        let ff = r["ff"].as_u64().unwrap() - r["harness_ff"].as_u64().unwrap();
+        assert_eq!(cols[3], r["lut"].to_string(), "{row}");
+        assert_eq!(cols[6], ff.to_string(), "{row}");
+        assert_eq!(cols[7], r["dsp"].to_string(), "{row}");
+        assert!(ff > 0);
+    }
+    let d2 = dir.path().join("none");
+    let o = fxshade(&[
+        "rtl",
+        "angle_interp",
+        "--datasheet",
+        "--resources",
+        "none",
+        "--out",
+        d2.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let md = std::fs::read_to_string(d2.join("angle_interp_datasheet.md")).unwrap();
+    assert!(
+        md.contains("No table: `fxshade rtl --datasheet --resources"),
+        "{md}"
+    );
+    let o = fxshade(&[
+        "rtl",
+        "angle_interp",
+        "--datasheet",
+        "--resources",
+        "ecp6",
+        "--out",
+        dir.path().join("bad").to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(
+        text(&o).contains("--resources: unknown target `ecp6`"),
+        "{}",
+        text(&o)
+    );
 }

@@ -306,7 +306,34 @@ pub fn constraints(module: &str, target: Target, clock_ns: f64) -> (&'static str
     }
 }
 
-/// The datasheet in Markdown.
+/// One row of a datasheet's resource table: the module synthesized for a
+/// target by Yosys (no place and route), the synthesis harness's own
+/// flip-flops left out.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Resources {
+    /// The target's name (`ecp5`, `ice40-up5k`, ...).
+    pub target: String,
+    /// The device the flow synthesizes for.
+    pub device: String,
+    /// LUT cells (LUT4 on iCE40 and ECP5, LUT1-6 on xc7; carry cells
+    /// apart).
+    pub lut4: u64,
+    /// Carry cells (ECP5 `CCU2C`: two LUTs each; iCE40 `SB_CARRY`).
+    pub carry: u64,
+    /// LUT RAM cells (ECP5 `TRELLIS_DPR16X4`).
+    pub lut_ram: u64,
+    /// The module's flip-flops in the fabric (after moving product
+    /// registers into DSP blocks on ECP5).
+    pub ff: u64,
+    /// DSP blocks.
+    pub dsp: u64,
+    /// Block RAMs.
+    pub bram: u64,
+}
+
+/// The datasheet in Markdown; `resources`: the resource table's rows
+/// (none: the table says how to get it).
+#[allow(clippy::too_many_arguments)]
 pub fn markdown(
     e: &Emitted,
     unit: &str,
@@ -315,6 +342,7 @@ pub fn markdown(
     target: Target,
     clock_ns: f64,
     wave: &Wave,
+    resources: &[Resources],
 ) -> String {
     let m = &e.module;
     let mut t = String::new();
@@ -364,6 +392,21 @@ pub fn markdown(
         target.name(),
         1000.0 / clock_ns
     );
+    t += "## Resources\n\n";
+    if resources.is_empty() {
+        t += "No table: `fxshade rtl --datasheet --resources TARGET[,TARGET...]` synthesizes the module for each target (Yosys) and lists what it uses; `fxshade synth` adds place and route and Fmax.\n\n";
+    } else {
+        t += "Synthesized by Yosys for each target, without place and route (`fxshade synth` adds them and the Fmax); flip-flops are the module's own in the fabric (on ECP5 after the product registers moved into the DSP blocks).\n\n";
+        t += "| target | device | LUTs | carry cells | LUT RAM | flip-flops | DSP | block RAM |\n|---|---|---|---|---|---|---|---|\n";
+        for r in resources {
+            let _ = writeln!(
+                t,
+                "| {} | {} | {} | {} | {} | {} | {} | {} |",
+                r.target, r.device, r.lut4, r.carry, r.lut_ram, r.ff, r.dsp, r.bram
+            );
+        }
+        t += "\n";
+    }
     t += "## Ports\n\n| port | direction | bits | format | loaded by | meaning |\n|---|---|---|---|---|---|\n";
     let _ = writeln!(t, "| `clk_i` | in | 1 | | | clock, rising edge |");
     let _ = writeln!(

@@ -379,6 +379,8 @@ struct Emitter<'a> {
     /// own marked `keep`, so that Yosys does not merge equal copies back
     /// into one register that several blocks would share.
     own_regs: Vec<(u32, String)>,
+    /// Bank multiplexers written as wires for own operand registers.
+    bank_wires: std::collections::HashSet<String>,
 }
 
 impl<'a> Emitter<'a> {
@@ -1164,6 +1166,34 @@ impl<'a> Emitter<'a> {
     /// which are registers of their own already, or stage 0).
     fn mul_operand(&mut self, tv: &TV, s: u32, own: bool) -> Opnd {
         let n = tv.node();
+        if let (true, Some(g)) = (own && s >= 1 && !self.lazy[n], self.banked_group(n)) {
+            // A banked set-up input: the bank multiplexer as the item in
+            // stage s - 1 sees it, a wire the product registers itself.
+            let read = s - 1;
+            self.drain[g] = self.drain[g].max(read);
+            let field = self.name[n].trim_end_matches("_q").to_string();
+            let name = format!("{field}_bank_m{read}");
+            let sym = self.t.sym(n);
+            if !self.bank_wires.contains(&name) {
+                let group = self.group_names[g];
+                let tag = if read == 0 {
+                    format!("{group}_cur_q")
+                } else {
+                    format!("{group}_tag_q[{}]", read - 1)
+                };
+                self.body.push(format!(
+                    "wire {} {name} = {tag} ? {field}_b1_q : {field}_b0_q;",
+                    decl(sym.signed, sym.width)
+                ));
+                self.bank_wires.insert(name.clone());
+            }
+            return Opnd::Own(Val {
+                expr: name,
+                width: sym.width,
+                signed: sym.signed,
+                frac: tv.frac(),
+            });
+        }
         let staged_before = self.stage[n].is_some_and(|s0| s0 < s);
         let setup = self.stage[n].is_none()
             && self.banked_group(n).is_none()
@@ -2344,6 +2374,7 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
                 }
             ),
         own_regs: Vec::new(),
+        bank_wires: std::collections::HashSet::new(),
         worst: 0.0,
         too_slow: Vec::new(),
         groups: t
