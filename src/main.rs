@@ -4,6 +4,7 @@ mod cmd;
 mod critical_path;
 mod dsp_pack;
 mod explore;
+mod ff_roles;
 mod netlist;
 mod netlist_equiv;
 mod output;

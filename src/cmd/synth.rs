@@ -221,6 +221,10 @@ pub struct SynthResult {
     /// (counts above are of the netlist after the move).
     #[serde(default)]
     pub dsp_packed: Option<crate::dsp_pack::PackStats>,
+    /// The flip-flops by role ([`crate::ff_roles`]), from the netlist
+    /// placed (iCE40, ECP5; after the move into DSP blocks).
+    #[serde(default)]
+    pub ff_roles: Vec<(String, u64)>,
     /// Tool versions.
     pub tools: Vec<String>,
     /// The median seed's critical path, from nextpnr's JSON report, with
@@ -499,6 +503,15 @@ pub fn synthesize(
         cells = crate::dsp_pack::cell_counts(&netlist, "fxs_harness");
         dsp_packed = Some(st);
     }
+    let setup_fields: Vec<String> = e.setup.iter().flat_map(|g| g.fields.clone()).collect();
+    let ff_roles = match std::fs::read(dir.join("harness.json")) {
+        Ok(text) => {
+            let n: serde_json::Value =
+                serde_json::from_slice(&text).context("yosys's netlist is not JSON")?;
+            crate::ff_roles::roles(&n, "fxs_harness", &setup_fields)
+        }
+        Err(_) => Vec::new(),
+    };
     let [lut, ff, dsp, bram] = target.classes().map(|prefixes| {
         cells
             .iter()
@@ -540,6 +553,7 @@ pub fn synthesize(
         synth_seconds,
         pnr_seconds: 0.0,
         dsp_packed,
+        ff_roles,
         critical_path: None,
         verdict: None,
         tools: [tool_version("yosys", "-V")]
@@ -957,6 +971,19 @@ pub fn run(a: &SynthArgs) -> anyhow::Result<()> {
     let mut json = serde_json::to_value(&r)?;
     json["cached"] = serde_json::json!(was_cached);
     let mut tables = vec![t];
+    if !r.ff_roles.is_empty() {
+        let mut f = Table::new(["role", "flip-flops", "share"])
+            .titled("Flip-flops by role (the netlist placed; roles: src/ff_roles.rs)");
+        let total: u64 = r.ff_roles.iter().map(|(_, n)| n).sum();
+        for (role, n) in &r.ff_roles {
+            f.row([
+                role.clone(),
+                n.to_string(),
+                format!("{:.1} %", 100.0 * *n as f64 / total.max(1) as f64),
+            ]);
+        }
+        tables.push(f);
+    }
     if let (Some(v), Some(p)) = (&r.verdict, &r.critical_path) {
         let mut c = Table::new(["signal", "stage id", "node", "operation", "ns"]).titled(format!(
             "Timing: {}. Critical path of seed {}: {:.2} ns ({:.2} in cells, {:.2} routing), {} -> {}",
