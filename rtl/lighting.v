@@ -78,6 +78,31 @@ module lighting (
       en_q <= en_d;
     end
   end
+  // The enable, one copy a stage: each drives one stage's loads.
+  reg  en_s2_q;
+  reg  en_s3_q;
+  reg  en_s4_q;
+  reg  en_s5_q;
+  reg  en_s6_q;
+  reg  en_s7_q;
+  (* keep *)
+  always @(posedge clk_i or negedge rst_ni) begin
+    if (!rst_ni) begin
+      en_s2_q <= 1'b1;
+      en_s3_q <= 1'b1;
+      en_s4_q <= 1'b1;
+      en_s5_q <= 1'b1;
+      en_s6_q <= 1'b1;
+      en_s7_q <= 1'b1;
+    end else begin
+      en_s2_q <= en_d;
+      en_s3_q <= en_d;
+      en_s4_q <= en_d;
+      en_s5_q <= en_d;
+      en_s6_q <= en_d;
+      en_s7_q <= en_d;
+    end
+  end
 
   // Datapath.
   localparam [15:0] K9 = 16'hbf40;
@@ -195,12 +220,12 @@ module lighting (
 
   // Stage loads: the item entering stage k is valid and the stages move.
   wire load_s1 = in_take;
-  wire load_s2 = en & valid_q[0];
-  wire load_s3 = en & valid_q[1];
-  wire load_s4 = en & valid_q[2];
-  wire load_s5 = en & valid_q[3];
-  wire load_s6 = en & valid_q[4];
-  wire load_s7 = en & valid_q[5];
+  wire load_s2 = en_s2_q & valid_q[0];
+  wire load_s3 = en_s3_q & valid_q[1];
+  wire load_s4 = en_s4_q & valid_q[2];
+  wire load_s5 = en_s5_q & valid_q[3];
+  wire load_s6 = en_s6_q & valid_q[4];
+  wire load_s7 = en_s7_q & valid_q[5];
 
   // Pipeline registers (data: no reset, held while stalled). A stage's
   // registers load only with a valid item, so bubbles do not toggle them.
@@ -284,6 +309,12 @@ module lighting (
   always @(*) begin
     assert (ready_o == en);
     assert (!skid_valid || out_valid_q);
+    assert (en_s2_q == en_q);
+    assert (en_s3_q == en_q);
+    assert (en_s4_q == en_q);
+    assert (en_s5_q == en_q);
+    assert (en_s6_q == en_q);
+    assert (en_s7_q == en_q);
   end
   always @(posedge clk_i) begin
     if (f_past_valid && rst_ni) begin

@@ -589,6 +589,22 @@ module polar (
       en_q <= en_d;
     end
   end
+  // The enable, one copy a stage: each drives one stage's loads.
+  reg  en_s2_q;
+  reg  en_s3_q;
+  reg  en_s4_q;
+  (* keep *)
+  always @(posedge clk_i or negedge rst_ni) begin
+    if (!rst_ni) begin
+      en_s2_q <= 1'b1;
+      en_s3_q <= 1'b1;
+      en_s4_q <= 1'b1;
+    end else begin
+      en_s2_q <= en_d;
+      en_s3_q <= en_d;
+      en_s4_q <= en_d;
+    end
+  end
 
   // Datapath.
   wire polar_index_4_ovf_c = 1'b0;
@@ -719,9 +735,9 @@ module polar (
 
   // Stage loads: the item entering stage k is valid and the stages move.
   wire load_s1 = in_take;
-  wire load_s2 = en & valid_q[0];
-  wire load_s3 = en & valid_q[1];
-  wire load_s4 = en & valid_q[2];
+  wire load_s2 = en_s2_q & valid_q[0];
+  wire load_s3 = en_s3_q & valid_q[1];
+  wire load_s4 = en_s4_q & valid_q[2];
 
   // Pipeline registers (data: no reset, held while stalled). A stage's
   // registers load only with a valid item, so bubbles do not toggle them.
@@ -808,6 +824,9 @@ module polar (
   always @(*) begin
     assert (ready_o == en);
     assert (!skid_valid || out_valid_q);
+    assert (en_s2_q == en_q);
+    assert (en_s3_q == en_q);
+    assert (en_s4_q == en_q);
   end
   always @(posedge clk_i) begin
     if (f_past_valid && rst_ni) begin

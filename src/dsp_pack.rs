@@ -12,8 +12,9 @@
 //!   the rising edge, no set or reset in use, power-up 0) whose enable is
 //!   always on, a pipeline stage's own load (a net the emitted RTL names
 //!   `load_s<k>`: the item entering stage `k` is valid and the stages
-//!   move) or the stages' move itself (`en`, which loads a product's own
-//!   operand registers), so a register whose enable Yosys built from other
+//!   move) or the stages' move itself (`en`, or its copy for stage `k`,
+//!   `en_s<k>_q`, which load a product's own operand registers), so a
+//!   register whose enable Yosys built from other
 //!   logic (a set-up port's load, a folded multiplexer) stays in the
 //!   fabric.
 //! * **Inputs.** When every non-constant bit of `A` and of `B` comes from
@@ -117,16 +118,19 @@ fn one(c: &Value, port: &str) -> Result<Option<Bit>> {
 }
 
 /// The nets the emitted RTL names as a stage's load (`load_s<k>`, any
-/// hierarchy prefix) or the stages' move (`en`): the only enables a packed
-/// register may have besides always on.
+/// hierarchy prefix) or the stages' move (`en`, `en_s<k>_q`): the only
+/// enables a packed register may have besides always on.
 fn stage_loads(module: &Value) -> Result<std::collections::HashSet<Bit>> {
     let mut set = std::collections::HashSet::new();
     for (name, n) in module["netnames"].as_object().into_iter().flatten() {
         let leaf = name.rsplit('.').next().unwrap_or(name);
+        let digits = |k: &str| !k.is_empty() && k.bytes().all(|b| b.is_ascii_digit());
         let is_load = leaf == "en"
+            || leaf.strip_prefix("load_s").is_some_and(digits)
             || leaf
-                .strip_prefix("load_s")
-                .is_some_and(|k| !k.is_empty() && k.bytes().all(|b| b.is_ascii_digit()));
+                .strip_prefix("en_s")
+                .and_then(|k| k.strip_suffix("_q"))
+                .is_some_and(digits);
         if is_load {
             for b in n["bits"].as_array().into_iter().flatten() {
                 set.insert(Bit::of(b)?);

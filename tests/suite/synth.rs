@@ -583,7 +583,8 @@ fn set_up_registers_load_in_the_synthesis_harness() {
 /// The packer's rules on the netlists of `dir` (`harness_yosys.json` as
 /// Yosys wrote it, `harness.json` after `dsp_pack`): every enable a
 /// MULT18X18D's registers use is a net the RTL names a stage's load
-/// (`load_s<k>`) or the stages' move (`en`), or constant 1; and a register
+/// (`load_s<k>`) or the stages' move (`en`, its copy `en_s<k>_q`), or
+/// constant 1; and a register
 /// moved into a block is gone from the fabric: every flip-flop that drove
 /// the operand pins of a block that now registers its operands is absent
 /// from the packed netlist (had it other loads, the block's register would
@@ -605,7 +606,11 @@ fn packer_rules_hold(dir: &std::path::Path) {
         let load = leaf
             .strip_prefix("load_s")
             .is_some_and(|k| k.parse::<u32>().is_ok());
-        if load || leaf == "en" {
+        let copy = leaf
+            .strip_prefix("en_s")
+            .and_then(|k| k.strip_suffix("_q"))
+            .is_some_and(|k| k.parse::<u32>().is_ok());
+        if load || copy || leaf == "en" {
             for b in net["bits"].as_array().unwrap() {
                 allowed.insert(b.clone());
             }

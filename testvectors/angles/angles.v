@@ -68,6 +68,88 @@ module angles (
       en_q <= en_d;
     end
   end
+  // The enable, one copy a stage: each drives one stage's loads.
+  reg  en_s2_q;
+  reg  en_s3_q;
+  reg  en_s4_q;
+  reg  en_s5_q;
+  reg  en_s6_q;
+  reg  en_s7_q;
+  reg  en_s8_q;
+  reg  en_s9_q;
+  reg  en_s10_q;
+  reg  en_s11_q;
+  reg  en_s12_q;
+  reg  en_s13_q;
+  reg  en_s14_q;
+  reg  en_s15_q;
+  reg  en_s16_q;
+  reg  en_s17_q;
+  reg  en_s18_q;
+  reg  en_s19_q;
+  reg  en_s20_q;
+  reg  en_s21_q;
+  reg  en_s22_q;
+  reg  en_s23_q;
+  reg  en_s24_q;
+  reg  en_s25_q;
+  reg  en_s26_q;
+  (* keep *)
+  always @(posedge clk_i or negedge rst_ni) begin
+    if (!rst_ni) begin
+      en_s2_q <= 1'b1;
+      en_s3_q <= 1'b1;
+      en_s4_q <= 1'b1;
+      en_s5_q <= 1'b1;
+      en_s6_q <= 1'b1;
+      en_s7_q <= 1'b1;
+      en_s8_q <= 1'b1;
+      en_s9_q <= 1'b1;
+      en_s10_q <= 1'b1;
+      en_s11_q <= 1'b1;
+      en_s12_q <= 1'b1;
+      en_s13_q <= 1'b1;
+      en_s14_q <= 1'b1;
+      en_s15_q <= 1'b1;
+      en_s16_q <= 1'b1;
+      en_s17_q <= 1'b1;
+      en_s18_q <= 1'b1;
+      en_s19_q <= 1'b1;
+      en_s20_q <= 1'b1;
+      en_s21_q <= 1'b1;
+      en_s22_q <= 1'b1;
+      en_s23_q <= 1'b1;
+      en_s24_q <= 1'b1;
+      en_s25_q <= 1'b1;
+      en_s26_q <= 1'b1;
+    end else begin
+      en_s2_q <= en_d;
+      en_s3_q <= en_d;
+      en_s4_q <= en_d;
+      en_s5_q <= en_d;
+      en_s6_q <= en_d;
+      en_s7_q <= en_d;
+      en_s8_q <= en_d;
+      en_s9_q <= en_d;
+      en_s10_q <= en_d;
+      en_s11_q <= en_d;
+      en_s12_q <= en_d;
+      en_s13_q <= en_d;
+      en_s14_q <= en_d;
+      en_s15_q <= en_d;
+      en_s16_q <= en_d;
+      en_s17_q <= en_d;
+      en_s18_q <= en_d;
+      en_s19_q <= en_d;
+      en_s20_q <= en_d;
+      en_s21_q <= en_d;
+      en_s22_q <= en_d;
+      en_s23_q <= en_d;
+      en_s24_q <= en_d;
+      en_s25_q <= en_d;
+      en_s26_q <= en_d;
+    end
+  end
 
   // Datapath.
   localparam [0:0] K3 = 1'h0;
@@ -849,31 +931,31 @@ module angles (
 
   // Stage loads: the item entering stage k is valid and the stages move.
   wire load_s1 = in_take;
-  wire load_s2 = en & valid_q[0];
-  wire load_s3 = en & valid_q[1];
-  wire load_s4 = en & valid_q[2];
-  wire load_s5 = en & valid_q[3];
-  wire load_s6 = en & valid_q[4];
-  wire load_s7 = en & valid_q[5];
-  wire load_s8 = en & valid_q[6];
-  wire load_s9 = en & valid_q[7];
-  wire load_s10 = en & valid_q[8];
-  wire load_s11 = en & valid_q[9];
-  wire load_s12 = en & valid_q[10];
-  wire load_s13 = en & valid_q[11];
-  wire load_s14 = en & valid_q[12];
-  wire load_s15 = en & valid_q[13];
-  wire load_s16 = en & valid_q[14];
-  wire load_s17 = en & valid_q[15];
-  wire load_s18 = en & valid_q[16];
-  wire load_s19 = en & valid_q[17];
-  wire load_s20 = en & valid_q[18];
-  wire load_s21 = en & valid_q[19];
-  wire load_s22 = en & valid_q[20];
-  wire load_s23 = en & valid_q[21];
-  wire load_s24 = en & valid_q[22];
-  wire load_s25 = en & valid_q[23];
-  wire load_s26 = en & valid_q[24];
+  wire load_s2 = en_s2_q & valid_q[0];
+  wire load_s3 = en_s3_q & valid_q[1];
+  wire load_s4 = en_s4_q & valid_q[2];
+  wire load_s5 = en_s5_q & valid_q[3];
+  wire load_s6 = en_s6_q & valid_q[4];
+  wire load_s7 = en_s7_q & valid_q[5];
+  wire load_s8 = en_s8_q & valid_q[6];
+  wire load_s9 = en_s9_q & valid_q[7];
+  wire load_s10 = en_s10_q & valid_q[8];
+  wire load_s11 = en_s11_q & valid_q[9];
+  wire load_s12 = en_s12_q & valid_q[10];
+  wire load_s13 = en_s13_q & valid_q[11];
+  wire load_s14 = en_s14_q & valid_q[12];
+  wire load_s15 = en_s15_q & valid_q[13];
+  wire load_s16 = en_s16_q & valid_q[14];
+  wire load_s17 = en_s17_q & valid_q[15];
+  wire load_s18 = en_s18_q & valid_q[16];
+  wire load_s19 = en_s19_q & valid_q[17];
+  wire load_s20 = en_s20_q & valid_q[18];
+  wire load_s21 = en_s21_q & valid_q[19];
+  wire load_s22 = en_s22_q & valid_q[20];
+  wire load_s23 = en_s23_q & valid_q[21];
+  wire load_s24 = en_s24_q & valid_q[22];
+  wire load_s25 = en_s25_q & valid_q[23];
+  wire load_s26 = en_s26_q & valid_q[24];
 
   // Pipeline registers (data: no reset, held while stalled). A stage's
   // registers load only with a valid item, so bubbles do not toggle them.
@@ -1278,6 +1360,31 @@ module angles (
   always @(*) begin
     assert (ready_o == en);
     assert (!skid_valid || out_valid_q);
+    assert (en_s2_q == en_q);
+    assert (en_s3_q == en_q);
+    assert (en_s4_q == en_q);
+    assert (en_s5_q == en_q);
+    assert (en_s6_q == en_q);
+    assert (en_s7_q == en_q);
+    assert (en_s8_q == en_q);
+    assert (en_s9_q == en_q);
+    assert (en_s10_q == en_q);
+    assert (en_s11_q == en_q);
+    assert (en_s12_q == en_q);
+    assert (en_s13_q == en_q);
+    assert (en_s14_q == en_q);
+    assert (en_s15_q == en_q);
+    assert (en_s16_q == en_q);
+    assert (en_s17_q == en_q);
+    assert (en_s18_q == en_q);
+    assert (en_s19_q == en_q);
+    assert (en_s20_q == en_q);
+    assert (en_s21_q == en_q);
+    assert (en_s22_q == en_q);
+    assert (en_s23_q == en_q);
+    assert (en_s24_q == en_q);
+    assert (en_s25_q == en_q);
+    assert (en_s26_q == en_q);
   end
   always @(posedge clk_i) begin
     if (f_past_valid && rst_ni) begin

@@ -103,6 +103,16 @@ module interp (
       en_q <= en_d;
     end
   end
+  // The enable, one copy a stage: each drives one stage's loads.
+  reg  en_s2_q;
+  (* keep *)
+  always @(posedge clk_i or negedge rst_ni) begin
+    if (!rst_ni) begin
+      en_s2_q <= 1'b1;
+    end else begin
+      en_s2_q <= en_d;
+    end
+  end
 
   // Datapath.
   localparam [0:0] K20 = 1'h1;
@@ -249,7 +259,7 @@ module interp (
 
   // Stage loads: the item entering stage k is valid and the stages move.
   wire load_s1 = in_take;
-  wire load_s2 = en & valid_q[0];
+  wire load_s2 = en_s2_q & valid_q[0];
 
   // Pipeline registers (data: no reset, held while stalled). A stage's
   // registers load only with a valid item, so bubbles do not toggle them.
@@ -330,6 +340,7 @@ module interp (
   always @(*) begin
     assert (ready_o == en);
     assert (!skid_valid || out_valid_q);
+    assert (en_s2_q == en_q);
   end
   always @(posedge clk_i) begin
     if (f_past_valid && rst_ni) begin

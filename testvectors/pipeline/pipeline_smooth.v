@@ -150,6 +150,55 @@ module pipeline_smooth (
       ready_q <= en_d & ~setup_lock_d;
     end
   end
+  // The enable, one copy a stage: each drives one stage's loads.
+  reg  en_s2_q;
+  reg  en_s3_q;
+  reg  en_s4_q;
+  reg  en_s5_q;
+  reg  en_s6_q;
+  reg  en_s7_q;
+  reg  en_s8_q;
+  reg  en_s9_q;
+  reg  en_s10_q;
+  reg  en_s11_q;
+  reg  en_s12_q;
+  reg  en_s13_q;
+  reg  en_s14_q;
+  reg  en_s15_q;
+  (* keep *)
+  always @(posedge clk_i or negedge rst_ni) begin
+    if (!rst_ni) begin
+      en_s2_q <= 1'b1;
+      en_s3_q <= 1'b1;
+      en_s4_q <= 1'b1;
+      en_s5_q <= 1'b1;
+      en_s6_q <= 1'b1;
+      en_s7_q <= 1'b1;
+      en_s8_q <= 1'b1;
+      en_s9_q <= 1'b1;
+      en_s10_q <= 1'b1;
+      en_s11_q <= 1'b1;
+      en_s12_q <= 1'b1;
+      en_s13_q <= 1'b1;
+      en_s14_q <= 1'b1;
+      en_s15_q <= 1'b1;
+    end else begin
+      en_s2_q <= en_d;
+      en_s3_q <= en_d;
+      en_s4_q <= en_d;
+      en_s5_q <= en_d;
+      en_s6_q <= en_d;
+      en_s7_q <= en_d;
+      en_s8_q <= en_d;
+      en_s9_q <= en_d;
+      en_s10_q <= en_d;
+      en_s11_q <= en_d;
+      en_s12_q <= en_d;
+      en_s13_q <= en_d;
+      en_s14_q <= en_d;
+      en_s15_q <= en_d;
+    end
+  end
 
   // Set-up port `frame`: the light and half vectors L and H, per frame.
   // frame_ready_o is a register, raised the cycle after a record is offered
@@ -794,20 +843,20 @@ module pipeline_smooth (
 
   // Stage loads: the item entering stage k is valid and the stages move.
   wire load_s1 = in_take;
-  wire load_s2 = en & valid_q[0];
-  wire load_s3 = en & valid_q[1];
-  wire load_s4 = en & valid_q[2];
-  wire load_s5 = en & valid_q[3];
-  wire load_s6 = en & valid_q[4];
-  wire load_s7 = en & valid_q[5];
-  wire load_s8 = en & valid_q[6];
-  wire load_s9 = en & valid_q[7];
-  wire load_s10 = en & valid_q[8];
-  wire load_s11 = en & valid_q[9];
-  wire load_s12 = en & valid_q[10];
-  wire load_s13 = en & valid_q[11];
-  wire load_s14 = en & valid_q[12];
-  wire load_s15 = en & valid_q[13];
+  wire load_s2 = en_s2_q & valid_q[0];
+  wire load_s3 = en_s3_q & valid_q[1];
+  wire load_s4 = en_s4_q & valid_q[2];
+  wire load_s5 = en_s5_q & valid_q[3];
+  wire load_s6 = en_s6_q & valid_q[4];
+  wire load_s7 = en_s7_q & valid_q[5];
+  wire load_s8 = en_s8_q & valid_q[6];
+  wire load_s9 = en_s9_q & valid_q[7];
+  wire load_s10 = en_s10_q & valid_q[8];
+  wire load_s11 = en_s11_q & valid_q[9];
+  wire load_s12 = en_s12_q & valid_q[10];
+  wire load_s13 = en_s13_q & valid_q[11];
+  wire load_s14 = en_s14_q & valid_q[12];
+  wire load_s15 = en_s15_q & valid_q[13];
 
   // Pipeline registers (data: no reset, held while stalled). A stage's
   // registers load only with a valid item, so bubbles do not toggle them.
@@ -1061,6 +1110,20 @@ module pipeline_smooth (
   always @(*) begin
     assert (ready_o == (en & ~(frame_ready_q)));
     assert (!skid_valid || out_valid_q);
+    assert (en_s2_q == en_q);
+    assert (en_s3_q == en_q);
+    assert (en_s4_q == en_q);
+    assert (en_s5_q == en_q);
+    assert (en_s6_q == en_q);
+    assert (en_s7_q == en_q);
+    assert (en_s8_q == en_q);
+    assert (en_s9_q == en_q);
+    assert (en_s10_q == en_q);
+    assert (en_s11_q == en_q);
+    assert (en_s12_q == en_q);
+    assert (en_s13_q == en_q);
+    assert (en_s14_q == en_q);
+    assert (en_s15_q == en_q);
   end
   always @(posedge clk_i) begin
     if (f_past_valid && rst_ni) begin

@@ -1055,7 +1055,7 @@ impl<'a> Emitter<'a> {
                 let own = |e: &mut Self, o: &Opnd, src: &str, w: u32, sg: bool, tag: &str| {
                     if matches!(o, Opnd::Own(_)) {
                         let q = format!("{name}_{tag}{jx}_{jy}_q");
-                        e.own_reg(s, &q, sg, w, src);
+                        e.own_reg(s, &q, sg, w, &bits::sv(sg, src));
                         q
                     } else {
                         src.to_string()
@@ -1740,6 +1740,7 @@ fn formal_block(
     nf: usize,
     setup: &[String],
     lock: &[String],
+    replicas: &[u32],
 ) -> String {
     let l = latency;
     let mut v = formal_prelude(l, "en & ~f_in");
@@ -1750,6 +1751,9 @@ fn formal_block(
         v += "    assert (ready_o == en);\n";
     }
     v += "    assert (!skid_valid || out_valid_q);\n";
+    for k in replicas {
+        let _ = writeln!(v, "    assert (en_s{k}_q == en_q);");
+    }
     v += "  end\n";
     let shifted = if l == 1 {
         "$past(f_in)".to_string()
@@ -1846,7 +1850,12 @@ fn formal_clocked(l: u32, shift: &str, outs: &[Port], nf: usize, setup: &[String
 /// `ready_q` loaded with the next `en & ~setup_lock`). So no input port
 /// reaches an output port, and `ready_i` reaches only the buffer's
 /// controls, not the stages' enables. Latency `l + 1`.
-fn stall_handshake(l: u32, lock: bool) -> String {
+///
+/// `replicas`: the stages (k ≥ 2) whose registers load with a copy of the
+/// enable of their own, `en_s<k>_q` (loaded like `en_q`, in a block marked
+/// `keep` so synthesis does not merge them back): each copy drives one
+/// stage's loads instead of one register driving every stage's.
+fn stall_handshake(l: u32, lock: bool, replicas: &[u32]) -> String {
     let mut v = String::new();
     v += "  // Handshake: one valid bit per stage and one global stall, en, which is a\n";
     v += "  // register: the stages move unless the output buffer's skid register holds\n";
@@ -1892,7 +1901,24 @@ fn stall_handshake(l: u32, lock: bool) -> String {
     if lock {
         v += "      ready_q <= en_d & ~setup_lock_d;\n";
     }
-    v += "    end\n  end\n\n";
+    v += "    end\n  end\n";
+    if !replicas.is_empty() {
+        v += "  // The enable, one copy a stage: each drives one stage's loads.\n";
+        for k in replicas {
+            let _ = writeln!(v, "  reg  en_s{k}_q;");
+        }
+        v += "  (* keep *)\n  always @(posedge clk_i or negedge rst_ni) begin\n";
+        v += "    if (!rst_ni) begin\n";
+        for k in replicas {
+            let _ = writeln!(v, "      en_s{k}_q <= 1'b1;");
+        }
+        v += "    end else begin\n";
+        for k in replicas {
+            let _ = writeln!(v, "      en_s{k}_q <= en_d;");
+        }
+        v += "    end\n  end\n";
+    }
+    v += "\n";
     v
 }
 
@@ -2484,7 +2510,8 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
         e.hw.adders.extend([aw + 1; 4]);
         e.hw.compares += 4;
     } else {
-        // The head and the skid register with their valid bits.
+        // The head and the skid register with their valid bits (the
+        // enable's copies are counted where they are written).
         e.hw.flops += 2 * out_w as u64 + 2;
     }
     let pipe_latency = latency;
@@ -2782,10 +2809,27 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
         v += "\n";
     }
     let lock = &locks;
+    assert!(
+        e.regs.iter().all(|(st, _)| (1..=pipe_latency).contains(st)),
+        "every register belongs to a stage of the pipeline"
+    );
+    let stages: Vec<u32> = (1..=pipe_latency)
+        .filter(|k| e.regs.iter().any(|(st, _)| st == k))
+        .collect();
+    // Stages whose loads take a copy of the stall enable: every stage after
+    // the first with registers or a product's own operand registers.
+    let replicas: Vec<u32> = if fifo {
+        Vec::new()
+    } else {
+        (2..=pipe_latency)
+            .filter(|k| e.regs.iter().chain(&e.own_regs).any(|(st, _)| st == k))
+            .collect()
+    };
+    e.hw.flops += replicas.len() as u64;
     if fifo {
         v += &fifo_handshake(pipe_latency, depth, !lock.is_empty(), block);
     } else {
-        v += &stall_handshake(pipe_latency, !lock.is_empty());
+        v += &stall_handshake(pipe_latency, !lock.is_empty(), &replicas);
     }
 
     v += &setup_text;
@@ -2805,13 +2849,6 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
             let _ = writeln!(v, "  {ll}");
         }
     }
-    assert!(
-        e.regs.iter().all(|(st, _)| (1..=pipe_latency).contains(st)),
-        "every register belongs to a stage of the pipeline"
-    );
-    let stages: Vec<u32> = (1..=pipe_latency)
-        .filter(|k| e.regs.iter().any(|(st, _)| st == k))
-        .collect();
     // Each stage's load, a wire of its own, so the enable of every
     // pipeline register keeps a name in the netlist (`synth --netlist`
     // moves into a DSP block only registers loaded by one of these).
@@ -2820,7 +2857,7 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
         let load = match (k, fifo) {
             (1, false) => "in_take".to_string(),
             (1, true) => "in_xfer".to_string(),
-            (_, false) => format!("en & valid_q[{}]", k - 2),
+            (_, false) => format!("en_s{k}_q & valid_q[{}]", k - 2),
             (_, true) => format!("valid_q[{}]", k - 2),
         };
         let _ = writeln!(v, "  wire load_s{k} = {load};");
@@ -2856,15 +2893,30 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
         v += "  // Each product's own operand registers (a DSP block takes them in):\n";
         v += "  // loaded whenever the stages move, kept apart from equal copies.\n";
         v += "  (* keep *)\n  always @(posedge clk_i) begin\n";
-        if !fifo {
-            v += "    if (en) begin\n";
-        }
         let mut own = e.own_regs.clone();
         own.sort_by_key(|(st, _)| *st);
-        for (_, r) in &own {
-            let _ = writeln!(v, "{}{r}", if fifo { "    " } else { "      " });
+        let mut k0 = 0;
+        for (k, r) in &own {
+            if fifo {
+                let _ = writeln!(v, "    {r}");
+                continue;
+            }
+            if *k != k0 {
+                if k0 != 0 {
+                    v += "    end\n";
+                }
+                // Stage 1's copies move with the first stage: `en`.
+                let en = if *k == 1 {
+                    "en".to_string()
+                } else {
+                    format!("en_s{k}_q")
+                };
+                let _ = writeln!(v, "    if ({en}) begin");
+                k0 = *k;
+            }
+            let _ = writeln!(v, "      {r}");
         }
-        if !fifo {
+        if !fifo && k0 != 0 {
             v += "    end\n";
         }
         v += "  end\n\n";
@@ -2933,7 +2985,7 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
     v += &if fifo {
         formal_block_fifo(pipe_latency, depth, &outs, nf, &formal_setup, lock, block)
     } else {
-        formal_block(pipe_latency, &outs, nf, &formal_setup, lock)
+        formal_block(pipe_latency, &outs, nf, &formal_setup, lock, &replicas)
     };
     if !e.unused.is_empty() {
         let _ = writeln!(
