@@ -1362,12 +1362,7 @@ impl<'a> Emitter<'a> {
                 let own = s >= 1 && !held && self.own_operands;
                 let (oa, ob) = (self.mul_operand(&a, s, own), self.mul_operand(&b, s, own));
                 if let Some((m, budget)) = self.timing {
-                    // With operand registers of its own, a product wider
-                    // than one block is split here in any case: Yosys would
-                    // split it into blocks sharing those registers, which
-                    // then stay in the fabric.
-                    let split = t0 + dm > budget || own;
-                    if !held && split && self.split_mul(i, &oa, &ob, s, m, budget) {
+                    if !held && t0 + dm > budget && self.split_mul(i, &oa, &ob, s, m, budget) {
                         return Ok(());
                     }
                 }
