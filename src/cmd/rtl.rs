@@ -216,10 +216,10 @@ fn datasheet(
         rows.push(ds::Resources {
             target: r.target.clone(),
             device: r.device.clone(),
-            lut4: r.lut,
+            luts: r.lut,
             carry: r.carry,
             lut_ram: r.lut_ram,
-            ff: r.ff - r.harness_ff,
+            ff: r.ff.saturating_sub(r.harness_ff),
             dsp: r.dsp,
             bram: r.bram,
         });

@@ -317,7 +317,7 @@ pub struct Resources {
     pub device: String,
     /// LUT cells (LUT4 on iCE40 and ECP5, LUT1-6 on xc7; carry cells
     /// apart).
-    pub lut4: u64,
+    pub luts: u64,
     /// Carry cells (ECP5 `CCU2C`: two LUTs each; iCE40 `SB_CARRY`).
     pub carry: u64,
     /// LUT RAM cells (ECP5 `TRELLIS_DPR16X4`).
@@ -402,7 +402,7 @@ pub fn markdown(
             let _ = writeln!(
                 t,
                 "| {} | {} | {} | {} | {} | {} | {} | {} |",
-                r.target, r.device, r.lut4, r.carry, r.lut_ram, r.ff, r.dsp, r.bram
+                r.target, r.device, r.luts, r.carry, r.lut_ram, r.ff, r.dsp, r.bram
             );
         }
         t += "\n";
