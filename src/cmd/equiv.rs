@@ -245,7 +245,13 @@ fn miter(m: &Module, smt2: &str) -> anyhow::Result<Miter> {
     let e = &m.emitted;
     let module = &e.module;
     let no_rtl = || format!("{module}: the datapath divides or takes a square root (no RTL)");
-    let f = m.design.trace.smt_function().with_context(no_rtl)?;
+    // Products the emitter split are written as the same sums of partial
+    // products (exact: the split lemma, `MulSplit`).
+    let f = m
+        .design
+        .trace
+        .smt_function_split(&[], &e.splits)
+        .with_context(no_rtl)?;
     let mut cut = vec![false; m.design.trace.ops().len()];
     let mut cuts = Vec::new();
     for (i, k, name) in &e.cuts {
@@ -254,7 +260,11 @@ fn miter(m: &Module, smt2: &str) -> anyhow::Result<Miter> {
             cuts.push((*i, *k, name.clone()));
         }
     }
-    let fc = m.design.trace.smt_function_cut(&cut).with_context(no_rtl)?;
+    let fc = m
+        .design
+        .trace
+        .smt_function_split(&cut, &e.splits)
+        .with_context(no_rtl)?;
     let (ins, outs) = smt2_ports(smt2);
     let width = |list: &[(String, u32)], p: &str| {
         list.iter()
@@ -378,22 +388,37 @@ fn miter(m: &Module, smt2: &str) -> anyhow::Result<Miter> {
     let staged = (!cuts.is_empty()).then(|| {
         let g = Smt2Model::parse(module, smt2);
         let wire = |name: &str| format!("{module}_n {name}");
-        let mut stop_of: HashMap<(String, u32), usize> = HashMap::new();
+        // Several cuts may be one net in one cycle (a quantization the
+        // range analysis proved exact is its operand's wire): each is
+        // defined wherever the net is met.
+        let mut stop_of: HashMap<(String, u32), Vec<usize>> = HashMap::new();
         for (n, (_, k, name)) in cuts.iter().enumerate() {
-            stop_of.insert((g.resolve(&wire(name)).to_string(), first + k), n);
+            stop_of
+                .entry((g.resolve(&wire(name)).to_string(), first + k))
+                .or_default()
+                .push(n);
         }
         let stops: HashSet<(String, u32)> = stop_of.keys().cloned().collect();
         let w = |i: usize| m.design.trace.sym(i).width;
         let mut t = head(&fc.defs);
         t += "; By stages: one query per cut, then the outputs, each over its cone.\n";
         let query = |t: &mut String, roots: &[(String, u32)], enter: bool, goal: &str| {
-            let (trans, hit) = g.cone(roots, &stops, enter);
+            let (trans, mut hit) = g.cone(roots, &stops, enter);
+            // A root that is a cut's net too: that cut's definition holds
+            // there (the query's own cut among them, which is harmless:
+            // its goal compares the net with f<i>, not with c<i>).
+            for (w, k) in roots {
+                let key = (g.resolve(w).to_string(), *k);
+                if stop_of.contains_key(&key) && !hit.contains(&key) {
+                    hit.push(key);
+                }
+            }
             t.push_str("(push 1)\n");
             for (next, field, k) in &trans {
                 let _ = writeln!(t, "(assert (= (|{next}| s{k}) (|{field}| s{})))", k + 1);
             }
-            for h in &hit {
-                let (i, k, name) = &cuts[stop_of[h]];
+            for n in hit.iter().flat_map(|h| &stop_of[h]) {
+                let (i, k, name) = &cuts[*n];
                 let _ = writeln!(
                     t,
                     "(assert (= (|{}| s{}) {}))",

@@ -101,10 +101,12 @@ fn random_accepted_configurations_are_proved() {
 }
 
 /// Target-pipelined configurations (registers placed by the ECP5 delay
-/// model for 12 ns and 8 ns: normalize latency 11 and 15 instead of 4)
-/// are proved too: other stages, other cut points. At 8 ns every product
-/// fits one MULT18X18D with the packed-block delays `synth calibrate`
-/// measured; a product split into partial products is not matched yet.
+/// model for 12 ns and 8 ns: other stages, other cut points) are proved
+/// too. At 8 ns the interpolator's widest product (20 × 19 bits) is split
+/// into four partial products summed a stage later, and on iCE40 HX8K at
+/// 14 ns the normalizer's LUT multipliers into partial products of a few
+/// bits: the model's product is written as the same sum (the split
+/// lemma), and the proof matches them.
 #[test]
 fn a_target_pipelined_unit_is_proved() {
     for ns in ["12", "8"] {
@@ -113,6 +115,41 @@ fn a_target_pipelined_unit_is_proved() {
             &["--pipeline", "target", "--target", "ecp5", "--clock-ns", ns],
         );
     }
+    let at8 = [
+        "--pipeline",
+        "target",
+        "--target",
+        "ecp5",
+        "--clock-ns",
+        "8",
+    ];
+    let d = tempfile::tempdir().unwrap();
+    let mut args = vec!["rtl", "interp", "--out", d.path().to_str().unwrap()];
+    args.extend(at8);
+    let o = fxshade(&args);
+    assert!(o.status.success(), "{}", text(&o));
+    let v = std::fs::read_to_string(d.path().join("interp.v")).unwrap();
+    assert!(v.contains("_pp1_1_q"), "no split product at 8 ns");
+    proves(&["interp"], &at8);
+    // LUT multipliers split into partial products of a few bits (iCE40).
+    proves(
+        &["normalize"],
+        &["--target", "ice40-hx8k", "--clock-ns", "14"],
+    );
+    // The smooth top at 12 ns: the normalizer's input quantization, which
+    // the range analysis proves exact, is the interpolator's output wire
+    // in the same stage (two cuts on one net, each defined there).
+    proves(
+        &["pipeline"],
+        &[
+            "--set",
+            "pipeline.path=\"smooth\"",
+            "--target",
+            "ecp5",
+            "--clock-ns",
+            "12",
+        ],
+    );
 }
 
 /// Wider and narrower formats, other rounding and overflow modes: the
@@ -187,6 +224,58 @@ fn each_sabotage_gives_a_counterexample_that_fails_on_verilator() {
         let written = std::fs::read_to_string(dir.join("normalize.v")).unwrap();
         assert!(written.contains(to), "{what}");
     }
+}
+
+/// A split product with a partial product at the wrong weight (the
+/// normalizer's LUT multipliers at iCE40 HX8K 14 ns, split by the delay
+/// model into partial products of a few bits: one of them shifted a bit
+/// too little) gives a counterexample that Verilator reproduces: the
+/// model's sum of partial products is not the RTL's.
+#[test]
+fn a_partial_product_at_the_wrong_weight_gives_a_counterexample() {
+    let at = ["--target", "ice40-hx8k", "--clock-ns", "14"];
+    let rtl = tempfile::tempdir().unwrap();
+    let mut args = vec!["rtl", "normalize", "--out", rtl.path().to_str().unwrap()];
+    args.extend(at);
+    let o = fxshade(&args);
+    assert!(o.status.success(), "{}", text(&o));
+    let good = std::fs::read_to_string(rtl.path().join("normalize.v")).unwrap();
+    // The first level of a split product's adder tree: `… + {<pp>_q, N'b0});`
+    // becomes `(N-1)'b0`.
+    let line = good
+        .lines()
+        .find(|l| l.contains("_l0_0 = $signed(") && l.ends_with("'b0});"))
+        .expect("a split product's first sum")
+        .to_string();
+    let (head, n) = line.trim_end_matches("'b0});").rsplit_once(", ").unwrap();
+    let n: u32 = n.parse().unwrap();
+    let bad_line = format!("{head}, {}'b0}});", n - 1);
+    let bad = tempfile::tempdir().unwrap();
+    std::fs::write(
+        bad.path().join("normalize.v"),
+        good.replace(&line, &bad_line),
+    )
+    .unwrap();
+    let cex = tempfile::tempdir().unwrap();
+    let mut args = vec![
+        "equiv",
+        "normalize",
+        "--rtl-dir",
+        bad.path().to_str().unwrap(),
+        "--cex-dir",
+        cex.path().to_str().unwrap(),
+        "--timeout",
+        "0",
+        "--json",
+    ];
+    args.extend(at);
+    let o = fxshade(&args);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    let v = verdicts(&o);
+    assert_eq!(v[0].1, "counterexample", "{}", v[0].2);
+    let c = &v[0].2["counterexample"];
+    assert_ne!(c["rtl"], c["model"], "{c}");
+    assert_eq!(c["reproduced"], true, "Verilator passes {c}");
 }
 
 /// A missing module file is a clear error naming it; an unknown solver is

@@ -22,7 +22,7 @@ mod interval;
 mod mutation;
 mod smt;
 pub use mutation::{Mutation, MutationKind};
-pub use smt::SmtFunction;
+pub use smt::{Chunk, MulSplit, PartialProduct, SmtFunction};
 
 /// A value in a trace: the node that computes it, its binary point, and its
 /// symbolic format.

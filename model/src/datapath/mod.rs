@@ -38,8 +38,8 @@ mod fixed;
 mod reference;
 
 pub use batch::{
-    CompileError, Compiled, Mutation, MutationKind, Op, Port, Program, SmtFunction, Trace, BLOCK,
-    TV,
+    Chunk, CompileError, Compiled, MulSplit, Mutation, MutationKind, Op, PartialProduct, Port,
+    Program, SmtFunction, Trace, BLOCK, TV,
 };
 pub use count::{
     Count, MulFormats, MulShape, OpCounts, QuantPoint, Sym, TableShape, WidthError, MAX_EXACT_WIDTH,

@@ -251,6 +251,13 @@ pub struct Emitted {
     /// the value of the item that entered `k` cycles earlier. `fxshade
     /// equiv` cuts its proof there; a wrong entry can only fail a proof.
     pub cuts: Vec<(usize, u32, String)>,
+    /// The products built as sums of partial products (a multiplier wider
+    /// than the period or one DSP block allows): `fxshade equiv` writes the
+    /// model's product as the same sum ([`Trace::smt_function_split`], exact
+    /// by the split lemma) so the solver matches the partial products.
+    ///
+    /// [`Trace::smt_function_split`]: crate::datapath::Trace::smt_function_split
+    pub splits: Vec<crate::datapath::MulSplit>,
 }
 
 /// `text` as comment lines of at most 78 columns, each starting with
@@ -350,6 +357,7 @@ struct Emitter<'a> {
     worst: f64,
     /// Operations slower than a whole stage by themselves.
     too_slow: Vec<String>,
+    splits: Vec<crate::datapath::MulSplit>,
     /// Set-up groups each node depends on (bit `g`: group `g`), for the
     /// set-up inputs and the combinational logic computed from them alone
     /// (no stage: read directly at every stage).
@@ -1008,11 +1016,8 @@ impl<'a> Emitter<'a> {
         m: timing::DelayModel,
         budget: f64,
     ) -> bool {
-        let (ox, oy) = if oa.val().width >= ob.val().width {
-            (oa, ob)
-        } else {
-            (ob, oa)
-        };
+        let a_first = oa.val().width >= ob.val().width;
+        let (ox, oy) = if a_first { (oa, ob) } else { (ob, oa) };
         let (x, y) = (ox.val(), oy.val());
         if x.expr.contains('\'') || y.expr.contains('\'') {
             return false;
@@ -1028,7 +1033,14 @@ impl<'a> Emitter<'a> {
             Some(d) => {
                 // Chunks that fit the block with the extension bit; an
                 // operand that fits whole stays whole.
-                let fit = |v: &Val, max: u32| if v.width < max { v.width } else { max - 1 };
+                // (a signed operand as wide as the block fits it whole).
+                let fit = |v: &Val, max: u32| {
+                    if v.width < max || (v.signed && v.width == max) {
+                        v.width
+                    } else {
+                        max - 1
+                    }
+                };
                 (fit(x, d.a), fit(y, d.b))
             }
         };
@@ -1049,6 +1061,23 @@ impl<'a> Emitter<'a> {
             Opnd::Own(p) => chunk_slices(p, cy),
         };
         let mut parts: Vec<String> = Vec::new();
+        let chunk = |&(_, width, signed, lo): &(String, u32, bool, u32)| crate::datapath::Chunk {
+            lo,
+            width,
+            signed,
+        };
+        let recorded = xs
+            .iter()
+            .flat_map(|x| ys.iter().map(move |y| (chunk(x), chunk(y))))
+            .map(|(x, y)| {
+                let (a, b) = if a_first { (x, y) } else { (y, x) };
+                crate::datapath::PartialProduct { a, b }
+            })
+            .collect();
+        self.splits.push(crate::datapath::MulSplit {
+            node: i,
+            parts: recorded,
+        });
         let mut slowest: f64 = 0.0;
         for (jx, (xe, xw, xsg, xlo)) in xs.iter().enumerate() {
             for (jy, (ye, yw, ysg, ylo)) in ys.iter().enumerate() {
@@ -1321,10 +1350,12 @@ impl<'a> Emitter<'a> {
             Op::Mul(a, b) => {
                 let (sa, sb) = (a.sym(), b.sym());
                 // Operand widths as built: a mixed product extends its
-                // unsigned operand by one bit.
+                // unsigned operand by one bit, which a block that takes
+                // unsigned operands drops again.
+                let ext = !self.model().and_then(|m| m.dsp).is_some_and(|d| d.mixed);
                 let (wa, wb) = (
-                    sa.width + (sb.signed && !sa.signed) as u32,
-                    sb.width + (sa.signed && !sb.signed) as u32,
+                    sa.width + (ext && sb.signed && !sa.signed) as u32,
+                    sb.width + (ext && sa.signed && !sb.signed) as u32,
                 );
                 let dm = self.model().map_or(0.0, |m| m.mul(wa, wb));
                 let (mut s, mut t0) = self.place(&[a.node(), b.node()], dm);
@@ -2398,6 +2429,7 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
         bank_wires: std::collections::HashSet::new(),
         worst: 0.0,
         too_slow: Vec::new(),
+        splits: Vec::new(),
         groups: t
             .ops()
             .iter()
@@ -3047,6 +3079,7 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
         },
         predicted_ns,
         too_slow: e.too_slow,
+        splits: e.splits,
         flags,
         inputs: in_fields,
         outputs: out_fields,

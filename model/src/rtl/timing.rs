@@ -101,6 +101,7 @@ impl Target {
                     combine: 2.5,
                     route_in: 5.0,
                     route_out: 2.4,
+                    mixed: true,
                 }),
                 bram: 5.0,
                 word_select: 0.0,
@@ -112,6 +113,14 @@ impl Target {
             // measures 2.87-4.16 ns register to register, so `comb` = 4.16
             // less `reg`; a 24 x 18 product (two tiles, one sum) 7.08 ns, so
             // `combine` = 7.08 - 4.16. (Before packing: 7.0 and 1.5.)
+            // With the packer's no-copy rule (issue #37) the blocks of a
+            // product Yosys splits share their operand registers, which then
+            // stay in the fabric: the smooth top at 8 ns measured 8.76 and
+            // 8.91 ns (seeds 1, 3; 11.8 on seed 2) register to register
+            // through a 19 x 17 product in two blocks and their sum, so
+            // `combine` = 8.9 - 0.9 - 3.3 = 4.7 and the emitter splits such
+            // a product itself (own operand registers per block, the sum a
+            // stage later) whenever 8.9 ns does not fit the period.
             // word_select: the smooth top at 8 ns (issue #37) measured 11.2 ns
             // on a range check, saturating multiplexer and maximum that the
             // model put at 7.9 (nextpnr: 5.9 ns of it routing, most of it the
@@ -126,9 +135,10 @@ impl Target {
                     a: 18,
                     b: 18,
                     comb: 3.3,
-                    combine: 2.9,
+                    combine: 4.7,
                     route_in: 3.2,
                     route_out: 3.4,
+                    mixed: true,
                 }),
                 bram: 3.5,
                 word_select: 1.5,
@@ -148,6 +158,7 @@ impl Target {
                     combine: 1.0,
                     route_in: 0.5,
                     route_out: 0.5,
+                    mixed: false,
                 }),
                 bram: 2.2,
                 word_select: 0.0,
@@ -192,6 +203,12 @@ pub struct Dsp {
     /// product registered in the block reaches the logic of the next stage
     /// this late (a fabric register after it hides it).
     pub route_out: f64,
+    /// Whether the block takes each operand signed or unsigned (ECP5's
+    /// MULT18X18D `SIGNEDA`/`SIGNEDB`, iCE40's SB_MAC16 `A_SIGNED`/
+    /// `B_SIGNED`): the unsigned operand of a mixed product then fits the
+    /// block at its own width (Yosys drops the zero extension bit), not one
+    /// bit wider. False where the block is signed only (Xilinx DSP48).
+    pub mixed: bool,
 }
 
 /// Delays of one target, in nanoseconds (module documentation).

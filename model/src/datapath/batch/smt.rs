@@ -114,6 +114,144 @@ pub struct SmtFunction {
     pub arrays: bool,
 }
 
+/// A slice of a product's operand: bits `lo .. lo + width` of its value,
+/// read as two's complement when `signed` (the operand's top slice of a
+/// signed operand), else unsigned.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+pub struct Chunk {
+    /// The slice's lowest bit.
+    pub lo: u32,
+    /// Its width.
+    pub width: u32,
+    /// Whether it is read signed.
+    pub signed: bool,
+}
+
+/// One partial product of a split product: a slice of the first operand
+/// times a slice of the second.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+pub struct PartialProduct {
+    /// The slice of the product's first operand (`Op::Mul(a, _)`).
+    pub a: Chunk,
+    /// The slice of its second operand.
+    pub b: Chunk,
+}
+
+/// A product node `a·b` that the hardware builds as a sum of partial
+/// products (a pipelined multiplier wider than one DSP block).
+///
+/// [`Trace::smt_function_split`] writes the node as the same sum, so a
+/// solver that abstracts products meets the hardware's partial products on
+/// both sides. The rewriting is exact (the split lemma), whenever
+/// [`MulSplit::covers`] holds: with `x_j` the first operand's slices
+/// (weights `2^lo_j`, the top one signed if the operand is, the others
+/// unsigned) `a = Σ x_j·2^lo_j` as integers, likewise `b = Σ y_k·2^lo_k`,
+/// so by distributivity `a·b = Σ x_j·y_k·2^(lo_j+lo_k)`; each `x_j·y_k`
+/// is exact in the width of its extended factors (`p_w = w_x + w_y`, one
+/// more bit for an unsigned factor of a signed partial), and the sum is
+/// taken modulo `2^w`, the product node's width, as the node is.
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct MulSplit {
+    /// The product node.
+    pub node: usize,
+    /// Its partial products.
+    pub parts: Vec<PartialProduct>,
+}
+
+impl MulSplit {
+    /// Whether the parts are every pair of a partition of `a` (`wa` bits,
+    /// signed when `sa`) into slices and a partition of `b`, each pair
+    /// once, each slice signed exactly when it is the top slice of a
+    /// signed operand: then the sum of the parts is `a·b` (the lemma of
+    /// the type's documentation). A split that does not cover is not used.
+    pub fn covers(&self, wa: u32, sa: bool, wb: u32, sb: bool) -> bool {
+        let slices = |pick: &dyn Fn(&PartialProduct) -> Chunk, w: u32, signed: bool| {
+            let mut cs: Vec<Chunk> = self.parts.iter().map(pick).collect();
+            cs.sort_by_key(|c| c.lo);
+            cs.dedup();
+            let mut next = 0;
+            for c in &cs {
+                if c.lo != next || c.width == 0 {
+                    return None;
+                }
+                next = c.lo + c.width;
+                if c.signed != (signed && next == w) {
+                    return None;
+                }
+            }
+            (next == w).then_some(cs)
+        };
+        let (Some(xa), Some(xb)) = (slices(&|p| p.a, wa, sa), slices(&|p| p.b, wb, sb)) else {
+            return false;
+        };
+        // The lo values are distinct within each operand (a partition), so
+        // chunk equality is positional.
+        let mut pairs: Vec<(u32, u32)> = self.parts.iter().map(|p| (p.a.lo, p.b.lo)).collect();
+        pairs.sort_unstable();
+        pairs.dedup();
+        let clash = self
+            .parts
+            .iter()
+            .any(|p| !xa.contains(&p.a) || !xb.contains(&p.b));
+        !clash && pairs.len() == self.parts.len() && pairs.len() == xa.len() * xb.len()
+    }
+
+    /// The sum of the parts as an SMT-LIB 2 term of `w` bits, `a` and `b`
+    /// the operands' terms (`wa`, `wb` bits): each slice extended by its
+    /// signedness to the partial's width `p_w`, the `p_w`-bit product
+    /// extended (signed when either slice is) or cut to `w` bits, shifted
+    /// by its weight, all added modulo `2^w`.
+    pub fn smt_sum(&self, a: &str, wa: u32, b: &str, wb: u32, w: u32) -> String {
+        let slice = |e: &str, we: u32, c: &Chunk| {
+            if c.lo == 0 && c.width == we {
+                e.to_string()
+            } else {
+                format!("((_ extract {} {}) {e})", c.lo + c.width - 1, c.lo)
+            }
+        };
+        let widen = |e: String, from: u32, to: u32, signed: bool| {
+            if to > from {
+                let how = if signed { "sign_extend" } else { "zero_extend" };
+                format!("((_ {how} {}) {e})", to - from)
+            } else if to == from {
+                e
+            } else {
+                format!("((_ extract {} 0) {e})", to - 1)
+            }
+        };
+        let mut terms = Vec::new();
+        for p in &self.parts {
+            let shift = p.a.lo + p.b.lo;
+            if shift >= w {
+                continue;
+            }
+            let ps = p.a.signed || p.b.signed;
+            let xw = p.a.width + (ps && !p.a.signed) as u32;
+            let yw = p.b.width + (ps && !p.b.signed) as u32;
+            let pw = xw + yw;
+            let x = widen(slice(a, wa, &p.a), p.a.width, pw, p.a.signed);
+            let y = widen(slice(b, wb, &p.b), p.b.width, pw, p.b.signed);
+            let t = widen(format!("(bvmul {x} {y})"), pw, w, ps);
+            terms.push(if shift == 0 {
+                t
+            } else {
+                format!("(bvshl {t} {})", lit(shift as i128, w))
+            });
+        }
+        match terms.len() {
+            0 => lit(0, w),
+            1 => terms.remove(0),
+            _ => {
+                let mut e = terms.remove(0);
+                for t in terms {
+                    e = format!("(bvadd {e} {t})");
+                }
+                e
+            }
+        }
+    }
+}
+
 /// The entry `entry(base + j)` for `j` the low `bits` bits of `a`, as a
 /// binary tree of `ite` on `a`'s bits (bit `bits - 1` first); equal
 /// halves are one subtree.
@@ -146,6 +284,7 @@ impl Trace {
         &self,
         need: &[bool],
         cut: &[bool],
+        splits: &[MulSplit],
         mux_tables: bool,
         s: &mut String,
     ) -> Option<()> {
@@ -184,7 +323,18 @@ impl Trace {
                     format!("in{slot}")
                 }
                 Op::Const(c) => lit(*c, wi),
-                Op::Mul(a, b) => format!("(bvmul {} {})", val(a, wi), val(b, wi)),
+                Op::Mul(a, b) => {
+                    let (na, nb) = (a.node(), b.node());
+                    let (wa, wb) = (w(na), w(nb));
+                    let (sa, sb) = (self.syms[na].signed, self.syms[nb].signed);
+                    match splits
+                        .iter()
+                        .find(|m| m.node == i && m.covers(wa, sa, wb, sb))
+                    {
+                        Some(m) => m.smt_sum(&format!("n{na}"), wa, &format!("n{nb}"), wb, wi),
+                        None => format!("(bvmul {} {})", val(a, wi), val(b, wi)),
+                    }
+                }
                 Op::Add(a, b) => format!("(bvadd {} {})", aligned(a), aligned(b)),
                 Op::Sub(a, b) => format!("(bvsub {} {})", aligned(a), aligned(b)),
                 Op::Max(a, b) => {
@@ -344,16 +494,29 @@ impl Trace {
     /// the hardware's value equals `f<i>` when every cut equals its
     /// hardware value.
     pub fn smt_function_cut(&self, cut: &[bool]) -> Option<SmtFunction> {
-        self.smt_function_tables(cut, true)
+        self.smt_function_tables(cut, &[], true)
+    }
+
+    /// As [`Trace::smt_function_cut`], each product node of `splits` whose
+    /// split [covers](MulSplit::covers) its operands written as the sum of
+    /// its partial products ([`MulSplit::smt_sum`]; the same value, by the
+    /// split lemma), the others as one `bvmul`.
+    pub fn smt_function_split(&self, cut: &[bool], splits: &[MulSplit]) -> Option<SmtFunction> {
+        self.smt_function_tables(cut, splits, true)
     }
 
     /// As [`Trace::smt_function_cut`], tables as `ite` trees when
     /// `mux_tables`, else as arrays whose entries are asserted.
-    fn smt_function_tables(&self, cut: &[bool], mux_tables: bool) -> Option<SmtFunction> {
+    fn smt_function_tables(
+        &self,
+        cut: &[bool],
+        splits: &[MulSplit],
+        mux_tables: bool,
+    ) -> Option<SmtFunction> {
         let roots: Vec<TV> = self.outputs.iter().map(|p| p.value).collect();
         let need = self.live_nodes(&roots);
         let mut defs = String::new();
-        self.smt_nodes(&need, cut, mux_tables, &mut defs)?;
+        self.smt_nodes(&need, cut, splits, mux_tables, &mut defs)?;
         let inputs = self
             .inputs
             .iter()
@@ -408,7 +571,7 @@ impl Trace {
         };
         let need = self.live_nodes(&[*op_a]);
         let mut s = String::from("(set-logic QF_BV)\n");
-        self.smt_nodes(&need, &[], false, &mut s)?;
+        self.smt_nodes(&need, &[], &[], false, &mut s)?;
         // The operand as a signed value one bit wider than its format.
         let wa = self.syms[op_a.node()].width + 1;
         let xa = self.smt_val(op_a.node(), wa);
@@ -500,8 +663,8 @@ mod tests {
             let t = &d.trace;
             let all = vec![true; t.ops.len()];
             let (mut tree, mut arr) = (String::new(), String::new());
-            t.smt_nodes(&all, &[], true, &mut tree).unwrap();
-            t.smt_nodes(&all, &[], false, &mut arr).unwrap();
+            t.smt_nodes(&all, &[], &[], true, &mut tree).unwrap();
+            t.smt_nodes(&all, &[], &[], false, &mut arr).unwrap();
             for line in tree.lines().filter(|l| l.starts_with("(define-fun tab")) {
                 // `(define-fun tab<slot>_<w> ((a (_ BitVec k))) …`
                 let name = line.split_whitespace().nth(1).unwrap();
@@ -547,7 +710,7 @@ mod tests {
             let d = (u.design)(&cfg).unwrap();
             let f = d
                 .trace
-                .smt_function_tables(&[], false)
+                .smt_function_tables(&[], &[], false)
                 .expect("no division in an RTL unit");
             let mut rows = (u.inputs)(&cfg, Part::Corners, 7).unwrap();
             rows.truncate(40);
