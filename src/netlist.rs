@@ -28,6 +28,10 @@ pub const MODELS: [(&str, &str); 2] = [
     ("DP16KD", include_str!("../rtl/sim/DP16KD.v")),
 ];
 
+/// The file of Yosys's cell models beside a netlist [`write`] wrote: a
+/// design that includes it is a gate-level netlist.
+pub const CELLS_FILE: &str = "fxs_ecp5_cells.v";
+
 /// What [`write`] wrote.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct Written {
@@ -228,7 +232,7 @@ pub fn write(e: &Emitted, pack: bool, work: &Path, out: &Path) -> anyhow::Result
             missing.join(", ")
         );
     }
-    let mut models = vec![out.join("fxs_ecp5_cells.v")];
+    let mut models = vec![out.join(CELLS_FILE)];
     fxshade_model::files::write_atomic(&models[0], text.as_bytes())?;
     for (name, model) in ours_used {
         let p = out.join(format!("{name}.v"));

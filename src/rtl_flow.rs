@@ -357,6 +357,18 @@ fn build_with(
                 if trace {
                     c.arg("--trace-fst");
                 }
+                // A gate-level netlist (`synth --netlist`: its cell models
+                // beside it): cells with unused pins, carry chains through
+                // cell boundaries (combinational loops at the bit level
+                // only) and the models' own width casts are what a netlist
+                // is, not faults of the design; Verilator would stop on
+                // them.
+                if files.iter().any(|f| {
+                    f.file_name()
+                        .is_some_and(|n| n == crate::netlist::CELLS_FILE)
+                }) {
+                    c.args(["-Wno-PINMISSING", "-Wno-UNOPTFLAT", "-Wno-WIDTH"]);
+                }
                 // ccache, when installed, keeps Verilator's runtime library
                 // and unchanged model files compiled across builds (half the
                 // time of a small unit's build).

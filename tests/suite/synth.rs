@@ -207,6 +207,17 @@ fn ecp5_netlist(unit: &str, clock_ns: &str, extra: &[&str]) -> (tempfile::TempDi
 
 /// `rtl-check` of the netlist in `dir/gl` on Icarus: (passed, failed).
 fn gate_level_check(unit: &str, clock_ns: &str, dir: &std::path::Path, n: usize) -> (u64, u64) {
+    gate_level_check_on("icarus", unit, clock_ns, dir, n)
+}
+
+/// [`gate_level_check`] on simulator `sim`.
+fn gate_level_check_on(
+    sim: &str,
+    unit: &str,
+    clock_ns: &str,
+    dir: &std::path::Path,
+    n: usize,
+) -> (u64, u64) {
     let o = fxshade(&[
         "rtl-check",
         unit,
@@ -215,7 +226,7 @@ fn gate_level_check(unit: &str, clock_ns: &str, dir: &std::path::Path, n: usize)
         "--clock-ns",
         clock_ns,
         "--sim",
-        "icarus",
+        sim,
         "--count",
         &n.to_string(),
         "--rtl-dir",
@@ -276,6 +287,14 @@ fn ecp5_gate_level_netlists_compute_what_the_model_computes() {
         gate_level_check("normalize", "8", d.path(), n),
         (n as u64, 0)
     );
+    // The full vector set (rtl-check's default count, 10 000) on Verilator,
+    // which builds a netlist with its cell models as it is (unused cell
+    // pins, carry chains through cells).
+    let full = 10_000;
+    assert_eq!(
+        gate_level_check_on("verilator", "normalize", "8", d.path(), full),
+        (full as u64, 0)
+    );
     // The same unit as Yosys maps it, every product register in the fabric:
     // the multiplier model's arithmetic alone.
     let (u, r) = ecp5_netlist("normalize", "8", &["--no-dsp-pack"]);
@@ -289,6 +308,8 @@ fn ecp5_gate_level_netlists_compute_what_the_model_computes() {
     sabotage(d.path(), "normalize.v", ".REG_OUTPUT_CLK(\"CLK0\"),", "");
     let (_, failed) = gate_level_check("normalize", "8", d.path(), n);
     assert!(failed > 0, "an unregistered product passed");
+    let (_, failed) = gate_level_check_on("verilator", "normalize", "8", d.path(), full);
+    assert!(failed > 0, "an unregistered product passed on Verilator");
 
     // polar at 8 ns: sin/cos tables in DP16KD block RAM, registered reads.
     let (d, r) = ecp5_netlist("polar", "8", &[]);
