@@ -38,6 +38,43 @@ fn proves(units: &[&str], extra: &[&str]) {
     }
 }
 
+/// The Verilog `rtl <unit>` emits with `extra`.
+fn emitted(unit: &str, extra: &[&str]) -> String {
+    let d = tempfile::tempdir().unwrap();
+    let mut args = vec!["rtl", unit, "--out", d.path().to_str().unwrap()];
+    args.extend(extra);
+    let o = fxshade(&args);
+    assert!(o.status.success(), "{}", text(&o));
+    std::fs::read_to_string(d.path().join(format!("{unit}.v"))).unwrap()
+}
+
+/// `equiv <unit> --rtl-dir bad …` with `extra`: exit status 1 and a
+/// counterexample whose RTL and model outputs differ and that Verilator
+/// reproduces; returns the counterexample's directory (`--cex-dir`).
+fn refuted(unit: &str, bad: &std::path::Path, extra: &[&str], what: &str) -> tempfile::TempDir {
+    let cex = tempfile::tempdir().unwrap();
+    let mut args = vec![
+        "equiv",
+        unit,
+        "--rtl-dir",
+        bad.to_str().unwrap(),
+        "--cex-dir",
+        cex.path().to_str().unwrap(),
+        "--timeout",
+        "0",
+        "--json",
+    ];
+    args.extend(extra);
+    let o = fxshade(&args);
+    assert_eq!(o.status.code(), Some(1), "{what}: {}", text(&o));
+    let v = verdicts(&o);
+    assert_eq!(v[0].1, "counterexample", "{what}: {}", v[0].2);
+    let c = &v[0].2["counterexample"];
+    assert_ne!(c["rtl"], c["model"], "{what}: {c}");
+    assert_eq!(c["reproduced"], true, "{what}: Verilator passes {c}");
+    cex
+}
+
 /// Every unit of the default configuration and the smooth path's top are
 /// proved (the mapped tops, two minutes, are in BENCHMARKS.md with
 /// `fxshade equiv all`).
@@ -123,12 +160,7 @@ fn a_target_pipelined_unit_is_proved() {
         "--clock-ns",
         "8",
     ];
-    let d = tempfile::tempdir().unwrap();
-    let mut args = vec!["rtl", "interp", "--out", d.path().to_str().unwrap()];
-    args.extend(at8);
-    let o = fxshade(&args);
-    assert!(o.status.success(), "{}", text(&o));
-    let v = std::fs::read_to_string(d.path().join("interp.v")).unwrap();
+    let v = emitted("interp", &at8);
     assert!(v.contains("_pp1_1_q"), "no split product at 8 ns");
     proves(&["interp"], &at8);
     // LUT multipliers split into partial products of a few bits (iCE40).
@@ -199,24 +231,7 @@ fn each_sabotage_gives_a_counterexample_that_fails_on_verilator() {
         assert_eq!(good.matches(from).count(), 1, "{what}: {from}");
         let bad = tempfile::tempdir().unwrap();
         std::fs::write(bad.path().join("normalize.v"), good.replace(from, to)).unwrap();
-        let cex = tempfile::tempdir().unwrap();
-        let o = fxshade(&[
-            "equiv",
-            "normalize",
-            "--rtl-dir",
-            bad.path().to_str().unwrap(),
-            "--cex-dir",
-            cex.path().to_str().unwrap(),
-            "--timeout",
-            "0",
-            "--json",
-        ]);
-        assert_eq!(o.status.code(), Some(1), "{what}: {}", text(&o));
-        let v = verdicts(&o);
-        assert_eq!(v[0].1, "counterexample", "{what}: {}", v[0].2);
-        let c = &v[0].2["counterexample"];
-        assert_ne!(c["rtl"], c["model"], "{what}: {c}");
-        assert_eq!(c["reproduced"], true, "{what}: Verilator passes {c}");
+        let cex = refuted("normalize", bad.path(), &[], what);
         let dir = cex.path().join("normalize");
         for f in ["manifest.json", "normalize.v", "normalize_tb.v"] {
             assert!(dir.join(f).exists(), "{what}: no {f} in {}", dir.display());
@@ -235,12 +250,7 @@ fn each_sabotage_gives_a_counterexample_that_fails_on_verilator() {
 #[test]
 fn a_partial_product_at_the_wrong_weight_gives_a_counterexample() {
     let at = ["--target", "ice40-hx8k", "--clock-ns", "14"];
-    let rtl = tempfile::tempdir().unwrap();
-    let mut args = vec!["rtl", "normalize", "--out", rtl.path().to_str().unwrap()];
-    args.extend(at);
-    let o = fxshade(&args);
-    assert!(o.status.success(), "{}", text(&o));
-    let good = std::fs::read_to_string(rtl.path().join("normalize.v")).unwrap();
+    let good = emitted("normalize", &at);
     // The first level of a split product's adder tree: `… + {<pp>_q, N'b0});`
     // becomes `(N-1)'b0`.
     let line = good
@@ -257,26 +267,12 @@ fn a_partial_product_at_the_wrong_weight_gives_a_counterexample() {
         good.replace(&line, &bad_line),
     )
     .unwrap();
-    let cex = tempfile::tempdir().unwrap();
-    let mut args = vec![
-        "equiv",
+    refuted(
         "normalize",
-        "--rtl-dir",
-        bad.path().to_str().unwrap(),
-        "--cex-dir",
-        cex.path().to_str().unwrap(),
-        "--timeout",
-        "0",
-        "--json",
-    ];
-    args.extend(at);
-    let o = fxshade(&args);
-    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
-    let v = verdicts(&o);
-    assert_eq!(v[0].1, "counterexample", "{}", v[0].2);
-    let c = &v[0].2["counterexample"];
-    assert_ne!(c["rtl"], c["model"], "{c}");
-    assert_eq!(c["reproduced"], true, "Verilator passes {c}");
+        bad.path(),
+        &at,
+        "a partial product at the wrong weight",
+    );
 }
 
 /// A missing module file is a clear error naming it; an unknown solver is
