@@ -1037,6 +1037,35 @@ mod tests {
                 Solver::Z3.check(&query(&bad), 0).unwrap(),
                 Reply::Sat(_)
             ));
+            // Slices whose ends wrap around u32 (0..MAX, then MAX..MAX+wa+1,
+            // which wraps to wa): refused, not taken for a partition.
+            let whole_b = fxshade_model::datapath::Chunk {
+                lo: 0,
+                width: wb,
+                signed: sb,
+            };
+            let wrap = MulSplit {
+                node: 0,
+                parts: vec![
+                    PartialProduct {
+                        a: fxshade_model::datapath::Chunk {
+                            lo: 0,
+                            width: u32::MAX,
+                            signed: false,
+                        },
+                        b: whole_b,
+                    },
+                    PartialProduct {
+                        a: fxshade_model::datapath::Chunk {
+                            lo: u32::MAX,
+                            width: wa + 1,
+                            signed: sa,
+                        },
+                        b: whole_b,
+                    },
+                ],
+            };
+            assert!(!wrap.covers(wa, sa, wb, sb));
             // A missing partial product or a slice read unsigned: refused.
             let mut short = m.clone();
             short.parts.pop();

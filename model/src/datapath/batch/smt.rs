@@ -174,7 +174,8 @@ impl MulSplit {
                 if c.lo != next || c.width == 0 {
                     return None;
                 }
-                next = c.lo + c.width;
+                // Checked: slices past the word's end are not a partition.
+                next = c.lo.checked_add(c.width)?;
                 if c.signed != (signed && next == w) {
                     return None;
                 }
