@@ -486,20 +486,40 @@ pub fn pack_mult18(netlist: &mut Value, top: &str) -> Result<PackStats> {
     Ok(st)
 }
 
-/// The cells of a module by type (after packing: the netlist that is
-/// placed).
+/// The cells of module `top` by type (after packing: the netlist that is
+/// placed), the cells of the modules it instantiates counted in their
+/// place (as the placer, which flattens the hierarchy, sees them): an
+/// instance of a module the netlist defines with a body (not a black box
+/// of the cell library) adds that module's cells, not itself.
 pub fn cell_counts(netlist: &Value, top: &str) -> Vec<(String, u64)> {
-    let mut m: BTreeMap<String, u64> = BTreeMap::new();
-    for c in netlist["modules"][top]["cells"]
-        .as_object()
-        .into_iter()
-        .flat_map(Map::values)
-    {
-        if let Some(t) = c["type"].as_str() {
-            *m.entry(t.to_string()).or_default() += 1;
+    fn walk(netlist: &Value, module: &str, depth: u32, m: &mut BTreeMap<String, u64>) {
+        for c in netlist["modules"][module]["cells"]
+            .as_object()
+            .into_iter()
+            .flat_map(Map::values)
+        {
+            let Some(t) = c["type"].as_str() else {
+                continue;
+            };
+            if depth < 16 && has_body(netlist, t) {
+                walk(netlist, t, depth + 1, m);
+            } else {
+                *m.entry(t.to_string()).or_default() += 1;
+            }
         }
     }
+    let mut m: BTreeMap<String, u64> = BTreeMap::new();
+    walk(netlist, top, 0, &mut m);
     m.into_iter().collect()
+}
+
+/// Whether `netlist` defines module `name` with cells of its own (a
+/// design module, not a black box of the cell library).
+pub fn has_body(netlist: &Value, name: &str) -> bool {
+    let m = &netlist["modules"][name];
+    m.is_object()
+        && m["attributes"]["blackbox"].is_null()
+        && m["cells"].as_object().is_some_and(|c| !c.is_empty())
 }
 
 #[cfg(test)]
@@ -659,5 +679,29 @@ mod tests {
         let st = pack_mult18(&mut n, "top").unwrap();
         assert_eq!(st.inputs, 0, "A0 comes from a flip-flop with a reset");
         assert_eq!(st.outputs, 1);
+    }
+
+    /// An instance of a design module counts as that module's cells; a
+    /// black box of the cell library as one cell of its type.
+    #[test]
+    fn cell_counts_look_through_the_units_module() {
+        let n = json!({"modules": {
+            "top": {"cells": {
+                "r": {"type": "TRELLIS_FF"},
+                "dut": {"type": "unit"}
+            }},
+            "unit": {"attributes": {"keep_hierarchy": "1"}, "cells": {
+                "a": {"type": "TRELLIS_FF"},
+                "b": {"type": "TRELLIS_FF"},
+                "m": {"type": "MULT18X18D"}
+            }},
+            "MULT18X18D": {"attributes": {"blackbox": "1"}, "cells": {}}
+        }});
+        assert_eq!(
+            cell_counts(&n, "top"),
+            [("MULT18X18D".to_string(), 1), ("TRELLIS_FF".into(), 3)]
+        );
+        assert_eq!(cell_counts(&n, "unit").len(), 2);
+        assert!(has_body(&n, "unit") && !has_body(&n, "MULT18X18D") && !has_body(&n, "x"));
     }
 }

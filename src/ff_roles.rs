@@ -97,37 +97,20 @@ pub fn role(name: &str, setup_fields: &[String]) -> &'static str {
 }
 
 /// The flip-flops of module `top` of `netlist` by role ([`role`]), in the
-/// order of the table above; the harness's registers are those without a
-/// `dut.` name.
+/// order of the table above. In a flattened harness the unit's registers
+/// are those with a `dut.` name and the others the harness's; where the
+/// unit is a module of its own (the harness instantiates a module the
+/// netlist defines), every flip-flop of the harness module is the
+/// harness's and the unit module's are named by its own nets.
 pub fn roles(netlist: &Value, top: &str, setup_fields: &[String]) -> Vec<(String, u64)> {
-    let m = &netlist["modules"][top];
-    let mut names: BTreeMap<u64, String> = BTreeMap::new();
-    for (name, n) in m["netnames"].as_object().into_iter().flatten() {
-        let Some(rtl) = name.strip_prefix("dut.") else {
-            continue;
-        };
-        if rtl.contains('$') {
-            continue;
-        }
-        for (k, b) in n["bits"].as_array().into_iter().flatten().enumerate() {
-            if let Some(b) = b.as_u64() {
-                names.entry(b).or_insert_with(|| format!("{rtl}[{k}]"));
-            }
-        }
-    }
     let mut count: BTreeMap<&'static str, u64> = BTreeMap::new();
+    let m = &netlist["modules"][top];
+    tally(m, Some("dut."), setup_fields, &mut count);
     for c in m["cells"].as_object().into_iter().flatten().map(|(_, c)| c) {
         let t = c["type"].as_str().unwrap_or("");
-        let ff = t == "TRELLIS_FF" || t.starts_with("SB_DFF") || t.starts_with("$_DFF");
-        if !ff {
-            continue;
+        if crate::dsp_pack::has_body(netlist, t) {
+            tally(&netlist["modules"][t], None, setup_fields, &mut count);
         }
-        let q = c["connections"]["Q"][0].as_u64();
-        let r = match q.and_then(|q| names.get(&q)) {
-            Some(n) => role(n, setup_fields),
-            None => "harness",
-        };
-        *count.entry(r).or_default() += 1;
     }
     const ORDER: [&str; 12] = [
         "carried",
@@ -147,6 +130,48 @@ pub fn roles(netlist: &Value, top: &str, setup_fields: &[String]) -> Vec<(String
         .iter()
         .filter_map(|r| count.get(r).map(|n| (r.to_string(), *n)))
         .collect()
+}
+
+/// Count the flip-flops of module `m` by role into `count`: a flip-flop
+/// is named by the first net name on its output (with `prefix`: only
+/// names under it, the prefix removed); unnamed ones are the harness's.
+fn tally(
+    m: &Value,
+    prefix: Option<&str>,
+    setup_fields: &[String],
+    count: &mut BTreeMap<&'static str, u64>,
+) {
+    let mut names: BTreeMap<u64, String> = BTreeMap::new();
+    for (name, n) in m["netnames"].as_object().into_iter().flatten() {
+        let rtl = match prefix {
+            Some(p) => match name.strip_prefix(p) {
+                Some(r) => r,
+                None => continue,
+            },
+            None => name.as_str(),
+        };
+        if rtl.contains('$') {
+            continue;
+        }
+        for (k, b) in n["bits"].as_array().into_iter().flatten().enumerate() {
+            if let Some(b) = b.as_u64() {
+                names.entry(b).or_insert_with(|| format!("{rtl}[{k}]"));
+            }
+        }
+    }
+    for c in m["cells"].as_object().into_iter().flatten().map(|(_, c)| c) {
+        let t = c["type"].as_str().unwrap_or("");
+        let ff = t == "TRELLIS_FF" || t.starts_with("SB_DFF") || t.starts_with("$_DFF");
+        if !ff {
+            continue;
+        }
+        let q = c["connections"]["Q"][0].as_u64();
+        let r = match q.and_then(|q| names.get(&q)) {
+            Some(n) => role(n, setup_fields),
+            None => "harness",
+        };
+        *count.entry(r).or_default() += 1;
+    }
 }
 
 #[cfg(test)]

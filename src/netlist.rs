@@ -2,11 +2,12 @@
 //! that the flow `fxshade synth --target ecp5` places (Yosys's mapping,
 //! then [`crate::dsp_pack`]) still computes what the model computes.
 //!
-//! The unit alone is synthesized with `synth_ecp5 -top <module>` (the
+//! The netlist is the one placed: `fxshade synth` keeps the unit a module
+//! of its own inside its harness (`keep_hierarchy`), packs that module's
+//! registers into the MULT18X18D blocks and hands the JSON to nextpnr; this
+//! module writes the unit's module of that same JSON back as Verilog (the
 //! harness is not part of it, so the generated testbench drives it as it
-//! drives the emitted RTL), its registers are packed into the MULT18X18D
-//! blocks as for place and route, and Yosys writes the packed JSON netlist
-//! back as Verilog. Beside it go the simulation models of its cells:
+//! drives the emitted RTL). Beside it go the simulation models of its cells:
 //! Yosys's own (`cells_sim.v` of its ECP5 library: LUT4, CCU2C, PFUMX,
 //! L6MUX21, TRELLIS_FF, TRELLIS_DPR16X4 and the others, only the modules
 //! the netlist instantiates) and fxshade's models of MULT18X18D and DP16KD
@@ -120,44 +121,46 @@ fn run(cmd: &mut Command, dir: &Path, what: &str) -> anyhow::Result<()> {
     crate::cmd::synth::run_logged(cmd.current_dir(dir), &log, what).map(|_| ())
 }
 
-/// Synthesize `e` alone for ECP5, pack it (when `pack`), and write the
-/// netlist and its cell models into `out` (which must exist); `work` is a
-/// scratch directory for Yosys's files and logs. Nothing is written into
-/// `out` until every file's text is ready, and each file is replaced
-/// atomically.
-pub fn write(e: &Emitted, pack: bool, work: &Path, out: &Path) -> anyhow::Result<Written> {
+/// Write the unit's module of the ECP5 netlist `placed` (the harness
+/// netlist [`crate::cmd::synth`] hands to nextpnr, the unit a module of
+/// its own, registers packed as `packed` says) and its cell models into
+/// `out` (which must exist); `work` is a scratch directory for Yosys's
+/// files and logs. Nothing is written into `out` until every file's text
+/// is ready, and each file is replaced atomically.
+pub fn write(
+    e: &Emitted,
+    placed: &Path,
+    packed: Option<crate::dsp_pack::PackStats>,
+    work: &Path,
+    out: &Path,
+) -> anyhow::Result<Written> {
     crate::rtl_flow::require_tool("yosys", "yosys")?;
     let datdir = yosys_datdir()?;
     let m = &e.module;
-    std::fs::write(work.join(format!("{m}.v")), &e.verilog)?;
-    std::fs::write(
-        work.join("synth.ys"),
-        format!("read_verilog -sv {m}.v\nsynth_ecp5 -top {m} -json unit.json\n"),
-    )?;
-    run(
-        Command::new("yosys").args(["-q", "-s", "synth.ys"]),
-        work,
-        "yosys",
-    )?;
-    let text = std::fs::read(work.join("unit.json")).context("yosys wrote no netlist")?;
-    let mut netlist: serde_json::Value =
-        serde_json::from_slice(&text).context("yosys's netlist is not JSON")?;
-    let packed = if pack {
-        Some(crate::dsp_pack::pack_mult18(&mut netlist, m)?)
-    } else {
-        None
-    };
+    let text = std::fs::read(placed)
+        .with_context(|| format!("cannot read the placed netlist {}", placed.display()))?;
+    let netlist: serde_json::Value =
+        serde_json::from_slice(&text).context("the placed netlist is not JSON")?;
+    if !crate::dsp_pack::has_body(&netlist, m) {
+        bail!(
+            "the placed netlist {} holds no module {m} of its own",
+            placed.display()
+        );
+    }
     let cells = crate::dsp_pack::cell_counts(&netlist, m);
-    std::fs::write(work.join("packed.json"), serde_json::to_vec(&netlist)?)?;
+    std::fs::write(work.join("placed.json"), &text)?;
     std::fs::write(
         work.join("write.ys"),
-        "read_json packed.json\nwrite_verilog -noattr -noexpr netlist.v\n",
+        format!(
+            "read_json placed.json\nhierarchy -top {m}\nwrite_verilog -noattr -noexpr netlist.v\n"
+        ),
     )?;
     run(
         Command::new("yosys").args(["-q", "-s", "write.ys"]),
         work,
         "yosys_write",
     )?;
+    let pack = packed.is_some();
     let body = std::fs::read_to_string(work.join("netlist.v"))
         .context("yosys wrote no Verilog netlist")?;
     let netlist_path = out.join(format!("{m}.v"));
@@ -168,14 +171,16 @@ pub fn write(e: &Emitted, pack: bool, work: &Path, out: &Path) -> anyhow::Result
         }
     };
     let header = format!(
-        "// Gate-level ECP5 netlist of `{m}` ({pipelining}, latency {}), written\n\
-         // by `fxshade synth --target ecp5 --netlist`: Yosys's synth_ecp5{}.\n\
+        "// Gate-level ECP5 netlist of `{m}` ({pipelining}, latency {}),\n\
+         // written by `fxshade synth --target ecp5 --netlist`: Yosys's synth_ecp5\n\
+         // {},\n\
+         // the unit's module of the netlist placed in the synthesis harness.\n\
          // Simulate it with the cell models beside it.\n",
         e.latency,
         if pack {
-            ", then fxshade's register packing into MULT18X18D"
+            "then fxshade's register packing into MULT18X18D"
         } else {
-            " (no register packing)"
+            "(no register packing)"
         }
     );
     let netlist_text = header + &body;

@@ -11,7 +11,10 @@
 //! Every valid comes from a register of its own: a set-up port whose valid
 //! were the item's could never load (its ready is low while the item's
 //! valid is high), and synthesis would delete its registers and the
-//! load-enable network with them, leaving their paths untimed.
+//! load-enable network with them, leaving their paths untimed. The unit
+//! stays a module of its own (`keep_hierarchy`), so synthesis optimizes
+//! nothing across its ports, as in a design that integrates it, and the
+//! module placed is the one `--netlist` writes for co-simulation.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -147,8 +150,9 @@ pub struct SynthArgs {
     /// `dsp_packed` in the JSON).
     #[arg(long)]
     no_dsp_pack: bool,
-    /// ECP5: also write the unit's gate-level netlist (after the register
-    /// packing, unless --no-dsp-pack) into this directory (new or empty),
+    /// ECP5: also write the unit's gate-level netlist, its module of the
+    /// netlist placed (after the register packing, unless --no-dsp-pack;
+    /// no cached result is read) into this directory (new or empty),
     /// with the simulation models of its cells, for a gate-level
     /// co-simulation: `fxshade rtl-check <unit> --sim icarus --rtl-dir
     /// DIR` with the same configuration and pipelining.
@@ -178,7 +182,8 @@ pub struct SynthResult {
     /// Flip-flops (the harness's own registers included: its input shift
     /// register, the output register and five handshake and pin bits).
     pub ff: u64,
-    /// Of those, the harness's.
+    /// Of those, the harness's: the flip-flops of its own module in
+    /// Yosys's statistics (the unit is a module of its own).
     pub harness_ff: u64,
     /// DSP blocks.
     pub dsp: u64,
@@ -334,6 +339,27 @@ fn parse_stat(text: &str) -> Vec<(String, u64)> {
     cells
 }
 
+/// The cell lines of module `module`'s own block of a Yosys `stat`
+/// report (`=== module ===`): its cells, an instance of a submodule
+/// counted as one cell of that module's name.
+fn parse_stat_module(text: &str, module: &str) -> Vec<(String, u64)> {
+    let head = format!("=== {module} ===");
+    let mut block = String::new();
+    let mut on = false;
+    for l in text.lines() {
+        let t = l.trim();
+        if t.starts_with("=== ") {
+            on = t == head;
+            continue;
+        }
+        if on {
+            block.push_str(l);
+            block.push('\n');
+        }
+    }
+    parse_stat(&block)
+}
+
 fn e_module(unit: &str) -> String {
     format!("`{unit}`")
 }
@@ -469,8 +495,14 @@ pub fn synthesize(
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     std::fs::write(dir.join(format!("{}.v", e.module)), &e.verilog)?;
     std::fs::write(dir.join("fxs_harness.v"), harness(e))?;
+    // The unit stays a module of its own (`keep_hierarchy`): synthesis
+    // optimizes nothing across its ports, as in a design that integrates
+    // it, its registers are packed there, and that module, as placed, is
+    // what `--netlist` writes for co-simulation (nextpnr flattens the
+    // hierarchy itself).
     let script = format!(
-        "read_verilog -sv {m}.v fxs_harness.v\n{synth}\ntee -q -o stat.txt stat\n",
+        "read_verilog -sv {m}.v fxs_harness.v\nsetattr -mod -set keep_hierarchy 1 {m}\n\
+         {synth}\ntee -q -o stat.txt stat\n",
         m = e.module,
         synth = target.yosys_synth()
     );
@@ -498,7 +530,7 @@ pub fn synthesize(
         std::fs::write(dir.join("harness_yosys.json"), &text)?;
         let mut netlist: serde_json::Value =
             serde_json::from_slice(&text).context("yosys's netlist is not JSON")?;
-        let st = crate::dsp_pack::pack_mult18(&mut netlist, "fxs_harness")?;
+        let st = crate::dsp_pack::pack_mult18(&mut netlist, &e.module)?;
         std::fs::write(&path, serde_json::to_vec(&netlist)?)?;
         cells = crate::dsp_pack::cell_counts(&netlist, "fxs_harness");
         dsp_packed = Some(st);
@@ -524,8 +556,14 @@ pub fn synthesize(
         .filter(|(n, _)| ["SB_CARRY", "CCU2C", "CARRY4"].contains(&n.as_str()))
         .map(|(_, c)| c)
         .sum();
-    let in_w: u64 = e.inputs.iter().map(|f| f.format.width() as u64).sum();
-    let out_w: u64 = e.outputs.iter().map(|f| f.format.width() as u64).sum();
+    // The harness's own flip-flops, as synthesis left them: those of its
+    // module (the unit is a module of its own).
+    let ff_class = target.classes()[1];
+    let harness_ff = parse_stat_module(&stat, "fxs_harness")
+        .iter()
+        .filter(|(n, _)| ff_class.iter().any(|p| n.starts_with(p)))
+        .map(|(_, c)| c)
+        .sum();
     let mut r = SynthResult {
         unit: unit.to_string(),
         module: e.module.clone(),
@@ -533,7 +571,7 @@ pub fn synthesize(
         device: target.device().to_string(),
         lut,
         ff,
-        harness_ff: in_w + e.setup.len() as u64 + out_w + 5,
+        harness_ff,
         dsp,
         bram,
         carry,
@@ -677,7 +715,7 @@ pub fn synthesize(
 
 /// The flow's own steps, in the cache key: a change to them measures
 /// again.
-const FLOW: &str = "ecp5-mult18-pack-4-stage-loads-no-copies-output-buffer";
+const FLOW: &str = "ecp5-mult18-pack-4-stage-loads-no-copies-output-buffer-unit-module";
 
 fn cache_entry(e: &Emitted, target: Target, flow: Flow) -> anyhow::Result<PathBuf> {
     let Flow {
@@ -731,19 +769,49 @@ pub fn cached(
     use_cache: bool,
     progress: &dyn Fn(&str),
 ) -> anyhow::Result<(SynthResult, bool)> {
+    let (r, hit, _) =
+        cached_with_netlist(unit, cfg, target, flow, keep, use_cache, None, progress)?;
+    Ok((r, hit))
+}
+
+/// [`cached`], and with `netlist` (ECP5) the unit's module of the netlist
+/// placed written there ([`crate::netlist::write`]): that needs the run's
+/// own netlist, so the cache is not read (the new result replaces the
+/// cached one).
+#[allow(clippy::too_many_arguments)]
+pub fn cached_with_netlist(
+    unit: &str,
+    cfg: &fxshade_model::Config,
+    target: Target,
+    flow: Flow,
+    keep: Option<&Path>,
+    use_cache: bool,
+    netlist: Option<&Path>,
+    progress: &dyn Fn(&str),
+) -> anyhow::Result<(SynthResult, bool, Option<crate::netlist::Written>)> {
     let u = crate::rtl_flow::unit(unit)?;
     let (d, e) = fxshade_model::rtl::units::emit_unit(u, cfg)?;
-    let (mut r, hit) = cached_emitted(unit, &e, target, flow, keep, use_cache, progress)?;
+    let (mut r, hit, written) = cached_emitted(
+        unit,
+        &e,
+        target,
+        flow,
+        keep,
+        use_cache && netlist.is_none(),
+        netlist,
+        progress,
+    )?;
     if let Some(p) = &mut r.critical_path {
         p.map_signals(&d.trace);
     }
     r.verdict = r
         .fmax_mhz
         .map(|f| crate::critical_path::Verdict::new(flow.freq, f, &r.fmax_seeds));
-    Ok((r, hit))
+    Ok((r, hit, written))
 }
 
-/// [`cached`] for an emitted module.
+/// [`cached_with_netlist`] for an emitted module.
+#[allow(clippy::too_many_arguments)]
 fn cached_emitted(
     unit: &str,
     e: &Emitted,
@@ -751,14 +819,15 @@ fn cached_emitted(
     flow: Flow,
     keep: Option<&Path>,
     use_cache: bool,
+    netlist: Option<&Path>,
     progress: &dyn Fn(&str),
-) -> anyhow::Result<(SynthResult, bool)> {
+) -> anyhow::Result<(SynthResult, bool, Option<crate::netlist::Written>)> {
     let entry = cache_entry(e, target, flow)?;
     if use_cache && keep.is_none() {
         if let Some(mut r) = read_entry(&entry)? {
             // Entries cached before the prediction was recorded lack it.
             r.predicted_mhz = e.predicted_ns.map(|t| 1000.0 / t);
-            return Ok((r, true));
+            return Ok((r, true, None));
         }
     }
     let mut tmp = None;
@@ -774,7 +843,18 @@ fn cached_emitted(
             p
         }
     };
-    let r = match synthesize(unit, e, target, flow, &dir, progress) {
+    let run = synthesize(unit, e, target, flow, &dir, progress).and_then(|r| {
+        let Some(out) = netlist else {
+            return Ok((r, None));
+        };
+        progress("gate-level netlist (Yosys)");
+        let work = dir.join("netlist");
+        std::fs::create_dir_all(&work)
+            .with_context(|| format!("cannot create {}", work.display()))?;
+        let w = crate::netlist::write(e, &dir.join("harness.json"), r.dsp_packed, &work, out)?;
+        Ok((r, Some(w)))
+    });
+    let (r, written) = match run {
         Ok(r) => r,
         Err(err) => {
             // Keep the logs the error names.
@@ -790,7 +870,7 @@ fn cached_emitted(
         Ok(()) | Err(fxshade_model::cache::CacheError::Full { .. }) => {}
         Err(e) => return Err(e.into()),
     }
-    Ok((r, false))
+    Ok((r, false, written))
 }
 
 impl Target {
@@ -889,7 +969,11 @@ pub fn run(a: &SynthArgs) -> anyhow::Result<()> {
     );
     let cfg = a.cfg.resolve_with(&extra)?;
     let bar = crate::progress::spinner("synth");
-    let r = cached(
+    if let Some(dir) = &a.netlist {
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("--netlist: cannot create {}", dir.display()))?;
+    }
+    let (r, was_cached, written) = cached_with_netlist(
         &a.unit,
         &cfg,
         a.target,
@@ -901,29 +985,9 @@ pub fn run(a: &SynthArgs) -> anyhow::Result<()> {
         },
         a.keep.as_deref(),
         !a.no_cache,
+        a.netlist.as_deref(),
         &|m| bar.set_message(m.to_string()),
-    );
-    let (r, was_cached) = r?;
-    let written = match &a.netlist {
-        Some(dir) => {
-            bar.set_message("gate-level netlist (Yosys)");
-            let u = crate::rtl_flow::unit(&a.unit)?;
-            let (_, e) = fxshade_model::rtl::units::emit_unit(u, &cfg)?;
-            std::fs::create_dir_all(dir)
-                .with_context(|| format!("--netlist: cannot create {}", dir.display()))?;
-            let work = tempfile::Builder::new()
-                .prefix("fxshade-netlist-")
-                .tempdir()
-                .context("cannot create a temporary directory")?;
-            let w = crate::netlist::write(&e, !a.no_dsp_pack, work.path(), dir);
-            if w.is_err() {
-                // Keep the logs the error names.
-                let _ = work.keep();
-            }
-            Some(w?)
-        }
-        None => None,
-    };
+    )?;
     bar.finish_and_clear();
     let mut t = Table::new([
         "unit",
@@ -1062,7 +1126,7 @@ fn calibrate(
     for p in &probes {
         bar.set_message(p.label.clone());
         let e = fxshade_model::rtl::emit(&p.design)?;
-        let (r, _) = cached_emitted(
+        let (r, _, _) = cached_emitted(
             "probe",
             &e,
             a.target,
@@ -1074,6 +1138,7 @@ fn calibrate(
             },
             None,
             !a.no_cache,
+            None,
             &|_| {},
         )?;
         bar.inc(1);
@@ -1135,5 +1200,55 @@ mod tests {
         assert!(overfull(log).is_empty());
         let log = "Info: \t         ICESTORM_LC:  1234/ 7680    16%\n";
         assert_eq!(logic_cells(log), Some(1234));
+    }
+
+    /// Yosys 0.23's `stat` of a harness that keeps the unit a module of
+    /// its own (trimmed): the totals are the last block's, the harness's
+    /// own cells its module's block.
+    #[test]
+    fn stat_of_a_hierarchy_gives_totals_and_the_harness_module() {
+        let stat = "=== fxs_harness ===
+
+   Number of wires:   20
+   Number of cells:  123
+                         LUT4   17
+     TRELLIS_FF  105
+     normalize    1
+
+                    === normalize ===
+
+   Number of cells:  2174
+     LUT4  277
+                         MULT18X18D    8
+     TRELLIS_FF 1711
+
+                    === design hierarchy ===
+
+   fxs_harness    1
+     normalize    1
+
+                       Number of wires:  451
+   Number of cells:  2296
+     LUT4  294
+                         MULT18X18D    8
+     TRELLIS_FF 1816
+";
+        assert_eq!(
+            parse_stat(stat),
+            [
+                ("LUT4".to_string(), 294),
+                ("MULT18X18D".into(), 8),
+                ("TRELLIS_FF".into(), 1816)
+            ]
+        );
+        assert_eq!(
+            parse_stat_module(stat, "fxs_harness"),
+            [
+                ("LUT4".to_string(), 17),
+                ("TRELLIS_FF".into(), 105),
+                ("normalize".into(), 1)
+            ]
+        );
+        assert!(parse_stat_module(stat, "other").is_empty());
     }
 }

@@ -188,6 +188,7 @@ fn the_polar_tables_go_to_block_ram() {
 fn ecp5_netlist(unit: &str, clock_ns: &str, extra: &[&str]) -> (tempfile::TempDir, Value) {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("gl");
+    let keep = dir.path().join("k");
     let mut args = vec![
         "synth",
         unit,
@@ -199,10 +200,45 @@ fn ecp5_netlist(unit: &str, clock_ns: &str, extra: &[&str]) -> (tempfile::TempDi
         "--json",
         "--netlist",
         out.to_str().unwrap(),
+        "--keep",
+        keep.to_str().unwrap(),
     ];
     args.extend_from_slice(extra);
     let r = json(&fxshade(&args));
     (dir, r)
+}
+
+/// The cells of the unit's module in the netlist `dir/k/harness.json`
+/// (what nextpnr places) and in the netlist written to `dir/gl/<module>.v`
+/// (what is co-simulated), by type: they must be one netlist.
+fn placed_and_simulated_cells(
+    dir: &std::path::Path,
+    module: &str,
+) -> (
+    std::collections::BTreeMap<String, u64>,
+    std::collections::BTreeMap<String, u64>,
+) {
+    let n: Value =
+        serde_json::from_slice(&std::fs::read(dir.join("k").join("harness.json")).unwrap())
+            .unwrap();
+    let mut placed = std::collections::BTreeMap::new();
+    for c in n["modules"][module]["cells"].as_object().unwrap().values() {
+        *placed
+            .entry(c["type"].as_str().unwrap().to_string())
+            .or_insert(0) += 1;
+    }
+    let v = std::fs::read_to_string(dir.join("gl").join(format!("{module}.v"))).unwrap();
+    let mut simulated = std::collections::BTreeMap::new();
+    for l in v.lines() {
+        // `  TRELLIS_FF #(` or `  LUT4 _123_ (`: an instance of a cell type.
+        let Some(t) = l.strip_prefix("  ").and_then(|r| r.split(' ').next()) else {
+            continue;
+        };
+        if placed.contains_key(t) && l.trim_end().ends_with('(') {
+            *simulated.entry(t.to_string()).or_insert(0) += 1;
+        }
+    }
+    (placed, simulated)
 }
 
 /// `rtl-check` of the netlist in `dir/gl` on Icarus: (passed, failed).
@@ -283,6 +319,14 @@ fn ecp5_gate_level_netlists_compute_what_the_model_computes() {
         p["inputs"].as_u64().unwrap() > 0 && p["outputs"].as_u64().unwrap() > 0,
         "something to check: {r}"
     );
+    // The netlist co-simulated is the module placed: cell for cell the
+    // unit's module of the packed JSON handed to nextpnr.
+    let (placed, simulated) = placed_and_simulated_cells(d.path(), "normalize");
+    assert!(
+        placed["MULT18X18D"] > 0 && placed["TRELLIS_FF"] > 100,
+        "{placed:?}"
+    );
+    assert_eq!(placed, simulated);
     assert_eq!(
         gate_level_check("normalize", "8", d.path(), n),
         (n as u64, 0)
@@ -526,11 +570,15 @@ fn the_output_fifo_is_lut_ram_on_ecp5_and_block_ram_on_ice40() {
 
 /// The synthesis harness drives each set-up port's valid from a register
 /// of its own, so the set-up registers can load and stay in the netlist
-/// with their load enable timed: in the ECP5 netlist Yosys writes for the
-/// smooth top at 7 ns, every set-up register bit (`X_q <= X_i`, both
-/// banks `X_b0_q`, `X_b1_q` of the triangle port) is a
-/// TRELLIS_FF whose CE is a net, never a constant. (With the item's valid
-/// on the set-up ports too, as before, all 387 had CE tied to 0.)
+/// with their load enable timed. In the ECP5 netlist placed for the smooth
+/// top at 7 ns (the unit a module of its own in the harness): every input
+/// port of the unit's instance but the clock and reset is driven by a
+/// harness flip-flop (no constant, no port tied to another), each valid by
+/// a flip-flop of its own; and in the unit's module every set-up register
+/// bit (`X_q <= X_i`, both banks `X_b0_q`, `X_b1_q` of the triangle port)
+/// is a TRELLIS_FF whose CE is a net, never a constant. (With the item's
+/// valid on the set-up ports too, as before, all 387 had CE tied to 0 in
+/// the flattened netlist.)
 #[test]
 fn set_up_registers_load_in_the_synthesis_harness() {
     let dir = tempfile::tempdir().unwrap();
@@ -567,24 +615,55 @@ fn set_up_registers_load_in_the_synthesis_harness() {
         "set-up registers of the smooth top: {regs:?}"
     );
     let n: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(keep.join("harness_yosys.json")).unwrap()).unwrap();
-    let m = &n["modules"]["fxs_harness"];
-    // Which cell drives each net bit.
-    let mut driver = std::collections::HashMap::new();
-    for (name, c) in m["cells"].as_object().unwrap() {
-        for (port, dir) in c["port_directions"].as_object().unwrap() {
-            if dir == "output" {
-                for b in c["connections"][port].as_array().unwrap() {
-                    if let Some(b) = b.as_u64() {
-                        driver.insert(b, name.clone());
+        serde_json::from_slice(&std::fs::read(keep.join("harness.json")).unwrap()).unwrap();
+    // Which cell drives each net bit of a module.
+    let drivers = |m: &Value| {
+        let mut driver = std::collections::HashMap::new();
+        for (name, c) in m["cells"].as_object().unwrap() {
+            for (port, dir) in c["port_directions"].as_object().unwrap() {
+                if dir == "output" {
+                    for b in c["connections"][port].as_array().unwrap() {
+                        if let Some(b) = b.as_u64() {
+                            driver.insert(b, name.clone());
+                        }
                     }
                 }
             }
         }
+        driver
+    };
+    let h = &n["modules"]["fxs_harness"];
+    let hd = drivers(h);
+    let (_, dut) = h["cells"]
+        .as_object()
+        .unwrap()
+        .iter()
+        .find(|(_, c)| c["type"] == "pipeline_smooth")
+        .expect("the unit is a module of its own in the placed netlist");
+    let mut valids = std::collections::BTreeSet::new();
+    let mut ports = 0;
+    for (port, dir) in dut["port_directions"].as_object().unwrap() {
+        if dir != "input" || port == "clk_i" || port == "rst_ni" {
+            continue;
+        }
+        ports += 1;
+        for b in dut["connections"][port].as_array().unwrap() {
+            let b = b
+                .as_u64()
+                .unwrap_or_else(|| panic!("{port} is tied to {b}"));
+            let ff = hd.get(&b).unwrap_or_else(|| panic!("{port}: no driver"));
+            assert_eq!(h["cells"][ff]["type"], "TRELLIS_FF", "{port}: {ff}");
+            if port.ends_with("valid_i") {
+                assert!(valids.insert(b), "{port} shares its valid's register");
+            }
+        }
     }
+    assert!(valids.len() >= 3 && ports > 20, "{valids:?}, {ports} ports");
+    let m = &n["modules"]["pipeline_smooth"];
+    let driver = drivers(m);
     let mut bits = 0;
     for r in &regs {
-        let net = &m["netnames"][format!("dut.{r}")];
+        let net = &m["netnames"][r.as_str()];
         assert!(net.is_object(), "{r} is not in the netlist");
         for b in net["bits"].as_array().unwrap() {
             let b = b
@@ -598,7 +677,7 @@ fn set_up_registers_load_in_the_synthesis_harness() {
         }
     }
     assert!(bits >= 200, "{bits} set-up register bits");
-    packer_rules_hold(&keep);
+    packer_rules_hold(&keep, "pipeline_smooth");
 }
 
 /// The packer's rules on the netlists of `dir` (`harness_yosys.json` as
@@ -612,15 +691,17 @@ fn set_up_registers_load_in_the_synthesis_harness() {
 /// be a copy, which the packer never makes). Most blocks take their
 /// operand registers in (the emitter gives every product registers of its
 /// own on ECP5).
-fn packer_rules_hold(dir: &std::path::Path) {
+fn packer_rules_hold(dir: &std::path::Path, unit_module: &str) {
     let read = |f: &str| -> serde_json::Value {
         serde_json::from_slice(&std::fs::read(dir.join(f)).unwrap()).unwrap()
     };
     let (before, after) = (read("harness_yosys.json"), read("harness.json"));
+    // The unit is a module of its own: the one packed and placed.
     let (mb, m) = (
-        &before["modules"]["fxs_harness"],
-        &after["modules"]["fxs_harness"],
+        &before["modules"][unit_module],
+        &after["modules"][unit_module],
     );
+    assert!(m["cells"].is_object(), "no module {unit_module}");
     let mut allowed = std::collections::HashSet::new();
     for (name, net) in m["netnames"].as_object().unwrap() {
         let leaf = name.rsplit('.').next().unwrap();
