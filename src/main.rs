@@ -104,7 +104,7 @@ enum Command {
     /// method or table depth; measure each point's error (unit analyses,
     /// rendered images) and hardware cost; Pareto fronts and plots; with
     /// --optimize, the cheapest per-stage widths meeting goals.
-    Explore(cmd::explore::ExploreArgs),
+    Explore(Box<cmd::explore::ExploreArgs>),
     /// Synthesize a unit's generated RTL with Yosys for a target and, where
     /// an open flow exists (nextpnr-ice40, nextpnr-ecp5), place and route it
     /// in a harness that registers every port: LUT, FF, DSP and block-RAM

@@ -65,6 +65,16 @@ pub struct ExploreArgs {
     /// `--goal`, checked on both simulators, written as a configuration.
     #[arg(long)]
     optimize: bool,
+    /// `--optimize`: keep this stage as configured (`unit.field`, or
+    /// `width.<group>` for its members; repeatable). The stages a `--set`
+    /// names and the output level (width group `level`, the pixel) are
+    /// kept without it.
+    #[arg(long, value_name = "KEY")]
+    freeze: Vec<String>,
+    /// `--optimize`: search this stage although a `--set` names it or it is
+    /// the output level (`unit.field` or `width.<group>`; repeatable).
+    #[arg(long, value_name = "KEY")]
+    free: Vec<String>,
     /// Most points `--optimize` measures after the uniform widths (which
     /// are always measured: one point per width from 8 to 26 bits).
     #[arg(long, default_value_t = 400, value_name = "N")]
@@ -325,6 +335,14 @@ fn check_disjoint(axes: &[sweep::Axis]) -> anyhow::Result<()> {
 }
 
 fn plan(a: &ExploreArgs) -> anyhow::Result<Plan> {
+    for (flag, given) in [("--freeze", &a.freeze), ("--free", &a.free)] {
+        if !a.optimize && !given.is_empty() {
+            return Err(UsageError(format!(
+                "{flag}: it tells --optimize which stages to keep; give --optimize too"
+            ))
+            .into());
+        }
+    }
     let file = match &a.sweep {
         Some(p) => read_sweep(p)?,
         None => SweepFile::default(),
@@ -1014,6 +1032,7 @@ fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow:
         .into());
     }
     let cfg = fxshade_model::Config::resolve(p.base.config.as_deref(), &p.base.set)?;
+    let frozen = optimize::frozen(&cfg, &p.base.set, &a.freeze, &a.free).map_err(UsageError)?;
     let meshes = explore::load_meshes(&p.options)?;
     let bar = crate::progress::bar_eta(a.max_evals as u64, "optimize");
     let o = optimize::run(
@@ -1025,6 +1044,7 @@ fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow:
         &meshes,
         cache,
         a.max_evals,
+        &frozen,
         &|what| {
             bar.set_message(what.to_string());
             bar.inc(1);
@@ -1109,6 +1129,18 @@ fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow:
         o.baseline.get(&o.minimize).unwrap_or(f64::NAN),
         100.0 * o.saving
     );
+    if !o.frozen.is_empty() {
+        toml += &format!(
+            "# kept as configured (not searched): {}\n",
+            fxshade_model::escape::line(
+                &o.frozen
+                    .iter()
+                    .map(|(k, f)| format!("{k} {f}"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )
+        );
+    }
     toml += &win_cfg.to_toml();
     dir.write("optimized.toml", toml.as_bytes())?;
     let json = serde_json::json!({
@@ -1169,13 +1201,13 @@ fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow:
         100.0 * o.saving,
         o.evaluations
     ));
-    let (vars, _) = optimize::vars(&cfg);
+    let vars = &o.vars;
     let bw: Vec<u32> = vars
         .iter()
         .map(|v| o.baseline_width.max(v.min_width()))
         .collect();
-    let bo = optimize::overrides(&vars, &bw).unwrap_or_default();
-    let wo = optimize::overrides(&vars, &o.widths).unwrap_or_default();
+    let bo = optimize::overrides(vars, &bw).unwrap_or_default();
+    let wo = optimize::overrides(vars, &o.widths).unwrap_or_default();
     for (k, v) in vars.iter().enumerate() {
         let f = |s: &[String]| {
             s.get(k)
@@ -1183,6 +1215,10 @@ fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow:
                 .map_or("-".to_string(), |x| x.1.to_string())
         };
         t.row([v.key.clone(), f(&bo), f(&wo)]);
+    }
+    for (key, format) in &o.frozen {
+        let kept = format!("{format} (kept)");
+        t.row([key.clone(), kept.clone(), kept]);
     }
     let mut m = Table::new(["metric", "baseline", "optimized"]);
     let mut names: Vec<String> = o.goals.iter().map(|g| g.metric.clone()).collect();

@@ -89,6 +89,87 @@ pub fn vars(cfg: &Config) -> (Vec<Var>, Vec<u32>) {
     (v, w)
 }
 
+/// The variables (`unit.field` keys of `vars`) a key names: `width.<group>`
+/// its members, `unit.field` or any key under it (`unit.field.format`)
+/// that stage; an error names a key that is neither.
+pub fn keys_named(cfg: &Config, vars: &[Var], key: &str) -> Result<Vec<String>, String> {
+    let key = key.split('=').next().unwrap_or(key).trim();
+    let named: Vec<String> = if let Some(group) = key.strip_prefix("width.") {
+        let members = cfg.group_members(group).ok_or_else(|| {
+            format!(
+                "no width group {group:?} (groups: {})",
+                fxshade_model::config::WIDTH_GROUPS
+                    .iter()
+                    .map(|(g, _)| *g)
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )
+        })?;
+        vars.iter()
+            .filter(|v| members.iter().any(|(k, _)| *k == v.key))
+            .map(|v| v.key.clone())
+            .collect()
+    } else {
+        vars.iter()
+            .filter(|v| key == v.key || key.starts_with(&format!("{}.", v.key)))
+            .map(|v| v.key.clone())
+            .collect()
+    };
+    Ok(named)
+}
+
+/// Which stages the search keeps as configured: every variable the user's
+/// `--set` keys name (the designer's choice is not searched), each
+/// `--freeze` key, and the output level (the pixel: width group `level`),
+/// less those a `--free` key names. Errors name the flag and the key.
+pub fn frozen(
+    cfg: &Config,
+    user_sets: &[String],
+    freeze: &[String],
+    free: &[String],
+) -> Result<Vec<String>, String> {
+    let (vars, _) = vars(cfg);
+    let mut out: Vec<String> = Vec::new();
+    let mut add = |ks: Vec<String>| {
+        for k in ks {
+            if !out.contains(&k) {
+                out.push(k);
+            }
+        }
+    };
+    for s in user_sets {
+        add(keys_named(cfg, &vars, s).unwrap_or_default());
+    }
+    add(keys_named(cfg, &vars, "width.level")?);
+    for k in freeze {
+        let ks = keys_named(cfg, &vars, k).map_err(|e| format!("--freeze {k}: {e}"))?;
+        if ks.is_empty() {
+            return Err(format!(
+                "--freeze {k}: no stage the search varies (it varies {})",
+                vars.iter()
+                    .map(|v| v.key.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ));
+        }
+        add(ks);
+    }
+    for k in free {
+        let ks = keys_named(cfg, &vars, k).map_err(|e| format!("--free {k}: {e}"))?;
+        if ks.is_empty() {
+            return Err(format!(
+                "--free {k}: no stage of the configured path's width groups (they are {})",
+                vars.iter()
+                    .map(|v| v.key.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ));
+        }
+        out.retain(|x| !ks.contains(x));
+    }
+    Ok(out)
+}
+
 /// The overrides that give the variables these widths.
 pub fn overrides(vars: &[Var], widths: &[u32]) -> Option<Vec<String>> {
     vars.iter()
@@ -106,6 +187,8 @@ pub struct Outcome {
     pub minimize: String,
     /// The variables.
     pub vars: Vec<Var>,
+    /// The stages kept as configured ([`frozen`]), with their formats.
+    pub frozen: Vec<(String, String)>,
     /// Every uniform width tried, with whether it met the goals and its cost.
     pub uniform: Vec<(u32, bool, Option<f64>)>,
     /// The smallest uniform width meeting every goal.
@@ -179,12 +262,42 @@ pub fn run(
     meshes: &[(String, fxshade_model::mesh::Mesh)],
     cache: &Cache,
     max_evals: usize,
+    frozen: &[String],
     tick: &(dyn Fn(&str) + Sync),
 ) -> anyhow::Result<Outcome> {
-    let (vars, _) = vars(cfg);
-    if vars.is_empty() {
-        bail!("the configured path has no width-group stage to optimize");
+    let (all, widths) = vars(cfg);
+    let mut kept = Vec::new();
+    let mut vars = Vec::new();
+    for (v, w) in all.into_iter().zip(widths) {
+        if frozen.contains(&v.key) {
+            kept.push((v, w));
+        } else {
+            vars.push(v);
+        }
     }
+    if vars.is_empty() {
+        bail!(
+            "the configured path has no width-group stage to optimize{}",
+            if kept.is_empty() {
+                String::new()
+            } else {
+                format!(
+                    " (frozen: {})",
+                    kept.iter()
+                        .map(|(v, _)| v.key.as_str())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                )
+            }
+        );
+    }
+    let frozen: Vec<(String, String)> = kept
+        .iter()
+        .map(|(v, w)| {
+            let f = v.format(*w).map(|f| f.to_string()).unwrap_or_default();
+            (v.key.clone(), f)
+        })
+        .collect();
     let s = Search {
         base,
         o,
@@ -312,5 +425,61 @@ pub fn run(
         saving: if bc > 0.0 { 1.0 - wc / bc } else { 0.0 },
         evaluations: s.evaluations.load(std::sync::atomic::Ordering::Relaxed),
         vars,
+        frozen,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sets(v: &[&str]) -> Vec<String> {
+        v.iter().map(|s| s.to_string()).collect()
+    }
+
+    /// The stages kept: a `--set`'s, `--freeze`'s, the output level by
+    /// default, less `--free`'s; keys named as the README names them (the
+    /// smooth path's groups: interp, normals, normalizer, shading, level).
+    #[test]
+    fn frozen_stages_are_the_designers_choices() {
+        let base = sets(&["lighting.spec.format=U1F17"]);
+        let cfg = Config::resolve(None, &base).unwrap();
+        let f = frozen(&cfg, &base, &[], &[]).unwrap();
+        assert_eq!(f, ["lighting.spec", "lighting.level"]);
+        let f = frozen(
+            &cfg,
+            &base,
+            &sets(&["width.interp"]),
+            &sets(&["width.level"]),
+        )
+        .unwrap();
+        assert_eq!(f, ["lighting.spec", "interp.bary", "interp.weight"]);
+        // A width group given with --set freezes its members on the path.
+        let g = sets(&["width.normalizer=18"]);
+        let cfg = Config::resolve(None, &g).unwrap();
+        let f = frozen(&cfg, &g, &[], &sets(&["lighting.level.format"])).unwrap();
+        assert_eq!(
+            f,
+            [
+                "normalize.d",
+                "normalize.coef",
+                "normalize.horner",
+                "normalize.g"
+            ]
+        );
+        // A --set off the searched stages freezes nothing more.
+        let o = sets(&["lighting.i0_km=0.8"]);
+        let cfg = Config::resolve(None, &o).unwrap();
+        assert_eq!(frozen(&cfg, &o, &[], &[]).unwrap(), ["lighting.level"]);
+        // Keys that name no searched stage are errors that say which flag.
+        let e = frozen(&cfg, &[], &sets(&["width.nothing"]), &[]).unwrap_err();
+        assert!(
+            e.starts_with("--freeze width.nothing: no width group"),
+            "{e}"
+        );
+        let e = frozen(&cfg, &[], &sets(&["polar.table"]), &[]).unwrap_err();
+        assert!(e.starts_with("--freeze polar.table: no stage"), "{e}");
+        let e = frozen(&cfg, &[], &[], &sets(&["interp.nothing"])).unwrap_err();
+        assert!(e.starts_with("--free interp.nothing: no stage"), "{e}");
+    }
 }
