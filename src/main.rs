@@ -2,6 +2,7 @@
 
 mod cmd;
 mod critical_path;
+mod device;
 mod dsp_pack;
 mod explore;
 mod ff_roles;

@@ -210,6 +210,7 @@ fn datasheet(
             freq: 1000.0 / clock,
             pnr: false,
             dsp_pack: true,
+            device: None,
         };
         let (r, _) = super::synth::cached(u.name, c, t, flow, None, true, &|_| {})
             .with_context(|| format!("{m}: synthesis for the resource table ({})", t.name()))?;

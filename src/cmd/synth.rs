@@ -123,6 +123,14 @@ pub struct SynthArgs {
     target: Target,
     #[command(flatten)]
     cfg: ConfigArgs,
+    /// The part of the target's family to place on (case-insensitive):
+    /// ecp5 LFE5U-85F (default), LFE5U-45F, LFE5U-25F;
+    /// ice40-hx8k iCE40HX8K (default), iCE40HX4K, iCE40HX1K; ice40-up5k
+    /// iCE40UP5K; xc7 xc7a35t, xc7a100t, xc7a200t (no placer: synthesis's
+    /// counts against the part's capacity). The utilisation is reported in
+    /// percent; a design that does not fit names the resource.
+    #[arg(long, value_name = "PART")]
+    device: Option<String>,
     /// Place-and-route seeds (the median Fmax is reported).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=15))]
     seeds: u32,
@@ -202,6 +210,12 @@ pub struct SynthResult {
     pub lut_ram: u64,
     /// Every cell type and its count.
     pub cells: Vec<(String, u64)>,
+    /// How much of the part the design uses: the placer's report of the
+    /// median seed (resources in use), or synthesis's counts against the
+    /// part's capacity where no placer runs ([`crate::device`]); empty
+    /// without either.
+    #[serde(default)]
+    pub utilisation: Vec<crate::device::Use>,
     /// Median Fmax over the seeds, MHz (None: no place and route).
     pub fmax_mhz: Option<f64>,
     /// Target pipelining: the Fmax the delay model predicts (its slowest
@@ -443,6 +457,9 @@ pub struct Flow {
     /// ECP5: move product registers into the MULT18X18D blocks
     /// ([`crate::dsp_pack`]).
     pub dsp_pack: bool,
+    /// The part placed on (None: the family's default,
+    /// [`crate::device::Device::default_of`]).
+    pub device: Option<crate::device::Device>,
 }
 
 impl Flow {
@@ -453,6 +470,7 @@ impl Flow {
         freq: 100.0,
         pnr: true,
         dsp_pack: true,
+        device: None,
     };
 }
 
@@ -470,7 +488,9 @@ pub fn synthesize(
         freq,
         pnr,
         dsp_pack,
+        device,
     } = flow;
+    let device = device.or(crate::device::Device::default_of(target));
     crate::rtl_flow::require_tool("yosys", "yosys")?;
     let pnr_tool = match target {
         Target::Ice40Hx8k | Target::Ice40Up5k if pnr => Some("nextpnr-ice40"),
@@ -568,7 +588,8 @@ pub fn synthesize(
         unit: unit.to_string(),
         module: e.module.clone(),
         target: target.name().to_string(),
-        device: target.device().to_string(),
+        device: device.map_or_else(|| target.device().to_string(), |d| d.describe()),
+        utilisation: Vec::new(),
         lut,
         ff,
         harness_ff,
@@ -605,6 +626,28 @@ pub fn synthesize(
             .flatten()
             .collect(),
     };
+    if let Some(d) = device.filter(|d| d.capacity.is_some()) {
+        // No placer counts for this family: synthesis's counts against the
+        // part's capacity (block RAM in 18 Kb halves).
+        let count = |t: &str| {
+            r.cells
+                .iter()
+                .filter(|(n, _)| n == t)
+                .map(|(_, c)| c)
+                .sum::<u64>()
+        };
+        let bram18 = count("RAMB18E1") + 2 * count("RAMB36E1");
+        r.utilisation = crate::device::from_capacity(&d, r.lut, r.ff, r.dsp, bram18);
+        let over = crate::device::overfull(&r.utilisation);
+        if !over.is_empty() {
+            bail!(
+                "{} does not fit the {}: {}",
+                e_module(unit),
+                d.describe(),
+                over.join(", ")
+            );
+        }
+    }
     let Some(tool) = pnr_tool else {
         r.fmax_note = Some(match target {
             Target::Generic => "generic synthesis: no device to place and route".into(),
@@ -615,6 +658,7 @@ pub fn synthesize(
     };
     let t1 = Instant::now();
     let mut placed_logic = Vec::new();
+    let mut logs = Vec::new();
     for seed in 1..=seeds {
         progress(&format!("nextpnr, seed {seed} of {seeds}"));
         let mut cmd = Command::new(if ecp5_pnr {
@@ -622,11 +666,8 @@ pub fn synthesize(
         } else {
             tool
         });
-        match target {
-            Target::Ice40Hx8k => cmd.args(["--hx8k", "--package", "ct256"]),
-            Target::Ice40Up5k => cmd.args(["--up5k", "--package", "sg48"]),
-            _ => cmd.args(["--85k", "--package", "CABGA381"]),
-        };
+        let part = device.context("a placed target has a device")?;
+        cmd.args(part.pnr_args);
         let report = format!("report_seed{seed}.json");
         cmd.args(["--json", "harness.json", "--freq"])
             .arg(format!("{freq}"))
@@ -641,19 +682,12 @@ pub fn synthesize(
             } else {
                 tool
             });
-            cmd.args([
-                "--85k",
-                "--package",
-                "CABGA381",
-                "--timing-allow-fail",
-                "--json",
-                "harness.json",
-                "--freq",
-            ])
-            .arg(format!("{freq}"))
-            .args(["--seed", &seed.to_string()])
-            .args(["--report", &report])
-            .current_dir(dir);
+            cmd.args(part.pnr_args)
+                .args(["--timing-allow-fail", "--json", "harness.json", "--freq"])
+                .arg(format!("{freq}"))
+                .args(["--seed", &seed.to_string()])
+                .args(["--report", &report])
+                .current_dir(dir);
         }
         let log_path = dir.join(format!("nextpnr_seed{seed}.log"));
         let log = match run_logged(&mut cmd, &log_path, tool) {
@@ -667,7 +701,7 @@ pub fn synthesize(
                 bail!(
                     "{} does not fit the {}: {} (log: {})",
                     e_module(unit),
-                    target.device(),
+                    part.describe(),
                     over.join(", "),
                     log_path.display()
                 );
@@ -683,6 +717,7 @@ pub fn synthesize(
         if let Some(n) = logic_cells(&log) {
             placed_logic.push(n);
         }
+        logs.push(log);
     }
     placed_logic.sort_unstable();
     r.logic_cells = placed_logic.get(placed_logic.len() / 2).copied();
@@ -699,6 +734,7 @@ pub fn synthesize(
         .position(|&f| f == med)
         .expect("the median is a seed")
         + 1;
+    r.utilisation = crate::device::placed(&logs[seed - 1]);
     let report = dir.join(format!("report_seed{seed}.json"));
     let bytes = std::fs::read(&report)
         .with_context(|| format!("{tool} wrote no timing report {}", report.display()))?;
@@ -723,7 +759,11 @@ fn cache_entry(e: &Emitted, target: Target, flow: Flow) -> anyhow::Result<PathBu
         freq,
         pnr,
         dsp_pack,
+        device,
     } = flow;
+    let device = device
+        .or(crate::device::Device::default_of(target))
+        .map_or("", |d| d.name);
     static VERSIONS: std::sync::OnceLock<String> = std::sync::OnceLock::new();
     let versions = VERSIONS.get_or_init(|| {
         format!(
@@ -736,7 +776,7 @@ fn cache_entry(e: &Emitted, target: Target, flow: Flow) -> anyhow::Result<PathBu
         e.verilog.as_bytes(),
         harness(e).as_bytes(),
         target.name().as_bytes(),
-        format!("{seeds} {freq} {pnr} {dsp_pack} {versions} {FLOW}").as_bytes(),
+        format!("{seeds} {freq} {pnr} {dsp_pack} {device} {versions} {FLOW}").as_bytes(),
     ]);
     Ok(fxshade_model::cache::subdir("synth")?.join(format!("{key:016x}.json")))
 }
@@ -902,6 +942,10 @@ pub fn run(a: &SynthArgs) -> anyhow::Result<()> {
     if !(freq.is_finite() && freq > 0.0) {
         return Err(UsageError(format!("--freq {freq}: give a clock in MHz above 0")).into());
     }
+    let device = match &a.device {
+        Some(name) => Some(crate::device::Device::find(a.target, name).map_err(UsageError)?),
+        None => None,
+    };
     let tt = a.target.timing();
     if a.clock_ns.is_some() && tt.is_none() {
         return Err(UsageError(
@@ -960,7 +1004,7 @@ pub fn run(a: &SynthArgs) -> anyhow::Result<()> {
             )
             .into());
         };
-        return calibrate(a, tt, freq);
+        return calibrate(a, tt, freq, device);
     }
     let extra = super::pipeline_overrides(
         a.pipeline.as_deref(),
@@ -982,6 +1026,7 @@ pub fn run(a: &SynthArgs) -> anyhow::Result<()> {
             freq,
             pnr: !a.no_pnr,
             dsp_pack: !a.no_dsp_pack,
+            device,
         },
         a.keep.as_deref(),
         !a.no_cache,
@@ -1035,6 +1080,26 @@ pub fn run(a: &SynthArgs) -> anyhow::Result<()> {
     let mut json = serde_json::to_value(&r)?;
     json["cached"] = serde_json::json!(was_cached);
     let mut tables = vec![t];
+    if !r.utilisation.is_empty() {
+        let mut u = Table::new(["resource", "used", "available", "use"]).titled(format!(
+            "Utilisation of the {} ({})",
+            r.device,
+            if r.fmax_seeds.is_empty() {
+                "synthesis's counts against the part's capacity"
+            } else {
+                "the placer's report, median seed"
+            }
+        ));
+        for x in &r.utilisation {
+            u.row([
+                x.resource.clone(),
+                x.used.to_string(),
+                x.available.to_string(),
+                format!("{:.1} %", x.percent),
+            ]);
+        }
+        tables.push(u);
+    }
     if !r.ff_roles.is_empty() {
         let mut f = Table::new(["role", "flip-flops", "share"])
             .titled("Flip-flops by role (the netlist placed; roles: src/ff_roles.rs)");
@@ -1102,6 +1167,7 @@ fn calibrate(
     a: &SynthArgs,
     tt: fxshade_model::rtl::timing::Target,
     freq: f64,
+    device: Option<crate::device::Device>,
 ) -> anyhow::Result<()> {
     if a.no_pnr {
         return Err(UsageError("synth calibrate measures periods: drop --no-pnr".into()).into());
@@ -1135,6 +1201,7 @@ fn calibrate(
                 freq,
                 pnr: true,
                 dsp_pack: !a.no_dsp_pack,
+                device,
             },
             None,
             !a.no_cache,

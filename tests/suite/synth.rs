@@ -12,6 +12,10 @@ fn json(o: &std::process::Output) -> Value {
 /// Multipliers of the angle interpolation `a3 + c1·d1 + c2·d2`: two.
 const ANGLE_INTERP_MULS: u64 = 2;
 
+/// Placed on the smallest part of the HX family (`--device`): the
+/// figures, the utilisation against the part's 1 280 logic cells (iCE40
+/// family data sheet), the cache; a unit that cannot fit names the
+/// resource; parts of another family are refused.
 #[test]
 fn ice40_place_and_route_gives_cells_fmax_and_latency() {
     let r = json(&fxshade(&[
@@ -19,9 +23,21 @@ fn ice40_place_and_route_gives_cells_fmax_and_latency() {
         "angle_interp",
         "--target",
         "ice40-hx8k",
+        "--device",
+        "ice40hx1k",
         "--no-cache",
         "--json",
     ]));
+    assert_eq!(r["device"], "iCE40HX1K (tq144)", "{r}");
+    let util = r["utilisation"].as_array().expect("utilisation");
+    let lcs = util
+        .iter()
+        .find(|u| u["resource"] == "ICESTORM_LC")
+        .expect("logic cells in the utilisation");
+    assert_eq!(lcs["available"], 1280, "{lcs}");
+    assert_eq!(lcs["used"], r["logic_cells"], "{r}");
+    let pct = lcs["percent"].as_f64().unwrap();
+    assert!((pct - 100.0 * lcs["used"].as_f64().unwrap() / 1280.0).abs() < 1e-9);
     assert_eq!(r["cached"], false);
     assert_eq!(r["dsp"], 0, "HX8K has no DSP: {r}");
     assert!(r["lut"].as_u64().unwrap() > 100, "two LUT multipliers: {r}");
@@ -51,13 +67,50 @@ fn ice40_place_and_route_gives_cells_fmax_and_latency() {
         "angle_interp",
         "--target",
         "ice40-hx8k",
+        "--device",
+        "iCE40HX1K",
         "--json",
     ]));
     assert_eq!(c["cached"], true);
     assert_eq!(
-        (c["lut"].clone(), c["fmax_mhz"].clone()),
-        (r["lut"].clone(), r["fmax_mhz"].clone())
+        (
+            c["lut"].clone(),
+            c["fmax_mhz"].clone(),
+            c["utilisation"].clone()
+        ),
+        (
+            r["lut"].clone(),
+            r["fmax_mhz"].clone(),
+            r["utilisation"].clone()
+        )
     );
+    // The normalizer's LUT multipliers do not fit 1 280 logic cells.
+    let o = fxshade(&[
+        "synth",
+        "normalize",
+        "--target",
+        "ice40-hx8k",
+        "--device",
+        "iCE40HX1K",
+        "--no-cache",
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(
+        text(&o).contains("does not fit the iCE40HX1K (tq144): ICESTORM_LC ")
+            && text(&o).contains("/1280"),
+        "{}",
+        text(&o)
+    );
+    let o = fxshade(&[
+        "synth",
+        "angle_interp",
+        "--target",
+        "ecp5",
+        "--device",
+        "iCE40HX1K",
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("LFE5U-25F"), "{}", text(&o));
 }
 
 #[test]
