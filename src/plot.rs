@@ -198,6 +198,144 @@ pub fn plot(
     Ok((crate::picture::rgb_png(w as usize, h as usize, &rgb)?, svg))
 }
 
+/// A two-axis sweep's metric as a heat map: one cell per pair of axis
+/// values (`x` across, `y` up), coloured from light (smallest) to dark
+/// (largest) on a linear scale, each cell printed with its value
+/// (`-` where the point has none).
+pub struct Grid<'a> {
+    /// Title.
+    pub title: &'a str,
+    /// The first axis (across) and its values.
+    pub x: (&'a str, &'a [String]),
+    /// The second axis (up) and its values.
+    pub y: (&'a str, &'a [String]),
+    /// `cells[i][j]`: the value at `x[i]`, `y[j]`.
+    pub cells: &'a [Vec<Option<f64>>],
+}
+
+/// The colour of `t` in 0..=1: light yellow to dark blue.
+fn scale(t: f64) -> RGBColor {
+    let t = if t.is_finite() {
+        t.clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let (a, b) = ((255.0, 247.0, 188.0), (8.0, 48.0, 107.0));
+    let m = |u: f64, v: f64| (u + (v - u) * t).round() as u8;
+    RGBColor(m(a.0, b.0), m(a.1, b.1), m(a.2, b.2))
+}
+
+fn draw_grid<DB: DrawingBackend>(
+    root: DrawingArea<DB, plotters::coord::Shift>,
+    g: &Grid,
+    fmt: &dyn Fn(f64) -> String,
+) -> anyhow::Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    let e = |e| anyhow::anyhow!("{e:?}");
+    root.fill(&WHITE).map_err(e)?;
+    let (nx, ny) = (g.x.1.len(), g.y.1.len());
+    let vals = g.cells.iter().flatten().flatten().copied();
+    let (lo, hi) = vals
+        .clone()
+        .filter(|v| v.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+            (a.min(v), b.max(v))
+        });
+    let mut chart = ChartBuilder::on(&root)
+        .caption(g.title, ("sans-serif", 18))
+        .margin(12)
+        .x_label_area_size(44)
+        .y_label_area_size(90)
+        .build_cartesian_2d(0f64..nx.max(1) as f64, 0f64..ny.max(1) as f64)
+        .map_err(e)?;
+    let xl = |v: &f64| {
+        let i = (v - 0.5).round();
+        if (v - 0.5 - i).abs() < 1e-6 && i >= 0.0 {
+            g.x.1.get(i as usize).cloned().unwrap_or_default()
+        } else {
+            String::new()
+        }
+    };
+    let yl = |v: &f64| {
+        let j = (v - 0.5).round();
+        if (v - 0.5 - j).abs() < 1e-6 && j >= 0.0 {
+            g.y.1.get(j as usize).cloned().unwrap_or_default()
+        } else {
+            String::new()
+        }
+    };
+    chart
+        .configure_mesh()
+        .disable_mesh()
+        .x_desc(g.x.0)
+        .y_desc(g.y.0)
+        .x_labels(2 * nx + 1)
+        .y_labels(2 * ny + 1)
+        .x_label_formatter(&xl)
+        .y_label_formatter(&yl)
+        .label_style(("sans-serif", 13))
+        .draw()
+        .map_err(e)?;
+    for (i, col) in g.cells.iter().enumerate() {
+        for (j, v) in col.iter().enumerate() {
+            let t = match v {
+                Some(v) if hi > lo => (v - lo) / (hi - lo),
+                _ => 0.0,
+            };
+            let fill = if v.is_some() { scale(t) } else { WHITE };
+            let (x, y) = (i as f64, j as f64);
+            chart
+                .draw_series(std::iter::once(Rectangle::new(
+                    [(x, y), (x + 1.0, y + 1.0)],
+                    fill.filled(),
+                )))
+                .map_err(e)?;
+            chart
+                .draw_series(std::iter::once(Rectangle::new(
+                    [(x, y), (x + 1.0, y + 1.0)],
+                    RGBColor(200, 200, 200).stroke_width(1),
+                )))
+                .map_err(e)?;
+            let text = v.map_or("-".to_string(), fmt);
+            let ink = if t > 0.55 { WHITE } else { BLACK };
+            let style = ("sans-serif", 14).into_font().color(&ink).pos(
+                plotters::style::text_anchor::Pos::new(
+                    plotters::style::text_anchor::HPos::Center,
+                    plotters::style::text_anchor::VPos::Center,
+                ),
+            );
+            chart
+                .draw_series(std::iter::once(Text::new(text, (x + 0.5, y + 0.5), style)))
+                .map_err(e)?;
+        }
+    }
+    root.present().map_err(e)?;
+    Ok(())
+}
+
+/// [`Grid`] as `(PNG bytes, SVG text)`, values printed by `fmt`.
+pub fn grid(g: &Grid, fmt: &dyn Fn(f64) -> String) -> anyhow::Result<(Vec<u8>, String)> {
+    register();
+    let (w, h) = SIZE;
+    let mut rgb = vec![255u8; (3 * w * h) as usize];
+    draw_grid(
+        BitMapBackend::with_buffer(&mut rgb, (w, h)).into_drawing_area(),
+        g,
+        fmt,
+    )
+    .with_context(|| format!("drawing the grid `{}`", g.title))?;
+    let mut svg = String::new();
+    draw_grid(
+        SVGBackend::with_string(&mut svg, (w, h)).into_drawing_area(),
+        g,
+        fmt,
+    )
+    .with_context(|| format!("drawing the grid `{}` as SVG", g.title))?;
+    Ok((crate::picture::rgb_png(w as usize, h as usize, &rgb)?, svg))
+}
+
 /// A histogram as bars: `counts[k]` of the bin `labels[k]`, drawn as a
 /// line over bin indices (plots it through [`plot`]).
 pub fn histogram(

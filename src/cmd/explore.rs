@@ -530,6 +530,37 @@ struct Results {
     #[serde(default)]
     /// The sweep index of the cheapest point meeting every goal.
     cheapest_meeting_goals: Option<usize>,
+    /// Each measured point's configuration file and `--set` line.
+    #[serde(default)]
+    point_configs: Vec<PointConfig>,
+    /// A two-axis sweep's grids: per shown metric, its CSV and heat map.
+    #[serde(default)]
+    grids: Vec<serde_json::Value>,
+}
+
+/// How to reproduce one point in another command.
+#[derive(serde::Serialize, serde::Deserialize, Clone, Debug)]
+struct PointConfig {
+    /// The point's sweep index.
+    index: usize,
+    /// Its effective configuration, relative to the output directory
+    /// (`points/point_<index>.toml`; `--config` reads it).
+    file: String,
+    /// The same configuration as flags: the base's `--config` and every
+    /// `--set` (the base's, then the point's), shell-quoted.
+    flags: String,
+}
+
+/// `s` quoted for a POSIX shell.
+fn shell_quote(s: &str) -> String {
+    if !s.is_empty()
+        && s.bytes()
+            .all(|b| b.is_ascii_alphanumeric() || b"._-=/:,+".contains(&b))
+    {
+        s.to_string()
+    } else {
+        format!("'{}'", s.replace('\'', "'\\''"))
+    }
 }
 
 /// Run it.
@@ -638,6 +669,8 @@ fn run_all(a: &ExploreArgs) -> anyhow::Result<()> {
         rows,
         pareto: Vec::new(),
         cheapest_meeting_goals: None,
+        point_configs: Vec::new(),
+        grids: Vec::new(),
     };
     finish(a, res, out)
 }
@@ -799,6 +832,115 @@ fn finish(a: &ExploreArgs, mut res: Results, out: &Path) -> anyhow::Result<()> {
             }
         }
     }
+    // A two-axis sweep: each shown metric as a grid (CSV, heat map).
+    let mut grid_tables = Vec::new();
+    res.grids.clear();
+    if res.axes.len() == 2 && !res.rows.is_empty() {
+        let values = |k: usize| {
+            let mut v: Vec<String> = Vec::new();
+            for r in &res.rows {
+                if !v.contains(&r.labels[k].1) {
+                    v.push(r.labels[k].1.clone());
+                }
+            }
+            v
+        };
+        let (xs, ys) = (values(0), values(1));
+        for (k, metric) in shown_metrics(&res).iter().enumerate() {
+            let cells: Vec<Vec<Option<f64>>> = xs
+                .iter()
+                .map(|x| {
+                    ys.iter()
+                        .map(|y| {
+                            res.rows
+                                .iter()
+                                .find(|r| &r.labels[0].1 == x && &r.labels[1].1 == y)
+                                .filter(|r| r.error.is_none())
+                                .and_then(|r| r.get(metric))
+                        })
+                        .collect()
+                })
+                .collect();
+            let stem = format!("grid_{k}");
+            let mut w = csv::Writer::from_writer(Vec::new());
+            let mut head = vec![format!("{} \\ {}", res.axes[0], res.axes[1])];
+            head.extend(ys.iter().cloned());
+            w.write_record(&head)?;
+            let mut t = Table::new(head.clone()).titled(format!(
+                "{metric} over {} (down) and {} (across); {stem}.csv, {stem}.png",
+                res.axes[0], res.axes[1]
+            ));
+            for (x, col) in xs.iter().zip(&cells) {
+                let mut row = vec![x.clone()];
+                row.extend(
+                    col.iter()
+                        .map(|v| v.map_or(String::new(), |v| format!("{v}"))),
+                );
+                w.write_record(&row)?;
+                let mut shown_row = vec![x.clone()];
+                shown_row.extend(col.iter().map(|v| v.map_or("-".into(), fmt_num)));
+                t.row(shown_row);
+            }
+            dir.write(&format!("{stem}.csv"), &w.into_inner()?)?;
+            let (png, svg) = crate::plot::grid(
+                &crate::plot::Grid {
+                    title: &format!("{metric} over {} and {}", res.axes[0], res.axes[1]),
+                    x: (&res.axes[0], &xs),
+                    y: (&res.axes[1], &ys),
+                    cells: &cells,
+                },
+                &fmt_num,
+            )?;
+            dir.write(&format!("{stem}.png"), &png)?;
+            dir.write(&format!("{stem}.svg"), svg.as_bytes())?;
+            res.grids.push(serde_json::json!({
+                "metric": metric, "x": res.axes[0], "y": res.axes[1],
+                "csv": format!("{stem}.csv"), "png": format!("{stem}.png"), "svg": format!("{stem}.svg"),
+            }));
+            grid_tables.push(t);
+        }
+    }
+    // Every point's configuration, as a file `--config` reads and as the
+    // flags that make it, so `vectors`, `synth`, `render` reproduce it.
+    res.point_configs.clear();
+    for r in res.rows.iter().filter(|r| r.error.is_none()) {
+        let Ok(cfg) = res.base.resolve(&r.overrides) else {
+            continue;
+        };
+        let mut flags: Vec<String> = Vec::new();
+        if let Some(c) = &res.base.config {
+            flags.push(format!(
+                "--config {}",
+                shell_quote(&c.display().to_string())
+            ));
+        }
+        // The axes' own spelling (`width.normals=12`) where it makes the
+        // same configuration, else the overrides it expands to.
+        let spelled: Vec<String> = r.labels.iter().map(|(k, v)| format!("{k}={v}")).collect();
+        let same = res
+            .base
+            .resolve(&spelled)
+            .is_ok_and(|c| explore::canonical(&c) == explore::canonical(&cfg));
+        let sets = if same { &spelled } else { &r.overrides };
+        for o in res.base.set.iter().chain(sets) {
+            flags.push(format!("--set {}", shell_quote(o)));
+        }
+        let flags = flags.join(" ");
+        let file = format!("points/point_{:04}.toml", r.index);
+        let text = format!(
+            "# fxshade explore point {}: {}\n# the same configuration as flags: {}\n{}",
+            r.index,
+            fxshade_model::escape::line(&label(r)),
+            fxshade_model::escape::line(&flags),
+            cfg.to_toml()
+        );
+        dir.write(&file, text.as_bytes())?;
+        res.point_configs.push(PointConfig {
+            index: r.index,
+            file,
+            flags,
+        });
+    }
     dir.write(
         "points.csv",
         explore::to_csv(&res.axes, &res.rows)?.as_bytes(),
@@ -809,25 +951,14 @@ fn finish(a: &ExploreArgs, mut res: Results, out: &Path) -> anyhow::Result<()> {
     )?;
     dir.commit()?;
     // The printed table: the axes, the Pareto metrics and the goals' metrics.
-    let mut shown: Vec<String> = Vec::new();
-    for (e, c) in &res.pareto_metrics {
-        for m in [e, c] {
-            if !shown.contains(m) {
-                shown.push(m.clone());
-            }
-        }
-    }
-    for g in &res.goals {
-        if !shown.contains(&g.metric) {
-            shown.push(g.metric.clone());
-        }
-    }
+    let shown = shown_metrics(&res);
     let mut header = vec!["#".to_string()];
     header.extend(res.axes.iter().cloned());
     header.extend(shown.iter().cloned());
     header.push("note".into());
     let mut t = Table::new(header).titled(format!(
-        "{} of {} points{} (every metric: {}/points.csv)",
+        "{} of {} points{} (every metric: {}/points.csv; each point's configuration: \
+         points/point_<#>.toml)",
         res.rows.len(),
         res.total,
         res.shard
@@ -858,7 +989,27 @@ fn finish(a: &ExploreArgs, mut res: Results, out: &Path) -> anyhow::Result<()> {
         row.push(note.join("; "));
         t.row(row);
     }
-    crate::output::emit(a.output, &[t], &serde_json::to_value(&res)?)
+    let mut tables = vec![t];
+    tables.extend(grid_tables);
+    crate::output::emit(a.output, &tables, &serde_json::to_value(&res)?)
+}
+
+/// The metrics a sweep shows: its Pareto metrics, then its goals'.
+fn shown_metrics(res: &Results) -> Vec<String> {
+    let mut shown: Vec<String> = Vec::new();
+    for (e, c) in &res.pareto_metrics {
+        for m in [e, c] {
+            if !shown.contains(m) {
+                shown.push(m.clone());
+            }
+        }
+    }
+    for g in &res.goals {
+        if !shown.contains(&g.metric) {
+            shown.push(g.metric.clone());
+        }
+    }
+    shown
 }
 
 fn fmt_num(v: f64) -> String {
@@ -1003,6 +1154,8 @@ fn merge(a: &ExploreArgs) -> anyhow::Result<()> {
         rows,
         pareto: Vec::new(),
         cheapest_meeting_goals: None,
+        point_configs: Vec::new(),
+        grids: Vec::new(),
         ..first
     };
     // Goals, Pareto pairs and the cost given to --merge replace the shards'
@@ -1253,4 +1406,20 @@ fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow:
         ))?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::shell_quote;
+
+    #[test]
+    fn flags_are_quoted_for_a_shell() {
+        assert_eq!(shell_quote("width.normals=12"), "width.normals=12");
+        assert_eq!(
+            shell_quote("pipeline.path=\"mapped\""),
+            "'pipeline.path=\"mapped\"'"
+        );
+        assert_eq!(shell_quote("a b'c"), "'a b'\\''c'");
+        assert_eq!(shell_quote(""), "''");
+    }
 }

@@ -120,6 +120,26 @@ fn twelve_against_sixteen_bit_normals_in_one_command() {
     ] {
         assert!(out.join(f).is_file(), "{f} missing");
     }
+    // Each point's configuration file reproduces it in another command,
+    // and its flags are the sweep's spelling.
+    let pc = &r["point_configs"][0];
+    assert_eq!(pc["index"], 0, "{pc}");
+    assert_eq!(pc["flags"], "--set width.normals=12", "{pc}");
+    let file = out.join(pc["file"].as_str().unwrap());
+    let e = json(&fxshade(&[
+        "error",
+        "interp",
+        "--count",
+        "20000",
+        "--json",
+        "--config",
+        file.to_str().unwrap(),
+    ]));
+    assert_eq!(
+        e["max_angle_err_deg"].as_f64().unwrap(),
+        metric(&rows[0], "interp.max_angle_err_deg")
+    );
+    assert!(out.join("points").join("point_0001.toml").is_file());
 }
 
 fn sweep(cache: &std::path::Path, out: &std::path::Path, vary: &str, extra: &[&str]) -> Value {
@@ -568,4 +588,69 @@ fn optimize_meets_both_goals_beats_the_uniform_width_and_passes_the_rtl() {
         "icarus",
     ]);
     assert!(chk.status.success(), "{}", text(&chk));
+}
+
+/// A two-axis sweep: each shown metric as a grid (first axis down, second
+/// across) in a CSV whose every cell is the point with those two values,
+/// and as a heat map; a one-axis sweep has none.
+#[test]
+fn a_two_axis_sweep_gives_grids() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("g");
+    let r = json(&fxshade(&[
+        "explore",
+        "--vary",
+        "width.normals=10,12,14",
+        "--vary",
+        "normalize.method=linear,quadratic",
+        "--analyses",
+        "normalize,cost",
+        "--samples",
+        "5000",
+        "--no-cache",
+        "--out",
+        out.to_str().unwrap(),
+        "--json",
+    ]));
+    let grids = r["grids"].as_array().unwrap();
+    assert!(!grids.is_empty(), "{r}");
+    let g = &grids[0];
+    let m = g["metric"].as_str().unwrap();
+    let csv = std::fs::read_to_string(out.join(g["csv"].as_str().unwrap())).unwrap();
+    let mut lines = csv.lines();
+    let head: Vec<&str> = lines.next().unwrap().split(',').collect();
+    assert_eq!(head[1..], ["linear", "quadratic"], "{csv}");
+    let mut cells = 0;
+    for (line, width) in lines.zip(["10", "12", "14"]) {
+        let f: Vec<&str> = line.split(',').collect();
+        assert_eq!(f[0], width, "{csv}");
+        for (k, method) in ["linear", "quadratic"].iter().enumerate() {
+            let row = r["rows"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .find(|x| x["labels"][0][1] == width && x["labels"][1][1] == *method)
+                .unwrap();
+            assert_eq!(f[k + 1].parse::<f64>().unwrap(), metric(row, m));
+            cells += 1;
+        }
+    }
+    assert_eq!(cells, 6);
+    let png = std::fs::read(out.join(g["png"].as_str().unwrap())).unwrap();
+    assert_eq!(&png[1..4], b"PNG");
+    // One axis: no grid.
+    let one = json(&fxshade(&[
+        "explore",
+        "--vary",
+        "width.normals=10,12",
+        "--analyses",
+        "normalize,cost",
+        "--samples",
+        "5000",
+        "--no-cache",
+        "--out",
+        dir.path().join("one").to_str().unwrap(),
+        "--json",
+    ]));
+    assert!(one["grids"].as_array().unwrap().is_empty(), "{one}");
 }
