@@ -954,7 +954,7 @@ fn finish(a: &ExploreArgs, mut res: Results, out: &Path) -> anyhow::Result<()> {
     let shown = shown_metrics(&res);
     let mut header = vec!["#".to_string()];
     header.extend(res.axes.iter().cloned());
-    header.extend(shown.iter().cloned());
+    header.extend(shown.iter().map(|m| with_design(m, &res.options)));
     header.push("note".into());
     let mut t = Table::new(header).titled(format!(
         "{} of {} points{} (every metric: {}/points.csv; each point's configuration: \
@@ -992,6 +992,22 @@ fn finish(a: &ExploreArgs, mut res: Results, out: &Path) -> anyhow::Result<()> {
     let mut tables = vec![t];
     tables.extend(grid_tables);
     crate::output::emit(a.output, &tables, &serde_json::to_value(&res)?)
+}
+
+/// A metric's column heading with the design it measures: the top's
+/// costs `[top]`, `--synth`'s figures `[<unit> on <target>]`; a unit's own
+/// costs (`cost.<unit>.*`) and the error metrics name it already.
+fn with_design(m: &str, o: &explore::Options) -> String {
+    if eval::SYNTH_METRICS.contains(&m) {
+        return match &o.synth {
+            Some((target, unit)) => format!("{m} [{unit} on {target}]"),
+            None => m.to_string(),
+        };
+    }
+    if eval::group_of(m) == "cost" && !m.starts_with("cost.") {
+        return format!("{m} [top]");
+    }
+    m.to_string()
 }
 
 /// The metrics a sweep shows: its Pareto metrics, then its goals'.

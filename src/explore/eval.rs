@@ -59,6 +59,26 @@ pub const METRICS: &[(&str, &str)] = &[
     ("table_bits", "… bits stored in its ROMs"),
     ("ff", "… its flip-flops (data, flags, valid bits)"),
     ("latency", "… cycles from input to output"),
+    ("cost.normalize.bit_products", "the normalize unit's own RTL module (with the normalize analysis): Σ a_width × b_width"),
+    ("cost.normalize.table_bits", "… bits in its ROMs"),
+    ("cost.normalize.ff", "… its flip-flops"),
+    ("cost.normalize.latency", "… its latency, cycles"),
+    ("cost.interp.bit_products", "the interp unit's own RTL module (with the interp analysis): Σ a_width × b_width"),
+    ("cost.interp.table_bits", "… bits in its ROMs"),
+    ("cost.interp.ff", "… its flip-flops"),
+    ("cost.interp.latency", "… its latency, cycles"),
+    ("cost.polar.bit_products", "the polar unit's own RTL module (with the polar analysis): Σ a_width × b_width"),
+    ("cost.polar.table_bits", "… bits in its sin/cos ROMs"),
+    ("cost.polar.ff", "… its flip-flops"),
+    ("cost.polar.latency", "… its latency, cycles"),
+    ("cost.angles.bit_products", "the angles unit's own RTL module (with the angles analysis): Σ a_width × b_width"),
+    ("cost.angles.table_bits", "… bits in its ROMs"),
+    ("cost.angles.ff", "… its flip-flops"),
+    ("cost.angles.latency", "… its latency, cycles"),
+    ("cost.lighting.bit_products", "the lighting unit's own RTL module (with the lighting analysis): Σ a_width × b_width"),
+    ("cost.lighting.table_bits", "… bits in its ROMs"),
+    ("cost.lighting.ff", "… its flip-flops"),
+    ("cost.lighting.latency", "… its latency, cycles"),
     ("lut", "with --synth: look-up tables after synthesis (fxshade synth)"),
     ("synth_ff", "with --synth: flip-flops after synthesis, the harness's own excluded"),
     ("dsp", "with --synth: DSP blocks"),
@@ -240,10 +260,42 @@ fn pipeline(
 }
 
 /// The model's hardware cost of the configured pipeline top.
-fn cost(cfg: &Config, m: &mut BTreeMap<String, f64>) -> anyhow::Result<()> {
+/// The units whose own module's cost `cost` measures (when their
+/// analysis is asked for): `cost.<unit>.*`.
+pub const UNIT_COSTS: [&str; 5] = ["normalize", "interp", "polar", "angles", "lighting"];
+
+fn cost(cfg: &Config, o: &Options, m: &mut BTreeMap<String, f64>) -> anyhow::Result<()> {
     let design = fxshade_model::pipeline::rtl::design(cfg)?;
     let e = fxshade_model::rtl::emit(&design)?;
+    top_cost(&e, "", m);
+    // Each analysed unit's own module: a sweep of a unit off the
+    // configured path (polar on the smooth path) sees its own cost move.
+    for u in UNIT_COSTS.iter().filter(|u| o.has(u)) {
+        let unit =
+            fxshade_model::rtl::units::unit(u).with_context(|| format!("no RTL unit {u}"))?;
+        let (_, e) = fxshade_model::rtl::units::emit_unit(unit, cfg)
+            .with_context(|| format!("emitting {u} for its cost"))?;
+        top_cost(&e, &format!("cost.{u}."), m);
+    }
+    Ok(())
+}
+
+/// The cost metrics of one emitted module, named `<prefix><metric>`
+/// (`cost.<unit>.` for a unit's own; none for the top, which also
+/// counts its multipliers and adders).
+fn top_cost(e: &fxshade_model::rtl::Emitted, prefix: &str, m: &mut BTreeMap<String, f64>) {
     let hw = &e.hardware;
+    if !prefix.is_empty() {
+        put(
+            m,
+            &format!("{prefix}bit_products"),
+            hw.muls.iter().map(|x| (x.a_width * x.b_width) as f64).sum(),
+        );
+        put(m, &format!("{prefix}table_bits"), hw.rom_bits as f64);
+        put(m, &format!("{prefix}ff"), hw.flops as f64);
+        put(m, &format!("{prefix}latency"), e.latency as f64);
+        return;
+    }
     put(
         m,
         "bit_products",
@@ -263,7 +315,6 @@ fn cost(cfg: &Config, m: &mut BTreeMap<String, f64>) -> anyhow::Result<()> {
     put(m, "table_bits", hw.rom_bits as f64);
     put(m, "ff", hw.flops as f64);
     put(m, "latency", e.latency as f64);
-    Ok(())
 }
 
 /// Measure one configuration. `meshes` are the loaded `o.meshes`.
@@ -340,7 +391,7 @@ pub fn evaluate(
         pipeline(cfg, o, meshes, &mut m)?;
     }
     if o.has("cost") {
-        cost(cfg, &mut m).context("generating the RTL top for its cost")?;
+        cost(cfg, o, &mut m).context("generating the RTL top for its cost")?;
     }
     if let Some((target, unit)) = &o.synth {
         let t = <crate::cmd::synth::Target as clap::ValueEnum>::from_str(target, false)

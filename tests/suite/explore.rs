@@ -654,3 +654,42 @@ fn a_two_axis_sweep_gives_grids() {
     ]));
     assert!(one["grids"].as_array().unwrap().is_empty(), "{one}");
 }
+
+/// A sweep of a unit off the configured path reports that unit's own cost
+/// (the smooth top holds no polar table, so the top's `table_bits` cannot
+/// move): the polar module's ROM doubles with each table bit while the
+/// top's stays 0, and the printed table names the top's costs `[top]`.
+#[test]
+fn a_unit_sweep_reports_the_units_own_cost() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("p");
+    let o = fxshade(&[
+        "explore",
+        "--vary",
+        "polar.table_bits=8..10",
+        "--analyses",
+        "polar,cost",
+        "--samples",
+        "2000",
+        "--pareto",
+        "polar.max_lsb_err:bit_products",
+        "--no-cache",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(text(&o).contains("bit_products [top]"), "{}", text(&o));
+    let r: Value =
+        serde_json::from_slice(&std::fs::read(out.join("explore.json")).unwrap()).unwrap();
+    let rows = r["rows"].as_array().unwrap();
+    let bits: Vec<f64> = rows
+        .iter()
+        .map(|x| metric(x, "cost.polar.table_bits"))
+        .collect();
+    assert!(bits[0] > 0.0, "{bits:?}");
+    assert_eq!(bits[1], 2.0 * bits[0], "{bits:?}");
+    assert_eq!(bits[2], 2.0 * bits[1], "{bits:?}");
+    for x in rows {
+        assert_eq!(metric(x, "table_bits"), 0.0, "the smooth top has no table");
+    }
+}
