@@ -360,14 +360,20 @@ fn build_with(
                 // A gate-level netlist (`synth --netlist`: its cell models
                 // beside it): cells with unused pins, carry chains through
                 // cell boundaries (combinational loops at the bit level
-                // only) and the models' own width casts are what a netlist
-                // is, not faults of the design; Verilator would stop on
-                // them.
+                // only), the models' own width casts and the LUT-RAM
+                // model's initial non-blocking assignments are what a
+                // netlist is, not faults of the design; Verilator would
+                // stop on them.
                 if files.iter().any(|f| {
                     f.file_name()
                         .is_some_and(|n| n == crate::netlist::CELLS_FILE)
                 }) {
-                    c.args(["-Wno-PINMISSING", "-Wno-UNOPTFLAT", "-Wno-WIDTH"]);
+                    c.args([
+                        "-Wno-PINMISSING",
+                        "-Wno-UNOPTFLAT",
+                        "-Wno-WIDTH",
+                        "-Wno-INITIALDLY",
+                    ]);
                 }
                 // ccache, when installed, keeps Verilator's runtime library
                 // and unchanged model files compiled across builds (half the

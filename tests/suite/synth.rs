@@ -408,6 +408,36 @@ fn ecp5_gate_level_netlists_compute_what_the_model_computes() {
     let (_, failed) = gate_level_check_on("verilator", "normalize", "8", d.path(), full);
     assert!(failed > 0, "an unregistered product passed on Verilator");
 
+    // The FIFO handshake: the output FIFO in LUT RAM (TRELLIS_DPR16X4,
+    // whose model Verilator must accept as it is), on Verilator.
+    let fifo = ["--set", "rtl.handshake=fifo"];
+    let (f, r) = ecp5_netlist("normalize", "8", &fifo);
+    assert!(r["lut_ram"].as_u64().unwrap() > 0, "{r}");
+    let o = fxshade(&[
+        "rtl-check",
+        "normalize",
+        "--set",
+        "rtl.handshake=fifo",
+        "--target",
+        "ecp5",
+        "--clock-ns",
+        "8",
+        "--sim",
+        "verilator",
+        "--count",
+        "1500",
+        "--rtl-dir",
+        f.path().join("gl").to_str().unwrap(),
+        "--json",
+    ]);
+    let c: Value =
+        serde_json::from_slice(&o.stdout).unwrap_or_else(|e| panic!("{e}: {}", text(&o)));
+    assert_eq!(
+        (c["passed"].as_u64(), c["failed"].as_u64()),
+        (Some(1500), Some(0)),
+        "{c}"
+    );
+
     // polar at 8 ns: sin/cos tables in DP16KD block RAM, registered reads.
     let (d, r) = ecp5_netlist("polar", "8", &[]);
     assert!(r["bram"].as_u64().unwrap() > 0, "{r}");
