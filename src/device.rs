@@ -221,7 +221,7 @@ mod tests {
         );
         let e = Device::find(Target::Ecp5, "iCE40HX1K").unwrap_err();
         assert!(
-            e.contains("LFE5U-12F") && e.contains("--target ecp5"),
+            e.contains("LFE5U-25F") && e.contains("--target ecp5"),
             "{e}"
         );
         assert!(Device::find(Target::Generic, "x").is_err());

@@ -147,6 +147,8 @@ pub fn netlist_checks(cfg: &fxshade_model::Config) -> anyhow::Result<Vec<Netlist
                         a_width: a,
                         b_width: b,
                         signed: p(c, "A_SIGNED") == 1 && p(c, "B_SIGNED") == 1,
+                        a_zext: false,
+                        b_zext: false,
                     }
                     .to_string()
                 })

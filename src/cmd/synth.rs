@@ -195,6 +195,10 @@ pub struct SynthResult {
     pub harness_ff: u64,
     /// DSP blocks.
     pub dsp: u64,
+    /// DSP blocks as [`fxshade_model::rtl::estimate`] predicts them from
+    /// the emitted module alone, without synthesis (None: generic).
+    #[serde(default)]
+    pub dsp_estimate: Option<u64>,
     /// Block RAMs.
     pub bram: u64,
     /// Carry cells (SB_CARRY, CCU2C, CARRY4).
@@ -594,6 +598,9 @@ pub fn synthesize(
         ff,
         harness_ff,
         dsp,
+        dsp_estimate: target
+            .timing()
+            .map(|t| fxshade_model::rtl::estimate::dsp_blocks(&e.hardware, t)),
         bram,
         carry,
         logic_cells: None,
@@ -865,8 +872,12 @@ fn cached_emitted(
     let entry = cache_entry(e, target, flow)?;
     if use_cache && keep.is_none() {
         if let Some(mut r) = read_entry(&entry)? {
-            // Entries cached before the prediction was recorded lack it.
+            // Entries cached before the prediction and the estimate were
+            // recorded lack them (both come from the emitted module).
             r.predicted_mhz = e.predicted_ns.map(|t| 1000.0 / t);
+            r.dsp_estimate = target
+                .timing()
+                .map(|t| fxshade_model::rtl::estimate::dsp_blocks(&e.hardware, t));
             return Ok((r, true, None));
         }
     }
@@ -1065,7 +1076,10 @@ pub fn run(a: &SynthArgs) -> anyhow::Result<()> {
         r.logic_cells.map_or("-".into(), |n| n.to_string()),
         r.lut_ram.to_string(),
         r.ff.to_string(),
-        r.dsp.to_string(),
+        match r.dsp_estimate {
+            Some(est) => format!("{} (est. {est})", r.dsp),
+            None => r.dsp.to_string(),
+        },
         r.bram.to_string(),
         r.carry.to_string(),
         r.fmax_mhz.map_or_else(

@@ -59,6 +59,7 @@ pub const METRICS: &[(&str, &str)] = &[
     ("table_bits", "… bits stored in its ROMs"),
     ("ff", "… its flip-flops (data, flags, valid bits)"),
     ("latency", "… cycles from input to output"),
+    ("dsp_est", "… DSP blocks it takes on rtl.target, estimated without synthesis by Yosys's mul2dsp rules (0 where the target has none)"),
     ("cost.normalize.bit_products", "the normalize unit's own RTL module (with the normalize analysis): Σ a_width × b_width"),
     ("cost.normalize.table_bits", "… bits in its ROMs"),
     ("cost.normalize.ff", "… its flip-flops"),
@@ -267,7 +268,7 @@ pub const UNIT_COSTS: [&str; 5] = ["normalize", "interp", "polar", "angles", "li
 fn cost(cfg: &Config, o: &Options, m: &mut BTreeMap<String, f64>) -> anyhow::Result<()> {
     let design = fxshade_model::pipeline::rtl::design(cfg)?;
     let e = fxshade_model::rtl::emit(&design)?;
-    top_cost(&e, "", m);
+    top_cost(&e, "", cfg.unit("rtl").choice("target"), m);
     // Each analysed unit's own module: a sweep of a unit off the
     // configured path (polar on the smooth path) sees its own cost move.
     for u in UNIT_COSTS.iter().filter(|u| o.has(u)) {
@@ -275,7 +276,7 @@ fn cost(cfg: &Config, o: &Options, m: &mut BTreeMap<String, f64>) -> anyhow::Res
             fxshade_model::rtl::units::unit(u).with_context(|| format!("no RTL unit {u}"))?;
         let (_, e) = fxshade_model::rtl::units::emit_unit(unit, cfg)
             .with_context(|| format!("emitting {u} for its cost"))?;
-        top_cost(&e, &format!("cost.{u}."), m);
+        top_cost(&e, &format!("cost.{u}."), "", m);
     }
     Ok(())
 }
@@ -283,7 +284,12 @@ fn cost(cfg: &Config, o: &Options, m: &mut BTreeMap<String, f64>) -> anyhow::Res
 /// The cost metrics of one emitted module, named `<prefix><metric>`
 /// (`cost.<unit>.` for a unit's own; none for the top, which also
 /// counts its multipliers and adders).
-fn top_cost(e: &fxshade_model::rtl::Emitted, prefix: &str, m: &mut BTreeMap<String, f64>) {
+fn top_cost(
+    e: &fxshade_model::rtl::Emitted,
+    prefix: &str,
+    target: &str,
+    m: &mut BTreeMap<String, f64>,
+) {
     let hw = &e.hardware;
     if !prefix.is_empty() {
         put(
@@ -315,6 +321,13 @@ fn top_cost(e: &fxshade_model::rtl::Emitted, prefix: &str, m: &mut BTreeMap<Stri
     put(m, "table_bits", hw.rom_bits as f64);
     put(m, "ff", hw.flops as f64);
     put(m, "latency", e.latency as f64);
+    if let Some(t) = fxshade_model::rtl::timing::Target::from_name(target) {
+        put(
+            m,
+            "dsp_est",
+            fxshade_model::rtl::estimate::dsp_blocks(hw, t) as f64,
+        );
+    }
 }
 
 /// Measure one configuration. `meshes` are the loaded `o.meshes`.

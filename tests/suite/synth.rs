@@ -127,6 +127,9 @@ fn dsp_targets_map_every_multiplier_to_a_dsp_block() {
             "--json",
         ]));
         assert_eq!(r["dsp"].as_u64(), Some(n), "{target}: {r}");
+        // The estimate without synthesis (Yosys's mul2dsp rules on the
+        // emitted multipliers) is the netlist's count.
+        assert_eq!(r["dsp_estimate"], r["dsp"], "{target}: {r}");
         assert!(r["predicted_mhz"].is_null(), "compact: no prediction: {r}");
         assert!(
             r["fmax_mhz"].is_null() && r["fmax_note"].is_string(),
@@ -234,6 +237,7 @@ fn the_polar_tables_go_to_block_ram() {
             .unwrap_or(0);
         assert!(n > 0, "{target}: no {cell} in {cells:?}");
         assert_eq!(r["bram"].as_u64(), Some(n), "{target}");
+        assert_eq!(r["dsp_estimate"], r["dsp"], "{target}: {r}");
     }
 }
 
@@ -372,6 +376,8 @@ fn ecp5_gate_level_netlists_compute_what_the_model_computes() {
         p["inputs"].as_u64().unwrap() > 0 && p["outputs"].as_u64().unwrap() > 0,
         "something to check: {r}"
     );
+    // Split products: the estimate counts the netlist's blocks.
+    assert_eq!(r["dsp_estimate"], r["dsp"], "{r}");
     // The netlist co-simulated is the module placed: cell for cell the
     // unit's module of the packed JSON handed to nextpnr.
     let (placed, simulated) = placed_and_simulated_cells(d.path(), "normalize");
@@ -677,8 +683,14 @@ fn set_up_registers_load_in_the_synthesis_harness() {
         "--no-cache",
         "--keep",
         keep.to_str().unwrap(),
+        "--json",
     ]);
     assert!(o.status.success(), "{}", text(&o));
+    // The smooth top's 49 blocks, split products included, estimated
+    // without synthesis as the netlist counts them.
+    let r = json(&o);
+    assert_eq!(r["dsp_estimate"], r["dsp"], "{r}");
+    assert!(r["dsp"].as_u64().unwrap() > 40, "{r}");
     let v = std::fs::read_to_string(keep.join("pipeline_smooth.v")).unwrap();
     let regs: std::collections::BTreeSet<String> = v
         .lines()

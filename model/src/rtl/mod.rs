@@ -32,6 +32,7 @@ pub mod core;
 pub mod datasheet;
 pub mod direction;
 pub mod dpi;
+pub mod estimate;
 pub mod mutants;
 pub mod probe;
 pub mod search;
@@ -170,6 +171,14 @@ pub struct MulHw {
     /// A signed multiplier (either operand signed: an unsigned operand is
     /// then zero-extended by one bit).
     pub signed: bool,
+    /// The first operand is unsigned, zero-extended by one bit into the
+    /// signed product (`a_width` includes that bit): a block that takes
+    /// each operand signed or unsigned drops it ([`timing::Dsp::mixed`]).
+    #[serde(default)]
+    pub a_zext: bool,
+    /// The same for the second operand.
+    #[serde(default)]
+    pub b_zext: bool,
 }
 
 impl std::fmt::Display for MulHw {
@@ -1105,6 +1114,8 @@ impl<'a> Emitter<'a> {
                     a_width: xw,
                     b_width: yw,
                     signed: ps,
+                    a_zext: ps && !*xsg,
+                    b_zext: ps && !*ysg,
                 });
                 slowest = slowest.max(m.mul(xw, yw));
                 let q = format!("{pp}_q");
@@ -1419,6 +1430,8 @@ impl<'a> Emitter<'a> {
                             a_width: va.width,
                             b_width: vb.width + 1,
                             signed: true,
+                            a_zext: false,
+                            b_zext: true,
                         },
                     ),
                     (false, true) => (
@@ -1428,6 +1441,8 @@ impl<'a> Emitter<'a> {
                             a_width: va.width + 1,
                             b_width: vb.width,
                             signed: true,
+                            a_zext: true,
+                            b_zext: false,
                         },
                     ),
                     (sa, _) => (
@@ -1437,6 +1452,8 @@ impl<'a> Emitter<'a> {
                             a_width: va.width,
                             b_width: vb.width,
                             signed: sa,
+                            a_zext: false,
+                            b_zext: false,
                         },
                     ),
                 };

@@ -1,0 +1,183 @@
+//! A fast resource estimate of an emitted module, without synthesis: the
+//! DSP blocks its multipliers take on a target, by the rules Yosys's
+//! `mul2dsp` techmap applies there (`techmap -map +/mul2dsp.v` with the
+//! target's `DSP_*` macros, as `synth_ecp5`, `synth_ice40 -dsp` and
+//! `synth_xilinx` set them in Yosys 0.23):
+//!
+//! - a product whose operand is narrower than the block's minimum (2 bits)
+//!   or, on iCE40, whose result is narrower than 11 bits stays in the
+//!   fabric (no block);
+//! - the wider operand goes to the block's A port (`$mul` with
+//!   `A_WIDTH < B_WIDTH` is swapped first);
+//! - an operand wider than the port is cut into partial chunks of
+//!   `partial − headroom` bits (headroom 1 where the block is signed only,
+//!   Xilinx's DSP48E1) and a last chunk, each multiplied by the other
+//!   operand and mapped again by the same rules; a chunk narrower than the
+//!   minimum stays in the fabric;
+//! - where the block takes each operand signed or unsigned (ECP5
+//!   MULT18X18D, iCE40 SB_MAC16), a mixed product's zero-extension bit is
+//!   not counted (Yosys drops it); where it is signed only, an unsigned
+//!   product is widened by a bit on each side.
+//!
+//! What it does not model: products synthesis narrows further (constant
+//! operands with trailing zeros, bits it proves constant), which can only
+//! make the synthesized count smaller. `fxshade synth` prints the estimate
+//! beside the count of the netlist.
+
+use super::MulHw;
+
+/// A target's multiplier blocks, as Yosys's `mul2dsp` is told about them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DspRules {
+    /// Widest A operand of one block.
+    pub a_max: u32,
+    /// Widest B operand of one block.
+    pub b_max: u32,
+    /// Width of an A chunk when A is cut (`DSP_A_MAXWIDTH_PARTIAL`).
+    pub a_partial: u32,
+    /// Width of a B chunk when B is cut.
+    pub b_partial: u32,
+    /// Narrowest operand mapped to a block.
+    pub min: u32,
+    /// Narrowest result mapped to a block (0: any).
+    pub y_min: u32,
+    /// The block multiplies signed operands only (`DSP_SIGNEDONLY`).
+    pub signed_only: bool,
+}
+
+impl DspRules {
+    /// The rules of `target` (None: it has no multiplier blocks, iCE40
+    /// HX8K and a standard-cell process).
+    pub fn of(target: super::timing::Target) -> Option<DspRules> {
+        use super::timing::Target as T;
+        match target {
+            T::Ecp5 => Some(DspRules {
+                a_max: 18,
+                b_max: 18,
+                a_partial: 18,
+                b_partial: 18,
+                min: 2,
+                y_min: 0,
+                signed_only: false,
+            }),
+            T::Ice40Up5k => Some(DspRules {
+                a_max: 16,
+                b_max: 16,
+                a_partial: 16,
+                b_partial: 16,
+                min: 2,
+                y_min: 11,
+                signed_only: false,
+            }),
+            T::Xc7 => Some(DspRules {
+                a_max: 25,
+                b_max: 18,
+                a_partial: 18,
+                b_partial: 18,
+                min: 2,
+                y_min: 0,
+                signed_only: true,
+            }),
+            T::Ice40Hx8k | T::Asic => None,
+        }
+    }
+
+    /// Blocks for an `a × b` product as `mul2dsp` maps it (already
+    /// swapped and widened).
+    fn blocks(&self, a: u32, b: u32) -> u64 {
+        if a < self.min || b < self.min || a + b < self.y_min {
+            return 0;
+        }
+        let h = u32::from(self.signed_only);
+        if a > self.a_max {
+            let step = self.a_partial - h;
+            let n = (a - self.a_max + step - 1) / step;
+            let last = a - n * step;
+            return u64::from(n) * self.blocks(self.a_partial, b) + self.blocks(last, b);
+        }
+        if b > self.b_max {
+            let step = self.b_partial - h;
+            let n = (b - self.b_max + step - 1) / step;
+            let last = b - n * step;
+            return u64::from(n) * self.blocks(a, self.b_partial) + self.blocks(a, last);
+        }
+        1
+    }
+
+    /// Blocks for one emitted multiplier.
+    pub fn blocks_of(&self, m: &MulHw) -> u64 {
+        let (mut a, mut b) = (m.a_width, m.b_width);
+        if self.signed_only {
+            if !m.signed {
+                a += 1;
+                b += 1;
+            }
+        } else {
+            // The block takes the unsigned operand as it is.
+            a -= u32::from(m.a_zext);
+            b -= u32::from(m.b_zext);
+        }
+        if a < b {
+            std::mem::swap(&mut a, &mut b);
+        }
+        self.blocks(a, b)
+    }
+}
+
+/// DSP blocks of every multiplier of `hw` on `target` (0 where the target
+/// has none).
+pub fn dsp_blocks(hw: &super::Hardware, target: super::timing::Target) -> u64 {
+    DspRules::of(target).map_or(0, |r| hw.muls.iter().map(|m| r.blocks_of(m)).sum())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rtl::timing::Target;
+
+    fn mul(a: u32, b: u32, signed: bool, a_zext: bool, b_zext: bool) -> MulHw {
+        MulHw {
+            a_width: a,
+            b_width: b,
+            signed,
+            a_zext,
+            b_zext,
+        }
+    }
+
+    /// Closed forms: on ECP5 a product of operands up to 18 bits is one
+    /// MULT18X18D, a 25 × 18 two (the example), a 36 × 36 four; a
+    /// 19 × 16 one block and a 1-bit chunk left to the fabric; a mixed
+    /// 18-bit unsigned × 16-bit signed (built 19 × 16) one.
+    #[test]
+    fn ecp5_blocks_follow_mul2dsp() {
+        let r = DspRules::of(Target::Ecp5).unwrap();
+        assert_eq!(r.blocks_of(&mul(18, 18, true, false, false)), 1);
+        assert_eq!(r.blocks_of(&mul(25, 18, true, false, false)), 2);
+        assert_eq!(r.blocks_of(&mul(36, 36, false, false, false)), 4);
+        assert_eq!(r.blocks_of(&mul(19, 16, true, false, false)), 1);
+        assert_eq!(r.blocks_of(&mul(19, 16, true, true, false)), 1);
+        assert_eq!(r.blocks_of(&mul(16, 19, true, false, true)), 1);
+        assert_eq!(r.blocks_of(&mul(37, 20, true, false, false)), 4);
+        assert_eq!(r.blocks_of(&mul(1, 16, false, false, false)), 0);
+    }
+
+    /// iCE40 UP5K: 16 × 16 blocks, results under 11 bits in the fabric;
+    /// Xilinx: 25 × 18 signed blocks, an unsigned 24 × 17 widened to
+    /// 25 × 18 (one block), a 26 × 18 signed cut into a 17-bit chunk and a
+    /// 9-bit one (two).
+    #[test]
+    fn ice40_and_xc7_blocks_follow_mul2dsp() {
+        let r = DspRules::of(Target::Ice40Up5k).unwrap();
+        assert_eq!(r.blocks_of(&mul(16, 16, true, false, false)), 1);
+        assert_eq!(r.blocks_of(&mul(5, 5, true, false, false)), 0);
+        assert_eq!(r.blocks_of(&mul(17, 16, false, false, false)), 1);
+        // 20 × 20: 16 × 16, 16 × 4 and 4 × 16 in blocks, 4 × 4 (8 bits of
+        // result) in the fabric.
+        assert_eq!(r.blocks_of(&mul(20, 20, false, false, false)), 3);
+        let x = DspRules::of(Target::Xc7).unwrap();
+        assert_eq!(x.blocks_of(&mul(24, 17, false, false, false)), 1);
+        assert_eq!(x.blocks_of(&mul(26, 18, true, false, false)), 2);
+        assert!(DspRules::of(Target::Ice40Hx8k).is_none());
+    }
+}
