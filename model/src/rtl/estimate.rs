@@ -91,13 +91,13 @@ impl DspRules {
         let h = u32::from(self.signed_only);
         if a > self.a_max {
             let step = self.a_partial - h;
-            let n = (a - self.a_max + step - 1) / step;
+            let n = (a - self.a_max).div_ceil(step);
             let last = a - n * step;
             return u64::from(n) * self.blocks(self.a_partial, b) + self.blocks(last, b);
         }
         if b > self.b_max {
             let step = self.b_partial - h;
-            let n = (b - self.b_max + step - 1) / step;
+            let n = (b - self.b_max).div_ceil(step);
             let last = b - n * step;
             return u64::from(n) * self.blocks(a, self.b_partial) + self.blocks(a, last);
         }
