@@ -199,6 +199,10 @@ pub struct SynthResult {
     /// the emitted module alone, without synthesis (None: generic).
     #[serde(default)]
     pub dsp_estimate: Option<u64>,
+    /// Block RAMs as [`fxshade_model::rtl::estimate`] predicts them from
+    /// the emitted module's ROMs (None: generic).
+    #[serde(default)]
+    pub bram_estimate: Option<u64>,
     /// Block RAMs.
     pub bram: u64,
     /// Carry cells (SB_CARRY, CCU2C, CARRY4).
@@ -601,6 +605,9 @@ pub fn synthesize(
         dsp_estimate: target
             .timing()
             .map(|t| fxshade_model::rtl::estimate::dsp_blocks(&e.hardware, t)),
+        bram_estimate: target
+            .timing()
+            .map(|t| fxshade_model::rtl::estimate::bram_blocks(&e.hardware, t)),
         bram,
         carry,
         logic_cells: None,
@@ -878,6 +885,9 @@ fn cached_emitted(
             r.dsp_estimate = target
                 .timing()
                 .map(|t| fxshade_model::rtl::estimate::dsp_blocks(&e.hardware, t));
+            r.bram_estimate = target
+                .timing()
+                .map(|t| fxshade_model::rtl::estimate::bram_blocks(&e.hardware, t));
             return Ok((r, true, None));
         }
     }
@@ -1080,7 +1090,10 @@ pub fn run(a: &SynthArgs) -> anyhow::Result<()> {
             Some(est) => format!("{} (est. {est})", r.dsp),
             None => r.dsp.to_string(),
         },
-        r.bram.to_string(),
+        match r.bram_estimate {
+            Some(est) => format!("{} (est. {est})", r.bram),
+            None => r.bram.to_string(),
+        },
         r.carry.to_string(),
         r.fmax_mhz.map_or_else(
             || format!("- ({})", r.fmax_note.clone().unwrap_or_default()),

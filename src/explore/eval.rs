@@ -60,6 +60,7 @@ pub const METRICS: &[(&str, &str)] = &[
     ("ff", "… its flip-flops (data, flags, valid bits)"),
     ("latency", "… cycles from input to output"),
     ("dsp_est", "… DSP blocks it takes on rtl.target, estimated without synthesis by Yosys's mul2dsp rules (0 where the target has none)"),
+    ("bram_est", "… block RAMs its ROMs take on rtl.target, estimated without synthesis (copies by read ports, blocks by shape)"),
     ("cost.normalize.bit_products", "the normalize unit's own RTL module (with the normalize analysis): Σ a_width × b_width"),
     ("cost.normalize.table_bits", "… bits in its ROMs"),
     ("cost.normalize.ff", "… its flip-flops"),
@@ -326,6 +327,11 @@ fn top_cost(
             m,
             "dsp_est",
             fxshade_model::rtl::estimate::dsp_blocks(hw, t) as f64,
+        );
+        put(
+            m,
+            "bram_est",
+            fxshade_model::rtl::estimate::bram_blocks(hw, t) as f64,
         );
     }
 }

@@ -238,6 +238,9 @@ fn the_polar_tables_go_to_block_ram() {
         assert!(n > 0, "{target}: no {cell} in {cells:?}");
         assert_eq!(r["bram"].as_u64(), Some(n), "{target}");
         assert_eq!(r["dsp_estimate"], r["dsp"], "{target}: {r}");
+        // Six reads of one 512 × 16 ROM: three dual-port blocks, or twelve
+        // one-port 256 × 16 ones, estimated without synthesis.
+        assert_eq!(r["bram_estimate"], r["bram"], "{target}: {r}");
     }
 }
 
@@ -447,6 +450,7 @@ fn ecp5_gate_level_netlists_compute_what_the_model_computes() {
     // polar at 8 ns: sin/cos tables in DP16KD block RAM, registered reads.
     let (d, r) = ecp5_netlist("polar", "8", &[]);
     assert!(r["bram"].as_u64().unwrap() > 0, "{r}");
+    assert_eq!(r["bram_estimate"], r["bram"], "{r}");
     assert!(d.path().join("gl").join("DP16KD.v").is_file());
     assert_eq!(gate_level_check("polar", "8", d.path(), n), (n as u64, 0));
     // One row of a table's contents cleared: the model reads INITVAL as

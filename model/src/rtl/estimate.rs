@@ -19,6 +19,10 @@
 //!   not counted (Yosys drops it); where it is signed only, an unsigned
 //!   product is widened by a bit on each side.
 //!
+//! Block RAMs: each ROM the emitter marks for block RAM takes as many
+//! copies as its reads need ports, each the fewest blocks of one shape
+//! that hold it ([`BramRules`]).
+//!
 //! What it does not model: products synthesis narrows further (constant
 //! operands with trailing zeros, bits it proves constant), which can only
 //! make the synthesized count smaller. `fxshade synth` prints the estimate
@@ -130,6 +134,58 @@ pub fn dsp_blocks(hw: &super::Hardware, target: super::timing::Target) -> u64 {
     DspRules::of(target).map_or(0, |r| hw.muls.iter().map(|m| r.blocks_of(m)).sum())
 }
 
+/// A target's block RAM as a ROM uses it: its shapes (depth × width) and
+/// the read ports one block gives.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BramRules {
+    /// The shapes one block can take (true dual port where it has two).
+    pub shapes: &'static [(u64, u32)],
+    /// Read ports per block.
+    pub ports: u64,
+}
+
+impl BramRules {
+    /// The rules of `target`: ECP5 DP16KD (16 Kbit + parity, two ports:
+    /// 16384 × 1 … 1024 × 18), iCE40 SB_RAM40_4K (4 Kbit, one read port:
+    /// 2048 × 2 … 256 × 16), Xilinx RAMB18E1 (two ports, 16384 × 1 …
+    /// 1024 × 18); None for a standard-cell process.
+    pub fn of(target: super::timing::Target) -> Option<BramRules> {
+        use super::timing::Target as T;
+        match target {
+            T::Ecp5 | T::Xc7 => Some(BramRules {
+                shapes: &[(16384, 1), (8192, 2), (4096, 4), (2048, 9), (1024, 18)],
+                ports: 2,
+            }),
+            T::Ice40Hx8k | T::Ice40Up5k => Some(BramRules {
+                shapes: &[(2048, 2), (1024, 4), (512, 8), (256, 16)],
+                ports: 1,
+            }),
+            T::Asic => None,
+        }
+    }
+
+    /// Blocks for one ROM: as many copies as its reads need ports, each
+    /// the fewest blocks of one shape that hold it; a ROM not marked for
+    /// block RAM takes none.
+    pub fn blocks_of(&self, r: &super::RomHw) -> u64 {
+        if !r.block || r.reads == 0 {
+            return 0;
+        }
+        let per_copy = self
+            .shapes
+            .iter()
+            .map(|&(d, w)| r.entries.div_ceil(d) * u64::from(r.width.div_ceil(w)))
+            .min()
+            .unwrap_or(0);
+        r.reads.div_ceil(self.ports) * per_copy
+    }
+}
+
+/// Block RAMs of every ROM of `hw` on `target`.
+pub fn bram_blocks(hw: &super::Hardware, target: super::timing::Target) -> u64 {
+    BramRules::of(target).map_or(0, |r| hw.roms.iter().map(|m| r.blocks_of(m)).sum())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -179,5 +235,35 @@ mod tests {
         assert_eq!(x.blocks_of(&mul(24, 17, false, false, false)), 1);
         assert_eq!(x.blocks_of(&mul(26, 18, true, false, false)), 2);
         assert!(DspRules::of(Target::Ice40Hx8k).is_none());
+    }
+
+    /// The polar unit's quarter-wave ROM, 512 × 16 read by six ports:
+    /// three dual-port blocks on ECP5 and Xilinx, twelve 256 × 16 iCE40
+    /// blocks (two a copy, one port each); a small ROM in logic.
+    #[test]
+    fn roms_take_blocks_by_shape_and_ports() {
+        let rom = |entries, width, reads, block| crate::rtl::RomHw {
+            name: "r".into(),
+            entries,
+            width,
+            reads,
+            block,
+        };
+        let q = rom(512, 16, 6, true);
+        assert_eq!(BramRules::of(Target::Ecp5).unwrap().blocks_of(&q), 3);
+        assert_eq!(BramRules::of(Target::Xc7).unwrap().blocks_of(&q), 3);
+        assert_eq!(BramRules::of(Target::Ice40Up5k).unwrap().blocks_of(&q), 12);
+        assert_eq!(
+            BramRules::of(Target::Ecp5)
+                .unwrap()
+                .blocks_of(&rom(4096, 20, 1, true)),
+            5
+        );
+        assert_eq!(
+            BramRules::of(Target::Ecp5)
+                .unwrap()
+                .blocks_of(&rom(64, 16, 2, false)),
+            0
+        );
     }
 }

@@ -193,6 +193,22 @@ impl std::fmt::Display for MulHw {
     }
 }
 
+/// One ROM of the emitted module.
+#[derive(Clone, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct RomHw {
+    /// Its array's name.
+    pub name: String,
+    /// Entries.
+    pub entries: u64,
+    /// Bits per entry.
+    pub width: u32,
+    /// Read ports: the table reads that index it.
+    pub reads: u64,
+    /// Marked for block RAM (`rom_style = "block"`, at least
+    /// [`BLOCK_ROM_ENTRIES`] entries); else built from logic.
+    pub block: bool,
+}
+
 /// The arithmetic the emitted module builds, from the trace (what
 /// `fxshade ops --rtl` compares with the synthesized netlist).
 #[derive(Clone, Debug, Default, PartialEq, Eq, serde::Serialize)]
@@ -217,6 +233,9 @@ pub struct Hardware {
     pub table_reads: u64,
     /// Bits stored in ROMs (each distinct ROM once).
     pub rom_bits: u64,
+    /// Every distinct ROM with its reads.
+    #[serde(default)]
+    pub roms: Vec<RomHw>,
     /// Flip-flops of the datapath (data, flags and valid bits).
     pub flops: u64,
 }
@@ -767,9 +786,23 @@ impl<'a> Emitter<'a> {
         let _ = addr_bits;
         self.rom_text.push(t);
         self.hw.rom_bits += entries.len() as u64 * f.width() as u64;
+        self.hw.roms.push(RomHw {
+            name: name.clone(),
+            entries: entries.len() as u64,
+            width: f.width(),
+            reads: 0,
+            block: entries.len() >= BLOCK_ROM_ENTRIES,
+        });
         self.roms
             .push((entries.to_vec(), name.clone(), f, addr_bits));
         name
+    }
+
+    /// One more read port of the ROM `name`.
+    fn count_read(&mut self, name: &str) {
+        if let Some(r) = self.hw.roms.iter_mut().find(|r| r.name == name) {
+            r.reads += 1;
+        }
     }
 
     /// A table read at stage `s`, registered into `s + 1`. With `late`,
@@ -784,6 +817,7 @@ impl<'a> Emitter<'a> {
         let value = match &tb.storage {
             None => {
                 let rom = self.rom(&tb.codes, tb.name, f, t);
+                self.count_read(&rom);
                 format!("{rom}[{ix}]")
             }
             Some(q) => {
@@ -821,6 +855,7 @@ impl<'a> Emitter<'a> {
                 // register, in the next stage, by the reading operation.
                 let depth = 1usize << (t - 2);
                 let rom = self.rom(&q.entries[..depth], "quarter", f, t - 2);
+                self.count_read(&rom);
                 let raw = format!("{base}_raw");
                 self.reg(
                     s + 1,
