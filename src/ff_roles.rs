@@ -105,11 +105,17 @@ pub fn role(name: &str, setup_fields: &[String]) -> &'static str {
 pub fn roles(netlist: &Value, top: &str, setup_fields: &[String]) -> Vec<(String, u64)> {
     let mut count: BTreeMap<&'static str, u64> = BTreeMap::new();
     let m = &netlist["modules"][top];
-    tally(m, Some("dut."), setup_fields, &mut count);
+    tally(m, Some("dut."), "harness", setup_fields, &mut count);
     for c in m["cells"].as_object().into_iter().flatten().map(|(_, c)| c) {
         let t = c["type"].as_str().unwrap_or("");
         if crate::dsp_pack::has_body(netlist, t) {
-            tally(&netlist["modules"][t], None, setup_fields, &mut count);
+            tally(
+                &netlist["modules"][t],
+                None,
+                "unnamed",
+                setup_fields,
+                &mut count,
+            );
         }
     }
     const ORDER: [&str; 12] = [
@@ -124,7 +130,7 @@ pub fn roles(netlist: &Value, top: &str, setup_fields: &[String]) -> Vec<(String
         "handshake",
         "output buffer",
         "harness",
-        "",
+        "unnamed",
     ];
     ORDER
         .iter()
@@ -134,10 +140,13 @@ pub fn roles(netlist: &Value, top: &str, setup_fields: &[String]) -> Vec<(String
 
 /// Count the flip-flops of module `m` by role into `count`: a flip-flop
 /// is named by the first net name on its output (with `prefix`: only
-/// names under it, the prefix removed); unnamed ones are the harness's.
+/// names under it, the prefix removed); unnamed ones take role
+/// `unnamed_role` (the harness's in a flattened harness, where the unit's
+/// names all carry the prefix).
 fn tally(
     m: &Value,
     prefix: Option<&str>,
+    unnamed_role: &'static str,
     setup_fields: &[String],
     count: &mut BTreeMap<&'static str, u64>,
 ) {
@@ -168,7 +177,7 @@ fn tally(
         let q = c["connections"]["Q"][0].as_u64();
         let r = match q.and_then(|q| names.get(&q)) {
             Some(n) => role(n, setup_fields),
-            None => "harness",
+            None => unnamed_role,
         };
         *count.entry(r).or_default() += 1;
     }

@@ -428,6 +428,12 @@ fn plan(a: &ExploreArgs) -> anyhow::Result<Plan> {
         if !analyses.contains(&g) {
             analyses.push(g);
         }
+        // A unit's own cost (`cost.<unit>.*`) is measured with its analysis.
+        if let Some(u) = m.strip_prefix("cost.").and_then(|r| r.split('.').next()) {
+            if eval::UNIT_COSTS.contains(&u) && !analyses.iter().any(|x| x == u) {
+                analyses.push(u.to_string());
+            }
+        }
     }
     if analyses.iter().any(|x| x == "pipeline") && meshes.is_empty() {
         meshes = DEFAULT_MESHES.iter().map(|s| s.to_string()).collect();
@@ -909,6 +915,8 @@ fn finish(a: &ExploreArgs, mut res: Results, out: &Path) -> anyhow::Result<()> {
         };
         let mut flags: Vec<String> = Vec::new();
         if let Some(c) = &res.base.config {
+            // Absolute, so the flags work from any directory.
+            let c = std::path::absolute(c).unwrap_or_else(|_| c.clone());
             flags.push(format!(
                 "--config {}",
                 shell_quote(&c.display().to_string())

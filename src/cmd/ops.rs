@@ -149,6 +149,7 @@ pub fn netlist_checks(cfg: &fxshade_model::Config) -> anyhow::Result<Vec<Netlist
                         signed: p(c, "A_SIGNED") == 1 && p(c, "B_SIGNED") == 1,
                         a_zext: false,
                         b_zext: false,
+                        y_width: 0,
                     }
                     .to_string()
                 })

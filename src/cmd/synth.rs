@@ -128,7 +128,8 @@ pub struct SynthArgs {
     /// ice40-hx8k iCE40HX8K (default), iCE40HX4K, iCE40HX1K; ice40-up5k
     /// iCE40UP5K; xc7 xc7a35t, xc7a100t, xc7a200t (no placer: synthesis's
     /// counts against the part's capacity). The utilisation is reported in
-    /// percent; a design that does not fit names the resource.
+    /// percent, from the placer's report (none with --no-pnr but on xc7);
+    /// a design that does not fit names the resource.
     #[arg(long, value_name = "PART")]
     device: Option<String>,
     /// Place-and-route seeds (the median Fmax is reported).

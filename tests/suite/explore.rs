@@ -692,4 +692,45 @@ fn a_unit_sweep_reports_the_units_own_cost() {
     for x in rows {
         assert_eq!(metric(x, "table_bits"), 0.0, "the smooth top has no table");
     }
+    // Minimizing a unit's own cost measures that unit although its
+    // analysis was not asked for.
+    let m = json(&fxshade(&[
+        "explore",
+        "--vary",
+        "polar.table_bits=8..9",
+        "--analyses",
+        "normalize",
+        "--minimize",
+        "cost.polar.table_bits",
+        "--samples",
+        "2000",
+        "--no-cache",
+        "--json",
+        "--out",
+        dir.path().join("m").to_str().unwrap(),
+    ]));
+    for x in m["rows"].as_array().unwrap() {
+        assert!(metric(x, "cost.polar.table_bits") > 0.0, "{x}");
+    }
+    // A unit without RTL (the exact normalizer) leaves its own cost out
+    // and keeps the point.
+    let e = json(&fxshade(&[
+        "explore",
+        "--set",
+        "pipeline.path=\"mapped\"",
+        "--vary",
+        "normalize.method=exact,linear",
+        "--analyses",
+        "normalize,cost",
+        "--samples",
+        "2000",
+        "--no-cache",
+        "--json",
+        "--out",
+        dir.path().join("e").to_str().unwrap(),
+    ]));
+    let rows = e["rows"].as_array().unwrap();
+    assert!(rows.iter().all(|x| x["error"].is_null()), "{e}");
+    assert!(rows[0]["metrics"]["cost.normalize.ff"].is_null(), "{e}");
+    assert!(metric(&rows[1], "cost.normalize.ff") > 0.0, "{e}");
 }

@@ -5,8 +5,11 @@
 //! `synth_xilinx` set them in Yosys 0.23):
 //!
 //! - a product whose operand is narrower than the block's minimum (2 bits)
-//!   or, on iCE40, whose result is narrower than 11 bits stays in the
-//!   fabric (no block);
+//!   or whose declared result is narrower than the target's minimum
+//!   (iCE40 11 bits, Xilinx 9: `synth_xilinx` passes `DSP_Y_MINWIDTH=9`
+//!   although its help does not show it) stays in the fabric (no block);
+//!   these are checked before an unsigned product is widened for a
+//!   signed-only block;
 //! - the wider operand goes to the block's A port (`$mul` with
 //!   `A_WIDTH < B_WIDTH` is swapped first);
 //! - an operand wider than the port is cut into partial chunks of
@@ -79,17 +82,17 @@ impl DspRules {
                 a_partial: 18,
                 b_partial: 18,
                 min: 2,
-                y_min: 0,
+                y_min: 9,
                 signed_only: true,
             }),
             T::Ice40Hx8k | T::Asic => None,
         }
     }
 
-    /// Blocks for an `a × b` product as `mul2dsp` maps it (already
-    /// swapped and widened).
-    fn blocks(&self, a: u32, b: u32) -> u64 {
-        if a < self.min || b < self.min || a + b < self.y_min {
+    /// Blocks for an `a × b` product of result width `y` as `mul2dsp`
+    /// maps it (already swapped and widened).
+    fn blocks(&self, a: u32, b: u32, y: u32) -> u64 {
+        if a < self.min || b < self.min || y < self.y_min {
             return 0;
         }
         let h = u32::from(self.signed_only);
@@ -97,13 +100,19 @@ impl DspRules {
             let step = self.a_partial - h;
             let n = (a - self.a_max).div_ceil(step);
             let last = a - n * step;
-            return u64::from(n) * self.blocks(self.a_partial, b) + self.blocks(last, b);
+            // A chunk's result: its own width plus the other operand's,
+            // at most the product's.
+            let py = |w: u32| y.min(w + b);
+            return u64::from(n) * self.blocks(self.a_partial, b, py(self.a_partial))
+                + self.blocks(last, b, py(last));
         }
         if b > self.b_max {
             let step = self.b_partial - h;
             let n = (b - self.b_max).div_ceil(step);
             let last = b - n * step;
-            return u64::from(n) * self.blocks(a, self.b_partial) + self.blocks(a, last);
+            let py = |w: u32| y.min(a + w);
+            return u64::from(n) * self.blocks(a, self.b_partial, py(self.b_partial))
+                + self.blocks(a, last, py(last));
         }
         1
     }
@@ -111,6 +120,12 @@ impl DspRules {
     /// Blocks for one emitted multiplier.
     pub fn blocks_of(&self, m: &MulHw) -> u64 {
         let (mut a, mut b) = (m.a_width, m.b_width);
+        let y = if m.y_width == 0 { a + b } else { m.y_width };
+        // mul2dsp checks the minimum widths before it widens an unsigned
+        // product for a signed-only block.
+        if a < self.min || b < self.min || y < self.y_min {
+            return 0;
+        }
         if self.signed_only {
             if !m.signed {
                 a += 1;
@@ -124,7 +139,7 @@ impl DspRules {
         if a < b {
             std::mem::swap(&mut a, &mut b);
         }
-        self.blocks(a, b)
+        self.blocks(a, b, y)
     }
 }
 
@@ -147,13 +162,31 @@ pub struct BramRules {
 impl BramRules {
     /// The rules of `target`: ECP5 DP16KD (16 Kbit + parity, two ports:
     /// 16384 × 1 … 1024 × 18), iCE40 SB_RAM40_4K (4 Kbit, one read port:
-    /// 2048 × 2 … 256 × 16), Xilinx RAMB18E1 (two ports, 16384 × 1 …
-    /// 1024 × 18); None for a standard-cell process.
+    /// 2048 × 2 … 256 × 16), Xilinx RAMB18E1 or RAMB36E1 (two ports,
+    /// 16384 × 1 … 1024 × 18, 32768 × 1 … 2048 × 18; each one block, as
+    /// synthesis counts them); None for a standard-cell process.
     pub fn of(target: super::timing::Target) -> Option<BramRules> {
         use super::timing::Target as T;
         match target {
-            T::Ecp5 | T::Xc7 => Some(BramRules {
+            T::Ecp5 => Some(BramRules {
                 shapes: &[(16384, 1), (8192, 2), (4096, 4), (2048, 9), (1024, 18)],
+                ports: 2,
+            }),
+            // RAMB18E1 and RAMB36E1, each one block as synthesis counts
+            // them.
+            T::Xc7 => Some(BramRules {
+                shapes: &[
+                    (16384, 1),
+                    (8192, 2),
+                    (4096, 4),
+                    (2048, 9),
+                    (1024, 18),
+                    (32768, 1),
+                    (16384, 2),
+                    (8192, 4),
+                    (4096, 9),
+                    (2048, 18),
+                ],
                 ports: 2,
             }),
             T::Ice40Hx8k | T::Ice40Up5k => Some(BramRules {
@@ -198,6 +231,7 @@ mod tests {
             signed,
             a_zext,
             b_zext,
+            y_width: 0,
         }
     }
 
@@ -235,6 +269,15 @@ mod tests {
         assert_eq!(x.blocks_of(&mul(24, 17, false, false, false)), 1);
         assert_eq!(x.blocks_of(&mul(26, 18, true, false, false)), 2);
         assert!(DspRules::of(Target::Ice40Hx8k).is_none());
+        // Minimum widths before widening: an unsigned 4 × 4 (8-bit result)
+        // stays in logic on Xilinx (result under 9 bits), as does an 8 × 8
+        // kept to 10 bits on iCE40 (under 11).
+        assert_eq!(x.blocks_of(&mul(4, 4, false, false, false)), 0);
+        let mut narrow = mul(8, 8, false, false, false);
+        narrow.y_width = 10;
+        assert_eq!(r.blocks_of(&narrow), 0);
+        narrow.y_width = 16;
+        assert_eq!(r.blocks_of(&narrow), 1);
     }
 
     /// The polar unit's quarter-wave ROM, 512 × 16 read by six ports:
@@ -264,6 +307,13 @@ mod tests {
                 .unwrap()
                 .blocks_of(&rom(64, 16, 2, false)),
             0
+        );
+        // 4096 × 9: one RAMB36E1 (two RAMB18E1 would do it too).
+        assert_eq!(
+            BramRules::of(Target::Xc7)
+                .unwrap()
+                .blocks_of(&rom(4096, 9, 1, true)),
+            1
         );
     }
 }

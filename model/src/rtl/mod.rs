@@ -179,6 +179,10 @@ pub struct MulHw {
     /// The same for the second operand.
     #[serde(default)]
     pub b_zext: bool,
+    /// Width of the product as declared (0: `a_width + b_width`); synthesis
+    /// leaves a product under a target's minimum result width in logic.
+    #[serde(default)]
+    pub y_width: u32,
 }
 
 impl std::fmt::Display for MulHw {
@@ -1151,6 +1155,7 @@ impl<'a> Emitter<'a> {
                     signed: ps,
                     a_zext: ps && !*xsg,
                     b_zext: ps && !*ysg,
+                    y_width: pw,
                 });
                 slowest = slowest.max(m.mul(xw, yw));
                 let q = format!("{pp}_q");
@@ -1467,6 +1472,7 @@ impl<'a> Emitter<'a> {
                             signed: true,
                             a_zext: false,
                             b_zext: true,
+                            y_width: sym.width,
                         },
                     ),
                     (false, true) => (
@@ -1478,6 +1484,7 @@ impl<'a> Emitter<'a> {
                             signed: true,
                             a_zext: true,
                             b_zext: false,
+                            y_width: sym.width,
                         },
                     ),
                     (sa, _) => (
@@ -1489,6 +1496,7 @@ impl<'a> Emitter<'a> {
                             signed: sa,
                             a_zext: false,
                             b_zext: false,
+                            y_width: sym.width,
                         },
                     ),
                 };
