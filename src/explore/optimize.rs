@@ -141,30 +141,25 @@ pub fn frozen(
         add(keys_named(cfg, &vars, s).unwrap_or_default());
     }
     add(keys_named(cfg, &vars, "width.level")?);
-    for k in freeze {
-        let ks = keys_named(cfg, &vars, k).map_err(|e| format!("--freeze {k}: {e}"))?;
+    // The stages a --freeze or --free key names; none is an error.
+    let named = |flag: &str, k: &str| -> Result<Vec<String>, String> {
+        let ks = keys_named(cfg, &vars, k).map_err(|e| format!("{flag} {k}: {e}"))?;
         if ks.is_empty() {
             return Err(format!(
-                "--freeze {k}: no stage the search varies (it varies {})",
+                "{flag} {k}: no stage the search varies on the configured path (it varies {})",
                 vars.iter()
                     .map(|v| v.key.as_str())
                     .collect::<Vec<_>>()
                     .join(", ")
             ));
         }
-        add(ks);
+        Ok(ks)
+    };
+    for k in freeze {
+        add(named("--freeze", k)?);
     }
     for k in free {
-        let ks = keys_named(cfg, &vars, k).map_err(|e| format!("--free {k}: {e}"))?;
-        if ks.is_empty() {
-            return Err(format!(
-                "--free {k}: no stage of the configured path's width groups (they are {})",
-                vars.iter()
-                    .map(|v| v.key.as_str())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            ));
-        }
+        let ks = named("--free", k)?;
         out.retain(|x| !ks.contains(x));
     }
     Ok(out)
