@@ -15,7 +15,8 @@ const ANGLE_INTERP_MULS: u64 = 2;
 /// Placed on the smallest part of the HX family (`--device`): the
 /// figures, the utilisation against the part's 1 280 logic cells (iCE40
 /// family data sheet), the cache; a unit that cannot fit names the
-/// resource; parts of another family are refused.
+/// resource (the UP5K's eight DSP blocks); parts of another family are
+/// refused.
 #[test]
 fn ice40_place_and_route_gives_cells_fmax_and_latency() {
     let r = json(&fxshade(&[
@@ -84,20 +85,12 @@ fn ice40_place_and_route_gives_cells_fmax_and_latency() {
             r["utilisation"].clone()
         )
     );
-    // The normalizer's LUT multipliers do not fit 1 280 logic cells.
-    let o = fxshade(&[
-        "synth",
-        "normalize",
-        "--target",
-        "ice40-hx8k",
-        "--device",
-        "iCE40HX1K",
-        "--no-cache",
-    ]);
+    // The normalizer's 14 SB_MAC16 do not fit the UP5K's eight.
+    let o = fxshade(&["synth", "normalize", "--target", "ice40-up5k", "--no-cache"]);
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
     assert!(
-        text(&o).contains("does not fit the iCE40HX1K (tq144): ICESTORM_LC ")
-            && text(&o).contains("/1280"),
+        text(&o).contains("does not fit the iCE40UP5K (sg48): ICESTORM_DSP ")
+            && text(&o).contains("/8"),
         "{}",
         text(&o)
     );
@@ -389,10 +382,6 @@ fn ecp5_gate_level_netlists_compute_what_the_model_computes() {
         "{placed:?}"
     );
     assert_eq!(placed, simulated);
-    assert_eq!(
-        gate_level_check("normalize", "8", d.path(), n),
-        (n as u64, 0)
-    );
     // The full vector set (rtl-check's default count, 10 000) on Verilator,
     // which builds a netlist with its cell models as it is (unused cell
     // pins, carry chains through cells).
@@ -411,9 +400,8 @@ fn ecp5_gate_level_netlists_compute_what_the_model_computes() {
     );
     // A block whose output register is dropped again (as if the packer had
     // moved a register without making the block's) is caught.
+    // (Icarus runs the netlists below.)
     sabotage(d.path(), "normalize.v", ".REG_OUTPUT_CLK(\"CLK0\"),", "");
-    let (_, failed) = gate_level_check("normalize", "8", d.path(), n);
-    assert!(failed > 0, "an unregistered product passed");
     let (_, failed) = gate_level_check_on("verilator", "normalize", "8", d.path(), full);
     assert!(failed > 0, "an unregistered product passed on Verilator");
 
