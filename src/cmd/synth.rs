@@ -25,6 +25,8 @@ use clap::Args;
 use fxshade_model::rtl::Emitted;
 
 use super::ConfigArgs;
+
+mod close;
 use crate::output::{emit, OutputArgs, Table, UsageError};
 
 /// A synthesis target.
@@ -167,6 +169,24 @@ pub struct SynthArgs {
     /// DIR` with the same configuration and pipelining.
     #[arg(long, value_name = "DIR")]
     netlist: Option<PathBuf>,
+    /// Timing closure: when the median Fmax misses the clock asked for
+    /// (--freq, or 1000 / --clock-ns), pipeline again for a period the
+    /// measured critical path corrects (the delay model's error on the
+    /// slowest stage: next period = goal period x predicted / measured
+    /// slowest stage) and place again, until the median meets the goal,
+    /// re-pipelining changes nothing, or RUNS runs (default 4) are spent.
+    /// The first run is pipelined at --clock-ns, else at the goal's
+    /// period. Prints each run, then the last one met (else the fastest)
+    /// as `synth` does, with the flags that reproduce it.
+    #[arg(
+        long,
+        value_name = "RUNS",
+        num_args = 0..=1,
+        default_missing_value = "4",
+        value_parser = clap::value_parser!(u32).range(2..=12),
+        conflicts_with_all = ["netlist", "keep", "no_pnr"]
+    )]
+    close: Option<u32>,
     /// Measure again even when a cached result exists (the new result
     /// replaces it).
     #[arg(long)]
@@ -1028,6 +1048,15 @@ pub fn run(a: &SynthArgs) -> anyhow::Result<()> {
         };
         return calibrate(a, tt, freq, device);
     }
+    if let Some(runs) = a.close {
+        let Some(tt) = tt else {
+            return Err(UsageError(
+                "--close: the generic target has no delay model to re-pipeline with; give --target ice40-hx8k, ice40-up5k or ecp5".into(),
+            )
+            .into());
+        };
+        return close::run(a, tt, runs, freq, device);
+    }
     let extra = super::pipeline_overrides(
         a.pipeline.as_deref(),
         a.clock_ns.map(|_| tt.expect("checked").name()),
@@ -1056,6 +1085,18 @@ pub fn run(a: &SynthArgs) -> anyhow::Result<()> {
         &|m| bar.set_message(m.to_string()),
     )?;
     bar.finish_and_clear();
+    let (tables, json) = result_tables(a, &r, was_cached, written.as_ref())?;
+    emit(a.out, &tables, &json)
+}
+
+/// The tables and the JSON `fxshade synth` prints for one result
+/// (`written`: the netlist `--netlist` wrote).
+pub(super) fn result_tables(
+    a: &SynthArgs,
+    r: &SynthResult,
+    was_cached: bool,
+    written: Option<&crate::netlist::Written>,
+) -> anyhow::Result<(Vec<Table>, serde_json::Value)> {
     let mut t = Table::new([
         "unit",
         "device",
@@ -1105,7 +1146,7 @@ pub fn run(a: &SynthArgs) -> anyhow::Result<()> {
         r.latency.to_string(),
         r.throughput_mps.map_or("-".into(), |f| format!("{f:.1}")),
     ]);
-    let mut json = serde_json::to_value(&r)?;
+    let mut json = serde_json::to_value(r)?;
     json["cached"] = serde_json::json!(was_cached);
     let mut tables = vec![t];
     if !r.utilisation.is_empty() {
@@ -1163,7 +1204,7 @@ pub fn run(a: &SynthArgs) -> anyhow::Result<()> {
         }
         tables.push(c);
     }
-    if let Some(w) = &written {
+    if let Some(w) = written {
         json["netlist"] = serde_json::to_value(w)?;
         let mut n = Table::new(["file", "what"]).titled(format!(
             "Gate-level netlist of {} (check it: fxshade rtl-check {} --sim icarus --rtl-dir {} with the same configuration)",
@@ -1186,7 +1227,7 @@ pub fn run(a: &SynthArgs) -> anyhow::Result<()> {
         }
         tables.push(n);
     }
-    emit(a.out, &tables, &json)
+    Ok((tables, json))
 }
 
 /// `fxshade synth calibrate`: every probe of the delay model placed and
