@@ -85,6 +85,25 @@ pub struct ExploreArgs {
     /// Do not check the winner's RTL (say so in the output).
     #[arg(long)]
     no_rtl_check: bool,
+    /// With --optimize: close the winner's timing on this target (ice40-hx8k,
+    /// ice40-up5k, ecp5), as `synth <--synth-unit> --target T --freq MHZ
+    /// --close` does: pipelining changes no value, so the widths found stay
+    /// the cheapest meeting the goals, and the winner is pipelined until
+    /// the median Fmax meets --freq. Its measured LUT, FF, DSP, block RAM
+    /// and Fmax are printed beside the estimates, optimized.toml holds the
+    /// pipelining of the run that met, and the RTL check and the proof are
+    /// of that design. Not met: the command fails (the files are written).
+    #[arg(long, value_enum, value_name = "TARGET", requires = "optimize")]
+    close_on: Option<super::synth::Target>,
+    /// The clock --close-on aims for, MHz.
+    #[arg(long, value_name = "MHZ", default_value_t = 100.0, value_parser = super::finite_f64, requires = "close_on")]
+    freq: f64,
+    /// Place-and-route seeds of each --close-on run (the median decides).
+    #[arg(long, value_name = "N", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=15), requires = "close_on")]
+    seeds: u32,
+    /// Runs --close-on may spend.
+    #[arg(long, value_name = "N", default_value_t = 4, value_parser = clap::value_parser!(u32).range(2..=12), requires = "close_on")]
+    close_runs: u32,
     /// Do not prove the winner's pipeline top equivalent to its model
     /// (`fxshade equiv pipeline` on the winner; say so in the output).
     #[arg(long)]
@@ -1208,6 +1227,28 @@ fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow:
         )
         .into());
     }
+    // --close-on: a target with a delay model and a place and route.
+    let close_timing = match a.close_on {
+        None => None,
+        Some(t) => {
+            let tt = t
+                .timing()
+                .filter(|_| t != super::synth::Target::Xc7)
+                .ok_or_else(|| {
+                    UsageError(format!(
+                        "--close-on {}: give a target with a delay model and a place and route \
+                     (ice40-hx8k, ice40-up5k, ecp5)",
+                        t.name()
+                    ))
+                })?;
+            if !(a.freq.is_finite() && a.freq > 0.0) {
+                return Err(
+                    UsageError(format!("--freq {}: give a clock in MHz above 0", a.freq)).into(),
+                );
+            }
+            Some(tt)
+        }
+    };
     let cfg = fxshade_model::Config::resolve(p.base.config.as_deref(), &p.base.set)?;
     let frozen = optimize::frozen(&cfg, &p.base.set, &a.freeze, &a.free).map_err(UsageError)?;
     let meshes = explore::load_meshes(&p.options)?;
@@ -1230,9 +1271,47 @@ fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow:
     bar.finish_and_clear();
     launch_failures()?;
     let o = o?;
+    // Close the winner's timing: its pipelining is added to its overrides.
+    let closure = match a.close_on {
+        None => None,
+        Some(t) => {
+            let tt = close_timing.expect("checked before the search");
+            let bar = crate::progress::spinner("explore: closing the winner's timing");
+            let c = super::synth::close::close(
+                &a.synth_unit,
+                &|extra| {
+                    let all: Vec<String> =
+                        o.winner.overrides.iter().chain(extra).cloned().collect();
+                    p.base
+                        .resolve(&all)
+                        .map_err(|e| anyhow::anyhow!("the winner's configuration: {e}"))
+                },
+                t,
+                tt,
+                1000.0 / a.freq,
+                a.close_runs,
+                super::synth::Flow {
+                    seeds: a.seeds,
+                    freq: a.freq,
+                    pnr: true,
+                    dsp_pack: true,
+                    device: None,
+                },
+                !a.no_cache,
+                &|m| bar.set_message(m.to_string()),
+                &|l| bar.suspend(|| eprintln!("explore: closing timing: {l}")),
+            );
+            bar.finish_and_clear();
+            Some(c?)
+        }
+    };
+    let mut win_overrides = o.winner.overrides.clone();
+    if let Some(c) = &closure {
+        win_overrides.extend(c.set.iter().cloned());
+    }
     let win_cfg = p
         .base
-        .resolve(&o.winner.overrides)
+        .resolve(&win_overrides)
         .map_err(|e| anyhow::anyhow!("the winner's configuration: {e}"))?;
     // Check the winner's RTL top on both simulators.
     let mut checks = Vec::new();
@@ -1318,6 +1397,23 @@ fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow:
             )
         );
     }
+    if let Some(c) = &closure {
+        toml += &format!(
+            "# timing: {} on {}, {}\n",
+            c.result
+                .verdict
+                .as_ref()
+                .map_or_else(|| "no Fmax".into(), |v| v.line()),
+            fxshade_model::escape::line(&c.result.device),
+            match c.outcome {
+                super::synth::close::Outcome::Met => format!("closed in {} run(s)", c.runs.len()),
+                _ => format!(
+                    "NOT closed: {}",
+                    fxshade_model::escape::line(c.stopped.as_deref().unwrap_or("-"))
+                ),
+            }
+        );
+    }
     toml += &win_cfg.to_toml();
     dir.write("optimized.toml", toml.as_bytes())?;
     let json = serde_json::json!({
@@ -1325,6 +1421,11 @@ fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow:
         "rtl_check": if a.no_rtl_check { serde_json::json!("skipped (--no-rtl-check)") } else { serde_json::json!(checks) },
         "equivalence": equiv,
         "options": p.options,
+        "closure": closure.as_ref().map(|c| {
+            let mut j = c.json();
+            j["result"] = serde_json::to_value(&c.result).unwrap_or_default();
+            j
+        }),
     });
     dir.write(
         "optimize.json",
@@ -1422,14 +1523,66 @@ fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow:
             ch["passed"].to_string(),
         ]);
     }
-    crate::output::emit(a.output, &[t, m, c], &json)?;
+    let mut tables = vec![t, m, c];
+    if let Some(cl) = &closure {
+        tables.push(cl.table(&a.synth_unit));
+        tables.push(closed_table(&o, cl));
+    }
+    crate::output::emit(a.output, &tables, &json)?;
     if !a.output.json {
         crate::output::print_out(&format!(
             "configuration written to {}/optimized.toml\n",
             out.display()
         ))?;
     }
+    if let Some(c) = &closure {
+        if c.outcome != super::synth::close::Outcome::Met {
+            bail!(
+                "the winner's timing is not closed: {:.1} MHz not met ({})",
+                c.goal_mhz,
+                c.stopped.as_deref().unwrap_or("-")
+            );
+        }
+    }
     Ok(())
+}
+
+/// The closed winner as the device counts it, beside the estimates the
+/// search used (`dsp_est`, `bram_est`, `ff`: the model's figures of the
+/// compact top, when measured).
+fn closed_table(o: &optimize::Outcome, c: &super::synth::close::Closure) -> Table {
+    let r = &c.result;
+    let mut t = Table::new(["measure", "measured", "estimate"]).titled(format!(
+        "The winner as placed on {} (run {} of the timing closure; FF include the harness's {})",
+        r.device, c.runs[c.shown].run, r.harness_ff
+    ));
+    let est = |k: &str| o.winner.get(k).map_or("-".into(), fmt_num);
+    t.row([
+        "Fmax median (MHz)".to_string(),
+        r.fmax_mhz.map_or("-".into(), |f| format!("{f:.1}")),
+        r.predicted_mhz
+            .map_or("-".into(), |f| format!("{f:.1} (delay model)")),
+    ]);
+    t.row(["LUT4".to_string(), r.lut.to_string(), "-".into()]);
+    t.row(["FF".to_string(), r.ff.to_string(), "-".into()]);
+    t.row([
+        "DSP".to_string(),
+        r.dsp.to_string(),
+        r.dsp_estimate
+            .map_or_else(|| est("dsp_est"), |d| d.to_string()),
+    ]);
+    t.row([
+        "BRAM".to_string(),
+        r.bram.to_string(),
+        r.bram_estimate
+            .map_or_else(|| est("bram_est"), |d| d.to_string()),
+    ]);
+    t.row([
+        "latency (cycles)".to_string(),
+        r.latency.to_string(),
+        "-".into(),
+    ]);
+    t
 }
 
 #[cfg(test)]

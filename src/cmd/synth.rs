@@ -26,7 +26,7 @@ use fxshade_model::rtl::Emitted;
 
 use super::ConfigArgs;
 
-mod close;
+pub mod close;
 use crate::output::{emit, OutputArgs, Table, UsageError};
 
 /// A synthesis target.

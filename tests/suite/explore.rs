@@ -269,6 +269,17 @@ fn bad_sweeps_are_refused_with_the_flag_or_the_line() {
         (vec!["--pareto", "normalize.max_rel_err"], "ERR:COST"),
         (vec!["--optimize"], "needs at least one --goal"),
         (vec!["--freeze", "width.interp"], "give --optimize too"),
+        (vec!["--close-on", "ecp5"], "--optimize"),
+        (
+            vec![
+                "--optimize",
+                "--goal",
+                "pipeline.max_err_levels<=1",
+                "--close-on",
+                "xc7",
+            ],
+            "--close-on xc7: give a target with a delay model and a place and route",
+        ),
         (
             vec![
                 "--optimize",
@@ -588,6 +599,88 @@ fn optimize_meets_both_goals_beats_the_uniform_width_and_passes_the_rtl() {
         "icarus",
     ]);
     assert!(chk.status.success(), "{}", text(&chk));
+}
+
+/// `--optimize --close-on`: the winner's timing closed on a device (here
+/// its `angle_interp` on the iCE40 HX8K, a few seconds a run), its
+/// pipelining in optimized.toml, the device's counts beside the estimates;
+/// a goal out of reach fails the command after writing the files.
+#[test]
+fn optimize_closes_the_winners_timing() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |freq: &str, out: &std::path::Path| {
+        fxshade(&[
+            "explore",
+            "--optimize",
+            "--goal",
+            "lighting.max_diffuse_err_levels<=1",
+            "--minimize",
+            "bit_products",
+            "--analyses",
+            "lighting,cost",
+            "--max-evals",
+            "12",
+            "--no-rtl-check",
+            "--no-equiv",
+            "--close-on",
+            "ice40-hx8k",
+            "--synth-unit",
+            "angle_interp",
+            "--freq",
+            freq,
+            "--cache",
+            dir.path().join("cache").to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--json",
+        ])
+    };
+    let out = dir.path().join("met");
+    let r = json(&run("125", &out));
+    let c = &r["closure"];
+    assert_eq!(c["outcome"], "met", "{c}");
+    let res = &c["result"];
+    let fmax = res["fmax_mhz"].as_f64().unwrap();
+    assert!(fmax >= 125.0, "{c}");
+    // The configuration written is the one closed: its pipelining keys.
+    let toml = std::fs::read_to_string(out.join("optimized.toml")).unwrap();
+    assert!(toml.contains("# timing: met 125.0 MHz"), "{toml}");
+    for s in c["set"].as_array().unwrap() {
+        let (k, v) = s.as_str().unwrap().split_once('=').unwrap();
+        let key = k.rsplit('.').next().unwrap();
+        assert!(
+            toml.lines()
+                .any(|l| l.replace(' ', "") == format!("{key}={v}")),
+            "{s} not in {toml}"
+        );
+    }
+    // The design placed is the written configuration's: its latency.
+    let rtl = dir.path().join("rtl");
+    let o = fxshade(&[
+        "rtl",
+        "angle_interp",
+        "--config",
+        out.join("optimized.toml").to_str().unwrap(),
+        "--out",
+        rtl.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let v = std::fs::read_to_string(rtl.join("angle_interp.v")).unwrap();
+    assert!(
+        v.contains(&format!("// Latency {} cycles", res["latency"])),
+        "not the design placed: {}",
+        v.lines().take(12).collect::<Vec<_>>().join("\n")
+    );
+    // Out of reach: the closure stops and the command fails, files written.
+    let out = dir.path().join("missed");
+    let o = run("400", &out);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(
+        text(&o).contains("the winner's timing is not closed: 400.0 MHz not met"),
+        "{}",
+        text(&o)
+    );
+    assert!(out.join("optimized.toml").is_file());
 }
 
 /// A two-axis sweep: each shown metric as a grid (first axis down, second

@@ -98,40 +98,129 @@ pub fn next_period(goal_ns: f64, predicted_ns: Option<f64>, fmax_mhz: Option<f64
     (next.is_finite() && next > 0.0).then(|| (next * 100.0).floor() / 100.0)
 }
 
-/// `--close RUNS` for a target with delay model `tt`, goal `freq` MHz.
-pub fn run(
-    a: &SynthArgs,
-    tt: fxshade_model::rtl::timing::Target,
-    runs: u32,
-    freq: f64,
-    device: Option<crate::device::Device>,
-) -> anyhow::Result<()> {
-    if a.pipeline.as_deref() == Some("compact") {
-        return Err(UsageError(
-            "--close re-pipelines for the target's delay model; it cannot with --pipeline compact"
-                .into(),
-        )
-        .into());
+/// A closure loop's result.
+#[derive(Clone, Debug)]
+pub struct Closure {
+    /// The goal, MHz.
+    pub goal_mhz: f64,
+    /// How it ended.
+    pub outcome: Outcome,
+    /// Why it stopped, when it did not meet the goal.
+    pub stopped: Option<String>,
+    /// Every run, in order.
+    pub runs: Vec<Run>,
+    /// The run shown (index into `runs`): the one that met, else the
+    /// fastest median.
+    pub shown: usize,
+    /// The configuration overrides (`key=value`) of the run shown, on top of
+    /// the configuration the loop started from.
+    pub set: Vec<String>,
+    /// The full result of the run shown.
+    pub result: SynthResult,
+}
+
+impl Closure {
+    /// The JSON `closure` object.
+    pub fn json(&self) -> serde_json::Value {
+        serde_json::json!({
+            "goal_mhz": self.goal_mhz,
+            "outcome": self.outcome,
+            "stopped": self.stopped,
+            "shown_run": self.runs[self.shown].run,
+            "set": self.set,
+            "runs": self.runs,
+        })
     }
-    let u = crate::rtl_flow::unit(&a.unit)?;
+
+    /// The table of the runs, titled with the outcome.
+    pub fn table(&self, unit: &str) -> Table {
+        let shown = &self.runs[self.shown];
+        let mut t = Table::new([
+            "run",
+            "period planned (ns)",
+            "latency",
+            "predicted (MHz)",
+            "Fmax median (MHz)",
+            "seeds (MHz)",
+            "goal",
+            "measured / predicted period",
+            "LUT4",
+            "FF",
+            "DSP",
+            "BRAM",
+            "critical path",
+        ])
+        .titled(format!(
+            "Timing closure of {unit} on {} for {:.1} MHz: {}",
+            self.result.device,
+            self.goal_mhz,
+            match (&self.outcome, &self.stopped) {
+                (Outcome::Met, _) => format!("met in run {}", shown.run),
+                (_, stop) => format!(
+                    "not met; stopped: {}; the fastest is run {}",
+                    stop.as_deref().unwrap_or("-"),
+                    shown.run
+                ),
+            }
+        ));
+        for r in &self.runs {
+            t.row([
+                format!("{}{}", r.run, if r.cached { " (cache)" } else { "" }),
+                format!("{:.2}", r.clock_ns),
+                r.latency.to_string(),
+                r.predicted_mhz.map_or("-".into(), |f| format!("{f:.1}")),
+                r.fmax_mhz.map_or("-".into(), |f| format!("{f:.1}")),
+                r.fmax_seeds
+                    .iter()
+                    .map(|f| format!("{f:.1}"))
+                    .collect::<Vec<_>>()
+                    .join(" "),
+                if r.met {
+                    "met".into()
+                } else {
+                    "missed".to_string()
+                },
+                r.model_error.map_or("-".into(), |x| format!("{x:.3}")),
+                r.lut.to_string(),
+                r.ff.to_string(),
+                r.dsp.to_string(),
+                r.bram.to_string(),
+                r.critical_path.clone().unwrap_or_else(|| "-".into()),
+            ]);
+        }
+        t
+    }
+}
+
+/// The closure loop for `unit` on `target` (delay model `tt`): `resolve`
+/// gives the configuration with the pipelining overrides added; the first
+/// run is pipelined at `first_ns`; `flow.freq` is the goal. `progress`
+/// takes the current step, `log` a line per run finished.
+#[allow(clippy::too_many_arguments)]
+pub fn close(
+    unit: &str,
+    resolve: &dyn Fn(&[String]) -> anyhow::Result<fxshade_model::Config>,
+    target: super::Target,
+    tt: fxshade_model::rtl::timing::Target,
+    first_ns: f64,
+    runs: u32,
+    flow: Flow,
+    use_cache: bool,
+    progress: &dyn Fn(&str),
+    log: &dyn Fn(&str),
+) -> anyhow::Result<Closure> {
+    let u = crate::rtl_flow::unit(unit)?;
+    let freq = flow.freq;
     let goal_ns = 1000.0 / freq;
-    let mut clock = a.clock_ns.unwrap_or(goal_ns);
-    let flow = Flow {
-        seeds: a.seeds,
-        freq,
-        pnr: true,
-        dsp_pack: !a.no_dsp_pack,
-        device,
-    };
-    let bar = crate::progress::spinner("synth --close");
+    let mut clock = first_ns;
     let mut done: Vec<(Run, SynthResult, String, Vec<String>)> = Vec::new();
     let mut outcome = Outcome::RunsSpent;
     let mut stop_note = String::new();
     for k in 1..=runs {
         let extra = super::super::pipeline_overrides(Some("target"), Some(tt.name()), Some(clock));
-        let cfg = a.cfg.resolve_with(&extra)?;
+        let cfg = resolve(&extra)?;
         let (_, e) = fxshade_model::rtl::units::emit_unit(u, &cfg)
-            .with_context(|| format!("run {k}: cannot emit {} at {clock} ns", a.unit))?;
+            .with_context(|| format!("run {k}: cannot emit {unit} at {clock} ns"))?;
         let b = body(&e.verilog);
         if let Some((prev, ..)) = done.iter().find(|(_, _, pb, _)| *pb == b) {
             outcome = Outcome::Unsplittable;
@@ -150,16 +239,10 @@ pub fn run(
             break;
         }
         let what = format!("run {k} of at most {runs}, pipelined at {clock:.2} ns");
-        let (r, cached, _) = cached_with_netlist(
-            &a.unit,
-            &cfg,
-            a.target,
-            flow,
-            None,
-            !a.no_cache,
-            None,
-            &|m| bar.set_message(format!("{what}: {m}")),
-        )?;
+        let (r, cached, _) =
+            cached_with_netlist(unit, &cfg, target, flow, None, use_cache, None, &|m| {
+                progress(&format!("{what}: {m}"))
+            })?;
         let fmax = r.fmax_mhz;
         let met = r.verdict.as_ref().is_some_and(|v| v.met);
         let run = Run {
@@ -191,19 +274,17 @@ pub fn run(
             cached,
         };
         let next = next_period(goal_ns, e.predicted_ns, fmax);
-        bar.suspend(|| {
-            eprintln!(
-                "synth --close: run {k} at {clock:.2} ns: latency {}, {}{}",
-                r.latency,
-                r.verdict
-                    .as_ref()
-                    .map_or_else(|| "no Fmax".to_string(), |v| v.line()),
-                match (met, next) {
-                    (false, Some(n)) if k < runs => format!("; next at {n:.2} ns"),
-                    _ => String::new(),
-                }
-            )
-        });
+        log(&format!(
+            "run {k} at {clock:.2} ns: latency {}, {}{}",
+            r.latency,
+            r.verdict
+                .as_ref()
+                .map_or_else(|| "no Fmax".to_string(), |v| v.line()),
+            match (met, next) {
+                (false, Some(n)) if k < runs => format!("; next at {n:.2} ns"),
+                _ => String::new(),
+            }
+        ));
         done.push((run, r, b, extra));
         if met {
             outcome = Outcome::Met;
@@ -217,12 +298,10 @@ pub fn run(
             }
         }
     }
-    bar.finish_and_clear();
     if outcome == Outcome::RunsSpent && stop_note.is_empty() {
         stop_note = format!("{runs} runs spent");
     }
-    // The run to show: the one that met, else the fastest median.
-    let best = done
+    let shown = done
         .iter()
         .enumerate()
         .max_by(|(_, x), (_, y)| {
@@ -233,90 +312,77 @@ pub fn run(
         })
         .map(|(i, _)| i)
         .context("--close: no run finished")?;
-    let (best_run, best_r, _, best_extra) = &done[best];
-    let mut t = Table::new([
-        "run",
-        "period planned (ns)",
-        "latency",
-        "predicted (MHz)",
-        "Fmax median (MHz)",
-        "seeds (MHz)",
-        "goal",
-        "measured / predicted period",
-        "LUT4",
-        "FF",
-        "DSP",
-        "BRAM",
-        "critical path",
-    ])
-    .titled(format!(
-        "Timing closure of {} on {} for {freq:.1} MHz: {}",
-        a.unit,
-        best_r.device,
-        match outcome {
-            Outcome::Met => format!("met in run {}", best_run.run),
-            Outcome::Unsplittable => format!(
-                "not met; stopped: {stop_note}; the fastest is run {}",
-                best_run.run
-            ),
-            Outcome::RunsSpent => format!(
-                "not met; stopped: {stop_note}; the fastest is run {}",
-                best_run.run
-            ),
-        }
-    ));
-    for (r, ..) in &done {
-        t.row([
-            format!("{}{}", r.run, if r.cached { " (cache)" } else { "" }),
-            format!("{:.2}", r.clock_ns),
-            r.latency.to_string(),
-            r.predicted_mhz.map_or("-".into(), |f| format!("{f:.1}")),
-            r.fmax_mhz.map_or("-".into(), |f| format!("{f:.1}")),
-            r.fmax_seeds
-                .iter()
-                .map(|f| format!("{f:.1}"))
-                .collect::<Vec<_>>()
-                .join(" "),
-            if r.met {
-                "met".into()
-            } else {
-                "missed".to_string()
-            },
-            r.model_error.map_or("-".into(), |x| format!("{x:.3}")),
-            r.lut.to_string(),
-            r.ff.to_string(),
-            r.dsp.to_string(),
-            r.bram.to_string(),
-            r.critical_path.clone().unwrap_or_else(|| "-".into()),
-        ]);
+    let set = done[shown].3.clone();
+    let result = done[shown].1.clone();
+    Ok(Closure {
+        goal_mhz: freq,
+        outcome,
+        stopped: (outcome != Outcome::Met).then_some(stop_note),
+        runs: done.into_iter().map(|d| d.0).collect(),
+        shown,
+        set,
+        result,
+    })
+}
+
+/// `--close RUNS` for a target with delay model `tt`, goal `freq` MHz.
+pub fn run(
+    a: &SynthArgs,
+    tt: fxshade_model::rtl::timing::Target,
+    runs: u32,
+    freq: f64,
+    device: Option<crate::device::Device>,
+) -> anyhow::Result<()> {
+    if a.pipeline.as_deref() == Some("compact") {
+        return Err(UsageError(
+            "--close re-pipelines for the target's delay model; it cannot with --pipeline compact"
+                .into(),
+        )
+        .into());
     }
-    let sets: Vec<String> = best_extra.iter().map(|s| format!("--set '{s}'")).collect();
+    let flow = Flow {
+        seeds: a.seeds,
+        freq,
+        pnr: true,
+        dsp_pack: !a.no_dsp_pack,
+        device,
+    };
+    let bar = crate::progress::spinner("synth --close");
+    let c = close(
+        &a.unit,
+        &|extra| Ok(a.cfg.resolve_with(extra)?),
+        a.target,
+        tt,
+        a.clock_ns.unwrap_or(1000.0 / freq),
+        runs,
+        flow,
+        !a.no_cache,
+        &|m| bar.set_message(m.to_string()),
+        &|l| bar.suspend(|| eprintln!("synth --close: {l}")),
+    );
+    bar.finish_and_clear();
+    let c = c?;
+    let shown = &c.runs[c.shown];
+    let sets: Vec<String> = c.set.iter().map(|s| format!("--set '{s}'")).collect();
     let mut repro = Table::new(["run", "flags"]).titled(
         "To reproduce the run shown below, add these to the configuration given (any command: \
          `rtl`, `vectors`, `rtl-check`, `synth`)",
     );
-    repro.row([best_run.run.to_string(), sets.join(" ")]);
-    let (mut tables, mut json) = result_tables(a, best_r, best_run.cached, None)?;
-    tables.insert(0, t);
+    repro.row([shown.run.to_string(), sets.join(" ")]);
+    let (mut tables, mut json) = result_tables(a, &c.result, shown.cached, None)?;
+    tables.insert(0, c.table(&a.unit));
     tables.insert(1, repro);
-    json["closure"] = serde_json::json!({
-        "goal_mhz": freq,
-        "outcome": outcome,
-        "stopped": match outcome { Outcome::Met => None, _ => Some(stop_note) },
-        "shown_run": best_run.run,
-        "set": best_extra,
-        "runs": done.iter().map(|(r, ..)| r).collect::<Vec<_>>(),
-    });
+    json["closure"] = c.json();
     emit(a.out, &tables, &json)?;
-    if outcome == Outcome::Met {
+    if c.outcome == Outcome::Met {
         Ok(())
     } else {
         anyhow::bail!(
             "timing not closed: {freq:.1} MHz not met in {} run{} (fastest {:.1} MHz, run {})",
-            done.len(),
-            if done.len() == 1 { "" } else { "s" },
-            best_run.fmax_mhz.unwrap_or(0.0),
-            best_run.run
+            c.runs.len(),
+            if c.runs.len() == 1 { "" } else { "s" },
+            shown.fmax_mhz.unwrap_or(0.0),
+            shown.run
         )
     }
 }
@@ -327,7 +393,8 @@ mod tests {
 
     /// The goal 8 ns, a design the model put at 9.37 ns measured at
     /// 8.30 ns (120.45 MHz): the model is pessimistic by 8.30 / 9.37, so
-    /// the next plan is 8 · 9.37 / 8.30 = 9.03 ns (by hand).
+    /// the next plan is 8 · 9.37 / 8.302 = 9.029 ns, floored to 9.02 (by
+    /// hand).
     #[test]
     fn the_period_is_corrected_by_the_measured_path() {
         let n = next_period(8.0, Some(9.37), Some(120.45)).unwrap();
