@@ -75,6 +75,14 @@ pub struct ExploreArgs {
     /// the output level (`unit.field` or `width.<group>`; repeatable).
     #[arg(long, value_name = "KEY")]
     free: Vec<String>,
+    /// With --optimize: also search this discrete knob over SPEC (the
+    /// `--vary` spelling: `polar.table_bits=8..12`,
+    /// `angles.iterations=8..16`, `normalize.method=linear,quadratic`): any
+    /// key but a width (widths are searched already). Each knob takes every
+    /// value with the widths found, the cheapest point meeting the goals
+    /// wins, and the widths are narrowed again. Repeatable.
+    #[arg(long, value_name = "KEY=SPEC")]
+    knob: Vec<String>,
     /// Most points `--optimize` measures after the uniform widths (which
     /// are always measured: one point per width from 8 to 26 bits).
     #[arg(long, default_value_t = 400, value_name = "N")]
@@ -354,10 +362,14 @@ fn check_disjoint(axes: &[sweep::Axis]) -> anyhow::Result<()> {
 }
 
 fn plan(a: &ExploreArgs) -> anyhow::Result<Plan> {
-    for (flag, given) in [("--freeze", &a.freeze), ("--free", &a.free)] {
+    for (flag, given) in [
+        ("--freeze", &a.freeze),
+        ("--free", &a.free),
+        ("--knob", &a.knob),
+    ] {
         if !a.optimize && !given.is_empty() {
             return Err(UsageError(format!(
-                "{flag}: it tells --optimize which stages to keep; give --optimize too"
+                "{flag}: it steers the search of --optimize; give --optimize too"
             ))
             .into());
         }
@@ -1251,6 +1263,35 @@ fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow:
     };
     let cfg = fxshade_model::Config::resolve(p.base.config.as_deref(), &p.base.set)?;
     let frozen = optimize::frozen(&cfg, &p.base.set, &a.freeze, &a.free).map_err(UsageError)?;
+    let mut knobs: Vec<explore::sweep::Axis> = Vec::new();
+    for spec in &a.knob {
+        let k = explore::sweep::parse_axis(spec, &cfg, "--knob")
+            .map_err(|e| UsageError(format!("{e:#}")))?;
+        let key = k.key.as_str();
+        if key.starts_with("width.")
+            || key.ends_with(".format")
+            || optimize::vars(&cfg).0.iter().any(|v| v.key == key)
+        {
+            return Err(UsageError(format!(
+                "--knob {key}: a width; --optimize searches the widths already (--freeze keeps one)"
+            ))
+            .into());
+        }
+        if p.base
+            .set
+            .iter()
+            .any(|s| s.split('=').next().map(str::trim) == Some(key))
+        {
+            return Err(UsageError(format!(
+                "--knob {key}: --set names it too; the designer's value is not searched (drop one)"
+            ))
+            .into());
+        }
+        if knobs.iter().any(|x| x.key == key) {
+            return Err(UsageError(format!("--knob {key}: given twice")).into());
+        }
+        knobs.push(k);
+    }
     let meshes = explore::load_meshes(&p.options)?;
     let bar = crate::progress::bar_eta(a.max_evals as u64, "optimize");
     let o = optimize::run(
@@ -1263,6 +1304,7 @@ fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow:
         cache,
         a.max_evals,
         &frozen,
+        &knobs,
         &|what| {
             bar.set_message(what.to_string());
             bar.inc(1);
@@ -1385,6 +1427,18 @@ fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow:
         o.baseline.get(&o.minimize).unwrap_or(f64::NAN),
         100.0 * o.saving
     );
+    if !o.knobs.is_empty() {
+        toml += &format!(
+            "# knobs searched: {}\n",
+            fxshade_model::escape::line(
+                &o.knobs
+                    .iter()
+                    .map(|(k, _, v)| format!("{k} = {v}"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )
+        );
+    }
     if !o.frozen.is_empty() {
         toml += &format!(
             "# kept as configured (not searched): {}\n",
@@ -1497,6 +1551,9 @@ fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow:
     for (key, format) in &o.frozen {
         let kept = format!("{format} (kept)");
         t.row([key.clone(), kept.clone(), kept]);
+    }
+    for (key, from, to) in &o.knobs {
+        t.row([format!("{key} (knob)"), from.clone(), to.clone()]);
     }
     let mut m = Table::new(["metric", "baseline", "optimized"]);
     let mut names: Vec<String> = o.goals.iter().map(|g| g.metric.clone()).collect();

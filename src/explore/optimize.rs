@@ -17,6 +17,16 @@
 //!    the cost falls. Repeated until nothing improves or the evaluation
 //!    budget is spent.
 //!
+//! **Discrete knobs** (`--knob KEY=SPEC`: table sizes, angle bits, CORDIC
+//! iterations, methods; any key but a width) are searched before step 2
+//! (at the baseline widths, so a small budget still searches them) and
+//! after it: each knob in turn takes every value of its SPEC with the
+//! widths found (measured in parallel), the cheapest point meeting the
+//! goals wins, and when a knob moved, step 2 narrows the widths again;
+//! repeated until no knob moves (at most [`KNOB_ROUNDS`] rounds after
+//! step 2). A knob starts at its configured value
+//! when SPEC holds it, else at SPEC's last value. Step 3 keeps the knobs.
+//!
 //! Costs compare lexicographically: the chosen cost, then the total of
 //! `bit_products + adder_bits + table_bits + ff`, so a narrowing that the
 //! chosen cost does not see is still taken when it saves hardware.
@@ -32,6 +42,28 @@ use super::{Base, Cache, Goal, Options, Row};
 pub const UNIFORM_MIN: u32 = 8;
 /// Widest uniform width tried.
 pub const UNIFORM_MAX: u32 = 26;
+
+/// Most rounds of knob passes and re-narrowing.
+pub const KNOB_ROUNDS: usize = 3;
+
+/// The index of each knob's starting value: the value the configuration
+/// has (applying it changes nothing), else the last.
+pub fn knob_start(cfg: &Config, knobs: &[super::sweep::Axis]) -> Vec<usize> {
+    let here = super::canonical(cfg);
+    knobs
+        .iter()
+        .map(|k| {
+            k.values
+                .iter()
+                .position(|v| {
+                    let mut c = cfg.clone();
+                    v.overrides.iter().all(|o| c.apply_override(o).is_ok())
+                        && super::canonical(&c) == here
+                })
+                .unwrap_or(k.values.len().saturating_sub(1))
+        })
+        .collect()
+}
 
 /// One variable: a stage's total width.
 #[derive(Clone, Debug, serde::Serialize)]
@@ -198,6 +230,8 @@ pub struct Outcome {
     pub saving: f64,
     /// Points measured (cache hits included).
     pub evaluations: usize,
+    /// Each knob: key, its value in the baseline, its value in the winner.
+    pub knobs: Vec<(String, String, String)>,
 }
 
 /// The search state: measures points and keeps count.
@@ -209,13 +243,19 @@ struct Search<'a> {
     goals: &'a [Goal],
     minimize: &'a str,
     vars: &'a [Var],
+    knobs: &'a [super::sweep::Axis],
     evaluations: std::sync::atomic::AtomicUsize,
     tick: &'a (dyn Fn(&str) + Sync),
 }
 
 impl Search<'_> {
-    fn measure(&self, widths: &[u32], label: &str) -> Option<Row> {
-        let overrides = overrides(self.vars, widths)?;
+    /// The point of these widths and knob values (indices into each
+    /// knob's values).
+    fn measure_k(&self, widths: &[u32], knobs: &[usize], label: &str) -> Option<Row> {
+        let mut overrides = overrides(self.vars, widths)?;
+        for (k, &i) in self.knobs.iter().zip(knobs) {
+            overrides.extend(k.values[i].overrides.iter().cloned());
+        }
         let p = Point {
             index: self
                 .evaluations
@@ -226,6 +266,75 @@ impl Search<'_> {
         let r = super::measure_one(self.base, &p, self.o, self.meshes, self.cache);
         (self.tick)(label);
         Some(r)
+    }
+    /// Step 2: each variable narrowed as far as the goals allow (see the
+    /// module docs), from `cur` and its point `best`.
+    fn narrow(
+        &self,
+        cur: &mut [u32],
+        kc: &[usize],
+        best: &mut Row,
+        budget: &dyn Fn(&Search) -> bool,
+    ) {
+        let vars = self.vars;
+        for i in 0..vars.len() {
+            let (mut lo, mut hi) = (vars[i].min_width(), cur[i]);
+            let mut hi_row = best.clone();
+            while lo < hi && budget(self) {
+                let mid = (lo + hi) / 2;
+                let mut t = cur.to_vec();
+                t[i] = mid;
+                match self.measure_k(&t, kc, &format!("narrow {} to {mid}", vars[i].key)) {
+                    Some(r) if self.feasible(&r) && self.not_dearer(&r, &hi_row) => {
+                        hi = mid;
+                        hi_row = r;
+                    }
+                    _ => lo = mid + 1,
+                }
+            }
+            if hi < cur[i] && self.cheaper(&hi_row, best) {
+                cur[i] = hi;
+                *best = hi_row;
+            }
+        }
+    }
+    /// One pass over the knobs: each takes every value of its SPEC with the
+    /// widths `cur` (in parallel); the cheapest point meeting the goals is
+    /// kept. True when a knob moved.
+    fn knob_pass(
+        &self,
+        cur: &[u32],
+        kc: &mut [usize],
+        best: &mut Row,
+        budget: &dyn Fn(&Search) -> bool,
+    ) -> bool {
+        let mut moved = false;
+        for i in 0..self.knobs.len() {
+            if !budget(self) {
+                break;
+            }
+            let k = &self.knobs[i];
+            let tried: Vec<(usize, Option<Row>)> = (0..k.values.len())
+                .into_par_iter()
+                .filter(|&v| v != kc[i])
+                .map(|v| {
+                    let mut t = kc.to_vec();
+                    t[i] = v;
+                    let label = format!("knob {} = {}", k.key, k.values[v].label);
+                    (v, self.measure_k(cur, &t, &label))
+                })
+                .collect();
+            for (v, r) in tried {
+                if let Some(r) = r {
+                    if self.feasible(&r) && self.cheaper(&r, best) {
+                        kc[i] = v;
+                        *best = r;
+                        moved = true;
+                    }
+                }
+            }
+        }
+        moved
     }
     fn feasible(&self, r: &Row) -> bool {
         r.error.is_none() && self.goals.iter().all(|g| g.met(r))
@@ -258,8 +367,10 @@ pub fn run(
     cache: &Cache,
     max_evals: usize,
     frozen: &[String],
+    knobs: &[super::sweep::Axis],
     tick: &(dyn Fn(&str) + Sync),
 ) -> anyhow::Result<Outcome> {
+    let k0 = knob_start(cfg, knobs);
     let (all, widths) = vars(cfg);
     let mut kept = Vec::new();
     let mut vars = Vec::new();
@@ -301,6 +412,7 @@ pub fn run(
         goals,
         minimize,
         vars: &vars,
+        knobs,
         evaluations: 0.into(),
         tick,
     };
@@ -309,7 +421,7 @@ pub fn run(
         .into_par_iter()
         .map(|w| {
             let widths: Vec<u32> = vars.iter().map(|v| w.max(v.min_width())).collect();
-            (w, s.measure(&widths, &format!("uniform {w}")))
+            (w, s.measure_k(&widths, &k0, &format!("uniform {w}")))
         })
         .collect();
     let uniform: Vec<(u32, bool, Option<f64>)> = tried
@@ -348,26 +460,18 @@ pub fn run(
     let mut best = brow.clone();
     let budget = |s: &Search| s.evaluations.load(std::sync::atomic::Ordering::Relaxed) < max_evals;
 
-    // 2. Greedy narrowing, one variable at a time, by bisection.
-    for i in 0..vars.len() {
-        let (mut lo, mut hi) = (vars[i].min_width(), cur[i]);
-        let mut hi_row = best.clone();
-        while lo < hi && budget(&s) {
-            let mid = (lo + hi) / 2;
-            let mut t = cur.clone();
-            t[i] = mid;
-            match s.measure(&t, &format!("narrow {} to {mid}", vars[i].key)) {
-                Some(r) if s.feasible(&r) && s.not_dearer(&r, &hi_row) => {
-                    hi = mid;
-                    hi_row = r;
-                }
-                _ => lo = mid + 1,
-            }
+    // 2. Greedy narrowing, one variable at a time, by bisection; then the
+    // knobs, and the widths again after a knob moved.
+    let mut kc = k0.clone();
+    if !knobs.is_empty() {
+        s.knob_pass(&cur, &mut kc, &mut best, &budget);
+    }
+    s.narrow(&mut cur, &kc, &mut best, &budget);
+    for _ in 0..KNOB_ROUNDS {
+        if knobs.is_empty() || !budget(&s) || !s.knob_pass(&cur, &mut kc, &mut best, &budget) {
+            break;
         }
-        if hi < cur[i] && s.cheaper(&hi_row, &best) {
-            cur[i] = hi;
-            best = hi_row;
-        }
+        s.narrow(&mut cur, &kc, &mut best, &budget);
     }
 
     // 3. Local refinement: widen one, narrow the others.
@@ -388,8 +492,9 @@ pub fn run(
                 }
                 let mut u = t.clone();
                 u[j] -= 1;
-                if let Some(r) = s.measure(
+                if let Some(r) = s.measure_k(
                     &u,
+                    &kc,
                     &format!("refine {} +1, {} −1", vars[i].key, vars[j].key),
                 ) {
                     if s.feasible(&r) {
@@ -421,6 +526,17 @@ pub fn run(
         evaluations: s.evaluations.load(std::sync::atomic::Ordering::Relaxed),
         vars,
         frozen,
+        knobs: knobs
+            .iter()
+            .enumerate()
+            .map(|(i, k)| {
+                (
+                    k.key.clone(),
+                    k.values[k0[i]].label.clone(),
+                    k.values[kc[i]].label.clone(),
+                )
+            })
+            .collect(),
     })
 }
 

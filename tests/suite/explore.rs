@@ -271,6 +271,20 @@ fn bad_sweeps_are_refused_with_the_flag_or_the_line() {
         (vec!["--freeze", "width.interp"], "give --optimize too"),
         (vec!["--close-on", "ecp5"], "--optimize"),
         (
+            vec!["--knob", "polar.table_bits=8..10"],
+            "give --optimize too",
+        ),
+        (
+            vec![
+                "--optimize",
+                "--goal",
+                "pipeline.max_err_levels<=1",
+                "--knob",
+                "width.normals=8..10",
+            ],
+            "--knob width.normals: a width",
+        ),
+        (
             vec![
                 "--optimize",
                 "--goal",
@@ -681,6 +695,66 @@ fn optimize_closes_the_winners_timing() {
         text(&o)
     );
     assert!(out.join("optimized.toml").is_file());
+}
+
+/// `--knob`: a discrete knob searched with the widths. On the mapped path
+/// with a loose goal on the polar transform's diffuse error, the sin/cos
+/// table shrinks from its configured 2^11 entries; checked by a sweep of
+/// the knob over the winner's own configuration: the winner's value meets
+/// the goal, one index bit fewer does not.
+#[test]
+fn optimize_searches_a_discrete_knob() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("k");
+    let r = json(&fxshade(&[
+        "explore",
+        "--optimize",
+        "--set",
+        "pipeline.path=\"mapped\"",
+        "--goal",
+        "polar.max_diffuse_err_levels<=4",
+        "--minimize",
+        "cost.polar.table_bits",
+        "--analyses",
+        "polar,cost",
+        "--knob",
+        "polar.table_bits=6..11",
+        "--max-evals",
+        "40",
+        "--no-rtl-check",
+        "--no-equiv",
+        "--cache",
+        dir.path().join("cache").to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--json",
+    ]));
+    let knobs = &r["outcome"]["knobs"];
+    assert_eq!(knobs[0][0], "polar.table_bits", "{knobs}");
+    assert_eq!(knobs[0][1], "11", "starts at the configured value: {knobs}");
+    let t: u32 = knobs[0][2].as_str().unwrap().parse().unwrap();
+    assert!(t < 11, "the table did not shrink: {knobs}");
+    let cfg = out.join("optimized.toml");
+    let toml = std::fs::read_to_string(&cfg).unwrap();
+    assert!(toml.contains(&format!("polar.table_bits = {t}")), "{toml}");
+    assert!(toml.contains(&format!("\ntable_bits = {t}\n")), "{toml}");
+    // The winner's widths with the knob at t and at t - 1, measured anew.
+    let v = json(&fxshade(&[
+        "explore",
+        "--config",
+        cfg.to_str().unwrap(),
+        "--vary",
+        &format!("polar.table_bits={},{t}", t - 1),
+        "--analyses",
+        "polar,cost",
+        "--no-cache",
+        "--out",
+        dir.path().join("v").to_str().unwrap(),
+        "--json",
+    ]));
+    let err = |k: usize| metric(&v["rows"][k], "polar.max_diffuse_err_levels");
+    assert!(err(0) > 4.0, "one bit fewer meets the goal too: {}", err(0));
+    assert!(err(1) <= 4.0, "the winner misses the goal: {}", err(1));
 }
 
 /// A two-axis sweep: each shown metric as a grid (first axis down, second
