@@ -565,7 +565,7 @@ fn optimize_meets_both_goals_beats_the_uniform_width_and_passes_the_rtl() {
     let below = uniform(w - 1);
     assert!(below["cheapest_meeting_goals"].is_null(), "{below}");
     // The written configuration meets the goals by the error command and a
-    // render, and its RTL passes rtl-check.
+    // render (its RTL passed both simulators above, `rtl_check`).
     let cfg = out.join("optimized.toml");
     let c = cfg.to_str().unwrap();
     let e = json(&fxshade(&[
@@ -602,38 +602,36 @@ fn optimize_meets_both_goals_beats_the_uniform_width_and_passes_the_rtl() {
             "{mesh}: {rj}"
         );
     }
-    let chk = fxshade(&[
-        "rtl-check",
-        "pipeline",
-        "--config",
-        c,
-        "--count",
-        "500",
-        "--sim",
-        "icarus",
-    ]);
-    assert!(chk.status.success(), "{}", text(&chk));
 }
 
-/// `--optimize --close-on`: the winner's timing closed on a device (here
-/// its `angle_interp` on the iCE40 HX8K, a few seconds a run), its
-/// pipelining in optimized.toml, the device's counts beside the estimates;
-/// a goal out of reach fails the command after writing the files.
+/// `--knob` and `--close-on`, in one search (one search's time in the
+/// suite). The knob: on the mapped path with a loose goal on the polar
+/// transform's diffuse error, the sin/cos table shrinks from its
+/// configured 2^11 entries; checked by a sweep of the knob over the
+/// winner's own configuration: the winner's value meets the goal, one
+/// index bit fewer does not. The closure: the winner's `angle_interp` on
+/// the iCE40 HX8K (a few seconds a run) meets 125 MHz, its pipelining is
+/// in optimized.toml; a clock out of reach fails the command after
+/// writing the files.
 #[test]
-fn optimize_closes_the_winners_timing() {
+fn optimize_searches_a_discrete_knob_and_closes_the_winners_timing() {
     let dir = tempfile::tempdir().unwrap();
     let run = |freq: &str, out: &std::path::Path| {
         fxshade(&[
             "explore",
             "--optimize",
+            "--set",
+            "pipeline.path=\"mapped\"",
             "--goal",
-            "lighting.max_diffuse_err_levels<=1",
+            "polar.max_diffuse_err_levels<=4",
             "--minimize",
-            "bit_products",
+            "cost.polar.table_bits",
             "--analyses",
-            "lighting,cost",
+            "polar,cost",
+            "--knob",
+            "polar.table_bits=6..11",
             "--max-evals",
-            "12",
+            "40",
             "--no-rtl-check",
             "--no-equiv",
             "--close-on",
@@ -649,86 +647,8 @@ fn optimize_closes_the_winners_timing() {
             "--json",
         ])
     };
-    let out = dir.path().join("met");
-    let r = json(&run("125", &out));
-    let c = &r["closure"];
-    assert_eq!(c["outcome"], "met", "{c}");
-    let res = &c["result"];
-    let fmax = res["fmax_mhz"].as_f64().unwrap();
-    assert!(fmax >= 125.0, "{c}");
-    // The configuration written is the one closed: its pipelining keys.
-    let toml = std::fs::read_to_string(out.join("optimized.toml")).unwrap();
-    assert!(toml.contains("# timing: met 125.0 MHz"), "{toml}");
-    for s in c["set"].as_array().unwrap() {
-        let (k, v) = s.as_str().unwrap().split_once('=').unwrap();
-        let key = k.rsplit('.').next().unwrap();
-        assert!(
-            toml.lines()
-                .any(|l| l.replace(' ', "") == format!("{key}={v}")),
-            "{s} not in {toml}"
-        );
-    }
-    // The design placed is the written configuration's: its latency.
-    let rtl = dir.path().join("rtl");
-    let o = fxshade(&[
-        "rtl",
-        "angle_interp",
-        "--config",
-        out.join("optimized.toml").to_str().unwrap(),
-        "--out",
-        rtl.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", text(&o));
-    let v = std::fs::read_to_string(rtl.join("angle_interp.v")).unwrap();
-    assert!(
-        v.contains(&format!("// Latency {} cycles", res["latency"])),
-        "not the design placed: {}",
-        v.lines().take(12).collect::<Vec<_>>().join("\n")
-    );
-    // Out of reach: the closure stops and the command fails, files written.
-    let out = dir.path().join("missed");
-    let o = run("400", &out);
-    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
-    assert!(
-        text(&o).contains("the winner's timing is not closed: 400.0 MHz not met"),
-        "{}",
-        text(&o)
-    );
-    assert!(out.join("optimized.toml").is_file());
-}
-
-/// `--knob`: a discrete knob searched with the widths. On the mapped path
-/// with a loose goal on the polar transform's diffuse error, the sin/cos
-/// table shrinks from its configured 2^11 entries; checked by a sweep of
-/// the knob over the winner's own configuration: the winner's value meets
-/// the goal, one index bit fewer does not.
-#[test]
-fn optimize_searches_a_discrete_knob() {
-    let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("k");
-    let r = json(&fxshade(&[
-        "explore",
-        "--optimize",
-        "--set",
-        "pipeline.path=\"mapped\"",
-        "--goal",
-        "polar.max_diffuse_err_levels<=4",
-        "--minimize",
-        "cost.polar.table_bits",
-        "--analyses",
-        "polar,cost",
-        "--knob",
-        "polar.table_bits=6..11",
-        "--max-evals",
-        "40",
-        "--no-rtl-check",
-        "--no-equiv",
-        "--cache",
-        dir.path().join("cache").to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--json",
-    ]));
+    let r = json(&run("125", &out));
     let knobs = &r["outcome"]["knobs"];
     assert_eq!(knobs[0][0], "polar.table_bits", "{knobs}");
     assert_eq!(knobs[0][1], "11", "starts at the configured value: {knobs}");
@@ -755,6 +675,49 @@ fn optimize_searches_a_discrete_knob() {
     let err = |k: usize| metric(&v["rows"][k], "polar.max_diffuse_err_levels");
     assert!(err(0) > 4.0, "one bit fewer meets the goal too: {}", err(0));
     assert!(err(1) <= 4.0, "the winner misses the goal: {}", err(1));
+    // The closure: met, and the configuration written is the one closed.
+    let c = &r["closure"];
+    assert_eq!(c["outcome"], "met", "{c}");
+    let res = &c["result"];
+    assert!(res["fmax_mhz"].as_f64().unwrap() >= 125.0, "{c}");
+    assert!(toml.contains("# timing: met 125.0 MHz"), "{toml}");
+    for s in c["set"].as_array().unwrap() {
+        let (k, v) = s.as_str().unwrap().split_once('=').unwrap();
+        let key = k.rsplit('.').next().unwrap();
+        assert!(
+            toml.lines()
+                .any(|l| l.replace(' ', "") == format!("{key}={v}")),
+            "{s} not in {toml}"
+        );
+    }
+    // The design placed is the written configuration's: its latency.
+    let rtl = dir.path().join("rtl");
+    let o = fxshade(&[
+        "rtl",
+        "angle_interp",
+        "--config",
+        cfg.to_str().unwrap(),
+        "--out",
+        rtl.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let verilog = std::fs::read_to_string(rtl.join("angle_interp.v")).unwrap();
+    assert!(
+        verilog.contains(&format!("// Latency {} cycles", res["latency"])),
+        "not the design placed: {}",
+        verilog.lines().take(12).collect::<Vec<_>>().join("\n")
+    );
+    // Out of reach: the closure stops and the command fails, files written
+    // (the search from the cache).
+    let out = dir.path().join("missed");
+    let o = run("400", &out);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(
+        text(&o).contains("the winner's timing is not closed: 400.0 MHz not met"),
+        "{}",
+        text(&o)
+    );
+    assert!(out.join("optimized.toml").is_file());
 }
 
 /// A two-axis sweep: each shown metric as a grid (first axis down, second
