@@ -309,10 +309,25 @@ fn targets(a: &ExploreArgs, file: &SweepFile) -> anyhow::Result<Targets> {
         .map(|m| (m, "--minimize".to_string()))
         .or(file.minimize.clone())
         .unwrap_or_else(|| ("bit_products".into(), "--minimize".into()));
-    explore::check_metric(&at, &minimize).map_err(usage)?;
-    if eval::group_of(&minimize) != "cost" || explore::higher_is_better(&minimize) {
+    let names: Vec<String> = if explore::cost_expr::is_expr(&minimize) {
+        explore::cost_expr::CostExpr::parse(&minimize)
+            .map_err(|e| UsageError(format!("{at} {e}")))?
+            .metrics()
+            .map(str::to_string)
+            .collect()
+    } else {
+        vec![minimize.clone()]
+    };
+    for m in &names {
+        explore::check_metric(&at, m).map_err(usage)?;
+    }
+    if let Some(m) = names
+        .iter()
+        .find(|m| eval::group_of(m) != "cost" || explore::higher_is_better(m))
+    {
         return Err(UsageError(format!(
-            "{at} `{minimize}`: not a cost; minimize one of {}",
+            "{at} `{m}`: not a cost; minimize one of {} (or a weighted sum of them: \
+             `2*dsp_est + lut/100`)",
             eval::METRICS
                 .iter()
                 .filter(|(n, _)| eval::group_of(n) == "cost")
@@ -334,6 +349,14 @@ fn targets(a: &ExploreArgs, file: &SweepFile) -> anyhow::Result<Targets> {
         pareto.push((e.trim().to_string(), c.trim().to_string()));
     }
     Ok((goals, pareto, minimize))
+}
+
+/// The metrics `minimize` names: itself, or an expression's metrics.
+fn minimized_metrics(minimize: &str) -> Vec<String> {
+    match explore::cost_expr::CostExpr::parse(minimize) {
+        Ok(e) if explore::cost_expr::is_expr(minimize) => e.metrics().map(str::to_string).collect(),
+        _ => vec![minimize.to_string()],
+    }
 }
 
 /// Refuse two axes that set the same `unit.field`: the later one would
@@ -426,7 +449,7 @@ fn plan(a: &ExploreArgs) -> anyhow::Result<Plan> {
         .iter()
         .map(|g| g.metric.clone())
         .chain(pareto.iter().flat_map(|(e, c)| [e.clone(), c.clone()]))
-        .chain(std::iter::once(minimize.clone()))
+        .chain(minimized_metrics(&minimize))
         .collect();
     if analyses.is_empty() {
         analyses = if a.optimize {

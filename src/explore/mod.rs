@@ -3,6 +3,7 @@
 //! per-configuration result cache, Pareto fronts, goals, and word-length
 //! optimization ([`optimize`]).
 
+pub mod cost_expr;
 pub mod eval;
 pub mod launch;
 pub mod optimize;
@@ -47,9 +48,16 @@ pub struct Row {
 }
 
 impl Row {
-    /// The metric `name`, when measured.
+    /// The metric `name`, when measured; a cost expression
+    /// ([`cost_expr`]: `2*dsp_est + lut/100`) evaluated on the metrics.
     pub fn get(&self, name: &str) -> Option<f64> {
-        self.metrics.get(name).copied()
+        match self.metrics.get(name) {
+            Some(v) => Some(*v),
+            None if cost_expr::is_expr(name) => cost_expr::CostExpr::parse(name)
+                .ok()?
+                .eval(|m| self.metrics.get(m).copied()),
+            None => None,
+        }
     }
 }
 

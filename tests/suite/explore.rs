@@ -275,6 +275,14 @@ fn bad_sweeps_are_refused_with_the_flag_or_the_line() {
             "give --optimize too",
         ),
         (
+            vec!["--minimize", "2*dsp_est*lut"],
+            "--minimize `2*dsp_est*lut`: `dsp_est` and `lut` multiplied",
+        ),
+        (
+            vec!["--minimize", "dsp_est + pipeline.psnr_db"],
+            "--minimize `pipeline.psnr_db`: not a cost",
+        ),
+        (
             vec![
                 "--optimize",
                 "--goal",
@@ -624,8 +632,9 @@ fn optimize_searches_a_discrete_knob_and_closes_the_winners_timing() {
             "pipeline.path=\"mapped\"",
             "--goal",
             "polar.max_diffuse_err_levels<=4",
+            // A weighted sum of cost metrics.
             "--minimize",
-            "cost.polar.table_bits",
+            "cost.polar.table_bits + bit_products/100",
             "--analyses",
             "polar,cost",
             "--knob",
@@ -649,7 +658,14 @@ fn optimize_searches_a_discrete_knob_and_closes_the_winners_timing() {
     };
     let out = dir.path().join("k");
     let r = json(&run("125", &out));
-    let knobs = &r["outcome"]["knobs"];
+    let o = &r["outcome"];
+    assert_eq!(o["minimize"], "cost.polar.table_bits + bit_products/100");
+    // The saving is of the weighted sum, computed here from the metrics.
+    let cost =
+        |row: &Value| metric(row, "cost.polar.table_bits") + metric(row, "bit_products") / 100.0;
+    let saving = 1.0 - cost(&o["winner"]) / cost(&o["baseline"]);
+    assert!((o["saving"].as_f64().unwrap() - saving).abs() < 1e-9, "{o}");
+    let knobs = &o["knobs"];
     assert_eq!(knobs[0][0], "polar.table_bits", "{knobs}");
     assert_eq!(knobs[0][1], "11", "starts at the configured value: {knobs}");
     let t: u32 = knobs[0][2].as_str().unwrap().parse().unwrap();
