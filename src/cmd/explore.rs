@@ -1284,8 +1284,20 @@ fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow:
             Some(tt)
         }
     };
-    let cfg = fxshade_model::Config::resolve(p.base.config.as_deref(), &p.base.set)?;
-    let frozen = optimize::frozen(&cfg, &p.base.set, &a.freeze, &a.free).map_err(UsageError)?;
+    // The search estimates for the device it closes on (`dsp_est`,
+    // `bram_est` read rtl.target), unless the designer set rtl.target.
+    let mut base = p.base.clone();
+    if let Some(t) = a.close_on {
+        if !base
+            .set
+            .iter()
+            .any(|s| s.split('=').next().map(str::trim) == Some("rtl.target"))
+        {
+            base.set.push(format!("rtl.target=\"{}\"", t.name()));
+        }
+    }
+    let cfg = fxshade_model::Config::resolve(base.config.as_deref(), &base.set)?;
+    let frozen = optimize::frozen(&cfg, &base.set, &a.freeze, &a.free).map_err(UsageError)?;
     let mut knobs: Vec<explore::sweep::Axis> = Vec::new();
     for spec in &a.knob {
         let k = explore::sweep::parse_axis(spec, &cfg, "--knob")
@@ -1300,13 +1312,20 @@ fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow:
             ))
             .into());
         }
-        if p.base
+        if base
             .set
             .iter()
             .any(|s| s.split('=').next().map(str::trim) == Some(key))
         {
             return Err(UsageError(format!(
                 "--knob {key}: --set names it too; the designer's value is not searched (drop one)"
+            ))
+            .into());
+        }
+        if key.starts_with("rtl.") || key.starts_with("pipeline.") {
+            return Err(UsageError(format!(
+                "--knob {key}: not searchable (rtl.* is the pipelining --close-on sets; \
+                 pipeline.* changes the units on the path the widths are searched on)"
             ))
             .into());
         }
@@ -1318,7 +1337,7 @@ fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow:
     let meshes = explore::load_meshes(&p.options)?;
     let bar = crate::progress::bar_eta(a.max_evals as u64, "optimize");
     let o = optimize::run(
-        &p.base,
+        &base,
         &cfg,
         &p.goals,
         &p.minimize,
@@ -1347,8 +1366,7 @@ fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow:
                 &|extra| {
                     let all: Vec<String> =
                         o.winner.overrides.iter().chain(extra).cloned().collect();
-                    p.base
-                        .resolve(&all)
+                    base.resolve(&all)
                         .map_err(|e| anyhow::anyhow!("the winner's configuration: {e}"))
                 },
                 t,
@@ -1476,7 +1494,8 @@ fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow:
     }
     if let Some(c) = &closure {
         toml += &format!(
-            "# timing: {} on {}, {}\n",
+            "# timing of {}: {} on {}, {}\n",
+            c.result.module,
             c.result
                 .verdict
                 .as_ref()
@@ -1606,7 +1625,7 @@ fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow:
     let mut tables = vec![t, m, c];
     if let Some(cl) = &closure {
         tables.push(cl.table(&a.synth_unit));
-        tables.push(closed_table(&o, cl));
+        tables.push(closed_table(cl));
     }
     crate::output::emit(a.output, &tables, &json)?;
     if !a.output.json {
@@ -1627,16 +1646,16 @@ fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow:
     Ok(())
 }
 
-/// The closed winner as the device counts it, beside the estimates the
-/// search used (`dsp_est`, `bram_est`, `ff`: the model's figures of the
-/// compact top, when measured).
-fn closed_table(o: &optimize::Outcome, c: &super::synth::close::Closure) -> Table {
+/// The closed winner's synthesized module as the device counts it, beside
+/// the estimates of that same module (DSP and block RAM without synthesis,
+/// the delay model's Fmax).
+fn closed_table(c: &super::synth::close::Closure) -> Table {
     let r = &c.result;
     let mut t = Table::new(["measure", "measured", "estimate"]).titled(format!(
-        "The winner as placed on {} (run {} of the timing closure; FF include the harness's {})",
+        "The winner's {} as placed on {} (run {} of the timing closure; FF include the harness's {})",
+        r.module,
         r.device, c.runs[c.shown].run, r.harness_ff
     ));
-    let est = |k: &str| o.winner.get(k).map_or("-".into(), fmt_num);
     t.row([
         "Fmax median (MHz)".to_string(),
         r.fmax_mhz.map_or("-".into(), |f| format!("{f:.1}")),
@@ -1648,14 +1667,12 @@ fn closed_table(o: &optimize::Outcome, c: &super::synth::close::Closure) -> Tabl
     t.row([
         "DSP".to_string(),
         r.dsp.to_string(),
-        r.dsp_estimate
-            .map_or_else(|| est("dsp_est"), |d| d.to_string()),
+        r.dsp_estimate.map_or("-".into(), |d| d.to_string()),
     ]);
     t.row([
         "BRAM".to_string(),
         r.bram.to_string(),
-        r.bram_estimate
-            .map_or_else(|| est("bram_est"), |d| d.to_string()),
+        r.bram_estimate.map_or("-".into(), |d| d.to_string()),
     ]);
     t.row([
         "latency (cycles)".to_string(),

@@ -174,7 +174,8 @@ pub struct SynthArgs {
     /// measured critical path corrects (the delay model's error on the
     /// slowest stage: next period = goal period x predicted / measured
     /// slowest stage) and place again, until the median meets the goal,
-    /// re-pipelining changes nothing, or RUNS runs (default 4) are spent.
+    /// re-pipelining changes nothing, or RUNS runs (default 4,
+    /// `--close=RUNS`) are spent.
     /// The first run is pipelined at --clock-ns, else at the goal's
     /// period. Prints each run, then the last one met (else the fastest)
     /// as `synth` does, with the flags that reproduce it.
@@ -182,6 +183,7 @@ pub struct SynthArgs {
         long,
         value_name = "RUNS",
         num_args = 0..=1,
+        require_equals = true,
         default_missing_value = "4",
         value_parser = clap::value_parser!(u32).range(2..=12),
         conflicts_with_all = ["netlist", "keep", "no_pnr"]
@@ -1049,9 +1051,9 @@ pub fn run(a: &SynthArgs) -> anyhow::Result<()> {
         return calibrate(a, tt, freq, device);
     }
     if let Some(runs) = a.close {
-        let Some(tt) = tt else {
+        let Some(tt) = tt.filter(|_| a.target != Target::Xc7) else {
             return Err(UsageError(
-                "--close: the generic target has no delay model to re-pipeline with; give --target ice40-hx8k, ice40-up5k or ecp5".into(),
+                format!("--close: {} has no delay model or no place and route to measure with; give --target ice40-hx8k, ice40-up5k or ecp5", a.target.name()),
             )
             .into());
         };

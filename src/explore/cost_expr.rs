@@ -43,6 +43,11 @@ impl CostExpr {
                 continue;
             }
             let text = body[start..i].trim();
+            if text.is_empty() && !at_end && start > 0 {
+                return Err(format!(
+                    "`{s}`: a sign after an operator; write `lut - 2*dsp`, not `lut + -2*dsp`"
+                ));
+            }
             if text.is_empty() {
                 return Err(format!(
                     "`{s}`: a term is missing {}",
@@ -59,6 +64,12 @@ impl CostExpr {
                 sign = if b[i] == b'-' { -1.0 } else { 1.0 };
                 start = i + 1;
             }
+        }
+        if let Some((_, m)) = terms.iter().find(|(c, _)| *c < 0.0) {
+            return Err(format!(
+                "`{s}`: `{m}` has a negative weight; a cost is a sum of non-negative weights \
+                 (minimizing a negative weight would maximize `{m}`)"
+            ));
         }
         Ok(CostExpr { terms })
     }
@@ -157,12 +168,12 @@ mod tests {
         };
         // 2·49 + 3109/100 = 129.09 (by hand).
         assert!((e.eval(get).unwrap() - 129.09).abs() < 1e-9);
-        let e = CostExpr::parse("bit_products - 0.5 * cost.polar.table_bits / 2").unwrap();
+        let e = CostExpr::parse("bit_products + 0.5 * cost.polar.table_bits / 2").unwrap();
         assert_eq!(
             e.terms,
             vec![
                 (1.0, "bit_products".to_string()),
-                (-0.25, "cost.polar.table_bits".to_string())
+                (0.25, "cost.polar.table_bits".to_string())
             ]
         );
         let e = CostExpr::parse("1e-2*lut+dsp").unwrap();
@@ -183,6 +194,9 @@ mod tests {
             ("lut +", "a term is missing"),
             ("3", "a term without a metric"),
             ("lut + (dsp)", "neither a number nor a metric"),
+            ("lut - dsp", "negative weight"),
+            ("-lut", "negative weight"),
+            ("lut + -dsp", "a sign after an operator"),
         ] {
             let e = CostExpr::parse(s).unwrap_err();
             assert!(e.contains(says), "{s}: {e}");

@@ -873,6 +873,16 @@ fn packer_rules_hold(dir: &std::path::Path, unit_module: &str) {
 #[test]
 fn synth_closes_timing_with_a_verdict_and_the_critical_path_by_stage_id() {
     let dir = tempfile::tempdir().unwrap();
+    // No place and route, no closure: refused before any tool runs.
+    for t in ["xc7", "generic"] {
+        let o = fxshade(&["synth", "angle_interp", "--target", t, "--close"]);
+        assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+        assert!(
+            text(&o).contains(&format!("--close: {t} has no")),
+            "{}",
+            text(&o)
+        );
+    }
     for (args, goal, met) in [
         (&["--clock-ns", "10", "--freq", "125"][..], 125.0, true),
         (&["--freq", "150"][..], 150.0, false),
@@ -956,7 +966,11 @@ fn synth_closes_timing_with_a_verdict_and_the_critical_path_by_stage_id() {
         assert!(o.status.success(), "{}", text(&o));
         let verilog = std::fs::read_to_string(rtl.join("angle_interp.v")).unwrap();
         assert!(
-            verilog.contains(&format!("// Latency {} cycles", shown["latency"])),
+            verilog.contains(&format!("// Latency {} cycles", shown["latency"]))
+                && verilog.contains(&format!(
+                    "// Pipelining: target ice40-hx8k at {} ns",
+                    shown["clock_ns"]
+                )),
             "the reproduced module is not the run shown"
         );
         let p = &j["critical_path"];
@@ -986,6 +1000,8 @@ fn synth_closes_timing_with_a_verdict_and_the_critical_path_by_stage_id() {
                 );
             }
         }
+        // The path is mapped back to the trace: some signal names its node.
+        assert!(signals.iter().any(|s| s["node"].is_u64()), "{p}");
         // The human output states each run and the verdict (from the cache).
         let o = run(&[]);
         assert_eq!(o.status.success(), met, "{}", text(&o));

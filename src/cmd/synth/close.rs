@@ -11,9 +11,9 @@
 //! period `T` when the model predicts at most `T · P_pred / P_meas`: that
 //! is the next period the pipeliner plans for. A miss means `T < P_meas`,
 //! so the next period is below `P_pred` and the pipeliner must split the
-//! slowest stage; when the ratio shows the model pessimistic
-//! (`P_meas < P_pred`), the next period may be looser than the last, and a
-//! design with fewer stages (less routing) is tried.
+//! slowest stage. (It can be looser than the last period planned when that
+//! one was below what the pipeliner could reach, [`Emitted::too_slow`]; the
+//! design is then the same and the loop stops.)
 //!
 //! It stops when the median meets the goal; when the next period emits a
 //! design already measured (its Verilog identical but for the header
@@ -75,6 +75,8 @@ pub enum Outcome {
     Unsplittable,
     /// The runs allowed are spent.
     RunsSpent,
+    /// A run after the first failed (its error in `stopped`).
+    RunFailed,
 }
 
 /// The Verilog of a module without its comment lines (the header names the
@@ -239,10 +241,21 @@ pub fn close(
             break;
         }
         let what = format!("run {k} of at most {runs}, pipelined at {clock:.2} ns");
-        let (r, cached, _) =
-            cached_with_netlist(unit, &cfg, target, flow, None, use_cache, None, &|m| {
-                progress(&format!("{what}: {m}"))
-            })?;
+        let res = cached_with_netlist(unit, &cfg, target, flow, None, use_cache, None, &|m| {
+            progress(&format!("{what}: {m}"))
+        });
+        let (r, cached) = match res {
+            Ok((r, cached, _)) => (r, cached),
+            // A later run that fails (more stages may no longer fit the
+            // part) ends the loop; the runs before it stand.
+            Err(e) if !done.is_empty() => {
+                stop_note = format!("run {k} at {clock:.2} ns failed: {e:#}");
+                log(&stop_note);
+                outcome = Outcome::RunFailed;
+                break;
+            }
+            Err(e) => return Err(e),
+        };
         let fmax = r.fmax_mhz;
         let met = r.verdict.as_ref().is_some_and(|v| v.met);
         let run = Run {
@@ -304,11 +317,12 @@ pub fn close(
     let shown = done
         .iter()
         .enumerate()
-        .max_by(|(_, x), (_, y)| {
+        .max_by(|(i, x), (j, y)| {
             let key = |r: &Run| (r.met, r.fmax_mhz.unwrap_or(0.0));
             let (mx, fx) = key(&x.0);
             let (my, fy) = key(&y.0);
-            mx.cmp(&my).then(fx.total_cmp(&fy))
+            // Equal: the earlier run (fewer registers).
+            mx.cmp(&my).then(fx.total_cmp(&fy)).then(j.cmp(i))
         })
         .map(|(i, _)| i)
         .context("--close: no run finished")?;
@@ -364,11 +378,24 @@ pub fn run(
     let c = c?;
     let shown = &c.runs[c.shown];
     let sets: Vec<String> = c.set.iter().map(|s| format!("--set '{s}'")).collect();
-    let mut repro = Table::new(["run", "flags"]).titled(
-        "To reproduce the run shown below, add these to the configuration given (any command: \
-         `rtl`, `vectors`, `rtl-check`, `synth`)",
+    let mut repro = Table::new(["run", "command", "flags"]).titled(
+        "To reproduce the run shown below: the configuration given (--config, --set) and these \
+         flags, in place of any --clock-ns or --pipeline",
     );
-    repro.row([shown.run.to_string(), sets.join(" ")]);
+    repro.row([
+        shown.run.to_string(),
+        "synth".into(),
+        format!(
+            "--target {} --clock-ns {} --freq {freq}",
+            a.target.name(),
+            shown.clock_ns
+        ),
+    ]);
+    repro.row([
+        shown.run.to_string(),
+        "rtl, vectors, rtl-check, equiv, ...".into(),
+        sets.join(" "),
+    ]);
     let (mut tables, mut json) = result_tables(a, &c.result, shown.cached, None)?;
     tables.insert(0, c.table(&a.unit));
     tables.insert(1, repro);
@@ -378,10 +405,12 @@ pub fn run(
         Ok(())
     } else {
         anyhow::bail!(
-            "timing not closed: {freq:.1} MHz not met in {} run{} (fastest {:.1} MHz, run {})",
+            "timing not closed: {freq:.1} MHz not met in {} run{} (fastest {}, run {})",
             c.runs.len(),
             if c.runs.len() == 1 { "" } else { "s" },
-            shown.fmax_mhz.unwrap_or(0.0),
+            shown
+                .fmax_mhz
+                .map_or("no Fmax".into(), |f| format!("{f:.1} MHz")),
             shown.run
         )
     }
