@@ -66,6 +66,16 @@ fn range(v: impl Iterator<Item = f64> + Clone, log: bool) -> (f64, f64) {
     }
 }
 
+/// A tick label on an integer axis: the integer at an integer, nothing
+/// between (no `9.0`, no `9.5`).
+fn integer_tick(v: &f64) -> String {
+    if (v - v.round()).abs() < 1e-9 {
+        format!("{}", v.round() as i64)
+    } else {
+        String::new()
+    }
+}
+
 /// Draw lines (with markers) and, optionally, highlighted points: `marks`
 /// are `(label, x, y)` drawn as large red circles.
 fn draw<DB: DrawingBackend>(
@@ -91,6 +101,10 @@ where
         .chain(scatter.iter().map(|p| p.1))
         .chain(marks.iter().map(|m| m.2))
         .collect::<Vec<_>>();
+    let integer_x = !xs.is_empty()
+        && xs
+            .iter()
+            .all(|x| x.is_finite() && x.fract() == 0.0 && x.abs() < 1e15);
     let (x0, x1) = range(xs.iter().copied(), false);
     let (y0, y1) = range(ys.iter().copied(), f.log_y);
     let keep = |p: &(f64, f64)| p.0.is_finite() && p.1.is_finite() && (!f.log_y || p.1 > 0.0);
@@ -102,13 +116,13 @@ where
     macro_rules! body {
         ($chart:expr) => {{
             let mut chart = $chart;
-            chart
-                .configure_mesh()
-                .x_desc(f.x)
-                .y_desc(f.y)
-                .label_style(("sans-serif", 13))
-                .draw()
-                .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+            let mut mesh = chart.configure_mesh();
+            mesh.x_desc(f.x).y_desc(f.y).label_style(("sans-serif", 13));
+            // Integer axes (widths, bits) are ticked at integers only.
+            if integer_x {
+                mesh.x_label_formatter(&integer_tick);
+            }
+            mesh.draw().map_err(|e| anyhow::anyhow!("{e:?}"))?;
             if !scatter.is_empty() {
                 chart
                     .draw_series(
@@ -399,5 +413,35 @@ mod tests {
         r.next_frame(&mut buf).unwrap();
         let dark = buf.chunks(3).filter(|p| p.iter().all(|&c| c < 100)).count();
         assert!(dark > 500, "{dark} dark pixels: no text or axes drawn");
+    }
+
+    /// Widths 8..12 on the x axis: ticks read `9`, never `9.0` or `9.5`;
+    /// a fractional axis keeps its decimals.
+    #[test]
+    fn integer_axes_are_ticked_at_integers() {
+        let frame = Frame {
+            title: "t",
+            x: "width (bits)",
+            y: "error",
+            log_y: false,
+        };
+        let texts = |pts: Vec<(f64, f64)>| {
+            let (_, svg) = plot(&frame, &[("a".into(), pts)], &[], &[]).unwrap();
+            svg.split("<text")
+                .skip(1)
+                .filter_map(|t| t.split_once('>').map(|x| x.1))
+                .filter_map(|t| t.split_once("</text>").map(|x| x.0.trim().to_string()))
+                .collect::<Vec<_>>()
+        };
+        let t = texts((8..=12).map(|w| (w as f64, 1.0 / w as f64)).collect());
+        assert!(t.iter().any(|x| x == "9"), "{t:?}");
+        assert!(
+            !t.iter()
+                .any(|x| x.contains(".0") && x.parse::<f64>().is_ok_and(|v| v >= 8.0)),
+            "{t:?}"
+        );
+        assert!(!t.iter().any(|x| x == "9.5"), "{t:?}");
+        let t = texts(vec![(0.25, 1.0), (0.5, 2.0), (0.75, 1.5)]);
+        assert!(t.iter().any(|x| x.contains('.')), "{t:?}");
     }
 }
