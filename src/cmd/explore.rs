@@ -58,7 +58,12 @@ pub struct ExploreArgs {
     #[arg(long, value_name = "METRIC<=V")]
     goal: Vec<String>,
     /// The cost `--optimize` minimizes and the sweep's Pareto fronts use by
-    /// default: bit_products, adder_bits, table_bits, ff, muls, latency.
+    /// default: bit_products, adder_bits, table_bits, ff, muls, latency,
+    /// the device estimates lut_est, ff_est, dsp_est, bram_est (for
+    /// rtl.target), or a weighted sum (`2*dsp + lut/100`). With
+    /// `--optimize`, `lut`, `synth_ff`, `dsp` and `bram` are minimized on
+    /// their estimates and the winner's top is synthesized to confirm them
+    /// (the count printed beside the estimate, with its error).
     #[arg(long, value_name = "COST")]
     minimize: Option<String>,
     /// Word-length optimization: the cheapest per-stage widths meeting every
@@ -351,6 +356,45 @@ fn targets(a: &ExploreArgs, file: &SweepFile) -> anyhow::Result<Targets> {
     Ok((goals, pareto, minimize))
 }
 
+/// `minimize` with every metric synthesis measures replaced by its
+/// estimate (`lut` by `lut_est`, `synth_ff` by `ff_est`, `dsp` by
+/// `dsp_est`, `bram` by `bram_est`), whole names only, and the pairs
+/// replaced.
+fn on_estimates(minimize: &str) -> (String, Vec<(String, String)>) {
+    const MAP: [(&str, &str); 4] = [
+        ("lut", "lut_est"),
+        ("synth_ff", "ff_est"),
+        ("dsp", "dsp_est"),
+        ("bram", "bram_est"),
+    ];
+    let mut out = String::new();
+    let mut swapped = Vec::new();
+    let mut word = String::new();
+    let is_word = |c: char| c.is_ascii_alphanumeric() || c == '_' || c == '.';
+    let mut flush = |word: &mut String, out: &mut String| {
+        match MAP.iter().find(|(f, _)| *f == word.as_str()) {
+            Some((f, t)) => {
+                out.push_str(t);
+                if !swapped.iter().any(|(x, _): &(String, String)| x == f) {
+                    swapped.push((f.to_string(), t.to_string()));
+                }
+            }
+            None => out.push_str(word),
+        }
+        word.clear();
+    };
+    for c in minimize.chars() {
+        if is_word(c) {
+            word.push(c);
+        } else {
+            flush(&mut word, &mut out);
+            out.push(c);
+        }
+    }
+    flush(&mut word, &mut out);
+    (out, swapped)
+}
+
 /// The metrics `minimize` names: itself, or an expression's metrics.
 fn minimized_metrics(minimize: &str) -> Vec<String> {
     match explore::cost_expr::CostExpr::parse(minimize) {
@@ -421,7 +465,26 @@ fn plan(a: &ExploreArgs) -> anyhow::Result<Plan> {
         axes.push(sweep::parse_axis(&spec, &base_cfg, &at).map_err(usage)?);
     }
     check_disjoint(&axes)?;
-    let (goals, mut pareto, minimize) = targets(a, &file)?;
+    let (goals, mut pareto, mut minimize) = targets(a, &file)?;
+    if a.optimize && a.synth.is_none() {
+        // The search cannot synthesize every point: what the device counts
+        // is minimized on its estimate, and the winner is synthesized to
+        // confirm it.
+        let (m, swapped) = on_estimates(&minimize);
+        if !swapped.is_empty() {
+            eprintln!(
+                "explore: --optimize minimizes {} on the estimate{} (no synthesis per point); \
+                 the winner is synthesized to confirm it",
+                swapped
+                    .iter()
+                    .map(|(f, t)| format!("`{f}` as `{t}`"))
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                if swapped.len() == 1 { "" } else { "s" }
+            );
+            minimize = m;
+        }
+    }
     let given_meshes = given(&file.mesh, &a.mesh, "--mesh");
     // Each mesh is checked here, named by where it was given.
     for (m, at) in &given_meshes {
@@ -1396,6 +1459,47 @@ fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow:
         .base
         .resolve(&win_overrides)
         .map_err(|e| anyhow::anyhow!("the winner's configuration: {e}"))?;
+    // A cost minimized on its estimate: synthesize the winner's top (what
+    // the estimate describes) for rtl.target, to set the count beside it.
+    let confirmed = if closure.is_none()
+        && minimized_metrics(&o.minimize)
+            .iter()
+            .any(|m| m.ends_with("_est"))
+    {
+        let name = win_cfg.unit("rtl").choice("target");
+        match <super::synth::Target as clap::ValueEnum>::from_str(name, false) {
+            Err(_) => {
+                eprintln!(
+                    "explore: rtl.target {name} has no synthesis flow: the estimate stands unconfirmed"
+                );
+                None
+            }
+            Ok(t) => {
+                let bar = crate::progress::spinner("explore: synthesizing the winner");
+                let r = super::synth::cached_with_netlist(
+                    "pipeline",
+                    &win_cfg,
+                    t,
+                    super::synth::Flow {
+                        seeds: 1,
+                        freq: 100.0,
+                        pnr: false,
+                        dsp_pack: true,
+                        device: None,
+                    },
+                    None,
+                    !a.no_cache,
+                    None,
+                    &|m| bar.set_message(m.to_string()),
+                )
+                .context("synthesizing the winner to confirm its estimate");
+                bar.finish_and_clear();
+                Some(r?.0)
+            }
+        }
+    } else {
+        None
+    };
     // Check the winner's RTL top on both simulators.
     let mut checks = Vec::new();
     if !a.no_rtl_check {
@@ -1517,6 +1621,7 @@ fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow:
         "rtl_check": if a.no_rtl_check { serde_json::json!("skipped (--no-rtl-check)") } else { serde_json::json!(checks) },
         "equivalence": equiv,
         "options": p.options,
+        "confirmed": confirmed,
         "closure": closure.as_ref().map(|c| {
             let mut j = c.json();
             j["result"] = serde_json::to_value(&c.result).unwrap_or_default();
@@ -1627,6 +1732,16 @@ fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow:
         tables.push(cl.table(&a.synth_unit));
         tables.push(closed_table(cl));
     }
+    if let Some(r) = &confirmed {
+        tables.push(counted_table(
+            r,
+            format!(
+                "The winner's {} as synthesized for {} (no place and route; the harness's {} FF \
+                 excluded; estimates from the module alone, error against the count)",
+                r.module, r.device, r.harness_ff
+            ),
+        ));
+    }
     crate::output::emit(a.output, &tables, &json)?;
     if !a.output.json {
         crate::output::print_out(&format!(
@@ -1647,33 +1762,48 @@ fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow:
 }
 
 /// The closed winner's synthesized module as the device counts it, beside
-/// the estimates of that same module (DSP and block RAM without synthesis,
-/// the delay model's Fmax).
+/// the estimates of that same module (LUT, FF, DSP and block RAM without
+/// synthesis, the delay model's Fmax).
 fn closed_table(c: &super::synth::close::Closure) -> Table {
     let r = &c.result;
-    let mut t = Table::new(["measure", "measured", "estimate"]).titled(format!(
-        "The winner's {} as placed on {} (run {} of the timing closure; FF include the harness's {})",
-        r.module,
-        r.device, c.runs[c.shown].run, r.harness_ff
-    ));
-    t.row([
-        "Fmax median (MHz)".to_string(),
-        r.fmax_mhz.map_or("-".into(), |f| format!("{f:.1}")),
-        r.predicted_mhz
-            .map_or("-".into(), |f| format!("{f:.1} (delay model)")),
-    ]);
-    t.row(["LUT4".to_string(), r.lut.to_string(), "-".into()]);
-    t.row(["FF".to_string(), r.ff.to_string(), "-".into()]);
-    t.row([
-        "DSP".to_string(),
-        r.dsp.to_string(),
-        r.dsp_estimate.map_or("-".into(), |d| d.to_string()),
-    ]);
-    t.row([
-        "BRAM".to_string(),
-        r.bram.to_string(),
-        r.bram_estimate.map_or("-".into(), |d| d.to_string()),
-    ]);
+    counted_table(
+        r,
+        format!(
+            "The winner's {} as placed on {} (run {} of the timing closure; the harness's {} FF \
+             excluded; estimates from the module alone, error against the count)",
+            r.module, r.device, c.runs[c.shown].run, r.harness_ff
+        ),
+    )
+}
+
+/// A synthesized module's counts beside their estimates, with the error.
+fn counted_table(r: &super::synth::SynthResult, title: String) -> Table {
+    let mut t = Table::new(["measure", "measured", "estimate (error)"]).titled(title);
+    if r.fmax_mhz.is_some() {
+        t.row([
+            "Fmax median (MHz)".to_string(),
+            r.fmax_mhz.map_or("-".into(), |f| format!("{f:.1}")),
+            r.predicted_mhz
+                .map_or("-".into(), |f| format!("{f:.1} (delay model)")),
+        ]);
+    }
+    let est = |e: Option<u64>, m: u64| {
+        e.map_or("-".into(), |e| {
+            format!(
+                "{e} ({:+.0} %)",
+                100.0 * (e as f64 - m as f64) / m.max(1) as f64
+            )
+        })
+    };
+    let unit_ff = r.ff.saturating_sub(r.harness_ff);
+    for (name, m, e) in [
+        ("LUT4", r.lut, r.lut_estimate),
+        ("FF (the unit's)", unit_ff, r.ff_estimate),
+        ("DSP", r.dsp, r.dsp_estimate),
+        ("BRAM", r.bram, r.bram_estimate),
+    ] {
+        t.row([name.to_string(), m.to_string(), est(e, m)]);
+    }
     t.row([
         "latency (cycles)".to_string(),
         r.latency.to_string(),
@@ -1684,7 +1814,27 @@ fn closed_table(c: &super::synth::close::Closure) -> Table {
 
 #[cfg(test)]
 mod tests {
-    use super::shell_quote;
+    use super::{on_estimates, shell_quote};
+
+    /// Device metrics become their estimates, whole names only.
+    #[test]
+    fn device_costs_are_minimized_on_their_estimates() {
+        assert_eq!(
+            on_estimates("2*dsp + lut/100"),
+            (
+                "2*dsp_est + lut_est/100".to_string(),
+                vec![
+                    ("dsp".to_string(), "dsp_est".to_string()),
+                    ("lut".to_string(), "lut_est".to_string())
+                ]
+            )
+        );
+        assert_eq!(on_estimates("synth_ff").0, "ff_est");
+        assert_eq!(
+            on_estimates("bit_products + ff + dsp_est"),
+            ("bit_products + ff + dsp_est".to_string(), vec![])
+        );
+    }
 
     #[test]
     fn flags_are_quoted_for_a_shell() {

@@ -344,6 +344,58 @@ pub struct MethodSweep {
     pub points: Vec<(u32, crate::explore::Row)>,
     /// The smallest width meeting both goals.
     pub recommended: Option<usize>,
+    /// The recommended point's pipeline top on the device: estimated for
+    /// ECP5 without synthesis, and any cached synthesis of it.
+    pub device: Option<DeviceCost>,
+}
+
+/// A pipeline top's cost on the device: the area and block estimates for
+/// ECP5 ([`fxshade_model::rtl::estimate`]) and what cached `fxshade synth`
+/// runs (one seed, 100 MHz goal) measured, per target.
+#[derive(Clone, Debug, Default)]
+pub struct DeviceCost {
+    /// ECP5 estimates: LUT4, flip-flops, MULT18X18D, DP16KD.
+    pub ecp5_estimate: Option<(u64, u64, u64, u64)>,
+    /// Cached synthesis results of the top, by target.
+    pub synthesized: Vec<super::synth::SynthResult>,
+}
+
+impl DeviceCost {
+    /// The cost of the pipeline top of `cfg`; cached synthesis is read
+    /// only (nothing is synthesized here).
+    pub fn of(cfg: &fxshade_model::Config) -> Option<DeviceCost> {
+        use fxshade_model::rtl::{estimate as est, timing::Target as T};
+        let design = fxshade_model::pipeline::rtl::design(cfg).ok()?;
+        let e = fxshade_model::rtl::emit(&design).ok()?;
+        let hw = &e.hardware;
+        let ecp5_estimate = match (est::lut_cells(hw, T::Ecp5), est::flip_flops(hw, T::Ecp5)) {
+            (Some(l), Some(f)) => Some((
+                l,
+                f,
+                est::dsp_blocks(hw, T::Ecp5),
+                est::bram_blocks(hw, T::Ecp5),
+            )),
+            _ => None,
+        };
+        let synthesized = if crate::proc::has("yosys", "-V") {
+            use super::synth::{lookup, Target};
+            [
+                Target::Ecp5,
+                Target::Ice40Up5k,
+                Target::Ice40Hx8k,
+                Target::Xc7,
+            ]
+            .into_iter()
+            .filter_map(|t| lookup("pipeline", cfg, t))
+            .collect()
+        } else {
+            Vec::new()
+        };
+        Some(DeviceCost {
+            ecp5_estimate,
+            synthesized,
+        })
+    }
 }
 
 /// Whether a point meets the summary's goals: the paper's 4 % bound and
@@ -417,11 +469,17 @@ pub fn summary_sweep(base: &crate::explore::Base) -> anyhow::Result<Vec<MethodSw
                 .zip(rows[k * n..(k + 1) * n].iter().cloned())
                 .collect();
             let recommended = pts.iter().position(|(_, r)| meets_summary_goals(r));
+            let device = recommended.and_then(|k| {
+                base.resolve(&pts[k].1.overrides)
+                    .ok()
+                    .and_then(|c| DeviceCost::of(&c))
+            });
             MethodSweep {
                 method,
                 select,
                 points: pts,
                 recommended,
+                device,
             }
         })
         .collect())

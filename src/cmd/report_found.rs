@@ -320,8 +320,19 @@ pub fn section(d: &Inputs) -> anyhow::Result<String> {
             match r.methods.iter().find(|x| x.method == m) {
                 Some(x) => {
                     let mm = x.outside_cap.as_ref().unwrap_or(&x.metrics);
+                    // The judgement is the cap-excluded one; every pixel's
+                    // figure stands beside it, labelled.
+                    let raw = if x.outside_cap.is_some() {
+                        format!(
+                            "(all pixels: {} / {}) ",
+                            x.metrics.max_abs_levels,
+                            pct(x.metrics.max_rel_intensity_err)
+                        )
+                    } else {
+                        String::new()
+                    };
                     s += &format!(
-                        " {} / {} {}|",
+                        " {} / {} {}{raw}|",
                         mm.max_abs_levels,
                         pct(mm.max_rel_intensity_err),
                         if mm.paper_bound_holds { "" } else { "✗ " }
@@ -332,8 +343,12 @@ pub fn section(d: &Inputs) -> anyhow::Result<String> {
         }
         s += "\n";
     }
-    s += "\n✗: over the paper's 4 % bound. The relative error is judged as the paper states it, on pixels \
-          whose reference is at least 5 % of full scale.\n\n";
+    s += &format!(
+        "\n✗: over the paper's 4 % bound. The relative error is judged as the paper states it, on pixels \
+         whose reference is at least 5 % of full scale. Mapped methods are judged outside the {}° polar \
+         cap (where the polar angles are singular); `all pixels` gives the same figures with the cap.\n\n",
+        fxshade_model::render::POLAR_CAP_DEG
+    );
 
     s += "### What to build\n\n";
     s += &recommendation(d.sweeps);
@@ -345,9 +360,12 @@ pub fn section(d: &Inputs) -> anyhow::Result<String> {
 pub fn recommendation(sweeps: &[MethodSweep]) -> String {
     let mut s = format!(
         "The narrowest uniform width (every stage of a width group on the method's path; the output stays \
-         the 8-bit pixel) meeting the 4 % bound and ±1 level on {} at 128 × 128:\n\n\
-         | method | width | bit products | adder bits | table bits | flip-flops | max error (levels) | max rel. error |\n\
-         |---|---|---|---|---|---|---|---|\n",
+         the 8-bit pixel) meeting the 4 % bound and ±1 level on {} at 128 × 128. The ECP5 estimate is the \
+         area model's (no synthesis; `fxshade synth calibrate --area` states its error); \
+         synthesized: every cached `fxshade synth pipeline` run of that configuration (one seed, \
+         100 MHz goal; FF are the top's, the harness's excluded):\n\n\
+         | method | width | bit products | adder bits | table bits | flip-flops | max error (levels) | max rel. error | ECP5 estimate: LUT / FF / DSP / BRAM | synthesized (LUT / FF / DSP / BRAM, Fmax) |\n\
+         |---|---|---|---|---|---|---|---|---|---|\n",
         super::explore::DEFAULT_MESHES.join(" and ")
     );
     for m in sweeps {
@@ -355,8 +373,9 @@ pub fn recommendation(sweeps: &[MethodSweep]) -> String {
             Some(k) => {
                 let (w, r) = &m.points[k];
                 let g = |n: &str| r.get(n).map_or("-".into(), |v| format!("{v}"));
+                let (est, synth) = device_cells(m.device.as_ref());
                 s += &format!(
-                    "| {} | {w} | {} | {} | {} | {} | {} | {} |\n",
+                    "| {} | {w} | {} | {} | {} | {} | {} | {} | {est} | {synth} |\n",
                     m.method,
                     g("bit_products"),
                     g("adder_bits"),
@@ -368,7 +387,7 @@ pub fn recommendation(sweeps: &[MethodSweep]) -> String {
             }
             None => {
                 s += &format!(
-                    "| {} | none of {}–{} bits | | | | | | |\n",
+                    "| {} | none of {}–{} bits | | | | | | | | |\n",
                     m.method,
                     super::report::SUMMARY_WIDTHS.start(),
                     super::report::SUMMARY_WIDTHS.end()
@@ -377,6 +396,39 @@ pub fn recommendation(sweeps: &[MethodSweep]) -> String {
         }
     }
     s
+}
+
+/// The decision table's device cells: the ECP5 estimate, and each cached
+/// synthesis of the top (`-` where none: `fxshade synth pipeline --config
+/// F --target T` with the point's configuration fills the cache).
+pub(super) fn device_cells(d: Option<&super::report::DeviceCost>) -> (String, String) {
+    let Some(d) = d else {
+        return ("-".into(), "-".into());
+    };
+    let est = d.ecp5_estimate.map_or("-".into(), |(l, f, dsp, b)| {
+        format!("{l} / {f} / {dsp} / {b}")
+    });
+    let synth = if d.synthesized.is_empty() {
+        "- (not synthesized)".to_string()
+    } else {
+        d.synthesized
+            .iter()
+            .map(|r| {
+                format!(
+                    "{}: {} / {} / {} / {}, {}",
+                    r.target,
+                    r.lut,
+                    r.ff.saturating_sub(r.harness_ff),
+                    r.dsp,
+                    r.bram,
+                    r.fmax_mhz
+                        .map_or("no Fmax".into(), |f| format!("{f:.1} MHz"))
+                )
+            })
+            .collect::<Vec<_>>()
+            .join("; ")
+    };
+    (est, synth)
 }
 
 /// `text` with the block between [`BEGIN`] and [`END`] replaced by

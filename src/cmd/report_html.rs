@@ -268,7 +268,9 @@ pub fn page(d: &Data) -> String {
          the method's path at that many bits, each keeping its integer bits; the output stays the 8-bit \
          pixel — that meets the paper's 4 % bound on the relative intensity error and stays within ±1 \
          level of the f64 reference on {} (128 × 128; mapped methods outside the {}° polar cap). Costs \
-         are the generated RTL top's, counted from the emitted datapath.",
+         are the generated RTL top's, counted from the emitted datapath; the ECP5 estimate is the area \
+         model's, without synthesis (`fxshade synth calibrate --area` states its error); synthesized: \
+         every cached `fxshade synth pipeline` run of that configuration (FF the top's).",
         super::explore::DEFAULT_MESHES.join(" and "),
         fxshade_model::render::POLAR_CAP_DEG
     ));
@@ -292,6 +294,8 @@ pub fn page(d: &Data) -> String {
                         "{:.2} %",
                         100.0 * r.get("pipeline.max_rel_err").unwrap_or(f64::NAN)
                     ),
+                    super::report_found::device_cells(m.device.as_ref()).0,
+                    super::report_found::device_cells(m.device.as_ref()).1,
                     m.select
                         .iter()
                         .map(|o| format!("--set {o}"))
@@ -323,6 +327,8 @@ pub fn page(d: &Data) -> String {
             "latency",
             "max |error| (levels)",
             "max relative error",
+            "ECP5 estimate: LUT / FF / DSP / BRAM",
+            "synthesized (cached): LUT / FF / DSP / BRAM, Fmax",
             "selected by",
         ]
         .map(String::from),

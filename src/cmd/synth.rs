@@ -189,6 +189,15 @@ pub struct SynthArgs {
         conflicts_with_all = ["netlist", "keep", "no_pnr"]
     )]
     close: Option<u32>,
+    /// With `calibrate`: the area model instead of the delay model:
+    /// synthesize every unit and top in five configurations (the default,
+    /// 12-bit normals, a wide set, 24 bits with the FIFO handshake, target
+    /// pipelining at 8 ns; your
+    /// --config and --set apply first), print the estimated LUT and FF
+    /// beside the counted ones, and the coefficients a fit of these
+    /// designs gives (no place and route).
+    #[arg(long)]
+    area: bool,
     /// Measure again even when a cached result exists (the new result
     /// replaces it).
     #[arg(long)]
@@ -226,6 +235,19 @@ pub struct SynthResult {
     /// the emitted module's ROMs (None: generic).
     #[serde(default)]
     pub bram_estimate: Option<u64>,
+    /// LUT cells as [`fxshade_model::rtl::estimate::AreaModel`] predicts
+    /// them from the emitted module's arithmetic (None: generic), to set
+    /// beside `lut`.
+    #[serde(default)]
+    pub lut_estimate: Option<u64>,
+    /// The unit's flip-flops after synthesis as the area model predicts
+    /// them, to set beside `ff − harness_ff`.
+    #[serde(default)]
+    pub ff_estimate: Option<u64>,
+    /// The area model's terms of the emitted module (what a refit of the
+    /// model reads: `fxshade synth calibrate --area`).
+    #[serde(default)]
+    pub area_terms: Option<fxshade_model::rtl::estimate::AreaTerms>,
     /// Block RAMs.
     pub bram: u64,
     /// Carry cells (SB_CARRY, CCU2C, CARRY4).
@@ -625,12 +647,11 @@ pub fn synthesize(
         ff,
         harness_ff,
         dsp,
-        dsp_estimate: target
-            .timing()
-            .map(|t| fxshade_model::rtl::estimate::dsp_blocks(&e.hardware, t)),
-        bram_estimate: target
-            .timing()
-            .map(|t| fxshade_model::rtl::estimate::bram_blocks(&e.hardware, t)),
+        dsp_estimate: None,
+        bram_estimate: None,
+        lut_estimate: None,
+        ff_estimate: None,
+        area_terms: None,
         bram,
         carry,
         logic_cells: None,
@@ -663,6 +684,7 @@ pub fn synthesize(
             .flatten()
             .collect(),
     };
+    fill_estimates(&mut r, &e.hardware, target);
     if let Some(d) = device.filter(|d| d.capacity.is_some()) {
         // No placer counts for this family: synthesis's counts against the
         // part's capacity (block RAM in 18 Kb halves).
@@ -905,12 +927,7 @@ fn cached_emitted(
             // Entries cached before the prediction and the estimate were
             // recorded lack them (both come from the emitted module).
             r.predicted_mhz = e.predicted_ns.map(|t| 1000.0 / t);
-            r.dsp_estimate = target
-                .timing()
-                .map(|t| fxshade_model::rtl::estimate::dsp_blocks(&e.hardware, t));
-            r.bram_estimate = target
-                .timing()
-                .map(|t| fxshade_model::rtl::estimate::bram_blocks(&e.hardware, t));
+            fill_estimates(&mut r, &e.hardware, target);
             return Ok((r, true, None));
         }
     }
@@ -969,6 +986,30 @@ impl Target {
             Target::Xc7 => Some(T::Xc7),
         }
     }
+}
+
+/// `measured (est. E, ±x %)` where an estimate exists.
+pub fn with_estimate(measured: u64, estimate: Option<u64>) -> String {
+    match estimate {
+        Some(e) => format!(
+            "{measured} (est. {e}, {:+.0} %)",
+            100.0 * (e as f64 - measured as f64) / measured.max(1) as f64
+        ),
+        None => measured.to_string(),
+    }
+}
+
+/// The estimates of the emitted module's resources on `target`, without
+/// synthesis ([`fxshade_model::rtl::estimate`]), set beside what synthesis
+/// counted (cached entries get them afresh: they come from the module).
+fn fill_estimates(r: &mut SynthResult, hw: &fxshade_model::rtl::Hardware, target: Target) {
+    use fxshade_model::rtl::estimate as est;
+    let t = target.timing();
+    r.dsp_estimate = t.map(|t| est::dsp_blocks(hw, t));
+    r.bram_estimate = t.map(|t| est::bram_blocks(hw, t));
+    r.lut_estimate = t.and_then(|t| est::lut_cells(hw, t));
+    r.ff_estimate = t.and_then(|t| est::flip_flops(hw, t));
+    r.area_terms = t.map(|t| est::AreaTerms::of(hw, t));
 }
 
 /// Run it.
@@ -1048,7 +1089,16 @@ pub fn run(a: &SynthArgs) -> anyhow::Result<()> {
             )
             .into());
         };
+        if a.area {
+            return calibrate_area(a, tt, device);
+        }
         return calibrate(a, tt, freq, device);
+    }
+    if a.area {
+        return Err(UsageError(
+            "--area calibrates the area model: give `synth calibrate --area --target T`".into(),
+        )
+        .into());
     }
     if let Some(runs) = a.close {
         let Some(tt) = tt.filter(|_| a.target != Target::Xc7) else {
@@ -1126,10 +1176,17 @@ pub(super) fn result_tables(
     t.row([
         r.unit.clone(),
         r.device.clone(),
-        r.lut.to_string(),
+        with_estimate(r.lut, r.lut_estimate),
         r.logic_cells.map_or("-".into(), |n| n.to_string()),
         r.lut_ram.to_string(),
-        r.ff.to_string(),
+        match r.ff_estimate {
+            Some(est) => format!(
+                "{} (unit {}, est. {est})",
+                r.ff,
+                r.ff.saturating_sub(r.harness_ff)
+            ),
+            None => r.ff.to_string(),
+        },
         match r.dsp_estimate {
             Some(est) => format!("{} (est. {est})", r.dsp),
             None => r.dsp.to_string(),
@@ -1305,6 +1362,229 @@ fn calibrate(
         "probes": rows,
     });
     emit(a.out, &[t], &json)
+}
+
+/// The area model's calibration set: each unit and both pipeline tops
+/// (argument and extra `--set`s) in five configurations (label, `--set`s;
+/// `{target}` names the target).
+pub fn area_set() -> Vec<(String, String, Vec<String>)> {
+    let designs: [(&str, &str, &[&str]); 8] = [
+        ("normalize", "normalize", &[]),
+        ("interp", "interp", &[]),
+        ("polar", "polar", &[]),
+        ("angles", "angles", &[]),
+        ("lighting", "lighting", &[]),
+        ("angle_interp", "angle_interp", &[]),
+        ("pipeline", "smooth top", &["pipeline.path=smooth"]),
+        ("pipeline", "mapped top", &["pipeline.path=mapped"]),
+    ];
+    let configs: [(&str, &[&str]); 5] = [
+        ("default", &[]),
+        ("12-bit normals", &["width.normals=12"]),
+        (
+            "wide",
+            &[
+                "width.normals=20",
+                "width.light=20",
+                "width.normalizer=24",
+                "width.tables=20",
+                "width.cordic=24",
+                "width.shading=20",
+            ],
+        ),
+        (
+            "24-bit, FIFO handshake",
+            &[
+                "width.normals=24",
+                "width.light=24",
+                "width.normalizer=28",
+                "width.tables=24",
+                "width.cordic=28",
+                "width.shading=24",
+                "rtl.handshake=fifo",
+            ],
+        ),
+        (
+            "target 8 ns",
+            &[
+                "rtl.pipeline=target",
+                "rtl.target={target}",
+                "rtl.clock_ns=8",
+            ],
+        ),
+    ];
+    let mut v = Vec::new();
+    for (unit, label, extra) in designs {
+        for (c, sets) in configs {
+            v.push((
+                unit.to_string(),
+                format!("{label}, {c}"),
+                extra.iter().chain(sets).map(|s| s.to_string()).collect(),
+            ));
+        }
+    }
+    v
+}
+
+/// `fxshade synth calibrate --area`: the area model against synthesis on
+/// [`area_set`], and a refit.
+fn calibrate_area(
+    a: &SynthArgs,
+    tt: fxshade_model::rtl::timing::Target,
+    device: Option<crate::device::Device>,
+) -> anyhow::Result<()> {
+    use fxshade_model::rtl::estimate::{fit::fit, AreaModel, AreaTerms};
+    // A target without a fit yet is calibrated all the same: its model
+    // columns are then zero and say so.
+    let fitted = AreaModel::of(tt);
+    let model = fitted.unwrap_or(AreaModel {
+        lut: [0.0; 11],
+        ff: [0.0; 11],
+    });
+    let set = area_set();
+    let bar = crate::progress::bar(set.len() as u64, "calibrate --area");
+    let mut rows: Vec<(String, AreaTerms, u64, u64)> = Vec::new();
+    for (unit, label, sets) in &set {
+        bar.set_message(label.clone());
+        let extra: Vec<String> = sets
+            .iter()
+            .map(|s| s.replace("{target}", tt.name()))
+            .collect();
+        let cfg = a
+            .cfg
+            .resolve_with(&extra)
+            .with_context(|| format!("calibration design {label}"))?;
+        let (r, _, _) = cached_with_netlist(
+            unit,
+            &cfg,
+            a.target,
+            Flow {
+                seeds: 1,
+                freq: 100.0,
+                pnr: false,
+                dsp_pack: !a.no_dsp_pack,
+                device,
+            },
+            None,
+            !a.no_cache,
+            None,
+            &|_| {},
+        )
+        .with_context(|| format!("calibration design {label}"))?;
+        bar.inc(1);
+        let terms = r.area_terms.expect("a target with an area model has terms");
+        rows.push((label.clone(), terms, r.lut, r.ff - r.harness_ff));
+    }
+    bar.finish_and_clear();
+    let x: Vec<[f64; 10]> = rows.iter().map(|r| r.1.values()).collect();
+    let lut_y: Vec<f64> = rows.iter().map(|r| r.2 as f64).collect();
+    let ff_y: Vec<f64> = rows.iter().map(|r| r.3 as f64).collect();
+    // Every term costs cells; only the multiplier blocks may take
+    // flip-flops away (ECP5's product registers move into them).
+    let lut_fit = fit(&x, &lut_y, [true; 11]);
+    let mut ff_sign = [true; 11];
+    ff_sign[9] = false;
+    ff_sign[10] = false;
+    let ff_fit = fit(&x, &ff_y, ff_sign);
+    let refit = AreaModel {
+        lut: lut_fit,
+        ff: ff_fit,
+    };
+    let pct = |est: u64, got: u64| 100.0 * (est as f64 - got as f64) / (got.max(1) as f64);
+    let mut t = Table::new([
+        "design",
+        "LUT",
+        "LUT est.",
+        "error",
+        "refit",
+        "FF (unit)",
+        "FF est.",
+        "error",
+        "refit",
+    ])
+    .titled(format!(
+        "Area model of {tt} against Yosys on {} designs (error = (estimate - synthesis) / synthesis){}",
+        rows.len(),
+        if fitted.is_none() {
+            "; no model for this target yet: estimates 0, see the refit"
+        } else {
+            ""
+        }
+    ));
+    let mut json_rows = Vec::new();
+    let (mut lut_err, mut ff_err, mut lut_re, mut ff_re) = (vec![], vec![], vec![], vec![]);
+    for (label, terms, lut, ff) in &rows {
+        let (le, fe) = (model.lut(terms), model.ff(terms));
+        let (lr, fr) = (refit.lut(terms), refit.ff(terms));
+        lut_err.push(pct(le, *lut).abs());
+        ff_err.push(pct(fe, *ff).abs());
+        lut_re.push(pct(lr, *lut).abs());
+        ff_re.push(pct(fr, *ff).abs());
+        t.row([
+            label.clone(),
+            lut.to_string(),
+            le.to_string(),
+            format!("{:+.1} %", pct(le, *lut)),
+            format!("{:+.1} %", pct(lr, *lut)),
+            ff.to_string(),
+            fe.to_string(),
+            format!("{:+.1} %", pct(fe, *ff)),
+            format!("{:+.1} %", pct(fr, *ff)),
+        ]);
+        json_rows.push(serde_json::json!({
+            "design": label,
+            "terms": terms,
+            "lut": lut,
+            "ff": ff,
+            "lut_estimate": le,
+            "ff_estimate": fe,
+        }));
+    }
+    let stats = |v: &mut Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        (v[v.len() / 2], *v.last().unwrap_or(&0.0))
+    };
+    let (lm, lx) = stats(&mut lut_err);
+    let (fm, fx) = stats(&mut ff_err);
+    let (rlm, rlx) = stats(&mut lut_re);
+    let (rfm, rfx) = stats(&mut ff_re);
+    let mut c = Table::new([
+        "term",
+        "LUT per unit (model)",
+        "refit",
+        "FF per unit (model)",
+        "refit",
+    ])
+    .titled(format!(
+        "Coefficients: |error| median/max LUT {lm:.1}/{lx:.1} %, FF {fm:.1}/{fx:.1} % \
+             (model); LUT {rlm:.1}/{rlx:.1} %, FF {rfm:.1}/{rfx:.1} % (refit, in-sample)"
+    ));
+    for (k, name) in AreaTerms::NAMES
+        .iter()
+        .chain(["constant"].iter())
+        .enumerate()
+    {
+        c.row([
+            name.to_string(),
+            format!("{:.4}", model.lut[k]),
+            format!("{:.4}", refit.lut[k]),
+            format!("{:.4}", model.ff[k]),
+            format!("{:.4}", refit.ff[k]),
+        ]);
+    }
+    let json = serde_json::json!({
+        "target": tt.name(),
+        "device": a.target.device(),
+        "designs": json_rows,
+        "model": fitted.map(|m| serde_json::json!({"lut": m.lut, "ff": m.ff})),
+        "refit": {"lut": refit.lut, "ff": refit.ff},
+        "abs_error_pct": {
+            "lut_median": lm, "lut_max": lx, "ff_median": fm, "ff_max": fx,
+            "refit_lut_median": rlm, "refit_lut_max": rlx,
+            "refit_ff_median": rfm, "refit_ff_max": rfx,
+        },
+    });
+    emit(a.out, &[t, c], &json)
 }
 
 #[cfg(test)]

@@ -61,6 +61,8 @@ pub const METRICS: &[(&str, &str)] = &[
     ("latency", "… cycles from input to output"),
     ("dsp_est", "… DSP blocks it takes on rtl.target, estimated without synthesis by Yosys's mul2dsp rules (0 where the target has none)"),
     ("bram_est", "… block RAMs its ROMs take on rtl.target, estimated without synthesis (copies by read ports, blocks by shape)"),
+    ("lut_est", "… LUT cells it takes on rtl.target, estimated without synthesis by the area model fitted to Yosys (fxshade synth calibrate --area)"),
+    ("ff_est", "… flip-flops it keeps after synthesis on rtl.target, estimated by the same model (ECP5: product registers packed into DSP blocks)"),
     ("cost.normalize.bit_products", "the normalize unit's own RTL module (with the normalize analysis): Σ a_width × b_width"),
     ("cost.normalize.table_bits", "… bits in its ROMs"),
     ("cost.normalize.ff", "… its flip-flops"),
@@ -336,6 +338,12 @@ fn top_cost(
             "bram_est",
             fxshade_model::rtl::estimate::bram_blocks(hw, t) as f64,
         );
+        if let Some(l) = fxshade_model::rtl::estimate::lut_cells(hw, t) {
+            put(m, "lut_est", l as f64);
+        }
+        if let Some(f) = fxshade_model::rtl::estimate::flip_flops(hw, t) {
+            put(m, "ff_est", f as f64);
+        }
     }
 }
 

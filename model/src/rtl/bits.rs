@@ -106,6 +106,12 @@ pub struct QuantLogic {
     pub unused: Vec<String>,
     /// Whether a rounding incrementer was built, and its width.
     pub round_adder: Option<u32>,
+    /// Bits the range check reads (0 where the rounded value cannot leave
+    /// the format): an OR/AND reduction of about this many inputs.
+    pub check_bits: u32,
+    /// Output bits behind a saturation multiplexer (0 when wrapping or
+    /// when the value cannot leave the format).
+    pub saturate_bits: u32,
 }
 
 /// Quantize `x` to `(ow, os, fo)` with `round` and `overflow`: the result
@@ -331,10 +337,17 @@ pub fn quantize(
             ));
         }
     }
+    let leaves = can_leave(rw, rv.signed, ow, os);
     QuantLogic {
         lines,
         unused,
         round_adder,
+        check_bits: if leaves { rw.saturating_sub(ow) + 1 } else { 0 },
+        saturate_bits: if leaves && overflow == Overflow::Saturate {
+            ow
+        } else {
+            0
+        },
     }
 }
 

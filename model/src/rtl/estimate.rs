@@ -219,6 +219,158 @@ pub fn bram_blocks(hw: &super::Hardware, target: super::timing::Target) -> u64 {
     BramRules::of(target).map_or(0, |r| hw.roms.iter().map(|m| r.blocks_of(m)).sum())
 }
 
+/// What a module's logic is made of, in the units the area model counts
+/// ([`AreaModel`]): each a sum read off [`super::Hardware`] and the
+/// target's block rules, so a term is exact and only its cost is fitted.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct AreaTerms {
+    /// Σ width over adders, subtractors, rounding incrementers and
+    /// comparators: one carry-chain bit each.
+    pub carry_bits: f64,
+    /// Σ width over sign-steered add/subtracts (a carry bit and an XOR).
+    pub add_sub_bits: f64,
+    /// Σ width × (options − 1) over multiplexers: 2:1 multiplexer bits.
+    pub select_bits: f64,
+    /// Σ bits read by quantizers' range checks.
+    pub check_bits: f64,
+    /// Σ output bits behind saturation multiplexers.
+    pub saturate_bits: f64,
+    /// Σ a × b over products (or chunks of products) no multiplier block
+    /// takes on the target: partial-product bits built in logic.
+    pub fabric_product_bits: f64,
+    /// Σ entries × width × reads over ROMs built in logic (not marked for
+    /// block RAM, or on a target without block RAM).
+    pub logic_rom_bits: f64,
+    /// Flip-flops the emitter declares ([`super::Hardware::flops`]), the
+    /// FIFO's entries apart.
+    pub flops: f64,
+    /// The FIFO handshake's entries, bits ([`super::Hardware::fifo_bits`]):
+    /// LUT RAM on ECP5.
+    #[serde(default)]
+    pub fifo_bits: f64,
+    /// Multiplier blocks ([`dsp_blocks`]): on ECP5 their product
+    /// registers move into the block ([`crate`]'s `dsp_pack`).
+    pub dsp_blocks: f64,
+}
+
+impl AreaTerms {
+    /// The terms of `hw` on `target`.
+    pub fn of(hw: &super::Hardware, target: super::timing::Target) -> AreaTerms {
+        let dsp = DspRules::of(target);
+        let bram = BramRules::of(target);
+        let fabric = |m: &MulHw| -> f64 {
+            let blocks = dsp.map_or(0, |r| r.blocks_of(m));
+            if blocks == 0 {
+                f64::from(m.a_width) * f64::from(m.b_width)
+            } else {
+                0.0
+            }
+        };
+        let sum = |v: &[u32]| v.iter().map(|&w| f64::from(w)).sum::<f64>();
+        AreaTerms {
+            carry_bits: sum(&hw.adders) + sum(&hw.incrementers) + hw.compare_bits as f64,
+            add_sub_bits: sum(&hw.add_subs),
+            select_bits: hw.select_bits as f64,
+            check_bits: hw.check_bits as f64,
+            saturate_bits: hw.saturate_bits as f64,
+            fabric_product_bits: hw.muls.iter().map(fabric).sum(),
+            logic_rom_bits: hw
+                .roms
+                .iter()
+                .filter(|r| bram.is_none_or(|b| b.blocks_of(r) == 0))
+                .map(|r| r.entries as f64 * f64::from(r.width) * r.reads as f64)
+                .sum(),
+            flops: (hw.flops - hw.fifo_bits) as f64,
+            fifo_bits: hw.fifo_bits as f64,
+            dsp_blocks: dsp_blocks(hw, target) as f64,
+        }
+    }
+
+    /// The terms as a vector in [`AreaTerms::NAMES`] order.
+    pub fn values(&self) -> [f64; 10] {
+        [
+            self.carry_bits,
+            self.add_sub_bits,
+            self.select_bits,
+            self.check_bits,
+            self.saturate_bits,
+            self.fabric_product_bits,
+            self.logic_rom_bits,
+            self.flops,
+            self.fifo_bits,
+            self.dsp_blocks,
+        ]
+    }
+
+    /// The terms' names, as in the JSON.
+    pub const NAMES: [&'static str; 10] = [
+        "carry_bits",
+        "add_sub_bits",
+        "select_bits",
+        "check_bits",
+        "saturate_bits",
+        "fabric_product_bits",
+        "logic_rom_bits",
+        "flops",
+        "fifo_bits",
+        "dsp_blocks",
+    ];
+}
+
+/// A target's look-up-table and flip-flop cost per [`AreaTerms`] term,
+/// fitted to synthesis (`fxshade synth calibrate --area --target T`
+/// synthesizes the calibration set and prints the fit): the estimate is
+/// `Σ coefficient × term`, rounded to a whole cell.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AreaModel {
+    /// LUT cells (the count `fxshade synth` reports as `lut`) per term,
+    /// in [`AreaTerms::NAMES`] order, and a constant last.
+    pub lut: [f64; 11],
+    /// Flip-flops after synthesis (the harness's own excluded) per term,
+    /// and a constant last.
+    pub ff: [f64; 11],
+}
+
+impl AreaModel {
+    /// The model of `target` (None: a standard-cell process, which has no
+    /// LUTs).
+    pub fn of(target: super::timing::Target) -> Option<AreaModel> {
+        calibration::of(target)
+    }
+
+    fn apply(c: &[f64; 11], t: &AreaTerms) -> u64 {
+        let v = t.values();
+        let s: f64 = v.iter().zip(c).map(|(x, k)| x * k).sum::<f64>() + c[10];
+        // Non-negative and finite by construction of the terms; a cell
+        // count is whole.
+        s.max(0.0).round() as u64
+    }
+
+    /// Estimated LUT cells of a module with `terms`.
+    pub fn lut(&self, terms: &AreaTerms) -> u64 {
+        Self::apply(&self.lut, terms)
+    }
+
+    /// Estimated flip-flops of a module with `terms`.
+    pub fn ff(&self, terms: &AreaTerms) -> u64 {
+        Self::apply(&self.ff, terms)
+    }
+}
+
+/// Estimated LUT cells of `hw` on `target` (None: no LUTs there).
+pub fn lut_cells(hw: &super::Hardware, target: super::timing::Target) -> Option<u64> {
+    AreaModel::of(target).map(|m| m.lut(&AreaTerms::of(hw, target)))
+}
+
+/// Estimated flip-flops of `hw` on `target` after synthesis (None: no
+/// model there).
+pub fn flip_flops(hw: &super::Hardware, target: super::timing::Target) -> Option<u64> {
+    AreaModel::of(target).map(|m| m.ff(&AreaTerms::of(hw, target)))
+}
+
+mod calibration;
+pub mod fit;
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -233,6 +233,19 @@ pub struct Hardware {
     pub compares: u64,
     /// Multiplexers (`select`).
     pub selects: u64,
+    /// Their size: Σ width × (options − 1), one 2:1 multiplexer bit each
+    /// (with the choice of every `max`).
+    #[serde(default)]
+    pub select_bits: u64,
+    /// Σ width over the datapath's comparators (`max`).
+    #[serde(default)]
+    pub compare_bits: u64,
+    /// Σ bits read by quantizers' range checks ([`bits::QuantLogic`]).
+    #[serde(default)]
+    pub check_bits: u64,
+    /// Σ output bits behind quantizers' saturation multiplexers.
+    #[serde(default)]
+    pub saturate_bits: u64,
     /// Table reads.
     pub table_reads: u64,
     /// Bits stored in ROMs (each distinct ROM once).
@@ -242,6 +255,11 @@ pub struct Hardware {
     pub roms: Vec<RomHw>,
     /// Flip-flops of the datapath (data, flags and valid bits).
     pub flops: u64,
+    /// Of those, the FIFO handshake's entries (depth × output bits), a
+    /// memory that synthesis may build as LUT RAM (0 with the stall
+    /// handshake).
+    #[serde(default)]
+    pub fifo_bits: u64,
 }
 
 /// An emitted unit: its Verilog, its testbench and its vector layout.
@@ -598,6 +616,7 @@ impl<'a> Emitter<'a> {
             })
             .collect();
         self.hw.selects += 1;
+        self.hw.select_bits += u64::from(sym.width) * (vals.len() as u64).saturating_sub(1);
         self.body
             .push(format!("reg  {} {name};", decl(sym.signed, sym.width)));
         let mut t = "always @* begin\n".to_string();
@@ -930,6 +949,10 @@ impl<'a> Emitter<'a> {
                     Rounding::Trunc,
                     tb.out.overflow(),
                 );
+                self.hw.check_bits += u64::from(qz.check_bits);
+                self.hw.saturate_bits += u64::from(qz.saturate_bits);
+                // The negation's choice below.
+                self.hw.select_bits += u64::from(f.width());
                 self.body.extend(qz.lines);
                 let out = base.clone();
                 self.body.push(format!(
@@ -999,6 +1022,8 @@ impl<'a> Emitter<'a> {
                 q.round(),
                 Overflow::Wrap,
             );
+            self.hw.check_bits += u64::from(r.check_bits);
+            self.hw.saturate_bits += u64::from(r.saturate_bits);
             self.body.extend(r.lines);
             self.unused.extend(r.unused);
             self.unused.push(format!("{name}_rnd_ovf"));
@@ -1033,6 +1058,8 @@ impl<'a> Emitter<'a> {
             round,
             q.overflow(),
         );
+        self.hw.check_bits += u64::from(ql.check_bits);
+        self.hw.saturate_bits += u64::from(ql.saturate_bits);
         self.body.extend(ql.lines);
         self.unused.extend(ql.unused);
         if let Some(w) = ql.round_adder {
@@ -1541,6 +1568,9 @@ impl<'a> Emitter<'a> {
                     }
                     _ => {
                         self.hw.compares += 1;
+                        // A comparator (a carry chain) and a choice.
+                        self.hw.compare_bits += u64::from(w);
+                        self.hw.select_bits += u64::from(w);
                         let (ca, cb) = (format!("{name}_a"), format!("{name}_b"));
                         self.body
                             .push(format!("wire {d} {ca} = {};", bits::sv(sym.signed, &xa)));
@@ -1588,6 +1618,7 @@ impl<'a> Emitter<'a> {
                     }
                 }
                 self.hw.selects += 1;
+                self.hw.select_bits += u64::from(sym.width);
                 self.body.push(format!(
                     "wire {d} {name} = {neg} ? {} : {};",
                     lit(xa - xb),
@@ -1711,6 +1742,8 @@ impl<'a> Emitter<'a> {
                     ));
                     self.body.push(format!("wire {oc} = {osel};"));
                 }
+                self.hw.check_bits += u64::from(ql.check_bits);
+                self.hw.saturate_bits += u64::from(ql.saturate_bits);
                 self.body.extend(ql.lines);
                 self.unused.extend(ql.unused);
                 if let Some(w) = ql.round_adder {
@@ -2596,10 +2629,14 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
         e.hw.flops += 3 * (aw as u64 + 1) + 2 + (depth as u64 + 1) * out_w as u64;
         e.hw.adders.extend([aw + 1; 4]);
         e.hw.compares += 4;
+        // Its entries, a memory synthesis may build as LUT RAM.
+        e.hw.fifo_bits += depth as u64 * out_w as u64;
     } else {
         // The head and the skid register with their valid bits (the
         // enable's copies are counted where they are written).
         e.hw.flops += 2 * out_w as u64 + 2;
+        // The head loads the skid register or the last stage.
+        e.hw.select_bits += u64::from(out_w);
     }
     let pipe_latency = latency;
     let latency = latency + 1 + block as u32;

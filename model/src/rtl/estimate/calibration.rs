@@ -1,0 +1,33 @@
+//! The area model's coefficients per target, fitted to synthesis.
+//!
+//! Provenance: `fxshade synth calibrate --area --target T --json` (Yosys
+//! 0.23, the default configuration as the base) on the 40 designs of its
+//! calibration set (8 units and tops × default, 12-bit normals, wide,
+//! 24 bits with the FIFO handshake, target pipelining at 8 ns); the `refit` of its JSON, rounded. The
+//! in-sample |error| of each fit is in its comment; refit and paste after
+//! a change to the emitter or the synthesis scripts (the calibration test
+//! in `tests/suite/synth.rs` checks three configurations against Yosys).
+//!
+//! Coefficient order: [`super::AreaTerms::NAMES`], then a constant.
+
+use super::AreaModel;
+use crate::rtl::timing::Target;
+
+/// The fitted model of `target`; None where no fit exists (a standard-cell
+/// process has no LUTs).
+pub fn of(target: Target) -> Option<AreaModel> {
+    match target {
+        // 40 designs; LUT4 |error| median 12.3 %, max 62 % (the compact
+        // `angles` unit, where ABC builds 2 694 L6MUX21 from a whole CORDIC
+        // iteration per stage); FF median 9.3 %, max 24 %.
+        Target::Ecp5 => Some(AreaModel {
+            lut: [
+                0.0, 0.6350, 0.6562, 0.0, 1.7960, 0.0, 0.0, 0.03831, 0.0, 0.2152, 24.09,
+            ],
+            ff: [
+                0.1299, 0.3217, 0.0, 0.0, 0.0, 0.0, 0.0, 0.6419, 0.0, 2.3312, -1.3571,
+            ],
+        }),
+        _ => None,
+    }
+}
