@@ -894,3 +894,86 @@ fn a_unit_sweep_reports_the_units_own_cost() {
     assert!(rows[0]["metrics"]["cost.normalize.ff"].is_null(), "{e}");
     assert!(metric(&rows[1], "cost.normalize.ff") > 0.0, "{e}");
 }
+
+/// `--minimize lut` searches on the area model's estimate (no synthesis
+/// per point), says so, and synthesizes the winner's top for rtl.target
+/// (ECP5 here) to set Yosys's count beside the estimate: the estimate the
+/// search used is the one synthesis reports for that module, the winner's
+/// is no larger than the baseline's, and the count is Yosys's own.
+#[test]
+fn optimize_minimizes_luts_on_the_estimate_and_confirms_the_winner_by_synthesis() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("lut");
+    let o = fxshade(&[
+        "explore",
+        "--optimize",
+        "--set",
+        "rtl.target=\"ecp5\"",
+        "--goal",
+        "normalize.max_diffuse_err_levels<=0.75",
+        "--minimize",
+        "lut",
+        "--analyses",
+        "normalize,cost",
+        "--samples",
+        "20000",
+        "--max-evals",
+        "40",
+        "--no-rtl-check",
+        "--no-equiv",
+        "--cache",
+        dir.path().join("cache").to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--json",
+    ]);
+    assert!(
+        text(&o).contains("`lut` as `lut_est`"),
+        "the substitution is said: {}",
+        text(&o)
+    );
+    let r = json(&o);
+    let oc = &r["outcome"];
+    assert_eq!(oc["minimize"], "lut_est", "{oc}");
+    let (base, win) = (&oc["baseline"], &oc["winner"]);
+    assert!(metric(win, "lut_est") <= metric(base, "lut_est"), "{oc}");
+    let c = &r["confirmed"];
+    assert_eq!(c["target"], "ecp5", "{c}");
+    assert_eq!(c["module"], "pipeline_smooth", "{c}");
+    assert_eq!(
+        c["lut_estimate"].as_f64(),
+        Some(metric(win, "lut_est")),
+        "the search's estimate is synthesis's: {c}"
+    );
+    let lut = c["lut"].as_u64().unwrap();
+    assert!(lut > 100, "Yosys counted the top's LUTs: {c}");
+    // The table sets the count beside the estimate with its error.
+    let t = fxshade(&[
+        "explore",
+        "--optimize",
+        "--set",
+        "rtl.target=\"ecp5\"",
+        "--goal",
+        "normalize.max_diffuse_err_levels<=0.75",
+        "--minimize",
+        "lut",
+        "--analyses",
+        "normalize,cost",
+        "--samples",
+        "20000",
+        "--max-evals",
+        "40",
+        "--no-rtl-check",
+        "--no-equiv",
+        "--cache",
+        dir.path().join("cache").to_str().unwrap(),
+        "--out",
+        dir.path().join("lut2").to_str().unwrap(),
+    ]);
+    assert!(t.status.success(), "{}", text(&t));
+    let s = String::from_utf8_lossy(&t.stdout);
+    assert!(
+        s.contains("as synthesized for ECP5") && s.contains("| LUT4 ") && s.contains(" %)"),
+        "{s}"
+    );
+}
