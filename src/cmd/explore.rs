@@ -1360,6 +1360,24 @@ fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow:
         }
     }
     let cfg = fxshade_model::Config::resolve(base.config.as_deref(), &base.set)?;
+    // An area estimate needs a fit for rtl.target: say so before searching.
+    let target = cfg.unit("rtl").choice("target");
+    if let Some(m) = minimized_metrics(&p.minimize)
+        .into_iter()
+        .find(|m| m == "lut_est" || m == "ff_est")
+    {
+        let t = fxshade_model::rtl::timing::Target::from_name(target);
+        if t.and_then(fxshade_model::rtl::estimate::AreaModel::of)
+            .is_none()
+        {
+            return Err(UsageError(format!(
+                "--minimize: `{m}` needs an area model for rtl.target {target}, which has none \
+                 yet (fitted: ecp5, ice40-up5k; `fxshade synth calibrate --area --target \
+                 {target}` measures one); give --set 'rtl.target=\"ecp5\"' or --close-on ecp5"
+            ))
+            .into());
+        }
+    }
     let frozen = optimize::frozen(&cfg, &base.set, &a.freeze, &a.free).map_err(UsageError)?;
     let mut knobs: Vec<explore::sweep::Axis> = Vec::new();
     for spec in &a.knob {

@@ -282,6 +282,17 @@ fn bad_sweeps_are_refused_with_the_flag_or_the_line() {
             vec!["--minimize", "dsp_est + pipeline.psnr_db"],
             "--minimize `pipeline.psnr_db`: not a cost",
         ),
+        // The default rtl.target (iCE40 HX8K) has no area model fitted.
+        (
+            vec![
+                "--optimize",
+                "--goal",
+                "normalize.max_diffuse_err_levels<=0.75",
+                "--minimize",
+                "lut",
+            ],
+            "`lut_est` needs an area model for rtl.target ice40-hx8k",
+        ),
         (
             vec![
                 "--optimize",

@@ -134,6 +134,54 @@ fn the_html_report_renders_in_headless_chromium_with_every_image() {
     );
     assert!(dom.contains("data-images-broken=\"\""), "broken images");
 
+    // One judgement per method (#36 item 5): the images table's ✗ in
+    // found.md and the rendered table's `under 4 %` (render.csv) are the
+    // same verdict for every mesh and method, mapped methods judged
+    // outside the polar cap in both, every pixel's figure beside.
+    let csv = std::fs::read_to_string(out.join("render.csv")).unwrap();
+    let mut judged = 0;
+    let header: Vec<&str> = found
+        .lines()
+        .find(|l| l.starts_with("| mesh | min cos φ |"))
+        .expect("the images table in found.md")
+        .split('|')
+        .map(str::trim)
+        .collect();
+    for line in found
+        .lines()
+        .filter(|l| l.starts_with("| sphere:") || l.starts_with("| torus:"))
+    {
+        let cells: Vec<&str> = line.split('|').map(str::trim).collect();
+        for (k, method) in header.iter().enumerate().skip(3) {
+            if method.is_empty() {
+                continue;
+            }
+            let row = csv
+                .lines()
+                .find(|r| {
+                    r.starts_with(&format!("{},", cells[1])) && r.contains(&format!(",{method},"))
+                })
+                .unwrap_or_else(|| panic!("{} {method} not in render.csv", cells[1]));
+            let under = row.contains(",yes,");
+            assert_eq!(
+                !cells[k].contains('✗'),
+                under,
+                "{} {method}: found.md `{}` against render.csv `{row}`",
+                cells[1],
+                cells[k]
+            );
+            let mapped = ["mapped", "mapped-interp", "tbn"].contains(method);
+            assert_eq!(row.contains("outside the 2° cap"), mapped, "{row}");
+            judged += 1;
+        }
+    }
+    assert!(judged >= 30, "{judged} verdicts compared");
+    // The decision table carries the ECP5 estimate.
+    assert!(
+        found.contains("ECP5 estimate: LUT / FF / DSP / BRAM"),
+        "{found}"
+    );
+
     // It recommends, per method, with costs, and shows the plots.
     for needle in [
         "Recommended width per method",
