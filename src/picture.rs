@@ -142,24 +142,58 @@ impl Canvas {
     }
 }
 
-const S: usize = 2;
-const PAD: usize = 4;
+/// Glyph scale of the legend: a 3 × 5 font drawn at 3 pixels a dot, so
+/// its text is 15 pixels high and stays readable when a page shows the
+/// image at half its size.
+const S: usize = 3;
+const PAD: usize = 6;
 
-fn legend_width(classes: &[(u32, u32)]) -> usize {
-    let mut w = PAD;
-    for &c in classes {
-        w += 5 * S + 2 * S + label(c).len() * 4 * S + 3 * S;
+/// Width of one legend entry: its swatch, a gap, its label and a gap.
+fn entry_width(c: (u32, u32)) -> usize {
+    5 * S + 2 * S + label(c).len() * 4 * S + 3 * S
+}
+
+/// The legend's rows for a picture `width` wide: entries (and the word
+/// LEVELS last) laid out left to right, a new row where the next would
+/// not fit (at least one entry a row); each row's classes by index.
+fn legend_rows(classes: &[(u32, u32)], width: usize) -> Vec<Vec<usize>> {
+    let avail = width.max(160).saturating_sub(2 * PAD);
+    let mut rows: Vec<Vec<usize>> = vec![Vec::new()];
+    let mut x = 0;
+    for (k, &c) in classes.iter().enumerate() {
+        let w = entry_width(c);
+        if x > 0 && x + w > avail {
+            rows.push(Vec::new());
+            x = 0;
+        }
+        rows.last_mut().expect("one row").push(k);
+        x += w;
     }
-    w + "LEVELS".len() * 4 * S + PAD
+    rows
+}
+
+/// The picture's width for an image `width` wide: the image, or the
+/// widest legend row and the word LEVELS.
+fn legend_width(classes: &[(u32, u32)], width: usize) -> usize {
+    legend_rows(classes, width)
+        .iter()
+        .map(|r| r.iter().map(|&k| entry_width(classes[k])).sum::<usize>())
+        .max()
+        .unwrap_or(0)
+        .max("LEVELS".len() * 4 * S)
+        + 2 * PAD
 }
 
 /// An error heat-map as PNG: `err[pixel]` in levels (`None`: not covered),
-/// coloured by the [`classes`] of its largest error, with a legend strip
-/// below the image that prints each class's bounds.
+/// coloured by the [`classes`] of its largest error, with a legend below
+/// the image that prints each class's bounds, wrapped to the image's width
+/// (the word LEVELS on a row of its own).
 pub fn heatmap_png(width: usize, height: usize, err: &[Option<u32>]) -> anyhow::Result<Vec<u8>> {
     let classes = classes(err.iter().flatten().copied().max().unwrap_or(0));
-    let legend_h = 5 * S + 2 * PAD;
-    let w = width.max(legend_width(&classes));
+    let rows = legend_rows(&classes, width);
+    let row_h = 5 * S + PAD;
+    let legend_h = (rows.len() + 1) * row_h + PAD;
+    let w = width.max(legend_width(&classes, width));
     let h = height + legend_h;
     let mut c = Canvas {
         w,
@@ -177,12 +211,16 @@ pub fn heatmap_png(width: usize, height: usize, err: &[Option<u32>]) -> anyhow::
         }
     }
     let white = [235, 235, 235];
-    let (mut x, y) = (PAD, height + PAD);
-    for (k, &cl) in classes.iter().enumerate() {
-        c.rect(x, y, 5 * S, 5 * S, PALETTE[k]);
-        x = c.text(x + 5 * S + 2 * S, y, S, &label(cl), white) + 2 * S;
+    let mut y = height + PAD;
+    for row in &rows {
+        let mut x = PAD;
+        for &k in row {
+            c.rect(x, y, 5 * S, 5 * S, PALETTE[k]);
+            x = c.text(x + 5 * S + 2 * S, y, S, &label(classes[k]), white) + 2 * S;
+        }
+        y += row_h;
     }
-    c.text(x, y, S, "LEVELS", white);
+    c.text(PAD, y, S, "LEVELS", white);
     encode(w, h, png::ColorType::Rgb, &c.px)
 }
 
@@ -317,7 +355,10 @@ mod tests {
         let mut buf = vec![0; r.output_buffer_size()];
         let info = r.next_frame(&mut buf).unwrap();
         let w = info.width as usize;
-        assert!(w >= legend_width(&classes(300)) && info.height as usize > 1);
+        assert!(w >= legend_width(&classes(300), 6) && info.height as usize > 1);
+        // At a page's image width the legend wraps instead of widening it.
+        assert_eq!(legend_width(&classes(300), 256).max(256), 256);
+        assert!(legend_rows(&classes(300), 256).len() > 1);
         let x0 = (w - 6) / 2;
         let px = |x: usize| [buf[3 * x], buf[3 * x + 1], buf[3 * x + 2]];
         assert_eq!(px(x0), BACKGROUND);
