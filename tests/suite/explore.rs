@@ -914,30 +914,37 @@ fn a_unit_sweep_reports_the_units_own_cost() {
 #[test]
 fn optimize_minimizes_luts_on_the_estimate_and_confirms_the_winner_by_synthesis() {
     let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("lut");
-    let o = fxshade(&[
-        "explore",
-        "--optimize",
-        "--set",
-        "rtl.target=\"ecp5\"",
-        "--goal",
-        "normalize.max_diffuse_err_levels<=0.75",
-        "--minimize",
-        "lut",
-        "--analyses",
-        "normalize,cost",
-        "--samples",
-        "20000",
-        "--max-evals",
-        "40",
-        "--no-rtl-check",
-        "--no-equiv",
-        "--cache",
-        dir.path().join("cache").to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--json",
-    ]);
+    let cache = dir.path().join("cache");
+    let run = |out: &str, json: bool| {
+        let out = dir.path().join(out);
+        let mut args = vec![
+            "explore",
+            "--optimize",
+            "--set",
+            "rtl.target=\"ecp5\"",
+            "--goal",
+            "normalize.max_diffuse_err_levels<=0.75",
+            "--minimize",
+            "lut",
+            "--analyses",
+            "normalize,cost",
+            "--samples",
+            "20000",
+            "--max-evals",
+            "40",
+            "--no-rtl-check",
+            "--no-equiv",
+            "--cache",
+            cache.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        if json {
+            args.push("--json");
+        }
+        fxshade(&args)
+    };
+    let o = run("lut", true);
     assert!(
         text(&o).contains("`lut` as `lut_est`"),
         "the substitution is said: {}",
@@ -959,28 +966,7 @@ fn optimize_minimizes_luts_on_the_estimate_and_confirms_the_winner_by_synthesis(
     let lut = c["lut"].as_u64().unwrap();
     assert!(lut > 100, "Yosys counted the top's LUTs: {c}");
     // The table sets the count beside the estimate with its error.
-    let t = fxshade(&[
-        "explore",
-        "--optimize",
-        "--set",
-        "rtl.target=\"ecp5\"",
-        "--goal",
-        "normalize.max_diffuse_err_levels<=0.75",
-        "--minimize",
-        "lut",
-        "--analyses",
-        "normalize,cost",
-        "--samples",
-        "20000",
-        "--max-evals",
-        "40",
-        "--no-rtl-check",
-        "--no-equiv",
-        "--cache",
-        dir.path().join("cache").to_str().unwrap(),
-        "--out",
-        dir.path().join("lut2").to_str().unwrap(),
-    ]);
+    let t = run("lut2", false);
     assert!(t.status.success(), "{}", text(&t));
     let s = String::from_utf8_lossy(&t.stdout);
     assert!(
