@@ -1370,10 +1370,19 @@ fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow:
         if t.and_then(fxshade_model::rtl::estimate::AreaModel::of)
             .is_none()
         {
+            let fitted: Vec<&str> = fxshade_model::rtl::timing::Target::NAMES
+                .into_iter()
+                .filter(|n| {
+                    fxshade_model::rtl::timing::Target::from_name(n)
+                        .and_then(fxshade_model::rtl::estimate::AreaModel::of)
+                        .is_some()
+                })
+                .collect();
             return Err(UsageError(format!(
                 "--minimize: `{m}` needs an area model for rtl.target {target}, which has none \
-                 yet (fitted: ecp5, ice40-up5k; `fxshade synth calibrate --area --target \
-                 {target}` measures one); give --set 'rtl.target=\"ecp5\"' or --close-on ecp5"
+                 yet (fitted: {}; `fxshade synth calibrate --area --target {target}` measures \
+                 one); give --set 'rtl.target=\"ecp5\"' or --close-on ecp5",
+                fitted.join(", ")
             ))
             .into());
         }
