@@ -1534,6 +1534,11 @@ fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow:
         let stream = VectorStream::new(u, &win_cfg, a.rtl_count, 1, None)?;
         let sources = rtl_flow::Sources::emitted(&stream.rtl());
         for sim in [Sim::Verilator, Sim::Icarus] {
+            // A step of minutes on a big top: a line when it starts.
+            eprintln!(
+                "explore: checking the winner's RTL top on {sim:?} ({} vectors)",
+                a.rtl_count
+            );
             let r = rtl_flow::check_with(&stream, &sources, sim, 1, 20, None, false)
                 .with_context(|| format!("checking the winner's RTL on {sim:?}"))?;
             checks.push(serde_json::json!({
@@ -1555,6 +1560,14 @@ fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow:
     let equiv = if a.no_equiv {
         serde_json::json!("skipped (--no-equiv)")
     } else {
+        eprintln!(
+            "explore: proving the winner's RTL top equal to its model ({})",
+            if a.equiv_timeout == 0 {
+                "no time limit".to_string()
+            } else {
+                format!("at most {} s", a.equiv_timeout)
+            }
+        );
         let mods = super::equiv::modules("pipeline", &win_cfg, None)?;
         let res = super::equiv::prove_all(
             &mods,
