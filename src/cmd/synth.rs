@@ -1473,7 +1473,12 @@ fn calibrate_area(
         .with_context(|| format!("calibration design {label}"))?;
         bar.inc(1);
         let terms = r.area_terms.expect("a target with an area model has terms");
-        rows.push((label.clone(), terms, r.lut, r.ff - r.harness_ff));
+        rows.push((
+            label.clone(),
+            terms,
+            r.lut,
+            r.ff.saturating_sub(r.harness_ff),
+        ));
     }
     bar.finish_and_clear();
     let x: Vec<[f64; 10]> = rows.iter().map(|r| r.1.values()).collect();

@@ -280,7 +280,7 @@ impl AreaTerms {
                 .filter(|r| bram.is_none_or(|b| b.blocks_of(r) == 0))
                 .map(|r| r.entries as f64 * f64::from(r.width) * r.reads as f64)
                 .sum(),
-            flops: (hw.flops - hw.fifo_bits) as f64,
+            flops: hw.flops.saturating_sub(hw.fifo_bits) as f64,
             fifo_bits: hw.fifo_bits as f64,
             dsp_blocks: dsp_blocks(hw, target) as f64,
         }
