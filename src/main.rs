@@ -7,6 +7,7 @@ mod dsp_pack;
 mod explore;
 mod ff_roles;
 mod netlist;
+mod netlist_corr;
 mod netlist_equiv;
 mod output;
 mod picture;

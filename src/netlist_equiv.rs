@@ -10,28 +10,43 @@
 //! constant removed. A *difference* is a `valid` or `ready` output that
 //! differs, or (while the RTL's `valid_o` is high) a data output or
 //! `ovf_o` that differs: data under a low `valid_o` is nobody's to read.
-//! With D the latency and 2, fxshade asks two queries of its SMT-LIB 2
-//! model:
+//! D is the latency and 2.
 //!
-//! 1. **From reset**: `rst_ni` low in cycle 0 (the state before it free),
-//!    high after, every other input free in every cycle: a difference in
-//!    cycles 1‥D? This covers every run up to D cycles after a reset.
-//! 2. **Window**: two runs of the miter from *any* two states in cycle 1,
-//!    the same inputs in cycles 1‥D (`rst_ni` high): does either circuit's
-//!    `valid`/`ready` output in cycle D differ between the runs, or its
-//!    data while its `valid_o` is high? `unsat` says each circuit's
-//!    compared outputs in cycle D are a function of the inputs of cycles
-//!    1‥D alone: a pipeline forgets its state in D cycles.
+//! **The proof: register correspondence and a window.**
 //!
-//! Both `unsat` is a proof for every run: in cycle t ≥ D of any run, each
-//! circuit's outputs are (by 2) what they would be had a reset happened
-//! D cycles before, the same inputs since, which (by 1) agree. Products
-//! are abstracted first as in the RTL proof, the same function of equal
-//! operands being equal; a difference under the abstraction is checked on
-//! the real products (with its inputs, then all free). A model of (1) is
-//! a counterexample; a model of (2) is not (it names no run from reset):
-//! `unknown`, as for a top whose set-up registers keep their value while
-//! pixels stream.
+//! 1. **Correspondence** ([`crate::netlist_corr`]): candidate equalities
+//!    between the RTL's nets and the netlist's nets of the same name, bit
+//!    by bit, and between each register the packing moved into a block and
+//!    the RTL register it replaces; two simulations from reset by the
+//!    solver drop those that plainly fail; then the greatest inductive
+//!    subset `I`: from any state where `I` holds, one cycle with any
+//!    inputs, `I` holds again and the outputs agree (one transition per
+//!    query, products abstracted as below). And `I` holds in some state
+//!    (else the step proves nothing).
+//! 2. **Window**, for each circuit on its own (over its cone of
+//!    influence): two runs from *any* two states in cycle 1, the same
+//!    inputs (the reset among them) in cycles 1‥D: its compared outputs
+//!    agree in cycle D, and in every cycle 1‥D when cycle 1 is a reset.
+//!    So a circuit's outputs in cycle D of any window, and in every cycle
+//!    after a reset, are a function of the window's inputs alone.
+//!
+//! Both `unsat` is a proof for every run that starts with a reset, in
+//! every cycle, and for every run in cycles ≥ D: take the run of the miter
+//! from a state of `I` (reached from any state of `I` the cycle before,
+//! so with any inputs) with the same inputs over the window; each circuit
+//! gives what it gives in the real run (2), and the two agree there (1).
+//!
+//! Products are abstracted as in the RTL proof (an uninterpreted function
+//! of the operands' values, so identical multipliers match without
+//! bit-blasting), with a **range lemma** per product: its value lies
+//! between the bounds of the exact product of operands known by their
+//! form (a zero-extended operand is not negative), since synthesis narrows
+//! a product to the bits it can have and reads no others.
+//!
+//! When the step fails (a netlist that is not equivalent, or one whose
+//! nets the candidates miss), the miter is unrolled **from reset** over D
+//! cycles, every input free: a model whose products are exact, checked on
+//! the real products at its inputs, is a counterexample.
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -103,16 +118,10 @@ fn miter_smt2(m: &Module, netlist: &Path, dir: &Path) -> anyhow::Result<String> 
     std::fs::read_to_string(dir.join("miter.smt2")).context("yosys wrote no miter model")
 }
 
-/// The miter's queries over `depth` cycles: (from reset, the window
-/// query), and the terms to read back from a model of the first (every
-/// input and output pair in every cycle).
-fn queries(m: &Module, smt2: &str, depth: u32) -> anyhow::Result<(String, String, Vec<String>)> {
-    let mut ins = Vec::new();
+/// The miter's outputs (name, width), from Yosys's comments.
+fn outputs(smt2: &str) -> Vec<(String, u32)> {
     let mut outs = Vec::new();
     for l in smt2.lines() {
-        if let Some(r) = l.strip_prefix("; yosys-smt2-input ") {
-            ins.extend(r.split_whitespace().next().map(str::to_string));
-        }
         if let Some(r) = l.strip_prefix("; yosys-smt2-output ") {
             let mut it = r.split_whitespace();
             if let (Some(n), Some(w)) = (it.next(), it.next()) {
@@ -120,6 +129,131 @@ fn queries(m: &Module, smt2: &str, depth: u32) -> anyhow::Result<(String, String
             }
         }
     }
+    outs
+}
+
+/// The RTL and the netlist differ in state `state`: a `valid` or `ready`
+/// output, or (while the RTL's `valid_o` is high) a data output.
+fn differs_in(outs: &[(String, u32)], state: &str) -> String {
+    let at = |p: &str| format!("(|fxs_miter_n {p}| {state})");
+    let mut control = Vec::new();
+    let mut data = Vec::new();
+    for (n, _) in outs {
+        let Some(port) = n.strip_prefix("gold_") else {
+            continue;
+        };
+        let ne = format!("(not (= {} {}))", at(n), at(&format!("gate_{port}")));
+        if port.ends_with("valid_o") || port.ends_with("ready_o") {
+            control.push(ne);
+        } else {
+            data.push(ne);
+        }
+    }
+    let mut any = control;
+    if !data.is_empty() {
+        any.push(format!(
+            "(and {} (or {}))",
+            at("gold_valid_o"),
+            data.join(" ")
+        ));
+    }
+    format!("(or false {})", any.join(" "))
+}
+
+/// The window query for one circuit of the miter (`side`: `gold_` or
+/// `gate_`) over `depth` cycles, restricted to its cone of influence: two
+/// runs from any two states in cycle 1 (`s1`, `r1`), the same inputs, the
+/// reset among them, in cycles 1‥D; do its compared outputs differ between
+/// the runs in cycle D, or in any cycle when cycle 1 is a reset? `unsat`:
+/// D cycles after any state, and every cycle after a reset, its outputs
+/// are a function of the inputs alone. Registers outside the cone are free
+/// (an assumption dropped: `unsat` is still a proof).
+fn window_query(smt2: &str, side: &str, depth: u32) -> String {
+    let g = crate::smt2_model::Smt2Model::parse("fxs_miter", smt2);
+    let mut ins = Vec::new();
+    for l in smt2.lines() {
+        if let Some(r) = l.strip_prefix("; yosys-smt2-input ") {
+            ins.extend(r.split_whitespace().next().map(str::to_string));
+        }
+    }
+    let outs: Vec<(String, u32)> = outputs(smt2)
+        .into_iter()
+        .filter(|(n, _)| n.starts_with(side))
+        .collect();
+    // Cone cycle k is state k + 1.
+    let roots: Vec<(String, u32)> = (0..depth)
+        .flat_map(|k| {
+            outs.iter()
+                .map(move |(n, _)| (format!("fxs_miter_n {n}"), k))
+        })
+        .collect();
+    let (trans, _) = g.cone(&roots, &std::collections::HashSet::new(), true);
+    let mut q = String::from("(set-logic QF_BV)\n");
+    q += smt2;
+    q.push('\n');
+    let on = |p: &str, c: &str, k: u32| format!("(|fxs_miter_n {p}| {c}{k})");
+    for c in ["s", "r"] {
+        for k in 1..=depth {
+            let _ = writeln!(q, "(declare-const {c}{k} |fxs_miter_s|)");
+        }
+        for (next, field, k) in &trans {
+            let _ = writeln!(
+                q,
+                "(assert (= (|{next}| {c}{}) (|{field}| {c}{})))",
+                k + 1,
+                k + 2
+            );
+        }
+    }
+    for k in 1..=depth {
+        for i in &ins {
+            if i != "in_clk_i" {
+                let _ = writeln!(q, "(assert (= {} {}))", on(i, "s", k), on(i, "r", k));
+            }
+        }
+    }
+    let diff_at = |k: u32| {
+        let mut diff = Vec::new();
+        let mut data = Vec::new();
+        for (n, _) in &outs {
+            let ne = format!("(not (= {} {}))", on(n, "s", k), on(n, "r", k));
+            if n.ends_with("valid_o") || n.ends_with("ready_o") {
+                diff.push(ne);
+            } else {
+                data.push(ne);
+            }
+        }
+        if !data.is_empty() {
+            diff.push(format!(
+                "(and {} (or {}))",
+                on(&format!("{side}valid_o"), "s", k),
+                data.join(" ")
+            ));
+        }
+        format!("(or false {})", diff.join(" "))
+    };
+    let early: Vec<String> = (1..depth).map(diff_at).collect();
+    let _ = writeln!(
+        q,
+        "(assert (or {} (and (not {}) (or false {}))))\n(check-sat)",
+        diff_at(depth),
+        on("in_rst_ni", "s", 1),
+        early.join(" ")
+    );
+    q
+}
+
+/// The miter's queries over `depth` cycles: (from reset, the window
+/// query), and the terms to read back from a model of the first (every
+/// input and output pair in every cycle).
+fn queries(m: &Module, smt2: &str, depth: u32) -> anyhow::Result<(String, String, Vec<String>)> {
+    let mut ins = Vec::new();
+    for l in smt2.lines() {
+        if let Some(r) = l.strip_prefix("; yosys-smt2-input ") {
+            ins.extend(r.split_whitespace().next().map(str::to_string));
+        }
+    }
+    let outs = outputs(smt2);
     let at = |p: &str, k: u32| format!("(|fxs_miter_n {p}| s{k})");
     for p in ["in_rst_ni", "in_clk_i"] {
         anyhow::ensure!(
@@ -129,30 +263,7 @@ fn queries(m: &Module, smt2: &str, depth: u32) -> anyhow::Result<(String, String
         );
     }
     // A difference in cycle k.
-    let differs = |k: u32| -> String {
-        let mut control = Vec::new();
-        let mut data = Vec::new();
-        for (n, _) in &outs {
-            let Some(port) = n.strip_prefix("gold_") else {
-                continue;
-            };
-            let ne = format!("(not (= {} {}))", at(n, k), at(&format!("gate_{port}"), k));
-            if port.ends_with("valid_o") || port.ends_with("ready_o") {
-                control.push(ne);
-            } else {
-                data.push(ne);
-            }
-        }
-        let mut any = control;
-        if !data.is_empty() {
-            any.push(format!(
-                "(and {} (or {}))",
-                at("gold_valid_o", k),
-                data.join(" ")
-            ));
-        }
-        format!("(or {})", any.join(" "))
-    };
+    let differs = |k: u32| differs_in(&outs, &format!("s{k}"));
     let mut from_reset = String::from("(set-logic QF_BV)\n");
     from_reset += smt2;
     for k in 0..=depth {
@@ -180,38 +291,50 @@ fn queries(m: &Module, smt2: &str, depth: u32) -> anyhow::Result<(String, String
         }
     }
     let on = |p: &str, c: &str, k: u32| format!("(|fxs_miter_n {p}| {c}{k})");
+    // The same inputs, the reset among them, in both runs.
     for k in 1..=depth {
-        let _ = writeln!(window, "(assert {})", on("in_rst_ni", "s", k));
-        let _ = writeln!(window, "(assert {})", on("in_rst_ni", "r", k));
         for i in &ins {
-            if i != "in_clk_i" && i != "in_rst_ni" {
+            if i != "in_clk_i" {
                 let _ = writeln!(window, "(assert (= {} {}))", on(i, "s", k), on(i, "r", k));
             }
         }
     }
-    let mut diff = Vec::new();
-    for side in ["gold_", "gate_"] {
-        let mut data = Vec::new();
-        for (n, _) in &outs {
-            let Some(port) = n.strip_prefix(side) else {
-                continue;
-            };
-            let ne = format!("(not (= {} {}))", on(n, "s", depth), on(n, "r", depth));
-            if port.ends_with("valid_o") || port.ends_with("ready_o") {
-                diff.push(ne);
-            } else {
-                data.push(ne);
+    // Either circuit's compared outputs differ between the runs in cycle k.
+    let diff_at = |k: u32| {
+        let mut diff = Vec::new();
+        for side in ["gold_", "gate_"] {
+            let mut data = Vec::new();
+            for (n, _) in &outs {
+                let Some(port) = n.strip_prefix(side) else {
+                    continue;
+                };
+                let ne = format!("(not (= {} {}))", on(n, "s", k), on(n, "r", k));
+                if port.ends_with("valid_o") || port.ends_with("ready_o") {
+                    diff.push(ne);
+                } else {
+                    data.push(ne);
+                }
+            }
+            if !data.is_empty() {
+                diff.push(format!(
+                    "(and {} (or {}))",
+                    on(&format!("{side}valid_o"), "s", k),
+                    data.join(" ")
+                ));
             }
         }
-        if !data.is_empty() {
-            diff.push(format!(
-                "(and {} (or {}))",
-                on(&format!("{side}valid_o"), "s", depth),
-                data.join(" ")
-            ));
-        }
-    }
-    let _ = writeln!(window, "(assert (or {}))\n(check-sat)", diff.join(" "));
+        format!("(or false {})", diff.join(" "))
+    };
+    // In cycle D whatever the reset did; in every cycle when the window
+    // starts with a reset.
+    let early: Vec<String> = (1..depth).map(diff_at).collect();
+    let _ = writeln!(
+        window,
+        "(assert (or {} (and (not {}) (or false {}))))\n(check-sat)",
+        diff_at(depth),
+        on("in_rst_ni", "s", 1),
+        early.join(" ")
+    );
     // The values to read back: every input in every cycle, every output
     // pair in every cycle.
     let mut want = Vec::new();
@@ -304,6 +427,16 @@ fn solve_refined(
             .iter()
             .flat_map(|(_, _, p, a, b)| [p.as_str(), a.as_str(), b.as_str()])
             .collect();
+        for site in &live {
+            for p in states {
+                for k in cycles.clone() {
+                    if let Some(l) = crate::smt::range_lemma(site, &format!("{p}{k}")) {
+                        defs += &l;
+                        defs.push('\n');
+                    }
+                }
+            }
+        }
         let mut script = abs.replacen("(check-sat)", &format!("{defs}(check-sat)"), 1);
         if !gv.is_empty() {
             script = if script.contains("(get-value (") {
@@ -368,7 +501,7 @@ pub fn prove(
         reason: None,
         counterexample: None,
         products: 0,
-        method: Method::Netlist(depth),
+        method: Method::Netlist(depth, 0),
     };
     let left = || {
         if timeout == 0 {
@@ -383,6 +516,196 @@ pub fn prove(
             let _ = std::fs::write(d.join(format!("{}-netlist-{what}.smt2", out.module)), q);
         }
     }
+    // The register correspondence: the greatest inductive subset of the
+    // candidates, then the window.
+    let text = std::fs::read_to_string(netlist.join(format!("{}.v", out.module)))
+        .with_context(|| format!("--netlist: cannot read {}.v", out.module))?;
+    let cands = crate::netlist_corr::candidates(&smt2, &m.text, &text);
+    let outs = outputs(&smt2);
+    let mut alive = vec![true; cands.len()];
+    // Two simulations from reset drop the candidates that plainly fail.
+    for seed in [0x9e37_79b9_7f4a_7c15_u64, 0x2545_f491_4f6c_dd1d] {
+        let q = crate::netlist_corr::sim_query(&smt2, &cands, depth + 2, seed);
+        if let Reply::Sat(pairs) = solver.check(&q, left())? {
+            let n = cands.len();
+            for (i, (_, v)) in pairs.iter().enumerate() {
+                if v.atom() == Some("false") {
+                    alive[i % n] = false;
+                }
+            }
+        }
+        if std::env::var_os("FXSHADE_SMT_DUMP").is_some() {
+            eprintln!(
+                "simulation: {} of {} candidates left, {:.1} s",
+                alive.iter().filter(|a| **a).count(),
+                cands.len(),
+                t0.elapsed().as_secs_f64()
+            );
+        }
+    }
+    let step = loop {
+        let live: Vec<&crate::netlist_corr::Candidate> = cands
+            .iter()
+            .zip(&alive)
+            .filter_map(|(c, a)| a.then_some(c))
+            .collect();
+        let q = crate::netlist_corr::step_query(&smt2, &live, &|st| differs_in(&outs, st));
+        let dump = std::env::var_os("FXSHADE_SMT_DUMP");
+        if let Some(d) = &dump {
+            let _ = std::fs::write(
+                Path::new(d).join(format!("{}-netlist-step.smt2", out.module)),
+                &q,
+            );
+            eprintln!(
+                "step: {} live, {:.1} s",
+                live.len(),
+                t0.elapsed().as_secs_f64()
+            );
+        }
+        // Under the product abstraction alone: a model may owe a failed
+        // equality to a product's value, which only drops a candidate
+        // (sound); the correspondence makes both sides' products the same
+        // function of the same operands, so exact products are not needed.
+        let (abs, sites) = abstracted(&q, &HashSet::new())?;
+        let mut lemmas = String::new();
+        for site in &sites {
+            for st in ["s1", "s2"] {
+                if let Some(l) = crate::smt::range_lemma(site, st) {
+                    lemmas += &l;
+                    lemmas.push('\n');
+                }
+            }
+        }
+        let abs = abs.replacen("(check-sat)", &format!("{lemmas}(check-sat)"), 1);
+        if let Some(d) = &dump {
+            let _ = std::fs::write(
+                Path::new(d).join(format!("{}-netlist-step-abstracted.smt2", out.module)),
+                &abs,
+            );
+        }
+        let r = solver.check(&abs, left())?;
+        match r {
+            Reply::Unsat => break Ok(live.len()),
+            Reply::Unknown(why) => {
+                break Err(format!(
+                    "the inductive step: {} answered {why}",
+                    solver.name()
+                ))
+            }
+            Reply::Sat(pairs) => {
+                let failed: HashSet<usize> = pairs
+                    .iter()
+                    .filter(|(_, v)| v.atom() == Some("false"))
+                    .filter_map(|(k, _)| k.atom()?.strip_prefix("fxs_k")?.parse().ok())
+                    .collect();
+                if failed.is_empty() {
+                    break Err(format!(
+                        "the outputs differ in a state where all {} equalities of the \
+                         correspondence hold",
+                        live.len()
+                    ));
+                }
+                let idx: Vec<usize> = alive
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(i, a)| a.then_some(i))
+                    .collect();
+                for f in failed {
+                    if dump.is_some() {
+                        eprintln!("  dropped {}", live[f].name);
+                    }
+                    alive[idx[f]] = false;
+                }
+            }
+        }
+    };
+    out.method = Method::Netlist(depth, *step.as_ref().unwrap_or(&0));
+    if let Ok(n) = step {
+        // The invariant must hold somewhere, or the step proves nothing.
+        let live: Vec<&crate::netlist_corr::Candidate> = cands
+            .iter()
+            .zip(&alive)
+            .filter_map(|(c, a)| a.then_some(c))
+            .collect();
+        match solver.check(&crate::netlist_corr::sanity_query(&smt2, &live), left())? {
+            Reply::Sat(_) => {
+                // Each circuit's window on its own, both at once.
+                let w = std::thread::scope(|sc| {
+                    let hs: Vec<_> = ["gold_", "gate_"]
+                        .map(|side| {
+                            let q = window_query(&smt2, side, depth);
+                            sc.spawn(move || {
+                                let left = || {
+                                    if timeout == 0 {
+                                        0
+                                    } else {
+                                        timeout.saturating_sub(t0.elapsed().as_secs()).max(1)
+                                    }
+                                };
+                                solve_refined(solver, &q, &["s", "r"], 1..=depth, &left, &|p| {
+                                    Ok(Reply::Sat(p.to_vec()))
+                                })
+                                .map(|(r, _)| r)
+                            })
+                        })
+                        .into_iter()
+                        .collect();
+                    let mut all = Reply::Unsat;
+                    for h in hs {
+                        let r = h
+                            .join()
+                            .map_err(|_| anyhow::anyhow!("a window query panicked"))??;
+                        if !matches!(r, Reply::Unsat) && matches!(all, Reply::Unsat) {
+                            all = r;
+                        }
+                    }
+                    anyhow::Ok(all)
+                })?;
+                if std::env::var_os("FXSHADE_SMT_DUMP").is_some() {
+                    eprintln!(
+                        "window: {} at {:.1} s",
+                        if matches!(w, Reply::Unsat) {
+                            "unsat"
+                        } else {
+                            "not unsat"
+                        },
+                        t0.elapsed().as_secs_f64()
+                    );
+                }
+                match w {
+                    Reply::Unsat => out.verdict = Verdict::Proved,
+                    Reply::Sat(_) => {
+                        out.reason = Some(format!(
+                            "the {n} equalities are inductive, but an output in cycle {depth} \
+                             still depends on the state of cycle 1 (a register that keeps its \
+                             value)"
+                        ))
+                    }
+                    Reply::Unknown(why) => {
+                        out.reason = Some(format!(
+                            "the {n} equalities are inductive; window: {} answered {why}",
+                            solver.name()
+                        ))
+                    }
+                }
+                out.seconds = t0.elapsed().as_secs_f64();
+                return Ok(out);
+            }
+            Reply::Unsat => {
+                out.reason = Some(format!("the {n} equalities hold in no state"));
+            }
+            Reply::Unknown(why) => {
+                out.reason = Some(format!(
+                    "the invariant's state: {} answered {why}",
+                    solver.name()
+                ));
+            }
+        }
+        out.seconds = t0.elapsed().as_secs_f64();
+        return Ok(out);
+    }
+    let step_failed = step.err().unwrap_or_default();
+    // No correspondence: look for a difference from reset.
     // From reset: a model whose products are all exact is checked on the
     // circuit with its inputs fixed (the free initial state aside).
     let confirm = |pairs: &[(SExpr, SExpr)]| -> anyhow::Result<Reply> {
@@ -403,7 +726,10 @@ pub fn prove(
             out.counterexample = Some(counterexample(m, &pairs, &want));
         }
         Reply::Unknown(why) => {
-            out.reason = Some(format!("from reset: {} answered {why}", solver.name()));
+            out.reason = Some(format!(
+                "{step_failed}; from reset: {} answered {why}",
+                solver.name()
+            ));
         }
         Reply::Unsat => {
             // The window: a model with every product exact is a real

@@ -440,6 +440,102 @@ pub struct ProductSite {
     pub b: SExpr,
     /// Width of the operands and the product.
     pub width: u32,
+    /// The uninterpreted product as written in its place (`(fxs_mulc A B)`,
+    /// over the function's argument), when abstracted.
+    pub uf: Option<String>,
+    /// Bounds of the exact product of its operands' values, as signed
+    /// numbers (from their forms: a literal, a zero or sign extension):
+    /// the range lemma [`range_lemma`] states.
+    pub bounds: Option<(i128, i128)>,
+}
+
+/// The range lemma of an abstracted product `site` in state `state`:
+/// `lo <= fxs_mulc(A, B) <= hi` (signed), the bounds of the exact product
+/// of operands known by their form (a literal's value; a zero extension of
+/// `w` bits is in `[0, 2^w - 1]`; a sign extension of `w` bits in
+/// `[-2^(w-1), 2^(w-1) - 1]`): true of the product, so sound to assume. It
+/// keeps the abstraction from giving a product a sign or high bits the
+/// exact product cannot have, which one side of a miter reads and the
+/// other (narrowed by synthesis) does not; a product by 0 is 0.
+pub fn range_lemma(site: &ProductSite, state: &str) -> Option<String> {
+    let (uf, (lo, hi)) = (site.uf.as_ref()?, site.bounds?);
+    let w = 2 * PRODUCT_OPERAND_BITS;
+    let lit = |v: i128| {
+        if v < 0 {
+            format!("(bvneg (_ bv{} {w}))", v.unsigned_abs())
+        } else {
+            format!("(_ bv{v} {w})")
+        }
+    };
+    Some(format!(
+        "(assert (let (({arg} {state})) (let ((p {uf})) (and (bvsle {} p) (bvsle p {})))))",
+        lit(lo),
+        lit(hi),
+        arg = site.arg,
+    ))
+}
+
+/// The bounds of the exact product of two values in `a` and `b`.
+fn product_bounds(a: (i128, i128), b: (i128, i128)) -> Option<(i128, i128)> {
+    let c = [
+        a.0.checked_mul(b.0)?,
+        a.0.checked_mul(b.1)?,
+        a.1.checked_mul(b.0)?,
+        a.1.checked_mul(b.1)?,
+    ];
+    Some((*c.iter().min()?, *c.iter().max()?))
+}
+
+/// The bounds of a term's value read as a signed number of its width, from
+/// its form (see [`range_lemma`]); `None` past 64 bits.
+fn signed_bounds(
+    t: &SExpr,
+    globals: &std::collections::HashMap<String, u32>,
+    locals: &std::collections::HashMap<String, u32>,
+) -> Option<(i128, i128)> {
+    let full = |w: u32| {
+        (1..=64)
+            .contains(&w)
+            .then(|| (-(1i128 << (w - 1)), (1i128 << (w - 1)) - 1))
+    };
+    if let Some((v, bw)) = t.bits() {
+        if bw == 0 || bw > 64 {
+            return None;
+        }
+        let sv = ((v << (128 - bw)) as i128) >> (128 - bw);
+        return Some((sv, sv));
+    }
+    let w = term_width(t, globals, locals)?;
+    let SExpr::List(l) = t else {
+        return full(w);
+    };
+    let unsigned = |x: &SExpr| {
+        term_width(x, globals, locals)
+            .filter(|&k| k <= 63)
+            .map(|k| (0, (1i128 << k) - 1))
+    };
+    if let Some(SExpr::List(h)) = l.first() {
+        if h.first().and_then(SExpr::atom) == Some("_") {
+            match h.get(1).and_then(SExpr::atom) {
+                Some("zero_extend") if h.get(2).and_then(SExpr::atom) != Some("0") => {
+                    return unsigned(l.get(1)?);
+                }
+                Some("sign_extend") => return signed_bounds(l.get(1)?, globals, locals),
+                _ => {}
+            }
+        }
+    }
+    if l.first().and_then(SExpr::atom) == Some("concat") && l.len() == 3 {
+        if let Some(c) = l[1].atom().and_then(|a| a.strip_prefix("#b")) {
+            if !c.is_empty() && c.chars().all(|ch| ch == '0') {
+                return unsigned(&l[2]);
+            }
+        }
+        if let Some(x) = sign_extended(t, globals, locals) {
+            return signed_bounds(x, globals, locals);
+        }
+    }
+    full(w)
 }
 
 /// As [`abstract_products_keep`], with the products that are whole
@@ -771,6 +867,8 @@ fn rewrite_mul(
                     a: items[1].clone(),
                     b: items[2].clone(),
                     width: w,
+                    uf: None,
+                    bounds: None,
                 });
             }
             if ctx.keep.contains(&(ctx.site - 1)) {
@@ -806,12 +904,14 @@ fn rewrite_mul(
             let (Some(a), Some(b)) = (parse(a), parse(b)) else {
                 return SExpr::List(items);
             };
-            let mut text = format!(
-                "((_ extract {} 0) (fxs_mulc {} {}))",
-                w - 1,
-                ext(&a),
-                ext(&b)
-            );
+            let uf = format!("(fxs_mulc {} {})", ext(&a), ext(&b));
+            if let Some(site) = ctx.sites.last_mut().filter(|s| s.number == ctx.site - 1) {
+                site.bounds = signed_bounds(&a, globals, locals)
+                    .zip(signed_bounds(&b, globals, locals))
+                    .and_then(|(x, y)| product_bounds(x, y));
+                site.uf = Some(uf.clone());
+            }
+            let mut text = format!("((_ extract {} 0) {uf})", w - 1);
             if k > 0 {
                 text = format!("(bvshl {text} (_ bv{k} {w}))");
             }
@@ -827,6 +927,27 @@ fn rewrite_mul(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A product of a zero-extended 4-bit value and the literal -3 (8 bits)
+    /// lies in [-45, 0]: -3 · [0, 15], corners computed by hand; a
+    /// sign-extended 4-bit operand by 6 in [-48, 42].
+    #[test]
+    fn products_are_bounded_by_their_operands_forms() {
+        let q = "(declare-fun x () (_ BitVec 4))\n\
+                 (define-fun p ((state (_ BitVec 4))) (_ BitVec 8) \
+                 (bvmul (concat #b0000 state) #xfd))\n\
+                 (define-fun r ((state (_ BitVec 4))) (_ BitVec 8) \
+                 (bvmul ((_ sign_extend 4) state) #x06))\n";
+        let (_, _, sites) = abstract_products_sites(q, true, &Default::default()).unwrap();
+        let b: Vec<_> = sites.iter().map(|s| s.bounds).collect();
+        // #x06 is 3·2: the product by 3, shifted.
+        assert_eq!(b, vec![Some((-45, 0)), Some((-24, 21))]);
+        let l = range_lemma(&sites[0], "x").unwrap();
+        assert!(
+            l.contains("(bvneg (_ bv45 256))") && l.contains("(_ bv0 256)"),
+            "{l}"
+        );
+    }
 
     #[test]
     fn replies_parse_into_values() {

@@ -142,10 +142,11 @@ pub enum Method {
     /// By stages: one query per cut (a quantization's signal), each with
     /// every cut free and equal on both sides, then the outputs.
     Stages(usize),
-    /// A netlist against its RTL: unrolled from reset over this many
-    /// cycles, and the window query of as many (two runs from any states
-    /// agree in the last).
-    Netlist(u32),
+    /// A netlist against its RTL: the window query over this many cycles
+    /// (two runs from any states agree in the last), and the register
+    /// correspondence of this many equalities proved inductive (0: none,
+    /// unrolled from reset over the window instead).
+    Netlist(u32, usize),
 }
 
 impl std::fmt::Display for Method {
@@ -153,7 +154,8 @@ impl std::fmt::Display for Method {
         match self {
             Method::Whole => f.write_str("whole"),
             Method::Stages(n) => write!(f, "by stages ({n} cuts)"),
-            Method::Netlist(d) => write!(f, "netlist, {d}-cycle window"),
+            Method::Netlist(d, 0) => write!(f, "netlist, {d}-cycle window"),
+            Method::Netlist(d, n) => write!(f, "netlist, {n} equalities, {d}-cycle window"),
         }
     }
 }
