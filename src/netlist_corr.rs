@@ -64,19 +64,24 @@ fn bit(term: &str, width: u32, i: u32) -> String {
     }
 }
 
+/// The names and widths Yosys's comments `; yosys-smt2-<kind> NAME W`
+/// give (`kind`: `wire`, `input`, …).
+fn named<'a>(smt2: &'a str, kind: &str) -> Vec<(&'a str, u32)> {
+    let tag = format!("; yosys-smt2-{kind} ");
+    smt2.lines()
+        .filter_map(|l| {
+            let mut it = l.strip_prefix(tag.as_str())?.split_whitespace();
+            Some((it.next()?, it.next()?.parse().ok()?))
+        })
+        .collect()
+}
+
 /// The miter's named wires (without the `gold.`/`gate.` prefix) and their
 /// widths, per side, from Yosys's `; yosys-smt2-wire` comments.
 fn wires(smt2: &str) -> (HashMap<String, u32>, HashMap<String, u32>) {
     let mut gold = HashMap::new();
     let mut gate = HashMap::new();
-    for l in smt2.lines() {
-        let Some(r) = l.strip_prefix("; yosys-smt2-wire ") else {
-            continue;
-        };
-        let mut it = r.split_whitespace();
-        let (Some(n), Some(w)) = (it.next(), it.next().and_then(|w| w.parse::<u32>().ok())) else {
-            continue;
-        };
+    for (n, w) in named(smt2, "wire") {
         if let Some(x) = n.strip_prefix("gold.") {
             gold.insert(x.to_string(), w);
         } else if let Some(x) = n.strip_prefix("gate.") {
@@ -329,14 +334,7 @@ pub fn sim_query(smt2: &str, cands: &[Candidate], cycles: u32, seed: u64) -> Str
     for k in 0..cycles {
         let _ = writeln!(q, "(assert (|fxs_miter_t| s{k} s{}))", k + 1);
     }
-    for l in smt2.lines() {
-        let Some(r) = l.strip_prefix("; yosys-smt2-input ") else {
-            continue;
-        };
-        let mut it = r.split_whitespace();
-        let (Some(n), Some(w)) = (it.next(), it.next().and_then(|w| w.parse::<u32>().ok())) else {
-            continue;
-        };
+    for (n, w) in named(smt2, "input") {
         if n == "in_clk_i" || w == 0 || w > 64 {
             continue;
         }

@@ -243,10 +243,49 @@ fn window_query(smt2: &str, side: &str, depth: u32) -> String {
     q
 }
 
-/// The miter's queries over `depth` cycles: (from reset, the window
-/// query), and the terms to read back from a model of the first (every
-/// input and output pair in every cycle).
-fn queries(m: &Module, smt2: &str, depth: u32) -> anyhow::Result<(String, String, Vec<String>)> {
+/// Each circuit's window query ([`window_query`]), both at once, each
+/// under the product abstraction with its refinement: `Unsat` when both
+/// are, else the first other answer.
+fn windows(
+    smt2: &str,
+    depth: u32,
+    solver: Solver,
+    timeout: u64,
+    t0: Instant,
+) -> anyhow::Result<Reply> {
+    std::thread::scope(|sc| {
+        let hs = ["gold_", "gate_"].map(|side| {
+            let q = window_query(smt2, side, depth);
+            sc.spawn(move || {
+                let left = || {
+                    if timeout == 0 {
+                        0
+                    } else {
+                        timeout.saturating_sub(t0.elapsed().as_secs()).max(1)
+                    }
+                };
+                solve_refined(solver, &q, &["s", "r"], 1..=depth, &left, &|p| {
+                    Ok(Reply::Sat(p.to_vec()))
+                })
+                .map(|(r, _)| r)
+            })
+        });
+        let mut all = Reply::Unsat;
+        for h in hs {
+            let r = h
+                .join()
+                .map_err(|_| anyhow::anyhow!("a window query panicked"))??;
+            if !matches!(r, Reply::Unsat) && matches!(all, Reply::Unsat) {
+                all = r;
+            }
+        }
+        Ok(all)
+    })
+}
+
+/// The miter's query from reset over `depth` cycles, and the terms to read
+/// back from a model of it (every input and output pair in every cycle).
+fn queries(m: &Module, smt2: &str, depth: u32) -> anyhow::Result<(String, Vec<String>)> {
     let mut ins = Vec::new();
     for l in smt2.lines() {
         if let Some(r) = l.strip_prefix("; yosys-smt2-input ") {
@@ -278,63 +317,6 @@ fn queries(m: &Module, smt2: &str, depth: u32) -> anyhow::Result<(String, String
     }
     let d: Vec<String> = (1..=depth).map(differs).collect();
     let _ = writeln!(from_reset, "(assert (or {}))\n(check-sat)", d.join(" "));
-    // Two runs of the miter from any two states in cycle 1, the same
-    // inputs (`rst_ni` high): each circuit's outputs in cycle D.
-    let mut window = String::from("(set-logic QF_BV)\n");
-    window += smt2;
-    for c in ["s", "r"] {
-        for k in 1..=depth {
-            let _ = writeln!(window, "(declare-const {c}{k} |fxs_miter_s|)");
-        }
-        for k in 1..depth {
-            let _ = writeln!(window, "(assert (|fxs_miter_t| {c}{k} {c}{}))", k + 1);
-        }
-    }
-    let on = |p: &str, c: &str, k: u32| format!("(|fxs_miter_n {p}| {c}{k})");
-    // The same inputs, the reset among them, in both runs.
-    for k in 1..=depth {
-        for i in &ins {
-            if i != "in_clk_i" {
-                let _ = writeln!(window, "(assert (= {} {}))", on(i, "s", k), on(i, "r", k));
-            }
-        }
-    }
-    // Either circuit's compared outputs differ between the runs in cycle k.
-    let diff_at = |k: u32| {
-        let mut diff = Vec::new();
-        for side in ["gold_", "gate_"] {
-            let mut data = Vec::new();
-            for (n, _) in &outs {
-                let Some(port) = n.strip_prefix(side) else {
-                    continue;
-                };
-                let ne = format!("(not (= {} {}))", on(n, "s", k), on(n, "r", k));
-                if port.ends_with("valid_o") || port.ends_with("ready_o") {
-                    diff.push(ne);
-                } else {
-                    data.push(ne);
-                }
-            }
-            if !data.is_empty() {
-                diff.push(format!(
-                    "(and {} (or {}))",
-                    on(&format!("{side}valid_o"), "s", k),
-                    data.join(" ")
-                ));
-            }
-        }
-        format!("(or false {})", diff.join(" "))
-    };
-    // In cycle D whatever the reset did; in every cycle when the window
-    // starts with a reset.
-    let early: Vec<String> = (1..depth).map(diff_at).collect();
-    let _ = writeln!(
-        window,
-        "(assert (or {} (and (not {}) (or false {}))))\n(check-sat)",
-        diff_at(depth),
-        on("in_rst_ni", "s", 1),
-        early.join(" ")
-    );
     // The values to read back: every input in every cycle, every output
     // pair in every cycle.
     let mut want = Vec::new();
@@ -351,7 +333,7 @@ fn queries(m: &Module, smt2: &str, depth: u32) -> anyhow::Result<(String, String
         }
     }
     let _ = writeln!(from_reset, "(get-value ({}))", want.join(" "));
-    Ok((from_reset, window, want))
+    Ok((from_reset, want))
 }
 
 /// `query` with its products abstracted as the RTL proof does (a product
@@ -491,7 +473,7 @@ pub fn prove(
     let t0 = Instant::now();
     let smt2 = miter_smt2(m, netlist, dir)?;
     let depth = m.emitted.latency + 2;
-    let (from_reset, window, want) = queries(m, &smt2, depth)?;
+    let (from_reset, want) = queries(m, &smt2, depth)?;
     let mut out = Equiv {
         module: m.emitted.module.clone(),
         latency: m.emitted.latency,
@@ -512,9 +494,10 @@ pub fn prove(
     };
     if let Some(d) = std::env::var_os("FXSHADE_SMT_DUMP") {
         let d = Path::new(&d);
-        for (what, q) in [("reset", &from_reset), ("window", &window)] {
-            let _ = std::fs::write(d.join(format!("{}-netlist-{what}.smt2", out.module)), q);
-        }
+        let _ = std::fs::write(
+            d.join(format!("{}-netlist-reset.smt2", out.module)),
+            &from_reset,
+        );
     }
     // The register correspondence: the greatest inductive subset of the
     // candidates, then the window.
@@ -629,38 +612,7 @@ pub fn prove(
             .collect();
         match solver.check(&crate::netlist_corr::sanity_query(&smt2, &live), left())? {
             Reply::Sat(_) => {
-                // Each circuit's window on its own, both at once.
-                let w = std::thread::scope(|sc| {
-                    let hs: Vec<_> = ["gold_", "gate_"]
-                        .map(|side| {
-                            let q = window_query(&smt2, side, depth);
-                            sc.spawn(move || {
-                                let left = || {
-                                    if timeout == 0 {
-                                        0
-                                    } else {
-                                        timeout.saturating_sub(t0.elapsed().as_secs()).max(1)
-                                    }
-                                };
-                                solve_refined(solver, &q, &["s", "r"], 1..=depth, &left, &|p| {
-                                    Ok(Reply::Sat(p.to_vec()))
-                                })
-                                .map(|(r, _)| r)
-                            })
-                        })
-                        .into_iter()
-                        .collect();
-                    let mut all = Reply::Unsat;
-                    for h in hs {
-                        let r = h
-                            .join()
-                            .map_err(|_| anyhow::anyhow!("a window query panicked"))??;
-                        if !matches!(r, Reply::Unsat) && matches!(all, Reply::Unsat) {
-                            all = r;
-                        }
-                    }
-                    anyhow::Ok(all)
-                })?;
+                let w = windows(&smt2, depth, solver, timeout, t0)?;
                 if std::env::var_os("FXSHADE_SMT_DUMP").is_some() {
                     eprintln!(
                         "window: {} at {:.1} s",
@@ -734,9 +686,7 @@ pub fn prove(
         Reply::Unsat => {
             // The window: a model with every product exact is a real
             // dependence on the state.
-            let (w, _) = solve_refined(solver, &window, &["s", "r"], 1..=depth, &left, &|p| {
-                Ok(Reply::Sat(p.to_vec()))
-            })?;
+            let w = windows(&smt2, depth, solver, timeout, t0)?;
             match w {
                 Reply::Unsat => out.verdict = Verdict::Proved,
                 Reply::Sat(_) => {

@@ -365,6 +365,10 @@ module DP16KD (
 
   reg  [17:0] lat_a = 18'd0, lat_b = 18'd0, out_a = 18'd0, out_b = 18'd0;
   wire        async_rst = RESETMODE == "ASYNC";
+  // The asynchronous resets (a signal of their own: Yosys reads an edge of
+  // a net, not of an expression); a synchronous one acts at the clock.
+  wire        arst_a = RSTA & async_rst;
+  wire        arst_b = RSTB & async_rst;
   // A row before and after the port's write. Writes land after the
   // edge (nonblocking), so both ports read the contents from before it; a
   // read of the row the other port writes at the same edge is undefined in
@@ -380,8 +384,11 @@ module DP16KD (
   always @(posedge CLKA) if (wr_a) mem[row_a] <= new_a;
   always @(posedge CLKB) if (wr_b) mem[row_b] <= new_b;
 
-  always @(posedge CLKA or posedge (RSTA & async_rst)) begin
-    if (RSTA) begin
+  always @(posedge CLKA or posedge arst_a) begin
+    if (arst_a) begin
+      lat_a <= 18'd0;
+      out_a <= 18'd0;
+    end else if (RSTA) begin
       lat_a <= 18'd0;
       out_a <= 18'd0;
     end else begin
@@ -391,8 +398,11 @@ module DP16KD (
       if (OCEA) out_a <= lat_a;
     end
   end
-  always @(posedge CLKB or posedge (RSTB & async_rst)) begin
-    if (RSTB) begin
+  always @(posedge CLKB or posedge arst_b) begin
+    if (arst_b) begin
+      lat_b <= 18'd0;
+      out_b <= 18'd0;
+    end else if (RSTB) begin
       lat_b <= 18'd0;
       out_b <= 18'd0;
     end else begin
