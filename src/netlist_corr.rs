@@ -278,12 +278,9 @@ fn holds(c: &Candidate, s: &str) -> String {
     )
 }
 
-/// The inductive step over the miter model `smt2` with the candidates
-/// `live`: a state `s1` where all hold, its successor `s2` where one fails
-/// or the outputs differ (`differs(state)`: the outputs' difference in a
-/// state). Each candidate's equality in `s2` is the nullary function
-/// `fxs_k<n>` (`n` its index in `live`), read back by `get-value`.
-pub fn step_query(smt2: &str, live: &[&Candidate], differs: &dyn Fn(&str) -> String) -> String {
+/// The miter model `smt2`, a state `s1`, its successor `s2`, and every
+/// candidate in `live` holding in `s1`: what both queries below assume.
+fn assumed(smt2: &str, live: &[&Candidate]) -> String {
     let mut q = String::from("(set-logic QF_BV)\n");
     q += smt2;
     q += "\n(declare-const s1 |fxs_miter_s|)\n(declare-const s2 |fxs_miter_s|)\n\
@@ -291,6 +288,16 @@ pub fn step_query(smt2: &str, live: &[&Candidate], differs: &dyn Fn(&str) -> Str
     for c in live {
         let _ = writeln!(q, "(assert {})", holds(c, "s1"));
     }
+    q
+}
+
+/// The inductive step over the miter model `smt2` with the candidates
+/// `live`: a state `s1` where all hold, its successor `s2` where one fails
+/// or the outputs differ (`differs(state)`: the outputs' difference in a
+/// state). Each candidate's equality in `s2` is the nullary function
+/// `fxs_k<n>` (`n` its index in `live`), read back by `get-value`.
+pub fn step_query(smt2: &str, live: &[&Candidate], differs: &dyn Fn(&str) -> String) -> String {
+    let mut q = assumed(smt2, live);
     let mut ks = Vec::new();
     for (n, c) in live.iter().enumerate() {
         let _ = writeln!(q, "(define-fun fxs_k{n} () Bool {})", holds(c, "s2"));
@@ -366,13 +373,7 @@ pub fn sim_query(smt2: &str, cands: &[Candidate], cycles: u32, seed: u64) -> Str
 /// Is there a state where every candidate in `live` holds (the invariant
 /// is not empty)? The query: `sat` expected.
 pub fn sanity_query(smt2: &str, live: &[&Candidate]) -> String {
-    let mut q = String::from("(set-logic QF_BV)\n");
-    q += smt2;
-    q += "\n(declare-const s1 |fxs_miter_s|)\n(declare-const s2 |fxs_miter_s|)\n\
-          (assert (|fxs_miter_t| s1 s2))\n";
-    for c in live {
-        let _ = writeln!(q, "(assert {})", holds(c, "s1"));
-    }
+    let mut q = assumed(smt2, live);
     q += "(check-sat)\n";
     q
 }
