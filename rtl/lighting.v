@@ -115,9 +115,12 @@ module lighting (
   wire signed [33:0] t16 = $signed({t15[32], t15} + {{2{t14[31]}}, t14});
   wire lighting_dot_17_tie = t16[13] & ~(|t16[12:0]);
   wire [20:0] lighting_dot_17_up = {t16[33], t16[33:14]} + {{20{1'b0}}, t16[13]};
-  wire signed [20:0] lighting_dot_17_r = $signed({lighting_dot_17_up[20:1], lighting_dot_17_up[0] & ~lighting_dot_17_tie});
+  wire signed [20:0] lighting_dot_17_r =
+      $signed({lighting_dot_17_up[20:1], lighting_dot_17_up[0] & ~lighting_dot_17_tie});
   wire lighting_dot_17_ovf_c = ~((&lighting_dot_17_r[20:15]) | ~(|lighting_dot_17_r[20:15]));
-  wire signed [15:0] lighting_dot_17_c = $signed(lighting_dot_17_ovf_c ? (lighting_dot_17_r[20] ? 16'h8000 : 16'h7fff) : lighting_dot_17_r[15:0]);
+  wire signed [15:0] lighting_dot_17_c =
+      $signed(lighting_dot_17_ovf_c ? (lighting_dot_17_r[20] ? 16'h8000 : 16'h7fff)
+      : lighting_dot_17_r[15:0]);
   reg  signed [15:0] lighting_dot_17;
   reg  [0:0] lighting_dot_17_ovf;
   wire signed [15:0] t18_a = $signed(lighting_dot_17);
@@ -130,9 +133,12 @@ module lighting (
   wire signed [33:0] t23 = $signed({t22[32], t22} + {{2{t21[31]}}, t21});
   wire lighting_dot_24_tie = t23[13] & ~(|t23[12:0]);
   wire [20:0] lighting_dot_24_up = {t23[33], t23[33:14]} + {{20{1'b0}}, t23[13]};
-  wire signed [20:0] lighting_dot_24_r = $signed({lighting_dot_24_up[20:1], lighting_dot_24_up[0] & ~lighting_dot_24_tie});
+  wire signed [20:0] lighting_dot_24_r =
+      $signed({lighting_dot_24_up[20:1], lighting_dot_24_up[0] & ~lighting_dot_24_tie});
   wire lighting_dot_24_ovf_c = ~((&lighting_dot_24_r[20:15]) | ~(|lighting_dot_24_r[20:15]));
-  wire signed [15:0] lighting_dot_24_c = $signed(lighting_dot_24_ovf_c ? (lighting_dot_24_r[20] ? 16'h8000 : 16'h7fff) : lighting_dot_24_r[15:0]);
+  wire signed [15:0] lighting_dot_24_c =
+      $signed(lighting_dot_24_ovf_c ? (lighting_dot_24_r[20] ? 16'h8000 : 16'h7fff)
+      : lighting_dot_24_r[15:0]);
   reg  signed [15:0] lighting_dot_24;
   reg  [0:0] lighting_dot_24_ovf;
   wire signed [15:0] t25_a = $signed(lighting_dot_24);
@@ -140,13 +146,16 @@ module lighting (
   wire signed [15:0] t25 = (t25_a > t25_b) ? t25_a : t25_b;
   wire signed [18:0] lighting_spec_26_r = $signed({t25, 3'b0});
   wire lighting_spec_26_ovf_c = lighting_spec_26_r[18];
-  wire [17:0] lighting_spec_26_c = lighting_spec_26_ovf_c ? (lighting_spec_26_r[18] ? 18'h0 : 18'h3ffff) : lighting_spec_26_r[17:0];
+  wire [17:0] lighting_spec_26_c =
+      lighting_spec_26_ovf_c ? (lighting_spec_26_r[18] ? 18'h0 : 18'h3ffff)
+      : lighting_spec_26_r[17:0];
   reg  [17:0] lighting_spec_26;
   reg  [0:0] lighting_spec_26_ovf;
   wire [35:0] t27 = lighting_spec_26 * lighting_spec_26;
   wire lighting_spec_28_tie = t27[16] & ~(|t27[15:0]);
   wire [19:0] lighting_spec_28_up = {1'b0, t27[35:17]} + {{19{1'b0}}, t27[16]};
-  wire [19:0] lighting_spec_28_r = {lighting_spec_28_up[19:1], lighting_spec_28_up[0] & ~lighting_spec_28_tie};
+  wire [19:0] lighting_spec_28_r =
+      {lighting_spec_28_up[19:1], lighting_spec_28_up[0] & ~lighting_spec_28_tie};
   wire lighting_spec_28_ovf_c = |lighting_spec_28_r[19:18];
   wire [17:0] lighting_spec_28_c = lighting_spec_28_ovf_c ? 18'h3ffff : lighting_spec_28_r[17:0];
   reg  [17:0] lighting_spec_28;
@@ -154,7 +163,8 @@ module lighting (
   wire [35:0] t29 = lighting_spec_28 * lighting_spec_28;
   wire lighting_spec_30_tie = t29[16] & ~(|t29[15:0]);
   wire [19:0] lighting_spec_30_up = {1'b0, t29[35:17]} + {{19{1'b0}}, t29[16]};
-  wire [19:0] lighting_spec_30_r = {lighting_spec_30_up[19:1], lighting_spec_30_up[0] & ~lighting_spec_30_tie};
+  wire [19:0] lighting_spec_30_r =
+      {lighting_spec_30_up[19:1], lighting_spec_30_up[0] & ~lighting_spec_30_tie};
   wire lighting_spec_30_ovf_c = |lighting_spec_30_r[19:18];
   wire [17:0] lighting_spec_30_c = lighting_spec_30_ovf_c ? 18'h3ffff : lighting_spec_30_r[17:0];
   reg  [17:0] lighting_spec_30;
@@ -162,7 +172,8 @@ module lighting (
   wire [35:0] t31 = lighting_spec_30 * lighting_spec_30;
   wire lighting_spec_32_tie = t31[16] & ~(|t31[15:0]);
   wire [19:0] lighting_spec_32_up = {1'b0, t31[35:17]} + {{19{1'b0}}, t31[16]};
-  wire [19:0] lighting_spec_32_r = {lighting_spec_32_up[19:1], lighting_spec_32_up[0] & ~lighting_spec_32_tie};
+  wire [19:0] lighting_spec_32_r =
+      {lighting_spec_32_up[19:1], lighting_spec_32_up[0] & ~lighting_spec_32_tie};
   wire lighting_spec_32_ovf_c = |lighting_spec_32_r[19:18];
   wire [17:0] lighting_spec_32_c = lighting_spec_32_ovf_c ? 18'h3ffff : lighting_spec_32_r[17:0];
   reg  [17:0] lighting_spec_32;
@@ -170,7 +181,8 @@ module lighting (
   wire [35:0] t33 = lighting_spec_32 * lighting_spec_32;
   wire lighting_spec_34_tie = t33[16] & ~(|t33[15:0]);
   wire [19:0] lighting_spec_34_up = {1'b0, t33[35:17]} + {{19{1'b0}}, t33[16]};
-  wire [19:0] lighting_spec_34_r = {lighting_spec_34_up[19:1], lighting_spec_34_up[0] & ~lighting_spec_34_tie};
+  wire [19:0] lighting_spec_34_r =
+      {lighting_spec_34_up[19:1], lighting_spec_34_up[0] & ~lighting_spec_34_tie};
   wire lighting_spec_34_ovf_c = |lighting_spec_34_r[19:18];
   wire [17:0] lighting_spec_34_c = lighting_spec_34_ovf_c ? 18'h3ffff : lighting_spec_34_r[17:0];
   reg  [17:0] lighting_spec_34;
@@ -186,9 +198,11 @@ module lighting (
   wire signed [35:0] t37 = $signed({{2{1'b0}}, t36} + {t35_s6[31], t35_s6, 3'b0});
   wire lighting_level_38_tie = t37[24] & ~(|t37[23:0]);
   wire [11:0] lighting_level_38_up = {t37[35], t37[35:25]} + {{11{1'b0}}, t37[24]};
-  wire signed [11:0] lighting_level_38_r = $signed({lighting_level_38_up[11:1], lighting_level_38_up[0] & ~lighting_level_38_tie});
+  wire signed [11:0] lighting_level_38_r =
+      $signed({lighting_level_38_up[11:1], lighting_level_38_up[0] & ~lighting_level_38_tie});
   wire lighting_level_38_ovf_c = lighting_level_38_r[11] | (|lighting_level_38_r[10:8]);
-  wire [7:0] lighting_level_38_c = lighting_level_38_ovf_c ? (lighting_level_38_r[11] ? 8'h0 : 8'hff) : lighting_level_38_r[7:0];
+  wire [7:0] lighting_level_38_c =
+      lighting_level_38_ovf_c ? (lighting_level_38_r[11] ? 8'h0 : 8'hff) : lighting_level_38_r[7:0];
   reg  [7:0] lighting_level_38;
   reg  [0:0] lighting_level_38_ovf;
   reg  [0:0] lighting_dot_17_ovf_s2;

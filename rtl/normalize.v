@@ -4,8 +4,10 @@
 //   fxshade rtl normalize [--config FILE] [--set KEY=VALUE]... --out DIR
 // Configuration: <default> (hash 640255a0b31ad56c)
 // Method: quadratic
-// Coefficients: minimax fit on the triangle interval [0.6666666666666666, 1] for Theta = 0.5, by search
-// g(d) coefficients (I3F15), highest power first: g(d) = a*d^2 + b*d + c (linear: a*d + b): a = 0.6083984375, b = -1.683929443359375, c = 2.076171875
+// Coefficients: minimax fit on the triangle interval [0.6666666666666666, 1] for Theta = 0.5, by
+//   search
+// g(d) coefficients (I3F15), highest power first: g(d) = a*d^2 + b*d + c (linear: a*d + b): a =
+//   0.6083984375, b = -1.683929443359375, c = 2.076171875
 //
 // Pipelining: compact (a register after every quantization and table read).
 // Latency 5 cycles; one vector per clock. Handshake: valid/ready on
@@ -101,9 +103,11 @@ module normalize (
   wire signed [33:0] t14 = $signed({t13[32], t13} + {{2{t12[31]}}, t12});
   wire normalize_d_15_tie = t14[10] & ~(|t14[9:0]);
   wire [23:0] normalize_d_15_up = {t14[33], t14[33:11]} + {{23{1'b0}}, t14[10]};
-  wire signed [23:0] normalize_d_15_r = $signed({normalize_d_15_up[23:1], normalize_d_15_up[0] & ~normalize_d_15_tie});
+  wire signed [23:0] normalize_d_15_r =
+      $signed({normalize_d_15_up[23:1], normalize_d_15_up[0] & ~normalize_d_15_tie});
   wire normalize_d_15_ovf_c = normalize_d_15_r[23] | (|normalize_d_15_r[22:18]);
-  wire [17:0] normalize_d_15_c = normalize_d_15_ovf_c ? (normalize_d_15_r[23] ? 18'h0 : 18'h3ffff) : normalize_d_15_r[17:0];
+  wire [17:0] normalize_d_15_c =
+      normalize_d_15_ovf_c ? (normalize_d_15_r[23] ? 18'h0 : 18'h3ffff) : normalize_d_15_r[17:0];
   reg  [17:0] normalize_d_15;
   reg  [0:0] normalize_d_15_ovf;
   wire signed [18:0] t16_b = $signed({1'b0, normalize_d_15});
@@ -111,9 +115,13 @@ module normalize (
   wire signed [36:0] t17 = $signed({t16[35], t16} + {{2{K4[17]}}, K4, 17'b0});
   wire normalize_horner_18_tie = t17[16] & ~(|t17[15:0]);
   wire [20:0] normalize_horner_18_up = {t17[36], t17[36:17]} + {{20{1'b0}}, t17[16]};
-  wire signed [20:0] normalize_horner_18_r = $signed({normalize_horner_18_up[20:1], normalize_horner_18_up[0] & ~normalize_horner_18_tie});
-  wire normalize_horner_18_ovf_c = ~((&normalize_horner_18_r[20:17]) | ~(|normalize_horner_18_r[20:17]));
-  wire signed [17:0] normalize_horner_18_c = $signed(normalize_horner_18_ovf_c ? (normalize_horner_18_r[20] ? 18'h20000 : 18'h1ffff) : normalize_horner_18_r[17:0]);
+  wire signed [20:0] normalize_horner_18_r =
+      $signed({normalize_horner_18_up[20:1], normalize_horner_18_up[0] & ~normalize_horner_18_tie});
+  wire normalize_horner_18_ovf_c =
+      ~((&normalize_horner_18_r[20:17]) | ~(|normalize_horner_18_r[20:17]));
+  wire signed [17:0] normalize_horner_18_c =
+      $signed(normalize_horner_18_ovf_c ? (normalize_horner_18_r[20] ? 18'h20000 : 18'h1ffff)
+      : normalize_horner_18_r[17:0]);
   reg  signed [17:0] normalize_horner_18;
   reg  [0:0] normalize_horner_18_ovf;
   reg  [17:0] normalize_d_15_s2;
@@ -122,9 +130,11 @@ module normalize (
   wire signed [36:0] t20 = $signed({t19[35], t19} + {{2{K3[17]}}, K3, 17'b0});
   wire normalize_g_21_tie = t20[14] & ~(|t20[13:0]);
   wire [22:0] normalize_g_21_up = {t20[36], t20[36:15]} + {{22{1'b0}}, t20[14]};
-  wire signed [22:0] normalize_g_21_r = $signed({normalize_g_21_up[22:1], normalize_g_21_up[0] & ~normalize_g_21_tie});
+  wire signed [22:0] normalize_g_21_r =
+      $signed({normalize_g_21_up[22:1], normalize_g_21_up[0] & ~normalize_g_21_tie});
   wire normalize_g_21_ovf_c = normalize_g_21_r[22] | (|normalize_g_21_r[21:18]);
-  wire [17:0] normalize_g_21_c = normalize_g_21_ovf_c ? (normalize_g_21_r[22] ? 18'h0 : 18'h3ffff) : normalize_g_21_r[17:0];
+  wire [17:0] normalize_g_21_c =
+      normalize_g_21_ovf_c ? (normalize_g_21_r[22] ? 18'h0 : 18'h3ffff) : normalize_g_21_r[17:0];
   reg  [17:0] normalize_g_21;
   reg  [0:0] normalize_g_21_ovf;
   reg  signed [15:0] n_x_i_s1;
@@ -144,23 +154,32 @@ module normalize (
   wire signed [33:0] t24 = n_z_i_s3 * t24_b;
   wire normalize_out_25_tie = t22[16] & ~(|t22[15:0]);
   wire [17:0] normalize_out_25_up = {t22[33], t22[33:17]} + {{17{1'b0}}, t22[16]};
-  wire signed [17:0] normalize_out_25_r = $signed({normalize_out_25_up[17:1], normalize_out_25_up[0] & ~normalize_out_25_tie});
+  wire signed [17:0] normalize_out_25_r =
+      $signed({normalize_out_25_up[17:1], normalize_out_25_up[0] & ~normalize_out_25_tie});
   wire normalize_out_25_ovf_c = ~((&normalize_out_25_r[17:15]) | ~(|normalize_out_25_r[17:15]));
-  wire signed [15:0] normalize_out_25_c = $signed(normalize_out_25_ovf_c ? (normalize_out_25_r[17] ? 16'h8000 : 16'h7fff) : normalize_out_25_r[15:0]);
+  wire signed [15:0] normalize_out_25_c =
+      $signed(normalize_out_25_ovf_c ? (normalize_out_25_r[17] ? 16'h8000 : 16'h7fff)
+      : normalize_out_25_r[15:0]);
   reg  signed [15:0] normalize_out_25;
   reg  [0:0] normalize_out_25_ovf;
   wire normalize_out_26_tie = t23[16] & ~(|t23[15:0]);
   wire [17:0] normalize_out_26_up = {t23[33], t23[33:17]} + {{17{1'b0}}, t23[16]};
-  wire signed [17:0] normalize_out_26_r = $signed({normalize_out_26_up[17:1], normalize_out_26_up[0] & ~normalize_out_26_tie});
+  wire signed [17:0] normalize_out_26_r =
+      $signed({normalize_out_26_up[17:1], normalize_out_26_up[0] & ~normalize_out_26_tie});
   wire normalize_out_26_ovf_c = ~((&normalize_out_26_r[17:15]) | ~(|normalize_out_26_r[17:15]));
-  wire signed [15:0] normalize_out_26_c = $signed(normalize_out_26_ovf_c ? (normalize_out_26_r[17] ? 16'h8000 : 16'h7fff) : normalize_out_26_r[15:0]);
+  wire signed [15:0] normalize_out_26_c =
+      $signed(normalize_out_26_ovf_c ? (normalize_out_26_r[17] ? 16'h8000 : 16'h7fff)
+      : normalize_out_26_r[15:0]);
   reg  signed [15:0] normalize_out_26;
   reg  [0:0] normalize_out_26_ovf;
   wire normalize_out_27_tie = t24[16] & ~(|t24[15:0]);
   wire [17:0] normalize_out_27_up = {t24[33], t24[33:17]} + {{17{1'b0}}, t24[16]};
-  wire signed [17:0] normalize_out_27_r = $signed({normalize_out_27_up[17:1], normalize_out_27_up[0] & ~normalize_out_27_tie});
+  wire signed [17:0] normalize_out_27_r =
+      $signed({normalize_out_27_up[17:1], normalize_out_27_up[0] & ~normalize_out_27_tie});
   wire normalize_out_27_ovf_c = ~((&normalize_out_27_r[17:15]) | ~(|normalize_out_27_r[17:15]));
-  wire signed [15:0] normalize_out_27_c = $signed(normalize_out_27_ovf_c ? (normalize_out_27_r[17] ? 16'h8000 : 16'h7fff) : normalize_out_27_r[15:0]);
+  wire signed [15:0] normalize_out_27_c =
+      $signed(normalize_out_27_ovf_c ? (normalize_out_27_r[17] ? 16'h8000 : 16'h7fff)
+      : normalize_out_27_r[15:0]);
   reg  signed [15:0] normalize_out_27;
   reg  [0:0] normalize_out_27_ovf;
   reg  [0:0] normalize_d_15_ovf_s2;
@@ -221,7 +240,9 @@ module normalize (
 
   // Output buffer: the head drives the ports; the skid register takes the
   // item that leaves the last stage while the head is stalled.
-  wire [51:0] last_d = {normalize_out_25, normalize_out_26, normalize_out_27, (ovf0_s4), (ovf1_s4), (normalize_g_21_ovf_s4), (ovf3_or_s4)};
+  wire [51:0] last_d =
+      {normalize_out_25, normalize_out_26, normalize_out_27, (ovf0_s4), (ovf1_s4),
+      (normalize_g_21_ovf_s4), (ovf3_or_s4)};
   reg  [51:0] out_q, skid_q;
   always @(posedge clk_i) begin
     if (out_load & (skid_valid | out_arrive)) out_q <= skid_valid ? skid_q : last_d;

@@ -506,7 +506,8 @@ int Run::main() {
         out_ready = drain >= 0 || rng.pass(int(stall));
         // A stuck design: no output for this many cycles (stalls last a few).
         if (quiet > 100000) {
-            std::printf("error: no output for %" PRId64 " cycles, %" PRId64 " of %lld vectors out\n",
+            std::printf("error: no output for %" PRId64 " cycles, "
+                        "%" PRId64 " of %lld vectors out\n",
                         quiet, out_idx, n);
             return finish(passed, uint64_t(n) - passed);
         }

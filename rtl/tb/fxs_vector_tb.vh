@@ -149,7 +149,8 @@ always @(posedge clk) begin
           abort_run(n - passed);
         end
         if ((in_rec >> IN_W) !== {{(8*IN_RB-32){1'b0}}, want_idx}) begin
-          $display("error: %0s record %0d: index or pad wrong (want index %0d)", in_file, nxt, want_idx);
+          $display("error: %0s record %0d: index or pad wrong (want index %0d)",
+                   in_file, nxt, want_idx);
           abort_run(n - passed);
         end
         next_data = in_rec[IN_W-1:0];
@@ -194,7 +195,8 @@ always @(posedge clk) begin
           $display("error: %0s holds more than %0d vectors", exp_file, n);
         end
         if (dump_fd != 0) $fclose(dump_fd);
-        $display("%0d passed, %0d failed", passed - ((proto + extra) > passed ? passed : (proto + extra)),
+        $display("%0d passed, %0d failed",
+                 passed - ((proto + extra) > passed ? passed : (proto + extra)),
                  failed + proto + extra);
 `ifdef FXS_FATAL_ON_FAIL
         if (failed + proto + extra != 0) $fatal(1, "%0d failed", failed + proto + extra);
@@ -215,14 +217,16 @@ always @(posedge clk) begin
         abort_run(n - passed);
       end
       if ((exp_rec >> OUT_W) !== {{(8*OUT_RB-32){1'b0}}, want_idx}) begin
-        $display("error: %0s record %0d: index or pad wrong (want index %0d)", exp_file, out_idx, want_idx);
+        $display("error: %0s record %0d: index or pad wrong (want index %0d)",
+                 exp_file, out_idx, want_idx);
         abort_run(n - passed);
       end
       if (out_data === exp_rec[OUT_W-1:0]) begin
         passed = passed + 1;
       end else begin
         failed = failed + 1;
-        if (failed <= 5) show(first + out_idx, in_ring[out_idx % RING], out_data, exp_rec[OUT_W-1:0]);
+        if (failed <= 5)
+          show(first + out_idx, in_ring[out_idx % RING], out_data, exp_rec[OUT_W-1:0]);
       end
       if (cycle - in_cycle[out_idx % RING] < lat_min) lat_min = cycle - in_cycle[out_idx % RING];
       if (cycle - in_cycle[out_idx % RING] > lat_max) lat_max = cycle - in_cycle[out_idx % RING];

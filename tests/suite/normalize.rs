@@ -318,10 +318,20 @@ fn coefficients_are_highest_power_first_everywhere() {
         assert!((g - 1.0 / d.sqrt()).abs() < 2e-3, "g({d}) = {g}: {c}");
     }
     let header = std::fs::read_to_string(out.join("normalize.v")).unwrap();
-    let line = header
-        .lines()
-        .find(|l| l.contains("g(d) coefficients"))
+    // The header's coefficient note, its continuation lines (`//   `, the
+    // writer wraps at 100 columns) joined.
+    let lines: Vec<&str> = header.lines().collect();
+    let at = lines
+        .iter()
+        .position(|l| l.contains("g(d) coefficients"))
         .expect("the coefficients in the header");
+    let mut line = lines[at].to_string();
+    for l in lines[at + 1..]
+        .iter()
+        .map_while(|l| l.strip_prefix("//   "))
+    {
+        line = format!("{line} {l}");
+    }
     assert!(line.contains("highest power first"), "{line}");
     assert!(
         line.contains(&format!("a = {}, b = {}, c = {}", v[0], v[1], v[2])),

@@ -409,6 +409,7 @@ fn strict_tools_with(dir: &std::path::Path, what: &str, yosys: bool) {
             continue;
         }
         let module = p.file_stem().unwrap().to_string_lossy().into_owned();
+        style_check(&p);
         let o = Command::new("verilator")
             .args(["--lint-only", "-Wall"])
             .arg(&p)
@@ -453,6 +454,52 @@ fn strict_tools_with(dir: &std::path::Path, what: &str, yosys: bool) {
             o.status.success() && out.contains("0 errors, 0 warnings"),
             "slang {cfg:?} {module}: {out}"
         );
+    }
+}
+
+/// The lowRISC style guide's text rules on one file: printable ASCII (and
+/// newlines) only, lines of at most 100 columns, no tab, no trailing
+/// space.
+fn style_check(p: &std::path::Path) {
+    let t = std::fs::read_to_string(p).unwrap();
+    for (k, l) in t.lines().enumerate() {
+        let at = format!("{}:{}", p.display(), k + 1);
+        assert!(
+            l.bytes().all(|b| (b' '..=b'~').contains(&b)),
+            "{at}: not printable ASCII: {l:?}"
+        );
+        assert!(l.len() <= 100, "{at}: {} columns: {l}", l.len());
+        assert!(!l.ends_with(' '), "{at}: trailing space: {l:?}");
+    }
+}
+
+/// Every committed Verilog and C++ file, generated (`rtl/`, the golden
+/// sets' modules, testbenches, shells and C++ drivers) and hand-written
+/// (`rtl/sim`, `rtl/tb`), keeps the style guide's text rules; the emitted
+/// modules of other configurations are held to them with the strict tools.
+#[test]
+fn committed_verilog_and_cpp_are_ascii_with_lines_of_at_most_100_columns() {
+    fn walk(d: &std::path::Path, out: &mut Vec<std::path::PathBuf>) {
+        for e in std::fs::read_dir(d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                walk(&p, out);
+            } else if p
+                .extension()
+                .is_some_and(|x| ["v", "sv", "vh", "h", "cpp"].contains(&&*x.to_string_lossy()))
+            {
+                out.push(p);
+            }
+        }
+    }
+    let mut files = Vec::new();
+    walk(&repo().join("rtl"), &mut files);
+    walk(&repo().join("testvectors"), &mut files);
+    // Six units, three tops, their golden sets and the hand-written models
+    // and drivers.
+    assert!(files.len() > 40, "{files:?}");
+    for p in &files {
+        style_check(p);
     }
 }
 

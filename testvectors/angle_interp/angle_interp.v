@@ -78,7 +78,9 @@ module angle_interp (
   wire signed [28:0] t8 = $signed({{2{t7[26]}}, t7} + {t6[27], t6});
   wire angle_interp_angle_9_tie = t8[14] & ~(|t8[13:0]);
   wire [14:0] angle_interp_angle_9_up = {t8[28], t8[28:15]} + {{14{1'b0}}, t8[14]};
-  wire signed [14:0] angle_interp_angle_9_r = $signed({angle_interp_angle_9_up[14:1], angle_interp_angle_9_up[0] & ~angle_interp_angle_9_tie});
+  wire signed [14:0] angle_interp_angle_9_r =
+      $signed({angle_interp_angle_9_up[14:1], angle_interp_angle_9_up[0]
+      & ~angle_interp_angle_9_tie});
   wire angle_interp_angle_9_ovf_c = angle_interp_angle_9_r[14] | (|angle_interp_angle_9_r[13:11]);
   wire [10:0] angle_interp_angle_9_c = angle_interp_angle_9_r[10:0];
   reg  [10:0] angle_interp_angle_9;

@@ -32,9 +32,10 @@ module angle_interp_tb;
   task show(input integer i, input [IN_W-1:0] in, input [OUT_W-1:0] got, input [OUT_W-1:0] want);
     begin
       $display("mismatch at vector %0d", i);
-      $display("  in:   c1 = %0d, c2 = %0d, a3 = %0d, d1 = %0d, d2 = %0d", in[64:49], in[48:33], in[32:22], $signed(in[21:11]), $signed(in[10:0]));
-      $display("  got:  ovf = %b, angle = %0d", got[11:11], got[10:0]);
-      $display("  want: ovf = %b, angle = %0d", want[11:11], want[10:0]);
+      $display("  in:   c1 = %0d", in[64:49], ", c2 = %0d", in[48:33], ", a3 = %0d", in[32:22],
+          ", d1 = %0d", $signed(in[21:11]), ", d2 = %0d", $signed(in[10:0]));
+      $display("  got:  ovf = %b", got[11:11], ", angle = %0d", got[10:0]);
+      $display("  want: ovf = %b", want[11:11], ", angle = %0d", want[10:0]);
     end
   endtask
 
@@ -80,7 +81,8 @@ module angle_interp_tb;
   reg [31:0] first, want_idx;
   reg held, next_loaded, aborted;
   integer proto, extra, drain, quiet;
-  integer n, stall, seed, in_idx, out_idx, passed, failed, cycle, lat_min, lat_max, nxt, r1, r2, got;
+  integer n, stall, seed, in_idx, out_idx, passed, failed, cycle, lat_min, lat_max, nxt, r1, r2,
+      got;
   integer fd_in, fd_exp, dump_fd;
   reg [8*1024-1:0] trace_file, dump_file, in_file, exp_file;
 
@@ -189,7 +191,8 @@ module angle_interp_tb;
             abort_run(n - passed);
           end
           if ((in_rec >> IN_W) !== {{(8*IN_RB-32){1'b0}}, want_idx}) begin
-            $display("error: %0s record %0d: index or pad wrong (want index %0d)", in_file, nxt, want_idx);
+            $display("error: %0s record %0d: index or pad wrong (want index %0d)",
+                     in_file, nxt, want_idx);
             abort_run(n - passed);
           end
           next_data = in_rec[IN_W-1:0];
@@ -219,7 +222,8 @@ module angle_interp_tb;
       if (drain >= 0) begin
         if (out_valid && out_ready) begin
           extra = extra + 1;
-          if (extra <= 5) $display("error: an output beyond the %0d vectors at cycle %0d", n, cycle);
+          if (extra <= 5) $display("error: an output beyond the %0d vectors at cycle %0d", n,
+              cycle);
         end
         if (drain == 0) begin
           // Nothing may follow the N-th record in either file.
@@ -234,7 +238,8 @@ module angle_interp_tb;
             $display("error: %0s holds more than %0d vectors", exp_file, n);
           end
           if (dump_fd != 0) $fclose(dump_fd);
-          $display("%0d passed, %0d failed", passed - ((proto + extra) > passed ? passed : (proto + extra)),
+          $display("%0d passed, %0d failed",
+                   passed - ((proto + extra) > passed ? passed : (proto + extra)),
                    failed + proto + extra);
   `ifdef FXS_FATAL_ON_FAIL
           if (failed + proto + extra != 0) $fatal(1, "%0d failed", failed + proto + extra);
@@ -255,14 +260,16 @@ module angle_interp_tb;
           abort_run(n - passed);
         end
         if ((exp_rec >> OUT_W) !== {{(8*OUT_RB-32){1'b0}}, want_idx}) begin
-          $display("error: %0s record %0d: index or pad wrong (want index %0d)", exp_file, out_idx, want_idx);
+          $display("error: %0s record %0d: index or pad wrong (want index %0d)",
+                   exp_file, out_idx, want_idx);
           abort_run(n - passed);
         end
         if (out_data === exp_rec[OUT_W-1:0]) begin
           passed = passed + 1;
         end else begin
           failed = failed + 1;
-          if (failed <= 5) show(first + out_idx, in_ring[out_idx % RING], out_data, exp_rec[OUT_W-1:0]);
+          if (failed <= 5)
+            show(first + out_idx, in_ring[out_idx % RING], out_data, exp_rec[OUT_W-1:0]);
         end
         if (cycle - in_cycle[out_idx % RING] < lat_min) lat_min = cycle - in_cycle[out_idx % RING];
         if (cycle - in_cycle[out_idx % RING] > lat_max) lat_max = cycle - in_cycle[out_idx % RING];

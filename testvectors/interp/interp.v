@@ -123,9 +123,12 @@ module interp (
   wire signed [33:0] t24 = t24_a * t23;
   wire interp_weight_25_tie = t24[12] & ~(|t24[11:0]);
   wire [21:0] interp_weight_25_up = {t24[33], t24[33:13]} + {{21{1'b0}}, t24[12]};
-  wire signed [21:0] interp_weight_25_r = $signed({interp_weight_25_up[21:1], interp_weight_25_up[0] & ~interp_weight_25_tie});
+  wire signed [21:0] interp_weight_25_r =
+      $signed({interp_weight_25_up[21:1], interp_weight_25_up[0] & ~interp_weight_25_tie});
   wire interp_weight_25_ovf_c = ~((&interp_weight_25_r[21:17]) | ~(|interp_weight_25_r[21:17]));
-  wire signed [17:0] interp_weight_25_c = $signed(interp_weight_25_ovf_c ? (interp_weight_25_r[21] ? 18'h20000 : 18'h1ffff) : interp_weight_25_r[17:0]);
+  wire signed [17:0] interp_weight_25_c =
+      $signed(interp_weight_25_ovf_c ? (interp_weight_25_r[21] ? 18'h20000 : 18'h1ffff)
+      : interp_weight_25_r[17:0]);
   reg  signed [17:0] interp_weight_25;
   reg  [0:0] interp_weight_25_ovf;
   wire signed [17:0] t26 = $signed({{2{1'b0}}, c2_i} - {{3{1'b0}}, K20, 14'b0});
@@ -133,44 +136,58 @@ module interp (
   wire signed [33:0] t27 = t27_a * t26;
   wire interp_weight_28_tie = t27[12] & ~(|t27[11:0]);
   wire [21:0] interp_weight_28_up = {t27[33], t27[33:13]} + {{21{1'b0}}, t27[12]};
-  wire signed [21:0] interp_weight_28_r = $signed({interp_weight_28_up[21:1], interp_weight_28_up[0] & ~interp_weight_28_tie});
+  wire signed [21:0] interp_weight_28_r =
+      $signed({interp_weight_28_up[21:1], interp_weight_28_up[0] & ~interp_weight_28_tie});
   wire interp_weight_28_ovf_c = ~((&interp_weight_28_r[21:17]) | ~(|interp_weight_28_r[21:17]));
-  wire signed [17:0] interp_weight_28_c = $signed(interp_weight_28_ovf_c ? (interp_weight_28_r[21] ? 18'h20000 : 18'h1ffff) : interp_weight_28_r[17:0]);
+  wire signed [17:0] interp_weight_28_c =
+      $signed(interp_weight_28_ovf_c ? (interp_weight_28_r[21] ? 18'h20000 : 18'h1ffff)
+      : interp_weight_28_r[17:0]);
   reg  signed [17:0] interp_weight_28;
   reg  [0:0] interp_weight_28_ovf;
   wire signed [19:0] t29 = $signed({t22[18], t22} - {{5{1'b0}}, K20, 14'b0});
   wire signed [38:0] t30 = t22 * t29;
   wire interp_weight_31_tie = t30[12] & ~(|t30[11:0]);
   wire [26:0] interp_weight_31_up = {t30[38], t30[38:13]} + {{26{1'b0}}, t30[12]};
-  wire signed [26:0] interp_weight_31_r = $signed({interp_weight_31_up[26:1], interp_weight_31_up[0] & ~interp_weight_31_tie});
+  wire signed [26:0] interp_weight_31_r =
+      $signed({interp_weight_31_up[26:1], interp_weight_31_up[0] & ~interp_weight_31_tie});
   wire interp_weight_31_ovf_c = ~((&interp_weight_31_r[26:17]) | ~(|interp_weight_31_r[26:17]));
-  wire signed [17:0] interp_weight_31_c = $signed(interp_weight_31_ovf_c ? (interp_weight_31_r[26] ? 18'h20000 : 18'h1ffff) : interp_weight_31_r[17:0]);
+  wire signed [17:0] interp_weight_31_c =
+      $signed(interp_weight_31_ovf_c ? (interp_weight_31_r[26] ? 18'h20000 : 18'h1ffff)
+      : interp_weight_31_r[17:0]);
   reg  signed [17:0] interp_weight_31;
   reg  [0:0] interp_weight_31_ovf;
   wire [31:0] t32 = c1_i * c2_i;
   wire interp_weight_33_tie = t32[11] & ~(|t32[10:0]);
   wire [20:0] interp_weight_33_up = {1'b0, t32[31:12]} + {{20{1'b0}}, t32[11]};
-  wire [20:0] interp_weight_33_r = {interp_weight_33_up[20:1], interp_weight_33_up[0] & ~interp_weight_33_tie};
+  wire [20:0] interp_weight_33_r =
+      {interp_weight_33_up[20:1], interp_weight_33_up[0] & ~interp_weight_33_tie};
   wire interp_weight_33_ovf_c = |interp_weight_33_r[20:17];
-  wire signed [17:0] interp_weight_33_c = $signed(interp_weight_33_ovf_c ? 18'h1ffff : interp_weight_33_r[17:0]);
+  wire signed [17:0] interp_weight_33_c =
+      $signed(interp_weight_33_ovf_c ? 18'h1ffff : interp_weight_33_r[17:0]);
   reg  signed [17:0] interp_weight_33;
   reg  [0:0] interp_weight_33_ovf;
   wire signed [16:0] t34_a = $signed({1'b0, c2_i});
   wire signed [34:0] t34 = t34_a * t22;
   wire interp_weight_35_tie = t34[11] & ~(|t34[10:0]);
   wire [23:0] interp_weight_35_up = {t34[34], t34[34:12]} + {{23{1'b0}}, t34[11]};
-  wire signed [23:0] interp_weight_35_r = $signed({interp_weight_35_up[23:1], interp_weight_35_up[0] & ~interp_weight_35_tie});
+  wire signed [23:0] interp_weight_35_r =
+      $signed({interp_weight_35_up[23:1], interp_weight_35_up[0] & ~interp_weight_35_tie});
   wire interp_weight_35_ovf_c = ~((&interp_weight_35_r[23:17]) | ~(|interp_weight_35_r[23:17]));
-  wire signed [17:0] interp_weight_35_c = $signed(interp_weight_35_ovf_c ? (interp_weight_35_r[23] ? 18'h20000 : 18'h1ffff) : interp_weight_35_r[17:0]);
+  wire signed [17:0] interp_weight_35_c =
+      $signed(interp_weight_35_ovf_c ? (interp_weight_35_r[23] ? 18'h20000 : 18'h1ffff)
+      : interp_weight_35_r[17:0]);
   reg  signed [17:0] interp_weight_35;
   reg  [0:0] interp_weight_35_ovf;
   wire signed [16:0] t36_b = $signed({1'b0, c1_i});
   wire signed [34:0] t36 = t22 * t36_b;
   wire interp_weight_37_tie = t36[11] & ~(|t36[10:0]);
   wire [23:0] interp_weight_37_up = {t36[34], t36[34:12]} + {{23{1'b0}}, t36[11]};
-  wire signed [23:0] interp_weight_37_r = $signed({interp_weight_37_up[23:1], interp_weight_37_up[0] & ~interp_weight_37_tie});
+  wire signed [23:0] interp_weight_37_r =
+      $signed({interp_weight_37_up[23:1], interp_weight_37_up[0] & ~interp_weight_37_tie});
   wire interp_weight_37_ovf_c = ~((&interp_weight_37_r[23:17]) | ~(|interp_weight_37_r[23:17]));
-  wire signed [17:0] interp_weight_37_c = $signed(interp_weight_37_ovf_c ? (interp_weight_37_r[23] ? 18'h20000 : 18'h1ffff) : interp_weight_37_r[17:0]);
+  wire signed [17:0] interp_weight_37_c =
+      $signed(interp_weight_37_ovf_c ? (interp_weight_37_r[23] ? 18'h20000 : 18'h1ffff)
+      : interp_weight_37_r[17:0]);
   reg  signed [17:0] interp_weight_37;
   reg  [0:0] interp_weight_37_ovf;
   reg  signed [15:0] n1_x_i_s1;
@@ -192,9 +209,12 @@ module interp (
   wire signed [38:0] t48 = $signed({{5{t47[33]}}, t47} + {t46[37], t46});
   wire interp_out_49_tie = t48[15] & ~(|t48[14:0]);
   wire [23:0] interp_out_49_up = {t48[38], t48[38:16]} + {{23{1'b0}}, t48[15]};
-  wire signed [23:0] interp_out_49_r = $signed({interp_out_49_up[23:1], interp_out_49_up[0] & ~interp_out_49_tie});
+  wire signed [23:0] interp_out_49_r =
+      $signed({interp_out_49_up[23:1], interp_out_49_up[0] & ~interp_out_49_tie});
   wire interp_out_49_ovf_c = ~((&interp_out_49_r[23:15]) | ~(|interp_out_49_r[23:15]));
-  wire signed [15:0] interp_out_49_c = $signed(interp_out_49_ovf_c ? (interp_out_49_r[23] ? 16'h8000 : 16'h7fff) : interp_out_49_r[15:0]);
+  wire signed [15:0] interp_out_49_c =
+      $signed(interp_out_49_ovf_c ? (interp_out_49_r[23] ? 16'h8000 : 16'h7fff)
+      : interp_out_49_r[15:0]);
   reg  signed [15:0] interp_out_49;
   reg  [0:0] interp_out_49_ovf;
   reg  signed [15:0] n1_y_i_s1;
@@ -216,9 +236,12 @@ module interp (
   wire signed [38:0] t60 = $signed({{5{t59[33]}}, t59} + {t58[37], t58});
   wire interp_out_61_tie = t60[15] & ~(|t60[14:0]);
   wire [23:0] interp_out_61_up = {t60[38], t60[38:16]} + {{23{1'b0}}, t60[15]};
-  wire signed [23:0] interp_out_61_r = $signed({interp_out_61_up[23:1], interp_out_61_up[0] & ~interp_out_61_tie});
+  wire signed [23:0] interp_out_61_r =
+      $signed({interp_out_61_up[23:1], interp_out_61_up[0] & ~interp_out_61_tie});
   wire interp_out_61_ovf_c = ~((&interp_out_61_r[23:15]) | ~(|interp_out_61_r[23:15]));
-  wire signed [15:0] interp_out_61_c = $signed(interp_out_61_ovf_c ? (interp_out_61_r[23] ? 16'h8000 : 16'h7fff) : interp_out_61_r[15:0]);
+  wire signed [15:0] interp_out_61_c =
+      $signed(interp_out_61_ovf_c ? (interp_out_61_r[23] ? 16'h8000 : 16'h7fff)
+      : interp_out_61_r[15:0]);
   reg  signed [15:0] interp_out_61;
   reg  [0:0] interp_out_61_ovf;
   reg  signed [15:0] n1_z_i_s1;
@@ -240,9 +263,12 @@ module interp (
   wire signed [38:0] t72 = $signed({{5{t71[33]}}, t71} + {t70[37], t70});
   wire interp_out_73_tie = t72[15] & ~(|t72[14:0]);
   wire [23:0] interp_out_73_up = {t72[38], t72[38:16]} + {{23{1'b0}}, t72[15]};
-  wire signed [23:0] interp_out_73_r = $signed({interp_out_73_up[23:1], interp_out_73_up[0] & ~interp_out_73_tie});
+  wire signed [23:0] interp_out_73_r =
+      $signed({interp_out_73_up[23:1], interp_out_73_up[0] & ~interp_out_73_tie});
   wire interp_out_73_ovf_c = ~((&interp_out_73_r[23:15]) | ~(|interp_out_73_r[23:15]));
-  wire signed [15:0] interp_out_73_c = $signed(interp_out_73_ovf_c ? (interp_out_73_r[23] ? 16'h8000 : 16'h7fff) : interp_out_73_r[15:0]);
+  wire signed [15:0] interp_out_73_c =
+      $signed(interp_out_73_ovf_c ? (interp_out_73_r[23] ? 16'h8000 : 16'h7fff)
+      : interp_out_73_r[15:0]);
   reg  signed [15:0] interp_out_73;
   reg  [0:0] interp_out_73_ovf;
   reg  [0:0] interp_weight_25_ovf_s2;
@@ -252,7 +278,8 @@ module interp (
   reg  [0:0] interp_weight_35_ovf_s2;
   reg  [0:0] interp_weight_37_ovf_s2;
   wire ovf0_or_s2 =
-      interp_weight_25_ovf_s2 | interp_weight_28_ovf_s2 | interp_weight_31_ovf_s2 | interp_weight_33_ovf_s2
+      interp_weight_25_ovf_s2 | interp_weight_28_ovf_s2 | interp_weight_31_ovf_s2
+          | interp_weight_33_ovf_s2
       | interp_weight_35_ovf_s2 | interp_weight_37_ovf_s2;
   wire ovf1_or_s2 =
       interp_out_49_ovf | interp_out_61_ovf | interp_out_73_ovf;

@@ -4,7 +4,8 @@
 //   fxshade rtl pipeline [--config FILE] [--set KEY=VALUE]... --out DIR
 // Configuration: <default> (hash 640255a0b31ad56c)
 // Path: smooth
-// Normalizer quadratic with 6 coefficient sets, chosen by sel, a per-triangle value (Theta = [0.0, 0.5, 0.75, 0.875, 0.9375, 0.96875]; codes past the last read set 0)
+// Normalizer quadratic with 6 coefficient sets, chosen by sel, a per-triangle value (Theta = [0.0,
+//   0.5, 0.75, 0.875, 0.9375, 0.96875]; codes past the last read set 0)
 //   set 0 (Theta = 0): [1.980072021484375, -1.468780517578125, 0.488800048828125]
 //   set 1 (Theta = 0.5): [1.88824462890625, -1.276611328125, 0.38836669921875]
 //   set 2 (Theta = 0.75): [1.876861572265625, -1.25372314453125, 0.376861572265625]
@@ -369,9 +370,12 @@ module pipeline_smooth (
   wire signed [33:0] t79 = t79_a * t78;
   wire interp_weight_80_tie = t79[12] & ~(|t79[11:0]);
   wire [21:0] interp_weight_80_up = {t79[33], t79[33:13]} + {{21{1'b0}}, t79[12]};
-  wire signed [21:0] interp_weight_80_r = $signed({interp_weight_80_up[21:1], interp_weight_80_up[0] & ~interp_weight_80_tie});
+  wire signed [21:0] interp_weight_80_r =
+      $signed({interp_weight_80_up[21:1], interp_weight_80_up[0] & ~interp_weight_80_tie});
   wire interp_weight_80_ovf_c = ~((&interp_weight_80_r[21:17]) | ~(|interp_weight_80_r[21:17]));
-  wire signed [17:0] interp_weight_80_c = $signed(interp_weight_80_ovf_c ? (interp_weight_80_r[21] ? 18'h20000 : 18'h1ffff) : interp_weight_80_r[17:0]);
+  wire signed [17:0] interp_weight_80_c =
+      $signed(interp_weight_80_ovf_c ? (interp_weight_80_r[21] ? 18'h20000 : 18'h1ffff)
+      : interp_weight_80_r[17:0]);
   reg  signed [17:0] interp_weight_80;
   reg  [0:0] interp_weight_80_ovf;
   wire signed [17:0] t81 = $signed({{2{1'b0}}, c2_i} - {{3{1'b0}}, K27, 14'b0});
@@ -379,44 +383,58 @@ module pipeline_smooth (
   wire signed [33:0] t82 = t82_a * t81;
   wire interp_weight_83_tie = t82[12] & ~(|t82[11:0]);
   wire [21:0] interp_weight_83_up = {t82[33], t82[33:13]} + {{21{1'b0}}, t82[12]};
-  wire signed [21:0] interp_weight_83_r = $signed({interp_weight_83_up[21:1], interp_weight_83_up[0] & ~interp_weight_83_tie});
+  wire signed [21:0] interp_weight_83_r =
+      $signed({interp_weight_83_up[21:1], interp_weight_83_up[0] & ~interp_weight_83_tie});
   wire interp_weight_83_ovf_c = ~((&interp_weight_83_r[21:17]) | ~(|interp_weight_83_r[21:17]));
-  wire signed [17:0] interp_weight_83_c = $signed(interp_weight_83_ovf_c ? (interp_weight_83_r[21] ? 18'h20000 : 18'h1ffff) : interp_weight_83_r[17:0]);
+  wire signed [17:0] interp_weight_83_c =
+      $signed(interp_weight_83_ovf_c ? (interp_weight_83_r[21] ? 18'h20000 : 18'h1ffff)
+      : interp_weight_83_r[17:0]);
   reg  signed [17:0] interp_weight_83;
   reg  [0:0] interp_weight_83_ovf;
   wire signed [19:0] t84 = $signed({t77[18], t77} - {{5{1'b0}}, K27, 14'b0});
   wire signed [38:0] t85 = t77 * t84;
   wire interp_weight_86_tie = t85[12] & ~(|t85[11:0]);
   wire [26:0] interp_weight_86_up = {t85[38], t85[38:13]} + {{26{1'b0}}, t85[12]};
-  wire signed [26:0] interp_weight_86_r = $signed({interp_weight_86_up[26:1], interp_weight_86_up[0] & ~interp_weight_86_tie});
+  wire signed [26:0] interp_weight_86_r =
+      $signed({interp_weight_86_up[26:1], interp_weight_86_up[0] & ~interp_weight_86_tie});
   wire interp_weight_86_ovf_c = ~((&interp_weight_86_r[26:17]) | ~(|interp_weight_86_r[26:17]));
-  wire signed [17:0] interp_weight_86_c = $signed(interp_weight_86_ovf_c ? (interp_weight_86_r[26] ? 18'h20000 : 18'h1ffff) : interp_weight_86_r[17:0]);
+  wire signed [17:0] interp_weight_86_c =
+      $signed(interp_weight_86_ovf_c ? (interp_weight_86_r[26] ? 18'h20000 : 18'h1ffff)
+      : interp_weight_86_r[17:0]);
   reg  signed [17:0] interp_weight_86;
   reg  [0:0] interp_weight_86_ovf;
   wire [31:0] t87 = c1_i * c2_i;
   wire interp_weight_88_tie = t87[11] & ~(|t87[10:0]);
   wire [20:0] interp_weight_88_up = {1'b0, t87[31:12]} + {{20{1'b0}}, t87[11]};
-  wire [20:0] interp_weight_88_r = {interp_weight_88_up[20:1], interp_weight_88_up[0] & ~interp_weight_88_tie};
+  wire [20:0] interp_weight_88_r =
+      {interp_weight_88_up[20:1], interp_weight_88_up[0] & ~interp_weight_88_tie};
   wire interp_weight_88_ovf_c = |interp_weight_88_r[20:17];
-  wire signed [17:0] interp_weight_88_c = $signed(interp_weight_88_ovf_c ? 18'h1ffff : interp_weight_88_r[17:0]);
+  wire signed [17:0] interp_weight_88_c =
+      $signed(interp_weight_88_ovf_c ? 18'h1ffff : interp_weight_88_r[17:0]);
   reg  signed [17:0] interp_weight_88;
   reg  [0:0] interp_weight_88_ovf;
   wire signed [16:0] t89_a = $signed({1'b0, c2_i});
   wire signed [34:0] t89 = t89_a * t77;
   wire interp_weight_90_tie = t89[11] & ~(|t89[10:0]);
   wire [23:0] interp_weight_90_up = {t89[34], t89[34:12]} + {{23{1'b0}}, t89[11]};
-  wire signed [23:0] interp_weight_90_r = $signed({interp_weight_90_up[23:1], interp_weight_90_up[0] & ~interp_weight_90_tie});
+  wire signed [23:0] interp_weight_90_r =
+      $signed({interp_weight_90_up[23:1], interp_weight_90_up[0] & ~interp_weight_90_tie});
   wire interp_weight_90_ovf_c = ~((&interp_weight_90_r[23:17]) | ~(|interp_weight_90_r[23:17]));
-  wire signed [17:0] interp_weight_90_c = $signed(interp_weight_90_ovf_c ? (interp_weight_90_r[23] ? 18'h20000 : 18'h1ffff) : interp_weight_90_r[17:0]);
+  wire signed [17:0] interp_weight_90_c =
+      $signed(interp_weight_90_ovf_c ? (interp_weight_90_r[23] ? 18'h20000 : 18'h1ffff)
+      : interp_weight_90_r[17:0]);
   reg  signed [17:0] interp_weight_90;
   reg  [0:0] interp_weight_90_ovf;
   wire signed [16:0] t91_b = $signed({1'b0, c1_i});
   wire signed [34:0] t91 = t77 * t91_b;
   wire interp_weight_92_tie = t91[11] & ~(|t91[10:0]);
   wire [23:0] interp_weight_92_up = {t91[34], t91[34:12]} + {{23{1'b0}}, t91[11]};
-  wire signed [23:0] interp_weight_92_r = $signed({interp_weight_92_up[23:1], interp_weight_92_up[0] & ~interp_weight_92_tie});
+  wire signed [23:0] interp_weight_92_r =
+      $signed({interp_weight_92_up[23:1], interp_weight_92_up[0] & ~interp_weight_92_tie});
   wire interp_weight_92_ovf_c = ~((&interp_weight_92_r[23:17]) | ~(|interp_weight_92_r[23:17]));
-  wire signed [17:0] interp_weight_92_c = $signed(interp_weight_92_ovf_c ? (interp_weight_92_r[23] ? 18'h20000 : 18'h1ffff) : interp_weight_92_r[17:0]);
+  wire signed [17:0] interp_weight_92_c =
+      $signed(interp_weight_92_ovf_c ? (interp_weight_92_r[23] ? 18'h20000 : 18'h1ffff)
+      : interp_weight_92_r[17:0]);
   reg  signed [17:0] interp_weight_92;
   reg  [0:0] interp_weight_92_ovf;
   wire signed [15:0] n1_x_bank_s1 = tri_tag_q[0] ? n1_x_b1_q : n1_x_b0_q;
@@ -438,9 +456,12 @@ module pipeline_smooth (
   wire signed [38:0] t103 = $signed({{5{t102[33]}}, t102} + {t101[37], t101});
   wire interp_out_104_tie = t103[15] & ~(|t103[14:0]);
   wire [23:0] interp_out_104_up = {t103[38], t103[38:16]} + {{23{1'b0}}, t103[15]};
-  wire signed [23:0] interp_out_104_r = $signed({interp_out_104_up[23:1], interp_out_104_up[0] & ~interp_out_104_tie});
+  wire signed [23:0] interp_out_104_r =
+      $signed({interp_out_104_up[23:1], interp_out_104_up[0] & ~interp_out_104_tie});
   wire interp_out_104_ovf_c = ~((&interp_out_104_r[23:15]) | ~(|interp_out_104_r[23:15]));
-  wire signed [15:0] interp_out_104_c = $signed(interp_out_104_ovf_c ? (interp_out_104_r[23] ? 16'h8000 : 16'h7fff) : interp_out_104_r[15:0]);
+  wire signed [15:0] interp_out_104_c =
+      $signed(interp_out_104_ovf_c ? (interp_out_104_r[23] ? 16'h8000 : 16'h7fff)
+      : interp_out_104_r[15:0]);
   reg  signed [15:0] interp_out_104;
   reg  [0:0] interp_out_104_ovf;
   wire signed [15:0] n1_y_bank_s1 = tri_tag_q[0] ? n1_y_b1_q : n1_y_b0_q;
@@ -462,9 +483,12 @@ module pipeline_smooth (
   wire signed [38:0] t115 = $signed({{5{t114[33]}}, t114} + {t113[37], t113});
   wire interp_out_116_tie = t115[15] & ~(|t115[14:0]);
   wire [23:0] interp_out_116_up = {t115[38], t115[38:16]} + {{23{1'b0}}, t115[15]};
-  wire signed [23:0] interp_out_116_r = $signed({interp_out_116_up[23:1], interp_out_116_up[0] & ~interp_out_116_tie});
+  wire signed [23:0] interp_out_116_r =
+      $signed({interp_out_116_up[23:1], interp_out_116_up[0] & ~interp_out_116_tie});
   wire interp_out_116_ovf_c = ~((&interp_out_116_r[23:15]) | ~(|interp_out_116_r[23:15]));
-  wire signed [15:0] interp_out_116_c = $signed(interp_out_116_ovf_c ? (interp_out_116_r[23] ? 16'h8000 : 16'h7fff) : interp_out_116_r[15:0]);
+  wire signed [15:0] interp_out_116_c =
+      $signed(interp_out_116_ovf_c ? (interp_out_116_r[23] ? 16'h8000 : 16'h7fff)
+      : interp_out_116_r[15:0]);
   reg  signed [15:0] interp_out_116;
   reg  [0:0] interp_out_116_ovf;
   wire signed [15:0] n1_z_bank_s1 = tri_tag_q[0] ? n1_z_b1_q : n1_z_b0_q;
@@ -486,21 +510,30 @@ module pipeline_smooth (
   wire signed [38:0] t127 = $signed({{5{t126[33]}}, t126} + {t125[37], t125});
   wire interp_out_128_tie = t127[15] & ~(|t127[14:0]);
   wire [23:0] interp_out_128_up = {t127[38], t127[38:16]} + {{23{1'b0}}, t127[15]};
-  wire signed [23:0] interp_out_128_r = $signed({interp_out_128_up[23:1], interp_out_128_up[0] & ~interp_out_128_tie});
+  wire signed [23:0] interp_out_128_r =
+      $signed({interp_out_128_up[23:1], interp_out_128_up[0] & ~interp_out_128_tie});
   wire interp_out_128_ovf_c = ~((&interp_out_128_r[23:15]) | ~(|interp_out_128_r[23:15]));
-  wire signed [15:0] interp_out_128_c = $signed(interp_out_128_ovf_c ? (interp_out_128_r[23] ? 16'h8000 : 16'h7fff) : interp_out_128_r[15:0]);
+  wire signed [15:0] interp_out_128_c =
+      $signed(interp_out_128_ovf_c ? (interp_out_128_r[23] ? 16'h8000 : 16'h7fff)
+      : interp_out_128_r[15:0]);
   reg  signed [15:0] interp_out_128;
   reg  [0:0] interp_out_128_ovf;
   wire normalize_normal_129_ovf_c = 1'b0;
-  wire signed [15:0] normalize_normal_129_c = $signed(normalize_normal_129_ovf_c ? (interp_out_104[15] ? 16'h8000 : 16'h7fff) : interp_out_104[15:0]);
+  wire signed [15:0] normalize_normal_129_c =
+      $signed(normalize_normal_129_ovf_c ? (interp_out_104[15] ? 16'h8000 : 16'h7fff)
+      : interp_out_104[15:0]);
   reg  signed [15:0] normalize_normal_129;
   reg  [0:0] normalize_normal_129_ovf;
   wire normalize_normal_130_ovf_c = 1'b0;
-  wire signed [15:0] normalize_normal_130_c = $signed(normalize_normal_130_ovf_c ? (interp_out_116[15] ? 16'h8000 : 16'h7fff) : interp_out_116[15:0]);
+  wire signed [15:0] normalize_normal_130_c =
+      $signed(normalize_normal_130_ovf_c ? (interp_out_116[15] ? 16'h8000 : 16'h7fff)
+      : interp_out_116[15:0]);
   reg  signed [15:0] normalize_normal_130;
   reg  [0:0] normalize_normal_130_ovf;
   wire normalize_normal_131_ovf_c = 1'b0;
-  wire signed [15:0] normalize_normal_131_c = $signed(normalize_normal_131_ovf_c ? (interp_out_128[15] ? 16'h8000 : 16'h7fff) : interp_out_128[15:0]);
+  wire signed [15:0] normalize_normal_131_c =
+      $signed(normalize_normal_131_ovf_c ? (interp_out_128[15] ? 16'h8000 : 16'h7fff)
+      : interp_out_128[15:0]);
   reg  signed [15:0] normalize_normal_131;
   reg  [0:0] normalize_normal_131_ovf;
   wire signed [31:0] t132 = normalize_normal_129 * normalize_normal_129;
@@ -510,9 +543,11 @@ module pipeline_smooth (
   wire signed [33:0] t136 = $signed({t135[32], t135} + {{2{t134[31]}}, t134});
   wire normalize_d_137_tie = t136[10] & ~(|t136[9:0]);
   wire [23:0] normalize_d_137_up = {t136[33], t136[33:11]} + {{23{1'b0}}, t136[10]};
-  wire signed [23:0] normalize_d_137_r = $signed({normalize_d_137_up[23:1], normalize_d_137_up[0] & ~normalize_d_137_tie});
+  wire signed [23:0] normalize_d_137_r =
+      $signed({normalize_d_137_up[23:1], normalize_d_137_up[0] & ~normalize_d_137_tie});
   wire normalize_d_137_ovf_c = normalize_d_137_r[23] | (|normalize_d_137_r[22:18]);
-  wire [17:0] normalize_d_137_c = normalize_d_137_ovf_c ? (normalize_d_137_r[23] ? 18'h0 : 18'h3ffff) : normalize_d_137_r[17:0];
+  wire [17:0] normalize_d_137_c =
+      normalize_d_137_ovf_c ? (normalize_d_137_r[23] ? 18'h0 : 18'h3ffff) : normalize_d_137_r[17:0];
   reg  [17:0] normalize_d_137;
   reg  [0:0] normalize_d_137_ovf;
   wire [2:0] sel_bank_s0 = tri_cur_q ? sel_b1_q : sel_b0_q;
@@ -547,9 +582,14 @@ module pipeline_smooth (
   wire signed [36:0] t139 = $signed({t138[35], t138} + {{2{t74_m4[17]}}, t74_m4, 17'b0});
   wire normalize_horner_140_tie = t139[16] & ~(|t139[15:0]);
   wire [20:0] normalize_horner_140_up = {t139[36], t139[36:17]} + {{20{1'b0}}, t139[16]};
-  wire signed [20:0] normalize_horner_140_r = $signed({normalize_horner_140_up[20:1], normalize_horner_140_up[0] & ~normalize_horner_140_tie});
-  wire normalize_horner_140_ovf_c = ~((&normalize_horner_140_r[20:17]) | ~(|normalize_horner_140_r[20:17]));
-  wire signed [17:0] normalize_horner_140_c = $signed(normalize_horner_140_ovf_c ? (normalize_horner_140_r[20] ? 18'h20000 : 18'h1ffff) : normalize_horner_140_r[17:0]);
+  wire signed [20:0] normalize_horner_140_r =
+      $signed({normalize_horner_140_up[20:1], normalize_horner_140_up[0]
+      & ~normalize_horner_140_tie});
+  wire normalize_horner_140_ovf_c =
+      ~((&normalize_horner_140_r[20:17]) | ~(|normalize_horner_140_r[20:17]));
+  wire signed [17:0] normalize_horner_140_c =
+      $signed(normalize_horner_140_ovf_c ? (normalize_horner_140_r[20] ? 18'h20000 : 18'h1ffff)
+      : normalize_horner_140_r[17:0]);
   reg  signed [17:0] normalize_horner_140;
   reg  [0:0] normalize_horner_140_ovf;
   reg  [17:0] normalize_d_137_s5;
@@ -570,9 +610,11 @@ module pipeline_smooth (
   wire signed [36:0] t142 = $signed({t141[35], t141} + {{2{t73_m5[17]}}, t73_m5, 17'b0});
   wire normalize_g_143_tie = t142[14] & ~(|t142[13:0]);
   wire [22:0] normalize_g_143_up = {t142[36], t142[36:15]} + {{22{1'b0}}, t142[14]};
-  wire signed [22:0] normalize_g_143_r = $signed({normalize_g_143_up[22:1], normalize_g_143_up[0] & ~normalize_g_143_tie});
+  wire signed [22:0] normalize_g_143_r =
+      $signed({normalize_g_143_up[22:1], normalize_g_143_up[0] & ~normalize_g_143_tie});
   wire normalize_g_143_ovf_c = normalize_g_143_r[22] | (|normalize_g_143_r[21:18]);
-  wire [17:0] normalize_g_143_c = normalize_g_143_ovf_c ? (normalize_g_143_r[22] ? 18'h0 : 18'h3ffff) : normalize_g_143_r[17:0];
+  wire [17:0] normalize_g_143_c =
+      normalize_g_143_ovf_c ? (normalize_g_143_r[22] ? 18'h0 : 18'h3ffff) : normalize_g_143_r[17:0];
   reg  [17:0] normalize_g_143;
   reg  [0:0] normalize_g_143_ovf;
   reg  signed [15:0] normalize_normal_129_s4;
@@ -592,35 +634,50 @@ module pipeline_smooth (
   wire signed [33:0] t146 = normalize_normal_131_s6 * t146_b;
   wire normalize_out_147_tie = t144[16] & ~(|t144[15:0]);
   wire [17:0] normalize_out_147_up = {t144[33], t144[33:17]} + {{17{1'b0}}, t144[16]};
-  wire signed [17:0] normalize_out_147_r = $signed({normalize_out_147_up[17:1], normalize_out_147_up[0] & ~normalize_out_147_tie});
+  wire signed [17:0] normalize_out_147_r =
+      $signed({normalize_out_147_up[17:1], normalize_out_147_up[0] & ~normalize_out_147_tie});
   wire normalize_out_147_ovf_c = ~((&normalize_out_147_r[17:15]) | ~(|normalize_out_147_r[17:15]));
-  wire signed [15:0] normalize_out_147_c = $signed(normalize_out_147_ovf_c ? (normalize_out_147_r[17] ? 16'h8000 : 16'h7fff) : normalize_out_147_r[15:0]);
+  wire signed [15:0] normalize_out_147_c =
+      $signed(normalize_out_147_ovf_c ? (normalize_out_147_r[17] ? 16'h8000 : 16'h7fff)
+      : normalize_out_147_r[15:0]);
   reg  signed [15:0] normalize_out_147;
   reg  [0:0] normalize_out_147_ovf;
   wire normalize_out_148_tie = t145[16] & ~(|t145[15:0]);
   wire [17:0] normalize_out_148_up = {t145[33], t145[33:17]} + {{17{1'b0}}, t145[16]};
-  wire signed [17:0] normalize_out_148_r = $signed({normalize_out_148_up[17:1], normalize_out_148_up[0] & ~normalize_out_148_tie});
+  wire signed [17:0] normalize_out_148_r =
+      $signed({normalize_out_148_up[17:1], normalize_out_148_up[0] & ~normalize_out_148_tie});
   wire normalize_out_148_ovf_c = ~((&normalize_out_148_r[17:15]) | ~(|normalize_out_148_r[17:15]));
-  wire signed [15:0] normalize_out_148_c = $signed(normalize_out_148_ovf_c ? (normalize_out_148_r[17] ? 16'h8000 : 16'h7fff) : normalize_out_148_r[15:0]);
+  wire signed [15:0] normalize_out_148_c =
+      $signed(normalize_out_148_ovf_c ? (normalize_out_148_r[17] ? 16'h8000 : 16'h7fff)
+      : normalize_out_148_r[15:0]);
   reg  signed [15:0] normalize_out_148;
   reg  [0:0] normalize_out_148_ovf;
   wire normalize_out_149_tie = t146[16] & ~(|t146[15:0]);
   wire [17:0] normalize_out_149_up = {t146[33], t146[33:17]} + {{17{1'b0}}, t146[16]};
-  wire signed [17:0] normalize_out_149_r = $signed({normalize_out_149_up[17:1], normalize_out_149_up[0] & ~normalize_out_149_tie});
+  wire signed [17:0] normalize_out_149_r =
+      $signed({normalize_out_149_up[17:1], normalize_out_149_up[0] & ~normalize_out_149_tie});
   wire normalize_out_149_ovf_c = ~((&normalize_out_149_r[17:15]) | ~(|normalize_out_149_r[17:15]));
-  wire signed [15:0] normalize_out_149_c = $signed(normalize_out_149_ovf_c ? (normalize_out_149_r[17] ? 16'h8000 : 16'h7fff) : normalize_out_149_r[15:0]);
+  wire signed [15:0] normalize_out_149_c =
+      $signed(normalize_out_149_ovf_c ? (normalize_out_149_r[17] ? 16'h8000 : 16'h7fff)
+      : normalize_out_149_r[15:0]);
   reg  signed [15:0] normalize_out_149;
   reg  [0:0] normalize_out_149_ovf;
   wire lighting_normal_150_ovf_c = 1'b0;
-  wire signed [15:0] lighting_normal_150_c = $signed(lighting_normal_150_ovf_c ? (normalize_out_147[15] ? 16'h8000 : 16'h7fff) : normalize_out_147[15:0]);
+  wire signed [15:0] lighting_normal_150_c =
+      $signed(lighting_normal_150_ovf_c ? (normalize_out_147[15] ? 16'h8000 : 16'h7fff)
+      : normalize_out_147[15:0]);
   reg  signed [15:0] lighting_normal_150;
   reg  [0:0] lighting_normal_150_ovf;
   wire lighting_normal_151_ovf_c = 1'b0;
-  wire signed [15:0] lighting_normal_151_c = $signed(lighting_normal_151_ovf_c ? (normalize_out_148[15] ? 16'h8000 : 16'h7fff) : normalize_out_148[15:0]);
+  wire signed [15:0] lighting_normal_151_c =
+      $signed(lighting_normal_151_ovf_c ? (normalize_out_148[15] ? 16'h8000 : 16'h7fff)
+      : normalize_out_148[15:0]);
   reg  signed [15:0] lighting_normal_151;
   reg  [0:0] lighting_normal_151_ovf;
   wire lighting_normal_152_ovf_c = 1'b0;
-  wire signed [15:0] lighting_normal_152_c = $signed(lighting_normal_152_ovf_c ? (normalize_out_149[15] ? 16'h8000 : 16'h7fff) : normalize_out_149[15:0]);
+  wire signed [15:0] lighting_normal_152_c =
+      $signed(lighting_normal_152_ovf_c ? (normalize_out_149[15] ? 16'h8000 : 16'h7fff)
+      : normalize_out_149[15:0]);
   reg  signed [15:0] lighting_normal_152;
   reg  [0:0] lighting_normal_152_ovf;
   wire signed [31:0] t153 = lighting_normal_150 * l_x_q;
@@ -630,9 +687,12 @@ module pipeline_smooth (
   wire signed [33:0] t157 = $signed({t156[32], t156} + {{2{t155[31]}}, t155});
   wire lighting_dot_158_tie = t157[13] & ~(|t157[12:0]);
   wire [20:0] lighting_dot_158_up = {t157[33], t157[33:14]} + {{20{1'b0}}, t157[13]};
-  wire signed [20:0] lighting_dot_158_r = $signed({lighting_dot_158_up[20:1], lighting_dot_158_up[0] & ~lighting_dot_158_tie});
+  wire signed [20:0] lighting_dot_158_r =
+      $signed({lighting_dot_158_up[20:1], lighting_dot_158_up[0] & ~lighting_dot_158_tie});
   wire lighting_dot_158_ovf_c = ~((&lighting_dot_158_r[20:15]) | ~(|lighting_dot_158_r[20:15]));
-  wire signed [15:0] lighting_dot_158_c = $signed(lighting_dot_158_ovf_c ? (lighting_dot_158_r[20] ? 16'h8000 : 16'h7fff) : lighting_dot_158_r[15:0]);
+  wire signed [15:0] lighting_dot_158_c =
+      $signed(lighting_dot_158_ovf_c ? (lighting_dot_158_r[20] ? 16'h8000 : 16'h7fff)
+      : lighting_dot_158_r[15:0]);
   reg  signed [15:0] lighting_dot_158;
   reg  [0:0] lighting_dot_158_ovf;
   wire signed [15:0] t159_a = $signed(lighting_dot_158);
@@ -645,9 +705,12 @@ module pipeline_smooth (
   wire signed [33:0] t164 = $signed({t163[32], t163} + {{2{t162[31]}}, t162});
   wire lighting_dot_165_tie = t164[13] & ~(|t164[12:0]);
   wire [20:0] lighting_dot_165_up = {t164[33], t164[33:14]} + {{20{1'b0}}, t164[13]};
-  wire signed [20:0] lighting_dot_165_r = $signed({lighting_dot_165_up[20:1], lighting_dot_165_up[0] & ~lighting_dot_165_tie});
+  wire signed [20:0] lighting_dot_165_r =
+      $signed({lighting_dot_165_up[20:1], lighting_dot_165_up[0] & ~lighting_dot_165_tie});
   wire lighting_dot_165_ovf_c = ~((&lighting_dot_165_r[20:15]) | ~(|lighting_dot_165_r[20:15]));
-  wire signed [15:0] lighting_dot_165_c = $signed(lighting_dot_165_ovf_c ? (lighting_dot_165_r[20] ? 16'h8000 : 16'h7fff) : lighting_dot_165_r[15:0]);
+  wire signed [15:0] lighting_dot_165_c =
+      $signed(lighting_dot_165_ovf_c ? (lighting_dot_165_r[20] ? 16'h8000 : 16'h7fff)
+      : lighting_dot_165_r[15:0]);
   reg  signed [15:0] lighting_dot_165;
   reg  [0:0] lighting_dot_165_ovf;
   wire signed [15:0] t166_a = $signed(lighting_dot_165);
@@ -655,13 +718,16 @@ module pipeline_smooth (
   wire signed [15:0] t166 = (t166_a > t166_b) ? t166_a : t166_b;
   wire signed [18:0] lighting_spec_167_r = $signed({t166, 3'b0});
   wire lighting_spec_167_ovf_c = lighting_spec_167_r[18];
-  wire [17:0] lighting_spec_167_c = lighting_spec_167_ovf_c ? (lighting_spec_167_r[18] ? 18'h0 : 18'h3ffff) : lighting_spec_167_r[17:0];
+  wire [17:0] lighting_spec_167_c =
+      lighting_spec_167_ovf_c ? (lighting_spec_167_r[18] ? 18'h0 : 18'h3ffff)
+      : lighting_spec_167_r[17:0];
   reg  [17:0] lighting_spec_167;
   reg  [0:0] lighting_spec_167_ovf;
   wire [35:0] t168 = lighting_spec_167 * lighting_spec_167;
   wire lighting_spec_169_tie = t168[16] & ~(|t168[15:0]);
   wire [19:0] lighting_spec_169_up = {1'b0, t168[35:17]} + {{19{1'b0}}, t168[16]};
-  wire [19:0] lighting_spec_169_r = {lighting_spec_169_up[19:1], lighting_spec_169_up[0] & ~lighting_spec_169_tie};
+  wire [19:0] lighting_spec_169_r =
+      {lighting_spec_169_up[19:1], lighting_spec_169_up[0] & ~lighting_spec_169_tie};
   wire lighting_spec_169_ovf_c = |lighting_spec_169_r[19:18];
   wire [17:0] lighting_spec_169_c = lighting_spec_169_ovf_c ? 18'h3ffff : lighting_spec_169_r[17:0];
   reg  [17:0] lighting_spec_169;
@@ -669,7 +735,8 @@ module pipeline_smooth (
   wire [35:0] t170 = lighting_spec_169 * lighting_spec_169;
   wire lighting_spec_171_tie = t170[16] & ~(|t170[15:0]);
   wire [19:0] lighting_spec_171_up = {1'b0, t170[35:17]} + {{19{1'b0}}, t170[16]};
-  wire [19:0] lighting_spec_171_r = {lighting_spec_171_up[19:1], lighting_spec_171_up[0] & ~lighting_spec_171_tie};
+  wire [19:0] lighting_spec_171_r =
+      {lighting_spec_171_up[19:1], lighting_spec_171_up[0] & ~lighting_spec_171_tie};
   wire lighting_spec_171_ovf_c = |lighting_spec_171_r[19:18];
   wire [17:0] lighting_spec_171_c = lighting_spec_171_ovf_c ? 18'h3ffff : lighting_spec_171_r[17:0];
   reg  [17:0] lighting_spec_171;
@@ -677,7 +744,8 @@ module pipeline_smooth (
   wire [35:0] t172 = lighting_spec_171 * lighting_spec_171;
   wire lighting_spec_173_tie = t172[16] & ~(|t172[15:0]);
   wire [19:0] lighting_spec_173_up = {1'b0, t172[35:17]} + {{19{1'b0}}, t172[16]};
-  wire [19:0] lighting_spec_173_r = {lighting_spec_173_up[19:1], lighting_spec_173_up[0] & ~lighting_spec_173_tie};
+  wire [19:0] lighting_spec_173_r =
+      {lighting_spec_173_up[19:1], lighting_spec_173_up[0] & ~lighting_spec_173_tie};
   wire lighting_spec_173_ovf_c = |lighting_spec_173_r[19:18];
   wire [17:0] lighting_spec_173_c = lighting_spec_173_ovf_c ? 18'h3ffff : lighting_spec_173_r[17:0];
   reg  [17:0] lighting_spec_173;
@@ -685,7 +753,8 @@ module pipeline_smooth (
   wire [35:0] t174 = lighting_spec_173 * lighting_spec_173;
   wire lighting_spec_175_tie = t174[16] & ~(|t174[15:0]);
   wire [19:0] lighting_spec_175_up = {1'b0, t174[35:17]} + {{19{1'b0}}, t174[16]};
-  wire [19:0] lighting_spec_175_r = {lighting_spec_175_up[19:1], lighting_spec_175_up[0] & ~lighting_spec_175_tie};
+  wire [19:0] lighting_spec_175_r =
+      {lighting_spec_175_up[19:1], lighting_spec_175_up[0] & ~lighting_spec_175_tie};
   wire lighting_spec_175_ovf_c = |lighting_spec_175_r[19:18];
   wire [17:0] lighting_spec_175_c = lighting_spec_175_ovf_c ? 18'h3ffff : lighting_spec_175_r[17:0];
   reg  [17:0] lighting_spec_175;
@@ -701,9 +770,12 @@ module pipeline_smooth (
   wire signed [35:0] t178 = $signed({{2{1'b0}}, t177} + {t176_s14[31], t176_s14, 3'b0});
   wire lighting_level_179_tie = t178[24] & ~(|t178[23:0]);
   wire [11:0] lighting_level_179_up = {t178[35], t178[35:25]} + {{11{1'b0}}, t178[24]};
-  wire signed [11:0] lighting_level_179_r = $signed({lighting_level_179_up[11:1], lighting_level_179_up[0] & ~lighting_level_179_tie});
+  wire signed [11:0] lighting_level_179_r =
+      $signed({lighting_level_179_up[11:1], lighting_level_179_up[0] & ~lighting_level_179_tie});
   wire lighting_level_179_ovf_c = lighting_level_179_r[11] | (|lighting_level_179_r[10:8]);
-  wire [7:0] lighting_level_179_c = lighting_level_179_ovf_c ? (lighting_level_179_r[11] ? 8'h0 : 8'hff) : lighting_level_179_r[7:0];
+  wire [7:0] lighting_level_179_c =
+      lighting_level_179_ovf_c ? (lighting_level_179_r[11] ? 8'h0 : 8'hff)
+      : lighting_level_179_r[7:0];
   reg  [7:0] lighting_level_179;
   reg  [0:0] lighting_level_179_ovf;
   reg  [0:0] interp_weight_80_ovf_s2;
@@ -713,7 +785,8 @@ module pipeline_smooth (
   reg  [0:0] interp_weight_90_ovf_s2;
   reg  [0:0] interp_weight_92_ovf_s2;
   wire ovf0_or_s2 =
-      interp_weight_80_ovf_s2 | interp_weight_83_ovf_s2 | interp_weight_86_ovf_s2 | interp_weight_88_ovf_s2
+      interp_weight_80_ovf_s2 | interp_weight_83_ovf_s2 | interp_weight_86_ovf_s2
+          | interp_weight_88_ovf_s2
       | interp_weight_90_ovf_s2 | interp_weight_92_ovf_s2;
   reg  [0:0] ovf0_s3;
   reg  [0:0] ovf0_s4;
@@ -1086,7 +1159,9 @@ module pipeline_smooth (
 
   // Output buffer: the head drives the ports; the skid register takes the
   // item that leaves the last stage while the head is stalled.
-  wire [18:0] last_d = {lighting_level_179, (ovf0_s15), (ovf1_s15), (ovf2_s15), (ovf3_s15), (ovf4_s15), (ovf5_s15), (ovf6_s15), (ovf7_s15), (ovf8_s15), (ovf9_or_s15), (lighting_level_179_ovf)};
+  wire [18:0] last_d =
+      {lighting_level_179, (ovf0_s15), (ovf1_s15), (ovf2_s15), (ovf3_s15), (ovf4_s15), (ovf5_s15),
+      (ovf6_s15), (ovf7_s15), (ovf8_s15), (ovf9_or_s15), (lighting_level_179_ovf)};
   reg  [18:0] out_q, skid_q;
   always @(posedge clk_i) begin
     if (out_load & (skid_valid | out_arrive)) out_q <= skid_valid ? skid_q : last_d;
@@ -1146,9 +1221,16 @@ module pipeline_smooth (
         assert ($stable(level_o));
         assert ($stable(ovf_o));
       end
-      if ($past((|valid_q[7:0]) | f_in)) assert ($stable({l_x_q, l_y_q, l_z_q, h_x_q, h_y_q, h_z_q}));
-      if ($past((|(valid_q[0:0] & ~tri_tag_q)) | (f_in & ~tri_cur_q))) assert ($stable({sel_b0_q, n1_x_b0_q, n1_y_b0_q, n1_z_b0_q, n2_x_b0_q, n2_y_b0_q, n2_z_b0_q, n3_x_b0_q, n3_y_b0_q, n3_z_b0_q, n12_x_b0_q, n12_y_b0_q, n12_z_b0_q, n23_x_b0_q, n23_y_b0_q, n23_z_b0_q, n31_x_b0_q, n31_y_b0_q, n31_z_b0_q}));
-      if ($past((|(valid_q[0:0] & tri_tag_q)) | (f_in & tri_cur_q))) assert ($stable({sel_b1_q, n1_x_b1_q, n1_y_b1_q, n1_z_b1_q, n2_x_b1_q, n2_y_b1_q, n2_z_b1_q, n3_x_b1_q, n3_y_b1_q, n3_z_b1_q, n12_x_b1_q, n12_y_b1_q, n12_z_b1_q, n23_x_b1_q, n23_y_b1_q, n23_z_b1_q, n31_x_b1_q, n31_y_b1_q, n31_z_b1_q}));
+      if ($past((|valid_q[7:0])
+          | f_in)) assert ($stable({l_x_q, l_y_q, l_z_q, h_x_q, h_y_q, h_z_q}));
+      if ($past((|(valid_q[0:0] & ~tri_tag_q))
+          | (f_in & ~tri_cur_q))) assert ($stable({sel_b0_q, n1_x_b0_q, n1_y_b0_q, n1_z_b0_q,
+          n2_x_b0_q, n2_y_b0_q, n2_z_b0_q, n3_x_b0_q, n3_y_b0_q, n3_z_b0_q, n12_x_b0_q, n12_y_b0_q,
+          n12_z_b0_q, n23_x_b0_q, n23_y_b0_q, n23_z_b0_q, n31_x_b0_q, n31_y_b0_q, n31_z_b0_q}));
+      if ($past((|(valid_q[0:0] & tri_tag_q))
+          | (f_in & tri_cur_q))) assert ($stable({sel_b1_q, n1_x_b1_q, n1_y_b1_q, n1_z_b1_q,
+          n2_x_b1_q, n2_y_b1_q, n2_z_b1_q, n3_x_b1_q, n3_y_b1_q, n3_z_b1_q, n12_x_b1_q, n12_y_b1_q,
+          n12_z_b1_q, n23_x_b1_q, n23_y_b1_q, n23_z_b1_q, n31_x_b1_q, n31_y_b1_q, n31_z_b1_q}));
     end
     if (f_past_valid && rst_ni) cover (valid_o & ready_i);
   end

@@ -33,9 +33,12 @@ module polar_tb;
   task show(input integer i, input [IN_W-1:0] in, input [OUT_W-1:0] got, input [OUT_W-1:0] want);
     begin
       $display("mismatch at vector %0d", i);
-      $display("  in:   a_l = %0d, b_l = %0d, a_n = %0d, b_n = %0d", in[43:33], in[32:22], in[21:11], in[10:0]);
-      $display("  got:  ovf = %b, out_x = %0d, out_y = %0d, out_z = %0d", got[50:48], $signed(got[47:32]), $signed(got[31:16]), $signed(got[15:0]));
-      $display("  want: ovf = %b, out_x = %0d, out_y = %0d, out_z = %0d", want[50:48], $signed(want[47:32]), $signed(want[31:16]), $signed(want[15:0]));
+      $display("  in:   a_l = %0d", in[43:33], ", b_l = %0d", in[32:22], ", a_n = %0d", in[21:11],
+          ", b_n = %0d", in[10:0]);
+      $display("  got:  ovf = %b", got[50:48], ", out_x = %0d", $signed(got[47:32]),
+          ", out_y = %0d", $signed(got[31:16]), ", out_z = %0d", $signed(got[15:0]));
+      $display("  want: ovf = %b", want[50:48], ", out_x = %0d", $signed(want[47:32]),
+          ", out_y = %0d", $signed(want[31:16]), ", out_z = %0d", $signed(want[15:0]));
     end
   endtask
 
@@ -81,7 +84,8 @@ module polar_tb;
   reg [31:0] first, want_idx;
   reg held, next_loaded, aborted;
   integer proto, extra, drain, quiet;
-  integer n, stall, seed, in_idx, out_idx, passed, failed, cycle, lat_min, lat_max, nxt, r1, r2, got;
+  integer n, stall, seed, in_idx, out_idx, passed, failed, cycle, lat_min, lat_max, nxt, r1, r2,
+      got;
   integer fd_in, fd_exp, dump_fd;
   reg [8*1024-1:0] trace_file, dump_file, in_file, exp_file;
 
@@ -190,7 +194,8 @@ module polar_tb;
             abort_run(n - passed);
           end
           if ((in_rec >> IN_W) !== {{(8*IN_RB-32){1'b0}}, want_idx}) begin
-            $display("error: %0s record %0d: index or pad wrong (want index %0d)", in_file, nxt, want_idx);
+            $display("error: %0s record %0d: index or pad wrong (want index %0d)",
+                     in_file, nxt, want_idx);
             abort_run(n - passed);
           end
           next_data = in_rec[IN_W-1:0];
@@ -220,7 +225,8 @@ module polar_tb;
       if (drain >= 0) begin
         if (out_valid && out_ready) begin
           extra = extra + 1;
-          if (extra <= 5) $display("error: an output beyond the %0d vectors at cycle %0d", n, cycle);
+          if (extra <= 5) $display("error: an output beyond the %0d vectors at cycle %0d", n,
+              cycle);
         end
         if (drain == 0) begin
           // Nothing may follow the N-th record in either file.
@@ -235,7 +241,8 @@ module polar_tb;
             $display("error: %0s holds more than %0d vectors", exp_file, n);
           end
           if (dump_fd != 0) $fclose(dump_fd);
-          $display("%0d passed, %0d failed", passed - ((proto + extra) > passed ? passed : (proto + extra)),
+          $display("%0d passed, %0d failed",
+                   passed - ((proto + extra) > passed ? passed : (proto + extra)),
                    failed + proto + extra);
   `ifdef FXS_FATAL_ON_FAIL
           if (failed + proto + extra != 0) $fatal(1, "%0d failed", failed + proto + extra);
@@ -256,14 +263,16 @@ module polar_tb;
           abort_run(n - passed);
         end
         if ((exp_rec >> OUT_W) !== {{(8*OUT_RB-32){1'b0}}, want_idx}) begin
-          $display("error: %0s record %0d: index or pad wrong (want index %0d)", exp_file, out_idx, want_idx);
+          $display("error: %0s record %0d: index or pad wrong (want index %0d)",
+                   exp_file, out_idx, want_idx);
           abort_run(n - passed);
         end
         if (out_data === exp_rec[OUT_W-1:0]) begin
           passed = passed + 1;
         end else begin
           failed = failed + 1;
-          if (failed <= 5) show(first + out_idx, in_ring[out_idx % RING], out_data, exp_rec[OUT_W-1:0]);
+          if (failed <= 5)
+            show(first + out_idx, in_ring[out_idx % RING], out_data, exp_rec[OUT_W-1:0]);
         end
         if (cycle - in_cycle[out_idx % RING] < lat_min) lat_min = cycle - in_cycle[out_idx % RING];
         if (cycle - in_cycle[out_idx % RING] > lat_max) lat_max = cycle - in_cycle[out_idx % RING];

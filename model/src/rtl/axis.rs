@@ -269,7 +269,7 @@ pub fn wrapper(unit: &str, e: &Emitted) -> String {
         );
     }
     v += "  end\n`endif\n\nendmodule\n\n`default_nettype wire\n";
-    v
+    super::wrap::wrap_verilog(&v, super::wrap::WIDTH)
 }
 
 /// The vector testbench `<module>_axis_tb` driving the wrapper: the
@@ -338,5 +338,6 @@ pub fn testbench(e: &Emitted) -> String {
         c.push(".m_axis_tuser(m_tuser)".into());
     }
     let _ = writeln!(t, "    {}\n  );\n", c.join(",\n    "));
-    testbench::with_instance(&format!("{m}_axis"), &e.inputs, &e.outputs, false, &t)
+    let tb = testbench::with_instance(&format!("{m}_axis"), &e.inputs, &e.outputs, false, &t);
+    super::wrap::wrap_verilog(&tb, super::wrap::WIDTH)
 }

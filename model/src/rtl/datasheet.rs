@@ -133,7 +133,7 @@ pub fn stimulus(e: &Emitted) -> String {
         t,
         "  initial begin\n    #1 rst_ni = 1'b0;\n    repeat (2) @(negedge clk_i);\n    rst_ni = 1'b1;\n    repeat ({cycles}) @(negedge clk_i);\n    $finish;\n  end\nendmodule\n`default_nettype wire"
     );
-    t
+    super::wrap::wrap_verilog(&t, super::wrap::WIDTH)
 }
 
 /// The simulated control signals, one value a cycle.

@@ -277,7 +277,7 @@ pub fn package(m: &UnitModel) -> Result<String, DpiError> {
         }
     }
     t += "    return r;\n  endfunction\n\nendpackage\n";
-    Ok(t)
+    Ok(super::wrap::wrap_verilog(&t, super::wrap::WIDTH))
 }
 
 /// The scoreboard `<module>_dpi_tb.sv`: drives `<module>` with random
@@ -439,5 +439,5 @@ endmodule
 `default_nettype wire
 "#
     .replace("NEXT_ROW", next);
-    Ok(t)
+    Ok(super::wrap::wrap_verilog(&t, super::wrap::WIDTH))
 }

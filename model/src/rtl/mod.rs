@@ -41,6 +41,7 @@ pub mod timing;
 pub mod unit_model;
 pub mod units;
 pub mod witness;
+pub mod wrap;
 
 use std::collections::HashMap;
 use std::fmt::Write as _;
@@ -3165,8 +3166,8 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
     }
     Ok(Emitted {
         module: d.module.clone(),
-        verilog: v,
-        testbench,
+        verilog: wrap::wrap_verilog(&v, wrap::WIDTH),
+        testbench: wrap::wrap_verilog(&testbench, wrap::WIDTH),
         harness,
         latency,
         pipelining: if muts.is_empty() {
