@@ -812,7 +812,8 @@ module pipeline_mapped_interp (
   wire [10:0] polar_index_31_c = angle_interp_angle_22[10:0];
   reg  [10:0] polar_index_31;
   reg  [0:0] polar_index_31_ovf;
-  wire [10:0] cos_32_j = {polar_index_28[10:9] + 2'd1, polar_index_28[8:0]};
+  reg  [10:0] polar_index_28_s2;
+  wire [10:0] cos_32_j = {polar_index_28_s2[10:9] + 2'd1, polar_index_28_s2[8:0]};
   wire [9:0] cos_32_a = cos_32_j[9] ? (10'h200 - {1'b0, cos_32_j[8:0]}) : {1'b0, cos_32_j[8:0]};
   reg  signed [15:0] cos_32_raw;
   reg  [0:0] cos_32_top;
@@ -823,7 +824,7 @@ module pipeline_mapped_interp (
   wire signed [15:0] cos_32_nv =
       $signed(unused_cos_32_novf ? (cos_32_n[16] ? 16'h8000 : 16'h7fff) : cos_32_n[15:0]);
   wire signed [15:0] cos_32 = $signed(cos_32_neg_q ? cos_32_nv : cos_32_v);
-  wire [10:0] sin_33_j = polar_index_28[10:0];
+  wire [10:0] sin_33_j = polar_index_28_s2[10:0];
   wire [9:0] sin_33_a = sin_33_j[9] ? (10'h200 - {1'b0, sin_33_j[8:0]}) : {1'b0, sin_33_j[8:0]};
   reg  signed [15:0] sin_33_raw;
   reg  [0:0] sin_33_top;
@@ -878,8 +879,7 @@ module pipeline_mapped_interp (
   wire signed [15:0] sin_37_nv =
       $signed(unused_sin_37_novf ? (sin_37_n[16] ? 16'h8000 : 16'h7fff) : sin_37_n[15:0]);
   wire signed [15:0] sin_37 = $signed(sin_37_neg_q ? sin_37_nv : sin_37_v);
-  reg  signed [15:0] cos_32_s3;
-  wire signed [31:0] t38 = cos_32_s3 * cos_34;
+  wire signed [31:0] t38 = cos_32 * cos_34;
   wire polar_lyz_39_tie = t38[13] & ~(|t38[12:0]);
   wire [18:0] polar_lyz_39_up = {t38[31], t38[31:14]} + {{18{1'b0}}, t38[13]};
   wire signed [18:0] polar_lyz_39_r =
@@ -890,7 +890,7 @@ module pipeline_mapped_interp (
       : polar_lyz_39_r[15:0]);
   reg  signed [15:0] polar_lyz_39;
   reg  [0:0] polar_lyz_39_ovf;
-  wire signed [31:0] t40 = cos_32_s3 * sin_35;
+  wire signed [31:0] t40 = cos_32 * sin_35;
   wire polar_out_41_tie = t40[13] & ~(|t40[12:0]);
   wire [18:0] polar_out_41_up = {t40[31], t40[31:14]} + {{18{1'b0}}, t40[13]};
   wire signed [18:0] polar_out_41_r =
@@ -901,8 +901,7 @@ module pipeline_mapped_interp (
       : polar_out_41_r[15:0]);
   reg  signed [15:0] polar_out_41;
   reg  [0:0] polar_out_41_ovf;
-  reg  signed [15:0] sin_33_s3;
-  wire signed [31:0] t42 = sin_33_s3 * cos_36;
+  wire signed [31:0] t42 = sin_33 * cos_36;
   reg  signed [15:0] sin_37_s4;
   wire signed [31:0] t43 = polar_lyz_39 * sin_37_s4;
   reg  signed [31:0] t42_s4;
@@ -919,7 +918,7 @@ module pipeline_mapped_interp (
   reg  [0:0] polar_out_45_ovf;
   reg  signed [15:0] cos_36_s4;
   wire signed [31:0] t46 = polar_lyz_39 * cos_36_s4;
-  wire signed [31:0] t47 = sin_33_s3 * sin_37;
+  wire signed [31:0] t47 = sin_33 * sin_37;
   reg  signed [31:0] t47_s4;
   wire signed [32:0] t48 = $signed({t47_s4[31], t47_s4} + {t46[31], t46});
   wire polar_out_49_tie = t48[13] & ~(|t48[12:0]);
@@ -945,7 +944,8 @@ module pipeline_mapped_interp (
   wire [10:0] polar_index_53_c = angle_interp_angle_22[10:0];
   reg  [10:0] polar_index_53;
   reg  [0:0] polar_index_53_ovf;
-  wire [10:0] cos_54_j = {polar_index_50[10:9] + 2'd1, polar_index_50[8:0]};
+  reg  [10:0] polar_index_50_s2;
+  wire [10:0] cos_54_j = {polar_index_50_s2[10:9] + 2'd1, polar_index_50_s2[8:0]};
   wire [9:0] cos_54_a = cos_54_j[9] ? (10'h200 - {1'b0, cos_54_j[8:0]}) : {1'b0, cos_54_j[8:0]};
   reg  signed [15:0] cos_54_raw;
   reg  [0:0] cos_54_top;
@@ -956,7 +956,7 @@ module pipeline_mapped_interp (
   wire signed [15:0] cos_54_nv =
       $signed(unused_cos_54_novf ? (cos_54_n[16] ? 16'h8000 : 16'h7fff) : cos_54_n[15:0]);
   wire signed [15:0] cos_54 = $signed(cos_54_neg_q ? cos_54_nv : cos_54_v);
-  wire [10:0] sin_55_j = polar_index_50[10:0];
+  wire [10:0] sin_55_j = polar_index_50_s2[10:0];
   wire [9:0] sin_55_a = sin_55_j[9] ? (10'h200 - {1'b0, sin_55_j[8:0]}) : {1'b0, sin_55_j[8:0]};
   reg  signed [15:0] sin_55_raw;
   reg  [0:0] sin_55_top;
@@ -1011,8 +1011,7 @@ module pipeline_mapped_interp (
   wire signed [15:0] sin_59_nv =
       $signed(unused_sin_59_novf ? (sin_59_n[16] ? 16'h8000 : 16'h7fff) : sin_59_n[15:0]);
   wire signed [15:0] sin_59 = $signed(sin_59_neg_q ? sin_59_nv : sin_59_v);
-  reg  signed [15:0] cos_54_s3;
-  wire signed [31:0] t60 = cos_54_s3 * cos_56;
+  wire signed [31:0] t60 = cos_54 * cos_56;
   wire polar_lyz_61_tie = t60[13] & ~(|t60[12:0]);
   wire [18:0] polar_lyz_61_up = {t60[31], t60[31:14]} + {{18{1'b0}}, t60[13]};
   wire signed [18:0] polar_lyz_61_r =
@@ -1023,7 +1022,7 @@ module pipeline_mapped_interp (
       : polar_lyz_61_r[15:0]);
   reg  signed [15:0] polar_lyz_61;
   reg  [0:0] polar_lyz_61_ovf;
-  wire signed [31:0] t62 = cos_54_s3 * sin_57;
+  wire signed [31:0] t62 = cos_54 * sin_57;
   wire polar_out_63_tie = t62[13] & ~(|t62[12:0]);
   wire [18:0] polar_out_63_up = {t62[31], t62[31:14]} + {{18{1'b0}}, t62[13]};
   wire signed [18:0] polar_out_63_r =
@@ -1034,8 +1033,7 @@ module pipeline_mapped_interp (
       : polar_out_63_r[15:0]);
   reg  signed [15:0] polar_out_63;
   reg  [0:0] polar_out_63_ovf;
-  reg  signed [15:0] sin_55_s3;
-  wire signed [31:0] t64 = sin_55_s3 * cos_58;
+  wire signed [31:0] t64 = sin_55 * cos_58;
   reg  signed [15:0] sin_59_s4;
   wire signed [31:0] t65 = polar_lyz_61 * sin_59_s4;
   reg  signed [31:0] t64_s4;
@@ -1052,7 +1050,7 @@ module pipeline_mapped_interp (
   reg  [0:0] polar_out_67_ovf;
   reg  signed [15:0] cos_58_s4;
   wire signed [31:0] t68 = polar_lyz_61 * cos_58_s4;
-  wire signed [31:0] t69 = sin_55_s3 * sin_59;
+  wire signed [31:0] t69 = sin_55 * sin_59;
   reg  signed [31:0] t69_s4;
   wire signed [32:0] t70 = $signed({t69_s4[31], t69_s4} + {t68[31], t68});
   wire polar_out_71_tie = t70[13] & ~(|t70[12:0]);
@@ -1367,22 +1365,12 @@ module pipeline_mapped_interp (
       polar_index_30_ovf <= polar_index_30_ovf_c;
       polar_index_31 <= polar_index_31_c;
       polar_index_31_ovf <= polar_index_31_ovf_c;
-      cos_32_raw <= quarter_rom[cos_32_a[8:0]];
-      cos_32_top <= cos_32_a[9];
-      cos_32_neg_q <= cos_32_j[10];
-      sin_33_raw <= quarter_rom[sin_33_a[8:0]];
-      sin_33_top <= sin_33_a[9];
-      sin_33_neg_q <= sin_33_j[10];
+      polar_index_28_s2 <= polar_index_28;
       polar_index_52 <= polar_index_52_c;
       polar_index_52_ovf <= polar_index_52_ovf_c;
       polar_index_53 <= polar_index_53_c;
       polar_index_53_ovf <= polar_index_53_ovf_c;
-      cos_54_raw <= quarter_rom[cos_54_a[8:0]];
-      cos_54_top <= cos_54_a[9];
-      cos_54_neg_q <= cos_54_j[10];
-      sin_55_raw <= quarter_rom[sin_55_a[8:0]];
-      sin_55_top <= sin_55_a[9];
-      sin_55_neg_q <= sin_55_j[10];
+      polar_index_50_s2 <= polar_index_50;
       n_x_i_s2 <= n_x_i_s1;
       n_y_i_s2 <= n_y_i_s1;
       n_z_i_s2 <= n_z_i_s1;
@@ -1392,6 +1380,12 @@ module pipeline_mapped_interp (
       polar_index_50_ovf_s2 <= polar_index_50_ovf;
     end
     if (load_s3) begin
+      cos_32_raw <= quarter_rom[cos_32_a[8:0]];
+      cos_32_top <= cos_32_a[9];
+      cos_32_neg_q <= cos_32_j[10];
+      sin_33_raw <= quarter_rom[sin_33_a[8:0]];
+      sin_33_top <= sin_33_a[9];
+      sin_33_neg_q <= sin_33_j[10];
       cos_34_raw <= quarter_rom[cos_34_a[8:0]];
       cos_34_top <= cos_34_a[9];
       cos_34_neg_q <= cos_34_j[10];
@@ -1404,8 +1398,12 @@ module pipeline_mapped_interp (
       sin_37_raw <= quarter_rom[sin_37_a[8:0]];
       sin_37_top <= sin_37_a[9];
       sin_37_neg_q <= sin_37_j[10];
-      cos_32_s3 <= cos_32;
-      sin_33_s3 <= sin_33;
+      cos_54_raw <= quarter_rom[cos_54_a[8:0]];
+      cos_54_top <= cos_54_a[9];
+      cos_54_neg_q <= cos_54_j[10];
+      sin_55_raw <= quarter_rom[sin_55_a[8:0]];
+      sin_55_top <= sin_55_a[9];
+      sin_55_neg_q <= sin_55_j[10];
       cos_56_raw <= quarter_rom[cos_56_a[8:0]];
       cos_56_top <= cos_56_a[9];
       cos_56_neg_q <= cos_56_j[10];
@@ -1418,8 +1416,6 @@ module pipeline_mapped_interp (
       sin_59_raw <= quarter_rom[sin_59_a[8:0]];
       sin_59_top <= sin_59_a[9];
       sin_59_neg_q <= sin_59_j[10];
-      cos_54_s3 <= cos_54;
-      sin_55_s3 <= sin_55;
       n_x_i_s3 <= n_x_i_s2;
       n_y_i_s3 <= n_y_i_s2;
       n_z_i_s3 <= n_z_i_s2;

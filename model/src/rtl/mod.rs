@@ -440,6 +440,13 @@ struct Emitter<'a> {
     own_regs: Vec<(u32, String)>,
     /// Bank multiplexers written as wires for own operand registers.
     bank_wires: std::collections::HashSet<String>,
+    /// The earliest stage at which each staged node's value is read (by
+    /// another operation, or an output): what [`sink_plan`] reads after a
+    /// first pass.
+    first_read: Vec<Option<u32>>,
+    /// Table reads placed later than their operand allows
+    /// ([`sink_plan`]): node → the stage of its address logic.
+    sink: Vec<Option<u32>>,
 }
 
 impl<'a> Emitter<'a> {
@@ -461,6 +468,16 @@ impl<'a> Emitter<'a> {
 
     /// The node's value at `stage` (balancing registers created on demand).
     fn value_at(&mut self, node: usize, stage: u32) -> String {
+        if self.stage[node].is_some_and(|s0| stage >= s0) && !self.lazy[node] {
+            let r = &mut self.first_read[node];
+            *r = Some(r.map_or(stage, |x| x.min(stage)));
+        }
+        self.carry_to(node, stage)
+    }
+
+    /// [`Self::value_at`] without recording the read: the balancing
+    /// registers' own chain.
+    fn carry_to(&mut self, node: usize, stage: u32) -> String {
         if self.lazy[node] {
             return self.lazy_select(node, stage);
         }
@@ -480,7 +497,7 @@ impl<'a> Emitter<'a> {
         if let Some(n) = self.at.get(&(node, stage)) {
             return n.clone();
         }
-        let prev = self.value_at(node, stage - 1);
+        let prev = self.carry_to(node, stage - 1);
         let sym = self.t.sym(node);
         let name = format!("{}_s{stage}", self.name[node]);
         self.reg(stage, &name, sym.signed, sym.width, &prev);
@@ -1772,7 +1789,10 @@ impl<'a> Emitter<'a> {
                         m.bram + m.lut + m.carry(f.width() + 1) + m.lut,
                     ),
                 });
-                let (s, _) = self.place(&[a.node()], before);
+                let (mut s, _) = self.place(&[a.node()], before);
+                if let Some(k) = self.sink[i] {
+                    s = s.max(k);
+                }
                 let va = self.operand(&a, s);
                 self.stage[i] = Some(s + 1);
                 // The logic after a quarter-wave read gets a stage of its
@@ -1793,6 +1813,35 @@ impl<'a> Emitter<'a> {
         }
         Ok(())
     }
+}
+
+/// Where the second pass places table reads, from a first pass `e`: a
+/// table read whose value is first read at stage `r` later than the stage
+/// after its own is placed so that its value appears just before `r`, and
+/// its address (no wider than its value) waits in the balancing registers
+/// instead. Its readers keep their stages: with no delay model the value
+/// is read at `r` from the read's register (address stage `r − 1`); with
+/// one, at least one more register lies between (address stage `r − 3`,
+/// room for the quarter wave's late stage), so the value arrives at `r`
+/// from a register as before. `None`: placed as soon as the address
+/// allows.
+fn sink_plan(e: &Emitter) -> Vec<Option<u32>> {
+    let t = e.t;
+    let margin = if e.timing.is_some() { 3 } else { 1 };
+    t.ops()
+        .iter()
+        .enumerate()
+        .map(|(i, op)| {
+            let Op::Table(a, slot) = op else {
+                return None;
+            };
+            let narrower = t.tables()[*slot].index.width() <= t.sym(i).width;
+            let staged = e.stage[a.node()].is_some() && !e.lazy[i];
+            let (out, r) = (e.stage[i]?, e.first_read[i]?);
+            let k = r.checked_sub(margin)?;
+            (narrower && staged && k >= out).then_some(k)
+        })
+        .collect()
 }
 
 /// A product's operand as [`Emitter::mul_operand`] finds it.
@@ -2489,68 +2538,84 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
             _ => format!("t{i}"),
         };
     }
-    let mut e = Emitter {
-        t,
-        stage: vec![None; t.ops().len()],
-        name: names,
-        at: HashMap::new(),
-        ovf_at: HashMap::new(),
-        body: Vec::new(),
-        regs: Vec::new(),
-        unused: Vec::new(),
-        hw: Hardware::default(),
-        roms: Vec::new(),
-        rom_text: Vec::new(),
-        mutants: HashMap::new(),
-        arrival: vec![0.0; t.ops().len()],
-        dsp_out: vec![false; t.ops().len()],
-        timing: match d.pipelining {
-            timing::Pipelining::Target { target, clock_ns } if muts.is_empty() => {
-                let m = target.model();
-                Some((m, m.budget(clock_ns)))
-            }
-            _ => None,
-        },
-        own_operands: muts.is_empty()
-            && matches!(
-                d.pipelining,
-                timing::Pipelining::Target {
-                    target: timing::Target::Ecp5,
-                    ..
+    let build = |sink: Vec<Option<u32>>| -> Result<Emitter, EmitError> {
+        let mut e = Emitter {
+            t,
+            stage: vec![None; t.ops().len()],
+            name: names.clone(),
+            at: HashMap::new(),
+            ovf_at: HashMap::new(),
+            body: Vec::new(),
+            regs: Vec::new(),
+            unused: Vec::new(),
+            hw: Hardware::default(),
+            roms: Vec::new(),
+            rom_text: Vec::new(),
+            mutants: HashMap::new(),
+            arrival: vec![0.0; t.ops().len()],
+            dsp_out: vec![false; t.ops().len()],
+            timing: match d.pipelining {
+                timing::Pipelining::Target { target, clock_ns } if muts.is_empty() => {
+                    let m = target.model();
+                    Some((m, m.budget(clock_ns)))
                 }
-            ),
-        own_regs: Vec::new(),
-        bank_wires: std::collections::HashSet::new(),
-        worst: 0.0,
-        too_slow: Vec::new(),
-        splits: Vec::new(),
-        groups: t
-            .ops()
-            .iter()
-            .map(|op| match op {
-                Op::Input(slot) => setup_of(&inputs[*slot].name).map_or(0, |g| 1 << g),
-                _ => 0,
-            })
-            .collect(),
-        drain: vec![0; d.setup.len()],
-        banked: d.setup.iter().map(|g| g.banked).collect(),
-        bank_at: HashMap::new(),
-        lazy: vec![false; t.ops().len()],
-        carried: HashMap::new(),
-        lazy_at: HashMap::new(),
-        group_names: d.setup.iter().map(|g| g.name).collect(),
-    };
-    for (k, m) in muts.iter().enumerate() {
-        e.mutants
-            .entry(m.node)
-            .or_default()
-            .push((k + 1, m.clone()));
-    }
-    for (i, op) in t.ops().iter().enumerate() {
-        if live[i] || matches!(op, Op::Input(_)) {
-            e.node(i)?;
+                _ => None,
+            },
+            own_operands: muts.is_empty()
+                && matches!(
+                    d.pipelining,
+                    timing::Pipelining::Target {
+                        target: timing::Target::Ecp5,
+                        ..
+                    }
+                ),
+            own_regs: Vec::new(),
+            bank_wires: std::collections::HashSet::new(),
+            worst: 0.0,
+            too_slow: Vec::new(),
+            splits: Vec::new(),
+            groups: t
+                .ops()
+                .iter()
+                .map(|op| match op {
+                    Op::Input(slot) => setup_of(&inputs[*slot].name).map_or(0, |g| 1 << g),
+                    _ => 0,
+                })
+                .collect(),
+            drain: vec![0; d.setup.len()],
+            banked: d.setup.iter().map(|g| g.banked).collect(),
+            bank_at: HashMap::new(),
+            lazy: vec![false; t.ops().len()],
+            carried: HashMap::new(),
+            lazy_at: HashMap::new(),
+            group_names: d.setup.iter().map(|g| g.name).collect(),
+            first_read: vec![None; t.ops().len()],
+            sink,
+        };
+        for (k, m) in muts.iter().enumerate() {
+            e.mutants
+                .entry(m.node)
+                .or_default()
+                .push((k + 1, m.clone()));
         }
-    }
+        for (i, op) in t.ops().iter().enumerate() {
+            if live[i] || matches!(op, Op::Input(_)) {
+                e.node(i)?;
+            }
+        }
+        Ok(e)
+    };
+    // Two passes: the first finds where each value is first read; table
+    // reads whose values would only wait in registers are then placed
+    // just before their first reader, carrying the narrower address
+    // instead ([`sink_plan`]). Every other placement is unchanged.
+    let first = build(vec![None; t.ops().len()])?;
+    let plan = sink_plan(&first);
+    let mut e = if plan.iter().any(Option::is_some) {
+        build(plan)?
+    } else {
+        first
+    };
     for p in &inputs {
         if !live[p.value.node()] {
             e.unused.push(format!("{}_i", p.name));
