@@ -179,1034 +179,1114 @@ module angles (
   wire t20_sub = n_x_i[15];
   wire signed [18:0] t20 = t20_sub ? $signed(19'h7c000) : $signed(19'h4000);
   wire signed [20:0] angles_xy_21_r = $signed({t18, 4'b0});
-  wire angles_xy_21_ovf_c = 1'b0;
-  wire signed [21:0] angles_xy_21_c =
-      $signed(angles_xy_21_ovf_c ? (angles_xy_21_r[20] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_21_ovf_d = 1'b0;
+  wire signed [21:0] angles_xy_21_d =
+      $signed(angles_xy_21_ovf_d ? (angles_xy_21_r[20] ? 22'h200000 : 22'h1fffff)
       : {angles_xy_21_r[20], angles_xy_21_r});
-  reg  signed [21:0] angles_xy_21;
-  reg  [0:0] angles_xy_21_ovf;
+  reg  signed [21:0] angles_xy_21_q;
+  reg  [0:0] angles_xy_21_ovf_q;
   wire signed [20:0] angles_xy_22_r = $signed({t19, 4'b0});
-  wire angles_xy_22_ovf_c = 1'b0;
-  wire signed [21:0] angles_xy_22_c =
-      $signed(angles_xy_22_ovf_c ? (angles_xy_22_r[20] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_22_ovf_d = 1'b0;
+  wire signed [21:0] angles_xy_22_d =
+      $signed(angles_xy_22_ovf_d ? (angles_xy_22_r[20] ? 22'h200000 : 22'h1fffff)
       : {angles_xy_22_r[20], angles_xy_22_r});
-  reg  signed [21:0] angles_xy_22;
-  reg  [0:0] angles_xy_22_ovf;
-  wire angles_theta_23_ovf_c = t20[18] | (|t20[17:16]);
-  wire [15:0] angles_theta_23_c = t20[15:0];
-  reg  [15:0] angles_theta_23;
-  reg  [0:0] angles_theta_23_ovf;
-  wire t24_sub = angles_xy_22[21];
+  reg  signed [21:0] angles_xy_22_q;
+  reg  [0:0] angles_xy_22_ovf_q;
+  wire angles_theta_23_ovf_d = t20[18] | (|t20[17:16]);
+  wire [15:0] angles_theta_23_d = t20[15:0];
+  reg  [15:0] angles_theta_23_q;
+  reg  [0:0] angles_theta_23_ovf_q;
+  wire t24_sub = angles_xy_22_q[21];
   wire signed [22:0] t24 =
-      t24_sub ? $signed({angles_xy_21[21], angles_xy_21} - {angles_xy_22[21], angles_xy_22})
-      : $signed({angles_xy_21[21], angles_xy_21} + {angles_xy_22[21], angles_xy_22});
-  wire t25_sub = ~angles_xy_22[21];
+      t24_sub ? $signed({angles_xy_21_q[21], angles_xy_21_q} - {angles_xy_22_q[21], angles_xy_22_q})
+      : $signed({angles_xy_21_q[21], angles_xy_21_q} + {angles_xy_22_q[21], angles_xy_22_q});
+  wire t25_sub = ~angles_xy_22_q[21];
   wire signed [22:0] t25 =
-      t25_sub ? $signed({angles_xy_22[21], angles_xy_22} - {angles_xy_21[21], angles_xy_21})
-      : $signed({angles_xy_22[21], angles_xy_22} + {angles_xy_21[21], angles_xy_21});
-  wire t26_sub = angles_xy_22[21];
+      t25_sub ? $signed({angles_xy_22_q[21], angles_xy_22_q} - {angles_xy_21_q[21], angles_xy_21_q})
+      : $signed({angles_xy_22_q[21], angles_xy_22_q} + {angles_xy_21_q[21], angles_xy_21_q});
+  wire t26_sub = angles_xy_22_q[21];
   wire signed [17:0] t26 =
-      t26_sub ? $signed({{2{1'b0}}, angles_theta_23} - {{2{1'b0}}, K5})
-      : $signed({{2{1'b0}}, angles_theta_23} + {{2{1'b0}}, K5});
-  wire angles_xy_27_ovf_c = ~((&t24[22:21]) | ~(|t24[22:21]));
-  wire signed [21:0] angles_xy_27_c =
-      $signed(angles_xy_27_ovf_c ? (t24[22] ? 22'h200000 : 22'h1fffff) : t24[21:0]);
-  reg  signed [21:0] angles_xy_27;
-  reg  [0:0] angles_xy_27_ovf;
-  wire angles_xy_28_ovf_c = ~((&t25[22:21]) | ~(|t25[22:21]));
-  wire signed [21:0] angles_xy_28_c =
-      $signed(angles_xy_28_ovf_c ? (t25[22] ? 22'h200000 : 22'h1fffff) : t25[21:0]);
-  reg  signed [21:0] angles_xy_28;
-  reg  [0:0] angles_xy_28_ovf;
-  wire angles_theta_29_ovf_c = t26[17] | (|t26[16]);
-  wire [15:0] angles_theta_29_c = t26[15:0];
-  reg  [15:0] angles_theta_29;
-  reg  [0:0] angles_theta_29_ovf;
-  wire t30_sub = angles_xy_28[21];
+      t26_sub ? $signed({{2{1'b0}}, angles_theta_23_q} - {{2{1'b0}}, K5})
+      : $signed({{2{1'b0}}, angles_theta_23_q} + {{2{1'b0}}, K5});
+  wire angles_xy_27_ovf_d = ~((&t24[22:21]) | ~(|t24[22:21]));
+  wire signed [21:0] angles_xy_27_d =
+      $signed(angles_xy_27_ovf_d ? (t24[22] ? 22'h200000 : 22'h1fffff) : t24[21:0]);
+  reg  signed [21:0] angles_xy_27_q;
+  reg  [0:0] angles_xy_27_ovf_q;
+  wire angles_xy_28_ovf_d = ~((&t25[22:21]) | ~(|t25[22:21]));
+  wire signed [21:0] angles_xy_28_d =
+      $signed(angles_xy_28_ovf_d ? (t25[22] ? 22'h200000 : 22'h1fffff) : t25[21:0]);
+  reg  signed [21:0] angles_xy_28_q;
+  reg  [0:0] angles_xy_28_ovf_q;
+  wire angles_theta_29_ovf_d = t26[17] | (|t26[16]);
+  wire [15:0] angles_theta_29_d = t26[15:0];
+  reg  [15:0] angles_theta_29_q;
+  reg  [0:0] angles_theta_29_ovf_q;
+  wire t30_sub = angles_xy_28_q[21];
   wire signed [23:0] t30 =
       t30_sub
-      ? $signed({angles_xy_27[21], angles_xy_27, 1'b0} - {{2{angles_xy_28[21]}}, angles_xy_28})
-      : $signed({angles_xy_27[21], angles_xy_27, 1'b0} + {{2{angles_xy_28[21]}}, angles_xy_28});
-  wire t31_sub = ~angles_xy_28[21];
+      ? $signed({angles_xy_27_q[21], angles_xy_27_q, 1'b0}
+      - {{2{angles_xy_28_q[21]}}, angles_xy_28_q})
+      : $signed({angles_xy_27_q[21], angles_xy_27_q, 1'b0}
+      + {{2{angles_xy_28_q[21]}}, angles_xy_28_q});
+  wire t31_sub = ~angles_xy_28_q[21];
   wire signed [23:0] t31 =
       t31_sub
-      ? $signed({angles_xy_28[21], angles_xy_28, 1'b0} - {{2{angles_xy_27[21]}}, angles_xy_27})
-      : $signed({angles_xy_28[21], angles_xy_28, 1'b0} + {{2{angles_xy_27[21]}}, angles_xy_27});
-  wire t32_sub = angles_xy_28[21];
+      ? $signed({angles_xy_28_q[21], angles_xy_28_q, 1'b0}
+      - {{2{angles_xy_27_q[21]}}, angles_xy_27_q})
+      : $signed({angles_xy_28_q[21], angles_xy_28_q, 1'b0}
+      + {{2{angles_xy_27_q[21]}}, angles_xy_27_q});
+  wire t32_sub = angles_xy_28_q[21];
   wire signed [17:0] t32 =
-      t32_sub ? $signed({{2{1'b0}}, angles_theta_29} - {{2{1'b0}}, K6})
-      : $signed({{2{1'b0}}, angles_theta_29} + {{2{1'b0}}, K6});
+      t32_sub ? $signed({{2{1'b0}}, angles_theta_29_q} - {{2{1'b0}}, K6})
+      : $signed({{2{1'b0}}, angles_theta_29_q} + {{2{1'b0}}, K6});
   wire signed [22:0] angles_xy_33_t = $signed(t30[23:1]);
-  wire angles_xy_33_ovf_c = ~((&angles_xy_33_t[22:21]) | ~(|angles_xy_33_t[22:21]));
-  wire signed [21:0] angles_xy_33_c =
-      $signed(angles_xy_33_ovf_c ? (angles_xy_33_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_33_ovf_d = ~((&angles_xy_33_t[22:21]) | ~(|angles_xy_33_t[22:21]));
+  wire signed [21:0] angles_xy_33_d =
+      $signed(angles_xy_33_ovf_d ? (angles_xy_33_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_33_t[21:0]);
-  reg  signed [21:0] angles_xy_33;
-  reg  [0:0] angles_xy_33_ovf;
+  reg  signed [21:0] angles_xy_33_q;
+  reg  [0:0] angles_xy_33_ovf_q;
   wire signed [22:0] angles_xy_34_t = $signed(t31[23:1]);
-  wire angles_xy_34_ovf_c = ~((&angles_xy_34_t[22:21]) | ~(|angles_xy_34_t[22:21]));
-  wire signed [21:0] angles_xy_34_c =
-      $signed(angles_xy_34_ovf_c ? (angles_xy_34_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_34_ovf_d = ~((&angles_xy_34_t[22:21]) | ~(|angles_xy_34_t[22:21]));
+  wire signed [21:0] angles_xy_34_d =
+      $signed(angles_xy_34_ovf_d ? (angles_xy_34_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_34_t[21:0]);
-  reg  signed [21:0] angles_xy_34;
-  reg  [0:0] angles_xy_34_ovf;
-  wire angles_theta_35_ovf_c = t32[17] | (|t32[16]);
-  wire [15:0] angles_theta_35_c = t32[15:0];
-  reg  [15:0] angles_theta_35;
-  reg  [0:0] angles_theta_35_ovf;
-  wire t36_sub = angles_xy_34[21];
+  reg  signed [21:0] angles_xy_34_q;
+  reg  [0:0] angles_xy_34_ovf_q;
+  wire angles_theta_35_ovf_d = t32[17] | (|t32[16]);
+  wire [15:0] angles_theta_35_d = t32[15:0];
+  reg  [15:0] angles_theta_35_q;
+  reg  [0:0] angles_theta_35_ovf_q;
+  wire t36_sub = angles_xy_34_q[21];
   wire signed [24:0] t36 =
       t36_sub
-      ? $signed({angles_xy_33[21], angles_xy_33, 2'b0} - {{3{angles_xy_34[21]}}, angles_xy_34})
-      : $signed({angles_xy_33[21], angles_xy_33, 2'b0} + {{3{angles_xy_34[21]}}, angles_xy_34});
-  wire t37_sub = ~angles_xy_34[21];
+      ? $signed({angles_xy_33_q[21], angles_xy_33_q, 2'b0}
+      - {{3{angles_xy_34_q[21]}}, angles_xy_34_q})
+      : $signed({angles_xy_33_q[21], angles_xy_33_q, 2'b0}
+      + {{3{angles_xy_34_q[21]}}, angles_xy_34_q});
+  wire t37_sub = ~angles_xy_34_q[21];
   wire signed [24:0] t37 =
       t37_sub
-      ? $signed({angles_xy_34[21], angles_xy_34, 2'b0} - {{3{angles_xy_33[21]}}, angles_xy_33})
-      : $signed({angles_xy_34[21], angles_xy_34, 2'b0} + {{3{angles_xy_33[21]}}, angles_xy_33});
-  wire t38_sub = angles_xy_34[21];
+      ? $signed({angles_xy_34_q[21], angles_xy_34_q, 2'b0}
+      - {{3{angles_xy_33_q[21]}}, angles_xy_33_q})
+      : $signed({angles_xy_34_q[21], angles_xy_34_q, 2'b0}
+      + {{3{angles_xy_33_q[21]}}, angles_xy_33_q});
+  wire t38_sub = angles_xy_34_q[21];
   wire signed [17:0] t38 =
-      t38_sub ? $signed({{2{1'b0}}, angles_theta_35} - {{2{1'b0}}, K7})
-      : $signed({{2{1'b0}}, angles_theta_35} + {{2{1'b0}}, K7});
+      t38_sub ? $signed({{2{1'b0}}, angles_theta_35_q} - {{2{1'b0}}, K7})
+      : $signed({{2{1'b0}}, angles_theta_35_q} + {{2{1'b0}}, K7});
   wire signed [22:0] angles_xy_39_t = $signed(t36[24:2]);
-  wire angles_xy_39_ovf_c = ~((&angles_xy_39_t[22:21]) | ~(|angles_xy_39_t[22:21]));
-  wire signed [21:0] angles_xy_39_c =
-      $signed(angles_xy_39_ovf_c ? (angles_xy_39_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_39_ovf_d = ~((&angles_xy_39_t[22:21]) | ~(|angles_xy_39_t[22:21]));
+  wire signed [21:0] angles_xy_39_d =
+      $signed(angles_xy_39_ovf_d ? (angles_xy_39_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_39_t[21:0]);
-  reg  signed [21:0] angles_xy_39;
-  reg  [0:0] angles_xy_39_ovf;
+  reg  signed [21:0] angles_xy_39_q;
+  reg  [0:0] angles_xy_39_ovf_q;
   wire signed [22:0] angles_xy_40_t = $signed(t37[24:2]);
-  wire angles_xy_40_ovf_c = ~((&angles_xy_40_t[22:21]) | ~(|angles_xy_40_t[22:21]));
-  wire signed [21:0] angles_xy_40_c =
-      $signed(angles_xy_40_ovf_c ? (angles_xy_40_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_40_ovf_d = ~((&angles_xy_40_t[22:21]) | ~(|angles_xy_40_t[22:21]));
+  wire signed [21:0] angles_xy_40_d =
+      $signed(angles_xy_40_ovf_d ? (angles_xy_40_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_40_t[21:0]);
-  reg  signed [21:0] angles_xy_40;
-  reg  [0:0] angles_xy_40_ovf;
-  wire angles_theta_41_ovf_c = t38[17] | (|t38[16]);
-  wire [15:0] angles_theta_41_c = t38[15:0];
-  reg  [15:0] angles_theta_41;
-  reg  [0:0] angles_theta_41_ovf;
-  wire t42_sub = angles_xy_40[21];
+  reg  signed [21:0] angles_xy_40_q;
+  reg  [0:0] angles_xy_40_ovf_q;
+  wire angles_theta_41_ovf_d = t38[17] | (|t38[16]);
+  wire [15:0] angles_theta_41_d = t38[15:0];
+  reg  [15:0] angles_theta_41_q;
+  reg  [0:0] angles_theta_41_ovf_q;
+  wire t42_sub = angles_xy_40_q[21];
   wire signed [25:0] t42 =
       t42_sub
-      ? $signed({angles_xy_39[21], angles_xy_39, 3'b0} - {{4{angles_xy_40[21]}}, angles_xy_40})
-      : $signed({angles_xy_39[21], angles_xy_39, 3'b0} + {{4{angles_xy_40[21]}}, angles_xy_40});
-  wire t43_sub = ~angles_xy_40[21];
+      ? $signed({angles_xy_39_q[21], angles_xy_39_q, 3'b0}
+      - {{4{angles_xy_40_q[21]}}, angles_xy_40_q})
+      : $signed({angles_xy_39_q[21], angles_xy_39_q, 3'b0}
+      + {{4{angles_xy_40_q[21]}}, angles_xy_40_q});
+  wire t43_sub = ~angles_xy_40_q[21];
   wire signed [25:0] t43 =
       t43_sub
-      ? $signed({angles_xy_40[21], angles_xy_40, 3'b0} - {{4{angles_xy_39[21]}}, angles_xy_39})
-      : $signed({angles_xy_40[21], angles_xy_40, 3'b0} + {{4{angles_xy_39[21]}}, angles_xy_39});
-  wire t44_sub = angles_xy_40[21];
+      ? $signed({angles_xy_40_q[21], angles_xy_40_q, 3'b0}
+      - {{4{angles_xy_39_q[21]}}, angles_xy_39_q})
+      : $signed({angles_xy_40_q[21], angles_xy_40_q, 3'b0}
+      + {{4{angles_xy_39_q[21]}}, angles_xy_39_q});
+  wire t44_sub = angles_xy_40_q[21];
   wire signed [17:0] t44 =
-      t44_sub ? $signed({{2{1'b0}}, angles_theta_41} - {{2{1'b0}}, K8})
-      : $signed({{2{1'b0}}, angles_theta_41} + {{2{1'b0}}, K8});
+      t44_sub ? $signed({{2{1'b0}}, angles_theta_41_q} - {{2{1'b0}}, K8})
+      : $signed({{2{1'b0}}, angles_theta_41_q} + {{2{1'b0}}, K8});
   wire signed [22:0] angles_xy_45_t = $signed(t42[25:3]);
-  wire angles_xy_45_ovf_c = ~((&angles_xy_45_t[22:21]) | ~(|angles_xy_45_t[22:21]));
-  wire signed [21:0] angles_xy_45_c =
-      $signed(angles_xy_45_ovf_c ? (angles_xy_45_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_45_ovf_d = ~((&angles_xy_45_t[22:21]) | ~(|angles_xy_45_t[22:21]));
+  wire signed [21:0] angles_xy_45_d =
+      $signed(angles_xy_45_ovf_d ? (angles_xy_45_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_45_t[21:0]);
-  reg  signed [21:0] angles_xy_45;
-  reg  [0:0] angles_xy_45_ovf;
+  reg  signed [21:0] angles_xy_45_q;
+  reg  [0:0] angles_xy_45_ovf_q;
   wire signed [22:0] angles_xy_46_t = $signed(t43[25:3]);
-  wire angles_xy_46_ovf_c = ~((&angles_xy_46_t[22:21]) | ~(|angles_xy_46_t[22:21]));
-  wire signed [21:0] angles_xy_46_c =
-      $signed(angles_xy_46_ovf_c ? (angles_xy_46_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_46_ovf_d = ~((&angles_xy_46_t[22:21]) | ~(|angles_xy_46_t[22:21]));
+  wire signed [21:0] angles_xy_46_d =
+      $signed(angles_xy_46_ovf_d ? (angles_xy_46_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_46_t[21:0]);
-  reg  signed [21:0] angles_xy_46;
-  reg  [0:0] angles_xy_46_ovf;
-  wire angles_theta_47_ovf_c = t44[17] | (|t44[16]);
-  wire [15:0] angles_theta_47_c = t44[15:0];
-  reg  [15:0] angles_theta_47;
-  reg  [0:0] angles_theta_47_ovf;
-  wire t48_sub = angles_xy_46[21];
+  reg  signed [21:0] angles_xy_46_q;
+  reg  [0:0] angles_xy_46_ovf_q;
+  wire angles_theta_47_ovf_d = t44[17] | (|t44[16]);
+  wire [15:0] angles_theta_47_d = t44[15:0];
+  reg  [15:0] angles_theta_47_q;
+  reg  [0:0] angles_theta_47_ovf_q;
+  wire t48_sub = angles_xy_46_q[21];
   wire signed [26:0] t48 =
       t48_sub
-      ? $signed({angles_xy_45[21], angles_xy_45, 4'b0} - {{5{angles_xy_46[21]}}, angles_xy_46})
-      : $signed({angles_xy_45[21], angles_xy_45, 4'b0} + {{5{angles_xy_46[21]}}, angles_xy_46});
-  wire t49_sub = ~angles_xy_46[21];
+      ? $signed({angles_xy_45_q[21], angles_xy_45_q, 4'b0}
+      - {{5{angles_xy_46_q[21]}}, angles_xy_46_q})
+      : $signed({angles_xy_45_q[21], angles_xy_45_q, 4'b0}
+      + {{5{angles_xy_46_q[21]}}, angles_xy_46_q});
+  wire t49_sub = ~angles_xy_46_q[21];
   wire signed [26:0] t49 =
       t49_sub
-      ? $signed({angles_xy_46[21], angles_xy_46, 4'b0} - {{5{angles_xy_45[21]}}, angles_xy_45})
-      : $signed({angles_xy_46[21], angles_xy_46, 4'b0} + {{5{angles_xy_45[21]}}, angles_xy_45});
-  wire t50_sub = angles_xy_46[21];
+      ? $signed({angles_xy_46_q[21], angles_xy_46_q, 4'b0}
+      - {{5{angles_xy_45_q[21]}}, angles_xy_45_q})
+      : $signed({angles_xy_46_q[21], angles_xy_46_q, 4'b0}
+      + {{5{angles_xy_45_q[21]}}, angles_xy_45_q});
+  wire t50_sub = angles_xy_46_q[21];
   wire signed [17:0] t50 =
-      t50_sub ? $signed({{2{1'b0}}, angles_theta_47} - {{2{1'b0}}, K9})
-      : $signed({{2{1'b0}}, angles_theta_47} + {{2{1'b0}}, K9});
+      t50_sub ? $signed({{2{1'b0}}, angles_theta_47_q} - {{2{1'b0}}, K9})
+      : $signed({{2{1'b0}}, angles_theta_47_q} + {{2{1'b0}}, K9});
   wire signed [22:0] angles_xy_51_t = $signed(t48[26:4]);
-  wire angles_xy_51_ovf_c = ~((&angles_xy_51_t[22:21]) | ~(|angles_xy_51_t[22:21]));
-  wire signed [21:0] angles_xy_51_c =
-      $signed(angles_xy_51_ovf_c ? (angles_xy_51_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_51_ovf_d = ~((&angles_xy_51_t[22:21]) | ~(|angles_xy_51_t[22:21]));
+  wire signed [21:0] angles_xy_51_d =
+      $signed(angles_xy_51_ovf_d ? (angles_xy_51_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_51_t[21:0]);
-  reg  signed [21:0] angles_xy_51;
-  reg  [0:0] angles_xy_51_ovf;
+  reg  signed [21:0] angles_xy_51_q;
+  reg  [0:0] angles_xy_51_ovf_q;
   wire signed [22:0] angles_xy_52_t = $signed(t49[26:4]);
-  wire angles_xy_52_ovf_c = ~((&angles_xy_52_t[22:21]) | ~(|angles_xy_52_t[22:21]));
-  wire signed [21:0] angles_xy_52_c =
-      $signed(angles_xy_52_ovf_c ? (angles_xy_52_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_52_ovf_d = ~((&angles_xy_52_t[22:21]) | ~(|angles_xy_52_t[22:21]));
+  wire signed [21:0] angles_xy_52_d =
+      $signed(angles_xy_52_ovf_d ? (angles_xy_52_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_52_t[21:0]);
-  reg  signed [21:0] angles_xy_52;
-  reg  [0:0] angles_xy_52_ovf;
-  wire angles_theta_53_ovf_c = t50[17] | (|t50[16]);
-  wire [15:0] angles_theta_53_c = t50[15:0];
-  reg  [15:0] angles_theta_53;
-  reg  [0:0] angles_theta_53_ovf;
-  wire t54_sub = angles_xy_52[21];
+  reg  signed [21:0] angles_xy_52_q;
+  reg  [0:0] angles_xy_52_ovf_q;
+  wire angles_theta_53_ovf_d = t50[17] | (|t50[16]);
+  wire [15:0] angles_theta_53_d = t50[15:0];
+  reg  [15:0] angles_theta_53_q;
+  reg  [0:0] angles_theta_53_ovf_q;
+  wire t54_sub = angles_xy_52_q[21];
   wire signed [27:0] t54 =
       t54_sub
-      ? $signed({angles_xy_51[21], angles_xy_51, 5'b0} - {{6{angles_xy_52[21]}}, angles_xy_52})
-      : $signed({angles_xy_51[21], angles_xy_51, 5'b0} + {{6{angles_xy_52[21]}}, angles_xy_52});
-  wire t55_sub = ~angles_xy_52[21];
+      ? $signed({angles_xy_51_q[21], angles_xy_51_q, 5'b0}
+      - {{6{angles_xy_52_q[21]}}, angles_xy_52_q})
+      : $signed({angles_xy_51_q[21], angles_xy_51_q, 5'b0}
+      + {{6{angles_xy_52_q[21]}}, angles_xy_52_q});
+  wire t55_sub = ~angles_xy_52_q[21];
   wire signed [27:0] t55 =
       t55_sub
-      ? $signed({angles_xy_52[21], angles_xy_52, 5'b0} - {{6{angles_xy_51[21]}}, angles_xy_51})
-      : $signed({angles_xy_52[21], angles_xy_52, 5'b0} + {{6{angles_xy_51[21]}}, angles_xy_51});
-  wire t56_sub = angles_xy_52[21];
+      ? $signed({angles_xy_52_q[21], angles_xy_52_q, 5'b0}
+      - {{6{angles_xy_51_q[21]}}, angles_xy_51_q})
+      : $signed({angles_xy_52_q[21], angles_xy_52_q, 5'b0}
+      + {{6{angles_xy_51_q[21]}}, angles_xy_51_q});
+  wire t56_sub = angles_xy_52_q[21];
   wire signed [17:0] t56 =
-      t56_sub ? $signed({{2{1'b0}}, angles_theta_53} - {{2{1'b0}}, K10})
-      : $signed({{2{1'b0}}, angles_theta_53} + {{2{1'b0}}, K10});
+      t56_sub ? $signed({{2{1'b0}}, angles_theta_53_q} - {{2{1'b0}}, K10})
+      : $signed({{2{1'b0}}, angles_theta_53_q} + {{2{1'b0}}, K10});
   wire signed [22:0] angles_xy_57_t = $signed(t54[27:5]);
-  wire angles_xy_57_ovf_c = ~((&angles_xy_57_t[22:21]) | ~(|angles_xy_57_t[22:21]));
-  wire signed [21:0] angles_xy_57_c =
-      $signed(angles_xy_57_ovf_c ? (angles_xy_57_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_57_ovf_d = ~((&angles_xy_57_t[22:21]) | ~(|angles_xy_57_t[22:21]));
+  wire signed [21:0] angles_xy_57_d =
+      $signed(angles_xy_57_ovf_d ? (angles_xy_57_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_57_t[21:0]);
-  reg  signed [21:0] angles_xy_57;
-  reg  [0:0] angles_xy_57_ovf;
+  reg  signed [21:0] angles_xy_57_q;
+  reg  [0:0] angles_xy_57_ovf_q;
   wire signed [22:0] angles_xy_58_t = $signed(t55[27:5]);
-  wire angles_xy_58_ovf_c = ~((&angles_xy_58_t[22:21]) | ~(|angles_xy_58_t[22:21]));
-  wire signed [21:0] angles_xy_58_c =
-      $signed(angles_xy_58_ovf_c ? (angles_xy_58_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_58_ovf_d = ~((&angles_xy_58_t[22:21]) | ~(|angles_xy_58_t[22:21]));
+  wire signed [21:0] angles_xy_58_d =
+      $signed(angles_xy_58_ovf_d ? (angles_xy_58_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_58_t[21:0]);
-  reg  signed [21:0] angles_xy_58;
-  reg  [0:0] angles_xy_58_ovf;
-  wire angles_theta_59_ovf_c = t56[17] | (|t56[16]);
-  wire [15:0] angles_theta_59_c = t56[15:0];
-  reg  [15:0] angles_theta_59;
-  reg  [0:0] angles_theta_59_ovf;
-  wire t60_sub = angles_xy_58[21];
+  reg  signed [21:0] angles_xy_58_q;
+  reg  [0:0] angles_xy_58_ovf_q;
+  wire angles_theta_59_ovf_d = t56[17] | (|t56[16]);
+  wire [15:0] angles_theta_59_d = t56[15:0];
+  reg  [15:0] angles_theta_59_q;
+  reg  [0:0] angles_theta_59_ovf_q;
+  wire t60_sub = angles_xy_58_q[21];
   wire signed [28:0] t60 =
       t60_sub
-      ? $signed({angles_xy_57[21], angles_xy_57, 6'b0} - {{7{angles_xy_58[21]}}, angles_xy_58})
-      : $signed({angles_xy_57[21], angles_xy_57, 6'b0} + {{7{angles_xy_58[21]}}, angles_xy_58});
-  wire t61_sub = ~angles_xy_58[21];
+      ? $signed({angles_xy_57_q[21], angles_xy_57_q, 6'b0}
+      - {{7{angles_xy_58_q[21]}}, angles_xy_58_q})
+      : $signed({angles_xy_57_q[21], angles_xy_57_q, 6'b0}
+      + {{7{angles_xy_58_q[21]}}, angles_xy_58_q});
+  wire t61_sub = ~angles_xy_58_q[21];
   wire signed [28:0] t61 =
       t61_sub
-      ? $signed({angles_xy_58[21], angles_xy_58, 6'b0} - {{7{angles_xy_57[21]}}, angles_xy_57})
-      : $signed({angles_xy_58[21], angles_xy_58, 6'b0} + {{7{angles_xy_57[21]}}, angles_xy_57});
-  wire t62_sub = angles_xy_58[21];
+      ? $signed({angles_xy_58_q[21], angles_xy_58_q, 6'b0}
+      - {{7{angles_xy_57_q[21]}}, angles_xy_57_q})
+      : $signed({angles_xy_58_q[21], angles_xy_58_q, 6'b0}
+      + {{7{angles_xy_57_q[21]}}, angles_xy_57_q});
+  wire t62_sub = angles_xy_58_q[21];
   wire signed [17:0] t62 =
-      t62_sub ? $signed({{2{1'b0}}, angles_theta_59} - {{2{1'b0}}, K11})
-      : $signed({{2{1'b0}}, angles_theta_59} + {{2{1'b0}}, K11});
+      t62_sub ? $signed({{2{1'b0}}, angles_theta_59_q} - {{2{1'b0}}, K11})
+      : $signed({{2{1'b0}}, angles_theta_59_q} + {{2{1'b0}}, K11});
   wire signed [22:0] angles_xy_63_t = $signed(t60[28:6]);
-  wire angles_xy_63_ovf_c = ~((&angles_xy_63_t[22:21]) | ~(|angles_xy_63_t[22:21]));
-  wire signed [21:0] angles_xy_63_c =
-      $signed(angles_xy_63_ovf_c ? (angles_xy_63_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_63_ovf_d = ~((&angles_xy_63_t[22:21]) | ~(|angles_xy_63_t[22:21]));
+  wire signed [21:0] angles_xy_63_d =
+      $signed(angles_xy_63_ovf_d ? (angles_xy_63_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_63_t[21:0]);
-  reg  signed [21:0] angles_xy_63;
-  reg  [0:0] angles_xy_63_ovf;
+  reg  signed [21:0] angles_xy_63_q;
+  reg  [0:0] angles_xy_63_ovf_q;
   wire signed [22:0] angles_xy_64_t = $signed(t61[28:6]);
-  wire angles_xy_64_ovf_c = ~((&angles_xy_64_t[22:21]) | ~(|angles_xy_64_t[22:21]));
-  wire signed [21:0] angles_xy_64_c =
-      $signed(angles_xy_64_ovf_c ? (angles_xy_64_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_64_ovf_d = ~((&angles_xy_64_t[22:21]) | ~(|angles_xy_64_t[22:21]));
+  wire signed [21:0] angles_xy_64_d =
+      $signed(angles_xy_64_ovf_d ? (angles_xy_64_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_64_t[21:0]);
-  reg  signed [21:0] angles_xy_64;
-  reg  [0:0] angles_xy_64_ovf;
-  wire angles_theta_65_ovf_c = t62[17] | (|t62[16]);
-  wire [15:0] angles_theta_65_c = t62[15:0];
-  reg  [15:0] angles_theta_65;
-  reg  [0:0] angles_theta_65_ovf;
-  wire t66_sub = angles_xy_64[21];
+  reg  signed [21:0] angles_xy_64_q;
+  reg  [0:0] angles_xy_64_ovf_q;
+  wire angles_theta_65_ovf_d = t62[17] | (|t62[16]);
+  wire [15:0] angles_theta_65_d = t62[15:0];
+  reg  [15:0] angles_theta_65_q;
+  reg  [0:0] angles_theta_65_ovf_q;
+  wire t66_sub = angles_xy_64_q[21];
   wire signed [29:0] t66 =
       t66_sub
-      ? $signed({angles_xy_63[21], angles_xy_63, 7'b0} - {{8{angles_xy_64[21]}}, angles_xy_64})
-      : $signed({angles_xy_63[21], angles_xy_63, 7'b0} + {{8{angles_xy_64[21]}}, angles_xy_64});
-  wire t67_sub = ~angles_xy_64[21];
+      ? $signed({angles_xy_63_q[21], angles_xy_63_q, 7'b0}
+      - {{8{angles_xy_64_q[21]}}, angles_xy_64_q})
+      : $signed({angles_xy_63_q[21], angles_xy_63_q, 7'b0}
+      + {{8{angles_xy_64_q[21]}}, angles_xy_64_q});
+  wire t67_sub = ~angles_xy_64_q[21];
   wire signed [29:0] t67 =
       t67_sub
-      ? $signed({angles_xy_64[21], angles_xy_64, 7'b0} - {{8{angles_xy_63[21]}}, angles_xy_63})
-      : $signed({angles_xy_64[21], angles_xy_64, 7'b0} + {{8{angles_xy_63[21]}}, angles_xy_63});
-  wire t68_sub = angles_xy_64[21];
+      ? $signed({angles_xy_64_q[21], angles_xy_64_q, 7'b0}
+      - {{8{angles_xy_63_q[21]}}, angles_xy_63_q})
+      : $signed({angles_xy_64_q[21], angles_xy_64_q, 7'b0}
+      + {{8{angles_xy_63_q[21]}}, angles_xy_63_q});
+  wire t68_sub = angles_xy_64_q[21];
   wire signed [17:0] t68 =
-      t68_sub ? $signed({{2{1'b0}}, angles_theta_65} - {{2{1'b0}}, K12})
-      : $signed({{2{1'b0}}, angles_theta_65} + {{2{1'b0}}, K12});
+      t68_sub ? $signed({{2{1'b0}}, angles_theta_65_q} - {{2{1'b0}}, K12})
+      : $signed({{2{1'b0}}, angles_theta_65_q} + {{2{1'b0}}, K12});
   wire signed [22:0] angles_xy_69_t = $signed(t66[29:7]);
-  wire angles_xy_69_ovf_c = ~((&angles_xy_69_t[22:21]) | ~(|angles_xy_69_t[22:21]));
-  wire signed [21:0] angles_xy_69_c =
-      $signed(angles_xy_69_ovf_c ? (angles_xy_69_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_69_ovf_d = ~((&angles_xy_69_t[22:21]) | ~(|angles_xy_69_t[22:21]));
+  wire signed [21:0] angles_xy_69_d =
+      $signed(angles_xy_69_ovf_d ? (angles_xy_69_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_69_t[21:0]);
-  reg  signed [21:0] angles_xy_69;
-  reg  [0:0] angles_xy_69_ovf;
+  reg  signed [21:0] angles_xy_69_q;
+  reg  [0:0] angles_xy_69_ovf_q;
   wire signed [22:0] angles_xy_70_t = $signed(t67[29:7]);
-  wire angles_xy_70_ovf_c = ~((&angles_xy_70_t[22:21]) | ~(|angles_xy_70_t[22:21]));
-  wire signed [21:0] angles_xy_70_c =
-      $signed(angles_xy_70_ovf_c ? (angles_xy_70_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_70_ovf_d = ~((&angles_xy_70_t[22:21]) | ~(|angles_xy_70_t[22:21]));
+  wire signed [21:0] angles_xy_70_d =
+      $signed(angles_xy_70_ovf_d ? (angles_xy_70_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_70_t[21:0]);
-  reg  signed [21:0] angles_xy_70;
-  reg  [0:0] angles_xy_70_ovf;
-  wire angles_theta_71_ovf_c = t68[17] | (|t68[16]);
-  wire [15:0] angles_theta_71_c = t68[15:0];
-  reg  [15:0] angles_theta_71;
-  reg  [0:0] angles_theta_71_ovf;
-  wire t72_sub = angles_xy_70[21];
+  reg  signed [21:0] angles_xy_70_q;
+  reg  [0:0] angles_xy_70_ovf_q;
+  wire angles_theta_71_ovf_d = t68[17] | (|t68[16]);
+  wire [15:0] angles_theta_71_d = t68[15:0];
+  reg  [15:0] angles_theta_71_q;
+  reg  [0:0] angles_theta_71_ovf_q;
+  wire t72_sub = angles_xy_70_q[21];
   wire signed [30:0] t72 =
       t72_sub
-      ? $signed({angles_xy_69[21], angles_xy_69, 8'b0} - {{9{angles_xy_70[21]}}, angles_xy_70})
-      : $signed({angles_xy_69[21], angles_xy_69, 8'b0} + {{9{angles_xy_70[21]}}, angles_xy_70});
-  wire t73_sub = ~angles_xy_70[21];
+      ? $signed({angles_xy_69_q[21], angles_xy_69_q, 8'b0}
+      - {{9{angles_xy_70_q[21]}}, angles_xy_70_q})
+      : $signed({angles_xy_69_q[21], angles_xy_69_q, 8'b0}
+      + {{9{angles_xy_70_q[21]}}, angles_xy_70_q});
+  wire t73_sub = ~angles_xy_70_q[21];
   wire signed [30:0] t73 =
       t73_sub
-      ? $signed({angles_xy_70[21], angles_xy_70, 8'b0} - {{9{angles_xy_69[21]}}, angles_xy_69})
-      : $signed({angles_xy_70[21], angles_xy_70, 8'b0} + {{9{angles_xy_69[21]}}, angles_xy_69});
-  wire t74_sub = angles_xy_70[21];
+      ? $signed({angles_xy_70_q[21], angles_xy_70_q, 8'b0}
+      - {{9{angles_xy_69_q[21]}}, angles_xy_69_q})
+      : $signed({angles_xy_70_q[21], angles_xy_70_q, 8'b0}
+      + {{9{angles_xy_69_q[21]}}, angles_xy_69_q});
+  wire t74_sub = angles_xy_70_q[21];
   wire signed [17:0] t74 =
-      t74_sub ? $signed({{2{1'b0}}, angles_theta_71} - {{2{1'b0}}, K13})
-      : $signed({{2{1'b0}}, angles_theta_71} + {{2{1'b0}}, K13});
+      t74_sub ? $signed({{2{1'b0}}, angles_theta_71_q} - {{2{1'b0}}, K13})
+      : $signed({{2{1'b0}}, angles_theta_71_q} + {{2{1'b0}}, K13});
   wire signed [22:0] angles_xy_75_t = $signed(t72[30:8]);
-  wire angles_xy_75_ovf_c = ~((&angles_xy_75_t[22:21]) | ~(|angles_xy_75_t[22:21]));
-  wire signed [21:0] angles_xy_75_c =
-      $signed(angles_xy_75_ovf_c ? (angles_xy_75_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_75_ovf_d = ~((&angles_xy_75_t[22:21]) | ~(|angles_xy_75_t[22:21]));
+  wire signed [21:0] angles_xy_75_d =
+      $signed(angles_xy_75_ovf_d ? (angles_xy_75_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_75_t[21:0]);
-  reg  signed [21:0] angles_xy_75;
-  reg  [0:0] angles_xy_75_ovf;
+  reg  signed [21:0] angles_xy_75_q;
+  reg  [0:0] angles_xy_75_ovf_q;
   wire signed [22:0] angles_xy_76_t = $signed(t73[30:8]);
-  wire angles_xy_76_ovf_c = ~((&angles_xy_76_t[22:21]) | ~(|angles_xy_76_t[22:21]));
-  wire signed [21:0] angles_xy_76_c =
-      $signed(angles_xy_76_ovf_c ? (angles_xy_76_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_76_ovf_d = ~((&angles_xy_76_t[22:21]) | ~(|angles_xy_76_t[22:21]));
+  wire signed [21:0] angles_xy_76_d =
+      $signed(angles_xy_76_ovf_d ? (angles_xy_76_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_76_t[21:0]);
-  reg  signed [21:0] angles_xy_76;
-  reg  [0:0] angles_xy_76_ovf;
-  wire angles_theta_77_ovf_c = t74[17] | (|t74[16]);
-  wire [15:0] angles_theta_77_c = t74[15:0];
-  reg  [15:0] angles_theta_77;
-  reg  [0:0] angles_theta_77_ovf;
-  wire t78_sub = angles_xy_76[21];
+  reg  signed [21:0] angles_xy_76_q;
+  reg  [0:0] angles_xy_76_ovf_q;
+  wire angles_theta_77_ovf_d = t74[17] | (|t74[16]);
+  wire [15:0] angles_theta_77_d = t74[15:0];
+  reg  [15:0] angles_theta_77_q;
+  reg  [0:0] angles_theta_77_ovf_q;
+  wire t78_sub = angles_xy_76_q[21];
   wire signed [31:0] t78 =
       t78_sub
-      ? $signed({angles_xy_75[21], angles_xy_75, 9'b0} - {{10{angles_xy_76[21]}}, angles_xy_76})
-      : $signed({angles_xy_75[21], angles_xy_75, 9'b0} + {{10{angles_xy_76[21]}}, angles_xy_76});
-  wire t79_sub = ~angles_xy_76[21];
+      ? $signed({angles_xy_75_q[21], angles_xy_75_q, 9'b0}
+      - {{10{angles_xy_76_q[21]}}, angles_xy_76_q})
+      : $signed({angles_xy_75_q[21], angles_xy_75_q, 9'b0}
+      + {{10{angles_xy_76_q[21]}}, angles_xy_76_q});
+  wire t79_sub = ~angles_xy_76_q[21];
   wire signed [31:0] t79 =
       t79_sub
-      ? $signed({angles_xy_76[21], angles_xy_76, 9'b0} - {{10{angles_xy_75[21]}}, angles_xy_75})
-      : $signed({angles_xy_76[21], angles_xy_76, 9'b0} + {{10{angles_xy_75[21]}}, angles_xy_75});
-  wire t80_sub = angles_xy_76[21];
+      ? $signed({angles_xy_76_q[21], angles_xy_76_q, 9'b0}
+      - {{10{angles_xy_75_q[21]}}, angles_xy_75_q})
+      : $signed({angles_xy_76_q[21], angles_xy_76_q, 9'b0}
+      + {{10{angles_xy_75_q[21]}}, angles_xy_75_q});
+  wire t80_sub = angles_xy_76_q[21];
   wire signed [17:0] t80 =
-      t80_sub ? $signed({{2{1'b0}}, angles_theta_77} - {{2{1'b0}}, K14})
-      : $signed({{2{1'b0}}, angles_theta_77} + {{2{1'b0}}, K14});
+      t80_sub ? $signed({{2{1'b0}}, angles_theta_77_q} - {{2{1'b0}}, K14})
+      : $signed({{2{1'b0}}, angles_theta_77_q} + {{2{1'b0}}, K14});
   wire signed [22:0] angles_xy_81_t = $signed(t78[31:9]);
-  wire angles_xy_81_ovf_c = ~((&angles_xy_81_t[22:21]) | ~(|angles_xy_81_t[22:21]));
-  wire signed [21:0] angles_xy_81_c =
-      $signed(angles_xy_81_ovf_c ? (angles_xy_81_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_81_ovf_d = ~((&angles_xy_81_t[22:21]) | ~(|angles_xy_81_t[22:21]));
+  wire signed [21:0] angles_xy_81_d =
+      $signed(angles_xy_81_ovf_d ? (angles_xy_81_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_81_t[21:0]);
-  reg  signed [21:0] angles_xy_81;
-  reg  [0:0] angles_xy_81_ovf;
+  reg  signed [21:0] angles_xy_81_q;
+  reg  [0:0] angles_xy_81_ovf_q;
   wire signed [22:0] angles_xy_82_t = $signed(t79[31:9]);
-  wire angles_xy_82_ovf_c = ~((&angles_xy_82_t[22:21]) | ~(|angles_xy_82_t[22:21]));
-  wire signed [21:0] angles_xy_82_c =
-      $signed(angles_xy_82_ovf_c ? (angles_xy_82_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_82_ovf_d = ~((&angles_xy_82_t[22:21]) | ~(|angles_xy_82_t[22:21]));
+  wire signed [21:0] angles_xy_82_d =
+      $signed(angles_xy_82_ovf_d ? (angles_xy_82_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_82_t[21:0]);
-  reg  signed [21:0] angles_xy_82;
-  reg  [0:0] angles_xy_82_ovf;
-  wire angles_theta_83_ovf_c = t80[17] | (|t80[16]);
-  wire [15:0] angles_theta_83_c = t80[15:0];
-  reg  [15:0] angles_theta_83;
-  reg  [0:0] angles_theta_83_ovf;
-  wire t84_sub = angles_xy_82[21];
+  reg  signed [21:0] angles_xy_82_q;
+  reg  [0:0] angles_xy_82_ovf_q;
+  wire angles_theta_83_ovf_d = t80[17] | (|t80[16]);
+  wire [15:0] angles_theta_83_d = t80[15:0];
+  reg  [15:0] angles_theta_83_q;
+  reg  [0:0] angles_theta_83_ovf_q;
+  wire t84_sub = angles_xy_82_q[21];
   wire signed [32:0] t84 =
       t84_sub
-      ? $signed({angles_xy_81[21], angles_xy_81, 10'b0} - {{11{angles_xy_82[21]}}, angles_xy_82})
-      : $signed({angles_xy_81[21], angles_xy_81, 10'b0} + {{11{angles_xy_82[21]}}, angles_xy_82});
-  wire t85_sub = ~angles_xy_82[21];
+      ? $signed({angles_xy_81_q[21], angles_xy_81_q, 10'b0}
+      - {{11{angles_xy_82_q[21]}}, angles_xy_82_q})
+      : $signed({angles_xy_81_q[21], angles_xy_81_q, 10'b0}
+      + {{11{angles_xy_82_q[21]}}, angles_xy_82_q});
+  wire t85_sub = ~angles_xy_82_q[21];
   wire signed [32:0] t85 =
       t85_sub
-      ? $signed({angles_xy_82[21], angles_xy_82, 10'b0} - {{11{angles_xy_81[21]}}, angles_xy_81})
-      : $signed({angles_xy_82[21], angles_xy_82, 10'b0} + {{11{angles_xy_81[21]}}, angles_xy_81});
-  wire t86_sub = angles_xy_82[21];
+      ? $signed({angles_xy_82_q[21], angles_xy_82_q, 10'b0}
+      - {{11{angles_xy_81_q[21]}}, angles_xy_81_q})
+      : $signed({angles_xy_82_q[21], angles_xy_82_q, 10'b0}
+      + {{11{angles_xy_81_q[21]}}, angles_xy_81_q});
+  wire t86_sub = angles_xy_82_q[21];
   wire signed [17:0] t86 =
-      t86_sub ? $signed({{2{1'b0}}, angles_theta_83} - {{2{1'b0}}, K15})
-      : $signed({{2{1'b0}}, angles_theta_83} + {{2{1'b0}}, K15});
+      t86_sub ? $signed({{2{1'b0}}, angles_theta_83_q} - {{2{1'b0}}, K15})
+      : $signed({{2{1'b0}}, angles_theta_83_q} + {{2{1'b0}}, K15});
   wire signed [22:0] angles_xy_87_t = $signed(t84[32:10]);
-  wire angles_xy_87_ovf_c = ~((&angles_xy_87_t[22:21]) | ~(|angles_xy_87_t[22:21]));
-  wire signed [21:0] angles_xy_87_c =
-      $signed(angles_xy_87_ovf_c ? (angles_xy_87_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_87_ovf_d = ~((&angles_xy_87_t[22:21]) | ~(|angles_xy_87_t[22:21]));
+  wire signed [21:0] angles_xy_87_d =
+      $signed(angles_xy_87_ovf_d ? (angles_xy_87_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_87_t[21:0]);
-  reg  signed [21:0] angles_xy_87;
-  reg  [0:0] angles_xy_87_ovf;
+  reg  signed [21:0] angles_xy_87_q;
+  reg  [0:0] angles_xy_87_ovf_q;
   wire signed [22:0] angles_xy_88_t = $signed(t85[32:10]);
-  wire angles_xy_88_ovf_c = ~((&angles_xy_88_t[22:21]) | ~(|angles_xy_88_t[22:21]));
-  wire signed [21:0] angles_xy_88_c =
-      $signed(angles_xy_88_ovf_c ? (angles_xy_88_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_88_ovf_d = ~((&angles_xy_88_t[22:21]) | ~(|angles_xy_88_t[22:21]));
+  wire signed [21:0] angles_xy_88_d =
+      $signed(angles_xy_88_ovf_d ? (angles_xy_88_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_88_t[21:0]);
-  reg  signed [21:0] angles_xy_88;
-  reg  [0:0] angles_xy_88_ovf;
-  wire angles_theta_89_ovf_c = t86[17] | (|t86[16]);
-  wire [15:0] angles_theta_89_c = t86[15:0];
-  reg  [15:0] angles_theta_89;
-  reg  [0:0] angles_theta_89_ovf;
-  wire t90_sub = angles_xy_88[21];
+  reg  signed [21:0] angles_xy_88_q;
+  reg  [0:0] angles_xy_88_ovf_q;
+  wire angles_theta_89_ovf_d = t86[17] | (|t86[16]);
+  wire [15:0] angles_theta_89_d = t86[15:0];
+  reg  [15:0] angles_theta_89_q;
+  reg  [0:0] angles_theta_89_ovf_q;
+  wire t90_sub = angles_xy_88_q[21];
   wire signed [33:0] t90 =
       t90_sub
-      ? $signed({angles_xy_87[21], angles_xy_87, 11'b0} - {{12{angles_xy_88[21]}}, angles_xy_88})
-      : $signed({angles_xy_87[21], angles_xy_87, 11'b0} + {{12{angles_xy_88[21]}}, angles_xy_88});
-  wire t92_sub = angles_xy_88[21];
+      ? $signed({angles_xy_87_q[21], angles_xy_87_q, 11'b0}
+      - {{12{angles_xy_88_q[21]}}, angles_xy_88_q})
+      : $signed({angles_xy_87_q[21], angles_xy_87_q, 11'b0}
+      + {{12{angles_xy_88_q[21]}}, angles_xy_88_q});
+  wire t92_sub = angles_xy_88_q[21];
   wire signed [17:0] t92 =
-      t92_sub ? $signed({{2{1'b0}}, angles_theta_89} - {{2{1'b0}}, K16})
-      : $signed({{2{1'b0}}, angles_theta_89} + {{2{1'b0}}, K16});
+      t92_sub ? $signed({{2{1'b0}}, angles_theta_89_q} - {{2{1'b0}}, K16})
+      : $signed({{2{1'b0}}, angles_theta_89_q} + {{2{1'b0}}, K16});
   wire signed [22:0] angles_xy_93_t = $signed(t90[33:11]);
-  wire angles_xy_93_ovf_c = ~((&angles_xy_93_t[22:21]) | ~(|angles_xy_93_t[22:21]));
-  wire signed [21:0] angles_xy_93_c =
-      $signed(angles_xy_93_ovf_c ? (angles_xy_93_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_93_ovf_d = ~((&angles_xy_93_t[22:21]) | ~(|angles_xy_93_t[22:21]));
+  wire signed [21:0] angles_xy_93_d =
+      $signed(angles_xy_93_ovf_d ? (angles_xy_93_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_93_t[21:0]);
-  reg  signed [21:0] angles_xy_93;
-  reg  [0:0] angles_xy_93_ovf;
-  wire angles_theta_95_ovf_c = t92[17] | (|t92[16]);
-  wire [15:0] angles_theta_95_c = t92[15:0];
-  reg  [15:0] angles_theta_95;
-  reg  [0:0] angles_theta_95_ovf;
+  reg  signed [21:0] angles_xy_93_q;
+  reg  [0:0] angles_xy_93_ovf_q;
+  wire angles_theta_95_ovf_d = t92[17] | (|t92[16]);
+  wire [15:0] angles_theta_95_d = t92[15:0];
+  reg  [15:0] angles_theta_95_q;
+  reg  [0:0] angles_theta_95_ovf_q;
   wire signed [18:0] t96_a = $signed({1'b0, K17});
   wire signed [33:0] t96 = t96_a * n_y_i;
   wire signed [20:0] angles_xy_97_t = $signed(t96[33:13]);
-  wire angles_xy_97_ovf_c = 1'b0;
-  wire signed [21:0] angles_xy_97_c =
-      $signed(angles_xy_97_ovf_c ? (angles_xy_97_t[20] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_97_ovf_d = 1'b0;
+  wire signed [21:0] angles_xy_97_d =
+      $signed(angles_xy_97_ovf_d ? (angles_xy_97_t[20] ? 22'h200000 : 22'h1fffff)
       : {angles_xy_97_t[20], angles_xy_97_t});
-  reg  signed [21:0] angles_xy_97;
-  reg  [0:0] angles_xy_97_ovf;
+  reg  signed [21:0] angles_xy_97_q;
+  reg  [0:0] angles_xy_97_ovf_q;
   wire [16:0] angles_theta_98_r = {K3, 16'b0};
-  wire angles_theta_98_ovf_c = |angles_theta_98_r[16];
-  wire [15:0] angles_theta_98_c = angles_theta_98_r[15:0];
-  reg  [15:0] angles_theta_98;
-  reg  [0:0] angles_theta_98_ovf;
-  reg  signed [21:0] angles_xy_97_s2;
-  reg  signed [21:0] angles_xy_97_s3;
-  reg  signed [21:0] angles_xy_97_s4;
-  reg  signed [21:0] angles_xy_97_s5;
-  reg  signed [21:0] angles_xy_97_s6;
-  reg  signed [21:0] angles_xy_97_s7;
-  reg  signed [21:0] angles_xy_97_s8;
-  reg  signed [21:0] angles_xy_97_s9;
-  reg  signed [21:0] angles_xy_97_s10;
-  reg  signed [21:0] angles_xy_97_s11;
-  reg  signed [21:0] angles_xy_97_s12;
-  reg  signed [21:0] angles_xy_97_s13;
-  wire t99_sub = angles_xy_97_s13[21];
+  wire angles_theta_98_ovf_d = |angles_theta_98_r[16];
+  wire [15:0] angles_theta_98_d = angles_theta_98_r[15:0];
+  reg  [15:0] angles_theta_98_q;
+  reg  [0:0] angles_theta_98_ovf_q;
+  reg  signed [21:0] angles_xy_97_s2_q;
+  reg  signed [21:0] angles_xy_97_s3_q;
+  reg  signed [21:0] angles_xy_97_s4_q;
+  reg  signed [21:0] angles_xy_97_s5_q;
+  reg  signed [21:0] angles_xy_97_s6_q;
+  reg  signed [21:0] angles_xy_97_s7_q;
+  reg  signed [21:0] angles_xy_97_s8_q;
+  reg  signed [21:0] angles_xy_97_s9_q;
+  reg  signed [21:0] angles_xy_97_s10_q;
+  reg  signed [21:0] angles_xy_97_s11_q;
+  reg  signed [21:0] angles_xy_97_s12_q;
+  reg  signed [21:0] angles_xy_97_s13_q;
+  wire t99_sub = angles_xy_97_s13_q[21];
   wire signed [22:0] t99 =
-      t99_sub ? $signed({angles_xy_93[21], angles_xy_93} - {angles_xy_97_s13[21], angles_xy_97_s13})
-      : $signed({angles_xy_93[21], angles_xy_93} + {angles_xy_97_s13[21], angles_xy_97_s13});
-  wire t100_sub = ~angles_xy_97_s13[21];
+      t99_sub
+      ? $signed({angles_xy_93_q[21], angles_xy_93_q} - {angles_xy_97_s13_q[21], angles_xy_97_s13_q})
+      : $signed({angles_xy_93_q[21], angles_xy_93_q}
+      + {angles_xy_97_s13_q[21], angles_xy_97_s13_q});
+  wire t100_sub = ~angles_xy_97_s13_q[21];
   wire signed [22:0] t100 =
       t100_sub
-      ? $signed({angles_xy_97_s13[21], angles_xy_97_s13} - {angles_xy_93[21], angles_xy_93})
-      : $signed({angles_xy_97_s13[21], angles_xy_97_s13} + {angles_xy_93[21], angles_xy_93});
-  wire t101_sub = angles_xy_97[21];
+      ? $signed({angles_xy_97_s13_q[21], angles_xy_97_s13_q} - {angles_xy_93_q[21], angles_xy_93_q})
+      : $signed({angles_xy_97_s13_q[21], angles_xy_97_s13_q}
+      + {angles_xy_93_q[21], angles_xy_93_q});
+  wire t101_sub = angles_xy_97_q[21];
   wire signed [17:0] t101 =
-      t101_sub ? $signed({{2{1'b0}}, angles_theta_98} - {{2{1'b0}}, K5})
-      : $signed({{2{1'b0}}, angles_theta_98} + {{2{1'b0}}, K5});
-  wire angles_xy_102_ovf_c = ~((&t99[22:21]) | ~(|t99[22:21]));
-  wire signed [21:0] angles_xy_102_c =
-      $signed(angles_xy_102_ovf_c ? (t99[22] ? 22'h200000 : 22'h1fffff) : t99[21:0]);
-  reg  signed [21:0] angles_xy_102;
-  reg  [0:0] angles_xy_102_ovf;
-  wire angles_xy_103_ovf_c = ~((&t100[22:21]) | ~(|t100[22:21]));
-  wire signed [21:0] angles_xy_103_c =
-      $signed(angles_xy_103_ovf_c ? (t100[22] ? 22'h200000 : 22'h1fffff) : t100[21:0]);
-  reg  signed [21:0] angles_xy_103;
-  reg  [0:0] angles_xy_103_ovf;
-  wire angles_theta_104_ovf_c = t101[17] | (|t101[16]);
-  wire [15:0] angles_theta_104_c = t101[15:0];
-  reg  [15:0] angles_theta_104;
-  reg  [0:0] angles_theta_104_ovf;
-  wire t105_sub = angles_xy_103[21];
+      t101_sub ? $signed({{2{1'b0}}, angles_theta_98_q} - {{2{1'b0}}, K5})
+      : $signed({{2{1'b0}}, angles_theta_98_q} + {{2{1'b0}}, K5});
+  wire angles_xy_102_ovf_d = ~((&t99[22:21]) | ~(|t99[22:21]));
+  wire signed [21:0] angles_xy_102_d =
+      $signed(angles_xy_102_ovf_d ? (t99[22] ? 22'h200000 : 22'h1fffff) : t99[21:0]);
+  reg  signed [21:0] angles_xy_102_q;
+  reg  [0:0] angles_xy_102_ovf_q;
+  wire angles_xy_103_ovf_d = ~((&t100[22:21]) | ~(|t100[22:21]));
+  wire signed [21:0] angles_xy_103_d =
+      $signed(angles_xy_103_ovf_d ? (t100[22] ? 22'h200000 : 22'h1fffff) : t100[21:0]);
+  reg  signed [21:0] angles_xy_103_q;
+  reg  [0:0] angles_xy_103_ovf_q;
+  wire angles_theta_104_ovf_d = t101[17] | (|t101[16]);
+  wire [15:0] angles_theta_104_d = t101[15:0];
+  reg  [15:0] angles_theta_104_q;
+  reg  [0:0] angles_theta_104_ovf_q;
+  wire t105_sub = angles_xy_103_q[21];
   wire signed [23:0] t105 =
       t105_sub
-      ? $signed({angles_xy_102[21], angles_xy_102, 1'b0} - {{2{angles_xy_103[21]}}, angles_xy_103})
-      : $signed({angles_xy_102[21], angles_xy_102, 1'b0} + {{2{angles_xy_103[21]}}, angles_xy_103});
-  wire t106_sub = ~angles_xy_103[21];
+      ? $signed({angles_xy_102_q[21], angles_xy_102_q, 1'b0}
+      - {{2{angles_xy_103_q[21]}}, angles_xy_103_q})
+      : $signed({angles_xy_102_q[21], angles_xy_102_q, 1'b0}
+      + {{2{angles_xy_103_q[21]}}, angles_xy_103_q});
+  wire t106_sub = ~angles_xy_103_q[21];
   wire signed [23:0] t106 =
       t106_sub
-      ? $signed({angles_xy_103[21], angles_xy_103, 1'b0} - {{2{angles_xy_102[21]}}, angles_xy_102})
-      : $signed({angles_xy_103[21], angles_xy_103, 1'b0} + {{2{angles_xy_102[21]}}, angles_xy_102});
-  reg  [15:0] angles_theta_104_s3;
-  reg  [15:0] angles_theta_104_s4;
-  reg  [15:0] angles_theta_104_s5;
-  reg  [15:0] angles_theta_104_s6;
-  reg  [15:0] angles_theta_104_s7;
-  reg  [15:0] angles_theta_104_s8;
-  reg  [15:0] angles_theta_104_s9;
-  reg  [15:0] angles_theta_104_s10;
-  reg  [15:0] angles_theta_104_s11;
-  reg  [15:0] angles_theta_104_s12;
-  reg  [15:0] angles_theta_104_s13;
-  reg  [15:0] angles_theta_104_s14;
-  wire t107_sub = angles_xy_103[21];
+      ? $signed({angles_xy_103_q[21], angles_xy_103_q, 1'b0}
+      - {{2{angles_xy_102_q[21]}}, angles_xy_102_q})
+      : $signed({angles_xy_103_q[21], angles_xy_103_q, 1'b0}
+      + {{2{angles_xy_102_q[21]}}, angles_xy_102_q});
+  reg  [15:0] angles_theta_104_s3_q;
+  reg  [15:0] angles_theta_104_s4_q;
+  reg  [15:0] angles_theta_104_s5_q;
+  reg  [15:0] angles_theta_104_s6_q;
+  reg  [15:0] angles_theta_104_s7_q;
+  reg  [15:0] angles_theta_104_s8_q;
+  reg  [15:0] angles_theta_104_s9_q;
+  reg  [15:0] angles_theta_104_s10_q;
+  reg  [15:0] angles_theta_104_s11_q;
+  reg  [15:0] angles_theta_104_s12_q;
+  reg  [15:0] angles_theta_104_s13_q;
+  reg  [15:0] angles_theta_104_s14_q;
+  wire t107_sub = angles_xy_103_q[21];
   wire signed [17:0] t107 =
-      t107_sub ? $signed({{2{1'b0}}, angles_theta_104_s14} - {{2{1'b0}}, K6})
-      : $signed({{2{1'b0}}, angles_theta_104_s14} + {{2{1'b0}}, K6});
+      t107_sub ? $signed({{2{1'b0}}, angles_theta_104_s14_q} - {{2{1'b0}}, K6})
+      : $signed({{2{1'b0}}, angles_theta_104_s14_q} + {{2{1'b0}}, K6});
   wire signed [22:0] angles_xy_108_t = $signed(t105[23:1]);
-  wire angles_xy_108_ovf_c = ~((&angles_xy_108_t[22:21]) | ~(|angles_xy_108_t[22:21]));
-  wire signed [21:0] angles_xy_108_c =
-      $signed(angles_xy_108_ovf_c ? (angles_xy_108_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_108_ovf_d = ~((&angles_xy_108_t[22:21]) | ~(|angles_xy_108_t[22:21]));
+  wire signed [21:0] angles_xy_108_d =
+      $signed(angles_xy_108_ovf_d ? (angles_xy_108_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_108_t[21:0]);
-  reg  signed [21:0] angles_xy_108;
-  reg  [0:0] angles_xy_108_ovf;
+  reg  signed [21:0] angles_xy_108_q;
+  reg  [0:0] angles_xy_108_ovf_q;
   wire signed [22:0] angles_xy_109_t = $signed(t106[23:1]);
-  wire angles_xy_109_ovf_c = ~((&angles_xy_109_t[22:21]) | ~(|angles_xy_109_t[22:21]));
-  wire signed [21:0] angles_xy_109_c =
-      $signed(angles_xy_109_ovf_c ? (angles_xy_109_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_109_ovf_d = ~((&angles_xy_109_t[22:21]) | ~(|angles_xy_109_t[22:21]));
+  wire signed [21:0] angles_xy_109_d =
+      $signed(angles_xy_109_ovf_d ? (angles_xy_109_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_109_t[21:0]);
-  reg  signed [21:0] angles_xy_109;
-  reg  [0:0] angles_xy_109_ovf;
-  wire angles_theta_110_ovf_c = t107[17] | (|t107[16]);
-  wire [15:0] angles_theta_110_c = t107[15:0];
-  reg  [15:0] angles_theta_110;
-  reg  [0:0] angles_theta_110_ovf;
-  wire t111_sub = angles_xy_109[21];
+  reg  signed [21:0] angles_xy_109_q;
+  reg  [0:0] angles_xy_109_ovf_q;
+  wire angles_theta_110_ovf_d = t107[17] | (|t107[16]);
+  wire [15:0] angles_theta_110_d = t107[15:0];
+  reg  [15:0] angles_theta_110_q;
+  reg  [0:0] angles_theta_110_ovf_q;
+  wire t111_sub = angles_xy_109_q[21];
   wire signed [24:0] t111 =
       t111_sub
-      ? $signed({angles_xy_108[21], angles_xy_108, 2'b0} - {{3{angles_xy_109[21]}}, angles_xy_109})
-      : $signed({angles_xy_108[21], angles_xy_108, 2'b0} + {{3{angles_xy_109[21]}}, angles_xy_109});
-  wire t112_sub = ~angles_xy_109[21];
+      ? $signed({angles_xy_108_q[21], angles_xy_108_q, 2'b0}
+      - {{3{angles_xy_109_q[21]}}, angles_xy_109_q})
+      : $signed({angles_xy_108_q[21], angles_xy_108_q, 2'b0}
+      + {{3{angles_xy_109_q[21]}}, angles_xy_109_q});
+  wire t112_sub = ~angles_xy_109_q[21];
   wire signed [24:0] t112 =
       t112_sub
-      ? $signed({angles_xy_109[21], angles_xy_109, 2'b0} - {{3{angles_xy_108[21]}}, angles_xy_108})
-      : $signed({angles_xy_109[21], angles_xy_109, 2'b0} + {{3{angles_xy_108[21]}}, angles_xy_108});
-  wire t113_sub = angles_xy_109[21];
+      ? $signed({angles_xy_109_q[21], angles_xy_109_q, 2'b0}
+      - {{3{angles_xy_108_q[21]}}, angles_xy_108_q})
+      : $signed({angles_xy_109_q[21], angles_xy_109_q, 2'b0}
+      + {{3{angles_xy_108_q[21]}}, angles_xy_108_q});
+  wire t113_sub = angles_xy_109_q[21];
   wire signed [17:0] t113 =
-      t113_sub ? $signed({{2{1'b0}}, angles_theta_110} - {{2{1'b0}}, K7})
-      : $signed({{2{1'b0}}, angles_theta_110} + {{2{1'b0}}, K7});
+      t113_sub ? $signed({{2{1'b0}}, angles_theta_110_q} - {{2{1'b0}}, K7})
+      : $signed({{2{1'b0}}, angles_theta_110_q} + {{2{1'b0}}, K7});
   wire signed [22:0] angles_xy_114_t = $signed(t111[24:2]);
-  wire angles_xy_114_ovf_c = ~((&angles_xy_114_t[22:21]) | ~(|angles_xy_114_t[22:21]));
-  wire signed [21:0] angles_xy_114_c =
-      $signed(angles_xy_114_ovf_c ? (angles_xy_114_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_114_ovf_d = ~((&angles_xy_114_t[22:21]) | ~(|angles_xy_114_t[22:21]));
+  wire signed [21:0] angles_xy_114_d =
+      $signed(angles_xy_114_ovf_d ? (angles_xy_114_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_114_t[21:0]);
-  reg  signed [21:0] angles_xy_114;
-  reg  [0:0] angles_xy_114_ovf;
+  reg  signed [21:0] angles_xy_114_q;
+  reg  [0:0] angles_xy_114_ovf_q;
   wire signed [22:0] angles_xy_115_t = $signed(t112[24:2]);
-  wire angles_xy_115_ovf_c = ~((&angles_xy_115_t[22:21]) | ~(|angles_xy_115_t[22:21]));
-  wire signed [21:0] angles_xy_115_c =
-      $signed(angles_xy_115_ovf_c ? (angles_xy_115_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_115_ovf_d = ~((&angles_xy_115_t[22:21]) | ~(|angles_xy_115_t[22:21]));
+  wire signed [21:0] angles_xy_115_d =
+      $signed(angles_xy_115_ovf_d ? (angles_xy_115_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_115_t[21:0]);
-  reg  signed [21:0] angles_xy_115;
-  reg  [0:0] angles_xy_115_ovf;
-  wire angles_theta_116_ovf_c = t113[17] | (|t113[16]);
-  wire [15:0] angles_theta_116_c = t113[15:0];
-  reg  [15:0] angles_theta_116;
-  reg  [0:0] angles_theta_116_ovf;
-  wire t117_sub = angles_xy_115[21];
+  reg  signed [21:0] angles_xy_115_q;
+  reg  [0:0] angles_xy_115_ovf_q;
+  wire angles_theta_116_ovf_d = t113[17] | (|t113[16]);
+  wire [15:0] angles_theta_116_d = t113[15:0];
+  reg  [15:0] angles_theta_116_q;
+  reg  [0:0] angles_theta_116_ovf_q;
+  wire t117_sub = angles_xy_115_q[21];
   wire signed [25:0] t117 =
       t117_sub
-      ? $signed({angles_xy_114[21], angles_xy_114, 3'b0} - {{4{angles_xy_115[21]}}, angles_xy_115})
-      : $signed({angles_xy_114[21], angles_xy_114, 3'b0} + {{4{angles_xy_115[21]}}, angles_xy_115});
-  wire t118_sub = ~angles_xy_115[21];
+      ? $signed({angles_xy_114_q[21], angles_xy_114_q, 3'b0}
+      - {{4{angles_xy_115_q[21]}}, angles_xy_115_q})
+      : $signed({angles_xy_114_q[21], angles_xy_114_q, 3'b0}
+      + {{4{angles_xy_115_q[21]}}, angles_xy_115_q});
+  wire t118_sub = ~angles_xy_115_q[21];
   wire signed [25:0] t118 =
       t118_sub
-      ? $signed({angles_xy_115[21], angles_xy_115, 3'b0} - {{4{angles_xy_114[21]}}, angles_xy_114})
-      : $signed({angles_xy_115[21], angles_xy_115, 3'b0} + {{4{angles_xy_114[21]}}, angles_xy_114});
-  wire t119_sub = angles_xy_115[21];
+      ? $signed({angles_xy_115_q[21], angles_xy_115_q, 3'b0}
+      - {{4{angles_xy_114_q[21]}}, angles_xy_114_q})
+      : $signed({angles_xy_115_q[21], angles_xy_115_q, 3'b0}
+      + {{4{angles_xy_114_q[21]}}, angles_xy_114_q});
+  wire t119_sub = angles_xy_115_q[21];
   wire signed [17:0] t119 =
-      t119_sub ? $signed({{2{1'b0}}, angles_theta_116} - {{2{1'b0}}, K8})
-      : $signed({{2{1'b0}}, angles_theta_116} + {{2{1'b0}}, K8});
+      t119_sub ? $signed({{2{1'b0}}, angles_theta_116_q} - {{2{1'b0}}, K8})
+      : $signed({{2{1'b0}}, angles_theta_116_q} + {{2{1'b0}}, K8});
   wire signed [22:0] angles_xy_120_t = $signed(t117[25:3]);
-  wire angles_xy_120_ovf_c = ~((&angles_xy_120_t[22:21]) | ~(|angles_xy_120_t[22:21]));
-  wire signed [21:0] angles_xy_120_c =
-      $signed(angles_xy_120_ovf_c ? (angles_xy_120_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_120_ovf_d = ~((&angles_xy_120_t[22:21]) | ~(|angles_xy_120_t[22:21]));
+  wire signed [21:0] angles_xy_120_d =
+      $signed(angles_xy_120_ovf_d ? (angles_xy_120_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_120_t[21:0]);
-  reg  signed [21:0] angles_xy_120;
-  reg  [0:0] angles_xy_120_ovf;
+  reg  signed [21:0] angles_xy_120_q;
+  reg  [0:0] angles_xy_120_ovf_q;
   wire signed [22:0] angles_xy_121_t = $signed(t118[25:3]);
-  wire angles_xy_121_ovf_c = ~((&angles_xy_121_t[22:21]) | ~(|angles_xy_121_t[22:21]));
-  wire signed [21:0] angles_xy_121_c =
-      $signed(angles_xy_121_ovf_c ? (angles_xy_121_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_121_ovf_d = ~((&angles_xy_121_t[22:21]) | ~(|angles_xy_121_t[22:21]));
+  wire signed [21:0] angles_xy_121_d =
+      $signed(angles_xy_121_ovf_d ? (angles_xy_121_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_121_t[21:0]);
-  reg  signed [21:0] angles_xy_121;
-  reg  [0:0] angles_xy_121_ovf;
-  wire angles_theta_122_ovf_c = t119[17] | (|t119[16]);
-  wire [15:0] angles_theta_122_c = t119[15:0];
-  reg  [15:0] angles_theta_122;
-  reg  [0:0] angles_theta_122_ovf;
-  wire t123_sub = angles_xy_121[21];
+  reg  signed [21:0] angles_xy_121_q;
+  reg  [0:0] angles_xy_121_ovf_q;
+  wire angles_theta_122_ovf_d = t119[17] | (|t119[16]);
+  wire [15:0] angles_theta_122_d = t119[15:0];
+  reg  [15:0] angles_theta_122_q;
+  reg  [0:0] angles_theta_122_ovf_q;
+  wire t123_sub = angles_xy_121_q[21];
   wire signed [26:0] t123 =
       t123_sub
-      ? $signed({angles_xy_120[21], angles_xy_120, 4'b0} - {{5{angles_xy_121[21]}}, angles_xy_121})
-      : $signed({angles_xy_120[21], angles_xy_120, 4'b0} + {{5{angles_xy_121[21]}}, angles_xy_121});
-  wire t124_sub = ~angles_xy_121[21];
+      ? $signed({angles_xy_120_q[21], angles_xy_120_q, 4'b0}
+      - {{5{angles_xy_121_q[21]}}, angles_xy_121_q})
+      : $signed({angles_xy_120_q[21], angles_xy_120_q, 4'b0}
+      + {{5{angles_xy_121_q[21]}}, angles_xy_121_q});
+  wire t124_sub = ~angles_xy_121_q[21];
   wire signed [26:0] t124 =
       t124_sub
-      ? $signed({angles_xy_121[21], angles_xy_121, 4'b0} - {{5{angles_xy_120[21]}}, angles_xy_120})
-      : $signed({angles_xy_121[21], angles_xy_121, 4'b0} + {{5{angles_xy_120[21]}}, angles_xy_120});
-  wire t125_sub = angles_xy_121[21];
+      ? $signed({angles_xy_121_q[21], angles_xy_121_q, 4'b0}
+      - {{5{angles_xy_120_q[21]}}, angles_xy_120_q})
+      : $signed({angles_xy_121_q[21], angles_xy_121_q, 4'b0}
+      + {{5{angles_xy_120_q[21]}}, angles_xy_120_q});
+  wire t125_sub = angles_xy_121_q[21];
   wire signed [17:0] t125 =
-      t125_sub ? $signed({{2{1'b0}}, angles_theta_122} - {{2{1'b0}}, K9})
-      : $signed({{2{1'b0}}, angles_theta_122} + {{2{1'b0}}, K9});
+      t125_sub ? $signed({{2{1'b0}}, angles_theta_122_q} - {{2{1'b0}}, K9})
+      : $signed({{2{1'b0}}, angles_theta_122_q} + {{2{1'b0}}, K9});
   wire signed [22:0] angles_xy_126_t = $signed(t123[26:4]);
-  wire angles_xy_126_ovf_c = ~((&angles_xy_126_t[22:21]) | ~(|angles_xy_126_t[22:21]));
-  wire signed [21:0] angles_xy_126_c =
-      $signed(angles_xy_126_ovf_c ? (angles_xy_126_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_126_ovf_d = ~((&angles_xy_126_t[22:21]) | ~(|angles_xy_126_t[22:21]));
+  wire signed [21:0] angles_xy_126_d =
+      $signed(angles_xy_126_ovf_d ? (angles_xy_126_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_126_t[21:0]);
-  reg  signed [21:0] angles_xy_126;
-  reg  [0:0] angles_xy_126_ovf;
+  reg  signed [21:0] angles_xy_126_q;
+  reg  [0:0] angles_xy_126_ovf_q;
   wire signed [22:0] angles_xy_127_t = $signed(t124[26:4]);
-  wire angles_xy_127_ovf_c = ~((&angles_xy_127_t[22:21]) | ~(|angles_xy_127_t[22:21]));
-  wire signed [21:0] angles_xy_127_c =
-      $signed(angles_xy_127_ovf_c ? (angles_xy_127_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_127_ovf_d = ~((&angles_xy_127_t[22:21]) | ~(|angles_xy_127_t[22:21]));
+  wire signed [21:0] angles_xy_127_d =
+      $signed(angles_xy_127_ovf_d ? (angles_xy_127_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_127_t[21:0]);
-  reg  signed [21:0] angles_xy_127;
-  reg  [0:0] angles_xy_127_ovf;
-  wire angles_theta_128_ovf_c = t125[17] | (|t125[16]);
-  wire [15:0] angles_theta_128_c = t125[15:0];
-  reg  [15:0] angles_theta_128;
-  reg  [0:0] angles_theta_128_ovf;
-  wire t129_sub = angles_xy_127[21];
+  reg  signed [21:0] angles_xy_127_q;
+  reg  [0:0] angles_xy_127_ovf_q;
+  wire angles_theta_128_ovf_d = t125[17] | (|t125[16]);
+  wire [15:0] angles_theta_128_d = t125[15:0];
+  reg  [15:0] angles_theta_128_q;
+  reg  [0:0] angles_theta_128_ovf_q;
+  wire t129_sub = angles_xy_127_q[21];
   wire signed [27:0] t129 =
       t129_sub
-      ? $signed({angles_xy_126[21], angles_xy_126, 5'b0} - {{6{angles_xy_127[21]}}, angles_xy_127})
-      : $signed({angles_xy_126[21], angles_xy_126, 5'b0} + {{6{angles_xy_127[21]}}, angles_xy_127});
-  wire t130_sub = ~angles_xy_127[21];
+      ? $signed({angles_xy_126_q[21], angles_xy_126_q, 5'b0}
+      - {{6{angles_xy_127_q[21]}}, angles_xy_127_q})
+      : $signed({angles_xy_126_q[21], angles_xy_126_q, 5'b0}
+      + {{6{angles_xy_127_q[21]}}, angles_xy_127_q});
+  wire t130_sub = ~angles_xy_127_q[21];
   wire signed [27:0] t130 =
       t130_sub
-      ? $signed({angles_xy_127[21], angles_xy_127, 5'b0} - {{6{angles_xy_126[21]}}, angles_xy_126})
-      : $signed({angles_xy_127[21], angles_xy_127, 5'b0} + {{6{angles_xy_126[21]}}, angles_xy_126});
-  wire t131_sub = angles_xy_127[21];
+      ? $signed({angles_xy_127_q[21], angles_xy_127_q, 5'b0}
+      - {{6{angles_xy_126_q[21]}}, angles_xy_126_q})
+      : $signed({angles_xy_127_q[21], angles_xy_127_q, 5'b0}
+      + {{6{angles_xy_126_q[21]}}, angles_xy_126_q});
+  wire t131_sub = angles_xy_127_q[21];
   wire signed [17:0] t131 =
-      t131_sub ? $signed({{2{1'b0}}, angles_theta_128} - {{2{1'b0}}, K10})
-      : $signed({{2{1'b0}}, angles_theta_128} + {{2{1'b0}}, K10});
+      t131_sub ? $signed({{2{1'b0}}, angles_theta_128_q} - {{2{1'b0}}, K10})
+      : $signed({{2{1'b0}}, angles_theta_128_q} + {{2{1'b0}}, K10});
   wire signed [22:0] angles_xy_132_t = $signed(t129[27:5]);
-  wire angles_xy_132_ovf_c = ~((&angles_xy_132_t[22:21]) | ~(|angles_xy_132_t[22:21]));
-  wire signed [21:0] angles_xy_132_c =
-      $signed(angles_xy_132_ovf_c ? (angles_xy_132_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_132_ovf_d = ~((&angles_xy_132_t[22:21]) | ~(|angles_xy_132_t[22:21]));
+  wire signed [21:0] angles_xy_132_d =
+      $signed(angles_xy_132_ovf_d ? (angles_xy_132_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_132_t[21:0]);
-  reg  signed [21:0] angles_xy_132;
-  reg  [0:0] angles_xy_132_ovf;
+  reg  signed [21:0] angles_xy_132_q;
+  reg  [0:0] angles_xy_132_ovf_q;
   wire signed [22:0] angles_xy_133_t = $signed(t130[27:5]);
-  wire angles_xy_133_ovf_c = ~((&angles_xy_133_t[22:21]) | ~(|angles_xy_133_t[22:21]));
-  wire signed [21:0] angles_xy_133_c =
-      $signed(angles_xy_133_ovf_c ? (angles_xy_133_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_133_ovf_d = ~((&angles_xy_133_t[22:21]) | ~(|angles_xy_133_t[22:21]));
+  wire signed [21:0] angles_xy_133_d =
+      $signed(angles_xy_133_ovf_d ? (angles_xy_133_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_133_t[21:0]);
-  reg  signed [21:0] angles_xy_133;
-  reg  [0:0] angles_xy_133_ovf;
-  wire angles_theta_134_ovf_c = t131[17] | (|t131[16]);
-  wire [15:0] angles_theta_134_c = t131[15:0];
-  reg  [15:0] angles_theta_134;
-  reg  [0:0] angles_theta_134_ovf;
-  wire t135_sub = angles_xy_133[21];
+  reg  signed [21:0] angles_xy_133_q;
+  reg  [0:0] angles_xy_133_ovf_q;
+  wire angles_theta_134_ovf_d = t131[17] | (|t131[16]);
+  wire [15:0] angles_theta_134_d = t131[15:0];
+  reg  [15:0] angles_theta_134_q;
+  reg  [0:0] angles_theta_134_ovf_q;
+  wire t135_sub = angles_xy_133_q[21];
   wire signed [28:0] t135 =
       t135_sub
-      ? $signed({angles_xy_132[21], angles_xy_132, 6'b0} - {{7{angles_xy_133[21]}}, angles_xy_133})
-      : $signed({angles_xy_132[21], angles_xy_132, 6'b0} + {{7{angles_xy_133[21]}}, angles_xy_133});
-  wire t136_sub = ~angles_xy_133[21];
+      ? $signed({angles_xy_132_q[21], angles_xy_132_q, 6'b0}
+      - {{7{angles_xy_133_q[21]}}, angles_xy_133_q})
+      : $signed({angles_xy_132_q[21], angles_xy_132_q, 6'b0}
+      + {{7{angles_xy_133_q[21]}}, angles_xy_133_q});
+  wire t136_sub = ~angles_xy_133_q[21];
   wire signed [28:0] t136 =
       t136_sub
-      ? $signed({angles_xy_133[21], angles_xy_133, 6'b0} - {{7{angles_xy_132[21]}}, angles_xy_132})
-      : $signed({angles_xy_133[21], angles_xy_133, 6'b0} + {{7{angles_xy_132[21]}}, angles_xy_132});
-  wire t137_sub = angles_xy_133[21];
+      ? $signed({angles_xy_133_q[21], angles_xy_133_q, 6'b0}
+      - {{7{angles_xy_132_q[21]}}, angles_xy_132_q})
+      : $signed({angles_xy_133_q[21], angles_xy_133_q, 6'b0}
+      + {{7{angles_xy_132_q[21]}}, angles_xy_132_q});
+  wire t137_sub = angles_xy_133_q[21];
   wire signed [17:0] t137 =
-      t137_sub ? $signed({{2{1'b0}}, angles_theta_134} - {{2{1'b0}}, K11})
-      : $signed({{2{1'b0}}, angles_theta_134} + {{2{1'b0}}, K11});
+      t137_sub ? $signed({{2{1'b0}}, angles_theta_134_q} - {{2{1'b0}}, K11})
+      : $signed({{2{1'b0}}, angles_theta_134_q} + {{2{1'b0}}, K11});
   wire signed [22:0] angles_xy_138_t = $signed(t135[28:6]);
-  wire angles_xy_138_ovf_c = ~((&angles_xy_138_t[22:21]) | ~(|angles_xy_138_t[22:21]));
-  wire signed [21:0] angles_xy_138_c =
-      $signed(angles_xy_138_ovf_c ? (angles_xy_138_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_138_ovf_d = ~((&angles_xy_138_t[22:21]) | ~(|angles_xy_138_t[22:21]));
+  wire signed [21:0] angles_xy_138_d =
+      $signed(angles_xy_138_ovf_d ? (angles_xy_138_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_138_t[21:0]);
-  reg  signed [21:0] angles_xy_138;
-  reg  [0:0] angles_xy_138_ovf;
+  reg  signed [21:0] angles_xy_138_q;
+  reg  [0:0] angles_xy_138_ovf_q;
   wire signed [22:0] angles_xy_139_t = $signed(t136[28:6]);
-  wire angles_xy_139_ovf_c = ~((&angles_xy_139_t[22:21]) | ~(|angles_xy_139_t[22:21]));
-  wire signed [21:0] angles_xy_139_c =
-      $signed(angles_xy_139_ovf_c ? (angles_xy_139_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_139_ovf_d = ~((&angles_xy_139_t[22:21]) | ~(|angles_xy_139_t[22:21]));
+  wire signed [21:0] angles_xy_139_d =
+      $signed(angles_xy_139_ovf_d ? (angles_xy_139_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_139_t[21:0]);
-  reg  signed [21:0] angles_xy_139;
-  reg  [0:0] angles_xy_139_ovf;
-  wire angles_theta_140_ovf_c = t137[17] | (|t137[16]);
-  wire [15:0] angles_theta_140_c = t137[15:0];
-  reg  [15:0] angles_theta_140;
-  reg  [0:0] angles_theta_140_ovf;
-  wire t141_sub = angles_xy_139[21];
+  reg  signed [21:0] angles_xy_139_q;
+  reg  [0:0] angles_xy_139_ovf_q;
+  wire angles_theta_140_ovf_d = t137[17] | (|t137[16]);
+  wire [15:0] angles_theta_140_d = t137[15:0];
+  reg  [15:0] angles_theta_140_q;
+  reg  [0:0] angles_theta_140_ovf_q;
+  wire t141_sub = angles_xy_139_q[21];
   wire signed [29:0] t141 =
       t141_sub
-      ? $signed({angles_xy_138[21], angles_xy_138, 7'b0} - {{8{angles_xy_139[21]}}, angles_xy_139})
-      : $signed({angles_xy_138[21], angles_xy_138, 7'b0} + {{8{angles_xy_139[21]}}, angles_xy_139});
-  wire t142_sub = ~angles_xy_139[21];
+      ? $signed({angles_xy_138_q[21], angles_xy_138_q, 7'b0}
+      - {{8{angles_xy_139_q[21]}}, angles_xy_139_q})
+      : $signed({angles_xy_138_q[21], angles_xy_138_q, 7'b0}
+      + {{8{angles_xy_139_q[21]}}, angles_xy_139_q});
+  wire t142_sub = ~angles_xy_139_q[21];
   wire signed [29:0] t142 =
       t142_sub
-      ? $signed({angles_xy_139[21], angles_xy_139, 7'b0} - {{8{angles_xy_138[21]}}, angles_xy_138})
-      : $signed({angles_xy_139[21], angles_xy_139, 7'b0} + {{8{angles_xy_138[21]}}, angles_xy_138});
-  wire t143_sub = angles_xy_139[21];
+      ? $signed({angles_xy_139_q[21], angles_xy_139_q, 7'b0}
+      - {{8{angles_xy_138_q[21]}}, angles_xy_138_q})
+      : $signed({angles_xy_139_q[21], angles_xy_139_q, 7'b0}
+      + {{8{angles_xy_138_q[21]}}, angles_xy_138_q});
+  wire t143_sub = angles_xy_139_q[21];
   wire signed [17:0] t143 =
-      t143_sub ? $signed({{2{1'b0}}, angles_theta_140} - {{2{1'b0}}, K12})
-      : $signed({{2{1'b0}}, angles_theta_140} + {{2{1'b0}}, K12});
+      t143_sub ? $signed({{2{1'b0}}, angles_theta_140_q} - {{2{1'b0}}, K12})
+      : $signed({{2{1'b0}}, angles_theta_140_q} + {{2{1'b0}}, K12});
   wire signed [22:0] angles_xy_144_t = $signed(t141[29:7]);
-  wire angles_xy_144_ovf_c = ~((&angles_xy_144_t[22:21]) | ~(|angles_xy_144_t[22:21]));
-  wire signed [21:0] angles_xy_144_c =
-      $signed(angles_xy_144_ovf_c ? (angles_xy_144_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_144_ovf_d = ~((&angles_xy_144_t[22:21]) | ~(|angles_xy_144_t[22:21]));
+  wire signed [21:0] angles_xy_144_d =
+      $signed(angles_xy_144_ovf_d ? (angles_xy_144_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_144_t[21:0]);
-  reg  signed [21:0] angles_xy_144;
-  reg  [0:0] angles_xy_144_ovf;
+  reg  signed [21:0] angles_xy_144_q;
+  reg  [0:0] angles_xy_144_ovf_q;
   wire signed [22:0] angles_xy_145_t = $signed(t142[29:7]);
-  wire angles_xy_145_ovf_c = ~((&angles_xy_145_t[22:21]) | ~(|angles_xy_145_t[22:21]));
-  wire signed [21:0] angles_xy_145_c =
-      $signed(angles_xy_145_ovf_c ? (angles_xy_145_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_145_ovf_d = ~((&angles_xy_145_t[22:21]) | ~(|angles_xy_145_t[22:21]));
+  wire signed [21:0] angles_xy_145_d =
+      $signed(angles_xy_145_ovf_d ? (angles_xy_145_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_145_t[21:0]);
-  reg  signed [21:0] angles_xy_145;
-  reg  [0:0] angles_xy_145_ovf;
-  wire angles_theta_146_ovf_c = t143[17] | (|t143[16]);
-  wire [15:0] angles_theta_146_c = t143[15:0];
-  reg  [15:0] angles_theta_146;
-  reg  [0:0] angles_theta_146_ovf;
-  wire t147_sub = angles_xy_145[21];
+  reg  signed [21:0] angles_xy_145_q;
+  reg  [0:0] angles_xy_145_ovf_q;
+  wire angles_theta_146_ovf_d = t143[17] | (|t143[16]);
+  wire [15:0] angles_theta_146_d = t143[15:0];
+  reg  [15:0] angles_theta_146_q;
+  reg  [0:0] angles_theta_146_ovf_q;
+  wire t147_sub = angles_xy_145_q[21];
   wire signed [30:0] t147 =
       t147_sub
-      ? $signed({angles_xy_144[21], angles_xy_144, 8'b0} - {{9{angles_xy_145[21]}}, angles_xy_145})
-      : $signed({angles_xy_144[21], angles_xy_144, 8'b0} + {{9{angles_xy_145[21]}}, angles_xy_145});
-  wire t148_sub = ~angles_xy_145[21];
+      ? $signed({angles_xy_144_q[21], angles_xy_144_q, 8'b0}
+      - {{9{angles_xy_145_q[21]}}, angles_xy_145_q})
+      : $signed({angles_xy_144_q[21], angles_xy_144_q, 8'b0}
+      + {{9{angles_xy_145_q[21]}}, angles_xy_145_q});
+  wire t148_sub = ~angles_xy_145_q[21];
   wire signed [30:0] t148 =
       t148_sub
-      ? $signed({angles_xy_145[21], angles_xy_145, 8'b0} - {{9{angles_xy_144[21]}}, angles_xy_144})
-      : $signed({angles_xy_145[21], angles_xy_145, 8'b0} + {{9{angles_xy_144[21]}}, angles_xy_144});
-  wire t149_sub = angles_xy_145[21];
+      ? $signed({angles_xy_145_q[21], angles_xy_145_q, 8'b0}
+      - {{9{angles_xy_144_q[21]}}, angles_xy_144_q})
+      : $signed({angles_xy_145_q[21], angles_xy_145_q, 8'b0}
+      + {{9{angles_xy_144_q[21]}}, angles_xy_144_q});
+  wire t149_sub = angles_xy_145_q[21];
   wire signed [17:0] t149 =
-      t149_sub ? $signed({{2{1'b0}}, angles_theta_146} - {{2{1'b0}}, K13})
-      : $signed({{2{1'b0}}, angles_theta_146} + {{2{1'b0}}, K13});
+      t149_sub ? $signed({{2{1'b0}}, angles_theta_146_q} - {{2{1'b0}}, K13})
+      : $signed({{2{1'b0}}, angles_theta_146_q} + {{2{1'b0}}, K13});
   wire signed [22:0] angles_xy_150_t = $signed(t147[30:8]);
-  wire angles_xy_150_ovf_c = ~((&angles_xy_150_t[22:21]) | ~(|angles_xy_150_t[22:21]));
-  wire signed [21:0] angles_xy_150_c =
-      $signed(angles_xy_150_ovf_c ? (angles_xy_150_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_150_ovf_d = ~((&angles_xy_150_t[22:21]) | ~(|angles_xy_150_t[22:21]));
+  wire signed [21:0] angles_xy_150_d =
+      $signed(angles_xy_150_ovf_d ? (angles_xy_150_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_150_t[21:0]);
-  reg  signed [21:0] angles_xy_150;
-  reg  [0:0] angles_xy_150_ovf;
+  reg  signed [21:0] angles_xy_150_q;
+  reg  [0:0] angles_xy_150_ovf_q;
   wire signed [22:0] angles_xy_151_t = $signed(t148[30:8]);
-  wire angles_xy_151_ovf_c = ~((&angles_xy_151_t[22:21]) | ~(|angles_xy_151_t[22:21]));
-  wire signed [21:0] angles_xy_151_c =
-      $signed(angles_xy_151_ovf_c ? (angles_xy_151_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_151_ovf_d = ~((&angles_xy_151_t[22:21]) | ~(|angles_xy_151_t[22:21]));
+  wire signed [21:0] angles_xy_151_d =
+      $signed(angles_xy_151_ovf_d ? (angles_xy_151_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_151_t[21:0]);
-  reg  signed [21:0] angles_xy_151;
-  reg  [0:0] angles_xy_151_ovf;
-  wire angles_theta_152_ovf_c = t149[17] | (|t149[16]);
-  wire [15:0] angles_theta_152_c = t149[15:0];
-  reg  [15:0] angles_theta_152;
-  reg  [0:0] angles_theta_152_ovf;
-  wire t153_sub = angles_xy_151[21];
+  reg  signed [21:0] angles_xy_151_q;
+  reg  [0:0] angles_xy_151_ovf_q;
+  wire angles_theta_152_ovf_d = t149[17] | (|t149[16]);
+  wire [15:0] angles_theta_152_d = t149[15:0];
+  reg  [15:0] angles_theta_152_q;
+  reg  [0:0] angles_theta_152_ovf_q;
+  wire t153_sub = angles_xy_151_q[21];
   wire signed [31:0] t153 =
       t153_sub
-      ? $signed({angles_xy_150[21], angles_xy_150, 9'b0} - {{10{angles_xy_151[21]}}, angles_xy_151})
-      : $signed({angles_xy_150[21], angles_xy_150, 9'b0}
-      + {{10{angles_xy_151[21]}}, angles_xy_151});
-  wire t154_sub = ~angles_xy_151[21];
+      ? $signed({angles_xy_150_q[21], angles_xy_150_q, 9'b0}
+      - {{10{angles_xy_151_q[21]}}, angles_xy_151_q})
+      : $signed({angles_xy_150_q[21], angles_xy_150_q, 9'b0}
+      + {{10{angles_xy_151_q[21]}}, angles_xy_151_q});
+  wire t154_sub = ~angles_xy_151_q[21];
   wire signed [31:0] t154 =
       t154_sub
-      ? $signed({angles_xy_151[21], angles_xy_151, 9'b0} - {{10{angles_xy_150[21]}}, angles_xy_150})
-      : $signed({angles_xy_151[21], angles_xy_151, 9'b0}
-      + {{10{angles_xy_150[21]}}, angles_xy_150});
-  wire t155_sub = angles_xy_151[21];
+      ? $signed({angles_xy_151_q[21], angles_xy_151_q, 9'b0}
+      - {{10{angles_xy_150_q[21]}}, angles_xy_150_q})
+      : $signed({angles_xy_151_q[21], angles_xy_151_q, 9'b0}
+      + {{10{angles_xy_150_q[21]}}, angles_xy_150_q});
+  wire t155_sub = angles_xy_151_q[21];
   wire signed [17:0] t155 =
-      t155_sub ? $signed({{2{1'b0}}, angles_theta_152} - {{2{1'b0}}, K14})
-      : $signed({{2{1'b0}}, angles_theta_152} + {{2{1'b0}}, K14});
+      t155_sub ? $signed({{2{1'b0}}, angles_theta_152_q} - {{2{1'b0}}, K14})
+      : $signed({{2{1'b0}}, angles_theta_152_q} + {{2{1'b0}}, K14});
   wire signed [22:0] angles_xy_156_t = $signed(t153[31:9]);
-  wire angles_xy_156_ovf_c = ~((&angles_xy_156_t[22:21]) | ~(|angles_xy_156_t[22:21]));
-  wire signed [21:0] angles_xy_156_c =
-      $signed(angles_xy_156_ovf_c ? (angles_xy_156_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_156_ovf_d = ~((&angles_xy_156_t[22:21]) | ~(|angles_xy_156_t[22:21]));
+  wire signed [21:0] angles_xy_156_d =
+      $signed(angles_xy_156_ovf_d ? (angles_xy_156_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_156_t[21:0]);
-  reg  signed [21:0] angles_xy_156;
-  reg  [0:0] angles_xy_156_ovf;
+  reg  signed [21:0] angles_xy_156_q;
+  reg  [0:0] angles_xy_156_ovf_q;
   wire signed [22:0] angles_xy_157_t = $signed(t154[31:9]);
-  wire angles_xy_157_ovf_c = ~((&angles_xy_157_t[22:21]) | ~(|angles_xy_157_t[22:21]));
-  wire signed [21:0] angles_xy_157_c =
-      $signed(angles_xy_157_ovf_c ? (angles_xy_157_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_157_ovf_d = ~((&angles_xy_157_t[22:21]) | ~(|angles_xy_157_t[22:21]));
+  wire signed [21:0] angles_xy_157_d =
+      $signed(angles_xy_157_ovf_d ? (angles_xy_157_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_157_t[21:0]);
-  reg  signed [21:0] angles_xy_157;
-  reg  [0:0] angles_xy_157_ovf;
-  wire angles_theta_158_ovf_c = t155[17] | (|t155[16]);
-  wire [15:0] angles_theta_158_c = t155[15:0];
-  reg  [15:0] angles_theta_158;
-  reg  [0:0] angles_theta_158_ovf;
-  wire t160_sub = ~angles_xy_157[21];
+  reg  signed [21:0] angles_xy_157_q;
+  reg  [0:0] angles_xy_157_ovf_q;
+  wire angles_theta_158_ovf_d = t155[17] | (|t155[16]);
+  wire [15:0] angles_theta_158_d = t155[15:0];
+  reg  [15:0] angles_theta_158_q;
+  reg  [0:0] angles_theta_158_ovf_q;
+  wire t160_sub = ~angles_xy_157_q[21];
   wire signed [32:0] t160 =
       t160_sub
-      ? $signed({angles_xy_157[21], angles_xy_157, 10'b0}
-      - {{11{angles_xy_156[21]}}, angles_xy_156})
-      : $signed({angles_xy_157[21], angles_xy_157, 10'b0}
-      + {{11{angles_xy_156[21]}}, angles_xy_156});
-  wire t161_sub = angles_xy_157[21];
+      ? $signed({angles_xy_157_q[21], angles_xy_157_q, 10'b0}
+      - {{11{angles_xy_156_q[21]}}, angles_xy_156_q})
+      : $signed({angles_xy_157_q[21], angles_xy_157_q, 10'b0}
+      + {{11{angles_xy_156_q[21]}}, angles_xy_156_q});
+  wire t161_sub = angles_xy_157_q[21];
   wire signed [17:0] t161 =
-      t161_sub ? $signed({{2{1'b0}}, angles_theta_158} - {{2{1'b0}}, K15})
-      : $signed({{2{1'b0}}, angles_theta_158} + {{2{1'b0}}, K15});
+      t161_sub ? $signed({{2{1'b0}}, angles_theta_158_q} - {{2{1'b0}}, K15})
+      : $signed({{2{1'b0}}, angles_theta_158_q} + {{2{1'b0}}, K15});
   wire signed [22:0] angles_xy_163_t = $signed(t160[32:10]);
-  wire angles_xy_163_ovf_c = ~((&angles_xy_163_t[22:21]) | ~(|angles_xy_163_t[22:21]));
-  wire signed [21:0] angles_xy_163_c =
-      $signed(angles_xy_163_ovf_c ? (angles_xy_163_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_163_ovf_d = ~((&angles_xy_163_t[22:21]) | ~(|angles_xy_163_t[22:21]));
+  wire signed [21:0] angles_xy_163_d =
+      $signed(angles_xy_163_ovf_d ? (angles_xy_163_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_163_t[21:0]);
-  reg  signed [21:0] angles_xy_163;
-  reg  [0:0] angles_xy_163_ovf;
-  wire angles_theta_164_ovf_c = t161[17] | (|t161[16]);
-  wire [15:0] angles_theta_164_c = t161[15:0];
-  reg  [15:0] angles_theta_164;
-  reg  [0:0] angles_theta_164_ovf;
-  wire t167_sub = angles_xy_163[21];
+  reg  signed [21:0] angles_xy_163_q;
+  reg  [0:0] angles_xy_163_ovf_q;
+  wire angles_theta_164_ovf_d = t161[17] | (|t161[16]);
+  wire [15:0] angles_theta_164_d = t161[15:0];
+  reg  [15:0] angles_theta_164_q;
+  reg  [0:0] angles_theta_164_ovf_q;
+  wire t167_sub = angles_xy_163_q[21];
   wire signed [17:0] t167 =
-      t167_sub ? $signed({{2{1'b0}}, angles_theta_164} - {{2{1'b0}}, K16})
-      : $signed({{2{1'b0}}, angles_theta_164} + {{2{1'b0}}, K16});
-  wire angles_theta_170_ovf_c = t167[17] | (|t167[16]);
-  wire [15:0] angles_theta_170_c = t167[15:0];
-  reg  [15:0] angles_theta_170;
-  reg  [0:0] angles_theta_170_ovf;
-  wire angles_out_171_tie = angles_theta_170[4] & ~(|angles_theta_170[3:0]);
+      t167_sub ? $signed({{2{1'b0}}, angles_theta_164_q} - {{2{1'b0}}, K16})
+      : $signed({{2{1'b0}}, angles_theta_164_q} + {{2{1'b0}}, K16});
+  wire angles_theta_170_ovf_d = t167[17] | (|t167[16]);
+  wire [15:0] angles_theta_170_d = t167[15:0];
+  reg  [15:0] angles_theta_170_q;
+  reg  [0:0] angles_theta_170_ovf_q;
+  wire angles_out_171_tie = angles_theta_170_q[4] & ~(|angles_theta_170_q[3:0]);
   wire [11:0] angles_out_171_up =
-      {1'b0, angles_theta_170[15:5]} + {{11{1'b0}}, angles_theta_170[4]};
+      {1'b0, angles_theta_170_q[15:5]} + {{11{1'b0}}, angles_theta_170_q[4]};
   wire [11:0] angles_out_171_r =
       {angles_out_171_up[11:1], angles_out_171_up[0] & ~angles_out_171_tie};
-  wire angles_out_171_ovf_c = |angles_out_171_r[11];
-  wire [10:0] angles_out_171_c = angles_out_171_r[10:0];
-  reg  [10:0] angles_out_171;
-  reg  [0:0] angles_out_171_ovf;
-  wire angles_out_172_tie = angles_theta_95[4] & ~(|angles_theta_95[3:0]);
-  wire [11:0] angles_out_172_up = {1'b0, angles_theta_95[15:5]} + {{11{1'b0}}, angles_theta_95[4]};
+  wire angles_out_171_ovf_d = |angles_out_171_r[11];
+  wire [10:0] angles_out_171_d = angles_out_171_r[10:0];
+  reg  [10:0] angles_out_171_q;
+  reg  [0:0] angles_out_171_ovf_q;
+  wire angles_out_172_tie = angles_theta_95_q[4] & ~(|angles_theta_95_q[3:0]);
+  wire [11:0] angles_out_172_up =
+      {1'b0, angles_theta_95_q[15:5]} + {{11{1'b0}}, angles_theta_95_q[4]};
   wire [11:0] angles_out_172_r =
       {angles_out_172_up[11:1], angles_out_172_up[0] & ~angles_out_172_tie};
-  wire angles_out_172_ovf_c = |angles_out_172_r[11];
-  wire [10:0] angles_out_172_c = angles_out_172_r[10:0];
-  reg  [10:0] angles_out_172;
-  reg  [0:0] angles_out_172_ovf;
-  reg  [10:0] angles_out_172_s15;
-  reg  [10:0] angles_out_172_s16;
-  reg  [10:0] angles_out_172_s17;
-  reg  [10:0] angles_out_172_s18;
-  reg  [10:0] angles_out_172_s19;
-  reg  [10:0] angles_out_172_s20;
-  reg  [10:0] angles_out_172_s21;
-  reg  [10:0] angles_out_172_s22;
-  reg  [10:0] angles_out_172_s23;
-  reg  [10:0] angles_out_172_s24;
-  reg  [10:0] angles_out_172_s25;
-  reg  [10:0] angles_out_172_s26;
-  reg  [0:0] angles_xy_21_ovf_s2;
-  reg  [0:0] angles_xy_22_ovf_s2;
-  reg  [0:0] angles_xy_27_ovf_s3;
-  reg  [0:0] angles_xy_28_ovf_s3;
-  reg  [0:0] angles_xy_33_ovf_s4;
-  reg  [0:0] angles_xy_34_ovf_s4;
-  reg  [0:0] angles_xy_39_ovf_s5;
-  reg  [0:0] angles_xy_40_ovf_s5;
-  reg  [0:0] angles_xy_45_ovf_s6;
-  reg  [0:0] angles_xy_46_ovf_s6;
-  reg  [0:0] angles_xy_51_ovf_s7;
-  reg  [0:0] angles_xy_52_ovf_s7;
-  reg  [0:0] angles_xy_57_ovf_s8;
-  reg  [0:0] angles_xy_58_ovf_s8;
-  reg  [0:0] angles_xy_63_ovf_s9;
-  reg  [0:0] angles_xy_64_ovf_s9;
-  reg  [0:0] angles_xy_69_ovf_s10;
-  reg  [0:0] angles_xy_70_ovf_s10;
-  reg  [0:0] angles_xy_75_ovf_s11;
-  reg  [0:0] angles_xy_76_ovf_s11;
-  reg  [0:0] angles_xy_81_ovf_s12;
-  reg  [0:0] angles_xy_82_ovf_s12;
-  reg  [0:0] angles_xy_87_ovf_s13;
-  reg  [0:0] angles_xy_88_ovf_s13;
-  reg  [0:0] angles_xy_93_ovf_s14;
-  reg  [0:0] angles_xy_97_ovf_s2;
-  reg  [0:0] angles_xy_102_ovf_s15;
-  reg  [0:0] angles_xy_103_ovf_s15;
-  reg  [0:0] angles_xy_108_ovf_s16;
-  reg  [0:0] angles_xy_109_ovf_s16;
-  reg  [0:0] angles_xy_114_ovf_s17;
-  reg  [0:0] angles_xy_115_ovf_s17;
-  reg  [0:0] angles_xy_120_ovf_s18;
-  reg  [0:0] angles_xy_121_ovf_s18;
-  reg  [0:0] angles_xy_126_ovf_s19;
-  reg  [0:0] angles_xy_127_ovf_s19;
-  reg  [0:0] angles_xy_132_ovf_s20;
-  reg  [0:0] angles_xy_133_ovf_s20;
-  reg  [0:0] angles_xy_138_ovf_s21;
-  reg  [0:0] angles_xy_139_ovf_s21;
-  reg  [0:0] angles_xy_144_ovf_s22;
-  reg  [0:0] angles_xy_145_ovf_s22;
-  reg  [0:0] angles_xy_150_ovf_s23;
-  reg  [0:0] angles_xy_151_ovf_s23;
-  reg  [0:0] angles_xy_156_ovf_s24;
-  reg  [0:0] angles_xy_157_ovf_s24;
-  reg  [0:0] angles_xy_163_ovf_s25;
+  wire angles_out_172_ovf_d = |angles_out_172_r[11];
+  wire [10:0] angles_out_172_d = angles_out_172_r[10:0];
+  reg  [10:0] angles_out_172_q;
+  reg  [0:0] angles_out_172_ovf_q;
+  reg  [10:0] angles_out_172_s15_q;
+  reg  [10:0] angles_out_172_s16_q;
+  reg  [10:0] angles_out_172_s17_q;
+  reg  [10:0] angles_out_172_s18_q;
+  reg  [10:0] angles_out_172_s19_q;
+  reg  [10:0] angles_out_172_s20_q;
+  reg  [10:0] angles_out_172_s21_q;
+  reg  [10:0] angles_out_172_s22_q;
+  reg  [10:0] angles_out_172_s23_q;
+  reg  [10:0] angles_out_172_s24_q;
+  reg  [10:0] angles_out_172_s25_q;
+  reg  [10:0] angles_out_172_s26_q;
+  reg  [0:0] angles_xy_21_ovf_s2_q;
+  reg  [0:0] angles_xy_22_ovf_s2_q;
+  reg  [0:0] angles_xy_27_ovf_s3_q;
+  reg  [0:0] angles_xy_28_ovf_s3_q;
+  reg  [0:0] angles_xy_33_ovf_s4_q;
+  reg  [0:0] angles_xy_34_ovf_s4_q;
+  reg  [0:0] angles_xy_39_ovf_s5_q;
+  reg  [0:0] angles_xy_40_ovf_s5_q;
+  reg  [0:0] angles_xy_45_ovf_s6_q;
+  reg  [0:0] angles_xy_46_ovf_s6_q;
+  reg  [0:0] angles_xy_51_ovf_s7_q;
+  reg  [0:0] angles_xy_52_ovf_s7_q;
+  reg  [0:0] angles_xy_57_ovf_s8_q;
+  reg  [0:0] angles_xy_58_ovf_s8_q;
+  reg  [0:0] angles_xy_63_ovf_s9_q;
+  reg  [0:0] angles_xy_64_ovf_s9_q;
+  reg  [0:0] angles_xy_69_ovf_s10_q;
+  reg  [0:0] angles_xy_70_ovf_s10_q;
+  reg  [0:0] angles_xy_75_ovf_s11_q;
+  reg  [0:0] angles_xy_76_ovf_s11_q;
+  reg  [0:0] angles_xy_81_ovf_s12_q;
+  reg  [0:0] angles_xy_82_ovf_s12_q;
+  reg  [0:0] angles_xy_87_ovf_s13_q;
+  reg  [0:0] angles_xy_88_ovf_s13_q;
+  reg  [0:0] angles_xy_93_ovf_s14_q;
+  reg  [0:0] angles_xy_97_ovf_s2_q;
+  reg  [0:0] angles_xy_102_ovf_s15_q;
+  reg  [0:0] angles_xy_103_ovf_s15_q;
+  reg  [0:0] angles_xy_108_ovf_s16_q;
+  reg  [0:0] angles_xy_109_ovf_s16_q;
+  reg  [0:0] angles_xy_114_ovf_s17_q;
+  reg  [0:0] angles_xy_115_ovf_s17_q;
+  reg  [0:0] angles_xy_120_ovf_s18_q;
+  reg  [0:0] angles_xy_121_ovf_s18_q;
+  reg  [0:0] angles_xy_126_ovf_s19_q;
+  reg  [0:0] angles_xy_127_ovf_s19_q;
+  reg  [0:0] angles_xy_132_ovf_s20_q;
+  reg  [0:0] angles_xy_133_ovf_s20_q;
+  reg  [0:0] angles_xy_138_ovf_s21_q;
+  reg  [0:0] angles_xy_139_ovf_s21_q;
+  reg  [0:0] angles_xy_144_ovf_s22_q;
+  reg  [0:0] angles_xy_145_ovf_s22_q;
+  reg  [0:0] angles_xy_150_ovf_s23_q;
+  reg  [0:0] angles_xy_151_ovf_s23_q;
+  reg  [0:0] angles_xy_156_ovf_s24_q;
+  reg  [0:0] angles_xy_157_ovf_s24_q;
+  reg  [0:0] angles_xy_163_ovf_s25_q;
   wire ovf0_or_s2 =
-      angles_xy_21_ovf_s2 | angles_xy_22_ovf_s2 | angles_xy_97_ovf_s2;
-  reg  [0:0] ovf0_s3;
+      angles_xy_21_ovf_s2_q | angles_xy_22_ovf_s2_q | angles_xy_97_ovf_s2_q;
+  reg  [0:0] ovf0_s3_q;
   wire ovf0_or_s3 =
-      ovf0_s3 | angles_xy_27_ovf_s3 | angles_xy_28_ovf_s3;
-  reg  [0:0] ovf0_s4;
+      ovf0_s3_q | angles_xy_27_ovf_s3_q | angles_xy_28_ovf_s3_q;
+  reg  [0:0] ovf0_s4_q;
   wire ovf0_or_s4 =
-      ovf0_s4 | angles_xy_33_ovf_s4 | angles_xy_34_ovf_s4;
-  reg  [0:0] ovf0_s5;
+      ovf0_s4_q | angles_xy_33_ovf_s4_q | angles_xy_34_ovf_s4_q;
+  reg  [0:0] ovf0_s5_q;
   wire ovf0_or_s5 =
-      ovf0_s5 | angles_xy_39_ovf_s5 | angles_xy_40_ovf_s5;
-  reg  [0:0] ovf0_s6;
+      ovf0_s5_q | angles_xy_39_ovf_s5_q | angles_xy_40_ovf_s5_q;
+  reg  [0:0] ovf0_s6_q;
   wire ovf0_or_s6 =
-      ovf0_s6 | angles_xy_45_ovf_s6 | angles_xy_46_ovf_s6;
-  reg  [0:0] ovf0_s7;
+      ovf0_s6_q | angles_xy_45_ovf_s6_q | angles_xy_46_ovf_s6_q;
+  reg  [0:0] ovf0_s7_q;
   wire ovf0_or_s7 =
-      ovf0_s7 | angles_xy_51_ovf_s7 | angles_xy_52_ovf_s7;
-  reg  [0:0] ovf0_s8;
+      ovf0_s7_q | angles_xy_51_ovf_s7_q | angles_xy_52_ovf_s7_q;
+  reg  [0:0] ovf0_s8_q;
   wire ovf0_or_s8 =
-      ovf0_s8 | angles_xy_57_ovf_s8 | angles_xy_58_ovf_s8;
-  reg  [0:0] ovf0_s9;
+      ovf0_s8_q | angles_xy_57_ovf_s8_q | angles_xy_58_ovf_s8_q;
+  reg  [0:0] ovf0_s9_q;
   wire ovf0_or_s9 =
-      ovf0_s9 | angles_xy_63_ovf_s9 | angles_xy_64_ovf_s9;
-  reg  [0:0] ovf0_s10;
+      ovf0_s9_q | angles_xy_63_ovf_s9_q | angles_xy_64_ovf_s9_q;
+  reg  [0:0] ovf0_s10_q;
   wire ovf0_or_s10 =
-      ovf0_s10 | angles_xy_69_ovf_s10 | angles_xy_70_ovf_s10;
-  reg  [0:0] ovf0_s11;
+      ovf0_s10_q | angles_xy_69_ovf_s10_q | angles_xy_70_ovf_s10_q;
+  reg  [0:0] ovf0_s11_q;
   wire ovf0_or_s11 =
-      ovf0_s11 | angles_xy_75_ovf_s11 | angles_xy_76_ovf_s11;
-  reg  [0:0] ovf0_s12;
+      ovf0_s11_q | angles_xy_75_ovf_s11_q | angles_xy_76_ovf_s11_q;
+  reg  [0:0] ovf0_s12_q;
   wire ovf0_or_s12 =
-      ovf0_s12 | angles_xy_81_ovf_s12 | angles_xy_82_ovf_s12;
-  reg  [0:0] ovf0_s13;
+      ovf0_s12_q | angles_xy_81_ovf_s12_q | angles_xy_82_ovf_s12_q;
+  reg  [0:0] ovf0_s13_q;
   wire ovf0_or_s13 =
-      ovf0_s13 | angles_xy_87_ovf_s13 | angles_xy_88_ovf_s13;
-  reg  [0:0] ovf0_s14;
+      ovf0_s13_q | angles_xy_87_ovf_s13_q | angles_xy_88_ovf_s13_q;
+  reg  [0:0] ovf0_s14_q;
   wire ovf0_or_s14 =
-      ovf0_s14 | angles_xy_93_ovf_s14;
-  reg  [0:0] ovf0_s15;
+      ovf0_s14_q | angles_xy_93_ovf_s14_q;
+  reg  [0:0] ovf0_s15_q;
   wire ovf0_or_s15 =
-      ovf0_s15 | angles_xy_102_ovf_s15 | angles_xy_103_ovf_s15;
-  reg  [0:0] ovf0_s16;
+      ovf0_s15_q | angles_xy_102_ovf_s15_q | angles_xy_103_ovf_s15_q;
+  reg  [0:0] ovf0_s16_q;
   wire ovf0_or_s16 =
-      ovf0_s16 | angles_xy_108_ovf_s16 | angles_xy_109_ovf_s16;
-  reg  [0:0] ovf0_s17;
+      ovf0_s16_q | angles_xy_108_ovf_s16_q | angles_xy_109_ovf_s16_q;
+  reg  [0:0] ovf0_s17_q;
   wire ovf0_or_s17 =
-      ovf0_s17 | angles_xy_114_ovf_s17 | angles_xy_115_ovf_s17;
-  reg  [0:0] ovf0_s18;
+      ovf0_s17_q | angles_xy_114_ovf_s17_q | angles_xy_115_ovf_s17_q;
+  reg  [0:0] ovf0_s18_q;
   wire ovf0_or_s18 =
-      ovf0_s18 | angles_xy_120_ovf_s18 | angles_xy_121_ovf_s18;
-  reg  [0:0] ovf0_s19;
+      ovf0_s18_q | angles_xy_120_ovf_s18_q | angles_xy_121_ovf_s18_q;
+  reg  [0:0] ovf0_s19_q;
   wire ovf0_or_s19 =
-      ovf0_s19 | angles_xy_126_ovf_s19 | angles_xy_127_ovf_s19;
-  reg  [0:0] ovf0_s20;
+      ovf0_s19_q | angles_xy_126_ovf_s19_q | angles_xy_127_ovf_s19_q;
+  reg  [0:0] ovf0_s20_q;
   wire ovf0_or_s20 =
-      ovf0_s20 | angles_xy_132_ovf_s20 | angles_xy_133_ovf_s20;
-  reg  [0:0] ovf0_s21;
+      ovf0_s20_q | angles_xy_132_ovf_s20_q | angles_xy_133_ovf_s20_q;
+  reg  [0:0] ovf0_s21_q;
   wire ovf0_or_s21 =
-      ovf0_s21 | angles_xy_138_ovf_s21 | angles_xy_139_ovf_s21;
-  reg  [0:0] ovf0_s22;
+      ovf0_s21_q | angles_xy_138_ovf_s21_q | angles_xy_139_ovf_s21_q;
+  reg  [0:0] ovf0_s22_q;
   wire ovf0_or_s22 =
-      ovf0_s22 | angles_xy_144_ovf_s22 | angles_xy_145_ovf_s22;
-  reg  [0:0] ovf0_s23;
+      ovf0_s22_q | angles_xy_144_ovf_s22_q | angles_xy_145_ovf_s22_q;
+  reg  [0:0] ovf0_s23_q;
   wire ovf0_or_s23 =
-      ovf0_s23 | angles_xy_150_ovf_s23 | angles_xy_151_ovf_s23;
-  reg  [0:0] ovf0_s24;
+      ovf0_s23_q | angles_xy_150_ovf_s23_q | angles_xy_151_ovf_s23_q;
+  reg  [0:0] ovf0_s24_q;
   wire ovf0_or_s24 =
-      ovf0_s24 | angles_xy_156_ovf_s24 | angles_xy_157_ovf_s24;
-  reg  [0:0] ovf0_s25;
+      ovf0_s24_q | angles_xy_156_ovf_s24_q | angles_xy_157_ovf_s24_q;
+  reg  [0:0] ovf0_s25_q;
   wire ovf0_or_s25 =
-      ovf0_s25 | angles_xy_163_ovf_s25;
-  reg  [0:0] ovf0_s26;
-  reg  [0:0] angles_theta_23_ovf_s2;
-  reg  [0:0] angles_theta_29_ovf_s3;
-  reg  [0:0] angles_theta_35_ovf_s4;
-  reg  [0:0] angles_theta_41_ovf_s5;
-  reg  [0:0] angles_theta_47_ovf_s6;
-  reg  [0:0] angles_theta_53_ovf_s7;
-  reg  [0:0] angles_theta_59_ovf_s8;
-  reg  [0:0] angles_theta_65_ovf_s9;
-  reg  [0:0] angles_theta_71_ovf_s10;
-  reg  [0:0] angles_theta_77_ovf_s11;
-  reg  [0:0] angles_theta_83_ovf_s12;
-  reg  [0:0] angles_theta_89_ovf_s13;
-  reg  [0:0] angles_theta_95_ovf_s14;
-  reg  [0:0] angles_theta_98_ovf_s2;
-  reg  [0:0] angles_theta_104_ovf_s3;
-  reg  [0:0] angles_theta_110_ovf_s16;
-  reg  [0:0] angles_theta_116_ovf_s17;
-  reg  [0:0] angles_theta_122_ovf_s18;
-  reg  [0:0] angles_theta_128_ovf_s19;
-  reg  [0:0] angles_theta_134_ovf_s20;
-  reg  [0:0] angles_theta_140_ovf_s21;
-  reg  [0:0] angles_theta_146_ovf_s22;
-  reg  [0:0] angles_theta_152_ovf_s23;
-  reg  [0:0] angles_theta_158_ovf_s24;
-  reg  [0:0] angles_theta_164_ovf_s25;
-  reg  [0:0] angles_theta_170_ovf_s26;
+      ovf0_s25_q | angles_xy_163_ovf_s25_q;
+  reg  [0:0] ovf0_s26_q;
+  reg  [0:0] angles_theta_23_ovf_s2_q;
+  reg  [0:0] angles_theta_29_ovf_s3_q;
+  reg  [0:0] angles_theta_35_ovf_s4_q;
+  reg  [0:0] angles_theta_41_ovf_s5_q;
+  reg  [0:0] angles_theta_47_ovf_s6_q;
+  reg  [0:0] angles_theta_53_ovf_s7_q;
+  reg  [0:0] angles_theta_59_ovf_s8_q;
+  reg  [0:0] angles_theta_65_ovf_s9_q;
+  reg  [0:0] angles_theta_71_ovf_s10_q;
+  reg  [0:0] angles_theta_77_ovf_s11_q;
+  reg  [0:0] angles_theta_83_ovf_s12_q;
+  reg  [0:0] angles_theta_89_ovf_s13_q;
+  reg  [0:0] angles_theta_95_ovf_s14_q;
+  reg  [0:0] angles_theta_98_ovf_s2_q;
+  reg  [0:0] angles_theta_104_ovf_s3_q;
+  reg  [0:0] angles_theta_110_ovf_s16_q;
+  reg  [0:0] angles_theta_116_ovf_s17_q;
+  reg  [0:0] angles_theta_122_ovf_s18_q;
+  reg  [0:0] angles_theta_128_ovf_s19_q;
+  reg  [0:0] angles_theta_134_ovf_s20_q;
+  reg  [0:0] angles_theta_140_ovf_s21_q;
+  reg  [0:0] angles_theta_146_ovf_s22_q;
+  reg  [0:0] angles_theta_152_ovf_s23_q;
+  reg  [0:0] angles_theta_158_ovf_s24_q;
+  reg  [0:0] angles_theta_164_ovf_s25_q;
+  reg  [0:0] angles_theta_170_ovf_s26_q;
   wire ovf1_or_s2 =
-      angles_theta_23_ovf_s2 | angles_theta_98_ovf_s2;
-  reg  [0:0] ovf1_s3;
+      angles_theta_23_ovf_s2_q | angles_theta_98_ovf_s2_q;
+  reg  [0:0] ovf1_s3_q;
   wire ovf1_or_s3 =
-      ovf1_s3 | angles_theta_29_ovf_s3 | angles_theta_104_ovf_s3;
-  reg  [0:0] ovf1_s4;
+      ovf1_s3_q | angles_theta_29_ovf_s3_q | angles_theta_104_ovf_s3_q;
+  reg  [0:0] ovf1_s4_q;
   wire ovf1_or_s4 =
-      ovf1_s4 | angles_theta_35_ovf_s4;
-  reg  [0:0] ovf1_s5;
+      ovf1_s4_q | angles_theta_35_ovf_s4_q;
+  reg  [0:0] ovf1_s5_q;
   wire ovf1_or_s5 =
-      ovf1_s5 | angles_theta_41_ovf_s5;
-  reg  [0:0] ovf1_s6;
+      ovf1_s5_q | angles_theta_41_ovf_s5_q;
+  reg  [0:0] ovf1_s6_q;
   wire ovf1_or_s6 =
-      ovf1_s6 | angles_theta_47_ovf_s6;
-  reg  [0:0] ovf1_s7;
+      ovf1_s6_q | angles_theta_47_ovf_s6_q;
+  reg  [0:0] ovf1_s7_q;
   wire ovf1_or_s7 =
-      ovf1_s7 | angles_theta_53_ovf_s7;
-  reg  [0:0] ovf1_s8;
+      ovf1_s7_q | angles_theta_53_ovf_s7_q;
+  reg  [0:0] ovf1_s8_q;
   wire ovf1_or_s8 =
-      ovf1_s8 | angles_theta_59_ovf_s8;
-  reg  [0:0] ovf1_s9;
+      ovf1_s8_q | angles_theta_59_ovf_s8_q;
+  reg  [0:0] ovf1_s9_q;
   wire ovf1_or_s9 =
-      ovf1_s9 | angles_theta_65_ovf_s9;
-  reg  [0:0] ovf1_s10;
+      ovf1_s9_q | angles_theta_65_ovf_s9_q;
+  reg  [0:0] ovf1_s10_q;
   wire ovf1_or_s10 =
-      ovf1_s10 | angles_theta_71_ovf_s10;
-  reg  [0:0] ovf1_s11;
+      ovf1_s10_q | angles_theta_71_ovf_s10_q;
+  reg  [0:0] ovf1_s11_q;
   wire ovf1_or_s11 =
-      ovf1_s11 | angles_theta_77_ovf_s11;
-  reg  [0:0] ovf1_s12;
+      ovf1_s11_q | angles_theta_77_ovf_s11_q;
+  reg  [0:0] ovf1_s12_q;
   wire ovf1_or_s12 =
-      ovf1_s12 | angles_theta_83_ovf_s12;
-  reg  [0:0] ovf1_s13;
+      ovf1_s12_q | angles_theta_83_ovf_s12_q;
+  reg  [0:0] ovf1_s13_q;
   wire ovf1_or_s13 =
-      ovf1_s13 | angles_theta_89_ovf_s13;
-  reg  [0:0] ovf1_s14;
+      ovf1_s13_q | angles_theta_89_ovf_s13_q;
+  reg  [0:0] ovf1_s14_q;
   wire ovf1_or_s14 =
-      ovf1_s14 | angles_theta_95_ovf_s14;
-  reg  [0:0] ovf1_s15;
-  reg  [0:0] ovf1_s16;
+      ovf1_s14_q | angles_theta_95_ovf_s14_q;
+  reg  [0:0] ovf1_s15_q;
+  reg  [0:0] ovf1_s16_q;
   wire ovf1_or_s16 =
-      ovf1_s16 | angles_theta_110_ovf_s16;
-  reg  [0:0] ovf1_s17;
+      ovf1_s16_q | angles_theta_110_ovf_s16_q;
+  reg  [0:0] ovf1_s17_q;
   wire ovf1_or_s17 =
-      ovf1_s17 | angles_theta_116_ovf_s17;
-  reg  [0:0] ovf1_s18;
+      ovf1_s17_q | angles_theta_116_ovf_s17_q;
+  reg  [0:0] ovf1_s18_q;
   wire ovf1_or_s18 =
-      ovf1_s18 | angles_theta_122_ovf_s18;
-  reg  [0:0] ovf1_s19;
+      ovf1_s18_q | angles_theta_122_ovf_s18_q;
+  reg  [0:0] ovf1_s19_q;
   wire ovf1_or_s19 =
-      ovf1_s19 | angles_theta_128_ovf_s19;
-  reg  [0:0] ovf1_s20;
+      ovf1_s19_q | angles_theta_128_ovf_s19_q;
+  reg  [0:0] ovf1_s20_q;
   wire ovf1_or_s20 =
-      ovf1_s20 | angles_theta_134_ovf_s20;
-  reg  [0:0] ovf1_s21;
+      ovf1_s20_q | angles_theta_134_ovf_s20_q;
+  reg  [0:0] ovf1_s21_q;
   wire ovf1_or_s21 =
-      ovf1_s21 | angles_theta_140_ovf_s21;
-  reg  [0:0] ovf1_s22;
+      ovf1_s21_q | angles_theta_140_ovf_s21_q;
+  reg  [0:0] ovf1_s22_q;
   wire ovf1_or_s22 =
-      ovf1_s22 | angles_theta_146_ovf_s22;
-  reg  [0:0] ovf1_s23;
+      ovf1_s22_q | angles_theta_146_ovf_s22_q;
+  reg  [0:0] ovf1_s23_q;
   wire ovf1_or_s23 =
-      ovf1_s23 | angles_theta_152_ovf_s23;
-  reg  [0:0] ovf1_s24;
+      ovf1_s23_q | angles_theta_152_ovf_s23_q;
+  reg  [0:0] ovf1_s24_q;
   wire ovf1_or_s24 =
-      ovf1_s24 | angles_theta_158_ovf_s24;
-  reg  [0:0] ovf1_s25;
+      ovf1_s24_q | angles_theta_158_ovf_s24_q;
+  reg  [0:0] ovf1_s25_q;
   wire ovf1_or_s25 =
-      ovf1_s25 | angles_theta_164_ovf_s25;
-  reg  [0:0] ovf1_s26;
+      ovf1_s25_q | angles_theta_164_ovf_s25_q;
+  reg  [0:0] ovf1_s26_q;
   wire ovf1_or_s26 =
-      ovf1_s26 | angles_theta_170_ovf_s26;
-  reg  [0:0] angles_out_172_ovf_s15;
-  reg  [0:0] ovf2_s16;
-  reg  [0:0] ovf2_s17;
-  reg  [0:0] ovf2_s18;
-  reg  [0:0] ovf2_s19;
-  reg  [0:0] ovf2_s20;
-  reg  [0:0] ovf2_s21;
-  reg  [0:0] ovf2_s22;
-  reg  [0:0] ovf2_s23;
-  reg  [0:0] ovf2_s24;
-  reg  [0:0] ovf2_s25;
-  reg  [0:0] ovf2_s26;
+      ovf1_s26_q | angles_theta_170_ovf_s26_q;
+  reg  [0:0] angles_out_172_ovf_s15_q;
+  reg  [0:0] ovf2_s16_q;
+  reg  [0:0] ovf2_s17_q;
+  reg  [0:0] ovf2_s18_q;
+  reg  [0:0] ovf2_s19_q;
+  reg  [0:0] ovf2_s20_q;
+  reg  [0:0] ovf2_s21_q;
+  reg  [0:0] ovf2_s22_q;
+  reg  [0:0] ovf2_s23_q;
+  reg  [0:0] ovf2_s24_q;
+  reg  [0:0] ovf2_s25_q;
+  reg  [0:0] ovf2_s26_q;
   wire ovf2_or_s26 =
-      ovf2_s26 | angles_out_171_ovf;
+      ovf2_s26_q | angles_out_171_ovf_q;
 
   // Stage loads: the item entering stage k is valid and the stages move.
   wire load_s1 = in_take;
@@ -1240,382 +1320,382 @@ module angles (
   // registers load only with a valid item, so bubbles do not toggle them.
   always @(posedge clk_i) begin
     if (load_s1) begin
-      angles_xy_21 <= angles_xy_21_c;
-      angles_xy_21_ovf <= angles_xy_21_ovf_c;
-      angles_xy_22 <= angles_xy_22_c;
-      angles_xy_22_ovf <= angles_xy_22_ovf_c;
-      angles_theta_23 <= angles_theta_23_c;
-      angles_theta_23_ovf <= angles_theta_23_ovf_c;
-      angles_xy_97 <= angles_xy_97_c;
-      angles_xy_97_ovf <= angles_xy_97_ovf_c;
-      angles_theta_98 <= angles_theta_98_c;
-      angles_theta_98_ovf <= angles_theta_98_ovf_c;
+      angles_xy_21_q <= angles_xy_21_d;
+      angles_xy_21_ovf_q <= angles_xy_21_ovf_d;
+      angles_xy_22_q <= angles_xy_22_d;
+      angles_xy_22_ovf_q <= angles_xy_22_ovf_d;
+      angles_theta_23_q <= angles_theta_23_d;
+      angles_theta_23_ovf_q <= angles_theta_23_ovf_d;
+      angles_xy_97_q <= angles_xy_97_d;
+      angles_xy_97_ovf_q <= angles_xy_97_ovf_d;
+      angles_theta_98_q <= angles_theta_98_d;
+      angles_theta_98_ovf_q <= angles_theta_98_ovf_d;
     end
     if (load_s2) begin
-      angles_xy_27 <= angles_xy_27_c;
-      angles_xy_27_ovf <= angles_xy_27_ovf_c;
-      angles_xy_28 <= angles_xy_28_c;
-      angles_xy_28_ovf <= angles_xy_28_ovf_c;
-      angles_theta_29 <= angles_theta_29_c;
-      angles_theta_29_ovf <= angles_theta_29_ovf_c;
-      angles_xy_97_s2 <= angles_xy_97;
-      angles_theta_104 <= angles_theta_104_c;
-      angles_theta_104_ovf <= angles_theta_104_ovf_c;
-      angles_xy_21_ovf_s2 <= angles_xy_21_ovf;
-      angles_xy_22_ovf_s2 <= angles_xy_22_ovf;
-      angles_xy_97_ovf_s2 <= angles_xy_97_ovf;
-      angles_theta_23_ovf_s2 <= angles_theta_23_ovf;
-      angles_theta_98_ovf_s2 <= angles_theta_98_ovf;
+      angles_xy_27_q <= angles_xy_27_d;
+      angles_xy_27_ovf_q <= angles_xy_27_ovf_d;
+      angles_xy_28_q <= angles_xy_28_d;
+      angles_xy_28_ovf_q <= angles_xy_28_ovf_d;
+      angles_theta_29_q <= angles_theta_29_d;
+      angles_theta_29_ovf_q <= angles_theta_29_ovf_d;
+      angles_xy_97_s2_q <= angles_xy_97_q;
+      angles_theta_104_q <= angles_theta_104_d;
+      angles_theta_104_ovf_q <= angles_theta_104_ovf_d;
+      angles_xy_21_ovf_s2_q <= angles_xy_21_ovf_q;
+      angles_xy_22_ovf_s2_q <= angles_xy_22_ovf_q;
+      angles_xy_97_ovf_s2_q <= angles_xy_97_ovf_q;
+      angles_theta_23_ovf_s2_q <= angles_theta_23_ovf_q;
+      angles_theta_98_ovf_s2_q <= angles_theta_98_ovf_q;
     end
     if (load_s3) begin
-      angles_xy_33 <= angles_xy_33_c;
-      angles_xy_33_ovf <= angles_xy_33_ovf_c;
-      angles_xy_34 <= angles_xy_34_c;
-      angles_xy_34_ovf <= angles_xy_34_ovf_c;
-      angles_theta_35 <= angles_theta_35_c;
-      angles_theta_35_ovf <= angles_theta_35_ovf_c;
-      angles_xy_97_s3 <= angles_xy_97_s2;
-      angles_theta_104_s3 <= angles_theta_104;
-      angles_xy_27_ovf_s3 <= angles_xy_27_ovf;
-      angles_xy_28_ovf_s3 <= angles_xy_28_ovf;
-      ovf0_s3 <= ovf0_or_s2;
-      angles_theta_29_ovf_s3 <= angles_theta_29_ovf;
-      angles_theta_104_ovf_s3 <= angles_theta_104_ovf;
-      ovf1_s3 <= ovf1_or_s2;
+      angles_xy_33_q <= angles_xy_33_d;
+      angles_xy_33_ovf_q <= angles_xy_33_ovf_d;
+      angles_xy_34_q <= angles_xy_34_d;
+      angles_xy_34_ovf_q <= angles_xy_34_ovf_d;
+      angles_theta_35_q <= angles_theta_35_d;
+      angles_theta_35_ovf_q <= angles_theta_35_ovf_d;
+      angles_xy_97_s3_q <= angles_xy_97_s2_q;
+      angles_theta_104_s3_q <= angles_theta_104_q;
+      angles_xy_27_ovf_s3_q <= angles_xy_27_ovf_q;
+      angles_xy_28_ovf_s3_q <= angles_xy_28_ovf_q;
+      ovf0_s3_q <= ovf0_or_s2;
+      angles_theta_29_ovf_s3_q <= angles_theta_29_ovf_q;
+      angles_theta_104_ovf_s3_q <= angles_theta_104_ovf_q;
+      ovf1_s3_q <= ovf1_or_s2;
     end
     if (load_s4) begin
-      angles_xy_39 <= angles_xy_39_c;
-      angles_xy_39_ovf <= angles_xy_39_ovf_c;
-      angles_xy_40 <= angles_xy_40_c;
-      angles_xy_40_ovf <= angles_xy_40_ovf_c;
-      angles_theta_41 <= angles_theta_41_c;
-      angles_theta_41_ovf <= angles_theta_41_ovf_c;
-      angles_xy_97_s4 <= angles_xy_97_s3;
-      angles_theta_104_s4 <= angles_theta_104_s3;
-      angles_xy_33_ovf_s4 <= angles_xy_33_ovf;
-      angles_xy_34_ovf_s4 <= angles_xy_34_ovf;
-      ovf0_s4 <= ovf0_or_s3;
-      angles_theta_35_ovf_s4 <= angles_theta_35_ovf;
-      ovf1_s4 <= ovf1_or_s3;
+      angles_xy_39_q <= angles_xy_39_d;
+      angles_xy_39_ovf_q <= angles_xy_39_ovf_d;
+      angles_xy_40_q <= angles_xy_40_d;
+      angles_xy_40_ovf_q <= angles_xy_40_ovf_d;
+      angles_theta_41_q <= angles_theta_41_d;
+      angles_theta_41_ovf_q <= angles_theta_41_ovf_d;
+      angles_xy_97_s4_q <= angles_xy_97_s3_q;
+      angles_theta_104_s4_q <= angles_theta_104_s3_q;
+      angles_xy_33_ovf_s4_q <= angles_xy_33_ovf_q;
+      angles_xy_34_ovf_s4_q <= angles_xy_34_ovf_q;
+      ovf0_s4_q <= ovf0_or_s3;
+      angles_theta_35_ovf_s4_q <= angles_theta_35_ovf_q;
+      ovf1_s4_q <= ovf1_or_s3;
     end
     if (load_s5) begin
-      angles_xy_45 <= angles_xy_45_c;
-      angles_xy_45_ovf <= angles_xy_45_ovf_c;
-      angles_xy_46 <= angles_xy_46_c;
-      angles_xy_46_ovf <= angles_xy_46_ovf_c;
-      angles_theta_47 <= angles_theta_47_c;
-      angles_theta_47_ovf <= angles_theta_47_ovf_c;
-      angles_xy_97_s5 <= angles_xy_97_s4;
-      angles_theta_104_s5 <= angles_theta_104_s4;
-      angles_xy_39_ovf_s5 <= angles_xy_39_ovf;
-      angles_xy_40_ovf_s5 <= angles_xy_40_ovf;
-      ovf0_s5 <= ovf0_or_s4;
-      angles_theta_41_ovf_s5 <= angles_theta_41_ovf;
-      ovf1_s5 <= ovf1_or_s4;
+      angles_xy_45_q <= angles_xy_45_d;
+      angles_xy_45_ovf_q <= angles_xy_45_ovf_d;
+      angles_xy_46_q <= angles_xy_46_d;
+      angles_xy_46_ovf_q <= angles_xy_46_ovf_d;
+      angles_theta_47_q <= angles_theta_47_d;
+      angles_theta_47_ovf_q <= angles_theta_47_ovf_d;
+      angles_xy_97_s5_q <= angles_xy_97_s4_q;
+      angles_theta_104_s5_q <= angles_theta_104_s4_q;
+      angles_xy_39_ovf_s5_q <= angles_xy_39_ovf_q;
+      angles_xy_40_ovf_s5_q <= angles_xy_40_ovf_q;
+      ovf0_s5_q <= ovf0_or_s4;
+      angles_theta_41_ovf_s5_q <= angles_theta_41_ovf_q;
+      ovf1_s5_q <= ovf1_or_s4;
     end
     if (load_s6) begin
-      angles_xy_51 <= angles_xy_51_c;
-      angles_xy_51_ovf <= angles_xy_51_ovf_c;
-      angles_xy_52 <= angles_xy_52_c;
-      angles_xy_52_ovf <= angles_xy_52_ovf_c;
-      angles_theta_53 <= angles_theta_53_c;
-      angles_theta_53_ovf <= angles_theta_53_ovf_c;
-      angles_xy_97_s6 <= angles_xy_97_s5;
-      angles_theta_104_s6 <= angles_theta_104_s5;
-      angles_xy_45_ovf_s6 <= angles_xy_45_ovf;
-      angles_xy_46_ovf_s6 <= angles_xy_46_ovf;
-      ovf0_s6 <= ovf0_or_s5;
-      angles_theta_47_ovf_s6 <= angles_theta_47_ovf;
-      ovf1_s6 <= ovf1_or_s5;
+      angles_xy_51_q <= angles_xy_51_d;
+      angles_xy_51_ovf_q <= angles_xy_51_ovf_d;
+      angles_xy_52_q <= angles_xy_52_d;
+      angles_xy_52_ovf_q <= angles_xy_52_ovf_d;
+      angles_theta_53_q <= angles_theta_53_d;
+      angles_theta_53_ovf_q <= angles_theta_53_ovf_d;
+      angles_xy_97_s6_q <= angles_xy_97_s5_q;
+      angles_theta_104_s6_q <= angles_theta_104_s5_q;
+      angles_xy_45_ovf_s6_q <= angles_xy_45_ovf_q;
+      angles_xy_46_ovf_s6_q <= angles_xy_46_ovf_q;
+      ovf0_s6_q <= ovf0_or_s5;
+      angles_theta_47_ovf_s6_q <= angles_theta_47_ovf_q;
+      ovf1_s6_q <= ovf1_or_s5;
     end
     if (load_s7) begin
-      angles_xy_57 <= angles_xy_57_c;
-      angles_xy_57_ovf <= angles_xy_57_ovf_c;
-      angles_xy_58 <= angles_xy_58_c;
-      angles_xy_58_ovf <= angles_xy_58_ovf_c;
-      angles_theta_59 <= angles_theta_59_c;
-      angles_theta_59_ovf <= angles_theta_59_ovf_c;
-      angles_xy_97_s7 <= angles_xy_97_s6;
-      angles_theta_104_s7 <= angles_theta_104_s6;
-      angles_xy_51_ovf_s7 <= angles_xy_51_ovf;
-      angles_xy_52_ovf_s7 <= angles_xy_52_ovf;
-      ovf0_s7 <= ovf0_or_s6;
-      angles_theta_53_ovf_s7 <= angles_theta_53_ovf;
-      ovf1_s7 <= ovf1_or_s6;
+      angles_xy_57_q <= angles_xy_57_d;
+      angles_xy_57_ovf_q <= angles_xy_57_ovf_d;
+      angles_xy_58_q <= angles_xy_58_d;
+      angles_xy_58_ovf_q <= angles_xy_58_ovf_d;
+      angles_theta_59_q <= angles_theta_59_d;
+      angles_theta_59_ovf_q <= angles_theta_59_ovf_d;
+      angles_xy_97_s7_q <= angles_xy_97_s6_q;
+      angles_theta_104_s7_q <= angles_theta_104_s6_q;
+      angles_xy_51_ovf_s7_q <= angles_xy_51_ovf_q;
+      angles_xy_52_ovf_s7_q <= angles_xy_52_ovf_q;
+      ovf0_s7_q <= ovf0_or_s6;
+      angles_theta_53_ovf_s7_q <= angles_theta_53_ovf_q;
+      ovf1_s7_q <= ovf1_or_s6;
     end
     if (load_s8) begin
-      angles_xy_63 <= angles_xy_63_c;
-      angles_xy_63_ovf <= angles_xy_63_ovf_c;
-      angles_xy_64 <= angles_xy_64_c;
-      angles_xy_64_ovf <= angles_xy_64_ovf_c;
-      angles_theta_65 <= angles_theta_65_c;
-      angles_theta_65_ovf <= angles_theta_65_ovf_c;
-      angles_xy_97_s8 <= angles_xy_97_s7;
-      angles_theta_104_s8 <= angles_theta_104_s7;
-      angles_xy_57_ovf_s8 <= angles_xy_57_ovf;
-      angles_xy_58_ovf_s8 <= angles_xy_58_ovf;
-      ovf0_s8 <= ovf0_or_s7;
-      angles_theta_59_ovf_s8 <= angles_theta_59_ovf;
-      ovf1_s8 <= ovf1_or_s7;
+      angles_xy_63_q <= angles_xy_63_d;
+      angles_xy_63_ovf_q <= angles_xy_63_ovf_d;
+      angles_xy_64_q <= angles_xy_64_d;
+      angles_xy_64_ovf_q <= angles_xy_64_ovf_d;
+      angles_theta_65_q <= angles_theta_65_d;
+      angles_theta_65_ovf_q <= angles_theta_65_ovf_d;
+      angles_xy_97_s8_q <= angles_xy_97_s7_q;
+      angles_theta_104_s8_q <= angles_theta_104_s7_q;
+      angles_xy_57_ovf_s8_q <= angles_xy_57_ovf_q;
+      angles_xy_58_ovf_s8_q <= angles_xy_58_ovf_q;
+      ovf0_s8_q <= ovf0_or_s7;
+      angles_theta_59_ovf_s8_q <= angles_theta_59_ovf_q;
+      ovf1_s8_q <= ovf1_or_s7;
     end
     if (load_s9) begin
-      angles_xy_69 <= angles_xy_69_c;
-      angles_xy_69_ovf <= angles_xy_69_ovf_c;
-      angles_xy_70 <= angles_xy_70_c;
-      angles_xy_70_ovf <= angles_xy_70_ovf_c;
-      angles_theta_71 <= angles_theta_71_c;
-      angles_theta_71_ovf <= angles_theta_71_ovf_c;
-      angles_xy_97_s9 <= angles_xy_97_s8;
-      angles_theta_104_s9 <= angles_theta_104_s8;
-      angles_xy_63_ovf_s9 <= angles_xy_63_ovf;
-      angles_xy_64_ovf_s9 <= angles_xy_64_ovf;
-      ovf0_s9 <= ovf0_or_s8;
-      angles_theta_65_ovf_s9 <= angles_theta_65_ovf;
-      ovf1_s9 <= ovf1_or_s8;
+      angles_xy_69_q <= angles_xy_69_d;
+      angles_xy_69_ovf_q <= angles_xy_69_ovf_d;
+      angles_xy_70_q <= angles_xy_70_d;
+      angles_xy_70_ovf_q <= angles_xy_70_ovf_d;
+      angles_theta_71_q <= angles_theta_71_d;
+      angles_theta_71_ovf_q <= angles_theta_71_ovf_d;
+      angles_xy_97_s9_q <= angles_xy_97_s8_q;
+      angles_theta_104_s9_q <= angles_theta_104_s8_q;
+      angles_xy_63_ovf_s9_q <= angles_xy_63_ovf_q;
+      angles_xy_64_ovf_s9_q <= angles_xy_64_ovf_q;
+      ovf0_s9_q <= ovf0_or_s8;
+      angles_theta_65_ovf_s9_q <= angles_theta_65_ovf_q;
+      ovf1_s9_q <= ovf1_or_s8;
     end
     if (load_s10) begin
-      angles_xy_75 <= angles_xy_75_c;
-      angles_xy_75_ovf <= angles_xy_75_ovf_c;
-      angles_xy_76 <= angles_xy_76_c;
-      angles_xy_76_ovf <= angles_xy_76_ovf_c;
-      angles_theta_77 <= angles_theta_77_c;
-      angles_theta_77_ovf <= angles_theta_77_ovf_c;
-      angles_xy_97_s10 <= angles_xy_97_s9;
-      angles_theta_104_s10 <= angles_theta_104_s9;
-      angles_xy_69_ovf_s10 <= angles_xy_69_ovf;
-      angles_xy_70_ovf_s10 <= angles_xy_70_ovf;
-      ovf0_s10 <= ovf0_or_s9;
-      angles_theta_71_ovf_s10 <= angles_theta_71_ovf;
-      ovf1_s10 <= ovf1_or_s9;
+      angles_xy_75_q <= angles_xy_75_d;
+      angles_xy_75_ovf_q <= angles_xy_75_ovf_d;
+      angles_xy_76_q <= angles_xy_76_d;
+      angles_xy_76_ovf_q <= angles_xy_76_ovf_d;
+      angles_theta_77_q <= angles_theta_77_d;
+      angles_theta_77_ovf_q <= angles_theta_77_ovf_d;
+      angles_xy_97_s10_q <= angles_xy_97_s9_q;
+      angles_theta_104_s10_q <= angles_theta_104_s9_q;
+      angles_xy_69_ovf_s10_q <= angles_xy_69_ovf_q;
+      angles_xy_70_ovf_s10_q <= angles_xy_70_ovf_q;
+      ovf0_s10_q <= ovf0_or_s9;
+      angles_theta_71_ovf_s10_q <= angles_theta_71_ovf_q;
+      ovf1_s10_q <= ovf1_or_s9;
     end
     if (load_s11) begin
-      angles_xy_81 <= angles_xy_81_c;
-      angles_xy_81_ovf <= angles_xy_81_ovf_c;
-      angles_xy_82 <= angles_xy_82_c;
-      angles_xy_82_ovf <= angles_xy_82_ovf_c;
-      angles_theta_83 <= angles_theta_83_c;
-      angles_theta_83_ovf <= angles_theta_83_ovf_c;
-      angles_xy_97_s11 <= angles_xy_97_s10;
-      angles_theta_104_s11 <= angles_theta_104_s10;
-      angles_xy_75_ovf_s11 <= angles_xy_75_ovf;
-      angles_xy_76_ovf_s11 <= angles_xy_76_ovf;
-      ovf0_s11 <= ovf0_or_s10;
-      angles_theta_77_ovf_s11 <= angles_theta_77_ovf;
-      ovf1_s11 <= ovf1_or_s10;
+      angles_xy_81_q <= angles_xy_81_d;
+      angles_xy_81_ovf_q <= angles_xy_81_ovf_d;
+      angles_xy_82_q <= angles_xy_82_d;
+      angles_xy_82_ovf_q <= angles_xy_82_ovf_d;
+      angles_theta_83_q <= angles_theta_83_d;
+      angles_theta_83_ovf_q <= angles_theta_83_ovf_d;
+      angles_xy_97_s11_q <= angles_xy_97_s10_q;
+      angles_theta_104_s11_q <= angles_theta_104_s10_q;
+      angles_xy_75_ovf_s11_q <= angles_xy_75_ovf_q;
+      angles_xy_76_ovf_s11_q <= angles_xy_76_ovf_q;
+      ovf0_s11_q <= ovf0_or_s10;
+      angles_theta_77_ovf_s11_q <= angles_theta_77_ovf_q;
+      ovf1_s11_q <= ovf1_or_s10;
     end
     if (load_s12) begin
-      angles_xy_87 <= angles_xy_87_c;
-      angles_xy_87_ovf <= angles_xy_87_ovf_c;
-      angles_xy_88 <= angles_xy_88_c;
-      angles_xy_88_ovf <= angles_xy_88_ovf_c;
-      angles_theta_89 <= angles_theta_89_c;
-      angles_theta_89_ovf <= angles_theta_89_ovf_c;
-      angles_xy_97_s12 <= angles_xy_97_s11;
-      angles_theta_104_s12 <= angles_theta_104_s11;
-      angles_xy_81_ovf_s12 <= angles_xy_81_ovf;
-      angles_xy_82_ovf_s12 <= angles_xy_82_ovf;
-      ovf0_s12 <= ovf0_or_s11;
-      angles_theta_83_ovf_s12 <= angles_theta_83_ovf;
-      ovf1_s12 <= ovf1_or_s11;
+      angles_xy_87_q <= angles_xy_87_d;
+      angles_xy_87_ovf_q <= angles_xy_87_ovf_d;
+      angles_xy_88_q <= angles_xy_88_d;
+      angles_xy_88_ovf_q <= angles_xy_88_ovf_d;
+      angles_theta_89_q <= angles_theta_89_d;
+      angles_theta_89_ovf_q <= angles_theta_89_ovf_d;
+      angles_xy_97_s12_q <= angles_xy_97_s11_q;
+      angles_theta_104_s12_q <= angles_theta_104_s11_q;
+      angles_xy_81_ovf_s12_q <= angles_xy_81_ovf_q;
+      angles_xy_82_ovf_s12_q <= angles_xy_82_ovf_q;
+      ovf0_s12_q <= ovf0_or_s11;
+      angles_theta_83_ovf_s12_q <= angles_theta_83_ovf_q;
+      ovf1_s12_q <= ovf1_or_s11;
     end
     if (load_s13) begin
-      angles_xy_93 <= angles_xy_93_c;
-      angles_xy_93_ovf <= angles_xy_93_ovf_c;
-      angles_theta_95 <= angles_theta_95_c;
-      angles_theta_95_ovf <= angles_theta_95_ovf_c;
-      angles_xy_97_s13 <= angles_xy_97_s12;
-      angles_theta_104_s13 <= angles_theta_104_s12;
-      angles_xy_87_ovf_s13 <= angles_xy_87_ovf;
-      angles_xy_88_ovf_s13 <= angles_xy_88_ovf;
-      ovf0_s13 <= ovf0_or_s12;
-      angles_theta_89_ovf_s13 <= angles_theta_89_ovf;
-      ovf1_s13 <= ovf1_or_s12;
+      angles_xy_93_q <= angles_xy_93_d;
+      angles_xy_93_ovf_q <= angles_xy_93_ovf_d;
+      angles_theta_95_q <= angles_theta_95_d;
+      angles_theta_95_ovf_q <= angles_theta_95_ovf_d;
+      angles_xy_97_s13_q <= angles_xy_97_s12_q;
+      angles_theta_104_s13_q <= angles_theta_104_s12_q;
+      angles_xy_87_ovf_s13_q <= angles_xy_87_ovf_q;
+      angles_xy_88_ovf_s13_q <= angles_xy_88_ovf_q;
+      ovf0_s13_q <= ovf0_or_s12;
+      angles_theta_89_ovf_s13_q <= angles_theta_89_ovf_q;
+      ovf1_s13_q <= ovf1_or_s12;
     end
     if (load_s14) begin
-      angles_xy_102 <= angles_xy_102_c;
-      angles_xy_102_ovf <= angles_xy_102_ovf_c;
-      angles_xy_103 <= angles_xy_103_c;
-      angles_xy_103_ovf <= angles_xy_103_ovf_c;
-      angles_theta_104_s14 <= angles_theta_104_s13;
-      angles_out_172 <= angles_out_172_c;
-      angles_out_172_ovf <= angles_out_172_ovf_c;
-      angles_xy_93_ovf_s14 <= angles_xy_93_ovf;
-      ovf0_s14 <= ovf0_or_s13;
-      angles_theta_95_ovf_s14 <= angles_theta_95_ovf;
-      ovf1_s14 <= ovf1_or_s13;
+      angles_xy_102_q <= angles_xy_102_d;
+      angles_xy_102_ovf_q <= angles_xy_102_ovf_d;
+      angles_xy_103_q <= angles_xy_103_d;
+      angles_xy_103_ovf_q <= angles_xy_103_ovf_d;
+      angles_theta_104_s14_q <= angles_theta_104_s13_q;
+      angles_out_172_q <= angles_out_172_d;
+      angles_out_172_ovf_q <= angles_out_172_ovf_d;
+      angles_xy_93_ovf_s14_q <= angles_xy_93_ovf_q;
+      ovf0_s14_q <= ovf0_or_s13;
+      angles_theta_95_ovf_s14_q <= angles_theta_95_ovf_q;
+      ovf1_s14_q <= ovf1_or_s13;
     end
     if (load_s15) begin
-      angles_xy_108 <= angles_xy_108_c;
-      angles_xy_108_ovf <= angles_xy_108_ovf_c;
-      angles_xy_109 <= angles_xy_109_c;
-      angles_xy_109_ovf <= angles_xy_109_ovf_c;
-      angles_theta_110 <= angles_theta_110_c;
-      angles_theta_110_ovf <= angles_theta_110_ovf_c;
-      angles_out_172_s15 <= angles_out_172;
-      angles_xy_102_ovf_s15 <= angles_xy_102_ovf;
-      angles_xy_103_ovf_s15 <= angles_xy_103_ovf;
-      ovf0_s15 <= ovf0_or_s14;
-      ovf1_s15 <= ovf1_or_s14;
-      angles_out_172_ovf_s15 <= angles_out_172_ovf;
+      angles_xy_108_q <= angles_xy_108_d;
+      angles_xy_108_ovf_q <= angles_xy_108_ovf_d;
+      angles_xy_109_q <= angles_xy_109_d;
+      angles_xy_109_ovf_q <= angles_xy_109_ovf_d;
+      angles_theta_110_q <= angles_theta_110_d;
+      angles_theta_110_ovf_q <= angles_theta_110_ovf_d;
+      angles_out_172_s15_q <= angles_out_172_q;
+      angles_xy_102_ovf_s15_q <= angles_xy_102_ovf_q;
+      angles_xy_103_ovf_s15_q <= angles_xy_103_ovf_q;
+      ovf0_s15_q <= ovf0_or_s14;
+      ovf1_s15_q <= ovf1_or_s14;
+      angles_out_172_ovf_s15_q <= angles_out_172_ovf_q;
     end
     if (load_s16) begin
-      angles_xy_114 <= angles_xy_114_c;
-      angles_xy_114_ovf <= angles_xy_114_ovf_c;
-      angles_xy_115 <= angles_xy_115_c;
-      angles_xy_115_ovf <= angles_xy_115_ovf_c;
-      angles_theta_116 <= angles_theta_116_c;
-      angles_theta_116_ovf <= angles_theta_116_ovf_c;
-      angles_out_172_s16 <= angles_out_172_s15;
-      angles_xy_108_ovf_s16 <= angles_xy_108_ovf;
-      angles_xy_109_ovf_s16 <= angles_xy_109_ovf;
-      ovf0_s16 <= ovf0_or_s15;
-      angles_theta_110_ovf_s16 <= angles_theta_110_ovf;
-      ovf1_s16 <= ovf1_s15;
-      ovf2_s16 <= angles_out_172_ovf_s15;
+      angles_xy_114_q <= angles_xy_114_d;
+      angles_xy_114_ovf_q <= angles_xy_114_ovf_d;
+      angles_xy_115_q <= angles_xy_115_d;
+      angles_xy_115_ovf_q <= angles_xy_115_ovf_d;
+      angles_theta_116_q <= angles_theta_116_d;
+      angles_theta_116_ovf_q <= angles_theta_116_ovf_d;
+      angles_out_172_s16_q <= angles_out_172_s15_q;
+      angles_xy_108_ovf_s16_q <= angles_xy_108_ovf_q;
+      angles_xy_109_ovf_s16_q <= angles_xy_109_ovf_q;
+      ovf0_s16_q <= ovf0_or_s15;
+      angles_theta_110_ovf_s16_q <= angles_theta_110_ovf_q;
+      ovf1_s16_q <= ovf1_s15_q;
+      ovf2_s16_q <= angles_out_172_ovf_s15_q;
     end
     if (load_s17) begin
-      angles_xy_120 <= angles_xy_120_c;
-      angles_xy_120_ovf <= angles_xy_120_ovf_c;
-      angles_xy_121 <= angles_xy_121_c;
-      angles_xy_121_ovf <= angles_xy_121_ovf_c;
-      angles_theta_122 <= angles_theta_122_c;
-      angles_theta_122_ovf <= angles_theta_122_ovf_c;
-      angles_out_172_s17 <= angles_out_172_s16;
-      angles_xy_114_ovf_s17 <= angles_xy_114_ovf;
-      angles_xy_115_ovf_s17 <= angles_xy_115_ovf;
-      ovf0_s17 <= ovf0_or_s16;
-      angles_theta_116_ovf_s17 <= angles_theta_116_ovf;
-      ovf1_s17 <= ovf1_or_s16;
-      ovf2_s17 <= ovf2_s16;
+      angles_xy_120_q <= angles_xy_120_d;
+      angles_xy_120_ovf_q <= angles_xy_120_ovf_d;
+      angles_xy_121_q <= angles_xy_121_d;
+      angles_xy_121_ovf_q <= angles_xy_121_ovf_d;
+      angles_theta_122_q <= angles_theta_122_d;
+      angles_theta_122_ovf_q <= angles_theta_122_ovf_d;
+      angles_out_172_s17_q <= angles_out_172_s16_q;
+      angles_xy_114_ovf_s17_q <= angles_xy_114_ovf_q;
+      angles_xy_115_ovf_s17_q <= angles_xy_115_ovf_q;
+      ovf0_s17_q <= ovf0_or_s16;
+      angles_theta_116_ovf_s17_q <= angles_theta_116_ovf_q;
+      ovf1_s17_q <= ovf1_or_s16;
+      ovf2_s17_q <= ovf2_s16_q;
     end
     if (load_s18) begin
-      angles_xy_126 <= angles_xy_126_c;
-      angles_xy_126_ovf <= angles_xy_126_ovf_c;
-      angles_xy_127 <= angles_xy_127_c;
-      angles_xy_127_ovf <= angles_xy_127_ovf_c;
-      angles_theta_128 <= angles_theta_128_c;
-      angles_theta_128_ovf <= angles_theta_128_ovf_c;
-      angles_out_172_s18 <= angles_out_172_s17;
-      angles_xy_120_ovf_s18 <= angles_xy_120_ovf;
-      angles_xy_121_ovf_s18 <= angles_xy_121_ovf;
-      ovf0_s18 <= ovf0_or_s17;
-      angles_theta_122_ovf_s18 <= angles_theta_122_ovf;
-      ovf1_s18 <= ovf1_or_s17;
-      ovf2_s18 <= ovf2_s17;
+      angles_xy_126_q <= angles_xy_126_d;
+      angles_xy_126_ovf_q <= angles_xy_126_ovf_d;
+      angles_xy_127_q <= angles_xy_127_d;
+      angles_xy_127_ovf_q <= angles_xy_127_ovf_d;
+      angles_theta_128_q <= angles_theta_128_d;
+      angles_theta_128_ovf_q <= angles_theta_128_ovf_d;
+      angles_out_172_s18_q <= angles_out_172_s17_q;
+      angles_xy_120_ovf_s18_q <= angles_xy_120_ovf_q;
+      angles_xy_121_ovf_s18_q <= angles_xy_121_ovf_q;
+      ovf0_s18_q <= ovf0_or_s17;
+      angles_theta_122_ovf_s18_q <= angles_theta_122_ovf_q;
+      ovf1_s18_q <= ovf1_or_s17;
+      ovf2_s18_q <= ovf2_s17_q;
     end
     if (load_s19) begin
-      angles_xy_132 <= angles_xy_132_c;
-      angles_xy_132_ovf <= angles_xy_132_ovf_c;
-      angles_xy_133 <= angles_xy_133_c;
-      angles_xy_133_ovf <= angles_xy_133_ovf_c;
-      angles_theta_134 <= angles_theta_134_c;
-      angles_theta_134_ovf <= angles_theta_134_ovf_c;
-      angles_out_172_s19 <= angles_out_172_s18;
-      angles_xy_126_ovf_s19 <= angles_xy_126_ovf;
-      angles_xy_127_ovf_s19 <= angles_xy_127_ovf;
-      ovf0_s19 <= ovf0_or_s18;
-      angles_theta_128_ovf_s19 <= angles_theta_128_ovf;
-      ovf1_s19 <= ovf1_or_s18;
-      ovf2_s19 <= ovf2_s18;
+      angles_xy_132_q <= angles_xy_132_d;
+      angles_xy_132_ovf_q <= angles_xy_132_ovf_d;
+      angles_xy_133_q <= angles_xy_133_d;
+      angles_xy_133_ovf_q <= angles_xy_133_ovf_d;
+      angles_theta_134_q <= angles_theta_134_d;
+      angles_theta_134_ovf_q <= angles_theta_134_ovf_d;
+      angles_out_172_s19_q <= angles_out_172_s18_q;
+      angles_xy_126_ovf_s19_q <= angles_xy_126_ovf_q;
+      angles_xy_127_ovf_s19_q <= angles_xy_127_ovf_q;
+      ovf0_s19_q <= ovf0_or_s18;
+      angles_theta_128_ovf_s19_q <= angles_theta_128_ovf_q;
+      ovf1_s19_q <= ovf1_or_s18;
+      ovf2_s19_q <= ovf2_s18_q;
     end
     if (load_s20) begin
-      angles_xy_138 <= angles_xy_138_c;
-      angles_xy_138_ovf <= angles_xy_138_ovf_c;
-      angles_xy_139 <= angles_xy_139_c;
-      angles_xy_139_ovf <= angles_xy_139_ovf_c;
-      angles_theta_140 <= angles_theta_140_c;
-      angles_theta_140_ovf <= angles_theta_140_ovf_c;
-      angles_out_172_s20 <= angles_out_172_s19;
-      angles_xy_132_ovf_s20 <= angles_xy_132_ovf;
-      angles_xy_133_ovf_s20 <= angles_xy_133_ovf;
-      ovf0_s20 <= ovf0_or_s19;
-      angles_theta_134_ovf_s20 <= angles_theta_134_ovf;
-      ovf1_s20 <= ovf1_or_s19;
-      ovf2_s20 <= ovf2_s19;
+      angles_xy_138_q <= angles_xy_138_d;
+      angles_xy_138_ovf_q <= angles_xy_138_ovf_d;
+      angles_xy_139_q <= angles_xy_139_d;
+      angles_xy_139_ovf_q <= angles_xy_139_ovf_d;
+      angles_theta_140_q <= angles_theta_140_d;
+      angles_theta_140_ovf_q <= angles_theta_140_ovf_d;
+      angles_out_172_s20_q <= angles_out_172_s19_q;
+      angles_xy_132_ovf_s20_q <= angles_xy_132_ovf_q;
+      angles_xy_133_ovf_s20_q <= angles_xy_133_ovf_q;
+      ovf0_s20_q <= ovf0_or_s19;
+      angles_theta_134_ovf_s20_q <= angles_theta_134_ovf_q;
+      ovf1_s20_q <= ovf1_or_s19;
+      ovf2_s20_q <= ovf2_s19_q;
     end
     if (load_s21) begin
-      angles_xy_144 <= angles_xy_144_c;
-      angles_xy_144_ovf <= angles_xy_144_ovf_c;
-      angles_xy_145 <= angles_xy_145_c;
-      angles_xy_145_ovf <= angles_xy_145_ovf_c;
-      angles_theta_146 <= angles_theta_146_c;
-      angles_theta_146_ovf <= angles_theta_146_ovf_c;
-      angles_out_172_s21 <= angles_out_172_s20;
-      angles_xy_138_ovf_s21 <= angles_xy_138_ovf;
-      angles_xy_139_ovf_s21 <= angles_xy_139_ovf;
-      ovf0_s21 <= ovf0_or_s20;
-      angles_theta_140_ovf_s21 <= angles_theta_140_ovf;
-      ovf1_s21 <= ovf1_or_s20;
-      ovf2_s21 <= ovf2_s20;
+      angles_xy_144_q <= angles_xy_144_d;
+      angles_xy_144_ovf_q <= angles_xy_144_ovf_d;
+      angles_xy_145_q <= angles_xy_145_d;
+      angles_xy_145_ovf_q <= angles_xy_145_ovf_d;
+      angles_theta_146_q <= angles_theta_146_d;
+      angles_theta_146_ovf_q <= angles_theta_146_ovf_d;
+      angles_out_172_s21_q <= angles_out_172_s20_q;
+      angles_xy_138_ovf_s21_q <= angles_xy_138_ovf_q;
+      angles_xy_139_ovf_s21_q <= angles_xy_139_ovf_q;
+      ovf0_s21_q <= ovf0_or_s20;
+      angles_theta_140_ovf_s21_q <= angles_theta_140_ovf_q;
+      ovf1_s21_q <= ovf1_or_s20;
+      ovf2_s21_q <= ovf2_s20_q;
     end
     if (load_s22) begin
-      angles_xy_150 <= angles_xy_150_c;
-      angles_xy_150_ovf <= angles_xy_150_ovf_c;
-      angles_xy_151 <= angles_xy_151_c;
-      angles_xy_151_ovf <= angles_xy_151_ovf_c;
-      angles_theta_152 <= angles_theta_152_c;
-      angles_theta_152_ovf <= angles_theta_152_ovf_c;
-      angles_out_172_s22 <= angles_out_172_s21;
-      angles_xy_144_ovf_s22 <= angles_xy_144_ovf;
-      angles_xy_145_ovf_s22 <= angles_xy_145_ovf;
-      ovf0_s22 <= ovf0_or_s21;
-      angles_theta_146_ovf_s22 <= angles_theta_146_ovf;
-      ovf1_s22 <= ovf1_or_s21;
-      ovf2_s22 <= ovf2_s21;
+      angles_xy_150_q <= angles_xy_150_d;
+      angles_xy_150_ovf_q <= angles_xy_150_ovf_d;
+      angles_xy_151_q <= angles_xy_151_d;
+      angles_xy_151_ovf_q <= angles_xy_151_ovf_d;
+      angles_theta_152_q <= angles_theta_152_d;
+      angles_theta_152_ovf_q <= angles_theta_152_ovf_d;
+      angles_out_172_s22_q <= angles_out_172_s21_q;
+      angles_xy_144_ovf_s22_q <= angles_xy_144_ovf_q;
+      angles_xy_145_ovf_s22_q <= angles_xy_145_ovf_q;
+      ovf0_s22_q <= ovf0_or_s21;
+      angles_theta_146_ovf_s22_q <= angles_theta_146_ovf_q;
+      ovf1_s22_q <= ovf1_or_s21;
+      ovf2_s22_q <= ovf2_s21_q;
     end
     if (load_s23) begin
-      angles_xy_156 <= angles_xy_156_c;
-      angles_xy_156_ovf <= angles_xy_156_ovf_c;
-      angles_xy_157 <= angles_xy_157_c;
-      angles_xy_157_ovf <= angles_xy_157_ovf_c;
-      angles_theta_158 <= angles_theta_158_c;
-      angles_theta_158_ovf <= angles_theta_158_ovf_c;
-      angles_out_172_s23 <= angles_out_172_s22;
-      angles_xy_150_ovf_s23 <= angles_xy_150_ovf;
-      angles_xy_151_ovf_s23 <= angles_xy_151_ovf;
-      ovf0_s23 <= ovf0_or_s22;
-      angles_theta_152_ovf_s23 <= angles_theta_152_ovf;
-      ovf1_s23 <= ovf1_or_s22;
-      ovf2_s23 <= ovf2_s22;
+      angles_xy_156_q <= angles_xy_156_d;
+      angles_xy_156_ovf_q <= angles_xy_156_ovf_d;
+      angles_xy_157_q <= angles_xy_157_d;
+      angles_xy_157_ovf_q <= angles_xy_157_ovf_d;
+      angles_theta_158_q <= angles_theta_158_d;
+      angles_theta_158_ovf_q <= angles_theta_158_ovf_d;
+      angles_out_172_s23_q <= angles_out_172_s22_q;
+      angles_xy_150_ovf_s23_q <= angles_xy_150_ovf_q;
+      angles_xy_151_ovf_s23_q <= angles_xy_151_ovf_q;
+      ovf0_s23_q <= ovf0_or_s22;
+      angles_theta_152_ovf_s23_q <= angles_theta_152_ovf_q;
+      ovf1_s23_q <= ovf1_or_s22;
+      ovf2_s23_q <= ovf2_s22_q;
     end
     if (load_s24) begin
-      angles_xy_163 <= angles_xy_163_c;
-      angles_xy_163_ovf <= angles_xy_163_ovf_c;
-      angles_theta_164 <= angles_theta_164_c;
-      angles_theta_164_ovf <= angles_theta_164_ovf_c;
-      angles_out_172_s24 <= angles_out_172_s23;
-      angles_xy_156_ovf_s24 <= angles_xy_156_ovf;
-      angles_xy_157_ovf_s24 <= angles_xy_157_ovf;
-      ovf0_s24 <= ovf0_or_s23;
-      angles_theta_158_ovf_s24 <= angles_theta_158_ovf;
-      ovf1_s24 <= ovf1_or_s23;
-      ovf2_s24 <= ovf2_s23;
+      angles_xy_163_q <= angles_xy_163_d;
+      angles_xy_163_ovf_q <= angles_xy_163_ovf_d;
+      angles_theta_164_q <= angles_theta_164_d;
+      angles_theta_164_ovf_q <= angles_theta_164_ovf_d;
+      angles_out_172_s24_q <= angles_out_172_s23_q;
+      angles_xy_156_ovf_s24_q <= angles_xy_156_ovf_q;
+      angles_xy_157_ovf_s24_q <= angles_xy_157_ovf_q;
+      ovf0_s24_q <= ovf0_or_s23;
+      angles_theta_158_ovf_s24_q <= angles_theta_158_ovf_q;
+      ovf1_s24_q <= ovf1_or_s23;
+      ovf2_s24_q <= ovf2_s23_q;
     end
     if (load_s25) begin
-      angles_theta_170 <= angles_theta_170_c;
-      angles_theta_170_ovf <= angles_theta_170_ovf_c;
-      angles_out_172_s25 <= angles_out_172_s24;
-      angles_xy_163_ovf_s25 <= angles_xy_163_ovf;
-      ovf0_s25 <= ovf0_or_s24;
-      angles_theta_164_ovf_s25 <= angles_theta_164_ovf;
-      ovf1_s25 <= ovf1_or_s24;
-      ovf2_s25 <= ovf2_s24;
+      angles_theta_170_q <= angles_theta_170_d;
+      angles_theta_170_ovf_q <= angles_theta_170_ovf_d;
+      angles_out_172_s25_q <= angles_out_172_s24_q;
+      angles_xy_163_ovf_s25_q <= angles_xy_163_ovf_q;
+      ovf0_s25_q <= ovf0_or_s24;
+      angles_theta_164_ovf_s25_q <= angles_theta_164_ovf_q;
+      ovf1_s25_q <= ovf1_or_s24;
+      ovf2_s25_q <= ovf2_s24_q;
     end
     if (load_s26) begin
-      angles_out_171 <= angles_out_171_c;
-      angles_out_171_ovf <= angles_out_171_ovf_c;
-      angles_out_172_s26 <= angles_out_172_s25;
-      ovf0_s26 <= ovf0_or_s25;
-      angles_theta_170_ovf_s26 <= angles_theta_170_ovf;
-      ovf1_s26 <= ovf1_or_s25;
-      ovf2_s26 <= ovf2_s25;
+      angles_out_171_q <= angles_out_171_d;
+      angles_out_171_ovf_q <= angles_out_171_ovf_d;
+      angles_out_172_s26_q <= angles_out_172_s25_q;
+      ovf0_s26_q <= ovf0_or_s25;
+      angles_theta_170_ovf_s26_q <= angles_theta_170_ovf_q;
+      ovf1_s26_q <= ovf1_or_s25;
+      ovf2_s26_q <= ovf2_s25_q;
     end
   end
 
   // Output buffer: the head drives the ports; the skid register takes the
   // item that leaves the last stage while the head is stalled.
   wire [24:0] last_d =
-      {angles_out_171, angles_out_172_s26, (ovf0_s26), (ovf1_or_s26), (ovf2_or_s26)};
+      {angles_out_171_q, angles_out_172_s26_q, (ovf0_s26_q), (ovf1_or_s26), (ovf2_or_s26)};
   reg  [24:0] out_q, skid_q;
   always @(posedge clk_i) begin
     if (out_load & (skid_valid | out_arrive)) out_q <= skid_valid ? skid_q : last_d;
@@ -1693,18 +1773,18 @@ module angles (
 
   // Bits the arithmetic drops (truncation) or does not read.
   wire unused_bits =
-      ^{n_x_i[14:0], K3, K4, angles_xy_22[20:0], angles_xy_28[20:0], t30[0], t31[0],
-      angles_xy_34[20:0], t36[1:0], t37[1:0], angles_xy_40[20:0], t42[2:0], t43[2:0],
-      angles_xy_46[20:0], t48[3:0], t49[3:0], angles_xy_52[20:0], t54[4:0], t55[4:0],
-      angles_xy_58[20:0], t60[5:0], t61[5:0], angles_xy_64[20:0], t66[6:0], t67[6:0],
-      angles_xy_70[20:0], t72[7:0], t73[7:0], angles_xy_76[20:0], t78[8:0], t79[8:0],
-      angles_xy_82[20:0], t84[9:0], t85[9:0], angles_xy_88[20:0], t90[10:0], t96[12:0],
-      angles_xy_97_s13[20:0], angles_xy_97[20:0], angles_xy_103[20:0], t105[0], t106[0],
-      angles_xy_109[20:0], t111[1:0], t112[1:0], angles_xy_115[20:0], t117[2:0], t118[2:0],
-      angles_xy_121[20:0], t123[3:0], t124[3:0], angles_xy_127[20:0], t129[4:0], t130[4:0],
-      angles_xy_133[20:0], t135[5:0], t136[5:0], angles_xy_139[20:0], t141[6:0], t142[6:0],
-      angles_xy_145[20:0], t147[7:0], t148[7:0], angles_xy_151[20:0], t153[8:0], t154[8:0],
-      angles_xy_157[20:0], t160[9:0], angles_xy_163[20:0]};
+      ^{n_x_i[14:0], K3, K4, angles_xy_22_q[20:0], angles_xy_28_q[20:0], t30[0], t31[0],
+      angles_xy_34_q[20:0], t36[1:0], t37[1:0], angles_xy_40_q[20:0], t42[2:0], t43[2:0],
+      angles_xy_46_q[20:0], t48[3:0], t49[3:0], angles_xy_52_q[20:0], t54[4:0], t55[4:0],
+      angles_xy_58_q[20:0], t60[5:0], t61[5:0], angles_xy_64_q[20:0], t66[6:0], t67[6:0],
+      angles_xy_70_q[20:0], t72[7:0], t73[7:0], angles_xy_76_q[20:0], t78[8:0], t79[8:0],
+      angles_xy_82_q[20:0], t84[9:0], t85[9:0], angles_xy_88_q[20:0], t90[10:0], t96[12:0],
+      angles_xy_97_s13_q[20:0], angles_xy_97_q[20:0], angles_xy_103_q[20:0], t105[0], t106[0],
+      angles_xy_109_q[20:0], t111[1:0], t112[1:0], angles_xy_115_q[20:0], t117[2:0], t118[2:0],
+      angles_xy_121_q[20:0], t123[3:0], t124[3:0], angles_xy_127_q[20:0], t129[4:0], t130[4:0],
+      angles_xy_133_q[20:0], t135[5:0], t136[5:0], angles_xy_139_q[20:0], t141[6:0], t142[6:0],
+      angles_xy_145_q[20:0], t147[7:0], t148[7:0], angles_xy_151_q[20:0], t153[8:0], t154[8:0],
+      angles_xy_157_q[20:0], t160[9:0], angles_xy_163_q[20:0]};
 endmodule
 
 `default_nettype wire

@@ -125,12 +125,12 @@ module interp (
   wire [21:0] interp_weight_25_up = {t24[33], t24[33:13]} + {{21{1'b0}}, t24[12]};
   wire signed [21:0] interp_weight_25_r =
       $signed({interp_weight_25_up[21:1], interp_weight_25_up[0] & ~interp_weight_25_tie});
-  wire interp_weight_25_ovf_c = ~((&interp_weight_25_r[21:17]) | ~(|interp_weight_25_r[21:17]));
-  wire signed [17:0] interp_weight_25_c =
-      $signed(interp_weight_25_ovf_c ? (interp_weight_25_r[21] ? 18'h20000 : 18'h1ffff)
+  wire interp_weight_25_ovf_d = ~((&interp_weight_25_r[21:17]) | ~(|interp_weight_25_r[21:17]));
+  wire signed [17:0] interp_weight_25_d =
+      $signed(interp_weight_25_ovf_d ? (interp_weight_25_r[21] ? 18'h20000 : 18'h1ffff)
       : interp_weight_25_r[17:0]);
-  reg  signed [17:0] interp_weight_25;
-  reg  [0:0] interp_weight_25_ovf;
+  reg  signed [17:0] interp_weight_25_q;
+  reg  [0:0] interp_weight_25_ovf_q;
   wire signed [17:0] t26 = $signed({{2{1'b0}}, c2_i} - {{3{1'b0}}, K20, 14'b0});
   wire signed [16:0] t27_a = $signed({1'b0, c2_i});
   wire signed [33:0] t27 = t27_a * t26;
@@ -138,151 +138,151 @@ module interp (
   wire [21:0] interp_weight_28_up = {t27[33], t27[33:13]} + {{21{1'b0}}, t27[12]};
   wire signed [21:0] interp_weight_28_r =
       $signed({interp_weight_28_up[21:1], interp_weight_28_up[0] & ~interp_weight_28_tie});
-  wire interp_weight_28_ovf_c = ~((&interp_weight_28_r[21:17]) | ~(|interp_weight_28_r[21:17]));
-  wire signed [17:0] interp_weight_28_c =
-      $signed(interp_weight_28_ovf_c ? (interp_weight_28_r[21] ? 18'h20000 : 18'h1ffff)
+  wire interp_weight_28_ovf_d = ~((&interp_weight_28_r[21:17]) | ~(|interp_weight_28_r[21:17]));
+  wire signed [17:0] interp_weight_28_d =
+      $signed(interp_weight_28_ovf_d ? (interp_weight_28_r[21] ? 18'h20000 : 18'h1ffff)
       : interp_weight_28_r[17:0]);
-  reg  signed [17:0] interp_weight_28;
-  reg  [0:0] interp_weight_28_ovf;
+  reg  signed [17:0] interp_weight_28_q;
+  reg  [0:0] interp_weight_28_ovf_q;
   wire signed [19:0] t29 = $signed({t22[18], t22} - {{5{1'b0}}, K20, 14'b0});
   wire signed [38:0] t30 = t22 * t29;
   wire interp_weight_31_tie = t30[12] & ~(|t30[11:0]);
   wire [26:0] interp_weight_31_up = {t30[38], t30[38:13]} + {{26{1'b0}}, t30[12]};
   wire signed [26:0] interp_weight_31_r =
       $signed({interp_weight_31_up[26:1], interp_weight_31_up[0] & ~interp_weight_31_tie});
-  wire interp_weight_31_ovf_c = ~((&interp_weight_31_r[26:17]) | ~(|interp_weight_31_r[26:17]));
-  wire signed [17:0] interp_weight_31_c =
-      $signed(interp_weight_31_ovf_c ? (interp_weight_31_r[26] ? 18'h20000 : 18'h1ffff)
+  wire interp_weight_31_ovf_d = ~((&interp_weight_31_r[26:17]) | ~(|interp_weight_31_r[26:17]));
+  wire signed [17:0] interp_weight_31_d =
+      $signed(interp_weight_31_ovf_d ? (interp_weight_31_r[26] ? 18'h20000 : 18'h1ffff)
       : interp_weight_31_r[17:0]);
-  reg  signed [17:0] interp_weight_31;
-  reg  [0:0] interp_weight_31_ovf;
+  reg  signed [17:0] interp_weight_31_q;
+  reg  [0:0] interp_weight_31_ovf_q;
   wire [31:0] t32 = c1_i * c2_i;
   wire interp_weight_33_tie = t32[11] & ~(|t32[10:0]);
   wire [20:0] interp_weight_33_up = {1'b0, t32[31:12]} + {{20{1'b0}}, t32[11]};
   wire [20:0] interp_weight_33_r =
       {interp_weight_33_up[20:1], interp_weight_33_up[0] & ~interp_weight_33_tie};
-  wire interp_weight_33_ovf_c = |interp_weight_33_r[20:17];
-  wire signed [17:0] interp_weight_33_c =
-      $signed(interp_weight_33_ovf_c ? 18'h1ffff : interp_weight_33_r[17:0]);
-  reg  signed [17:0] interp_weight_33;
-  reg  [0:0] interp_weight_33_ovf;
+  wire interp_weight_33_ovf_d = |interp_weight_33_r[20:17];
+  wire signed [17:0] interp_weight_33_d =
+      $signed(interp_weight_33_ovf_d ? 18'h1ffff : interp_weight_33_r[17:0]);
+  reg  signed [17:0] interp_weight_33_q;
+  reg  [0:0] interp_weight_33_ovf_q;
   wire signed [16:0] t34_a = $signed({1'b0, c2_i});
   wire signed [34:0] t34 = t34_a * t22;
   wire interp_weight_35_tie = t34[11] & ~(|t34[10:0]);
   wire [23:0] interp_weight_35_up = {t34[34], t34[34:12]} + {{23{1'b0}}, t34[11]};
   wire signed [23:0] interp_weight_35_r =
       $signed({interp_weight_35_up[23:1], interp_weight_35_up[0] & ~interp_weight_35_tie});
-  wire interp_weight_35_ovf_c = ~((&interp_weight_35_r[23:17]) | ~(|interp_weight_35_r[23:17]));
-  wire signed [17:0] interp_weight_35_c =
-      $signed(interp_weight_35_ovf_c ? (interp_weight_35_r[23] ? 18'h20000 : 18'h1ffff)
+  wire interp_weight_35_ovf_d = ~((&interp_weight_35_r[23:17]) | ~(|interp_weight_35_r[23:17]));
+  wire signed [17:0] interp_weight_35_d =
+      $signed(interp_weight_35_ovf_d ? (interp_weight_35_r[23] ? 18'h20000 : 18'h1ffff)
       : interp_weight_35_r[17:0]);
-  reg  signed [17:0] interp_weight_35;
-  reg  [0:0] interp_weight_35_ovf;
+  reg  signed [17:0] interp_weight_35_q;
+  reg  [0:0] interp_weight_35_ovf_q;
   wire signed [16:0] t36_b = $signed({1'b0, c1_i});
   wire signed [34:0] t36 = t22 * t36_b;
   wire interp_weight_37_tie = t36[11] & ~(|t36[10:0]);
   wire [23:0] interp_weight_37_up = {t36[34], t36[34:12]} + {{23{1'b0}}, t36[11]};
   wire signed [23:0] interp_weight_37_r =
       $signed({interp_weight_37_up[23:1], interp_weight_37_up[0] & ~interp_weight_37_tie});
-  wire interp_weight_37_ovf_c = ~((&interp_weight_37_r[23:17]) | ~(|interp_weight_37_r[23:17]));
-  wire signed [17:0] interp_weight_37_c =
-      $signed(interp_weight_37_ovf_c ? (interp_weight_37_r[23] ? 18'h20000 : 18'h1ffff)
+  wire interp_weight_37_ovf_d = ~((&interp_weight_37_r[23:17]) | ~(|interp_weight_37_r[23:17]));
+  wire signed [17:0] interp_weight_37_d =
+      $signed(interp_weight_37_ovf_d ? (interp_weight_37_r[23] ? 18'h20000 : 18'h1ffff)
       : interp_weight_37_r[17:0]);
-  reg  signed [17:0] interp_weight_37;
-  reg  [0:0] interp_weight_37_ovf;
-  reg  signed [15:0] n1_x_i_s1;
-  wire signed [33:0] t38 = interp_weight_25 * n1_x_i_s1;
-  reg  signed [15:0] n2_x_i_s1;
-  wire signed [33:0] t39 = interp_weight_28 * n2_x_i_s1;
+  reg  signed [17:0] interp_weight_37_q;
+  reg  [0:0] interp_weight_37_ovf_q;
+  reg  signed [15:0] n1_x_i_s1_q;
+  wire signed [33:0] t38 = interp_weight_25_q * n1_x_i_s1_q;
+  reg  signed [15:0] n2_x_i_s1_q;
+  wire signed [33:0] t39 = interp_weight_28_q * n2_x_i_s1_q;
   wire signed [34:0] t40 = $signed({t39[33], t39} + {t38[33], t38});
-  reg  signed [15:0] n3_x_i_s1;
-  wire signed [33:0] t41 = interp_weight_31 * n3_x_i_s1;
+  reg  signed [15:0] n3_x_i_s1_q;
+  wire signed [33:0] t41 = interp_weight_31_q * n3_x_i_s1_q;
   wire signed [35:0] t42 = $signed({{2{t41[33]}}, t41} + {t40[34], t40});
-  reg  signed [15:0] n12_x_i_s1;
-  wire signed [33:0] t43 = interp_weight_33 * n12_x_i_s1;
+  reg  signed [15:0] n12_x_i_s1_q;
+  wire signed [33:0] t43 = interp_weight_33_q * n12_x_i_s1_q;
   wire signed [36:0] t44 = $signed({{3{t43[33]}}, t43} + {t42[35], t42});
-  reg  signed [15:0] n23_x_i_s1;
-  wire signed [33:0] t45 = interp_weight_35 * n23_x_i_s1;
+  reg  signed [15:0] n23_x_i_s1_q;
+  wire signed [33:0] t45 = interp_weight_35_q * n23_x_i_s1_q;
   wire signed [37:0] t46 = $signed({{4{t45[33]}}, t45} + {t44[36], t44});
-  reg  signed [15:0] n31_x_i_s1;
-  wire signed [33:0] t47 = interp_weight_37 * n31_x_i_s1;
+  reg  signed [15:0] n31_x_i_s1_q;
+  wire signed [33:0] t47 = interp_weight_37_q * n31_x_i_s1_q;
   wire signed [38:0] t48 = $signed({{5{t47[33]}}, t47} + {t46[37], t46});
   wire interp_out_49_tie = t48[15] & ~(|t48[14:0]);
   wire [23:0] interp_out_49_up = {t48[38], t48[38:16]} + {{23{1'b0}}, t48[15]};
   wire signed [23:0] interp_out_49_r =
       $signed({interp_out_49_up[23:1], interp_out_49_up[0] & ~interp_out_49_tie});
-  wire interp_out_49_ovf_c = ~((&interp_out_49_r[23:15]) | ~(|interp_out_49_r[23:15]));
-  wire signed [15:0] interp_out_49_c =
-      $signed(interp_out_49_ovf_c ? (interp_out_49_r[23] ? 16'h8000 : 16'h7fff)
+  wire interp_out_49_ovf_d = ~((&interp_out_49_r[23:15]) | ~(|interp_out_49_r[23:15]));
+  wire signed [15:0] interp_out_49_d =
+      $signed(interp_out_49_ovf_d ? (interp_out_49_r[23] ? 16'h8000 : 16'h7fff)
       : interp_out_49_r[15:0]);
-  reg  signed [15:0] interp_out_49;
-  reg  [0:0] interp_out_49_ovf;
-  reg  signed [15:0] n1_y_i_s1;
-  wire signed [33:0] t50 = interp_weight_25 * n1_y_i_s1;
-  reg  signed [15:0] n2_y_i_s1;
-  wire signed [33:0] t51 = interp_weight_28 * n2_y_i_s1;
+  reg  signed [15:0] interp_out_49_q;
+  reg  [0:0] interp_out_49_ovf_q;
+  reg  signed [15:0] n1_y_i_s1_q;
+  wire signed [33:0] t50 = interp_weight_25_q * n1_y_i_s1_q;
+  reg  signed [15:0] n2_y_i_s1_q;
+  wire signed [33:0] t51 = interp_weight_28_q * n2_y_i_s1_q;
   wire signed [34:0] t52 = $signed({t51[33], t51} + {t50[33], t50});
-  reg  signed [15:0] n3_y_i_s1;
-  wire signed [33:0] t53 = interp_weight_31 * n3_y_i_s1;
+  reg  signed [15:0] n3_y_i_s1_q;
+  wire signed [33:0] t53 = interp_weight_31_q * n3_y_i_s1_q;
   wire signed [35:0] t54 = $signed({{2{t53[33]}}, t53} + {t52[34], t52});
-  reg  signed [15:0] n12_y_i_s1;
-  wire signed [33:0] t55 = interp_weight_33 * n12_y_i_s1;
+  reg  signed [15:0] n12_y_i_s1_q;
+  wire signed [33:0] t55 = interp_weight_33_q * n12_y_i_s1_q;
   wire signed [36:0] t56 = $signed({{3{t55[33]}}, t55} + {t54[35], t54});
-  reg  signed [15:0] n23_y_i_s1;
-  wire signed [33:0] t57 = interp_weight_35 * n23_y_i_s1;
+  reg  signed [15:0] n23_y_i_s1_q;
+  wire signed [33:0] t57 = interp_weight_35_q * n23_y_i_s1_q;
   wire signed [37:0] t58 = $signed({{4{t57[33]}}, t57} + {t56[36], t56});
-  reg  signed [15:0] n31_y_i_s1;
-  wire signed [33:0] t59 = interp_weight_37 * n31_y_i_s1;
+  reg  signed [15:0] n31_y_i_s1_q;
+  wire signed [33:0] t59 = interp_weight_37_q * n31_y_i_s1_q;
   wire signed [38:0] t60 = $signed({{5{t59[33]}}, t59} + {t58[37], t58});
   wire interp_out_61_tie = t60[15] & ~(|t60[14:0]);
   wire [23:0] interp_out_61_up = {t60[38], t60[38:16]} + {{23{1'b0}}, t60[15]};
   wire signed [23:0] interp_out_61_r =
       $signed({interp_out_61_up[23:1], interp_out_61_up[0] & ~interp_out_61_tie});
-  wire interp_out_61_ovf_c = ~((&interp_out_61_r[23:15]) | ~(|interp_out_61_r[23:15]));
-  wire signed [15:0] interp_out_61_c =
-      $signed(interp_out_61_ovf_c ? (interp_out_61_r[23] ? 16'h8000 : 16'h7fff)
+  wire interp_out_61_ovf_d = ~((&interp_out_61_r[23:15]) | ~(|interp_out_61_r[23:15]));
+  wire signed [15:0] interp_out_61_d =
+      $signed(interp_out_61_ovf_d ? (interp_out_61_r[23] ? 16'h8000 : 16'h7fff)
       : interp_out_61_r[15:0]);
-  reg  signed [15:0] interp_out_61;
-  reg  [0:0] interp_out_61_ovf;
-  reg  signed [15:0] n1_z_i_s1;
-  wire signed [33:0] t62 = interp_weight_25 * n1_z_i_s1;
-  reg  signed [15:0] n2_z_i_s1;
-  wire signed [33:0] t63 = interp_weight_28 * n2_z_i_s1;
+  reg  signed [15:0] interp_out_61_q;
+  reg  [0:0] interp_out_61_ovf_q;
+  reg  signed [15:0] n1_z_i_s1_q;
+  wire signed [33:0] t62 = interp_weight_25_q * n1_z_i_s1_q;
+  reg  signed [15:0] n2_z_i_s1_q;
+  wire signed [33:0] t63 = interp_weight_28_q * n2_z_i_s1_q;
   wire signed [34:0] t64 = $signed({t63[33], t63} + {t62[33], t62});
-  reg  signed [15:0] n3_z_i_s1;
-  wire signed [33:0] t65 = interp_weight_31 * n3_z_i_s1;
+  reg  signed [15:0] n3_z_i_s1_q;
+  wire signed [33:0] t65 = interp_weight_31_q * n3_z_i_s1_q;
   wire signed [35:0] t66 = $signed({{2{t65[33]}}, t65} + {t64[34], t64});
-  reg  signed [15:0] n12_z_i_s1;
-  wire signed [33:0] t67 = interp_weight_33 * n12_z_i_s1;
+  reg  signed [15:0] n12_z_i_s1_q;
+  wire signed [33:0] t67 = interp_weight_33_q * n12_z_i_s1_q;
   wire signed [36:0] t68 = $signed({{3{t67[33]}}, t67} + {t66[35], t66});
-  reg  signed [15:0] n23_z_i_s1;
-  wire signed [33:0] t69 = interp_weight_35 * n23_z_i_s1;
+  reg  signed [15:0] n23_z_i_s1_q;
+  wire signed [33:0] t69 = interp_weight_35_q * n23_z_i_s1_q;
   wire signed [37:0] t70 = $signed({{4{t69[33]}}, t69} + {t68[36], t68});
-  reg  signed [15:0] n31_z_i_s1;
-  wire signed [33:0] t71 = interp_weight_37 * n31_z_i_s1;
+  reg  signed [15:0] n31_z_i_s1_q;
+  wire signed [33:0] t71 = interp_weight_37_q * n31_z_i_s1_q;
   wire signed [38:0] t72 = $signed({{5{t71[33]}}, t71} + {t70[37], t70});
   wire interp_out_73_tie = t72[15] & ~(|t72[14:0]);
   wire [23:0] interp_out_73_up = {t72[38], t72[38:16]} + {{23{1'b0}}, t72[15]};
   wire signed [23:0] interp_out_73_r =
       $signed({interp_out_73_up[23:1], interp_out_73_up[0] & ~interp_out_73_tie});
-  wire interp_out_73_ovf_c = ~((&interp_out_73_r[23:15]) | ~(|interp_out_73_r[23:15]));
-  wire signed [15:0] interp_out_73_c =
-      $signed(interp_out_73_ovf_c ? (interp_out_73_r[23] ? 16'h8000 : 16'h7fff)
+  wire interp_out_73_ovf_d = ~((&interp_out_73_r[23:15]) | ~(|interp_out_73_r[23:15]));
+  wire signed [15:0] interp_out_73_d =
+      $signed(interp_out_73_ovf_d ? (interp_out_73_r[23] ? 16'h8000 : 16'h7fff)
       : interp_out_73_r[15:0]);
-  reg  signed [15:0] interp_out_73;
-  reg  [0:0] interp_out_73_ovf;
-  reg  [0:0] interp_weight_25_ovf_s2;
-  reg  [0:0] interp_weight_28_ovf_s2;
-  reg  [0:0] interp_weight_31_ovf_s2;
-  reg  [0:0] interp_weight_33_ovf_s2;
-  reg  [0:0] interp_weight_35_ovf_s2;
-  reg  [0:0] interp_weight_37_ovf_s2;
+  reg  signed [15:0] interp_out_73_q;
+  reg  [0:0] interp_out_73_ovf_q;
+  reg  [0:0] interp_weight_25_ovf_s2_q;
+  reg  [0:0] interp_weight_28_ovf_s2_q;
+  reg  [0:0] interp_weight_31_ovf_s2_q;
+  reg  [0:0] interp_weight_33_ovf_s2_q;
+  reg  [0:0] interp_weight_35_ovf_s2_q;
+  reg  [0:0] interp_weight_37_ovf_s2_q;
   wire ovf0_or_s2 =
-      interp_weight_25_ovf_s2 | interp_weight_28_ovf_s2 | interp_weight_31_ovf_s2
-          | interp_weight_33_ovf_s2
-      | interp_weight_35_ovf_s2 | interp_weight_37_ovf_s2;
+      interp_weight_25_ovf_s2_q | interp_weight_28_ovf_s2_q | interp_weight_31_ovf_s2_q
+          | interp_weight_33_ovf_s2_q
+      | interp_weight_35_ovf_s2_q | interp_weight_37_ovf_s2_q;
   wire ovf1_or_s2 =
-      interp_out_49_ovf | interp_out_61_ovf | interp_out_73_ovf;
+      interp_out_49_ovf_q | interp_out_61_ovf_q | interp_out_73_ovf_q;
 
   // Stage loads: the item entering stage k is valid and the stages move.
   wire load_s1 = in_take;
@@ -292,56 +292,57 @@ module interp (
   // registers load only with a valid item, so bubbles do not toggle them.
   always @(posedge clk_i) begin
     if (load_s1) begin
-      interp_weight_25 <= interp_weight_25_c;
-      interp_weight_25_ovf <= interp_weight_25_ovf_c;
-      interp_weight_28 <= interp_weight_28_c;
-      interp_weight_28_ovf <= interp_weight_28_ovf_c;
-      interp_weight_31 <= interp_weight_31_c;
-      interp_weight_31_ovf <= interp_weight_31_ovf_c;
-      interp_weight_33 <= interp_weight_33_c;
-      interp_weight_33_ovf <= interp_weight_33_ovf_c;
-      interp_weight_35 <= interp_weight_35_c;
-      interp_weight_35_ovf <= interp_weight_35_ovf_c;
-      interp_weight_37 <= interp_weight_37_c;
-      interp_weight_37_ovf <= interp_weight_37_ovf_c;
-      n1_x_i_s1 <= n1_x_i;
-      n2_x_i_s1 <= n2_x_i;
-      n3_x_i_s1 <= n3_x_i;
-      n12_x_i_s1 <= n12_x_i;
-      n23_x_i_s1 <= n23_x_i;
-      n31_x_i_s1 <= n31_x_i;
-      n1_y_i_s1 <= n1_y_i;
-      n2_y_i_s1 <= n2_y_i;
-      n3_y_i_s1 <= n3_y_i;
-      n12_y_i_s1 <= n12_y_i;
-      n23_y_i_s1 <= n23_y_i;
-      n31_y_i_s1 <= n31_y_i;
-      n1_z_i_s1 <= n1_z_i;
-      n2_z_i_s1 <= n2_z_i;
-      n3_z_i_s1 <= n3_z_i;
-      n12_z_i_s1 <= n12_z_i;
-      n23_z_i_s1 <= n23_z_i;
-      n31_z_i_s1 <= n31_z_i;
+      interp_weight_25_q <= interp_weight_25_d;
+      interp_weight_25_ovf_q <= interp_weight_25_ovf_d;
+      interp_weight_28_q <= interp_weight_28_d;
+      interp_weight_28_ovf_q <= interp_weight_28_ovf_d;
+      interp_weight_31_q <= interp_weight_31_d;
+      interp_weight_31_ovf_q <= interp_weight_31_ovf_d;
+      interp_weight_33_q <= interp_weight_33_d;
+      interp_weight_33_ovf_q <= interp_weight_33_ovf_d;
+      interp_weight_35_q <= interp_weight_35_d;
+      interp_weight_35_ovf_q <= interp_weight_35_ovf_d;
+      interp_weight_37_q <= interp_weight_37_d;
+      interp_weight_37_ovf_q <= interp_weight_37_ovf_d;
+      n1_x_i_s1_q <= n1_x_i;
+      n2_x_i_s1_q <= n2_x_i;
+      n3_x_i_s1_q <= n3_x_i;
+      n12_x_i_s1_q <= n12_x_i;
+      n23_x_i_s1_q <= n23_x_i;
+      n31_x_i_s1_q <= n31_x_i;
+      n1_y_i_s1_q <= n1_y_i;
+      n2_y_i_s1_q <= n2_y_i;
+      n3_y_i_s1_q <= n3_y_i;
+      n12_y_i_s1_q <= n12_y_i;
+      n23_y_i_s1_q <= n23_y_i;
+      n31_y_i_s1_q <= n31_y_i;
+      n1_z_i_s1_q <= n1_z_i;
+      n2_z_i_s1_q <= n2_z_i;
+      n3_z_i_s1_q <= n3_z_i;
+      n12_z_i_s1_q <= n12_z_i;
+      n23_z_i_s1_q <= n23_z_i;
+      n31_z_i_s1_q <= n31_z_i;
     end
     if (load_s2) begin
-      interp_out_49 <= interp_out_49_c;
-      interp_out_49_ovf <= interp_out_49_ovf_c;
-      interp_out_61 <= interp_out_61_c;
-      interp_out_61_ovf <= interp_out_61_ovf_c;
-      interp_out_73 <= interp_out_73_c;
-      interp_out_73_ovf <= interp_out_73_ovf_c;
-      interp_weight_25_ovf_s2 <= interp_weight_25_ovf;
-      interp_weight_28_ovf_s2 <= interp_weight_28_ovf;
-      interp_weight_31_ovf_s2 <= interp_weight_31_ovf;
-      interp_weight_33_ovf_s2 <= interp_weight_33_ovf;
-      interp_weight_35_ovf_s2 <= interp_weight_35_ovf;
-      interp_weight_37_ovf_s2 <= interp_weight_37_ovf;
+      interp_out_49_q <= interp_out_49_d;
+      interp_out_49_ovf_q <= interp_out_49_ovf_d;
+      interp_out_61_q <= interp_out_61_d;
+      interp_out_61_ovf_q <= interp_out_61_ovf_d;
+      interp_out_73_q <= interp_out_73_d;
+      interp_out_73_ovf_q <= interp_out_73_ovf_d;
+      interp_weight_25_ovf_s2_q <= interp_weight_25_ovf_q;
+      interp_weight_28_ovf_s2_q <= interp_weight_28_ovf_q;
+      interp_weight_31_ovf_s2_q <= interp_weight_31_ovf_q;
+      interp_weight_33_ovf_s2_q <= interp_weight_33_ovf_q;
+      interp_weight_35_ovf_s2_q <= interp_weight_35_ovf_q;
+      interp_weight_37_ovf_s2_q <= interp_weight_37_ovf_q;
     end
   end
 
   // Output buffer: the head drives the ports; the skid register takes the
   // item that leaves the last stage while the head is stalled.
-  wire [49:0] last_d = {interp_out_49, interp_out_61, interp_out_73, (ovf0_or_s2), (ovf1_or_s2)};
+  wire [49:0] last_d =
+      {interp_out_49_q, interp_out_61_q, interp_out_73_q, (ovf0_or_s2), (ovf1_or_s2)};
   reg  [49:0] out_q, skid_q;
   always @(posedge clk_i) begin
     if (out_load & (skid_valid | out_arrive)) out_q <= skid_valid ? skid_q : last_d;

@@ -948,12 +948,12 @@ module pipeline_mapped (
   wire [21:0] interp_weight_50_up = {t49[33], t49[33:13]} + {{21{1'b0}}, t49[12]};
   wire signed [21:0] interp_weight_50_r =
       $signed({interp_weight_50_up[21:1], interp_weight_50_up[0] & ~interp_weight_50_tie});
-  wire interp_weight_50_ovf_c = ~((&interp_weight_50_r[21:17]) | ~(|interp_weight_50_r[21:17]));
-  wire signed [17:0] interp_weight_50_c =
-      $signed(interp_weight_50_ovf_c ? (interp_weight_50_r[21] ? 18'h20000 : 18'h1ffff)
+  wire interp_weight_50_ovf_d = ~((&interp_weight_50_r[21:17]) | ~(|interp_weight_50_r[21:17]));
+  wire signed [17:0] interp_weight_50_d =
+      $signed(interp_weight_50_ovf_d ? (interp_weight_50_r[21] ? 18'h20000 : 18'h1ffff)
       : interp_weight_50_r[17:0]);
-  reg  signed [17:0] interp_weight_50;
-  reg  [0:0] interp_weight_50_ovf;
+  reg  signed [17:0] interp_weight_50_q;
+  reg  [0:0] interp_weight_50_ovf_q;
   wire signed [17:0] t51 = $signed({{2{1'b0}}, c2_i} - {{3{1'b0}}, K27, 14'b0});
   wire signed [16:0] t52_a = $signed({1'b0, c2_i});
   wire signed [33:0] t52 = t52_a * t51;
@@ -961,1069 +961,1143 @@ module pipeline_mapped (
   wire [21:0] interp_weight_53_up = {t52[33], t52[33:13]} + {{21{1'b0}}, t52[12]};
   wire signed [21:0] interp_weight_53_r =
       $signed({interp_weight_53_up[21:1], interp_weight_53_up[0] & ~interp_weight_53_tie});
-  wire interp_weight_53_ovf_c = ~((&interp_weight_53_r[21:17]) | ~(|interp_weight_53_r[21:17]));
-  wire signed [17:0] interp_weight_53_c =
-      $signed(interp_weight_53_ovf_c ? (interp_weight_53_r[21] ? 18'h20000 : 18'h1ffff)
+  wire interp_weight_53_ovf_d = ~((&interp_weight_53_r[21:17]) | ~(|interp_weight_53_r[21:17]));
+  wire signed [17:0] interp_weight_53_d =
+      $signed(interp_weight_53_ovf_d ? (interp_weight_53_r[21] ? 18'h20000 : 18'h1ffff)
       : interp_weight_53_r[17:0]);
-  reg  signed [17:0] interp_weight_53;
-  reg  [0:0] interp_weight_53_ovf;
+  reg  signed [17:0] interp_weight_53_q;
+  reg  [0:0] interp_weight_53_ovf_q;
   wire signed [19:0] t54 = $signed({t47[18], t47} - {{5{1'b0}}, K27, 14'b0});
   wire signed [38:0] t55 = t47 * t54;
   wire interp_weight_56_tie = t55[12] & ~(|t55[11:0]);
   wire [26:0] interp_weight_56_up = {t55[38], t55[38:13]} + {{26{1'b0}}, t55[12]};
   wire signed [26:0] interp_weight_56_r =
       $signed({interp_weight_56_up[26:1], interp_weight_56_up[0] & ~interp_weight_56_tie});
-  wire interp_weight_56_ovf_c = ~((&interp_weight_56_r[26:17]) | ~(|interp_weight_56_r[26:17]));
-  wire signed [17:0] interp_weight_56_c =
-      $signed(interp_weight_56_ovf_c ? (interp_weight_56_r[26] ? 18'h20000 : 18'h1ffff)
+  wire interp_weight_56_ovf_d = ~((&interp_weight_56_r[26:17]) | ~(|interp_weight_56_r[26:17]));
+  wire signed [17:0] interp_weight_56_d =
+      $signed(interp_weight_56_ovf_d ? (interp_weight_56_r[26] ? 18'h20000 : 18'h1ffff)
       : interp_weight_56_r[17:0]);
-  reg  signed [17:0] interp_weight_56;
-  reg  [0:0] interp_weight_56_ovf;
+  reg  signed [17:0] interp_weight_56_q;
+  reg  [0:0] interp_weight_56_ovf_q;
   wire [31:0] t57 = c1_i * c2_i;
   wire interp_weight_58_tie = t57[11] & ~(|t57[10:0]);
   wire [20:0] interp_weight_58_up = {1'b0, t57[31:12]} + {{20{1'b0}}, t57[11]};
   wire [20:0] interp_weight_58_r =
       {interp_weight_58_up[20:1], interp_weight_58_up[0] & ~interp_weight_58_tie};
-  wire interp_weight_58_ovf_c = |interp_weight_58_r[20:17];
-  wire signed [17:0] interp_weight_58_c =
-      $signed(interp_weight_58_ovf_c ? 18'h1ffff : interp_weight_58_r[17:0]);
-  reg  signed [17:0] interp_weight_58;
-  reg  [0:0] interp_weight_58_ovf;
+  wire interp_weight_58_ovf_d = |interp_weight_58_r[20:17];
+  wire signed [17:0] interp_weight_58_d =
+      $signed(interp_weight_58_ovf_d ? 18'h1ffff : interp_weight_58_r[17:0]);
+  reg  signed [17:0] interp_weight_58_q;
+  reg  [0:0] interp_weight_58_ovf_q;
   wire signed [16:0] t59_a = $signed({1'b0, c2_i});
   wire signed [34:0] t59 = t59_a * t47;
   wire interp_weight_60_tie = t59[11] & ~(|t59[10:0]);
   wire [23:0] interp_weight_60_up = {t59[34], t59[34:12]} + {{23{1'b0}}, t59[11]};
   wire signed [23:0] interp_weight_60_r =
       $signed({interp_weight_60_up[23:1], interp_weight_60_up[0] & ~interp_weight_60_tie});
-  wire interp_weight_60_ovf_c = ~((&interp_weight_60_r[23:17]) | ~(|interp_weight_60_r[23:17]));
-  wire signed [17:0] interp_weight_60_c =
-      $signed(interp_weight_60_ovf_c ? (interp_weight_60_r[23] ? 18'h20000 : 18'h1ffff)
+  wire interp_weight_60_ovf_d = ~((&interp_weight_60_r[23:17]) | ~(|interp_weight_60_r[23:17]));
+  wire signed [17:0] interp_weight_60_d =
+      $signed(interp_weight_60_ovf_d ? (interp_weight_60_r[23] ? 18'h20000 : 18'h1ffff)
       : interp_weight_60_r[17:0]);
-  reg  signed [17:0] interp_weight_60;
-  reg  [0:0] interp_weight_60_ovf;
+  reg  signed [17:0] interp_weight_60_q;
+  reg  [0:0] interp_weight_60_ovf_q;
   wire signed [16:0] t61_b = $signed({1'b0, c1_i});
   wire signed [34:0] t61 = t47 * t61_b;
   wire interp_weight_62_tie = t61[11] & ~(|t61[10:0]);
   wire [23:0] interp_weight_62_up = {t61[34], t61[34:12]} + {{23{1'b0}}, t61[11]};
   wire signed [23:0] interp_weight_62_r =
       $signed({interp_weight_62_up[23:1], interp_weight_62_up[0] & ~interp_weight_62_tie});
-  wire interp_weight_62_ovf_c = ~((&interp_weight_62_r[23:17]) | ~(|interp_weight_62_r[23:17]));
-  wire signed [17:0] interp_weight_62_c =
-      $signed(interp_weight_62_ovf_c ? (interp_weight_62_r[23] ? 18'h20000 : 18'h1ffff)
+  wire interp_weight_62_ovf_d = ~((&interp_weight_62_r[23:17]) | ~(|interp_weight_62_r[23:17]));
+  wire signed [17:0] interp_weight_62_d =
+      $signed(interp_weight_62_ovf_d ? (interp_weight_62_r[23] ? 18'h20000 : 18'h1ffff)
       : interp_weight_62_r[17:0]);
-  reg  signed [17:0] interp_weight_62;
-  reg  [0:0] interp_weight_62_ovf;
+  reg  signed [17:0] interp_weight_62_q;
+  reg  [0:0] interp_weight_62_ovf_q;
   wire signed [15:0] n1_x_bank_s1 = tri_tag_q[0] ? n1_x_b1_q : n1_x_b0_q;
-  wire signed [33:0] t63 = interp_weight_50 * n1_x_bank_s1;
+  wire signed [33:0] t63 = interp_weight_50_q * n1_x_bank_s1;
   wire signed [15:0] n2_x_bank_s1 = tri_tag_q[0] ? n2_x_b1_q : n2_x_b0_q;
-  wire signed [33:0] t64 = interp_weight_53 * n2_x_bank_s1;
+  wire signed [33:0] t64 = interp_weight_53_q * n2_x_bank_s1;
   wire signed [34:0] t65 = $signed({t64[33], t64} + {t63[33], t63});
   wire signed [15:0] n3_x_bank_s1 = tri_tag_q[0] ? n3_x_b1_q : n3_x_b0_q;
-  wire signed [33:0] t66 = interp_weight_56 * n3_x_bank_s1;
+  wire signed [33:0] t66 = interp_weight_56_q * n3_x_bank_s1;
   wire signed [35:0] t67 = $signed({{2{t66[33]}}, t66} + {t65[34], t65});
   wire signed [15:0] n12_x_bank_s1 = tri_tag_q[0] ? n12_x_b1_q : n12_x_b0_q;
-  wire signed [33:0] t68 = interp_weight_58 * n12_x_bank_s1;
+  wire signed [33:0] t68 = interp_weight_58_q * n12_x_bank_s1;
   wire signed [36:0] t69 = $signed({{3{t68[33]}}, t68} + {t67[35], t67});
   wire signed [15:0] n23_x_bank_s1 = tri_tag_q[0] ? n23_x_b1_q : n23_x_b0_q;
-  wire signed [33:0] t70 = interp_weight_60 * n23_x_bank_s1;
+  wire signed [33:0] t70 = interp_weight_60_q * n23_x_bank_s1;
   wire signed [37:0] t71 = $signed({{4{t70[33]}}, t70} + {t69[36], t69});
   wire signed [15:0] n31_x_bank_s1 = tri_tag_q[0] ? n31_x_b1_q : n31_x_b0_q;
-  wire signed [33:0] t72 = interp_weight_62 * n31_x_bank_s1;
+  wire signed [33:0] t72 = interp_weight_62_q * n31_x_bank_s1;
   wire signed [38:0] t73 = $signed({{5{t72[33]}}, t72} + {t71[37], t71});
   wire interp_out_74_tie = t73[15] & ~(|t73[14:0]);
   wire [23:0] interp_out_74_up = {t73[38], t73[38:16]} + {{23{1'b0}}, t73[15]};
   wire signed [23:0] interp_out_74_r =
       $signed({interp_out_74_up[23:1], interp_out_74_up[0] & ~interp_out_74_tie});
-  wire interp_out_74_ovf_c = ~((&interp_out_74_r[23:15]) | ~(|interp_out_74_r[23:15]));
-  wire signed [15:0] interp_out_74_c =
-      $signed(interp_out_74_ovf_c ? (interp_out_74_r[23] ? 16'h8000 : 16'h7fff)
+  wire interp_out_74_ovf_d = ~((&interp_out_74_r[23:15]) | ~(|interp_out_74_r[23:15]));
+  wire signed [15:0] interp_out_74_d =
+      $signed(interp_out_74_ovf_d ? (interp_out_74_r[23] ? 16'h8000 : 16'h7fff)
       : interp_out_74_r[15:0]);
-  reg  signed [15:0] interp_out_74;
-  reg  [0:0] interp_out_74_ovf;
+  reg  signed [15:0] interp_out_74_q;
+  reg  [0:0] interp_out_74_ovf_q;
   wire signed [15:0] n1_y_bank_s1 = tri_tag_q[0] ? n1_y_b1_q : n1_y_b0_q;
-  wire signed [33:0] t75 = interp_weight_50 * n1_y_bank_s1;
+  wire signed [33:0] t75 = interp_weight_50_q * n1_y_bank_s1;
   wire signed [15:0] n2_y_bank_s1 = tri_tag_q[0] ? n2_y_b1_q : n2_y_b0_q;
-  wire signed [33:0] t76 = interp_weight_53 * n2_y_bank_s1;
+  wire signed [33:0] t76 = interp_weight_53_q * n2_y_bank_s1;
   wire signed [34:0] t77 = $signed({t76[33], t76} + {t75[33], t75});
   wire signed [15:0] n3_y_bank_s1 = tri_tag_q[0] ? n3_y_b1_q : n3_y_b0_q;
-  wire signed [33:0] t78 = interp_weight_56 * n3_y_bank_s1;
+  wire signed [33:0] t78 = interp_weight_56_q * n3_y_bank_s1;
   wire signed [35:0] t79 = $signed({{2{t78[33]}}, t78} + {t77[34], t77});
   wire signed [15:0] n12_y_bank_s1 = tri_tag_q[0] ? n12_y_b1_q : n12_y_b0_q;
-  wire signed [33:0] t80 = interp_weight_58 * n12_y_bank_s1;
+  wire signed [33:0] t80 = interp_weight_58_q * n12_y_bank_s1;
   wire signed [36:0] t81 = $signed({{3{t80[33]}}, t80} + {t79[35], t79});
   wire signed [15:0] n23_y_bank_s1 = tri_tag_q[0] ? n23_y_b1_q : n23_y_b0_q;
-  wire signed [33:0] t82 = interp_weight_60 * n23_y_bank_s1;
+  wire signed [33:0] t82 = interp_weight_60_q * n23_y_bank_s1;
   wire signed [37:0] t83 = $signed({{4{t82[33]}}, t82} + {t81[36], t81});
   wire signed [15:0] n31_y_bank_s1 = tri_tag_q[0] ? n31_y_b1_q : n31_y_b0_q;
-  wire signed [33:0] t84 = interp_weight_62 * n31_y_bank_s1;
+  wire signed [33:0] t84 = interp_weight_62_q * n31_y_bank_s1;
   wire signed [38:0] t85 = $signed({{5{t84[33]}}, t84} + {t83[37], t83});
   wire interp_out_86_tie = t85[15] & ~(|t85[14:0]);
   wire [23:0] interp_out_86_up = {t85[38], t85[38:16]} + {{23{1'b0}}, t85[15]};
   wire signed [23:0] interp_out_86_r =
       $signed({interp_out_86_up[23:1], interp_out_86_up[0] & ~interp_out_86_tie});
-  wire interp_out_86_ovf_c = ~((&interp_out_86_r[23:15]) | ~(|interp_out_86_r[23:15]));
-  wire signed [15:0] interp_out_86_c =
-      $signed(interp_out_86_ovf_c ? (interp_out_86_r[23] ? 16'h8000 : 16'h7fff)
+  wire interp_out_86_ovf_d = ~((&interp_out_86_r[23:15]) | ~(|interp_out_86_r[23:15]));
+  wire signed [15:0] interp_out_86_d =
+      $signed(interp_out_86_ovf_d ? (interp_out_86_r[23] ? 16'h8000 : 16'h7fff)
       : interp_out_86_r[15:0]);
-  reg  signed [15:0] interp_out_86;
-  reg  [0:0] interp_out_86_ovf;
+  reg  signed [15:0] interp_out_86_q;
+  reg  [0:0] interp_out_86_ovf_q;
   wire signed [15:0] n1_z_bank_s1 = tri_tag_q[0] ? n1_z_b1_q : n1_z_b0_q;
-  wire signed [33:0] t87 = interp_weight_50 * n1_z_bank_s1;
+  wire signed [33:0] t87 = interp_weight_50_q * n1_z_bank_s1;
   wire signed [15:0] n2_z_bank_s1 = tri_tag_q[0] ? n2_z_b1_q : n2_z_b0_q;
-  wire signed [33:0] t88 = interp_weight_53 * n2_z_bank_s1;
+  wire signed [33:0] t88 = interp_weight_53_q * n2_z_bank_s1;
   wire signed [34:0] t89 = $signed({t88[33], t88} + {t87[33], t87});
   wire signed [15:0] n3_z_bank_s1 = tri_tag_q[0] ? n3_z_b1_q : n3_z_b0_q;
-  wire signed [33:0] t90 = interp_weight_56 * n3_z_bank_s1;
+  wire signed [33:0] t90 = interp_weight_56_q * n3_z_bank_s1;
   wire signed [35:0] t91 = $signed({{2{t90[33]}}, t90} + {t89[34], t89});
   wire signed [15:0] n12_z_bank_s1 = tri_tag_q[0] ? n12_z_b1_q : n12_z_b0_q;
-  wire signed [33:0] t92 = interp_weight_58 * n12_z_bank_s1;
+  wire signed [33:0] t92 = interp_weight_58_q * n12_z_bank_s1;
   wire signed [36:0] t93 = $signed({{3{t92[33]}}, t92} + {t91[35], t91});
   wire signed [15:0] n23_z_bank_s1 = tri_tag_q[0] ? n23_z_b1_q : n23_z_b0_q;
-  wire signed [33:0] t94 = interp_weight_60 * n23_z_bank_s1;
+  wire signed [33:0] t94 = interp_weight_60_q * n23_z_bank_s1;
   wire signed [37:0] t95 = $signed({{4{t94[33]}}, t94} + {t93[36], t93});
   wire signed [15:0] n31_z_bank_s1 = tri_tag_q[0] ? n31_z_b1_q : n31_z_b0_q;
-  wire signed [33:0] t96 = interp_weight_62 * n31_z_bank_s1;
+  wire signed [33:0] t96 = interp_weight_62_q * n31_z_bank_s1;
   wire signed [38:0] t97 = $signed({{5{t96[33]}}, t96} + {t95[37], t95});
   wire interp_out_98_tie = t97[15] & ~(|t97[14:0]);
   wire [23:0] interp_out_98_up = {t97[38], t97[38:16]} + {{23{1'b0}}, t97[15]};
   wire signed [23:0] interp_out_98_r =
       $signed({interp_out_98_up[23:1], interp_out_98_up[0] & ~interp_out_98_tie});
-  wire interp_out_98_ovf_c = ~((&interp_out_98_r[23:15]) | ~(|interp_out_98_r[23:15]));
-  wire signed [15:0] interp_out_98_c =
-      $signed(interp_out_98_ovf_c ? (interp_out_98_r[23] ? 16'h8000 : 16'h7fff)
+  wire interp_out_98_ovf_d = ~((&interp_out_98_r[23:15]) | ~(|interp_out_98_r[23:15]));
+  wire signed [15:0] interp_out_98_d =
+      $signed(interp_out_98_ovf_d ? (interp_out_98_r[23] ? 16'h8000 : 16'h7fff)
       : interp_out_98_r[15:0]);
-  reg  signed [15:0] interp_out_98;
-  reg  [0:0] interp_out_98_ovf;
-  wire angles_normal_99_ovf_c = 1'b0;
-  wire signed [15:0] angles_normal_99_c =
-      $signed(angles_normal_99_ovf_c ? (interp_out_74[15] ? 16'h8000 : 16'h7fff)
-      : interp_out_74[15:0]);
-  reg  signed [15:0] angles_normal_99;
-  reg  [0:0] angles_normal_99_ovf;
-  wire angles_normal_100_ovf_c = 1'b0;
-  wire signed [15:0] angles_normal_100_c =
-      $signed(angles_normal_100_ovf_c ? (interp_out_86[15] ? 16'h8000 : 16'h7fff)
-      : interp_out_86[15:0]);
-  reg  signed [15:0] angles_normal_100;
-  reg  [0:0] angles_normal_100_ovf;
-  wire angles_normal_101_ovf_c = 1'b0;
-  wire signed [15:0] angles_normal_101_c =
-      $signed(angles_normal_101_ovf_c ? (interp_out_98[15] ? 16'h8000 : 16'h7fff)
-      : interp_out_98[15:0]);
-  reg  signed [15:0] angles_normal_101;
-  reg  [0:0] angles_normal_101_ovf;
-  wire t102_sub = angles_normal_99[15];
+  reg  signed [15:0] interp_out_98_q;
+  reg  [0:0] interp_out_98_ovf_q;
+  wire angles_normal_99_ovf_d = 1'b0;
+  wire signed [15:0] angles_normal_99_d =
+      $signed(angles_normal_99_ovf_d ? (interp_out_74_q[15] ? 16'h8000 : 16'h7fff)
+      : interp_out_74_q[15:0]);
+  reg  signed [15:0] angles_normal_99_q;
+  reg  [0:0] angles_normal_99_ovf_q;
+  wire angles_normal_100_ovf_d = 1'b0;
+  wire signed [15:0] angles_normal_100_d =
+      $signed(angles_normal_100_ovf_d ? (interp_out_86_q[15] ? 16'h8000 : 16'h7fff)
+      : interp_out_86_q[15:0]);
+  reg  signed [15:0] angles_normal_100_q;
+  reg  [0:0] angles_normal_100_ovf_q;
+  wire angles_normal_101_ovf_d = 1'b0;
+  wire signed [15:0] angles_normal_101_d =
+      $signed(angles_normal_101_ovf_d ? (interp_out_98_q[15] ? 16'h8000 : 16'h7fff)
+      : interp_out_98_q[15:0]);
+  reg  signed [15:0] angles_normal_101_q;
+  reg  [0:0] angles_normal_101_ovf_q;
+  wire t102_sub = angles_normal_99_q[15];
   wire signed [16:0] t102 =
-      t102_sub ? $signed({{2{1'b0}}, K28, 14'b0} - {angles_normal_99[15], angles_normal_99})
-      : $signed({{2{1'b0}}, K28, 14'b0} + {angles_normal_99[15], angles_normal_99});
-  wire t103_sub = ~angles_normal_99[15];
+      t102_sub ? $signed({{2{1'b0}}, K28, 14'b0} - {angles_normal_99_q[15], angles_normal_99_q})
+      : $signed({{2{1'b0}}, K28, 14'b0} + {angles_normal_99_q[15], angles_normal_99_q});
+  wire t103_sub = ~angles_normal_99_q[15];
   wire signed [16:0] t103 =
-      t103_sub ? $signed({{2{1'b0}}, K28, 14'b0} - {angles_normal_101[15], angles_normal_101})
-      : $signed({{2{1'b0}}, K28, 14'b0} + {angles_normal_101[15], angles_normal_101});
-  wire t104_sub = angles_normal_99[15];
+      t103_sub ? $signed({{2{1'b0}}, K28, 14'b0} - {angles_normal_101_q[15], angles_normal_101_q})
+      : $signed({{2{1'b0}}, K28, 14'b0} + {angles_normal_101_q[15], angles_normal_101_q});
+  wire t104_sub = angles_normal_99_q[15];
   wire signed [18:0] t104 = t104_sub ? $signed(19'h7c000) : $signed(19'h4000);
   wire signed [20:0] angles_xy_105_r = $signed({t102, 4'b0});
-  wire angles_xy_105_ovf_c = 1'b0;
-  wire signed [21:0] angles_xy_105_c =
-      $signed(angles_xy_105_ovf_c ? (angles_xy_105_r[20] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_105_ovf_d = 1'b0;
+  wire signed [21:0] angles_xy_105_d =
+      $signed(angles_xy_105_ovf_d ? (angles_xy_105_r[20] ? 22'h200000 : 22'h1fffff)
       : {angles_xy_105_r[20], angles_xy_105_r});
-  reg  signed [21:0] angles_xy_105;
-  reg  [0:0] angles_xy_105_ovf;
+  reg  signed [21:0] angles_xy_105_q;
+  reg  [0:0] angles_xy_105_ovf_q;
   wire signed [20:0] angles_xy_106_r = $signed({t103, 4'b0});
-  wire angles_xy_106_ovf_c = 1'b0;
-  wire signed [21:0] angles_xy_106_c =
-      $signed(angles_xy_106_ovf_c ? (angles_xy_106_r[20] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_106_ovf_d = 1'b0;
+  wire signed [21:0] angles_xy_106_d =
+      $signed(angles_xy_106_ovf_d ? (angles_xy_106_r[20] ? 22'h200000 : 22'h1fffff)
       : {angles_xy_106_r[20], angles_xy_106_r});
-  reg  signed [21:0] angles_xy_106;
-  reg  [0:0] angles_xy_106_ovf;
-  wire angles_theta_107_ovf_c = t104[18] | (|t104[17:16]);
-  wire [15:0] angles_theta_107_c = t104[15:0];
-  reg  [15:0] angles_theta_107;
-  reg  [0:0] angles_theta_107_ovf;
-  wire t108_sub = angles_xy_106[21];
+  reg  signed [21:0] angles_xy_106_q;
+  reg  [0:0] angles_xy_106_ovf_q;
+  wire angles_theta_107_ovf_d = t104[18] | (|t104[17:16]);
+  wire [15:0] angles_theta_107_d = t104[15:0];
+  reg  [15:0] angles_theta_107_q;
+  reg  [0:0] angles_theta_107_ovf_q;
+  wire t108_sub = angles_xy_106_q[21];
   wire signed [22:0] t108 =
-      t108_sub ? $signed({angles_xy_105[21], angles_xy_105} - {angles_xy_106[21], angles_xy_106})
-      : $signed({angles_xy_105[21], angles_xy_105} + {angles_xy_106[21], angles_xy_106});
-  wire t109_sub = ~angles_xy_106[21];
+      t108_sub
+      ? $signed({angles_xy_105_q[21], angles_xy_105_q} - {angles_xy_106_q[21], angles_xy_106_q})
+      : $signed({angles_xy_105_q[21], angles_xy_105_q} + {angles_xy_106_q[21], angles_xy_106_q});
+  wire t109_sub = ~angles_xy_106_q[21];
   wire signed [22:0] t109 =
-      t109_sub ? $signed({angles_xy_106[21], angles_xy_106} - {angles_xy_105[21], angles_xy_105})
-      : $signed({angles_xy_106[21], angles_xy_106} + {angles_xy_105[21], angles_xy_105});
-  wire t110_sub = angles_xy_106[21];
+      t109_sub
+      ? $signed({angles_xy_106_q[21], angles_xy_106_q} - {angles_xy_105_q[21], angles_xy_105_q})
+      : $signed({angles_xy_106_q[21], angles_xy_106_q} + {angles_xy_105_q[21], angles_xy_105_q});
+  wire t110_sub = angles_xy_106_q[21];
   wire signed [17:0] t110 =
-      t110_sub ? $signed({{2{1'b0}}, angles_theta_107} - {{2{1'b0}}, K30})
-      : $signed({{2{1'b0}}, angles_theta_107} + {{2{1'b0}}, K30});
-  wire angles_xy_111_ovf_c = ~((&t108[22:21]) | ~(|t108[22:21]));
-  wire signed [21:0] angles_xy_111_c =
-      $signed(angles_xy_111_ovf_c ? (t108[22] ? 22'h200000 : 22'h1fffff) : t108[21:0]);
-  reg  signed [21:0] angles_xy_111;
-  reg  [0:0] angles_xy_111_ovf;
-  wire angles_xy_112_ovf_c = ~((&t109[22:21]) | ~(|t109[22:21]));
-  wire signed [21:0] angles_xy_112_c =
-      $signed(angles_xy_112_ovf_c ? (t109[22] ? 22'h200000 : 22'h1fffff) : t109[21:0]);
-  reg  signed [21:0] angles_xy_112;
-  reg  [0:0] angles_xy_112_ovf;
-  wire angles_theta_113_ovf_c = t110[17] | (|t110[16]);
-  wire [15:0] angles_theta_113_c = t110[15:0];
-  reg  [15:0] angles_theta_113;
-  reg  [0:0] angles_theta_113_ovf;
-  wire t114_sub = angles_xy_112[21];
+      t110_sub ? $signed({{2{1'b0}}, angles_theta_107_q} - {{2{1'b0}}, K30})
+      : $signed({{2{1'b0}}, angles_theta_107_q} + {{2{1'b0}}, K30});
+  wire angles_xy_111_ovf_d = ~((&t108[22:21]) | ~(|t108[22:21]));
+  wire signed [21:0] angles_xy_111_d =
+      $signed(angles_xy_111_ovf_d ? (t108[22] ? 22'h200000 : 22'h1fffff) : t108[21:0]);
+  reg  signed [21:0] angles_xy_111_q;
+  reg  [0:0] angles_xy_111_ovf_q;
+  wire angles_xy_112_ovf_d = ~((&t109[22:21]) | ~(|t109[22:21]));
+  wire signed [21:0] angles_xy_112_d =
+      $signed(angles_xy_112_ovf_d ? (t109[22] ? 22'h200000 : 22'h1fffff) : t109[21:0]);
+  reg  signed [21:0] angles_xy_112_q;
+  reg  [0:0] angles_xy_112_ovf_q;
+  wire angles_theta_113_ovf_d = t110[17] | (|t110[16]);
+  wire [15:0] angles_theta_113_d = t110[15:0];
+  reg  [15:0] angles_theta_113_q;
+  reg  [0:0] angles_theta_113_ovf_q;
+  wire t114_sub = angles_xy_112_q[21];
   wire signed [23:0] t114 =
       t114_sub
-      ? $signed({angles_xy_111[21], angles_xy_111, 1'b0} - {{2{angles_xy_112[21]}}, angles_xy_112})
-      : $signed({angles_xy_111[21], angles_xy_111, 1'b0} + {{2{angles_xy_112[21]}}, angles_xy_112});
-  wire t115_sub = ~angles_xy_112[21];
+      ? $signed({angles_xy_111_q[21], angles_xy_111_q, 1'b0}
+      - {{2{angles_xy_112_q[21]}}, angles_xy_112_q})
+      : $signed({angles_xy_111_q[21], angles_xy_111_q, 1'b0}
+      + {{2{angles_xy_112_q[21]}}, angles_xy_112_q});
+  wire t115_sub = ~angles_xy_112_q[21];
   wire signed [23:0] t115 =
       t115_sub
-      ? $signed({angles_xy_112[21], angles_xy_112, 1'b0} - {{2{angles_xy_111[21]}}, angles_xy_111})
-      : $signed({angles_xy_112[21], angles_xy_112, 1'b0} + {{2{angles_xy_111[21]}}, angles_xy_111});
-  wire t116_sub = angles_xy_112[21];
+      ? $signed({angles_xy_112_q[21], angles_xy_112_q, 1'b0}
+      - {{2{angles_xy_111_q[21]}}, angles_xy_111_q})
+      : $signed({angles_xy_112_q[21], angles_xy_112_q, 1'b0}
+      + {{2{angles_xy_111_q[21]}}, angles_xy_111_q});
+  wire t116_sub = angles_xy_112_q[21];
   wire signed [17:0] t116 =
-      t116_sub ? $signed({{2{1'b0}}, angles_theta_113} - {{2{1'b0}}, K31})
-      : $signed({{2{1'b0}}, angles_theta_113} + {{2{1'b0}}, K31});
+      t116_sub ? $signed({{2{1'b0}}, angles_theta_113_q} - {{2{1'b0}}, K31})
+      : $signed({{2{1'b0}}, angles_theta_113_q} + {{2{1'b0}}, K31});
   wire signed [22:0] angles_xy_117_t = $signed(t114[23:1]);
-  wire angles_xy_117_ovf_c = ~((&angles_xy_117_t[22:21]) | ~(|angles_xy_117_t[22:21]));
-  wire signed [21:0] angles_xy_117_c =
-      $signed(angles_xy_117_ovf_c ? (angles_xy_117_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_117_ovf_d = ~((&angles_xy_117_t[22:21]) | ~(|angles_xy_117_t[22:21]));
+  wire signed [21:0] angles_xy_117_d =
+      $signed(angles_xy_117_ovf_d ? (angles_xy_117_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_117_t[21:0]);
-  reg  signed [21:0] angles_xy_117;
-  reg  [0:0] angles_xy_117_ovf;
+  reg  signed [21:0] angles_xy_117_q;
+  reg  [0:0] angles_xy_117_ovf_q;
   wire signed [22:0] angles_xy_118_t = $signed(t115[23:1]);
-  wire angles_xy_118_ovf_c = ~((&angles_xy_118_t[22:21]) | ~(|angles_xy_118_t[22:21]));
-  wire signed [21:0] angles_xy_118_c =
-      $signed(angles_xy_118_ovf_c ? (angles_xy_118_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_118_ovf_d = ~((&angles_xy_118_t[22:21]) | ~(|angles_xy_118_t[22:21]));
+  wire signed [21:0] angles_xy_118_d =
+      $signed(angles_xy_118_ovf_d ? (angles_xy_118_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_118_t[21:0]);
-  reg  signed [21:0] angles_xy_118;
-  reg  [0:0] angles_xy_118_ovf;
-  wire angles_theta_119_ovf_c = t116[17] | (|t116[16]);
-  wire [15:0] angles_theta_119_c = t116[15:0];
-  reg  [15:0] angles_theta_119;
-  reg  [0:0] angles_theta_119_ovf;
-  wire t120_sub = angles_xy_118[21];
+  reg  signed [21:0] angles_xy_118_q;
+  reg  [0:0] angles_xy_118_ovf_q;
+  wire angles_theta_119_ovf_d = t116[17] | (|t116[16]);
+  wire [15:0] angles_theta_119_d = t116[15:0];
+  reg  [15:0] angles_theta_119_q;
+  reg  [0:0] angles_theta_119_ovf_q;
+  wire t120_sub = angles_xy_118_q[21];
   wire signed [24:0] t120 =
       t120_sub
-      ? $signed({angles_xy_117[21], angles_xy_117, 2'b0} - {{3{angles_xy_118[21]}}, angles_xy_118})
-      : $signed({angles_xy_117[21], angles_xy_117, 2'b0} + {{3{angles_xy_118[21]}}, angles_xy_118});
-  wire t121_sub = ~angles_xy_118[21];
+      ? $signed({angles_xy_117_q[21], angles_xy_117_q, 2'b0}
+      - {{3{angles_xy_118_q[21]}}, angles_xy_118_q})
+      : $signed({angles_xy_117_q[21], angles_xy_117_q, 2'b0}
+      + {{3{angles_xy_118_q[21]}}, angles_xy_118_q});
+  wire t121_sub = ~angles_xy_118_q[21];
   wire signed [24:0] t121 =
       t121_sub
-      ? $signed({angles_xy_118[21], angles_xy_118, 2'b0} - {{3{angles_xy_117[21]}}, angles_xy_117})
-      : $signed({angles_xy_118[21], angles_xy_118, 2'b0} + {{3{angles_xy_117[21]}}, angles_xy_117});
-  wire t122_sub = angles_xy_118[21];
+      ? $signed({angles_xy_118_q[21], angles_xy_118_q, 2'b0}
+      - {{3{angles_xy_117_q[21]}}, angles_xy_117_q})
+      : $signed({angles_xy_118_q[21], angles_xy_118_q, 2'b0}
+      + {{3{angles_xy_117_q[21]}}, angles_xy_117_q});
+  wire t122_sub = angles_xy_118_q[21];
   wire signed [17:0] t122 =
-      t122_sub ? $signed({{2{1'b0}}, angles_theta_119} - {{2{1'b0}}, K32})
-      : $signed({{2{1'b0}}, angles_theta_119} + {{2{1'b0}}, K32});
+      t122_sub ? $signed({{2{1'b0}}, angles_theta_119_q} - {{2{1'b0}}, K32})
+      : $signed({{2{1'b0}}, angles_theta_119_q} + {{2{1'b0}}, K32});
   wire signed [22:0] angles_xy_123_t = $signed(t120[24:2]);
-  wire angles_xy_123_ovf_c = ~((&angles_xy_123_t[22:21]) | ~(|angles_xy_123_t[22:21]));
-  wire signed [21:0] angles_xy_123_c =
-      $signed(angles_xy_123_ovf_c ? (angles_xy_123_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_123_ovf_d = ~((&angles_xy_123_t[22:21]) | ~(|angles_xy_123_t[22:21]));
+  wire signed [21:0] angles_xy_123_d =
+      $signed(angles_xy_123_ovf_d ? (angles_xy_123_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_123_t[21:0]);
-  reg  signed [21:0] angles_xy_123;
-  reg  [0:0] angles_xy_123_ovf;
+  reg  signed [21:0] angles_xy_123_q;
+  reg  [0:0] angles_xy_123_ovf_q;
   wire signed [22:0] angles_xy_124_t = $signed(t121[24:2]);
-  wire angles_xy_124_ovf_c = ~((&angles_xy_124_t[22:21]) | ~(|angles_xy_124_t[22:21]));
-  wire signed [21:0] angles_xy_124_c =
-      $signed(angles_xy_124_ovf_c ? (angles_xy_124_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_124_ovf_d = ~((&angles_xy_124_t[22:21]) | ~(|angles_xy_124_t[22:21]));
+  wire signed [21:0] angles_xy_124_d =
+      $signed(angles_xy_124_ovf_d ? (angles_xy_124_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_124_t[21:0]);
-  reg  signed [21:0] angles_xy_124;
-  reg  [0:0] angles_xy_124_ovf;
-  wire angles_theta_125_ovf_c = t122[17] | (|t122[16]);
-  wire [15:0] angles_theta_125_c = t122[15:0];
-  reg  [15:0] angles_theta_125;
-  reg  [0:0] angles_theta_125_ovf;
-  wire t126_sub = angles_xy_124[21];
+  reg  signed [21:0] angles_xy_124_q;
+  reg  [0:0] angles_xy_124_ovf_q;
+  wire angles_theta_125_ovf_d = t122[17] | (|t122[16]);
+  wire [15:0] angles_theta_125_d = t122[15:0];
+  reg  [15:0] angles_theta_125_q;
+  reg  [0:0] angles_theta_125_ovf_q;
+  wire t126_sub = angles_xy_124_q[21];
   wire signed [25:0] t126 =
       t126_sub
-      ? $signed({angles_xy_123[21], angles_xy_123, 3'b0} - {{4{angles_xy_124[21]}}, angles_xy_124})
-      : $signed({angles_xy_123[21], angles_xy_123, 3'b0} + {{4{angles_xy_124[21]}}, angles_xy_124});
-  wire t127_sub = ~angles_xy_124[21];
+      ? $signed({angles_xy_123_q[21], angles_xy_123_q, 3'b0}
+      - {{4{angles_xy_124_q[21]}}, angles_xy_124_q})
+      : $signed({angles_xy_123_q[21], angles_xy_123_q, 3'b0}
+      + {{4{angles_xy_124_q[21]}}, angles_xy_124_q});
+  wire t127_sub = ~angles_xy_124_q[21];
   wire signed [25:0] t127 =
       t127_sub
-      ? $signed({angles_xy_124[21], angles_xy_124, 3'b0} - {{4{angles_xy_123[21]}}, angles_xy_123})
-      : $signed({angles_xy_124[21], angles_xy_124, 3'b0} + {{4{angles_xy_123[21]}}, angles_xy_123});
-  wire t128_sub = angles_xy_124[21];
+      ? $signed({angles_xy_124_q[21], angles_xy_124_q, 3'b0}
+      - {{4{angles_xy_123_q[21]}}, angles_xy_123_q})
+      : $signed({angles_xy_124_q[21], angles_xy_124_q, 3'b0}
+      + {{4{angles_xy_123_q[21]}}, angles_xy_123_q});
+  wire t128_sub = angles_xy_124_q[21];
   wire signed [17:0] t128 =
-      t128_sub ? $signed({{2{1'b0}}, angles_theta_125} - {{2{1'b0}}, K33})
-      : $signed({{2{1'b0}}, angles_theta_125} + {{2{1'b0}}, K33});
+      t128_sub ? $signed({{2{1'b0}}, angles_theta_125_q} - {{2{1'b0}}, K33})
+      : $signed({{2{1'b0}}, angles_theta_125_q} + {{2{1'b0}}, K33});
   wire signed [22:0] angles_xy_129_t = $signed(t126[25:3]);
-  wire angles_xy_129_ovf_c = ~((&angles_xy_129_t[22:21]) | ~(|angles_xy_129_t[22:21]));
-  wire signed [21:0] angles_xy_129_c =
-      $signed(angles_xy_129_ovf_c ? (angles_xy_129_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_129_ovf_d = ~((&angles_xy_129_t[22:21]) | ~(|angles_xy_129_t[22:21]));
+  wire signed [21:0] angles_xy_129_d =
+      $signed(angles_xy_129_ovf_d ? (angles_xy_129_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_129_t[21:0]);
-  reg  signed [21:0] angles_xy_129;
-  reg  [0:0] angles_xy_129_ovf;
+  reg  signed [21:0] angles_xy_129_q;
+  reg  [0:0] angles_xy_129_ovf_q;
   wire signed [22:0] angles_xy_130_t = $signed(t127[25:3]);
-  wire angles_xy_130_ovf_c = ~((&angles_xy_130_t[22:21]) | ~(|angles_xy_130_t[22:21]));
-  wire signed [21:0] angles_xy_130_c =
-      $signed(angles_xy_130_ovf_c ? (angles_xy_130_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_130_ovf_d = ~((&angles_xy_130_t[22:21]) | ~(|angles_xy_130_t[22:21]));
+  wire signed [21:0] angles_xy_130_d =
+      $signed(angles_xy_130_ovf_d ? (angles_xy_130_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_130_t[21:0]);
-  reg  signed [21:0] angles_xy_130;
-  reg  [0:0] angles_xy_130_ovf;
-  wire angles_theta_131_ovf_c = t128[17] | (|t128[16]);
-  wire [15:0] angles_theta_131_c = t128[15:0];
-  reg  [15:0] angles_theta_131;
-  reg  [0:0] angles_theta_131_ovf;
-  wire t132_sub = angles_xy_130[21];
+  reg  signed [21:0] angles_xy_130_q;
+  reg  [0:0] angles_xy_130_ovf_q;
+  wire angles_theta_131_ovf_d = t128[17] | (|t128[16]);
+  wire [15:0] angles_theta_131_d = t128[15:0];
+  reg  [15:0] angles_theta_131_q;
+  reg  [0:0] angles_theta_131_ovf_q;
+  wire t132_sub = angles_xy_130_q[21];
   wire signed [26:0] t132 =
       t132_sub
-      ? $signed({angles_xy_129[21], angles_xy_129, 4'b0} - {{5{angles_xy_130[21]}}, angles_xy_130})
-      : $signed({angles_xy_129[21], angles_xy_129, 4'b0} + {{5{angles_xy_130[21]}}, angles_xy_130});
-  wire t133_sub = ~angles_xy_130[21];
+      ? $signed({angles_xy_129_q[21], angles_xy_129_q, 4'b0}
+      - {{5{angles_xy_130_q[21]}}, angles_xy_130_q})
+      : $signed({angles_xy_129_q[21], angles_xy_129_q, 4'b0}
+      + {{5{angles_xy_130_q[21]}}, angles_xy_130_q});
+  wire t133_sub = ~angles_xy_130_q[21];
   wire signed [26:0] t133 =
       t133_sub
-      ? $signed({angles_xy_130[21], angles_xy_130, 4'b0} - {{5{angles_xy_129[21]}}, angles_xy_129})
-      : $signed({angles_xy_130[21], angles_xy_130, 4'b0} + {{5{angles_xy_129[21]}}, angles_xy_129});
-  wire t134_sub = angles_xy_130[21];
+      ? $signed({angles_xy_130_q[21], angles_xy_130_q, 4'b0}
+      - {{5{angles_xy_129_q[21]}}, angles_xy_129_q})
+      : $signed({angles_xy_130_q[21], angles_xy_130_q, 4'b0}
+      + {{5{angles_xy_129_q[21]}}, angles_xy_129_q});
+  wire t134_sub = angles_xy_130_q[21];
   wire signed [17:0] t134 =
-      t134_sub ? $signed({{2{1'b0}}, angles_theta_131} - {{2{1'b0}}, K34})
-      : $signed({{2{1'b0}}, angles_theta_131} + {{2{1'b0}}, K34});
+      t134_sub ? $signed({{2{1'b0}}, angles_theta_131_q} - {{2{1'b0}}, K34})
+      : $signed({{2{1'b0}}, angles_theta_131_q} + {{2{1'b0}}, K34});
   wire signed [22:0] angles_xy_135_t = $signed(t132[26:4]);
-  wire angles_xy_135_ovf_c = ~((&angles_xy_135_t[22:21]) | ~(|angles_xy_135_t[22:21]));
-  wire signed [21:0] angles_xy_135_c =
-      $signed(angles_xy_135_ovf_c ? (angles_xy_135_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_135_ovf_d = ~((&angles_xy_135_t[22:21]) | ~(|angles_xy_135_t[22:21]));
+  wire signed [21:0] angles_xy_135_d =
+      $signed(angles_xy_135_ovf_d ? (angles_xy_135_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_135_t[21:0]);
-  reg  signed [21:0] angles_xy_135;
-  reg  [0:0] angles_xy_135_ovf;
+  reg  signed [21:0] angles_xy_135_q;
+  reg  [0:0] angles_xy_135_ovf_q;
   wire signed [22:0] angles_xy_136_t = $signed(t133[26:4]);
-  wire angles_xy_136_ovf_c = ~((&angles_xy_136_t[22:21]) | ~(|angles_xy_136_t[22:21]));
-  wire signed [21:0] angles_xy_136_c =
-      $signed(angles_xy_136_ovf_c ? (angles_xy_136_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_136_ovf_d = ~((&angles_xy_136_t[22:21]) | ~(|angles_xy_136_t[22:21]));
+  wire signed [21:0] angles_xy_136_d =
+      $signed(angles_xy_136_ovf_d ? (angles_xy_136_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_136_t[21:0]);
-  reg  signed [21:0] angles_xy_136;
-  reg  [0:0] angles_xy_136_ovf;
-  wire angles_theta_137_ovf_c = t134[17] | (|t134[16]);
-  wire [15:0] angles_theta_137_c = t134[15:0];
-  reg  [15:0] angles_theta_137;
-  reg  [0:0] angles_theta_137_ovf;
-  wire t138_sub = angles_xy_136[21];
+  reg  signed [21:0] angles_xy_136_q;
+  reg  [0:0] angles_xy_136_ovf_q;
+  wire angles_theta_137_ovf_d = t134[17] | (|t134[16]);
+  wire [15:0] angles_theta_137_d = t134[15:0];
+  reg  [15:0] angles_theta_137_q;
+  reg  [0:0] angles_theta_137_ovf_q;
+  wire t138_sub = angles_xy_136_q[21];
   wire signed [27:0] t138 =
       t138_sub
-      ? $signed({angles_xy_135[21], angles_xy_135, 5'b0} - {{6{angles_xy_136[21]}}, angles_xy_136})
-      : $signed({angles_xy_135[21], angles_xy_135, 5'b0} + {{6{angles_xy_136[21]}}, angles_xy_136});
-  wire t139_sub = ~angles_xy_136[21];
+      ? $signed({angles_xy_135_q[21], angles_xy_135_q, 5'b0}
+      - {{6{angles_xy_136_q[21]}}, angles_xy_136_q})
+      : $signed({angles_xy_135_q[21], angles_xy_135_q, 5'b0}
+      + {{6{angles_xy_136_q[21]}}, angles_xy_136_q});
+  wire t139_sub = ~angles_xy_136_q[21];
   wire signed [27:0] t139 =
       t139_sub
-      ? $signed({angles_xy_136[21], angles_xy_136, 5'b0} - {{6{angles_xy_135[21]}}, angles_xy_135})
-      : $signed({angles_xy_136[21], angles_xy_136, 5'b0} + {{6{angles_xy_135[21]}}, angles_xy_135});
-  wire t140_sub = angles_xy_136[21];
+      ? $signed({angles_xy_136_q[21], angles_xy_136_q, 5'b0}
+      - {{6{angles_xy_135_q[21]}}, angles_xy_135_q})
+      : $signed({angles_xy_136_q[21], angles_xy_136_q, 5'b0}
+      + {{6{angles_xy_135_q[21]}}, angles_xy_135_q});
+  wire t140_sub = angles_xy_136_q[21];
   wire signed [17:0] t140 =
-      t140_sub ? $signed({{2{1'b0}}, angles_theta_137} - {{2{1'b0}}, K35})
-      : $signed({{2{1'b0}}, angles_theta_137} + {{2{1'b0}}, K35});
+      t140_sub ? $signed({{2{1'b0}}, angles_theta_137_q} - {{2{1'b0}}, K35})
+      : $signed({{2{1'b0}}, angles_theta_137_q} + {{2{1'b0}}, K35});
   wire signed [22:0] angles_xy_141_t = $signed(t138[27:5]);
-  wire angles_xy_141_ovf_c = ~((&angles_xy_141_t[22:21]) | ~(|angles_xy_141_t[22:21]));
-  wire signed [21:0] angles_xy_141_c =
-      $signed(angles_xy_141_ovf_c ? (angles_xy_141_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_141_ovf_d = ~((&angles_xy_141_t[22:21]) | ~(|angles_xy_141_t[22:21]));
+  wire signed [21:0] angles_xy_141_d =
+      $signed(angles_xy_141_ovf_d ? (angles_xy_141_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_141_t[21:0]);
-  reg  signed [21:0] angles_xy_141;
-  reg  [0:0] angles_xy_141_ovf;
+  reg  signed [21:0] angles_xy_141_q;
+  reg  [0:0] angles_xy_141_ovf_q;
   wire signed [22:0] angles_xy_142_t = $signed(t139[27:5]);
-  wire angles_xy_142_ovf_c = ~((&angles_xy_142_t[22:21]) | ~(|angles_xy_142_t[22:21]));
-  wire signed [21:0] angles_xy_142_c =
-      $signed(angles_xy_142_ovf_c ? (angles_xy_142_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_142_ovf_d = ~((&angles_xy_142_t[22:21]) | ~(|angles_xy_142_t[22:21]));
+  wire signed [21:0] angles_xy_142_d =
+      $signed(angles_xy_142_ovf_d ? (angles_xy_142_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_142_t[21:0]);
-  reg  signed [21:0] angles_xy_142;
-  reg  [0:0] angles_xy_142_ovf;
-  wire angles_theta_143_ovf_c = t140[17] | (|t140[16]);
-  wire [15:0] angles_theta_143_c = t140[15:0];
-  reg  [15:0] angles_theta_143;
-  reg  [0:0] angles_theta_143_ovf;
-  wire t144_sub = angles_xy_142[21];
+  reg  signed [21:0] angles_xy_142_q;
+  reg  [0:0] angles_xy_142_ovf_q;
+  wire angles_theta_143_ovf_d = t140[17] | (|t140[16]);
+  wire [15:0] angles_theta_143_d = t140[15:0];
+  reg  [15:0] angles_theta_143_q;
+  reg  [0:0] angles_theta_143_ovf_q;
+  wire t144_sub = angles_xy_142_q[21];
   wire signed [28:0] t144 =
       t144_sub
-      ? $signed({angles_xy_141[21], angles_xy_141, 6'b0} - {{7{angles_xy_142[21]}}, angles_xy_142})
-      : $signed({angles_xy_141[21], angles_xy_141, 6'b0} + {{7{angles_xy_142[21]}}, angles_xy_142});
-  wire t145_sub = ~angles_xy_142[21];
+      ? $signed({angles_xy_141_q[21], angles_xy_141_q, 6'b0}
+      - {{7{angles_xy_142_q[21]}}, angles_xy_142_q})
+      : $signed({angles_xy_141_q[21], angles_xy_141_q, 6'b0}
+      + {{7{angles_xy_142_q[21]}}, angles_xy_142_q});
+  wire t145_sub = ~angles_xy_142_q[21];
   wire signed [28:0] t145 =
       t145_sub
-      ? $signed({angles_xy_142[21], angles_xy_142, 6'b0} - {{7{angles_xy_141[21]}}, angles_xy_141})
-      : $signed({angles_xy_142[21], angles_xy_142, 6'b0} + {{7{angles_xy_141[21]}}, angles_xy_141});
-  wire t146_sub = angles_xy_142[21];
+      ? $signed({angles_xy_142_q[21], angles_xy_142_q, 6'b0}
+      - {{7{angles_xy_141_q[21]}}, angles_xy_141_q})
+      : $signed({angles_xy_142_q[21], angles_xy_142_q, 6'b0}
+      + {{7{angles_xy_141_q[21]}}, angles_xy_141_q});
+  wire t146_sub = angles_xy_142_q[21];
   wire signed [17:0] t146 =
-      t146_sub ? $signed({{2{1'b0}}, angles_theta_143} - {{2{1'b0}}, K36})
-      : $signed({{2{1'b0}}, angles_theta_143} + {{2{1'b0}}, K36});
+      t146_sub ? $signed({{2{1'b0}}, angles_theta_143_q} - {{2{1'b0}}, K36})
+      : $signed({{2{1'b0}}, angles_theta_143_q} + {{2{1'b0}}, K36});
   wire signed [22:0] angles_xy_147_t = $signed(t144[28:6]);
-  wire angles_xy_147_ovf_c = ~((&angles_xy_147_t[22:21]) | ~(|angles_xy_147_t[22:21]));
-  wire signed [21:0] angles_xy_147_c =
-      $signed(angles_xy_147_ovf_c ? (angles_xy_147_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_147_ovf_d = ~((&angles_xy_147_t[22:21]) | ~(|angles_xy_147_t[22:21]));
+  wire signed [21:0] angles_xy_147_d =
+      $signed(angles_xy_147_ovf_d ? (angles_xy_147_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_147_t[21:0]);
-  reg  signed [21:0] angles_xy_147;
-  reg  [0:0] angles_xy_147_ovf;
+  reg  signed [21:0] angles_xy_147_q;
+  reg  [0:0] angles_xy_147_ovf_q;
   wire signed [22:0] angles_xy_148_t = $signed(t145[28:6]);
-  wire angles_xy_148_ovf_c = ~((&angles_xy_148_t[22:21]) | ~(|angles_xy_148_t[22:21]));
-  wire signed [21:0] angles_xy_148_c =
-      $signed(angles_xy_148_ovf_c ? (angles_xy_148_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_148_ovf_d = ~((&angles_xy_148_t[22:21]) | ~(|angles_xy_148_t[22:21]));
+  wire signed [21:0] angles_xy_148_d =
+      $signed(angles_xy_148_ovf_d ? (angles_xy_148_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_148_t[21:0]);
-  reg  signed [21:0] angles_xy_148;
-  reg  [0:0] angles_xy_148_ovf;
-  wire angles_theta_149_ovf_c = t146[17] | (|t146[16]);
-  wire [15:0] angles_theta_149_c = t146[15:0];
-  reg  [15:0] angles_theta_149;
-  reg  [0:0] angles_theta_149_ovf;
-  wire t150_sub = angles_xy_148[21];
+  reg  signed [21:0] angles_xy_148_q;
+  reg  [0:0] angles_xy_148_ovf_q;
+  wire angles_theta_149_ovf_d = t146[17] | (|t146[16]);
+  wire [15:0] angles_theta_149_d = t146[15:0];
+  reg  [15:0] angles_theta_149_q;
+  reg  [0:0] angles_theta_149_ovf_q;
+  wire t150_sub = angles_xy_148_q[21];
   wire signed [29:0] t150 =
       t150_sub
-      ? $signed({angles_xy_147[21], angles_xy_147, 7'b0} - {{8{angles_xy_148[21]}}, angles_xy_148})
-      : $signed({angles_xy_147[21], angles_xy_147, 7'b0} + {{8{angles_xy_148[21]}}, angles_xy_148});
-  wire t151_sub = ~angles_xy_148[21];
+      ? $signed({angles_xy_147_q[21], angles_xy_147_q, 7'b0}
+      - {{8{angles_xy_148_q[21]}}, angles_xy_148_q})
+      : $signed({angles_xy_147_q[21], angles_xy_147_q, 7'b0}
+      + {{8{angles_xy_148_q[21]}}, angles_xy_148_q});
+  wire t151_sub = ~angles_xy_148_q[21];
   wire signed [29:0] t151 =
       t151_sub
-      ? $signed({angles_xy_148[21], angles_xy_148, 7'b0} - {{8{angles_xy_147[21]}}, angles_xy_147})
-      : $signed({angles_xy_148[21], angles_xy_148, 7'b0} + {{8{angles_xy_147[21]}}, angles_xy_147});
-  wire t152_sub = angles_xy_148[21];
+      ? $signed({angles_xy_148_q[21], angles_xy_148_q, 7'b0}
+      - {{8{angles_xy_147_q[21]}}, angles_xy_147_q})
+      : $signed({angles_xy_148_q[21], angles_xy_148_q, 7'b0}
+      + {{8{angles_xy_147_q[21]}}, angles_xy_147_q});
+  wire t152_sub = angles_xy_148_q[21];
   wire signed [17:0] t152 =
-      t152_sub ? $signed({{2{1'b0}}, angles_theta_149} - {{2{1'b0}}, K37})
-      : $signed({{2{1'b0}}, angles_theta_149} + {{2{1'b0}}, K37});
+      t152_sub ? $signed({{2{1'b0}}, angles_theta_149_q} - {{2{1'b0}}, K37})
+      : $signed({{2{1'b0}}, angles_theta_149_q} + {{2{1'b0}}, K37});
   wire signed [22:0] angles_xy_153_t = $signed(t150[29:7]);
-  wire angles_xy_153_ovf_c = ~((&angles_xy_153_t[22:21]) | ~(|angles_xy_153_t[22:21]));
-  wire signed [21:0] angles_xy_153_c =
-      $signed(angles_xy_153_ovf_c ? (angles_xy_153_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_153_ovf_d = ~((&angles_xy_153_t[22:21]) | ~(|angles_xy_153_t[22:21]));
+  wire signed [21:0] angles_xy_153_d =
+      $signed(angles_xy_153_ovf_d ? (angles_xy_153_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_153_t[21:0]);
-  reg  signed [21:0] angles_xy_153;
-  reg  [0:0] angles_xy_153_ovf;
+  reg  signed [21:0] angles_xy_153_q;
+  reg  [0:0] angles_xy_153_ovf_q;
   wire signed [22:0] angles_xy_154_t = $signed(t151[29:7]);
-  wire angles_xy_154_ovf_c = ~((&angles_xy_154_t[22:21]) | ~(|angles_xy_154_t[22:21]));
-  wire signed [21:0] angles_xy_154_c =
-      $signed(angles_xy_154_ovf_c ? (angles_xy_154_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_154_ovf_d = ~((&angles_xy_154_t[22:21]) | ~(|angles_xy_154_t[22:21]));
+  wire signed [21:0] angles_xy_154_d =
+      $signed(angles_xy_154_ovf_d ? (angles_xy_154_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_154_t[21:0]);
-  reg  signed [21:0] angles_xy_154;
-  reg  [0:0] angles_xy_154_ovf;
-  wire angles_theta_155_ovf_c = t152[17] | (|t152[16]);
-  wire [15:0] angles_theta_155_c = t152[15:0];
-  reg  [15:0] angles_theta_155;
-  reg  [0:0] angles_theta_155_ovf;
-  wire t156_sub = angles_xy_154[21];
+  reg  signed [21:0] angles_xy_154_q;
+  reg  [0:0] angles_xy_154_ovf_q;
+  wire angles_theta_155_ovf_d = t152[17] | (|t152[16]);
+  wire [15:0] angles_theta_155_d = t152[15:0];
+  reg  [15:0] angles_theta_155_q;
+  reg  [0:0] angles_theta_155_ovf_q;
+  wire t156_sub = angles_xy_154_q[21];
   wire signed [30:0] t156 =
       t156_sub
-      ? $signed({angles_xy_153[21], angles_xy_153, 8'b0} - {{9{angles_xy_154[21]}}, angles_xy_154})
-      : $signed({angles_xy_153[21], angles_xy_153, 8'b0} + {{9{angles_xy_154[21]}}, angles_xy_154});
-  wire t157_sub = ~angles_xy_154[21];
+      ? $signed({angles_xy_153_q[21], angles_xy_153_q, 8'b0}
+      - {{9{angles_xy_154_q[21]}}, angles_xy_154_q})
+      : $signed({angles_xy_153_q[21], angles_xy_153_q, 8'b0}
+      + {{9{angles_xy_154_q[21]}}, angles_xy_154_q});
+  wire t157_sub = ~angles_xy_154_q[21];
   wire signed [30:0] t157 =
       t157_sub
-      ? $signed({angles_xy_154[21], angles_xy_154, 8'b0} - {{9{angles_xy_153[21]}}, angles_xy_153})
-      : $signed({angles_xy_154[21], angles_xy_154, 8'b0} + {{9{angles_xy_153[21]}}, angles_xy_153});
-  wire t158_sub = angles_xy_154[21];
+      ? $signed({angles_xy_154_q[21], angles_xy_154_q, 8'b0}
+      - {{9{angles_xy_153_q[21]}}, angles_xy_153_q})
+      : $signed({angles_xy_154_q[21], angles_xy_154_q, 8'b0}
+      + {{9{angles_xy_153_q[21]}}, angles_xy_153_q});
+  wire t158_sub = angles_xy_154_q[21];
   wire signed [17:0] t158 =
-      t158_sub ? $signed({{2{1'b0}}, angles_theta_155} - {{2{1'b0}}, K38})
-      : $signed({{2{1'b0}}, angles_theta_155} + {{2{1'b0}}, K38});
+      t158_sub ? $signed({{2{1'b0}}, angles_theta_155_q} - {{2{1'b0}}, K38})
+      : $signed({{2{1'b0}}, angles_theta_155_q} + {{2{1'b0}}, K38});
   wire signed [22:0] angles_xy_159_t = $signed(t156[30:8]);
-  wire angles_xy_159_ovf_c = ~((&angles_xy_159_t[22:21]) | ~(|angles_xy_159_t[22:21]));
-  wire signed [21:0] angles_xy_159_c =
-      $signed(angles_xy_159_ovf_c ? (angles_xy_159_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_159_ovf_d = ~((&angles_xy_159_t[22:21]) | ~(|angles_xy_159_t[22:21]));
+  wire signed [21:0] angles_xy_159_d =
+      $signed(angles_xy_159_ovf_d ? (angles_xy_159_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_159_t[21:0]);
-  reg  signed [21:0] angles_xy_159;
-  reg  [0:0] angles_xy_159_ovf;
+  reg  signed [21:0] angles_xy_159_q;
+  reg  [0:0] angles_xy_159_ovf_q;
   wire signed [22:0] angles_xy_160_t = $signed(t157[30:8]);
-  wire angles_xy_160_ovf_c = ~((&angles_xy_160_t[22:21]) | ~(|angles_xy_160_t[22:21]));
-  wire signed [21:0] angles_xy_160_c =
-      $signed(angles_xy_160_ovf_c ? (angles_xy_160_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_160_ovf_d = ~((&angles_xy_160_t[22:21]) | ~(|angles_xy_160_t[22:21]));
+  wire signed [21:0] angles_xy_160_d =
+      $signed(angles_xy_160_ovf_d ? (angles_xy_160_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_160_t[21:0]);
-  reg  signed [21:0] angles_xy_160;
-  reg  [0:0] angles_xy_160_ovf;
-  wire angles_theta_161_ovf_c = t158[17] | (|t158[16]);
-  wire [15:0] angles_theta_161_c = t158[15:0];
-  reg  [15:0] angles_theta_161;
-  reg  [0:0] angles_theta_161_ovf;
-  wire t162_sub = angles_xy_160[21];
+  reg  signed [21:0] angles_xy_160_q;
+  reg  [0:0] angles_xy_160_ovf_q;
+  wire angles_theta_161_ovf_d = t158[17] | (|t158[16]);
+  wire [15:0] angles_theta_161_d = t158[15:0];
+  reg  [15:0] angles_theta_161_q;
+  reg  [0:0] angles_theta_161_ovf_q;
+  wire t162_sub = angles_xy_160_q[21];
   wire signed [31:0] t162 =
       t162_sub
-      ? $signed({angles_xy_159[21], angles_xy_159, 9'b0} - {{10{angles_xy_160[21]}}, angles_xy_160})
-      : $signed({angles_xy_159[21], angles_xy_159, 9'b0}
-      + {{10{angles_xy_160[21]}}, angles_xy_160});
-  wire t163_sub = ~angles_xy_160[21];
+      ? $signed({angles_xy_159_q[21], angles_xy_159_q, 9'b0}
+      - {{10{angles_xy_160_q[21]}}, angles_xy_160_q})
+      : $signed({angles_xy_159_q[21], angles_xy_159_q, 9'b0}
+      + {{10{angles_xy_160_q[21]}}, angles_xy_160_q});
+  wire t163_sub = ~angles_xy_160_q[21];
   wire signed [31:0] t163 =
       t163_sub
-      ? $signed({angles_xy_160[21], angles_xy_160, 9'b0} - {{10{angles_xy_159[21]}}, angles_xy_159})
-      : $signed({angles_xy_160[21], angles_xy_160, 9'b0}
-      + {{10{angles_xy_159[21]}}, angles_xy_159});
-  wire t164_sub = angles_xy_160[21];
+      ? $signed({angles_xy_160_q[21], angles_xy_160_q, 9'b0}
+      - {{10{angles_xy_159_q[21]}}, angles_xy_159_q})
+      : $signed({angles_xy_160_q[21], angles_xy_160_q, 9'b0}
+      + {{10{angles_xy_159_q[21]}}, angles_xy_159_q});
+  wire t164_sub = angles_xy_160_q[21];
   wire signed [17:0] t164 =
-      t164_sub ? $signed({{2{1'b0}}, angles_theta_161} - {{2{1'b0}}, K39})
-      : $signed({{2{1'b0}}, angles_theta_161} + {{2{1'b0}}, K39});
+      t164_sub ? $signed({{2{1'b0}}, angles_theta_161_q} - {{2{1'b0}}, K39})
+      : $signed({{2{1'b0}}, angles_theta_161_q} + {{2{1'b0}}, K39});
   wire signed [22:0] angles_xy_165_t = $signed(t162[31:9]);
-  wire angles_xy_165_ovf_c = ~((&angles_xy_165_t[22:21]) | ~(|angles_xy_165_t[22:21]));
-  wire signed [21:0] angles_xy_165_c =
-      $signed(angles_xy_165_ovf_c ? (angles_xy_165_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_165_ovf_d = ~((&angles_xy_165_t[22:21]) | ~(|angles_xy_165_t[22:21]));
+  wire signed [21:0] angles_xy_165_d =
+      $signed(angles_xy_165_ovf_d ? (angles_xy_165_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_165_t[21:0]);
-  reg  signed [21:0] angles_xy_165;
-  reg  [0:0] angles_xy_165_ovf;
+  reg  signed [21:0] angles_xy_165_q;
+  reg  [0:0] angles_xy_165_ovf_q;
   wire signed [22:0] angles_xy_166_t = $signed(t163[31:9]);
-  wire angles_xy_166_ovf_c = ~((&angles_xy_166_t[22:21]) | ~(|angles_xy_166_t[22:21]));
-  wire signed [21:0] angles_xy_166_c =
-      $signed(angles_xy_166_ovf_c ? (angles_xy_166_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_166_ovf_d = ~((&angles_xy_166_t[22:21]) | ~(|angles_xy_166_t[22:21]));
+  wire signed [21:0] angles_xy_166_d =
+      $signed(angles_xy_166_ovf_d ? (angles_xy_166_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_166_t[21:0]);
-  reg  signed [21:0] angles_xy_166;
-  reg  [0:0] angles_xy_166_ovf;
-  wire angles_theta_167_ovf_c = t164[17] | (|t164[16]);
-  wire [15:0] angles_theta_167_c = t164[15:0];
-  reg  [15:0] angles_theta_167;
-  reg  [0:0] angles_theta_167_ovf;
-  wire t168_sub = angles_xy_166[21];
+  reg  signed [21:0] angles_xy_166_q;
+  reg  [0:0] angles_xy_166_ovf_q;
+  wire angles_theta_167_ovf_d = t164[17] | (|t164[16]);
+  wire [15:0] angles_theta_167_d = t164[15:0];
+  reg  [15:0] angles_theta_167_q;
+  reg  [0:0] angles_theta_167_ovf_q;
+  wire t168_sub = angles_xy_166_q[21];
   wire signed [32:0] t168 =
       t168_sub
-      ? $signed({angles_xy_165[21], angles_xy_165, 10'b0}
-      - {{11{angles_xy_166[21]}}, angles_xy_166})
-      : $signed({angles_xy_165[21], angles_xy_165, 10'b0}
-      + {{11{angles_xy_166[21]}}, angles_xy_166});
-  wire t169_sub = ~angles_xy_166[21];
+      ? $signed({angles_xy_165_q[21], angles_xy_165_q, 10'b0}
+      - {{11{angles_xy_166_q[21]}}, angles_xy_166_q})
+      : $signed({angles_xy_165_q[21], angles_xy_165_q, 10'b0}
+      + {{11{angles_xy_166_q[21]}}, angles_xy_166_q});
+  wire t169_sub = ~angles_xy_166_q[21];
   wire signed [32:0] t169 =
       t169_sub
-      ? $signed({angles_xy_166[21], angles_xy_166, 10'b0}
-      - {{11{angles_xy_165[21]}}, angles_xy_165})
-      : $signed({angles_xy_166[21], angles_xy_166, 10'b0}
-      + {{11{angles_xy_165[21]}}, angles_xy_165});
-  wire t170_sub = angles_xy_166[21];
+      ? $signed({angles_xy_166_q[21], angles_xy_166_q, 10'b0}
+      - {{11{angles_xy_165_q[21]}}, angles_xy_165_q})
+      : $signed({angles_xy_166_q[21], angles_xy_166_q, 10'b0}
+      + {{11{angles_xy_165_q[21]}}, angles_xy_165_q});
+  wire t170_sub = angles_xy_166_q[21];
   wire signed [17:0] t170 =
-      t170_sub ? $signed({{2{1'b0}}, angles_theta_167} - {{2{1'b0}}, K40})
-      : $signed({{2{1'b0}}, angles_theta_167} + {{2{1'b0}}, K40});
+      t170_sub ? $signed({{2{1'b0}}, angles_theta_167_q} - {{2{1'b0}}, K40})
+      : $signed({{2{1'b0}}, angles_theta_167_q} + {{2{1'b0}}, K40});
   wire signed [22:0] angles_xy_171_t = $signed(t168[32:10]);
-  wire angles_xy_171_ovf_c = ~((&angles_xy_171_t[22:21]) | ~(|angles_xy_171_t[22:21]));
-  wire signed [21:0] angles_xy_171_c =
-      $signed(angles_xy_171_ovf_c ? (angles_xy_171_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_171_ovf_d = ~((&angles_xy_171_t[22:21]) | ~(|angles_xy_171_t[22:21]));
+  wire signed [21:0] angles_xy_171_d =
+      $signed(angles_xy_171_ovf_d ? (angles_xy_171_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_171_t[21:0]);
-  reg  signed [21:0] angles_xy_171;
-  reg  [0:0] angles_xy_171_ovf;
+  reg  signed [21:0] angles_xy_171_q;
+  reg  [0:0] angles_xy_171_ovf_q;
   wire signed [22:0] angles_xy_172_t = $signed(t169[32:10]);
-  wire angles_xy_172_ovf_c = ~((&angles_xy_172_t[22:21]) | ~(|angles_xy_172_t[22:21]));
-  wire signed [21:0] angles_xy_172_c =
-      $signed(angles_xy_172_ovf_c ? (angles_xy_172_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_172_ovf_d = ~((&angles_xy_172_t[22:21]) | ~(|angles_xy_172_t[22:21]));
+  wire signed [21:0] angles_xy_172_d =
+      $signed(angles_xy_172_ovf_d ? (angles_xy_172_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_172_t[21:0]);
-  reg  signed [21:0] angles_xy_172;
-  reg  [0:0] angles_xy_172_ovf;
-  wire angles_theta_173_ovf_c = t170[17] | (|t170[16]);
-  wire [15:0] angles_theta_173_c = t170[15:0];
-  reg  [15:0] angles_theta_173;
-  reg  [0:0] angles_theta_173_ovf;
-  wire t174_sub = angles_xy_172[21];
+  reg  signed [21:0] angles_xy_172_q;
+  reg  [0:0] angles_xy_172_ovf_q;
+  wire angles_theta_173_ovf_d = t170[17] | (|t170[16]);
+  wire [15:0] angles_theta_173_d = t170[15:0];
+  reg  [15:0] angles_theta_173_q;
+  reg  [0:0] angles_theta_173_ovf_q;
+  wire t174_sub = angles_xy_172_q[21];
   wire signed [33:0] t174 =
       t174_sub
-      ? $signed({angles_xy_171[21], angles_xy_171, 11'b0}
-      - {{12{angles_xy_172[21]}}, angles_xy_172})
-      : $signed({angles_xy_171[21], angles_xy_171, 11'b0}
-      + {{12{angles_xy_172[21]}}, angles_xy_172});
-  wire t176_sub = angles_xy_172[21];
+      ? $signed({angles_xy_171_q[21], angles_xy_171_q, 11'b0}
+      - {{12{angles_xy_172_q[21]}}, angles_xy_172_q})
+      : $signed({angles_xy_171_q[21], angles_xy_171_q, 11'b0}
+      + {{12{angles_xy_172_q[21]}}, angles_xy_172_q});
+  wire t176_sub = angles_xy_172_q[21];
   wire signed [17:0] t176 =
-      t176_sub ? $signed({{2{1'b0}}, angles_theta_173} - {{2{1'b0}}, K41})
-      : $signed({{2{1'b0}}, angles_theta_173} + {{2{1'b0}}, K41});
+      t176_sub ? $signed({{2{1'b0}}, angles_theta_173_q} - {{2{1'b0}}, K41})
+      : $signed({{2{1'b0}}, angles_theta_173_q} + {{2{1'b0}}, K41});
   wire signed [22:0] angles_xy_177_t = $signed(t174[33:11]);
-  wire angles_xy_177_ovf_c = ~((&angles_xy_177_t[22:21]) | ~(|angles_xy_177_t[22:21]));
-  wire signed [21:0] angles_xy_177_c =
-      $signed(angles_xy_177_ovf_c ? (angles_xy_177_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_177_ovf_d = ~((&angles_xy_177_t[22:21]) | ~(|angles_xy_177_t[22:21]));
+  wire signed [21:0] angles_xy_177_d =
+      $signed(angles_xy_177_ovf_d ? (angles_xy_177_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_177_t[21:0]);
-  reg  signed [21:0] angles_xy_177;
-  reg  [0:0] angles_xy_177_ovf;
-  wire angles_theta_179_ovf_c = t176[17] | (|t176[16]);
-  wire [15:0] angles_theta_179_c = t176[15:0];
-  reg  [15:0] angles_theta_179;
-  reg  [0:0] angles_theta_179_ovf;
+  reg  signed [21:0] angles_xy_177_q;
+  reg  [0:0] angles_xy_177_ovf_q;
+  wire angles_theta_179_ovf_d = t176[17] | (|t176[16]);
+  wire [15:0] angles_theta_179_d = t176[15:0];
+  reg  [15:0] angles_theta_179_q;
+  reg  [0:0] angles_theta_179_ovf_q;
   wire signed [18:0] t180_a = $signed({1'b0, K42});
-  wire signed [33:0] t180 = t180_a * angles_normal_100;
+  wire signed [33:0] t180 = t180_a * angles_normal_100_q;
   wire signed [20:0] angles_xy_181_t = $signed(t180[33:13]);
-  wire angles_xy_181_ovf_c = 1'b0;
-  wire signed [21:0] angles_xy_181_c =
-      $signed(angles_xy_181_ovf_c ? (angles_xy_181_t[20] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_181_ovf_d = 1'b0;
+  wire signed [21:0] angles_xy_181_d =
+      $signed(angles_xy_181_ovf_d ? (angles_xy_181_t[20] ? 22'h200000 : 22'h1fffff)
       : {angles_xy_181_t[20], angles_xy_181_t});
-  reg  signed [21:0] angles_xy_181;
-  reg  [0:0] angles_xy_181_ovf;
+  reg  signed [21:0] angles_xy_181_q;
+  reg  [0:0] angles_xy_181_ovf_q;
   wire [16:0] angles_theta_182_r = {K28, 16'b0};
-  wire angles_theta_182_ovf_c = |angles_theta_182_r[16];
-  wire [15:0] angles_theta_182_c = angles_theta_182_r[15:0];
-  reg  [15:0] angles_theta_182;
-  reg  [0:0] angles_theta_182_ovf;
-  reg  signed [21:0] angles_xy_181_s5;
-  reg  signed [21:0] angles_xy_181_s6;
-  reg  signed [21:0] angles_xy_181_s7;
-  reg  signed [21:0] angles_xy_181_s8;
-  reg  signed [21:0] angles_xy_181_s9;
-  reg  signed [21:0] angles_xy_181_s10;
-  reg  signed [21:0] angles_xy_181_s11;
-  reg  signed [21:0] angles_xy_181_s12;
-  reg  signed [21:0] angles_xy_181_s13;
-  reg  signed [21:0] angles_xy_181_s14;
-  reg  signed [21:0] angles_xy_181_s15;
-  reg  signed [21:0] angles_xy_181_s16;
-  wire t183_sub = angles_xy_181_s16[21];
+  wire angles_theta_182_ovf_d = |angles_theta_182_r[16];
+  wire [15:0] angles_theta_182_d = angles_theta_182_r[15:0];
+  reg  [15:0] angles_theta_182_q;
+  reg  [0:0] angles_theta_182_ovf_q;
+  reg  signed [21:0] angles_xy_181_s5_q;
+  reg  signed [21:0] angles_xy_181_s6_q;
+  reg  signed [21:0] angles_xy_181_s7_q;
+  reg  signed [21:0] angles_xy_181_s8_q;
+  reg  signed [21:0] angles_xy_181_s9_q;
+  reg  signed [21:0] angles_xy_181_s10_q;
+  reg  signed [21:0] angles_xy_181_s11_q;
+  reg  signed [21:0] angles_xy_181_s12_q;
+  reg  signed [21:0] angles_xy_181_s13_q;
+  reg  signed [21:0] angles_xy_181_s14_q;
+  reg  signed [21:0] angles_xy_181_s15_q;
+  reg  signed [21:0] angles_xy_181_s16_q;
+  wire t183_sub = angles_xy_181_s16_q[21];
   wire signed [22:0] t183 =
       t183_sub
-      ? $signed({angles_xy_177[21], angles_xy_177} - {angles_xy_181_s16[21], angles_xy_181_s16})
-      : $signed({angles_xy_177[21], angles_xy_177} + {angles_xy_181_s16[21], angles_xy_181_s16});
-  wire t184_sub = ~angles_xy_181_s16[21];
+      ? $signed({angles_xy_177_q[21], angles_xy_177_q}
+      - {angles_xy_181_s16_q[21], angles_xy_181_s16_q})
+      : $signed({angles_xy_177_q[21], angles_xy_177_q}
+      + {angles_xy_181_s16_q[21], angles_xy_181_s16_q});
+  wire t184_sub = ~angles_xy_181_s16_q[21];
   wire signed [22:0] t184 =
       t184_sub
-      ? $signed({angles_xy_181_s16[21], angles_xy_181_s16} - {angles_xy_177[21], angles_xy_177})
-      : $signed({angles_xy_181_s16[21], angles_xy_181_s16} + {angles_xy_177[21], angles_xy_177});
-  reg  [15:0] angles_theta_182_s2;
-  reg  [15:0] angles_theta_182_s3;
-  reg  [15:0] angles_theta_182_s4;
-  wire t185_sub = angles_xy_181[21];
+      ? $signed({angles_xy_181_s16_q[21], angles_xy_181_s16_q}
+      - {angles_xy_177_q[21], angles_xy_177_q})
+      : $signed({angles_xy_181_s16_q[21], angles_xy_181_s16_q}
+      + {angles_xy_177_q[21], angles_xy_177_q});
+  reg  [15:0] angles_theta_182_s2_q;
+  reg  [15:0] angles_theta_182_s3_q;
+  reg  [15:0] angles_theta_182_s4_q;
+  wire t185_sub = angles_xy_181_q[21];
   wire signed [17:0] t185 =
-      t185_sub ? $signed({{2{1'b0}}, angles_theta_182_s4} - {{2{1'b0}}, K30})
-      : $signed({{2{1'b0}}, angles_theta_182_s4} + {{2{1'b0}}, K30});
-  wire angles_xy_186_ovf_c = ~((&t183[22:21]) | ~(|t183[22:21]));
-  wire signed [21:0] angles_xy_186_c =
-      $signed(angles_xy_186_ovf_c ? (t183[22] ? 22'h200000 : 22'h1fffff) : t183[21:0]);
-  reg  signed [21:0] angles_xy_186;
-  reg  [0:0] angles_xy_186_ovf;
-  wire angles_xy_187_ovf_c = ~((&t184[22:21]) | ~(|t184[22:21]));
-  wire signed [21:0] angles_xy_187_c =
-      $signed(angles_xy_187_ovf_c ? (t184[22] ? 22'h200000 : 22'h1fffff) : t184[21:0]);
-  reg  signed [21:0] angles_xy_187;
-  reg  [0:0] angles_xy_187_ovf;
-  wire angles_theta_188_ovf_c = t185[17] | (|t185[16]);
-  wire [15:0] angles_theta_188_c = t185[15:0];
-  reg  [15:0] angles_theta_188;
-  reg  [0:0] angles_theta_188_ovf;
-  wire t189_sub = angles_xy_187[21];
+      t185_sub ? $signed({{2{1'b0}}, angles_theta_182_s4_q} - {{2{1'b0}}, K30})
+      : $signed({{2{1'b0}}, angles_theta_182_s4_q} + {{2{1'b0}}, K30});
+  wire angles_xy_186_ovf_d = ~((&t183[22:21]) | ~(|t183[22:21]));
+  wire signed [21:0] angles_xy_186_d =
+      $signed(angles_xy_186_ovf_d ? (t183[22] ? 22'h200000 : 22'h1fffff) : t183[21:0]);
+  reg  signed [21:0] angles_xy_186_q;
+  reg  [0:0] angles_xy_186_ovf_q;
+  wire angles_xy_187_ovf_d = ~((&t184[22:21]) | ~(|t184[22:21]));
+  wire signed [21:0] angles_xy_187_d =
+      $signed(angles_xy_187_ovf_d ? (t184[22] ? 22'h200000 : 22'h1fffff) : t184[21:0]);
+  reg  signed [21:0] angles_xy_187_q;
+  reg  [0:0] angles_xy_187_ovf_q;
+  wire angles_theta_188_ovf_d = t185[17] | (|t185[16]);
+  wire [15:0] angles_theta_188_d = t185[15:0];
+  reg  [15:0] angles_theta_188_q;
+  reg  [0:0] angles_theta_188_ovf_q;
+  wire t189_sub = angles_xy_187_q[21];
   wire signed [23:0] t189 =
       t189_sub
-      ? $signed({angles_xy_186[21], angles_xy_186, 1'b0} - {{2{angles_xy_187[21]}}, angles_xy_187})
-      : $signed({angles_xy_186[21], angles_xy_186, 1'b0} + {{2{angles_xy_187[21]}}, angles_xy_187});
-  wire t190_sub = ~angles_xy_187[21];
+      ? $signed({angles_xy_186_q[21], angles_xy_186_q, 1'b0}
+      - {{2{angles_xy_187_q[21]}}, angles_xy_187_q})
+      : $signed({angles_xy_186_q[21], angles_xy_186_q, 1'b0}
+      + {{2{angles_xy_187_q[21]}}, angles_xy_187_q});
+  wire t190_sub = ~angles_xy_187_q[21];
   wire signed [23:0] t190 =
       t190_sub
-      ? $signed({angles_xy_187[21], angles_xy_187, 1'b0} - {{2{angles_xy_186[21]}}, angles_xy_186})
-      : $signed({angles_xy_187[21], angles_xy_187, 1'b0} + {{2{angles_xy_186[21]}}, angles_xy_186});
-  reg  [15:0] angles_theta_188_s6;
-  reg  [15:0] angles_theta_188_s7;
-  reg  [15:0] angles_theta_188_s8;
-  reg  [15:0] angles_theta_188_s9;
-  reg  [15:0] angles_theta_188_s10;
-  reg  [15:0] angles_theta_188_s11;
-  reg  [15:0] angles_theta_188_s12;
-  reg  [15:0] angles_theta_188_s13;
-  reg  [15:0] angles_theta_188_s14;
-  reg  [15:0] angles_theta_188_s15;
-  reg  [15:0] angles_theta_188_s16;
-  reg  [15:0] angles_theta_188_s17;
-  wire t191_sub = angles_xy_187[21];
+      ? $signed({angles_xy_187_q[21], angles_xy_187_q, 1'b0}
+      - {{2{angles_xy_186_q[21]}}, angles_xy_186_q})
+      : $signed({angles_xy_187_q[21], angles_xy_187_q, 1'b0}
+      + {{2{angles_xy_186_q[21]}}, angles_xy_186_q});
+  reg  [15:0] angles_theta_188_s6_q;
+  reg  [15:0] angles_theta_188_s7_q;
+  reg  [15:0] angles_theta_188_s8_q;
+  reg  [15:0] angles_theta_188_s9_q;
+  reg  [15:0] angles_theta_188_s10_q;
+  reg  [15:0] angles_theta_188_s11_q;
+  reg  [15:0] angles_theta_188_s12_q;
+  reg  [15:0] angles_theta_188_s13_q;
+  reg  [15:0] angles_theta_188_s14_q;
+  reg  [15:0] angles_theta_188_s15_q;
+  reg  [15:0] angles_theta_188_s16_q;
+  reg  [15:0] angles_theta_188_s17_q;
+  wire t191_sub = angles_xy_187_q[21];
   wire signed [17:0] t191 =
-      t191_sub ? $signed({{2{1'b0}}, angles_theta_188_s17} - {{2{1'b0}}, K31})
-      : $signed({{2{1'b0}}, angles_theta_188_s17} + {{2{1'b0}}, K31});
+      t191_sub ? $signed({{2{1'b0}}, angles_theta_188_s17_q} - {{2{1'b0}}, K31})
+      : $signed({{2{1'b0}}, angles_theta_188_s17_q} + {{2{1'b0}}, K31});
   wire signed [22:0] angles_xy_192_t = $signed(t189[23:1]);
-  wire angles_xy_192_ovf_c = ~((&angles_xy_192_t[22:21]) | ~(|angles_xy_192_t[22:21]));
-  wire signed [21:0] angles_xy_192_c =
-      $signed(angles_xy_192_ovf_c ? (angles_xy_192_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_192_ovf_d = ~((&angles_xy_192_t[22:21]) | ~(|angles_xy_192_t[22:21]));
+  wire signed [21:0] angles_xy_192_d =
+      $signed(angles_xy_192_ovf_d ? (angles_xy_192_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_192_t[21:0]);
-  reg  signed [21:0] angles_xy_192;
-  reg  [0:0] angles_xy_192_ovf;
+  reg  signed [21:0] angles_xy_192_q;
+  reg  [0:0] angles_xy_192_ovf_q;
   wire signed [22:0] angles_xy_193_t = $signed(t190[23:1]);
-  wire angles_xy_193_ovf_c = ~((&angles_xy_193_t[22:21]) | ~(|angles_xy_193_t[22:21]));
-  wire signed [21:0] angles_xy_193_c =
-      $signed(angles_xy_193_ovf_c ? (angles_xy_193_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_193_ovf_d = ~((&angles_xy_193_t[22:21]) | ~(|angles_xy_193_t[22:21]));
+  wire signed [21:0] angles_xy_193_d =
+      $signed(angles_xy_193_ovf_d ? (angles_xy_193_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_193_t[21:0]);
-  reg  signed [21:0] angles_xy_193;
-  reg  [0:0] angles_xy_193_ovf;
-  wire angles_theta_194_ovf_c = t191[17] | (|t191[16]);
-  wire [15:0] angles_theta_194_c = t191[15:0];
-  reg  [15:0] angles_theta_194;
-  reg  [0:0] angles_theta_194_ovf;
-  wire t195_sub = angles_xy_193[21];
+  reg  signed [21:0] angles_xy_193_q;
+  reg  [0:0] angles_xy_193_ovf_q;
+  wire angles_theta_194_ovf_d = t191[17] | (|t191[16]);
+  wire [15:0] angles_theta_194_d = t191[15:0];
+  reg  [15:0] angles_theta_194_q;
+  reg  [0:0] angles_theta_194_ovf_q;
+  wire t195_sub = angles_xy_193_q[21];
   wire signed [24:0] t195 =
       t195_sub
-      ? $signed({angles_xy_192[21], angles_xy_192, 2'b0} - {{3{angles_xy_193[21]}}, angles_xy_193})
-      : $signed({angles_xy_192[21], angles_xy_192, 2'b0} + {{3{angles_xy_193[21]}}, angles_xy_193});
-  wire t196_sub = ~angles_xy_193[21];
+      ? $signed({angles_xy_192_q[21], angles_xy_192_q, 2'b0}
+      - {{3{angles_xy_193_q[21]}}, angles_xy_193_q})
+      : $signed({angles_xy_192_q[21], angles_xy_192_q, 2'b0}
+      + {{3{angles_xy_193_q[21]}}, angles_xy_193_q});
+  wire t196_sub = ~angles_xy_193_q[21];
   wire signed [24:0] t196 =
       t196_sub
-      ? $signed({angles_xy_193[21], angles_xy_193, 2'b0} - {{3{angles_xy_192[21]}}, angles_xy_192})
-      : $signed({angles_xy_193[21], angles_xy_193, 2'b0} + {{3{angles_xy_192[21]}}, angles_xy_192});
-  wire t197_sub = angles_xy_193[21];
+      ? $signed({angles_xy_193_q[21], angles_xy_193_q, 2'b0}
+      - {{3{angles_xy_192_q[21]}}, angles_xy_192_q})
+      : $signed({angles_xy_193_q[21], angles_xy_193_q, 2'b0}
+      + {{3{angles_xy_192_q[21]}}, angles_xy_192_q});
+  wire t197_sub = angles_xy_193_q[21];
   wire signed [17:0] t197 =
-      t197_sub ? $signed({{2{1'b0}}, angles_theta_194} - {{2{1'b0}}, K32})
-      : $signed({{2{1'b0}}, angles_theta_194} + {{2{1'b0}}, K32});
+      t197_sub ? $signed({{2{1'b0}}, angles_theta_194_q} - {{2{1'b0}}, K32})
+      : $signed({{2{1'b0}}, angles_theta_194_q} + {{2{1'b0}}, K32});
   wire signed [22:0] angles_xy_198_t = $signed(t195[24:2]);
-  wire angles_xy_198_ovf_c = ~((&angles_xy_198_t[22:21]) | ~(|angles_xy_198_t[22:21]));
-  wire signed [21:0] angles_xy_198_c =
-      $signed(angles_xy_198_ovf_c ? (angles_xy_198_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_198_ovf_d = ~((&angles_xy_198_t[22:21]) | ~(|angles_xy_198_t[22:21]));
+  wire signed [21:0] angles_xy_198_d =
+      $signed(angles_xy_198_ovf_d ? (angles_xy_198_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_198_t[21:0]);
-  reg  signed [21:0] angles_xy_198;
-  reg  [0:0] angles_xy_198_ovf;
+  reg  signed [21:0] angles_xy_198_q;
+  reg  [0:0] angles_xy_198_ovf_q;
   wire signed [22:0] angles_xy_199_t = $signed(t196[24:2]);
-  wire angles_xy_199_ovf_c = ~((&angles_xy_199_t[22:21]) | ~(|angles_xy_199_t[22:21]));
-  wire signed [21:0] angles_xy_199_c =
-      $signed(angles_xy_199_ovf_c ? (angles_xy_199_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_199_ovf_d = ~((&angles_xy_199_t[22:21]) | ~(|angles_xy_199_t[22:21]));
+  wire signed [21:0] angles_xy_199_d =
+      $signed(angles_xy_199_ovf_d ? (angles_xy_199_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_199_t[21:0]);
-  reg  signed [21:0] angles_xy_199;
-  reg  [0:0] angles_xy_199_ovf;
-  wire angles_theta_200_ovf_c = t197[17] | (|t197[16]);
-  wire [15:0] angles_theta_200_c = t197[15:0];
-  reg  [15:0] angles_theta_200;
-  reg  [0:0] angles_theta_200_ovf;
-  wire t201_sub = angles_xy_199[21];
+  reg  signed [21:0] angles_xy_199_q;
+  reg  [0:0] angles_xy_199_ovf_q;
+  wire angles_theta_200_ovf_d = t197[17] | (|t197[16]);
+  wire [15:0] angles_theta_200_d = t197[15:0];
+  reg  [15:0] angles_theta_200_q;
+  reg  [0:0] angles_theta_200_ovf_q;
+  wire t201_sub = angles_xy_199_q[21];
   wire signed [25:0] t201 =
       t201_sub
-      ? $signed({angles_xy_198[21], angles_xy_198, 3'b0} - {{4{angles_xy_199[21]}}, angles_xy_199})
-      : $signed({angles_xy_198[21], angles_xy_198, 3'b0} + {{4{angles_xy_199[21]}}, angles_xy_199});
-  wire t202_sub = ~angles_xy_199[21];
+      ? $signed({angles_xy_198_q[21], angles_xy_198_q, 3'b0}
+      - {{4{angles_xy_199_q[21]}}, angles_xy_199_q})
+      : $signed({angles_xy_198_q[21], angles_xy_198_q, 3'b0}
+      + {{4{angles_xy_199_q[21]}}, angles_xy_199_q});
+  wire t202_sub = ~angles_xy_199_q[21];
   wire signed [25:0] t202 =
       t202_sub
-      ? $signed({angles_xy_199[21], angles_xy_199, 3'b0} - {{4{angles_xy_198[21]}}, angles_xy_198})
-      : $signed({angles_xy_199[21], angles_xy_199, 3'b0} + {{4{angles_xy_198[21]}}, angles_xy_198});
-  wire t203_sub = angles_xy_199[21];
+      ? $signed({angles_xy_199_q[21], angles_xy_199_q, 3'b0}
+      - {{4{angles_xy_198_q[21]}}, angles_xy_198_q})
+      : $signed({angles_xy_199_q[21], angles_xy_199_q, 3'b0}
+      + {{4{angles_xy_198_q[21]}}, angles_xy_198_q});
+  wire t203_sub = angles_xy_199_q[21];
   wire signed [17:0] t203 =
-      t203_sub ? $signed({{2{1'b0}}, angles_theta_200} - {{2{1'b0}}, K33})
-      : $signed({{2{1'b0}}, angles_theta_200} + {{2{1'b0}}, K33});
+      t203_sub ? $signed({{2{1'b0}}, angles_theta_200_q} - {{2{1'b0}}, K33})
+      : $signed({{2{1'b0}}, angles_theta_200_q} + {{2{1'b0}}, K33});
   wire signed [22:0] angles_xy_204_t = $signed(t201[25:3]);
-  wire angles_xy_204_ovf_c = ~((&angles_xy_204_t[22:21]) | ~(|angles_xy_204_t[22:21]));
-  wire signed [21:0] angles_xy_204_c =
-      $signed(angles_xy_204_ovf_c ? (angles_xy_204_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_204_ovf_d = ~((&angles_xy_204_t[22:21]) | ~(|angles_xy_204_t[22:21]));
+  wire signed [21:0] angles_xy_204_d =
+      $signed(angles_xy_204_ovf_d ? (angles_xy_204_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_204_t[21:0]);
-  reg  signed [21:0] angles_xy_204;
-  reg  [0:0] angles_xy_204_ovf;
+  reg  signed [21:0] angles_xy_204_q;
+  reg  [0:0] angles_xy_204_ovf_q;
   wire signed [22:0] angles_xy_205_t = $signed(t202[25:3]);
-  wire angles_xy_205_ovf_c = ~((&angles_xy_205_t[22:21]) | ~(|angles_xy_205_t[22:21]));
-  wire signed [21:0] angles_xy_205_c =
-      $signed(angles_xy_205_ovf_c ? (angles_xy_205_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_205_ovf_d = ~((&angles_xy_205_t[22:21]) | ~(|angles_xy_205_t[22:21]));
+  wire signed [21:0] angles_xy_205_d =
+      $signed(angles_xy_205_ovf_d ? (angles_xy_205_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_205_t[21:0]);
-  reg  signed [21:0] angles_xy_205;
-  reg  [0:0] angles_xy_205_ovf;
-  wire angles_theta_206_ovf_c = t203[17] | (|t203[16]);
-  wire [15:0] angles_theta_206_c = t203[15:0];
-  reg  [15:0] angles_theta_206;
-  reg  [0:0] angles_theta_206_ovf;
-  wire t207_sub = angles_xy_205[21];
+  reg  signed [21:0] angles_xy_205_q;
+  reg  [0:0] angles_xy_205_ovf_q;
+  wire angles_theta_206_ovf_d = t203[17] | (|t203[16]);
+  wire [15:0] angles_theta_206_d = t203[15:0];
+  reg  [15:0] angles_theta_206_q;
+  reg  [0:0] angles_theta_206_ovf_q;
+  wire t207_sub = angles_xy_205_q[21];
   wire signed [26:0] t207 =
       t207_sub
-      ? $signed({angles_xy_204[21], angles_xy_204, 4'b0} - {{5{angles_xy_205[21]}}, angles_xy_205})
-      : $signed({angles_xy_204[21], angles_xy_204, 4'b0} + {{5{angles_xy_205[21]}}, angles_xy_205});
-  wire t208_sub = ~angles_xy_205[21];
+      ? $signed({angles_xy_204_q[21], angles_xy_204_q, 4'b0}
+      - {{5{angles_xy_205_q[21]}}, angles_xy_205_q})
+      : $signed({angles_xy_204_q[21], angles_xy_204_q, 4'b0}
+      + {{5{angles_xy_205_q[21]}}, angles_xy_205_q});
+  wire t208_sub = ~angles_xy_205_q[21];
   wire signed [26:0] t208 =
       t208_sub
-      ? $signed({angles_xy_205[21], angles_xy_205, 4'b0} - {{5{angles_xy_204[21]}}, angles_xy_204})
-      : $signed({angles_xy_205[21], angles_xy_205, 4'b0} + {{5{angles_xy_204[21]}}, angles_xy_204});
-  wire t209_sub = angles_xy_205[21];
+      ? $signed({angles_xy_205_q[21], angles_xy_205_q, 4'b0}
+      - {{5{angles_xy_204_q[21]}}, angles_xy_204_q})
+      : $signed({angles_xy_205_q[21], angles_xy_205_q, 4'b0}
+      + {{5{angles_xy_204_q[21]}}, angles_xy_204_q});
+  wire t209_sub = angles_xy_205_q[21];
   wire signed [17:0] t209 =
-      t209_sub ? $signed({{2{1'b0}}, angles_theta_206} - {{2{1'b0}}, K34})
-      : $signed({{2{1'b0}}, angles_theta_206} + {{2{1'b0}}, K34});
+      t209_sub ? $signed({{2{1'b0}}, angles_theta_206_q} - {{2{1'b0}}, K34})
+      : $signed({{2{1'b0}}, angles_theta_206_q} + {{2{1'b0}}, K34});
   wire signed [22:0] angles_xy_210_t = $signed(t207[26:4]);
-  wire angles_xy_210_ovf_c = ~((&angles_xy_210_t[22:21]) | ~(|angles_xy_210_t[22:21]));
-  wire signed [21:0] angles_xy_210_c =
-      $signed(angles_xy_210_ovf_c ? (angles_xy_210_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_210_ovf_d = ~((&angles_xy_210_t[22:21]) | ~(|angles_xy_210_t[22:21]));
+  wire signed [21:0] angles_xy_210_d =
+      $signed(angles_xy_210_ovf_d ? (angles_xy_210_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_210_t[21:0]);
-  reg  signed [21:0] angles_xy_210;
-  reg  [0:0] angles_xy_210_ovf;
+  reg  signed [21:0] angles_xy_210_q;
+  reg  [0:0] angles_xy_210_ovf_q;
   wire signed [22:0] angles_xy_211_t = $signed(t208[26:4]);
-  wire angles_xy_211_ovf_c = ~((&angles_xy_211_t[22:21]) | ~(|angles_xy_211_t[22:21]));
-  wire signed [21:0] angles_xy_211_c =
-      $signed(angles_xy_211_ovf_c ? (angles_xy_211_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_211_ovf_d = ~((&angles_xy_211_t[22:21]) | ~(|angles_xy_211_t[22:21]));
+  wire signed [21:0] angles_xy_211_d =
+      $signed(angles_xy_211_ovf_d ? (angles_xy_211_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_211_t[21:0]);
-  reg  signed [21:0] angles_xy_211;
-  reg  [0:0] angles_xy_211_ovf;
-  wire angles_theta_212_ovf_c = t209[17] | (|t209[16]);
-  wire [15:0] angles_theta_212_c = t209[15:0];
-  reg  [15:0] angles_theta_212;
-  reg  [0:0] angles_theta_212_ovf;
-  wire t213_sub = angles_xy_211[21];
+  reg  signed [21:0] angles_xy_211_q;
+  reg  [0:0] angles_xy_211_ovf_q;
+  wire angles_theta_212_ovf_d = t209[17] | (|t209[16]);
+  wire [15:0] angles_theta_212_d = t209[15:0];
+  reg  [15:0] angles_theta_212_q;
+  reg  [0:0] angles_theta_212_ovf_q;
+  wire t213_sub = angles_xy_211_q[21];
   wire signed [27:0] t213 =
       t213_sub
-      ? $signed({angles_xy_210[21], angles_xy_210, 5'b0} - {{6{angles_xy_211[21]}}, angles_xy_211})
-      : $signed({angles_xy_210[21], angles_xy_210, 5'b0} + {{6{angles_xy_211[21]}}, angles_xy_211});
-  wire t214_sub = ~angles_xy_211[21];
+      ? $signed({angles_xy_210_q[21], angles_xy_210_q, 5'b0}
+      - {{6{angles_xy_211_q[21]}}, angles_xy_211_q})
+      : $signed({angles_xy_210_q[21], angles_xy_210_q, 5'b0}
+      + {{6{angles_xy_211_q[21]}}, angles_xy_211_q});
+  wire t214_sub = ~angles_xy_211_q[21];
   wire signed [27:0] t214 =
       t214_sub
-      ? $signed({angles_xy_211[21], angles_xy_211, 5'b0} - {{6{angles_xy_210[21]}}, angles_xy_210})
-      : $signed({angles_xy_211[21], angles_xy_211, 5'b0} + {{6{angles_xy_210[21]}}, angles_xy_210});
-  wire t215_sub = angles_xy_211[21];
+      ? $signed({angles_xy_211_q[21], angles_xy_211_q, 5'b0}
+      - {{6{angles_xy_210_q[21]}}, angles_xy_210_q})
+      : $signed({angles_xy_211_q[21], angles_xy_211_q, 5'b0}
+      + {{6{angles_xy_210_q[21]}}, angles_xy_210_q});
+  wire t215_sub = angles_xy_211_q[21];
   wire signed [17:0] t215 =
-      t215_sub ? $signed({{2{1'b0}}, angles_theta_212} - {{2{1'b0}}, K35})
-      : $signed({{2{1'b0}}, angles_theta_212} + {{2{1'b0}}, K35});
+      t215_sub ? $signed({{2{1'b0}}, angles_theta_212_q} - {{2{1'b0}}, K35})
+      : $signed({{2{1'b0}}, angles_theta_212_q} + {{2{1'b0}}, K35});
   wire signed [22:0] angles_xy_216_t = $signed(t213[27:5]);
-  wire angles_xy_216_ovf_c = ~((&angles_xy_216_t[22:21]) | ~(|angles_xy_216_t[22:21]));
-  wire signed [21:0] angles_xy_216_c =
-      $signed(angles_xy_216_ovf_c ? (angles_xy_216_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_216_ovf_d = ~((&angles_xy_216_t[22:21]) | ~(|angles_xy_216_t[22:21]));
+  wire signed [21:0] angles_xy_216_d =
+      $signed(angles_xy_216_ovf_d ? (angles_xy_216_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_216_t[21:0]);
-  reg  signed [21:0] angles_xy_216;
-  reg  [0:0] angles_xy_216_ovf;
+  reg  signed [21:0] angles_xy_216_q;
+  reg  [0:0] angles_xy_216_ovf_q;
   wire signed [22:0] angles_xy_217_t = $signed(t214[27:5]);
-  wire angles_xy_217_ovf_c = ~((&angles_xy_217_t[22:21]) | ~(|angles_xy_217_t[22:21]));
-  wire signed [21:0] angles_xy_217_c =
-      $signed(angles_xy_217_ovf_c ? (angles_xy_217_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_217_ovf_d = ~((&angles_xy_217_t[22:21]) | ~(|angles_xy_217_t[22:21]));
+  wire signed [21:0] angles_xy_217_d =
+      $signed(angles_xy_217_ovf_d ? (angles_xy_217_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_217_t[21:0]);
-  reg  signed [21:0] angles_xy_217;
-  reg  [0:0] angles_xy_217_ovf;
-  wire angles_theta_218_ovf_c = t215[17] | (|t215[16]);
-  wire [15:0] angles_theta_218_c = t215[15:0];
-  reg  [15:0] angles_theta_218;
-  reg  [0:0] angles_theta_218_ovf;
-  wire t219_sub = angles_xy_217[21];
+  reg  signed [21:0] angles_xy_217_q;
+  reg  [0:0] angles_xy_217_ovf_q;
+  wire angles_theta_218_ovf_d = t215[17] | (|t215[16]);
+  wire [15:0] angles_theta_218_d = t215[15:0];
+  reg  [15:0] angles_theta_218_q;
+  reg  [0:0] angles_theta_218_ovf_q;
+  wire t219_sub = angles_xy_217_q[21];
   wire signed [28:0] t219 =
       t219_sub
-      ? $signed({angles_xy_216[21], angles_xy_216, 6'b0} - {{7{angles_xy_217[21]}}, angles_xy_217})
-      : $signed({angles_xy_216[21], angles_xy_216, 6'b0} + {{7{angles_xy_217[21]}}, angles_xy_217});
-  wire t220_sub = ~angles_xy_217[21];
+      ? $signed({angles_xy_216_q[21], angles_xy_216_q, 6'b0}
+      - {{7{angles_xy_217_q[21]}}, angles_xy_217_q})
+      : $signed({angles_xy_216_q[21], angles_xy_216_q, 6'b0}
+      + {{7{angles_xy_217_q[21]}}, angles_xy_217_q});
+  wire t220_sub = ~angles_xy_217_q[21];
   wire signed [28:0] t220 =
       t220_sub
-      ? $signed({angles_xy_217[21], angles_xy_217, 6'b0} - {{7{angles_xy_216[21]}}, angles_xy_216})
-      : $signed({angles_xy_217[21], angles_xy_217, 6'b0} + {{7{angles_xy_216[21]}}, angles_xy_216});
-  wire t221_sub = angles_xy_217[21];
+      ? $signed({angles_xy_217_q[21], angles_xy_217_q, 6'b0}
+      - {{7{angles_xy_216_q[21]}}, angles_xy_216_q})
+      : $signed({angles_xy_217_q[21], angles_xy_217_q, 6'b0}
+      + {{7{angles_xy_216_q[21]}}, angles_xy_216_q});
+  wire t221_sub = angles_xy_217_q[21];
   wire signed [17:0] t221 =
-      t221_sub ? $signed({{2{1'b0}}, angles_theta_218} - {{2{1'b0}}, K36})
-      : $signed({{2{1'b0}}, angles_theta_218} + {{2{1'b0}}, K36});
+      t221_sub ? $signed({{2{1'b0}}, angles_theta_218_q} - {{2{1'b0}}, K36})
+      : $signed({{2{1'b0}}, angles_theta_218_q} + {{2{1'b0}}, K36});
   wire signed [22:0] angles_xy_222_t = $signed(t219[28:6]);
-  wire angles_xy_222_ovf_c = ~((&angles_xy_222_t[22:21]) | ~(|angles_xy_222_t[22:21]));
-  wire signed [21:0] angles_xy_222_c =
-      $signed(angles_xy_222_ovf_c ? (angles_xy_222_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_222_ovf_d = ~((&angles_xy_222_t[22:21]) | ~(|angles_xy_222_t[22:21]));
+  wire signed [21:0] angles_xy_222_d =
+      $signed(angles_xy_222_ovf_d ? (angles_xy_222_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_222_t[21:0]);
-  reg  signed [21:0] angles_xy_222;
-  reg  [0:0] angles_xy_222_ovf;
+  reg  signed [21:0] angles_xy_222_q;
+  reg  [0:0] angles_xy_222_ovf_q;
   wire signed [22:0] angles_xy_223_t = $signed(t220[28:6]);
-  wire angles_xy_223_ovf_c = ~((&angles_xy_223_t[22:21]) | ~(|angles_xy_223_t[22:21]));
-  wire signed [21:0] angles_xy_223_c =
-      $signed(angles_xy_223_ovf_c ? (angles_xy_223_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_223_ovf_d = ~((&angles_xy_223_t[22:21]) | ~(|angles_xy_223_t[22:21]));
+  wire signed [21:0] angles_xy_223_d =
+      $signed(angles_xy_223_ovf_d ? (angles_xy_223_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_223_t[21:0]);
-  reg  signed [21:0] angles_xy_223;
-  reg  [0:0] angles_xy_223_ovf;
-  wire angles_theta_224_ovf_c = t221[17] | (|t221[16]);
-  wire [15:0] angles_theta_224_c = t221[15:0];
-  reg  [15:0] angles_theta_224;
-  reg  [0:0] angles_theta_224_ovf;
-  wire t225_sub = angles_xy_223[21];
+  reg  signed [21:0] angles_xy_223_q;
+  reg  [0:0] angles_xy_223_ovf_q;
+  wire angles_theta_224_ovf_d = t221[17] | (|t221[16]);
+  wire [15:0] angles_theta_224_d = t221[15:0];
+  reg  [15:0] angles_theta_224_q;
+  reg  [0:0] angles_theta_224_ovf_q;
+  wire t225_sub = angles_xy_223_q[21];
   wire signed [29:0] t225 =
       t225_sub
-      ? $signed({angles_xy_222[21], angles_xy_222, 7'b0} - {{8{angles_xy_223[21]}}, angles_xy_223})
-      : $signed({angles_xy_222[21], angles_xy_222, 7'b0} + {{8{angles_xy_223[21]}}, angles_xy_223});
-  wire t226_sub = ~angles_xy_223[21];
+      ? $signed({angles_xy_222_q[21], angles_xy_222_q, 7'b0}
+      - {{8{angles_xy_223_q[21]}}, angles_xy_223_q})
+      : $signed({angles_xy_222_q[21], angles_xy_222_q, 7'b0}
+      + {{8{angles_xy_223_q[21]}}, angles_xy_223_q});
+  wire t226_sub = ~angles_xy_223_q[21];
   wire signed [29:0] t226 =
       t226_sub
-      ? $signed({angles_xy_223[21], angles_xy_223, 7'b0} - {{8{angles_xy_222[21]}}, angles_xy_222})
-      : $signed({angles_xy_223[21], angles_xy_223, 7'b0} + {{8{angles_xy_222[21]}}, angles_xy_222});
-  wire t227_sub = angles_xy_223[21];
+      ? $signed({angles_xy_223_q[21], angles_xy_223_q, 7'b0}
+      - {{8{angles_xy_222_q[21]}}, angles_xy_222_q})
+      : $signed({angles_xy_223_q[21], angles_xy_223_q, 7'b0}
+      + {{8{angles_xy_222_q[21]}}, angles_xy_222_q});
+  wire t227_sub = angles_xy_223_q[21];
   wire signed [17:0] t227 =
-      t227_sub ? $signed({{2{1'b0}}, angles_theta_224} - {{2{1'b0}}, K37})
-      : $signed({{2{1'b0}}, angles_theta_224} + {{2{1'b0}}, K37});
+      t227_sub ? $signed({{2{1'b0}}, angles_theta_224_q} - {{2{1'b0}}, K37})
+      : $signed({{2{1'b0}}, angles_theta_224_q} + {{2{1'b0}}, K37});
   wire signed [22:0] angles_xy_228_t = $signed(t225[29:7]);
-  wire angles_xy_228_ovf_c = ~((&angles_xy_228_t[22:21]) | ~(|angles_xy_228_t[22:21]));
-  wire signed [21:0] angles_xy_228_c =
-      $signed(angles_xy_228_ovf_c ? (angles_xy_228_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_228_ovf_d = ~((&angles_xy_228_t[22:21]) | ~(|angles_xy_228_t[22:21]));
+  wire signed [21:0] angles_xy_228_d =
+      $signed(angles_xy_228_ovf_d ? (angles_xy_228_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_228_t[21:0]);
-  reg  signed [21:0] angles_xy_228;
-  reg  [0:0] angles_xy_228_ovf;
+  reg  signed [21:0] angles_xy_228_q;
+  reg  [0:0] angles_xy_228_ovf_q;
   wire signed [22:0] angles_xy_229_t = $signed(t226[29:7]);
-  wire angles_xy_229_ovf_c = ~((&angles_xy_229_t[22:21]) | ~(|angles_xy_229_t[22:21]));
-  wire signed [21:0] angles_xy_229_c =
-      $signed(angles_xy_229_ovf_c ? (angles_xy_229_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_229_ovf_d = ~((&angles_xy_229_t[22:21]) | ~(|angles_xy_229_t[22:21]));
+  wire signed [21:0] angles_xy_229_d =
+      $signed(angles_xy_229_ovf_d ? (angles_xy_229_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_229_t[21:0]);
-  reg  signed [21:0] angles_xy_229;
-  reg  [0:0] angles_xy_229_ovf;
-  wire angles_theta_230_ovf_c = t227[17] | (|t227[16]);
-  wire [15:0] angles_theta_230_c = t227[15:0];
-  reg  [15:0] angles_theta_230;
-  reg  [0:0] angles_theta_230_ovf;
-  wire t231_sub = angles_xy_229[21];
+  reg  signed [21:0] angles_xy_229_q;
+  reg  [0:0] angles_xy_229_ovf_q;
+  wire angles_theta_230_ovf_d = t227[17] | (|t227[16]);
+  wire [15:0] angles_theta_230_d = t227[15:0];
+  reg  [15:0] angles_theta_230_q;
+  reg  [0:0] angles_theta_230_ovf_q;
+  wire t231_sub = angles_xy_229_q[21];
   wire signed [30:0] t231 =
       t231_sub
-      ? $signed({angles_xy_228[21], angles_xy_228, 8'b0} - {{9{angles_xy_229[21]}}, angles_xy_229})
-      : $signed({angles_xy_228[21], angles_xy_228, 8'b0} + {{9{angles_xy_229[21]}}, angles_xy_229});
-  wire t232_sub = ~angles_xy_229[21];
+      ? $signed({angles_xy_228_q[21], angles_xy_228_q, 8'b0}
+      - {{9{angles_xy_229_q[21]}}, angles_xy_229_q})
+      : $signed({angles_xy_228_q[21], angles_xy_228_q, 8'b0}
+      + {{9{angles_xy_229_q[21]}}, angles_xy_229_q});
+  wire t232_sub = ~angles_xy_229_q[21];
   wire signed [30:0] t232 =
       t232_sub
-      ? $signed({angles_xy_229[21], angles_xy_229, 8'b0} - {{9{angles_xy_228[21]}}, angles_xy_228})
-      : $signed({angles_xy_229[21], angles_xy_229, 8'b0} + {{9{angles_xy_228[21]}}, angles_xy_228});
-  wire t233_sub = angles_xy_229[21];
+      ? $signed({angles_xy_229_q[21], angles_xy_229_q, 8'b0}
+      - {{9{angles_xy_228_q[21]}}, angles_xy_228_q})
+      : $signed({angles_xy_229_q[21], angles_xy_229_q, 8'b0}
+      + {{9{angles_xy_228_q[21]}}, angles_xy_228_q});
+  wire t233_sub = angles_xy_229_q[21];
   wire signed [17:0] t233 =
-      t233_sub ? $signed({{2{1'b0}}, angles_theta_230} - {{2{1'b0}}, K38})
-      : $signed({{2{1'b0}}, angles_theta_230} + {{2{1'b0}}, K38});
+      t233_sub ? $signed({{2{1'b0}}, angles_theta_230_q} - {{2{1'b0}}, K38})
+      : $signed({{2{1'b0}}, angles_theta_230_q} + {{2{1'b0}}, K38});
   wire signed [22:0] angles_xy_234_t = $signed(t231[30:8]);
-  wire angles_xy_234_ovf_c = ~((&angles_xy_234_t[22:21]) | ~(|angles_xy_234_t[22:21]));
-  wire signed [21:0] angles_xy_234_c =
-      $signed(angles_xy_234_ovf_c ? (angles_xy_234_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_234_ovf_d = ~((&angles_xy_234_t[22:21]) | ~(|angles_xy_234_t[22:21]));
+  wire signed [21:0] angles_xy_234_d =
+      $signed(angles_xy_234_ovf_d ? (angles_xy_234_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_234_t[21:0]);
-  reg  signed [21:0] angles_xy_234;
-  reg  [0:0] angles_xy_234_ovf;
+  reg  signed [21:0] angles_xy_234_q;
+  reg  [0:0] angles_xy_234_ovf_q;
   wire signed [22:0] angles_xy_235_t = $signed(t232[30:8]);
-  wire angles_xy_235_ovf_c = ~((&angles_xy_235_t[22:21]) | ~(|angles_xy_235_t[22:21]));
-  wire signed [21:0] angles_xy_235_c =
-      $signed(angles_xy_235_ovf_c ? (angles_xy_235_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_235_ovf_d = ~((&angles_xy_235_t[22:21]) | ~(|angles_xy_235_t[22:21]));
+  wire signed [21:0] angles_xy_235_d =
+      $signed(angles_xy_235_ovf_d ? (angles_xy_235_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_235_t[21:0]);
-  reg  signed [21:0] angles_xy_235;
-  reg  [0:0] angles_xy_235_ovf;
-  wire angles_theta_236_ovf_c = t233[17] | (|t233[16]);
-  wire [15:0] angles_theta_236_c = t233[15:0];
-  reg  [15:0] angles_theta_236;
-  reg  [0:0] angles_theta_236_ovf;
-  wire t237_sub = angles_xy_235[21];
+  reg  signed [21:0] angles_xy_235_q;
+  reg  [0:0] angles_xy_235_ovf_q;
+  wire angles_theta_236_ovf_d = t233[17] | (|t233[16]);
+  wire [15:0] angles_theta_236_d = t233[15:0];
+  reg  [15:0] angles_theta_236_q;
+  reg  [0:0] angles_theta_236_ovf_q;
+  wire t237_sub = angles_xy_235_q[21];
   wire signed [31:0] t237 =
       t237_sub
-      ? $signed({angles_xy_234[21], angles_xy_234, 9'b0} - {{10{angles_xy_235[21]}}, angles_xy_235})
-      : $signed({angles_xy_234[21], angles_xy_234, 9'b0}
-      + {{10{angles_xy_235[21]}}, angles_xy_235});
-  wire t238_sub = ~angles_xy_235[21];
+      ? $signed({angles_xy_234_q[21], angles_xy_234_q, 9'b0}
+      - {{10{angles_xy_235_q[21]}}, angles_xy_235_q})
+      : $signed({angles_xy_234_q[21], angles_xy_234_q, 9'b0}
+      + {{10{angles_xy_235_q[21]}}, angles_xy_235_q});
+  wire t238_sub = ~angles_xy_235_q[21];
   wire signed [31:0] t238 =
       t238_sub
-      ? $signed({angles_xy_235[21], angles_xy_235, 9'b0} - {{10{angles_xy_234[21]}}, angles_xy_234})
-      : $signed({angles_xy_235[21], angles_xy_235, 9'b0}
-      + {{10{angles_xy_234[21]}}, angles_xy_234});
-  wire t239_sub = angles_xy_235[21];
+      ? $signed({angles_xy_235_q[21], angles_xy_235_q, 9'b0}
+      - {{10{angles_xy_234_q[21]}}, angles_xy_234_q})
+      : $signed({angles_xy_235_q[21], angles_xy_235_q, 9'b0}
+      + {{10{angles_xy_234_q[21]}}, angles_xy_234_q});
+  wire t239_sub = angles_xy_235_q[21];
   wire signed [17:0] t239 =
-      t239_sub ? $signed({{2{1'b0}}, angles_theta_236} - {{2{1'b0}}, K39})
-      : $signed({{2{1'b0}}, angles_theta_236} + {{2{1'b0}}, K39});
+      t239_sub ? $signed({{2{1'b0}}, angles_theta_236_q} - {{2{1'b0}}, K39})
+      : $signed({{2{1'b0}}, angles_theta_236_q} + {{2{1'b0}}, K39});
   wire signed [22:0] angles_xy_240_t = $signed(t237[31:9]);
-  wire angles_xy_240_ovf_c = ~((&angles_xy_240_t[22:21]) | ~(|angles_xy_240_t[22:21]));
-  wire signed [21:0] angles_xy_240_c =
-      $signed(angles_xy_240_ovf_c ? (angles_xy_240_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_240_ovf_d = ~((&angles_xy_240_t[22:21]) | ~(|angles_xy_240_t[22:21]));
+  wire signed [21:0] angles_xy_240_d =
+      $signed(angles_xy_240_ovf_d ? (angles_xy_240_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_240_t[21:0]);
-  reg  signed [21:0] angles_xy_240;
-  reg  [0:0] angles_xy_240_ovf;
+  reg  signed [21:0] angles_xy_240_q;
+  reg  [0:0] angles_xy_240_ovf_q;
   wire signed [22:0] angles_xy_241_t = $signed(t238[31:9]);
-  wire angles_xy_241_ovf_c = ~((&angles_xy_241_t[22:21]) | ~(|angles_xy_241_t[22:21]));
-  wire signed [21:0] angles_xy_241_c =
-      $signed(angles_xy_241_ovf_c ? (angles_xy_241_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_241_ovf_d = ~((&angles_xy_241_t[22:21]) | ~(|angles_xy_241_t[22:21]));
+  wire signed [21:0] angles_xy_241_d =
+      $signed(angles_xy_241_ovf_d ? (angles_xy_241_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_241_t[21:0]);
-  reg  signed [21:0] angles_xy_241;
-  reg  [0:0] angles_xy_241_ovf;
-  wire angles_theta_242_ovf_c = t239[17] | (|t239[16]);
-  wire [15:0] angles_theta_242_c = t239[15:0];
-  reg  [15:0] angles_theta_242;
-  reg  [0:0] angles_theta_242_ovf;
-  wire t244_sub = ~angles_xy_241[21];
+  reg  signed [21:0] angles_xy_241_q;
+  reg  [0:0] angles_xy_241_ovf_q;
+  wire angles_theta_242_ovf_d = t239[17] | (|t239[16]);
+  wire [15:0] angles_theta_242_d = t239[15:0];
+  reg  [15:0] angles_theta_242_q;
+  reg  [0:0] angles_theta_242_ovf_q;
+  wire t244_sub = ~angles_xy_241_q[21];
   wire signed [32:0] t244 =
       t244_sub
-      ? $signed({angles_xy_241[21], angles_xy_241, 10'b0}
-      - {{11{angles_xy_240[21]}}, angles_xy_240})
-      : $signed({angles_xy_241[21], angles_xy_241, 10'b0}
-      + {{11{angles_xy_240[21]}}, angles_xy_240});
-  wire t245_sub = angles_xy_241[21];
+      ? $signed({angles_xy_241_q[21], angles_xy_241_q, 10'b0}
+      - {{11{angles_xy_240_q[21]}}, angles_xy_240_q})
+      : $signed({angles_xy_241_q[21], angles_xy_241_q, 10'b0}
+      + {{11{angles_xy_240_q[21]}}, angles_xy_240_q});
+  wire t245_sub = angles_xy_241_q[21];
   wire signed [17:0] t245 =
-      t245_sub ? $signed({{2{1'b0}}, angles_theta_242} - {{2{1'b0}}, K40})
-      : $signed({{2{1'b0}}, angles_theta_242} + {{2{1'b0}}, K40});
+      t245_sub ? $signed({{2{1'b0}}, angles_theta_242_q} - {{2{1'b0}}, K40})
+      : $signed({{2{1'b0}}, angles_theta_242_q} + {{2{1'b0}}, K40});
   wire signed [22:0] angles_xy_247_t = $signed(t244[32:10]);
-  wire angles_xy_247_ovf_c = ~((&angles_xy_247_t[22:21]) | ~(|angles_xy_247_t[22:21]));
-  wire signed [21:0] angles_xy_247_c =
-      $signed(angles_xy_247_ovf_c ? (angles_xy_247_t[22] ? 22'h200000 : 22'h1fffff)
+  wire angles_xy_247_ovf_d = ~((&angles_xy_247_t[22:21]) | ~(|angles_xy_247_t[22:21]));
+  wire signed [21:0] angles_xy_247_d =
+      $signed(angles_xy_247_ovf_d ? (angles_xy_247_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_247_t[21:0]);
-  reg  signed [21:0] angles_xy_247;
-  reg  [0:0] angles_xy_247_ovf;
-  wire angles_theta_248_ovf_c = t245[17] | (|t245[16]);
-  wire [15:0] angles_theta_248_c = t245[15:0];
-  reg  [15:0] angles_theta_248;
-  reg  [0:0] angles_theta_248_ovf;
-  wire t251_sub = angles_xy_247[21];
+  reg  signed [21:0] angles_xy_247_q;
+  reg  [0:0] angles_xy_247_ovf_q;
+  wire angles_theta_248_ovf_d = t245[17] | (|t245[16]);
+  wire [15:0] angles_theta_248_d = t245[15:0];
+  reg  [15:0] angles_theta_248_q;
+  reg  [0:0] angles_theta_248_ovf_q;
+  wire t251_sub = angles_xy_247_q[21];
   wire signed [17:0] t251 =
-      t251_sub ? $signed({{2{1'b0}}, angles_theta_248} - {{2{1'b0}}, K41})
-      : $signed({{2{1'b0}}, angles_theta_248} + {{2{1'b0}}, K41});
-  wire angles_theta_254_ovf_c = t251[17] | (|t251[16]);
-  wire [15:0] angles_theta_254_c = t251[15:0];
-  reg  [15:0] angles_theta_254;
-  reg  [0:0] angles_theta_254_ovf;
-  wire angles_out_255_tie = angles_theta_254[4] & ~(|angles_theta_254[3:0]);
+      t251_sub ? $signed({{2{1'b0}}, angles_theta_248_q} - {{2{1'b0}}, K41})
+      : $signed({{2{1'b0}}, angles_theta_248_q} + {{2{1'b0}}, K41});
+  wire angles_theta_254_ovf_d = t251[17] | (|t251[16]);
+  wire [15:0] angles_theta_254_d = t251[15:0];
+  reg  [15:0] angles_theta_254_q;
+  reg  [0:0] angles_theta_254_ovf_q;
+  wire angles_out_255_tie = angles_theta_254_q[4] & ~(|angles_theta_254_q[3:0]);
   wire [11:0] angles_out_255_up =
-      {1'b0, angles_theta_254[15:5]} + {{11{1'b0}}, angles_theta_254[4]};
+      {1'b0, angles_theta_254_q[15:5]} + {{11{1'b0}}, angles_theta_254_q[4]};
   wire [11:0] angles_out_255_r =
       {angles_out_255_up[11:1], angles_out_255_up[0] & ~angles_out_255_tie};
-  wire angles_out_255_ovf_c = |angles_out_255_r[11];
-  wire [10:0] angles_out_255_c = angles_out_255_r[10:0];
-  reg  [10:0] angles_out_255;
-  reg  [0:0] angles_out_255_ovf;
-  wire angles_out_256_tie = angles_theta_179[4] & ~(|angles_theta_179[3:0]);
+  wire angles_out_255_ovf_d = |angles_out_255_r[11];
+  wire [10:0] angles_out_255_d = angles_out_255_r[10:0];
+  reg  [10:0] angles_out_255_q;
+  reg  [0:0] angles_out_255_ovf_q;
+  wire angles_out_256_tie = angles_theta_179_q[4] & ~(|angles_theta_179_q[3:0]);
   wire [11:0] angles_out_256_up =
-      {1'b0, angles_theta_179[15:5]} + {{11{1'b0}}, angles_theta_179[4]};
+      {1'b0, angles_theta_179_q[15:5]} + {{11{1'b0}}, angles_theta_179_q[4]};
   wire [11:0] angles_out_256_r =
       {angles_out_256_up[11:1], angles_out_256_up[0] & ~angles_out_256_tie};
-  wire angles_out_256_ovf_c = |angles_out_256_r[11];
-  wire [10:0] angles_out_256_c = angles_out_256_r[10:0];
-  reg  [10:0] angles_out_256;
-  reg  [0:0] angles_out_256_ovf;
-  wire polar_index_257_ovf_c = 1'b0;
-  wire [10:0] polar_index_257_c = al_q[10:0];
-  reg  [10:0] polar_index_257;
-  reg  [0:0] polar_index_257_ovf;
-  wire signed [12:0] t258 = $signed({{2{1'b0}}, bl_q} - {{2{1'b0}}, angles_out_256});
-  wire polar_index_259_ovf_c = t258[12] | (|t258[11]);
-  wire [10:0] polar_index_259_c = t258[10:0];
-  reg  [10:0] polar_index_259;
-  reg  [0:0] polar_index_259_ovf;
-  wire polar_index_260_ovf_c = 1'b0;
-  wire [10:0] polar_index_260_c = angles_out_255[10:0];
-  reg  [10:0] polar_index_260;
-  reg  [0:0] polar_index_260_ovf;
-  reg  [10:0] polar_index_257_s2;
-  reg  [10:0] polar_index_257_s3;
-  reg  [10:0] polar_index_257_s4;
-  reg  [10:0] polar_index_257_s5;
-  reg  [10:0] polar_index_257_s6;
-  reg  [10:0] polar_index_257_s7;
-  reg  [10:0] polar_index_257_s8;
-  reg  [10:0] polar_index_257_s9;
-  reg  [10:0] polar_index_257_s10;
-  reg  [10:0] polar_index_257_s11;
-  reg  [10:0] polar_index_257_s12;
-  reg  [10:0] polar_index_257_s13;
-  reg  [10:0] polar_index_257_s14;
-  reg  [10:0] polar_index_257_s15;
-  reg  [10:0] polar_index_257_s16;
-  reg  [10:0] polar_index_257_s17;
-  reg  [10:0] polar_index_257_s18;
-  wire [10:0] cos_261_j = {polar_index_257_s18[10:9] + 2'd1, polar_index_257_s18[8:0]};
+  wire angles_out_256_ovf_d = |angles_out_256_r[11];
+  wire [10:0] angles_out_256_d = angles_out_256_r[10:0];
+  reg  [10:0] angles_out_256_q;
+  reg  [0:0] angles_out_256_ovf_q;
+  wire polar_index_257_ovf_d = 1'b0;
+  wire [10:0] polar_index_257_d = al_q[10:0];
+  reg  [10:0] polar_index_257_q;
+  reg  [0:0] polar_index_257_ovf_q;
+  wire signed [12:0] t258 = $signed({{2{1'b0}}, bl_q} - {{2{1'b0}}, angles_out_256_q});
+  wire polar_index_259_ovf_d = t258[12] | (|t258[11]);
+  wire [10:0] polar_index_259_d = t258[10:0];
+  reg  [10:0] polar_index_259_q;
+  reg  [0:0] polar_index_259_ovf_q;
+  wire polar_index_260_ovf_d = 1'b0;
+  wire [10:0] polar_index_260_d = angles_out_255_q[10:0];
+  reg  [10:0] polar_index_260_q;
+  reg  [0:0] polar_index_260_ovf_q;
+  reg  [10:0] polar_index_257_s2_q;
+  reg  [10:0] polar_index_257_s3_q;
+  reg  [10:0] polar_index_257_s4_q;
+  reg  [10:0] polar_index_257_s5_q;
+  reg  [10:0] polar_index_257_s6_q;
+  reg  [10:0] polar_index_257_s7_q;
+  reg  [10:0] polar_index_257_s8_q;
+  reg  [10:0] polar_index_257_s9_q;
+  reg  [10:0] polar_index_257_s10_q;
+  reg  [10:0] polar_index_257_s11_q;
+  reg  [10:0] polar_index_257_s12_q;
+  reg  [10:0] polar_index_257_s13_q;
+  reg  [10:0] polar_index_257_s14_q;
+  reg  [10:0] polar_index_257_s15_q;
+  reg  [10:0] polar_index_257_s16_q;
+  reg  [10:0] polar_index_257_s17_q;
+  reg  [10:0] polar_index_257_s18_q;
+  wire [10:0] cos_261_j = {polar_index_257_s18_q[10:9] + 2'd1, polar_index_257_s18_q[8:0]};
   wire [9:0] cos_261_a = cos_261_j[9] ? (10'h200 - {1'b0, cos_261_j[8:0]}) : {1'b0, cos_261_j[8:0]};
-  reg  signed [15:0] cos_261_raw;
-  reg  [0:0] cos_261_top;
+  reg  signed [15:0] cos_261_raw_q;
+  reg  [0:0] cos_261_top_q;
   reg  [0:0] cos_261_neg_q;
-  wire signed [15:0] cos_261_v = cos_261_top ? $signed(16'h4000) : cos_261_raw;
+  wire signed [15:0] cos_261_v = cos_261_top_q ? $signed(16'h4000) : cos_261_raw_q;
   wire signed [16:0] cos_261_n = $signed(17'h0 - {cos_261_v[15], cos_261_v});
   wire unused_cos_261_novf = ~((&cos_261_n[16:15]) | ~(|cos_261_n[16:15]));
   wire signed [15:0] cos_261_nv =
       $signed(unused_cos_261_novf ? (cos_261_n[16] ? 16'h8000 : 16'h7fff) : cos_261_n[15:0]);
   wire signed [15:0] cos_261 = $signed(cos_261_neg_q ? cos_261_nv : cos_261_v);
-  reg  [10:0] polar_index_257_s19;
-  reg  [10:0] polar_index_257_s20;
-  reg  [10:0] polar_index_257_s21;
-  reg  [10:0] polar_index_257_s22;
-  reg  [10:0] polar_index_257_s23;
-  reg  [10:0] polar_index_257_s24;
-  reg  [10:0] polar_index_257_s25;
-  reg  [10:0] polar_index_257_s26;
-  reg  [10:0] polar_index_257_s27;
-  reg  [10:0] polar_index_257_s28;
-  reg  [10:0] polar_index_257_s29;
-  reg  [10:0] polar_index_257_s30;
-  wire [10:0] sin_262_j = polar_index_257_s30[10:0];
+  reg  [10:0] polar_index_257_s19_q;
+  reg  [10:0] polar_index_257_s20_q;
+  reg  [10:0] polar_index_257_s21_q;
+  reg  [10:0] polar_index_257_s22_q;
+  reg  [10:0] polar_index_257_s23_q;
+  reg  [10:0] polar_index_257_s24_q;
+  reg  [10:0] polar_index_257_s25_q;
+  reg  [10:0] polar_index_257_s26_q;
+  reg  [10:0] polar_index_257_s27_q;
+  reg  [10:0] polar_index_257_s28_q;
+  reg  [10:0] polar_index_257_s29_q;
+  reg  [10:0] polar_index_257_s30_q;
+  wire [10:0] sin_262_j = polar_index_257_s30_q[10:0];
   wire [9:0] sin_262_a = sin_262_j[9] ? (10'h200 - {1'b0, sin_262_j[8:0]}) : {1'b0, sin_262_j[8:0]};
-  reg  signed [15:0] sin_262_raw;
-  reg  [0:0] sin_262_top;
+  reg  signed [15:0] sin_262_raw_q;
+  reg  [0:0] sin_262_top_q;
   reg  [0:0] sin_262_neg_q;
-  wire signed [15:0] sin_262_v = sin_262_top ? $signed(16'h4000) : sin_262_raw;
+  wire signed [15:0] sin_262_v = sin_262_top_q ? $signed(16'h4000) : sin_262_raw_q;
   wire signed [16:0] sin_262_n = $signed(17'h0 - {sin_262_v[15], sin_262_v});
   wire unused_sin_262_novf = ~((&sin_262_n[16:15]) | ~(|sin_262_n[16:15]));
   wire signed [15:0] sin_262_nv =
       $signed(unused_sin_262_novf ? (sin_262_n[16] ? 16'h8000 : 16'h7fff) : sin_262_n[15:0]);
   wire signed [15:0] sin_262 = $signed(sin_262_neg_q ? sin_262_nv : sin_262_v);
-  wire [10:0] cos_263_j = {polar_index_259[10:9] + 2'd1, polar_index_259[8:0]};
+  wire [10:0] cos_263_j = {polar_index_259_q[10:9] + 2'd1, polar_index_259_q[8:0]};
   wire [9:0] cos_263_a = cos_263_j[9] ? (10'h200 - {1'b0, cos_263_j[8:0]}) : {1'b0, cos_263_j[8:0]};
-  reg  signed [15:0] cos_263_raw;
-  reg  [0:0] cos_263_top;
+  reg  signed [15:0] cos_263_raw_q;
+  reg  [0:0] cos_263_top_q;
   reg  [0:0] cos_263_neg_q;
-  wire signed [15:0] cos_263_v = cos_263_top ? $signed(16'h4000) : cos_263_raw;
+  wire signed [15:0] cos_263_v = cos_263_top_q ? $signed(16'h4000) : cos_263_raw_q;
   wire signed [16:0] cos_263_n = $signed(17'h0 - {cos_263_v[15], cos_263_v});
   wire unused_cos_263_novf = ~((&cos_263_n[16:15]) | ~(|cos_263_n[16:15]));
   wire signed [15:0] cos_263_nv =
       $signed(unused_cos_263_novf ? (cos_263_n[16] ? 16'h8000 : 16'h7fff) : cos_263_n[15:0]);
   wire signed [15:0] cos_263 = $signed(cos_263_neg_q ? cos_263_nv : cos_263_v);
-  wire [10:0] sin_264_j = polar_index_259[10:0];
+  wire [10:0] sin_264_j = polar_index_259_q[10:0];
   wire [9:0] sin_264_a = sin_264_j[9] ? (10'h200 - {1'b0, sin_264_j[8:0]}) : {1'b0, sin_264_j[8:0]};
-  reg  signed [15:0] sin_264_raw;
-  reg  [0:0] sin_264_top;
+  reg  signed [15:0] sin_264_raw_q;
+  reg  [0:0] sin_264_top_q;
   reg  [0:0] sin_264_neg_q;
-  wire signed [15:0] sin_264_v = sin_264_top ? $signed(16'h4000) : sin_264_raw;
+  wire signed [15:0] sin_264_v = sin_264_top_q ? $signed(16'h4000) : sin_264_raw_q;
   wire signed [16:0] sin_264_n = $signed(17'h0 - {sin_264_v[15], sin_264_v});
   wire unused_sin_264_novf = ~((&sin_264_n[16:15]) | ~(|sin_264_n[16:15]));
   wire signed [15:0] sin_264_nv =
       $signed(unused_sin_264_novf ? (sin_264_n[16] ? 16'h8000 : 16'h7fff) : sin_264_n[15:0]);
   wire signed [15:0] sin_264 = $signed(sin_264_neg_q ? sin_264_nv : sin_264_v);
-  wire [10:0] cos_265_j = {polar_index_260[10:9] + 2'd1, polar_index_260[8:0]};
+  wire [10:0] cos_265_j = {polar_index_260_q[10:9] + 2'd1, polar_index_260_q[8:0]};
   wire [9:0] cos_265_a = cos_265_j[9] ? (10'h200 - {1'b0, cos_265_j[8:0]}) : {1'b0, cos_265_j[8:0]};
-  reg  signed [15:0] cos_265_raw;
-  reg  [0:0] cos_265_top;
+  reg  signed [15:0] cos_265_raw_q;
+  reg  [0:0] cos_265_top_q;
   reg  [0:0] cos_265_neg_q;
-  wire signed [15:0] cos_265_v = cos_265_top ? $signed(16'h4000) : cos_265_raw;
+  wire signed [15:0] cos_265_v = cos_265_top_q ? $signed(16'h4000) : cos_265_raw_q;
   wire signed [16:0] cos_265_n = $signed(17'h0 - {cos_265_v[15], cos_265_v});
   wire unused_cos_265_novf = ~((&cos_265_n[16:15]) | ~(|cos_265_n[16:15]));
   wire signed [15:0] cos_265_nv =
       $signed(unused_cos_265_novf ? (cos_265_n[16] ? 16'h8000 : 16'h7fff) : cos_265_n[15:0]);
   wire signed [15:0] cos_265 = $signed(cos_265_neg_q ? cos_265_nv : cos_265_v);
-  wire [10:0] sin_266_j = polar_index_260[10:0];
+  wire [10:0] sin_266_j = polar_index_260_q[10:0];
   wire [9:0] sin_266_a = sin_266_j[9] ? (10'h200 - {1'b0, sin_266_j[8:0]}) : {1'b0, sin_266_j[8:0]};
-  reg  signed [15:0] sin_266_raw;
-  reg  [0:0] sin_266_top;
+  reg  signed [15:0] sin_266_raw_q;
+  reg  [0:0] sin_266_top_q;
   reg  [0:0] sin_266_neg_q;
-  wire signed [15:0] sin_266_v = sin_266_top ? $signed(16'h4000) : sin_266_raw;
+  wire signed [15:0] sin_266_v = sin_266_top_q ? $signed(16'h4000) : sin_266_raw_q;
   wire signed [16:0] sin_266_n = $signed(17'h0 - {sin_266_v[15], sin_266_v});
   wire unused_sin_266_novf = ~((&sin_266_n[16:15]) | ~(|sin_266_n[16:15]));
   wire signed [15:0] sin_266_nv =
@@ -2034,163 +2108,163 @@ module pipeline_mapped (
   wire [18:0] polar_lyz_268_up = {t267[31], t267[31:14]} + {{18{1'b0}}, t267[13]};
   wire signed [18:0] polar_lyz_268_r =
       $signed({polar_lyz_268_up[18:1], polar_lyz_268_up[0] & ~polar_lyz_268_tie});
-  wire polar_lyz_268_ovf_c = ~((&polar_lyz_268_r[18:15]) | ~(|polar_lyz_268_r[18:15]));
-  wire signed [15:0] polar_lyz_268_c =
-      $signed(polar_lyz_268_ovf_c ? (polar_lyz_268_r[18] ? 16'h8000 : 16'h7fff)
+  wire polar_lyz_268_ovf_d = ~((&polar_lyz_268_r[18:15]) | ~(|polar_lyz_268_r[18:15]));
+  wire signed [15:0] polar_lyz_268_d =
+      $signed(polar_lyz_268_ovf_d ? (polar_lyz_268_r[18] ? 16'h8000 : 16'h7fff)
       : polar_lyz_268_r[15:0]);
-  reg  signed [15:0] polar_lyz_268;
-  reg  [0:0] polar_lyz_268_ovf;
+  reg  signed [15:0] polar_lyz_268_q;
+  reg  [0:0] polar_lyz_268_ovf_q;
   wire signed [31:0] t269 = cos_261 * sin_264;
   wire polar_out_270_tie = t269[13] & ~(|t269[12:0]);
   wire [18:0] polar_out_270_up = {t269[31], t269[31:14]} + {{18{1'b0}}, t269[13]};
   wire signed [18:0] polar_out_270_r =
       $signed({polar_out_270_up[18:1], polar_out_270_up[0] & ~polar_out_270_tie});
-  wire polar_out_270_ovf_c = ~((&polar_out_270_r[18:15]) | ~(|polar_out_270_r[18:15]));
-  wire signed [15:0] polar_out_270_c =
-      $signed(polar_out_270_ovf_c ? (polar_out_270_r[18] ? 16'h8000 : 16'h7fff)
+  wire polar_out_270_ovf_d = ~((&polar_out_270_r[18:15]) | ~(|polar_out_270_r[18:15]));
+  wire signed [15:0] polar_out_270_d =
+      $signed(polar_out_270_ovf_d ? (polar_out_270_r[18] ? 16'h8000 : 16'h7fff)
       : polar_out_270_r[15:0]);
-  reg  signed [15:0] polar_out_270;
-  reg  [0:0] polar_out_270_ovf;
+  reg  signed [15:0] polar_out_270_q;
+  reg  [0:0] polar_out_270_ovf_q;
   wire signed [31:0] t271 = sin_262 * cos_265;
-  reg  signed [15:0] polar_lyz_268_s21;
-  reg  signed [15:0] polar_lyz_268_s22;
-  reg  signed [15:0] polar_lyz_268_s23;
-  reg  signed [15:0] polar_lyz_268_s24;
-  reg  signed [15:0] polar_lyz_268_s25;
-  reg  signed [15:0] polar_lyz_268_s26;
-  reg  signed [15:0] polar_lyz_268_s27;
-  reg  signed [15:0] polar_lyz_268_s28;
-  reg  signed [15:0] polar_lyz_268_s29;
-  reg  signed [15:0] polar_lyz_268_s30;
-  reg  signed [15:0] polar_lyz_268_s31;
-  wire signed [31:0] t272 = polar_lyz_268_s31 * sin_266;
+  reg  signed [15:0] polar_lyz_268_s21_q;
+  reg  signed [15:0] polar_lyz_268_s22_q;
+  reg  signed [15:0] polar_lyz_268_s23_q;
+  reg  signed [15:0] polar_lyz_268_s24_q;
+  reg  signed [15:0] polar_lyz_268_s25_q;
+  reg  signed [15:0] polar_lyz_268_s26_q;
+  reg  signed [15:0] polar_lyz_268_s27_q;
+  reg  signed [15:0] polar_lyz_268_s28_q;
+  reg  signed [15:0] polar_lyz_268_s29_q;
+  reg  signed [15:0] polar_lyz_268_s30_q;
+  reg  signed [15:0] polar_lyz_268_s31_q;
+  wire signed [31:0] t272 = polar_lyz_268_s31_q * sin_266;
   wire signed [32:0] t273 = $signed({t271[31], t271} - {t272[31], t272});
   wire polar_out_274_tie = t273[13] & ~(|t273[12:0]);
   wire [19:0] polar_out_274_up = {t273[32], t273[32:14]} + {{19{1'b0}}, t273[13]};
   wire signed [19:0] polar_out_274_r =
       $signed({polar_out_274_up[19:1], polar_out_274_up[0] & ~polar_out_274_tie});
-  wire polar_out_274_ovf_c = ~((&polar_out_274_r[19:15]) | ~(|polar_out_274_r[19:15]));
-  wire signed [15:0] polar_out_274_c =
-      $signed(polar_out_274_ovf_c ? (polar_out_274_r[19] ? 16'h8000 : 16'h7fff)
+  wire polar_out_274_ovf_d = ~((&polar_out_274_r[19:15]) | ~(|polar_out_274_r[19:15]));
+  wire signed [15:0] polar_out_274_d =
+      $signed(polar_out_274_ovf_d ? (polar_out_274_r[19] ? 16'h8000 : 16'h7fff)
       : polar_out_274_r[15:0]);
-  reg  signed [15:0] polar_out_274;
-  reg  [0:0] polar_out_274_ovf;
-  wire signed [31:0] t275 = polar_lyz_268_s31 * cos_265;
+  reg  signed [15:0] polar_out_274_q;
+  reg  [0:0] polar_out_274_ovf_q;
+  wire signed [31:0] t275 = polar_lyz_268_s31_q * cos_265;
   wire signed [31:0] t276 = sin_262 * sin_266;
   wire signed [32:0] t277 = $signed({t276[31], t276} + {t275[31], t275});
   wire polar_out_278_tie = t277[13] & ~(|t277[12:0]);
   wire [19:0] polar_out_278_up = {t277[32], t277[32:14]} + {{19{1'b0}}, t277[13]};
   wire signed [19:0] polar_out_278_r =
       $signed({polar_out_278_up[19:1], polar_out_278_up[0] & ~polar_out_278_tie});
-  wire polar_out_278_ovf_c = ~((&polar_out_278_r[19:15]) | ~(|polar_out_278_r[19:15]));
-  wire signed [15:0] polar_out_278_c =
-      $signed(polar_out_278_ovf_c ? (polar_out_278_r[19] ? 16'h8000 : 16'h7fff)
+  wire polar_out_278_ovf_d = ~((&polar_out_278_r[19:15]) | ~(|polar_out_278_r[19:15]));
+  wire signed [15:0] polar_out_278_d =
+      $signed(polar_out_278_ovf_d ? (polar_out_278_r[19] ? 16'h8000 : 16'h7fff)
       : polar_out_278_r[15:0]);
-  reg  signed [15:0] polar_out_278;
-  reg  [0:0] polar_out_278_ovf;
-  wire polar_index_279_ovf_c = 1'b0;
-  wire [10:0] polar_index_279_c = ah_q[10:0];
-  reg  [10:0] polar_index_279;
-  reg  [0:0] polar_index_279_ovf;
-  wire signed [12:0] t280 = $signed({{2{1'b0}}, bh_q} - {{2{1'b0}}, angles_out_256});
-  wire polar_index_281_ovf_c = t280[12] | (|t280[11]);
-  wire [10:0] polar_index_281_c = t280[10:0];
-  reg  [10:0] polar_index_281;
-  reg  [0:0] polar_index_281_ovf;
-  wire polar_index_282_ovf_c = 1'b0;
-  wire [10:0] polar_index_282_c = angles_out_255[10:0];
-  reg  [10:0] polar_index_282;
-  reg  [0:0] polar_index_282_ovf;
-  reg  [10:0] polar_index_279_s2;
-  reg  [10:0] polar_index_279_s3;
-  reg  [10:0] polar_index_279_s4;
-  reg  [10:0] polar_index_279_s5;
-  reg  [10:0] polar_index_279_s6;
-  reg  [10:0] polar_index_279_s7;
-  reg  [10:0] polar_index_279_s8;
-  reg  [10:0] polar_index_279_s9;
-  reg  [10:0] polar_index_279_s10;
-  reg  [10:0] polar_index_279_s11;
-  reg  [10:0] polar_index_279_s12;
-  reg  [10:0] polar_index_279_s13;
-  reg  [10:0] polar_index_279_s14;
-  reg  [10:0] polar_index_279_s15;
-  reg  [10:0] polar_index_279_s16;
-  reg  [10:0] polar_index_279_s17;
-  reg  [10:0] polar_index_279_s18;
-  wire [10:0] cos_283_j = {polar_index_279_s18[10:9] + 2'd1, polar_index_279_s18[8:0]};
+  reg  signed [15:0] polar_out_278_q;
+  reg  [0:0] polar_out_278_ovf_q;
+  wire polar_index_279_ovf_d = 1'b0;
+  wire [10:0] polar_index_279_d = ah_q[10:0];
+  reg  [10:0] polar_index_279_q;
+  reg  [0:0] polar_index_279_ovf_q;
+  wire signed [12:0] t280 = $signed({{2{1'b0}}, bh_q} - {{2{1'b0}}, angles_out_256_q});
+  wire polar_index_281_ovf_d = t280[12] | (|t280[11]);
+  wire [10:0] polar_index_281_d = t280[10:0];
+  reg  [10:0] polar_index_281_q;
+  reg  [0:0] polar_index_281_ovf_q;
+  wire polar_index_282_ovf_d = 1'b0;
+  wire [10:0] polar_index_282_d = angles_out_255_q[10:0];
+  reg  [10:0] polar_index_282_q;
+  reg  [0:0] polar_index_282_ovf_q;
+  reg  [10:0] polar_index_279_s2_q;
+  reg  [10:0] polar_index_279_s3_q;
+  reg  [10:0] polar_index_279_s4_q;
+  reg  [10:0] polar_index_279_s5_q;
+  reg  [10:0] polar_index_279_s6_q;
+  reg  [10:0] polar_index_279_s7_q;
+  reg  [10:0] polar_index_279_s8_q;
+  reg  [10:0] polar_index_279_s9_q;
+  reg  [10:0] polar_index_279_s10_q;
+  reg  [10:0] polar_index_279_s11_q;
+  reg  [10:0] polar_index_279_s12_q;
+  reg  [10:0] polar_index_279_s13_q;
+  reg  [10:0] polar_index_279_s14_q;
+  reg  [10:0] polar_index_279_s15_q;
+  reg  [10:0] polar_index_279_s16_q;
+  reg  [10:0] polar_index_279_s17_q;
+  reg  [10:0] polar_index_279_s18_q;
+  wire [10:0] cos_283_j = {polar_index_279_s18_q[10:9] + 2'd1, polar_index_279_s18_q[8:0]};
   wire [9:0] cos_283_a = cos_283_j[9] ? (10'h200 - {1'b0, cos_283_j[8:0]}) : {1'b0, cos_283_j[8:0]};
-  reg  signed [15:0] cos_283_raw;
-  reg  [0:0] cos_283_top;
+  reg  signed [15:0] cos_283_raw_q;
+  reg  [0:0] cos_283_top_q;
   reg  [0:0] cos_283_neg_q;
-  wire signed [15:0] cos_283_v = cos_283_top ? $signed(16'h4000) : cos_283_raw;
+  wire signed [15:0] cos_283_v = cos_283_top_q ? $signed(16'h4000) : cos_283_raw_q;
   wire signed [16:0] cos_283_n = $signed(17'h0 - {cos_283_v[15], cos_283_v});
   wire unused_cos_283_novf = ~((&cos_283_n[16:15]) | ~(|cos_283_n[16:15]));
   wire signed [15:0] cos_283_nv =
       $signed(unused_cos_283_novf ? (cos_283_n[16] ? 16'h8000 : 16'h7fff) : cos_283_n[15:0]);
   wire signed [15:0] cos_283 = $signed(cos_283_neg_q ? cos_283_nv : cos_283_v);
-  reg  [10:0] polar_index_279_s19;
-  reg  [10:0] polar_index_279_s20;
-  reg  [10:0] polar_index_279_s21;
-  reg  [10:0] polar_index_279_s22;
-  reg  [10:0] polar_index_279_s23;
-  reg  [10:0] polar_index_279_s24;
-  reg  [10:0] polar_index_279_s25;
-  reg  [10:0] polar_index_279_s26;
-  reg  [10:0] polar_index_279_s27;
-  reg  [10:0] polar_index_279_s28;
-  reg  [10:0] polar_index_279_s29;
-  reg  [10:0] polar_index_279_s30;
-  wire [10:0] sin_284_j = polar_index_279_s30[10:0];
+  reg  [10:0] polar_index_279_s19_q;
+  reg  [10:0] polar_index_279_s20_q;
+  reg  [10:0] polar_index_279_s21_q;
+  reg  [10:0] polar_index_279_s22_q;
+  reg  [10:0] polar_index_279_s23_q;
+  reg  [10:0] polar_index_279_s24_q;
+  reg  [10:0] polar_index_279_s25_q;
+  reg  [10:0] polar_index_279_s26_q;
+  reg  [10:0] polar_index_279_s27_q;
+  reg  [10:0] polar_index_279_s28_q;
+  reg  [10:0] polar_index_279_s29_q;
+  reg  [10:0] polar_index_279_s30_q;
+  wire [10:0] sin_284_j = polar_index_279_s30_q[10:0];
   wire [9:0] sin_284_a = sin_284_j[9] ? (10'h200 - {1'b0, sin_284_j[8:0]}) : {1'b0, sin_284_j[8:0]};
-  reg  signed [15:0] sin_284_raw;
-  reg  [0:0] sin_284_top;
+  reg  signed [15:0] sin_284_raw_q;
+  reg  [0:0] sin_284_top_q;
   reg  [0:0] sin_284_neg_q;
-  wire signed [15:0] sin_284_v = sin_284_top ? $signed(16'h4000) : sin_284_raw;
+  wire signed [15:0] sin_284_v = sin_284_top_q ? $signed(16'h4000) : sin_284_raw_q;
   wire signed [16:0] sin_284_n = $signed(17'h0 - {sin_284_v[15], sin_284_v});
   wire unused_sin_284_novf = ~((&sin_284_n[16:15]) | ~(|sin_284_n[16:15]));
   wire signed [15:0] sin_284_nv =
       $signed(unused_sin_284_novf ? (sin_284_n[16] ? 16'h8000 : 16'h7fff) : sin_284_n[15:0]);
   wire signed [15:0] sin_284 = $signed(sin_284_neg_q ? sin_284_nv : sin_284_v);
-  wire [10:0] cos_285_j = {polar_index_281[10:9] + 2'd1, polar_index_281[8:0]};
+  wire [10:0] cos_285_j = {polar_index_281_q[10:9] + 2'd1, polar_index_281_q[8:0]};
   wire [9:0] cos_285_a = cos_285_j[9] ? (10'h200 - {1'b0, cos_285_j[8:0]}) : {1'b0, cos_285_j[8:0]};
-  reg  signed [15:0] cos_285_raw;
-  reg  [0:0] cos_285_top;
+  reg  signed [15:0] cos_285_raw_q;
+  reg  [0:0] cos_285_top_q;
   reg  [0:0] cos_285_neg_q;
-  wire signed [15:0] cos_285_v = cos_285_top ? $signed(16'h4000) : cos_285_raw;
+  wire signed [15:0] cos_285_v = cos_285_top_q ? $signed(16'h4000) : cos_285_raw_q;
   wire signed [16:0] cos_285_n = $signed(17'h0 - {cos_285_v[15], cos_285_v});
   wire unused_cos_285_novf = ~((&cos_285_n[16:15]) | ~(|cos_285_n[16:15]));
   wire signed [15:0] cos_285_nv =
       $signed(unused_cos_285_novf ? (cos_285_n[16] ? 16'h8000 : 16'h7fff) : cos_285_n[15:0]);
   wire signed [15:0] cos_285 = $signed(cos_285_neg_q ? cos_285_nv : cos_285_v);
-  wire [10:0] sin_286_j = polar_index_281[10:0];
+  wire [10:0] sin_286_j = polar_index_281_q[10:0];
   wire [9:0] sin_286_a = sin_286_j[9] ? (10'h200 - {1'b0, sin_286_j[8:0]}) : {1'b0, sin_286_j[8:0]};
-  reg  signed [15:0] sin_286_raw;
-  reg  [0:0] sin_286_top;
+  reg  signed [15:0] sin_286_raw_q;
+  reg  [0:0] sin_286_top_q;
   reg  [0:0] sin_286_neg_q;
-  wire signed [15:0] sin_286_v = sin_286_top ? $signed(16'h4000) : sin_286_raw;
+  wire signed [15:0] sin_286_v = sin_286_top_q ? $signed(16'h4000) : sin_286_raw_q;
   wire signed [16:0] sin_286_n = $signed(17'h0 - {sin_286_v[15], sin_286_v});
   wire unused_sin_286_novf = ~((&sin_286_n[16:15]) | ~(|sin_286_n[16:15]));
   wire signed [15:0] sin_286_nv =
       $signed(unused_sin_286_novf ? (sin_286_n[16] ? 16'h8000 : 16'h7fff) : sin_286_n[15:0]);
   wire signed [15:0] sin_286 = $signed(sin_286_neg_q ? sin_286_nv : sin_286_v);
-  wire [10:0] cos_287_j = {polar_index_282[10:9] + 2'd1, polar_index_282[8:0]};
+  wire [10:0] cos_287_j = {polar_index_282_q[10:9] + 2'd1, polar_index_282_q[8:0]};
   wire [9:0] cos_287_a = cos_287_j[9] ? (10'h200 - {1'b0, cos_287_j[8:0]}) : {1'b0, cos_287_j[8:0]};
-  reg  signed [15:0] cos_287_raw;
-  reg  [0:0] cos_287_top;
+  reg  signed [15:0] cos_287_raw_q;
+  reg  [0:0] cos_287_top_q;
   reg  [0:0] cos_287_neg_q;
-  wire signed [15:0] cos_287_v = cos_287_top ? $signed(16'h4000) : cos_287_raw;
+  wire signed [15:0] cos_287_v = cos_287_top_q ? $signed(16'h4000) : cos_287_raw_q;
   wire signed [16:0] cos_287_n = $signed(17'h0 - {cos_287_v[15], cos_287_v});
   wire unused_cos_287_novf = ~((&cos_287_n[16:15]) | ~(|cos_287_n[16:15]));
   wire signed [15:0] cos_287_nv =
       $signed(unused_cos_287_novf ? (cos_287_n[16] ? 16'h8000 : 16'h7fff) : cos_287_n[15:0]);
   wire signed [15:0] cos_287 = $signed(cos_287_neg_q ? cos_287_nv : cos_287_v);
-  wire [10:0] sin_288_j = polar_index_282[10:0];
+  wire [10:0] sin_288_j = polar_index_282_q[10:0];
   wire [9:0] sin_288_a = sin_288_j[9] ? (10'h200 - {1'b0, sin_288_j[8:0]}) : {1'b0, sin_288_j[8:0]};
-  reg  signed [15:0] sin_288_raw;
-  reg  [0:0] sin_288_top;
+  reg  signed [15:0] sin_288_raw_q;
+  reg  [0:0] sin_288_top_q;
   reg  [0:0] sin_288_neg_q;
-  wire signed [15:0] sin_288_v = sin_288_top ? $signed(16'h4000) : sin_288_raw;
+  wire signed [15:0] sin_288_v = sin_288_top_q ? $signed(16'h4000) : sin_288_raw_q;
   wire signed [16:0] sin_288_n = $signed(17'h0 - {sin_288_v[15], sin_288_v});
   wire unused_sin_288_novf = ~((&sin_288_n[16:15]) | ~(|sin_288_n[16:15]));
   wire signed [15:0] sin_288_nv =
@@ -2201,863 +2275,863 @@ module pipeline_mapped (
   wire [18:0] polar_lyz_290_up = {t289[31], t289[31:14]} + {{18{1'b0}}, t289[13]};
   wire signed [18:0] polar_lyz_290_r =
       $signed({polar_lyz_290_up[18:1], polar_lyz_290_up[0] & ~polar_lyz_290_tie});
-  wire polar_lyz_290_ovf_c = ~((&polar_lyz_290_r[18:15]) | ~(|polar_lyz_290_r[18:15]));
-  wire signed [15:0] polar_lyz_290_c =
-      $signed(polar_lyz_290_ovf_c ? (polar_lyz_290_r[18] ? 16'h8000 : 16'h7fff)
+  wire polar_lyz_290_ovf_d = ~((&polar_lyz_290_r[18:15]) | ~(|polar_lyz_290_r[18:15]));
+  wire signed [15:0] polar_lyz_290_d =
+      $signed(polar_lyz_290_ovf_d ? (polar_lyz_290_r[18] ? 16'h8000 : 16'h7fff)
       : polar_lyz_290_r[15:0]);
-  reg  signed [15:0] polar_lyz_290;
-  reg  [0:0] polar_lyz_290_ovf;
+  reg  signed [15:0] polar_lyz_290_q;
+  reg  [0:0] polar_lyz_290_ovf_q;
   wire signed [31:0] t291 = cos_283 * sin_286;
   wire polar_out_292_tie = t291[13] & ~(|t291[12:0]);
   wire [18:0] polar_out_292_up = {t291[31], t291[31:14]} + {{18{1'b0}}, t291[13]};
   wire signed [18:0] polar_out_292_r =
       $signed({polar_out_292_up[18:1], polar_out_292_up[0] & ~polar_out_292_tie});
-  wire polar_out_292_ovf_c = ~((&polar_out_292_r[18:15]) | ~(|polar_out_292_r[18:15]));
-  wire signed [15:0] polar_out_292_c =
-      $signed(polar_out_292_ovf_c ? (polar_out_292_r[18] ? 16'h8000 : 16'h7fff)
+  wire polar_out_292_ovf_d = ~((&polar_out_292_r[18:15]) | ~(|polar_out_292_r[18:15]));
+  wire signed [15:0] polar_out_292_d =
+      $signed(polar_out_292_ovf_d ? (polar_out_292_r[18] ? 16'h8000 : 16'h7fff)
       : polar_out_292_r[15:0]);
-  reg  signed [15:0] polar_out_292;
-  reg  [0:0] polar_out_292_ovf;
+  reg  signed [15:0] polar_out_292_q;
+  reg  [0:0] polar_out_292_ovf_q;
   wire signed [31:0] t293 = sin_284 * cos_287;
-  reg  signed [15:0] polar_lyz_290_s21;
-  reg  signed [15:0] polar_lyz_290_s22;
-  reg  signed [15:0] polar_lyz_290_s23;
-  reg  signed [15:0] polar_lyz_290_s24;
-  reg  signed [15:0] polar_lyz_290_s25;
-  reg  signed [15:0] polar_lyz_290_s26;
-  reg  signed [15:0] polar_lyz_290_s27;
-  reg  signed [15:0] polar_lyz_290_s28;
-  reg  signed [15:0] polar_lyz_290_s29;
-  reg  signed [15:0] polar_lyz_290_s30;
-  reg  signed [15:0] polar_lyz_290_s31;
-  wire signed [31:0] t294 = polar_lyz_290_s31 * sin_288;
+  reg  signed [15:0] polar_lyz_290_s21_q;
+  reg  signed [15:0] polar_lyz_290_s22_q;
+  reg  signed [15:0] polar_lyz_290_s23_q;
+  reg  signed [15:0] polar_lyz_290_s24_q;
+  reg  signed [15:0] polar_lyz_290_s25_q;
+  reg  signed [15:0] polar_lyz_290_s26_q;
+  reg  signed [15:0] polar_lyz_290_s27_q;
+  reg  signed [15:0] polar_lyz_290_s28_q;
+  reg  signed [15:0] polar_lyz_290_s29_q;
+  reg  signed [15:0] polar_lyz_290_s30_q;
+  reg  signed [15:0] polar_lyz_290_s31_q;
+  wire signed [31:0] t294 = polar_lyz_290_s31_q * sin_288;
   wire signed [32:0] t295 = $signed({t293[31], t293} - {t294[31], t294});
   wire polar_out_296_tie = t295[13] & ~(|t295[12:0]);
   wire [19:0] polar_out_296_up = {t295[32], t295[32:14]} + {{19{1'b0}}, t295[13]};
   wire signed [19:0] polar_out_296_r =
       $signed({polar_out_296_up[19:1], polar_out_296_up[0] & ~polar_out_296_tie});
-  wire polar_out_296_ovf_c = ~((&polar_out_296_r[19:15]) | ~(|polar_out_296_r[19:15]));
-  wire signed [15:0] polar_out_296_c =
-      $signed(polar_out_296_ovf_c ? (polar_out_296_r[19] ? 16'h8000 : 16'h7fff)
+  wire polar_out_296_ovf_d = ~((&polar_out_296_r[19:15]) | ~(|polar_out_296_r[19:15]));
+  wire signed [15:0] polar_out_296_d =
+      $signed(polar_out_296_ovf_d ? (polar_out_296_r[19] ? 16'h8000 : 16'h7fff)
       : polar_out_296_r[15:0]);
-  reg  signed [15:0] polar_out_296;
-  reg  [0:0] polar_out_296_ovf;
-  wire signed [31:0] t297 = polar_lyz_290_s31 * cos_287;
+  reg  signed [15:0] polar_out_296_q;
+  reg  [0:0] polar_out_296_ovf_q;
+  wire signed [31:0] t297 = polar_lyz_290_s31_q * cos_287;
   wire signed [31:0] t298 = sin_284 * sin_288;
   wire signed [32:0] t299 = $signed({t298[31], t298} + {t297[31], t297});
   wire polar_out_300_tie = t299[13] & ~(|t299[12:0]);
   wire [19:0] polar_out_300_up = {t299[32], t299[32:14]} + {{19{1'b0}}, t299[13]};
   wire signed [19:0] polar_out_300_r =
       $signed({polar_out_300_up[19:1], polar_out_300_up[0] & ~polar_out_300_tie});
-  wire polar_out_300_ovf_c = ~((&polar_out_300_r[19:15]) | ~(|polar_out_300_r[19:15]));
-  wire signed [15:0] polar_out_300_c =
-      $signed(polar_out_300_ovf_c ? (polar_out_300_r[19] ? 16'h8000 : 16'h7fff)
+  wire polar_out_300_ovf_d = ~((&polar_out_300_r[19:15]) | ~(|polar_out_300_r[19:15]));
+  wire signed [15:0] polar_out_300_d =
+      $signed(polar_out_300_ovf_d ? (polar_out_300_r[19] ? 16'h8000 : 16'h7fff)
       : polar_out_300_r[15:0]);
-  reg  signed [15:0] polar_out_300;
-  reg  [0:0] polar_out_300_ovf;
-  wire lighting_light_301_ovf_c = 1'b0;
-  wire signed [15:0] lighting_light_301_c =
-      $signed(lighting_light_301_ovf_c ? (polar_out_270[15] ? 16'h8000 : 16'h7fff)
-      : polar_out_270[15:0]);
-  reg  signed [15:0] lighting_light_301;
-  reg  [0:0] lighting_light_301_ovf;
-  wire lighting_light_302_ovf_c = 1'b0;
-  wire signed [15:0] lighting_light_302_c =
-      $signed(lighting_light_302_ovf_c ? (polar_out_274[15] ? 16'h8000 : 16'h7fff)
-      : polar_out_274[15:0]);
-  reg  signed [15:0] lighting_light_302;
-  reg  [0:0] lighting_light_302_ovf;
-  wire lighting_light_303_ovf_c = 1'b0;
-  wire signed [15:0] lighting_light_303_c =
-      $signed(lighting_light_303_ovf_c ? (polar_out_278[15] ? 16'h8000 : 16'h7fff)
-      : polar_out_278[15:0]);
-  reg  signed [15:0] lighting_light_303;
-  reg  [0:0] lighting_light_303_ovf;
-  wire lighting_light_304_ovf_c = 1'b0;
-  wire signed [15:0] lighting_light_304_c =
-      $signed(lighting_light_304_ovf_c ? (polar_out_292[15] ? 16'h8000 : 16'h7fff)
-      : polar_out_292[15:0]);
-  reg  signed [15:0] lighting_light_304;
-  reg  [0:0] lighting_light_304_ovf;
-  wire lighting_light_305_ovf_c = 1'b0;
-  wire signed [15:0] lighting_light_305_c =
-      $signed(lighting_light_305_ovf_c ? (polar_out_296[15] ? 16'h8000 : 16'h7fff)
-      : polar_out_296[15:0]);
-  reg  signed [15:0] lighting_light_305;
-  reg  [0:0] lighting_light_305_ovf;
-  wire lighting_light_306_ovf_c = 1'b0;
-  wire signed [15:0] lighting_light_306_c =
-      $signed(lighting_light_306_ovf_c ? (polar_out_300[15] ? 16'h8000 : 16'h7fff)
-      : polar_out_300[15:0]);
-  reg  signed [15:0] lighting_light_306;
-  reg  [0:0] lighting_light_306_ovf;
-  reg  signed [15:0] n_x_i_s1;
-  reg  signed [15:0] n_x_i_s2;
-  reg  signed [15:0] n_x_i_s3;
-  reg  signed [15:0] n_x_i_s4;
-  reg  signed [15:0] n_x_i_s5;
-  reg  signed [15:0] n_x_i_s6;
-  reg  signed [15:0] n_x_i_s7;
-  reg  signed [15:0] n_x_i_s8;
-  reg  signed [15:0] n_x_i_s9;
-  reg  signed [15:0] n_x_i_s10;
-  reg  signed [15:0] n_x_i_s11;
-  reg  signed [15:0] n_x_i_s12;
-  reg  signed [15:0] n_x_i_s13;
-  reg  signed [15:0] n_x_i_s14;
-  reg  signed [15:0] n_x_i_s15;
-  reg  signed [15:0] n_x_i_s16;
-  reg  signed [15:0] n_x_i_s17;
-  reg  signed [15:0] n_x_i_s18;
-  reg  signed [15:0] n_x_i_s19;
-  reg  signed [15:0] n_x_i_s20;
-  reg  signed [15:0] n_x_i_s21;
-  wire signed [31:0] t307 = n_x_i_s21 * lighting_light_301;
-  reg  signed [15:0] n_y_i_s1;
-  reg  signed [15:0] n_y_i_s2;
-  reg  signed [15:0] n_y_i_s3;
-  reg  signed [15:0] n_y_i_s4;
-  reg  signed [15:0] n_y_i_s5;
-  reg  signed [15:0] n_y_i_s6;
-  reg  signed [15:0] n_y_i_s7;
-  reg  signed [15:0] n_y_i_s8;
-  reg  signed [15:0] n_y_i_s9;
-  reg  signed [15:0] n_y_i_s10;
-  reg  signed [15:0] n_y_i_s11;
-  reg  signed [15:0] n_y_i_s12;
-  reg  signed [15:0] n_y_i_s13;
-  reg  signed [15:0] n_y_i_s14;
-  reg  signed [15:0] n_y_i_s15;
-  reg  signed [15:0] n_y_i_s16;
-  reg  signed [15:0] n_y_i_s17;
-  reg  signed [15:0] n_y_i_s18;
-  reg  signed [15:0] n_y_i_s19;
-  reg  signed [15:0] n_y_i_s20;
-  reg  signed [15:0] n_y_i_s21;
-  reg  signed [15:0] n_y_i_s22;
-  reg  signed [15:0] n_y_i_s23;
-  reg  signed [15:0] n_y_i_s24;
-  reg  signed [15:0] n_y_i_s25;
-  reg  signed [15:0] n_y_i_s26;
-  reg  signed [15:0] n_y_i_s27;
-  reg  signed [15:0] n_y_i_s28;
-  reg  signed [15:0] n_y_i_s29;
-  reg  signed [15:0] n_y_i_s30;
-  reg  signed [15:0] n_y_i_s31;
-  reg  signed [15:0] n_y_i_s32;
-  reg  signed [15:0] n_y_i_s33;
-  wire signed [31:0] t308 = n_y_i_s33 * lighting_light_302;
-  reg  signed [15:0] n_z_i_s1;
-  reg  signed [15:0] n_z_i_s2;
-  reg  signed [15:0] n_z_i_s3;
-  reg  signed [15:0] n_z_i_s4;
-  reg  signed [15:0] n_z_i_s5;
-  reg  signed [15:0] n_z_i_s6;
-  reg  signed [15:0] n_z_i_s7;
-  reg  signed [15:0] n_z_i_s8;
-  reg  signed [15:0] n_z_i_s9;
-  reg  signed [15:0] n_z_i_s10;
-  reg  signed [15:0] n_z_i_s11;
-  reg  signed [15:0] n_z_i_s12;
-  reg  signed [15:0] n_z_i_s13;
-  reg  signed [15:0] n_z_i_s14;
-  reg  signed [15:0] n_z_i_s15;
-  reg  signed [15:0] n_z_i_s16;
-  reg  signed [15:0] n_z_i_s17;
-  reg  signed [15:0] n_z_i_s18;
-  reg  signed [15:0] n_z_i_s19;
-  reg  signed [15:0] n_z_i_s20;
-  reg  signed [15:0] n_z_i_s21;
-  reg  signed [15:0] n_z_i_s22;
-  reg  signed [15:0] n_z_i_s23;
-  reg  signed [15:0] n_z_i_s24;
-  reg  signed [15:0] n_z_i_s25;
-  reg  signed [15:0] n_z_i_s26;
-  reg  signed [15:0] n_z_i_s27;
-  reg  signed [15:0] n_z_i_s28;
-  reg  signed [15:0] n_z_i_s29;
-  reg  signed [15:0] n_z_i_s30;
-  reg  signed [15:0] n_z_i_s31;
-  reg  signed [15:0] n_z_i_s32;
-  reg  signed [15:0] n_z_i_s33;
-  wire signed [31:0] t309 = n_z_i_s33 * lighting_light_303;
-  reg  signed [31:0] t307_s22;
-  reg  signed [31:0] t307_s23;
-  reg  signed [31:0] t307_s24;
-  reg  signed [31:0] t307_s25;
-  reg  signed [31:0] t307_s26;
-  reg  signed [31:0] t307_s27;
-  reg  signed [31:0] t307_s28;
-  reg  signed [31:0] t307_s29;
-  reg  signed [31:0] t307_s30;
-  reg  signed [31:0] t307_s31;
-  reg  signed [31:0] t307_s32;
-  reg  signed [31:0] t307_s33;
-  wire signed [32:0] t310 = $signed({t307_s33[31], t307_s33} + {t308[31], t308});
+  reg  signed [15:0] polar_out_300_q;
+  reg  [0:0] polar_out_300_ovf_q;
+  wire lighting_light_301_ovf_d = 1'b0;
+  wire signed [15:0] lighting_light_301_d =
+      $signed(lighting_light_301_ovf_d ? (polar_out_270_q[15] ? 16'h8000 : 16'h7fff)
+      : polar_out_270_q[15:0]);
+  reg  signed [15:0] lighting_light_301_q;
+  reg  [0:0] lighting_light_301_ovf_q;
+  wire lighting_light_302_ovf_d = 1'b0;
+  wire signed [15:0] lighting_light_302_d =
+      $signed(lighting_light_302_ovf_d ? (polar_out_274_q[15] ? 16'h8000 : 16'h7fff)
+      : polar_out_274_q[15:0]);
+  reg  signed [15:0] lighting_light_302_q;
+  reg  [0:0] lighting_light_302_ovf_q;
+  wire lighting_light_303_ovf_d = 1'b0;
+  wire signed [15:0] lighting_light_303_d =
+      $signed(lighting_light_303_ovf_d ? (polar_out_278_q[15] ? 16'h8000 : 16'h7fff)
+      : polar_out_278_q[15:0]);
+  reg  signed [15:0] lighting_light_303_q;
+  reg  [0:0] lighting_light_303_ovf_q;
+  wire lighting_light_304_ovf_d = 1'b0;
+  wire signed [15:0] lighting_light_304_d =
+      $signed(lighting_light_304_ovf_d ? (polar_out_292_q[15] ? 16'h8000 : 16'h7fff)
+      : polar_out_292_q[15:0]);
+  reg  signed [15:0] lighting_light_304_q;
+  reg  [0:0] lighting_light_304_ovf_q;
+  wire lighting_light_305_ovf_d = 1'b0;
+  wire signed [15:0] lighting_light_305_d =
+      $signed(lighting_light_305_ovf_d ? (polar_out_296_q[15] ? 16'h8000 : 16'h7fff)
+      : polar_out_296_q[15:0]);
+  reg  signed [15:0] lighting_light_305_q;
+  reg  [0:0] lighting_light_305_ovf_q;
+  wire lighting_light_306_ovf_d = 1'b0;
+  wire signed [15:0] lighting_light_306_d =
+      $signed(lighting_light_306_ovf_d ? (polar_out_300_q[15] ? 16'h8000 : 16'h7fff)
+      : polar_out_300_q[15:0]);
+  reg  signed [15:0] lighting_light_306_q;
+  reg  [0:0] lighting_light_306_ovf_q;
+  reg  signed [15:0] n_x_i_s1_q;
+  reg  signed [15:0] n_x_i_s2_q;
+  reg  signed [15:0] n_x_i_s3_q;
+  reg  signed [15:0] n_x_i_s4_q;
+  reg  signed [15:0] n_x_i_s5_q;
+  reg  signed [15:0] n_x_i_s6_q;
+  reg  signed [15:0] n_x_i_s7_q;
+  reg  signed [15:0] n_x_i_s8_q;
+  reg  signed [15:0] n_x_i_s9_q;
+  reg  signed [15:0] n_x_i_s10_q;
+  reg  signed [15:0] n_x_i_s11_q;
+  reg  signed [15:0] n_x_i_s12_q;
+  reg  signed [15:0] n_x_i_s13_q;
+  reg  signed [15:0] n_x_i_s14_q;
+  reg  signed [15:0] n_x_i_s15_q;
+  reg  signed [15:0] n_x_i_s16_q;
+  reg  signed [15:0] n_x_i_s17_q;
+  reg  signed [15:0] n_x_i_s18_q;
+  reg  signed [15:0] n_x_i_s19_q;
+  reg  signed [15:0] n_x_i_s20_q;
+  reg  signed [15:0] n_x_i_s21_q;
+  wire signed [31:0] t307 = n_x_i_s21_q * lighting_light_301_q;
+  reg  signed [15:0] n_y_i_s1_q;
+  reg  signed [15:0] n_y_i_s2_q;
+  reg  signed [15:0] n_y_i_s3_q;
+  reg  signed [15:0] n_y_i_s4_q;
+  reg  signed [15:0] n_y_i_s5_q;
+  reg  signed [15:0] n_y_i_s6_q;
+  reg  signed [15:0] n_y_i_s7_q;
+  reg  signed [15:0] n_y_i_s8_q;
+  reg  signed [15:0] n_y_i_s9_q;
+  reg  signed [15:0] n_y_i_s10_q;
+  reg  signed [15:0] n_y_i_s11_q;
+  reg  signed [15:0] n_y_i_s12_q;
+  reg  signed [15:0] n_y_i_s13_q;
+  reg  signed [15:0] n_y_i_s14_q;
+  reg  signed [15:0] n_y_i_s15_q;
+  reg  signed [15:0] n_y_i_s16_q;
+  reg  signed [15:0] n_y_i_s17_q;
+  reg  signed [15:0] n_y_i_s18_q;
+  reg  signed [15:0] n_y_i_s19_q;
+  reg  signed [15:0] n_y_i_s20_q;
+  reg  signed [15:0] n_y_i_s21_q;
+  reg  signed [15:0] n_y_i_s22_q;
+  reg  signed [15:0] n_y_i_s23_q;
+  reg  signed [15:0] n_y_i_s24_q;
+  reg  signed [15:0] n_y_i_s25_q;
+  reg  signed [15:0] n_y_i_s26_q;
+  reg  signed [15:0] n_y_i_s27_q;
+  reg  signed [15:0] n_y_i_s28_q;
+  reg  signed [15:0] n_y_i_s29_q;
+  reg  signed [15:0] n_y_i_s30_q;
+  reg  signed [15:0] n_y_i_s31_q;
+  reg  signed [15:0] n_y_i_s32_q;
+  reg  signed [15:0] n_y_i_s33_q;
+  wire signed [31:0] t308 = n_y_i_s33_q * lighting_light_302_q;
+  reg  signed [15:0] n_z_i_s1_q;
+  reg  signed [15:0] n_z_i_s2_q;
+  reg  signed [15:0] n_z_i_s3_q;
+  reg  signed [15:0] n_z_i_s4_q;
+  reg  signed [15:0] n_z_i_s5_q;
+  reg  signed [15:0] n_z_i_s6_q;
+  reg  signed [15:0] n_z_i_s7_q;
+  reg  signed [15:0] n_z_i_s8_q;
+  reg  signed [15:0] n_z_i_s9_q;
+  reg  signed [15:0] n_z_i_s10_q;
+  reg  signed [15:0] n_z_i_s11_q;
+  reg  signed [15:0] n_z_i_s12_q;
+  reg  signed [15:0] n_z_i_s13_q;
+  reg  signed [15:0] n_z_i_s14_q;
+  reg  signed [15:0] n_z_i_s15_q;
+  reg  signed [15:0] n_z_i_s16_q;
+  reg  signed [15:0] n_z_i_s17_q;
+  reg  signed [15:0] n_z_i_s18_q;
+  reg  signed [15:0] n_z_i_s19_q;
+  reg  signed [15:0] n_z_i_s20_q;
+  reg  signed [15:0] n_z_i_s21_q;
+  reg  signed [15:0] n_z_i_s22_q;
+  reg  signed [15:0] n_z_i_s23_q;
+  reg  signed [15:0] n_z_i_s24_q;
+  reg  signed [15:0] n_z_i_s25_q;
+  reg  signed [15:0] n_z_i_s26_q;
+  reg  signed [15:0] n_z_i_s27_q;
+  reg  signed [15:0] n_z_i_s28_q;
+  reg  signed [15:0] n_z_i_s29_q;
+  reg  signed [15:0] n_z_i_s30_q;
+  reg  signed [15:0] n_z_i_s31_q;
+  reg  signed [15:0] n_z_i_s32_q;
+  reg  signed [15:0] n_z_i_s33_q;
+  wire signed [31:0] t309 = n_z_i_s33_q * lighting_light_303_q;
+  reg  signed [31:0] t307_s22_q;
+  reg  signed [31:0] t307_s23_q;
+  reg  signed [31:0] t307_s24_q;
+  reg  signed [31:0] t307_s25_q;
+  reg  signed [31:0] t307_s26_q;
+  reg  signed [31:0] t307_s27_q;
+  reg  signed [31:0] t307_s28_q;
+  reg  signed [31:0] t307_s29_q;
+  reg  signed [31:0] t307_s30_q;
+  reg  signed [31:0] t307_s31_q;
+  reg  signed [31:0] t307_s32_q;
+  reg  signed [31:0] t307_s33_q;
+  wire signed [32:0] t310 = $signed({t307_s33_q[31], t307_s33_q} + {t308[31], t308});
   wire signed [33:0] t311 = $signed({t310[32], t310} + {{2{t309[31]}}, t309});
   wire lighting_dot_312_tie = t311[13] & ~(|t311[12:0]);
   wire [20:0] lighting_dot_312_up = {t311[33], t311[33:14]} + {{20{1'b0}}, t311[13]};
   wire signed [20:0] lighting_dot_312_r =
       $signed({lighting_dot_312_up[20:1], lighting_dot_312_up[0] & ~lighting_dot_312_tie});
-  wire lighting_dot_312_ovf_c = ~((&lighting_dot_312_r[20:15]) | ~(|lighting_dot_312_r[20:15]));
-  wire signed [15:0] lighting_dot_312_c =
-      $signed(lighting_dot_312_ovf_c ? (lighting_dot_312_r[20] ? 16'h8000 : 16'h7fff)
+  wire lighting_dot_312_ovf_d = ~((&lighting_dot_312_r[20:15]) | ~(|lighting_dot_312_r[20:15]));
+  wire signed [15:0] lighting_dot_312_d =
+      $signed(lighting_dot_312_ovf_d ? (lighting_dot_312_r[20] ? 16'h8000 : 16'h7fff)
       : lighting_dot_312_r[15:0]);
-  reg  signed [15:0] lighting_dot_312;
-  reg  [0:0] lighting_dot_312_ovf;
-  wire signed [15:0] t313_a = $signed(lighting_dot_312);
+  reg  signed [15:0] lighting_dot_312_q;
+  reg  [0:0] lighting_dot_312_ovf_q;
+  wire signed [15:0] t313_a = $signed(lighting_dot_312_q);
   wire signed [15:0] t313_b = $signed(K45);
   wire signed [15:0] t313 = (t313_a > t313_b) ? t313_a : t313_b;
-  wire signed [31:0] t314 = n_x_i_s21 * lighting_light_304;
-  wire signed [31:0] t315 = n_y_i_s33 * lighting_light_305;
-  wire signed [31:0] t316 = n_z_i_s33 * lighting_light_306;
-  reg  signed [31:0] t314_s22;
-  reg  signed [31:0] t314_s23;
-  reg  signed [31:0] t314_s24;
-  reg  signed [31:0] t314_s25;
-  reg  signed [31:0] t314_s26;
-  reg  signed [31:0] t314_s27;
-  reg  signed [31:0] t314_s28;
-  reg  signed [31:0] t314_s29;
-  reg  signed [31:0] t314_s30;
-  reg  signed [31:0] t314_s31;
-  reg  signed [31:0] t314_s32;
-  reg  signed [31:0] t314_s33;
-  wire signed [32:0] t317 = $signed({t314_s33[31], t314_s33} + {t315[31], t315});
+  wire signed [31:0] t314 = n_x_i_s21_q * lighting_light_304_q;
+  wire signed [31:0] t315 = n_y_i_s33_q * lighting_light_305_q;
+  wire signed [31:0] t316 = n_z_i_s33_q * lighting_light_306_q;
+  reg  signed [31:0] t314_s22_q;
+  reg  signed [31:0] t314_s23_q;
+  reg  signed [31:0] t314_s24_q;
+  reg  signed [31:0] t314_s25_q;
+  reg  signed [31:0] t314_s26_q;
+  reg  signed [31:0] t314_s27_q;
+  reg  signed [31:0] t314_s28_q;
+  reg  signed [31:0] t314_s29_q;
+  reg  signed [31:0] t314_s30_q;
+  reg  signed [31:0] t314_s31_q;
+  reg  signed [31:0] t314_s32_q;
+  reg  signed [31:0] t314_s33_q;
+  wire signed [32:0] t317 = $signed({t314_s33_q[31], t314_s33_q} + {t315[31], t315});
   wire signed [33:0] t318 = $signed({t317[32], t317} + {{2{t316[31]}}, t316});
   wire lighting_dot_319_tie = t318[13] & ~(|t318[12:0]);
   wire [20:0] lighting_dot_319_up = {t318[33], t318[33:14]} + {{20{1'b0}}, t318[13]};
   wire signed [20:0] lighting_dot_319_r =
       $signed({lighting_dot_319_up[20:1], lighting_dot_319_up[0] & ~lighting_dot_319_tie});
-  wire lighting_dot_319_ovf_c = ~((&lighting_dot_319_r[20:15]) | ~(|lighting_dot_319_r[20:15]));
-  wire signed [15:0] lighting_dot_319_c =
-      $signed(lighting_dot_319_ovf_c ? (lighting_dot_319_r[20] ? 16'h8000 : 16'h7fff)
+  wire lighting_dot_319_ovf_d = ~((&lighting_dot_319_r[20:15]) | ~(|lighting_dot_319_r[20:15]));
+  wire signed [15:0] lighting_dot_319_d =
+      $signed(lighting_dot_319_ovf_d ? (lighting_dot_319_r[20] ? 16'h8000 : 16'h7fff)
       : lighting_dot_319_r[15:0]);
-  reg  signed [15:0] lighting_dot_319;
-  reg  [0:0] lighting_dot_319_ovf;
-  wire signed [15:0] t320_a = $signed(lighting_dot_319);
+  reg  signed [15:0] lighting_dot_319_q;
+  reg  [0:0] lighting_dot_319_ovf_q;
+  wire signed [15:0] t320_a = $signed(lighting_dot_319_q);
   wire signed [15:0] t320_b = $signed(K45);
   wire signed [15:0] t320 = (t320_a > t320_b) ? t320_a : t320_b;
   wire signed [18:0] lighting_spec_321_r = $signed({t320, 3'b0});
-  wire lighting_spec_321_ovf_c = lighting_spec_321_r[18];
-  wire [17:0] lighting_spec_321_c =
-      lighting_spec_321_ovf_c ? (lighting_spec_321_r[18] ? 18'h0 : 18'h3ffff)
+  wire lighting_spec_321_ovf_d = lighting_spec_321_r[18];
+  wire [17:0] lighting_spec_321_d =
+      lighting_spec_321_ovf_d ? (lighting_spec_321_r[18] ? 18'h0 : 18'h3ffff)
       : lighting_spec_321_r[17:0];
-  reg  [17:0] lighting_spec_321;
-  reg  [0:0] lighting_spec_321_ovf;
-  wire [35:0] t322 = lighting_spec_321 * lighting_spec_321;
+  reg  [17:0] lighting_spec_321_q;
+  reg  [0:0] lighting_spec_321_ovf_q;
+  wire [35:0] t322 = lighting_spec_321_q * lighting_spec_321_q;
   wire lighting_spec_323_tie = t322[16] & ~(|t322[15:0]);
   wire [19:0] lighting_spec_323_up = {1'b0, t322[35:17]} + {{19{1'b0}}, t322[16]};
   wire [19:0] lighting_spec_323_r =
       {lighting_spec_323_up[19:1], lighting_spec_323_up[0] & ~lighting_spec_323_tie};
-  wire lighting_spec_323_ovf_c = |lighting_spec_323_r[19:18];
-  wire [17:0] lighting_spec_323_c = lighting_spec_323_ovf_c ? 18'h3ffff : lighting_spec_323_r[17:0];
-  reg  [17:0] lighting_spec_323;
-  reg  [0:0] lighting_spec_323_ovf;
-  wire [35:0] t324 = lighting_spec_323 * lighting_spec_323;
+  wire lighting_spec_323_ovf_d = |lighting_spec_323_r[19:18];
+  wire [17:0] lighting_spec_323_d = lighting_spec_323_ovf_d ? 18'h3ffff : lighting_spec_323_r[17:0];
+  reg  [17:0] lighting_spec_323_q;
+  reg  [0:0] lighting_spec_323_ovf_q;
+  wire [35:0] t324 = lighting_spec_323_q * lighting_spec_323_q;
   wire lighting_spec_325_tie = t324[16] & ~(|t324[15:0]);
   wire [19:0] lighting_spec_325_up = {1'b0, t324[35:17]} + {{19{1'b0}}, t324[16]};
   wire [19:0] lighting_spec_325_r =
       {lighting_spec_325_up[19:1], lighting_spec_325_up[0] & ~lighting_spec_325_tie};
-  wire lighting_spec_325_ovf_c = |lighting_spec_325_r[19:18];
-  wire [17:0] lighting_spec_325_c = lighting_spec_325_ovf_c ? 18'h3ffff : lighting_spec_325_r[17:0];
-  reg  [17:0] lighting_spec_325;
-  reg  [0:0] lighting_spec_325_ovf;
-  wire [35:0] t326 = lighting_spec_325 * lighting_spec_325;
+  wire lighting_spec_325_ovf_d = |lighting_spec_325_r[19:18];
+  wire [17:0] lighting_spec_325_d = lighting_spec_325_ovf_d ? 18'h3ffff : lighting_spec_325_r[17:0];
+  reg  [17:0] lighting_spec_325_q;
+  reg  [0:0] lighting_spec_325_ovf_q;
+  wire [35:0] t326 = lighting_spec_325_q * lighting_spec_325_q;
   wire lighting_spec_327_tie = t326[16] & ~(|t326[15:0]);
   wire [19:0] lighting_spec_327_up = {1'b0, t326[35:17]} + {{19{1'b0}}, t326[16]};
   wire [19:0] lighting_spec_327_r =
       {lighting_spec_327_up[19:1], lighting_spec_327_up[0] & ~lighting_spec_327_tie};
-  wire lighting_spec_327_ovf_c = |lighting_spec_327_r[19:18];
-  wire [17:0] lighting_spec_327_c = lighting_spec_327_ovf_c ? 18'h3ffff : lighting_spec_327_r[17:0];
-  reg  [17:0] lighting_spec_327;
-  reg  [0:0] lighting_spec_327_ovf;
-  wire [35:0] t328 = lighting_spec_327 * lighting_spec_327;
+  wire lighting_spec_327_ovf_d = |lighting_spec_327_r[19:18];
+  wire [17:0] lighting_spec_327_d = lighting_spec_327_ovf_d ? 18'h3ffff : lighting_spec_327_r[17:0];
+  reg  [17:0] lighting_spec_327_q;
+  reg  [0:0] lighting_spec_327_ovf_q;
+  wire [35:0] t328 = lighting_spec_327_q * lighting_spec_327_q;
   wire lighting_spec_329_tie = t328[16] & ~(|t328[15:0]);
   wire [19:0] lighting_spec_329_up = {1'b0, t328[35:17]} + {{19{1'b0}}, t328[16]};
   wire [19:0] lighting_spec_329_r =
       {lighting_spec_329_up[19:1], lighting_spec_329_up[0] & ~lighting_spec_329_tie};
-  wire lighting_spec_329_ovf_c = |lighting_spec_329_r[19:18];
-  wire [17:0] lighting_spec_329_c = lighting_spec_329_ovf_c ? 18'h3ffff : lighting_spec_329_r[17:0];
-  reg  [17:0] lighting_spec_329;
-  reg  [0:0] lighting_spec_329_ovf;
+  wire lighting_spec_329_ovf_d = |lighting_spec_329_r[19:18];
+  wire [17:0] lighting_spec_329_d = lighting_spec_329_ovf_d ? 18'h3ffff : lighting_spec_329_r[17:0];
+  reg  [17:0] lighting_spec_329_q;
+  reg  [0:0] lighting_spec_329_ovf_q;
   wire signed [16:0] t330_b = $signed({1'b0, K43});
   wire signed [31:0] t330 = t313 * t330_b;
-  wire [33:0] t331 = lighting_spec_329 * K44;
-  reg  signed [31:0] t330_s35;
-  reg  signed [31:0] t330_s36;
-  reg  signed [31:0] t330_s37;
-  reg  signed [31:0] t330_s38;
-  reg  signed [31:0] t330_s39;
-  wire signed [35:0] t332 = $signed({{2{1'b0}}, t331} + {t330_s39[31], t330_s39, 3'b0});
+  wire [33:0] t331 = lighting_spec_329_q * K44;
+  reg  signed [31:0] t330_s35_q;
+  reg  signed [31:0] t330_s36_q;
+  reg  signed [31:0] t330_s37_q;
+  reg  signed [31:0] t330_s38_q;
+  reg  signed [31:0] t330_s39_q;
+  wire signed [35:0] t332 = $signed({{2{1'b0}}, t331} + {t330_s39_q[31], t330_s39_q, 3'b0});
   wire lighting_level_333_tie = t332[24] & ~(|t332[23:0]);
   wire [11:0] lighting_level_333_up = {t332[35], t332[35:25]} + {{11{1'b0}}, t332[24]};
   wire signed [11:0] lighting_level_333_r =
       $signed({lighting_level_333_up[11:1], lighting_level_333_up[0] & ~lighting_level_333_tie});
-  wire lighting_level_333_ovf_c = lighting_level_333_r[11] | (|lighting_level_333_r[10:8]);
-  wire [7:0] lighting_level_333_c =
-      lighting_level_333_ovf_c ? (lighting_level_333_r[11] ? 8'h0 : 8'hff)
+  wire lighting_level_333_ovf_d = lighting_level_333_r[11] | (|lighting_level_333_r[10:8]);
+  wire [7:0] lighting_level_333_d =
+      lighting_level_333_ovf_d ? (lighting_level_333_r[11] ? 8'h0 : 8'hff)
       : lighting_level_333_r[7:0];
-  reg  [7:0] lighting_level_333;
-  reg  [0:0] lighting_level_333_ovf;
-  reg  [0:0] interp_weight_50_ovf_s2;
-  reg  [0:0] interp_weight_53_ovf_s2;
-  reg  [0:0] interp_weight_56_ovf_s2;
-  reg  [0:0] interp_weight_58_ovf_s2;
-  reg  [0:0] interp_weight_60_ovf_s2;
-  reg  [0:0] interp_weight_62_ovf_s2;
+  reg  [7:0] lighting_level_333_q;
+  reg  [0:0] lighting_level_333_ovf_q;
+  reg  [0:0] interp_weight_50_ovf_s2_q;
+  reg  [0:0] interp_weight_53_ovf_s2_q;
+  reg  [0:0] interp_weight_56_ovf_s2_q;
+  reg  [0:0] interp_weight_58_ovf_s2_q;
+  reg  [0:0] interp_weight_60_ovf_s2_q;
+  reg  [0:0] interp_weight_62_ovf_s2_q;
   wire ovf0_or_s2 =
-      interp_weight_50_ovf_s2 | interp_weight_53_ovf_s2 | interp_weight_56_ovf_s2
-          | interp_weight_58_ovf_s2
-      | interp_weight_60_ovf_s2 | interp_weight_62_ovf_s2;
-  reg  [0:0] ovf0_s3;
-  reg  [0:0] ovf0_s4;
-  reg  [0:0] ovf0_s5;
-  reg  [0:0] ovf0_s6;
-  reg  [0:0] ovf0_s7;
-  reg  [0:0] ovf0_s8;
-  reg  [0:0] ovf0_s9;
-  reg  [0:0] ovf0_s10;
-  reg  [0:0] ovf0_s11;
-  reg  [0:0] ovf0_s12;
-  reg  [0:0] ovf0_s13;
-  reg  [0:0] ovf0_s14;
-  reg  [0:0] ovf0_s15;
-  reg  [0:0] ovf0_s16;
-  reg  [0:0] ovf0_s17;
-  reg  [0:0] ovf0_s18;
-  reg  [0:0] ovf0_s19;
-  reg  [0:0] ovf0_s20;
-  reg  [0:0] ovf0_s21;
-  reg  [0:0] ovf0_s22;
-  reg  [0:0] ovf0_s23;
-  reg  [0:0] ovf0_s24;
-  reg  [0:0] ovf0_s25;
-  reg  [0:0] ovf0_s26;
-  reg  [0:0] ovf0_s27;
-  reg  [0:0] ovf0_s28;
-  reg  [0:0] ovf0_s29;
-  reg  [0:0] ovf0_s30;
-  reg  [0:0] ovf0_s31;
-  reg  [0:0] ovf0_s32;
-  reg  [0:0] ovf0_s33;
-  reg  [0:0] ovf0_s34;
-  reg  [0:0] ovf0_s35;
-  reg  [0:0] ovf0_s36;
-  reg  [0:0] ovf0_s37;
-  reg  [0:0] ovf0_s38;
-  reg  [0:0] ovf0_s39;
-  reg  [0:0] ovf0_s40;
-  reg  [0:0] interp_out_74_ovf_s3;
-  reg  [0:0] interp_out_86_ovf_s3;
-  reg  [0:0] interp_out_98_ovf_s3;
+      interp_weight_50_ovf_s2_q | interp_weight_53_ovf_s2_q | interp_weight_56_ovf_s2_q
+          | interp_weight_58_ovf_s2_q
+      | interp_weight_60_ovf_s2_q | interp_weight_62_ovf_s2_q;
+  reg  [0:0] ovf0_s3_q;
+  reg  [0:0] ovf0_s4_q;
+  reg  [0:0] ovf0_s5_q;
+  reg  [0:0] ovf0_s6_q;
+  reg  [0:0] ovf0_s7_q;
+  reg  [0:0] ovf0_s8_q;
+  reg  [0:0] ovf0_s9_q;
+  reg  [0:0] ovf0_s10_q;
+  reg  [0:0] ovf0_s11_q;
+  reg  [0:0] ovf0_s12_q;
+  reg  [0:0] ovf0_s13_q;
+  reg  [0:0] ovf0_s14_q;
+  reg  [0:0] ovf0_s15_q;
+  reg  [0:0] ovf0_s16_q;
+  reg  [0:0] ovf0_s17_q;
+  reg  [0:0] ovf0_s18_q;
+  reg  [0:0] ovf0_s19_q;
+  reg  [0:0] ovf0_s20_q;
+  reg  [0:0] ovf0_s21_q;
+  reg  [0:0] ovf0_s22_q;
+  reg  [0:0] ovf0_s23_q;
+  reg  [0:0] ovf0_s24_q;
+  reg  [0:0] ovf0_s25_q;
+  reg  [0:0] ovf0_s26_q;
+  reg  [0:0] ovf0_s27_q;
+  reg  [0:0] ovf0_s28_q;
+  reg  [0:0] ovf0_s29_q;
+  reg  [0:0] ovf0_s30_q;
+  reg  [0:0] ovf0_s31_q;
+  reg  [0:0] ovf0_s32_q;
+  reg  [0:0] ovf0_s33_q;
+  reg  [0:0] ovf0_s34_q;
+  reg  [0:0] ovf0_s35_q;
+  reg  [0:0] ovf0_s36_q;
+  reg  [0:0] ovf0_s37_q;
+  reg  [0:0] ovf0_s38_q;
+  reg  [0:0] ovf0_s39_q;
+  reg  [0:0] ovf0_s40_q;
+  reg  [0:0] interp_out_74_ovf_s3_q;
+  reg  [0:0] interp_out_86_ovf_s3_q;
+  reg  [0:0] interp_out_98_ovf_s3_q;
   wire ovf1_or_s3 =
-      interp_out_74_ovf_s3 | interp_out_86_ovf_s3 | interp_out_98_ovf_s3;
-  reg  [0:0] ovf1_s4;
-  reg  [0:0] ovf1_s5;
-  reg  [0:0] ovf1_s6;
-  reg  [0:0] ovf1_s7;
-  reg  [0:0] ovf1_s8;
-  reg  [0:0] ovf1_s9;
-  reg  [0:0] ovf1_s10;
-  reg  [0:0] ovf1_s11;
-  reg  [0:0] ovf1_s12;
-  reg  [0:0] ovf1_s13;
-  reg  [0:0] ovf1_s14;
-  reg  [0:0] ovf1_s15;
-  reg  [0:0] ovf1_s16;
-  reg  [0:0] ovf1_s17;
-  reg  [0:0] ovf1_s18;
-  reg  [0:0] ovf1_s19;
-  reg  [0:0] ovf1_s20;
-  reg  [0:0] ovf1_s21;
-  reg  [0:0] ovf1_s22;
-  reg  [0:0] ovf1_s23;
-  reg  [0:0] ovf1_s24;
-  reg  [0:0] ovf1_s25;
-  reg  [0:0] ovf1_s26;
-  reg  [0:0] ovf1_s27;
-  reg  [0:0] ovf1_s28;
-  reg  [0:0] ovf1_s29;
-  reg  [0:0] ovf1_s30;
-  reg  [0:0] ovf1_s31;
-  reg  [0:0] ovf1_s32;
-  reg  [0:0] ovf1_s33;
-  reg  [0:0] ovf1_s34;
-  reg  [0:0] ovf1_s35;
-  reg  [0:0] ovf1_s36;
-  reg  [0:0] ovf1_s37;
-  reg  [0:0] ovf1_s38;
-  reg  [0:0] ovf1_s39;
-  reg  [0:0] ovf1_s40;
-  reg  [0:0] angles_normal_99_ovf_s4;
-  reg  [0:0] angles_normal_100_ovf_s4;
-  reg  [0:0] angles_normal_101_ovf_s4;
+      interp_out_74_ovf_s3_q | interp_out_86_ovf_s3_q | interp_out_98_ovf_s3_q;
+  reg  [0:0] ovf1_s4_q;
+  reg  [0:0] ovf1_s5_q;
+  reg  [0:0] ovf1_s6_q;
+  reg  [0:0] ovf1_s7_q;
+  reg  [0:0] ovf1_s8_q;
+  reg  [0:0] ovf1_s9_q;
+  reg  [0:0] ovf1_s10_q;
+  reg  [0:0] ovf1_s11_q;
+  reg  [0:0] ovf1_s12_q;
+  reg  [0:0] ovf1_s13_q;
+  reg  [0:0] ovf1_s14_q;
+  reg  [0:0] ovf1_s15_q;
+  reg  [0:0] ovf1_s16_q;
+  reg  [0:0] ovf1_s17_q;
+  reg  [0:0] ovf1_s18_q;
+  reg  [0:0] ovf1_s19_q;
+  reg  [0:0] ovf1_s20_q;
+  reg  [0:0] ovf1_s21_q;
+  reg  [0:0] ovf1_s22_q;
+  reg  [0:0] ovf1_s23_q;
+  reg  [0:0] ovf1_s24_q;
+  reg  [0:0] ovf1_s25_q;
+  reg  [0:0] ovf1_s26_q;
+  reg  [0:0] ovf1_s27_q;
+  reg  [0:0] ovf1_s28_q;
+  reg  [0:0] ovf1_s29_q;
+  reg  [0:0] ovf1_s30_q;
+  reg  [0:0] ovf1_s31_q;
+  reg  [0:0] ovf1_s32_q;
+  reg  [0:0] ovf1_s33_q;
+  reg  [0:0] ovf1_s34_q;
+  reg  [0:0] ovf1_s35_q;
+  reg  [0:0] ovf1_s36_q;
+  reg  [0:0] ovf1_s37_q;
+  reg  [0:0] ovf1_s38_q;
+  reg  [0:0] ovf1_s39_q;
+  reg  [0:0] ovf1_s40_q;
+  reg  [0:0] angles_normal_99_ovf_s4_q;
+  reg  [0:0] angles_normal_100_ovf_s4_q;
+  reg  [0:0] angles_normal_101_ovf_s4_q;
   wire ovf2_or_s4 =
-      angles_normal_99_ovf_s4 | angles_normal_100_ovf_s4 | angles_normal_101_ovf_s4;
-  reg  [0:0] ovf2_s5;
-  reg  [0:0] ovf2_s6;
-  reg  [0:0] ovf2_s7;
-  reg  [0:0] ovf2_s8;
-  reg  [0:0] ovf2_s9;
-  reg  [0:0] ovf2_s10;
-  reg  [0:0] ovf2_s11;
-  reg  [0:0] ovf2_s12;
-  reg  [0:0] ovf2_s13;
-  reg  [0:0] ovf2_s14;
-  reg  [0:0] ovf2_s15;
-  reg  [0:0] ovf2_s16;
-  reg  [0:0] ovf2_s17;
-  reg  [0:0] ovf2_s18;
-  reg  [0:0] ovf2_s19;
-  reg  [0:0] ovf2_s20;
-  reg  [0:0] ovf2_s21;
-  reg  [0:0] ovf2_s22;
-  reg  [0:0] ovf2_s23;
-  reg  [0:0] ovf2_s24;
-  reg  [0:0] ovf2_s25;
-  reg  [0:0] ovf2_s26;
-  reg  [0:0] ovf2_s27;
-  reg  [0:0] ovf2_s28;
-  reg  [0:0] ovf2_s29;
-  reg  [0:0] ovf2_s30;
-  reg  [0:0] ovf2_s31;
-  reg  [0:0] ovf2_s32;
-  reg  [0:0] ovf2_s33;
-  reg  [0:0] ovf2_s34;
-  reg  [0:0] ovf2_s35;
-  reg  [0:0] ovf2_s36;
-  reg  [0:0] ovf2_s37;
-  reg  [0:0] ovf2_s38;
-  reg  [0:0] ovf2_s39;
-  reg  [0:0] ovf2_s40;
-  reg  [0:0] angles_xy_105_ovf_s5;
-  reg  [0:0] angles_xy_106_ovf_s5;
-  reg  [0:0] angles_xy_111_ovf_s6;
-  reg  [0:0] angles_xy_112_ovf_s6;
-  reg  [0:0] angles_xy_117_ovf_s7;
-  reg  [0:0] angles_xy_118_ovf_s7;
-  reg  [0:0] angles_xy_123_ovf_s8;
-  reg  [0:0] angles_xy_124_ovf_s8;
-  reg  [0:0] angles_xy_129_ovf_s9;
-  reg  [0:0] angles_xy_130_ovf_s9;
-  reg  [0:0] angles_xy_135_ovf_s10;
-  reg  [0:0] angles_xy_136_ovf_s10;
-  reg  [0:0] angles_xy_141_ovf_s11;
-  reg  [0:0] angles_xy_142_ovf_s11;
-  reg  [0:0] angles_xy_147_ovf_s12;
-  reg  [0:0] angles_xy_148_ovf_s12;
-  reg  [0:0] angles_xy_153_ovf_s13;
-  reg  [0:0] angles_xy_154_ovf_s13;
-  reg  [0:0] angles_xy_159_ovf_s14;
-  reg  [0:0] angles_xy_160_ovf_s14;
-  reg  [0:0] angles_xy_165_ovf_s15;
-  reg  [0:0] angles_xy_166_ovf_s15;
-  reg  [0:0] angles_xy_171_ovf_s16;
-  reg  [0:0] angles_xy_172_ovf_s16;
-  reg  [0:0] angles_xy_177_ovf_s17;
-  reg  [0:0] angles_xy_181_ovf_s5;
-  reg  [0:0] angles_xy_186_ovf_s18;
-  reg  [0:0] angles_xy_187_ovf_s18;
-  reg  [0:0] angles_xy_192_ovf_s19;
-  reg  [0:0] angles_xy_193_ovf_s19;
-  reg  [0:0] angles_xy_198_ovf_s20;
-  reg  [0:0] angles_xy_199_ovf_s20;
-  reg  [0:0] angles_xy_204_ovf_s21;
-  reg  [0:0] angles_xy_205_ovf_s21;
-  reg  [0:0] angles_xy_210_ovf_s22;
-  reg  [0:0] angles_xy_211_ovf_s22;
-  reg  [0:0] angles_xy_216_ovf_s23;
-  reg  [0:0] angles_xy_217_ovf_s23;
-  reg  [0:0] angles_xy_222_ovf_s24;
-  reg  [0:0] angles_xy_223_ovf_s24;
-  reg  [0:0] angles_xy_228_ovf_s25;
-  reg  [0:0] angles_xy_229_ovf_s25;
-  reg  [0:0] angles_xy_234_ovf_s26;
-  reg  [0:0] angles_xy_235_ovf_s26;
-  reg  [0:0] angles_xy_240_ovf_s27;
-  reg  [0:0] angles_xy_241_ovf_s27;
-  reg  [0:0] angles_xy_247_ovf_s28;
+      angles_normal_99_ovf_s4_q | angles_normal_100_ovf_s4_q | angles_normal_101_ovf_s4_q;
+  reg  [0:0] ovf2_s5_q;
+  reg  [0:0] ovf2_s6_q;
+  reg  [0:0] ovf2_s7_q;
+  reg  [0:0] ovf2_s8_q;
+  reg  [0:0] ovf2_s9_q;
+  reg  [0:0] ovf2_s10_q;
+  reg  [0:0] ovf2_s11_q;
+  reg  [0:0] ovf2_s12_q;
+  reg  [0:0] ovf2_s13_q;
+  reg  [0:0] ovf2_s14_q;
+  reg  [0:0] ovf2_s15_q;
+  reg  [0:0] ovf2_s16_q;
+  reg  [0:0] ovf2_s17_q;
+  reg  [0:0] ovf2_s18_q;
+  reg  [0:0] ovf2_s19_q;
+  reg  [0:0] ovf2_s20_q;
+  reg  [0:0] ovf2_s21_q;
+  reg  [0:0] ovf2_s22_q;
+  reg  [0:0] ovf2_s23_q;
+  reg  [0:0] ovf2_s24_q;
+  reg  [0:0] ovf2_s25_q;
+  reg  [0:0] ovf2_s26_q;
+  reg  [0:0] ovf2_s27_q;
+  reg  [0:0] ovf2_s28_q;
+  reg  [0:0] ovf2_s29_q;
+  reg  [0:0] ovf2_s30_q;
+  reg  [0:0] ovf2_s31_q;
+  reg  [0:0] ovf2_s32_q;
+  reg  [0:0] ovf2_s33_q;
+  reg  [0:0] ovf2_s34_q;
+  reg  [0:0] ovf2_s35_q;
+  reg  [0:0] ovf2_s36_q;
+  reg  [0:0] ovf2_s37_q;
+  reg  [0:0] ovf2_s38_q;
+  reg  [0:0] ovf2_s39_q;
+  reg  [0:0] ovf2_s40_q;
+  reg  [0:0] angles_xy_105_ovf_s5_q;
+  reg  [0:0] angles_xy_106_ovf_s5_q;
+  reg  [0:0] angles_xy_111_ovf_s6_q;
+  reg  [0:0] angles_xy_112_ovf_s6_q;
+  reg  [0:0] angles_xy_117_ovf_s7_q;
+  reg  [0:0] angles_xy_118_ovf_s7_q;
+  reg  [0:0] angles_xy_123_ovf_s8_q;
+  reg  [0:0] angles_xy_124_ovf_s8_q;
+  reg  [0:0] angles_xy_129_ovf_s9_q;
+  reg  [0:0] angles_xy_130_ovf_s9_q;
+  reg  [0:0] angles_xy_135_ovf_s10_q;
+  reg  [0:0] angles_xy_136_ovf_s10_q;
+  reg  [0:0] angles_xy_141_ovf_s11_q;
+  reg  [0:0] angles_xy_142_ovf_s11_q;
+  reg  [0:0] angles_xy_147_ovf_s12_q;
+  reg  [0:0] angles_xy_148_ovf_s12_q;
+  reg  [0:0] angles_xy_153_ovf_s13_q;
+  reg  [0:0] angles_xy_154_ovf_s13_q;
+  reg  [0:0] angles_xy_159_ovf_s14_q;
+  reg  [0:0] angles_xy_160_ovf_s14_q;
+  reg  [0:0] angles_xy_165_ovf_s15_q;
+  reg  [0:0] angles_xy_166_ovf_s15_q;
+  reg  [0:0] angles_xy_171_ovf_s16_q;
+  reg  [0:0] angles_xy_172_ovf_s16_q;
+  reg  [0:0] angles_xy_177_ovf_s17_q;
+  reg  [0:0] angles_xy_181_ovf_s5_q;
+  reg  [0:0] angles_xy_186_ovf_s18_q;
+  reg  [0:0] angles_xy_187_ovf_s18_q;
+  reg  [0:0] angles_xy_192_ovf_s19_q;
+  reg  [0:0] angles_xy_193_ovf_s19_q;
+  reg  [0:0] angles_xy_198_ovf_s20_q;
+  reg  [0:0] angles_xy_199_ovf_s20_q;
+  reg  [0:0] angles_xy_204_ovf_s21_q;
+  reg  [0:0] angles_xy_205_ovf_s21_q;
+  reg  [0:0] angles_xy_210_ovf_s22_q;
+  reg  [0:0] angles_xy_211_ovf_s22_q;
+  reg  [0:0] angles_xy_216_ovf_s23_q;
+  reg  [0:0] angles_xy_217_ovf_s23_q;
+  reg  [0:0] angles_xy_222_ovf_s24_q;
+  reg  [0:0] angles_xy_223_ovf_s24_q;
+  reg  [0:0] angles_xy_228_ovf_s25_q;
+  reg  [0:0] angles_xy_229_ovf_s25_q;
+  reg  [0:0] angles_xy_234_ovf_s26_q;
+  reg  [0:0] angles_xy_235_ovf_s26_q;
+  reg  [0:0] angles_xy_240_ovf_s27_q;
+  reg  [0:0] angles_xy_241_ovf_s27_q;
+  reg  [0:0] angles_xy_247_ovf_s28_q;
   wire ovf3_or_s5 =
-      angles_xy_105_ovf_s5 | angles_xy_106_ovf_s5 | angles_xy_181_ovf_s5;
-  reg  [0:0] ovf3_s6;
+      angles_xy_105_ovf_s5_q | angles_xy_106_ovf_s5_q | angles_xy_181_ovf_s5_q;
+  reg  [0:0] ovf3_s6_q;
   wire ovf3_or_s6 =
-      ovf3_s6 | angles_xy_111_ovf_s6 | angles_xy_112_ovf_s6;
-  reg  [0:0] ovf3_s7;
+      ovf3_s6_q | angles_xy_111_ovf_s6_q | angles_xy_112_ovf_s6_q;
+  reg  [0:0] ovf3_s7_q;
   wire ovf3_or_s7 =
-      ovf3_s7 | angles_xy_117_ovf_s7 | angles_xy_118_ovf_s7;
-  reg  [0:0] ovf3_s8;
+      ovf3_s7_q | angles_xy_117_ovf_s7_q | angles_xy_118_ovf_s7_q;
+  reg  [0:0] ovf3_s8_q;
   wire ovf3_or_s8 =
-      ovf3_s8 | angles_xy_123_ovf_s8 | angles_xy_124_ovf_s8;
-  reg  [0:0] ovf3_s9;
+      ovf3_s8_q | angles_xy_123_ovf_s8_q | angles_xy_124_ovf_s8_q;
+  reg  [0:0] ovf3_s9_q;
   wire ovf3_or_s9 =
-      ovf3_s9 | angles_xy_129_ovf_s9 | angles_xy_130_ovf_s9;
-  reg  [0:0] ovf3_s10;
+      ovf3_s9_q | angles_xy_129_ovf_s9_q | angles_xy_130_ovf_s9_q;
+  reg  [0:0] ovf3_s10_q;
   wire ovf3_or_s10 =
-      ovf3_s10 | angles_xy_135_ovf_s10 | angles_xy_136_ovf_s10;
-  reg  [0:0] ovf3_s11;
+      ovf3_s10_q | angles_xy_135_ovf_s10_q | angles_xy_136_ovf_s10_q;
+  reg  [0:0] ovf3_s11_q;
   wire ovf3_or_s11 =
-      ovf3_s11 | angles_xy_141_ovf_s11 | angles_xy_142_ovf_s11;
-  reg  [0:0] ovf3_s12;
+      ovf3_s11_q | angles_xy_141_ovf_s11_q | angles_xy_142_ovf_s11_q;
+  reg  [0:0] ovf3_s12_q;
   wire ovf3_or_s12 =
-      ovf3_s12 | angles_xy_147_ovf_s12 | angles_xy_148_ovf_s12;
-  reg  [0:0] ovf3_s13;
+      ovf3_s12_q | angles_xy_147_ovf_s12_q | angles_xy_148_ovf_s12_q;
+  reg  [0:0] ovf3_s13_q;
   wire ovf3_or_s13 =
-      ovf3_s13 | angles_xy_153_ovf_s13 | angles_xy_154_ovf_s13;
-  reg  [0:0] ovf3_s14;
+      ovf3_s13_q | angles_xy_153_ovf_s13_q | angles_xy_154_ovf_s13_q;
+  reg  [0:0] ovf3_s14_q;
   wire ovf3_or_s14 =
-      ovf3_s14 | angles_xy_159_ovf_s14 | angles_xy_160_ovf_s14;
-  reg  [0:0] ovf3_s15;
+      ovf3_s14_q | angles_xy_159_ovf_s14_q | angles_xy_160_ovf_s14_q;
+  reg  [0:0] ovf3_s15_q;
   wire ovf3_or_s15 =
-      ovf3_s15 | angles_xy_165_ovf_s15 | angles_xy_166_ovf_s15;
-  reg  [0:0] ovf3_s16;
+      ovf3_s15_q | angles_xy_165_ovf_s15_q | angles_xy_166_ovf_s15_q;
+  reg  [0:0] ovf3_s16_q;
   wire ovf3_or_s16 =
-      ovf3_s16 | angles_xy_171_ovf_s16 | angles_xy_172_ovf_s16;
-  reg  [0:0] ovf3_s17;
+      ovf3_s16_q | angles_xy_171_ovf_s16_q | angles_xy_172_ovf_s16_q;
+  reg  [0:0] ovf3_s17_q;
   wire ovf3_or_s17 =
-      ovf3_s17 | angles_xy_177_ovf_s17;
-  reg  [0:0] ovf3_s18;
+      ovf3_s17_q | angles_xy_177_ovf_s17_q;
+  reg  [0:0] ovf3_s18_q;
   wire ovf3_or_s18 =
-      ovf3_s18 | angles_xy_186_ovf_s18 | angles_xy_187_ovf_s18;
-  reg  [0:0] ovf3_s19;
+      ovf3_s18_q | angles_xy_186_ovf_s18_q | angles_xy_187_ovf_s18_q;
+  reg  [0:0] ovf3_s19_q;
   wire ovf3_or_s19 =
-      ovf3_s19 | angles_xy_192_ovf_s19 | angles_xy_193_ovf_s19;
-  reg  [0:0] ovf3_s20;
+      ovf3_s19_q | angles_xy_192_ovf_s19_q | angles_xy_193_ovf_s19_q;
+  reg  [0:0] ovf3_s20_q;
   wire ovf3_or_s20 =
-      ovf3_s20 | angles_xy_198_ovf_s20 | angles_xy_199_ovf_s20;
-  reg  [0:0] ovf3_s21;
+      ovf3_s20_q | angles_xy_198_ovf_s20_q | angles_xy_199_ovf_s20_q;
+  reg  [0:0] ovf3_s21_q;
   wire ovf3_or_s21 =
-      ovf3_s21 | angles_xy_204_ovf_s21 | angles_xy_205_ovf_s21;
-  reg  [0:0] ovf3_s22;
+      ovf3_s21_q | angles_xy_204_ovf_s21_q | angles_xy_205_ovf_s21_q;
+  reg  [0:0] ovf3_s22_q;
   wire ovf3_or_s22 =
-      ovf3_s22 | angles_xy_210_ovf_s22 | angles_xy_211_ovf_s22;
-  reg  [0:0] ovf3_s23;
+      ovf3_s22_q | angles_xy_210_ovf_s22_q | angles_xy_211_ovf_s22_q;
+  reg  [0:0] ovf3_s23_q;
   wire ovf3_or_s23 =
-      ovf3_s23 | angles_xy_216_ovf_s23 | angles_xy_217_ovf_s23;
-  reg  [0:0] ovf3_s24;
+      ovf3_s23_q | angles_xy_216_ovf_s23_q | angles_xy_217_ovf_s23_q;
+  reg  [0:0] ovf3_s24_q;
   wire ovf3_or_s24 =
-      ovf3_s24 | angles_xy_222_ovf_s24 | angles_xy_223_ovf_s24;
-  reg  [0:0] ovf3_s25;
+      ovf3_s24_q | angles_xy_222_ovf_s24_q | angles_xy_223_ovf_s24_q;
+  reg  [0:0] ovf3_s25_q;
   wire ovf3_or_s25 =
-      ovf3_s25 | angles_xy_228_ovf_s25 | angles_xy_229_ovf_s25;
-  reg  [0:0] ovf3_s26;
+      ovf3_s25_q | angles_xy_228_ovf_s25_q | angles_xy_229_ovf_s25_q;
+  reg  [0:0] ovf3_s26_q;
   wire ovf3_or_s26 =
-      ovf3_s26 | angles_xy_234_ovf_s26 | angles_xy_235_ovf_s26;
-  reg  [0:0] ovf3_s27;
+      ovf3_s26_q | angles_xy_234_ovf_s26_q | angles_xy_235_ovf_s26_q;
+  reg  [0:0] ovf3_s27_q;
   wire ovf3_or_s27 =
-      ovf3_s27 | angles_xy_240_ovf_s27 | angles_xy_241_ovf_s27;
-  reg  [0:0] ovf3_s28;
+      ovf3_s27_q | angles_xy_240_ovf_s27_q | angles_xy_241_ovf_s27_q;
+  reg  [0:0] ovf3_s28_q;
   wire ovf3_or_s28 =
-      ovf3_s28 | angles_xy_247_ovf_s28;
-  reg  [0:0] ovf3_s29;
-  reg  [0:0] ovf3_s30;
-  reg  [0:0] ovf3_s31;
-  reg  [0:0] ovf3_s32;
-  reg  [0:0] ovf3_s33;
-  reg  [0:0] ovf3_s34;
-  reg  [0:0] ovf3_s35;
-  reg  [0:0] ovf3_s36;
-  reg  [0:0] ovf3_s37;
-  reg  [0:0] ovf3_s38;
-  reg  [0:0] ovf3_s39;
-  reg  [0:0] ovf3_s40;
-  reg  [0:0] angles_theta_107_ovf_s5;
-  reg  [0:0] angles_theta_113_ovf_s6;
-  reg  [0:0] angles_theta_119_ovf_s7;
-  reg  [0:0] angles_theta_125_ovf_s8;
-  reg  [0:0] angles_theta_131_ovf_s9;
-  reg  [0:0] angles_theta_137_ovf_s10;
-  reg  [0:0] angles_theta_143_ovf_s11;
-  reg  [0:0] angles_theta_149_ovf_s12;
-  reg  [0:0] angles_theta_155_ovf_s13;
-  reg  [0:0] angles_theta_161_ovf_s14;
-  reg  [0:0] angles_theta_167_ovf_s15;
-  reg  [0:0] angles_theta_173_ovf_s16;
-  reg  [0:0] angles_theta_179_ovf_s17;
-  reg  [0:0] angles_theta_182_ovf_s2;
-  reg  [0:0] angles_theta_188_ovf_s6;
-  reg  [0:0] angles_theta_194_ovf_s19;
-  reg  [0:0] angles_theta_200_ovf_s20;
-  reg  [0:0] angles_theta_206_ovf_s21;
-  reg  [0:0] angles_theta_212_ovf_s22;
-  reg  [0:0] angles_theta_218_ovf_s23;
-  reg  [0:0] angles_theta_224_ovf_s24;
-  reg  [0:0] angles_theta_230_ovf_s25;
-  reg  [0:0] angles_theta_236_ovf_s26;
-  reg  [0:0] angles_theta_242_ovf_s27;
-  reg  [0:0] angles_theta_248_ovf_s28;
-  reg  [0:0] angles_theta_254_ovf_s29;
-  reg  [0:0] ovf4_s3;
-  reg  [0:0] ovf4_s4;
-  reg  [0:0] ovf4_s5;
+      ovf3_s28_q | angles_xy_247_ovf_s28_q;
+  reg  [0:0] ovf3_s29_q;
+  reg  [0:0] ovf3_s30_q;
+  reg  [0:0] ovf3_s31_q;
+  reg  [0:0] ovf3_s32_q;
+  reg  [0:0] ovf3_s33_q;
+  reg  [0:0] ovf3_s34_q;
+  reg  [0:0] ovf3_s35_q;
+  reg  [0:0] ovf3_s36_q;
+  reg  [0:0] ovf3_s37_q;
+  reg  [0:0] ovf3_s38_q;
+  reg  [0:0] ovf3_s39_q;
+  reg  [0:0] ovf3_s40_q;
+  reg  [0:0] angles_theta_107_ovf_s5_q;
+  reg  [0:0] angles_theta_113_ovf_s6_q;
+  reg  [0:0] angles_theta_119_ovf_s7_q;
+  reg  [0:0] angles_theta_125_ovf_s8_q;
+  reg  [0:0] angles_theta_131_ovf_s9_q;
+  reg  [0:0] angles_theta_137_ovf_s10_q;
+  reg  [0:0] angles_theta_143_ovf_s11_q;
+  reg  [0:0] angles_theta_149_ovf_s12_q;
+  reg  [0:0] angles_theta_155_ovf_s13_q;
+  reg  [0:0] angles_theta_161_ovf_s14_q;
+  reg  [0:0] angles_theta_167_ovf_s15_q;
+  reg  [0:0] angles_theta_173_ovf_s16_q;
+  reg  [0:0] angles_theta_179_ovf_s17_q;
+  reg  [0:0] angles_theta_182_ovf_s2_q;
+  reg  [0:0] angles_theta_188_ovf_s6_q;
+  reg  [0:0] angles_theta_194_ovf_s19_q;
+  reg  [0:0] angles_theta_200_ovf_s20_q;
+  reg  [0:0] angles_theta_206_ovf_s21_q;
+  reg  [0:0] angles_theta_212_ovf_s22_q;
+  reg  [0:0] angles_theta_218_ovf_s23_q;
+  reg  [0:0] angles_theta_224_ovf_s24_q;
+  reg  [0:0] angles_theta_230_ovf_s25_q;
+  reg  [0:0] angles_theta_236_ovf_s26_q;
+  reg  [0:0] angles_theta_242_ovf_s27_q;
+  reg  [0:0] angles_theta_248_ovf_s28_q;
+  reg  [0:0] angles_theta_254_ovf_s29_q;
+  reg  [0:0] ovf4_s3_q;
+  reg  [0:0] ovf4_s4_q;
+  reg  [0:0] ovf4_s5_q;
   wire ovf4_or_s5 =
-      ovf4_s5 | angles_theta_107_ovf_s5;
-  reg  [0:0] ovf4_s6;
+      ovf4_s5_q | angles_theta_107_ovf_s5_q;
+  reg  [0:0] ovf4_s6_q;
   wire ovf4_or_s6 =
-      ovf4_s6 | angles_theta_113_ovf_s6 | angles_theta_188_ovf_s6;
-  reg  [0:0] ovf4_s7;
+      ovf4_s6_q | angles_theta_113_ovf_s6_q | angles_theta_188_ovf_s6_q;
+  reg  [0:0] ovf4_s7_q;
   wire ovf4_or_s7 =
-      ovf4_s7 | angles_theta_119_ovf_s7;
-  reg  [0:0] ovf4_s8;
+      ovf4_s7_q | angles_theta_119_ovf_s7_q;
+  reg  [0:0] ovf4_s8_q;
   wire ovf4_or_s8 =
-      ovf4_s8 | angles_theta_125_ovf_s8;
-  reg  [0:0] ovf4_s9;
+      ovf4_s8_q | angles_theta_125_ovf_s8_q;
+  reg  [0:0] ovf4_s9_q;
   wire ovf4_or_s9 =
-      ovf4_s9 | angles_theta_131_ovf_s9;
-  reg  [0:0] ovf4_s10;
+      ovf4_s9_q | angles_theta_131_ovf_s9_q;
+  reg  [0:0] ovf4_s10_q;
   wire ovf4_or_s10 =
-      ovf4_s10 | angles_theta_137_ovf_s10;
-  reg  [0:0] ovf4_s11;
+      ovf4_s10_q | angles_theta_137_ovf_s10_q;
+  reg  [0:0] ovf4_s11_q;
   wire ovf4_or_s11 =
-      ovf4_s11 | angles_theta_143_ovf_s11;
-  reg  [0:0] ovf4_s12;
+      ovf4_s11_q | angles_theta_143_ovf_s11_q;
+  reg  [0:0] ovf4_s12_q;
   wire ovf4_or_s12 =
-      ovf4_s12 | angles_theta_149_ovf_s12;
-  reg  [0:0] ovf4_s13;
+      ovf4_s12_q | angles_theta_149_ovf_s12_q;
+  reg  [0:0] ovf4_s13_q;
   wire ovf4_or_s13 =
-      ovf4_s13 | angles_theta_155_ovf_s13;
-  reg  [0:0] ovf4_s14;
+      ovf4_s13_q | angles_theta_155_ovf_s13_q;
+  reg  [0:0] ovf4_s14_q;
   wire ovf4_or_s14 =
-      ovf4_s14 | angles_theta_161_ovf_s14;
-  reg  [0:0] ovf4_s15;
+      ovf4_s14_q | angles_theta_161_ovf_s14_q;
+  reg  [0:0] ovf4_s15_q;
   wire ovf4_or_s15 =
-      ovf4_s15 | angles_theta_167_ovf_s15;
-  reg  [0:0] ovf4_s16;
+      ovf4_s15_q | angles_theta_167_ovf_s15_q;
+  reg  [0:0] ovf4_s16_q;
   wire ovf4_or_s16 =
-      ovf4_s16 | angles_theta_173_ovf_s16;
-  reg  [0:0] ovf4_s17;
+      ovf4_s16_q | angles_theta_173_ovf_s16_q;
+  reg  [0:0] ovf4_s17_q;
   wire ovf4_or_s17 =
-      ovf4_s17 | angles_theta_179_ovf_s17;
-  reg  [0:0] ovf4_s18;
-  reg  [0:0] ovf4_s19;
+      ovf4_s17_q | angles_theta_179_ovf_s17_q;
+  reg  [0:0] ovf4_s18_q;
+  reg  [0:0] ovf4_s19_q;
   wire ovf4_or_s19 =
-      ovf4_s19 | angles_theta_194_ovf_s19;
-  reg  [0:0] ovf4_s20;
+      ovf4_s19_q | angles_theta_194_ovf_s19_q;
+  reg  [0:0] ovf4_s20_q;
   wire ovf4_or_s20 =
-      ovf4_s20 | angles_theta_200_ovf_s20;
-  reg  [0:0] ovf4_s21;
+      ovf4_s20_q | angles_theta_200_ovf_s20_q;
+  reg  [0:0] ovf4_s21_q;
   wire ovf4_or_s21 =
-      ovf4_s21 | angles_theta_206_ovf_s21;
-  reg  [0:0] ovf4_s22;
+      ovf4_s21_q | angles_theta_206_ovf_s21_q;
+  reg  [0:0] ovf4_s22_q;
   wire ovf4_or_s22 =
-      ovf4_s22 | angles_theta_212_ovf_s22;
-  reg  [0:0] ovf4_s23;
+      ovf4_s22_q | angles_theta_212_ovf_s22_q;
+  reg  [0:0] ovf4_s23_q;
   wire ovf4_or_s23 =
-      ovf4_s23 | angles_theta_218_ovf_s23;
-  reg  [0:0] ovf4_s24;
+      ovf4_s23_q | angles_theta_218_ovf_s23_q;
+  reg  [0:0] ovf4_s24_q;
   wire ovf4_or_s24 =
-      ovf4_s24 | angles_theta_224_ovf_s24;
-  reg  [0:0] ovf4_s25;
+      ovf4_s24_q | angles_theta_224_ovf_s24_q;
+  reg  [0:0] ovf4_s25_q;
   wire ovf4_or_s25 =
-      ovf4_s25 | angles_theta_230_ovf_s25;
-  reg  [0:0] ovf4_s26;
+      ovf4_s25_q | angles_theta_230_ovf_s25_q;
+  reg  [0:0] ovf4_s26_q;
   wire ovf4_or_s26 =
-      ovf4_s26 | angles_theta_236_ovf_s26;
-  reg  [0:0] ovf4_s27;
+      ovf4_s26_q | angles_theta_236_ovf_s26_q;
+  reg  [0:0] ovf4_s27_q;
   wire ovf4_or_s27 =
-      ovf4_s27 | angles_theta_242_ovf_s27;
-  reg  [0:0] ovf4_s28;
+      ovf4_s27_q | angles_theta_242_ovf_s27_q;
+  reg  [0:0] ovf4_s28_q;
   wire ovf4_or_s28 =
-      ovf4_s28 | angles_theta_248_ovf_s28;
-  reg  [0:0] ovf4_s29;
+      ovf4_s28_q | angles_theta_248_ovf_s28_q;
+  reg  [0:0] ovf4_s29_q;
   wire ovf4_or_s29 =
-      ovf4_s29 | angles_theta_254_ovf_s29;
-  reg  [0:0] ovf4_s30;
-  reg  [0:0] ovf4_s31;
-  reg  [0:0] ovf4_s32;
-  reg  [0:0] ovf4_s33;
-  reg  [0:0] ovf4_s34;
-  reg  [0:0] ovf4_s35;
-  reg  [0:0] ovf4_s36;
-  reg  [0:0] ovf4_s37;
-  reg  [0:0] ovf4_s38;
-  reg  [0:0] ovf4_s39;
-  reg  [0:0] ovf4_s40;
-  reg  [0:0] angles_out_255_ovf_s30;
-  reg  [0:0] angles_out_256_ovf_s18;
-  reg  [0:0] ovf5_s19;
-  reg  [0:0] ovf5_s20;
-  reg  [0:0] ovf5_s21;
-  reg  [0:0] ovf5_s22;
-  reg  [0:0] ovf5_s23;
-  reg  [0:0] ovf5_s24;
-  reg  [0:0] ovf5_s25;
-  reg  [0:0] ovf5_s26;
-  reg  [0:0] ovf5_s27;
-  reg  [0:0] ovf5_s28;
-  reg  [0:0] ovf5_s29;
-  reg  [0:0] ovf5_s30;
+      ovf4_s29_q | angles_theta_254_ovf_s29_q;
+  reg  [0:0] ovf4_s30_q;
+  reg  [0:0] ovf4_s31_q;
+  reg  [0:0] ovf4_s32_q;
+  reg  [0:0] ovf4_s33_q;
+  reg  [0:0] ovf4_s34_q;
+  reg  [0:0] ovf4_s35_q;
+  reg  [0:0] ovf4_s36_q;
+  reg  [0:0] ovf4_s37_q;
+  reg  [0:0] ovf4_s38_q;
+  reg  [0:0] ovf4_s39_q;
+  reg  [0:0] ovf4_s40_q;
+  reg  [0:0] angles_out_255_ovf_s30_q;
+  reg  [0:0] angles_out_256_ovf_s18_q;
+  reg  [0:0] ovf5_s19_q;
+  reg  [0:0] ovf5_s20_q;
+  reg  [0:0] ovf5_s21_q;
+  reg  [0:0] ovf5_s22_q;
+  reg  [0:0] ovf5_s23_q;
+  reg  [0:0] ovf5_s24_q;
+  reg  [0:0] ovf5_s25_q;
+  reg  [0:0] ovf5_s26_q;
+  reg  [0:0] ovf5_s27_q;
+  reg  [0:0] ovf5_s28_q;
+  reg  [0:0] ovf5_s29_q;
+  reg  [0:0] ovf5_s30_q;
   wire ovf5_or_s30 =
-      ovf5_s30 | angles_out_255_ovf_s30;
-  reg  [0:0] ovf5_s31;
-  reg  [0:0] ovf5_s32;
-  reg  [0:0] ovf5_s33;
-  reg  [0:0] ovf5_s34;
-  reg  [0:0] ovf5_s35;
-  reg  [0:0] ovf5_s36;
-  reg  [0:0] ovf5_s37;
-  reg  [0:0] ovf5_s38;
-  reg  [0:0] ovf5_s39;
-  reg  [0:0] ovf5_s40;
-  reg  [0:0] polar_index_257_ovf_s2;
-  reg  [0:0] polar_index_259_ovf_s19;
-  reg  [0:0] polar_index_260_ovf_s31;
-  reg  [0:0] polar_index_279_ovf_s2;
-  reg  [0:0] polar_index_281_ovf_s19;
-  reg  [0:0] polar_index_282_ovf_s31;
+      ovf5_s30_q | angles_out_255_ovf_s30_q;
+  reg  [0:0] ovf5_s31_q;
+  reg  [0:0] ovf5_s32_q;
+  reg  [0:0] ovf5_s33_q;
+  reg  [0:0] ovf5_s34_q;
+  reg  [0:0] ovf5_s35_q;
+  reg  [0:0] ovf5_s36_q;
+  reg  [0:0] ovf5_s37_q;
+  reg  [0:0] ovf5_s38_q;
+  reg  [0:0] ovf5_s39_q;
+  reg  [0:0] ovf5_s40_q;
+  reg  [0:0] polar_index_257_ovf_s2_q;
+  reg  [0:0] polar_index_259_ovf_s19_q;
+  reg  [0:0] polar_index_260_ovf_s31_q;
+  reg  [0:0] polar_index_279_ovf_s2_q;
+  reg  [0:0] polar_index_281_ovf_s19_q;
+  reg  [0:0] polar_index_282_ovf_s31_q;
   wire ovf6_or_s2 =
-      polar_index_257_ovf_s2 | polar_index_279_ovf_s2;
-  reg  [0:0] ovf6_s3;
-  reg  [0:0] ovf6_s4;
-  reg  [0:0] ovf6_s5;
-  reg  [0:0] ovf6_s6;
-  reg  [0:0] ovf6_s7;
-  reg  [0:0] ovf6_s8;
-  reg  [0:0] ovf6_s9;
-  reg  [0:0] ovf6_s10;
-  reg  [0:0] ovf6_s11;
-  reg  [0:0] ovf6_s12;
-  reg  [0:0] ovf6_s13;
-  reg  [0:0] ovf6_s14;
-  reg  [0:0] ovf6_s15;
-  reg  [0:0] ovf6_s16;
-  reg  [0:0] ovf6_s17;
-  reg  [0:0] ovf6_s18;
-  reg  [0:0] ovf6_s19;
+      polar_index_257_ovf_s2_q | polar_index_279_ovf_s2_q;
+  reg  [0:0] ovf6_s3_q;
+  reg  [0:0] ovf6_s4_q;
+  reg  [0:0] ovf6_s5_q;
+  reg  [0:0] ovf6_s6_q;
+  reg  [0:0] ovf6_s7_q;
+  reg  [0:0] ovf6_s8_q;
+  reg  [0:0] ovf6_s9_q;
+  reg  [0:0] ovf6_s10_q;
+  reg  [0:0] ovf6_s11_q;
+  reg  [0:0] ovf6_s12_q;
+  reg  [0:0] ovf6_s13_q;
+  reg  [0:0] ovf6_s14_q;
+  reg  [0:0] ovf6_s15_q;
+  reg  [0:0] ovf6_s16_q;
+  reg  [0:0] ovf6_s17_q;
+  reg  [0:0] ovf6_s18_q;
+  reg  [0:0] ovf6_s19_q;
   wire ovf6_or_s19 =
-      ovf6_s19 | polar_index_259_ovf_s19 | polar_index_281_ovf_s19;
-  reg  [0:0] ovf6_s20;
-  reg  [0:0] ovf6_s21;
-  reg  [0:0] ovf6_s22;
-  reg  [0:0] ovf6_s23;
-  reg  [0:0] ovf6_s24;
-  reg  [0:0] ovf6_s25;
-  reg  [0:0] ovf6_s26;
-  reg  [0:0] ovf6_s27;
-  reg  [0:0] ovf6_s28;
-  reg  [0:0] ovf6_s29;
-  reg  [0:0] ovf6_s30;
-  reg  [0:0] ovf6_s31;
+      ovf6_s19_q | polar_index_259_ovf_s19_q | polar_index_281_ovf_s19_q;
+  reg  [0:0] ovf6_s20_q;
+  reg  [0:0] ovf6_s21_q;
+  reg  [0:0] ovf6_s22_q;
+  reg  [0:0] ovf6_s23_q;
+  reg  [0:0] ovf6_s24_q;
+  reg  [0:0] ovf6_s25_q;
+  reg  [0:0] ovf6_s26_q;
+  reg  [0:0] ovf6_s27_q;
+  reg  [0:0] ovf6_s28_q;
+  reg  [0:0] ovf6_s29_q;
+  reg  [0:0] ovf6_s30_q;
+  reg  [0:0] ovf6_s31_q;
   wire ovf6_or_s31 =
-      ovf6_s31 | polar_index_260_ovf_s31 | polar_index_282_ovf_s31;
-  reg  [0:0] ovf6_s32;
-  reg  [0:0] ovf6_s33;
-  reg  [0:0] ovf6_s34;
-  reg  [0:0] ovf6_s35;
-  reg  [0:0] ovf6_s36;
-  reg  [0:0] ovf6_s37;
-  reg  [0:0] ovf6_s38;
-  reg  [0:0] ovf6_s39;
-  reg  [0:0] ovf6_s40;
-  reg  [0:0] polar_lyz_268_ovf_s21;
-  reg  [0:0] polar_lyz_290_ovf_s21;
+      ovf6_s31_q | polar_index_260_ovf_s31_q | polar_index_282_ovf_s31_q;
+  reg  [0:0] ovf6_s32_q;
+  reg  [0:0] ovf6_s33_q;
+  reg  [0:0] ovf6_s34_q;
+  reg  [0:0] ovf6_s35_q;
+  reg  [0:0] ovf6_s36_q;
+  reg  [0:0] ovf6_s37_q;
+  reg  [0:0] ovf6_s38_q;
+  reg  [0:0] ovf6_s39_q;
+  reg  [0:0] ovf6_s40_q;
+  reg  [0:0] polar_lyz_268_ovf_s21_q;
+  reg  [0:0] polar_lyz_290_ovf_s21_q;
   wire ovf7_or_s21 =
-      polar_lyz_268_ovf_s21 | polar_lyz_290_ovf_s21;
-  reg  [0:0] ovf7_s22;
-  reg  [0:0] ovf7_s23;
-  reg  [0:0] ovf7_s24;
-  reg  [0:0] ovf7_s25;
-  reg  [0:0] ovf7_s26;
-  reg  [0:0] ovf7_s27;
-  reg  [0:0] ovf7_s28;
-  reg  [0:0] ovf7_s29;
-  reg  [0:0] ovf7_s30;
-  reg  [0:0] ovf7_s31;
-  reg  [0:0] ovf7_s32;
-  reg  [0:0] ovf7_s33;
-  reg  [0:0] ovf7_s34;
-  reg  [0:0] ovf7_s35;
-  reg  [0:0] ovf7_s36;
-  reg  [0:0] ovf7_s37;
-  reg  [0:0] ovf7_s38;
-  reg  [0:0] ovf7_s39;
-  reg  [0:0] ovf7_s40;
-  reg  [0:0] polar_out_270_ovf_s21;
-  reg  [0:0] polar_out_274_ovf_s33;
-  reg  [0:0] polar_out_278_ovf_s33;
-  reg  [0:0] polar_out_292_ovf_s21;
-  reg  [0:0] polar_out_296_ovf_s33;
-  reg  [0:0] polar_out_300_ovf_s33;
+      polar_lyz_268_ovf_s21_q | polar_lyz_290_ovf_s21_q;
+  reg  [0:0] ovf7_s22_q;
+  reg  [0:0] ovf7_s23_q;
+  reg  [0:0] ovf7_s24_q;
+  reg  [0:0] ovf7_s25_q;
+  reg  [0:0] ovf7_s26_q;
+  reg  [0:0] ovf7_s27_q;
+  reg  [0:0] ovf7_s28_q;
+  reg  [0:0] ovf7_s29_q;
+  reg  [0:0] ovf7_s30_q;
+  reg  [0:0] ovf7_s31_q;
+  reg  [0:0] ovf7_s32_q;
+  reg  [0:0] ovf7_s33_q;
+  reg  [0:0] ovf7_s34_q;
+  reg  [0:0] ovf7_s35_q;
+  reg  [0:0] ovf7_s36_q;
+  reg  [0:0] ovf7_s37_q;
+  reg  [0:0] ovf7_s38_q;
+  reg  [0:0] ovf7_s39_q;
+  reg  [0:0] ovf7_s40_q;
+  reg  [0:0] polar_out_270_ovf_s21_q;
+  reg  [0:0] polar_out_274_ovf_s33_q;
+  reg  [0:0] polar_out_278_ovf_s33_q;
+  reg  [0:0] polar_out_292_ovf_s21_q;
+  reg  [0:0] polar_out_296_ovf_s33_q;
+  reg  [0:0] polar_out_300_ovf_s33_q;
   wire ovf8_or_s21 =
-      polar_out_270_ovf_s21 | polar_out_292_ovf_s21;
-  reg  [0:0] ovf8_s22;
-  reg  [0:0] ovf8_s23;
-  reg  [0:0] ovf8_s24;
-  reg  [0:0] ovf8_s25;
-  reg  [0:0] ovf8_s26;
-  reg  [0:0] ovf8_s27;
-  reg  [0:0] ovf8_s28;
-  reg  [0:0] ovf8_s29;
-  reg  [0:0] ovf8_s30;
-  reg  [0:0] ovf8_s31;
-  reg  [0:0] ovf8_s32;
-  reg  [0:0] ovf8_s33;
+      polar_out_270_ovf_s21_q | polar_out_292_ovf_s21_q;
+  reg  [0:0] ovf8_s22_q;
+  reg  [0:0] ovf8_s23_q;
+  reg  [0:0] ovf8_s24_q;
+  reg  [0:0] ovf8_s25_q;
+  reg  [0:0] ovf8_s26_q;
+  reg  [0:0] ovf8_s27_q;
+  reg  [0:0] ovf8_s28_q;
+  reg  [0:0] ovf8_s29_q;
+  reg  [0:0] ovf8_s30_q;
+  reg  [0:0] ovf8_s31_q;
+  reg  [0:0] ovf8_s32_q;
+  reg  [0:0] ovf8_s33_q;
   wire ovf8_or_s33 =
-      ovf8_s33 | polar_out_274_ovf_s33 | polar_out_278_ovf_s33 | polar_out_296_ovf_s33
-      | polar_out_300_ovf_s33;
-  reg  [0:0] ovf8_s34;
-  reg  [0:0] ovf8_s35;
-  reg  [0:0] ovf8_s36;
-  reg  [0:0] ovf8_s37;
-  reg  [0:0] ovf8_s38;
-  reg  [0:0] ovf8_s39;
-  reg  [0:0] ovf8_s40;
-  reg  [0:0] lighting_light_301_ovf_s22;
-  reg  [0:0] lighting_light_302_ovf_s34;
-  reg  [0:0] lighting_light_303_ovf_s34;
-  reg  [0:0] lighting_light_304_ovf_s22;
-  reg  [0:0] lighting_light_305_ovf_s34;
-  reg  [0:0] lighting_light_306_ovf_s34;
+      ovf8_s33_q | polar_out_274_ovf_s33_q | polar_out_278_ovf_s33_q | polar_out_296_ovf_s33_q
+      | polar_out_300_ovf_s33_q;
+  reg  [0:0] ovf8_s34_q;
+  reg  [0:0] ovf8_s35_q;
+  reg  [0:0] ovf8_s36_q;
+  reg  [0:0] ovf8_s37_q;
+  reg  [0:0] ovf8_s38_q;
+  reg  [0:0] ovf8_s39_q;
+  reg  [0:0] ovf8_s40_q;
+  reg  [0:0] lighting_light_301_ovf_s22_q;
+  reg  [0:0] lighting_light_302_ovf_s34_q;
+  reg  [0:0] lighting_light_303_ovf_s34_q;
+  reg  [0:0] lighting_light_304_ovf_s22_q;
+  reg  [0:0] lighting_light_305_ovf_s34_q;
+  reg  [0:0] lighting_light_306_ovf_s34_q;
   wire ovf9_or_s22 =
-      lighting_light_301_ovf_s22 | lighting_light_304_ovf_s22;
-  reg  [0:0] ovf9_s23;
-  reg  [0:0] ovf9_s24;
-  reg  [0:0] ovf9_s25;
-  reg  [0:0] ovf9_s26;
-  reg  [0:0] ovf9_s27;
-  reg  [0:0] ovf9_s28;
-  reg  [0:0] ovf9_s29;
-  reg  [0:0] ovf9_s30;
-  reg  [0:0] ovf9_s31;
-  reg  [0:0] ovf9_s32;
-  reg  [0:0] ovf9_s33;
-  reg  [0:0] ovf9_s34;
+      lighting_light_301_ovf_s22_q | lighting_light_304_ovf_s22_q;
+  reg  [0:0] ovf9_s23_q;
+  reg  [0:0] ovf9_s24_q;
+  reg  [0:0] ovf9_s25_q;
+  reg  [0:0] ovf9_s26_q;
+  reg  [0:0] ovf9_s27_q;
+  reg  [0:0] ovf9_s28_q;
+  reg  [0:0] ovf9_s29_q;
+  reg  [0:0] ovf9_s30_q;
+  reg  [0:0] ovf9_s31_q;
+  reg  [0:0] ovf9_s32_q;
+  reg  [0:0] ovf9_s33_q;
+  reg  [0:0] ovf9_s34_q;
   wire ovf9_or_s34 =
-      ovf9_s34 | lighting_light_302_ovf_s34 | lighting_light_303_ovf_s34
-          | lighting_light_305_ovf_s34
-      | lighting_light_306_ovf_s34;
-  reg  [0:0] ovf9_s35;
-  reg  [0:0] ovf9_s36;
-  reg  [0:0] ovf9_s37;
-  reg  [0:0] ovf9_s38;
-  reg  [0:0] ovf9_s39;
-  reg  [0:0] ovf9_s40;
-  reg  [0:0] lighting_dot_312_ovf_s35;
-  reg  [0:0] lighting_dot_319_ovf_s35;
+      ovf9_s34_q | lighting_light_302_ovf_s34_q | lighting_light_303_ovf_s34_q
+          | lighting_light_305_ovf_s34_q
+      | lighting_light_306_ovf_s34_q;
+  reg  [0:0] ovf9_s35_q;
+  reg  [0:0] ovf9_s36_q;
+  reg  [0:0] ovf9_s37_q;
+  reg  [0:0] ovf9_s38_q;
+  reg  [0:0] ovf9_s39_q;
+  reg  [0:0] ovf9_s40_q;
+  reg  [0:0] lighting_dot_312_ovf_s35_q;
+  reg  [0:0] lighting_dot_319_ovf_s35_q;
   wire ovf10_or_s35 =
-      lighting_dot_312_ovf_s35 | lighting_dot_319_ovf_s35;
-  reg  [0:0] ovf10_s36;
-  reg  [0:0] ovf10_s37;
-  reg  [0:0] ovf10_s38;
-  reg  [0:0] ovf10_s39;
-  reg  [0:0] ovf10_s40;
-  reg  [0:0] lighting_spec_321_ovf_s36;
-  reg  [0:0] lighting_spec_323_ovf_s37;
-  reg  [0:0] lighting_spec_325_ovf_s38;
-  reg  [0:0] lighting_spec_327_ovf_s39;
-  reg  [0:0] lighting_spec_329_ovf_s40;
-  reg  [0:0] ovf11_s37;
+      lighting_dot_312_ovf_s35_q | lighting_dot_319_ovf_s35_q;
+  reg  [0:0] ovf10_s36_q;
+  reg  [0:0] ovf10_s37_q;
+  reg  [0:0] ovf10_s38_q;
+  reg  [0:0] ovf10_s39_q;
+  reg  [0:0] ovf10_s40_q;
+  reg  [0:0] lighting_spec_321_ovf_s36_q;
+  reg  [0:0] lighting_spec_323_ovf_s37_q;
+  reg  [0:0] lighting_spec_325_ovf_s38_q;
+  reg  [0:0] lighting_spec_327_ovf_s39_q;
+  reg  [0:0] lighting_spec_329_ovf_s40_q;
+  reg  [0:0] ovf11_s37_q;
   wire ovf11_or_s37 =
-      ovf11_s37 | lighting_spec_323_ovf_s37;
-  reg  [0:0] ovf11_s38;
+      ovf11_s37_q | lighting_spec_323_ovf_s37_q;
+  reg  [0:0] ovf11_s38_q;
   wire ovf11_or_s38 =
-      ovf11_s38 | lighting_spec_325_ovf_s38;
-  reg  [0:0] ovf11_s39;
+      ovf11_s38_q | lighting_spec_325_ovf_s38_q;
+  reg  [0:0] ovf11_s39_q;
   wire ovf11_or_s39 =
-      ovf11_s39 | lighting_spec_327_ovf_s39;
-  reg  [0:0] ovf11_s40;
+      ovf11_s39_q | lighting_spec_327_ovf_s39_q;
+  reg  [0:0] ovf11_s40_q;
   wire ovf11_or_s40 =
-      ovf11_s40 | lighting_spec_329_ovf_s40;
+      ovf11_s40_q | lighting_spec_329_ovf_s40_q;
 
   // Stage loads: the item entering stage k is valid and the stages move.
   wire load_s1 = in_take;
@@ -3105,1005 +3179,1005 @@ module pipeline_mapped (
   // registers load only with a valid item, so bubbles do not toggle them.
   always @(posedge clk_i) begin
     if (load_s1) begin
-      interp_weight_50 <= interp_weight_50_c;
-      interp_weight_50_ovf <= interp_weight_50_ovf_c;
-      interp_weight_53 <= interp_weight_53_c;
-      interp_weight_53_ovf <= interp_weight_53_ovf_c;
-      interp_weight_56 <= interp_weight_56_c;
-      interp_weight_56_ovf <= interp_weight_56_ovf_c;
-      interp_weight_58 <= interp_weight_58_c;
-      interp_weight_58_ovf <= interp_weight_58_ovf_c;
-      interp_weight_60 <= interp_weight_60_c;
-      interp_weight_60_ovf <= interp_weight_60_ovf_c;
-      interp_weight_62 <= interp_weight_62_c;
-      interp_weight_62_ovf <= interp_weight_62_ovf_c;
-      angles_theta_182 <= angles_theta_182_c;
-      angles_theta_182_ovf <= angles_theta_182_ovf_c;
-      polar_index_257 <= polar_index_257_c;
-      polar_index_257_ovf <= polar_index_257_ovf_c;
-      polar_index_279 <= polar_index_279_c;
-      polar_index_279_ovf <= polar_index_279_ovf_c;
-      n_x_i_s1 <= n_x_i;
-      n_y_i_s1 <= n_y_i;
-      n_z_i_s1 <= n_z_i;
+      interp_weight_50_q <= interp_weight_50_d;
+      interp_weight_50_ovf_q <= interp_weight_50_ovf_d;
+      interp_weight_53_q <= interp_weight_53_d;
+      interp_weight_53_ovf_q <= interp_weight_53_ovf_d;
+      interp_weight_56_q <= interp_weight_56_d;
+      interp_weight_56_ovf_q <= interp_weight_56_ovf_d;
+      interp_weight_58_q <= interp_weight_58_d;
+      interp_weight_58_ovf_q <= interp_weight_58_ovf_d;
+      interp_weight_60_q <= interp_weight_60_d;
+      interp_weight_60_ovf_q <= interp_weight_60_ovf_d;
+      interp_weight_62_q <= interp_weight_62_d;
+      interp_weight_62_ovf_q <= interp_weight_62_ovf_d;
+      angles_theta_182_q <= angles_theta_182_d;
+      angles_theta_182_ovf_q <= angles_theta_182_ovf_d;
+      polar_index_257_q <= polar_index_257_d;
+      polar_index_257_ovf_q <= polar_index_257_ovf_d;
+      polar_index_279_q <= polar_index_279_d;
+      polar_index_279_ovf_q <= polar_index_279_ovf_d;
+      n_x_i_s1_q <= n_x_i;
+      n_y_i_s1_q <= n_y_i;
+      n_z_i_s1_q <= n_z_i;
     end
     if (load_s2) begin
-      interp_out_74 <= interp_out_74_c;
-      interp_out_74_ovf <= interp_out_74_ovf_c;
-      interp_out_86 <= interp_out_86_c;
-      interp_out_86_ovf <= interp_out_86_ovf_c;
-      interp_out_98 <= interp_out_98_c;
-      interp_out_98_ovf <= interp_out_98_ovf_c;
-      angles_theta_182_s2 <= angles_theta_182;
-      polar_index_257_s2 <= polar_index_257;
-      polar_index_279_s2 <= polar_index_279;
-      n_x_i_s2 <= n_x_i_s1;
-      n_y_i_s2 <= n_y_i_s1;
-      n_z_i_s2 <= n_z_i_s1;
-      interp_weight_50_ovf_s2 <= interp_weight_50_ovf;
-      interp_weight_53_ovf_s2 <= interp_weight_53_ovf;
-      interp_weight_56_ovf_s2 <= interp_weight_56_ovf;
-      interp_weight_58_ovf_s2 <= interp_weight_58_ovf;
-      interp_weight_60_ovf_s2 <= interp_weight_60_ovf;
-      interp_weight_62_ovf_s2 <= interp_weight_62_ovf;
-      angles_theta_182_ovf_s2 <= angles_theta_182_ovf;
-      polar_index_257_ovf_s2 <= polar_index_257_ovf;
-      polar_index_279_ovf_s2 <= polar_index_279_ovf;
+      interp_out_74_q <= interp_out_74_d;
+      interp_out_74_ovf_q <= interp_out_74_ovf_d;
+      interp_out_86_q <= interp_out_86_d;
+      interp_out_86_ovf_q <= interp_out_86_ovf_d;
+      interp_out_98_q <= interp_out_98_d;
+      interp_out_98_ovf_q <= interp_out_98_ovf_d;
+      angles_theta_182_s2_q <= angles_theta_182_q;
+      polar_index_257_s2_q <= polar_index_257_q;
+      polar_index_279_s2_q <= polar_index_279_q;
+      n_x_i_s2_q <= n_x_i_s1_q;
+      n_y_i_s2_q <= n_y_i_s1_q;
+      n_z_i_s2_q <= n_z_i_s1_q;
+      interp_weight_50_ovf_s2_q <= interp_weight_50_ovf_q;
+      interp_weight_53_ovf_s2_q <= interp_weight_53_ovf_q;
+      interp_weight_56_ovf_s2_q <= interp_weight_56_ovf_q;
+      interp_weight_58_ovf_s2_q <= interp_weight_58_ovf_q;
+      interp_weight_60_ovf_s2_q <= interp_weight_60_ovf_q;
+      interp_weight_62_ovf_s2_q <= interp_weight_62_ovf_q;
+      angles_theta_182_ovf_s2_q <= angles_theta_182_ovf_q;
+      polar_index_257_ovf_s2_q <= polar_index_257_ovf_q;
+      polar_index_279_ovf_s2_q <= polar_index_279_ovf_q;
     end
     if (load_s3) begin
-      angles_normal_99 <= angles_normal_99_c;
-      angles_normal_99_ovf <= angles_normal_99_ovf_c;
-      angles_normal_100 <= angles_normal_100_c;
-      angles_normal_100_ovf <= angles_normal_100_ovf_c;
-      angles_normal_101 <= angles_normal_101_c;
-      angles_normal_101_ovf <= angles_normal_101_ovf_c;
-      angles_theta_182_s3 <= angles_theta_182_s2;
-      polar_index_257_s3 <= polar_index_257_s2;
-      polar_index_279_s3 <= polar_index_279_s2;
-      n_x_i_s3 <= n_x_i_s2;
-      n_y_i_s3 <= n_y_i_s2;
-      n_z_i_s3 <= n_z_i_s2;
-      ovf0_s3 <= ovf0_or_s2;
-      interp_out_74_ovf_s3 <= interp_out_74_ovf;
-      interp_out_86_ovf_s3 <= interp_out_86_ovf;
-      interp_out_98_ovf_s3 <= interp_out_98_ovf;
-      ovf4_s3 <= angles_theta_182_ovf_s2;
-      ovf6_s3 <= ovf6_or_s2;
+      angles_normal_99_q <= angles_normal_99_d;
+      angles_normal_99_ovf_q <= angles_normal_99_ovf_d;
+      angles_normal_100_q <= angles_normal_100_d;
+      angles_normal_100_ovf_q <= angles_normal_100_ovf_d;
+      angles_normal_101_q <= angles_normal_101_d;
+      angles_normal_101_ovf_q <= angles_normal_101_ovf_d;
+      angles_theta_182_s3_q <= angles_theta_182_s2_q;
+      polar_index_257_s3_q <= polar_index_257_s2_q;
+      polar_index_279_s3_q <= polar_index_279_s2_q;
+      n_x_i_s3_q <= n_x_i_s2_q;
+      n_y_i_s3_q <= n_y_i_s2_q;
+      n_z_i_s3_q <= n_z_i_s2_q;
+      ovf0_s3_q <= ovf0_or_s2;
+      interp_out_74_ovf_s3_q <= interp_out_74_ovf_q;
+      interp_out_86_ovf_s3_q <= interp_out_86_ovf_q;
+      interp_out_98_ovf_s3_q <= interp_out_98_ovf_q;
+      ovf4_s3_q <= angles_theta_182_ovf_s2_q;
+      ovf6_s3_q <= ovf6_or_s2;
     end
     if (load_s4) begin
-      angles_xy_105 <= angles_xy_105_c;
-      angles_xy_105_ovf <= angles_xy_105_ovf_c;
-      angles_xy_106 <= angles_xy_106_c;
-      angles_xy_106_ovf <= angles_xy_106_ovf_c;
-      angles_theta_107 <= angles_theta_107_c;
-      angles_theta_107_ovf <= angles_theta_107_ovf_c;
-      angles_xy_181 <= angles_xy_181_c;
-      angles_xy_181_ovf <= angles_xy_181_ovf_c;
-      angles_theta_182_s4 <= angles_theta_182_s3;
-      polar_index_257_s4 <= polar_index_257_s3;
-      polar_index_279_s4 <= polar_index_279_s3;
-      n_x_i_s4 <= n_x_i_s3;
-      n_y_i_s4 <= n_y_i_s3;
-      n_z_i_s4 <= n_z_i_s3;
-      ovf0_s4 <= ovf0_s3;
-      ovf1_s4 <= ovf1_or_s3;
-      angles_normal_99_ovf_s4 <= angles_normal_99_ovf;
-      angles_normal_100_ovf_s4 <= angles_normal_100_ovf;
-      angles_normal_101_ovf_s4 <= angles_normal_101_ovf;
-      ovf4_s4 <= ovf4_s3;
-      ovf6_s4 <= ovf6_s3;
+      angles_xy_105_q <= angles_xy_105_d;
+      angles_xy_105_ovf_q <= angles_xy_105_ovf_d;
+      angles_xy_106_q <= angles_xy_106_d;
+      angles_xy_106_ovf_q <= angles_xy_106_ovf_d;
+      angles_theta_107_q <= angles_theta_107_d;
+      angles_theta_107_ovf_q <= angles_theta_107_ovf_d;
+      angles_xy_181_q <= angles_xy_181_d;
+      angles_xy_181_ovf_q <= angles_xy_181_ovf_d;
+      angles_theta_182_s4_q <= angles_theta_182_s3_q;
+      polar_index_257_s4_q <= polar_index_257_s3_q;
+      polar_index_279_s4_q <= polar_index_279_s3_q;
+      n_x_i_s4_q <= n_x_i_s3_q;
+      n_y_i_s4_q <= n_y_i_s3_q;
+      n_z_i_s4_q <= n_z_i_s3_q;
+      ovf0_s4_q <= ovf0_s3_q;
+      ovf1_s4_q <= ovf1_or_s3;
+      angles_normal_99_ovf_s4_q <= angles_normal_99_ovf_q;
+      angles_normal_100_ovf_s4_q <= angles_normal_100_ovf_q;
+      angles_normal_101_ovf_s4_q <= angles_normal_101_ovf_q;
+      ovf4_s4_q <= ovf4_s3_q;
+      ovf6_s4_q <= ovf6_s3_q;
     end
     if (load_s5) begin
-      angles_xy_111 <= angles_xy_111_c;
-      angles_xy_111_ovf <= angles_xy_111_ovf_c;
-      angles_xy_112 <= angles_xy_112_c;
-      angles_xy_112_ovf <= angles_xy_112_ovf_c;
-      angles_theta_113 <= angles_theta_113_c;
-      angles_theta_113_ovf <= angles_theta_113_ovf_c;
-      angles_xy_181_s5 <= angles_xy_181;
-      angles_theta_188 <= angles_theta_188_c;
-      angles_theta_188_ovf <= angles_theta_188_ovf_c;
-      polar_index_257_s5 <= polar_index_257_s4;
-      polar_index_279_s5 <= polar_index_279_s4;
-      n_x_i_s5 <= n_x_i_s4;
-      n_y_i_s5 <= n_y_i_s4;
-      n_z_i_s5 <= n_z_i_s4;
-      ovf0_s5 <= ovf0_s4;
-      ovf1_s5 <= ovf1_s4;
-      ovf2_s5 <= ovf2_or_s4;
-      angles_xy_105_ovf_s5 <= angles_xy_105_ovf;
-      angles_xy_106_ovf_s5 <= angles_xy_106_ovf;
-      angles_xy_181_ovf_s5 <= angles_xy_181_ovf;
-      angles_theta_107_ovf_s5 <= angles_theta_107_ovf;
-      ovf4_s5 <= ovf4_s4;
-      ovf6_s5 <= ovf6_s4;
+      angles_xy_111_q <= angles_xy_111_d;
+      angles_xy_111_ovf_q <= angles_xy_111_ovf_d;
+      angles_xy_112_q <= angles_xy_112_d;
+      angles_xy_112_ovf_q <= angles_xy_112_ovf_d;
+      angles_theta_113_q <= angles_theta_113_d;
+      angles_theta_113_ovf_q <= angles_theta_113_ovf_d;
+      angles_xy_181_s5_q <= angles_xy_181_q;
+      angles_theta_188_q <= angles_theta_188_d;
+      angles_theta_188_ovf_q <= angles_theta_188_ovf_d;
+      polar_index_257_s5_q <= polar_index_257_s4_q;
+      polar_index_279_s5_q <= polar_index_279_s4_q;
+      n_x_i_s5_q <= n_x_i_s4_q;
+      n_y_i_s5_q <= n_y_i_s4_q;
+      n_z_i_s5_q <= n_z_i_s4_q;
+      ovf0_s5_q <= ovf0_s4_q;
+      ovf1_s5_q <= ovf1_s4_q;
+      ovf2_s5_q <= ovf2_or_s4;
+      angles_xy_105_ovf_s5_q <= angles_xy_105_ovf_q;
+      angles_xy_106_ovf_s5_q <= angles_xy_106_ovf_q;
+      angles_xy_181_ovf_s5_q <= angles_xy_181_ovf_q;
+      angles_theta_107_ovf_s5_q <= angles_theta_107_ovf_q;
+      ovf4_s5_q <= ovf4_s4_q;
+      ovf6_s5_q <= ovf6_s4_q;
     end
     if (load_s6) begin
-      angles_xy_117 <= angles_xy_117_c;
-      angles_xy_117_ovf <= angles_xy_117_ovf_c;
-      angles_xy_118 <= angles_xy_118_c;
-      angles_xy_118_ovf <= angles_xy_118_ovf_c;
-      angles_theta_119 <= angles_theta_119_c;
-      angles_theta_119_ovf <= angles_theta_119_ovf_c;
-      angles_xy_181_s6 <= angles_xy_181_s5;
-      angles_theta_188_s6 <= angles_theta_188;
-      polar_index_257_s6 <= polar_index_257_s5;
-      polar_index_279_s6 <= polar_index_279_s5;
-      n_x_i_s6 <= n_x_i_s5;
-      n_y_i_s6 <= n_y_i_s5;
-      n_z_i_s6 <= n_z_i_s5;
-      ovf0_s6 <= ovf0_s5;
-      ovf1_s6 <= ovf1_s5;
-      ovf2_s6 <= ovf2_s5;
-      angles_xy_111_ovf_s6 <= angles_xy_111_ovf;
-      angles_xy_112_ovf_s6 <= angles_xy_112_ovf;
-      ovf3_s6 <= ovf3_or_s5;
-      angles_theta_113_ovf_s6 <= angles_theta_113_ovf;
-      angles_theta_188_ovf_s6 <= angles_theta_188_ovf;
-      ovf4_s6 <= ovf4_or_s5;
-      ovf6_s6 <= ovf6_s5;
+      angles_xy_117_q <= angles_xy_117_d;
+      angles_xy_117_ovf_q <= angles_xy_117_ovf_d;
+      angles_xy_118_q <= angles_xy_118_d;
+      angles_xy_118_ovf_q <= angles_xy_118_ovf_d;
+      angles_theta_119_q <= angles_theta_119_d;
+      angles_theta_119_ovf_q <= angles_theta_119_ovf_d;
+      angles_xy_181_s6_q <= angles_xy_181_s5_q;
+      angles_theta_188_s6_q <= angles_theta_188_q;
+      polar_index_257_s6_q <= polar_index_257_s5_q;
+      polar_index_279_s6_q <= polar_index_279_s5_q;
+      n_x_i_s6_q <= n_x_i_s5_q;
+      n_y_i_s6_q <= n_y_i_s5_q;
+      n_z_i_s6_q <= n_z_i_s5_q;
+      ovf0_s6_q <= ovf0_s5_q;
+      ovf1_s6_q <= ovf1_s5_q;
+      ovf2_s6_q <= ovf2_s5_q;
+      angles_xy_111_ovf_s6_q <= angles_xy_111_ovf_q;
+      angles_xy_112_ovf_s6_q <= angles_xy_112_ovf_q;
+      ovf3_s6_q <= ovf3_or_s5;
+      angles_theta_113_ovf_s6_q <= angles_theta_113_ovf_q;
+      angles_theta_188_ovf_s6_q <= angles_theta_188_ovf_q;
+      ovf4_s6_q <= ovf4_or_s5;
+      ovf6_s6_q <= ovf6_s5_q;
     end
     if (load_s7) begin
-      angles_xy_123 <= angles_xy_123_c;
-      angles_xy_123_ovf <= angles_xy_123_ovf_c;
-      angles_xy_124 <= angles_xy_124_c;
-      angles_xy_124_ovf <= angles_xy_124_ovf_c;
-      angles_theta_125 <= angles_theta_125_c;
-      angles_theta_125_ovf <= angles_theta_125_ovf_c;
-      angles_xy_181_s7 <= angles_xy_181_s6;
-      angles_theta_188_s7 <= angles_theta_188_s6;
-      polar_index_257_s7 <= polar_index_257_s6;
-      polar_index_279_s7 <= polar_index_279_s6;
-      n_x_i_s7 <= n_x_i_s6;
-      n_y_i_s7 <= n_y_i_s6;
-      n_z_i_s7 <= n_z_i_s6;
-      ovf0_s7 <= ovf0_s6;
-      ovf1_s7 <= ovf1_s6;
-      ovf2_s7 <= ovf2_s6;
-      angles_xy_117_ovf_s7 <= angles_xy_117_ovf;
-      angles_xy_118_ovf_s7 <= angles_xy_118_ovf;
-      ovf3_s7 <= ovf3_or_s6;
-      angles_theta_119_ovf_s7 <= angles_theta_119_ovf;
-      ovf4_s7 <= ovf4_or_s6;
-      ovf6_s7 <= ovf6_s6;
+      angles_xy_123_q <= angles_xy_123_d;
+      angles_xy_123_ovf_q <= angles_xy_123_ovf_d;
+      angles_xy_124_q <= angles_xy_124_d;
+      angles_xy_124_ovf_q <= angles_xy_124_ovf_d;
+      angles_theta_125_q <= angles_theta_125_d;
+      angles_theta_125_ovf_q <= angles_theta_125_ovf_d;
+      angles_xy_181_s7_q <= angles_xy_181_s6_q;
+      angles_theta_188_s7_q <= angles_theta_188_s6_q;
+      polar_index_257_s7_q <= polar_index_257_s6_q;
+      polar_index_279_s7_q <= polar_index_279_s6_q;
+      n_x_i_s7_q <= n_x_i_s6_q;
+      n_y_i_s7_q <= n_y_i_s6_q;
+      n_z_i_s7_q <= n_z_i_s6_q;
+      ovf0_s7_q <= ovf0_s6_q;
+      ovf1_s7_q <= ovf1_s6_q;
+      ovf2_s7_q <= ovf2_s6_q;
+      angles_xy_117_ovf_s7_q <= angles_xy_117_ovf_q;
+      angles_xy_118_ovf_s7_q <= angles_xy_118_ovf_q;
+      ovf3_s7_q <= ovf3_or_s6;
+      angles_theta_119_ovf_s7_q <= angles_theta_119_ovf_q;
+      ovf4_s7_q <= ovf4_or_s6;
+      ovf6_s7_q <= ovf6_s6_q;
     end
     if (load_s8) begin
-      angles_xy_129 <= angles_xy_129_c;
-      angles_xy_129_ovf <= angles_xy_129_ovf_c;
-      angles_xy_130 <= angles_xy_130_c;
-      angles_xy_130_ovf <= angles_xy_130_ovf_c;
-      angles_theta_131 <= angles_theta_131_c;
-      angles_theta_131_ovf <= angles_theta_131_ovf_c;
-      angles_xy_181_s8 <= angles_xy_181_s7;
-      angles_theta_188_s8 <= angles_theta_188_s7;
-      polar_index_257_s8 <= polar_index_257_s7;
-      polar_index_279_s8 <= polar_index_279_s7;
-      n_x_i_s8 <= n_x_i_s7;
-      n_y_i_s8 <= n_y_i_s7;
-      n_z_i_s8 <= n_z_i_s7;
-      ovf0_s8 <= ovf0_s7;
-      ovf1_s8 <= ovf1_s7;
-      ovf2_s8 <= ovf2_s7;
-      angles_xy_123_ovf_s8 <= angles_xy_123_ovf;
-      angles_xy_124_ovf_s8 <= angles_xy_124_ovf;
-      ovf3_s8 <= ovf3_or_s7;
-      angles_theta_125_ovf_s8 <= angles_theta_125_ovf;
-      ovf4_s8 <= ovf4_or_s7;
-      ovf6_s8 <= ovf6_s7;
+      angles_xy_129_q <= angles_xy_129_d;
+      angles_xy_129_ovf_q <= angles_xy_129_ovf_d;
+      angles_xy_130_q <= angles_xy_130_d;
+      angles_xy_130_ovf_q <= angles_xy_130_ovf_d;
+      angles_theta_131_q <= angles_theta_131_d;
+      angles_theta_131_ovf_q <= angles_theta_131_ovf_d;
+      angles_xy_181_s8_q <= angles_xy_181_s7_q;
+      angles_theta_188_s8_q <= angles_theta_188_s7_q;
+      polar_index_257_s8_q <= polar_index_257_s7_q;
+      polar_index_279_s8_q <= polar_index_279_s7_q;
+      n_x_i_s8_q <= n_x_i_s7_q;
+      n_y_i_s8_q <= n_y_i_s7_q;
+      n_z_i_s8_q <= n_z_i_s7_q;
+      ovf0_s8_q <= ovf0_s7_q;
+      ovf1_s8_q <= ovf1_s7_q;
+      ovf2_s8_q <= ovf2_s7_q;
+      angles_xy_123_ovf_s8_q <= angles_xy_123_ovf_q;
+      angles_xy_124_ovf_s8_q <= angles_xy_124_ovf_q;
+      ovf3_s8_q <= ovf3_or_s7;
+      angles_theta_125_ovf_s8_q <= angles_theta_125_ovf_q;
+      ovf4_s8_q <= ovf4_or_s7;
+      ovf6_s8_q <= ovf6_s7_q;
     end
     if (load_s9) begin
-      angles_xy_135 <= angles_xy_135_c;
-      angles_xy_135_ovf <= angles_xy_135_ovf_c;
-      angles_xy_136 <= angles_xy_136_c;
-      angles_xy_136_ovf <= angles_xy_136_ovf_c;
-      angles_theta_137 <= angles_theta_137_c;
-      angles_theta_137_ovf <= angles_theta_137_ovf_c;
-      angles_xy_181_s9 <= angles_xy_181_s8;
-      angles_theta_188_s9 <= angles_theta_188_s8;
-      polar_index_257_s9 <= polar_index_257_s8;
-      polar_index_279_s9 <= polar_index_279_s8;
-      n_x_i_s9 <= n_x_i_s8;
-      n_y_i_s9 <= n_y_i_s8;
-      n_z_i_s9 <= n_z_i_s8;
-      ovf0_s9 <= ovf0_s8;
-      ovf1_s9 <= ovf1_s8;
-      ovf2_s9 <= ovf2_s8;
-      angles_xy_129_ovf_s9 <= angles_xy_129_ovf;
-      angles_xy_130_ovf_s9 <= angles_xy_130_ovf;
-      ovf3_s9 <= ovf3_or_s8;
-      angles_theta_131_ovf_s9 <= angles_theta_131_ovf;
-      ovf4_s9 <= ovf4_or_s8;
-      ovf6_s9 <= ovf6_s8;
+      angles_xy_135_q <= angles_xy_135_d;
+      angles_xy_135_ovf_q <= angles_xy_135_ovf_d;
+      angles_xy_136_q <= angles_xy_136_d;
+      angles_xy_136_ovf_q <= angles_xy_136_ovf_d;
+      angles_theta_137_q <= angles_theta_137_d;
+      angles_theta_137_ovf_q <= angles_theta_137_ovf_d;
+      angles_xy_181_s9_q <= angles_xy_181_s8_q;
+      angles_theta_188_s9_q <= angles_theta_188_s8_q;
+      polar_index_257_s9_q <= polar_index_257_s8_q;
+      polar_index_279_s9_q <= polar_index_279_s8_q;
+      n_x_i_s9_q <= n_x_i_s8_q;
+      n_y_i_s9_q <= n_y_i_s8_q;
+      n_z_i_s9_q <= n_z_i_s8_q;
+      ovf0_s9_q <= ovf0_s8_q;
+      ovf1_s9_q <= ovf1_s8_q;
+      ovf2_s9_q <= ovf2_s8_q;
+      angles_xy_129_ovf_s9_q <= angles_xy_129_ovf_q;
+      angles_xy_130_ovf_s9_q <= angles_xy_130_ovf_q;
+      ovf3_s9_q <= ovf3_or_s8;
+      angles_theta_131_ovf_s9_q <= angles_theta_131_ovf_q;
+      ovf4_s9_q <= ovf4_or_s8;
+      ovf6_s9_q <= ovf6_s8_q;
     end
     if (load_s10) begin
-      angles_xy_141 <= angles_xy_141_c;
-      angles_xy_141_ovf <= angles_xy_141_ovf_c;
-      angles_xy_142 <= angles_xy_142_c;
-      angles_xy_142_ovf <= angles_xy_142_ovf_c;
-      angles_theta_143 <= angles_theta_143_c;
-      angles_theta_143_ovf <= angles_theta_143_ovf_c;
-      angles_xy_181_s10 <= angles_xy_181_s9;
-      angles_theta_188_s10 <= angles_theta_188_s9;
-      polar_index_257_s10 <= polar_index_257_s9;
-      polar_index_279_s10 <= polar_index_279_s9;
-      n_x_i_s10 <= n_x_i_s9;
-      n_y_i_s10 <= n_y_i_s9;
-      n_z_i_s10 <= n_z_i_s9;
-      ovf0_s10 <= ovf0_s9;
-      ovf1_s10 <= ovf1_s9;
-      ovf2_s10 <= ovf2_s9;
-      angles_xy_135_ovf_s10 <= angles_xy_135_ovf;
-      angles_xy_136_ovf_s10 <= angles_xy_136_ovf;
-      ovf3_s10 <= ovf3_or_s9;
-      angles_theta_137_ovf_s10 <= angles_theta_137_ovf;
-      ovf4_s10 <= ovf4_or_s9;
-      ovf6_s10 <= ovf6_s9;
+      angles_xy_141_q <= angles_xy_141_d;
+      angles_xy_141_ovf_q <= angles_xy_141_ovf_d;
+      angles_xy_142_q <= angles_xy_142_d;
+      angles_xy_142_ovf_q <= angles_xy_142_ovf_d;
+      angles_theta_143_q <= angles_theta_143_d;
+      angles_theta_143_ovf_q <= angles_theta_143_ovf_d;
+      angles_xy_181_s10_q <= angles_xy_181_s9_q;
+      angles_theta_188_s10_q <= angles_theta_188_s9_q;
+      polar_index_257_s10_q <= polar_index_257_s9_q;
+      polar_index_279_s10_q <= polar_index_279_s9_q;
+      n_x_i_s10_q <= n_x_i_s9_q;
+      n_y_i_s10_q <= n_y_i_s9_q;
+      n_z_i_s10_q <= n_z_i_s9_q;
+      ovf0_s10_q <= ovf0_s9_q;
+      ovf1_s10_q <= ovf1_s9_q;
+      ovf2_s10_q <= ovf2_s9_q;
+      angles_xy_135_ovf_s10_q <= angles_xy_135_ovf_q;
+      angles_xy_136_ovf_s10_q <= angles_xy_136_ovf_q;
+      ovf3_s10_q <= ovf3_or_s9;
+      angles_theta_137_ovf_s10_q <= angles_theta_137_ovf_q;
+      ovf4_s10_q <= ovf4_or_s9;
+      ovf6_s10_q <= ovf6_s9_q;
     end
     if (load_s11) begin
-      angles_xy_147 <= angles_xy_147_c;
-      angles_xy_147_ovf <= angles_xy_147_ovf_c;
-      angles_xy_148 <= angles_xy_148_c;
-      angles_xy_148_ovf <= angles_xy_148_ovf_c;
-      angles_theta_149 <= angles_theta_149_c;
-      angles_theta_149_ovf <= angles_theta_149_ovf_c;
-      angles_xy_181_s11 <= angles_xy_181_s10;
-      angles_theta_188_s11 <= angles_theta_188_s10;
-      polar_index_257_s11 <= polar_index_257_s10;
-      polar_index_279_s11 <= polar_index_279_s10;
-      n_x_i_s11 <= n_x_i_s10;
-      n_y_i_s11 <= n_y_i_s10;
-      n_z_i_s11 <= n_z_i_s10;
-      ovf0_s11 <= ovf0_s10;
-      ovf1_s11 <= ovf1_s10;
-      ovf2_s11 <= ovf2_s10;
-      angles_xy_141_ovf_s11 <= angles_xy_141_ovf;
-      angles_xy_142_ovf_s11 <= angles_xy_142_ovf;
-      ovf3_s11 <= ovf3_or_s10;
-      angles_theta_143_ovf_s11 <= angles_theta_143_ovf;
-      ovf4_s11 <= ovf4_or_s10;
-      ovf6_s11 <= ovf6_s10;
+      angles_xy_147_q <= angles_xy_147_d;
+      angles_xy_147_ovf_q <= angles_xy_147_ovf_d;
+      angles_xy_148_q <= angles_xy_148_d;
+      angles_xy_148_ovf_q <= angles_xy_148_ovf_d;
+      angles_theta_149_q <= angles_theta_149_d;
+      angles_theta_149_ovf_q <= angles_theta_149_ovf_d;
+      angles_xy_181_s11_q <= angles_xy_181_s10_q;
+      angles_theta_188_s11_q <= angles_theta_188_s10_q;
+      polar_index_257_s11_q <= polar_index_257_s10_q;
+      polar_index_279_s11_q <= polar_index_279_s10_q;
+      n_x_i_s11_q <= n_x_i_s10_q;
+      n_y_i_s11_q <= n_y_i_s10_q;
+      n_z_i_s11_q <= n_z_i_s10_q;
+      ovf0_s11_q <= ovf0_s10_q;
+      ovf1_s11_q <= ovf1_s10_q;
+      ovf2_s11_q <= ovf2_s10_q;
+      angles_xy_141_ovf_s11_q <= angles_xy_141_ovf_q;
+      angles_xy_142_ovf_s11_q <= angles_xy_142_ovf_q;
+      ovf3_s11_q <= ovf3_or_s10;
+      angles_theta_143_ovf_s11_q <= angles_theta_143_ovf_q;
+      ovf4_s11_q <= ovf4_or_s10;
+      ovf6_s11_q <= ovf6_s10_q;
     end
     if (load_s12) begin
-      angles_xy_153 <= angles_xy_153_c;
-      angles_xy_153_ovf <= angles_xy_153_ovf_c;
-      angles_xy_154 <= angles_xy_154_c;
-      angles_xy_154_ovf <= angles_xy_154_ovf_c;
-      angles_theta_155 <= angles_theta_155_c;
-      angles_theta_155_ovf <= angles_theta_155_ovf_c;
-      angles_xy_181_s12 <= angles_xy_181_s11;
-      angles_theta_188_s12 <= angles_theta_188_s11;
-      polar_index_257_s12 <= polar_index_257_s11;
-      polar_index_279_s12 <= polar_index_279_s11;
-      n_x_i_s12 <= n_x_i_s11;
-      n_y_i_s12 <= n_y_i_s11;
-      n_z_i_s12 <= n_z_i_s11;
-      ovf0_s12 <= ovf0_s11;
-      ovf1_s12 <= ovf1_s11;
-      ovf2_s12 <= ovf2_s11;
-      angles_xy_147_ovf_s12 <= angles_xy_147_ovf;
-      angles_xy_148_ovf_s12 <= angles_xy_148_ovf;
-      ovf3_s12 <= ovf3_or_s11;
-      angles_theta_149_ovf_s12 <= angles_theta_149_ovf;
-      ovf4_s12 <= ovf4_or_s11;
-      ovf6_s12 <= ovf6_s11;
+      angles_xy_153_q <= angles_xy_153_d;
+      angles_xy_153_ovf_q <= angles_xy_153_ovf_d;
+      angles_xy_154_q <= angles_xy_154_d;
+      angles_xy_154_ovf_q <= angles_xy_154_ovf_d;
+      angles_theta_155_q <= angles_theta_155_d;
+      angles_theta_155_ovf_q <= angles_theta_155_ovf_d;
+      angles_xy_181_s12_q <= angles_xy_181_s11_q;
+      angles_theta_188_s12_q <= angles_theta_188_s11_q;
+      polar_index_257_s12_q <= polar_index_257_s11_q;
+      polar_index_279_s12_q <= polar_index_279_s11_q;
+      n_x_i_s12_q <= n_x_i_s11_q;
+      n_y_i_s12_q <= n_y_i_s11_q;
+      n_z_i_s12_q <= n_z_i_s11_q;
+      ovf0_s12_q <= ovf0_s11_q;
+      ovf1_s12_q <= ovf1_s11_q;
+      ovf2_s12_q <= ovf2_s11_q;
+      angles_xy_147_ovf_s12_q <= angles_xy_147_ovf_q;
+      angles_xy_148_ovf_s12_q <= angles_xy_148_ovf_q;
+      ovf3_s12_q <= ovf3_or_s11;
+      angles_theta_149_ovf_s12_q <= angles_theta_149_ovf_q;
+      ovf4_s12_q <= ovf4_or_s11;
+      ovf6_s12_q <= ovf6_s11_q;
     end
     if (load_s13) begin
-      angles_xy_159 <= angles_xy_159_c;
-      angles_xy_159_ovf <= angles_xy_159_ovf_c;
-      angles_xy_160 <= angles_xy_160_c;
-      angles_xy_160_ovf <= angles_xy_160_ovf_c;
-      angles_theta_161 <= angles_theta_161_c;
-      angles_theta_161_ovf <= angles_theta_161_ovf_c;
-      angles_xy_181_s13 <= angles_xy_181_s12;
-      angles_theta_188_s13 <= angles_theta_188_s12;
-      polar_index_257_s13 <= polar_index_257_s12;
-      polar_index_279_s13 <= polar_index_279_s12;
-      n_x_i_s13 <= n_x_i_s12;
-      n_y_i_s13 <= n_y_i_s12;
-      n_z_i_s13 <= n_z_i_s12;
-      ovf0_s13 <= ovf0_s12;
-      ovf1_s13 <= ovf1_s12;
-      ovf2_s13 <= ovf2_s12;
-      angles_xy_153_ovf_s13 <= angles_xy_153_ovf;
-      angles_xy_154_ovf_s13 <= angles_xy_154_ovf;
-      ovf3_s13 <= ovf3_or_s12;
-      angles_theta_155_ovf_s13 <= angles_theta_155_ovf;
-      ovf4_s13 <= ovf4_or_s12;
-      ovf6_s13 <= ovf6_s12;
+      angles_xy_159_q <= angles_xy_159_d;
+      angles_xy_159_ovf_q <= angles_xy_159_ovf_d;
+      angles_xy_160_q <= angles_xy_160_d;
+      angles_xy_160_ovf_q <= angles_xy_160_ovf_d;
+      angles_theta_161_q <= angles_theta_161_d;
+      angles_theta_161_ovf_q <= angles_theta_161_ovf_d;
+      angles_xy_181_s13_q <= angles_xy_181_s12_q;
+      angles_theta_188_s13_q <= angles_theta_188_s12_q;
+      polar_index_257_s13_q <= polar_index_257_s12_q;
+      polar_index_279_s13_q <= polar_index_279_s12_q;
+      n_x_i_s13_q <= n_x_i_s12_q;
+      n_y_i_s13_q <= n_y_i_s12_q;
+      n_z_i_s13_q <= n_z_i_s12_q;
+      ovf0_s13_q <= ovf0_s12_q;
+      ovf1_s13_q <= ovf1_s12_q;
+      ovf2_s13_q <= ovf2_s12_q;
+      angles_xy_153_ovf_s13_q <= angles_xy_153_ovf_q;
+      angles_xy_154_ovf_s13_q <= angles_xy_154_ovf_q;
+      ovf3_s13_q <= ovf3_or_s12;
+      angles_theta_155_ovf_s13_q <= angles_theta_155_ovf_q;
+      ovf4_s13_q <= ovf4_or_s12;
+      ovf6_s13_q <= ovf6_s12_q;
     end
     if (load_s14) begin
-      angles_xy_165 <= angles_xy_165_c;
-      angles_xy_165_ovf <= angles_xy_165_ovf_c;
-      angles_xy_166 <= angles_xy_166_c;
-      angles_xy_166_ovf <= angles_xy_166_ovf_c;
-      angles_theta_167 <= angles_theta_167_c;
-      angles_theta_167_ovf <= angles_theta_167_ovf_c;
-      angles_xy_181_s14 <= angles_xy_181_s13;
-      angles_theta_188_s14 <= angles_theta_188_s13;
-      polar_index_257_s14 <= polar_index_257_s13;
-      polar_index_279_s14 <= polar_index_279_s13;
-      n_x_i_s14 <= n_x_i_s13;
-      n_y_i_s14 <= n_y_i_s13;
-      n_z_i_s14 <= n_z_i_s13;
-      ovf0_s14 <= ovf0_s13;
-      ovf1_s14 <= ovf1_s13;
-      ovf2_s14 <= ovf2_s13;
-      angles_xy_159_ovf_s14 <= angles_xy_159_ovf;
-      angles_xy_160_ovf_s14 <= angles_xy_160_ovf;
-      ovf3_s14 <= ovf3_or_s13;
-      angles_theta_161_ovf_s14 <= angles_theta_161_ovf;
-      ovf4_s14 <= ovf4_or_s13;
-      ovf6_s14 <= ovf6_s13;
+      angles_xy_165_q <= angles_xy_165_d;
+      angles_xy_165_ovf_q <= angles_xy_165_ovf_d;
+      angles_xy_166_q <= angles_xy_166_d;
+      angles_xy_166_ovf_q <= angles_xy_166_ovf_d;
+      angles_theta_167_q <= angles_theta_167_d;
+      angles_theta_167_ovf_q <= angles_theta_167_ovf_d;
+      angles_xy_181_s14_q <= angles_xy_181_s13_q;
+      angles_theta_188_s14_q <= angles_theta_188_s13_q;
+      polar_index_257_s14_q <= polar_index_257_s13_q;
+      polar_index_279_s14_q <= polar_index_279_s13_q;
+      n_x_i_s14_q <= n_x_i_s13_q;
+      n_y_i_s14_q <= n_y_i_s13_q;
+      n_z_i_s14_q <= n_z_i_s13_q;
+      ovf0_s14_q <= ovf0_s13_q;
+      ovf1_s14_q <= ovf1_s13_q;
+      ovf2_s14_q <= ovf2_s13_q;
+      angles_xy_159_ovf_s14_q <= angles_xy_159_ovf_q;
+      angles_xy_160_ovf_s14_q <= angles_xy_160_ovf_q;
+      ovf3_s14_q <= ovf3_or_s13;
+      angles_theta_161_ovf_s14_q <= angles_theta_161_ovf_q;
+      ovf4_s14_q <= ovf4_or_s13;
+      ovf6_s14_q <= ovf6_s13_q;
     end
     if (load_s15) begin
-      angles_xy_171 <= angles_xy_171_c;
-      angles_xy_171_ovf <= angles_xy_171_ovf_c;
-      angles_xy_172 <= angles_xy_172_c;
-      angles_xy_172_ovf <= angles_xy_172_ovf_c;
-      angles_theta_173 <= angles_theta_173_c;
-      angles_theta_173_ovf <= angles_theta_173_ovf_c;
-      angles_xy_181_s15 <= angles_xy_181_s14;
-      angles_theta_188_s15 <= angles_theta_188_s14;
-      polar_index_257_s15 <= polar_index_257_s14;
-      polar_index_279_s15 <= polar_index_279_s14;
-      n_x_i_s15 <= n_x_i_s14;
-      n_y_i_s15 <= n_y_i_s14;
-      n_z_i_s15 <= n_z_i_s14;
-      ovf0_s15 <= ovf0_s14;
-      ovf1_s15 <= ovf1_s14;
-      ovf2_s15 <= ovf2_s14;
-      angles_xy_165_ovf_s15 <= angles_xy_165_ovf;
-      angles_xy_166_ovf_s15 <= angles_xy_166_ovf;
-      ovf3_s15 <= ovf3_or_s14;
-      angles_theta_167_ovf_s15 <= angles_theta_167_ovf;
-      ovf4_s15 <= ovf4_or_s14;
-      ovf6_s15 <= ovf6_s14;
+      angles_xy_171_q <= angles_xy_171_d;
+      angles_xy_171_ovf_q <= angles_xy_171_ovf_d;
+      angles_xy_172_q <= angles_xy_172_d;
+      angles_xy_172_ovf_q <= angles_xy_172_ovf_d;
+      angles_theta_173_q <= angles_theta_173_d;
+      angles_theta_173_ovf_q <= angles_theta_173_ovf_d;
+      angles_xy_181_s15_q <= angles_xy_181_s14_q;
+      angles_theta_188_s15_q <= angles_theta_188_s14_q;
+      polar_index_257_s15_q <= polar_index_257_s14_q;
+      polar_index_279_s15_q <= polar_index_279_s14_q;
+      n_x_i_s15_q <= n_x_i_s14_q;
+      n_y_i_s15_q <= n_y_i_s14_q;
+      n_z_i_s15_q <= n_z_i_s14_q;
+      ovf0_s15_q <= ovf0_s14_q;
+      ovf1_s15_q <= ovf1_s14_q;
+      ovf2_s15_q <= ovf2_s14_q;
+      angles_xy_165_ovf_s15_q <= angles_xy_165_ovf_q;
+      angles_xy_166_ovf_s15_q <= angles_xy_166_ovf_q;
+      ovf3_s15_q <= ovf3_or_s14;
+      angles_theta_167_ovf_s15_q <= angles_theta_167_ovf_q;
+      ovf4_s15_q <= ovf4_or_s14;
+      ovf6_s15_q <= ovf6_s14_q;
     end
     if (load_s16) begin
-      angles_xy_177 <= angles_xy_177_c;
-      angles_xy_177_ovf <= angles_xy_177_ovf_c;
-      angles_theta_179 <= angles_theta_179_c;
-      angles_theta_179_ovf <= angles_theta_179_ovf_c;
-      angles_xy_181_s16 <= angles_xy_181_s15;
-      angles_theta_188_s16 <= angles_theta_188_s15;
-      polar_index_257_s16 <= polar_index_257_s15;
-      polar_index_279_s16 <= polar_index_279_s15;
-      n_x_i_s16 <= n_x_i_s15;
-      n_y_i_s16 <= n_y_i_s15;
-      n_z_i_s16 <= n_z_i_s15;
-      ovf0_s16 <= ovf0_s15;
-      ovf1_s16 <= ovf1_s15;
-      ovf2_s16 <= ovf2_s15;
-      angles_xy_171_ovf_s16 <= angles_xy_171_ovf;
-      angles_xy_172_ovf_s16 <= angles_xy_172_ovf;
-      ovf3_s16 <= ovf3_or_s15;
-      angles_theta_173_ovf_s16 <= angles_theta_173_ovf;
-      ovf4_s16 <= ovf4_or_s15;
-      ovf6_s16 <= ovf6_s15;
+      angles_xy_177_q <= angles_xy_177_d;
+      angles_xy_177_ovf_q <= angles_xy_177_ovf_d;
+      angles_theta_179_q <= angles_theta_179_d;
+      angles_theta_179_ovf_q <= angles_theta_179_ovf_d;
+      angles_xy_181_s16_q <= angles_xy_181_s15_q;
+      angles_theta_188_s16_q <= angles_theta_188_s15_q;
+      polar_index_257_s16_q <= polar_index_257_s15_q;
+      polar_index_279_s16_q <= polar_index_279_s15_q;
+      n_x_i_s16_q <= n_x_i_s15_q;
+      n_y_i_s16_q <= n_y_i_s15_q;
+      n_z_i_s16_q <= n_z_i_s15_q;
+      ovf0_s16_q <= ovf0_s15_q;
+      ovf1_s16_q <= ovf1_s15_q;
+      ovf2_s16_q <= ovf2_s15_q;
+      angles_xy_171_ovf_s16_q <= angles_xy_171_ovf_q;
+      angles_xy_172_ovf_s16_q <= angles_xy_172_ovf_q;
+      ovf3_s16_q <= ovf3_or_s15;
+      angles_theta_173_ovf_s16_q <= angles_theta_173_ovf_q;
+      ovf4_s16_q <= ovf4_or_s15;
+      ovf6_s16_q <= ovf6_s15_q;
     end
     if (load_s17) begin
-      angles_xy_186 <= angles_xy_186_c;
-      angles_xy_186_ovf <= angles_xy_186_ovf_c;
-      angles_xy_187 <= angles_xy_187_c;
-      angles_xy_187_ovf <= angles_xy_187_ovf_c;
-      angles_theta_188_s17 <= angles_theta_188_s16;
-      angles_out_256 <= angles_out_256_c;
-      angles_out_256_ovf <= angles_out_256_ovf_c;
-      polar_index_257_s17 <= polar_index_257_s16;
-      polar_index_279_s17 <= polar_index_279_s16;
-      n_x_i_s17 <= n_x_i_s16;
-      n_y_i_s17 <= n_y_i_s16;
-      n_z_i_s17 <= n_z_i_s16;
-      ovf0_s17 <= ovf0_s16;
-      ovf1_s17 <= ovf1_s16;
-      ovf2_s17 <= ovf2_s16;
-      angles_xy_177_ovf_s17 <= angles_xy_177_ovf;
-      ovf3_s17 <= ovf3_or_s16;
-      angles_theta_179_ovf_s17 <= angles_theta_179_ovf;
-      ovf4_s17 <= ovf4_or_s16;
-      ovf6_s17 <= ovf6_s16;
+      angles_xy_186_q <= angles_xy_186_d;
+      angles_xy_186_ovf_q <= angles_xy_186_ovf_d;
+      angles_xy_187_q <= angles_xy_187_d;
+      angles_xy_187_ovf_q <= angles_xy_187_ovf_d;
+      angles_theta_188_s17_q <= angles_theta_188_s16_q;
+      angles_out_256_q <= angles_out_256_d;
+      angles_out_256_ovf_q <= angles_out_256_ovf_d;
+      polar_index_257_s17_q <= polar_index_257_s16_q;
+      polar_index_279_s17_q <= polar_index_279_s16_q;
+      n_x_i_s17_q <= n_x_i_s16_q;
+      n_y_i_s17_q <= n_y_i_s16_q;
+      n_z_i_s17_q <= n_z_i_s16_q;
+      ovf0_s17_q <= ovf0_s16_q;
+      ovf1_s17_q <= ovf1_s16_q;
+      ovf2_s17_q <= ovf2_s16_q;
+      angles_xy_177_ovf_s17_q <= angles_xy_177_ovf_q;
+      ovf3_s17_q <= ovf3_or_s16;
+      angles_theta_179_ovf_s17_q <= angles_theta_179_ovf_q;
+      ovf4_s17_q <= ovf4_or_s16;
+      ovf6_s17_q <= ovf6_s16_q;
     end
     if (load_s18) begin
-      angles_xy_192 <= angles_xy_192_c;
-      angles_xy_192_ovf <= angles_xy_192_ovf_c;
-      angles_xy_193 <= angles_xy_193_c;
-      angles_xy_193_ovf <= angles_xy_193_ovf_c;
-      angles_theta_194 <= angles_theta_194_c;
-      angles_theta_194_ovf <= angles_theta_194_ovf_c;
-      polar_index_259 <= polar_index_259_c;
-      polar_index_259_ovf <= polar_index_259_ovf_c;
-      polar_index_257_s18 <= polar_index_257_s17;
-      polar_index_281 <= polar_index_281_c;
-      polar_index_281_ovf <= polar_index_281_ovf_c;
-      polar_index_279_s18 <= polar_index_279_s17;
-      n_x_i_s18 <= n_x_i_s17;
-      n_y_i_s18 <= n_y_i_s17;
-      n_z_i_s18 <= n_z_i_s17;
-      ovf0_s18 <= ovf0_s17;
-      ovf1_s18 <= ovf1_s17;
-      ovf2_s18 <= ovf2_s17;
-      angles_xy_186_ovf_s18 <= angles_xy_186_ovf;
-      angles_xy_187_ovf_s18 <= angles_xy_187_ovf;
-      ovf3_s18 <= ovf3_or_s17;
-      ovf4_s18 <= ovf4_or_s17;
-      angles_out_256_ovf_s18 <= angles_out_256_ovf;
-      ovf6_s18 <= ovf6_s17;
+      angles_xy_192_q <= angles_xy_192_d;
+      angles_xy_192_ovf_q <= angles_xy_192_ovf_d;
+      angles_xy_193_q <= angles_xy_193_d;
+      angles_xy_193_ovf_q <= angles_xy_193_ovf_d;
+      angles_theta_194_q <= angles_theta_194_d;
+      angles_theta_194_ovf_q <= angles_theta_194_ovf_d;
+      polar_index_259_q <= polar_index_259_d;
+      polar_index_259_ovf_q <= polar_index_259_ovf_d;
+      polar_index_257_s18_q <= polar_index_257_s17_q;
+      polar_index_281_q <= polar_index_281_d;
+      polar_index_281_ovf_q <= polar_index_281_ovf_d;
+      polar_index_279_s18_q <= polar_index_279_s17_q;
+      n_x_i_s18_q <= n_x_i_s17_q;
+      n_y_i_s18_q <= n_y_i_s17_q;
+      n_z_i_s18_q <= n_z_i_s17_q;
+      ovf0_s18_q <= ovf0_s17_q;
+      ovf1_s18_q <= ovf1_s17_q;
+      ovf2_s18_q <= ovf2_s17_q;
+      angles_xy_186_ovf_s18_q <= angles_xy_186_ovf_q;
+      angles_xy_187_ovf_s18_q <= angles_xy_187_ovf_q;
+      ovf3_s18_q <= ovf3_or_s17;
+      ovf4_s18_q <= ovf4_or_s17;
+      angles_out_256_ovf_s18_q <= angles_out_256_ovf_q;
+      ovf6_s18_q <= ovf6_s17_q;
     end
     if (load_s19) begin
-      angles_xy_198 <= angles_xy_198_c;
-      angles_xy_198_ovf <= angles_xy_198_ovf_c;
-      angles_xy_199 <= angles_xy_199_c;
-      angles_xy_199_ovf <= angles_xy_199_ovf_c;
-      angles_theta_200 <= angles_theta_200_c;
-      angles_theta_200_ovf <= angles_theta_200_ovf_c;
-      cos_261_raw <= quarter_rom[cos_261_a[8:0]];
-      cos_261_top <= cos_261_a[9];
+      angles_xy_198_q <= angles_xy_198_d;
+      angles_xy_198_ovf_q <= angles_xy_198_ovf_d;
+      angles_xy_199_q <= angles_xy_199_d;
+      angles_xy_199_ovf_q <= angles_xy_199_ovf_d;
+      angles_theta_200_q <= angles_theta_200_d;
+      angles_theta_200_ovf_q <= angles_theta_200_ovf_d;
+      cos_261_raw_q <= quarter_rom[cos_261_a[8:0]];
+      cos_261_top_q <= cos_261_a[9];
       cos_261_neg_q <= cos_261_j[10];
-      polar_index_257_s19 <= polar_index_257_s18;
-      cos_263_raw <= quarter_rom[cos_263_a[8:0]];
-      cos_263_top <= cos_263_a[9];
+      polar_index_257_s19_q <= polar_index_257_s18_q;
+      cos_263_raw_q <= quarter_rom[cos_263_a[8:0]];
+      cos_263_top_q <= cos_263_a[9];
       cos_263_neg_q <= cos_263_j[10];
-      sin_264_raw <= quarter_rom[sin_264_a[8:0]];
-      sin_264_top <= sin_264_a[9];
+      sin_264_raw_q <= quarter_rom[sin_264_a[8:0]];
+      sin_264_top_q <= sin_264_a[9];
       sin_264_neg_q <= sin_264_j[10];
-      cos_283_raw <= quarter_rom[cos_283_a[8:0]];
-      cos_283_top <= cos_283_a[9];
+      cos_283_raw_q <= quarter_rom[cos_283_a[8:0]];
+      cos_283_top_q <= cos_283_a[9];
       cos_283_neg_q <= cos_283_j[10];
-      polar_index_279_s19 <= polar_index_279_s18;
-      cos_285_raw <= quarter_rom[cos_285_a[8:0]];
-      cos_285_top <= cos_285_a[9];
+      polar_index_279_s19_q <= polar_index_279_s18_q;
+      cos_285_raw_q <= quarter_rom[cos_285_a[8:0]];
+      cos_285_top_q <= cos_285_a[9];
       cos_285_neg_q <= cos_285_j[10];
-      sin_286_raw <= quarter_rom[sin_286_a[8:0]];
-      sin_286_top <= sin_286_a[9];
+      sin_286_raw_q <= quarter_rom[sin_286_a[8:0]];
+      sin_286_top_q <= sin_286_a[9];
       sin_286_neg_q <= sin_286_j[10];
-      n_x_i_s19 <= n_x_i_s18;
-      n_y_i_s19 <= n_y_i_s18;
-      n_z_i_s19 <= n_z_i_s18;
-      ovf0_s19 <= ovf0_s18;
-      ovf1_s19 <= ovf1_s18;
-      ovf2_s19 <= ovf2_s18;
-      angles_xy_192_ovf_s19 <= angles_xy_192_ovf;
-      angles_xy_193_ovf_s19 <= angles_xy_193_ovf;
-      ovf3_s19 <= ovf3_or_s18;
-      angles_theta_194_ovf_s19 <= angles_theta_194_ovf;
-      ovf4_s19 <= ovf4_s18;
-      ovf5_s19 <= angles_out_256_ovf_s18;
-      polar_index_259_ovf_s19 <= polar_index_259_ovf;
-      polar_index_281_ovf_s19 <= polar_index_281_ovf;
-      ovf6_s19 <= ovf6_s18;
+      n_x_i_s19_q <= n_x_i_s18_q;
+      n_y_i_s19_q <= n_y_i_s18_q;
+      n_z_i_s19_q <= n_z_i_s18_q;
+      ovf0_s19_q <= ovf0_s18_q;
+      ovf1_s19_q <= ovf1_s18_q;
+      ovf2_s19_q <= ovf2_s18_q;
+      angles_xy_192_ovf_s19_q <= angles_xy_192_ovf_q;
+      angles_xy_193_ovf_s19_q <= angles_xy_193_ovf_q;
+      ovf3_s19_q <= ovf3_or_s18;
+      angles_theta_194_ovf_s19_q <= angles_theta_194_ovf_q;
+      ovf4_s19_q <= ovf4_s18_q;
+      ovf5_s19_q <= angles_out_256_ovf_s18_q;
+      polar_index_259_ovf_s19_q <= polar_index_259_ovf_q;
+      polar_index_281_ovf_s19_q <= polar_index_281_ovf_q;
+      ovf6_s19_q <= ovf6_s18_q;
     end
     if (load_s20) begin
-      angles_xy_204 <= angles_xy_204_c;
-      angles_xy_204_ovf <= angles_xy_204_ovf_c;
-      angles_xy_205 <= angles_xy_205_c;
-      angles_xy_205_ovf <= angles_xy_205_ovf_c;
-      angles_theta_206 <= angles_theta_206_c;
-      angles_theta_206_ovf <= angles_theta_206_ovf_c;
-      polar_index_257_s20 <= polar_index_257_s19;
-      polar_lyz_268 <= polar_lyz_268_c;
-      polar_lyz_268_ovf <= polar_lyz_268_ovf_c;
-      polar_out_270 <= polar_out_270_c;
-      polar_out_270_ovf <= polar_out_270_ovf_c;
-      polar_index_279_s20 <= polar_index_279_s19;
-      polar_lyz_290 <= polar_lyz_290_c;
-      polar_lyz_290_ovf <= polar_lyz_290_ovf_c;
-      polar_out_292 <= polar_out_292_c;
-      polar_out_292_ovf <= polar_out_292_ovf_c;
-      n_x_i_s20 <= n_x_i_s19;
-      n_y_i_s20 <= n_y_i_s19;
-      n_z_i_s20 <= n_z_i_s19;
-      ovf0_s20 <= ovf0_s19;
-      ovf1_s20 <= ovf1_s19;
-      ovf2_s20 <= ovf2_s19;
-      angles_xy_198_ovf_s20 <= angles_xy_198_ovf;
-      angles_xy_199_ovf_s20 <= angles_xy_199_ovf;
-      ovf3_s20 <= ovf3_or_s19;
-      angles_theta_200_ovf_s20 <= angles_theta_200_ovf;
-      ovf4_s20 <= ovf4_or_s19;
-      ovf5_s20 <= ovf5_s19;
-      ovf6_s20 <= ovf6_or_s19;
+      angles_xy_204_q <= angles_xy_204_d;
+      angles_xy_204_ovf_q <= angles_xy_204_ovf_d;
+      angles_xy_205_q <= angles_xy_205_d;
+      angles_xy_205_ovf_q <= angles_xy_205_ovf_d;
+      angles_theta_206_q <= angles_theta_206_d;
+      angles_theta_206_ovf_q <= angles_theta_206_ovf_d;
+      polar_index_257_s20_q <= polar_index_257_s19_q;
+      polar_lyz_268_q <= polar_lyz_268_d;
+      polar_lyz_268_ovf_q <= polar_lyz_268_ovf_d;
+      polar_out_270_q <= polar_out_270_d;
+      polar_out_270_ovf_q <= polar_out_270_ovf_d;
+      polar_index_279_s20_q <= polar_index_279_s19_q;
+      polar_lyz_290_q <= polar_lyz_290_d;
+      polar_lyz_290_ovf_q <= polar_lyz_290_ovf_d;
+      polar_out_292_q <= polar_out_292_d;
+      polar_out_292_ovf_q <= polar_out_292_ovf_d;
+      n_x_i_s20_q <= n_x_i_s19_q;
+      n_y_i_s20_q <= n_y_i_s19_q;
+      n_z_i_s20_q <= n_z_i_s19_q;
+      ovf0_s20_q <= ovf0_s19_q;
+      ovf1_s20_q <= ovf1_s19_q;
+      ovf2_s20_q <= ovf2_s19_q;
+      angles_xy_198_ovf_s20_q <= angles_xy_198_ovf_q;
+      angles_xy_199_ovf_s20_q <= angles_xy_199_ovf_q;
+      ovf3_s20_q <= ovf3_or_s19;
+      angles_theta_200_ovf_s20_q <= angles_theta_200_ovf_q;
+      ovf4_s20_q <= ovf4_or_s19;
+      ovf5_s20_q <= ovf5_s19_q;
+      ovf6_s20_q <= ovf6_or_s19;
     end
     if (load_s21) begin
-      angles_xy_210 <= angles_xy_210_c;
-      angles_xy_210_ovf <= angles_xy_210_ovf_c;
-      angles_xy_211 <= angles_xy_211_c;
-      angles_xy_211_ovf <= angles_xy_211_ovf_c;
-      angles_theta_212 <= angles_theta_212_c;
-      angles_theta_212_ovf <= angles_theta_212_ovf_c;
-      polar_index_257_s21 <= polar_index_257_s20;
-      polar_lyz_268_s21 <= polar_lyz_268;
-      polar_index_279_s21 <= polar_index_279_s20;
-      polar_lyz_290_s21 <= polar_lyz_290;
-      lighting_light_301 <= lighting_light_301_c;
-      lighting_light_301_ovf <= lighting_light_301_ovf_c;
-      lighting_light_304 <= lighting_light_304_c;
-      lighting_light_304_ovf <= lighting_light_304_ovf_c;
-      n_x_i_s21 <= n_x_i_s20;
-      n_y_i_s21 <= n_y_i_s20;
-      n_z_i_s21 <= n_z_i_s20;
-      ovf0_s21 <= ovf0_s20;
-      ovf1_s21 <= ovf1_s20;
-      ovf2_s21 <= ovf2_s20;
-      angles_xy_204_ovf_s21 <= angles_xy_204_ovf;
-      angles_xy_205_ovf_s21 <= angles_xy_205_ovf;
-      ovf3_s21 <= ovf3_or_s20;
-      angles_theta_206_ovf_s21 <= angles_theta_206_ovf;
-      ovf4_s21 <= ovf4_or_s20;
-      ovf5_s21 <= ovf5_s20;
-      ovf6_s21 <= ovf6_s20;
-      polar_lyz_268_ovf_s21 <= polar_lyz_268_ovf;
-      polar_lyz_290_ovf_s21 <= polar_lyz_290_ovf;
-      polar_out_270_ovf_s21 <= polar_out_270_ovf;
-      polar_out_292_ovf_s21 <= polar_out_292_ovf;
+      angles_xy_210_q <= angles_xy_210_d;
+      angles_xy_210_ovf_q <= angles_xy_210_ovf_d;
+      angles_xy_211_q <= angles_xy_211_d;
+      angles_xy_211_ovf_q <= angles_xy_211_ovf_d;
+      angles_theta_212_q <= angles_theta_212_d;
+      angles_theta_212_ovf_q <= angles_theta_212_ovf_d;
+      polar_index_257_s21_q <= polar_index_257_s20_q;
+      polar_lyz_268_s21_q <= polar_lyz_268_q;
+      polar_index_279_s21_q <= polar_index_279_s20_q;
+      polar_lyz_290_s21_q <= polar_lyz_290_q;
+      lighting_light_301_q <= lighting_light_301_d;
+      lighting_light_301_ovf_q <= lighting_light_301_ovf_d;
+      lighting_light_304_q <= lighting_light_304_d;
+      lighting_light_304_ovf_q <= lighting_light_304_ovf_d;
+      n_x_i_s21_q <= n_x_i_s20_q;
+      n_y_i_s21_q <= n_y_i_s20_q;
+      n_z_i_s21_q <= n_z_i_s20_q;
+      ovf0_s21_q <= ovf0_s20_q;
+      ovf1_s21_q <= ovf1_s20_q;
+      ovf2_s21_q <= ovf2_s20_q;
+      angles_xy_204_ovf_s21_q <= angles_xy_204_ovf_q;
+      angles_xy_205_ovf_s21_q <= angles_xy_205_ovf_q;
+      ovf3_s21_q <= ovf3_or_s20;
+      angles_theta_206_ovf_s21_q <= angles_theta_206_ovf_q;
+      ovf4_s21_q <= ovf4_or_s20;
+      ovf5_s21_q <= ovf5_s20_q;
+      ovf6_s21_q <= ovf6_s20_q;
+      polar_lyz_268_ovf_s21_q <= polar_lyz_268_ovf_q;
+      polar_lyz_290_ovf_s21_q <= polar_lyz_290_ovf_q;
+      polar_out_270_ovf_s21_q <= polar_out_270_ovf_q;
+      polar_out_292_ovf_s21_q <= polar_out_292_ovf_q;
     end
     if (load_s22) begin
-      angles_xy_216 <= angles_xy_216_c;
-      angles_xy_216_ovf <= angles_xy_216_ovf_c;
-      angles_xy_217 <= angles_xy_217_c;
-      angles_xy_217_ovf <= angles_xy_217_ovf_c;
-      angles_theta_218 <= angles_theta_218_c;
-      angles_theta_218_ovf <= angles_theta_218_ovf_c;
-      polar_index_257_s22 <= polar_index_257_s21;
-      polar_lyz_268_s22 <= polar_lyz_268_s21;
-      polar_index_279_s22 <= polar_index_279_s21;
-      polar_lyz_290_s22 <= polar_lyz_290_s21;
-      n_y_i_s22 <= n_y_i_s21;
-      n_z_i_s22 <= n_z_i_s21;
-      t307_s22 <= t307;
-      t314_s22 <= t314;
-      ovf0_s22 <= ovf0_s21;
-      ovf1_s22 <= ovf1_s21;
-      ovf2_s22 <= ovf2_s21;
-      angles_xy_210_ovf_s22 <= angles_xy_210_ovf;
-      angles_xy_211_ovf_s22 <= angles_xy_211_ovf;
-      ovf3_s22 <= ovf3_or_s21;
-      angles_theta_212_ovf_s22 <= angles_theta_212_ovf;
-      ovf4_s22 <= ovf4_or_s21;
-      ovf5_s22 <= ovf5_s21;
-      ovf6_s22 <= ovf6_s21;
-      ovf7_s22 <= ovf7_or_s21;
-      ovf8_s22 <= ovf8_or_s21;
-      lighting_light_301_ovf_s22 <= lighting_light_301_ovf;
-      lighting_light_304_ovf_s22 <= lighting_light_304_ovf;
+      angles_xy_216_q <= angles_xy_216_d;
+      angles_xy_216_ovf_q <= angles_xy_216_ovf_d;
+      angles_xy_217_q <= angles_xy_217_d;
+      angles_xy_217_ovf_q <= angles_xy_217_ovf_d;
+      angles_theta_218_q <= angles_theta_218_d;
+      angles_theta_218_ovf_q <= angles_theta_218_ovf_d;
+      polar_index_257_s22_q <= polar_index_257_s21_q;
+      polar_lyz_268_s22_q <= polar_lyz_268_s21_q;
+      polar_index_279_s22_q <= polar_index_279_s21_q;
+      polar_lyz_290_s22_q <= polar_lyz_290_s21_q;
+      n_y_i_s22_q <= n_y_i_s21_q;
+      n_z_i_s22_q <= n_z_i_s21_q;
+      t307_s22_q <= t307;
+      t314_s22_q <= t314;
+      ovf0_s22_q <= ovf0_s21_q;
+      ovf1_s22_q <= ovf1_s21_q;
+      ovf2_s22_q <= ovf2_s21_q;
+      angles_xy_210_ovf_s22_q <= angles_xy_210_ovf_q;
+      angles_xy_211_ovf_s22_q <= angles_xy_211_ovf_q;
+      ovf3_s22_q <= ovf3_or_s21;
+      angles_theta_212_ovf_s22_q <= angles_theta_212_ovf_q;
+      ovf4_s22_q <= ovf4_or_s21;
+      ovf5_s22_q <= ovf5_s21_q;
+      ovf6_s22_q <= ovf6_s21_q;
+      ovf7_s22_q <= ovf7_or_s21;
+      ovf8_s22_q <= ovf8_or_s21;
+      lighting_light_301_ovf_s22_q <= lighting_light_301_ovf_q;
+      lighting_light_304_ovf_s22_q <= lighting_light_304_ovf_q;
     end
     if (load_s23) begin
-      angles_xy_222 <= angles_xy_222_c;
-      angles_xy_222_ovf <= angles_xy_222_ovf_c;
-      angles_xy_223 <= angles_xy_223_c;
-      angles_xy_223_ovf <= angles_xy_223_ovf_c;
-      angles_theta_224 <= angles_theta_224_c;
-      angles_theta_224_ovf <= angles_theta_224_ovf_c;
-      polar_index_257_s23 <= polar_index_257_s22;
-      polar_lyz_268_s23 <= polar_lyz_268_s22;
-      polar_index_279_s23 <= polar_index_279_s22;
-      polar_lyz_290_s23 <= polar_lyz_290_s22;
-      n_y_i_s23 <= n_y_i_s22;
-      n_z_i_s23 <= n_z_i_s22;
-      t307_s23 <= t307_s22;
-      t314_s23 <= t314_s22;
-      ovf0_s23 <= ovf0_s22;
-      ovf1_s23 <= ovf1_s22;
-      ovf2_s23 <= ovf2_s22;
-      angles_xy_216_ovf_s23 <= angles_xy_216_ovf;
-      angles_xy_217_ovf_s23 <= angles_xy_217_ovf;
-      ovf3_s23 <= ovf3_or_s22;
-      angles_theta_218_ovf_s23 <= angles_theta_218_ovf;
-      ovf4_s23 <= ovf4_or_s22;
-      ovf5_s23 <= ovf5_s22;
-      ovf6_s23 <= ovf6_s22;
-      ovf7_s23 <= ovf7_s22;
-      ovf8_s23 <= ovf8_s22;
-      ovf9_s23 <= ovf9_or_s22;
+      angles_xy_222_q <= angles_xy_222_d;
+      angles_xy_222_ovf_q <= angles_xy_222_ovf_d;
+      angles_xy_223_q <= angles_xy_223_d;
+      angles_xy_223_ovf_q <= angles_xy_223_ovf_d;
+      angles_theta_224_q <= angles_theta_224_d;
+      angles_theta_224_ovf_q <= angles_theta_224_ovf_d;
+      polar_index_257_s23_q <= polar_index_257_s22_q;
+      polar_lyz_268_s23_q <= polar_lyz_268_s22_q;
+      polar_index_279_s23_q <= polar_index_279_s22_q;
+      polar_lyz_290_s23_q <= polar_lyz_290_s22_q;
+      n_y_i_s23_q <= n_y_i_s22_q;
+      n_z_i_s23_q <= n_z_i_s22_q;
+      t307_s23_q <= t307_s22_q;
+      t314_s23_q <= t314_s22_q;
+      ovf0_s23_q <= ovf0_s22_q;
+      ovf1_s23_q <= ovf1_s22_q;
+      ovf2_s23_q <= ovf2_s22_q;
+      angles_xy_216_ovf_s23_q <= angles_xy_216_ovf_q;
+      angles_xy_217_ovf_s23_q <= angles_xy_217_ovf_q;
+      ovf3_s23_q <= ovf3_or_s22;
+      angles_theta_218_ovf_s23_q <= angles_theta_218_ovf_q;
+      ovf4_s23_q <= ovf4_or_s22;
+      ovf5_s23_q <= ovf5_s22_q;
+      ovf6_s23_q <= ovf6_s22_q;
+      ovf7_s23_q <= ovf7_s22_q;
+      ovf8_s23_q <= ovf8_s22_q;
+      ovf9_s23_q <= ovf9_or_s22;
     end
     if (load_s24) begin
-      angles_xy_228 <= angles_xy_228_c;
-      angles_xy_228_ovf <= angles_xy_228_ovf_c;
-      angles_xy_229 <= angles_xy_229_c;
-      angles_xy_229_ovf <= angles_xy_229_ovf_c;
-      angles_theta_230 <= angles_theta_230_c;
-      angles_theta_230_ovf <= angles_theta_230_ovf_c;
-      polar_index_257_s24 <= polar_index_257_s23;
-      polar_lyz_268_s24 <= polar_lyz_268_s23;
-      polar_index_279_s24 <= polar_index_279_s23;
-      polar_lyz_290_s24 <= polar_lyz_290_s23;
-      n_y_i_s24 <= n_y_i_s23;
-      n_z_i_s24 <= n_z_i_s23;
-      t307_s24 <= t307_s23;
-      t314_s24 <= t314_s23;
-      ovf0_s24 <= ovf0_s23;
-      ovf1_s24 <= ovf1_s23;
-      ovf2_s24 <= ovf2_s23;
-      angles_xy_222_ovf_s24 <= angles_xy_222_ovf;
-      angles_xy_223_ovf_s24 <= angles_xy_223_ovf;
-      ovf3_s24 <= ovf3_or_s23;
-      angles_theta_224_ovf_s24 <= angles_theta_224_ovf;
-      ovf4_s24 <= ovf4_or_s23;
-      ovf5_s24 <= ovf5_s23;
-      ovf6_s24 <= ovf6_s23;
-      ovf7_s24 <= ovf7_s23;
-      ovf8_s24 <= ovf8_s23;
-      ovf9_s24 <= ovf9_s23;
+      angles_xy_228_q <= angles_xy_228_d;
+      angles_xy_228_ovf_q <= angles_xy_228_ovf_d;
+      angles_xy_229_q <= angles_xy_229_d;
+      angles_xy_229_ovf_q <= angles_xy_229_ovf_d;
+      angles_theta_230_q <= angles_theta_230_d;
+      angles_theta_230_ovf_q <= angles_theta_230_ovf_d;
+      polar_index_257_s24_q <= polar_index_257_s23_q;
+      polar_lyz_268_s24_q <= polar_lyz_268_s23_q;
+      polar_index_279_s24_q <= polar_index_279_s23_q;
+      polar_lyz_290_s24_q <= polar_lyz_290_s23_q;
+      n_y_i_s24_q <= n_y_i_s23_q;
+      n_z_i_s24_q <= n_z_i_s23_q;
+      t307_s24_q <= t307_s23_q;
+      t314_s24_q <= t314_s23_q;
+      ovf0_s24_q <= ovf0_s23_q;
+      ovf1_s24_q <= ovf1_s23_q;
+      ovf2_s24_q <= ovf2_s23_q;
+      angles_xy_222_ovf_s24_q <= angles_xy_222_ovf_q;
+      angles_xy_223_ovf_s24_q <= angles_xy_223_ovf_q;
+      ovf3_s24_q <= ovf3_or_s23;
+      angles_theta_224_ovf_s24_q <= angles_theta_224_ovf_q;
+      ovf4_s24_q <= ovf4_or_s23;
+      ovf5_s24_q <= ovf5_s23_q;
+      ovf6_s24_q <= ovf6_s23_q;
+      ovf7_s24_q <= ovf7_s23_q;
+      ovf8_s24_q <= ovf8_s23_q;
+      ovf9_s24_q <= ovf9_s23_q;
     end
     if (load_s25) begin
-      angles_xy_234 <= angles_xy_234_c;
-      angles_xy_234_ovf <= angles_xy_234_ovf_c;
-      angles_xy_235 <= angles_xy_235_c;
-      angles_xy_235_ovf <= angles_xy_235_ovf_c;
-      angles_theta_236 <= angles_theta_236_c;
-      angles_theta_236_ovf <= angles_theta_236_ovf_c;
-      polar_index_257_s25 <= polar_index_257_s24;
-      polar_lyz_268_s25 <= polar_lyz_268_s24;
-      polar_index_279_s25 <= polar_index_279_s24;
-      polar_lyz_290_s25 <= polar_lyz_290_s24;
-      n_y_i_s25 <= n_y_i_s24;
-      n_z_i_s25 <= n_z_i_s24;
-      t307_s25 <= t307_s24;
-      t314_s25 <= t314_s24;
-      ovf0_s25 <= ovf0_s24;
-      ovf1_s25 <= ovf1_s24;
-      ovf2_s25 <= ovf2_s24;
-      angles_xy_228_ovf_s25 <= angles_xy_228_ovf;
-      angles_xy_229_ovf_s25 <= angles_xy_229_ovf;
-      ovf3_s25 <= ovf3_or_s24;
-      angles_theta_230_ovf_s25 <= angles_theta_230_ovf;
-      ovf4_s25 <= ovf4_or_s24;
-      ovf5_s25 <= ovf5_s24;
-      ovf6_s25 <= ovf6_s24;
-      ovf7_s25 <= ovf7_s24;
-      ovf8_s25 <= ovf8_s24;
-      ovf9_s25 <= ovf9_s24;
+      angles_xy_234_q <= angles_xy_234_d;
+      angles_xy_234_ovf_q <= angles_xy_234_ovf_d;
+      angles_xy_235_q <= angles_xy_235_d;
+      angles_xy_235_ovf_q <= angles_xy_235_ovf_d;
+      angles_theta_236_q <= angles_theta_236_d;
+      angles_theta_236_ovf_q <= angles_theta_236_ovf_d;
+      polar_index_257_s25_q <= polar_index_257_s24_q;
+      polar_lyz_268_s25_q <= polar_lyz_268_s24_q;
+      polar_index_279_s25_q <= polar_index_279_s24_q;
+      polar_lyz_290_s25_q <= polar_lyz_290_s24_q;
+      n_y_i_s25_q <= n_y_i_s24_q;
+      n_z_i_s25_q <= n_z_i_s24_q;
+      t307_s25_q <= t307_s24_q;
+      t314_s25_q <= t314_s24_q;
+      ovf0_s25_q <= ovf0_s24_q;
+      ovf1_s25_q <= ovf1_s24_q;
+      ovf2_s25_q <= ovf2_s24_q;
+      angles_xy_228_ovf_s25_q <= angles_xy_228_ovf_q;
+      angles_xy_229_ovf_s25_q <= angles_xy_229_ovf_q;
+      ovf3_s25_q <= ovf3_or_s24;
+      angles_theta_230_ovf_s25_q <= angles_theta_230_ovf_q;
+      ovf4_s25_q <= ovf4_or_s24;
+      ovf5_s25_q <= ovf5_s24_q;
+      ovf6_s25_q <= ovf6_s24_q;
+      ovf7_s25_q <= ovf7_s24_q;
+      ovf8_s25_q <= ovf8_s24_q;
+      ovf9_s25_q <= ovf9_s24_q;
     end
     if (load_s26) begin
-      angles_xy_240 <= angles_xy_240_c;
-      angles_xy_240_ovf <= angles_xy_240_ovf_c;
-      angles_xy_241 <= angles_xy_241_c;
-      angles_xy_241_ovf <= angles_xy_241_ovf_c;
-      angles_theta_242 <= angles_theta_242_c;
-      angles_theta_242_ovf <= angles_theta_242_ovf_c;
-      polar_index_257_s26 <= polar_index_257_s25;
-      polar_lyz_268_s26 <= polar_lyz_268_s25;
-      polar_index_279_s26 <= polar_index_279_s25;
-      polar_lyz_290_s26 <= polar_lyz_290_s25;
-      n_y_i_s26 <= n_y_i_s25;
-      n_z_i_s26 <= n_z_i_s25;
-      t307_s26 <= t307_s25;
-      t314_s26 <= t314_s25;
-      ovf0_s26 <= ovf0_s25;
-      ovf1_s26 <= ovf1_s25;
-      ovf2_s26 <= ovf2_s25;
-      angles_xy_234_ovf_s26 <= angles_xy_234_ovf;
-      angles_xy_235_ovf_s26 <= angles_xy_235_ovf;
-      ovf3_s26 <= ovf3_or_s25;
-      angles_theta_236_ovf_s26 <= angles_theta_236_ovf;
-      ovf4_s26 <= ovf4_or_s25;
-      ovf5_s26 <= ovf5_s25;
-      ovf6_s26 <= ovf6_s25;
-      ovf7_s26 <= ovf7_s25;
-      ovf8_s26 <= ovf8_s25;
-      ovf9_s26 <= ovf9_s25;
+      angles_xy_240_q <= angles_xy_240_d;
+      angles_xy_240_ovf_q <= angles_xy_240_ovf_d;
+      angles_xy_241_q <= angles_xy_241_d;
+      angles_xy_241_ovf_q <= angles_xy_241_ovf_d;
+      angles_theta_242_q <= angles_theta_242_d;
+      angles_theta_242_ovf_q <= angles_theta_242_ovf_d;
+      polar_index_257_s26_q <= polar_index_257_s25_q;
+      polar_lyz_268_s26_q <= polar_lyz_268_s25_q;
+      polar_index_279_s26_q <= polar_index_279_s25_q;
+      polar_lyz_290_s26_q <= polar_lyz_290_s25_q;
+      n_y_i_s26_q <= n_y_i_s25_q;
+      n_z_i_s26_q <= n_z_i_s25_q;
+      t307_s26_q <= t307_s25_q;
+      t314_s26_q <= t314_s25_q;
+      ovf0_s26_q <= ovf0_s25_q;
+      ovf1_s26_q <= ovf1_s25_q;
+      ovf2_s26_q <= ovf2_s25_q;
+      angles_xy_234_ovf_s26_q <= angles_xy_234_ovf_q;
+      angles_xy_235_ovf_s26_q <= angles_xy_235_ovf_q;
+      ovf3_s26_q <= ovf3_or_s25;
+      angles_theta_236_ovf_s26_q <= angles_theta_236_ovf_q;
+      ovf4_s26_q <= ovf4_or_s25;
+      ovf5_s26_q <= ovf5_s25_q;
+      ovf6_s26_q <= ovf6_s25_q;
+      ovf7_s26_q <= ovf7_s25_q;
+      ovf8_s26_q <= ovf8_s25_q;
+      ovf9_s26_q <= ovf9_s25_q;
     end
     if (load_s27) begin
-      angles_xy_247 <= angles_xy_247_c;
-      angles_xy_247_ovf <= angles_xy_247_ovf_c;
-      angles_theta_248 <= angles_theta_248_c;
-      angles_theta_248_ovf <= angles_theta_248_ovf_c;
-      polar_index_257_s27 <= polar_index_257_s26;
-      polar_lyz_268_s27 <= polar_lyz_268_s26;
-      polar_index_279_s27 <= polar_index_279_s26;
-      polar_lyz_290_s27 <= polar_lyz_290_s26;
-      n_y_i_s27 <= n_y_i_s26;
-      n_z_i_s27 <= n_z_i_s26;
-      t307_s27 <= t307_s26;
-      t314_s27 <= t314_s26;
-      ovf0_s27 <= ovf0_s26;
-      ovf1_s27 <= ovf1_s26;
-      ovf2_s27 <= ovf2_s26;
-      angles_xy_240_ovf_s27 <= angles_xy_240_ovf;
-      angles_xy_241_ovf_s27 <= angles_xy_241_ovf;
-      ovf3_s27 <= ovf3_or_s26;
-      angles_theta_242_ovf_s27 <= angles_theta_242_ovf;
-      ovf4_s27 <= ovf4_or_s26;
-      ovf5_s27 <= ovf5_s26;
-      ovf6_s27 <= ovf6_s26;
-      ovf7_s27 <= ovf7_s26;
-      ovf8_s27 <= ovf8_s26;
-      ovf9_s27 <= ovf9_s26;
+      angles_xy_247_q <= angles_xy_247_d;
+      angles_xy_247_ovf_q <= angles_xy_247_ovf_d;
+      angles_theta_248_q <= angles_theta_248_d;
+      angles_theta_248_ovf_q <= angles_theta_248_ovf_d;
+      polar_index_257_s27_q <= polar_index_257_s26_q;
+      polar_lyz_268_s27_q <= polar_lyz_268_s26_q;
+      polar_index_279_s27_q <= polar_index_279_s26_q;
+      polar_lyz_290_s27_q <= polar_lyz_290_s26_q;
+      n_y_i_s27_q <= n_y_i_s26_q;
+      n_z_i_s27_q <= n_z_i_s26_q;
+      t307_s27_q <= t307_s26_q;
+      t314_s27_q <= t314_s26_q;
+      ovf0_s27_q <= ovf0_s26_q;
+      ovf1_s27_q <= ovf1_s26_q;
+      ovf2_s27_q <= ovf2_s26_q;
+      angles_xy_240_ovf_s27_q <= angles_xy_240_ovf_q;
+      angles_xy_241_ovf_s27_q <= angles_xy_241_ovf_q;
+      ovf3_s27_q <= ovf3_or_s26;
+      angles_theta_242_ovf_s27_q <= angles_theta_242_ovf_q;
+      ovf4_s27_q <= ovf4_or_s26;
+      ovf5_s27_q <= ovf5_s26_q;
+      ovf6_s27_q <= ovf6_s26_q;
+      ovf7_s27_q <= ovf7_s26_q;
+      ovf8_s27_q <= ovf8_s26_q;
+      ovf9_s27_q <= ovf9_s26_q;
     end
     if (load_s28) begin
-      angles_theta_254 <= angles_theta_254_c;
-      angles_theta_254_ovf <= angles_theta_254_ovf_c;
-      polar_index_257_s28 <= polar_index_257_s27;
-      polar_lyz_268_s28 <= polar_lyz_268_s27;
-      polar_index_279_s28 <= polar_index_279_s27;
-      polar_lyz_290_s28 <= polar_lyz_290_s27;
-      n_y_i_s28 <= n_y_i_s27;
-      n_z_i_s28 <= n_z_i_s27;
-      t307_s28 <= t307_s27;
-      t314_s28 <= t314_s27;
-      ovf0_s28 <= ovf0_s27;
-      ovf1_s28 <= ovf1_s27;
-      ovf2_s28 <= ovf2_s27;
-      angles_xy_247_ovf_s28 <= angles_xy_247_ovf;
-      ovf3_s28 <= ovf3_or_s27;
-      angles_theta_248_ovf_s28 <= angles_theta_248_ovf;
-      ovf4_s28 <= ovf4_or_s27;
-      ovf5_s28 <= ovf5_s27;
-      ovf6_s28 <= ovf6_s27;
-      ovf7_s28 <= ovf7_s27;
-      ovf8_s28 <= ovf8_s27;
-      ovf9_s28 <= ovf9_s27;
+      angles_theta_254_q <= angles_theta_254_d;
+      angles_theta_254_ovf_q <= angles_theta_254_ovf_d;
+      polar_index_257_s28_q <= polar_index_257_s27_q;
+      polar_lyz_268_s28_q <= polar_lyz_268_s27_q;
+      polar_index_279_s28_q <= polar_index_279_s27_q;
+      polar_lyz_290_s28_q <= polar_lyz_290_s27_q;
+      n_y_i_s28_q <= n_y_i_s27_q;
+      n_z_i_s28_q <= n_z_i_s27_q;
+      t307_s28_q <= t307_s27_q;
+      t314_s28_q <= t314_s27_q;
+      ovf0_s28_q <= ovf0_s27_q;
+      ovf1_s28_q <= ovf1_s27_q;
+      ovf2_s28_q <= ovf2_s27_q;
+      angles_xy_247_ovf_s28_q <= angles_xy_247_ovf_q;
+      ovf3_s28_q <= ovf3_or_s27;
+      angles_theta_248_ovf_s28_q <= angles_theta_248_ovf_q;
+      ovf4_s28_q <= ovf4_or_s27;
+      ovf5_s28_q <= ovf5_s27_q;
+      ovf6_s28_q <= ovf6_s27_q;
+      ovf7_s28_q <= ovf7_s27_q;
+      ovf8_s28_q <= ovf8_s27_q;
+      ovf9_s28_q <= ovf9_s27_q;
     end
     if (load_s29) begin
-      angles_out_255 <= angles_out_255_c;
-      angles_out_255_ovf <= angles_out_255_ovf_c;
-      polar_index_257_s29 <= polar_index_257_s28;
-      polar_lyz_268_s29 <= polar_lyz_268_s28;
-      polar_index_279_s29 <= polar_index_279_s28;
-      polar_lyz_290_s29 <= polar_lyz_290_s28;
-      n_y_i_s29 <= n_y_i_s28;
-      n_z_i_s29 <= n_z_i_s28;
-      t307_s29 <= t307_s28;
-      t314_s29 <= t314_s28;
-      ovf0_s29 <= ovf0_s28;
-      ovf1_s29 <= ovf1_s28;
-      ovf2_s29 <= ovf2_s28;
-      ovf3_s29 <= ovf3_or_s28;
-      angles_theta_254_ovf_s29 <= angles_theta_254_ovf;
-      ovf4_s29 <= ovf4_or_s28;
-      ovf5_s29 <= ovf5_s28;
-      ovf6_s29 <= ovf6_s28;
-      ovf7_s29 <= ovf7_s28;
-      ovf8_s29 <= ovf8_s28;
-      ovf9_s29 <= ovf9_s28;
+      angles_out_255_q <= angles_out_255_d;
+      angles_out_255_ovf_q <= angles_out_255_ovf_d;
+      polar_index_257_s29_q <= polar_index_257_s28_q;
+      polar_lyz_268_s29_q <= polar_lyz_268_s28_q;
+      polar_index_279_s29_q <= polar_index_279_s28_q;
+      polar_lyz_290_s29_q <= polar_lyz_290_s28_q;
+      n_y_i_s29_q <= n_y_i_s28_q;
+      n_z_i_s29_q <= n_z_i_s28_q;
+      t307_s29_q <= t307_s28_q;
+      t314_s29_q <= t314_s28_q;
+      ovf0_s29_q <= ovf0_s28_q;
+      ovf1_s29_q <= ovf1_s28_q;
+      ovf2_s29_q <= ovf2_s28_q;
+      ovf3_s29_q <= ovf3_or_s28;
+      angles_theta_254_ovf_s29_q <= angles_theta_254_ovf_q;
+      ovf4_s29_q <= ovf4_or_s28;
+      ovf5_s29_q <= ovf5_s28_q;
+      ovf6_s29_q <= ovf6_s28_q;
+      ovf7_s29_q <= ovf7_s28_q;
+      ovf8_s29_q <= ovf8_s28_q;
+      ovf9_s29_q <= ovf9_s28_q;
     end
     if (load_s30) begin
-      polar_index_260 <= polar_index_260_c;
-      polar_index_260_ovf <= polar_index_260_ovf_c;
-      polar_index_257_s30 <= polar_index_257_s29;
-      polar_lyz_268_s30 <= polar_lyz_268_s29;
-      polar_index_282 <= polar_index_282_c;
-      polar_index_282_ovf <= polar_index_282_ovf_c;
-      polar_index_279_s30 <= polar_index_279_s29;
-      polar_lyz_290_s30 <= polar_lyz_290_s29;
-      n_y_i_s30 <= n_y_i_s29;
-      n_z_i_s30 <= n_z_i_s29;
-      t307_s30 <= t307_s29;
-      t314_s30 <= t314_s29;
-      ovf0_s30 <= ovf0_s29;
-      ovf1_s30 <= ovf1_s29;
-      ovf2_s30 <= ovf2_s29;
-      ovf3_s30 <= ovf3_s29;
-      ovf4_s30 <= ovf4_or_s29;
-      angles_out_255_ovf_s30 <= angles_out_255_ovf;
-      ovf5_s30 <= ovf5_s29;
-      ovf6_s30 <= ovf6_s29;
-      ovf7_s30 <= ovf7_s29;
-      ovf8_s30 <= ovf8_s29;
-      ovf9_s30 <= ovf9_s29;
+      polar_index_260_q <= polar_index_260_d;
+      polar_index_260_ovf_q <= polar_index_260_ovf_d;
+      polar_index_257_s30_q <= polar_index_257_s29_q;
+      polar_lyz_268_s30_q <= polar_lyz_268_s29_q;
+      polar_index_282_q <= polar_index_282_d;
+      polar_index_282_ovf_q <= polar_index_282_ovf_d;
+      polar_index_279_s30_q <= polar_index_279_s29_q;
+      polar_lyz_290_s30_q <= polar_lyz_290_s29_q;
+      n_y_i_s30_q <= n_y_i_s29_q;
+      n_z_i_s30_q <= n_z_i_s29_q;
+      t307_s30_q <= t307_s29_q;
+      t314_s30_q <= t314_s29_q;
+      ovf0_s30_q <= ovf0_s29_q;
+      ovf1_s30_q <= ovf1_s29_q;
+      ovf2_s30_q <= ovf2_s29_q;
+      ovf3_s30_q <= ovf3_s29_q;
+      ovf4_s30_q <= ovf4_or_s29;
+      angles_out_255_ovf_s30_q <= angles_out_255_ovf_q;
+      ovf5_s30_q <= ovf5_s29_q;
+      ovf6_s30_q <= ovf6_s29_q;
+      ovf7_s30_q <= ovf7_s29_q;
+      ovf8_s30_q <= ovf8_s29_q;
+      ovf9_s30_q <= ovf9_s29_q;
     end
     if (load_s31) begin
-      sin_262_raw <= quarter_rom[sin_262_a[8:0]];
-      sin_262_top <= sin_262_a[9];
+      sin_262_raw_q <= quarter_rom[sin_262_a[8:0]];
+      sin_262_top_q <= sin_262_a[9];
       sin_262_neg_q <= sin_262_j[10];
-      cos_265_raw <= quarter_rom[cos_265_a[8:0]];
-      cos_265_top <= cos_265_a[9];
+      cos_265_raw_q <= quarter_rom[cos_265_a[8:0]];
+      cos_265_top_q <= cos_265_a[9];
       cos_265_neg_q <= cos_265_j[10];
-      sin_266_raw <= quarter_rom[sin_266_a[8:0]];
-      sin_266_top <= sin_266_a[9];
+      sin_266_raw_q <= quarter_rom[sin_266_a[8:0]];
+      sin_266_top_q <= sin_266_a[9];
       sin_266_neg_q <= sin_266_j[10];
-      polar_lyz_268_s31 <= polar_lyz_268_s30;
-      sin_284_raw <= quarter_rom[sin_284_a[8:0]];
-      sin_284_top <= sin_284_a[9];
+      polar_lyz_268_s31_q <= polar_lyz_268_s30_q;
+      sin_284_raw_q <= quarter_rom[sin_284_a[8:0]];
+      sin_284_top_q <= sin_284_a[9];
       sin_284_neg_q <= sin_284_j[10];
-      cos_287_raw <= quarter_rom[cos_287_a[8:0]];
-      cos_287_top <= cos_287_a[9];
+      cos_287_raw_q <= quarter_rom[cos_287_a[8:0]];
+      cos_287_top_q <= cos_287_a[9];
       cos_287_neg_q <= cos_287_j[10];
-      sin_288_raw <= quarter_rom[sin_288_a[8:0]];
-      sin_288_top <= sin_288_a[9];
+      sin_288_raw_q <= quarter_rom[sin_288_a[8:0]];
+      sin_288_top_q <= sin_288_a[9];
       sin_288_neg_q <= sin_288_j[10];
-      polar_lyz_290_s31 <= polar_lyz_290_s30;
-      n_y_i_s31 <= n_y_i_s30;
-      n_z_i_s31 <= n_z_i_s30;
-      t307_s31 <= t307_s30;
-      t314_s31 <= t314_s30;
-      ovf0_s31 <= ovf0_s30;
-      ovf1_s31 <= ovf1_s30;
-      ovf2_s31 <= ovf2_s30;
-      ovf3_s31 <= ovf3_s30;
-      ovf4_s31 <= ovf4_s30;
-      ovf5_s31 <= ovf5_or_s30;
-      polar_index_260_ovf_s31 <= polar_index_260_ovf;
-      polar_index_282_ovf_s31 <= polar_index_282_ovf;
-      ovf6_s31 <= ovf6_s30;
-      ovf7_s31 <= ovf7_s30;
-      ovf8_s31 <= ovf8_s30;
-      ovf9_s31 <= ovf9_s30;
+      polar_lyz_290_s31_q <= polar_lyz_290_s30_q;
+      n_y_i_s31_q <= n_y_i_s30_q;
+      n_z_i_s31_q <= n_z_i_s30_q;
+      t307_s31_q <= t307_s30_q;
+      t314_s31_q <= t314_s30_q;
+      ovf0_s31_q <= ovf0_s30_q;
+      ovf1_s31_q <= ovf1_s30_q;
+      ovf2_s31_q <= ovf2_s30_q;
+      ovf3_s31_q <= ovf3_s30_q;
+      ovf4_s31_q <= ovf4_s30_q;
+      ovf5_s31_q <= ovf5_or_s30;
+      polar_index_260_ovf_s31_q <= polar_index_260_ovf_q;
+      polar_index_282_ovf_s31_q <= polar_index_282_ovf_q;
+      ovf6_s31_q <= ovf6_s30_q;
+      ovf7_s31_q <= ovf7_s30_q;
+      ovf8_s31_q <= ovf8_s30_q;
+      ovf9_s31_q <= ovf9_s30_q;
     end
     if (load_s32) begin
-      polar_out_274 <= polar_out_274_c;
-      polar_out_274_ovf <= polar_out_274_ovf_c;
-      polar_out_278 <= polar_out_278_c;
-      polar_out_278_ovf <= polar_out_278_ovf_c;
-      polar_out_296 <= polar_out_296_c;
-      polar_out_296_ovf <= polar_out_296_ovf_c;
-      polar_out_300 <= polar_out_300_c;
-      polar_out_300_ovf <= polar_out_300_ovf_c;
-      n_y_i_s32 <= n_y_i_s31;
-      n_z_i_s32 <= n_z_i_s31;
-      t307_s32 <= t307_s31;
-      t314_s32 <= t314_s31;
-      ovf0_s32 <= ovf0_s31;
-      ovf1_s32 <= ovf1_s31;
-      ovf2_s32 <= ovf2_s31;
-      ovf3_s32 <= ovf3_s31;
-      ovf4_s32 <= ovf4_s31;
-      ovf5_s32 <= ovf5_s31;
-      ovf6_s32 <= ovf6_or_s31;
-      ovf7_s32 <= ovf7_s31;
-      ovf8_s32 <= ovf8_s31;
-      ovf9_s32 <= ovf9_s31;
+      polar_out_274_q <= polar_out_274_d;
+      polar_out_274_ovf_q <= polar_out_274_ovf_d;
+      polar_out_278_q <= polar_out_278_d;
+      polar_out_278_ovf_q <= polar_out_278_ovf_d;
+      polar_out_296_q <= polar_out_296_d;
+      polar_out_296_ovf_q <= polar_out_296_ovf_d;
+      polar_out_300_q <= polar_out_300_d;
+      polar_out_300_ovf_q <= polar_out_300_ovf_d;
+      n_y_i_s32_q <= n_y_i_s31_q;
+      n_z_i_s32_q <= n_z_i_s31_q;
+      t307_s32_q <= t307_s31_q;
+      t314_s32_q <= t314_s31_q;
+      ovf0_s32_q <= ovf0_s31_q;
+      ovf1_s32_q <= ovf1_s31_q;
+      ovf2_s32_q <= ovf2_s31_q;
+      ovf3_s32_q <= ovf3_s31_q;
+      ovf4_s32_q <= ovf4_s31_q;
+      ovf5_s32_q <= ovf5_s31_q;
+      ovf6_s32_q <= ovf6_or_s31;
+      ovf7_s32_q <= ovf7_s31_q;
+      ovf8_s32_q <= ovf8_s31_q;
+      ovf9_s32_q <= ovf9_s31_q;
     end
     if (load_s33) begin
-      lighting_light_302 <= lighting_light_302_c;
-      lighting_light_302_ovf <= lighting_light_302_ovf_c;
-      lighting_light_303 <= lighting_light_303_c;
-      lighting_light_303_ovf <= lighting_light_303_ovf_c;
-      lighting_light_305 <= lighting_light_305_c;
-      lighting_light_305_ovf <= lighting_light_305_ovf_c;
-      lighting_light_306 <= lighting_light_306_c;
-      lighting_light_306_ovf <= lighting_light_306_ovf_c;
-      n_y_i_s33 <= n_y_i_s32;
-      n_z_i_s33 <= n_z_i_s32;
-      t307_s33 <= t307_s32;
-      t314_s33 <= t314_s32;
-      ovf0_s33 <= ovf0_s32;
-      ovf1_s33 <= ovf1_s32;
-      ovf2_s33 <= ovf2_s32;
-      ovf3_s33 <= ovf3_s32;
-      ovf4_s33 <= ovf4_s32;
-      ovf5_s33 <= ovf5_s32;
-      ovf6_s33 <= ovf6_s32;
-      ovf7_s33 <= ovf7_s32;
-      polar_out_274_ovf_s33 <= polar_out_274_ovf;
-      polar_out_278_ovf_s33 <= polar_out_278_ovf;
-      polar_out_296_ovf_s33 <= polar_out_296_ovf;
-      polar_out_300_ovf_s33 <= polar_out_300_ovf;
-      ovf8_s33 <= ovf8_s32;
-      ovf9_s33 <= ovf9_s32;
+      lighting_light_302_q <= lighting_light_302_d;
+      lighting_light_302_ovf_q <= lighting_light_302_ovf_d;
+      lighting_light_303_q <= lighting_light_303_d;
+      lighting_light_303_ovf_q <= lighting_light_303_ovf_d;
+      lighting_light_305_q <= lighting_light_305_d;
+      lighting_light_305_ovf_q <= lighting_light_305_ovf_d;
+      lighting_light_306_q <= lighting_light_306_d;
+      lighting_light_306_ovf_q <= lighting_light_306_ovf_d;
+      n_y_i_s33_q <= n_y_i_s32_q;
+      n_z_i_s33_q <= n_z_i_s32_q;
+      t307_s33_q <= t307_s32_q;
+      t314_s33_q <= t314_s32_q;
+      ovf0_s33_q <= ovf0_s32_q;
+      ovf1_s33_q <= ovf1_s32_q;
+      ovf2_s33_q <= ovf2_s32_q;
+      ovf3_s33_q <= ovf3_s32_q;
+      ovf4_s33_q <= ovf4_s32_q;
+      ovf5_s33_q <= ovf5_s32_q;
+      ovf6_s33_q <= ovf6_s32_q;
+      ovf7_s33_q <= ovf7_s32_q;
+      polar_out_274_ovf_s33_q <= polar_out_274_ovf_q;
+      polar_out_278_ovf_s33_q <= polar_out_278_ovf_q;
+      polar_out_296_ovf_s33_q <= polar_out_296_ovf_q;
+      polar_out_300_ovf_s33_q <= polar_out_300_ovf_q;
+      ovf8_s33_q <= ovf8_s32_q;
+      ovf9_s33_q <= ovf9_s32_q;
     end
     if (load_s34) begin
-      lighting_dot_312 <= lighting_dot_312_c;
-      lighting_dot_312_ovf <= lighting_dot_312_ovf_c;
-      lighting_dot_319 <= lighting_dot_319_c;
-      lighting_dot_319_ovf <= lighting_dot_319_ovf_c;
-      ovf0_s34 <= ovf0_s33;
-      ovf1_s34 <= ovf1_s33;
-      ovf2_s34 <= ovf2_s33;
-      ovf3_s34 <= ovf3_s33;
-      ovf4_s34 <= ovf4_s33;
-      ovf5_s34 <= ovf5_s33;
-      ovf6_s34 <= ovf6_s33;
-      ovf7_s34 <= ovf7_s33;
-      ovf8_s34 <= ovf8_or_s33;
-      lighting_light_302_ovf_s34 <= lighting_light_302_ovf;
-      lighting_light_303_ovf_s34 <= lighting_light_303_ovf;
-      lighting_light_305_ovf_s34 <= lighting_light_305_ovf;
-      lighting_light_306_ovf_s34 <= lighting_light_306_ovf;
-      ovf9_s34 <= ovf9_s33;
+      lighting_dot_312_q <= lighting_dot_312_d;
+      lighting_dot_312_ovf_q <= lighting_dot_312_ovf_d;
+      lighting_dot_319_q <= lighting_dot_319_d;
+      lighting_dot_319_ovf_q <= lighting_dot_319_ovf_d;
+      ovf0_s34_q <= ovf0_s33_q;
+      ovf1_s34_q <= ovf1_s33_q;
+      ovf2_s34_q <= ovf2_s33_q;
+      ovf3_s34_q <= ovf3_s33_q;
+      ovf4_s34_q <= ovf4_s33_q;
+      ovf5_s34_q <= ovf5_s33_q;
+      ovf6_s34_q <= ovf6_s33_q;
+      ovf7_s34_q <= ovf7_s33_q;
+      ovf8_s34_q <= ovf8_or_s33;
+      lighting_light_302_ovf_s34_q <= lighting_light_302_ovf_q;
+      lighting_light_303_ovf_s34_q <= lighting_light_303_ovf_q;
+      lighting_light_305_ovf_s34_q <= lighting_light_305_ovf_q;
+      lighting_light_306_ovf_s34_q <= lighting_light_306_ovf_q;
+      ovf9_s34_q <= ovf9_s33_q;
     end
     if (load_s35) begin
-      lighting_spec_321 <= lighting_spec_321_c;
-      lighting_spec_321_ovf <= lighting_spec_321_ovf_c;
-      t330_s35 <= t330;
-      ovf0_s35 <= ovf0_s34;
-      ovf1_s35 <= ovf1_s34;
-      ovf2_s35 <= ovf2_s34;
-      ovf3_s35 <= ovf3_s34;
-      ovf4_s35 <= ovf4_s34;
-      ovf5_s35 <= ovf5_s34;
-      ovf6_s35 <= ovf6_s34;
-      ovf7_s35 <= ovf7_s34;
-      ovf8_s35 <= ovf8_s34;
-      ovf9_s35 <= ovf9_or_s34;
-      lighting_dot_312_ovf_s35 <= lighting_dot_312_ovf;
-      lighting_dot_319_ovf_s35 <= lighting_dot_319_ovf;
+      lighting_spec_321_q <= lighting_spec_321_d;
+      lighting_spec_321_ovf_q <= lighting_spec_321_ovf_d;
+      t330_s35_q <= t330;
+      ovf0_s35_q <= ovf0_s34_q;
+      ovf1_s35_q <= ovf1_s34_q;
+      ovf2_s35_q <= ovf2_s34_q;
+      ovf3_s35_q <= ovf3_s34_q;
+      ovf4_s35_q <= ovf4_s34_q;
+      ovf5_s35_q <= ovf5_s34_q;
+      ovf6_s35_q <= ovf6_s34_q;
+      ovf7_s35_q <= ovf7_s34_q;
+      ovf8_s35_q <= ovf8_s34_q;
+      ovf9_s35_q <= ovf9_or_s34;
+      lighting_dot_312_ovf_s35_q <= lighting_dot_312_ovf_q;
+      lighting_dot_319_ovf_s35_q <= lighting_dot_319_ovf_q;
     end
     if (load_s36) begin
-      lighting_spec_323 <= lighting_spec_323_c;
-      lighting_spec_323_ovf <= lighting_spec_323_ovf_c;
-      t330_s36 <= t330_s35;
-      ovf0_s36 <= ovf0_s35;
-      ovf1_s36 <= ovf1_s35;
-      ovf2_s36 <= ovf2_s35;
-      ovf3_s36 <= ovf3_s35;
-      ovf4_s36 <= ovf4_s35;
-      ovf5_s36 <= ovf5_s35;
-      ovf6_s36 <= ovf6_s35;
-      ovf7_s36 <= ovf7_s35;
-      ovf8_s36 <= ovf8_s35;
-      ovf9_s36 <= ovf9_s35;
-      ovf10_s36 <= ovf10_or_s35;
-      lighting_spec_321_ovf_s36 <= lighting_spec_321_ovf;
+      lighting_spec_323_q <= lighting_spec_323_d;
+      lighting_spec_323_ovf_q <= lighting_spec_323_ovf_d;
+      t330_s36_q <= t330_s35_q;
+      ovf0_s36_q <= ovf0_s35_q;
+      ovf1_s36_q <= ovf1_s35_q;
+      ovf2_s36_q <= ovf2_s35_q;
+      ovf3_s36_q <= ovf3_s35_q;
+      ovf4_s36_q <= ovf4_s35_q;
+      ovf5_s36_q <= ovf5_s35_q;
+      ovf6_s36_q <= ovf6_s35_q;
+      ovf7_s36_q <= ovf7_s35_q;
+      ovf8_s36_q <= ovf8_s35_q;
+      ovf9_s36_q <= ovf9_s35_q;
+      ovf10_s36_q <= ovf10_or_s35;
+      lighting_spec_321_ovf_s36_q <= lighting_spec_321_ovf_q;
     end
     if (load_s37) begin
-      lighting_spec_325 <= lighting_spec_325_c;
-      lighting_spec_325_ovf <= lighting_spec_325_ovf_c;
-      t330_s37 <= t330_s36;
-      ovf0_s37 <= ovf0_s36;
-      ovf1_s37 <= ovf1_s36;
-      ovf2_s37 <= ovf2_s36;
-      ovf3_s37 <= ovf3_s36;
-      ovf4_s37 <= ovf4_s36;
-      ovf5_s37 <= ovf5_s36;
-      ovf6_s37 <= ovf6_s36;
-      ovf7_s37 <= ovf7_s36;
-      ovf8_s37 <= ovf8_s36;
-      ovf9_s37 <= ovf9_s36;
-      ovf10_s37 <= ovf10_s36;
-      lighting_spec_323_ovf_s37 <= lighting_spec_323_ovf;
-      ovf11_s37 <= lighting_spec_321_ovf_s36;
+      lighting_spec_325_q <= lighting_spec_325_d;
+      lighting_spec_325_ovf_q <= lighting_spec_325_ovf_d;
+      t330_s37_q <= t330_s36_q;
+      ovf0_s37_q <= ovf0_s36_q;
+      ovf1_s37_q <= ovf1_s36_q;
+      ovf2_s37_q <= ovf2_s36_q;
+      ovf3_s37_q <= ovf3_s36_q;
+      ovf4_s37_q <= ovf4_s36_q;
+      ovf5_s37_q <= ovf5_s36_q;
+      ovf6_s37_q <= ovf6_s36_q;
+      ovf7_s37_q <= ovf7_s36_q;
+      ovf8_s37_q <= ovf8_s36_q;
+      ovf9_s37_q <= ovf9_s36_q;
+      ovf10_s37_q <= ovf10_s36_q;
+      lighting_spec_323_ovf_s37_q <= lighting_spec_323_ovf_q;
+      ovf11_s37_q <= lighting_spec_321_ovf_s36_q;
     end
     if (load_s38) begin
-      lighting_spec_327 <= lighting_spec_327_c;
-      lighting_spec_327_ovf <= lighting_spec_327_ovf_c;
-      t330_s38 <= t330_s37;
-      ovf0_s38 <= ovf0_s37;
-      ovf1_s38 <= ovf1_s37;
-      ovf2_s38 <= ovf2_s37;
-      ovf3_s38 <= ovf3_s37;
-      ovf4_s38 <= ovf4_s37;
-      ovf5_s38 <= ovf5_s37;
-      ovf6_s38 <= ovf6_s37;
-      ovf7_s38 <= ovf7_s37;
-      ovf8_s38 <= ovf8_s37;
-      ovf9_s38 <= ovf9_s37;
-      ovf10_s38 <= ovf10_s37;
-      lighting_spec_325_ovf_s38 <= lighting_spec_325_ovf;
-      ovf11_s38 <= ovf11_or_s37;
+      lighting_spec_327_q <= lighting_spec_327_d;
+      lighting_spec_327_ovf_q <= lighting_spec_327_ovf_d;
+      t330_s38_q <= t330_s37_q;
+      ovf0_s38_q <= ovf0_s37_q;
+      ovf1_s38_q <= ovf1_s37_q;
+      ovf2_s38_q <= ovf2_s37_q;
+      ovf3_s38_q <= ovf3_s37_q;
+      ovf4_s38_q <= ovf4_s37_q;
+      ovf5_s38_q <= ovf5_s37_q;
+      ovf6_s38_q <= ovf6_s37_q;
+      ovf7_s38_q <= ovf7_s37_q;
+      ovf8_s38_q <= ovf8_s37_q;
+      ovf9_s38_q <= ovf9_s37_q;
+      ovf10_s38_q <= ovf10_s37_q;
+      lighting_spec_325_ovf_s38_q <= lighting_spec_325_ovf_q;
+      ovf11_s38_q <= ovf11_or_s37;
     end
     if (load_s39) begin
-      lighting_spec_329 <= lighting_spec_329_c;
-      lighting_spec_329_ovf <= lighting_spec_329_ovf_c;
-      t330_s39 <= t330_s38;
-      ovf0_s39 <= ovf0_s38;
-      ovf1_s39 <= ovf1_s38;
-      ovf2_s39 <= ovf2_s38;
-      ovf3_s39 <= ovf3_s38;
-      ovf4_s39 <= ovf4_s38;
-      ovf5_s39 <= ovf5_s38;
-      ovf6_s39 <= ovf6_s38;
-      ovf7_s39 <= ovf7_s38;
-      ovf8_s39 <= ovf8_s38;
-      ovf9_s39 <= ovf9_s38;
-      ovf10_s39 <= ovf10_s38;
-      lighting_spec_327_ovf_s39 <= lighting_spec_327_ovf;
-      ovf11_s39 <= ovf11_or_s38;
+      lighting_spec_329_q <= lighting_spec_329_d;
+      lighting_spec_329_ovf_q <= lighting_spec_329_ovf_d;
+      t330_s39_q <= t330_s38_q;
+      ovf0_s39_q <= ovf0_s38_q;
+      ovf1_s39_q <= ovf1_s38_q;
+      ovf2_s39_q <= ovf2_s38_q;
+      ovf3_s39_q <= ovf3_s38_q;
+      ovf4_s39_q <= ovf4_s38_q;
+      ovf5_s39_q <= ovf5_s38_q;
+      ovf6_s39_q <= ovf6_s38_q;
+      ovf7_s39_q <= ovf7_s38_q;
+      ovf8_s39_q <= ovf8_s38_q;
+      ovf9_s39_q <= ovf9_s38_q;
+      ovf10_s39_q <= ovf10_s38_q;
+      lighting_spec_327_ovf_s39_q <= lighting_spec_327_ovf_q;
+      ovf11_s39_q <= ovf11_or_s38;
     end
     if (load_s40) begin
-      lighting_level_333 <= lighting_level_333_c;
-      lighting_level_333_ovf <= lighting_level_333_ovf_c;
-      ovf0_s40 <= ovf0_s39;
-      ovf1_s40 <= ovf1_s39;
-      ovf2_s40 <= ovf2_s39;
-      ovf3_s40 <= ovf3_s39;
-      ovf4_s40 <= ovf4_s39;
-      ovf5_s40 <= ovf5_s39;
-      ovf6_s40 <= ovf6_s39;
-      ovf7_s40 <= ovf7_s39;
-      ovf8_s40 <= ovf8_s39;
-      ovf9_s40 <= ovf9_s39;
-      ovf10_s40 <= ovf10_s39;
-      lighting_spec_329_ovf_s40 <= lighting_spec_329_ovf;
-      ovf11_s40 <= ovf11_or_s39;
+      lighting_level_333_q <= lighting_level_333_d;
+      lighting_level_333_ovf_q <= lighting_level_333_ovf_d;
+      ovf0_s40_q <= ovf0_s39_q;
+      ovf1_s40_q <= ovf1_s39_q;
+      ovf2_s40_q <= ovf2_s39_q;
+      ovf3_s40_q <= ovf3_s39_q;
+      ovf4_s40_q <= ovf4_s39_q;
+      ovf5_s40_q <= ovf5_s39_q;
+      ovf6_s40_q <= ovf6_s39_q;
+      ovf7_s40_q <= ovf7_s39_q;
+      ovf8_s40_q <= ovf8_s39_q;
+      ovf9_s40_q <= ovf9_s39_q;
+      ovf10_s40_q <= ovf10_s39_q;
+      lighting_spec_329_ovf_s40_q <= lighting_spec_329_ovf_q;
+      ovf11_s40_q <= ovf11_or_s39;
     end
   end
 
   // Output buffer: the head drives the ports; the skid register takes the
   // item that leaves the last stage while the head is stalled.
   wire [20:0] last_d =
-      {lighting_level_333, (ovf0_s40), (ovf1_s40), (ovf2_s40), (ovf3_s40), (ovf4_s40), (ovf5_s40),
-      (ovf6_s40), (ovf7_s40), (ovf8_s40), (ovf9_s40), (ovf10_s40), (ovf11_or_s40),
-      (lighting_level_333_ovf)};
+      {lighting_level_333_q, (ovf0_s40_q), (ovf1_s40_q), (ovf2_s40_q), (ovf3_s40_q), (ovf4_s40_q),
+      (ovf5_s40_q), (ovf6_s40_q), (ovf7_s40_q), (ovf8_s40_q), (ovf9_s40_q), (ovf10_s40_q),
+      (ovf11_or_s40), (lighting_level_333_ovf_q)};
   reg  [20:0] out_q, skid_q;
   always @(posedge clk_i) begin
     if (out_load & (skid_valid | out_arrive)) out_q <= skid_valid ? skid_q : last_d;
@@ -4204,18 +4278,18 @@ module pipeline_mapped (
 
   // Bits the arithmetic drops (truncation) or does not read.
   wire unused_bits =
-      ^{angles_normal_99[14:0], K28, K29, angles_xy_106[20:0], angles_xy_112[20:0], t114[0],
-      t115[0], angles_xy_118[20:0], t120[1:0], t121[1:0], angles_xy_124[20:0], t126[2:0], t127[2:0],
-      angles_xy_130[20:0], t132[3:0], t133[3:0], angles_xy_136[20:0], t138[4:0], t139[4:0],
-      angles_xy_142[20:0], t144[5:0], t145[5:0], angles_xy_148[20:0], t150[6:0], t151[6:0],
-      angles_xy_154[20:0], t156[7:0], t157[7:0], angles_xy_160[20:0], t162[8:0], t163[8:0],
-      angles_xy_166[20:0], t168[9:0], t169[9:0], angles_xy_172[20:0], t174[10:0], t180[12:0],
-      angles_xy_181_s16[20:0], angles_xy_181[20:0], angles_xy_187[20:0], t189[0], t190[0],
-      angles_xy_193[20:0], t195[1:0], t196[1:0], angles_xy_199[20:0], t201[2:0], t202[2:0],
-      angles_xy_205[20:0], t207[3:0], t208[3:0], angles_xy_211[20:0], t213[4:0], t214[4:0],
-      angles_xy_217[20:0], t219[5:0], t220[5:0], angles_xy_223[20:0], t225[6:0], t226[6:0],
-      angles_xy_229[20:0], t231[7:0], t232[7:0], angles_xy_235[20:0], t237[8:0], t238[8:0],
-      angles_xy_241[20:0], t244[9:0], angles_xy_247[20:0]};
+      ^{angles_normal_99_q[14:0], K28, K29, angles_xy_106_q[20:0], angles_xy_112_q[20:0], t114[0],
+      t115[0], angles_xy_118_q[20:0], t120[1:0], t121[1:0], angles_xy_124_q[20:0], t126[2:0],
+      t127[2:0], angles_xy_130_q[20:0], t132[3:0], t133[3:0], angles_xy_136_q[20:0], t138[4:0],
+      t139[4:0], angles_xy_142_q[20:0], t144[5:0], t145[5:0], angles_xy_148_q[20:0], t150[6:0],
+      t151[6:0], angles_xy_154_q[20:0], t156[7:0], t157[7:0], angles_xy_160_q[20:0], t162[8:0],
+      t163[8:0], angles_xy_166_q[20:0], t168[9:0], t169[9:0], angles_xy_172_q[20:0], t174[10:0],
+      t180[12:0], angles_xy_181_s16_q[20:0], angles_xy_181_q[20:0], angles_xy_187_q[20:0], t189[0],
+      t190[0], angles_xy_193_q[20:0], t195[1:0], t196[1:0], angles_xy_199_q[20:0], t201[2:0],
+      t202[2:0], angles_xy_205_q[20:0], t207[3:0], t208[3:0], angles_xy_211_q[20:0], t213[4:0],
+      t214[4:0], angles_xy_217_q[20:0], t219[5:0], t220[5:0], angles_xy_223_q[20:0], t225[6:0],
+      t226[6:0], angles_xy_229_q[20:0], t231[7:0], t232[7:0], angles_xy_235_q[20:0], t237[8:0],
+      t238[8:0], angles_xy_241_q[20:0], t244[9:0], angles_xy_247_q[20:0]};
 endmodule
 
 `default_nettype wire

@@ -775,11 +775,11 @@ module pipeline_mapped_interp (
   wire signed [14:0] angle_interp_angle_22_r =
       $signed({angle_interp_angle_22_up[14:1], angle_interp_angle_22_up[0]
       & ~angle_interp_angle_22_tie});
-  wire angle_interp_angle_22_ovf_c =
+  wire angle_interp_angle_22_ovf_d =
       angle_interp_angle_22_r[14] | (|angle_interp_angle_22_r[13:11]);
-  wire [10:0] angle_interp_angle_22_c = angle_interp_angle_22_r[10:0];
-  reg  [10:0] angle_interp_angle_22;
-  reg  [0:0] angle_interp_angle_22_ovf;
+  wire [10:0] angle_interp_angle_22_d = angle_interp_angle_22_r[10:0];
+  reg  [10:0] angle_interp_angle_22_q;
+  reg  [0:0] angle_interp_angle_22_ovf_q;
   wire signed [10:0] db1_bank_s0 = tri_cur_q ? db1_b1_q : db1_b0_q;
   wire signed [16:0] t23_a = $signed({1'b0, c1_i});
   wire signed [26:0] t23 = t23_a * db1_bank_s0;
@@ -794,86 +794,86 @@ module pipeline_mapped_interp (
   wire signed [14:0] angle_interp_angle_27_r =
       $signed({angle_interp_angle_27_up[14:1], angle_interp_angle_27_up[0]
       & ~angle_interp_angle_27_tie});
-  wire angle_interp_angle_27_ovf_c =
+  wire angle_interp_angle_27_ovf_d =
       angle_interp_angle_27_r[14] | (|angle_interp_angle_27_r[13:11]);
-  wire [10:0] angle_interp_angle_27_c = angle_interp_angle_27_r[10:0];
-  reg  [10:0] angle_interp_angle_27;
-  reg  [0:0] angle_interp_angle_27_ovf;
-  wire polar_index_28_ovf_c = 1'b0;
-  wire [10:0] polar_index_28_c = al_q[10:0];
-  reg  [10:0] polar_index_28;
-  reg  [0:0] polar_index_28_ovf;
-  wire signed [12:0] t29 = $signed({{2{1'b0}}, bl_q} - {{2{1'b0}}, angle_interp_angle_27});
-  wire polar_index_30_ovf_c = t29[12] | (|t29[11]);
-  wire [10:0] polar_index_30_c = t29[10:0];
-  reg  [10:0] polar_index_30;
-  reg  [0:0] polar_index_30_ovf;
-  wire polar_index_31_ovf_c = 1'b0;
-  wire [10:0] polar_index_31_c = angle_interp_angle_22[10:0];
-  reg  [10:0] polar_index_31;
-  reg  [0:0] polar_index_31_ovf;
-  reg  [10:0] polar_index_28_s2;
-  wire [10:0] cos_32_j = {polar_index_28_s2[10:9] + 2'd1, polar_index_28_s2[8:0]};
+  wire [10:0] angle_interp_angle_27_d = angle_interp_angle_27_r[10:0];
+  reg  [10:0] angle_interp_angle_27_q;
+  reg  [0:0] angle_interp_angle_27_ovf_q;
+  wire polar_index_28_ovf_d = 1'b0;
+  wire [10:0] polar_index_28_d = al_q[10:0];
+  reg  [10:0] polar_index_28_q;
+  reg  [0:0] polar_index_28_ovf_q;
+  wire signed [12:0] t29 = $signed({{2{1'b0}}, bl_q} - {{2{1'b0}}, angle_interp_angle_27_q});
+  wire polar_index_30_ovf_d = t29[12] | (|t29[11]);
+  wire [10:0] polar_index_30_d = t29[10:0];
+  reg  [10:0] polar_index_30_q;
+  reg  [0:0] polar_index_30_ovf_q;
+  wire polar_index_31_ovf_d = 1'b0;
+  wire [10:0] polar_index_31_d = angle_interp_angle_22_q[10:0];
+  reg  [10:0] polar_index_31_q;
+  reg  [0:0] polar_index_31_ovf_q;
+  reg  [10:0] polar_index_28_s2_q;
+  wire [10:0] cos_32_j = {polar_index_28_s2_q[10:9] + 2'd1, polar_index_28_s2_q[8:0]};
   wire [9:0] cos_32_a = cos_32_j[9] ? (10'h200 - {1'b0, cos_32_j[8:0]}) : {1'b0, cos_32_j[8:0]};
-  reg  signed [15:0] cos_32_raw;
-  reg  [0:0] cos_32_top;
+  reg  signed [15:0] cos_32_raw_q;
+  reg  [0:0] cos_32_top_q;
   reg  [0:0] cos_32_neg_q;
-  wire signed [15:0] cos_32_v = cos_32_top ? $signed(16'h4000) : cos_32_raw;
+  wire signed [15:0] cos_32_v = cos_32_top_q ? $signed(16'h4000) : cos_32_raw_q;
   wire signed [16:0] cos_32_n = $signed(17'h0 - {cos_32_v[15], cos_32_v});
   wire unused_cos_32_novf = ~((&cos_32_n[16:15]) | ~(|cos_32_n[16:15]));
   wire signed [15:0] cos_32_nv =
       $signed(unused_cos_32_novf ? (cos_32_n[16] ? 16'h8000 : 16'h7fff) : cos_32_n[15:0]);
   wire signed [15:0] cos_32 = $signed(cos_32_neg_q ? cos_32_nv : cos_32_v);
-  wire [10:0] sin_33_j = polar_index_28_s2[10:0];
+  wire [10:0] sin_33_j = polar_index_28_s2_q[10:0];
   wire [9:0] sin_33_a = sin_33_j[9] ? (10'h200 - {1'b0, sin_33_j[8:0]}) : {1'b0, sin_33_j[8:0]};
-  reg  signed [15:0] sin_33_raw;
-  reg  [0:0] sin_33_top;
+  reg  signed [15:0] sin_33_raw_q;
+  reg  [0:0] sin_33_top_q;
   reg  [0:0] sin_33_neg_q;
-  wire signed [15:0] sin_33_v = sin_33_top ? $signed(16'h4000) : sin_33_raw;
+  wire signed [15:0] sin_33_v = sin_33_top_q ? $signed(16'h4000) : sin_33_raw_q;
   wire signed [16:0] sin_33_n = $signed(17'h0 - {sin_33_v[15], sin_33_v});
   wire unused_sin_33_novf = ~((&sin_33_n[16:15]) | ~(|sin_33_n[16:15]));
   wire signed [15:0] sin_33_nv =
       $signed(unused_sin_33_novf ? (sin_33_n[16] ? 16'h8000 : 16'h7fff) : sin_33_n[15:0]);
   wire signed [15:0] sin_33 = $signed(sin_33_neg_q ? sin_33_nv : sin_33_v);
-  wire [10:0] cos_34_j = {polar_index_30[10:9] + 2'd1, polar_index_30[8:0]};
+  wire [10:0] cos_34_j = {polar_index_30_q[10:9] + 2'd1, polar_index_30_q[8:0]};
   wire [9:0] cos_34_a = cos_34_j[9] ? (10'h200 - {1'b0, cos_34_j[8:0]}) : {1'b0, cos_34_j[8:0]};
-  reg  signed [15:0] cos_34_raw;
-  reg  [0:0] cos_34_top;
+  reg  signed [15:0] cos_34_raw_q;
+  reg  [0:0] cos_34_top_q;
   reg  [0:0] cos_34_neg_q;
-  wire signed [15:0] cos_34_v = cos_34_top ? $signed(16'h4000) : cos_34_raw;
+  wire signed [15:0] cos_34_v = cos_34_top_q ? $signed(16'h4000) : cos_34_raw_q;
   wire signed [16:0] cos_34_n = $signed(17'h0 - {cos_34_v[15], cos_34_v});
   wire unused_cos_34_novf = ~((&cos_34_n[16:15]) | ~(|cos_34_n[16:15]));
   wire signed [15:0] cos_34_nv =
       $signed(unused_cos_34_novf ? (cos_34_n[16] ? 16'h8000 : 16'h7fff) : cos_34_n[15:0]);
   wire signed [15:0] cos_34 = $signed(cos_34_neg_q ? cos_34_nv : cos_34_v);
-  wire [10:0] sin_35_j = polar_index_30[10:0];
+  wire [10:0] sin_35_j = polar_index_30_q[10:0];
   wire [9:0] sin_35_a = sin_35_j[9] ? (10'h200 - {1'b0, sin_35_j[8:0]}) : {1'b0, sin_35_j[8:0]};
-  reg  signed [15:0] sin_35_raw;
-  reg  [0:0] sin_35_top;
+  reg  signed [15:0] sin_35_raw_q;
+  reg  [0:0] sin_35_top_q;
   reg  [0:0] sin_35_neg_q;
-  wire signed [15:0] sin_35_v = sin_35_top ? $signed(16'h4000) : sin_35_raw;
+  wire signed [15:0] sin_35_v = sin_35_top_q ? $signed(16'h4000) : sin_35_raw_q;
   wire signed [16:0] sin_35_n = $signed(17'h0 - {sin_35_v[15], sin_35_v});
   wire unused_sin_35_novf = ~((&sin_35_n[16:15]) | ~(|sin_35_n[16:15]));
   wire signed [15:0] sin_35_nv =
       $signed(unused_sin_35_novf ? (sin_35_n[16] ? 16'h8000 : 16'h7fff) : sin_35_n[15:0]);
   wire signed [15:0] sin_35 = $signed(sin_35_neg_q ? sin_35_nv : sin_35_v);
-  wire [10:0] cos_36_j = {polar_index_31[10:9] + 2'd1, polar_index_31[8:0]};
+  wire [10:0] cos_36_j = {polar_index_31_q[10:9] + 2'd1, polar_index_31_q[8:0]};
   wire [9:0] cos_36_a = cos_36_j[9] ? (10'h200 - {1'b0, cos_36_j[8:0]}) : {1'b0, cos_36_j[8:0]};
-  reg  signed [15:0] cos_36_raw;
-  reg  [0:0] cos_36_top;
+  reg  signed [15:0] cos_36_raw_q;
+  reg  [0:0] cos_36_top_q;
   reg  [0:0] cos_36_neg_q;
-  wire signed [15:0] cos_36_v = cos_36_top ? $signed(16'h4000) : cos_36_raw;
+  wire signed [15:0] cos_36_v = cos_36_top_q ? $signed(16'h4000) : cos_36_raw_q;
   wire signed [16:0] cos_36_n = $signed(17'h0 - {cos_36_v[15], cos_36_v});
   wire unused_cos_36_novf = ~((&cos_36_n[16:15]) | ~(|cos_36_n[16:15]));
   wire signed [15:0] cos_36_nv =
       $signed(unused_cos_36_novf ? (cos_36_n[16] ? 16'h8000 : 16'h7fff) : cos_36_n[15:0]);
   wire signed [15:0] cos_36 = $signed(cos_36_neg_q ? cos_36_nv : cos_36_v);
-  wire [10:0] sin_37_j = polar_index_31[10:0];
+  wire [10:0] sin_37_j = polar_index_31_q[10:0];
   wire [9:0] sin_37_a = sin_37_j[9] ? (10'h200 - {1'b0, sin_37_j[8:0]}) : {1'b0, sin_37_j[8:0]};
-  reg  signed [15:0] sin_37_raw;
-  reg  [0:0] sin_37_top;
+  reg  signed [15:0] sin_37_raw_q;
+  reg  [0:0] sin_37_top_q;
   reg  [0:0] sin_37_neg_q;
-  wire signed [15:0] sin_37_v = sin_37_top ? $signed(16'h4000) : sin_37_raw;
+  wire signed [15:0] sin_37_v = sin_37_top_q ? $signed(16'h4000) : sin_37_raw_q;
   wire signed [16:0] sin_37_n = $signed(17'h0 - {sin_37_v[15], sin_37_v});
   wire unused_sin_37_novf = ~((&sin_37_n[16:15]) | ~(|sin_37_n[16:15]));
   wire signed [15:0] sin_37_nv =
@@ -884,128 +884,128 @@ module pipeline_mapped_interp (
   wire [18:0] polar_lyz_39_up = {t38[31], t38[31:14]} + {{18{1'b0}}, t38[13]};
   wire signed [18:0] polar_lyz_39_r =
       $signed({polar_lyz_39_up[18:1], polar_lyz_39_up[0] & ~polar_lyz_39_tie});
-  wire polar_lyz_39_ovf_c = ~((&polar_lyz_39_r[18:15]) | ~(|polar_lyz_39_r[18:15]));
-  wire signed [15:0] polar_lyz_39_c =
-      $signed(polar_lyz_39_ovf_c ? (polar_lyz_39_r[18] ? 16'h8000 : 16'h7fff)
+  wire polar_lyz_39_ovf_d = ~((&polar_lyz_39_r[18:15]) | ~(|polar_lyz_39_r[18:15]));
+  wire signed [15:0] polar_lyz_39_d =
+      $signed(polar_lyz_39_ovf_d ? (polar_lyz_39_r[18] ? 16'h8000 : 16'h7fff)
       : polar_lyz_39_r[15:0]);
-  reg  signed [15:0] polar_lyz_39;
-  reg  [0:0] polar_lyz_39_ovf;
+  reg  signed [15:0] polar_lyz_39_q;
+  reg  [0:0] polar_lyz_39_ovf_q;
   wire signed [31:0] t40 = cos_32 * sin_35;
   wire polar_out_41_tie = t40[13] & ~(|t40[12:0]);
   wire [18:0] polar_out_41_up = {t40[31], t40[31:14]} + {{18{1'b0}}, t40[13]};
   wire signed [18:0] polar_out_41_r =
       $signed({polar_out_41_up[18:1], polar_out_41_up[0] & ~polar_out_41_tie});
-  wire polar_out_41_ovf_c = ~((&polar_out_41_r[18:15]) | ~(|polar_out_41_r[18:15]));
-  wire signed [15:0] polar_out_41_c =
-      $signed(polar_out_41_ovf_c ? (polar_out_41_r[18] ? 16'h8000 : 16'h7fff)
+  wire polar_out_41_ovf_d = ~((&polar_out_41_r[18:15]) | ~(|polar_out_41_r[18:15]));
+  wire signed [15:0] polar_out_41_d =
+      $signed(polar_out_41_ovf_d ? (polar_out_41_r[18] ? 16'h8000 : 16'h7fff)
       : polar_out_41_r[15:0]);
-  reg  signed [15:0] polar_out_41;
-  reg  [0:0] polar_out_41_ovf;
+  reg  signed [15:0] polar_out_41_q;
+  reg  [0:0] polar_out_41_ovf_q;
   wire signed [31:0] t42 = sin_33 * cos_36;
-  reg  signed [15:0] sin_37_s4;
-  wire signed [31:0] t43 = polar_lyz_39 * sin_37_s4;
-  reg  signed [31:0] t42_s4;
-  wire signed [32:0] t44 = $signed({t42_s4[31], t42_s4} - {t43[31], t43});
+  reg  signed [15:0] sin_37_s4_q;
+  wire signed [31:0] t43 = polar_lyz_39_q * sin_37_s4_q;
+  reg  signed [31:0] t42_s4_q;
+  wire signed [32:0] t44 = $signed({t42_s4_q[31], t42_s4_q} - {t43[31], t43});
   wire polar_out_45_tie = t44[13] & ~(|t44[12:0]);
   wire [19:0] polar_out_45_up = {t44[32], t44[32:14]} + {{19{1'b0}}, t44[13]};
   wire signed [19:0] polar_out_45_r =
       $signed({polar_out_45_up[19:1], polar_out_45_up[0] & ~polar_out_45_tie});
-  wire polar_out_45_ovf_c = ~((&polar_out_45_r[19:15]) | ~(|polar_out_45_r[19:15]));
-  wire signed [15:0] polar_out_45_c =
-      $signed(polar_out_45_ovf_c ? (polar_out_45_r[19] ? 16'h8000 : 16'h7fff)
+  wire polar_out_45_ovf_d = ~((&polar_out_45_r[19:15]) | ~(|polar_out_45_r[19:15]));
+  wire signed [15:0] polar_out_45_d =
+      $signed(polar_out_45_ovf_d ? (polar_out_45_r[19] ? 16'h8000 : 16'h7fff)
       : polar_out_45_r[15:0]);
-  reg  signed [15:0] polar_out_45;
-  reg  [0:0] polar_out_45_ovf;
-  reg  signed [15:0] cos_36_s4;
-  wire signed [31:0] t46 = polar_lyz_39 * cos_36_s4;
+  reg  signed [15:0] polar_out_45_q;
+  reg  [0:0] polar_out_45_ovf_q;
+  reg  signed [15:0] cos_36_s4_q;
+  wire signed [31:0] t46 = polar_lyz_39_q * cos_36_s4_q;
   wire signed [31:0] t47 = sin_33 * sin_37;
-  reg  signed [31:0] t47_s4;
-  wire signed [32:0] t48 = $signed({t47_s4[31], t47_s4} + {t46[31], t46});
+  reg  signed [31:0] t47_s4_q;
+  wire signed [32:0] t48 = $signed({t47_s4_q[31], t47_s4_q} + {t46[31], t46});
   wire polar_out_49_tie = t48[13] & ~(|t48[12:0]);
   wire [19:0] polar_out_49_up = {t48[32], t48[32:14]} + {{19{1'b0}}, t48[13]};
   wire signed [19:0] polar_out_49_r =
       $signed({polar_out_49_up[19:1], polar_out_49_up[0] & ~polar_out_49_tie});
-  wire polar_out_49_ovf_c = ~((&polar_out_49_r[19:15]) | ~(|polar_out_49_r[19:15]));
-  wire signed [15:0] polar_out_49_c =
-      $signed(polar_out_49_ovf_c ? (polar_out_49_r[19] ? 16'h8000 : 16'h7fff)
+  wire polar_out_49_ovf_d = ~((&polar_out_49_r[19:15]) | ~(|polar_out_49_r[19:15]));
+  wire signed [15:0] polar_out_49_d =
+      $signed(polar_out_49_ovf_d ? (polar_out_49_r[19] ? 16'h8000 : 16'h7fff)
       : polar_out_49_r[15:0]);
-  reg  signed [15:0] polar_out_49;
-  reg  [0:0] polar_out_49_ovf;
-  wire polar_index_50_ovf_c = 1'b0;
-  wire [10:0] polar_index_50_c = ah_q[10:0];
-  reg  [10:0] polar_index_50;
-  reg  [0:0] polar_index_50_ovf;
-  wire signed [12:0] t51 = $signed({{2{1'b0}}, bh_q} - {{2{1'b0}}, angle_interp_angle_27});
-  wire polar_index_52_ovf_c = t51[12] | (|t51[11]);
-  wire [10:0] polar_index_52_c = t51[10:0];
-  reg  [10:0] polar_index_52;
-  reg  [0:0] polar_index_52_ovf;
-  wire polar_index_53_ovf_c = 1'b0;
-  wire [10:0] polar_index_53_c = angle_interp_angle_22[10:0];
-  reg  [10:0] polar_index_53;
-  reg  [0:0] polar_index_53_ovf;
-  reg  [10:0] polar_index_50_s2;
-  wire [10:0] cos_54_j = {polar_index_50_s2[10:9] + 2'd1, polar_index_50_s2[8:0]};
+  reg  signed [15:0] polar_out_49_q;
+  reg  [0:0] polar_out_49_ovf_q;
+  wire polar_index_50_ovf_d = 1'b0;
+  wire [10:0] polar_index_50_d = ah_q[10:0];
+  reg  [10:0] polar_index_50_q;
+  reg  [0:0] polar_index_50_ovf_q;
+  wire signed [12:0] t51 = $signed({{2{1'b0}}, bh_q} - {{2{1'b0}}, angle_interp_angle_27_q});
+  wire polar_index_52_ovf_d = t51[12] | (|t51[11]);
+  wire [10:0] polar_index_52_d = t51[10:0];
+  reg  [10:0] polar_index_52_q;
+  reg  [0:0] polar_index_52_ovf_q;
+  wire polar_index_53_ovf_d = 1'b0;
+  wire [10:0] polar_index_53_d = angle_interp_angle_22_q[10:0];
+  reg  [10:0] polar_index_53_q;
+  reg  [0:0] polar_index_53_ovf_q;
+  reg  [10:0] polar_index_50_s2_q;
+  wire [10:0] cos_54_j = {polar_index_50_s2_q[10:9] + 2'd1, polar_index_50_s2_q[8:0]};
   wire [9:0] cos_54_a = cos_54_j[9] ? (10'h200 - {1'b0, cos_54_j[8:0]}) : {1'b0, cos_54_j[8:0]};
-  reg  signed [15:0] cos_54_raw;
-  reg  [0:0] cos_54_top;
+  reg  signed [15:0] cos_54_raw_q;
+  reg  [0:0] cos_54_top_q;
   reg  [0:0] cos_54_neg_q;
-  wire signed [15:0] cos_54_v = cos_54_top ? $signed(16'h4000) : cos_54_raw;
+  wire signed [15:0] cos_54_v = cos_54_top_q ? $signed(16'h4000) : cos_54_raw_q;
   wire signed [16:0] cos_54_n = $signed(17'h0 - {cos_54_v[15], cos_54_v});
   wire unused_cos_54_novf = ~((&cos_54_n[16:15]) | ~(|cos_54_n[16:15]));
   wire signed [15:0] cos_54_nv =
       $signed(unused_cos_54_novf ? (cos_54_n[16] ? 16'h8000 : 16'h7fff) : cos_54_n[15:0]);
   wire signed [15:0] cos_54 = $signed(cos_54_neg_q ? cos_54_nv : cos_54_v);
-  wire [10:0] sin_55_j = polar_index_50_s2[10:0];
+  wire [10:0] sin_55_j = polar_index_50_s2_q[10:0];
   wire [9:0] sin_55_a = sin_55_j[9] ? (10'h200 - {1'b0, sin_55_j[8:0]}) : {1'b0, sin_55_j[8:0]};
-  reg  signed [15:0] sin_55_raw;
-  reg  [0:0] sin_55_top;
+  reg  signed [15:0] sin_55_raw_q;
+  reg  [0:0] sin_55_top_q;
   reg  [0:0] sin_55_neg_q;
-  wire signed [15:0] sin_55_v = sin_55_top ? $signed(16'h4000) : sin_55_raw;
+  wire signed [15:0] sin_55_v = sin_55_top_q ? $signed(16'h4000) : sin_55_raw_q;
   wire signed [16:0] sin_55_n = $signed(17'h0 - {sin_55_v[15], sin_55_v});
   wire unused_sin_55_novf = ~((&sin_55_n[16:15]) | ~(|sin_55_n[16:15]));
   wire signed [15:0] sin_55_nv =
       $signed(unused_sin_55_novf ? (sin_55_n[16] ? 16'h8000 : 16'h7fff) : sin_55_n[15:0]);
   wire signed [15:0] sin_55 = $signed(sin_55_neg_q ? sin_55_nv : sin_55_v);
-  wire [10:0] cos_56_j = {polar_index_52[10:9] + 2'd1, polar_index_52[8:0]};
+  wire [10:0] cos_56_j = {polar_index_52_q[10:9] + 2'd1, polar_index_52_q[8:0]};
   wire [9:0] cos_56_a = cos_56_j[9] ? (10'h200 - {1'b0, cos_56_j[8:0]}) : {1'b0, cos_56_j[8:0]};
-  reg  signed [15:0] cos_56_raw;
-  reg  [0:0] cos_56_top;
+  reg  signed [15:0] cos_56_raw_q;
+  reg  [0:0] cos_56_top_q;
   reg  [0:0] cos_56_neg_q;
-  wire signed [15:0] cos_56_v = cos_56_top ? $signed(16'h4000) : cos_56_raw;
+  wire signed [15:0] cos_56_v = cos_56_top_q ? $signed(16'h4000) : cos_56_raw_q;
   wire signed [16:0] cos_56_n = $signed(17'h0 - {cos_56_v[15], cos_56_v});
   wire unused_cos_56_novf = ~((&cos_56_n[16:15]) | ~(|cos_56_n[16:15]));
   wire signed [15:0] cos_56_nv =
       $signed(unused_cos_56_novf ? (cos_56_n[16] ? 16'h8000 : 16'h7fff) : cos_56_n[15:0]);
   wire signed [15:0] cos_56 = $signed(cos_56_neg_q ? cos_56_nv : cos_56_v);
-  wire [10:0] sin_57_j = polar_index_52[10:0];
+  wire [10:0] sin_57_j = polar_index_52_q[10:0];
   wire [9:0] sin_57_a = sin_57_j[9] ? (10'h200 - {1'b0, sin_57_j[8:0]}) : {1'b0, sin_57_j[8:0]};
-  reg  signed [15:0] sin_57_raw;
-  reg  [0:0] sin_57_top;
+  reg  signed [15:0] sin_57_raw_q;
+  reg  [0:0] sin_57_top_q;
   reg  [0:0] sin_57_neg_q;
-  wire signed [15:0] sin_57_v = sin_57_top ? $signed(16'h4000) : sin_57_raw;
+  wire signed [15:0] sin_57_v = sin_57_top_q ? $signed(16'h4000) : sin_57_raw_q;
   wire signed [16:0] sin_57_n = $signed(17'h0 - {sin_57_v[15], sin_57_v});
   wire unused_sin_57_novf = ~((&sin_57_n[16:15]) | ~(|sin_57_n[16:15]));
   wire signed [15:0] sin_57_nv =
       $signed(unused_sin_57_novf ? (sin_57_n[16] ? 16'h8000 : 16'h7fff) : sin_57_n[15:0]);
   wire signed [15:0] sin_57 = $signed(sin_57_neg_q ? sin_57_nv : sin_57_v);
-  wire [10:0] cos_58_j = {polar_index_53[10:9] + 2'd1, polar_index_53[8:0]};
+  wire [10:0] cos_58_j = {polar_index_53_q[10:9] + 2'd1, polar_index_53_q[8:0]};
   wire [9:0] cos_58_a = cos_58_j[9] ? (10'h200 - {1'b0, cos_58_j[8:0]}) : {1'b0, cos_58_j[8:0]};
-  reg  signed [15:0] cos_58_raw;
-  reg  [0:0] cos_58_top;
+  reg  signed [15:0] cos_58_raw_q;
+  reg  [0:0] cos_58_top_q;
   reg  [0:0] cos_58_neg_q;
-  wire signed [15:0] cos_58_v = cos_58_top ? $signed(16'h4000) : cos_58_raw;
+  wire signed [15:0] cos_58_v = cos_58_top_q ? $signed(16'h4000) : cos_58_raw_q;
   wire signed [16:0] cos_58_n = $signed(17'h0 - {cos_58_v[15], cos_58_v});
   wire unused_cos_58_novf = ~((&cos_58_n[16:15]) | ~(|cos_58_n[16:15]));
   wire signed [15:0] cos_58_nv =
       $signed(unused_cos_58_novf ? (cos_58_n[16] ? 16'h8000 : 16'h7fff) : cos_58_n[15:0]);
   wire signed [15:0] cos_58 = $signed(cos_58_neg_q ? cos_58_nv : cos_58_v);
-  wire [10:0] sin_59_j = polar_index_53[10:0];
+  wire [10:0] sin_59_j = polar_index_53_q[10:0];
   wire [9:0] sin_59_a = sin_59_j[9] ? (10'h200 - {1'b0, sin_59_j[8:0]}) : {1'b0, sin_59_j[8:0]};
-  reg  signed [15:0] sin_59_raw;
-  reg  [0:0] sin_59_top;
+  reg  signed [15:0] sin_59_raw_q;
+  reg  [0:0] sin_59_top_q;
   reg  [0:0] sin_59_neg_q;
-  wire signed [15:0] sin_59_v = sin_59_top ? $signed(16'h4000) : sin_59_raw;
+  wire signed [15:0] sin_59_v = sin_59_top_q ? $signed(16'h4000) : sin_59_raw_q;
   wire signed [16:0] sin_59_n = $signed(17'h0 - {sin_59_v[15], sin_59_v});
   wire unused_sin_59_novf = ~((&sin_59_n[16:15]) | ~(|sin_59_n[16:15]));
   wire signed [15:0] sin_59_nv =
@@ -1016,318 +1016,319 @@ module pipeline_mapped_interp (
   wire [18:0] polar_lyz_61_up = {t60[31], t60[31:14]} + {{18{1'b0}}, t60[13]};
   wire signed [18:0] polar_lyz_61_r =
       $signed({polar_lyz_61_up[18:1], polar_lyz_61_up[0] & ~polar_lyz_61_tie});
-  wire polar_lyz_61_ovf_c = ~((&polar_lyz_61_r[18:15]) | ~(|polar_lyz_61_r[18:15]));
-  wire signed [15:0] polar_lyz_61_c =
-      $signed(polar_lyz_61_ovf_c ? (polar_lyz_61_r[18] ? 16'h8000 : 16'h7fff)
+  wire polar_lyz_61_ovf_d = ~((&polar_lyz_61_r[18:15]) | ~(|polar_lyz_61_r[18:15]));
+  wire signed [15:0] polar_lyz_61_d =
+      $signed(polar_lyz_61_ovf_d ? (polar_lyz_61_r[18] ? 16'h8000 : 16'h7fff)
       : polar_lyz_61_r[15:0]);
-  reg  signed [15:0] polar_lyz_61;
-  reg  [0:0] polar_lyz_61_ovf;
+  reg  signed [15:0] polar_lyz_61_q;
+  reg  [0:0] polar_lyz_61_ovf_q;
   wire signed [31:0] t62 = cos_54 * sin_57;
   wire polar_out_63_tie = t62[13] & ~(|t62[12:0]);
   wire [18:0] polar_out_63_up = {t62[31], t62[31:14]} + {{18{1'b0}}, t62[13]};
   wire signed [18:0] polar_out_63_r =
       $signed({polar_out_63_up[18:1], polar_out_63_up[0] & ~polar_out_63_tie});
-  wire polar_out_63_ovf_c = ~((&polar_out_63_r[18:15]) | ~(|polar_out_63_r[18:15]));
-  wire signed [15:0] polar_out_63_c =
-      $signed(polar_out_63_ovf_c ? (polar_out_63_r[18] ? 16'h8000 : 16'h7fff)
+  wire polar_out_63_ovf_d = ~((&polar_out_63_r[18:15]) | ~(|polar_out_63_r[18:15]));
+  wire signed [15:0] polar_out_63_d =
+      $signed(polar_out_63_ovf_d ? (polar_out_63_r[18] ? 16'h8000 : 16'h7fff)
       : polar_out_63_r[15:0]);
-  reg  signed [15:0] polar_out_63;
-  reg  [0:0] polar_out_63_ovf;
+  reg  signed [15:0] polar_out_63_q;
+  reg  [0:0] polar_out_63_ovf_q;
   wire signed [31:0] t64 = sin_55 * cos_58;
-  reg  signed [15:0] sin_59_s4;
-  wire signed [31:0] t65 = polar_lyz_61 * sin_59_s4;
-  reg  signed [31:0] t64_s4;
-  wire signed [32:0] t66 = $signed({t64_s4[31], t64_s4} - {t65[31], t65});
+  reg  signed [15:0] sin_59_s4_q;
+  wire signed [31:0] t65 = polar_lyz_61_q * sin_59_s4_q;
+  reg  signed [31:0] t64_s4_q;
+  wire signed [32:0] t66 = $signed({t64_s4_q[31], t64_s4_q} - {t65[31], t65});
   wire polar_out_67_tie = t66[13] & ~(|t66[12:0]);
   wire [19:0] polar_out_67_up = {t66[32], t66[32:14]} + {{19{1'b0}}, t66[13]};
   wire signed [19:0] polar_out_67_r =
       $signed({polar_out_67_up[19:1], polar_out_67_up[0] & ~polar_out_67_tie});
-  wire polar_out_67_ovf_c = ~((&polar_out_67_r[19:15]) | ~(|polar_out_67_r[19:15]));
-  wire signed [15:0] polar_out_67_c =
-      $signed(polar_out_67_ovf_c ? (polar_out_67_r[19] ? 16'h8000 : 16'h7fff)
+  wire polar_out_67_ovf_d = ~((&polar_out_67_r[19:15]) | ~(|polar_out_67_r[19:15]));
+  wire signed [15:0] polar_out_67_d =
+      $signed(polar_out_67_ovf_d ? (polar_out_67_r[19] ? 16'h8000 : 16'h7fff)
       : polar_out_67_r[15:0]);
-  reg  signed [15:0] polar_out_67;
-  reg  [0:0] polar_out_67_ovf;
-  reg  signed [15:0] cos_58_s4;
-  wire signed [31:0] t68 = polar_lyz_61 * cos_58_s4;
+  reg  signed [15:0] polar_out_67_q;
+  reg  [0:0] polar_out_67_ovf_q;
+  reg  signed [15:0] cos_58_s4_q;
+  wire signed [31:0] t68 = polar_lyz_61_q * cos_58_s4_q;
   wire signed [31:0] t69 = sin_55 * sin_59;
-  reg  signed [31:0] t69_s4;
-  wire signed [32:0] t70 = $signed({t69_s4[31], t69_s4} + {t68[31], t68});
+  reg  signed [31:0] t69_s4_q;
+  wire signed [32:0] t70 = $signed({t69_s4_q[31], t69_s4_q} + {t68[31], t68});
   wire polar_out_71_tie = t70[13] & ~(|t70[12:0]);
   wire [19:0] polar_out_71_up = {t70[32], t70[32:14]} + {{19{1'b0}}, t70[13]};
   wire signed [19:0] polar_out_71_r =
       $signed({polar_out_71_up[19:1], polar_out_71_up[0] & ~polar_out_71_tie});
-  wire polar_out_71_ovf_c = ~((&polar_out_71_r[19:15]) | ~(|polar_out_71_r[19:15]));
-  wire signed [15:0] polar_out_71_c =
-      $signed(polar_out_71_ovf_c ? (polar_out_71_r[19] ? 16'h8000 : 16'h7fff)
+  wire polar_out_71_ovf_d = ~((&polar_out_71_r[19:15]) | ~(|polar_out_71_r[19:15]));
+  wire signed [15:0] polar_out_71_d =
+      $signed(polar_out_71_ovf_d ? (polar_out_71_r[19] ? 16'h8000 : 16'h7fff)
       : polar_out_71_r[15:0]);
-  reg  signed [15:0] polar_out_71;
-  reg  [0:0] polar_out_71_ovf;
-  wire lighting_light_72_ovf_c = 1'b0;
-  wire signed [15:0] lighting_light_72_c =
-      $signed(lighting_light_72_ovf_c ? (polar_out_41[15] ? 16'h8000 : 16'h7fff)
-      : polar_out_41[15:0]);
-  reg  signed [15:0] lighting_light_72;
-  reg  [0:0] lighting_light_72_ovf;
-  wire lighting_light_73_ovf_c = 1'b0;
-  wire signed [15:0] lighting_light_73_c =
-      $signed(lighting_light_73_ovf_c ? (polar_out_45[15] ? 16'h8000 : 16'h7fff)
-      : polar_out_45[15:0]);
-  reg  signed [15:0] lighting_light_73;
-  reg  [0:0] lighting_light_73_ovf;
-  wire lighting_light_74_ovf_c = 1'b0;
-  wire signed [15:0] lighting_light_74_c =
-      $signed(lighting_light_74_ovf_c ? (polar_out_49[15] ? 16'h8000 : 16'h7fff)
-      : polar_out_49[15:0]);
-  reg  signed [15:0] lighting_light_74;
-  reg  [0:0] lighting_light_74_ovf;
-  wire lighting_light_75_ovf_c = 1'b0;
-  wire signed [15:0] lighting_light_75_c =
-      $signed(lighting_light_75_ovf_c ? (polar_out_63[15] ? 16'h8000 : 16'h7fff)
-      : polar_out_63[15:0]);
-  reg  signed [15:0] lighting_light_75;
-  reg  [0:0] lighting_light_75_ovf;
-  wire lighting_light_76_ovf_c = 1'b0;
-  wire signed [15:0] lighting_light_76_c =
-      $signed(lighting_light_76_ovf_c ? (polar_out_67[15] ? 16'h8000 : 16'h7fff)
-      : polar_out_67[15:0]);
-  reg  signed [15:0] lighting_light_76;
-  reg  [0:0] lighting_light_76_ovf;
-  wire lighting_light_77_ovf_c = 1'b0;
-  wire signed [15:0] lighting_light_77_c =
-      $signed(lighting_light_77_ovf_c ? (polar_out_71[15] ? 16'h8000 : 16'h7fff)
-      : polar_out_71[15:0]);
-  reg  signed [15:0] lighting_light_77;
-  reg  [0:0] lighting_light_77_ovf;
-  reg  signed [15:0] n_x_i_s1;
-  reg  signed [15:0] n_x_i_s2;
-  reg  signed [15:0] n_x_i_s3;
-  reg  signed [15:0] n_x_i_s4;
-  reg  signed [15:0] n_x_i_s5;
-  wire signed [31:0] t78 = n_x_i_s5 * lighting_light_72;
-  reg  signed [15:0] n_y_i_s1;
-  reg  signed [15:0] n_y_i_s2;
-  reg  signed [15:0] n_y_i_s3;
-  reg  signed [15:0] n_y_i_s4;
-  reg  signed [15:0] n_y_i_s5;
-  reg  signed [15:0] n_y_i_s6;
-  wire signed [31:0] t79 = n_y_i_s6 * lighting_light_73;
-  reg  signed [15:0] n_z_i_s1;
-  reg  signed [15:0] n_z_i_s2;
-  reg  signed [15:0] n_z_i_s3;
-  reg  signed [15:0] n_z_i_s4;
-  reg  signed [15:0] n_z_i_s5;
-  reg  signed [15:0] n_z_i_s6;
-  wire signed [31:0] t80 = n_z_i_s6 * lighting_light_74;
-  reg  signed [31:0] t78_s6;
-  wire signed [32:0] t81 = $signed({t78_s6[31], t78_s6} + {t79[31], t79});
+  reg  signed [15:0] polar_out_71_q;
+  reg  [0:0] polar_out_71_ovf_q;
+  wire lighting_light_72_ovf_d = 1'b0;
+  wire signed [15:0] lighting_light_72_d =
+      $signed(lighting_light_72_ovf_d ? (polar_out_41_q[15] ? 16'h8000 : 16'h7fff)
+      : polar_out_41_q[15:0]);
+  reg  signed [15:0] lighting_light_72_q;
+  reg  [0:0] lighting_light_72_ovf_q;
+  wire lighting_light_73_ovf_d = 1'b0;
+  wire signed [15:0] lighting_light_73_d =
+      $signed(lighting_light_73_ovf_d ? (polar_out_45_q[15] ? 16'h8000 : 16'h7fff)
+      : polar_out_45_q[15:0]);
+  reg  signed [15:0] lighting_light_73_q;
+  reg  [0:0] lighting_light_73_ovf_q;
+  wire lighting_light_74_ovf_d = 1'b0;
+  wire signed [15:0] lighting_light_74_d =
+      $signed(lighting_light_74_ovf_d ? (polar_out_49_q[15] ? 16'h8000 : 16'h7fff)
+      : polar_out_49_q[15:0]);
+  reg  signed [15:0] lighting_light_74_q;
+  reg  [0:0] lighting_light_74_ovf_q;
+  wire lighting_light_75_ovf_d = 1'b0;
+  wire signed [15:0] lighting_light_75_d =
+      $signed(lighting_light_75_ovf_d ? (polar_out_63_q[15] ? 16'h8000 : 16'h7fff)
+      : polar_out_63_q[15:0]);
+  reg  signed [15:0] lighting_light_75_q;
+  reg  [0:0] lighting_light_75_ovf_q;
+  wire lighting_light_76_ovf_d = 1'b0;
+  wire signed [15:0] lighting_light_76_d =
+      $signed(lighting_light_76_ovf_d ? (polar_out_67_q[15] ? 16'h8000 : 16'h7fff)
+      : polar_out_67_q[15:0]);
+  reg  signed [15:0] lighting_light_76_q;
+  reg  [0:0] lighting_light_76_ovf_q;
+  wire lighting_light_77_ovf_d = 1'b0;
+  wire signed [15:0] lighting_light_77_d =
+      $signed(lighting_light_77_ovf_d ? (polar_out_71_q[15] ? 16'h8000 : 16'h7fff)
+      : polar_out_71_q[15:0]);
+  reg  signed [15:0] lighting_light_77_q;
+  reg  [0:0] lighting_light_77_ovf_q;
+  reg  signed [15:0] n_x_i_s1_q;
+  reg  signed [15:0] n_x_i_s2_q;
+  reg  signed [15:0] n_x_i_s3_q;
+  reg  signed [15:0] n_x_i_s4_q;
+  reg  signed [15:0] n_x_i_s5_q;
+  wire signed [31:0] t78 = n_x_i_s5_q * lighting_light_72_q;
+  reg  signed [15:0] n_y_i_s1_q;
+  reg  signed [15:0] n_y_i_s2_q;
+  reg  signed [15:0] n_y_i_s3_q;
+  reg  signed [15:0] n_y_i_s4_q;
+  reg  signed [15:0] n_y_i_s5_q;
+  reg  signed [15:0] n_y_i_s6_q;
+  wire signed [31:0] t79 = n_y_i_s6_q * lighting_light_73_q;
+  reg  signed [15:0] n_z_i_s1_q;
+  reg  signed [15:0] n_z_i_s2_q;
+  reg  signed [15:0] n_z_i_s3_q;
+  reg  signed [15:0] n_z_i_s4_q;
+  reg  signed [15:0] n_z_i_s5_q;
+  reg  signed [15:0] n_z_i_s6_q;
+  wire signed [31:0] t80 = n_z_i_s6_q * lighting_light_74_q;
+  reg  signed [31:0] t78_s6_q;
+  wire signed [32:0] t81 = $signed({t78_s6_q[31], t78_s6_q} + {t79[31], t79});
   wire signed [33:0] t82 = $signed({t81[32], t81} + {{2{t80[31]}}, t80});
   wire lighting_dot_83_tie = t82[13] & ~(|t82[12:0]);
   wire [20:0] lighting_dot_83_up = {t82[33], t82[33:14]} + {{20{1'b0}}, t82[13]};
   wire signed [20:0] lighting_dot_83_r =
       $signed({lighting_dot_83_up[20:1], lighting_dot_83_up[0] & ~lighting_dot_83_tie});
-  wire lighting_dot_83_ovf_c = ~((&lighting_dot_83_r[20:15]) | ~(|lighting_dot_83_r[20:15]));
-  wire signed [15:0] lighting_dot_83_c =
-      $signed(lighting_dot_83_ovf_c ? (lighting_dot_83_r[20] ? 16'h8000 : 16'h7fff)
+  wire lighting_dot_83_ovf_d = ~((&lighting_dot_83_r[20:15]) | ~(|lighting_dot_83_r[20:15]));
+  wire signed [15:0] lighting_dot_83_d =
+      $signed(lighting_dot_83_ovf_d ? (lighting_dot_83_r[20] ? 16'h8000 : 16'h7fff)
       : lighting_dot_83_r[15:0]);
-  reg  signed [15:0] lighting_dot_83;
-  reg  [0:0] lighting_dot_83_ovf;
-  wire signed [15:0] t84_a = $signed(lighting_dot_83);
+  reg  signed [15:0] lighting_dot_83_q;
+  reg  [0:0] lighting_dot_83_ovf_q;
+  wire signed [15:0] t84_a = $signed(lighting_dot_83_q);
   wire signed [15:0] t84_b = $signed(K17);
   wire signed [15:0] t84 = (t84_a > t84_b) ? t84_a : t84_b;
-  wire signed [31:0] t85 = n_x_i_s5 * lighting_light_75;
-  wire signed [31:0] t86 = n_y_i_s6 * lighting_light_76;
-  wire signed [31:0] t87 = n_z_i_s6 * lighting_light_77;
-  reg  signed [31:0] t85_s6;
-  wire signed [32:0] t88 = $signed({t85_s6[31], t85_s6} + {t86[31], t86});
+  wire signed [31:0] t85 = n_x_i_s5_q * lighting_light_75_q;
+  wire signed [31:0] t86 = n_y_i_s6_q * lighting_light_76_q;
+  wire signed [31:0] t87 = n_z_i_s6_q * lighting_light_77_q;
+  reg  signed [31:0] t85_s6_q;
+  wire signed [32:0] t88 = $signed({t85_s6_q[31], t85_s6_q} + {t86[31], t86});
   wire signed [33:0] t89 = $signed({t88[32], t88} + {{2{t87[31]}}, t87});
   wire lighting_dot_90_tie = t89[13] & ~(|t89[12:0]);
   wire [20:0] lighting_dot_90_up = {t89[33], t89[33:14]} + {{20{1'b0}}, t89[13]};
   wire signed [20:0] lighting_dot_90_r =
       $signed({lighting_dot_90_up[20:1], lighting_dot_90_up[0] & ~lighting_dot_90_tie});
-  wire lighting_dot_90_ovf_c = ~((&lighting_dot_90_r[20:15]) | ~(|lighting_dot_90_r[20:15]));
-  wire signed [15:0] lighting_dot_90_c =
-      $signed(lighting_dot_90_ovf_c ? (lighting_dot_90_r[20] ? 16'h8000 : 16'h7fff)
+  wire lighting_dot_90_ovf_d = ~((&lighting_dot_90_r[20:15]) | ~(|lighting_dot_90_r[20:15]));
+  wire signed [15:0] lighting_dot_90_d =
+      $signed(lighting_dot_90_ovf_d ? (lighting_dot_90_r[20] ? 16'h8000 : 16'h7fff)
       : lighting_dot_90_r[15:0]);
-  reg  signed [15:0] lighting_dot_90;
-  reg  [0:0] lighting_dot_90_ovf;
-  wire signed [15:0] t91_a = $signed(lighting_dot_90);
+  reg  signed [15:0] lighting_dot_90_q;
+  reg  [0:0] lighting_dot_90_ovf_q;
+  wire signed [15:0] t91_a = $signed(lighting_dot_90_q);
   wire signed [15:0] t91_b = $signed(K17);
   wire signed [15:0] t91 = (t91_a > t91_b) ? t91_a : t91_b;
   wire signed [18:0] lighting_spec_92_r = $signed({t91, 3'b0});
-  wire lighting_spec_92_ovf_c = lighting_spec_92_r[18];
-  wire [17:0] lighting_spec_92_c =
-      lighting_spec_92_ovf_c ? (lighting_spec_92_r[18] ? 18'h0 : 18'h3ffff)
+  wire lighting_spec_92_ovf_d = lighting_spec_92_r[18];
+  wire [17:0] lighting_spec_92_d =
+      lighting_spec_92_ovf_d ? (lighting_spec_92_r[18] ? 18'h0 : 18'h3ffff)
       : lighting_spec_92_r[17:0];
-  reg  [17:0] lighting_spec_92;
-  reg  [0:0] lighting_spec_92_ovf;
-  wire [35:0] t93 = lighting_spec_92 * lighting_spec_92;
+  reg  [17:0] lighting_spec_92_q;
+  reg  [0:0] lighting_spec_92_ovf_q;
+  wire [35:0] t93 = lighting_spec_92_q * lighting_spec_92_q;
   wire lighting_spec_94_tie = t93[16] & ~(|t93[15:0]);
   wire [19:0] lighting_spec_94_up = {1'b0, t93[35:17]} + {{19{1'b0}}, t93[16]};
   wire [19:0] lighting_spec_94_r =
       {lighting_spec_94_up[19:1], lighting_spec_94_up[0] & ~lighting_spec_94_tie};
-  wire lighting_spec_94_ovf_c = |lighting_spec_94_r[19:18];
-  wire [17:0] lighting_spec_94_c = lighting_spec_94_ovf_c ? 18'h3ffff : lighting_spec_94_r[17:0];
-  reg  [17:0] lighting_spec_94;
-  reg  [0:0] lighting_spec_94_ovf;
-  wire [35:0] t95 = lighting_spec_94 * lighting_spec_94;
+  wire lighting_spec_94_ovf_d = |lighting_spec_94_r[19:18];
+  wire [17:0] lighting_spec_94_d = lighting_spec_94_ovf_d ? 18'h3ffff : lighting_spec_94_r[17:0];
+  reg  [17:0] lighting_spec_94_q;
+  reg  [0:0] lighting_spec_94_ovf_q;
+  wire [35:0] t95 = lighting_spec_94_q * lighting_spec_94_q;
   wire lighting_spec_96_tie = t95[16] & ~(|t95[15:0]);
   wire [19:0] lighting_spec_96_up = {1'b0, t95[35:17]} + {{19{1'b0}}, t95[16]};
   wire [19:0] lighting_spec_96_r =
       {lighting_spec_96_up[19:1], lighting_spec_96_up[0] & ~lighting_spec_96_tie};
-  wire lighting_spec_96_ovf_c = |lighting_spec_96_r[19:18];
-  wire [17:0] lighting_spec_96_c = lighting_spec_96_ovf_c ? 18'h3ffff : lighting_spec_96_r[17:0];
-  reg  [17:0] lighting_spec_96;
-  reg  [0:0] lighting_spec_96_ovf;
-  wire [35:0] t97 = lighting_spec_96 * lighting_spec_96;
+  wire lighting_spec_96_ovf_d = |lighting_spec_96_r[19:18];
+  wire [17:0] lighting_spec_96_d = lighting_spec_96_ovf_d ? 18'h3ffff : lighting_spec_96_r[17:0];
+  reg  [17:0] lighting_spec_96_q;
+  reg  [0:0] lighting_spec_96_ovf_q;
+  wire [35:0] t97 = lighting_spec_96_q * lighting_spec_96_q;
   wire lighting_spec_98_tie = t97[16] & ~(|t97[15:0]);
   wire [19:0] lighting_spec_98_up = {1'b0, t97[35:17]} + {{19{1'b0}}, t97[16]};
   wire [19:0] lighting_spec_98_r =
       {lighting_spec_98_up[19:1], lighting_spec_98_up[0] & ~lighting_spec_98_tie};
-  wire lighting_spec_98_ovf_c = |lighting_spec_98_r[19:18];
-  wire [17:0] lighting_spec_98_c = lighting_spec_98_ovf_c ? 18'h3ffff : lighting_spec_98_r[17:0];
-  reg  [17:0] lighting_spec_98;
-  reg  [0:0] lighting_spec_98_ovf;
-  wire [35:0] t99 = lighting_spec_98 * lighting_spec_98;
+  wire lighting_spec_98_ovf_d = |lighting_spec_98_r[19:18];
+  wire [17:0] lighting_spec_98_d = lighting_spec_98_ovf_d ? 18'h3ffff : lighting_spec_98_r[17:0];
+  reg  [17:0] lighting_spec_98_q;
+  reg  [0:0] lighting_spec_98_ovf_q;
+  wire [35:0] t99 = lighting_spec_98_q * lighting_spec_98_q;
   wire lighting_spec_100_tie = t99[16] & ~(|t99[15:0]);
   wire [19:0] lighting_spec_100_up = {1'b0, t99[35:17]} + {{19{1'b0}}, t99[16]};
   wire [19:0] lighting_spec_100_r =
       {lighting_spec_100_up[19:1], lighting_spec_100_up[0] & ~lighting_spec_100_tie};
-  wire lighting_spec_100_ovf_c = |lighting_spec_100_r[19:18];
-  wire [17:0] lighting_spec_100_c = lighting_spec_100_ovf_c ? 18'h3ffff : lighting_spec_100_r[17:0];
-  reg  [17:0] lighting_spec_100;
-  reg  [0:0] lighting_spec_100_ovf;
+  wire lighting_spec_100_ovf_d = |lighting_spec_100_r[19:18];
+  wire [17:0] lighting_spec_100_d = lighting_spec_100_ovf_d ? 18'h3ffff : lighting_spec_100_r[17:0];
+  reg  [17:0] lighting_spec_100_q;
+  reg  [0:0] lighting_spec_100_ovf_q;
   wire signed [16:0] t101_b = $signed({1'b0, K15});
   wire signed [31:0] t101 = t84 * t101_b;
-  wire [33:0] t102 = lighting_spec_100 * K16;
-  reg  signed [31:0] t101_s8;
-  reg  signed [31:0] t101_s9;
-  reg  signed [31:0] t101_s10;
-  reg  signed [31:0] t101_s11;
-  reg  signed [31:0] t101_s12;
-  wire signed [35:0] t103 = $signed({{2{1'b0}}, t102} + {t101_s12[31], t101_s12, 3'b0});
+  wire [33:0] t102 = lighting_spec_100_q * K16;
+  reg  signed [31:0] t101_s8_q;
+  reg  signed [31:0] t101_s9_q;
+  reg  signed [31:0] t101_s10_q;
+  reg  signed [31:0] t101_s11_q;
+  reg  signed [31:0] t101_s12_q;
+  wire signed [35:0] t103 = $signed({{2{1'b0}}, t102} + {t101_s12_q[31], t101_s12_q, 3'b0});
   wire lighting_level_104_tie = t103[24] & ~(|t103[23:0]);
   wire [11:0] lighting_level_104_up = {t103[35], t103[35:25]} + {{11{1'b0}}, t103[24]};
   wire signed [11:0] lighting_level_104_r =
       $signed({lighting_level_104_up[11:1], lighting_level_104_up[0] & ~lighting_level_104_tie});
-  wire lighting_level_104_ovf_c = lighting_level_104_r[11] | (|lighting_level_104_r[10:8]);
-  wire [7:0] lighting_level_104_c =
-      lighting_level_104_ovf_c ? (lighting_level_104_r[11] ? 8'h0 : 8'hff)
+  wire lighting_level_104_ovf_d = lighting_level_104_r[11] | (|lighting_level_104_r[10:8]);
+  wire [7:0] lighting_level_104_d =
+      lighting_level_104_ovf_d ? (lighting_level_104_r[11] ? 8'h0 : 8'hff)
       : lighting_level_104_r[7:0];
-  reg  [7:0] lighting_level_104;
-  reg  [0:0] lighting_level_104_ovf;
-  reg  [0:0] angle_interp_angle_22_ovf_s2;
-  reg  [0:0] angle_interp_angle_27_ovf_s2;
+  reg  [7:0] lighting_level_104_q;
+  reg  [0:0] lighting_level_104_ovf_q;
+  reg  [0:0] angle_interp_angle_22_ovf_s2_q;
+  reg  [0:0] angle_interp_angle_27_ovf_s2_q;
   wire ovf0_or_s2 =
-      angle_interp_angle_22_ovf_s2 | angle_interp_angle_27_ovf_s2;
-  reg  [0:0] ovf0_s3;
-  reg  [0:0] ovf0_s4;
-  reg  [0:0] ovf0_s5;
-  reg  [0:0] ovf0_s6;
-  reg  [0:0] ovf0_s7;
-  reg  [0:0] ovf0_s8;
-  reg  [0:0] ovf0_s9;
-  reg  [0:0] ovf0_s10;
-  reg  [0:0] ovf0_s11;
-  reg  [0:0] ovf0_s12;
-  reg  [0:0] ovf0_s13;
-  reg  [0:0] polar_index_28_ovf_s2;
-  reg  [0:0] polar_index_30_ovf_s3;
-  reg  [0:0] polar_index_31_ovf_s3;
-  reg  [0:0] polar_index_50_ovf_s2;
-  reg  [0:0] polar_index_52_ovf_s3;
-  reg  [0:0] polar_index_53_ovf_s3;
+      angle_interp_angle_22_ovf_s2_q | angle_interp_angle_27_ovf_s2_q;
+  reg  [0:0] ovf0_s3_q;
+  reg  [0:0] ovf0_s4_q;
+  reg  [0:0] ovf0_s5_q;
+  reg  [0:0] ovf0_s6_q;
+  reg  [0:0] ovf0_s7_q;
+  reg  [0:0] ovf0_s8_q;
+  reg  [0:0] ovf0_s9_q;
+  reg  [0:0] ovf0_s10_q;
+  reg  [0:0] ovf0_s11_q;
+  reg  [0:0] ovf0_s12_q;
+  reg  [0:0] ovf0_s13_q;
+  reg  [0:0] polar_index_28_ovf_s2_q;
+  reg  [0:0] polar_index_30_ovf_s3_q;
+  reg  [0:0] polar_index_31_ovf_s3_q;
+  reg  [0:0] polar_index_50_ovf_s2_q;
+  reg  [0:0] polar_index_52_ovf_s3_q;
+  reg  [0:0] polar_index_53_ovf_s3_q;
   wire ovf1_or_s2 =
-      polar_index_28_ovf_s2 | polar_index_50_ovf_s2;
-  reg  [0:0] ovf1_s3;
+      polar_index_28_ovf_s2_q | polar_index_50_ovf_s2_q;
+  reg  [0:0] ovf1_s3_q;
   wire ovf1_or_s3 =
-      ovf1_s3 | polar_index_30_ovf_s3 | polar_index_31_ovf_s3 | polar_index_52_ovf_s3
-      | polar_index_53_ovf_s3;
-  reg  [0:0] ovf1_s4;
-  reg  [0:0] ovf1_s5;
-  reg  [0:0] ovf1_s6;
-  reg  [0:0] ovf1_s7;
-  reg  [0:0] ovf1_s8;
-  reg  [0:0] ovf1_s9;
-  reg  [0:0] ovf1_s10;
-  reg  [0:0] ovf1_s11;
-  reg  [0:0] ovf1_s12;
-  reg  [0:0] ovf1_s13;
-  reg  [0:0] polar_lyz_39_ovf_s5;
-  reg  [0:0] polar_lyz_61_ovf_s5;
+      ovf1_s3_q | polar_index_30_ovf_s3_q | polar_index_31_ovf_s3_q | polar_index_52_ovf_s3_q
+      | polar_index_53_ovf_s3_q;
+  reg  [0:0] ovf1_s4_q;
+  reg  [0:0] ovf1_s5_q;
+  reg  [0:0] ovf1_s6_q;
+  reg  [0:0] ovf1_s7_q;
+  reg  [0:0] ovf1_s8_q;
+  reg  [0:0] ovf1_s9_q;
+  reg  [0:0] ovf1_s10_q;
+  reg  [0:0] ovf1_s11_q;
+  reg  [0:0] ovf1_s12_q;
+  reg  [0:0] ovf1_s13_q;
+  reg  [0:0] polar_lyz_39_ovf_s5_q;
+  reg  [0:0] polar_lyz_61_ovf_s5_q;
   wire ovf2_or_s5 =
-      polar_lyz_39_ovf_s5 | polar_lyz_61_ovf_s5;
-  reg  [0:0] ovf2_s6;
-  reg  [0:0] ovf2_s7;
-  reg  [0:0] ovf2_s8;
-  reg  [0:0] ovf2_s9;
-  reg  [0:0] ovf2_s10;
-  reg  [0:0] ovf2_s11;
-  reg  [0:0] ovf2_s12;
-  reg  [0:0] ovf2_s13;
-  reg  [0:0] polar_out_41_ovf_s5;
-  reg  [0:0] polar_out_45_ovf_s6;
-  reg  [0:0] polar_out_49_ovf_s6;
-  reg  [0:0] polar_out_63_ovf_s5;
-  reg  [0:0] polar_out_67_ovf_s6;
-  reg  [0:0] polar_out_71_ovf_s6;
+      polar_lyz_39_ovf_s5_q | polar_lyz_61_ovf_s5_q;
+  reg  [0:0] ovf2_s6_q;
+  reg  [0:0] ovf2_s7_q;
+  reg  [0:0] ovf2_s8_q;
+  reg  [0:0] ovf2_s9_q;
+  reg  [0:0] ovf2_s10_q;
+  reg  [0:0] ovf2_s11_q;
+  reg  [0:0] ovf2_s12_q;
+  reg  [0:0] ovf2_s13_q;
+  reg  [0:0] polar_out_41_ovf_s5_q;
+  reg  [0:0] polar_out_45_ovf_s6_q;
+  reg  [0:0] polar_out_49_ovf_s6_q;
+  reg  [0:0] polar_out_63_ovf_s5_q;
+  reg  [0:0] polar_out_67_ovf_s6_q;
+  reg  [0:0] polar_out_71_ovf_s6_q;
   wire ovf3_or_s5 =
-      polar_out_41_ovf_s5 | polar_out_63_ovf_s5;
-  reg  [0:0] ovf3_s6;
+      polar_out_41_ovf_s5_q | polar_out_63_ovf_s5_q;
+  reg  [0:0] ovf3_s6_q;
   wire ovf3_or_s6 =
-      ovf3_s6 | polar_out_45_ovf_s6 | polar_out_49_ovf_s6 | polar_out_67_ovf_s6
-      | polar_out_71_ovf_s6;
-  reg  [0:0] ovf3_s7;
-  reg  [0:0] ovf3_s8;
-  reg  [0:0] ovf3_s9;
-  reg  [0:0] ovf3_s10;
-  reg  [0:0] ovf3_s11;
-  reg  [0:0] ovf3_s12;
-  reg  [0:0] ovf3_s13;
-  reg  [0:0] lighting_light_72_ovf_s6;
-  reg  [0:0] lighting_light_73_ovf_s7;
-  reg  [0:0] lighting_light_74_ovf_s7;
-  reg  [0:0] lighting_light_75_ovf_s6;
-  reg  [0:0] lighting_light_76_ovf_s7;
-  reg  [0:0] lighting_light_77_ovf_s7;
+      ovf3_s6_q | polar_out_45_ovf_s6_q | polar_out_49_ovf_s6_q | polar_out_67_ovf_s6_q
+      | polar_out_71_ovf_s6_q;
+  reg  [0:0] ovf3_s7_q;
+  reg  [0:0] ovf3_s8_q;
+  reg  [0:0] ovf3_s9_q;
+  reg  [0:0] ovf3_s10_q;
+  reg  [0:0] ovf3_s11_q;
+  reg  [0:0] ovf3_s12_q;
+  reg  [0:0] ovf3_s13_q;
+  reg  [0:0] lighting_light_72_ovf_s6_q;
+  reg  [0:0] lighting_light_73_ovf_s7_q;
+  reg  [0:0] lighting_light_74_ovf_s7_q;
+  reg  [0:0] lighting_light_75_ovf_s6_q;
+  reg  [0:0] lighting_light_76_ovf_s7_q;
+  reg  [0:0] lighting_light_77_ovf_s7_q;
   wire ovf4_or_s6 =
-      lighting_light_72_ovf_s6 | lighting_light_75_ovf_s6;
-  reg  [0:0] ovf4_s7;
+      lighting_light_72_ovf_s6_q | lighting_light_75_ovf_s6_q;
+  reg  [0:0] ovf4_s7_q;
   wire ovf4_or_s7 =
-      ovf4_s7 | lighting_light_73_ovf_s7 | lighting_light_74_ovf_s7 | lighting_light_76_ovf_s7
-      | lighting_light_77_ovf_s7;
-  reg  [0:0] ovf4_s8;
-  reg  [0:0] ovf4_s9;
-  reg  [0:0] ovf4_s10;
-  reg  [0:0] ovf4_s11;
-  reg  [0:0] ovf4_s12;
-  reg  [0:0] ovf4_s13;
-  reg  [0:0] lighting_dot_83_ovf_s8;
-  reg  [0:0] lighting_dot_90_ovf_s8;
+      ovf4_s7_q | lighting_light_73_ovf_s7_q | lighting_light_74_ovf_s7_q
+          | lighting_light_76_ovf_s7_q
+      | lighting_light_77_ovf_s7_q;
+  reg  [0:0] ovf4_s8_q;
+  reg  [0:0] ovf4_s9_q;
+  reg  [0:0] ovf4_s10_q;
+  reg  [0:0] ovf4_s11_q;
+  reg  [0:0] ovf4_s12_q;
+  reg  [0:0] ovf4_s13_q;
+  reg  [0:0] lighting_dot_83_ovf_s8_q;
+  reg  [0:0] lighting_dot_90_ovf_s8_q;
   wire ovf5_or_s8 =
-      lighting_dot_83_ovf_s8 | lighting_dot_90_ovf_s8;
-  reg  [0:0] ovf5_s9;
-  reg  [0:0] ovf5_s10;
-  reg  [0:0] ovf5_s11;
-  reg  [0:0] ovf5_s12;
-  reg  [0:0] ovf5_s13;
-  reg  [0:0] lighting_spec_92_ovf_s9;
-  reg  [0:0] lighting_spec_94_ovf_s10;
-  reg  [0:0] lighting_spec_96_ovf_s11;
-  reg  [0:0] lighting_spec_98_ovf_s12;
-  reg  [0:0] lighting_spec_100_ovf_s13;
-  reg  [0:0] ovf6_s10;
+      lighting_dot_83_ovf_s8_q | lighting_dot_90_ovf_s8_q;
+  reg  [0:0] ovf5_s9_q;
+  reg  [0:0] ovf5_s10_q;
+  reg  [0:0] ovf5_s11_q;
+  reg  [0:0] ovf5_s12_q;
+  reg  [0:0] ovf5_s13_q;
+  reg  [0:0] lighting_spec_92_ovf_s9_q;
+  reg  [0:0] lighting_spec_94_ovf_s10_q;
+  reg  [0:0] lighting_spec_96_ovf_s11_q;
+  reg  [0:0] lighting_spec_98_ovf_s12_q;
+  reg  [0:0] lighting_spec_100_ovf_s13_q;
+  reg  [0:0] ovf6_s10_q;
   wire ovf6_or_s10 =
-      ovf6_s10 | lighting_spec_94_ovf_s10;
-  reg  [0:0] ovf6_s11;
+      ovf6_s10_q | lighting_spec_94_ovf_s10_q;
+  reg  [0:0] ovf6_s11_q;
   wire ovf6_or_s11 =
-      ovf6_s11 | lighting_spec_96_ovf_s11;
-  reg  [0:0] ovf6_s12;
+      ovf6_s11_q | lighting_spec_96_ovf_s11_q;
+  reg  [0:0] ovf6_s12_q;
   wire ovf6_or_s12 =
-      ovf6_s12 | lighting_spec_98_ovf_s12;
-  reg  [0:0] ovf6_s13;
+      ovf6_s12_q | lighting_spec_98_ovf_s12_q;
+  reg  [0:0] ovf6_s13_q;
   wire ovf6_or_s13 =
-      ovf6_s13 | lighting_spec_100_ovf_s13;
+      ovf6_s13_q | lighting_spec_100_ovf_s13_q;
 
   // Stage loads: the item entering stage k is valid and the stages move.
   wire load_s1 = in_take;
@@ -1348,251 +1349,251 @@ module pipeline_mapped_interp (
   // registers load only with a valid item, so bubbles do not toggle them.
   always @(posedge clk_i) begin
     if (load_s1) begin
-      angle_interp_angle_22 <= angle_interp_angle_22_c;
-      angle_interp_angle_22_ovf <= angle_interp_angle_22_ovf_c;
-      angle_interp_angle_27 <= angle_interp_angle_27_c;
-      angle_interp_angle_27_ovf <= angle_interp_angle_27_ovf_c;
-      polar_index_28 <= polar_index_28_c;
-      polar_index_28_ovf <= polar_index_28_ovf_c;
-      polar_index_50 <= polar_index_50_c;
-      polar_index_50_ovf <= polar_index_50_ovf_c;
-      n_x_i_s1 <= n_x_i;
-      n_y_i_s1 <= n_y_i;
-      n_z_i_s1 <= n_z_i;
+      angle_interp_angle_22_q <= angle_interp_angle_22_d;
+      angle_interp_angle_22_ovf_q <= angle_interp_angle_22_ovf_d;
+      angle_interp_angle_27_q <= angle_interp_angle_27_d;
+      angle_interp_angle_27_ovf_q <= angle_interp_angle_27_ovf_d;
+      polar_index_28_q <= polar_index_28_d;
+      polar_index_28_ovf_q <= polar_index_28_ovf_d;
+      polar_index_50_q <= polar_index_50_d;
+      polar_index_50_ovf_q <= polar_index_50_ovf_d;
+      n_x_i_s1_q <= n_x_i;
+      n_y_i_s1_q <= n_y_i;
+      n_z_i_s1_q <= n_z_i;
     end
     if (load_s2) begin
-      polar_index_30 <= polar_index_30_c;
-      polar_index_30_ovf <= polar_index_30_ovf_c;
-      polar_index_31 <= polar_index_31_c;
-      polar_index_31_ovf <= polar_index_31_ovf_c;
-      polar_index_28_s2 <= polar_index_28;
-      polar_index_52 <= polar_index_52_c;
-      polar_index_52_ovf <= polar_index_52_ovf_c;
-      polar_index_53 <= polar_index_53_c;
-      polar_index_53_ovf <= polar_index_53_ovf_c;
-      polar_index_50_s2 <= polar_index_50;
-      n_x_i_s2 <= n_x_i_s1;
-      n_y_i_s2 <= n_y_i_s1;
-      n_z_i_s2 <= n_z_i_s1;
-      angle_interp_angle_22_ovf_s2 <= angle_interp_angle_22_ovf;
-      angle_interp_angle_27_ovf_s2 <= angle_interp_angle_27_ovf;
-      polar_index_28_ovf_s2 <= polar_index_28_ovf;
-      polar_index_50_ovf_s2 <= polar_index_50_ovf;
+      polar_index_30_q <= polar_index_30_d;
+      polar_index_30_ovf_q <= polar_index_30_ovf_d;
+      polar_index_31_q <= polar_index_31_d;
+      polar_index_31_ovf_q <= polar_index_31_ovf_d;
+      polar_index_28_s2_q <= polar_index_28_q;
+      polar_index_52_q <= polar_index_52_d;
+      polar_index_52_ovf_q <= polar_index_52_ovf_d;
+      polar_index_53_q <= polar_index_53_d;
+      polar_index_53_ovf_q <= polar_index_53_ovf_d;
+      polar_index_50_s2_q <= polar_index_50_q;
+      n_x_i_s2_q <= n_x_i_s1_q;
+      n_y_i_s2_q <= n_y_i_s1_q;
+      n_z_i_s2_q <= n_z_i_s1_q;
+      angle_interp_angle_22_ovf_s2_q <= angle_interp_angle_22_ovf_q;
+      angle_interp_angle_27_ovf_s2_q <= angle_interp_angle_27_ovf_q;
+      polar_index_28_ovf_s2_q <= polar_index_28_ovf_q;
+      polar_index_50_ovf_s2_q <= polar_index_50_ovf_q;
     end
     if (load_s3) begin
-      cos_32_raw <= quarter_rom[cos_32_a[8:0]];
-      cos_32_top <= cos_32_a[9];
+      cos_32_raw_q <= quarter_rom[cos_32_a[8:0]];
+      cos_32_top_q <= cos_32_a[9];
       cos_32_neg_q <= cos_32_j[10];
-      sin_33_raw <= quarter_rom[sin_33_a[8:0]];
-      sin_33_top <= sin_33_a[9];
+      sin_33_raw_q <= quarter_rom[sin_33_a[8:0]];
+      sin_33_top_q <= sin_33_a[9];
       sin_33_neg_q <= sin_33_j[10];
-      cos_34_raw <= quarter_rom[cos_34_a[8:0]];
-      cos_34_top <= cos_34_a[9];
+      cos_34_raw_q <= quarter_rom[cos_34_a[8:0]];
+      cos_34_top_q <= cos_34_a[9];
       cos_34_neg_q <= cos_34_j[10];
-      sin_35_raw <= quarter_rom[sin_35_a[8:0]];
-      sin_35_top <= sin_35_a[9];
+      sin_35_raw_q <= quarter_rom[sin_35_a[8:0]];
+      sin_35_top_q <= sin_35_a[9];
       sin_35_neg_q <= sin_35_j[10];
-      cos_36_raw <= quarter_rom[cos_36_a[8:0]];
-      cos_36_top <= cos_36_a[9];
+      cos_36_raw_q <= quarter_rom[cos_36_a[8:0]];
+      cos_36_top_q <= cos_36_a[9];
       cos_36_neg_q <= cos_36_j[10];
-      sin_37_raw <= quarter_rom[sin_37_a[8:0]];
-      sin_37_top <= sin_37_a[9];
+      sin_37_raw_q <= quarter_rom[sin_37_a[8:0]];
+      sin_37_top_q <= sin_37_a[9];
       sin_37_neg_q <= sin_37_j[10];
-      cos_54_raw <= quarter_rom[cos_54_a[8:0]];
-      cos_54_top <= cos_54_a[9];
+      cos_54_raw_q <= quarter_rom[cos_54_a[8:0]];
+      cos_54_top_q <= cos_54_a[9];
       cos_54_neg_q <= cos_54_j[10];
-      sin_55_raw <= quarter_rom[sin_55_a[8:0]];
-      sin_55_top <= sin_55_a[9];
+      sin_55_raw_q <= quarter_rom[sin_55_a[8:0]];
+      sin_55_top_q <= sin_55_a[9];
       sin_55_neg_q <= sin_55_j[10];
-      cos_56_raw <= quarter_rom[cos_56_a[8:0]];
-      cos_56_top <= cos_56_a[9];
+      cos_56_raw_q <= quarter_rom[cos_56_a[8:0]];
+      cos_56_top_q <= cos_56_a[9];
       cos_56_neg_q <= cos_56_j[10];
-      sin_57_raw <= quarter_rom[sin_57_a[8:0]];
-      sin_57_top <= sin_57_a[9];
+      sin_57_raw_q <= quarter_rom[sin_57_a[8:0]];
+      sin_57_top_q <= sin_57_a[9];
       sin_57_neg_q <= sin_57_j[10];
-      cos_58_raw <= quarter_rom[cos_58_a[8:0]];
-      cos_58_top <= cos_58_a[9];
+      cos_58_raw_q <= quarter_rom[cos_58_a[8:0]];
+      cos_58_top_q <= cos_58_a[9];
       cos_58_neg_q <= cos_58_j[10];
-      sin_59_raw <= quarter_rom[sin_59_a[8:0]];
-      sin_59_top <= sin_59_a[9];
+      sin_59_raw_q <= quarter_rom[sin_59_a[8:0]];
+      sin_59_top_q <= sin_59_a[9];
       sin_59_neg_q <= sin_59_j[10];
-      n_x_i_s3 <= n_x_i_s2;
-      n_y_i_s3 <= n_y_i_s2;
-      n_z_i_s3 <= n_z_i_s2;
-      ovf0_s3 <= ovf0_or_s2;
-      polar_index_30_ovf_s3 <= polar_index_30_ovf;
-      polar_index_31_ovf_s3 <= polar_index_31_ovf;
-      polar_index_52_ovf_s3 <= polar_index_52_ovf;
-      polar_index_53_ovf_s3 <= polar_index_53_ovf;
-      ovf1_s3 <= ovf1_or_s2;
+      n_x_i_s3_q <= n_x_i_s2_q;
+      n_y_i_s3_q <= n_y_i_s2_q;
+      n_z_i_s3_q <= n_z_i_s2_q;
+      ovf0_s3_q <= ovf0_or_s2;
+      polar_index_30_ovf_s3_q <= polar_index_30_ovf_q;
+      polar_index_31_ovf_s3_q <= polar_index_31_ovf_q;
+      polar_index_52_ovf_s3_q <= polar_index_52_ovf_q;
+      polar_index_53_ovf_s3_q <= polar_index_53_ovf_q;
+      ovf1_s3_q <= ovf1_or_s2;
     end
     if (load_s4) begin
-      polar_lyz_39 <= polar_lyz_39_c;
-      polar_lyz_39_ovf <= polar_lyz_39_ovf_c;
-      polar_out_41 <= polar_out_41_c;
-      polar_out_41_ovf <= polar_out_41_ovf_c;
-      sin_37_s4 <= sin_37;
-      t42_s4 <= t42;
-      cos_36_s4 <= cos_36;
-      t47_s4 <= t47;
-      polar_lyz_61 <= polar_lyz_61_c;
-      polar_lyz_61_ovf <= polar_lyz_61_ovf_c;
-      polar_out_63 <= polar_out_63_c;
-      polar_out_63_ovf <= polar_out_63_ovf_c;
-      sin_59_s4 <= sin_59;
-      t64_s4 <= t64;
-      cos_58_s4 <= cos_58;
-      t69_s4 <= t69;
-      n_x_i_s4 <= n_x_i_s3;
-      n_y_i_s4 <= n_y_i_s3;
-      n_z_i_s4 <= n_z_i_s3;
-      ovf0_s4 <= ovf0_s3;
-      ovf1_s4 <= ovf1_or_s3;
+      polar_lyz_39_q <= polar_lyz_39_d;
+      polar_lyz_39_ovf_q <= polar_lyz_39_ovf_d;
+      polar_out_41_q <= polar_out_41_d;
+      polar_out_41_ovf_q <= polar_out_41_ovf_d;
+      sin_37_s4_q <= sin_37;
+      t42_s4_q <= t42;
+      cos_36_s4_q <= cos_36;
+      t47_s4_q <= t47;
+      polar_lyz_61_q <= polar_lyz_61_d;
+      polar_lyz_61_ovf_q <= polar_lyz_61_ovf_d;
+      polar_out_63_q <= polar_out_63_d;
+      polar_out_63_ovf_q <= polar_out_63_ovf_d;
+      sin_59_s4_q <= sin_59;
+      t64_s4_q <= t64;
+      cos_58_s4_q <= cos_58;
+      t69_s4_q <= t69;
+      n_x_i_s4_q <= n_x_i_s3_q;
+      n_y_i_s4_q <= n_y_i_s3_q;
+      n_z_i_s4_q <= n_z_i_s3_q;
+      ovf0_s4_q <= ovf0_s3_q;
+      ovf1_s4_q <= ovf1_or_s3;
     end
     if (load_s5) begin
-      polar_out_45 <= polar_out_45_c;
-      polar_out_45_ovf <= polar_out_45_ovf_c;
-      polar_out_49 <= polar_out_49_c;
-      polar_out_49_ovf <= polar_out_49_ovf_c;
-      polar_out_67 <= polar_out_67_c;
-      polar_out_67_ovf <= polar_out_67_ovf_c;
-      polar_out_71 <= polar_out_71_c;
-      polar_out_71_ovf <= polar_out_71_ovf_c;
-      lighting_light_72 <= lighting_light_72_c;
-      lighting_light_72_ovf <= lighting_light_72_ovf_c;
-      lighting_light_75 <= lighting_light_75_c;
-      lighting_light_75_ovf <= lighting_light_75_ovf_c;
-      n_x_i_s5 <= n_x_i_s4;
-      n_y_i_s5 <= n_y_i_s4;
-      n_z_i_s5 <= n_z_i_s4;
-      ovf0_s5 <= ovf0_s4;
-      ovf1_s5 <= ovf1_s4;
-      polar_lyz_39_ovf_s5 <= polar_lyz_39_ovf;
-      polar_lyz_61_ovf_s5 <= polar_lyz_61_ovf;
-      polar_out_41_ovf_s5 <= polar_out_41_ovf;
-      polar_out_63_ovf_s5 <= polar_out_63_ovf;
+      polar_out_45_q <= polar_out_45_d;
+      polar_out_45_ovf_q <= polar_out_45_ovf_d;
+      polar_out_49_q <= polar_out_49_d;
+      polar_out_49_ovf_q <= polar_out_49_ovf_d;
+      polar_out_67_q <= polar_out_67_d;
+      polar_out_67_ovf_q <= polar_out_67_ovf_d;
+      polar_out_71_q <= polar_out_71_d;
+      polar_out_71_ovf_q <= polar_out_71_ovf_d;
+      lighting_light_72_q <= lighting_light_72_d;
+      lighting_light_72_ovf_q <= lighting_light_72_ovf_d;
+      lighting_light_75_q <= lighting_light_75_d;
+      lighting_light_75_ovf_q <= lighting_light_75_ovf_d;
+      n_x_i_s5_q <= n_x_i_s4_q;
+      n_y_i_s5_q <= n_y_i_s4_q;
+      n_z_i_s5_q <= n_z_i_s4_q;
+      ovf0_s5_q <= ovf0_s4_q;
+      ovf1_s5_q <= ovf1_s4_q;
+      polar_lyz_39_ovf_s5_q <= polar_lyz_39_ovf_q;
+      polar_lyz_61_ovf_s5_q <= polar_lyz_61_ovf_q;
+      polar_out_41_ovf_s5_q <= polar_out_41_ovf_q;
+      polar_out_63_ovf_s5_q <= polar_out_63_ovf_q;
     end
     if (load_s6) begin
-      lighting_light_73 <= lighting_light_73_c;
-      lighting_light_73_ovf <= lighting_light_73_ovf_c;
-      lighting_light_74 <= lighting_light_74_c;
-      lighting_light_74_ovf <= lighting_light_74_ovf_c;
-      lighting_light_76 <= lighting_light_76_c;
-      lighting_light_76_ovf <= lighting_light_76_ovf_c;
-      lighting_light_77 <= lighting_light_77_c;
-      lighting_light_77_ovf <= lighting_light_77_ovf_c;
-      n_y_i_s6 <= n_y_i_s5;
-      n_z_i_s6 <= n_z_i_s5;
-      t78_s6 <= t78;
-      t85_s6 <= t85;
-      ovf0_s6 <= ovf0_s5;
-      ovf1_s6 <= ovf1_s5;
-      ovf2_s6 <= ovf2_or_s5;
-      polar_out_45_ovf_s6 <= polar_out_45_ovf;
-      polar_out_49_ovf_s6 <= polar_out_49_ovf;
-      polar_out_67_ovf_s6 <= polar_out_67_ovf;
-      polar_out_71_ovf_s6 <= polar_out_71_ovf;
-      ovf3_s6 <= ovf3_or_s5;
-      lighting_light_72_ovf_s6 <= lighting_light_72_ovf;
-      lighting_light_75_ovf_s6 <= lighting_light_75_ovf;
+      lighting_light_73_q <= lighting_light_73_d;
+      lighting_light_73_ovf_q <= lighting_light_73_ovf_d;
+      lighting_light_74_q <= lighting_light_74_d;
+      lighting_light_74_ovf_q <= lighting_light_74_ovf_d;
+      lighting_light_76_q <= lighting_light_76_d;
+      lighting_light_76_ovf_q <= lighting_light_76_ovf_d;
+      lighting_light_77_q <= lighting_light_77_d;
+      lighting_light_77_ovf_q <= lighting_light_77_ovf_d;
+      n_y_i_s6_q <= n_y_i_s5_q;
+      n_z_i_s6_q <= n_z_i_s5_q;
+      t78_s6_q <= t78;
+      t85_s6_q <= t85;
+      ovf0_s6_q <= ovf0_s5_q;
+      ovf1_s6_q <= ovf1_s5_q;
+      ovf2_s6_q <= ovf2_or_s5;
+      polar_out_45_ovf_s6_q <= polar_out_45_ovf_q;
+      polar_out_49_ovf_s6_q <= polar_out_49_ovf_q;
+      polar_out_67_ovf_s6_q <= polar_out_67_ovf_q;
+      polar_out_71_ovf_s6_q <= polar_out_71_ovf_q;
+      ovf3_s6_q <= ovf3_or_s5;
+      lighting_light_72_ovf_s6_q <= lighting_light_72_ovf_q;
+      lighting_light_75_ovf_s6_q <= lighting_light_75_ovf_q;
     end
     if (load_s7) begin
-      lighting_dot_83 <= lighting_dot_83_c;
-      lighting_dot_83_ovf <= lighting_dot_83_ovf_c;
-      lighting_dot_90 <= lighting_dot_90_c;
-      lighting_dot_90_ovf <= lighting_dot_90_ovf_c;
-      ovf0_s7 <= ovf0_s6;
-      ovf1_s7 <= ovf1_s6;
-      ovf2_s7 <= ovf2_s6;
-      ovf3_s7 <= ovf3_or_s6;
-      lighting_light_73_ovf_s7 <= lighting_light_73_ovf;
-      lighting_light_74_ovf_s7 <= lighting_light_74_ovf;
-      lighting_light_76_ovf_s7 <= lighting_light_76_ovf;
-      lighting_light_77_ovf_s7 <= lighting_light_77_ovf;
-      ovf4_s7 <= ovf4_or_s6;
+      lighting_dot_83_q <= lighting_dot_83_d;
+      lighting_dot_83_ovf_q <= lighting_dot_83_ovf_d;
+      lighting_dot_90_q <= lighting_dot_90_d;
+      lighting_dot_90_ovf_q <= lighting_dot_90_ovf_d;
+      ovf0_s7_q <= ovf0_s6_q;
+      ovf1_s7_q <= ovf1_s6_q;
+      ovf2_s7_q <= ovf2_s6_q;
+      ovf3_s7_q <= ovf3_or_s6;
+      lighting_light_73_ovf_s7_q <= lighting_light_73_ovf_q;
+      lighting_light_74_ovf_s7_q <= lighting_light_74_ovf_q;
+      lighting_light_76_ovf_s7_q <= lighting_light_76_ovf_q;
+      lighting_light_77_ovf_s7_q <= lighting_light_77_ovf_q;
+      ovf4_s7_q <= ovf4_or_s6;
     end
     if (load_s8) begin
-      lighting_spec_92 <= lighting_spec_92_c;
-      lighting_spec_92_ovf <= lighting_spec_92_ovf_c;
-      t101_s8 <= t101;
-      ovf0_s8 <= ovf0_s7;
-      ovf1_s8 <= ovf1_s7;
-      ovf2_s8 <= ovf2_s7;
-      ovf3_s8 <= ovf3_s7;
-      ovf4_s8 <= ovf4_or_s7;
-      lighting_dot_83_ovf_s8 <= lighting_dot_83_ovf;
-      lighting_dot_90_ovf_s8 <= lighting_dot_90_ovf;
+      lighting_spec_92_q <= lighting_spec_92_d;
+      lighting_spec_92_ovf_q <= lighting_spec_92_ovf_d;
+      t101_s8_q <= t101;
+      ovf0_s8_q <= ovf0_s7_q;
+      ovf1_s8_q <= ovf1_s7_q;
+      ovf2_s8_q <= ovf2_s7_q;
+      ovf3_s8_q <= ovf3_s7_q;
+      ovf4_s8_q <= ovf4_or_s7;
+      lighting_dot_83_ovf_s8_q <= lighting_dot_83_ovf_q;
+      lighting_dot_90_ovf_s8_q <= lighting_dot_90_ovf_q;
     end
     if (load_s9) begin
-      lighting_spec_94 <= lighting_spec_94_c;
-      lighting_spec_94_ovf <= lighting_spec_94_ovf_c;
-      t101_s9 <= t101_s8;
-      ovf0_s9 <= ovf0_s8;
-      ovf1_s9 <= ovf1_s8;
-      ovf2_s9 <= ovf2_s8;
-      ovf3_s9 <= ovf3_s8;
-      ovf4_s9 <= ovf4_s8;
-      ovf5_s9 <= ovf5_or_s8;
-      lighting_spec_92_ovf_s9 <= lighting_spec_92_ovf;
+      lighting_spec_94_q <= lighting_spec_94_d;
+      lighting_spec_94_ovf_q <= lighting_spec_94_ovf_d;
+      t101_s9_q <= t101_s8_q;
+      ovf0_s9_q <= ovf0_s8_q;
+      ovf1_s9_q <= ovf1_s8_q;
+      ovf2_s9_q <= ovf2_s8_q;
+      ovf3_s9_q <= ovf3_s8_q;
+      ovf4_s9_q <= ovf4_s8_q;
+      ovf5_s9_q <= ovf5_or_s8;
+      lighting_spec_92_ovf_s9_q <= lighting_spec_92_ovf_q;
     end
     if (load_s10) begin
-      lighting_spec_96 <= lighting_spec_96_c;
-      lighting_spec_96_ovf <= lighting_spec_96_ovf_c;
-      t101_s10 <= t101_s9;
-      ovf0_s10 <= ovf0_s9;
-      ovf1_s10 <= ovf1_s9;
-      ovf2_s10 <= ovf2_s9;
-      ovf3_s10 <= ovf3_s9;
-      ovf4_s10 <= ovf4_s9;
-      ovf5_s10 <= ovf5_s9;
-      lighting_spec_94_ovf_s10 <= lighting_spec_94_ovf;
-      ovf6_s10 <= lighting_spec_92_ovf_s9;
+      lighting_spec_96_q <= lighting_spec_96_d;
+      lighting_spec_96_ovf_q <= lighting_spec_96_ovf_d;
+      t101_s10_q <= t101_s9_q;
+      ovf0_s10_q <= ovf0_s9_q;
+      ovf1_s10_q <= ovf1_s9_q;
+      ovf2_s10_q <= ovf2_s9_q;
+      ovf3_s10_q <= ovf3_s9_q;
+      ovf4_s10_q <= ovf4_s9_q;
+      ovf5_s10_q <= ovf5_s9_q;
+      lighting_spec_94_ovf_s10_q <= lighting_spec_94_ovf_q;
+      ovf6_s10_q <= lighting_spec_92_ovf_s9_q;
     end
     if (load_s11) begin
-      lighting_spec_98 <= lighting_spec_98_c;
-      lighting_spec_98_ovf <= lighting_spec_98_ovf_c;
-      t101_s11 <= t101_s10;
-      ovf0_s11 <= ovf0_s10;
-      ovf1_s11 <= ovf1_s10;
-      ovf2_s11 <= ovf2_s10;
-      ovf3_s11 <= ovf3_s10;
-      ovf4_s11 <= ovf4_s10;
-      ovf5_s11 <= ovf5_s10;
-      lighting_spec_96_ovf_s11 <= lighting_spec_96_ovf;
-      ovf6_s11 <= ovf6_or_s10;
+      lighting_spec_98_q <= lighting_spec_98_d;
+      lighting_spec_98_ovf_q <= lighting_spec_98_ovf_d;
+      t101_s11_q <= t101_s10_q;
+      ovf0_s11_q <= ovf0_s10_q;
+      ovf1_s11_q <= ovf1_s10_q;
+      ovf2_s11_q <= ovf2_s10_q;
+      ovf3_s11_q <= ovf3_s10_q;
+      ovf4_s11_q <= ovf4_s10_q;
+      ovf5_s11_q <= ovf5_s10_q;
+      lighting_spec_96_ovf_s11_q <= lighting_spec_96_ovf_q;
+      ovf6_s11_q <= ovf6_or_s10;
     end
     if (load_s12) begin
-      lighting_spec_100 <= lighting_spec_100_c;
-      lighting_spec_100_ovf <= lighting_spec_100_ovf_c;
-      t101_s12 <= t101_s11;
-      ovf0_s12 <= ovf0_s11;
-      ovf1_s12 <= ovf1_s11;
-      ovf2_s12 <= ovf2_s11;
-      ovf3_s12 <= ovf3_s11;
-      ovf4_s12 <= ovf4_s11;
-      ovf5_s12 <= ovf5_s11;
-      lighting_spec_98_ovf_s12 <= lighting_spec_98_ovf;
-      ovf6_s12 <= ovf6_or_s11;
+      lighting_spec_100_q <= lighting_spec_100_d;
+      lighting_spec_100_ovf_q <= lighting_spec_100_ovf_d;
+      t101_s12_q <= t101_s11_q;
+      ovf0_s12_q <= ovf0_s11_q;
+      ovf1_s12_q <= ovf1_s11_q;
+      ovf2_s12_q <= ovf2_s11_q;
+      ovf3_s12_q <= ovf3_s11_q;
+      ovf4_s12_q <= ovf4_s11_q;
+      ovf5_s12_q <= ovf5_s11_q;
+      lighting_spec_98_ovf_s12_q <= lighting_spec_98_ovf_q;
+      ovf6_s12_q <= ovf6_or_s11;
     end
     if (load_s13) begin
-      lighting_level_104 <= lighting_level_104_c;
-      lighting_level_104_ovf <= lighting_level_104_ovf_c;
-      ovf0_s13 <= ovf0_s12;
-      ovf1_s13 <= ovf1_s12;
-      ovf2_s13 <= ovf2_s12;
-      ovf3_s13 <= ovf3_s12;
-      ovf4_s13 <= ovf4_s12;
-      ovf5_s13 <= ovf5_s12;
-      lighting_spec_100_ovf_s13 <= lighting_spec_100_ovf;
-      ovf6_s13 <= ovf6_or_s12;
+      lighting_level_104_q <= lighting_level_104_d;
+      lighting_level_104_ovf_q <= lighting_level_104_ovf_d;
+      ovf0_s13_q <= ovf0_s12_q;
+      ovf1_s13_q <= ovf1_s12_q;
+      ovf2_s13_q <= ovf2_s12_q;
+      ovf3_s13_q <= ovf3_s12_q;
+      ovf4_s13_q <= ovf4_s12_q;
+      ovf5_s13_q <= ovf5_s12_q;
+      lighting_spec_100_ovf_s13_q <= lighting_spec_100_ovf_q;
+      ovf6_s13_q <= ovf6_or_s12;
     end
   end
 
   // Output buffer: the head drives the ports; the skid register takes the
   // item that leaves the last stage while the head is stalled.
   wire [15:0] last_d =
-      {lighting_level_104, (ovf0_s13), (ovf1_s13), (ovf2_s13), (ovf3_s13), (ovf4_s13), (ovf5_s13),
-      (ovf6_or_s13), (lighting_level_104_ovf)};
+      {lighting_level_104_q, (ovf0_s13_q), (ovf1_s13_q), (ovf2_s13_q), (ovf3_s13_q), (ovf4_s13_q),
+      (ovf5_s13_q), (ovf6_or_s13), (lighting_level_104_ovf_q)};
   reg  [15:0] out_q, skid_q;
   always @(posedge clk_i) begin
     if (out_load & (skid_valid | out_arrive)) out_q <= skid_valid ? skid_q : last_d;

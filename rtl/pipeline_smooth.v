@@ -372,12 +372,12 @@ module pipeline_smooth (
   wire [21:0] interp_weight_80_up = {t79[33], t79[33:13]} + {{21{1'b0}}, t79[12]};
   wire signed [21:0] interp_weight_80_r =
       $signed({interp_weight_80_up[21:1], interp_weight_80_up[0] & ~interp_weight_80_tie});
-  wire interp_weight_80_ovf_c = ~((&interp_weight_80_r[21:17]) | ~(|interp_weight_80_r[21:17]));
-  wire signed [17:0] interp_weight_80_c =
-      $signed(interp_weight_80_ovf_c ? (interp_weight_80_r[21] ? 18'h20000 : 18'h1ffff)
+  wire interp_weight_80_ovf_d = ~((&interp_weight_80_r[21:17]) | ~(|interp_weight_80_r[21:17]));
+  wire signed [17:0] interp_weight_80_d =
+      $signed(interp_weight_80_ovf_d ? (interp_weight_80_r[21] ? 18'h20000 : 18'h1ffff)
       : interp_weight_80_r[17:0]);
-  reg  signed [17:0] interp_weight_80;
-  reg  [0:0] interp_weight_80_ovf;
+  reg  signed [17:0] interp_weight_80_q;
+  reg  [0:0] interp_weight_80_ovf_q;
   wire signed [17:0] t81 = $signed({{2{1'b0}}, c2_i} - {{3{1'b0}}, K27, 14'b0});
   wire signed [16:0] t82_a = $signed({1'b0, c2_i});
   wire signed [33:0] t82 = t82_a * t81;
@@ -385,179 +385,179 @@ module pipeline_smooth (
   wire [21:0] interp_weight_83_up = {t82[33], t82[33:13]} + {{21{1'b0}}, t82[12]};
   wire signed [21:0] interp_weight_83_r =
       $signed({interp_weight_83_up[21:1], interp_weight_83_up[0] & ~interp_weight_83_tie});
-  wire interp_weight_83_ovf_c = ~((&interp_weight_83_r[21:17]) | ~(|interp_weight_83_r[21:17]));
-  wire signed [17:0] interp_weight_83_c =
-      $signed(interp_weight_83_ovf_c ? (interp_weight_83_r[21] ? 18'h20000 : 18'h1ffff)
+  wire interp_weight_83_ovf_d = ~((&interp_weight_83_r[21:17]) | ~(|interp_weight_83_r[21:17]));
+  wire signed [17:0] interp_weight_83_d =
+      $signed(interp_weight_83_ovf_d ? (interp_weight_83_r[21] ? 18'h20000 : 18'h1ffff)
       : interp_weight_83_r[17:0]);
-  reg  signed [17:0] interp_weight_83;
-  reg  [0:0] interp_weight_83_ovf;
+  reg  signed [17:0] interp_weight_83_q;
+  reg  [0:0] interp_weight_83_ovf_q;
   wire signed [19:0] t84 = $signed({t77[18], t77} - {{5{1'b0}}, K27, 14'b0});
   wire signed [38:0] t85 = t77 * t84;
   wire interp_weight_86_tie = t85[12] & ~(|t85[11:0]);
   wire [26:0] interp_weight_86_up = {t85[38], t85[38:13]} + {{26{1'b0}}, t85[12]};
   wire signed [26:0] interp_weight_86_r =
       $signed({interp_weight_86_up[26:1], interp_weight_86_up[0] & ~interp_weight_86_tie});
-  wire interp_weight_86_ovf_c = ~((&interp_weight_86_r[26:17]) | ~(|interp_weight_86_r[26:17]));
-  wire signed [17:0] interp_weight_86_c =
-      $signed(interp_weight_86_ovf_c ? (interp_weight_86_r[26] ? 18'h20000 : 18'h1ffff)
+  wire interp_weight_86_ovf_d = ~((&interp_weight_86_r[26:17]) | ~(|interp_weight_86_r[26:17]));
+  wire signed [17:0] interp_weight_86_d =
+      $signed(interp_weight_86_ovf_d ? (interp_weight_86_r[26] ? 18'h20000 : 18'h1ffff)
       : interp_weight_86_r[17:0]);
-  reg  signed [17:0] interp_weight_86;
-  reg  [0:0] interp_weight_86_ovf;
+  reg  signed [17:0] interp_weight_86_q;
+  reg  [0:0] interp_weight_86_ovf_q;
   wire [31:0] t87 = c1_i * c2_i;
   wire interp_weight_88_tie = t87[11] & ~(|t87[10:0]);
   wire [20:0] interp_weight_88_up = {1'b0, t87[31:12]} + {{20{1'b0}}, t87[11]};
   wire [20:0] interp_weight_88_r =
       {interp_weight_88_up[20:1], interp_weight_88_up[0] & ~interp_weight_88_tie};
-  wire interp_weight_88_ovf_c = |interp_weight_88_r[20:17];
-  wire signed [17:0] interp_weight_88_c =
-      $signed(interp_weight_88_ovf_c ? 18'h1ffff : interp_weight_88_r[17:0]);
-  reg  signed [17:0] interp_weight_88;
-  reg  [0:0] interp_weight_88_ovf;
+  wire interp_weight_88_ovf_d = |interp_weight_88_r[20:17];
+  wire signed [17:0] interp_weight_88_d =
+      $signed(interp_weight_88_ovf_d ? 18'h1ffff : interp_weight_88_r[17:0]);
+  reg  signed [17:0] interp_weight_88_q;
+  reg  [0:0] interp_weight_88_ovf_q;
   wire signed [16:0] t89_a = $signed({1'b0, c2_i});
   wire signed [34:0] t89 = t89_a * t77;
   wire interp_weight_90_tie = t89[11] & ~(|t89[10:0]);
   wire [23:0] interp_weight_90_up = {t89[34], t89[34:12]} + {{23{1'b0}}, t89[11]};
   wire signed [23:0] interp_weight_90_r =
       $signed({interp_weight_90_up[23:1], interp_weight_90_up[0] & ~interp_weight_90_tie});
-  wire interp_weight_90_ovf_c = ~((&interp_weight_90_r[23:17]) | ~(|interp_weight_90_r[23:17]));
-  wire signed [17:0] interp_weight_90_c =
-      $signed(interp_weight_90_ovf_c ? (interp_weight_90_r[23] ? 18'h20000 : 18'h1ffff)
+  wire interp_weight_90_ovf_d = ~((&interp_weight_90_r[23:17]) | ~(|interp_weight_90_r[23:17]));
+  wire signed [17:0] interp_weight_90_d =
+      $signed(interp_weight_90_ovf_d ? (interp_weight_90_r[23] ? 18'h20000 : 18'h1ffff)
       : interp_weight_90_r[17:0]);
-  reg  signed [17:0] interp_weight_90;
-  reg  [0:0] interp_weight_90_ovf;
+  reg  signed [17:0] interp_weight_90_q;
+  reg  [0:0] interp_weight_90_ovf_q;
   wire signed [16:0] t91_b = $signed({1'b0, c1_i});
   wire signed [34:0] t91 = t77 * t91_b;
   wire interp_weight_92_tie = t91[11] & ~(|t91[10:0]);
   wire [23:0] interp_weight_92_up = {t91[34], t91[34:12]} + {{23{1'b0}}, t91[11]};
   wire signed [23:0] interp_weight_92_r =
       $signed({interp_weight_92_up[23:1], interp_weight_92_up[0] & ~interp_weight_92_tie});
-  wire interp_weight_92_ovf_c = ~((&interp_weight_92_r[23:17]) | ~(|interp_weight_92_r[23:17]));
-  wire signed [17:0] interp_weight_92_c =
-      $signed(interp_weight_92_ovf_c ? (interp_weight_92_r[23] ? 18'h20000 : 18'h1ffff)
+  wire interp_weight_92_ovf_d = ~((&interp_weight_92_r[23:17]) | ~(|interp_weight_92_r[23:17]));
+  wire signed [17:0] interp_weight_92_d =
+      $signed(interp_weight_92_ovf_d ? (interp_weight_92_r[23] ? 18'h20000 : 18'h1ffff)
       : interp_weight_92_r[17:0]);
-  reg  signed [17:0] interp_weight_92;
-  reg  [0:0] interp_weight_92_ovf;
+  reg  signed [17:0] interp_weight_92_q;
+  reg  [0:0] interp_weight_92_ovf_q;
   wire signed [15:0] n1_x_bank_s1 = tri_tag_q[0] ? n1_x_b1_q : n1_x_b0_q;
-  wire signed [33:0] t93 = interp_weight_80 * n1_x_bank_s1;
+  wire signed [33:0] t93 = interp_weight_80_q * n1_x_bank_s1;
   wire signed [15:0] n2_x_bank_s1 = tri_tag_q[0] ? n2_x_b1_q : n2_x_b0_q;
-  wire signed [33:0] t94 = interp_weight_83 * n2_x_bank_s1;
+  wire signed [33:0] t94 = interp_weight_83_q * n2_x_bank_s1;
   wire signed [34:0] t95 = $signed({t94[33], t94} + {t93[33], t93});
   wire signed [15:0] n3_x_bank_s1 = tri_tag_q[0] ? n3_x_b1_q : n3_x_b0_q;
-  wire signed [33:0] t96 = interp_weight_86 * n3_x_bank_s1;
+  wire signed [33:0] t96 = interp_weight_86_q * n3_x_bank_s1;
   wire signed [35:0] t97 = $signed({{2{t96[33]}}, t96} + {t95[34], t95});
   wire signed [15:0] n12_x_bank_s1 = tri_tag_q[0] ? n12_x_b1_q : n12_x_b0_q;
-  wire signed [33:0] t98 = interp_weight_88 * n12_x_bank_s1;
+  wire signed [33:0] t98 = interp_weight_88_q * n12_x_bank_s1;
   wire signed [36:0] t99 = $signed({{3{t98[33]}}, t98} + {t97[35], t97});
   wire signed [15:0] n23_x_bank_s1 = tri_tag_q[0] ? n23_x_b1_q : n23_x_b0_q;
-  wire signed [33:0] t100 = interp_weight_90 * n23_x_bank_s1;
+  wire signed [33:0] t100 = interp_weight_90_q * n23_x_bank_s1;
   wire signed [37:0] t101 = $signed({{4{t100[33]}}, t100} + {t99[36], t99});
   wire signed [15:0] n31_x_bank_s1 = tri_tag_q[0] ? n31_x_b1_q : n31_x_b0_q;
-  wire signed [33:0] t102 = interp_weight_92 * n31_x_bank_s1;
+  wire signed [33:0] t102 = interp_weight_92_q * n31_x_bank_s1;
   wire signed [38:0] t103 = $signed({{5{t102[33]}}, t102} + {t101[37], t101});
   wire interp_out_104_tie = t103[15] & ~(|t103[14:0]);
   wire [23:0] interp_out_104_up = {t103[38], t103[38:16]} + {{23{1'b0}}, t103[15]};
   wire signed [23:0] interp_out_104_r =
       $signed({interp_out_104_up[23:1], interp_out_104_up[0] & ~interp_out_104_tie});
-  wire interp_out_104_ovf_c = ~((&interp_out_104_r[23:15]) | ~(|interp_out_104_r[23:15]));
-  wire signed [15:0] interp_out_104_c =
-      $signed(interp_out_104_ovf_c ? (interp_out_104_r[23] ? 16'h8000 : 16'h7fff)
+  wire interp_out_104_ovf_d = ~((&interp_out_104_r[23:15]) | ~(|interp_out_104_r[23:15]));
+  wire signed [15:0] interp_out_104_d =
+      $signed(interp_out_104_ovf_d ? (interp_out_104_r[23] ? 16'h8000 : 16'h7fff)
       : interp_out_104_r[15:0]);
-  reg  signed [15:0] interp_out_104;
-  reg  [0:0] interp_out_104_ovf;
+  reg  signed [15:0] interp_out_104_q;
+  reg  [0:0] interp_out_104_ovf_q;
   wire signed [15:0] n1_y_bank_s1 = tri_tag_q[0] ? n1_y_b1_q : n1_y_b0_q;
-  wire signed [33:0] t105 = interp_weight_80 * n1_y_bank_s1;
+  wire signed [33:0] t105 = interp_weight_80_q * n1_y_bank_s1;
   wire signed [15:0] n2_y_bank_s1 = tri_tag_q[0] ? n2_y_b1_q : n2_y_b0_q;
-  wire signed [33:0] t106 = interp_weight_83 * n2_y_bank_s1;
+  wire signed [33:0] t106 = interp_weight_83_q * n2_y_bank_s1;
   wire signed [34:0] t107 = $signed({t106[33], t106} + {t105[33], t105});
   wire signed [15:0] n3_y_bank_s1 = tri_tag_q[0] ? n3_y_b1_q : n3_y_b0_q;
-  wire signed [33:0] t108 = interp_weight_86 * n3_y_bank_s1;
+  wire signed [33:0] t108 = interp_weight_86_q * n3_y_bank_s1;
   wire signed [35:0] t109 = $signed({{2{t108[33]}}, t108} + {t107[34], t107});
   wire signed [15:0] n12_y_bank_s1 = tri_tag_q[0] ? n12_y_b1_q : n12_y_b0_q;
-  wire signed [33:0] t110 = interp_weight_88 * n12_y_bank_s1;
+  wire signed [33:0] t110 = interp_weight_88_q * n12_y_bank_s1;
   wire signed [36:0] t111 = $signed({{3{t110[33]}}, t110} + {t109[35], t109});
   wire signed [15:0] n23_y_bank_s1 = tri_tag_q[0] ? n23_y_b1_q : n23_y_b0_q;
-  wire signed [33:0] t112 = interp_weight_90 * n23_y_bank_s1;
+  wire signed [33:0] t112 = interp_weight_90_q * n23_y_bank_s1;
   wire signed [37:0] t113 = $signed({{4{t112[33]}}, t112} + {t111[36], t111});
   wire signed [15:0] n31_y_bank_s1 = tri_tag_q[0] ? n31_y_b1_q : n31_y_b0_q;
-  wire signed [33:0] t114 = interp_weight_92 * n31_y_bank_s1;
+  wire signed [33:0] t114 = interp_weight_92_q * n31_y_bank_s1;
   wire signed [38:0] t115 = $signed({{5{t114[33]}}, t114} + {t113[37], t113});
   wire interp_out_116_tie = t115[15] & ~(|t115[14:0]);
   wire [23:0] interp_out_116_up = {t115[38], t115[38:16]} + {{23{1'b0}}, t115[15]};
   wire signed [23:0] interp_out_116_r =
       $signed({interp_out_116_up[23:1], interp_out_116_up[0] & ~interp_out_116_tie});
-  wire interp_out_116_ovf_c = ~((&interp_out_116_r[23:15]) | ~(|interp_out_116_r[23:15]));
-  wire signed [15:0] interp_out_116_c =
-      $signed(interp_out_116_ovf_c ? (interp_out_116_r[23] ? 16'h8000 : 16'h7fff)
+  wire interp_out_116_ovf_d = ~((&interp_out_116_r[23:15]) | ~(|interp_out_116_r[23:15]));
+  wire signed [15:0] interp_out_116_d =
+      $signed(interp_out_116_ovf_d ? (interp_out_116_r[23] ? 16'h8000 : 16'h7fff)
       : interp_out_116_r[15:0]);
-  reg  signed [15:0] interp_out_116;
-  reg  [0:0] interp_out_116_ovf;
+  reg  signed [15:0] interp_out_116_q;
+  reg  [0:0] interp_out_116_ovf_q;
   wire signed [15:0] n1_z_bank_s1 = tri_tag_q[0] ? n1_z_b1_q : n1_z_b0_q;
-  wire signed [33:0] t117 = interp_weight_80 * n1_z_bank_s1;
+  wire signed [33:0] t117 = interp_weight_80_q * n1_z_bank_s1;
   wire signed [15:0] n2_z_bank_s1 = tri_tag_q[0] ? n2_z_b1_q : n2_z_b0_q;
-  wire signed [33:0] t118 = interp_weight_83 * n2_z_bank_s1;
+  wire signed [33:0] t118 = interp_weight_83_q * n2_z_bank_s1;
   wire signed [34:0] t119 = $signed({t118[33], t118} + {t117[33], t117});
   wire signed [15:0] n3_z_bank_s1 = tri_tag_q[0] ? n3_z_b1_q : n3_z_b0_q;
-  wire signed [33:0] t120 = interp_weight_86 * n3_z_bank_s1;
+  wire signed [33:0] t120 = interp_weight_86_q * n3_z_bank_s1;
   wire signed [35:0] t121 = $signed({{2{t120[33]}}, t120} + {t119[34], t119});
   wire signed [15:0] n12_z_bank_s1 = tri_tag_q[0] ? n12_z_b1_q : n12_z_b0_q;
-  wire signed [33:0] t122 = interp_weight_88 * n12_z_bank_s1;
+  wire signed [33:0] t122 = interp_weight_88_q * n12_z_bank_s1;
   wire signed [36:0] t123 = $signed({{3{t122[33]}}, t122} + {t121[35], t121});
   wire signed [15:0] n23_z_bank_s1 = tri_tag_q[0] ? n23_z_b1_q : n23_z_b0_q;
-  wire signed [33:0] t124 = interp_weight_90 * n23_z_bank_s1;
+  wire signed [33:0] t124 = interp_weight_90_q * n23_z_bank_s1;
   wire signed [37:0] t125 = $signed({{4{t124[33]}}, t124} + {t123[36], t123});
   wire signed [15:0] n31_z_bank_s1 = tri_tag_q[0] ? n31_z_b1_q : n31_z_b0_q;
-  wire signed [33:0] t126 = interp_weight_92 * n31_z_bank_s1;
+  wire signed [33:0] t126 = interp_weight_92_q * n31_z_bank_s1;
   wire signed [38:0] t127 = $signed({{5{t126[33]}}, t126} + {t125[37], t125});
   wire interp_out_128_tie = t127[15] & ~(|t127[14:0]);
   wire [23:0] interp_out_128_up = {t127[38], t127[38:16]} + {{23{1'b0}}, t127[15]};
   wire signed [23:0] interp_out_128_r =
       $signed({interp_out_128_up[23:1], interp_out_128_up[0] & ~interp_out_128_tie});
-  wire interp_out_128_ovf_c = ~((&interp_out_128_r[23:15]) | ~(|interp_out_128_r[23:15]));
-  wire signed [15:0] interp_out_128_c =
-      $signed(interp_out_128_ovf_c ? (interp_out_128_r[23] ? 16'h8000 : 16'h7fff)
+  wire interp_out_128_ovf_d = ~((&interp_out_128_r[23:15]) | ~(|interp_out_128_r[23:15]));
+  wire signed [15:0] interp_out_128_d =
+      $signed(interp_out_128_ovf_d ? (interp_out_128_r[23] ? 16'h8000 : 16'h7fff)
       : interp_out_128_r[15:0]);
-  reg  signed [15:0] interp_out_128;
-  reg  [0:0] interp_out_128_ovf;
-  wire normalize_normal_129_ovf_c = 1'b0;
-  wire signed [15:0] normalize_normal_129_c =
-      $signed(normalize_normal_129_ovf_c ? (interp_out_104[15] ? 16'h8000 : 16'h7fff)
-      : interp_out_104[15:0]);
-  reg  signed [15:0] normalize_normal_129;
-  reg  [0:0] normalize_normal_129_ovf;
-  wire normalize_normal_130_ovf_c = 1'b0;
-  wire signed [15:0] normalize_normal_130_c =
-      $signed(normalize_normal_130_ovf_c ? (interp_out_116[15] ? 16'h8000 : 16'h7fff)
-      : interp_out_116[15:0]);
-  reg  signed [15:0] normalize_normal_130;
-  reg  [0:0] normalize_normal_130_ovf;
-  wire normalize_normal_131_ovf_c = 1'b0;
-  wire signed [15:0] normalize_normal_131_c =
-      $signed(normalize_normal_131_ovf_c ? (interp_out_128[15] ? 16'h8000 : 16'h7fff)
-      : interp_out_128[15:0]);
-  reg  signed [15:0] normalize_normal_131;
-  reg  [0:0] normalize_normal_131_ovf;
-  wire signed [31:0] t132 = normalize_normal_129 * normalize_normal_129;
-  wire signed [31:0] t133 = normalize_normal_130 * normalize_normal_130;
-  wire signed [31:0] t134 = normalize_normal_131 * normalize_normal_131;
+  reg  signed [15:0] interp_out_128_q;
+  reg  [0:0] interp_out_128_ovf_q;
+  wire normalize_normal_129_ovf_d = 1'b0;
+  wire signed [15:0] normalize_normal_129_d =
+      $signed(normalize_normal_129_ovf_d ? (interp_out_104_q[15] ? 16'h8000 : 16'h7fff)
+      : interp_out_104_q[15:0]);
+  reg  signed [15:0] normalize_normal_129_q;
+  reg  [0:0] normalize_normal_129_ovf_q;
+  wire normalize_normal_130_ovf_d = 1'b0;
+  wire signed [15:0] normalize_normal_130_d =
+      $signed(normalize_normal_130_ovf_d ? (interp_out_116_q[15] ? 16'h8000 : 16'h7fff)
+      : interp_out_116_q[15:0]);
+  reg  signed [15:0] normalize_normal_130_q;
+  reg  [0:0] normalize_normal_130_ovf_q;
+  wire normalize_normal_131_ovf_d = 1'b0;
+  wire signed [15:0] normalize_normal_131_d =
+      $signed(normalize_normal_131_ovf_d ? (interp_out_128_q[15] ? 16'h8000 : 16'h7fff)
+      : interp_out_128_q[15:0]);
+  reg  signed [15:0] normalize_normal_131_q;
+  reg  [0:0] normalize_normal_131_ovf_q;
+  wire signed [31:0] t132 = normalize_normal_129_q * normalize_normal_129_q;
+  wire signed [31:0] t133 = normalize_normal_130_q * normalize_normal_130_q;
+  wire signed [31:0] t134 = normalize_normal_131_q * normalize_normal_131_q;
   wire signed [32:0] t135 = $signed({t132[31], t132} + {t133[31], t133});
   wire signed [33:0] t136 = $signed({t135[32], t135} + {{2{t134[31]}}, t134});
   wire normalize_d_137_tie = t136[10] & ~(|t136[9:0]);
   wire [23:0] normalize_d_137_up = {t136[33], t136[33:11]} + {{23{1'b0}}, t136[10]};
   wire signed [23:0] normalize_d_137_r =
       $signed({normalize_d_137_up[23:1], normalize_d_137_up[0] & ~normalize_d_137_tie});
-  wire normalize_d_137_ovf_c = normalize_d_137_r[23] | (|normalize_d_137_r[22:18]);
-  wire [17:0] normalize_d_137_c =
-      normalize_d_137_ovf_c ? (normalize_d_137_r[23] ? 18'h0 : 18'h3ffff) : normalize_d_137_r[17:0];
-  reg  [17:0] normalize_d_137;
-  reg  [0:0] normalize_d_137_ovf;
+  wire normalize_d_137_ovf_d = normalize_d_137_r[23] | (|normalize_d_137_r[22:18]);
+  wire [17:0] normalize_d_137_d =
+      normalize_d_137_ovf_d ? (normalize_d_137_r[23] ? 18'h0 : 18'h3ffff) : normalize_d_137_r[17:0];
+  reg  [17:0] normalize_d_137_q;
+  reg  [0:0] normalize_d_137_ovf_q;
   wire [2:0] sel_bank_s0 = tri_cur_q ? sel_b1_q : sel_b0_q;
-  reg  [2:0] sel_c_s1;
-  reg  [2:0] sel_c_s2;
-  reg  [2:0] sel_c_s3;
-  reg  [2:0] sel_c_s4;
+  reg  [2:0] sel_c_s1_q;
+  reg  [2:0] sel_c_s2_q;
+  reg  [2:0] sel_c_s3_q;
+  reg  [2:0] sel_c_s4_q;
   reg  signed [17:0] t75_m4;
   always @* begin
-    case (sel_c_s4)
+    case (sel_c_s4_q)
       3'd1: t75_m4 = $signed(K37);
       3'd2: t75_m4 = $signed(K44);
       3'd3: t75_m4 = $signed(K51);
@@ -566,11 +566,11 @@ module pipeline_smooth (
       default: t75_m4 = $signed(K30);
     endcase
   end
-  wire signed [18:0] t138_b = $signed({1'b0, normalize_d_137});
+  wire signed [18:0] t138_b = $signed({1'b0, normalize_d_137_q});
   wire signed [35:0] t138 = t75_m4 * t138_b;
   reg  signed [17:0] t74_m4;
   always @* begin
-    case (sel_c_s4)
+    case (sel_c_s4_q)
       3'd1: t74_m4 = $signed(K36);
       3'd2: t74_m4 = $signed(K43);
       3'd3: t74_m4 = $signed(K50);
@@ -585,20 +585,20 @@ module pipeline_smooth (
   wire signed [20:0] normalize_horner_140_r =
       $signed({normalize_horner_140_up[20:1], normalize_horner_140_up[0]
       & ~normalize_horner_140_tie});
-  wire normalize_horner_140_ovf_c =
+  wire normalize_horner_140_ovf_d =
       ~((&normalize_horner_140_r[20:17]) | ~(|normalize_horner_140_r[20:17]));
-  wire signed [17:0] normalize_horner_140_c =
-      $signed(normalize_horner_140_ovf_c ? (normalize_horner_140_r[20] ? 18'h20000 : 18'h1ffff)
+  wire signed [17:0] normalize_horner_140_d =
+      $signed(normalize_horner_140_ovf_d ? (normalize_horner_140_r[20] ? 18'h20000 : 18'h1ffff)
       : normalize_horner_140_r[17:0]);
-  reg  signed [17:0] normalize_horner_140;
-  reg  [0:0] normalize_horner_140_ovf;
-  reg  [17:0] normalize_d_137_s5;
-  wire signed [18:0] t141_b = $signed({1'b0, normalize_d_137_s5});
-  wire signed [35:0] t141 = normalize_horner_140 * t141_b;
-  reg  [2:0] sel_c_s5;
+  reg  signed [17:0] normalize_horner_140_q;
+  reg  [0:0] normalize_horner_140_ovf_q;
+  reg  [17:0] normalize_d_137_s5_q;
+  wire signed [18:0] t141_b = $signed({1'b0, normalize_d_137_s5_q});
+  wire signed [35:0] t141 = normalize_horner_140_q * t141_b;
+  reg  [2:0] sel_c_s5_q;
   reg  signed [17:0] t73_m5;
   always @* begin
-    case (sel_c_s5)
+    case (sel_c_s5_q)
       3'd1: t73_m5 = $signed(K35);
       3'd2: t73_m5 = $signed(K42);
       3'd3: t73_m5 = $signed(K49);
@@ -612,307 +612,307 @@ module pipeline_smooth (
   wire [22:0] normalize_g_143_up = {t142[36], t142[36:15]} + {{22{1'b0}}, t142[14]};
   wire signed [22:0] normalize_g_143_r =
       $signed({normalize_g_143_up[22:1], normalize_g_143_up[0] & ~normalize_g_143_tie});
-  wire normalize_g_143_ovf_c = normalize_g_143_r[22] | (|normalize_g_143_r[21:18]);
-  wire [17:0] normalize_g_143_c =
-      normalize_g_143_ovf_c ? (normalize_g_143_r[22] ? 18'h0 : 18'h3ffff) : normalize_g_143_r[17:0];
-  reg  [17:0] normalize_g_143;
-  reg  [0:0] normalize_g_143_ovf;
-  reg  signed [15:0] normalize_normal_129_s4;
-  reg  signed [15:0] normalize_normal_129_s5;
-  reg  signed [15:0] normalize_normal_129_s6;
-  wire signed [18:0] t144_b = $signed({1'b0, normalize_g_143});
-  wire signed [33:0] t144 = normalize_normal_129_s6 * t144_b;
-  reg  signed [15:0] normalize_normal_130_s4;
-  reg  signed [15:0] normalize_normal_130_s5;
-  reg  signed [15:0] normalize_normal_130_s6;
-  wire signed [18:0] t145_b = $signed({1'b0, normalize_g_143});
-  wire signed [33:0] t145 = normalize_normal_130_s6 * t145_b;
-  reg  signed [15:0] normalize_normal_131_s4;
-  reg  signed [15:0] normalize_normal_131_s5;
-  reg  signed [15:0] normalize_normal_131_s6;
-  wire signed [18:0] t146_b = $signed({1'b0, normalize_g_143});
-  wire signed [33:0] t146 = normalize_normal_131_s6 * t146_b;
+  wire normalize_g_143_ovf_d = normalize_g_143_r[22] | (|normalize_g_143_r[21:18]);
+  wire [17:0] normalize_g_143_d =
+      normalize_g_143_ovf_d ? (normalize_g_143_r[22] ? 18'h0 : 18'h3ffff) : normalize_g_143_r[17:0];
+  reg  [17:0] normalize_g_143_q;
+  reg  [0:0] normalize_g_143_ovf_q;
+  reg  signed [15:0] normalize_normal_129_s4_q;
+  reg  signed [15:0] normalize_normal_129_s5_q;
+  reg  signed [15:0] normalize_normal_129_s6_q;
+  wire signed [18:0] t144_b = $signed({1'b0, normalize_g_143_q});
+  wire signed [33:0] t144 = normalize_normal_129_s6_q * t144_b;
+  reg  signed [15:0] normalize_normal_130_s4_q;
+  reg  signed [15:0] normalize_normal_130_s5_q;
+  reg  signed [15:0] normalize_normal_130_s6_q;
+  wire signed [18:0] t145_b = $signed({1'b0, normalize_g_143_q});
+  wire signed [33:0] t145 = normalize_normal_130_s6_q * t145_b;
+  reg  signed [15:0] normalize_normal_131_s4_q;
+  reg  signed [15:0] normalize_normal_131_s5_q;
+  reg  signed [15:0] normalize_normal_131_s6_q;
+  wire signed [18:0] t146_b = $signed({1'b0, normalize_g_143_q});
+  wire signed [33:0] t146 = normalize_normal_131_s6_q * t146_b;
   wire normalize_out_147_tie = t144[16] & ~(|t144[15:0]);
   wire [17:0] normalize_out_147_up = {t144[33], t144[33:17]} + {{17{1'b0}}, t144[16]};
   wire signed [17:0] normalize_out_147_r =
       $signed({normalize_out_147_up[17:1], normalize_out_147_up[0] & ~normalize_out_147_tie});
-  wire normalize_out_147_ovf_c = ~((&normalize_out_147_r[17:15]) | ~(|normalize_out_147_r[17:15]));
-  wire signed [15:0] normalize_out_147_c =
-      $signed(normalize_out_147_ovf_c ? (normalize_out_147_r[17] ? 16'h8000 : 16'h7fff)
+  wire normalize_out_147_ovf_d = ~((&normalize_out_147_r[17:15]) | ~(|normalize_out_147_r[17:15]));
+  wire signed [15:0] normalize_out_147_d =
+      $signed(normalize_out_147_ovf_d ? (normalize_out_147_r[17] ? 16'h8000 : 16'h7fff)
       : normalize_out_147_r[15:0]);
-  reg  signed [15:0] normalize_out_147;
-  reg  [0:0] normalize_out_147_ovf;
+  reg  signed [15:0] normalize_out_147_q;
+  reg  [0:0] normalize_out_147_ovf_q;
   wire normalize_out_148_tie = t145[16] & ~(|t145[15:0]);
   wire [17:0] normalize_out_148_up = {t145[33], t145[33:17]} + {{17{1'b0}}, t145[16]};
   wire signed [17:0] normalize_out_148_r =
       $signed({normalize_out_148_up[17:1], normalize_out_148_up[0] & ~normalize_out_148_tie});
-  wire normalize_out_148_ovf_c = ~((&normalize_out_148_r[17:15]) | ~(|normalize_out_148_r[17:15]));
-  wire signed [15:0] normalize_out_148_c =
-      $signed(normalize_out_148_ovf_c ? (normalize_out_148_r[17] ? 16'h8000 : 16'h7fff)
+  wire normalize_out_148_ovf_d = ~((&normalize_out_148_r[17:15]) | ~(|normalize_out_148_r[17:15]));
+  wire signed [15:0] normalize_out_148_d =
+      $signed(normalize_out_148_ovf_d ? (normalize_out_148_r[17] ? 16'h8000 : 16'h7fff)
       : normalize_out_148_r[15:0]);
-  reg  signed [15:0] normalize_out_148;
-  reg  [0:0] normalize_out_148_ovf;
+  reg  signed [15:0] normalize_out_148_q;
+  reg  [0:0] normalize_out_148_ovf_q;
   wire normalize_out_149_tie = t146[16] & ~(|t146[15:0]);
   wire [17:0] normalize_out_149_up = {t146[33], t146[33:17]} + {{17{1'b0}}, t146[16]};
   wire signed [17:0] normalize_out_149_r =
       $signed({normalize_out_149_up[17:1], normalize_out_149_up[0] & ~normalize_out_149_tie});
-  wire normalize_out_149_ovf_c = ~((&normalize_out_149_r[17:15]) | ~(|normalize_out_149_r[17:15]));
-  wire signed [15:0] normalize_out_149_c =
-      $signed(normalize_out_149_ovf_c ? (normalize_out_149_r[17] ? 16'h8000 : 16'h7fff)
+  wire normalize_out_149_ovf_d = ~((&normalize_out_149_r[17:15]) | ~(|normalize_out_149_r[17:15]));
+  wire signed [15:0] normalize_out_149_d =
+      $signed(normalize_out_149_ovf_d ? (normalize_out_149_r[17] ? 16'h8000 : 16'h7fff)
       : normalize_out_149_r[15:0]);
-  reg  signed [15:0] normalize_out_149;
-  reg  [0:0] normalize_out_149_ovf;
-  wire lighting_normal_150_ovf_c = 1'b0;
-  wire signed [15:0] lighting_normal_150_c =
-      $signed(lighting_normal_150_ovf_c ? (normalize_out_147[15] ? 16'h8000 : 16'h7fff)
-      : normalize_out_147[15:0]);
-  reg  signed [15:0] lighting_normal_150;
-  reg  [0:0] lighting_normal_150_ovf;
-  wire lighting_normal_151_ovf_c = 1'b0;
-  wire signed [15:0] lighting_normal_151_c =
-      $signed(lighting_normal_151_ovf_c ? (normalize_out_148[15] ? 16'h8000 : 16'h7fff)
-      : normalize_out_148[15:0]);
-  reg  signed [15:0] lighting_normal_151;
-  reg  [0:0] lighting_normal_151_ovf;
-  wire lighting_normal_152_ovf_c = 1'b0;
-  wire signed [15:0] lighting_normal_152_c =
-      $signed(lighting_normal_152_ovf_c ? (normalize_out_149[15] ? 16'h8000 : 16'h7fff)
-      : normalize_out_149[15:0]);
-  reg  signed [15:0] lighting_normal_152;
-  reg  [0:0] lighting_normal_152_ovf;
-  wire signed [31:0] t153 = lighting_normal_150 * l_x_q;
-  wire signed [31:0] t154 = lighting_normal_151 * l_y_q;
-  wire signed [31:0] t155 = lighting_normal_152 * l_z_q;
+  reg  signed [15:0] normalize_out_149_q;
+  reg  [0:0] normalize_out_149_ovf_q;
+  wire lighting_normal_150_ovf_d = 1'b0;
+  wire signed [15:0] lighting_normal_150_d =
+      $signed(lighting_normal_150_ovf_d ? (normalize_out_147_q[15] ? 16'h8000 : 16'h7fff)
+      : normalize_out_147_q[15:0]);
+  reg  signed [15:0] lighting_normal_150_q;
+  reg  [0:0] lighting_normal_150_ovf_q;
+  wire lighting_normal_151_ovf_d = 1'b0;
+  wire signed [15:0] lighting_normal_151_d =
+      $signed(lighting_normal_151_ovf_d ? (normalize_out_148_q[15] ? 16'h8000 : 16'h7fff)
+      : normalize_out_148_q[15:0]);
+  reg  signed [15:0] lighting_normal_151_q;
+  reg  [0:0] lighting_normal_151_ovf_q;
+  wire lighting_normal_152_ovf_d = 1'b0;
+  wire signed [15:0] lighting_normal_152_d =
+      $signed(lighting_normal_152_ovf_d ? (normalize_out_149_q[15] ? 16'h8000 : 16'h7fff)
+      : normalize_out_149_q[15:0]);
+  reg  signed [15:0] lighting_normal_152_q;
+  reg  [0:0] lighting_normal_152_ovf_q;
+  wire signed [31:0] t153 = lighting_normal_150_q * l_x_q;
+  wire signed [31:0] t154 = lighting_normal_151_q * l_y_q;
+  wire signed [31:0] t155 = lighting_normal_152_q * l_z_q;
   wire signed [32:0] t156 = $signed({t153[31], t153} + {t154[31], t154});
   wire signed [33:0] t157 = $signed({t156[32], t156} + {{2{t155[31]}}, t155});
   wire lighting_dot_158_tie = t157[13] & ~(|t157[12:0]);
   wire [20:0] lighting_dot_158_up = {t157[33], t157[33:14]} + {{20{1'b0}}, t157[13]};
   wire signed [20:0] lighting_dot_158_r =
       $signed({lighting_dot_158_up[20:1], lighting_dot_158_up[0] & ~lighting_dot_158_tie});
-  wire lighting_dot_158_ovf_c = ~((&lighting_dot_158_r[20:15]) | ~(|lighting_dot_158_r[20:15]));
-  wire signed [15:0] lighting_dot_158_c =
-      $signed(lighting_dot_158_ovf_c ? (lighting_dot_158_r[20] ? 16'h8000 : 16'h7fff)
+  wire lighting_dot_158_ovf_d = ~((&lighting_dot_158_r[20:15]) | ~(|lighting_dot_158_r[20:15]));
+  wire signed [15:0] lighting_dot_158_d =
+      $signed(lighting_dot_158_ovf_d ? (lighting_dot_158_r[20] ? 16'h8000 : 16'h7fff)
       : lighting_dot_158_r[15:0]);
-  reg  signed [15:0] lighting_dot_158;
-  reg  [0:0] lighting_dot_158_ovf;
-  wire signed [15:0] t159_a = $signed(lighting_dot_158);
+  reg  signed [15:0] lighting_dot_158_q;
+  reg  [0:0] lighting_dot_158_ovf_q;
+  wire signed [15:0] t159_a = $signed(lighting_dot_158_q);
   wire signed [15:0] t159_b = $signed(K72);
   wire signed [15:0] t159 = (t159_a > t159_b) ? t159_a : t159_b;
-  wire signed [31:0] t160 = lighting_normal_150 * h_x_q;
-  wire signed [31:0] t161 = lighting_normal_151 * h_y_q;
-  wire signed [31:0] t162 = lighting_normal_152 * h_z_q;
+  wire signed [31:0] t160 = lighting_normal_150_q * h_x_q;
+  wire signed [31:0] t161 = lighting_normal_151_q * h_y_q;
+  wire signed [31:0] t162 = lighting_normal_152_q * h_z_q;
   wire signed [32:0] t163 = $signed({t160[31], t160} + {t161[31], t161});
   wire signed [33:0] t164 = $signed({t163[32], t163} + {{2{t162[31]}}, t162});
   wire lighting_dot_165_tie = t164[13] & ~(|t164[12:0]);
   wire [20:0] lighting_dot_165_up = {t164[33], t164[33:14]} + {{20{1'b0}}, t164[13]};
   wire signed [20:0] lighting_dot_165_r =
       $signed({lighting_dot_165_up[20:1], lighting_dot_165_up[0] & ~lighting_dot_165_tie});
-  wire lighting_dot_165_ovf_c = ~((&lighting_dot_165_r[20:15]) | ~(|lighting_dot_165_r[20:15]));
-  wire signed [15:0] lighting_dot_165_c =
-      $signed(lighting_dot_165_ovf_c ? (lighting_dot_165_r[20] ? 16'h8000 : 16'h7fff)
+  wire lighting_dot_165_ovf_d = ~((&lighting_dot_165_r[20:15]) | ~(|lighting_dot_165_r[20:15]));
+  wire signed [15:0] lighting_dot_165_d =
+      $signed(lighting_dot_165_ovf_d ? (lighting_dot_165_r[20] ? 16'h8000 : 16'h7fff)
       : lighting_dot_165_r[15:0]);
-  reg  signed [15:0] lighting_dot_165;
-  reg  [0:0] lighting_dot_165_ovf;
-  wire signed [15:0] t166_a = $signed(lighting_dot_165);
+  reg  signed [15:0] lighting_dot_165_q;
+  reg  [0:0] lighting_dot_165_ovf_q;
+  wire signed [15:0] t166_a = $signed(lighting_dot_165_q);
   wire signed [15:0] t166_b = $signed(K72);
   wire signed [15:0] t166 = (t166_a > t166_b) ? t166_a : t166_b;
   wire signed [18:0] lighting_spec_167_r = $signed({t166, 3'b0});
-  wire lighting_spec_167_ovf_c = lighting_spec_167_r[18];
-  wire [17:0] lighting_spec_167_c =
-      lighting_spec_167_ovf_c ? (lighting_spec_167_r[18] ? 18'h0 : 18'h3ffff)
+  wire lighting_spec_167_ovf_d = lighting_spec_167_r[18];
+  wire [17:0] lighting_spec_167_d =
+      lighting_spec_167_ovf_d ? (lighting_spec_167_r[18] ? 18'h0 : 18'h3ffff)
       : lighting_spec_167_r[17:0];
-  reg  [17:0] lighting_spec_167;
-  reg  [0:0] lighting_spec_167_ovf;
-  wire [35:0] t168 = lighting_spec_167 * lighting_spec_167;
+  reg  [17:0] lighting_spec_167_q;
+  reg  [0:0] lighting_spec_167_ovf_q;
+  wire [35:0] t168 = lighting_spec_167_q * lighting_spec_167_q;
   wire lighting_spec_169_tie = t168[16] & ~(|t168[15:0]);
   wire [19:0] lighting_spec_169_up = {1'b0, t168[35:17]} + {{19{1'b0}}, t168[16]};
   wire [19:0] lighting_spec_169_r =
       {lighting_spec_169_up[19:1], lighting_spec_169_up[0] & ~lighting_spec_169_tie};
-  wire lighting_spec_169_ovf_c = |lighting_spec_169_r[19:18];
-  wire [17:0] lighting_spec_169_c = lighting_spec_169_ovf_c ? 18'h3ffff : lighting_spec_169_r[17:0];
-  reg  [17:0] lighting_spec_169;
-  reg  [0:0] lighting_spec_169_ovf;
-  wire [35:0] t170 = lighting_spec_169 * lighting_spec_169;
+  wire lighting_spec_169_ovf_d = |lighting_spec_169_r[19:18];
+  wire [17:0] lighting_spec_169_d = lighting_spec_169_ovf_d ? 18'h3ffff : lighting_spec_169_r[17:0];
+  reg  [17:0] lighting_spec_169_q;
+  reg  [0:0] lighting_spec_169_ovf_q;
+  wire [35:0] t170 = lighting_spec_169_q * lighting_spec_169_q;
   wire lighting_spec_171_tie = t170[16] & ~(|t170[15:0]);
   wire [19:0] lighting_spec_171_up = {1'b0, t170[35:17]} + {{19{1'b0}}, t170[16]};
   wire [19:0] lighting_spec_171_r =
       {lighting_spec_171_up[19:1], lighting_spec_171_up[0] & ~lighting_spec_171_tie};
-  wire lighting_spec_171_ovf_c = |lighting_spec_171_r[19:18];
-  wire [17:0] lighting_spec_171_c = lighting_spec_171_ovf_c ? 18'h3ffff : lighting_spec_171_r[17:0];
-  reg  [17:0] lighting_spec_171;
-  reg  [0:0] lighting_spec_171_ovf;
-  wire [35:0] t172 = lighting_spec_171 * lighting_spec_171;
+  wire lighting_spec_171_ovf_d = |lighting_spec_171_r[19:18];
+  wire [17:0] lighting_spec_171_d = lighting_spec_171_ovf_d ? 18'h3ffff : lighting_spec_171_r[17:0];
+  reg  [17:0] lighting_spec_171_q;
+  reg  [0:0] lighting_spec_171_ovf_q;
+  wire [35:0] t172 = lighting_spec_171_q * lighting_spec_171_q;
   wire lighting_spec_173_tie = t172[16] & ~(|t172[15:0]);
   wire [19:0] lighting_spec_173_up = {1'b0, t172[35:17]} + {{19{1'b0}}, t172[16]};
   wire [19:0] lighting_spec_173_r =
       {lighting_spec_173_up[19:1], lighting_spec_173_up[0] & ~lighting_spec_173_tie};
-  wire lighting_spec_173_ovf_c = |lighting_spec_173_r[19:18];
-  wire [17:0] lighting_spec_173_c = lighting_spec_173_ovf_c ? 18'h3ffff : lighting_spec_173_r[17:0];
-  reg  [17:0] lighting_spec_173;
-  reg  [0:0] lighting_spec_173_ovf;
-  wire [35:0] t174 = lighting_spec_173 * lighting_spec_173;
+  wire lighting_spec_173_ovf_d = |lighting_spec_173_r[19:18];
+  wire [17:0] lighting_spec_173_d = lighting_spec_173_ovf_d ? 18'h3ffff : lighting_spec_173_r[17:0];
+  reg  [17:0] lighting_spec_173_q;
+  reg  [0:0] lighting_spec_173_ovf_q;
+  wire [35:0] t174 = lighting_spec_173_q * lighting_spec_173_q;
   wire lighting_spec_175_tie = t174[16] & ~(|t174[15:0]);
   wire [19:0] lighting_spec_175_up = {1'b0, t174[35:17]} + {{19{1'b0}}, t174[16]};
   wire [19:0] lighting_spec_175_r =
       {lighting_spec_175_up[19:1], lighting_spec_175_up[0] & ~lighting_spec_175_tie};
-  wire lighting_spec_175_ovf_c = |lighting_spec_175_r[19:18];
-  wire [17:0] lighting_spec_175_c = lighting_spec_175_ovf_c ? 18'h3ffff : lighting_spec_175_r[17:0];
-  reg  [17:0] lighting_spec_175;
-  reg  [0:0] lighting_spec_175_ovf;
+  wire lighting_spec_175_ovf_d = |lighting_spec_175_r[19:18];
+  wire [17:0] lighting_spec_175_d = lighting_spec_175_ovf_d ? 18'h3ffff : lighting_spec_175_r[17:0];
+  reg  [17:0] lighting_spec_175_q;
+  reg  [0:0] lighting_spec_175_ovf_q;
   wire signed [16:0] t176_b = $signed({1'b0, K70});
   wire signed [31:0] t176 = t159 * t176_b;
-  wire [33:0] t177 = lighting_spec_175 * K71;
-  reg  signed [31:0] t176_s10;
-  reg  signed [31:0] t176_s11;
-  reg  signed [31:0] t176_s12;
-  reg  signed [31:0] t176_s13;
-  reg  signed [31:0] t176_s14;
-  wire signed [35:0] t178 = $signed({{2{1'b0}}, t177} + {t176_s14[31], t176_s14, 3'b0});
+  wire [33:0] t177 = lighting_spec_175_q * K71;
+  reg  signed [31:0] t176_s10_q;
+  reg  signed [31:0] t176_s11_q;
+  reg  signed [31:0] t176_s12_q;
+  reg  signed [31:0] t176_s13_q;
+  reg  signed [31:0] t176_s14_q;
+  wire signed [35:0] t178 = $signed({{2{1'b0}}, t177} + {t176_s14_q[31], t176_s14_q, 3'b0});
   wire lighting_level_179_tie = t178[24] & ~(|t178[23:0]);
   wire [11:0] lighting_level_179_up = {t178[35], t178[35:25]} + {{11{1'b0}}, t178[24]};
   wire signed [11:0] lighting_level_179_r =
       $signed({lighting_level_179_up[11:1], lighting_level_179_up[0] & ~lighting_level_179_tie});
-  wire lighting_level_179_ovf_c = lighting_level_179_r[11] | (|lighting_level_179_r[10:8]);
-  wire [7:0] lighting_level_179_c =
-      lighting_level_179_ovf_c ? (lighting_level_179_r[11] ? 8'h0 : 8'hff)
+  wire lighting_level_179_ovf_d = lighting_level_179_r[11] | (|lighting_level_179_r[10:8]);
+  wire [7:0] lighting_level_179_d =
+      lighting_level_179_ovf_d ? (lighting_level_179_r[11] ? 8'h0 : 8'hff)
       : lighting_level_179_r[7:0];
-  reg  [7:0] lighting_level_179;
-  reg  [0:0] lighting_level_179_ovf;
-  reg  [0:0] interp_weight_80_ovf_s2;
-  reg  [0:0] interp_weight_83_ovf_s2;
-  reg  [0:0] interp_weight_86_ovf_s2;
-  reg  [0:0] interp_weight_88_ovf_s2;
-  reg  [0:0] interp_weight_90_ovf_s2;
-  reg  [0:0] interp_weight_92_ovf_s2;
+  reg  [7:0] lighting_level_179_q;
+  reg  [0:0] lighting_level_179_ovf_q;
+  reg  [0:0] interp_weight_80_ovf_s2_q;
+  reg  [0:0] interp_weight_83_ovf_s2_q;
+  reg  [0:0] interp_weight_86_ovf_s2_q;
+  reg  [0:0] interp_weight_88_ovf_s2_q;
+  reg  [0:0] interp_weight_90_ovf_s2_q;
+  reg  [0:0] interp_weight_92_ovf_s2_q;
   wire ovf0_or_s2 =
-      interp_weight_80_ovf_s2 | interp_weight_83_ovf_s2 | interp_weight_86_ovf_s2
-          | interp_weight_88_ovf_s2
-      | interp_weight_90_ovf_s2 | interp_weight_92_ovf_s2;
-  reg  [0:0] ovf0_s3;
-  reg  [0:0] ovf0_s4;
-  reg  [0:0] ovf0_s5;
-  reg  [0:0] ovf0_s6;
-  reg  [0:0] ovf0_s7;
-  reg  [0:0] ovf0_s8;
-  reg  [0:0] ovf0_s9;
-  reg  [0:0] ovf0_s10;
-  reg  [0:0] ovf0_s11;
-  reg  [0:0] ovf0_s12;
-  reg  [0:0] ovf0_s13;
-  reg  [0:0] ovf0_s14;
-  reg  [0:0] ovf0_s15;
-  reg  [0:0] interp_out_104_ovf_s3;
-  reg  [0:0] interp_out_116_ovf_s3;
-  reg  [0:0] interp_out_128_ovf_s3;
+      interp_weight_80_ovf_s2_q | interp_weight_83_ovf_s2_q | interp_weight_86_ovf_s2_q
+          | interp_weight_88_ovf_s2_q
+      | interp_weight_90_ovf_s2_q | interp_weight_92_ovf_s2_q;
+  reg  [0:0] ovf0_s3_q;
+  reg  [0:0] ovf0_s4_q;
+  reg  [0:0] ovf0_s5_q;
+  reg  [0:0] ovf0_s6_q;
+  reg  [0:0] ovf0_s7_q;
+  reg  [0:0] ovf0_s8_q;
+  reg  [0:0] ovf0_s9_q;
+  reg  [0:0] ovf0_s10_q;
+  reg  [0:0] ovf0_s11_q;
+  reg  [0:0] ovf0_s12_q;
+  reg  [0:0] ovf0_s13_q;
+  reg  [0:0] ovf0_s14_q;
+  reg  [0:0] ovf0_s15_q;
+  reg  [0:0] interp_out_104_ovf_s3_q;
+  reg  [0:0] interp_out_116_ovf_s3_q;
+  reg  [0:0] interp_out_128_ovf_s3_q;
   wire ovf1_or_s3 =
-      interp_out_104_ovf_s3 | interp_out_116_ovf_s3 | interp_out_128_ovf_s3;
-  reg  [0:0] ovf1_s4;
-  reg  [0:0] ovf1_s5;
-  reg  [0:0] ovf1_s6;
-  reg  [0:0] ovf1_s7;
-  reg  [0:0] ovf1_s8;
-  reg  [0:0] ovf1_s9;
-  reg  [0:0] ovf1_s10;
-  reg  [0:0] ovf1_s11;
-  reg  [0:0] ovf1_s12;
-  reg  [0:0] ovf1_s13;
-  reg  [0:0] ovf1_s14;
-  reg  [0:0] ovf1_s15;
-  reg  [0:0] normalize_normal_129_ovf_s4;
-  reg  [0:0] normalize_normal_130_ovf_s4;
-  reg  [0:0] normalize_normal_131_ovf_s4;
+      interp_out_104_ovf_s3_q | interp_out_116_ovf_s3_q | interp_out_128_ovf_s3_q;
+  reg  [0:0] ovf1_s4_q;
+  reg  [0:0] ovf1_s5_q;
+  reg  [0:0] ovf1_s6_q;
+  reg  [0:0] ovf1_s7_q;
+  reg  [0:0] ovf1_s8_q;
+  reg  [0:0] ovf1_s9_q;
+  reg  [0:0] ovf1_s10_q;
+  reg  [0:0] ovf1_s11_q;
+  reg  [0:0] ovf1_s12_q;
+  reg  [0:0] ovf1_s13_q;
+  reg  [0:0] ovf1_s14_q;
+  reg  [0:0] ovf1_s15_q;
+  reg  [0:0] normalize_normal_129_ovf_s4_q;
+  reg  [0:0] normalize_normal_130_ovf_s4_q;
+  reg  [0:0] normalize_normal_131_ovf_s4_q;
   wire ovf2_or_s4 =
-      normalize_normal_129_ovf_s4 | normalize_normal_130_ovf_s4 | normalize_normal_131_ovf_s4;
-  reg  [0:0] ovf2_s5;
-  reg  [0:0] ovf2_s6;
-  reg  [0:0] ovf2_s7;
-  reg  [0:0] ovf2_s8;
-  reg  [0:0] ovf2_s9;
-  reg  [0:0] ovf2_s10;
-  reg  [0:0] ovf2_s11;
-  reg  [0:0] ovf2_s12;
-  reg  [0:0] ovf2_s13;
-  reg  [0:0] ovf2_s14;
-  reg  [0:0] ovf2_s15;
-  reg  [0:0] normalize_d_137_ovf_s5;
-  reg  [0:0] ovf3_s6;
-  reg  [0:0] ovf3_s7;
-  reg  [0:0] ovf3_s8;
-  reg  [0:0] ovf3_s9;
-  reg  [0:0] ovf3_s10;
-  reg  [0:0] ovf3_s11;
-  reg  [0:0] ovf3_s12;
-  reg  [0:0] ovf3_s13;
-  reg  [0:0] ovf3_s14;
-  reg  [0:0] ovf3_s15;
-  reg  [0:0] normalize_horner_140_ovf_s6;
-  reg  [0:0] ovf4_s7;
-  reg  [0:0] ovf4_s8;
-  reg  [0:0] ovf4_s9;
-  reg  [0:0] ovf4_s10;
-  reg  [0:0] ovf4_s11;
-  reg  [0:0] ovf4_s12;
-  reg  [0:0] ovf4_s13;
-  reg  [0:0] ovf4_s14;
-  reg  [0:0] ovf4_s15;
-  reg  [0:0] normalize_g_143_ovf_s7;
-  reg  [0:0] ovf5_s8;
-  reg  [0:0] ovf5_s9;
-  reg  [0:0] ovf5_s10;
-  reg  [0:0] ovf5_s11;
-  reg  [0:0] ovf5_s12;
-  reg  [0:0] ovf5_s13;
-  reg  [0:0] ovf5_s14;
-  reg  [0:0] ovf5_s15;
-  reg  [0:0] normalize_out_147_ovf_s8;
-  reg  [0:0] normalize_out_148_ovf_s8;
-  reg  [0:0] normalize_out_149_ovf_s8;
+      normalize_normal_129_ovf_s4_q | normalize_normal_130_ovf_s4_q | normalize_normal_131_ovf_s4_q;
+  reg  [0:0] ovf2_s5_q;
+  reg  [0:0] ovf2_s6_q;
+  reg  [0:0] ovf2_s7_q;
+  reg  [0:0] ovf2_s8_q;
+  reg  [0:0] ovf2_s9_q;
+  reg  [0:0] ovf2_s10_q;
+  reg  [0:0] ovf2_s11_q;
+  reg  [0:0] ovf2_s12_q;
+  reg  [0:0] ovf2_s13_q;
+  reg  [0:0] ovf2_s14_q;
+  reg  [0:0] ovf2_s15_q;
+  reg  [0:0] normalize_d_137_ovf_s5_q;
+  reg  [0:0] ovf3_s6_q;
+  reg  [0:0] ovf3_s7_q;
+  reg  [0:0] ovf3_s8_q;
+  reg  [0:0] ovf3_s9_q;
+  reg  [0:0] ovf3_s10_q;
+  reg  [0:0] ovf3_s11_q;
+  reg  [0:0] ovf3_s12_q;
+  reg  [0:0] ovf3_s13_q;
+  reg  [0:0] ovf3_s14_q;
+  reg  [0:0] ovf3_s15_q;
+  reg  [0:0] normalize_horner_140_ovf_s6_q;
+  reg  [0:0] ovf4_s7_q;
+  reg  [0:0] ovf4_s8_q;
+  reg  [0:0] ovf4_s9_q;
+  reg  [0:0] ovf4_s10_q;
+  reg  [0:0] ovf4_s11_q;
+  reg  [0:0] ovf4_s12_q;
+  reg  [0:0] ovf4_s13_q;
+  reg  [0:0] ovf4_s14_q;
+  reg  [0:0] ovf4_s15_q;
+  reg  [0:0] normalize_g_143_ovf_s7_q;
+  reg  [0:0] ovf5_s8_q;
+  reg  [0:0] ovf5_s9_q;
+  reg  [0:0] ovf5_s10_q;
+  reg  [0:0] ovf5_s11_q;
+  reg  [0:0] ovf5_s12_q;
+  reg  [0:0] ovf5_s13_q;
+  reg  [0:0] ovf5_s14_q;
+  reg  [0:0] ovf5_s15_q;
+  reg  [0:0] normalize_out_147_ovf_s8_q;
+  reg  [0:0] normalize_out_148_ovf_s8_q;
+  reg  [0:0] normalize_out_149_ovf_s8_q;
   wire ovf6_or_s8 =
-      normalize_out_147_ovf_s8 | normalize_out_148_ovf_s8 | normalize_out_149_ovf_s8;
-  reg  [0:0] ovf6_s9;
-  reg  [0:0] ovf6_s10;
-  reg  [0:0] ovf6_s11;
-  reg  [0:0] ovf6_s12;
-  reg  [0:0] ovf6_s13;
-  reg  [0:0] ovf6_s14;
-  reg  [0:0] ovf6_s15;
-  reg  [0:0] lighting_normal_150_ovf_s9;
-  reg  [0:0] lighting_normal_151_ovf_s9;
-  reg  [0:0] lighting_normal_152_ovf_s9;
+      normalize_out_147_ovf_s8_q | normalize_out_148_ovf_s8_q | normalize_out_149_ovf_s8_q;
+  reg  [0:0] ovf6_s9_q;
+  reg  [0:0] ovf6_s10_q;
+  reg  [0:0] ovf6_s11_q;
+  reg  [0:0] ovf6_s12_q;
+  reg  [0:0] ovf6_s13_q;
+  reg  [0:0] ovf6_s14_q;
+  reg  [0:0] ovf6_s15_q;
+  reg  [0:0] lighting_normal_150_ovf_s9_q;
+  reg  [0:0] lighting_normal_151_ovf_s9_q;
+  reg  [0:0] lighting_normal_152_ovf_s9_q;
   wire ovf7_or_s9 =
-      lighting_normal_150_ovf_s9 | lighting_normal_151_ovf_s9 | lighting_normal_152_ovf_s9;
-  reg  [0:0] ovf7_s10;
-  reg  [0:0] ovf7_s11;
-  reg  [0:0] ovf7_s12;
-  reg  [0:0] ovf7_s13;
-  reg  [0:0] ovf7_s14;
-  reg  [0:0] ovf7_s15;
-  reg  [0:0] lighting_dot_158_ovf_s10;
-  reg  [0:0] lighting_dot_165_ovf_s10;
+      lighting_normal_150_ovf_s9_q | lighting_normal_151_ovf_s9_q | lighting_normal_152_ovf_s9_q;
+  reg  [0:0] ovf7_s10_q;
+  reg  [0:0] ovf7_s11_q;
+  reg  [0:0] ovf7_s12_q;
+  reg  [0:0] ovf7_s13_q;
+  reg  [0:0] ovf7_s14_q;
+  reg  [0:0] ovf7_s15_q;
+  reg  [0:0] lighting_dot_158_ovf_s10_q;
+  reg  [0:0] lighting_dot_165_ovf_s10_q;
   wire ovf8_or_s10 =
-      lighting_dot_158_ovf_s10 | lighting_dot_165_ovf_s10;
-  reg  [0:0] ovf8_s11;
-  reg  [0:0] ovf8_s12;
-  reg  [0:0] ovf8_s13;
-  reg  [0:0] ovf8_s14;
-  reg  [0:0] ovf8_s15;
-  reg  [0:0] lighting_spec_167_ovf_s11;
-  reg  [0:0] lighting_spec_169_ovf_s12;
-  reg  [0:0] lighting_spec_171_ovf_s13;
-  reg  [0:0] lighting_spec_173_ovf_s14;
-  reg  [0:0] lighting_spec_175_ovf_s15;
-  reg  [0:0] ovf9_s12;
+      lighting_dot_158_ovf_s10_q | lighting_dot_165_ovf_s10_q;
+  reg  [0:0] ovf8_s11_q;
+  reg  [0:0] ovf8_s12_q;
+  reg  [0:0] ovf8_s13_q;
+  reg  [0:0] ovf8_s14_q;
+  reg  [0:0] ovf8_s15_q;
+  reg  [0:0] lighting_spec_167_ovf_s11_q;
+  reg  [0:0] lighting_spec_169_ovf_s12_q;
+  reg  [0:0] lighting_spec_171_ovf_s13_q;
+  reg  [0:0] lighting_spec_173_ovf_s14_q;
+  reg  [0:0] lighting_spec_175_ovf_s15_q;
+  reg  [0:0] ovf9_s12_q;
   wire ovf9_or_s12 =
-      ovf9_s12 | lighting_spec_169_ovf_s12;
-  reg  [0:0] ovf9_s13;
+      ovf9_s12_q | lighting_spec_169_ovf_s12_q;
+  reg  [0:0] ovf9_s13_q;
   wire ovf9_or_s13 =
-      ovf9_s13 | lighting_spec_171_ovf_s13;
-  reg  [0:0] ovf9_s14;
+      ovf9_s13_q | lighting_spec_171_ovf_s13_q;
+  reg  [0:0] ovf9_s14_q;
   wire ovf9_or_s14 =
-      ovf9_s14 | lighting_spec_173_ovf_s14;
-  reg  [0:0] ovf9_s15;
+      ovf9_s14_q | lighting_spec_173_ovf_s14_q;
+  reg  [0:0] ovf9_s15_q;
   wire ovf9_or_s15 =
-      ovf9_s15 | lighting_spec_175_ovf_s15;
+      ovf9_s15_q | lighting_spec_175_ovf_s15_q;
 
   // Stage loads: the item entering stage k is valid and the stages move.
   wire load_s1 = in_take;
@@ -935,233 +935,234 @@ module pipeline_smooth (
   // registers load only with a valid item, so bubbles do not toggle them.
   always @(posedge clk_i) begin
     if (load_s1) begin
-      interp_weight_80 <= interp_weight_80_c;
-      interp_weight_80_ovf <= interp_weight_80_ovf_c;
-      interp_weight_83 <= interp_weight_83_c;
-      interp_weight_83_ovf <= interp_weight_83_ovf_c;
-      interp_weight_86 <= interp_weight_86_c;
-      interp_weight_86_ovf <= interp_weight_86_ovf_c;
-      interp_weight_88 <= interp_weight_88_c;
-      interp_weight_88_ovf <= interp_weight_88_ovf_c;
-      interp_weight_90 <= interp_weight_90_c;
-      interp_weight_90_ovf <= interp_weight_90_ovf_c;
-      interp_weight_92 <= interp_weight_92_c;
-      interp_weight_92_ovf <= interp_weight_92_ovf_c;
-      sel_c_s1 <= sel_bank_s0;
+      interp_weight_80_q <= interp_weight_80_d;
+      interp_weight_80_ovf_q <= interp_weight_80_ovf_d;
+      interp_weight_83_q <= interp_weight_83_d;
+      interp_weight_83_ovf_q <= interp_weight_83_ovf_d;
+      interp_weight_86_q <= interp_weight_86_d;
+      interp_weight_86_ovf_q <= interp_weight_86_ovf_d;
+      interp_weight_88_q <= interp_weight_88_d;
+      interp_weight_88_ovf_q <= interp_weight_88_ovf_d;
+      interp_weight_90_q <= interp_weight_90_d;
+      interp_weight_90_ovf_q <= interp_weight_90_ovf_d;
+      interp_weight_92_q <= interp_weight_92_d;
+      interp_weight_92_ovf_q <= interp_weight_92_ovf_d;
+      sel_c_s1_q <= sel_bank_s0;
     end
     if (load_s2) begin
-      interp_out_104 <= interp_out_104_c;
-      interp_out_104_ovf <= interp_out_104_ovf_c;
-      interp_out_116 <= interp_out_116_c;
-      interp_out_116_ovf <= interp_out_116_ovf_c;
-      interp_out_128 <= interp_out_128_c;
-      interp_out_128_ovf <= interp_out_128_ovf_c;
-      sel_c_s2 <= sel_c_s1;
-      interp_weight_80_ovf_s2 <= interp_weight_80_ovf;
-      interp_weight_83_ovf_s2 <= interp_weight_83_ovf;
-      interp_weight_86_ovf_s2 <= interp_weight_86_ovf;
-      interp_weight_88_ovf_s2 <= interp_weight_88_ovf;
-      interp_weight_90_ovf_s2 <= interp_weight_90_ovf;
-      interp_weight_92_ovf_s2 <= interp_weight_92_ovf;
+      interp_out_104_q <= interp_out_104_d;
+      interp_out_104_ovf_q <= interp_out_104_ovf_d;
+      interp_out_116_q <= interp_out_116_d;
+      interp_out_116_ovf_q <= interp_out_116_ovf_d;
+      interp_out_128_q <= interp_out_128_d;
+      interp_out_128_ovf_q <= interp_out_128_ovf_d;
+      sel_c_s2_q <= sel_c_s1_q;
+      interp_weight_80_ovf_s2_q <= interp_weight_80_ovf_q;
+      interp_weight_83_ovf_s2_q <= interp_weight_83_ovf_q;
+      interp_weight_86_ovf_s2_q <= interp_weight_86_ovf_q;
+      interp_weight_88_ovf_s2_q <= interp_weight_88_ovf_q;
+      interp_weight_90_ovf_s2_q <= interp_weight_90_ovf_q;
+      interp_weight_92_ovf_s2_q <= interp_weight_92_ovf_q;
     end
     if (load_s3) begin
-      normalize_normal_129 <= normalize_normal_129_c;
-      normalize_normal_129_ovf <= normalize_normal_129_ovf_c;
-      normalize_normal_130 <= normalize_normal_130_c;
-      normalize_normal_130_ovf <= normalize_normal_130_ovf_c;
-      normalize_normal_131 <= normalize_normal_131_c;
-      normalize_normal_131_ovf <= normalize_normal_131_ovf_c;
-      sel_c_s3 <= sel_c_s2;
-      ovf0_s3 <= ovf0_or_s2;
-      interp_out_104_ovf_s3 <= interp_out_104_ovf;
-      interp_out_116_ovf_s3 <= interp_out_116_ovf;
-      interp_out_128_ovf_s3 <= interp_out_128_ovf;
+      normalize_normal_129_q <= normalize_normal_129_d;
+      normalize_normal_129_ovf_q <= normalize_normal_129_ovf_d;
+      normalize_normal_130_q <= normalize_normal_130_d;
+      normalize_normal_130_ovf_q <= normalize_normal_130_ovf_d;
+      normalize_normal_131_q <= normalize_normal_131_d;
+      normalize_normal_131_ovf_q <= normalize_normal_131_ovf_d;
+      sel_c_s3_q <= sel_c_s2_q;
+      ovf0_s3_q <= ovf0_or_s2;
+      interp_out_104_ovf_s3_q <= interp_out_104_ovf_q;
+      interp_out_116_ovf_s3_q <= interp_out_116_ovf_q;
+      interp_out_128_ovf_s3_q <= interp_out_128_ovf_q;
     end
     if (load_s4) begin
-      normalize_d_137 <= normalize_d_137_c;
-      normalize_d_137_ovf <= normalize_d_137_ovf_c;
-      sel_c_s4 <= sel_c_s3;
-      normalize_normal_129_s4 <= normalize_normal_129;
-      normalize_normal_130_s4 <= normalize_normal_130;
-      normalize_normal_131_s4 <= normalize_normal_131;
-      ovf0_s4 <= ovf0_s3;
-      ovf1_s4 <= ovf1_or_s3;
-      normalize_normal_129_ovf_s4 <= normalize_normal_129_ovf;
-      normalize_normal_130_ovf_s4 <= normalize_normal_130_ovf;
-      normalize_normal_131_ovf_s4 <= normalize_normal_131_ovf;
+      normalize_d_137_q <= normalize_d_137_d;
+      normalize_d_137_ovf_q <= normalize_d_137_ovf_d;
+      sel_c_s4_q <= sel_c_s3_q;
+      normalize_normal_129_s4_q <= normalize_normal_129_q;
+      normalize_normal_130_s4_q <= normalize_normal_130_q;
+      normalize_normal_131_s4_q <= normalize_normal_131_q;
+      ovf0_s4_q <= ovf0_s3_q;
+      ovf1_s4_q <= ovf1_or_s3;
+      normalize_normal_129_ovf_s4_q <= normalize_normal_129_ovf_q;
+      normalize_normal_130_ovf_s4_q <= normalize_normal_130_ovf_q;
+      normalize_normal_131_ovf_s4_q <= normalize_normal_131_ovf_q;
     end
     if (load_s5) begin
-      normalize_horner_140 <= normalize_horner_140_c;
-      normalize_horner_140_ovf <= normalize_horner_140_ovf_c;
-      normalize_d_137_s5 <= normalize_d_137;
-      sel_c_s5 <= sel_c_s4;
-      normalize_normal_129_s5 <= normalize_normal_129_s4;
-      normalize_normal_130_s5 <= normalize_normal_130_s4;
-      normalize_normal_131_s5 <= normalize_normal_131_s4;
-      ovf0_s5 <= ovf0_s4;
-      ovf1_s5 <= ovf1_s4;
-      ovf2_s5 <= ovf2_or_s4;
-      normalize_d_137_ovf_s5 <= normalize_d_137_ovf;
+      normalize_horner_140_q <= normalize_horner_140_d;
+      normalize_horner_140_ovf_q <= normalize_horner_140_ovf_d;
+      normalize_d_137_s5_q <= normalize_d_137_q;
+      sel_c_s5_q <= sel_c_s4_q;
+      normalize_normal_129_s5_q <= normalize_normal_129_s4_q;
+      normalize_normal_130_s5_q <= normalize_normal_130_s4_q;
+      normalize_normal_131_s5_q <= normalize_normal_131_s4_q;
+      ovf0_s5_q <= ovf0_s4_q;
+      ovf1_s5_q <= ovf1_s4_q;
+      ovf2_s5_q <= ovf2_or_s4;
+      normalize_d_137_ovf_s5_q <= normalize_d_137_ovf_q;
     end
     if (load_s6) begin
-      normalize_g_143 <= normalize_g_143_c;
-      normalize_g_143_ovf <= normalize_g_143_ovf_c;
-      normalize_normal_129_s6 <= normalize_normal_129_s5;
-      normalize_normal_130_s6 <= normalize_normal_130_s5;
-      normalize_normal_131_s6 <= normalize_normal_131_s5;
-      ovf0_s6 <= ovf0_s5;
-      ovf1_s6 <= ovf1_s5;
-      ovf2_s6 <= ovf2_s5;
-      ovf3_s6 <= normalize_d_137_ovf_s5;
-      normalize_horner_140_ovf_s6 <= normalize_horner_140_ovf;
+      normalize_g_143_q <= normalize_g_143_d;
+      normalize_g_143_ovf_q <= normalize_g_143_ovf_d;
+      normalize_normal_129_s6_q <= normalize_normal_129_s5_q;
+      normalize_normal_130_s6_q <= normalize_normal_130_s5_q;
+      normalize_normal_131_s6_q <= normalize_normal_131_s5_q;
+      ovf0_s6_q <= ovf0_s5_q;
+      ovf1_s6_q <= ovf1_s5_q;
+      ovf2_s6_q <= ovf2_s5_q;
+      ovf3_s6_q <= normalize_d_137_ovf_s5_q;
+      normalize_horner_140_ovf_s6_q <= normalize_horner_140_ovf_q;
     end
     if (load_s7) begin
-      normalize_out_147 <= normalize_out_147_c;
-      normalize_out_147_ovf <= normalize_out_147_ovf_c;
-      normalize_out_148 <= normalize_out_148_c;
-      normalize_out_148_ovf <= normalize_out_148_ovf_c;
-      normalize_out_149 <= normalize_out_149_c;
-      normalize_out_149_ovf <= normalize_out_149_ovf_c;
-      ovf0_s7 <= ovf0_s6;
-      ovf1_s7 <= ovf1_s6;
-      ovf2_s7 <= ovf2_s6;
-      ovf3_s7 <= ovf3_s6;
-      ovf4_s7 <= normalize_horner_140_ovf_s6;
-      normalize_g_143_ovf_s7 <= normalize_g_143_ovf;
+      normalize_out_147_q <= normalize_out_147_d;
+      normalize_out_147_ovf_q <= normalize_out_147_ovf_d;
+      normalize_out_148_q <= normalize_out_148_d;
+      normalize_out_148_ovf_q <= normalize_out_148_ovf_d;
+      normalize_out_149_q <= normalize_out_149_d;
+      normalize_out_149_ovf_q <= normalize_out_149_ovf_d;
+      ovf0_s7_q <= ovf0_s6_q;
+      ovf1_s7_q <= ovf1_s6_q;
+      ovf2_s7_q <= ovf2_s6_q;
+      ovf3_s7_q <= ovf3_s6_q;
+      ovf4_s7_q <= normalize_horner_140_ovf_s6_q;
+      normalize_g_143_ovf_s7_q <= normalize_g_143_ovf_q;
     end
     if (load_s8) begin
-      lighting_normal_150 <= lighting_normal_150_c;
-      lighting_normal_150_ovf <= lighting_normal_150_ovf_c;
-      lighting_normal_151 <= lighting_normal_151_c;
-      lighting_normal_151_ovf <= lighting_normal_151_ovf_c;
-      lighting_normal_152 <= lighting_normal_152_c;
-      lighting_normal_152_ovf <= lighting_normal_152_ovf_c;
-      ovf0_s8 <= ovf0_s7;
-      ovf1_s8 <= ovf1_s7;
-      ovf2_s8 <= ovf2_s7;
-      ovf3_s8 <= ovf3_s7;
-      ovf4_s8 <= ovf4_s7;
-      ovf5_s8 <= normalize_g_143_ovf_s7;
-      normalize_out_147_ovf_s8 <= normalize_out_147_ovf;
-      normalize_out_148_ovf_s8 <= normalize_out_148_ovf;
-      normalize_out_149_ovf_s8 <= normalize_out_149_ovf;
+      lighting_normal_150_q <= lighting_normal_150_d;
+      lighting_normal_150_ovf_q <= lighting_normal_150_ovf_d;
+      lighting_normal_151_q <= lighting_normal_151_d;
+      lighting_normal_151_ovf_q <= lighting_normal_151_ovf_d;
+      lighting_normal_152_q <= lighting_normal_152_d;
+      lighting_normal_152_ovf_q <= lighting_normal_152_ovf_d;
+      ovf0_s8_q <= ovf0_s7_q;
+      ovf1_s8_q <= ovf1_s7_q;
+      ovf2_s8_q <= ovf2_s7_q;
+      ovf3_s8_q <= ovf3_s7_q;
+      ovf4_s8_q <= ovf4_s7_q;
+      ovf5_s8_q <= normalize_g_143_ovf_s7_q;
+      normalize_out_147_ovf_s8_q <= normalize_out_147_ovf_q;
+      normalize_out_148_ovf_s8_q <= normalize_out_148_ovf_q;
+      normalize_out_149_ovf_s8_q <= normalize_out_149_ovf_q;
     end
     if (load_s9) begin
-      lighting_dot_158 <= lighting_dot_158_c;
-      lighting_dot_158_ovf <= lighting_dot_158_ovf_c;
-      lighting_dot_165 <= lighting_dot_165_c;
-      lighting_dot_165_ovf <= lighting_dot_165_ovf_c;
-      ovf0_s9 <= ovf0_s8;
-      ovf1_s9 <= ovf1_s8;
-      ovf2_s9 <= ovf2_s8;
-      ovf3_s9 <= ovf3_s8;
-      ovf4_s9 <= ovf4_s8;
-      ovf5_s9 <= ovf5_s8;
-      ovf6_s9 <= ovf6_or_s8;
-      lighting_normal_150_ovf_s9 <= lighting_normal_150_ovf;
-      lighting_normal_151_ovf_s9 <= lighting_normal_151_ovf;
-      lighting_normal_152_ovf_s9 <= lighting_normal_152_ovf;
+      lighting_dot_158_q <= lighting_dot_158_d;
+      lighting_dot_158_ovf_q <= lighting_dot_158_ovf_d;
+      lighting_dot_165_q <= lighting_dot_165_d;
+      lighting_dot_165_ovf_q <= lighting_dot_165_ovf_d;
+      ovf0_s9_q <= ovf0_s8_q;
+      ovf1_s9_q <= ovf1_s8_q;
+      ovf2_s9_q <= ovf2_s8_q;
+      ovf3_s9_q <= ovf3_s8_q;
+      ovf4_s9_q <= ovf4_s8_q;
+      ovf5_s9_q <= ovf5_s8_q;
+      ovf6_s9_q <= ovf6_or_s8;
+      lighting_normal_150_ovf_s9_q <= lighting_normal_150_ovf_q;
+      lighting_normal_151_ovf_s9_q <= lighting_normal_151_ovf_q;
+      lighting_normal_152_ovf_s9_q <= lighting_normal_152_ovf_q;
     end
     if (load_s10) begin
-      lighting_spec_167 <= lighting_spec_167_c;
-      lighting_spec_167_ovf <= lighting_spec_167_ovf_c;
-      t176_s10 <= t176;
-      ovf0_s10 <= ovf0_s9;
-      ovf1_s10 <= ovf1_s9;
-      ovf2_s10 <= ovf2_s9;
-      ovf3_s10 <= ovf3_s9;
-      ovf4_s10 <= ovf4_s9;
-      ovf5_s10 <= ovf5_s9;
-      ovf6_s10 <= ovf6_s9;
-      ovf7_s10 <= ovf7_or_s9;
-      lighting_dot_158_ovf_s10 <= lighting_dot_158_ovf;
-      lighting_dot_165_ovf_s10 <= lighting_dot_165_ovf;
+      lighting_spec_167_q <= lighting_spec_167_d;
+      lighting_spec_167_ovf_q <= lighting_spec_167_ovf_d;
+      t176_s10_q <= t176;
+      ovf0_s10_q <= ovf0_s9_q;
+      ovf1_s10_q <= ovf1_s9_q;
+      ovf2_s10_q <= ovf2_s9_q;
+      ovf3_s10_q <= ovf3_s9_q;
+      ovf4_s10_q <= ovf4_s9_q;
+      ovf5_s10_q <= ovf5_s9_q;
+      ovf6_s10_q <= ovf6_s9_q;
+      ovf7_s10_q <= ovf7_or_s9;
+      lighting_dot_158_ovf_s10_q <= lighting_dot_158_ovf_q;
+      lighting_dot_165_ovf_s10_q <= lighting_dot_165_ovf_q;
     end
     if (load_s11) begin
-      lighting_spec_169 <= lighting_spec_169_c;
-      lighting_spec_169_ovf <= lighting_spec_169_ovf_c;
-      t176_s11 <= t176_s10;
-      ovf0_s11 <= ovf0_s10;
-      ovf1_s11 <= ovf1_s10;
-      ovf2_s11 <= ovf2_s10;
-      ovf3_s11 <= ovf3_s10;
-      ovf4_s11 <= ovf4_s10;
-      ovf5_s11 <= ovf5_s10;
-      ovf6_s11 <= ovf6_s10;
-      ovf7_s11 <= ovf7_s10;
-      ovf8_s11 <= ovf8_or_s10;
-      lighting_spec_167_ovf_s11 <= lighting_spec_167_ovf;
+      lighting_spec_169_q <= lighting_spec_169_d;
+      lighting_spec_169_ovf_q <= lighting_spec_169_ovf_d;
+      t176_s11_q <= t176_s10_q;
+      ovf0_s11_q <= ovf0_s10_q;
+      ovf1_s11_q <= ovf1_s10_q;
+      ovf2_s11_q <= ovf2_s10_q;
+      ovf3_s11_q <= ovf3_s10_q;
+      ovf4_s11_q <= ovf4_s10_q;
+      ovf5_s11_q <= ovf5_s10_q;
+      ovf6_s11_q <= ovf6_s10_q;
+      ovf7_s11_q <= ovf7_s10_q;
+      ovf8_s11_q <= ovf8_or_s10;
+      lighting_spec_167_ovf_s11_q <= lighting_spec_167_ovf_q;
     end
     if (load_s12) begin
-      lighting_spec_171 <= lighting_spec_171_c;
-      lighting_spec_171_ovf <= lighting_spec_171_ovf_c;
-      t176_s12 <= t176_s11;
-      ovf0_s12 <= ovf0_s11;
-      ovf1_s12 <= ovf1_s11;
-      ovf2_s12 <= ovf2_s11;
-      ovf3_s12 <= ovf3_s11;
-      ovf4_s12 <= ovf4_s11;
-      ovf5_s12 <= ovf5_s11;
-      ovf6_s12 <= ovf6_s11;
-      ovf7_s12 <= ovf7_s11;
-      ovf8_s12 <= ovf8_s11;
-      lighting_spec_169_ovf_s12 <= lighting_spec_169_ovf;
-      ovf9_s12 <= lighting_spec_167_ovf_s11;
+      lighting_spec_171_q <= lighting_spec_171_d;
+      lighting_spec_171_ovf_q <= lighting_spec_171_ovf_d;
+      t176_s12_q <= t176_s11_q;
+      ovf0_s12_q <= ovf0_s11_q;
+      ovf1_s12_q <= ovf1_s11_q;
+      ovf2_s12_q <= ovf2_s11_q;
+      ovf3_s12_q <= ovf3_s11_q;
+      ovf4_s12_q <= ovf4_s11_q;
+      ovf5_s12_q <= ovf5_s11_q;
+      ovf6_s12_q <= ovf6_s11_q;
+      ovf7_s12_q <= ovf7_s11_q;
+      ovf8_s12_q <= ovf8_s11_q;
+      lighting_spec_169_ovf_s12_q <= lighting_spec_169_ovf_q;
+      ovf9_s12_q <= lighting_spec_167_ovf_s11_q;
     end
     if (load_s13) begin
-      lighting_spec_173 <= lighting_spec_173_c;
-      lighting_spec_173_ovf <= lighting_spec_173_ovf_c;
-      t176_s13 <= t176_s12;
-      ovf0_s13 <= ovf0_s12;
-      ovf1_s13 <= ovf1_s12;
-      ovf2_s13 <= ovf2_s12;
-      ovf3_s13 <= ovf3_s12;
-      ovf4_s13 <= ovf4_s12;
-      ovf5_s13 <= ovf5_s12;
-      ovf6_s13 <= ovf6_s12;
-      ovf7_s13 <= ovf7_s12;
-      ovf8_s13 <= ovf8_s12;
-      lighting_spec_171_ovf_s13 <= lighting_spec_171_ovf;
-      ovf9_s13 <= ovf9_or_s12;
+      lighting_spec_173_q <= lighting_spec_173_d;
+      lighting_spec_173_ovf_q <= lighting_spec_173_ovf_d;
+      t176_s13_q <= t176_s12_q;
+      ovf0_s13_q <= ovf0_s12_q;
+      ovf1_s13_q <= ovf1_s12_q;
+      ovf2_s13_q <= ovf2_s12_q;
+      ovf3_s13_q <= ovf3_s12_q;
+      ovf4_s13_q <= ovf4_s12_q;
+      ovf5_s13_q <= ovf5_s12_q;
+      ovf6_s13_q <= ovf6_s12_q;
+      ovf7_s13_q <= ovf7_s12_q;
+      ovf8_s13_q <= ovf8_s12_q;
+      lighting_spec_171_ovf_s13_q <= lighting_spec_171_ovf_q;
+      ovf9_s13_q <= ovf9_or_s12;
     end
     if (load_s14) begin
-      lighting_spec_175 <= lighting_spec_175_c;
-      lighting_spec_175_ovf <= lighting_spec_175_ovf_c;
-      t176_s14 <= t176_s13;
-      ovf0_s14 <= ovf0_s13;
-      ovf1_s14 <= ovf1_s13;
-      ovf2_s14 <= ovf2_s13;
-      ovf3_s14 <= ovf3_s13;
-      ovf4_s14 <= ovf4_s13;
-      ovf5_s14 <= ovf5_s13;
-      ovf6_s14 <= ovf6_s13;
-      ovf7_s14 <= ovf7_s13;
-      ovf8_s14 <= ovf8_s13;
-      lighting_spec_173_ovf_s14 <= lighting_spec_173_ovf;
-      ovf9_s14 <= ovf9_or_s13;
+      lighting_spec_175_q <= lighting_spec_175_d;
+      lighting_spec_175_ovf_q <= lighting_spec_175_ovf_d;
+      t176_s14_q <= t176_s13_q;
+      ovf0_s14_q <= ovf0_s13_q;
+      ovf1_s14_q <= ovf1_s13_q;
+      ovf2_s14_q <= ovf2_s13_q;
+      ovf3_s14_q <= ovf3_s13_q;
+      ovf4_s14_q <= ovf4_s13_q;
+      ovf5_s14_q <= ovf5_s13_q;
+      ovf6_s14_q <= ovf6_s13_q;
+      ovf7_s14_q <= ovf7_s13_q;
+      ovf8_s14_q <= ovf8_s13_q;
+      lighting_spec_173_ovf_s14_q <= lighting_spec_173_ovf_q;
+      ovf9_s14_q <= ovf9_or_s13;
     end
     if (load_s15) begin
-      lighting_level_179 <= lighting_level_179_c;
-      lighting_level_179_ovf <= lighting_level_179_ovf_c;
-      ovf0_s15 <= ovf0_s14;
-      ovf1_s15 <= ovf1_s14;
-      ovf2_s15 <= ovf2_s14;
-      ovf3_s15 <= ovf3_s14;
-      ovf4_s15 <= ovf4_s14;
-      ovf5_s15 <= ovf5_s14;
-      ovf6_s15 <= ovf6_s14;
-      ovf7_s15 <= ovf7_s14;
-      ovf8_s15 <= ovf8_s14;
-      lighting_spec_175_ovf_s15 <= lighting_spec_175_ovf;
-      ovf9_s15 <= ovf9_or_s14;
+      lighting_level_179_q <= lighting_level_179_d;
+      lighting_level_179_ovf_q <= lighting_level_179_ovf_d;
+      ovf0_s15_q <= ovf0_s14_q;
+      ovf1_s15_q <= ovf1_s14_q;
+      ovf2_s15_q <= ovf2_s14_q;
+      ovf3_s15_q <= ovf3_s14_q;
+      ovf4_s15_q <= ovf4_s14_q;
+      ovf5_s15_q <= ovf5_s14_q;
+      ovf6_s15_q <= ovf6_s14_q;
+      ovf7_s15_q <= ovf7_s14_q;
+      ovf8_s15_q <= ovf8_s14_q;
+      lighting_spec_175_ovf_s15_q <= lighting_spec_175_ovf_q;
+      ovf9_s15_q <= ovf9_or_s14;
     end
   end
 
   // Output buffer: the head drives the ports; the skid register takes the
   // item that leaves the last stage while the head is stalled.
   wire [18:0] last_d =
-      {lighting_level_179, (ovf0_s15), (ovf1_s15), (ovf2_s15), (ovf3_s15), (ovf4_s15), (ovf5_s15),
-      (ovf6_s15), (ovf7_s15), (ovf8_s15), (ovf9_or_s15), (lighting_level_179_ovf)};
+      {lighting_level_179_q, (ovf0_s15_q), (ovf1_s15_q), (ovf2_s15_q), (ovf3_s15_q), (ovf4_s15_q),
+      (ovf5_s15_q), (ovf6_s15_q), (ovf7_s15_q), (ovf8_s15_q), (ovf9_or_s15),
+      (lighting_level_179_ovf_q)};
   reg  [18:0] out_q, skid_q;
   always @(posedge clk_i) begin
     if (out_load & (skid_valid | out_arrive)) out_q <= skid_valid ? skid_q : last_d;

@@ -199,7 +199,7 @@ pub fn node_of(trace: &Trace, signal: &str) -> (Option<usize>, String, Option<St
         }
     }
     // An input port (`n1_x_i`), a set-up register or bank (`n1_x_q`,
-    // `n1_x_b0_q`, `n1_x_bank_s3`) or the selector carried (`sel_c_s3`).
+    // `n1_x_b0_q`, `n1_x_bank_s3_q`) or the selector carried (`sel_c_s3_q`).
     let mut best: Option<(usize, usize)> = None;
     for p in trace.input_ports() {
         let n = p.name.as_str();

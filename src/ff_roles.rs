@@ -9,12 +9,12 @@
 //! | handshake | `valid_q`, `en_q`, `ready_q`, `out_valid_q`, the FIFO's pointers and count, a set-up port's `_ready_q`, `_cur_q`, `_tag_q` |
 //! | output buffer | `out_q`, `skid_q`, the FIFO's entries `fifo_q` |
 //! | set-up | a set-up port's registers and banks (`<field>_q`, `_b0_q`, `_b1_q`) |
-//! | set-up reads | a bank read or a per-triangle selection registered in a stage (`_bank_s<k>`, `_c_s<k>`, `_sel_s<k>`) |
-//! | overflow flags | `*_ovf*`, the running flags `ovf<k>_s<k>` |
+//! | set-up reads | a bank read or a per-triangle selection registered in a stage (`_bank_s<k>_q`, `_c_s<k>_q`, `_sel_s<k>_q`) |
+//! | overflow flags | `*_ovf*`, the running flags `ovf<k>_s<k>_q` |
 //! | DSP operands | a product's own operand registers (`_a_q`, `_b_q`, `_a<i>_<j>_q`, `_b<i>_<j>_q`) left in the fabric |
 //! | partial products | a split product's partial products and its adder tree's registers (`_pp<i>_<j>_q`, `_l<k>_<n>_q`) |
-//! | rounded values | a value rounded and registered before its range check (`_rq`) |
-//! | carried | a value carried to a later stage (`<name>_s<k>`) |
+//! | rounded values | a value rounded and registered before its range check (`_r_q`) |
+//! | carried | a value carried to a later stage (`<name>_s<k>_q`) |
 //! | stage results | a quantization's or table read's result in the stage after it |
 
 use serde_json::Value;
@@ -29,7 +29,10 @@ pub fn role(name: &str, setup_fields: &[String]) -> &'static str {
         return "harness";
     }
     let digits = |s: &str| !s.is_empty() && s.bytes().all(|b| b.is_ascii_digit());
-    let ends_stage = |suffix: &str| base.rsplit_once(suffix).is_some_and(|(_, k)| digits(k));
+    // Every flip-flop of the module is named `…_q` (lowRISC); the stage
+    // suffix comes before it (`x_s3_q`, `ovf0_s4_q`, `n1_x_bank_s3_q`).
+    let core = base.strip_suffix("_q").unwrap_or(base);
+    let ends_stage = |suffix: &str| core.rsplit_once(suffix).is_some_and(|(_, k)| digits(k));
     let handshake = [
         "valid_q",
         "en_q",
@@ -87,7 +90,7 @@ pub fn role(name: &str, setup_fields: &[String]) -> &'static str {
     if tree {
         return "partial products";
     }
-    if base.ends_with("_rq") {
+    if base.ends_with("_r_q") {
         return "rounded values";
     }
     if ends_stage("_s") {
@@ -196,16 +199,16 @@ mod tests {
             ("out_q[7]", "output buffer"),
             ("n1_x_b0_q[2]", "set-up"),
             ("l_x_q[0]", "set-up"),
-            ("n1_x_bank_s6[1]", "set-up reads"),
-            ("normalize_d_137_ovf_s31", "overflow flags"),
-            ("ovf3_s12", "overflow flags"),
+            ("n1_x_bank_s6_q[1]", "set-up reads"),
+            ("normalize_d_137_ovf_s31_q", "overflow flags"),
+            ("ovf3_s12_q", "overflow flags"),
             ("t91_a_q[4]", "DSP operands"),
             ("t100_b0_1_q[2]", "DSP operands"),
             ("t100_pp0_1_q[5]", "partial products"),
             ("t100_l0_0_q[5]", "partial products"),
-            ("lighting_dot_158_rq[3]", "rounded values"),
-            ("c1_i_s2[0]", "carried"),
-            ("normalize_g_143[4]", "stage results"),
+            ("lighting_dot_158_r_q[3]", "rounded values"),
+            ("c1_i_s2_q[0]", "carried"),
+            ("normalize_g_143_q[4]", "stage results"),
             ("c1_i[3]", "harness"),
         ] {
             assert_eq!(role(name, &setup), r, "{name}");

@@ -3,7 +3,7 @@
 //! inductive invariant and the queries that prove it.
 //!
 //! Yosys keeps the RTL's names on the nets it does not optimize away: a
-//! register `normalize_d_15_s3` of the RTL is, in the ECP5 netlist, 18
+//! register `normalize_d_15_s3_q` of the RTL is, in the ECP5 netlist, 18
 //! `TRELLIS_FF` cells driving a net of the same name, and many combinational
 //! nets keep theirs too. So the miter holds a wire `gold.X` and a wire
 //! `gate.X` for most names `X`; each pair of equal width is a *candidate*
@@ -392,8 +392,8 @@ mod tests {
 
     #[test]
     fn registers_loading_a_net_are_found_in_the_rtl() {
-        let m = loads("      t16_b_q <= normalize_d_15_c;\n  x <= a + b;\n");
-        assert_eq!(m["normalize_d_15_c"], vec!["t16_b_q".to_string()]);
+        let m = loads("      t16_b_q <= normalize_d_15_d;\n  x <= a + b;\n");
+        assert_eq!(m["normalize_d_15_d"], vec!["t16_b_q".to_string()]);
         assert_eq!(m.len(), 1);
     }
 }

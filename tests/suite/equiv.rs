@@ -214,8 +214,8 @@ fn each_sabotage_gives_a_counterexample_that_fails_on_verilator() {
         ),
         (
             "dropped bit",
-            "$signed({1'b0, normalize_g_21});\n  wire signed [33:0] t22",
-            "$signed({2'b0, normalize_g_21[16:0]});\n  wire signed [33:0] t22",
+            "$signed({1'b0, normalize_g_21_q});\n  wire signed [33:0] t22",
+            "$signed({2'b0, normalize_g_21_q[16:0]});\n  wire signed [33:0] t22",
         ),
         (
             "swapped operand",
@@ -224,8 +224,8 @@ fn each_sabotage_gives_a_counterexample_that_fails_on_verilator() {
         ),
         (
             "removed register",
-            "t22 = n_x_i_s3 * t22_b;",
-            "t22 = n_x_i_s2 * t22_b;",
+            "t22 = n_x_i_s3_q * t22_b;",
+            "t22 = n_x_i_s2_q * t22_b;",
         ),
     ] {
         assert_eq!(good.matches(from).count(), 1, "{what}: {from}");

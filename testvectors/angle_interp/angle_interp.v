@@ -81,10 +81,10 @@ module angle_interp (
   wire signed [14:0] angle_interp_angle_9_r =
       $signed({angle_interp_angle_9_up[14:1], angle_interp_angle_9_up[0]
       & ~angle_interp_angle_9_tie});
-  wire angle_interp_angle_9_ovf_c = angle_interp_angle_9_r[14] | (|angle_interp_angle_9_r[13:11]);
-  wire [10:0] angle_interp_angle_9_c = angle_interp_angle_9_r[10:0];
-  reg  [10:0] angle_interp_angle_9;
-  reg  [0:0] angle_interp_angle_9_ovf;
+  wire angle_interp_angle_9_ovf_d = angle_interp_angle_9_r[14] | (|angle_interp_angle_9_r[13:11]);
+  wire [10:0] angle_interp_angle_9_d = angle_interp_angle_9_r[10:0];
+  reg  [10:0] angle_interp_angle_9_q;
+  reg  [0:0] angle_interp_angle_9_ovf_q;
 
   // Stage loads: the item entering stage k is valid and the stages move.
   wire load_s1 = in_take;
@@ -93,14 +93,14 @@ module angle_interp (
   // registers load only with a valid item, so bubbles do not toggle them.
   always @(posedge clk_i) begin
     if (load_s1) begin
-      angle_interp_angle_9 <= angle_interp_angle_9_c;
-      angle_interp_angle_9_ovf <= angle_interp_angle_9_ovf_c;
+      angle_interp_angle_9_q <= angle_interp_angle_9_d;
+      angle_interp_angle_9_ovf_q <= angle_interp_angle_9_ovf_d;
     end
   end
 
   // Output buffer: the head drives the ports; the skid register takes the
   // item that leaves the last stage while the head is stalled.
-  wire [11:0] last_d = {angle_interp_angle_9, (angle_interp_angle_9_ovf)};
+  wire [11:0] last_d = {angle_interp_angle_9_q, (angle_interp_angle_9_ovf_q)};
   reg  [11:0] out_q, skid_q;
   always @(posedge clk_i) begin
     if (out_load & (skid_valid | out_arrive)) out_q <= skid_valid ? skid_q : last_d;

@@ -117,13 +117,13 @@ module lighting (
   wire [20:0] lighting_dot_17_up = {t16[33], t16[33:14]} + {{20{1'b0}}, t16[13]};
   wire signed [20:0] lighting_dot_17_r =
       $signed({lighting_dot_17_up[20:1], lighting_dot_17_up[0] & ~lighting_dot_17_tie});
-  wire lighting_dot_17_ovf_c = ~((&lighting_dot_17_r[20:15]) | ~(|lighting_dot_17_r[20:15]));
-  wire signed [15:0] lighting_dot_17_c =
-      $signed(lighting_dot_17_ovf_c ? (lighting_dot_17_r[20] ? 16'h8000 : 16'h7fff)
+  wire lighting_dot_17_ovf_d = ~((&lighting_dot_17_r[20:15]) | ~(|lighting_dot_17_r[20:15]));
+  wire signed [15:0] lighting_dot_17_d =
+      $signed(lighting_dot_17_ovf_d ? (lighting_dot_17_r[20] ? 16'h8000 : 16'h7fff)
       : lighting_dot_17_r[15:0]);
-  reg  signed [15:0] lighting_dot_17;
-  reg  [0:0] lighting_dot_17_ovf;
-  wire signed [15:0] t18_a = $signed(lighting_dot_17);
+  reg  signed [15:0] lighting_dot_17_q;
+  reg  [0:0] lighting_dot_17_ovf_q;
+  wire signed [15:0] t18_a = $signed(lighting_dot_17_q);
   wire signed [15:0] t18_b = $signed(K11);
   wire signed [15:0] t18 = (t18_a > t18_b) ? t18_a : t18_b;
   wire signed [31:0] t19 = n_x_i * h_x_i;
@@ -135,102 +135,102 @@ module lighting (
   wire [20:0] lighting_dot_24_up = {t23[33], t23[33:14]} + {{20{1'b0}}, t23[13]};
   wire signed [20:0] lighting_dot_24_r =
       $signed({lighting_dot_24_up[20:1], lighting_dot_24_up[0] & ~lighting_dot_24_tie});
-  wire lighting_dot_24_ovf_c = ~((&lighting_dot_24_r[20:15]) | ~(|lighting_dot_24_r[20:15]));
-  wire signed [15:0] lighting_dot_24_c =
-      $signed(lighting_dot_24_ovf_c ? (lighting_dot_24_r[20] ? 16'h8000 : 16'h7fff)
+  wire lighting_dot_24_ovf_d = ~((&lighting_dot_24_r[20:15]) | ~(|lighting_dot_24_r[20:15]));
+  wire signed [15:0] lighting_dot_24_d =
+      $signed(lighting_dot_24_ovf_d ? (lighting_dot_24_r[20] ? 16'h8000 : 16'h7fff)
       : lighting_dot_24_r[15:0]);
-  reg  signed [15:0] lighting_dot_24;
-  reg  [0:0] lighting_dot_24_ovf;
-  wire signed [15:0] t25_a = $signed(lighting_dot_24);
+  reg  signed [15:0] lighting_dot_24_q;
+  reg  [0:0] lighting_dot_24_ovf_q;
+  wire signed [15:0] t25_a = $signed(lighting_dot_24_q);
   wire signed [15:0] t25_b = $signed(K11);
   wire signed [15:0] t25 = (t25_a > t25_b) ? t25_a : t25_b;
   wire signed [18:0] lighting_spec_26_r = $signed({t25, 3'b0});
-  wire lighting_spec_26_ovf_c = lighting_spec_26_r[18];
-  wire [17:0] lighting_spec_26_c =
-      lighting_spec_26_ovf_c ? (lighting_spec_26_r[18] ? 18'h0 : 18'h3ffff)
+  wire lighting_spec_26_ovf_d = lighting_spec_26_r[18];
+  wire [17:0] lighting_spec_26_d =
+      lighting_spec_26_ovf_d ? (lighting_spec_26_r[18] ? 18'h0 : 18'h3ffff)
       : lighting_spec_26_r[17:0];
-  reg  [17:0] lighting_spec_26;
-  reg  [0:0] lighting_spec_26_ovf;
-  wire [35:0] t27 = lighting_spec_26 * lighting_spec_26;
+  reg  [17:0] lighting_spec_26_q;
+  reg  [0:0] lighting_spec_26_ovf_q;
+  wire [35:0] t27 = lighting_spec_26_q * lighting_spec_26_q;
   wire lighting_spec_28_tie = t27[16] & ~(|t27[15:0]);
   wire [19:0] lighting_spec_28_up = {1'b0, t27[35:17]} + {{19{1'b0}}, t27[16]};
   wire [19:0] lighting_spec_28_r =
       {lighting_spec_28_up[19:1], lighting_spec_28_up[0] & ~lighting_spec_28_tie};
-  wire lighting_spec_28_ovf_c = |lighting_spec_28_r[19:18];
-  wire [17:0] lighting_spec_28_c = lighting_spec_28_ovf_c ? 18'h3ffff : lighting_spec_28_r[17:0];
-  reg  [17:0] lighting_spec_28;
-  reg  [0:0] lighting_spec_28_ovf;
-  wire [35:0] t29 = lighting_spec_28 * lighting_spec_28;
+  wire lighting_spec_28_ovf_d = |lighting_spec_28_r[19:18];
+  wire [17:0] lighting_spec_28_d = lighting_spec_28_ovf_d ? 18'h3ffff : lighting_spec_28_r[17:0];
+  reg  [17:0] lighting_spec_28_q;
+  reg  [0:0] lighting_spec_28_ovf_q;
+  wire [35:0] t29 = lighting_spec_28_q * lighting_spec_28_q;
   wire lighting_spec_30_tie = t29[16] & ~(|t29[15:0]);
   wire [19:0] lighting_spec_30_up = {1'b0, t29[35:17]} + {{19{1'b0}}, t29[16]};
   wire [19:0] lighting_spec_30_r =
       {lighting_spec_30_up[19:1], lighting_spec_30_up[0] & ~lighting_spec_30_tie};
-  wire lighting_spec_30_ovf_c = |lighting_spec_30_r[19:18];
-  wire [17:0] lighting_spec_30_c = lighting_spec_30_ovf_c ? 18'h3ffff : lighting_spec_30_r[17:0];
-  reg  [17:0] lighting_spec_30;
-  reg  [0:0] lighting_spec_30_ovf;
-  wire [35:0] t31 = lighting_spec_30 * lighting_spec_30;
+  wire lighting_spec_30_ovf_d = |lighting_spec_30_r[19:18];
+  wire [17:0] lighting_spec_30_d = lighting_spec_30_ovf_d ? 18'h3ffff : lighting_spec_30_r[17:0];
+  reg  [17:0] lighting_spec_30_q;
+  reg  [0:0] lighting_spec_30_ovf_q;
+  wire [35:0] t31 = lighting_spec_30_q * lighting_spec_30_q;
   wire lighting_spec_32_tie = t31[16] & ~(|t31[15:0]);
   wire [19:0] lighting_spec_32_up = {1'b0, t31[35:17]} + {{19{1'b0}}, t31[16]};
   wire [19:0] lighting_spec_32_r =
       {lighting_spec_32_up[19:1], lighting_spec_32_up[0] & ~lighting_spec_32_tie};
-  wire lighting_spec_32_ovf_c = |lighting_spec_32_r[19:18];
-  wire [17:0] lighting_spec_32_c = lighting_spec_32_ovf_c ? 18'h3ffff : lighting_spec_32_r[17:0];
-  reg  [17:0] lighting_spec_32;
-  reg  [0:0] lighting_spec_32_ovf;
-  wire [35:0] t33 = lighting_spec_32 * lighting_spec_32;
+  wire lighting_spec_32_ovf_d = |lighting_spec_32_r[19:18];
+  wire [17:0] lighting_spec_32_d = lighting_spec_32_ovf_d ? 18'h3ffff : lighting_spec_32_r[17:0];
+  reg  [17:0] lighting_spec_32_q;
+  reg  [0:0] lighting_spec_32_ovf_q;
+  wire [35:0] t33 = lighting_spec_32_q * lighting_spec_32_q;
   wire lighting_spec_34_tie = t33[16] & ~(|t33[15:0]);
   wire [19:0] lighting_spec_34_up = {1'b0, t33[35:17]} + {{19{1'b0}}, t33[16]};
   wire [19:0] lighting_spec_34_r =
       {lighting_spec_34_up[19:1], lighting_spec_34_up[0] & ~lighting_spec_34_tie};
-  wire lighting_spec_34_ovf_c = |lighting_spec_34_r[19:18];
-  wire [17:0] lighting_spec_34_c = lighting_spec_34_ovf_c ? 18'h3ffff : lighting_spec_34_r[17:0];
-  reg  [17:0] lighting_spec_34;
-  reg  [0:0] lighting_spec_34_ovf;
+  wire lighting_spec_34_ovf_d = |lighting_spec_34_r[19:18];
+  wire [17:0] lighting_spec_34_d = lighting_spec_34_ovf_d ? 18'h3ffff : lighting_spec_34_r[17:0];
+  reg  [17:0] lighting_spec_34_q;
+  reg  [0:0] lighting_spec_34_ovf_q;
   wire signed [16:0] t35_b = $signed({1'b0, K9});
   wire signed [31:0] t35 = t18 * t35_b;
-  wire [33:0] t36 = lighting_spec_34 * K10;
-  reg  signed [31:0] t35_s2;
-  reg  signed [31:0] t35_s3;
-  reg  signed [31:0] t35_s4;
-  reg  signed [31:0] t35_s5;
-  reg  signed [31:0] t35_s6;
-  wire signed [35:0] t37 = $signed({{2{1'b0}}, t36} + {t35_s6[31], t35_s6, 3'b0});
+  wire [33:0] t36 = lighting_spec_34_q * K10;
+  reg  signed [31:0] t35_s2_q;
+  reg  signed [31:0] t35_s3_q;
+  reg  signed [31:0] t35_s4_q;
+  reg  signed [31:0] t35_s5_q;
+  reg  signed [31:0] t35_s6_q;
+  wire signed [35:0] t37 = $signed({{2{1'b0}}, t36} + {t35_s6_q[31], t35_s6_q, 3'b0});
   wire lighting_level_38_tie = t37[24] & ~(|t37[23:0]);
   wire [11:0] lighting_level_38_up = {t37[35], t37[35:25]} + {{11{1'b0}}, t37[24]};
   wire signed [11:0] lighting_level_38_r =
       $signed({lighting_level_38_up[11:1], lighting_level_38_up[0] & ~lighting_level_38_tie});
-  wire lighting_level_38_ovf_c = lighting_level_38_r[11] | (|lighting_level_38_r[10:8]);
-  wire [7:0] lighting_level_38_c =
-      lighting_level_38_ovf_c ? (lighting_level_38_r[11] ? 8'h0 : 8'hff) : lighting_level_38_r[7:0];
-  reg  [7:0] lighting_level_38;
-  reg  [0:0] lighting_level_38_ovf;
-  reg  [0:0] lighting_dot_17_ovf_s2;
-  reg  [0:0] lighting_dot_24_ovf_s2;
+  wire lighting_level_38_ovf_d = lighting_level_38_r[11] | (|lighting_level_38_r[10:8]);
+  wire [7:0] lighting_level_38_d =
+      lighting_level_38_ovf_d ? (lighting_level_38_r[11] ? 8'h0 : 8'hff) : lighting_level_38_r[7:0];
+  reg  [7:0] lighting_level_38_q;
+  reg  [0:0] lighting_level_38_ovf_q;
+  reg  [0:0] lighting_dot_17_ovf_s2_q;
+  reg  [0:0] lighting_dot_24_ovf_s2_q;
   wire ovf0_or_s2 =
-      lighting_dot_17_ovf_s2 | lighting_dot_24_ovf_s2;
-  reg  [0:0] ovf0_s3;
-  reg  [0:0] ovf0_s4;
-  reg  [0:0] ovf0_s5;
-  reg  [0:0] ovf0_s6;
-  reg  [0:0] ovf0_s7;
-  reg  [0:0] lighting_spec_26_ovf_s3;
-  reg  [0:0] lighting_spec_28_ovf_s4;
-  reg  [0:0] lighting_spec_30_ovf_s5;
-  reg  [0:0] lighting_spec_32_ovf_s6;
-  reg  [0:0] lighting_spec_34_ovf_s7;
-  reg  [0:0] ovf1_s4;
+      lighting_dot_17_ovf_s2_q | lighting_dot_24_ovf_s2_q;
+  reg  [0:0] ovf0_s3_q;
+  reg  [0:0] ovf0_s4_q;
+  reg  [0:0] ovf0_s5_q;
+  reg  [0:0] ovf0_s6_q;
+  reg  [0:0] ovf0_s7_q;
+  reg  [0:0] lighting_spec_26_ovf_s3_q;
+  reg  [0:0] lighting_spec_28_ovf_s4_q;
+  reg  [0:0] lighting_spec_30_ovf_s5_q;
+  reg  [0:0] lighting_spec_32_ovf_s6_q;
+  reg  [0:0] lighting_spec_34_ovf_s7_q;
+  reg  [0:0] ovf1_s4_q;
   wire ovf1_or_s4 =
-      ovf1_s4 | lighting_spec_28_ovf_s4;
-  reg  [0:0] ovf1_s5;
+      ovf1_s4_q | lighting_spec_28_ovf_s4_q;
+  reg  [0:0] ovf1_s5_q;
   wire ovf1_or_s5 =
-      ovf1_s5 | lighting_spec_30_ovf_s5;
-  reg  [0:0] ovf1_s6;
+      ovf1_s5_q | lighting_spec_30_ovf_s5_q;
+  reg  [0:0] ovf1_s6_q;
   wire ovf1_or_s6 =
-      ovf1_s6 | lighting_spec_32_ovf_s6;
-  reg  [0:0] ovf1_s7;
+      ovf1_s6_q | lighting_spec_32_ovf_s6_q;
+  reg  [0:0] ovf1_s7_q;
   wire ovf1_or_s7 =
-      ovf1_s7 | lighting_spec_34_ovf_s7;
+      ovf1_s7_q | lighting_spec_34_ovf_s7_q;
 
   // Stage loads: the item entering stage k is valid and the stages move.
   wire load_s1 = in_take;
@@ -245,61 +245,61 @@ module lighting (
   // registers load only with a valid item, so bubbles do not toggle them.
   always @(posedge clk_i) begin
     if (load_s1) begin
-      lighting_dot_17 <= lighting_dot_17_c;
-      lighting_dot_17_ovf <= lighting_dot_17_ovf_c;
-      lighting_dot_24 <= lighting_dot_24_c;
-      lighting_dot_24_ovf <= lighting_dot_24_ovf_c;
+      lighting_dot_17_q <= lighting_dot_17_d;
+      lighting_dot_17_ovf_q <= lighting_dot_17_ovf_d;
+      lighting_dot_24_q <= lighting_dot_24_d;
+      lighting_dot_24_ovf_q <= lighting_dot_24_ovf_d;
     end
     if (load_s2) begin
-      lighting_spec_26 <= lighting_spec_26_c;
-      lighting_spec_26_ovf <= lighting_spec_26_ovf_c;
-      t35_s2 <= t35;
-      lighting_dot_17_ovf_s2 <= lighting_dot_17_ovf;
-      lighting_dot_24_ovf_s2 <= lighting_dot_24_ovf;
+      lighting_spec_26_q <= lighting_spec_26_d;
+      lighting_spec_26_ovf_q <= lighting_spec_26_ovf_d;
+      t35_s2_q <= t35;
+      lighting_dot_17_ovf_s2_q <= lighting_dot_17_ovf_q;
+      lighting_dot_24_ovf_s2_q <= lighting_dot_24_ovf_q;
     end
     if (load_s3) begin
-      lighting_spec_28 <= lighting_spec_28_c;
-      lighting_spec_28_ovf <= lighting_spec_28_ovf_c;
-      t35_s3 <= t35_s2;
-      ovf0_s3 <= ovf0_or_s2;
-      lighting_spec_26_ovf_s3 <= lighting_spec_26_ovf;
+      lighting_spec_28_q <= lighting_spec_28_d;
+      lighting_spec_28_ovf_q <= lighting_spec_28_ovf_d;
+      t35_s3_q <= t35_s2_q;
+      ovf0_s3_q <= ovf0_or_s2;
+      lighting_spec_26_ovf_s3_q <= lighting_spec_26_ovf_q;
     end
     if (load_s4) begin
-      lighting_spec_30 <= lighting_spec_30_c;
-      lighting_spec_30_ovf <= lighting_spec_30_ovf_c;
-      t35_s4 <= t35_s3;
-      ovf0_s4 <= ovf0_s3;
-      lighting_spec_28_ovf_s4 <= lighting_spec_28_ovf;
-      ovf1_s4 <= lighting_spec_26_ovf_s3;
+      lighting_spec_30_q <= lighting_spec_30_d;
+      lighting_spec_30_ovf_q <= lighting_spec_30_ovf_d;
+      t35_s4_q <= t35_s3_q;
+      ovf0_s4_q <= ovf0_s3_q;
+      lighting_spec_28_ovf_s4_q <= lighting_spec_28_ovf_q;
+      ovf1_s4_q <= lighting_spec_26_ovf_s3_q;
     end
     if (load_s5) begin
-      lighting_spec_32 <= lighting_spec_32_c;
-      lighting_spec_32_ovf <= lighting_spec_32_ovf_c;
-      t35_s5 <= t35_s4;
-      ovf0_s5 <= ovf0_s4;
-      lighting_spec_30_ovf_s5 <= lighting_spec_30_ovf;
-      ovf1_s5 <= ovf1_or_s4;
+      lighting_spec_32_q <= lighting_spec_32_d;
+      lighting_spec_32_ovf_q <= lighting_spec_32_ovf_d;
+      t35_s5_q <= t35_s4_q;
+      ovf0_s5_q <= ovf0_s4_q;
+      lighting_spec_30_ovf_s5_q <= lighting_spec_30_ovf_q;
+      ovf1_s5_q <= ovf1_or_s4;
     end
     if (load_s6) begin
-      lighting_spec_34 <= lighting_spec_34_c;
-      lighting_spec_34_ovf <= lighting_spec_34_ovf_c;
-      t35_s6 <= t35_s5;
-      ovf0_s6 <= ovf0_s5;
-      lighting_spec_32_ovf_s6 <= lighting_spec_32_ovf;
-      ovf1_s6 <= ovf1_or_s5;
+      lighting_spec_34_q <= lighting_spec_34_d;
+      lighting_spec_34_ovf_q <= lighting_spec_34_ovf_d;
+      t35_s6_q <= t35_s5_q;
+      ovf0_s6_q <= ovf0_s5_q;
+      lighting_spec_32_ovf_s6_q <= lighting_spec_32_ovf_q;
+      ovf1_s6_q <= ovf1_or_s5;
     end
     if (load_s7) begin
-      lighting_level_38 <= lighting_level_38_c;
-      lighting_level_38_ovf <= lighting_level_38_ovf_c;
-      ovf0_s7 <= ovf0_s6;
-      lighting_spec_34_ovf_s7 <= lighting_spec_34_ovf;
-      ovf1_s7 <= ovf1_or_s6;
+      lighting_level_38_q <= lighting_level_38_d;
+      lighting_level_38_ovf_q <= lighting_level_38_ovf_d;
+      ovf0_s7_q <= ovf0_s6_q;
+      lighting_spec_34_ovf_s7_q <= lighting_spec_34_ovf_q;
+      ovf1_s7_q <= ovf1_or_s6;
     end
   end
 
   // Output buffer: the head drives the ports; the skid register takes the
   // item that leaves the last stage while the head is stalled.
-  wire [10:0] last_d = {lighting_level_38, (ovf0_s7), (ovf1_or_s7), (lighting_level_38_ovf)};
+  wire [10:0] last_d = {lighting_level_38_q, (ovf0_s7_q), (ovf1_or_s7), (lighting_level_38_ovf_q)};
   reg  [10:0] out_q, skid_q;
   always @(posedge clk_i) begin
     if (out_load & (skid_valid | out_arrive)) out_q <= skid_valid ? skid_q : last_d;

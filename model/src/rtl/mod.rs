@@ -34,6 +34,7 @@ pub mod direction;
 pub mod dpi;
 pub mod estimate;
 pub mod mutants;
+pub mod naming;
 pub mod probe;
 pub mod search;
 pub mod testbench;
@@ -1048,7 +1049,7 @@ impl<'a> Emitter<'a> {
             if let Some(w) = r.round_adder {
                 self.hw.incrementers.push(w);
             }
-            let rq = format!("{name}_rq");
+            let rq = format!("{name}_r_q");
             self.reg(s + 1, &rq, sa.signed, rw, &rname);
             self.worst = self.worst.max(t + dr);
             (
@@ -3214,6 +3215,9 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
         !muts.is_empty(),
         &setup,
     );
+    // lowRISC names: flip-flops `_q`, their next values `_d`.
+    let names = naming::plan(&v);
+    let v = naming::rename(&v, &names);
     // Cut points: the first name of each live operation that is a signal
     // of its own.
     let mut cuts = Vec::new();
@@ -3224,7 +3228,7 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
         if let Some(s0) = e.stage[i] {
             if let Some(n) = e.at.get(&(i, s0)) {
                 if n.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
-                    cuts.push((i, s0, n.clone()));
+                    cuts.push((i, s0, names.get(n).unwrap_or(n).clone()));
                 }
             }
         }
@@ -3241,7 +3245,11 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
             timing::Pipelining::Compact
         },
         predicted_ns,
-        too_slow: e.too_slow,
+        too_slow: e
+            .too_slow
+            .iter()
+            .map(|s| naming::rename(s, &names))
+            .collect(),
         splits: e.splits,
         flags,
         inputs: in_fields,
