@@ -71,7 +71,7 @@ fn eval_gives_the_vector_files_values() {
                 &sets.iter().map(|s| s.to_string()).collect::<Vec<_>>(),
             )
             .unwrap();
-            let vs = units::vectors(u, &cfg, 600, 7).unwrap();
+            let vs = units::vectors(u, &cfg, 600, 7, Default::default()).unwrap();
             let (ni, no, nf) = unsafe { (fxs_num_inputs(h), fxs_num_outputs(h), fxs_num_flags(h)) };
             assert_eq!(ni, vs.inputs.len());
             assert_eq!(no + usize::from(nf > 0), vs.outputs.len());
@@ -244,7 +244,14 @@ int main(void) {
     // random rows), which the simulators check against the RTL.
     let cfg =
         fxshade_model::Config::resolve(None, &["normalize.method=\"linear\"".to_string()]).unwrap();
-    let vs = units::vectors(units::unit("normalize").unwrap(), &cfg, 300, 11).unwrap();
+    let vs = units::vectors(
+        units::unit("normalize").unwrap(),
+        &cfg,
+        300,
+        11,
+        Default::default(),
+    )
+    .unwrap();
     let stdin: String = vs
         .input_rows
         .iter()

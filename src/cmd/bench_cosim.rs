@@ -149,7 +149,7 @@ fn bench_one(a: &CosimArgs, name: &str, tmp: &Path) -> anyhow::Result<Row> {
     };
     let u = rtl_flow::unit(unit)?;
     let cfg = a.cfg.resolve_with(&extra)?;
-    let stream = VectorStream::new(u, &cfg, a.count, 1, None)?;
+    let stream = VectorStream::new(u, &cfg, a.count, 1, None, super::search_mode()?)?;
     let rtl = stream.rtl();
     let sources = Sources::emitted(&rtl);
     let dir = tmp.join(name.replace(':', "-"));

@@ -1531,7 +1531,7 @@ fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow:
     let mut checks = Vec::new();
     if !a.no_rtl_check {
         let u = rtl_flow::unit("pipeline")?;
-        let stream = VectorStream::new(u, &win_cfg, a.rtl_count, 1, None)?;
+        let stream = VectorStream::new(u, &win_cfg, a.rtl_count, 1, None, super::search_mode()?)?;
         let sources = rtl_flow::Sources::emitted(&stream.rtl());
         for sim in [Sim::Verilator, Sim::Icarus] {
             // A step of minutes on a big top: a line when it starts.

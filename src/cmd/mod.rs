@@ -139,3 +139,20 @@ pub fn pipeline_overrides(
     }
     o
 }
+
+/// How thoroughly vectors' mutant killers are searched
+/// ([`fxshade_model::rtl::search::Search`]): `FXSHADE_SEARCH=quick` or
+/// `full` (the default, when unset), read here, at the CLI's edge, and
+/// passed into the model; any other value is an error naming the variable.
+pub fn search_mode() -> anyhow::Result<fxshade_model::rtl::search::Search> {
+    use fxshade_model::rtl::search::Search;
+    match std::env::var_os("FXSHADE_SEARCH") {
+        None => Ok(Search::Full),
+        Some(v) => v.to_str().and_then(Search::from_name).ok_or_else(|| {
+            anyhow::anyhow!(
+                "FXSHADE_SEARCH={}: expected `full` or `quick`",
+                v.to_string_lossy()
+            )
+        }),
+    }
+}

@@ -519,6 +519,7 @@ pub type RtlChecks = Result<Vec<(String, String, usize, u64, u64, String)>, Stri
 pub fn rtl_checks(cfg: &fxshade_model::Config) -> RtlChecks {
     use crate::rtl_flow;
     rtl_flow::require_tool("iverilog", "iverilog").map_err(|e| e.to_string())?;
+    let search = super::search_mode().map_err(|e| e.to_string())?;
     let mut out = Vec::new();
     let mut jobs: Vec<(
         &'static fxshade_model::rtl::units::RtlUnit,
@@ -551,7 +552,7 @@ pub fn rtl_checks(cfg: &fxshade_model::Config) -> RtlChecks {
                 |v| format!("proved ({:.1} s)", v["seconds"].as_f64().unwrap_or(0.0)),
             );
         let run = || -> anyhow::Result<(String, usize, u64, u64)> {
-            let stream = fxshade_model::rtl::units::VectorStream::new(u, &c, 300, 1, None)?;
+            let stream = fxshade_model::rtl::units::VectorStream::new(u, &c, 300, 1, None, search)?;
             let sources = rtl_flow::Sources::emitted(&stream.rtl());
             let r =
                 rtl_flow::check_with(&stream, &sources, rtl_flow::Sim::Icarus, 1, 20, None, false)?;
@@ -568,6 +569,7 @@ pub fn rtl_checks(cfg: &fxshade_model::Config) -> RtlChecks {
 /// Run it.
 pub fn run(a: &ReportArgs) -> anyhow::Result<()> {
     let cfg = a.cfg.resolve()?;
+    let search = super::search_mode()?;
     let size = super::render::parse_size(&a.size)?;
     // Every input is checked before minutes of work: the README to splice
     // the findings into must be readable, writable and have the markers.
@@ -837,7 +839,7 @@ pub fn run(a: &ReportArgs) -> anyhow::Result<()> {
     bar.set_message("test vectors");
     let mut vector_lines = String::new();
     for u in fxshade_model::rtl::units::all() {
-        match fxshade_model::rtl::units::vectors(u, &cfg, 1000, 1) {
+        match fxshade_model::rtl::units::vectors(u, &cfg, 1000, 1, search) {
             Ok(v) => {
                 v.write_into_dir(&dir, &format!("vectors/{}", u.name))?;
                 vector_lines += &format!(

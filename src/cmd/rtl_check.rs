@@ -239,7 +239,7 @@ fn run_shard(a: &RtlCheckArgs, shard: Option<&crate::shard::Shard>) -> anyhow::R
     let kn = shard.map(|s| (s.k, s.n));
     let u = rtl_flow::unit(&a.unit)?;
     let cfg = a.cfg.resolve_with(&a.pipe.overrides())?;
-    let stream = VectorStream::new(u, &cfg, a.count, a.seed, kn)?;
+    let stream = VectorStream::new(u, &cfg, a.count, a.seed, kn, super::search_mode()?)?;
     if let Some((k, n)) = kn {
         anyhow::ensure!(
             stream.count > 0,

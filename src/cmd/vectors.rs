@@ -130,7 +130,7 @@ pub fn run(a: &VectorsArgs) -> anyhow::Result<()> {
         StagedDir::new(&a.out)
     }
     .with_context(|| format!("cannot write the vectors to {}", a.out.display()))?;
-    let s = VectorStream::new(u, &cfg, a.count, a.seed, shard)?;
+    let s = VectorStream::new(u, &cfg, a.count, a.seed, shard, super::search_mode()?)?;
     let mut m = s.manifest();
     if a.no_hex {
         m["files"]["inputs"] = serde_json::Value::Null;

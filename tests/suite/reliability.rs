@@ -9,6 +9,30 @@ fn no_panic(o: &std::process::Output) {
     assert!(!text(o).contains("panicked"), "panic: {}", text(o));
 }
 
+/// The search mode is read from `FXSHADE_SEARCH` in one place, at the
+/// CLI's edge: a value that is neither `full` nor `quick` is an error that
+/// names the variable, before any vector is written (it used to mean
+/// `full` silently).
+#[test]
+fn an_unknown_search_mode_is_refused_with_the_variable_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("v");
+    let o = Command::new(env!("CARGO_BIN_EXE_fxshade"))
+        .args(["vectors", "normalize", "--count", "50", "--out"])
+        .arg(&out)
+        .env("FXSHADE_SEARCH", "quik")
+        .output()
+        .expect("runs");
+    no_panic(&o);
+    assert!(!o.status.success(), "{}", text(&o));
+    assert!(
+        text(&o).contains("FXSHADE_SEARCH=quik: expected `full` or `quick`"),
+        "{}",
+        text(&o)
+    );
+    assert!(!out.join("inputs.hex").exists(), "vectors written anyway");
+}
+
 #[test]
 fn a_very_wide_d_is_a_clear_result_not_a_panic() {
     for set in ["normalize.d.format=U1F58", "normalize.d.format=U3F60"] {

@@ -741,13 +741,18 @@ pub const OVERFLOW_WITNESS_SHARE: usize = 16;
 /// search, then random rows ([`super::probe::random_probe`]). Mutants
 /// proven equivalent on the way ([`super::direction`] among the proofs)
 /// are skipped. Returns the inputs (one per mutant
-/// found, each taken once) and the mutants still not told apart.
+/// found, each taken once) and the mutants still not told apart. `search`
+/// says how much work each step gets ([`Search`]).
 pub fn killers(
     d: &Design,
     survivors: &[Mutation],
     bases: &[Vec<i128>],
     seed: u64,
+    search: Search,
 ) -> Result<(Vec<Vec<i128>>, Vec<Mutation>), RtlError> {
+    let quick = search == Search::Quick;
+    let proof_boxes = || search.proof_boxes();
+    let work = |full: usize| search.work(full);
     let one = |i: usize, m: &Mutation| -> Result<Option<Option<Vec<i128>>>, RtlError> {
         if super::mutants::equivalent(d, m)?.is_some() {
             return Ok(None);
@@ -763,7 +768,7 @@ pub fn killers(
             && (super::direction::direction_proof(
                 d,
                 m,
-                if quick() {
+                if quick {
                     proof_boxes()
                 } else {
                     KILLER_DIRECTION_BOXES
@@ -831,7 +836,7 @@ pub fn killers(
         if told {
             continue;
         }
-        if matches!(m.kind, MutationKind::Overflow(_)) || quick() {
+        if matches!(m.kind, MutationKind::Overflow(_)) || quick {
             left.push(m);
         } else {
             again.push(m);
@@ -856,7 +861,7 @@ pub fn killers(
     // pool shared by all (so a design with many survivors stays bounded,
     // and which rows are found does not depend on timing). A quick search
     // skips them.
-    if quick() {
+    if quick {
         left.extend(third);
         return Ok((rows, left));
     }
@@ -915,42 +920,68 @@ const KILLER_PROBE_PIECE: usize = 1 << 29;
 /// mutant: two mutants' full budgets (about 7 s).
 pub const KILLER_PROBE_POOL: usize = 2 * KILLER_PROBE_WORK;
 
-/// Whether `FXSHADE_SEARCH=quick` asks for a quick search: a
-/// [`QUICK_SHARE`] of each sweep and witness budget, no second witness
-/// round, no random rows, and [`QUICK_PROOF_BOXES`] for every proof, the
-/// direction proof included (the mapped pipeline top on the narrow
-/// configuration: 1.9 s against 16 s for the full search, 3.1 CPU-s
-/// against 30). For checks of RTL against model over many configurations,
-/// where the rarest killers matter less than the time (the suite's
-/// co-simulation checks); the vectors differ, and are cached apart.
-pub fn quick() -> bool {
-    std::env::var_os("FXSHADE_SEARCH").is_some_and(|v| v == "quick")
+/// How thoroughly [`killers`] searches for the inputs that tell mutants
+/// apart. An option the caller passes (the CLI reads it from
+/// `FXSHADE_SEARCH` at its edge); the vectors of the two differ and are
+/// cached apart.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Search {
+    /// Every budget as stated ([`KILLER_PROOF_BOXES`],
+    /// [`KILLER_SWEEP_WORK`], …), a second witness round and random rows:
+    /// the golden vectors.
+    #[default]
+    Full,
+    /// A [`QUICK_SHARE`] of each sweep and witness budget, no second
+    /// witness round, no random rows, and [`QUICK_PROOF_BOXES`] for every
+    /// proof, the direction proof included (the mapped pipeline top on the
+    /// narrow configuration: 1.9 s against 16 s for the full search, 3.1
+    /// CPU-s against 30). For checks of RTL against model over many
+    /// configurations, where the rarest killers matter less than the time
+    /// (the suite's co-simulation checks).
+    Quick,
+}
+
+impl Search {
+    /// The name used in cache keys and by `FXSHADE_SEARCH`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Search::Full => "full",
+            Search::Quick => "quick",
+        }
+    }
+
+    /// The mode a name (`full`, `quick`) stands for.
+    pub fn from_name(s: &str) -> Option<Search> {
+        match s {
+            "full" => Some(Search::Full),
+            "quick" => Some(Search::Quick),
+            _ => None,
+        }
+    }
+
+    /// [`KILLER_PROOF_BOXES`], or [`QUICK_PROOF_BOXES`] in a quick search.
+    fn proof_boxes(self) -> u64 {
+        match self {
+            Search::Full => KILLER_PROOF_BOXES,
+            Search::Quick => QUICK_PROOF_BOXES,
+        }
+    }
+
+    /// The work budget `full`, or its [`QUICK_SHARE`] in a quick search.
+    fn work(self, full: usize) -> usize {
+        match self {
+            Search::Full => full,
+            Search::Quick => full / QUICK_SHARE,
+        }
+    }
 }
 
 /// A quick search's share of each work budget of [`killers`].
 pub const QUICK_SHARE: usize = 16;
 
-/// Boxes a [`quick`] search gives each proof before searching (a quarter
+/// Boxes a quick search ([`Search::Quick`]) gives each proof before searching (a quarter
 /// of [`KILLER_PROOF_BOXES`]).
 pub const QUICK_PROOF_BOXES: u64 = 1 << 12;
-
-/// [`KILLER_PROOF_BOXES`], or [`QUICK_PROOF_BOXES`] in a [`quick`] search.
-fn proof_boxes() -> u64 {
-    if quick() {
-        QUICK_PROOF_BOXES
-    } else {
-        KILLER_PROOF_BOXES
-    }
-}
-
-/// The work budget `full`, or its [`QUICK_SHARE`] in a [`quick`] search.
-fn work(full: usize) -> usize {
-    if quick() {
-        full / QUICK_SHARE
-    } else {
-        full
-    }
-}
 
 /// Boxes [`killers`] gives each proof again before its third round (the
 /// support proof takes the pipeline top's `lighting.level` half_up in

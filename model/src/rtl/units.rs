@@ -7,6 +7,7 @@
 //! overflow flags always come from the compiled trace, and the vector
 //! layout from the emitted module's ports.
 
+use super::search::Search;
 use super::{emit, Design, Emitted};
 use crate::config::Config;
 use crate::format::Format;
@@ -73,12 +74,15 @@ pub fn emit_unit(u: &RtlUnit, cfg: &Config) -> Result<(Design, Emitted), RtlErro
 }
 
 /// The unit's test vectors: `count` inputs (corner cases first) and the
-/// expected outputs and per-vector overflow flags of the compiled trace.
+/// expected outputs and per-vector overflow flags of the compiled trace;
+/// `search`: how thoroughly the corner part's mutant killers are searched
+/// ([`corner_rows`]).
 pub fn vectors(
     u: &'static RtlUnit,
     cfg: &Config,
     count: usize,
     seed: u64,
+    search: Search,
 ) -> Result<VectorSet, RtlError> {
     check_total(count)?;
     // Held in memory: refuse before any work when they cannot fit.
@@ -99,7 +103,7 @@ pub fn vectors(
             });
         }
     }
-    VectorStream::new(u, cfg, count, seed, None)?.collect()
+    VectorStream::new(u, cfg, count, seed, None, search)?.collect()
 }
 
 /// The most vectors a stream holds: their records' index field is 32 bits
@@ -137,12 +141,14 @@ pub fn chunk_seed(seed: u64, c: u64) -> u64 {
 /// inputs that tell apart every mutant of the design
 /// ([`super::mutants::killers`], searched among [`MUTANT_POOL`] random
 /// inputs of another seed, then [`super::mutants::directed_killers`], then
-/// [`super::search::killers`]) which the corner cases do not. It does not depend on the count.
+/// [`super::search::killers`], as thoroughly as `search` says) which the
+/// corner cases do not. It does not depend on the count.
 pub fn corner_rows(
     u: &RtlUnit,
     d: &Design,
     cfg: &Config,
     seed: u64,
+    search: Search,
 ) -> Result<Vec<Vec<i128>>, RtlError> {
     let formats: Vec<_> = d.trace.input_ports().iter().map(|p| p.format).collect();
     let mut rows = unit_inputs(u, cfg, Part::Corners, seed, &formats)?;
@@ -165,14 +171,14 @@ pub fn corner_rows(
                 .collect(),
         );
     }
-    let key = corner_key(d, &rows, &pool, seed);
+    let key = corner_key(d, &rows, &pool, seed, search);
     if let Some(found) = read_corner_cache(key, &formats)? {
         rows.extend(found);
         return Ok(rows);
     }
     let (killers, missed) = super::mutants::killers(d, &rows, &pool)?;
     let (more, missed) = super::mutants::directed_killers(d, &missed, seed)?;
-    let (found, _missed) = super::search::killers(d, &missed, &pool, seed)?;
+    let (found, _missed) = super::search::killers(d, &missed, &pool, seed, search)?;
     let mut searched = killers;
     searched.extend(more);
     searched.extend(found);
@@ -186,7 +192,13 @@ pub fn corner_rows(
 /// corner cases and the random pool, the seed, and the source of the
 /// searches and the compiled arithmetic they run, so that a change to any
 /// of them misses the cache.
-fn corner_key(d: &Design, corners: &[Vec<i128>], pool: &[Vec<i128>], seed: u64) -> u64 {
+fn corner_key(
+    d: &Design,
+    corners: &[Vec<i128>],
+    pool: &[Vec<i128>],
+    seed: u64,
+    search: Search,
+) -> u64 {
     // Tables by their contents (their `Debug` holds a function address).
     let tables: Vec<_> = d
         .trace
@@ -217,11 +229,7 @@ fn corner_key(d: &Design, corners: &[Vec<i128>], pool: &[Vec<i128>], seed: u64) 
         design.as_bytes(),
         rows.as_bytes(),
         &seed.to_le_bytes(),
-        if super::search::quick() {
-            b"quick".as_slice()
-        } else {
-            b"full".as_slice()
-        },
+        search.name().as_bytes(),
     ])
 }
 
@@ -511,17 +519,19 @@ pub struct VectorStream {
 
 impl VectorStream {
     /// The stream of `total` vectors, or with `shard = Some((k, n))` its
-    /// `k`-th of `n` slices (`k < n`).
+    /// `k`-th of `n` slices (`k < n`); its corner part searched as
+    /// thoroughly as `search` says ([`corner_rows`]).
     pub fn new(
         u: &'static RtlUnit,
         cfg: &Config,
         total: usize,
         seed: u64,
         shard: Option<(usize, usize)>,
+        search: Search,
     ) -> Result<VectorStream, RtlError> {
         check_total(total)?;
         let (design, emitted) = emit_unit(u, cfg)?;
-        let corners = corner_rows(u, &design, cfg, seed)?;
+        let corners = corner_rows(u, &design, cfg, seed, search)?;
         if total < corners.len() {
             return Err(RtlError::Count {
                 count: total,
