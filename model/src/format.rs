@@ -31,6 +31,39 @@ pub const MAX_FRAC: i32 = 128;
 /// A fixed-point format. Construct with [`Format::new`] or by parsing
 /// `I<int>F<frac>` / `U<int>F<frac>`; the fields are validated, so every
 /// `Format` value has `1 ≤ width ≤ 64` and `−64 ≤ frac ≤ 128`.
+///
+/// The normals' default format, `I2F14`: 16 bits, two's complement, codes
+/// `−2^15 ..= 2^15 − 1` meaning `code · 2^−14`, so values `−2 ..= 2 − 2^−14`:
+///
+/// ```
+/// use fxshade_model::format::Format;
+/// let f: Format = "I2F14".parse().unwrap();
+/// assert_eq!(f, Format::new(true, 16, 14).unwrap());
+/// assert_eq!((f.min_code(), f.max_code()), (-32768, 32767));
+/// assert_eq!(f.to_f64(16384), 1.0);
+/// assert_eq!(f.max_value(), 2.0 - 2f64.powi(-14));
+/// // Codes travel as their two's-complement bits (vector files, Verilog).
+/// assert_eq!(f.to_bits(-1), 0xffff);
+/// assert_eq!(f.from_bits(0x8000), -32768);
+/// assert_eq!(f.to_string(), "I2F14");
+/// ```
+///
+/// A constant is a value in a format too: 1.0 does not fit `U0F16`, whose
+/// largest value is `1 − 2^−16`; a code outside the range wraps to the low
+/// `width` bits:
+///
+/// ```
+/// use fxshade_model::format::Format;
+/// use fxshade_model::quantize::Rounding;
+/// let u: Format = "U0F16".parse().unwrap();
+/// assert_eq!(u.ulp(), 2f64.powi(-16));
+/// assert!(!u.contains(65536)); // 1.0
+/// assert_eq!(u.wrap(65536), 0);
+/// assert!(u.from_f64(1.0, Rounding::Trunc).is_err());
+/// assert_eq!(u.from_f64(0.5, Rounding::Trunc), Ok(32768));
+/// // A width outside 1..=64 is refused.
+/// assert!(Format::new(false, 65, 0).is_err());
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct Format {
     signed: bool,

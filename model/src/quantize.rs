@@ -287,6 +287,58 @@ impl Quant {
     /// when bits are dropped, an exact left shift otherwise, then wrap or
     /// saturate. `overflowed` is set when the rounded value lay outside the
     /// format's range, in either overflow mode.
+    ///
+    /// Every rounding mode on every half-integer and quarter of
+    /// `−4 ..= 3.75` into the signed integer format `I4F0`, against f64's
+    /// `floor`, `floor(x + ½)` and `round_ties_even` (independent
+    /// computations of the three modes; ties included):
+    ///
+    /// ```
+    /// use fxshade_model::format::Format;
+    /// use fxshade_model::quantize::{Overflow, Quant, Rounding};
+    /// let f: Format = "I4F0".parse().unwrap();
+    /// for (round, want) in [
+    ///     (Rounding::Trunc, f64::floor as fn(f64) -> f64),
+    ///     (Rounding::HalfUp, |x: f64| (x + 0.5).floor()),
+    ///     (Rounding::HalfEven, f64::round_ties_even),
+    /// ] {
+    ///     let q = Quant::new("x", f, round, Overflow::Saturate);
+    ///     for raw in -16i128..16 {
+    ///         // raw · 2^−2: quarters, so both ties and non-ties.
+    ///         let x = raw as f64 / 4.0;
+    ///         let r = q.apply(raw, 2);
+    ///         assert_eq!(r.code as f64, want(x), "{round:?} {x}");
+    ///         assert!(!r.overflowed);
+    ///     }
+    /// }
+    /// // The three at the ties ±2.5 (raw 5 or −5 with one fraction bit).
+    /// let at = |round, raw| Quant::new("x", f, round, Overflow::Wrap).apply(raw, 1).code;
+    /// assert_eq!([at(Rounding::Trunc, 5), at(Rounding::HalfUp, 5), at(Rounding::HalfEven, 5)], [2, 3, 2]);
+    /// assert_eq!([at(Rounding::Trunc, -5), at(Rounding::HalfUp, -5), at(Rounding::HalfEven, -5)], [-3, -2, -2]);
+    /// ```
+    ///
+    /// Overflow: 9 does not fit `I4F0` (`−8 ..= 7`); wrapped it keeps the
+    /// low 4 bits (`9 − 16 = −7`), saturated it is clamped; either way
+    /// `overflowed` is set. A value that rounds into range does not
+    /// overflow (7.4 truncates to 7):
+    ///
+    /// ```
+    /// use fxshade_model::format::Format;
+    /// use fxshade_model::quantize::{Overflow, Quant, Quantized, Rounding};
+    /// let f: Format = "I4F0".parse().unwrap();
+    /// let wrap = Quant::new("x", f, Rounding::Trunc, Overflow::Wrap);
+    /// let sat = wrap.with_overflow(Overflow::Saturate);
+    /// assert_eq!(wrap.apply(9, 0), Quantized { code: -7, overflowed: true });
+    /// assert_eq!(sat.apply(9, 0), Quantized { code: 7, overflowed: true });
+    /// assert_eq!(sat.apply(-9, 0), Quantized { code: -8, overflowed: true });
+    /// // 7.4 ≈ 947 · 2^−7, floored to 7: in range.
+    /// assert_eq!(sat.apply(947, 7), Quantized { code: 7, overflowed: false });
+    /// // More fraction bits in the target: an exact left shift. In I2F2
+    /// // (4 bits, values −2 ..= 1.75) 3.0 is code 12, which wraps to 12 − 16.
+    /// let g = wrap.with_format("I2F2".parse().unwrap());
+    /// assert_eq!(g.apply(3, 0).code, -4);
+    /// assert_eq!(g.with_overflow(Overflow::Saturate).apply(1, 0).code, 4);
+    /// ```
     #[inline]
     pub fn apply(&self, raw: i128, frac: i32) -> Quantized {
         self.apply_raw(raw, frac)

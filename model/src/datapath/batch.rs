@@ -101,6 +101,34 @@ pub struct Port {
 ///
 /// Stage ids are qualified by the unit scope they were recorded in
 /// ([`Trace::enter`]): `normalize.g`, `polar.out`.
+///
+/// A square `y = Q(x · x)` with `x` in `I2F14`: the exact product is
+/// `I4F28` (32 bits), quantized back to `I2F14` by truncation with
+/// saturation. Its ports, and the compiled program against the closed form
+/// `⌊c² / 2^14⌋` clamped to `2^15 − 1`:
+///
+/// ```
+/// use fxshade_model::datapath::{Datapath, Trace};
+/// use fxshade_model::format::Format;
+/// use fxshade_model::quantize::{Overflow, Quant, Rounding};
+/// let f: Format = "I2F14".parse().unwrap();
+/// let q = Quant::new("sq", f, Rounding::Trunc, Overflow::Saturate);
+/// let mut t = Trace::new();
+/// let x = t.input_named("x", &q);
+/// let p = t.mul(x, x);
+/// let y = t.quantize(p, &q);
+/// t.output("y", y);
+/// let ins = t.input_ports();
+/// assert_eq!((ins[0].name.as_str(), ins[0].format), ("x", f));
+/// let outs = t.output_ports();
+/// assert_eq!((outs[0].name.as_str(), outs[0].format), ("y", f));
+/// let codes: Vec<i128> = vec![-32768, -16384, -1, 0, 1, 16384, 23170, 32767];
+/// let (out, overflows) = t.compile_outputs().unwrap().run_i128(&[&codes]);
+/// let want: Vec<i128> = codes.iter().map(|c| (c * c >> 14).min(32767)).collect();
+/// assert_eq!(out[0], want);
+/// // (−2)² = 4 and 1.99…² do not fit: two lanes overflowed, at stage `sq`.
+/// assert_eq!(overflows, vec![("sq", 2)]);
+/// ```
 #[derive(Clone, Debug, Default)]
 pub struct Trace {
     ops: Vec<Op>,
