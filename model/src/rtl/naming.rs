@@ -24,27 +24,36 @@ fn ident_char(c: u8) -> bool {
     c.is_ascii_alphanumeric() || c == b'_' || c == b'$'
 }
 
-/// The identifiers of `text` (maximal runs of identifier characters that
-/// start with a letter or `_`).
-fn identifiers(text: &str) -> HashSet<&str> {
+/// `text` cut into maximal runs of identifier characters and of other
+/// characters, in order: `(is_identifier_run, run)`. The runs joined are
+/// `text`.
+fn runs(text: &str) -> impl Iterator<Item = (bool, &str)> {
     let b = text.as_bytes();
-    let mut out = HashSet::new();
     let mut i = 0;
-    while i < b.len() {
-        if ident_char(b[i]) {
-            let j = b[i..]
-                .iter()
-                .position(|&c| !ident_char(c))
-                .map_or(b.len(), |k| i + k);
-            if b[i].is_ascii_alphabetic() || b[i] == b'_' {
-                out.insert(&text[i..j]);
-            }
-            i = j;
-        } else {
-            i += 1;
+    std::iter::from_fn(move || {
+        if i >= b.len() {
+            return None;
         }
-    }
-    out
+        let ident = ident_char(b[i]);
+        let j = b[i..]
+            .iter()
+            .position(|&c| ident_char(c) != ident)
+            .map_or(b.len(), |k| i + k);
+        let run = &text[i..j];
+        i = j;
+        Some((ident, run))
+    })
+}
+
+/// The identifiers of `text` (identifier runs that start with a letter or
+/// `_`, so not the digits of a literal such as `18'h3ffff`).
+fn identifiers(text: &str) -> HashSet<&str> {
+    runs(text)
+        .filter(|&(ident, r)| {
+            ident && (r.as_bytes()[0].is_ascii_alphabetic() || r.starts_with('_'))
+        })
+        .map(|(_, r)| r)
+        .collect()
 }
 
 /// The names a module-level declaration line (`  reg  signed [3:0] a, b;`,
@@ -144,26 +153,12 @@ pub fn rename(text: &str, map: &HashMap<String, String>) -> String {
     if map.is_empty() {
         return text.to_string();
     }
-    let b = text.as_bytes();
     let mut out = String::with_capacity(text.len() + text.len() / 8);
-    let mut i = 0;
-    while i < b.len() {
-        if ident_char(b[i]) {
-            let j = b[i..]
-                .iter()
-                .position(|&c| !ident_char(c))
-                .map_or(b.len(), |k| i + k);
-            let word = &text[i..j];
-            out.push_str(map.get(word).map_or(word, String::as_str));
-            i = j;
-        } else {
-            let j = b[i..]
-                .iter()
-                .position(|&c| ident_char(c))
-                .map_or(b.len(), |k| i + k);
-            out.push_str(&text[i..j]);
-            i = j;
-        }
+    for (ident, run) in runs(text) {
+        out.push_str(match map.get(run) {
+            Some(new) if ident => new,
+            _ => run,
+        });
     }
     out
 }
