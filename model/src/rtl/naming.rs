@@ -148,17 +148,68 @@ pub fn plan(module: &str) -> HashMap<String, String> {
     map
 }
 
-/// `text` with every identifier that `map` names replaced.
+/// `text` with every identifier that `map` names replaced, in code only:
+/// `//` comments and string literals are left as they are (a header's
+/// configuration path is the user's text, even where it reads like a
+/// register's name).
 pub fn rename(text: &str, map: &HashMap<String, String>) -> String {
     if map.is_empty() {
         return text.to_string();
     }
     let mut out = String::with_capacity(text.len() + text.len() / 8);
-    for (ident, run) in runs(text) {
-        out.push_str(match map.get(run) {
-            Some(new) if ident => new,
-            _ => run,
-        });
+    for (code, literal) in code_and_literals(text) {
+        if literal {
+            out.push_str(code);
+            continue;
+        }
+        for (ident, run) in runs(code) {
+            out.push_str(match map.get(run) {
+                Some(new) if ident => new,
+                _ => run,
+            });
+        }
+    }
+    out
+}
+
+/// `text` cut into code and literal text (`//` comments to the end of
+/// their line, string literals with their quotes and escapes), in order:
+/// `(is_literal, piece)`. The pieces joined are `text`.
+fn code_and_literals(text: &str) -> Vec<(&str, bool)> {
+    let b = text.as_bytes();
+    let mut out = Vec::new();
+    let (mut from, mut i) = (0, 0);
+    while i < b.len() {
+        let end = match b[i] {
+            b'"' => {
+                let mut j = i + 1;
+                while j < b.len() && b[j] != b'"' && b[j] != b'\n' {
+                    j += if b[j] == b'\\' { 2 } else { 1 };
+                }
+                Some((j + 1).min(b.len()))
+            }
+            b'/' if b.get(i + 1) == Some(&b'/') => Some(
+                b[i..]
+                    .iter()
+                    .position(|&c| c == b'\n')
+                    .map_or(b.len(), |k| i + k),
+            ),
+            _ => None,
+        };
+        match end {
+            Some(j) => {
+                if from < i {
+                    out.push((&text[from..i], false));
+                }
+                out.push((&text[i..j], true));
+                from = j;
+                i = j;
+            }
+            None => i += 1,
+        }
+    }
+    if from < b.len() {
+        out.push((&text[from..], false));
     }
     out
 }
@@ -229,6 +280,22 @@ endmodule
         let back: HashMap<String, String> =
             map.iter().map(|(a, b)| (b.clone(), a.clone())).collect();
         assert_eq!(rename(&r, &back), M);
+    }
+
+    #[test]
+    fn comments_and_strings_are_the_users_text_and_keep_their_words() {
+        let m = "// Configuration: x_15.toml (hash 1)\n  reg  [3:0] x_15;\n  \
+                 always @(posedge c) x_15 <= a; // x_15 loads a\n  \
+                 initial $display(\"x_15 = %0d\", x_15);\n";
+        let map = plan(m);
+        assert_eq!(map.get("x_15").map(String::as_str), Some("x_15_q"));
+        let r = rename(m, &map);
+        assert!(
+            r.starts_with("// Configuration: x_15.toml (hash 1)\n"),
+            "{r}"
+        );
+        assert!(r.contains("x_15_q <= a; // x_15 loads a\n"), "{r}");
+        assert!(r.contains("$display(\"x_15 = %0d\", x_15_q);"), "{r}");
     }
 
     #[test]
