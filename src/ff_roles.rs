@@ -1,7 +1,7 @@
 //! Flip-flops by role, from a synthesized netlist (Yosys JSON): what each
 //! fabric flip-flop holds, by the name the emitted RTL gives its register
 //! (`dut.<name>` in the harness). The roles follow the emitter's naming
-//! (`model/src/rtl/mod.rs`), most specific first:
+//! (`backend/src/lib.rs`), most specific first:
 //!
 //! | role | registers |
 //! |---|---|

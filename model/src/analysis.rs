@@ -954,8 +954,8 @@ fn remembered<T: serde::Serialize + serde::de::DeserializeOwned>(
         include_str!("angles/mod.rs").as_bytes(),
         include_str!("polar/mod.rs").as_bytes(),
         include_str!("lighting.rs").as_bytes(),
-        include_str!("datapath/batch.rs").as_bytes(),
-        include_str!("quantize.rs").as_bytes(),
+        fxshade_ir::sources::BATCH.as_bytes(),
+        fxshade_numbers::QUANTIZE_SOURCE.as_bytes(),
         what.as_bytes(),
     ];
     all.extend_from_slice(parts);

@@ -19,16 +19,17 @@
 //! `model/ARITHMETIC.md` states the contract the RTL follows.
 #![warn(missing_docs)]
 
+// The layers below, under the paths the units were written with.
+pub use fxshade_ir::{datapath, escape, sampling};
+pub use fxshade_numbers::{format, quantize};
+
 pub mod analysis;
 pub mod angles;
 pub mod bounds;
 pub mod cache;
 pub mod coeffs;
 pub mod config;
-pub mod datapath;
-pub mod escape;
 pub mod files;
-pub mod format;
 pub mod interp;
 pub mod lighting;
 pub mod mad_chain;
@@ -37,10 +38,8 @@ pub mod normalizer;
 pub mod paper;
 pub mod pipeline;
 pub mod polar;
-pub mod quantize;
 pub mod render;
 pub mod rtl;
-pub mod sampling;
 pub mod texture;
 pub mod units;
 pub mod vectors;

@@ -381,7 +381,7 @@ pub mod rtl {
             "I0·km = {}, I0·ks = {}, shininess {}",
             l.i0_km, l.i0_ks, l.shininess
         )];
-        Ok(crate::rtl::Design::new(
+        Ok(crate::rtl::units::design(
             DECL.name,
             variant,
             l.trace()?,

@@ -115,7 +115,7 @@ pub static UNITS: &[&UnitEntry] = &[
     &crate::polar::UNIT,
     &crate::lighting::UNIT,
     &crate::pipeline::UNIT,
-    &crate::rtl::timing::UNIT,
+    &crate::rtl::section::UNIT,
 ];
 
 /// Map the first width error of a counting run (the root cause: later ones

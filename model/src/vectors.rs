@@ -21,34 +21,13 @@ use std::path::Path;
 
 use crate::files::{StagedDir, WriteError};
 use crate::format::Format;
-
-/// Generator name and version, recorded in manifests and headers.
-pub const GENERATOR: &str = concat!("fxshade ", env!("CARGO_PKG_VERSION"));
+pub use fxshade_backend::record::{fingerprint, Field, GENERATOR};
 
 /// The version of the manifest's layout (`manifest.json` of a vector set,
 /// the C ABI's `fxs_manifest`, the Python `Unit.manifest_json`), whose JSON
 /// Schema is `schema/manifest.schema.json`: a field's meaning never changes
 /// within a version.
 pub const MANIFEST_VERSION: u32 = 1;
-
-/// One field of a vector line.
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
-pub struct Field {
-    /// Name (`nx`, `ovf`, …).
-    pub name: String,
-    /// Format of the codes (flags are `U<n>F0`).
-    pub format: Format,
-}
-
-impl Field {
-    /// A field.
-    pub fn new(name: &str, format: Format) -> Self {
-        Field {
-            name: name.to_string(),
-            format,
-        }
-    }
-}
 
 /// The generated RTL a vector set checks: the unit's module and its
 /// self-checking testbench.
@@ -577,21 +556,6 @@ impl From<crate::cache::CacheError> for RtlError {
     fn from(e: crate::cache::CacheError) -> Self {
         RtlError::Cache(e.to_string())
     }
-}
-
-/// FNV-1a, 64 bits: a stable fingerprint of a configuration or of sources
-/// (for names and build caches, not for security).
-pub fn fingerprint(parts: &[&[u8]]) -> u64 {
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    for p in parts {
-        for &b in *p {
-            h ^= b as u64;
-            h = h.wrapping_mul(0x0100_0000_01b3);
-        }
-        h ^= 0xff;
-        h = h.wrapping_mul(0x0100_0000_01b3);
-    }
-    h
 }
 
 #[cfg(test)]

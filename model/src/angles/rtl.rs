@@ -26,7 +26,7 @@ pub fn design(cfg: &Config) -> Result<crate::rtl::Design, RtlError> {
         },
         a.out.format()
     )];
-    Ok(crate::rtl::Design::new(
+    Ok(crate::rtl::units::design(
         DECL.name,
         if a.shift_add { "shift_add" } else { "product" },
         a.trace()?,

@@ -12,7 +12,7 @@ use crate::vectors::{hunt_ties, structured_code, RtlError};
 /// The unit's traced datapath for a configuration.
 pub fn design(cfg: &Config) -> Result<crate::rtl::Design, RtlError> {
     let i = Interp::from_config(cfg.unit(DECL.name));
-    Ok(crate::rtl::Design::new(
+    Ok(crate::rtl::units::design(
         DECL.name,
         i.scheme.name(),
         i.trace(),

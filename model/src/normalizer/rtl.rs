@@ -37,7 +37,7 @@ pub fn design(cfg: &Config) -> Result<crate::rtl::Design, RtlError> {
             crate::coeffs::named_highest_first(&n.coeffs)
         ));
     }
-    let mut d = crate::rtl::Design::new(DECL.name, n.method.name(), n.trace()?, cfg, notes);
+    let mut d = crate::rtl::units::design(DECL.name, n.method.name(), n.trace()?, cfg, notes);
     d.parameters = serde_json::json!({
         "method": n.method.name(),
         "coefficients": coefficients(&n),

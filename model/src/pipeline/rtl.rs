@@ -40,7 +40,7 @@ pub fn design(cfg: &Config) -> Result<crate::rtl::Design, RtlError> {
         Path::Smooth => format!("smooth ({} g)", p.method.name()),
         Path::Mapped => format!("mapped ({} angles)", p.angles.name()),
     };
-    let mut d = crate::rtl::Design::new(DECL.name, &variant, p.trace(path)?, cfg, notes);
+    let mut d = crate::rtl::units::design(DECL.name, &variant, p.trace(path)?, cfg, notes);
     if path == Path::Smooth {
         d.parameters = serde_json::json!({
             "method": p.method.name(),
@@ -122,7 +122,7 @@ pub fn setup_groups(
 /// The angle interpolation's traced datapath (`c1, c2, a3, d1, d2 → angle`).
 pub fn angle_design(cfg: &Config) -> Result<crate::rtl::Design, RtlError> {
     let p = Pipeline::with_method(cfg, Method::None)?;
-    let mut d = crate::rtl::Design::new(
+    let mut d = crate::rtl::units::design(
         DECL.name,
         "linear",
         p.trace_angle(),

@@ -24,7 +24,7 @@ pub fn design(cfg: &Config) -> Result<crate::rtl::Design, RtlError> {
         p.tables.sin.out.format(),
         p.tables.stored_bits()
     )];
-    Ok(crate::rtl::Design::new(
+    Ok(crate::rtl::units::design(
         DECL.name,
         org,
         p.trace(),

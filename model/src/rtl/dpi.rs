@@ -183,7 +183,7 @@ pub fn package(m: &UnitModel) -> Result<String, DpiError> {
     t += "// (README.md, \"Use the model in your own testbench\").\n";
     t += &super::comment(
         "// ",
-        // Escaped once already (Design::new), as in the module's header.
+        // Escaped once already (`rtl::units::design`), as in the module's header.
         &format!("Configuration: {}", m.design.config_source),
     );
     let _ = writeln!(t, "// Latency of {module}: {} cycles.", m.latency());

@@ -222,10 +222,10 @@ fn corner_key(
         include_str!("direction.rs").as_bytes(),
         include_str!("probe.rs").as_bytes(),
         include_str!("units.rs").as_bytes(),
-        include_str!("../datapath/batch.rs").as_bytes(),
-        include_str!("../datapath/batch/interval.rs").as_bytes(),
-        include_str!("../datapath/batch/cut.rs").as_bytes(),
-        include_str!("../quantize.rs").as_bytes(),
+        fxshade_ir::sources::BATCH.as_bytes(),
+        fxshade_ir::sources::INTERVAL.as_bytes(),
+        fxshade_ir::sources::CUT.as_bytes(),
+        fxshade_numbers::QUANTIZE_SOURCE.as_bytes(),
         design.as_bytes(),
         rows.as_bytes(),
         &seed.to_le_bytes(),
@@ -421,38 +421,38 @@ pub fn vector_set(
     })
 }
 
-impl Design {
-    /// A design of `unit` for `cfg`.
-    pub fn new(
-        unit: &'static str,
-        variant: &str,
-        trace: crate::datapath::Trace,
-        cfg: &Config,
-        notes: Vec<String>,
-    ) -> Design {
-        // Printable ASCII only: this goes into generated headers.
-        let mut source = cfg.source.clone();
-        if !cfg.overrides.is_empty() {
-            let o: Vec<String> = cfg
-                .overrides
-                .iter()
-                .map(|o| crate::escape::line(o))
-                .collect();
-            source += &format!(", overrides: {}", o.join(" "));
-        }
-        Design {
-            module: unit.to_string(),
-            unit,
-            variant: variant.to_string(),
-            trace,
-            config_source: source,
-            config_toml: cfg.to_toml(),
-            notes,
-            pipelining: super::timing::Pipelining::from_config(cfg),
-            setup: Vec::new(),
-            handshake: super::timing::Handshake::from_config(cfg),
-            parameters: serde_json::Value::Null,
-        }
+/// A design of `unit` for `cfg`: its source and overrides (escaped) and
+/// TOML go into the generated header, its `[rtl]` section sets the
+/// pipelining and the handshake.
+pub fn design(
+    unit: &'static str,
+    variant: &str,
+    trace: crate::datapath::Trace,
+    cfg: &Config,
+    notes: Vec<String>,
+) -> Design {
+    // Printable ASCII only: this goes into generated headers.
+    let mut source = cfg.source.clone();
+    if !cfg.overrides.is_empty() {
+        let o: Vec<String> = cfg
+            .overrides
+            .iter()
+            .map(|o| crate::escape::line(o))
+            .collect();
+        source += &format!(", overrides: {}", o.join(" "));
+    }
+    Design {
+        module: unit.to_string(),
+        unit,
+        variant: variant.to_string(),
+        trace,
+        config_source: source,
+        config_toml: cfg.to_toml(),
+        notes,
+        pipelining: super::section::pipelining(cfg),
+        setup: Vec::new(),
+        handshake: super::section::handshake(cfg),
+        parameters: serde_json::Value::Null,
     }
 }
 

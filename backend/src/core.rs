@@ -6,7 +6,7 @@
 
 use std::fmt::Write as _;
 
-use crate::vectors::GENERATOR;
+use crate::record::GENERATOR;
 
 /// `s` as a VLNV field: lower-case ASCII letters, digits and `_` (every
 /// other run of characters one `_`).
@@ -28,7 +28,7 @@ pub fn vlnv_part(s: &str) -> String {
 /// number, and with hex hashes there its dependency solver takes minutes
 /// once several cores share a root.
 pub fn core_name(unit: &str, variant: &str, config_toml: &str) -> String {
-    let hash = crate::vectors::fingerprint(&[config_toml.as_bytes()]);
+    let hash = crate::record::fingerprint(&[config_toml.as_bytes()]);
     format!(
         "fxshade:{}:{}_{hash:016x}:{}",
         vlnv_part(unit),

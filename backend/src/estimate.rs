@@ -374,7 +374,7 @@ pub mod fit;
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::rtl::timing::Target;
+    use crate::timing::Target;
 
     fn mul(a: u32, b: u32, signed: bool, a_zext: bool, b_zext: bool) -> MulHw {
         MulHw {
@@ -437,7 +437,7 @@ mod tests {
     /// blocks (two a copy, one port each); a small ROM in logic.
     #[test]
     fn roms_take_blocks_by_shape_and_ports() {
-        let rom = |entries, width, reads, block| crate::rtl::RomHw {
+        let rom = |entries, width, reads, block| crate::RomHw {
             name: "r".into(),
             entries,
             width,

@@ -29,7 +29,7 @@ pub const WIDTH: usize = 100;
 /// every line fits.
 ///
 /// ```
-/// use fxshade_model::rtl::wrap::wrap_verilog;
+/// use fxshade_backend::wrap::wrap_verilog;
 /// let long = "  wire [3:0] x = {a_long_name, b_long_name, c_long_name};\n";
 /// assert_eq!(
 ///     wrap_verilog(long, 40),

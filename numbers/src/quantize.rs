@@ -294,8 +294,8 @@ impl Quant {
     /// computations of the three modes; ties included):
     ///
     /// ```
-    /// use fxshade_model::format::Format;
-    /// use fxshade_model::quantize::{Overflow, Quant, Rounding};
+    /// use fxshade_numbers::format::Format;
+    /// use fxshade_numbers::quantize::{Overflow, Quant, Rounding};
     /// let f: Format = "I4F0".parse().unwrap();
     /// for (round, want) in [
     ///     (Rounding::Trunc, f64::floor as fn(f64) -> f64),
@@ -323,8 +323,8 @@ impl Quant {
     /// overflow (7.4 truncates to 7):
     ///
     /// ```
-    /// use fxshade_model::format::Format;
-    /// use fxshade_model::quantize::{Overflow, Quant, Quantized, Rounding};
+    /// use fxshade_numbers::format::Format;
+    /// use fxshade_numbers::quantize::{Overflow, Quant, Quantized, Rounding};
     /// let f: Format = "I4F0".parse().unwrap();
     /// let wrap = Quant::new("x", f, Rounding::Trunc, Overflow::Wrap);
     /// let sat = wrap.with_overflow(Overflow::Saturate);

@@ -36,7 +36,7 @@ pub const MAX_FRAC: i32 = 128;
 /// `−2^15 ..= 2^15 − 1` meaning `code · 2^−14`, so values `−2 ..= 2 − 2^−14`:
 ///
 /// ```
-/// use fxshade_model::format::Format;
+/// use fxshade_numbers::format::Format;
 /// let f: Format = "I2F14".parse().unwrap();
 /// assert_eq!(f, Format::new(true, 16, 14).unwrap());
 /// assert_eq!((f.min_code(), f.max_code()), (-32768, 32767));
@@ -53,8 +53,8 @@ pub const MAX_FRAC: i32 = 128;
 /// `width` bits:
 ///
 /// ```
-/// use fxshade_model::format::Format;
-/// use fxshade_model::quantize::Rounding;
+/// use fxshade_numbers::format::Format;
+/// use fxshade_numbers::quantize::Rounding;
 /// let u: Format = "U0F16".parse().unwrap();
 /// assert_eq!(u.ulp(), 2f64.powi(-16));
 /// assert!(!u.contains(65536)); // 1.0

@@ -22,7 +22,7 @@ mod interval;
 mod mutation;
 mod smt;
 pub use mutation::{Mutation, MutationKind};
-pub use smt::{Chunk, MulSplit, PartialProduct, SmtFunction};
+pub use smt::{lit as smt_literal, Chunk, MulSplit, PartialProduct, SmtFunction};
 
 /// A value in a trace: the node that computes it, its binary point, and its
 /// symbolic format.
@@ -108,9 +108,9 @@ pub struct Port {
 /// `⌊c² / 2^14⌋` clamped to `2^15 − 1`:
 ///
 /// ```
-/// use fxshade_model::datapath::{Datapath, Trace};
-/// use fxshade_model::format::Format;
-/// use fxshade_model::quantize::{Overflow, Quant, Rounding};
+/// use fxshade_ir::datapath::{Datapath, Trace};
+/// use fxshade_numbers::format::Format;
+/// use fxshade_numbers::quantize::{Overflow, Quant, Rounding};
 /// let f: Format = "I2F14".parse().unwrap();
 /// let q = Quant::new("sq", f, Rounding::Trunc, Overflow::Saturate);
 /// let mut t = Trace::new();

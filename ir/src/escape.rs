@@ -10,7 +10,7 @@
 /// original is recoverable.
 ///
 /// ```
-/// use fxshade_model::escape::line;
+/// use fxshade_ir::escape::line;
 /// assert_eq!(line("a b.toml"), "a b.toml");
 /// assert_eq!(line("x\n`define Y\n"), "x\\n`define Y\\n");
 /// assert_eq!(line("Θ\\"), "\\u{398}\\\\");
@@ -36,7 +36,7 @@ pub fn line(s: &str) -> String {
 /// else as [`line`] writes it.
 ///
 /// ```
-/// assert_eq!(fxshade_model::escape::ascii("I0·km, Θ = 0.5"), "I0*km, Theta = 0.5");
+/// assert_eq!(fxshade_ir::escape::ascii("I0·km, Θ = 0.5"), "I0*km, Theta = 0.5");
 /// ```
 pub fn ascii(s: &str) -> String {
     let mut t = String::with_capacity(s.len());
@@ -67,7 +67,7 @@ pub fn ascii(s: &str) -> String {
 /// page.
 ///
 /// ```
-/// assert_eq!(fxshade_model::escape::markdown("a_b `c`\n"), "a\\_b \\`c\\`\\n");
+/// assert_eq!(fxshade_ir::escape::markdown("a_b `c`\n"), "a\\_b \\`c\\`\\n");
 /// ```
 pub fn markdown(s: &str) -> String {
     let mut out = String::new();

@@ -11,7 +11,7 @@
 //! Coefficient order: [`super::AreaTerms::NAMES`], then a constant.
 
 use super::AreaModel;
-use crate::rtl::timing::Target;
+use crate::timing::Target;
 
 /// The fitted model of `target`; None where no fit exists (a standard-cell
 /// process has no LUTs).

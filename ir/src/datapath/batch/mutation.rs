@@ -116,6 +116,6 @@ impl Trace {
 /// dropped or added) can lie outside `q`'s format: the emitter's range
 /// check is then not a constant 0 (the emitter's own width rules).
 fn can_overflow(xw: u32, xs: bool, dropped: i32, q: &crate::quantize::Quant) -> bool {
-    let rw = crate::rtl::bits::rounded_width(xw, dropped, q.round());
-    crate::rtl::bits::can_leave(rw, xs, q.format().width(), q.format().signed())
+    let rw = crate::bits::rounded_width(xw, dropped, q.round());
+    crate::bits::can_leave(rw, xs, q.format().width(), q.format().signed())
 }

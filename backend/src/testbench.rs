@@ -5,10 +5,10 @@
 
 use std::fmt::Write as _;
 
-use crate::vectors::{Field, GENERATOR};
+use crate::record::{Field, GENERATOR};
 
 /// The hand-written driver and checker every testbench shares.
-pub const DRIVER: &str = include_str!("../../../rtl/tb/fxs_vector_tb.vh");
+pub const DRIVER: &str = include_str!("../../rtl/tb/fxs_vector_tb.vh");
 
 /// Bit ranges `(msb, lsb)` of fields packed most significant first.
 pub(crate) fn ranges(fields: &[Field]) -> Vec<(u32, u32)> {
@@ -155,7 +155,7 @@ pub(crate) fn with_instance(
 /// ([`setup_glue`]). With `members`, `in_data` and `out_data` are packed
 /// structs and the ports connect to their members (no signedness change
 /// at a port).
-pub(crate) fn instance(
+pub fn instance(
     module: &str,
     inputs: &[Field],
     outputs: &[Field],
@@ -276,12 +276,12 @@ pub(crate) fn setup_glue(inputs: &[Field], setup: &[super::SetupPort]) -> String
 
 /// The C++ driver and checker of the Verilator harness
 /// (`rtl/tb/fxs_vector_main.h`, pasted into every generated `_main.cpp`).
-pub const DRIVER_CPP: &str = include_str!("../../../rtl/tb/fxs_vector_main.h");
+pub const DRIVER_CPP: &str = include_str!("../../rtl/tb/fxs_vector_main.h");
 
 /// The minimal Verilator harness of `fxshade bench cosim`
 /// (`rtl/tb/fxs_minimal_main.h`): the baseline the driver is measured
 /// against.
-pub const MINIMAL_CPP: &str = include_str!("../../../rtl/tb/fxs_minimal_main.h");
+pub const MINIMAL_CPP: &str = include_str!("../../rtl/tb/fxs_minimal_main.h");
 
 /// The Verilator co-simulation of an emitted module driven from C++
 /// (`verilator --cc --exe`) instead of the Verilog testbench: the same

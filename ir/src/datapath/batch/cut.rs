@@ -16,7 +16,7 @@ impl Trace {
     }
 
     /// The operands of node `i`.
-    pub(crate) fn operands(&self, i: usize) -> Vec<usize> {
+    pub fn operands(&self, i: usize) -> Vec<usize> {
         match &self.ops[i] {
             Op::Input(_) | Op::Const(_) => vec![],
             Op::Mul(a, b) | Op::Add(a, b) | Op::Sub(a, b) | Op::Max(a, b) | Op::Div(a, b, _) => {

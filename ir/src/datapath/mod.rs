@@ -37,6 +37,7 @@ mod count;
 mod fixed;
 mod reference;
 
+pub use batch::smt_literal;
 pub use batch::{
     Chunk, CompileError, Compiled, MulSplit, Mutation, MutationKind, Op, PartialProduct, Port,
     Program, SmtFunction, Trace, BLOCK, TV,

@@ -19,7 +19,7 @@ use std::fmt::Write as _;
 
 use super::testbench;
 use super::Emitted;
-use crate::vectors::{Field, GENERATOR};
+use crate::record::{Field, GENERATOR};
 
 /// One AXI4-Stream of a wrapper: its fields (most significant first) and
 /// where each sits in `tdata`.

@@ -1,0 +1,26 @@
+//! # fxshade-numbers
+//!
+//! fxshade's bottom layer, the arithmetic every other layer is written in:
+//!
+//! * [`format`](mod@format) — fixed-point formats (signedness, width,
+//!   fraction bits) and the conversion of values to codes;
+//! * [`quantize`] — the only place bits are dropped: rounding and overflow
+//!   modes, exact on `i128` codes;
+//! * [`bits`] — each quantization written out bit for bit as a Verilog
+//!   expression, and the widths the rounding needs (the RTL backend writes
+//!   them; the mutation pass of the IR asks which range checks can fire).
+//!
+//! This crate depends on no other fxshade crate (the workspace's layers are
+//! listed in `ARCHITECTURE.md`).
+#![warn(missing_docs)]
+
+pub mod bits;
+pub mod format;
+pub mod quantize;
+
+pub use format::Format;
+pub use quantize::{Overflow, Quant, Rounding};
+
+/// The source text of [`quantize`], for cache keys above this crate: a
+/// result computed by an older quantization is never served as current.
+pub const QUANTIZE_SOURCE: &str = include_str!("quantize.rs");
