@@ -1,7 +1,12 @@
 //! # fxshade-model
 //!
 //! A bit-accurate fixed-point model of a per-pixel shading pipeline, beside
-//! an f64 reference. The arithmetic is written down once:
+//! an f64 reference, and the vector flow above it. This crate is the
+//! vectors layer (the vector stream, manifests, writers, the mutant-killer
+//! search, the cache, error analysis) and re-exports the layers below it
+//! under one roof: `fxshade-numbers`, `fxshade-ir`, `fxshade-backend`,
+//! `fxshade-units` (`ARCHITECTURE.md` draws the layers). The arithmetic is
+//! written down once:
 //!
 //! * [`format`](mod@format) — fixed-point formats (signedness, width, fraction bits);
 //! * [`quantize`] — the only place bits are dropped: rounding and overflow
@@ -19,29 +24,18 @@
 //! `model/ARITHMETIC.md` states the contract the RTL follows.
 #![warn(missing_docs)]
 
-// The layers below, under the paths the units were written with.
+// The layers below, under the paths the callers were written with.
 pub use fxshade_ir::{datapath, escape, sampling};
 pub use fxshade_numbers::{format, quantize};
+pub use fxshade_units::{
+    angles, bounds, coeffs, config, interp, lighting, mad_chain, mesh, normalizer, paper, pipeline,
+    polar, render, texture, units,
+};
 
 pub mod analysis;
-pub mod angles;
-pub mod bounds;
 pub mod cache;
-pub mod coeffs;
-pub mod config;
 pub mod files;
-pub mod interp;
-pub mod lighting;
-pub mod mad_chain;
-pub mod mesh;
-pub mod normalizer;
-pub mod paper;
-pub mod pipeline;
-pub mod polar;
-pub mod render;
 pub mod rtl;
-pub mod texture;
-pub mod units;
 pub mod vectors;
 
 pub use config::Config;

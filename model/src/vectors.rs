@@ -20,8 +20,8 @@
 use std::path::Path;
 
 use crate::files::{StagedDir, WriteError};
-use crate::format::Format;
 pub use fxshade_backend::record::{fingerprint, Field, GENERATOR};
+pub use fxshade_units::rtl::units::{hunt_ties, structured_code, RtlError};
 
 /// The version of the manifest's layout (`manifest.json` of a vector set,
 /// the C ABI's `fxs_manifest`, the Python `Unit.manifest_json`), whose JSON
@@ -432,124 +432,6 @@ pub fn write_set(
         w.flush().map_err(io(path))?;
     }
     Ok(())
-}
-
-/// Inputs that make each of `stages` meet an exact rounding tie (a
-/// nearest-mode quantization whose dropped bits are exactly one half: what
-/// tells `half_up` from `half_even`, and what random vectors almost never
-/// contain), up to `per_stage` each, among `tries` candidates from `gen`
-/// (give it codes with many trailing zeros). `eval` runs one candidate in
-/// the scalar fixed-point context.
-pub fn hunt_ties(
-    stages: &[&'static str],
-    per_stage: usize,
-    tries: usize,
-    mut gen: impl FnMut() -> Vec<i128>,
-    mut eval: impl FnMut(&mut crate::datapath::Fixed<i128>, &[i128]),
-) -> Vec<Vec<i128>> {
-    let mut fx = crate::datapath::Fixed::<i128>::new();
-    let mut found: Vec<(&str, usize)> = stages.iter().map(|s| (*s, 0)).collect();
-    let mut out = Vec::new();
-    for _ in 0..tries {
-        if found.iter().all(|(_, c)| *c >= per_stage) {
-            break;
-        }
-        let cand = gen();
-        fx.reset();
-        eval(&mut fx, &cand);
-        let mut useful = false;
-        for (st, c) in found.iter_mut() {
-            if *c < per_stage && fx.ties().iter().any(|(s, k)| s == st && *k > 0) {
-                *c += 1;
-                useful = true;
-            }
-        }
-        if useful {
-            out.push(cand);
-        }
-    }
-    out
-}
-
-/// A random code of `f` with a random number of trailing zero bits (or
-/// zero), for tie hunting.
-pub fn structured_code(f: Format, rng: &mut crate::sampling::Rng) -> i128 {
-    let span = (f.max_code() - f.min_code() + 1) as u64;
-    let c = f.min_code() + rng.below(span) as i128;
-    let tz = rng.below(f.width() as u64) as u32;
-    if rng.below(3) == 0 {
-        0
-    } else {
-        c & !((1i128 << tz) - 1)
-    }
-}
-
-/// Why RTL parameters or vectors could not be generated, for any unit.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum RtlError {
-    /// An input or constant could not be converted.
-    #[error(transparent)]
-    Convert(#[from] crate::format::ConvertError),
-    /// The normalizer could not be designed.
-    #[error(transparent)]
-    Design(#[from] crate::normalizer::DesignError),
-    /// The polar configuration is unusable.
-    #[error(transparent)]
-    Polar(#[from] crate::polar::PolarError),
-    /// The angles configuration is unusable.
-    #[error(transparent)]
-    Angles(#[from] crate::angles::AnglesError),
-    /// A variant the RTL does not implement.
-    #[error("{unit}.method = \"{method}\": the RTL implements {supported} only")]
-    Method {
-        /// Unit.
-        unit: &'static str,
-        /// The configured variant.
-        method: &'static str,
-        /// What the RTL implements.
-        supported: &'static str,
-    },
-    /// A stage the RTL cannot express.
-    #[error("{unit}.{stage}: {why}")]
-    Stage {
-        /// Unit.
-        unit: &'static str,
-        /// Stage name.
-        stage: &'static str,
-        /// Why.
-        why: String,
-    },
-    /// The design cannot be emitted.
-    #[error(transparent)]
-    Emit(#[from] crate::rtl::EmitError),
-    /// The datapath cannot be compiled.
-    #[error(transparent)]
-    Compile(#[from] crate::datapath::CompileError),
-    /// The pipeline cannot be built.
-    #[error(transparent)]
-    Pipeline(#[from] crate::pipeline::PipelineError),
-    /// The lighting unit cannot be built.
-    #[error(transparent)]
-    Lighting(#[from] crate::lighting::LightingError),
-    /// More vectors than can be made.
-    #[error("--count {count}: too many vectors: {why}")]
-    TooMany {
-        /// The count asked for.
-        count: u128,
-        /// Why it is too many.
-        why: String,
-    },
-    /// The cache cannot be used.
-    #[error("{0}")]
-    Cache(String),
-    /// Too few vectors for the corner cases.
-    #[error("--count {count} is below the {corners} corner cases every set holds")]
-    Count {
-        /// Requested.
-        count: usize,
-        /// Needed at least.
-        corners: usize,
-    },
 }
 
 impl From<crate::cache::CacheError> for RtlError {

@@ -7,64 +7,13 @@
 //! overflow flags always come from the compiled trace, and the vector
 //! layout from the emitted module's ports.
 
+pub use fxshade_units::rtl::units::*;
+
 use super::search::Search;
 use super::{emit, Design, Emitted};
 use crate::config::Config;
 use crate::format::Format;
-use crate::vectors::{RtlError, RtlSources, VectorSet, VectorSource as _};
-
-/// Which input rows a unit's generator makes.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Part {
-    /// The corner cases: a fixed list for a configuration and seed.
-    Corners,
-    /// `n` random rows (the random part of a vector stream is drawn in
-    /// chunks, each from a seed of its own).
-    Random(usize),
-}
-
-/// A unit's input generator: rows (codes in input-port order) of a part
-/// of the stream, for a seed.
-pub type InputsFn = fn(&Config, Part, u64) -> Result<Vec<Vec<i128>>, RtlError>;
-
-/// A unit with RTL.
-pub struct RtlUnit {
-    /// Name: configuration section (or scope), module, vector directory.
-    pub name: &'static str,
-    /// One line for people.
-    pub doc: &'static str,
-    /// Variants: name and the `--set` overrides selecting it, separated by
-    /// `;` (none: the empty string); [`overrides`] splits them.
-    pub variants: &'static [(&'static str, &'static str)],
-    /// The traced datapath of a configuration.
-    pub design: fn(&Config) -> Result<Design, RtlError>,
-    /// Input rows (codes in the input-port order) for a seed: the corner
-    /// cases, or random rows.
-    pub inputs: InputsFn,
-}
-
-/// The `--set` overrides of a variant's selector (`a=1; b="x"`).
-pub fn overrides(set: &str) -> impl Iterator<Item = &str> {
-    set.split(';').map(str::trim).filter(|s| !s.is_empty())
-}
-
-/// Every unit with RTL, in pipeline order, the pipeline top last: the
-/// `rtl` modules of [`crate::units::UNITS`].
-pub fn all() -> impl Iterator<Item = &'static RtlUnit> {
-    crate::units::UNITS
-        .iter()
-        .flat_map(|u| u.rtl.iter().copied())
-}
-
-/// Look a unit up by name.
-pub fn unit(name: &str) -> Option<&'static RtlUnit> {
-    all().find(|u| u.name == name)
-}
-
-/// The names of every unit with RTL, for messages.
-pub fn names() -> String {
-    all().map(|u| u.name).collect::<Vec<_>>().join(", ")
-}
+use crate::vectors::{RtlSources, VectorSet, VectorSource as _};
 
 /// Emit a unit for a configuration.
 pub fn emit_unit(u: &RtlUnit, cfg: &Config) -> Result<(Design, Emitted), RtlError> {
@@ -419,41 +368,6 @@ pub fn vector_set(
         corner_cases: corners,
         flags: e.flags.clone(),
     })
-}
-
-/// A design of `unit` for `cfg`: its source and overrides (escaped) and
-/// TOML go into the generated header, its `[rtl]` section sets the
-/// pipelining and the handshake.
-pub fn design(
-    unit: &'static str,
-    variant: &str,
-    trace: crate::datapath::Trace,
-    cfg: &Config,
-    notes: Vec<String>,
-) -> Design {
-    // Printable ASCII only: this goes into generated headers.
-    let mut source = cfg.source.clone();
-    if !cfg.overrides.is_empty() {
-        let o: Vec<String> = cfg
-            .overrides
-            .iter()
-            .map(|o| crate::escape::line(o))
-            .collect();
-        source += &format!(", overrides: {}", o.join(" "));
-    }
-    Design {
-        module: unit.to_string(),
-        unit,
-        variant: variant.to_string(),
-        trace,
-        config_source: source,
-        config_toml: cfg.to_toml(),
-        notes,
-        pipelining: super::section::pipelining(cfg),
-        setup: Vec::new(),
-        handshake: super::section::handshake(cfg),
-        parameters: serde_json::Value::Null,
-    }
 }
 
 /// The design's output ports compiled: what computes the expected outputs

@@ -364,7 +364,7 @@ impl Config {
 
     /// Read and validate a file.
     pub fn load(path: &Path) -> Result<Config, ConfigErrors> {
-        let text = crate::files::read_text_limited(path).map_err(|reason| {
+        let text = crate::input::read_text_limited(path).map_err(|reason| {
             ConfigErrors(vec![ConfigError::Read {
                 path: crate::escape::line(&path.display().to_string()),
                 reason,

@@ -10,8 +10,8 @@ use crate::config::Config;
 use crate::interp::THETA_LADDER;
 use crate::normalizer::Method;
 use crate::rtl::units::Part;
+use crate::rtl::units::{structured_code, RtlError};
 use crate::sampling::Rng;
-use crate::vectors::{structured_code, RtlError};
 
 /// The configured path of `cfg`.
 pub fn path_of(cfg: &Config) -> Path {

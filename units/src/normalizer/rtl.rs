@@ -9,8 +9,8 @@ use crate::datapath::{Fixed, Fx};
 use crate::format::Format;
 use crate::quantize::{Overflow, Quant, Rounding};
 use crate::rtl::units::Part;
+use crate::rtl::units::{hunt_ties, structured_code, RtlError};
 use crate::sampling::{self, Rng};
-use crate::vectors::{hunt_ties, structured_code, RtlError};
 
 /// The unit's traced datapath for a configuration (any method but
 /// `exact`, which divides and takes a square root: [`crate::rtl::emit`]

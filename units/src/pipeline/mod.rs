@@ -832,8 +832,8 @@ impl Pipeline {
     /// The per-pixel input fields of `path`, in the order of the rows
     /// [`Pipeline::run_rows`] takes and the RTL top's input port packs,
     /// most significant first.
-    pub fn fields(&self, path: Path) -> Vec<crate::vectors::Field> {
-        use crate::vectors::Field;
+    pub fn fields(&self, path: Path) -> Vec<crate::rtl::record::Field> {
+        use crate::rtl::record::Field;
         let fb = self.interp.bary.format();
         let mut f = Vec::new();
         match path {

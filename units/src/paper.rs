@@ -22,7 +22,7 @@
 use crate::coeffs::{self, Poly};
 
 /// The published tables, with their source in the header.
-pub const PAPER_CSV: &str = include_str!("../data/paper_tables.csv");
+pub const PAPER_CSV: &str = include_str!("../../model/data/paper_tables.csv");
 
 /// How well an entry reproduces.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]

@@ -6,8 +6,8 @@ use glam::DVec3;
 use super::{Angles, DECL};
 use crate::config::Config;
 use crate::rtl::units::Part;
+use crate::rtl::units::RtlError;
 use crate::sampling::Rng;
-use crate::vectors::RtlError;
 
 /// The unit's traced datapath for a configuration.
 pub fn design(cfg: &Config) -> Result<crate::rtl::Design, RtlError> {

@@ -6,8 +6,8 @@ use crate::config::Config;
 use crate::datapath::{Fixed, Fx};
 use crate::quantize::Rounding;
 use crate::rtl::units::Part;
+use crate::rtl::units::{hunt_ties, RtlError};
 use crate::sampling::Rng;
-use crate::vectors::{hunt_ties, RtlError};
 
 /// The unit's traced datapath for a configuration.
 pub fn design(cfg: &Config) -> Result<crate::rtl::Design, RtlError> {

@@ -524,7 +524,7 @@ mod obj_tests {
         std::fs::create_dir_all(&d).unwrap();
         let p = d.join(format!(
             "{:x}.obj",
-            crate::vectors::fingerprint(&[text.as_bytes()])
+            crate::rtl::record::fingerprint(&[text.as_bytes()])
         ));
         std::fs::write(&p, text).unwrap();
         let r = load_obj(&p);

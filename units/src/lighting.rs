@@ -365,8 +365,8 @@ pub mod rtl {
     use super::{Lighting, DECL};
     use crate::config::Config;
     use crate::rtl::units::Part;
+    use crate::rtl::units::{structured_code, RtlError};
     use crate::sampling::Rng;
-    use crate::vectors::{structured_code, RtlError};
     use glam::DVec3;
 
     /// The unit's traced datapath: diffuse, or diffuse + specular.
