@@ -39,6 +39,7 @@ fn design(label: &str, trace: Trace) -> Design {
         trace,
         config_source: "<calibration probe>".into(),
         config_toml: String::new(),
+        config_key: String::new(),
         notes: vec![format!("Delay-model calibration probe: {label}.")],
         pipelining: super::timing::Pipelining::Compact,
         setup: Vec::new(),

@@ -27,8 +27,7 @@ pub fn vlnv_part(s: &str) -> String {
 /// the name, not the version: FuseSoC parses the last field as a version
 /// number, and with hex hashes there its dependency solver takes minutes
 /// once several cores share a root.
-pub fn core_name(unit: &str, variant: &str, config_toml: &str) -> String {
-    let hash = crate::record::fingerprint(&[config_toml.as_bytes()]);
+pub fn core_name(unit: &str, variant: &str, hash: u64) -> String {
     format!(
         "fxshade:{}:{}_{hash:016x}:{}",
         vlnv_part(unit),
@@ -61,10 +60,10 @@ pub fn capi2(
     unit: &str,
     variant: &str,
     module: &str,
-    config_toml: &str,
+    config_hash: u64,
     count: Option<usize>,
 ) -> String {
-    let name = core_name(unit, variant, config_toml);
+    let name = core_name(unit, variant, config_hash);
     let mut t = String::from("CAPI=2:\n");
     let _ = writeln!(
         t,

@@ -66,8 +66,13 @@ pub struct Design {
     pub trace: Trace,
     /// Where the configuration came from, and its overrides.
     pub config_source: String,
-    /// The effective configuration as TOML (hashed into the header).
+    /// The effective configuration as TOML (what a vector set records).
     pub config_toml: String,
+    /// The configuration this design depends on, as text: the sections
+    /// its unit read while building it. Its [`fingerprint`](record::fingerprint)
+    /// is the hash in the generated header and the core's name
+    /// ([`Design::config_hash`]).
+    pub config_key: String,
     /// Lines describing the configuration (coefficients, tables …).
     pub notes: Vec<String>,
     /// Where the pipeline registers go (`[rtl]`).
@@ -82,6 +87,22 @@ pub struct Design {
     /// coefficient codes and values, highest power first): the vector
     /// manifest's `parameters` (`null` when there are none).
     pub parameters: serde_json::Value,
+}
+
+impl Design {
+    /// The configuration hash of the generated header and the core's name:
+    /// FNV-1a of [`Design::config_key`].
+    pub fn config_hash(&self) -> u64 {
+        crate::record::fingerprint(&[self.config_key.as_bytes()])
+    }
+
+    /// The sections [`Design::config_key`] holds, in its order.
+    pub fn config_sections(&self) -> Vec<&str> {
+        self.config_key
+            .lines()
+            .filter_map(|l| l.strip_prefix('[').and_then(|l| l.strip_suffix(']')))
+            .collect()
+    }
 }
 
 /// A group of inputs loaded through a set-up port of its own (per frame,
@@ -2817,7 +2838,7 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
     e.hw.incrementers.sort();
 
     // Header.
-    let hash = crate::record::fingerprint(&[d.config_toml.as_bytes()]);
+    let hash = d.config_hash();
     let mut v = String::new();
     let _ = writeln!(
         v,
@@ -2839,6 +2860,14 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
         "// Configuration: {} (hash {hash:016x})",
         d.config_source
     );
+    let sections = d.config_sections();
+    if !sections.is_empty() {
+        let _ = writeln!(
+            v,
+            "// The hash covers the sections the module depends on: [{}].",
+            sections.join("], [")
+        );
+    }
     for n in &d.notes {
         // Printable ASCII only (lowRISC): the notes' symbols spelled out.
         let _ = writeln!(v, "// {}", crate::escape::ascii(n));

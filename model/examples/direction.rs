@@ -11,7 +11,7 @@ fn main() {
     for o in &args[3..] {
         cfg.apply_override(o).unwrap();
     }
-    let d = (u.design)(&cfg).unwrap();
+    let d = u.design(&cfg).unwrap();
     let roots: Vec<_> = d.trace.output_ports().iter().map(|p| p.value).collect();
     for m in d
         .trace

@@ -10,7 +10,7 @@ fn main() {
     for o in &args[2..] {
         cfg.apply_override(o).unwrap();
     }
-    let d = (u.design)(&cfg).unwrap();
+    let d = u.design(&cfg).unwrap();
     let t = &d.trace;
     let roots: Vec<_> = t.output_ports().iter().map(|p| p.value).collect();
     let prog = fxshade_model::datapath::Compiled::compile(t, &roots).unwrap();

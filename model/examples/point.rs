@@ -16,7 +16,7 @@ fn main() {
     for o in args.iter().skip(split + 1) {
         cfg.apply_override(o).unwrap();
     }
-    let d = (u.design)(&cfg).unwrap();
+    let d = u.design(&cfg).unwrap();
     let t = &d.trace;
     let all: Vec<_> = (0..t.ops().len()).map(|i| t.value(i)).collect();
     let p = Compiled::compile(t, &all).unwrap();

@@ -17,7 +17,7 @@ fn main() {
             cfg.apply_override(o).unwrap();
         }
         let v = units::vectors(u, &cfg, 10_000, 1, Default::default()).unwrap();
-        let d = (u.design)(&cfg).unwrap();
+        let d = u.design(&cfg).unwrap();
         let ports = d.trace.input_ports();
         let mut s = 0x9e3779b97f4a7c15u64;
         let mut next = || {

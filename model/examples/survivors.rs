@@ -24,7 +24,7 @@ fn main() {
             let t = std::time::Instant::now();
             let v = units::vectors(u, &cfg, 10_000, 1, Default::default()).unwrap();
             let gen = t.elapsed().as_secs_f64();
-            let d = (u.design)(&cfg).unwrap();
+            let d = u.design(&cfg).unwrap();
             let mk = mutants::model_kills(&d, &v.input_rows).unwrap();
             let mut eq = 0;
             let mut surv = Vec::new();

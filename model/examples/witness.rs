@@ -17,7 +17,7 @@ fn main() {
     }
     let env = |k: &str, v: u32| std::env::var(k).map_or(v, |s| s.parse().expect(k));
     let work = 1usize << env("WORK", 29);
-    let d = (u.design)(&cfg).unwrap();
+    let d = u.design(&cfg).unwrap();
     let roots: Vec<_> = d.trace.output_ports().iter().map(|p| p.value).collect();
     for m in d
         .trace

@@ -1465,7 +1465,9 @@ pub fn angles(cfg: &Config, count: usize, seed: u64) -> Result<AnglesReport, Ana
     };
     st.max_alpha_deg = st.max_alpha_lsb * 360.0 / turn;
     st.max_beta_deg = st.max_beta_lsb * 360.0 / turn;
-    let design = crate::angles::rtl::design(cfg).map_err(|e| AnalysisError::Rtl(e.to_string()))?;
+    let design = crate::angles::RTL
+        .design(cfg)
+        .map_err(|e| AnalysisError::Rtl(e.to_string()))?;
     let em = crate::rtl::emit(&design).map_err(|e| AnalysisError::Rtl(e.to_string()))?;
     let hw = &em.hardware;
     Ok(AnglesReport {

@@ -200,7 +200,7 @@ fn run_variant(
     bar: &indicatif::ProgressBar,
 ) -> anyhow::Result<VariantResult> {
     let start = std::time::Instant::now();
-    let d = (u.design)(cfg)?;
+    let d = u.design(cfg)?;
     let v = rtl::units::vectors(u, cfg, a.count, a.seed, super::search_mode()?)?;
     let model = mutants::model_kills(&d, &v.input_rows)?;
     let muts: Vec<_> = model.iter().map(|(m, _)| m.clone()).collect();

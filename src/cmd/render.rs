@@ -488,7 +488,7 @@ fn run_rtl(
         RenderMethod::Tbn => bail!("the conventional baseline (tbn) has no RTL"),
     }
     let p = fxshade_model::pipeline::Pipeline::from_config(&c)?;
-    let design = fxshade_model::pipeline::rtl::design(&c)?;
+    let design = fxshade_model::pipeline::RTL.design(&c)?;
     let emitted = fxshade_model::rtl::emit(&design)?;
     let rows = f.rows(method);
     let live: Vec<usize> = (0..rows.len()).filter(|&i| !rows[i].is_empty()).collect();

@@ -365,7 +365,7 @@ impl DeviceCost {
     /// only (nothing is synthesized here).
     pub fn of(cfg: &fxshade_model::Config) -> Option<DeviceCost> {
         use fxshade_model::rtl::{estimate as est, timing::Target as T};
-        let design = fxshade_model::pipeline::rtl::design(cfg).ok()?;
+        let design = fxshade_model::pipeline::RTL.design(cfg).ok()?;
         let e = fxshade_model::rtl::emit(&design).ok()?;
         let hw = &e.hardware;
         let ecp5_estimate = match (est::lut_cells(hw, T::Ecp5), est::flip_flops(hw, T::Ecp5)) {

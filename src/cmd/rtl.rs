@@ -323,14 +323,14 @@ pub fn run(a: &RtlArgs) -> anyhow::Result<()> {
             .iter()
             .zip(&emitted)
             .map(|((u, c), (_, e))| {
-                let variant = units::emit_unit(u, c)?.0.variant;
+                let design = units::emit_unit(u, c)?.0;
                 Ok((
                     format!("{}.core", e.module),
                     fxshade_model::rtl::core::capi2(
                         u.name,
-                        &variant,
+                        &design.variant,
                         &e.module,
-                        &c.to_toml(),
+                        design.config_hash(),
                         None,
                     ),
                 ))

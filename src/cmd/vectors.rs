@@ -160,7 +160,7 @@ pub fn run(a: &VectorsArgs) -> anyhow::Result<()> {
             u.name,
             &s.design.variant,
             &s.emitted.module,
-            &s.design.config_toml,
+            s.design.config_hash(),
             Some(s.count),
         );
         d.write(&format!("{}.core", s.emitted.module), core.as_bytes())

@@ -269,7 +269,7 @@ fn pipeline(
 pub const UNIT_COSTS: [&str; 5] = ["normalize", "interp", "polar", "angles", "lighting"];
 
 fn cost(cfg: &Config, o: &Options, m: &mut BTreeMap<String, f64>) -> anyhow::Result<()> {
-    let design = fxshade_model::pipeline::rtl::design(cfg)?;
+    let design = fxshade_model::pipeline::RTL.design(cfg)?;
     let e = fxshade_model::rtl::emit(&design)?;
     top_cost(&e, "", cfg.unit("rtl").choice("target"), m);
     // Each analysed unit's own module: a sweep of a unit off the

@@ -1623,3 +1623,88 @@ fn datasheets_state_the_resources_synth_measures_per_target() {
         text(&o)
     );
 }
+
+/// #33 item 2: the configuration hash in a generated header (and in the
+/// FuseSoC core's name) covers only the sections the module reads, as the
+/// header lists them. A change to a section `normalize` never reads
+/// (`lighting`, `interp`) leaves `normalize.v` the same but for the line
+/// naming the overrides; a change to one it reads (`normalize.theta`,
+/// `rtl.handshake`) changes the hash; the same values read from a file
+/// hash as the default does (where they came from is not hashed); the
+/// smooth top, which reads `lighting`, changes with it.
+#[test]
+fn the_header_hash_covers_only_the_sections_a_module_reads() {
+    let dir = tempfile::tempdir().unwrap();
+    let gen = |name: &str, unit: &str, extra: &[&str]| -> String {
+        let out = dir.path().join(name);
+        let mut args = vec!["rtl", unit, "--out", out.to_str().unwrap()];
+        args.extend_from_slice(extra);
+        let o = fxshade(&args);
+        assert!(o.status.success(), "{}", text(&o));
+        let v: Vec<_> = std::fs::read_dir(&out)
+            .unwrap()
+            .flatten()
+            .map(|e| e.path())
+            .filter(|p| p.extension().is_some_and(|x| x == "v"))
+            .collect();
+        assert_eq!(v.len(), 1, "{v:?}");
+        std::fs::read_to_string(&v[0]).unwrap()
+    };
+    let hash = |v: &str| -> String {
+        v.split("(hash ")
+            .nth(1)
+            .and_then(|r| r.split(')').next())
+            .unwrap()
+            .to_string()
+    };
+    // Everything but the lines saying where the configuration came from
+    // (wrapped: its continuation lines too).
+    let body = |v: &str| -> String {
+        let mut skip = false;
+        v.lines()
+            .filter(|l| {
+                if l.starts_with("// Configuration: ") {
+                    skip = true;
+                } else if !l.starts_with("//   ") {
+                    skip = false;
+                }
+                !skip
+            })
+            .collect::<Vec<_>>()
+            .join("\n")
+    };
+    let base = gen("base", "normalize", &[]);
+    assert!(
+        base.contains("// The hash covers the sections the module depends on: [normalize], [rtl]."),
+        "{}",
+        &base[..600]
+    );
+    let unread = gen(
+        "unread",
+        "normalize",
+        &[
+            "--set",
+            "lighting.shininess=7",
+            "--set",
+            "interp.scheme=\"linear\"",
+        ],
+    );
+    assert_eq!(hash(&unread), hash(&base));
+    assert_eq!(body(&unread), body(&base));
+    for (name, set) in [
+        ("theta", "normalize.theta=0.4"),
+        ("fifo", "rtl.handshake=\"fifo\""),
+    ] {
+        let v = gen(name, "normalize", &["--set", set]);
+        assert_ne!(hash(&v), hash(&base), "{set}");
+    }
+    let shown = fxshade(&["config", "show"]);
+    assert!(shown.status.success(), "{}", text(&shown));
+    let file = dir.path().join("same.toml");
+    std::fs::write(&file, &shown.stdout).unwrap();
+    let from_file = gen("file", "normalize", &["--config", file.to_str().unwrap()]);
+    assert_eq!(hash(&from_file), hash(&base));
+    let top = gen("top", "pipeline", &[]);
+    let top_lit = gen("top_lit", "pipeline", &["--set", "lighting.shininess=7"]);
+    assert_ne!(hash(&top_lit), hash(&top));
+}

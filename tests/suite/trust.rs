@@ -870,7 +870,7 @@ fn vector_inputs_are_the_values_the_model_used() {
                 let mut all: Vec<String> = sets.clone();
                 all.extend(units::overrides(vset).map(str::to_string));
                 let cfg = fxshade_model::Config::resolve(None, &all).unwrap();
-                let d = (u.design)(&cfg).unwrap();
+                let d = u.design(&cfg).unwrap();
                 let ports = d.trace.input_ports();
                 let cols: Vec<Vec<i128>> = ports
                     .iter()

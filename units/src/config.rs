@@ -17,9 +17,10 @@
 //! ([`crate::datapath::MAX_EXACT_WIDTH`]) is rejected naming the stage it
 //! came from.
 
+use std::collections::BTreeSet;
 use std::fmt;
 use std::path::Path;
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 
 use toml_edit::{ImDocument, Item, Value as TomlValue};
 
@@ -257,6 +258,9 @@ pub struct Config {
     /// The `--set` overrides applied, in order.
     pub overrides: Vec<String>,
     units: Vec<UnitConfig>,
+    /// While [`Config::recording`] runs: the names of the sections read
+    /// through [`Config::unit`] (shared by the clones made meanwhile).
+    reads: Option<Arc<Mutex<BTreeSet<&'static str>>>>,
 }
 
 fn line_of(text: &str, offset: usize) -> usize {
@@ -487,6 +491,7 @@ impl Config {
             return Err(ConfigErrors(p.errors));
         }
         let cfg = Config {
+            reads: None,
             source: path.to_string(),
             overrides: Vec::new(),
             units: parsed
@@ -706,10 +711,54 @@ impl Config {
 
     /// The section of the unit declared by `decl`.
     pub fn unit(&self, name: &str) -> &UnitConfig {
-        self.units
+        let u = self
+            .units
             .iter()
             .find(|u| u.decl.name == name)
-            .unwrap_or_else(|| panic!("no unit {name} is registered"))
+            .unwrap_or_else(|| panic!("no unit {name} is registered"));
+        if let Some(r) = &self.reads {
+            r.lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .insert(u.decl.name);
+        }
+        u
+    }
+
+    /// Runs `f` on this configuration and returns its result with the
+    /// names of the sections `f` read (through [`Config::unit`], on this
+    /// configuration or a clone of it), in registry order: what a design
+    /// depends on, so its header's hash covers those sections only
+    /// ([`Config::sections_toml`]).
+    pub fn recording<T>(&self, f: impl FnOnce(&Config) -> T) -> (T, Vec<&'static str>) {
+        let rec = Arc::new(Mutex::new(BTreeSet::new()));
+        let view = Config {
+            reads: Some(rec.clone()),
+            ..self.clone()
+        };
+        let out = f(&view);
+        let read = rec.lock().unwrap_or_else(|e| e.into_inner()).clone();
+        let names = self
+            .units
+            .iter()
+            .map(|u| u.decl.name)
+            .filter(|n| read.contains(n))
+            .collect();
+        (out, names)
+    }
+
+    /// The sections `names` of the effective configuration as TOML, in
+    /// registry order, without the source and override comments of
+    /// [`Config::to_toml`]: the same values give the same text whichever
+    /// file or flags they came from.
+    pub fn sections_toml(&self, names: &[&str]) -> String {
+        let mut out = String::new();
+        for u in self.units.iter().filter(|u| names.contains(&u.decl.name)) {
+            out += &format!("[{}]\n", u.decl.name);
+            for (decl, v) in u.iter() {
+                out += &format!("{} = {}\n", decl.name, toml_value(v));
+            }
+        }
+        out
     }
 
     /// Where the configuration came from, with its overrides, as one
@@ -727,6 +776,11 @@ impl Config {
 
     /// Every unit's section, in registry order.
     pub fn units(&self) -> &[UnitConfig] {
+        if let Some(r) = &self.reads {
+            r.lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .extend(self.units.iter().map(|u| u.decl.name));
+        }
         &self.units
     }
 
@@ -990,5 +1044,34 @@ pub fn field_error(cfg: &UnitConfig, field: &str, msg: String) -> ConfigError {
                 },
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `recording` names the sections read, through a clone too, in
+    /// registry order; `units()` reads them all; a configuration not
+    /// recording records nothing.
+    #[test]
+    fn recording_names_the_sections_read() {
+        let cfg = Config::embedded();
+        let ((), read) = cfg.recording(|c| {
+            let _ = c.unit("rtl");
+            let c2 = c.clone();
+            let _ = c2.unit("normalize");
+        });
+        assert_eq!(read, vec!["normalize", "rtl"]);
+        let ((), all) = cfg.recording(|c| {
+            let _ = c.units();
+        });
+        assert_eq!(all.len(), cfg.units().len());
+        let ((), none) = cfg.recording(|_| ());
+        assert!(none.is_empty());
+        assert!(cfg.reads.is_none());
+        let text = cfg.sections_toml(&["rtl"]);
+        assert!(text.starts_with("[rtl]\n"), "{text}");
+        assert_eq!(text.matches('[').count(), 1, "{text}");
     }
 }

@@ -106,7 +106,7 @@ pub static RTL: crate::rtl::units::RtlUnit = crate::rtl::units::RtlUnit {
         ("diffuse", "lighting.i0_ks=0"),
         ("diffuse+specular", "lighting.i0_ks=0.25"),
     ],
-    design: crate::lighting::rtl::design,
+    build: crate::lighting::rtl::design,
     inputs: crate::lighting::rtl::inputs,
 };
 

@@ -373,7 +373,7 @@ mod tests {
             cfg.apply_override(&o).unwrap();
         }
         let u = super::super::units::unit("angles").unwrap();
-        (u.design)(&cfg).unwrap()
+        u.design(&cfg).unwrap()
     }
 
     /// Soundness by exhaustion over every input of two small CORDICs: no

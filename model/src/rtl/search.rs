@@ -1059,6 +1059,7 @@ pub(super) mod tests {
             trace,
             config_source: String::new(),
             config_toml: String::new(),
+            config_key: String::new(),
             notes: Vec::new(),
             pipelining: super::super::timing::Pipelining::Compact,
             setup: Vec::new(),
@@ -1313,7 +1314,7 @@ pub(super) mod tests {
         let mut cfg = Config::embedded();
         cfg.apply_override("normalize.method=\"linear\"").unwrap();
         let u = super::super::units::unit("normalize").unwrap();
-        let d = (u.design)(&cfg).unwrap();
+        let d = u.design(&cfg).unwrap();
         let t = &d.trace;
         let g = (0..t.ops().len())
             .find(|&i| t.stage_id(i) == Some("normalize.g"))
@@ -1471,7 +1472,7 @@ pub(super) mod tests {
                 cfg.apply_override(o).unwrap();
             }
             let u = super::super::units::unit("lighting").unwrap();
-            let d = (u.design)(&cfg).unwrap();
+            let d = u.design(&cfg).unwrap();
             let t = &d.trace;
             let roots: Vec<TV> = t.output_ports().iter().map(|p| p.value).collect();
             let m = t

@@ -52,7 +52,7 @@ fn table_trees_are_the_table_arrays() {
     let cfg = crate::Config::embedded();
     let mut tables = 0;
     for u in units::all() {
-        let d = (u.design)(&cfg).unwrap();
+        let d = u.design(&cfg).unwrap();
         let t = &d.trace;
         let all = vec![true; t.ops().len()];
         let (mut tree, mut arr) = (String::new(), String::new());
@@ -100,7 +100,7 @@ fn table_trees_are_the_table_arrays() {
 fn the_smt_function_is_the_compiled_trace() {
     let cfg = crate::Config::embedded();
     for u in units::all() {
-        let d = (u.design)(&cfg).unwrap();
+        let d = u.design(&cfg).unwrap();
         let f = d
             .trace
             .smt_function_tables(&[], &[], false)

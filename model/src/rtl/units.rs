@@ -17,7 +17,7 @@ use crate::vectors::{RtlSources, VectorSet, VectorSource as _};
 
 /// Emit a unit for a configuration.
 pub fn emit_unit(u: &RtlUnit, cfg: &Config) -> Result<(Design, Emitted), RtlError> {
-    let d = (u.design)(cfg)?;
+    let d = u.design(cfg)?;
     let e = emit(&d)?;
     Ok((d, e))
 }

@@ -92,7 +92,7 @@ pub static RTL: crate::rtl::units::RtlUnit = crate::rtl::units::RtlUnit {
         ("product", "angles.gain_mode=\"product\""),
         ("shift_add", "angles.gain_mode=\"shift_add\""),
     ],
-    design: crate::angles::rtl::design,
+    build: crate::angles::rtl::design,
     inputs: crate::angles::rtl::inputs,
 };
 

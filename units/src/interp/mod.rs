@@ -108,7 +108,7 @@ pub static RTL: crate::rtl::units::RtlUnit = crate::rtl::units::RtlUnit {
         ("linear", "interp.scheme=\"linear\""),
         ("quadratic", "interp.scheme=\"quadratic\""),
     ],
-    design: crate::interp::rtl::design,
+    build: crate::interp::rtl::design,
     inputs: crate::interp::rtl::inputs,
 };
 

@@ -95,7 +95,7 @@ pub static RTL: crate::rtl::units::RtlUnit = crate::rtl::units::RtlUnit {
         ("linear", "normalize.method=\"linear\""),
         ("quadratic", "normalize.method=\"quadratic\""),
     ],
-    design: crate::normalizer::rtl::design,
+    build: crate::normalizer::rtl::design,
     inputs: crate::normalizer::rtl::inputs,
 };
 

@@ -102,7 +102,7 @@ pub static ANGLE_RTL: crate::rtl::units::RtlUnit = crate::rtl::units::RtlUnit {
     name: "angle_interp",
     doc: "polar angles of N interpolated from per-vertex set-up (mapped path)",
     variants: &[("linear", "pipeline.angle_round=\"half_even\"")],
-    design: crate::pipeline::rtl::angle_design,
+    build: crate::pipeline::rtl::angle_design,
     inputs: crate::pipeline::rtl::angle_inputs,
 };
 
@@ -121,7 +121,7 @@ pub static RTL: crate::rtl::units::RtlUnit = crate::rtl::units::RtlUnit {
             "pipeline.path=\"mapped\"; pipeline.angles=\"interpolate\"",
         ),
     ],
-    design: crate::pipeline::rtl::design,
+    build: crate::pipeline::rtl::design,
     inputs: crate::pipeline::rtl::inputs,
 };
 

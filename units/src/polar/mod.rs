@@ -91,7 +91,7 @@ pub static RTL: crate::rtl::units::RtlUnit = crate::rtl::units::RtlUnit {
         ("quarter", "polar.organisation=\"quarter\""),
         ("full", "polar.organisation=\"full\""),
     ],
-    design: crate::polar::rtl::design,
+    build: crate::polar::rtl::design,
     inputs: crate::polar::rtl::inputs,
 };
 

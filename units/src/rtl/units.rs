@@ -31,11 +31,27 @@ pub struct RtlUnit {
     /// Variants: name and the `--set` overrides selecting it, separated by
     /// `;` (none: the empty string); [`overrides`] splits them.
     pub variants: &'static [(&'static str, &'static str)],
-    /// The traced datapath of a configuration.
-    pub design: fn(&Config) -> Result<Design, RtlError>,
+    /// The traced datapath of a configuration (call [`RtlUnit::design`],
+    /// which also records the sections it reads).
+    pub build: fn(&Config) -> Result<Design, RtlError>,
     /// Input rows (codes in the input-port order) for a seed: the corner
     /// cases, or random rows.
     pub inputs: InputsFn,
+}
+
+impl RtlUnit {
+    /// The traced datapath of a configuration, its
+    /// [`config_key`](Design::config_key) the sections of `cfg` that
+    /// building it read ([`Config::recording`]): the generated header's
+    /// hash and the core's name change with those sections only, so adding
+    /// a unit (a new section) or editing one this module never reads leaves
+    /// them as they are.
+    pub fn design(&self, cfg: &Config) -> Result<Design, RtlError> {
+        let (d, sections) = cfg.recording(|c| (self.build)(c));
+        let mut d = d?;
+        d.config_key = cfg.sections_toml(&sections);
+        Ok(d)
+    }
 }
 
 /// The `--set` overrides of a variant's selector (`a=1; b="x"`).
@@ -88,6 +104,7 @@ pub fn design(
         trace,
         config_source: source,
         config_toml: cfg.to_toml(),
+        config_key: String::new(),
         notes,
         pipelining: super::section::pipelining(cfg),
         setup: Vec::new(),
