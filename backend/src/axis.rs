@@ -78,6 +78,11 @@ fn stream(prefix: &str, fields: &[&Field]) -> Stream {
 
 /// The wrapper's streams: the item input stream, each set-up port's
 /// stream, then the output stream.
+///
+/// # Panics
+///
+/// When a set-up group of `e` names a field that is not among its inputs
+/// (never for an emitted module).
 pub fn streams(e: &Emitted) -> Vec<Stream> {
     let in_group = |f: &Field| e.setup.iter().any(|g| g.fields.contains(&f.name));
     let item: Vec<&Field> = e.inputs.iter().filter(|f| !in_group(f)).collect();
@@ -275,6 +280,10 @@ pub fn wrapper(unit: &str, e: &Emitted) -> String {
 /// The vector testbench `<module>_axis_tb` driving the wrapper: the
 /// vector files and the shared driver of `<module>_tb`, the records'
 /// fields placed into the streams' `tdata`.
+///
+/// # Panics
+///
+/// As [`streams`].
 pub fn testbench(e: &Emitted) -> String {
     let m = &e.module;
     let nf = e.flags.len();

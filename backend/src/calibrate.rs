@@ -50,6 +50,10 @@ fn design(label: &str, trace: Trace) -> Design {
 
 /// The probes for `target`: adders, multipliers (DSP-sized and not), and
 /// a rounding incrementer with saturation.
+///
+/// # Panics
+///
+/// Never: every probe's formats are constants that fit.
 pub fn probes(target: Target) -> Vec<Probe> {
     let m = target.model();
     let mut out = Vec::new();

@@ -247,6 +247,10 @@ impl Wave {
 
     /// The same as WaveDrom JSON (`{"signal": [{"name", "wave"}]}`, `|` for
     /// a quiet stretch).
+    ///
+    /// # Panics
+    ///
+    /// Never: the JSON is built from strings.
     pub fn wavedrom(&self) -> String {
         let quiet = self.quiet();
         let mut sig = Vec::new();

@@ -25,7 +25,7 @@
 //! The module's header names the generator, the configuration (its source
 //! and hash), the latency and every port with its format.
 
-#![warn(missing_docs)]
+#![warn(missing_docs, clippy::missing_errors_doc, clippy::missing_panics_doc)]
 
 pub mod axis;
 pub use fxshade_numbers::bits;
@@ -170,10 +170,10 @@ pub enum EmitError {
         /// `division` or `square root`.
         op: &'static str,
     },
-    /// A port has no name or a duplicate name.
+    /// The datapath has no named outputs.
     #[error("unit {0}: the datapath has no named outputs")]
     NoOutputs(&'static str),
-    /// Too many overflow stages for a port.
+    /// A value is wider than the emitter's 126 bits.
     #[error("unit {unit}: a value is {width} bits wide; the emitter handles at most 126")]
     TooWide {
         /// Unit.
@@ -2488,6 +2488,12 @@ fn banked_port(
 }
 
 /// Emit `d` as one Verilog module with the `compact` pipeline.
+///
+/// # Errors
+///
+/// [`EmitError::NoRtl`] for a division or square root in the outputs' cone,
+/// [`EmitError::NoOutputs`] for a datapath without outputs,
+/// [`EmitError::TooWide`] for a value wider than 126 bits.
 pub fn emit(d: &Design) -> Result<Emitted, EmitError> {
     emit_with(d, &[])
 }
@@ -2496,6 +2502,14 @@ pub fn emit(d: &Design) -> Result<Emitted, EmitError> {
 /// logic (a mutation schema): an extra input `mutant_i[15:0]` selects
 /// mutant `k` (`muts[k − 1]`), 0 the unmutated design. One simulator build
 /// then runs every mutant; the testbench takes `+MUTANT=k`.
+///
+/// # Errors
+///
+/// As [`emit`].
+///
+/// # Panics
+///
+/// With 2^16 mutations or more (mutant numbers are 16 bits).
 pub fn emit_mutants(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
     assert!(muts.len() < 1 << 16, "mutant numbers fit mutant_i");
     emit_with(d, muts)

@@ -152,7 +152,7 @@ pub(crate) fn with_instance(
 /// signals `clk`, `rst_n`, `in_valid`/`in_ready`/`in_data` and
 /// `out_valid`/`out_ready`/`out_data` (the fields packed most significant
 /// first); with set-up ports, preceded by the set-up sequencer
-/// ([`setup_glue`]). With `members`, `in_data` and `out_data` are packed
+/// (`setup_glue`). With `members`, `in_data` and `out_data` are packed
 /// structs and the ports connect to their members (no signedness change
 /// at a port).
 pub fn instance(

@@ -61,6 +61,10 @@ impl Target {
     pub const NAMES: [&'static str; 5] = ["ice40-hx8k", "ice40-up5k", "ecp5", "xc7", "asic"];
 
     /// The configuration name.
+    ///
+    /// # Panics
+    ///
+    /// Never: every target is in [`Target::ALL`].
     pub fn name(self) -> &'static str {
         Self::NAMES[Self::ALL.iter().position(|t| *t == self).expect("listed")]
     }

@@ -33,7 +33,7 @@ pub fn line(s: &str) -> String {
 /// `s` in printable ASCII for a generated file's comment: the symbols
 /// fxshade's own notes use spelled out (`Θ` as `Theta`, `·` as `*`, `−` as
 /// `-`, `≤` as `<=`, `×` as `x`, `√` as `sqrt`, `°` as ` deg`), anything
-/// else as [`line`] writes it.
+/// else as [`line`](fn@line) writes it.
 ///
 /// ```
 /// assert_eq!(fxshade_ir::escape::ascii("I0·km, Θ = 0.5"), "I0*km, Theta = 0.5");
@@ -62,8 +62,8 @@ pub fn ascii(s: &str) -> String {
 }
 
 /// The characters Markdown gives a meaning escaped with a backslash, and
-/// control or non-ASCII characters as [`line`] writes them, so a line of
-/// text (one [`line`] made already, say) shows literally in a Markdown
+/// control or non-ASCII characters as [`line`](fn@line) writes them, so a line of
+/// text (one [`line`](fn@line) made already, say) shows literally in a Markdown
 /// page.
 ///
 /// ```

@@ -15,7 +15,7 @@
 //!
 //! This crate depends only on `fxshade-numbers`; the units, the RTL backend
 //! and the flows sit above it (`ARCHITECTURE.md`).
-#![warn(missing_docs)]
+#![warn(missing_docs, clippy::missing_errors_doc, clippy::missing_panics_doc)]
 
 pub mod datapath;
 pub mod escape;

@@ -68,6 +68,10 @@ fn rep(n: u32, b: &str) -> String {
 
 /// `v` shifted left by `shift` bits (appending zeros) and sign- or
 /// zero-extended to `width` bits: a concatenation exactly `width` wide.
+///
+/// # Panics
+///
+/// When `width` is below `v.width + shift`: an alignment never drops bits.
 pub fn align(v: &Val, shift: u32, width: u32) -> String {
     let body = v.width + shift;
     assert!(width >= body, "alignment never drops bits");

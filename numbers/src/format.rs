@@ -125,6 +125,11 @@ pub fn exp2i(e: i32) -> f64 {
 impl Format {
     /// A validated format: `signed`, `width` total bits (sign included),
     /// `frac` fraction bits.
+    ///
+    /// # Errors
+    ///
+    /// [`FormatError::Width`] for a width outside `1..=64`,
+    /// [`FormatError::Frac`] for fraction bits outside `MIN_FRAC..=MAX_FRAC`.
     pub fn new(signed: bool, width: u32, frac: i32) -> Result<Self, FormatError> {
         if width == 0 || width > MAX_WIDTH {
             return Err(FormatError::Width(width as i64));
@@ -141,6 +146,10 @@ impl Format {
 
     /// A signed integer format of `width` bits (`I<width>F0`), usable in
     /// constants; panics at compile time for a width outside `1..=64`.
+    ///
+    /// # Panics
+    ///
+    /// For a width outside `1..=64` (at compile time in a constant).
     pub const fn signed_int(width: u32) -> Self {
         assert!(width >= 1 && width <= MAX_WIDTH, "width outside 1..=64");
         Format {
@@ -231,6 +240,11 @@ impl Format {
     /// `2^−frac`), with an error for NaN, ±∞ or a result outside the range.
     /// `Trunc` takes the floor, `HalfUp` rounds ties toward +∞, `HalfEven`
     /// rounds ties to the even code. Exact: no double rounding.
+    ///
+    /// # Errors
+    ///
+    /// [`ConvertError::NaN`], [`ConvertError::Infinite`], or
+    /// [`ConvertError::OutOfRange`] when the rounded value is outside the format.
     pub fn from_f64(&self, x: f64, round: Rounding) -> Result<i128, ConvertError> {
         let q = crate::quantize::Quant::new("from_f64", *self, round, Overflow::Saturate);
         let r = q.apply_f64(x)?;

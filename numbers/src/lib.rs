@@ -12,7 +12,7 @@
 //!
 //! This crate depends on no other fxshade crate (the workspace's layers are
 //! listed in `ARCHITECTURE.md`).
-#![warn(missing_docs)]
+#![warn(missing_docs, clippy::missing_errors_doc, clippy::missing_panics_doc)]
 
 pub mod bits;
 pub mod format;

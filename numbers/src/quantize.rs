@@ -441,6 +441,12 @@ impl Quant {
     /// Quantize an f64 with this step's rounding and overflow modes; errors
     /// only for NaN and ±∞. Used to bring real inputs and coefficients into
     /// the datapath with the same semantics as [`Quant::apply`].
+    ///
+    /// # Errors
+    ///
+    /// [`ConvertError::NaN`](crate::format::ConvertError::NaN) or
+    /// [`ConvertError::Infinite`](crate::format::ConvertError::Infinite); a value
+    /// outside the format is not an error but wraps or saturates (`overflowed`).
     pub fn apply_f64(&self, x: f64) -> Result<Quantized, crate::format::ConvertError> {
         use crate::format::ConvertError;
         if x.is_nan() {
@@ -475,6 +481,10 @@ pub fn decompose(x: f64) -> (i128, i32) {
 /// The exact format of a non-negative integer literal `n`: `U<b>F0` with `b`
 /// the bit length of `n` (at least 1), so `1` is `U1F0` and `15` is `U4F0`.
 /// A constant is a value in a format too; this one holds it exactly.
+///
+/// # Panics
+///
+/// Never: the bit length of a `u64` is `1..=64`, a valid width.
 pub fn literal(n: u64) -> Quant {
     let bits = (64 - n.leading_zeros()).max(1);
     Quant::new(

@@ -176,6 +176,11 @@ impl Trace {
         self.input_named(&name, q)
     }
     /// A new input port named `name` carrying codes of `q.format()`.
+    ///
+    /// # Panics
+    ///
+    /// Never: the port is recorded for counting as the constant 0, which every
+    /// format holds.
     pub fn input_named(&mut self, name: &str, q: &Quant) -> TV {
         let slot = self.inputs.len();
         self.inputs.push(*q);
@@ -190,6 +195,11 @@ impl Trace {
     /// Name `v` as an output port. Its format is the value's exact format,
     /// which must be a valid [`Format`] (at most 64 bits): outputs are
     /// quantized values.
+    ///
+    /// # Panics
+    ///
+    /// When `v`'s exact format is not a valid [`Format`] (wider than 64 bits):
+    /// quantize a value before naming it an output.
     pub fn output(&mut self, name: &str, v: TV) {
         let format = Format::new(v.sym.signed, v.sym.width, v.sym.frac)
             .expect("outputs are quantized values, at most 64 bits");
@@ -348,6 +358,10 @@ impl Trace {
         v
     }
     /// Compile the named outputs for batches.
+    ///
+    /// # Errors
+    ///
+    /// As [`Compiled::compile`].
     pub fn compile_outputs(&self) -> Result<Compiled, CompileError> {
         let outs: Vec<TV> = self.outputs.iter().map(|p| p.value).collect();
         Compiled::compile(self, &outs)
@@ -573,6 +587,12 @@ fn stage_index(stages: &mut Vec<&'static str>, s: &'static str) -> usize {
 impl<R: Raw> Program<R> {
     /// Compile the trace for the given outputs: the operations they read
     /// (every input port keeps its place among the program's inputs).
+    ///
+    /// # Errors
+    ///
+    /// A [`CompileError`]: the trace's counting run found an intermediate
+    /// wider than the model holds exactly, an intermediate does not fit the
+    /// code type `R`, or the quantization stages outnumber the flag bits.
     pub fn compile(trace: &Trace, outputs: &[TV]) -> Result<Self, CompileError> {
         if let Some(e) = trace.count.width_errors().first() {
             return Err(e.clone().into());
@@ -761,6 +781,10 @@ impl<R: Raw> Program<R> {
     /// `nodes`, per lane: what the quantizer at that node received. For
     /// looking inside the datapath (rounding ties, overflows) without
     /// re-running it in the scalar context.
+    ///
+    /// # Panics
+    ///
+    /// When a node of `nodes` is not a quantization the program computes.
     pub fn probe(&self, inputs: &[&[R]], nodes: &[usize]) -> Vec<Vec<i128>> {
         let operand: Vec<usize> = nodes
             .iter()
@@ -1153,6 +1177,10 @@ fn on_i64<T>(
 
 impl Compiled {
     /// Compile on the narrowest code type that holds the datapath.
+    ///
+    /// # Errors
+    ///
+    /// As [`Program::compile`].
     pub fn compile(trace: &Trace, outputs: &[TV]) -> Result<Self, CompileError> {
         if trace.count().fits_i64() {
             Ok(Compiled::Narrow(Program::compile(trace, outputs)?))

@@ -60,6 +60,11 @@ pub trait Datapath {
     /// A real number entering the datapath in step `q`'s format (an input
     /// port or a coefficient register). [`Fixed`] quantizes it with `q`'s
     /// modes; [`Reference`] keeps it exact; [`Count`] records nothing.
+    ///
+    /// # Errors
+    ///
+    /// A [`ConvertError`] when `x` is NaN or infinite, or (in the contexts that
+    /// check it) outside `q`'s format.
     fn constant(&mut self, x: f64, q: &Quant) -> Result<Self::V, ConvertError>;
     /// Exact product.
     fn mul(&mut self, a: Self::V, b: Self::V) -> Self::V;
@@ -187,6 +192,11 @@ pub enum TableError {
 
 impl Table {
     /// Tabulate `exact` over every code of `index`, quantizing with `out`.
+    ///
+    /// # Errors
+    ///
+    /// [`TableError::Index`] for an index that is signed or wider than 24 bits,
+    /// [`TableError::Entry`] for an entry whose exact value cannot be quantized.
     pub fn build(
         name: &'static str,
         index: Format,

@@ -108,6 +108,11 @@ impl Trace {
     /// by a new input port of `c`'s format, named `cut`; and the position of
     /// that port among the compiled program's inputs (which are the input
     /// nodes in node order, the replaced port's old inputs included).
+    ///
+    /// # Panics
+    ///
+    /// When node `c` is neither a quantization nor an input port, or out of
+    /// range.
     pub fn cut_at(&self, c: usize) -> (Trace, usize) {
         let q = match &self.ops[c] {
             Op::Quant(_, q) => *q,

@@ -24,6 +24,11 @@ impl<R: Raw> Program<R> {
     /// `inputs[i] = (lo_i, hi_i)`, or `None` where the evaluation cannot
     /// bound an operation (possible wrap-around, a table, a division or a
     /// square root, a non-constant selector).
+    ///
+    /// # Panics
+    ///
+    /// When `inputs` does not hold one range per input port, or a range has
+    /// `lo > hi`.
     pub fn run_interval(&self, inputs: &[(i128, i128)]) -> Option<Vec<(i128, i128)>> {
         assert_eq!(inputs.len(), self.inputs.len(), "one range per input port");
         assert!(

@@ -97,6 +97,11 @@ impl Trace {
     }
 
     /// The trace with `m` applied.
+    ///
+    /// # Panics
+    ///
+    /// When `m.node` is not a quantization node of this trace (mutations come
+    /// from [`Trace::mutations`], which lists only those).
     pub fn mutated(&self, m: &Mutation) -> Trace {
         let mut t = self.clone();
         if let Op::Quant(a, q) = &mut t.ops[m.node] {
