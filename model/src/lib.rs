@@ -37,6 +37,7 @@ pub mod cache;
 pub mod files;
 pub mod rtl;
 pub mod vectors;
+pub mod writers;
 
 pub use config::Config;
 pub use datapath::{Count, Datapath, Fixed, Fx, Reference};

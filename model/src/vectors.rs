@@ -6,9 +6,11 @@
 //! * `manifest.json` — generator and version, unit, variant, configuration
 //!   source, count, seed, and the fields of each line in order, with their
 //!   formats, widths and bit positions;
-//! * `inputs.hex`, `expected.hex` — one line per vector: the 32-bit vector
-//!   index, then the fields most significant first, as one hex number
-//!   (what `$readmemh` reads into a `[32+W-1:0]` memory word);
+//! * the records in each format of [`crate::writers`]: `inputs.bin`,
+//!   `expected.bin` — the binary records the testbench reads; `inputs.hex`,
+//!   `expected.hex` — one line per vector: the 32-bit vector index, then the
+//!   fields most significant first, as one hex number (what `$readmemh`
+//!   reads into a `[32+W-1:0]` memory word);
 //! * `<unit>.v`, `<unit>_tb.v` — the unit's generated Verilog and its
 //!   self-checking testbench for the configuration;
 //! * `config.toml` — the effective configuration.
@@ -22,6 +24,10 @@ use std::path::Path;
 use crate::files::{StagedDir, WriteError};
 pub use fxshade_backend::record::{fingerprint, Field, GENERATOR};
 pub use fxshade_units::rtl::units::{hunt_ties, structured_code, RtlError};
+
+pub use crate::writers::binary::{push_record, record_bytes};
+pub use crate::writers::hex::hex_line;
+use crate::writers::VectorWriter;
 
 /// The version of the manifest's layout (`manifest.json` of a vector set,
 /// the C ABI's `fxs_manifest`, the Python `Unit.manifest_json`), whose JSON
@@ -92,7 +98,7 @@ pub struct VectorSet {
 
 /// `{index[31:0], fields…}` packed LSB first into 64-bit words (on the
 /// stack up to 2048 bits).
-fn pack(index: u32, fields: &[Field], row: &[i128]) -> (Words, usize) {
+pub(crate) fn pack(index: u32, fields: &[Field], row: &[i128]) -> (Words, usize) {
     let total: usize = 32
         + fields
             .iter()
@@ -125,7 +131,7 @@ fn pack(index: u32, fields: &[Field], row: &[i128]) -> (Words, usize) {
 
 /// Packed words.
 #[allow(clippy::large_enum_variant)] // the stack variant is the point
-enum Words {
+pub(crate) enum Words {
     Stack([u64; 32]),
     Heap(Vec<u64>),
 }
@@ -146,36 +152,6 @@ impl std::ops::DerefMut for Words {
             Words::Stack(a) => a,
             Words::Heap(v) => v,
         }
-    }
-}
-
-/// `{index[31:0], fields…}` as one hex number, most significant first.
-pub fn hex_line(index: u32, fields: &[Field], row: &[i128]) -> String {
-    let (w, total) = pack(index, fields, row);
-    let digits = total.div_ceil(4);
-    let mut s = String::with_capacity(digits);
-    for d in (0..digits).rev() {
-        let v = (w[d * 4 / 64] >> ((d * 4) % 64)) & 0xf;
-        s.push(char::from_digit(v as u32, 16).expect("nibble"));
-    }
-    s
-}
-
-/// Bytes of one binary record of `fields`: `ceil((32 + W) / 8)`.
-pub fn record_bytes(fields: &[Field]) -> usize {
-    (32 + fields
-        .iter()
-        .map(|f| f.format.width() as usize)
-        .sum::<usize>())
-    .div_ceil(8)
-}
-
-/// Append the binary record `{zero pad, index[31:0], fields…}`, big endian,
-/// [`record_bytes`] long: what the testbench reads with `$fread`.
-pub fn push_record(out: &mut Vec<u8>, index: u32, fields: &[Field], row: &[i128]) {
-    let (w, total) = pack(index, fields, row);
-    for b in (0..total.div_ceil(8)).rev() {
-        out.push((w[b / 8] >> ((b % 8) * 8)) as u8);
     }
 }
 
@@ -336,7 +312,7 @@ impl VectorSet {
             &self.manifest(),
             &self.config_toml,
             &self.rtl,
-            true,
+            crate::writers::WRITERS,
             &mut |_| {},
         )
     }
@@ -358,11 +334,17 @@ pub const WRITE_CHUNK: usize = 8192;
 
 /// Write a vector set into subdirectory `sub` (empty: the top) of a staged
 /// directory: `manifest.json`, `config.toml`, the RTL and its testbench,
-/// the binary records `inputs.bin` and `expected.bin` ([`push_record`]),
-/// and with `hex` the same as `inputs.hex` and `expected.hex`
-/// ([`hex_line`]). The records are drawn from `src` [`WRITE_CHUNK`] at a
-/// time and written as they come, so memory does not grow with the count;
-/// `progress` gets the vectors written so far.
+/// and the records in each format of `writers` (an inputs file and an
+/// expected file each, [`VectorWriter::files`]; the testbench reads the
+/// binary records, so give [`writers::BINARY`](crate::writers::BINARY)).
+/// The records are drawn from `src` [`WRITE_CHUNK`] at a time and written
+/// as they come, so memory does not grow with the count; `progress` gets
+/// the vectors written so far.
+///
+/// # Errors
+///
+/// [`SetError::Write`] when a file cannot be written,
+/// [`SetError::Vectors`] when the vectors cannot be generated.
 #[allow(clippy::too_many_arguments)]
 pub fn write_set(
     d: &StagedDir,
@@ -371,7 +353,7 @@ pub fn write_set(
     manifest: &serde_json::Value,
     config_toml: &str,
     rtl: &RtlSources,
-    hex: bool,
+    writers: &[&dyn VectorWriter],
     progress: &mut dyn FnMut(usize),
 ) -> Result<(), SetError> {
     use std::io::Write;
@@ -400,10 +382,12 @@ pub fn write_set(
         let f = std::fs::File::create(&path).map_err(io(&path))?;
         Ok((path, std::io::BufWriter::with_capacity(1 << 20, f)))
     };
-    let mut files = vec![open("inputs.bin")?, open("expected.bin")?];
-    if hex {
-        files.push(open("inputs.hex")?);
-        files.push(open("expected.hex")?);
+    // Two files per format: its inputs, then its expected outputs.
+    let mut files = Vec::new();
+    for w in writers {
+        for name in w.files() {
+            files.push(open(name)?);
+        }
     }
     let (ins, outs) = (src.input_fields(), src.output_fields());
     let mut done = 0;
@@ -413,13 +397,9 @@ pub fn write_set(
         let mut bufs: Vec<Vec<u8>> = vec![Vec::new(); files.len()];
         for (k, (r, e)) in rows.iter().zip(&exp).enumerate() {
             let idx = (src.first() + done + k) as u32;
-            push_record(&mut bufs[0], idx, ins, r);
-            push_record(&mut bufs[1], idx, outs, e);
-            if hex {
-                bufs[2].extend_from_slice(hex_line(idx, ins, r).as_bytes());
-                bufs[2].push(b'\n');
-                bufs[3].extend_from_slice(hex_line(idx, outs, e).as_bytes());
-                bufs[3].push(b'\n');
+            for (w, b) in writers.iter().zip(bufs.chunks_mut(2)) {
+                w.push(&mut b[0], idx, ins, r);
+                w.push(&mut b[1], idx, outs, e);
             }
         }
         for ((path, w), b) in files.iter_mut().zip(&bufs) {

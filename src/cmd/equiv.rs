@@ -815,7 +815,7 @@ fn replay(
         &set.manifest(),
         &set.config_toml,
         &set.rtl,
-        true,
+        fxshade_model::writers::WRITERS,
         &mut |_| {},
     )
     .with_context(|| format!("cannot write the counterexample to {}", dir.display()))?;

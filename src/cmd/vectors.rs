@@ -7,7 +7,8 @@ use anyhow::Context;
 use clap::Args;
 use fxshade_model::files::StagedDir;
 use fxshade_model::rtl::units::VectorStream;
-use fxshade_model::vectors::{record_bytes, write_set};
+use fxshade_model::vectors::write_set;
+use fxshade_model::writers::{self, VectorWriter};
 
 use super::ConfigArgs;
 
@@ -78,25 +79,17 @@ pub fn run(a: &VectorsArgs) -> anyhow::Result<()> {
     fxshade_model::rtl::units::check_total(a.count)
         .map_err(|e| crate::output::UsageError(e.to_string()))?;
     let (_, emitted) = fxshade_model::rtl::units::emit_unit(u, &cfg)?;
-    let (ib, eb) = (
-        record_bytes(&emitted.inputs),
-        record_bytes(&emitted.outputs),
-    );
-    let hex = |fields: &[fxshade_model::vectors::Field]| {
-        (32 + fields
-            .iter()
-            .map(|f| f.format.width() as usize)
-            .sum::<usize>())
-        .div_ceil(4)
-            + 1
-    };
-    let per = ib
-        + eb
-        + if a.no_hex {
-            0
-        } else {
-            hex(&emitted.inputs) + hex(&emitted.outputs)
-        };
+    // The formats written: the binary records always (the testbench
+    // reads them), the others unless left out.
+    let writers: Vec<&dyn VectorWriter> = writers::WRITERS
+        .iter()
+        .copied()
+        .filter(|w| !(a.no_hex && w.name() == "hex"))
+        .collect();
+    let per: usize = writers
+        .iter()
+        .map(|w| w.record_bytes(&emitted.inputs) + w.record_bytes(&emitted.outputs))
+        .sum();
     let count = match shard {
         Some((k, n)) => {
             (a.count as u128 * (k as u128 + 1) / n as u128
@@ -132,9 +125,13 @@ pub fn run(a: &VectorsArgs) -> anyhow::Result<()> {
     .with_context(|| format!("cannot write the vectors to {}", a.out.display()))?;
     let s = VectorStream::new(u, &cfg, a.count, a.seed, shard, super::search_mode()?)?;
     let mut m = s.manifest();
-    if a.no_hex {
-        m["files"]["inputs"] = serde_json::Value::Null;
-        m["files"]["expected"] = serde_json::Value::Null;
+    // A format not written has no files.
+    for w in writers::WRITERS {
+        if !writers.iter().any(|x| x.name() == w.name()) {
+            for k in w.manifest_keys() {
+                m["files"][k] = serde_json::Value::Null;
+            }
+        }
     }
     let bar = (s.count >= 1_000_000).then(|| crate::progress::bar(s.count as u64, "vectors"));
     write_set(
@@ -144,7 +141,7 @@ pub fn run(a: &VectorsArgs) -> anyhow::Result<()> {
         &m,
         &s.design.config_toml,
         &s.rtl(),
-        !a.no_hex,
+        &writers,
         &mut |done| {
             if let Some(b) = &bar {
                 b.set_position(done as u64);
