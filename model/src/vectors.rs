@@ -272,16 +272,28 @@ impl VectorSet {
             } else {
                 "each vector carries every field; before a vector whose fields of a set-up port differ from the ones that port last accepted (or when it accepted none), the port is sent them (ports in the listed order), then the vector's item goes; records stay in file order"
             },
-            "files": {
-                "inputs": "inputs.hex", "expected": "expected.hex",
-                "inputs_bin": "inputs.bin", "expected_bin": "expected.bin",
-                "rtl": format!("{}.v", self.rtl.module),
-                "testbench": format!("{}_tb.v", self.rtl.module),
-                "verilator_shell": format!("{}_shell.v", self.rtl.module),
-                "verilator_main": format!("{}_main.cpp", self.rtl.module),
-                "config": "config.toml",
-            },
+            "files": self.files_json(),
         })
+    }
+
+    /// The manifest's `files`: each format's two files under its keys
+    /// ([`crate::writers::WRITERS`]), the RTL, testbench, harness and
+    /// configuration.
+    fn files_json(&self) -> serde_json::Value {
+        let m = &self.rtl.module;
+        let mut files = serde_json::json!({
+            "rtl": format!("{m}.v"),
+            "testbench": format!("{m}_tb.v"),
+            "verilator_shell": format!("{m}_shell.v"),
+            "verilator_main": format!("{m}_main.cpp"),
+            "config": "config.toml",
+        });
+        for w in crate::writers::WRITERS {
+            for (k, f) in w.manifest_keys().into_iter().zip(w.files()) {
+                files[k] = serde_json::json!(f);
+            }
+        }
+        files
     }
 
     /// Write the set into `dir` (replaced as a whole, atomically; a

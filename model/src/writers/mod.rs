@@ -5,8 +5,8 @@
 //! that list, and the manifest names each format's files.
 //!
 //! Adding a format: a file here with a `VectorWriter`, its line in
-//! [`WRITERS`], its two manifest keys in `VectorSet::manifest`'s `files`
-//! (`crate::vectors`), and a test that reads a record back.
+//! [`WRITERS`], its two manifest keys in `schema/manifest.schema.json`, and
+//! a decoder arm in this module's read-back test.
 
 pub mod binary;
 pub mod hex;
