@@ -11,8 +11,9 @@
 //! * [`format`](mod@format) — fixed-point formats (signedness, width, fraction bits);
 //! * [`quantize`] — the only place bits are dropped: rounding and overflow
 //!   modes, each with the Verilog expression the RTL uses;
-//! * [`datapath`] — the operations every unit is written in, run three ways:
-//!   f64 reference, bit-accurate fixed point, and operation counting;
+//! * [`datapath`] — the operations every unit is written in, run four ways:
+//!   f64 reference, bit-accurate fixed point, compiled batches (the
+//!   recorded trace) and operation counting;
 //! * [`config`] — formats and parameters from TOML, with an embedded default;
 //! * [`units`] — the registry of units: [`interp`] (method C),
 //!   [`normalizer`] (method A), [`angles`] (CORDIC polar angles of N),

@@ -1,4 +1,4 @@
-//! One datapath description, three runs.
+//! One datapath description, four runs.
 //!
 //! A unit's arithmetic is written once as a function generic over
 //! [`Datapath`]. The same code then runs
