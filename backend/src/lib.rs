@@ -35,6 +35,7 @@ pub mod datasheet;
 pub mod estimate;
 pub mod naming;
 pub mod record;
+pub mod targets;
 pub mod testbench;
 pub mod timing;
 pub mod wrap;

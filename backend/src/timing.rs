@@ -77,107 +77,16 @@ impl Target {
             .map(|k| Self::ALL[k])
     }
 
-    /// The target's delay model.
+    /// The target's delay model (its family's file in [`crate::targets`],
+    /// with the calibration's provenance at the top).
     pub fn model(self) -> DelayModel {
+        use crate::targets as t;
         match self {
-            // Calibrated on nextpnr-ice40 0.4 (Debian bookworm), HX8K ct256.
-            Target::Ice40Hx8k => DelayModel {
-                reg: 2.2,
-                lut: 1.0,
-                carry_base: 1.3,
-                carry_bit: 0.13,
-                mul_row: 1.7,
-                dsp: None,
-                bram: 3.0,
-                word_select: 0.0,
-            },
-            // Calibrated on nextpnr-ice40 0.4, UP5K sg48 (a slower part).
-            Target::Ice40Up5k => DelayModel {
-                reg: 3.0,
-                lut: 2.4,
-                carry_base: 5.0,
-                carry_bit: 0.3,
-                mul_row: 2.6,
-                dsp: Some(Dsp {
-                    a: 16,
-                    b: 16,
-                    comb: 9.2,
-                    combine: 2.5,
-                    route_in: 5.0,
-                    route_out: 2.4,
-                    mixed: true,
-                }),
-                bram: 5.0,
-                word_select: 0.0,
-            },
-            // Calibrated on nextpnr-ecp5 (yowasp), LFE5U-85F speed grade 6.
-            // The multiplier as the flow builds it, operand and product
-            // registers packed into the MULT18X18D (`synth calibrate
-            // --target ecp5`, packed column of BENCHMARKS.md): one block
-            // measures 2.87-4.16 ns register to register, so `comb` = 4.16
-            // less `reg`; a 24 x 18 product (two tiles, one sum) 7.08 ns, so
-            // `combine` = 7.08 - 4.16. (Before packing: 7.0 and 1.5.)
-            // With the packer's no-copy rule (issue #37) the blocks of a
-            // product Yosys splits share their operand registers, which then
-            // stay in the fabric: the smooth top at 8 ns measured 8.76 and
-            // 8.91 ns (seeds 1, 3; 11.8 on seed 2) register to register
-            // through a 19 x 17 product in two blocks and their sum, so
-            // `combine` = 8.9 - 0.9 - 3.3 = 4.7 and the emitter splits such
-            // a product itself (own operand registers per block, the sum a
-            // stage later) whenever 8.9 ns does not fit the period.
-            // word_select: the smooth top at 8 ns (issue #37) measured 11.2 ns
-            // on a range check, saturating multiplexer and maximum that the
-            // model put at 7.9 (nextpnr: 5.9 ns of it routing, most of it the
-            // two selects' fan-out to 16 bits); 1.5 ns a word select.
-            Target::Ecp5 => DelayModel {
-                reg: 0.9,
-                lut: 1.1,
-                carry_base: 2.0,
-                carry_bit: 0.035,
-                mul_row: 1.0,
-                dsp: Some(Dsp {
-                    a: 18,
-                    b: 18,
-                    comb: 3.3,
-                    combine: 4.7,
-                    route_in: 3.2,
-                    route_out: 3.4,
-                    mixed: true,
-                }),
-                bram: 3.5,
-                word_select: 1.5,
-            },
-            // Not calibrated (no open place and route): datasheet-class
-            // figures for a -1 Artix-7.
-            Target::Xc7 => DelayModel {
-                reg: 0.6,
-                lut: 0.5,
-                carry_base: 0.6,
-                carry_bit: 0.03,
-                mul_row: 0.35,
-                dsp: Some(Dsp {
-                    a: 25,
-                    b: 18,
-                    comb: 3.4,
-                    combine: 1.0,
-                    route_in: 0.5,
-                    route_out: 0.5,
-                    mixed: false,
-                }),
-                bram: 2.2,
-                word_select: 0.0,
-            },
-            // Not calibrated: order-of-magnitude gate delays, 28 nm library.
-            Target::Asic => DelayModel {
-                reg: 0.08,
-                lut: 0.04,
-                carry_base: 0.05,
-                carry_bit: 0.012,
-                mul_row: 0.03,
-                dsp: None,
-                bram: 0.3,
-                word_select: 0.0,
-            },
+            Target::Ice40Hx8k => t::ice40_hx8k::DELAY,
+            Target::Ice40Up5k => t::ice40_up5k::DELAY,
+            Target::Ecp5 => t::ecp5::DELAY,
+            Target::Xc7 => t::xc7::DELAY,
+            Target::Asic => t::asic::DELAY,
         }
     }
 }

@@ -65,50 +65,29 @@ impl Target {
             Target::Xc7 => "xc7",
         }
     }
-    /// The device, as reported.
-    pub fn device(self) -> &'static str {
+    /// How the family is synthesized and counted (its file in
+    /// `fxshade_model::rtl::targets`).
+    fn synthesis(self) -> fxshade_model::rtl::targets::Synthesis {
+        use fxshade_model::rtl::targets as t;
         match self {
-            Target::Generic => "generic 4-input LUTs",
-            Target::Ice40Hx8k => "iCE40 HX8K (ct256)",
-            Target::Ice40Up5k => "iCE40 UP5K (sg48)",
-            Target::Ecp5 => "ECP5 LFE5U-85F (CABGA381)",
-            Target::Xc7 => "Xilinx 7-series",
+            Target::Generic => t::generic::SYNTH,
+            Target::Ice40Hx8k => t::ice40_hx8k::SYNTH,
+            Target::Ice40Up5k => t::ice40_up5k::SYNTH,
+            Target::Ecp5 => t::ecp5::SYNTH,
+            Target::Xc7 => t::xc7::SYNTH,
         }
     }
+    /// The device, as reported.
+    pub fn device(self) -> &'static str {
+        self.synthesis().device
+    }
     fn yosys_synth(self) -> &'static str {
-        match self {
-            Target::Generic => "synth -flatten -top fxs_harness; abc -lut 4; opt_clean",
-            Target::Ice40Hx8k => "synth_ice40 -top fxs_harness -json harness.json",
-            Target::Ice40Up5k => "synth_ice40 -dsp -top fxs_harness -json harness.json",
-            Target::Ecp5 => "synth_ecp5 -top fxs_harness -json harness.json",
-            Target::Xc7 => "synth_xilinx -flatten -top fxs_harness",
-        }
+        self.synthesis().yosys
     }
     /// Which cell types count as what: (LUT, FF, DSP, block RAM) prefixes.
     fn classes(self) -> [&'static [&'static str]; 4] {
-        match self {
-            Target::Generic => [
-                &["$lut"],
-                &["$_DFF", "$_SDFF", "$_DFFE", "$_SDFFE", "$_ALDFF"],
-                &[],
-                &[],
-            ],
-            Target::Ice40Hx8k | Target::Ice40Up5k => {
-                [&["SB_LUT4"], &["SB_DFF"], &["SB_MAC16"], &["SB_RAM40_4K"]]
-            }
-            Target::Ecp5 => [
-                &["LUT4"],
-                &["TRELLIS_FF"],
-                &["MULT18X18D", "ALU54B"],
-                &["DP16KD"],
-            ],
-            Target::Xc7 => [
-                &["LUT1", "LUT2", "LUT3", "LUT4", "LUT5", "LUT6"],
-                &["FDRE", "FDSE", "FDCE", "FDPE"],
-                &["DSP48E1"],
-                &["RAMB18E1", "RAMB36E1"],
-            ],
-        }
+        let s = self.synthesis();
+        [s.lut, s.ff, s.dsp, s.bram]
     }
 }
 

@@ -1,0 +1,15 @@
+//! Yosys's generic synthesis mapped to 4-input LUTs: no vendor cells, no
+//! delay model, no place and route (a technology-independent count).
+
+use super::Synthesis;
+
+/// How `fxshade synth` maps a module to generic LUTs, and which cells it
+/// counts as what.
+pub const SYNTH: Synthesis = Synthesis {
+    device: "generic 4-input LUTs",
+    yosys: "synth -flatten -top fxs_harness; abc -lut 4; opt_clean",
+    lut: &["$lut"],
+    ff: &["$_DFF", "$_SDFF", "$_DFFE", "$_SDFFE", "$_ALDFF"],
+    dsp: &[],
+    bram: &[],
+};
