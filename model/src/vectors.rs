@@ -99,11 +99,7 @@ pub struct VectorSet {
 /// `{index[31:0], fields…}` packed LSB first into 64-bit words (on the
 /// stack up to 2048 bits).
 pub(crate) fn pack(index: u32, fields: &[Field], row: &[i128]) -> (Words, usize) {
-    let total: usize = 32
-        + fields
-            .iter()
-            .map(|f| f.format.width() as usize)
-            .sum::<usize>();
+    let total = crate::writers::record_bits(fields);
     let n = total.div_ceil(64) + 1;
     let mut w = if n <= 32 {
         Words::Stack([0; 32])

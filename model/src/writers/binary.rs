@@ -6,11 +6,7 @@ use crate::vectors::{pack, Field};
 
 /// Bytes of one binary record of `fields`: `ceil((32 + W) / 8)`.
 pub fn record_bytes(fields: &[Field]) -> usize {
-    (32 + fields
-        .iter()
-        .map(|f| f.format.width() as usize)
-        .sum::<usize>())
-    .div_ceil(8)
+    super::record_bits(fields).div_ceil(8)
 }
 
 /// Append the binary record `{zero pad, index[31:0], fields…}`, big endian,

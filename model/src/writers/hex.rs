@@ -35,12 +35,7 @@ impl VectorWriter for Hex {
     }
     fn record_bytes(&self, fields: &[Field]) -> usize {
         // The digits and a newline.
-        (32 + fields
-            .iter()
-            .map(|f| f.format.width() as usize)
-            .sum::<usize>())
-        .div_ceil(4)
-            + 1
+        super::record_bits(fields).div_ceil(4) + 1
     }
     fn push(&self, out: &mut Vec<u8>, index: u32, fields: &[Field], row: &[i128]) {
         out.extend_from_slice(hex_line(index, fields, row).as_bytes());

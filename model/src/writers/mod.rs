@@ -30,6 +30,14 @@ pub trait VectorWriter: Sync {
     fn push(&self, out: &mut Vec<u8>, index: u32, fields: &[Field], row: &[i128]);
 }
 
+/// Bits of one record of `fields`: the 32-bit index and every field.
+pub fn record_bits(fields: &[Field]) -> usize {
+    32 + fields
+        .iter()
+        .map(|f| f.format.width() as usize)
+        .sum::<usize>()
+}
+
 /// The binary records the testbenches read.
 pub const BINARY: &dyn VectorWriter = &binary::Binary;
 
