@@ -17,10 +17,13 @@
 //!   symmetry logic), read through a register;
 //! * pipelining (`compact`): a register after every quantization and every
 //!   table read; values that skip stages are carried by balancing
-//!   registers; the overflow bit of each quantization travels with its
-//!   value to the output, ORed per stage id;
-//! * handshake: valid/ready with one global stall (`ready_o = ~valid_o |
-//!   ready_i`), a valid bit per stage reset by `rst_ni`.
+//!   registers; each quantization's overflow bit is registered once after
+//!   its stage and ORed there into one running register per stage id,
+//!   which travels to `ovf_o`;
+//! * handshake: valid/ready with one global stall `en`, a register (the
+//!   stages stop while the two-entry output buffer is full; `ready_o =
+//!   en`), or with `rtl.handshake = "fifo"` a pipeline that never stalls
+//!   and an output FIFO; a valid bit per stage reset by `rst_ni`.
 //!
 //! The module's header names the generator, the configuration (its source
 //! and hash), the latency and every port with its format.
