@@ -12,7 +12,8 @@
 
 use crate::cmd::synth::Target;
 
-/// One part.
+/// One part of a family (the family's file in
+/// `fxshade_model::rtl::targets` lists its parts).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Device {
     /// Its name as `--device` takes it (case-insensitive) and as reported.
@@ -26,92 +27,33 @@ pub struct Device {
     pub capacity: Option<[u64; 4]>,
 }
 
-/// Every part `--device` takes; the first of each family is its default.
-/// (Not the LFE5U-12F: nextpnr-ecp5 places it on the 25F's die and
-/// reports the 25F's 24 288 logic cells as available, so its utilisation
-/// would be wrong.)
-pub const DEVICES: &[Device] = &[
-    Device {
-        name: "LFE5U-85F",
-        target: Target::Ecp5,
-        pnr_args: &["--85k", "--package", "CABGA381"],
-        capacity: None,
-    },
-    Device {
-        name: "LFE5U-45F",
-        target: Target::Ecp5,
-        pnr_args: &["--45k", "--package", "CABGA381"],
-        capacity: None,
-    },
-    Device {
-        name: "LFE5U-25F",
-        target: Target::Ecp5,
-        pnr_args: &["--25k", "--package", "CABGA381"],
-        capacity: None,
-    },
-    Device {
-        name: "iCE40HX8K",
-        target: Target::Ice40Hx8k,
-        pnr_args: &["--hx8k", "--package", "ct256"],
-        capacity: None,
-    },
-    Device {
-        name: "iCE40HX4K",
-        target: Target::Ice40Hx8k,
-        pnr_args: &["--hx4k", "--package", "tq144"],
-        capacity: None,
-    },
-    Device {
-        name: "iCE40HX1K",
-        target: Target::Ice40Hx8k,
-        pnr_args: &["--hx1k", "--package", "tq144"],
-        capacity: None,
-    },
-    Device {
-        name: "iCE40UP5K",
-        target: Target::Ice40Up5k,
-        pnr_args: &["--up5k", "--package", "sg48"],
-        capacity: None,
-    },
-    Device {
-        name: "xc7a35t",
-        target: Target::Xc7,
-        pnr_args: &[],
-        capacity: Some([20_800, 41_600, 90, 100]),
-    },
-    Device {
-        name: "xc7a100t",
-        target: Target::Xc7,
-        pnr_args: &[],
-        capacity: Some([63_400, 126_800, 240, 270]),
-    },
-    Device {
-        name: "xc7a200t",
-        target: Target::Xc7,
-        pnr_args: &[],
-        capacity: Some([134_600, 269_200, 740, 730]),
-    },
-];
+/// Every part `--device` takes, family by family.
+pub fn devices() -> impl Iterator<Item = Device> {
+    Target::all()
+        .iter()
+        .flat_map(|t| t.parts().iter().map(|p| Device::of(*t, *p)))
+}
 
 impl Device {
+    fn of(target: Target, p: fxshade_model::rtl::targets::Part) -> Device {
+        Device {
+            name: p.name,
+            target,
+            pnr_args: p.pnr_args,
+            capacity: p.capacity,
+        }
+    }
+
     /// The default part of `target`'s family (None: generic synthesis,
     /// or a 7-series run given no part).
     pub fn default_of(target: Target) -> Option<Device> {
-        match target {
-            Target::Generic | Target::Xc7 => None,
-            t => DEVICES.iter().find(|d| d.target == t).copied(),
-        }
+        target.default_part().map(|p| Device::of(target, p))
     }
 
     /// The part as reported: family, part and package, e.g. `ECP5
     /// LFE5U-25F (CABGA381)`.
     pub fn describe(&self) -> String {
-        let family = match self.target {
-            Target::Ecp5 => "ECP5 ",
-            Target::Ice40Hx8k | Target::Ice40Up5k => "",
-            Target::Xc7 => "Xilinx 7-series ",
-            Target::Generic => "",
-        };
+        let family = self.target.part_prefix();
         match self.pnr_args.get(2) {
             Some(package) => format!("{family}{} ({package})", self.name),
             None => format!("{family}{}", self.name),
@@ -121,7 +63,7 @@ impl Device {
     /// The part named `name` (case-insensitive) of `target`'s family; an
     /// error lists the family's parts.
     pub fn find(target: Target, name: &str) -> Result<Device, String> {
-        let family: Vec<&Device> = DEVICES.iter().filter(|d| d.target == target).collect();
+        let family: Vec<Device> = devices().filter(|d| d.target == target).collect();
         if family.is_empty() {
             return Err(format!(
                 "--device {name}: --target {} has no device to choose",
@@ -131,7 +73,7 @@ impl Device {
         family
             .iter()
             .find(|d| d.name.eq_ignore_ascii_case(name))
-            .map(|d| **d)
+            .copied()
             .ok_or_else(|| {
                 format!(
                     "--device {name}: not a part of --target {} (its parts: {})",
@@ -187,10 +129,16 @@ pub fn from_capacity(d: &Device, lut: u64, ff: u64, dsp: u64, bram18: u64) -> Ve
     let Some([l, f, m, b]) = d.capacity else {
         return Vec::new();
     };
+    // The family's multiplier block as its synthesis names it.
+    let block = d
+        .target
+        .synthesis()
+        .and_then(|s| s.dsp.first().copied())
+        .unwrap_or("DSP");
     vec![
         Use::new("LUT", lut, l),
         Use::new("FF", ff, f),
-        Use::new("DSP48E1", dsp, m),
+        Use::new(block, dsp, m),
         Use::new("RAMB18 (36 Kb counted as 2)", bram18, b),
     ]
 }
@@ -207,26 +155,30 @@ pub fn overfull(uses: &[Use]) -> Vec<String> {
 mod tests {
     use super::*;
 
+    fn t(name: &str) -> Target {
+        Target::from_name(name).expect("a family")
+    }
+
     #[test]
     fn parts_are_found_by_family_and_defaults_are_the_first() {
-        assert_eq!(Device::default_of(Target::Ecp5).unwrap().name, "LFE5U-85F");
+        assert_eq!(Device::default_of(t("ecp5")).unwrap().name, "LFE5U-85F");
         assert_eq!(
-            Device::default_of(Target::Ice40Hx8k).unwrap().name,
+            Device::default_of(t("ice40-hx8k")).unwrap().name,
             "iCE40HX8K"
         );
-        assert!(Device::default_of(Target::Xc7).is_none());
+        assert!(Device::default_of(t("xc7")).is_none());
         assert_eq!(
-            Device::find(Target::Ecp5, "lfe5u-25f").unwrap().pnr_args[0],
+            Device::find(t("ecp5"), "lfe5u-25f").unwrap().pnr_args[0],
             "--25k"
         );
-        let e = Device::find(Target::Ecp5, "iCE40HX1K").unwrap_err();
+        let e = Device::find(t("ecp5"), "iCE40HX1K").unwrap_err();
         assert!(
             e.contains("LFE5U-25F") && e.contains("--target ecp5"),
             "{e}"
         );
-        assert!(Device::find(Target::Generic, "x").is_err());
+        assert!(Device::find(t("generic"), "x").is_err());
         // Every part belongs to a family whose placer it names (or none).
-        for d in DEVICES {
+        for d in devices() {
             assert_eq!(d.pnr_args.is_empty(), d.capacity.is_some(), "{}", d.name);
         }
     }
@@ -242,7 +194,7 @@ mod tests {
         assert_eq!(u[1].resource, "MULT18X18D");
         assert!((u[1].percent - 100.0 * 49.0 / 156.0).abs() < 1e-9);
         assert!(overfull(&u).is_empty());
-        let d = Device::find(Target::Xc7, "XC7A35T").unwrap();
+        let d = Device::find(t("xc7"), "XC7A35T").unwrap();
         let u = from_capacity(&d, 1000, 2000, 120, 4);
         assert_eq!(overfull(&u), ["DSP48E1 120/90"]);
     }

@@ -104,11 +104,25 @@ pub fn role(name: &str, setup_fields: &[String]) -> &'static str {
 /// are those with a `dut.` name and the others the harness's; where the
 /// unit is a module of its own (the harness instantiates a module the
 /// netlist defines), every flip-flop of the harness module is the
-/// harness's and the unit module's are named by its own nets.
-pub fn roles(netlist: &Value, top: &str, setup_fields: &[String]) -> Vec<(String, u64)> {
+/// harness's and the unit module's are named by its own nets. A cell is a
+/// flip-flop when its type starts with one of `ff_types` (the family's
+/// flip-flop classes).
+pub fn roles(
+    netlist: &Value,
+    top: &str,
+    setup_fields: &[String],
+    ff_types: &[&str],
+) -> Vec<(String, u64)> {
     let mut count: BTreeMap<&'static str, u64> = BTreeMap::new();
     let m = &netlist["modules"][top];
-    tally(m, Some("dut."), "harness", setup_fields, &mut count);
+    tally(
+        m,
+        Some("dut."),
+        "harness",
+        setup_fields,
+        ff_types,
+        &mut count,
+    );
     for c in m["cells"].as_object().into_iter().flatten().map(|(_, c)| c) {
         let t = c["type"].as_str().unwrap_or("");
         if crate::dsp_pack::has_body(netlist, t) {
@@ -117,6 +131,7 @@ pub fn roles(netlist: &Value, top: &str, setup_fields: &[String]) -> Vec<(String
                 None,
                 "unnamed",
                 setup_fields,
+                ff_types,
                 &mut count,
             );
         }
@@ -151,6 +166,7 @@ fn tally(
     prefix: Option<&str>,
     unnamed_role: &'static str,
     setup_fields: &[String],
+    ff_types: &[&str],
     count: &mut BTreeMap<&'static str, u64>,
 ) {
     let mut names: BTreeMap<u64, String> = BTreeMap::new();
@@ -173,7 +189,7 @@ fn tally(
     }
     for c in m["cells"].as_object().into_iter().flatten().map(|(_, c)| c) {
         let t = c["type"].as_str().unwrap_or("");
-        let ff = t == "TRELLIS_FF" || t.starts_with("SB_DFF") || t.starts_with("$_DFF");
+        let ff = ff_types.iter().any(|p| t.starts_with(p));
         if !ff {
             continue;
         }

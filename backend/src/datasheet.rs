@@ -282,32 +282,22 @@ impl Wave {
     }
 }
 
-/// The constraints file for the target: its name suffix and text. ECP5:
-/// an `.lpf` (`FREQUENCY PORT`); iCE40: a `.pcf` (`set_frequency`, which
-/// nextpnr-ice40 reads); any other: an SDC `create_clock`. Every path of
-/// an emitted module runs from a register to the next stage's register in
-/// one cycle (set-up registers included: an item reads them in the cycle
-/// it is in the stage), so there are no multicycle or false paths to
-/// declare.
+/// The constraints file for the target: its name suffix and text, the
+/// family's [`Family::constraint`](crate::targets::Family::constraint)
+/// after a header (ECP5: an `.lpf` `FREQUENCY PORT`; iCE40: a `.pcf`
+/// `set_frequency`, which nextpnr-ice40 reads; any other: an SDC
+/// `create_clock`). Every path of an emitted module runs from a register
+/// to the next stage's register in one cycle (set-up registers included:
+/// an item reads them in the cycle it is in the stage), so there are no
+/// multicycle or false paths to declare.
 pub fn constraints(module: &str, target: Target, clock_ns: f64) -> (&'static str, String) {
     let mhz = 1000.0 / clock_ns;
     let head = format!(
         "# {module}: clock constraint for {} at {clock_ns} ns ({mhz:.2} MHz), written by fxshade.\n# Every path is single-cycle: no multicycle or false paths.\n",
         target.name(),
     );
-    match target {
-        Target::Ecp5 => (
-            "lpf",
-            format!("{head}FREQUENCY PORT \"clk_i\" {mhz:.2} MHz;\n"),
-        ),
-        Target::Ice40Hx8k | Target::Ice40Up5k => {
-            ("pcf", format!("{head}set_frequency clk_i {mhz:.2}\n"))
-        }
-        _ => (
-            "sdc",
-            format!("{head}create_clock -name clk_i -period {clock_ns} [get_ports clk_i]\n"),
-        ),
-    }
+    let (ext, line) = target.constraint(clock_ns);
+    (ext, format!("{head}{line}"))
 }
 
 /// One row of a datasheet's resource table: the module synthesized for a

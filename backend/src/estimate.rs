@@ -32,6 +32,7 @@
 //! beside the count of the netlist.
 
 use super::MulHw;
+use crate::targets::Target;
 
 /// A target's multiplier blocks, as Yosys's `mul2dsp` is told about them.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -54,39 +55,10 @@ pub struct DspRules {
 
 impl DspRules {
     /// The rules of `target` (None: it has no multiplier blocks, iCE40
-    /// HX8K and a standard-cell process).
-    pub fn of(target: super::timing::Target) -> Option<DspRules> {
-        use super::timing::Target as T;
-        match target {
-            T::Ecp5 => Some(DspRules {
-                a_max: 18,
-                b_max: 18,
-                a_partial: 18,
-                b_partial: 18,
-                min: 2,
-                y_min: 0,
-                signed_only: false,
-            }),
-            T::Ice40Up5k => Some(DspRules {
-                a_max: 16,
-                b_max: 16,
-                a_partial: 16,
-                b_partial: 16,
-                min: 2,
-                y_min: 11,
-                signed_only: false,
-            }),
-            T::Xc7 => Some(DspRules {
-                a_max: 25,
-                b_max: 18,
-                a_partial: 18,
-                b_partial: 18,
-                min: 2,
-                y_min: 9,
-                signed_only: true,
-            }),
-            T::Ice40Hx8k | T::Asic => None,
-        }
+    /// HX8K and a standard-cell process): its family's
+    /// [`Family::dsp_rules`](crate::targets::Family::dsp_rules).
+    pub fn of(target: Target) -> Option<DspRules> {
+        target.dsp_rules()
     }
 
     /// Blocks for an `a × b` product of result width `y` as `mul2dsp`
@@ -145,7 +117,7 @@ impl DspRules {
 
 /// DSP blocks of every multiplier of `hw` on `target` (0 where the target
 /// has none).
-pub fn dsp_blocks(hw: &super::Hardware, target: super::timing::Target) -> u64 {
+pub fn dsp_blocks(hw: &super::Hardware, target: Target) -> u64 {
     DspRules::of(target).map_or(0, |r| hw.muls.iter().map(|m| r.blocks_of(m)).sum())
 }
 
@@ -160,41 +132,10 @@ pub struct BramRules {
 }
 
 impl BramRules {
-    /// The rules of `target`: ECP5 DP16KD (16 Kbit + parity, two ports:
-    /// 16384 × 1 … 1024 × 18), iCE40 SB_RAM40_4K (4 Kbit, one read port:
-    /// 2048 × 2 … 256 × 16), Xilinx RAMB18E1 or RAMB36E1 (two ports,
-    /// 16384 × 1 … 1024 × 18, 32768 × 1 … 2048 × 18; each one block, as
-    /// synthesis counts them); None for a standard-cell process.
-    pub fn of(target: super::timing::Target) -> Option<BramRules> {
-        use super::timing::Target as T;
-        match target {
-            T::Ecp5 => Some(BramRules {
-                shapes: &[(16384, 1), (8192, 2), (4096, 4), (2048, 9), (1024, 18)],
-                ports: 2,
-            }),
-            // RAMB18E1 and RAMB36E1, each one block as synthesis counts
-            // them.
-            T::Xc7 => Some(BramRules {
-                shapes: &[
-                    (16384, 1),
-                    (8192, 2),
-                    (4096, 4),
-                    (2048, 9),
-                    (1024, 18),
-                    (32768, 1),
-                    (16384, 2),
-                    (8192, 4),
-                    (4096, 9),
-                    (2048, 18),
-                ],
-                ports: 2,
-            }),
-            T::Ice40Hx8k | T::Ice40Up5k => Some(BramRules {
-                shapes: &[(2048, 2), (1024, 4), (512, 8), (256, 16)],
-                ports: 1,
-            }),
-            T::Asic => None,
-        }
+    /// The rules of `target` (None for a standard-cell process): its
+    /// family's [`Family::bram_rules`](crate::targets::Family::bram_rules).
+    pub fn of(target: Target) -> Option<BramRules> {
+        target.bram_rules()
     }
 
     /// Blocks for one ROM: as many copies as its reads need ports, each
@@ -215,7 +156,7 @@ impl BramRules {
 }
 
 /// Block RAMs of every ROM of `hw` on `target`.
-pub fn bram_blocks(hw: &super::Hardware, target: super::timing::Target) -> u64 {
+pub fn bram_blocks(hw: &super::Hardware, target: Target) -> u64 {
     BramRules::of(target).map_or(0, |r| hw.roms.iter().map(|m| r.blocks_of(m)).sum())
 }
 
@@ -255,7 +196,7 @@ pub struct AreaTerms {
 
 impl AreaTerms {
     /// The terms of `hw` on `target`.
-    pub fn of(hw: &super::Hardware, target: super::timing::Target) -> AreaTerms {
+    pub fn of(hw: &super::Hardware, target: Target) -> AreaTerms {
         let dsp = DspRules::of(target);
         let bram = BramRules::of(target);
         let fabric = |m: &MulHw| -> f64 {
@@ -321,6 +262,16 @@ impl AreaTerms {
 /// fitted to synthesis (`fxshade synth calibrate --area --target T`
 /// synthesizes the calibration set and prints the fit): the estimate is
 /// `Σ coefficient × term`, rounded to a whole cell.
+///
+/// Provenance of every family's fit (in its file in [`crate::targets`]):
+/// `fxshade synth calibrate --area --target T --json` (Yosys 0.23, the
+/// default configuration as the base) on the 40 designs of its calibration
+/// set (8 units and tops × default, 12-bit normals, wide, 24 bits with the
+/// FIFO handshake, target pipelining at 8 ns); the `refit` of its JSON,
+/// rounded. The in-sample |error| of each fit is in its doc; refit and
+/// paste after a change to the emitter or the synthesis scripts (the
+/// calibration test in `tests/suite/synth.rs` checks three configurations
+/// against Yosys).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct AreaModel {
     /// LUT cells (the count `fxshade synth` reports as `lut`) per term,
@@ -333,9 +284,10 @@ pub struct AreaModel {
 
 impl AreaModel {
     /// The model of `target` (None: a standard-cell process, which has no
-    /// LUTs).
-    pub fn of(target: super::timing::Target) -> Option<AreaModel> {
-        calibration::of(target)
+    /// LUTs): its family's
+    /// [`Family::area_model`](crate::targets::Family::area_model).
+    pub fn of(target: Target) -> Option<AreaModel> {
+        target.area_model()
     }
 
     fn apply(c: &[f64; 11], t: &AreaTerms) -> u64 {
@@ -358,23 +310,21 @@ impl AreaModel {
 }
 
 /// Estimated LUT cells of `hw` on `target` (None: no LUTs there).
-pub fn lut_cells(hw: &super::Hardware, target: super::timing::Target) -> Option<u64> {
+pub fn lut_cells(hw: &super::Hardware, target: Target) -> Option<u64> {
     AreaModel::of(target).map(|m| m.lut(&AreaTerms::of(hw, target)))
 }
 
 /// Estimated flip-flops of `hw` on `target` after synthesis (None: no
 /// model there).
-pub fn flip_flops(hw: &super::Hardware, target: super::timing::Target) -> Option<u64> {
+pub fn flip_flops(hw: &super::Hardware, target: Target) -> Option<u64> {
     AreaModel::of(target).map(|m| m.ff(&AreaTerms::of(hw, target)))
 }
 
-mod calibration;
 pub mod fit;
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::timing::Target;
 
     fn mul(a: u32, b: u32, signed: bool, a_zext: bool, b_zext: bool) -> MulHw {
         MulHw {
@@ -393,7 +343,7 @@ mod tests {
     /// 18-bit unsigned × 16-bit signed (built 19 × 16) one.
     #[test]
     fn ecp5_blocks_follow_mul2dsp() {
-        let r = DspRules::of(Target::Ecp5).unwrap();
+        let r = DspRules::of(Target::from_name("ecp5").unwrap()).unwrap();
         assert_eq!(r.blocks_of(&mul(18, 18, true, false, false)), 1);
         assert_eq!(r.blocks_of(&mul(25, 18, true, false, false)), 2);
         assert_eq!(r.blocks_of(&mul(36, 36, false, false, false)), 4);
@@ -410,17 +360,17 @@ mod tests {
     /// 9-bit one (two).
     #[test]
     fn ice40_and_xc7_blocks_follow_mul2dsp() {
-        let r = DspRules::of(Target::Ice40Up5k).unwrap();
+        let r = DspRules::of(Target::from_name("ice40-up5k").unwrap()).unwrap();
         assert_eq!(r.blocks_of(&mul(16, 16, true, false, false)), 1);
         assert_eq!(r.blocks_of(&mul(5, 5, true, false, false)), 0);
         assert_eq!(r.blocks_of(&mul(17, 16, false, false, false)), 1);
         // 20 × 20: 16 × 16, 16 × 4 and 4 × 16 in blocks, 4 × 4 (8 bits of
         // result) in the fabric.
         assert_eq!(r.blocks_of(&mul(20, 20, false, false, false)), 3);
-        let x = DspRules::of(Target::Xc7).unwrap();
+        let x = DspRules::of(Target::from_name("xc7").unwrap()).unwrap();
         assert_eq!(x.blocks_of(&mul(24, 17, false, false, false)), 1);
         assert_eq!(x.blocks_of(&mul(26, 18, true, false, false)), 2);
-        assert!(DspRules::of(Target::Ice40Hx8k).is_none());
+        assert!(DspRules::of(Target::from_name("ice40-hx8k").unwrap()).is_none());
         // Minimum widths before widening: an unsigned 4 × 4 (8-bit result)
         // stays in logic on Xilinx (result under 9 bits), as does an 8 × 8
         // kept to 10 bits on iCE40 (under 11).
@@ -445,24 +395,39 @@ mod tests {
             block,
         };
         let q = rom(512, 16, 6, true);
-        assert_eq!(BramRules::of(Target::Ecp5).unwrap().blocks_of(&q), 3);
-        assert_eq!(BramRules::of(Target::Xc7).unwrap().blocks_of(&q), 3);
-        assert_eq!(BramRules::of(Target::Ice40Up5k).unwrap().blocks_of(&q), 12);
         assert_eq!(
-            BramRules::of(Target::Ecp5)
+            BramRules::of(Target::from_name("ecp5").unwrap())
+                .unwrap()
+                .blocks_of(&q),
+            3
+        );
+        assert_eq!(
+            BramRules::of(Target::from_name("xc7").unwrap())
+                .unwrap()
+                .blocks_of(&q),
+            3
+        );
+        assert_eq!(
+            BramRules::of(Target::from_name("ice40-up5k").unwrap())
+                .unwrap()
+                .blocks_of(&q),
+            12
+        );
+        assert_eq!(
+            BramRules::of(Target::from_name("ecp5").unwrap())
                 .unwrap()
                 .blocks_of(&rom(4096, 20, 1, true)),
             5
         );
         assert_eq!(
-            BramRules::of(Target::Ecp5)
+            BramRules::of(Target::from_name("ecp5").unwrap())
                 .unwrap()
                 .blocks_of(&rom(64, 16, 2, false)),
             0
         );
         // 4096 × 9: one RAMB36E1 (two RAMB18E1 would do it too).
         assert_eq!(
-            BramRules::of(Target::Xc7)
+            BramRules::of(Target::from_name("xc7").unwrap())
                 .unwrap()
                 .blocks_of(&rom(4096, 9, 1, true)),
             1

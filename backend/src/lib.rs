@@ -185,6 +185,14 @@ pub enum EmitError {
         /// The width.
         width: u32,
     },
+    /// Target pipelining for a family without a delay model.
+    #[error("unit {unit}: target pipelining for {target}, which has no delay model")]
+    NoDelayModel {
+        /// Unit.
+        unit: &'static str,
+        /// The family's name.
+        target: &'static str,
+    },
 }
 
 /// One multiplier as the hardware builds it.
@@ -2497,7 +2505,9 @@ fn banked_port(
 ///
 /// [`EmitError::NoRtl`] for a division or square root in the outputs' cone,
 /// [`EmitError::NoOutputs`] for a datapath without outputs,
-/// [`EmitError::TooWide`] for a value wider than 126 bits.
+/// [`EmitError::TooWide`] for a value wider than 126 bits,
+/// [`EmitError::NoDelayModel`] for target pipelining on a family without a
+/// delay model.
 pub fn emit(d: &Design) -> Result<Emitted, EmitError> {
     emit_with(d, &[])
 }
@@ -2525,6 +2535,19 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
     if outs.is_empty() {
         return Err(EmitError::NoOutputs(d.unit));
     }
+    // The family of target pipelining, with its delay model.
+    let family = match d.pipelining {
+        timing::Pipelining::Target { target, clock_ns } => match target.delay() {
+            Some(m) => Some((target, m, clock_ns)),
+            None => {
+                return Err(EmitError::NoDelayModel {
+                    unit: d.unit,
+                    target: target.name(),
+                })
+            }
+        },
+        timing::Pipelining::Compact => None,
+    };
     let roots: Vec<TV> = outs.iter().map(|p| p.value).collect();
     let live = t.live_nodes(&roots);
     for (i, op) in t.ops().iter().enumerate() {
@@ -2593,21 +2616,12 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
             mutants: HashMap::new(),
             arrival: vec![0.0; t.ops().len()],
             dsp_out: vec![false; t.ops().len()],
-            timing: match d.pipelining {
-                timing::Pipelining::Target { target, clock_ns } if muts.is_empty() => {
-                    let m = target.model();
-                    Some((m, m.budget(clock_ns)))
-                }
+            timing: match family {
+                Some((_, m, clock_ns)) if muts.is_empty() => Some((m, m.budget(clock_ns))),
                 _ => None,
             },
             own_operands: muts.is_empty()
-                && matches!(
-                    d.pipelining,
-                    timing::Pipelining::Target {
-                        target: timing::Target::Ecp5,
-                        ..
-                    }
-                ),
+                && family.is_some_and(|(t, ..)| t.split_products_own_operands()),
             own_regs: Vec::new(),
             bank_wires: std::collections::HashSet::new(),
             worst: 0.0,
@@ -2714,14 +2728,8 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
     let fifo = d.handshake == timing::Handshake::Fifo && muts.is_empty();
     // A FIFO for a target whose memories are block RAM reads it
     // synchronously (one cycle more).
-    let block = fifo
-        && matches!(
-            d.pipelining,
-            timing::Pipelining::Target {
-                target: timing::Target::Ice40Hx8k | timing::Target::Ice40Up5k,
-                ..
-            }
-        );
+    let memory = family.map(|(t, ..)| t.fifo_memory());
+    let block = fifo && memory == Some(targets::FifoMemory::Block);
     let depth = (latency + 2).next_power_of_two();
     let aw = depth.trailing_zeros();
     let out_w: u32 = outs.iter().map(|p| p.format.width()).sum::<u32>() + nf as u32;
@@ -3159,13 +3167,7 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
         v += "  end\n\n";
     }
     if fifo {
-        let distributed = matches!(
-            d.pipelining,
-            timing::Pipelining::Target {
-                target: timing::Target::Ecp5 | timing::Target::Xc7,
-                ..
-            }
-        );
+        let distributed = memory == Some(targets::FifoMemory::Distributed);
         v += &fifo_outputs(depth, &outs, &out_vals, &flag_bits, distributed, block);
     } else {
         v += &stall_outputs(&outs, &out_vals, &flag_bits);

@@ -33,69 +33,9 @@
 //! The constants are calibrated against nextpnr by `fxshade synth
 //! calibrate --target T` (BENCHMARKS.md lists predicted against measured).
 
-/// A technology the delay model describes.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
-pub enum Target {
-    /// Lattice iCE40 HX8K: LUT4 and carry chains, no multipliers.
-    Ice40Hx8k,
-    /// Lattice iCE40 UP5K: LUT4, carry chains, eight SB_MAC16 (16 × 16).
-    Ice40Up5k,
-    /// Lattice ECP5: LUT4, carry chains, MULT18X18D (18 × 18).
-    Ecp5,
-    /// Xilinx 7-series: LUT6, CARRY4, DSP48E1 (25 × 18).
-    Xc7,
-    /// A generic standard-cell process (about 28 nm): gates, no blocks.
-    Asic,
-}
-
-impl Target {
-    /// Every target, in the order of [`Target::NAMES`].
-    pub const ALL: [Target; 5] = [
-        Target::Ice40Hx8k,
-        Target::Ice40Up5k,
-        Target::Ecp5,
-        Target::Xc7,
-        Target::Asic,
-    ];
-    /// The configuration names (`rtl.target`).
-    pub const NAMES: [&'static str; 5] = ["ice40-hx8k", "ice40-up5k", "ecp5", "xc7", "asic"];
-
-    /// The configuration name.
-    ///
-    /// # Panics
-    ///
-    /// Never: every target is in [`Target::ALL`].
-    pub fn name(self) -> &'static str {
-        Self::NAMES[Self::ALL.iter().position(|t| *t == self).expect("listed")]
-    }
-
-    /// The target of a configuration name.
-    pub fn from_name(s: &str) -> Option<Target> {
-        Self::NAMES
-            .iter()
-            .position(|n| *n == s)
-            .map(|k| Self::ALL[k])
-    }
-
-    /// The target's delay model (its family's file in [`crate::targets`],
-    /// with the calibration's provenance at the top).
-    pub fn model(self) -> DelayModel {
-        use crate::targets as t;
-        match self {
-            Target::Ice40Hx8k => t::ice40_hx8k::DELAY,
-            Target::Ice40Up5k => t::ice40_up5k::DELAY,
-            Target::Ecp5 => t::ecp5::DELAY,
-            Target::Xc7 => t::xc7::DELAY,
-            Target::Asic => t::asic::DELAY,
-        }
-    }
-}
-
-impl std::fmt::Display for Target {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
-}
+/// A technology family (one file each in [`crate::targets`]); the emitter
+/// reads its [`Family::delay`](crate::targets::Family::delay).
+pub use crate::targets::Target;
 
 /// A hard multiplier block.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
@@ -242,7 +182,8 @@ pub enum Pipelining {
     /// per arithmetic step, whatever its delay.
     Compact,
     /// Registers where the delay model needs them for `clock_ns` on
-    /// `target`.
+    /// `target` (a family with a delay model: the emitter refuses one
+    /// without).
     Target {
         /// The technology.
         target: Target,
@@ -284,14 +225,6 @@ mod tests {
     use super::*;
 
     #[test]
-    fn names_round_trip() {
-        for t in Target::ALL {
-            assert_eq!(Target::from_name(t.name()), Some(t));
-        }
-        assert_eq!(Target::from_name("ice40"), None);
-    }
-
-    #[test]
     fn levels_are_ceilings() {
         assert_eq!(ceil_log(1, 4), 0);
         assert_eq!(ceil_log(4, 4), 1);
@@ -302,13 +235,13 @@ mod tests {
 
     #[test]
     fn a_dsp_tile_is_one_block_and_wider_products_sum_tiles() {
-        let m = Target::Ecp5.model();
+        let m = crate::targets::ecp5::DELAY;
         let d = m.dsp.unwrap();
         assert_eq!(m.mul(18, 18), d.comb);
         // 19 × 18 needs two tiles and one level summing them.
         assert!((m.mul(19, 18) - d.comb - d.combine).abs() < 1e-12);
         // LUT multipliers grow with the narrower operand.
-        let h = Target::Ice40Hx8k.model();
+        let h = crate::targets::ice40_hx8k::DELAY;
         assert!(h.mul(16, 8) < h.mul(16, 16));
         assert_eq!(h.mul(16, 8), h.mul(8, 16));
     }

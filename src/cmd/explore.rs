@@ -106,7 +106,7 @@ pub struct ExploreArgs {
     /// and Fmax are printed beside the estimates, optimized.toml holds the
     /// pipelining of the run that met, and the RTL check and the proof are
     /// of that design. Not met: the command fails (the files are written).
-    #[arg(long, value_enum, value_name = "TARGET", requires = "optimize")]
+    #[arg(long, value_parser = super::synth::target_parser(), value_name = "TARGET", requires = "optimize")]
     close_on: Option<super::synth::Target>,
     /// The clock --close-on aims for, MHz.
     #[arg(long, value_name = "MHZ", default_value_t = 100.0, value_parser = super::finite_f64, requires = "close_on")]
@@ -160,7 +160,7 @@ pub struct ExploreArgs {
     /// (generic, ice40-hx8k, ice40-up5k, ecp5, xc7): the metrics lut,
     /// synth_ff, dsp, bram and (where a place and route exists) fmax_mhz.
     /// Synthesis is cached per configuration like every other figure.
-    #[arg(long, value_enum, value_name = "TARGET")]
+    #[arg(long, value_parser = super::synth::target_parser(), value_name = "TARGET")]
     synth: Option<super::synth::Target>,
     /// The module `--synth` synthesizes: a unit, or `pipeline` (the top of
     /// the configured path, the default).
@@ -1329,14 +1329,14 @@ fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow:
     let close_timing = match a.close_on {
         None => None,
         Some(t) => {
-            let tt = t
-                .timing()
-                .filter(|_| t != super::synth::Target::Xc7)
+            let tt = Some(t)
+                .filter(|t| super::synth::closes(*t))
                 .ok_or_else(|| {
                     UsageError(format!(
                         "--close-on {}: give a target with a delay model and a place and route \
-                     (ice40-hx8k, ice40-up5k, ecp5)",
-                        t.name()
+                     ({})",
+                        t.name(),
+                        super::synth::synth_targets_where(super::synth::closes)
                     ))
                 })?;
             if !(a.freq.is_finite() && a.freq > 0.0) {
@@ -1366,17 +1366,13 @@ fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow:
         .into_iter()
         .find(|m| m == "lut_est" || m == "ff_est")
     {
-        let t = fxshade_model::rtl::timing::Target::from_name(target);
-        if t.and_then(fxshade_model::rtl::estimate::AreaModel::of)
-            .is_none()
-        {
-            let fitted: Vec<&str> = fxshade_model::rtl::timing::Target::NAMES
-                .into_iter()
-                .filter(|n| {
-                    fxshade_model::rtl::timing::Target::from_name(n)
-                        .and_then(fxshade_model::rtl::estimate::AreaModel::of)
-                        .is_some()
-                })
+        use fxshade_model::rtl::targets::Target;
+        let t = Target::from_name(target);
+        if t.and_then(|t| t.area_model()).is_none() {
+            let fitted: Vec<&str> = Target::all()
+                .iter()
+                .filter(|t| t.area_model().is_some())
+                .map(|t| t.name())
                 .collect();
             return Err(UsageError(format!(
                 "--minimize: `{m}` needs an area model for rtl.target {target}, which has none \
@@ -1494,8 +1490,8 @@ fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow:
             .any(|m| m.ends_with("_est"))
     {
         let name = win_cfg.unit("rtl").choice("target");
-        match <super::synth::Target as clap::ValueEnum>::from_str(name, false) {
-            Err(_) => {
+        match super::synth::synth_target(name).ok_or(()) {
+            Err(()) => {
                 eprintln!(
                     "explore: rtl.target {name} has no synthesis flow: the estimate stands unconfirmed"
                 );

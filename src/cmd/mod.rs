@@ -99,7 +99,9 @@ pub struct PipelineArgs {
     pub pipeline: Option<String>,
     /// The technology whose delay model places the registers (sets
     /// `rtl.target`; implies `--pipeline target`).
-    #[arg(long, value_parser = fxshade_model::rtl::timing::Target::NAMES)]
+    #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(
+        fxshade_model::rtl::targets::Target::pipelined_names()
+    ))]
     pub target: Option<String>,
     /// The requested clock period in ns (sets `rtl.clock_ns`; implies
     /// `--pipeline target`).

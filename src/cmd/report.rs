@@ -364,30 +364,26 @@ impl DeviceCost {
     /// The cost of the pipeline top of `cfg`; cached synthesis is read
     /// only (nothing is synthesized here).
     pub fn of(cfg: &fxshade_model::Config) -> Option<DeviceCost> {
-        use fxshade_model::rtl::{estimate as est, timing::Target as T};
+        use fxshade_model::rtl::estimate as est;
+        use fxshade_model::rtl::targets::Target;
         let design = fxshade_model::pipeline::RTL.design(cfg).ok()?;
         let e = fxshade_model::rtl::emit(&design).ok()?;
         let hw = &e.hardware;
-        let ecp5_estimate = match (est::lut_cells(hw, T::Ecp5), est::flip_flops(hw, T::Ecp5)) {
-            (Some(l), Some(f)) => Some((
-                l,
-                f,
-                est::dsp_blocks(hw, T::Ecp5),
-                est::bram_blocks(hw, T::Ecp5),
-            )),
+        let ecp5 = Target::from_name("ecp5")?;
+        let ecp5_estimate = match (est::lut_cells(hw, ecp5), est::flip_flops(hw, ecp5)) {
+            (Some(l), Some(f)) => {
+                Some((l, f, est::dsp_blocks(hw, ecp5), est::bram_blocks(hw, ecp5)))
+            }
             _ => None,
         };
         let synthesized = if crate::proc::has("yosys", "-V") {
-            use super::synth::{lookup, Target};
-            [
-                Target::Ecp5,
-                Target::Ice40Up5k,
-                Target::Ice40Hx8k,
-                Target::Xc7,
-            ]
-            .into_iter()
-            .filter_map(|t| lookup("pipeline", cfg, t))
-            .collect()
+            // Every device family's cached synthesis (not the generic LUT
+            // mapping, which is no device).
+            Target::synthesized()
+                .iter()
+                .filter(|t| super::synth::timing(**t).is_some())
+                .filter_map(|t| super::synth::lookup("pipeline", cfg, *t))
+                .collect()
         } else {
             Vec::new()
         };
@@ -494,14 +490,8 @@ fn cached_synthesis(cfg: &fxshade_model::Config) -> Vec<super::synth::SynthResul
     }
     let mut out = Vec::new();
     for u in fxshade_model::rtl::units::all() {
-        for t in [
-            Target::Generic,
-            Target::Ice40Hx8k,
-            Target::Ice40Up5k,
-            Target::Ecp5,
-            Target::Xc7,
-        ] {
-            out.extend(lookup(u.name, cfg, t));
+        for t in Target::synthesized() {
+            out.extend(lookup(u.name, cfg, *t));
         }
     }
     out

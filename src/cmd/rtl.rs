@@ -179,21 +179,19 @@ fn datasheet(
     let target = Target::from_name(rtl.choice("target")).expect("the configuration checks it");
     let clock = rtl.number("clock_ns");
     let (ext, text) = ds::constraints(m, target, clock);
-    use super::synth::Target as SynthTarget;
-    use clap::ValueEnum;
-    let targets: Vec<SynthTarget> = match resources {
+    use super::synth::synth_target;
+    let targets: Vec<Target> = match resources {
         Some("none") => Vec::new(),
         // The configured target (a process without an open flow: Yosys's
         // generic LUT mapping).
-        None => vec![SynthTarget::from_str(target.name(), false).unwrap_or(SynthTarget::Generic)],
+        None => vec![synth_target(target.name())
+            .or_else(|| synth_target("generic"))
+            .context("no generic synthesis flow in the registry")?],
         Some(list) => list
             .split(',')
             .map(|n| {
-                SynthTarget::from_str(n.trim(), false).map_err(|_| {
-                    let names: Vec<&str> = SynthTarget::value_variants()
-                        .iter()
-                        .map(|t| t.name())
-                        .collect();
+                synth_target(n.trim()).ok_or_else(|| {
+                    let names: Vec<&str> = Target::synthesized().iter().map(|t| t.name()).collect();
                     anyhow::anyhow!(
                         "--resources: unknown target `{}` (one of {}, or none)",
                         n.trim(),

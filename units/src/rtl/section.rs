@@ -36,7 +36,7 @@ pub static DECL: crate::config::UnitDecl = crate::config::UnitDecl {
         },
         crate::config::FieldDecl {
             name: "target",
-            kind: crate::config::FieldKind::Choice(&Target::NAMES),
+            kind: crate::config::FieldKind::ChoiceOf(Target::pipelined_names),
             doc: "the technology whose delay model places the registers (rtl.pipeline = \"target\")",
         },
         crate::config::FieldDecl {
