@@ -1112,7 +1112,7 @@ pub(super) fn result_tables(
     let mut t = Table::new([
         "unit",
         "device",
-        "LUT4",
+        "LUT",
         "logic cells (placed)",
         "LUT RAM",
         "FF",
