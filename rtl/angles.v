@@ -180,23 +180,20 @@ module angles (
   wire t20_sub = n_x_i[15];
   wire signed [18:0] t20 = t20_sub ? $signed(19'h7c000) : $signed(19'h4000);
   wire signed [20:0] angles_xy_21_r = $signed({t18, 4'b0});
-  wire angles_xy_21_ovf_d = 1'b0;
+  wire angles_xy_21_ovf_c = 1'b0;
   wire signed [21:0] angles_xy_21_d =
-      $signed(angles_xy_21_ovf_d ? (angles_xy_21_r[20] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_21_ovf_c ? (angles_xy_21_r[20] ? 22'h200000 : 22'h1fffff)
       : {angles_xy_21_r[20], angles_xy_21_r});
   reg  signed [21:0] angles_xy_21_q;
-  reg  [0:0] angles_xy_21_ovf_q;
   wire signed [20:0] angles_xy_22_r = $signed({t19, 4'b0});
-  wire angles_xy_22_ovf_d = 1'b0;
+  wire angles_xy_22_ovf_c = 1'b0;
   wire signed [21:0] angles_xy_22_d =
-      $signed(angles_xy_22_ovf_d ? (angles_xy_22_r[20] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_22_ovf_c ? (angles_xy_22_r[20] ? 22'h200000 : 22'h1fffff)
       : {angles_xy_22_r[20], angles_xy_22_r});
   reg  signed [21:0] angles_xy_22_q;
-  reg  [0:0] angles_xy_22_ovf_q;
-  wire angles_theta_23_ovf_d = t20[18] | (|t20[17:16]);
+  wire angles_theta_23_ovf_c = t20[18] | (|t20[17:16]);
   wire [15:0] angles_theta_23_d = t20[15:0];
   reg  [15:0] angles_theta_23_q;
-  reg  [0:0] angles_theta_23_ovf_q;
   wire t24_sub = angles_xy_22_q[21];
   wire signed [22:0] t24 =
       t24_sub ? $signed({angles_xy_21_q[21], angles_xy_21_q} - {angles_xy_22_q[21], angles_xy_22_q})
@@ -209,20 +206,17 @@ module angles (
   wire signed [17:0] t26 =
       t26_sub ? $signed({{2{1'b0}}, angles_theta_23_q} - {{2{1'b0}}, K5})
       : $signed({{2{1'b0}}, angles_theta_23_q} + {{2{1'b0}}, K5});
-  wire angles_xy_27_ovf_d = ~((&t24[22:21]) | ~(|t24[22:21]));
+  wire angles_xy_27_ovf_c = ~((&t24[22:21]) | ~(|t24[22:21]));
   wire signed [21:0] angles_xy_27_d =
-      $signed(angles_xy_27_ovf_d ? (t24[22] ? 22'h200000 : 22'h1fffff) : t24[21:0]);
+      $signed(angles_xy_27_ovf_c ? (t24[22] ? 22'h200000 : 22'h1fffff) : t24[21:0]);
   reg  signed [21:0] angles_xy_27_q;
-  reg  [0:0] angles_xy_27_ovf_q;
-  wire angles_xy_28_ovf_d = ~((&t25[22:21]) | ~(|t25[22:21]));
+  wire angles_xy_28_ovf_c = ~((&t25[22:21]) | ~(|t25[22:21]));
   wire signed [21:0] angles_xy_28_d =
-      $signed(angles_xy_28_ovf_d ? (t25[22] ? 22'h200000 : 22'h1fffff) : t25[21:0]);
+      $signed(angles_xy_28_ovf_c ? (t25[22] ? 22'h200000 : 22'h1fffff) : t25[21:0]);
   reg  signed [21:0] angles_xy_28_q;
-  reg  [0:0] angles_xy_28_ovf_q;
-  wire angles_theta_29_ovf_d = t26[17] | (|t26[16]);
+  wire angles_theta_29_ovf_c = t26[17] | (|t26[16]);
   wire [15:0] angles_theta_29_d = t26[15:0];
   reg  [15:0] angles_theta_29_q;
-  reg  [0:0] angles_theta_29_ovf_q;
   wire t30_sub = angles_xy_28_q[21];
   wire signed [23:0] t30 =
       t30_sub
@@ -242,23 +236,20 @@ module angles (
       t32_sub ? $signed({{2{1'b0}}, angles_theta_29_q} - {{2{1'b0}}, K6})
       : $signed({{2{1'b0}}, angles_theta_29_q} + {{2{1'b0}}, K6});
   wire signed [22:0] angles_xy_33_t = $signed(t30[23:1]);
-  wire angles_xy_33_ovf_d = ~((&angles_xy_33_t[22:21]) | ~(|angles_xy_33_t[22:21]));
+  wire angles_xy_33_ovf_c = ~((&angles_xy_33_t[22:21]) | ~(|angles_xy_33_t[22:21]));
   wire signed [21:0] angles_xy_33_d =
-      $signed(angles_xy_33_ovf_d ? (angles_xy_33_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_33_ovf_c ? (angles_xy_33_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_33_t[21:0]);
   reg  signed [21:0] angles_xy_33_q;
-  reg  [0:0] angles_xy_33_ovf_q;
   wire signed [22:0] angles_xy_34_t = $signed(t31[23:1]);
-  wire angles_xy_34_ovf_d = ~((&angles_xy_34_t[22:21]) | ~(|angles_xy_34_t[22:21]));
+  wire angles_xy_34_ovf_c = ~((&angles_xy_34_t[22:21]) | ~(|angles_xy_34_t[22:21]));
   wire signed [21:0] angles_xy_34_d =
-      $signed(angles_xy_34_ovf_d ? (angles_xy_34_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_34_ovf_c ? (angles_xy_34_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_34_t[21:0]);
   reg  signed [21:0] angles_xy_34_q;
-  reg  [0:0] angles_xy_34_ovf_q;
-  wire angles_theta_35_ovf_d = t32[17] | (|t32[16]);
+  wire angles_theta_35_ovf_c = t32[17] | (|t32[16]);
   wire [15:0] angles_theta_35_d = t32[15:0];
   reg  [15:0] angles_theta_35_q;
-  reg  [0:0] angles_theta_35_ovf_q;
   wire t36_sub = angles_xy_34_q[21];
   wire signed [24:0] t36 =
       t36_sub
@@ -278,23 +269,20 @@ module angles (
       t38_sub ? $signed({{2{1'b0}}, angles_theta_35_q} - {{2{1'b0}}, K7})
       : $signed({{2{1'b0}}, angles_theta_35_q} + {{2{1'b0}}, K7});
   wire signed [22:0] angles_xy_39_t = $signed(t36[24:2]);
-  wire angles_xy_39_ovf_d = ~((&angles_xy_39_t[22:21]) | ~(|angles_xy_39_t[22:21]));
+  wire angles_xy_39_ovf_c = ~((&angles_xy_39_t[22:21]) | ~(|angles_xy_39_t[22:21]));
   wire signed [21:0] angles_xy_39_d =
-      $signed(angles_xy_39_ovf_d ? (angles_xy_39_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_39_ovf_c ? (angles_xy_39_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_39_t[21:0]);
   reg  signed [21:0] angles_xy_39_q;
-  reg  [0:0] angles_xy_39_ovf_q;
   wire signed [22:0] angles_xy_40_t = $signed(t37[24:2]);
-  wire angles_xy_40_ovf_d = ~((&angles_xy_40_t[22:21]) | ~(|angles_xy_40_t[22:21]));
+  wire angles_xy_40_ovf_c = ~((&angles_xy_40_t[22:21]) | ~(|angles_xy_40_t[22:21]));
   wire signed [21:0] angles_xy_40_d =
-      $signed(angles_xy_40_ovf_d ? (angles_xy_40_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_40_ovf_c ? (angles_xy_40_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_40_t[21:0]);
   reg  signed [21:0] angles_xy_40_q;
-  reg  [0:0] angles_xy_40_ovf_q;
-  wire angles_theta_41_ovf_d = t38[17] | (|t38[16]);
+  wire angles_theta_41_ovf_c = t38[17] | (|t38[16]);
   wire [15:0] angles_theta_41_d = t38[15:0];
   reg  [15:0] angles_theta_41_q;
-  reg  [0:0] angles_theta_41_ovf_q;
   wire t42_sub = angles_xy_40_q[21];
   wire signed [25:0] t42 =
       t42_sub
@@ -314,23 +302,20 @@ module angles (
       t44_sub ? $signed({{2{1'b0}}, angles_theta_41_q} - {{2{1'b0}}, K8})
       : $signed({{2{1'b0}}, angles_theta_41_q} + {{2{1'b0}}, K8});
   wire signed [22:0] angles_xy_45_t = $signed(t42[25:3]);
-  wire angles_xy_45_ovf_d = ~((&angles_xy_45_t[22:21]) | ~(|angles_xy_45_t[22:21]));
+  wire angles_xy_45_ovf_c = ~((&angles_xy_45_t[22:21]) | ~(|angles_xy_45_t[22:21]));
   wire signed [21:0] angles_xy_45_d =
-      $signed(angles_xy_45_ovf_d ? (angles_xy_45_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_45_ovf_c ? (angles_xy_45_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_45_t[21:0]);
   reg  signed [21:0] angles_xy_45_q;
-  reg  [0:0] angles_xy_45_ovf_q;
   wire signed [22:0] angles_xy_46_t = $signed(t43[25:3]);
-  wire angles_xy_46_ovf_d = ~((&angles_xy_46_t[22:21]) | ~(|angles_xy_46_t[22:21]));
+  wire angles_xy_46_ovf_c = ~((&angles_xy_46_t[22:21]) | ~(|angles_xy_46_t[22:21]));
   wire signed [21:0] angles_xy_46_d =
-      $signed(angles_xy_46_ovf_d ? (angles_xy_46_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_46_ovf_c ? (angles_xy_46_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_46_t[21:0]);
   reg  signed [21:0] angles_xy_46_q;
-  reg  [0:0] angles_xy_46_ovf_q;
-  wire angles_theta_47_ovf_d = t44[17] | (|t44[16]);
+  wire angles_theta_47_ovf_c = t44[17] | (|t44[16]);
   wire [15:0] angles_theta_47_d = t44[15:0];
   reg  [15:0] angles_theta_47_q;
-  reg  [0:0] angles_theta_47_ovf_q;
   wire t48_sub = angles_xy_46_q[21];
   wire signed [26:0] t48 =
       t48_sub
@@ -350,23 +335,20 @@ module angles (
       t50_sub ? $signed({{2{1'b0}}, angles_theta_47_q} - {{2{1'b0}}, K9})
       : $signed({{2{1'b0}}, angles_theta_47_q} + {{2{1'b0}}, K9});
   wire signed [22:0] angles_xy_51_t = $signed(t48[26:4]);
-  wire angles_xy_51_ovf_d = ~((&angles_xy_51_t[22:21]) | ~(|angles_xy_51_t[22:21]));
+  wire angles_xy_51_ovf_c = ~((&angles_xy_51_t[22:21]) | ~(|angles_xy_51_t[22:21]));
   wire signed [21:0] angles_xy_51_d =
-      $signed(angles_xy_51_ovf_d ? (angles_xy_51_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_51_ovf_c ? (angles_xy_51_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_51_t[21:0]);
   reg  signed [21:0] angles_xy_51_q;
-  reg  [0:0] angles_xy_51_ovf_q;
   wire signed [22:0] angles_xy_52_t = $signed(t49[26:4]);
-  wire angles_xy_52_ovf_d = ~((&angles_xy_52_t[22:21]) | ~(|angles_xy_52_t[22:21]));
+  wire angles_xy_52_ovf_c = ~((&angles_xy_52_t[22:21]) | ~(|angles_xy_52_t[22:21]));
   wire signed [21:0] angles_xy_52_d =
-      $signed(angles_xy_52_ovf_d ? (angles_xy_52_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_52_ovf_c ? (angles_xy_52_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_52_t[21:0]);
   reg  signed [21:0] angles_xy_52_q;
-  reg  [0:0] angles_xy_52_ovf_q;
-  wire angles_theta_53_ovf_d = t50[17] | (|t50[16]);
+  wire angles_theta_53_ovf_c = t50[17] | (|t50[16]);
   wire [15:0] angles_theta_53_d = t50[15:0];
   reg  [15:0] angles_theta_53_q;
-  reg  [0:0] angles_theta_53_ovf_q;
   wire t54_sub = angles_xy_52_q[21];
   wire signed [27:0] t54 =
       t54_sub
@@ -386,23 +368,20 @@ module angles (
       t56_sub ? $signed({{2{1'b0}}, angles_theta_53_q} - {{2{1'b0}}, K10})
       : $signed({{2{1'b0}}, angles_theta_53_q} + {{2{1'b0}}, K10});
   wire signed [22:0] angles_xy_57_t = $signed(t54[27:5]);
-  wire angles_xy_57_ovf_d = ~((&angles_xy_57_t[22:21]) | ~(|angles_xy_57_t[22:21]));
+  wire angles_xy_57_ovf_c = ~((&angles_xy_57_t[22:21]) | ~(|angles_xy_57_t[22:21]));
   wire signed [21:0] angles_xy_57_d =
-      $signed(angles_xy_57_ovf_d ? (angles_xy_57_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_57_ovf_c ? (angles_xy_57_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_57_t[21:0]);
   reg  signed [21:0] angles_xy_57_q;
-  reg  [0:0] angles_xy_57_ovf_q;
   wire signed [22:0] angles_xy_58_t = $signed(t55[27:5]);
-  wire angles_xy_58_ovf_d = ~((&angles_xy_58_t[22:21]) | ~(|angles_xy_58_t[22:21]));
+  wire angles_xy_58_ovf_c = ~((&angles_xy_58_t[22:21]) | ~(|angles_xy_58_t[22:21]));
   wire signed [21:0] angles_xy_58_d =
-      $signed(angles_xy_58_ovf_d ? (angles_xy_58_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_58_ovf_c ? (angles_xy_58_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_58_t[21:0]);
   reg  signed [21:0] angles_xy_58_q;
-  reg  [0:0] angles_xy_58_ovf_q;
-  wire angles_theta_59_ovf_d = t56[17] | (|t56[16]);
+  wire angles_theta_59_ovf_c = t56[17] | (|t56[16]);
   wire [15:0] angles_theta_59_d = t56[15:0];
   reg  [15:0] angles_theta_59_q;
-  reg  [0:0] angles_theta_59_ovf_q;
   wire t60_sub = angles_xy_58_q[21];
   wire signed [28:0] t60 =
       t60_sub
@@ -422,23 +401,20 @@ module angles (
       t62_sub ? $signed({{2{1'b0}}, angles_theta_59_q} - {{2{1'b0}}, K11})
       : $signed({{2{1'b0}}, angles_theta_59_q} + {{2{1'b0}}, K11});
   wire signed [22:0] angles_xy_63_t = $signed(t60[28:6]);
-  wire angles_xy_63_ovf_d = ~((&angles_xy_63_t[22:21]) | ~(|angles_xy_63_t[22:21]));
+  wire angles_xy_63_ovf_c = ~((&angles_xy_63_t[22:21]) | ~(|angles_xy_63_t[22:21]));
   wire signed [21:0] angles_xy_63_d =
-      $signed(angles_xy_63_ovf_d ? (angles_xy_63_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_63_ovf_c ? (angles_xy_63_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_63_t[21:0]);
   reg  signed [21:0] angles_xy_63_q;
-  reg  [0:0] angles_xy_63_ovf_q;
   wire signed [22:0] angles_xy_64_t = $signed(t61[28:6]);
-  wire angles_xy_64_ovf_d = ~((&angles_xy_64_t[22:21]) | ~(|angles_xy_64_t[22:21]));
+  wire angles_xy_64_ovf_c = ~((&angles_xy_64_t[22:21]) | ~(|angles_xy_64_t[22:21]));
   wire signed [21:0] angles_xy_64_d =
-      $signed(angles_xy_64_ovf_d ? (angles_xy_64_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_64_ovf_c ? (angles_xy_64_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_64_t[21:0]);
   reg  signed [21:0] angles_xy_64_q;
-  reg  [0:0] angles_xy_64_ovf_q;
-  wire angles_theta_65_ovf_d = t62[17] | (|t62[16]);
+  wire angles_theta_65_ovf_c = t62[17] | (|t62[16]);
   wire [15:0] angles_theta_65_d = t62[15:0];
   reg  [15:0] angles_theta_65_q;
-  reg  [0:0] angles_theta_65_ovf_q;
   wire t66_sub = angles_xy_64_q[21];
   wire signed [29:0] t66 =
       t66_sub
@@ -458,23 +434,20 @@ module angles (
       t68_sub ? $signed({{2{1'b0}}, angles_theta_65_q} - {{2{1'b0}}, K12})
       : $signed({{2{1'b0}}, angles_theta_65_q} + {{2{1'b0}}, K12});
   wire signed [22:0] angles_xy_69_t = $signed(t66[29:7]);
-  wire angles_xy_69_ovf_d = ~((&angles_xy_69_t[22:21]) | ~(|angles_xy_69_t[22:21]));
+  wire angles_xy_69_ovf_c = ~((&angles_xy_69_t[22:21]) | ~(|angles_xy_69_t[22:21]));
   wire signed [21:0] angles_xy_69_d =
-      $signed(angles_xy_69_ovf_d ? (angles_xy_69_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_69_ovf_c ? (angles_xy_69_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_69_t[21:0]);
   reg  signed [21:0] angles_xy_69_q;
-  reg  [0:0] angles_xy_69_ovf_q;
   wire signed [22:0] angles_xy_70_t = $signed(t67[29:7]);
-  wire angles_xy_70_ovf_d = ~((&angles_xy_70_t[22:21]) | ~(|angles_xy_70_t[22:21]));
+  wire angles_xy_70_ovf_c = ~((&angles_xy_70_t[22:21]) | ~(|angles_xy_70_t[22:21]));
   wire signed [21:0] angles_xy_70_d =
-      $signed(angles_xy_70_ovf_d ? (angles_xy_70_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_70_ovf_c ? (angles_xy_70_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_70_t[21:0]);
   reg  signed [21:0] angles_xy_70_q;
-  reg  [0:0] angles_xy_70_ovf_q;
-  wire angles_theta_71_ovf_d = t68[17] | (|t68[16]);
+  wire angles_theta_71_ovf_c = t68[17] | (|t68[16]);
   wire [15:0] angles_theta_71_d = t68[15:0];
   reg  [15:0] angles_theta_71_q;
-  reg  [0:0] angles_theta_71_ovf_q;
   wire t72_sub = angles_xy_70_q[21];
   wire signed [30:0] t72 =
       t72_sub
@@ -494,23 +467,20 @@ module angles (
       t74_sub ? $signed({{2{1'b0}}, angles_theta_71_q} - {{2{1'b0}}, K13})
       : $signed({{2{1'b0}}, angles_theta_71_q} + {{2{1'b0}}, K13});
   wire signed [22:0] angles_xy_75_t = $signed(t72[30:8]);
-  wire angles_xy_75_ovf_d = ~((&angles_xy_75_t[22:21]) | ~(|angles_xy_75_t[22:21]));
+  wire angles_xy_75_ovf_c = ~((&angles_xy_75_t[22:21]) | ~(|angles_xy_75_t[22:21]));
   wire signed [21:0] angles_xy_75_d =
-      $signed(angles_xy_75_ovf_d ? (angles_xy_75_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_75_ovf_c ? (angles_xy_75_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_75_t[21:0]);
   reg  signed [21:0] angles_xy_75_q;
-  reg  [0:0] angles_xy_75_ovf_q;
   wire signed [22:0] angles_xy_76_t = $signed(t73[30:8]);
-  wire angles_xy_76_ovf_d = ~((&angles_xy_76_t[22:21]) | ~(|angles_xy_76_t[22:21]));
+  wire angles_xy_76_ovf_c = ~((&angles_xy_76_t[22:21]) | ~(|angles_xy_76_t[22:21]));
   wire signed [21:0] angles_xy_76_d =
-      $signed(angles_xy_76_ovf_d ? (angles_xy_76_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_76_ovf_c ? (angles_xy_76_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_76_t[21:0]);
   reg  signed [21:0] angles_xy_76_q;
-  reg  [0:0] angles_xy_76_ovf_q;
-  wire angles_theta_77_ovf_d = t74[17] | (|t74[16]);
+  wire angles_theta_77_ovf_c = t74[17] | (|t74[16]);
   wire [15:0] angles_theta_77_d = t74[15:0];
   reg  [15:0] angles_theta_77_q;
-  reg  [0:0] angles_theta_77_ovf_q;
   wire t78_sub = angles_xy_76_q[21];
   wire signed [31:0] t78 =
       t78_sub
@@ -530,23 +500,20 @@ module angles (
       t80_sub ? $signed({{2{1'b0}}, angles_theta_77_q} - {{2{1'b0}}, K14})
       : $signed({{2{1'b0}}, angles_theta_77_q} + {{2{1'b0}}, K14});
   wire signed [22:0] angles_xy_81_t = $signed(t78[31:9]);
-  wire angles_xy_81_ovf_d = ~((&angles_xy_81_t[22:21]) | ~(|angles_xy_81_t[22:21]));
+  wire angles_xy_81_ovf_c = ~((&angles_xy_81_t[22:21]) | ~(|angles_xy_81_t[22:21]));
   wire signed [21:0] angles_xy_81_d =
-      $signed(angles_xy_81_ovf_d ? (angles_xy_81_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_81_ovf_c ? (angles_xy_81_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_81_t[21:0]);
   reg  signed [21:0] angles_xy_81_q;
-  reg  [0:0] angles_xy_81_ovf_q;
   wire signed [22:0] angles_xy_82_t = $signed(t79[31:9]);
-  wire angles_xy_82_ovf_d = ~((&angles_xy_82_t[22:21]) | ~(|angles_xy_82_t[22:21]));
+  wire angles_xy_82_ovf_c = ~((&angles_xy_82_t[22:21]) | ~(|angles_xy_82_t[22:21]));
   wire signed [21:0] angles_xy_82_d =
-      $signed(angles_xy_82_ovf_d ? (angles_xy_82_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_82_ovf_c ? (angles_xy_82_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_82_t[21:0]);
   reg  signed [21:0] angles_xy_82_q;
-  reg  [0:0] angles_xy_82_ovf_q;
-  wire angles_theta_83_ovf_d = t80[17] | (|t80[16]);
+  wire angles_theta_83_ovf_c = t80[17] | (|t80[16]);
   wire [15:0] angles_theta_83_d = t80[15:0];
   reg  [15:0] angles_theta_83_q;
-  reg  [0:0] angles_theta_83_ovf_q;
   wire t84_sub = angles_xy_82_q[21];
   wire signed [32:0] t84 =
       t84_sub
@@ -566,23 +533,20 @@ module angles (
       t86_sub ? $signed({{2{1'b0}}, angles_theta_83_q} - {{2{1'b0}}, K15})
       : $signed({{2{1'b0}}, angles_theta_83_q} + {{2{1'b0}}, K15});
   wire signed [22:0] angles_xy_87_t = $signed(t84[32:10]);
-  wire angles_xy_87_ovf_d = ~((&angles_xy_87_t[22:21]) | ~(|angles_xy_87_t[22:21]));
+  wire angles_xy_87_ovf_c = ~((&angles_xy_87_t[22:21]) | ~(|angles_xy_87_t[22:21]));
   wire signed [21:0] angles_xy_87_d =
-      $signed(angles_xy_87_ovf_d ? (angles_xy_87_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_87_ovf_c ? (angles_xy_87_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_87_t[21:0]);
   reg  signed [21:0] angles_xy_87_q;
-  reg  [0:0] angles_xy_87_ovf_q;
   wire signed [22:0] angles_xy_88_t = $signed(t85[32:10]);
-  wire angles_xy_88_ovf_d = ~((&angles_xy_88_t[22:21]) | ~(|angles_xy_88_t[22:21]));
+  wire angles_xy_88_ovf_c = ~((&angles_xy_88_t[22:21]) | ~(|angles_xy_88_t[22:21]));
   wire signed [21:0] angles_xy_88_d =
-      $signed(angles_xy_88_ovf_d ? (angles_xy_88_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_88_ovf_c ? (angles_xy_88_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_88_t[21:0]);
   reg  signed [21:0] angles_xy_88_q;
-  reg  [0:0] angles_xy_88_ovf_q;
-  wire angles_theta_89_ovf_d = t86[17] | (|t86[16]);
+  wire angles_theta_89_ovf_c = t86[17] | (|t86[16]);
   wire [15:0] angles_theta_89_d = t86[15:0];
   reg  [15:0] angles_theta_89_q;
-  reg  [0:0] angles_theta_89_ovf_q;
   wire t90_sub = angles_xy_88_q[21];
   wire signed [33:0] t90 =
       t90_sub
@@ -595,30 +559,26 @@ module angles (
       t92_sub ? $signed({{2{1'b0}}, angles_theta_89_q} - {{2{1'b0}}, K16})
       : $signed({{2{1'b0}}, angles_theta_89_q} + {{2{1'b0}}, K16});
   wire signed [22:0] angles_xy_93_t = $signed(t90[33:11]);
-  wire angles_xy_93_ovf_d = ~((&angles_xy_93_t[22:21]) | ~(|angles_xy_93_t[22:21]));
+  wire angles_xy_93_ovf_c = ~((&angles_xy_93_t[22:21]) | ~(|angles_xy_93_t[22:21]));
   wire signed [21:0] angles_xy_93_d =
-      $signed(angles_xy_93_ovf_d ? (angles_xy_93_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_93_ovf_c ? (angles_xy_93_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_93_t[21:0]);
   reg  signed [21:0] angles_xy_93_q;
-  reg  [0:0] angles_xy_93_ovf_q;
-  wire angles_theta_95_ovf_d = t92[17] | (|t92[16]);
+  wire angles_theta_95_ovf_c = t92[17] | (|t92[16]);
   wire [15:0] angles_theta_95_d = t92[15:0];
   reg  [15:0] angles_theta_95_q;
-  reg  [0:0] angles_theta_95_ovf_q;
   wire signed [18:0] t96_a = $signed({1'b0, K17});
   wire signed [33:0] t96 = t96_a * n_y_i;
   wire signed [20:0] angles_xy_97_t = $signed(t96[33:13]);
-  wire angles_xy_97_ovf_d = 1'b0;
+  wire angles_xy_97_ovf_c = 1'b0;
   wire signed [21:0] angles_xy_97_d =
-      $signed(angles_xy_97_ovf_d ? (angles_xy_97_t[20] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_97_ovf_c ? (angles_xy_97_t[20] ? 22'h200000 : 22'h1fffff)
       : {angles_xy_97_t[20], angles_xy_97_t});
   reg  signed [21:0] angles_xy_97_q;
-  reg  [0:0] angles_xy_97_ovf_q;
   wire [16:0] angles_theta_98_r = {K3, 16'b0};
-  wire angles_theta_98_ovf_d = |angles_theta_98_r[16];
+  wire angles_theta_98_ovf_c = |angles_theta_98_r[16];
   wire [15:0] angles_theta_98_d = angles_theta_98_r[15:0];
   reg  [15:0] angles_theta_98_q;
-  reg  [0:0] angles_theta_98_ovf_q;
   reg  signed [21:0] angles_xy_97_s2_q;
   reg  signed [21:0] angles_xy_97_s3_q;
   reg  signed [21:0] angles_xy_97_s4_q;
@@ -647,20 +607,17 @@ module angles (
   wire signed [17:0] t101 =
       t101_sub ? $signed({{2{1'b0}}, angles_theta_98_q} - {{2{1'b0}}, K5})
       : $signed({{2{1'b0}}, angles_theta_98_q} + {{2{1'b0}}, K5});
-  wire angles_xy_102_ovf_d = ~((&t99[22:21]) | ~(|t99[22:21]));
+  wire angles_xy_102_ovf_c = ~((&t99[22:21]) | ~(|t99[22:21]));
   wire signed [21:0] angles_xy_102_d =
-      $signed(angles_xy_102_ovf_d ? (t99[22] ? 22'h200000 : 22'h1fffff) : t99[21:0]);
+      $signed(angles_xy_102_ovf_c ? (t99[22] ? 22'h200000 : 22'h1fffff) : t99[21:0]);
   reg  signed [21:0] angles_xy_102_q;
-  reg  [0:0] angles_xy_102_ovf_q;
-  wire angles_xy_103_ovf_d = ~((&t100[22:21]) | ~(|t100[22:21]));
+  wire angles_xy_103_ovf_c = ~((&t100[22:21]) | ~(|t100[22:21]));
   wire signed [21:0] angles_xy_103_d =
-      $signed(angles_xy_103_ovf_d ? (t100[22] ? 22'h200000 : 22'h1fffff) : t100[21:0]);
+      $signed(angles_xy_103_ovf_c ? (t100[22] ? 22'h200000 : 22'h1fffff) : t100[21:0]);
   reg  signed [21:0] angles_xy_103_q;
-  reg  [0:0] angles_xy_103_ovf_q;
-  wire angles_theta_104_ovf_d = t101[17] | (|t101[16]);
+  wire angles_theta_104_ovf_c = t101[17] | (|t101[16]);
   wire [15:0] angles_theta_104_d = t101[15:0];
   reg  [15:0] angles_theta_104_q;
-  reg  [0:0] angles_theta_104_ovf_q;
   wire t105_sub = angles_xy_103_q[21];
   wire signed [23:0] t105 =
       t105_sub
@@ -692,23 +649,20 @@ module angles (
       t107_sub ? $signed({{2{1'b0}}, angles_theta_104_s14_q} - {{2{1'b0}}, K6})
       : $signed({{2{1'b0}}, angles_theta_104_s14_q} + {{2{1'b0}}, K6});
   wire signed [22:0] angles_xy_108_t = $signed(t105[23:1]);
-  wire angles_xy_108_ovf_d = ~((&angles_xy_108_t[22:21]) | ~(|angles_xy_108_t[22:21]));
+  wire angles_xy_108_ovf_c = ~((&angles_xy_108_t[22:21]) | ~(|angles_xy_108_t[22:21]));
   wire signed [21:0] angles_xy_108_d =
-      $signed(angles_xy_108_ovf_d ? (angles_xy_108_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_108_ovf_c ? (angles_xy_108_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_108_t[21:0]);
   reg  signed [21:0] angles_xy_108_q;
-  reg  [0:0] angles_xy_108_ovf_q;
   wire signed [22:0] angles_xy_109_t = $signed(t106[23:1]);
-  wire angles_xy_109_ovf_d = ~((&angles_xy_109_t[22:21]) | ~(|angles_xy_109_t[22:21]));
+  wire angles_xy_109_ovf_c = ~((&angles_xy_109_t[22:21]) | ~(|angles_xy_109_t[22:21]));
   wire signed [21:0] angles_xy_109_d =
-      $signed(angles_xy_109_ovf_d ? (angles_xy_109_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_109_ovf_c ? (angles_xy_109_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_109_t[21:0]);
   reg  signed [21:0] angles_xy_109_q;
-  reg  [0:0] angles_xy_109_ovf_q;
-  wire angles_theta_110_ovf_d = t107[17] | (|t107[16]);
+  wire angles_theta_110_ovf_c = t107[17] | (|t107[16]);
   wire [15:0] angles_theta_110_d = t107[15:0];
   reg  [15:0] angles_theta_110_q;
-  reg  [0:0] angles_theta_110_ovf_q;
   wire t111_sub = angles_xy_109_q[21];
   wire signed [24:0] t111 =
       t111_sub
@@ -728,23 +682,20 @@ module angles (
       t113_sub ? $signed({{2{1'b0}}, angles_theta_110_q} - {{2{1'b0}}, K7})
       : $signed({{2{1'b0}}, angles_theta_110_q} + {{2{1'b0}}, K7});
   wire signed [22:0] angles_xy_114_t = $signed(t111[24:2]);
-  wire angles_xy_114_ovf_d = ~((&angles_xy_114_t[22:21]) | ~(|angles_xy_114_t[22:21]));
+  wire angles_xy_114_ovf_c = ~((&angles_xy_114_t[22:21]) | ~(|angles_xy_114_t[22:21]));
   wire signed [21:0] angles_xy_114_d =
-      $signed(angles_xy_114_ovf_d ? (angles_xy_114_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_114_ovf_c ? (angles_xy_114_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_114_t[21:0]);
   reg  signed [21:0] angles_xy_114_q;
-  reg  [0:0] angles_xy_114_ovf_q;
   wire signed [22:0] angles_xy_115_t = $signed(t112[24:2]);
-  wire angles_xy_115_ovf_d = ~((&angles_xy_115_t[22:21]) | ~(|angles_xy_115_t[22:21]));
+  wire angles_xy_115_ovf_c = ~((&angles_xy_115_t[22:21]) | ~(|angles_xy_115_t[22:21]));
   wire signed [21:0] angles_xy_115_d =
-      $signed(angles_xy_115_ovf_d ? (angles_xy_115_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_115_ovf_c ? (angles_xy_115_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_115_t[21:0]);
   reg  signed [21:0] angles_xy_115_q;
-  reg  [0:0] angles_xy_115_ovf_q;
-  wire angles_theta_116_ovf_d = t113[17] | (|t113[16]);
+  wire angles_theta_116_ovf_c = t113[17] | (|t113[16]);
   wire [15:0] angles_theta_116_d = t113[15:0];
   reg  [15:0] angles_theta_116_q;
-  reg  [0:0] angles_theta_116_ovf_q;
   wire t117_sub = angles_xy_115_q[21];
   wire signed [25:0] t117 =
       t117_sub
@@ -764,23 +715,20 @@ module angles (
       t119_sub ? $signed({{2{1'b0}}, angles_theta_116_q} - {{2{1'b0}}, K8})
       : $signed({{2{1'b0}}, angles_theta_116_q} + {{2{1'b0}}, K8});
   wire signed [22:0] angles_xy_120_t = $signed(t117[25:3]);
-  wire angles_xy_120_ovf_d = ~((&angles_xy_120_t[22:21]) | ~(|angles_xy_120_t[22:21]));
+  wire angles_xy_120_ovf_c = ~((&angles_xy_120_t[22:21]) | ~(|angles_xy_120_t[22:21]));
   wire signed [21:0] angles_xy_120_d =
-      $signed(angles_xy_120_ovf_d ? (angles_xy_120_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_120_ovf_c ? (angles_xy_120_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_120_t[21:0]);
   reg  signed [21:0] angles_xy_120_q;
-  reg  [0:0] angles_xy_120_ovf_q;
   wire signed [22:0] angles_xy_121_t = $signed(t118[25:3]);
-  wire angles_xy_121_ovf_d = ~((&angles_xy_121_t[22:21]) | ~(|angles_xy_121_t[22:21]));
+  wire angles_xy_121_ovf_c = ~((&angles_xy_121_t[22:21]) | ~(|angles_xy_121_t[22:21]));
   wire signed [21:0] angles_xy_121_d =
-      $signed(angles_xy_121_ovf_d ? (angles_xy_121_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_121_ovf_c ? (angles_xy_121_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_121_t[21:0]);
   reg  signed [21:0] angles_xy_121_q;
-  reg  [0:0] angles_xy_121_ovf_q;
-  wire angles_theta_122_ovf_d = t119[17] | (|t119[16]);
+  wire angles_theta_122_ovf_c = t119[17] | (|t119[16]);
   wire [15:0] angles_theta_122_d = t119[15:0];
   reg  [15:0] angles_theta_122_q;
-  reg  [0:0] angles_theta_122_ovf_q;
   wire t123_sub = angles_xy_121_q[21];
   wire signed [26:0] t123 =
       t123_sub
@@ -800,23 +748,20 @@ module angles (
       t125_sub ? $signed({{2{1'b0}}, angles_theta_122_q} - {{2{1'b0}}, K9})
       : $signed({{2{1'b0}}, angles_theta_122_q} + {{2{1'b0}}, K9});
   wire signed [22:0] angles_xy_126_t = $signed(t123[26:4]);
-  wire angles_xy_126_ovf_d = ~((&angles_xy_126_t[22:21]) | ~(|angles_xy_126_t[22:21]));
+  wire angles_xy_126_ovf_c = ~((&angles_xy_126_t[22:21]) | ~(|angles_xy_126_t[22:21]));
   wire signed [21:0] angles_xy_126_d =
-      $signed(angles_xy_126_ovf_d ? (angles_xy_126_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_126_ovf_c ? (angles_xy_126_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_126_t[21:0]);
   reg  signed [21:0] angles_xy_126_q;
-  reg  [0:0] angles_xy_126_ovf_q;
   wire signed [22:0] angles_xy_127_t = $signed(t124[26:4]);
-  wire angles_xy_127_ovf_d = ~((&angles_xy_127_t[22:21]) | ~(|angles_xy_127_t[22:21]));
+  wire angles_xy_127_ovf_c = ~((&angles_xy_127_t[22:21]) | ~(|angles_xy_127_t[22:21]));
   wire signed [21:0] angles_xy_127_d =
-      $signed(angles_xy_127_ovf_d ? (angles_xy_127_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_127_ovf_c ? (angles_xy_127_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_127_t[21:0]);
   reg  signed [21:0] angles_xy_127_q;
-  reg  [0:0] angles_xy_127_ovf_q;
-  wire angles_theta_128_ovf_d = t125[17] | (|t125[16]);
+  wire angles_theta_128_ovf_c = t125[17] | (|t125[16]);
   wire [15:0] angles_theta_128_d = t125[15:0];
   reg  [15:0] angles_theta_128_q;
-  reg  [0:0] angles_theta_128_ovf_q;
   wire t129_sub = angles_xy_127_q[21];
   wire signed [27:0] t129 =
       t129_sub
@@ -836,23 +781,20 @@ module angles (
       t131_sub ? $signed({{2{1'b0}}, angles_theta_128_q} - {{2{1'b0}}, K10})
       : $signed({{2{1'b0}}, angles_theta_128_q} + {{2{1'b0}}, K10});
   wire signed [22:0] angles_xy_132_t = $signed(t129[27:5]);
-  wire angles_xy_132_ovf_d = ~((&angles_xy_132_t[22:21]) | ~(|angles_xy_132_t[22:21]));
+  wire angles_xy_132_ovf_c = ~((&angles_xy_132_t[22:21]) | ~(|angles_xy_132_t[22:21]));
   wire signed [21:0] angles_xy_132_d =
-      $signed(angles_xy_132_ovf_d ? (angles_xy_132_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_132_ovf_c ? (angles_xy_132_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_132_t[21:0]);
   reg  signed [21:0] angles_xy_132_q;
-  reg  [0:0] angles_xy_132_ovf_q;
   wire signed [22:0] angles_xy_133_t = $signed(t130[27:5]);
-  wire angles_xy_133_ovf_d = ~((&angles_xy_133_t[22:21]) | ~(|angles_xy_133_t[22:21]));
+  wire angles_xy_133_ovf_c = ~((&angles_xy_133_t[22:21]) | ~(|angles_xy_133_t[22:21]));
   wire signed [21:0] angles_xy_133_d =
-      $signed(angles_xy_133_ovf_d ? (angles_xy_133_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_133_ovf_c ? (angles_xy_133_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_133_t[21:0]);
   reg  signed [21:0] angles_xy_133_q;
-  reg  [0:0] angles_xy_133_ovf_q;
-  wire angles_theta_134_ovf_d = t131[17] | (|t131[16]);
+  wire angles_theta_134_ovf_c = t131[17] | (|t131[16]);
   wire [15:0] angles_theta_134_d = t131[15:0];
   reg  [15:0] angles_theta_134_q;
-  reg  [0:0] angles_theta_134_ovf_q;
   wire t135_sub = angles_xy_133_q[21];
   wire signed [28:0] t135 =
       t135_sub
@@ -872,23 +814,20 @@ module angles (
       t137_sub ? $signed({{2{1'b0}}, angles_theta_134_q} - {{2{1'b0}}, K11})
       : $signed({{2{1'b0}}, angles_theta_134_q} + {{2{1'b0}}, K11});
   wire signed [22:0] angles_xy_138_t = $signed(t135[28:6]);
-  wire angles_xy_138_ovf_d = ~((&angles_xy_138_t[22:21]) | ~(|angles_xy_138_t[22:21]));
+  wire angles_xy_138_ovf_c = ~((&angles_xy_138_t[22:21]) | ~(|angles_xy_138_t[22:21]));
   wire signed [21:0] angles_xy_138_d =
-      $signed(angles_xy_138_ovf_d ? (angles_xy_138_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_138_ovf_c ? (angles_xy_138_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_138_t[21:0]);
   reg  signed [21:0] angles_xy_138_q;
-  reg  [0:0] angles_xy_138_ovf_q;
   wire signed [22:0] angles_xy_139_t = $signed(t136[28:6]);
-  wire angles_xy_139_ovf_d = ~((&angles_xy_139_t[22:21]) | ~(|angles_xy_139_t[22:21]));
+  wire angles_xy_139_ovf_c = ~((&angles_xy_139_t[22:21]) | ~(|angles_xy_139_t[22:21]));
   wire signed [21:0] angles_xy_139_d =
-      $signed(angles_xy_139_ovf_d ? (angles_xy_139_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_139_ovf_c ? (angles_xy_139_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_139_t[21:0]);
   reg  signed [21:0] angles_xy_139_q;
-  reg  [0:0] angles_xy_139_ovf_q;
-  wire angles_theta_140_ovf_d = t137[17] | (|t137[16]);
+  wire angles_theta_140_ovf_c = t137[17] | (|t137[16]);
   wire [15:0] angles_theta_140_d = t137[15:0];
   reg  [15:0] angles_theta_140_q;
-  reg  [0:0] angles_theta_140_ovf_q;
   wire t141_sub = angles_xy_139_q[21];
   wire signed [29:0] t141 =
       t141_sub
@@ -908,23 +847,20 @@ module angles (
       t143_sub ? $signed({{2{1'b0}}, angles_theta_140_q} - {{2{1'b0}}, K12})
       : $signed({{2{1'b0}}, angles_theta_140_q} + {{2{1'b0}}, K12});
   wire signed [22:0] angles_xy_144_t = $signed(t141[29:7]);
-  wire angles_xy_144_ovf_d = ~((&angles_xy_144_t[22:21]) | ~(|angles_xy_144_t[22:21]));
+  wire angles_xy_144_ovf_c = ~((&angles_xy_144_t[22:21]) | ~(|angles_xy_144_t[22:21]));
   wire signed [21:0] angles_xy_144_d =
-      $signed(angles_xy_144_ovf_d ? (angles_xy_144_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_144_ovf_c ? (angles_xy_144_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_144_t[21:0]);
   reg  signed [21:0] angles_xy_144_q;
-  reg  [0:0] angles_xy_144_ovf_q;
   wire signed [22:0] angles_xy_145_t = $signed(t142[29:7]);
-  wire angles_xy_145_ovf_d = ~((&angles_xy_145_t[22:21]) | ~(|angles_xy_145_t[22:21]));
+  wire angles_xy_145_ovf_c = ~((&angles_xy_145_t[22:21]) | ~(|angles_xy_145_t[22:21]));
   wire signed [21:0] angles_xy_145_d =
-      $signed(angles_xy_145_ovf_d ? (angles_xy_145_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_145_ovf_c ? (angles_xy_145_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_145_t[21:0]);
   reg  signed [21:0] angles_xy_145_q;
-  reg  [0:0] angles_xy_145_ovf_q;
-  wire angles_theta_146_ovf_d = t143[17] | (|t143[16]);
+  wire angles_theta_146_ovf_c = t143[17] | (|t143[16]);
   wire [15:0] angles_theta_146_d = t143[15:0];
   reg  [15:0] angles_theta_146_q;
-  reg  [0:0] angles_theta_146_ovf_q;
   wire t147_sub = angles_xy_145_q[21];
   wire signed [30:0] t147 =
       t147_sub
@@ -944,23 +880,20 @@ module angles (
       t149_sub ? $signed({{2{1'b0}}, angles_theta_146_q} - {{2{1'b0}}, K13})
       : $signed({{2{1'b0}}, angles_theta_146_q} + {{2{1'b0}}, K13});
   wire signed [22:0] angles_xy_150_t = $signed(t147[30:8]);
-  wire angles_xy_150_ovf_d = ~((&angles_xy_150_t[22:21]) | ~(|angles_xy_150_t[22:21]));
+  wire angles_xy_150_ovf_c = ~((&angles_xy_150_t[22:21]) | ~(|angles_xy_150_t[22:21]));
   wire signed [21:0] angles_xy_150_d =
-      $signed(angles_xy_150_ovf_d ? (angles_xy_150_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_150_ovf_c ? (angles_xy_150_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_150_t[21:0]);
   reg  signed [21:0] angles_xy_150_q;
-  reg  [0:0] angles_xy_150_ovf_q;
   wire signed [22:0] angles_xy_151_t = $signed(t148[30:8]);
-  wire angles_xy_151_ovf_d = ~((&angles_xy_151_t[22:21]) | ~(|angles_xy_151_t[22:21]));
+  wire angles_xy_151_ovf_c = ~((&angles_xy_151_t[22:21]) | ~(|angles_xy_151_t[22:21]));
   wire signed [21:0] angles_xy_151_d =
-      $signed(angles_xy_151_ovf_d ? (angles_xy_151_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_151_ovf_c ? (angles_xy_151_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_151_t[21:0]);
   reg  signed [21:0] angles_xy_151_q;
-  reg  [0:0] angles_xy_151_ovf_q;
-  wire angles_theta_152_ovf_d = t149[17] | (|t149[16]);
+  wire angles_theta_152_ovf_c = t149[17] | (|t149[16]);
   wire [15:0] angles_theta_152_d = t149[15:0];
   reg  [15:0] angles_theta_152_q;
-  reg  [0:0] angles_theta_152_ovf_q;
   wire t153_sub = angles_xy_151_q[21];
   wire signed [31:0] t153 =
       t153_sub
@@ -980,23 +913,20 @@ module angles (
       t155_sub ? $signed({{2{1'b0}}, angles_theta_152_q} - {{2{1'b0}}, K14})
       : $signed({{2{1'b0}}, angles_theta_152_q} + {{2{1'b0}}, K14});
   wire signed [22:0] angles_xy_156_t = $signed(t153[31:9]);
-  wire angles_xy_156_ovf_d = ~((&angles_xy_156_t[22:21]) | ~(|angles_xy_156_t[22:21]));
+  wire angles_xy_156_ovf_c = ~((&angles_xy_156_t[22:21]) | ~(|angles_xy_156_t[22:21]));
   wire signed [21:0] angles_xy_156_d =
-      $signed(angles_xy_156_ovf_d ? (angles_xy_156_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_156_ovf_c ? (angles_xy_156_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_156_t[21:0]);
   reg  signed [21:0] angles_xy_156_q;
-  reg  [0:0] angles_xy_156_ovf_q;
   wire signed [22:0] angles_xy_157_t = $signed(t154[31:9]);
-  wire angles_xy_157_ovf_d = ~((&angles_xy_157_t[22:21]) | ~(|angles_xy_157_t[22:21]));
+  wire angles_xy_157_ovf_c = ~((&angles_xy_157_t[22:21]) | ~(|angles_xy_157_t[22:21]));
   wire signed [21:0] angles_xy_157_d =
-      $signed(angles_xy_157_ovf_d ? (angles_xy_157_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_157_ovf_c ? (angles_xy_157_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_157_t[21:0]);
   reg  signed [21:0] angles_xy_157_q;
-  reg  [0:0] angles_xy_157_ovf_q;
-  wire angles_theta_158_ovf_d = t155[17] | (|t155[16]);
+  wire angles_theta_158_ovf_c = t155[17] | (|t155[16]);
   wire [15:0] angles_theta_158_d = t155[15:0];
   reg  [15:0] angles_theta_158_q;
-  reg  [0:0] angles_theta_158_ovf_q;
   wire t160_sub = ~angles_xy_157_q[21];
   wire signed [32:0] t160 =
       t160_sub
@@ -1009,42 +939,37 @@ module angles (
       t161_sub ? $signed({{2{1'b0}}, angles_theta_158_q} - {{2{1'b0}}, K15})
       : $signed({{2{1'b0}}, angles_theta_158_q} + {{2{1'b0}}, K15});
   wire signed [22:0] angles_xy_163_t = $signed(t160[32:10]);
-  wire angles_xy_163_ovf_d = ~((&angles_xy_163_t[22:21]) | ~(|angles_xy_163_t[22:21]));
+  wire angles_xy_163_ovf_c = ~((&angles_xy_163_t[22:21]) | ~(|angles_xy_163_t[22:21]));
   wire signed [21:0] angles_xy_163_d =
-      $signed(angles_xy_163_ovf_d ? (angles_xy_163_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_163_ovf_c ? (angles_xy_163_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_163_t[21:0]);
   reg  signed [21:0] angles_xy_163_q;
-  reg  [0:0] angles_xy_163_ovf_q;
-  wire angles_theta_164_ovf_d = t161[17] | (|t161[16]);
+  wire angles_theta_164_ovf_c = t161[17] | (|t161[16]);
   wire [15:0] angles_theta_164_d = t161[15:0];
   reg  [15:0] angles_theta_164_q;
-  reg  [0:0] angles_theta_164_ovf_q;
   wire t167_sub = angles_xy_163_q[21];
   wire signed [17:0] t167 =
       t167_sub ? $signed({{2{1'b0}}, angles_theta_164_q} - {{2{1'b0}}, K16})
       : $signed({{2{1'b0}}, angles_theta_164_q} + {{2{1'b0}}, K16});
-  wire angles_theta_170_ovf_d = t167[17] | (|t167[16]);
+  wire angles_theta_170_ovf_c = t167[17] | (|t167[16]);
   wire [15:0] angles_theta_170_d = t167[15:0];
   reg  [15:0] angles_theta_170_q;
-  reg  [0:0] angles_theta_170_ovf_q;
   wire angles_out_171_tie = angles_theta_170_q[4] & ~(|angles_theta_170_q[3:0]);
   wire [11:0] angles_out_171_up =
       {1'b0, angles_theta_170_q[15:5]} + {{11{1'b0}}, angles_theta_170_q[4]};
   wire [11:0] angles_out_171_r =
       {angles_out_171_up[11:1], angles_out_171_up[0] & ~angles_out_171_tie};
-  wire angles_out_171_ovf_d = |angles_out_171_r[11];
+  wire angles_out_171_ovf_c = |angles_out_171_r[11];
   wire [10:0] angles_out_171_d = angles_out_171_r[10:0];
   reg  [10:0] angles_out_171_q;
-  reg  [0:0] angles_out_171_ovf_q;
   wire angles_out_172_tie = angles_theta_95_q[4] & ~(|angles_theta_95_q[3:0]);
   wire [11:0] angles_out_172_up =
       {1'b0, angles_theta_95_q[15:5]} + {{11{1'b0}}, angles_theta_95_q[4]};
   wire [11:0] angles_out_172_r =
       {angles_out_172_up[11:1], angles_out_172_up[0] & ~angles_out_172_tie};
-  wire angles_out_172_ovf_d = |angles_out_172_r[11];
+  wire angles_out_172_ovf_c = |angles_out_172_r[11];
   wire [10:0] angles_out_172_d = angles_out_172_r[10:0];
   reg  [10:0] angles_out_172_q;
-  reg  [0:0] angles_out_172_ovf_q;
   reg  [10:0] angles_out_172_s15_q;
   reg  [10:0] angles_out_172_s16_q;
   reg  [10:0] angles_out_172_s17_q;
@@ -1057,224 +982,222 @@ module angles (
   reg  [10:0] angles_out_172_s24_q;
   reg  [10:0] angles_out_172_s25_q;
   reg  [10:0] angles_out_172_s26_q;
-  reg  [0:0] angles_xy_21_ovf_s2_q;
-  reg  [0:0] angles_xy_22_ovf_s2_q;
-  reg  [0:0] angles_xy_27_ovf_s3_q;
-  reg  [0:0] angles_xy_28_ovf_s3_q;
-  reg  [0:0] angles_xy_33_ovf_s4_q;
-  reg  [0:0] angles_xy_34_ovf_s4_q;
-  reg  [0:0] angles_xy_39_ovf_s5_q;
-  reg  [0:0] angles_xy_40_ovf_s5_q;
-  reg  [0:0] angles_xy_45_ovf_s6_q;
-  reg  [0:0] angles_xy_46_ovf_s6_q;
-  reg  [0:0] angles_xy_51_ovf_s7_q;
-  reg  [0:0] angles_xy_52_ovf_s7_q;
-  reg  [0:0] angles_xy_57_ovf_s8_q;
-  reg  [0:0] angles_xy_58_ovf_s8_q;
-  reg  [0:0] angles_xy_63_ovf_s9_q;
-  reg  [0:0] angles_xy_64_ovf_s9_q;
-  reg  [0:0] angles_xy_69_ovf_s10_q;
-  reg  [0:0] angles_xy_70_ovf_s10_q;
-  reg  [0:0] angles_xy_75_ovf_s11_q;
-  reg  [0:0] angles_xy_76_ovf_s11_q;
-  reg  [0:0] angles_xy_81_ovf_s12_q;
-  reg  [0:0] angles_xy_82_ovf_s12_q;
-  reg  [0:0] angles_xy_87_ovf_s13_q;
-  reg  [0:0] angles_xy_88_ovf_s13_q;
-  reg  [0:0] angles_xy_93_ovf_s14_q;
-  reg  [0:0] angles_xy_97_ovf_s2_q;
-  reg  [0:0] angles_xy_102_ovf_s15_q;
-  reg  [0:0] angles_xy_103_ovf_s15_q;
-  reg  [0:0] angles_xy_108_ovf_s16_q;
-  reg  [0:0] angles_xy_109_ovf_s16_q;
-  reg  [0:0] angles_xy_114_ovf_s17_q;
-  reg  [0:0] angles_xy_115_ovf_s17_q;
-  reg  [0:0] angles_xy_120_ovf_s18_q;
-  reg  [0:0] angles_xy_121_ovf_s18_q;
-  reg  [0:0] angles_xy_126_ovf_s19_q;
-  reg  [0:0] angles_xy_127_ovf_s19_q;
-  reg  [0:0] angles_xy_132_ovf_s20_q;
-  reg  [0:0] angles_xy_133_ovf_s20_q;
-  reg  [0:0] angles_xy_138_ovf_s21_q;
-  reg  [0:0] angles_xy_139_ovf_s21_q;
-  reg  [0:0] angles_xy_144_ovf_s22_q;
-  reg  [0:0] angles_xy_145_ovf_s22_q;
-  reg  [0:0] angles_xy_150_ovf_s23_q;
-  reg  [0:0] angles_xy_151_ovf_s23_q;
-  reg  [0:0] angles_xy_156_ovf_s24_q;
-  reg  [0:0] angles_xy_157_ovf_s24_q;
-  reg  [0:0] angles_xy_163_ovf_s25_q;
+  reg  [0:0] angles_xy_27_ovf_s2_q;
+  reg  [0:0] angles_xy_28_ovf_s2_q;
+  reg  [0:0] angles_xy_33_ovf_s3_q;
+  reg  [0:0] angles_xy_34_ovf_s3_q;
+  reg  [0:0] angles_xy_39_ovf_s4_q;
+  reg  [0:0] angles_xy_40_ovf_s4_q;
+  reg  [0:0] angles_xy_45_ovf_s5_q;
+  reg  [0:0] angles_xy_46_ovf_s5_q;
+  reg  [0:0] angles_xy_51_ovf_s6_q;
+  reg  [0:0] angles_xy_52_ovf_s6_q;
+  reg  [0:0] angles_xy_57_ovf_s7_q;
+  reg  [0:0] angles_xy_58_ovf_s7_q;
+  reg  [0:0] angles_xy_63_ovf_s8_q;
+  reg  [0:0] angles_xy_64_ovf_s8_q;
+  reg  [0:0] angles_xy_69_ovf_s9_q;
+  reg  [0:0] angles_xy_70_ovf_s9_q;
+  reg  [0:0] angles_xy_75_ovf_s10_q;
+  reg  [0:0] angles_xy_76_ovf_s10_q;
+  reg  [0:0] angles_xy_81_ovf_s11_q;
+  reg  [0:0] angles_xy_82_ovf_s11_q;
+  reg  [0:0] angles_xy_87_ovf_s12_q;
+  reg  [0:0] angles_xy_88_ovf_s12_q;
+  reg  [0:0] angles_xy_93_ovf_s13_q;
+  reg  [0:0] angles_xy_102_ovf_s14_q;
+  reg  [0:0] angles_xy_103_ovf_s14_q;
+  reg  [0:0] angles_xy_108_ovf_s15_q;
+  reg  [0:0] angles_xy_109_ovf_s15_q;
+  reg  [0:0] angles_xy_114_ovf_s16_q;
+  reg  [0:0] angles_xy_115_ovf_s16_q;
+  reg  [0:0] angles_xy_120_ovf_s17_q;
+  reg  [0:0] angles_xy_121_ovf_s17_q;
+  reg  [0:0] angles_xy_126_ovf_s18_q;
+  reg  [0:0] angles_xy_127_ovf_s18_q;
+  reg  [0:0] angles_xy_132_ovf_s19_q;
+  reg  [0:0] angles_xy_133_ovf_s19_q;
+  reg  [0:0] angles_xy_138_ovf_s20_q;
+  reg  [0:0] angles_xy_139_ovf_s20_q;
+  reg  [0:0] angles_xy_144_ovf_s21_q;
+  reg  [0:0] angles_xy_145_ovf_s21_q;
+  reg  [0:0] angles_xy_150_ovf_s22_q;
+  reg  [0:0] angles_xy_151_ovf_s22_q;
+  reg  [0:0] angles_xy_156_ovf_s23_q;
+  reg  [0:0] angles_xy_157_ovf_s23_q;
+  reg  [0:0] angles_xy_163_ovf_s24_q;
   wire ovf0_or_s2 =
-      angles_xy_21_ovf_s2_q | angles_xy_22_ovf_s2_q | angles_xy_97_ovf_s2_q;
+      angles_xy_27_ovf_s2_q | angles_xy_28_ovf_s2_q;
   reg  [0:0] ovf0_s3_q;
   wire ovf0_or_s3 =
-      ovf0_s3_q | angles_xy_27_ovf_s3_q | angles_xy_28_ovf_s3_q;
+      ovf0_s3_q | angles_xy_33_ovf_s3_q | angles_xy_34_ovf_s3_q;
   reg  [0:0] ovf0_s4_q;
   wire ovf0_or_s4 =
-      ovf0_s4_q | angles_xy_33_ovf_s4_q | angles_xy_34_ovf_s4_q;
+      ovf0_s4_q | angles_xy_39_ovf_s4_q | angles_xy_40_ovf_s4_q;
   reg  [0:0] ovf0_s5_q;
   wire ovf0_or_s5 =
-      ovf0_s5_q | angles_xy_39_ovf_s5_q | angles_xy_40_ovf_s5_q;
+      ovf0_s5_q | angles_xy_45_ovf_s5_q | angles_xy_46_ovf_s5_q;
   reg  [0:0] ovf0_s6_q;
   wire ovf0_or_s6 =
-      ovf0_s6_q | angles_xy_45_ovf_s6_q | angles_xy_46_ovf_s6_q;
+      ovf0_s6_q | angles_xy_51_ovf_s6_q | angles_xy_52_ovf_s6_q;
   reg  [0:0] ovf0_s7_q;
   wire ovf0_or_s7 =
-      ovf0_s7_q | angles_xy_51_ovf_s7_q | angles_xy_52_ovf_s7_q;
+      ovf0_s7_q | angles_xy_57_ovf_s7_q | angles_xy_58_ovf_s7_q;
   reg  [0:0] ovf0_s8_q;
   wire ovf0_or_s8 =
-      ovf0_s8_q | angles_xy_57_ovf_s8_q | angles_xy_58_ovf_s8_q;
+      ovf0_s8_q | angles_xy_63_ovf_s8_q | angles_xy_64_ovf_s8_q;
   reg  [0:0] ovf0_s9_q;
   wire ovf0_or_s9 =
-      ovf0_s9_q | angles_xy_63_ovf_s9_q | angles_xy_64_ovf_s9_q;
+      ovf0_s9_q | angles_xy_69_ovf_s9_q | angles_xy_70_ovf_s9_q;
   reg  [0:0] ovf0_s10_q;
   wire ovf0_or_s10 =
-      ovf0_s10_q | angles_xy_69_ovf_s10_q | angles_xy_70_ovf_s10_q;
+      ovf0_s10_q | angles_xy_75_ovf_s10_q | angles_xy_76_ovf_s10_q;
   reg  [0:0] ovf0_s11_q;
   wire ovf0_or_s11 =
-      ovf0_s11_q | angles_xy_75_ovf_s11_q | angles_xy_76_ovf_s11_q;
+      ovf0_s11_q | angles_xy_81_ovf_s11_q | angles_xy_82_ovf_s11_q;
   reg  [0:0] ovf0_s12_q;
   wire ovf0_or_s12 =
-      ovf0_s12_q | angles_xy_81_ovf_s12_q | angles_xy_82_ovf_s12_q;
+      ovf0_s12_q | angles_xy_87_ovf_s12_q | angles_xy_88_ovf_s12_q;
   reg  [0:0] ovf0_s13_q;
   wire ovf0_or_s13 =
-      ovf0_s13_q | angles_xy_87_ovf_s13_q | angles_xy_88_ovf_s13_q;
+      ovf0_s13_q | angles_xy_93_ovf_s13_q;
   reg  [0:0] ovf0_s14_q;
   wire ovf0_or_s14 =
-      ovf0_s14_q | angles_xy_93_ovf_s14_q;
+      ovf0_s14_q | angles_xy_102_ovf_s14_q | angles_xy_103_ovf_s14_q;
   reg  [0:0] ovf0_s15_q;
   wire ovf0_or_s15 =
-      ovf0_s15_q | angles_xy_102_ovf_s15_q | angles_xy_103_ovf_s15_q;
+      ovf0_s15_q | angles_xy_108_ovf_s15_q | angles_xy_109_ovf_s15_q;
   reg  [0:0] ovf0_s16_q;
   wire ovf0_or_s16 =
-      ovf0_s16_q | angles_xy_108_ovf_s16_q | angles_xy_109_ovf_s16_q;
+      ovf0_s16_q | angles_xy_114_ovf_s16_q | angles_xy_115_ovf_s16_q;
   reg  [0:0] ovf0_s17_q;
   wire ovf0_or_s17 =
-      ovf0_s17_q | angles_xy_114_ovf_s17_q | angles_xy_115_ovf_s17_q;
+      ovf0_s17_q | angles_xy_120_ovf_s17_q | angles_xy_121_ovf_s17_q;
   reg  [0:0] ovf0_s18_q;
   wire ovf0_or_s18 =
-      ovf0_s18_q | angles_xy_120_ovf_s18_q | angles_xy_121_ovf_s18_q;
+      ovf0_s18_q | angles_xy_126_ovf_s18_q | angles_xy_127_ovf_s18_q;
   reg  [0:0] ovf0_s19_q;
   wire ovf0_or_s19 =
-      ovf0_s19_q | angles_xy_126_ovf_s19_q | angles_xy_127_ovf_s19_q;
+      ovf0_s19_q | angles_xy_132_ovf_s19_q | angles_xy_133_ovf_s19_q;
   reg  [0:0] ovf0_s20_q;
   wire ovf0_or_s20 =
-      ovf0_s20_q | angles_xy_132_ovf_s20_q | angles_xy_133_ovf_s20_q;
+      ovf0_s20_q | angles_xy_138_ovf_s20_q | angles_xy_139_ovf_s20_q;
   reg  [0:0] ovf0_s21_q;
   wire ovf0_or_s21 =
-      ovf0_s21_q | angles_xy_138_ovf_s21_q | angles_xy_139_ovf_s21_q;
+      ovf0_s21_q | angles_xy_144_ovf_s21_q | angles_xy_145_ovf_s21_q;
   reg  [0:0] ovf0_s22_q;
   wire ovf0_or_s22 =
-      ovf0_s22_q | angles_xy_144_ovf_s22_q | angles_xy_145_ovf_s22_q;
+      ovf0_s22_q | angles_xy_150_ovf_s22_q | angles_xy_151_ovf_s22_q;
   reg  [0:0] ovf0_s23_q;
   wire ovf0_or_s23 =
-      ovf0_s23_q | angles_xy_150_ovf_s23_q | angles_xy_151_ovf_s23_q;
+      ovf0_s23_q | angles_xy_156_ovf_s23_q | angles_xy_157_ovf_s23_q;
   reg  [0:0] ovf0_s24_q;
   wire ovf0_or_s24 =
-      ovf0_s24_q | angles_xy_156_ovf_s24_q | angles_xy_157_ovf_s24_q;
+      ovf0_s24_q | angles_xy_163_ovf_s24_q;
   reg  [0:0] ovf0_s25_q;
-  wire ovf0_or_s25 =
-      ovf0_s25_q | angles_xy_163_ovf_s25_q;
   reg  [0:0] ovf0_s26_q;
-  reg  [0:0] angles_theta_23_ovf_s2_q;
-  reg  [0:0] angles_theta_29_ovf_s3_q;
-  reg  [0:0] angles_theta_35_ovf_s4_q;
-  reg  [0:0] angles_theta_41_ovf_s5_q;
-  reg  [0:0] angles_theta_47_ovf_s6_q;
-  reg  [0:0] angles_theta_53_ovf_s7_q;
-  reg  [0:0] angles_theta_59_ovf_s8_q;
-  reg  [0:0] angles_theta_65_ovf_s9_q;
-  reg  [0:0] angles_theta_71_ovf_s10_q;
-  reg  [0:0] angles_theta_77_ovf_s11_q;
-  reg  [0:0] angles_theta_83_ovf_s12_q;
-  reg  [0:0] angles_theta_89_ovf_s13_q;
-  reg  [0:0] angles_theta_95_ovf_s14_q;
-  reg  [0:0] angles_theta_98_ovf_s2_q;
-  reg  [0:0] angles_theta_104_ovf_s3_q;
-  reg  [0:0] angles_theta_110_ovf_s16_q;
-  reg  [0:0] angles_theta_116_ovf_s17_q;
-  reg  [0:0] angles_theta_122_ovf_s18_q;
-  reg  [0:0] angles_theta_128_ovf_s19_q;
-  reg  [0:0] angles_theta_134_ovf_s20_q;
-  reg  [0:0] angles_theta_140_ovf_s21_q;
-  reg  [0:0] angles_theta_146_ovf_s22_q;
-  reg  [0:0] angles_theta_152_ovf_s23_q;
-  reg  [0:0] angles_theta_158_ovf_s24_q;
-  reg  [0:0] angles_theta_164_ovf_s25_q;
-  reg  [0:0] angles_theta_170_ovf_s26_q;
+  reg  [0:0] angles_theta_23_ovf_s1_q;
+  reg  [0:0] angles_theta_29_ovf_s2_q;
+  reg  [0:0] angles_theta_35_ovf_s3_q;
+  reg  [0:0] angles_theta_41_ovf_s4_q;
+  reg  [0:0] angles_theta_47_ovf_s5_q;
+  reg  [0:0] angles_theta_53_ovf_s6_q;
+  reg  [0:0] angles_theta_59_ovf_s7_q;
+  reg  [0:0] angles_theta_65_ovf_s8_q;
+  reg  [0:0] angles_theta_71_ovf_s9_q;
+  reg  [0:0] angles_theta_77_ovf_s10_q;
+  reg  [0:0] angles_theta_83_ovf_s11_q;
+  reg  [0:0] angles_theta_89_ovf_s12_q;
+  reg  [0:0] angles_theta_95_ovf_s13_q;
+  reg  [0:0] angles_theta_98_ovf_s1_q;
+  reg  [0:0] angles_theta_104_ovf_s2_q;
+  reg  [0:0] angles_theta_110_ovf_s15_q;
+  reg  [0:0] angles_theta_116_ovf_s16_q;
+  reg  [0:0] angles_theta_122_ovf_s17_q;
+  reg  [0:0] angles_theta_128_ovf_s18_q;
+  reg  [0:0] angles_theta_134_ovf_s19_q;
+  reg  [0:0] angles_theta_140_ovf_s20_q;
+  reg  [0:0] angles_theta_146_ovf_s21_q;
+  reg  [0:0] angles_theta_152_ovf_s22_q;
+  reg  [0:0] angles_theta_158_ovf_s23_q;
+  reg  [0:0] angles_theta_164_ovf_s24_q;
+  reg  [0:0] angles_theta_170_ovf_s25_q;
+  wire ovf1_or_s1 =
+      angles_theta_23_ovf_s1_q | angles_theta_98_ovf_s1_q;
+  reg  [0:0] ovf1_s2_q;
   wire ovf1_or_s2 =
-      angles_theta_23_ovf_s2_q | angles_theta_98_ovf_s2_q;
+      ovf1_s2_q | angles_theta_29_ovf_s2_q | angles_theta_104_ovf_s2_q;
   reg  [0:0] ovf1_s3_q;
   wire ovf1_or_s3 =
-      ovf1_s3_q | angles_theta_29_ovf_s3_q | angles_theta_104_ovf_s3_q;
+      ovf1_s3_q | angles_theta_35_ovf_s3_q;
   reg  [0:0] ovf1_s4_q;
   wire ovf1_or_s4 =
-      ovf1_s4_q | angles_theta_35_ovf_s4_q;
+      ovf1_s4_q | angles_theta_41_ovf_s4_q;
   reg  [0:0] ovf1_s5_q;
   wire ovf1_or_s5 =
-      ovf1_s5_q | angles_theta_41_ovf_s5_q;
+      ovf1_s5_q | angles_theta_47_ovf_s5_q;
   reg  [0:0] ovf1_s6_q;
   wire ovf1_or_s6 =
-      ovf1_s6_q | angles_theta_47_ovf_s6_q;
+      ovf1_s6_q | angles_theta_53_ovf_s6_q;
   reg  [0:0] ovf1_s7_q;
   wire ovf1_or_s7 =
-      ovf1_s7_q | angles_theta_53_ovf_s7_q;
+      ovf1_s7_q | angles_theta_59_ovf_s7_q;
   reg  [0:0] ovf1_s8_q;
   wire ovf1_or_s8 =
-      ovf1_s8_q | angles_theta_59_ovf_s8_q;
+      ovf1_s8_q | angles_theta_65_ovf_s8_q;
   reg  [0:0] ovf1_s9_q;
   wire ovf1_or_s9 =
-      ovf1_s9_q | angles_theta_65_ovf_s9_q;
+      ovf1_s9_q | angles_theta_71_ovf_s9_q;
   reg  [0:0] ovf1_s10_q;
   wire ovf1_or_s10 =
-      ovf1_s10_q | angles_theta_71_ovf_s10_q;
+      ovf1_s10_q | angles_theta_77_ovf_s10_q;
   reg  [0:0] ovf1_s11_q;
   wire ovf1_or_s11 =
-      ovf1_s11_q | angles_theta_77_ovf_s11_q;
+      ovf1_s11_q | angles_theta_83_ovf_s11_q;
   reg  [0:0] ovf1_s12_q;
   wire ovf1_or_s12 =
-      ovf1_s12_q | angles_theta_83_ovf_s12_q;
+      ovf1_s12_q | angles_theta_89_ovf_s12_q;
   reg  [0:0] ovf1_s13_q;
   wire ovf1_or_s13 =
-      ovf1_s13_q | angles_theta_89_ovf_s13_q;
+      ovf1_s13_q | angles_theta_95_ovf_s13_q;
   reg  [0:0] ovf1_s14_q;
-  wire ovf1_or_s14 =
-      ovf1_s14_q | angles_theta_95_ovf_s14_q;
   reg  [0:0] ovf1_s15_q;
+  wire ovf1_or_s15 =
+      ovf1_s15_q | angles_theta_110_ovf_s15_q;
   reg  [0:0] ovf1_s16_q;
   wire ovf1_or_s16 =
-      ovf1_s16_q | angles_theta_110_ovf_s16_q;
+      ovf1_s16_q | angles_theta_116_ovf_s16_q;
   reg  [0:0] ovf1_s17_q;
   wire ovf1_or_s17 =
-      ovf1_s17_q | angles_theta_116_ovf_s17_q;
+      ovf1_s17_q | angles_theta_122_ovf_s17_q;
   reg  [0:0] ovf1_s18_q;
   wire ovf1_or_s18 =
-      ovf1_s18_q | angles_theta_122_ovf_s18_q;
+      ovf1_s18_q | angles_theta_128_ovf_s18_q;
   reg  [0:0] ovf1_s19_q;
   wire ovf1_or_s19 =
-      ovf1_s19_q | angles_theta_128_ovf_s19_q;
+      ovf1_s19_q | angles_theta_134_ovf_s19_q;
   reg  [0:0] ovf1_s20_q;
   wire ovf1_or_s20 =
-      ovf1_s20_q | angles_theta_134_ovf_s20_q;
+      ovf1_s20_q | angles_theta_140_ovf_s20_q;
   reg  [0:0] ovf1_s21_q;
   wire ovf1_or_s21 =
-      ovf1_s21_q | angles_theta_140_ovf_s21_q;
+      ovf1_s21_q | angles_theta_146_ovf_s21_q;
   reg  [0:0] ovf1_s22_q;
   wire ovf1_or_s22 =
-      ovf1_s22_q | angles_theta_146_ovf_s22_q;
+      ovf1_s22_q | angles_theta_152_ovf_s22_q;
   reg  [0:0] ovf1_s23_q;
   wire ovf1_or_s23 =
-      ovf1_s23_q | angles_theta_152_ovf_s23_q;
+      ovf1_s23_q | angles_theta_158_ovf_s23_q;
   reg  [0:0] ovf1_s24_q;
   wire ovf1_or_s24 =
-      ovf1_s24_q | angles_theta_158_ovf_s24_q;
+      ovf1_s24_q | angles_theta_164_ovf_s24_q;
   reg  [0:0] ovf1_s25_q;
   wire ovf1_or_s25 =
-      ovf1_s25_q | angles_theta_164_ovf_s25_q;
+      ovf1_s25_q | angles_theta_170_ovf_s25_q;
   reg  [0:0] ovf1_s26_q;
-  wire ovf1_or_s26 =
-      ovf1_s26_q | angles_theta_170_ovf_s26_q;
-  reg  [0:0] angles_out_172_ovf_s15_q;
+  reg  [0:0] angles_out_171_ovf_s26_q;
+  reg  [0:0] angles_out_172_ovf_s14_q;
+  reg  [0:0] ovf2_s15_q;
   reg  [0:0] ovf2_s16_q;
   reg  [0:0] ovf2_s17_q;
   reg  [0:0] ovf2_s18_q;
@@ -1287,7 +1210,7 @@ module angles (
   reg  [0:0] ovf2_s25_q;
   reg  [0:0] ovf2_s26_q;
   wire ovf2_or_s26 =
-      ovf2_s26_q | angles_out_171_ovf_q;
+      ovf2_s26_q | angles_out_171_ovf_s26_q;
 
   // Stage loads: the item entering stage k is valid and the stages move.
   wire load_s1 = in_take;
@@ -1322,373 +1245,298 @@ module angles (
   always @(posedge clk_i) begin
     if (load_s1) begin
       angles_xy_21_q <= angles_xy_21_d;
-      angles_xy_21_ovf_q <= angles_xy_21_ovf_d;
       angles_xy_22_q <= angles_xy_22_d;
-      angles_xy_22_ovf_q <= angles_xy_22_ovf_d;
       angles_theta_23_q <= angles_theta_23_d;
-      angles_theta_23_ovf_q <= angles_theta_23_ovf_d;
       angles_xy_97_q <= angles_xy_97_d;
-      angles_xy_97_ovf_q <= angles_xy_97_ovf_d;
       angles_theta_98_q <= angles_theta_98_d;
-      angles_theta_98_ovf_q <= angles_theta_98_ovf_d;
+      angles_theta_23_ovf_s1_q <= angles_theta_23_ovf_c;
+      angles_theta_98_ovf_s1_q <= angles_theta_98_ovf_c;
     end
     if (load_s2) begin
       angles_xy_27_q <= angles_xy_27_d;
-      angles_xy_27_ovf_q <= angles_xy_27_ovf_d;
       angles_xy_28_q <= angles_xy_28_d;
-      angles_xy_28_ovf_q <= angles_xy_28_ovf_d;
       angles_theta_29_q <= angles_theta_29_d;
-      angles_theta_29_ovf_q <= angles_theta_29_ovf_d;
       angles_xy_97_s2_q <= angles_xy_97_q;
       angles_theta_104_q <= angles_theta_104_d;
-      angles_theta_104_ovf_q <= angles_theta_104_ovf_d;
-      angles_xy_21_ovf_s2_q <= angles_xy_21_ovf_q;
-      angles_xy_22_ovf_s2_q <= angles_xy_22_ovf_q;
-      angles_xy_97_ovf_s2_q <= angles_xy_97_ovf_q;
-      angles_theta_23_ovf_s2_q <= angles_theta_23_ovf_q;
-      angles_theta_98_ovf_s2_q <= angles_theta_98_ovf_q;
+      angles_xy_27_ovf_s2_q <= angles_xy_27_ovf_c;
+      angles_xy_28_ovf_s2_q <= angles_xy_28_ovf_c;
+      angles_theta_29_ovf_s2_q <= angles_theta_29_ovf_c;
+      angles_theta_104_ovf_s2_q <= angles_theta_104_ovf_c;
+      ovf1_s2_q <= ovf1_or_s1;
     end
     if (load_s3) begin
       angles_xy_33_q <= angles_xy_33_d;
-      angles_xy_33_ovf_q <= angles_xy_33_ovf_d;
       angles_xy_34_q <= angles_xy_34_d;
-      angles_xy_34_ovf_q <= angles_xy_34_ovf_d;
       angles_theta_35_q <= angles_theta_35_d;
-      angles_theta_35_ovf_q <= angles_theta_35_ovf_d;
       angles_xy_97_s3_q <= angles_xy_97_s2_q;
       angles_theta_104_s3_q <= angles_theta_104_q;
-      angles_xy_27_ovf_s3_q <= angles_xy_27_ovf_q;
-      angles_xy_28_ovf_s3_q <= angles_xy_28_ovf_q;
+      angles_xy_33_ovf_s3_q <= angles_xy_33_ovf_c;
+      angles_xy_34_ovf_s3_q <= angles_xy_34_ovf_c;
       ovf0_s3_q <= ovf0_or_s2;
-      angles_theta_29_ovf_s3_q <= angles_theta_29_ovf_q;
-      angles_theta_104_ovf_s3_q <= angles_theta_104_ovf_q;
+      angles_theta_35_ovf_s3_q <= angles_theta_35_ovf_c;
       ovf1_s3_q <= ovf1_or_s2;
     end
     if (load_s4) begin
       angles_xy_39_q <= angles_xy_39_d;
-      angles_xy_39_ovf_q <= angles_xy_39_ovf_d;
       angles_xy_40_q <= angles_xy_40_d;
-      angles_xy_40_ovf_q <= angles_xy_40_ovf_d;
       angles_theta_41_q <= angles_theta_41_d;
-      angles_theta_41_ovf_q <= angles_theta_41_ovf_d;
       angles_xy_97_s4_q <= angles_xy_97_s3_q;
       angles_theta_104_s4_q <= angles_theta_104_s3_q;
-      angles_xy_33_ovf_s4_q <= angles_xy_33_ovf_q;
-      angles_xy_34_ovf_s4_q <= angles_xy_34_ovf_q;
+      angles_xy_39_ovf_s4_q <= angles_xy_39_ovf_c;
+      angles_xy_40_ovf_s4_q <= angles_xy_40_ovf_c;
       ovf0_s4_q <= ovf0_or_s3;
-      angles_theta_35_ovf_s4_q <= angles_theta_35_ovf_q;
+      angles_theta_41_ovf_s4_q <= angles_theta_41_ovf_c;
       ovf1_s4_q <= ovf1_or_s3;
     end
     if (load_s5) begin
       angles_xy_45_q <= angles_xy_45_d;
-      angles_xy_45_ovf_q <= angles_xy_45_ovf_d;
       angles_xy_46_q <= angles_xy_46_d;
-      angles_xy_46_ovf_q <= angles_xy_46_ovf_d;
       angles_theta_47_q <= angles_theta_47_d;
-      angles_theta_47_ovf_q <= angles_theta_47_ovf_d;
       angles_xy_97_s5_q <= angles_xy_97_s4_q;
       angles_theta_104_s5_q <= angles_theta_104_s4_q;
-      angles_xy_39_ovf_s5_q <= angles_xy_39_ovf_q;
-      angles_xy_40_ovf_s5_q <= angles_xy_40_ovf_q;
+      angles_xy_45_ovf_s5_q <= angles_xy_45_ovf_c;
+      angles_xy_46_ovf_s5_q <= angles_xy_46_ovf_c;
       ovf0_s5_q <= ovf0_or_s4;
-      angles_theta_41_ovf_s5_q <= angles_theta_41_ovf_q;
+      angles_theta_47_ovf_s5_q <= angles_theta_47_ovf_c;
       ovf1_s5_q <= ovf1_or_s4;
     end
     if (load_s6) begin
       angles_xy_51_q <= angles_xy_51_d;
-      angles_xy_51_ovf_q <= angles_xy_51_ovf_d;
       angles_xy_52_q <= angles_xy_52_d;
-      angles_xy_52_ovf_q <= angles_xy_52_ovf_d;
       angles_theta_53_q <= angles_theta_53_d;
-      angles_theta_53_ovf_q <= angles_theta_53_ovf_d;
       angles_xy_97_s6_q <= angles_xy_97_s5_q;
       angles_theta_104_s6_q <= angles_theta_104_s5_q;
-      angles_xy_45_ovf_s6_q <= angles_xy_45_ovf_q;
-      angles_xy_46_ovf_s6_q <= angles_xy_46_ovf_q;
+      angles_xy_51_ovf_s6_q <= angles_xy_51_ovf_c;
+      angles_xy_52_ovf_s6_q <= angles_xy_52_ovf_c;
       ovf0_s6_q <= ovf0_or_s5;
-      angles_theta_47_ovf_s6_q <= angles_theta_47_ovf_q;
+      angles_theta_53_ovf_s6_q <= angles_theta_53_ovf_c;
       ovf1_s6_q <= ovf1_or_s5;
     end
     if (load_s7) begin
       angles_xy_57_q <= angles_xy_57_d;
-      angles_xy_57_ovf_q <= angles_xy_57_ovf_d;
       angles_xy_58_q <= angles_xy_58_d;
-      angles_xy_58_ovf_q <= angles_xy_58_ovf_d;
       angles_theta_59_q <= angles_theta_59_d;
-      angles_theta_59_ovf_q <= angles_theta_59_ovf_d;
       angles_xy_97_s7_q <= angles_xy_97_s6_q;
       angles_theta_104_s7_q <= angles_theta_104_s6_q;
-      angles_xy_51_ovf_s7_q <= angles_xy_51_ovf_q;
-      angles_xy_52_ovf_s7_q <= angles_xy_52_ovf_q;
+      angles_xy_57_ovf_s7_q <= angles_xy_57_ovf_c;
+      angles_xy_58_ovf_s7_q <= angles_xy_58_ovf_c;
       ovf0_s7_q <= ovf0_or_s6;
-      angles_theta_53_ovf_s7_q <= angles_theta_53_ovf_q;
+      angles_theta_59_ovf_s7_q <= angles_theta_59_ovf_c;
       ovf1_s7_q <= ovf1_or_s6;
     end
     if (load_s8) begin
       angles_xy_63_q <= angles_xy_63_d;
-      angles_xy_63_ovf_q <= angles_xy_63_ovf_d;
       angles_xy_64_q <= angles_xy_64_d;
-      angles_xy_64_ovf_q <= angles_xy_64_ovf_d;
       angles_theta_65_q <= angles_theta_65_d;
-      angles_theta_65_ovf_q <= angles_theta_65_ovf_d;
       angles_xy_97_s8_q <= angles_xy_97_s7_q;
       angles_theta_104_s8_q <= angles_theta_104_s7_q;
-      angles_xy_57_ovf_s8_q <= angles_xy_57_ovf_q;
-      angles_xy_58_ovf_s8_q <= angles_xy_58_ovf_q;
+      angles_xy_63_ovf_s8_q <= angles_xy_63_ovf_c;
+      angles_xy_64_ovf_s8_q <= angles_xy_64_ovf_c;
       ovf0_s8_q <= ovf0_or_s7;
-      angles_theta_59_ovf_s8_q <= angles_theta_59_ovf_q;
+      angles_theta_65_ovf_s8_q <= angles_theta_65_ovf_c;
       ovf1_s8_q <= ovf1_or_s7;
     end
     if (load_s9) begin
       angles_xy_69_q <= angles_xy_69_d;
-      angles_xy_69_ovf_q <= angles_xy_69_ovf_d;
       angles_xy_70_q <= angles_xy_70_d;
-      angles_xy_70_ovf_q <= angles_xy_70_ovf_d;
       angles_theta_71_q <= angles_theta_71_d;
-      angles_theta_71_ovf_q <= angles_theta_71_ovf_d;
       angles_xy_97_s9_q <= angles_xy_97_s8_q;
       angles_theta_104_s9_q <= angles_theta_104_s8_q;
-      angles_xy_63_ovf_s9_q <= angles_xy_63_ovf_q;
-      angles_xy_64_ovf_s9_q <= angles_xy_64_ovf_q;
+      angles_xy_69_ovf_s9_q <= angles_xy_69_ovf_c;
+      angles_xy_70_ovf_s9_q <= angles_xy_70_ovf_c;
       ovf0_s9_q <= ovf0_or_s8;
-      angles_theta_65_ovf_s9_q <= angles_theta_65_ovf_q;
+      angles_theta_71_ovf_s9_q <= angles_theta_71_ovf_c;
       ovf1_s9_q <= ovf1_or_s8;
     end
     if (load_s10) begin
       angles_xy_75_q <= angles_xy_75_d;
-      angles_xy_75_ovf_q <= angles_xy_75_ovf_d;
       angles_xy_76_q <= angles_xy_76_d;
-      angles_xy_76_ovf_q <= angles_xy_76_ovf_d;
       angles_theta_77_q <= angles_theta_77_d;
-      angles_theta_77_ovf_q <= angles_theta_77_ovf_d;
       angles_xy_97_s10_q <= angles_xy_97_s9_q;
       angles_theta_104_s10_q <= angles_theta_104_s9_q;
-      angles_xy_69_ovf_s10_q <= angles_xy_69_ovf_q;
-      angles_xy_70_ovf_s10_q <= angles_xy_70_ovf_q;
+      angles_xy_75_ovf_s10_q <= angles_xy_75_ovf_c;
+      angles_xy_76_ovf_s10_q <= angles_xy_76_ovf_c;
       ovf0_s10_q <= ovf0_or_s9;
-      angles_theta_71_ovf_s10_q <= angles_theta_71_ovf_q;
+      angles_theta_77_ovf_s10_q <= angles_theta_77_ovf_c;
       ovf1_s10_q <= ovf1_or_s9;
     end
     if (load_s11) begin
       angles_xy_81_q <= angles_xy_81_d;
-      angles_xy_81_ovf_q <= angles_xy_81_ovf_d;
       angles_xy_82_q <= angles_xy_82_d;
-      angles_xy_82_ovf_q <= angles_xy_82_ovf_d;
       angles_theta_83_q <= angles_theta_83_d;
-      angles_theta_83_ovf_q <= angles_theta_83_ovf_d;
       angles_xy_97_s11_q <= angles_xy_97_s10_q;
       angles_theta_104_s11_q <= angles_theta_104_s10_q;
-      angles_xy_75_ovf_s11_q <= angles_xy_75_ovf_q;
-      angles_xy_76_ovf_s11_q <= angles_xy_76_ovf_q;
+      angles_xy_81_ovf_s11_q <= angles_xy_81_ovf_c;
+      angles_xy_82_ovf_s11_q <= angles_xy_82_ovf_c;
       ovf0_s11_q <= ovf0_or_s10;
-      angles_theta_77_ovf_s11_q <= angles_theta_77_ovf_q;
+      angles_theta_83_ovf_s11_q <= angles_theta_83_ovf_c;
       ovf1_s11_q <= ovf1_or_s10;
     end
     if (load_s12) begin
       angles_xy_87_q <= angles_xy_87_d;
-      angles_xy_87_ovf_q <= angles_xy_87_ovf_d;
       angles_xy_88_q <= angles_xy_88_d;
-      angles_xy_88_ovf_q <= angles_xy_88_ovf_d;
       angles_theta_89_q <= angles_theta_89_d;
-      angles_theta_89_ovf_q <= angles_theta_89_ovf_d;
       angles_xy_97_s12_q <= angles_xy_97_s11_q;
       angles_theta_104_s12_q <= angles_theta_104_s11_q;
-      angles_xy_81_ovf_s12_q <= angles_xy_81_ovf_q;
-      angles_xy_82_ovf_s12_q <= angles_xy_82_ovf_q;
+      angles_xy_87_ovf_s12_q <= angles_xy_87_ovf_c;
+      angles_xy_88_ovf_s12_q <= angles_xy_88_ovf_c;
       ovf0_s12_q <= ovf0_or_s11;
-      angles_theta_83_ovf_s12_q <= angles_theta_83_ovf_q;
+      angles_theta_89_ovf_s12_q <= angles_theta_89_ovf_c;
       ovf1_s12_q <= ovf1_or_s11;
     end
     if (load_s13) begin
       angles_xy_93_q <= angles_xy_93_d;
-      angles_xy_93_ovf_q <= angles_xy_93_ovf_d;
       angles_theta_95_q <= angles_theta_95_d;
-      angles_theta_95_ovf_q <= angles_theta_95_ovf_d;
       angles_xy_97_s13_q <= angles_xy_97_s12_q;
       angles_theta_104_s13_q <= angles_theta_104_s12_q;
-      angles_xy_87_ovf_s13_q <= angles_xy_87_ovf_q;
-      angles_xy_88_ovf_s13_q <= angles_xy_88_ovf_q;
+      angles_xy_93_ovf_s13_q <= angles_xy_93_ovf_c;
       ovf0_s13_q <= ovf0_or_s12;
-      angles_theta_89_ovf_s13_q <= angles_theta_89_ovf_q;
+      angles_theta_95_ovf_s13_q <= angles_theta_95_ovf_c;
       ovf1_s13_q <= ovf1_or_s12;
     end
     if (load_s14) begin
       angles_xy_102_q <= angles_xy_102_d;
-      angles_xy_102_ovf_q <= angles_xy_102_ovf_d;
       angles_xy_103_q <= angles_xy_103_d;
-      angles_xy_103_ovf_q <= angles_xy_103_ovf_d;
       angles_theta_104_s14_q <= angles_theta_104_s13_q;
       angles_out_172_q <= angles_out_172_d;
-      angles_out_172_ovf_q <= angles_out_172_ovf_d;
-      angles_xy_93_ovf_s14_q <= angles_xy_93_ovf_q;
+      angles_xy_102_ovf_s14_q <= angles_xy_102_ovf_c;
+      angles_xy_103_ovf_s14_q <= angles_xy_103_ovf_c;
       ovf0_s14_q <= ovf0_or_s13;
-      angles_theta_95_ovf_s14_q <= angles_theta_95_ovf_q;
       ovf1_s14_q <= ovf1_or_s13;
+      angles_out_172_ovf_s14_q <= angles_out_172_ovf_c;
     end
     if (load_s15) begin
       angles_xy_108_q <= angles_xy_108_d;
-      angles_xy_108_ovf_q <= angles_xy_108_ovf_d;
       angles_xy_109_q <= angles_xy_109_d;
-      angles_xy_109_ovf_q <= angles_xy_109_ovf_d;
       angles_theta_110_q <= angles_theta_110_d;
-      angles_theta_110_ovf_q <= angles_theta_110_ovf_d;
       angles_out_172_s15_q <= angles_out_172_q;
-      angles_xy_102_ovf_s15_q <= angles_xy_102_ovf_q;
-      angles_xy_103_ovf_s15_q <= angles_xy_103_ovf_q;
+      angles_xy_108_ovf_s15_q <= angles_xy_108_ovf_c;
+      angles_xy_109_ovf_s15_q <= angles_xy_109_ovf_c;
       ovf0_s15_q <= ovf0_or_s14;
-      ovf1_s15_q <= ovf1_or_s14;
-      angles_out_172_ovf_s15_q <= angles_out_172_ovf_q;
+      angles_theta_110_ovf_s15_q <= angles_theta_110_ovf_c;
+      ovf1_s15_q <= ovf1_s14_q;
+      ovf2_s15_q <= angles_out_172_ovf_s14_q;
     end
     if (load_s16) begin
       angles_xy_114_q <= angles_xy_114_d;
-      angles_xy_114_ovf_q <= angles_xy_114_ovf_d;
       angles_xy_115_q <= angles_xy_115_d;
-      angles_xy_115_ovf_q <= angles_xy_115_ovf_d;
       angles_theta_116_q <= angles_theta_116_d;
-      angles_theta_116_ovf_q <= angles_theta_116_ovf_d;
       angles_out_172_s16_q <= angles_out_172_s15_q;
-      angles_xy_108_ovf_s16_q <= angles_xy_108_ovf_q;
-      angles_xy_109_ovf_s16_q <= angles_xy_109_ovf_q;
+      angles_xy_114_ovf_s16_q <= angles_xy_114_ovf_c;
+      angles_xy_115_ovf_s16_q <= angles_xy_115_ovf_c;
       ovf0_s16_q <= ovf0_or_s15;
-      angles_theta_110_ovf_s16_q <= angles_theta_110_ovf_q;
-      ovf1_s16_q <= ovf1_s15_q;
-      ovf2_s16_q <= angles_out_172_ovf_s15_q;
+      angles_theta_116_ovf_s16_q <= angles_theta_116_ovf_c;
+      ovf1_s16_q <= ovf1_or_s15;
+      ovf2_s16_q <= ovf2_s15_q;
     end
     if (load_s17) begin
       angles_xy_120_q <= angles_xy_120_d;
-      angles_xy_120_ovf_q <= angles_xy_120_ovf_d;
       angles_xy_121_q <= angles_xy_121_d;
-      angles_xy_121_ovf_q <= angles_xy_121_ovf_d;
       angles_theta_122_q <= angles_theta_122_d;
-      angles_theta_122_ovf_q <= angles_theta_122_ovf_d;
       angles_out_172_s17_q <= angles_out_172_s16_q;
-      angles_xy_114_ovf_s17_q <= angles_xy_114_ovf_q;
-      angles_xy_115_ovf_s17_q <= angles_xy_115_ovf_q;
+      angles_xy_120_ovf_s17_q <= angles_xy_120_ovf_c;
+      angles_xy_121_ovf_s17_q <= angles_xy_121_ovf_c;
       ovf0_s17_q <= ovf0_or_s16;
-      angles_theta_116_ovf_s17_q <= angles_theta_116_ovf_q;
+      angles_theta_122_ovf_s17_q <= angles_theta_122_ovf_c;
       ovf1_s17_q <= ovf1_or_s16;
       ovf2_s17_q <= ovf2_s16_q;
     end
     if (load_s18) begin
       angles_xy_126_q <= angles_xy_126_d;
-      angles_xy_126_ovf_q <= angles_xy_126_ovf_d;
       angles_xy_127_q <= angles_xy_127_d;
-      angles_xy_127_ovf_q <= angles_xy_127_ovf_d;
       angles_theta_128_q <= angles_theta_128_d;
-      angles_theta_128_ovf_q <= angles_theta_128_ovf_d;
       angles_out_172_s18_q <= angles_out_172_s17_q;
-      angles_xy_120_ovf_s18_q <= angles_xy_120_ovf_q;
-      angles_xy_121_ovf_s18_q <= angles_xy_121_ovf_q;
+      angles_xy_126_ovf_s18_q <= angles_xy_126_ovf_c;
+      angles_xy_127_ovf_s18_q <= angles_xy_127_ovf_c;
       ovf0_s18_q <= ovf0_or_s17;
-      angles_theta_122_ovf_s18_q <= angles_theta_122_ovf_q;
+      angles_theta_128_ovf_s18_q <= angles_theta_128_ovf_c;
       ovf1_s18_q <= ovf1_or_s17;
       ovf2_s18_q <= ovf2_s17_q;
     end
     if (load_s19) begin
       angles_xy_132_q <= angles_xy_132_d;
-      angles_xy_132_ovf_q <= angles_xy_132_ovf_d;
       angles_xy_133_q <= angles_xy_133_d;
-      angles_xy_133_ovf_q <= angles_xy_133_ovf_d;
       angles_theta_134_q <= angles_theta_134_d;
-      angles_theta_134_ovf_q <= angles_theta_134_ovf_d;
       angles_out_172_s19_q <= angles_out_172_s18_q;
-      angles_xy_126_ovf_s19_q <= angles_xy_126_ovf_q;
-      angles_xy_127_ovf_s19_q <= angles_xy_127_ovf_q;
+      angles_xy_132_ovf_s19_q <= angles_xy_132_ovf_c;
+      angles_xy_133_ovf_s19_q <= angles_xy_133_ovf_c;
       ovf0_s19_q <= ovf0_or_s18;
-      angles_theta_128_ovf_s19_q <= angles_theta_128_ovf_q;
+      angles_theta_134_ovf_s19_q <= angles_theta_134_ovf_c;
       ovf1_s19_q <= ovf1_or_s18;
       ovf2_s19_q <= ovf2_s18_q;
     end
     if (load_s20) begin
       angles_xy_138_q <= angles_xy_138_d;
-      angles_xy_138_ovf_q <= angles_xy_138_ovf_d;
       angles_xy_139_q <= angles_xy_139_d;
-      angles_xy_139_ovf_q <= angles_xy_139_ovf_d;
       angles_theta_140_q <= angles_theta_140_d;
-      angles_theta_140_ovf_q <= angles_theta_140_ovf_d;
       angles_out_172_s20_q <= angles_out_172_s19_q;
-      angles_xy_132_ovf_s20_q <= angles_xy_132_ovf_q;
-      angles_xy_133_ovf_s20_q <= angles_xy_133_ovf_q;
+      angles_xy_138_ovf_s20_q <= angles_xy_138_ovf_c;
+      angles_xy_139_ovf_s20_q <= angles_xy_139_ovf_c;
       ovf0_s20_q <= ovf0_or_s19;
-      angles_theta_134_ovf_s20_q <= angles_theta_134_ovf_q;
+      angles_theta_140_ovf_s20_q <= angles_theta_140_ovf_c;
       ovf1_s20_q <= ovf1_or_s19;
       ovf2_s20_q <= ovf2_s19_q;
     end
     if (load_s21) begin
       angles_xy_144_q <= angles_xy_144_d;
-      angles_xy_144_ovf_q <= angles_xy_144_ovf_d;
       angles_xy_145_q <= angles_xy_145_d;
-      angles_xy_145_ovf_q <= angles_xy_145_ovf_d;
       angles_theta_146_q <= angles_theta_146_d;
-      angles_theta_146_ovf_q <= angles_theta_146_ovf_d;
       angles_out_172_s21_q <= angles_out_172_s20_q;
-      angles_xy_138_ovf_s21_q <= angles_xy_138_ovf_q;
-      angles_xy_139_ovf_s21_q <= angles_xy_139_ovf_q;
+      angles_xy_144_ovf_s21_q <= angles_xy_144_ovf_c;
+      angles_xy_145_ovf_s21_q <= angles_xy_145_ovf_c;
       ovf0_s21_q <= ovf0_or_s20;
-      angles_theta_140_ovf_s21_q <= angles_theta_140_ovf_q;
+      angles_theta_146_ovf_s21_q <= angles_theta_146_ovf_c;
       ovf1_s21_q <= ovf1_or_s20;
       ovf2_s21_q <= ovf2_s20_q;
     end
     if (load_s22) begin
       angles_xy_150_q <= angles_xy_150_d;
-      angles_xy_150_ovf_q <= angles_xy_150_ovf_d;
       angles_xy_151_q <= angles_xy_151_d;
-      angles_xy_151_ovf_q <= angles_xy_151_ovf_d;
       angles_theta_152_q <= angles_theta_152_d;
-      angles_theta_152_ovf_q <= angles_theta_152_ovf_d;
       angles_out_172_s22_q <= angles_out_172_s21_q;
-      angles_xy_144_ovf_s22_q <= angles_xy_144_ovf_q;
-      angles_xy_145_ovf_s22_q <= angles_xy_145_ovf_q;
+      angles_xy_150_ovf_s22_q <= angles_xy_150_ovf_c;
+      angles_xy_151_ovf_s22_q <= angles_xy_151_ovf_c;
       ovf0_s22_q <= ovf0_or_s21;
-      angles_theta_146_ovf_s22_q <= angles_theta_146_ovf_q;
+      angles_theta_152_ovf_s22_q <= angles_theta_152_ovf_c;
       ovf1_s22_q <= ovf1_or_s21;
       ovf2_s22_q <= ovf2_s21_q;
     end
     if (load_s23) begin
       angles_xy_156_q <= angles_xy_156_d;
-      angles_xy_156_ovf_q <= angles_xy_156_ovf_d;
       angles_xy_157_q <= angles_xy_157_d;
-      angles_xy_157_ovf_q <= angles_xy_157_ovf_d;
       angles_theta_158_q <= angles_theta_158_d;
-      angles_theta_158_ovf_q <= angles_theta_158_ovf_d;
       angles_out_172_s23_q <= angles_out_172_s22_q;
-      angles_xy_150_ovf_s23_q <= angles_xy_150_ovf_q;
-      angles_xy_151_ovf_s23_q <= angles_xy_151_ovf_q;
+      angles_xy_156_ovf_s23_q <= angles_xy_156_ovf_c;
+      angles_xy_157_ovf_s23_q <= angles_xy_157_ovf_c;
       ovf0_s23_q <= ovf0_or_s22;
-      angles_theta_152_ovf_s23_q <= angles_theta_152_ovf_q;
+      angles_theta_158_ovf_s23_q <= angles_theta_158_ovf_c;
       ovf1_s23_q <= ovf1_or_s22;
       ovf2_s23_q <= ovf2_s22_q;
     end
     if (load_s24) begin
       angles_xy_163_q <= angles_xy_163_d;
-      angles_xy_163_ovf_q <= angles_xy_163_ovf_d;
       angles_theta_164_q <= angles_theta_164_d;
-      angles_theta_164_ovf_q <= angles_theta_164_ovf_d;
       angles_out_172_s24_q <= angles_out_172_s23_q;
-      angles_xy_156_ovf_s24_q <= angles_xy_156_ovf_q;
-      angles_xy_157_ovf_s24_q <= angles_xy_157_ovf_q;
+      angles_xy_163_ovf_s24_q <= angles_xy_163_ovf_c;
       ovf0_s24_q <= ovf0_or_s23;
-      angles_theta_158_ovf_s24_q <= angles_theta_158_ovf_q;
+      angles_theta_164_ovf_s24_q <= angles_theta_164_ovf_c;
       ovf1_s24_q <= ovf1_or_s23;
       ovf2_s24_q <= ovf2_s23_q;
     end
     if (load_s25) begin
       angles_theta_170_q <= angles_theta_170_d;
-      angles_theta_170_ovf_q <= angles_theta_170_ovf_d;
       angles_out_172_s25_q <= angles_out_172_s24_q;
-      angles_xy_163_ovf_s25_q <= angles_xy_163_ovf_q;
       ovf0_s25_q <= ovf0_or_s24;
-      angles_theta_164_ovf_s25_q <= angles_theta_164_ovf_q;
+      angles_theta_170_ovf_s25_q <= angles_theta_170_ovf_c;
       ovf1_s25_q <= ovf1_or_s24;
       ovf2_s25_q <= ovf2_s24_q;
     end
     if (load_s26) begin
       angles_out_171_q <= angles_out_171_d;
-      angles_out_171_ovf_q <= angles_out_171_ovf_d;
       angles_out_172_s26_q <= angles_out_172_s25_q;
-      ovf0_s26_q <= ovf0_or_s25;
-      angles_theta_170_ovf_s26_q <= angles_theta_170_ovf_q;
+      ovf0_s26_q <= ovf0_s25_q;
       ovf1_s26_q <= ovf1_or_s25;
+      angles_out_171_ovf_s26_q <= angles_out_171_ovf_c;
       ovf2_s26_q <= ovf2_s25_q;
     end
   end
@@ -1696,7 +1544,7 @@ module angles (
   // Output buffer: the head drives the ports; the skid register takes the
   // item that leaves the last stage while the head is stalled.
   wire [24:0] last_d =
-      {angles_out_171_q, angles_out_172_s26_q, (ovf0_s26_q), (ovf1_or_s26), (ovf2_or_s26)};
+      {angles_out_171_q, angles_out_172_s26_q, (ovf0_s26_q), (ovf1_s26_q), (ovf2_or_s26)};
   reg  [24:0] out_q, skid_q;
   always @(posedge clk_i) begin
     if (out_load & (skid_valid | out_arrive)) out_q <= skid_valid ? skid_q : last_d;

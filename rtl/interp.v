@@ -126,12 +126,11 @@ module interp (
   wire [21:0] interp_weight_25_up = {t24[33], t24[33:13]} + {{21{1'b0}}, t24[12]};
   wire signed [21:0] interp_weight_25_r =
       $signed({interp_weight_25_up[21:1], interp_weight_25_up[0] & ~interp_weight_25_tie});
-  wire interp_weight_25_ovf_d = ~((&interp_weight_25_r[21:17]) | ~(|interp_weight_25_r[21:17]));
+  wire interp_weight_25_ovf_c = ~((&interp_weight_25_r[21:17]) | ~(|interp_weight_25_r[21:17]));
   wire signed [17:0] interp_weight_25_d =
-      $signed(interp_weight_25_ovf_d ? (interp_weight_25_r[21] ? 18'h20000 : 18'h1ffff)
+      $signed(interp_weight_25_ovf_c ? (interp_weight_25_r[21] ? 18'h20000 : 18'h1ffff)
       : interp_weight_25_r[17:0]);
   reg  signed [17:0] interp_weight_25_q;
-  reg  [0:0] interp_weight_25_ovf_q;
   wire signed [17:0] t26 = $signed({{2{1'b0}}, c2_i} - {{3{1'b0}}, K20, 14'b0});
   wire signed [16:0] t27_a = $signed({1'b0, c2_i});
   wire signed [33:0] t27 = t27_a * t26;
@@ -139,58 +138,53 @@ module interp (
   wire [21:0] interp_weight_28_up = {t27[33], t27[33:13]} + {{21{1'b0}}, t27[12]};
   wire signed [21:0] interp_weight_28_r =
       $signed({interp_weight_28_up[21:1], interp_weight_28_up[0] & ~interp_weight_28_tie});
-  wire interp_weight_28_ovf_d = ~((&interp_weight_28_r[21:17]) | ~(|interp_weight_28_r[21:17]));
+  wire interp_weight_28_ovf_c = ~((&interp_weight_28_r[21:17]) | ~(|interp_weight_28_r[21:17]));
   wire signed [17:0] interp_weight_28_d =
-      $signed(interp_weight_28_ovf_d ? (interp_weight_28_r[21] ? 18'h20000 : 18'h1ffff)
+      $signed(interp_weight_28_ovf_c ? (interp_weight_28_r[21] ? 18'h20000 : 18'h1ffff)
       : interp_weight_28_r[17:0]);
   reg  signed [17:0] interp_weight_28_q;
-  reg  [0:0] interp_weight_28_ovf_q;
   wire signed [19:0] t29 = $signed({t22[18], t22} - {{5{1'b0}}, K20, 14'b0});
   wire signed [38:0] t30 = t22 * t29;
   wire interp_weight_31_tie = t30[12] & ~(|t30[11:0]);
   wire [26:0] interp_weight_31_up = {t30[38], t30[38:13]} + {{26{1'b0}}, t30[12]};
   wire signed [26:0] interp_weight_31_r =
       $signed({interp_weight_31_up[26:1], interp_weight_31_up[0] & ~interp_weight_31_tie});
-  wire interp_weight_31_ovf_d = ~((&interp_weight_31_r[26:17]) | ~(|interp_weight_31_r[26:17]));
+  wire interp_weight_31_ovf_c = ~((&interp_weight_31_r[26:17]) | ~(|interp_weight_31_r[26:17]));
   wire signed [17:0] interp_weight_31_d =
-      $signed(interp_weight_31_ovf_d ? (interp_weight_31_r[26] ? 18'h20000 : 18'h1ffff)
+      $signed(interp_weight_31_ovf_c ? (interp_weight_31_r[26] ? 18'h20000 : 18'h1ffff)
       : interp_weight_31_r[17:0]);
   reg  signed [17:0] interp_weight_31_q;
-  reg  [0:0] interp_weight_31_ovf_q;
   wire [31:0] t32 = c1_i * c2_i;
   wire interp_weight_33_tie = t32[11] & ~(|t32[10:0]);
   wire [20:0] interp_weight_33_up = {1'b0, t32[31:12]} + {{20{1'b0}}, t32[11]};
   wire [20:0] interp_weight_33_r =
       {interp_weight_33_up[20:1], interp_weight_33_up[0] & ~interp_weight_33_tie};
-  wire interp_weight_33_ovf_d = |interp_weight_33_r[20:17];
+  wire interp_weight_33_ovf_c = |interp_weight_33_r[20:17];
   wire signed [17:0] interp_weight_33_d =
-      $signed(interp_weight_33_ovf_d ? 18'h1ffff : interp_weight_33_r[17:0]);
+      $signed(interp_weight_33_ovf_c ? 18'h1ffff : interp_weight_33_r[17:0]);
   reg  signed [17:0] interp_weight_33_q;
-  reg  [0:0] interp_weight_33_ovf_q;
   wire signed [16:0] t34_a = $signed({1'b0, c2_i});
   wire signed [34:0] t34 = t34_a * t22;
   wire interp_weight_35_tie = t34[11] & ~(|t34[10:0]);
   wire [23:0] interp_weight_35_up = {t34[34], t34[34:12]} + {{23{1'b0}}, t34[11]};
   wire signed [23:0] interp_weight_35_r =
       $signed({interp_weight_35_up[23:1], interp_weight_35_up[0] & ~interp_weight_35_tie});
-  wire interp_weight_35_ovf_d = ~((&interp_weight_35_r[23:17]) | ~(|interp_weight_35_r[23:17]));
+  wire interp_weight_35_ovf_c = ~((&interp_weight_35_r[23:17]) | ~(|interp_weight_35_r[23:17]));
   wire signed [17:0] interp_weight_35_d =
-      $signed(interp_weight_35_ovf_d ? (interp_weight_35_r[23] ? 18'h20000 : 18'h1ffff)
+      $signed(interp_weight_35_ovf_c ? (interp_weight_35_r[23] ? 18'h20000 : 18'h1ffff)
       : interp_weight_35_r[17:0]);
   reg  signed [17:0] interp_weight_35_q;
-  reg  [0:0] interp_weight_35_ovf_q;
   wire signed [16:0] t36_b = $signed({1'b0, c1_i});
   wire signed [34:0] t36 = t22 * t36_b;
   wire interp_weight_37_tie = t36[11] & ~(|t36[10:0]);
   wire [23:0] interp_weight_37_up = {t36[34], t36[34:12]} + {{23{1'b0}}, t36[11]};
   wire signed [23:0] interp_weight_37_r =
       $signed({interp_weight_37_up[23:1], interp_weight_37_up[0] & ~interp_weight_37_tie});
-  wire interp_weight_37_ovf_d = ~((&interp_weight_37_r[23:17]) | ~(|interp_weight_37_r[23:17]));
+  wire interp_weight_37_ovf_c = ~((&interp_weight_37_r[23:17]) | ~(|interp_weight_37_r[23:17]));
   wire signed [17:0] interp_weight_37_d =
-      $signed(interp_weight_37_ovf_d ? (interp_weight_37_r[23] ? 18'h20000 : 18'h1ffff)
+      $signed(interp_weight_37_ovf_c ? (interp_weight_37_r[23] ? 18'h20000 : 18'h1ffff)
       : interp_weight_37_r[17:0]);
   reg  signed [17:0] interp_weight_37_q;
-  reg  [0:0] interp_weight_37_ovf_q;
   reg  signed [15:0] n1_x_i_s1_q;
   wire signed [33:0] t38 = interp_weight_25_q * n1_x_i_s1_q;
   reg  signed [15:0] n2_x_i_s1_q;
@@ -212,12 +206,11 @@ module interp (
   wire [23:0] interp_out_49_up = {t48[38], t48[38:16]} + {{23{1'b0}}, t48[15]};
   wire signed [23:0] interp_out_49_r =
       $signed({interp_out_49_up[23:1], interp_out_49_up[0] & ~interp_out_49_tie});
-  wire interp_out_49_ovf_d = ~((&interp_out_49_r[23:15]) | ~(|interp_out_49_r[23:15]));
+  wire interp_out_49_ovf_c = ~((&interp_out_49_r[23:15]) | ~(|interp_out_49_r[23:15]));
   wire signed [15:0] interp_out_49_d =
-      $signed(interp_out_49_ovf_d ? (interp_out_49_r[23] ? 16'h8000 : 16'h7fff)
+      $signed(interp_out_49_ovf_c ? (interp_out_49_r[23] ? 16'h8000 : 16'h7fff)
       : interp_out_49_r[15:0]);
   reg  signed [15:0] interp_out_49_q;
-  reg  [0:0] interp_out_49_ovf_q;
   reg  signed [15:0] n1_y_i_s1_q;
   wire signed [33:0] t50 = interp_weight_25_q * n1_y_i_s1_q;
   reg  signed [15:0] n2_y_i_s1_q;
@@ -239,12 +232,11 @@ module interp (
   wire [23:0] interp_out_61_up = {t60[38], t60[38:16]} + {{23{1'b0}}, t60[15]};
   wire signed [23:0] interp_out_61_r =
       $signed({interp_out_61_up[23:1], interp_out_61_up[0] & ~interp_out_61_tie});
-  wire interp_out_61_ovf_d = ~((&interp_out_61_r[23:15]) | ~(|interp_out_61_r[23:15]));
+  wire interp_out_61_ovf_c = ~((&interp_out_61_r[23:15]) | ~(|interp_out_61_r[23:15]));
   wire signed [15:0] interp_out_61_d =
-      $signed(interp_out_61_ovf_d ? (interp_out_61_r[23] ? 16'h8000 : 16'h7fff)
+      $signed(interp_out_61_ovf_c ? (interp_out_61_r[23] ? 16'h8000 : 16'h7fff)
       : interp_out_61_r[15:0]);
   reg  signed [15:0] interp_out_61_q;
-  reg  [0:0] interp_out_61_ovf_q;
   reg  signed [15:0] n1_z_i_s1_q;
   wire signed [33:0] t62 = interp_weight_25_q * n1_z_i_s1_q;
   reg  signed [15:0] n2_z_i_s1_q;
@@ -266,24 +258,27 @@ module interp (
   wire [23:0] interp_out_73_up = {t72[38], t72[38:16]} + {{23{1'b0}}, t72[15]};
   wire signed [23:0] interp_out_73_r =
       $signed({interp_out_73_up[23:1], interp_out_73_up[0] & ~interp_out_73_tie});
-  wire interp_out_73_ovf_d = ~((&interp_out_73_r[23:15]) | ~(|interp_out_73_r[23:15]));
+  wire interp_out_73_ovf_c = ~((&interp_out_73_r[23:15]) | ~(|interp_out_73_r[23:15]));
   wire signed [15:0] interp_out_73_d =
-      $signed(interp_out_73_ovf_d ? (interp_out_73_r[23] ? 16'h8000 : 16'h7fff)
+      $signed(interp_out_73_ovf_c ? (interp_out_73_r[23] ? 16'h8000 : 16'h7fff)
       : interp_out_73_r[15:0]);
   reg  signed [15:0] interp_out_73_q;
-  reg  [0:0] interp_out_73_ovf_q;
-  reg  [0:0] interp_weight_25_ovf_s2_q;
-  reg  [0:0] interp_weight_28_ovf_s2_q;
-  reg  [0:0] interp_weight_31_ovf_s2_q;
-  reg  [0:0] interp_weight_33_ovf_s2_q;
-  reg  [0:0] interp_weight_35_ovf_s2_q;
-  reg  [0:0] interp_weight_37_ovf_s2_q;
-  wire ovf0_or_s2 =
-      interp_weight_25_ovf_s2_q | interp_weight_28_ovf_s2_q | interp_weight_31_ovf_s2_q
-          | interp_weight_33_ovf_s2_q
-      | interp_weight_35_ovf_s2_q | interp_weight_37_ovf_s2_q;
+  reg  [0:0] interp_weight_25_ovf_s1_q;
+  reg  [0:0] interp_weight_28_ovf_s1_q;
+  reg  [0:0] interp_weight_31_ovf_s1_q;
+  reg  [0:0] interp_weight_33_ovf_s1_q;
+  reg  [0:0] interp_weight_35_ovf_s1_q;
+  reg  [0:0] interp_weight_37_ovf_s1_q;
+  wire ovf0_or_s1 =
+      interp_weight_25_ovf_s1_q | interp_weight_28_ovf_s1_q | interp_weight_31_ovf_s1_q
+          | interp_weight_33_ovf_s1_q
+      | interp_weight_35_ovf_s1_q | interp_weight_37_ovf_s1_q;
+  reg  [0:0] ovf0_s2_q;
+  reg  [0:0] interp_out_49_ovf_s2_q;
+  reg  [0:0] interp_out_61_ovf_s2_q;
+  reg  [0:0] interp_out_73_ovf_s2_q;
   wire ovf1_or_s2 =
-      interp_out_49_ovf_q | interp_out_61_ovf_q | interp_out_73_ovf_q;
+      interp_out_49_ovf_s2_q | interp_out_61_ovf_s2_q | interp_out_73_ovf_s2_q;
 
   // Stage loads: the item entering stage k is valid and the stages move.
   wire load_s1 = in_take;
@@ -294,17 +289,11 @@ module interp (
   always @(posedge clk_i) begin
     if (load_s1) begin
       interp_weight_25_q <= interp_weight_25_d;
-      interp_weight_25_ovf_q <= interp_weight_25_ovf_d;
       interp_weight_28_q <= interp_weight_28_d;
-      interp_weight_28_ovf_q <= interp_weight_28_ovf_d;
       interp_weight_31_q <= interp_weight_31_d;
-      interp_weight_31_ovf_q <= interp_weight_31_ovf_d;
       interp_weight_33_q <= interp_weight_33_d;
-      interp_weight_33_ovf_q <= interp_weight_33_ovf_d;
       interp_weight_35_q <= interp_weight_35_d;
-      interp_weight_35_ovf_q <= interp_weight_35_ovf_d;
       interp_weight_37_q <= interp_weight_37_d;
-      interp_weight_37_ovf_q <= interp_weight_37_ovf_d;
       n1_x_i_s1_q <= n1_x_i;
       n2_x_i_s1_q <= n2_x_i;
       n3_x_i_s1_q <= n3_x_i;
@@ -323,27 +312,28 @@ module interp (
       n12_z_i_s1_q <= n12_z_i;
       n23_z_i_s1_q <= n23_z_i;
       n31_z_i_s1_q <= n31_z_i;
+      interp_weight_25_ovf_s1_q <= interp_weight_25_ovf_c;
+      interp_weight_28_ovf_s1_q <= interp_weight_28_ovf_c;
+      interp_weight_31_ovf_s1_q <= interp_weight_31_ovf_c;
+      interp_weight_33_ovf_s1_q <= interp_weight_33_ovf_c;
+      interp_weight_35_ovf_s1_q <= interp_weight_35_ovf_c;
+      interp_weight_37_ovf_s1_q <= interp_weight_37_ovf_c;
     end
     if (load_s2) begin
       interp_out_49_q <= interp_out_49_d;
-      interp_out_49_ovf_q <= interp_out_49_ovf_d;
       interp_out_61_q <= interp_out_61_d;
-      interp_out_61_ovf_q <= interp_out_61_ovf_d;
       interp_out_73_q <= interp_out_73_d;
-      interp_out_73_ovf_q <= interp_out_73_ovf_d;
-      interp_weight_25_ovf_s2_q <= interp_weight_25_ovf_q;
-      interp_weight_28_ovf_s2_q <= interp_weight_28_ovf_q;
-      interp_weight_31_ovf_s2_q <= interp_weight_31_ovf_q;
-      interp_weight_33_ovf_s2_q <= interp_weight_33_ovf_q;
-      interp_weight_35_ovf_s2_q <= interp_weight_35_ovf_q;
-      interp_weight_37_ovf_s2_q <= interp_weight_37_ovf_q;
+      ovf0_s2_q <= ovf0_or_s1;
+      interp_out_49_ovf_s2_q <= interp_out_49_ovf_c;
+      interp_out_61_ovf_s2_q <= interp_out_61_ovf_c;
+      interp_out_73_ovf_s2_q <= interp_out_73_ovf_c;
     end
   end
 
   // Output buffer: the head drives the ports; the skid register takes the
   // item that leaves the last stage while the head is stalled.
   wire [49:0] last_d =
-      {interp_out_49_q, interp_out_61_q, interp_out_73_q, (ovf0_or_s2), (ovf1_or_s2)};
+      {interp_out_49_q, interp_out_61_q, interp_out_73_q, (ovf0_s2_q), (ovf1_or_s2)};
   reg  [49:0] out_q, skid_q;
   always @(posedge clk_i) begin
     if (out_load & (skid_valid | out_arrive)) out_q <= skid_valid ? skid_q : last_d;

@@ -106,11 +106,10 @@ module normalize (
   wire [23:0] normalize_d_15_up = {t14[33], t14[33:11]} + {{23{1'b0}}, t14[10]};
   wire signed [23:0] normalize_d_15_r =
       $signed({normalize_d_15_up[23:1], normalize_d_15_up[0] & ~normalize_d_15_tie});
-  wire normalize_d_15_ovf_d = normalize_d_15_r[23] | (|normalize_d_15_r[22:18]);
+  wire normalize_d_15_ovf_c = normalize_d_15_r[23] | (|normalize_d_15_r[22:18]);
   wire [17:0] normalize_d_15_d =
-      normalize_d_15_ovf_d ? (normalize_d_15_r[23] ? 18'h0 : 18'h3ffff) : normalize_d_15_r[17:0];
+      normalize_d_15_ovf_c ? (normalize_d_15_r[23] ? 18'h0 : 18'h3ffff) : normalize_d_15_r[17:0];
   reg  [17:0] normalize_d_15_q;
-  reg  [0:0] normalize_d_15_ovf_q;
   wire signed [18:0] t16_b = $signed({1'b0, normalize_d_15_q});
   wire signed [35:0] t16 = K5 * t16_b;
   wire signed [36:0] t17 = $signed({t16[35], t16} + {{2{K4[17]}}, K4, 17'b0});
@@ -118,13 +117,12 @@ module normalize (
   wire [20:0] normalize_horner_18_up = {t17[36], t17[36:17]} + {{20{1'b0}}, t17[16]};
   wire signed [20:0] normalize_horner_18_r =
       $signed({normalize_horner_18_up[20:1], normalize_horner_18_up[0] & ~normalize_horner_18_tie});
-  wire normalize_horner_18_ovf_d =
+  wire normalize_horner_18_ovf_c =
       ~((&normalize_horner_18_r[20:17]) | ~(|normalize_horner_18_r[20:17]));
   wire signed [17:0] normalize_horner_18_d =
-      $signed(normalize_horner_18_ovf_d ? (normalize_horner_18_r[20] ? 18'h20000 : 18'h1ffff)
+      $signed(normalize_horner_18_ovf_c ? (normalize_horner_18_r[20] ? 18'h20000 : 18'h1ffff)
       : normalize_horner_18_r[17:0]);
   reg  signed [17:0] normalize_horner_18_q;
-  reg  [0:0] normalize_horner_18_ovf_q;
   reg  [17:0] normalize_d_15_s2_q;
   wire signed [18:0] t19_b = $signed({1'b0, normalize_d_15_s2_q});
   wire signed [35:0] t19 = normalize_horner_18_q * t19_b;
@@ -133,11 +131,10 @@ module normalize (
   wire [22:0] normalize_g_21_up = {t20[36], t20[36:15]} + {{22{1'b0}}, t20[14]};
   wire signed [22:0] normalize_g_21_r =
       $signed({normalize_g_21_up[22:1], normalize_g_21_up[0] & ~normalize_g_21_tie});
-  wire normalize_g_21_ovf_d = normalize_g_21_r[22] | (|normalize_g_21_r[21:18]);
+  wire normalize_g_21_ovf_c = normalize_g_21_r[22] | (|normalize_g_21_r[21:18]);
   wire [17:0] normalize_g_21_d =
-      normalize_g_21_ovf_d ? (normalize_g_21_r[22] ? 18'h0 : 18'h3ffff) : normalize_g_21_r[17:0];
+      normalize_g_21_ovf_c ? (normalize_g_21_r[22] ? 18'h0 : 18'h3ffff) : normalize_g_21_r[17:0];
   reg  [17:0] normalize_g_21_q;
-  reg  [0:0] normalize_g_21_ovf_q;
   reg  signed [15:0] n_x_i_s1_q;
   reg  signed [15:0] n_x_i_s2_q;
   reg  signed [15:0] n_x_i_s3_q;
@@ -157,40 +154,43 @@ module normalize (
   wire [17:0] normalize_out_25_up = {t22[33], t22[33:17]} + {{17{1'b0}}, t22[16]};
   wire signed [17:0] normalize_out_25_r =
       $signed({normalize_out_25_up[17:1], normalize_out_25_up[0] & ~normalize_out_25_tie});
-  wire normalize_out_25_ovf_d = ~((&normalize_out_25_r[17:15]) | ~(|normalize_out_25_r[17:15]));
+  wire normalize_out_25_ovf_c = ~((&normalize_out_25_r[17:15]) | ~(|normalize_out_25_r[17:15]));
   wire signed [15:0] normalize_out_25_d =
-      $signed(normalize_out_25_ovf_d ? (normalize_out_25_r[17] ? 16'h8000 : 16'h7fff)
+      $signed(normalize_out_25_ovf_c ? (normalize_out_25_r[17] ? 16'h8000 : 16'h7fff)
       : normalize_out_25_r[15:0]);
   reg  signed [15:0] normalize_out_25_q;
-  reg  [0:0] normalize_out_25_ovf_q;
   wire normalize_out_26_tie = t23[16] & ~(|t23[15:0]);
   wire [17:0] normalize_out_26_up = {t23[33], t23[33:17]} + {{17{1'b0}}, t23[16]};
   wire signed [17:0] normalize_out_26_r =
       $signed({normalize_out_26_up[17:1], normalize_out_26_up[0] & ~normalize_out_26_tie});
-  wire normalize_out_26_ovf_d = ~((&normalize_out_26_r[17:15]) | ~(|normalize_out_26_r[17:15]));
+  wire normalize_out_26_ovf_c = ~((&normalize_out_26_r[17:15]) | ~(|normalize_out_26_r[17:15]));
   wire signed [15:0] normalize_out_26_d =
-      $signed(normalize_out_26_ovf_d ? (normalize_out_26_r[17] ? 16'h8000 : 16'h7fff)
+      $signed(normalize_out_26_ovf_c ? (normalize_out_26_r[17] ? 16'h8000 : 16'h7fff)
       : normalize_out_26_r[15:0]);
   reg  signed [15:0] normalize_out_26_q;
-  reg  [0:0] normalize_out_26_ovf_q;
   wire normalize_out_27_tie = t24[16] & ~(|t24[15:0]);
   wire [17:0] normalize_out_27_up = {t24[33], t24[33:17]} + {{17{1'b0}}, t24[16]};
   wire signed [17:0] normalize_out_27_r =
       $signed({normalize_out_27_up[17:1], normalize_out_27_up[0] & ~normalize_out_27_tie});
-  wire normalize_out_27_ovf_d = ~((&normalize_out_27_r[17:15]) | ~(|normalize_out_27_r[17:15]));
+  wire normalize_out_27_ovf_c = ~((&normalize_out_27_r[17:15]) | ~(|normalize_out_27_r[17:15]));
   wire signed [15:0] normalize_out_27_d =
-      $signed(normalize_out_27_ovf_d ? (normalize_out_27_r[17] ? 16'h8000 : 16'h7fff)
+      $signed(normalize_out_27_ovf_c ? (normalize_out_27_r[17] ? 16'h8000 : 16'h7fff)
       : normalize_out_27_r[15:0]);
   reg  signed [15:0] normalize_out_27_q;
-  reg  [0:0] normalize_out_27_ovf_q;
-  reg  [0:0] normalize_d_15_ovf_s2_q;
+  reg  [0:0] normalize_d_15_ovf_s1_q;
+  reg  [0:0] ovf0_s2_q;
   reg  [0:0] ovf0_s3_q;
   reg  [0:0] ovf0_s4_q;
-  reg  [0:0] normalize_horner_18_ovf_s3_q;
+  reg  [0:0] normalize_horner_18_ovf_s2_q;
+  reg  [0:0] ovf1_s3_q;
   reg  [0:0] ovf1_s4_q;
-  reg  [0:0] normalize_g_21_ovf_s4_q;
+  reg  [0:0] normalize_g_21_ovf_s3_q;
+  reg  [0:0] ovf2_s4_q;
+  reg  [0:0] normalize_out_25_ovf_s4_q;
+  reg  [0:0] normalize_out_26_ovf_s4_q;
+  reg  [0:0] normalize_out_27_ovf_s4_q;
   wire ovf3_or_s4 =
-      normalize_out_25_ovf_q | normalize_out_26_ovf_q | normalize_out_27_ovf_q;
+      normalize_out_25_ovf_s4_q | normalize_out_26_ovf_s4_q | normalize_out_27_ovf_s4_q;
 
   // Stage loads: the item entering stage k is valid and the stages move.
   wire load_s1 = in_take;
@@ -203,39 +203,39 @@ module normalize (
   always @(posedge clk_i) begin
     if (load_s1) begin
       normalize_d_15_q <= normalize_d_15_d;
-      normalize_d_15_ovf_q <= normalize_d_15_ovf_d;
       n_x_i_s1_q <= n_x_i;
       n_y_i_s1_q <= n_y_i;
       n_z_i_s1_q <= n_z_i;
+      normalize_d_15_ovf_s1_q <= normalize_d_15_ovf_c;
     end
     if (load_s2) begin
       normalize_horner_18_q <= normalize_horner_18_d;
-      normalize_horner_18_ovf_q <= normalize_horner_18_ovf_d;
       normalize_d_15_s2_q <= normalize_d_15_q;
       n_x_i_s2_q <= n_x_i_s1_q;
       n_y_i_s2_q <= n_y_i_s1_q;
       n_z_i_s2_q <= n_z_i_s1_q;
-      normalize_d_15_ovf_s2_q <= normalize_d_15_ovf_q;
+      ovf0_s2_q <= normalize_d_15_ovf_s1_q;
+      normalize_horner_18_ovf_s2_q <= normalize_horner_18_ovf_c;
     end
     if (load_s3) begin
       normalize_g_21_q <= normalize_g_21_d;
-      normalize_g_21_ovf_q <= normalize_g_21_ovf_d;
       n_x_i_s3_q <= n_x_i_s2_q;
       n_y_i_s3_q <= n_y_i_s2_q;
       n_z_i_s3_q <= n_z_i_s2_q;
-      ovf0_s3_q <= normalize_d_15_ovf_s2_q;
-      normalize_horner_18_ovf_s3_q <= normalize_horner_18_ovf_q;
+      ovf0_s3_q <= ovf0_s2_q;
+      ovf1_s3_q <= normalize_horner_18_ovf_s2_q;
+      normalize_g_21_ovf_s3_q <= normalize_g_21_ovf_c;
     end
     if (load_s4) begin
       normalize_out_25_q <= normalize_out_25_d;
-      normalize_out_25_ovf_q <= normalize_out_25_ovf_d;
       normalize_out_26_q <= normalize_out_26_d;
-      normalize_out_26_ovf_q <= normalize_out_26_ovf_d;
       normalize_out_27_q <= normalize_out_27_d;
-      normalize_out_27_ovf_q <= normalize_out_27_ovf_d;
       ovf0_s4_q <= ovf0_s3_q;
-      ovf1_s4_q <= normalize_horner_18_ovf_s3_q;
-      normalize_g_21_ovf_s4_q <= normalize_g_21_ovf_q;
+      ovf1_s4_q <= ovf1_s3_q;
+      ovf2_s4_q <= normalize_g_21_ovf_s3_q;
+      normalize_out_25_ovf_s4_q <= normalize_out_25_ovf_c;
+      normalize_out_26_ovf_s4_q <= normalize_out_26_ovf_c;
+      normalize_out_27_ovf_s4_q <= normalize_out_27_ovf_c;
     end
   end
 
@@ -243,7 +243,7 @@ module normalize (
   // item that leaves the last stage while the head is stalled.
   wire [51:0] last_d =
       {normalize_out_25_q, normalize_out_26_q, normalize_out_27_q, (ovf0_s4_q), (ovf1_s4_q),
-      (normalize_g_21_ovf_s4_q), (ovf3_or_s4)};
+      (ovf2_s4_q), (ovf3_or_s4)};
   reg  [51:0] out_q, skid_q;
   always @(posedge clk_i) begin
     if (out_load & (skid_valid | out_arrive)) out_q <= skid_valid ? skid_q : last_d;

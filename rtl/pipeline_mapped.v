@@ -950,12 +950,11 @@ module pipeline_mapped (
   wire [21:0] interp_weight_50_up = {t49[33], t49[33:13]} + {{21{1'b0}}, t49[12]};
   wire signed [21:0] interp_weight_50_r =
       $signed({interp_weight_50_up[21:1], interp_weight_50_up[0] & ~interp_weight_50_tie});
-  wire interp_weight_50_ovf_d = ~((&interp_weight_50_r[21:17]) | ~(|interp_weight_50_r[21:17]));
+  wire interp_weight_50_ovf_c = ~((&interp_weight_50_r[21:17]) | ~(|interp_weight_50_r[21:17]));
   wire signed [17:0] interp_weight_50_d =
-      $signed(interp_weight_50_ovf_d ? (interp_weight_50_r[21] ? 18'h20000 : 18'h1ffff)
+      $signed(interp_weight_50_ovf_c ? (interp_weight_50_r[21] ? 18'h20000 : 18'h1ffff)
       : interp_weight_50_r[17:0]);
   reg  signed [17:0] interp_weight_50_q;
-  reg  [0:0] interp_weight_50_ovf_q;
   wire signed [17:0] t51 = $signed({{2{1'b0}}, c2_i} - {{3{1'b0}}, K27, 14'b0});
   wire signed [16:0] t52_a = $signed({1'b0, c2_i});
   wire signed [33:0] t52 = t52_a * t51;
@@ -963,58 +962,53 @@ module pipeline_mapped (
   wire [21:0] interp_weight_53_up = {t52[33], t52[33:13]} + {{21{1'b0}}, t52[12]};
   wire signed [21:0] interp_weight_53_r =
       $signed({interp_weight_53_up[21:1], interp_weight_53_up[0] & ~interp_weight_53_tie});
-  wire interp_weight_53_ovf_d = ~((&interp_weight_53_r[21:17]) | ~(|interp_weight_53_r[21:17]));
+  wire interp_weight_53_ovf_c = ~((&interp_weight_53_r[21:17]) | ~(|interp_weight_53_r[21:17]));
   wire signed [17:0] interp_weight_53_d =
-      $signed(interp_weight_53_ovf_d ? (interp_weight_53_r[21] ? 18'h20000 : 18'h1ffff)
+      $signed(interp_weight_53_ovf_c ? (interp_weight_53_r[21] ? 18'h20000 : 18'h1ffff)
       : interp_weight_53_r[17:0]);
   reg  signed [17:0] interp_weight_53_q;
-  reg  [0:0] interp_weight_53_ovf_q;
   wire signed [19:0] t54 = $signed({t47[18], t47} - {{5{1'b0}}, K27, 14'b0});
   wire signed [38:0] t55 = t47 * t54;
   wire interp_weight_56_tie = t55[12] & ~(|t55[11:0]);
   wire [26:0] interp_weight_56_up = {t55[38], t55[38:13]} + {{26{1'b0}}, t55[12]};
   wire signed [26:0] interp_weight_56_r =
       $signed({interp_weight_56_up[26:1], interp_weight_56_up[0] & ~interp_weight_56_tie});
-  wire interp_weight_56_ovf_d = ~((&interp_weight_56_r[26:17]) | ~(|interp_weight_56_r[26:17]));
+  wire interp_weight_56_ovf_c = ~((&interp_weight_56_r[26:17]) | ~(|interp_weight_56_r[26:17]));
   wire signed [17:0] interp_weight_56_d =
-      $signed(interp_weight_56_ovf_d ? (interp_weight_56_r[26] ? 18'h20000 : 18'h1ffff)
+      $signed(interp_weight_56_ovf_c ? (interp_weight_56_r[26] ? 18'h20000 : 18'h1ffff)
       : interp_weight_56_r[17:0]);
   reg  signed [17:0] interp_weight_56_q;
-  reg  [0:0] interp_weight_56_ovf_q;
   wire [31:0] t57 = c1_i * c2_i;
   wire interp_weight_58_tie = t57[11] & ~(|t57[10:0]);
   wire [20:0] interp_weight_58_up = {1'b0, t57[31:12]} + {{20{1'b0}}, t57[11]};
   wire [20:0] interp_weight_58_r =
       {interp_weight_58_up[20:1], interp_weight_58_up[0] & ~interp_weight_58_tie};
-  wire interp_weight_58_ovf_d = |interp_weight_58_r[20:17];
+  wire interp_weight_58_ovf_c = |interp_weight_58_r[20:17];
   wire signed [17:0] interp_weight_58_d =
-      $signed(interp_weight_58_ovf_d ? 18'h1ffff : interp_weight_58_r[17:0]);
+      $signed(interp_weight_58_ovf_c ? 18'h1ffff : interp_weight_58_r[17:0]);
   reg  signed [17:0] interp_weight_58_q;
-  reg  [0:0] interp_weight_58_ovf_q;
   wire signed [16:0] t59_a = $signed({1'b0, c2_i});
   wire signed [34:0] t59 = t59_a * t47;
   wire interp_weight_60_tie = t59[11] & ~(|t59[10:0]);
   wire [23:0] interp_weight_60_up = {t59[34], t59[34:12]} + {{23{1'b0}}, t59[11]};
   wire signed [23:0] interp_weight_60_r =
       $signed({interp_weight_60_up[23:1], interp_weight_60_up[0] & ~interp_weight_60_tie});
-  wire interp_weight_60_ovf_d = ~((&interp_weight_60_r[23:17]) | ~(|interp_weight_60_r[23:17]));
+  wire interp_weight_60_ovf_c = ~((&interp_weight_60_r[23:17]) | ~(|interp_weight_60_r[23:17]));
   wire signed [17:0] interp_weight_60_d =
-      $signed(interp_weight_60_ovf_d ? (interp_weight_60_r[23] ? 18'h20000 : 18'h1ffff)
+      $signed(interp_weight_60_ovf_c ? (interp_weight_60_r[23] ? 18'h20000 : 18'h1ffff)
       : interp_weight_60_r[17:0]);
   reg  signed [17:0] interp_weight_60_q;
-  reg  [0:0] interp_weight_60_ovf_q;
   wire signed [16:0] t61_b = $signed({1'b0, c1_i});
   wire signed [34:0] t61 = t47 * t61_b;
   wire interp_weight_62_tie = t61[11] & ~(|t61[10:0]);
   wire [23:0] interp_weight_62_up = {t61[34], t61[34:12]} + {{23{1'b0}}, t61[11]};
   wire signed [23:0] interp_weight_62_r =
       $signed({interp_weight_62_up[23:1], interp_weight_62_up[0] & ~interp_weight_62_tie});
-  wire interp_weight_62_ovf_d = ~((&interp_weight_62_r[23:17]) | ~(|interp_weight_62_r[23:17]));
+  wire interp_weight_62_ovf_c = ~((&interp_weight_62_r[23:17]) | ~(|interp_weight_62_r[23:17]));
   wire signed [17:0] interp_weight_62_d =
-      $signed(interp_weight_62_ovf_d ? (interp_weight_62_r[23] ? 18'h20000 : 18'h1ffff)
+      $signed(interp_weight_62_ovf_c ? (interp_weight_62_r[23] ? 18'h20000 : 18'h1ffff)
       : interp_weight_62_r[17:0]);
   reg  signed [17:0] interp_weight_62_q;
-  reg  [0:0] interp_weight_62_ovf_q;
   wire signed [15:0] n1_x_bank_s1 = tri_tag_q[0] ? n1_x_b1_q : n1_x_b0_q;
   wire signed [33:0] t63 = interp_weight_50_q * n1_x_bank_s1;
   wire signed [15:0] n2_x_bank_s1 = tri_tag_q[0] ? n2_x_b1_q : n2_x_b0_q;
@@ -1036,12 +1030,11 @@ module pipeline_mapped (
   wire [23:0] interp_out_74_up = {t73[38], t73[38:16]} + {{23{1'b0}}, t73[15]};
   wire signed [23:0] interp_out_74_r =
       $signed({interp_out_74_up[23:1], interp_out_74_up[0] & ~interp_out_74_tie});
-  wire interp_out_74_ovf_d = ~((&interp_out_74_r[23:15]) | ~(|interp_out_74_r[23:15]));
+  wire interp_out_74_ovf_c = ~((&interp_out_74_r[23:15]) | ~(|interp_out_74_r[23:15]));
   wire signed [15:0] interp_out_74_d =
-      $signed(interp_out_74_ovf_d ? (interp_out_74_r[23] ? 16'h8000 : 16'h7fff)
+      $signed(interp_out_74_ovf_c ? (interp_out_74_r[23] ? 16'h8000 : 16'h7fff)
       : interp_out_74_r[15:0]);
   reg  signed [15:0] interp_out_74_q;
-  reg  [0:0] interp_out_74_ovf_q;
   wire signed [15:0] n1_y_bank_s1 = tri_tag_q[0] ? n1_y_b1_q : n1_y_b0_q;
   wire signed [33:0] t75 = interp_weight_50_q * n1_y_bank_s1;
   wire signed [15:0] n2_y_bank_s1 = tri_tag_q[0] ? n2_y_b1_q : n2_y_b0_q;
@@ -1063,12 +1056,11 @@ module pipeline_mapped (
   wire [23:0] interp_out_86_up = {t85[38], t85[38:16]} + {{23{1'b0}}, t85[15]};
   wire signed [23:0] interp_out_86_r =
       $signed({interp_out_86_up[23:1], interp_out_86_up[0] & ~interp_out_86_tie});
-  wire interp_out_86_ovf_d = ~((&interp_out_86_r[23:15]) | ~(|interp_out_86_r[23:15]));
+  wire interp_out_86_ovf_c = ~((&interp_out_86_r[23:15]) | ~(|interp_out_86_r[23:15]));
   wire signed [15:0] interp_out_86_d =
-      $signed(interp_out_86_ovf_d ? (interp_out_86_r[23] ? 16'h8000 : 16'h7fff)
+      $signed(interp_out_86_ovf_c ? (interp_out_86_r[23] ? 16'h8000 : 16'h7fff)
       : interp_out_86_r[15:0]);
   reg  signed [15:0] interp_out_86_q;
-  reg  [0:0] interp_out_86_ovf_q;
   wire signed [15:0] n1_z_bank_s1 = tri_tag_q[0] ? n1_z_b1_q : n1_z_b0_q;
   wire signed [33:0] t87 = interp_weight_50_q * n1_z_bank_s1;
   wire signed [15:0] n2_z_bank_s1 = tri_tag_q[0] ? n2_z_b1_q : n2_z_b0_q;
@@ -1090,30 +1082,26 @@ module pipeline_mapped (
   wire [23:0] interp_out_98_up = {t97[38], t97[38:16]} + {{23{1'b0}}, t97[15]};
   wire signed [23:0] interp_out_98_r =
       $signed({interp_out_98_up[23:1], interp_out_98_up[0] & ~interp_out_98_tie});
-  wire interp_out_98_ovf_d = ~((&interp_out_98_r[23:15]) | ~(|interp_out_98_r[23:15]));
+  wire interp_out_98_ovf_c = ~((&interp_out_98_r[23:15]) | ~(|interp_out_98_r[23:15]));
   wire signed [15:0] interp_out_98_d =
-      $signed(interp_out_98_ovf_d ? (interp_out_98_r[23] ? 16'h8000 : 16'h7fff)
+      $signed(interp_out_98_ovf_c ? (interp_out_98_r[23] ? 16'h8000 : 16'h7fff)
       : interp_out_98_r[15:0]);
   reg  signed [15:0] interp_out_98_q;
-  reg  [0:0] interp_out_98_ovf_q;
-  wire angles_normal_99_ovf_d = 1'b0;
+  wire angles_normal_99_ovf_c = 1'b0;
   wire signed [15:0] angles_normal_99_d =
-      $signed(angles_normal_99_ovf_d ? (interp_out_74_q[15] ? 16'h8000 : 16'h7fff)
+      $signed(angles_normal_99_ovf_c ? (interp_out_74_q[15] ? 16'h8000 : 16'h7fff)
       : interp_out_74_q[15:0]);
   reg  signed [15:0] angles_normal_99_q;
-  reg  [0:0] angles_normal_99_ovf_q;
-  wire angles_normal_100_ovf_d = 1'b0;
+  wire angles_normal_100_ovf_c = 1'b0;
   wire signed [15:0] angles_normal_100_d =
-      $signed(angles_normal_100_ovf_d ? (interp_out_86_q[15] ? 16'h8000 : 16'h7fff)
+      $signed(angles_normal_100_ovf_c ? (interp_out_86_q[15] ? 16'h8000 : 16'h7fff)
       : interp_out_86_q[15:0]);
   reg  signed [15:0] angles_normal_100_q;
-  reg  [0:0] angles_normal_100_ovf_q;
-  wire angles_normal_101_ovf_d = 1'b0;
+  wire angles_normal_101_ovf_c = 1'b0;
   wire signed [15:0] angles_normal_101_d =
-      $signed(angles_normal_101_ovf_d ? (interp_out_98_q[15] ? 16'h8000 : 16'h7fff)
+      $signed(angles_normal_101_ovf_c ? (interp_out_98_q[15] ? 16'h8000 : 16'h7fff)
       : interp_out_98_q[15:0]);
   reg  signed [15:0] angles_normal_101_q;
-  reg  [0:0] angles_normal_101_ovf_q;
   wire t102_sub = angles_normal_99_q[15];
   wire signed [16:0] t102 =
       t102_sub ? $signed({{2{1'b0}}, K28, 14'b0} - {angles_normal_99_q[15], angles_normal_99_q})
@@ -1125,23 +1113,20 @@ module pipeline_mapped (
   wire t104_sub = angles_normal_99_q[15];
   wire signed [18:0] t104 = t104_sub ? $signed(19'h7c000) : $signed(19'h4000);
   wire signed [20:0] angles_xy_105_r = $signed({t102, 4'b0});
-  wire angles_xy_105_ovf_d = 1'b0;
+  wire angles_xy_105_ovf_c = 1'b0;
   wire signed [21:0] angles_xy_105_d =
-      $signed(angles_xy_105_ovf_d ? (angles_xy_105_r[20] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_105_ovf_c ? (angles_xy_105_r[20] ? 22'h200000 : 22'h1fffff)
       : {angles_xy_105_r[20], angles_xy_105_r});
   reg  signed [21:0] angles_xy_105_q;
-  reg  [0:0] angles_xy_105_ovf_q;
   wire signed [20:0] angles_xy_106_r = $signed({t103, 4'b0});
-  wire angles_xy_106_ovf_d = 1'b0;
+  wire angles_xy_106_ovf_c = 1'b0;
   wire signed [21:0] angles_xy_106_d =
-      $signed(angles_xy_106_ovf_d ? (angles_xy_106_r[20] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_106_ovf_c ? (angles_xy_106_r[20] ? 22'h200000 : 22'h1fffff)
       : {angles_xy_106_r[20], angles_xy_106_r});
   reg  signed [21:0] angles_xy_106_q;
-  reg  [0:0] angles_xy_106_ovf_q;
-  wire angles_theta_107_ovf_d = t104[18] | (|t104[17:16]);
+  wire angles_theta_107_ovf_c = t104[18] | (|t104[17:16]);
   wire [15:0] angles_theta_107_d = t104[15:0];
   reg  [15:0] angles_theta_107_q;
-  reg  [0:0] angles_theta_107_ovf_q;
   wire t108_sub = angles_xy_106_q[21];
   wire signed [22:0] t108 =
       t108_sub
@@ -1156,20 +1141,17 @@ module pipeline_mapped (
   wire signed [17:0] t110 =
       t110_sub ? $signed({{2{1'b0}}, angles_theta_107_q} - {{2{1'b0}}, K30})
       : $signed({{2{1'b0}}, angles_theta_107_q} + {{2{1'b0}}, K30});
-  wire angles_xy_111_ovf_d = ~((&t108[22:21]) | ~(|t108[22:21]));
+  wire angles_xy_111_ovf_c = ~((&t108[22:21]) | ~(|t108[22:21]));
   wire signed [21:0] angles_xy_111_d =
-      $signed(angles_xy_111_ovf_d ? (t108[22] ? 22'h200000 : 22'h1fffff) : t108[21:0]);
+      $signed(angles_xy_111_ovf_c ? (t108[22] ? 22'h200000 : 22'h1fffff) : t108[21:0]);
   reg  signed [21:0] angles_xy_111_q;
-  reg  [0:0] angles_xy_111_ovf_q;
-  wire angles_xy_112_ovf_d = ~((&t109[22:21]) | ~(|t109[22:21]));
+  wire angles_xy_112_ovf_c = ~((&t109[22:21]) | ~(|t109[22:21]));
   wire signed [21:0] angles_xy_112_d =
-      $signed(angles_xy_112_ovf_d ? (t109[22] ? 22'h200000 : 22'h1fffff) : t109[21:0]);
+      $signed(angles_xy_112_ovf_c ? (t109[22] ? 22'h200000 : 22'h1fffff) : t109[21:0]);
   reg  signed [21:0] angles_xy_112_q;
-  reg  [0:0] angles_xy_112_ovf_q;
-  wire angles_theta_113_ovf_d = t110[17] | (|t110[16]);
+  wire angles_theta_113_ovf_c = t110[17] | (|t110[16]);
   wire [15:0] angles_theta_113_d = t110[15:0];
   reg  [15:0] angles_theta_113_q;
-  reg  [0:0] angles_theta_113_ovf_q;
   wire t114_sub = angles_xy_112_q[21];
   wire signed [23:0] t114 =
       t114_sub
@@ -1189,23 +1171,20 @@ module pipeline_mapped (
       t116_sub ? $signed({{2{1'b0}}, angles_theta_113_q} - {{2{1'b0}}, K31})
       : $signed({{2{1'b0}}, angles_theta_113_q} + {{2{1'b0}}, K31});
   wire signed [22:0] angles_xy_117_t = $signed(t114[23:1]);
-  wire angles_xy_117_ovf_d = ~((&angles_xy_117_t[22:21]) | ~(|angles_xy_117_t[22:21]));
+  wire angles_xy_117_ovf_c = ~((&angles_xy_117_t[22:21]) | ~(|angles_xy_117_t[22:21]));
   wire signed [21:0] angles_xy_117_d =
-      $signed(angles_xy_117_ovf_d ? (angles_xy_117_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_117_ovf_c ? (angles_xy_117_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_117_t[21:0]);
   reg  signed [21:0] angles_xy_117_q;
-  reg  [0:0] angles_xy_117_ovf_q;
   wire signed [22:0] angles_xy_118_t = $signed(t115[23:1]);
-  wire angles_xy_118_ovf_d = ~((&angles_xy_118_t[22:21]) | ~(|angles_xy_118_t[22:21]));
+  wire angles_xy_118_ovf_c = ~((&angles_xy_118_t[22:21]) | ~(|angles_xy_118_t[22:21]));
   wire signed [21:0] angles_xy_118_d =
-      $signed(angles_xy_118_ovf_d ? (angles_xy_118_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_118_ovf_c ? (angles_xy_118_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_118_t[21:0]);
   reg  signed [21:0] angles_xy_118_q;
-  reg  [0:0] angles_xy_118_ovf_q;
-  wire angles_theta_119_ovf_d = t116[17] | (|t116[16]);
+  wire angles_theta_119_ovf_c = t116[17] | (|t116[16]);
   wire [15:0] angles_theta_119_d = t116[15:0];
   reg  [15:0] angles_theta_119_q;
-  reg  [0:0] angles_theta_119_ovf_q;
   wire t120_sub = angles_xy_118_q[21];
   wire signed [24:0] t120 =
       t120_sub
@@ -1225,23 +1204,20 @@ module pipeline_mapped (
       t122_sub ? $signed({{2{1'b0}}, angles_theta_119_q} - {{2{1'b0}}, K32})
       : $signed({{2{1'b0}}, angles_theta_119_q} + {{2{1'b0}}, K32});
   wire signed [22:0] angles_xy_123_t = $signed(t120[24:2]);
-  wire angles_xy_123_ovf_d = ~((&angles_xy_123_t[22:21]) | ~(|angles_xy_123_t[22:21]));
+  wire angles_xy_123_ovf_c = ~((&angles_xy_123_t[22:21]) | ~(|angles_xy_123_t[22:21]));
   wire signed [21:0] angles_xy_123_d =
-      $signed(angles_xy_123_ovf_d ? (angles_xy_123_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_123_ovf_c ? (angles_xy_123_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_123_t[21:0]);
   reg  signed [21:0] angles_xy_123_q;
-  reg  [0:0] angles_xy_123_ovf_q;
   wire signed [22:0] angles_xy_124_t = $signed(t121[24:2]);
-  wire angles_xy_124_ovf_d = ~((&angles_xy_124_t[22:21]) | ~(|angles_xy_124_t[22:21]));
+  wire angles_xy_124_ovf_c = ~((&angles_xy_124_t[22:21]) | ~(|angles_xy_124_t[22:21]));
   wire signed [21:0] angles_xy_124_d =
-      $signed(angles_xy_124_ovf_d ? (angles_xy_124_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_124_ovf_c ? (angles_xy_124_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_124_t[21:0]);
   reg  signed [21:0] angles_xy_124_q;
-  reg  [0:0] angles_xy_124_ovf_q;
-  wire angles_theta_125_ovf_d = t122[17] | (|t122[16]);
+  wire angles_theta_125_ovf_c = t122[17] | (|t122[16]);
   wire [15:0] angles_theta_125_d = t122[15:0];
   reg  [15:0] angles_theta_125_q;
-  reg  [0:0] angles_theta_125_ovf_q;
   wire t126_sub = angles_xy_124_q[21];
   wire signed [25:0] t126 =
       t126_sub
@@ -1261,23 +1237,20 @@ module pipeline_mapped (
       t128_sub ? $signed({{2{1'b0}}, angles_theta_125_q} - {{2{1'b0}}, K33})
       : $signed({{2{1'b0}}, angles_theta_125_q} + {{2{1'b0}}, K33});
   wire signed [22:0] angles_xy_129_t = $signed(t126[25:3]);
-  wire angles_xy_129_ovf_d = ~((&angles_xy_129_t[22:21]) | ~(|angles_xy_129_t[22:21]));
+  wire angles_xy_129_ovf_c = ~((&angles_xy_129_t[22:21]) | ~(|angles_xy_129_t[22:21]));
   wire signed [21:0] angles_xy_129_d =
-      $signed(angles_xy_129_ovf_d ? (angles_xy_129_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_129_ovf_c ? (angles_xy_129_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_129_t[21:0]);
   reg  signed [21:0] angles_xy_129_q;
-  reg  [0:0] angles_xy_129_ovf_q;
   wire signed [22:0] angles_xy_130_t = $signed(t127[25:3]);
-  wire angles_xy_130_ovf_d = ~((&angles_xy_130_t[22:21]) | ~(|angles_xy_130_t[22:21]));
+  wire angles_xy_130_ovf_c = ~((&angles_xy_130_t[22:21]) | ~(|angles_xy_130_t[22:21]));
   wire signed [21:0] angles_xy_130_d =
-      $signed(angles_xy_130_ovf_d ? (angles_xy_130_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_130_ovf_c ? (angles_xy_130_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_130_t[21:0]);
   reg  signed [21:0] angles_xy_130_q;
-  reg  [0:0] angles_xy_130_ovf_q;
-  wire angles_theta_131_ovf_d = t128[17] | (|t128[16]);
+  wire angles_theta_131_ovf_c = t128[17] | (|t128[16]);
   wire [15:0] angles_theta_131_d = t128[15:0];
   reg  [15:0] angles_theta_131_q;
-  reg  [0:0] angles_theta_131_ovf_q;
   wire t132_sub = angles_xy_130_q[21];
   wire signed [26:0] t132 =
       t132_sub
@@ -1297,23 +1270,20 @@ module pipeline_mapped (
       t134_sub ? $signed({{2{1'b0}}, angles_theta_131_q} - {{2{1'b0}}, K34})
       : $signed({{2{1'b0}}, angles_theta_131_q} + {{2{1'b0}}, K34});
   wire signed [22:0] angles_xy_135_t = $signed(t132[26:4]);
-  wire angles_xy_135_ovf_d = ~((&angles_xy_135_t[22:21]) | ~(|angles_xy_135_t[22:21]));
+  wire angles_xy_135_ovf_c = ~((&angles_xy_135_t[22:21]) | ~(|angles_xy_135_t[22:21]));
   wire signed [21:0] angles_xy_135_d =
-      $signed(angles_xy_135_ovf_d ? (angles_xy_135_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_135_ovf_c ? (angles_xy_135_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_135_t[21:0]);
   reg  signed [21:0] angles_xy_135_q;
-  reg  [0:0] angles_xy_135_ovf_q;
   wire signed [22:0] angles_xy_136_t = $signed(t133[26:4]);
-  wire angles_xy_136_ovf_d = ~((&angles_xy_136_t[22:21]) | ~(|angles_xy_136_t[22:21]));
+  wire angles_xy_136_ovf_c = ~((&angles_xy_136_t[22:21]) | ~(|angles_xy_136_t[22:21]));
   wire signed [21:0] angles_xy_136_d =
-      $signed(angles_xy_136_ovf_d ? (angles_xy_136_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_136_ovf_c ? (angles_xy_136_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_136_t[21:0]);
   reg  signed [21:0] angles_xy_136_q;
-  reg  [0:0] angles_xy_136_ovf_q;
-  wire angles_theta_137_ovf_d = t134[17] | (|t134[16]);
+  wire angles_theta_137_ovf_c = t134[17] | (|t134[16]);
   wire [15:0] angles_theta_137_d = t134[15:0];
   reg  [15:0] angles_theta_137_q;
-  reg  [0:0] angles_theta_137_ovf_q;
   wire t138_sub = angles_xy_136_q[21];
   wire signed [27:0] t138 =
       t138_sub
@@ -1333,23 +1303,20 @@ module pipeline_mapped (
       t140_sub ? $signed({{2{1'b0}}, angles_theta_137_q} - {{2{1'b0}}, K35})
       : $signed({{2{1'b0}}, angles_theta_137_q} + {{2{1'b0}}, K35});
   wire signed [22:0] angles_xy_141_t = $signed(t138[27:5]);
-  wire angles_xy_141_ovf_d = ~((&angles_xy_141_t[22:21]) | ~(|angles_xy_141_t[22:21]));
+  wire angles_xy_141_ovf_c = ~((&angles_xy_141_t[22:21]) | ~(|angles_xy_141_t[22:21]));
   wire signed [21:0] angles_xy_141_d =
-      $signed(angles_xy_141_ovf_d ? (angles_xy_141_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_141_ovf_c ? (angles_xy_141_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_141_t[21:0]);
   reg  signed [21:0] angles_xy_141_q;
-  reg  [0:0] angles_xy_141_ovf_q;
   wire signed [22:0] angles_xy_142_t = $signed(t139[27:5]);
-  wire angles_xy_142_ovf_d = ~((&angles_xy_142_t[22:21]) | ~(|angles_xy_142_t[22:21]));
+  wire angles_xy_142_ovf_c = ~((&angles_xy_142_t[22:21]) | ~(|angles_xy_142_t[22:21]));
   wire signed [21:0] angles_xy_142_d =
-      $signed(angles_xy_142_ovf_d ? (angles_xy_142_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_142_ovf_c ? (angles_xy_142_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_142_t[21:0]);
   reg  signed [21:0] angles_xy_142_q;
-  reg  [0:0] angles_xy_142_ovf_q;
-  wire angles_theta_143_ovf_d = t140[17] | (|t140[16]);
+  wire angles_theta_143_ovf_c = t140[17] | (|t140[16]);
   wire [15:0] angles_theta_143_d = t140[15:0];
   reg  [15:0] angles_theta_143_q;
-  reg  [0:0] angles_theta_143_ovf_q;
   wire t144_sub = angles_xy_142_q[21];
   wire signed [28:0] t144 =
       t144_sub
@@ -1369,23 +1336,20 @@ module pipeline_mapped (
       t146_sub ? $signed({{2{1'b0}}, angles_theta_143_q} - {{2{1'b0}}, K36})
       : $signed({{2{1'b0}}, angles_theta_143_q} + {{2{1'b0}}, K36});
   wire signed [22:0] angles_xy_147_t = $signed(t144[28:6]);
-  wire angles_xy_147_ovf_d = ~((&angles_xy_147_t[22:21]) | ~(|angles_xy_147_t[22:21]));
+  wire angles_xy_147_ovf_c = ~((&angles_xy_147_t[22:21]) | ~(|angles_xy_147_t[22:21]));
   wire signed [21:0] angles_xy_147_d =
-      $signed(angles_xy_147_ovf_d ? (angles_xy_147_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_147_ovf_c ? (angles_xy_147_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_147_t[21:0]);
   reg  signed [21:0] angles_xy_147_q;
-  reg  [0:0] angles_xy_147_ovf_q;
   wire signed [22:0] angles_xy_148_t = $signed(t145[28:6]);
-  wire angles_xy_148_ovf_d = ~((&angles_xy_148_t[22:21]) | ~(|angles_xy_148_t[22:21]));
+  wire angles_xy_148_ovf_c = ~((&angles_xy_148_t[22:21]) | ~(|angles_xy_148_t[22:21]));
   wire signed [21:0] angles_xy_148_d =
-      $signed(angles_xy_148_ovf_d ? (angles_xy_148_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_148_ovf_c ? (angles_xy_148_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_148_t[21:0]);
   reg  signed [21:0] angles_xy_148_q;
-  reg  [0:0] angles_xy_148_ovf_q;
-  wire angles_theta_149_ovf_d = t146[17] | (|t146[16]);
+  wire angles_theta_149_ovf_c = t146[17] | (|t146[16]);
   wire [15:0] angles_theta_149_d = t146[15:0];
   reg  [15:0] angles_theta_149_q;
-  reg  [0:0] angles_theta_149_ovf_q;
   wire t150_sub = angles_xy_148_q[21];
   wire signed [29:0] t150 =
       t150_sub
@@ -1405,23 +1369,20 @@ module pipeline_mapped (
       t152_sub ? $signed({{2{1'b0}}, angles_theta_149_q} - {{2{1'b0}}, K37})
       : $signed({{2{1'b0}}, angles_theta_149_q} + {{2{1'b0}}, K37});
   wire signed [22:0] angles_xy_153_t = $signed(t150[29:7]);
-  wire angles_xy_153_ovf_d = ~((&angles_xy_153_t[22:21]) | ~(|angles_xy_153_t[22:21]));
+  wire angles_xy_153_ovf_c = ~((&angles_xy_153_t[22:21]) | ~(|angles_xy_153_t[22:21]));
   wire signed [21:0] angles_xy_153_d =
-      $signed(angles_xy_153_ovf_d ? (angles_xy_153_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_153_ovf_c ? (angles_xy_153_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_153_t[21:0]);
   reg  signed [21:0] angles_xy_153_q;
-  reg  [0:0] angles_xy_153_ovf_q;
   wire signed [22:0] angles_xy_154_t = $signed(t151[29:7]);
-  wire angles_xy_154_ovf_d = ~((&angles_xy_154_t[22:21]) | ~(|angles_xy_154_t[22:21]));
+  wire angles_xy_154_ovf_c = ~((&angles_xy_154_t[22:21]) | ~(|angles_xy_154_t[22:21]));
   wire signed [21:0] angles_xy_154_d =
-      $signed(angles_xy_154_ovf_d ? (angles_xy_154_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_154_ovf_c ? (angles_xy_154_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_154_t[21:0]);
   reg  signed [21:0] angles_xy_154_q;
-  reg  [0:0] angles_xy_154_ovf_q;
-  wire angles_theta_155_ovf_d = t152[17] | (|t152[16]);
+  wire angles_theta_155_ovf_c = t152[17] | (|t152[16]);
   wire [15:0] angles_theta_155_d = t152[15:0];
   reg  [15:0] angles_theta_155_q;
-  reg  [0:0] angles_theta_155_ovf_q;
   wire t156_sub = angles_xy_154_q[21];
   wire signed [30:0] t156 =
       t156_sub
@@ -1441,23 +1402,20 @@ module pipeline_mapped (
       t158_sub ? $signed({{2{1'b0}}, angles_theta_155_q} - {{2{1'b0}}, K38})
       : $signed({{2{1'b0}}, angles_theta_155_q} + {{2{1'b0}}, K38});
   wire signed [22:0] angles_xy_159_t = $signed(t156[30:8]);
-  wire angles_xy_159_ovf_d = ~((&angles_xy_159_t[22:21]) | ~(|angles_xy_159_t[22:21]));
+  wire angles_xy_159_ovf_c = ~((&angles_xy_159_t[22:21]) | ~(|angles_xy_159_t[22:21]));
   wire signed [21:0] angles_xy_159_d =
-      $signed(angles_xy_159_ovf_d ? (angles_xy_159_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_159_ovf_c ? (angles_xy_159_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_159_t[21:0]);
   reg  signed [21:0] angles_xy_159_q;
-  reg  [0:0] angles_xy_159_ovf_q;
   wire signed [22:0] angles_xy_160_t = $signed(t157[30:8]);
-  wire angles_xy_160_ovf_d = ~((&angles_xy_160_t[22:21]) | ~(|angles_xy_160_t[22:21]));
+  wire angles_xy_160_ovf_c = ~((&angles_xy_160_t[22:21]) | ~(|angles_xy_160_t[22:21]));
   wire signed [21:0] angles_xy_160_d =
-      $signed(angles_xy_160_ovf_d ? (angles_xy_160_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_160_ovf_c ? (angles_xy_160_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_160_t[21:0]);
   reg  signed [21:0] angles_xy_160_q;
-  reg  [0:0] angles_xy_160_ovf_q;
-  wire angles_theta_161_ovf_d = t158[17] | (|t158[16]);
+  wire angles_theta_161_ovf_c = t158[17] | (|t158[16]);
   wire [15:0] angles_theta_161_d = t158[15:0];
   reg  [15:0] angles_theta_161_q;
-  reg  [0:0] angles_theta_161_ovf_q;
   wire t162_sub = angles_xy_160_q[21];
   wire signed [31:0] t162 =
       t162_sub
@@ -1477,23 +1435,20 @@ module pipeline_mapped (
       t164_sub ? $signed({{2{1'b0}}, angles_theta_161_q} - {{2{1'b0}}, K39})
       : $signed({{2{1'b0}}, angles_theta_161_q} + {{2{1'b0}}, K39});
   wire signed [22:0] angles_xy_165_t = $signed(t162[31:9]);
-  wire angles_xy_165_ovf_d = ~((&angles_xy_165_t[22:21]) | ~(|angles_xy_165_t[22:21]));
+  wire angles_xy_165_ovf_c = ~((&angles_xy_165_t[22:21]) | ~(|angles_xy_165_t[22:21]));
   wire signed [21:0] angles_xy_165_d =
-      $signed(angles_xy_165_ovf_d ? (angles_xy_165_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_165_ovf_c ? (angles_xy_165_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_165_t[21:0]);
   reg  signed [21:0] angles_xy_165_q;
-  reg  [0:0] angles_xy_165_ovf_q;
   wire signed [22:0] angles_xy_166_t = $signed(t163[31:9]);
-  wire angles_xy_166_ovf_d = ~((&angles_xy_166_t[22:21]) | ~(|angles_xy_166_t[22:21]));
+  wire angles_xy_166_ovf_c = ~((&angles_xy_166_t[22:21]) | ~(|angles_xy_166_t[22:21]));
   wire signed [21:0] angles_xy_166_d =
-      $signed(angles_xy_166_ovf_d ? (angles_xy_166_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_166_ovf_c ? (angles_xy_166_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_166_t[21:0]);
   reg  signed [21:0] angles_xy_166_q;
-  reg  [0:0] angles_xy_166_ovf_q;
-  wire angles_theta_167_ovf_d = t164[17] | (|t164[16]);
+  wire angles_theta_167_ovf_c = t164[17] | (|t164[16]);
   wire [15:0] angles_theta_167_d = t164[15:0];
   reg  [15:0] angles_theta_167_q;
-  reg  [0:0] angles_theta_167_ovf_q;
   wire t168_sub = angles_xy_166_q[21];
   wire signed [32:0] t168 =
       t168_sub
@@ -1513,23 +1468,20 @@ module pipeline_mapped (
       t170_sub ? $signed({{2{1'b0}}, angles_theta_167_q} - {{2{1'b0}}, K40})
       : $signed({{2{1'b0}}, angles_theta_167_q} + {{2{1'b0}}, K40});
   wire signed [22:0] angles_xy_171_t = $signed(t168[32:10]);
-  wire angles_xy_171_ovf_d = ~((&angles_xy_171_t[22:21]) | ~(|angles_xy_171_t[22:21]));
+  wire angles_xy_171_ovf_c = ~((&angles_xy_171_t[22:21]) | ~(|angles_xy_171_t[22:21]));
   wire signed [21:0] angles_xy_171_d =
-      $signed(angles_xy_171_ovf_d ? (angles_xy_171_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_171_ovf_c ? (angles_xy_171_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_171_t[21:0]);
   reg  signed [21:0] angles_xy_171_q;
-  reg  [0:0] angles_xy_171_ovf_q;
   wire signed [22:0] angles_xy_172_t = $signed(t169[32:10]);
-  wire angles_xy_172_ovf_d = ~((&angles_xy_172_t[22:21]) | ~(|angles_xy_172_t[22:21]));
+  wire angles_xy_172_ovf_c = ~((&angles_xy_172_t[22:21]) | ~(|angles_xy_172_t[22:21]));
   wire signed [21:0] angles_xy_172_d =
-      $signed(angles_xy_172_ovf_d ? (angles_xy_172_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_172_ovf_c ? (angles_xy_172_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_172_t[21:0]);
   reg  signed [21:0] angles_xy_172_q;
-  reg  [0:0] angles_xy_172_ovf_q;
-  wire angles_theta_173_ovf_d = t170[17] | (|t170[16]);
+  wire angles_theta_173_ovf_c = t170[17] | (|t170[16]);
   wire [15:0] angles_theta_173_d = t170[15:0];
   reg  [15:0] angles_theta_173_q;
-  reg  [0:0] angles_theta_173_ovf_q;
   wire t174_sub = angles_xy_172_q[21];
   wire signed [33:0] t174 =
       t174_sub
@@ -1542,30 +1494,26 @@ module pipeline_mapped (
       t176_sub ? $signed({{2{1'b0}}, angles_theta_173_q} - {{2{1'b0}}, K41})
       : $signed({{2{1'b0}}, angles_theta_173_q} + {{2{1'b0}}, K41});
   wire signed [22:0] angles_xy_177_t = $signed(t174[33:11]);
-  wire angles_xy_177_ovf_d = ~((&angles_xy_177_t[22:21]) | ~(|angles_xy_177_t[22:21]));
+  wire angles_xy_177_ovf_c = ~((&angles_xy_177_t[22:21]) | ~(|angles_xy_177_t[22:21]));
   wire signed [21:0] angles_xy_177_d =
-      $signed(angles_xy_177_ovf_d ? (angles_xy_177_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_177_ovf_c ? (angles_xy_177_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_177_t[21:0]);
   reg  signed [21:0] angles_xy_177_q;
-  reg  [0:0] angles_xy_177_ovf_q;
-  wire angles_theta_179_ovf_d = t176[17] | (|t176[16]);
+  wire angles_theta_179_ovf_c = t176[17] | (|t176[16]);
   wire [15:0] angles_theta_179_d = t176[15:0];
   reg  [15:0] angles_theta_179_q;
-  reg  [0:0] angles_theta_179_ovf_q;
   wire signed [18:0] t180_a = $signed({1'b0, K42});
   wire signed [33:0] t180 = t180_a * angles_normal_100_q;
   wire signed [20:0] angles_xy_181_t = $signed(t180[33:13]);
-  wire angles_xy_181_ovf_d = 1'b0;
+  wire angles_xy_181_ovf_c = 1'b0;
   wire signed [21:0] angles_xy_181_d =
-      $signed(angles_xy_181_ovf_d ? (angles_xy_181_t[20] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_181_ovf_c ? (angles_xy_181_t[20] ? 22'h200000 : 22'h1fffff)
       : {angles_xy_181_t[20], angles_xy_181_t});
   reg  signed [21:0] angles_xy_181_q;
-  reg  [0:0] angles_xy_181_ovf_q;
   wire [16:0] angles_theta_182_r = {K28, 16'b0};
-  wire angles_theta_182_ovf_d = |angles_theta_182_r[16];
+  wire angles_theta_182_ovf_c = |angles_theta_182_r[16];
   wire [15:0] angles_theta_182_d = angles_theta_182_r[15:0];
   reg  [15:0] angles_theta_182_q;
-  reg  [0:0] angles_theta_182_ovf_q;
   reg  signed [21:0] angles_xy_181_s5_q;
   reg  signed [21:0] angles_xy_181_s6_q;
   reg  signed [21:0] angles_xy_181_s7_q;
@@ -1599,20 +1547,17 @@ module pipeline_mapped (
   wire signed [17:0] t185 =
       t185_sub ? $signed({{2{1'b0}}, angles_theta_182_s4_q} - {{2{1'b0}}, K30})
       : $signed({{2{1'b0}}, angles_theta_182_s4_q} + {{2{1'b0}}, K30});
-  wire angles_xy_186_ovf_d = ~((&t183[22:21]) | ~(|t183[22:21]));
+  wire angles_xy_186_ovf_c = ~((&t183[22:21]) | ~(|t183[22:21]));
   wire signed [21:0] angles_xy_186_d =
-      $signed(angles_xy_186_ovf_d ? (t183[22] ? 22'h200000 : 22'h1fffff) : t183[21:0]);
+      $signed(angles_xy_186_ovf_c ? (t183[22] ? 22'h200000 : 22'h1fffff) : t183[21:0]);
   reg  signed [21:0] angles_xy_186_q;
-  reg  [0:0] angles_xy_186_ovf_q;
-  wire angles_xy_187_ovf_d = ~((&t184[22:21]) | ~(|t184[22:21]));
+  wire angles_xy_187_ovf_c = ~((&t184[22:21]) | ~(|t184[22:21]));
   wire signed [21:0] angles_xy_187_d =
-      $signed(angles_xy_187_ovf_d ? (t184[22] ? 22'h200000 : 22'h1fffff) : t184[21:0]);
+      $signed(angles_xy_187_ovf_c ? (t184[22] ? 22'h200000 : 22'h1fffff) : t184[21:0]);
   reg  signed [21:0] angles_xy_187_q;
-  reg  [0:0] angles_xy_187_ovf_q;
-  wire angles_theta_188_ovf_d = t185[17] | (|t185[16]);
+  wire angles_theta_188_ovf_c = t185[17] | (|t185[16]);
   wire [15:0] angles_theta_188_d = t185[15:0];
   reg  [15:0] angles_theta_188_q;
-  reg  [0:0] angles_theta_188_ovf_q;
   wire t189_sub = angles_xy_187_q[21];
   wire signed [23:0] t189 =
       t189_sub
@@ -1644,23 +1589,20 @@ module pipeline_mapped (
       t191_sub ? $signed({{2{1'b0}}, angles_theta_188_s17_q} - {{2{1'b0}}, K31})
       : $signed({{2{1'b0}}, angles_theta_188_s17_q} + {{2{1'b0}}, K31});
   wire signed [22:0] angles_xy_192_t = $signed(t189[23:1]);
-  wire angles_xy_192_ovf_d = ~((&angles_xy_192_t[22:21]) | ~(|angles_xy_192_t[22:21]));
+  wire angles_xy_192_ovf_c = ~((&angles_xy_192_t[22:21]) | ~(|angles_xy_192_t[22:21]));
   wire signed [21:0] angles_xy_192_d =
-      $signed(angles_xy_192_ovf_d ? (angles_xy_192_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_192_ovf_c ? (angles_xy_192_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_192_t[21:0]);
   reg  signed [21:0] angles_xy_192_q;
-  reg  [0:0] angles_xy_192_ovf_q;
   wire signed [22:0] angles_xy_193_t = $signed(t190[23:1]);
-  wire angles_xy_193_ovf_d = ~((&angles_xy_193_t[22:21]) | ~(|angles_xy_193_t[22:21]));
+  wire angles_xy_193_ovf_c = ~((&angles_xy_193_t[22:21]) | ~(|angles_xy_193_t[22:21]));
   wire signed [21:0] angles_xy_193_d =
-      $signed(angles_xy_193_ovf_d ? (angles_xy_193_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_193_ovf_c ? (angles_xy_193_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_193_t[21:0]);
   reg  signed [21:0] angles_xy_193_q;
-  reg  [0:0] angles_xy_193_ovf_q;
-  wire angles_theta_194_ovf_d = t191[17] | (|t191[16]);
+  wire angles_theta_194_ovf_c = t191[17] | (|t191[16]);
   wire [15:0] angles_theta_194_d = t191[15:0];
   reg  [15:0] angles_theta_194_q;
-  reg  [0:0] angles_theta_194_ovf_q;
   wire t195_sub = angles_xy_193_q[21];
   wire signed [24:0] t195 =
       t195_sub
@@ -1680,23 +1622,20 @@ module pipeline_mapped (
       t197_sub ? $signed({{2{1'b0}}, angles_theta_194_q} - {{2{1'b0}}, K32})
       : $signed({{2{1'b0}}, angles_theta_194_q} + {{2{1'b0}}, K32});
   wire signed [22:0] angles_xy_198_t = $signed(t195[24:2]);
-  wire angles_xy_198_ovf_d = ~((&angles_xy_198_t[22:21]) | ~(|angles_xy_198_t[22:21]));
+  wire angles_xy_198_ovf_c = ~((&angles_xy_198_t[22:21]) | ~(|angles_xy_198_t[22:21]));
   wire signed [21:0] angles_xy_198_d =
-      $signed(angles_xy_198_ovf_d ? (angles_xy_198_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_198_ovf_c ? (angles_xy_198_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_198_t[21:0]);
   reg  signed [21:0] angles_xy_198_q;
-  reg  [0:0] angles_xy_198_ovf_q;
   wire signed [22:0] angles_xy_199_t = $signed(t196[24:2]);
-  wire angles_xy_199_ovf_d = ~((&angles_xy_199_t[22:21]) | ~(|angles_xy_199_t[22:21]));
+  wire angles_xy_199_ovf_c = ~((&angles_xy_199_t[22:21]) | ~(|angles_xy_199_t[22:21]));
   wire signed [21:0] angles_xy_199_d =
-      $signed(angles_xy_199_ovf_d ? (angles_xy_199_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_199_ovf_c ? (angles_xy_199_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_199_t[21:0]);
   reg  signed [21:0] angles_xy_199_q;
-  reg  [0:0] angles_xy_199_ovf_q;
-  wire angles_theta_200_ovf_d = t197[17] | (|t197[16]);
+  wire angles_theta_200_ovf_c = t197[17] | (|t197[16]);
   wire [15:0] angles_theta_200_d = t197[15:0];
   reg  [15:0] angles_theta_200_q;
-  reg  [0:0] angles_theta_200_ovf_q;
   wire t201_sub = angles_xy_199_q[21];
   wire signed [25:0] t201 =
       t201_sub
@@ -1716,23 +1655,20 @@ module pipeline_mapped (
       t203_sub ? $signed({{2{1'b0}}, angles_theta_200_q} - {{2{1'b0}}, K33})
       : $signed({{2{1'b0}}, angles_theta_200_q} + {{2{1'b0}}, K33});
   wire signed [22:0] angles_xy_204_t = $signed(t201[25:3]);
-  wire angles_xy_204_ovf_d = ~((&angles_xy_204_t[22:21]) | ~(|angles_xy_204_t[22:21]));
+  wire angles_xy_204_ovf_c = ~((&angles_xy_204_t[22:21]) | ~(|angles_xy_204_t[22:21]));
   wire signed [21:0] angles_xy_204_d =
-      $signed(angles_xy_204_ovf_d ? (angles_xy_204_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_204_ovf_c ? (angles_xy_204_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_204_t[21:0]);
   reg  signed [21:0] angles_xy_204_q;
-  reg  [0:0] angles_xy_204_ovf_q;
   wire signed [22:0] angles_xy_205_t = $signed(t202[25:3]);
-  wire angles_xy_205_ovf_d = ~((&angles_xy_205_t[22:21]) | ~(|angles_xy_205_t[22:21]));
+  wire angles_xy_205_ovf_c = ~((&angles_xy_205_t[22:21]) | ~(|angles_xy_205_t[22:21]));
   wire signed [21:0] angles_xy_205_d =
-      $signed(angles_xy_205_ovf_d ? (angles_xy_205_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_205_ovf_c ? (angles_xy_205_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_205_t[21:0]);
   reg  signed [21:0] angles_xy_205_q;
-  reg  [0:0] angles_xy_205_ovf_q;
-  wire angles_theta_206_ovf_d = t203[17] | (|t203[16]);
+  wire angles_theta_206_ovf_c = t203[17] | (|t203[16]);
   wire [15:0] angles_theta_206_d = t203[15:0];
   reg  [15:0] angles_theta_206_q;
-  reg  [0:0] angles_theta_206_ovf_q;
   wire t207_sub = angles_xy_205_q[21];
   wire signed [26:0] t207 =
       t207_sub
@@ -1752,23 +1688,20 @@ module pipeline_mapped (
       t209_sub ? $signed({{2{1'b0}}, angles_theta_206_q} - {{2{1'b0}}, K34})
       : $signed({{2{1'b0}}, angles_theta_206_q} + {{2{1'b0}}, K34});
   wire signed [22:0] angles_xy_210_t = $signed(t207[26:4]);
-  wire angles_xy_210_ovf_d = ~((&angles_xy_210_t[22:21]) | ~(|angles_xy_210_t[22:21]));
+  wire angles_xy_210_ovf_c = ~((&angles_xy_210_t[22:21]) | ~(|angles_xy_210_t[22:21]));
   wire signed [21:0] angles_xy_210_d =
-      $signed(angles_xy_210_ovf_d ? (angles_xy_210_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_210_ovf_c ? (angles_xy_210_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_210_t[21:0]);
   reg  signed [21:0] angles_xy_210_q;
-  reg  [0:0] angles_xy_210_ovf_q;
   wire signed [22:0] angles_xy_211_t = $signed(t208[26:4]);
-  wire angles_xy_211_ovf_d = ~((&angles_xy_211_t[22:21]) | ~(|angles_xy_211_t[22:21]));
+  wire angles_xy_211_ovf_c = ~((&angles_xy_211_t[22:21]) | ~(|angles_xy_211_t[22:21]));
   wire signed [21:0] angles_xy_211_d =
-      $signed(angles_xy_211_ovf_d ? (angles_xy_211_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_211_ovf_c ? (angles_xy_211_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_211_t[21:0]);
   reg  signed [21:0] angles_xy_211_q;
-  reg  [0:0] angles_xy_211_ovf_q;
-  wire angles_theta_212_ovf_d = t209[17] | (|t209[16]);
+  wire angles_theta_212_ovf_c = t209[17] | (|t209[16]);
   wire [15:0] angles_theta_212_d = t209[15:0];
   reg  [15:0] angles_theta_212_q;
-  reg  [0:0] angles_theta_212_ovf_q;
   wire t213_sub = angles_xy_211_q[21];
   wire signed [27:0] t213 =
       t213_sub
@@ -1788,23 +1721,20 @@ module pipeline_mapped (
       t215_sub ? $signed({{2{1'b0}}, angles_theta_212_q} - {{2{1'b0}}, K35})
       : $signed({{2{1'b0}}, angles_theta_212_q} + {{2{1'b0}}, K35});
   wire signed [22:0] angles_xy_216_t = $signed(t213[27:5]);
-  wire angles_xy_216_ovf_d = ~((&angles_xy_216_t[22:21]) | ~(|angles_xy_216_t[22:21]));
+  wire angles_xy_216_ovf_c = ~((&angles_xy_216_t[22:21]) | ~(|angles_xy_216_t[22:21]));
   wire signed [21:0] angles_xy_216_d =
-      $signed(angles_xy_216_ovf_d ? (angles_xy_216_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_216_ovf_c ? (angles_xy_216_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_216_t[21:0]);
   reg  signed [21:0] angles_xy_216_q;
-  reg  [0:0] angles_xy_216_ovf_q;
   wire signed [22:0] angles_xy_217_t = $signed(t214[27:5]);
-  wire angles_xy_217_ovf_d = ~((&angles_xy_217_t[22:21]) | ~(|angles_xy_217_t[22:21]));
+  wire angles_xy_217_ovf_c = ~((&angles_xy_217_t[22:21]) | ~(|angles_xy_217_t[22:21]));
   wire signed [21:0] angles_xy_217_d =
-      $signed(angles_xy_217_ovf_d ? (angles_xy_217_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_217_ovf_c ? (angles_xy_217_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_217_t[21:0]);
   reg  signed [21:0] angles_xy_217_q;
-  reg  [0:0] angles_xy_217_ovf_q;
-  wire angles_theta_218_ovf_d = t215[17] | (|t215[16]);
+  wire angles_theta_218_ovf_c = t215[17] | (|t215[16]);
   wire [15:0] angles_theta_218_d = t215[15:0];
   reg  [15:0] angles_theta_218_q;
-  reg  [0:0] angles_theta_218_ovf_q;
   wire t219_sub = angles_xy_217_q[21];
   wire signed [28:0] t219 =
       t219_sub
@@ -1824,23 +1754,20 @@ module pipeline_mapped (
       t221_sub ? $signed({{2{1'b0}}, angles_theta_218_q} - {{2{1'b0}}, K36})
       : $signed({{2{1'b0}}, angles_theta_218_q} + {{2{1'b0}}, K36});
   wire signed [22:0] angles_xy_222_t = $signed(t219[28:6]);
-  wire angles_xy_222_ovf_d = ~((&angles_xy_222_t[22:21]) | ~(|angles_xy_222_t[22:21]));
+  wire angles_xy_222_ovf_c = ~((&angles_xy_222_t[22:21]) | ~(|angles_xy_222_t[22:21]));
   wire signed [21:0] angles_xy_222_d =
-      $signed(angles_xy_222_ovf_d ? (angles_xy_222_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_222_ovf_c ? (angles_xy_222_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_222_t[21:0]);
   reg  signed [21:0] angles_xy_222_q;
-  reg  [0:0] angles_xy_222_ovf_q;
   wire signed [22:0] angles_xy_223_t = $signed(t220[28:6]);
-  wire angles_xy_223_ovf_d = ~((&angles_xy_223_t[22:21]) | ~(|angles_xy_223_t[22:21]));
+  wire angles_xy_223_ovf_c = ~((&angles_xy_223_t[22:21]) | ~(|angles_xy_223_t[22:21]));
   wire signed [21:0] angles_xy_223_d =
-      $signed(angles_xy_223_ovf_d ? (angles_xy_223_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_223_ovf_c ? (angles_xy_223_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_223_t[21:0]);
   reg  signed [21:0] angles_xy_223_q;
-  reg  [0:0] angles_xy_223_ovf_q;
-  wire angles_theta_224_ovf_d = t221[17] | (|t221[16]);
+  wire angles_theta_224_ovf_c = t221[17] | (|t221[16]);
   wire [15:0] angles_theta_224_d = t221[15:0];
   reg  [15:0] angles_theta_224_q;
-  reg  [0:0] angles_theta_224_ovf_q;
   wire t225_sub = angles_xy_223_q[21];
   wire signed [29:0] t225 =
       t225_sub
@@ -1860,23 +1787,20 @@ module pipeline_mapped (
       t227_sub ? $signed({{2{1'b0}}, angles_theta_224_q} - {{2{1'b0}}, K37})
       : $signed({{2{1'b0}}, angles_theta_224_q} + {{2{1'b0}}, K37});
   wire signed [22:0] angles_xy_228_t = $signed(t225[29:7]);
-  wire angles_xy_228_ovf_d = ~((&angles_xy_228_t[22:21]) | ~(|angles_xy_228_t[22:21]));
+  wire angles_xy_228_ovf_c = ~((&angles_xy_228_t[22:21]) | ~(|angles_xy_228_t[22:21]));
   wire signed [21:0] angles_xy_228_d =
-      $signed(angles_xy_228_ovf_d ? (angles_xy_228_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_228_ovf_c ? (angles_xy_228_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_228_t[21:0]);
   reg  signed [21:0] angles_xy_228_q;
-  reg  [0:0] angles_xy_228_ovf_q;
   wire signed [22:0] angles_xy_229_t = $signed(t226[29:7]);
-  wire angles_xy_229_ovf_d = ~((&angles_xy_229_t[22:21]) | ~(|angles_xy_229_t[22:21]));
+  wire angles_xy_229_ovf_c = ~((&angles_xy_229_t[22:21]) | ~(|angles_xy_229_t[22:21]));
   wire signed [21:0] angles_xy_229_d =
-      $signed(angles_xy_229_ovf_d ? (angles_xy_229_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_229_ovf_c ? (angles_xy_229_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_229_t[21:0]);
   reg  signed [21:0] angles_xy_229_q;
-  reg  [0:0] angles_xy_229_ovf_q;
-  wire angles_theta_230_ovf_d = t227[17] | (|t227[16]);
+  wire angles_theta_230_ovf_c = t227[17] | (|t227[16]);
   wire [15:0] angles_theta_230_d = t227[15:0];
   reg  [15:0] angles_theta_230_q;
-  reg  [0:0] angles_theta_230_ovf_q;
   wire t231_sub = angles_xy_229_q[21];
   wire signed [30:0] t231 =
       t231_sub
@@ -1896,23 +1820,20 @@ module pipeline_mapped (
       t233_sub ? $signed({{2{1'b0}}, angles_theta_230_q} - {{2{1'b0}}, K38})
       : $signed({{2{1'b0}}, angles_theta_230_q} + {{2{1'b0}}, K38});
   wire signed [22:0] angles_xy_234_t = $signed(t231[30:8]);
-  wire angles_xy_234_ovf_d = ~((&angles_xy_234_t[22:21]) | ~(|angles_xy_234_t[22:21]));
+  wire angles_xy_234_ovf_c = ~((&angles_xy_234_t[22:21]) | ~(|angles_xy_234_t[22:21]));
   wire signed [21:0] angles_xy_234_d =
-      $signed(angles_xy_234_ovf_d ? (angles_xy_234_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_234_ovf_c ? (angles_xy_234_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_234_t[21:0]);
   reg  signed [21:0] angles_xy_234_q;
-  reg  [0:0] angles_xy_234_ovf_q;
   wire signed [22:0] angles_xy_235_t = $signed(t232[30:8]);
-  wire angles_xy_235_ovf_d = ~((&angles_xy_235_t[22:21]) | ~(|angles_xy_235_t[22:21]));
+  wire angles_xy_235_ovf_c = ~((&angles_xy_235_t[22:21]) | ~(|angles_xy_235_t[22:21]));
   wire signed [21:0] angles_xy_235_d =
-      $signed(angles_xy_235_ovf_d ? (angles_xy_235_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_235_ovf_c ? (angles_xy_235_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_235_t[21:0]);
   reg  signed [21:0] angles_xy_235_q;
-  reg  [0:0] angles_xy_235_ovf_q;
-  wire angles_theta_236_ovf_d = t233[17] | (|t233[16]);
+  wire angles_theta_236_ovf_c = t233[17] | (|t233[16]);
   wire [15:0] angles_theta_236_d = t233[15:0];
   reg  [15:0] angles_theta_236_q;
-  reg  [0:0] angles_theta_236_ovf_q;
   wire t237_sub = angles_xy_235_q[21];
   wire signed [31:0] t237 =
       t237_sub
@@ -1932,23 +1853,20 @@ module pipeline_mapped (
       t239_sub ? $signed({{2{1'b0}}, angles_theta_236_q} - {{2{1'b0}}, K39})
       : $signed({{2{1'b0}}, angles_theta_236_q} + {{2{1'b0}}, K39});
   wire signed [22:0] angles_xy_240_t = $signed(t237[31:9]);
-  wire angles_xy_240_ovf_d = ~((&angles_xy_240_t[22:21]) | ~(|angles_xy_240_t[22:21]));
+  wire angles_xy_240_ovf_c = ~((&angles_xy_240_t[22:21]) | ~(|angles_xy_240_t[22:21]));
   wire signed [21:0] angles_xy_240_d =
-      $signed(angles_xy_240_ovf_d ? (angles_xy_240_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_240_ovf_c ? (angles_xy_240_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_240_t[21:0]);
   reg  signed [21:0] angles_xy_240_q;
-  reg  [0:0] angles_xy_240_ovf_q;
   wire signed [22:0] angles_xy_241_t = $signed(t238[31:9]);
-  wire angles_xy_241_ovf_d = ~((&angles_xy_241_t[22:21]) | ~(|angles_xy_241_t[22:21]));
+  wire angles_xy_241_ovf_c = ~((&angles_xy_241_t[22:21]) | ~(|angles_xy_241_t[22:21]));
   wire signed [21:0] angles_xy_241_d =
-      $signed(angles_xy_241_ovf_d ? (angles_xy_241_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_241_ovf_c ? (angles_xy_241_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_241_t[21:0]);
   reg  signed [21:0] angles_xy_241_q;
-  reg  [0:0] angles_xy_241_ovf_q;
-  wire angles_theta_242_ovf_d = t239[17] | (|t239[16]);
+  wire angles_theta_242_ovf_c = t239[17] | (|t239[16]);
   wire [15:0] angles_theta_242_d = t239[15:0];
   reg  [15:0] angles_theta_242_q;
-  reg  [0:0] angles_theta_242_ovf_q;
   wire t244_sub = ~angles_xy_241_q[21];
   wire signed [32:0] t244 =
       t244_sub
@@ -1961,55 +1879,47 @@ module pipeline_mapped (
       t245_sub ? $signed({{2{1'b0}}, angles_theta_242_q} - {{2{1'b0}}, K40})
       : $signed({{2{1'b0}}, angles_theta_242_q} + {{2{1'b0}}, K40});
   wire signed [22:0] angles_xy_247_t = $signed(t244[32:10]);
-  wire angles_xy_247_ovf_d = ~((&angles_xy_247_t[22:21]) | ~(|angles_xy_247_t[22:21]));
+  wire angles_xy_247_ovf_c = ~((&angles_xy_247_t[22:21]) | ~(|angles_xy_247_t[22:21]));
   wire signed [21:0] angles_xy_247_d =
-      $signed(angles_xy_247_ovf_d ? (angles_xy_247_t[22] ? 22'h200000 : 22'h1fffff)
+      $signed(angles_xy_247_ovf_c ? (angles_xy_247_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_247_t[21:0]);
   reg  signed [21:0] angles_xy_247_q;
-  reg  [0:0] angles_xy_247_ovf_q;
-  wire angles_theta_248_ovf_d = t245[17] | (|t245[16]);
+  wire angles_theta_248_ovf_c = t245[17] | (|t245[16]);
   wire [15:0] angles_theta_248_d = t245[15:0];
   reg  [15:0] angles_theta_248_q;
-  reg  [0:0] angles_theta_248_ovf_q;
   wire t251_sub = angles_xy_247_q[21];
   wire signed [17:0] t251 =
       t251_sub ? $signed({{2{1'b0}}, angles_theta_248_q} - {{2{1'b0}}, K41})
       : $signed({{2{1'b0}}, angles_theta_248_q} + {{2{1'b0}}, K41});
-  wire angles_theta_254_ovf_d = t251[17] | (|t251[16]);
+  wire angles_theta_254_ovf_c = t251[17] | (|t251[16]);
   wire [15:0] angles_theta_254_d = t251[15:0];
   reg  [15:0] angles_theta_254_q;
-  reg  [0:0] angles_theta_254_ovf_q;
   wire angles_out_255_tie = angles_theta_254_q[4] & ~(|angles_theta_254_q[3:0]);
   wire [11:0] angles_out_255_up =
       {1'b0, angles_theta_254_q[15:5]} + {{11{1'b0}}, angles_theta_254_q[4]};
   wire [11:0] angles_out_255_r =
       {angles_out_255_up[11:1], angles_out_255_up[0] & ~angles_out_255_tie};
-  wire angles_out_255_ovf_d = |angles_out_255_r[11];
+  wire angles_out_255_ovf_c = |angles_out_255_r[11];
   wire [10:0] angles_out_255_d = angles_out_255_r[10:0];
   reg  [10:0] angles_out_255_q;
-  reg  [0:0] angles_out_255_ovf_q;
   wire angles_out_256_tie = angles_theta_179_q[4] & ~(|angles_theta_179_q[3:0]);
   wire [11:0] angles_out_256_up =
       {1'b0, angles_theta_179_q[15:5]} + {{11{1'b0}}, angles_theta_179_q[4]};
   wire [11:0] angles_out_256_r =
       {angles_out_256_up[11:1], angles_out_256_up[0] & ~angles_out_256_tie};
-  wire angles_out_256_ovf_d = |angles_out_256_r[11];
+  wire angles_out_256_ovf_c = |angles_out_256_r[11];
   wire [10:0] angles_out_256_d = angles_out_256_r[10:0];
   reg  [10:0] angles_out_256_q;
-  reg  [0:0] angles_out_256_ovf_q;
-  wire polar_index_257_ovf_d = 1'b0;
+  wire polar_index_257_ovf_c = 1'b0;
   wire [10:0] polar_index_257_d = al_q[10:0];
   reg  [10:0] polar_index_257_q;
-  reg  [0:0] polar_index_257_ovf_q;
   wire signed [12:0] t258 = $signed({{2{1'b0}}, bl_q} - {{2{1'b0}}, angles_out_256_q});
-  wire polar_index_259_ovf_d = t258[12] | (|t258[11]);
+  wire polar_index_259_ovf_c = t258[12] | (|t258[11]);
   wire [10:0] polar_index_259_d = t258[10:0];
   reg  [10:0] polar_index_259_q;
-  reg  [0:0] polar_index_259_ovf_q;
-  wire polar_index_260_ovf_d = 1'b0;
+  wire polar_index_260_ovf_c = 1'b0;
   wire [10:0] polar_index_260_d = angles_out_255_q[10:0];
   reg  [10:0] polar_index_260_q;
-  reg  [0:0] polar_index_260_ovf_q;
   reg  [10:0] polar_index_257_s2_q;
   reg  [10:0] polar_index_257_s3_q;
   reg  [10:0] polar_index_257_s4_q;
@@ -2110,23 +2020,21 @@ module pipeline_mapped (
   wire [18:0] polar_lyz_268_up = {t267[31], t267[31:14]} + {{18{1'b0}}, t267[13]};
   wire signed [18:0] polar_lyz_268_r =
       $signed({polar_lyz_268_up[18:1], polar_lyz_268_up[0] & ~polar_lyz_268_tie});
-  wire polar_lyz_268_ovf_d = ~((&polar_lyz_268_r[18:15]) | ~(|polar_lyz_268_r[18:15]));
+  wire polar_lyz_268_ovf_c = ~((&polar_lyz_268_r[18:15]) | ~(|polar_lyz_268_r[18:15]));
   wire signed [15:0] polar_lyz_268_d =
-      $signed(polar_lyz_268_ovf_d ? (polar_lyz_268_r[18] ? 16'h8000 : 16'h7fff)
+      $signed(polar_lyz_268_ovf_c ? (polar_lyz_268_r[18] ? 16'h8000 : 16'h7fff)
       : polar_lyz_268_r[15:0]);
   reg  signed [15:0] polar_lyz_268_q;
-  reg  [0:0] polar_lyz_268_ovf_q;
   wire signed [31:0] t269 = cos_261 * sin_264;
   wire polar_out_270_tie = t269[13] & ~(|t269[12:0]);
   wire [18:0] polar_out_270_up = {t269[31], t269[31:14]} + {{18{1'b0}}, t269[13]};
   wire signed [18:0] polar_out_270_r =
       $signed({polar_out_270_up[18:1], polar_out_270_up[0] & ~polar_out_270_tie});
-  wire polar_out_270_ovf_d = ~((&polar_out_270_r[18:15]) | ~(|polar_out_270_r[18:15]));
+  wire polar_out_270_ovf_c = ~((&polar_out_270_r[18:15]) | ~(|polar_out_270_r[18:15]));
   wire signed [15:0] polar_out_270_d =
-      $signed(polar_out_270_ovf_d ? (polar_out_270_r[18] ? 16'h8000 : 16'h7fff)
+      $signed(polar_out_270_ovf_c ? (polar_out_270_r[18] ? 16'h8000 : 16'h7fff)
       : polar_out_270_r[15:0]);
   reg  signed [15:0] polar_out_270_q;
-  reg  [0:0] polar_out_270_ovf_q;
   wire signed [31:0] t271 = sin_262 * cos_265;
   reg  signed [15:0] polar_lyz_268_s21_q;
   reg  signed [15:0] polar_lyz_268_s22_q;
@@ -2145,12 +2053,11 @@ module pipeline_mapped (
   wire [19:0] polar_out_274_up = {t273[32], t273[32:14]} + {{19{1'b0}}, t273[13]};
   wire signed [19:0] polar_out_274_r =
       $signed({polar_out_274_up[19:1], polar_out_274_up[0] & ~polar_out_274_tie});
-  wire polar_out_274_ovf_d = ~((&polar_out_274_r[19:15]) | ~(|polar_out_274_r[19:15]));
+  wire polar_out_274_ovf_c = ~((&polar_out_274_r[19:15]) | ~(|polar_out_274_r[19:15]));
   wire signed [15:0] polar_out_274_d =
-      $signed(polar_out_274_ovf_d ? (polar_out_274_r[19] ? 16'h8000 : 16'h7fff)
+      $signed(polar_out_274_ovf_c ? (polar_out_274_r[19] ? 16'h8000 : 16'h7fff)
       : polar_out_274_r[15:0]);
   reg  signed [15:0] polar_out_274_q;
-  reg  [0:0] polar_out_274_ovf_q;
   wire signed [31:0] t275 = polar_lyz_268_s31_q * cos_265;
   wire signed [31:0] t276 = sin_262 * sin_266;
   wire signed [32:0] t277 = $signed({t276[31], t276} + {t275[31], t275});
@@ -2158,25 +2065,21 @@ module pipeline_mapped (
   wire [19:0] polar_out_278_up = {t277[32], t277[32:14]} + {{19{1'b0}}, t277[13]};
   wire signed [19:0] polar_out_278_r =
       $signed({polar_out_278_up[19:1], polar_out_278_up[0] & ~polar_out_278_tie});
-  wire polar_out_278_ovf_d = ~((&polar_out_278_r[19:15]) | ~(|polar_out_278_r[19:15]));
+  wire polar_out_278_ovf_c = ~((&polar_out_278_r[19:15]) | ~(|polar_out_278_r[19:15]));
   wire signed [15:0] polar_out_278_d =
-      $signed(polar_out_278_ovf_d ? (polar_out_278_r[19] ? 16'h8000 : 16'h7fff)
+      $signed(polar_out_278_ovf_c ? (polar_out_278_r[19] ? 16'h8000 : 16'h7fff)
       : polar_out_278_r[15:0]);
   reg  signed [15:0] polar_out_278_q;
-  reg  [0:0] polar_out_278_ovf_q;
-  wire polar_index_279_ovf_d = 1'b0;
+  wire polar_index_279_ovf_c = 1'b0;
   wire [10:0] polar_index_279_d = ah_q[10:0];
   reg  [10:0] polar_index_279_q;
-  reg  [0:0] polar_index_279_ovf_q;
   wire signed [12:0] t280 = $signed({{2{1'b0}}, bh_q} - {{2{1'b0}}, angles_out_256_q});
-  wire polar_index_281_ovf_d = t280[12] | (|t280[11]);
+  wire polar_index_281_ovf_c = t280[12] | (|t280[11]);
   wire [10:0] polar_index_281_d = t280[10:0];
   reg  [10:0] polar_index_281_q;
-  reg  [0:0] polar_index_281_ovf_q;
-  wire polar_index_282_ovf_d = 1'b0;
+  wire polar_index_282_ovf_c = 1'b0;
   wire [10:0] polar_index_282_d = angles_out_255_q[10:0];
   reg  [10:0] polar_index_282_q;
-  reg  [0:0] polar_index_282_ovf_q;
   reg  [10:0] polar_index_279_s2_q;
   reg  [10:0] polar_index_279_s3_q;
   reg  [10:0] polar_index_279_s4_q;
@@ -2277,23 +2180,21 @@ module pipeline_mapped (
   wire [18:0] polar_lyz_290_up = {t289[31], t289[31:14]} + {{18{1'b0}}, t289[13]};
   wire signed [18:0] polar_lyz_290_r =
       $signed({polar_lyz_290_up[18:1], polar_lyz_290_up[0] & ~polar_lyz_290_tie});
-  wire polar_lyz_290_ovf_d = ~((&polar_lyz_290_r[18:15]) | ~(|polar_lyz_290_r[18:15]));
+  wire polar_lyz_290_ovf_c = ~((&polar_lyz_290_r[18:15]) | ~(|polar_lyz_290_r[18:15]));
   wire signed [15:0] polar_lyz_290_d =
-      $signed(polar_lyz_290_ovf_d ? (polar_lyz_290_r[18] ? 16'h8000 : 16'h7fff)
+      $signed(polar_lyz_290_ovf_c ? (polar_lyz_290_r[18] ? 16'h8000 : 16'h7fff)
       : polar_lyz_290_r[15:0]);
   reg  signed [15:0] polar_lyz_290_q;
-  reg  [0:0] polar_lyz_290_ovf_q;
   wire signed [31:0] t291 = cos_283 * sin_286;
   wire polar_out_292_tie = t291[13] & ~(|t291[12:0]);
   wire [18:0] polar_out_292_up = {t291[31], t291[31:14]} + {{18{1'b0}}, t291[13]};
   wire signed [18:0] polar_out_292_r =
       $signed({polar_out_292_up[18:1], polar_out_292_up[0] & ~polar_out_292_tie});
-  wire polar_out_292_ovf_d = ~((&polar_out_292_r[18:15]) | ~(|polar_out_292_r[18:15]));
+  wire polar_out_292_ovf_c = ~((&polar_out_292_r[18:15]) | ~(|polar_out_292_r[18:15]));
   wire signed [15:0] polar_out_292_d =
-      $signed(polar_out_292_ovf_d ? (polar_out_292_r[18] ? 16'h8000 : 16'h7fff)
+      $signed(polar_out_292_ovf_c ? (polar_out_292_r[18] ? 16'h8000 : 16'h7fff)
       : polar_out_292_r[15:0]);
   reg  signed [15:0] polar_out_292_q;
-  reg  [0:0] polar_out_292_ovf_q;
   wire signed [31:0] t293 = sin_284 * cos_287;
   reg  signed [15:0] polar_lyz_290_s21_q;
   reg  signed [15:0] polar_lyz_290_s22_q;
@@ -2312,12 +2213,11 @@ module pipeline_mapped (
   wire [19:0] polar_out_296_up = {t295[32], t295[32:14]} + {{19{1'b0}}, t295[13]};
   wire signed [19:0] polar_out_296_r =
       $signed({polar_out_296_up[19:1], polar_out_296_up[0] & ~polar_out_296_tie});
-  wire polar_out_296_ovf_d = ~((&polar_out_296_r[19:15]) | ~(|polar_out_296_r[19:15]));
+  wire polar_out_296_ovf_c = ~((&polar_out_296_r[19:15]) | ~(|polar_out_296_r[19:15]));
   wire signed [15:0] polar_out_296_d =
-      $signed(polar_out_296_ovf_d ? (polar_out_296_r[19] ? 16'h8000 : 16'h7fff)
+      $signed(polar_out_296_ovf_c ? (polar_out_296_r[19] ? 16'h8000 : 16'h7fff)
       : polar_out_296_r[15:0]);
   reg  signed [15:0] polar_out_296_q;
-  reg  [0:0] polar_out_296_ovf_q;
   wire signed [31:0] t297 = polar_lyz_290_s31_q * cos_287;
   wire signed [31:0] t298 = sin_284 * sin_288;
   wire signed [32:0] t299 = $signed({t298[31], t298} + {t297[31], t297});
@@ -2325,48 +2225,41 @@ module pipeline_mapped (
   wire [19:0] polar_out_300_up = {t299[32], t299[32:14]} + {{19{1'b0}}, t299[13]};
   wire signed [19:0] polar_out_300_r =
       $signed({polar_out_300_up[19:1], polar_out_300_up[0] & ~polar_out_300_tie});
-  wire polar_out_300_ovf_d = ~((&polar_out_300_r[19:15]) | ~(|polar_out_300_r[19:15]));
+  wire polar_out_300_ovf_c = ~((&polar_out_300_r[19:15]) | ~(|polar_out_300_r[19:15]));
   wire signed [15:0] polar_out_300_d =
-      $signed(polar_out_300_ovf_d ? (polar_out_300_r[19] ? 16'h8000 : 16'h7fff)
+      $signed(polar_out_300_ovf_c ? (polar_out_300_r[19] ? 16'h8000 : 16'h7fff)
       : polar_out_300_r[15:0]);
   reg  signed [15:0] polar_out_300_q;
-  reg  [0:0] polar_out_300_ovf_q;
-  wire lighting_light_301_ovf_d = 1'b0;
+  wire lighting_light_301_ovf_c = 1'b0;
   wire signed [15:0] lighting_light_301_d =
-      $signed(lighting_light_301_ovf_d ? (polar_out_270_q[15] ? 16'h8000 : 16'h7fff)
+      $signed(lighting_light_301_ovf_c ? (polar_out_270_q[15] ? 16'h8000 : 16'h7fff)
       : polar_out_270_q[15:0]);
   reg  signed [15:0] lighting_light_301_q;
-  reg  [0:0] lighting_light_301_ovf_q;
-  wire lighting_light_302_ovf_d = 1'b0;
+  wire lighting_light_302_ovf_c = 1'b0;
   wire signed [15:0] lighting_light_302_d =
-      $signed(lighting_light_302_ovf_d ? (polar_out_274_q[15] ? 16'h8000 : 16'h7fff)
+      $signed(lighting_light_302_ovf_c ? (polar_out_274_q[15] ? 16'h8000 : 16'h7fff)
       : polar_out_274_q[15:0]);
   reg  signed [15:0] lighting_light_302_q;
-  reg  [0:0] lighting_light_302_ovf_q;
-  wire lighting_light_303_ovf_d = 1'b0;
+  wire lighting_light_303_ovf_c = 1'b0;
   wire signed [15:0] lighting_light_303_d =
-      $signed(lighting_light_303_ovf_d ? (polar_out_278_q[15] ? 16'h8000 : 16'h7fff)
+      $signed(lighting_light_303_ovf_c ? (polar_out_278_q[15] ? 16'h8000 : 16'h7fff)
       : polar_out_278_q[15:0]);
   reg  signed [15:0] lighting_light_303_q;
-  reg  [0:0] lighting_light_303_ovf_q;
-  wire lighting_light_304_ovf_d = 1'b0;
+  wire lighting_light_304_ovf_c = 1'b0;
   wire signed [15:0] lighting_light_304_d =
-      $signed(lighting_light_304_ovf_d ? (polar_out_292_q[15] ? 16'h8000 : 16'h7fff)
+      $signed(lighting_light_304_ovf_c ? (polar_out_292_q[15] ? 16'h8000 : 16'h7fff)
       : polar_out_292_q[15:0]);
   reg  signed [15:0] lighting_light_304_q;
-  reg  [0:0] lighting_light_304_ovf_q;
-  wire lighting_light_305_ovf_d = 1'b0;
+  wire lighting_light_305_ovf_c = 1'b0;
   wire signed [15:0] lighting_light_305_d =
-      $signed(lighting_light_305_ovf_d ? (polar_out_296_q[15] ? 16'h8000 : 16'h7fff)
+      $signed(lighting_light_305_ovf_c ? (polar_out_296_q[15] ? 16'h8000 : 16'h7fff)
       : polar_out_296_q[15:0]);
   reg  signed [15:0] lighting_light_305_q;
-  reg  [0:0] lighting_light_305_ovf_q;
-  wire lighting_light_306_ovf_d = 1'b0;
+  wire lighting_light_306_ovf_c = 1'b0;
   wire signed [15:0] lighting_light_306_d =
-      $signed(lighting_light_306_ovf_d ? (polar_out_300_q[15] ? 16'h8000 : 16'h7fff)
+      $signed(lighting_light_306_ovf_c ? (polar_out_300_q[15] ? 16'h8000 : 16'h7fff)
       : polar_out_300_q[15:0]);
   reg  signed [15:0] lighting_light_306_q;
-  reg  [0:0] lighting_light_306_ovf_q;
   reg  signed [15:0] n_x_i_s1_q;
   reg  signed [15:0] n_x_i_s2_q;
   reg  signed [15:0] n_x_i_s3_q;
@@ -2475,12 +2368,11 @@ module pipeline_mapped (
   wire [20:0] lighting_dot_312_up = {t311[33], t311[33:14]} + {{20{1'b0}}, t311[13]};
   wire signed [20:0] lighting_dot_312_r =
       $signed({lighting_dot_312_up[20:1], lighting_dot_312_up[0] & ~lighting_dot_312_tie});
-  wire lighting_dot_312_ovf_d = ~((&lighting_dot_312_r[20:15]) | ~(|lighting_dot_312_r[20:15]));
+  wire lighting_dot_312_ovf_c = ~((&lighting_dot_312_r[20:15]) | ~(|lighting_dot_312_r[20:15]));
   wire signed [15:0] lighting_dot_312_d =
-      $signed(lighting_dot_312_ovf_d ? (lighting_dot_312_r[20] ? 16'h8000 : 16'h7fff)
+      $signed(lighting_dot_312_ovf_c ? (lighting_dot_312_r[20] ? 16'h8000 : 16'h7fff)
       : lighting_dot_312_r[15:0]);
   reg  signed [15:0] lighting_dot_312_q;
-  reg  [0:0] lighting_dot_312_ovf_q;
   wire signed [15:0] t313_a = $signed(lighting_dot_312_q);
   wire signed [15:0] t313_b = $signed(K45);
   wire signed [15:0] t313 = (t313_a > t313_b) ? t313_a : t313_b;
@@ -2505,58 +2397,52 @@ module pipeline_mapped (
   wire [20:0] lighting_dot_319_up = {t318[33], t318[33:14]} + {{20{1'b0}}, t318[13]};
   wire signed [20:0] lighting_dot_319_r =
       $signed({lighting_dot_319_up[20:1], lighting_dot_319_up[0] & ~lighting_dot_319_tie});
-  wire lighting_dot_319_ovf_d = ~((&lighting_dot_319_r[20:15]) | ~(|lighting_dot_319_r[20:15]));
+  wire lighting_dot_319_ovf_c = ~((&lighting_dot_319_r[20:15]) | ~(|lighting_dot_319_r[20:15]));
   wire signed [15:0] lighting_dot_319_d =
-      $signed(lighting_dot_319_ovf_d ? (lighting_dot_319_r[20] ? 16'h8000 : 16'h7fff)
+      $signed(lighting_dot_319_ovf_c ? (lighting_dot_319_r[20] ? 16'h8000 : 16'h7fff)
       : lighting_dot_319_r[15:0]);
   reg  signed [15:0] lighting_dot_319_q;
-  reg  [0:0] lighting_dot_319_ovf_q;
   wire signed [15:0] t320_a = $signed(lighting_dot_319_q);
   wire signed [15:0] t320_b = $signed(K45);
   wire signed [15:0] t320 = (t320_a > t320_b) ? t320_a : t320_b;
   wire signed [18:0] lighting_spec_321_r = $signed({t320, 3'b0});
-  wire lighting_spec_321_ovf_d = lighting_spec_321_r[18];
+  wire lighting_spec_321_ovf_c = lighting_spec_321_r[18];
   wire [17:0] lighting_spec_321_d =
-      lighting_spec_321_ovf_d ? (lighting_spec_321_r[18] ? 18'h0 : 18'h3ffff)
+      lighting_spec_321_ovf_c ? (lighting_spec_321_r[18] ? 18'h0 : 18'h3ffff)
       : lighting_spec_321_r[17:0];
   reg  [17:0] lighting_spec_321_q;
-  reg  [0:0] lighting_spec_321_ovf_q;
   wire [35:0] t322 = lighting_spec_321_q * lighting_spec_321_q;
   wire lighting_spec_323_tie = t322[16] & ~(|t322[15:0]);
   wire [19:0] lighting_spec_323_up = {1'b0, t322[35:17]} + {{19{1'b0}}, t322[16]};
   wire [19:0] lighting_spec_323_r =
       {lighting_spec_323_up[19:1], lighting_spec_323_up[0] & ~lighting_spec_323_tie};
-  wire lighting_spec_323_ovf_d = |lighting_spec_323_r[19:18];
-  wire [17:0] lighting_spec_323_d = lighting_spec_323_ovf_d ? 18'h3ffff : lighting_spec_323_r[17:0];
+  wire lighting_spec_323_ovf_c = |lighting_spec_323_r[19:18];
+  wire [17:0] lighting_spec_323_d = lighting_spec_323_ovf_c ? 18'h3ffff : lighting_spec_323_r[17:0];
   reg  [17:0] lighting_spec_323_q;
-  reg  [0:0] lighting_spec_323_ovf_q;
   wire [35:0] t324 = lighting_spec_323_q * lighting_spec_323_q;
   wire lighting_spec_325_tie = t324[16] & ~(|t324[15:0]);
   wire [19:0] lighting_spec_325_up = {1'b0, t324[35:17]} + {{19{1'b0}}, t324[16]};
   wire [19:0] lighting_spec_325_r =
       {lighting_spec_325_up[19:1], lighting_spec_325_up[0] & ~lighting_spec_325_tie};
-  wire lighting_spec_325_ovf_d = |lighting_spec_325_r[19:18];
-  wire [17:0] lighting_spec_325_d = lighting_spec_325_ovf_d ? 18'h3ffff : lighting_spec_325_r[17:0];
+  wire lighting_spec_325_ovf_c = |lighting_spec_325_r[19:18];
+  wire [17:0] lighting_spec_325_d = lighting_spec_325_ovf_c ? 18'h3ffff : lighting_spec_325_r[17:0];
   reg  [17:0] lighting_spec_325_q;
-  reg  [0:0] lighting_spec_325_ovf_q;
   wire [35:0] t326 = lighting_spec_325_q * lighting_spec_325_q;
   wire lighting_spec_327_tie = t326[16] & ~(|t326[15:0]);
   wire [19:0] lighting_spec_327_up = {1'b0, t326[35:17]} + {{19{1'b0}}, t326[16]};
   wire [19:0] lighting_spec_327_r =
       {lighting_spec_327_up[19:1], lighting_spec_327_up[0] & ~lighting_spec_327_tie};
-  wire lighting_spec_327_ovf_d = |lighting_spec_327_r[19:18];
-  wire [17:0] lighting_spec_327_d = lighting_spec_327_ovf_d ? 18'h3ffff : lighting_spec_327_r[17:0];
+  wire lighting_spec_327_ovf_c = |lighting_spec_327_r[19:18];
+  wire [17:0] lighting_spec_327_d = lighting_spec_327_ovf_c ? 18'h3ffff : lighting_spec_327_r[17:0];
   reg  [17:0] lighting_spec_327_q;
-  reg  [0:0] lighting_spec_327_ovf_q;
   wire [35:0] t328 = lighting_spec_327_q * lighting_spec_327_q;
   wire lighting_spec_329_tie = t328[16] & ~(|t328[15:0]);
   wire [19:0] lighting_spec_329_up = {1'b0, t328[35:17]} + {{19{1'b0}}, t328[16]};
   wire [19:0] lighting_spec_329_r =
       {lighting_spec_329_up[19:1], lighting_spec_329_up[0] & ~lighting_spec_329_tie};
-  wire lighting_spec_329_ovf_d = |lighting_spec_329_r[19:18];
-  wire [17:0] lighting_spec_329_d = lighting_spec_329_ovf_d ? 18'h3ffff : lighting_spec_329_r[17:0];
+  wire lighting_spec_329_ovf_c = |lighting_spec_329_r[19:18];
+  wire [17:0] lighting_spec_329_d = lighting_spec_329_ovf_c ? 18'h3ffff : lighting_spec_329_r[17:0];
   reg  [17:0] lighting_spec_329_q;
-  reg  [0:0] lighting_spec_329_ovf_q;
   wire signed [16:0] t330_b = $signed({1'b0, K43});
   wire signed [31:0] t330 = t313 * t330_b;
   wire [33:0] t331 = lighting_spec_329_q * K44;
@@ -2570,22 +2456,22 @@ module pipeline_mapped (
   wire [11:0] lighting_level_333_up = {t332[35], t332[35:25]} + {{11{1'b0}}, t332[24]};
   wire signed [11:0] lighting_level_333_r =
       $signed({lighting_level_333_up[11:1], lighting_level_333_up[0] & ~lighting_level_333_tie});
-  wire lighting_level_333_ovf_d = lighting_level_333_r[11] | (|lighting_level_333_r[10:8]);
+  wire lighting_level_333_ovf_c = lighting_level_333_r[11] | (|lighting_level_333_r[10:8]);
   wire [7:0] lighting_level_333_d =
-      lighting_level_333_ovf_d ? (lighting_level_333_r[11] ? 8'h0 : 8'hff)
+      lighting_level_333_ovf_c ? (lighting_level_333_r[11] ? 8'h0 : 8'hff)
       : lighting_level_333_r[7:0];
   reg  [7:0] lighting_level_333_q;
-  reg  [0:0] lighting_level_333_ovf_q;
-  reg  [0:0] interp_weight_50_ovf_s2_q;
-  reg  [0:0] interp_weight_53_ovf_s2_q;
-  reg  [0:0] interp_weight_56_ovf_s2_q;
-  reg  [0:0] interp_weight_58_ovf_s2_q;
-  reg  [0:0] interp_weight_60_ovf_s2_q;
-  reg  [0:0] interp_weight_62_ovf_s2_q;
-  wire ovf0_or_s2 =
-      interp_weight_50_ovf_s2_q | interp_weight_53_ovf_s2_q | interp_weight_56_ovf_s2_q
-          | interp_weight_58_ovf_s2_q
-      | interp_weight_60_ovf_s2_q | interp_weight_62_ovf_s2_q;
+  reg  [0:0] interp_weight_50_ovf_s1_q;
+  reg  [0:0] interp_weight_53_ovf_s1_q;
+  reg  [0:0] interp_weight_56_ovf_s1_q;
+  reg  [0:0] interp_weight_58_ovf_s1_q;
+  reg  [0:0] interp_weight_60_ovf_s1_q;
+  reg  [0:0] interp_weight_62_ovf_s1_q;
+  wire ovf0_or_s1 =
+      interp_weight_50_ovf_s1_q | interp_weight_53_ovf_s1_q | interp_weight_56_ovf_s1_q
+          | interp_weight_58_ovf_s1_q
+      | interp_weight_60_ovf_s1_q | interp_weight_62_ovf_s1_q;
+  reg  [0:0] ovf0_s2_q;
   reg  [0:0] ovf0_s3_q;
   reg  [0:0] ovf0_s4_q;
   reg  [0:0] ovf0_s5_q;
@@ -2624,11 +2510,12 @@ module pipeline_mapped (
   reg  [0:0] ovf0_s38_q;
   reg  [0:0] ovf0_s39_q;
   reg  [0:0] ovf0_s40_q;
-  reg  [0:0] interp_out_74_ovf_s3_q;
-  reg  [0:0] interp_out_86_ovf_s3_q;
-  reg  [0:0] interp_out_98_ovf_s3_q;
-  wire ovf1_or_s3 =
-      interp_out_74_ovf_s3_q | interp_out_86_ovf_s3_q | interp_out_98_ovf_s3_q;
+  reg  [0:0] interp_out_74_ovf_s2_q;
+  reg  [0:0] interp_out_86_ovf_s2_q;
+  reg  [0:0] interp_out_98_ovf_s2_q;
+  wire ovf1_or_s2 =
+      interp_out_74_ovf_s2_q | interp_out_86_ovf_s2_q | interp_out_98_ovf_s2_q;
+  reg  [0:0] ovf1_s3_q;
   reg  [0:0] ovf1_s4_q;
   reg  [0:0] ovf1_s5_q;
   reg  [0:0] ovf1_s6_q;
@@ -2666,165 +2553,119 @@ module pipeline_mapped (
   reg  [0:0] ovf1_s38_q;
   reg  [0:0] ovf1_s39_q;
   reg  [0:0] ovf1_s40_q;
-  reg  [0:0] angles_normal_99_ovf_s4_q;
-  reg  [0:0] angles_normal_100_ovf_s4_q;
-  reg  [0:0] angles_normal_101_ovf_s4_q;
-  wire ovf2_or_s4 =
-      angles_normal_99_ovf_s4_q | angles_normal_100_ovf_s4_q | angles_normal_101_ovf_s4_q;
-  reg  [0:0] ovf2_s5_q;
-  reg  [0:0] ovf2_s6_q;
-  reg  [0:0] ovf2_s7_q;
-  reg  [0:0] ovf2_s8_q;
-  reg  [0:0] ovf2_s9_q;
-  reg  [0:0] ovf2_s10_q;
-  reg  [0:0] ovf2_s11_q;
-  reg  [0:0] ovf2_s12_q;
-  reg  [0:0] ovf2_s13_q;
-  reg  [0:0] ovf2_s14_q;
-  reg  [0:0] ovf2_s15_q;
-  reg  [0:0] ovf2_s16_q;
-  reg  [0:0] ovf2_s17_q;
-  reg  [0:0] ovf2_s18_q;
-  reg  [0:0] ovf2_s19_q;
-  reg  [0:0] ovf2_s20_q;
-  reg  [0:0] ovf2_s21_q;
-  reg  [0:0] ovf2_s22_q;
-  reg  [0:0] ovf2_s23_q;
-  reg  [0:0] ovf2_s24_q;
-  reg  [0:0] ovf2_s25_q;
-  reg  [0:0] ovf2_s26_q;
-  reg  [0:0] ovf2_s27_q;
-  reg  [0:0] ovf2_s28_q;
-  reg  [0:0] ovf2_s29_q;
-  reg  [0:0] ovf2_s30_q;
-  reg  [0:0] ovf2_s31_q;
-  reg  [0:0] ovf2_s32_q;
-  reg  [0:0] ovf2_s33_q;
-  reg  [0:0] ovf2_s34_q;
-  reg  [0:0] ovf2_s35_q;
-  reg  [0:0] ovf2_s36_q;
-  reg  [0:0] ovf2_s37_q;
-  reg  [0:0] ovf2_s38_q;
-  reg  [0:0] ovf2_s39_q;
-  reg  [0:0] ovf2_s40_q;
-  reg  [0:0] angles_xy_105_ovf_s5_q;
-  reg  [0:0] angles_xy_106_ovf_s5_q;
-  reg  [0:0] angles_xy_111_ovf_s6_q;
-  reg  [0:0] angles_xy_112_ovf_s6_q;
-  reg  [0:0] angles_xy_117_ovf_s7_q;
-  reg  [0:0] angles_xy_118_ovf_s7_q;
-  reg  [0:0] angles_xy_123_ovf_s8_q;
-  reg  [0:0] angles_xy_124_ovf_s8_q;
-  reg  [0:0] angles_xy_129_ovf_s9_q;
-  reg  [0:0] angles_xy_130_ovf_s9_q;
-  reg  [0:0] angles_xy_135_ovf_s10_q;
-  reg  [0:0] angles_xy_136_ovf_s10_q;
-  reg  [0:0] angles_xy_141_ovf_s11_q;
-  reg  [0:0] angles_xy_142_ovf_s11_q;
-  reg  [0:0] angles_xy_147_ovf_s12_q;
-  reg  [0:0] angles_xy_148_ovf_s12_q;
-  reg  [0:0] angles_xy_153_ovf_s13_q;
-  reg  [0:0] angles_xy_154_ovf_s13_q;
-  reg  [0:0] angles_xy_159_ovf_s14_q;
-  reg  [0:0] angles_xy_160_ovf_s14_q;
-  reg  [0:0] angles_xy_165_ovf_s15_q;
-  reg  [0:0] angles_xy_166_ovf_s15_q;
-  reg  [0:0] angles_xy_171_ovf_s16_q;
-  reg  [0:0] angles_xy_172_ovf_s16_q;
-  reg  [0:0] angles_xy_177_ovf_s17_q;
-  reg  [0:0] angles_xy_181_ovf_s5_q;
-  reg  [0:0] angles_xy_186_ovf_s18_q;
-  reg  [0:0] angles_xy_187_ovf_s18_q;
-  reg  [0:0] angles_xy_192_ovf_s19_q;
-  reg  [0:0] angles_xy_193_ovf_s19_q;
-  reg  [0:0] angles_xy_198_ovf_s20_q;
-  reg  [0:0] angles_xy_199_ovf_s20_q;
-  reg  [0:0] angles_xy_204_ovf_s21_q;
-  reg  [0:0] angles_xy_205_ovf_s21_q;
-  reg  [0:0] angles_xy_210_ovf_s22_q;
-  reg  [0:0] angles_xy_211_ovf_s22_q;
-  reg  [0:0] angles_xy_216_ovf_s23_q;
-  reg  [0:0] angles_xy_217_ovf_s23_q;
-  reg  [0:0] angles_xy_222_ovf_s24_q;
-  reg  [0:0] angles_xy_223_ovf_s24_q;
-  reg  [0:0] angles_xy_228_ovf_s25_q;
-  reg  [0:0] angles_xy_229_ovf_s25_q;
-  reg  [0:0] angles_xy_234_ovf_s26_q;
-  reg  [0:0] angles_xy_235_ovf_s26_q;
-  reg  [0:0] angles_xy_240_ovf_s27_q;
-  reg  [0:0] angles_xy_241_ovf_s27_q;
-  reg  [0:0] angles_xy_247_ovf_s28_q;
+  reg  [0:0] angles_xy_111_ovf_s5_q;
+  reg  [0:0] angles_xy_112_ovf_s5_q;
+  reg  [0:0] angles_xy_117_ovf_s6_q;
+  reg  [0:0] angles_xy_118_ovf_s6_q;
+  reg  [0:0] angles_xy_123_ovf_s7_q;
+  reg  [0:0] angles_xy_124_ovf_s7_q;
+  reg  [0:0] angles_xy_129_ovf_s8_q;
+  reg  [0:0] angles_xy_130_ovf_s8_q;
+  reg  [0:0] angles_xy_135_ovf_s9_q;
+  reg  [0:0] angles_xy_136_ovf_s9_q;
+  reg  [0:0] angles_xy_141_ovf_s10_q;
+  reg  [0:0] angles_xy_142_ovf_s10_q;
+  reg  [0:0] angles_xy_147_ovf_s11_q;
+  reg  [0:0] angles_xy_148_ovf_s11_q;
+  reg  [0:0] angles_xy_153_ovf_s12_q;
+  reg  [0:0] angles_xy_154_ovf_s12_q;
+  reg  [0:0] angles_xy_159_ovf_s13_q;
+  reg  [0:0] angles_xy_160_ovf_s13_q;
+  reg  [0:0] angles_xy_165_ovf_s14_q;
+  reg  [0:0] angles_xy_166_ovf_s14_q;
+  reg  [0:0] angles_xy_171_ovf_s15_q;
+  reg  [0:0] angles_xy_172_ovf_s15_q;
+  reg  [0:0] angles_xy_177_ovf_s16_q;
+  reg  [0:0] angles_xy_186_ovf_s17_q;
+  reg  [0:0] angles_xy_187_ovf_s17_q;
+  reg  [0:0] angles_xy_192_ovf_s18_q;
+  reg  [0:0] angles_xy_193_ovf_s18_q;
+  reg  [0:0] angles_xy_198_ovf_s19_q;
+  reg  [0:0] angles_xy_199_ovf_s19_q;
+  reg  [0:0] angles_xy_204_ovf_s20_q;
+  reg  [0:0] angles_xy_205_ovf_s20_q;
+  reg  [0:0] angles_xy_210_ovf_s21_q;
+  reg  [0:0] angles_xy_211_ovf_s21_q;
+  reg  [0:0] angles_xy_216_ovf_s22_q;
+  reg  [0:0] angles_xy_217_ovf_s22_q;
+  reg  [0:0] angles_xy_222_ovf_s23_q;
+  reg  [0:0] angles_xy_223_ovf_s23_q;
+  reg  [0:0] angles_xy_228_ovf_s24_q;
+  reg  [0:0] angles_xy_229_ovf_s24_q;
+  reg  [0:0] angles_xy_234_ovf_s25_q;
+  reg  [0:0] angles_xy_235_ovf_s25_q;
+  reg  [0:0] angles_xy_240_ovf_s26_q;
+  reg  [0:0] angles_xy_241_ovf_s26_q;
+  reg  [0:0] angles_xy_247_ovf_s27_q;
   wire ovf3_or_s5 =
-      angles_xy_105_ovf_s5_q | angles_xy_106_ovf_s5_q | angles_xy_181_ovf_s5_q;
+      angles_xy_111_ovf_s5_q | angles_xy_112_ovf_s5_q;
   reg  [0:0] ovf3_s6_q;
   wire ovf3_or_s6 =
-      ovf3_s6_q | angles_xy_111_ovf_s6_q | angles_xy_112_ovf_s6_q;
+      ovf3_s6_q | angles_xy_117_ovf_s6_q | angles_xy_118_ovf_s6_q;
   reg  [0:0] ovf3_s7_q;
   wire ovf3_or_s7 =
-      ovf3_s7_q | angles_xy_117_ovf_s7_q | angles_xy_118_ovf_s7_q;
+      ovf3_s7_q | angles_xy_123_ovf_s7_q | angles_xy_124_ovf_s7_q;
   reg  [0:0] ovf3_s8_q;
   wire ovf3_or_s8 =
-      ovf3_s8_q | angles_xy_123_ovf_s8_q | angles_xy_124_ovf_s8_q;
+      ovf3_s8_q | angles_xy_129_ovf_s8_q | angles_xy_130_ovf_s8_q;
   reg  [0:0] ovf3_s9_q;
   wire ovf3_or_s9 =
-      ovf3_s9_q | angles_xy_129_ovf_s9_q | angles_xy_130_ovf_s9_q;
+      ovf3_s9_q | angles_xy_135_ovf_s9_q | angles_xy_136_ovf_s9_q;
   reg  [0:0] ovf3_s10_q;
   wire ovf3_or_s10 =
-      ovf3_s10_q | angles_xy_135_ovf_s10_q | angles_xy_136_ovf_s10_q;
+      ovf3_s10_q | angles_xy_141_ovf_s10_q | angles_xy_142_ovf_s10_q;
   reg  [0:0] ovf3_s11_q;
   wire ovf3_or_s11 =
-      ovf3_s11_q | angles_xy_141_ovf_s11_q | angles_xy_142_ovf_s11_q;
+      ovf3_s11_q | angles_xy_147_ovf_s11_q | angles_xy_148_ovf_s11_q;
   reg  [0:0] ovf3_s12_q;
   wire ovf3_or_s12 =
-      ovf3_s12_q | angles_xy_147_ovf_s12_q | angles_xy_148_ovf_s12_q;
+      ovf3_s12_q | angles_xy_153_ovf_s12_q | angles_xy_154_ovf_s12_q;
   reg  [0:0] ovf3_s13_q;
   wire ovf3_or_s13 =
-      ovf3_s13_q | angles_xy_153_ovf_s13_q | angles_xy_154_ovf_s13_q;
+      ovf3_s13_q | angles_xy_159_ovf_s13_q | angles_xy_160_ovf_s13_q;
   reg  [0:0] ovf3_s14_q;
   wire ovf3_or_s14 =
-      ovf3_s14_q | angles_xy_159_ovf_s14_q | angles_xy_160_ovf_s14_q;
+      ovf3_s14_q | angles_xy_165_ovf_s14_q | angles_xy_166_ovf_s14_q;
   reg  [0:0] ovf3_s15_q;
   wire ovf3_or_s15 =
-      ovf3_s15_q | angles_xy_165_ovf_s15_q | angles_xy_166_ovf_s15_q;
+      ovf3_s15_q | angles_xy_171_ovf_s15_q | angles_xy_172_ovf_s15_q;
   reg  [0:0] ovf3_s16_q;
   wire ovf3_or_s16 =
-      ovf3_s16_q | angles_xy_171_ovf_s16_q | angles_xy_172_ovf_s16_q;
+      ovf3_s16_q | angles_xy_177_ovf_s16_q;
   reg  [0:0] ovf3_s17_q;
   wire ovf3_or_s17 =
-      ovf3_s17_q | angles_xy_177_ovf_s17_q;
+      ovf3_s17_q | angles_xy_186_ovf_s17_q | angles_xy_187_ovf_s17_q;
   reg  [0:0] ovf3_s18_q;
   wire ovf3_or_s18 =
-      ovf3_s18_q | angles_xy_186_ovf_s18_q | angles_xy_187_ovf_s18_q;
+      ovf3_s18_q | angles_xy_192_ovf_s18_q | angles_xy_193_ovf_s18_q;
   reg  [0:0] ovf3_s19_q;
   wire ovf3_or_s19 =
-      ovf3_s19_q | angles_xy_192_ovf_s19_q | angles_xy_193_ovf_s19_q;
+      ovf3_s19_q | angles_xy_198_ovf_s19_q | angles_xy_199_ovf_s19_q;
   reg  [0:0] ovf3_s20_q;
   wire ovf3_or_s20 =
-      ovf3_s20_q | angles_xy_198_ovf_s20_q | angles_xy_199_ovf_s20_q;
+      ovf3_s20_q | angles_xy_204_ovf_s20_q | angles_xy_205_ovf_s20_q;
   reg  [0:0] ovf3_s21_q;
   wire ovf3_or_s21 =
-      ovf3_s21_q | angles_xy_204_ovf_s21_q | angles_xy_205_ovf_s21_q;
+      ovf3_s21_q | angles_xy_210_ovf_s21_q | angles_xy_211_ovf_s21_q;
   reg  [0:0] ovf3_s22_q;
   wire ovf3_or_s22 =
-      ovf3_s22_q | angles_xy_210_ovf_s22_q | angles_xy_211_ovf_s22_q;
+      ovf3_s22_q | angles_xy_216_ovf_s22_q | angles_xy_217_ovf_s22_q;
   reg  [0:0] ovf3_s23_q;
   wire ovf3_or_s23 =
-      ovf3_s23_q | angles_xy_216_ovf_s23_q | angles_xy_217_ovf_s23_q;
+      ovf3_s23_q | angles_xy_222_ovf_s23_q | angles_xy_223_ovf_s23_q;
   reg  [0:0] ovf3_s24_q;
   wire ovf3_or_s24 =
-      ovf3_s24_q | angles_xy_222_ovf_s24_q | angles_xy_223_ovf_s24_q;
+      ovf3_s24_q | angles_xy_228_ovf_s24_q | angles_xy_229_ovf_s24_q;
   reg  [0:0] ovf3_s25_q;
   wire ovf3_or_s25 =
-      ovf3_s25_q | angles_xy_228_ovf_s25_q | angles_xy_229_ovf_s25_q;
+      ovf3_s25_q | angles_xy_234_ovf_s25_q | angles_xy_235_ovf_s25_q;
   reg  [0:0] ovf3_s26_q;
   wire ovf3_or_s26 =
-      ovf3_s26_q | angles_xy_234_ovf_s26_q | angles_xy_235_ovf_s26_q;
+      ovf3_s26_q | angles_xy_240_ovf_s26_q | angles_xy_241_ovf_s26_q;
   reg  [0:0] ovf3_s27_q;
   wire ovf3_or_s27 =
-      ovf3_s27_q | angles_xy_240_ovf_s27_q | angles_xy_241_ovf_s27_q;
+      ovf3_s27_q | angles_xy_247_ovf_s27_q;
   reg  [0:0] ovf3_s28_q;
-  wire ovf3_or_s28 =
-      ovf3_s28_q | angles_xy_247_ovf_s28_q;
   reg  [0:0] ovf3_s29_q;
   reg  [0:0] ovf3_s30_q;
   reg  [0:0] ovf3_s31_q;
@@ -2837,107 +2678,108 @@ module pipeline_mapped (
   reg  [0:0] ovf3_s38_q;
   reg  [0:0] ovf3_s39_q;
   reg  [0:0] ovf3_s40_q;
-  reg  [0:0] angles_theta_107_ovf_s5_q;
-  reg  [0:0] angles_theta_113_ovf_s6_q;
-  reg  [0:0] angles_theta_119_ovf_s7_q;
-  reg  [0:0] angles_theta_125_ovf_s8_q;
-  reg  [0:0] angles_theta_131_ovf_s9_q;
-  reg  [0:0] angles_theta_137_ovf_s10_q;
-  reg  [0:0] angles_theta_143_ovf_s11_q;
-  reg  [0:0] angles_theta_149_ovf_s12_q;
-  reg  [0:0] angles_theta_155_ovf_s13_q;
-  reg  [0:0] angles_theta_161_ovf_s14_q;
-  reg  [0:0] angles_theta_167_ovf_s15_q;
-  reg  [0:0] angles_theta_173_ovf_s16_q;
-  reg  [0:0] angles_theta_179_ovf_s17_q;
-  reg  [0:0] angles_theta_182_ovf_s2_q;
-  reg  [0:0] angles_theta_188_ovf_s6_q;
-  reg  [0:0] angles_theta_194_ovf_s19_q;
-  reg  [0:0] angles_theta_200_ovf_s20_q;
-  reg  [0:0] angles_theta_206_ovf_s21_q;
-  reg  [0:0] angles_theta_212_ovf_s22_q;
-  reg  [0:0] angles_theta_218_ovf_s23_q;
-  reg  [0:0] angles_theta_224_ovf_s24_q;
-  reg  [0:0] angles_theta_230_ovf_s25_q;
-  reg  [0:0] angles_theta_236_ovf_s26_q;
-  reg  [0:0] angles_theta_242_ovf_s27_q;
-  reg  [0:0] angles_theta_248_ovf_s28_q;
-  reg  [0:0] angles_theta_254_ovf_s29_q;
+  reg  [0:0] angles_theta_107_ovf_s4_q;
+  reg  [0:0] angles_theta_113_ovf_s5_q;
+  reg  [0:0] angles_theta_119_ovf_s6_q;
+  reg  [0:0] angles_theta_125_ovf_s7_q;
+  reg  [0:0] angles_theta_131_ovf_s8_q;
+  reg  [0:0] angles_theta_137_ovf_s9_q;
+  reg  [0:0] angles_theta_143_ovf_s10_q;
+  reg  [0:0] angles_theta_149_ovf_s11_q;
+  reg  [0:0] angles_theta_155_ovf_s12_q;
+  reg  [0:0] angles_theta_161_ovf_s13_q;
+  reg  [0:0] angles_theta_167_ovf_s14_q;
+  reg  [0:0] angles_theta_173_ovf_s15_q;
+  reg  [0:0] angles_theta_179_ovf_s16_q;
+  reg  [0:0] angles_theta_182_ovf_s1_q;
+  reg  [0:0] angles_theta_188_ovf_s5_q;
+  reg  [0:0] angles_theta_194_ovf_s18_q;
+  reg  [0:0] angles_theta_200_ovf_s19_q;
+  reg  [0:0] angles_theta_206_ovf_s20_q;
+  reg  [0:0] angles_theta_212_ovf_s21_q;
+  reg  [0:0] angles_theta_218_ovf_s22_q;
+  reg  [0:0] angles_theta_224_ovf_s23_q;
+  reg  [0:0] angles_theta_230_ovf_s24_q;
+  reg  [0:0] angles_theta_236_ovf_s25_q;
+  reg  [0:0] angles_theta_242_ovf_s26_q;
+  reg  [0:0] angles_theta_248_ovf_s27_q;
+  reg  [0:0] angles_theta_254_ovf_s28_q;
+  reg  [0:0] ovf4_s2_q;
   reg  [0:0] ovf4_s3_q;
   reg  [0:0] ovf4_s4_q;
+  wire ovf4_or_s4 =
+      ovf4_s4_q | angles_theta_107_ovf_s4_q;
   reg  [0:0] ovf4_s5_q;
   wire ovf4_or_s5 =
-      ovf4_s5_q | angles_theta_107_ovf_s5_q;
+      ovf4_s5_q | angles_theta_113_ovf_s5_q | angles_theta_188_ovf_s5_q;
   reg  [0:0] ovf4_s6_q;
   wire ovf4_or_s6 =
-      ovf4_s6_q | angles_theta_113_ovf_s6_q | angles_theta_188_ovf_s6_q;
+      ovf4_s6_q | angles_theta_119_ovf_s6_q;
   reg  [0:0] ovf4_s7_q;
   wire ovf4_or_s7 =
-      ovf4_s7_q | angles_theta_119_ovf_s7_q;
+      ovf4_s7_q | angles_theta_125_ovf_s7_q;
   reg  [0:0] ovf4_s8_q;
   wire ovf4_or_s8 =
-      ovf4_s8_q | angles_theta_125_ovf_s8_q;
+      ovf4_s8_q | angles_theta_131_ovf_s8_q;
   reg  [0:0] ovf4_s9_q;
   wire ovf4_or_s9 =
-      ovf4_s9_q | angles_theta_131_ovf_s9_q;
+      ovf4_s9_q | angles_theta_137_ovf_s9_q;
   reg  [0:0] ovf4_s10_q;
   wire ovf4_or_s10 =
-      ovf4_s10_q | angles_theta_137_ovf_s10_q;
+      ovf4_s10_q | angles_theta_143_ovf_s10_q;
   reg  [0:0] ovf4_s11_q;
   wire ovf4_or_s11 =
-      ovf4_s11_q | angles_theta_143_ovf_s11_q;
+      ovf4_s11_q | angles_theta_149_ovf_s11_q;
   reg  [0:0] ovf4_s12_q;
   wire ovf4_or_s12 =
-      ovf4_s12_q | angles_theta_149_ovf_s12_q;
+      ovf4_s12_q | angles_theta_155_ovf_s12_q;
   reg  [0:0] ovf4_s13_q;
   wire ovf4_or_s13 =
-      ovf4_s13_q | angles_theta_155_ovf_s13_q;
+      ovf4_s13_q | angles_theta_161_ovf_s13_q;
   reg  [0:0] ovf4_s14_q;
   wire ovf4_or_s14 =
-      ovf4_s14_q | angles_theta_161_ovf_s14_q;
+      ovf4_s14_q | angles_theta_167_ovf_s14_q;
   reg  [0:0] ovf4_s15_q;
   wire ovf4_or_s15 =
-      ovf4_s15_q | angles_theta_167_ovf_s15_q;
+      ovf4_s15_q | angles_theta_173_ovf_s15_q;
   reg  [0:0] ovf4_s16_q;
   wire ovf4_or_s16 =
-      ovf4_s16_q | angles_theta_173_ovf_s16_q;
+      ovf4_s16_q | angles_theta_179_ovf_s16_q;
   reg  [0:0] ovf4_s17_q;
-  wire ovf4_or_s17 =
-      ovf4_s17_q | angles_theta_179_ovf_s17_q;
   reg  [0:0] ovf4_s18_q;
+  wire ovf4_or_s18 =
+      ovf4_s18_q | angles_theta_194_ovf_s18_q;
   reg  [0:0] ovf4_s19_q;
   wire ovf4_or_s19 =
-      ovf4_s19_q | angles_theta_194_ovf_s19_q;
+      ovf4_s19_q | angles_theta_200_ovf_s19_q;
   reg  [0:0] ovf4_s20_q;
   wire ovf4_or_s20 =
-      ovf4_s20_q | angles_theta_200_ovf_s20_q;
+      ovf4_s20_q | angles_theta_206_ovf_s20_q;
   reg  [0:0] ovf4_s21_q;
   wire ovf4_or_s21 =
-      ovf4_s21_q | angles_theta_206_ovf_s21_q;
+      ovf4_s21_q | angles_theta_212_ovf_s21_q;
   reg  [0:0] ovf4_s22_q;
   wire ovf4_or_s22 =
-      ovf4_s22_q | angles_theta_212_ovf_s22_q;
+      ovf4_s22_q | angles_theta_218_ovf_s22_q;
   reg  [0:0] ovf4_s23_q;
   wire ovf4_or_s23 =
-      ovf4_s23_q | angles_theta_218_ovf_s23_q;
+      ovf4_s23_q | angles_theta_224_ovf_s23_q;
   reg  [0:0] ovf4_s24_q;
   wire ovf4_or_s24 =
-      ovf4_s24_q | angles_theta_224_ovf_s24_q;
+      ovf4_s24_q | angles_theta_230_ovf_s24_q;
   reg  [0:0] ovf4_s25_q;
   wire ovf4_or_s25 =
-      ovf4_s25_q | angles_theta_230_ovf_s25_q;
+      ovf4_s25_q | angles_theta_236_ovf_s25_q;
   reg  [0:0] ovf4_s26_q;
   wire ovf4_or_s26 =
-      ovf4_s26_q | angles_theta_236_ovf_s26_q;
+      ovf4_s26_q | angles_theta_242_ovf_s26_q;
   reg  [0:0] ovf4_s27_q;
   wire ovf4_or_s27 =
-      ovf4_s27_q | angles_theta_242_ovf_s27_q;
+      ovf4_s27_q | angles_theta_248_ovf_s27_q;
   reg  [0:0] ovf4_s28_q;
   wire ovf4_or_s28 =
-      ovf4_s28_q | angles_theta_248_ovf_s28_q;
+      ovf4_s28_q | angles_theta_254_ovf_s28_q;
   reg  [0:0] ovf4_s29_q;
-  wire ovf4_or_s29 =
-      ovf4_s29_q | angles_theta_254_ovf_s29_q;
   reg  [0:0] ovf4_s30_q;
   reg  [0:0] ovf4_s31_q;
   reg  [0:0] ovf4_s32_q;
@@ -2949,8 +2791,9 @@ module pipeline_mapped (
   reg  [0:0] ovf4_s38_q;
   reg  [0:0] ovf4_s39_q;
   reg  [0:0] ovf4_s40_q;
-  reg  [0:0] angles_out_255_ovf_s30_q;
-  reg  [0:0] angles_out_256_ovf_s18_q;
+  reg  [0:0] angles_out_255_ovf_s29_q;
+  reg  [0:0] angles_out_256_ovf_s17_q;
+  reg  [0:0] ovf5_s18_q;
   reg  [0:0] ovf5_s19_q;
   reg  [0:0] ovf5_s20_q;
   reg  [0:0] ovf5_s21_q;
@@ -2962,9 +2805,9 @@ module pipeline_mapped (
   reg  [0:0] ovf5_s27_q;
   reg  [0:0] ovf5_s28_q;
   reg  [0:0] ovf5_s29_q;
+  wire ovf5_or_s29 =
+      ovf5_s29_q | angles_out_255_ovf_s29_q;
   reg  [0:0] ovf5_s30_q;
-  wire ovf5_or_s30 =
-      ovf5_s30_q | angles_out_255_ovf_s30_q;
   reg  [0:0] ovf5_s31_q;
   reg  [0:0] ovf5_s32_q;
   reg  [0:0] ovf5_s33_q;
@@ -2975,33 +2818,11 @@ module pipeline_mapped (
   reg  [0:0] ovf5_s38_q;
   reg  [0:0] ovf5_s39_q;
   reg  [0:0] ovf5_s40_q;
-  reg  [0:0] polar_index_257_ovf_s2_q;
-  reg  [0:0] polar_index_259_ovf_s19_q;
-  reg  [0:0] polar_index_260_ovf_s31_q;
-  reg  [0:0] polar_index_279_ovf_s2_q;
-  reg  [0:0] polar_index_281_ovf_s19_q;
-  reg  [0:0] polar_index_282_ovf_s31_q;
-  wire ovf6_or_s2 =
-      polar_index_257_ovf_s2_q | polar_index_279_ovf_s2_q;
-  reg  [0:0] ovf6_s3_q;
-  reg  [0:0] ovf6_s4_q;
-  reg  [0:0] ovf6_s5_q;
-  reg  [0:0] ovf6_s6_q;
-  reg  [0:0] ovf6_s7_q;
-  reg  [0:0] ovf6_s8_q;
-  reg  [0:0] ovf6_s9_q;
-  reg  [0:0] ovf6_s10_q;
-  reg  [0:0] ovf6_s11_q;
-  reg  [0:0] ovf6_s12_q;
-  reg  [0:0] ovf6_s13_q;
-  reg  [0:0] ovf6_s14_q;
-  reg  [0:0] ovf6_s15_q;
-  reg  [0:0] ovf6_s16_q;
-  reg  [0:0] ovf6_s17_q;
-  reg  [0:0] ovf6_s18_q;
+  reg  [0:0] polar_index_259_ovf_s18_q;
+  reg  [0:0] polar_index_281_ovf_s18_q;
+  wire ovf6_or_s18 =
+      polar_index_259_ovf_s18_q | polar_index_281_ovf_s18_q;
   reg  [0:0] ovf6_s19_q;
-  wire ovf6_or_s19 =
-      ovf6_s19_q | polar_index_259_ovf_s19_q | polar_index_281_ovf_s19_q;
   reg  [0:0] ovf6_s20_q;
   reg  [0:0] ovf6_s21_q;
   reg  [0:0] ovf6_s22_q;
@@ -3014,8 +2835,6 @@ module pipeline_mapped (
   reg  [0:0] ovf6_s29_q;
   reg  [0:0] ovf6_s30_q;
   reg  [0:0] ovf6_s31_q;
-  wire ovf6_or_s31 =
-      ovf6_s31_q | polar_index_260_ovf_s31_q | polar_index_282_ovf_s31_q;
   reg  [0:0] ovf6_s32_q;
   reg  [0:0] ovf6_s33_q;
   reg  [0:0] ovf6_s34_q;
@@ -3025,10 +2844,11 @@ module pipeline_mapped (
   reg  [0:0] ovf6_s38_q;
   reg  [0:0] ovf6_s39_q;
   reg  [0:0] ovf6_s40_q;
-  reg  [0:0] polar_lyz_268_ovf_s21_q;
-  reg  [0:0] polar_lyz_290_ovf_s21_q;
-  wire ovf7_or_s21 =
-      polar_lyz_268_ovf_s21_q | polar_lyz_290_ovf_s21_q;
+  reg  [0:0] polar_lyz_268_ovf_s20_q;
+  reg  [0:0] polar_lyz_290_ovf_s20_q;
+  wire ovf7_or_s20 =
+      polar_lyz_268_ovf_s20_q | polar_lyz_290_ovf_s20_q;
+  reg  [0:0] ovf7_s21_q;
   reg  [0:0] ovf7_s22_q;
   reg  [0:0] ovf7_s23_q;
   reg  [0:0] ovf7_s24_q;
@@ -3048,14 +2868,15 @@ module pipeline_mapped (
   reg  [0:0] ovf7_s38_q;
   reg  [0:0] ovf7_s39_q;
   reg  [0:0] ovf7_s40_q;
-  reg  [0:0] polar_out_270_ovf_s21_q;
-  reg  [0:0] polar_out_274_ovf_s33_q;
-  reg  [0:0] polar_out_278_ovf_s33_q;
-  reg  [0:0] polar_out_292_ovf_s21_q;
-  reg  [0:0] polar_out_296_ovf_s33_q;
-  reg  [0:0] polar_out_300_ovf_s33_q;
-  wire ovf8_or_s21 =
-      polar_out_270_ovf_s21_q | polar_out_292_ovf_s21_q;
+  reg  [0:0] polar_out_270_ovf_s20_q;
+  reg  [0:0] polar_out_274_ovf_s32_q;
+  reg  [0:0] polar_out_278_ovf_s32_q;
+  reg  [0:0] polar_out_292_ovf_s20_q;
+  reg  [0:0] polar_out_296_ovf_s32_q;
+  reg  [0:0] polar_out_300_ovf_s32_q;
+  wire ovf8_or_s20 =
+      polar_out_270_ovf_s20_q | polar_out_292_ovf_s20_q;
+  reg  [0:0] ovf8_s21_q;
   reg  [0:0] ovf8_s22_q;
   reg  [0:0] ovf8_s23_q;
   reg  [0:0] ovf8_s24_q;
@@ -3067,10 +2888,10 @@ module pipeline_mapped (
   reg  [0:0] ovf8_s30_q;
   reg  [0:0] ovf8_s31_q;
   reg  [0:0] ovf8_s32_q;
+  wire ovf8_or_s32 =
+      ovf8_s32_q | polar_out_274_ovf_s32_q | polar_out_278_ovf_s32_q | polar_out_296_ovf_s32_q
+      | polar_out_300_ovf_s32_q;
   reg  [0:0] ovf8_s33_q;
-  wire ovf8_or_s33 =
-      ovf8_s33_q | polar_out_274_ovf_s33_q | polar_out_278_ovf_s33_q | polar_out_296_ovf_s33_q
-      | polar_out_300_ovf_s33_q;
   reg  [0:0] ovf8_s34_q;
   reg  [0:0] ovf8_s35_q;
   reg  [0:0] ovf8_s36_q;
@@ -3078,62 +2899,35 @@ module pipeline_mapped (
   reg  [0:0] ovf8_s38_q;
   reg  [0:0] ovf8_s39_q;
   reg  [0:0] ovf8_s40_q;
-  reg  [0:0] lighting_light_301_ovf_s22_q;
-  reg  [0:0] lighting_light_302_ovf_s34_q;
-  reg  [0:0] lighting_light_303_ovf_s34_q;
-  reg  [0:0] lighting_light_304_ovf_s22_q;
-  reg  [0:0] lighting_light_305_ovf_s34_q;
-  reg  [0:0] lighting_light_306_ovf_s34_q;
-  wire ovf9_or_s22 =
-      lighting_light_301_ovf_s22_q | lighting_light_304_ovf_s22_q;
-  reg  [0:0] ovf9_s23_q;
-  reg  [0:0] ovf9_s24_q;
-  reg  [0:0] ovf9_s25_q;
-  reg  [0:0] ovf9_s26_q;
-  reg  [0:0] ovf9_s27_q;
-  reg  [0:0] ovf9_s28_q;
-  reg  [0:0] ovf9_s29_q;
-  reg  [0:0] ovf9_s30_q;
-  reg  [0:0] ovf9_s31_q;
-  reg  [0:0] ovf9_s32_q;
-  reg  [0:0] ovf9_s33_q;
-  reg  [0:0] ovf9_s34_q;
-  wire ovf9_or_s34 =
-      ovf9_s34_q | lighting_light_302_ovf_s34_q | lighting_light_303_ovf_s34_q
-          | lighting_light_305_ovf_s34_q
-      | lighting_light_306_ovf_s34_q;
-  reg  [0:0] ovf9_s35_q;
-  reg  [0:0] ovf9_s36_q;
-  reg  [0:0] ovf9_s37_q;
-  reg  [0:0] ovf9_s38_q;
-  reg  [0:0] ovf9_s39_q;
-  reg  [0:0] ovf9_s40_q;
-  reg  [0:0] lighting_dot_312_ovf_s35_q;
-  reg  [0:0] lighting_dot_319_ovf_s35_q;
-  wire ovf10_or_s35 =
-      lighting_dot_312_ovf_s35_q | lighting_dot_319_ovf_s35_q;
+  reg  [0:0] lighting_dot_312_ovf_s34_q;
+  reg  [0:0] lighting_dot_319_ovf_s34_q;
+  wire ovf10_or_s34 =
+      lighting_dot_312_ovf_s34_q | lighting_dot_319_ovf_s34_q;
+  reg  [0:0] ovf10_s35_q;
   reg  [0:0] ovf10_s36_q;
   reg  [0:0] ovf10_s37_q;
   reg  [0:0] ovf10_s38_q;
   reg  [0:0] ovf10_s39_q;
   reg  [0:0] ovf10_s40_q;
-  reg  [0:0] lighting_spec_321_ovf_s36_q;
-  reg  [0:0] lighting_spec_323_ovf_s37_q;
-  reg  [0:0] lighting_spec_325_ovf_s38_q;
-  reg  [0:0] lighting_spec_327_ovf_s39_q;
-  reg  [0:0] lighting_spec_329_ovf_s40_q;
+  reg  [0:0] lighting_spec_321_ovf_s35_q;
+  reg  [0:0] lighting_spec_323_ovf_s36_q;
+  reg  [0:0] lighting_spec_325_ovf_s37_q;
+  reg  [0:0] lighting_spec_327_ovf_s38_q;
+  reg  [0:0] lighting_spec_329_ovf_s39_q;
+  reg  [0:0] ovf11_s36_q;
+  wire ovf11_or_s36 =
+      ovf11_s36_q | lighting_spec_323_ovf_s36_q;
   reg  [0:0] ovf11_s37_q;
   wire ovf11_or_s37 =
-      ovf11_s37_q | lighting_spec_323_ovf_s37_q;
+      ovf11_s37_q | lighting_spec_325_ovf_s37_q;
   reg  [0:0] ovf11_s38_q;
   wire ovf11_or_s38 =
-      ovf11_s38_q | lighting_spec_325_ovf_s38_q;
+      ovf11_s38_q | lighting_spec_327_ovf_s38_q;
   reg  [0:0] ovf11_s39_q;
   wire ovf11_or_s39 =
-      ovf11_s39_q | lighting_spec_327_ovf_s39_q;
+      ovf11_s39_q | lighting_spec_329_ovf_s39_q;
   reg  [0:0] ovf11_s40_q;
-  wire ovf11_or_s40 =
-      ovf11_s40_q | lighting_spec_329_ovf_s40_q;
+  reg  [0:0] lighting_level_333_ovf_s40_q;
 
   // Stage loads: the item entering stage k is valid and the stages move.
   wire load_s1 = in_take;
@@ -3182,79 +2976,60 @@ module pipeline_mapped (
   always @(posedge clk_i) begin
     if (load_s1) begin
       interp_weight_50_q <= interp_weight_50_d;
-      interp_weight_50_ovf_q <= interp_weight_50_ovf_d;
       interp_weight_53_q <= interp_weight_53_d;
-      interp_weight_53_ovf_q <= interp_weight_53_ovf_d;
       interp_weight_56_q <= interp_weight_56_d;
-      interp_weight_56_ovf_q <= interp_weight_56_ovf_d;
       interp_weight_58_q <= interp_weight_58_d;
-      interp_weight_58_ovf_q <= interp_weight_58_ovf_d;
       interp_weight_60_q <= interp_weight_60_d;
-      interp_weight_60_ovf_q <= interp_weight_60_ovf_d;
       interp_weight_62_q <= interp_weight_62_d;
-      interp_weight_62_ovf_q <= interp_weight_62_ovf_d;
       angles_theta_182_q <= angles_theta_182_d;
-      angles_theta_182_ovf_q <= angles_theta_182_ovf_d;
       polar_index_257_q <= polar_index_257_d;
-      polar_index_257_ovf_q <= polar_index_257_ovf_d;
       polar_index_279_q <= polar_index_279_d;
-      polar_index_279_ovf_q <= polar_index_279_ovf_d;
       n_x_i_s1_q <= n_x_i;
       n_y_i_s1_q <= n_y_i;
       n_z_i_s1_q <= n_z_i;
+      interp_weight_50_ovf_s1_q <= interp_weight_50_ovf_c;
+      interp_weight_53_ovf_s1_q <= interp_weight_53_ovf_c;
+      interp_weight_56_ovf_s1_q <= interp_weight_56_ovf_c;
+      interp_weight_58_ovf_s1_q <= interp_weight_58_ovf_c;
+      interp_weight_60_ovf_s1_q <= interp_weight_60_ovf_c;
+      interp_weight_62_ovf_s1_q <= interp_weight_62_ovf_c;
+      angles_theta_182_ovf_s1_q <= angles_theta_182_ovf_c;
     end
     if (load_s2) begin
       interp_out_74_q <= interp_out_74_d;
-      interp_out_74_ovf_q <= interp_out_74_ovf_d;
       interp_out_86_q <= interp_out_86_d;
-      interp_out_86_ovf_q <= interp_out_86_ovf_d;
       interp_out_98_q <= interp_out_98_d;
-      interp_out_98_ovf_q <= interp_out_98_ovf_d;
       angles_theta_182_s2_q <= angles_theta_182_q;
       polar_index_257_s2_q <= polar_index_257_q;
       polar_index_279_s2_q <= polar_index_279_q;
       n_x_i_s2_q <= n_x_i_s1_q;
       n_y_i_s2_q <= n_y_i_s1_q;
       n_z_i_s2_q <= n_z_i_s1_q;
-      interp_weight_50_ovf_s2_q <= interp_weight_50_ovf_q;
-      interp_weight_53_ovf_s2_q <= interp_weight_53_ovf_q;
-      interp_weight_56_ovf_s2_q <= interp_weight_56_ovf_q;
-      interp_weight_58_ovf_s2_q <= interp_weight_58_ovf_q;
-      interp_weight_60_ovf_s2_q <= interp_weight_60_ovf_q;
-      interp_weight_62_ovf_s2_q <= interp_weight_62_ovf_q;
-      angles_theta_182_ovf_s2_q <= angles_theta_182_ovf_q;
-      polar_index_257_ovf_s2_q <= polar_index_257_ovf_q;
-      polar_index_279_ovf_s2_q <= polar_index_279_ovf_q;
+      ovf0_s2_q <= ovf0_or_s1;
+      interp_out_74_ovf_s2_q <= interp_out_74_ovf_c;
+      interp_out_86_ovf_s2_q <= interp_out_86_ovf_c;
+      interp_out_98_ovf_s2_q <= interp_out_98_ovf_c;
+      ovf4_s2_q <= angles_theta_182_ovf_s1_q;
     end
     if (load_s3) begin
       angles_normal_99_q <= angles_normal_99_d;
-      angles_normal_99_ovf_q <= angles_normal_99_ovf_d;
       angles_normal_100_q <= angles_normal_100_d;
-      angles_normal_100_ovf_q <= angles_normal_100_ovf_d;
       angles_normal_101_q <= angles_normal_101_d;
-      angles_normal_101_ovf_q <= angles_normal_101_ovf_d;
       angles_theta_182_s3_q <= angles_theta_182_s2_q;
       polar_index_257_s3_q <= polar_index_257_s2_q;
       polar_index_279_s3_q <= polar_index_279_s2_q;
       n_x_i_s3_q <= n_x_i_s2_q;
       n_y_i_s3_q <= n_y_i_s2_q;
       n_z_i_s3_q <= n_z_i_s2_q;
-      ovf0_s3_q <= ovf0_or_s2;
-      interp_out_74_ovf_s3_q <= interp_out_74_ovf_q;
-      interp_out_86_ovf_s3_q <= interp_out_86_ovf_q;
-      interp_out_98_ovf_s3_q <= interp_out_98_ovf_q;
-      ovf4_s3_q <= angles_theta_182_ovf_s2_q;
-      ovf6_s3_q <= ovf6_or_s2;
+      ovf0_s3_q <= ovf0_s2_q;
+      ovf1_s3_q <= ovf1_or_s2;
+      ovf4_s3_q <= ovf4_s2_q;
     end
     if (load_s4) begin
       angles_xy_105_q <= angles_xy_105_d;
-      angles_xy_105_ovf_q <= angles_xy_105_ovf_d;
       angles_xy_106_q <= angles_xy_106_d;
-      angles_xy_106_ovf_q <= angles_xy_106_ovf_d;
       angles_theta_107_q <= angles_theta_107_d;
-      angles_theta_107_ovf_q <= angles_theta_107_ovf_d;
       angles_xy_181_q <= angles_xy_181_d;
-      angles_xy_181_ovf_q <= angles_xy_181_ovf_d;
       angles_theta_182_s4_q <= angles_theta_182_s3_q;
       polar_index_257_s4_q <= polar_index_257_s3_q;
       polar_index_279_s4_q <= polar_index_279_s3_q;
@@ -3262,23 +3037,16 @@ module pipeline_mapped (
       n_y_i_s4_q <= n_y_i_s3_q;
       n_z_i_s4_q <= n_z_i_s3_q;
       ovf0_s4_q <= ovf0_s3_q;
-      ovf1_s4_q <= ovf1_or_s3;
-      angles_normal_99_ovf_s4_q <= angles_normal_99_ovf_q;
-      angles_normal_100_ovf_s4_q <= angles_normal_100_ovf_q;
-      angles_normal_101_ovf_s4_q <= angles_normal_101_ovf_q;
+      ovf1_s4_q <= ovf1_s3_q;
+      angles_theta_107_ovf_s4_q <= angles_theta_107_ovf_c;
       ovf4_s4_q <= ovf4_s3_q;
-      ovf6_s4_q <= ovf6_s3_q;
     end
     if (load_s5) begin
       angles_xy_111_q <= angles_xy_111_d;
-      angles_xy_111_ovf_q <= angles_xy_111_ovf_d;
       angles_xy_112_q <= angles_xy_112_d;
-      angles_xy_112_ovf_q <= angles_xy_112_ovf_d;
       angles_theta_113_q <= angles_theta_113_d;
-      angles_theta_113_ovf_q <= angles_theta_113_ovf_d;
       angles_xy_181_s5_q <= angles_xy_181_q;
       angles_theta_188_q <= angles_theta_188_d;
-      angles_theta_188_ovf_q <= angles_theta_188_ovf_d;
       polar_index_257_s5_q <= polar_index_257_s4_q;
       polar_index_279_s5_q <= polar_index_279_s4_q;
       n_x_i_s5_q <= n_x_i_s4_q;
@@ -3286,21 +3054,16 @@ module pipeline_mapped (
       n_z_i_s5_q <= n_z_i_s4_q;
       ovf0_s5_q <= ovf0_s4_q;
       ovf1_s5_q <= ovf1_s4_q;
-      ovf2_s5_q <= ovf2_or_s4;
-      angles_xy_105_ovf_s5_q <= angles_xy_105_ovf_q;
-      angles_xy_106_ovf_s5_q <= angles_xy_106_ovf_q;
-      angles_xy_181_ovf_s5_q <= angles_xy_181_ovf_q;
-      angles_theta_107_ovf_s5_q <= angles_theta_107_ovf_q;
-      ovf4_s5_q <= ovf4_s4_q;
-      ovf6_s5_q <= ovf6_s4_q;
+      angles_xy_111_ovf_s5_q <= angles_xy_111_ovf_c;
+      angles_xy_112_ovf_s5_q <= angles_xy_112_ovf_c;
+      angles_theta_113_ovf_s5_q <= angles_theta_113_ovf_c;
+      angles_theta_188_ovf_s5_q <= angles_theta_188_ovf_c;
+      ovf4_s5_q <= ovf4_or_s4;
     end
     if (load_s6) begin
       angles_xy_117_q <= angles_xy_117_d;
-      angles_xy_117_ovf_q <= angles_xy_117_ovf_d;
       angles_xy_118_q <= angles_xy_118_d;
-      angles_xy_118_ovf_q <= angles_xy_118_ovf_d;
       angles_theta_119_q <= angles_theta_119_d;
-      angles_theta_119_ovf_q <= angles_theta_119_ovf_d;
       angles_xy_181_s6_q <= angles_xy_181_s5_q;
       angles_theta_188_s6_q <= angles_theta_188_q;
       polar_index_257_s6_q <= polar_index_257_s5_q;
@@ -3310,22 +3073,16 @@ module pipeline_mapped (
       n_z_i_s6_q <= n_z_i_s5_q;
       ovf0_s6_q <= ovf0_s5_q;
       ovf1_s6_q <= ovf1_s5_q;
-      ovf2_s6_q <= ovf2_s5_q;
-      angles_xy_111_ovf_s6_q <= angles_xy_111_ovf_q;
-      angles_xy_112_ovf_s6_q <= angles_xy_112_ovf_q;
+      angles_xy_117_ovf_s6_q <= angles_xy_117_ovf_c;
+      angles_xy_118_ovf_s6_q <= angles_xy_118_ovf_c;
       ovf3_s6_q <= ovf3_or_s5;
-      angles_theta_113_ovf_s6_q <= angles_theta_113_ovf_q;
-      angles_theta_188_ovf_s6_q <= angles_theta_188_ovf_q;
+      angles_theta_119_ovf_s6_q <= angles_theta_119_ovf_c;
       ovf4_s6_q <= ovf4_or_s5;
-      ovf6_s6_q <= ovf6_s5_q;
     end
     if (load_s7) begin
       angles_xy_123_q <= angles_xy_123_d;
-      angles_xy_123_ovf_q <= angles_xy_123_ovf_d;
       angles_xy_124_q <= angles_xy_124_d;
-      angles_xy_124_ovf_q <= angles_xy_124_ovf_d;
       angles_theta_125_q <= angles_theta_125_d;
-      angles_theta_125_ovf_q <= angles_theta_125_ovf_d;
       angles_xy_181_s7_q <= angles_xy_181_s6_q;
       angles_theta_188_s7_q <= angles_theta_188_s6_q;
       polar_index_257_s7_q <= polar_index_257_s6_q;
@@ -3335,21 +3092,16 @@ module pipeline_mapped (
       n_z_i_s7_q <= n_z_i_s6_q;
       ovf0_s7_q <= ovf0_s6_q;
       ovf1_s7_q <= ovf1_s6_q;
-      ovf2_s7_q <= ovf2_s6_q;
-      angles_xy_117_ovf_s7_q <= angles_xy_117_ovf_q;
-      angles_xy_118_ovf_s7_q <= angles_xy_118_ovf_q;
+      angles_xy_123_ovf_s7_q <= angles_xy_123_ovf_c;
+      angles_xy_124_ovf_s7_q <= angles_xy_124_ovf_c;
       ovf3_s7_q <= ovf3_or_s6;
-      angles_theta_119_ovf_s7_q <= angles_theta_119_ovf_q;
+      angles_theta_125_ovf_s7_q <= angles_theta_125_ovf_c;
       ovf4_s7_q <= ovf4_or_s6;
-      ovf6_s7_q <= ovf6_s6_q;
     end
     if (load_s8) begin
       angles_xy_129_q <= angles_xy_129_d;
-      angles_xy_129_ovf_q <= angles_xy_129_ovf_d;
       angles_xy_130_q <= angles_xy_130_d;
-      angles_xy_130_ovf_q <= angles_xy_130_ovf_d;
       angles_theta_131_q <= angles_theta_131_d;
-      angles_theta_131_ovf_q <= angles_theta_131_ovf_d;
       angles_xy_181_s8_q <= angles_xy_181_s7_q;
       angles_theta_188_s8_q <= angles_theta_188_s7_q;
       polar_index_257_s8_q <= polar_index_257_s7_q;
@@ -3359,21 +3111,16 @@ module pipeline_mapped (
       n_z_i_s8_q <= n_z_i_s7_q;
       ovf0_s8_q <= ovf0_s7_q;
       ovf1_s8_q <= ovf1_s7_q;
-      ovf2_s8_q <= ovf2_s7_q;
-      angles_xy_123_ovf_s8_q <= angles_xy_123_ovf_q;
-      angles_xy_124_ovf_s8_q <= angles_xy_124_ovf_q;
+      angles_xy_129_ovf_s8_q <= angles_xy_129_ovf_c;
+      angles_xy_130_ovf_s8_q <= angles_xy_130_ovf_c;
       ovf3_s8_q <= ovf3_or_s7;
-      angles_theta_125_ovf_s8_q <= angles_theta_125_ovf_q;
+      angles_theta_131_ovf_s8_q <= angles_theta_131_ovf_c;
       ovf4_s8_q <= ovf4_or_s7;
-      ovf6_s8_q <= ovf6_s7_q;
     end
     if (load_s9) begin
       angles_xy_135_q <= angles_xy_135_d;
-      angles_xy_135_ovf_q <= angles_xy_135_ovf_d;
       angles_xy_136_q <= angles_xy_136_d;
-      angles_xy_136_ovf_q <= angles_xy_136_ovf_d;
       angles_theta_137_q <= angles_theta_137_d;
-      angles_theta_137_ovf_q <= angles_theta_137_ovf_d;
       angles_xy_181_s9_q <= angles_xy_181_s8_q;
       angles_theta_188_s9_q <= angles_theta_188_s8_q;
       polar_index_257_s9_q <= polar_index_257_s8_q;
@@ -3383,21 +3130,16 @@ module pipeline_mapped (
       n_z_i_s9_q <= n_z_i_s8_q;
       ovf0_s9_q <= ovf0_s8_q;
       ovf1_s9_q <= ovf1_s8_q;
-      ovf2_s9_q <= ovf2_s8_q;
-      angles_xy_129_ovf_s9_q <= angles_xy_129_ovf_q;
-      angles_xy_130_ovf_s9_q <= angles_xy_130_ovf_q;
+      angles_xy_135_ovf_s9_q <= angles_xy_135_ovf_c;
+      angles_xy_136_ovf_s9_q <= angles_xy_136_ovf_c;
       ovf3_s9_q <= ovf3_or_s8;
-      angles_theta_131_ovf_s9_q <= angles_theta_131_ovf_q;
+      angles_theta_137_ovf_s9_q <= angles_theta_137_ovf_c;
       ovf4_s9_q <= ovf4_or_s8;
-      ovf6_s9_q <= ovf6_s8_q;
     end
     if (load_s10) begin
       angles_xy_141_q <= angles_xy_141_d;
-      angles_xy_141_ovf_q <= angles_xy_141_ovf_d;
       angles_xy_142_q <= angles_xy_142_d;
-      angles_xy_142_ovf_q <= angles_xy_142_ovf_d;
       angles_theta_143_q <= angles_theta_143_d;
-      angles_theta_143_ovf_q <= angles_theta_143_ovf_d;
       angles_xy_181_s10_q <= angles_xy_181_s9_q;
       angles_theta_188_s10_q <= angles_theta_188_s9_q;
       polar_index_257_s10_q <= polar_index_257_s9_q;
@@ -3407,21 +3149,16 @@ module pipeline_mapped (
       n_z_i_s10_q <= n_z_i_s9_q;
       ovf0_s10_q <= ovf0_s9_q;
       ovf1_s10_q <= ovf1_s9_q;
-      ovf2_s10_q <= ovf2_s9_q;
-      angles_xy_135_ovf_s10_q <= angles_xy_135_ovf_q;
-      angles_xy_136_ovf_s10_q <= angles_xy_136_ovf_q;
+      angles_xy_141_ovf_s10_q <= angles_xy_141_ovf_c;
+      angles_xy_142_ovf_s10_q <= angles_xy_142_ovf_c;
       ovf3_s10_q <= ovf3_or_s9;
-      angles_theta_137_ovf_s10_q <= angles_theta_137_ovf_q;
+      angles_theta_143_ovf_s10_q <= angles_theta_143_ovf_c;
       ovf4_s10_q <= ovf4_or_s9;
-      ovf6_s10_q <= ovf6_s9_q;
     end
     if (load_s11) begin
       angles_xy_147_q <= angles_xy_147_d;
-      angles_xy_147_ovf_q <= angles_xy_147_ovf_d;
       angles_xy_148_q <= angles_xy_148_d;
-      angles_xy_148_ovf_q <= angles_xy_148_ovf_d;
       angles_theta_149_q <= angles_theta_149_d;
-      angles_theta_149_ovf_q <= angles_theta_149_ovf_d;
       angles_xy_181_s11_q <= angles_xy_181_s10_q;
       angles_theta_188_s11_q <= angles_theta_188_s10_q;
       polar_index_257_s11_q <= polar_index_257_s10_q;
@@ -3431,21 +3168,16 @@ module pipeline_mapped (
       n_z_i_s11_q <= n_z_i_s10_q;
       ovf0_s11_q <= ovf0_s10_q;
       ovf1_s11_q <= ovf1_s10_q;
-      ovf2_s11_q <= ovf2_s10_q;
-      angles_xy_141_ovf_s11_q <= angles_xy_141_ovf_q;
-      angles_xy_142_ovf_s11_q <= angles_xy_142_ovf_q;
+      angles_xy_147_ovf_s11_q <= angles_xy_147_ovf_c;
+      angles_xy_148_ovf_s11_q <= angles_xy_148_ovf_c;
       ovf3_s11_q <= ovf3_or_s10;
-      angles_theta_143_ovf_s11_q <= angles_theta_143_ovf_q;
+      angles_theta_149_ovf_s11_q <= angles_theta_149_ovf_c;
       ovf4_s11_q <= ovf4_or_s10;
-      ovf6_s11_q <= ovf6_s10_q;
     end
     if (load_s12) begin
       angles_xy_153_q <= angles_xy_153_d;
-      angles_xy_153_ovf_q <= angles_xy_153_ovf_d;
       angles_xy_154_q <= angles_xy_154_d;
-      angles_xy_154_ovf_q <= angles_xy_154_ovf_d;
       angles_theta_155_q <= angles_theta_155_d;
-      angles_theta_155_ovf_q <= angles_theta_155_ovf_d;
       angles_xy_181_s12_q <= angles_xy_181_s11_q;
       angles_theta_188_s12_q <= angles_theta_188_s11_q;
       polar_index_257_s12_q <= polar_index_257_s11_q;
@@ -3455,21 +3187,16 @@ module pipeline_mapped (
       n_z_i_s12_q <= n_z_i_s11_q;
       ovf0_s12_q <= ovf0_s11_q;
       ovf1_s12_q <= ovf1_s11_q;
-      ovf2_s12_q <= ovf2_s11_q;
-      angles_xy_147_ovf_s12_q <= angles_xy_147_ovf_q;
-      angles_xy_148_ovf_s12_q <= angles_xy_148_ovf_q;
+      angles_xy_153_ovf_s12_q <= angles_xy_153_ovf_c;
+      angles_xy_154_ovf_s12_q <= angles_xy_154_ovf_c;
       ovf3_s12_q <= ovf3_or_s11;
-      angles_theta_149_ovf_s12_q <= angles_theta_149_ovf_q;
+      angles_theta_155_ovf_s12_q <= angles_theta_155_ovf_c;
       ovf4_s12_q <= ovf4_or_s11;
-      ovf6_s12_q <= ovf6_s11_q;
     end
     if (load_s13) begin
       angles_xy_159_q <= angles_xy_159_d;
-      angles_xy_159_ovf_q <= angles_xy_159_ovf_d;
       angles_xy_160_q <= angles_xy_160_d;
-      angles_xy_160_ovf_q <= angles_xy_160_ovf_d;
       angles_theta_161_q <= angles_theta_161_d;
-      angles_theta_161_ovf_q <= angles_theta_161_ovf_d;
       angles_xy_181_s13_q <= angles_xy_181_s12_q;
       angles_theta_188_s13_q <= angles_theta_188_s12_q;
       polar_index_257_s13_q <= polar_index_257_s12_q;
@@ -3479,21 +3206,16 @@ module pipeline_mapped (
       n_z_i_s13_q <= n_z_i_s12_q;
       ovf0_s13_q <= ovf0_s12_q;
       ovf1_s13_q <= ovf1_s12_q;
-      ovf2_s13_q <= ovf2_s12_q;
-      angles_xy_153_ovf_s13_q <= angles_xy_153_ovf_q;
-      angles_xy_154_ovf_s13_q <= angles_xy_154_ovf_q;
+      angles_xy_159_ovf_s13_q <= angles_xy_159_ovf_c;
+      angles_xy_160_ovf_s13_q <= angles_xy_160_ovf_c;
       ovf3_s13_q <= ovf3_or_s12;
-      angles_theta_155_ovf_s13_q <= angles_theta_155_ovf_q;
+      angles_theta_161_ovf_s13_q <= angles_theta_161_ovf_c;
       ovf4_s13_q <= ovf4_or_s12;
-      ovf6_s13_q <= ovf6_s12_q;
     end
     if (load_s14) begin
       angles_xy_165_q <= angles_xy_165_d;
-      angles_xy_165_ovf_q <= angles_xy_165_ovf_d;
       angles_xy_166_q <= angles_xy_166_d;
-      angles_xy_166_ovf_q <= angles_xy_166_ovf_d;
       angles_theta_167_q <= angles_theta_167_d;
-      angles_theta_167_ovf_q <= angles_theta_167_ovf_d;
       angles_xy_181_s14_q <= angles_xy_181_s13_q;
       angles_theta_188_s14_q <= angles_theta_188_s13_q;
       polar_index_257_s14_q <= polar_index_257_s13_q;
@@ -3503,21 +3225,16 @@ module pipeline_mapped (
       n_z_i_s14_q <= n_z_i_s13_q;
       ovf0_s14_q <= ovf0_s13_q;
       ovf1_s14_q <= ovf1_s13_q;
-      ovf2_s14_q <= ovf2_s13_q;
-      angles_xy_159_ovf_s14_q <= angles_xy_159_ovf_q;
-      angles_xy_160_ovf_s14_q <= angles_xy_160_ovf_q;
+      angles_xy_165_ovf_s14_q <= angles_xy_165_ovf_c;
+      angles_xy_166_ovf_s14_q <= angles_xy_166_ovf_c;
       ovf3_s14_q <= ovf3_or_s13;
-      angles_theta_161_ovf_s14_q <= angles_theta_161_ovf_q;
+      angles_theta_167_ovf_s14_q <= angles_theta_167_ovf_c;
       ovf4_s14_q <= ovf4_or_s13;
-      ovf6_s14_q <= ovf6_s13_q;
     end
     if (load_s15) begin
       angles_xy_171_q <= angles_xy_171_d;
-      angles_xy_171_ovf_q <= angles_xy_171_ovf_d;
       angles_xy_172_q <= angles_xy_172_d;
-      angles_xy_172_ovf_q <= angles_xy_172_ovf_d;
       angles_theta_173_q <= angles_theta_173_d;
-      angles_theta_173_ovf_q <= angles_theta_173_ovf_d;
       angles_xy_181_s15_q <= angles_xy_181_s14_q;
       angles_theta_188_s15_q <= angles_theta_188_s14_q;
       polar_index_257_s15_q <= polar_index_257_s14_q;
@@ -3527,19 +3244,15 @@ module pipeline_mapped (
       n_z_i_s15_q <= n_z_i_s14_q;
       ovf0_s15_q <= ovf0_s14_q;
       ovf1_s15_q <= ovf1_s14_q;
-      ovf2_s15_q <= ovf2_s14_q;
-      angles_xy_165_ovf_s15_q <= angles_xy_165_ovf_q;
-      angles_xy_166_ovf_s15_q <= angles_xy_166_ovf_q;
+      angles_xy_171_ovf_s15_q <= angles_xy_171_ovf_c;
+      angles_xy_172_ovf_s15_q <= angles_xy_172_ovf_c;
       ovf3_s15_q <= ovf3_or_s14;
-      angles_theta_167_ovf_s15_q <= angles_theta_167_ovf_q;
+      angles_theta_173_ovf_s15_q <= angles_theta_173_ovf_c;
       ovf4_s15_q <= ovf4_or_s14;
-      ovf6_s15_q <= ovf6_s14_q;
     end
     if (load_s16) begin
       angles_xy_177_q <= angles_xy_177_d;
-      angles_xy_177_ovf_q <= angles_xy_177_ovf_d;
       angles_theta_179_q <= angles_theta_179_d;
-      angles_theta_179_ovf_q <= angles_theta_179_ovf_d;
       angles_xy_181_s16_q <= angles_xy_181_s15_q;
       angles_theta_188_s16_q <= angles_theta_188_s15_q;
       polar_index_257_s16_q <= polar_index_257_s15_q;
@@ -3549,22 +3262,16 @@ module pipeline_mapped (
       n_z_i_s16_q <= n_z_i_s15_q;
       ovf0_s16_q <= ovf0_s15_q;
       ovf1_s16_q <= ovf1_s15_q;
-      ovf2_s16_q <= ovf2_s15_q;
-      angles_xy_171_ovf_s16_q <= angles_xy_171_ovf_q;
-      angles_xy_172_ovf_s16_q <= angles_xy_172_ovf_q;
+      angles_xy_177_ovf_s16_q <= angles_xy_177_ovf_c;
       ovf3_s16_q <= ovf3_or_s15;
-      angles_theta_173_ovf_s16_q <= angles_theta_173_ovf_q;
+      angles_theta_179_ovf_s16_q <= angles_theta_179_ovf_c;
       ovf4_s16_q <= ovf4_or_s15;
-      ovf6_s16_q <= ovf6_s15_q;
     end
     if (load_s17) begin
       angles_xy_186_q <= angles_xy_186_d;
-      angles_xy_186_ovf_q <= angles_xy_186_ovf_d;
       angles_xy_187_q <= angles_xy_187_d;
-      angles_xy_187_ovf_q <= angles_xy_187_ovf_d;
       angles_theta_188_s17_q <= angles_theta_188_s16_q;
       angles_out_256_q <= angles_out_256_d;
-      angles_out_256_ovf_q <= angles_out_256_ovf_d;
       polar_index_257_s17_q <= polar_index_257_s16_q;
       polar_index_279_s17_q <= polar_index_279_s16_q;
       n_x_i_s17_q <= n_x_i_s16_q;
@@ -3572,46 +3279,38 @@ module pipeline_mapped (
       n_z_i_s17_q <= n_z_i_s16_q;
       ovf0_s17_q <= ovf0_s16_q;
       ovf1_s17_q <= ovf1_s16_q;
-      ovf2_s17_q <= ovf2_s16_q;
-      angles_xy_177_ovf_s17_q <= angles_xy_177_ovf_q;
+      angles_xy_186_ovf_s17_q <= angles_xy_186_ovf_c;
+      angles_xy_187_ovf_s17_q <= angles_xy_187_ovf_c;
       ovf3_s17_q <= ovf3_or_s16;
-      angles_theta_179_ovf_s17_q <= angles_theta_179_ovf_q;
       ovf4_s17_q <= ovf4_or_s16;
-      ovf6_s17_q <= ovf6_s16_q;
+      angles_out_256_ovf_s17_q <= angles_out_256_ovf_c;
     end
     if (load_s18) begin
       angles_xy_192_q <= angles_xy_192_d;
-      angles_xy_192_ovf_q <= angles_xy_192_ovf_d;
       angles_xy_193_q <= angles_xy_193_d;
-      angles_xy_193_ovf_q <= angles_xy_193_ovf_d;
       angles_theta_194_q <= angles_theta_194_d;
-      angles_theta_194_ovf_q <= angles_theta_194_ovf_d;
       polar_index_259_q <= polar_index_259_d;
-      polar_index_259_ovf_q <= polar_index_259_ovf_d;
       polar_index_257_s18_q <= polar_index_257_s17_q;
       polar_index_281_q <= polar_index_281_d;
-      polar_index_281_ovf_q <= polar_index_281_ovf_d;
       polar_index_279_s18_q <= polar_index_279_s17_q;
       n_x_i_s18_q <= n_x_i_s17_q;
       n_y_i_s18_q <= n_y_i_s17_q;
       n_z_i_s18_q <= n_z_i_s17_q;
       ovf0_s18_q <= ovf0_s17_q;
       ovf1_s18_q <= ovf1_s17_q;
-      ovf2_s18_q <= ovf2_s17_q;
-      angles_xy_186_ovf_s18_q <= angles_xy_186_ovf_q;
-      angles_xy_187_ovf_s18_q <= angles_xy_187_ovf_q;
+      angles_xy_192_ovf_s18_q <= angles_xy_192_ovf_c;
+      angles_xy_193_ovf_s18_q <= angles_xy_193_ovf_c;
       ovf3_s18_q <= ovf3_or_s17;
-      ovf4_s18_q <= ovf4_or_s17;
-      angles_out_256_ovf_s18_q <= angles_out_256_ovf_q;
-      ovf6_s18_q <= ovf6_s17_q;
+      angles_theta_194_ovf_s18_q <= angles_theta_194_ovf_c;
+      ovf4_s18_q <= ovf4_s17_q;
+      ovf5_s18_q <= angles_out_256_ovf_s17_q;
+      polar_index_259_ovf_s18_q <= polar_index_259_ovf_c;
+      polar_index_281_ovf_s18_q <= polar_index_281_ovf_c;
     end
     if (load_s19) begin
       angles_xy_198_q <= angles_xy_198_d;
-      angles_xy_198_ovf_q <= angles_xy_198_ovf_d;
       angles_xy_199_q <= angles_xy_199_d;
-      angles_xy_199_ovf_q <= angles_xy_199_ovf_d;
       angles_theta_200_q <= angles_theta_200_d;
-      angles_theta_200_ovf_q <= angles_theta_200_ovf_d;
       cos_261_raw_q <= quarter_rom[cos_261_a[8:0]];
       cos_261_top_q <= cos_261_a[9];
       cos_261_neg_q <= cos_261_j[10];
@@ -3637,88 +3336,70 @@ module pipeline_mapped (
       n_z_i_s19_q <= n_z_i_s18_q;
       ovf0_s19_q <= ovf0_s18_q;
       ovf1_s19_q <= ovf1_s18_q;
-      ovf2_s19_q <= ovf2_s18_q;
-      angles_xy_192_ovf_s19_q <= angles_xy_192_ovf_q;
-      angles_xy_193_ovf_s19_q <= angles_xy_193_ovf_q;
+      angles_xy_198_ovf_s19_q <= angles_xy_198_ovf_c;
+      angles_xy_199_ovf_s19_q <= angles_xy_199_ovf_c;
       ovf3_s19_q <= ovf3_or_s18;
-      angles_theta_194_ovf_s19_q <= angles_theta_194_ovf_q;
-      ovf4_s19_q <= ovf4_s18_q;
-      ovf5_s19_q <= angles_out_256_ovf_s18_q;
-      polar_index_259_ovf_s19_q <= polar_index_259_ovf_q;
-      polar_index_281_ovf_s19_q <= polar_index_281_ovf_q;
-      ovf6_s19_q <= ovf6_s18_q;
+      angles_theta_200_ovf_s19_q <= angles_theta_200_ovf_c;
+      ovf4_s19_q <= ovf4_or_s18;
+      ovf5_s19_q <= ovf5_s18_q;
+      ovf6_s19_q <= ovf6_or_s18;
     end
     if (load_s20) begin
       angles_xy_204_q <= angles_xy_204_d;
-      angles_xy_204_ovf_q <= angles_xy_204_ovf_d;
       angles_xy_205_q <= angles_xy_205_d;
-      angles_xy_205_ovf_q <= angles_xy_205_ovf_d;
       angles_theta_206_q <= angles_theta_206_d;
-      angles_theta_206_ovf_q <= angles_theta_206_ovf_d;
       polar_index_257_s20_q <= polar_index_257_s19_q;
       polar_lyz_268_q <= polar_lyz_268_d;
-      polar_lyz_268_ovf_q <= polar_lyz_268_ovf_d;
       polar_out_270_q <= polar_out_270_d;
-      polar_out_270_ovf_q <= polar_out_270_ovf_d;
       polar_index_279_s20_q <= polar_index_279_s19_q;
       polar_lyz_290_q <= polar_lyz_290_d;
-      polar_lyz_290_ovf_q <= polar_lyz_290_ovf_d;
       polar_out_292_q <= polar_out_292_d;
-      polar_out_292_ovf_q <= polar_out_292_ovf_d;
       n_x_i_s20_q <= n_x_i_s19_q;
       n_y_i_s20_q <= n_y_i_s19_q;
       n_z_i_s20_q <= n_z_i_s19_q;
       ovf0_s20_q <= ovf0_s19_q;
       ovf1_s20_q <= ovf1_s19_q;
-      ovf2_s20_q <= ovf2_s19_q;
-      angles_xy_198_ovf_s20_q <= angles_xy_198_ovf_q;
-      angles_xy_199_ovf_s20_q <= angles_xy_199_ovf_q;
+      angles_xy_204_ovf_s20_q <= angles_xy_204_ovf_c;
+      angles_xy_205_ovf_s20_q <= angles_xy_205_ovf_c;
       ovf3_s20_q <= ovf3_or_s19;
-      angles_theta_200_ovf_s20_q <= angles_theta_200_ovf_q;
+      angles_theta_206_ovf_s20_q <= angles_theta_206_ovf_c;
       ovf4_s20_q <= ovf4_or_s19;
       ovf5_s20_q <= ovf5_s19_q;
-      ovf6_s20_q <= ovf6_or_s19;
+      ovf6_s20_q <= ovf6_s19_q;
+      polar_lyz_268_ovf_s20_q <= polar_lyz_268_ovf_c;
+      polar_lyz_290_ovf_s20_q <= polar_lyz_290_ovf_c;
+      polar_out_270_ovf_s20_q <= polar_out_270_ovf_c;
+      polar_out_292_ovf_s20_q <= polar_out_292_ovf_c;
     end
     if (load_s21) begin
       angles_xy_210_q <= angles_xy_210_d;
-      angles_xy_210_ovf_q <= angles_xy_210_ovf_d;
       angles_xy_211_q <= angles_xy_211_d;
-      angles_xy_211_ovf_q <= angles_xy_211_ovf_d;
       angles_theta_212_q <= angles_theta_212_d;
-      angles_theta_212_ovf_q <= angles_theta_212_ovf_d;
       polar_index_257_s21_q <= polar_index_257_s20_q;
       polar_lyz_268_s21_q <= polar_lyz_268_q;
       polar_index_279_s21_q <= polar_index_279_s20_q;
       polar_lyz_290_s21_q <= polar_lyz_290_q;
       lighting_light_301_q <= lighting_light_301_d;
-      lighting_light_301_ovf_q <= lighting_light_301_ovf_d;
       lighting_light_304_q <= lighting_light_304_d;
-      lighting_light_304_ovf_q <= lighting_light_304_ovf_d;
       n_x_i_s21_q <= n_x_i_s20_q;
       n_y_i_s21_q <= n_y_i_s20_q;
       n_z_i_s21_q <= n_z_i_s20_q;
       ovf0_s21_q <= ovf0_s20_q;
       ovf1_s21_q <= ovf1_s20_q;
-      ovf2_s21_q <= ovf2_s20_q;
-      angles_xy_204_ovf_s21_q <= angles_xy_204_ovf_q;
-      angles_xy_205_ovf_s21_q <= angles_xy_205_ovf_q;
+      angles_xy_210_ovf_s21_q <= angles_xy_210_ovf_c;
+      angles_xy_211_ovf_s21_q <= angles_xy_211_ovf_c;
       ovf3_s21_q <= ovf3_or_s20;
-      angles_theta_206_ovf_s21_q <= angles_theta_206_ovf_q;
+      angles_theta_212_ovf_s21_q <= angles_theta_212_ovf_c;
       ovf4_s21_q <= ovf4_or_s20;
       ovf5_s21_q <= ovf5_s20_q;
       ovf6_s21_q <= ovf6_s20_q;
-      polar_lyz_268_ovf_s21_q <= polar_lyz_268_ovf_q;
-      polar_lyz_290_ovf_s21_q <= polar_lyz_290_ovf_q;
-      polar_out_270_ovf_s21_q <= polar_out_270_ovf_q;
-      polar_out_292_ovf_s21_q <= polar_out_292_ovf_q;
+      ovf7_s21_q <= ovf7_or_s20;
+      ovf8_s21_q <= ovf8_or_s20;
     end
     if (load_s22) begin
       angles_xy_216_q <= angles_xy_216_d;
-      angles_xy_216_ovf_q <= angles_xy_216_ovf_d;
       angles_xy_217_q <= angles_xy_217_d;
-      angles_xy_217_ovf_q <= angles_xy_217_ovf_d;
       angles_theta_218_q <= angles_theta_218_d;
-      angles_theta_218_ovf_q <= angles_theta_218_ovf_d;
       polar_index_257_s22_q <= polar_index_257_s21_q;
       polar_lyz_268_s22_q <= polar_lyz_268_s21_q;
       polar_index_279_s22_q <= polar_index_279_s21_q;
@@ -3729,26 +3410,20 @@ module pipeline_mapped (
       t314_s22_q <= t314;
       ovf0_s22_q <= ovf0_s21_q;
       ovf1_s22_q <= ovf1_s21_q;
-      ovf2_s22_q <= ovf2_s21_q;
-      angles_xy_210_ovf_s22_q <= angles_xy_210_ovf_q;
-      angles_xy_211_ovf_s22_q <= angles_xy_211_ovf_q;
+      angles_xy_216_ovf_s22_q <= angles_xy_216_ovf_c;
+      angles_xy_217_ovf_s22_q <= angles_xy_217_ovf_c;
       ovf3_s22_q <= ovf3_or_s21;
-      angles_theta_212_ovf_s22_q <= angles_theta_212_ovf_q;
+      angles_theta_218_ovf_s22_q <= angles_theta_218_ovf_c;
       ovf4_s22_q <= ovf4_or_s21;
       ovf5_s22_q <= ovf5_s21_q;
       ovf6_s22_q <= ovf6_s21_q;
-      ovf7_s22_q <= ovf7_or_s21;
-      ovf8_s22_q <= ovf8_or_s21;
-      lighting_light_301_ovf_s22_q <= lighting_light_301_ovf_q;
-      lighting_light_304_ovf_s22_q <= lighting_light_304_ovf_q;
+      ovf7_s22_q <= ovf7_s21_q;
+      ovf8_s22_q <= ovf8_s21_q;
     end
     if (load_s23) begin
       angles_xy_222_q <= angles_xy_222_d;
-      angles_xy_222_ovf_q <= angles_xy_222_ovf_d;
       angles_xy_223_q <= angles_xy_223_d;
-      angles_xy_223_ovf_q <= angles_xy_223_ovf_d;
       angles_theta_224_q <= angles_theta_224_d;
-      angles_theta_224_ovf_q <= angles_theta_224_ovf_d;
       polar_index_257_s23_q <= polar_index_257_s22_q;
       polar_lyz_268_s23_q <= polar_lyz_268_s22_q;
       polar_index_279_s23_q <= polar_index_279_s22_q;
@@ -3759,25 +3434,20 @@ module pipeline_mapped (
       t314_s23_q <= t314_s22_q;
       ovf0_s23_q <= ovf0_s22_q;
       ovf1_s23_q <= ovf1_s22_q;
-      ovf2_s23_q <= ovf2_s22_q;
-      angles_xy_216_ovf_s23_q <= angles_xy_216_ovf_q;
-      angles_xy_217_ovf_s23_q <= angles_xy_217_ovf_q;
+      angles_xy_222_ovf_s23_q <= angles_xy_222_ovf_c;
+      angles_xy_223_ovf_s23_q <= angles_xy_223_ovf_c;
       ovf3_s23_q <= ovf3_or_s22;
-      angles_theta_218_ovf_s23_q <= angles_theta_218_ovf_q;
+      angles_theta_224_ovf_s23_q <= angles_theta_224_ovf_c;
       ovf4_s23_q <= ovf4_or_s22;
       ovf5_s23_q <= ovf5_s22_q;
       ovf6_s23_q <= ovf6_s22_q;
       ovf7_s23_q <= ovf7_s22_q;
       ovf8_s23_q <= ovf8_s22_q;
-      ovf9_s23_q <= ovf9_or_s22;
     end
     if (load_s24) begin
       angles_xy_228_q <= angles_xy_228_d;
-      angles_xy_228_ovf_q <= angles_xy_228_ovf_d;
       angles_xy_229_q <= angles_xy_229_d;
-      angles_xy_229_ovf_q <= angles_xy_229_ovf_d;
       angles_theta_230_q <= angles_theta_230_d;
-      angles_theta_230_ovf_q <= angles_theta_230_ovf_d;
       polar_index_257_s24_q <= polar_index_257_s23_q;
       polar_lyz_268_s24_q <= polar_lyz_268_s23_q;
       polar_index_279_s24_q <= polar_index_279_s23_q;
@@ -3788,25 +3458,20 @@ module pipeline_mapped (
       t314_s24_q <= t314_s23_q;
       ovf0_s24_q <= ovf0_s23_q;
       ovf1_s24_q <= ovf1_s23_q;
-      ovf2_s24_q <= ovf2_s23_q;
-      angles_xy_222_ovf_s24_q <= angles_xy_222_ovf_q;
-      angles_xy_223_ovf_s24_q <= angles_xy_223_ovf_q;
+      angles_xy_228_ovf_s24_q <= angles_xy_228_ovf_c;
+      angles_xy_229_ovf_s24_q <= angles_xy_229_ovf_c;
       ovf3_s24_q <= ovf3_or_s23;
-      angles_theta_224_ovf_s24_q <= angles_theta_224_ovf_q;
+      angles_theta_230_ovf_s24_q <= angles_theta_230_ovf_c;
       ovf4_s24_q <= ovf4_or_s23;
       ovf5_s24_q <= ovf5_s23_q;
       ovf6_s24_q <= ovf6_s23_q;
       ovf7_s24_q <= ovf7_s23_q;
       ovf8_s24_q <= ovf8_s23_q;
-      ovf9_s24_q <= ovf9_s23_q;
     end
     if (load_s25) begin
       angles_xy_234_q <= angles_xy_234_d;
-      angles_xy_234_ovf_q <= angles_xy_234_ovf_d;
       angles_xy_235_q <= angles_xy_235_d;
-      angles_xy_235_ovf_q <= angles_xy_235_ovf_d;
       angles_theta_236_q <= angles_theta_236_d;
-      angles_theta_236_ovf_q <= angles_theta_236_ovf_d;
       polar_index_257_s25_q <= polar_index_257_s24_q;
       polar_lyz_268_s25_q <= polar_lyz_268_s24_q;
       polar_index_279_s25_q <= polar_index_279_s24_q;
@@ -3817,25 +3482,20 @@ module pipeline_mapped (
       t314_s25_q <= t314_s24_q;
       ovf0_s25_q <= ovf0_s24_q;
       ovf1_s25_q <= ovf1_s24_q;
-      ovf2_s25_q <= ovf2_s24_q;
-      angles_xy_228_ovf_s25_q <= angles_xy_228_ovf_q;
-      angles_xy_229_ovf_s25_q <= angles_xy_229_ovf_q;
+      angles_xy_234_ovf_s25_q <= angles_xy_234_ovf_c;
+      angles_xy_235_ovf_s25_q <= angles_xy_235_ovf_c;
       ovf3_s25_q <= ovf3_or_s24;
-      angles_theta_230_ovf_s25_q <= angles_theta_230_ovf_q;
+      angles_theta_236_ovf_s25_q <= angles_theta_236_ovf_c;
       ovf4_s25_q <= ovf4_or_s24;
       ovf5_s25_q <= ovf5_s24_q;
       ovf6_s25_q <= ovf6_s24_q;
       ovf7_s25_q <= ovf7_s24_q;
       ovf8_s25_q <= ovf8_s24_q;
-      ovf9_s25_q <= ovf9_s24_q;
     end
     if (load_s26) begin
       angles_xy_240_q <= angles_xy_240_d;
-      angles_xy_240_ovf_q <= angles_xy_240_ovf_d;
       angles_xy_241_q <= angles_xy_241_d;
-      angles_xy_241_ovf_q <= angles_xy_241_ovf_d;
       angles_theta_242_q <= angles_theta_242_d;
-      angles_theta_242_ovf_q <= angles_theta_242_ovf_d;
       polar_index_257_s26_q <= polar_index_257_s25_q;
       polar_lyz_268_s26_q <= polar_lyz_268_s25_q;
       polar_index_279_s26_q <= polar_index_279_s25_q;
@@ -3846,23 +3506,19 @@ module pipeline_mapped (
       t314_s26_q <= t314_s25_q;
       ovf0_s26_q <= ovf0_s25_q;
       ovf1_s26_q <= ovf1_s25_q;
-      ovf2_s26_q <= ovf2_s25_q;
-      angles_xy_234_ovf_s26_q <= angles_xy_234_ovf_q;
-      angles_xy_235_ovf_s26_q <= angles_xy_235_ovf_q;
+      angles_xy_240_ovf_s26_q <= angles_xy_240_ovf_c;
+      angles_xy_241_ovf_s26_q <= angles_xy_241_ovf_c;
       ovf3_s26_q <= ovf3_or_s25;
-      angles_theta_236_ovf_s26_q <= angles_theta_236_ovf_q;
+      angles_theta_242_ovf_s26_q <= angles_theta_242_ovf_c;
       ovf4_s26_q <= ovf4_or_s25;
       ovf5_s26_q <= ovf5_s25_q;
       ovf6_s26_q <= ovf6_s25_q;
       ovf7_s26_q <= ovf7_s25_q;
       ovf8_s26_q <= ovf8_s25_q;
-      ovf9_s26_q <= ovf9_s25_q;
     end
     if (load_s27) begin
       angles_xy_247_q <= angles_xy_247_d;
-      angles_xy_247_ovf_q <= angles_xy_247_ovf_d;
       angles_theta_248_q <= angles_theta_248_d;
-      angles_theta_248_ovf_q <= angles_theta_248_ovf_d;
       polar_index_257_s27_q <= polar_index_257_s26_q;
       polar_lyz_268_s27_q <= polar_lyz_268_s26_q;
       polar_index_279_s27_q <= polar_index_279_s26_q;
@@ -3873,21 +3529,17 @@ module pipeline_mapped (
       t314_s27_q <= t314_s26_q;
       ovf0_s27_q <= ovf0_s26_q;
       ovf1_s27_q <= ovf1_s26_q;
-      ovf2_s27_q <= ovf2_s26_q;
-      angles_xy_240_ovf_s27_q <= angles_xy_240_ovf_q;
-      angles_xy_241_ovf_s27_q <= angles_xy_241_ovf_q;
+      angles_xy_247_ovf_s27_q <= angles_xy_247_ovf_c;
       ovf3_s27_q <= ovf3_or_s26;
-      angles_theta_242_ovf_s27_q <= angles_theta_242_ovf_q;
+      angles_theta_248_ovf_s27_q <= angles_theta_248_ovf_c;
       ovf4_s27_q <= ovf4_or_s26;
       ovf5_s27_q <= ovf5_s26_q;
       ovf6_s27_q <= ovf6_s26_q;
       ovf7_s27_q <= ovf7_s26_q;
       ovf8_s27_q <= ovf8_s26_q;
-      ovf9_s27_q <= ovf9_s26_q;
     end
     if (load_s28) begin
       angles_theta_254_q <= angles_theta_254_d;
-      angles_theta_254_ovf_q <= angles_theta_254_ovf_d;
       polar_index_257_s28_q <= polar_index_257_s27_q;
       polar_lyz_268_s28_q <= polar_lyz_268_s27_q;
       polar_index_279_s28_q <= polar_index_279_s27_q;
@@ -3898,20 +3550,16 @@ module pipeline_mapped (
       t314_s28_q <= t314_s27_q;
       ovf0_s28_q <= ovf0_s27_q;
       ovf1_s28_q <= ovf1_s27_q;
-      ovf2_s28_q <= ovf2_s27_q;
-      angles_xy_247_ovf_s28_q <= angles_xy_247_ovf_q;
       ovf3_s28_q <= ovf3_or_s27;
-      angles_theta_248_ovf_s28_q <= angles_theta_248_ovf_q;
+      angles_theta_254_ovf_s28_q <= angles_theta_254_ovf_c;
       ovf4_s28_q <= ovf4_or_s27;
       ovf5_s28_q <= ovf5_s27_q;
       ovf6_s28_q <= ovf6_s27_q;
       ovf7_s28_q <= ovf7_s27_q;
       ovf8_s28_q <= ovf8_s27_q;
-      ovf9_s28_q <= ovf9_s27_q;
     end
     if (load_s29) begin
       angles_out_255_q <= angles_out_255_d;
-      angles_out_255_ovf_q <= angles_out_255_ovf_d;
       polar_index_257_s29_q <= polar_index_257_s28_q;
       polar_lyz_268_s29_q <= polar_lyz_268_s28_q;
       polar_index_279_s29_q <= polar_index_279_s28_q;
@@ -3922,23 +3570,19 @@ module pipeline_mapped (
       t314_s29_q <= t314_s28_q;
       ovf0_s29_q <= ovf0_s28_q;
       ovf1_s29_q <= ovf1_s28_q;
-      ovf2_s29_q <= ovf2_s28_q;
-      ovf3_s29_q <= ovf3_or_s28;
-      angles_theta_254_ovf_s29_q <= angles_theta_254_ovf_q;
+      ovf3_s29_q <= ovf3_s28_q;
       ovf4_s29_q <= ovf4_or_s28;
+      angles_out_255_ovf_s29_q <= angles_out_255_ovf_c;
       ovf5_s29_q <= ovf5_s28_q;
       ovf6_s29_q <= ovf6_s28_q;
       ovf7_s29_q <= ovf7_s28_q;
       ovf8_s29_q <= ovf8_s28_q;
-      ovf9_s29_q <= ovf9_s28_q;
     end
     if (load_s30) begin
       polar_index_260_q <= polar_index_260_d;
-      polar_index_260_ovf_q <= polar_index_260_ovf_d;
       polar_index_257_s30_q <= polar_index_257_s29_q;
       polar_lyz_268_s30_q <= polar_lyz_268_s29_q;
       polar_index_282_q <= polar_index_282_d;
-      polar_index_282_ovf_q <= polar_index_282_ovf_d;
       polar_index_279_s30_q <= polar_index_279_s29_q;
       polar_lyz_290_s30_q <= polar_lyz_290_s29_q;
       n_y_i_s30_q <= n_y_i_s29_q;
@@ -3947,15 +3591,12 @@ module pipeline_mapped (
       t314_s30_q <= t314_s29_q;
       ovf0_s30_q <= ovf0_s29_q;
       ovf1_s30_q <= ovf1_s29_q;
-      ovf2_s30_q <= ovf2_s29_q;
       ovf3_s30_q <= ovf3_s29_q;
-      ovf4_s30_q <= ovf4_or_s29;
-      angles_out_255_ovf_s30_q <= angles_out_255_ovf_q;
-      ovf5_s30_q <= ovf5_s29_q;
+      ovf4_s30_q <= ovf4_s29_q;
+      ovf5_s30_q <= ovf5_or_s29;
       ovf6_s30_q <= ovf6_s29_q;
       ovf7_s30_q <= ovf7_s29_q;
       ovf8_s30_q <= ovf8_s29_q;
-      ovf9_s30_q <= ovf9_s29_q;
     end
     if (load_s31) begin
       sin_262_raw_q <= quarter_rom[sin_262_a[8:0]];
@@ -3984,202 +3625,163 @@ module pipeline_mapped (
       t314_s31_q <= t314_s30_q;
       ovf0_s31_q <= ovf0_s30_q;
       ovf1_s31_q <= ovf1_s30_q;
-      ovf2_s31_q <= ovf2_s30_q;
       ovf3_s31_q <= ovf3_s30_q;
       ovf4_s31_q <= ovf4_s30_q;
-      ovf5_s31_q <= ovf5_or_s30;
-      polar_index_260_ovf_s31_q <= polar_index_260_ovf_q;
-      polar_index_282_ovf_s31_q <= polar_index_282_ovf_q;
+      ovf5_s31_q <= ovf5_s30_q;
       ovf6_s31_q <= ovf6_s30_q;
       ovf7_s31_q <= ovf7_s30_q;
       ovf8_s31_q <= ovf8_s30_q;
-      ovf9_s31_q <= ovf9_s30_q;
     end
     if (load_s32) begin
       polar_out_274_q <= polar_out_274_d;
-      polar_out_274_ovf_q <= polar_out_274_ovf_d;
       polar_out_278_q <= polar_out_278_d;
-      polar_out_278_ovf_q <= polar_out_278_ovf_d;
       polar_out_296_q <= polar_out_296_d;
-      polar_out_296_ovf_q <= polar_out_296_ovf_d;
       polar_out_300_q <= polar_out_300_d;
-      polar_out_300_ovf_q <= polar_out_300_ovf_d;
       n_y_i_s32_q <= n_y_i_s31_q;
       n_z_i_s32_q <= n_z_i_s31_q;
       t307_s32_q <= t307_s31_q;
       t314_s32_q <= t314_s31_q;
       ovf0_s32_q <= ovf0_s31_q;
       ovf1_s32_q <= ovf1_s31_q;
-      ovf2_s32_q <= ovf2_s31_q;
       ovf3_s32_q <= ovf3_s31_q;
       ovf4_s32_q <= ovf4_s31_q;
       ovf5_s32_q <= ovf5_s31_q;
-      ovf6_s32_q <= ovf6_or_s31;
+      ovf6_s32_q <= ovf6_s31_q;
       ovf7_s32_q <= ovf7_s31_q;
+      polar_out_274_ovf_s32_q <= polar_out_274_ovf_c;
+      polar_out_278_ovf_s32_q <= polar_out_278_ovf_c;
+      polar_out_296_ovf_s32_q <= polar_out_296_ovf_c;
+      polar_out_300_ovf_s32_q <= polar_out_300_ovf_c;
       ovf8_s32_q <= ovf8_s31_q;
-      ovf9_s32_q <= ovf9_s31_q;
     end
     if (load_s33) begin
       lighting_light_302_q <= lighting_light_302_d;
-      lighting_light_302_ovf_q <= lighting_light_302_ovf_d;
       lighting_light_303_q <= lighting_light_303_d;
-      lighting_light_303_ovf_q <= lighting_light_303_ovf_d;
       lighting_light_305_q <= lighting_light_305_d;
-      lighting_light_305_ovf_q <= lighting_light_305_ovf_d;
       lighting_light_306_q <= lighting_light_306_d;
-      lighting_light_306_ovf_q <= lighting_light_306_ovf_d;
       n_y_i_s33_q <= n_y_i_s32_q;
       n_z_i_s33_q <= n_z_i_s32_q;
       t307_s33_q <= t307_s32_q;
       t314_s33_q <= t314_s32_q;
       ovf0_s33_q <= ovf0_s32_q;
       ovf1_s33_q <= ovf1_s32_q;
-      ovf2_s33_q <= ovf2_s32_q;
       ovf3_s33_q <= ovf3_s32_q;
       ovf4_s33_q <= ovf4_s32_q;
       ovf5_s33_q <= ovf5_s32_q;
       ovf6_s33_q <= ovf6_s32_q;
       ovf7_s33_q <= ovf7_s32_q;
-      polar_out_274_ovf_s33_q <= polar_out_274_ovf_q;
-      polar_out_278_ovf_s33_q <= polar_out_278_ovf_q;
-      polar_out_296_ovf_s33_q <= polar_out_296_ovf_q;
-      polar_out_300_ovf_s33_q <= polar_out_300_ovf_q;
-      ovf8_s33_q <= ovf8_s32_q;
-      ovf9_s33_q <= ovf9_s32_q;
+      ovf8_s33_q <= ovf8_or_s32;
     end
     if (load_s34) begin
       lighting_dot_312_q <= lighting_dot_312_d;
-      lighting_dot_312_ovf_q <= lighting_dot_312_ovf_d;
       lighting_dot_319_q <= lighting_dot_319_d;
-      lighting_dot_319_ovf_q <= lighting_dot_319_ovf_d;
       ovf0_s34_q <= ovf0_s33_q;
       ovf1_s34_q <= ovf1_s33_q;
-      ovf2_s34_q <= ovf2_s33_q;
       ovf3_s34_q <= ovf3_s33_q;
       ovf4_s34_q <= ovf4_s33_q;
       ovf5_s34_q <= ovf5_s33_q;
       ovf6_s34_q <= ovf6_s33_q;
       ovf7_s34_q <= ovf7_s33_q;
-      ovf8_s34_q <= ovf8_or_s33;
-      lighting_light_302_ovf_s34_q <= lighting_light_302_ovf_q;
-      lighting_light_303_ovf_s34_q <= lighting_light_303_ovf_q;
-      lighting_light_305_ovf_s34_q <= lighting_light_305_ovf_q;
-      lighting_light_306_ovf_s34_q <= lighting_light_306_ovf_q;
-      ovf9_s34_q <= ovf9_s33_q;
+      ovf8_s34_q <= ovf8_s33_q;
+      lighting_dot_312_ovf_s34_q <= lighting_dot_312_ovf_c;
+      lighting_dot_319_ovf_s34_q <= lighting_dot_319_ovf_c;
     end
     if (load_s35) begin
       lighting_spec_321_q <= lighting_spec_321_d;
-      lighting_spec_321_ovf_q <= lighting_spec_321_ovf_d;
       t330_s35_q <= t330;
       ovf0_s35_q <= ovf0_s34_q;
       ovf1_s35_q <= ovf1_s34_q;
-      ovf2_s35_q <= ovf2_s34_q;
       ovf3_s35_q <= ovf3_s34_q;
       ovf4_s35_q <= ovf4_s34_q;
       ovf5_s35_q <= ovf5_s34_q;
       ovf6_s35_q <= ovf6_s34_q;
       ovf7_s35_q <= ovf7_s34_q;
       ovf8_s35_q <= ovf8_s34_q;
-      ovf9_s35_q <= ovf9_or_s34;
-      lighting_dot_312_ovf_s35_q <= lighting_dot_312_ovf_q;
-      lighting_dot_319_ovf_s35_q <= lighting_dot_319_ovf_q;
+      ovf10_s35_q <= ovf10_or_s34;
+      lighting_spec_321_ovf_s35_q <= lighting_spec_321_ovf_c;
     end
     if (load_s36) begin
       lighting_spec_323_q <= lighting_spec_323_d;
-      lighting_spec_323_ovf_q <= lighting_spec_323_ovf_d;
       t330_s36_q <= t330_s35_q;
       ovf0_s36_q <= ovf0_s35_q;
       ovf1_s36_q <= ovf1_s35_q;
-      ovf2_s36_q <= ovf2_s35_q;
       ovf3_s36_q <= ovf3_s35_q;
       ovf4_s36_q <= ovf4_s35_q;
       ovf5_s36_q <= ovf5_s35_q;
       ovf6_s36_q <= ovf6_s35_q;
       ovf7_s36_q <= ovf7_s35_q;
       ovf8_s36_q <= ovf8_s35_q;
-      ovf9_s36_q <= ovf9_s35_q;
-      ovf10_s36_q <= ovf10_or_s35;
-      lighting_spec_321_ovf_s36_q <= lighting_spec_321_ovf_q;
+      ovf10_s36_q <= ovf10_s35_q;
+      lighting_spec_323_ovf_s36_q <= lighting_spec_323_ovf_c;
+      ovf11_s36_q <= lighting_spec_321_ovf_s35_q;
     end
     if (load_s37) begin
       lighting_spec_325_q <= lighting_spec_325_d;
-      lighting_spec_325_ovf_q <= lighting_spec_325_ovf_d;
       t330_s37_q <= t330_s36_q;
       ovf0_s37_q <= ovf0_s36_q;
       ovf1_s37_q <= ovf1_s36_q;
-      ovf2_s37_q <= ovf2_s36_q;
       ovf3_s37_q <= ovf3_s36_q;
       ovf4_s37_q <= ovf4_s36_q;
       ovf5_s37_q <= ovf5_s36_q;
       ovf6_s37_q <= ovf6_s36_q;
       ovf7_s37_q <= ovf7_s36_q;
       ovf8_s37_q <= ovf8_s36_q;
-      ovf9_s37_q <= ovf9_s36_q;
       ovf10_s37_q <= ovf10_s36_q;
-      lighting_spec_323_ovf_s37_q <= lighting_spec_323_ovf_q;
-      ovf11_s37_q <= lighting_spec_321_ovf_s36_q;
+      lighting_spec_325_ovf_s37_q <= lighting_spec_325_ovf_c;
+      ovf11_s37_q <= ovf11_or_s36;
     end
     if (load_s38) begin
       lighting_spec_327_q <= lighting_spec_327_d;
-      lighting_spec_327_ovf_q <= lighting_spec_327_ovf_d;
       t330_s38_q <= t330_s37_q;
       ovf0_s38_q <= ovf0_s37_q;
       ovf1_s38_q <= ovf1_s37_q;
-      ovf2_s38_q <= ovf2_s37_q;
       ovf3_s38_q <= ovf3_s37_q;
       ovf4_s38_q <= ovf4_s37_q;
       ovf5_s38_q <= ovf5_s37_q;
       ovf6_s38_q <= ovf6_s37_q;
       ovf7_s38_q <= ovf7_s37_q;
       ovf8_s38_q <= ovf8_s37_q;
-      ovf9_s38_q <= ovf9_s37_q;
       ovf10_s38_q <= ovf10_s37_q;
-      lighting_spec_325_ovf_s38_q <= lighting_spec_325_ovf_q;
+      lighting_spec_327_ovf_s38_q <= lighting_spec_327_ovf_c;
       ovf11_s38_q <= ovf11_or_s37;
     end
     if (load_s39) begin
       lighting_spec_329_q <= lighting_spec_329_d;
-      lighting_spec_329_ovf_q <= lighting_spec_329_ovf_d;
       t330_s39_q <= t330_s38_q;
       ovf0_s39_q <= ovf0_s38_q;
       ovf1_s39_q <= ovf1_s38_q;
-      ovf2_s39_q <= ovf2_s38_q;
       ovf3_s39_q <= ovf3_s38_q;
       ovf4_s39_q <= ovf4_s38_q;
       ovf5_s39_q <= ovf5_s38_q;
       ovf6_s39_q <= ovf6_s38_q;
       ovf7_s39_q <= ovf7_s38_q;
       ovf8_s39_q <= ovf8_s38_q;
-      ovf9_s39_q <= ovf9_s38_q;
       ovf10_s39_q <= ovf10_s38_q;
-      lighting_spec_327_ovf_s39_q <= lighting_spec_327_ovf_q;
+      lighting_spec_329_ovf_s39_q <= lighting_spec_329_ovf_c;
       ovf11_s39_q <= ovf11_or_s38;
     end
     if (load_s40) begin
       lighting_level_333_q <= lighting_level_333_d;
-      lighting_level_333_ovf_q <= lighting_level_333_ovf_d;
       ovf0_s40_q <= ovf0_s39_q;
       ovf1_s40_q <= ovf1_s39_q;
-      ovf2_s40_q <= ovf2_s39_q;
       ovf3_s40_q <= ovf3_s39_q;
       ovf4_s40_q <= ovf4_s39_q;
       ovf5_s40_q <= ovf5_s39_q;
       ovf6_s40_q <= ovf6_s39_q;
       ovf7_s40_q <= ovf7_s39_q;
       ovf8_s40_q <= ovf8_s39_q;
-      ovf9_s40_q <= ovf9_s39_q;
       ovf10_s40_q <= ovf10_s39_q;
-      lighting_spec_329_ovf_s40_q <= lighting_spec_329_ovf_q;
       ovf11_s40_q <= ovf11_or_s39;
+      lighting_level_333_ovf_s40_q <= lighting_level_333_ovf_c;
     end
   end
 
   // Output buffer: the head drives the ports; the skid register takes the
   // item that leaves the last stage while the head is stalled.
   wire [20:0] last_d =
-      {lighting_level_333_q, (ovf0_s40_q), (ovf1_s40_q), (ovf2_s40_q), (ovf3_s40_q), (ovf4_s40_q),
-      (ovf5_s40_q), (ovf6_s40_q), (ovf7_s40_q), (ovf8_s40_q), (ovf9_s40_q), (ovf10_s40_q),
-      (ovf11_or_s40), (lighting_level_333_ovf_q)};
+      {lighting_level_333_q, (ovf0_s40_q), (ovf1_s40_q), (1'b0), (ovf3_s40_q), (ovf4_s40_q),
+      (ovf5_s40_q), (ovf6_s40_q), (ovf7_s40_q), (ovf8_s40_q), (1'b0), (ovf10_s40_q), (ovf11_s40_q),
+      (lighting_level_333_ovf_s40_q)};
   reg  [20:0] out_q, skid_q;
   always @(posedge clk_i) begin
     if (out_load & (skid_valid | out_arrive)) out_q <= skid_valid ? skid_q : last_d;
@@ -4291,7 +3893,8 @@ module pipeline_mapped (
       t202[2:0], angles_xy_205_q[20:0], t207[3:0], t208[3:0], angles_xy_211_q[20:0], t213[4:0],
       t214[4:0], angles_xy_217_q[20:0], t219[5:0], t220[5:0], angles_xy_223_q[20:0], t225[6:0],
       t226[6:0], angles_xy_229_q[20:0], t231[7:0], t232[7:0], angles_xy_235_q[20:0], t237[8:0],
-      t238[8:0], angles_xy_241_q[20:0], t244[9:0], angles_xy_247_q[20:0]};
+      t238[8:0], angles_xy_241_q[20:0], t244[9:0], angles_xy_247_q[20:0], polar_index_257_ovf_c,
+      polar_index_260_ovf_c, polar_index_279_ovf_c, polar_index_282_ovf_c};
 endmodule
 
 `default_nettype wire

@@ -777,11 +777,10 @@ module pipeline_mapped_interp (
   wire signed [14:0] angle_interp_angle_22_r =
       $signed({angle_interp_angle_22_up[14:1], angle_interp_angle_22_up[0]
       & ~angle_interp_angle_22_tie});
-  wire angle_interp_angle_22_ovf_d =
+  wire angle_interp_angle_22_ovf_c =
       angle_interp_angle_22_r[14] | (|angle_interp_angle_22_r[13:11]);
   wire [10:0] angle_interp_angle_22_d = angle_interp_angle_22_r[10:0];
   reg  [10:0] angle_interp_angle_22_q;
-  reg  [0:0] angle_interp_angle_22_ovf_q;
   wire signed [10:0] db1_bank_s0 = tri_cur_q ? db1_b1_q : db1_b0_q;
   wire signed [16:0] t23_a = $signed({1'b0, c1_i});
   wire signed [26:0] t23 = t23_a * db1_bank_s0;
@@ -796,24 +795,20 @@ module pipeline_mapped_interp (
   wire signed [14:0] angle_interp_angle_27_r =
       $signed({angle_interp_angle_27_up[14:1], angle_interp_angle_27_up[0]
       & ~angle_interp_angle_27_tie});
-  wire angle_interp_angle_27_ovf_d =
+  wire angle_interp_angle_27_ovf_c =
       angle_interp_angle_27_r[14] | (|angle_interp_angle_27_r[13:11]);
   wire [10:0] angle_interp_angle_27_d = angle_interp_angle_27_r[10:0];
   reg  [10:0] angle_interp_angle_27_q;
-  reg  [0:0] angle_interp_angle_27_ovf_q;
-  wire polar_index_28_ovf_d = 1'b0;
+  wire polar_index_28_ovf_c = 1'b0;
   wire [10:0] polar_index_28_d = al_q[10:0];
   reg  [10:0] polar_index_28_q;
-  reg  [0:0] polar_index_28_ovf_q;
   wire signed [12:0] t29 = $signed({{2{1'b0}}, bl_q} - {{2{1'b0}}, angle_interp_angle_27_q});
-  wire polar_index_30_ovf_d = t29[12] | (|t29[11]);
+  wire polar_index_30_ovf_c = t29[12] | (|t29[11]);
   wire [10:0] polar_index_30_d = t29[10:0];
   reg  [10:0] polar_index_30_q;
-  reg  [0:0] polar_index_30_ovf_q;
-  wire polar_index_31_ovf_d = 1'b0;
+  wire polar_index_31_ovf_c = 1'b0;
   wire [10:0] polar_index_31_d = angle_interp_angle_22_q[10:0];
   reg  [10:0] polar_index_31_q;
-  reg  [0:0] polar_index_31_ovf_q;
   reg  [10:0] polar_index_28_s2_q;
   wire [10:0] cos_32_j = {polar_index_28_s2_q[10:9] + 2'd1, polar_index_28_s2_q[8:0]};
   wire [9:0] cos_32_a = cos_32_j[9] ? (10'h200 - {1'b0, cos_32_j[8:0]}) : {1'b0, cos_32_j[8:0]};
@@ -886,23 +881,21 @@ module pipeline_mapped_interp (
   wire [18:0] polar_lyz_39_up = {t38[31], t38[31:14]} + {{18{1'b0}}, t38[13]};
   wire signed [18:0] polar_lyz_39_r =
       $signed({polar_lyz_39_up[18:1], polar_lyz_39_up[0] & ~polar_lyz_39_tie});
-  wire polar_lyz_39_ovf_d = ~((&polar_lyz_39_r[18:15]) | ~(|polar_lyz_39_r[18:15]));
+  wire polar_lyz_39_ovf_c = ~((&polar_lyz_39_r[18:15]) | ~(|polar_lyz_39_r[18:15]));
   wire signed [15:0] polar_lyz_39_d =
-      $signed(polar_lyz_39_ovf_d ? (polar_lyz_39_r[18] ? 16'h8000 : 16'h7fff)
+      $signed(polar_lyz_39_ovf_c ? (polar_lyz_39_r[18] ? 16'h8000 : 16'h7fff)
       : polar_lyz_39_r[15:0]);
   reg  signed [15:0] polar_lyz_39_q;
-  reg  [0:0] polar_lyz_39_ovf_q;
   wire signed [31:0] t40 = cos_32 * sin_35;
   wire polar_out_41_tie = t40[13] & ~(|t40[12:0]);
   wire [18:0] polar_out_41_up = {t40[31], t40[31:14]} + {{18{1'b0}}, t40[13]};
   wire signed [18:0] polar_out_41_r =
       $signed({polar_out_41_up[18:1], polar_out_41_up[0] & ~polar_out_41_tie});
-  wire polar_out_41_ovf_d = ~((&polar_out_41_r[18:15]) | ~(|polar_out_41_r[18:15]));
+  wire polar_out_41_ovf_c = ~((&polar_out_41_r[18:15]) | ~(|polar_out_41_r[18:15]));
   wire signed [15:0] polar_out_41_d =
-      $signed(polar_out_41_ovf_d ? (polar_out_41_r[18] ? 16'h8000 : 16'h7fff)
+      $signed(polar_out_41_ovf_c ? (polar_out_41_r[18] ? 16'h8000 : 16'h7fff)
       : polar_out_41_r[15:0]);
   reg  signed [15:0] polar_out_41_q;
-  reg  [0:0] polar_out_41_ovf_q;
   wire signed [31:0] t42 = sin_33 * cos_36;
   reg  signed [15:0] sin_37_s4_q;
   wire signed [31:0] t43 = polar_lyz_39_q * sin_37_s4_q;
@@ -912,12 +905,11 @@ module pipeline_mapped_interp (
   wire [19:0] polar_out_45_up = {t44[32], t44[32:14]} + {{19{1'b0}}, t44[13]};
   wire signed [19:0] polar_out_45_r =
       $signed({polar_out_45_up[19:1], polar_out_45_up[0] & ~polar_out_45_tie});
-  wire polar_out_45_ovf_d = ~((&polar_out_45_r[19:15]) | ~(|polar_out_45_r[19:15]));
+  wire polar_out_45_ovf_c = ~((&polar_out_45_r[19:15]) | ~(|polar_out_45_r[19:15]));
   wire signed [15:0] polar_out_45_d =
-      $signed(polar_out_45_ovf_d ? (polar_out_45_r[19] ? 16'h8000 : 16'h7fff)
+      $signed(polar_out_45_ovf_c ? (polar_out_45_r[19] ? 16'h8000 : 16'h7fff)
       : polar_out_45_r[15:0]);
   reg  signed [15:0] polar_out_45_q;
-  reg  [0:0] polar_out_45_ovf_q;
   reg  signed [15:0] cos_36_s4_q;
   wire signed [31:0] t46 = polar_lyz_39_q * cos_36_s4_q;
   wire signed [31:0] t47 = sin_33 * sin_37;
@@ -927,25 +919,21 @@ module pipeline_mapped_interp (
   wire [19:0] polar_out_49_up = {t48[32], t48[32:14]} + {{19{1'b0}}, t48[13]};
   wire signed [19:0] polar_out_49_r =
       $signed({polar_out_49_up[19:1], polar_out_49_up[0] & ~polar_out_49_tie});
-  wire polar_out_49_ovf_d = ~((&polar_out_49_r[19:15]) | ~(|polar_out_49_r[19:15]));
+  wire polar_out_49_ovf_c = ~((&polar_out_49_r[19:15]) | ~(|polar_out_49_r[19:15]));
   wire signed [15:0] polar_out_49_d =
-      $signed(polar_out_49_ovf_d ? (polar_out_49_r[19] ? 16'h8000 : 16'h7fff)
+      $signed(polar_out_49_ovf_c ? (polar_out_49_r[19] ? 16'h8000 : 16'h7fff)
       : polar_out_49_r[15:0]);
   reg  signed [15:0] polar_out_49_q;
-  reg  [0:0] polar_out_49_ovf_q;
-  wire polar_index_50_ovf_d = 1'b0;
+  wire polar_index_50_ovf_c = 1'b0;
   wire [10:0] polar_index_50_d = ah_q[10:0];
   reg  [10:0] polar_index_50_q;
-  reg  [0:0] polar_index_50_ovf_q;
   wire signed [12:0] t51 = $signed({{2{1'b0}}, bh_q} - {{2{1'b0}}, angle_interp_angle_27_q});
-  wire polar_index_52_ovf_d = t51[12] | (|t51[11]);
+  wire polar_index_52_ovf_c = t51[12] | (|t51[11]);
   wire [10:0] polar_index_52_d = t51[10:0];
   reg  [10:0] polar_index_52_q;
-  reg  [0:0] polar_index_52_ovf_q;
-  wire polar_index_53_ovf_d = 1'b0;
+  wire polar_index_53_ovf_c = 1'b0;
   wire [10:0] polar_index_53_d = angle_interp_angle_22_q[10:0];
   reg  [10:0] polar_index_53_q;
-  reg  [0:0] polar_index_53_ovf_q;
   reg  [10:0] polar_index_50_s2_q;
   wire [10:0] cos_54_j = {polar_index_50_s2_q[10:9] + 2'd1, polar_index_50_s2_q[8:0]};
   wire [9:0] cos_54_a = cos_54_j[9] ? (10'h200 - {1'b0, cos_54_j[8:0]}) : {1'b0, cos_54_j[8:0]};
@@ -1018,23 +1006,21 @@ module pipeline_mapped_interp (
   wire [18:0] polar_lyz_61_up = {t60[31], t60[31:14]} + {{18{1'b0}}, t60[13]};
   wire signed [18:0] polar_lyz_61_r =
       $signed({polar_lyz_61_up[18:1], polar_lyz_61_up[0] & ~polar_lyz_61_tie});
-  wire polar_lyz_61_ovf_d = ~((&polar_lyz_61_r[18:15]) | ~(|polar_lyz_61_r[18:15]));
+  wire polar_lyz_61_ovf_c = ~((&polar_lyz_61_r[18:15]) | ~(|polar_lyz_61_r[18:15]));
   wire signed [15:0] polar_lyz_61_d =
-      $signed(polar_lyz_61_ovf_d ? (polar_lyz_61_r[18] ? 16'h8000 : 16'h7fff)
+      $signed(polar_lyz_61_ovf_c ? (polar_lyz_61_r[18] ? 16'h8000 : 16'h7fff)
       : polar_lyz_61_r[15:0]);
   reg  signed [15:0] polar_lyz_61_q;
-  reg  [0:0] polar_lyz_61_ovf_q;
   wire signed [31:0] t62 = cos_54 * sin_57;
   wire polar_out_63_tie = t62[13] & ~(|t62[12:0]);
   wire [18:0] polar_out_63_up = {t62[31], t62[31:14]} + {{18{1'b0}}, t62[13]};
   wire signed [18:0] polar_out_63_r =
       $signed({polar_out_63_up[18:1], polar_out_63_up[0] & ~polar_out_63_tie});
-  wire polar_out_63_ovf_d = ~((&polar_out_63_r[18:15]) | ~(|polar_out_63_r[18:15]));
+  wire polar_out_63_ovf_c = ~((&polar_out_63_r[18:15]) | ~(|polar_out_63_r[18:15]));
   wire signed [15:0] polar_out_63_d =
-      $signed(polar_out_63_ovf_d ? (polar_out_63_r[18] ? 16'h8000 : 16'h7fff)
+      $signed(polar_out_63_ovf_c ? (polar_out_63_r[18] ? 16'h8000 : 16'h7fff)
       : polar_out_63_r[15:0]);
   reg  signed [15:0] polar_out_63_q;
-  reg  [0:0] polar_out_63_ovf_q;
   wire signed [31:0] t64 = sin_55 * cos_58;
   reg  signed [15:0] sin_59_s4_q;
   wire signed [31:0] t65 = polar_lyz_61_q * sin_59_s4_q;
@@ -1044,12 +1030,11 @@ module pipeline_mapped_interp (
   wire [19:0] polar_out_67_up = {t66[32], t66[32:14]} + {{19{1'b0}}, t66[13]};
   wire signed [19:0] polar_out_67_r =
       $signed({polar_out_67_up[19:1], polar_out_67_up[0] & ~polar_out_67_tie});
-  wire polar_out_67_ovf_d = ~((&polar_out_67_r[19:15]) | ~(|polar_out_67_r[19:15]));
+  wire polar_out_67_ovf_c = ~((&polar_out_67_r[19:15]) | ~(|polar_out_67_r[19:15]));
   wire signed [15:0] polar_out_67_d =
-      $signed(polar_out_67_ovf_d ? (polar_out_67_r[19] ? 16'h8000 : 16'h7fff)
+      $signed(polar_out_67_ovf_c ? (polar_out_67_r[19] ? 16'h8000 : 16'h7fff)
       : polar_out_67_r[15:0]);
   reg  signed [15:0] polar_out_67_q;
-  reg  [0:0] polar_out_67_ovf_q;
   reg  signed [15:0] cos_58_s4_q;
   wire signed [31:0] t68 = polar_lyz_61_q * cos_58_s4_q;
   wire signed [31:0] t69 = sin_55 * sin_59;
@@ -1059,48 +1044,41 @@ module pipeline_mapped_interp (
   wire [19:0] polar_out_71_up = {t70[32], t70[32:14]} + {{19{1'b0}}, t70[13]};
   wire signed [19:0] polar_out_71_r =
       $signed({polar_out_71_up[19:1], polar_out_71_up[0] & ~polar_out_71_tie});
-  wire polar_out_71_ovf_d = ~((&polar_out_71_r[19:15]) | ~(|polar_out_71_r[19:15]));
+  wire polar_out_71_ovf_c = ~((&polar_out_71_r[19:15]) | ~(|polar_out_71_r[19:15]));
   wire signed [15:0] polar_out_71_d =
-      $signed(polar_out_71_ovf_d ? (polar_out_71_r[19] ? 16'h8000 : 16'h7fff)
+      $signed(polar_out_71_ovf_c ? (polar_out_71_r[19] ? 16'h8000 : 16'h7fff)
       : polar_out_71_r[15:0]);
   reg  signed [15:0] polar_out_71_q;
-  reg  [0:0] polar_out_71_ovf_q;
-  wire lighting_light_72_ovf_d = 1'b0;
+  wire lighting_light_72_ovf_c = 1'b0;
   wire signed [15:0] lighting_light_72_d =
-      $signed(lighting_light_72_ovf_d ? (polar_out_41_q[15] ? 16'h8000 : 16'h7fff)
+      $signed(lighting_light_72_ovf_c ? (polar_out_41_q[15] ? 16'h8000 : 16'h7fff)
       : polar_out_41_q[15:0]);
   reg  signed [15:0] lighting_light_72_q;
-  reg  [0:0] lighting_light_72_ovf_q;
-  wire lighting_light_73_ovf_d = 1'b0;
+  wire lighting_light_73_ovf_c = 1'b0;
   wire signed [15:0] lighting_light_73_d =
-      $signed(lighting_light_73_ovf_d ? (polar_out_45_q[15] ? 16'h8000 : 16'h7fff)
+      $signed(lighting_light_73_ovf_c ? (polar_out_45_q[15] ? 16'h8000 : 16'h7fff)
       : polar_out_45_q[15:0]);
   reg  signed [15:0] lighting_light_73_q;
-  reg  [0:0] lighting_light_73_ovf_q;
-  wire lighting_light_74_ovf_d = 1'b0;
+  wire lighting_light_74_ovf_c = 1'b0;
   wire signed [15:0] lighting_light_74_d =
-      $signed(lighting_light_74_ovf_d ? (polar_out_49_q[15] ? 16'h8000 : 16'h7fff)
+      $signed(lighting_light_74_ovf_c ? (polar_out_49_q[15] ? 16'h8000 : 16'h7fff)
       : polar_out_49_q[15:0]);
   reg  signed [15:0] lighting_light_74_q;
-  reg  [0:0] lighting_light_74_ovf_q;
-  wire lighting_light_75_ovf_d = 1'b0;
+  wire lighting_light_75_ovf_c = 1'b0;
   wire signed [15:0] lighting_light_75_d =
-      $signed(lighting_light_75_ovf_d ? (polar_out_63_q[15] ? 16'h8000 : 16'h7fff)
+      $signed(lighting_light_75_ovf_c ? (polar_out_63_q[15] ? 16'h8000 : 16'h7fff)
       : polar_out_63_q[15:0]);
   reg  signed [15:0] lighting_light_75_q;
-  reg  [0:0] lighting_light_75_ovf_q;
-  wire lighting_light_76_ovf_d = 1'b0;
+  wire lighting_light_76_ovf_c = 1'b0;
   wire signed [15:0] lighting_light_76_d =
-      $signed(lighting_light_76_ovf_d ? (polar_out_67_q[15] ? 16'h8000 : 16'h7fff)
+      $signed(lighting_light_76_ovf_c ? (polar_out_67_q[15] ? 16'h8000 : 16'h7fff)
       : polar_out_67_q[15:0]);
   reg  signed [15:0] lighting_light_76_q;
-  reg  [0:0] lighting_light_76_ovf_q;
-  wire lighting_light_77_ovf_d = 1'b0;
+  wire lighting_light_77_ovf_c = 1'b0;
   wire signed [15:0] lighting_light_77_d =
-      $signed(lighting_light_77_ovf_d ? (polar_out_71_q[15] ? 16'h8000 : 16'h7fff)
+      $signed(lighting_light_77_ovf_c ? (polar_out_71_q[15] ? 16'h8000 : 16'h7fff)
       : polar_out_71_q[15:0]);
   reg  signed [15:0] lighting_light_77_q;
-  reg  [0:0] lighting_light_77_ovf_q;
   reg  signed [15:0] n_x_i_s1_q;
   reg  signed [15:0] n_x_i_s2_q;
   reg  signed [15:0] n_x_i_s3_q;
@@ -1128,12 +1106,11 @@ module pipeline_mapped_interp (
   wire [20:0] lighting_dot_83_up = {t82[33], t82[33:14]} + {{20{1'b0}}, t82[13]};
   wire signed [20:0] lighting_dot_83_r =
       $signed({lighting_dot_83_up[20:1], lighting_dot_83_up[0] & ~lighting_dot_83_tie});
-  wire lighting_dot_83_ovf_d = ~((&lighting_dot_83_r[20:15]) | ~(|lighting_dot_83_r[20:15]));
+  wire lighting_dot_83_ovf_c = ~((&lighting_dot_83_r[20:15]) | ~(|lighting_dot_83_r[20:15]));
   wire signed [15:0] lighting_dot_83_d =
-      $signed(lighting_dot_83_ovf_d ? (lighting_dot_83_r[20] ? 16'h8000 : 16'h7fff)
+      $signed(lighting_dot_83_ovf_c ? (lighting_dot_83_r[20] ? 16'h8000 : 16'h7fff)
       : lighting_dot_83_r[15:0]);
   reg  signed [15:0] lighting_dot_83_q;
-  reg  [0:0] lighting_dot_83_ovf_q;
   wire signed [15:0] t84_a = $signed(lighting_dot_83_q);
   wire signed [15:0] t84_b = $signed(K17);
   wire signed [15:0] t84 = (t84_a > t84_b) ? t84_a : t84_b;
@@ -1147,58 +1124,52 @@ module pipeline_mapped_interp (
   wire [20:0] lighting_dot_90_up = {t89[33], t89[33:14]} + {{20{1'b0}}, t89[13]};
   wire signed [20:0] lighting_dot_90_r =
       $signed({lighting_dot_90_up[20:1], lighting_dot_90_up[0] & ~lighting_dot_90_tie});
-  wire lighting_dot_90_ovf_d = ~((&lighting_dot_90_r[20:15]) | ~(|lighting_dot_90_r[20:15]));
+  wire lighting_dot_90_ovf_c = ~((&lighting_dot_90_r[20:15]) | ~(|lighting_dot_90_r[20:15]));
   wire signed [15:0] lighting_dot_90_d =
-      $signed(lighting_dot_90_ovf_d ? (lighting_dot_90_r[20] ? 16'h8000 : 16'h7fff)
+      $signed(lighting_dot_90_ovf_c ? (lighting_dot_90_r[20] ? 16'h8000 : 16'h7fff)
       : lighting_dot_90_r[15:0]);
   reg  signed [15:0] lighting_dot_90_q;
-  reg  [0:0] lighting_dot_90_ovf_q;
   wire signed [15:0] t91_a = $signed(lighting_dot_90_q);
   wire signed [15:0] t91_b = $signed(K17);
   wire signed [15:0] t91 = (t91_a > t91_b) ? t91_a : t91_b;
   wire signed [18:0] lighting_spec_92_r = $signed({t91, 3'b0});
-  wire lighting_spec_92_ovf_d = lighting_spec_92_r[18];
+  wire lighting_spec_92_ovf_c = lighting_spec_92_r[18];
   wire [17:0] lighting_spec_92_d =
-      lighting_spec_92_ovf_d ? (lighting_spec_92_r[18] ? 18'h0 : 18'h3ffff)
+      lighting_spec_92_ovf_c ? (lighting_spec_92_r[18] ? 18'h0 : 18'h3ffff)
       : lighting_spec_92_r[17:0];
   reg  [17:0] lighting_spec_92_q;
-  reg  [0:0] lighting_spec_92_ovf_q;
   wire [35:0] t93 = lighting_spec_92_q * lighting_spec_92_q;
   wire lighting_spec_94_tie = t93[16] & ~(|t93[15:0]);
   wire [19:0] lighting_spec_94_up = {1'b0, t93[35:17]} + {{19{1'b0}}, t93[16]};
   wire [19:0] lighting_spec_94_r =
       {lighting_spec_94_up[19:1], lighting_spec_94_up[0] & ~lighting_spec_94_tie};
-  wire lighting_spec_94_ovf_d = |lighting_spec_94_r[19:18];
-  wire [17:0] lighting_spec_94_d = lighting_spec_94_ovf_d ? 18'h3ffff : lighting_spec_94_r[17:0];
+  wire lighting_spec_94_ovf_c = |lighting_spec_94_r[19:18];
+  wire [17:0] lighting_spec_94_d = lighting_spec_94_ovf_c ? 18'h3ffff : lighting_spec_94_r[17:0];
   reg  [17:0] lighting_spec_94_q;
-  reg  [0:0] lighting_spec_94_ovf_q;
   wire [35:0] t95 = lighting_spec_94_q * lighting_spec_94_q;
   wire lighting_spec_96_tie = t95[16] & ~(|t95[15:0]);
   wire [19:0] lighting_spec_96_up = {1'b0, t95[35:17]} + {{19{1'b0}}, t95[16]};
   wire [19:0] lighting_spec_96_r =
       {lighting_spec_96_up[19:1], lighting_spec_96_up[0] & ~lighting_spec_96_tie};
-  wire lighting_spec_96_ovf_d = |lighting_spec_96_r[19:18];
-  wire [17:0] lighting_spec_96_d = lighting_spec_96_ovf_d ? 18'h3ffff : lighting_spec_96_r[17:0];
+  wire lighting_spec_96_ovf_c = |lighting_spec_96_r[19:18];
+  wire [17:0] lighting_spec_96_d = lighting_spec_96_ovf_c ? 18'h3ffff : lighting_spec_96_r[17:0];
   reg  [17:0] lighting_spec_96_q;
-  reg  [0:0] lighting_spec_96_ovf_q;
   wire [35:0] t97 = lighting_spec_96_q * lighting_spec_96_q;
   wire lighting_spec_98_tie = t97[16] & ~(|t97[15:0]);
   wire [19:0] lighting_spec_98_up = {1'b0, t97[35:17]} + {{19{1'b0}}, t97[16]};
   wire [19:0] lighting_spec_98_r =
       {lighting_spec_98_up[19:1], lighting_spec_98_up[0] & ~lighting_spec_98_tie};
-  wire lighting_spec_98_ovf_d = |lighting_spec_98_r[19:18];
-  wire [17:0] lighting_spec_98_d = lighting_spec_98_ovf_d ? 18'h3ffff : lighting_spec_98_r[17:0];
+  wire lighting_spec_98_ovf_c = |lighting_spec_98_r[19:18];
+  wire [17:0] lighting_spec_98_d = lighting_spec_98_ovf_c ? 18'h3ffff : lighting_spec_98_r[17:0];
   reg  [17:0] lighting_spec_98_q;
-  reg  [0:0] lighting_spec_98_ovf_q;
   wire [35:0] t99 = lighting_spec_98_q * lighting_spec_98_q;
   wire lighting_spec_100_tie = t99[16] & ~(|t99[15:0]);
   wire [19:0] lighting_spec_100_up = {1'b0, t99[35:17]} + {{19{1'b0}}, t99[16]};
   wire [19:0] lighting_spec_100_r =
       {lighting_spec_100_up[19:1], lighting_spec_100_up[0] & ~lighting_spec_100_tie};
-  wire lighting_spec_100_ovf_d = |lighting_spec_100_r[19:18];
-  wire [17:0] lighting_spec_100_d = lighting_spec_100_ovf_d ? 18'h3ffff : lighting_spec_100_r[17:0];
+  wire lighting_spec_100_ovf_c = |lighting_spec_100_r[19:18];
+  wire [17:0] lighting_spec_100_d = lighting_spec_100_ovf_c ? 18'h3ffff : lighting_spec_100_r[17:0];
   reg  [17:0] lighting_spec_100_q;
-  reg  [0:0] lighting_spec_100_ovf_q;
   wire signed [16:0] t101_b = $signed({1'b0, K15});
   wire signed [31:0] t101 = t84 * t101_b;
   wire [33:0] t102 = lighting_spec_100_q * K16;
@@ -1212,16 +1183,16 @@ module pipeline_mapped_interp (
   wire [11:0] lighting_level_104_up = {t103[35], t103[35:25]} + {{11{1'b0}}, t103[24]};
   wire signed [11:0] lighting_level_104_r =
       $signed({lighting_level_104_up[11:1], lighting_level_104_up[0] & ~lighting_level_104_tie});
-  wire lighting_level_104_ovf_d = lighting_level_104_r[11] | (|lighting_level_104_r[10:8]);
+  wire lighting_level_104_ovf_c = lighting_level_104_r[11] | (|lighting_level_104_r[10:8]);
   wire [7:0] lighting_level_104_d =
-      lighting_level_104_ovf_d ? (lighting_level_104_r[11] ? 8'h0 : 8'hff)
+      lighting_level_104_ovf_c ? (lighting_level_104_r[11] ? 8'h0 : 8'hff)
       : lighting_level_104_r[7:0];
   reg  [7:0] lighting_level_104_q;
-  reg  [0:0] lighting_level_104_ovf_q;
-  reg  [0:0] angle_interp_angle_22_ovf_s2_q;
-  reg  [0:0] angle_interp_angle_27_ovf_s2_q;
-  wire ovf0_or_s2 =
-      angle_interp_angle_22_ovf_s2_q | angle_interp_angle_27_ovf_s2_q;
+  reg  [0:0] angle_interp_angle_22_ovf_s1_q;
+  reg  [0:0] angle_interp_angle_27_ovf_s1_q;
+  wire ovf0_or_s1 =
+      angle_interp_angle_22_ovf_s1_q | angle_interp_angle_27_ovf_s1_q;
+  reg  [0:0] ovf0_s2_q;
   reg  [0:0] ovf0_s3_q;
   reg  [0:0] ovf0_s4_q;
   reg  [0:0] ovf0_s5_q;
@@ -1233,18 +1204,11 @@ module pipeline_mapped_interp (
   reg  [0:0] ovf0_s11_q;
   reg  [0:0] ovf0_s12_q;
   reg  [0:0] ovf0_s13_q;
-  reg  [0:0] polar_index_28_ovf_s2_q;
-  reg  [0:0] polar_index_30_ovf_s3_q;
-  reg  [0:0] polar_index_31_ovf_s3_q;
-  reg  [0:0] polar_index_50_ovf_s2_q;
-  reg  [0:0] polar_index_52_ovf_s3_q;
-  reg  [0:0] polar_index_53_ovf_s3_q;
+  reg  [0:0] polar_index_30_ovf_s2_q;
+  reg  [0:0] polar_index_52_ovf_s2_q;
   wire ovf1_or_s2 =
-      polar_index_28_ovf_s2_q | polar_index_50_ovf_s2_q;
+      polar_index_30_ovf_s2_q | polar_index_52_ovf_s2_q;
   reg  [0:0] ovf1_s3_q;
-  wire ovf1_or_s3 =
-      ovf1_s3_q | polar_index_30_ovf_s3_q | polar_index_31_ovf_s3_q | polar_index_52_ovf_s3_q
-      | polar_index_53_ovf_s3_q;
   reg  [0:0] ovf1_s4_q;
   reg  [0:0] ovf1_s5_q;
   reg  [0:0] ovf1_s6_q;
@@ -1255,10 +1219,11 @@ module pipeline_mapped_interp (
   reg  [0:0] ovf1_s11_q;
   reg  [0:0] ovf1_s12_q;
   reg  [0:0] ovf1_s13_q;
-  reg  [0:0] polar_lyz_39_ovf_s5_q;
-  reg  [0:0] polar_lyz_61_ovf_s5_q;
-  wire ovf2_or_s5 =
-      polar_lyz_39_ovf_s5_q | polar_lyz_61_ovf_s5_q;
+  reg  [0:0] polar_lyz_39_ovf_s4_q;
+  reg  [0:0] polar_lyz_61_ovf_s4_q;
+  wire ovf2_or_s4 =
+      polar_lyz_39_ovf_s4_q | polar_lyz_61_ovf_s4_q;
+  reg  [0:0] ovf2_s5_q;
   reg  [0:0] ovf2_s6_q;
   reg  [0:0] ovf2_s7_q;
   reg  [0:0] ovf2_s8_q;
@@ -1267,18 +1232,19 @@ module pipeline_mapped_interp (
   reg  [0:0] ovf2_s11_q;
   reg  [0:0] ovf2_s12_q;
   reg  [0:0] ovf2_s13_q;
-  reg  [0:0] polar_out_41_ovf_s5_q;
-  reg  [0:0] polar_out_45_ovf_s6_q;
-  reg  [0:0] polar_out_49_ovf_s6_q;
-  reg  [0:0] polar_out_63_ovf_s5_q;
-  reg  [0:0] polar_out_67_ovf_s6_q;
-  reg  [0:0] polar_out_71_ovf_s6_q;
+  reg  [0:0] polar_out_41_ovf_s4_q;
+  reg  [0:0] polar_out_45_ovf_s5_q;
+  reg  [0:0] polar_out_49_ovf_s5_q;
+  reg  [0:0] polar_out_63_ovf_s4_q;
+  reg  [0:0] polar_out_67_ovf_s5_q;
+  reg  [0:0] polar_out_71_ovf_s5_q;
+  wire ovf3_or_s4 =
+      polar_out_41_ovf_s4_q | polar_out_63_ovf_s4_q;
+  reg  [0:0] ovf3_s5_q;
   wire ovf3_or_s5 =
-      polar_out_41_ovf_s5_q | polar_out_63_ovf_s5_q;
+      ovf3_s5_q | polar_out_45_ovf_s5_q | polar_out_49_ovf_s5_q | polar_out_67_ovf_s5_q
+      | polar_out_71_ovf_s5_q;
   reg  [0:0] ovf3_s6_q;
-  wire ovf3_or_s6 =
-      ovf3_s6_q | polar_out_45_ovf_s6_q | polar_out_49_ovf_s6_q | polar_out_67_ovf_s6_q
-      | polar_out_71_ovf_s6_q;
   reg  [0:0] ovf3_s7_q;
   reg  [0:0] ovf3_s8_q;
   reg  [0:0] ovf3_s9_q;
@@ -1286,51 +1252,35 @@ module pipeline_mapped_interp (
   reg  [0:0] ovf3_s11_q;
   reg  [0:0] ovf3_s12_q;
   reg  [0:0] ovf3_s13_q;
-  reg  [0:0] lighting_light_72_ovf_s6_q;
-  reg  [0:0] lighting_light_73_ovf_s7_q;
-  reg  [0:0] lighting_light_74_ovf_s7_q;
-  reg  [0:0] lighting_light_75_ovf_s6_q;
-  reg  [0:0] lighting_light_76_ovf_s7_q;
-  reg  [0:0] lighting_light_77_ovf_s7_q;
-  wire ovf4_or_s6 =
-      lighting_light_72_ovf_s6_q | lighting_light_75_ovf_s6_q;
-  reg  [0:0] ovf4_s7_q;
-  wire ovf4_or_s7 =
-      ovf4_s7_q | lighting_light_73_ovf_s7_q | lighting_light_74_ovf_s7_q
-          | lighting_light_76_ovf_s7_q
-      | lighting_light_77_ovf_s7_q;
-  reg  [0:0] ovf4_s8_q;
-  reg  [0:0] ovf4_s9_q;
-  reg  [0:0] ovf4_s10_q;
-  reg  [0:0] ovf4_s11_q;
-  reg  [0:0] ovf4_s12_q;
-  reg  [0:0] ovf4_s13_q;
-  reg  [0:0] lighting_dot_83_ovf_s8_q;
-  reg  [0:0] lighting_dot_90_ovf_s8_q;
-  wire ovf5_or_s8 =
-      lighting_dot_83_ovf_s8_q | lighting_dot_90_ovf_s8_q;
+  reg  [0:0] lighting_dot_83_ovf_s7_q;
+  reg  [0:0] lighting_dot_90_ovf_s7_q;
+  wire ovf5_or_s7 =
+      lighting_dot_83_ovf_s7_q | lighting_dot_90_ovf_s7_q;
+  reg  [0:0] ovf5_s8_q;
   reg  [0:0] ovf5_s9_q;
   reg  [0:0] ovf5_s10_q;
   reg  [0:0] ovf5_s11_q;
   reg  [0:0] ovf5_s12_q;
   reg  [0:0] ovf5_s13_q;
-  reg  [0:0] lighting_spec_92_ovf_s9_q;
-  reg  [0:0] lighting_spec_94_ovf_s10_q;
-  reg  [0:0] lighting_spec_96_ovf_s11_q;
-  reg  [0:0] lighting_spec_98_ovf_s12_q;
-  reg  [0:0] lighting_spec_100_ovf_s13_q;
+  reg  [0:0] lighting_spec_92_ovf_s8_q;
+  reg  [0:0] lighting_spec_94_ovf_s9_q;
+  reg  [0:0] lighting_spec_96_ovf_s10_q;
+  reg  [0:0] lighting_spec_98_ovf_s11_q;
+  reg  [0:0] lighting_spec_100_ovf_s12_q;
+  reg  [0:0] ovf6_s9_q;
+  wire ovf6_or_s9 =
+      ovf6_s9_q | lighting_spec_94_ovf_s9_q;
   reg  [0:0] ovf6_s10_q;
   wire ovf6_or_s10 =
-      ovf6_s10_q | lighting_spec_94_ovf_s10_q;
+      ovf6_s10_q | lighting_spec_96_ovf_s10_q;
   reg  [0:0] ovf6_s11_q;
   wire ovf6_or_s11 =
-      ovf6_s11_q | lighting_spec_96_ovf_s11_q;
+      ovf6_s11_q | lighting_spec_98_ovf_s11_q;
   reg  [0:0] ovf6_s12_q;
   wire ovf6_or_s12 =
-      ovf6_s12_q | lighting_spec_98_ovf_s12_q;
+      ovf6_s12_q | lighting_spec_100_ovf_s12_q;
   reg  [0:0] ovf6_s13_q;
-  wire ovf6_or_s13 =
-      ovf6_s13_q | lighting_spec_100_ovf_s13_q;
+  reg  [0:0] lighting_level_104_ovf_s13_q;
 
   // Stage loads: the item entering stage k is valid and the stages move.
   wire load_s1 = in_take;
@@ -1352,35 +1302,28 @@ module pipeline_mapped_interp (
   always @(posedge clk_i) begin
     if (load_s1) begin
       angle_interp_angle_22_q <= angle_interp_angle_22_d;
-      angle_interp_angle_22_ovf_q <= angle_interp_angle_22_ovf_d;
       angle_interp_angle_27_q <= angle_interp_angle_27_d;
-      angle_interp_angle_27_ovf_q <= angle_interp_angle_27_ovf_d;
       polar_index_28_q <= polar_index_28_d;
-      polar_index_28_ovf_q <= polar_index_28_ovf_d;
       polar_index_50_q <= polar_index_50_d;
-      polar_index_50_ovf_q <= polar_index_50_ovf_d;
       n_x_i_s1_q <= n_x_i;
       n_y_i_s1_q <= n_y_i;
       n_z_i_s1_q <= n_z_i;
+      angle_interp_angle_22_ovf_s1_q <= angle_interp_angle_22_ovf_c;
+      angle_interp_angle_27_ovf_s1_q <= angle_interp_angle_27_ovf_c;
     end
     if (load_s2) begin
       polar_index_30_q <= polar_index_30_d;
-      polar_index_30_ovf_q <= polar_index_30_ovf_d;
       polar_index_31_q <= polar_index_31_d;
-      polar_index_31_ovf_q <= polar_index_31_ovf_d;
       polar_index_28_s2_q <= polar_index_28_q;
       polar_index_52_q <= polar_index_52_d;
-      polar_index_52_ovf_q <= polar_index_52_ovf_d;
       polar_index_53_q <= polar_index_53_d;
-      polar_index_53_ovf_q <= polar_index_53_ovf_d;
       polar_index_50_s2_q <= polar_index_50_q;
       n_x_i_s2_q <= n_x_i_s1_q;
       n_y_i_s2_q <= n_y_i_s1_q;
       n_z_i_s2_q <= n_z_i_s1_q;
-      angle_interp_angle_22_ovf_s2_q <= angle_interp_angle_22_ovf_q;
-      angle_interp_angle_27_ovf_s2_q <= angle_interp_angle_27_ovf_q;
-      polar_index_28_ovf_s2_q <= polar_index_28_ovf_q;
-      polar_index_50_ovf_s2_q <= polar_index_50_ovf_q;
+      ovf0_s2_q <= ovf0_or_s1;
+      polar_index_30_ovf_s2_q <= polar_index_30_ovf_c;
+      polar_index_52_ovf_s2_q <= polar_index_52_ovf_c;
     end
     if (load_s3) begin
       cos_32_raw_q <= quarter_rom[cos_32_a[8:0]];
@@ -1422,26 +1365,18 @@ module pipeline_mapped_interp (
       n_x_i_s3_q <= n_x_i_s2_q;
       n_y_i_s3_q <= n_y_i_s2_q;
       n_z_i_s3_q <= n_z_i_s2_q;
-      ovf0_s3_q <= ovf0_or_s2;
-      polar_index_30_ovf_s3_q <= polar_index_30_ovf_q;
-      polar_index_31_ovf_s3_q <= polar_index_31_ovf_q;
-      polar_index_52_ovf_s3_q <= polar_index_52_ovf_q;
-      polar_index_53_ovf_s3_q <= polar_index_53_ovf_q;
+      ovf0_s3_q <= ovf0_s2_q;
       ovf1_s3_q <= ovf1_or_s2;
     end
     if (load_s4) begin
       polar_lyz_39_q <= polar_lyz_39_d;
-      polar_lyz_39_ovf_q <= polar_lyz_39_ovf_d;
       polar_out_41_q <= polar_out_41_d;
-      polar_out_41_ovf_q <= polar_out_41_ovf_d;
       sin_37_s4_q <= sin_37;
       t42_s4_q <= t42;
       cos_36_s4_q <= cos_36;
       t47_s4_q <= t47;
       polar_lyz_61_q <= polar_lyz_61_d;
-      polar_lyz_61_ovf_q <= polar_lyz_61_ovf_d;
       polar_out_63_q <= polar_out_63_d;
-      polar_out_63_ovf_q <= polar_out_63_ovf_d;
       sin_59_s4_q <= sin_59;
       t64_s4_q <= t64;
       cos_58_s4_q <= cos_58;
@@ -1450,152 +1385,126 @@ module pipeline_mapped_interp (
       n_y_i_s4_q <= n_y_i_s3_q;
       n_z_i_s4_q <= n_z_i_s3_q;
       ovf0_s4_q <= ovf0_s3_q;
-      ovf1_s4_q <= ovf1_or_s3;
+      ovf1_s4_q <= ovf1_s3_q;
+      polar_lyz_39_ovf_s4_q <= polar_lyz_39_ovf_c;
+      polar_lyz_61_ovf_s4_q <= polar_lyz_61_ovf_c;
+      polar_out_41_ovf_s4_q <= polar_out_41_ovf_c;
+      polar_out_63_ovf_s4_q <= polar_out_63_ovf_c;
     end
     if (load_s5) begin
       polar_out_45_q <= polar_out_45_d;
-      polar_out_45_ovf_q <= polar_out_45_ovf_d;
       polar_out_49_q <= polar_out_49_d;
-      polar_out_49_ovf_q <= polar_out_49_ovf_d;
       polar_out_67_q <= polar_out_67_d;
-      polar_out_67_ovf_q <= polar_out_67_ovf_d;
       polar_out_71_q <= polar_out_71_d;
-      polar_out_71_ovf_q <= polar_out_71_ovf_d;
       lighting_light_72_q <= lighting_light_72_d;
-      lighting_light_72_ovf_q <= lighting_light_72_ovf_d;
       lighting_light_75_q <= lighting_light_75_d;
-      lighting_light_75_ovf_q <= lighting_light_75_ovf_d;
       n_x_i_s5_q <= n_x_i_s4_q;
       n_y_i_s5_q <= n_y_i_s4_q;
       n_z_i_s5_q <= n_z_i_s4_q;
       ovf0_s5_q <= ovf0_s4_q;
       ovf1_s5_q <= ovf1_s4_q;
-      polar_lyz_39_ovf_s5_q <= polar_lyz_39_ovf_q;
-      polar_lyz_61_ovf_s5_q <= polar_lyz_61_ovf_q;
-      polar_out_41_ovf_s5_q <= polar_out_41_ovf_q;
-      polar_out_63_ovf_s5_q <= polar_out_63_ovf_q;
+      ovf2_s5_q <= ovf2_or_s4;
+      polar_out_45_ovf_s5_q <= polar_out_45_ovf_c;
+      polar_out_49_ovf_s5_q <= polar_out_49_ovf_c;
+      polar_out_67_ovf_s5_q <= polar_out_67_ovf_c;
+      polar_out_71_ovf_s5_q <= polar_out_71_ovf_c;
+      ovf3_s5_q <= ovf3_or_s4;
     end
     if (load_s6) begin
       lighting_light_73_q <= lighting_light_73_d;
-      lighting_light_73_ovf_q <= lighting_light_73_ovf_d;
       lighting_light_74_q <= lighting_light_74_d;
-      lighting_light_74_ovf_q <= lighting_light_74_ovf_d;
       lighting_light_76_q <= lighting_light_76_d;
-      lighting_light_76_ovf_q <= lighting_light_76_ovf_d;
       lighting_light_77_q <= lighting_light_77_d;
-      lighting_light_77_ovf_q <= lighting_light_77_ovf_d;
       n_y_i_s6_q <= n_y_i_s5_q;
       n_z_i_s6_q <= n_z_i_s5_q;
       t78_s6_q <= t78;
       t85_s6_q <= t85;
       ovf0_s6_q <= ovf0_s5_q;
       ovf1_s6_q <= ovf1_s5_q;
-      ovf2_s6_q <= ovf2_or_s5;
-      polar_out_45_ovf_s6_q <= polar_out_45_ovf_q;
-      polar_out_49_ovf_s6_q <= polar_out_49_ovf_q;
-      polar_out_67_ovf_s6_q <= polar_out_67_ovf_q;
-      polar_out_71_ovf_s6_q <= polar_out_71_ovf_q;
+      ovf2_s6_q <= ovf2_s5_q;
       ovf3_s6_q <= ovf3_or_s5;
-      lighting_light_72_ovf_s6_q <= lighting_light_72_ovf_q;
-      lighting_light_75_ovf_s6_q <= lighting_light_75_ovf_q;
     end
     if (load_s7) begin
       lighting_dot_83_q <= lighting_dot_83_d;
-      lighting_dot_83_ovf_q <= lighting_dot_83_ovf_d;
       lighting_dot_90_q <= lighting_dot_90_d;
-      lighting_dot_90_ovf_q <= lighting_dot_90_ovf_d;
       ovf0_s7_q <= ovf0_s6_q;
       ovf1_s7_q <= ovf1_s6_q;
       ovf2_s7_q <= ovf2_s6_q;
-      ovf3_s7_q <= ovf3_or_s6;
-      lighting_light_73_ovf_s7_q <= lighting_light_73_ovf_q;
-      lighting_light_74_ovf_s7_q <= lighting_light_74_ovf_q;
-      lighting_light_76_ovf_s7_q <= lighting_light_76_ovf_q;
-      lighting_light_77_ovf_s7_q <= lighting_light_77_ovf_q;
-      ovf4_s7_q <= ovf4_or_s6;
+      ovf3_s7_q <= ovf3_s6_q;
+      lighting_dot_83_ovf_s7_q <= lighting_dot_83_ovf_c;
+      lighting_dot_90_ovf_s7_q <= lighting_dot_90_ovf_c;
     end
     if (load_s8) begin
       lighting_spec_92_q <= lighting_spec_92_d;
-      lighting_spec_92_ovf_q <= lighting_spec_92_ovf_d;
       t101_s8_q <= t101;
       ovf0_s8_q <= ovf0_s7_q;
       ovf1_s8_q <= ovf1_s7_q;
       ovf2_s8_q <= ovf2_s7_q;
       ovf3_s8_q <= ovf3_s7_q;
-      ovf4_s8_q <= ovf4_or_s7;
-      lighting_dot_83_ovf_s8_q <= lighting_dot_83_ovf_q;
-      lighting_dot_90_ovf_s8_q <= lighting_dot_90_ovf_q;
+      ovf5_s8_q <= ovf5_or_s7;
+      lighting_spec_92_ovf_s8_q <= lighting_spec_92_ovf_c;
     end
     if (load_s9) begin
       lighting_spec_94_q <= lighting_spec_94_d;
-      lighting_spec_94_ovf_q <= lighting_spec_94_ovf_d;
       t101_s9_q <= t101_s8_q;
       ovf0_s9_q <= ovf0_s8_q;
       ovf1_s9_q <= ovf1_s8_q;
       ovf2_s9_q <= ovf2_s8_q;
       ovf3_s9_q <= ovf3_s8_q;
-      ovf4_s9_q <= ovf4_s8_q;
-      ovf5_s9_q <= ovf5_or_s8;
-      lighting_spec_92_ovf_s9_q <= lighting_spec_92_ovf_q;
+      ovf5_s9_q <= ovf5_s8_q;
+      lighting_spec_94_ovf_s9_q <= lighting_spec_94_ovf_c;
+      ovf6_s9_q <= lighting_spec_92_ovf_s8_q;
     end
     if (load_s10) begin
       lighting_spec_96_q <= lighting_spec_96_d;
-      lighting_spec_96_ovf_q <= lighting_spec_96_ovf_d;
       t101_s10_q <= t101_s9_q;
       ovf0_s10_q <= ovf0_s9_q;
       ovf1_s10_q <= ovf1_s9_q;
       ovf2_s10_q <= ovf2_s9_q;
       ovf3_s10_q <= ovf3_s9_q;
-      ovf4_s10_q <= ovf4_s9_q;
       ovf5_s10_q <= ovf5_s9_q;
-      lighting_spec_94_ovf_s10_q <= lighting_spec_94_ovf_q;
-      ovf6_s10_q <= lighting_spec_92_ovf_s9_q;
+      lighting_spec_96_ovf_s10_q <= lighting_spec_96_ovf_c;
+      ovf6_s10_q <= ovf6_or_s9;
     end
     if (load_s11) begin
       lighting_spec_98_q <= lighting_spec_98_d;
-      lighting_spec_98_ovf_q <= lighting_spec_98_ovf_d;
       t101_s11_q <= t101_s10_q;
       ovf0_s11_q <= ovf0_s10_q;
       ovf1_s11_q <= ovf1_s10_q;
       ovf2_s11_q <= ovf2_s10_q;
       ovf3_s11_q <= ovf3_s10_q;
-      ovf4_s11_q <= ovf4_s10_q;
       ovf5_s11_q <= ovf5_s10_q;
-      lighting_spec_96_ovf_s11_q <= lighting_spec_96_ovf_q;
+      lighting_spec_98_ovf_s11_q <= lighting_spec_98_ovf_c;
       ovf6_s11_q <= ovf6_or_s10;
     end
     if (load_s12) begin
       lighting_spec_100_q <= lighting_spec_100_d;
-      lighting_spec_100_ovf_q <= lighting_spec_100_ovf_d;
       t101_s12_q <= t101_s11_q;
       ovf0_s12_q <= ovf0_s11_q;
       ovf1_s12_q <= ovf1_s11_q;
       ovf2_s12_q <= ovf2_s11_q;
       ovf3_s12_q <= ovf3_s11_q;
-      ovf4_s12_q <= ovf4_s11_q;
       ovf5_s12_q <= ovf5_s11_q;
-      lighting_spec_98_ovf_s12_q <= lighting_spec_98_ovf_q;
+      lighting_spec_100_ovf_s12_q <= lighting_spec_100_ovf_c;
       ovf6_s12_q <= ovf6_or_s11;
     end
     if (load_s13) begin
       lighting_level_104_q <= lighting_level_104_d;
-      lighting_level_104_ovf_q <= lighting_level_104_ovf_d;
       ovf0_s13_q <= ovf0_s12_q;
       ovf1_s13_q <= ovf1_s12_q;
       ovf2_s13_q <= ovf2_s12_q;
       ovf3_s13_q <= ovf3_s12_q;
-      ovf4_s13_q <= ovf4_s12_q;
       ovf5_s13_q <= ovf5_s12_q;
-      lighting_spec_100_ovf_s13_q <= lighting_spec_100_ovf_q;
       ovf6_s13_q <= ovf6_or_s12;
+      lighting_level_104_ovf_s13_q <= lighting_level_104_ovf_c;
     end
   end
 
   // Output buffer: the head drives the ports; the skid register takes the
   // item that leaves the last stage while the head is stalled.
   wire [15:0] last_d =
-      {lighting_level_104_q, (ovf0_s13_q), (ovf1_s13_q), (ovf2_s13_q), (ovf3_s13_q), (ovf4_s13_q),
-      (ovf5_s13_q), (ovf6_or_s13), (lighting_level_104_ovf_q)};
+      {lighting_level_104_q, (ovf0_s13_q), (ovf1_s13_q), (ovf2_s13_q), (ovf3_s13_q), (1'b0),
+      (ovf5_s13_q), (ovf6_s13_q), (lighting_level_104_ovf_s13_q)};
   reg  [15:0] out_q, skid_q;
   always @(posedge clk_i) begin
     if (out_load & (skid_valid | out_arrive)) out_q <= skid_valid ? skid_q : last_d;
@@ -1661,6 +1570,10 @@ module pipeline_mapped_interp (
     if (f_past_valid && rst_ni) cover (valid_o & ready_i);
   end
 `endif
+
+  // Bits the arithmetic drops (truncation) or does not read.
+  wire unused_bits =
+      ^{polar_index_28_ovf_c, polar_index_31_ovf_c, polar_index_50_ovf_c, polar_index_53_ovf_c};
 endmodule
 
 `default_nettype wire

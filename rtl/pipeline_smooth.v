@@ -374,12 +374,11 @@ module pipeline_smooth (
   wire [21:0] interp_weight_80_up = {t79[33], t79[33:13]} + {{21{1'b0}}, t79[12]};
   wire signed [21:0] interp_weight_80_r =
       $signed({interp_weight_80_up[21:1], interp_weight_80_up[0] & ~interp_weight_80_tie});
-  wire interp_weight_80_ovf_d = ~((&interp_weight_80_r[21:17]) | ~(|interp_weight_80_r[21:17]));
+  wire interp_weight_80_ovf_c = ~((&interp_weight_80_r[21:17]) | ~(|interp_weight_80_r[21:17]));
   wire signed [17:0] interp_weight_80_d =
-      $signed(interp_weight_80_ovf_d ? (interp_weight_80_r[21] ? 18'h20000 : 18'h1ffff)
+      $signed(interp_weight_80_ovf_c ? (interp_weight_80_r[21] ? 18'h20000 : 18'h1ffff)
       : interp_weight_80_r[17:0]);
   reg  signed [17:0] interp_weight_80_q;
-  reg  [0:0] interp_weight_80_ovf_q;
   wire signed [17:0] t81 = $signed({{2{1'b0}}, c2_i} - {{3{1'b0}}, K27, 14'b0});
   wire signed [16:0] t82_a = $signed({1'b0, c2_i});
   wire signed [33:0] t82 = t82_a * t81;
@@ -387,58 +386,53 @@ module pipeline_smooth (
   wire [21:0] interp_weight_83_up = {t82[33], t82[33:13]} + {{21{1'b0}}, t82[12]};
   wire signed [21:0] interp_weight_83_r =
       $signed({interp_weight_83_up[21:1], interp_weight_83_up[0] & ~interp_weight_83_tie});
-  wire interp_weight_83_ovf_d = ~((&interp_weight_83_r[21:17]) | ~(|interp_weight_83_r[21:17]));
+  wire interp_weight_83_ovf_c = ~((&interp_weight_83_r[21:17]) | ~(|interp_weight_83_r[21:17]));
   wire signed [17:0] interp_weight_83_d =
-      $signed(interp_weight_83_ovf_d ? (interp_weight_83_r[21] ? 18'h20000 : 18'h1ffff)
+      $signed(interp_weight_83_ovf_c ? (interp_weight_83_r[21] ? 18'h20000 : 18'h1ffff)
       : interp_weight_83_r[17:0]);
   reg  signed [17:0] interp_weight_83_q;
-  reg  [0:0] interp_weight_83_ovf_q;
   wire signed [19:0] t84 = $signed({t77[18], t77} - {{5{1'b0}}, K27, 14'b0});
   wire signed [38:0] t85 = t77 * t84;
   wire interp_weight_86_tie = t85[12] & ~(|t85[11:0]);
   wire [26:0] interp_weight_86_up = {t85[38], t85[38:13]} + {{26{1'b0}}, t85[12]};
   wire signed [26:0] interp_weight_86_r =
       $signed({interp_weight_86_up[26:1], interp_weight_86_up[0] & ~interp_weight_86_tie});
-  wire interp_weight_86_ovf_d = ~((&interp_weight_86_r[26:17]) | ~(|interp_weight_86_r[26:17]));
+  wire interp_weight_86_ovf_c = ~((&interp_weight_86_r[26:17]) | ~(|interp_weight_86_r[26:17]));
   wire signed [17:0] interp_weight_86_d =
-      $signed(interp_weight_86_ovf_d ? (interp_weight_86_r[26] ? 18'h20000 : 18'h1ffff)
+      $signed(interp_weight_86_ovf_c ? (interp_weight_86_r[26] ? 18'h20000 : 18'h1ffff)
       : interp_weight_86_r[17:0]);
   reg  signed [17:0] interp_weight_86_q;
-  reg  [0:0] interp_weight_86_ovf_q;
   wire [31:0] t87 = c1_i * c2_i;
   wire interp_weight_88_tie = t87[11] & ~(|t87[10:0]);
   wire [20:0] interp_weight_88_up = {1'b0, t87[31:12]} + {{20{1'b0}}, t87[11]};
   wire [20:0] interp_weight_88_r =
       {interp_weight_88_up[20:1], interp_weight_88_up[0] & ~interp_weight_88_tie};
-  wire interp_weight_88_ovf_d = |interp_weight_88_r[20:17];
+  wire interp_weight_88_ovf_c = |interp_weight_88_r[20:17];
   wire signed [17:0] interp_weight_88_d =
-      $signed(interp_weight_88_ovf_d ? 18'h1ffff : interp_weight_88_r[17:0]);
+      $signed(interp_weight_88_ovf_c ? 18'h1ffff : interp_weight_88_r[17:0]);
   reg  signed [17:0] interp_weight_88_q;
-  reg  [0:0] interp_weight_88_ovf_q;
   wire signed [16:0] t89_a = $signed({1'b0, c2_i});
   wire signed [34:0] t89 = t89_a * t77;
   wire interp_weight_90_tie = t89[11] & ~(|t89[10:0]);
   wire [23:0] interp_weight_90_up = {t89[34], t89[34:12]} + {{23{1'b0}}, t89[11]};
   wire signed [23:0] interp_weight_90_r =
       $signed({interp_weight_90_up[23:1], interp_weight_90_up[0] & ~interp_weight_90_tie});
-  wire interp_weight_90_ovf_d = ~((&interp_weight_90_r[23:17]) | ~(|interp_weight_90_r[23:17]));
+  wire interp_weight_90_ovf_c = ~((&interp_weight_90_r[23:17]) | ~(|interp_weight_90_r[23:17]));
   wire signed [17:0] interp_weight_90_d =
-      $signed(interp_weight_90_ovf_d ? (interp_weight_90_r[23] ? 18'h20000 : 18'h1ffff)
+      $signed(interp_weight_90_ovf_c ? (interp_weight_90_r[23] ? 18'h20000 : 18'h1ffff)
       : interp_weight_90_r[17:0]);
   reg  signed [17:0] interp_weight_90_q;
-  reg  [0:0] interp_weight_90_ovf_q;
   wire signed [16:0] t91_b = $signed({1'b0, c1_i});
   wire signed [34:0] t91 = t77 * t91_b;
   wire interp_weight_92_tie = t91[11] & ~(|t91[10:0]);
   wire [23:0] interp_weight_92_up = {t91[34], t91[34:12]} + {{23{1'b0}}, t91[11]};
   wire signed [23:0] interp_weight_92_r =
       $signed({interp_weight_92_up[23:1], interp_weight_92_up[0] & ~interp_weight_92_tie});
-  wire interp_weight_92_ovf_d = ~((&interp_weight_92_r[23:17]) | ~(|interp_weight_92_r[23:17]));
+  wire interp_weight_92_ovf_c = ~((&interp_weight_92_r[23:17]) | ~(|interp_weight_92_r[23:17]));
   wire signed [17:0] interp_weight_92_d =
-      $signed(interp_weight_92_ovf_d ? (interp_weight_92_r[23] ? 18'h20000 : 18'h1ffff)
+      $signed(interp_weight_92_ovf_c ? (interp_weight_92_r[23] ? 18'h20000 : 18'h1ffff)
       : interp_weight_92_r[17:0]);
   reg  signed [17:0] interp_weight_92_q;
-  reg  [0:0] interp_weight_92_ovf_q;
   wire signed [15:0] n1_x_bank_s1 = tri_tag_q[0] ? n1_x_b1_q : n1_x_b0_q;
   wire signed [33:0] t93 = interp_weight_80_q * n1_x_bank_s1;
   wire signed [15:0] n2_x_bank_s1 = tri_tag_q[0] ? n2_x_b1_q : n2_x_b0_q;
@@ -460,12 +454,11 @@ module pipeline_smooth (
   wire [23:0] interp_out_104_up = {t103[38], t103[38:16]} + {{23{1'b0}}, t103[15]};
   wire signed [23:0] interp_out_104_r =
       $signed({interp_out_104_up[23:1], interp_out_104_up[0] & ~interp_out_104_tie});
-  wire interp_out_104_ovf_d = ~((&interp_out_104_r[23:15]) | ~(|interp_out_104_r[23:15]));
+  wire interp_out_104_ovf_c = ~((&interp_out_104_r[23:15]) | ~(|interp_out_104_r[23:15]));
   wire signed [15:0] interp_out_104_d =
-      $signed(interp_out_104_ovf_d ? (interp_out_104_r[23] ? 16'h8000 : 16'h7fff)
+      $signed(interp_out_104_ovf_c ? (interp_out_104_r[23] ? 16'h8000 : 16'h7fff)
       : interp_out_104_r[15:0]);
   reg  signed [15:0] interp_out_104_q;
-  reg  [0:0] interp_out_104_ovf_q;
   wire signed [15:0] n1_y_bank_s1 = tri_tag_q[0] ? n1_y_b1_q : n1_y_b0_q;
   wire signed [33:0] t105 = interp_weight_80_q * n1_y_bank_s1;
   wire signed [15:0] n2_y_bank_s1 = tri_tag_q[0] ? n2_y_b1_q : n2_y_b0_q;
@@ -487,12 +480,11 @@ module pipeline_smooth (
   wire [23:0] interp_out_116_up = {t115[38], t115[38:16]} + {{23{1'b0}}, t115[15]};
   wire signed [23:0] interp_out_116_r =
       $signed({interp_out_116_up[23:1], interp_out_116_up[0] & ~interp_out_116_tie});
-  wire interp_out_116_ovf_d = ~((&interp_out_116_r[23:15]) | ~(|interp_out_116_r[23:15]));
+  wire interp_out_116_ovf_c = ~((&interp_out_116_r[23:15]) | ~(|interp_out_116_r[23:15]));
   wire signed [15:0] interp_out_116_d =
-      $signed(interp_out_116_ovf_d ? (interp_out_116_r[23] ? 16'h8000 : 16'h7fff)
+      $signed(interp_out_116_ovf_c ? (interp_out_116_r[23] ? 16'h8000 : 16'h7fff)
       : interp_out_116_r[15:0]);
   reg  signed [15:0] interp_out_116_q;
-  reg  [0:0] interp_out_116_ovf_q;
   wire signed [15:0] n1_z_bank_s1 = tri_tag_q[0] ? n1_z_b1_q : n1_z_b0_q;
   wire signed [33:0] t117 = interp_weight_80_q * n1_z_bank_s1;
   wire signed [15:0] n2_z_bank_s1 = tri_tag_q[0] ? n2_z_b1_q : n2_z_b0_q;
@@ -514,30 +506,26 @@ module pipeline_smooth (
   wire [23:0] interp_out_128_up = {t127[38], t127[38:16]} + {{23{1'b0}}, t127[15]};
   wire signed [23:0] interp_out_128_r =
       $signed({interp_out_128_up[23:1], interp_out_128_up[0] & ~interp_out_128_tie});
-  wire interp_out_128_ovf_d = ~((&interp_out_128_r[23:15]) | ~(|interp_out_128_r[23:15]));
+  wire interp_out_128_ovf_c = ~((&interp_out_128_r[23:15]) | ~(|interp_out_128_r[23:15]));
   wire signed [15:0] interp_out_128_d =
-      $signed(interp_out_128_ovf_d ? (interp_out_128_r[23] ? 16'h8000 : 16'h7fff)
+      $signed(interp_out_128_ovf_c ? (interp_out_128_r[23] ? 16'h8000 : 16'h7fff)
       : interp_out_128_r[15:0]);
   reg  signed [15:0] interp_out_128_q;
-  reg  [0:0] interp_out_128_ovf_q;
-  wire normalize_normal_129_ovf_d = 1'b0;
+  wire normalize_normal_129_ovf_c = 1'b0;
   wire signed [15:0] normalize_normal_129_d =
-      $signed(normalize_normal_129_ovf_d ? (interp_out_104_q[15] ? 16'h8000 : 16'h7fff)
+      $signed(normalize_normal_129_ovf_c ? (interp_out_104_q[15] ? 16'h8000 : 16'h7fff)
       : interp_out_104_q[15:0]);
   reg  signed [15:0] normalize_normal_129_q;
-  reg  [0:0] normalize_normal_129_ovf_q;
-  wire normalize_normal_130_ovf_d = 1'b0;
+  wire normalize_normal_130_ovf_c = 1'b0;
   wire signed [15:0] normalize_normal_130_d =
-      $signed(normalize_normal_130_ovf_d ? (interp_out_116_q[15] ? 16'h8000 : 16'h7fff)
+      $signed(normalize_normal_130_ovf_c ? (interp_out_116_q[15] ? 16'h8000 : 16'h7fff)
       : interp_out_116_q[15:0]);
   reg  signed [15:0] normalize_normal_130_q;
-  reg  [0:0] normalize_normal_130_ovf_q;
-  wire normalize_normal_131_ovf_d = 1'b0;
+  wire normalize_normal_131_ovf_c = 1'b0;
   wire signed [15:0] normalize_normal_131_d =
-      $signed(normalize_normal_131_ovf_d ? (interp_out_128_q[15] ? 16'h8000 : 16'h7fff)
+      $signed(normalize_normal_131_ovf_c ? (interp_out_128_q[15] ? 16'h8000 : 16'h7fff)
       : interp_out_128_q[15:0]);
   reg  signed [15:0] normalize_normal_131_q;
-  reg  [0:0] normalize_normal_131_ovf_q;
   wire signed [31:0] t132 = normalize_normal_129_q * normalize_normal_129_q;
   wire signed [31:0] t133 = normalize_normal_130_q * normalize_normal_130_q;
   wire signed [31:0] t134 = normalize_normal_131_q * normalize_normal_131_q;
@@ -547,11 +535,10 @@ module pipeline_smooth (
   wire [23:0] normalize_d_137_up = {t136[33], t136[33:11]} + {{23{1'b0}}, t136[10]};
   wire signed [23:0] normalize_d_137_r =
       $signed({normalize_d_137_up[23:1], normalize_d_137_up[0] & ~normalize_d_137_tie});
-  wire normalize_d_137_ovf_d = normalize_d_137_r[23] | (|normalize_d_137_r[22:18]);
+  wire normalize_d_137_ovf_c = normalize_d_137_r[23] | (|normalize_d_137_r[22:18]);
   wire [17:0] normalize_d_137_d =
-      normalize_d_137_ovf_d ? (normalize_d_137_r[23] ? 18'h0 : 18'h3ffff) : normalize_d_137_r[17:0];
+      normalize_d_137_ovf_c ? (normalize_d_137_r[23] ? 18'h0 : 18'h3ffff) : normalize_d_137_r[17:0];
   reg  [17:0] normalize_d_137_q;
-  reg  [0:0] normalize_d_137_ovf_q;
   wire [2:0] sel_bank_s0 = tri_cur_q ? sel_b1_q : sel_b0_q;
   reg  [2:0] sel_c_s1_q;
   reg  [2:0] sel_c_s2_q;
@@ -587,13 +574,12 @@ module pipeline_smooth (
   wire signed [20:0] normalize_horner_140_r =
       $signed({normalize_horner_140_up[20:1], normalize_horner_140_up[0]
       & ~normalize_horner_140_tie});
-  wire normalize_horner_140_ovf_d =
+  wire normalize_horner_140_ovf_c =
       ~((&normalize_horner_140_r[20:17]) | ~(|normalize_horner_140_r[20:17]));
   wire signed [17:0] normalize_horner_140_d =
-      $signed(normalize_horner_140_ovf_d ? (normalize_horner_140_r[20] ? 18'h20000 : 18'h1ffff)
+      $signed(normalize_horner_140_ovf_c ? (normalize_horner_140_r[20] ? 18'h20000 : 18'h1ffff)
       : normalize_horner_140_r[17:0]);
   reg  signed [17:0] normalize_horner_140_q;
-  reg  [0:0] normalize_horner_140_ovf_q;
   reg  [17:0] normalize_d_137_s5_q;
   wire signed [18:0] t141_b = $signed({1'b0, normalize_d_137_s5_q});
   wire signed [35:0] t141 = normalize_horner_140_q * t141_b;
@@ -614,11 +600,10 @@ module pipeline_smooth (
   wire [22:0] normalize_g_143_up = {t142[36], t142[36:15]} + {{22{1'b0}}, t142[14]};
   wire signed [22:0] normalize_g_143_r =
       $signed({normalize_g_143_up[22:1], normalize_g_143_up[0] & ~normalize_g_143_tie});
-  wire normalize_g_143_ovf_d = normalize_g_143_r[22] | (|normalize_g_143_r[21:18]);
+  wire normalize_g_143_ovf_c = normalize_g_143_r[22] | (|normalize_g_143_r[21:18]);
   wire [17:0] normalize_g_143_d =
-      normalize_g_143_ovf_d ? (normalize_g_143_r[22] ? 18'h0 : 18'h3ffff) : normalize_g_143_r[17:0];
+      normalize_g_143_ovf_c ? (normalize_g_143_r[22] ? 18'h0 : 18'h3ffff) : normalize_g_143_r[17:0];
   reg  [17:0] normalize_g_143_q;
-  reg  [0:0] normalize_g_143_ovf_q;
   reg  signed [15:0] normalize_normal_129_s4_q;
   reg  signed [15:0] normalize_normal_129_s5_q;
   reg  signed [15:0] normalize_normal_129_s6_q;
@@ -638,50 +623,44 @@ module pipeline_smooth (
   wire [17:0] normalize_out_147_up = {t144[33], t144[33:17]} + {{17{1'b0}}, t144[16]};
   wire signed [17:0] normalize_out_147_r =
       $signed({normalize_out_147_up[17:1], normalize_out_147_up[0] & ~normalize_out_147_tie});
-  wire normalize_out_147_ovf_d = ~((&normalize_out_147_r[17:15]) | ~(|normalize_out_147_r[17:15]));
+  wire normalize_out_147_ovf_c = ~((&normalize_out_147_r[17:15]) | ~(|normalize_out_147_r[17:15]));
   wire signed [15:0] normalize_out_147_d =
-      $signed(normalize_out_147_ovf_d ? (normalize_out_147_r[17] ? 16'h8000 : 16'h7fff)
+      $signed(normalize_out_147_ovf_c ? (normalize_out_147_r[17] ? 16'h8000 : 16'h7fff)
       : normalize_out_147_r[15:0]);
   reg  signed [15:0] normalize_out_147_q;
-  reg  [0:0] normalize_out_147_ovf_q;
   wire normalize_out_148_tie = t145[16] & ~(|t145[15:0]);
   wire [17:0] normalize_out_148_up = {t145[33], t145[33:17]} + {{17{1'b0}}, t145[16]};
   wire signed [17:0] normalize_out_148_r =
       $signed({normalize_out_148_up[17:1], normalize_out_148_up[0] & ~normalize_out_148_tie});
-  wire normalize_out_148_ovf_d = ~((&normalize_out_148_r[17:15]) | ~(|normalize_out_148_r[17:15]));
+  wire normalize_out_148_ovf_c = ~((&normalize_out_148_r[17:15]) | ~(|normalize_out_148_r[17:15]));
   wire signed [15:0] normalize_out_148_d =
-      $signed(normalize_out_148_ovf_d ? (normalize_out_148_r[17] ? 16'h8000 : 16'h7fff)
+      $signed(normalize_out_148_ovf_c ? (normalize_out_148_r[17] ? 16'h8000 : 16'h7fff)
       : normalize_out_148_r[15:0]);
   reg  signed [15:0] normalize_out_148_q;
-  reg  [0:0] normalize_out_148_ovf_q;
   wire normalize_out_149_tie = t146[16] & ~(|t146[15:0]);
   wire [17:0] normalize_out_149_up = {t146[33], t146[33:17]} + {{17{1'b0}}, t146[16]};
   wire signed [17:0] normalize_out_149_r =
       $signed({normalize_out_149_up[17:1], normalize_out_149_up[0] & ~normalize_out_149_tie});
-  wire normalize_out_149_ovf_d = ~((&normalize_out_149_r[17:15]) | ~(|normalize_out_149_r[17:15]));
+  wire normalize_out_149_ovf_c = ~((&normalize_out_149_r[17:15]) | ~(|normalize_out_149_r[17:15]));
   wire signed [15:0] normalize_out_149_d =
-      $signed(normalize_out_149_ovf_d ? (normalize_out_149_r[17] ? 16'h8000 : 16'h7fff)
+      $signed(normalize_out_149_ovf_c ? (normalize_out_149_r[17] ? 16'h8000 : 16'h7fff)
       : normalize_out_149_r[15:0]);
   reg  signed [15:0] normalize_out_149_q;
-  reg  [0:0] normalize_out_149_ovf_q;
-  wire lighting_normal_150_ovf_d = 1'b0;
+  wire lighting_normal_150_ovf_c = 1'b0;
   wire signed [15:0] lighting_normal_150_d =
-      $signed(lighting_normal_150_ovf_d ? (normalize_out_147_q[15] ? 16'h8000 : 16'h7fff)
+      $signed(lighting_normal_150_ovf_c ? (normalize_out_147_q[15] ? 16'h8000 : 16'h7fff)
       : normalize_out_147_q[15:0]);
   reg  signed [15:0] lighting_normal_150_q;
-  reg  [0:0] lighting_normal_150_ovf_q;
-  wire lighting_normal_151_ovf_d = 1'b0;
+  wire lighting_normal_151_ovf_c = 1'b0;
   wire signed [15:0] lighting_normal_151_d =
-      $signed(lighting_normal_151_ovf_d ? (normalize_out_148_q[15] ? 16'h8000 : 16'h7fff)
+      $signed(lighting_normal_151_ovf_c ? (normalize_out_148_q[15] ? 16'h8000 : 16'h7fff)
       : normalize_out_148_q[15:0]);
   reg  signed [15:0] lighting_normal_151_q;
-  reg  [0:0] lighting_normal_151_ovf_q;
-  wire lighting_normal_152_ovf_d = 1'b0;
+  wire lighting_normal_152_ovf_c = 1'b0;
   wire signed [15:0] lighting_normal_152_d =
-      $signed(lighting_normal_152_ovf_d ? (normalize_out_149_q[15] ? 16'h8000 : 16'h7fff)
+      $signed(lighting_normal_152_ovf_c ? (normalize_out_149_q[15] ? 16'h8000 : 16'h7fff)
       : normalize_out_149_q[15:0]);
   reg  signed [15:0] lighting_normal_152_q;
-  reg  [0:0] lighting_normal_152_ovf_q;
   wire signed [31:0] t153 = lighting_normal_150_q * l_x_q;
   wire signed [31:0] t154 = lighting_normal_151_q * l_y_q;
   wire signed [31:0] t155 = lighting_normal_152_q * l_z_q;
@@ -691,12 +670,11 @@ module pipeline_smooth (
   wire [20:0] lighting_dot_158_up = {t157[33], t157[33:14]} + {{20{1'b0}}, t157[13]};
   wire signed [20:0] lighting_dot_158_r =
       $signed({lighting_dot_158_up[20:1], lighting_dot_158_up[0] & ~lighting_dot_158_tie});
-  wire lighting_dot_158_ovf_d = ~((&lighting_dot_158_r[20:15]) | ~(|lighting_dot_158_r[20:15]));
+  wire lighting_dot_158_ovf_c = ~((&lighting_dot_158_r[20:15]) | ~(|lighting_dot_158_r[20:15]));
   wire signed [15:0] lighting_dot_158_d =
-      $signed(lighting_dot_158_ovf_d ? (lighting_dot_158_r[20] ? 16'h8000 : 16'h7fff)
+      $signed(lighting_dot_158_ovf_c ? (lighting_dot_158_r[20] ? 16'h8000 : 16'h7fff)
       : lighting_dot_158_r[15:0]);
   reg  signed [15:0] lighting_dot_158_q;
-  reg  [0:0] lighting_dot_158_ovf_q;
   wire signed [15:0] t159_a = $signed(lighting_dot_158_q);
   wire signed [15:0] t159_b = $signed(K72);
   wire signed [15:0] t159 = (t159_a > t159_b) ? t159_a : t159_b;
@@ -709,58 +687,52 @@ module pipeline_smooth (
   wire [20:0] lighting_dot_165_up = {t164[33], t164[33:14]} + {{20{1'b0}}, t164[13]};
   wire signed [20:0] lighting_dot_165_r =
       $signed({lighting_dot_165_up[20:1], lighting_dot_165_up[0] & ~lighting_dot_165_tie});
-  wire lighting_dot_165_ovf_d = ~((&lighting_dot_165_r[20:15]) | ~(|lighting_dot_165_r[20:15]));
+  wire lighting_dot_165_ovf_c = ~((&lighting_dot_165_r[20:15]) | ~(|lighting_dot_165_r[20:15]));
   wire signed [15:0] lighting_dot_165_d =
-      $signed(lighting_dot_165_ovf_d ? (lighting_dot_165_r[20] ? 16'h8000 : 16'h7fff)
+      $signed(lighting_dot_165_ovf_c ? (lighting_dot_165_r[20] ? 16'h8000 : 16'h7fff)
       : lighting_dot_165_r[15:0]);
   reg  signed [15:0] lighting_dot_165_q;
-  reg  [0:0] lighting_dot_165_ovf_q;
   wire signed [15:0] t166_a = $signed(lighting_dot_165_q);
   wire signed [15:0] t166_b = $signed(K72);
   wire signed [15:0] t166 = (t166_a > t166_b) ? t166_a : t166_b;
   wire signed [18:0] lighting_spec_167_r = $signed({t166, 3'b0});
-  wire lighting_spec_167_ovf_d = lighting_spec_167_r[18];
+  wire lighting_spec_167_ovf_c = lighting_spec_167_r[18];
   wire [17:0] lighting_spec_167_d =
-      lighting_spec_167_ovf_d ? (lighting_spec_167_r[18] ? 18'h0 : 18'h3ffff)
+      lighting_spec_167_ovf_c ? (lighting_spec_167_r[18] ? 18'h0 : 18'h3ffff)
       : lighting_spec_167_r[17:0];
   reg  [17:0] lighting_spec_167_q;
-  reg  [0:0] lighting_spec_167_ovf_q;
   wire [35:0] t168 = lighting_spec_167_q * lighting_spec_167_q;
   wire lighting_spec_169_tie = t168[16] & ~(|t168[15:0]);
   wire [19:0] lighting_spec_169_up = {1'b0, t168[35:17]} + {{19{1'b0}}, t168[16]};
   wire [19:0] lighting_spec_169_r =
       {lighting_spec_169_up[19:1], lighting_spec_169_up[0] & ~lighting_spec_169_tie};
-  wire lighting_spec_169_ovf_d = |lighting_spec_169_r[19:18];
-  wire [17:0] lighting_spec_169_d = lighting_spec_169_ovf_d ? 18'h3ffff : lighting_spec_169_r[17:0];
+  wire lighting_spec_169_ovf_c = |lighting_spec_169_r[19:18];
+  wire [17:0] lighting_spec_169_d = lighting_spec_169_ovf_c ? 18'h3ffff : lighting_spec_169_r[17:0];
   reg  [17:0] lighting_spec_169_q;
-  reg  [0:0] lighting_spec_169_ovf_q;
   wire [35:0] t170 = lighting_spec_169_q * lighting_spec_169_q;
   wire lighting_spec_171_tie = t170[16] & ~(|t170[15:0]);
   wire [19:0] lighting_spec_171_up = {1'b0, t170[35:17]} + {{19{1'b0}}, t170[16]};
   wire [19:0] lighting_spec_171_r =
       {lighting_spec_171_up[19:1], lighting_spec_171_up[0] & ~lighting_spec_171_tie};
-  wire lighting_spec_171_ovf_d = |lighting_spec_171_r[19:18];
-  wire [17:0] lighting_spec_171_d = lighting_spec_171_ovf_d ? 18'h3ffff : lighting_spec_171_r[17:0];
+  wire lighting_spec_171_ovf_c = |lighting_spec_171_r[19:18];
+  wire [17:0] lighting_spec_171_d = lighting_spec_171_ovf_c ? 18'h3ffff : lighting_spec_171_r[17:0];
   reg  [17:0] lighting_spec_171_q;
-  reg  [0:0] lighting_spec_171_ovf_q;
   wire [35:0] t172 = lighting_spec_171_q * lighting_spec_171_q;
   wire lighting_spec_173_tie = t172[16] & ~(|t172[15:0]);
   wire [19:0] lighting_spec_173_up = {1'b0, t172[35:17]} + {{19{1'b0}}, t172[16]};
   wire [19:0] lighting_spec_173_r =
       {lighting_spec_173_up[19:1], lighting_spec_173_up[0] & ~lighting_spec_173_tie};
-  wire lighting_spec_173_ovf_d = |lighting_spec_173_r[19:18];
-  wire [17:0] lighting_spec_173_d = lighting_spec_173_ovf_d ? 18'h3ffff : lighting_spec_173_r[17:0];
+  wire lighting_spec_173_ovf_c = |lighting_spec_173_r[19:18];
+  wire [17:0] lighting_spec_173_d = lighting_spec_173_ovf_c ? 18'h3ffff : lighting_spec_173_r[17:0];
   reg  [17:0] lighting_spec_173_q;
-  reg  [0:0] lighting_spec_173_ovf_q;
   wire [35:0] t174 = lighting_spec_173_q * lighting_spec_173_q;
   wire lighting_spec_175_tie = t174[16] & ~(|t174[15:0]);
   wire [19:0] lighting_spec_175_up = {1'b0, t174[35:17]} + {{19{1'b0}}, t174[16]};
   wire [19:0] lighting_spec_175_r =
       {lighting_spec_175_up[19:1], lighting_spec_175_up[0] & ~lighting_spec_175_tie};
-  wire lighting_spec_175_ovf_d = |lighting_spec_175_r[19:18];
-  wire [17:0] lighting_spec_175_d = lighting_spec_175_ovf_d ? 18'h3ffff : lighting_spec_175_r[17:0];
+  wire lighting_spec_175_ovf_c = |lighting_spec_175_r[19:18];
+  wire [17:0] lighting_spec_175_d = lighting_spec_175_ovf_c ? 18'h3ffff : lighting_spec_175_r[17:0];
   reg  [17:0] lighting_spec_175_q;
-  reg  [0:0] lighting_spec_175_ovf_q;
   wire signed [16:0] t176_b = $signed({1'b0, K70});
   wire signed [31:0] t176 = t159 * t176_b;
   wire [33:0] t177 = lighting_spec_175_q * K71;
@@ -774,22 +746,22 @@ module pipeline_smooth (
   wire [11:0] lighting_level_179_up = {t178[35], t178[35:25]} + {{11{1'b0}}, t178[24]};
   wire signed [11:0] lighting_level_179_r =
       $signed({lighting_level_179_up[11:1], lighting_level_179_up[0] & ~lighting_level_179_tie});
-  wire lighting_level_179_ovf_d = lighting_level_179_r[11] | (|lighting_level_179_r[10:8]);
+  wire lighting_level_179_ovf_c = lighting_level_179_r[11] | (|lighting_level_179_r[10:8]);
   wire [7:0] lighting_level_179_d =
-      lighting_level_179_ovf_d ? (lighting_level_179_r[11] ? 8'h0 : 8'hff)
+      lighting_level_179_ovf_c ? (lighting_level_179_r[11] ? 8'h0 : 8'hff)
       : lighting_level_179_r[7:0];
   reg  [7:0] lighting_level_179_q;
-  reg  [0:0] lighting_level_179_ovf_q;
-  reg  [0:0] interp_weight_80_ovf_s2_q;
-  reg  [0:0] interp_weight_83_ovf_s2_q;
-  reg  [0:0] interp_weight_86_ovf_s2_q;
-  reg  [0:0] interp_weight_88_ovf_s2_q;
-  reg  [0:0] interp_weight_90_ovf_s2_q;
-  reg  [0:0] interp_weight_92_ovf_s2_q;
-  wire ovf0_or_s2 =
-      interp_weight_80_ovf_s2_q | interp_weight_83_ovf_s2_q | interp_weight_86_ovf_s2_q
-          | interp_weight_88_ovf_s2_q
-      | interp_weight_90_ovf_s2_q | interp_weight_92_ovf_s2_q;
+  reg  [0:0] interp_weight_80_ovf_s1_q;
+  reg  [0:0] interp_weight_83_ovf_s1_q;
+  reg  [0:0] interp_weight_86_ovf_s1_q;
+  reg  [0:0] interp_weight_88_ovf_s1_q;
+  reg  [0:0] interp_weight_90_ovf_s1_q;
+  reg  [0:0] interp_weight_92_ovf_s1_q;
+  wire ovf0_or_s1 =
+      interp_weight_80_ovf_s1_q | interp_weight_83_ovf_s1_q | interp_weight_86_ovf_s1_q
+          | interp_weight_88_ovf_s1_q
+      | interp_weight_90_ovf_s1_q | interp_weight_92_ovf_s1_q;
+  reg  [0:0] ovf0_s2_q;
   reg  [0:0] ovf0_s3_q;
   reg  [0:0] ovf0_s4_q;
   reg  [0:0] ovf0_s5_q;
@@ -803,11 +775,12 @@ module pipeline_smooth (
   reg  [0:0] ovf0_s13_q;
   reg  [0:0] ovf0_s14_q;
   reg  [0:0] ovf0_s15_q;
-  reg  [0:0] interp_out_104_ovf_s3_q;
-  reg  [0:0] interp_out_116_ovf_s3_q;
-  reg  [0:0] interp_out_128_ovf_s3_q;
-  wire ovf1_or_s3 =
-      interp_out_104_ovf_s3_q | interp_out_116_ovf_s3_q | interp_out_128_ovf_s3_q;
+  reg  [0:0] interp_out_104_ovf_s2_q;
+  reg  [0:0] interp_out_116_ovf_s2_q;
+  reg  [0:0] interp_out_128_ovf_s2_q;
+  wire ovf1_or_s2 =
+      interp_out_104_ovf_s2_q | interp_out_116_ovf_s2_q | interp_out_128_ovf_s2_q;
+  reg  [0:0] ovf1_s3_q;
   reg  [0:0] ovf1_s4_q;
   reg  [0:0] ovf1_s5_q;
   reg  [0:0] ovf1_s6_q;
@@ -820,23 +793,8 @@ module pipeline_smooth (
   reg  [0:0] ovf1_s13_q;
   reg  [0:0] ovf1_s14_q;
   reg  [0:0] ovf1_s15_q;
-  reg  [0:0] normalize_normal_129_ovf_s4_q;
-  reg  [0:0] normalize_normal_130_ovf_s4_q;
-  reg  [0:0] normalize_normal_131_ovf_s4_q;
-  wire ovf2_or_s4 =
-      normalize_normal_129_ovf_s4_q | normalize_normal_130_ovf_s4_q | normalize_normal_131_ovf_s4_q;
-  reg  [0:0] ovf2_s5_q;
-  reg  [0:0] ovf2_s6_q;
-  reg  [0:0] ovf2_s7_q;
-  reg  [0:0] ovf2_s8_q;
-  reg  [0:0] ovf2_s9_q;
-  reg  [0:0] ovf2_s10_q;
-  reg  [0:0] ovf2_s11_q;
-  reg  [0:0] ovf2_s12_q;
-  reg  [0:0] ovf2_s13_q;
-  reg  [0:0] ovf2_s14_q;
-  reg  [0:0] ovf2_s15_q;
-  reg  [0:0] normalize_d_137_ovf_s5_q;
+  reg  [0:0] normalize_d_137_ovf_s4_q;
+  reg  [0:0] ovf3_s5_q;
   reg  [0:0] ovf3_s6_q;
   reg  [0:0] ovf3_s7_q;
   reg  [0:0] ovf3_s8_q;
@@ -847,7 +805,8 @@ module pipeline_smooth (
   reg  [0:0] ovf3_s13_q;
   reg  [0:0] ovf3_s14_q;
   reg  [0:0] ovf3_s15_q;
-  reg  [0:0] normalize_horner_140_ovf_s6_q;
+  reg  [0:0] normalize_horner_140_ovf_s5_q;
+  reg  [0:0] ovf4_s6_q;
   reg  [0:0] ovf4_s7_q;
   reg  [0:0] ovf4_s8_q;
   reg  [0:0] ovf4_s9_q;
@@ -857,7 +816,8 @@ module pipeline_smooth (
   reg  [0:0] ovf4_s13_q;
   reg  [0:0] ovf4_s14_q;
   reg  [0:0] ovf4_s15_q;
-  reg  [0:0] normalize_g_143_ovf_s7_q;
+  reg  [0:0] normalize_g_143_ovf_s6_q;
+  reg  [0:0] ovf5_s7_q;
   reg  [0:0] ovf5_s8_q;
   reg  [0:0] ovf5_s9_q;
   reg  [0:0] ovf5_s10_q;
@@ -866,11 +826,12 @@ module pipeline_smooth (
   reg  [0:0] ovf5_s13_q;
   reg  [0:0] ovf5_s14_q;
   reg  [0:0] ovf5_s15_q;
-  reg  [0:0] normalize_out_147_ovf_s8_q;
-  reg  [0:0] normalize_out_148_ovf_s8_q;
-  reg  [0:0] normalize_out_149_ovf_s8_q;
-  wire ovf6_or_s8 =
-      normalize_out_147_ovf_s8_q | normalize_out_148_ovf_s8_q | normalize_out_149_ovf_s8_q;
+  reg  [0:0] normalize_out_147_ovf_s7_q;
+  reg  [0:0] normalize_out_148_ovf_s7_q;
+  reg  [0:0] normalize_out_149_ovf_s7_q;
+  wire ovf6_or_s7 =
+      normalize_out_147_ovf_s7_q | normalize_out_148_ovf_s7_q | normalize_out_149_ovf_s7_q;
+  reg  [0:0] ovf6_s8_q;
   reg  [0:0] ovf6_s9_q;
   reg  [0:0] ovf6_s10_q;
   reg  [0:0] ovf6_s11_q;
@@ -878,43 +839,35 @@ module pipeline_smooth (
   reg  [0:0] ovf6_s13_q;
   reg  [0:0] ovf6_s14_q;
   reg  [0:0] ovf6_s15_q;
-  reg  [0:0] lighting_normal_150_ovf_s9_q;
-  reg  [0:0] lighting_normal_151_ovf_s9_q;
-  reg  [0:0] lighting_normal_152_ovf_s9_q;
-  wire ovf7_or_s9 =
-      lighting_normal_150_ovf_s9_q | lighting_normal_151_ovf_s9_q | lighting_normal_152_ovf_s9_q;
-  reg  [0:0] ovf7_s10_q;
-  reg  [0:0] ovf7_s11_q;
-  reg  [0:0] ovf7_s12_q;
-  reg  [0:0] ovf7_s13_q;
-  reg  [0:0] ovf7_s14_q;
-  reg  [0:0] ovf7_s15_q;
-  reg  [0:0] lighting_dot_158_ovf_s10_q;
-  reg  [0:0] lighting_dot_165_ovf_s10_q;
-  wire ovf8_or_s10 =
-      lighting_dot_158_ovf_s10_q | lighting_dot_165_ovf_s10_q;
+  reg  [0:0] lighting_dot_158_ovf_s9_q;
+  reg  [0:0] lighting_dot_165_ovf_s9_q;
+  wire ovf8_or_s9 =
+      lighting_dot_158_ovf_s9_q | lighting_dot_165_ovf_s9_q;
+  reg  [0:0] ovf8_s10_q;
   reg  [0:0] ovf8_s11_q;
   reg  [0:0] ovf8_s12_q;
   reg  [0:0] ovf8_s13_q;
   reg  [0:0] ovf8_s14_q;
   reg  [0:0] ovf8_s15_q;
-  reg  [0:0] lighting_spec_167_ovf_s11_q;
-  reg  [0:0] lighting_spec_169_ovf_s12_q;
-  reg  [0:0] lighting_spec_171_ovf_s13_q;
-  reg  [0:0] lighting_spec_173_ovf_s14_q;
-  reg  [0:0] lighting_spec_175_ovf_s15_q;
+  reg  [0:0] lighting_spec_167_ovf_s10_q;
+  reg  [0:0] lighting_spec_169_ovf_s11_q;
+  reg  [0:0] lighting_spec_171_ovf_s12_q;
+  reg  [0:0] lighting_spec_173_ovf_s13_q;
+  reg  [0:0] lighting_spec_175_ovf_s14_q;
+  reg  [0:0] ovf9_s11_q;
+  wire ovf9_or_s11 =
+      ovf9_s11_q | lighting_spec_169_ovf_s11_q;
   reg  [0:0] ovf9_s12_q;
   wire ovf9_or_s12 =
-      ovf9_s12_q | lighting_spec_169_ovf_s12_q;
+      ovf9_s12_q | lighting_spec_171_ovf_s12_q;
   reg  [0:0] ovf9_s13_q;
   wire ovf9_or_s13 =
-      ovf9_s13_q | lighting_spec_171_ovf_s13_q;
+      ovf9_s13_q | lighting_spec_173_ovf_s13_q;
   reg  [0:0] ovf9_s14_q;
   wire ovf9_or_s14 =
-      ovf9_s14_q | lighting_spec_173_ovf_s14_q;
+      ovf9_s14_q | lighting_spec_175_ovf_s14_q;
   reg  [0:0] ovf9_s15_q;
-  wire ovf9_or_s15 =
-      ovf9_s15_q | lighting_spec_175_ovf_s15_q;
+  reg  [0:0] lighting_level_179_ovf_s15_q;
 
   // Stage loads: the item entering stage k is valid and the stages move.
   wire load_s1 = in_take;
@@ -938,63 +891,49 @@ module pipeline_smooth (
   always @(posedge clk_i) begin
     if (load_s1) begin
       interp_weight_80_q <= interp_weight_80_d;
-      interp_weight_80_ovf_q <= interp_weight_80_ovf_d;
       interp_weight_83_q <= interp_weight_83_d;
-      interp_weight_83_ovf_q <= interp_weight_83_ovf_d;
       interp_weight_86_q <= interp_weight_86_d;
-      interp_weight_86_ovf_q <= interp_weight_86_ovf_d;
       interp_weight_88_q <= interp_weight_88_d;
-      interp_weight_88_ovf_q <= interp_weight_88_ovf_d;
       interp_weight_90_q <= interp_weight_90_d;
-      interp_weight_90_ovf_q <= interp_weight_90_ovf_d;
       interp_weight_92_q <= interp_weight_92_d;
-      interp_weight_92_ovf_q <= interp_weight_92_ovf_d;
       sel_c_s1_q <= sel_bank_s0;
+      interp_weight_80_ovf_s1_q <= interp_weight_80_ovf_c;
+      interp_weight_83_ovf_s1_q <= interp_weight_83_ovf_c;
+      interp_weight_86_ovf_s1_q <= interp_weight_86_ovf_c;
+      interp_weight_88_ovf_s1_q <= interp_weight_88_ovf_c;
+      interp_weight_90_ovf_s1_q <= interp_weight_90_ovf_c;
+      interp_weight_92_ovf_s1_q <= interp_weight_92_ovf_c;
     end
     if (load_s2) begin
       interp_out_104_q <= interp_out_104_d;
-      interp_out_104_ovf_q <= interp_out_104_ovf_d;
       interp_out_116_q <= interp_out_116_d;
-      interp_out_116_ovf_q <= interp_out_116_ovf_d;
       interp_out_128_q <= interp_out_128_d;
-      interp_out_128_ovf_q <= interp_out_128_ovf_d;
       sel_c_s2_q <= sel_c_s1_q;
-      interp_weight_80_ovf_s2_q <= interp_weight_80_ovf_q;
-      interp_weight_83_ovf_s2_q <= interp_weight_83_ovf_q;
-      interp_weight_86_ovf_s2_q <= interp_weight_86_ovf_q;
-      interp_weight_88_ovf_s2_q <= interp_weight_88_ovf_q;
-      interp_weight_90_ovf_s2_q <= interp_weight_90_ovf_q;
-      interp_weight_92_ovf_s2_q <= interp_weight_92_ovf_q;
+      ovf0_s2_q <= ovf0_or_s1;
+      interp_out_104_ovf_s2_q <= interp_out_104_ovf_c;
+      interp_out_116_ovf_s2_q <= interp_out_116_ovf_c;
+      interp_out_128_ovf_s2_q <= interp_out_128_ovf_c;
     end
     if (load_s3) begin
       normalize_normal_129_q <= normalize_normal_129_d;
-      normalize_normal_129_ovf_q <= normalize_normal_129_ovf_d;
       normalize_normal_130_q <= normalize_normal_130_d;
-      normalize_normal_130_ovf_q <= normalize_normal_130_ovf_d;
       normalize_normal_131_q <= normalize_normal_131_d;
-      normalize_normal_131_ovf_q <= normalize_normal_131_ovf_d;
       sel_c_s3_q <= sel_c_s2_q;
-      ovf0_s3_q <= ovf0_or_s2;
-      interp_out_104_ovf_s3_q <= interp_out_104_ovf_q;
-      interp_out_116_ovf_s3_q <= interp_out_116_ovf_q;
-      interp_out_128_ovf_s3_q <= interp_out_128_ovf_q;
+      ovf0_s3_q <= ovf0_s2_q;
+      ovf1_s3_q <= ovf1_or_s2;
     end
     if (load_s4) begin
       normalize_d_137_q <= normalize_d_137_d;
-      normalize_d_137_ovf_q <= normalize_d_137_ovf_d;
       sel_c_s4_q <= sel_c_s3_q;
       normalize_normal_129_s4_q <= normalize_normal_129_q;
       normalize_normal_130_s4_q <= normalize_normal_130_q;
       normalize_normal_131_s4_q <= normalize_normal_131_q;
       ovf0_s4_q <= ovf0_s3_q;
-      ovf1_s4_q <= ovf1_or_s3;
-      normalize_normal_129_ovf_s4_q <= normalize_normal_129_ovf_q;
-      normalize_normal_130_ovf_s4_q <= normalize_normal_130_ovf_q;
-      normalize_normal_131_ovf_s4_q <= normalize_normal_131_ovf_q;
+      ovf1_s4_q <= ovf1_s3_q;
+      normalize_d_137_ovf_s4_q <= normalize_d_137_ovf_c;
     end
     if (load_s5) begin
       normalize_horner_140_q <= normalize_horner_140_d;
-      normalize_horner_140_ovf_q <= normalize_horner_140_ovf_d;
       normalize_d_137_s5_q <= normalize_d_137_q;
       sel_c_s5_q <= sel_c_s4_q;
       normalize_normal_129_s5_q <= normalize_normal_129_s4_q;
@@ -1002,169 +941,140 @@ module pipeline_smooth (
       normalize_normal_131_s5_q <= normalize_normal_131_s4_q;
       ovf0_s5_q <= ovf0_s4_q;
       ovf1_s5_q <= ovf1_s4_q;
-      ovf2_s5_q <= ovf2_or_s4;
-      normalize_d_137_ovf_s5_q <= normalize_d_137_ovf_q;
+      ovf3_s5_q <= normalize_d_137_ovf_s4_q;
+      normalize_horner_140_ovf_s5_q <= normalize_horner_140_ovf_c;
     end
     if (load_s6) begin
       normalize_g_143_q <= normalize_g_143_d;
-      normalize_g_143_ovf_q <= normalize_g_143_ovf_d;
       normalize_normal_129_s6_q <= normalize_normal_129_s5_q;
       normalize_normal_130_s6_q <= normalize_normal_130_s5_q;
       normalize_normal_131_s6_q <= normalize_normal_131_s5_q;
       ovf0_s6_q <= ovf0_s5_q;
       ovf1_s6_q <= ovf1_s5_q;
-      ovf2_s6_q <= ovf2_s5_q;
-      ovf3_s6_q <= normalize_d_137_ovf_s5_q;
-      normalize_horner_140_ovf_s6_q <= normalize_horner_140_ovf_q;
+      ovf3_s6_q <= ovf3_s5_q;
+      ovf4_s6_q <= normalize_horner_140_ovf_s5_q;
+      normalize_g_143_ovf_s6_q <= normalize_g_143_ovf_c;
     end
     if (load_s7) begin
       normalize_out_147_q <= normalize_out_147_d;
-      normalize_out_147_ovf_q <= normalize_out_147_ovf_d;
       normalize_out_148_q <= normalize_out_148_d;
-      normalize_out_148_ovf_q <= normalize_out_148_ovf_d;
       normalize_out_149_q <= normalize_out_149_d;
-      normalize_out_149_ovf_q <= normalize_out_149_ovf_d;
       ovf0_s7_q <= ovf0_s6_q;
       ovf1_s7_q <= ovf1_s6_q;
-      ovf2_s7_q <= ovf2_s6_q;
       ovf3_s7_q <= ovf3_s6_q;
-      ovf4_s7_q <= normalize_horner_140_ovf_s6_q;
-      normalize_g_143_ovf_s7_q <= normalize_g_143_ovf_q;
+      ovf4_s7_q <= ovf4_s6_q;
+      ovf5_s7_q <= normalize_g_143_ovf_s6_q;
+      normalize_out_147_ovf_s7_q <= normalize_out_147_ovf_c;
+      normalize_out_148_ovf_s7_q <= normalize_out_148_ovf_c;
+      normalize_out_149_ovf_s7_q <= normalize_out_149_ovf_c;
     end
     if (load_s8) begin
       lighting_normal_150_q <= lighting_normal_150_d;
-      lighting_normal_150_ovf_q <= lighting_normal_150_ovf_d;
       lighting_normal_151_q <= lighting_normal_151_d;
-      lighting_normal_151_ovf_q <= lighting_normal_151_ovf_d;
       lighting_normal_152_q <= lighting_normal_152_d;
-      lighting_normal_152_ovf_q <= lighting_normal_152_ovf_d;
       ovf0_s8_q <= ovf0_s7_q;
       ovf1_s8_q <= ovf1_s7_q;
-      ovf2_s8_q <= ovf2_s7_q;
       ovf3_s8_q <= ovf3_s7_q;
       ovf4_s8_q <= ovf4_s7_q;
-      ovf5_s8_q <= normalize_g_143_ovf_s7_q;
-      normalize_out_147_ovf_s8_q <= normalize_out_147_ovf_q;
-      normalize_out_148_ovf_s8_q <= normalize_out_148_ovf_q;
-      normalize_out_149_ovf_s8_q <= normalize_out_149_ovf_q;
+      ovf5_s8_q <= ovf5_s7_q;
+      ovf6_s8_q <= ovf6_or_s7;
     end
     if (load_s9) begin
       lighting_dot_158_q <= lighting_dot_158_d;
-      lighting_dot_158_ovf_q <= lighting_dot_158_ovf_d;
       lighting_dot_165_q <= lighting_dot_165_d;
-      lighting_dot_165_ovf_q <= lighting_dot_165_ovf_d;
       ovf0_s9_q <= ovf0_s8_q;
       ovf1_s9_q <= ovf1_s8_q;
-      ovf2_s9_q <= ovf2_s8_q;
       ovf3_s9_q <= ovf3_s8_q;
       ovf4_s9_q <= ovf4_s8_q;
       ovf5_s9_q <= ovf5_s8_q;
-      ovf6_s9_q <= ovf6_or_s8;
-      lighting_normal_150_ovf_s9_q <= lighting_normal_150_ovf_q;
-      lighting_normal_151_ovf_s9_q <= lighting_normal_151_ovf_q;
-      lighting_normal_152_ovf_s9_q <= lighting_normal_152_ovf_q;
+      ovf6_s9_q <= ovf6_s8_q;
+      lighting_dot_158_ovf_s9_q <= lighting_dot_158_ovf_c;
+      lighting_dot_165_ovf_s9_q <= lighting_dot_165_ovf_c;
     end
     if (load_s10) begin
       lighting_spec_167_q <= lighting_spec_167_d;
-      lighting_spec_167_ovf_q <= lighting_spec_167_ovf_d;
       t176_s10_q <= t176;
       ovf0_s10_q <= ovf0_s9_q;
       ovf1_s10_q <= ovf1_s9_q;
-      ovf2_s10_q <= ovf2_s9_q;
       ovf3_s10_q <= ovf3_s9_q;
       ovf4_s10_q <= ovf4_s9_q;
       ovf5_s10_q <= ovf5_s9_q;
       ovf6_s10_q <= ovf6_s9_q;
-      ovf7_s10_q <= ovf7_or_s9;
-      lighting_dot_158_ovf_s10_q <= lighting_dot_158_ovf_q;
-      lighting_dot_165_ovf_s10_q <= lighting_dot_165_ovf_q;
+      ovf8_s10_q <= ovf8_or_s9;
+      lighting_spec_167_ovf_s10_q <= lighting_spec_167_ovf_c;
     end
     if (load_s11) begin
       lighting_spec_169_q <= lighting_spec_169_d;
-      lighting_spec_169_ovf_q <= lighting_spec_169_ovf_d;
       t176_s11_q <= t176_s10_q;
       ovf0_s11_q <= ovf0_s10_q;
       ovf1_s11_q <= ovf1_s10_q;
-      ovf2_s11_q <= ovf2_s10_q;
       ovf3_s11_q <= ovf3_s10_q;
       ovf4_s11_q <= ovf4_s10_q;
       ovf5_s11_q <= ovf5_s10_q;
       ovf6_s11_q <= ovf6_s10_q;
-      ovf7_s11_q <= ovf7_s10_q;
-      ovf8_s11_q <= ovf8_or_s10;
-      lighting_spec_167_ovf_s11_q <= lighting_spec_167_ovf_q;
+      ovf8_s11_q <= ovf8_s10_q;
+      lighting_spec_169_ovf_s11_q <= lighting_spec_169_ovf_c;
+      ovf9_s11_q <= lighting_spec_167_ovf_s10_q;
     end
     if (load_s12) begin
       lighting_spec_171_q <= lighting_spec_171_d;
-      lighting_spec_171_ovf_q <= lighting_spec_171_ovf_d;
       t176_s12_q <= t176_s11_q;
       ovf0_s12_q <= ovf0_s11_q;
       ovf1_s12_q <= ovf1_s11_q;
-      ovf2_s12_q <= ovf2_s11_q;
       ovf3_s12_q <= ovf3_s11_q;
       ovf4_s12_q <= ovf4_s11_q;
       ovf5_s12_q <= ovf5_s11_q;
       ovf6_s12_q <= ovf6_s11_q;
-      ovf7_s12_q <= ovf7_s11_q;
       ovf8_s12_q <= ovf8_s11_q;
-      lighting_spec_169_ovf_s12_q <= lighting_spec_169_ovf_q;
-      ovf9_s12_q <= lighting_spec_167_ovf_s11_q;
+      lighting_spec_171_ovf_s12_q <= lighting_spec_171_ovf_c;
+      ovf9_s12_q <= ovf9_or_s11;
     end
     if (load_s13) begin
       lighting_spec_173_q <= lighting_spec_173_d;
-      lighting_spec_173_ovf_q <= lighting_spec_173_ovf_d;
       t176_s13_q <= t176_s12_q;
       ovf0_s13_q <= ovf0_s12_q;
       ovf1_s13_q <= ovf1_s12_q;
-      ovf2_s13_q <= ovf2_s12_q;
       ovf3_s13_q <= ovf3_s12_q;
       ovf4_s13_q <= ovf4_s12_q;
       ovf5_s13_q <= ovf5_s12_q;
       ovf6_s13_q <= ovf6_s12_q;
-      ovf7_s13_q <= ovf7_s12_q;
       ovf8_s13_q <= ovf8_s12_q;
-      lighting_spec_171_ovf_s13_q <= lighting_spec_171_ovf_q;
+      lighting_spec_173_ovf_s13_q <= lighting_spec_173_ovf_c;
       ovf9_s13_q <= ovf9_or_s12;
     end
     if (load_s14) begin
       lighting_spec_175_q <= lighting_spec_175_d;
-      lighting_spec_175_ovf_q <= lighting_spec_175_ovf_d;
       t176_s14_q <= t176_s13_q;
       ovf0_s14_q <= ovf0_s13_q;
       ovf1_s14_q <= ovf1_s13_q;
-      ovf2_s14_q <= ovf2_s13_q;
       ovf3_s14_q <= ovf3_s13_q;
       ovf4_s14_q <= ovf4_s13_q;
       ovf5_s14_q <= ovf5_s13_q;
       ovf6_s14_q <= ovf6_s13_q;
-      ovf7_s14_q <= ovf7_s13_q;
       ovf8_s14_q <= ovf8_s13_q;
-      lighting_spec_173_ovf_s14_q <= lighting_spec_173_ovf_q;
+      lighting_spec_175_ovf_s14_q <= lighting_spec_175_ovf_c;
       ovf9_s14_q <= ovf9_or_s13;
     end
     if (load_s15) begin
       lighting_level_179_q <= lighting_level_179_d;
-      lighting_level_179_ovf_q <= lighting_level_179_ovf_d;
       ovf0_s15_q <= ovf0_s14_q;
       ovf1_s15_q <= ovf1_s14_q;
-      ovf2_s15_q <= ovf2_s14_q;
       ovf3_s15_q <= ovf3_s14_q;
       ovf4_s15_q <= ovf4_s14_q;
       ovf5_s15_q <= ovf5_s14_q;
       ovf6_s15_q <= ovf6_s14_q;
-      ovf7_s15_q <= ovf7_s14_q;
       ovf8_s15_q <= ovf8_s14_q;
-      lighting_spec_175_ovf_s15_q <= lighting_spec_175_ovf_q;
       ovf9_s15_q <= ovf9_or_s14;
+      lighting_level_179_ovf_s15_q <= lighting_level_179_ovf_c;
     end
   end
 
   // Output buffer: the head drives the ports; the skid register takes the
   // item that leaves the last stage while the head is stalled.
   wire [18:0] last_d =
-      {lighting_level_179_q, (ovf0_s15_q), (ovf1_s15_q), (ovf2_s15_q), (ovf3_s15_q), (ovf4_s15_q),
-      (ovf5_s15_q), (ovf6_s15_q), (ovf7_s15_q), (ovf8_s15_q), (ovf9_or_s15),
-      (lighting_level_179_ovf_q)};
+      {lighting_level_179_q, (ovf0_s15_q), (ovf1_s15_q), (1'b0), (ovf3_s15_q), (ovf4_s15_q),
+      (ovf5_s15_q), (ovf6_s15_q), (1'b0), (ovf8_s15_q), (ovf9_s15_q),
+      (lighting_level_179_ovf_s15_q)};
   reg  [18:0] out_q, skid_q;
   always @(posedge clk_i) begin
     if (out_load & (skid_valid | out_arrive)) out_q <= skid_valid ? skid_q : last_d;

@@ -609,19 +609,16 @@ module polar (
   end
 
   // Datapath.
-  wire polar_index_4_ovf_d = 1'b0;
+  wire polar_index_4_ovf_c = 1'b0;
   wire [10:0] polar_index_4_d = a_l_i[10:0];
   reg  [10:0] polar_index_4_q;
-  reg  [0:0] polar_index_4_ovf_q;
   wire signed [12:0] t5 = $signed({{2{1'b0}}, b_l_i} - {{2{1'b0}}, b_n_i});
-  wire polar_index_6_ovf_d = t5[12] | (|t5[11]);
+  wire polar_index_6_ovf_c = t5[12] | (|t5[11]);
   wire [10:0] polar_index_6_d = t5[10:0];
   reg  [10:0] polar_index_6_q;
-  reg  [0:0] polar_index_6_ovf_q;
-  wire polar_index_7_ovf_d = 1'b0;
+  wire polar_index_7_ovf_c = 1'b0;
   wire [10:0] polar_index_7_d = a_n_i[10:0];
   reg  [10:0] polar_index_7_q;
-  reg  [0:0] polar_index_7_ovf_q;
   wire [10:0] cos_8_j = {polar_index_4_q[10:9] + 2'd1, polar_index_4_q[8:0]};
   wire [9:0] cos_8_a = cos_8_j[9] ? (10'h200 - {1'b0, cos_8_j[8:0]}) : {1'b0, cos_8_j[8:0]};
   reg  signed [15:0] cos_8_raw_q;
@@ -693,23 +690,21 @@ module polar (
   wire [18:0] polar_lyz_15_up = {t14[31], t14[31:14]} + {{18{1'b0}}, t14[13]};
   wire signed [18:0] polar_lyz_15_r =
       $signed({polar_lyz_15_up[18:1], polar_lyz_15_up[0] & ~polar_lyz_15_tie});
-  wire polar_lyz_15_ovf_d = ~((&polar_lyz_15_r[18:15]) | ~(|polar_lyz_15_r[18:15]));
+  wire polar_lyz_15_ovf_c = ~((&polar_lyz_15_r[18:15]) | ~(|polar_lyz_15_r[18:15]));
   wire signed [15:0] polar_lyz_15_d =
-      $signed(polar_lyz_15_ovf_d ? (polar_lyz_15_r[18] ? 16'h8000 : 16'h7fff)
+      $signed(polar_lyz_15_ovf_c ? (polar_lyz_15_r[18] ? 16'h8000 : 16'h7fff)
       : polar_lyz_15_r[15:0]);
   reg  signed [15:0] polar_lyz_15_q;
-  reg  [0:0] polar_lyz_15_ovf_q;
   wire signed [31:0] t16 = cos_8 * sin_11;
   wire polar_out_17_tie = t16[13] & ~(|t16[12:0]);
   wire [18:0] polar_out_17_up = {t16[31], t16[31:14]} + {{18{1'b0}}, t16[13]};
   wire signed [18:0] polar_out_17_r =
       $signed({polar_out_17_up[18:1], polar_out_17_up[0] & ~polar_out_17_tie});
-  wire polar_out_17_ovf_d = ~((&polar_out_17_r[18:15]) | ~(|polar_out_17_r[18:15]));
+  wire polar_out_17_ovf_c = ~((&polar_out_17_r[18:15]) | ~(|polar_out_17_r[18:15]));
   wire signed [15:0] polar_out_17_d =
-      $signed(polar_out_17_ovf_d ? (polar_out_17_r[18] ? 16'h8000 : 16'h7fff)
+      $signed(polar_out_17_ovf_c ? (polar_out_17_r[18] ? 16'h8000 : 16'h7fff)
       : polar_out_17_r[15:0]);
   reg  signed [15:0] polar_out_17_q;
-  reg  [0:0] polar_out_17_ovf_q;
   wire signed [31:0] t18 = sin_9 * cos_12;
   reg  signed [15:0] sin_13_s3_q;
   wire signed [31:0] t19 = polar_lyz_15_q * sin_13_s3_q;
@@ -719,12 +714,11 @@ module polar (
   wire [19:0] polar_out_21_up = {t20[32], t20[32:14]} + {{19{1'b0}}, t20[13]};
   wire signed [19:0] polar_out_21_r =
       $signed({polar_out_21_up[19:1], polar_out_21_up[0] & ~polar_out_21_tie});
-  wire polar_out_21_ovf_d = ~((&polar_out_21_r[19:15]) | ~(|polar_out_21_r[19:15]));
+  wire polar_out_21_ovf_c = ~((&polar_out_21_r[19:15]) | ~(|polar_out_21_r[19:15]));
   wire signed [15:0] polar_out_21_d =
-      $signed(polar_out_21_ovf_d ? (polar_out_21_r[19] ? 16'h8000 : 16'h7fff)
+      $signed(polar_out_21_ovf_c ? (polar_out_21_r[19] ? 16'h8000 : 16'h7fff)
       : polar_out_21_r[15:0]);
   reg  signed [15:0] polar_out_21_q;
-  reg  [0:0] polar_out_21_ovf_q;
   reg  signed [15:0] cos_12_s3_q;
   wire signed [31:0] t22 = polar_lyz_15_q * cos_12_s3_q;
   wire signed [31:0] t23 = sin_9 * sin_13;
@@ -734,24 +728,24 @@ module polar (
   wire [19:0] polar_out_25_up = {t24[32], t24[32:14]} + {{19{1'b0}}, t24[13]};
   wire signed [19:0] polar_out_25_r =
       $signed({polar_out_25_up[19:1], polar_out_25_up[0] & ~polar_out_25_tie});
-  wire polar_out_25_ovf_d = ~((&polar_out_25_r[19:15]) | ~(|polar_out_25_r[19:15]));
+  wire polar_out_25_ovf_c = ~((&polar_out_25_r[19:15]) | ~(|polar_out_25_r[19:15]));
   wire signed [15:0] polar_out_25_d =
-      $signed(polar_out_25_ovf_d ? (polar_out_25_r[19] ? 16'h8000 : 16'h7fff)
+      $signed(polar_out_25_ovf_c ? (polar_out_25_r[19] ? 16'h8000 : 16'h7fff)
       : polar_out_25_r[15:0]);
   reg  signed [15:0] polar_out_25_q;
-  reg  [0:0] polar_out_25_ovf_q;
   reg  signed [15:0] polar_out_17_s4_q;
-  reg  [0:0] polar_index_4_ovf_s2_q;
-  reg  [0:0] polar_index_6_ovf_s2_q;
-  reg  [0:0] polar_index_7_ovf_s2_q;
-  wire ovf0_or_s2 =
-      polar_index_4_ovf_s2_q | polar_index_6_ovf_s2_q | polar_index_7_ovf_s2_q;
+  reg  [0:0] polar_index_6_ovf_s1_q;
+  reg  [0:0] ovf0_s2_q;
   reg  [0:0] ovf0_s3_q;
   reg  [0:0] ovf0_s4_q;
-  reg  [0:0] polar_lyz_15_ovf_s4_q;
-  reg  [0:0] polar_out_17_ovf_s4_q;
+  reg  [0:0] polar_lyz_15_ovf_s3_q;
+  reg  [0:0] ovf1_s4_q;
+  reg  [0:0] polar_out_17_ovf_s3_q;
+  reg  [0:0] polar_out_21_ovf_s4_q;
+  reg  [0:0] polar_out_25_ovf_s4_q;
+  reg  [0:0] ovf2_s4_q;
   wire ovf2_or_s4 =
-      polar_out_17_ovf_s4_q | polar_out_21_ovf_q | polar_out_25_ovf_q;
+      ovf2_s4_q | polar_out_21_ovf_s4_q | polar_out_25_ovf_s4_q;
 
   // Stage loads: the item entering stage k is valid and the stages move.
   wire load_s1 = in_take;
@@ -764,11 +758,9 @@ module polar (
   always @(posedge clk_i) begin
     if (load_s1) begin
       polar_index_4_q <= polar_index_4_d;
-      polar_index_4_ovf_q <= polar_index_4_ovf_d;
       polar_index_6_q <= polar_index_6_d;
-      polar_index_6_ovf_q <= polar_index_6_ovf_d;
       polar_index_7_q <= polar_index_7_d;
-      polar_index_7_ovf_q <= polar_index_7_ovf_d;
+      polar_index_6_ovf_s1_q <= polar_index_6_ovf_c;
     end
     if (load_s2) begin
       cos_8_raw_q <= quarter_rom[cos_8_a[8:0]];
@@ -789,38 +781,35 @@ module polar (
       sin_13_raw_q <= quarter_rom[sin_13_a[8:0]];
       sin_13_top_q <= sin_13_a[9];
       sin_13_neg_q <= sin_13_j[10];
-      polar_index_4_ovf_s2_q <= polar_index_4_ovf_q;
-      polar_index_6_ovf_s2_q <= polar_index_6_ovf_q;
-      polar_index_7_ovf_s2_q <= polar_index_7_ovf_q;
+      ovf0_s2_q <= polar_index_6_ovf_s1_q;
     end
     if (load_s3) begin
       polar_lyz_15_q <= polar_lyz_15_d;
-      polar_lyz_15_ovf_q <= polar_lyz_15_ovf_d;
       polar_out_17_q <= polar_out_17_d;
-      polar_out_17_ovf_q <= polar_out_17_ovf_d;
       sin_13_s3_q <= sin_13;
       t18_s3_q <= t18;
       cos_12_s3_q <= cos_12;
       t23_s3_q <= t23;
-      ovf0_s3_q <= ovf0_or_s2;
+      ovf0_s3_q <= ovf0_s2_q;
+      polar_lyz_15_ovf_s3_q <= polar_lyz_15_ovf_c;
+      polar_out_17_ovf_s3_q <= polar_out_17_ovf_c;
     end
     if (load_s4) begin
       polar_out_21_q <= polar_out_21_d;
-      polar_out_21_ovf_q <= polar_out_21_ovf_d;
       polar_out_25_q <= polar_out_25_d;
-      polar_out_25_ovf_q <= polar_out_25_ovf_d;
       polar_out_17_s4_q <= polar_out_17_q;
       ovf0_s4_q <= ovf0_s3_q;
-      polar_lyz_15_ovf_s4_q <= polar_lyz_15_ovf_q;
-      polar_out_17_ovf_s4_q <= polar_out_17_ovf_q;
+      ovf1_s4_q <= polar_lyz_15_ovf_s3_q;
+      polar_out_21_ovf_s4_q <= polar_out_21_ovf_c;
+      polar_out_25_ovf_s4_q <= polar_out_25_ovf_c;
+      ovf2_s4_q <= polar_out_17_ovf_s3_q;
     end
   end
 
   // Output buffer: the head drives the ports; the skid register takes the
   // item that leaves the last stage while the head is stalled.
   wire [50:0] last_d =
-      {polar_out_17_s4_q, polar_out_21_q, polar_out_25_q, (ovf0_s4_q), (polar_lyz_15_ovf_s4_q),
-      (ovf2_or_s4)};
+      {polar_out_17_s4_q, polar_out_21_q, polar_out_25_q, (ovf0_s4_q), (ovf1_s4_q), (ovf2_or_s4)};
   reg  [50:0] out_q, skid_q;
   always @(posedge clk_i) begin
     if (out_load & (skid_valid | out_arrive)) out_q <= skid_valid ? skid_q : last_d;
@@ -875,6 +864,9 @@ module polar (
     if (f_past_valid && rst_ni) cover (valid_o & ready_i);
   end
 `endif
+
+  // Bits the arithmetic drops (truncation) or does not read.
+  wire unused_bits = ^{polar_index_4_ovf_c, polar_index_7_ovf_c};
 endmodule
 
 `default_nettype wire

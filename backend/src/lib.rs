@@ -423,6 +423,10 @@ struct Emitter<'a> {
     at: HashMap<(usize, u32), String>,
     /// Overflow bit of a quantization node: `(node, stage)` → name.
     ovf_at: HashMap<(usize, u32), String>,
+    /// Quantization nodes whose value cannot leave their format (no range
+    /// check, no mutant): their overflow bit is a constant 0, registered
+    /// nowhere and ORed into no flag.
+    never_ovf: Vec<bool>,
     body: Vec<String>,
     /// Register assignments with the stage each register belongs to (it
     /// holds the value of the item in that stage).
@@ -879,6 +883,7 @@ impl<'a> Emitter<'a> {
                     ));
                     self.body.push(format!("wire {oc} = {osel};"));
                 }
+                let never = muts.is_empty() && ql.check_bits == 0;
                 self.hw.check_bits += u64::from(ql.check_bits);
                 self.hw.saturate_bits += u64::from(ql.saturate_bits);
                 self.body.extend(ql.lines);
@@ -886,13 +891,16 @@ impl<'a> Emitter<'a> {
                 if let Some(w) = ql.round_adder {
                     self.hw.incrementers.push(w);
                 }
-                let _ = Overflow::Wrap;
                 self.reg(s + 1, &name, f.signed(), f.width(), &yc);
-                let ov = format!("{name}_ovf");
-                self.reg(s + 1, &ov, false, 1, &oc);
                 self.stage[i] = Some(s + 1);
-                self.at.insert((i, s + 1), name);
-                self.ovf_at.insert((i, s + 1), ov);
+                self.at.insert((i, s + 1), name.clone());
+                if never {
+                    self.never_overflows(i, &oc, q.overflow());
+                } else {
+                    // The bit as computed in stage `s`: the flags pass
+                    // registers it once (`flag_chain`).
+                    self.ovf_at.insert((i, s), oc);
+                }
             }
             Op::Table(a, slot) => {
                 let tb = self.t.tables()[slot].clone();
@@ -1042,6 +1050,7 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
             name: names.clone(),
             at: HashMap::new(),
             ovf_at: HashMap::new(),
+            never_ovf: vec![false; t.ops().len()],
             body: Vec::new(),
             regs: Vec::new(),
             unused: Vec::new(),
@@ -1151,7 +1160,14 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
     }
     let mut flag_bits = Vec::new();
     for (k, nodes) in flag_nodes.iter().enumerate() {
-        flag_bits.push(e.flag_chain(k, nodes, latency));
+        // Only quantizers that can overflow feed the flag; a stage id
+        // whose every quantizer cannot is a constant 0.
+        let settable: Vec<usize> = nodes.iter().copied().filter(|&n| !e.never_ovf[n]).collect();
+        flag_bits.push(if settable.is_empty() {
+            "1'b0".to_string()
+        } else {
+            e.flag_chain(k, &settable, latency)
+        });
     }
     let nf = flags.len();
     e.hw.flops += latency as u64; // valid bits

@@ -82,10 +82,10 @@ module angle_interp (
   wire signed [14:0] angle_interp_angle_9_r =
       $signed({angle_interp_angle_9_up[14:1], angle_interp_angle_9_up[0]
       & ~angle_interp_angle_9_tie});
-  wire angle_interp_angle_9_ovf_d = angle_interp_angle_9_r[14] | (|angle_interp_angle_9_r[13:11]);
+  wire angle_interp_angle_9_ovf_c = angle_interp_angle_9_r[14] | (|angle_interp_angle_9_r[13:11]);
   wire [10:0] angle_interp_angle_9_d = angle_interp_angle_9_r[10:0];
   reg  [10:0] angle_interp_angle_9_q;
-  reg  [0:0] angle_interp_angle_9_ovf_q;
+  reg  [0:0] angle_interp_angle_9_ovf_s1_q;
 
   // Stage loads: the item entering stage k is valid and the stages move.
   wire load_s1 = in_take;
@@ -95,13 +95,13 @@ module angle_interp (
   always @(posedge clk_i) begin
     if (load_s1) begin
       angle_interp_angle_9_q <= angle_interp_angle_9_d;
-      angle_interp_angle_9_ovf_q <= angle_interp_angle_9_ovf_d;
+      angle_interp_angle_9_ovf_s1_q <= angle_interp_angle_9_ovf_c;
     end
   end
 
   // Output buffer: the head drives the ports; the skid register takes the
   // item that leaves the last stage while the head is stalled.
-  wire [11:0] last_d = {angle_interp_angle_9_q, (angle_interp_angle_9_ovf_q)};
+  wire [11:0] last_d = {angle_interp_angle_9_q, (angle_interp_angle_9_ovf_s1_q)};
   reg  [11:0] out_q, skid_q;
   always @(posedge clk_i) begin
     if (out_load & (skid_valid | out_arrive)) out_q <= skid_valid ? skid_q : last_d;

@@ -118,12 +118,11 @@ module lighting (
   wire [20:0] lighting_dot_17_up = {t16[33], t16[33:14]} + {{20{1'b0}}, t16[13]};
   wire signed [20:0] lighting_dot_17_r =
       $signed({lighting_dot_17_up[20:1], lighting_dot_17_up[0] & ~lighting_dot_17_tie});
-  wire lighting_dot_17_ovf_d = ~((&lighting_dot_17_r[20:15]) | ~(|lighting_dot_17_r[20:15]));
+  wire lighting_dot_17_ovf_c = ~((&lighting_dot_17_r[20:15]) | ~(|lighting_dot_17_r[20:15]));
   wire signed [15:0] lighting_dot_17_d =
-      $signed(lighting_dot_17_ovf_d ? (lighting_dot_17_r[20] ? 16'h8000 : 16'h7fff)
+      $signed(lighting_dot_17_ovf_c ? (lighting_dot_17_r[20] ? 16'h8000 : 16'h7fff)
       : lighting_dot_17_r[15:0]);
   reg  signed [15:0] lighting_dot_17_q;
-  reg  [0:0] lighting_dot_17_ovf_q;
   wire signed [15:0] t18_a = $signed(lighting_dot_17_q);
   wire signed [15:0] t18_b = $signed(K11);
   wire signed [15:0] t18 = (t18_a > t18_b) ? t18_a : t18_b;
@@ -136,58 +135,52 @@ module lighting (
   wire [20:0] lighting_dot_24_up = {t23[33], t23[33:14]} + {{20{1'b0}}, t23[13]};
   wire signed [20:0] lighting_dot_24_r =
       $signed({lighting_dot_24_up[20:1], lighting_dot_24_up[0] & ~lighting_dot_24_tie});
-  wire lighting_dot_24_ovf_d = ~((&lighting_dot_24_r[20:15]) | ~(|lighting_dot_24_r[20:15]));
+  wire lighting_dot_24_ovf_c = ~((&lighting_dot_24_r[20:15]) | ~(|lighting_dot_24_r[20:15]));
   wire signed [15:0] lighting_dot_24_d =
-      $signed(lighting_dot_24_ovf_d ? (lighting_dot_24_r[20] ? 16'h8000 : 16'h7fff)
+      $signed(lighting_dot_24_ovf_c ? (lighting_dot_24_r[20] ? 16'h8000 : 16'h7fff)
       : lighting_dot_24_r[15:0]);
   reg  signed [15:0] lighting_dot_24_q;
-  reg  [0:0] lighting_dot_24_ovf_q;
   wire signed [15:0] t25_a = $signed(lighting_dot_24_q);
   wire signed [15:0] t25_b = $signed(K11);
   wire signed [15:0] t25 = (t25_a > t25_b) ? t25_a : t25_b;
   wire signed [18:0] lighting_spec_26_r = $signed({t25, 3'b0});
-  wire lighting_spec_26_ovf_d = lighting_spec_26_r[18];
+  wire lighting_spec_26_ovf_c = lighting_spec_26_r[18];
   wire [17:0] lighting_spec_26_d =
-      lighting_spec_26_ovf_d ? (lighting_spec_26_r[18] ? 18'h0 : 18'h3ffff)
+      lighting_spec_26_ovf_c ? (lighting_spec_26_r[18] ? 18'h0 : 18'h3ffff)
       : lighting_spec_26_r[17:0];
   reg  [17:0] lighting_spec_26_q;
-  reg  [0:0] lighting_spec_26_ovf_q;
   wire [35:0] t27 = lighting_spec_26_q * lighting_spec_26_q;
   wire lighting_spec_28_tie = t27[16] & ~(|t27[15:0]);
   wire [19:0] lighting_spec_28_up = {1'b0, t27[35:17]} + {{19{1'b0}}, t27[16]};
   wire [19:0] lighting_spec_28_r =
       {lighting_spec_28_up[19:1], lighting_spec_28_up[0] & ~lighting_spec_28_tie};
-  wire lighting_spec_28_ovf_d = |lighting_spec_28_r[19:18];
-  wire [17:0] lighting_spec_28_d = lighting_spec_28_ovf_d ? 18'h3ffff : lighting_spec_28_r[17:0];
+  wire lighting_spec_28_ovf_c = |lighting_spec_28_r[19:18];
+  wire [17:0] lighting_spec_28_d = lighting_spec_28_ovf_c ? 18'h3ffff : lighting_spec_28_r[17:0];
   reg  [17:0] lighting_spec_28_q;
-  reg  [0:0] lighting_spec_28_ovf_q;
   wire [35:0] t29 = lighting_spec_28_q * lighting_spec_28_q;
   wire lighting_spec_30_tie = t29[16] & ~(|t29[15:0]);
   wire [19:0] lighting_spec_30_up = {1'b0, t29[35:17]} + {{19{1'b0}}, t29[16]};
   wire [19:0] lighting_spec_30_r =
       {lighting_spec_30_up[19:1], lighting_spec_30_up[0] & ~lighting_spec_30_tie};
-  wire lighting_spec_30_ovf_d = |lighting_spec_30_r[19:18];
-  wire [17:0] lighting_spec_30_d = lighting_spec_30_ovf_d ? 18'h3ffff : lighting_spec_30_r[17:0];
+  wire lighting_spec_30_ovf_c = |lighting_spec_30_r[19:18];
+  wire [17:0] lighting_spec_30_d = lighting_spec_30_ovf_c ? 18'h3ffff : lighting_spec_30_r[17:0];
   reg  [17:0] lighting_spec_30_q;
-  reg  [0:0] lighting_spec_30_ovf_q;
   wire [35:0] t31 = lighting_spec_30_q * lighting_spec_30_q;
   wire lighting_spec_32_tie = t31[16] & ~(|t31[15:0]);
   wire [19:0] lighting_spec_32_up = {1'b0, t31[35:17]} + {{19{1'b0}}, t31[16]};
   wire [19:0] lighting_spec_32_r =
       {lighting_spec_32_up[19:1], lighting_spec_32_up[0] & ~lighting_spec_32_tie};
-  wire lighting_spec_32_ovf_d = |lighting_spec_32_r[19:18];
-  wire [17:0] lighting_spec_32_d = lighting_spec_32_ovf_d ? 18'h3ffff : lighting_spec_32_r[17:0];
+  wire lighting_spec_32_ovf_c = |lighting_spec_32_r[19:18];
+  wire [17:0] lighting_spec_32_d = lighting_spec_32_ovf_c ? 18'h3ffff : lighting_spec_32_r[17:0];
   reg  [17:0] lighting_spec_32_q;
-  reg  [0:0] lighting_spec_32_ovf_q;
   wire [35:0] t33 = lighting_spec_32_q * lighting_spec_32_q;
   wire lighting_spec_34_tie = t33[16] & ~(|t33[15:0]);
   wire [19:0] lighting_spec_34_up = {1'b0, t33[35:17]} + {{19{1'b0}}, t33[16]};
   wire [19:0] lighting_spec_34_r =
       {lighting_spec_34_up[19:1], lighting_spec_34_up[0] & ~lighting_spec_34_tie};
-  wire lighting_spec_34_ovf_d = |lighting_spec_34_r[19:18];
-  wire [17:0] lighting_spec_34_d = lighting_spec_34_ovf_d ? 18'h3ffff : lighting_spec_34_r[17:0];
+  wire lighting_spec_34_ovf_c = |lighting_spec_34_r[19:18];
+  wire [17:0] lighting_spec_34_d = lighting_spec_34_ovf_c ? 18'h3ffff : lighting_spec_34_r[17:0];
   reg  [17:0] lighting_spec_34_q;
-  reg  [0:0] lighting_spec_34_ovf_q;
   wire signed [16:0] t35_b = $signed({1'b0, K9});
   wire signed [31:0] t35 = t18 * t35_b;
   wire [33:0] t36 = lighting_spec_34_q * K10;
@@ -201,37 +194,39 @@ module lighting (
   wire [11:0] lighting_level_38_up = {t37[35], t37[35:25]} + {{11{1'b0}}, t37[24]};
   wire signed [11:0] lighting_level_38_r =
       $signed({lighting_level_38_up[11:1], lighting_level_38_up[0] & ~lighting_level_38_tie});
-  wire lighting_level_38_ovf_d = lighting_level_38_r[11] | (|lighting_level_38_r[10:8]);
+  wire lighting_level_38_ovf_c = lighting_level_38_r[11] | (|lighting_level_38_r[10:8]);
   wire [7:0] lighting_level_38_d =
-      lighting_level_38_ovf_d ? (lighting_level_38_r[11] ? 8'h0 : 8'hff) : lighting_level_38_r[7:0];
+      lighting_level_38_ovf_c ? (lighting_level_38_r[11] ? 8'h0 : 8'hff) : lighting_level_38_r[7:0];
   reg  [7:0] lighting_level_38_q;
-  reg  [0:0] lighting_level_38_ovf_q;
-  reg  [0:0] lighting_dot_17_ovf_s2_q;
-  reg  [0:0] lighting_dot_24_ovf_s2_q;
-  wire ovf0_or_s2 =
-      lighting_dot_17_ovf_s2_q | lighting_dot_24_ovf_s2_q;
+  reg  [0:0] lighting_dot_17_ovf_s1_q;
+  reg  [0:0] lighting_dot_24_ovf_s1_q;
+  wire ovf0_or_s1 =
+      lighting_dot_17_ovf_s1_q | lighting_dot_24_ovf_s1_q;
+  reg  [0:0] ovf0_s2_q;
   reg  [0:0] ovf0_s3_q;
   reg  [0:0] ovf0_s4_q;
   reg  [0:0] ovf0_s5_q;
   reg  [0:0] ovf0_s6_q;
   reg  [0:0] ovf0_s7_q;
-  reg  [0:0] lighting_spec_26_ovf_s3_q;
-  reg  [0:0] lighting_spec_28_ovf_s4_q;
-  reg  [0:0] lighting_spec_30_ovf_s5_q;
-  reg  [0:0] lighting_spec_32_ovf_s6_q;
-  reg  [0:0] lighting_spec_34_ovf_s7_q;
+  reg  [0:0] lighting_spec_26_ovf_s2_q;
+  reg  [0:0] lighting_spec_28_ovf_s3_q;
+  reg  [0:0] lighting_spec_30_ovf_s4_q;
+  reg  [0:0] lighting_spec_32_ovf_s5_q;
+  reg  [0:0] lighting_spec_34_ovf_s6_q;
+  reg  [0:0] ovf1_s3_q;
+  wire ovf1_or_s3 =
+      ovf1_s3_q | lighting_spec_28_ovf_s3_q;
   reg  [0:0] ovf1_s4_q;
   wire ovf1_or_s4 =
-      ovf1_s4_q | lighting_spec_28_ovf_s4_q;
+      ovf1_s4_q | lighting_spec_30_ovf_s4_q;
   reg  [0:0] ovf1_s5_q;
   wire ovf1_or_s5 =
-      ovf1_s5_q | lighting_spec_30_ovf_s5_q;
+      ovf1_s5_q | lighting_spec_32_ovf_s5_q;
   reg  [0:0] ovf1_s6_q;
   wire ovf1_or_s6 =
-      ovf1_s6_q | lighting_spec_32_ovf_s6_q;
+      ovf1_s6_q | lighting_spec_34_ovf_s6_q;
   reg  [0:0] ovf1_s7_q;
-  wire ovf1_or_s7 =
-      ovf1_s7_q | lighting_spec_34_ovf_s7_q;
+  reg  [0:0] lighting_level_38_ovf_s7_q;
 
   // Stage loads: the item entering stage k is valid and the stages move.
   wire load_s1 = in_take;
@@ -247,60 +242,56 @@ module lighting (
   always @(posedge clk_i) begin
     if (load_s1) begin
       lighting_dot_17_q <= lighting_dot_17_d;
-      lighting_dot_17_ovf_q <= lighting_dot_17_ovf_d;
       lighting_dot_24_q <= lighting_dot_24_d;
-      lighting_dot_24_ovf_q <= lighting_dot_24_ovf_d;
+      lighting_dot_17_ovf_s1_q <= lighting_dot_17_ovf_c;
+      lighting_dot_24_ovf_s1_q <= lighting_dot_24_ovf_c;
     end
     if (load_s2) begin
       lighting_spec_26_q <= lighting_spec_26_d;
-      lighting_spec_26_ovf_q <= lighting_spec_26_ovf_d;
       t35_s2_q <= t35;
-      lighting_dot_17_ovf_s2_q <= lighting_dot_17_ovf_q;
-      lighting_dot_24_ovf_s2_q <= lighting_dot_24_ovf_q;
+      ovf0_s2_q <= ovf0_or_s1;
+      lighting_spec_26_ovf_s2_q <= lighting_spec_26_ovf_c;
     end
     if (load_s3) begin
       lighting_spec_28_q <= lighting_spec_28_d;
-      lighting_spec_28_ovf_q <= lighting_spec_28_ovf_d;
       t35_s3_q <= t35_s2_q;
-      ovf0_s3_q <= ovf0_or_s2;
-      lighting_spec_26_ovf_s3_q <= lighting_spec_26_ovf_q;
+      ovf0_s3_q <= ovf0_s2_q;
+      lighting_spec_28_ovf_s3_q <= lighting_spec_28_ovf_c;
+      ovf1_s3_q <= lighting_spec_26_ovf_s2_q;
     end
     if (load_s4) begin
       lighting_spec_30_q <= lighting_spec_30_d;
-      lighting_spec_30_ovf_q <= lighting_spec_30_ovf_d;
       t35_s4_q <= t35_s3_q;
       ovf0_s4_q <= ovf0_s3_q;
-      lighting_spec_28_ovf_s4_q <= lighting_spec_28_ovf_q;
-      ovf1_s4_q <= lighting_spec_26_ovf_s3_q;
+      lighting_spec_30_ovf_s4_q <= lighting_spec_30_ovf_c;
+      ovf1_s4_q <= ovf1_or_s3;
     end
     if (load_s5) begin
       lighting_spec_32_q <= lighting_spec_32_d;
-      lighting_spec_32_ovf_q <= lighting_spec_32_ovf_d;
       t35_s5_q <= t35_s4_q;
       ovf0_s5_q <= ovf0_s4_q;
-      lighting_spec_30_ovf_s5_q <= lighting_spec_30_ovf_q;
+      lighting_spec_32_ovf_s5_q <= lighting_spec_32_ovf_c;
       ovf1_s5_q <= ovf1_or_s4;
     end
     if (load_s6) begin
       lighting_spec_34_q <= lighting_spec_34_d;
-      lighting_spec_34_ovf_q <= lighting_spec_34_ovf_d;
       t35_s6_q <= t35_s5_q;
       ovf0_s6_q <= ovf0_s5_q;
-      lighting_spec_32_ovf_s6_q <= lighting_spec_32_ovf_q;
+      lighting_spec_34_ovf_s6_q <= lighting_spec_34_ovf_c;
       ovf1_s6_q <= ovf1_or_s5;
     end
     if (load_s7) begin
       lighting_level_38_q <= lighting_level_38_d;
-      lighting_level_38_ovf_q <= lighting_level_38_ovf_d;
       ovf0_s7_q <= ovf0_s6_q;
-      lighting_spec_34_ovf_s7_q <= lighting_spec_34_ovf_q;
       ovf1_s7_q <= ovf1_or_s6;
+      lighting_level_38_ovf_s7_q <= lighting_level_38_ovf_c;
     end
   end
 
   // Output buffer: the head drives the ports; the skid register takes the
   // item that leaves the last stage while the head is stalled.
-  wire [10:0] last_d = {lighting_level_38_q, (ovf0_s7_q), (ovf1_or_s7), (lighting_level_38_ovf_q)};
+  wire [10:0] last_d =
+      {lighting_level_38_q, (ovf0_s7_q), (ovf1_s7_q), (lighting_level_38_ovf_s7_q)};
   reg  [10:0] out_q, skid_q;
   always @(posedge clk_i) begin
     if (out_load & (skid_valid | out_arrive)) out_q <= skid_valid ? skid_q : last_d;

@@ -7,11 +7,29 @@
 use crate::*;
 
 impl<'a> Emitter<'a> {
+    /// Quantization `node` cannot overflow (its overflow wire `ovf` is a
+    /// constant 0): no register carries the bit and no flag reads it. A
+    /// wrapping quantizer's wire is then read by nothing else, so it goes
+    /// to the `unused` sink (a saturating one's multiplexer reads it).
+    pub(crate) fn never_overflows(&mut self, node: usize, ovf: &str, mode: Overflow) {
+        self.never_ovf[node] = true;
+        if mode == Overflow::Wrap {
+            self.unused.push(ovf.to_string());
+        }
+    }
+
+    /// The overflow bit of quantization `node` as it stands at `stage`:
+    /// the wire it was computed on, carried by one register per later
+    /// stage.
+    ///
+    /// # Panics
+    ///
+    /// If `node`'s bit was never computed, or `stage` lies before it.
     pub(crate) fn ovf_at(&mut self, node: usize, stage: u32) -> String {
-        let s0 = self.stage[node].expect("a quantization has a stage");
         if let Some(n) = self.ovf_at.get(&(node, stage)) {
             return n.clone();
         }
+        let s0 = self.ovf_first(node).expect("the bit was computed");
         assert!(stage > s0);
         let prev = self.ovf_at(node, stage - 1);
         let name = format!("{}_ovf_s{stage}", self.name[node]);
@@ -32,12 +50,8 @@ impl<'a> Emitter<'a> {
         let mut parts: std::collections::BTreeMap<u32, Vec<String>> = Default::default();
         for &n in nodes {
             let first = self
-                .ovf_at
-                .keys()
-                .filter(|(m, _)| *m == n)
-                .map(|&(_, s)| s)
-                .min()
-                .unwrap_or_else(|| self.stage[n].expect("a quantization has a stage"));
+                .ovf_first(n)
+                .expect("a flag's quantizer computes its bit");
             let at = (first + 1).min(latency);
             let bit = self.ovf_at(n, at);
             parts.entry(at).or_default().push(bit);
@@ -68,5 +82,77 @@ impl<'a> Emitter<'a> {
             });
         }
         acc.expect("the last stage is reached")
+    }
+
+    /// The stage in which quantization `node`'s overflow bit is computed
+    /// (None: it cannot overflow, or is not built).
+    fn ovf_first(&self, node: usize) -> Option<u32> {
+        self.ovf_at
+            .keys()
+            .filter(|(m, _)| *m == node)
+            .map(|&(_, s)| s)
+            .min()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::datapath::{Datapath, Trace};
+    use crate::emit::{sat, test_design};
+
+    /// The flip-flops named as overflow flags in `v`: one per `reg`
+    /// declaration whose name has `ovf`.
+    fn flag_regs(v: &str) -> Vec<String> {
+        v.lines()
+            .filter_map(|l| l.trim().strip_prefix("reg"))
+            .filter_map(|l| l.split_whitespace().last())
+            .map(|n| n.trim_end_matches(';').to_string())
+            .filter(|n| n.contains("ovf"))
+            .collect()
+    }
+
+    /// A chain of saturating quantizations, three with stage id `t.sum`
+    /// (each can overflow: a sum of two 8-bit values back into 8 bits) and
+    /// one `t.wide` that cannot (8 bits into 12): the flag of `t.sum` is one
+    /// running register per stage from the stage after its first
+    /// quantizer, the three quantizers' bits each registered once, and
+    /// `t.wide` has no flag register at all.
+    #[test]
+    fn one_running_flag_per_stage_id_per_stage_and_none_that_cannot_be_set() {
+        let mut t = Trace::new();
+        let a = t.input_named("a", &sat("t.in", 8));
+        let b = t.input_named("b", &sat("t.in", 8));
+        let w = t.quantize(a, &sat("t.wide", 12));
+        let mut x = b;
+        for _ in 0..3 {
+            let s = t.add(x, a);
+            x = t.quantize(s, &sat("t.sum", 8));
+        }
+        let y = t.add(x, w);
+        let y = t.quantize(y, &sat("t.wide", 14));
+        t.output("y", y);
+        let e = crate::emit(&test_design(t)).expect("emits");
+        let regs = flag_regs(&e.verilog);
+        assert!(
+            regs.iter().all(|r| !r.contains("t_wide")),
+            "a flag that cannot be set is registered: {regs:?}"
+        );
+        // Per stage at most one running register of the flag, and each
+        // quantizer's own bit registered once.
+        let running: Vec<&String> = regs.iter().filter(|r| r.starts_with("ovf")).collect();
+        let mut stages: Vec<&str> = running
+            .iter()
+            .filter_map(|r| r.rsplit("_s").next())
+            .collect();
+        let n = stages.len();
+        stages.dedup();
+        assert_eq!(
+            stages.len(),
+            n,
+            "two running registers in one stage: {running:?}"
+        );
+        let own = regs.len() - running.len();
+        assert_eq!(own, 3, "each quantizer's bit registered once: {regs:?}");
+        assert!(running.len() < e.latency as usize, "{running:?}");
     }
 }

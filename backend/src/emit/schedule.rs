@@ -156,6 +156,7 @@ impl<'a> Emitter<'a> {
             round,
             q.overflow(),
         );
+        let never = ql.check_bits == 0;
         self.hw.check_bits += u64::from(ql.check_bits);
         self.hw.saturate_bits += u64::from(ql.saturate_bits);
         self.body.extend(ql.lines);
@@ -165,7 +166,11 @@ impl<'a> Emitter<'a> {
         }
         self.stage[i] = Some(stage);
         self.at.insert((i, stage), yc);
-        self.ovf_at.insert((i, stage), oc);
+        if never {
+            self.never_overflows(i, &oc, q.overflow());
+        } else {
+            self.ovf_at.insert((i, stage), oc);
+        }
         self.ready(i, t_end, &name);
     }
 }
