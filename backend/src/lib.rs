@@ -493,6 +493,20 @@ struct Emitter<'a> {
 }
 
 impl<'a> Emitter<'a> {
+    /// Write a quantizer's logic and count its hardware; whether its
+    /// overflow bit can be set (false: the value cannot leave its format,
+    /// no range check).
+    pub(crate) fn quant_logic(&mut self, ql: bits::QuantLogic) -> bool {
+        self.hw.check_bits += u64::from(ql.check_bits);
+        self.hw.saturate_bits += u64::from(ql.saturate_bits);
+        self.body.extend(ql.lines);
+        self.unused.extend(ql.unused);
+        if let Some(w) = ql.round_adder {
+            self.hw.incrementers.push(w);
+        }
+        ql.check_bits > 0
+    }
+
     /// An operand read at `stage`, with its binary point as the TV says.
     fn operand(&mut self, tv: &TV, stage: u32) -> Val {
         let expr = self.value_at(tv.node(), stage);
@@ -883,24 +897,12 @@ impl<'a> Emitter<'a> {
                     ));
                     self.body.push(format!("wire {oc} = {osel};"));
                 }
-                let never = muts.is_empty() && ql.check_bits == 0;
-                self.hw.check_bits += u64::from(ql.check_bits);
-                self.hw.saturate_bits += u64::from(ql.saturate_bits);
-                self.body.extend(ql.lines);
-                self.unused.extend(ql.unused);
-                if let Some(w) = ql.round_adder {
-                    self.hw.incrementers.push(w);
-                }
+                // A mutant may overflow where the original cannot.
+                let settable = self.quant_logic(ql) || !muts.is_empty();
                 self.reg(s + 1, &name, f.signed(), f.width(), &yc);
                 self.stage[i] = Some(s + 1);
-                self.at.insert((i, s + 1), name.clone());
-                if never {
-                    self.never_overflows(i, &oc, q.overflow());
-                } else {
-                    // The bit as computed in stage `s`: the flags pass
-                    // registers it once (`flag_chain`).
-                    self.ovf_at.insert((i, s), oc);
-                }
+                self.at.insert((i, s + 1), name);
+                self.overflow_bit(i, oc, s, settable, q.overflow());
             }
             Op::Table(a, slot) => {
                 let tb = self.t.tables()[slot].clone();

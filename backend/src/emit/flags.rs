@@ -7,14 +7,27 @@
 use crate::*;
 
 impl<'a> Emitter<'a> {
-    /// Quantization `node` cannot overflow (its overflow wire `ovf` is a
-    /// constant 0): no register carries the bit and no flag reads it. A
-    /// wrapping quantizer's wire is then read by nothing else, so it goes
-    /// to the `unused` sink (a saturating one's multiplexer reads it).
-    pub(crate) fn never_overflows(&mut self, node: usize, ovf: &str, mode: Overflow) {
-        self.never_ovf[node] = true;
-        if mode == Overflow::Wrap {
-            self.unused.push(ovf.to_string());
+    /// Quantization `node`'s overflow bit, wire `ovf`, computed in
+    /// `stage`: the flags pass registers it once ([`Self::flag_chain`]).
+    /// One that cannot be set (a constant 0: the value cannot leave its
+    /// format) is registered nowhere and read by no flag; a wrapping
+    /// quantizer's wire is then read by nothing else, so it goes to the
+    /// `unused` sink (a saturating one's multiplexer reads it).
+    pub(crate) fn overflow_bit(
+        &mut self,
+        node: usize,
+        ovf: String,
+        stage: u32,
+        settable: bool,
+        mode: Overflow,
+    ) {
+        if settable {
+            self.ovf_at.insert((node, stage), ovf);
+        } else {
+            self.never_ovf[node] = true;
+            if mode == Overflow::Wrap {
+                self.unused.push(ovf);
+            }
         }
     }
 

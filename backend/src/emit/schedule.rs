@@ -120,14 +120,8 @@ impl<'a> Emitter<'a> {
                 q.round(),
                 Overflow::Wrap,
             );
-            self.hw.check_bits += u64::from(r.check_bits);
-            self.hw.saturate_bits += u64::from(r.saturate_bits);
-            self.body.extend(r.lines);
-            self.unused.extend(r.unused);
+            self.quant_logic(r);
             self.unused.push(format!("{name}_rnd_ovf"));
-            if let Some(w) = r.round_adder {
-                self.hw.incrementers.push(w);
-            }
             let rq = format!("{name}_r_q");
             self.reg(s + 1, &rq, sa.signed, rw, &rname);
             self.worst = self.worst.max(t + dr);
@@ -156,21 +150,10 @@ impl<'a> Emitter<'a> {
             round,
             q.overflow(),
         );
-        let never = ql.check_bits == 0;
-        self.hw.check_bits += u64::from(ql.check_bits);
-        self.hw.saturate_bits += u64::from(ql.saturate_bits);
-        self.body.extend(ql.lines);
-        self.unused.extend(ql.unused);
-        if let Some(w) = ql.round_adder {
-            self.hw.incrementers.push(w);
-        }
+        let settable = self.quant_logic(ql);
         self.stage[i] = Some(stage);
         self.at.insert((i, stage), yc);
-        if never {
-            self.never_overflows(i, &oc, q.overflow());
-        } else {
-            self.ovf_at.insert((i, stage), oc);
-        }
+        self.overflow_bit(i, oc, stage, settable, q.overflow());
         self.ready(i, t_end, &name);
     }
 }

@@ -34,6 +34,31 @@ pub const SYNTH: Synthesis = Synthesis {
     bram18: &[],
 };
 
+/// nextpnr-ice40, for every iCE40 family.
+pub const PLACE_ROUTE: PlaceRoute = PlaceRoute {
+    tool: "nextpnr-ice40",
+    alternative: None,
+    install: "install it with `sudo apt-get install nextpnr-ice40 fpga-icestorm` \
+              (./scripts/test does it when run as root), or pass --no-pnr",
+    args: &["--pcf-allow-unconstrained"],
+    logic_cell: "ICESTORM_LC",
+};
+
+/// SB_RAM40_4K, every iCE40's block RAM: 4 Kbit, one read port, 2048 × 2
+/// … 256 × 16.
+pub const BRAM: BramRules = BramRules {
+    shapes: &[(2048, 2), (1024, 4), (512, 8), (256, 16)],
+    ports: 1,
+};
+
+/// The clock constraint nextpnr-ice40 reads: a `.pcf` `set_frequency`.
+pub fn pcf(clock_ns: f64) -> (&'static str, String) {
+    (
+        "pcf",
+        format!("set_frequency clk_i {:.2}\n", 1000.0 / clock_ns),
+    )
+}
+
 /// Lattice iCE40 HX (no multiplier blocks).
 pub struct Ice40Hx8k;
 
@@ -52,14 +77,7 @@ impl Family for Ice40Hx8k {
         Some(SYNTH)
     }
     fn place_route(&self) -> Result<PlaceRoute, &'static str> {
-        Ok(PlaceRoute {
-            tool: "nextpnr-ice40",
-            alternative: None,
-            install: "install it with `sudo apt-get install nextpnr-ice40 fpga-icestorm` \
-                      (./scripts/test does it when run as root), or pass --no-pnr",
-            args: &["--pcf-allow-unconstrained"],
-            logic_cell: "ICESTORM_LC",
-        })
+        Ok(PLACE_ROUTE)
     }
     fn parts(&self) -> &'static [Part] {
         &[
@@ -80,20 +98,13 @@ impl Family for Ice40Hx8k {
             },
         ]
     }
-    /// SB_RAM40_4K: 4 Kbit, one read port, 2048 × 2 … 256 × 16.
     fn bram_rules(&self) -> Option<BramRules> {
-        Some(BramRules {
-            shapes: &[(2048, 2), (1024, 4), (512, 8), (256, 16)],
-            ports: 1,
-        })
+        Some(BRAM)
     }
     fn fifo_memory(&self) -> FifoMemory {
         FifoMemory::Block
     }
     fn constraint(&self, clock_ns: f64) -> (&'static str, String) {
-        (
-            "pcf",
-            format!("set_frequency clk_i {:.2}\n", 1000.0 / clock_ns),
-        )
+        pcf(clock_ns)
     }
 }

@@ -59,14 +59,7 @@ impl Family for Ice40Up5k {
         Some(SYNTH)
     }
     fn place_route(&self) -> Result<PlaceRoute, &'static str> {
-        Ok(PlaceRoute {
-            tool: "nextpnr-ice40",
-            alternative: None,
-            install: "install it with `sudo apt-get install nextpnr-ice40 fpga-icestorm` \
-                      (./scripts/test does it when run as root), or pass --no-pnr",
-            args: &["--pcf-allow-unconstrained"],
-            logic_cell: "ICESTORM_LC",
-        })
+        Ok(super::ice40_hx8k::PLACE_ROUTE)
     }
     fn parts(&self) -> &'static [Part] {
         &[Part {
@@ -101,20 +94,13 @@ impl Family for Ice40Up5k {
             ],
         })
     }
-    /// SB_RAM40_4K: 4 Kbit, one read port, 2048 × 2 … 256 × 16.
     fn bram_rules(&self) -> Option<BramRules> {
-        Some(BramRules {
-            shapes: &[(2048, 2), (1024, 4), (512, 8), (256, 16)],
-            ports: 1,
-        })
+        Some(super::ice40_hx8k::BRAM)
     }
     fn fifo_memory(&self) -> FifoMemory {
         FifoMemory::Block
     }
     fn constraint(&self, clock_ns: f64) -> (&'static str, String) {
-        (
-            "pcf",
-            format!("set_frequency clk_i {:.2}\n", 1000.0 / clock_ns),
-        )
+        super::ice40_hx8k::pcf(clock_ns)
     }
 }
