@@ -186,3 +186,61 @@ pub(crate) fn sink_plan(e: &Emitter) -> Vec<Option<u32>> {
         })
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::datapath::{Datapath, Trace};
+    use crate::emit::{sat, test_design};
+    use crate::timing::{Pipelining, Target};
+
+    /// A chain of twelve additions, each quantized back to 16 bits.
+    fn chain() -> Trace {
+        let mut t = Trace::new();
+        let a = t.input_named("a", &sat("c.in", 16));
+        let mut x = t.input_named("b", &sat("c.in", 16));
+        for _ in 0..12 {
+            let s = t.add(x, a);
+            x = t.quantize(s, &sat("c.sum", 16));
+        }
+        t.output("y", x);
+        t
+    }
+
+    /// Target pipelining on every family with a delay model: the slowest
+    /// stage the model predicts fits the period whenever one addition and
+    /// its quantizer do (nothing is too slow to fit), a longer period never
+    /// needs more stages, and the compact pipeline (a register after every
+    /// quantization) is never shorter than a generous period's.
+    #[test]
+    fn stages_fit_the_period_and_a_longer_period_needs_no_more() {
+        for target in Target::pipelined() {
+            let m = target.delay().expect("a pipelined family");
+            let mut last = u32::MAX;
+            for clock_ns in [1.5, 2.0, 3.0, 4.0, 6.0, 8.0, 12.0, 20.0, 40.0].map(|c| {
+                // The same periods relative to the family's own speed.
+                c * (m.reg + m.add(17) + m.saturate(1, true)) / 4.0
+            }) {
+                let mut d = test_design(chain());
+                d.pipelining = Pipelining::Target { target, clock_ns };
+                let e = crate::emit(&d).expect("emits");
+                let one = m.reg + m.add(17) + m.saturate(1, true);
+                let p = e.predicted_ns.expect("target pipelining predicts");
+                if one <= clock_ns {
+                    assert!(p <= clock_ns + 1e-9, "{target} at {clock_ns}: {p}");
+                }
+                assert!(
+                    e.latency <= last,
+                    "{target} at {clock_ns}: {} > {last}",
+                    e.latency
+                );
+                last = e.latency;
+            }
+            let compact = crate::emit(&test_design(chain())).expect("emits");
+            assert!(
+                compact.latency >= last,
+                "{target}: compact {}",
+                compact.latency
+            );
+        }
+    }
+}
