@@ -196,6 +196,17 @@ pub enum AnalysisError {
 /// Analyse the normalizer a configuration describes: `count` random
 /// whole-triangle samples (and a quarter as many edge samples) from `seed`,
 /// plus corner cases. `progress` is called with the fraction done.
+///
+/// # Errors
+///
+/// [`AnalysisError::Design`] when the normalizer cannot be designed, its `g(d)` stage
+/// analysed, or its bounds proven; [`AnalysisError::Compile`] when the normalizer, and
+/// [`AnalysisError::Lighting`] when the lighting unit, cannot be compiled;
+/// [`AnalysisError::Convert`] when a sample cannot be converted into an input format.
+///
+/// # Panics
+///
+/// Never: a configuration's choices are declared ones, and its Θ lies in `[0, 0.999999]`.
 pub fn normalize(
     cfg: &Config,
     count: usize,
@@ -391,6 +402,18 @@ fn angle_deg(a: DVec3, b: DVec3) -> f64 {
 
 /// Analyse interpolation (`scheme`) followed by normalization (`method`)
 /// for triangles meeting `theta`: `count` random pixels plus corner cases.
+///
+/// # Errors
+///
+/// [`AnalysisError::Design`] when the normalizer cannot be designed
+/// ([`normalizer::design_interval`]); [`AnalysisError::Compile`] when the interpolator or the
+/// normalizer cannot be compiled; [`AnalysisError::Convert`] when a barycentric or a vertex
+/// component cannot be converted into its format.
+///
+/// # Panics
+///
+/// When `theta` is below −0.5 or NaN (no triangle of unit normals is equiangular at Θ),
+/// unless the normalizer's design fails first. A configured Θ lies in `[0, 0.999999]`.
 pub fn interp(
     cfg: &Config,
     scheme: crate::interp::Scheme,
@@ -594,6 +617,14 @@ pub const POLAR_EXHAUSTIVE_CHEAP: u64 = 1 << 22;
 /// `exhaustive_up_to` such triples ([`polar_every_code`]), else `count`
 /// random samples (the diffuse error then against random tangent-space
 /// normals: a sampled maximum).
+///
+/// # Errors
+///
+/// Exhaustive: [`AnalysisError::Cache`] when the cache directory cannot be used or the
+/// entry cannot be read safely, else as [`polar_every_code`]. Sampled:
+/// [`AnalysisError::Compile`] when the transform, and [`AnalysisError::Lighting`] when the
+/// lighting unit, cannot be compiled; [`AnalysisError::Convert`] when a tangent-space normal
+/// cannot be converted into `lighting.normal`.
 pub fn polar_stats(
     p: &crate::polar::Polar,
     light: &Lighting,
@@ -760,6 +791,15 @@ impl From<PolarExhaustive> for PolarStats {
 /// √3·e_n·(1 + v) + v + √3·e_c) + |G_q − G|`, `v = max |L' − L|`, `e_n` the
 /// normal's quantization into `lighting.normal`, `e_c` the conversion of
 /// `L'` into `lighting.light`.
+///
+/// # Errors
+///
+/// [`AnalysisError::Compile`] when the transform cannot be compiled.
+///
+/// # Panics
+///
+/// Never: a worker only runs the compiled transform (four inputs, three outputs) on columns
+/// of one length and reads its outputs, and every row is run.
 pub fn polar_every_code(
     p: &crate::polar::Polar,
     light: &Lighting,
@@ -1007,6 +1047,11 @@ fn remembered<T: serde::Serialize + serde::de::DeserializeOwned>(
 /// The polar report for a configuration: every code triple where there
 /// are at most `exhaustive_up_to` of them ([`polar_every_code`]), else
 /// `count` random samples (or the α_N subsets of [`polar_stats`]).
+///
+/// # Errors
+///
+/// [`AnalysisError::Polar`] when the polar configuration is unusable; then as
+/// [`polar_stats`].
 pub fn polar(
     cfg: &Config,
     count: usize,
@@ -1037,6 +1082,10 @@ pub const SAMPLE_CHUNK: usize = 1 << 16;
 pub const MAX_SAMPLES: usize = 1 << 32;
 
 /// Refuse a sample count above [`MAX_SAMPLES`], naming `flag`.
+///
+/// # Errors
+///
+/// A message naming `flag` when `count` exceeds [`MAX_SAMPLES`].
 pub fn check_samples(flag: &str, count: usize) -> Result<(), String> {
     if count > MAX_SAMPLES {
         return Err(format!(
@@ -1131,6 +1180,13 @@ pub struct BetaExhaustive {
 /// β depends on `x` and `z` alone, so this is its exhaustive maximum over
 /// every such normal; `x < 0` needs no run of its own (see
 /// [`BetaExhaustive::pairs`]).
+///
+/// # Errors
+///
+/// [`AnalysisError::Angles`] when the angles configuration is unusable or its trace cannot
+/// be built; [`AnalysisError::Cache`] when the cache directory cannot be used or the entry
+/// cannot be read safely; [`AnalysisError::Compile`] when the `beta` output cannot be
+/// compiled.
 pub fn angles_beta_every_code(
     cfg: &Config,
     lo: f64,
@@ -1305,6 +1361,10 @@ pub struct AnglesInputs {
 
 impl AnglesInputs {
     /// The inputs of the analysis of `cfg`.
+    ///
+    /// # Panics
+    ///
+    /// Never: the stand-in format `I2F0` is valid.
     pub fn new(cfg: &Config, count: usize, seed: u64) -> AnglesInputs {
         let (dlo, dhi) = crate::interp::quadratic_d_range(0.0, crate::interp::Scheme::Quadratic);
         let mut me = AnglesInputs {
@@ -1385,6 +1445,12 @@ impl AnglesInputs {
 
 /// Error of the CORDIC angles of `cfg` against `asin`/`atan2` of the exact
 /// (input) normal.
+///
+/// # Errors
+///
+/// [`AnalysisError::Angles`] when the angles configuration is unusable or the unit cannot be
+/// compiled; [`AnalysisError::Rtl`] when its RTL cannot be built or emitted (for the cost
+/// figures).
 pub fn angles(cfg: &Config, count: usize, seed: u64) -> Result<AnglesReport, AnalysisError> {
     let a = crate::angles::Angles::of(cfg).map_err(AnalysisError::Angles)?;
     let prog = a.compile().map_err(AnalysisError::Angles)?;

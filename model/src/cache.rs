@@ -164,6 +164,10 @@ pub fn candidate(env: &Env) -> PathBuf {
 }
 
 /// Resolve, create (mode 0700) and check the cache root for `env`.
+///
+/// # Errors
+///
+/// As [`ensure_private_dir`] for the [`candidate`] root.
 pub fn resolve(env: &Env) -> Result<PathBuf, CacheError> {
     let root = candidate(env);
     ensure_private_dir(&root, env.uid)?;
@@ -172,6 +176,12 @@ pub fn resolve(env: &Env) -> Result<PathBuf, CacheError> {
 
 /// The cache root of this process ([`resolve`] of [`Env::from_process`],
 /// once per process).
+///
+/// # Errors
+///
+/// [`CacheError::Unsafe`] naming the [`candidate`] root, with the message of the error of
+/// [`resolve`] as its reason, whenever the first resolution in this process failed (its
+/// outcome is kept: every later call fails alike).
 pub fn root() -> Result<PathBuf, CacheError> {
     static ROOT: std::sync::OnceLock<Result<PathBuf, String>> = std::sync::OnceLock::new();
     match ROOT.get_or_init(|| resolve(&Env::from_process()).map_err(|e| e.to_string())) {
@@ -192,6 +202,12 @@ pub fn uid() -> u32 {
 /// Refuse `path` unless it is owned by `uid` and writable by nobody else
 /// (a symbolic link is judged by itself, not followed). A missing path is
 /// an I/O error of kind `NotFound`.
+///
+/// # Errors
+///
+/// [`CacheError::Io`] when the metadata of `path` cannot be read (of kind `NotFound` when it
+/// is missing); [`CacheError::Unsafe`] when `path` is a symbolic link, is owned by another
+/// user than `uid`, or is writable by its group or by others.
 pub fn check_private(path: &Path, uid: u32) -> Result<(), CacheError> {
     let m = std::fs::symlink_metadata(path).map_err(|e| CacheError::io(path, e))?;
     let unsafe_ = |why: String| CacheError::Unsafe {
@@ -219,6 +235,13 @@ pub fn check_private(path: &Path, uid: u32) -> Result<(), CacheError> {
 
 /// Create `dir` (and missing parents) with mode 0700 where missing, then
 /// [`check_private`] it.
+///
+/// # Errors
+///
+/// [`CacheError::Io`] ([`CacheError::Full`] when the device or the quota is full) when the
+/// metadata of `dir` cannot be read, or `dir` or its missing parents cannot be created; the
+/// errors of [`check_private`] for `dir`; [`CacheError::Unsafe`] when `dir` is not a
+/// directory.
 pub fn ensure_private_dir(dir: &Path, uid: u32) -> Result<(), CacheError> {
     match std::fs::symlink_metadata(dir) {
         Ok(_) => {}
@@ -254,6 +277,10 @@ pub fn ensure_private_dir(dir: &Path, uid: u32) -> Result<(), CacheError> {
 
 /// A subdirectory `rel` of the cache root, created private and checked
 /// (`synth`, `explore`, `corners`, …).
+///
+/// # Errors
+///
+/// As [`root`], then as [`ensure_private_dir`] for the subdirectory.
 pub fn subdir(rel: &str) -> Result<PathBuf, CacheError> {
     let d = root()?.join(rel);
     ensure_private_dir(&d, uid())?;
@@ -262,6 +289,12 @@ pub fn subdir(rel: &str) -> Result<PathBuf, CacheError> {
 
 /// Read a cache file, refusing it unless it and its directory are
 /// private to this user; `Ok(None)` when it does not exist.
+///
+/// # Errors
+///
+/// [`CacheError::Io`] when the metadata of `path` cannot be read (for another reason than
+/// `NotFound`) or its contents cannot be read; the errors of [`check_private`] for its
+/// parent directory and for `path` itself.
 pub fn read(path: &Path) -> Result<Option<Vec<u8>>, CacheError> {
     match std::fs::symlink_metadata(path) {
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
@@ -280,6 +313,13 @@ pub fn read(path: &Path) -> Result<Option<Vec<u8>>, CacheError> {
 /// Write a cache file whole or not at all: a private temporary file in the
 /// same directory, synced, renamed into place. A full device is
 /// [`CacheError::Full`].
+///
+/// # Errors
+///
+/// [`CacheError::Io`] ([`CacheError::Full`] when the device or the quota is full) when the
+/// temporary file (`.NAME.tmp-PID` beside `path`, which must not exist yet) cannot be
+/// created, written, synced or renamed to `path`, or the directory cannot be synced
+/// ([`sync_dir`]); the temporary file is then removed.
 pub fn write(path: &Path, contents: &[u8]) -> Result<(), CacheError> {
     use std::os::unix::fs::OpenOptionsExt;
     let dir = path.parent().unwrap_or(Path::new("."));
@@ -307,6 +347,11 @@ pub fn write(path: &Path, contents: &[u8]) -> Result<(), CacheError> {
 }
 
 /// fsync a directory (its entries' renames reach the disk).
+///
+/// # Errors
+///
+/// [`CacheError::Io`] ([`CacheError::Full`] when the device or the quota is full) when
+/// `dir` cannot be opened or synced.
 pub fn sync_dir(dir: &Path) -> Result<(), CacheError> {
     std::fs::File::open(dir)
         .and_then(|d| d.sync_all())
@@ -314,6 +359,10 @@ pub fn sync_dir(dir: &Path) -> Result<(), CacheError> {
 }
 
 /// The SHA-256 of a file, as 64 lowercase hex digits.
+///
+/// # Errors
+///
+/// [`CacheError::Io`] when `path` cannot be opened or read.
 pub fn sha256_file(path: &Path) -> Result<String, CacheError> {
     use sha2::Digest;
     let mut f = std::fs::File::open(path).map_err(|e| CacheError::io(path, e))?;
@@ -384,6 +433,12 @@ impl Seal {
     /// Hash `files` (relative to `entry`), sync them and the entry, and
     /// write the seal last. Any failure (a full device among them) leaves
     /// the entry unsealed.
+    ///
+    /// # Errors
+    ///
+    /// [`CacheError::Io`] ([`CacheError::Full`] when the device or the quota is full) when a
+    /// file of `files` cannot be opened, synced or read; the errors of
+    /// [`cache::write`](fn@write) for the seal file.
     pub fn write(entry: &Path, files: &[&str]) -> Result<Seal, CacheError> {
         let mut seal = Seal { files: Vec::new() };
         for rel in files {
@@ -406,6 +461,12 @@ impl Seal {
     /// still hash to what was recorded. `Ok(false)`: not sealed, or
     /// something differs (rebuild it); an error: someone else could have
     /// written it (refuse).
+    ///
+    /// # Errors
+    ///
+    /// The errors of [`check_private`] for `entry` and for each recorded path that is a file,
+    /// and of [`read`] for the seal file; [`CacheError::Io`] when a recorded file cannot be
+    /// read to hash it.
     pub fn verify(entry: &Path) -> Result<bool, CacheError> {
         let seal_path = entry.join(Self::FILE);
         if !seal_path.exists() {

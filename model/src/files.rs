@@ -61,6 +61,12 @@ pub use fxshade_units::input::{read_text_limited, MAX_TEXT_INPUT};
 
 /// Write `contents` to `path` through a temporary file in the same
 /// directory, synced and renamed into place.
+///
+/// # Errors
+///
+/// [`WriteError::Io`] when the temporary file (`.NAME.tmp-PID` beside `path`) cannot be
+/// created, written or synced, or cannot be renamed to `path`; the temporary file is then
+/// removed.
 pub fn write_atomic(path: &Path, contents: &[u8]) -> Result<(), WriteError> {
     let dir = path
         .parent()
@@ -141,6 +147,10 @@ impl FilesRecord {
     }
 
     /// Write `name` atomically and record it.
+    ///
+    /// # Errors
+    ///
+    /// As [`write_atomic`] for `name` in the directory; `name` is then not recorded.
     pub fn write(&mut self, name: &str, contents: &[u8]) -> Result<(), WriteError> {
         write_atomic(&self.dir.join(name), contents)?;
         self.hashes.insert(name.to_string(), sha256(contents));
@@ -148,6 +158,10 @@ impl FilesRecord {
     }
 
     /// Save the record (atomically).
+    ///
+    /// # Errors
+    ///
+    /// As [`write_atomic`] for [`FILES_RECORD`] in the directory.
     pub fn save(&self) -> Result<(), WriteError> {
         let mut text = format!(
             "# files {} wrote here; it replaces one only while it holds what was written\n",
@@ -354,12 +368,23 @@ fn exchange(a: &Path, b: &Path) -> std::io::Result<bool> {
 impl StagedDir {
     /// Start staging `target` (its parent must exist and be writable);
     /// refuses a non-empty directory fxshade did not write.
+    ///
+    /// # Errors
+    ///
+    /// [`WriteError::Io`] when the parent of `target` is not a directory (`NotFound`), when
+    /// `target` exists and is not a directory (`AlreadyExists`), when `target` is a directory
+    /// fxshade may not replace or cannot list (`AlreadyExists`, saying why), or when the staging
+    /// directory or its marker cannot be created.
     pub fn new(target: &Path) -> Result<Self, WriteError> {
         Self::open(target, false)
     }
 
     /// As [`StagedDir::new`], replacing whatever directory `target` is
     /// (`--force`).
+    ///
+    /// # Errors
+    ///
+    /// As [`StagedDir::new`], less the check of what an existing directory holds.
     pub fn new_forced(target: &Path) -> Result<Self, WriteError> {
         Self::open(target, true)
     }
@@ -367,6 +392,11 @@ impl StagedDir {
     /// Whether [`StagedDir::new`] (`force`: [`StagedDir::new_forced`])
     /// would accept `target`, without creating anything: for commands
     /// that check their output before long work.
+    ///
+    /// # Errors
+    ///
+    /// As [`StagedDir::new`] (`force`: [`StagedDir::new_forced`]), less the errors of creating
+    /// the staging directory and its marker.
     pub fn check(target: &Path, force: bool) -> Result<(), WriteError> {
         Self::checked_parent(target, force).map(|_| ())
     }
@@ -438,6 +468,10 @@ impl StagedDir {
         })
     }
     /// Where to write a file named `rel` (subdirectories are created).
+    ///
+    /// # Errors
+    ///
+    /// [`WriteError::Io`] when the directory that is to hold `rel` cannot be created.
     pub fn path(&self, rel: &str) -> Result<PathBuf, WriteError> {
         let p = self.staging.join(rel);
         if let Some(d) = p.parent() {
@@ -446,6 +480,10 @@ impl StagedDir {
         Ok(p)
     }
     /// Write a file named `rel`.
+    ///
+    /// # Errors
+    ///
+    /// As [`StagedDir::path`]; [`WriteError::Io`] when the file cannot be written.
     pub fn write(&self, rel: &str, contents: &[u8]) -> Result<(), WriteError> {
         let p = self.path(rel)?;
         std::fs::write(&p, contents).map_err(io(&p))
@@ -453,6 +491,11 @@ impl StagedDir {
     /// Replace the target directory with the staged one: one atomic exchange
     /// where the file system supports it (then the old set, now in the
     /// staging path, is removed), else two renames.
+    ///
+    /// # Errors
+    ///
+    /// [`WriteError::Io`] when the staged files cannot be listed or read, the marker cannot be
+    /// written ([`write_atomic`]), or the exchange or a rename into the target fails.
     pub fn commit(mut self) -> Result<PathBuf, WriteError> {
         // The marker lists every file written, so a file added or changed
         // later is never replaced without --force.

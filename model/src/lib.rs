@@ -23,7 +23,7 @@
 //!   mesh, beside an f64 reference, with image metrics.
 //!
 //! `model/ARITHMETIC.md` states the contract the RTL follows.
-#![warn(missing_docs)]
+#![warn(missing_docs, clippy::missing_errors_doc, clippy::missing_panics_doc)]
 
 // The layers below, under the paths the callers were written with.
 pub use fxshade_ir::{datapath, escape, sampling};

@@ -173,9 +173,27 @@ pub trait VectorSource: Sync {
     }
     /// Input and expected rows of vectors `[start, start + len)` of the
     /// slice (relative to [`VectorSource::first`]).
+    ///
+    /// # Errors
+    ///
+    /// An [`RtlError`] when the rows cannot be generated: for a
+    /// [`VectorStream`](crate::rtl::units::VectorStream), the errors of
+    /// [`stream_rows`](crate::rtl::units::stream_rows); a [`VectorSet`] never fails.
+    ///
+    /// # Panics
+    ///
+    /// Both implementations here panic when `[start, start + len)` is not inside the slice.
     fn chunk(&self, start: usize, len: usize) -> Result<Rows, RtlError>;
     /// The binary records ([`push_record`]) of vectors `[start, start +
     /// len)`, appended to `inputs` and `expected`.
+    ///
+    /// # Errors
+    ///
+    /// As [`VectorSource::chunk`].
+    ///
+    /// # Panics
+    ///
+    /// As [`VectorSource::chunk`].
     fn records(
         &self,
         start: usize,
@@ -294,6 +312,12 @@ impl VectorSet {
 
     /// Write the set into `dir` (replaced as a whole, atomically; a
     /// non-empty directory fxshade did not write is refused unless `force`).
+    ///
+    /// # Errors
+    ///
+    /// [`SetError::Write`]: as [`StagedDir::new`] (`force`: [`StagedDir::new_forced`]), then
+    /// when a file cannot be written ([`write_set`]) or the directory cannot be committed
+    /// ([`StagedDir::commit`]).
     pub fn write(&self, dir: &Path, force: bool) -> Result<(), SetError> {
         let d = if force {
             StagedDir::new_forced(dir)?
@@ -306,12 +330,20 @@ impl VectorSet {
     }
 
     /// Write the set's files into a staged directory.
+    ///
+    /// # Errors
+    ///
+    /// As [`write_set`], [`SetError::Write`] only: the set's rows are in memory.
     pub fn write_into(&self, d: &StagedDir) -> Result<(), SetError> {
         self.write_into_dir(d, "")
     }
 
     /// Write the set's files into subdirectory `sub` of a staged directory
     /// ([`write_set`]).
+    ///
+    /// # Errors
+    ///
+    /// As [`write_set`], [`SetError::Write`] only: the set's rows are in memory.
     pub fn write_into_dir(&self, d: &StagedDir, sub: &str) -> Result<(), SetError> {
         write_set(
             d,
@@ -353,6 +385,10 @@ pub const WRITE_CHUNK: usize = 8192;
 ///
 /// [`SetError::Write`] when a file cannot be written,
 /// [`SetError::Vectors`] when the vectors cannot be generated.
+///
+/// # Panics
+///
+/// Never: a `serde_json::Value` always serializes, and every writer has two files.
 #[allow(clippy::too_many_arguments)]
 pub fn write_set(
     d: &StagedDir,

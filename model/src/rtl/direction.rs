@@ -178,6 +178,11 @@ fn program(d: &Design) -> Result<(Compiled, Vec<(i128, i128)>), RtlError> {
 /// operand's sign ([`keeps_sign`] over the operand's range from interval
 /// analysis): no branch and bound, cheap enough for
 /// [`super::mutants::equivalent`].
+///
+/// # Errors
+///
+/// [`RtlError::Compile`] when the design's outputs cannot be compiled
+/// ([`Compiled::compile`]).
 pub fn sign_only(d: &Design, m: &Mutation) -> Result<bool, RtlError> {
     let Some(rs) = readers(d, m.node) else {
         return Ok(false);
@@ -243,6 +248,11 @@ fn safe_bound(rs: &[Reader], sides: &[(Step, Quant); 2], lo: i128, hi: i128) -> 
 /// `Ok(false)`: not such a stage, a single input lies outside the bound,
 /// or the search takes more than `budget` boxes (a count: the outcome does
 /// not depend on the machine's load).
+///
+/// # Errors
+///
+/// [`RtlError::Compile`] when the design's outputs, the layer branched over, or the cut
+/// trace computing the stage cannot be compiled ([`Compiled::compile`]).
 pub fn direction_proof(d: &Design, m: &Mutation, budget: u64) -> Result<bool, RtlError> {
     proof(d, m, budget, MAX_PORTS)
 }

@@ -159,6 +159,12 @@ fn check(m: &UnitModel) -> Result<(), DpiError> {
 /// its configuration as TOML text and its layout, `open()` (the model of
 /// that configuration) and `eval(model, x, y)` (0, or −1 with
 /// `fxs_dpi_error()` saying why).
+///
+/// # Errors
+///
+/// [`DpiError::TooManyPorts`] when the model has more than [`MAX_PORTS`] input or output
+/// ports; [`DpiError::Keyword`] when a port's name is a SystemVerilog keyword (of those this
+/// module lists).
 pub fn package(m: &UnitModel) -> Result<String, DpiError> {
     check(m)?;
     let module = m.module();
@@ -288,6 +294,15 @@ pub fn package(m: &UnitModel) -> Result<String, DpiError> {
 /// with `P passed, F failed` (`$fatal` when F > 0 or the module hangs).
 /// Plusargs: `+N=<count>` (default 1000), `+SEED=<n>`, `+STALL=<percent>`
 /// (default 25).
+///
+/// # Errors
+///
+/// As [`package`].
+///
+/// # Panics
+///
+/// Never: a model's module is emitted with at most 64 flag stages (its outputs compiled),
+/// and each set-up field is one of its input ports (the emitter checks it).
 pub fn scoreboard(m: &UnitModel) -> Result<String, DpiError> {
     check(m)?;
     let module = m.module();

@@ -38,6 +38,15 @@ pub(super) fn first_difference(
 
 /// Every mutant of `d` and the first of `rows` that tells it apart from
 /// the design (outputs or overflow flags differ), if any.
+///
+/// # Errors
+///
+/// [`RtlError::Compile`] when the design or one of its mutants cannot be compiled
+/// ([`Compiled::compile`]).
+///
+/// # Panics
+///
+/// When a row holds fewer codes than the design has input ports.
 pub fn model_kills(
     d: &Design,
     rows: &[Vec<i128>],
@@ -58,6 +67,15 @@ pub fn model_kills(
 /// Inputs from `pool` that tell apart every mutant `base` does not (at most
 /// one per mutant, the first found; a row that kills several is taken
 /// once), and the mutants no row of `base` or `pool` tells apart.
+///
+/// # Errors
+///
+/// [`RtlError::Compile`] when the design or one of its mutants cannot be compiled
+/// ([`Compiled::compile`]).
+///
+/// # Panics
+///
+/// When a row of `base` or `pool` holds fewer codes than the design has input ports.
 pub fn killers(
     d: &Design,
     base: &[Vec<i128>],
@@ -107,6 +125,11 @@ pub fn killers(
 /// input ([`Compiled::quant_operand_zeros`]), or any change at a stage the
 /// outputs read only as a CORDIC step's direction when the mutant keeps
 /// every operand's sign ([`super::direction::sign_only`]). `None`: not proven.
+///
+/// # Errors
+///
+/// [`RtlError::Compile`] when the design (or, for a shift of a constant, the mutant) cannot be
+/// compiled ([`Compiled::compile`]); the errors of [`super::direction::sign_only`].
 pub fn equivalent(d: &Design, m: &Mutation) -> Result<Option<&'static str>, RtlError> {
     use crate::datapath::MutationKind;
     let roots: Vec<TV> = d.trace.output_ports().iter().map(|p| p.value).collect();
@@ -222,6 +245,11 @@ pub(super) fn wild_row(
 /// ([`event`]), and each candidate confirmed by running the mutant on it
 /// (an event does not always reach an output). Returns the inputs and the
 /// mutants still not told apart.
+///
+/// # Errors
+///
+/// [`RtlError::Compile`] when the design or a survivor cannot be compiled
+/// ([`Compiled::compile`]).
 pub fn directed_killers(
     d: &Design,
     survivors: &[Mutation],
@@ -405,6 +433,16 @@ pub(super) fn range_meets_mod(
 /// single inputs, which are run on the mutant. Ends with a killer, with a
 /// proof that no input meets the event (every box dropped: the mutant is
 /// equivalent), or after `budget` boxes.
+///
+/// # Errors
+///
+/// [`RtlError::Compile`] when the design or the mutant cannot be compiled
+/// ([`Compiled::compile`]).
+///
+/// # Panics
+///
+/// When the node of `m` is not a quantization of `d`, or when `d` has no input port and
+/// the operand range of that quantization may meet the mutant's event.
 pub fn box_search(
     d: &Design,
     m: &Mutation,
@@ -478,6 +516,15 @@ pub fn box_search(
 }
 
 /// Whether `row` tells mutant `m` apart from the design (outputs or flags).
+///
+/// # Errors
+///
+/// [`RtlError::Compile`] when the design or the mutant cannot be compiled
+/// ([`Compiled::compile`]).
+///
+/// # Panics
+///
+/// When `row` holds fewer codes than the design has input ports.
 pub fn tells_apart(d: &Design, m: &Mutation, row: &[i128]) -> Result<bool, RtlError> {
     let roots: Vec<TV> = d.trace.output_ports().iter().map(|p| p.value).collect();
     let cols = columns(&[row.to_vec()], d.trace.input_ports().len());
@@ -490,6 +537,15 @@ pub fn tells_apart(d: &Design, m: &Mutation, row: &[i128]) -> Result<bool, RtlEr
 
 /// Whether `row` makes the quantizer of `m` meet `m`'s event (computed by
 /// probing the compiled design, independently of any solver).
+///
+/// # Errors
+///
+/// [`RtlError::Compile`] when the design cannot be compiled ([`Compiled::compile`]).
+///
+/// # Panics
+///
+/// When `row` holds fewer codes than the design has input ports, or the node of `m` is
+/// not a quantization of `d`.
 pub fn meets_event(d: &Design, m: &Mutation, row: &[i128]) -> Result<bool, RtlError> {
     let roots: Vec<TV> = d.trace.output_ports().iter().map(|p| p.value).collect();
     let prog = Compiled::compile(&d.trace, &roots)?;

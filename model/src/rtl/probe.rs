@@ -30,6 +30,10 @@ const CARRY_WORK: usize = 1 << 30;
 /// code than the design does, or `None` when none is found within `work`
 /// lane·operations (rows times the operations run): [`Probe::run`] from
 /// [`Probe::new`].
+///
+/// # Errors
+///
+/// As [`Probe::new`].
 pub fn random_probe(
     d: &Design,
     m: &Mutation,
@@ -72,6 +76,11 @@ pub struct Probe {
 impl Probe {
     /// The search for mutant `m` of `d`, seeded by `seed`; `None` when no
     /// output depends on the stage.
+    ///
+    /// # Errors
+    ///
+    /// [`RtlError::Compile`] when the design or the mutant cannot be compiled to the checkpoints
+    /// or to the outputs the stage reaches ([`Compiled::compile`]).
     pub fn new(d: &Design, m: &Mutation, seed: u64) -> Result<Option<Probe>, RtlError> {
         let t = &d.trace;
         let n = t.ops().len();

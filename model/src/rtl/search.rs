@@ -126,6 +126,11 @@ pub(super) fn code_range(
 /// The nearest cut of mutant `m`'s operand with at most [`MAX_CUT_CODES`]
 /// codes, and the codes of it that meet `m`'s event (see the module
 /// documentation).
+///
+/// # Errors
+///
+/// [`RtlError::Compile`] when the program of a cut, or the design or the mutant from the cut
+/// to its frontier, cannot be compiled ([`Compiled::compile`]).
 pub fn event_cut(d: &Design, m: &Mutation) -> Result<CutOutcome, RtlError> {
     if m.kind == MutationKind::Shift {
         return Ok(CutOutcome::NoCut);
@@ -200,6 +205,11 @@ pub fn event_cut(d: &Design, m: &Mutation) -> Result<CutOutcome, RtlError> {
 /// points). `Ok(false)`: a point differs, or the search takes more than
 /// `budget` boxes (a count, not a time: the outcome is the same on any
 /// machine at any load).
+///
+/// # Errors
+///
+/// [`RtlError::Compile`] when a program of the proof (the supports' codes, the operand, or
+/// the design or the mutant to the frontier) cannot be compiled ([`Compiled::compile`]).
 pub fn support_proof(d: &Design, m: &Mutation, budget: u64) -> Result<bool, RtlError> {
     proof_over(d, m, &d.trace.supports(quant_of(d, m).2), budget)
 }
@@ -214,6 +224,10 @@ const NARROW_INPUT_BITS: u32 = 4;
 /// its operand: slower than over the supports where they are narrow, but
 /// exact about every correlation between them (a CORDIC's rotation
 /// invariant, lost when its coordinates are taken as independent).
+///
+/// # Errors
+///
+/// As [`support_proof`].
 pub fn input_proof(d: &Design, m: &Mutation, budget: u64) -> Result<bool, RtlError> {
     proof_over(d, m, &d.trace.inputs_of(quant_of(d, m).2), budget)
 }
@@ -232,6 +246,10 @@ pub fn input_proof(d: &Design, m: &Mutation, budget: u64) -> Result<bool, RtlErr
 /// normalizer's output `n_x·g(d)` it is `{n_x, n_y, n_z}` and the segment
 /// selector: `g` back to `d`, `d` back to the normal `n_x` belongs to,
 /// where the layers above hold `n_x` and `g` as independent.
+///
+/// # Errors
+///
+/// As [`support_proof`], for each layer tried.
 pub fn layer_proof(d: &Design, m: &Mutation, budget: u64) -> Result<bool, RtlError> {
     let t = &d.trace;
     let best = narrow_layer(t, quant_of(d, m).2);
@@ -539,6 +557,11 @@ pub(super) fn sweep(
 /// towards the event at the mutant's own quantizer when `cut` is `None`;
 /// at most `budget` interval evaluations. `bases` are rows to start lines
 /// from (the unit's own inputs) besides random ones.
+///
+/// # Errors
+///
+/// [`RtlError::Compile`] when the program to the cut (or to the mutant's quantizer), or the
+/// design or the mutant to the outputs, cannot be compiled ([`Compiled::compile`]).
 pub fn line_search(
     d: &Design,
     m: &Mutation,
@@ -743,6 +766,19 @@ pub const OVERFLOW_WITNESS_SHARE: usize = 16;
 /// are skipped. Returns the inputs (one per mutant
 /// found, each taken once) and the mutants still not told apart. `search`
 /// says how much work each step gets ([`Search`]).
+///
+/// # Errors
+///
+/// [`RtlError::Compile`] when a program cannot be compiled: the errors of
+/// [`super::mutants::equivalent`], [`event_cut`], the proofs, [`line_search`],
+/// [`super::witness::witness_search`] and [`super::probe::Probe::new`], and of running the
+/// rows found on the design and the mutants.
+///
+/// # Panics
+///
+/// If a survivor is not a mutation of a quantization of `d`
+/// ([`Trace::mutations`](crate::datapath::Trace::mutations)). The probes' locks are never
+/// poisoned: a panic in a search thread ends the search first ([`parallel_map`]).
 pub fn killers(
     d: &Design,
     survivors: &[Mutation],
@@ -1004,6 +1040,14 @@ const SECOND_ROUND_SEED: u64 = 0x7365_636f_6e64;
 
 /// `f(i, x)` for every element of `xs`, in order, on as many threads as
 /// the machine has cores.
+///
+/// # Errors
+///
+/// The first error of `f` in the order of `xs`, once every element has been mapped.
+///
+/// # Panics
+///
+/// When `f` panics: the panic of its thread is raised again as `a search thread panicked`.
 pub fn parallel_map<T: Sync, U: Send>(
     xs: &[T],
     f: impl Fn(usize, &T) -> Result<U, RtlError> + Sync,

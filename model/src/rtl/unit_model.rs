@@ -136,6 +136,12 @@ pub struct UnitModel {
 impl UnitModel {
     /// Open `unit` for the configuration `config` with `sets` applied in
     /// order (each `KEY=VALUE`, as `--set`).
+    ///
+    /// # Errors
+    ///
+    /// [`ModelError::UnknownUnit`] when no unit with RTL is named `unit`; [`ModelError::Config`]
+    /// when the configuration file cannot be read, or the configuration or an override is
+    /// refused; then as [`UnitModel::of`].
     pub fn open(unit: &str, config: ConfigSource, sets: &[String]) -> Result<Self, ModelError> {
         let u = units::unit(unit).ok_or_else(|| ModelError::UnknownUnit {
             name: crate::escape::line(unit),
@@ -150,6 +156,16 @@ impl UnitModel {
     }
 
     /// The model of `u` for a resolved configuration.
+    ///
+    /// # Errors
+    ///
+    /// [`ModelError::Rtl`] when the design cannot be built, emitted or compiled
+    /// ([`units::emit_unit`], [`units::compile_outputs`]); [`ModelError::Wide`] when an unsigned
+    /// input or output port is wider than 63 bits.
+    ///
+    /// # Panics
+    ///
+    /// Never: the emitted module's input fields are the trace's input ports, each an input node.
     pub fn of(u: &'static RtlUnit, cfg: &Config) -> Result<Self, ModelError> {
         let (design, emitted) = units::emit_unit(u, cfg)?;
         let prog = units::compile_outputs(&design)?;
@@ -254,6 +270,10 @@ impl UnitModel {
     }
 
     /// Refuse a caller generated for another layout.
+    ///
+    /// # Errors
+    ///
+    /// [`ModelError::Layout`] when `expected` is neither empty nor [`UnitModel::layout`].
     pub fn check_layout(&self, expected: &str) -> Result<(), ModelError> {
         let actual = self.layout();
         if expected.is_empty() || expected == actual {
@@ -268,6 +288,11 @@ impl UnitModel {
 
     /// The vector manifest's description of this unit (fields, formats,
     /// flags, latency, set-up ports, parameters), as JSON.
+    ///
+    /// # Panics
+    ///
+    /// Never: the design compiled when the model was opened, its module was emitted from it, and
+    /// an empty set holds no code to refuse.
     pub fn manifest(&self) -> serde_json::Value {
         let vs = units::vector_set(&self.design, &self.emitted, Vec::new(), 0, 0)
             .expect("an empty vector set is valid");
@@ -282,6 +307,11 @@ impl UnitModel {
     /// the traced datapath with every quantization the identity and every
     /// table its exact function ([`crate::datapath::Trace::run_f64`]), so
     /// the bit-exact model's error against it is the error of its formats.
+    ///
+    /// # Errors
+    ///
+    /// [`ModelError::Shape`] when `inputs` does not hold `n × inputs().len()` values or
+    /// `outputs` does not hold `n × outputs().len()`.
     pub fn reference(
         &self,
         n: usize,
@@ -327,6 +357,12 @@ impl UnitModel {
     /// row; `outputs` receives `n × outputs().len()` codes row by row and
     /// `flags` (when given) `n` flag words. Every input code is checked
     /// against its port's format first; on an error nothing is written.
+    ///
+    /// # Errors
+    ///
+    /// [`ModelError::Shape`] when `inputs`, `outputs` or `flags` (when given) does not hold
+    /// `n × inputs().len()`, `n × outputs().len()` or `n` values; [`ModelError::Code`] for the
+    /// first input code outside its port's format.
     pub fn eval(
         &self,
         n: usize,

@@ -16,6 +16,11 @@ use crate::format::Format;
 use crate::vectors::{RtlSources, VectorSet, VectorSource as _};
 
 /// Emit a unit for a configuration.
+///
+/// # Errors
+///
+/// The errors of [`RtlUnit::design`] for `cfg`; [`RtlError::Emit`] when the design cannot
+/// be emitted ([`emit`]).
 pub fn emit_unit(u: &RtlUnit, cfg: &Config) -> Result<(Design, Emitted), RtlError> {
     let d = u.design(cfg)?;
     let e = emit(&d)?;
@@ -26,6 +31,12 @@ pub fn emit_unit(u: &RtlUnit, cfg: &Config) -> Result<(Design, Emitted), RtlErro
 /// expected outputs and per-vector overflow flags of the compiled trace;
 /// `search`: how thoroughly the corner part's mutant killers are searched
 /// ([`corner_rows`]).
+///
+/// # Errors
+///
+/// [`RtlError::TooMany`] when `count` exceeds [`MAX_STREAM`] or its rows would not fit in
+/// the memory `/proc/meminfo` says is available; the errors of [`emit_unit`], of
+/// [`VectorStream::new`] (among them [`RtlError::Count`]) and of [`VectorStream::collect`].
 pub fn vectors(
     u: &'static RtlUnit,
     cfg: &Config,
@@ -60,6 +71,10 @@ pub fn vectors(
 pub const MAX_STREAM: u64 = 1 << 32;
 
 /// Refuse a stream of more than [`MAX_STREAM`] vectors.
+///
+/// # Errors
+///
+/// [`RtlError::TooMany`] when `total` exceeds [`MAX_STREAM`].
 pub fn check_total(total: usize) -> Result<(), RtlError> {
     if total as u128 > MAX_STREAM as u128 {
         return Err(RtlError::TooMany {
@@ -92,6 +107,13 @@ pub fn chunk_seed(seed: u64, c: u64) -> u64 {
 /// inputs of another seed, then [`super::mutants::directed_killers`], then
 /// [`super::search::killers`], as thoroughly as `search` says) which the
 /// corner cases do not. It does not depend on the count.
+///
+/// # Errors
+///
+/// The errors of [`unit_inputs`]; [`RtlError::Cache`] when the cache directory cannot be
+/// used or a cached entry cannot be read or is not private (failing to write the entry is
+/// not an error); the errors of [`super::mutants::killers`],
+/// [`super::mutants::directed_killers`] and [`super::search::killers`].
 pub fn corner_rows(
     u: &RtlUnit,
     d: &Design,
@@ -251,6 +273,11 @@ fn write_corner_cache(key: u64, rows: &[Vec<i128>]) -> Result<(), RtlError> {
 /// hold: a corner case a port cannot hold (a barycentric 1.0 on a `U0F16`
 /// port) becomes the nearest code it can, so the vector files, the RTL and
 /// the model all see the same value. A row of the wrong length is an error.
+///
+/// # Errors
+///
+/// The errors of the unit's generator (`u.inputs`); [`RtlError::Stage`] (stage `inputs`)
+/// when a row does not hold one code per entry of `formats`.
 pub fn unit_inputs(
     u: &RtlUnit,
     cfg: &Config,
@@ -281,6 +308,10 @@ pub fn unit_inputs(
 /// Rows `[start, start + len)` of the stream whose first `corners.len()`
 /// rows are `corners` and whose rest are random chunks (codes of
 /// `formats`, [`unit_inputs`]).
+///
+/// # Errors
+///
+/// As [`unit_inputs`], for each random chunk the rows reach.
 pub fn stream_rows(
     u: &RtlUnit,
     cfg: &Config,
@@ -317,6 +348,16 @@ pub fn stream_rows(
 
 /// A vector set from input rows: outputs and flags from the compiled trace,
 /// fields from the emitted ports.
+///
+/// # Errors
+///
+/// The errors of [`compile_outputs`]; [`RtlError::Stage`] (stage `inputs`) when a code of
+/// `rows` lies outside the format of its input field.
+///
+/// # Panics
+///
+/// When the compiled trace of `d` flags other stages than `e` (`e` was not emitted from
+/// `d`), or when a row holds fewer codes than `e` has inputs.
 pub fn vector_set(
     d: &Design,
     e: &Emitted,
@@ -372,6 +413,11 @@ pub fn vector_set(
 
 /// The design's output ports compiled: what computes the expected outputs
 /// and flags of its vectors.
+///
+/// # Errors
+///
+/// [`RtlError::Compile`] when the trace of the output ports cannot be compiled
+/// ([`Compiled::compile`](crate::datapath::Compiled::compile)).
 pub fn compile_outputs(d: &Design) -> Result<crate::datapath::Compiled, RtlError> {
     let outs: Vec<_> = d.trace.output_ports().iter().map(|p| p.value).collect();
     Ok(crate::datapath::Compiled::compile(&d.trace, &outs)?)
@@ -435,6 +481,15 @@ impl VectorStream {
     /// The stream of `total` vectors, or with `shard = Some((k, n))` its
     /// `k`-th of `n` slices (`k < n`); its corner part searched as
     /// thoroughly as `search` says ([`corner_rows`]).
+    ///
+    /// # Errors
+    ///
+    /// As [`check_total`], [`emit_unit`] and [`corner_rows`]; [`RtlError::Count`] when `total`
+    /// is below the number of corner rows; as [`compile_outputs`].
+    ///
+    /// # Panics
+    ///
+    /// When `shard` is `Some((k, 0))` and no error comes first (a division by zero).
     pub fn new(
         u: &'static RtlUnit,
         cfg: &Config,
@@ -477,6 +532,10 @@ impl VectorStream {
     /// Slice `k` of `n` of this slice (`[first + k·count/n, first +
     /// (k+1)·count/n)`), sharing its corner part: for splitting a run over
     /// jobs.
+    ///
+    /// # Panics
+    ///
+    /// If `k` is not below `n`.
     pub fn slice(&self, k: usize, n: usize) -> VectorStream {
         assert!(k < n, "slice k of n");
         let a = (self.count as u128 * k as u128 / n as u128) as usize;
@@ -501,6 +560,10 @@ impl VectorStream {
     }
 
     /// The whole slice in memory (for small counts).
+    ///
+    /// # Errors
+    ///
+    /// As [`stream_rows`] for the whole slice.
     pub fn collect(&self) -> Result<VectorSet, RtlError> {
         let (input_rows, output_rows) = self.chunk(0, self.count)?;
         Ok(self.set_of(input_rows, output_rows))

@@ -69,6 +69,12 @@ const LISTED_KEPT: usize = 256;
 /// own inputs) and random rows; at most `work` lane·operations (an
 /// interval evaluation counted as four lanes). `None`: none found in the
 /// budget (which proves nothing).
+///
+/// # Errors
+///
+/// [`RtlError::Compile`] when the program of the supports' codes, or the design or the
+/// mutant to the supports' frontier or to the outputs, cannot be compiled
+/// ([`Compiled::compile`]).
 pub fn witness_search(
     d: &Design,
     m: &Mutation,
