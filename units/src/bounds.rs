@@ -65,6 +65,16 @@ pub struct NormalizeBound {
 
 /// [`NormalizeBound`] of `n` for inputs quantized from vectors with
 /// `|N|² ∈ [lo, hi]`, with the diffuse term of `light`.
+///
+/// # Errors
+///
+/// [`DesignError::Compile`] when the `g(d)` stage of `n` is needed and does not compile
+/// ([`Normalizer::compile_g`]: an exact intermediate wider than the model holds); never for
+/// [`Method::None`].
+///
+/// # Panics
+///
+/// As [`Normalizer::compile_g`], when the `g(d)` stage is needed (never for [`Method::None`]).
 pub fn normalize(
     n: &Normalizer,
     light: &Lighting,

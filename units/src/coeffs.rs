@@ -142,6 +142,12 @@ pub fn rsqrt(d: f64) -> f64 {
 /// Design a polynomial of `degree` on `[lo, hi]` with `fit` (remembered
 /// for the life of the process: a Remez exchange takes milliseconds, and
 /// the pipeline asks for the same six fits on every set-up).
+///
+/// # Errors
+///
+/// [`CoeffError::Interval`] unless `0 < lo < hi` with `hi` finite; [`CoeffError::Degree`] for a
+/// `degree` other than 1 or 2; [`CoeffError::NotFinite`] when the fitted coefficients or their
+/// maximum relative error are not finite. An error is remembered like a result.
 pub fn design(fit: Fit, lo: f64, hi: f64, degree: usize) -> Result<Poly, CoeffError> {
     type Memo = std::collections::HashMap<(Fit, u64, u64, usize), Result<Poly, CoeffError>>;
     static MEMO: std::sync::OnceLock<std::sync::Mutex<Memo>> = std::sync::OnceLock::new();
@@ -308,6 +314,10 @@ fn werr(p: &Poly, f: &dyn Fn(f64) -> f64, w: &dyn Fn(f64) -> f64, d: f64) -> f64
 /// alternating extrema of the error on a grid of 4097 points refined by
 /// golden-section search, until the levelled error and the maximum agree to
 /// 1e−12.
+///
+/// # Panics
+///
+/// Never: an extremum is dropped from the reference only while more than `n + 2` remain.
 pub fn remez(
     f: &dyn Fn(f64) -> f64,
     w: &dyn Fn(f64) -> f64,
@@ -479,6 +489,11 @@ fn from_codes(codes: Vec<i128>, f: Format, lo: f64, hi: f64) -> Quantized {
 }
 
 /// Round each real coefficient to the nearest code of `f`.
+///
+/// # Errors
+///
+/// [`CoeffError::Range`] naming the first coefficient that is NaN or infinite, or whose nearest
+/// code (half to even) lies outside `f`.
 pub fn round_coeffs(p: &Poly, f: Format, lo: f64, hi: f64) -> Result<Quantized, CoeffError> {
     let q = Quant::new("coef", f, Rounding::HalfEven, Overflow::Saturate);
     let codes =
@@ -498,6 +513,10 @@ pub fn round_coeffs(p: &Poly, f: Format, lo: f64, hi: f64) -> Result<Quantized, 
 /// `max_i |w_i·(p(x_i) − f_i)|` over the given points (sorted by `x`), by the
 /// single-point Remez exchange; returns the coefficients (lowest power
 /// first) and that maximum. Exact on the points (up to rounding).
+///
+/// # Panics
+///
+/// If `xs` holds fewer than `n + 2` points, or `fs` or `ws` fewer values than `xs`.
 pub fn discrete_minimax(xs: &[f64], fs: &[f64], ws: &[f64], n: usize) -> (Vec<f64>, f64) {
     let m = n + 2;
     let len = xs.len();
@@ -578,6 +597,10 @@ pub fn discrete_minimax(xs: &[f64], fs: &[f64], ws: &[f64], n: usize) -> (Vec<f6
 /// the optimum first; with a fine coefficient format the error's level sets
 /// are so long that an exhaustive walk takes minutes. [`search_codes_full`]
 /// says whether the walk finished.
+///
+/// # Errors
+///
+/// As [`search_codes_full`].
 pub fn search_codes(
     p: &Poly,
     f: Format,
@@ -593,6 +616,10 @@ pub const SEARCH_LEAVES: usize = 4096;
 
 /// As [`search_codes`], and whether the search was exhaustive (it stopped
 /// on its bound, not on [`SEARCH_LEAVES`]).
+///
+/// # Errors
+///
+/// [`CoeffError::Range`] as [`round_coeffs`]: the search starts from the rounded coefficients.
 pub fn search_codes_full(
     p: &Poly,
     f: Format,
@@ -815,6 +842,10 @@ impl Search<'_> {
 /// and the searched best codes (by real-arithmetic error; the caller may
 /// re-rank the returned candidates with the bit-accurate model).
 /// The `bool` says whether the search was exhaustive ([`search_codes_full`]).
+///
+/// # Errors
+///
+/// [`CoeffError::Range`] as [`round_coeffs`].
 pub fn quantize_coeffs(
     p: &Poly,
     f: Format,

@@ -211,6 +211,10 @@ impl UnitConfig {
         &self.values[i]
     }
     /// The quantization step of stage `name` (a declared `Stage` field).
+    ///
+    /// # Panics
+    ///
+    /// If the unit declares no field `name`, or `name` is not a `Stage` field.
     pub fn stage(&self, name: &str) -> Quant {
         match self.get(name).0 {
             Value::Stage(q) => q,
@@ -218,6 +222,10 @@ impl UnitConfig {
         }
     }
     /// The real number `name` (a declared `Number` field).
+    ///
+    /// # Panics
+    ///
+    /// If the unit declares no field `name`, or `name` is not a `Number` field.
     pub fn number(&self, name: &str) -> f64 {
         match self.get(name).0 {
             Value::Number(x) => x,
@@ -225,6 +233,10 @@ impl UnitConfig {
         }
     }
     /// The integer `name` (a declared `Integer` field).
+    ///
+    /// # Panics
+    ///
+    /// If the unit declares no field `name`, or `name` is not an `Integer` field.
     pub fn integer(&self, name: &str) -> i64 {
         match self.get(name).0 {
             Value::Integer(x) => x,
@@ -232,6 +244,10 @@ impl UnitConfig {
         }
     }
     /// The choice `name` (a declared `Choice` field).
+    ///
+    /// # Panics
+    ///
+    /// If the unit declares no field `name`, or `name` is not a `Choice` or `ChoiceOf` field.
     pub fn choice(&self, name: &str) -> &'static str {
         match self.get(name).0 {
             Value::Choice(x) => x,
@@ -363,6 +379,11 @@ fn choice(names: &'static [&'static str], v: &TomlValue) -> Result<Value, String
 
 impl Config {
     /// The embedded default (parsed once per process).
+    ///
+    /// # Panics
+    ///
+    /// Never: [`DEFAULT_TOML`] is a complete, valid configuration, as the tests that read it
+    /// confirm.
     pub fn embedded() -> Config {
         static DEFAULT: std::sync::OnceLock<Config> = std::sync::OnceLock::new();
         DEFAULT
@@ -374,6 +395,13 @@ impl Config {
     }
 
     /// Read and validate a file.
+    ///
+    /// # Errors
+    ///
+    /// [`ConfigErrors`] holding one [`ConfigError::Read`] when the file cannot be read
+    /// ([`read_text_limited`](crate::input::read_text_limited): it cannot be opened or read, is a
+    /// directory, is larger than [`MAX_TEXT_INPUT`](crate::input::MAX_TEXT_INPUT) or is not
+    /// UTF-8); else those of [`Config::parse`].
     pub fn load(path: &Path) -> Result<Config, ConfigErrors> {
         let text = crate::input::read_text_limited(path).map_err(|reason| {
             ConfigErrors(vec![ConfigError::Read {
@@ -386,6 +414,10 @@ impl Config {
 
     /// Read `path` if given, else the embedded default; then apply `--set`
     /// overrides and validate the result.
+    ///
+    /// # Errors
+    ///
+    /// Those of [`Config::load`] for `path`, else those of [`Config::with_overrides`].
     pub fn resolve(path: Option<&Path>, overrides: &[String]) -> Result<Config, ConfigErrors> {
         let cfg = match path {
             Some(p) => Self::load(p)?,
@@ -397,6 +429,10 @@ impl Config {
     /// Parse TOML `text` (named `name` in errors), then apply `--set`
     /// overrides and validate the result, as [`Config::resolve`] does for a
     /// file.
+    ///
+    /// # Errors
+    ///
+    /// Those of [`Config::parse`] for `text`, else those of [`Config::with_overrides`].
     pub fn resolve_text(
         text: &str,
         name: &str,
@@ -407,6 +443,12 @@ impl Config {
 
     /// This configuration with `--set` overrides applied in order, then
     /// validated: every override's error and then every unit's.
+    ///
+    /// # Errors
+    ///
+    /// [`ConfigErrors`] listing the error of every override that fails
+    /// ([`Config::apply_override`]); when all apply, the errors of the units' checks, as in
+    /// [`Config::parse`].
     pub fn with_overrides(self, overrides: &[String]) -> Result<Config, ConfigErrors> {
         let mut cfg = self;
         let mut errors = Vec::new();
@@ -429,6 +471,16 @@ impl Config {
     /// field or stage part the text omits takes the embedded default's
     /// value, so a file written for an older fxshade (or listing only what
     /// it changes) stays valid when units and fields are added.
+    ///
+    /// # Errors
+    ///
+    /// [`ConfigErrors`] holding one [`ConfigError::Syntax`] when `text` is not TOML; else every
+    /// [`ConfigError::UnknownKey`] (a section, field or stage part no unit declares) and
+    /// [`ConfigError::BadValue`] (a section that is not a table, a value of the wrong kind or out
+    /// of range; a stage's first bad part only); else the [`ConfigError::BadValue`]s of the units'
+    /// checks (an exact intermediate wider than
+    /// [`MAX_EXACT_WIDTH`](crate::datapath::MAX_EXACT_WIDTH), a format or mode a unit cannot use),
+    /// each naming the field at fault.
     pub fn parse(text: &str, path: &str) -> Result<Config, ConfigErrors> {
         let defaults = Self::embedded();
         Self::parse_with(text, path, Some(&defaults))
@@ -527,6 +579,19 @@ impl Config {
 
     /// Apply one `unit.field=value` or `unit.stage.part=value` override
     /// (not yet re-checked: [`Config::resolve`] does that).
+    ///
+    /// # Errors
+    ///
+    /// [`ConfigError::UnknownKey`] for a unit, field or stage part no unit declares;
+    /// [`ConfigError::BadValue`] for a `spec` holding a control character or no `=`, a value of the
+    /// wrong kind or out of range, a stage given neither whole (an inline table with all three
+    /// parts) nor by one part, a non-stage field given parts, or a `width.<group>=BITS` whose form,
+    /// width or group is unusable ([`Config::group_overrides`]).
+    ///
+    /// # Panics
+    ///
+    /// Never: `I1F0` is a valid format, a stage field always holds a stage, and every width group
+    /// names stage fields.
     pub fn apply_override(&mut self, spec: &str) -> Result<(), ConfigError> {
         let at = Origin::Flag(spec.to_string());
         let bad = |key: &str, msg: String| ConfigError::BadValue {
@@ -682,6 +747,12 @@ impl Config {
     /// width of `width` bits: each member keeps its signedness and integer
     /// bits (`I2F14` at 12 bits is `I2F10`). An error names a member whose
     /// integer bits leave no room (or a group no unit declares).
+    ///
+    /// # Errors
+    ///
+    /// A message naming a group no unit declares (and listing the groups), or the first member
+    /// whose integer bits exceed `width` or whose format cannot be `width` bits wide (0 or above
+    /// 64).
     pub fn group_overrides(&self, group: &str, width: u32) -> Result<Vec<String>, String> {
         let members = self.group_members(group).ok_or_else(|| {
             format!(
@@ -717,6 +788,10 @@ impl Config {
     }
 
     /// The section of the unit declared by `decl`.
+    ///
+    /// # Panics
+    ///
+    /// If no registered unit is named `name`.
     pub fn unit(&self, name: &str) -> &UnitConfig {
         let u = self
             .units
@@ -810,6 +885,10 @@ impl Config {
 
     /// The effective configuration as JSON: `{ unit: { field: value } }`,
     /// stages as `{ "format": "I2F14", "round": .., "overflow": .. }`.
+    ///
+    /// # Panics
+    ///
+    /// Never: a [`Quant`] always serializes to JSON.
     pub fn to_json(&self) -> serde_json::Value {
         let mut root = serde_json::Map::new();
         for u in &self.units {

@@ -10,6 +10,11 @@ pub const MAX_TEXT_INPUT: u64 = 64 << 20;
 /// Read a text file of at most [`MAX_TEXT_INPUT`] bytes: a larger file, or
 /// an endless one (`/dev/zero`), is refused after reading one byte more
 /// than the limit, a directory or a device with a clear reason.
+///
+/// # Errors
+///
+/// The reason, as text, when the metadata, opening or reading of `path` fails, or it is a
+/// directory, holds more than [`MAX_TEXT_INPUT`] bytes, or is not UTF-8.
 pub fn read_text_limited(path: &Path) -> Result<String, String> {
     use std::io::Read;
     let meta = std::fs::metadata(path).map_err(|e| e.to_string())?;

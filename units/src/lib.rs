@@ -16,7 +16,7 @@
 //!
 //! It depends on `fxshade-numbers`, `fxshade-ir` and `fxshade-backend`;
 //! the vector flow (`fxshade-model`) and the CLI sit above it.
-#![warn(missing_docs)]
+#![warn(missing_docs, clippy::missing_errors_doc, clippy::missing_panics_doc)]
 
 pub mod angles;
 pub mod bounds;

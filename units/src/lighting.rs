@@ -172,6 +172,11 @@ impl Lighting {
     }
 
     /// Load the constants into a context (once per batch).
+    ///
+    /// # Errors
+    ///
+    /// The [`ConvertError`] of `cx.constant` when `255·i0_km` or `255·i0_ks` is NaN or infinite;
+    /// never for a [`Lighting`] of a configuration, where both lie in `0..=1`.
     pub fn consts<C: Datapath>(&self, cx: &mut C) -> Result<Consts<C::V>, ConvertError> {
         Ok(Consts {
             gain: cx.constant(LEVELS * self.i0_km, &self.gain)?,
@@ -216,6 +221,10 @@ impl Lighting {
     /// `x^n` by squaring and multiplying, LSB of `n` first, every product
     /// quantized with `Q_spec`; `x` is quantized with `Q_spec` first. The
     /// first set bit copies the base (no multiplication).
+    ///
+    /// # Panics
+    ///
+    /// Never: the exponent `max(shininess, 1)` has a set bit, which sets the result.
     #[inline]
     pub fn power<C: Datapath>(&self, cx: &mut C, x: C::V) -> C::V {
         let mut base = cx.quantize(x, &self.spec);
@@ -271,6 +280,11 @@ impl Lighting {
     /// The unit traced with named ports: inputs `n`, `l`, `h` (`_x, _y, _z`
     /// each; normal and light formats), output `level`. Diffuse only when
     /// `i0_ks = 0` (then `h` is not read).
+    ///
+    /// # Errors
+    ///
+    /// [`LightingError::Convert`] when `255·i0_km` or `255·i0_ks` is NaN or infinite
+    /// ([`Lighting::consts`]).
     pub fn trace(&self) -> Result<crate::datapath::Trace, LightingError> {
         let mut tr = crate::datapath::Trace::new();
         let n = tr.input3("n", &self.normal);
@@ -289,6 +303,12 @@ impl Lighting {
 
     /// Compiled for batches: inputs the normal's three components, then the
     /// light vector's; output the level.
+    ///
+    /// # Errors
+    ///
+    /// [`LightingError::Convert`] as [`Lighting::trace`]; [`LightingError::Compile`] when the
+    /// diffuse datapath does not compile (an exact intermediate wider than
+    /// [`MAX_EXACT_WIDTH`](crate::datapath::MAX_EXACT_WIDTH)).
     pub fn compile(&self) -> Result<crate::datapath::Compiled, LightingError> {
         let mut tr = crate::datapath::Trace::new();
         let n = [
@@ -308,6 +328,12 @@ impl Lighting {
 
     /// [`Lighting::shade`] compiled for batches: inputs N, L, H (three
     /// components each); output the level.
+    ///
+    /// # Errors
+    ///
+    /// [`LightingError::Convert`] as [`Lighting::trace`]; [`LightingError::Compile`] when the
+    /// shading datapath does not compile (an exact intermediate wider than
+    /// [`MAX_EXACT_WIDTH`](crate::datapath::MAX_EXACT_WIDTH)).
     pub fn compile_shade(&self) -> Result<crate::datapath::Compiled, LightingError> {
         let mut tr = crate::datapath::Trace::new();
         let n = [0; 3].map(|_| tr.input(&self.normal));
@@ -319,6 +345,11 @@ impl Lighting {
     }
 
     /// [`Lighting::shade`] once in the counting context.
+    ///
+    /// # Panics
+    ///
+    /// If `255·i0_km` or `255·i0_ks` is NaN or infinite ([`Lighting::consts`]): never for a
+    /// [`Lighting`] of a configuration.
     pub fn count_shade(&self) -> Count {
         let mut cx = Count::new();
         let k = self.consts(&mut cx).expect("finite constants");
@@ -329,6 +360,11 @@ impl Lighting {
     }
 
     /// Run once in the counting context.
+    ///
+    /// # Panics
+    ///
+    /// If `255·i0_km` or `255·i0_ks` is NaN or infinite ([`Lighting::consts`]): never for a
+    /// [`Lighting`] of a configuration.
     pub fn count(&self) -> Count {
         let mut cx = Count::new();
         let k = self.consts(&mut cx).expect("finite constants");
@@ -370,6 +406,11 @@ pub mod rtl {
     use glam::DVec3;
 
     /// The unit's traced datapath: diffuse, or diffuse + specular.
+    ///
+    /// # Errors
+    ///
+    /// [`RtlError::Lighting`] as [`Lighting::trace`]: never for a configuration, whose `i0_km` and
+    /// `i0_ks` lie in `0..=1`.
     pub fn design(cfg: &Config) -> Result<crate::rtl::Design, RtlError> {
         let l = Lighting::from_config(cfg.unit(DECL.name));
         let variant = if l.i0_ks == 0.0 {
@@ -393,6 +434,10 @@ pub mod rtl {
     /// Input vectors: extreme codes and perpendicular or opposite vectors,
     /// then random unit N, L, H (N within 60° of L half the time), then
     /// structured random codes.
+    ///
+    /// # Errors
+    ///
+    /// Never (the `Result` is that of `RtlUnit::inputs`).
     pub fn inputs(
         cfg: &Config,
         part: crate::rtl::units::Part,

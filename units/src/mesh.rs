@@ -347,6 +347,14 @@ fn prescan_obj(path: &str, text: &str) -> Result<Vec<usize>, ObjError> {
 /// around each vertex; texture coordinates, when missing, are a spherical
 /// projection about the bounding-box centre. Errors name the file, and for
 /// a parse error the line and its text.
+///
+/// # Errors
+///
+/// [`ObjError::Read`] when the file's metadata or contents cannot be read; [`ObjError::Content`]
+/// when it is not a regular file, holds a NUL byte, is not UTF-8, has no face, or has a vertex with
+/// a non-finite position; [`ObjError::Parse`], naming the line and its text, for a `v` or `vn` with
+/// a non-finite component, a `vn` of zero length, a face of fewer than three vertices, an index
+/// that is not an integer or names no element, or a line the `tobj` parser rejects.
 pub fn load_obj(path: &std::path::Path) -> Result<Mesh, ObjError> {
     let name = crate::escape::line(&path.display().to_string());
     // A regular file only (a device such as /dev/zero never ends).

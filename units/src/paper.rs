@@ -112,6 +112,11 @@ impl Row {
 }
 
 /// Parse the published tables.
+///
+/// # Errors
+///
+/// [`PaperError`] naming the line of [`PAPER_CSV`] at fault: a first non-comment line that is not
+/// the header, a row with the wrong number of cells, or a cell that is not a number.
 pub fn rows() -> Result<Vec<Row>, PaperError> {
     let mut out = Vec::new();
     let mut header_seen = false;
@@ -208,6 +213,15 @@ fn judge(
 }
 
 /// Every published entry with its reproduction, in table order.
+///
+/// # Errors
+///
+/// As [`rows`].
+///
+/// # Panics
+///
+/// Never: each entry's Θ is read from a row of the table, and the embedded table's Θs are numbers
+/// (not NaN), so that row is found again.
 pub fn reproduce() -> Result<Vec<Entry>, PaperError> {
     let rows = rows()?;
     let mut out = Vec::new();

@@ -270,6 +270,12 @@ pub enum SceneError {
 
 impl Scene {
     /// A scene from raw directions (normalized here) and a tilt.
+    ///
+    /// # Errors
+    ///
+    /// [`SceneError::Tilt`] when `tilt_deg` is not finite; else [`SceneError::Direction`] naming
+    /// `light` or `view` (checked in that order) when it is not finite or its length is at most
+    /// 10⁻³⁰⁰.
     pub fn new(
         light: DVec3,
         view: DVec3,
@@ -992,6 +998,12 @@ fn frame_core(
 /// per fragment and method, the references) and not with the rows. The
 /// levels are those of [`run_method`] on a whole frame (the pipeline is
 /// per row); the frame returned holds no rows.
+///
+/// # Errors
+///
+/// The [`PipelineError`] of building a method's pipeline ([`Pipeline::with_method`]) or of
+/// compiling it for a chunk's rows ([`Pipeline::compile`], or [`Pipeline::trace_tbn`] for the
+/// baseline).
 pub fn levels_streamed(
     cfg: &Config,
     scene: &Scene,
@@ -1084,6 +1096,16 @@ pub struct MethodImage {
 }
 
 /// Run the bit-accurate pipeline of `method` over a frame.
+///
+/// # Errors
+///
+/// The [`PipelineError`] of building the method's pipeline ([`Pipeline::with_method`]) or of
+/// compiling it ([`Pipeline::compile`], or [`Pipeline::trace_tbn`] for the baseline).
+///
+/// # Panics
+///
+/// If `f` holds no row per fragment for `method` (a frame built without them, [`Wanted`], or by
+/// [`levels_streamed`]), or no reference per fragment for its path.
 pub fn run_method(
     cfg: &Config,
     f: &Frame,
@@ -1102,6 +1124,11 @@ pub fn run_method(
 
 /// A method's image from its levels: the metrics against its path's
 /// reference (and, for mapped methods, outside and inside the polar cap).
+///
+/// # Panics
+///
+/// If `levels` and the reference of `method`'s path in `f` differ in length (a frame built without
+/// that reference, [`Wanted`]).
 pub fn image_of(f: &Frame, method: RenderMethod, levels: Vec<u8>) -> MethodImage {
     let want = f.reference(method);
     assert!(
@@ -1137,6 +1164,14 @@ pub fn pixel_of(level: crate::format::Format, code: i128) -> u8 {
 }
 
 /// Levels of a path's rows (skipped fragments, with empty rows, are 0).
+///
+/// # Errors
+///
+/// As [`Pipeline::run_rows`].
+///
+/// # Panics
+///
+/// If a non-empty row holds fewer codes than `path` has fields ([`Pipeline::run_rows`]).
 pub fn levels_of(p: &Pipeline, path: Path, rows: &[Vec<i128>]) -> Result<Vec<u8>, PipelineError> {
     let idx: Vec<usize> = (0..rows.len()).filter(|&i| !rows[i].is_empty()).collect();
     // Rows are copied only when some are skipped (they are most of a

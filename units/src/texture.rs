@@ -78,6 +78,11 @@ impl NormalTexture {
     /// Decode `channels`-channel samples (RGB or RGBA; alpha ignored) of
     /// largest code `max` (255 or 65 535), row by row: `n = 2·c/max − 1`,
     /// green negated for [`Green::DirectX`].
+    ///
+    /// # Errors
+    ///
+    /// [`TextureError::Shape`] when `channels` is not 3 or 4, `width` or `height` is 0, or `data`
+    /// does not hold `width·height·channels` samples.
     pub fn from_channels(
         width: usize,
         height: usize,
@@ -263,6 +268,10 @@ pub fn uv_frame(
 /// Texels no triangle covers are copied unchanged; see [`TexelFlag`] for
 /// what is flagged. Refused: a mesh whose texture coordinates were made up
 /// ([`Mesh::uvs_generated`]) or reach beyond [`UV_LIMIT`].
+///
+/// # Errors
+///
+/// [`TextureError::Layout`] as [`check_layout`].
 pub fn bake_implied(m: &Mesh, map: &NormalTexture, scheme: Scheme) -> Result<Baked, TextureError> {
     check_layout(m)?;
     let tangents = crate::mesh::uv_tangents(m);
@@ -408,6 +417,11 @@ pub fn bake_implied(m: &Mesh, map: &NormalTexture, scheme: Scheme) -> Result<Bak
 }
 
 /// Whether `m`'s texture coordinates can lay a normal map out.
+///
+/// # Errors
+///
+/// [`TextureError::Layout`] when the texture coordinates were made up ([`Mesh::uvs_generated`]),
+/// are not one per vertex, or one is not finite or lies beyond ±[`UV_LIMIT`].
 pub fn check_layout(m: &Mesh) -> Result<(), TextureError> {
     if m.uvs_generated {
         return Err(TextureError::Layout(

@@ -120,6 +120,11 @@ pub static UNITS: &[&UnitEntry] = &[
 
 /// Map the first width error of a counting run (the root cause: later ones
 /// follow from it) to a configuration error naming the stage it came from.
+///
+/// # Errors
+///
+/// One [`ConfigError::BadValue`] ([`field_error`]) for the first width error `cx` recorded, naming
+/// its first operand's stage when that is a field of `unit`, else the second's.
 pub fn width_errors(cx: &Count, unit: &UnitConfig) -> Result<(), Vec<ConfigError>> {
     let errs: Vec<ConfigError> = cx
         .width_errors()

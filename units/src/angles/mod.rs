@@ -197,6 +197,19 @@ fn require_angle(key: &'static str, q: &Quant) -> Result<(), AnglesError> {
 impl Angles {
     /// From the `[angles]` section, with `angle_bits`-bit output angles
     /// (`polar.angle_bits` in a whole configuration).
+    ///
+    /// # Errors
+    ///
+    /// [`AnglesError::Config`] naming `theta` or `out` when its overflow mode is not `wrap`,
+    /// `theta` also when its format is not `U0F<k>` with `k ≤ 32` (the `out` format is set to
+    /// `U0F<angle_bits>`, `angle_bits` clamped to `1..=32`); naming `xy` when its format is
+    /// unsigned; naming `gain` when `K_n` of `iterations` micro-rotations overflows the `gain`
+    /// format. ([`AnglesError::Convert`] cannot arise: `K_n` is finite.)
+    ///
+    /// # Panics
+    ///
+    /// If `u` lacks one of the `[angles]` fields read here or holds it as another kind
+    /// ([`UnitConfig::stage`] and its siblings): never for the `[angles]` section of a [`Config`].
     pub fn from_config(u: &UnitConfig, angle_bits: u32) -> Result<Angles, AnglesError> {
         let k = angle_bits.clamp(1, 32);
         let a = Angles {
@@ -238,12 +251,22 @@ impl Angles {
 
     /// From a whole configuration: the output format is the polar angle
     /// format `U0F<polar.angle_bits>`.
+    ///
+    /// # Errors
+    ///
+    /// As [`Angles::from_config`] on the `[angles]` section of `cfg`, with `polar.angle_bits`
+    /// output bits.
     pub fn of(cfg: &Config) -> Result<Angles, AnglesError> {
         let k = cfg.unit(crate::polar::DECL.name).integer("angle_bits") as u32;
         Self::from_config(cfg.unit(DECL.name), k)
     }
 
     /// The constants in a context.
+    ///
+    /// # Errors
+    ///
+    /// The [`ConvertError`] of `cx.constant` for a NaN or infinite constant: the quarter turn, the
+    /// arctangents and `K_n` are finite, so the contexts of `fxshade-ir` never return one.
     pub fn consts<C: Datapath>(&self, cx: &mut C) -> Result<Consts<C::V>, ConvertError> {
         Ok(Consts {
             zero: cx.constant(0.0, &literal(0))?,
@@ -324,6 +347,11 @@ impl Angles {
 
     /// The unit traced with named ports: inputs `n_x, n_y, n_z` (normal
     /// format), outputs `alpha`, `beta` (out format).
+    ///
+    /// # Errors
+    ///
+    /// A [`ConvertError`] only for a NaN or infinite constant ([`Angles::consts`]), which the
+    /// CORDIC constants never are.
     pub fn trace(&self) -> Result<Trace, ConvertError> {
         let mut tr = Trace::new();
         let n = tr.input3("n", &self.normal);
@@ -335,6 +363,14 @@ impl Angles {
     }
 
     /// Compiled for batches: inputs `n_x, n_y, n_z` codes; outputs α, β.
+    ///
+    /// # Errors
+    ///
+    /// [`AnglesError::Config`] naming `xy`, with the
+    /// [`CompileError`](crate::datapath::CompileError) as its reason, when the trace does not
+    /// compile (an exact intermediate wider than
+    /// [`MAX_EXACT_WIDTH`](crate::datapath::MAX_EXACT_WIDTH), or more quantization stages than the
+    /// overflow flags hold); [`AnglesError::Convert`] as [`Angles::trace`].
     pub fn compile(&self) -> Result<Compiled, AnglesError> {
         self.trace()?
             .compile_outputs()
@@ -345,6 +381,10 @@ impl Angles {
     }
 
     /// One counting run.
+    ///
+    /// # Errors
+    ///
+    /// As [`Angles::trace`].
     pub fn count(&self) -> Result<Count, ConvertError> {
         let mut cx = Count::new();
         let n = cx.constant(0.0, &self.normal)?;

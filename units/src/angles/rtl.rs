@@ -10,6 +10,11 @@ use crate::rtl::units::RtlError;
 use crate::sampling::Rng;
 
 /// The unit's traced datapath for a configuration.
+///
+/// # Errors
+///
+/// [`RtlError::Angles`] when the `[angles]` section is unusable ([`Angles::of`]);
+/// [`RtlError::Convert`] as [`Angles::trace`] (never: the CORDIC constants are finite).
 pub fn design(cfg: &Config) -> Result<crate::rtl::Design, RtlError> {
     let a = Angles::of(cfg)?;
     let notes = vec![format!(
@@ -40,6 +45,10 @@ pub fn design(cfg: &Config) -> Result<crate::rtl::Design, RtlError> {
 /// few LSBs from zero, the largest and smallest codes), then random
 /// normals: unit directions scaled by 0.97 ..= 1.03 (the lengths quadratic
 /// interpolation produces), alternating with arbitrary codes.
+///
+/// # Errors
+///
+/// [`RtlError::Angles`] when the `[angles]` section is unusable ([`Angles::of`]).
 pub fn inputs(cfg: &Config, part: Part, seed: u64) -> Result<Vec<Vec<i128>>, RtlError> {
     let a = Angles::of(cfg)?;
     let q = &a.normal;

@@ -181,6 +181,11 @@ pub struct BaryError(pub [f64; 3], pub &'static str);
 impl Barycentric {
     /// Validate: finite, none below −10⁻⁹, summing to one within 10⁻⁹;
     /// tiny negatives are clamped to 0 and the sum renormalized.
+    ///
+    /// # Errors
+    ///
+    /// [`BaryError`] when a coordinate is not finite, one is below −10⁻⁹, or their sum is off one
+    /// by more than 10⁻⁹.
     pub fn new(c: [f64; 3]) -> Result<Self, BaryError> {
         if c.iter().any(|x| !x.is_finite()) {
             return Err(BaryError(c, "not finite"));
@@ -214,6 +219,12 @@ pub struct Triangle {
 const PAIRS: [(usize, usize); 3] = [(0, 1), (1, 2), (2, 0)];
 
 /// Set up a triangle from its vertex normals (f64, exact).
+///
+/// # Errors
+///
+/// For the first vertex or pair at fault: [`SetupError::NotFinite`] for a NaN or infinite vertex
+/// normal, [`SetupError::Zero`] for one shorter than 10⁻¹², [`SetupError::Antiparallel`] for two
+/// whose unit vectors have `N_i·N_j ≤ −1 + 10⁻⁹`.
 pub fn setup(n: [DVec3; 3]) -> Result<Triangle, SetupError> {
     let mut u = [DVec3::ZERO; 3];
     for (k, v) in n.iter().enumerate() {
@@ -303,6 +314,12 @@ const LITERAL: Quant = Quant::new(
 
 impl Interp {
     /// From the `[interp]` section.
+    ///
+    /// # Panics
+    ///
+    /// If `u` lacks one of the `[interp]` fields read here or holds it as another kind: never for
+    /// the `[interp]` section of a [`Config`], whose `scheme` is a name [`Scheme::from_name`]
+    /// accepts.
     pub fn from_config(u: &UnitConfig) -> Self {
         Interp {
             scheme: Scheme::from_name(u.choice("scheme")).expect("declared"),
@@ -317,6 +334,11 @@ impl Interp {
     /// own set-up is [`setup`], in exact arithmetic): midpoint normals
     /// `(N_i + N_j) · 1/√(2(1 + N_i·N_j))`, each quantized to the vertex
     /// format.
+    ///
+    /// # Errors
+    ///
+    /// The [`ConvertError`] of `cx.constant` for the literal 1, which the contexts of `fxshade-ir`
+    /// never return (it is finite).
     pub fn setup_datapath<C: Datapath>(
         &self,
         cx: &mut C,
@@ -390,6 +412,11 @@ impl Interp {
 
     /// The constant 1 the evaluation takes, in the format that holds it
     /// exactly (`U1F0`).
+    ///
+    /// # Panics
+    ///
+    /// If `cx.constant` rejects the literal 1: never in the contexts of `fxshade-ir`, which reject
+    /// only NaN and ±∞.
     pub fn one<C: Datapath>(cx: &mut C) -> C::V {
         cx.constant(1.0, &crate::quantize::literal(1))
             .expect("1 is finite")
@@ -413,6 +440,11 @@ impl Interp {
 
     /// The per-pixel evaluation compiled for batches: inputs c1, c2, then the
     /// 18 vector components (N1..N31, x y z each); outputs x, y, z.
+    ///
+    /// # Errors
+    ///
+    /// [`CompileError::Width`](crate::datapath::CompileError::Width) when an exact intermediate is
+    /// wider than [`MAX_EXACT_WIDTH`](crate::datapath::MAX_EXACT_WIDTH).
     pub fn compile(&self) -> Result<Compiled, crate::datapath::CompileError> {
         self.trace().compile_outputs()
     }
@@ -421,6 +453,11 @@ impl Interp {
     /// classifies the triangle (`cos φ`: three dot products, two
     /// comparisons); the quadratic one also computes the midpoint normals
     /// (whose dot products it shares).
+    ///
+    /// # Errors
+    ///
+    /// A [`ConvertError`] only for a NaN or infinite constant; its constants are 0 and 1, so it
+    /// never returns one.
     pub fn count(&self) -> Result<(Count, Count), ConvertError> {
         let mut s = Count::new();
         let n = [[s.constant(0.0, &self.vertex)?; 3]; 3];

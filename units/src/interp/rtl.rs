@@ -10,6 +10,10 @@ use crate::rtl::units::{hunt_ties, structured_code, RtlError};
 use crate::sampling::{self, Rng};
 
 /// The unit's traced datapath for a configuration.
+///
+/// # Errors
+///
+/// Never: every `[interp]` section traces (the `Result` is that of `RtlUnit::build`).
 pub fn design(cfg: &Config) -> Result<crate::rtl::Design, RtlError> {
     let i = Interp::from_config(cfg.unit(DECL.name));
     Ok(crate::rtl::units::design(
@@ -52,6 +56,10 @@ fn eval_row(i: &Interp, fx: &mut Fixed<i128>, one: Fx, row: &[i128]) -> [Fx; 3] 
 /// extrapolation beyond the triangle, extreme codes, rounding ties at every
 /// nearest-mode stage), then random triangles meeting a random Θ of the
 /// ladder with random barycentrics, alternating with random codes.
+///
+/// # Errors
+///
+/// Never: its one fallible step is [`Interp::count`], whose constants are finite.
 pub fn inputs(
     cfg: &Config,
     part: crate::rtl::units::Part,

@@ -242,6 +242,11 @@ impl Normalizer {
     }
 
     /// Load constants into a context.
+    ///
+    /// # Errors
+    ///
+    /// The [`ConvertError`] of `cx.constant` for a coefficient that is NaN or infinite (the
+    /// literals 1, 3, 10 and 15 always convert); designed coefficients never are.
     pub fn consts<C: Datapath>(&self, cx: &mut C) -> Result<Consts<C::V>, ConvertError> {
         Ok(Consts {
             coef: self
@@ -336,6 +341,15 @@ impl Normalizer {
     }
 
     /// Run once in the counting context.
+    ///
+    /// # Errors
+    ///
+    /// A [`ConvertError`] for a NaN or infinite coefficient ([`Normalizer::consts`]).
+    ///
+    /// # Panics
+    ///
+    /// If `coeffs` holds fewer values than the method's polynomial has coefficients (2 for linear,
+    /// 3 for quadratic): never for a designed normalizer.
     pub fn count(&self) -> Result<Count, ConvertError> {
         let mut cx = Count::new();
         let k = self.consts(&mut cx)?;
@@ -346,12 +360,31 @@ impl Normalizer {
 
     /// The whole unit compiled for batches: inputs Nx, Ny, Nz; outputs the
     /// three components.
+    ///
+    /// # Errors
+    ///
+    /// [`CompileError::Width`](crate::datapath::CompileError::Width) when an exact intermediate is
+    /// wider than [`MAX_EXACT_WIDTH`](crate::datapath::MAX_EXACT_WIDTH).
+    ///
+    /// # Panics
+    ///
+    /// If a coefficient is NaN or infinite, or `coeffs` holds fewer values than the method's
+    /// polynomial has coefficients (2 for linear, 3 for quadratic): never for a designed
+    /// normalizer.
     pub fn compile(&self) -> Result<Compiled, crate::datapath::CompileError> {
         self.trace().expect("finite constants").compile_outputs()
     }
 
     /// The unit traced with named ports: inputs `n_x, n_y, n_z` (normal
     /// format), outputs `out_x, out_y, out_z` (out format).
+    ///
+    /// # Errors
+    ///
+    /// As [`Normalizer::count`].
+    ///
+    /// # Panics
+    ///
+    /// As [`Normalizer::count`].
     pub fn trace(&self) -> Result<Trace, ConvertError> {
         let mut tr = Trace::new();
         let n = tr.input3("n", &self.q.normal);
@@ -363,6 +396,15 @@ impl Normalizer {
 
     /// The scalar `g(d)` stage compiled for batches: input a `d` code,
     /// output the `g` code.
+    ///
+    /// # Errors
+    ///
+    /// [`CompileError::Width`](crate::datapath::CompileError::Width) when an exact intermediate is
+    /// wider than [`MAX_EXACT_WIDTH`](crate::datapath::MAX_EXACT_WIDTH).
+    ///
+    /// # Panics
+    ///
+    /// As [`Normalizer::compile`].
     pub fn compile_g(&self) -> Result<Compiled, crate::datapath::CompileError> {
         let mut tr = Trace::new();
         let d = tr.input(&self.q.d);
@@ -447,6 +489,13 @@ pub enum DesignError {
 
 /// Design linear or quadratic coefficients for `stages`, and build the
 /// normalizer that uses them (`search` picks the searched set).
+///
+/// # Errors
+///
+/// For linear and quadratic only (the other methods never fail): [`DesignError::Coeff`] when the
+/// coefficients cannot be designed on `interval` for `theta` ([`coeffs::design`]) or rounded to the
+/// `coef` format ([`coeffs::quantize_coeffs`]); [`DesignError::Compile`] when the `g(d)` stage does
+/// not compile ([`Normalizer::compile_g`]).
 pub fn design(
     method: Method,
     stages: Stages,
@@ -472,6 +521,10 @@ pub fn design(
 /// argument, f64s by their bits): the coefficient search and the
 /// bit-accurate scoring take up to seconds, and a vector stream, a render
 /// or a sweep asks for the same design many times.
+///
+/// # Errors
+///
+/// As [`design`], on `[lo, hi]`. An error is remembered like a result.
 pub fn design_interval(
     method: Method,
     stages: Stages,
@@ -666,6 +719,15 @@ fn d_codes(n: &Normalizer, lo: f64, hi: f64) -> (i128, i128) {
 /// With `stop_above`, returns as soon as an error above it is found (the
 /// caller only needs to know the set is worse than that): `max` is then
 /// that error, and `bound` is `f64::INFINITY`.
+///
+/// # Errors
+///
+/// [`DesignError::Compile`] when the `g(d)` stage of `n` does not compile
+/// ([`Normalizer::compile_g`]).
+///
+/// # Panics
+///
+/// As [`Normalizer::compile_g`].
 pub fn g_stage_max(
     n: &Normalizer,
     lo: f64,
@@ -810,6 +872,15 @@ pub fn g_stage_max(
 /// RMS come from every k-th code (an even subsample of about
 /// [`EXHAUSTIVE_CODES`] codes, `samples` says how many) and the maximum from
 /// [`g_stage_max`] (`max_rel_err` attained, `max_rel_err_bound` rigorous).
+///
+/// # Errors
+///
+/// [`DesignError::Compile`] when the `g(d)` stage of `n` does not compile
+/// ([`Normalizer::compile_g`]).
+///
+/// # Panics
+///
+/// As [`Normalizer::compile_g`].
 pub fn g_stage_stats(n: &Normalizer, lo: f64, hi: f64) -> Result<Stats, DesignError> {
     let (c_lo, c_hi) = d_codes(n, lo, hi);
     let fd = n.q.d.format();
@@ -853,6 +924,15 @@ pub fn g_stage_stats(n: &Normalizer, lo: f64, hi: f64) -> Result<Stats, DesignEr
 
 /// The normalizer a configuration describes (with its design, for linear and
 /// quadratic).
+///
+/// # Errors
+///
+/// As [`design`] for the `[normalize]` section of `cfg`.
+///
+/// # Panics
+///
+/// Never: `method`, `fit` and `interval` are declared choices, and [`Method::from_name`],
+/// [`Fit::from_name`] and [`Interval::from_name`] accept every declared name.
 pub fn from_config(cfg: &Config) -> Result<(Normalizer, Option<Design>), DesignError> {
     let u = cfg.unit(DECL.name);
     let method = Method::from_name(u.choice("method")).expect("declared choices");

@@ -15,6 +15,11 @@ use crate::sampling::{self, Rng};
 /// The unit's traced datapath for a configuration (any method but
 /// `exact`, which divides and takes a square root: [`crate::rtl::emit`]
 /// refuses it).
+///
+/// # Errors
+///
+/// [`RtlError::Design`] when the configured normalizer cannot be designed ([`from_config`]);
+/// [`RtlError::Convert`] as [`Normalizer::trace`] (never: designed coefficients are finite).
 pub fn design(cfg: &Config) -> Result<crate::rtl::Design, RtlError> {
     let (n, design) = from_config(cfg)?;
     let mut notes = vec![format!("Method: {}", n.method.name())];
@@ -129,6 +134,11 @@ fn tie_inputs(n: &Normalizer, per_stage: usize, rng: &mut Rng) -> Result<Vec<[i1
 /// nearest-mode stage), then random
 /// interpolated normals of triangles meeting Θ and random codes over the
 /// whole input range, alternating; `count` in all.
+///
+/// # Errors
+///
+/// [`RtlError::Design`] when the configured normalizer cannot be designed ([`from_config`]); its
+/// constants never fail to convert (designed coefficients are finite).
 pub fn inputs(
     cfg: &Config,
     part: crate::rtl::units::Part,

@@ -238,6 +238,15 @@ fn fit_interval(kind: Interval, theta: f64, scheme: Scheme) -> (f64, f64) {
 
 impl Pipeline {
     /// The pipeline of `cfg` with the configured normalizer method.
+    ///
+    /// # Errors
+    ///
+    /// As [`Pipeline::with_method`].
+    ///
+    /// # Panics
+    ///
+    /// Never: `normalize.method` is a declared choice, and [`Method::from_name`] accepts every
+    /// declared name.
     pub fn from_config(cfg: &Config) -> Result<Pipeline, PipelineError> {
         let m =
             Method::from_name(cfg.unit(normalizer::DECL.name).choice("method")).expect("declared");
@@ -247,6 +256,14 @@ impl Pipeline {
     /// The pipeline of `cfg` with normalizer method `method`. Designing six
     /// coefficient sets takes seconds for wide formats, so the result is
     /// kept for the life of the process, keyed by the configuration's text.
+    ///
+    /// # Errors
+    ///
+    /// [`PipelineError::Design`] when a coefficient set of the ladder cannot be designed or rounded
+    /// to the `coef` format (linear and quadratic only); [`PipelineError::Polar`] when the
+    /// `[polar]` section is unusable ([`Polar::from_config`]); [`PipelineError::Angles`] when the
+    /// `[angles]` section is unusable ([`Angles::of`]). An error is not cached: the next call
+    /// tries again.
     pub fn with_method(cfg: &Config, method: Method) -> Result<Pipeline, PipelineError> {
         use std::collections::HashMap;
         use std::sync::{Mutex, OnceLock};
@@ -440,6 +457,11 @@ impl Pipeline {
     /// The pipeline of `path` traced with named ports (the fields of
     /// [`Pipeline::fields`], in that order; `n1_x` for `n1x` and so on);
     /// output `level`.
+    ///
+    /// # Errors
+    ///
+    /// [`PipelineError::Convert`] when a constant of `path` is NaN or infinite (a normalizer
+    /// coefficient, `255·i0_km` or `255·i0_ks`): never for a pipeline of a configuration.
     pub fn trace(&self, path: Path) -> Result<Trace, PipelineError> {
         let mut tr = Trace::new();
         match path {
@@ -608,6 +630,11 @@ impl Pipeline {
     /// t2, …, n3` (vertex format), `l`, `h` (light format), `n` (texel);
     /// output `level`. Compiles (division and square root included); the
     /// emitter refuses it.
+    ///
+    /// # Errors
+    ///
+    /// A [`ConvertError`] when `255·i0_km` or `255·i0_ks` is NaN or infinite
+    /// ([`Lighting::consts`]).
     pub fn trace_tbn(&self) -> Result<Trace, ConvertError> {
         let mut tr = Trace::new();
         let c1 = tr.input_named("c1", &self.interp.bary);
@@ -632,6 +659,16 @@ impl Pipeline {
 
     /// Levels of the conventional baseline on rows of codes (fields as
     /// [`Pipeline::trace_tbn`]'s inputs).
+    ///
+    /// # Errors
+    ///
+    /// [`PipelineError::Convert`] as [`Pipeline::trace_tbn`]; [`PipelineError::Compile`] when the
+    /// baseline does not compile ([`CompileError`]).
+    ///
+    /// # Panics
+    ///
+    /// If `rows` is not empty and its first row does not hold one code per input of
+    /// [`Pipeline::trace_tbn`], or a later row holds fewer codes than the first.
     pub fn run_tbn_rows(&self, rows: &[Vec<i128>]) -> Result<Vec<i128>, PipelineError> {
         let prog = self.trace_tbn()?.compile_outputs()?;
         let width = rows.first().map_or(0, |r| r.len());
@@ -647,6 +684,10 @@ impl Pipeline {
     }
 
     /// Counting run of the conventional baseline, per pixel.
+    ///
+    /// # Errors
+    ///
+    /// As [`Pipeline::trace_tbn`].
     pub fn count_tbn(&self) -> Result<Count, ConvertError> {
         let mut cx = Count::new();
         let c = cx.constant(0.0, &self.interp.bary)?;
@@ -660,6 +701,11 @@ impl Pipeline {
     }
 
     /// Constants of the mapped path with CORDIC angles in a context.
+    ///
+    /// # Errors
+    ///
+    /// The [`ConvertError`] of `cx.constant` for a NaN or infinite constant: `255·i0_km` or
+    /// `255·i0_ks` (the CORDIC constants are finite).
     pub fn mapped_consts<C: Datapath>(
         &self,
         cx: &mut C,
@@ -672,6 +718,11 @@ impl Pipeline {
     }
 
     /// Constants of the smooth path in a context.
+    ///
+    /// # Errors
+    ///
+    /// The [`ConvertError`] of `cx.constant` for a NaN or infinite constant: a normalizer
+    /// coefficient, `255·i0_km` or `255·i0_ks`.
     pub fn smooth_consts<C: Datapath>(
         &self,
         cx: &mut C,
@@ -689,11 +740,21 @@ impl Pipeline {
 
     /// The path compiled for batches (inputs as [`Pipeline::fields`],
     /// output the level).
+    ///
+    /// # Errors
+    ///
+    /// [`PipelineError::Convert`] as [`Pipeline::trace`]; [`PipelineError::Compile`] when the trace
+    /// does not compile ([`CompileError`]: an exact intermediate wider than the model holds, or
+    /// more quantization stages than the overflow flags hold).
     pub fn compile(&self, path: Path) -> Result<Compiled, PipelineError> {
         Ok(self.trace(path)?.compile_outputs()?)
     }
 
     /// Counting runs of the two paths, per pixel.
+    ///
+    /// # Errors
+    ///
+    /// A [`ConvertError`] for a NaN or infinite constant of `path`, as [`Pipeline::trace`].
     pub fn count(&self, path: Path) -> Result<Count, ConvertError> {
         let mut cx = Count::new();
         let c = cx.constant(0.0, &self.interp.bary)?;
@@ -724,6 +785,10 @@ impl Pipeline {
 
     /// Set up a triangle for the smooth path: vertex and midpoint normals as
     /// vertex-format codes, the coefficient set, and the set-up triangle.
+    ///
+    /// # Errors
+    ///
+    /// The [`SetupError`] of [`interp::setup`] for the vertex normals `n`.
     pub fn setup_smooth(&self, n: [DVec3; 3]) -> Result<SmoothTri, SetupError> {
         let t = interp::setup(n)?;
         let q = &self.interp.vertex;
@@ -819,6 +884,10 @@ pub const SEL_BITS: u32 = 3;
 pub const ANGLE_UNIT: &str = "angle_interp";
 
 /// The `sel` port: an unsigned `SEL_BITS`-bit code.
+///
+/// # Panics
+///
+/// Never: `U3F0` is a valid format.
 pub fn sel_quant() -> Quant {
     Quant::new(
         "sel",
@@ -832,6 +901,10 @@ impl Pipeline {
     /// The per-pixel input fields of `path`, in the order of the rows
     /// [`Pipeline::run_rows`] takes and the RTL top's input port packs,
     /// most significant first.
+    ///
+    /// # Panics
+    ///
+    /// Never: `U3F0` (the `sel` field) is a valid format.
     pub fn fields(&self, path: Path) -> Vec<crate::rtl::record::Field> {
         use crate::rtl::record::Field;
         let fb = self.interp.bary.format();
@@ -910,6 +983,14 @@ impl Pipeline {
     /// [`Pipeline::fields`]); the levels, in row order. One compiled
     /// program serves every row: the smooth path selects its coefficient
     /// set by the row's `sel` code, as the RTL does.
+    ///
+    /// # Errors
+    ///
+    /// As [`Pipeline::compile`] for `path`.
+    ///
+    /// # Panics
+    ///
+    /// If a row holds fewer codes than `path` has fields ([`Pipeline::fields`]).
     pub fn run_rows(&self, path: Path, rows: &[Vec<i128>]) -> Result<Vec<i128>, PipelineError> {
         let width = self.fields(path).len();
         let prog = self.compile(path)?;
@@ -923,6 +1004,14 @@ impl Pipeline {
 
     /// The scalar fixed-point run of one row (the readable specification the
     /// compiled run is tested against).
+    ///
+    /// # Errors
+    ///
+    /// [`PipelineError::Convert`] as [`Pipeline::trace`].
+    ///
+    /// # Panics
+    ///
+    /// If `row` holds fewer codes than `path` has fields ([`Pipeline::fields`]).
     pub fn eval_row(&self, path: Path, row: &[i128]) -> Result<i128, PipelineError> {
         use crate::datapath::{Fixed, Fx};
         let mut fx = Fixed::<i128>::new();
@@ -1026,6 +1115,11 @@ fn ops(cfg: &Config) -> Vec<OpReport> {
 
 /// Counting runs, per pixel: the smooth path with each normalizer the RTL
 /// implements (linear and quadratic `g`), and the mapped path.
+///
+/// # Errors
+///
+/// The [`PipelineError`] of [`Pipeline::with_method`] for the linear, quadratic or no-`g` pipeline
+/// of `cfg`; the counting runs' [`PipelineError::Convert`] cannot arise from a configuration.
 pub fn ops_for(cfg: &Config) -> Result<Vec<OpReport>, PipelineError> {
     let mut v = Vec::new();
     let smooth_methods = [Method::Linear, Method::Quadratic];

@@ -14,11 +14,21 @@ use crate::rtl::units::{structured_code, RtlError};
 use crate::sampling::Rng;
 
 /// The configured path of `cfg`.
+///
+/// # Panics
+///
+/// Never: `pipeline.path` is a declared choice, and [`Path::from_name`] accepts every declared
+/// name.
 pub fn path_of(cfg: &Config) -> Path {
     Path::from_name(cfg.unit(DECL.name).choice("path")).expect("declared")
 }
 
 /// The pipeline top's traced datapath for the configured path.
+///
+/// # Errors
+///
+/// [`RtlError::Pipeline`] with the error of [`Pipeline::from_config`] (or of [`Pipeline::trace`],
+/// never for a configuration).
 pub fn design(cfg: &Config) -> Result<crate::rtl::Design, RtlError> {
     let path = path_of(cfg);
     let p = Pipeline::from_config(cfg)?;
@@ -120,6 +130,11 @@ pub fn setup_groups(
 }
 
 /// The angle interpolation's traced datapath (`c1, c2, a3, d1, d2 → angle`).
+///
+/// # Errors
+///
+/// [`RtlError::Pipeline`] when the `[polar]` or `[angles]` section is unusable
+/// ([`Pipeline::with_method`] without `g`, which designs no coefficients).
 pub fn angle_design(cfg: &Config) -> Result<crate::rtl::Design, RtlError> {
     let p = Pipeline::with_method(cfg, Method::None)?;
     let mut d = crate::rtl::units::design(
@@ -140,6 +155,11 @@ pub fn angle_design(cfg: &Config) -> Result<crate::rtl::Design, RtlError> {
 
 /// Input vectors of the angle interpolation: extreme and zero codes, then
 /// structured random codes (many trailing zeros, so rounding ties occur).
+///
+/// # Errors
+///
+/// [`RtlError::Pipeline`] when the `[polar]` or `[angles]` section is unusable
+/// ([`Pipeline::with_method`] without `g`, which designs no coefficients).
 pub fn angle_inputs(
     cfg: &Config,
     part: crate::rtl::units::Part,
@@ -209,6 +229,10 @@ pub fn render_rows(
 /// meet, the poles and the seam), then random triangles meeting a random Θ
 /// with a random light, four pixels each at random barycentrics, alternating
 /// (four and four) with random codes in every field.
+///
+/// # Errors
+///
+/// [`RtlError::Pipeline`] with the error of [`Pipeline::from_config`].
 pub fn inputs(
     cfg: &Config,
     part: crate::rtl::units::Part,

@@ -121,6 +121,14 @@ pub struct Tables {
 
 impl Tables {
     /// Build for `t` index bits with entries quantized by `q`.
+    ///
+    /// # Errors
+    ///
+    /// A [`ConvertError`] for a NaN or infinite entry, which the sine of a finite angle never is.
+    ///
+    /// # Panics
+    ///
+    /// If `t < 2` (a quarter turn holds no entry) or `t ≥ 64` (`2^t` entries do not fit a `usize`).
     pub fn build(t: u32, q: Quant, organisation: Organisation) -> Result<Tables, ConvertError> {
         let n = 1usize << t;
         let quarter: Vec<i128> = (0..=n / 4)
@@ -222,6 +230,18 @@ pub enum PolarError {
 
 impl Polar {
     /// From the `[polar]` section.
+    ///
+    /// # Errors
+    ///
+    /// [`PolarError::Config`] naming `table_bits` when it exceeds `angle_bits`, or `index` when its
+    /// overflow mode is not `wrap`. ([`PolarError::Convert`] cannot arise: the entries are sines of
+    /// finite angles.)
+    ///
+    /// # Panics
+    ///
+    /// If `u` lacks one of the `[polar]` fields read here or holds it as another kind, or its
+    /// `angle_bits` or `table_bits` makes no valid format or table ([`Tables::build`]): never for
+    /// the `[polar]` section of a [`Config`], where they lie in `4..=24` and `4..=16`.
     pub fn from_config(u: &UnitConfig) -> Result<Polar, PolarError> {
         let k = u.integer("angle_bits") as u32;
         let t = u.integer("table_bits") as u32;
@@ -295,6 +315,11 @@ impl Polar {
     }
 
     /// Compiled for batches: inputs α_L, β_L, α_N, β_N codes; outputs L'.
+    ///
+    /// # Errors
+    ///
+    /// [`CompileError::Width`](crate::datapath::CompileError::Width) when an exact intermediate is
+    /// wider than [`MAX_EXACT_WIDTH`](crate::datapath::MAX_EXACT_WIDTH).
     pub fn compile(&self) -> Result<Compiled, crate::datapath::CompileError> {
         self.trace().compile_outputs()
     }
@@ -310,6 +335,11 @@ impl Polar {
     }
 
     /// One counting run.
+    ///
+    /// # Errors
+    ///
+    /// A [`ConvertError`] only for a NaN or infinite constant; its one constant is 0, so it never
+    /// returns one.
     pub fn count(&self) -> Result<Count, ConvertError> {
         let mut cx = Count::new();
         let a = cx.constant(0.0, &self.angle)?;
@@ -358,6 +388,11 @@ pub fn reference(a_l: f64, b_l: f64, a_n: f64, b_n: f64) -> DVec3 {
 /// `M = [T; B; N]` given per pixel (9 multiplications and 6 additions for
 /// the matrix, then an exact normalization: 6 multiplications, 2 additions,
 /// a square root and a division).
+///
+/// # Panics
+///
+/// If `cx.constant` rejects the literal 1: never in the contexts of `fxshade-ir`, which reject only
+/// NaN and ±∞.
 pub fn tbn<C: Datapath>(
     cx: &mut C,
     q: &Quant,

@@ -10,6 +10,10 @@ use crate::rtl::units::{hunt_ties, RtlError};
 use crate::sampling::Rng;
 
 /// The unit's traced datapath for a configuration.
+///
+/// # Errors
+///
+/// [`RtlError::Polar`] when the `[polar]` section is unusable ([`Polar::from_config`]).
 pub fn design(cfg: &Config) -> Result<crate::rtl::Design, RtlError> {
     let p = Polar::from_config(cfg.unit(DECL.name))?;
     let org = match p.tables.organisation {
@@ -44,6 +48,10 @@ fn eval(p: &Polar, fx: &mut Fixed<i128>, row: &[i128]) -> [Fx; 3] {
 /// angles, every quadrant boundary, rounding ties), then random angles:
 /// elevations in [−¼, ¼] turn, azimuths anywhere, alternating with
 /// arbitrary codes.
+///
+/// # Errors
+///
+/// [`RtlError::Polar`] when the `[polar]` section is unusable ([`Polar::from_config`]).
 pub fn inputs(
     cfg: &Config,
     part: crate::rtl::units::Part,

@@ -5,6 +5,11 @@
 use super::timing::{Handshake, Pipelining, Target};
 
 /// The pipelining policy of a configuration's `[rtl]` section.
+///
+/// # Panics
+///
+/// Never: `rtl.target` is checked against [`Target::pipelined_names`], each of which
+/// [`Target::from_name`] accepts.
 pub fn pipelining(cfg: &crate::Config) -> Pipelining {
     match cfg.unit("rtl").choice("pipeline") {
         "target" => Pipelining::Target {

@@ -46,6 +46,10 @@ impl RtlUnit {
     /// hash and the core's name change with those sections only, so adding
     /// a unit (a new section) or editing one this module never reads leaves
     /// them as they are.
+    ///
+    /// # Errors
+    ///
+    /// The [`RtlError`] of the unit's `build` for `cfg`.
     pub fn design(&self, cfg: &Config) -> Result<Design, RtlError> {
         let (d, sections) = cfg.recording(|c| (self.build)(c));
         let mut d = d?;
