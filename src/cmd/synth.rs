@@ -78,6 +78,13 @@ pub fn synth_targets_where(keep: impl Fn(Target) -> bool) -> String {
     }
 }
 
+/// The placer's packaged alternative when only that is installed (the
+/// program a run uses and whose version a cache key names).
+fn installed_alternative(p: &fxshade_model::rtl::targets::PlaceRoute) -> Option<&'static str> {
+    p.alternative
+        .filter(|a| !crate::proc::has(p.tool, "--version") && crate::proc::has(a, "--version"))
+}
+
 /// The device a family's synthesis names in reports.
 pub fn device_name(target: Target) -> &'static str {
     target.synthesis().map_or(target.name(), |s| s.device)
@@ -524,18 +531,13 @@ pub fn synthesize(
     // The placer and the program that runs it: its own, or the packaged
     // alternative when only that is installed.
     let placer = match target.place_route() {
-        Ok(p) if pnr => {
-            let alternative = p.alternative.filter(|a| {
-                !crate::proc::has(p.tool, "--version") && crate::proc::has(a, "--version")
-            });
-            match alternative {
-                Some(a) => Some((p, a)),
-                None => {
-                    require(p.tool, p.install)?;
-                    Some((p, p.tool))
-                }
+        Ok(p) if pnr => match installed_alternative(&p) {
+            Some(a) => Some((p, a)),
+            None => {
+                require(p.tool, p.install)?;
+                Some((p, p.tool))
             }
-        }
+        },
         _ => None,
     };
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
@@ -788,10 +790,7 @@ fn cache_entry(e: &Emitted, target: Target, flow: Flow) -> anyhow::Result<PathBu
             Some((_, v)) => v.clone(),
             None => {
                 let placer = target.place_route().ok().map(|p| {
-                    let program = p
-                        .alternative
-                        .filter(|_| !crate::proc::has(p.tool, "--version"));
-                    tool_version(program.unwrap_or(p.tool), "--version")
+                    tool_version(installed_alternative(&p).unwrap_or(p.tool), "--version")
                 });
                 let v = format!("{:?} {:?}", tool_version("yosys", "-V"), placer.flatten());
                 known.push((target.name(), v.clone()));
