@@ -213,9 +213,8 @@ pub fn normalize(
     seed: u64,
     progress: &mut dyn FnMut(f64),
 ) -> Result<NormalizeReport, AnalysisError> {
-    let u = cfg.unit(normalizer::DECL.name);
-    let theta = u.number("theta");
-    let interval_kind = normalizer::Interval::from_name(u.choice("interval")).expect("declared");
+    let u: normalizer::NormalizeConfig = cfg.section();
+    let (theta, interval_kind) = (u.theta, u.interval);
     let (n, design) = normalizer::from_config(cfg)?;
     progress(0.2);
     let (lo, hi) = design
@@ -223,7 +222,7 @@ pub fn normalize(
         .map_or(interval_kind.bounds(theta), |d| d.interval);
     let g_stage = normalizer::g_stage_stats(&n, lo, hi)?;
     progress(0.3);
-    let light = Lighting::from_config(cfg.unit(crate::lighting::DECL.name));
+    let light = Lighting::from_config(cfg);
     let lprog = light.compile()?;
     let prog = n.compile()?;
     let mut rng = Rng::new(seed);
@@ -424,20 +423,20 @@ pub fn interp(
     progress: &mut dyn FnMut(f64),
 ) -> Result<InterpReport, AnalysisError> {
     use crate::interp::{self, Interp};
-    let nu = cfg.unit(normalizer::DECL.name);
+    let nu: normalizer::NormalizeConfig = cfg.section();
     let ip = Interp {
         scheme,
-        ..Interp::from_config(cfg.unit(interp::DECL.name))
+        ..Interp::from_config(cfg)
     };
     let d_bound = interp::quadratic_d_range(theta, scheme);
     let (n, _) = normalizer::design_interval(
         method,
-        Normalizer::stages(nu),
+        Normalizer::stages(&nu),
         theta,
-        crate::coeffs::Fit::from_name(nu.choice("fit")).expect("declared"),
+        nu.fit,
         normalizer::Interval::Triangle,
         d_bound,
-        nu.choice("coef_quant") == "search",
+        nu.coef_quant == normalizer::CoefQuant::Search,
     )?;
     progress(0.2);
     let iprog = ip.compile()?;
@@ -1058,9 +1057,8 @@ pub fn polar(
     seed: u64,
     exhaustive_up_to: u64,
 ) -> Result<PolarReport, AnalysisError> {
-    let u = cfg.unit(crate::polar::DECL.name);
-    let p = crate::polar::Polar::from_config(u).map_err(AnalysisError::Polar)?;
-    let light = Lighting::from_config(cfg.unit(crate::lighting::DECL.name));
+    let p = crate::polar::Polar::from_config(cfg).map_err(AnalysisError::Polar)?;
+    let light = Lighting::from_config(cfg);
     let stats = polar_stats(&p, &light, count, seed, exhaustive_up_to)?;
     Ok(PolarReport {
         angle_bits: p.angle.format().width(),

@@ -298,6 +298,15 @@ impl serde::Serialize for Format {
     }
 }
 
+/// Read from the text [`FromStr`] accepts (`"I1F14"`, `"U0F16"`), with its
+/// [`FormatError`] as the error message.
+impl<'de> serde::Deserialize<'de> for Format {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let text = <std::borrow::Cow<'de, str>>::deserialize(d)?;
+        text.parse().map_err(serde::de::Error::custom)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

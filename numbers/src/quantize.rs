@@ -26,7 +26,7 @@
 use crate::format::Format;
 
 /// How the bits below the target's LSB are removed.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Rounding {
     /// Floor: round toward −∞, i.e. drop the bits (Verilog `>>>`).
@@ -39,7 +39,7 @@ pub enum Rounding {
 }
 
 /// What happens to a rounded code outside the target's range.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Overflow {
     /// Keep the low `width` bits (two's-complement wrap-around).
@@ -219,6 +219,41 @@ impl serde::Serialize for Quant {
         st.serialize_field("overflow", &self.overflow)?;
         st.end()
     }
+}
+
+/// Read from `{ stage, format, round, overflow }` (the stage name is
+/// optional and defaults to `""`): what [`Quant::new`] takes. A stage name
+/// read this way is interned, so it is leaked once per distinct name, never
+/// once per value.
+impl<'de> serde::Deserialize<'de> for Quant {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        #[derive(serde::Deserialize)]
+        #[serde(deny_unknown_fields)]
+        struct Fields {
+            #[serde(default)]
+            stage: String,
+            format: Format,
+            round: Rounding,
+            overflow: Overflow,
+        }
+        let f = Fields::deserialize(d)?;
+        Ok(Quant::new(intern(&f.stage), f.format, f.round, f.overflow))
+    }
+}
+
+/// One `&'static str` per distinct stage name read by [`Quant`]'s
+/// `Deserialize` (stage names come from a fixed set of declared fields).
+fn intern(name: &str) -> &'static str {
+    use std::collections::BTreeSet;
+    use std::sync::Mutex;
+    static NAMES: Mutex<BTreeSet<&'static str>> = Mutex::new(BTreeSet::new());
+    let mut names = NAMES.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some(n) = names.get(name) {
+        return n;
+    }
+    let n: &'static str = Box::leak(name.to_owned().into_boxed_str());
+    names.insert(n);
+    n
 }
 
 /// The result of one quantization.

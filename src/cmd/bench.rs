@@ -53,7 +53,7 @@ fn bench_polar(a: &NormalizeBenchArgs) -> anyhow::Result<()> {
     use fxshade_model::polar::{self, Polar};
     use fxshade_model::sampling::Rng;
     let cfg = fxshade_model::Config::embedded();
-    let p = Polar::from_config(cfg.unit(polar::DECL.name)).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let p = Polar::from_config(&cfg).map_err(|e| anyhow::anyhow!("{e}"))?;
     let n = a.inputs.max(1);
     let mut rng = Rng::new(5);
     let f = p.angle.format();
@@ -114,8 +114,7 @@ fn bench_normalize(a: &NormalizeBenchArgs) -> anyhow::Result<()> {
     use fxshade_model::normalizer::{self, Method};
     use fxshade_model::sampling::{self, Rng};
     let cfg = fxshade_model::Config::embedded();
-    let u = cfg.unit(normalizer::DECL.name);
-    let theta = u.number("theta");
+    let theta = cfg.section::<normalizer::NormalizeConfig>().theta;
     let mut rng = Rng::new(3);
     let vs: Vec<glam::DVec3> = (0..a.inputs.max(1))
         .map(|_| {
@@ -126,7 +125,7 @@ fn bench_normalize(a: &NormalizeBenchArgs) -> anyhow::Result<()> {
         })
         .collect();
     let min = Duration::from_secs_f64(a.seconds.max(0.01));
-    let stages = normalizer::Normalizer::stages(u);
+    let stages = normalizer::Normalizer::stages(&cfg.section());
     let codes: Vec<Vec<i128>> = (0..3)
         .map(|k| {
             vs.iter()

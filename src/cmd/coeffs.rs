@@ -97,7 +97,7 @@ pub fn run(a: &CoeffsArgs) -> anyhow::Result<()> {
     ]);
     if let Some(f) = a.coef_format {
         let cfg = a.cfg.resolve()?;
-        let mut stages = Normalizer::stages(cfg.unit(normalizer::DECL.name));
+        let mut stages = Normalizer::stages(&cfg.section());
         stages.coef = stages.coef.with_format(f);
         let method = if a.degree == 1 {
             Method::Linear

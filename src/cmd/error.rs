@@ -154,7 +154,11 @@ fn run_angles(a: &AnglesArgs) -> anyhow::Result<()> {
     }
     let widths = [8u32, 10, 11, 12, 14];
     let guards = [1u32, 2, 3, 4, 5];
-    let nf = cfg.unit("angles").stage("normal").format().frac();
+    let nf = cfg
+        .section::<fxshade_model::angles::AnglesConfig>()
+        .normal
+        .format()
+        .frac();
     let bar = crate::progress::bar(
         (widths.len() * 7 * guards.len()) as u64,
         "error angles --sweep",
@@ -262,7 +266,8 @@ fn run_polar(a: &PolarArgs) -> anyhow::Result<()> {
         "overflows",
     ];
     if a.sweep {
-        let base = cfg.unit("polar").integer("angle_bits");
+        let polar: fxshade_model::polar::PolarConfig = cfg.section();
+        let base = i64::from(polar.angle_bits);
         let mut rows = Vec::new();
         let mut t = Table::new(
             ["table_bits", "table format", "table bits stored"]
@@ -271,7 +276,7 @@ fn run_polar(a: &PolarArgs) -> anyhow::Result<()> {
         )
         .titled(format!(
             "polar sweep: angle_bits = {base}, organisation {}, 50 000 random samples each",
-            cfg.unit("polar").choice("organisation")
+            polar.organisation.name()
         ));
         let bar = crate::progress::bar(((base - 5) * 5) as u64, "error polar --sweep");
         for tb in 6..=base.min(14) {
@@ -349,8 +354,6 @@ pub struct InterpArgs {
 fn run_interp(a: &InterpArgs) -> anyhow::Result<()> {
     fxshade_model::analysis::check_samples("--count", a.count)
         .map_err(crate::output::UsageError)?;
-    use fxshade_model::interp::Scheme;
-    use fxshade_model::normalizer::Method;
     let mut cfg_args = a.cfg.clone();
     if let Some(s) = &a.scheme {
         cfg_args.set.push(format!("interp.scheme=\"{s}\""));
@@ -362,9 +365,9 @@ fn run_interp(a: &InterpArgs) -> anyhow::Result<()> {
         cfg_args.set.push(format!("normalize.theta={t}"));
     }
     let cfg = cfg_args.resolve()?;
-    let scheme = Scheme::from_name(cfg.unit("interp").choice("scheme")).expect("declared");
-    let method = Method::from_name(cfg.unit("normalize").choice("method")).expect("declared");
-    let theta = cfg.unit("normalize").number("theta");
+    let scheme = cfg.section::<fxshade_model::interp::InterpConfig>().scheme;
+    let nu: fxshade_model::normalizer::NormalizeConfig = cfg.section();
+    let (method, theta) = (nu.method, nu.theta);
     let bar = crate::progress::bar(1000, "error interp");
     let r = analysis::interp(&cfg, scheme, method, theta, a.count, a.seed, &mut |f| {
         bar.set_position((f * 1000.0) as u64)

@@ -1361,7 +1361,10 @@ fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow:
     }
     let cfg = fxshade_model::Config::resolve(base.config.as_deref(), &base.set)?;
     // An area estimate needs a fit for rtl.target: say so before searching.
-    let target = cfg.unit("rtl").choice("target");
+    let target = cfg
+        .section::<fxshade_model::rtl::section::RtlConfig>()
+        .target
+        .name();
     if let Some(m) = minimized_metrics(&p.minimize)
         .into_iter()
         .find(|m| m == "lut_est" || m == "ff_est")
@@ -1489,7 +1492,10 @@ fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow:
             .iter()
             .any(|m| m.ends_with("_est"))
     {
-        let name = win_cfg.unit("rtl").choice("target");
+        let name = win_cfg
+            .section::<fxshade_model::rtl::section::RtlConfig>()
+            .target
+            .name();
         match super::synth::synth_target(name).ok_or(()) {
             Err(()) => {
                 eprintln!(

@@ -233,7 +233,7 @@ pub fn netlist_table(checks: &[NetlistCheck]) -> Table {
 
 /// All reports for a configuration.
 pub fn reports(cfg: &fxshade_model::Config) -> Vec<OpReport> {
-    UNITS.iter().flat_map(|u| (u.ops)(cfg)).collect()
+    UNITS.iter().flat_map(|u| u.ops(cfg)).collect()
 }
 
 /// The reports as a table for people.

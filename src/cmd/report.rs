@@ -634,13 +634,12 @@ pub fn run(a: &ReportArgs) -> anyhow::Result<()> {
     bar.inc(1);
 
     bar.set_message("interpolation error analysis");
-    let iu = cfg.unit("interp");
+    let nu: fxshade_model::normalizer::NormalizeConfig = cfg.section();
     let ierr = fxshade_model::analysis::interp(
         &cfg,
-        fxshade_model::interp::Scheme::from_name(iu.choice("scheme")).expect("declared"),
-        fxshade_model::normalizer::Method::from_name(cfg.unit("normalize").choice("method"))
-            .expect("declared"),
-        cfg.unit("normalize").number("theta"),
+        cfg.section::<fxshade_model::interp::InterpConfig>().scheme,
+        nu.method,
+        nu.theta,
         50_000,
         1,
         &mut |_| {},

@@ -62,8 +62,10 @@ fn normalizer_at(cfg: &Config, overrides: &[&str]) -> anyhow::Result<(f64, f64)>
         c.apply_override(o)?;
     }
     let (n, _) = fxshade_model::normalizer::from_config(&c)?;
-    let light = fxshade_model::lighting::Lighting::from_config(c.unit("lighting"));
-    let theta = c.unit("normalize").number("theta");
+    let light = fxshade_model::lighting::Lighting::from_config(&c);
+    let theta = c
+        .section::<fxshade_model::normalizer::NormalizeConfig>()
+        .theta;
     let b = |i: Interval| fxshade_model::bounds::normalize(&n, &light, i.bounds(theta).0, 1.0);
     Ok((b(Interval::Triangle)?.length, b(Interval::Edge)?.length))
 }
@@ -110,7 +112,7 @@ pub fn section(d: &Inputs) -> anyhow::Result<String> {
     s += &format!(
         "* At Θ = {theta}, with `{}` coefficients, the three constructions err (`| |N'| − 1 |` over whole \
          triangles, proven bounds): {}.\n",
-        d.cfg.unit("normalize").stage("coef").format(),
+        d.cfg.section::<fxshade_model::normalizer::NormalizeConfig>().coef.format(),
         fits.join(", ")
     );
     s += &format!(

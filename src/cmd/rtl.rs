@@ -175,9 +175,8 @@ fn datasheet(
             out.lines().take(12).collect::<Vec<_>>().join("\n")
         )
     })?;
-    let rtl = c.unit("rtl");
-    let target = Target::from_name(rtl.choice("target")).expect("the configuration checks it");
-    let clock = rtl.number("clock_ns");
+    let rtl: fxshade_model::rtl::section::RtlConfig = c.section();
+    let (target, clock) = (rtl.target, rtl.clock_ns);
     let (ext, text) = ds::constraints(m, target, clock);
     use super::synth::synth_target;
     let targets: Vec<Target> = match resources {

@@ -10,7 +10,7 @@ use std::collections::BTreeMap;
 
 use anyhow::Context;
 use fxshade_model::lighting::{Lighting, LEVELS};
-use fxshade_model::pipeline::{AngleSource, Path};
+use fxshade_model::pipeline::Path;
 use fxshade_model::render::{self, Metrics, RenderMethod};
 use fxshade_model::sampling::Rng;
 use fxshade_model::Config;
@@ -153,11 +153,12 @@ pub fn group_of(metric: &str) -> &str {
 pub fn method_of(cfg: &Config) -> RenderMethod {
     match fxshade_model::pipeline::rtl::path_of(cfg) {
         Path::Smooth => RenderMethod::Smooth(
-            fxshade_model::normalizer::Method::from_name(cfg.unit("normalize").choice("method"))
-                .expect("declared"),
+            cfg.section::<fxshade_model::normalizer::NormalizeConfig>()
+                .method,
         ),
         Path::Mapped => RenderMethod::Mapped(
-            AngleSource::from_name(cfg.unit("pipeline").choice("angles")).expect("declared"),
+            cfg.section::<fxshade_model::pipeline::PipelineConfig>()
+                .angles,
         ),
     }
 }
@@ -172,7 +173,7 @@ fn put(m: &mut BTreeMap<String, f64>, k: &str, v: f64) {
 /// away: the clamp to 0 is exercised too) and H halfway between L and a
 /// random viewer.
 fn lighting(cfg: &Config, count: usize, m: &mut BTreeMap<String, f64>) -> anyhow::Result<()> {
-    let base = Lighting::from_config(cfg.unit("lighting"));
+    let base = Lighting::from_config(cfg);
     let mut rng = Rng::new(1);
     let mut cols: Vec<Vec<i128>> = (0..9).map(|_| Vec::with_capacity(count)).collect();
     let mut exact = Vec::with_capacity(count);
@@ -271,7 +272,14 @@ pub const UNIT_COSTS: [&str; 5] = ["normalize", "interp", "polar", "angles", "li
 fn cost(cfg: &Config, o: &Options, m: &mut BTreeMap<String, f64>) -> anyhow::Result<()> {
     let design = fxshade_model::pipeline::RTL.design(cfg)?;
     let e = fxshade_model::rtl::emit(&design)?;
-    top_cost(&e, "", cfg.unit("rtl").choice("target"), m);
+    top_cost(
+        &e,
+        "",
+        cfg.section::<fxshade_model::rtl::section::RtlConfig>()
+            .target
+            .name(),
+        m,
+    );
     // Each analysed unit's own module: a sweep of a unit off the
     // configured path (polar on the smooth path) sees its own cost move.
     // A unit without RTL in this configuration (the exact normalizer has
@@ -376,9 +384,10 @@ pub fn evaluate(
         let r = fxshade_model::analysis::interp(
             cfg,
             render::scheme_of(cfg),
-            fxshade_model::normalizer::Method::from_name(cfg.unit("normalize").choice("method"))
-                .expect("declared"),
-            cfg.unit("normalize").number("theta"),
+            cfg.section::<fxshade_model::normalizer::NormalizeConfig>()
+                .method,
+            cfg.section::<fxshade_model::normalizer::NormalizeConfig>()
+                .theta,
             n("interp"),
             1,
             &mut |_| {},

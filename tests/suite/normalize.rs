@@ -20,7 +20,7 @@ fn fxshade(args: &[&str]) -> std::process::Output {
 }
 
 fn stages() -> normalizer::Stages {
-    Normalizer::stages(Config::embedded().unit("normalize"))
+    Normalizer::stages(&Config::embedded().section())
 }
 
 #[test]
@@ -72,9 +72,7 @@ fn designs() -> &'static Vec<Case> {
                     normalizer::design(m, stages(), theta, Fit::Minimax, Interval::Triangle, true)
                         .unwrap();
                 let (lo, _) = d.unwrap().interval;
-                let light = fxshade_model::lighting::Lighting::from_config(
-                    Config::embedded().unit("lighting"),
-                );
+                let light = fxshade_model::lighting::Lighting::from_config(&Config::embedded());
                 // The proven bound for inputs quantized from |N|² in [lo, 1].
                 let bound = fxshade_model::bounds::normalize(&n, &light, lo, 1.0)
                     .unwrap()

@@ -205,8 +205,8 @@ mod tests {
     fn the_normalizer_bound_holds_and_is_close() {
         let cfg = Config::embedded();
         let (n, _) = crate::normalizer::from_config(&cfg).unwrap();
-        let light = Lighting::from_config(cfg.unit(crate::lighting::DECL.name));
-        let theta = cfg.unit("normalize").number("theta");
+        let light = Lighting::from_config(&cfg);
+        let theta = cfg.section::<crate::normalizer::NormalizeConfig>().theta;
         let lo = (1.0 + 2.0 * theta) / 3.0;
         let b = normalize(&n, &light, lo, 1.0).unwrap();
         let prog = n.compile().unwrap();

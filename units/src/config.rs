@@ -215,44 +215,44 @@ impl UnitConfig {
     /// # Panics
     ///
     /// If the unit declares no field `name`, or `name` is not a `Stage` field.
-    pub fn stage(&self, name: &str) -> Quant {
+    pub(crate) fn stage(&self, name: &str) -> Quant {
         match self.get(name).0 {
             Value::Stage(q) => q,
             ref v => panic!("{}.{name} is {v:?}, not a stage", self.decl.name),
         }
     }
-    /// The real number `name` (a declared `Number` field).
+    /// This section as the typed value `S`: each field of `S` is the
+    /// declared field of the same name (a stage as a [`Quant`] named after
+    /// its field, a number as `f64`, an integer as any integer type that
+    /// holds its declared range, a choice as an enum whose `serde` names are
+    /// the declared names).
     ///
-    /// # Panics
+    /// # Errors
     ///
-    /// If the unit declares no field `name`, or `name` is not a `Number` field.
-    pub fn number(&self, name: &str) -> f64 {
-        match self.get(name).0 {
-            Value::Number(x) => x,
-            ref v => panic!("{}.{name} is {v:?}, not a number", self.decl.name),
+    /// When `S` and the declaration disagree (a field missing on either
+    /// side, a choice `S` cannot name, an integer out of `S`'s type): a
+    /// programming error, which each unit's `section_is_typed` test catches for
+    /// every declared choice.
+    pub fn try_typed<S: Section>(&self) -> Result<S, SectionError> {
+        let mut m = serde_json::Map::new();
+        for (decl, v) in self.iter() {
+            let j = match v {
+                Value::Stage(q) => serde_json::json!({
+                    "stage": decl.name,
+                    "format": q.format().to_string(),
+                    "round": q.round().name(),
+                    "overflow": q.overflow().name(),
+                }),
+                Value::Number(x) => serde_json::json!(x),
+                Value::Integer(x) => serde_json::json!(x),
+                Value::Choice(s) => serde_json::json!(s),
+            };
+            m.insert(decl.name.to_string(), j);
         }
-    }
-    /// The integer `name` (a declared `Integer` field).
-    ///
-    /// # Panics
-    ///
-    /// If the unit declares no field `name`, or `name` is not an `Integer` field.
-    pub fn integer(&self, name: &str) -> i64 {
-        match self.get(name).0 {
-            Value::Integer(x) => x,
-            ref v => panic!("{}.{name} is {v:?}, not an integer", self.decl.name),
-        }
-    }
-    /// The choice `name` (a declared `Choice` field).
-    ///
-    /// # Panics
-    ///
-    /// If the unit declares no field `name`, or `name` is not a `Choice` or `ChoiceOf` field.
-    pub fn choice(&self, name: &str) -> &'static str {
-        match self.get(name).0 {
-            Value::Choice(x) => x,
-            ref v => panic!("{}.{name} is {v:?}, not a choice", self.decl.name),
-        }
+        serde_json::from_value(serde_json::Value::Object(m)).map_err(|e| SectionError {
+            section: self.decl.name,
+            message: e.to_string(),
+        })
     }
     /// Where the value of `name` came from.
     pub fn origin(&self, name: &str) -> &Origin {
@@ -265,6 +265,56 @@ impl UnitConfig {
             .iter()
             .zip(self.values.iter().map(|(v, _)| v))
     }
+}
+
+/// A unit's configuration section as one typed value, read from a
+/// validated [`Config`] by [`Config::section`]: the unit's code reads
+/// `cfg.section::<NormalizeConfig>().theta` instead of looking a field up by
+/// its name. The declaration ([`UnitDecl`]) stays the source of the keys,
+/// ranges, documentation and error positions; the struct is checked against
+/// it by every unit's tests ([`crate::units::Unit::section_is_typed`]).
+///
+/// Implement it with `#[derive(serde::Deserialize)]` and
+/// `#[serde(deny_unknown_fields)]`, one field per declared field.
+pub trait Section: serde::de::DeserializeOwned {
+    /// The declaration this section is read from.
+    const DECL: &'static UnitDecl;
+
+    /// The section's defaults: the embedded default configuration's values.
+    ///
+    /// # Panics
+    ///
+    /// As [`Config::section`].
+    fn defaults() -> Self {
+        Config::embedded().section()
+    }
+}
+
+/// `serde::Deserialize` for a choice type from its `from_name(&str) ->
+/// Option<Self>`: the configuration's names are the type's own, written once.
+#[macro_export]
+macro_rules! deserialize_by_name {
+    ($($t:ty),+ $(,)?) => {$(
+        impl<'de> serde::Deserialize<'de> for $t {
+            fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+                let s = <String as serde::Deserialize>::deserialize(d)?;
+                <$t>::from_name(&s).ok_or_else(|| {
+                    serde::de::Error::custom(format!("`{s}` names no {}", stringify!($t)))
+                })
+            }
+        }
+    )+};
+}
+
+/// A typed section that does not match its declaration (see
+/// [`UnitConfig::try_typed`]).
+#[derive(Debug, Clone, thiserror::Error)]
+#[error("the typed [{section}] section does not match its declaration: {message}")]
+pub struct SectionError {
+    /// The section.
+    pub section: &'static str,
+    /// What serde reported.
+    pub message: String,
 }
 
 /// A validated configuration: every declared unit, every field.
@@ -515,13 +565,13 @@ impl Config {
         let units = crate::units::UNITS;
         let unit_names = units
             .iter()
-            .map(|u| u.decl.name)
+            .map(|u| u.name())
             .collect::<Vec<_>>()
             .join(", ");
         let mut parsed: Vec<Option<UnitConfig>> = vec![None; units.len()];
         for (key, item) in root.iter() {
             let key_span = root.key(key).and_then(|k| k.span());
-            let Some(ui) = units.iter().position(|u| u.decl.name == key) else {
+            let Some(ui) = units.iter().position(|u| u.name() == key) else {
                 p.errors.push(ConfigError::UnknownKey {
                     at: p.at(key_span),
                     key: key.to_string(),
@@ -529,17 +579,17 @@ impl Config {
                 });
                 continue;
             };
-            parsed[ui] = p.unit(units[ui].decl, item, key_span);
+            parsed[ui] = p.unit(units[ui].decl(), item, key_span);
         }
         for (parsed, u) in parsed.iter_mut().zip(units.iter()) {
-            let present = root.contains_key(u.decl.name);
+            let present = root.contains_key(u.name());
             if !present {
                 match p.defaults {
-                    Some(d) => *parsed = Some(d.unit(u.decl.name).clone()),
+                    Some(d) => *parsed = Some(d.unit(u.name()).clone()),
                     None => p.errors.push(ConfigError::MissingKey {
                         at: p.at(None),
-                        key: format!("[{}]", u.decl.name),
-                        doc: u.decl.doc.to_string(),
+                        key: format!("[{}]", u.name()),
+                        doc: u.decl().doc.to_string(),
                     }),
                 }
             } else if parsed.is_none() && p.errors.is_empty() {
@@ -570,7 +620,7 @@ impl Config {
     fn check_units(&self) -> Vec<ConfigError> {
         let mut errors = Vec::new();
         for u in crate::units::UNITS {
-            if let Err(e) = (u.check)(self) {
+            if let Err(e) = u.check(self) {
                 errors.extend(e);
             }
         }
@@ -648,7 +698,7 @@ impl Config {
         let unit_names = || {
             crate::units::UNITS
                 .iter()
-                .map(|u| u.decl.name)
+                .map(|u| u.name())
                 .collect::<Vec<_>>()
                 .join(", ")
         };
@@ -804,6 +854,21 @@ impl Config {
                 .insert(u.decl.name);
         }
         u
+    }
+
+    /// The section `S` as its typed value (recorded as read, as
+    /// [`Config::unit`]).
+    ///
+    /// # Panics
+    ///
+    /// If `S` does not match its declaration ([`UnitConfig::try_typed`]): a
+    /// programming error that the unit's `section_is_typed` test reports, never
+    /// a property of the configuration (a validated configuration holds
+    /// only declared values).
+    pub fn section<S: Section>(&self) -> S {
+        self.unit(S::DECL.name)
+            .try_typed()
+            .unwrap_or_else(|e| panic!("{e}"))
     }
 
     /// Runs `f` on this configuration and returns its result with the

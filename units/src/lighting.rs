@@ -22,11 +22,11 @@
 //! (the first set bit copies the base): for `n = 16`, 4 squarings. The RTL
 //! (`rtl/lighting.v`) has one pipeline stage per bit of `n`.
 
-use crate::config::{Config, FieldDecl, FieldKind, UnitConfig, UnitDecl};
+use crate::config::{Config, FieldDecl, FieldKind, UnitDecl};
 use crate::datapath::{Count, Datapath};
 use crate::format::ConvertError;
 use crate::quantize::Quant;
-use crate::units::{width_errors, OpReport, Phase, UnitEntry};
+use crate::units::{width_errors, OpReport, Phase};
 
 /// Largest 8-bit level.
 pub const LEVELS: f64 = 255.0;
@@ -90,13 +90,14 @@ pub static DECL: UnitDecl = UnitDecl {
     ],
 };
 
+/// The lighting stage as a registered unit.
+pub struct LightingUnit;
+
+crate::unit!(LightingUnit, decl: DECL, section: Lighting, check: check, ops: ops,
+    rtl: &[&RTL]);
+
 /// The registry entry.
-pub static UNIT: UnitEntry = UnitEntry {
-    decl: &DECL,
-    check,
-    ops,
-    rtl: &[&RTL],
-};
+pub static UNIT: LightingUnit = LightingUnit;
 
 /// The unit's generated RTL: variants, design and input vectors.
 pub static RTL: crate::rtl::units::RtlUnit = crate::rtl::units::RtlUnit {
@@ -110,8 +111,10 @@ pub static RTL: crate::rtl::units::RtlUnit = crate::rtl::units::RtlUnit {
     inputs: crate::lighting::rtl::inputs,
 };
 
-/// The lighting stage's formats and constants, resolved from a configuration.
-#[derive(Clone, Copy, Debug)]
+/// The lighting stage's formats and constants: the `[lighting]` section,
+/// typed (one field per declared field).
+#[derive(Clone, Copy, Debug, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Lighting {
     /// Input port of N's components.
     pub normal: Quant,
@@ -131,6 +134,10 @@ pub struct Lighting {
     pub i0_ks: f64,
     /// The Blinn–Phong exponent `n ≥ 1`.
     pub shininess: u32,
+}
+
+impl crate::config::Section for Lighting {
+    const DECL: &'static crate::config::UnitDecl = &DECL;
 }
 
 /// Why the lighting stage could not be compiled.
@@ -156,19 +163,9 @@ pub struct Consts<V> {
 }
 
 impl Lighting {
-    /// From the `[lighting]` section.
-    pub fn from_config(u: &UnitConfig) -> Self {
-        Lighting {
-            normal: u.stage("normal"),
-            light: u.stage("light"),
-            dot: u.stage("dot"),
-            gain: u.stage("gain"),
-            level: u.stage("level"),
-            spec: u.stage("spec"),
-            i0_km: u.number("i0_km"),
-            i0_ks: u.number("i0_ks"),
-            shininess: u.integer("shininess") as u32,
-        }
+    /// From the `[lighting]` section of `cfg`.
+    pub fn from_config(cfg: &Config) -> Self {
+        cfg.section()
     }
 
     /// Load the constants into a context (once per batch).
@@ -377,13 +374,13 @@ impl Lighting {
 
 fn check(cfg: &Config) -> Result<(), Vec<crate::config::ConfigError>> {
     let u = cfg.unit(DECL.name);
-    let l = Lighting::from_config(u);
+    let l = Lighting::from_config(cfg);
     width_errors(&l.count(), u)?;
     width_errors(&l.count_shade(), u)
 }
 
 fn ops(cfg: &Config) -> Vec<OpReport> {
-    let l = Lighting::from_config(cfg.unit(DECL.name));
+    let l = Lighting::from_config(cfg);
     vec![
         OpReport::from_count(DECL.name, "diffuse", Phase::Pixel, &l.count(), None),
         OpReport::from_count(
@@ -412,7 +409,7 @@ pub mod rtl {
     /// [`RtlError::Lighting`] as [`Lighting::trace`]: never for a configuration, whose `i0_km` and
     /// `i0_ks` lie in `0..=1`.
     pub fn design(cfg: &Config) -> Result<crate::rtl::Design, RtlError> {
-        let l = Lighting::from_config(cfg.unit(DECL.name));
+        let l = Lighting::from_config(cfg);
         let variant = if l.i0_ks == 0.0 {
             "diffuse"
         } else {
@@ -443,7 +440,7 @@ pub mod rtl {
         part: crate::rtl::units::Part,
         seed: u64,
     ) -> Result<Vec<Vec<i128>>, RtlError> {
-        let l = Lighting::from_config(cfg.unit(DECL.name));
+        let l = Lighting::from_config(cfg);
         let (fnm, fl) = (l.normal.format(), l.light.format());
         let qn = |v: DVec3| {
             v.to_array()
@@ -502,7 +499,7 @@ mod tests {
 
     #[test]
     fn fixed_diffuse_tracks_the_reference_within_one_level() {
-        let l = Lighting::from_config(Config::embedded().unit("lighting"));
+        let l = Lighting::from_config(&Config::embedded());
         let mut fx = Fixed::<i128>::new();
         let kf = l.consts(&mut fx).unwrap();
         let mut rf = Reference;

@@ -1208,5 +1208,5 @@ pub fn to_image<T: Copy>(raster: &Raster, v: &[T], background: T) -> Vec<T> {
 
 /// Which interpolation scheme a frame's references use.
 pub fn scheme_of(cfg: &Config) -> Scheme {
-    interp::Interp::from_config(cfg.unit(interp::DECL.name)).scheme
+    interp::Interp::from_config(cfg).scheme
 }

@@ -254,6 +254,15 @@ impl serde::Serialize for Target {
     }
 }
 
+/// Read from a family's name ([`Target::from_name`]).
+impl<'de> serde::Deserialize<'de> for Target {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let name = String::deserialize(d)?;
+        Target::from_name(&name)
+            .ok_or_else(|| serde::de::Error::custom(format!("`{name}` names no target family")))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -44,11 +44,11 @@
 //!   raises the unit's overflow flag; the default `I4F18` holds every input
 //!   code of `I2F14` with `|N| ≤ 2.9`.
 
-use crate::config::{Config, ConfigError, FieldDecl, FieldKind, UnitConfig, UnitDecl};
+use crate::config::{Config, ConfigError, FieldDecl, FieldKind, UnitDecl};
 use crate::datapath::{Compiled, Count, Datapath, Trace};
 use crate::format::{ConvertError, Format};
 use crate::quantize::{literal, Overflow, Quant};
-use crate::units::{width_errors, OpReport, Phase, UnitEntry};
+use crate::units::{width_errors, OpReport, Phase};
 
 pub mod rtl;
 
@@ -76,13 +76,48 @@ pub static DECL: UnitDecl = UnitDecl {
     groups: &[("normals", &["normal"]), ("cordic", &["xy", "theta"])],
 };
 
+/// The `[angles]` section, typed (one field per declared field).
+#[derive(Clone, Copy, Debug, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AnglesConfig {
+    /// Micro-rotations.
+    pub iterations: u32,
+    /// Input port: the normal's components.
+    pub normal: Quant,
+    /// The micro-rotation coordinates.
+    pub xy: Quant,
+    /// The CORDIC gain `K_n`.
+    pub gain: Quant,
+    /// How the gain is applied.
+    pub gain_mode: GainMode,
+    /// The angle accumulator and arctangent constants.
+    pub theta: Quant,
+    /// The output angles (format follows `polar.angle_bits`).
+    pub out: Quant,
+}
+
+impl crate::config::Section for AnglesConfig {
+    const DECL: &'static UnitDecl = &DECL;
+}
+
+/// How the CORDIC gain is applied (`angles.gain_mode`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum GainMode {
+    /// One product by `K_n` in the `gain` format.
+    Product,
+    /// Shifts and adds of `K_n`'s nonzero digits.
+    ShiftAdd,
+}
+
+/// The CORDIC angles as a registered unit.
+pub struct AnglesUnit;
+
+crate::unit!(AnglesUnit, decl: DECL, section: AnglesConfig, check: check, ops: ops,
+    rtl: &[&RTL]);
+
 /// The registry entry.
-pub static UNIT: UnitEntry = UnitEntry {
-    decl: &DECL,
-    check,
-    ops,
-    rtl: &[&RTL],
-};
+pub static UNIT: AnglesUnit = AnglesUnit;
 
 /// The unit's generated RTL: variants, design and input vectors.
 pub static RTL: crate::rtl::units::RtlUnit = crate::rtl::units::RtlUnit {
@@ -208,19 +243,18 @@ impl Angles {
     ///
     /// # Panics
     ///
-    /// If `u` lacks one of the `[angles]` fields read here or holds it as another kind
-    /// ([`UnitConfig::stage`] and its siblings): never for the `[angles]` section of a [`Config`].
-    pub fn from_config(u: &UnitConfig, angle_bits: u32) -> Result<Angles, AnglesError> {
+    /// Never: `k` is clamped to `1..=32`, a valid unsigned width.
+    pub fn from_config(u: &AnglesConfig, angle_bits: u32) -> Result<Angles, AnglesError> {
         let k = angle_bits.clamp(1, 32);
         let a = Angles {
-            iterations: u.integer("iterations") as u32,
-            normal: u.stage("normal"),
-            xy: u.stage("xy"),
-            gain: u.stage("gain"),
-            shift_add: u.choice("gain_mode") == "shift_add",
-            theta: u.stage("theta"),
+            iterations: u.iterations,
+            normal: u.normal,
+            xy: u.xy,
+            gain: u.gain,
+            shift_add: u.gain_mode == GainMode::ShiftAdd,
+            theta: u.theta,
             out: u
-                .stage("out")
+                .out
                 .with_format(Format::new(false, k, k as i32).expect("1..=32 bits")),
         };
         require_angle("theta", &a.theta)?;
@@ -257,8 +291,8 @@ impl Angles {
     /// As [`Angles::from_config`] on the `[angles]` section of `cfg`, with `polar.angle_bits`
     /// output bits.
     pub fn of(cfg: &Config) -> Result<Angles, AnglesError> {
-        let k = cfg.unit(crate::polar::DECL.name).integer("angle_bits") as u32;
-        Self::from_config(cfg.unit(DECL.name), k)
+        let k = cfg.section::<crate::polar::PolarConfig>().angle_bits;
+        Self::from_config(&cfg.section(), k)
     }
 
     /// The constants in a context.
@@ -410,9 +444,9 @@ fn check(cfg: &Config) -> Result<(), Vec<ConfigError>> {
     let u = cfg.unit(DECL.name);
     // The output format follows polar.angle_bits; one written by the user
     // (a file or a flag) must agree with it.
-    let k = cfg.unit(crate::polar::DECL.name).integer("angle_bits") as u32;
+    let k = cfg.section::<crate::polar::PolarConfig>().angle_bits;
     let want = Format::new(false, k, k as i32).expect("1..=24 bits");
-    let given = u.stage("out").format();
+    let given = cfg.section::<AnglesConfig>().out.format();
     // Only a format the user wrote counts: the embedded default's, or a flag
     // that sets another field of the stage (`angles.out.round=…`), follows.
     let follows = match u.origin("out") {

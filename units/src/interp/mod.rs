@@ -47,11 +47,11 @@
 
 use glam::DVec3;
 
-use crate::config::{Config, ConfigError, FieldDecl, FieldKind, UnitConfig, UnitDecl};
+use crate::config::{Config, ConfigError, FieldDecl, FieldKind, UnitDecl};
 use crate::datapath::{Compiled, Count, Datapath, Trace};
 use crate::format::ConvertError;
 use crate::quantize::{Overflow, Quant, Rounding};
-use crate::units::{width_errors, OpReport, Phase, UnitEntry};
+use crate::units::{width_errors, OpReport, Phase};
 
 pub mod rtl;
 
@@ -92,13 +92,36 @@ pub static DECL: UnitDecl = UnitDecl {
     ],
 };
 
+/// The `[interp]` section, typed (one field per declared field).
+#[derive(Clone, Copy, Debug, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InterpConfig {
+    /// The barycentric coordinates.
+    pub bary: Quant,
+    /// The vertex (and midpoint) normals.
+    pub vertex: Quant,
+    /// The quadratic weights.
+    pub weight: Quant,
+    /// Output port: the interpolated normal.
+    pub out: Quant,
+    /// Linear or quadratic interpolation.
+    pub scheme: Scheme,
+}
+
+impl crate::config::Section for InterpConfig {
+    const DECL: &'static UnitDecl = &DECL;
+}
+
+crate::deserialize_by_name!(Scheme);
+
+/// The normal interpolation as a registered unit.
+pub struct InterpUnit;
+
+crate::unit!(InterpUnit, decl: DECL, section: InterpConfig, check: check, ops: ops,
+    rtl: &[&RTL]);
+
 /// The registry entry.
-pub static UNIT: UnitEntry = UnitEntry {
-    decl: &DECL,
-    check,
-    ops,
-    rtl: &[&RTL],
-};
+pub static UNIT: InterpUnit = InterpUnit;
 
 /// The unit's generated RTL: variants, design and input vectors.
 pub static RTL: crate::rtl::units::RtlUnit = crate::rtl::units::RtlUnit {
@@ -314,20 +337,19 @@ const LITERAL: Quant = Quant::new(
 
 impl Interp {
     /// From the `[interp]` section.
-    ///
-    /// # Panics
-    ///
-    /// If `u` lacks one of the `[interp]` fields read here or holds it as another kind: never for
-    /// the `[interp]` section of a [`Config`], whose `scheme` is a name [`Scheme::from_name`]
-    /// accepts.
-    pub fn from_config(u: &UnitConfig) -> Self {
+    pub fn from_section(u: &InterpConfig) -> Self {
         Interp {
-            scheme: Scheme::from_name(u.choice("scheme")).expect("declared"),
-            bary: u.stage("bary"),
-            vertex: u.stage("vertex"),
-            weight: u.stage("weight"),
-            out: u.stage("out"),
+            scheme: u.scheme,
+            bary: u.bary,
+            vertex: u.vertex,
+            weight: u.weight,
+            out: u.out,
         }
+    }
+
+    /// From the `[interp]` section of `cfg`.
+    pub fn from_config(cfg: &Config) -> Self {
+        Self::from_section(&cfg.section())
     }
 
     /// The per-triangle set-up on the datapath (for counting; the model's
@@ -485,7 +507,7 @@ impl Interp {
 
 fn check(cfg: &Config) -> Result<(), Vec<ConfigError>> {
     let u = cfg.unit(DECL.name);
-    let i = Interp::from_config(u);
+    let i = Interp::from_config(cfg);
     for scheme in [Scheme::Linear, Scheme::Quadratic] {
         let (_, p) = Interp { scheme, ..i }
             .count()
@@ -496,7 +518,7 @@ fn check(cfg: &Config) -> Result<(), Vec<ConfigError>> {
 }
 
 fn ops(cfg: &Config) -> Vec<OpReport> {
-    let i = Interp::from_config(cfg.unit(DECL.name));
+    let i = Interp::from_config(cfg);
     let mut v = Vec::new();
     for scheme in [Scheme::Linear, Scheme::Quadratic] {
         if let Ok((s, p)) = (Interp { scheme, ..i }).count() {

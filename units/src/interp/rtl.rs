@@ -15,7 +15,7 @@ use crate::sampling::{self, Rng};
 ///
 /// Never: every `[interp]` section traces (the `Result` is that of `RtlUnit::build`).
 pub fn design(cfg: &Config) -> Result<crate::rtl::Design, RtlError> {
-    let i = Interp::from_config(cfg.unit(DECL.name));
+    let i = Interp::from_config(cfg);
     Ok(crate::rtl::units::design(
         DECL.name,
         i.scheme.name(),
@@ -65,7 +65,7 @@ pub fn inputs(
     part: crate::rtl::units::Part,
     seed: u64,
 ) -> Result<Vec<Vec<i128>>, RtlError> {
-    let i = Interp::from_config(cfg.unit(DECL.name));
+    let i = Interp::from_config(cfg);
     let (fb, fv) = (i.bary.format(), i.vertex.format());
     let mut rng = Rng::new(seed);
     let mut rows: Vec<Row> = Vec::new();

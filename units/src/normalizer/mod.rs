@@ -39,11 +39,11 @@
 //! default): at Θ = 0 that is `[1/3, 1]` against the paper's `[1/2, 1]`.
 
 use crate::coeffs::{self, CoeffError, Fit, Poly};
-use crate::config::{Config, ConfigError, FieldDecl, FieldKind, UnitConfig, UnitDecl};
+use crate::config::{Config, ConfigError, FieldDecl, FieldKind, UnitDecl};
 use crate::datapath::{Compiled, Count, Datapath, Trace};
 use crate::format::ConvertError;
 use crate::quantize::{literal, Quant};
-use crate::units::{width_errors, OpReport, PaperClaim, Phase, UnitEntry};
+use crate::units::{width_errors, OpReport, PaperClaim, Phase};
 
 pub mod rtl;
 
@@ -76,13 +76,60 @@ pub static DECL: UnitDecl = UnitDecl {
     groups: &[("normals", &["normal", "out"]), ("normalizer", &["d", "coef", "horner", "g"])],
 };
 
+/// The `[normalize]` section, typed (one field per declared field).
+#[derive(Clone, Copy, Debug, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NormalizeConfig {
+    /// Input port: the components of N.
+    pub normal: Quant,
+    /// `d = N·N`.
+    pub d: Quant,
+    /// The coefficient registers.
+    pub coef: Quant,
+    /// The Horner intermediate (quadratic).
+    pub horner: Quant,
+    /// `√d` (exact).
+    pub sqrt: Quant,
+    /// `g(d) ≈ 1/√d`.
+    pub g: Quant,
+    /// Output port: the components of N·g.
+    pub out: Quant,
+    /// Which `g(d)`.
+    pub method: Method,
+    /// The convexity threshold Θ.
+    pub theta: f64,
+    /// The coefficient construction.
+    pub fit: Fit,
+    /// The interval of `d` the coefficients are fitted on.
+    pub interval: Interval,
+    /// Rounded coefficients or the best codes found by search.
+    pub coef_quant: CoefQuant,
+}
+
+impl crate::config::Section for NormalizeConfig {
+    const DECL: &'static UnitDecl = &DECL;
+}
+
+/// How the coefficients become codes (`normalize.coef_quant`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CoefQuant {
+    /// Each rounded to the `coef` format.
+    Round,
+    /// The best codes found by search around the rounded ones.
+    Search,
+}
+
+crate::deserialize_by_name!(Method, Interval, Fit);
+
+/// The fast normalizer as a registered unit.
+pub struct NormalizeUnit;
+
+crate::unit!(NormalizeUnit, decl: DECL, section: NormalizeConfig, check: check, ops: ops,
+    rtl: &[&RTL]);
+
 /// The registry entry.
-pub static UNIT: UnitEntry = UnitEntry {
-    decl: &DECL,
-    check,
-    ops,
-    rtl: &[&RTL],
-};
+pub static UNIT: NormalizeUnit = NormalizeUnit;
 
 /// The unit's generated RTL: variants, design and input vectors.
 pub static RTL: crate::rtl::units::RtlUnit = crate::rtl::units::RtlUnit {
@@ -229,15 +276,15 @@ pub struct Consts<V> {
 
 impl Normalizer {
     /// The stage formats of a `[normalize]` section.
-    pub fn stages(u: &UnitConfig) -> Stages {
+    pub fn stages(u: &NormalizeConfig) -> Stages {
         Stages {
-            normal: u.stage("normal"),
-            d: u.stage("d"),
-            coef: u.stage("coef"),
-            horner: u.stage("horner"),
-            sqrt: u.stage("sqrt"),
-            g: u.stage("g"),
-            out: u.stage("out"),
+            normal: u.normal,
+            d: u.d,
+            coef: u.coef,
+            horner: u.horner,
+            sqrt: u.sqrt,
+            g: u.g,
+            out: u.out,
         }
     }
 
@@ -928,28 +975,22 @@ pub fn g_stage_stats(n: &Normalizer, lo: f64, hi: f64) -> Result<Stats, DesignEr
 /// # Errors
 ///
 /// As [`design`] for the `[normalize]` section of `cfg`.
-///
-/// # Panics
-///
-/// Never: `method`, `fit` and `interval` are declared choices, and [`Method::from_name`],
-/// [`Fit::from_name`] and [`Interval::from_name`] accept every declared name.
 pub fn from_config(cfg: &Config) -> Result<(Normalizer, Option<Design>), DesignError> {
-    let u = cfg.unit(DECL.name);
-    let method = Method::from_name(u.choice("method")).expect("declared choices");
+    let u: NormalizeConfig = cfg.section();
     design(
-        method,
-        Normalizer::stages(u),
-        u.number("theta"),
-        Fit::from_name(u.choice("fit")).expect("declared choices"),
-        Interval::from_name(u.choice("interval")).expect("declared choices"),
-        u.choice("coef_quant") == "search",
+        u.method,
+        Normalizer::stages(&u),
+        u.theta,
+        u.fit,
+        u.interval,
+        u.coef_quant == CoefQuant::Search,
     )
 }
 
 /// A normalizer of `method` with the configured stages, and stand-in
 /// coefficients (for counting and width checks, which do not depend on the
 /// values).
-fn with_method(u: &UnitConfig, method: Method) -> Normalizer {
+fn with_method(u: &NormalizeConfig, method: Method) -> Normalizer {
     Normalizer {
         method,
         q: Normalizer::stages(u),
@@ -959,8 +1000,9 @@ fn with_method(u: &UnitConfig, method: Method) -> Normalizer {
 
 fn check(cfg: &Config) -> Result<(), Vec<ConfigError>> {
     let u = cfg.unit(DECL.name);
+    let s: NormalizeConfig = cfg.section();
     for m in Method::ALL {
-        let cx = with_method(u, m)
+        let cx = with_method(&s, m)
             .count()
             .map_err(|e| vec![crate::config::field_error(u, "coef", e.to_string())])?;
         width_errors(&cx, u)?;
@@ -976,13 +1018,10 @@ fn check(cfg: &Config) -> Result<(), Vec<ConfigError>> {
 fn coefficients_fit(cfg: &Config) -> Result<(), Vec<ConfigError>> {
     use crate::config::field_error;
     let u = cfg.unit(DECL.name);
-    let fit = Fit::from_name(u.choice("fit")).expect("declared choices");
-    let kind = Interval::from_name(u.choice("interval")).expect("declared choices");
-    let scheme =
-        crate::interp::Scheme::from_name(cfg.unit(crate::interp::DECL.name).choice("scheme"))
-            .expect("declared choices");
-    let cf = u.stage("coef").format();
-    let theta = u.number("theta");
+    let s: NormalizeConfig = cfg.section();
+    let (fit, kind, theta) = (s.fit, s.interval, s.theta);
+    let scheme = cfg.section::<crate::interp::InterpConfig>().scheme;
+    let cf = s.coef.format();
     let mut cases = vec![(theta, kind.bounds(theta))];
     for &t in &crate::interp::THETA_LADDER {
         let range = match kind {
@@ -1050,11 +1089,11 @@ fn claim(m: Method) -> Option<PaperClaim> {
 }
 
 fn ops(cfg: &Config) -> Vec<OpReport> {
-    let u = cfg.unit(DECL.name);
+    let u: NormalizeConfig = cfg.section();
     Method::ALL
         .into_iter()
         .filter_map(|m| {
-            let cx = with_method(u, m).count().ok()?;
+            let cx = with_method(&u, m).count().ok()?;
             Some(OpReport::from_count(
                 DECL.name,
                 m.name(),

@@ -145,7 +145,7 @@ pub fn inputs(
     seed: u64,
 ) -> Result<Vec<Vec<i128>>, RtlError> {
     let (n, _design) = from_config(cfg)?;
-    let theta = cfg.unit(DECL.name).number("theta");
+    let theta = cfg.section::<super::NormalizeConfig>().theta;
     let f = n.q.normal.format();
     let mut rng = Rng::new(seed);
     let Part::Random(count) = part else {

@@ -61,7 +61,7 @@ use crate::lighting::{Lighting, LightingError};
 use crate::normalizer::{self, Design, DesignError, Interval, Method, Normalizer};
 use crate::polar::{Polar, PolarError};
 use crate::quantize::{Overflow, Quant, Rounding};
-use crate::units::{OpReport, Phase, UnitEntry};
+use crate::units::{OpReport, Phase};
 
 pub mod rtl;
 
@@ -89,13 +89,33 @@ pub static DECL: UnitDecl = UnitDecl {
     groups: &[],
 };
 
+/// The `[pipeline]` section, typed (one field per declared field).
+#[derive(Clone, Copy, Debug, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PipelineConfig {
+    /// How the interpolated angles are rounded to the angle format.
+    pub angle_round: Rounding,
+    /// Where the mapped path's polar angles of N come from.
+    pub angles: AngleSource,
+    /// Which path the RTL top implements.
+    pub path: Path,
+}
+
+impl crate::config::Section for PipelineConfig {
+    const DECL: &'static UnitDecl = &DECL;
+}
+
+crate::deserialize_by_name!(Path, AngleSource);
+
+/// The pipeline composition as a registered unit (two RTL modules: the
+/// angle interpolation and the top).
+pub struct PipelineUnit;
+
+crate::unit!(PipelineUnit, decl: DECL, section: PipelineConfig, check: check, ops: ops,
+    rtl: &[&ANGLE_RTL, &RTL]);
+
 /// The registry entry.
-pub static UNIT: UnitEntry = UnitEntry {
-    decl: &DECL,
-    check,
-    ops,
-    rtl: &[&ANGLE_RTL, &RTL],
-};
+pub static UNIT: PipelineUnit = PipelineUnit;
 
 /// The unit's generated RTL: variants, design and input vectors.
 pub static ANGLE_RTL: crate::rtl::units::RtlUnit = crate::rtl::units::RtlUnit {
@@ -243,13 +263,8 @@ impl Pipeline {
     ///
     /// As [`Pipeline::with_method`].
     ///
-    /// # Panics
-    ///
-    /// Never: `normalize.method` is a declared choice, and [`Method::from_name`] accepts every
-    /// declared name.
     pub fn from_config(cfg: &Config) -> Result<Pipeline, PipelineError> {
-        let m =
-            Method::from_name(cfg.unit(normalizer::DECL.name).choice("method")).expect("declared");
+        let m = cfg.section::<normalizer::NormalizeConfig>().method;
         Self::with_method(cfg, m)
     }
 
@@ -281,12 +296,11 @@ impl Pipeline {
     }
 
     fn build(cfg: &Config, method: Method) -> Result<Pipeline, PipelineError> {
-        let interp = Interp::from_config(cfg.unit(interp::DECL.name));
-        let nu = cfg.unit(normalizer::DECL.name);
-        let stages = Normalizer::stages(nu);
-        let fit = crate::coeffs::Fit::from_name(nu.choice("fit")).expect("declared");
-        let kind = Interval::from_name(nu.choice("interval")).expect("declared");
-        let search = nu.choice("coef_quant") == "search";
+        let interp = Interp::from_config(cfg);
+        let nu: normalizer::NormalizeConfig = cfg.section();
+        let stages = Normalizer::stages(&nu);
+        let (fit, kind) = (nu.fit, nu.interval);
+        let search = nu.coef_quant == normalizer::CoefQuant::Search;
         let mut sets = Vec::new();
         let mut designs = Vec::new();
         for &theta in &THETA_LADDER {
@@ -321,14 +335,11 @@ impl Pipeline {
                 }
             }
         }
-        let polar = Polar::from_config(cfg.unit(crate::polar::DECL.name))?;
-        let light = Lighting::from_config(cfg.unit(crate::lighting::DECL.name));
+        let polar = Polar::from_config(cfg)?;
+        let light = Lighting::from_config(cfg);
         let want = polar.angle.format();
-        let round = match cfg.unit(DECL.name).choice("angle_round") {
-            "trunc" => Rounding::Trunc,
-            "half_up" => Rounding::HalfUp,
-            _ => Rounding::HalfEven,
-        };
+        let section: PipelineConfig = cfg.section();
+        let round = section.angle_round;
         let angle = Quant::new("angle", want, round, Overflow::Wrap);
         let k = want.width();
         let delta = Quant::new(
@@ -337,8 +348,7 @@ impl Pipeline {
             Rounding::Trunc,
             Overflow::Wrap,
         );
-        let angles =
-            AngleSource::from_name(cfg.unit(DECL.name).choice("angles")).expect("declared");
+        let angles = section.angles;
         let cordic = Angles::of(cfg)?;
         Ok(Pipeline {
             interp,
@@ -1192,7 +1202,7 @@ mod tests {
     fn the_power_chain_squares_and_multiplies_as_the_exponent_says() {
         for n in [1u32, 2, 5, 16, 40, 255] {
             let c = Config::resolve(None, &[format!("lighting.shininess={n}")]).unwrap();
-            let l = Lighting::from_config(c.unit("lighting"));
+            let l = Lighting::from_config(&c);
             let base = l.count().counts().mul;
             let shade = l.count_shade().counts().mul;
             // shade = N·L and N·H (6), two gains (2), squarings and products.
@@ -1210,7 +1220,7 @@ mod tests {
     #[test]
     fn shading_in_fixed_point_tracks_the_closed_form() {
         let c = Config::embedded();
-        let l = Lighting::from_config(c.unit("lighting"));
+        let l = Lighting::from_config(&c);
         let prog = l.compile_shade().unwrap();
         let mut rng = Rng::new(5);
         let q = |x: f64, s: &Quant| s.apply_f64(x).unwrap().code;

@@ -14,13 +14,8 @@ use crate::rtl::units::{structured_code, RtlError};
 use crate::sampling::Rng;
 
 /// The configured path of `cfg`.
-///
-/// # Panics
-///
-/// Never: `pipeline.path` is a declared choice, and [`Path::from_name`] accepts every declared
-/// name.
 pub fn path_of(cfg: &Config) -> Path {
-    Path::from_name(cfg.unit(DECL.name).choice("path")).expect("declared")
+    cfg.section::<super::PipelineConfig>().path
 }
 
 /// The pipeline top's traced datapath for the configured path.
@@ -62,10 +57,11 @@ pub fn design(cfg: &Config) -> Result<crate::rtl::Design, RtlError> {
             "sel_past_the_last": 0,
         });
     }
-    match cfg.unit("rtl").choice("setup") {
-        "port" => d.setup = setup_groups(path, p.angles, true),
-        "hold" => d.setup = setup_groups(path, p.angles, false),
-        _ => {}
+    use crate::rtl::section::{RtlConfig, Setup};
+    match cfg.section::<RtlConfig>().setup {
+        Setup::Port => d.setup = setup_groups(path, p.angles, true),
+        Setup::Hold => d.setup = setup_groups(path, p.angles, false),
+        Setup::Pixel => {}
     }
     d.module = match (path, p.angles) {
         (Path::Mapped, super::AngleSource::Interpolate) => "pipeline_mapped_interp".into(),

@@ -38,11 +38,11 @@
 
 use glam::DVec3;
 
-use crate::config::{Config, ConfigError, FieldDecl, FieldKind, UnitConfig, UnitDecl};
+use crate::config::{Config, ConfigError, FieldDecl, FieldKind, UnitDecl};
 use crate::datapath::{Compiled, Count, Datapath, Table, Trace};
 use crate::format::{ConvertError, Format};
 use crate::quantize::{Overflow, Quant};
-use crate::units::{width_errors, OpReport, PaperClaim, Phase, UnitEntry};
+use crate::units::{width_errors, OpReport, PaperClaim, Phase};
 
 pub mod frames;
 pub mod rtl;
@@ -75,13 +75,38 @@ pub static DECL: UnitDecl = UnitDecl {
     groups: &[("light", &["lyz", "out"]), ("tables", &["table"])],
 };
 
+/// The `[polar]` section, typed (one field per declared field).
+#[derive(Clone, Copy, Debug, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PolarConfig {
+    /// Bits of an angle, a fraction of a turn.
+    pub angle_bits: u32,
+    /// Address bits of a full-turn table.
+    pub table_bits: u32,
+    /// Full-turn or quarter-wave tables.
+    pub organisation: Organisation,
+    /// Angle to table index (its format is set by `table_bits`).
+    pub index: Quant,
+    /// The table entries.
+    pub table: Quant,
+    /// `Lyz = cos α_L · cos(β_L − β_N)`.
+    pub lyz: Quant,
+    /// Output port: the components of L'.
+    pub out: Quant,
+}
+
+impl crate::config::Section for PolarConfig {
+    const DECL: &'static UnitDecl = &DECL;
+}
+
+/// The polar transform as a registered unit.
+pub struct PolarUnit;
+
+crate::unit!(PolarUnit, decl: DECL, section: PolarConfig, check: check, ops: ops,
+    rtl: &[&RTL]);
+
 /// The registry entry.
-pub static UNIT: UnitEntry = UnitEntry {
-    decl: &DECL,
-    check,
-    ops,
-    rtl: &[&RTL],
-};
+pub static UNIT: PolarUnit = PolarUnit;
 
 /// The unit's generated RTL: variants, design and input vectors.
 pub static RTL: crate::rtl::units::RtlUnit = crate::rtl::units::RtlUnit {
@@ -96,13 +121,23 @@ pub static RTL: crate::rtl::units::RtlUnit = crate::rtl::units::RtlUnit {
 };
 
 /// Table organisation.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Organisation {
     /// `2^t` entries.
     Full,
     /// `2^t/4 + 1` entries and symmetry.
     Quarter,
+}
+
+impl Organisation {
+    /// The configuration name (`full`, `quarter`).
+    pub const fn name(self) -> &'static str {
+        match self {
+            Organisation::Full => "full",
+            Organisation::Quarter => "quarter",
+        }
+    }
 }
 
 /// The sin and cos tables of a configuration, built from the quarter-wave
@@ -242,16 +277,15 @@ impl Polar {
     /// If `u` lacks one of the `[polar]` fields read here or holds it as another kind, or its
     /// `angle_bits` or `table_bits` makes no valid format or table ([`Tables::build`]): never for
     /// the `[polar]` section of a [`Config`], where they lie in `4..=24` and `4..=16`.
-    pub fn from_config(u: &UnitConfig) -> Result<Polar, PolarError> {
-        let k = u.integer("angle_bits") as u32;
-        let t = u.integer("table_bits") as u32;
+    pub fn from_section(u: &PolarConfig) -> Result<Polar, PolarError> {
+        let (k, t) = (u.angle_bits, u.table_bits);
         if t > k {
             return Err(PolarError::Config {
                 key: "table_bits",
                 why: format!("polar.table_bits = {t} exceeds polar.angle_bits = {k}"),
             });
         }
-        let idx = u.stage("index");
+        let idx = u.index;
         if idx.overflow() != Overflow::Wrap {
             return Err(PolarError::Config {
                 key: "index",
@@ -265,18 +299,22 @@ impl Polar {
             Overflow::Wrap,
         );
         let index = idx.with_format(Format::new(false, t, t as i32).expect("1..=16 bits"));
-        let org = if u.choice("organisation") == "full" {
-            Organisation::Full
-        } else {
-            Organisation::Quarter
-        };
         Ok(Polar {
             angle,
             index,
-            lyz: u.stage("lyz"),
-            out: u.stage("out"),
-            tables: Tables::build(t, u.stage("table"), org)?,
+            lyz: u.lyz,
+            out: u.out,
+            tables: Tables::build(t, u.table, u.organisation)?,
         })
+    }
+
+    /// From the `[polar]` section of `cfg`.
+    ///
+    /// # Errors
+    ///
+    /// As [`Polar::from_section`].
+    pub fn from_config(cfg: &Config) -> Result<Polar, PolarError> {
+        Self::from_section(&cfg.section())
     }
 
     /// The transform of `L = (α_L, β_L)` into the tangent frame of
@@ -419,7 +457,7 @@ pub fn tbn<C: Datapath>(
 
 fn check(cfg: &Config) -> Result<(), Vec<ConfigError>> {
     let u = cfg.unit(DECL.name);
-    let p = Polar::from_config(u).map_err(|e| {
+    let p = Polar::from_config(cfg).map_err(|e| {
         let key = match &e {
             PolarError::Config { key, .. } => key,
             PolarError::Convert(_) => "table",
@@ -433,8 +471,7 @@ fn check(cfg: &Config) -> Result<(), Vec<ConfigError>> {
 }
 
 fn ops(cfg: &Config) -> Vec<OpReport> {
-    let u = cfg.unit(DECL.name);
-    let Ok(p) = Polar::from_config(u) else {
+    let Ok(p) = Polar::from_config(cfg) else {
         return Vec::new();
     };
     let mut v = Vec::new();
@@ -481,7 +518,7 @@ mod tests {
     use crate::datapath::{Fixed, Reference};
 
     fn polar() -> Polar {
-        Polar::from_config(Config::embedded().unit("polar")).unwrap()
+        Polar::from_config(&Config::embedded()).unwrap()
     }
 
     #[test]
@@ -517,7 +554,7 @@ mod tests {
     #[test]
     fn full_and_quarter_tables_are_bit_identical() {
         for t in [4, 6, 10] {
-            let q = Config::embedded().unit("polar").stage("table");
+            let q = Config::embedded().section::<PolarConfig>().table;
             let f = Tables::build(t, q, Organisation::Full).unwrap();
             let h = Tables::build(t, q, Organisation::Quarter).unwrap();
             assert_eq!(f.sin.codes, h.sin.codes);

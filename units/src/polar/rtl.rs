@@ -15,7 +15,7 @@ use crate::sampling::Rng;
 ///
 /// [`RtlError::Polar`] when the `[polar]` section is unusable ([`Polar::from_config`]).
 pub fn design(cfg: &Config) -> Result<crate::rtl::Design, RtlError> {
-    let p = Polar::from_config(cfg.unit(DECL.name))?;
+    let p = Polar::from_config(cfg)?;
     let org = match p.tables.organisation {
         Organisation::Full => "full",
         Organisation::Quarter => "quarter",
@@ -57,7 +57,7 @@ pub fn inputs(
     part: crate::rtl::units::Part,
     seed: u64,
 ) -> Result<Vec<Vec<i128>>, RtlError> {
-    let p = Polar::from_config(cfg.unit(DECL.name))?;
+    let p = Polar::from_config(cfg)?;
     let f = p.angle.format();
     let turn = 1i128 << f.width();
     let q = turn / 4;

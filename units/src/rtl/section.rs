@@ -4,28 +4,75 @@
 
 use super::timing::{Handshake, Pipelining, Target};
 
+/// The `[rtl]` section, typed (one field per declared field).
+#[derive(Clone, Copy, Debug, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RtlConfig {
+    /// Compact, or registers placed by `target`'s delay model.
+    pub pipeline: PipelineMode,
+    /// The technology whose delay model places the registers.
+    pub target: Target,
+    /// The requested clock period in ns.
+    pub clock_ns: f64,
+    /// One global stall, or an output FIFO.
+    pub handshake: HandshakeMode,
+    /// How the pipeline tops take their per-frame and per-triangle values.
+    pub setup: Setup,
+}
+
+impl crate::config::Section for RtlConfig {
+    const DECL: &'static crate::config::UnitDecl = &DECL;
+}
+
+/// `rtl.pipeline`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PipelineMode {
+    /// A register after every quantization and table read.
+    Compact,
+    /// Registers where the target's delay model needs them.
+    Target,
+}
+
+/// `rtl.handshake`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum HandshakeMode {
+    /// One global stall.
+    Stall,
+    /// An output FIFO; the pipeline never stalls.
+    Fifo,
+}
+
+/// `rtl.setup`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Setup {
+    /// Set-up ports into double-buffered registers.
+    Port,
+    /// Set-up ports into one register a field.
+    Hold,
+    /// Carried with every pixel.
+    Pixel,
+}
+
 /// The pipelining policy of a configuration's `[rtl]` section.
-///
-/// # Panics
-///
-/// Never: `rtl.target` is checked against [`Target::pipelined_names`], each of which
-/// [`Target::from_name`] accepts.
 pub fn pipelining(cfg: &crate::Config) -> Pipelining {
-    match cfg.unit("rtl").choice("pipeline") {
-        "target" => Pipelining::Target {
-            target: Target::from_name(cfg.unit("rtl").choice("target"))
-                .expect("the configuration checks the name"),
-            clock_ns: cfg.unit("rtl").number("clock_ns"),
+    let r: RtlConfig = cfg.section();
+    match r.pipeline {
+        PipelineMode::Target => Pipelining::Target {
+            target: r.target,
+            clock_ns: r.clock_ns,
         },
-        _ => Pipelining::Compact,
+        PipelineMode::Compact => Pipelining::Compact,
     }
 }
 
 /// The handshake of a configuration's `[rtl]` section.
 pub fn handshake(cfg: &crate::Config) -> Handshake {
-    match cfg.unit("rtl").choice("handshake") {
-        "fifo" => Handshake::Fifo,
-        _ => Handshake::Stall,
+    match cfg.section::<RtlConfig>().handshake {
+        HandshakeMode::Fifo => Handshake::Fifo,
+        HandshakeMode::Stall => Handshake::Stall,
     }
 }
 
@@ -74,10 +121,10 @@ fn ops(_: &crate::Config) -> Vec<crate::units::OpReport> {
     Vec::new()
 }
 
-/// The registry entry of the `[rtl]` section (no datapath of its own).
-pub static UNIT: crate::units::UnitEntry = crate::units::UnitEntry {
-    decl: &DECL,
-    check,
-    ops,
-    rtl: &[],
-};
+/// The `[rtl]` section as a registry entry (no datapath of its own).
+pub struct RtlSection;
+
+crate::unit!(RtlSection, decl: DECL, section: RtlConfig, check: check, ops: ops, rtl: &[]);
+
+/// The registry entry of the `[rtl]` section.
+pub static UNIT: RtlSection = RtlSection;

@@ -68,7 +68,7 @@ pub fn overrides(set: &str) -> impl Iterator<Item = &str> {
 pub fn all() -> impl Iterator<Item = &'static RtlUnit> {
     crate::units::UNITS
         .iter()
-        .flat_map(|u| u.rtl.iter().copied())
+        .flat_map(|u| u.rtl().iter().copied())
 }
 
 /// Look a unit up by name.
