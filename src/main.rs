@@ -4,6 +4,7 @@ mod cmd;
 mod critical_path;
 mod device;
 mod dsp_pack;
+mod env;
 mod explore;
 mod ff_roles;
 mod netlist;
@@ -128,6 +129,7 @@ enum Command {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    env::init();
     let r = match &cli.cmd {
         Command::Config(c) => cmd::config::run(c),
         Command::Ops(a) => cmd::ops::run(a),

@@ -52,8 +52,8 @@ pub struct Written {
 fn yosys_datdir() -> anyhow::Result<PathBuf> {
     let has_lib = |d: &Path| d.join("ecp5").join("cells_sim.v").is_file();
     let mut tried = Vec::new();
-    let path = std::env::var_os("PATH").unwrap_or_default();
-    if let Some(bin) = std::env::split_paths(&path)
+    let path = &crate::env::get().path;
+    if let Some(bin) = std::env::split_paths(path)
         .map(|d| d.join("yosys"))
         .find(|p| p.is_file())
     {

@@ -492,8 +492,7 @@ pub fn prove(
             timeout.saturating_sub(t0.elapsed().as_secs()).max(1)
         }
     };
-    if let Some(d) = std::env::var_os("FXSHADE_SMT_DUMP") {
-        let d = Path::new(&d);
+    if let Some(d) = &crate::env::get().smt_dump {
         let _ = std::fs::write(
             d.join(format!("{}-netlist-reset.smt2", out.module)),
             &from_reset,
@@ -517,7 +516,7 @@ pub fn prove(
                 }
             }
         }
-        if std::env::var_os("FXSHADE_SMT_DUMP").is_some() {
+        if crate::env::get().smt_dump.is_some() {
             eprintln!(
                 "simulation: {} of {} candidates left, {:.1} s",
                 alive.iter().filter(|a| **a).count(),
@@ -533,8 +532,8 @@ pub fn prove(
             .filter_map(|(c, a)| a.then_some(c))
             .collect();
         let q = crate::netlist_corr::step_query(&smt2, &live, &|st| differs_in(&outs, st));
-        let dump = std::env::var_os("FXSHADE_SMT_DUMP");
-        if let Some(d) = &dump {
+        let dump = &crate::env::get().smt_dump;
+        if let Some(d) = dump {
             let _ = std::fs::write(
                 Path::new(d).join(format!("{}-netlist-step.smt2", out.module)),
                 &q,
@@ -613,7 +612,7 @@ pub fn prove(
         match solver.check(&crate::netlist_corr::sanity_query(&smt2, &live), left())? {
             Reply::Sat(_) => {
                 let w = windows(&smt2, depth, solver, timeout, t0)?;
-                if std::env::var_os("FXSHADE_SMT_DUMP").is_some() {
+                if crate::env::get().smt_dump.is_some() {
                     eprintln!(
                         "window: {} at {:.1} s",
                         if matches!(w, Reply::Unsat) {

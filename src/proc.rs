@@ -27,10 +27,10 @@ pub struct Limit {
 
 impl Limit {
     fn from_env(var: &'static str, default_s: u64) -> Limit {
-        let s = std::env::var(var)
-            .ok()
-            .and_then(|s| s.trim().parse::<u64>().ok())
-            .filter(|&s| s > 0)
+        let s = crate::env::get()
+            .timeouts
+            .get(var)
+            .copied()
             .unwrap_or(default_s);
         Limit {
             time: Duration::from_secs(s),

@@ -198,7 +198,7 @@ pub fn require_tool(tool: &str, package: &str) -> anyhow::Result<()> {
 /// (`FXSHADE_QUICK_BUILD=1`, which the test suite sets: hundreds of builds,
 /// each run on a few thousand vectors).
 fn quick_build() -> bool {
-    std::env::var("FXSHADE_QUICK_BUILD").is_ok_and(|v| v == "1")
+    crate::env::get().quick_build
 }
 
 /// Run a build tool under [`crate::proc::Limit::build`]: on timeout the
@@ -678,10 +678,8 @@ pub static PROGRESS: std::sync::Mutex<Option<indicatif::ProgressBar>> = std::syn
 /// else the machine's cores (the simulator takes one; generation usually
 /// costs more per vector than simulation).
 fn generator_workers() -> usize {
-    std::env::var("FXSHADE_GEN_THREADS")
-        .ok()
-        .and_then(|s| s.parse::<usize>().ok())
-        .filter(|&n| n >= 1)
+    crate::env::get()
+        .gen_threads
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
         .min(16)
 }

@@ -136,18 +136,7 @@ pub fn resolve(arg: Option<&ShardArg>, shards: Option<usize>) -> Result<Option<S
             n: *n,
             scheduler: Scheduler::new("flag", 0, 1),
         })),
-        Some(ShardArg::Auto) => {
-            let env: BTreeMap<String, String> = std::env::vars()
-                .filter(|(k, _)| {
-                    k.starts_with("SLURM_ARRAY_")
-                        || k.starts_with("LSB_JOBINDEX")
-                        || k.starts_with("SGE_TASK_")
-                        || k == "JOB_COMPLETION_INDEX"
-                        || k.starts_with("FXSHADE_SHARD")
-                })
-                .collect();
-            detect(&env, shards).map(Some)
-        }
+        Some(ShardArg::Auto) => detect(&crate::env::get().job_array, shards).map(Some),
     }
 }
 

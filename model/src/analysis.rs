@@ -999,7 +999,12 @@ fn remembered<T: serde::Serialize + serde::de::DeserializeOwned>(
     ];
     all.extend_from_slice(parts);
     let key = crate::cache::sha256_key(&all);
-    let dir = crate::cache::subdir("analyses").map_err(|e| AnalysisError::Cache(e.to_string()))?;
+    let dir = match crate::cache::subdir("analyses") {
+        Ok(d) => d,
+        // No cache installed (a library caller): compute.
+        Err(crate::cache::CacheError::NotInstalled) => return f(),
+        Err(e) => return Err(AnalysisError::Cache(e.to_string())),
+    };
     let path = dir.join(format!("{what}-{}.json", &key[..32]));
     if let Some(bytes) =
         crate::cache::read(&path).map_err(|e| AnalysisError::Cache(e.to_string()))?

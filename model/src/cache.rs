@@ -24,6 +24,15 @@
 //!   and renamed into place; the mark that an entry is complete is written
 //!   last. A full file system is reported as such
 //!   ([`CacheError::Full`]), never marked complete.
+//!
+//! **Installed by the program, never found by the library.** This crate
+//! reads no environment variable: a program's edge (the `fxshade` CLI's
+//! `env` module) reads `FXSHADE_CACHE_DIR`, `XDG_CACHE_HOME` and `HOME`
+//! once into an [`Env`] and [`install`]s it. Until then there is no cache:
+//! [`root`] is [`CacheError::NotInstalled`], and the library's own caches
+//! (analyses, searched corner rows) compute instead of reading or writing
+//! (a library caller, a unit test, the C ABI and the Python module touch
+//! no disk unless they install one).
 
 use std::io::{Read, Write};
 use std::os::unix::fs::{MetadataExt, PermissionsExt};
@@ -53,6 +62,10 @@ pub enum CacheError {
         /// The path that could not be written.
         path: PathBuf,
     },
+    /// No program installed a cache ([`install`]): callers that can
+    /// compute instead do; the CLI always installs one.
+    #[error("no cache is installed (a program installs one with fxshade_model::cache::install)")]
+    NotInstalled,
     /// Any other I/O error.
     #[error("{path}: {reason}")]
     Io {
@@ -82,8 +95,9 @@ impl CacheError {
     }
 }
 
-/// What the cache root is resolved from: the process environment, read in
-/// one place ([`Env::from_process`]), or given by a test.
+/// What the cache root is resolved from: the process environment, read by
+/// the program's edge (the CLI's `env` module) and [`install`]ed, or given
+/// by a test.
 #[derive(Clone, Debug, Default)]
 pub struct Env {
     /// `$FXSHADE_CACHE_DIR`.
@@ -100,29 +114,9 @@ pub struct Env {
     pub uid: u32,
 }
 
-impl Env {
-    /// The environment of this process. Empty variables count as unset.
-    pub fn from_process() -> Env {
-        let var = |k: &str| {
-            std::env::var_os(k)
-                .filter(|v| !v.is_empty())
-                .map(PathBuf::from)
-        };
-        // SAFETY: geteuid has no preconditions.
-        let uid = unsafe { libc::geteuid() };
-        Env {
-            fxshade_cache_dir: var("FXSHADE_CACHE_DIR"),
-            xdg_cache_home: var("XDG_CACHE_HOME"),
-            home: var("HOME"),
-            passwd_home: passwd_home(uid),
-            temp_dir: std::env::temp_dir(),
-            uid,
-        }
-    }
-}
-
-/// The home directory of `uid` in the password database, if it has one.
-fn passwd_home(uid: u32) -> Option<PathBuf> {
+/// The home directory of `uid` in the password database, if it has one
+/// (for [`Env::passwd_home`]).
+pub fn passwd_home(uid: u32) -> Option<PathBuf> {
     use std::ffi::CStr;
     use std::os::unix::ffi::OsStrExt;
     let mut buf = vec![0u8; 16 * 1024];
@@ -174,20 +168,36 @@ pub fn resolve(env: &Env) -> Result<PathBuf, CacheError> {
     Ok(root)
 }
 
-/// The cache root of this process ([`resolve`] of [`Env::from_process`],
-/// once per process).
+static INSTALLED: std::sync::OnceLock<(Env, Result<PathBuf, String>)> = std::sync::OnceLock::new();
+
+/// Install the process's cache: the root is [`resolve`]d from `env` once,
+/// here, and every later [`root`] returns that outcome. The first call
+/// wins; it returns `false` when a cache was installed before (and `env`
+/// is ignored).
+pub fn install(env: Env) -> bool {
+    let mut first = false;
+    INSTALLED.get_or_init(|| {
+        first = true;
+        let r = resolve(&env).map_err(|e| e.to_string());
+        (env, r)
+    });
+    first
+}
+
+/// The cache root of this process: the installed [`Env`]'s, [`resolve`]d
+/// once by [`install`].
 ///
 /// # Errors
 ///
-/// [`CacheError::Unsafe`] naming the [`candidate`] root, with the message of the error of
-/// [`resolve`] as its reason, whenever the first resolution in this process failed (its
-/// outcome is kept: every later call fails alike).
+/// [`CacheError::NotInstalled`] before [`install`]; [`CacheError::Unsafe`] naming the
+/// [`candidate`] root, with the message of the error of [`resolve`] as its reason, when
+/// the installed root could not be used (every call fails alike).
 pub fn root() -> Result<PathBuf, CacheError> {
-    static ROOT: std::sync::OnceLock<Result<PathBuf, String>> = std::sync::OnceLock::new();
-    match ROOT.get_or_init(|| resolve(&Env::from_process()).map_err(|e| e.to_string())) {
-        Ok(p) => Ok(p.clone()),
-        Err(e) => Err(CacheError::Unsafe {
-            path: candidate(&Env::from_process()),
+    match INSTALLED.get() {
+        None => Err(CacheError::NotInstalled),
+        Some((_, Ok(p))) => Ok(p.clone()),
+        Some((env, Err(e))) => Err(CacheError::Unsafe {
+            path: candidate(env),
             why: e.clone(),
         }),
     }
@@ -509,6 +519,15 @@ impl Seal {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The library finds no cache by itself: nothing in this crate's tests
+    /// installs one, so the root is `NotInstalled` whatever `HOME` and
+    /// `FXSHADE_CACHE_DIR` say, and a subdirectory is not created.
+    #[test]
+    fn without_an_installed_cache_there_is_none() {
+        assert!(matches!(root(), Err(CacheError::NotInstalled)));
+        assert!(matches!(subdir("corners"), Err(CacheError::NotInstalled)));
+    }
 
     fn env(tmp: &Path) -> Env {
         Env {

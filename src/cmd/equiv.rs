@@ -536,11 +536,8 @@ pub fn prove(
     let e = &m.emitted;
     let smt2 = rtl_smt2(&e.module, &m.text, dir)?;
     let mi = miter(m, &smt2)?;
-    if let Some(d) = std::env::var_os("FXSHADE_SMT_DUMP") {
-        let _ = std::fs::write(
-            Path::new(&d).join(format!("{}-equiv.smt2", e.module)),
-            &mi.script,
-        );
+    if let Some(d) = &crate::env::get().smt_dump {
+        let _ = std::fs::write(d.join(format!("{}-equiv.smt2", e.module)), &mi.script);
     }
     // Products abstracted; a model of the whole query is checked on the
     // real products with every free input fixed to the model's values.
@@ -562,11 +559,8 @@ pub fn prove(
     };
     let (abs, n_products) = abstracted(&mi.script)?;
     let dump = |name: &str, text: &str| {
-        if let Some(d) = std::env::var_os("FXSHADE_SMT_DUMP") {
-            let _ = std::fs::write(
-                Path::new(&d).join(format!("{}-{name}.smt2", e.module)),
-                text,
-            );
+        if let Some(d) = &crate::env::get().smt_dump {
+            let _ = std::fs::write(d.join(format!("{}-{name}.smt2", e.module)), text);
         }
     };
     dump("equiv-abs", &abs);

@@ -148,7 +148,7 @@ pub fn pipeline_overrides(
 /// passed into the model; any other value is an error naming the variable.
 pub fn search_mode() -> anyhow::Result<fxshade_model::rtl::search::Search> {
     use fxshade_model::rtl::search::Search;
-    match std::env::var_os("FXSHADE_SEARCH") {
+    match &crate::env::get().search {
         None => Ok(Search::Full),
         Some(v) => v.to_str().and_then(Search::from_name).ok_or_else(|| {
             anyhow::anyhow!(

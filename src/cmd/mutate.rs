@@ -161,9 +161,9 @@ fn smt(d: &rtl::Design, m: &fxshade_model::datapath::Mutation, rlimit: u64) -> S
         return Smt::Unknown;
     };
     // FXSHADE_SMT_DUMP=DIR keeps each query, to rerun it with `z3 FILE`.
-    if let Some(dir) = std::env::var_os("FXSHADE_SMT_DUMP") {
+    if let Some(dir) = &crate::env::get().smt_dump {
         let _ = std::fs::write(
-            std::path::Path::new(&dir).join(format!("node{}-{:?}.smt2", m.node, m.kind)),
+            dir.join(format!("node{}-{:?}.smt2", m.node, m.kind)),
             &script,
         );
     }

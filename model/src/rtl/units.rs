@@ -205,9 +205,14 @@ fn corner_key(
 }
 
 /// The file of a cache key: `<cache>/corners/<key>.txt`, one row per line
-/// ([`crate::cache`]: a private directory of the user's own, or an error).
-fn corner_cache_file(key: u64) -> Result<std::path::PathBuf, RtlError> {
-    Ok(crate::cache::subdir("corners")?.join(format!("{key:016x}.txt")))
+/// ([`crate::cache`]: a private directory of the user's own, or an error);
+/// `None` when no cache is installed (the rows are searched every time).
+fn corner_cache_file(key: u64) -> Result<Option<std::path::PathBuf>, RtlError> {
+    match crate::cache::subdir("corners") {
+        Ok(d) => Ok(Some(d.join(format!("{key:016x}.txt")))),
+        Err(crate::cache::CacheError::NotInstalled) => Ok(None),
+        Err(e) => Err(e.into()),
+    }
 }
 
 /// The rows cached under `key`, if a whole, readable entry is there whose
@@ -217,7 +222,10 @@ fn read_corner_cache(
     key: u64,
     formats: &[crate::format::Format],
 ) -> Result<Option<Vec<Vec<i128>>>, RtlError> {
-    let Some(bytes) = crate::cache::read(&corner_cache_file(key)?)? else {
+    let Some(file) = corner_cache_file(key)? else {
+        return Ok(None);
+    };
+    let Some(bytes) = crate::cache::read(&file)? else {
         return Ok(None);
     };
     let text = String::from_utf8_lossy(&bytes);
@@ -260,7 +268,10 @@ fn write_corner_cache(key: u64, rows: &[Vec<i128>]) -> Result<(), RtlError> {
         text.push('\n');
     }
     text.push_str("end\n");
-    match crate::cache::write(&corner_cache_file(key)?, text.as_bytes()) {
+    let Some(file) = corner_cache_file(key)? else {
+        return Ok(());
+    };
+    match crate::cache::write(&file, text.as_bytes()) {
         Ok(())
         | Err(crate::cache::CacheError::Full { .. } | crate::cache::CacheError::Io { .. }) => {
             Ok(())
