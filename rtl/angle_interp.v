@@ -72,21 +72,26 @@ module angle_interp (
   end
 
   // Datapath.
-  wire signed [16:0] t5_a = $signed({1'b0, c1_i});
-  wire signed [26:0] t5 = t5_a * d1_i;
-  wire signed [27:0] t6 = $signed({{2{1'b0}}, a3_i, 15'b0} + {t5[26], t5});
-  wire signed [16:0] t7_a = $signed({1'b0, c2_i});
-  wire signed [26:0] t7 = t7_a * d2_i;
-  wire signed [28:0] t8 = $signed({{2{t7[26]}}, t7} + {t6[27], t6});
-  wire angle_interp_angle_9_tie = t8[14] & ~(|t8[13:0]);
-  wire [14:0] angle_interp_angle_9_up = {t8[28], t8[28:15]} + {{14{1'b0}}, t8[14]};
-  wire signed [14:0] angle_interp_angle_9_r =
-      $signed({angle_interp_angle_9_up[14:1], angle_interp_angle_9_up[0]
-      & ~angle_interp_angle_9_tie});
-  wire angle_interp_angle_9_ovf_c = angle_interp_angle_9_r[14] | (|angle_interp_angle_9_r[13:11]);
-  wire [10:0] angle_interp_angle_9_d = angle_interp_angle_9_r[10:0];
-  reg  [10:0] angle_interp_angle_9_q;
-  reg  [0:0] angle_interp_angle_9_ovf_s1_q;
+  wire signed [16:0] angle_interp_angle_mul0_a = $signed({1'b0, c1_i});
+  wire signed [26:0] angle_interp_angle_mul0 = angle_interp_angle_mul0_a * d1_i;
+  wire signed [27:0] angle_interp_angle_add0 =
+      $signed({{2{1'b0}}, a3_i, 15'b0} + {angle_interp_angle_mul0[26], angle_interp_angle_mul0});
+  wire signed [16:0] angle_interp_angle_mul1_a = $signed({1'b0, c2_i});
+  wire signed [26:0] angle_interp_angle_mul1 = angle_interp_angle_mul1_a * d2_i;
+  wire signed [28:0] angle_interp_angle_add1 =
+      $signed({{2{angle_interp_angle_mul1[26]}}, angle_interp_angle_mul1}
+      + {angle_interp_angle_add0[27], angle_interp_angle_add0});
+  wire angle_interp_angle_0_tie = angle_interp_angle_add1[14] & ~(|angle_interp_angle_add1[13:0]);
+  wire [14:0] angle_interp_angle_0_up =
+      {angle_interp_angle_add1[28], angle_interp_angle_add1[28:15]}
+      + {{14{1'b0}}, angle_interp_angle_add1[14]};
+  wire signed [14:0] angle_interp_angle_0_r =
+      $signed({angle_interp_angle_0_up[14:1], angle_interp_angle_0_up[0]
+      & ~angle_interp_angle_0_tie});
+  wire angle_interp_angle_0_ovf_c = angle_interp_angle_0_r[14] | (|angle_interp_angle_0_r[13:11]);
+  wire [10:0] angle_interp_angle_0_d = angle_interp_angle_0_r[10:0];
+  reg  [10:0] angle_interp_angle_0_q;
+  reg  [0:0] angle_interp_angle_0_ovf_s1_q;
 
   // Stage loads: the item entering stage k is valid and the stages move.
   wire load_s1 = in_take;
@@ -95,14 +100,14 @@ module angle_interp (
   // registers load only with a valid item, so bubbles do not toggle them.
   always @(posedge clk_i) begin
     if (load_s1) begin
-      angle_interp_angle_9_q <= angle_interp_angle_9_d;
-      angle_interp_angle_9_ovf_s1_q <= angle_interp_angle_9_ovf_c;
+      angle_interp_angle_0_q <= angle_interp_angle_0_d;
+      angle_interp_angle_0_ovf_s1_q <= angle_interp_angle_0_ovf_c;
     end
   end
 
   // Output buffer: the head drives the ports; the skid register takes the
   // item that leaves the last stage while the head is stalled.
-  wire [11:0] last_d = {angle_interp_angle_9_q, (angle_interp_angle_9_ovf_s1_q)};
+  wire [11:0] last_d = {angle_interp_angle_0_q, (angle_interp_angle_0_ovf_s1_q)};
   reg  [11:0] out_q, skid_q;
   always @(posedge clk_i) begin
     if (out_load & (skid_valid | out_arrive)) out_q <= skid_valid ? skid_q : last_d;

@@ -154,1049 +154,1062 @@ module angles (
   end
 
   // Datapath.
-  localparam [0:0] K3 = 1'h0;
-  localparam [15:0] K4 = 16'h4000;
-  localparam [15:0] K5 = 16'h2000;
-  localparam [15:0] K6 = 16'h12e4;
-  localparam [15:0] K7 = 16'h9fb;
-  localparam [15:0] K8 = 16'h511;
-  localparam [15:0] K9 = 16'h28b;
-  localparam [15:0] K10 = 16'h146;
-  localparam [15:0] K11 = 16'ha3;
-  localparam [15:0] K12 = 16'h51;
-  localparam [15:0] K13 = 16'h29;
-  localparam [15:0] K14 = 16'h14;
-  localparam [15:0] K15 = 16'ha;
-  localparam [15:0] K16 = 16'h5;
-  localparam [17:0] K17 = 18'h34b24;
-  wire t18_sub = n_x_i[15];
-  wire signed [16:0] t18 =
-      t18_sub ? $signed({{2{1'b0}}, K3, 14'b0} - {n_x_i[15], n_x_i})
-      : $signed({{2{1'b0}}, K3, 14'b0} + {n_x_i[15], n_x_i});
-  wire t19_sub = ~n_x_i[15];
-  wire signed [16:0] t19 =
-      t19_sub ? $signed({{2{1'b0}}, K3, 14'b0} - {n_z_i[15], n_z_i})
-      : $signed({{2{1'b0}}, K3, 14'b0} + {n_z_i[15], n_z_i});
-  wire t20_sub = n_x_i[15];
-  wire signed [18:0] t20 = t20_sub ? $signed(19'h7c000) : $signed(19'h4000);
-  wire signed [20:0] angles_xy_21_r = $signed({t18, 4'b0});
-  wire angles_xy_21_ovf_c = 1'b0;
+  localparam [0:0] angles_xy_k0 = 1'h0;
+  localparam [15:0] angles_theta_k0 = 16'h4000;
+  localparam [15:0] angles_theta_k1 = 16'h2000;
+  localparam [15:0] angles_theta_k2 = 16'h12e4;
+  localparam [15:0] angles_theta_k3 = 16'h9fb;
+  localparam [15:0] angles_theta_k4 = 16'h511;
+  localparam [15:0] angles_theta_k5 = 16'h28b;
+  localparam [15:0] angles_theta_k6 = 16'h146;
+  localparam [15:0] angles_theta_k7 = 16'ha3;
+  localparam [15:0] angles_theta_k8 = 16'h51;
+  localparam [15:0] angles_theta_k9 = 16'h29;
+  localparam [15:0] angles_theta_k10 = 16'h14;
+  localparam [15:0] angles_theta_k11 = 16'ha;
+  localparam [15:0] angles_theta_k12 = 16'h5;
+  localparam [17:0] angles_xy_k1 = 18'h34b24;
+  wire angles_xy_addsub0_sub = n_x_i[15];
+  wire signed [16:0] angles_xy_addsub0 =
+      angles_xy_addsub0_sub ? $signed({{2{1'b0}}, angles_xy_k0, 14'b0} - {n_x_i[15], n_x_i})
+      : $signed({{2{1'b0}}, angles_xy_k0, 14'b0} + {n_x_i[15], n_x_i});
+  wire angles_xy_addsub1_sub = ~n_x_i[15];
+  wire signed [16:0] angles_xy_addsub1 =
+      angles_xy_addsub1_sub ? $signed({{2{1'b0}}, angles_xy_k0, 14'b0} - {n_z_i[15], n_z_i})
+      : $signed({{2{1'b0}}, angles_xy_k0, 14'b0} + {n_z_i[15], n_z_i});
+  wire angles_theta_addsub0_sub = n_x_i[15];
+  wire signed [18:0] angles_theta_addsub0 =
+      angles_theta_addsub0_sub ? $signed(19'h7c000) : $signed(19'h4000);
+  wire signed [20:0] angles_xy_0_r = $signed({angles_xy_addsub0, 4'b0});
+  wire angles_xy_0_ovf_c = 1'b0;
+  wire signed [21:0] angles_xy_0_d =
+      $signed(angles_xy_0_ovf_c ? (angles_xy_0_r[20] ? 22'h200000 : 22'h1fffff)
+      : {angles_xy_0_r[20], angles_xy_0_r});
+  reg  signed [21:0] angles_xy_0_q;
+  wire signed [20:0] angles_xy_1_r = $signed({angles_xy_addsub1, 4'b0});
+  wire angles_xy_1_ovf_c = 1'b0;
+  wire signed [21:0] angles_xy_1_d =
+      $signed(angles_xy_1_ovf_c ? (angles_xy_1_r[20] ? 22'h200000 : 22'h1fffff)
+      : {angles_xy_1_r[20], angles_xy_1_r});
+  reg  signed [21:0] angles_xy_1_q;
+  wire angles_theta_0_ovf_c = angles_theta_addsub0[18] | (|angles_theta_addsub0[17:16]);
+  wire [15:0] angles_theta_0_d = angles_theta_addsub0[15:0];
+  reg  [15:0] angles_theta_0_q;
+  wire angles_xy_addsub2_sub = angles_xy_1_q[21];
+  wire signed [22:0] angles_xy_addsub2 =
+      angles_xy_addsub2_sub
+      ? $signed({angles_xy_0_q[21], angles_xy_0_q} - {angles_xy_1_q[21], angles_xy_1_q})
+      : $signed({angles_xy_0_q[21], angles_xy_0_q} + {angles_xy_1_q[21], angles_xy_1_q});
+  wire angles_xy_addsub3_sub = ~angles_xy_1_q[21];
+  wire signed [22:0] angles_xy_addsub3 =
+      angles_xy_addsub3_sub
+      ? $signed({angles_xy_1_q[21], angles_xy_1_q} - {angles_xy_0_q[21], angles_xy_0_q})
+      : $signed({angles_xy_1_q[21], angles_xy_1_q} + {angles_xy_0_q[21], angles_xy_0_q});
+  wire angles_theta_addsub1_sub = angles_xy_1_q[21];
+  wire signed [17:0] angles_theta_addsub1 =
+      angles_theta_addsub1_sub
+      ? $signed({{2{1'b0}}, angles_theta_0_q} - {{2{1'b0}}, angles_theta_k1})
+      : $signed({{2{1'b0}}, angles_theta_0_q} + {{2{1'b0}}, angles_theta_k1});
+  wire angles_xy_2_ovf_c = ~((&angles_xy_addsub2[22:21]) | ~(|angles_xy_addsub2[22:21]));
+  wire signed [21:0] angles_xy_2_d =
+      $signed(angles_xy_2_ovf_c ? (angles_xy_addsub2[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_addsub2[21:0]);
+  reg  signed [21:0] angles_xy_2_q;
+  wire angles_xy_3_ovf_c = ~((&angles_xy_addsub3[22:21]) | ~(|angles_xy_addsub3[22:21]));
+  wire signed [21:0] angles_xy_3_d =
+      $signed(angles_xy_3_ovf_c ? (angles_xy_addsub3[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_addsub3[21:0]);
+  reg  signed [21:0] angles_xy_3_q;
+  wire angles_theta_1_ovf_c = angles_theta_addsub1[17] | (|angles_theta_addsub1[16]);
+  wire [15:0] angles_theta_1_d = angles_theta_addsub1[15:0];
+  reg  [15:0] angles_theta_1_q;
+  wire angles_xy_addsub4_sub = angles_xy_3_q[21];
+  wire signed [23:0] angles_xy_addsub4 =
+      angles_xy_addsub4_sub
+      ? $signed({angles_xy_2_q[21], angles_xy_2_q, 1'b0} - {{2{angles_xy_3_q[21]}}, angles_xy_3_q})
+      : $signed({angles_xy_2_q[21], angles_xy_2_q, 1'b0} + {{2{angles_xy_3_q[21]}}, angles_xy_3_q});
+  wire angles_xy_addsub5_sub = ~angles_xy_3_q[21];
+  wire signed [23:0] angles_xy_addsub5 =
+      angles_xy_addsub5_sub
+      ? $signed({angles_xy_3_q[21], angles_xy_3_q, 1'b0} - {{2{angles_xy_2_q[21]}}, angles_xy_2_q})
+      : $signed({angles_xy_3_q[21], angles_xy_3_q, 1'b0} + {{2{angles_xy_2_q[21]}}, angles_xy_2_q});
+  wire angles_theta_addsub2_sub = angles_xy_3_q[21];
+  wire signed [17:0] angles_theta_addsub2 =
+      angles_theta_addsub2_sub
+      ? $signed({{2{1'b0}}, angles_theta_1_q} - {{2{1'b0}}, angles_theta_k2})
+      : $signed({{2{1'b0}}, angles_theta_1_q} + {{2{1'b0}}, angles_theta_k2});
+  wire signed [22:0] angles_xy_4_t = $signed(angles_xy_addsub4[23:1]);
+  wire angles_xy_4_ovf_c = ~((&angles_xy_4_t[22:21]) | ~(|angles_xy_4_t[22:21]));
+  wire signed [21:0] angles_xy_4_d =
+      $signed(angles_xy_4_ovf_c ? (angles_xy_4_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_4_t[21:0]);
+  reg  signed [21:0] angles_xy_4_q;
+  wire signed [22:0] angles_xy_5_t = $signed(angles_xy_addsub5[23:1]);
+  wire angles_xy_5_ovf_c = ~((&angles_xy_5_t[22:21]) | ~(|angles_xy_5_t[22:21]));
+  wire signed [21:0] angles_xy_5_d =
+      $signed(angles_xy_5_ovf_c ? (angles_xy_5_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_5_t[21:0]);
+  reg  signed [21:0] angles_xy_5_q;
+  wire angles_theta_2_ovf_c = angles_theta_addsub2[17] | (|angles_theta_addsub2[16]);
+  wire [15:0] angles_theta_2_d = angles_theta_addsub2[15:0];
+  reg  [15:0] angles_theta_2_q;
+  wire angles_xy_addsub6_sub = angles_xy_5_q[21];
+  wire signed [24:0] angles_xy_addsub6 =
+      angles_xy_addsub6_sub
+      ? $signed({angles_xy_4_q[21], angles_xy_4_q, 2'b0} - {{3{angles_xy_5_q[21]}}, angles_xy_5_q})
+      : $signed({angles_xy_4_q[21], angles_xy_4_q, 2'b0} + {{3{angles_xy_5_q[21]}}, angles_xy_5_q});
+  wire angles_xy_addsub7_sub = ~angles_xy_5_q[21];
+  wire signed [24:0] angles_xy_addsub7 =
+      angles_xy_addsub7_sub
+      ? $signed({angles_xy_5_q[21], angles_xy_5_q, 2'b0} - {{3{angles_xy_4_q[21]}}, angles_xy_4_q})
+      : $signed({angles_xy_5_q[21], angles_xy_5_q, 2'b0} + {{3{angles_xy_4_q[21]}}, angles_xy_4_q});
+  wire angles_theta_addsub3_sub = angles_xy_5_q[21];
+  wire signed [17:0] angles_theta_addsub3 =
+      angles_theta_addsub3_sub
+      ? $signed({{2{1'b0}}, angles_theta_2_q} - {{2{1'b0}}, angles_theta_k3})
+      : $signed({{2{1'b0}}, angles_theta_2_q} + {{2{1'b0}}, angles_theta_k3});
+  wire signed [22:0] angles_xy_6_t = $signed(angles_xy_addsub6[24:2]);
+  wire angles_xy_6_ovf_c = ~((&angles_xy_6_t[22:21]) | ~(|angles_xy_6_t[22:21]));
+  wire signed [21:0] angles_xy_6_d =
+      $signed(angles_xy_6_ovf_c ? (angles_xy_6_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_6_t[21:0]);
+  reg  signed [21:0] angles_xy_6_q;
+  wire signed [22:0] angles_xy_7_t = $signed(angles_xy_addsub7[24:2]);
+  wire angles_xy_7_ovf_c = ~((&angles_xy_7_t[22:21]) | ~(|angles_xy_7_t[22:21]));
+  wire signed [21:0] angles_xy_7_d =
+      $signed(angles_xy_7_ovf_c ? (angles_xy_7_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_7_t[21:0]);
+  reg  signed [21:0] angles_xy_7_q;
+  wire angles_theta_3_ovf_c = angles_theta_addsub3[17] | (|angles_theta_addsub3[16]);
+  wire [15:0] angles_theta_3_d = angles_theta_addsub3[15:0];
+  reg  [15:0] angles_theta_3_q;
+  wire angles_xy_addsub8_sub = angles_xy_7_q[21];
+  wire signed [25:0] angles_xy_addsub8 =
+      angles_xy_addsub8_sub
+      ? $signed({angles_xy_6_q[21], angles_xy_6_q, 3'b0} - {{4{angles_xy_7_q[21]}}, angles_xy_7_q})
+      : $signed({angles_xy_6_q[21], angles_xy_6_q, 3'b0} + {{4{angles_xy_7_q[21]}}, angles_xy_7_q});
+  wire angles_xy_addsub9_sub = ~angles_xy_7_q[21];
+  wire signed [25:0] angles_xy_addsub9 =
+      angles_xy_addsub9_sub
+      ? $signed({angles_xy_7_q[21], angles_xy_7_q, 3'b0} - {{4{angles_xy_6_q[21]}}, angles_xy_6_q})
+      : $signed({angles_xy_7_q[21], angles_xy_7_q, 3'b0} + {{4{angles_xy_6_q[21]}}, angles_xy_6_q});
+  wire angles_theta_addsub4_sub = angles_xy_7_q[21];
+  wire signed [17:0] angles_theta_addsub4 =
+      angles_theta_addsub4_sub
+      ? $signed({{2{1'b0}}, angles_theta_3_q} - {{2{1'b0}}, angles_theta_k4})
+      : $signed({{2{1'b0}}, angles_theta_3_q} + {{2{1'b0}}, angles_theta_k4});
+  wire signed [22:0] angles_xy_8_t = $signed(angles_xy_addsub8[25:3]);
+  wire angles_xy_8_ovf_c = ~((&angles_xy_8_t[22:21]) | ~(|angles_xy_8_t[22:21]));
+  wire signed [21:0] angles_xy_8_d =
+      $signed(angles_xy_8_ovf_c ? (angles_xy_8_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_8_t[21:0]);
+  reg  signed [21:0] angles_xy_8_q;
+  wire signed [22:0] angles_xy_9_t = $signed(angles_xy_addsub9[25:3]);
+  wire angles_xy_9_ovf_c = ~((&angles_xy_9_t[22:21]) | ~(|angles_xy_9_t[22:21]));
+  wire signed [21:0] angles_xy_9_d =
+      $signed(angles_xy_9_ovf_c ? (angles_xy_9_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_9_t[21:0]);
+  reg  signed [21:0] angles_xy_9_q;
+  wire angles_theta_4_ovf_c = angles_theta_addsub4[17] | (|angles_theta_addsub4[16]);
+  wire [15:0] angles_theta_4_d = angles_theta_addsub4[15:0];
+  reg  [15:0] angles_theta_4_q;
+  wire angles_xy_addsub10_sub = angles_xy_9_q[21];
+  wire signed [26:0] angles_xy_addsub10 =
+      angles_xy_addsub10_sub
+      ? $signed({angles_xy_8_q[21], angles_xy_8_q, 4'b0} - {{5{angles_xy_9_q[21]}}, angles_xy_9_q})
+      : $signed({angles_xy_8_q[21], angles_xy_8_q, 4'b0} + {{5{angles_xy_9_q[21]}}, angles_xy_9_q});
+  wire angles_xy_addsub11_sub = ~angles_xy_9_q[21];
+  wire signed [26:0] angles_xy_addsub11 =
+      angles_xy_addsub11_sub
+      ? $signed({angles_xy_9_q[21], angles_xy_9_q, 4'b0} - {{5{angles_xy_8_q[21]}}, angles_xy_8_q})
+      : $signed({angles_xy_9_q[21], angles_xy_9_q, 4'b0} + {{5{angles_xy_8_q[21]}}, angles_xy_8_q});
+  wire angles_theta_addsub5_sub = angles_xy_9_q[21];
+  wire signed [17:0] angles_theta_addsub5 =
+      angles_theta_addsub5_sub
+      ? $signed({{2{1'b0}}, angles_theta_4_q} - {{2{1'b0}}, angles_theta_k5})
+      : $signed({{2{1'b0}}, angles_theta_4_q} + {{2{1'b0}}, angles_theta_k5});
+  wire signed [22:0] angles_xy_10_t = $signed(angles_xy_addsub10[26:4]);
+  wire angles_xy_10_ovf_c = ~((&angles_xy_10_t[22:21]) | ~(|angles_xy_10_t[22:21]));
+  wire signed [21:0] angles_xy_10_d =
+      $signed(angles_xy_10_ovf_c ? (angles_xy_10_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_10_t[21:0]);
+  reg  signed [21:0] angles_xy_10_q;
+  wire signed [22:0] angles_xy_11_t = $signed(angles_xy_addsub11[26:4]);
+  wire angles_xy_11_ovf_c = ~((&angles_xy_11_t[22:21]) | ~(|angles_xy_11_t[22:21]));
+  wire signed [21:0] angles_xy_11_d =
+      $signed(angles_xy_11_ovf_c ? (angles_xy_11_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_11_t[21:0]);
+  reg  signed [21:0] angles_xy_11_q;
+  wire angles_theta_5_ovf_c = angles_theta_addsub5[17] | (|angles_theta_addsub5[16]);
+  wire [15:0] angles_theta_5_d = angles_theta_addsub5[15:0];
+  reg  [15:0] angles_theta_5_q;
+  wire angles_xy_addsub12_sub = angles_xy_11_q[21];
+  wire signed [27:0] angles_xy_addsub12 =
+      angles_xy_addsub12_sub
+      ? $signed({angles_xy_10_q[21], angles_xy_10_q, 5'b0}
+      - {{6{angles_xy_11_q[21]}}, angles_xy_11_q})
+      : $signed({angles_xy_10_q[21], angles_xy_10_q, 5'b0}
+      + {{6{angles_xy_11_q[21]}}, angles_xy_11_q});
+  wire angles_xy_addsub13_sub = ~angles_xy_11_q[21];
+  wire signed [27:0] angles_xy_addsub13 =
+      angles_xy_addsub13_sub
+      ? $signed({angles_xy_11_q[21], angles_xy_11_q, 5'b0}
+      - {{6{angles_xy_10_q[21]}}, angles_xy_10_q})
+      : $signed({angles_xy_11_q[21], angles_xy_11_q, 5'b0}
+      + {{6{angles_xy_10_q[21]}}, angles_xy_10_q});
+  wire angles_theta_addsub6_sub = angles_xy_11_q[21];
+  wire signed [17:0] angles_theta_addsub6 =
+      angles_theta_addsub6_sub
+      ? $signed({{2{1'b0}}, angles_theta_5_q} - {{2{1'b0}}, angles_theta_k6})
+      : $signed({{2{1'b0}}, angles_theta_5_q} + {{2{1'b0}}, angles_theta_k6});
+  wire signed [22:0] angles_xy_12_t = $signed(angles_xy_addsub12[27:5]);
+  wire angles_xy_12_ovf_c = ~((&angles_xy_12_t[22:21]) | ~(|angles_xy_12_t[22:21]));
+  wire signed [21:0] angles_xy_12_d =
+      $signed(angles_xy_12_ovf_c ? (angles_xy_12_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_12_t[21:0]);
+  reg  signed [21:0] angles_xy_12_q;
+  wire signed [22:0] angles_xy_13_t = $signed(angles_xy_addsub13[27:5]);
+  wire angles_xy_13_ovf_c = ~((&angles_xy_13_t[22:21]) | ~(|angles_xy_13_t[22:21]));
+  wire signed [21:0] angles_xy_13_d =
+      $signed(angles_xy_13_ovf_c ? (angles_xy_13_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_13_t[21:0]);
+  reg  signed [21:0] angles_xy_13_q;
+  wire angles_theta_6_ovf_c = angles_theta_addsub6[17] | (|angles_theta_addsub6[16]);
+  wire [15:0] angles_theta_6_d = angles_theta_addsub6[15:0];
+  reg  [15:0] angles_theta_6_q;
+  wire angles_xy_addsub14_sub = angles_xy_13_q[21];
+  wire signed [28:0] angles_xy_addsub14 =
+      angles_xy_addsub14_sub
+      ? $signed({angles_xy_12_q[21], angles_xy_12_q, 6'b0}
+      - {{7{angles_xy_13_q[21]}}, angles_xy_13_q})
+      : $signed({angles_xy_12_q[21], angles_xy_12_q, 6'b0}
+      + {{7{angles_xy_13_q[21]}}, angles_xy_13_q});
+  wire angles_xy_addsub15_sub = ~angles_xy_13_q[21];
+  wire signed [28:0] angles_xy_addsub15 =
+      angles_xy_addsub15_sub
+      ? $signed({angles_xy_13_q[21], angles_xy_13_q, 6'b0}
+      - {{7{angles_xy_12_q[21]}}, angles_xy_12_q})
+      : $signed({angles_xy_13_q[21], angles_xy_13_q, 6'b0}
+      + {{7{angles_xy_12_q[21]}}, angles_xy_12_q});
+  wire angles_theta_addsub7_sub = angles_xy_13_q[21];
+  wire signed [17:0] angles_theta_addsub7 =
+      angles_theta_addsub7_sub
+      ? $signed({{2{1'b0}}, angles_theta_6_q} - {{2{1'b0}}, angles_theta_k7})
+      : $signed({{2{1'b0}}, angles_theta_6_q} + {{2{1'b0}}, angles_theta_k7});
+  wire signed [22:0] angles_xy_14_t = $signed(angles_xy_addsub14[28:6]);
+  wire angles_xy_14_ovf_c = ~((&angles_xy_14_t[22:21]) | ~(|angles_xy_14_t[22:21]));
+  wire signed [21:0] angles_xy_14_d =
+      $signed(angles_xy_14_ovf_c ? (angles_xy_14_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_14_t[21:0]);
+  reg  signed [21:0] angles_xy_14_q;
+  wire signed [22:0] angles_xy_15_t = $signed(angles_xy_addsub15[28:6]);
+  wire angles_xy_15_ovf_c = ~((&angles_xy_15_t[22:21]) | ~(|angles_xy_15_t[22:21]));
+  wire signed [21:0] angles_xy_15_d =
+      $signed(angles_xy_15_ovf_c ? (angles_xy_15_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_15_t[21:0]);
+  reg  signed [21:0] angles_xy_15_q;
+  wire angles_theta_7_ovf_c = angles_theta_addsub7[17] | (|angles_theta_addsub7[16]);
+  wire [15:0] angles_theta_7_d = angles_theta_addsub7[15:0];
+  reg  [15:0] angles_theta_7_q;
+  wire angles_xy_addsub16_sub = angles_xy_15_q[21];
+  wire signed [29:0] angles_xy_addsub16 =
+      angles_xy_addsub16_sub
+      ? $signed({angles_xy_14_q[21], angles_xy_14_q, 7'b0}
+      - {{8{angles_xy_15_q[21]}}, angles_xy_15_q})
+      : $signed({angles_xy_14_q[21], angles_xy_14_q, 7'b0}
+      + {{8{angles_xy_15_q[21]}}, angles_xy_15_q});
+  wire angles_xy_addsub17_sub = ~angles_xy_15_q[21];
+  wire signed [29:0] angles_xy_addsub17 =
+      angles_xy_addsub17_sub
+      ? $signed({angles_xy_15_q[21], angles_xy_15_q, 7'b0}
+      - {{8{angles_xy_14_q[21]}}, angles_xy_14_q})
+      : $signed({angles_xy_15_q[21], angles_xy_15_q, 7'b0}
+      + {{8{angles_xy_14_q[21]}}, angles_xy_14_q});
+  wire angles_theta_addsub8_sub = angles_xy_15_q[21];
+  wire signed [17:0] angles_theta_addsub8 =
+      angles_theta_addsub8_sub
+      ? $signed({{2{1'b0}}, angles_theta_7_q} - {{2{1'b0}}, angles_theta_k8})
+      : $signed({{2{1'b0}}, angles_theta_7_q} + {{2{1'b0}}, angles_theta_k8});
+  wire signed [22:0] angles_xy_16_t = $signed(angles_xy_addsub16[29:7]);
+  wire angles_xy_16_ovf_c = ~((&angles_xy_16_t[22:21]) | ~(|angles_xy_16_t[22:21]));
+  wire signed [21:0] angles_xy_16_d =
+      $signed(angles_xy_16_ovf_c ? (angles_xy_16_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_16_t[21:0]);
+  reg  signed [21:0] angles_xy_16_q;
+  wire signed [22:0] angles_xy_17_t = $signed(angles_xy_addsub17[29:7]);
+  wire angles_xy_17_ovf_c = ~((&angles_xy_17_t[22:21]) | ~(|angles_xy_17_t[22:21]));
+  wire signed [21:0] angles_xy_17_d =
+      $signed(angles_xy_17_ovf_c ? (angles_xy_17_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_17_t[21:0]);
+  reg  signed [21:0] angles_xy_17_q;
+  wire angles_theta_8_ovf_c = angles_theta_addsub8[17] | (|angles_theta_addsub8[16]);
+  wire [15:0] angles_theta_8_d = angles_theta_addsub8[15:0];
+  reg  [15:0] angles_theta_8_q;
+  wire angles_xy_addsub18_sub = angles_xy_17_q[21];
+  wire signed [30:0] angles_xy_addsub18 =
+      angles_xy_addsub18_sub
+      ? $signed({angles_xy_16_q[21], angles_xy_16_q, 8'b0}
+      - {{9{angles_xy_17_q[21]}}, angles_xy_17_q})
+      : $signed({angles_xy_16_q[21], angles_xy_16_q, 8'b0}
+      + {{9{angles_xy_17_q[21]}}, angles_xy_17_q});
+  wire angles_xy_addsub19_sub = ~angles_xy_17_q[21];
+  wire signed [30:0] angles_xy_addsub19 =
+      angles_xy_addsub19_sub
+      ? $signed({angles_xy_17_q[21], angles_xy_17_q, 8'b0}
+      - {{9{angles_xy_16_q[21]}}, angles_xy_16_q})
+      : $signed({angles_xy_17_q[21], angles_xy_17_q, 8'b0}
+      + {{9{angles_xy_16_q[21]}}, angles_xy_16_q});
+  wire angles_theta_addsub9_sub = angles_xy_17_q[21];
+  wire signed [17:0] angles_theta_addsub9 =
+      angles_theta_addsub9_sub
+      ? $signed({{2{1'b0}}, angles_theta_8_q} - {{2{1'b0}}, angles_theta_k9})
+      : $signed({{2{1'b0}}, angles_theta_8_q} + {{2{1'b0}}, angles_theta_k9});
+  wire signed [22:0] angles_xy_18_t = $signed(angles_xy_addsub18[30:8]);
+  wire angles_xy_18_ovf_c = ~((&angles_xy_18_t[22:21]) | ~(|angles_xy_18_t[22:21]));
+  wire signed [21:0] angles_xy_18_d =
+      $signed(angles_xy_18_ovf_c ? (angles_xy_18_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_18_t[21:0]);
+  reg  signed [21:0] angles_xy_18_q;
+  wire signed [22:0] angles_xy_19_t = $signed(angles_xy_addsub19[30:8]);
+  wire angles_xy_19_ovf_c = ~((&angles_xy_19_t[22:21]) | ~(|angles_xy_19_t[22:21]));
+  wire signed [21:0] angles_xy_19_d =
+      $signed(angles_xy_19_ovf_c ? (angles_xy_19_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_19_t[21:0]);
+  reg  signed [21:0] angles_xy_19_q;
+  wire angles_theta_9_ovf_c = angles_theta_addsub9[17] | (|angles_theta_addsub9[16]);
+  wire [15:0] angles_theta_9_d = angles_theta_addsub9[15:0];
+  reg  [15:0] angles_theta_9_q;
+  wire angles_xy_addsub20_sub = angles_xy_19_q[21];
+  wire signed [31:0] angles_xy_addsub20 =
+      angles_xy_addsub20_sub
+      ? $signed({angles_xy_18_q[21], angles_xy_18_q, 9'b0}
+      - {{10{angles_xy_19_q[21]}}, angles_xy_19_q})
+      : $signed({angles_xy_18_q[21], angles_xy_18_q, 9'b0}
+      + {{10{angles_xy_19_q[21]}}, angles_xy_19_q});
+  wire angles_xy_addsub21_sub = ~angles_xy_19_q[21];
+  wire signed [31:0] angles_xy_addsub21 =
+      angles_xy_addsub21_sub
+      ? $signed({angles_xy_19_q[21], angles_xy_19_q, 9'b0}
+      - {{10{angles_xy_18_q[21]}}, angles_xy_18_q})
+      : $signed({angles_xy_19_q[21], angles_xy_19_q, 9'b0}
+      + {{10{angles_xy_18_q[21]}}, angles_xy_18_q});
+  wire angles_theta_addsub10_sub = angles_xy_19_q[21];
+  wire signed [17:0] angles_theta_addsub10 =
+      angles_theta_addsub10_sub
+      ? $signed({{2{1'b0}}, angles_theta_9_q} - {{2{1'b0}}, angles_theta_k10})
+      : $signed({{2{1'b0}}, angles_theta_9_q} + {{2{1'b0}}, angles_theta_k10});
+  wire signed [22:0] angles_xy_20_t = $signed(angles_xy_addsub20[31:9]);
+  wire angles_xy_20_ovf_c = ~((&angles_xy_20_t[22:21]) | ~(|angles_xy_20_t[22:21]));
+  wire signed [21:0] angles_xy_20_d =
+      $signed(angles_xy_20_ovf_c ? (angles_xy_20_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_20_t[21:0]);
+  reg  signed [21:0] angles_xy_20_q;
+  wire signed [22:0] angles_xy_21_t = $signed(angles_xy_addsub21[31:9]);
+  wire angles_xy_21_ovf_c = ~((&angles_xy_21_t[22:21]) | ~(|angles_xy_21_t[22:21]));
   wire signed [21:0] angles_xy_21_d =
-      $signed(angles_xy_21_ovf_c ? (angles_xy_21_r[20] ? 22'h200000 : 22'h1fffff)
-      : {angles_xy_21_r[20], angles_xy_21_r});
+      $signed(angles_xy_21_ovf_c ? (angles_xy_21_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_21_t[21:0]);
   reg  signed [21:0] angles_xy_21_q;
-  wire signed [20:0] angles_xy_22_r = $signed({t19, 4'b0});
-  wire angles_xy_22_ovf_c = 1'b0;
+  wire angles_theta_10_ovf_c = angles_theta_addsub10[17] | (|angles_theta_addsub10[16]);
+  wire [15:0] angles_theta_10_d = angles_theta_addsub10[15:0];
+  reg  [15:0] angles_theta_10_q;
+  wire angles_xy_addsub22_sub = angles_xy_21_q[21];
+  wire signed [32:0] angles_xy_addsub22 =
+      angles_xy_addsub22_sub
+      ? $signed({angles_xy_20_q[21], angles_xy_20_q, 10'b0}
+      - {{11{angles_xy_21_q[21]}}, angles_xy_21_q})
+      : $signed({angles_xy_20_q[21], angles_xy_20_q, 10'b0}
+      + {{11{angles_xy_21_q[21]}}, angles_xy_21_q});
+  wire angles_xy_addsub23_sub = ~angles_xy_21_q[21];
+  wire signed [32:0] angles_xy_addsub23 =
+      angles_xy_addsub23_sub
+      ? $signed({angles_xy_21_q[21], angles_xy_21_q, 10'b0}
+      - {{11{angles_xy_20_q[21]}}, angles_xy_20_q})
+      : $signed({angles_xy_21_q[21], angles_xy_21_q, 10'b0}
+      + {{11{angles_xy_20_q[21]}}, angles_xy_20_q});
+  wire angles_theta_addsub11_sub = angles_xy_21_q[21];
+  wire signed [17:0] angles_theta_addsub11 =
+      angles_theta_addsub11_sub
+      ? $signed({{2{1'b0}}, angles_theta_10_q} - {{2{1'b0}}, angles_theta_k11})
+      : $signed({{2{1'b0}}, angles_theta_10_q} + {{2{1'b0}}, angles_theta_k11});
+  wire signed [22:0] angles_xy_22_t = $signed(angles_xy_addsub22[32:10]);
+  wire angles_xy_22_ovf_c = ~((&angles_xy_22_t[22:21]) | ~(|angles_xy_22_t[22:21]));
   wire signed [21:0] angles_xy_22_d =
-      $signed(angles_xy_22_ovf_c ? (angles_xy_22_r[20] ? 22'h200000 : 22'h1fffff)
-      : {angles_xy_22_r[20], angles_xy_22_r});
+      $signed(angles_xy_22_ovf_c ? (angles_xy_22_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_22_t[21:0]);
   reg  signed [21:0] angles_xy_22_q;
-  wire angles_theta_23_ovf_c = t20[18] | (|t20[17:16]);
-  wire [15:0] angles_theta_23_d = t20[15:0];
-  reg  [15:0] angles_theta_23_q;
-  wire t24_sub = angles_xy_22_q[21];
-  wire signed [22:0] t24 =
-      t24_sub ? $signed({angles_xy_21_q[21], angles_xy_21_q} - {angles_xy_22_q[21], angles_xy_22_q})
-      : $signed({angles_xy_21_q[21], angles_xy_21_q} + {angles_xy_22_q[21], angles_xy_22_q});
-  wire t25_sub = ~angles_xy_22_q[21];
-  wire signed [22:0] t25 =
-      t25_sub ? $signed({angles_xy_22_q[21], angles_xy_22_q} - {angles_xy_21_q[21], angles_xy_21_q})
-      : $signed({angles_xy_22_q[21], angles_xy_22_q} + {angles_xy_21_q[21], angles_xy_21_q});
-  wire t26_sub = angles_xy_22_q[21];
-  wire signed [17:0] t26 =
-      t26_sub ? $signed({{2{1'b0}}, angles_theta_23_q} - {{2{1'b0}}, K5})
-      : $signed({{2{1'b0}}, angles_theta_23_q} + {{2{1'b0}}, K5});
-  wire angles_xy_27_ovf_c = ~((&t24[22:21]) | ~(|t24[22:21]));
+  wire signed [22:0] angles_xy_23_t = $signed(angles_xy_addsub23[32:10]);
+  wire angles_xy_23_ovf_c = ~((&angles_xy_23_t[22:21]) | ~(|angles_xy_23_t[22:21]));
+  wire signed [21:0] angles_xy_23_d =
+      $signed(angles_xy_23_ovf_c ? (angles_xy_23_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_23_t[21:0]);
+  reg  signed [21:0] angles_xy_23_q;
+  wire angles_theta_11_ovf_c = angles_theta_addsub11[17] | (|angles_theta_addsub11[16]);
+  wire [15:0] angles_theta_11_d = angles_theta_addsub11[15:0];
+  reg  [15:0] angles_theta_11_q;
+  wire angles_xy_addsub24_sub = angles_xy_23_q[21];
+  wire signed [33:0] angles_xy_addsub24 =
+      angles_xy_addsub24_sub
+      ? $signed({angles_xy_22_q[21], angles_xy_22_q, 11'b0}
+      - {{12{angles_xy_23_q[21]}}, angles_xy_23_q})
+      : $signed({angles_xy_22_q[21], angles_xy_22_q, 11'b0}
+      + {{12{angles_xy_23_q[21]}}, angles_xy_23_q});
+  wire angles_theta_addsub12_sub = angles_xy_23_q[21];
+  wire signed [17:0] angles_theta_addsub12 =
+      angles_theta_addsub12_sub
+      ? $signed({{2{1'b0}}, angles_theta_11_q} - {{2{1'b0}}, angles_theta_k12})
+      : $signed({{2{1'b0}}, angles_theta_11_q} + {{2{1'b0}}, angles_theta_k12});
+  wire signed [22:0] angles_xy_24_t = $signed(angles_xy_addsub24[33:11]);
+  wire angles_xy_24_ovf_c = ~((&angles_xy_24_t[22:21]) | ~(|angles_xy_24_t[22:21]));
+  wire signed [21:0] angles_xy_24_d =
+      $signed(angles_xy_24_ovf_c ? (angles_xy_24_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_24_t[21:0]);
+  reg  signed [21:0] angles_xy_24_q;
+  wire angles_theta_12_ovf_c = angles_theta_addsub12[17] | (|angles_theta_addsub12[16]);
+  wire [15:0] angles_theta_12_d = angles_theta_addsub12[15:0];
+  reg  [15:0] angles_theta_12_q;
+  wire signed [18:0] angles_xy_mul0_a = $signed({1'b0, angles_xy_k1});
+  wire signed [33:0] angles_xy_mul0 = angles_xy_mul0_a * n_y_i;
+  wire signed [20:0] angles_xy_26_t = $signed(angles_xy_mul0[33:13]);
+  wire angles_xy_26_ovf_c = 1'b0;
+  wire signed [21:0] angles_xy_26_d =
+      $signed(angles_xy_26_ovf_c ? (angles_xy_26_t[20] ? 22'h200000 : 22'h1fffff)
+      : {angles_xy_26_t[20], angles_xy_26_t});
+  reg  signed [21:0] angles_xy_26_q;
+  wire [16:0] angles_theta_13_r = {angles_xy_k0, 16'b0};
+  wire angles_theta_13_ovf_c = |angles_theta_13_r[16];
+  wire [15:0] angles_theta_13_d = angles_theta_13_r[15:0];
+  reg  [15:0] angles_theta_13_q;
+  reg  signed [21:0] angles_xy_26_s2_q;
+  reg  signed [21:0] angles_xy_26_s3_q;
+  reg  signed [21:0] angles_xy_26_s4_q;
+  reg  signed [21:0] angles_xy_26_s5_q;
+  reg  signed [21:0] angles_xy_26_s6_q;
+  reg  signed [21:0] angles_xy_26_s7_q;
+  reg  signed [21:0] angles_xy_26_s8_q;
+  reg  signed [21:0] angles_xy_26_s9_q;
+  reg  signed [21:0] angles_xy_26_s10_q;
+  reg  signed [21:0] angles_xy_26_s11_q;
+  reg  signed [21:0] angles_xy_26_s12_q;
+  reg  signed [21:0] angles_xy_26_s13_q;
+  wire angles_xy_addsub26_sub = angles_xy_26_s13_q[21];
+  wire signed [22:0] angles_xy_addsub26 =
+      angles_xy_addsub26_sub
+      ? $signed({angles_xy_24_q[21], angles_xy_24_q} - {angles_xy_26_s13_q[21], angles_xy_26_s13_q})
+      : $signed({angles_xy_24_q[21], angles_xy_24_q}
+      + {angles_xy_26_s13_q[21], angles_xy_26_s13_q});
+  wire angles_xy_addsub27_sub = ~angles_xy_26_s13_q[21];
+  wire signed [22:0] angles_xy_addsub27 =
+      angles_xy_addsub27_sub
+      ? $signed({angles_xy_26_s13_q[21], angles_xy_26_s13_q} - {angles_xy_24_q[21], angles_xy_24_q})
+      : $signed({angles_xy_26_s13_q[21], angles_xy_26_s13_q}
+      + {angles_xy_24_q[21], angles_xy_24_q});
+  wire angles_theta_addsub13_sub = angles_xy_26_q[21];
+  wire signed [17:0] angles_theta_addsub13 =
+      angles_theta_addsub13_sub
+      ? $signed({{2{1'b0}}, angles_theta_13_q} - {{2{1'b0}}, angles_theta_k1})
+      : $signed({{2{1'b0}}, angles_theta_13_q} + {{2{1'b0}}, angles_theta_k1});
+  wire angles_xy_27_ovf_c = ~((&angles_xy_addsub26[22:21]) | ~(|angles_xy_addsub26[22:21]));
   wire signed [21:0] angles_xy_27_d =
-      $signed(angles_xy_27_ovf_c ? (t24[22] ? 22'h200000 : 22'h1fffff) : t24[21:0]);
+      $signed(angles_xy_27_ovf_c ? (angles_xy_addsub26[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_addsub26[21:0]);
   reg  signed [21:0] angles_xy_27_q;
-  wire angles_xy_28_ovf_c = ~((&t25[22:21]) | ~(|t25[22:21]));
+  wire angles_xy_28_ovf_c = ~((&angles_xy_addsub27[22:21]) | ~(|angles_xy_addsub27[22:21]));
   wire signed [21:0] angles_xy_28_d =
-      $signed(angles_xy_28_ovf_c ? (t25[22] ? 22'h200000 : 22'h1fffff) : t25[21:0]);
+      $signed(angles_xy_28_ovf_c ? (angles_xy_addsub27[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_addsub27[21:0]);
   reg  signed [21:0] angles_xy_28_q;
-  wire angles_theta_29_ovf_c = t26[17] | (|t26[16]);
-  wire [15:0] angles_theta_29_d = t26[15:0];
-  reg  [15:0] angles_theta_29_q;
-  wire t30_sub = angles_xy_28_q[21];
-  wire signed [23:0] t30 =
-      t30_sub
+  wire angles_theta_14_ovf_c = angles_theta_addsub13[17] | (|angles_theta_addsub13[16]);
+  wire [15:0] angles_theta_14_d = angles_theta_addsub13[15:0];
+  reg  [15:0] angles_theta_14_q;
+  wire angles_xy_addsub28_sub = angles_xy_28_q[21];
+  wire signed [23:0] angles_xy_addsub28 =
+      angles_xy_addsub28_sub
       ? $signed({angles_xy_27_q[21], angles_xy_27_q, 1'b0}
       - {{2{angles_xy_28_q[21]}}, angles_xy_28_q})
       : $signed({angles_xy_27_q[21], angles_xy_27_q, 1'b0}
       + {{2{angles_xy_28_q[21]}}, angles_xy_28_q});
-  wire t31_sub = ~angles_xy_28_q[21];
-  wire signed [23:0] t31 =
-      t31_sub
+  wire angles_xy_addsub29_sub = ~angles_xy_28_q[21];
+  wire signed [23:0] angles_xy_addsub29 =
+      angles_xy_addsub29_sub
       ? $signed({angles_xy_28_q[21], angles_xy_28_q, 1'b0}
       - {{2{angles_xy_27_q[21]}}, angles_xy_27_q})
       : $signed({angles_xy_28_q[21], angles_xy_28_q, 1'b0}
       + {{2{angles_xy_27_q[21]}}, angles_xy_27_q});
-  wire t32_sub = angles_xy_28_q[21];
-  wire signed [17:0] t32 =
-      t32_sub ? $signed({{2{1'b0}}, angles_theta_29_q} - {{2{1'b0}}, K6})
-      : $signed({{2{1'b0}}, angles_theta_29_q} + {{2{1'b0}}, K6});
-  wire signed [22:0] angles_xy_33_t = $signed(t30[23:1]);
+  reg  [15:0] angles_theta_14_s3_q;
+  reg  [15:0] angles_theta_14_s4_q;
+  reg  [15:0] angles_theta_14_s5_q;
+  reg  [15:0] angles_theta_14_s6_q;
+  reg  [15:0] angles_theta_14_s7_q;
+  reg  [15:0] angles_theta_14_s8_q;
+  reg  [15:0] angles_theta_14_s9_q;
+  reg  [15:0] angles_theta_14_s10_q;
+  reg  [15:0] angles_theta_14_s11_q;
+  reg  [15:0] angles_theta_14_s12_q;
+  reg  [15:0] angles_theta_14_s13_q;
+  reg  [15:0] angles_theta_14_s14_q;
+  wire angles_theta_addsub14_sub = angles_xy_28_q[21];
+  wire signed [17:0] angles_theta_addsub14 =
+      angles_theta_addsub14_sub
+      ? $signed({{2{1'b0}}, angles_theta_14_s14_q} - {{2{1'b0}}, angles_theta_k2})
+      : $signed({{2{1'b0}}, angles_theta_14_s14_q} + {{2{1'b0}}, angles_theta_k2});
+  wire signed [22:0] angles_xy_29_t = $signed(angles_xy_addsub28[23:1]);
+  wire angles_xy_29_ovf_c = ~((&angles_xy_29_t[22:21]) | ~(|angles_xy_29_t[22:21]));
+  wire signed [21:0] angles_xy_29_d =
+      $signed(angles_xy_29_ovf_c ? (angles_xy_29_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_29_t[21:0]);
+  reg  signed [21:0] angles_xy_29_q;
+  wire signed [22:0] angles_xy_30_t = $signed(angles_xy_addsub29[23:1]);
+  wire angles_xy_30_ovf_c = ~((&angles_xy_30_t[22:21]) | ~(|angles_xy_30_t[22:21]));
+  wire signed [21:0] angles_xy_30_d =
+      $signed(angles_xy_30_ovf_c ? (angles_xy_30_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_30_t[21:0]);
+  reg  signed [21:0] angles_xy_30_q;
+  wire angles_theta_15_ovf_c = angles_theta_addsub14[17] | (|angles_theta_addsub14[16]);
+  wire [15:0] angles_theta_15_d = angles_theta_addsub14[15:0];
+  reg  [15:0] angles_theta_15_q;
+  wire angles_xy_addsub30_sub = angles_xy_30_q[21];
+  wire signed [24:0] angles_xy_addsub30 =
+      angles_xy_addsub30_sub
+      ? $signed({angles_xy_29_q[21], angles_xy_29_q, 2'b0}
+      - {{3{angles_xy_30_q[21]}}, angles_xy_30_q})
+      : $signed({angles_xy_29_q[21], angles_xy_29_q, 2'b0}
+      + {{3{angles_xy_30_q[21]}}, angles_xy_30_q});
+  wire angles_xy_addsub31_sub = ~angles_xy_30_q[21];
+  wire signed [24:0] angles_xy_addsub31 =
+      angles_xy_addsub31_sub
+      ? $signed({angles_xy_30_q[21], angles_xy_30_q, 2'b0}
+      - {{3{angles_xy_29_q[21]}}, angles_xy_29_q})
+      : $signed({angles_xy_30_q[21], angles_xy_30_q, 2'b0}
+      + {{3{angles_xy_29_q[21]}}, angles_xy_29_q});
+  wire angles_theta_addsub15_sub = angles_xy_30_q[21];
+  wire signed [17:0] angles_theta_addsub15 =
+      angles_theta_addsub15_sub
+      ? $signed({{2{1'b0}}, angles_theta_15_q} - {{2{1'b0}}, angles_theta_k3})
+      : $signed({{2{1'b0}}, angles_theta_15_q} + {{2{1'b0}}, angles_theta_k3});
+  wire signed [22:0] angles_xy_31_t = $signed(angles_xy_addsub30[24:2]);
+  wire angles_xy_31_ovf_c = ~((&angles_xy_31_t[22:21]) | ~(|angles_xy_31_t[22:21]));
+  wire signed [21:0] angles_xy_31_d =
+      $signed(angles_xy_31_ovf_c ? (angles_xy_31_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_31_t[21:0]);
+  reg  signed [21:0] angles_xy_31_q;
+  wire signed [22:0] angles_xy_32_t = $signed(angles_xy_addsub31[24:2]);
+  wire angles_xy_32_ovf_c = ~((&angles_xy_32_t[22:21]) | ~(|angles_xy_32_t[22:21]));
+  wire signed [21:0] angles_xy_32_d =
+      $signed(angles_xy_32_ovf_c ? (angles_xy_32_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_32_t[21:0]);
+  reg  signed [21:0] angles_xy_32_q;
+  wire angles_theta_16_ovf_c = angles_theta_addsub15[17] | (|angles_theta_addsub15[16]);
+  wire [15:0] angles_theta_16_d = angles_theta_addsub15[15:0];
+  reg  [15:0] angles_theta_16_q;
+  wire angles_xy_addsub32_sub = angles_xy_32_q[21];
+  wire signed [25:0] angles_xy_addsub32 =
+      angles_xy_addsub32_sub
+      ? $signed({angles_xy_31_q[21], angles_xy_31_q, 3'b0}
+      - {{4{angles_xy_32_q[21]}}, angles_xy_32_q})
+      : $signed({angles_xy_31_q[21], angles_xy_31_q, 3'b0}
+      + {{4{angles_xy_32_q[21]}}, angles_xy_32_q});
+  wire angles_xy_addsub33_sub = ~angles_xy_32_q[21];
+  wire signed [25:0] angles_xy_addsub33 =
+      angles_xy_addsub33_sub
+      ? $signed({angles_xy_32_q[21], angles_xy_32_q, 3'b0}
+      - {{4{angles_xy_31_q[21]}}, angles_xy_31_q})
+      : $signed({angles_xy_32_q[21], angles_xy_32_q, 3'b0}
+      + {{4{angles_xy_31_q[21]}}, angles_xy_31_q});
+  wire angles_theta_addsub16_sub = angles_xy_32_q[21];
+  wire signed [17:0] angles_theta_addsub16 =
+      angles_theta_addsub16_sub
+      ? $signed({{2{1'b0}}, angles_theta_16_q} - {{2{1'b0}}, angles_theta_k4})
+      : $signed({{2{1'b0}}, angles_theta_16_q} + {{2{1'b0}}, angles_theta_k4});
+  wire signed [22:0] angles_xy_33_t = $signed(angles_xy_addsub32[25:3]);
   wire angles_xy_33_ovf_c = ~((&angles_xy_33_t[22:21]) | ~(|angles_xy_33_t[22:21]));
   wire signed [21:0] angles_xy_33_d =
       $signed(angles_xy_33_ovf_c ? (angles_xy_33_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_33_t[21:0]);
   reg  signed [21:0] angles_xy_33_q;
-  wire signed [22:0] angles_xy_34_t = $signed(t31[23:1]);
+  wire signed [22:0] angles_xy_34_t = $signed(angles_xy_addsub33[25:3]);
   wire angles_xy_34_ovf_c = ~((&angles_xy_34_t[22:21]) | ~(|angles_xy_34_t[22:21]));
   wire signed [21:0] angles_xy_34_d =
       $signed(angles_xy_34_ovf_c ? (angles_xy_34_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_34_t[21:0]);
   reg  signed [21:0] angles_xy_34_q;
-  wire angles_theta_35_ovf_c = t32[17] | (|t32[16]);
-  wire [15:0] angles_theta_35_d = t32[15:0];
-  reg  [15:0] angles_theta_35_q;
-  wire t36_sub = angles_xy_34_q[21];
-  wire signed [24:0] t36 =
-      t36_sub
-      ? $signed({angles_xy_33_q[21], angles_xy_33_q, 2'b0}
-      - {{3{angles_xy_34_q[21]}}, angles_xy_34_q})
-      : $signed({angles_xy_33_q[21], angles_xy_33_q, 2'b0}
-      + {{3{angles_xy_34_q[21]}}, angles_xy_34_q});
-  wire t37_sub = ~angles_xy_34_q[21];
-  wire signed [24:0] t37 =
-      t37_sub
-      ? $signed({angles_xy_34_q[21], angles_xy_34_q, 2'b0}
-      - {{3{angles_xy_33_q[21]}}, angles_xy_33_q})
-      : $signed({angles_xy_34_q[21], angles_xy_34_q, 2'b0}
-      + {{3{angles_xy_33_q[21]}}, angles_xy_33_q});
-  wire t38_sub = angles_xy_34_q[21];
-  wire signed [17:0] t38 =
-      t38_sub ? $signed({{2{1'b0}}, angles_theta_35_q} - {{2{1'b0}}, K7})
-      : $signed({{2{1'b0}}, angles_theta_35_q} + {{2{1'b0}}, K7});
-  wire signed [22:0] angles_xy_39_t = $signed(t36[24:2]);
+  wire angles_theta_17_ovf_c = angles_theta_addsub16[17] | (|angles_theta_addsub16[16]);
+  wire [15:0] angles_theta_17_d = angles_theta_addsub16[15:0];
+  reg  [15:0] angles_theta_17_q;
+  wire angles_xy_addsub34_sub = angles_xy_34_q[21];
+  wire signed [26:0] angles_xy_addsub34 =
+      angles_xy_addsub34_sub
+      ? $signed({angles_xy_33_q[21], angles_xy_33_q, 4'b0}
+      - {{5{angles_xy_34_q[21]}}, angles_xy_34_q})
+      : $signed({angles_xy_33_q[21], angles_xy_33_q, 4'b0}
+      + {{5{angles_xy_34_q[21]}}, angles_xy_34_q});
+  wire angles_xy_addsub35_sub = ~angles_xy_34_q[21];
+  wire signed [26:0] angles_xy_addsub35 =
+      angles_xy_addsub35_sub
+      ? $signed({angles_xy_34_q[21], angles_xy_34_q, 4'b0}
+      - {{5{angles_xy_33_q[21]}}, angles_xy_33_q})
+      : $signed({angles_xy_34_q[21], angles_xy_34_q, 4'b0}
+      + {{5{angles_xy_33_q[21]}}, angles_xy_33_q});
+  wire angles_theta_addsub17_sub = angles_xy_34_q[21];
+  wire signed [17:0] angles_theta_addsub17 =
+      angles_theta_addsub17_sub
+      ? $signed({{2{1'b0}}, angles_theta_17_q} - {{2{1'b0}}, angles_theta_k5})
+      : $signed({{2{1'b0}}, angles_theta_17_q} + {{2{1'b0}}, angles_theta_k5});
+  wire signed [22:0] angles_xy_35_t = $signed(angles_xy_addsub34[26:4]);
+  wire angles_xy_35_ovf_c = ~((&angles_xy_35_t[22:21]) | ~(|angles_xy_35_t[22:21]));
+  wire signed [21:0] angles_xy_35_d =
+      $signed(angles_xy_35_ovf_c ? (angles_xy_35_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_35_t[21:0]);
+  reg  signed [21:0] angles_xy_35_q;
+  wire signed [22:0] angles_xy_36_t = $signed(angles_xy_addsub35[26:4]);
+  wire angles_xy_36_ovf_c = ~((&angles_xy_36_t[22:21]) | ~(|angles_xy_36_t[22:21]));
+  wire signed [21:0] angles_xy_36_d =
+      $signed(angles_xy_36_ovf_c ? (angles_xy_36_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_36_t[21:0]);
+  reg  signed [21:0] angles_xy_36_q;
+  wire angles_theta_18_ovf_c = angles_theta_addsub17[17] | (|angles_theta_addsub17[16]);
+  wire [15:0] angles_theta_18_d = angles_theta_addsub17[15:0];
+  reg  [15:0] angles_theta_18_q;
+  wire angles_xy_addsub36_sub = angles_xy_36_q[21];
+  wire signed [27:0] angles_xy_addsub36 =
+      angles_xy_addsub36_sub
+      ? $signed({angles_xy_35_q[21], angles_xy_35_q, 5'b0}
+      - {{6{angles_xy_36_q[21]}}, angles_xy_36_q})
+      : $signed({angles_xy_35_q[21], angles_xy_35_q, 5'b0}
+      + {{6{angles_xy_36_q[21]}}, angles_xy_36_q});
+  wire angles_xy_addsub37_sub = ~angles_xy_36_q[21];
+  wire signed [27:0] angles_xy_addsub37 =
+      angles_xy_addsub37_sub
+      ? $signed({angles_xy_36_q[21], angles_xy_36_q, 5'b0}
+      - {{6{angles_xy_35_q[21]}}, angles_xy_35_q})
+      : $signed({angles_xy_36_q[21], angles_xy_36_q, 5'b0}
+      + {{6{angles_xy_35_q[21]}}, angles_xy_35_q});
+  wire angles_theta_addsub18_sub = angles_xy_36_q[21];
+  wire signed [17:0] angles_theta_addsub18 =
+      angles_theta_addsub18_sub
+      ? $signed({{2{1'b0}}, angles_theta_18_q} - {{2{1'b0}}, angles_theta_k6})
+      : $signed({{2{1'b0}}, angles_theta_18_q} + {{2{1'b0}}, angles_theta_k6});
+  wire signed [22:0] angles_xy_37_t = $signed(angles_xy_addsub36[27:5]);
+  wire angles_xy_37_ovf_c = ~((&angles_xy_37_t[22:21]) | ~(|angles_xy_37_t[22:21]));
+  wire signed [21:0] angles_xy_37_d =
+      $signed(angles_xy_37_ovf_c ? (angles_xy_37_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_37_t[21:0]);
+  reg  signed [21:0] angles_xy_37_q;
+  wire signed [22:0] angles_xy_38_t = $signed(angles_xy_addsub37[27:5]);
+  wire angles_xy_38_ovf_c = ~((&angles_xy_38_t[22:21]) | ~(|angles_xy_38_t[22:21]));
+  wire signed [21:0] angles_xy_38_d =
+      $signed(angles_xy_38_ovf_c ? (angles_xy_38_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_38_t[21:0]);
+  reg  signed [21:0] angles_xy_38_q;
+  wire angles_theta_19_ovf_c = angles_theta_addsub18[17] | (|angles_theta_addsub18[16]);
+  wire [15:0] angles_theta_19_d = angles_theta_addsub18[15:0];
+  reg  [15:0] angles_theta_19_q;
+  wire angles_xy_addsub38_sub = angles_xy_38_q[21];
+  wire signed [28:0] angles_xy_addsub38 =
+      angles_xy_addsub38_sub
+      ? $signed({angles_xy_37_q[21], angles_xy_37_q, 6'b0}
+      - {{7{angles_xy_38_q[21]}}, angles_xy_38_q})
+      : $signed({angles_xy_37_q[21], angles_xy_37_q, 6'b0}
+      + {{7{angles_xy_38_q[21]}}, angles_xy_38_q});
+  wire angles_xy_addsub39_sub = ~angles_xy_38_q[21];
+  wire signed [28:0] angles_xy_addsub39 =
+      angles_xy_addsub39_sub
+      ? $signed({angles_xy_38_q[21], angles_xy_38_q, 6'b0}
+      - {{7{angles_xy_37_q[21]}}, angles_xy_37_q})
+      : $signed({angles_xy_38_q[21], angles_xy_38_q, 6'b0}
+      + {{7{angles_xy_37_q[21]}}, angles_xy_37_q});
+  wire angles_theta_addsub19_sub = angles_xy_38_q[21];
+  wire signed [17:0] angles_theta_addsub19 =
+      angles_theta_addsub19_sub
+      ? $signed({{2{1'b0}}, angles_theta_19_q} - {{2{1'b0}}, angles_theta_k7})
+      : $signed({{2{1'b0}}, angles_theta_19_q} + {{2{1'b0}}, angles_theta_k7});
+  wire signed [22:0] angles_xy_39_t = $signed(angles_xy_addsub38[28:6]);
   wire angles_xy_39_ovf_c = ~((&angles_xy_39_t[22:21]) | ~(|angles_xy_39_t[22:21]));
   wire signed [21:0] angles_xy_39_d =
       $signed(angles_xy_39_ovf_c ? (angles_xy_39_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_39_t[21:0]);
   reg  signed [21:0] angles_xy_39_q;
-  wire signed [22:0] angles_xy_40_t = $signed(t37[24:2]);
+  wire signed [22:0] angles_xy_40_t = $signed(angles_xy_addsub39[28:6]);
   wire angles_xy_40_ovf_c = ~((&angles_xy_40_t[22:21]) | ~(|angles_xy_40_t[22:21]));
   wire signed [21:0] angles_xy_40_d =
       $signed(angles_xy_40_ovf_c ? (angles_xy_40_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_40_t[21:0]);
   reg  signed [21:0] angles_xy_40_q;
-  wire angles_theta_41_ovf_c = t38[17] | (|t38[16]);
-  wire [15:0] angles_theta_41_d = t38[15:0];
-  reg  [15:0] angles_theta_41_q;
-  wire t42_sub = angles_xy_40_q[21];
-  wire signed [25:0] t42 =
-      t42_sub
-      ? $signed({angles_xy_39_q[21], angles_xy_39_q, 3'b0}
-      - {{4{angles_xy_40_q[21]}}, angles_xy_40_q})
-      : $signed({angles_xy_39_q[21], angles_xy_39_q, 3'b0}
-      + {{4{angles_xy_40_q[21]}}, angles_xy_40_q});
-  wire t43_sub = ~angles_xy_40_q[21];
-  wire signed [25:0] t43 =
-      t43_sub
-      ? $signed({angles_xy_40_q[21], angles_xy_40_q, 3'b0}
-      - {{4{angles_xy_39_q[21]}}, angles_xy_39_q})
-      : $signed({angles_xy_40_q[21], angles_xy_40_q, 3'b0}
-      + {{4{angles_xy_39_q[21]}}, angles_xy_39_q});
-  wire t44_sub = angles_xy_40_q[21];
-  wire signed [17:0] t44 =
-      t44_sub ? $signed({{2{1'b0}}, angles_theta_41_q} - {{2{1'b0}}, K8})
-      : $signed({{2{1'b0}}, angles_theta_41_q} + {{2{1'b0}}, K8});
-  wire signed [22:0] angles_xy_45_t = $signed(t42[25:3]);
+  wire angles_theta_20_ovf_c = angles_theta_addsub19[17] | (|angles_theta_addsub19[16]);
+  wire [15:0] angles_theta_20_d = angles_theta_addsub19[15:0];
+  reg  [15:0] angles_theta_20_q;
+  wire angles_xy_addsub40_sub = angles_xy_40_q[21];
+  wire signed [29:0] angles_xy_addsub40 =
+      angles_xy_addsub40_sub
+      ? $signed({angles_xy_39_q[21], angles_xy_39_q, 7'b0}
+      - {{8{angles_xy_40_q[21]}}, angles_xy_40_q})
+      : $signed({angles_xy_39_q[21], angles_xy_39_q, 7'b0}
+      + {{8{angles_xy_40_q[21]}}, angles_xy_40_q});
+  wire angles_xy_addsub41_sub = ~angles_xy_40_q[21];
+  wire signed [29:0] angles_xy_addsub41 =
+      angles_xy_addsub41_sub
+      ? $signed({angles_xy_40_q[21], angles_xy_40_q, 7'b0}
+      - {{8{angles_xy_39_q[21]}}, angles_xy_39_q})
+      : $signed({angles_xy_40_q[21], angles_xy_40_q, 7'b0}
+      + {{8{angles_xy_39_q[21]}}, angles_xy_39_q});
+  wire angles_theta_addsub20_sub = angles_xy_40_q[21];
+  wire signed [17:0] angles_theta_addsub20 =
+      angles_theta_addsub20_sub
+      ? $signed({{2{1'b0}}, angles_theta_20_q} - {{2{1'b0}}, angles_theta_k8})
+      : $signed({{2{1'b0}}, angles_theta_20_q} + {{2{1'b0}}, angles_theta_k8});
+  wire signed [22:0] angles_xy_41_t = $signed(angles_xy_addsub40[29:7]);
+  wire angles_xy_41_ovf_c = ~((&angles_xy_41_t[22:21]) | ~(|angles_xy_41_t[22:21]));
+  wire signed [21:0] angles_xy_41_d =
+      $signed(angles_xy_41_ovf_c ? (angles_xy_41_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_41_t[21:0]);
+  reg  signed [21:0] angles_xy_41_q;
+  wire signed [22:0] angles_xy_42_t = $signed(angles_xy_addsub41[29:7]);
+  wire angles_xy_42_ovf_c = ~((&angles_xy_42_t[22:21]) | ~(|angles_xy_42_t[22:21]));
+  wire signed [21:0] angles_xy_42_d =
+      $signed(angles_xy_42_ovf_c ? (angles_xy_42_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_42_t[21:0]);
+  reg  signed [21:0] angles_xy_42_q;
+  wire angles_theta_21_ovf_c = angles_theta_addsub20[17] | (|angles_theta_addsub20[16]);
+  wire [15:0] angles_theta_21_d = angles_theta_addsub20[15:0];
+  reg  [15:0] angles_theta_21_q;
+  wire angles_xy_addsub42_sub = angles_xy_42_q[21];
+  wire signed [30:0] angles_xy_addsub42 =
+      angles_xy_addsub42_sub
+      ? $signed({angles_xy_41_q[21], angles_xy_41_q, 8'b0}
+      - {{9{angles_xy_42_q[21]}}, angles_xy_42_q})
+      : $signed({angles_xy_41_q[21], angles_xy_41_q, 8'b0}
+      + {{9{angles_xy_42_q[21]}}, angles_xy_42_q});
+  wire angles_xy_addsub43_sub = ~angles_xy_42_q[21];
+  wire signed [30:0] angles_xy_addsub43 =
+      angles_xy_addsub43_sub
+      ? $signed({angles_xy_42_q[21], angles_xy_42_q, 8'b0}
+      - {{9{angles_xy_41_q[21]}}, angles_xy_41_q})
+      : $signed({angles_xy_42_q[21], angles_xy_42_q, 8'b0}
+      + {{9{angles_xy_41_q[21]}}, angles_xy_41_q});
+  wire angles_theta_addsub21_sub = angles_xy_42_q[21];
+  wire signed [17:0] angles_theta_addsub21 =
+      angles_theta_addsub21_sub
+      ? $signed({{2{1'b0}}, angles_theta_21_q} - {{2{1'b0}}, angles_theta_k9})
+      : $signed({{2{1'b0}}, angles_theta_21_q} + {{2{1'b0}}, angles_theta_k9});
+  wire signed [22:0] angles_xy_43_t = $signed(angles_xy_addsub42[30:8]);
+  wire angles_xy_43_ovf_c = ~((&angles_xy_43_t[22:21]) | ~(|angles_xy_43_t[22:21]));
+  wire signed [21:0] angles_xy_43_d =
+      $signed(angles_xy_43_ovf_c ? (angles_xy_43_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_43_t[21:0]);
+  reg  signed [21:0] angles_xy_43_q;
+  wire signed [22:0] angles_xy_44_t = $signed(angles_xy_addsub43[30:8]);
+  wire angles_xy_44_ovf_c = ~((&angles_xy_44_t[22:21]) | ~(|angles_xy_44_t[22:21]));
+  wire signed [21:0] angles_xy_44_d =
+      $signed(angles_xy_44_ovf_c ? (angles_xy_44_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_44_t[21:0]);
+  reg  signed [21:0] angles_xy_44_q;
+  wire angles_theta_22_ovf_c = angles_theta_addsub21[17] | (|angles_theta_addsub21[16]);
+  wire [15:0] angles_theta_22_d = angles_theta_addsub21[15:0];
+  reg  [15:0] angles_theta_22_q;
+  wire angles_xy_addsub44_sub = angles_xy_44_q[21];
+  wire signed [31:0] angles_xy_addsub44 =
+      angles_xy_addsub44_sub
+      ? $signed({angles_xy_43_q[21], angles_xy_43_q, 9'b0}
+      - {{10{angles_xy_44_q[21]}}, angles_xy_44_q})
+      : $signed({angles_xy_43_q[21], angles_xy_43_q, 9'b0}
+      + {{10{angles_xy_44_q[21]}}, angles_xy_44_q});
+  wire angles_xy_addsub45_sub = ~angles_xy_44_q[21];
+  wire signed [31:0] angles_xy_addsub45 =
+      angles_xy_addsub45_sub
+      ? $signed({angles_xy_44_q[21], angles_xy_44_q, 9'b0}
+      - {{10{angles_xy_43_q[21]}}, angles_xy_43_q})
+      : $signed({angles_xy_44_q[21], angles_xy_44_q, 9'b0}
+      + {{10{angles_xy_43_q[21]}}, angles_xy_43_q});
+  wire angles_theta_addsub22_sub = angles_xy_44_q[21];
+  wire signed [17:0] angles_theta_addsub22 =
+      angles_theta_addsub22_sub
+      ? $signed({{2{1'b0}}, angles_theta_22_q} - {{2{1'b0}}, angles_theta_k10})
+      : $signed({{2{1'b0}}, angles_theta_22_q} + {{2{1'b0}}, angles_theta_k10});
+  wire signed [22:0] angles_xy_45_t = $signed(angles_xy_addsub44[31:9]);
   wire angles_xy_45_ovf_c = ~((&angles_xy_45_t[22:21]) | ~(|angles_xy_45_t[22:21]));
   wire signed [21:0] angles_xy_45_d =
       $signed(angles_xy_45_ovf_c ? (angles_xy_45_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_45_t[21:0]);
   reg  signed [21:0] angles_xy_45_q;
-  wire signed [22:0] angles_xy_46_t = $signed(t43[25:3]);
+  wire signed [22:0] angles_xy_46_t = $signed(angles_xy_addsub45[31:9]);
   wire angles_xy_46_ovf_c = ~((&angles_xy_46_t[22:21]) | ~(|angles_xy_46_t[22:21]));
   wire signed [21:0] angles_xy_46_d =
       $signed(angles_xy_46_ovf_c ? (angles_xy_46_t[22] ? 22'h200000 : 22'h1fffff)
       : angles_xy_46_t[21:0]);
   reg  signed [21:0] angles_xy_46_q;
-  wire angles_theta_47_ovf_c = t44[17] | (|t44[16]);
-  wire [15:0] angles_theta_47_d = t44[15:0];
-  reg  [15:0] angles_theta_47_q;
-  wire t48_sub = angles_xy_46_q[21];
-  wire signed [26:0] t48 =
-      t48_sub
-      ? $signed({angles_xy_45_q[21], angles_xy_45_q, 4'b0}
-      - {{5{angles_xy_46_q[21]}}, angles_xy_46_q})
-      : $signed({angles_xy_45_q[21], angles_xy_45_q, 4'b0}
-      + {{5{angles_xy_46_q[21]}}, angles_xy_46_q});
-  wire t49_sub = ~angles_xy_46_q[21];
-  wire signed [26:0] t49 =
-      t49_sub
-      ? $signed({angles_xy_46_q[21], angles_xy_46_q, 4'b0}
-      - {{5{angles_xy_45_q[21]}}, angles_xy_45_q})
-      : $signed({angles_xy_46_q[21], angles_xy_46_q, 4'b0}
-      + {{5{angles_xy_45_q[21]}}, angles_xy_45_q});
-  wire t50_sub = angles_xy_46_q[21];
-  wire signed [17:0] t50 =
-      t50_sub ? $signed({{2{1'b0}}, angles_theta_47_q} - {{2{1'b0}}, K9})
-      : $signed({{2{1'b0}}, angles_theta_47_q} + {{2{1'b0}}, K9});
-  wire signed [22:0] angles_xy_51_t = $signed(t48[26:4]);
-  wire angles_xy_51_ovf_c = ~((&angles_xy_51_t[22:21]) | ~(|angles_xy_51_t[22:21]));
-  wire signed [21:0] angles_xy_51_d =
-      $signed(angles_xy_51_ovf_c ? (angles_xy_51_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_51_t[21:0]);
-  reg  signed [21:0] angles_xy_51_q;
-  wire signed [22:0] angles_xy_52_t = $signed(t49[26:4]);
-  wire angles_xy_52_ovf_c = ~((&angles_xy_52_t[22:21]) | ~(|angles_xy_52_t[22:21]));
-  wire signed [21:0] angles_xy_52_d =
-      $signed(angles_xy_52_ovf_c ? (angles_xy_52_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_52_t[21:0]);
-  reg  signed [21:0] angles_xy_52_q;
-  wire angles_theta_53_ovf_c = t50[17] | (|t50[16]);
-  wire [15:0] angles_theta_53_d = t50[15:0];
-  reg  [15:0] angles_theta_53_q;
-  wire t54_sub = angles_xy_52_q[21];
-  wire signed [27:0] t54 =
-      t54_sub
-      ? $signed({angles_xy_51_q[21], angles_xy_51_q, 5'b0}
-      - {{6{angles_xy_52_q[21]}}, angles_xy_52_q})
-      : $signed({angles_xy_51_q[21], angles_xy_51_q, 5'b0}
-      + {{6{angles_xy_52_q[21]}}, angles_xy_52_q});
-  wire t55_sub = ~angles_xy_52_q[21];
-  wire signed [27:0] t55 =
-      t55_sub
-      ? $signed({angles_xy_52_q[21], angles_xy_52_q, 5'b0}
-      - {{6{angles_xy_51_q[21]}}, angles_xy_51_q})
-      : $signed({angles_xy_52_q[21], angles_xy_52_q, 5'b0}
-      + {{6{angles_xy_51_q[21]}}, angles_xy_51_q});
-  wire t56_sub = angles_xy_52_q[21];
-  wire signed [17:0] t56 =
-      t56_sub ? $signed({{2{1'b0}}, angles_theta_53_q} - {{2{1'b0}}, K10})
-      : $signed({{2{1'b0}}, angles_theta_53_q} + {{2{1'b0}}, K10});
-  wire signed [22:0] angles_xy_57_t = $signed(t54[27:5]);
-  wire angles_xy_57_ovf_c = ~((&angles_xy_57_t[22:21]) | ~(|angles_xy_57_t[22:21]));
-  wire signed [21:0] angles_xy_57_d =
-      $signed(angles_xy_57_ovf_c ? (angles_xy_57_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_57_t[21:0]);
-  reg  signed [21:0] angles_xy_57_q;
-  wire signed [22:0] angles_xy_58_t = $signed(t55[27:5]);
-  wire angles_xy_58_ovf_c = ~((&angles_xy_58_t[22:21]) | ~(|angles_xy_58_t[22:21]));
-  wire signed [21:0] angles_xy_58_d =
-      $signed(angles_xy_58_ovf_c ? (angles_xy_58_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_58_t[21:0]);
-  reg  signed [21:0] angles_xy_58_q;
-  wire angles_theta_59_ovf_c = t56[17] | (|t56[16]);
-  wire [15:0] angles_theta_59_d = t56[15:0];
-  reg  [15:0] angles_theta_59_q;
-  wire t60_sub = angles_xy_58_q[21];
-  wire signed [28:0] t60 =
-      t60_sub
-      ? $signed({angles_xy_57_q[21], angles_xy_57_q, 6'b0}
-      - {{7{angles_xy_58_q[21]}}, angles_xy_58_q})
-      : $signed({angles_xy_57_q[21], angles_xy_57_q, 6'b0}
-      + {{7{angles_xy_58_q[21]}}, angles_xy_58_q});
-  wire t61_sub = ~angles_xy_58_q[21];
-  wire signed [28:0] t61 =
-      t61_sub
-      ? $signed({angles_xy_58_q[21], angles_xy_58_q, 6'b0}
-      - {{7{angles_xy_57_q[21]}}, angles_xy_57_q})
-      : $signed({angles_xy_58_q[21], angles_xy_58_q, 6'b0}
-      + {{7{angles_xy_57_q[21]}}, angles_xy_57_q});
-  wire t62_sub = angles_xy_58_q[21];
-  wire signed [17:0] t62 =
-      t62_sub ? $signed({{2{1'b0}}, angles_theta_59_q} - {{2{1'b0}}, K11})
-      : $signed({{2{1'b0}}, angles_theta_59_q} + {{2{1'b0}}, K11});
-  wire signed [22:0] angles_xy_63_t = $signed(t60[28:6]);
-  wire angles_xy_63_ovf_c = ~((&angles_xy_63_t[22:21]) | ~(|angles_xy_63_t[22:21]));
-  wire signed [21:0] angles_xy_63_d =
-      $signed(angles_xy_63_ovf_c ? (angles_xy_63_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_63_t[21:0]);
-  reg  signed [21:0] angles_xy_63_q;
-  wire signed [22:0] angles_xy_64_t = $signed(t61[28:6]);
-  wire angles_xy_64_ovf_c = ~((&angles_xy_64_t[22:21]) | ~(|angles_xy_64_t[22:21]));
-  wire signed [21:0] angles_xy_64_d =
-      $signed(angles_xy_64_ovf_c ? (angles_xy_64_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_64_t[21:0]);
-  reg  signed [21:0] angles_xy_64_q;
-  wire angles_theta_65_ovf_c = t62[17] | (|t62[16]);
-  wire [15:0] angles_theta_65_d = t62[15:0];
-  reg  [15:0] angles_theta_65_q;
-  wire t66_sub = angles_xy_64_q[21];
-  wire signed [29:0] t66 =
-      t66_sub
-      ? $signed({angles_xy_63_q[21], angles_xy_63_q, 7'b0}
-      - {{8{angles_xy_64_q[21]}}, angles_xy_64_q})
-      : $signed({angles_xy_63_q[21], angles_xy_63_q, 7'b0}
-      + {{8{angles_xy_64_q[21]}}, angles_xy_64_q});
-  wire t67_sub = ~angles_xy_64_q[21];
-  wire signed [29:0] t67 =
-      t67_sub
-      ? $signed({angles_xy_64_q[21], angles_xy_64_q, 7'b0}
-      - {{8{angles_xy_63_q[21]}}, angles_xy_63_q})
-      : $signed({angles_xy_64_q[21], angles_xy_64_q, 7'b0}
-      + {{8{angles_xy_63_q[21]}}, angles_xy_63_q});
-  wire t68_sub = angles_xy_64_q[21];
-  wire signed [17:0] t68 =
-      t68_sub ? $signed({{2{1'b0}}, angles_theta_65_q} - {{2{1'b0}}, K12})
-      : $signed({{2{1'b0}}, angles_theta_65_q} + {{2{1'b0}}, K12});
-  wire signed [22:0] angles_xy_69_t = $signed(t66[29:7]);
-  wire angles_xy_69_ovf_c = ~((&angles_xy_69_t[22:21]) | ~(|angles_xy_69_t[22:21]));
-  wire signed [21:0] angles_xy_69_d =
-      $signed(angles_xy_69_ovf_c ? (angles_xy_69_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_69_t[21:0]);
-  reg  signed [21:0] angles_xy_69_q;
-  wire signed [22:0] angles_xy_70_t = $signed(t67[29:7]);
-  wire angles_xy_70_ovf_c = ~((&angles_xy_70_t[22:21]) | ~(|angles_xy_70_t[22:21]));
-  wire signed [21:0] angles_xy_70_d =
-      $signed(angles_xy_70_ovf_c ? (angles_xy_70_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_70_t[21:0]);
-  reg  signed [21:0] angles_xy_70_q;
-  wire angles_theta_71_ovf_c = t68[17] | (|t68[16]);
-  wire [15:0] angles_theta_71_d = t68[15:0];
-  reg  [15:0] angles_theta_71_q;
-  wire t72_sub = angles_xy_70_q[21];
-  wire signed [30:0] t72 =
-      t72_sub
-      ? $signed({angles_xy_69_q[21], angles_xy_69_q, 8'b0}
-      - {{9{angles_xy_70_q[21]}}, angles_xy_70_q})
-      : $signed({angles_xy_69_q[21], angles_xy_69_q, 8'b0}
-      + {{9{angles_xy_70_q[21]}}, angles_xy_70_q});
-  wire t73_sub = ~angles_xy_70_q[21];
-  wire signed [30:0] t73 =
-      t73_sub
-      ? $signed({angles_xy_70_q[21], angles_xy_70_q, 8'b0}
-      - {{9{angles_xy_69_q[21]}}, angles_xy_69_q})
-      : $signed({angles_xy_70_q[21], angles_xy_70_q, 8'b0}
-      + {{9{angles_xy_69_q[21]}}, angles_xy_69_q});
-  wire t74_sub = angles_xy_70_q[21];
-  wire signed [17:0] t74 =
-      t74_sub ? $signed({{2{1'b0}}, angles_theta_71_q} - {{2{1'b0}}, K13})
-      : $signed({{2{1'b0}}, angles_theta_71_q} + {{2{1'b0}}, K13});
-  wire signed [22:0] angles_xy_75_t = $signed(t72[30:8]);
-  wire angles_xy_75_ovf_c = ~((&angles_xy_75_t[22:21]) | ~(|angles_xy_75_t[22:21]));
-  wire signed [21:0] angles_xy_75_d =
-      $signed(angles_xy_75_ovf_c ? (angles_xy_75_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_75_t[21:0]);
-  reg  signed [21:0] angles_xy_75_q;
-  wire signed [22:0] angles_xy_76_t = $signed(t73[30:8]);
-  wire angles_xy_76_ovf_c = ~((&angles_xy_76_t[22:21]) | ~(|angles_xy_76_t[22:21]));
-  wire signed [21:0] angles_xy_76_d =
-      $signed(angles_xy_76_ovf_c ? (angles_xy_76_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_76_t[21:0]);
-  reg  signed [21:0] angles_xy_76_q;
-  wire angles_theta_77_ovf_c = t74[17] | (|t74[16]);
-  wire [15:0] angles_theta_77_d = t74[15:0];
-  reg  [15:0] angles_theta_77_q;
-  wire t78_sub = angles_xy_76_q[21];
-  wire signed [31:0] t78 =
-      t78_sub
-      ? $signed({angles_xy_75_q[21], angles_xy_75_q, 9'b0}
-      - {{10{angles_xy_76_q[21]}}, angles_xy_76_q})
-      : $signed({angles_xy_75_q[21], angles_xy_75_q, 9'b0}
-      + {{10{angles_xy_76_q[21]}}, angles_xy_76_q});
-  wire t79_sub = ~angles_xy_76_q[21];
-  wire signed [31:0] t79 =
-      t79_sub
-      ? $signed({angles_xy_76_q[21], angles_xy_76_q, 9'b0}
-      - {{10{angles_xy_75_q[21]}}, angles_xy_75_q})
-      : $signed({angles_xy_76_q[21], angles_xy_76_q, 9'b0}
-      + {{10{angles_xy_75_q[21]}}, angles_xy_75_q});
-  wire t80_sub = angles_xy_76_q[21];
-  wire signed [17:0] t80 =
-      t80_sub ? $signed({{2{1'b0}}, angles_theta_77_q} - {{2{1'b0}}, K14})
-      : $signed({{2{1'b0}}, angles_theta_77_q} + {{2{1'b0}}, K14});
-  wire signed [22:0] angles_xy_81_t = $signed(t78[31:9]);
-  wire angles_xy_81_ovf_c = ~((&angles_xy_81_t[22:21]) | ~(|angles_xy_81_t[22:21]));
-  wire signed [21:0] angles_xy_81_d =
-      $signed(angles_xy_81_ovf_c ? (angles_xy_81_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_81_t[21:0]);
-  reg  signed [21:0] angles_xy_81_q;
-  wire signed [22:0] angles_xy_82_t = $signed(t79[31:9]);
-  wire angles_xy_82_ovf_c = ~((&angles_xy_82_t[22:21]) | ~(|angles_xy_82_t[22:21]));
-  wire signed [21:0] angles_xy_82_d =
-      $signed(angles_xy_82_ovf_c ? (angles_xy_82_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_82_t[21:0]);
-  reg  signed [21:0] angles_xy_82_q;
-  wire angles_theta_83_ovf_c = t80[17] | (|t80[16]);
-  wire [15:0] angles_theta_83_d = t80[15:0];
-  reg  [15:0] angles_theta_83_q;
-  wire t84_sub = angles_xy_82_q[21];
-  wire signed [32:0] t84 =
-      t84_sub
-      ? $signed({angles_xy_81_q[21], angles_xy_81_q, 10'b0}
-      - {{11{angles_xy_82_q[21]}}, angles_xy_82_q})
-      : $signed({angles_xy_81_q[21], angles_xy_81_q, 10'b0}
-      + {{11{angles_xy_82_q[21]}}, angles_xy_82_q});
-  wire t85_sub = ~angles_xy_82_q[21];
-  wire signed [32:0] t85 =
-      t85_sub
-      ? $signed({angles_xy_82_q[21], angles_xy_82_q, 10'b0}
-      - {{11{angles_xy_81_q[21]}}, angles_xy_81_q})
-      : $signed({angles_xy_82_q[21], angles_xy_82_q, 10'b0}
-      + {{11{angles_xy_81_q[21]}}, angles_xy_81_q});
-  wire t86_sub = angles_xy_82_q[21];
-  wire signed [17:0] t86 =
-      t86_sub ? $signed({{2{1'b0}}, angles_theta_83_q} - {{2{1'b0}}, K15})
-      : $signed({{2{1'b0}}, angles_theta_83_q} + {{2{1'b0}}, K15});
-  wire signed [22:0] angles_xy_87_t = $signed(t84[32:10]);
-  wire angles_xy_87_ovf_c = ~((&angles_xy_87_t[22:21]) | ~(|angles_xy_87_t[22:21]));
-  wire signed [21:0] angles_xy_87_d =
-      $signed(angles_xy_87_ovf_c ? (angles_xy_87_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_87_t[21:0]);
-  reg  signed [21:0] angles_xy_87_q;
-  wire signed [22:0] angles_xy_88_t = $signed(t85[32:10]);
-  wire angles_xy_88_ovf_c = ~((&angles_xy_88_t[22:21]) | ~(|angles_xy_88_t[22:21]));
-  wire signed [21:0] angles_xy_88_d =
-      $signed(angles_xy_88_ovf_c ? (angles_xy_88_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_88_t[21:0]);
-  reg  signed [21:0] angles_xy_88_q;
-  wire angles_theta_89_ovf_c = t86[17] | (|t86[16]);
-  wire [15:0] angles_theta_89_d = t86[15:0];
-  reg  [15:0] angles_theta_89_q;
-  wire t90_sub = angles_xy_88_q[21];
-  wire signed [33:0] t90 =
-      t90_sub
-      ? $signed({angles_xy_87_q[21], angles_xy_87_q, 11'b0}
-      - {{12{angles_xy_88_q[21]}}, angles_xy_88_q})
-      : $signed({angles_xy_87_q[21], angles_xy_87_q, 11'b0}
-      + {{12{angles_xy_88_q[21]}}, angles_xy_88_q});
-  wire t92_sub = angles_xy_88_q[21];
-  wire signed [17:0] t92 =
-      t92_sub ? $signed({{2{1'b0}}, angles_theta_89_q} - {{2{1'b0}}, K16})
-      : $signed({{2{1'b0}}, angles_theta_89_q} + {{2{1'b0}}, K16});
-  wire signed [22:0] angles_xy_93_t = $signed(t90[33:11]);
-  wire angles_xy_93_ovf_c = ~((&angles_xy_93_t[22:21]) | ~(|angles_xy_93_t[22:21]));
-  wire signed [21:0] angles_xy_93_d =
-      $signed(angles_xy_93_ovf_c ? (angles_xy_93_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_93_t[21:0]);
-  reg  signed [21:0] angles_xy_93_q;
-  wire angles_theta_95_ovf_c = t92[17] | (|t92[16]);
-  wire [15:0] angles_theta_95_d = t92[15:0];
-  reg  [15:0] angles_theta_95_q;
-  wire signed [18:0] t96_a = $signed({1'b0, K17});
-  wire signed [33:0] t96 = t96_a * n_y_i;
-  wire signed [20:0] angles_xy_97_t = $signed(t96[33:13]);
-  wire angles_xy_97_ovf_c = 1'b0;
-  wire signed [21:0] angles_xy_97_d =
-      $signed(angles_xy_97_ovf_c ? (angles_xy_97_t[20] ? 22'h200000 : 22'h1fffff)
-      : {angles_xy_97_t[20], angles_xy_97_t});
-  reg  signed [21:0] angles_xy_97_q;
-  wire [16:0] angles_theta_98_r = {K3, 16'b0};
-  wire angles_theta_98_ovf_c = |angles_theta_98_r[16];
-  wire [15:0] angles_theta_98_d = angles_theta_98_r[15:0];
-  reg  [15:0] angles_theta_98_q;
-  reg  signed [21:0] angles_xy_97_s2_q;
-  reg  signed [21:0] angles_xy_97_s3_q;
-  reg  signed [21:0] angles_xy_97_s4_q;
-  reg  signed [21:0] angles_xy_97_s5_q;
-  reg  signed [21:0] angles_xy_97_s6_q;
-  reg  signed [21:0] angles_xy_97_s7_q;
-  reg  signed [21:0] angles_xy_97_s8_q;
-  reg  signed [21:0] angles_xy_97_s9_q;
-  reg  signed [21:0] angles_xy_97_s10_q;
-  reg  signed [21:0] angles_xy_97_s11_q;
-  reg  signed [21:0] angles_xy_97_s12_q;
-  reg  signed [21:0] angles_xy_97_s13_q;
-  wire t99_sub = angles_xy_97_s13_q[21];
-  wire signed [22:0] t99 =
-      t99_sub
-      ? $signed({angles_xy_93_q[21], angles_xy_93_q} - {angles_xy_97_s13_q[21], angles_xy_97_s13_q})
-      : $signed({angles_xy_93_q[21], angles_xy_93_q}
-      + {angles_xy_97_s13_q[21], angles_xy_97_s13_q});
-  wire t100_sub = ~angles_xy_97_s13_q[21];
-  wire signed [22:0] t100 =
-      t100_sub
-      ? $signed({angles_xy_97_s13_q[21], angles_xy_97_s13_q} - {angles_xy_93_q[21], angles_xy_93_q})
-      : $signed({angles_xy_97_s13_q[21], angles_xy_97_s13_q}
-      + {angles_xy_93_q[21], angles_xy_93_q});
-  wire t101_sub = angles_xy_97_q[21];
-  wire signed [17:0] t101 =
-      t101_sub ? $signed({{2{1'b0}}, angles_theta_98_q} - {{2{1'b0}}, K5})
-      : $signed({{2{1'b0}}, angles_theta_98_q} + {{2{1'b0}}, K5});
-  wire angles_xy_102_ovf_c = ~((&t99[22:21]) | ~(|t99[22:21]));
-  wire signed [21:0] angles_xy_102_d =
-      $signed(angles_xy_102_ovf_c ? (t99[22] ? 22'h200000 : 22'h1fffff) : t99[21:0]);
-  reg  signed [21:0] angles_xy_102_q;
-  wire angles_xy_103_ovf_c = ~((&t100[22:21]) | ~(|t100[22:21]));
-  wire signed [21:0] angles_xy_103_d =
-      $signed(angles_xy_103_ovf_c ? (t100[22] ? 22'h200000 : 22'h1fffff) : t100[21:0]);
-  reg  signed [21:0] angles_xy_103_q;
-  wire angles_theta_104_ovf_c = t101[17] | (|t101[16]);
-  wire [15:0] angles_theta_104_d = t101[15:0];
-  reg  [15:0] angles_theta_104_q;
-  wire t105_sub = angles_xy_103_q[21];
-  wire signed [23:0] t105 =
-      t105_sub
-      ? $signed({angles_xy_102_q[21], angles_xy_102_q, 1'b0}
-      - {{2{angles_xy_103_q[21]}}, angles_xy_103_q})
-      : $signed({angles_xy_102_q[21], angles_xy_102_q, 1'b0}
-      + {{2{angles_xy_103_q[21]}}, angles_xy_103_q});
-  wire t106_sub = ~angles_xy_103_q[21];
-  wire signed [23:0] t106 =
-      t106_sub
-      ? $signed({angles_xy_103_q[21], angles_xy_103_q, 1'b0}
-      - {{2{angles_xy_102_q[21]}}, angles_xy_102_q})
-      : $signed({angles_xy_103_q[21], angles_xy_103_q, 1'b0}
-      + {{2{angles_xy_102_q[21]}}, angles_xy_102_q});
-  reg  [15:0] angles_theta_104_s3_q;
-  reg  [15:0] angles_theta_104_s4_q;
-  reg  [15:0] angles_theta_104_s5_q;
-  reg  [15:0] angles_theta_104_s6_q;
-  reg  [15:0] angles_theta_104_s7_q;
-  reg  [15:0] angles_theta_104_s8_q;
-  reg  [15:0] angles_theta_104_s9_q;
-  reg  [15:0] angles_theta_104_s10_q;
-  reg  [15:0] angles_theta_104_s11_q;
-  reg  [15:0] angles_theta_104_s12_q;
-  reg  [15:0] angles_theta_104_s13_q;
-  reg  [15:0] angles_theta_104_s14_q;
-  wire t107_sub = angles_xy_103_q[21];
-  wire signed [17:0] t107 =
-      t107_sub ? $signed({{2{1'b0}}, angles_theta_104_s14_q} - {{2{1'b0}}, K6})
-      : $signed({{2{1'b0}}, angles_theta_104_s14_q} + {{2{1'b0}}, K6});
-  wire signed [22:0] angles_xy_108_t = $signed(t105[23:1]);
-  wire angles_xy_108_ovf_c = ~((&angles_xy_108_t[22:21]) | ~(|angles_xy_108_t[22:21]));
-  wire signed [21:0] angles_xy_108_d =
-      $signed(angles_xy_108_ovf_c ? (angles_xy_108_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_108_t[21:0]);
-  reg  signed [21:0] angles_xy_108_q;
-  wire signed [22:0] angles_xy_109_t = $signed(t106[23:1]);
-  wire angles_xy_109_ovf_c = ~((&angles_xy_109_t[22:21]) | ~(|angles_xy_109_t[22:21]));
-  wire signed [21:0] angles_xy_109_d =
-      $signed(angles_xy_109_ovf_c ? (angles_xy_109_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_109_t[21:0]);
-  reg  signed [21:0] angles_xy_109_q;
-  wire angles_theta_110_ovf_c = t107[17] | (|t107[16]);
-  wire [15:0] angles_theta_110_d = t107[15:0];
-  reg  [15:0] angles_theta_110_q;
-  wire t111_sub = angles_xy_109_q[21];
-  wire signed [24:0] t111 =
-      t111_sub
-      ? $signed({angles_xy_108_q[21], angles_xy_108_q, 2'b0}
-      - {{3{angles_xy_109_q[21]}}, angles_xy_109_q})
-      : $signed({angles_xy_108_q[21], angles_xy_108_q, 2'b0}
-      + {{3{angles_xy_109_q[21]}}, angles_xy_109_q});
-  wire t112_sub = ~angles_xy_109_q[21];
-  wire signed [24:0] t112 =
-      t112_sub
-      ? $signed({angles_xy_109_q[21], angles_xy_109_q, 2'b0}
-      - {{3{angles_xy_108_q[21]}}, angles_xy_108_q})
-      : $signed({angles_xy_109_q[21], angles_xy_109_q, 2'b0}
-      + {{3{angles_xy_108_q[21]}}, angles_xy_108_q});
-  wire t113_sub = angles_xy_109_q[21];
-  wire signed [17:0] t113 =
-      t113_sub ? $signed({{2{1'b0}}, angles_theta_110_q} - {{2{1'b0}}, K7})
-      : $signed({{2{1'b0}}, angles_theta_110_q} + {{2{1'b0}}, K7});
-  wire signed [22:0] angles_xy_114_t = $signed(t111[24:2]);
-  wire angles_xy_114_ovf_c = ~((&angles_xy_114_t[22:21]) | ~(|angles_xy_114_t[22:21]));
-  wire signed [21:0] angles_xy_114_d =
-      $signed(angles_xy_114_ovf_c ? (angles_xy_114_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_114_t[21:0]);
-  reg  signed [21:0] angles_xy_114_q;
-  wire signed [22:0] angles_xy_115_t = $signed(t112[24:2]);
-  wire angles_xy_115_ovf_c = ~((&angles_xy_115_t[22:21]) | ~(|angles_xy_115_t[22:21]));
-  wire signed [21:0] angles_xy_115_d =
-      $signed(angles_xy_115_ovf_c ? (angles_xy_115_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_115_t[21:0]);
-  reg  signed [21:0] angles_xy_115_q;
-  wire angles_theta_116_ovf_c = t113[17] | (|t113[16]);
-  wire [15:0] angles_theta_116_d = t113[15:0];
-  reg  [15:0] angles_theta_116_q;
-  wire t117_sub = angles_xy_115_q[21];
-  wire signed [25:0] t117 =
-      t117_sub
-      ? $signed({angles_xy_114_q[21], angles_xy_114_q, 3'b0}
-      - {{4{angles_xy_115_q[21]}}, angles_xy_115_q})
-      : $signed({angles_xy_114_q[21], angles_xy_114_q, 3'b0}
-      + {{4{angles_xy_115_q[21]}}, angles_xy_115_q});
-  wire t118_sub = ~angles_xy_115_q[21];
-  wire signed [25:0] t118 =
-      t118_sub
-      ? $signed({angles_xy_115_q[21], angles_xy_115_q, 3'b0}
-      - {{4{angles_xy_114_q[21]}}, angles_xy_114_q})
-      : $signed({angles_xy_115_q[21], angles_xy_115_q, 3'b0}
-      + {{4{angles_xy_114_q[21]}}, angles_xy_114_q});
-  wire t119_sub = angles_xy_115_q[21];
-  wire signed [17:0] t119 =
-      t119_sub ? $signed({{2{1'b0}}, angles_theta_116_q} - {{2{1'b0}}, K8})
-      : $signed({{2{1'b0}}, angles_theta_116_q} + {{2{1'b0}}, K8});
-  wire signed [22:0] angles_xy_120_t = $signed(t117[25:3]);
-  wire angles_xy_120_ovf_c = ~((&angles_xy_120_t[22:21]) | ~(|angles_xy_120_t[22:21]));
-  wire signed [21:0] angles_xy_120_d =
-      $signed(angles_xy_120_ovf_c ? (angles_xy_120_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_120_t[21:0]);
-  reg  signed [21:0] angles_xy_120_q;
-  wire signed [22:0] angles_xy_121_t = $signed(t118[25:3]);
-  wire angles_xy_121_ovf_c = ~((&angles_xy_121_t[22:21]) | ~(|angles_xy_121_t[22:21]));
-  wire signed [21:0] angles_xy_121_d =
-      $signed(angles_xy_121_ovf_c ? (angles_xy_121_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_121_t[21:0]);
-  reg  signed [21:0] angles_xy_121_q;
-  wire angles_theta_122_ovf_c = t119[17] | (|t119[16]);
-  wire [15:0] angles_theta_122_d = t119[15:0];
-  reg  [15:0] angles_theta_122_q;
-  wire t123_sub = angles_xy_121_q[21];
-  wire signed [26:0] t123 =
-      t123_sub
-      ? $signed({angles_xy_120_q[21], angles_xy_120_q, 4'b0}
-      - {{5{angles_xy_121_q[21]}}, angles_xy_121_q})
-      : $signed({angles_xy_120_q[21], angles_xy_120_q, 4'b0}
-      + {{5{angles_xy_121_q[21]}}, angles_xy_121_q});
-  wire t124_sub = ~angles_xy_121_q[21];
-  wire signed [26:0] t124 =
-      t124_sub
-      ? $signed({angles_xy_121_q[21], angles_xy_121_q, 4'b0}
-      - {{5{angles_xy_120_q[21]}}, angles_xy_120_q})
-      : $signed({angles_xy_121_q[21], angles_xy_121_q, 4'b0}
-      + {{5{angles_xy_120_q[21]}}, angles_xy_120_q});
-  wire t125_sub = angles_xy_121_q[21];
-  wire signed [17:0] t125 =
-      t125_sub ? $signed({{2{1'b0}}, angles_theta_122_q} - {{2{1'b0}}, K9})
-      : $signed({{2{1'b0}}, angles_theta_122_q} + {{2{1'b0}}, K9});
-  wire signed [22:0] angles_xy_126_t = $signed(t123[26:4]);
-  wire angles_xy_126_ovf_c = ~((&angles_xy_126_t[22:21]) | ~(|angles_xy_126_t[22:21]));
-  wire signed [21:0] angles_xy_126_d =
-      $signed(angles_xy_126_ovf_c ? (angles_xy_126_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_126_t[21:0]);
-  reg  signed [21:0] angles_xy_126_q;
-  wire signed [22:0] angles_xy_127_t = $signed(t124[26:4]);
-  wire angles_xy_127_ovf_c = ~((&angles_xy_127_t[22:21]) | ~(|angles_xy_127_t[22:21]));
-  wire signed [21:0] angles_xy_127_d =
-      $signed(angles_xy_127_ovf_c ? (angles_xy_127_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_127_t[21:0]);
-  reg  signed [21:0] angles_xy_127_q;
-  wire angles_theta_128_ovf_c = t125[17] | (|t125[16]);
-  wire [15:0] angles_theta_128_d = t125[15:0];
-  reg  [15:0] angles_theta_128_q;
-  wire t129_sub = angles_xy_127_q[21];
-  wire signed [27:0] t129 =
-      t129_sub
-      ? $signed({angles_xy_126_q[21], angles_xy_126_q, 5'b0}
-      - {{6{angles_xy_127_q[21]}}, angles_xy_127_q})
-      : $signed({angles_xy_126_q[21], angles_xy_126_q, 5'b0}
-      + {{6{angles_xy_127_q[21]}}, angles_xy_127_q});
-  wire t130_sub = ~angles_xy_127_q[21];
-  wire signed [27:0] t130 =
-      t130_sub
-      ? $signed({angles_xy_127_q[21], angles_xy_127_q, 5'b0}
-      - {{6{angles_xy_126_q[21]}}, angles_xy_126_q})
-      : $signed({angles_xy_127_q[21], angles_xy_127_q, 5'b0}
-      + {{6{angles_xy_126_q[21]}}, angles_xy_126_q});
-  wire t131_sub = angles_xy_127_q[21];
-  wire signed [17:0] t131 =
-      t131_sub ? $signed({{2{1'b0}}, angles_theta_128_q} - {{2{1'b0}}, K10})
-      : $signed({{2{1'b0}}, angles_theta_128_q} + {{2{1'b0}}, K10});
-  wire signed [22:0] angles_xy_132_t = $signed(t129[27:5]);
-  wire angles_xy_132_ovf_c = ~((&angles_xy_132_t[22:21]) | ~(|angles_xy_132_t[22:21]));
-  wire signed [21:0] angles_xy_132_d =
-      $signed(angles_xy_132_ovf_c ? (angles_xy_132_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_132_t[21:0]);
-  reg  signed [21:0] angles_xy_132_q;
-  wire signed [22:0] angles_xy_133_t = $signed(t130[27:5]);
-  wire angles_xy_133_ovf_c = ~((&angles_xy_133_t[22:21]) | ~(|angles_xy_133_t[22:21]));
-  wire signed [21:0] angles_xy_133_d =
-      $signed(angles_xy_133_ovf_c ? (angles_xy_133_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_133_t[21:0]);
-  reg  signed [21:0] angles_xy_133_q;
-  wire angles_theta_134_ovf_c = t131[17] | (|t131[16]);
-  wire [15:0] angles_theta_134_d = t131[15:0];
-  reg  [15:0] angles_theta_134_q;
-  wire t135_sub = angles_xy_133_q[21];
-  wire signed [28:0] t135 =
-      t135_sub
-      ? $signed({angles_xy_132_q[21], angles_xy_132_q, 6'b0}
-      - {{7{angles_xy_133_q[21]}}, angles_xy_133_q})
-      : $signed({angles_xy_132_q[21], angles_xy_132_q, 6'b0}
-      + {{7{angles_xy_133_q[21]}}, angles_xy_133_q});
-  wire t136_sub = ~angles_xy_133_q[21];
-  wire signed [28:0] t136 =
-      t136_sub
-      ? $signed({angles_xy_133_q[21], angles_xy_133_q, 6'b0}
-      - {{7{angles_xy_132_q[21]}}, angles_xy_132_q})
-      : $signed({angles_xy_133_q[21], angles_xy_133_q, 6'b0}
-      + {{7{angles_xy_132_q[21]}}, angles_xy_132_q});
-  wire t137_sub = angles_xy_133_q[21];
-  wire signed [17:0] t137 =
-      t137_sub ? $signed({{2{1'b0}}, angles_theta_134_q} - {{2{1'b0}}, K11})
-      : $signed({{2{1'b0}}, angles_theta_134_q} + {{2{1'b0}}, K11});
-  wire signed [22:0] angles_xy_138_t = $signed(t135[28:6]);
-  wire angles_xy_138_ovf_c = ~((&angles_xy_138_t[22:21]) | ~(|angles_xy_138_t[22:21]));
-  wire signed [21:0] angles_xy_138_d =
-      $signed(angles_xy_138_ovf_c ? (angles_xy_138_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_138_t[21:0]);
-  reg  signed [21:0] angles_xy_138_q;
-  wire signed [22:0] angles_xy_139_t = $signed(t136[28:6]);
-  wire angles_xy_139_ovf_c = ~((&angles_xy_139_t[22:21]) | ~(|angles_xy_139_t[22:21]));
-  wire signed [21:0] angles_xy_139_d =
-      $signed(angles_xy_139_ovf_c ? (angles_xy_139_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_139_t[21:0]);
-  reg  signed [21:0] angles_xy_139_q;
-  wire angles_theta_140_ovf_c = t137[17] | (|t137[16]);
-  wire [15:0] angles_theta_140_d = t137[15:0];
-  reg  [15:0] angles_theta_140_q;
-  wire t141_sub = angles_xy_139_q[21];
-  wire signed [29:0] t141 =
-      t141_sub
-      ? $signed({angles_xy_138_q[21], angles_xy_138_q, 7'b0}
-      - {{8{angles_xy_139_q[21]}}, angles_xy_139_q})
-      : $signed({angles_xy_138_q[21], angles_xy_138_q, 7'b0}
-      + {{8{angles_xy_139_q[21]}}, angles_xy_139_q});
-  wire t142_sub = ~angles_xy_139_q[21];
-  wire signed [29:0] t142 =
-      t142_sub
-      ? $signed({angles_xy_139_q[21], angles_xy_139_q, 7'b0}
-      - {{8{angles_xy_138_q[21]}}, angles_xy_138_q})
-      : $signed({angles_xy_139_q[21], angles_xy_139_q, 7'b0}
-      + {{8{angles_xy_138_q[21]}}, angles_xy_138_q});
-  wire t143_sub = angles_xy_139_q[21];
-  wire signed [17:0] t143 =
-      t143_sub ? $signed({{2{1'b0}}, angles_theta_140_q} - {{2{1'b0}}, K12})
-      : $signed({{2{1'b0}}, angles_theta_140_q} + {{2{1'b0}}, K12});
-  wire signed [22:0] angles_xy_144_t = $signed(t141[29:7]);
-  wire angles_xy_144_ovf_c = ~((&angles_xy_144_t[22:21]) | ~(|angles_xy_144_t[22:21]));
-  wire signed [21:0] angles_xy_144_d =
-      $signed(angles_xy_144_ovf_c ? (angles_xy_144_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_144_t[21:0]);
-  reg  signed [21:0] angles_xy_144_q;
-  wire signed [22:0] angles_xy_145_t = $signed(t142[29:7]);
-  wire angles_xy_145_ovf_c = ~((&angles_xy_145_t[22:21]) | ~(|angles_xy_145_t[22:21]));
-  wire signed [21:0] angles_xy_145_d =
-      $signed(angles_xy_145_ovf_c ? (angles_xy_145_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_145_t[21:0]);
-  reg  signed [21:0] angles_xy_145_q;
-  wire angles_theta_146_ovf_c = t143[17] | (|t143[16]);
-  wire [15:0] angles_theta_146_d = t143[15:0];
-  reg  [15:0] angles_theta_146_q;
-  wire t147_sub = angles_xy_145_q[21];
-  wire signed [30:0] t147 =
-      t147_sub
-      ? $signed({angles_xy_144_q[21], angles_xy_144_q, 8'b0}
-      - {{9{angles_xy_145_q[21]}}, angles_xy_145_q})
-      : $signed({angles_xy_144_q[21], angles_xy_144_q, 8'b0}
-      + {{9{angles_xy_145_q[21]}}, angles_xy_145_q});
-  wire t148_sub = ~angles_xy_145_q[21];
-  wire signed [30:0] t148 =
-      t148_sub
-      ? $signed({angles_xy_145_q[21], angles_xy_145_q, 8'b0}
-      - {{9{angles_xy_144_q[21]}}, angles_xy_144_q})
-      : $signed({angles_xy_145_q[21], angles_xy_145_q, 8'b0}
-      + {{9{angles_xy_144_q[21]}}, angles_xy_144_q});
-  wire t149_sub = angles_xy_145_q[21];
-  wire signed [17:0] t149 =
-      t149_sub ? $signed({{2{1'b0}}, angles_theta_146_q} - {{2{1'b0}}, K13})
-      : $signed({{2{1'b0}}, angles_theta_146_q} + {{2{1'b0}}, K13});
-  wire signed [22:0] angles_xy_150_t = $signed(t147[30:8]);
-  wire angles_xy_150_ovf_c = ~((&angles_xy_150_t[22:21]) | ~(|angles_xy_150_t[22:21]));
-  wire signed [21:0] angles_xy_150_d =
-      $signed(angles_xy_150_ovf_c ? (angles_xy_150_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_150_t[21:0]);
-  reg  signed [21:0] angles_xy_150_q;
-  wire signed [22:0] angles_xy_151_t = $signed(t148[30:8]);
-  wire angles_xy_151_ovf_c = ~((&angles_xy_151_t[22:21]) | ~(|angles_xy_151_t[22:21]));
-  wire signed [21:0] angles_xy_151_d =
-      $signed(angles_xy_151_ovf_c ? (angles_xy_151_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_151_t[21:0]);
-  reg  signed [21:0] angles_xy_151_q;
-  wire angles_theta_152_ovf_c = t149[17] | (|t149[16]);
-  wire [15:0] angles_theta_152_d = t149[15:0];
-  reg  [15:0] angles_theta_152_q;
-  wire t153_sub = angles_xy_151_q[21];
-  wire signed [31:0] t153 =
-      t153_sub
-      ? $signed({angles_xy_150_q[21], angles_xy_150_q, 9'b0}
-      - {{10{angles_xy_151_q[21]}}, angles_xy_151_q})
-      : $signed({angles_xy_150_q[21], angles_xy_150_q, 9'b0}
-      + {{10{angles_xy_151_q[21]}}, angles_xy_151_q});
-  wire t154_sub = ~angles_xy_151_q[21];
-  wire signed [31:0] t154 =
-      t154_sub
-      ? $signed({angles_xy_151_q[21], angles_xy_151_q, 9'b0}
-      - {{10{angles_xy_150_q[21]}}, angles_xy_150_q})
-      : $signed({angles_xy_151_q[21], angles_xy_151_q, 9'b0}
-      + {{10{angles_xy_150_q[21]}}, angles_xy_150_q});
-  wire t155_sub = angles_xy_151_q[21];
-  wire signed [17:0] t155 =
-      t155_sub ? $signed({{2{1'b0}}, angles_theta_152_q} - {{2{1'b0}}, K14})
-      : $signed({{2{1'b0}}, angles_theta_152_q} + {{2{1'b0}}, K14});
-  wire signed [22:0] angles_xy_156_t = $signed(t153[31:9]);
-  wire angles_xy_156_ovf_c = ~((&angles_xy_156_t[22:21]) | ~(|angles_xy_156_t[22:21]));
-  wire signed [21:0] angles_xy_156_d =
-      $signed(angles_xy_156_ovf_c ? (angles_xy_156_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_156_t[21:0]);
-  reg  signed [21:0] angles_xy_156_q;
-  wire signed [22:0] angles_xy_157_t = $signed(t154[31:9]);
-  wire angles_xy_157_ovf_c = ~((&angles_xy_157_t[22:21]) | ~(|angles_xy_157_t[22:21]));
-  wire signed [21:0] angles_xy_157_d =
-      $signed(angles_xy_157_ovf_c ? (angles_xy_157_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_157_t[21:0]);
-  reg  signed [21:0] angles_xy_157_q;
-  wire angles_theta_158_ovf_c = t155[17] | (|t155[16]);
-  wire [15:0] angles_theta_158_d = t155[15:0];
-  reg  [15:0] angles_theta_158_q;
-  wire t160_sub = ~angles_xy_157_q[21];
-  wire signed [32:0] t160 =
-      t160_sub
-      ? $signed({angles_xy_157_q[21], angles_xy_157_q, 10'b0}
-      - {{11{angles_xy_156_q[21]}}, angles_xy_156_q})
-      : $signed({angles_xy_157_q[21], angles_xy_157_q, 10'b0}
-      + {{11{angles_xy_156_q[21]}}, angles_xy_156_q});
-  wire t161_sub = angles_xy_157_q[21];
-  wire signed [17:0] t161 =
-      t161_sub ? $signed({{2{1'b0}}, angles_theta_158_q} - {{2{1'b0}}, K15})
-      : $signed({{2{1'b0}}, angles_theta_158_q} + {{2{1'b0}}, K15});
-  wire signed [22:0] angles_xy_163_t = $signed(t160[32:10]);
-  wire angles_xy_163_ovf_c = ~((&angles_xy_163_t[22:21]) | ~(|angles_xy_163_t[22:21]));
-  wire signed [21:0] angles_xy_163_d =
-      $signed(angles_xy_163_ovf_c ? (angles_xy_163_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_163_t[21:0]);
-  reg  signed [21:0] angles_xy_163_q;
-  wire angles_theta_164_ovf_c = t161[17] | (|t161[16]);
-  wire [15:0] angles_theta_164_d = t161[15:0];
-  reg  [15:0] angles_theta_164_q;
-  wire t167_sub = angles_xy_163_q[21];
-  wire signed [17:0] t167 =
-      t167_sub ? $signed({{2{1'b0}}, angles_theta_164_q} - {{2{1'b0}}, K16})
-      : $signed({{2{1'b0}}, angles_theta_164_q} + {{2{1'b0}}, K16});
-  wire angles_theta_170_ovf_c = t167[17] | (|t167[16]);
-  wire [15:0] angles_theta_170_d = t167[15:0];
-  reg  [15:0] angles_theta_170_q;
-  wire angles_out_171_tie = angles_theta_170_q[4] & ~(|angles_theta_170_q[3:0]);
-  wire [11:0] angles_out_171_up =
-      {1'b0, angles_theta_170_q[15:5]} + {{11{1'b0}}, angles_theta_170_q[4]};
-  wire [11:0] angles_out_171_r =
-      {angles_out_171_up[11:1], angles_out_171_up[0] & ~angles_out_171_tie};
-  wire angles_out_171_ovf_c = |angles_out_171_r[11];
-  wire [10:0] angles_out_171_d = angles_out_171_r[10:0];
-  reg  [10:0] angles_out_171_q;
-  wire angles_out_172_tie = angles_theta_95_q[4] & ~(|angles_theta_95_q[3:0]);
-  wire [11:0] angles_out_172_up =
-      {1'b0, angles_theta_95_q[15:5]} + {{11{1'b0}}, angles_theta_95_q[4]};
-  wire [11:0] angles_out_172_r =
-      {angles_out_172_up[11:1], angles_out_172_up[0] & ~angles_out_172_tie};
-  wire angles_out_172_ovf_c = |angles_out_172_r[11];
-  wire [10:0] angles_out_172_d = angles_out_172_r[10:0];
-  reg  [10:0] angles_out_172_q;
-  reg  [10:0] angles_out_172_s15_q;
-  reg  [10:0] angles_out_172_s16_q;
-  reg  [10:0] angles_out_172_s17_q;
-  reg  [10:0] angles_out_172_s18_q;
-  reg  [10:0] angles_out_172_s19_q;
-  reg  [10:0] angles_out_172_s20_q;
-  reg  [10:0] angles_out_172_s21_q;
-  reg  [10:0] angles_out_172_s22_q;
-  reg  [10:0] angles_out_172_s23_q;
-  reg  [10:0] angles_out_172_s24_q;
-  reg  [10:0] angles_out_172_s25_q;
-  reg  [10:0] angles_out_172_s26_q;
-  reg  [0:0] angles_xy_27_ovf_s2_q;
-  reg  [0:0] angles_xy_28_ovf_s2_q;
-  reg  [0:0] angles_xy_33_ovf_s3_q;
-  reg  [0:0] angles_xy_34_ovf_s3_q;
-  reg  [0:0] angles_xy_39_ovf_s4_q;
-  reg  [0:0] angles_xy_40_ovf_s4_q;
-  reg  [0:0] angles_xy_45_ovf_s5_q;
-  reg  [0:0] angles_xy_46_ovf_s5_q;
-  reg  [0:0] angles_xy_51_ovf_s6_q;
-  reg  [0:0] angles_xy_52_ovf_s6_q;
-  reg  [0:0] angles_xy_57_ovf_s7_q;
-  reg  [0:0] angles_xy_58_ovf_s7_q;
-  reg  [0:0] angles_xy_63_ovf_s8_q;
-  reg  [0:0] angles_xy_64_ovf_s8_q;
-  reg  [0:0] angles_xy_69_ovf_s9_q;
-  reg  [0:0] angles_xy_70_ovf_s9_q;
-  reg  [0:0] angles_xy_75_ovf_s10_q;
-  reg  [0:0] angles_xy_76_ovf_s10_q;
-  reg  [0:0] angles_xy_81_ovf_s11_q;
-  reg  [0:0] angles_xy_82_ovf_s11_q;
-  reg  [0:0] angles_xy_87_ovf_s12_q;
-  reg  [0:0] angles_xy_88_ovf_s12_q;
-  reg  [0:0] angles_xy_93_ovf_s13_q;
-  reg  [0:0] angles_xy_102_ovf_s14_q;
-  reg  [0:0] angles_xy_103_ovf_s14_q;
-  reg  [0:0] angles_xy_108_ovf_s15_q;
-  reg  [0:0] angles_xy_109_ovf_s15_q;
-  reg  [0:0] angles_xy_114_ovf_s16_q;
-  reg  [0:0] angles_xy_115_ovf_s16_q;
-  reg  [0:0] angles_xy_120_ovf_s17_q;
-  reg  [0:0] angles_xy_121_ovf_s17_q;
-  reg  [0:0] angles_xy_126_ovf_s18_q;
-  reg  [0:0] angles_xy_127_ovf_s18_q;
-  reg  [0:0] angles_xy_132_ovf_s19_q;
-  reg  [0:0] angles_xy_133_ovf_s19_q;
-  reg  [0:0] angles_xy_138_ovf_s20_q;
-  reg  [0:0] angles_xy_139_ovf_s20_q;
-  reg  [0:0] angles_xy_144_ovf_s21_q;
-  reg  [0:0] angles_xy_145_ovf_s21_q;
-  reg  [0:0] angles_xy_150_ovf_s22_q;
-  reg  [0:0] angles_xy_151_ovf_s22_q;
-  reg  [0:0] angles_xy_156_ovf_s23_q;
-  reg  [0:0] angles_xy_157_ovf_s23_q;
-  reg  [0:0] angles_xy_163_ovf_s24_q;
+  wire angles_theta_23_ovf_c = angles_theta_addsub22[17] | (|angles_theta_addsub22[16]);
+  wire [15:0] angles_theta_23_d = angles_theta_addsub22[15:0];
+  reg  [15:0] angles_theta_23_q;
+  wire angles_xy_addsub47_sub = ~angles_xy_46_q[21];
+  wire signed [32:0] angles_xy_addsub47 =
+      angles_xy_addsub47_sub
+      ? $signed({angles_xy_46_q[21], angles_xy_46_q, 10'b0}
+      - {{11{angles_xy_45_q[21]}}, angles_xy_45_q})
+      : $signed({angles_xy_46_q[21], angles_xy_46_q, 10'b0}
+      + {{11{angles_xy_45_q[21]}}, angles_xy_45_q});
+  wire angles_theta_addsub23_sub = angles_xy_46_q[21];
+  wire signed [17:0] angles_theta_addsub23 =
+      angles_theta_addsub23_sub
+      ? $signed({{2{1'b0}}, angles_theta_23_q} - {{2{1'b0}}, angles_theta_k11})
+      : $signed({{2{1'b0}}, angles_theta_23_q} + {{2{1'b0}}, angles_theta_k11});
+  wire signed [22:0] angles_xy_48_t = $signed(angles_xy_addsub47[32:10]);
+  wire angles_xy_48_ovf_c = ~((&angles_xy_48_t[22:21]) | ~(|angles_xy_48_t[22:21]));
+  wire signed [21:0] angles_xy_48_d =
+      $signed(angles_xy_48_ovf_c ? (angles_xy_48_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_48_t[21:0]);
+  reg  signed [21:0] angles_xy_48_q;
+  wire angles_theta_24_ovf_c = angles_theta_addsub23[17] | (|angles_theta_addsub23[16]);
+  wire [15:0] angles_theta_24_d = angles_theta_addsub23[15:0];
+  reg  [15:0] angles_theta_24_q;
+  wire angles_theta_addsub24_sub = angles_xy_48_q[21];
+  wire signed [17:0] angles_theta_addsub24 =
+      angles_theta_addsub24_sub
+      ? $signed({{2{1'b0}}, angles_theta_24_q} - {{2{1'b0}}, angles_theta_k12})
+      : $signed({{2{1'b0}}, angles_theta_24_q} + {{2{1'b0}}, angles_theta_k12});
+  wire angles_theta_25_ovf_c = angles_theta_addsub24[17] | (|angles_theta_addsub24[16]);
+  wire [15:0] angles_theta_25_d = angles_theta_addsub24[15:0];
+  reg  [15:0] angles_theta_25_q;
+  wire angles_out_0_tie = angles_theta_25_q[4] & ~(|angles_theta_25_q[3:0]);
+  wire [11:0] angles_out_0_up =
+      {1'b0, angles_theta_25_q[15:5]} + {{11{1'b0}}, angles_theta_25_q[4]};
+  wire [11:0] angles_out_0_r = {angles_out_0_up[11:1], angles_out_0_up[0] & ~angles_out_0_tie};
+  wire angles_out_0_ovf_c = |angles_out_0_r[11];
+  wire [10:0] angles_out_0_d = angles_out_0_r[10:0];
+  reg  [10:0] angles_out_0_q;
+  wire angles_out_1_tie = angles_theta_12_q[4] & ~(|angles_theta_12_q[3:0]);
+  wire [11:0] angles_out_1_up =
+      {1'b0, angles_theta_12_q[15:5]} + {{11{1'b0}}, angles_theta_12_q[4]};
+  wire [11:0] angles_out_1_r = {angles_out_1_up[11:1], angles_out_1_up[0] & ~angles_out_1_tie};
+  wire angles_out_1_ovf_c = |angles_out_1_r[11];
+  wire [10:0] angles_out_1_d = angles_out_1_r[10:0];
+  reg  [10:0] angles_out_1_q;
+  reg  [10:0] angles_out_1_s15_q;
+  reg  [10:0] angles_out_1_s16_q;
+  reg  [10:0] angles_out_1_s17_q;
+  reg  [10:0] angles_out_1_s18_q;
+  reg  [10:0] angles_out_1_s19_q;
+  reg  [10:0] angles_out_1_s20_q;
+  reg  [10:0] angles_out_1_s21_q;
+  reg  [10:0] angles_out_1_s22_q;
+  reg  [10:0] angles_out_1_s23_q;
+  reg  [10:0] angles_out_1_s24_q;
+  reg  [10:0] angles_out_1_s25_q;
+  reg  [10:0] angles_out_1_s26_q;
+  reg  [0:0] angles_xy_2_ovf_s2_q;
+  reg  [0:0] angles_xy_3_ovf_s2_q;
+  reg  [0:0] angles_xy_4_ovf_s3_q;
+  reg  [0:0] angles_xy_5_ovf_s3_q;
+  reg  [0:0] angles_xy_6_ovf_s4_q;
+  reg  [0:0] angles_xy_7_ovf_s4_q;
+  reg  [0:0] angles_xy_8_ovf_s5_q;
+  reg  [0:0] angles_xy_9_ovf_s5_q;
+  reg  [0:0] angles_xy_10_ovf_s6_q;
+  reg  [0:0] angles_xy_11_ovf_s6_q;
+  reg  [0:0] angles_xy_12_ovf_s7_q;
+  reg  [0:0] angles_xy_13_ovf_s7_q;
+  reg  [0:0] angles_xy_14_ovf_s8_q;
+  reg  [0:0] angles_xy_15_ovf_s8_q;
+  reg  [0:0] angles_xy_16_ovf_s9_q;
+  reg  [0:0] angles_xy_17_ovf_s9_q;
+  reg  [0:0] angles_xy_18_ovf_s10_q;
+  reg  [0:0] angles_xy_19_ovf_s10_q;
+  reg  [0:0] angles_xy_20_ovf_s11_q;
+  reg  [0:0] angles_xy_21_ovf_s11_q;
+  reg  [0:0] angles_xy_22_ovf_s12_q;
+  reg  [0:0] angles_xy_23_ovf_s12_q;
+  reg  [0:0] angles_xy_24_ovf_s13_q;
+  reg  [0:0] angles_xy_27_ovf_s14_q;
+  reg  [0:0] angles_xy_28_ovf_s14_q;
+  reg  [0:0] angles_xy_29_ovf_s15_q;
+  reg  [0:0] angles_xy_30_ovf_s15_q;
+  reg  [0:0] angles_xy_31_ovf_s16_q;
+  reg  [0:0] angles_xy_32_ovf_s16_q;
+  reg  [0:0] angles_xy_33_ovf_s17_q;
+  reg  [0:0] angles_xy_34_ovf_s17_q;
+  reg  [0:0] angles_xy_35_ovf_s18_q;
+  reg  [0:0] angles_xy_36_ovf_s18_q;
+  reg  [0:0] angles_xy_37_ovf_s19_q;
+  reg  [0:0] angles_xy_38_ovf_s19_q;
+  reg  [0:0] angles_xy_39_ovf_s20_q;
+  reg  [0:0] angles_xy_40_ovf_s20_q;
+  reg  [0:0] angles_xy_41_ovf_s21_q;
+  reg  [0:0] angles_xy_42_ovf_s21_q;
+  reg  [0:0] angles_xy_43_ovf_s22_q;
+  reg  [0:0] angles_xy_44_ovf_s22_q;
+  reg  [0:0] angles_xy_45_ovf_s23_q;
+  reg  [0:0] angles_xy_46_ovf_s23_q;
+  reg  [0:0] angles_xy_48_ovf_s24_q;
   wire ovf0_or_s2 =
-      angles_xy_27_ovf_s2_q | angles_xy_28_ovf_s2_q;
+      angles_xy_2_ovf_s2_q | angles_xy_3_ovf_s2_q;
   reg  [0:0] ovf0_s3_q;
   wire ovf0_or_s3 =
-      ovf0_s3_q | angles_xy_33_ovf_s3_q | angles_xy_34_ovf_s3_q;
+      ovf0_s3_q | angles_xy_4_ovf_s3_q | angles_xy_5_ovf_s3_q;
   reg  [0:0] ovf0_s4_q;
   wire ovf0_or_s4 =
-      ovf0_s4_q | angles_xy_39_ovf_s4_q | angles_xy_40_ovf_s4_q;
+      ovf0_s4_q | angles_xy_6_ovf_s4_q | angles_xy_7_ovf_s4_q;
   reg  [0:0] ovf0_s5_q;
   wire ovf0_or_s5 =
-      ovf0_s5_q | angles_xy_45_ovf_s5_q | angles_xy_46_ovf_s5_q;
+      ovf0_s5_q | angles_xy_8_ovf_s5_q | angles_xy_9_ovf_s5_q;
   reg  [0:0] ovf0_s6_q;
   wire ovf0_or_s6 =
-      ovf0_s6_q | angles_xy_51_ovf_s6_q | angles_xy_52_ovf_s6_q;
+      ovf0_s6_q | angles_xy_10_ovf_s6_q | angles_xy_11_ovf_s6_q;
   reg  [0:0] ovf0_s7_q;
   wire ovf0_or_s7 =
-      ovf0_s7_q | angles_xy_57_ovf_s7_q | angles_xy_58_ovf_s7_q;
+      ovf0_s7_q | angles_xy_12_ovf_s7_q | angles_xy_13_ovf_s7_q;
   reg  [0:0] ovf0_s8_q;
   wire ovf0_or_s8 =
-      ovf0_s8_q | angles_xy_63_ovf_s8_q | angles_xy_64_ovf_s8_q;
+      ovf0_s8_q | angles_xy_14_ovf_s8_q | angles_xy_15_ovf_s8_q;
   reg  [0:0] ovf0_s9_q;
   wire ovf0_or_s9 =
-      ovf0_s9_q | angles_xy_69_ovf_s9_q | angles_xy_70_ovf_s9_q;
+      ovf0_s9_q | angles_xy_16_ovf_s9_q | angles_xy_17_ovf_s9_q;
   reg  [0:0] ovf0_s10_q;
   wire ovf0_or_s10 =
-      ovf0_s10_q | angles_xy_75_ovf_s10_q | angles_xy_76_ovf_s10_q;
+      ovf0_s10_q | angles_xy_18_ovf_s10_q | angles_xy_19_ovf_s10_q;
   reg  [0:0] ovf0_s11_q;
   wire ovf0_or_s11 =
-      ovf0_s11_q | angles_xy_81_ovf_s11_q | angles_xy_82_ovf_s11_q;
+      ovf0_s11_q | angles_xy_20_ovf_s11_q | angles_xy_21_ovf_s11_q;
   reg  [0:0] ovf0_s12_q;
   wire ovf0_or_s12 =
-      ovf0_s12_q | angles_xy_87_ovf_s12_q | angles_xy_88_ovf_s12_q;
+      ovf0_s12_q | angles_xy_22_ovf_s12_q | angles_xy_23_ovf_s12_q;
   reg  [0:0] ovf0_s13_q;
   wire ovf0_or_s13 =
-      ovf0_s13_q | angles_xy_93_ovf_s13_q;
+      ovf0_s13_q | angles_xy_24_ovf_s13_q;
   reg  [0:0] ovf0_s14_q;
   wire ovf0_or_s14 =
-      ovf0_s14_q | angles_xy_102_ovf_s14_q | angles_xy_103_ovf_s14_q;
+      ovf0_s14_q | angles_xy_27_ovf_s14_q | angles_xy_28_ovf_s14_q;
   reg  [0:0] ovf0_s15_q;
   wire ovf0_or_s15 =
-      ovf0_s15_q | angles_xy_108_ovf_s15_q | angles_xy_109_ovf_s15_q;
+      ovf0_s15_q | angles_xy_29_ovf_s15_q | angles_xy_30_ovf_s15_q;
   reg  [0:0] ovf0_s16_q;
   wire ovf0_or_s16 =
-      ovf0_s16_q | angles_xy_114_ovf_s16_q | angles_xy_115_ovf_s16_q;
+      ovf0_s16_q | angles_xy_31_ovf_s16_q | angles_xy_32_ovf_s16_q;
   reg  [0:0] ovf0_s17_q;
   wire ovf0_or_s17 =
-      ovf0_s17_q | angles_xy_120_ovf_s17_q | angles_xy_121_ovf_s17_q;
+      ovf0_s17_q | angles_xy_33_ovf_s17_q | angles_xy_34_ovf_s17_q;
   reg  [0:0] ovf0_s18_q;
   wire ovf0_or_s18 =
-      ovf0_s18_q | angles_xy_126_ovf_s18_q | angles_xy_127_ovf_s18_q;
+      ovf0_s18_q | angles_xy_35_ovf_s18_q | angles_xy_36_ovf_s18_q;
   reg  [0:0] ovf0_s19_q;
   wire ovf0_or_s19 =
-      ovf0_s19_q | angles_xy_132_ovf_s19_q | angles_xy_133_ovf_s19_q;
+      ovf0_s19_q | angles_xy_37_ovf_s19_q | angles_xy_38_ovf_s19_q;
   reg  [0:0] ovf0_s20_q;
   wire ovf0_or_s20 =
-      ovf0_s20_q | angles_xy_138_ovf_s20_q | angles_xy_139_ovf_s20_q;
+      ovf0_s20_q | angles_xy_39_ovf_s20_q | angles_xy_40_ovf_s20_q;
   reg  [0:0] ovf0_s21_q;
   wire ovf0_or_s21 =
-      ovf0_s21_q | angles_xy_144_ovf_s21_q | angles_xy_145_ovf_s21_q;
+      ovf0_s21_q | angles_xy_41_ovf_s21_q | angles_xy_42_ovf_s21_q;
   reg  [0:0] ovf0_s22_q;
   wire ovf0_or_s22 =
-      ovf0_s22_q | angles_xy_150_ovf_s22_q | angles_xy_151_ovf_s22_q;
+      ovf0_s22_q | angles_xy_43_ovf_s22_q | angles_xy_44_ovf_s22_q;
   reg  [0:0] ovf0_s23_q;
   wire ovf0_or_s23 =
-      ovf0_s23_q | angles_xy_156_ovf_s23_q | angles_xy_157_ovf_s23_q;
+      ovf0_s23_q | angles_xy_45_ovf_s23_q | angles_xy_46_ovf_s23_q;
   reg  [0:0] ovf0_s24_q;
   wire ovf0_or_s24 =
-      ovf0_s24_q | angles_xy_163_ovf_s24_q;
+      ovf0_s24_q | angles_xy_48_ovf_s24_q;
   reg  [0:0] ovf0_s25_q;
   reg  [0:0] ovf0_s26_q;
-  reg  [0:0] angles_theta_23_ovf_s1_q;
-  reg  [0:0] angles_theta_29_ovf_s2_q;
-  reg  [0:0] angles_theta_35_ovf_s3_q;
-  reg  [0:0] angles_theta_41_ovf_s4_q;
-  reg  [0:0] angles_theta_47_ovf_s5_q;
-  reg  [0:0] angles_theta_53_ovf_s6_q;
-  reg  [0:0] angles_theta_59_ovf_s7_q;
-  reg  [0:0] angles_theta_65_ovf_s8_q;
-  reg  [0:0] angles_theta_71_ovf_s9_q;
-  reg  [0:0] angles_theta_77_ovf_s10_q;
-  reg  [0:0] angles_theta_83_ovf_s11_q;
-  reg  [0:0] angles_theta_89_ovf_s12_q;
-  reg  [0:0] angles_theta_95_ovf_s13_q;
-  reg  [0:0] angles_theta_98_ovf_s1_q;
-  reg  [0:0] angles_theta_104_ovf_s2_q;
-  reg  [0:0] angles_theta_110_ovf_s15_q;
-  reg  [0:0] angles_theta_116_ovf_s16_q;
-  reg  [0:0] angles_theta_122_ovf_s17_q;
-  reg  [0:0] angles_theta_128_ovf_s18_q;
-  reg  [0:0] angles_theta_134_ovf_s19_q;
-  reg  [0:0] angles_theta_140_ovf_s20_q;
-  reg  [0:0] angles_theta_146_ovf_s21_q;
-  reg  [0:0] angles_theta_152_ovf_s22_q;
-  reg  [0:0] angles_theta_158_ovf_s23_q;
-  reg  [0:0] angles_theta_164_ovf_s24_q;
-  reg  [0:0] angles_theta_170_ovf_s25_q;
+  reg  [0:0] angles_theta_0_ovf_s1_q;
+  reg  [0:0] angles_theta_1_ovf_s2_q;
+  reg  [0:0] angles_theta_2_ovf_s3_q;
+  reg  [0:0] angles_theta_3_ovf_s4_q;
+  reg  [0:0] angles_theta_4_ovf_s5_q;
+  reg  [0:0] angles_theta_5_ovf_s6_q;
+  reg  [0:0] angles_theta_6_ovf_s7_q;
+  reg  [0:0] angles_theta_7_ovf_s8_q;
+  reg  [0:0] angles_theta_8_ovf_s9_q;
+  reg  [0:0] angles_theta_9_ovf_s10_q;
+  reg  [0:0] angles_theta_10_ovf_s11_q;
+  reg  [0:0] angles_theta_11_ovf_s12_q;
+  reg  [0:0] angles_theta_12_ovf_s13_q;
+  reg  [0:0] angles_theta_13_ovf_s1_q;
+  reg  [0:0] angles_theta_14_ovf_s2_q;
+  reg  [0:0] angles_theta_15_ovf_s15_q;
+  reg  [0:0] angles_theta_16_ovf_s16_q;
+  reg  [0:0] angles_theta_17_ovf_s17_q;
+  reg  [0:0] angles_theta_18_ovf_s18_q;
+  reg  [0:0] angles_theta_19_ovf_s19_q;
+  reg  [0:0] angles_theta_20_ovf_s20_q;
+  reg  [0:0] angles_theta_21_ovf_s21_q;
+  reg  [0:0] angles_theta_22_ovf_s22_q;
+  reg  [0:0] angles_theta_23_ovf_s23_q;
+  reg  [0:0] angles_theta_24_ovf_s24_q;
+  reg  [0:0] angles_theta_25_ovf_s25_q;
   wire ovf1_or_s1 =
-      angles_theta_23_ovf_s1_q | angles_theta_98_ovf_s1_q;
+      angles_theta_0_ovf_s1_q | angles_theta_13_ovf_s1_q;
   reg  [0:0] ovf1_s2_q;
   wire ovf1_or_s2 =
-      ovf1_s2_q | angles_theta_29_ovf_s2_q | angles_theta_104_ovf_s2_q;
+      ovf1_s2_q | angles_theta_1_ovf_s2_q | angles_theta_14_ovf_s2_q;
   reg  [0:0] ovf1_s3_q;
   wire ovf1_or_s3 =
-      ovf1_s3_q | angles_theta_35_ovf_s3_q;
+      ovf1_s3_q | angles_theta_2_ovf_s3_q;
   reg  [0:0] ovf1_s4_q;
   wire ovf1_or_s4 =
-      ovf1_s4_q | angles_theta_41_ovf_s4_q;
+      ovf1_s4_q | angles_theta_3_ovf_s4_q;
   reg  [0:0] ovf1_s5_q;
   wire ovf1_or_s5 =
-      ovf1_s5_q | angles_theta_47_ovf_s5_q;
+      ovf1_s5_q | angles_theta_4_ovf_s5_q;
   reg  [0:0] ovf1_s6_q;
   wire ovf1_or_s6 =
-      ovf1_s6_q | angles_theta_53_ovf_s6_q;
+      ovf1_s6_q | angles_theta_5_ovf_s6_q;
   reg  [0:0] ovf1_s7_q;
   wire ovf1_or_s7 =
-      ovf1_s7_q | angles_theta_59_ovf_s7_q;
+      ovf1_s7_q | angles_theta_6_ovf_s7_q;
   reg  [0:0] ovf1_s8_q;
   wire ovf1_or_s8 =
-      ovf1_s8_q | angles_theta_65_ovf_s8_q;
+      ovf1_s8_q | angles_theta_7_ovf_s8_q;
   reg  [0:0] ovf1_s9_q;
   wire ovf1_or_s9 =
-      ovf1_s9_q | angles_theta_71_ovf_s9_q;
+      ovf1_s9_q | angles_theta_8_ovf_s9_q;
   reg  [0:0] ovf1_s10_q;
   wire ovf1_or_s10 =
-      ovf1_s10_q | angles_theta_77_ovf_s10_q;
+      ovf1_s10_q | angles_theta_9_ovf_s10_q;
   reg  [0:0] ovf1_s11_q;
   wire ovf1_or_s11 =
-      ovf1_s11_q | angles_theta_83_ovf_s11_q;
+      ovf1_s11_q | angles_theta_10_ovf_s11_q;
   reg  [0:0] ovf1_s12_q;
   wire ovf1_or_s12 =
-      ovf1_s12_q | angles_theta_89_ovf_s12_q;
+      ovf1_s12_q | angles_theta_11_ovf_s12_q;
   reg  [0:0] ovf1_s13_q;
   wire ovf1_or_s13 =
-      ovf1_s13_q | angles_theta_95_ovf_s13_q;
+      ovf1_s13_q | angles_theta_12_ovf_s13_q;
   reg  [0:0] ovf1_s14_q;
   reg  [0:0] ovf1_s15_q;
   wire ovf1_or_s15 =
-      ovf1_s15_q | angles_theta_110_ovf_s15_q;
+      ovf1_s15_q | angles_theta_15_ovf_s15_q;
   reg  [0:0] ovf1_s16_q;
   wire ovf1_or_s16 =
-      ovf1_s16_q | angles_theta_116_ovf_s16_q;
+      ovf1_s16_q | angles_theta_16_ovf_s16_q;
   reg  [0:0] ovf1_s17_q;
   wire ovf1_or_s17 =
-      ovf1_s17_q | angles_theta_122_ovf_s17_q;
+      ovf1_s17_q | angles_theta_17_ovf_s17_q;
   reg  [0:0] ovf1_s18_q;
   wire ovf1_or_s18 =
-      ovf1_s18_q | angles_theta_128_ovf_s18_q;
+      ovf1_s18_q | angles_theta_18_ovf_s18_q;
   reg  [0:0] ovf1_s19_q;
   wire ovf1_or_s19 =
-      ovf1_s19_q | angles_theta_134_ovf_s19_q;
+      ovf1_s19_q | angles_theta_19_ovf_s19_q;
   reg  [0:0] ovf1_s20_q;
   wire ovf1_or_s20 =
-      ovf1_s20_q | angles_theta_140_ovf_s20_q;
+      ovf1_s20_q | angles_theta_20_ovf_s20_q;
   reg  [0:0] ovf1_s21_q;
   wire ovf1_or_s21 =
-      ovf1_s21_q | angles_theta_146_ovf_s21_q;
+      ovf1_s21_q | angles_theta_21_ovf_s21_q;
   reg  [0:0] ovf1_s22_q;
   wire ovf1_or_s22 =
-      ovf1_s22_q | angles_theta_152_ovf_s22_q;
+      ovf1_s22_q | angles_theta_22_ovf_s22_q;
   reg  [0:0] ovf1_s23_q;
   wire ovf1_or_s23 =
-      ovf1_s23_q | angles_theta_158_ovf_s23_q;
+      ovf1_s23_q | angles_theta_23_ovf_s23_q;
   reg  [0:0] ovf1_s24_q;
   wire ovf1_or_s24 =
-      ovf1_s24_q | angles_theta_164_ovf_s24_q;
+      ovf1_s24_q | angles_theta_24_ovf_s24_q;
   reg  [0:0] ovf1_s25_q;
   wire ovf1_or_s25 =
-      ovf1_s25_q | angles_theta_170_ovf_s25_q;
+      ovf1_s25_q | angles_theta_25_ovf_s25_q;
   reg  [0:0] ovf1_s26_q;
-  reg  [0:0] angles_out_171_ovf_s26_q;
-  reg  [0:0] angles_out_172_ovf_s14_q;
+  reg  [0:0] angles_out_0_ovf_s26_q;
+  reg  [0:0] angles_out_1_ovf_s14_q;
   reg  [0:0] ovf2_s15_q;
   reg  [0:0] ovf2_s16_q;
   reg  [0:0] ovf2_s17_q;
@@ -1210,7 +1223,7 @@ module angles (
   reg  [0:0] ovf2_s25_q;
   reg  [0:0] ovf2_s26_q;
   wire ovf2_or_s26 =
-      ovf2_s26_q | angles_out_171_ovf_s26_q;
+      ovf2_s26_q | angles_out_0_ovf_s26_q;
 
   // Stage loads: the item entering stage k is valid and the stages move.
   wire load_s1 = in_take;
@@ -1244,299 +1257,299 @@ module angles (
   // registers load only with a valid item, so bubbles do not toggle them.
   always @(posedge clk_i) begin
     if (load_s1) begin
-      angles_xy_21_q <= angles_xy_21_d;
-      angles_xy_22_q <= angles_xy_22_d;
-      angles_theta_23_q <= angles_theta_23_d;
-      angles_xy_97_q <= angles_xy_97_d;
-      angles_theta_98_q <= angles_theta_98_d;
-      angles_theta_23_ovf_s1_q <= angles_theta_23_ovf_c;
-      angles_theta_98_ovf_s1_q <= angles_theta_98_ovf_c;
+      angles_xy_0_q <= angles_xy_0_d;
+      angles_xy_1_q <= angles_xy_1_d;
+      angles_theta_0_q <= angles_theta_0_d;
+      angles_xy_26_q <= angles_xy_26_d;
+      angles_theta_13_q <= angles_theta_13_d;
+      angles_theta_0_ovf_s1_q <= angles_theta_0_ovf_c;
+      angles_theta_13_ovf_s1_q <= angles_theta_13_ovf_c;
     end
     if (load_s2) begin
-      angles_xy_27_q <= angles_xy_27_d;
-      angles_xy_28_q <= angles_xy_28_d;
-      angles_theta_29_q <= angles_theta_29_d;
-      angles_xy_97_s2_q <= angles_xy_97_q;
-      angles_theta_104_q <= angles_theta_104_d;
-      angles_xy_27_ovf_s2_q <= angles_xy_27_ovf_c;
-      angles_xy_28_ovf_s2_q <= angles_xy_28_ovf_c;
-      angles_theta_29_ovf_s2_q <= angles_theta_29_ovf_c;
-      angles_theta_104_ovf_s2_q <= angles_theta_104_ovf_c;
+      angles_xy_2_q <= angles_xy_2_d;
+      angles_xy_3_q <= angles_xy_3_d;
+      angles_theta_1_q <= angles_theta_1_d;
+      angles_xy_26_s2_q <= angles_xy_26_q;
+      angles_theta_14_q <= angles_theta_14_d;
+      angles_xy_2_ovf_s2_q <= angles_xy_2_ovf_c;
+      angles_xy_3_ovf_s2_q <= angles_xy_3_ovf_c;
+      angles_theta_1_ovf_s2_q <= angles_theta_1_ovf_c;
+      angles_theta_14_ovf_s2_q <= angles_theta_14_ovf_c;
       ovf1_s2_q <= ovf1_or_s1;
     end
     if (load_s3) begin
-      angles_xy_33_q <= angles_xy_33_d;
-      angles_xy_34_q <= angles_xy_34_d;
-      angles_theta_35_q <= angles_theta_35_d;
-      angles_xy_97_s3_q <= angles_xy_97_s2_q;
-      angles_theta_104_s3_q <= angles_theta_104_q;
-      angles_xy_33_ovf_s3_q <= angles_xy_33_ovf_c;
-      angles_xy_34_ovf_s3_q <= angles_xy_34_ovf_c;
+      angles_xy_4_q <= angles_xy_4_d;
+      angles_xy_5_q <= angles_xy_5_d;
+      angles_theta_2_q <= angles_theta_2_d;
+      angles_xy_26_s3_q <= angles_xy_26_s2_q;
+      angles_theta_14_s3_q <= angles_theta_14_q;
+      angles_xy_4_ovf_s3_q <= angles_xy_4_ovf_c;
+      angles_xy_5_ovf_s3_q <= angles_xy_5_ovf_c;
       ovf0_s3_q <= ovf0_or_s2;
-      angles_theta_35_ovf_s3_q <= angles_theta_35_ovf_c;
+      angles_theta_2_ovf_s3_q <= angles_theta_2_ovf_c;
       ovf1_s3_q <= ovf1_or_s2;
     end
     if (load_s4) begin
-      angles_xy_39_q <= angles_xy_39_d;
-      angles_xy_40_q <= angles_xy_40_d;
-      angles_theta_41_q <= angles_theta_41_d;
-      angles_xy_97_s4_q <= angles_xy_97_s3_q;
-      angles_theta_104_s4_q <= angles_theta_104_s3_q;
-      angles_xy_39_ovf_s4_q <= angles_xy_39_ovf_c;
-      angles_xy_40_ovf_s4_q <= angles_xy_40_ovf_c;
+      angles_xy_6_q <= angles_xy_6_d;
+      angles_xy_7_q <= angles_xy_7_d;
+      angles_theta_3_q <= angles_theta_3_d;
+      angles_xy_26_s4_q <= angles_xy_26_s3_q;
+      angles_theta_14_s4_q <= angles_theta_14_s3_q;
+      angles_xy_6_ovf_s4_q <= angles_xy_6_ovf_c;
+      angles_xy_7_ovf_s4_q <= angles_xy_7_ovf_c;
       ovf0_s4_q <= ovf0_or_s3;
-      angles_theta_41_ovf_s4_q <= angles_theta_41_ovf_c;
+      angles_theta_3_ovf_s4_q <= angles_theta_3_ovf_c;
       ovf1_s4_q <= ovf1_or_s3;
     end
     if (load_s5) begin
-      angles_xy_45_q <= angles_xy_45_d;
-      angles_xy_46_q <= angles_xy_46_d;
-      angles_theta_47_q <= angles_theta_47_d;
-      angles_xy_97_s5_q <= angles_xy_97_s4_q;
-      angles_theta_104_s5_q <= angles_theta_104_s4_q;
-      angles_xy_45_ovf_s5_q <= angles_xy_45_ovf_c;
-      angles_xy_46_ovf_s5_q <= angles_xy_46_ovf_c;
+      angles_xy_8_q <= angles_xy_8_d;
+      angles_xy_9_q <= angles_xy_9_d;
+      angles_theta_4_q <= angles_theta_4_d;
+      angles_xy_26_s5_q <= angles_xy_26_s4_q;
+      angles_theta_14_s5_q <= angles_theta_14_s4_q;
+      angles_xy_8_ovf_s5_q <= angles_xy_8_ovf_c;
+      angles_xy_9_ovf_s5_q <= angles_xy_9_ovf_c;
       ovf0_s5_q <= ovf0_or_s4;
-      angles_theta_47_ovf_s5_q <= angles_theta_47_ovf_c;
+      angles_theta_4_ovf_s5_q <= angles_theta_4_ovf_c;
       ovf1_s5_q <= ovf1_or_s4;
     end
     if (load_s6) begin
-      angles_xy_51_q <= angles_xy_51_d;
-      angles_xy_52_q <= angles_xy_52_d;
-      angles_theta_53_q <= angles_theta_53_d;
-      angles_xy_97_s6_q <= angles_xy_97_s5_q;
-      angles_theta_104_s6_q <= angles_theta_104_s5_q;
-      angles_xy_51_ovf_s6_q <= angles_xy_51_ovf_c;
-      angles_xy_52_ovf_s6_q <= angles_xy_52_ovf_c;
+      angles_xy_10_q <= angles_xy_10_d;
+      angles_xy_11_q <= angles_xy_11_d;
+      angles_theta_5_q <= angles_theta_5_d;
+      angles_xy_26_s6_q <= angles_xy_26_s5_q;
+      angles_theta_14_s6_q <= angles_theta_14_s5_q;
+      angles_xy_10_ovf_s6_q <= angles_xy_10_ovf_c;
+      angles_xy_11_ovf_s6_q <= angles_xy_11_ovf_c;
       ovf0_s6_q <= ovf0_or_s5;
-      angles_theta_53_ovf_s6_q <= angles_theta_53_ovf_c;
+      angles_theta_5_ovf_s6_q <= angles_theta_5_ovf_c;
       ovf1_s6_q <= ovf1_or_s5;
     end
     if (load_s7) begin
-      angles_xy_57_q <= angles_xy_57_d;
-      angles_xy_58_q <= angles_xy_58_d;
-      angles_theta_59_q <= angles_theta_59_d;
-      angles_xy_97_s7_q <= angles_xy_97_s6_q;
-      angles_theta_104_s7_q <= angles_theta_104_s6_q;
-      angles_xy_57_ovf_s7_q <= angles_xy_57_ovf_c;
-      angles_xy_58_ovf_s7_q <= angles_xy_58_ovf_c;
+      angles_xy_12_q <= angles_xy_12_d;
+      angles_xy_13_q <= angles_xy_13_d;
+      angles_theta_6_q <= angles_theta_6_d;
+      angles_xy_26_s7_q <= angles_xy_26_s6_q;
+      angles_theta_14_s7_q <= angles_theta_14_s6_q;
+      angles_xy_12_ovf_s7_q <= angles_xy_12_ovf_c;
+      angles_xy_13_ovf_s7_q <= angles_xy_13_ovf_c;
       ovf0_s7_q <= ovf0_or_s6;
-      angles_theta_59_ovf_s7_q <= angles_theta_59_ovf_c;
+      angles_theta_6_ovf_s7_q <= angles_theta_6_ovf_c;
       ovf1_s7_q <= ovf1_or_s6;
     end
     if (load_s8) begin
-      angles_xy_63_q <= angles_xy_63_d;
-      angles_xy_64_q <= angles_xy_64_d;
-      angles_theta_65_q <= angles_theta_65_d;
-      angles_xy_97_s8_q <= angles_xy_97_s7_q;
-      angles_theta_104_s8_q <= angles_theta_104_s7_q;
-      angles_xy_63_ovf_s8_q <= angles_xy_63_ovf_c;
-      angles_xy_64_ovf_s8_q <= angles_xy_64_ovf_c;
+      angles_xy_14_q <= angles_xy_14_d;
+      angles_xy_15_q <= angles_xy_15_d;
+      angles_theta_7_q <= angles_theta_7_d;
+      angles_xy_26_s8_q <= angles_xy_26_s7_q;
+      angles_theta_14_s8_q <= angles_theta_14_s7_q;
+      angles_xy_14_ovf_s8_q <= angles_xy_14_ovf_c;
+      angles_xy_15_ovf_s8_q <= angles_xy_15_ovf_c;
       ovf0_s8_q <= ovf0_or_s7;
-      angles_theta_65_ovf_s8_q <= angles_theta_65_ovf_c;
+      angles_theta_7_ovf_s8_q <= angles_theta_7_ovf_c;
       ovf1_s8_q <= ovf1_or_s7;
     end
     if (load_s9) begin
-      angles_xy_69_q <= angles_xy_69_d;
-      angles_xy_70_q <= angles_xy_70_d;
-      angles_theta_71_q <= angles_theta_71_d;
-      angles_xy_97_s9_q <= angles_xy_97_s8_q;
-      angles_theta_104_s9_q <= angles_theta_104_s8_q;
-      angles_xy_69_ovf_s9_q <= angles_xy_69_ovf_c;
-      angles_xy_70_ovf_s9_q <= angles_xy_70_ovf_c;
+      angles_xy_16_q <= angles_xy_16_d;
+      angles_xy_17_q <= angles_xy_17_d;
+      angles_theta_8_q <= angles_theta_8_d;
+      angles_xy_26_s9_q <= angles_xy_26_s8_q;
+      angles_theta_14_s9_q <= angles_theta_14_s8_q;
+      angles_xy_16_ovf_s9_q <= angles_xy_16_ovf_c;
+      angles_xy_17_ovf_s9_q <= angles_xy_17_ovf_c;
       ovf0_s9_q <= ovf0_or_s8;
-      angles_theta_71_ovf_s9_q <= angles_theta_71_ovf_c;
+      angles_theta_8_ovf_s9_q <= angles_theta_8_ovf_c;
       ovf1_s9_q <= ovf1_or_s8;
     end
     if (load_s10) begin
-      angles_xy_75_q <= angles_xy_75_d;
-      angles_xy_76_q <= angles_xy_76_d;
-      angles_theta_77_q <= angles_theta_77_d;
-      angles_xy_97_s10_q <= angles_xy_97_s9_q;
-      angles_theta_104_s10_q <= angles_theta_104_s9_q;
-      angles_xy_75_ovf_s10_q <= angles_xy_75_ovf_c;
-      angles_xy_76_ovf_s10_q <= angles_xy_76_ovf_c;
+      angles_xy_18_q <= angles_xy_18_d;
+      angles_xy_19_q <= angles_xy_19_d;
+      angles_theta_9_q <= angles_theta_9_d;
+      angles_xy_26_s10_q <= angles_xy_26_s9_q;
+      angles_theta_14_s10_q <= angles_theta_14_s9_q;
+      angles_xy_18_ovf_s10_q <= angles_xy_18_ovf_c;
+      angles_xy_19_ovf_s10_q <= angles_xy_19_ovf_c;
       ovf0_s10_q <= ovf0_or_s9;
-      angles_theta_77_ovf_s10_q <= angles_theta_77_ovf_c;
+      angles_theta_9_ovf_s10_q <= angles_theta_9_ovf_c;
       ovf1_s10_q <= ovf1_or_s9;
     end
     if (load_s11) begin
-      angles_xy_81_q <= angles_xy_81_d;
-      angles_xy_82_q <= angles_xy_82_d;
-      angles_theta_83_q <= angles_theta_83_d;
-      angles_xy_97_s11_q <= angles_xy_97_s10_q;
-      angles_theta_104_s11_q <= angles_theta_104_s10_q;
-      angles_xy_81_ovf_s11_q <= angles_xy_81_ovf_c;
-      angles_xy_82_ovf_s11_q <= angles_xy_82_ovf_c;
+      angles_xy_20_q <= angles_xy_20_d;
+      angles_xy_21_q <= angles_xy_21_d;
+      angles_theta_10_q <= angles_theta_10_d;
+      angles_xy_26_s11_q <= angles_xy_26_s10_q;
+      angles_theta_14_s11_q <= angles_theta_14_s10_q;
+      angles_xy_20_ovf_s11_q <= angles_xy_20_ovf_c;
+      angles_xy_21_ovf_s11_q <= angles_xy_21_ovf_c;
       ovf0_s11_q <= ovf0_or_s10;
-      angles_theta_83_ovf_s11_q <= angles_theta_83_ovf_c;
+      angles_theta_10_ovf_s11_q <= angles_theta_10_ovf_c;
       ovf1_s11_q <= ovf1_or_s10;
     end
     if (load_s12) begin
-      angles_xy_87_q <= angles_xy_87_d;
-      angles_xy_88_q <= angles_xy_88_d;
-      angles_theta_89_q <= angles_theta_89_d;
-      angles_xy_97_s12_q <= angles_xy_97_s11_q;
-      angles_theta_104_s12_q <= angles_theta_104_s11_q;
-      angles_xy_87_ovf_s12_q <= angles_xy_87_ovf_c;
-      angles_xy_88_ovf_s12_q <= angles_xy_88_ovf_c;
+      angles_xy_22_q <= angles_xy_22_d;
+      angles_xy_23_q <= angles_xy_23_d;
+      angles_theta_11_q <= angles_theta_11_d;
+      angles_xy_26_s12_q <= angles_xy_26_s11_q;
+      angles_theta_14_s12_q <= angles_theta_14_s11_q;
+      angles_xy_22_ovf_s12_q <= angles_xy_22_ovf_c;
+      angles_xy_23_ovf_s12_q <= angles_xy_23_ovf_c;
       ovf0_s12_q <= ovf0_or_s11;
-      angles_theta_89_ovf_s12_q <= angles_theta_89_ovf_c;
+      angles_theta_11_ovf_s12_q <= angles_theta_11_ovf_c;
       ovf1_s12_q <= ovf1_or_s11;
     end
     if (load_s13) begin
-      angles_xy_93_q <= angles_xy_93_d;
-      angles_theta_95_q <= angles_theta_95_d;
-      angles_xy_97_s13_q <= angles_xy_97_s12_q;
-      angles_theta_104_s13_q <= angles_theta_104_s12_q;
-      angles_xy_93_ovf_s13_q <= angles_xy_93_ovf_c;
+      angles_xy_24_q <= angles_xy_24_d;
+      angles_theta_12_q <= angles_theta_12_d;
+      angles_xy_26_s13_q <= angles_xy_26_s12_q;
+      angles_theta_14_s13_q <= angles_theta_14_s12_q;
+      angles_xy_24_ovf_s13_q <= angles_xy_24_ovf_c;
       ovf0_s13_q <= ovf0_or_s12;
-      angles_theta_95_ovf_s13_q <= angles_theta_95_ovf_c;
+      angles_theta_12_ovf_s13_q <= angles_theta_12_ovf_c;
       ovf1_s13_q <= ovf1_or_s12;
     end
     if (load_s14) begin
-      angles_xy_102_q <= angles_xy_102_d;
-      angles_xy_103_q <= angles_xy_103_d;
-      angles_theta_104_s14_q <= angles_theta_104_s13_q;
-      angles_out_172_q <= angles_out_172_d;
-      angles_xy_102_ovf_s14_q <= angles_xy_102_ovf_c;
-      angles_xy_103_ovf_s14_q <= angles_xy_103_ovf_c;
+      angles_xy_27_q <= angles_xy_27_d;
+      angles_xy_28_q <= angles_xy_28_d;
+      angles_theta_14_s14_q <= angles_theta_14_s13_q;
+      angles_out_1_q <= angles_out_1_d;
+      angles_xy_27_ovf_s14_q <= angles_xy_27_ovf_c;
+      angles_xy_28_ovf_s14_q <= angles_xy_28_ovf_c;
       ovf0_s14_q <= ovf0_or_s13;
       ovf1_s14_q <= ovf1_or_s13;
-      angles_out_172_ovf_s14_q <= angles_out_172_ovf_c;
+      angles_out_1_ovf_s14_q <= angles_out_1_ovf_c;
     end
     if (load_s15) begin
-      angles_xy_108_q <= angles_xy_108_d;
-      angles_xy_109_q <= angles_xy_109_d;
-      angles_theta_110_q <= angles_theta_110_d;
-      angles_out_172_s15_q <= angles_out_172_q;
-      angles_xy_108_ovf_s15_q <= angles_xy_108_ovf_c;
-      angles_xy_109_ovf_s15_q <= angles_xy_109_ovf_c;
+      angles_xy_29_q <= angles_xy_29_d;
+      angles_xy_30_q <= angles_xy_30_d;
+      angles_theta_15_q <= angles_theta_15_d;
+      angles_out_1_s15_q <= angles_out_1_q;
+      angles_xy_29_ovf_s15_q <= angles_xy_29_ovf_c;
+      angles_xy_30_ovf_s15_q <= angles_xy_30_ovf_c;
       ovf0_s15_q <= ovf0_or_s14;
-      angles_theta_110_ovf_s15_q <= angles_theta_110_ovf_c;
+      angles_theta_15_ovf_s15_q <= angles_theta_15_ovf_c;
       ovf1_s15_q <= ovf1_s14_q;
-      ovf2_s15_q <= angles_out_172_ovf_s14_q;
+      ovf2_s15_q <= angles_out_1_ovf_s14_q;
     end
     if (load_s16) begin
-      angles_xy_114_q <= angles_xy_114_d;
-      angles_xy_115_q <= angles_xy_115_d;
-      angles_theta_116_q <= angles_theta_116_d;
-      angles_out_172_s16_q <= angles_out_172_s15_q;
-      angles_xy_114_ovf_s16_q <= angles_xy_114_ovf_c;
-      angles_xy_115_ovf_s16_q <= angles_xy_115_ovf_c;
+      angles_xy_31_q <= angles_xy_31_d;
+      angles_xy_32_q <= angles_xy_32_d;
+      angles_theta_16_q <= angles_theta_16_d;
+      angles_out_1_s16_q <= angles_out_1_s15_q;
+      angles_xy_31_ovf_s16_q <= angles_xy_31_ovf_c;
+      angles_xy_32_ovf_s16_q <= angles_xy_32_ovf_c;
       ovf0_s16_q <= ovf0_or_s15;
-      angles_theta_116_ovf_s16_q <= angles_theta_116_ovf_c;
+      angles_theta_16_ovf_s16_q <= angles_theta_16_ovf_c;
       ovf1_s16_q <= ovf1_or_s15;
       ovf2_s16_q <= ovf2_s15_q;
     end
     if (load_s17) begin
-      angles_xy_120_q <= angles_xy_120_d;
-      angles_xy_121_q <= angles_xy_121_d;
-      angles_theta_122_q <= angles_theta_122_d;
-      angles_out_172_s17_q <= angles_out_172_s16_q;
-      angles_xy_120_ovf_s17_q <= angles_xy_120_ovf_c;
-      angles_xy_121_ovf_s17_q <= angles_xy_121_ovf_c;
+      angles_xy_33_q <= angles_xy_33_d;
+      angles_xy_34_q <= angles_xy_34_d;
+      angles_theta_17_q <= angles_theta_17_d;
+      angles_out_1_s17_q <= angles_out_1_s16_q;
+      angles_xy_33_ovf_s17_q <= angles_xy_33_ovf_c;
+      angles_xy_34_ovf_s17_q <= angles_xy_34_ovf_c;
       ovf0_s17_q <= ovf0_or_s16;
-      angles_theta_122_ovf_s17_q <= angles_theta_122_ovf_c;
+      angles_theta_17_ovf_s17_q <= angles_theta_17_ovf_c;
       ovf1_s17_q <= ovf1_or_s16;
       ovf2_s17_q <= ovf2_s16_q;
     end
     if (load_s18) begin
-      angles_xy_126_q <= angles_xy_126_d;
-      angles_xy_127_q <= angles_xy_127_d;
-      angles_theta_128_q <= angles_theta_128_d;
-      angles_out_172_s18_q <= angles_out_172_s17_q;
-      angles_xy_126_ovf_s18_q <= angles_xy_126_ovf_c;
-      angles_xy_127_ovf_s18_q <= angles_xy_127_ovf_c;
+      angles_xy_35_q <= angles_xy_35_d;
+      angles_xy_36_q <= angles_xy_36_d;
+      angles_theta_18_q <= angles_theta_18_d;
+      angles_out_1_s18_q <= angles_out_1_s17_q;
+      angles_xy_35_ovf_s18_q <= angles_xy_35_ovf_c;
+      angles_xy_36_ovf_s18_q <= angles_xy_36_ovf_c;
       ovf0_s18_q <= ovf0_or_s17;
-      angles_theta_128_ovf_s18_q <= angles_theta_128_ovf_c;
+      angles_theta_18_ovf_s18_q <= angles_theta_18_ovf_c;
       ovf1_s18_q <= ovf1_or_s17;
       ovf2_s18_q <= ovf2_s17_q;
     end
     if (load_s19) begin
-      angles_xy_132_q <= angles_xy_132_d;
-      angles_xy_133_q <= angles_xy_133_d;
-      angles_theta_134_q <= angles_theta_134_d;
-      angles_out_172_s19_q <= angles_out_172_s18_q;
-      angles_xy_132_ovf_s19_q <= angles_xy_132_ovf_c;
-      angles_xy_133_ovf_s19_q <= angles_xy_133_ovf_c;
+      angles_xy_37_q <= angles_xy_37_d;
+      angles_xy_38_q <= angles_xy_38_d;
+      angles_theta_19_q <= angles_theta_19_d;
+      angles_out_1_s19_q <= angles_out_1_s18_q;
+      angles_xy_37_ovf_s19_q <= angles_xy_37_ovf_c;
+      angles_xy_38_ovf_s19_q <= angles_xy_38_ovf_c;
       ovf0_s19_q <= ovf0_or_s18;
-      angles_theta_134_ovf_s19_q <= angles_theta_134_ovf_c;
+      angles_theta_19_ovf_s19_q <= angles_theta_19_ovf_c;
       ovf1_s19_q <= ovf1_or_s18;
       ovf2_s19_q <= ovf2_s18_q;
     end
     if (load_s20) begin
-      angles_xy_138_q <= angles_xy_138_d;
-      angles_xy_139_q <= angles_xy_139_d;
-      angles_theta_140_q <= angles_theta_140_d;
-      angles_out_172_s20_q <= angles_out_172_s19_q;
-      angles_xy_138_ovf_s20_q <= angles_xy_138_ovf_c;
-      angles_xy_139_ovf_s20_q <= angles_xy_139_ovf_c;
+      angles_xy_39_q <= angles_xy_39_d;
+      angles_xy_40_q <= angles_xy_40_d;
+      angles_theta_20_q <= angles_theta_20_d;
+      angles_out_1_s20_q <= angles_out_1_s19_q;
+      angles_xy_39_ovf_s20_q <= angles_xy_39_ovf_c;
+      angles_xy_40_ovf_s20_q <= angles_xy_40_ovf_c;
       ovf0_s20_q <= ovf0_or_s19;
-      angles_theta_140_ovf_s20_q <= angles_theta_140_ovf_c;
+      angles_theta_20_ovf_s20_q <= angles_theta_20_ovf_c;
       ovf1_s20_q <= ovf1_or_s19;
       ovf2_s20_q <= ovf2_s19_q;
     end
     if (load_s21) begin
-      angles_xy_144_q <= angles_xy_144_d;
-      angles_xy_145_q <= angles_xy_145_d;
-      angles_theta_146_q <= angles_theta_146_d;
-      angles_out_172_s21_q <= angles_out_172_s20_q;
-      angles_xy_144_ovf_s21_q <= angles_xy_144_ovf_c;
-      angles_xy_145_ovf_s21_q <= angles_xy_145_ovf_c;
+      angles_xy_41_q <= angles_xy_41_d;
+      angles_xy_42_q <= angles_xy_42_d;
+      angles_theta_21_q <= angles_theta_21_d;
+      angles_out_1_s21_q <= angles_out_1_s20_q;
+      angles_xy_41_ovf_s21_q <= angles_xy_41_ovf_c;
+      angles_xy_42_ovf_s21_q <= angles_xy_42_ovf_c;
       ovf0_s21_q <= ovf0_or_s20;
-      angles_theta_146_ovf_s21_q <= angles_theta_146_ovf_c;
+      angles_theta_21_ovf_s21_q <= angles_theta_21_ovf_c;
       ovf1_s21_q <= ovf1_or_s20;
       ovf2_s21_q <= ovf2_s20_q;
     end
     if (load_s22) begin
-      angles_xy_150_q <= angles_xy_150_d;
-      angles_xy_151_q <= angles_xy_151_d;
-      angles_theta_152_q <= angles_theta_152_d;
-      angles_out_172_s22_q <= angles_out_172_s21_q;
-      angles_xy_150_ovf_s22_q <= angles_xy_150_ovf_c;
-      angles_xy_151_ovf_s22_q <= angles_xy_151_ovf_c;
+      angles_xy_43_q <= angles_xy_43_d;
+      angles_xy_44_q <= angles_xy_44_d;
+      angles_theta_22_q <= angles_theta_22_d;
+      angles_out_1_s22_q <= angles_out_1_s21_q;
+      angles_xy_43_ovf_s22_q <= angles_xy_43_ovf_c;
+      angles_xy_44_ovf_s22_q <= angles_xy_44_ovf_c;
       ovf0_s22_q <= ovf0_or_s21;
-      angles_theta_152_ovf_s22_q <= angles_theta_152_ovf_c;
+      angles_theta_22_ovf_s22_q <= angles_theta_22_ovf_c;
       ovf1_s22_q <= ovf1_or_s21;
       ovf2_s22_q <= ovf2_s21_q;
     end
     if (load_s23) begin
-      angles_xy_156_q <= angles_xy_156_d;
-      angles_xy_157_q <= angles_xy_157_d;
-      angles_theta_158_q <= angles_theta_158_d;
-      angles_out_172_s23_q <= angles_out_172_s22_q;
-      angles_xy_156_ovf_s23_q <= angles_xy_156_ovf_c;
-      angles_xy_157_ovf_s23_q <= angles_xy_157_ovf_c;
+      angles_xy_45_q <= angles_xy_45_d;
+      angles_xy_46_q <= angles_xy_46_d;
+      angles_theta_23_q <= angles_theta_23_d;
+      angles_out_1_s23_q <= angles_out_1_s22_q;
+      angles_xy_45_ovf_s23_q <= angles_xy_45_ovf_c;
+      angles_xy_46_ovf_s23_q <= angles_xy_46_ovf_c;
       ovf0_s23_q <= ovf0_or_s22;
-      angles_theta_158_ovf_s23_q <= angles_theta_158_ovf_c;
+      angles_theta_23_ovf_s23_q <= angles_theta_23_ovf_c;
       ovf1_s23_q <= ovf1_or_s22;
       ovf2_s23_q <= ovf2_s22_q;
     end
     if (load_s24) begin
-      angles_xy_163_q <= angles_xy_163_d;
-      angles_theta_164_q <= angles_theta_164_d;
-      angles_out_172_s24_q <= angles_out_172_s23_q;
-      angles_xy_163_ovf_s24_q <= angles_xy_163_ovf_c;
+      angles_xy_48_q <= angles_xy_48_d;
+      angles_theta_24_q <= angles_theta_24_d;
+      angles_out_1_s24_q <= angles_out_1_s23_q;
+      angles_xy_48_ovf_s24_q <= angles_xy_48_ovf_c;
       ovf0_s24_q <= ovf0_or_s23;
-      angles_theta_164_ovf_s24_q <= angles_theta_164_ovf_c;
+      angles_theta_24_ovf_s24_q <= angles_theta_24_ovf_c;
       ovf1_s24_q <= ovf1_or_s23;
       ovf2_s24_q <= ovf2_s23_q;
     end
     if (load_s25) begin
-      angles_theta_170_q <= angles_theta_170_d;
-      angles_out_172_s25_q <= angles_out_172_s24_q;
+      angles_theta_25_q <= angles_theta_25_d;
+      angles_out_1_s25_q <= angles_out_1_s24_q;
       ovf0_s25_q <= ovf0_or_s24;
-      angles_theta_170_ovf_s25_q <= angles_theta_170_ovf_c;
+      angles_theta_25_ovf_s25_q <= angles_theta_25_ovf_c;
       ovf1_s25_q <= ovf1_or_s24;
       ovf2_s25_q <= ovf2_s24_q;
     end
     if (load_s26) begin
-      angles_out_171_q <= angles_out_171_d;
-      angles_out_172_s26_q <= angles_out_172_s25_q;
+      angles_out_0_q <= angles_out_0_d;
+      angles_out_1_s26_q <= angles_out_1_s25_q;
       ovf0_s26_q <= ovf0_s25_q;
       ovf1_s26_q <= ovf1_or_s25;
-      angles_out_171_ovf_s26_q <= angles_out_171_ovf_c;
+      angles_out_0_ovf_s26_q <= angles_out_0_ovf_c;
       ovf2_s26_q <= ovf2_s25_q;
     end
   end
@@ -1544,7 +1557,7 @@ module angles (
   // Output buffer: the head drives the ports; the skid register takes the
   // item that leaves the last stage while the head is stalled.
   wire [24:0] last_d =
-      {angles_out_171_q, angles_out_172_s26_q, (ovf0_s26_q), (ovf1_s26_q), (ovf2_or_s26)};
+      {angles_out_0_q, angles_out_1_s26_q, (ovf0_s26_q), (ovf1_s26_q), (ovf2_or_s26)};
   reg  [24:0] out_q, skid_q;
   always @(posedge clk_i) begin
     if (out_load & (skid_valid | out_arrive)) out_q <= skid_valid ? skid_q : last_d;
@@ -1622,18 +1635,27 @@ module angles (
 
   // Bits the arithmetic drops (truncation) or does not read.
   wire unused_bits =
-      ^{n_x_i[14:0], K3, K4, angles_xy_22_q[20:0], angles_xy_28_q[20:0], t30[0], t31[0],
-      angles_xy_34_q[20:0], t36[1:0], t37[1:0], angles_xy_40_q[20:0], t42[2:0], t43[2:0],
-      angles_xy_46_q[20:0], t48[3:0], t49[3:0], angles_xy_52_q[20:0], t54[4:0], t55[4:0],
-      angles_xy_58_q[20:0], t60[5:0], t61[5:0], angles_xy_64_q[20:0], t66[6:0], t67[6:0],
-      angles_xy_70_q[20:0], t72[7:0], t73[7:0], angles_xy_76_q[20:0], t78[8:0], t79[8:0],
-      angles_xy_82_q[20:0], t84[9:0], t85[9:0], angles_xy_88_q[20:0], t90[10:0], t96[12:0],
-      angles_xy_97_s13_q[20:0], angles_xy_97_q[20:0], angles_xy_103_q[20:0], t105[0], t106[0],
-      angles_xy_109_q[20:0], t111[1:0], t112[1:0], angles_xy_115_q[20:0], t117[2:0], t118[2:0],
-      angles_xy_121_q[20:0], t123[3:0], t124[3:0], angles_xy_127_q[20:0], t129[4:0], t130[4:0],
-      angles_xy_133_q[20:0], t135[5:0], t136[5:0], angles_xy_139_q[20:0], t141[6:0], t142[6:0],
-      angles_xy_145_q[20:0], t147[7:0], t148[7:0], angles_xy_151_q[20:0], t153[8:0], t154[8:0],
-      angles_xy_157_q[20:0], t160[9:0], angles_xy_163_q[20:0]};
+      ^{n_x_i[14:0], angles_xy_k0, angles_theta_k0, angles_xy_1_q[20:0], angles_xy_3_q[20:0],
+      angles_xy_addsub4[0], angles_xy_addsub5[0], angles_xy_5_q[20:0], angles_xy_addsub6[1:0],
+      angles_xy_addsub7[1:0], angles_xy_7_q[20:0], angles_xy_addsub8[2:0], angles_xy_addsub9[2:0],
+      angles_xy_9_q[20:0], angles_xy_addsub10[3:0], angles_xy_addsub11[3:0], angles_xy_11_q[20:0],
+      angles_xy_addsub12[4:0], angles_xy_addsub13[4:0], angles_xy_13_q[20:0],
+      angles_xy_addsub14[5:0], angles_xy_addsub15[5:0], angles_xy_15_q[20:0],
+      angles_xy_addsub16[6:0], angles_xy_addsub17[6:0], angles_xy_17_q[20:0],
+      angles_xy_addsub18[7:0], angles_xy_addsub19[7:0], angles_xy_19_q[20:0],
+      angles_xy_addsub20[8:0], angles_xy_addsub21[8:0], angles_xy_21_q[20:0],
+      angles_xy_addsub22[9:0], angles_xy_addsub23[9:0], angles_xy_23_q[20:0],
+      angles_xy_addsub24[10:0], angles_xy_mul0[12:0], angles_xy_26_s13_q[20:0],
+      angles_xy_26_q[20:0], angles_xy_28_q[20:0], angles_xy_addsub28[0], angles_xy_addsub29[0],
+      angles_xy_30_q[20:0], angles_xy_addsub30[1:0], angles_xy_addsub31[1:0], angles_xy_32_q[20:0],
+      angles_xy_addsub32[2:0], angles_xy_addsub33[2:0], angles_xy_34_q[20:0],
+      angles_xy_addsub34[3:0], angles_xy_addsub35[3:0], angles_xy_36_q[20:0],
+      angles_xy_addsub36[4:0], angles_xy_addsub37[4:0], angles_xy_38_q[20:0],
+      angles_xy_addsub38[5:0], angles_xy_addsub39[5:0], angles_xy_40_q[20:0],
+      angles_xy_addsub40[6:0], angles_xy_addsub41[6:0], angles_xy_42_q[20:0],
+      angles_xy_addsub42[7:0], angles_xy_addsub43[7:0], angles_xy_44_q[20:0],
+      angles_xy_addsub44[8:0], angles_xy_addsub45[8:0], angles_xy_46_q[20:0],
+      angles_xy_addsub47[9:0], angles_xy_48_q[20:0]};
 endmodule
 
 `default_nettype wire

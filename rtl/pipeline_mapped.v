@@ -922,1344 +922,1394 @@ module pipeline_mapped (
   assign setup_lock_d = frame_ready_d;
 
   // Datapath.
-  localparam [0:0] K27 = 1'h1;
-  localparam [0:0] K28 = 1'h0;
-  localparam [15:0] K29 = 16'h4000;
-  localparam [15:0] K30 = 16'h2000;
-  localparam [15:0] K31 = 16'h12e4;
-  localparam [15:0] K32 = 16'h9fb;
-  localparam [15:0] K33 = 16'h511;
-  localparam [15:0] K34 = 16'h28b;
-  localparam [15:0] K35 = 16'h146;
-  localparam [15:0] K36 = 16'ha3;
-  localparam [15:0] K37 = 16'h51;
-  localparam [15:0] K38 = 16'h29;
-  localparam [15:0] K39 = 16'h14;
-  localparam [15:0] K40 = 16'ha;
-  localparam [15:0] K41 = 16'h5;
-  localparam [17:0] K42 = 18'h34b24;
-  localparam [15:0] K43 = 16'hbf40;
-  localparam [15:0] K44 = 16'h3fc0;
-  localparam signed [15:0] K45 = $signed(16'h0);
-  wire signed [17:0] t46 = $signed({{2{1'b0}}, K27, 15'b0} - {{2{1'b0}}, c1_i});
-  wire signed [18:0] t47 = $signed({t46[17], t46} - {{3{1'b0}}, c2_i});
-  wire signed [17:0] t48 = $signed({{2{1'b0}}, c1_i} - {{3{1'b0}}, K27, 14'b0});
-  wire signed [16:0] t49_a = $signed({1'b0, c1_i});
-  wire signed [33:0] t49 = t49_a * t48;
-  wire interp_weight_50_tie = t49[12] & ~(|t49[11:0]);
-  wire [21:0] interp_weight_50_up = {t49[33], t49[33:13]} + {{21{1'b0}}, t49[12]};
-  wire signed [21:0] interp_weight_50_r =
-      $signed({interp_weight_50_up[21:1], interp_weight_50_up[0] & ~interp_weight_50_tie});
-  wire interp_weight_50_ovf_c = ~((&interp_weight_50_r[21:17]) | ~(|interp_weight_50_r[21:17]));
-  wire signed [17:0] interp_weight_50_d =
-      $signed(interp_weight_50_ovf_c ? (interp_weight_50_r[21] ? 18'h20000 : 18'h1ffff)
-      : interp_weight_50_r[17:0]);
-  reg  signed [17:0] interp_weight_50_q;
-  wire signed [17:0] t51 = $signed({{2{1'b0}}, c2_i} - {{3{1'b0}}, K27, 14'b0});
-  wire signed [16:0] t52_a = $signed({1'b0, c2_i});
-  wire signed [33:0] t52 = t52_a * t51;
-  wire interp_weight_53_tie = t52[12] & ~(|t52[11:0]);
-  wire [21:0] interp_weight_53_up = {t52[33], t52[33:13]} + {{21{1'b0}}, t52[12]};
-  wire signed [21:0] interp_weight_53_r =
-      $signed({interp_weight_53_up[21:1], interp_weight_53_up[0] & ~interp_weight_53_tie});
-  wire interp_weight_53_ovf_c = ~((&interp_weight_53_r[21:17]) | ~(|interp_weight_53_r[21:17]));
-  wire signed [17:0] interp_weight_53_d =
-      $signed(interp_weight_53_ovf_c ? (interp_weight_53_r[21] ? 18'h20000 : 18'h1ffff)
-      : interp_weight_53_r[17:0]);
-  reg  signed [17:0] interp_weight_53_q;
-  wire signed [19:0] t54 = $signed({t47[18], t47} - {{5{1'b0}}, K27, 14'b0});
-  wire signed [38:0] t55 = t47 * t54;
-  wire interp_weight_56_tie = t55[12] & ~(|t55[11:0]);
-  wire [26:0] interp_weight_56_up = {t55[38], t55[38:13]} + {{26{1'b0}}, t55[12]};
-  wire signed [26:0] interp_weight_56_r =
-      $signed({interp_weight_56_up[26:1], interp_weight_56_up[0] & ~interp_weight_56_tie});
-  wire interp_weight_56_ovf_c = ~((&interp_weight_56_r[26:17]) | ~(|interp_weight_56_r[26:17]));
-  wire signed [17:0] interp_weight_56_d =
-      $signed(interp_weight_56_ovf_c ? (interp_weight_56_r[26] ? 18'h20000 : 18'h1ffff)
-      : interp_weight_56_r[17:0]);
-  reg  signed [17:0] interp_weight_56_q;
-  wire [31:0] t57 = c1_i * c2_i;
-  wire interp_weight_58_tie = t57[11] & ~(|t57[10:0]);
-  wire [20:0] interp_weight_58_up = {1'b0, t57[31:12]} + {{20{1'b0}}, t57[11]};
-  wire [20:0] interp_weight_58_r =
-      {interp_weight_58_up[20:1], interp_weight_58_up[0] & ~interp_weight_58_tie};
-  wire interp_weight_58_ovf_c = |interp_weight_58_r[20:17];
-  wire signed [17:0] interp_weight_58_d =
-      $signed(interp_weight_58_ovf_c ? 18'h1ffff : interp_weight_58_r[17:0]);
-  reg  signed [17:0] interp_weight_58_q;
-  wire signed [16:0] t59_a = $signed({1'b0, c2_i});
-  wire signed [34:0] t59 = t59_a * t47;
-  wire interp_weight_60_tie = t59[11] & ~(|t59[10:0]);
-  wire [23:0] interp_weight_60_up = {t59[34], t59[34:12]} + {{23{1'b0}}, t59[11]};
-  wire signed [23:0] interp_weight_60_r =
-      $signed({interp_weight_60_up[23:1], interp_weight_60_up[0] & ~interp_weight_60_tie});
-  wire interp_weight_60_ovf_c = ~((&interp_weight_60_r[23:17]) | ~(|interp_weight_60_r[23:17]));
-  wire signed [17:0] interp_weight_60_d =
-      $signed(interp_weight_60_ovf_c ? (interp_weight_60_r[23] ? 18'h20000 : 18'h1ffff)
-      : interp_weight_60_r[17:0]);
-  reg  signed [17:0] interp_weight_60_q;
-  wire signed [16:0] t61_b = $signed({1'b0, c1_i});
-  wire signed [34:0] t61 = t47 * t61_b;
-  wire interp_weight_62_tie = t61[11] & ~(|t61[10:0]);
-  wire [23:0] interp_weight_62_up = {t61[34], t61[34:12]} + {{23{1'b0}}, t61[11]};
-  wire signed [23:0] interp_weight_62_r =
-      $signed({interp_weight_62_up[23:1], interp_weight_62_up[0] & ~interp_weight_62_tie});
-  wire interp_weight_62_ovf_c = ~((&interp_weight_62_r[23:17]) | ~(|interp_weight_62_r[23:17]));
-  wire signed [17:0] interp_weight_62_d =
-      $signed(interp_weight_62_ovf_c ? (interp_weight_62_r[23] ? 18'h20000 : 18'h1ffff)
-      : interp_weight_62_r[17:0]);
-  reg  signed [17:0] interp_weight_62_q;
+  localparam [0:0] interp_weight_k0 = 1'h1;
+  localparam [0:0] angles_xy_k0 = 1'h0;
+  localparam [15:0] angles_theta_k0 = 16'h4000;
+  localparam [15:0] angles_theta_k1 = 16'h2000;
+  localparam [15:0] angles_theta_k2 = 16'h12e4;
+  localparam [15:0] angles_theta_k3 = 16'h9fb;
+  localparam [15:0] angles_theta_k4 = 16'h511;
+  localparam [15:0] angles_theta_k5 = 16'h28b;
+  localparam [15:0] angles_theta_k6 = 16'h146;
+  localparam [15:0] angles_theta_k7 = 16'ha3;
+  localparam [15:0] angles_theta_k8 = 16'h51;
+  localparam [15:0] angles_theta_k9 = 16'h29;
+  localparam [15:0] angles_theta_k10 = 16'h14;
+  localparam [15:0] angles_theta_k11 = 16'ha;
+  localparam [15:0] angles_theta_k12 = 16'h5;
+  localparam [17:0] angles_xy_k1 = 18'h34b24;
+  localparam [15:0] lighting_level_k0 = 16'hbf40;
+  localparam [15:0] lighting_level_k1 = 16'h3fc0;
+  localparam signed [15:0] lighting_level_k2 = $signed(16'h0);
+  wire signed [17:0] interp_weight_sub0 =
+      $signed({{2{1'b0}}, interp_weight_k0, 15'b0} - {{2{1'b0}}, c1_i});
+  wire signed [18:0] interp_weight_sub1 =
+      $signed({interp_weight_sub0[17], interp_weight_sub0} - {{3{1'b0}}, c2_i});
+  wire signed [17:0] interp_weight_sub2 =
+      $signed({{2{1'b0}}, c1_i} - {{3{1'b0}}, interp_weight_k0, 14'b0});
+  wire signed [16:0] interp_weight_mul0_a = $signed({1'b0, c1_i});
+  wire signed [33:0] interp_weight_mul0 = interp_weight_mul0_a * interp_weight_sub2;
+  wire interp_weight_0_tie = interp_weight_mul0[12] & ~(|interp_weight_mul0[11:0]);
+  wire [21:0] interp_weight_0_up =
+      {interp_weight_mul0[33], interp_weight_mul0[33:13]} + {{21{1'b0}}, interp_weight_mul0[12]};
+  wire signed [21:0] interp_weight_0_r =
+      $signed({interp_weight_0_up[21:1], interp_weight_0_up[0] & ~interp_weight_0_tie});
+  wire interp_weight_0_ovf_c = ~((&interp_weight_0_r[21:17]) | ~(|interp_weight_0_r[21:17]));
+  wire signed [17:0] interp_weight_0_d =
+      $signed(interp_weight_0_ovf_c ? (interp_weight_0_r[21] ? 18'h20000 : 18'h1ffff)
+      : interp_weight_0_r[17:0]);
+  reg  signed [17:0] interp_weight_0_q;
+  wire signed [17:0] interp_weight_sub3 =
+      $signed({{2{1'b0}}, c2_i} - {{3{1'b0}}, interp_weight_k0, 14'b0});
+  wire signed [16:0] interp_weight_mul1_a = $signed({1'b0, c2_i});
+  wire signed [33:0] interp_weight_mul1 = interp_weight_mul1_a * interp_weight_sub3;
+  wire interp_weight_1_tie = interp_weight_mul1[12] & ~(|interp_weight_mul1[11:0]);
+  wire [21:0] interp_weight_1_up =
+      {interp_weight_mul1[33], interp_weight_mul1[33:13]} + {{21{1'b0}}, interp_weight_mul1[12]};
+  wire signed [21:0] interp_weight_1_r =
+      $signed({interp_weight_1_up[21:1], interp_weight_1_up[0] & ~interp_weight_1_tie});
+  wire interp_weight_1_ovf_c = ~((&interp_weight_1_r[21:17]) | ~(|interp_weight_1_r[21:17]));
+  wire signed [17:0] interp_weight_1_d =
+      $signed(interp_weight_1_ovf_c ? (interp_weight_1_r[21] ? 18'h20000 : 18'h1ffff)
+      : interp_weight_1_r[17:0]);
+  reg  signed [17:0] interp_weight_1_q;
+  wire signed [19:0] interp_weight_sub4 =
+      $signed({interp_weight_sub1[18], interp_weight_sub1} - {{5{1'b0}}, interp_weight_k0, 14'b0});
+  wire signed [38:0] interp_weight_mul2 = interp_weight_sub1 * interp_weight_sub4;
+  wire interp_weight_2_tie = interp_weight_mul2[12] & ~(|interp_weight_mul2[11:0]);
+  wire [26:0] interp_weight_2_up =
+      {interp_weight_mul2[38], interp_weight_mul2[38:13]} + {{26{1'b0}}, interp_weight_mul2[12]};
+  wire signed [26:0] interp_weight_2_r =
+      $signed({interp_weight_2_up[26:1], interp_weight_2_up[0] & ~interp_weight_2_tie});
+  wire interp_weight_2_ovf_c = ~((&interp_weight_2_r[26:17]) | ~(|interp_weight_2_r[26:17]));
+  wire signed [17:0] interp_weight_2_d =
+      $signed(interp_weight_2_ovf_c ? (interp_weight_2_r[26] ? 18'h20000 : 18'h1ffff)
+      : interp_weight_2_r[17:0]);
+  reg  signed [17:0] interp_weight_2_q;
+  wire [31:0] interp_weight_mul3 = c1_i * c2_i;
+  wire interp_weight_3_tie = interp_weight_mul3[11] & ~(|interp_weight_mul3[10:0]);
+  wire [20:0] interp_weight_3_up =
+      {1'b0, interp_weight_mul3[31:12]} + {{20{1'b0}}, interp_weight_mul3[11]};
+  wire [20:0] interp_weight_3_r =
+      {interp_weight_3_up[20:1], interp_weight_3_up[0] & ~interp_weight_3_tie};
+  wire interp_weight_3_ovf_c = |interp_weight_3_r[20:17];
+  wire signed [17:0] interp_weight_3_d =
+      $signed(interp_weight_3_ovf_c ? 18'h1ffff : interp_weight_3_r[17:0]);
+  reg  signed [17:0] interp_weight_3_q;
+  wire signed [16:0] interp_weight_mul4_a = $signed({1'b0, c2_i});
+  wire signed [34:0] interp_weight_mul4 = interp_weight_mul4_a * interp_weight_sub1;
+  wire interp_weight_4_tie = interp_weight_mul4[11] & ~(|interp_weight_mul4[10:0]);
+  wire [23:0] interp_weight_4_up =
+      {interp_weight_mul4[34], interp_weight_mul4[34:12]} + {{23{1'b0}}, interp_weight_mul4[11]};
+  wire signed [23:0] interp_weight_4_r =
+      $signed({interp_weight_4_up[23:1], interp_weight_4_up[0] & ~interp_weight_4_tie});
+  wire interp_weight_4_ovf_c = ~((&interp_weight_4_r[23:17]) | ~(|interp_weight_4_r[23:17]));
+  wire signed [17:0] interp_weight_4_d =
+      $signed(interp_weight_4_ovf_c ? (interp_weight_4_r[23] ? 18'h20000 : 18'h1ffff)
+      : interp_weight_4_r[17:0]);
+  reg  signed [17:0] interp_weight_4_q;
+  wire signed [16:0] interp_weight_mul5_b = $signed({1'b0, c1_i});
+  wire signed [34:0] interp_weight_mul5 = interp_weight_sub1 * interp_weight_mul5_b;
+  wire interp_weight_5_tie = interp_weight_mul5[11] & ~(|interp_weight_mul5[10:0]);
+  wire [23:0] interp_weight_5_up =
+      {interp_weight_mul5[34], interp_weight_mul5[34:12]} + {{23{1'b0}}, interp_weight_mul5[11]};
+  wire signed [23:0] interp_weight_5_r =
+      $signed({interp_weight_5_up[23:1], interp_weight_5_up[0] & ~interp_weight_5_tie});
+  wire interp_weight_5_ovf_c = ~((&interp_weight_5_r[23:17]) | ~(|interp_weight_5_r[23:17]));
+  wire signed [17:0] interp_weight_5_d =
+      $signed(interp_weight_5_ovf_c ? (interp_weight_5_r[23] ? 18'h20000 : 18'h1ffff)
+      : interp_weight_5_r[17:0]);
+  reg  signed [17:0] interp_weight_5_q;
   wire signed [15:0] n1_x_bank_s1 = tri_tag_q[0] ? n1_x_b1_q : n1_x_b0_q;
-  wire signed [33:0] t63 = interp_weight_50_q * n1_x_bank_s1;
+  wire signed [33:0] interp_out_mul0 = interp_weight_0_q * n1_x_bank_s1;
   wire signed [15:0] n2_x_bank_s1 = tri_tag_q[0] ? n2_x_b1_q : n2_x_b0_q;
-  wire signed [33:0] t64 = interp_weight_53_q * n2_x_bank_s1;
-  wire signed [34:0] t65 = $signed({t64[33], t64} + {t63[33], t63});
+  wire signed [33:0] interp_out_mul1 = interp_weight_1_q * n2_x_bank_s1;
+  wire signed [34:0] interp_out_add0 =
+      $signed({interp_out_mul1[33], interp_out_mul1} + {interp_out_mul0[33], interp_out_mul0});
   wire signed [15:0] n3_x_bank_s1 = tri_tag_q[0] ? n3_x_b1_q : n3_x_b0_q;
-  wire signed [33:0] t66 = interp_weight_56_q * n3_x_bank_s1;
-  wire signed [35:0] t67 = $signed({{2{t66[33]}}, t66} + {t65[34], t65});
+  wire signed [33:0] interp_out_mul2 = interp_weight_2_q * n3_x_bank_s1;
+  wire signed [35:0] interp_out_add1 =
+      $signed({{2{interp_out_mul2[33]}}, interp_out_mul2} + {interp_out_add0[34], interp_out_add0});
   wire signed [15:0] n12_x_bank_s1 = tri_tag_q[0] ? n12_x_b1_q : n12_x_b0_q;
-  wire signed [33:0] t68 = interp_weight_58_q * n12_x_bank_s1;
-  wire signed [36:0] t69 = $signed({{3{t68[33]}}, t68} + {t67[35], t67});
+  wire signed [33:0] interp_out_mul3 = interp_weight_3_q * n12_x_bank_s1;
+  wire signed [36:0] interp_out_add2 =
+      $signed({{3{interp_out_mul3[33]}}, interp_out_mul3} + {interp_out_add1[35], interp_out_add1});
   wire signed [15:0] n23_x_bank_s1 = tri_tag_q[0] ? n23_x_b1_q : n23_x_b0_q;
-  wire signed [33:0] t70 = interp_weight_60_q * n23_x_bank_s1;
-  wire signed [37:0] t71 = $signed({{4{t70[33]}}, t70} + {t69[36], t69});
+  wire signed [33:0] interp_out_mul4 = interp_weight_4_q * n23_x_bank_s1;
+  wire signed [37:0] interp_out_add3 =
+      $signed({{4{interp_out_mul4[33]}}, interp_out_mul4} + {interp_out_add2[36], interp_out_add2});
   wire signed [15:0] n31_x_bank_s1 = tri_tag_q[0] ? n31_x_b1_q : n31_x_b0_q;
-  wire signed [33:0] t72 = interp_weight_62_q * n31_x_bank_s1;
-  wire signed [38:0] t73 = $signed({{5{t72[33]}}, t72} + {t71[37], t71});
-  wire interp_out_74_tie = t73[15] & ~(|t73[14:0]);
-  wire [23:0] interp_out_74_up = {t73[38], t73[38:16]} + {{23{1'b0}}, t73[15]};
-  wire signed [23:0] interp_out_74_r =
-      $signed({interp_out_74_up[23:1], interp_out_74_up[0] & ~interp_out_74_tie});
-  wire interp_out_74_ovf_c = ~((&interp_out_74_r[23:15]) | ~(|interp_out_74_r[23:15]));
-  wire signed [15:0] interp_out_74_d =
-      $signed(interp_out_74_ovf_c ? (interp_out_74_r[23] ? 16'h8000 : 16'h7fff)
-      : interp_out_74_r[15:0]);
-  reg  signed [15:0] interp_out_74_q;
+  wire signed [33:0] interp_out_mul5 = interp_weight_5_q * n31_x_bank_s1;
+  wire signed [38:0] interp_out_add4 =
+      $signed({{5{interp_out_mul5[33]}}, interp_out_mul5} + {interp_out_add3[37], interp_out_add3});
+  wire interp_out_0_tie = interp_out_add4[15] & ~(|interp_out_add4[14:0]);
+  wire [23:0] interp_out_0_up =
+      {interp_out_add4[38], interp_out_add4[38:16]} + {{23{1'b0}}, interp_out_add4[15]};
+  wire signed [23:0] interp_out_0_r =
+      $signed({interp_out_0_up[23:1], interp_out_0_up[0] & ~interp_out_0_tie});
+  wire interp_out_0_ovf_c = ~((&interp_out_0_r[23:15]) | ~(|interp_out_0_r[23:15]));
+  wire signed [15:0] interp_out_0_d =
+      $signed(interp_out_0_ovf_c ? (interp_out_0_r[23] ? 16'h8000 : 16'h7fff)
+      : interp_out_0_r[15:0]);
+  reg  signed [15:0] interp_out_0_q;
   wire signed [15:0] n1_y_bank_s1 = tri_tag_q[0] ? n1_y_b1_q : n1_y_b0_q;
-  wire signed [33:0] t75 = interp_weight_50_q * n1_y_bank_s1;
+  wire signed [33:0] interp_out_mul6 = interp_weight_0_q * n1_y_bank_s1;
   wire signed [15:0] n2_y_bank_s1 = tri_tag_q[0] ? n2_y_b1_q : n2_y_b0_q;
-  wire signed [33:0] t76 = interp_weight_53_q * n2_y_bank_s1;
-  wire signed [34:0] t77 = $signed({t76[33], t76} + {t75[33], t75});
+  wire signed [33:0] interp_out_mul7 = interp_weight_1_q * n2_y_bank_s1;
+  wire signed [34:0] interp_out_add5 =
+      $signed({interp_out_mul7[33], interp_out_mul7} + {interp_out_mul6[33], interp_out_mul6});
   wire signed [15:0] n3_y_bank_s1 = tri_tag_q[0] ? n3_y_b1_q : n3_y_b0_q;
-  wire signed [33:0] t78 = interp_weight_56_q * n3_y_bank_s1;
-  wire signed [35:0] t79 = $signed({{2{t78[33]}}, t78} + {t77[34], t77});
+  wire signed [33:0] interp_out_mul8 = interp_weight_2_q * n3_y_bank_s1;
+  wire signed [35:0] interp_out_add6 =
+      $signed({{2{interp_out_mul8[33]}}, interp_out_mul8} + {interp_out_add5[34], interp_out_add5});
   wire signed [15:0] n12_y_bank_s1 = tri_tag_q[0] ? n12_y_b1_q : n12_y_b0_q;
-  wire signed [33:0] t80 = interp_weight_58_q * n12_y_bank_s1;
-  wire signed [36:0] t81 = $signed({{3{t80[33]}}, t80} + {t79[35], t79});
+  wire signed [33:0] interp_out_mul9 = interp_weight_3_q * n12_y_bank_s1;
+  wire signed [36:0] interp_out_add7 =
+      $signed({{3{interp_out_mul9[33]}}, interp_out_mul9} + {interp_out_add6[35], interp_out_add6});
   wire signed [15:0] n23_y_bank_s1 = tri_tag_q[0] ? n23_y_b1_q : n23_y_b0_q;
-  wire signed [33:0] t82 = interp_weight_60_q * n23_y_bank_s1;
-  wire signed [37:0] t83 = $signed({{4{t82[33]}}, t82} + {t81[36], t81});
+  wire signed [33:0] interp_out_mul10 = interp_weight_4_q * n23_y_bank_s1;
+  wire signed [37:0] interp_out_add8 =
+      $signed({{4{interp_out_mul10[33]}}, interp_out_mul10}
+      + {interp_out_add7[36], interp_out_add7});
   wire signed [15:0] n31_y_bank_s1 = tri_tag_q[0] ? n31_y_b1_q : n31_y_b0_q;
-  wire signed [33:0] t84 = interp_weight_62_q * n31_y_bank_s1;
-  wire signed [38:0] t85 = $signed({{5{t84[33]}}, t84} + {t83[37], t83});
-  wire interp_out_86_tie = t85[15] & ~(|t85[14:0]);
-  wire [23:0] interp_out_86_up = {t85[38], t85[38:16]} + {{23{1'b0}}, t85[15]};
-  wire signed [23:0] interp_out_86_r =
-      $signed({interp_out_86_up[23:1], interp_out_86_up[0] & ~interp_out_86_tie});
-  wire interp_out_86_ovf_c = ~((&interp_out_86_r[23:15]) | ~(|interp_out_86_r[23:15]));
-  wire signed [15:0] interp_out_86_d =
-      $signed(interp_out_86_ovf_c ? (interp_out_86_r[23] ? 16'h8000 : 16'h7fff)
-      : interp_out_86_r[15:0]);
-  reg  signed [15:0] interp_out_86_q;
+  wire signed [33:0] interp_out_mul11 = interp_weight_5_q * n31_y_bank_s1;
+  wire signed [38:0] interp_out_add9 =
+      $signed({{5{interp_out_mul11[33]}}, interp_out_mul11}
+      + {interp_out_add8[37], interp_out_add8});
+  wire interp_out_1_tie = interp_out_add9[15] & ~(|interp_out_add9[14:0]);
+  wire [23:0] interp_out_1_up =
+      {interp_out_add9[38], interp_out_add9[38:16]} + {{23{1'b0}}, interp_out_add9[15]};
+  wire signed [23:0] interp_out_1_r =
+      $signed({interp_out_1_up[23:1], interp_out_1_up[0] & ~interp_out_1_tie});
+  wire interp_out_1_ovf_c = ~((&interp_out_1_r[23:15]) | ~(|interp_out_1_r[23:15]));
+  wire signed [15:0] interp_out_1_d =
+      $signed(interp_out_1_ovf_c ? (interp_out_1_r[23] ? 16'h8000 : 16'h7fff)
+      : interp_out_1_r[15:0]);
+  reg  signed [15:0] interp_out_1_q;
   wire signed [15:0] n1_z_bank_s1 = tri_tag_q[0] ? n1_z_b1_q : n1_z_b0_q;
-  wire signed [33:0] t87 = interp_weight_50_q * n1_z_bank_s1;
+  wire signed [33:0] interp_out_mul12 = interp_weight_0_q * n1_z_bank_s1;
   wire signed [15:0] n2_z_bank_s1 = tri_tag_q[0] ? n2_z_b1_q : n2_z_b0_q;
-  wire signed [33:0] t88 = interp_weight_53_q * n2_z_bank_s1;
-  wire signed [34:0] t89 = $signed({t88[33], t88} + {t87[33], t87});
+  wire signed [33:0] interp_out_mul13 = interp_weight_1_q * n2_z_bank_s1;
+  wire signed [34:0] interp_out_add10 =
+      $signed({interp_out_mul13[33], interp_out_mul13} + {interp_out_mul12[33], interp_out_mul12});
   wire signed [15:0] n3_z_bank_s1 = tri_tag_q[0] ? n3_z_b1_q : n3_z_b0_q;
-  wire signed [33:0] t90 = interp_weight_56_q * n3_z_bank_s1;
-  wire signed [35:0] t91 = $signed({{2{t90[33]}}, t90} + {t89[34], t89});
+  wire signed [33:0] interp_out_mul14 = interp_weight_2_q * n3_z_bank_s1;
+  wire signed [35:0] interp_out_add11 =
+      $signed({{2{interp_out_mul14[33]}}, interp_out_mul14}
+      + {interp_out_add10[34], interp_out_add10});
   wire signed [15:0] n12_z_bank_s1 = tri_tag_q[0] ? n12_z_b1_q : n12_z_b0_q;
-  wire signed [33:0] t92 = interp_weight_58_q * n12_z_bank_s1;
-  wire signed [36:0] t93 = $signed({{3{t92[33]}}, t92} + {t91[35], t91});
+  wire signed [33:0] interp_out_mul15 = interp_weight_3_q * n12_z_bank_s1;
+  wire signed [36:0] interp_out_add12 =
+      $signed({{3{interp_out_mul15[33]}}, interp_out_mul15}
+      + {interp_out_add11[35], interp_out_add11});
   wire signed [15:0] n23_z_bank_s1 = tri_tag_q[0] ? n23_z_b1_q : n23_z_b0_q;
-  wire signed [33:0] t94 = interp_weight_60_q * n23_z_bank_s1;
-  wire signed [37:0] t95 = $signed({{4{t94[33]}}, t94} + {t93[36], t93});
+  wire signed [33:0] interp_out_mul16 = interp_weight_4_q * n23_z_bank_s1;
+  wire signed [37:0] interp_out_add13 =
+      $signed({{4{interp_out_mul16[33]}}, interp_out_mul16}
+      + {interp_out_add12[36], interp_out_add12});
   wire signed [15:0] n31_z_bank_s1 = tri_tag_q[0] ? n31_z_b1_q : n31_z_b0_q;
-  wire signed [33:0] t96 = interp_weight_62_q * n31_z_bank_s1;
-  wire signed [38:0] t97 = $signed({{5{t96[33]}}, t96} + {t95[37], t95});
-  wire interp_out_98_tie = t97[15] & ~(|t97[14:0]);
-  wire [23:0] interp_out_98_up = {t97[38], t97[38:16]} + {{23{1'b0}}, t97[15]};
-  wire signed [23:0] interp_out_98_r =
-      $signed({interp_out_98_up[23:1], interp_out_98_up[0] & ~interp_out_98_tie});
-  wire interp_out_98_ovf_c = ~((&interp_out_98_r[23:15]) | ~(|interp_out_98_r[23:15]));
-  wire signed [15:0] interp_out_98_d =
-      $signed(interp_out_98_ovf_c ? (interp_out_98_r[23] ? 16'h8000 : 16'h7fff)
-      : interp_out_98_r[15:0]);
-  reg  signed [15:0] interp_out_98_q;
-  wire angles_normal_99_ovf_c = 1'b0;
-  wire signed [15:0] angles_normal_99_d =
-      $signed(angles_normal_99_ovf_c ? (interp_out_74_q[15] ? 16'h8000 : 16'h7fff)
-      : interp_out_74_q[15:0]);
-  reg  signed [15:0] angles_normal_99_q;
-  wire angles_normal_100_ovf_c = 1'b0;
-  wire signed [15:0] angles_normal_100_d =
-      $signed(angles_normal_100_ovf_c ? (interp_out_86_q[15] ? 16'h8000 : 16'h7fff)
-      : interp_out_86_q[15:0]);
-  reg  signed [15:0] angles_normal_100_q;
-  wire angles_normal_101_ovf_c = 1'b0;
-  wire signed [15:0] angles_normal_101_d =
-      $signed(angles_normal_101_ovf_c ? (interp_out_98_q[15] ? 16'h8000 : 16'h7fff)
-      : interp_out_98_q[15:0]);
-  reg  signed [15:0] angles_normal_101_q;
-  wire t102_sub = angles_normal_99_q[15];
-  wire signed [16:0] t102 =
-      t102_sub ? $signed({{2{1'b0}}, K28, 14'b0} - {angles_normal_99_q[15], angles_normal_99_q})
-      : $signed({{2{1'b0}}, K28, 14'b0} + {angles_normal_99_q[15], angles_normal_99_q});
-  wire t103_sub = ~angles_normal_99_q[15];
-  wire signed [16:0] t103 =
-      t103_sub ? $signed({{2{1'b0}}, K28, 14'b0} - {angles_normal_101_q[15], angles_normal_101_q})
-      : $signed({{2{1'b0}}, K28, 14'b0} + {angles_normal_101_q[15], angles_normal_101_q});
-  wire t104_sub = angles_normal_99_q[15];
-  wire signed [18:0] t104 = t104_sub ? $signed(19'h7c000) : $signed(19'h4000);
-  wire signed [20:0] angles_xy_105_r = $signed({t102, 4'b0});
-  wire angles_xy_105_ovf_c = 1'b0;
-  wire signed [21:0] angles_xy_105_d =
-      $signed(angles_xy_105_ovf_c ? (angles_xy_105_r[20] ? 22'h200000 : 22'h1fffff)
-      : {angles_xy_105_r[20], angles_xy_105_r});
-  reg  signed [21:0] angles_xy_105_q;
-  wire signed [20:0] angles_xy_106_r = $signed({t103, 4'b0});
-  wire angles_xy_106_ovf_c = 1'b0;
-  wire signed [21:0] angles_xy_106_d =
-      $signed(angles_xy_106_ovf_c ? (angles_xy_106_r[20] ? 22'h200000 : 22'h1fffff)
-      : {angles_xy_106_r[20], angles_xy_106_r});
-  reg  signed [21:0] angles_xy_106_q;
-  wire angles_theta_107_ovf_c = t104[18] | (|t104[17:16]);
-  wire [15:0] angles_theta_107_d = t104[15:0];
-  reg  [15:0] angles_theta_107_q;
-  wire t108_sub = angles_xy_106_q[21];
-  wire signed [22:0] t108 =
-      t108_sub
-      ? $signed({angles_xy_105_q[21], angles_xy_105_q} - {angles_xy_106_q[21], angles_xy_106_q})
-      : $signed({angles_xy_105_q[21], angles_xy_105_q} + {angles_xy_106_q[21], angles_xy_106_q});
-  wire t109_sub = ~angles_xy_106_q[21];
-  wire signed [22:0] t109 =
-      t109_sub
-      ? $signed({angles_xy_106_q[21], angles_xy_106_q} - {angles_xy_105_q[21], angles_xy_105_q})
-      : $signed({angles_xy_106_q[21], angles_xy_106_q} + {angles_xy_105_q[21], angles_xy_105_q});
-  wire t110_sub = angles_xy_106_q[21];
-  wire signed [17:0] t110 =
-      t110_sub ? $signed({{2{1'b0}}, angles_theta_107_q} - {{2{1'b0}}, K30})
-      : $signed({{2{1'b0}}, angles_theta_107_q} + {{2{1'b0}}, K30});
-  wire angles_xy_111_ovf_c = ~((&t108[22:21]) | ~(|t108[22:21]));
-  wire signed [21:0] angles_xy_111_d =
-      $signed(angles_xy_111_ovf_c ? (t108[22] ? 22'h200000 : 22'h1fffff) : t108[21:0]);
-  reg  signed [21:0] angles_xy_111_q;
-  wire angles_xy_112_ovf_c = ~((&t109[22:21]) | ~(|t109[22:21]));
-  wire signed [21:0] angles_xy_112_d =
-      $signed(angles_xy_112_ovf_c ? (t109[22] ? 22'h200000 : 22'h1fffff) : t109[21:0]);
-  reg  signed [21:0] angles_xy_112_q;
-  wire angles_theta_113_ovf_c = t110[17] | (|t110[16]);
-  wire [15:0] angles_theta_113_d = t110[15:0];
-  reg  [15:0] angles_theta_113_q;
-  wire t114_sub = angles_xy_112_q[21];
-  wire signed [23:0] t114 =
-      t114_sub
-      ? $signed({angles_xy_111_q[21], angles_xy_111_q, 1'b0}
-      - {{2{angles_xy_112_q[21]}}, angles_xy_112_q})
-      : $signed({angles_xy_111_q[21], angles_xy_111_q, 1'b0}
-      + {{2{angles_xy_112_q[21]}}, angles_xy_112_q});
-  wire t115_sub = ~angles_xy_112_q[21];
-  wire signed [23:0] t115 =
-      t115_sub
-      ? $signed({angles_xy_112_q[21], angles_xy_112_q, 1'b0}
-      - {{2{angles_xy_111_q[21]}}, angles_xy_111_q})
-      : $signed({angles_xy_112_q[21], angles_xy_112_q, 1'b0}
-      + {{2{angles_xy_111_q[21]}}, angles_xy_111_q});
-  wire t116_sub = angles_xy_112_q[21];
-  wire signed [17:0] t116 =
-      t116_sub ? $signed({{2{1'b0}}, angles_theta_113_q} - {{2{1'b0}}, K31})
-      : $signed({{2{1'b0}}, angles_theta_113_q} + {{2{1'b0}}, K31});
-  wire signed [22:0] angles_xy_117_t = $signed(t114[23:1]);
-  wire angles_xy_117_ovf_c = ~((&angles_xy_117_t[22:21]) | ~(|angles_xy_117_t[22:21]));
-  wire signed [21:0] angles_xy_117_d =
-      $signed(angles_xy_117_ovf_c ? (angles_xy_117_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_117_t[21:0]);
-  reg  signed [21:0] angles_xy_117_q;
-  wire signed [22:0] angles_xy_118_t = $signed(t115[23:1]);
-  wire angles_xy_118_ovf_c = ~((&angles_xy_118_t[22:21]) | ~(|angles_xy_118_t[22:21]));
-  wire signed [21:0] angles_xy_118_d =
-      $signed(angles_xy_118_ovf_c ? (angles_xy_118_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_118_t[21:0]);
-  reg  signed [21:0] angles_xy_118_q;
-  wire angles_theta_119_ovf_c = t116[17] | (|t116[16]);
-  wire [15:0] angles_theta_119_d = t116[15:0];
-  reg  [15:0] angles_theta_119_q;
-  wire t120_sub = angles_xy_118_q[21];
-  wire signed [24:0] t120 =
-      t120_sub
-      ? $signed({angles_xy_117_q[21], angles_xy_117_q, 2'b0}
-      - {{3{angles_xy_118_q[21]}}, angles_xy_118_q})
-      : $signed({angles_xy_117_q[21], angles_xy_117_q, 2'b0}
-      + {{3{angles_xy_118_q[21]}}, angles_xy_118_q});
-  wire t121_sub = ~angles_xy_118_q[21];
-  wire signed [24:0] t121 =
-      t121_sub
-      ? $signed({angles_xy_118_q[21], angles_xy_118_q, 2'b0}
-      - {{3{angles_xy_117_q[21]}}, angles_xy_117_q})
-      : $signed({angles_xy_118_q[21], angles_xy_118_q, 2'b0}
-      + {{3{angles_xy_117_q[21]}}, angles_xy_117_q});
-  wire t122_sub = angles_xy_118_q[21];
-  wire signed [17:0] t122 =
-      t122_sub ? $signed({{2{1'b0}}, angles_theta_119_q} - {{2{1'b0}}, K32})
-      : $signed({{2{1'b0}}, angles_theta_119_q} + {{2{1'b0}}, K32});
-  wire signed [22:0] angles_xy_123_t = $signed(t120[24:2]);
-  wire angles_xy_123_ovf_c = ~((&angles_xy_123_t[22:21]) | ~(|angles_xy_123_t[22:21]));
-  wire signed [21:0] angles_xy_123_d =
-      $signed(angles_xy_123_ovf_c ? (angles_xy_123_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_123_t[21:0]);
-  reg  signed [21:0] angles_xy_123_q;
-  wire signed [22:0] angles_xy_124_t = $signed(t121[24:2]);
-  wire angles_xy_124_ovf_c = ~((&angles_xy_124_t[22:21]) | ~(|angles_xy_124_t[22:21]));
-  wire signed [21:0] angles_xy_124_d =
-      $signed(angles_xy_124_ovf_c ? (angles_xy_124_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_124_t[21:0]);
-  reg  signed [21:0] angles_xy_124_q;
-  wire angles_theta_125_ovf_c = t122[17] | (|t122[16]);
-  wire [15:0] angles_theta_125_d = t122[15:0];
-  reg  [15:0] angles_theta_125_q;
-  wire t126_sub = angles_xy_124_q[21];
-  wire signed [25:0] t126 =
-      t126_sub
-      ? $signed({angles_xy_123_q[21], angles_xy_123_q, 3'b0}
-      - {{4{angles_xy_124_q[21]}}, angles_xy_124_q})
-      : $signed({angles_xy_123_q[21], angles_xy_123_q, 3'b0}
-      + {{4{angles_xy_124_q[21]}}, angles_xy_124_q});
-  wire t127_sub = ~angles_xy_124_q[21];
-  wire signed [25:0] t127 =
-      t127_sub
-      ? $signed({angles_xy_124_q[21], angles_xy_124_q, 3'b0}
-      - {{4{angles_xy_123_q[21]}}, angles_xy_123_q})
-      : $signed({angles_xy_124_q[21], angles_xy_124_q, 3'b0}
-      + {{4{angles_xy_123_q[21]}}, angles_xy_123_q});
-  wire t128_sub = angles_xy_124_q[21];
-  wire signed [17:0] t128 =
-      t128_sub ? $signed({{2{1'b0}}, angles_theta_125_q} - {{2{1'b0}}, K33})
-      : $signed({{2{1'b0}}, angles_theta_125_q} + {{2{1'b0}}, K33});
-  wire signed [22:0] angles_xy_129_t = $signed(t126[25:3]);
-  wire angles_xy_129_ovf_c = ~((&angles_xy_129_t[22:21]) | ~(|angles_xy_129_t[22:21]));
-  wire signed [21:0] angles_xy_129_d =
-      $signed(angles_xy_129_ovf_c ? (angles_xy_129_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_129_t[21:0]);
-  reg  signed [21:0] angles_xy_129_q;
-  wire signed [22:0] angles_xy_130_t = $signed(t127[25:3]);
-  wire angles_xy_130_ovf_c = ~((&angles_xy_130_t[22:21]) | ~(|angles_xy_130_t[22:21]));
-  wire signed [21:0] angles_xy_130_d =
-      $signed(angles_xy_130_ovf_c ? (angles_xy_130_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_130_t[21:0]);
-  reg  signed [21:0] angles_xy_130_q;
-  wire angles_theta_131_ovf_c = t128[17] | (|t128[16]);
-  wire [15:0] angles_theta_131_d = t128[15:0];
-  reg  [15:0] angles_theta_131_q;
-  wire t132_sub = angles_xy_130_q[21];
-  wire signed [26:0] t132 =
-      t132_sub
-      ? $signed({angles_xy_129_q[21], angles_xy_129_q, 4'b0}
-      - {{5{angles_xy_130_q[21]}}, angles_xy_130_q})
-      : $signed({angles_xy_129_q[21], angles_xy_129_q, 4'b0}
-      + {{5{angles_xy_130_q[21]}}, angles_xy_130_q});
-  wire t133_sub = ~angles_xy_130_q[21];
-  wire signed [26:0] t133 =
-      t133_sub
-      ? $signed({angles_xy_130_q[21], angles_xy_130_q, 4'b0}
-      - {{5{angles_xy_129_q[21]}}, angles_xy_129_q})
-      : $signed({angles_xy_130_q[21], angles_xy_130_q, 4'b0}
-      + {{5{angles_xy_129_q[21]}}, angles_xy_129_q});
-  wire t134_sub = angles_xy_130_q[21];
-  wire signed [17:0] t134 =
-      t134_sub ? $signed({{2{1'b0}}, angles_theta_131_q} - {{2{1'b0}}, K34})
-      : $signed({{2{1'b0}}, angles_theta_131_q} + {{2{1'b0}}, K34});
-  wire signed [22:0] angles_xy_135_t = $signed(t132[26:4]);
-  wire angles_xy_135_ovf_c = ~((&angles_xy_135_t[22:21]) | ~(|angles_xy_135_t[22:21]));
-  wire signed [21:0] angles_xy_135_d =
-      $signed(angles_xy_135_ovf_c ? (angles_xy_135_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_135_t[21:0]);
-  reg  signed [21:0] angles_xy_135_q;
-  wire signed [22:0] angles_xy_136_t = $signed(t133[26:4]);
-  wire angles_xy_136_ovf_c = ~((&angles_xy_136_t[22:21]) | ~(|angles_xy_136_t[22:21]));
-  wire signed [21:0] angles_xy_136_d =
-      $signed(angles_xy_136_ovf_c ? (angles_xy_136_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_136_t[21:0]);
-  reg  signed [21:0] angles_xy_136_q;
-  wire angles_theta_137_ovf_c = t134[17] | (|t134[16]);
-  wire [15:0] angles_theta_137_d = t134[15:0];
-  reg  [15:0] angles_theta_137_q;
-  wire t138_sub = angles_xy_136_q[21];
-  wire signed [27:0] t138 =
-      t138_sub
-      ? $signed({angles_xy_135_q[21], angles_xy_135_q, 5'b0}
-      - {{6{angles_xy_136_q[21]}}, angles_xy_136_q})
-      : $signed({angles_xy_135_q[21], angles_xy_135_q, 5'b0}
-      + {{6{angles_xy_136_q[21]}}, angles_xy_136_q});
-  wire t139_sub = ~angles_xy_136_q[21];
-  wire signed [27:0] t139 =
-      t139_sub
-      ? $signed({angles_xy_136_q[21], angles_xy_136_q, 5'b0}
-      - {{6{angles_xy_135_q[21]}}, angles_xy_135_q})
-      : $signed({angles_xy_136_q[21], angles_xy_136_q, 5'b0}
-      + {{6{angles_xy_135_q[21]}}, angles_xy_135_q});
-  wire t140_sub = angles_xy_136_q[21];
-  wire signed [17:0] t140 =
-      t140_sub ? $signed({{2{1'b0}}, angles_theta_137_q} - {{2{1'b0}}, K35})
-      : $signed({{2{1'b0}}, angles_theta_137_q} + {{2{1'b0}}, K35});
-  wire signed [22:0] angles_xy_141_t = $signed(t138[27:5]);
-  wire angles_xy_141_ovf_c = ~((&angles_xy_141_t[22:21]) | ~(|angles_xy_141_t[22:21]));
-  wire signed [21:0] angles_xy_141_d =
-      $signed(angles_xy_141_ovf_c ? (angles_xy_141_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_141_t[21:0]);
-  reg  signed [21:0] angles_xy_141_q;
-  wire signed [22:0] angles_xy_142_t = $signed(t139[27:5]);
-  wire angles_xy_142_ovf_c = ~((&angles_xy_142_t[22:21]) | ~(|angles_xy_142_t[22:21]));
-  wire signed [21:0] angles_xy_142_d =
-      $signed(angles_xy_142_ovf_c ? (angles_xy_142_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_142_t[21:0]);
-  reg  signed [21:0] angles_xy_142_q;
-  wire angles_theta_143_ovf_c = t140[17] | (|t140[16]);
-  wire [15:0] angles_theta_143_d = t140[15:0];
-  reg  [15:0] angles_theta_143_q;
-  wire t144_sub = angles_xy_142_q[21];
-  wire signed [28:0] t144 =
-      t144_sub
-      ? $signed({angles_xy_141_q[21], angles_xy_141_q, 6'b0}
-      - {{7{angles_xy_142_q[21]}}, angles_xy_142_q})
-      : $signed({angles_xy_141_q[21], angles_xy_141_q, 6'b0}
-      + {{7{angles_xy_142_q[21]}}, angles_xy_142_q});
-  wire t145_sub = ~angles_xy_142_q[21];
-  wire signed [28:0] t145 =
-      t145_sub
-      ? $signed({angles_xy_142_q[21], angles_xy_142_q, 6'b0}
-      - {{7{angles_xy_141_q[21]}}, angles_xy_141_q})
-      : $signed({angles_xy_142_q[21], angles_xy_142_q, 6'b0}
-      + {{7{angles_xy_141_q[21]}}, angles_xy_141_q});
-  wire t146_sub = angles_xy_142_q[21];
-  wire signed [17:0] t146 =
-      t146_sub ? $signed({{2{1'b0}}, angles_theta_143_q} - {{2{1'b0}}, K36})
-      : $signed({{2{1'b0}}, angles_theta_143_q} + {{2{1'b0}}, K36});
-  wire signed [22:0] angles_xy_147_t = $signed(t144[28:6]);
-  wire angles_xy_147_ovf_c = ~((&angles_xy_147_t[22:21]) | ~(|angles_xy_147_t[22:21]));
-  wire signed [21:0] angles_xy_147_d =
-      $signed(angles_xy_147_ovf_c ? (angles_xy_147_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_147_t[21:0]);
-  reg  signed [21:0] angles_xy_147_q;
-  wire signed [22:0] angles_xy_148_t = $signed(t145[28:6]);
-  wire angles_xy_148_ovf_c = ~((&angles_xy_148_t[22:21]) | ~(|angles_xy_148_t[22:21]));
-  wire signed [21:0] angles_xy_148_d =
-      $signed(angles_xy_148_ovf_c ? (angles_xy_148_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_148_t[21:0]);
-  reg  signed [21:0] angles_xy_148_q;
-  wire angles_theta_149_ovf_c = t146[17] | (|t146[16]);
-  wire [15:0] angles_theta_149_d = t146[15:0];
-  reg  [15:0] angles_theta_149_q;
-  wire t150_sub = angles_xy_148_q[21];
-  wire signed [29:0] t150 =
-      t150_sub
-      ? $signed({angles_xy_147_q[21], angles_xy_147_q, 7'b0}
-      - {{8{angles_xy_148_q[21]}}, angles_xy_148_q})
-      : $signed({angles_xy_147_q[21], angles_xy_147_q, 7'b0}
-      + {{8{angles_xy_148_q[21]}}, angles_xy_148_q});
-  wire t151_sub = ~angles_xy_148_q[21];
-  wire signed [29:0] t151 =
-      t151_sub
-      ? $signed({angles_xy_148_q[21], angles_xy_148_q, 7'b0}
-      - {{8{angles_xy_147_q[21]}}, angles_xy_147_q})
-      : $signed({angles_xy_148_q[21], angles_xy_148_q, 7'b0}
-      + {{8{angles_xy_147_q[21]}}, angles_xy_147_q});
-  wire t152_sub = angles_xy_148_q[21];
-  wire signed [17:0] t152 =
-      t152_sub ? $signed({{2{1'b0}}, angles_theta_149_q} - {{2{1'b0}}, K37})
-      : $signed({{2{1'b0}}, angles_theta_149_q} + {{2{1'b0}}, K37});
-  wire signed [22:0] angles_xy_153_t = $signed(t150[29:7]);
-  wire angles_xy_153_ovf_c = ~((&angles_xy_153_t[22:21]) | ~(|angles_xy_153_t[22:21]));
-  wire signed [21:0] angles_xy_153_d =
-      $signed(angles_xy_153_ovf_c ? (angles_xy_153_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_153_t[21:0]);
-  reg  signed [21:0] angles_xy_153_q;
-  wire signed [22:0] angles_xy_154_t = $signed(t151[29:7]);
-  wire angles_xy_154_ovf_c = ~((&angles_xy_154_t[22:21]) | ~(|angles_xy_154_t[22:21]));
-  wire signed [21:0] angles_xy_154_d =
-      $signed(angles_xy_154_ovf_c ? (angles_xy_154_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_154_t[21:0]);
-  reg  signed [21:0] angles_xy_154_q;
-  wire angles_theta_155_ovf_c = t152[17] | (|t152[16]);
-  wire [15:0] angles_theta_155_d = t152[15:0];
-  reg  [15:0] angles_theta_155_q;
-  wire t156_sub = angles_xy_154_q[21];
-  wire signed [30:0] t156 =
-      t156_sub
-      ? $signed({angles_xy_153_q[21], angles_xy_153_q, 8'b0}
-      - {{9{angles_xy_154_q[21]}}, angles_xy_154_q})
-      : $signed({angles_xy_153_q[21], angles_xy_153_q, 8'b0}
-      + {{9{angles_xy_154_q[21]}}, angles_xy_154_q});
-  wire t157_sub = ~angles_xy_154_q[21];
-  wire signed [30:0] t157 =
-      t157_sub
-      ? $signed({angles_xy_154_q[21], angles_xy_154_q, 8'b0}
-      - {{9{angles_xy_153_q[21]}}, angles_xy_153_q})
-      : $signed({angles_xy_154_q[21], angles_xy_154_q, 8'b0}
-      + {{9{angles_xy_153_q[21]}}, angles_xy_153_q});
-  wire t158_sub = angles_xy_154_q[21];
-  wire signed [17:0] t158 =
-      t158_sub ? $signed({{2{1'b0}}, angles_theta_155_q} - {{2{1'b0}}, K38})
-      : $signed({{2{1'b0}}, angles_theta_155_q} + {{2{1'b0}}, K38});
-  wire signed [22:0] angles_xy_159_t = $signed(t156[30:8]);
-  wire angles_xy_159_ovf_c = ~((&angles_xy_159_t[22:21]) | ~(|angles_xy_159_t[22:21]));
-  wire signed [21:0] angles_xy_159_d =
-      $signed(angles_xy_159_ovf_c ? (angles_xy_159_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_159_t[21:0]);
-  reg  signed [21:0] angles_xy_159_q;
-  wire signed [22:0] angles_xy_160_t = $signed(t157[30:8]);
-  wire angles_xy_160_ovf_c = ~((&angles_xy_160_t[22:21]) | ~(|angles_xy_160_t[22:21]));
-  wire signed [21:0] angles_xy_160_d =
-      $signed(angles_xy_160_ovf_c ? (angles_xy_160_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_160_t[21:0]);
-  reg  signed [21:0] angles_xy_160_q;
-  wire angles_theta_161_ovf_c = t158[17] | (|t158[16]);
-  wire [15:0] angles_theta_161_d = t158[15:0];
-  reg  [15:0] angles_theta_161_q;
-  wire t162_sub = angles_xy_160_q[21];
-  wire signed [31:0] t162 =
-      t162_sub
-      ? $signed({angles_xy_159_q[21], angles_xy_159_q, 9'b0}
-      - {{10{angles_xy_160_q[21]}}, angles_xy_160_q})
-      : $signed({angles_xy_159_q[21], angles_xy_159_q, 9'b0}
-      + {{10{angles_xy_160_q[21]}}, angles_xy_160_q});
-  wire t163_sub = ~angles_xy_160_q[21];
-  wire signed [31:0] t163 =
-      t163_sub
-      ? $signed({angles_xy_160_q[21], angles_xy_160_q, 9'b0}
-      - {{10{angles_xy_159_q[21]}}, angles_xy_159_q})
-      : $signed({angles_xy_160_q[21], angles_xy_160_q, 9'b0}
-      + {{10{angles_xy_159_q[21]}}, angles_xy_159_q});
-  wire t164_sub = angles_xy_160_q[21];
-  wire signed [17:0] t164 =
-      t164_sub ? $signed({{2{1'b0}}, angles_theta_161_q} - {{2{1'b0}}, K39})
-      : $signed({{2{1'b0}}, angles_theta_161_q} + {{2{1'b0}}, K39});
-  wire signed [22:0] angles_xy_165_t = $signed(t162[31:9]);
-  wire angles_xy_165_ovf_c = ~((&angles_xy_165_t[22:21]) | ~(|angles_xy_165_t[22:21]));
-  wire signed [21:0] angles_xy_165_d =
-      $signed(angles_xy_165_ovf_c ? (angles_xy_165_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_165_t[21:0]);
-  reg  signed [21:0] angles_xy_165_q;
-  wire signed [22:0] angles_xy_166_t = $signed(t163[31:9]);
-  wire angles_xy_166_ovf_c = ~((&angles_xy_166_t[22:21]) | ~(|angles_xy_166_t[22:21]));
-  wire signed [21:0] angles_xy_166_d =
-      $signed(angles_xy_166_ovf_c ? (angles_xy_166_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_166_t[21:0]);
-  reg  signed [21:0] angles_xy_166_q;
-  wire angles_theta_167_ovf_c = t164[17] | (|t164[16]);
-  wire [15:0] angles_theta_167_d = t164[15:0];
-  reg  [15:0] angles_theta_167_q;
-  wire t168_sub = angles_xy_166_q[21];
-  wire signed [32:0] t168 =
-      t168_sub
-      ? $signed({angles_xy_165_q[21], angles_xy_165_q, 10'b0}
-      - {{11{angles_xy_166_q[21]}}, angles_xy_166_q})
-      : $signed({angles_xy_165_q[21], angles_xy_165_q, 10'b0}
-      + {{11{angles_xy_166_q[21]}}, angles_xy_166_q});
-  wire t169_sub = ~angles_xy_166_q[21];
-  wire signed [32:0] t169 =
-      t169_sub
-      ? $signed({angles_xy_166_q[21], angles_xy_166_q, 10'b0}
-      - {{11{angles_xy_165_q[21]}}, angles_xy_165_q})
-      : $signed({angles_xy_166_q[21], angles_xy_166_q, 10'b0}
-      + {{11{angles_xy_165_q[21]}}, angles_xy_165_q});
-  wire t170_sub = angles_xy_166_q[21];
-  wire signed [17:0] t170 =
-      t170_sub ? $signed({{2{1'b0}}, angles_theta_167_q} - {{2{1'b0}}, K40})
-      : $signed({{2{1'b0}}, angles_theta_167_q} + {{2{1'b0}}, K40});
-  wire signed [22:0] angles_xy_171_t = $signed(t168[32:10]);
-  wire angles_xy_171_ovf_c = ~((&angles_xy_171_t[22:21]) | ~(|angles_xy_171_t[22:21]));
-  wire signed [21:0] angles_xy_171_d =
-      $signed(angles_xy_171_ovf_c ? (angles_xy_171_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_171_t[21:0]);
-  reg  signed [21:0] angles_xy_171_q;
-  wire signed [22:0] angles_xy_172_t = $signed(t169[32:10]);
-  wire angles_xy_172_ovf_c = ~((&angles_xy_172_t[22:21]) | ~(|angles_xy_172_t[22:21]));
-  wire signed [21:0] angles_xy_172_d =
-      $signed(angles_xy_172_ovf_c ? (angles_xy_172_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_172_t[21:0]);
-  reg  signed [21:0] angles_xy_172_q;
-  wire angles_theta_173_ovf_c = t170[17] | (|t170[16]);
-  wire [15:0] angles_theta_173_d = t170[15:0];
-  reg  [15:0] angles_theta_173_q;
-  wire t174_sub = angles_xy_172_q[21];
-  wire signed [33:0] t174 =
-      t174_sub
-      ? $signed({angles_xy_171_q[21], angles_xy_171_q, 11'b0}
-      - {{12{angles_xy_172_q[21]}}, angles_xy_172_q})
-      : $signed({angles_xy_171_q[21], angles_xy_171_q, 11'b0}
-      + {{12{angles_xy_172_q[21]}}, angles_xy_172_q});
-  wire t176_sub = angles_xy_172_q[21];
-  wire signed [17:0] t176 =
-      t176_sub ? $signed({{2{1'b0}}, angles_theta_173_q} - {{2{1'b0}}, K41})
-      : $signed({{2{1'b0}}, angles_theta_173_q} + {{2{1'b0}}, K41});
-  wire signed [22:0] angles_xy_177_t = $signed(t174[33:11]);
-  wire angles_xy_177_ovf_c = ~((&angles_xy_177_t[22:21]) | ~(|angles_xy_177_t[22:21]));
-  wire signed [21:0] angles_xy_177_d =
-      $signed(angles_xy_177_ovf_c ? (angles_xy_177_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_177_t[21:0]);
-  reg  signed [21:0] angles_xy_177_q;
-  wire angles_theta_179_ovf_c = t176[17] | (|t176[16]);
-  wire [15:0] angles_theta_179_d = t176[15:0];
-  reg  [15:0] angles_theta_179_q;
-  wire signed [18:0] t180_a = $signed({1'b0, K42});
-  wire signed [33:0] t180 = t180_a * angles_normal_100_q;
-  wire signed [20:0] angles_xy_181_t = $signed(t180[33:13]);
-  wire angles_xy_181_ovf_c = 1'b0;
-  wire signed [21:0] angles_xy_181_d =
-      $signed(angles_xy_181_ovf_c ? (angles_xy_181_t[20] ? 22'h200000 : 22'h1fffff)
-      : {angles_xy_181_t[20], angles_xy_181_t});
-  reg  signed [21:0] angles_xy_181_q;
-  wire [16:0] angles_theta_182_r = {K28, 16'b0};
-  wire angles_theta_182_ovf_c = |angles_theta_182_r[16];
-  wire [15:0] angles_theta_182_d = angles_theta_182_r[15:0];
-  reg  [15:0] angles_theta_182_q;
-  reg  signed [21:0] angles_xy_181_s5_q;
-  reg  signed [21:0] angles_xy_181_s6_q;
-  reg  signed [21:0] angles_xy_181_s7_q;
-  reg  signed [21:0] angles_xy_181_s8_q;
-  reg  signed [21:0] angles_xy_181_s9_q;
-  reg  signed [21:0] angles_xy_181_s10_q;
-  reg  signed [21:0] angles_xy_181_s11_q;
-  reg  signed [21:0] angles_xy_181_s12_q;
-  reg  signed [21:0] angles_xy_181_s13_q;
-  reg  signed [21:0] angles_xy_181_s14_q;
-  reg  signed [21:0] angles_xy_181_s15_q;
-  reg  signed [21:0] angles_xy_181_s16_q;
-  wire t183_sub = angles_xy_181_s16_q[21];
-  wire signed [22:0] t183 =
-      t183_sub
-      ? $signed({angles_xy_177_q[21], angles_xy_177_q}
-      - {angles_xy_181_s16_q[21], angles_xy_181_s16_q})
-      : $signed({angles_xy_177_q[21], angles_xy_177_q}
-      + {angles_xy_181_s16_q[21], angles_xy_181_s16_q});
-  wire t184_sub = ~angles_xy_181_s16_q[21];
-  wire signed [22:0] t184 =
-      t184_sub
-      ? $signed({angles_xy_181_s16_q[21], angles_xy_181_s16_q}
-      - {angles_xy_177_q[21], angles_xy_177_q})
-      : $signed({angles_xy_181_s16_q[21], angles_xy_181_s16_q}
-      + {angles_xy_177_q[21], angles_xy_177_q});
-  reg  [15:0] angles_theta_182_s2_q;
-  reg  [15:0] angles_theta_182_s3_q;
-  reg  [15:0] angles_theta_182_s4_q;
-  wire t185_sub = angles_xy_181_q[21];
-  wire signed [17:0] t185 =
-      t185_sub ? $signed({{2{1'b0}}, angles_theta_182_s4_q} - {{2{1'b0}}, K30})
-      : $signed({{2{1'b0}}, angles_theta_182_s4_q} + {{2{1'b0}}, K30});
-  wire angles_xy_186_ovf_c = ~((&t183[22:21]) | ~(|t183[22:21]));
-  wire signed [21:0] angles_xy_186_d =
-      $signed(angles_xy_186_ovf_c ? (t183[22] ? 22'h200000 : 22'h1fffff) : t183[21:0]);
-  reg  signed [21:0] angles_xy_186_q;
-  wire angles_xy_187_ovf_c = ~((&t184[22:21]) | ~(|t184[22:21]));
-  wire signed [21:0] angles_xy_187_d =
-      $signed(angles_xy_187_ovf_c ? (t184[22] ? 22'h200000 : 22'h1fffff) : t184[21:0]);
-  reg  signed [21:0] angles_xy_187_q;
-  wire angles_theta_188_ovf_c = t185[17] | (|t185[16]);
-  wire [15:0] angles_theta_188_d = t185[15:0];
-  reg  [15:0] angles_theta_188_q;
-  wire t189_sub = angles_xy_187_q[21];
-  wire signed [23:0] t189 =
-      t189_sub
-      ? $signed({angles_xy_186_q[21], angles_xy_186_q, 1'b0}
-      - {{2{angles_xy_187_q[21]}}, angles_xy_187_q})
-      : $signed({angles_xy_186_q[21], angles_xy_186_q, 1'b0}
-      + {{2{angles_xy_187_q[21]}}, angles_xy_187_q});
-  wire t190_sub = ~angles_xy_187_q[21];
-  wire signed [23:0] t190 =
-      t190_sub
-      ? $signed({angles_xy_187_q[21], angles_xy_187_q, 1'b0}
-      - {{2{angles_xy_186_q[21]}}, angles_xy_186_q})
-      : $signed({angles_xy_187_q[21], angles_xy_187_q, 1'b0}
-      + {{2{angles_xy_186_q[21]}}, angles_xy_186_q});
-  reg  [15:0] angles_theta_188_s6_q;
-  reg  [15:0] angles_theta_188_s7_q;
-  reg  [15:0] angles_theta_188_s8_q;
-  reg  [15:0] angles_theta_188_s9_q;
-  reg  [15:0] angles_theta_188_s10_q;
-  reg  [15:0] angles_theta_188_s11_q;
-  reg  [15:0] angles_theta_188_s12_q;
-  reg  [15:0] angles_theta_188_s13_q;
-  reg  [15:0] angles_theta_188_s14_q;
-  reg  [15:0] angles_theta_188_s15_q;
-  reg  [15:0] angles_theta_188_s16_q;
-  reg  [15:0] angles_theta_188_s17_q;
-  wire t191_sub = angles_xy_187_q[21];
-  wire signed [17:0] t191 =
-      t191_sub ? $signed({{2{1'b0}}, angles_theta_188_s17_q} - {{2{1'b0}}, K31})
-      : $signed({{2{1'b0}}, angles_theta_188_s17_q} + {{2{1'b0}}, K31});
-  wire signed [22:0] angles_xy_192_t = $signed(t189[23:1]);
-  wire angles_xy_192_ovf_c = ~((&angles_xy_192_t[22:21]) | ~(|angles_xy_192_t[22:21]));
-  wire signed [21:0] angles_xy_192_d =
-      $signed(angles_xy_192_ovf_c ? (angles_xy_192_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_192_t[21:0]);
-  reg  signed [21:0] angles_xy_192_q;
-  wire signed [22:0] angles_xy_193_t = $signed(t190[23:1]);
-  wire angles_xy_193_ovf_c = ~((&angles_xy_193_t[22:21]) | ~(|angles_xy_193_t[22:21]));
-  wire signed [21:0] angles_xy_193_d =
-      $signed(angles_xy_193_ovf_c ? (angles_xy_193_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_193_t[21:0]);
-  reg  signed [21:0] angles_xy_193_q;
-  wire angles_theta_194_ovf_c = t191[17] | (|t191[16]);
-  wire [15:0] angles_theta_194_d = t191[15:0];
-  reg  [15:0] angles_theta_194_q;
-  wire t195_sub = angles_xy_193_q[21];
-  wire signed [24:0] t195 =
-      t195_sub
-      ? $signed({angles_xy_192_q[21], angles_xy_192_q, 2'b0}
-      - {{3{angles_xy_193_q[21]}}, angles_xy_193_q})
-      : $signed({angles_xy_192_q[21], angles_xy_192_q, 2'b0}
-      + {{3{angles_xy_193_q[21]}}, angles_xy_193_q});
-  wire t196_sub = ~angles_xy_193_q[21];
-  wire signed [24:0] t196 =
-      t196_sub
-      ? $signed({angles_xy_193_q[21], angles_xy_193_q, 2'b0}
-      - {{3{angles_xy_192_q[21]}}, angles_xy_192_q})
-      : $signed({angles_xy_193_q[21], angles_xy_193_q, 2'b0}
-      + {{3{angles_xy_192_q[21]}}, angles_xy_192_q});
-  wire t197_sub = angles_xy_193_q[21];
-  wire signed [17:0] t197 =
-      t197_sub ? $signed({{2{1'b0}}, angles_theta_194_q} - {{2{1'b0}}, K32})
-      : $signed({{2{1'b0}}, angles_theta_194_q} + {{2{1'b0}}, K32});
-  wire signed [22:0] angles_xy_198_t = $signed(t195[24:2]);
-  wire angles_xy_198_ovf_c = ~((&angles_xy_198_t[22:21]) | ~(|angles_xy_198_t[22:21]));
-  wire signed [21:0] angles_xy_198_d =
-      $signed(angles_xy_198_ovf_c ? (angles_xy_198_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_198_t[21:0]);
-  reg  signed [21:0] angles_xy_198_q;
-  wire signed [22:0] angles_xy_199_t = $signed(t196[24:2]);
-  wire angles_xy_199_ovf_c = ~((&angles_xy_199_t[22:21]) | ~(|angles_xy_199_t[22:21]));
-  wire signed [21:0] angles_xy_199_d =
-      $signed(angles_xy_199_ovf_c ? (angles_xy_199_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_199_t[21:0]);
-  reg  signed [21:0] angles_xy_199_q;
-  wire angles_theta_200_ovf_c = t197[17] | (|t197[16]);
-  wire [15:0] angles_theta_200_d = t197[15:0];
-  reg  [15:0] angles_theta_200_q;
-  wire t201_sub = angles_xy_199_q[21];
-  wire signed [25:0] t201 =
-      t201_sub
-      ? $signed({angles_xy_198_q[21], angles_xy_198_q, 3'b0}
-      - {{4{angles_xy_199_q[21]}}, angles_xy_199_q})
-      : $signed({angles_xy_198_q[21], angles_xy_198_q, 3'b0}
-      + {{4{angles_xy_199_q[21]}}, angles_xy_199_q});
-  wire t202_sub = ~angles_xy_199_q[21];
-  wire signed [25:0] t202 =
-      t202_sub
-      ? $signed({angles_xy_199_q[21], angles_xy_199_q, 3'b0}
-      - {{4{angles_xy_198_q[21]}}, angles_xy_198_q})
-      : $signed({angles_xy_199_q[21], angles_xy_199_q, 3'b0}
-      + {{4{angles_xy_198_q[21]}}, angles_xy_198_q});
-  wire t203_sub = angles_xy_199_q[21];
-  wire signed [17:0] t203 =
-      t203_sub ? $signed({{2{1'b0}}, angles_theta_200_q} - {{2{1'b0}}, K33})
-      : $signed({{2{1'b0}}, angles_theta_200_q} + {{2{1'b0}}, K33});
-  wire signed [22:0] angles_xy_204_t = $signed(t201[25:3]);
-  wire angles_xy_204_ovf_c = ~((&angles_xy_204_t[22:21]) | ~(|angles_xy_204_t[22:21]));
-  wire signed [21:0] angles_xy_204_d =
-      $signed(angles_xy_204_ovf_c ? (angles_xy_204_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_204_t[21:0]);
-  reg  signed [21:0] angles_xy_204_q;
-  wire signed [22:0] angles_xy_205_t = $signed(t202[25:3]);
-  wire angles_xy_205_ovf_c = ~((&angles_xy_205_t[22:21]) | ~(|angles_xy_205_t[22:21]));
-  wire signed [21:0] angles_xy_205_d =
-      $signed(angles_xy_205_ovf_c ? (angles_xy_205_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_205_t[21:0]);
-  reg  signed [21:0] angles_xy_205_q;
-  wire angles_theta_206_ovf_c = t203[17] | (|t203[16]);
-  wire [15:0] angles_theta_206_d = t203[15:0];
-  reg  [15:0] angles_theta_206_q;
-  wire t207_sub = angles_xy_205_q[21];
-  wire signed [26:0] t207 =
-      t207_sub
-      ? $signed({angles_xy_204_q[21], angles_xy_204_q, 4'b0}
-      - {{5{angles_xy_205_q[21]}}, angles_xy_205_q})
-      : $signed({angles_xy_204_q[21], angles_xy_204_q, 4'b0}
-      + {{5{angles_xy_205_q[21]}}, angles_xy_205_q});
-  wire t208_sub = ~angles_xy_205_q[21];
-  wire signed [26:0] t208 =
-      t208_sub
-      ? $signed({angles_xy_205_q[21], angles_xy_205_q, 4'b0}
-      - {{5{angles_xy_204_q[21]}}, angles_xy_204_q})
-      : $signed({angles_xy_205_q[21], angles_xy_205_q, 4'b0}
-      + {{5{angles_xy_204_q[21]}}, angles_xy_204_q});
-  wire t209_sub = angles_xy_205_q[21];
-  wire signed [17:0] t209 =
-      t209_sub ? $signed({{2{1'b0}}, angles_theta_206_q} - {{2{1'b0}}, K34})
-      : $signed({{2{1'b0}}, angles_theta_206_q} + {{2{1'b0}}, K34});
-  wire signed [22:0] angles_xy_210_t = $signed(t207[26:4]);
-  wire angles_xy_210_ovf_c = ~((&angles_xy_210_t[22:21]) | ~(|angles_xy_210_t[22:21]));
-  wire signed [21:0] angles_xy_210_d =
-      $signed(angles_xy_210_ovf_c ? (angles_xy_210_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_210_t[21:0]);
-  reg  signed [21:0] angles_xy_210_q;
-  wire signed [22:0] angles_xy_211_t = $signed(t208[26:4]);
-  wire angles_xy_211_ovf_c = ~((&angles_xy_211_t[22:21]) | ~(|angles_xy_211_t[22:21]));
-  wire signed [21:0] angles_xy_211_d =
-      $signed(angles_xy_211_ovf_c ? (angles_xy_211_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_211_t[21:0]);
-  reg  signed [21:0] angles_xy_211_q;
-  wire angles_theta_212_ovf_c = t209[17] | (|t209[16]);
-  wire [15:0] angles_theta_212_d = t209[15:0];
-  reg  [15:0] angles_theta_212_q;
-  wire t213_sub = angles_xy_211_q[21];
-  wire signed [27:0] t213 =
-      t213_sub
-      ? $signed({angles_xy_210_q[21], angles_xy_210_q, 5'b0}
-      - {{6{angles_xy_211_q[21]}}, angles_xy_211_q})
-      : $signed({angles_xy_210_q[21], angles_xy_210_q, 5'b0}
-      + {{6{angles_xy_211_q[21]}}, angles_xy_211_q});
-  wire t214_sub = ~angles_xy_211_q[21];
-  wire signed [27:0] t214 =
-      t214_sub
-      ? $signed({angles_xy_211_q[21], angles_xy_211_q, 5'b0}
-      - {{6{angles_xy_210_q[21]}}, angles_xy_210_q})
-      : $signed({angles_xy_211_q[21], angles_xy_211_q, 5'b0}
-      + {{6{angles_xy_210_q[21]}}, angles_xy_210_q});
-  wire t215_sub = angles_xy_211_q[21];
-  wire signed [17:0] t215 =
-      t215_sub ? $signed({{2{1'b0}}, angles_theta_212_q} - {{2{1'b0}}, K35})
-      : $signed({{2{1'b0}}, angles_theta_212_q} + {{2{1'b0}}, K35});
-  wire signed [22:0] angles_xy_216_t = $signed(t213[27:5]);
-  wire angles_xy_216_ovf_c = ~((&angles_xy_216_t[22:21]) | ~(|angles_xy_216_t[22:21]));
-  wire signed [21:0] angles_xy_216_d =
-      $signed(angles_xy_216_ovf_c ? (angles_xy_216_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_216_t[21:0]);
-  reg  signed [21:0] angles_xy_216_q;
-  wire signed [22:0] angles_xy_217_t = $signed(t214[27:5]);
-  wire angles_xy_217_ovf_c = ~((&angles_xy_217_t[22:21]) | ~(|angles_xy_217_t[22:21]));
-  wire signed [21:0] angles_xy_217_d =
-      $signed(angles_xy_217_ovf_c ? (angles_xy_217_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_217_t[21:0]);
-  reg  signed [21:0] angles_xy_217_q;
-  wire angles_theta_218_ovf_c = t215[17] | (|t215[16]);
-  wire [15:0] angles_theta_218_d = t215[15:0];
-  reg  [15:0] angles_theta_218_q;
-  wire t219_sub = angles_xy_217_q[21];
-  wire signed [28:0] t219 =
-      t219_sub
-      ? $signed({angles_xy_216_q[21], angles_xy_216_q, 6'b0}
-      - {{7{angles_xy_217_q[21]}}, angles_xy_217_q})
-      : $signed({angles_xy_216_q[21], angles_xy_216_q, 6'b0}
-      + {{7{angles_xy_217_q[21]}}, angles_xy_217_q});
-  wire t220_sub = ~angles_xy_217_q[21];
-  wire signed [28:0] t220 =
-      t220_sub
-      ? $signed({angles_xy_217_q[21], angles_xy_217_q, 6'b0}
-      - {{7{angles_xy_216_q[21]}}, angles_xy_216_q})
-      : $signed({angles_xy_217_q[21], angles_xy_217_q, 6'b0}
-      + {{7{angles_xy_216_q[21]}}, angles_xy_216_q});
-  wire t221_sub = angles_xy_217_q[21];
-  wire signed [17:0] t221 =
-      t221_sub ? $signed({{2{1'b0}}, angles_theta_218_q} - {{2{1'b0}}, K36})
-      : $signed({{2{1'b0}}, angles_theta_218_q} + {{2{1'b0}}, K36});
-  wire signed [22:0] angles_xy_222_t = $signed(t219[28:6]);
-  wire angles_xy_222_ovf_c = ~((&angles_xy_222_t[22:21]) | ~(|angles_xy_222_t[22:21]));
-  wire signed [21:0] angles_xy_222_d =
-      $signed(angles_xy_222_ovf_c ? (angles_xy_222_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_222_t[21:0]);
-  reg  signed [21:0] angles_xy_222_q;
-  wire signed [22:0] angles_xy_223_t = $signed(t220[28:6]);
-  wire angles_xy_223_ovf_c = ~((&angles_xy_223_t[22:21]) | ~(|angles_xy_223_t[22:21]));
-  wire signed [21:0] angles_xy_223_d =
-      $signed(angles_xy_223_ovf_c ? (angles_xy_223_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_223_t[21:0]);
-  reg  signed [21:0] angles_xy_223_q;
-  wire angles_theta_224_ovf_c = t221[17] | (|t221[16]);
-  wire [15:0] angles_theta_224_d = t221[15:0];
-  reg  [15:0] angles_theta_224_q;
-  wire t225_sub = angles_xy_223_q[21];
-  wire signed [29:0] t225 =
-      t225_sub
-      ? $signed({angles_xy_222_q[21], angles_xy_222_q, 7'b0}
-      - {{8{angles_xy_223_q[21]}}, angles_xy_223_q})
-      : $signed({angles_xy_222_q[21], angles_xy_222_q, 7'b0}
-      + {{8{angles_xy_223_q[21]}}, angles_xy_223_q});
-  wire t226_sub = ~angles_xy_223_q[21];
-  wire signed [29:0] t226 =
-      t226_sub
-      ? $signed({angles_xy_223_q[21], angles_xy_223_q, 7'b0}
-      - {{8{angles_xy_222_q[21]}}, angles_xy_222_q})
-      : $signed({angles_xy_223_q[21], angles_xy_223_q, 7'b0}
-      + {{8{angles_xy_222_q[21]}}, angles_xy_222_q});
-  wire t227_sub = angles_xy_223_q[21];
-  wire signed [17:0] t227 =
-      t227_sub ? $signed({{2{1'b0}}, angles_theta_224_q} - {{2{1'b0}}, K37})
-      : $signed({{2{1'b0}}, angles_theta_224_q} + {{2{1'b0}}, K37});
-  wire signed [22:0] angles_xy_228_t = $signed(t225[29:7]);
-  wire angles_xy_228_ovf_c = ~((&angles_xy_228_t[22:21]) | ~(|angles_xy_228_t[22:21]));
-  wire signed [21:0] angles_xy_228_d =
-      $signed(angles_xy_228_ovf_c ? (angles_xy_228_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_228_t[21:0]);
-  reg  signed [21:0] angles_xy_228_q;
-  wire signed [22:0] angles_xy_229_t = $signed(t226[29:7]);
-  wire angles_xy_229_ovf_c = ~((&angles_xy_229_t[22:21]) | ~(|angles_xy_229_t[22:21]));
-  wire signed [21:0] angles_xy_229_d =
-      $signed(angles_xy_229_ovf_c ? (angles_xy_229_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_229_t[21:0]);
-  reg  signed [21:0] angles_xy_229_q;
-  wire angles_theta_230_ovf_c = t227[17] | (|t227[16]);
-  wire [15:0] angles_theta_230_d = t227[15:0];
-  reg  [15:0] angles_theta_230_q;
-  wire t231_sub = angles_xy_229_q[21];
-  wire signed [30:0] t231 =
-      t231_sub
-      ? $signed({angles_xy_228_q[21], angles_xy_228_q, 8'b0}
-      - {{9{angles_xy_229_q[21]}}, angles_xy_229_q})
-      : $signed({angles_xy_228_q[21], angles_xy_228_q, 8'b0}
-      + {{9{angles_xy_229_q[21]}}, angles_xy_229_q});
-  wire t232_sub = ~angles_xy_229_q[21];
-  wire signed [30:0] t232 =
-      t232_sub
-      ? $signed({angles_xy_229_q[21], angles_xy_229_q, 8'b0}
-      - {{9{angles_xy_228_q[21]}}, angles_xy_228_q})
-      : $signed({angles_xy_229_q[21], angles_xy_229_q, 8'b0}
-      + {{9{angles_xy_228_q[21]}}, angles_xy_228_q});
-  wire t233_sub = angles_xy_229_q[21];
-  wire signed [17:0] t233 =
-      t233_sub ? $signed({{2{1'b0}}, angles_theta_230_q} - {{2{1'b0}}, K38})
-      : $signed({{2{1'b0}}, angles_theta_230_q} + {{2{1'b0}}, K38});
-  wire signed [22:0] angles_xy_234_t = $signed(t231[30:8]);
-  wire angles_xy_234_ovf_c = ~((&angles_xy_234_t[22:21]) | ~(|angles_xy_234_t[22:21]));
-  wire signed [21:0] angles_xy_234_d =
-      $signed(angles_xy_234_ovf_c ? (angles_xy_234_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_234_t[21:0]);
-  reg  signed [21:0] angles_xy_234_q;
-  wire signed [22:0] angles_xy_235_t = $signed(t232[30:8]);
-  wire angles_xy_235_ovf_c = ~((&angles_xy_235_t[22:21]) | ~(|angles_xy_235_t[22:21]));
-  wire signed [21:0] angles_xy_235_d =
-      $signed(angles_xy_235_ovf_c ? (angles_xy_235_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_235_t[21:0]);
-  reg  signed [21:0] angles_xy_235_q;
-  wire angles_theta_236_ovf_c = t233[17] | (|t233[16]);
-  wire [15:0] angles_theta_236_d = t233[15:0];
-  reg  [15:0] angles_theta_236_q;
-  wire t237_sub = angles_xy_235_q[21];
-  wire signed [31:0] t237 =
-      t237_sub
-      ? $signed({angles_xy_234_q[21], angles_xy_234_q, 9'b0}
-      - {{10{angles_xy_235_q[21]}}, angles_xy_235_q})
-      : $signed({angles_xy_234_q[21], angles_xy_234_q, 9'b0}
-      + {{10{angles_xy_235_q[21]}}, angles_xy_235_q});
-  wire t238_sub = ~angles_xy_235_q[21];
-  wire signed [31:0] t238 =
-      t238_sub
-      ? $signed({angles_xy_235_q[21], angles_xy_235_q, 9'b0}
-      - {{10{angles_xy_234_q[21]}}, angles_xy_234_q})
-      : $signed({angles_xy_235_q[21], angles_xy_235_q, 9'b0}
-      + {{10{angles_xy_234_q[21]}}, angles_xy_234_q});
-  wire t239_sub = angles_xy_235_q[21];
-  wire signed [17:0] t239 =
-      t239_sub ? $signed({{2{1'b0}}, angles_theta_236_q} - {{2{1'b0}}, K39})
-      : $signed({{2{1'b0}}, angles_theta_236_q} + {{2{1'b0}}, K39});
-  wire signed [22:0] angles_xy_240_t = $signed(t237[31:9]);
-  wire angles_xy_240_ovf_c = ~((&angles_xy_240_t[22:21]) | ~(|angles_xy_240_t[22:21]));
-  wire signed [21:0] angles_xy_240_d =
-      $signed(angles_xy_240_ovf_c ? (angles_xy_240_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_240_t[21:0]);
-  reg  signed [21:0] angles_xy_240_q;
-  wire signed [22:0] angles_xy_241_t = $signed(t238[31:9]);
-  wire angles_xy_241_ovf_c = ~((&angles_xy_241_t[22:21]) | ~(|angles_xy_241_t[22:21]));
-  wire signed [21:0] angles_xy_241_d =
-      $signed(angles_xy_241_ovf_c ? (angles_xy_241_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_241_t[21:0]);
-  reg  signed [21:0] angles_xy_241_q;
-  wire angles_theta_242_ovf_c = t239[17] | (|t239[16]);
-  wire [15:0] angles_theta_242_d = t239[15:0];
-  reg  [15:0] angles_theta_242_q;
-  wire t244_sub = ~angles_xy_241_q[21];
-  wire signed [32:0] t244 =
-      t244_sub
-      ? $signed({angles_xy_241_q[21], angles_xy_241_q, 10'b0}
-      - {{11{angles_xy_240_q[21]}}, angles_xy_240_q})
-      : $signed({angles_xy_241_q[21], angles_xy_241_q, 10'b0}
-      + {{11{angles_xy_240_q[21]}}, angles_xy_240_q});
-  wire t245_sub = angles_xy_241_q[21];
-  wire signed [17:0] t245 =
-      t245_sub ? $signed({{2{1'b0}}, angles_theta_242_q} - {{2{1'b0}}, K40})
-      : $signed({{2{1'b0}}, angles_theta_242_q} + {{2{1'b0}}, K40});
-  wire signed [22:0] angles_xy_247_t = $signed(t244[32:10]);
-  wire angles_xy_247_ovf_c = ~((&angles_xy_247_t[22:21]) | ~(|angles_xy_247_t[22:21]));
-  wire signed [21:0] angles_xy_247_d =
-      $signed(angles_xy_247_ovf_c ? (angles_xy_247_t[22] ? 22'h200000 : 22'h1fffff)
-      : angles_xy_247_t[21:0]);
-  reg  signed [21:0] angles_xy_247_q;
-  wire angles_theta_248_ovf_c = t245[17] | (|t245[16]);
-  wire [15:0] angles_theta_248_d = t245[15:0];
-  reg  [15:0] angles_theta_248_q;
-  wire t251_sub = angles_xy_247_q[21];
-  wire signed [17:0] t251 =
-      t251_sub ? $signed({{2{1'b0}}, angles_theta_248_q} - {{2{1'b0}}, K41})
-      : $signed({{2{1'b0}}, angles_theta_248_q} + {{2{1'b0}}, K41});
-  wire angles_theta_254_ovf_c = t251[17] | (|t251[16]);
-  wire [15:0] angles_theta_254_d = t251[15:0];
-  reg  [15:0] angles_theta_254_q;
-  wire angles_out_255_tie = angles_theta_254_q[4] & ~(|angles_theta_254_q[3:0]);
-  wire [11:0] angles_out_255_up =
-      {1'b0, angles_theta_254_q[15:5]} + {{11{1'b0}}, angles_theta_254_q[4]};
-  wire [11:0] angles_out_255_r =
-      {angles_out_255_up[11:1], angles_out_255_up[0] & ~angles_out_255_tie};
-  wire angles_out_255_ovf_c = |angles_out_255_r[11];
-  wire [10:0] angles_out_255_d = angles_out_255_r[10:0];
-  reg  [10:0] angles_out_255_q;
-  wire angles_out_256_tie = angles_theta_179_q[4] & ~(|angles_theta_179_q[3:0]);
-  wire [11:0] angles_out_256_up =
-      {1'b0, angles_theta_179_q[15:5]} + {{11{1'b0}}, angles_theta_179_q[4]};
-  wire [11:0] angles_out_256_r =
-      {angles_out_256_up[11:1], angles_out_256_up[0] & ~angles_out_256_tie};
-  wire angles_out_256_ovf_c = |angles_out_256_r[11];
-  wire [10:0] angles_out_256_d = angles_out_256_r[10:0];
-  reg  [10:0] angles_out_256_q;
-  wire polar_index_257_ovf_c = 1'b0;
-  wire [10:0] polar_index_257_d = al_q[10:0];
-  reg  [10:0] polar_index_257_q;
-  wire signed [12:0] t258 = $signed({{2{1'b0}}, bl_q} - {{2{1'b0}}, angles_out_256_q});
-  wire polar_index_259_ovf_c = t258[12] | (|t258[11]);
-  wire [10:0] polar_index_259_d = t258[10:0];
-  reg  [10:0] polar_index_259_q;
-  wire polar_index_260_ovf_c = 1'b0;
-  wire [10:0] polar_index_260_d = angles_out_255_q[10:0];
-  reg  [10:0] polar_index_260_q;
-  reg  [10:0] polar_index_257_s2_q;
-  reg  [10:0] polar_index_257_s3_q;
-  reg  [10:0] polar_index_257_s4_q;
-  reg  [10:0] polar_index_257_s5_q;
-  reg  [10:0] polar_index_257_s6_q;
-  reg  [10:0] polar_index_257_s7_q;
-  reg  [10:0] polar_index_257_s8_q;
-  reg  [10:0] polar_index_257_s9_q;
-  reg  [10:0] polar_index_257_s10_q;
-  reg  [10:0] polar_index_257_s11_q;
-  reg  [10:0] polar_index_257_s12_q;
-  reg  [10:0] polar_index_257_s13_q;
-  reg  [10:0] polar_index_257_s14_q;
-  reg  [10:0] polar_index_257_s15_q;
-  reg  [10:0] polar_index_257_s16_q;
-  reg  [10:0] polar_index_257_s17_q;
-  reg  [10:0] polar_index_257_s18_q;
-  wire [10:0] cos_261_j = {polar_index_257_s18_q[10:9] + 2'd1, polar_index_257_s18_q[8:0]};
-  wire [9:0] cos_261_a = cos_261_j[9] ? (10'h200 - {1'b0, cos_261_j[8:0]}) : {1'b0, cos_261_j[8:0]};
-  reg  signed [15:0] cos_261_raw_q;
-  reg  [0:0] cos_261_top_q;
-  reg  [0:0] cos_261_neg_q;
-  wire signed [15:0] cos_261_v = cos_261_top_q ? $signed(16'h4000) : cos_261_raw_q;
-  wire signed [16:0] cos_261_n = $signed(17'h0 - {cos_261_v[15], cos_261_v});
-  wire unused_cos_261_novf = ~((&cos_261_n[16:15]) | ~(|cos_261_n[16:15]));
-  wire signed [15:0] cos_261_nv =
-      $signed(unused_cos_261_novf ? (cos_261_n[16] ? 16'h8000 : 16'h7fff) : cos_261_n[15:0]);
-  wire signed [15:0] cos_261 = $signed(cos_261_neg_q ? cos_261_nv : cos_261_v);
-  reg  [10:0] polar_index_257_s19_q;
-  reg  [10:0] polar_index_257_s20_q;
-  reg  [10:0] polar_index_257_s21_q;
-  reg  [10:0] polar_index_257_s22_q;
-  reg  [10:0] polar_index_257_s23_q;
-  reg  [10:0] polar_index_257_s24_q;
-  reg  [10:0] polar_index_257_s25_q;
-  reg  [10:0] polar_index_257_s26_q;
-  reg  [10:0] polar_index_257_s27_q;
-  reg  [10:0] polar_index_257_s28_q;
-  reg  [10:0] polar_index_257_s29_q;
-  reg  [10:0] polar_index_257_s30_q;
-  wire [10:0] sin_262_j = polar_index_257_s30_q[10:0];
-  wire [9:0] sin_262_a = sin_262_j[9] ? (10'h200 - {1'b0, sin_262_j[8:0]}) : {1'b0, sin_262_j[8:0]};
-  reg  signed [15:0] sin_262_raw_q;
-  reg  [0:0] sin_262_top_q;
-  reg  [0:0] sin_262_neg_q;
-  wire signed [15:0] sin_262_v = sin_262_top_q ? $signed(16'h4000) : sin_262_raw_q;
-  wire signed [16:0] sin_262_n = $signed(17'h0 - {sin_262_v[15], sin_262_v});
-  wire unused_sin_262_novf = ~((&sin_262_n[16:15]) | ~(|sin_262_n[16:15]));
-  wire signed [15:0] sin_262_nv =
-      $signed(unused_sin_262_novf ? (sin_262_n[16] ? 16'h8000 : 16'h7fff) : sin_262_n[15:0]);
-  wire signed [15:0] sin_262 = $signed(sin_262_neg_q ? sin_262_nv : sin_262_v);
-  wire [10:0] cos_263_j = {polar_index_259_q[10:9] + 2'd1, polar_index_259_q[8:0]};
-  wire [9:0] cos_263_a = cos_263_j[9] ? (10'h200 - {1'b0, cos_263_j[8:0]}) : {1'b0, cos_263_j[8:0]};
-  reg  signed [15:0] cos_263_raw_q;
-  reg  [0:0] cos_263_top_q;
-  reg  [0:0] cos_263_neg_q;
-  wire signed [15:0] cos_263_v = cos_263_top_q ? $signed(16'h4000) : cos_263_raw_q;
-  wire signed [16:0] cos_263_n = $signed(17'h0 - {cos_263_v[15], cos_263_v});
-  wire unused_cos_263_novf = ~((&cos_263_n[16:15]) | ~(|cos_263_n[16:15]));
-  wire signed [15:0] cos_263_nv =
-      $signed(unused_cos_263_novf ? (cos_263_n[16] ? 16'h8000 : 16'h7fff) : cos_263_n[15:0]);
-  wire signed [15:0] cos_263 = $signed(cos_263_neg_q ? cos_263_nv : cos_263_v);
-  wire [10:0] sin_264_j = polar_index_259_q[10:0];
-  wire [9:0] sin_264_a = sin_264_j[9] ? (10'h200 - {1'b0, sin_264_j[8:0]}) : {1'b0, sin_264_j[8:0]};
-  reg  signed [15:0] sin_264_raw_q;
-  reg  [0:0] sin_264_top_q;
-  reg  [0:0] sin_264_neg_q;
-  wire signed [15:0] sin_264_v = sin_264_top_q ? $signed(16'h4000) : sin_264_raw_q;
-  wire signed [16:0] sin_264_n = $signed(17'h0 - {sin_264_v[15], sin_264_v});
-  wire unused_sin_264_novf = ~((&sin_264_n[16:15]) | ~(|sin_264_n[16:15]));
-  wire signed [15:0] sin_264_nv =
-      $signed(unused_sin_264_novf ? (sin_264_n[16] ? 16'h8000 : 16'h7fff) : sin_264_n[15:0]);
-  wire signed [15:0] sin_264 = $signed(sin_264_neg_q ? sin_264_nv : sin_264_v);
-  wire [10:0] cos_265_j = {polar_index_260_q[10:9] + 2'd1, polar_index_260_q[8:0]};
-  wire [9:0] cos_265_a = cos_265_j[9] ? (10'h200 - {1'b0, cos_265_j[8:0]}) : {1'b0, cos_265_j[8:0]};
-  reg  signed [15:0] cos_265_raw_q;
-  reg  [0:0] cos_265_top_q;
-  reg  [0:0] cos_265_neg_q;
-  wire signed [15:0] cos_265_v = cos_265_top_q ? $signed(16'h4000) : cos_265_raw_q;
-  wire signed [16:0] cos_265_n = $signed(17'h0 - {cos_265_v[15], cos_265_v});
-  wire unused_cos_265_novf = ~((&cos_265_n[16:15]) | ~(|cos_265_n[16:15]));
-  wire signed [15:0] cos_265_nv =
-      $signed(unused_cos_265_novf ? (cos_265_n[16] ? 16'h8000 : 16'h7fff) : cos_265_n[15:0]);
-  wire signed [15:0] cos_265 = $signed(cos_265_neg_q ? cos_265_nv : cos_265_v);
-  wire [10:0] sin_266_j = polar_index_260_q[10:0];
-  wire [9:0] sin_266_a = sin_266_j[9] ? (10'h200 - {1'b0, sin_266_j[8:0]}) : {1'b0, sin_266_j[8:0]};
-  reg  signed [15:0] sin_266_raw_q;
-  reg  [0:0] sin_266_top_q;
-  reg  [0:0] sin_266_neg_q;
-  wire signed [15:0] sin_266_v = sin_266_top_q ? $signed(16'h4000) : sin_266_raw_q;
-  wire signed [16:0] sin_266_n = $signed(17'h0 - {sin_266_v[15], sin_266_v});
-  wire unused_sin_266_novf = ~((&sin_266_n[16:15]) | ~(|sin_266_n[16:15]));
-  wire signed [15:0] sin_266_nv =
-      $signed(unused_sin_266_novf ? (sin_266_n[16] ? 16'h8000 : 16'h7fff) : sin_266_n[15:0]);
-  wire signed [15:0] sin_266 = $signed(sin_266_neg_q ? sin_266_nv : sin_266_v);
-  wire signed [31:0] t267 = cos_261 * cos_263;
-  wire polar_lyz_268_tie = t267[13] & ~(|t267[12:0]);
-  wire [18:0] polar_lyz_268_up = {t267[31], t267[31:14]} + {{18{1'b0}}, t267[13]};
-  wire signed [18:0] polar_lyz_268_r =
-      $signed({polar_lyz_268_up[18:1], polar_lyz_268_up[0] & ~polar_lyz_268_tie});
-  wire polar_lyz_268_ovf_c = ~((&polar_lyz_268_r[18:15]) | ~(|polar_lyz_268_r[18:15]));
-  wire signed [15:0] polar_lyz_268_d =
-      $signed(polar_lyz_268_ovf_c ? (polar_lyz_268_r[18] ? 16'h8000 : 16'h7fff)
-      : polar_lyz_268_r[15:0]);
-  reg  signed [15:0] polar_lyz_268_q;
-  wire signed [31:0] t269 = cos_261 * sin_264;
-  wire polar_out_270_tie = t269[13] & ~(|t269[12:0]);
-  wire [18:0] polar_out_270_up = {t269[31], t269[31:14]} + {{18{1'b0}}, t269[13]};
-  wire signed [18:0] polar_out_270_r =
-      $signed({polar_out_270_up[18:1], polar_out_270_up[0] & ~polar_out_270_tie});
-  wire polar_out_270_ovf_c = ~((&polar_out_270_r[18:15]) | ~(|polar_out_270_r[18:15]));
-  wire signed [15:0] polar_out_270_d =
-      $signed(polar_out_270_ovf_c ? (polar_out_270_r[18] ? 16'h8000 : 16'h7fff)
-      : polar_out_270_r[15:0]);
-  reg  signed [15:0] polar_out_270_q;
-  wire signed [31:0] t271 = sin_262 * cos_265;
-  reg  signed [15:0] polar_lyz_268_s21_q;
-  reg  signed [15:0] polar_lyz_268_s22_q;
-  reg  signed [15:0] polar_lyz_268_s23_q;
-  reg  signed [15:0] polar_lyz_268_s24_q;
-  reg  signed [15:0] polar_lyz_268_s25_q;
-  reg  signed [15:0] polar_lyz_268_s26_q;
-  reg  signed [15:0] polar_lyz_268_s27_q;
-  reg  signed [15:0] polar_lyz_268_s28_q;
-  reg  signed [15:0] polar_lyz_268_s29_q;
-  reg  signed [15:0] polar_lyz_268_s30_q;
-  reg  signed [15:0] polar_lyz_268_s31_q;
-  wire signed [31:0] t272 = polar_lyz_268_s31_q * sin_266;
-  wire signed [32:0] t273 = $signed({t271[31], t271} - {t272[31], t272});
-  wire polar_out_274_tie = t273[13] & ~(|t273[12:0]);
-  wire [19:0] polar_out_274_up = {t273[32], t273[32:14]} + {{19{1'b0}}, t273[13]};
-  wire signed [19:0] polar_out_274_r =
-      $signed({polar_out_274_up[19:1], polar_out_274_up[0] & ~polar_out_274_tie});
-  wire polar_out_274_ovf_c = ~((&polar_out_274_r[19:15]) | ~(|polar_out_274_r[19:15]));
-  wire signed [15:0] polar_out_274_d =
-      $signed(polar_out_274_ovf_c ? (polar_out_274_r[19] ? 16'h8000 : 16'h7fff)
-      : polar_out_274_r[15:0]);
-  reg  signed [15:0] polar_out_274_q;
-  wire signed [31:0] t275 = polar_lyz_268_s31_q * cos_265;
-  wire signed [31:0] t276 = sin_262 * sin_266;
-  wire signed [32:0] t277 = $signed({t276[31], t276} + {t275[31], t275});
-  wire polar_out_278_tie = t277[13] & ~(|t277[12:0]);
-  wire [19:0] polar_out_278_up = {t277[32], t277[32:14]} + {{19{1'b0}}, t277[13]};
-  wire signed [19:0] polar_out_278_r =
-      $signed({polar_out_278_up[19:1], polar_out_278_up[0] & ~polar_out_278_tie});
-  wire polar_out_278_ovf_c = ~((&polar_out_278_r[19:15]) | ~(|polar_out_278_r[19:15]));
-  wire signed [15:0] polar_out_278_d =
-      $signed(polar_out_278_ovf_c ? (polar_out_278_r[19] ? 16'h8000 : 16'h7fff)
-      : polar_out_278_r[15:0]);
-  reg  signed [15:0] polar_out_278_q;
-  wire polar_index_279_ovf_c = 1'b0;
-  wire [10:0] polar_index_279_d = ah_q[10:0];
-  reg  [10:0] polar_index_279_q;
-  wire signed [12:0] t280 = $signed({{2{1'b0}}, bh_q} - {{2{1'b0}}, angles_out_256_q});
-  wire polar_index_281_ovf_c = t280[12] | (|t280[11]);
-  wire [10:0] polar_index_281_d = t280[10:0];
-  reg  [10:0] polar_index_281_q;
-  wire polar_index_282_ovf_c = 1'b0;
-  wire [10:0] polar_index_282_d = angles_out_255_q[10:0];
-  reg  [10:0] polar_index_282_q;
-  reg  [10:0] polar_index_279_s2_q;
-  reg  [10:0] polar_index_279_s3_q;
-  reg  [10:0] polar_index_279_s4_q;
-  reg  [10:0] polar_index_279_s5_q;
-  reg  [10:0] polar_index_279_s6_q;
-  reg  [10:0] polar_index_279_s7_q;
-  reg  [10:0] polar_index_279_s8_q;
-  reg  [10:0] polar_index_279_s9_q;
-  reg  [10:0] polar_index_279_s10_q;
-  reg  [10:0] polar_index_279_s11_q;
-  reg  [10:0] polar_index_279_s12_q;
-  reg  [10:0] polar_index_279_s13_q;
-  reg  [10:0] polar_index_279_s14_q;
-  reg  [10:0] polar_index_279_s15_q;
-  reg  [10:0] polar_index_279_s16_q;
-  reg  [10:0] polar_index_279_s17_q;
-  reg  [10:0] polar_index_279_s18_q;
-  wire [10:0] cos_283_j = {polar_index_279_s18_q[10:9] + 2'd1, polar_index_279_s18_q[8:0]};
-  wire [9:0] cos_283_a = cos_283_j[9] ? (10'h200 - {1'b0, cos_283_j[8:0]}) : {1'b0, cos_283_j[8:0]};
-  reg  signed [15:0] cos_283_raw_q;
-  reg  [0:0] cos_283_top_q;
-  reg  [0:0] cos_283_neg_q;
-  wire signed [15:0] cos_283_v = cos_283_top_q ? $signed(16'h4000) : cos_283_raw_q;
-  wire signed [16:0] cos_283_n = $signed(17'h0 - {cos_283_v[15], cos_283_v});
-  wire unused_cos_283_novf = ~((&cos_283_n[16:15]) | ~(|cos_283_n[16:15]));
-  wire signed [15:0] cos_283_nv =
-      $signed(unused_cos_283_novf ? (cos_283_n[16] ? 16'h8000 : 16'h7fff) : cos_283_n[15:0]);
-  wire signed [15:0] cos_283 = $signed(cos_283_neg_q ? cos_283_nv : cos_283_v);
-  reg  [10:0] polar_index_279_s19_q;
-  reg  [10:0] polar_index_279_s20_q;
-  reg  [10:0] polar_index_279_s21_q;
-  reg  [10:0] polar_index_279_s22_q;
-  reg  [10:0] polar_index_279_s23_q;
-  reg  [10:0] polar_index_279_s24_q;
-  reg  [10:0] polar_index_279_s25_q;
-  reg  [10:0] polar_index_279_s26_q;
-  reg  [10:0] polar_index_279_s27_q;
-  reg  [10:0] polar_index_279_s28_q;
-  reg  [10:0] polar_index_279_s29_q;
-  reg  [10:0] polar_index_279_s30_q;
-  wire [10:0] sin_284_j = polar_index_279_s30_q[10:0];
-  wire [9:0] sin_284_a = sin_284_j[9] ? (10'h200 - {1'b0, sin_284_j[8:0]}) : {1'b0, sin_284_j[8:0]};
-  reg  signed [15:0] sin_284_raw_q;
-  reg  [0:0] sin_284_top_q;
-  reg  [0:0] sin_284_neg_q;
-  wire signed [15:0] sin_284_v = sin_284_top_q ? $signed(16'h4000) : sin_284_raw_q;
-  wire signed [16:0] sin_284_n = $signed(17'h0 - {sin_284_v[15], sin_284_v});
-  wire unused_sin_284_novf = ~((&sin_284_n[16:15]) | ~(|sin_284_n[16:15]));
-  wire signed [15:0] sin_284_nv =
-      $signed(unused_sin_284_novf ? (sin_284_n[16] ? 16'h8000 : 16'h7fff) : sin_284_n[15:0]);
-  wire signed [15:0] sin_284 = $signed(sin_284_neg_q ? sin_284_nv : sin_284_v);
-  wire [10:0] cos_285_j = {polar_index_281_q[10:9] + 2'd1, polar_index_281_q[8:0]};
-  wire [9:0] cos_285_a = cos_285_j[9] ? (10'h200 - {1'b0, cos_285_j[8:0]}) : {1'b0, cos_285_j[8:0]};
-  reg  signed [15:0] cos_285_raw_q;
-  reg  [0:0] cos_285_top_q;
-  reg  [0:0] cos_285_neg_q;
-  wire signed [15:0] cos_285_v = cos_285_top_q ? $signed(16'h4000) : cos_285_raw_q;
-  wire signed [16:0] cos_285_n = $signed(17'h0 - {cos_285_v[15], cos_285_v});
-  wire unused_cos_285_novf = ~((&cos_285_n[16:15]) | ~(|cos_285_n[16:15]));
-  wire signed [15:0] cos_285_nv =
-      $signed(unused_cos_285_novf ? (cos_285_n[16] ? 16'h8000 : 16'h7fff) : cos_285_n[15:0]);
-  wire signed [15:0] cos_285 = $signed(cos_285_neg_q ? cos_285_nv : cos_285_v);
-  wire [10:0] sin_286_j = polar_index_281_q[10:0];
-  wire [9:0] sin_286_a = sin_286_j[9] ? (10'h200 - {1'b0, sin_286_j[8:0]}) : {1'b0, sin_286_j[8:0]};
-  reg  signed [15:0] sin_286_raw_q;
-  reg  [0:0] sin_286_top_q;
-  reg  [0:0] sin_286_neg_q;
-  wire signed [15:0] sin_286_v = sin_286_top_q ? $signed(16'h4000) : sin_286_raw_q;
-  wire signed [16:0] sin_286_n = $signed(17'h0 - {sin_286_v[15], sin_286_v});
-  wire unused_sin_286_novf = ~((&sin_286_n[16:15]) | ~(|sin_286_n[16:15]));
-  wire signed [15:0] sin_286_nv =
-      $signed(unused_sin_286_novf ? (sin_286_n[16] ? 16'h8000 : 16'h7fff) : sin_286_n[15:0]);
-  wire signed [15:0] sin_286 = $signed(sin_286_neg_q ? sin_286_nv : sin_286_v);
-  wire [10:0] cos_287_j = {polar_index_282_q[10:9] + 2'd1, polar_index_282_q[8:0]};
-  wire [9:0] cos_287_a = cos_287_j[9] ? (10'h200 - {1'b0, cos_287_j[8:0]}) : {1'b0, cos_287_j[8:0]};
-  reg  signed [15:0] cos_287_raw_q;
-  reg  [0:0] cos_287_top_q;
-  reg  [0:0] cos_287_neg_q;
-  wire signed [15:0] cos_287_v = cos_287_top_q ? $signed(16'h4000) : cos_287_raw_q;
-  wire signed [16:0] cos_287_n = $signed(17'h0 - {cos_287_v[15], cos_287_v});
-  wire unused_cos_287_novf = ~((&cos_287_n[16:15]) | ~(|cos_287_n[16:15]));
-  wire signed [15:0] cos_287_nv =
-      $signed(unused_cos_287_novf ? (cos_287_n[16] ? 16'h8000 : 16'h7fff) : cos_287_n[15:0]);
-  wire signed [15:0] cos_287 = $signed(cos_287_neg_q ? cos_287_nv : cos_287_v);
-  wire [10:0] sin_288_j = polar_index_282_q[10:0];
-  wire [9:0] sin_288_a = sin_288_j[9] ? (10'h200 - {1'b0, sin_288_j[8:0]}) : {1'b0, sin_288_j[8:0]};
-  reg  signed [15:0] sin_288_raw_q;
-  reg  [0:0] sin_288_top_q;
-  reg  [0:0] sin_288_neg_q;
-  wire signed [15:0] sin_288_v = sin_288_top_q ? $signed(16'h4000) : sin_288_raw_q;
-  wire signed [16:0] sin_288_n = $signed(17'h0 - {sin_288_v[15], sin_288_v});
-  wire unused_sin_288_novf = ~((&sin_288_n[16:15]) | ~(|sin_288_n[16:15]));
-  wire signed [15:0] sin_288_nv =
-      $signed(unused_sin_288_novf ? (sin_288_n[16] ? 16'h8000 : 16'h7fff) : sin_288_n[15:0]);
-  wire signed [15:0] sin_288 = $signed(sin_288_neg_q ? sin_288_nv : sin_288_v);
-  wire signed [31:0] t289 = cos_283 * cos_285;
-  wire polar_lyz_290_tie = t289[13] & ~(|t289[12:0]);
-  wire [18:0] polar_lyz_290_up = {t289[31], t289[31:14]} + {{18{1'b0}}, t289[13]};
-  wire signed [18:0] polar_lyz_290_r =
-      $signed({polar_lyz_290_up[18:1], polar_lyz_290_up[0] & ~polar_lyz_290_tie});
-  wire polar_lyz_290_ovf_c = ~((&polar_lyz_290_r[18:15]) | ~(|polar_lyz_290_r[18:15]));
-  wire signed [15:0] polar_lyz_290_d =
-      $signed(polar_lyz_290_ovf_c ? (polar_lyz_290_r[18] ? 16'h8000 : 16'h7fff)
-      : polar_lyz_290_r[15:0]);
-  reg  signed [15:0] polar_lyz_290_q;
-  wire signed [31:0] t291 = cos_283 * sin_286;
-  wire polar_out_292_tie = t291[13] & ~(|t291[12:0]);
-  wire [18:0] polar_out_292_up = {t291[31], t291[31:14]} + {{18{1'b0}}, t291[13]};
-  wire signed [18:0] polar_out_292_r =
-      $signed({polar_out_292_up[18:1], polar_out_292_up[0] & ~polar_out_292_tie});
-  wire polar_out_292_ovf_c = ~((&polar_out_292_r[18:15]) | ~(|polar_out_292_r[18:15]));
-  wire signed [15:0] polar_out_292_d =
-      $signed(polar_out_292_ovf_c ? (polar_out_292_r[18] ? 16'h8000 : 16'h7fff)
-      : polar_out_292_r[15:0]);
-  reg  signed [15:0] polar_out_292_q;
-  wire signed [31:0] t293 = sin_284 * cos_287;
-  reg  signed [15:0] polar_lyz_290_s21_q;
-  reg  signed [15:0] polar_lyz_290_s22_q;
-  reg  signed [15:0] polar_lyz_290_s23_q;
-  reg  signed [15:0] polar_lyz_290_s24_q;
-  reg  signed [15:0] polar_lyz_290_s25_q;
-  reg  signed [15:0] polar_lyz_290_s26_q;
-  reg  signed [15:0] polar_lyz_290_s27_q;
-  reg  signed [15:0] polar_lyz_290_s28_q;
-  reg  signed [15:0] polar_lyz_290_s29_q;
-  reg  signed [15:0] polar_lyz_290_s30_q;
-  reg  signed [15:0] polar_lyz_290_s31_q;
-  wire signed [31:0] t294 = polar_lyz_290_s31_q * sin_288;
-  wire signed [32:0] t295 = $signed({t293[31], t293} - {t294[31], t294});
-  wire polar_out_296_tie = t295[13] & ~(|t295[12:0]);
-  wire [19:0] polar_out_296_up = {t295[32], t295[32:14]} + {{19{1'b0}}, t295[13]};
-  wire signed [19:0] polar_out_296_r =
-      $signed({polar_out_296_up[19:1], polar_out_296_up[0] & ~polar_out_296_tie});
-  wire polar_out_296_ovf_c = ~((&polar_out_296_r[19:15]) | ~(|polar_out_296_r[19:15]));
-  wire signed [15:0] polar_out_296_d =
-      $signed(polar_out_296_ovf_c ? (polar_out_296_r[19] ? 16'h8000 : 16'h7fff)
-      : polar_out_296_r[15:0]);
-  reg  signed [15:0] polar_out_296_q;
-  wire signed [31:0] t297 = polar_lyz_290_s31_q * cos_287;
-  wire signed [31:0] t298 = sin_284 * sin_288;
-  wire signed [32:0] t299 = $signed({t298[31], t298} + {t297[31], t297});
-  wire polar_out_300_tie = t299[13] & ~(|t299[12:0]);
-  wire [19:0] polar_out_300_up = {t299[32], t299[32:14]} + {{19{1'b0}}, t299[13]};
-  wire signed [19:0] polar_out_300_r =
-      $signed({polar_out_300_up[19:1], polar_out_300_up[0] & ~polar_out_300_tie});
-  wire polar_out_300_ovf_c = ~((&polar_out_300_r[19:15]) | ~(|polar_out_300_r[19:15]));
-  wire signed [15:0] polar_out_300_d =
-      $signed(polar_out_300_ovf_c ? (polar_out_300_r[19] ? 16'h8000 : 16'h7fff)
-      : polar_out_300_r[15:0]);
-  reg  signed [15:0] polar_out_300_q;
-  wire lighting_light_301_ovf_c = 1'b0;
-  wire signed [15:0] lighting_light_301_d =
-      $signed(lighting_light_301_ovf_c ? (polar_out_270_q[15] ? 16'h8000 : 16'h7fff)
-      : polar_out_270_q[15:0]);
-  reg  signed [15:0] lighting_light_301_q;
-  wire lighting_light_302_ovf_c = 1'b0;
-  wire signed [15:0] lighting_light_302_d =
-      $signed(lighting_light_302_ovf_c ? (polar_out_274_q[15] ? 16'h8000 : 16'h7fff)
-      : polar_out_274_q[15:0]);
-  reg  signed [15:0] lighting_light_302_q;
-  wire lighting_light_303_ovf_c = 1'b0;
-  wire signed [15:0] lighting_light_303_d =
-      $signed(lighting_light_303_ovf_c ? (polar_out_278_q[15] ? 16'h8000 : 16'h7fff)
-      : polar_out_278_q[15:0]);
-  reg  signed [15:0] lighting_light_303_q;
-  wire lighting_light_304_ovf_c = 1'b0;
-  wire signed [15:0] lighting_light_304_d =
-      $signed(lighting_light_304_ovf_c ? (polar_out_292_q[15] ? 16'h8000 : 16'h7fff)
-      : polar_out_292_q[15:0]);
-  reg  signed [15:0] lighting_light_304_q;
-  wire lighting_light_305_ovf_c = 1'b0;
-  wire signed [15:0] lighting_light_305_d =
-      $signed(lighting_light_305_ovf_c ? (polar_out_296_q[15] ? 16'h8000 : 16'h7fff)
-      : polar_out_296_q[15:0]);
-  reg  signed [15:0] lighting_light_305_q;
-  wire lighting_light_306_ovf_c = 1'b0;
-  wire signed [15:0] lighting_light_306_d =
-      $signed(lighting_light_306_ovf_c ? (polar_out_300_q[15] ? 16'h8000 : 16'h7fff)
-      : polar_out_300_q[15:0]);
-  reg  signed [15:0] lighting_light_306_q;
+  wire signed [33:0] interp_out_mul17 = interp_weight_5_q * n31_z_bank_s1;
+  wire signed [38:0] interp_out_add14 =
+      $signed({{5{interp_out_mul17[33]}}, interp_out_mul17}
+      + {interp_out_add13[37], interp_out_add13});
+  wire interp_out_2_tie = interp_out_add14[15] & ~(|interp_out_add14[14:0]);
+  wire [23:0] interp_out_2_up =
+      {interp_out_add14[38], interp_out_add14[38:16]} + {{23{1'b0}}, interp_out_add14[15]};
+  wire signed [23:0] interp_out_2_r =
+      $signed({interp_out_2_up[23:1], interp_out_2_up[0] & ~interp_out_2_tie});
+  wire interp_out_2_ovf_c = ~((&interp_out_2_r[23:15]) | ~(|interp_out_2_r[23:15]));
+  wire signed [15:0] interp_out_2_d =
+      $signed(interp_out_2_ovf_c ? (interp_out_2_r[23] ? 16'h8000 : 16'h7fff)
+      : interp_out_2_r[15:0]);
+  reg  signed [15:0] interp_out_2_q;
+  wire angles_normal_0_ovf_c = 1'b0;
+  wire signed [15:0] angles_normal_0_d =
+      $signed(angles_normal_0_ovf_c ? (interp_out_0_q[15] ? 16'h8000 : 16'h7fff)
+      : interp_out_0_q[15:0]);
+  reg  signed [15:0] angles_normal_0_q;
+  wire angles_normal_1_ovf_c = 1'b0;
+  wire signed [15:0] angles_normal_1_d =
+      $signed(angles_normal_1_ovf_c ? (interp_out_1_q[15] ? 16'h8000 : 16'h7fff)
+      : interp_out_1_q[15:0]);
+  reg  signed [15:0] angles_normal_1_q;
+  wire angles_normal_2_ovf_c = 1'b0;
+  wire signed [15:0] angles_normal_2_d =
+      $signed(angles_normal_2_ovf_c ? (interp_out_2_q[15] ? 16'h8000 : 16'h7fff)
+      : interp_out_2_q[15:0]);
+  reg  signed [15:0] angles_normal_2_q;
+  wire angles_xy_addsub0_sub = angles_normal_0_q[15];
+  wire signed [16:0] angles_xy_addsub0 =
+      angles_xy_addsub0_sub
+      ? $signed({{2{1'b0}}, angles_xy_k0, 14'b0} - {angles_normal_0_q[15], angles_normal_0_q})
+      : $signed({{2{1'b0}}, angles_xy_k0, 14'b0} + {angles_normal_0_q[15], angles_normal_0_q});
+  wire angles_xy_addsub1_sub = ~angles_normal_0_q[15];
+  wire signed [16:0] angles_xy_addsub1 =
+      angles_xy_addsub1_sub
+      ? $signed({{2{1'b0}}, angles_xy_k0, 14'b0} - {angles_normal_2_q[15], angles_normal_2_q})
+      : $signed({{2{1'b0}}, angles_xy_k0, 14'b0} + {angles_normal_2_q[15], angles_normal_2_q});
+  wire angles_theta_addsub0_sub = angles_normal_0_q[15];
+  wire signed [18:0] angles_theta_addsub0 =
+      angles_theta_addsub0_sub ? $signed(19'h7c000) : $signed(19'h4000);
+  wire signed [20:0] angles_xy_0_r = $signed({angles_xy_addsub0, 4'b0});
+  wire angles_xy_0_ovf_c = 1'b0;
+  wire signed [21:0] angles_xy_0_d =
+      $signed(angles_xy_0_ovf_c ? (angles_xy_0_r[20] ? 22'h200000 : 22'h1fffff)
+      : {angles_xy_0_r[20], angles_xy_0_r});
+  reg  signed [21:0] angles_xy_0_q;
+  wire signed [20:0] angles_xy_1_r = $signed({angles_xy_addsub1, 4'b0});
+  wire angles_xy_1_ovf_c = 1'b0;
+  wire signed [21:0] angles_xy_1_d =
+      $signed(angles_xy_1_ovf_c ? (angles_xy_1_r[20] ? 22'h200000 : 22'h1fffff)
+      : {angles_xy_1_r[20], angles_xy_1_r});
+  reg  signed [21:0] angles_xy_1_q;
+  wire angles_theta_0_ovf_c = angles_theta_addsub0[18] | (|angles_theta_addsub0[17:16]);
+  wire [15:0] angles_theta_0_d = angles_theta_addsub0[15:0];
+  reg  [15:0] angles_theta_0_q;
+  wire angles_xy_addsub2_sub = angles_xy_1_q[21];
+  wire signed [22:0] angles_xy_addsub2 =
+      angles_xy_addsub2_sub
+      ? $signed({angles_xy_0_q[21], angles_xy_0_q} - {angles_xy_1_q[21], angles_xy_1_q})
+      : $signed({angles_xy_0_q[21], angles_xy_0_q} + {angles_xy_1_q[21], angles_xy_1_q});
+  wire angles_xy_addsub3_sub = ~angles_xy_1_q[21];
+  wire signed [22:0] angles_xy_addsub3 =
+      angles_xy_addsub3_sub
+      ? $signed({angles_xy_1_q[21], angles_xy_1_q} - {angles_xy_0_q[21], angles_xy_0_q})
+      : $signed({angles_xy_1_q[21], angles_xy_1_q} + {angles_xy_0_q[21], angles_xy_0_q});
+  wire angles_theta_addsub1_sub = angles_xy_1_q[21];
+  wire signed [17:0] angles_theta_addsub1 =
+      angles_theta_addsub1_sub
+      ? $signed({{2{1'b0}}, angles_theta_0_q} - {{2{1'b0}}, angles_theta_k1})
+      : $signed({{2{1'b0}}, angles_theta_0_q} + {{2{1'b0}}, angles_theta_k1});
+  wire angles_xy_2_ovf_c = ~((&angles_xy_addsub2[22:21]) | ~(|angles_xy_addsub2[22:21]));
+  wire signed [21:0] angles_xy_2_d =
+      $signed(angles_xy_2_ovf_c ? (angles_xy_addsub2[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_addsub2[21:0]);
+  reg  signed [21:0] angles_xy_2_q;
+  wire angles_xy_3_ovf_c = ~((&angles_xy_addsub3[22:21]) | ~(|angles_xy_addsub3[22:21]));
+  wire signed [21:0] angles_xy_3_d =
+      $signed(angles_xy_3_ovf_c ? (angles_xy_addsub3[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_addsub3[21:0]);
+  reg  signed [21:0] angles_xy_3_q;
+  wire angles_theta_1_ovf_c = angles_theta_addsub1[17] | (|angles_theta_addsub1[16]);
+  wire [15:0] angles_theta_1_d = angles_theta_addsub1[15:0];
+  reg  [15:0] angles_theta_1_q;
+  wire angles_xy_addsub4_sub = angles_xy_3_q[21];
+  wire signed [23:0] angles_xy_addsub4 =
+      angles_xy_addsub4_sub
+      ? $signed({angles_xy_2_q[21], angles_xy_2_q, 1'b0} - {{2{angles_xy_3_q[21]}}, angles_xy_3_q})
+      : $signed({angles_xy_2_q[21], angles_xy_2_q, 1'b0} + {{2{angles_xy_3_q[21]}}, angles_xy_3_q});
+  wire angles_xy_addsub5_sub = ~angles_xy_3_q[21];
+  wire signed [23:0] angles_xy_addsub5 =
+      angles_xy_addsub5_sub
+      ? $signed({angles_xy_3_q[21], angles_xy_3_q, 1'b0} - {{2{angles_xy_2_q[21]}}, angles_xy_2_q})
+      : $signed({angles_xy_3_q[21], angles_xy_3_q, 1'b0} + {{2{angles_xy_2_q[21]}}, angles_xy_2_q});
+  wire angles_theta_addsub2_sub = angles_xy_3_q[21];
+  wire signed [17:0] angles_theta_addsub2 =
+      angles_theta_addsub2_sub
+      ? $signed({{2{1'b0}}, angles_theta_1_q} - {{2{1'b0}}, angles_theta_k2})
+      : $signed({{2{1'b0}}, angles_theta_1_q} + {{2{1'b0}}, angles_theta_k2});
+  wire signed [22:0] angles_xy_4_t = $signed(angles_xy_addsub4[23:1]);
+  wire angles_xy_4_ovf_c = ~((&angles_xy_4_t[22:21]) | ~(|angles_xy_4_t[22:21]));
+  wire signed [21:0] angles_xy_4_d =
+      $signed(angles_xy_4_ovf_c ? (angles_xy_4_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_4_t[21:0]);
+  reg  signed [21:0] angles_xy_4_q;
+  wire signed [22:0] angles_xy_5_t = $signed(angles_xy_addsub5[23:1]);
+  wire angles_xy_5_ovf_c = ~((&angles_xy_5_t[22:21]) | ~(|angles_xy_5_t[22:21]));
+  wire signed [21:0] angles_xy_5_d =
+      $signed(angles_xy_5_ovf_c ? (angles_xy_5_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_5_t[21:0]);
+  reg  signed [21:0] angles_xy_5_q;
+  wire angles_theta_2_ovf_c = angles_theta_addsub2[17] | (|angles_theta_addsub2[16]);
+  wire [15:0] angles_theta_2_d = angles_theta_addsub2[15:0];
+  reg  [15:0] angles_theta_2_q;
+  wire angles_xy_addsub6_sub = angles_xy_5_q[21];
+  wire signed [24:0] angles_xy_addsub6 =
+      angles_xy_addsub6_sub
+      ? $signed({angles_xy_4_q[21], angles_xy_4_q, 2'b0} - {{3{angles_xy_5_q[21]}}, angles_xy_5_q})
+      : $signed({angles_xy_4_q[21], angles_xy_4_q, 2'b0} + {{3{angles_xy_5_q[21]}}, angles_xy_5_q});
+  wire angles_xy_addsub7_sub = ~angles_xy_5_q[21];
+  wire signed [24:0] angles_xy_addsub7 =
+      angles_xy_addsub7_sub
+      ? $signed({angles_xy_5_q[21], angles_xy_5_q, 2'b0} - {{3{angles_xy_4_q[21]}}, angles_xy_4_q})
+      : $signed({angles_xy_5_q[21], angles_xy_5_q, 2'b0} + {{3{angles_xy_4_q[21]}}, angles_xy_4_q});
+  wire angles_theta_addsub3_sub = angles_xy_5_q[21];
+  wire signed [17:0] angles_theta_addsub3 =
+      angles_theta_addsub3_sub
+      ? $signed({{2{1'b0}}, angles_theta_2_q} - {{2{1'b0}}, angles_theta_k3})
+      : $signed({{2{1'b0}}, angles_theta_2_q} + {{2{1'b0}}, angles_theta_k3});
+  wire signed [22:0] angles_xy_6_t = $signed(angles_xy_addsub6[24:2]);
+  wire angles_xy_6_ovf_c = ~((&angles_xy_6_t[22:21]) | ~(|angles_xy_6_t[22:21]));
+  wire signed [21:0] angles_xy_6_d =
+      $signed(angles_xy_6_ovf_c ? (angles_xy_6_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_6_t[21:0]);
+  reg  signed [21:0] angles_xy_6_q;
+  wire signed [22:0] angles_xy_7_t = $signed(angles_xy_addsub7[24:2]);
+  wire angles_xy_7_ovf_c = ~((&angles_xy_7_t[22:21]) | ~(|angles_xy_7_t[22:21]));
+  wire signed [21:0] angles_xy_7_d =
+      $signed(angles_xy_7_ovf_c ? (angles_xy_7_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_7_t[21:0]);
+  reg  signed [21:0] angles_xy_7_q;
+  wire angles_theta_3_ovf_c = angles_theta_addsub3[17] | (|angles_theta_addsub3[16]);
+  wire [15:0] angles_theta_3_d = angles_theta_addsub3[15:0];
+  reg  [15:0] angles_theta_3_q;
+  wire angles_xy_addsub8_sub = angles_xy_7_q[21];
+  wire signed [25:0] angles_xy_addsub8 =
+      angles_xy_addsub8_sub
+      ? $signed({angles_xy_6_q[21], angles_xy_6_q, 3'b0} - {{4{angles_xy_7_q[21]}}, angles_xy_7_q})
+      : $signed({angles_xy_6_q[21], angles_xy_6_q, 3'b0} + {{4{angles_xy_7_q[21]}}, angles_xy_7_q});
+  wire angles_xy_addsub9_sub = ~angles_xy_7_q[21];
+  wire signed [25:0] angles_xy_addsub9 =
+      angles_xy_addsub9_sub
+      ? $signed({angles_xy_7_q[21], angles_xy_7_q, 3'b0} - {{4{angles_xy_6_q[21]}}, angles_xy_6_q})
+      : $signed({angles_xy_7_q[21], angles_xy_7_q, 3'b0} + {{4{angles_xy_6_q[21]}}, angles_xy_6_q});
+  wire angles_theta_addsub4_sub = angles_xy_7_q[21];
+  wire signed [17:0] angles_theta_addsub4 =
+      angles_theta_addsub4_sub
+      ? $signed({{2{1'b0}}, angles_theta_3_q} - {{2{1'b0}}, angles_theta_k4})
+      : $signed({{2{1'b0}}, angles_theta_3_q} + {{2{1'b0}}, angles_theta_k4});
+  wire signed [22:0] angles_xy_8_t = $signed(angles_xy_addsub8[25:3]);
+  wire angles_xy_8_ovf_c = ~((&angles_xy_8_t[22:21]) | ~(|angles_xy_8_t[22:21]));
+  wire signed [21:0] angles_xy_8_d =
+      $signed(angles_xy_8_ovf_c ? (angles_xy_8_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_8_t[21:0]);
+  reg  signed [21:0] angles_xy_8_q;
+  wire signed [22:0] angles_xy_9_t = $signed(angles_xy_addsub9[25:3]);
+  wire angles_xy_9_ovf_c = ~((&angles_xy_9_t[22:21]) | ~(|angles_xy_9_t[22:21]));
+  wire signed [21:0] angles_xy_9_d =
+      $signed(angles_xy_9_ovf_c ? (angles_xy_9_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_9_t[21:0]);
+  reg  signed [21:0] angles_xy_9_q;
+  wire angles_theta_4_ovf_c = angles_theta_addsub4[17] | (|angles_theta_addsub4[16]);
+  wire [15:0] angles_theta_4_d = angles_theta_addsub4[15:0];
+  reg  [15:0] angles_theta_4_q;
+  wire angles_xy_addsub10_sub = angles_xy_9_q[21];
+  wire signed [26:0] angles_xy_addsub10 =
+      angles_xy_addsub10_sub
+      ? $signed({angles_xy_8_q[21], angles_xy_8_q, 4'b0} - {{5{angles_xy_9_q[21]}}, angles_xy_9_q})
+      : $signed({angles_xy_8_q[21], angles_xy_8_q, 4'b0} + {{5{angles_xy_9_q[21]}}, angles_xy_9_q});
+  wire angles_xy_addsub11_sub = ~angles_xy_9_q[21];
+  wire signed [26:0] angles_xy_addsub11 =
+      angles_xy_addsub11_sub
+      ? $signed({angles_xy_9_q[21], angles_xy_9_q, 4'b0} - {{5{angles_xy_8_q[21]}}, angles_xy_8_q})
+      : $signed({angles_xy_9_q[21], angles_xy_9_q, 4'b0} + {{5{angles_xy_8_q[21]}}, angles_xy_8_q});
+  wire angles_theta_addsub5_sub = angles_xy_9_q[21];
+  wire signed [17:0] angles_theta_addsub5 =
+      angles_theta_addsub5_sub
+      ? $signed({{2{1'b0}}, angles_theta_4_q} - {{2{1'b0}}, angles_theta_k5})
+      : $signed({{2{1'b0}}, angles_theta_4_q} + {{2{1'b0}}, angles_theta_k5});
+  wire signed [22:0] angles_xy_10_t = $signed(angles_xy_addsub10[26:4]);
+  wire angles_xy_10_ovf_c = ~((&angles_xy_10_t[22:21]) | ~(|angles_xy_10_t[22:21]));
+  wire signed [21:0] angles_xy_10_d =
+      $signed(angles_xy_10_ovf_c ? (angles_xy_10_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_10_t[21:0]);
+  reg  signed [21:0] angles_xy_10_q;
+  wire signed [22:0] angles_xy_11_t = $signed(angles_xy_addsub11[26:4]);
+  wire angles_xy_11_ovf_c = ~((&angles_xy_11_t[22:21]) | ~(|angles_xy_11_t[22:21]));
+  wire signed [21:0] angles_xy_11_d =
+      $signed(angles_xy_11_ovf_c ? (angles_xy_11_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_11_t[21:0]);
+  reg  signed [21:0] angles_xy_11_q;
+  wire angles_theta_5_ovf_c = angles_theta_addsub5[17] | (|angles_theta_addsub5[16]);
+  wire [15:0] angles_theta_5_d = angles_theta_addsub5[15:0];
+  reg  [15:0] angles_theta_5_q;
+  wire angles_xy_addsub12_sub = angles_xy_11_q[21];
+  wire signed [27:0] angles_xy_addsub12 =
+      angles_xy_addsub12_sub
+      ? $signed({angles_xy_10_q[21], angles_xy_10_q, 5'b0}
+      - {{6{angles_xy_11_q[21]}}, angles_xy_11_q})
+      : $signed({angles_xy_10_q[21], angles_xy_10_q, 5'b0}
+      + {{6{angles_xy_11_q[21]}}, angles_xy_11_q});
+  wire angles_xy_addsub13_sub = ~angles_xy_11_q[21];
+  wire signed [27:0] angles_xy_addsub13 =
+      angles_xy_addsub13_sub
+      ? $signed({angles_xy_11_q[21], angles_xy_11_q, 5'b0}
+      - {{6{angles_xy_10_q[21]}}, angles_xy_10_q})
+      : $signed({angles_xy_11_q[21], angles_xy_11_q, 5'b0}
+      + {{6{angles_xy_10_q[21]}}, angles_xy_10_q});
+  wire angles_theta_addsub6_sub = angles_xy_11_q[21];
+  wire signed [17:0] angles_theta_addsub6 =
+      angles_theta_addsub6_sub
+      ? $signed({{2{1'b0}}, angles_theta_5_q} - {{2{1'b0}}, angles_theta_k6})
+      : $signed({{2{1'b0}}, angles_theta_5_q} + {{2{1'b0}}, angles_theta_k6});
+  wire signed [22:0] angles_xy_12_t = $signed(angles_xy_addsub12[27:5]);
+  wire angles_xy_12_ovf_c = ~((&angles_xy_12_t[22:21]) | ~(|angles_xy_12_t[22:21]));
+  wire signed [21:0] angles_xy_12_d =
+      $signed(angles_xy_12_ovf_c ? (angles_xy_12_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_12_t[21:0]);
+  reg  signed [21:0] angles_xy_12_q;
+  wire signed [22:0] angles_xy_13_t = $signed(angles_xy_addsub13[27:5]);
+  wire angles_xy_13_ovf_c = ~((&angles_xy_13_t[22:21]) | ~(|angles_xy_13_t[22:21]));
+  wire signed [21:0] angles_xy_13_d =
+      $signed(angles_xy_13_ovf_c ? (angles_xy_13_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_13_t[21:0]);
+  reg  signed [21:0] angles_xy_13_q;
+  wire angles_theta_6_ovf_c = angles_theta_addsub6[17] | (|angles_theta_addsub6[16]);
+  wire [15:0] angles_theta_6_d = angles_theta_addsub6[15:0];
+  reg  [15:0] angles_theta_6_q;
+  wire angles_xy_addsub14_sub = angles_xy_13_q[21];
+  wire signed [28:0] angles_xy_addsub14 =
+      angles_xy_addsub14_sub
+      ? $signed({angles_xy_12_q[21], angles_xy_12_q, 6'b0}
+      - {{7{angles_xy_13_q[21]}}, angles_xy_13_q})
+      : $signed({angles_xy_12_q[21], angles_xy_12_q, 6'b0}
+      + {{7{angles_xy_13_q[21]}}, angles_xy_13_q});
+  wire angles_xy_addsub15_sub = ~angles_xy_13_q[21];
+  wire signed [28:0] angles_xy_addsub15 =
+      angles_xy_addsub15_sub
+      ? $signed({angles_xy_13_q[21], angles_xy_13_q, 6'b0}
+      - {{7{angles_xy_12_q[21]}}, angles_xy_12_q})
+      : $signed({angles_xy_13_q[21], angles_xy_13_q, 6'b0}
+      + {{7{angles_xy_12_q[21]}}, angles_xy_12_q});
+  wire angles_theta_addsub7_sub = angles_xy_13_q[21];
+  wire signed [17:0] angles_theta_addsub7 =
+      angles_theta_addsub7_sub
+      ? $signed({{2{1'b0}}, angles_theta_6_q} - {{2{1'b0}}, angles_theta_k7})
+      : $signed({{2{1'b0}}, angles_theta_6_q} + {{2{1'b0}}, angles_theta_k7});
+  wire signed [22:0] angles_xy_14_t = $signed(angles_xy_addsub14[28:6]);
+  wire angles_xy_14_ovf_c = ~((&angles_xy_14_t[22:21]) | ~(|angles_xy_14_t[22:21]));
+  wire signed [21:0] angles_xy_14_d =
+      $signed(angles_xy_14_ovf_c ? (angles_xy_14_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_14_t[21:0]);
+  reg  signed [21:0] angles_xy_14_q;
+  wire signed [22:0] angles_xy_15_t = $signed(angles_xy_addsub15[28:6]);
+  wire angles_xy_15_ovf_c = ~((&angles_xy_15_t[22:21]) | ~(|angles_xy_15_t[22:21]));
+  wire signed [21:0] angles_xy_15_d =
+      $signed(angles_xy_15_ovf_c ? (angles_xy_15_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_15_t[21:0]);
+  reg  signed [21:0] angles_xy_15_q;
+  wire angles_theta_7_ovf_c = angles_theta_addsub7[17] | (|angles_theta_addsub7[16]);
+  wire [15:0] angles_theta_7_d = angles_theta_addsub7[15:0];
+  reg  [15:0] angles_theta_7_q;
+  wire angles_xy_addsub16_sub = angles_xy_15_q[21];
+  wire signed [29:0] angles_xy_addsub16 =
+      angles_xy_addsub16_sub
+      ? $signed({angles_xy_14_q[21], angles_xy_14_q, 7'b0}
+      - {{8{angles_xy_15_q[21]}}, angles_xy_15_q})
+      : $signed({angles_xy_14_q[21], angles_xy_14_q, 7'b0}
+      + {{8{angles_xy_15_q[21]}}, angles_xy_15_q});
+  wire angles_xy_addsub17_sub = ~angles_xy_15_q[21];
+  wire signed [29:0] angles_xy_addsub17 =
+      angles_xy_addsub17_sub
+      ? $signed({angles_xy_15_q[21], angles_xy_15_q, 7'b0}
+      - {{8{angles_xy_14_q[21]}}, angles_xy_14_q})
+      : $signed({angles_xy_15_q[21], angles_xy_15_q, 7'b0}
+      + {{8{angles_xy_14_q[21]}}, angles_xy_14_q});
+  wire angles_theta_addsub8_sub = angles_xy_15_q[21];
+  wire signed [17:0] angles_theta_addsub8 =
+      angles_theta_addsub8_sub
+      ? $signed({{2{1'b0}}, angles_theta_7_q} - {{2{1'b0}}, angles_theta_k8})
+      : $signed({{2{1'b0}}, angles_theta_7_q} + {{2{1'b0}}, angles_theta_k8});
+  wire signed [22:0] angles_xy_16_t = $signed(angles_xy_addsub16[29:7]);
+  wire angles_xy_16_ovf_c = ~((&angles_xy_16_t[22:21]) | ~(|angles_xy_16_t[22:21]));
+  wire signed [21:0] angles_xy_16_d =
+      $signed(angles_xy_16_ovf_c ? (angles_xy_16_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_16_t[21:0]);
+  reg  signed [21:0] angles_xy_16_q;
+  wire signed [22:0] angles_xy_17_t = $signed(angles_xy_addsub17[29:7]);
+  wire angles_xy_17_ovf_c = ~((&angles_xy_17_t[22:21]) | ~(|angles_xy_17_t[22:21]));
+  wire signed [21:0] angles_xy_17_d =
+      $signed(angles_xy_17_ovf_c ? (angles_xy_17_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_17_t[21:0]);
+  reg  signed [21:0] angles_xy_17_q;
+  wire angles_theta_8_ovf_c = angles_theta_addsub8[17] | (|angles_theta_addsub8[16]);
+  wire [15:0] angles_theta_8_d = angles_theta_addsub8[15:0];
+  reg  [15:0] angles_theta_8_q;
+  wire angles_xy_addsub18_sub = angles_xy_17_q[21];
+  wire signed [30:0] angles_xy_addsub18 =
+      angles_xy_addsub18_sub
+      ? $signed({angles_xy_16_q[21], angles_xy_16_q, 8'b0}
+      - {{9{angles_xy_17_q[21]}}, angles_xy_17_q})
+      : $signed({angles_xy_16_q[21], angles_xy_16_q, 8'b0}
+      + {{9{angles_xy_17_q[21]}}, angles_xy_17_q});
+  wire angles_xy_addsub19_sub = ~angles_xy_17_q[21];
+  wire signed [30:0] angles_xy_addsub19 =
+      angles_xy_addsub19_sub
+      ? $signed({angles_xy_17_q[21], angles_xy_17_q, 8'b0}
+      - {{9{angles_xy_16_q[21]}}, angles_xy_16_q})
+      : $signed({angles_xy_17_q[21], angles_xy_17_q, 8'b0}
+      + {{9{angles_xy_16_q[21]}}, angles_xy_16_q});
+  wire angles_theta_addsub9_sub = angles_xy_17_q[21];
+  wire signed [17:0] angles_theta_addsub9 =
+      angles_theta_addsub9_sub
+      ? $signed({{2{1'b0}}, angles_theta_8_q} - {{2{1'b0}}, angles_theta_k9})
+      : $signed({{2{1'b0}}, angles_theta_8_q} + {{2{1'b0}}, angles_theta_k9});
+  wire signed [22:0] angles_xy_18_t = $signed(angles_xy_addsub18[30:8]);
+  wire angles_xy_18_ovf_c = ~((&angles_xy_18_t[22:21]) | ~(|angles_xy_18_t[22:21]));
+  wire signed [21:0] angles_xy_18_d =
+      $signed(angles_xy_18_ovf_c ? (angles_xy_18_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_18_t[21:0]);
+  reg  signed [21:0] angles_xy_18_q;
+  wire signed [22:0] angles_xy_19_t = $signed(angles_xy_addsub19[30:8]);
+  wire angles_xy_19_ovf_c = ~((&angles_xy_19_t[22:21]) | ~(|angles_xy_19_t[22:21]));
+  wire signed [21:0] angles_xy_19_d =
+      $signed(angles_xy_19_ovf_c ? (angles_xy_19_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_19_t[21:0]);
+  reg  signed [21:0] angles_xy_19_q;
+  wire angles_theta_9_ovf_c = angles_theta_addsub9[17] | (|angles_theta_addsub9[16]);
+  wire [15:0] angles_theta_9_d = angles_theta_addsub9[15:0];
+  reg  [15:0] angles_theta_9_q;
+  wire angles_xy_addsub20_sub = angles_xy_19_q[21];
+  wire signed [31:0] angles_xy_addsub20 =
+      angles_xy_addsub20_sub
+      ? $signed({angles_xy_18_q[21], angles_xy_18_q, 9'b0}
+      - {{10{angles_xy_19_q[21]}}, angles_xy_19_q})
+      : $signed({angles_xy_18_q[21], angles_xy_18_q, 9'b0}
+      + {{10{angles_xy_19_q[21]}}, angles_xy_19_q});
+  wire angles_xy_addsub21_sub = ~angles_xy_19_q[21];
+  wire signed [31:0] angles_xy_addsub21 =
+      angles_xy_addsub21_sub
+      ? $signed({angles_xy_19_q[21], angles_xy_19_q, 9'b0}
+      - {{10{angles_xy_18_q[21]}}, angles_xy_18_q})
+      : $signed({angles_xy_19_q[21], angles_xy_19_q, 9'b0}
+      + {{10{angles_xy_18_q[21]}}, angles_xy_18_q});
+  wire angles_theta_addsub10_sub = angles_xy_19_q[21];
+  wire signed [17:0] angles_theta_addsub10 =
+      angles_theta_addsub10_sub
+      ? $signed({{2{1'b0}}, angles_theta_9_q} - {{2{1'b0}}, angles_theta_k10})
+      : $signed({{2{1'b0}}, angles_theta_9_q} + {{2{1'b0}}, angles_theta_k10});
+  wire signed [22:0] angles_xy_20_t = $signed(angles_xy_addsub20[31:9]);
+  wire angles_xy_20_ovf_c = ~((&angles_xy_20_t[22:21]) | ~(|angles_xy_20_t[22:21]));
+  wire signed [21:0] angles_xy_20_d =
+      $signed(angles_xy_20_ovf_c ? (angles_xy_20_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_20_t[21:0]);
+  reg  signed [21:0] angles_xy_20_q;
+  wire signed [22:0] angles_xy_21_t = $signed(angles_xy_addsub21[31:9]);
+  wire angles_xy_21_ovf_c = ~((&angles_xy_21_t[22:21]) | ~(|angles_xy_21_t[22:21]));
+  wire signed [21:0] angles_xy_21_d =
+      $signed(angles_xy_21_ovf_c ? (angles_xy_21_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_21_t[21:0]);
+  reg  signed [21:0] angles_xy_21_q;
+  wire angles_theta_10_ovf_c = angles_theta_addsub10[17] | (|angles_theta_addsub10[16]);
+  wire [15:0] angles_theta_10_d = angles_theta_addsub10[15:0];
+  reg  [15:0] angles_theta_10_q;
+  wire angles_xy_addsub22_sub = angles_xy_21_q[21];
+  wire signed [32:0] angles_xy_addsub22 =
+      angles_xy_addsub22_sub
+      ? $signed({angles_xy_20_q[21], angles_xy_20_q, 10'b0}
+      - {{11{angles_xy_21_q[21]}}, angles_xy_21_q})
+      : $signed({angles_xy_20_q[21], angles_xy_20_q, 10'b0}
+      + {{11{angles_xy_21_q[21]}}, angles_xy_21_q});
+  wire angles_xy_addsub23_sub = ~angles_xy_21_q[21];
+  wire signed [32:0] angles_xy_addsub23 =
+      angles_xy_addsub23_sub
+      ? $signed({angles_xy_21_q[21], angles_xy_21_q, 10'b0}
+      - {{11{angles_xy_20_q[21]}}, angles_xy_20_q})
+      : $signed({angles_xy_21_q[21], angles_xy_21_q, 10'b0}
+      + {{11{angles_xy_20_q[21]}}, angles_xy_20_q});
+  wire angles_theta_addsub11_sub = angles_xy_21_q[21];
+  wire signed [17:0] angles_theta_addsub11 =
+      angles_theta_addsub11_sub
+      ? $signed({{2{1'b0}}, angles_theta_10_q} - {{2{1'b0}}, angles_theta_k11})
+      : $signed({{2{1'b0}}, angles_theta_10_q} + {{2{1'b0}}, angles_theta_k11});
+  wire signed [22:0] angles_xy_22_t = $signed(angles_xy_addsub22[32:10]);
+  wire angles_xy_22_ovf_c = ~((&angles_xy_22_t[22:21]) | ~(|angles_xy_22_t[22:21]));
+  wire signed [21:0] angles_xy_22_d =
+      $signed(angles_xy_22_ovf_c ? (angles_xy_22_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_22_t[21:0]);
+  reg  signed [21:0] angles_xy_22_q;
+  wire signed [22:0] angles_xy_23_t = $signed(angles_xy_addsub23[32:10]);
+  wire angles_xy_23_ovf_c = ~((&angles_xy_23_t[22:21]) | ~(|angles_xy_23_t[22:21]));
+  wire signed [21:0] angles_xy_23_d =
+      $signed(angles_xy_23_ovf_c ? (angles_xy_23_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_23_t[21:0]);
+  reg  signed [21:0] angles_xy_23_q;
+  wire angles_theta_11_ovf_c = angles_theta_addsub11[17] | (|angles_theta_addsub11[16]);
+  wire [15:0] angles_theta_11_d = angles_theta_addsub11[15:0];
+  reg  [15:0] angles_theta_11_q;
+  wire angles_xy_addsub24_sub = angles_xy_23_q[21];
+  wire signed [33:0] angles_xy_addsub24 =
+      angles_xy_addsub24_sub
+      ? $signed({angles_xy_22_q[21], angles_xy_22_q, 11'b0}
+      - {{12{angles_xy_23_q[21]}}, angles_xy_23_q})
+      : $signed({angles_xy_22_q[21], angles_xy_22_q, 11'b0}
+      + {{12{angles_xy_23_q[21]}}, angles_xy_23_q});
+  wire angles_theta_addsub12_sub = angles_xy_23_q[21];
+  wire signed [17:0] angles_theta_addsub12 =
+      angles_theta_addsub12_sub
+      ? $signed({{2{1'b0}}, angles_theta_11_q} - {{2{1'b0}}, angles_theta_k12})
+      : $signed({{2{1'b0}}, angles_theta_11_q} + {{2{1'b0}}, angles_theta_k12});
+  wire signed [22:0] angles_xy_24_t = $signed(angles_xy_addsub24[33:11]);
+  wire angles_xy_24_ovf_c = ~((&angles_xy_24_t[22:21]) | ~(|angles_xy_24_t[22:21]));
+  wire signed [21:0] angles_xy_24_d =
+      $signed(angles_xy_24_ovf_c ? (angles_xy_24_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_24_t[21:0]);
+  reg  signed [21:0] angles_xy_24_q;
+  wire angles_theta_12_ovf_c = angles_theta_addsub12[17] | (|angles_theta_addsub12[16]);
+  wire [15:0] angles_theta_12_d = angles_theta_addsub12[15:0];
+  reg  [15:0] angles_theta_12_q;
+  wire signed [18:0] angles_xy_mul0_a = $signed({1'b0, angles_xy_k1});
+  wire signed [33:0] angles_xy_mul0 = angles_xy_mul0_a * angles_normal_1_q;
+  wire signed [20:0] angles_xy_26_t = $signed(angles_xy_mul0[33:13]);
+  wire angles_xy_26_ovf_c = 1'b0;
+  wire signed [21:0] angles_xy_26_d =
+      $signed(angles_xy_26_ovf_c ? (angles_xy_26_t[20] ? 22'h200000 : 22'h1fffff)
+      : {angles_xy_26_t[20], angles_xy_26_t});
+  reg  signed [21:0] angles_xy_26_q;
+  wire [16:0] angles_theta_13_r = {angles_xy_k0, 16'b0};
+  wire angles_theta_13_ovf_c = |angles_theta_13_r[16];
+  wire [15:0] angles_theta_13_d = angles_theta_13_r[15:0];
+  reg  [15:0] angles_theta_13_q;
+  reg  signed [21:0] angles_xy_26_s5_q;
+  reg  signed [21:0] angles_xy_26_s6_q;
+  reg  signed [21:0] angles_xy_26_s7_q;
+  reg  signed [21:0] angles_xy_26_s8_q;
+  reg  signed [21:0] angles_xy_26_s9_q;
+  reg  signed [21:0] angles_xy_26_s10_q;
+  reg  signed [21:0] angles_xy_26_s11_q;
+  reg  signed [21:0] angles_xy_26_s12_q;
+  reg  signed [21:0] angles_xy_26_s13_q;
+  reg  signed [21:0] angles_xy_26_s14_q;
+  reg  signed [21:0] angles_xy_26_s15_q;
+  reg  signed [21:0] angles_xy_26_s16_q;
+  wire angles_xy_addsub26_sub = angles_xy_26_s16_q[21];
+  wire signed [22:0] angles_xy_addsub26 =
+      angles_xy_addsub26_sub
+      ? $signed({angles_xy_24_q[21], angles_xy_24_q} - {angles_xy_26_s16_q[21], angles_xy_26_s16_q})
+      : $signed({angles_xy_24_q[21], angles_xy_24_q}
+      + {angles_xy_26_s16_q[21], angles_xy_26_s16_q});
+  wire angles_xy_addsub27_sub = ~angles_xy_26_s16_q[21];
+  wire signed [22:0] angles_xy_addsub27 =
+      angles_xy_addsub27_sub
+      ? $signed({angles_xy_26_s16_q[21], angles_xy_26_s16_q} - {angles_xy_24_q[21], angles_xy_24_q})
+      : $signed({angles_xy_26_s16_q[21], angles_xy_26_s16_q}
+      + {angles_xy_24_q[21], angles_xy_24_q});
+  reg  [15:0] angles_theta_13_s2_q;
+  reg  [15:0] angles_theta_13_s3_q;
+  reg  [15:0] angles_theta_13_s4_q;
+  wire angles_theta_addsub13_sub = angles_xy_26_q[21];
+  wire signed [17:0] angles_theta_addsub13 =
+      angles_theta_addsub13_sub
+      ? $signed({{2{1'b0}}, angles_theta_13_s4_q} - {{2{1'b0}}, angles_theta_k1})
+      : $signed({{2{1'b0}}, angles_theta_13_s4_q} + {{2{1'b0}}, angles_theta_k1});
+  wire angles_xy_27_ovf_c = ~((&angles_xy_addsub26[22:21]) | ~(|angles_xy_addsub26[22:21]));
+  wire signed [21:0] angles_xy_27_d =
+      $signed(angles_xy_27_ovf_c ? (angles_xy_addsub26[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_addsub26[21:0]);
+  reg  signed [21:0] angles_xy_27_q;
+  wire angles_xy_28_ovf_c = ~((&angles_xy_addsub27[22:21]) | ~(|angles_xy_addsub27[22:21]));
+  wire signed [21:0] angles_xy_28_d =
+      $signed(angles_xy_28_ovf_c ? (angles_xy_addsub27[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_addsub27[21:0]);
+  reg  signed [21:0] angles_xy_28_q;
+  wire angles_theta_14_ovf_c = angles_theta_addsub13[17] | (|angles_theta_addsub13[16]);
+  wire [15:0] angles_theta_14_d = angles_theta_addsub13[15:0];
+  reg  [15:0] angles_theta_14_q;
+  wire angles_xy_addsub28_sub = angles_xy_28_q[21];
+  wire signed [23:0] angles_xy_addsub28 =
+      angles_xy_addsub28_sub
+      ? $signed({angles_xy_27_q[21], angles_xy_27_q, 1'b0}
+      - {{2{angles_xy_28_q[21]}}, angles_xy_28_q})
+      : $signed({angles_xy_27_q[21], angles_xy_27_q, 1'b0}
+      + {{2{angles_xy_28_q[21]}}, angles_xy_28_q});
+  wire angles_xy_addsub29_sub = ~angles_xy_28_q[21];
+  wire signed [23:0] angles_xy_addsub29 =
+      angles_xy_addsub29_sub
+      ? $signed({angles_xy_28_q[21], angles_xy_28_q, 1'b0}
+      - {{2{angles_xy_27_q[21]}}, angles_xy_27_q})
+      : $signed({angles_xy_28_q[21], angles_xy_28_q, 1'b0}
+      + {{2{angles_xy_27_q[21]}}, angles_xy_27_q});
+  reg  [15:0] angles_theta_14_s6_q;
+  reg  [15:0] angles_theta_14_s7_q;
+  reg  [15:0] angles_theta_14_s8_q;
+  reg  [15:0] angles_theta_14_s9_q;
+  reg  [15:0] angles_theta_14_s10_q;
+  reg  [15:0] angles_theta_14_s11_q;
+  reg  [15:0] angles_theta_14_s12_q;
+  reg  [15:0] angles_theta_14_s13_q;
+  reg  [15:0] angles_theta_14_s14_q;
+  reg  [15:0] angles_theta_14_s15_q;
+  reg  [15:0] angles_theta_14_s16_q;
+  reg  [15:0] angles_theta_14_s17_q;
+  wire angles_theta_addsub14_sub = angles_xy_28_q[21];
+  wire signed [17:0] angles_theta_addsub14 =
+      angles_theta_addsub14_sub
+      ? $signed({{2{1'b0}}, angles_theta_14_s17_q} - {{2{1'b0}}, angles_theta_k2})
+      : $signed({{2{1'b0}}, angles_theta_14_s17_q} + {{2{1'b0}}, angles_theta_k2});
+  wire signed [22:0] angles_xy_29_t = $signed(angles_xy_addsub28[23:1]);
+  wire angles_xy_29_ovf_c = ~((&angles_xy_29_t[22:21]) | ~(|angles_xy_29_t[22:21]));
+  wire signed [21:0] angles_xy_29_d =
+      $signed(angles_xy_29_ovf_c ? (angles_xy_29_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_29_t[21:0]);
+  reg  signed [21:0] angles_xy_29_q;
+  wire signed [22:0] angles_xy_30_t = $signed(angles_xy_addsub29[23:1]);
+  wire angles_xy_30_ovf_c = ~((&angles_xy_30_t[22:21]) | ~(|angles_xy_30_t[22:21]));
+  wire signed [21:0] angles_xy_30_d =
+      $signed(angles_xy_30_ovf_c ? (angles_xy_30_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_30_t[21:0]);
+  reg  signed [21:0] angles_xy_30_q;
+  wire angles_theta_15_ovf_c = angles_theta_addsub14[17] | (|angles_theta_addsub14[16]);
+  wire [15:0] angles_theta_15_d = angles_theta_addsub14[15:0];
+  reg  [15:0] angles_theta_15_q;
+  wire angles_xy_addsub30_sub = angles_xy_30_q[21];
+  wire signed [24:0] angles_xy_addsub30 =
+      angles_xy_addsub30_sub
+      ? $signed({angles_xy_29_q[21], angles_xy_29_q, 2'b0}
+      - {{3{angles_xy_30_q[21]}}, angles_xy_30_q})
+      : $signed({angles_xy_29_q[21], angles_xy_29_q, 2'b0}
+      + {{3{angles_xy_30_q[21]}}, angles_xy_30_q});
+  wire angles_xy_addsub31_sub = ~angles_xy_30_q[21];
+  wire signed [24:0] angles_xy_addsub31 =
+      angles_xy_addsub31_sub
+      ? $signed({angles_xy_30_q[21], angles_xy_30_q, 2'b0}
+      - {{3{angles_xy_29_q[21]}}, angles_xy_29_q})
+      : $signed({angles_xy_30_q[21], angles_xy_30_q, 2'b0}
+      + {{3{angles_xy_29_q[21]}}, angles_xy_29_q});
+  wire angles_theta_addsub15_sub = angles_xy_30_q[21];
+  wire signed [17:0] angles_theta_addsub15 =
+      angles_theta_addsub15_sub
+      ? $signed({{2{1'b0}}, angles_theta_15_q} - {{2{1'b0}}, angles_theta_k3})
+      : $signed({{2{1'b0}}, angles_theta_15_q} + {{2{1'b0}}, angles_theta_k3});
+  wire signed [22:0] angles_xy_31_t = $signed(angles_xy_addsub30[24:2]);
+  wire angles_xy_31_ovf_c = ~((&angles_xy_31_t[22:21]) | ~(|angles_xy_31_t[22:21]));
+  wire signed [21:0] angles_xy_31_d =
+      $signed(angles_xy_31_ovf_c ? (angles_xy_31_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_31_t[21:0]);
+  reg  signed [21:0] angles_xy_31_q;
+  wire signed [22:0] angles_xy_32_t = $signed(angles_xy_addsub31[24:2]);
+  wire angles_xy_32_ovf_c = ~((&angles_xy_32_t[22:21]) | ~(|angles_xy_32_t[22:21]));
+  wire signed [21:0] angles_xy_32_d =
+      $signed(angles_xy_32_ovf_c ? (angles_xy_32_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_32_t[21:0]);
+  reg  signed [21:0] angles_xy_32_q;
+  wire angles_theta_16_ovf_c = angles_theta_addsub15[17] | (|angles_theta_addsub15[16]);
+  wire [15:0] angles_theta_16_d = angles_theta_addsub15[15:0];
+  reg  [15:0] angles_theta_16_q;
+  wire angles_xy_addsub32_sub = angles_xy_32_q[21];
+  wire signed [25:0] angles_xy_addsub32 =
+      angles_xy_addsub32_sub
+      ? $signed({angles_xy_31_q[21], angles_xy_31_q, 3'b0}
+      - {{4{angles_xy_32_q[21]}}, angles_xy_32_q})
+      : $signed({angles_xy_31_q[21], angles_xy_31_q, 3'b0}
+      + {{4{angles_xy_32_q[21]}}, angles_xy_32_q});
+  wire angles_xy_addsub33_sub = ~angles_xy_32_q[21];
+  wire signed [25:0] angles_xy_addsub33 =
+      angles_xy_addsub33_sub
+      ? $signed({angles_xy_32_q[21], angles_xy_32_q, 3'b0}
+      - {{4{angles_xy_31_q[21]}}, angles_xy_31_q})
+      : $signed({angles_xy_32_q[21], angles_xy_32_q, 3'b0}
+      + {{4{angles_xy_31_q[21]}}, angles_xy_31_q});
+  wire angles_theta_addsub16_sub = angles_xy_32_q[21];
+  wire signed [17:0] angles_theta_addsub16 =
+      angles_theta_addsub16_sub
+      ? $signed({{2{1'b0}}, angles_theta_16_q} - {{2{1'b0}}, angles_theta_k4})
+      : $signed({{2{1'b0}}, angles_theta_16_q} + {{2{1'b0}}, angles_theta_k4});
+  wire signed [22:0] angles_xy_33_t = $signed(angles_xy_addsub32[25:3]);
+  wire angles_xy_33_ovf_c = ~((&angles_xy_33_t[22:21]) | ~(|angles_xy_33_t[22:21]));
+  wire signed [21:0] angles_xy_33_d =
+      $signed(angles_xy_33_ovf_c ? (angles_xy_33_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_33_t[21:0]);
+  reg  signed [21:0] angles_xy_33_q;
+  wire signed [22:0] angles_xy_34_t = $signed(angles_xy_addsub33[25:3]);
+  wire angles_xy_34_ovf_c = ~((&angles_xy_34_t[22:21]) | ~(|angles_xy_34_t[22:21]));
+  wire signed [21:0] angles_xy_34_d =
+      $signed(angles_xy_34_ovf_c ? (angles_xy_34_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_34_t[21:0]);
+  reg  signed [21:0] angles_xy_34_q;
+  wire angles_theta_17_ovf_c = angles_theta_addsub16[17] | (|angles_theta_addsub16[16]);
+  wire [15:0] angles_theta_17_d = angles_theta_addsub16[15:0];
+  reg  [15:0] angles_theta_17_q;
+  wire angles_xy_addsub34_sub = angles_xy_34_q[21];
+  wire signed [26:0] angles_xy_addsub34 =
+      angles_xy_addsub34_sub
+      ? $signed({angles_xy_33_q[21], angles_xy_33_q, 4'b0}
+      - {{5{angles_xy_34_q[21]}}, angles_xy_34_q})
+      : $signed({angles_xy_33_q[21], angles_xy_33_q, 4'b0}
+      + {{5{angles_xy_34_q[21]}}, angles_xy_34_q});
+  wire angles_xy_addsub35_sub = ~angles_xy_34_q[21];
+  wire signed [26:0] angles_xy_addsub35 =
+      angles_xy_addsub35_sub
+      ? $signed({angles_xy_34_q[21], angles_xy_34_q, 4'b0}
+      - {{5{angles_xy_33_q[21]}}, angles_xy_33_q})
+      : $signed({angles_xy_34_q[21], angles_xy_34_q, 4'b0}
+      + {{5{angles_xy_33_q[21]}}, angles_xy_33_q});
+  wire angles_theta_addsub17_sub = angles_xy_34_q[21];
+  wire signed [17:0] angles_theta_addsub17 =
+      angles_theta_addsub17_sub
+      ? $signed({{2{1'b0}}, angles_theta_17_q} - {{2{1'b0}}, angles_theta_k5})
+      : $signed({{2{1'b0}}, angles_theta_17_q} + {{2{1'b0}}, angles_theta_k5});
+  wire signed [22:0] angles_xy_35_t = $signed(angles_xy_addsub34[26:4]);
+  wire angles_xy_35_ovf_c = ~((&angles_xy_35_t[22:21]) | ~(|angles_xy_35_t[22:21]));
+  wire signed [21:0] angles_xy_35_d =
+      $signed(angles_xy_35_ovf_c ? (angles_xy_35_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_35_t[21:0]);
+  reg  signed [21:0] angles_xy_35_q;
+  wire signed [22:0] angles_xy_36_t = $signed(angles_xy_addsub35[26:4]);
+  wire angles_xy_36_ovf_c = ~((&angles_xy_36_t[22:21]) | ~(|angles_xy_36_t[22:21]));
+  wire signed [21:0] angles_xy_36_d =
+      $signed(angles_xy_36_ovf_c ? (angles_xy_36_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_36_t[21:0]);
+  reg  signed [21:0] angles_xy_36_q;
+  wire angles_theta_18_ovf_c = angles_theta_addsub17[17] | (|angles_theta_addsub17[16]);
+  wire [15:0] angles_theta_18_d = angles_theta_addsub17[15:0];
+  reg  [15:0] angles_theta_18_q;
+  wire angles_xy_addsub36_sub = angles_xy_36_q[21];
+  wire signed [27:0] angles_xy_addsub36 =
+      angles_xy_addsub36_sub
+      ? $signed({angles_xy_35_q[21], angles_xy_35_q, 5'b0}
+      - {{6{angles_xy_36_q[21]}}, angles_xy_36_q})
+      : $signed({angles_xy_35_q[21], angles_xy_35_q, 5'b0}
+      + {{6{angles_xy_36_q[21]}}, angles_xy_36_q});
+  wire angles_xy_addsub37_sub = ~angles_xy_36_q[21];
+  wire signed [27:0] angles_xy_addsub37 =
+      angles_xy_addsub37_sub
+      ? $signed({angles_xy_36_q[21], angles_xy_36_q, 5'b0}
+      - {{6{angles_xy_35_q[21]}}, angles_xy_35_q})
+      : $signed({angles_xy_36_q[21], angles_xy_36_q, 5'b0}
+      + {{6{angles_xy_35_q[21]}}, angles_xy_35_q});
+  wire angles_theta_addsub18_sub = angles_xy_36_q[21];
+  wire signed [17:0] angles_theta_addsub18 =
+      angles_theta_addsub18_sub
+      ? $signed({{2{1'b0}}, angles_theta_18_q} - {{2{1'b0}}, angles_theta_k6})
+      : $signed({{2{1'b0}}, angles_theta_18_q} + {{2{1'b0}}, angles_theta_k6});
+  wire signed [22:0] angles_xy_37_t = $signed(angles_xy_addsub36[27:5]);
+  wire angles_xy_37_ovf_c = ~((&angles_xy_37_t[22:21]) | ~(|angles_xy_37_t[22:21]));
+  wire signed [21:0] angles_xy_37_d =
+      $signed(angles_xy_37_ovf_c ? (angles_xy_37_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_37_t[21:0]);
+  reg  signed [21:0] angles_xy_37_q;
+  wire signed [22:0] angles_xy_38_t = $signed(angles_xy_addsub37[27:5]);
+  wire angles_xy_38_ovf_c = ~((&angles_xy_38_t[22:21]) | ~(|angles_xy_38_t[22:21]));
+  wire signed [21:0] angles_xy_38_d =
+      $signed(angles_xy_38_ovf_c ? (angles_xy_38_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_38_t[21:0]);
+  reg  signed [21:0] angles_xy_38_q;
+  wire angles_theta_19_ovf_c = angles_theta_addsub18[17] | (|angles_theta_addsub18[16]);
+  wire [15:0] angles_theta_19_d = angles_theta_addsub18[15:0];
+  reg  [15:0] angles_theta_19_q;
+  wire angles_xy_addsub38_sub = angles_xy_38_q[21];
+  wire signed [28:0] angles_xy_addsub38 =
+      angles_xy_addsub38_sub
+      ? $signed({angles_xy_37_q[21], angles_xy_37_q, 6'b0}
+      - {{7{angles_xy_38_q[21]}}, angles_xy_38_q})
+      : $signed({angles_xy_37_q[21], angles_xy_37_q, 6'b0}
+      + {{7{angles_xy_38_q[21]}}, angles_xy_38_q});
+  wire angles_xy_addsub39_sub = ~angles_xy_38_q[21];
+  wire signed [28:0] angles_xy_addsub39 =
+      angles_xy_addsub39_sub
+      ? $signed({angles_xy_38_q[21], angles_xy_38_q, 6'b0}
+      - {{7{angles_xy_37_q[21]}}, angles_xy_37_q})
+      : $signed({angles_xy_38_q[21], angles_xy_38_q, 6'b0}
+      + {{7{angles_xy_37_q[21]}}, angles_xy_37_q});
+  wire angles_theta_addsub19_sub = angles_xy_38_q[21];
+  wire signed [17:0] angles_theta_addsub19 =
+      angles_theta_addsub19_sub
+      ? $signed({{2{1'b0}}, angles_theta_19_q} - {{2{1'b0}}, angles_theta_k7})
+      : $signed({{2{1'b0}}, angles_theta_19_q} + {{2{1'b0}}, angles_theta_k7});
+  wire signed [22:0] angles_xy_39_t = $signed(angles_xy_addsub38[28:6]);
+  wire angles_xy_39_ovf_c = ~((&angles_xy_39_t[22:21]) | ~(|angles_xy_39_t[22:21]));
+  wire signed [21:0] angles_xy_39_d =
+      $signed(angles_xy_39_ovf_c ? (angles_xy_39_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_39_t[21:0]);
+  reg  signed [21:0] angles_xy_39_q;
+  wire signed [22:0] angles_xy_40_t = $signed(angles_xy_addsub39[28:6]);
+  wire angles_xy_40_ovf_c = ~((&angles_xy_40_t[22:21]) | ~(|angles_xy_40_t[22:21]));
+  wire signed [21:0] angles_xy_40_d =
+      $signed(angles_xy_40_ovf_c ? (angles_xy_40_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_40_t[21:0]);
+  reg  signed [21:0] angles_xy_40_q;
+  wire angles_theta_20_ovf_c = angles_theta_addsub19[17] | (|angles_theta_addsub19[16]);
+  wire [15:0] angles_theta_20_d = angles_theta_addsub19[15:0];
+  reg  [15:0] angles_theta_20_q;
+  wire angles_xy_addsub40_sub = angles_xy_40_q[21];
+  wire signed [29:0] angles_xy_addsub40 =
+      angles_xy_addsub40_sub
+      ? $signed({angles_xy_39_q[21], angles_xy_39_q, 7'b0}
+      - {{8{angles_xy_40_q[21]}}, angles_xy_40_q})
+      : $signed({angles_xy_39_q[21], angles_xy_39_q, 7'b0}
+      + {{8{angles_xy_40_q[21]}}, angles_xy_40_q});
+  wire angles_xy_addsub41_sub = ~angles_xy_40_q[21];
+  wire signed [29:0] angles_xy_addsub41 =
+      angles_xy_addsub41_sub
+      ? $signed({angles_xy_40_q[21], angles_xy_40_q, 7'b0}
+      - {{8{angles_xy_39_q[21]}}, angles_xy_39_q})
+      : $signed({angles_xy_40_q[21], angles_xy_40_q, 7'b0}
+      + {{8{angles_xy_39_q[21]}}, angles_xy_39_q});
+  wire angles_theta_addsub20_sub = angles_xy_40_q[21];
+  wire signed [17:0] angles_theta_addsub20 =
+      angles_theta_addsub20_sub
+      ? $signed({{2{1'b0}}, angles_theta_20_q} - {{2{1'b0}}, angles_theta_k8})
+      : $signed({{2{1'b0}}, angles_theta_20_q} + {{2{1'b0}}, angles_theta_k8});
+  wire signed [22:0] angles_xy_41_t = $signed(angles_xy_addsub40[29:7]);
+  wire angles_xy_41_ovf_c = ~((&angles_xy_41_t[22:21]) | ~(|angles_xy_41_t[22:21]));
+  wire signed [21:0] angles_xy_41_d =
+      $signed(angles_xy_41_ovf_c ? (angles_xy_41_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_41_t[21:0]);
+  reg  signed [21:0] angles_xy_41_q;
+  wire signed [22:0] angles_xy_42_t = $signed(angles_xy_addsub41[29:7]);
+  wire angles_xy_42_ovf_c = ~((&angles_xy_42_t[22:21]) | ~(|angles_xy_42_t[22:21]));
+  wire signed [21:0] angles_xy_42_d =
+      $signed(angles_xy_42_ovf_c ? (angles_xy_42_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_42_t[21:0]);
+  reg  signed [21:0] angles_xy_42_q;
+  wire angles_theta_21_ovf_c = angles_theta_addsub20[17] | (|angles_theta_addsub20[16]);
+  wire [15:0] angles_theta_21_d = angles_theta_addsub20[15:0];
+  reg  [15:0] angles_theta_21_q;
+  wire angles_xy_addsub42_sub = angles_xy_42_q[21];
+  wire signed [30:0] angles_xy_addsub42 =
+      angles_xy_addsub42_sub
+      ? $signed({angles_xy_41_q[21], angles_xy_41_q, 8'b0}
+      - {{9{angles_xy_42_q[21]}}, angles_xy_42_q})
+      : $signed({angles_xy_41_q[21], angles_xy_41_q, 8'b0}
+      + {{9{angles_xy_42_q[21]}}, angles_xy_42_q});
+  wire angles_xy_addsub43_sub = ~angles_xy_42_q[21];
+  wire signed [30:0] angles_xy_addsub43 =
+      angles_xy_addsub43_sub
+      ? $signed({angles_xy_42_q[21], angles_xy_42_q, 8'b0}
+      - {{9{angles_xy_41_q[21]}}, angles_xy_41_q})
+      : $signed({angles_xy_42_q[21], angles_xy_42_q, 8'b0}
+      + {{9{angles_xy_41_q[21]}}, angles_xy_41_q});
+  wire angles_theta_addsub21_sub = angles_xy_42_q[21];
+  wire signed [17:0] angles_theta_addsub21 =
+      angles_theta_addsub21_sub
+      ? $signed({{2{1'b0}}, angles_theta_21_q} - {{2{1'b0}}, angles_theta_k9})
+      : $signed({{2{1'b0}}, angles_theta_21_q} + {{2{1'b0}}, angles_theta_k9});
+  wire signed [22:0] angles_xy_43_t = $signed(angles_xy_addsub42[30:8]);
+  wire angles_xy_43_ovf_c = ~((&angles_xy_43_t[22:21]) | ~(|angles_xy_43_t[22:21]));
+  wire signed [21:0] angles_xy_43_d =
+      $signed(angles_xy_43_ovf_c ? (angles_xy_43_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_43_t[21:0]);
+  reg  signed [21:0] angles_xy_43_q;
+  wire signed [22:0] angles_xy_44_t = $signed(angles_xy_addsub43[30:8]);
+  wire angles_xy_44_ovf_c = ~((&angles_xy_44_t[22:21]) | ~(|angles_xy_44_t[22:21]));
+  wire signed [21:0] angles_xy_44_d =
+      $signed(angles_xy_44_ovf_c ? (angles_xy_44_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_44_t[21:0]);
+  reg  signed [21:0] angles_xy_44_q;
+  wire angles_theta_22_ovf_c = angles_theta_addsub21[17] | (|angles_theta_addsub21[16]);
+  wire [15:0] angles_theta_22_d = angles_theta_addsub21[15:0];
+  reg  [15:0] angles_theta_22_q;
+  wire angles_xy_addsub44_sub = angles_xy_44_q[21];
+  wire signed [31:0] angles_xy_addsub44 =
+      angles_xy_addsub44_sub
+      ? $signed({angles_xy_43_q[21], angles_xy_43_q, 9'b0}
+      - {{10{angles_xy_44_q[21]}}, angles_xy_44_q})
+      : $signed({angles_xy_43_q[21], angles_xy_43_q, 9'b0}
+      + {{10{angles_xy_44_q[21]}}, angles_xy_44_q});
+  wire angles_xy_addsub45_sub = ~angles_xy_44_q[21];
+  wire signed [31:0] angles_xy_addsub45 =
+      angles_xy_addsub45_sub
+      ? $signed({angles_xy_44_q[21], angles_xy_44_q, 9'b0}
+      - {{10{angles_xy_43_q[21]}}, angles_xy_43_q})
+      : $signed({angles_xy_44_q[21], angles_xy_44_q, 9'b0}
+      + {{10{angles_xy_43_q[21]}}, angles_xy_43_q});
+  wire angles_theta_addsub22_sub = angles_xy_44_q[21];
+  wire signed [17:0] angles_theta_addsub22 =
+      angles_theta_addsub22_sub
+      ? $signed({{2{1'b0}}, angles_theta_22_q} - {{2{1'b0}}, angles_theta_k10})
+      : $signed({{2{1'b0}}, angles_theta_22_q} + {{2{1'b0}}, angles_theta_k10});
+  wire signed [22:0] angles_xy_45_t = $signed(angles_xy_addsub44[31:9]);
+  wire angles_xy_45_ovf_c = ~((&angles_xy_45_t[22:21]) | ~(|angles_xy_45_t[22:21]));
+  wire signed [21:0] angles_xy_45_d =
+      $signed(angles_xy_45_ovf_c ? (angles_xy_45_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_45_t[21:0]);
+  reg  signed [21:0] angles_xy_45_q;
+  wire signed [22:0] angles_xy_46_t = $signed(angles_xy_addsub45[31:9]);
+  wire angles_xy_46_ovf_c = ~((&angles_xy_46_t[22:21]) | ~(|angles_xy_46_t[22:21]));
+  wire signed [21:0] angles_xy_46_d =
+      $signed(angles_xy_46_ovf_c ? (angles_xy_46_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_46_t[21:0]);
+  reg  signed [21:0] angles_xy_46_q;
+  wire angles_theta_23_ovf_c = angles_theta_addsub22[17] | (|angles_theta_addsub22[16]);
+  wire [15:0] angles_theta_23_d = angles_theta_addsub22[15:0];
+  reg  [15:0] angles_theta_23_q;
+  wire angles_xy_addsub47_sub = ~angles_xy_46_q[21];
+  wire signed [32:0] angles_xy_addsub47 =
+      angles_xy_addsub47_sub
+      ? $signed({angles_xy_46_q[21], angles_xy_46_q, 10'b0}
+      - {{11{angles_xy_45_q[21]}}, angles_xy_45_q})
+      : $signed({angles_xy_46_q[21], angles_xy_46_q, 10'b0}
+      + {{11{angles_xy_45_q[21]}}, angles_xy_45_q});
+  wire angles_theta_addsub23_sub = angles_xy_46_q[21];
+  wire signed [17:0] angles_theta_addsub23 =
+      angles_theta_addsub23_sub
+      ? $signed({{2{1'b0}}, angles_theta_23_q} - {{2{1'b0}}, angles_theta_k11})
+      : $signed({{2{1'b0}}, angles_theta_23_q} + {{2{1'b0}}, angles_theta_k11});
+  wire signed [22:0] angles_xy_48_t = $signed(angles_xy_addsub47[32:10]);
+  wire angles_xy_48_ovf_c = ~((&angles_xy_48_t[22:21]) | ~(|angles_xy_48_t[22:21]));
+  wire signed [21:0] angles_xy_48_d =
+      $signed(angles_xy_48_ovf_c ? (angles_xy_48_t[22] ? 22'h200000 : 22'h1fffff)
+      : angles_xy_48_t[21:0]);
+  reg  signed [21:0] angles_xy_48_q;
+  wire angles_theta_24_ovf_c = angles_theta_addsub23[17] | (|angles_theta_addsub23[16]);
+  wire [15:0] angles_theta_24_d = angles_theta_addsub23[15:0];
+  reg  [15:0] angles_theta_24_q;
+  wire angles_theta_addsub24_sub = angles_xy_48_q[21];
+  wire signed [17:0] angles_theta_addsub24 =
+      angles_theta_addsub24_sub
+      ? $signed({{2{1'b0}}, angles_theta_24_q} - {{2{1'b0}}, angles_theta_k12})
+      : $signed({{2{1'b0}}, angles_theta_24_q} + {{2{1'b0}}, angles_theta_k12});
+  wire angles_theta_25_ovf_c = angles_theta_addsub24[17] | (|angles_theta_addsub24[16]);
+  wire [15:0] angles_theta_25_d = angles_theta_addsub24[15:0];
+  reg  [15:0] angles_theta_25_q;
+  wire angles_out_0_tie = angles_theta_25_q[4] & ~(|angles_theta_25_q[3:0]);
+  wire [11:0] angles_out_0_up =
+      {1'b0, angles_theta_25_q[15:5]} + {{11{1'b0}}, angles_theta_25_q[4]};
+  wire [11:0] angles_out_0_r = {angles_out_0_up[11:1], angles_out_0_up[0] & ~angles_out_0_tie};
+  wire angles_out_0_ovf_c = |angles_out_0_r[11];
+  wire [10:0] angles_out_0_d = angles_out_0_r[10:0];
+  reg  [10:0] angles_out_0_q;
+  wire angles_out_1_tie = angles_theta_12_q[4] & ~(|angles_theta_12_q[3:0]);
+  wire [11:0] angles_out_1_up =
+      {1'b0, angles_theta_12_q[15:5]} + {{11{1'b0}}, angles_theta_12_q[4]};
+  wire [11:0] angles_out_1_r = {angles_out_1_up[11:1], angles_out_1_up[0] & ~angles_out_1_tie};
+  wire angles_out_1_ovf_c = |angles_out_1_r[11];
+  wire [10:0] angles_out_1_d = angles_out_1_r[10:0];
+  reg  [10:0] angles_out_1_q;
+  wire polar_index_0_ovf_c = 1'b0;
+  wire [10:0] polar_index_0_d = al_q[10:0];
+  reg  [10:0] polar_index_0_q;
+  wire signed [12:0] polar_index_sub0 = $signed({{2{1'b0}}, bl_q} - {{2{1'b0}}, angles_out_1_q});
+  wire polar_index_1_ovf_c = polar_index_sub0[12] | (|polar_index_sub0[11]);
+  wire [10:0] polar_index_1_d = polar_index_sub0[10:0];
+  reg  [10:0] polar_index_1_q;
+  wire polar_index_2_ovf_c = 1'b0;
+  wire [10:0] polar_index_2_d = angles_out_0_q[10:0];
+  reg  [10:0] polar_index_2_q;
+  reg  [10:0] polar_index_0_s2_q;
+  reg  [10:0] polar_index_0_s3_q;
+  reg  [10:0] polar_index_0_s4_q;
+  reg  [10:0] polar_index_0_s5_q;
+  reg  [10:0] polar_index_0_s6_q;
+  reg  [10:0] polar_index_0_s7_q;
+  reg  [10:0] polar_index_0_s8_q;
+  reg  [10:0] polar_index_0_s9_q;
+  reg  [10:0] polar_index_0_s10_q;
+  reg  [10:0] polar_index_0_s11_q;
+  reg  [10:0] polar_index_0_s12_q;
+  reg  [10:0] polar_index_0_s13_q;
+  reg  [10:0] polar_index_0_s14_q;
+  reg  [10:0] polar_index_0_s15_q;
+  reg  [10:0] polar_index_0_s16_q;
+  reg  [10:0] polar_index_0_s17_q;
+  reg  [10:0] polar_index_0_s18_q;
+  wire [10:0] cos_0_j = {polar_index_0_s18_q[10:9] + 2'd1, polar_index_0_s18_q[8:0]};
+  wire [9:0] cos_0_a = cos_0_j[9] ? (10'h200 - {1'b0, cos_0_j[8:0]}) : {1'b0, cos_0_j[8:0]};
+  reg  signed [15:0] cos_0_raw_q;
+  reg  [0:0] cos_0_top_q;
+  reg  [0:0] cos_0_neg_q;
+  wire signed [15:0] cos_0_v = cos_0_top_q ? $signed(16'h4000) : cos_0_raw_q;
+  wire signed [16:0] cos_0_n = $signed(17'h0 - {cos_0_v[15], cos_0_v});
+  wire unused_cos_0_novf = ~((&cos_0_n[16:15]) | ~(|cos_0_n[16:15]));
+  wire signed [15:0] cos_0_nv =
+      $signed(unused_cos_0_novf ? (cos_0_n[16] ? 16'h8000 : 16'h7fff) : cos_0_n[15:0]);
+  wire signed [15:0] cos_0 = $signed(cos_0_neg_q ? cos_0_nv : cos_0_v);
+  reg  [10:0] polar_index_0_s19_q;
+  reg  [10:0] polar_index_0_s20_q;
+  reg  [10:0] polar_index_0_s21_q;
+  reg  [10:0] polar_index_0_s22_q;
+  reg  [10:0] polar_index_0_s23_q;
+  reg  [10:0] polar_index_0_s24_q;
+  reg  [10:0] polar_index_0_s25_q;
+  reg  [10:0] polar_index_0_s26_q;
+  reg  [10:0] polar_index_0_s27_q;
+  reg  [10:0] polar_index_0_s28_q;
+  reg  [10:0] polar_index_0_s29_q;
+  reg  [10:0] polar_index_0_s30_q;
+  wire [10:0] sin_0_j = polar_index_0_s30_q[10:0];
+  wire [9:0] sin_0_a = sin_0_j[9] ? (10'h200 - {1'b0, sin_0_j[8:0]}) : {1'b0, sin_0_j[8:0]};
+  reg  signed [15:0] sin_0_raw_q;
+  reg  [0:0] sin_0_top_q;
+  reg  [0:0] sin_0_neg_q;
+  wire signed [15:0] sin_0_v = sin_0_top_q ? $signed(16'h4000) : sin_0_raw_q;
+  wire signed [16:0] sin_0_n = $signed(17'h0 - {sin_0_v[15], sin_0_v});
+  wire unused_sin_0_novf = ~((&sin_0_n[16:15]) | ~(|sin_0_n[16:15]));
+  wire signed [15:0] sin_0_nv =
+      $signed(unused_sin_0_novf ? (sin_0_n[16] ? 16'h8000 : 16'h7fff) : sin_0_n[15:0]);
+  wire signed [15:0] sin_0 = $signed(sin_0_neg_q ? sin_0_nv : sin_0_v);
+  wire [10:0] cos_1_j = {polar_index_1_q[10:9] + 2'd1, polar_index_1_q[8:0]};
+  wire [9:0] cos_1_a = cos_1_j[9] ? (10'h200 - {1'b0, cos_1_j[8:0]}) : {1'b0, cos_1_j[8:0]};
+  reg  signed [15:0] cos_1_raw_q;
+  reg  [0:0] cos_1_top_q;
+  reg  [0:0] cos_1_neg_q;
+  wire signed [15:0] cos_1_v = cos_1_top_q ? $signed(16'h4000) : cos_1_raw_q;
+  wire signed [16:0] cos_1_n = $signed(17'h0 - {cos_1_v[15], cos_1_v});
+  wire unused_cos_1_novf = ~((&cos_1_n[16:15]) | ~(|cos_1_n[16:15]));
+  wire signed [15:0] cos_1_nv =
+      $signed(unused_cos_1_novf ? (cos_1_n[16] ? 16'h8000 : 16'h7fff) : cos_1_n[15:0]);
+  wire signed [15:0] cos_1 = $signed(cos_1_neg_q ? cos_1_nv : cos_1_v);
+  wire [10:0] sin_1_j = polar_index_1_q[10:0];
+  wire [9:0] sin_1_a = sin_1_j[9] ? (10'h200 - {1'b0, sin_1_j[8:0]}) : {1'b0, sin_1_j[8:0]};
+  reg  signed [15:0] sin_1_raw_q;
+  reg  [0:0] sin_1_top_q;
+  reg  [0:0] sin_1_neg_q;
+  wire signed [15:0] sin_1_v = sin_1_top_q ? $signed(16'h4000) : sin_1_raw_q;
+  wire signed [16:0] sin_1_n = $signed(17'h0 - {sin_1_v[15], sin_1_v});
+  wire unused_sin_1_novf = ~((&sin_1_n[16:15]) | ~(|sin_1_n[16:15]));
+  wire signed [15:0] sin_1_nv =
+      $signed(unused_sin_1_novf ? (sin_1_n[16] ? 16'h8000 : 16'h7fff) : sin_1_n[15:0]);
+  wire signed [15:0] sin_1 = $signed(sin_1_neg_q ? sin_1_nv : sin_1_v);
+  wire [10:0] cos_2_j = {polar_index_2_q[10:9] + 2'd1, polar_index_2_q[8:0]};
+  wire [9:0] cos_2_a = cos_2_j[9] ? (10'h200 - {1'b0, cos_2_j[8:0]}) : {1'b0, cos_2_j[8:0]};
+  reg  signed [15:0] cos_2_raw_q;
+  reg  [0:0] cos_2_top_q;
+  reg  [0:0] cos_2_neg_q;
+  wire signed [15:0] cos_2_v = cos_2_top_q ? $signed(16'h4000) : cos_2_raw_q;
+  wire signed [16:0] cos_2_n = $signed(17'h0 - {cos_2_v[15], cos_2_v});
+  wire unused_cos_2_novf = ~((&cos_2_n[16:15]) | ~(|cos_2_n[16:15]));
+  wire signed [15:0] cos_2_nv =
+      $signed(unused_cos_2_novf ? (cos_2_n[16] ? 16'h8000 : 16'h7fff) : cos_2_n[15:0]);
+  wire signed [15:0] cos_2 = $signed(cos_2_neg_q ? cos_2_nv : cos_2_v);
+  wire [10:0] sin_2_j = polar_index_2_q[10:0];
+  wire [9:0] sin_2_a = sin_2_j[9] ? (10'h200 - {1'b0, sin_2_j[8:0]}) : {1'b0, sin_2_j[8:0]};
+  reg  signed [15:0] sin_2_raw_q;
+  reg  [0:0] sin_2_top_q;
+  reg  [0:0] sin_2_neg_q;
+  wire signed [15:0] sin_2_v = sin_2_top_q ? $signed(16'h4000) : sin_2_raw_q;
+  wire signed [16:0] sin_2_n = $signed(17'h0 - {sin_2_v[15], sin_2_v});
+  wire unused_sin_2_novf = ~((&sin_2_n[16:15]) | ~(|sin_2_n[16:15]));
+  wire signed [15:0] sin_2_nv =
+      $signed(unused_sin_2_novf ? (sin_2_n[16] ? 16'h8000 : 16'h7fff) : sin_2_n[15:0]);
+  wire signed [15:0] sin_2 = $signed(sin_2_neg_q ? sin_2_nv : sin_2_v);
+  wire signed [31:0] polar_lyz_mul0 = cos_0 * cos_1;
+  wire polar_lyz_0_tie = polar_lyz_mul0[13] & ~(|polar_lyz_mul0[12:0]);
+  wire [18:0] polar_lyz_0_up =
+      {polar_lyz_mul0[31], polar_lyz_mul0[31:14]} + {{18{1'b0}}, polar_lyz_mul0[13]};
+  wire signed [18:0] polar_lyz_0_r =
+      $signed({polar_lyz_0_up[18:1], polar_lyz_0_up[0] & ~polar_lyz_0_tie});
+  wire polar_lyz_0_ovf_c = ~((&polar_lyz_0_r[18:15]) | ~(|polar_lyz_0_r[18:15]));
+  wire signed [15:0] polar_lyz_0_d =
+      $signed(polar_lyz_0_ovf_c ? (polar_lyz_0_r[18] ? 16'h8000 : 16'h7fff) : polar_lyz_0_r[15:0]);
+  reg  signed [15:0] polar_lyz_0_q;
+  wire signed [31:0] polar_out_mul0 = cos_0 * sin_1;
+  wire polar_out_0_tie = polar_out_mul0[13] & ~(|polar_out_mul0[12:0]);
+  wire [18:0] polar_out_0_up =
+      {polar_out_mul0[31], polar_out_mul0[31:14]} + {{18{1'b0}}, polar_out_mul0[13]};
+  wire signed [18:0] polar_out_0_r =
+      $signed({polar_out_0_up[18:1], polar_out_0_up[0] & ~polar_out_0_tie});
+  wire polar_out_0_ovf_c = ~((&polar_out_0_r[18:15]) | ~(|polar_out_0_r[18:15]));
+  wire signed [15:0] polar_out_0_d =
+      $signed(polar_out_0_ovf_c ? (polar_out_0_r[18] ? 16'h8000 : 16'h7fff) : polar_out_0_r[15:0]);
+  reg  signed [15:0] polar_out_0_q;
+  wire signed [31:0] polar_out_mul1 = sin_0 * cos_2;
+  reg  signed [15:0] polar_lyz_0_s21_q;
+  reg  signed [15:0] polar_lyz_0_s22_q;
+  reg  signed [15:0] polar_lyz_0_s23_q;
+  reg  signed [15:0] polar_lyz_0_s24_q;
+  reg  signed [15:0] polar_lyz_0_s25_q;
+  reg  signed [15:0] polar_lyz_0_s26_q;
+  reg  signed [15:0] polar_lyz_0_s27_q;
+  reg  signed [15:0] polar_lyz_0_s28_q;
+  reg  signed [15:0] polar_lyz_0_s29_q;
+  reg  signed [15:0] polar_lyz_0_s30_q;
+  reg  signed [15:0] polar_lyz_0_s31_q;
+  wire signed [31:0] polar_out_mul2 = polar_lyz_0_s31_q * sin_2;
+  wire signed [32:0] polar_out_sub0 =
+      $signed({polar_out_mul1[31], polar_out_mul1} - {polar_out_mul2[31], polar_out_mul2});
+  wire polar_out_1_tie = polar_out_sub0[13] & ~(|polar_out_sub0[12:0]);
+  wire [19:0] polar_out_1_up =
+      {polar_out_sub0[32], polar_out_sub0[32:14]} + {{19{1'b0}}, polar_out_sub0[13]};
+  wire signed [19:0] polar_out_1_r =
+      $signed({polar_out_1_up[19:1], polar_out_1_up[0] & ~polar_out_1_tie});
+  wire polar_out_1_ovf_c = ~((&polar_out_1_r[19:15]) | ~(|polar_out_1_r[19:15]));
+  wire signed [15:0] polar_out_1_d =
+      $signed(polar_out_1_ovf_c ? (polar_out_1_r[19] ? 16'h8000 : 16'h7fff) : polar_out_1_r[15:0]);
+  reg  signed [15:0] polar_out_1_q;
+  wire signed [31:0] polar_out_mul3 = polar_lyz_0_s31_q * cos_2;
+  wire signed [31:0] polar_out_mul4 = sin_0 * sin_2;
+  wire signed [32:0] polar_out_add0 =
+      $signed({polar_out_mul4[31], polar_out_mul4} + {polar_out_mul3[31], polar_out_mul3});
+  wire polar_out_2_tie = polar_out_add0[13] & ~(|polar_out_add0[12:0]);
+  wire [19:0] polar_out_2_up =
+      {polar_out_add0[32], polar_out_add0[32:14]} + {{19{1'b0}}, polar_out_add0[13]};
+  wire signed [19:0] polar_out_2_r =
+      $signed({polar_out_2_up[19:1], polar_out_2_up[0] & ~polar_out_2_tie});
+  wire polar_out_2_ovf_c = ~((&polar_out_2_r[19:15]) | ~(|polar_out_2_r[19:15]));
+  wire signed [15:0] polar_out_2_d =
+      $signed(polar_out_2_ovf_c ? (polar_out_2_r[19] ? 16'h8000 : 16'h7fff) : polar_out_2_r[15:0]);
+  reg  signed [15:0] polar_out_2_q;
+  wire polar_index_3_ovf_c = 1'b0;
+  wire [10:0] polar_index_3_d = ah_q[10:0];
+  reg  [10:0] polar_index_3_q;
+  wire signed [12:0] polar_index_sub1 = $signed({{2{1'b0}}, bh_q} - {{2{1'b0}}, angles_out_1_q});
+  wire polar_index_4_ovf_c = polar_index_sub1[12] | (|polar_index_sub1[11]);
+  wire [10:0] polar_index_4_d = polar_index_sub1[10:0];
+  reg  [10:0] polar_index_4_q;
+  wire polar_index_5_ovf_c = 1'b0;
+  wire [10:0] polar_index_5_d = angles_out_0_q[10:0];
+  reg  [10:0] polar_index_5_q;
+  reg  [10:0] polar_index_3_s2_q;
+  reg  [10:0] polar_index_3_s3_q;
+  reg  [10:0] polar_index_3_s4_q;
+  reg  [10:0] polar_index_3_s5_q;
+  reg  [10:0] polar_index_3_s6_q;
+  reg  [10:0] polar_index_3_s7_q;
+  reg  [10:0] polar_index_3_s8_q;
+  reg  [10:0] polar_index_3_s9_q;
+  reg  [10:0] polar_index_3_s10_q;
+  reg  [10:0] polar_index_3_s11_q;
+  reg  [10:0] polar_index_3_s12_q;
+  reg  [10:0] polar_index_3_s13_q;
+  reg  [10:0] polar_index_3_s14_q;
+  reg  [10:0] polar_index_3_s15_q;
+  reg  [10:0] polar_index_3_s16_q;
+  reg  [10:0] polar_index_3_s17_q;
+  reg  [10:0] polar_index_3_s18_q;
+  wire [10:0] cos_3_j = {polar_index_3_s18_q[10:9] + 2'd1, polar_index_3_s18_q[8:0]};
+  wire [9:0] cos_3_a = cos_3_j[9] ? (10'h200 - {1'b0, cos_3_j[8:0]}) : {1'b0, cos_3_j[8:0]};
+  reg  signed [15:0] cos_3_raw_q;
+  reg  [0:0] cos_3_top_q;
+  reg  [0:0] cos_3_neg_q;
+  wire signed [15:0] cos_3_v = cos_3_top_q ? $signed(16'h4000) : cos_3_raw_q;
+  wire signed [16:0] cos_3_n = $signed(17'h0 - {cos_3_v[15], cos_3_v});
+  wire unused_cos_3_novf = ~((&cos_3_n[16:15]) | ~(|cos_3_n[16:15]));
+  wire signed [15:0] cos_3_nv =
+      $signed(unused_cos_3_novf ? (cos_3_n[16] ? 16'h8000 : 16'h7fff) : cos_3_n[15:0]);
+  wire signed [15:0] cos_3 = $signed(cos_3_neg_q ? cos_3_nv : cos_3_v);
+  reg  [10:0] polar_index_3_s19_q;
+  reg  [10:0] polar_index_3_s20_q;
+  reg  [10:0] polar_index_3_s21_q;
+  reg  [10:0] polar_index_3_s22_q;
+  reg  [10:0] polar_index_3_s23_q;
+  reg  [10:0] polar_index_3_s24_q;
+  reg  [10:0] polar_index_3_s25_q;
+  reg  [10:0] polar_index_3_s26_q;
+  reg  [10:0] polar_index_3_s27_q;
+  reg  [10:0] polar_index_3_s28_q;
+  reg  [10:0] polar_index_3_s29_q;
+  reg  [10:0] polar_index_3_s30_q;
+  wire [10:0] sin_3_j = polar_index_3_s30_q[10:0];
+  wire [9:0] sin_3_a = sin_3_j[9] ? (10'h200 - {1'b0, sin_3_j[8:0]}) : {1'b0, sin_3_j[8:0]};
+  reg  signed [15:0] sin_3_raw_q;
+  reg  [0:0] sin_3_top_q;
+  reg  [0:0] sin_3_neg_q;
+  wire signed [15:0] sin_3_v = sin_3_top_q ? $signed(16'h4000) : sin_3_raw_q;
+  wire signed [16:0] sin_3_n = $signed(17'h0 - {sin_3_v[15], sin_3_v});
+  wire unused_sin_3_novf = ~((&sin_3_n[16:15]) | ~(|sin_3_n[16:15]));
+  wire signed [15:0] sin_3_nv =
+      $signed(unused_sin_3_novf ? (sin_3_n[16] ? 16'h8000 : 16'h7fff) : sin_3_n[15:0]);
+  wire signed [15:0] sin_3 = $signed(sin_3_neg_q ? sin_3_nv : sin_3_v);
+  wire [10:0] cos_4_j = {polar_index_4_q[10:9] + 2'd1, polar_index_4_q[8:0]};
+  wire [9:0] cos_4_a = cos_4_j[9] ? (10'h200 - {1'b0, cos_4_j[8:0]}) : {1'b0, cos_4_j[8:0]};
+  reg  signed [15:0] cos_4_raw_q;
+  reg  [0:0] cos_4_top_q;
+  reg  [0:0] cos_4_neg_q;
+  wire signed [15:0] cos_4_v = cos_4_top_q ? $signed(16'h4000) : cos_4_raw_q;
+  wire signed [16:0] cos_4_n = $signed(17'h0 - {cos_4_v[15], cos_4_v});
+  wire unused_cos_4_novf = ~((&cos_4_n[16:15]) | ~(|cos_4_n[16:15]));
+  wire signed [15:0] cos_4_nv =
+      $signed(unused_cos_4_novf ? (cos_4_n[16] ? 16'h8000 : 16'h7fff) : cos_4_n[15:0]);
+  wire signed [15:0] cos_4 = $signed(cos_4_neg_q ? cos_4_nv : cos_4_v);
+  wire [10:0] sin_4_j = polar_index_4_q[10:0];
+  wire [9:0] sin_4_a = sin_4_j[9] ? (10'h200 - {1'b0, sin_4_j[8:0]}) : {1'b0, sin_4_j[8:0]};
+  reg  signed [15:0] sin_4_raw_q;
+  reg  [0:0] sin_4_top_q;
+  reg  [0:0] sin_4_neg_q;
+  wire signed [15:0] sin_4_v = sin_4_top_q ? $signed(16'h4000) : sin_4_raw_q;
+  wire signed [16:0] sin_4_n = $signed(17'h0 - {sin_4_v[15], sin_4_v});
+  wire unused_sin_4_novf = ~((&sin_4_n[16:15]) | ~(|sin_4_n[16:15]));
+  wire signed [15:0] sin_4_nv =
+      $signed(unused_sin_4_novf ? (sin_4_n[16] ? 16'h8000 : 16'h7fff) : sin_4_n[15:0]);
+  wire signed [15:0] sin_4 = $signed(sin_4_neg_q ? sin_4_nv : sin_4_v);
+  wire [10:0] cos_5_j = {polar_index_5_q[10:9] + 2'd1, polar_index_5_q[8:0]};
+  wire [9:0] cos_5_a = cos_5_j[9] ? (10'h200 - {1'b0, cos_5_j[8:0]}) : {1'b0, cos_5_j[8:0]};
+  reg  signed [15:0] cos_5_raw_q;
+  reg  [0:0] cos_5_top_q;
+  reg  [0:0] cos_5_neg_q;
+  wire signed [15:0] cos_5_v = cos_5_top_q ? $signed(16'h4000) : cos_5_raw_q;
+  wire signed [16:0] cos_5_n = $signed(17'h0 - {cos_5_v[15], cos_5_v});
+  wire unused_cos_5_novf = ~((&cos_5_n[16:15]) | ~(|cos_5_n[16:15]));
+  wire signed [15:0] cos_5_nv =
+      $signed(unused_cos_5_novf ? (cos_5_n[16] ? 16'h8000 : 16'h7fff) : cos_5_n[15:0]);
+  wire signed [15:0] cos_5 = $signed(cos_5_neg_q ? cos_5_nv : cos_5_v);
+  wire [10:0] sin_5_j = polar_index_5_q[10:0];
+  wire [9:0] sin_5_a = sin_5_j[9] ? (10'h200 - {1'b0, sin_5_j[8:0]}) : {1'b0, sin_5_j[8:0]};
+  reg  signed [15:0] sin_5_raw_q;
+  reg  [0:0] sin_5_top_q;
+  reg  [0:0] sin_5_neg_q;
+  wire signed [15:0] sin_5_v = sin_5_top_q ? $signed(16'h4000) : sin_5_raw_q;
+  wire signed [16:0] sin_5_n = $signed(17'h0 - {sin_5_v[15], sin_5_v});
+  wire unused_sin_5_novf = ~((&sin_5_n[16:15]) | ~(|sin_5_n[16:15]));
+  wire signed [15:0] sin_5_nv =
+      $signed(unused_sin_5_novf ? (sin_5_n[16] ? 16'h8000 : 16'h7fff) : sin_5_n[15:0]);
+  wire signed [15:0] sin_5 = $signed(sin_5_neg_q ? sin_5_nv : sin_5_v);
+  wire signed [31:0] polar_lyz_mul1 = cos_3 * cos_4;
+  wire polar_lyz_1_tie = polar_lyz_mul1[13] & ~(|polar_lyz_mul1[12:0]);
+  wire [18:0] polar_lyz_1_up =
+      {polar_lyz_mul1[31], polar_lyz_mul1[31:14]} + {{18{1'b0}}, polar_lyz_mul1[13]};
+  wire signed [18:0] polar_lyz_1_r =
+      $signed({polar_lyz_1_up[18:1], polar_lyz_1_up[0] & ~polar_lyz_1_tie});
+  wire polar_lyz_1_ovf_c = ~((&polar_lyz_1_r[18:15]) | ~(|polar_lyz_1_r[18:15]));
+  wire signed [15:0] polar_lyz_1_d =
+      $signed(polar_lyz_1_ovf_c ? (polar_lyz_1_r[18] ? 16'h8000 : 16'h7fff) : polar_lyz_1_r[15:0]);
+  reg  signed [15:0] polar_lyz_1_q;
+  wire signed [31:0] polar_out_mul5 = cos_3 * sin_4;
+  wire polar_out_3_tie = polar_out_mul5[13] & ~(|polar_out_mul5[12:0]);
+  wire [18:0] polar_out_3_up =
+      {polar_out_mul5[31], polar_out_mul5[31:14]} + {{18{1'b0}}, polar_out_mul5[13]};
+  wire signed [18:0] polar_out_3_r =
+      $signed({polar_out_3_up[18:1], polar_out_3_up[0] & ~polar_out_3_tie});
+  wire polar_out_3_ovf_c = ~((&polar_out_3_r[18:15]) | ~(|polar_out_3_r[18:15]));
+  wire signed [15:0] polar_out_3_d =
+      $signed(polar_out_3_ovf_c ? (polar_out_3_r[18] ? 16'h8000 : 16'h7fff) : polar_out_3_r[15:0]);
+  reg  signed [15:0] polar_out_3_q;
+  wire signed [31:0] polar_out_mul6 = sin_3 * cos_5;
+  reg  signed [15:0] polar_lyz_1_s21_q;
+  reg  signed [15:0] polar_lyz_1_s22_q;
+  reg  signed [15:0] polar_lyz_1_s23_q;
+  reg  signed [15:0] polar_lyz_1_s24_q;
+  reg  signed [15:0] polar_lyz_1_s25_q;
+  reg  signed [15:0] polar_lyz_1_s26_q;
+  reg  signed [15:0] polar_lyz_1_s27_q;
+  reg  signed [15:0] polar_lyz_1_s28_q;
+  reg  signed [15:0] polar_lyz_1_s29_q;
+  reg  signed [15:0] polar_lyz_1_s30_q;
+  reg  signed [15:0] polar_lyz_1_s31_q;
+  wire signed [31:0] polar_out_mul7 = polar_lyz_1_s31_q * sin_5;
+  wire signed [32:0] polar_out_sub1 =
+      $signed({polar_out_mul6[31], polar_out_mul6} - {polar_out_mul7[31], polar_out_mul7});
+  wire polar_out_4_tie = polar_out_sub1[13] & ~(|polar_out_sub1[12:0]);
+  wire [19:0] polar_out_4_up =
+      {polar_out_sub1[32], polar_out_sub1[32:14]} + {{19{1'b0}}, polar_out_sub1[13]};
+  wire signed [19:0] polar_out_4_r =
+      $signed({polar_out_4_up[19:1], polar_out_4_up[0] & ~polar_out_4_tie});
+  wire polar_out_4_ovf_c = ~((&polar_out_4_r[19:15]) | ~(|polar_out_4_r[19:15]));
+  wire signed [15:0] polar_out_4_d =
+      $signed(polar_out_4_ovf_c ? (polar_out_4_r[19] ? 16'h8000 : 16'h7fff) : polar_out_4_r[15:0]);
+  reg  signed [15:0] polar_out_4_q;
+  wire signed [31:0] polar_out_mul8 = polar_lyz_1_s31_q * cos_5;
+  wire signed [31:0] polar_out_mul9 = sin_3 * sin_5;
+  wire signed [32:0] polar_out_add1 =
+      $signed({polar_out_mul9[31], polar_out_mul9} + {polar_out_mul8[31], polar_out_mul8});
+  wire polar_out_5_tie = polar_out_add1[13] & ~(|polar_out_add1[12:0]);
+  wire [19:0] polar_out_5_up =
+      {polar_out_add1[32], polar_out_add1[32:14]} + {{19{1'b0}}, polar_out_add1[13]};
+  wire signed [19:0] polar_out_5_r =
+      $signed({polar_out_5_up[19:1], polar_out_5_up[0] & ~polar_out_5_tie});
+  wire polar_out_5_ovf_c = ~((&polar_out_5_r[19:15]) | ~(|polar_out_5_r[19:15]));
+  wire signed [15:0] polar_out_5_d =
+      $signed(polar_out_5_ovf_c ? (polar_out_5_r[19] ? 16'h8000 : 16'h7fff) : polar_out_5_r[15:0]);
+  reg  signed [15:0] polar_out_5_q;
+  wire lighting_light_0_ovf_c = 1'b0;
+  wire signed [15:0] lighting_light_0_d =
+      $signed(lighting_light_0_ovf_c ? (polar_out_0_q[15] ? 16'h8000 : 16'h7fff)
+      : polar_out_0_q[15:0]);
+  reg  signed [15:0] lighting_light_0_q;
+  wire lighting_light_1_ovf_c = 1'b0;
+  wire signed [15:0] lighting_light_1_d =
+      $signed(lighting_light_1_ovf_c ? (polar_out_1_q[15] ? 16'h8000 : 16'h7fff)
+      : polar_out_1_q[15:0]);
+  reg  signed [15:0] lighting_light_1_q;
+  wire lighting_light_2_ovf_c = 1'b0;
+  wire signed [15:0] lighting_light_2_d =
+      $signed(lighting_light_2_ovf_c ? (polar_out_2_q[15] ? 16'h8000 : 16'h7fff)
+      : polar_out_2_q[15:0]);
+  reg  signed [15:0] lighting_light_2_q;
+  wire lighting_light_3_ovf_c = 1'b0;
+  wire signed [15:0] lighting_light_3_d =
+      $signed(lighting_light_3_ovf_c ? (polar_out_3_q[15] ? 16'h8000 : 16'h7fff)
+      : polar_out_3_q[15:0]);
+  reg  signed [15:0] lighting_light_3_q;
+  wire lighting_light_4_ovf_c = 1'b0;
+  wire signed [15:0] lighting_light_4_d =
+      $signed(lighting_light_4_ovf_c ? (polar_out_4_q[15] ? 16'h8000 : 16'h7fff)
+      : polar_out_4_q[15:0]);
+  reg  signed [15:0] lighting_light_4_q;
+  wire lighting_light_5_ovf_c = 1'b0;
+  wire signed [15:0] lighting_light_5_d =
+      $signed(lighting_light_5_ovf_c ? (polar_out_5_q[15] ? 16'h8000 : 16'h7fff)
+      : polar_out_5_q[15:0]);
+  reg  signed [15:0] lighting_light_5_q;
   reg  signed [15:0] n_x_i_s1_q;
   reg  signed [15:0] n_x_i_s2_q;
   reg  signed [15:0] n_x_i_s3_q;
@@ -2281,7 +2331,7 @@ module pipeline_mapped (
   reg  signed [15:0] n_x_i_s19_q;
   reg  signed [15:0] n_x_i_s20_q;
   reg  signed [15:0] n_x_i_s21_q;
-  wire signed [31:0] t307 = n_x_i_s21_q * lighting_light_301_q;
+  wire signed [31:0] lighting_dot_mul0 = n_x_i_s21_q * lighting_light_0_q;
   reg  signed [15:0] n_y_i_s1_q;
   reg  signed [15:0] n_y_i_s2_q;
   reg  signed [15:0] n_y_i_s3_q;
@@ -2315,7 +2365,7 @@ module pipeline_mapped (
   reg  signed [15:0] n_y_i_s31_q;
   reg  signed [15:0] n_y_i_s32_q;
   reg  signed [15:0] n_y_i_s33_q;
-  wire signed [31:0] t308 = n_y_i_s33_q * lighting_light_302_q;
+  wire signed [31:0] lighting_dot_mul1 = n_y_i_s33_q * lighting_light_1_q;
   reg  signed [15:0] n_z_i_s1_q;
   reg  signed [15:0] n_z_i_s2_q;
   reg  signed [15:0] n_z_i_s3_q;
@@ -2349,128 +2399,146 @@ module pipeline_mapped (
   reg  signed [15:0] n_z_i_s31_q;
   reg  signed [15:0] n_z_i_s32_q;
   reg  signed [15:0] n_z_i_s33_q;
-  wire signed [31:0] t309 = n_z_i_s33_q * lighting_light_303_q;
-  reg  signed [31:0] t307_s22_q;
-  reg  signed [31:0] t307_s23_q;
-  reg  signed [31:0] t307_s24_q;
-  reg  signed [31:0] t307_s25_q;
-  reg  signed [31:0] t307_s26_q;
-  reg  signed [31:0] t307_s27_q;
-  reg  signed [31:0] t307_s28_q;
-  reg  signed [31:0] t307_s29_q;
-  reg  signed [31:0] t307_s30_q;
-  reg  signed [31:0] t307_s31_q;
-  reg  signed [31:0] t307_s32_q;
-  reg  signed [31:0] t307_s33_q;
-  wire signed [32:0] t310 = $signed({t307_s33_q[31], t307_s33_q} + {t308[31], t308});
-  wire signed [33:0] t311 = $signed({t310[32], t310} + {{2{t309[31]}}, t309});
-  wire lighting_dot_312_tie = t311[13] & ~(|t311[12:0]);
-  wire [20:0] lighting_dot_312_up = {t311[33], t311[33:14]} + {{20{1'b0}}, t311[13]};
-  wire signed [20:0] lighting_dot_312_r =
-      $signed({lighting_dot_312_up[20:1], lighting_dot_312_up[0] & ~lighting_dot_312_tie});
-  wire lighting_dot_312_ovf_c = ~((&lighting_dot_312_r[20:15]) | ~(|lighting_dot_312_r[20:15]));
-  wire signed [15:0] lighting_dot_312_d =
-      $signed(lighting_dot_312_ovf_c ? (lighting_dot_312_r[20] ? 16'h8000 : 16'h7fff)
-      : lighting_dot_312_r[15:0]);
-  reg  signed [15:0] lighting_dot_312_q;
-  wire signed [15:0] t313_a = $signed(lighting_dot_312_q);
-  wire signed [15:0] t313_b = $signed(K45);
-  wire signed [15:0] t313 = (t313_a > t313_b) ? t313_a : t313_b;
-  wire signed [31:0] t314 = n_x_i_s21_q * lighting_light_304_q;
-  wire signed [31:0] t315 = n_y_i_s33_q * lighting_light_305_q;
-  wire signed [31:0] t316 = n_z_i_s33_q * lighting_light_306_q;
-  reg  signed [31:0] t314_s22_q;
-  reg  signed [31:0] t314_s23_q;
-  reg  signed [31:0] t314_s24_q;
-  reg  signed [31:0] t314_s25_q;
-  reg  signed [31:0] t314_s26_q;
-  reg  signed [31:0] t314_s27_q;
-  reg  signed [31:0] t314_s28_q;
-  reg  signed [31:0] t314_s29_q;
-  reg  signed [31:0] t314_s30_q;
-  reg  signed [31:0] t314_s31_q;
-  reg  signed [31:0] t314_s32_q;
-  reg  signed [31:0] t314_s33_q;
-  wire signed [32:0] t317 = $signed({t314_s33_q[31], t314_s33_q} + {t315[31], t315});
-  wire signed [33:0] t318 = $signed({t317[32], t317} + {{2{t316[31]}}, t316});
-  wire lighting_dot_319_tie = t318[13] & ~(|t318[12:0]);
-  wire [20:0] lighting_dot_319_up = {t318[33], t318[33:14]} + {{20{1'b0}}, t318[13]};
-  wire signed [20:0] lighting_dot_319_r =
-      $signed({lighting_dot_319_up[20:1], lighting_dot_319_up[0] & ~lighting_dot_319_tie});
-  wire lighting_dot_319_ovf_c = ~((&lighting_dot_319_r[20:15]) | ~(|lighting_dot_319_r[20:15]));
-  wire signed [15:0] lighting_dot_319_d =
-      $signed(lighting_dot_319_ovf_c ? (lighting_dot_319_r[20] ? 16'h8000 : 16'h7fff)
-      : lighting_dot_319_r[15:0]);
-  reg  signed [15:0] lighting_dot_319_q;
-  wire signed [15:0] t320_a = $signed(lighting_dot_319_q);
-  wire signed [15:0] t320_b = $signed(K45);
-  wire signed [15:0] t320 = (t320_a > t320_b) ? t320_a : t320_b;
-  wire signed [18:0] lighting_spec_321_r = $signed({t320, 3'b0});
-  wire lighting_spec_321_ovf_c = lighting_spec_321_r[18];
-  wire [17:0] lighting_spec_321_d =
-      lighting_spec_321_ovf_c ? (lighting_spec_321_r[18] ? 18'h0 : 18'h3ffff)
-      : lighting_spec_321_r[17:0];
-  reg  [17:0] lighting_spec_321_q;
-  wire [35:0] t322 = lighting_spec_321_q * lighting_spec_321_q;
-  wire lighting_spec_323_tie = t322[16] & ~(|t322[15:0]);
-  wire [19:0] lighting_spec_323_up = {1'b0, t322[35:17]} + {{19{1'b0}}, t322[16]};
-  wire [19:0] lighting_spec_323_r =
-      {lighting_spec_323_up[19:1], lighting_spec_323_up[0] & ~lighting_spec_323_tie};
-  wire lighting_spec_323_ovf_c = |lighting_spec_323_r[19:18];
-  wire [17:0] lighting_spec_323_d = lighting_spec_323_ovf_c ? 18'h3ffff : lighting_spec_323_r[17:0];
-  reg  [17:0] lighting_spec_323_q;
-  wire [35:0] t324 = lighting_spec_323_q * lighting_spec_323_q;
-  wire lighting_spec_325_tie = t324[16] & ~(|t324[15:0]);
-  wire [19:0] lighting_spec_325_up = {1'b0, t324[35:17]} + {{19{1'b0}}, t324[16]};
-  wire [19:0] lighting_spec_325_r =
-      {lighting_spec_325_up[19:1], lighting_spec_325_up[0] & ~lighting_spec_325_tie};
-  wire lighting_spec_325_ovf_c = |lighting_spec_325_r[19:18];
-  wire [17:0] lighting_spec_325_d = lighting_spec_325_ovf_c ? 18'h3ffff : lighting_spec_325_r[17:0];
-  reg  [17:0] lighting_spec_325_q;
-  wire [35:0] t326 = lighting_spec_325_q * lighting_spec_325_q;
-  wire lighting_spec_327_tie = t326[16] & ~(|t326[15:0]);
-  wire [19:0] lighting_spec_327_up = {1'b0, t326[35:17]} + {{19{1'b0}}, t326[16]};
-  wire [19:0] lighting_spec_327_r =
-      {lighting_spec_327_up[19:1], lighting_spec_327_up[0] & ~lighting_spec_327_tie};
-  wire lighting_spec_327_ovf_c = |lighting_spec_327_r[19:18];
-  wire [17:0] lighting_spec_327_d = lighting_spec_327_ovf_c ? 18'h3ffff : lighting_spec_327_r[17:0];
-  reg  [17:0] lighting_spec_327_q;
-  wire [35:0] t328 = lighting_spec_327_q * lighting_spec_327_q;
-  wire lighting_spec_329_tie = t328[16] & ~(|t328[15:0]);
-  wire [19:0] lighting_spec_329_up = {1'b0, t328[35:17]} + {{19{1'b0}}, t328[16]};
-  wire [19:0] lighting_spec_329_r =
-      {lighting_spec_329_up[19:1], lighting_spec_329_up[0] & ~lighting_spec_329_tie};
-  wire lighting_spec_329_ovf_c = |lighting_spec_329_r[19:18];
-  wire [17:0] lighting_spec_329_d = lighting_spec_329_ovf_c ? 18'h3ffff : lighting_spec_329_r[17:0];
-  reg  [17:0] lighting_spec_329_q;
-  wire signed [16:0] t330_b = $signed({1'b0, K43});
-  wire signed [31:0] t330 = t313 * t330_b;
-  wire [33:0] t331 = lighting_spec_329_q * K44;
-  reg  signed [31:0] t330_s35_q;
-  reg  signed [31:0] t330_s36_q;
-  reg  signed [31:0] t330_s37_q;
-  reg  signed [31:0] t330_s38_q;
-  reg  signed [31:0] t330_s39_q;
-  wire signed [35:0] t332 = $signed({{2{1'b0}}, t331} + {t330_s39_q[31], t330_s39_q, 3'b0});
-  wire lighting_level_333_tie = t332[24] & ~(|t332[23:0]);
-  wire [11:0] lighting_level_333_up = {t332[35], t332[35:25]} + {{11{1'b0}}, t332[24]};
-  wire signed [11:0] lighting_level_333_r =
-      $signed({lighting_level_333_up[11:1], lighting_level_333_up[0] & ~lighting_level_333_tie});
-  wire lighting_level_333_ovf_c = lighting_level_333_r[11] | (|lighting_level_333_r[10:8]);
-  wire [7:0] lighting_level_333_d =
-      lighting_level_333_ovf_c ? (lighting_level_333_r[11] ? 8'h0 : 8'hff)
-      : lighting_level_333_r[7:0];
-  reg  [7:0] lighting_level_333_q;
-  reg  [0:0] interp_weight_50_ovf_s1_q;
-  reg  [0:0] interp_weight_53_ovf_s1_q;
-  reg  [0:0] interp_weight_56_ovf_s1_q;
-  reg  [0:0] interp_weight_58_ovf_s1_q;
-  reg  [0:0] interp_weight_60_ovf_s1_q;
-  reg  [0:0] interp_weight_62_ovf_s1_q;
+  wire signed [31:0] lighting_dot_mul2 = n_z_i_s33_q * lighting_light_2_q;
+  reg  signed [31:0] lighting_dot_mul0_s22_q;
+  reg  signed [31:0] lighting_dot_mul0_s23_q;
+  reg  signed [31:0] lighting_dot_mul0_s24_q;
+  reg  signed [31:0] lighting_dot_mul0_s25_q;
+  reg  signed [31:0] lighting_dot_mul0_s26_q;
+  reg  signed [31:0] lighting_dot_mul0_s27_q;
+  reg  signed [31:0] lighting_dot_mul0_s28_q;
+  reg  signed [31:0] lighting_dot_mul0_s29_q;
+  reg  signed [31:0] lighting_dot_mul0_s30_q;
+  reg  signed [31:0] lighting_dot_mul0_s31_q;
+  reg  signed [31:0] lighting_dot_mul0_s32_q;
+  reg  signed [31:0] lighting_dot_mul0_s33_q;
+  wire signed [32:0] lighting_dot_add0 =
+      $signed({lighting_dot_mul0_s33_q[31], lighting_dot_mul0_s33_q}
+      + {lighting_dot_mul1[31], lighting_dot_mul1});
+  wire signed [33:0] lighting_dot_add1 =
+      $signed({lighting_dot_add0[32], lighting_dot_add0}
+      + {{2{lighting_dot_mul2[31]}}, lighting_dot_mul2});
+  wire lighting_dot_0_tie = lighting_dot_add1[13] & ~(|lighting_dot_add1[12:0]);
+  wire [20:0] lighting_dot_0_up =
+      {lighting_dot_add1[33], lighting_dot_add1[33:14]} + {{20{1'b0}}, lighting_dot_add1[13]};
+  wire signed [20:0] lighting_dot_0_r =
+      $signed({lighting_dot_0_up[20:1], lighting_dot_0_up[0] & ~lighting_dot_0_tie});
+  wire lighting_dot_0_ovf_c = ~((&lighting_dot_0_r[20:15]) | ~(|lighting_dot_0_r[20:15]));
+  wire signed [15:0] lighting_dot_0_d =
+      $signed(lighting_dot_0_ovf_c ? (lighting_dot_0_r[20] ? 16'h8000 : 16'h7fff)
+      : lighting_dot_0_r[15:0]);
+  reg  signed [15:0] lighting_dot_0_q;
+  wire signed [15:0] lighting_level_max0_a = $signed(lighting_dot_0_q);
+  wire signed [15:0] lighting_level_max0_b = $signed(lighting_level_k2);
+  wire signed [15:0] lighting_level_max0 =
+      (lighting_level_max0_a > lighting_level_max0_b) ? lighting_level_max0_a
+      : lighting_level_max0_b;
+  wire signed [31:0] lighting_dot_mul3 = n_x_i_s21_q * lighting_light_3_q;
+  wire signed [31:0] lighting_dot_mul4 = n_y_i_s33_q * lighting_light_4_q;
+  wire signed [31:0] lighting_dot_mul5 = n_z_i_s33_q * lighting_light_5_q;
+  reg  signed [31:0] lighting_dot_mul3_s22_q;
+  reg  signed [31:0] lighting_dot_mul3_s23_q;
+  reg  signed [31:0] lighting_dot_mul3_s24_q;
+  reg  signed [31:0] lighting_dot_mul3_s25_q;
+  reg  signed [31:0] lighting_dot_mul3_s26_q;
+  reg  signed [31:0] lighting_dot_mul3_s27_q;
+  reg  signed [31:0] lighting_dot_mul3_s28_q;
+  reg  signed [31:0] lighting_dot_mul3_s29_q;
+  reg  signed [31:0] lighting_dot_mul3_s30_q;
+  reg  signed [31:0] lighting_dot_mul3_s31_q;
+  reg  signed [31:0] lighting_dot_mul3_s32_q;
+  reg  signed [31:0] lighting_dot_mul3_s33_q;
+  wire signed [32:0] lighting_dot_add2 =
+      $signed({lighting_dot_mul3_s33_q[31], lighting_dot_mul3_s33_q}
+      + {lighting_dot_mul4[31], lighting_dot_mul4});
+  wire signed [33:0] lighting_dot_add3 =
+      $signed({lighting_dot_add2[32], lighting_dot_add2}
+      + {{2{lighting_dot_mul5[31]}}, lighting_dot_mul5});
+  wire lighting_dot_1_tie = lighting_dot_add3[13] & ~(|lighting_dot_add3[12:0]);
+  wire [20:0] lighting_dot_1_up =
+      {lighting_dot_add3[33], lighting_dot_add3[33:14]} + {{20{1'b0}}, lighting_dot_add3[13]};
+  wire signed [20:0] lighting_dot_1_r =
+      $signed({lighting_dot_1_up[20:1], lighting_dot_1_up[0] & ~lighting_dot_1_tie});
+  wire lighting_dot_1_ovf_c = ~((&lighting_dot_1_r[20:15]) | ~(|lighting_dot_1_r[20:15]));
+  wire signed [15:0] lighting_dot_1_d =
+      $signed(lighting_dot_1_ovf_c ? (lighting_dot_1_r[20] ? 16'h8000 : 16'h7fff)
+      : lighting_dot_1_r[15:0]);
+  reg  signed [15:0] lighting_dot_1_q;
+  wire signed [15:0] lighting_spec_max0_a = $signed(lighting_dot_1_q);
+  wire signed [15:0] lighting_spec_max0_b = $signed(lighting_level_k2);
+  wire signed [15:0] lighting_spec_max0 =
+      (lighting_spec_max0_a > lighting_spec_max0_b) ? lighting_spec_max0_a : lighting_spec_max0_b;
+  wire signed [18:0] lighting_spec_0_r = $signed({lighting_spec_max0, 3'b0});
+  wire lighting_spec_0_ovf_c = lighting_spec_0_r[18];
+  wire [17:0] lighting_spec_0_d =
+      lighting_spec_0_ovf_c ? (lighting_spec_0_r[18] ? 18'h0 : 18'h3ffff) : lighting_spec_0_r[17:0];
+  reg  [17:0] lighting_spec_0_q;
+  wire [35:0] lighting_spec_mul0 = lighting_spec_0_q * lighting_spec_0_q;
+  wire lighting_spec_1_tie = lighting_spec_mul0[16] & ~(|lighting_spec_mul0[15:0]);
+  wire [19:0] lighting_spec_1_up =
+      {1'b0, lighting_spec_mul0[35:17]} + {{19{1'b0}}, lighting_spec_mul0[16]};
+  wire [19:0] lighting_spec_1_r =
+      {lighting_spec_1_up[19:1], lighting_spec_1_up[0] & ~lighting_spec_1_tie};
+  wire lighting_spec_1_ovf_c = |lighting_spec_1_r[19:18];
+  wire [17:0] lighting_spec_1_d = lighting_spec_1_ovf_c ? 18'h3ffff : lighting_spec_1_r[17:0];
+  reg  [17:0] lighting_spec_1_q;
+  wire [35:0] lighting_spec_mul1 = lighting_spec_1_q * lighting_spec_1_q;
+  wire lighting_spec_2_tie = lighting_spec_mul1[16] & ~(|lighting_spec_mul1[15:0]);
+  wire [19:0] lighting_spec_2_up =
+      {1'b0, lighting_spec_mul1[35:17]} + {{19{1'b0}}, lighting_spec_mul1[16]};
+  wire [19:0] lighting_spec_2_r =
+      {lighting_spec_2_up[19:1], lighting_spec_2_up[0] & ~lighting_spec_2_tie};
+  wire lighting_spec_2_ovf_c = |lighting_spec_2_r[19:18];
+  wire [17:0] lighting_spec_2_d = lighting_spec_2_ovf_c ? 18'h3ffff : lighting_spec_2_r[17:0];
+  reg  [17:0] lighting_spec_2_q;
+  wire [35:0] lighting_spec_mul2 = lighting_spec_2_q * lighting_spec_2_q;
+  wire lighting_spec_3_tie = lighting_spec_mul2[16] & ~(|lighting_spec_mul2[15:0]);
+  wire [19:0] lighting_spec_3_up =
+      {1'b0, lighting_spec_mul2[35:17]} + {{19{1'b0}}, lighting_spec_mul2[16]};
+  wire [19:0] lighting_spec_3_r =
+      {lighting_spec_3_up[19:1], lighting_spec_3_up[0] & ~lighting_spec_3_tie};
+  wire lighting_spec_3_ovf_c = |lighting_spec_3_r[19:18];
+  wire [17:0] lighting_spec_3_d = lighting_spec_3_ovf_c ? 18'h3ffff : lighting_spec_3_r[17:0];
+  reg  [17:0] lighting_spec_3_q;
+  wire [35:0] lighting_spec_mul3 = lighting_spec_3_q * lighting_spec_3_q;
+  wire lighting_spec_4_tie = lighting_spec_mul3[16] & ~(|lighting_spec_mul3[15:0]);
+  wire [19:0] lighting_spec_4_up =
+      {1'b0, lighting_spec_mul3[35:17]} + {{19{1'b0}}, lighting_spec_mul3[16]};
+  wire [19:0] lighting_spec_4_r =
+      {lighting_spec_4_up[19:1], lighting_spec_4_up[0] & ~lighting_spec_4_tie};
+  wire lighting_spec_4_ovf_c = |lighting_spec_4_r[19:18];
+  wire [17:0] lighting_spec_4_d = lighting_spec_4_ovf_c ? 18'h3ffff : lighting_spec_4_r[17:0];
+  reg  [17:0] lighting_spec_4_q;
+  wire signed [16:0] lighting_level_mul0_b = $signed({1'b0, lighting_level_k0});
+  wire signed [31:0] lighting_level_mul0 = lighting_level_max0 * lighting_level_mul0_b;
+  wire [33:0] lighting_level_mul1 = lighting_spec_4_q * lighting_level_k1;
+  reg  signed [31:0] lighting_level_mul0_s35_q;
+  reg  signed [31:0] lighting_level_mul0_s36_q;
+  reg  signed [31:0] lighting_level_mul0_s37_q;
+  reg  signed [31:0] lighting_level_mul0_s38_q;
+  reg  signed [31:0] lighting_level_mul0_s39_q;
+  wire signed [35:0] lighting_level_add0 =
+      $signed({{2{1'b0}}, lighting_level_mul1}
+      + {lighting_level_mul0_s39_q[31], lighting_level_mul0_s39_q, 3'b0});
+  wire lighting_level_0_tie = lighting_level_add0[24] & ~(|lighting_level_add0[23:0]);
+  wire [11:0] lighting_level_0_up =
+      {lighting_level_add0[35], lighting_level_add0[35:25]} + {{11{1'b0}}, lighting_level_add0[24]};
+  wire signed [11:0] lighting_level_0_r =
+      $signed({lighting_level_0_up[11:1], lighting_level_0_up[0] & ~lighting_level_0_tie});
+  wire lighting_level_0_ovf_c = lighting_level_0_r[11] | (|lighting_level_0_r[10:8]);
+  wire [7:0] lighting_level_0_d =
+      lighting_level_0_ovf_c ? (lighting_level_0_r[11] ? 8'h0 : 8'hff) : lighting_level_0_r[7:0];
+  reg  [7:0] lighting_level_0_q;
+  reg  [0:0] interp_weight_0_ovf_s1_q;
+  reg  [0:0] interp_weight_1_ovf_s1_q;
+  reg  [0:0] interp_weight_2_ovf_s1_q;
+  reg  [0:0] interp_weight_3_ovf_s1_q;
+  reg  [0:0] interp_weight_4_ovf_s1_q;
+  reg  [0:0] interp_weight_5_ovf_s1_q;
   wire ovf0_or_s1 =
-      interp_weight_50_ovf_s1_q | interp_weight_53_ovf_s1_q | interp_weight_56_ovf_s1_q
-          | interp_weight_58_ovf_s1_q
-      | interp_weight_60_ovf_s1_q | interp_weight_62_ovf_s1_q;
+      interp_weight_0_ovf_s1_q | interp_weight_1_ovf_s1_q | interp_weight_2_ovf_s1_q
+          | interp_weight_3_ovf_s1_q
+      | interp_weight_4_ovf_s1_q | interp_weight_5_ovf_s1_q;
   reg  [0:0] ovf0_s2_q;
   reg  [0:0] ovf0_s3_q;
   reg  [0:0] ovf0_s4_q;
@@ -2510,11 +2578,11 @@ module pipeline_mapped (
   reg  [0:0] ovf0_s38_q;
   reg  [0:0] ovf0_s39_q;
   reg  [0:0] ovf0_s40_q;
-  reg  [0:0] interp_out_74_ovf_s2_q;
-  reg  [0:0] interp_out_86_ovf_s2_q;
-  reg  [0:0] interp_out_98_ovf_s2_q;
+  reg  [0:0] interp_out_0_ovf_s2_q;
+  reg  [0:0] interp_out_1_ovf_s2_q;
+  reg  [0:0] interp_out_2_ovf_s2_q;
   wire ovf1_or_s2 =
-      interp_out_74_ovf_s2_q | interp_out_86_ovf_s2_q | interp_out_98_ovf_s2_q;
+      interp_out_0_ovf_s2_q | interp_out_1_ovf_s2_q | interp_out_2_ovf_s2_q;
   reg  [0:0] ovf1_s3_q;
   reg  [0:0] ovf1_s4_q;
   reg  [0:0] ovf1_s5_q;
@@ -2553,118 +2621,118 @@ module pipeline_mapped (
   reg  [0:0] ovf1_s38_q;
   reg  [0:0] ovf1_s39_q;
   reg  [0:0] ovf1_s40_q;
-  reg  [0:0] angles_xy_111_ovf_s5_q;
-  reg  [0:0] angles_xy_112_ovf_s5_q;
-  reg  [0:0] angles_xy_117_ovf_s6_q;
-  reg  [0:0] angles_xy_118_ovf_s6_q;
-  reg  [0:0] angles_xy_123_ovf_s7_q;
-  reg  [0:0] angles_xy_124_ovf_s7_q;
-  reg  [0:0] angles_xy_129_ovf_s8_q;
-  reg  [0:0] angles_xy_130_ovf_s8_q;
-  reg  [0:0] angles_xy_135_ovf_s9_q;
-  reg  [0:0] angles_xy_136_ovf_s9_q;
-  reg  [0:0] angles_xy_141_ovf_s10_q;
-  reg  [0:0] angles_xy_142_ovf_s10_q;
-  reg  [0:0] angles_xy_147_ovf_s11_q;
-  reg  [0:0] angles_xy_148_ovf_s11_q;
-  reg  [0:0] angles_xy_153_ovf_s12_q;
-  reg  [0:0] angles_xy_154_ovf_s12_q;
-  reg  [0:0] angles_xy_159_ovf_s13_q;
-  reg  [0:0] angles_xy_160_ovf_s13_q;
-  reg  [0:0] angles_xy_165_ovf_s14_q;
-  reg  [0:0] angles_xy_166_ovf_s14_q;
-  reg  [0:0] angles_xy_171_ovf_s15_q;
-  reg  [0:0] angles_xy_172_ovf_s15_q;
-  reg  [0:0] angles_xy_177_ovf_s16_q;
-  reg  [0:0] angles_xy_186_ovf_s17_q;
-  reg  [0:0] angles_xy_187_ovf_s17_q;
-  reg  [0:0] angles_xy_192_ovf_s18_q;
-  reg  [0:0] angles_xy_193_ovf_s18_q;
-  reg  [0:0] angles_xy_198_ovf_s19_q;
-  reg  [0:0] angles_xy_199_ovf_s19_q;
-  reg  [0:0] angles_xy_204_ovf_s20_q;
-  reg  [0:0] angles_xy_205_ovf_s20_q;
-  reg  [0:0] angles_xy_210_ovf_s21_q;
-  reg  [0:0] angles_xy_211_ovf_s21_q;
-  reg  [0:0] angles_xy_216_ovf_s22_q;
-  reg  [0:0] angles_xy_217_ovf_s22_q;
-  reg  [0:0] angles_xy_222_ovf_s23_q;
-  reg  [0:0] angles_xy_223_ovf_s23_q;
-  reg  [0:0] angles_xy_228_ovf_s24_q;
-  reg  [0:0] angles_xy_229_ovf_s24_q;
-  reg  [0:0] angles_xy_234_ovf_s25_q;
-  reg  [0:0] angles_xy_235_ovf_s25_q;
-  reg  [0:0] angles_xy_240_ovf_s26_q;
-  reg  [0:0] angles_xy_241_ovf_s26_q;
-  reg  [0:0] angles_xy_247_ovf_s27_q;
+  reg  [0:0] angles_xy_2_ovf_s5_q;
+  reg  [0:0] angles_xy_3_ovf_s5_q;
+  reg  [0:0] angles_xy_4_ovf_s6_q;
+  reg  [0:0] angles_xy_5_ovf_s6_q;
+  reg  [0:0] angles_xy_6_ovf_s7_q;
+  reg  [0:0] angles_xy_7_ovf_s7_q;
+  reg  [0:0] angles_xy_8_ovf_s8_q;
+  reg  [0:0] angles_xy_9_ovf_s8_q;
+  reg  [0:0] angles_xy_10_ovf_s9_q;
+  reg  [0:0] angles_xy_11_ovf_s9_q;
+  reg  [0:0] angles_xy_12_ovf_s10_q;
+  reg  [0:0] angles_xy_13_ovf_s10_q;
+  reg  [0:0] angles_xy_14_ovf_s11_q;
+  reg  [0:0] angles_xy_15_ovf_s11_q;
+  reg  [0:0] angles_xy_16_ovf_s12_q;
+  reg  [0:0] angles_xy_17_ovf_s12_q;
+  reg  [0:0] angles_xy_18_ovf_s13_q;
+  reg  [0:0] angles_xy_19_ovf_s13_q;
+  reg  [0:0] angles_xy_20_ovf_s14_q;
+  reg  [0:0] angles_xy_21_ovf_s14_q;
+  reg  [0:0] angles_xy_22_ovf_s15_q;
+  reg  [0:0] angles_xy_23_ovf_s15_q;
+  reg  [0:0] angles_xy_24_ovf_s16_q;
+  reg  [0:0] angles_xy_27_ovf_s17_q;
+  reg  [0:0] angles_xy_28_ovf_s17_q;
+  reg  [0:0] angles_xy_29_ovf_s18_q;
+  reg  [0:0] angles_xy_30_ovf_s18_q;
+  reg  [0:0] angles_xy_31_ovf_s19_q;
+  reg  [0:0] angles_xy_32_ovf_s19_q;
+  reg  [0:0] angles_xy_33_ovf_s20_q;
+  reg  [0:0] angles_xy_34_ovf_s20_q;
+  reg  [0:0] angles_xy_35_ovf_s21_q;
+  reg  [0:0] angles_xy_36_ovf_s21_q;
+  reg  [0:0] angles_xy_37_ovf_s22_q;
+  reg  [0:0] angles_xy_38_ovf_s22_q;
+  reg  [0:0] angles_xy_39_ovf_s23_q;
+  reg  [0:0] angles_xy_40_ovf_s23_q;
+  reg  [0:0] angles_xy_41_ovf_s24_q;
+  reg  [0:0] angles_xy_42_ovf_s24_q;
+  reg  [0:0] angles_xy_43_ovf_s25_q;
+  reg  [0:0] angles_xy_44_ovf_s25_q;
+  reg  [0:0] angles_xy_45_ovf_s26_q;
+  reg  [0:0] angles_xy_46_ovf_s26_q;
+  reg  [0:0] angles_xy_48_ovf_s27_q;
   wire ovf3_or_s5 =
-      angles_xy_111_ovf_s5_q | angles_xy_112_ovf_s5_q;
+      angles_xy_2_ovf_s5_q | angles_xy_3_ovf_s5_q;
   reg  [0:0] ovf3_s6_q;
   wire ovf3_or_s6 =
-      ovf3_s6_q | angles_xy_117_ovf_s6_q | angles_xy_118_ovf_s6_q;
+      ovf3_s6_q | angles_xy_4_ovf_s6_q | angles_xy_5_ovf_s6_q;
   reg  [0:0] ovf3_s7_q;
   wire ovf3_or_s7 =
-      ovf3_s7_q | angles_xy_123_ovf_s7_q | angles_xy_124_ovf_s7_q;
+      ovf3_s7_q | angles_xy_6_ovf_s7_q | angles_xy_7_ovf_s7_q;
   reg  [0:0] ovf3_s8_q;
   wire ovf3_or_s8 =
-      ovf3_s8_q | angles_xy_129_ovf_s8_q | angles_xy_130_ovf_s8_q;
+      ovf3_s8_q | angles_xy_8_ovf_s8_q | angles_xy_9_ovf_s8_q;
   reg  [0:0] ovf3_s9_q;
   wire ovf3_or_s9 =
-      ovf3_s9_q | angles_xy_135_ovf_s9_q | angles_xy_136_ovf_s9_q;
+      ovf3_s9_q | angles_xy_10_ovf_s9_q | angles_xy_11_ovf_s9_q;
   reg  [0:0] ovf3_s10_q;
   wire ovf3_or_s10 =
-      ovf3_s10_q | angles_xy_141_ovf_s10_q | angles_xy_142_ovf_s10_q;
+      ovf3_s10_q | angles_xy_12_ovf_s10_q | angles_xy_13_ovf_s10_q;
   reg  [0:0] ovf3_s11_q;
   wire ovf3_or_s11 =
-      ovf3_s11_q | angles_xy_147_ovf_s11_q | angles_xy_148_ovf_s11_q;
+      ovf3_s11_q | angles_xy_14_ovf_s11_q | angles_xy_15_ovf_s11_q;
   reg  [0:0] ovf3_s12_q;
   wire ovf3_or_s12 =
-      ovf3_s12_q | angles_xy_153_ovf_s12_q | angles_xy_154_ovf_s12_q;
+      ovf3_s12_q | angles_xy_16_ovf_s12_q | angles_xy_17_ovf_s12_q;
   reg  [0:0] ovf3_s13_q;
   wire ovf3_or_s13 =
-      ovf3_s13_q | angles_xy_159_ovf_s13_q | angles_xy_160_ovf_s13_q;
+      ovf3_s13_q | angles_xy_18_ovf_s13_q | angles_xy_19_ovf_s13_q;
   reg  [0:0] ovf3_s14_q;
   wire ovf3_or_s14 =
-      ovf3_s14_q | angles_xy_165_ovf_s14_q | angles_xy_166_ovf_s14_q;
+      ovf3_s14_q | angles_xy_20_ovf_s14_q | angles_xy_21_ovf_s14_q;
   reg  [0:0] ovf3_s15_q;
   wire ovf3_or_s15 =
-      ovf3_s15_q | angles_xy_171_ovf_s15_q | angles_xy_172_ovf_s15_q;
+      ovf3_s15_q | angles_xy_22_ovf_s15_q | angles_xy_23_ovf_s15_q;
   reg  [0:0] ovf3_s16_q;
   wire ovf3_or_s16 =
-      ovf3_s16_q | angles_xy_177_ovf_s16_q;
+      ovf3_s16_q | angles_xy_24_ovf_s16_q;
   reg  [0:0] ovf3_s17_q;
   wire ovf3_or_s17 =
-      ovf3_s17_q | angles_xy_186_ovf_s17_q | angles_xy_187_ovf_s17_q;
+      ovf3_s17_q | angles_xy_27_ovf_s17_q | angles_xy_28_ovf_s17_q;
   reg  [0:0] ovf3_s18_q;
   wire ovf3_or_s18 =
-      ovf3_s18_q | angles_xy_192_ovf_s18_q | angles_xy_193_ovf_s18_q;
+      ovf3_s18_q | angles_xy_29_ovf_s18_q | angles_xy_30_ovf_s18_q;
   reg  [0:0] ovf3_s19_q;
   wire ovf3_or_s19 =
-      ovf3_s19_q | angles_xy_198_ovf_s19_q | angles_xy_199_ovf_s19_q;
+      ovf3_s19_q | angles_xy_31_ovf_s19_q | angles_xy_32_ovf_s19_q;
   reg  [0:0] ovf3_s20_q;
   wire ovf3_or_s20 =
-      ovf3_s20_q | angles_xy_204_ovf_s20_q | angles_xy_205_ovf_s20_q;
+      ovf3_s20_q | angles_xy_33_ovf_s20_q | angles_xy_34_ovf_s20_q;
   reg  [0:0] ovf3_s21_q;
   wire ovf3_or_s21 =
-      ovf3_s21_q | angles_xy_210_ovf_s21_q | angles_xy_211_ovf_s21_q;
+      ovf3_s21_q | angles_xy_35_ovf_s21_q | angles_xy_36_ovf_s21_q;
   reg  [0:0] ovf3_s22_q;
   wire ovf3_or_s22 =
-      ovf3_s22_q | angles_xy_216_ovf_s22_q | angles_xy_217_ovf_s22_q;
+      ovf3_s22_q | angles_xy_37_ovf_s22_q | angles_xy_38_ovf_s22_q;
   reg  [0:0] ovf3_s23_q;
   wire ovf3_or_s23 =
-      ovf3_s23_q | angles_xy_222_ovf_s23_q | angles_xy_223_ovf_s23_q;
+      ovf3_s23_q | angles_xy_39_ovf_s23_q | angles_xy_40_ovf_s23_q;
   reg  [0:0] ovf3_s24_q;
   wire ovf3_or_s24 =
-      ovf3_s24_q | angles_xy_228_ovf_s24_q | angles_xy_229_ovf_s24_q;
+      ovf3_s24_q | angles_xy_41_ovf_s24_q | angles_xy_42_ovf_s24_q;
   reg  [0:0] ovf3_s25_q;
   wire ovf3_or_s25 =
-      ovf3_s25_q | angles_xy_234_ovf_s25_q | angles_xy_235_ovf_s25_q;
+      ovf3_s25_q | angles_xy_43_ovf_s25_q | angles_xy_44_ovf_s25_q;
   reg  [0:0] ovf3_s26_q;
   wire ovf3_or_s26 =
-      ovf3_s26_q | angles_xy_240_ovf_s26_q | angles_xy_241_ovf_s26_q;
+      ovf3_s26_q | angles_xy_45_ovf_s26_q | angles_xy_46_ovf_s26_q;
   reg  [0:0] ovf3_s27_q;
   wire ovf3_or_s27 =
-      ovf3_s27_q | angles_xy_247_ovf_s27_q;
+      ovf3_s27_q | angles_xy_48_ovf_s27_q;
   reg  [0:0] ovf3_s28_q;
   reg  [0:0] ovf3_s29_q;
   reg  [0:0] ovf3_s30_q;
@@ -2678,107 +2746,107 @@ module pipeline_mapped (
   reg  [0:0] ovf3_s38_q;
   reg  [0:0] ovf3_s39_q;
   reg  [0:0] ovf3_s40_q;
-  reg  [0:0] angles_theta_107_ovf_s4_q;
-  reg  [0:0] angles_theta_113_ovf_s5_q;
-  reg  [0:0] angles_theta_119_ovf_s6_q;
-  reg  [0:0] angles_theta_125_ovf_s7_q;
-  reg  [0:0] angles_theta_131_ovf_s8_q;
-  reg  [0:0] angles_theta_137_ovf_s9_q;
-  reg  [0:0] angles_theta_143_ovf_s10_q;
-  reg  [0:0] angles_theta_149_ovf_s11_q;
-  reg  [0:0] angles_theta_155_ovf_s12_q;
-  reg  [0:0] angles_theta_161_ovf_s13_q;
-  reg  [0:0] angles_theta_167_ovf_s14_q;
-  reg  [0:0] angles_theta_173_ovf_s15_q;
-  reg  [0:0] angles_theta_179_ovf_s16_q;
-  reg  [0:0] angles_theta_182_ovf_s1_q;
-  reg  [0:0] angles_theta_188_ovf_s5_q;
-  reg  [0:0] angles_theta_194_ovf_s18_q;
-  reg  [0:0] angles_theta_200_ovf_s19_q;
-  reg  [0:0] angles_theta_206_ovf_s20_q;
-  reg  [0:0] angles_theta_212_ovf_s21_q;
-  reg  [0:0] angles_theta_218_ovf_s22_q;
-  reg  [0:0] angles_theta_224_ovf_s23_q;
-  reg  [0:0] angles_theta_230_ovf_s24_q;
-  reg  [0:0] angles_theta_236_ovf_s25_q;
-  reg  [0:0] angles_theta_242_ovf_s26_q;
-  reg  [0:0] angles_theta_248_ovf_s27_q;
-  reg  [0:0] angles_theta_254_ovf_s28_q;
+  reg  [0:0] angles_theta_0_ovf_s4_q;
+  reg  [0:0] angles_theta_1_ovf_s5_q;
+  reg  [0:0] angles_theta_2_ovf_s6_q;
+  reg  [0:0] angles_theta_3_ovf_s7_q;
+  reg  [0:0] angles_theta_4_ovf_s8_q;
+  reg  [0:0] angles_theta_5_ovf_s9_q;
+  reg  [0:0] angles_theta_6_ovf_s10_q;
+  reg  [0:0] angles_theta_7_ovf_s11_q;
+  reg  [0:0] angles_theta_8_ovf_s12_q;
+  reg  [0:0] angles_theta_9_ovf_s13_q;
+  reg  [0:0] angles_theta_10_ovf_s14_q;
+  reg  [0:0] angles_theta_11_ovf_s15_q;
+  reg  [0:0] angles_theta_12_ovf_s16_q;
+  reg  [0:0] angles_theta_13_ovf_s1_q;
+  reg  [0:0] angles_theta_14_ovf_s5_q;
+  reg  [0:0] angles_theta_15_ovf_s18_q;
+  reg  [0:0] angles_theta_16_ovf_s19_q;
+  reg  [0:0] angles_theta_17_ovf_s20_q;
+  reg  [0:0] angles_theta_18_ovf_s21_q;
+  reg  [0:0] angles_theta_19_ovf_s22_q;
+  reg  [0:0] angles_theta_20_ovf_s23_q;
+  reg  [0:0] angles_theta_21_ovf_s24_q;
+  reg  [0:0] angles_theta_22_ovf_s25_q;
+  reg  [0:0] angles_theta_23_ovf_s26_q;
+  reg  [0:0] angles_theta_24_ovf_s27_q;
+  reg  [0:0] angles_theta_25_ovf_s28_q;
   reg  [0:0] ovf4_s2_q;
   reg  [0:0] ovf4_s3_q;
   reg  [0:0] ovf4_s4_q;
   wire ovf4_or_s4 =
-      ovf4_s4_q | angles_theta_107_ovf_s4_q;
+      ovf4_s4_q | angles_theta_0_ovf_s4_q;
   reg  [0:0] ovf4_s5_q;
   wire ovf4_or_s5 =
-      ovf4_s5_q | angles_theta_113_ovf_s5_q | angles_theta_188_ovf_s5_q;
+      ovf4_s5_q | angles_theta_1_ovf_s5_q | angles_theta_14_ovf_s5_q;
   reg  [0:0] ovf4_s6_q;
   wire ovf4_or_s6 =
-      ovf4_s6_q | angles_theta_119_ovf_s6_q;
+      ovf4_s6_q | angles_theta_2_ovf_s6_q;
   reg  [0:0] ovf4_s7_q;
   wire ovf4_or_s7 =
-      ovf4_s7_q | angles_theta_125_ovf_s7_q;
+      ovf4_s7_q | angles_theta_3_ovf_s7_q;
   reg  [0:0] ovf4_s8_q;
   wire ovf4_or_s8 =
-      ovf4_s8_q | angles_theta_131_ovf_s8_q;
+      ovf4_s8_q | angles_theta_4_ovf_s8_q;
   reg  [0:0] ovf4_s9_q;
   wire ovf4_or_s9 =
-      ovf4_s9_q | angles_theta_137_ovf_s9_q;
+      ovf4_s9_q | angles_theta_5_ovf_s9_q;
   reg  [0:0] ovf4_s10_q;
   wire ovf4_or_s10 =
-      ovf4_s10_q | angles_theta_143_ovf_s10_q;
+      ovf4_s10_q | angles_theta_6_ovf_s10_q;
   reg  [0:0] ovf4_s11_q;
   wire ovf4_or_s11 =
-      ovf4_s11_q | angles_theta_149_ovf_s11_q;
+      ovf4_s11_q | angles_theta_7_ovf_s11_q;
   reg  [0:0] ovf4_s12_q;
   wire ovf4_or_s12 =
-      ovf4_s12_q | angles_theta_155_ovf_s12_q;
+      ovf4_s12_q | angles_theta_8_ovf_s12_q;
   reg  [0:0] ovf4_s13_q;
   wire ovf4_or_s13 =
-      ovf4_s13_q | angles_theta_161_ovf_s13_q;
+      ovf4_s13_q | angles_theta_9_ovf_s13_q;
   reg  [0:0] ovf4_s14_q;
   wire ovf4_or_s14 =
-      ovf4_s14_q | angles_theta_167_ovf_s14_q;
+      ovf4_s14_q | angles_theta_10_ovf_s14_q;
   reg  [0:0] ovf4_s15_q;
   wire ovf4_or_s15 =
-      ovf4_s15_q | angles_theta_173_ovf_s15_q;
+      ovf4_s15_q | angles_theta_11_ovf_s15_q;
   reg  [0:0] ovf4_s16_q;
   wire ovf4_or_s16 =
-      ovf4_s16_q | angles_theta_179_ovf_s16_q;
+      ovf4_s16_q | angles_theta_12_ovf_s16_q;
   reg  [0:0] ovf4_s17_q;
   reg  [0:0] ovf4_s18_q;
   wire ovf4_or_s18 =
-      ovf4_s18_q | angles_theta_194_ovf_s18_q;
+      ovf4_s18_q | angles_theta_15_ovf_s18_q;
   reg  [0:0] ovf4_s19_q;
   wire ovf4_or_s19 =
-      ovf4_s19_q | angles_theta_200_ovf_s19_q;
+      ovf4_s19_q | angles_theta_16_ovf_s19_q;
   reg  [0:0] ovf4_s20_q;
   wire ovf4_or_s20 =
-      ovf4_s20_q | angles_theta_206_ovf_s20_q;
+      ovf4_s20_q | angles_theta_17_ovf_s20_q;
   reg  [0:0] ovf4_s21_q;
   wire ovf4_or_s21 =
-      ovf4_s21_q | angles_theta_212_ovf_s21_q;
+      ovf4_s21_q | angles_theta_18_ovf_s21_q;
   reg  [0:0] ovf4_s22_q;
   wire ovf4_or_s22 =
-      ovf4_s22_q | angles_theta_218_ovf_s22_q;
+      ovf4_s22_q | angles_theta_19_ovf_s22_q;
   reg  [0:0] ovf4_s23_q;
   wire ovf4_or_s23 =
-      ovf4_s23_q | angles_theta_224_ovf_s23_q;
+      ovf4_s23_q | angles_theta_20_ovf_s23_q;
   reg  [0:0] ovf4_s24_q;
   wire ovf4_or_s24 =
-      ovf4_s24_q | angles_theta_230_ovf_s24_q;
+      ovf4_s24_q | angles_theta_21_ovf_s24_q;
   reg  [0:0] ovf4_s25_q;
   wire ovf4_or_s25 =
-      ovf4_s25_q | angles_theta_236_ovf_s25_q;
+      ovf4_s25_q | angles_theta_22_ovf_s25_q;
   reg  [0:0] ovf4_s26_q;
   wire ovf4_or_s26 =
-      ovf4_s26_q | angles_theta_242_ovf_s26_q;
+      ovf4_s26_q | angles_theta_23_ovf_s26_q;
   reg  [0:0] ovf4_s27_q;
   wire ovf4_or_s27 =
-      ovf4_s27_q | angles_theta_248_ovf_s27_q;
+      ovf4_s27_q | angles_theta_24_ovf_s27_q;
   reg  [0:0] ovf4_s28_q;
   wire ovf4_or_s28 =
-      ovf4_s28_q | angles_theta_254_ovf_s28_q;
+      ovf4_s28_q | angles_theta_25_ovf_s28_q;
   reg  [0:0] ovf4_s29_q;
   reg  [0:0] ovf4_s30_q;
   reg  [0:0] ovf4_s31_q;
@@ -2791,8 +2859,8 @@ module pipeline_mapped (
   reg  [0:0] ovf4_s38_q;
   reg  [0:0] ovf4_s39_q;
   reg  [0:0] ovf4_s40_q;
-  reg  [0:0] angles_out_255_ovf_s29_q;
-  reg  [0:0] angles_out_256_ovf_s17_q;
+  reg  [0:0] angles_out_0_ovf_s29_q;
+  reg  [0:0] angles_out_1_ovf_s17_q;
   reg  [0:0] ovf5_s18_q;
   reg  [0:0] ovf5_s19_q;
   reg  [0:0] ovf5_s20_q;
@@ -2806,7 +2874,7 @@ module pipeline_mapped (
   reg  [0:0] ovf5_s28_q;
   reg  [0:0] ovf5_s29_q;
   wire ovf5_or_s29 =
-      ovf5_s29_q | angles_out_255_ovf_s29_q;
+      ovf5_s29_q | angles_out_0_ovf_s29_q;
   reg  [0:0] ovf5_s30_q;
   reg  [0:0] ovf5_s31_q;
   reg  [0:0] ovf5_s32_q;
@@ -2818,10 +2886,10 @@ module pipeline_mapped (
   reg  [0:0] ovf5_s38_q;
   reg  [0:0] ovf5_s39_q;
   reg  [0:0] ovf5_s40_q;
-  reg  [0:0] polar_index_259_ovf_s18_q;
-  reg  [0:0] polar_index_281_ovf_s18_q;
+  reg  [0:0] polar_index_1_ovf_s18_q;
+  reg  [0:0] polar_index_4_ovf_s18_q;
   wire ovf6_or_s18 =
-      polar_index_259_ovf_s18_q | polar_index_281_ovf_s18_q;
+      polar_index_1_ovf_s18_q | polar_index_4_ovf_s18_q;
   reg  [0:0] ovf6_s19_q;
   reg  [0:0] ovf6_s20_q;
   reg  [0:0] ovf6_s21_q;
@@ -2844,10 +2912,10 @@ module pipeline_mapped (
   reg  [0:0] ovf6_s38_q;
   reg  [0:0] ovf6_s39_q;
   reg  [0:0] ovf6_s40_q;
-  reg  [0:0] polar_lyz_268_ovf_s20_q;
-  reg  [0:0] polar_lyz_290_ovf_s20_q;
+  reg  [0:0] polar_lyz_0_ovf_s20_q;
+  reg  [0:0] polar_lyz_1_ovf_s20_q;
   wire ovf7_or_s20 =
-      polar_lyz_268_ovf_s20_q | polar_lyz_290_ovf_s20_q;
+      polar_lyz_0_ovf_s20_q | polar_lyz_1_ovf_s20_q;
   reg  [0:0] ovf7_s21_q;
   reg  [0:0] ovf7_s22_q;
   reg  [0:0] ovf7_s23_q;
@@ -2868,14 +2936,14 @@ module pipeline_mapped (
   reg  [0:0] ovf7_s38_q;
   reg  [0:0] ovf7_s39_q;
   reg  [0:0] ovf7_s40_q;
-  reg  [0:0] polar_out_270_ovf_s20_q;
-  reg  [0:0] polar_out_274_ovf_s32_q;
-  reg  [0:0] polar_out_278_ovf_s32_q;
-  reg  [0:0] polar_out_292_ovf_s20_q;
-  reg  [0:0] polar_out_296_ovf_s32_q;
-  reg  [0:0] polar_out_300_ovf_s32_q;
+  reg  [0:0] polar_out_0_ovf_s20_q;
+  reg  [0:0] polar_out_1_ovf_s32_q;
+  reg  [0:0] polar_out_2_ovf_s32_q;
+  reg  [0:0] polar_out_3_ovf_s20_q;
+  reg  [0:0] polar_out_4_ovf_s32_q;
+  reg  [0:0] polar_out_5_ovf_s32_q;
   wire ovf8_or_s20 =
-      polar_out_270_ovf_s20_q | polar_out_292_ovf_s20_q;
+      polar_out_0_ovf_s20_q | polar_out_3_ovf_s20_q;
   reg  [0:0] ovf8_s21_q;
   reg  [0:0] ovf8_s22_q;
   reg  [0:0] ovf8_s23_q;
@@ -2889,8 +2957,8 @@ module pipeline_mapped (
   reg  [0:0] ovf8_s31_q;
   reg  [0:0] ovf8_s32_q;
   wire ovf8_or_s32 =
-      ovf8_s32_q | polar_out_274_ovf_s32_q | polar_out_278_ovf_s32_q | polar_out_296_ovf_s32_q
-      | polar_out_300_ovf_s32_q;
+      ovf8_s32_q | polar_out_1_ovf_s32_q | polar_out_2_ovf_s32_q | polar_out_4_ovf_s32_q
+      | polar_out_5_ovf_s32_q;
   reg  [0:0] ovf8_s33_q;
   reg  [0:0] ovf8_s34_q;
   reg  [0:0] ovf8_s35_q;
@@ -2899,35 +2967,35 @@ module pipeline_mapped (
   reg  [0:0] ovf8_s38_q;
   reg  [0:0] ovf8_s39_q;
   reg  [0:0] ovf8_s40_q;
-  reg  [0:0] lighting_dot_312_ovf_s34_q;
-  reg  [0:0] lighting_dot_319_ovf_s34_q;
+  reg  [0:0] lighting_dot_0_ovf_s34_q;
+  reg  [0:0] lighting_dot_1_ovf_s34_q;
   wire ovf10_or_s34 =
-      lighting_dot_312_ovf_s34_q | lighting_dot_319_ovf_s34_q;
+      lighting_dot_0_ovf_s34_q | lighting_dot_1_ovf_s34_q;
   reg  [0:0] ovf10_s35_q;
   reg  [0:0] ovf10_s36_q;
   reg  [0:0] ovf10_s37_q;
   reg  [0:0] ovf10_s38_q;
   reg  [0:0] ovf10_s39_q;
   reg  [0:0] ovf10_s40_q;
-  reg  [0:0] lighting_spec_321_ovf_s35_q;
-  reg  [0:0] lighting_spec_323_ovf_s36_q;
-  reg  [0:0] lighting_spec_325_ovf_s37_q;
-  reg  [0:0] lighting_spec_327_ovf_s38_q;
-  reg  [0:0] lighting_spec_329_ovf_s39_q;
+  reg  [0:0] lighting_spec_0_ovf_s35_q;
+  reg  [0:0] lighting_spec_1_ovf_s36_q;
+  reg  [0:0] lighting_spec_2_ovf_s37_q;
+  reg  [0:0] lighting_spec_3_ovf_s38_q;
+  reg  [0:0] lighting_spec_4_ovf_s39_q;
   reg  [0:0] ovf11_s36_q;
   wire ovf11_or_s36 =
-      ovf11_s36_q | lighting_spec_323_ovf_s36_q;
+      ovf11_s36_q | lighting_spec_1_ovf_s36_q;
   reg  [0:0] ovf11_s37_q;
   wire ovf11_or_s37 =
-      ovf11_s37_q | lighting_spec_325_ovf_s37_q;
+      ovf11_s37_q | lighting_spec_2_ovf_s37_q;
   reg  [0:0] ovf11_s38_q;
   wire ovf11_or_s38 =
-      ovf11_s38_q | lighting_spec_327_ovf_s38_q;
+      ovf11_s38_q | lighting_spec_3_ovf_s38_q;
   reg  [0:0] ovf11_s39_q;
   wire ovf11_or_s39 =
-      ovf11_s39_q | lighting_spec_329_ovf_s39_q;
+      ovf11_s39_q | lighting_spec_4_ovf_s39_q;
   reg  [0:0] ovf11_s40_q;
-  reg  [0:0] lighting_level_333_ovf_s40_q;
+  reg  [0:0] lighting_level_0_ovf_s40_q;
 
   // Stage loads: the item entering stage k is valid and the stages move.
   wire load_s1 = in_take;
@@ -2975,49 +3043,49 @@ module pipeline_mapped (
   // registers load only with a valid item, so bubbles do not toggle them.
   always @(posedge clk_i) begin
     if (load_s1) begin
-      interp_weight_50_q <= interp_weight_50_d;
-      interp_weight_53_q <= interp_weight_53_d;
-      interp_weight_56_q <= interp_weight_56_d;
-      interp_weight_58_q <= interp_weight_58_d;
-      interp_weight_60_q <= interp_weight_60_d;
-      interp_weight_62_q <= interp_weight_62_d;
-      angles_theta_182_q <= angles_theta_182_d;
-      polar_index_257_q <= polar_index_257_d;
-      polar_index_279_q <= polar_index_279_d;
+      interp_weight_0_q <= interp_weight_0_d;
+      interp_weight_1_q <= interp_weight_1_d;
+      interp_weight_2_q <= interp_weight_2_d;
+      interp_weight_3_q <= interp_weight_3_d;
+      interp_weight_4_q <= interp_weight_4_d;
+      interp_weight_5_q <= interp_weight_5_d;
+      angles_theta_13_q <= angles_theta_13_d;
+      polar_index_0_q <= polar_index_0_d;
+      polar_index_3_q <= polar_index_3_d;
       n_x_i_s1_q <= n_x_i;
       n_y_i_s1_q <= n_y_i;
       n_z_i_s1_q <= n_z_i;
-      interp_weight_50_ovf_s1_q <= interp_weight_50_ovf_c;
-      interp_weight_53_ovf_s1_q <= interp_weight_53_ovf_c;
-      interp_weight_56_ovf_s1_q <= interp_weight_56_ovf_c;
-      interp_weight_58_ovf_s1_q <= interp_weight_58_ovf_c;
-      interp_weight_60_ovf_s1_q <= interp_weight_60_ovf_c;
-      interp_weight_62_ovf_s1_q <= interp_weight_62_ovf_c;
-      angles_theta_182_ovf_s1_q <= angles_theta_182_ovf_c;
+      interp_weight_0_ovf_s1_q <= interp_weight_0_ovf_c;
+      interp_weight_1_ovf_s1_q <= interp_weight_1_ovf_c;
+      interp_weight_2_ovf_s1_q <= interp_weight_2_ovf_c;
+      interp_weight_3_ovf_s1_q <= interp_weight_3_ovf_c;
+      interp_weight_4_ovf_s1_q <= interp_weight_4_ovf_c;
+      interp_weight_5_ovf_s1_q <= interp_weight_5_ovf_c;
+      angles_theta_13_ovf_s1_q <= angles_theta_13_ovf_c;
     end
     if (load_s2) begin
-      interp_out_74_q <= interp_out_74_d;
-      interp_out_86_q <= interp_out_86_d;
-      interp_out_98_q <= interp_out_98_d;
-      angles_theta_182_s2_q <= angles_theta_182_q;
-      polar_index_257_s2_q <= polar_index_257_q;
-      polar_index_279_s2_q <= polar_index_279_q;
+      interp_out_0_q <= interp_out_0_d;
+      interp_out_1_q <= interp_out_1_d;
+      interp_out_2_q <= interp_out_2_d;
+      angles_theta_13_s2_q <= angles_theta_13_q;
+      polar_index_0_s2_q <= polar_index_0_q;
+      polar_index_3_s2_q <= polar_index_3_q;
       n_x_i_s2_q <= n_x_i_s1_q;
       n_y_i_s2_q <= n_y_i_s1_q;
       n_z_i_s2_q <= n_z_i_s1_q;
       ovf0_s2_q <= ovf0_or_s1;
-      interp_out_74_ovf_s2_q <= interp_out_74_ovf_c;
-      interp_out_86_ovf_s2_q <= interp_out_86_ovf_c;
-      interp_out_98_ovf_s2_q <= interp_out_98_ovf_c;
-      ovf4_s2_q <= angles_theta_182_ovf_s1_q;
+      interp_out_0_ovf_s2_q <= interp_out_0_ovf_c;
+      interp_out_1_ovf_s2_q <= interp_out_1_ovf_c;
+      interp_out_2_ovf_s2_q <= interp_out_2_ovf_c;
+      ovf4_s2_q <= angles_theta_13_ovf_s1_q;
     end
     if (load_s3) begin
-      angles_normal_99_q <= angles_normal_99_d;
-      angles_normal_100_q <= angles_normal_100_d;
-      angles_normal_101_q <= angles_normal_101_d;
-      angles_theta_182_s3_q <= angles_theta_182_s2_q;
-      polar_index_257_s3_q <= polar_index_257_s2_q;
-      polar_index_279_s3_q <= polar_index_279_s2_q;
+      angles_normal_0_q <= angles_normal_0_d;
+      angles_normal_1_q <= angles_normal_1_d;
+      angles_normal_2_q <= angles_normal_2_d;
+      angles_theta_13_s3_q <= angles_theta_13_s2_q;
+      polar_index_0_s3_q <= polar_index_0_s2_q;
+      polar_index_3_s3_q <= polar_index_3_s2_q;
       n_x_i_s3_q <= n_x_i_s2_q;
       n_y_i_s3_q <= n_y_i_s2_q;
       n_z_i_s3_q <= n_z_i_s2_q;
@@ -3026,370 +3094,370 @@ module pipeline_mapped (
       ovf4_s3_q <= ovf4_s2_q;
     end
     if (load_s4) begin
-      angles_xy_105_q <= angles_xy_105_d;
-      angles_xy_106_q <= angles_xy_106_d;
-      angles_theta_107_q <= angles_theta_107_d;
-      angles_xy_181_q <= angles_xy_181_d;
-      angles_theta_182_s4_q <= angles_theta_182_s3_q;
-      polar_index_257_s4_q <= polar_index_257_s3_q;
-      polar_index_279_s4_q <= polar_index_279_s3_q;
+      angles_xy_0_q <= angles_xy_0_d;
+      angles_xy_1_q <= angles_xy_1_d;
+      angles_theta_0_q <= angles_theta_0_d;
+      angles_xy_26_q <= angles_xy_26_d;
+      angles_theta_13_s4_q <= angles_theta_13_s3_q;
+      polar_index_0_s4_q <= polar_index_0_s3_q;
+      polar_index_3_s4_q <= polar_index_3_s3_q;
       n_x_i_s4_q <= n_x_i_s3_q;
       n_y_i_s4_q <= n_y_i_s3_q;
       n_z_i_s4_q <= n_z_i_s3_q;
       ovf0_s4_q <= ovf0_s3_q;
       ovf1_s4_q <= ovf1_s3_q;
-      angles_theta_107_ovf_s4_q <= angles_theta_107_ovf_c;
+      angles_theta_0_ovf_s4_q <= angles_theta_0_ovf_c;
       ovf4_s4_q <= ovf4_s3_q;
     end
     if (load_s5) begin
-      angles_xy_111_q <= angles_xy_111_d;
-      angles_xy_112_q <= angles_xy_112_d;
-      angles_theta_113_q <= angles_theta_113_d;
-      angles_xy_181_s5_q <= angles_xy_181_q;
-      angles_theta_188_q <= angles_theta_188_d;
-      polar_index_257_s5_q <= polar_index_257_s4_q;
-      polar_index_279_s5_q <= polar_index_279_s4_q;
+      angles_xy_2_q <= angles_xy_2_d;
+      angles_xy_3_q <= angles_xy_3_d;
+      angles_theta_1_q <= angles_theta_1_d;
+      angles_xy_26_s5_q <= angles_xy_26_q;
+      angles_theta_14_q <= angles_theta_14_d;
+      polar_index_0_s5_q <= polar_index_0_s4_q;
+      polar_index_3_s5_q <= polar_index_3_s4_q;
       n_x_i_s5_q <= n_x_i_s4_q;
       n_y_i_s5_q <= n_y_i_s4_q;
       n_z_i_s5_q <= n_z_i_s4_q;
       ovf0_s5_q <= ovf0_s4_q;
       ovf1_s5_q <= ovf1_s4_q;
-      angles_xy_111_ovf_s5_q <= angles_xy_111_ovf_c;
-      angles_xy_112_ovf_s5_q <= angles_xy_112_ovf_c;
-      angles_theta_113_ovf_s5_q <= angles_theta_113_ovf_c;
-      angles_theta_188_ovf_s5_q <= angles_theta_188_ovf_c;
+      angles_xy_2_ovf_s5_q <= angles_xy_2_ovf_c;
+      angles_xy_3_ovf_s5_q <= angles_xy_3_ovf_c;
+      angles_theta_1_ovf_s5_q <= angles_theta_1_ovf_c;
+      angles_theta_14_ovf_s5_q <= angles_theta_14_ovf_c;
       ovf4_s5_q <= ovf4_or_s4;
     end
     if (load_s6) begin
-      angles_xy_117_q <= angles_xy_117_d;
-      angles_xy_118_q <= angles_xy_118_d;
-      angles_theta_119_q <= angles_theta_119_d;
-      angles_xy_181_s6_q <= angles_xy_181_s5_q;
-      angles_theta_188_s6_q <= angles_theta_188_q;
-      polar_index_257_s6_q <= polar_index_257_s5_q;
-      polar_index_279_s6_q <= polar_index_279_s5_q;
+      angles_xy_4_q <= angles_xy_4_d;
+      angles_xy_5_q <= angles_xy_5_d;
+      angles_theta_2_q <= angles_theta_2_d;
+      angles_xy_26_s6_q <= angles_xy_26_s5_q;
+      angles_theta_14_s6_q <= angles_theta_14_q;
+      polar_index_0_s6_q <= polar_index_0_s5_q;
+      polar_index_3_s6_q <= polar_index_3_s5_q;
       n_x_i_s6_q <= n_x_i_s5_q;
       n_y_i_s6_q <= n_y_i_s5_q;
       n_z_i_s6_q <= n_z_i_s5_q;
       ovf0_s6_q <= ovf0_s5_q;
       ovf1_s6_q <= ovf1_s5_q;
-      angles_xy_117_ovf_s6_q <= angles_xy_117_ovf_c;
-      angles_xy_118_ovf_s6_q <= angles_xy_118_ovf_c;
+      angles_xy_4_ovf_s6_q <= angles_xy_4_ovf_c;
+      angles_xy_5_ovf_s6_q <= angles_xy_5_ovf_c;
       ovf3_s6_q <= ovf3_or_s5;
-      angles_theta_119_ovf_s6_q <= angles_theta_119_ovf_c;
+      angles_theta_2_ovf_s6_q <= angles_theta_2_ovf_c;
       ovf4_s6_q <= ovf4_or_s5;
     end
     if (load_s7) begin
-      angles_xy_123_q <= angles_xy_123_d;
-      angles_xy_124_q <= angles_xy_124_d;
-      angles_theta_125_q <= angles_theta_125_d;
-      angles_xy_181_s7_q <= angles_xy_181_s6_q;
-      angles_theta_188_s7_q <= angles_theta_188_s6_q;
-      polar_index_257_s7_q <= polar_index_257_s6_q;
-      polar_index_279_s7_q <= polar_index_279_s6_q;
+      angles_xy_6_q <= angles_xy_6_d;
+      angles_xy_7_q <= angles_xy_7_d;
+      angles_theta_3_q <= angles_theta_3_d;
+      angles_xy_26_s7_q <= angles_xy_26_s6_q;
+      angles_theta_14_s7_q <= angles_theta_14_s6_q;
+      polar_index_0_s7_q <= polar_index_0_s6_q;
+      polar_index_3_s7_q <= polar_index_3_s6_q;
       n_x_i_s7_q <= n_x_i_s6_q;
       n_y_i_s7_q <= n_y_i_s6_q;
       n_z_i_s7_q <= n_z_i_s6_q;
       ovf0_s7_q <= ovf0_s6_q;
       ovf1_s7_q <= ovf1_s6_q;
-      angles_xy_123_ovf_s7_q <= angles_xy_123_ovf_c;
-      angles_xy_124_ovf_s7_q <= angles_xy_124_ovf_c;
+      angles_xy_6_ovf_s7_q <= angles_xy_6_ovf_c;
+      angles_xy_7_ovf_s7_q <= angles_xy_7_ovf_c;
       ovf3_s7_q <= ovf3_or_s6;
-      angles_theta_125_ovf_s7_q <= angles_theta_125_ovf_c;
+      angles_theta_3_ovf_s7_q <= angles_theta_3_ovf_c;
       ovf4_s7_q <= ovf4_or_s6;
     end
     if (load_s8) begin
-      angles_xy_129_q <= angles_xy_129_d;
-      angles_xy_130_q <= angles_xy_130_d;
-      angles_theta_131_q <= angles_theta_131_d;
-      angles_xy_181_s8_q <= angles_xy_181_s7_q;
-      angles_theta_188_s8_q <= angles_theta_188_s7_q;
-      polar_index_257_s8_q <= polar_index_257_s7_q;
-      polar_index_279_s8_q <= polar_index_279_s7_q;
+      angles_xy_8_q <= angles_xy_8_d;
+      angles_xy_9_q <= angles_xy_9_d;
+      angles_theta_4_q <= angles_theta_4_d;
+      angles_xy_26_s8_q <= angles_xy_26_s7_q;
+      angles_theta_14_s8_q <= angles_theta_14_s7_q;
+      polar_index_0_s8_q <= polar_index_0_s7_q;
+      polar_index_3_s8_q <= polar_index_3_s7_q;
       n_x_i_s8_q <= n_x_i_s7_q;
       n_y_i_s8_q <= n_y_i_s7_q;
       n_z_i_s8_q <= n_z_i_s7_q;
       ovf0_s8_q <= ovf0_s7_q;
       ovf1_s8_q <= ovf1_s7_q;
-      angles_xy_129_ovf_s8_q <= angles_xy_129_ovf_c;
-      angles_xy_130_ovf_s8_q <= angles_xy_130_ovf_c;
+      angles_xy_8_ovf_s8_q <= angles_xy_8_ovf_c;
+      angles_xy_9_ovf_s8_q <= angles_xy_9_ovf_c;
       ovf3_s8_q <= ovf3_or_s7;
-      angles_theta_131_ovf_s8_q <= angles_theta_131_ovf_c;
+      angles_theta_4_ovf_s8_q <= angles_theta_4_ovf_c;
       ovf4_s8_q <= ovf4_or_s7;
     end
     if (load_s9) begin
-      angles_xy_135_q <= angles_xy_135_d;
-      angles_xy_136_q <= angles_xy_136_d;
-      angles_theta_137_q <= angles_theta_137_d;
-      angles_xy_181_s9_q <= angles_xy_181_s8_q;
-      angles_theta_188_s9_q <= angles_theta_188_s8_q;
-      polar_index_257_s9_q <= polar_index_257_s8_q;
-      polar_index_279_s9_q <= polar_index_279_s8_q;
+      angles_xy_10_q <= angles_xy_10_d;
+      angles_xy_11_q <= angles_xy_11_d;
+      angles_theta_5_q <= angles_theta_5_d;
+      angles_xy_26_s9_q <= angles_xy_26_s8_q;
+      angles_theta_14_s9_q <= angles_theta_14_s8_q;
+      polar_index_0_s9_q <= polar_index_0_s8_q;
+      polar_index_3_s9_q <= polar_index_3_s8_q;
       n_x_i_s9_q <= n_x_i_s8_q;
       n_y_i_s9_q <= n_y_i_s8_q;
       n_z_i_s9_q <= n_z_i_s8_q;
       ovf0_s9_q <= ovf0_s8_q;
       ovf1_s9_q <= ovf1_s8_q;
-      angles_xy_135_ovf_s9_q <= angles_xy_135_ovf_c;
-      angles_xy_136_ovf_s9_q <= angles_xy_136_ovf_c;
+      angles_xy_10_ovf_s9_q <= angles_xy_10_ovf_c;
+      angles_xy_11_ovf_s9_q <= angles_xy_11_ovf_c;
       ovf3_s9_q <= ovf3_or_s8;
-      angles_theta_137_ovf_s9_q <= angles_theta_137_ovf_c;
+      angles_theta_5_ovf_s9_q <= angles_theta_5_ovf_c;
       ovf4_s9_q <= ovf4_or_s8;
     end
     if (load_s10) begin
-      angles_xy_141_q <= angles_xy_141_d;
-      angles_xy_142_q <= angles_xy_142_d;
-      angles_theta_143_q <= angles_theta_143_d;
-      angles_xy_181_s10_q <= angles_xy_181_s9_q;
-      angles_theta_188_s10_q <= angles_theta_188_s9_q;
-      polar_index_257_s10_q <= polar_index_257_s9_q;
-      polar_index_279_s10_q <= polar_index_279_s9_q;
+      angles_xy_12_q <= angles_xy_12_d;
+      angles_xy_13_q <= angles_xy_13_d;
+      angles_theta_6_q <= angles_theta_6_d;
+      angles_xy_26_s10_q <= angles_xy_26_s9_q;
+      angles_theta_14_s10_q <= angles_theta_14_s9_q;
+      polar_index_0_s10_q <= polar_index_0_s9_q;
+      polar_index_3_s10_q <= polar_index_3_s9_q;
       n_x_i_s10_q <= n_x_i_s9_q;
       n_y_i_s10_q <= n_y_i_s9_q;
       n_z_i_s10_q <= n_z_i_s9_q;
       ovf0_s10_q <= ovf0_s9_q;
       ovf1_s10_q <= ovf1_s9_q;
-      angles_xy_141_ovf_s10_q <= angles_xy_141_ovf_c;
-      angles_xy_142_ovf_s10_q <= angles_xy_142_ovf_c;
+      angles_xy_12_ovf_s10_q <= angles_xy_12_ovf_c;
+      angles_xy_13_ovf_s10_q <= angles_xy_13_ovf_c;
       ovf3_s10_q <= ovf3_or_s9;
-      angles_theta_143_ovf_s10_q <= angles_theta_143_ovf_c;
+      angles_theta_6_ovf_s10_q <= angles_theta_6_ovf_c;
       ovf4_s10_q <= ovf4_or_s9;
     end
     if (load_s11) begin
-      angles_xy_147_q <= angles_xy_147_d;
-      angles_xy_148_q <= angles_xy_148_d;
-      angles_theta_149_q <= angles_theta_149_d;
-      angles_xy_181_s11_q <= angles_xy_181_s10_q;
-      angles_theta_188_s11_q <= angles_theta_188_s10_q;
-      polar_index_257_s11_q <= polar_index_257_s10_q;
-      polar_index_279_s11_q <= polar_index_279_s10_q;
+      angles_xy_14_q <= angles_xy_14_d;
+      angles_xy_15_q <= angles_xy_15_d;
+      angles_theta_7_q <= angles_theta_7_d;
+      angles_xy_26_s11_q <= angles_xy_26_s10_q;
+      angles_theta_14_s11_q <= angles_theta_14_s10_q;
+      polar_index_0_s11_q <= polar_index_0_s10_q;
+      polar_index_3_s11_q <= polar_index_3_s10_q;
       n_x_i_s11_q <= n_x_i_s10_q;
       n_y_i_s11_q <= n_y_i_s10_q;
       n_z_i_s11_q <= n_z_i_s10_q;
       ovf0_s11_q <= ovf0_s10_q;
       ovf1_s11_q <= ovf1_s10_q;
-      angles_xy_147_ovf_s11_q <= angles_xy_147_ovf_c;
-      angles_xy_148_ovf_s11_q <= angles_xy_148_ovf_c;
+      angles_xy_14_ovf_s11_q <= angles_xy_14_ovf_c;
+      angles_xy_15_ovf_s11_q <= angles_xy_15_ovf_c;
       ovf3_s11_q <= ovf3_or_s10;
-      angles_theta_149_ovf_s11_q <= angles_theta_149_ovf_c;
+      angles_theta_7_ovf_s11_q <= angles_theta_7_ovf_c;
       ovf4_s11_q <= ovf4_or_s10;
     end
     if (load_s12) begin
-      angles_xy_153_q <= angles_xy_153_d;
-      angles_xy_154_q <= angles_xy_154_d;
-      angles_theta_155_q <= angles_theta_155_d;
-      angles_xy_181_s12_q <= angles_xy_181_s11_q;
-      angles_theta_188_s12_q <= angles_theta_188_s11_q;
-      polar_index_257_s12_q <= polar_index_257_s11_q;
-      polar_index_279_s12_q <= polar_index_279_s11_q;
+      angles_xy_16_q <= angles_xy_16_d;
+      angles_xy_17_q <= angles_xy_17_d;
+      angles_theta_8_q <= angles_theta_8_d;
+      angles_xy_26_s12_q <= angles_xy_26_s11_q;
+      angles_theta_14_s12_q <= angles_theta_14_s11_q;
+      polar_index_0_s12_q <= polar_index_0_s11_q;
+      polar_index_3_s12_q <= polar_index_3_s11_q;
       n_x_i_s12_q <= n_x_i_s11_q;
       n_y_i_s12_q <= n_y_i_s11_q;
       n_z_i_s12_q <= n_z_i_s11_q;
       ovf0_s12_q <= ovf0_s11_q;
       ovf1_s12_q <= ovf1_s11_q;
-      angles_xy_153_ovf_s12_q <= angles_xy_153_ovf_c;
-      angles_xy_154_ovf_s12_q <= angles_xy_154_ovf_c;
+      angles_xy_16_ovf_s12_q <= angles_xy_16_ovf_c;
+      angles_xy_17_ovf_s12_q <= angles_xy_17_ovf_c;
       ovf3_s12_q <= ovf3_or_s11;
-      angles_theta_155_ovf_s12_q <= angles_theta_155_ovf_c;
+      angles_theta_8_ovf_s12_q <= angles_theta_8_ovf_c;
       ovf4_s12_q <= ovf4_or_s11;
     end
     if (load_s13) begin
-      angles_xy_159_q <= angles_xy_159_d;
-      angles_xy_160_q <= angles_xy_160_d;
-      angles_theta_161_q <= angles_theta_161_d;
-      angles_xy_181_s13_q <= angles_xy_181_s12_q;
-      angles_theta_188_s13_q <= angles_theta_188_s12_q;
-      polar_index_257_s13_q <= polar_index_257_s12_q;
-      polar_index_279_s13_q <= polar_index_279_s12_q;
+      angles_xy_18_q <= angles_xy_18_d;
+      angles_xy_19_q <= angles_xy_19_d;
+      angles_theta_9_q <= angles_theta_9_d;
+      angles_xy_26_s13_q <= angles_xy_26_s12_q;
+      angles_theta_14_s13_q <= angles_theta_14_s12_q;
+      polar_index_0_s13_q <= polar_index_0_s12_q;
+      polar_index_3_s13_q <= polar_index_3_s12_q;
       n_x_i_s13_q <= n_x_i_s12_q;
       n_y_i_s13_q <= n_y_i_s12_q;
       n_z_i_s13_q <= n_z_i_s12_q;
       ovf0_s13_q <= ovf0_s12_q;
       ovf1_s13_q <= ovf1_s12_q;
-      angles_xy_159_ovf_s13_q <= angles_xy_159_ovf_c;
-      angles_xy_160_ovf_s13_q <= angles_xy_160_ovf_c;
+      angles_xy_18_ovf_s13_q <= angles_xy_18_ovf_c;
+      angles_xy_19_ovf_s13_q <= angles_xy_19_ovf_c;
       ovf3_s13_q <= ovf3_or_s12;
-      angles_theta_161_ovf_s13_q <= angles_theta_161_ovf_c;
+      angles_theta_9_ovf_s13_q <= angles_theta_9_ovf_c;
       ovf4_s13_q <= ovf4_or_s12;
     end
     if (load_s14) begin
-      angles_xy_165_q <= angles_xy_165_d;
-      angles_xy_166_q <= angles_xy_166_d;
-      angles_theta_167_q <= angles_theta_167_d;
-      angles_xy_181_s14_q <= angles_xy_181_s13_q;
-      angles_theta_188_s14_q <= angles_theta_188_s13_q;
-      polar_index_257_s14_q <= polar_index_257_s13_q;
-      polar_index_279_s14_q <= polar_index_279_s13_q;
+      angles_xy_20_q <= angles_xy_20_d;
+      angles_xy_21_q <= angles_xy_21_d;
+      angles_theta_10_q <= angles_theta_10_d;
+      angles_xy_26_s14_q <= angles_xy_26_s13_q;
+      angles_theta_14_s14_q <= angles_theta_14_s13_q;
+      polar_index_0_s14_q <= polar_index_0_s13_q;
+      polar_index_3_s14_q <= polar_index_3_s13_q;
       n_x_i_s14_q <= n_x_i_s13_q;
       n_y_i_s14_q <= n_y_i_s13_q;
       n_z_i_s14_q <= n_z_i_s13_q;
       ovf0_s14_q <= ovf0_s13_q;
       ovf1_s14_q <= ovf1_s13_q;
-      angles_xy_165_ovf_s14_q <= angles_xy_165_ovf_c;
-      angles_xy_166_ovf_s14_q <= angles_xy_166_ovf_c;
+      angles_xy_20_ovf_s14_q <= angles_xy_20_ovf_c;
+      angles_xy_21_ovf_s14_q <= angles_xy_21_ovf_c;
       ovf3_s14_q <= ovf3_or_s13;
-      angles_theta_167_ovf_s14_q <= angles_theta_167_ovf_c;
+      angles_theta_10_ovf_s14_q <= angles_theta_10_ovf_c;
       ovf4_s14_q <= ovf4_or_s13;
     end
     if (load_s15) begin
-      angles_xy_171_q <= angles_xy_171_d;
-      angles_xy_172_q <= angles_xy_172_d;
-      angles_theta_173_q <= angles_theta_173_d;
-      angles_xy_181_s15_q <= angles_xy_181_s14_q;
-      angles_theta_188_s15_q <= angles_theta_188_s14_q;
-      polar_index_257_s15_q <= polar_index_257_s14_q;
-      polar_index_279_s15_q <= polar_index_279_s14_q;
+      angles_xy_22_q <= angles_xy_22_d;
+      angles_xy_23_q <= angles_xy_23_d;
+      angles_theta_11_q <= angles_theta_11_d;
+      angles_xy_26_s15_q <= angles_xy_26_s14_q;
+      angles_theta_14_s15_q <= angles_theta_14_s14_q;
+      polar_index_0_s15_q <= polar_index_0_s14_q;
+      polar_index_3_s15_q <= polar_index_3_s14_q;
       n_x_i_s15_q <= n_x_i_s14_q;
       n_y_i_s15_q <= n_y_i_s14_q;
       n_z_i_s15_q <= n_z_i_s14_q;
       ovf0_s15_q <= ovf0_s14_q;
       ovf1_s15_q <= ovf1_s14_q;
-      angles_xy_171_ovf_s15_q <= angles_xy_171_ovf_c;
-      angles_xy_172_ovf_s15_q <= angles_xy_172_ovf_c;
+      angles_xy_22_ovf_s15_q <= angles_xy_22_ovf_c;
+      angles_xy_23_ovf_s15_q <= angles_xy_23_ovf_c;
       ovf3_s15_q <= ovf3_or_s14;
-      angles_theta_173_ovf_s15_q <= angles_theta_173_ovf_c;
+      angles_theta_11_ovf_s15_q <= angles_theta_11_ovf_c;
       ovf4_s15_q <= ovf4_or_s14;
     end
     if (load_s16) begin
-      angles_xy_177_q <= angles_xy_177_d;
-      angles_theta_179_q <= angles_theta_179_d;
-      angles_xy_181_s16_q <= angles_xy_181_s15_q;
-      angles_theta_188_s16_q <= angles_theta_188_s15_q;
-      polar_index_257_s16_q <= polar_index_257_s15_q;
-      polar_index_279_s16_q <= polar_index_279_s15_q;
+      angles_xy_24_q <= angles_xy_24_d;
+      angles_theta_12_q <= angles_theta_12_d;
+      angles_xy_26_s16_q <= angles_xy_26_s15_q;
+      angles_theta_14_s16_q <= angles_theta_14_s15_q;
+      polar_index_0_s16_q <= polar_index_0_s15_q;
+      polar_index_3_s16_q <= polar_index_3_s15_q;
       n_x_i_s16_q <= n_x_i_s15_q;
       n_y_i_s16_q <= n_y_i_s15_q;
       n_z_i_s16_q <= n_z_i_s15_q;
       ovf0_s16_q <= ovf0_s15_q;
       ovf1_s16_q <= ovf1_s15_q;
-      angles_xy_177_ovf_s16_q <= angles_xy_177_ovf_c;
+      angles_xy_24_ovf_s16_q <= angles_xy_24_ovf_c;
       ovf3_s16_q <= ovf3_or_s15;
-      angles_theta_179_ovf_s16_q <= angles_theta_179_ovf_c;
+      angles_theta_12_ovf_s16_q <= angles_theta_12_ovf_c;
       ovf4_s16_q <= ovf4_or_s15;
     end
     if (load_s17) begin
-      angles_xy_186_q <= angles_xy_186_d;
-      angles_xy_187_q <= angles_xy_187_d;
-      angles_theta_188_s17_q <= angles_theta_188_s16_q;
-      angles_out_256_q <= angles_out_256_d;
-      polar_index_257_s17_q <= polar_index_257_s16_q;
-      polar_index_279_s17_q <= polar_index_279_s16_q;
+      angles_xy_27_q <= angles_xy_27_d;
+      angles_xy_28_q <= angles_xy_28_d;
+      angles_theta_14_s17_q <= angles_theta_14_s16_q;
+      angles_out_1_q <= angles_out_1_d;
+      polar_index_0_s17_q <= polar_index_0_s16_q;
+      polar_index_3_s17_q <= polar_index_3_s16_q;
       n_x_i_s17_q <= n_x_i_s16_q;
       n_y_i_s17_q <= n_y_i_s16_q;
       n_z_i_s17_q <= n_z_i_s16_q;
       ovf0_s17_q <= ovf0_s16_q;
       ovf1_s17_q <= ovf1_s16_q;
-      angles_xy_186_ovf_s17_q <= angles_xy_186_ovf_c;
-      angles_xy_187_ovf_s17_q <= angles_xy_187_ovf_c;
+      angles_xy_27_ovf_s17_q <= angles_xy_27_ovf_c;
+      angles_xy_28_ovf_s17_q <= angles_xy_28_ovf_c;
       ovf3_s17_q <= ovf3_or_s16;
       ovf4_s17_q <= ovf4_or_s16;
-      angles_out_256_ovf_s17_q <= angles_out_256_ovf_c;
+      angles_out_1_ovf_s17_q <= angles_out_1_ovf_c;
     end
     if (load_s18) begin
-      angles_xy_192_q <= angles_xy_192_d;
-      angles_xy_193_q <= angles_xy_193_d;
-      angles_theta_194_q <= angles_theta_194_d;
-      polar_index_259_q <= polar_index_259_d;
-      polar_index_257_s18_q <= polar_index_257_s17_q;
-      polar_index_281_q <= polar_index_281_d;
-      polar_index_279_s18_q <= polar_index_279_s17_q;
+      angles_xy_29_q <= angles_xy_29_d;
+      angles_xy_30_q <= angles_xy_30_d;
+      angles_theta_15_q <= angles_theta_15_d;
+      polar_index_1_q <= polar_index_1_d;
+      polar_index_0_s18_q <= polar_index_0_s17_q;
+      polar_index_4_q <= polar_index_4_d;
+      polar_index_3_s18_q <= polar_index_3_s17_q;
       n_x_i_s18_q <= n_x_i_s17_q;
       n_y_i_s18_q <= n_y_i_s17_q;
       n_z_i_s18_q <= n_z_i_s17_q;
       ovf0_s18_q <= ovf0_s17_q;
       ovf1_s18_q <= ovf1_s17_q;
-      angles_xy_192_ovf_s18_q <= angles_xy_192_ovf_c;
-      angles_xy_193_ovf_s18_q <= angles_xy_193_ovf_c;
+      angles_xy_29_ovf_s18_q <= angles_xy_29_ovf_c;
+      angles_xy_30_ovf_s18_q <= angles_xy_30_ovf_c;
       ovf3_s18_q <= ovf3_or_s17;
-      angles_theta_194_ovf_s18_q <= angles_theta_194_ovf_c;
+      angles_theta_15_ovf_s18_q <= angles_theta_15_ovf_c;
       ovf4_s18_q <= ovf4_s17_q;
-      ovf5_s18_q <= angles_out_256_ovf_s17_q;
-      polar_index_259_ovf_s18_q <= polar_index_259_ovf_c;
-      polar_index_281_ovf_s18_q <= polar_index_281_ovf_c;
+      ovf5_s18_q <= angles_out_1_ovf_s17_q;
+      polar_index_1_ovf_s18_q <= polar_index_1_ovf_c;
+      polar_index_4_ovf_s18_q <= polar_index_4_ovf_c;
     end
     if (load_s19) begin
-      angles_xy_198_q <= angles_xy_198_d;
-      angles_xy_199_q <= angles_xy_199_d;
-      angles_theta_200_q <= angles_theta_200_d;
-      cos_261_raw_q <= quarter_rom[cos_261_a[8:0]];
-      cos_261_top_q <= cos_261_a[9];
-      cos_261_neg_q <= cos_261_j[10];
-      polar_index_257_s19_q <= polar_index_257_s18_q;
-      cos_263_raw_q <= quarter_rom[cos_263_a[8:0]];
-      cos_263_top_q <= cos_263_a[9];
-      cos_263_neg_q <= cos_263_j[10];
-      sin_264_raw_q <= quarter_rom[sin_264_a[8:0]];
-      sin_264_top_q <= sin_264_a[9];
-      sin_264_neg_q <= sin_264_j[10];
-      cos_283_raw_q <= quarter_rom[cos_283_a[8:0]];
-      cos_283_top_q <= cos_283_a[9];
-      cos_283_neg_q <= cos_283_j[10];
-      polar_index_279_s19_q <= polar_index_279_s18_q;
-      cos_285_raw_q <= quarter_rom[cos_285_a[8:0]];
-      cos_285_top_q <= cos_285_a[9];
-      cos_285_neg_q <= cos_285_j[10];
-      sin_286_raw_q <= quarter_rom[sin_286_a[8:0]];
-      sin_286_top_q <= sin_286_a[9];
-      sin_286_neg_q <= sin_286_j[10];
+      angles_xy_31_q <= angles_xy_31_d;
+      angles_xy_32_q <= angles_xy_32_d;
+      angles_theta_16_q <= angles_theta_16_d;
+      cos_0_raw_q <= quarter_rom[cos_0_a[8:0]];
+      cos_0_top_q <= cos_0_a[9];
+      cos_0_neg_q <= cos_0_j[10];
+      polar_index_0_s19_q <= polar_index_0_s18_q;
+      cos_1_raw_q <= quarter_rom[cos_1_a[8:0]];
+      cos_1_top_q <= cos_1_a[9];
+      cos_1_neg_q <= cos_1_j[10];
+      sin_1_raw_q <= quarter_rom[sin_1_a[8:0]];
+      sin_1_top_q <= sin_1_a[9];
+      sin_1_neg_q <= sin_1_j[10];
+      cos_3_raw_q <= quarter_rom[cos_3_a[8:0]];
+      cos_3_top_q <= cos_3_a[9];
+      cos_3_neg_q <= cos_3_j[10];
+      polar_index_3_s19_q <= polar_index_3_s18_q;
+      cos_4_raw_q <= quarter_rom[cos_4_a[8:0]];
+      cos_4_top_q <= cos_4_a[9];
+      cos_4_neg_q <= cos_4_j[10];
+      sin_4_raw_q <= quarter_rom[sin_4_a[8:0]];
+      sin_4_top_q <= sin_4_a[9];
+      sin_4_neg_q <= sin_4_j[10];
       n_x_i_s19_q <= n_x_i_s18_q;
       n_y_i_s19_q <= n_y_i_s18_q;
       n_z_i_s19_q <= n_z_i_s18_q;
       ovf0_s19_q <= ovf0_s18_q;
       ovf1_s19_q <= ovf1_s18_q;
-      angles_xy_198_ovf_s19_q <= angles_xy_198_ovf_c;
-      angles_xy_199_ovf_s19_q <= angles_xy_199_ovf_c;
+      angles_xy_31_ovf_s19_q <= angles_xy_31_ovf_c;
+      angles_xy_32_ovf_s19_q <= angles_xy_32_ovf_c;
       ovf3_s19_q <= ovf3_or_s18;
-      angles_theta_200_ovf_s19_q <= angles_theta_200_ovf_c;
+      angles_theta_16_ovf_s19_q <= angles_theta_16_ovf_c;
       ovf4_s19_q <= ovf4_or_s18;
       ovf5_s19_q <= ovf5_s18_q;
       ovf6_s19_q <= ovf6_or_s18;
     end
     if (load_s20) begin
-      angles_xy_204_q <= angles_xy_204_d;
-      angles_xy_205_q <= angles_xy_205_d;
-      angles_theta_206_q <= angles_theta_206_d;
-      polar_index_257_s20_q <= polar_index_257_s19_q;
-      polar_lyz_268_q <= polar_lyz_268_d;
-      polar_out_270_q <= polar_out_270_d;
-      polar_index_279_s20_q <= polar_index_279_s19_q;
-      polar_lyz_290_q <= polar_lyz_290_d;
-      polar_out_292_q <= polar_out_292_d;
+      angles_xy_33_q <= angles_xy_33_d;
+      angles_xy_34_q <= angles_xy_34_d;
+      angles_theta_17_q <= angles_theta_17_d;
+      polar_index_0_s20_q <= polar_index_0_s19_q;
+      polar_lyz_0_q <= polar_lyz_0_d;
+      polar_out_0_q <= polar_out_0_d;
+      polar_index_3_s20_q <= polar_index_3_s19_q;
+      polar_lyz_1_q <= polar_lyz_1_d;
+      polar_out_3_q <= polar_out_3_d;
       n_x_i_s20_q <= n_x_i_s19_q;
       n_y_i_s20_q <= n_y_i_s19_q;
       n_z_i_s20_q <= n_z_i_s19_q;
       ovf0_s20_q <= ovf0_s19_q;
       ovf1_s20_q <= ovf1_s19_q;
-      angles_xy_204_ovf_s20_q <= angles_xy_204_ovf_c;
-      angles_xy_205_ovf_s20_q <= angles_xy_205_ovf_c;
+      angles_xy_33_ovf_s20_q <= angles_xy_33_ovf_c;
+      angles_xy_34_ovf_s20_q <= angles_xy_34_ovf_c;
       ovf3_s20_q <= ovf3_or_s19;
-      angles_theta_206_ovf_s20_q <= angles_theta_206_ovf_c;
+      angles_theta_17_ovf_s20_q <= angles_theta_17_ovf_c;
       ovf4_s20_q <= ovf4_or_s19;
       ovf5_s20_q <= ovf5_s19_q;
       ovf6_s20_q <= ovf6_s19_q;
-      polar_lyz_268_ovf_s20_q <= polar_lyz_268_ovf_c;
-      polar_lyz_290_ovf_s20_q <= polar_lyz_290_ovf_c;
-      polar_out_270_ovf_s20_q <= polar_out_270_ovf_c;
-      polar_out_292_ovf_s20_q <= polar_out_292_ovf_c;
+      polar_lyz_0_ovf_s20_q <= polar_lyz_0_ovf_c;
+      polar_lyz_1_ovf_s20_q <= polar_lyz_1_ovf_c;
+      polar_out_0_ovf_s20_q <= polar_out_0_ovf_c;
+      polar_out_3_ovf_s20_q <= polar_out_3_ovf_c;
     end
     if (load_s21) begin
-      angles_xy_210_q <= angles_xy_210_d;
-      angles_xy_211_q <= angles_xy_211_d;
-      angles_theta_212_q <= angles_theta_212_d;
-      polar_index_257_s21_q <= polar_index_257_s20_q;
-      polar_lyz_268_s21_q <= polar_lyz_268_q;
-      polar_index_279_s21_q <= polar_index_279_s20_q;
-      polar_lyz_290_s21_q <= polar_lyz_290_q;
-      lighting_light_301_q <= lighting_light_301_d;
-      lighting_light_304_q <= lighting_light_304_d;
+      angles_xy_35_q <= angles_xy_35_d;
+      angles_xy_36_q <= angles_xy_36_d;
+      angles_theta_18_q <= angles_theta_18_d;
+      polar_index_0_s21_q <= polar_index_0_s20_q;
+      polar_lyz_0_s21_q <= polar_lyz_0_q;
+      polar_index_3_s21_q <= polar_index_3_s20_q;
+      polar_lyz_1_s21_q <= polar_lyz_1_q;
+      lighting_light_0_q <= lighting_light_0_d;
+      lighting_light_3_q <= lighting_light_3_d;
       n_x_i_s21_q <= n_x_i_s20_q;
       n_y_i_s21_q <= n_y_i_s20_q;
       n_z_i_s21_q <= n_z_i_s20_q;
       ovf0_s21_q <= ovf0_s20_q;
       ovf1_s21_q <= ovf1_s20_q;
-      angles_xy_210_ovf_s21_q <= angles_xy_210_ovf_c;
-      angles_xy_211_ovf_s21_q <= angles_xy_211_ovf_c;
+      angles_xy_35_ovf_s21_q <= angles_xy_35_ovf_c;
+      angles_xy_36_ovf_s21_q <= angles_xy_36_ovf_c;
       ovf3_s21_q <= ovf3_or_s20;
-      angles_theta_212_ovf_s21_q <= angles_theta_212_ovf_c;
+      angles_theta_18_ovf_s21_q <= angles_theta_18_ovf_c;
       ovf4_s21_q <= ovf4_or_s20;
       ovf5_s21_q <= ovf5_s20_q;
       ovf6_s21_q <= ovf6_s20_q;
@@ -3397,23 +3465,23 @@ module pipeline_mapped (
       ovf8_s21_q <= ovf8_or_s20;
     end
     if (load_s22) begin
-      angles_xy_216_q <= angles_xy_216_d;
-      angles_xy_217_q <= angles_xy_217_d;
-      angles_theta_218_q <= angles_theta_218_d;
-      polar_index_257_s22_q <= polar_index_257_s21_q;
-      polar_lyz_268_s22_q <= polar_lyz_268_s21_q;
-      polar_index_279_s22_q <= polar_index_279_s21_q;
-      polar_lyz_290_s22_q <= polar_lyz_290_s21_q;
+      angles_xy_37_q <= angles_xy_37_d;
+      angles_xy_38_q <= angles_xy_38_d;
+      angles_theta_19_q <= angles_theta_19_d;
+      polar_index_0_s22_q <= polar_index_0_s21_q;
+      polar_lyz_0_s22_q <= polar_lyz_0_s21_q;
+      polar_index_3_s22_q <= polar_index_3_s21_q;
+      polar_lyz_1_s22_q <= polar_lyz_1_s21_q;
       n_y_i_s22_q <= n_y_i_s21_q;
       n_z_i_s22_q <= n_z_i_s21_q;
-      t307_s22_q <= t307;
-      t314_s22_q <= t314;
+      lighting_dot_mul0_s22_q <= lighting_dot_mul0;
+      lighting_dot_mul3_s22_q <= lighting_dot_mul3;
       ovf0_s22_q <= ovf0_s21_q;
       ovf1_s22_q <= ovf1_s21_q;
-      angles_xy_216_ovf_s22_q <= angles_xy_216_ovf_c;
-      angles_xy_217_ovf_s22_q <= angles_xy_217_ovf_c;
+      angles_xy_37_ovf_s22_q <= angles_xy_37_ovf_c;
+      angles_xy_38_ovf_s22_q <= angles_xy_38_ovf_c;
       ovf3_s22_q <= ovf3_or_s21;
-      angles_theta_218_ovf_s22_q <= angles_theta_218_ovf_c;
+      angles_theta_19_ovf_s22_q <= angles_theta_19_ovf_c;
       ovf4_s22_q <= ovf4_or_s21;
       ovf5_s22_q <= ovf5_s21_q;
       ovf6_s22_q <= ovf6_s21_q;
@@ -3421,23 +3489,23 @@ module pipeline_mapped (
       ovf8_s22_q <= ovf8_s21_q;
     end
     if (load_s23) begin
-      angles_xy_222_q <= angles_xy_222_d;
-      angles_xy_223_q <= angles_xy_223_d;
-      angles_theta_224_q <= angles_theta_224_d;
-      polar_index_257_s23_q <= polar_index_257_s22_q;
-      polar_lyz_268_s23_q <= polar_lyz_268_s22_q;
-      polar_index_279_s23_q <= polar_index_279_s22_q;
-      polar_lyz_290_s23_q <= polar_lyz_290_s22_q;
+      angles_xy_39_q <= angles_xy_39_d;
+      angles_xy_40_q <= angles_xy_40_d;
+      angles_theta_20_q <= angles_theta_20_d;
+      polar_index_0_s23_q <= polar_index_0_s22_q;
+      polar_lyz_0_s23_q <= polar_lyz_0_s22_q;
+      polar_index_3_s23_q <= polar_index_3_s22_q;
+      polar_lyz_1_s23_q <= polar_lyz_1_s22_q;
       n_y_i_s23_q <= n_y_i_s22_q;
       n_z_i_s23_q <= n_z_i_s22_q;
-      t307_s23_q <= t307_s22_q;
-      t314_s23_q <= t314_s22_q;
+      lighting_dot_mul0_s23_q <= lighting_dot_mul0_s22_q;
+      lighting_dot_mul3_s23_q <= lighting_dot_mul3_s22_q;
       ovf0_s23_q <= ovf0_s22_q;
       ovf1_s23_q <= ovf1_s22_q;
-      angles_xy_222_ovf_s23_q <= angles_xy_222_ovf_c;
-      angles_xy_223_ovf_s23_q <= angles_xy_223_ovf_c;
+      angles_xy_39_ovf_s23_q <= angles_xy_39_ovf_c;
+      angles_xy_40_ovf_s23_q <= angles_xy_40_ovf_c;
       ovf3_s23_q <= ovf3_or_s22;
-      angles_theta_224_ovf_s23_q <= angles_theta_224_ovf_c;
+      angles_theta_20_ovf_s23_q <= angles_theta_20_ovf_c;
       ovf4_s23_q <= ovf4_or_s22;
       ovf5_s23_q <= ovf5_s22_q;
       ovf6_s23_q <= ovf6_s22_q;
@@ -3445,23 +3513,23 @@ module pipeline_mapped (
       ovf8_s23_q <= ovf8_s22_q;
     end
     if (load_s24) begin
-      angles_xy_228_q <= angles_xy_228_d;
-      angles_xy_229_q <= angles_xy_229_d;
-      angles_theta_230_q <= angles_theta_230_d;
-      polar_index_257_s24_q <= polar_index_257_s23_q;
-      polar_lyz_268_s24_q <= polar_lyz_268_s23_q;
-      polar_index_279_s24_q <= polar_index_279_s23_q;
-      polar_lyz_290_s24_q <= polar_lyz_290_s23_q;
+      angles_xy_41_q <= angles_xy_41_d;
+      angles_xy_42_q <= angles_xy_42_d;
+      angles_theta_21_q <= angles_theta_21_d;
+      polar_index_0_s24_q <= polar_index_0_s23_q;
+      polar_lyz_0_s24_q <= polar_lyz_0_s23_q;
+      polar_index_3_s24_q <= polar_index_3_s23_q;
+      polar_lyz_1_s24_q <= polar_lyz_1_s23_q;
       n_y_i_s24_q <= n_y_i_s23_q;
       n_z_i_s24_q <= n_z_i_s23_q;
-      t307_s24_q <= t307_s23_q;
-      t314_s24_q <= t314_s23_q;
+      lighting_dot_mul0_s24_q <= lighting_dot_mul0_s23_q;
+      lighting_dot_mul3_s24_q <= lighting_dot_mul3_s23_q;
       ovf0_s24_q <= ovf0_s23_q;
       ovf1_s24_q <= ovf1_s23_q;
-      angles_xy_228_ovf_s24_q <= angles_xy_228_ovf_c;
-      angles_xy_229_ovf_s24_q <= angles_xy_229_ovf_c;
+      angles_xy_41_ovf_s24_q <= angles_xy_41_ovf_c;
+      angles_xy_42_ovf_s24_q <= angles_xy_42_ovf_c;
       ovf3_s24_q <= ovf3_or_s23;
-      angles_theta_230_ovf_s24_q <= angles_theta_230_ovf_c;
+      angles_theta_21_ovf_s24_q <= angles_theta_21_ovf_c;
       ovf4_s24_q <= ovf4_or_s23;
       ovf5_s24_q <= ovf5_s23_q;
       ovf6_s24_q <= ovf6_s23_q;
@@ -3469,23 +3537,23 @@ module pipeline_mapped (
       ovf8_s24_q <= ovf8_s23_q;
     end
     if (load_s25) begin
-      angles_xy_234_q <= angles_xy_234_d;
-      angles_xy_235_q <= angles_xy_235_d;
-      angles_theta_236_q <= angles_theta_236_d;
-      polar_index_257_s25_q <= polar_index_257_s24_q;
-      polar_lyz_268_s25_q <= polar_lyz_268_s24_q;
-      polar_index_279_s25_q <= polar_index_279_s24_q;
-      polar_lyz_290_s25_q <= polar_lyz_290_s24_q;
+      angles_xy_43_q <= angles_xy_43_d;
+      angles_xy_44_q <= angles_xy_44_d;
+      angles_theta_22_q <= angles_theta_22_d;
+      polar_index_0_s25_q <= polar_index_0_s24_q;
+      polar_lyz_0_s25_q <= polar_lyz_0_s24_q;
+      polar_index_3_s25_q <= polar_index_3_s24_q;
+      polar_lyz_1_s25_q <= polar_lyz_1_s24_q;
       n_y_i_s25_q <= n_y_i_s24_q;
       n_z_i_s25_q <= n_z_i_s24_q;
-      t307_s25_q <= t307_s24_q;
-      t314_s25_q <= t314_s24_q;
+      lighting_dot_mul0_s25_q <= lighting_dot_mul0_s24_q;
+      lighting_dot_mul3_s25_q <= lighting_dot_mul3_s24_q;
       ovf0_s25_q <= ovf0_s24_q;
       ovf1_s25_q <= ovf1_s24_q;
-      angles_xy_234_ovf_s25_q <= angles_xy_234_ovf_c;
-      angles_xy_235_ovf_s25_q <= angles_xy_235_ovf_c;
+      angles_xy_43_ovf_s25_q <= angles_xy_43_ovf_c;
+      angles_xy_44_ovf_s25_q <= angles_xy_44_ovf_c;
       ovf3_s25_q <= ovf3_or_s24;
-      angles_theta_236_ovf_s25_q <= angles_theta_236_ovf_c;
+      angles_theta_22_ovf_s25_q <= angles_theta_22_ovf_c;
       ovf4_s25_q <= ovf4_or_s24;
       ovf5_s25_q <= ovf5_s24_q;
       ovf6_s25_q <= ovf6_s24_q;
@@ -3493,23 +3561,23 @@ module pipeline_mapped (
       ovf8_s25_q <= ovf8_s24_q;
     end
     if (load_s26) begin
-      angles_xy_240_q <= angles_xy_240_d;
-      angles_xy_241_q <= angles_xy_241_d;
-      angles_theta_242_q <= angles_theta_242_d;
-      polar_index_257_s26_q <= polar_index_257_s25_q;
-      polar_lyz_268_s26_q <= polar_lyz_268_s25_q;
-      polar_index_279_s26_q <= polar_index_279_s25_q;
-      polar_lyz_290_s26_q <= polar_lyz_290_s25_q;
+      angles_xy_45_q <= angles_xy_45_d;
+      angles_xy_46_q <= angles_xy_46_d;
+      angles_theta_23_q <= angles_theta_23_d;
+      polar_index_0_s26_q <= polar_index_0_s25_q;
+      polar_lyz_0_s26_q <= polar_lyz_0_s25_q;
+      polar_index_3_s26_q <= polar_index_3_s25_q;
+      polar_lyz_1_s26_q <= polar_lyz_1_s25_q;
       n_y_i_s26_q <= n_y_i_s25_q;
       n_z_i_s26_q <= n_z_i_s25_q;
-      t307_s26_q <= t307_s25_q;
-      t314_s26_q <= t314_s25_q;
+      lighting_dot_mul0_s26_q <= lighting_dot_mul0_s25_q;
+      lighting_dot_mul3_s26_q <= lighting_dot_mul3_s25_q;
       ovf0_s26_q <= ovf0_s25_q;
       ovf1_s26_q <= ovf1_s25_q;
-      angles_xy_240_ovf_s26_q <= angles_xy_240_ovf_c;
-      angles_xy_241_ovf_s26_q <= angles_xy_241_ovf_c;
+      angles_xy_45_ovf_s26_q <= angles_xy_45_ovf_c;
+      angles_xy_46_ovf_s26_q <= angles_xy_46_ovf_c;
       ovf3_s26_q <= ovf3_or_s25;
-      angles_theta_242_ovf_s26_q <= angles_theta_242_ovf_c;
+      angles_theta_23_ovf_s26_q <= angles_theta_23_ovf_c;
       ovf4_s26_q <= ovf4_or_s25;
       ovf5_s26_q <= ovf5_s25_q;
       ovf6_s26_q <= ovf6_s25_q;
@@ -3517,21 +3585,21 @@ module pipeline_mapped (
       ovf8_s26_q <= ovf8_s25_q;
     end
     if (load_s27) begin
-      angles_xy_247_q <= angles_xy_247_d;
-      angles_theta_248_q <= angles_theta_248_d;
-      polar_index_257_s27_q <= polar_index_257_s26_q;
-      polar_lyz_268_s27_q <= polar_lyz_268_s26_q;
-      polar_index_279_s27_q <= polar_index_279_s26_q;
-      polar_lyz_290_s27_q <= polar_lyz_290_s26_q;
+      angles_xy_48_q <= angles_xy_48_d;
+      angles_theta_24_q <= angles_theta_24_d;
+      polar_index_0_s27_q <= polar_index_0_s26_q;
+      polar_lyz_0_s27_q <= polar_lyz_0_s26_q;
+      polar_index_3_s27_q <= polar_index_3_s26_q;
+      polar_lyz_1_s27_q <= polar_lyz_1_s26_q;
       n_y_i_s27_q <= n_y_i_s26_q;
       n_z_i_s27_q <= n_z_i_s26_q;
-      t307_s27_q <= t307_s26_q;
-      t314_s27_q <= t314_s26_q;
+      lighting_dot_mul0_s27_q <= lighting_dot_mul0_s26_q;
+      lighting_dot_mul3_s27_q <= lighting_dot_mul3_s26_q;
       ovf0_s27_q <= ovf0_s26_q;
       ovf1_s27_q <= ovf1_s26_q;
-      angles_xy_247_ovf_s27_q <= angles_xy_247_ovf_c;
+      angles_xy_48_ovf_s27_q <= angles_xy_48_ovf_c;
       ovf3_s27_q <= ovf3_or_s26;
-      angles_theta_248_ovf_s27_q <= angles_theta_248_ovf_c;
+      angles_theta_24_ovf_s27_q <= angles_theta_24_ovf_c;
       ovf4_s27_q <= ovf4_or_s26;
       ovf5_s27_q <= ovf5_s26_q;
       ovf6_s27_q <= ovf6_s26_q;
@@ -3539,19 +3607,19 @@ module pipeline_mapped (
       ovf8_s27_q <= ovf8_s26_q;
     end
     if (load_s28) begin
-      angles_theta_254_q <= angles_theta_254_d;
-      polar_index_257_s28_q <= polar_index_257_s27_q;
-      polar_lyz_268_s28_q <= polar_lyz_268_s27_q;
-      polar_index_279_s28_q <= polar_index_279_s27_q;
-      polar_lyz_290_s28_q <= polar_lyz_290_s27_q;
+      angles_theta_25_q <= angles_theta_25_d;
+      polar_index_0_s28_q <= polar_index_0_s27_q;
+      polar_lyz_0_s28_q <= polar_lyz_0_s27_q;
+      polar_index_3_s28_q <= polar_index_3_s27_q;
+      polar_lyz_1_s28_q <= polar_lyz_1_s27_q;
       n_y_i_s28_q <= n_y_i_s27_q;
       n_z_i_s28_q <= n_z_i_s27_q;
-      t307_s28_q <= t307_s27_q;
-      t314_s28_q <= t314_s27_q;
+      lighting_dot_mul0_s28_q <= lighting_dot_mul0_s27_q;
+      lighting_dot_mul3_s28_q <= lighting_dot_mul3_s27_q;
       ovf0_s28_q <= ovf0_s27_q;
       ovf1_s28_q <= ovf1_s27_q;
       ovf3_s28_q <= ovf3_or_s27;
-      angles_theta_254_ovf_s28_q <= angles_theta_254_ovf_c;
+      angles_theta_25_ovf_s28_q <= angles_theta_25_ovf_c;
       ovf4_s28_q <= ovf4_or_s27;
       ovf5_s28_q <= ovf5_s27_q;
       ovf6_s28_q <= ovf6_s27_q;
@@ -3559,36 +3627,36 @@ module pipeline_mapped (
       ovf8_s28_q <= ovf8_s27_q;
     end
     if (load_s29) begin
-      angles_out_255_q <= angles_out_255_d;
-      polar_index_257_s29_q <= polar_index_257_s28_q;
-      polar_lyz_268_s29_q <= polar_lyz_268_s28_q;
-      polar_index_279_s29_q <= polar_index_279_s28_q;
-      polar_lyz_290_s29_q <= polar_lyz_290_s28_q;
+      angles_out_0_q <= angles_out_0_d;
+      polar_index_0_s29_q <= polar_index_0_s28_q;
+      polar_lyz_0_s29_q <= polar_lyz_0_s28_q;
+      polar_index_3_s29_q <= polar_index_3_s28_q;
+      polar_lyz_1_s29_q <= polar_lyz_1_s28_q;
       n_y_i_s29_q <= n_y_i_s28_q;
       n_z_i_s29_q <= n_z_i_s28_q;
-      t307_s29_q <= t307_s28_q;
-      t314_s29_q <= t314_s28_q;
+      lighting_dot_mul0_s29_q <= lighting_dot_mul0_s28_q;
+      lighting_dot_mul3_s29_q <= lighting_dot_mul3_s28_q;
       ovf0_s29_q <= ovf0_s28_q;
       ovf1_s29_q <= ovf1_s28_q;
       ovf3_s29_q <= ovf3_s28_q;
       ovf4_s29_q <= ovf4_or_s28;
-      angles_out_255_ovf_s29_q <= angles_out_255_ovf_c;
+      angles_out_0_ovf_s29_q <= angles_out_0_ovf_c;
       ovf5_s29_q <= ovf5_s28_q;
       ovf6_s29_q <= ovf6_s28_q;
       ovf7_s29_q <= ovf7_s28_q;
       ovf8_s29_q <= ovf8_s28_q;
     end
     if (load_s30) begin
-      polar_index_260_q <= polar_index_260_d;
-      polar_index_257_s30_q <= polar_index_257_s29_q;
-      polar_lyz_268_s30_q <= polar_lyz_268_s29_q;
-      polar_index_282_q <= polar_index_282_d;
-      polar_index_279_s30_q <= polar_index_279_s29_q;
-      polar_lyz_290_s30_q <= polar_lyz_290_s29_q;
+      polar_index_2_q <= polar_index_2_d;
+      polar_index_0_s30_q <= polar_index_0_s29_q;
+      polar_lyz_0_s30_q <= polar_lyz_0_s29_q;
+      polar_index_5_q <= polar_index_5_d;
+      polar_index_3_s30_q <= polar_index_3_s29_q;
+      polar_lyz_1_s30_q <= polar_lyz_1_s29_q;
       n_y_i_s30_q <= n_y_i_s29_q;
       n_z_i_s30_q <= n_z_i_s29_q;
-      t307_s30_q <= t307_s29_q;
-      t314_s30_q <= t314_s29_q;
+      lighting_dot_mul0_s30_q <= lighting_dot_mul0_s29_q;
+      lighting_dot_mul3_s30_q <= lighting_dot_mul3_s29_q;
       ovf0_s30_q <= ovf0_s29_q;
       ovf1_s30_q <= ovf1_s29_q;
       ovf3_s30_q <= ovf3_s29_q;
@@ -3599,30 +3667,30 @@ module pipeline_mapped (
       ovf8_s30_q <= ovf8_s29_q;
     end
     if (load_s31) begin
-      sin_262_raw_q <= quarter_rom[sin_262_a[8:0]];
-      sin_262_top_q <= sin_262_a[9];
-      sin_262_neg_q <= sin_262_j[10];
-      cos_265_raw_q <= quarter_rom[cos_265_a[8:0]];
-      cos_265_top_q <= cos_265_a[9];
-      cos_265_neg_q <= cos_265_j[10];
-      sin_266_raw_q <= quarter_rom[sin_266_a[8:0]];
-      sin_266_top_q <= sin_266_a[9];
-      sin_266_neg_q <= sin_266_j[10];
-      polar_lyz_268_s31_q <= polar_lyz_268_s30_q;
-      sin_284_raw_q <= quarter_rom[sin_284_a[8:0]];
-      sin_284_top_q <= sin_284_a[9];
-      sin_284_neg_q <= sin_284_j[10];
-      cos_287_raw_q <= quarter_rom[cos_287_a[8:0]];
-      cos_287_top_q <= cos_287_a[9];
-      cos_287_neg_q <= cos_287_j[10];
-      sin_288_raw_q <= quarter_rom[sin_288_a[8:0]];
-      sin_288_top_q <= sin_288_a[9];
-      sin_288_neg_q <= sin_288_j[10];
-      polar_lyz_290_s31_q <= polar_lyz_290_s30_q;
+      sin_0_raw_q <= quarter_rom[sin_0_a[8:0]];
+      sin_0_top_q <= sin_0_a[9];
+      sin_0_neg_q <= sin_0_j[10];
+      cos_2_raw_q <= quarter_rom[cos_2_a[8:0]];
+      cos_2_top_q <= cos_2_a[9];
+      cos_2_neg_q <= cos_2_j[10];
+      sin_2_raw_q <= quarter_rom[sin_2_a[8:0]];
+      sin_2_top_q <= sin_2_a[9];
+      sin_2_neg_q <= sin_2_j[10];
+      polar_lyz_0_s31_q <= polar_lyz_0_s30_q;
+      sin_3_raw_q <= quarter_rom[sin_3_a[8:0]];
+      sin_3_top_q <= sin_3_a[9];
+      sin_3_neg_q <= sin_3_j[10];
+      cos_5_raw_q <= quarter_rom[cos_5_a[8:0]];
+      cos_5_top_q <= cos_5_a[9];
+      cos_5_neg_q <= cos_5_j[10];
+      sin_5_raw_q <= quarter_rom[sin_5_a[8:0]];
+      sin_5_top_q <= sin_5_a[9];
+      sin_5_neg_q <= sin_5_j[10];
+      polar_lyz_1_s31_q <= polar_lyz_1_s30_q;
       n_y_i_s31_q <= n_y_i_s30_q;
       n_z_i_s31_q <= n_z_i_s30_q;
-      t307_s31_q <= t307_s30_q;
-      t314_s31_q <= t314_s30_q;
+      lighting_dot_mul0_s31_q <= lighting_dot_mul0_s30_q;
+      lighting_dot_mul3_s31_q <= lighting_dot_mul3_s30_q;
       ovf0_s31_q <= ovf0_s30_q;
       ovf1_s31_q <= ovf1_s30_q;
       ovf3_s31_q <= ovf3_s30_q;
@@ -3633,14 +3701,14 @@ module pipeline_mapped (
       ovf8_s31_q <= ovf8_s30_q;
     end
     if (load_s32) begin
-      polar_out_274_q <= polar_out_274_d;
-      polar_out_278_q <= polar_out_278_d;
-      polar_out_296_q <= polar_out_296_d;
-      polar_out_300_q <= polar_out_300_d;
+      polar_out_1_q <= polar_out_1_d;
+      polar_out_2_q <= polar_out_2_d;
+      polar_out_4_q <= polar_out_4_d;
+      polar_out_5_q <= polar_out_5_d;
       n_y_i_s32_q <= n_y_i_s31_q;
       n_z_i_s32_q <= n_z_i_s31_q;
-      t307_s32_q <= t307_s31_q;
-      t314_s32_q <= t314_s31_q;
+      lighting_dot_mul0_s32_q <= lighting_dot_mul0_s31_q;
+      lighting_dot_mul3_s32_q <= lighting_dot_mul3_s31_q;
       ovf0_s32_q <= ovf0_s31_q;
       ovf1_s32_q <= ovf1_s31_q;
       ovf3_s32_q <= ovf3_s31_q;
@@ -3648,21 +3716,21 @@ module pipeline_mapped (
       ovf5_s32_q <= ovf5_s31_q;
       ovf6_s32_q <= ovf6_s31_q;
       ovf7_s32_q <= ovf7_s31_q;
-      polar_out_274_ovf_s32_q <= polar_out_274_ovf_c;
-      polar_out_278_ovf_s32_q <= polar_out_278_ovf_c;
-      polar_out_296_ovf_s32_q <= polar_out_296_ovf_c;
-      polar_out_300_ovf_s32_q <= polar_out_300_ovf_c;
+      polar_out_1_ovf_s32_q <= polar_out_1_ovf_c;
+      polar_out_2_ovf_s32_q <= polar_out_2_ovf_c;
+      polar_out_4_ovf_s32_q <= polar_out_4_ovf_c;
+      polar_out_5_ovf_s32_q <= polar_out_5_ovf_c;
       ovf8_s32_q <= ovf8_s31_q;
     end
     if (load_s33) begin
-      lighting_light_302_q <= lighting_light_302_d;
-      lighting_light_303_q <= lighting_light_303_d;
-      lighting_light_305_q <= lighting_light_305_d;
-      lighting_light_306_q <= lighting_light_306_d;
+      lighting_light_1_q <= lighting_light_1_d;
+      lighting_light_2_q <= lighting_light_2_d;
+      lighting_light_4_q <= lighting_light_4_d;
+      lighting_light_5_q <= lighting_light_5_d;
       n_y_i_s33_q <= n_y_i_s32_q;
       n_z_i_s33_q <= n_z_i_s32_q;
-      t307_s33_q <= t307_s32_q;
-      t314_s33_q <= t314_s32_q;
+      lighting_dot_mul0_s33_q <= lighting_dot_mul0_s32_q;
+      lighting_dot_mul3_s33_q <= lighting_dot_mul3_s32_q;
       ovf0_s33_q <= ovf0_s32_q;
       ovf1_s33_q <= ovf1_s32_q;
       ovf3_s33_q <= ovf3_s32_q;
@@ -3673,8 +3741,8 @@ module pipeline_mapped (
       ovf8_s33_q <= ovf8_or_s32;
     end
     if (load_s34) begin
-      lighting_dot_312_q <= lighting_dot_312_d;
-      lighting_dot_319_q <= lighting_dot_319_d;
+      lighting_dot_0_q <= lighting_dot_0_d;
+      lighting_dot_1_q <= lighting_dot_1_d;
       ovf0_s34_q <= ovf0_s33_q;
       ovf1_s34_q <= ovf1_s33_q;
       ovf3_s34_q <= ovf3_s33_q;
@@ -3683,12 +3751,12 @@ module pipeline_mapped (
       ovf6_s34_q <= ovf6_s33_q;
       ovf7_s34_q <= ovf7_s33_q;
       ovf8_s34_q <= ovf8_s33_q;
-      lighting_dot_312_ovf_s34_q <= lighting_dot_312_ovf_c;
-      lighting_dot_319_ovf_s34_q <= lighting_dot_319_ovf_c;
+      lighting_dot_0_ovf_s34_q <= lighting_dot_0_ovf_c;
+      lighting_dot_1_ovf_s34_q <= lighting_dot_1_ovf_c;
     end
     if (load_s35) begin
-      lighting_spec_321_q <= lighting_spec_321_d;
-      t330_s35_q <= t330;
+      lighting_spec_0_q <= lighting_spec_0_d;
+      lighting_level_mul0_s35_q <= lighting_level_mul0;
       ovf0_s35_q <= ovf0_s34_q;
       ovf1_s35_q <= ovf1_s34_q;
       ovf3_s35_q <= ovf3_s34_q;
@@ -3698,11 +3766,11 @@ module pipeline_mapped (
       ovf7_s35_q <= ovf7_s34_q;
       ovf8_s35_q <= ovf8_s34_q;
       ovf10_s35_q <= ovf10_or_s34;
-      lighting_spec_321_ovf_s35_q <= lighting_spec_321_ovf_c;
+      lighting_spec_0_ovf_s35_q <= lighting_spec_0_ovf_c;
     end
     if (load_s36) begin
-      lighting_spec_323_q <= lighting_spec_323_d;
-      t330_s36_q <= t330_s35_q;
+      lighting_spec_1_q <= lighting_spec_1_d;
+      lighting_level_mul0_s36_q <= lighting_level_mul0_s35_q;
       ovf0_s36_q <= ovf0_s35_q;
       ovf1_s36_q <= ovf1_s35_q;
       ovf3_s36_q <= ovf3_s35_q;
@@ -3712,12 +3780,12 @@ module pipeline_mapped (
       ovf7_s36_q <= ovf7_s35_q;
       ovf8_s36_q <= ovf8_s35_q;
       ovf10_s36_q <= ovf10_s35_q;
-      lighting_spec_323_ovf_s36_q <= lighting_spec_323_ovf_c;
-      ovf11_s36_q <= lighting_spec_321_ovf_s35_q;
+      lighting_spec_1_ovf_s36_q <= lighting_spec_1_ovf_c;
+      ovf11_s36_q <= lighting_spec_0_ovf_s35_q;
     end
     if (load_s37) begin
-      lighting_spec_325_q <= lighting_spec_325_d;
-      t330_s37_q <= t330_s36_q;
+      lighting_spec_2_q <= lighting_spec_2_d;
+      lighting_level_mul0_s37_q <= lighting_level_mul0_s36_q;
       ovf0_s37_q <= ovf0_s36_q;
       ovf1_s37_q <= ovf1_s36_q;
       ovf3_s37_q <= ovf3_s36_q;
@@ -3727,12 +3795,12 @@ module pipeline_mapped (
       ovf7_s37_q <= ovf7_s36_q;
       ovf8_s37_q <= ovf8_s36_q;
       ovf10_s37_q <= ovf10_s36_q;
-      lighting_spec_325_ovf_s37_q <= lighting_spec_325_ovf_c;
+      lighting_spec_2_ovf_s37_q <= lighting_spec_2_ovf_c;
       ovf11_s37_q <= ovf11_or_s36;
     end
     if (load_s38) begin
-      lighting_spec_327_q <= lighting_spec_327_d;
-      t330_s38_q <= t330_s37_q;
+      lighting_spec_3_q <= lighting_spec_3_d;
+      lighting_level_mul0_s38_q <= lighting_level_mul0_s37_q;
       ovf0_s38_q <= ovf0_s37_q;
       ovf1_s38_q <= ovf1_s37_q;
       ovf3_s38_q <= ovf3_s37_q;
@@ -3742,12 +3810,12 @@ module pipeline_mapped (
       ovf7_s38_q <= ovf7_s37_q;
       ovf8_s38_q <= ovf8_s37_q;
       ovf10_s38_q <= ovf10_s37_q;
-      lighting_spec_327_ovf_s38_q <= lighting_spec_327_ovf_c;
+      lighting_spec_3_ovf_s38_q <= lighting_spec_3_ovf_c;
       ovf11_s38_q <= ovf11_or_s37;
     end
     if (load_s39) begin
-      lighting_spec_329_q <= lighting_spec_329_d;
-      t330_s39_q <= t330_s38_q;
+      lighting_spec_4_q <= lighting_spec_4_d;
+      lighting_level_mul0_s39_q <= lighting_level_mul0_s38_q;
       ovf0_s39_q <= ovf0_s38_q;
       ovf1_s39_q <= ovf1_s38_q;
       ovf3_s39_q <= ovf3_s38_q;
@@ -3757,11 +3825,11 @@ module pipeline_mapped (
       ovf7_s39_q <= ovf7_s38_q;
       ovf8_s39_q <= ovf8_s38_q;
       ovf10_s39_q <= ovf10_s38_q;
-      lighting_spec_329_ovf_s39_q <= lighting_spec_329_ovf_c;
+      lighting_spec_4_ovf_s39_q <= lighting_spec_4_ovf_c;
       ovf11_s39_q <= ovf11_or_s38;
     end
     if (load_s40) begin
-      lighting_level_333_q <= lighting_level_333_d;
+      lighting_level_0_q <= lighting_level_0_d;
       ovf0_s40_q <= ovf0_s39_q;
       ovf1_s40_q <= ovf1_s39_q;
       ovf3_s40_q <= ovf3_s39_q;
@@ -3772,16 +3840,16 @@ module pipeline_mapped (
       ovf8_s40_q <= ovf8_s39_q;
       ovf10_s40_q <= ovf10_s39_q;
       ovf11_s40_q <= ovf11_or_s39;
-      lighting_level_333_ovf_s40_q <= lighting_level_333_ovf_c;
+      lighting_level_0_ovf_s40_q <= lighting_level_0_ovf_c;
     end
   end
 
   // Output buffer: the head drives the ports; the skid register takes the
   // item that leaves the last stage while the head is stalled.
   wire [20:0] last_d =
-      {lighting_level_333_q, (ovf0_s40_q), (ovf1_s40_q), (1'b0), (ovf3_s40_q), (ovf4_s40_q),
+      {lighting_level_0_q, (ovf0_s40_q), (ovf1_s40_q), (1'b0), (ovf3_s40_q), (ovf4_s40_q),
       (ovf5_s40_q), (ovf6_s40_q), (ovf7_s40_q), (ovf8_s40_q), (1'b0), (ovf10_s40_q), (ovf11_s40_q),
-      (lighting_level_333_ovf_s40_q)};
+      (lighting_level_0_ovf_s40_q)};
   reg  [20:0] out_q, skid_q;
   always @(posedge clk_i) begin
     if (out_load & (skid_valid | out_arrive)) out_q <= skid_valid ? skid_q : last_d;
@@ -3882,19 +3950,28 @@ module pipeline_mapped (
 
   // Bits the arithmetic drops (truncation) or does not read.
   wire unused_bits =
-      ^{angles_normal_99_q[14:0], K28, K29, angles_xy_106_q[20:0], angles_xy_112_q[20:0], t114[0],
-      t115[0], angles_xy_118_q[20:0], t120[1:0], t121[1:0], angles_xy_124_q[20:0], t126[2:0],
-      t127[2:0], angles_xy_130_q[20:0], t132[3:0], t133[3:0], angles_xy_136_q[20:0], t138[4:0],
-      t139[4:0], angles_xy_142_q[20:0], t144[5:0], t145[5:0], angles_xy_148_q[20:0], t150[6:0],
-      t151[6:0], angles_xy_154_q[20:0], t156[7:0], t157[7:0], angles_xy_160_q[20:0], t162[8:0],
-      t163[8:0], angles_xy_166_q[20:0], t168[9:0], t169[9:0], angles_xy_172_q[20:0], t174[10:0],
-      t180[12:0], angles_xy_181_s16_q[20:0], angles_xy_181_q[20:0], angles_xy_187_q[20:0], t189[0],
-      t190[0], angles_xy_193_q[20:0], t195[1:0], t196[1:0], angles_xy_199_q[20:0], t201[2:0],
-      t202[2:0], angles_xy_205_q[20:0], t207[3:0], t208[3:0], angles_xy_211_q[20:0], t213[4:0],
-      t214[4:0], angles_xy_217_q[20:0], t219[5:0], t220[5:0], angles_xy_223_q[20:0], t225[6:0],
-      t226[6:0], angles_xy_229_q[20:0], t231[7:0], t232[7:0], angles_xy_235_q[20:0], t237[8:0],
-      t238[8:0], angles_xy_241_q[20:0], t244[9:0], angles_xy_247_q[20:0], polar_index_257_ovf_c,
-      polar_index_260_ovf_c, polar_index_279_ovf_c, polar_index_282_ovf_c};
+      ^{angles_normal_0_q[14:0], angles_xy_k0, angles_theta_k0, angles_xy_1_q[20:0],
+      angles_xy_3_q[20:0], angles_xy_addsub4[0], angles_xy_addsub5[0], angles_xy_5_q[20:0],
+      angles_xy_addsub6[1:0], angles_xy_addsub7[1:0], angles_xy_7_q[20:0], angles_xy_addsub8[2:0],
+      angles_xy_addsub9[2:0], angles_xy_9_q[20:0], angles_xy_addsub10[3:0], angles_xy_addsub11[3:0],
+      angles_xy_11_q[20:0], angles_xy_addsub12[4:0], angles_xy_addsub13[4:0], angles_xy_13_q[20:0],
+      angles_xy_addsub14[5:0], angles_xy_addsub15[5:0], angles_xy_15_q[20:0],
+      angles_xy_addsub16[6:0], angles_xy_addsub17[6:0], angles_xy_17_q[20:0],
+      angles_xy_addsub18[7:0], angles_xy_addsub19[7:0], angles_xy_19_q[20:0],
+      angles_xy_addsub20[8:0], angles_xy_addsub21[8:0], angles_xy_21_q[20:0],
+      angles_xy_addsub22[9:0], angles_xy_addsub23[9:0], angles_xy_23_q[20:0],
+      angles_xy_addsub24[10:0], angles_xy_mul0[12:0], angles_xy_26_s16_q[20:0],
+      angles_xy_26_q[20:0], angles_xy_28_q[20:0], angles_xy_addsub28[0], angles_xy_addsub29[0],
+      angles_xy_30_q[20:0], angles_xy_addsub30[1:0], angles_xy_addsub31[1:0], angles_xy_32_q[20:0],
+      angles_xy_addsub32[2:0], angles_xy_addsub33[2:0], angles_xy_34_q[20:0],
+      angles_xy_addsub34[3:0], angles_xy_addsub35[3:0], angles_xy_36_q[20:0],
+      angles_xy_addsub36[4:0], angles_xy_addsub37[4:0], angles_xy_38_q[20:0],
+      angles_xy_addsub38[5:0], angles_xy_addsub39[5:0], angles_xy_40_q[20:0],
+      angles_xy_addsub40[6:0], angles_xy_addsub41[6:0], angles_xy_42_q[20:0],
+      angles_xy_addsub42[7:0], angles_xy_addsub43[7:0], angles_xy_44_q[20:0],
+      angles_xy_addsub44[8:0], angles_xy_addsub45[8:0], angles_xy_46_q[20:0],
+      angles_xy_addsub47[9:0], angles_xy_48_q[20:0], polar_index_0_ovf_c, polar_index_2_ovf_c,
+      polar_index_3_ovf_c, polar_index_5_ovf_c};
 endmodule
 
 `default_nettype wire

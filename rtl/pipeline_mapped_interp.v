@@ -760,438 +760,476 @@ module pipeline_mapped_interp (
   assign setup_lock_d = frame_ready_d;
 
   // Datapath.
-  localparam [15:0] K15 = 16'hbf40;
-  localparam [15:0] K16 = 16'h3fc0;
-  localparam signed [15:0] K17 = $signed(16'h0);
+  localparam [15:0] lighting_level_k0 = 16'hbf40;
+  localparam [15:0] lighting_level_k1 = 16'h3fc0;
+  localparam signed [15:0] lighting_level_k2 = $signed(16'h0);
   wire signed [10:0] da1_bank_s0 = tri_cur_q ? da1_b1_q : da1_b0_q;
-  wire signed [16:0] t18_a = $signed({1'b0, c1_i});
-  wire signed [26:0] t18 = t18_a * da1_bank_s0;
+  wire signed [16:0] angle_interp_angle_mul0_a = $signed({1'b0, c1_i});
+  wire signed [26:0] angle_interp_angle_mul0 = angle_interp_angle_mul0_a * da1_bank_s0;
   wire [10:0] a3_bank_s0 = tri_cur_q ? a3_b1_q : a3_b0_q;
-  wire signed [27:0] t19 = $signed({{2{1'b0}}, a3_bank_s0, 15'b0} + {t18[26], t18});
+  wire signed [27:0] angle_interp_angle_add0 =
+      $signed({{2{1'b0}}, a3_bank_s0, 15'b0}
+      + {angle_interp_angle_mul0[26], angle_interp_angle_mul0});
   wire signed [10:0] da2_bank_s0 = tri_cur_q ? da2_b1_q : da2_b0_q;
-  wire signed [16:0] t20_a = $signed({1'b0, c2_i});
-  wire signed [26:0] t20 = t20_a * da2_bank_s0;
-  wire signed [28:0] t21 = $signed({{2{t20[26]}}, t20} + {t19[27], t19});
-  wire angle_interp_angle_22_tie = t21[14] & ~(|t21[13:0]);
-  wire [14:0] angle_interp_angle_22_up = {t21[28], t21[28:15]} + {{14{1'b0}}, t21[14]};
-  wire signed [14:0] angle_interp_angle_22_r =
-      $signed({angle_interp_angle_22_up[14:1], angle_interp_angle_22_up[0]
-      & ~angle_interp_angle_22_tie});
-  wire angle_interp_angle_22_ovf_c =
-      angle_interp_angle_22_r[14] | (|angle_interp_angle_22_r[13:11]);
-  wire [10:0] angle_interp_angle_22_d = angle_interp_angle_22_r[10:0];
-  reg  [10:0] angle_interp_angle_22_q;
+  wire signed [16:0] angle_interp_angle_mul1_a = $signed({1'b0, c2_i});
+  wire signed [26:0] angle_interp_angle_mul1 = angle_interp_angle_mul1_a * da2_bank_s0;
+  wire signed [28:0] angle_interp_angle_add1 =
+      $signed({{2{angle_interp_angle_mul1[26]}}, angle_interp_angle_mul1}
+      + {angle_interp_angle_add0[27], angle_interp_angle_add0});
+  wire angle_interp_angle_0_tie = angle_interp_angle_add1[14] & ~(|angle_interp_angle_add1[13:0]);
+  wire [14:0] angle_interp_angle_0_up =
+      {angle_interp_angle_add1[28], angle_interp_angle_add1[28:15]}
+      + {{14{1'b0}}, angle_interp_angle_add1[14]};
+  wire signed [14:0] angle_interp_angle_0_r =
+      $signed({angle_interp_angle_0_up[14:1], angle_interp_angle_0_up[0]
+      & ~angle_interp_angle_0_tie});
+  wire angle_interp_angle_0_ovf_c = angle_interp_angle_0_r[14] | (|angle_interp_angle_0_r[13:11]);
+  wire [10:0] angle_interp_angle_0_d = angle_interp_angle_0_r[10:0];
+  reg  [10:0] angle_interp_angle_0_q;
   wire signed [10:0] db1_bank_s0 = tri_cur_q ? db1_b1_q : db1_b0_q;
-  wire signed [16:0] t23_a = $signed({1'b0, c1_i});
-  wire signed [26:0] t23 = t23_a * db1_bank_s0;
+  wire signed [16:0] angle_interp_angle_mul2_a = $signed({1'b0, c1_i});
+  wire signed [26:0] angle_interp_angle_mul2 = angle_interp_angle_mul2_a * db1_bank_s0;
   wire [10:0] b3_bank_s0 = tri_cur_q ? b3_b1_q : b3_b0_q;
-  wire signed [27:0] t24 = $signed({{2{1'b0}}, b3_bank_s0, 15'b0} + {t23[26], t23});
+  wire signed [27:0] angle_interp_angle_add2 =
+      $signed({{2{1'b0}}, b3_bank_s0, 15'b0}
+      + {angle_interp_angle_mul2[26], angle_interp_angle_mul2});
   wire signed [10:0] db2_bank_s0 = tri_cur_q ? db2_b1_q : db2_b0_q;
-  wire signed [16:0] t25_a = $signed({1'b0, c2_i});
-  wire signed [26:0] t25 = t25_a * db2_bank_s0;
-  wire signed [28:0] t26 = $signed({{2{t25[26]}}, t25} + {t24[27], t24});
-  wire angle_interp_angle_27_tie = t26[14] & ~(|t26[13:0]);
-  wire [14:0] angle_interp_angle_27_up = {t26[28], t26[28:15]} + {{14{1'b0}}, t26[14]};
-  wire signed [14:0] angle_interp_angle_27_r =
-      $signed({angle_interp_angle_27_up[14:1], angle_interp_angle_27_up[0]
-      & ~angle_interp_angle_27_tie});
-  wire angle_interp_angle_27_ovf_c =
-      angle_interp_angle_27_r[14] | (|angle_interp_angle_27_r[13:11]);
-  wire [10:0] angle_interp_angle_27_d = angle_interp_angle_27_r[10:0];
-  reg  [10:0] angle_interp_angle_27_q;
-  wire polar_index_28_ovf_c = 1'b0;
-  wire [10:0] polar_index_28_d = al_q[10:0];
-  reg  [10:0] polar_index_28_q;
-  wire signed [12:0] t29 = $signed({{2{1'b0}}, bl_q} - {{2{1'b0}}, angle_interp_angle_27_q});
-  wire polar_index_30_ovf_c = t29[12] | (|t29[11]);
-  wire [10:0] polar_index_30_d = t29[10:0];
-  reg  [10:0] polar_index_30_q;
-  wire polar_index_31_ovf_c = 1'b0;
-  wire [10:0] polar_index_31_d = angle_interp_angle_22_q[10:0];
-  reg  [10:0] polar_index_31_q;
-  reg  [10:0] polar_index_28_s2_q;
-  wire [10:0] cos_32_j = {polar_index_28_s2_q[10:9] + 2'd1, polar_index_28_s2_q[8:0]};
-  wire [9:0] cos_32_a = cos_32_j[9] ? (10'h200 - {1'b0, cos_32_j[8:0]}) : {1'b0, cos_32_j[8:0]};
-  reg  signed [15:0] cos_32_raw_q;
-  reg  [0:0] cos_32_top_q;
-  reg  [0:0] cos_32_neg_q;
-  wire signed [15:0] cos_32_v = cos_32_top_q ? $signed(16'h4000) : cos_32_raw_q;
-  wire signed [16:0] cos_32_n = $signed(17'h0 - {cos_32_v[15], cos_32_v});
-  wire unused_cos_32_novf = ~((&cos_32_n[16:15]) | ~(|cos_32_n[16:15]));
-  wire signed [15:0] cos_32_nv =
-      $signed(unused_cos_32_novf ? (cos_32_n[16] ? 16'h8000 : 16'h7fff) : cos_32_n[15:0]);
-  wire signed [15:0] cos_32 = $signed(cos_32_neg_q ? cos_32_nv : cos_32_v);
-  wire [10:0] sin_33_j = polar_index_28_s2_q[10:0];
-  wire [9:0] sin_33_a = sin_33_j[9] ? (10'h200 - {1'b0, sin_33_j[8:0]}) : {1'b0, sin_33_j[8:0]};
-  reg  signed [15:0] sin_33_raw_q;
-  reg  [0:0] sin_33_top_q;
-  reg  [0:0] sin_33_neg_q;
-  wire signed [15:0] sin_33_v = sin_33_top_q ? $signed(16'h4000) : sin_33_raw_q;
-  wire signed [16:0] sin_33_n = $signed(17'h0 - {sin_33_v[15], sin_33_v});
-  wire unused_sin_33_novf = ~((&sin_33_n[16:15]) | ~(|sin_33_n[16:15]));
-  wire signed [15:0] sin_33_nv =
-      $signed(unused_sin_33_novf ? (sin_33_n[16] ? 16'h8000 : 16'h7fff) : sin_33_n[15:0]);
-  wire signed [15:0] sin_33 = $signed(sin_33_neg_q ? sin_33_nv : sin_33_v);
-  wire [10:0] cos_34_j = {polar_index_30_q[10:9] + 2'd1, polar_index_30_q[8:0]};
-  wire [9:0] cos_34_a = cos_34_j[9] ? (10'h200 - {1'b0, cos_34_j[8:0]}) : {1'b0, cos_34_j[8:0]};
-  reg  signed [15:0] cos_34_raw_q;
-  reg  [0:0] cos_34_top_q;
-  reg  [0:0] cos_34_neg_q;
-  wire signed [15:0] cos_34_v = cos_34_top_q ? $signed(16'h4000) : cos_34_raw_q;
-  wire signed [16:0] cos_34_n = $signed(17'h0 - {cos_34_v[15], cos_34_v});
-  wire unused_cos_34_novf = ~((&cos_34_n[16:15]) | ~(|cos_34_n[16:15]));
-  wire signed [15:0] cos_34_nv =
-      $signed(unused_cos_34_novf ? (cos_34_n[16] ? 16'h8000 : 16'h7fff) : cos_34_n[15:0]);
-  wire signed [15:0] cos_34 = $signed(cos_34_neg_q ? cos_34_nv : cos_34_v);
-  wire [10:0] sin_35_j = polar_index_30_q[10:0];
-  wire [9:0] sin_35_a = sin_35_j[9] ? (10'h200 - {1'b0, sin_35_j[8:0]}) : {1'b0, sin_35_j[8:0]};
-  reg  signed [15:0] sin_35_raw_q;
-  reg  [0:0] sin_35_top_q;
-  reg  [0:0] sin_35_neg_q;
-  wire signed [15:0] sin_35_v = sin_35_top_q ? $signed(16'h4000) : sin_35_raw_q;
-  wire signed [16:0] sin_35_n = $signed(17'h0 - {sin_35_v[15], sin_35_v});
-  wire unused_sin_35_novf = ~((&sin_35_n[16:15]) | ~(|sin_35_n[16:15]));
-  wire signed [15:0] sin_35_nv =
-      $signed(unused_sin_35_novf ? (sin_35_n[16] ? 16'h8000 : 16'h7fff) : sin_35_n[15:0]);
-  wire signed [15:0] sin_35 = $signed(sin_35_neg_q ? sin_35_nv : sin_35_v);
-  wire [10:0] cos_36_j = {polar_index_31_q[10:9] + 2'd1, polar_index_31_q[8:0]};
-  wire [9:0] cos_36_a = cos_36_j[9] ? (10'h200 - {1'b0, cos_36_j[8:0]}) : {1'b0, cos_36_j[8:0]};
-  reg  signed [15:0] cos_36_raw_q;
-  reg  [0:0] cos_36_top_q;
-  reg  [0:0] cos_36_neg_q;
-  wire signed [15:0] cos_36_v = cos_36_top_q ? $signed(16'h4000) : cos_36_raw_q;
-  wire signed [16:0] cos_36_n = $signed(17'h0 - {cos_36_v[15], cos_36_v});
-  wire unused_cos_36_novf = ~((&cos_36_n[16:15]) | ~(|cos_36_n[16:15]));
-  wire signed [15:0] cos_36_nv =
-      $signed(unused_cos_36_novf ? (cos_36_n[16] ? 16'h8000 : 16'h7fff) : cos_36_n[15:0]);
-  wire signed [15:0] cos_36 = $signed(cos_36_neg_q ? cos_36_nv : cos_36_v);
-  wire [10:0] sin_37_j = polar_index_31_q[10:0];
-  wire [9:0] sin_37_a = sin_37_j[9] ? (10'h200 - {1'b0, sin_37_j[8:0]}) : {1'b0, sin_37_j[8:0]};
-  reg  signed [15:0] sin_37_raw_q;
-  reg  [0:0] sin_37_top_q;
-  reg  [0:0] sin_37_neg_q;
-  wire signed [15:0] sin_37_v = sin_37_top_q ? $signed(16'h4000) : sin_37_raw_q;
-  wire signed [16:0] sin_37_n = $signed(17'h0 - {sin_37_v[15], sin_37_v});
-  wire unused_sin_37_novf = ~((&sin_37_n[16:15]) | ~(|sin_37_n[16:15]));
-  wire signed [15:0] sin_37_nv =
-      $signed(unused_sin_37_novf ? (sin_37_n[16] ? 16'h8000 : 16'h7fff) : sin_37_n[15:0]);
-  wire signed [15:0] sin_37 = $signed(sin_37_neg_q ? sin_37_nv : sin_37_v);
-  wire signed [31:0] t38 = cos_32 * cos_34;
-  wire polar_lyz_39_tie = t38[13] & ~(|t38[12:0]);
-  wire [18:0] polar_lyz_39_up = {t38[31], t38[31:14]} + {{18{1'b0}}, t38[13]};
-  wire signed [18:0] polar_lyz_39_r =
-      $signed({polar_lyz_39_up[18:1], polar_lyz_39_up[0] & ~polar_lyz_39_tie});
-  wire polar_lyz_39_ovf_c = ~((&polar_lyz_39_r[18:15]) | ~(|polar_lyz_39_r[18:15]));
-  wire signed [15:0] polar_lyz_39_d =
-      $signed(polar_lyz_39_ovf_c ? (polar_lyz_39_r[18] ? 16'h8000 : 16'h7fff)
-      : polar_lyz_39_r[15:0]);
-  reg  signed [15:0] polar_lyz_39_q;
-  wire signed [31:0] t40 = cos_32 * sin_35;
-  wire polar_out_41_tie = t40[13] & ~(|t40[12:0]);
-  wire [18:0] polar_out_41_up = {t40[31], t40[31:14]} + {{18{1'b0}}, t40[13]};
-  wire signed [18:0] polar_out_41_r =
-      $signed({polar_out_41_up[18:1], polar_out_41_up[0] & ~polar_out_41_tie});
-  wire polar_out_41_ovf_c = ~((&polar_out_41_r[18:15]) | ~(|polar_out_41_r[18:15]));
-  wire signed [15:0] polar_out_41_d =
-      $signed(polar_out_41_ovf_c ? (polar_out_41_r[18] ? 16'h8000 : 16'h7fff)
-      : polar_out_41_r[15:0]);
-  reg  signed [15:0] polar_out_41_q;
-  wire signed [31:0] t42 = sin_33 * cos_36;
-  reg  signed [15:0] sin_37_s4_q;
-  wire signed [31:0] t43 = polar_lyz_39_q * sin_37_s4_q;
-  reg  signed [31:0] t42_s4_q;
-  wire signed [32:0] t44 = $signed({t42_s4_q[31], t42_s4_q} - {t43[31], t43});
-  wire polar_out_45_tie = t44[13] & ~(|t44[12:0]);
-  wire [19:0] polar_out_45_up = {t44[32], t44[32:14]} + {{19{1'b0}}, t44[13]};
-  wire signed [19:0] polar_out_45_r =
-      $signed({polar_out_45_up[19:1], polar_out_45_up[0] & ~polar_out_45_tie});
-  wire polar_out_45_ovf_c = ~((&polar_out_45_r[19:15]) | ~(|polar_out_45_r[19:15]));
-  wire signed [15:0] polar_out_45_d =
-      $signed(polar_out_45_ovf_c ? (polar_out_45_r[19] ? 16'h8000 : 16'h7fff)
-      : polar_out_45_r[15:0]);
-  reg  signed [15:0] polar_out_45_q;
-  reg  signed [15:0] cos_36_s4_q;
-  wire signed [31:0] t46 = polar_lyz_39_q * cos_36_s4_q;
-  wire signed [31:0] t47 = sin_33 * sin_37;
-  reg  signed [31:0] t47_s4_q;
-  wire signed [32:0] t48 = $signed({t47_s4_q[31], t47_s4_q} + {t46[31], t46});
-  wire polar_out_49_tie = t48[13] & ~(|t48[12:0]);
-  wire [19:0] polar_out_49_up = {t48[32], t48[32:14]} + {{19{1'b0}}, t48[13]};
-  wire signed [19:0] polar_out_49_r =
-      $signed({polar_out_49_up[19:1], polar_out_49_up[0] & ~polar_out_49_tie});
-  wire polar_out_49_ovf_c = ~((&polar_out_49_r[19:15]) | ~(|polar_out_49_r[19:15]));
-  wire signed [15:0] polar_out_49_d =
-      $signed(polar_out_49_ovf_c ? (polar_out_49_r[19] ? 16'h8000 : 16'h7fff)
-      : polar_out_49_r[15:0]);
-  reg  signed [15:0] polar_out_49_q;
-  wire polar_index_50_ovf_c = 1'b0;
-  wire [10:0] polar_index_50_d = ah_q[10:0];
-  reg  [10:0] polar_index_50_q;
-  wire signed [12:0] t51 = $signed({{2{1'b0}}, bh_q} - {{2{1'b0}}, angle_interp_angle_27_q});
-  wire polar_index_52_ovf_c = t51[12] | (|t51[11]);
-  wire [10:0] polar_index_52_d = t51[10:0];
-  reg  [10:0] polar_index_52_q;
-  wire polar_index_53_ovf_c = 1'b0;
-  wire [10:0] polar_index_53_d = angle_interp_angle_22_q[10:0];
-  reg  [10:0] polar_index_53_q;
-  reg  [10:0] polar_index_50_s2_q;
-  wire [10:0] cos_54_j = {polar_index_50_s2_q[10:9] + 2'd1, polar_index_50_s2_q[8:0]};
-  wire [9:0] cos_54_a = cos_54_j[9] ? (10'h200 - {1'b0, cos_54_j[8:0]}) : {1'b0, cos_54_j[8:0]};
-  reg  signed [15:0] cos_54_raw_q;
-  reg  [0:0] cos_54_top_q;
-  reg  [0:0] cos_54_neg_q;
-  wire signed [15:0] cos_54_v = cos_54_top_q ? $signed(16'h4000) : cos_54_raw_q;
-  wire signed [16:0] cos_54_n = $signed(17'h0 - {cos_54_v[15], cos_54_v});
-  wire unused_cos_54_novf = ~((&cos_54_n[16:15]) | ~(|cos_54_n[16:15]));
-  wire signed [15:0] cos_54_nv =
-      $signed(unused_cos_54_novf ? (cos_54_n[16] ? 16'h8000 : 16'h7fff) : cos_54_n[15:0]);
-  wire signed [15:0] cos_54 = $signed(cos_54_neg_q ? cos_54_nv : cos_54_v);
-  wire [10:0] sin_55_j = polar_index_50_s2_q[10:0];
-  wire [9:0] sin_55_a = sin_55_j[9] ? (10'h200 - {1'b0, sin_55_j[8:0]}) : {1'b0, sin_55_j[8:0]};
-  reg  signed [15:0] sin_55_raw_q;
-  reg  [0:0] sin_55_top_q;
-  reg  [0:0] sin_55_neg_q;
-  wire signed [15:0] sin_55_v = sin_55_top_q ? $signed(16'h4000) : sin_55_raw_q;
-  wire signed [16:0] sin_55_n = $signed(17'h0 - {sin_55_v[15], sin_55_v});
-  wire unused_sin_55_novf = ~((&sin_55_n[16:15]) | ~(|sin_55_n[16:15]));
-  wire signed [15:0] sin_55_nv =
-      $signed(unused_sin_55_novf ? (sin_55_n[16] ? 16'h8000 : 16'h7fff) : sin_55_n[15:0]);
-  wire signed [15:0] sin_55 = $signed(sin_55_neg_q ? sin_55_nv : sin_55_v);
-  wire [10:0] cos_56_j = {polar_index_52_q[10:9] + 2'd1, polar_index_52_q[8:0]};
-  wire [9:0] cos_56_a = cos_56_j[9] ? (10'h200 - {1'b0, cos_56_j[8:0]}) : {1'b0, cos_56_j[8:0]};
-  reg  signed [15:0] cos_56_raw_q;
-  reg  [0:0] cos_56_top_q;
-  reg  [0:0] cos_56_neg_q;
-  wire signed [15:0] cos_56_v = cos_56_top_q ? $signed(16'h4000) : cos_56_raw_q;
-  wire signed [16:0] cos_56_n = $signed(17'h0 - {cos_56_v[15], cos_56_v});
-  wire unused_cos_56_novf = ~((&cos_56_n[16:15]) | ~(|cos_56_n[16:15]));
-  wire signed [15:0] cos_56_nv =
-      $signed(unused_cos_56_novf ? (cos_56_n[16] ? 16'h8000 : 16'h7fff) : cos_56_n[15:0]);
-  wire signed [15:0] cos_56 = $signed(cos_56_neg_q ? cos_56_nv : cos_56_v);
-  wire [10:0] sin_57_j = polar_index_52_q[10:0];
-  wire [9:0] sin_57_a = sin_57_j[9] ? (10'h200 - {1'b0, sin_57_j[8:0]}) : {1'b0, sin_57_j[8:0]};
-  reg  signed [15:0] sin_57_raw_q;
-  reg  [0:0] sin_57_top_q;
-  reg  [0:0] sin_57_neg_q;
-  wire signed [15:0] sin_57_v = sin_57_top_q ? $signed(16'h4000) : sin_57_raw_q;
-  wire signed [16:0] sin_57_n = $signed(17'h0 - {sin_57_v[15], sin_57_v});
-  wire unused_sin_57_novf = ~((&sin_57_n[16:15]) | ~(|sin_57_n[16:15]));
-  wire signed [15:0] sin_57_nv =
-      $signed(unused_sin_57_novf ? (sin_57_n[16] ? 16'h8000 : 16'h7fff) : sin_57_n[15:0]);
-  wire signed [15:0] sin_57 = $signed(sin_57_neg_q ? sin_57_nv : sin_57_v);
-  wire [10:0] cos_58_j = {polar_index_53_q[10:9] + 2'd1, polar_index_53_q[8:0]};
-  wire [9:0] cos_58_a = cos_58_j[9] ? (10'h200 - {1'b0, cos_58_j[8:0]}) : {1'b0, cos_58_j[8:0]};
-  reg  signed [15:0] cos_58_raw_q;
-  reg  [0:0] cos_58_top_q;
-  reg  [0:0] cos_58_neg_q;
-  wire signed [15:0] cos_58_v = cos_58_top_q ? $signed(16'h4000) : cos_58_raw_q;
-  wire signed [16:0] cos_58_n = $signed(17'h0 - {cos_58_v[15], cos_58_v});
-  wire unused_cos_58_novf = ~((&cos_58_n[16:15]) | ~(|cos_58_n[16:15]));
-  wire signed [15:0] cos_58_nv =
-      $signed(unused_cos_58_novf ? (cos_58_n[16] ? 16'h8000 : 16'h7fff) : cos_58_n[15:0]);
-  wire signed [15:0] cos_58 = $signed(cos_58_neg_q ? cos_58_nv : cos_58_v);
-  wire [10:0] sin_59_j = polar_index_53_q[10:0];
-  wire [9:0] sin_59_a = sin_59_j[9] ? (10'h200 - {1'b0, sin_59_j[8:0]}) : {1'b0, sin_59_j[8:0]};
-  reg  signed [15:0] sin_59_raw_q;
-  reg  [0:0] sin_59_top_q;
-  reg  [0:0] sin_59_neg_q;
-  wire signed [15:0] sin_59_v = sin_59_top_q ? $signed(16'h4000) : sin_59_raw_q;
-  wire signed [16:0] sin_59_n = $signed(17'h0 - {sin_59_v[15], sin_59_v});
-  wire unused_sin_59_novf = ~((&sin_59_n[16:15]) | ~(|sin_59_n[16:15]));
-  wire signed [15:0] sin_59_nv =
-      $signed(unused_sin_59_novf ? (sin_59_n[16] ? 16'h8000 : 16'h7fff) : sin_59_n[15:0]);
-  wire signed [15:0] sin_59 = $signed(sin_59_neg_q ? sin_59_nv : sin_59_v);
-  wire signed [31:0] t60 = cos_54 * cos_56;
-  wire polar_lyz_61_tie = t60[13] & ~(|t60[12:0]);
-  wire [18:0] polar_lyz_61_up = {t60[31], t60[31:14]} + {{18{1'b0}}, t60[13]};
-  wire signed [18:0] polar_lyz_61_r =
-      $signed({polar_lyz_61_up[18:1], polar_lyz_61_up[0] & ~polar_lyz_61_tie});
-  wire polar_lyz_61_ovf_c = ~((&polar_lyz_61_r[18:15]) | ~(|polar_lyz_61_r[18:15]));
-  wire signed [15:0] polar_lyz_61_d =
-      $signed(polar_lyz_61_ovf_c ? (polar_lyz_61_r[18] ? 16'h8000 : 16'h7fff)
-      : polar_lyz_61_r[15:0]);
-  reg  signed [15:0] polar_lyz_61_q;
-  wire signed [31:0] t62 = cos_54 * sin_57;
-  wire polar_out_63_tie = t62[13] & ~(|t62[12:0]);
-  wire [18:0] polar_out_63_up = {t62[31], t62[31:14]} + {{18{1'b0}}, t62[13]};
-  wire signed [18:0] polar_out_63_r =
-      $signed({polar_out_63_up[18:1], polar_out_63_up[0] & ~polar_out_63_tie});
-  wire polar_out_63_ovf_c = ~((&polar_out_63_r[18:15]) | ~(|polar_out_63_r[18:15]));
-  wire signed [15:0] polar_out_63_d =
-      $signed(polar_out_63_ovf_c ? (polar_out_63_r[18] ? 16'h8000 : 16'h7fff)
-      : polar_out_63_r[15:0]);
-  reg  signed [15:0] polar_out_63_q;
-  wire signed [31:0] t64 = sin_55 * cos_58;
-  reg  signed [15:0] sin_59_s4_q;
-  wire signed [31:0] t65 = polar_lyz_61_q * sin_59_s4_q;
-  reg  signed [31:0] t64_s4_q;
-  wire signed [32:0] t66 = $signed({t64_s4_q[31], t64_s4_q} - {t65[31], t65});
-  wire polar_out_67_tie = t66[13] & ~(|t66[12:0]);
-  wire [19:0] polar_out_67_up = {t66[32], t66[32:14]} + {{19{1'b0}}, t66[13]};
-  wire signed [19:0] polar_out_67_r =
-      $signed({polar_out_67_up[19:1], polar_out_67_up[0] & ~polar_out_67_tie});
-  wire polar_out_67_ovf_c = ~((&polar_out_67_r[19:15]) | ~(|polar_out_67_r[19:15]));
-  wire signed [15:0] polar_out_67_d =
-      $signed(polar_out_67_ovf_c ? (polar_out_67_r[19] ? 16'h8000 : 16'h7fff)
-      : polar_out_67_r[15:0]);
-  reg  signed [15:0] polar_out_67_q;
-  reg  signed [15:0] cos_58_s4_q;
-  wire signed [31:0] t68 = polar_lyz_61_q * cos_58_s4_q;
-  wire signed [31:0] t69 = sin_55 * sin_59;
-  reg  signed [31:0] t69_s4_q;
-  wire signed [32:0] t70 = $signed({t69_s4_q[31], t69_s4_q} + {t68[31], t68});
-  wire polar_out_71_tie = t70[13] & ~(|t70[12:0]);
-  wire [19:0] polar_out_71_up = {t70[32], t70[32:14]} + {{19{1'b0}}, t70[13]};
-  wire signed [19:0] polar_out_71_r =
-      $signed({polar_out_71_up[19:1], polar_out_71_up[0] & ~polar_out_71_tie});
-  wire polar_out_71_ovf_c = ~((&polar_out_71_r[19:15]) | ~(|polar_out_71_r[19:15]));
-  wire signed [15:0] polar_out_71_d =
-      $signed(polar_out_71_ovf_c ? (polar_out_71_r[19] ? 16'h8000 : 16'h7fff)
-      : polar_out_71_r[15:0]);
-  reg  signed [15:0] polar_out_71_q;
-  wire lighting_light_72_ovf_c = 1'b0;
-  wire signed [15:0] lighting_light_72_d =
-      $signed(lighting_light_72_ovf_c ? (polar_out_41_q[15] ? 16'h8000 : 16'h7fff)
-      : polar_out_41_q[15:0]);
-  reg  signed [15:0] lighting_light_72_q;
-  wire lighting_light_73_ovf_c = 1'b0;
-  wire signed [15:0] lighting_light_73_d =
-      $signed(lighting_light_73_ovf_c ? (polar_out_45_q[15] ? 16'h8000 : 16'h7fff)
-      : polar_out_45_q[15:0]);
-  reg  signed [15:0] lighting_light_73_q;
-  wire lighting_light_74_ovf_c = 1'b0;
-  wire signed [15:0] lighting_light_74_d =
-      $signed(lighting_light_74_ovf_c ? (polar_out_49_q[15] ? 16'h8000 : 16'h7fff)
-      : polar_out_49_q[15:0]);
-  reg  signed [15:0] lighting_light_74_q;
-  wire lighting_light_75_ovf_c = 1'b0;
-  wire signed [15:0] lighting_light_75_d =
-      $signed(lighting_light_75_ovf_c ? (polar_out_63_q[15] ? 16'h8000 : 16'h7fff)
-      : polar_out_63_q[15:0]);
-  reg  signed [15:0] lighting_light_75_q;
-  wire lighting_light_76_ovf_c = 1'b0;
-  wire signed [15:0] lighting_light_76_d =
-      $signed(lighting_light_76_ovf_c ? (polar_out_67_q[15] ? 16'h8000 : 16'h7fff)
-      : polar_out_67_q[15:0]);
-  reg  signed [15:0] lighting_light_76_q;
-  wire lighting_light_77_ovf_c = 1'b0;
-  wire signed [15:0] lighting_light_77_d =
-      $signed(lighting_light_77_ovf_c ? (polar_out_71_q[15] ? 16'h8000 : 16'h7fff)
-      : polar_out_71_q[15:0]);
-  reg  signed [15:0] lighting_light_77_q;
+  wire signed [16:0] angle_interp_angle_mul3_a = $signed({1'b0, c2_i});
+  wire signed [26:0] angle_interp_angle_mul3 = angle_interp_angle_mul3_a * db2_bank_s0;
+  wire signed [28:0] angle_interp_angle_add3 =
+      $signed({{2{angle_interp_angle_mul3[26]}}, angle_interp_angle_mul3}
+      + {angle_interp_angle_add2[27], angle_interp_angle_add2});
+  wire angle_interp_angle_1_tie = angle_interp_angle_add3[14] & ~(|angle_interp_angle_add3[13:0]);
+  wire [14:0] angle_interp_angle_1_up =
+      {angle_interp_angle_add3[28], angle_interp_angle_add3[28:15]}
+      + {{14{1'b0}}, angle_interp_angle_add3[14]};
+  wire signed [14:0] angle_interp_angle_1_r =
+      $signed({angle_interp_angle_1_up[14:1], angle_interp_angle_1_up[0]
+      & ~angle_interp_angle_1_tie});
+  wire angle_interp_angle_1_ovf_c = angle_interp_angle_1_r[14] | (|angle_interp_angle_1_r[13:11]);
+  wire [10:0] angle_interp_angle_1_d = angle_interp_angle_1_r[10:0];
+  reg  [10:0] angle_interp_angle_1_q;
+  wire polar_index_0_ovf_c = 1'b0;
+  wire [10:0] polar_index_0_d = al_q[10:0];
+  reg  [10:0] polar_index_0_q;
+  wire signed [12:0] polar_index_sub0 =
+      $signed({{2{1'b0}}, bl_q} - {{2{1'b0}}, angle_interp_angle_1_q});
+  wire polar_index_1_ovf_c = polar_index_sub0[12] | (|polar_index_sub0[11]);
+  wire [10:0] polar_index_1_d = polar_index_sub0[10:0];
+  reg  [10:0] polar_index_1_q;
+  wire polar_index_2_ovf_c = 1'b0;
+  wire [10:0] polar_index_2_d = angle_interp_angle_0_q[10:0];
+  reg  [10:0] polar_index_2_q;
+  reg  [10:0] polar_index_0_s2_q;
+  wire [10:0] cos_0_j = {polar_index_0_s2_q[10:9] + 2'd1, polar_index_0_s2_q[8:0]};
+  wire [9:0] cos_0_a = cos_0_j[9] ? (10'h200 - {1'b0, cos_0_j[8:0]}) : {1'b0, cos_0_j[8:0]};
+  reg  signed [15:0] cos_0_raw_q;
+  reg  [0:0] cos_0_top_q;
+  reg  [0:0] cos_0_neg_q;
+  wire signed [15:0] cos_0_v = cos_0_top_q ? $signed(16'h4000) : cos_0_raw_q;
+  wire signed [16:0] cos_0_n = $signed(17'h0 - {cos_0_v[15], cos_0_v});
+  wire unused_cos_0_novf = ~((&cos_0_n[16:15]) | ~(|cos_0_n[16:15]));
+  wire signed [15:0] cos_0_nv =
+      $signed(unused_cos_0_novf ? (cos_0_n[16] ? 16'h8000 : 16'h7fff) : cos_0_n[15:0]);
+  wire signed [15:0] cos_0 = $signed(cos_0_neg_q ? cos_0_nv : cos_0_v);
+  wire [10:0] sin_0_j = polar_index_0_s2_q[10:0];
+  wire [9:0] sin_0_a = sin_0_j[9] ? (10'h200 - {1'b0, sin_0_j[8:0]}) : {1'b0, sin_0_j[8:0]};
+  reg  signed [15:0] sin_0_raw_q;
+  reg  [0:0] sin_0_top_q;
+  reg  [0:0] sin_0_neg_q;
+  wire signed [15:0] sin_0_v = sin_0_top_q ? $signed(16'h4000) : sin_0_raw_q;
+  wire signed [16:0] sin_0_n = $signed(17'h0 - {sin_0_v[15], sin_0_v});
+  wire unused_sin_0_novf = ~((&sin_0_n[16:15]) | ~(|sin_0_n[16:15]));
+  wire signed [15:0] sin_0_nv =
+      $signed(unused_sin_0_novf ? (sin_0_n[16] ? 16'h8000 : 16'h7fff) : sin_0_n[15:0]);
+  wire signed [15:0] sin_0 = $signed(sin_0_neg_q ? sin_0_nv : sin_0_v);
+  wire [10:0] cos_1_j = {polar_index_1_q[10:9] + 2'd1, polar_index_1_q[8:0]};
+  wire [9:0] cos_1_a = cos_1_j[9] ? (10'h200 - {1'b0, cos_1_j[8:0]}) : {1'b0, cos_1_j[8:0]};
+  reg  signed [15:0] cos_1_raw_q;
+  reg  [0:0] cos_1_top_q;
+  reg  [0:0] cos_1_neg_q;
+  wire signed [15:0] cos_1_v = cos_1_top_q ? $signed(16'h4000) : cos_1_raw_q;
+  wire signed [16:0] cos_1_n = $signed(17'h0 - {cos_1_v[15], cos_1_v});
+  wire unused_cos_1_novf = ~((&cos_1_n[16:15]) | ~(|cos_1_n[16:15]));
+  wire signed [15:0] cos_1_nv =
+      $signed(unused_cos_1_novf ? (cos_1_n[16] ? 16'h8000 : 16'h7fff) : cos_1_n[15:0]);
+  wire signed [15:0] cos_1 = $signed(cos_1_neg_q ? cos_1_nv : cos_1_v);
+  wire [10:0] sin_1_j = polar_index_1_q[10:0];
+  wire [9:0] sin_1_a = sin_1_j[9] ? (10'h200 - {1'b0, sin_1_j[8:0]}) : {1'b0, sin_1_j[8:0]};
+  reg  signed [15:0] sin_1_raw_q;
+  reg  [0:0] sin_1_top_q;
+  reg  [0:0] sin_1_neg_q;
+  wire signed [15:0] sin_1_v = sin_1_top_q ? $signed(16'h4000) : sin_1_raw_q;
+  wire signed [16:0] sin_1_n = $signed(17'h0 - {sin_1_v[15], sin_1_v});
+  wire unused_sin_1_novf = ~((&sin_1_n[16:15]) | ~(|sin_1_n[16:15]));
+  wire signed [15:0] sin_1_nv =
+      $signed(unused_sin_1_novf ? (sin_1_n[16] ? 16'h8000 : 16'h7fff) : sin_1_n[15:0]);
+  wire signed [15:0] sin_1 = $signed(sin_1_neg_q ? sin_1_nv : sin_1_v);
+  wire [10:0] cos_2_j = {polar_index_2_q[10:9] + 2'd1, polar_index_2_q[8:0]};
+  wire [9:0] cos_2_a = cos_2_j[9] ? (10'h200 - {1'b0, cos_2_j[8:0]}) : {1'b0, cos_2_j[8:0]};
+  reg  signed [15:0] cos_2_raw_q;
+  reg  [0:0] cos_2_top_q;
+  reg  [0:0] cos_2_neg_q;
+  wire signed [15:0] cos_2_v = cos_2_top_q ? $signed(16'h4000) : cos_2_raw_q;
+  wire signed [16:0] cos_2_n = $signed(17'h0 - {cos_2_v[15], cos_2_v});
+  wire unused_cos_2_novf = ~((&cos_2_n[16:15]) | ~(|cos_2_n[16:15]));
+  wire signed [15:0] cos_2_nv =
+      $signed(unused_cos_2_novf ? (cos_2_n[16] ? 16'h8000 : 16'h7fff) : cos_2_n[15:0]);
+  wire signed [15:0] cos_2 = $signed(cos_2_neg_q ? cos_2_nv : cos_2_v);
+  wire [10:0] sin_2_j = polar_index_2_q[10:0];
+  wire [9:0] sin_2_a = sin_2_j[9] ? (10'h200 - {1'b0, sin_2_j[8:0]}) : {1'b0, sin_2_j[8:0]};
+  reg  signed [15:0] sin_2_raw_q;
+  reg  [0:0] sin_2_top_q;
+  reg  [0:0] sin_2_neg_q;
+  wire signed [15:0] sin_2_v = sin_2_top_q ? $signed(16'h4000) : sin_2_raw_q;
+  wire signed [16:0] sin_2_n = $signed(17'h0 - {sin_2_v[15], sin_2_v});
+  wire unused_sin_2_novf = ~((&sin_2_n[16:15]) | ~(|sin_2_n[16:15]));
+  wire signed [15:0] sin_2_nv =
+      $signed(unused_sin_2_novf ? (sin_2_n[16] ? 16'h8000 : 16'h7fff) : sin_2_n[15:0]);
+  wire signed [15:0] sin_2 = $signed(sin_2_neg_q ? sin_2_nv : sin_2_v);
+  wire signed [31:0] polar_lyz_mul0 = cos_0 * cos_1;
+  wire polar_lyz_0_tie = polar_lyz_mul0[13] & ~(|polar_lyz_mul0[12:0]);
+  wire [18:0] polar_lyz_0_up =
+      {polar_lyz_mul0[31], polar_lyz_mul0[31:14]} + {{18{1'b0}}, polar_lyz_mul0[13]};
+  wire signed [18:0] polar_lyz_0_r =
+      $signed({polar_lyz_0_up[18:1], polar_lyz_0_up[0] & ~polar_lyz_0_tie});
+  wire polar_lyz_0_ovf_c = ~((&polar_lyz_0_r[18:15]) | ~(|polar_lyz_0_r[18:15]));
+  wire signed [15:0] polar_lyz_0_d =
+      $signed(polar_lyz_0_ovf_c ? (polar_lyz_0_r[18] ? 16'h8000 : 16'h7fff) : polar_lyz_0_r[15:0]);
+  reg  signed [15:0] polar_lyz_0_q;
+  wire signed [31:0] polar_out_mul0 = cos_0 * sin_1;
+  wire polar_out_0_tie = polar_out_mul0[13] & ~(|polar_out_mul0[12:0]);
+  wire [18:0] polar_out_0_up =
+      {polar_out_mul0[31], polar_out_mul0[31:14]} + {{18{1'b0}}, polar_out_mul0[13]};
+  wire signed [18:0] polar_out_0_r =
+      $signed({polar_out_0_up[18:1], polar_out_0_up[0] & ~polar_out_0_tie});
+  wire polar_out_0_ovf_c = ~((&polar_out_0_r[18:15]) | ~(|polar_out_0_r[18:15]));
+  wire signed [15:0] polar_out_0_d =
+      $signed(polar_out_0_ovf_c ? (polar_out_0_r[18] ? 16'h8000 : 16'h7fff) : polar_out_0_r[15:0]);
+  reg  signed [15:0] polar_out_0_q;
+  wire signed [31:0] polar_out_mul1 = sin_0 * cos_2;
+  reg  signed [15:0] sin_2_s4_q;
+  wire signed [31:0] polar_out_mul2 = polar_lyz_0_q * sin_2_s4_q;
+  reg  signed [31:0] polar_out_mul1_s4_q;
+  wire signed [32:0] polar_out_sub0 =
+      $signed({polar_out_mul1_s4_q[31], polar_out_mul1_s4_q}
+      - {polar_out_mul2[31], polar_out_mul2});
+  wire polar_out_1_tie = polar_out_sub0[13] & ~(|polar_out_sub0[12:0]);
+  wire [19:0] polar_out_1_up =
+      {polar_out_sub0[32], polar_out_sub0[32:14]} + {{19{1'b0}}, polar_out_sub0[13]};
+  wire signed [19:0] polar_out_1_r =
+      $signed({polar_out_1_up[19:1], polar_out_1_up[0] & ~polar_out_1_tie});
+  wire polar_out_1_ovf_c = ~((&polar_out_1_r[19:15]) | ~(|polar_out_1_r[19:15]));
+  wire signed [15:0] polar_out_1_d =
+      $signed(polar_out_1_ovf_c ? (polar_out_1_r[19] ? 16'h8000 : 16'h7fff) : polar_out_1_r[15:0]);
+  reg  signed [15:0] polar_out_1_q;
+  reg  signed [15:0] cos_2_s4_q;
+  wire signed [31:0] polar_out_mul3 = polar_lyz_0_q * cos_2_s4_q;
+  wire signed [31:0] polar_out_mul4 = sin_0 * sin_2;
+  reg  signed [31:0] polar_out_mul4_s4_q;
+  wire signed [32:0] polar_out_add0 =
+      $signed({polar_out_mul4_s4_q[31], polar_out_mul4_s4_q}
+      + {polar_out_mul3[31], polar_out_mul3});
+  wire polar_out_2_tie = polar_out_add0[13] & ~(|polar_out_add0[12:0]);
+  wire [19:0] polar_out_2_up =
+      {polar_out_add0[32], polar_out_add0[32:14]} + {{19{1'b0}}, polar_out_add0[13]};
+  wire signed [19:0] polar_out_2_r =
+      $signed({polar_out_2_up[19:1], polar_out_2_up[0] & ~polar_out_2_tie});
+  wire polar_out_2_ovf_c = ~((&polar_out_2_r[19:15]) | ~(|polar_out_2_r[19:15]));
+  wire signed [15:0] polar_out_2_d =
+      $signed(polar_out_2_ovf_c ? (polar_out_2_r[19] ? 16'h8000 : 16'h7fff) : polar_out_2_r[15:0]);
+  reg  signed [15:0] polar_out_2_q;
+  wire polar_index_3_ovf_c = 1'b0;
+  wire [10:0] polar_index_3_d = ah_q[10:0];
+  reg  [10:0] polar_index_3_q;
+  wire signed [12:0] polar_index_sub1 =
+      $signed({{2{1'b0}}, bh_q} - {{2{1'b0}}, angle_interp_angle_1_q});
+  wire polar_index_4_ovf_c = polar_index_sub1[12] | (|polar_index_sub1[11]);
+  wire [10:0] polar_index_4_d = polar_index_sub1[10:0];
+  reg  [10:0] polar_index_4_q;
+  wire polar_index_5_ovf_c = 1'b0;
+  wire [10:0] polar_index_5_d = angle_interp_angle_0_q[10:0];
+  reg  [10:0] polar_index_5_q;
+  reg  [10:0] polar_index_3_s2_q;
+  wire [10:0] cos_3_j = {polar_index_3_s2_q[10:9] + 2'd1, polar_index_3_s2_q[8:0]};
+  wire [9:0] cos_3_a = cos_3_j[9] ? (10'h200 - {1'b0, cos_3_j[8:0]}) : {1'b0, cos_3_j[8:0]};
+  reg  signed [15:0] cos_3_raw_q;
+  reg  [0:0] cos_3_top_q;
+  reg  [0:0] cos_3_neg_q;
+  wire signed [15:0] cos_3_v = cos_3_top_q ? $signed(16'h4000) : cos_3_raw_q;
+  wire signed [16:0] cos_3_n = $signed(17'h0 - {cos_3_v[15], cos_3_v});
+  wire unused_cos_3_novf = ~((&cos_3_n[16:15]) | ~(|cos_3_n[16:15]));
+  wire signed [15:0] cos_3_nv =
+      $signed(unused_cos_3_novf ? (cos_3_n[16] ? 16'h8000 : 16'h7fff) : cos_3_n[15:0]);
+  wire signed [15:0] cos_3 = $signed(cos_3_neg_q ? cos_3_nv : cos_3_v);
+  wire [10:0] sin_3_j = polar_index_3_s2_q[10:0];
+  wire [9:0] sin_3_a = sin_3_j[9] ? (10'h200 - {1'b0, sin_3_j[8:0]}) : {1'b0, sin_3_j[8:0]};
+  reg  signed [15:0] sin_3_raw_q;
+  reg  [0:0] sin_3_top_q;
+  reg  [0:0] sin_3_neg_q;
+  wire signed [15:0] sin_3_v = sin_3_top_q ? $signed(16'h4000) : sin_3_raw_q;
+  wire signed [16:0] sin_3_n = $signed(17'h0 - {sin_3_v[15], sin_3_v});
+  wire unused_sin_3_novf = ~((&sin_3_n[16:15]) | ~(|sin_3_n[16:15]));
+  wire signed [15:0] sin_3_nv =
+      $signed(unused_sin_3_novf ? (sin_3_n[16] ? 16'h8000 : 16'h7fff) : sin_3_n[15:0]);
+  wire signed [15:0] sin_3 = $signed(sin_3_neg_q ? sin_3_nv : sin_3_v);
+  wire [10:0] cos_4_j = {polar_index_4_q[10:9] + 2'd1, polar_index_4_q[8:0]};
+  wire [9:0] cos_4_a = cos_4_j[9] ? (10'h200 - {1'b0, cos_4_j[8:0]}) : {1'b0, cos_4_j[8:0]};
+  reg  signed [15:0] cos_4_raw_q;
+  reg  [0:0] cos_4_top_q;
+  reg  [0:0] cos_4_neg_q;
+  wire signed [15:0] cos_4_v = cos_4_top_q ? $signed(16'h4000) : cos_4_raw_q;
+  wire signed [16:0] cos_4_n = $signed(17'h0 - {cos_4_v[15], cos_4_v});
+  wire unused_cos_4_novf = ~((&cos_4_n[16:15]) | ~(|cos_4_n[16:15]));
+  wire signed [15:0] cos_4_nv =
+      $signed(unused_cos_4_novf ? (cos_4_n[16] ? 16'h8000 : 16'h7fff) : cos_4_n[15:0]);
+  wire signed [15:0] cos_4 = $signed(cos_4_neg_q ? cos_4_nv : cos_4_v);
+  wire [10:0] sin_4_j = polar_index_4_q[10:0];
+  wire [9:0] sin_4_a = sin_4_j[9] ? (10'h200 - {1'b0, sin_4_j[8:0]}) : {1'b0, sin_4_j[8:0]};
+  reg  signed [15:0] sin_4_raw_q;
+  reg  [0:0] sin_4_top_q;
+  reg  [0:0] sin_4_neg_q;
+  wire signed [15:0] sin_4_v = sin_4_top_q ? $signed(16'h4000) : sin_4_raw_q;
+  wire signed [16:0] sin_4_n = $signed(17'h0 - {sin_4_v[15], sin_4_v});
+  wire unused_sin_4_novf = ~((&sin_4_n[16:15]) | ~(|sin_4_n[16:15]));
+  wire signed [15:0] sin_4_nv =
+      $signed(unused_sin_4_novf ? (sin_4_n[16] ? 16'h8000 : 16'h7fff) : sin_4_n[15:0]);
+  wire signed [15:0] sin_4 = $signed(sin_4_neg_q ? sin_4_nv : sin_4_v);
+  wire [10:0] cos_5_j = {polar_index_5_q[10:9] + 2'd1, polar_index_5_q[8:0]};
+  wire [9:0] cos_5_a = cos_5_j[9] ? (10'h200 - {1'b0, cos_5_j[8:0]}) : {1'b0, cos_5_j[8:0]};
+  reg  signed [15:0] cos_5_raw_q;
+  reg  [0:0] cos_5_top_q;
+  reg  [0:0] cos_5_neg_q;
+  wire signed [15:0] cos_5_v = cos_5_top_q ? $signed(16'h4000) : cos_5_raw_q;
+  wire signed [16:0] cos_5_n = $signed(17'h0 - {cos_5_v[15], cos_5_v});
+  wire unused_cos_5_novf = ~((&cos_5_n[16:15]) | ~(|cos_5_n[16:15]));
+  wire signed [15:0] cos_5_nv =
+      $signed(unused_cos_5_novf ? (cos_5_n[16] ? 16'h8000 : 16'h7fff) : cos_5_n[15:0]);
+  wire signed [15:0] cos_5 = $signed(cos_5_neg_q ? cos_5_nv : cos_5_v);
+  wire [10:0] sin_5_j = polar_index_5_q[10:0];
+  wire [9:0] sin_5_a = sin_5_j[9] ? (10'h200 - {1'b0, sin_5_j[8:0]}) : {1'b0, sin_5_j[8:0]};
+  reg  signed [15:0] sin_5_raw_q;
+  reg  [0:0] sin_5_top_q;
+  reg  [0:0] sin_5_neg_q;
+  wire signed [15:0] sin_5_v = sin_5_top_q ? $signed(16'h4000) : sin_5_raw_q;
+  wire signed [16:0] sin_5_n = $signed(17'h0 - {sin_5_v[15], sin_5_v});
+  wire unused_sin_5_novf = ~((&sin_5_n[16:15]) | ~(|sin_5_n[16:15]));
+  wire signed [15:0] sin_5_nv =
+      $signed(unused_sin_5_novf ? (sin_5_n[16] ? 16'h8000 : 16'h7fff) : sin_5_n[15:0]);
+  wire signed [15:0] sin_5 = $signed(sin_5_neg_q ? sin_5_nv : sin_5_v);
+  wire signed [31:0] polar_lyz_mul1 = cos_3 * cos_4;
+  wire polar_lyz_1_tie = polar_lyz_mul1[13] & ~(|polar_lyz_mul1[12:0]);
+  wire [18:0] polar_lyz_1_up =
+      {polar_lyz_mul1[31], polar_lyz_mul1[31:14]} + {{18{1'b0}}, polar_lyz_mul1[13]};
+  wire signed [18:0] polar_lyz_1_r =
+      $signed({polar_lyz_1_up[18:1], polar_lyz_1_up[0] & ~polar_lyz_1_tie});
+  wire polar_lyz_1_ovf_c = ~((&polar_lyz_1_r[18:15]) | ~(|polar_lyz_1_r[18:15]));
+  wire signed [15:0] polar_lyz_1_d =
+      $signed(polar_lyz_1_ovf_c ? (polar_lyz_1_r[18] ? 16'h8000 : 16'h7fff) : polar_lyz_1_r[15:0]);
+  reg  signed [15:0] polar_lyz_1_q;
+  wire signed [31:0] polar_out_mul5 = cos_3 * sin_4;
+  wire polar_out_3_tie = polar_out_mul5[13] & ~(|polar_out_mul5[12:0]);
+  wire [18:0] polar_out_3_up =
+      {polar_out_mul5[31], polar_out_mul5[31:14]} + {{18{1'b0}}, polar_out_mul5[13]};
+  wire signed [18:0] polar_out_3_r =
+      $signed({polar_out_3_up[18:1], polar_out_3_up[0] & ~polar_out_3_tie});
+  wire polar_out_3_ovf_c = ~((&polar_out_3_r[18:15]) | ~(|polar_out_3_r[18:15]));
+  wire signed [15:0] polar_out_3_d =
+      $signed(polar_out_3_ovf_c ? (polar_out_3_r[18] ? 16'h8000 : 16'h7fff) : polar_out_3_r[15:0]);
+  reg  signed [15:0] polar_out_3_q;
+  wire signed [31:0] polar_out_mul6 = sin_3 * cos_5;
+  reg  signed [15:0] sin_5_s4_q;
+  wire signed [31:0] polar_out_mul7 = polar_lyz_1_q * sin_5_s4_q;
+  reg  signed [31:0] polar_out_mul6_s4_q;
+  wire signed [32:0] polar_out_sub1 =
+      $signed({polar_out_mul6_s4_q[31], polar_out_mul6_s4_q}
+      - {polar_out_mul7[31], polar_out_mul7});
+  wire polar_out_4_tie = polar_out_sub1[13] & ~(|polar_out_sub1[12:0]);
+  wire [19:0] polar_out_4_up =
+      {polar_out_sub1[32], polar_out_sub1[32:14]} + {{19{1'b0}}, polar_out_sub1[13]};
+  wire signed [19:0] polar_out_4_r =
+      $signed({polar_out_4_up[19:1], polar_out_4_up[0] & ~polar_out_4_tie});
+  wire polar_out_4_ovf_c = ~((&polar_out_4_r[19:15]) | ~(|polar_out_4_r[19:15]));
+  wire signed [15:0] polar_out_4_d =
+      $signed(polar_out_4_ovf_c ? (polar_out_4_r[19] ? 16'h8000 : 16'h7fff) : polar_out_4_r[15:0]);
+  reg  signed [15:0] polar_out_4_q;
+  reg  signed [15:0] cos_5_s4_q;
+  wire signed [31:0] polar_out_mul8 = polar_lyz_1_q * cos_5_s4_q;
+  wire signed [31:0] polar_out_mul9 = sin_3 * sin_5;
+  reg  signed [31:0] polar_out_mul9_s4_q;
+  wire signed [32:0] polar_out_add1 =
+      $signed({polar_out_mul9_s4_q[31], polar_out_mul9_s4_q}
+      + {polar_out_mul8[31], polar_out_mul8});
+  wire polar_out_5_tie = polar_out_add1[13] & ~(|polar_out_add1[12:0]);
+  wire [19:0] polar_out_5_up =
+      {polar_out_add1[32], polar_out_add1[32:14]} + {{19{1'b0}}, polar_out_add1[13]};
+  wire signed [19:0] polar_out_5_r =
+      $signed({polar_out_5_up[19:1], polar_out_5_up[0] & ~polar_out_5_tie});
+  wire polar_out_5_ovf_c = ~((&polar_out_5_r[19:15]) | ~(|polar_out_5_r[19:15]));
+  wire signed [15:0] polar_out_5_d =
+      $signed(polar_out_5_ovf_c ? (polar_out_5_r[19] ? 16'h8000 : 16'h7fff) : polar_out_5_r[15:0]);
+  reg  signed [15:0] polar_out_5_q;
+  wire lighting_light_0_ovf_c = 1'b0;
+  wire signed [15:0] lighting_light_0_d =
+      $signed(lighting_light_0_ovf_c ? (polar_out_0_q[15] ? 16'h8000 : 16'h7fff)
+      : polar_out_0_q[15:0]);
+  reg  signed [15:0] lighting_light_0_q;
+  wire lighting_light_1_ovf_c = 1'b0;
+  wire signed [15:0] lighting_light_1_d =
+      $signed(lighting_light_1_ovf_c ? (polar_out_1_q[15] ? 16'h8000 : 16'h7fff)
+      : polar_out_1_q[15:0]);
+  reg  signed [15:0] lighting_light_1_q;
+  wire lighting_light_2_ovf_c = 1'b0;
+  wire signed [15:0] lighting_light_2_d =
+      $signed(lighting_light_2_ovf_c ? (polar_out_2_q[15] ? 16'h8000 : 16'h7fff)
+      : polar_out_2_q[15:0]);
+  reg  signed [15:0] lighting_light_2_q;
+  wire lighting_light_3_ovf_c = 1'b0;
+  wire signed [15:0] lighting_light_3_d =
+      $signed(lighting_light_3_ovf_c ? (polar_out_3_q[15] ? 16'h8000 : 16'h7fff)
+      : polar_out_3_q[15:0]);
+  reg  signed [15:0] lighting_light_3_q;
+  wire lighting_light_4_ovf_c = 1'b0;
+  wire signed [15:0] lighting_light_4_d =
+      $signed(lighting_light_4_ovf_c ? (polar_out_4_q[15] ? 16'h8000 : 16'h7fff)
+      : polar_out_4_q[15:0]);
+  reg  signed [15:0] lighting_light_4_q;
+  wire lighting_light_5_ovf_c = 1'b0;
+  wire signed [15:0] lighting_light_5_d =
+      $signed(lighting_light_5_ovf_c ? (polar_out_5_q[15] ? 16'h8000 : 16'h7fff)
+      : polar_out_5_q[15:0]);
+  reg  signed [15:0] lighting_light_5_q;
   reg  signed [15:0] n_x_i_s1_q;
   reg  signed [15:0] n_x_i_s2_q;
   reg  signed [15:0] n_x_i_s3_q;
   reg  signed [15:0] n_x_i_s4_q;
   reg  signed [15:0] n_x_i_s5_q;
-  wire signed [31:0] t78 = n_x_i_s5_q * lighting_light_72_q;
+  wire signed [31:0] lighting_dot_mul0 = n_x_i_s5_q * lighting_light_0_q;
   reg  signed [15:0] n_y_i_s1_q;
   reg  signed [15:0] n_y_i_s2_q;
   reg  signed [15:0] n_y_i_s3_q;
   reg  signed [15:0] n_y_i_s4_q;
   reg  signed [15:0] n_y_i_s5_q;
   reg  signed [15:0] n_y_i_s6_q;
-  wire signed [31:0] t79 = n_y_i_s6_q * lighting_light_73_q;
+  wire signed [31:0] lighting_dot_mul1 = n_y_i_s6_q * lighting_light_1_q;
   reg  signed [15:0] n_z_i_s1_q;
   reg  signed [15:0] n_z_i_s2_q;
   reg  signed [15:0] n_z_i_s3_q;
   reg  signed [15:0] n_z_i_s4_q;
   reg  signed [15:0] n_z_i_s5_q;
   reg  signed [15:0] n_z_i_s6_q;
-  wire signed [31:0] t80 = n_z_i_s6_q * lighting_light_74_q;
-  reg  signed [31:0] t78_s6_q;
-  wire signed [32:0] t81 = $signed({t78_s6_q[31], t78_s6_q} + {t79[31], t79});
-  wire signed [33:0] t82 = $signed({t81[32], t81} + {{2{t80[31]}}, t80});
-  wire lighting_dot_83_tie = t82[13] & ~(|t82[12:0]);
-  wire [20:0] lighting_dot_83_up = {t82[33], t82[33:14]} + {{20{1'b0}}, t82[13]};
-  wire signed [20:0] lighting_dot_83_r =
-      $signed({lighting_dot_83_up[20:1], lighting_dot_83_up[0] & ~lighting_dot_83_tie});
-  wire lighting_dot_83_ovf_c = ~((&lighting_dot_83_r[20:15]) | ~(|lighting_dot_83_r[20:15]));
-  wire signed [15:0] lighting_dot_83_d =
-      $signed(lighting_dot_83_ovf_c ? (lighting_dot_83_r[20] ? 16'h8000 : 16'h7fff)
-      : lighting_dot_83_r[15:0]);
-  reg  signed [15:0] lighting_dot_83_q;
-  wire signed [15:0] t84_a = $signed(lighting_dot_83_q);
-  wire signed [15:0] t84_b = $signed(K17);
-  wire signed [15:0] t84 = (t84_a > t84_b) ? t84_a : t84_b;
-  wire signed [31:0] t85 = n_x_i_s5_q * lighting_light_75_q;
-  wire signed [31:0] t86 = n_y_i_s6_q * lighting_light_76_q;
-  wire signed [31:0] t87 = n_z_i_s6_q * lighting_light_77_q;
-  reg  signed [31:0] t85_s6_q;
-  wire signed [32:0] t88 = $signed({t85_s6_q[31], t85_s6_q} + {t86[31], t86});
-  wire signed [33:0] t89 = $signed({t88[32], t88} + {{2{t87[31]}}, t87});
-  wire lighting_dot_90_tie = t89[13] & ~(|t89[12:0]);
-  wire [20:0] lighting_dot_90_up = {t89[33], t89[33:14]} + {{20{1'b0}}, t89[13]};
-  wire signed [20:0] lighting_dot_90_r =
-      $signed({lighting_dot_90_up[20:1], lighting_dot_90_up[0] & ~lighting_dot_90_tie});
-  wire lighting_dot_90_ovf_c = ~((&lighting_dot_90_r[20:15]) | ~(|lighting_dot_90_r[20:15]));
-  wire signed [15:0] lighting_dot_90_d =
-      $signed(lighting_dot_90_ovf_c ? (lighting_dot_90_r[20] ? 16'h8000 : 16'h7fff)
-      : lighting_dot_90_r[15:0]);
-  reg  signed [15:0] lighting_dot_90_q;
-  wire signed [15:0] t91_a = $signed(lighting_dot_90_q);
-  wire signed [15:0] t91_b = $signed(K17);
-  wire signed [15:0] t91 = (t91_a > t91_b) ? t91_a : t91_b;
-  wire signed [18:0] lighting_spec_92_r = $signed({t91, 3'b0});
-  wire lighting_spec_92_ovf_c = lighting_spec_92_r[18];
-  wire [17:0] lighting_spec_92_d =
-      lighting_spec_92_ovf_c ? (lighting_spec_92_r[18] ? 18'h0 : 18'h3ffff)
-      : lighting_spec_92_r[17:0];
-  reg  [17:0] lighting_spec_92_q;
-  wire [35:0] t93 = lighting_spec_92_q * lighting_spec_92_q;
-  wire lighting_spec_94_tie = t93[16] & ~(|t93[15:0]);
-  wire [19:0] lighting_spec_94_up = {1'b0, t93[35:17]} + {{19{1'b0}}, t93[16]};
-  wire [19:0] lighting_spec_94_r =
-      {lighting_spec_94_up[19:1], lighting_spec_94_up[0] & ~lighting_spec_94_tie};
-  wire lighting_spec_94_ovf_c = |lighting_spec_94_r[19:18];
-  wire [17:0] lighting_spec_94_d = lighting_spec_94_ovf_c ? 18'h3ffff : lighting_spec_94_r[17:0];
-  reg  [17:0] lighting_spec_94_q;
-  wire [35:0] t95 = lighting_spec_94_q * lighting_spec_94_q;
-  wire lighting_spec_96_tie = t95[16] & ~(|t95[15:0]);
-  wire [19:0] lighting_spec_96_up = {1'b0, t95[35:17]} + {{19{1'b0}}, t95[16]};
-  wire [19:0] lighting_spec_96_r =
-      {lighting_spec_96_up[19:1], lighting_spec_96_up[0] & ~lighting_spec_96_tie};
-  wire lighting_spec_96_ovf_c = |lighting_spec_96_r[19:18];
-  wire [17:0] lighting_spec_96_d = lighting_spec_96_ovf_c ? 18'h3ffff : lighting_spec_96_r[17:0];
-  reg  [17:0] lighting_spec_96_q;
-  wire [35:0] t97 = lighting_spec_96_q * lighting_spec_96_q;
-  wire lighting_spec_98_tie = t97[16] & ~(|t97[15:0]);
-  wire [19:0] lighting_spec_98_up = {1'b0, t97[35:17]} + {{19{1'b0}}, t97[16]};
-  wire [19:0] lighting_spec_98_r =
-      {lighting_spec_98_up[19:1], lighting_spec_98_up[0] & ~lighting_spec_98_tie};
-  wire lighting_spec_98_ovf_c = |lighting_spec_98_r[19:18];
-  wire [17:0] lighting_spec_98_d = lighting_spec_98_ovf_c ? 18'h3ffff : lighting_spec_98_r[17:0];
-  reg  [17:0] lighting_spec_98_q;
-  wire [35:0] t99 = lighting_spec_98_q * lighting_spec_98_q;
-  wire lighting_spec_100_tie = t99[16] & ~(|t99[15:0]);
-  wire [19:0] lighting_spec_100_up = {1'b0, t99[35:17]} + {{19{1'b0}}, t99[16]};
-  wire [19:0] lighting_spec_100_r =
-      {lighting_spec_100_up[19:1], lighting_spec_100_up[0] & ~lighting_spec_100_tie};
-  wire lighting_spec_100_ovf_c = |lighting_spec_100_r[19:18];
-  wire [17:0] lighting_spec_100_d = lighting_spec_100_ovf_c ? 18'h3ffff : lighting_spec_100_r[17:0];
-  reg  [17:0] lighting_spec_100_q;
-  wire signed [16:0] t101_b = $signed({1'b0, K15});
-  wire signed [31:0] t101 = t84 * t101_b;
-  wire [33:0] t102 = lighting_spec_100_q * K16;
-  reg  signed [31:0] t101_s8_q;
-  reg  signed [31:0] t101_s9_q;
-  reg  signed [31:0] t101_s10_q;
-  reg  signed [31:0] t101_s11_q;
-  reg  signed [31:0] t101_s12_q;
-  wire signed [35:0] t103 = $signed({{2{1'b0}}, t102} + {t101_s12_q[31], t101_s12_q, 3'b0});
-  wire lighting_level_104_tie = t103[24] & ~(|t103[23:0]);
-  wire [11:0] lighting_level_104_up = {t103[35], t103[35:25]} + {{11{1'b0}}, t103[24]};
-  wire signed [11:0] lighting_level_104_r =
-      $signed({lighting_level_104_up[11:1], lighting_level_104_up[0] & ~lighting_level_104_tie});
-  wire lighting_level_104_ovf_c = lighting_level_104_r[11] | (|lighting_level_104_r[10:8]);
-  wire [7:0] lighting_level_104_d =
-      lighting_level_104_ovf_c ? (lighting_level_104_r[11] ? 8'h0 : 8'hff)
-      : lighting_level_104_r[7:0];
-  reg  [7:0] lighting_level_104_q;
-  reg  [0:0] angle_interp_angle_22_ovf_s1_q;
-  reg  [0:0] angle_interp_angle_27_ovf_s1_q;
+  wire signed [31:0] lighting_dot_mul2 = n_z_i_s6_q * lighting_light_2_q;
+  reg  signed [31:0] lighting_dot_mul0_s6_q;
+  wire signed [32:0] lighting_dot_add0 =
+      $signed({lighting_dot_mul0_s6_q[31], lighting_dot_mul0_s6_q}
+      + {lighting_dot_mul1[31], lighting_dot_mul1});
+  wire signed [33:0] lighting_dot_add1 =
+      $signed({lighting_dot_add0[32], lighting_dot_add0}
+      + {{2{lighting_dot_mul2[31]}}, lighting_dot_mul2});
+  wire lighting_dot_0_tie = lighting_dot_add1[13] & ~(|lighting_dot_add1[12:0]);
+  wire [20:0] lighting_dot_0_up =
+      {lighting_dot_add1[33], lighting_dot_add1[33:14]} + {{20{1'b0}}, lighting_dot_add1[13]};
+  wire signed [20:0] lighting_dot_0_r =
+      $signed({lighting_dot_0_up[20:1], lighting_dot_0_up[0] & ~lighting_dot_0_tie});
+  wire lighting_dot_0_ovf_c = ~((&lighting_dot_0_r[20:15]) | ~(|lighting_dot_0_r[20:15]));
+  wire signed [15:0] lighting_dot_0_d =
+      $signed(lighting_dot_0_ovf_c ? (lighting_dot_0_r[20] ? 16'h8000 : 16'h7fff)
+      : lighting_dot_0_r[15:0]);
+  reg  signed [15:0] lighting_dot_0_q;
+  wire signed [15:0] lighting_level_max0_a = $signed(lighting_dot_0_q);
+  wire signed [15:0] lighting_level_max0_b = $signed(lighting_level_k2);
+  wire signed [15:0] lighting_level_max0 =
+      (lighting_level_max0_a > lighting_level_max0_b) ? lighting_level_max0_a
+      : lighting_level_max0_b;
+  wire signed [31:0] lighting_dot_mul3 = n_x_i_s5_q * lighting_light_3_q;
+  wire signed [31:0] lighting_dot_mul4 = n_y_i_s6_q * lighting_light_4_q;
+  wire signed [31:0] lighting_dot_mul5 = n_z_i_s6_q * lighting_light_5_q;
+  reg  signed [31:0] lighting_dot_mul3_s6_q;
+  wire signed [32:0] lighting_dot_add2 =
+      $signed({lighting_dot_mul3_s6_q[31], lighting_dot_mul3_s6_q}
+      + {lighting_dot_mul4[31], lighting_dot_mul4});
+  wire signed [33:0] lighting_dot_add3 =
+      $signed({lighting_dot_add2[32], lighting_dot_add2}
+      + {{2{lighting_dot_mul5[31]}}, lighting_dot_mul5});
+  wire lighting_dot_1_tie = lighting_dot_add3[13] & ~(|lighting_dot_add3[12:0]);
+  wire [20:0] lighting_dot_1_up =
+      {lighting_dot_add3[33], lighting_dot_add3[33:14]} + {{20{1'b0}}, lighting_dot_add3[13]};
+  wire signed [20:0] lighting_dot_1_r =
+      $signed({lighting_dot_1_up[20:1], lighting_dot_1_up[0] & ~lighting_dot_1_tie});
+  wire lighting_dot_1_ovf_c = ~((&lighting_dot_1_r[20:15]) | ~(|lighting_dot_1_r[20:15]));
+  wire signed [15:0] lighting_dot_1_d =
+      $signed(lighting_dot_1_ovf_c ? (lighting_dot_1_r[20] ? 16'h8000 : 16'h7fff)
+      : lighting_dot_1_r[15:0]);
+  reg  signed [15:0] lighting_dot_1_q;
+  wire signed [15:0] lighting_spec_max0_a = $signed(lighting_dot_1_q);
+  wire signed [15:0] lighting_spec_max0_b = $signed(lighting_level_k2);
+  wire signed [15:0] lighting_spec_max0 =
+      (lighting_spec_max0_a > lighting_spec_max0_b) ? lighting_spec_max0_a : lighting_spec_max0_b;
+  wire signed [18:0] lighting_spec_0_r = $signed({lighting_spec_max0, 3'b0});
+  wire lighting_spec_0_ovf_c = lighting_spec_0_r[18];
+  wire [17:0] lighting_spec_0_d =
+      lighting_spec_0_ovf_c ? (lighting_spec_0_r[18] ? 18'h0 : 18'h3ffff) : lighting_spec_0_r[17:0];
+  reg  [17:0] lighting_spec_0_q;
+  wire [35:0] lighting_spec_mul0 = lighting_spec_0_q * lighting_spec_0_q;
+  wire lighting_spec_1_tie = lighting_spec_mul0[16] & ~(|lighting_spec_mul0[15:0]);
+  wire [19:0] lighting_spec_1_up =
+      {1'b0, lighting_spec_mul0[35:17]} + {{19{1'b0}}, lighting_spec_mul0[16]};
+  wire [19:0] lighting_spec_1_r =
+      {lighting_spec_1_up[19:1], lighting_spec_1_up[0] & ~lighting_spec_1_tie};
+  wire lighting_spec_1_ovf_c = |lighting_spec_1_r[19:18];
+  wire [17:0] lighting_spec_1_d = lighting_spec_1_ovf_c ? 18'h3ffff : lighting_spec_1_r[17:0];
+  reg  [17:0] lighting_spec_1_q;
+  wire [35:0] lighting_spec_mul1 = lighting_spec_1_q * lighting_spec_1_q;
+  wire lighting_spec_2_tie = lighting_spec_mul1[16] & ~(|lighting_spec_mul1[15:0]);
+  wire [19:0] lighting_spec_2_up =
+      {1'b0, lighting_spec_mul1[35:17]} + {{19{1'b0}}, lighting_spec_mul1[16]};
+  wire [19:0] lighting_spec_2_r =
+      {lighting_spec_2_up[19:1], lighting_spec_2_up[0] & ~lighting_spec_2_tie};
+  wire lighting_spec_2_ovf_c = |lighting_spec_2_r[19:18];
+  wire [17:0] lighting_spec_2_d = lighting_spec_2_ovf_c ? 18'h3ffff : lighting_spec_2_r[17:0];
+  reg  [17:0] lighting_spec_2_q;
+  wire [35:0] lighting_spec_mul2 = lighting_spec_2_q * lighting_spec_2_q;
+  wire lighting_spec_3_tie = lighting_spec_mul2[16] & ~(|lighting_spec_mul2[15:0]);
+  wire [19:0] lighting_spec_3_up =
+      {1'b0, lighting_spec_mul2[35:17]} + {{19{1'b0}}, lighting_spec_mul2[16]};
+  wire [19:0] lighting_spec_3_r =
+      {lighting_spec_3_up[19:1], lighting_spec_3_up[0] & ~lighting_spec_3_tie};
+  wire lighting_spec_3_ovf_c = |lighting_spec_3_r[19:18];
+  wire [17:0] lighting_spec_3_d = lighting_spec_3_ovf_c ? 18'h3ffff : lighting_spec_3_r[17:0];
+  reg  [17:0] lighting_spec_3_q;
+  wire [35:0] lighting_spec_mul3 = lighting_spec_3_q * lighting_spec_3_q;
+  wire lighting_spec_4_tie = lighting_spec_mul3[16] & ~(|lighting_spec_mul3[15:0]);
+  wire [19:0] lighting_spec_4_up =
+      {1'b0, lighting_spec_mul3[35:17]} + {{19{1'b0}}, lighting_spec_mul3[16]};
+  wire [19:0] lighting_spec_4_r =
+      {lighting_spec_4_up[19:1], lighting_spec_4_up[0] & ~lighting_spec_4_tie};
+  wire lighting_spec_4_ovf_c = |lighting_spec_4_r[19:18];
+  wire [17:0] lighting_spec_4_d = lighting_spec_4_ovf_c ? 18'h3ffff : lighting_spec_4_r[17:0];
+  reg  [17:0] lighting_spec_4_q;
+  wire signed [16:0] lighting_level_mul0_b = $signed({1'b0, lighting_level_k0});
+  wire signed [31:0] lighting_level_mul0 = lighting_level_max0 * lighting_level_mul0_b;
+  wire [33:0] lighting_level_mul1 = lighting_spec_4_q * lighting_level_k1;
+  reg  signed [31:0] lighting_level_mul0_s8_q;
+  reg  signed [31:0] lighting_level_mul0_s9_q;
+  reg  signed [31:0] lighting_level_mul0_s10_q;
+  reg  signed [31:0] lighting_level_mul0_s11_q;
+  reg  signed [31:0] lighting_level_mul0_s12_q;
+  wire signed [35:0] lighting_level_add0 =
+      $signed({{2{1'b0}}, lighting_level_mul1}
+      + {lighting_level_mul0_s12_q[31], lighting_level_mul0_s12_q, 3'b0});
+  wire lighting_level_0_tie = lighting_level_add0[24] & ~(|lighting_level_add0[23:0]);
+  wire [11:0] lighting_level_0_up =
+      {lighting_level_add0[35], lighting_level_add0[35:25]} + {{11{1'b0}}, lighting_level_add0[24]};
+  wire signed [11:0] lighting_level_0_r =
+      $signed({lighting_level_0_up[11:1], lighting_level_0_up[0] & ~lighting_level_0_tie});
+  wire lighting_level_0_ovf_c = lighting_level_0_r[11] | (|lighting_level_0_r[10:8]);
+  wire [7:0] lighting_level_0_d =
+      lighting_level_0_ovf_c ? (lighting_level_0_r[11] ? 8'h0 : 8'hff) : lighting_level_0_r[7:0];
+  reg  [7:0] lighting_level_0_q;
+  reg  [0:0] angle_interp_angle_0_ovf_s1_q;
+  reg  [0:0] angle_interp_angle_1_ovf_s1_q;
   wire ovf0_or_s1 =
-      angle_interp_angle_22_ovf_s1_q | angle_interp_angle_27_ovf_s1_q;
+      angle_interp_angle_0_ovf_s1_q | angle_interp_angle_1_ovf_s1_q;
   reg  [0:0] ovf0_s2_q;
   reg  [0:0] ovf0_s3_q;
   reg  [0:0] ovf0_s4_q;
@@ -1204,10 +1242,10 @@ module pipeline_mapped_interp (
   reg  [0:0] ovf0_s11_q;
   reg  [0:0] ovf0_s12_q;
   reg  [0:0] ovf0_s13_q;
-  reg  [0:0] polar_index_30_ovf_s2_q;
-  reg  [0:0] polar_index_52_ovf_s2_q;
+  reg  [0:0] polar_index_1_ovf_s2_q;
+  reg  [0:0] polar_index_4_ovf_s2_q;
   wire ovf1_or_s2 =
-      polar_index_30_ovf_s2_q | polar_index_52_ovf_s2_q;
+      polar_index_1_ovf_s2_q | polar_index_4_ovf_s2_q;
   reg  [0:0] ovf1_s3_q;
   reg  [0:0] ovf1_s4_q;
   reg  [0:0] ovf1_s5_q;
@@ -1219,10 +1257,10 @@ module pipeline_mapped_interp (
   reg  [0:0] ovf1_s11_q;
   reg  [0:0] ovf1_s12_q;
   reg  [0:0] ovf1_s13_q;
-  reg  [0:0] polar_lyz_39_ovf_s4_q;
-  reg  [0:0] polar_lyz_61_ovf_s4_q;
+  reg  [0:0] polar_lyz_0_ovf_s4_q;
+  reg  [0:0] polar_lyz_1_ovf_s4_q;
   wire ovf2_or_s4 =
-      polar_lyz_39_ovf_s4_q | polar_lyz_61_ovf_s4_q;
+      polar_lyz_0_ovf_s4_q | polar_lyz_1_ovf_s4_q;
   reg  [0:0] ovf2_s5_q;
   reg  [0:0] ovf2_s6_q;
   reg  [0:0] ovf2_s7_q;
@@ -1232,18 +1270,18 @@ module pipeline_mapped_interp (
   reg  [0:0] ovf2_s11_q;
   reg  [0:0] ovf2_s12_q;
   reg  [0:0] ovf2_s13_q;
-  reg  [0:0] polar_out_41_ovf_s4_q;
-  reg  [0:0] polar_out_45_ovf_s5_q;
-  reg  [0:0] polar_out_49_ovf_s5_q;
-  reg  [0:0] polar_out_63_ovf_s4_q;
-  reg  [0:0] polar_out_67_ovf_s5_q;
-  reg  [0:0] polar_out_71_ovf_s5_q;
+  reg  [0:0] polar_out_0_ovf_s4_q;
+  reg  [0:0] polar_out_1_ovf_s5_q;
+  reg  [0:0] polar_out_2_ovf_s5_q;
+  reg  [0:0] polar_out_3_ovf_s4_q;
+  reg  [0:0] polar_out_4_ovf_s5_q;
+  reg  [0:0] polar_out_5_ovf_s5_q;
   wire ovf3_or_s4 =
-      polar_out_41_ovf_s4_q | polar_out_63_ovf_s4_q;
+      polar_out_0_ovf_s4_q | polar_out_3_ovf_s4_q;
   reg  [0:0] ovf3_s5_q;
   wire ovf3_or_s5 =
-      ovf3_s5_q | polar_out_45_ovf_s5_q | polar_out_49_ovf_s5_q | polar_out_67_ovf_s5_q
-      | polar_out_71_ovf_s5_q;
+      ovf3_s5_q | polar_out_1_ovf_s5_q | polar_out_2_ovf_s5_q | polar_out_4_ovf_s5_q
+      | polar_out_5_ovf_s5_q;
   reg  [0:0] ovf3_s6_q;
   reg  [0:0] ovf3_s7_q;
   reg  [0:0] ovf3_s8_q;
@@ -1252,35 +1290,35 @@ module pipeline_mapped_interp (
   reg  [0:0] ovf3_s11_q;
   reg  [0:0] ovf3_s12_q;
   reg  [0:0] ovf3_s13_q;
-  reg  [0:0] lighting_dot_83_ovf_s7_q;
-  reg  [0:0] lighting_dot_90_ovf_s7_q;
+  reg  [0:0] lighting_dot_0_ovf_s7_q;
+  reg  [0:0] lighting_dot_1_ovf_s7_q;
   wire ovf5_or_s7 =
-      lighting_dot_83_ovf_s7_q | lighting_dot_90_ovf_s7_q;
+      lighting_dot_0_ovf_s7_q | lighting_dot_1_ovf_s7_q;
   reg  [0:0] ovf5_s8_q;
   reg  [0:0] ovf5_s9_q;
   reg  [0:0] ovf5_s10_q;
   reg  [0:0] ovf5_s11_q;
   reg  [0:0] ovf5_s12_q;
   reg  [0:0] ovf5_s13_q;
-  reg  [0:0] lighting_spec_92_ovf_s8_q;
-  reg  [0:0] lighting_spec_94_ovf_s9_q;
-  reg  [0:0] lighting_spec_96_ovf_s10_q;
-  reg  [0:0] lighting_spec_98_ovf_s11_q;
-  reg  [0:0] lighting_spec_100_ovf_s12_q;
+  reg  [0:0] lighting_spec_0_ovf_s8_q;
+  reg  [0:0] lighting_spec_1_ovf_s9_q;
+  reg  [0:0] lighting_spec_2_ovf_s10_q;
+  reg  [0:0] lighting_spec_3_ovf_s11_q;
+  reg  [0:0] lighting_spec_4_ovf_s12_q;
   reg  [0:0] ovf6_s9_q;
   wire ovf6_or_s9 =
-      ovf6_s9_q | lighting_spec_94_ovf_s9_q;
+      ovf6_s9_q | lighting_spec_1_ovf_s9_q;
   reg  [0:0] ovf6_s10_q;
   wire ovf6_or_s10 =
-      ovf6_s10_q | lighting_spec_96_ovf_s10_q;
+      ovf6_s10_q | lighting_spec_2_ovf_s10_q;
   reg  [0:0] ovf6_s11_q;
   wire ovf6_or_s11 =
-      ovf6_s11_q | lighting_spec_98_ovf_s11_q;
+      ovf6_s11_q | lighting_spec_3_ovf_s11_q;
   reg  [0:0] ovf6_s12_q;
   wire ovf6_or_s12 =
-      ovf6_s12_q | lighting_spec_100_ovf_s12_q;
+      ovf6_s12_q | lighting_spec_4_ovf_s12_q;
   reg  [0:0] ovf6_s13_q;
-  reg  [0:0] lighting_level_104_ovf_s13_q;
+  reg  [0:0] lighting_level_0_ovf_s13_q;
 
   // Stage loads: the item entering stage k is valid and the stages move.
   wire load_s1 = in_take;
@@ -1301,67 +1339,67 @@ module pipeline_mapped_interp (
   // registers load only with a valid item, so bubbles do not toggle them.
   always @(posedge clk_i) begin
     if (load_s1) begin
-      angle_interp_angle_22_q <= angle_interp_angle_22_d;
-      angle_interp_angle_27_q <= angle_interp_angle_27_d;
-      polar_index_28_q <= polar_index_28_d;
-      polar_index_50_q <= polar_index_50_d;
+      angle_interp_angle_0_q <= angle_interp_angle_0_d;
+      angle_interp_angle_1_q <= angle_interp_angle_1_d;
+      polar_index_0_q <= polar_index_0_d;
+      polar_index_3_q <= polar_index_3_d;
       n_x_i_s1_q <= n_x_i;
       n_y_i_s1_q <= n_y_i;
       n_z_i_s1_q <= n_z_i;
-      angle_interp_angle_22_ovf_s1_q <= angle_interp_angle_22_ovf_c;
-      angle_interp_angle_27_ovf_s1_q <= angle_interp_angle_27_ovf_c;
+      angle_interp_angle_0_ovf_s1_q <= angle_interp_angle_0_ovf_c;
+      angle_interp_angle_1_ovf_s1_q <= angle_interp_angle_1_ovf_c;
     end
     if (load_s2) begin
-      polar_index_30_q <= polar_index_30_d;
-      polar_index_31_q <= polar_index_31_d;
-      polar_index_28_s2_q <= polar_index_28_q;
-      polar_index_52_q <= polar_index_52_d;
-      polar_index_53_q <= polar_index_53_d;
-      polar_index_50_s2_q <= polar_index_50_q;
+      polar_index_1_q <= polar_index_1_d;
+      polar_index_2_q <= polar_index_2_d;
+      polar_index_0_s2_q <= polar_index_0_q;
+      polar_index_4_q <= polar_index_4_d;
+      polar_index_5_q <= polar_index_5_d;
+      polar_index_3_s2_q <= polar_index_3_q;
       n_x_i_s2_q <= n_x_i_s1_q;
       n_y_i_s2_q <= n_y_i_s1_q;
       n_z_i_s2_q <= n_z_i_s1_q;
       ovf0_s2_q <= ovf0_or_s1;
-      polar_index_30_ovf_s2_q <= polar_index_30_ovf_c;
-      polar_index_52_ovf_s2_q <= polar_index_52_ovf_c;
+      polar_index_1_ovf_s2_q <= polar_index_1_ovf_c;
+      polar_index_4_ovf_s2_q <= polar_index_4_ovf_c;
     end
     if (load_s3) begin
-      cos_32_raw_q <= quarter_rom[cos_32_a[8:0]];
-      cos_32_top_q <= cos_32_a[9];
-      cos_32_neg_q <= cos_32_j[10];
-      sin_33_raw_q <= quarter_rom[sin_33_a[8:0]];
-      sin_33_top_q <= sin_33_a[9];
-      sin_33_neg_q <= sin_33_j[10];
-      cos_34_raw_q <= quarter_rom[cos_34_a[8:0]];
-      cos_34_top_q <= cos_34_a[9];
-      cos_34_neg_q <= cos_34_j[10];
-      sin_35_raw_q <= quarter_rom[sin_35_a[8:0]];
-      sin_35_top_q <= sin_35_a[9];
-      sin_35_neg_q <= sin_35_j[10];
-      cos_36_raw_q <= quarter_rom[cos_36_a[8:0]];
-      cos_36_top_q <= cos_36_a[9];
-      cos_36_neg_q <= cos_36_j[10];
-      sin_37_raw_q <= quarter_rom[sin_37_a[8:0]];
-      sin_37_top_q <= sin_37_a[9];
-      sin_37_neg_q <= sin_37_j[10];
-      cos_54_raw_q <= quarter_rom[cos_54_a[8:0]];
-      cos_54_top_q <= cos_54_a[9];
-      cos_54_neg_q <= cos_54_j[10];
-      sin_55_raw_q <= quarter_rom[sin_55_a[8:0]];
-      sin_55_top_q <= sin_55_a[9];
-      sin_55_neg_q <= sin_55_j[10];
-      cos_56_raw_q <= quarter_rom[cos_56_a[8:0]];
-      cos_56_top_q <= cos_56_a[9];
-      cos_56_neg_q <= cos_56_j[10];
-      sin_57_raw_q <= quarter_rom[sin_57_a[8:0]];
-      sin_57_top_q <= sin_57_a[9];
-      sin_57_neg_q <= sin_57_j[10];
-      cos_58_raw_q <= quarter_rom[cos_58_a[8:0]];
-      cos_58_top_q <= cos_58_a[9];
-      cos_58_neg_q <= cos_58_j[10];
-      sin_59_raw_q <= quarter_rom[sin_59_a[8:0]];
-      sin_59_top_q <= sin_59_a[9];
-      sin_59_neg_q <= sin_59_j[10];
+      cos_0_raw_q <= quarter_rom[cos_0_a[8:0]];
+      cos_0_top_q <= cos_0_a[9];
+      cos_0_neg_q <= cos_0_j[10];
+      sin_0_raw_q <= quarter_rom[sin_0_a[8:0]];
+      sin_0_top_q <= sin_0_a[9];
+      sin_0_neg_q <= sin_0_j[10];
+      cos_1_raw_q <= quarter_rom[cos_1_a[8:0]];
+      cos_1_top_q <= cos_1_a[9];
+      cos_1_neg_q <= cos_1_j[10];
+      sin_1_raw_q <= quarter_rom[sin_1_a[8:0]];
+      sin_1_top_q <= sin_1_a[9];
+      sin_1_neg_q <= sin_1_j[10];
+      cos_2_raw_q <= quarter_rom[cos_2_a[8:0]];
+      cos_2_top_q <= cos_2_a[9];
+      cos_2_neg_q <= cos_2_j[10];
+      sin_2_raw_q <= quarter_rom[sin_2_a[8:0]];
+      sin_2_top_q <= sin_2_a[9];
+      sin_2_neg_q <= sin_2_j[10];
+      cos_3_raw_q <= quarter_rom[cos_3_a[8:0]];
+      cos_3_top_q <= cos_3_a[9];
+      cos_3_neg_q <= cos_3_j[10];
+      sin_3_raw_q <= quarter_rom[sin_3_a[8:0]];
+      sin_3_top_q <= sin_3_a[9];
+      sin_3_neg_q <= sin_3_j[10];
+      cos_4_raw_q <= quarter_rom[cos_4_a[8:0]];
+      cos_4_top_q <= cos_4_a[9];
+      cos_4_neg_q <= cos_4_j[10];
+      sin_4_raw_q <= quarter_rom[sin_4_a[8:0]];
+      sin_4_top_q <= sin_4_a[9];
+      sin_4_neg_q <= sin_4_j[10];
+      cos_5_raw_q <= quarter_rom[cos_5_a[8:0]];
+      cos_5_top_q <= cos_5_a[9];
+      cos_5_neg_q <= cos_5_j[10];
+      sin_5_raw_q <= quarter_rom[sin_5_a[8:0]];
+      sin_5_top_q <= sin_5_a[9];
+      sin_5_neg_q <= sin_5_j[10];
       n_x_i_s3_q <= n_x_i_s2_q;
       n_y_i_s3_q <= n_y_i_s2_q;
       n_z_i_s3_q <= n_z_i_s2_q;
@@ -1369,142 +1407,142 @@ module pipeline_mapped_interp (
       ovf1_s3_q <= ovf1_or_s2;
     end
     if (load_s4) begin
-      polar_lyz_39_q <= polar_lyz_39_d;
-      polar_out_41_q <= polar_out_41_d;
-      sin_37_s4_q <= sin_37;
-      t42_s4_q <= t42;
-      cos_36_s4_q <= cos_36;
-      t47_s4_q <= t47;
-      polar_lyz_61_q <= polar_lyz_61_d;
-      polar_out_63_q <= polar_out_63_d;
-      sin_59_s4_q <= sin_59;
-      t64_s4_q <= t64;
-      cos_58_s4_q <= cos_58;
-      t69_s4_q <= t69;
+      polar_lyz_0_q <= polar_lyz_0_d;
+      polar_out_0_q <= polar_out_0_d;
+      sin_2_s4_q <= sin_2;
+      polar_out_mul1_s4_q <= polar_out_mul1;
+      cos_2_s4_q <= cos_2;
+      polar_out_mul4_s4_q <= polar_out_mul4;
+      polar_lyz_1_q <= polar_lyz_1_d;
+      polar_out_3_q <= polar_out_3_d;
+      sin_5_s4_q <= sin_5;
+      polar_out_mul6_s4_q <= polar_out_mul6;
+      cos_5_s4_q <= cos_5;
+      polar_out_mul9_s4_q <= polar_out_mul9;
       n_x_i_s4_q <= n_x_i_s3_q;
       n_y_i_s4_q <= n_y_i_s3_q;
       n_z_i_s4_q <= n_z_i_s3_q;
       ovf0_s4_q <= ovf0_s3_q;
       ovf1_s4_q <= ovf1_s3_q;
-      polar_lyz_39_ovf_s4_q <= polar_lyz_39_ovf_c;
-      polar_lyz_61_ovf_s4_q <= polar_lyz_61_ovf_c;
-      polar_out_41_ovf_s4_q <= polar_out_41_ovf_c;
-      polar_out_63_ovf_s4_q <= polar_out_63_ovf_c;
+      polar_lyz_0_ovf_s4_q <= polar_lyz_0_ovf_c;
+      polar_lyz_1_ovf_s4_q <= polar_lyz_1_ovf_c;
+      polar_out_0_ovf_s4_q <= polar_out_0_ovf_c;
+      polar_out_3_ovf_s4_q <= polar_out_3_ovf_c;
     end
     if (load_s5) begin
-      polar_out_45_q <= polar_out_45_d;
-      polar_out_49_q <= polar_out_49_d;
-      polar_out_67_q <= polar_out_67_d;
-      polar_out_71_q <= polar_out_71_d;
-      lighting_light_72_q <= lighting_light_72_d;
-      lighting_light_75_q <= lighting_light_75_d;
+      polar_out_1_q <= polar_out_1_d;
+      polar_out_2_q <= polar_out_2_d;
+      polar_out_4_q <= polar_out_4_d;
+      polar_out_5_q <= polar_out_5_d;
+      lighting_light_0_q <= lighting_light_0_d;
+      lighting_light_3_q <= lighting_light_3_d;
       n_x_i_s5_q <= n_x_i_s4_q;
       n_y_i_s5_q <= n_y_i_s4_q;
       n_z_i_s5_q <= n_z_i_s4_q;
       ovf0_s5_q <= ovf0_s4_q;
       ovf1_s5_q <= ovf1_s4_q;
       ovf2_s5_q <= ovf2_or_s4;
-      polar_out_45_ovf_s5_q <= polar_out_45_ovf_c;
-      polar_out_49_ovf_s5_q <= polar_out_49_ovf_c;
-      polar_out_67_ovf_s5_q <= polar_out_67_ovf_c;
-      polar_out_71_ovf_s5_q <= polar_out_71_ovf_c;
+      polar_out_1_ovf_s5_q <= polar_out_1_ovf_c;
+      polar_out_2_ovf_s5_q <= polar_out_2_ovf_c;
+      polar_out_4_ovf_s5_q <= polar_out_4_ovf_c;
+      polar_out_5_ovf_s5_q <= polar_out_5_ovf_c;
       ovf3_s5_q <= ovf3_or_s4;
     end
     if (load_s6) begin
-      lighting_light_73_q <= lighting_light_73_d;
-      lighting_light_74_q <= lighting_light_74_d;
-      lighting_light_76_q <= lighting_light_76_d;
-      lighting_light_77_q <= lighting_light_77_d;
+      lighting_light_1_q <= lighting_light_1_d;
+      lighting_light_2_q <= lighting_light_2_d;
+      lighting_light_4_q <= lighting_light_4_d;
+      lighting_light_5_q <= lighting_light_5_d;
       n_y_i_s6_q <= n_y_i_s5_q;
       n_z_i_s6_q <= n_z_i_s5_q;
-      t78_s6_q <= t78;
-      t85_s6_q <= t85;
+      lighting_dot_mul0_s6_q <= lighting_dot_mul0;
+      lighting_dot_mul3_s6_q <= lighting_dot_mul3;
       ovf0_s6_q <= ovf0_s5_q;
       ovf1_s6_q <= ovf1_s5_q;
       ovf2_s6_q <= ovf2_s5_q;
       ovf3_s6_q <= ovf3_or_s5;
     end
     if (load_s7) begin
-      lighting_dot_83_q <= lighting_dot_83_d;
-      lighting_dot_90_q <= lighting_dot_90_d;
+      lighting_dot_0_q <= lighting_dot_0_d;
+      lighting_dot_1_q <= lighting_dot_1_d;
       ovf0_s7_q <= ovf0_s6_q;
       ovf1_s7_q <= ovf1_s6_q;
       ovf2_s7_q <= ovf2_s6_q;
       ovf3_s7_q <= ovf3_s6_q;
-      lighting_dot_83_ovf_s7_q <= lighting_dot_83_ovf_c;
-      lighting_dot_90_ovf_s7_q <= lighting_dot_90_ovf_c;
+      lighting_dot_0_ovf_s7_q <= lighting_dot_0_ovf_c;
+      lighting_dot_1_ovf_s7_q <= lighting_dot_1_ovf_c;
     end
     if (load_s8) begin
-      lighting_spec_92_q <= lighting_spec_92_d;
-      t101_s8_q <= t101;
+      lighting_spec_0_q <= lighting_spec_0_d;
+      lighting_level_mul0_s8_q <= lighting_level_mul0;
       ovf0_s8_q <= ovf0_s7_q;
       ovf1_s8_q <= ovf1_s7_q;
       ovf2_s8_q <= ovf2_s7_q;
       ovf3_s8_q <= ovf3_s7_q;
       ovf5_s8_q <= ovf5_or_s7;
-      lighting_spec_92_ovf_s8_q <= lighting_spec_92_ovf_c;
+      lighting_spec_0_ovf_s8_q <= lighting_spec_0_ovf_c;
     end
     if (load_s9) begin
-      lighting_spec_94_q <= lighting_spec_94_d;
-      t101_s9_q <= t101_s8_q;
+      lighting_spec_1_q <= lighting_spec_1_d;
+      lighting_level_mul0_s9_q <= lighting_level_mul0_s8_q;
       ovf0_s9_q <= ovf0_s8_q;
       ovf1_s9_q <= ovf1_s8_q;
       ovf2_s9_q <= ovf2_s8_q;
       ovf3_s9_q <= ovf3_s8_q;
       ovf5_s9_q <= ovf5_s8_q;
-      lighting_spec_94_ovf_s9_q <= lighting_spec_94_ovf_c;
-      ovf6_s9_q <= lighting_spec_92_ovf_s8_q;
+      lighting_spec_1_ovf_s9_q <= lighting_spec_1_ovf_c;
+      ovf6_s9_q <= lighting_spec_0_ovf_s8_q;
     end
     if (load_s10) begin
-      lighting_spec_96_q <= lighting_spec_96_d;
-      t101_s10_q <= t101_s9_q;
+      lighting_spec_2_q <= lighting_spec_2_d;
+      lighting_level_mul0_s10_q <= lighting_level_mul0_s9_q;
       ovf0_s10_q <= ovf0_s9_q;
       ovf1_s10_q <= ovf1_s9_q;
       ovf2_s10_q <= ovf2_s9_q;
       ovf3_s10_q <= ovf3_s9_q;
       ovf5_s10_q <= ovf5_s9_q;
-      lighting_spec_96_ovf_s10_q <= lighting_spec_96_ovf_c;
+      lighting_spec_2_ovf_s10_q <= lighting_spec_2_ovf_c;
       ovf6_s10_q <= ovf6_or_s9;
     end
     if (load_s11) begin
-      lighting_spec_98_q <= lighting_spec_98_d;
-      t101_s11_q <= t101_s10_q;
+      lighting_spec_3_q <= lighting_spec_3_d;
+      lighting_level_mul0_s11_q <= lighting_level_mul0_s10_q;
       ovf0_s11_q <= ovf0_s10_q;
       ovf1_s11_q <= ovf1_s10_q;
       ovf2_s11_q <= ovf2_s10_q;
       ovf3_s11_q <= ovf3_s10_q;
       ovf5_s11_q <= ovf5_s10_q;
-      lighting_spec_98_ovf_s11_q <= lighting_spec_98_ovf_c;
+      lighting_spec_3_ovf_s11_q <= lighting_spec_3_ovf_c;
       ovf6_s11_q <= ovf6_or_s10;
     end
     if (load_s12) begin
-      lighting_spec_100_q <= lighting_spec_100_d;
-      t101_s12_q <= t101_s11_q;
+      lighting_spec_4_q <= lighting_spec_4_d;
+      lighting_level_mul0_s12_q <= lighting_level_mul0_s11_q;
       ovf0_s12_q <= ovf0_s11_q;
       ovf1_s12_q <= ovf1_s11_q;
       ovf2_s12_q <= ovf2_s11_q;
       ovf3_s12_q <= ovf3_s11_q;
       ovf5_s12_q <= ovf5_s11_q;
-      lighting_spec_100_ovf_s12_q <= lighting_spec_100_ovf_c;
+      lighting_spec_4_ovf_s12_q <= lighting_spec_4_ovf_c;
       ovf6_s12_q <= ovf6_or_s11;
     end
     if (load_s13) begin
-      lighting_level_104_q <= lighting_level_104_d;
+      lighting_level_0_q <= lighting_level_0_d;
       ovf0_s13_q <= ovf0_s12_q;
       ovf1_s13_q <= ovf1_s12_q;
       ovf2_s13_q <= ovf2_s12_q;
       ovf3_s13_q <= ovf3_s12_q;
       ovf5_s13_q <= ovf5_s12_q;
       ovf6_s13_q <= ovf6_or_s12;
-      lighting_level_104_ovf_s13_q <= lighting_level_104_ovf_c;
+      lighting_level_0_ovf_s13_q <= lighting_level_0_ovf_c;
     end
   end
 
   // Output buffer: the head drives the ports; the skid register takes the
   // item that leaves the last stage while the head is stalled.
   wire [15:0] last_d =
-      {lighting_level_104_q, (ovf0_s13_q), (ovf1_s13_q), (ovf2_s13_q), (ovf3_s13_q), (1'b0),
-      (ovf5_s13_q), (ovf6_s13_q), (lighting_level_104_ovf_s13_q)};
+      {lighting_level_0_q, (ovf0_s13_q), (ovf1_s13_q), (ovf2_s13_q), (ovf3_s13_q), (1'b0),
+      (ovf5_s13_q), (ovf6_s13_q), (lighting_level_0_ovf_s13_q)};
   reg  [15:0] out_q, skid_q;
   always @(posedge clk_i) begin
     if (out_load & (skid_valid | out_arrive)) out_q <= skid_valid ? skid_q : last_d;
@@ -1573,7 +1611,7 @@ module pipeline_mapped_interp (
 
   // Bits the arithmetic drops (truncation) or does not read.
   wire unused_bits =
-      ^{polar_index_28_ovf_c, polar_index_31_ovf_c, polar_index_50_ovf_c, polar_index_53_ovf_c};
+      ^{polar_index_0_ovf_c, polar_index_2_ovf_c, polar_index_3_ovf_c, polar_index_5_ovf_c};
 endmodule
 
 `default_nettype wire

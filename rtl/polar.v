@@ -609,143 +609,147 @@ module polar (
   end
 
   // Datapath.
-  wire polar_index_4_ovf_c = 1'b0;
-  wire [10:0] polar_index_4_d = a_l_i[10:0];
-  reg  [10:0] polar_index_4_q;
-  wire signed [12:0] t5 = $signed({{2{1'b0}}, b_l_i} - {{2{1'b0}}, b_n_i});
-  wire polar_index_6_ovf_c = t5[12] | (|t5[11]);
-  wire [10:0] polar_index_6_d = t5[10:0];
-  reg  [10:0] polar_index_6_q;
-  wire polar_index_7_ovf_c = 1'b0;
-  wire [10:0] polar_index_7_d = a_n_i[10:0];
-  reg  [10:0] polar_index_7_q;
-  wire [10:0] cos_8_j = {polar_index_4_q[10:9] + 2'd1, polar_index_4_q[8:0]};
-  wire [9:0] cos_8_a = cos_8_j[9] ? (10'h200 - {1'b0, cos_8_j[8:0]}) : {1'b0, cos_8_j[8:0]};
-  reg  signed [15:0] cos_8_raw_q;
-  reg  [0:0] cos_8_top_q;
-  reg  [0:0] cos_8_neg_q;
-  wire signed [15:0] cos_8_v = cos_8_top_q ? $signed(16'h4000) : cos_8_raw_q;
-  wire signed [16:0] cos_8_n = $signed(17'h0 - {cos_8_v[15], cos_8_v});
-  wire unused_cos_8_novf = ~((&cos_8_n[16:15]) | ~(|cos_8_n[16:15]));
-  wire signed [15:0] cos_8_nv =
-      $signed(unused_cos_8_novf ? (cos_8_n[16] ? 16'h8000 : 16'h7fff) : cos_8_n[15:0]);
-  wire signed [15:0] cos_8 = $signed(cos_8_neg_q ? cos_8_nv : cos_8_v);
-  wire [10:0] sin_9_j = polar_index_4_q[10:0];
-  wire [9:0] sin_9_a = sin_9_j[9] ? (10'h200 - {1'b0, sin_9_j[8:0]}) : {1'b0, sin_9_j[8:0]};
-  reg  signed [15:0] sin_9_raw_q;
-  reg  [0:0] sin_9_top_q;
-  reg  [0:0] sin_9_neg_q;
-  wire signed [15:0] sin_9_v = sin_9_top_q ? $signed(16'h4000) : sin_9_raw_q;
-  wire signed [16:0] sin_9_n = $signed(17'h0 - {sin_9_v[15], sin_9_v});
-  wire unused_sin_9_novf = ~((&sin_9_n[16:15]) | ~(|sin_9_n[16:15]));
-  wire signed [15:0] sin_9_nv =
-      $signed(unused_sin_9_novf ? (sin_9_n[16] ? 16'h8000 : 16'h7fff) : sin_9_n[15:0]);
-  wire signed [15:0] sin_9 = $signed(sin_9_neg_q ? sin_9_nv : sin_9_v);
-  wire [10:0] cos_10_j = {polar_index_6_q[10:9] + 2'd1, polar_index_6_q[8:0]};
-  wire [9:0] cos_10_a = cos_10_j[9] ? (10'h200 - {1'b0, cos_10_j[8:0]}) : {1'b0, cos_10_j[8:0]};
-  reg  signed [15:0] cos_10_raw_q;
-  reg  [0:0] cos_10_top_q;
-  reg  [0:0] cos_10_neg_q;
-  wire signed [15:0] cos_10_v = cos_10_top_q ? $signed(16'h4000) : cos_10_raw_q;
-  wire signed [16:0] cos_10_n = $signed(17'h0 - {cos_10_v[15], cos_10_v});
-  wire unused_cos_10_novf = ~((&cos_10_n[16:15]) | ~(|cos_10_n[16:15]));
-  wire signed [15:0] cos_10_nv =
-      $signed(unused_cos_10_novf ? (cos_10_n[16] ? 16'h8000 : 16'h7fff) : cos_10_n[15:0]);
-  wire signed [15:0] cos_10 = $signed(cos_10_neg_q ? cos_10_nv : cos_10_v);
-  wire [10:0] sin_11_j = polar_index_6_q[10:0];
-  wire [9:0] sin_11_a = sin_11_j[9] ? (10'h200 - {1'b0, sin_11_j[8:0]}) : {1'b0, sin_11_j[8:0]};
-  reg  signed [15:0] sin_11_raw_q;
-  reg  [0:0] sin_11_top_q;
-  reg  [0:0] sin_11_neg_q;
-  wire signed [15:0] sin_11_v = sin_11_top_q ? $signed(16'h4000) : sin_11_raw_q;
-  wire signed [16:0] sin_11_n = $signed(17'h0 - {sin_11_v[15], sin_11_v});
-  wire unused_sin_11_novf = ~((&sin_11_n[16:15]) | ~(|sin_11_n[16:15]));
-  wire signed [15:0] sin_11_nv =
-      $signed(unused_sin_11_novf ? (sin_11_n[16] ? 16'h8000 : 16'h7fff) : sin_11_n[15:0]);
-  wire signed [15:0] sin_11 = $signed(sin_11_neg_q ? sin_11_nv : sin_11_v);
-  wire [10:0] cos_12_j = {polar_index_7_q[10:9] + 2'd1, polar_index_7_q[8:0]};
-  wire [9:0] cos_12_a = cos_12_j[9] ? (10'h200 - {1'b0, cos_12_j[8:0]}) : {1'b0, cos_12_j[8:0]};
-  reg  signed [15:0] cos_12_raw_q;
-  reg  [0:0] cos_12_top_q;
-  reg  [0:0] cos_12_neg_q;
-  wire signed [15:0] cos_12_v = cos_12_top_q ? $signed(16'h4000) : cos_12_raw_q;
-  wire signed [16:0] cos_12_n = $signed(17'h0 - {cos_12_v[15], cos_12_v});
-  wire unused_cos_12_novf = ~((&cos_12_n[16:15]) | ~(|cos_12_n[16:15]));
-  wire signed [15:0] cos_12_nv =
-      $signed(unused_cos_12_novf ? (cos_12_n[16] ? 16'h8000 : 16'h7fff) : cos_12_n[15:0]);
-  wire signed [15:0] cos_12 = $signed(cos_12_neg_q ? cos_12_nv : cos_12_v);
-  wire [10:0] sin_13_j = polar_index_7_q[10:0];
-  wire [9:0] sin_13_a = sin_13_j[9] ? (10'h200 - {1'b0, sin_13_j[8:0]}) : {1'b0, sin_13_j[8:0]};
-  reg  signed [15:0] sin_13_raw_q;
-  reg  [0:0] sin_13_top_q;
-  reg  [0:0] sin_13_neg_q;
-  wire signed [15:0] sin_13_v = sin_13_top_q ? $signed(16'h4000) : sin_13_raw_q;
-  wire signed [16:0] sin_13_n = $signed(17'h0 - {sin_13_v[15], sin_13_v});
-  wire unused_sin_13_novf = ~((&sin_13_n[16:15]) | ~(|sin_13_n[16:15]));
-  wire signed [15:0] sin_13_nv =
-      $signed(unused_sin_13_novf ? (sin_13_n[16] ? 16'h8000 : 16'h7fff) : sin_13_n[15:0]);
-  wire signed [15:0] sin_13 = $signed(sin_13_neg_q ? sin_13_nv : sin_13_v);
-  wire signed [31:0] t14 = cos_8 * cos_10;
-  wire polar_lyz_15_tie = t14[13] & ~(|t14[12:0]);
-  wire [18:0] polar_lyz_15_up = {t14[31], t14[31:14]} + {{18{1'b0}}, t14[13]};
-  wire signed [18:0] polar_lyz_15_r =
-      $signed({polar_lyz_15_up[18:1], polar_lyz_15_up[0] & ~polar_lyz_15_tie});
-  wire polar_lyz_15_ovf_c = ~((&polar_lyz_15_r[18:15]) | ~(|polar_lyz_15_r[18:15]));
-  wire signed [15:0] polar_lyz_15_d =
-      $signed(polar_lyz_15_ovf_c ? (polar_lyz_15_r[18] ? 16'h8000 : 16'h7fff)
-      : polar_lyz_15_r[15:0]);
-  reg  signed [15:0] polar_lyz_15_q;
-  wire signed [31:0] t16 = cos_8 * sin_11;
-  wire polar_out_17_tie = t16[13] & ~(|t16[12:0]);
-  wire [18:0] polar_out_17_up = {t16[31], t16[31:14]} + {{18{1'b0}}, t16[13]};
-  wire signed [18:0] polar_out_17_r =
-      $signed({polar_out_17_up[18:1], polar_out_17_up[0] & ~polar_out_17_tie});
-  wire polar_out_17_ovf_c = ~((&polar_out_17_r[18:15]) | ~(|polar_out_17_r[18:15]));
-  wire signed [15:0] polar_out_17_d =
-      $signed(polar_out_17_ovf_c ? (polar_out_17_r[18] ? 16'h8000 : 16'h7fff)
-      : polar_out_17_r[15:0]);
-  reg  signed [15:0] polar_out_17_q;
-  wire signed [31:0] t18 = sin_9 * cos_12;
-  reg  signed [15:0] sin_13_s3_q;
-  wire signed [31:0] t19 = polar_lyz_15_q * sin_13_s3_q;
-  reg  signed [31:0] t18_s3_q;
-  wire signed [32:0] t20 = $signed({t18_s3_q[31], t18_s3_q} - {t19[31], t19});
-  wire polar_out_21_tie = t20[13] & ~(|t20[12:0]);
-  wire [19:0] polar_out_21_up = {t20[32], t20[32:14]} + {{19{1'b0}}, t20[13]};
-  wire signed [19:0] polar_out_21_r =
-      $signed({polar_out_21_up[19:1], polar_out_21_up[0] & ~polar_out_21_tie});
-  wire polar_out_21_ovf_c = ~((&polar_out_21_r[19:15]) | ~(|polar_out_21_r[19:15]));
-  wire signed [15:0] polar_out_21_d =
-      $signed(polar_out_21_ovf_c ? (polar_out_21_r[19] ? 16'h8000 : 16'h7fff)
-      : polar_out_21_r[15:0]);
-  reg  signed [15:0] polar_out_21_q;
-  reg  signed [15:0] cos_12_s3_q;
-  wire signed [31:0] t22 = polar_lyz_15_q * cos_12_s3_q;
-  wire signed [31:0] t23 = sin_9 * sin_13;
-  reg  signed [31:0] t23_s3_q;
-  wire signed [32:0] t24 = $signed({t23_s3_q[31], t23_s3_q} + {t22[31], t22});
-  wire polar_out_25_tie = t24[13] & ~(|t24[12:0]);
-  wire [19:0] polar_out_25_up = {t24[32], t24[32:14]} + {{19{1'b0}}, t24[13]};
-  wire signed [19:0] polar_out_25_r =
-      $signed({polar_out_25_up[19:1], polar_out_25_up[0] & ~polar_out_25_tie});
-  wire polar_out_25_ovf_c = ~((&polar_out_25_r[19:15]) | ~(|polar_out_25_r[19:15]));
-  wire signed [15:0] polar_out_25_d =
-      $signed(polar_out_25_ovf_c ? (polar_out_25_r[19] ? 16'h8000 : 16'h7fff)
-      : polar_out_25_r[15:0]);
-  reg  signed [15:0] polar_out_25_q;
-  reg  signed [15:0] polar_out_17_s4_q;
-  reg  [0:0] polar_index_6_ovf_s1_q;
+  wire polar_index_0_ovf_c = 1'b0;
+  wire [10:0] polar_index_0_d = a_l_i[10:0];
+  reg  [10:0] polar_index_0_q;
+  wire signed [12:0] polar_index_sub0 = $signed({{2{1'b0}}, b_l_i} - {{2{1'b0}}, b_n_i});
+  wire polar_index_1_ovf_c = polar_index_sub0[12] | (|polar_index_sub0[11]);
+  wire [10:0] polar_index_1_d = polar_index_sub0[10:0];
+  reg  [10:0] polar_index_1_q;
+  wire polar_index_2_ovf_c = 1'b0;
+  wire [10:0] polar_index_2_d = a_n_i[10:0];
+  reg  [10:0] polar_index_2_q;
+  wire [10:0] cos_0_j = {polar_index_0_q[10:9] + 2'd1, polar_index_0_q[8:0]};
+  wire [9:0] cos_0_a = cos_0_j[9] ? (10'h200 - {1'b0, cos_0_j[8:0]}) : {1'b0, cos_0_j[8:0]};
+  reg  signed [15:0] cos_0_raw_q;
+  reg  [0:0] cos_0_top_q;
+  reg  [0:0] cos_0_neg_q;
+  wire signed [15:0] cos_0_v = cos_0_top_q ? $signed(16'h4000) : cos_0_raw_q;
+  wire signed [16:0] cos_0_n = $signed(17'h0 - {cos_0_v[15], cos_0_v});
+  wire unused_cos_0_novf = ~((&cos_0_n[16:15]) | ~(|cos_0_n[16:15]));
+  wire signed [15:0] cos_0_nv =
+      $signed(unused_cos_0_novf ? (cos_0_n[16] ? 16'h8000 : 16'h7fff) : cos_0_n[15:0]);
+  wire signed [15:0] cos_0 = $signed(cos_0_neg_q ? cos_0_nv : cos_0_v);
+  wire [10:0] sin_0_j = polar_index_0_q[10:0];
+  wire [9:0] sin_0_a = sin_0_j[9] ? (10'h200 - {1'b0, sin_0_j[8:0]}) : {1'b0, sin_0_j[8:0]};
+  reg  signed [15:0] sin_0_raw_q;
+  reg  [0:0] sin_0_top_q;
+  reg  [0:0] sin_0_neg_q;
+  wire signed [15:0] sin_0_v = sin_0_top_q ? $signed(16'h4000) : sin_0_raw_q;
+  wire signed [16:0] sin_0_n = $signed(17'h0 - {sin_0_v[15], sin_0_v});
+  wire unused_sin_0_novf = ~((&sin_0_n[16:15]) | ~(|sin_0_n[16:15]));
+  wire signed [15:0] sin_0_nv =
+      $signed(unused_sin_0_novf ? (sin_0_n[16] ? 16'h8000 : 16'h7fff) : sin_0_n[15:0]);
+  wire signed [15:0] sin_0 = $signed(sin_0_neg_q ? sin_0_nv : sin_0_v);
+  wire [10:0] cos_1_j = {polar_index_1_q[10:9] + 2'd1, polar_index_1_q[8:0]};
+  wire [9:0] cos_1_a = cos_1_j[9] ? (10'h200 - {1'b0, cos_1_j[8:0]}) : {1'b0, cos_1_j[8:0]};
+  reg  signed [15:0] cos_1_raw_q;
+  reg  [0:0] cos_1_top_q;
+  reg  [0:0] cos_1_neg_q;
+  wire signed [15:0] cos_1_v = cos_1_top_q ? $signed(16'h4000) : cos_1_raw_q;
+  wire signed [16:0] cos_1_n = $signed(17'h0 - {cos_1_v[15], cos_1_v});
+  wire unused_cos_1_novf = ~((&cos_1_n[16:15]) | ~(|cos_1_n[16:15]));
+  wire signed [15:0] cos_1_nv =
+      $signed(unused_cos_1_novf ? (cos_1_n[16] ? 16'h8000 : 16'h7fff) : cos_1_n[15:0]);
+  wire signed [15:0] cos_1 = $signed(cos_1_neg_q ? cos_1_nv : cos_1_v);
+  wire [10:0] sin_1_j = polar_index_1_q[10:0];
+  wire [9:0] sin_1_a = sin_1_j[9] ? (10'h200 - {1'b0, sin_1_j[8:0]}) : {1'b0, sin_1_j[8:0]};
+  reg  signed [15:0] sin_1_raw_q;
+  reg  [0:0] sin_1_top_q;
+  reg  [0:0] sin_1_neg_q;
+  wire signed [15:0] sin_1_v = sin_1_top_q ? $signed(16'h4000) : sin_1_raw_q;
+  wire signed [16:0] sin_1_n = $signed(17'h0 - {sin_1_v[15], sin_1_v});
+  wire unused_sin_1_novf = ~((&sin_1_n[16:15]) | ~(|sin_1_n[16:15]));
+  wire signed [15:0] sin_1_nv =
+      $signed(unused_sin_1_novf ? (sin_1_n[16] ? 16'h8000 : 16'h7fff) : sin_1_n[15:0]);
+  wire signed [15:0] sin_1 = $signed(sin_1_neg_q ? sin_1_nv : sin_1_v);
+  wire [10:0] cos_2_j = {polar_index_2_q[10:9] + 2'd1, polar_index_2_q[8:0]};
+  wire [9:0] cos_2_a = cos_2_j[9] ? (10'h200 - {1'b0, cos_2_j[8:0]}) : {1'b0, cos_2_j[8:0]};
+  reg  signed [15:0] cos_2_raw_q;
+  reg  [0:0] cos_2_top_q;
+  reg  [0:0] cos_2_neg_q;
+  wire signed [15:0] cos_2_v = cos_2_top_q ? $signed(16'h4000) : cos_2_raw_q;
+  wire signed [16:0] cos_2_n = $signed(17'h0 - {cos_2_v[15], cos_2_v});
+  wire unused_cos_2_novf = ~((&cos_2_n[16:15]) | ~(|cos_2_n[16:15]));
+  wire signed [15:0] cos_2_nv =
+      $signed(unused_cos_2_novf ? (cos_2_n[16] ? 16'h8000 : 16'h7fff) : cos_2_n[15:0]);
+  wire signed [15:0] cos_2 = $signed(cos_2_neg_q ? cos_2_nv : cos_2_v);
+  wire [10:0] sin_2_j = polar_index_2_q[10:0];
+  wire [9:0] sin_2_a = sin_2_j[9] ? (10'h200 - {1'b0, sin_2_j[8:0]}) : {1'b0, sin_2_j[8:0]};
+  reg  signed [15:0] sin_2_raw_q;
+  reg  [0:0] sin_2_top_q;
+  reg  [0:0] sin_2_neg_q;
+  wire signed [15:0] sin_2_v = sin_2_top_q ? $signed(16'h4000) : sin_2_raw_q;
+  wire signed [16:0] sin_2_n = $signed(17'h0 - {sin_2_v[15], sin_2_v});
+  wire unused_sin_2_novf = ~((&sin_2_n[16:15]) | ~(|sin_2_n[16:15]));
+  wire signed [15:0] sin_2_nv =
+      $signed(unused_sin_2_novf ? (sin_2_n[16] ? 16'h8000 : 16'h7fff) : sin_2_n[15:0]);
+  wire signed [15:0] sin_2 = $signed(sin_2_neg_q ? sin_2_nv : sin_2_v);
+  wire signed [31:0] polar_lyz_mul0 = cos_0 * cos_1;
+  wire polar_lyz_0_tie = polar_lyz_mul0[13] & ~(|polar_lyz_mul0[12:0]);
+  wire [18:0] polar_lyz_0_up =
+      {polar_lyz_mul0[31], polar_lyz_mul0[31:14]} + {{18{1'b0}}, polar_lyz_mul0[13]};
+  wire signed [18:0] polar_lyz_0_r =
+      $signed({polar_lyz_0_up[18:1], polar_lyz_0_up[0] & ~polar_lyz_0_tie});
+  wire polar_lyz_0_ovf_c = ~((&polar_lyz_0_r[18:15]) | ~(|polar_lyz_0_r[18:15]));
+  wire signed [15:0] polar_lyz_0_d =
+      $signed(polar_lyz_0_ovf_c ? (polar_lyz_0_r[18] ? 16'h8000 : 16'h7fff) : polar_lyz_0_r[15:0]);
+  reg  signed [15:0] polar_lyz_0_q;
+  wire signed [31:0] polar_out_mul0 = cos_0 * sin_1;
+  wire polar_out_0_tie = polar_out_mul0[13] & ~(|polar_out_mul0[12:0]);
+  wire [18:0] polar_out_0_up =
+      {polar_out_mul0[31], polar_out_mul0[31:14]} + {{18{1'b0}}, polar_out_mul0[13]};
+  wire signed [18:0] polar_out_0_r =
+      $signed({polar_out_0_up[18:1], polar_out_0_up[0] & ~polar_out_0_tie});
+  wire polar_out_0_ovf_c = ~((&polar_out_0_r[18:15]) | ~(|polar_out_0_r[18:15]));
+  wire signed [15:0] polar_out_0_d =
+      $signed(polar_out_0_ovf_c ? (polar_out_0_r[18] ? 16'h8000 : 16'h7fff) : polar_out_0_r[15:0]);
+  reg  signed [15:0] polar_out_0_q;
+  wire signed [31:0] polar_out_mul1 = sin_0 * cos_2;
+  reg  signed [15:0] sin_2_s3_q;
+  wire signed [31:0] polar_out_mul2 = polar_lyz_0_q * sin_2_s3_q;
+  reg  signed [31:0] polar_out_mul1_s3_q;
+  wire signed [32:0] polar_out_sub0 =
+      $signed({polar_out_mul1_s3_q[31], polar_out_mul1_s3_q}
+      - {polar_out_mul2[31], polar_out_mul2});
+  wire polar_out_1_tie = polar_out_sub0[13] & ~(|polar_out_sub0[12:0]);
+  wire [19:0] polar_out_1_up =
+      {polar_out_sub0[32], polar_out_sub0[32:14]} + {{19{1'b0}}, polar_out_sub0[13]};
+  wire signed [19:0] polar_out_1_r =
+      $signed({polar_out_1_up[19:1], polar_out_1_up[0] & ~polar_out_1_tie});
+  wire polar_out_1_ovf_c = ~((&polar_out_1_r[19:15]) | ~(|polar_out_1_r[19:15]));
+  wire signed [15:0] polar_out_1_d =
+      $signed(polar_out_1_ovf_c ? (polar_out_1_r[19] ? 16'h8000 : 16'h7fff) : polar_out_1_r[15:0]);
+  reg  signed [15:0] polar_out_1_q;
+  reg  signed [15:0] cos_2_s3_q;
+  wire signed [31:0] polar_out_mul3 = polar_lyz_0_q * cos_2_s3_q;
+  wire signed [31:0] polar_out_mul4 = sin_0 * sin_2;
+  reg  signed [31:0] polar_out_mul4_s3_q;
+  wire signed [32:0] polar_out_add0 =
+      $signed({polar_out_mul4_s3_q[31], polar_out_mul4_s3_q}
+      + {polar_out_mul3[31], polar_out_mul3});
+  wire polar_out_2_tie = polar_out_add0[13] & ~(|polar_out_add0[12:0]);
+  wire [19:0] polar_out_2_up =
+      {polar_out_add0[32], polar_out_add0[32:14]} + {{19{1'b0}}, polar_out_add0[13]};
+  wire signed [19:0] polar_out_2_r =
+      $signed({polar_out_2_up[19:1], polar_out_2_up[0] & ~polar_out_2_tie});
+  wire polar_out_2_ovf_c = ~((&polar_out_2_r[19:15]) | ~(|polar_out_2_r[19:15]));
+  wire signed [15:0] polar_out_2_d =
+      $signed(polar_out_2_ovf_c ? (polar_out_2_r[19] ? 16'h8000 : 16'h7fff) : polar_out_2_r[15:0]);
+  reg  signed [15:0] polar_out_2_q;
+  reg  signed [15:0] polar_out_0_s4_q;
+  reg  [0:0] polar_index_1_ovf_s1_q;
   reg  [0:0] ovf0_s2_q;
   reg  [0:0] ovf0_s3_q;
   reg  [0:0] ovf0_s4_q;
-  reg  [0:0] polar_lyz_15_ovf_s3_q;
+  reg  [0:0] polar_lyz_0_ovf_s3_q;
   reg  [0:0] ovf1_s4_q;
-  reg  [0:0] polar_out_17_ovf_s3_q;
-  reg  [0:0] polar_out_21_ovf_s4_q;
-  reg  [0:0] polar_out_25_ovf_s4_q;
+  reg  [0:0] polar_out_0_ovf_s3_q;
+  reg  [0:0] polar_out_1_ovf_s4_q;
+  reg  [0:0] polar_out_2_ovf_s4_q;
   reg  [0:0] ovf2_s4_q;
   wire ovf2_or_s4 =
-      ovf2_s4_q | polar_out_21_ovf_s4_q | polar_out_25_ovf_s4_q;
+      ovf2_s4_q | polar_out_1_ovf_s4_q | polar_out_2_ovf_s4_q;
 
   // Stage loads: the item entering stage k is valid and the stages move.
   wire load_s1 = in_take;
@@ -757,59 +761,59 @@ module polar (
   // registers load only with a valid item, so bubbles do not toggle them.
   always @(posedge clk_i) begin
     if (load_s1) begin
-      polar_index_4_q <= polar_index_4_d;
-      polar_index_6_q <= polar_index_6_d;
-      polar_index_7_q <= polar_index_7_d;
-      polar_index_6_ovf_s1_q <= polar_index_6_ovf_c;
+      polar_index_0_q <= polar_index_0_d;
+      polar_index_1_q <= polar_index_1_d;
+      polar_index_2_q <= polar_index_2_d;
+      polar_index_1_ovf_s1_q <= polar_index_1_ovf_c;
     end
     if (load_s2) begin
-      cos_8_raw_q <= quarter_rom[cos_8_a[8:0]];
-      cos_8_top_q <= cos_8_a[9];
-      cos_8_neg_q <= cos_8_j[10];
-      sin_9_raw_q <= quarter_rom[sin_9_a[8:0]];
-      sin_9_top_q <= sin_9_a[9];
-      sin_9_neg_q <= sin_9_j[10];
-      cos_10_raw_q <= quarter_rom[cos_10_a[8:0]];
-      cos_10_top_q <= cos_10_a[9];
-      cos_10_neg_q <= cos_10_j[10];
-      sin_11_raw_q <= quarter_rom[sin_11_a[8:0]];
-      sin_11_top_q <= sin_11_a[9];
-      sin_11_neg_q <= sin_11_j[10];
-      cos_12_raw_q <= quarter_rom[cos_12_a[8:0]];
-      cos_12_top_q <= cos_12_a[9];
-      cos_12_neg_q <= cos_12_j[10];
-      sin_13_raw_q <= quarter_rom[sin_13_a[8:0]];
-      sin_13_top_q <= sin_13_a[9];
-      sin_13_neg_q <= sin_13_j[10];
-      ovf0_s2_q <= polar_index_6_ovf_s1_q;
+      cos_0_raw_q <= quarter_rom[cos_0_a[8:0]];
+      cos_0_top_q <= cos_0_a[9];
+      cos_0_neg_q <= cos_0_j[10];
+      sin_0_raw_q <= quarter_rom[sin_0_a[8:0]];
+      sin_0_top_q <= sin_0_a[9];
+      sin_0_neg_q <= sin_0_j[10];
+      cos_1_raw_q <= quarter_rom[cos_1_a[8:0]];
+      cos_1_top_q <= cos_1_a[9];
+      cos_1_neg_q <= cos_1_j[10];
+      sin_1_raw_q <= quarter_rom[sin_1_a[8:0]];
+      sin_1_top_q <= sin_1_a[9];
+      sin_1_neg_q <= sin_1_j[10];
+      cos_2_raw_q <= quarter_rom[cos_2_a[8:0]];
+      cos_2_top_q <= cos_2_a[9];
+      cos_2_neg_q <= cos_2_j[10];
+      sin_2_raw_q <= quarter_rom[sin_2_a[8:0]];
+      sin_2_top_q <= sin_2_a[9];
+      sin_2_neg_q <= sin_2_j[10];
+      ovf0_s2_q <= polar_index_1_ovf_s1_q;
     end
     if (load_s3) begin
-      polar_lyz_15_q <= polar_lyz_15_d;
-      polar_out_17_q <= polar_out_17_d;
-      sin_13_s3_q <= sin_13;
-      t18_s3_q <= t18;
-      cos_12_s3_q <= cos_12;
-      t23_s3_q <= t23;
+      polar_lyz_0_q <= polar_lyz_0_d;
+      polar_out_0_q <= polar_out_0_d;
+      sin_2_s3_q <= sin_2;
+      polar_out_mul1_s3_q <= polar_out_mul1;
+      cos_2_s3_q <= cos_2;
+      polar_out_mul4_s3_q <= polar_out_mul4;
       ovf0_s3_q <= ovf0_s2_q;
-      polar_lyz_15_ovf_s3_q <= polar_lyz_15_ovf_c;
-      polar_out_17_ovf_s3_q <= polar_out_17_ovf_c;
+      polar_lyz_0_ovf_s3_q <= polar_lyz_0_ovf_c;
+      polar_out_0_ovf_s3_q <= polar_out_0_ovf_c;
     end
     if (load_s4) begin
-      polar_out_21_q <= polar_out_21_d;
-      polar_out_25_q <= polar_out_25_d;
-      polar_out_17_s4_q <= polar_out_17_q;
+      polar_out_1_q <= polar_out_1_d;
+      polar_out_2_q <= polar_out_2_d;
+      polar_out_0_s4_q <= polar_out_0_q;
       ovf0_s4_q <= ovf0_s3_q;
-      ovf1_s4_q <= polar_lyz_15_ovf_s3_q;
-      polar_out_21_ovf_s4_q <= polar_out_21_ovf_c;
-      polar_out_25_ovf_s4_q <= polar_out_25_ovf_c;
-      ovf2_s4_q <= polar_out_17_ovf_s3_q;
+      ovf1_s4_q <= polar_lyz_0_ovf_s3_q;
+      polar_out_1_ovf_s4_q <= polar_out_1_ovf_c;
+      polar_out_2_ovf_s4_q <= polar_out_2_ovf_c;
+      ovf2_s4_q <= polar_out_0_ovf_s3_q;
     end
   end
 
   // Output buffer: the head drives the ports; the skid register takes the
   // item that leaves the last stage while the head is stalled.
   wire [50:0] last_d =
-      {polar_out_17_s4_q, polar_out_21_q, polar_out_25_q, (ovf0_s4_q), (ovf1_s4_q), (ovf2_or_s4)};
+      {polar_out_0_s4_q, polar_out_1_q, polar_out_2_q, (ovf0_s4_q), (ovf1_s4_q), (ovf2_or_s4)};
   reg  [50:0] out_q, skid_q;
   always @(posedge clk_i) begin
     if (out_load & (skid_valid | out_arrive)) out_q <= skid_valid ? skid_q : last_d;
@@ -866,7 +870,7 @@ module polar (
 `endif
 
   // Bits the arithmetic drops (truncation) or does not read.
-  wire unused_bits = ^{polar_index_4_ovf_c, polar_index_7_ovf_c};
+  wire unused_bits = ^{polar_index_0_ovf_c, polar_index_2_ovf_c};
 endmodule
 
 `default_nettype wire

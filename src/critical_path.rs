@@ -6,11 +6,12 @@
 //! nextpnr names a path as steps: `clk-to-q` of the launching register,
 //! then for each net a `routing` step (with the net's name) and a `logic`
 //! step through the cell it reaches, and a `setup` step into the capturing
-//! register. The emitter names every signal after its trace node (`t93`,
-//! `K27`, `<stage id>_<node>`, `<table>_<node>`, with suffixes such as
-//! `_s7` for the copy in stage 7), and Yosys keeps those names on nets and
-//! derives cell names from them (`t5_SB_LUT4_O_23_LC`), so each step can be
-//! given its node, its operation and its stage id.
+//! register. The emitter names every signal stage-locally
+//! (`Emitted::node_names`: `<stage id>_<k>`, `<stage id>_mul<k>`,
+//! `<table>_<k>`, with suffixes such as `_s7` for the copy in stage 7),
+//! and Yosys keeps those names on nets and derives cell names from them
+//! (`normalize_d_mul0_SB_LUT4_O_23_LC`), so each step is given its node,
+//! its operation and its stage id through the emitter's name map.
 
 use fxshade_model::datapath::{Op, Trace};
 
@@ -135,12 +136,6 @@ pub fn signal_of(name: &str) -> String {
     }
 }
 
-fn sanitize(s: &str) -> String {
-    s.chars()
-        .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
-        .collect()
-}
-
 fn op_name(op: &Op) -> &'static str {
     match op {
         Op::Input(_) => "input",
@@ -158,45 +153,36 @@ fn op_name(op: &Op) -> &'static str {
     }
 }
 
-/// The trace node an emitted signal name belongs to, and what it is.
-pub fn node_of(trace: &Trace, signal: &str) -> (Option<usize>, String, Option<String>) {
+/// The trace node an emitted signal name belongs to, and what it is:
+/// `names` are the emitter's node names (`Emitted::node_names`,
+/// stage-local: `normalize_d_0`, `normalize_d_mul1`, `sin_0`); a signal is
+/// a node's name or that name followed by `_` and a register's or the
+/// naming pass's suffix (`_s3`, `_q`, `_d`, `_ovf`), the longest name
+/// winning.
+pub fn node_of(
+    trace: &Trace,
+    names: &[String],
+    signal: &str,
+) -> (Option<usize>, String, Option<String>) {
     if signal.starts_with("harness:") {
         return (None, "harness register".into(), None);
     }
     let ops = trace.ops();
-    let tokens: Vec<&str> = signal.split('_').collect();
-    let found = |i: usize| {
+    let named = names
+        .iter()
+        .enumerate()
+        .filter(|(i, n)| {
+            *i < ops.len()
+                && !matches!(ops[*i], Op::Input(_))
+                && (signal == n.as_str()
+                    || signal
+                        .strip_prefix(n.as_str())
+                        .is_some_and(|r| r.starts_with('_')))
+        })
+        .max_by_key(|(_, n)| n.len());
+    if let Some((i, _)) = named {
         let stage = trace.stage_id(i).map(str::to_string);
-        (Some(i), op_name(&ops[i]).to_string(), stage)
-    };
-    // `t93…`, `K27…`: the emitter's names for operations and constants.
-    if let Some(first) = tokens.first() {
-        for p in ["t", "K"] {
-            if let Some(i) = first
-                .strip_prefix(p)
-                .and_then(|d| d.parse::<usize>().ok())
-                .filter(|&i| i < ops.len())
-            {
-                return found(i);
-            }
-        }
-    }
-    // `<stage id>_<node>…`, `<table>_<node>…`.
-    for (k, tok) in tokens.iter().enumerate().skip(1) {
-        let Ok(i) = tok.parse::<usize>() else {
-            continue;
-        };
-        if i >= ops.len() {
-            continue;
-        }
-        let prefix = tokens[..k].join("_");
-        let named = match &ops[i] {
-            Op::Table(_, slot) => trace.tables()[*slot].name == prefix,
-            _ => trace.stage_id(i).is_some_and(|s| sanitize(s) == prefix),
-        };
-        if named {
-            return found(i);
-        }
+        return (Some(i), op_name(&ops[i]).to_string(), stage);
     }
     // An input port (`n1_x_i`), a set-up register or bank (`n1_x_q`,
     // `n1_x_b0_q`, `n1_x_bank_s3_q`) or the selector carried (`sel_c_s3_q`).
@@ -228,7 +214,7 @@ pub fn node_of(trace: &Trace, signal: &str) -> (Option<usize>, String, Option<St
 impl CriticalPath {
     /// Fill [`Self::signals`]: each step's signal, consecutive steps of
     /// one signal merged, their delays summed.
-    pub fn map_signals(&mut self, trace: &Trace) {
+    pub fn map_signals(&mut self, trace: &Trace, names: &[String]) {
         let mut out: Vec<Signal> = Vec::new();
         for s in &self.steps {
             let name = signal_of(&s.name);
@@ -238,7 +224,7 @@ impl CriticalPath {
             match out.last_mut() {
                 Some(last) if last.name == name || unnamed => last.delay_ns += s.delay_ns,
                 _ => {
-                    let (node, op, stage_id) = node_of(trace, &name);
+                    let (node, op, stage_id) = node_of(trace, names, &name);
                     out.push(Signal {
                         name,
                         node,

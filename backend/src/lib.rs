@@ -348,6 +348,95 @@ pub struct Emitted {
     ///
     /// [`Trace::smt_function_split`]: crate::datapath::Trace::smt_function_split
     pub splits: Vec<crate::datapath::MulSplit>,
+    /// The signal name of every trace node (before the naming pass adds
+    /// `_q`/`_d` and a register its `_s<k>` stage): [`node_names`]. A
+    /// signal of the module is a node's name, or that name followed by
+    /// `_` and a suffix — how a critical path is mapped back to nodes.
+    pub node_names: Vec<String>,
+}
+
+/// The signal name of every node of `t`, stage-local rather than by trace
+/// node number, so that a design's names survive a change elsewhere in the
+/// trace:
+///
+/// * an input port `<port>_i` (`<port>_q` when `setup(port)`: a set-up
+///   register);
+/// * a quantization `<stage id>_<k>`, the `k`-th quantization of that
+///   stage id (`normalize_d_0`; the components of a vector are 0, 1, 2);
+/// * a table read `<table>_<k>`;
+/// * any other operation `<owner>_<op><k>` and a constant `<owner>_k<k>`,
+///   where the owner is the stage id of the nearest quantization that
+///   reads the value (through other operations): the arithmetic of `d`
+///   is `normalize_d_mul0`, `normalize_d_add1`, … (`w_<op><k>` for a value
+///   no quantization reads).
+///
+/// Every name is distinct (a clash, between a table and a stage id of the
+/// same name, gets the node number appended).
+pub fn node_names(t: &crate::datapath::Trace, setup: &dyn Fn(&str) -> bool) -> Vec<String> {
+    let ops = t.ops();
+    let inputs = t.input_ports();
+    let n = ops.len();
+    // The stage id of the nearest quantization each value feeds: a reverse
+    // pass, later (smaller) consumers overwriting earlier ones.
+    let mut owner: Vec<Option<String>> = vec![None; n];
+    for i in (0..n).rev() {
+        let o = match &ops[i] {
+            Op::Quant(..) => Some(sanitize(t.stage_id(i).unwrap_or("q"))),
+            _ => owner[i].clone(),
+        };
+        if o.is_some() {
+            for a in t.operands(i) {
+                owner[a] = o.clone();
+            }
+        }
+    }
+    let mut count: HashMap<String, usize> = HashMap::new();
+    let mut next = |prefix: String| {
+        let k = count.entry(prefix.clone()).or_insert(0);
+        *k += 1;
+        (prefix, *k - 1)
+    };
+    let mut used = std::collections::HashSet::new();
+    let mut names = Vec::with_capacity(n);
+    for (i, op) in ops.iter().enumerate() {
+        let own = || owner[i].clone().unwrap_or_else(|| "w".into());
+        let kind = match op {
+            Op::Mul(..) => "mul",
+            Op::Add(..) => "add",
+            Op::Sub(..) => "sub",
+            Op::Max(..) => "max",
+            Op::AddSigned(..) => "addsub",
+            Op::Div(..) => "div",
+            Op::Sqrt(..) => "sqrt",
+            Op::Select(..) => "sel",
+            Op::Const(_) => "k",
+            Op::Input(_) | Op::Quant(..) | Op::Table(..) => "",
+        };
+        let name = match op {
+            Op::Input(slot) if setup(&inputs[*slot].name) => format!("{}_q", inputs[*slot].name),
+            Op::Input(slot) => format!("{}_i", inputs[*slot].name),
+            Op::Quant(..) => {
+                let (p, k) = next(sanitize(t.stage_id(i).unwrap_or("q")));
+                format!("{p}_{k}")
+            }
+            Op::Table(_, slot) => {
+                let (p, k) = next(t.tables()[*slot].name.to_string());
+                format!("{p}_{k}")
+            }
+            _ => {
+                let (p, k) = next(format!("{}_{kind}", own()));
+                format!("{p}{k}")
+            }
+        };
+        let name = if used.contains(&name) {
+            format!("{name}_n{i}")
+        } else {
+            name
+        };
+        used.insert(name.clone());
+        names.push(name);
+    }
+    names
 }
 
 /// `text` as comment lines of at most 78 columns, each starting with
@@ -1032,19 +1121,7 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
             .iter()
             .position(|g| g.fields.iter().any(|f| f == port))
     };
-    let mut names = vec![String::new(); t.ops().len()];
-    for (i, op) in t.ops().iter().enumerate() {
-        names[i] = match op {
-            Op::Input(slot) if setup_of(&inputs[*slot].name).is_some() => {
-                format!("{}_q", inputs[*slot].name)
-            }
-            Op::Input(slot) => format!("{}_i", inputs[*slot].name),
-            Op::Const(_) => format!("K{i}"),
-            Op::Quant(..) => format!("{}_{i}", sanitize(t.stage_id(i).unwrap_or("q"))),
-            Op::Table(_, slot) => format!("{}_{i}", t.tables()[*slot].name),
-            _ => format!("t{i}"),
-        };
-    }
+    let names = node_names(t, &|port| setup_of(port).is_some());
     let build = |sink: Vec<Option<u32>>| -> Result<Emitter, EmitError> {
         let mut e = Emitter {
             t,
@@ -1735,6 +1812,7 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
         }
     }
     Ok(Emitted {
+        node_names: node_names(t, &|port| setup_of(port).is_some()),
         module: d.module.clone(),
         verilog: wrap::wrap_verilog(&v, wrap::WIDTH),
         testbench: wrap::wrap_verilog(&testbench, wrap::WIDTH),
@@ -1759,4 +1837,51 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
         setup,
         cuts,
     })
+}
+
+#[cfg(test)]
+mod node_name_tests {
+    use crate::datapath::{Datapath, Trace};
+    use crate::emit::sat;
+
+    /// `y = Q_s(a·b + c)`, `z = Q_s(y·y)`: with `extra`, one more product
+    /// of another stage is traced first.
+    fn trace(extra: bool) -> Trace {
+        let mut t = Trace::new();
+        let a = t.input_named("a", &sat("u.in", 8));
+        let b = t.input_named("b", &sat("u.in", 8));
+        let c = t.input_named("c", &sat("u.in", 8));
+        if extra {
+            let p = t.mul(a, a);
+            let q = t.quantize(p, &sat("u.other", 16));
+            t.output("o", q);
+        }
+        let p = t.mul(a, b);
+        let s = t.add(p, c);
+        let y = t.quantize(s, &sat("u.s", 16));
+        let yy = t.mul(y, y);
+        let z = t.quantize(yy, &sat("u.s", 16));
+        t.output("z", z);
+        t
+    }
+
+    /// Names are stage-local: a quantization is `<stage id>_<k>`, the
+    /// arithmetic it reads `<stage id>_<op><k>`, ports `<port>_i`; all
+    /// distinct; and tracing another stage's work first renames nothing of
+    /// this stage (names no longer hold trace node numbers).
+    #[test]
+    fn names_are_stage_local_and_survive_a_change_elsewhere() {
+        let names = |extra| super::node_names(&trace(extra), &|_| false);
+        let plain = names(false);
+        assert_eq!(
+            plain,
+            ["a_i", "b_i", "c_i", "u_s_mul0", "u_s_add0", "u_s_0", "u_s_mul1", "u_s_1"]
+        );
+        let more = names(true);
+        assert!(more.contains(&"u_other_0".to_string()), "{more:?}");
+        let mine: Vec<&String> = more.iter().filter(|n| n.starts_with("u_s_")).collect();
+        assert_eq!(mine, plain[3..].iter().collect::<Vec<_>>());
+        let mut seen = std::collections::HashSet::new();
+        assert!(more.iter().all(|n| seen.insert(n)), "{more:?}");
+    }
 }

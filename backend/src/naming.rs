@@ -1,14 +1,14 @@
 //! The writer's naming pass: lowRISC register suffixes.
 //!
-//! The emitter names a value after its trace node and stage id
-//! (`normalize_d_15`, its copy in stage 3 `normalize_d_15_s3`, its
-//! overflow bit `normalize_d_15_ovf`) and the logic computing a register's
-//! next value after the register (`normalize_d_15_c`). This pass gives the
+//! The emitter names a value stage-locally ([`crate::node_names`]:
+//! `normalize_d_0`, its copy in stage 3 `normalize_d_0_s3`, its overflow
+//! bit `normalize_d_0_ovf`) and the logic computing a register's next
+//! value after the register (`normalize_d_0_c`). This pass gives the
 //! module the lowRISC style guide's names: every flip-flop of the module
 //! (a `reg` declared at module level and loaded by a non-blocking
-//! assignment) ends in `_q` (`normalize_d_15_q`, `normalize_d_15_s3_q`),
+//! assignment) ends in `_q` (`normalize_d_0_q`, `normalize_d_0_s3_q`),
 //! and the wire its value is computed in, when it is the register's name
-//! with `_c`, ends in `_d` (`normalize_d_15_d`). Registers already named
+//! with `_c`, ends in `_d` (`normalize_d_0_d`). Registers already named
 //! `_q`, combinational `reg`s (assigned in `always @*`), memories and the
 //! formal block's own registers (`f_…`) keep their names. A name is only
 //! changed when the new one is not already taken.

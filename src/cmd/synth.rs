@@ -868,7 +868,7 @@ pub fn cached_with_netlist(
         progress,
     )?;
     if let Some(p) = &mut r.critical_path {
-        p.map_signals(&d.trace);
+        p.map_signals(&d.trace, &e.node_names);
     }
     r.verdict = r
         .fmax_mhz

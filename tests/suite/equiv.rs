@@ -209,23 +209,23 @@ fn each_sabotage_gives_a_counterexample_that_fails_on_verilator() {
     for (what, from, to) in [
         (
             "wrong rounding",
-            "normalize_out_25_up[0] & ~normalize_out_25_tie",
-            "normalize_out_25_up[0]",
+            "normalize_out_0_up[0] & ~normalize_out_0_tie",
+            "normalize_out_0_up[0]",
         ),
         (
             "dropped bit",
-            "$signed({1'b0, normalize_g_21_q});\n  wire signed [33:0] t22",
-            "$signed({2'b0, normalize_g_21_q[16:0]});\n  wire signed [33:0] t22",
+            "$signed({1'b0, normalize_g_0_q});\n  wire signed [33:0] normalize_out_mul0 ",
+            "$signed({2'b0, normalize_g_0_q[16:0]});\n  wire signed [33:0] normalize_out_mul0 ",
         ),
         (
             "swapped operand",
-            "t11 = n_y_i * n_y_i;",
-            "t11 = n_y_i * n_z_i;",
+            "normalize_d_mul1 = n_y_i * n_y_i;",
+            "normalize_d_mul1 = n_y_i * n_z_i;",
         ),
         (
             "removed register",
-            "t22 = n_x_i_s3_q * t22_b;",
-            "t22 = n_x_i_s2_q * t22_b;",
+            "normalize_out_mul0 = n_x_i_s3_q * normalize_out_mul0_b;",
+            "normalize_out_mul0 = n_x_i_s2_q * normalize_out_mul0_b;",
         ),
     ] {
         assert_eq!(good.matches(from).count(), 1, "{what}: {from}");

@@ -1110,11 +1110,16 @@ fn synth_closes_timing_with_a_verdict_and_the_critical_path_by_stage_id() {
                 verilog.contains(&format!(" {name} ")) || verilog.contains(&format!(" {name};")),
                 "{name} is not a signal of the module shown"
             );
-            if let Some(node) = s["node"].as_u64() {
-                assert!(
-                    name.starts_with(&format!("t{node}_")) || name.contains(&format!("_{node}")),
-                    "{name} {node}"
-                );
+            // A signal mapped to a quantization node is named after that
+            // node's stage id (stage-local names: `normalize_d_0_s2_q`).
+            if let (Some(_), Some(stage)) = (s["node"].as_u64(), s["stage_id"].as_str()) {
+                if s["op"] == "quantization" {
+                    let prefix: String = stage
+                        .chars()
+                        .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+                        .collect();
+                    assert!(name.starts_with(&format!("{prefix}_")), "{name} {stage}");
+                }
             }
         }
         // The path is mapped back to the trace: some signal names its node.

@@ -116,169 +116,204 @@ module interp (
   end
 
   // Datapath.
-  localparam [0:0] K20 = 1'h1;
-  wire signed [17:0] t21 = $signed({{2{1'b0}}, K20, 15'b0} - {{2{1'b0}}, c1_i});
-  wire signed [18:0] t22 = $signed({t21[17], t21} - {{3{1'b0}}, c2_i});
-  wire signed [17:0] t23 = $signed({{2{1'b0}}, c1_i} - {{3{1'b0}}, K20, 14'b0});
-  wire signed [16:0] t24_a = $signed({1'b0, c1_i});
-  wire signed [33:0] t24 = t24_a * t23;
-  wire interp_weight_25_tie = t24[12] & ~(|t24[11:0]);
-  wire [21:0] interp_weight_25_up = {t24[33], t24[33:13]} + {{21{1'b0}}, t24[12]};
-  wire signed [21:0] interp_weight_25_r =
-      $signed({interp_weight_25_up[21:1], interp_weight_25_up[0] & ~interp_weight_25_tie});
-  wire interp_weight_25_ovf_c = ~((&interp_weight_25_r[21:17]) | ~(|interp_weight_25_r[21:17]));
-  wire signed [17:0] interp_weight_25_d =
-      $signed(interp_weight_25_ovf_c ? (interp_weight_25_r[21] ? 18'h20000 : 18'h1ffff)
-      : interp_weight_25_r[17:0]);
-  reg  signed [17:0] interp_weight_25_q;
-  wire signed [17:0] t26 = $signed({{2{1'b0}}, c2_i} - {{3{1'b0}}, K20, 14'b0});
-  wire signed [16:0] t27_a = $signed({1'b0, c2_i});
-  wire signed [33:0] t27 = t27_a * t26;
-  wire interp_weight_28_tie = t27[12] & ~(|t27[11:0]);
-  wire [21:0] interp_weight_28_up = {t27[33], t27[33:13]} + {{21{1'b0}}, t27[12]};
-  wire signed [21:0] interp_weight_28_r =
-      $signed({interp_weight_28_up[21:1], interp_weight_28_up[0] & ~interp_weight_28_tie});
-  wire interp_weight_28_ovf_c = ~((&interp_weight_28_r[21:17]) | ~(|interp_weight_28_r[21:17]));
-  wire signed [17:0] interp_weight_28_d =
-      $signed(interp_weight_28_ovf_c ? (interp_weight_28_r[21] ? 18'h20000 : 18'h1ffff)
-      : interp_weight_28_r[17:0]);
-  reg  signed [17:0] interp_weight_28_q;
-  wire signed [19:0] t29 = $signed({t22[18], t22} - {{5{1'b0}}, K20, 14'b0});
-  wire signed [38:0] t30 = t22 * t29;
-  wire interp_weight_31_tie = t30[12] & ~(|t30[11:0]);
-  wire [26:0] interp_weight_31_up = {t30[38], t30[38:13]} + {{26{1'b0}}, t30[12]};
-  wire signed [26:0] interp_weight_31_r =
-      $signed({interp_weight_31_up[26:1], interp_weight_31_up[0] & ~interp_weight_31_tie});
-  wire interp_weight_31_ovf_c = ~((&interp_weight_31_r[26:17]) | ~(|interp_weight_31_r[26:17]));
-  wire signed [17:0] interp_weight_31_d =
-      $signed(interp_weight_31_ovf_c ? (interp_weight_31_r[26] ? 18'h20000 : 18'h1ffff)
-      : interp_weight_31_r[17:0]);
-  reg  signed [17:0] interp_weight_31_q;
-  wire [31:0] t32 = c1_i * c2_i;
-  wire interp_weight_33_tie = t32[11] & ~(|t32[10:0]);
-  wire [20:0] interp_weight_33_up = {1'b0, t32[31:12]} + {{20{1'b0}}, t32[11]};
-  wire [20:0] interp_weight_33_r =
-      {interp_weight_33_up[20:1], interp_weight_33_up[0] & ~interp_weight_33_tie};
-  wire interp_weight_33_ovf_c = |interp_weight_33_r[20:17];
-  wire signed [17:0] interp_weight_33_d =
-      $signed(interp_weight_33_ovf_c ? 18'h1ffff : interp_weight_33_r[17:0]);
-  reg  signed [17:0] interp_weight_33_q;
-  wire signed [16:0] t34_a = $signed({1'b0, c2_i});
-  wire signed [34:0] t34 = t34_a * t22;
-  wire interp_weight_35_tie = t34[11] & ~(|t34[10:0]);
-  wire [23:0] interp_weight_35_up = {t34[34], t34[34:12]} + {{23{1'b0}}, t34[11]};
-  wire signed [23:0] interp_weight_35_r =
-      $signed({interp_weight_35_up[23:1], interp_weight_35_up[0] & ~interp_weight_35_tie});
-  wire interp_weight_35_ovf_c = ~((&interp_weight_35_r[23:17]) | ~(|interp_weight_35_r[23:17]));
-  wire signed [17:0] interp_weight_35_d =
-      $signed(interp_weight_35_ovf_c ? (interp_weight_35_r[23] ? 18'h20000 : 18'h1ffff)
-      : interp_weight_35_r[17:0]);
-  reg  signed [17:0] interp_weight_35_q;
-  wire signed [16:0] t36_b = $signed({1'b0, c1_i});
-  wire signed [34:0] t36 = t22 * t36_b;
-  wire interp_weight_37_tie = t36[11] & ~(|t36[10:0]);
-  wire [23:0] interp_weight_37_up = {t36[34], t36[34:12]} + {{23{1'b0}}, t36[11]};
-  wire signed [23:0] interp_weight_37_r =
-      $signed({interp_weight_37_up[23:1], interp_weight_37_up[0] & ~interp_weight_37_tie});
-  wire interp_weight_37_ovf_c = ~((&interp_weight_37_r[23:17]) | ~(|interp_weight_37_r[23:17]));
-  wire signed [17:0] interp_weight_37_d =
-      $signed(interp_weight_37_ovf_c ? (interp_weight_37_r[23] ? 18'h20000 : 18'h1ffff)
-      : interp_weight_37_r[17:0]);
-  reg  signed [17:0] interp_weight_37_q;
+  localparam [0:0] interp_weight_k0 = 1'h1;
+  wire signed [17:0] interp_weight_sub0 =
+      $signed({{2{1'b0}}, interp_weight_k0, 15'b0} - {{2{1'b0}}, c1_i});
+  wire signed [18:0] interp_weight_sub1 =
+      $signed({interp_weight_sub0[17], interp_weight_sub0} - {{3{1'b0}}, c2_i});
+  wire signed [17:0] interp_weight_sub2 =
+      $signed({{2{1'b0}}, c1_i} - {{3{1'b0}}, interp_weight_k0, 14'b0});
+  wire signed [16:0] interp_weight_mul0_a = $signed({1'b0, c1_i});
+  wire signed [33:0] interp_weight_mul0 = interp_weight_mul0_a * interp_weight_sub2;
+  wire interp_weight_0_tie = interp_weight_mul0[12] & ~(|interp_weight_mul0[11:0]);
+  wire [21:0] interp_weight_0_up =
+      {interp_weight_mul0[33], interp_weight_mul0[33:13]} + {{21{1'b0}}, interp_weight_mul0[12]};
+  wire signed [21:0] interp_weight_0_r =
+      $signed({interp_weight_0_up[21:1], interp_weight_0_up[0] & ~interp_weight_0_tie});
+  wire interp_weight_0_ovf_c = ~((&interp_weight_0_r[21:17]) | ~(|interp_weight_0_r[21:17]));
+  wire signed [17:0] interp_weight_0_d =
+      $signed(interp_weight_0_ovf_c ? (interp_weight_0_r[21] ? 18'h20000 : 18'h1ffff)
+      : interp_weight_0_r[17:0]);
+  reg  signed [17:0] interp_weight_0_q;
+  wire signed [17:0] interp_weight_sub3 =
+      $signed({{2{1'b0}}, c2_i} - {{3{1'b0}}, interp_weight_k0, 14'b0});
+  wire signed [16:0] interp_weight_mul1_a = $signed({1'b0, c2_i});
+  wire signed [33:0] interp_weight_mul1 = interp_weight_mul1_a * interp_weight_sub3;
+  wire interp_weight_1_tie = interp_weight_mul1[12] & ~(|interp_weight_mul1[11:0]);
+  wire [21:0] interp_weight_1_up =
+      {interp_weight_mul1[33], interp_weight_mul1[33:13]} + {{21{1'b0}}, interp_weight_mul1[12]};
+  wire signed [21:0] interp_weight_1_r =
+      $signed({interp_weight_1_up[21:1], interp_weight_1_up[0] & ~interp_weight_1_tie});
+  wire interp_weight_1_ovf_c = ~((&interp_weight_1_r[21:17]) | ~(|interp_weight_1_r[21:17]));
+  wire signed [17:0] interp_weight_1_d =
+      $signed(interp_weight_1_ovf_c ? (interp_weight_1_r[21] ? 18'h20000 : 18'h1ffff)
+      : interp_weight_1_r[17:0]);
+  reg  signed [17:0] interp_weight_1_q;
+  wire signed [19:0] interp_weight_sub4 =
+      $signed({interp_weight_sub1[18], interp_weight_sub1} - {{5{1'b0}}, interp_weight_k0, 14'b0});
+  wire signed [38:0] interp_weight_mul2 = interp_weight_sub1 * interp_weight_sub4;
+  wire interp_weight_2_tie = interp_weight_mul2[12] & ~(|interp_weight_mul2[11:0]);
+  wire [26:0] interp_weight_2_up =
+      {interp_weight_mul2[38], interp_weight_mul2[38:13]} + {{26{1'b0}}, interp_weight_mul2[12]};
+  wire signed [26:0] interp_weight_2_r =
+      $signed({interp_weight_2_up[26:1], interp_weight_2_up[0] & ~interp_weight_2_tie});
+  wire interp_weight_2_ovf_c = ~((&interp_weight_2_r[26:17]) | ~(|interp_weight_2_r[26:17]));
+  wire signed [17:0] interp_weight_2_d =
+      $signed(interp_weight_2_ovf_c ? (interp_weight_2_r[26] ? 18'h20000 : 18'h1ffff)
+      : interp_weight_2_r[17:0]);
+  reg  signed [17:0] interp_weight_2_q;
+  wire [31:0] interp_weight_mul3 = c1_i * c2_i;
+  wire interp_weight_3_tie = interp_weight_mul3[11] & ~(|interp_weight_mul3[10:0]);
+  wire [20:0] interp_weight_3_up =
+      {1'b0, interp_weight_mul3[31:12]} + {{20{1'b0}}, interp_weight_mul3[11]};
+  wire [20:0] interp_weight_3_r =
+      {interp_weight_3_up[20:1], interp_weight_3_up[0] & ~interp_weight_3_tie};
+  wire interp_weight_3_ovf_c = |interp_weight_3_r[20:17];
+  wire signed [17:0] interp_weight_3_d =
+      $signed(interp_weight_3_ovf_c ? 18'h1ffff : interp_weight_3_r[17:0]);
+  reg  signed [17:0] interp_weight_3_q;
+  wire signed [16:0] interp_weight_mul4_a = $signed({1'b0, c2_i});
+  wire signed [34:0] interp_weight_mul4 = interp_weight_mul4_a * interp_weight_sub1;
+  wire interp_weight_4_tie = interp_weight_mul4[11] & ~(|interp_weight_mul4[10:0]);
+  wire [23:0] interp_weight_4_up =
+      {interp_weight_mul4[34], interp_weight_mul4[34:12]} + {{23{1'b0}}, interp_weight_mul4[11]};
+  wire signed [23:0] interp_weight_4_r =
+      $signed({interp_weight_4_up[23:1], interp_weight_4_up[0] & ~interp_weight_4_tie});
+  wire interp_weight_4_ovf_c = ~((&interp_weight_4_r[23:17]) | ~(|interp_weight_4_r[23:17]));
+  wire signed [17:0] interp_weight_4_d =
+      $signed(interp_weight_4_ovf_c ? (interp_weight_4_r[23] ? 18'h20000 : 18'h1ffff)
+      : interp_weight_4_r[17:0]);
+  reg  signed [17:0] interp_weight_4_q;
+  wire signed [16:0] interp_weight_mul5_b = $signed({1'b0, c1_i});
+  wire signed [34:0] interp_weight_mul5 = interp_weight_sub1 * interp_weight_mul5_b;
+  wire interp_weight_5_tie = interp_weight_mul5[11] & ~(|interp_weight_mul5[10:0]);
+  wire [23:0] interp_weight_5_up =
+      {interp_weight_mul5[34], interp_weight_mul5[34:12]} + {{23{1'b0}}, interp_weight_mul5[11]};
+  wire signed [23:0] interp_weight_5_r =
+      $signed({interp_weight_5_up[23:1], interp_weight_5_up[0] & ~interp_weight_5_tie});
+  wire interp_weight_5_ovf_c = ~((&interp_weight_5_r[23:17]) | ~(|interp_weight_5_r[23:17]));
+  wire signed [17:0] interp_weight_5_d =
+      $signed(interp_weight_5_ovf_c ? (interp_weight_5_r[23] ? 18'h20000 : 18'h1ffff)
+      : interp_weight_5_r[17:0]);
+  reg  signed [17:0] interp_weight_5_q;
   reg  signed [15:0] n1_x_i_s1_q;
-  wire signed [33:0] t38 = interp_weight_25_q * n1_x_i_s1_q;
+  wire signed [33:0] interp_out_mul0 = interp_weight_0_q * n1_x_i_s1_q;
   reg  signed [15:0] n2_x_i_s1_q;
-  wire signed [33:0] t39 = interp_weight_28_q * n2_x_i_s1_q;
-  wire signed [34:0] t40 = $signed({t39[33], t39} + {t38[33], t38});
+  wire signed [33:0] interp_out_mul1 = interp_weight_1_q * n2_x_i_s1_q;
+  wire signed [34:0] interp_out_add0 =
+      $signed({interp_out_mul1[33], interp_out_mul1} + {interp_out_mul0[33], interp_out_mul0});
   reg  signed [15:0] n3_x_i_s1_q;
-  wire signed [33:0] t41 = interp_weight_31_q * n3_x_i_s1_q;
-  wire signed [35:0] t42 = $signed({{2{t41[33]}}, t41} + {t40[34], t40});
+  wire signed [33:0] interp_out_mul2 = interp_weight_2_q * n3_x_i_s1_q;
+  wire signed [35:0] interp_out_add1 =
+      $signed({{2{interp_out_mul2[33]}}, interp_out_mul2} + {interp_out_add0[34], interp_out_add0});
   reg  signed [15:0] n12_x_i_s1_q;
-  wire signed [33:0] t43 = interp_weight_33_q * n12_x_i_s1_q;
-  wire signed [36:0] t44 = $signed({{3{t43[33]}}, t43} + {t42[35], t42});
+  wire signed [33:0] interp_out_mul3 = interp_weight_3_q * n12_x_i_s1_q;
+  wire signed [36:0] interp_out_add2 =
+      $signed({{3{interp_out_mul3[33]}}, interp_out_mul3} + {interp_out_add1[35], interp_out_add1});
   reg  signed [15:0] n23_x_i_s1_q;
-  wire signed [33:0] t45 = interp_weight_35_q * n23_x_i_s1_q;
-  wire signed [37:0] t46 = $signed({{4{t45[33]}}, t45} + {t44[36], t44});
+  wire signed [33:0] interp_out_mul4 = interp_weight_4_q * n23_x_i_s1_q;
+  wire signed [37:0] interp_out_add3 =
+      $signed({{4{interp_out_mul4[33]}}, interp_out_mul4} + {interp_out_add2[36], interp_out_add2});
   reg  signed [15:0] n31_x_i_s1_q;
-  wire signed [33:0] t47 = interp_weight_37_q * n31_x_i_s1_q;
-  wire signed [38:0] t48 = $signed({{5{t47[33]}}, t47} + {t46[37], t46});
-  wire interp_out_49_tie = t48[15] & ~(|t48[14:0]);
-  wire [23:0] interp_out_49_up = {t48[38], t48[38:16]} + {{23{1'b0}}, t48[15]};
-  wire signed [23:0] interp_out_49_r =
-      $signed({interp_out_49_up[23:1], interp_out_49_up[0] & ~interp_out_49_tie});
-  wire interp_out_49_ovf_c = ~((&interp_out_49_r[23:15]) | ~(|interp_out_49_r[23:15]));
-  wire signed [15:0] interp_out_49_d =
-      $signed(interp_out_49_ovf_c ? (interp_out_49_r[23] ? 16'h8000 : 16'h7fff)
-      : interp_out_49_r[15:0]);
-  reg  signed [15:0] interp_out_49_q;
+  wire signed [33:0] interp_out_mul5 = interp_weight_5_q * n31_x_i_s1_q;
+  wire signed [38:0] interp_out_add4 =
+      $signed({{5{interp_out_mul5[33]}}, interp_out_mul5} + {interp_out_add3[37], interp_out_add3});
+  wire interp_out_0_tie = interp_out_add4[15] & ~(|interp_out_add4[14:0]);
+  wire [23:0] interp_out_0_up =
+      {interp_out_add4[38], interp_out_add4[38:16]} + {{23{1'b0}}, interp_out_add4[15]};
+  wire signed [23:0] interp_out_0_r =
+      $signed({interp_out_0_up[23:1], interp_out_0_up[0] & ~interp_out_0_tie});
+  wire interp_out_0_ovf_c = ~((&interp_out_0_r[23:15]) | ~(|interp_out_0_r[23:15]));
+  wire signed [15:0] interp_out_0_d =
+      $signed(interp_out_0_ovf_c ? (interp_out_0_r[23] ? 16'h8000 : 16'h7fff)
+      : interp_out_0_r[15:0]);
+  reg  signed [15:0] interp_out_0_q;
   reg  signed [15:0] n1_y_i_s1_q;
-  wire signed [33:0] t50 = interp_weight_25_q * n1_y_i_s1_q;
+  wire signed [33:0] interp_out_mul6 = interp_weight_0_q * n1_y_i_s1_q;
   reg  signed [15:0] n2_y_i_s1_q;
-  wire signed [33:0] t51 = interp_weight_28_q * n2_y_i_s1_q;
-  wire signed [34:0] t52 = $signed({t51[33], t51} + {t50[33], t50});
+  wire signed [33:0] interp_out_mul7 = interp_weight_1_q * n2_y_i_s1_q;
+  wire signed [34:0] interp_out_add5 =
+      $signed({interp_out_mul7[33], interp_out_mul7} + {interp_out_mul6[33], interp_out_mul6});
   reg  signed [15:0] n3_y_i_s1_q;
-  wire signed [33:0] t53 = interp_weight_31_q * n3_y_i_s1_q;
-  wire signed [35:0] t54 = $signed({{2{t53[33]}}, t53} + {t52[34], t52});
+  wire signed [33:0] interp_out_mul8 = interp_weight_2_q * n3_y_i_s1_q;
+  wire signed [35:0] interp_out_add6 =
+      $signed({{2{interp_out_mul8[33]}}, interp_out_mul8} + {interp_out_add5[34], interp_out_add5});
   reg  signed [15:0] n12_y_i_s1_q;
-  wire signed [33:0] t55 = interp_weight_33_q * n12_y_i_s1_q;
-  wire signed [36:0] t56 = $signed({{3{t55[33]}}, t55} + {t54[35], t54});
+  wire signed [33:0] interp_out_mul9 = interp_weight_3_q * n12_y_i_s1_q;
+  wire signed [36:0] interp_out_add7 =
+      $signed({{3{interp_out_mul9[33]}}, interp_out_mul9} + {interp_out_add6[35], interp_out_add6});
   reg  signed [15:0] n23_y_i_s1_q;
-  wire signed [33:0] t57 = interp_weight_35_q * n23_y_i_s1_q;
-  wire signed [37:0] t58 = $signed({{4{t57[33]}}, t57} + {t56[36], t56});
+  wire signed [33:0] interp_out_mul10 = interp_weight_4_q * n23_y_i_s1_q;
+  wire signed [37:0] interp_out_add8 =
+      $signed({{4{interp_out_mul10[33]}}, interp_out_mul10}
+      + {interp_out_add7[36], interp_out_add7});
   reg  signed [15:0] n31_y_i_s1_q;
-  wire signed [33:0] t59 = interp_weight_37_q * n31_y_i_s1_q;
-  wire signed [38:0] t60 = $signed({{5{t59[33]}}, t59} + {t58[37], t58});
-  wire interp_out_61_tie = t60[15] & ~(|t60[14:0]);
-  wire [23:0] interp_out_61_up = {t60[38], t60[38:16]} + {{23{1'b0}}, t60[15]};
-  wire signed [23:0] interp_out_61_r =
-      $signed({interp_out_61_up[23:1], interp_out_61_up[0] & ~interp_out_61_tie});
-  wire interp_out_61_ovf_c = ~((&interp_out_61_r[23:15]) | ~(|interp_out_61_r[23:15]));
-  wire signed [15:0] interp_out_61_d =
-      $signed(interp_out_61_ovf_c ? (interp_out_61_r[23] ? 16'h8000 : 16'h7fff)
-      : interp_out_61_r[15:0]);
-  reg  signed [15:0] interp_out_61_q;
+  wire signed [33:0] interp_out_mul11 = interp_weight_5_q * n31_y_i_s1_q;
+  wire signed [38:0] interp_out_add9 =
+      $signed({{5{interp_out_mul11[33]}}, interp_out_mul11}
+      + {interp_out_add8[37], interp_out_add8});
+  wire interp_out_1_tie = interp_out_add9[15] & ~(|interp_out_add9[14:0]);
+  wire [23:0] interp_out_1_up =
+      {interp_out_add9[38], interp_out_add9[38:16]} + {{23{1'b0}}, interp_out_add9[15]};
+  wire signed [23:0] interp_out_1_r =
+      $signed({interp_out_1_up[23:1], interp_out_1_up[0] & ~interp_out_1_tie});
+  wire interp_out_1_ovf_c = ~((&interp_out_1_r[23:15]) | ~(|interp_out_1_r[23:15]));
+  wire signed [15:0] interp_out_1_d =
+      $signed(interp_out_1_ovf_c ? (interp_out_1_r[23] ? 16'h8000 : 16'h7fff)
+      : interp_out_1_r[15:0]);
+  reg  signed [15:0] interp_out_1_q;
   reg  signed [15:0] n1_z_i_s1_q;
-  wire signed [33:0] t62 = interp_weight_25_q * n1_z_i_s1_q;
+  wire signed [33:0] interp_out_mul12 = interp_weight_0_q * n1_z_i_s1_q;
   reg  signed [15:0] n2_z_i_s1_q;
-  wire signed [33:0] t63 = interp_weight_28_q * n2_z_i_s1_q;
-  wire signed [34:0] t64 = $signed({t63[33], t63} + {t62[33], t62});
+  wire signed [33:0] interp_out_mul13 = interp_weight_1_q * n2_z_i_s1_q;
+  wire signed [34:0] interp_out_add10 =
+      $signed({interp_out_mul13[33], interp_out_mul13} + {interp_out_mul12[33], interp_out_mul12});
   reg  signed [15:0] n3_z_i_s1_q;
-  wire signed [33:0] t65 = interp_weight_31_q * n3_z_i_s1_q;
-  wire signed [35:0] t66 = $signed({{2{t65[33]}}, t65} + {t64[34], t64});
+  wire signed [33:0] interp_out_mul14 = interp_weight_2_q * n3_z_i_s1_q;
+  wire signed [35:0] interp_out_add11 =
+      $signed({{2{interp_out_mul14[33]}}, interp_out_mul14}
+      + {interp_out_add10[34], interp_out_add10});
   reg  signed [15:0] n12_z_i_s1_q;
-  wire signed [33:0] t67 = interp_weight_33_q * n12_z_i_s1_q;
-  wire signed [36:0] t68 = $signed({{3{t67[33]}}, t67} + {t66[35], t66});
+  wire signed [33:0] interp_out_mul15 = interp_weight_3_q * n12_z_i_s1_q;
+  wire signed [36:0] interp_out_add12 =
+      $signed({{3{interp_out_mul15[33]}}, interp_out_mul15}
+      + {interp_out_add11[35], interp_out_add11});
   reg  signed [15:0] n23_z_i_s1_q;
-  wire signed [33:0] t69 = interp_weight_35_q * n23_z_i_s1_q;
-  wire signed [37:0] t70 = $signed({{4{t69[33]}}, t69} + {t68[36], t68});
+  wire signed [33:0] interp_out_mul16 = interp_weight_4_q * n23_z_i_s1_q;
+  wire signed [37:0] interp_out_add13 =
+      $signed({{4{interp_out_mul16[33]}}, interp_out_mul16}
+      + {interp_out_add12[36], interp_out_add12});
   reg  signed [15:0] n31_z_i_s1_q;
-  wire signed [33:0] t71 = interp_weight_37_q * n31_z_i_s1_q;
-  wire signed [38:0] t72 = $signed({{5{t71[33]}}, t71} + {t70[37], t70});
-  wire interp_out_73_tie = t72[15] & ~(|t72[14:0]);
-  wire [23:0] interp_out_73_up = {t72[38], t72[38:16]} + {{23{1'b0}}, t72[15]};
-  wire signed [23:0] interp_out_73_r =
-      $signed({interp_out_73_up[23:1], interp_out_73_up[0] & ~interp_out_73_tie});
-  wire interp_out_73_ovf_c = ~((&interp_out_73_r[23:15]) | ~(|interp_out_73_r[23:15]));
-  wire signed [15:0] interp_out_73_d =
-      $signed(interp_out_73_ovf_c ? (interp_out_73_r[23] ? 16'h8000 : 16'h7fff)
-      : interp_out_73_r[15:0]);
-  reg  signed [15:0] interp_out_73_q;
-  reg  [0:0] interp_weight_25_ovf_s1_q;
-  reg  [0:0] interp_weight_28_ovf_s1_q;
-  reg  [0:0] interp_weight_31_ovf_s1_q;
-  reg  [0:0] interp_weight_33_ovf_s1_q;
-  reg  [0:0] interp_weight_35_ovf_s1_q;
-  reg  [0:0] interp_weight_37_ovf_s1_q;
+  wire signed [33:0] interp_out_mul17 = interp_weight_5_q * n31_z_i_s1_q;
+  wire signed [38:0] interp_out_add14 =
+      $signed({{5{interp_out_mul17[33]}}, interp_out_mul17}
+      + {interp_out_add13[37], interp_out_add13});
+  wire interp_out_2_tie = interp_out_add14[15] & ~(|interp_out_add14[14:0]);
+  wire [23:0] interp_out_2_up =
+      {interp_out_add14[38], interp_out_add14[38:16]} + {{23{1'b0}}, interp_out_add14[15]};
+  wire signed [23:0] interp_out_2_r =
+      $signed({interp_out_2_up[23:1], interp_out_2_up[0] & ~interp_out_2_tie});
+  wire interp_out_2_ovf_c = ~((&interp_out_2_r[23:15]) | ~(|interp_out_2_r[23:15]));
+  wire signed [15:0] interp_out_2_d =
+      $signed(interp_out_2_ovf_c ? (interp_out_2_r[23] ? 16'h8000 : 16'h7fff)
+      : interp_out_2_r[15:0]);
+  reg  signed [15:0] interp_out_2_q;
+  reg  [0:0] interp_weight_0_ovf_s1_q;
+  reg  [0:0] interp_weight_1_ovf_s1_q;
+  reg  [0:0] interp_weight_2_ovf_s1_q;
+  reg  [0:0] interp_weight_3_ovf_s1_q;
+  reg  [0:0] interp_weight_4_ovf_s1_q;
+  reg  [0:0] interp_weight_5_ovf_s1_q;
   wire ovf0_or_s1 =
-      interp_weight_25_ovf_s1_q | interp_weight_28_ovf_s1_q | interp_weight_31_ovf_s1_q
-          | interp_weight_33_ovf_s1_q
-      | interp_weight_35_ovf_s1_q | interp_weight_37_ovf_s1_q;
+      interp_weight_0_ovf_s1_q | interp_weight_1_ovf_s1_q | interp_weight_2_ovf_s1_q
+          | interp_weight_3_ovf_s1_q
+      | interp_weight_4_ovf_s1_q | interp_weight_5_ovf_s1_q;
   reg  [0:0] ovf0_s2_q;
-  reg  [0:0] interp_out_49_ovf_s2_q;
-  reg  [0:0] interp_out_61_ovf_s2_q;
-  reg  [0:0] interp_out_73_ovf_s2_q;
+  reg  [0:0] interp_out_0_ovf_s2_q;
+  reg  [0:0] interp_out_1_ovf_s2_q;
+  reg  [0:0] interp_out_2_ovf_s2_q;
   wire ovf1_or_s2 =
-      interp_out_49_ovf_s2_q | interp_out_61_ovf_s2_q | interp_out_73_ovf_s2_q;
+      interp_out_0_ovf_s2_q | interp_out_1_ovf_s2_q | interp_out_2_ovf_s2_q;
 
   // Stage loads: the item entering stage k is valid and the stages move.
   wire load_s1 = in_take;
@@ -288,12 +323,12 @@ module interp (
   // registers load only with a valid item, so bubbles do not toggle them.
   always @(posedge clk_i) begin
     if (load_s1) begin
-      interp_weight_25_q <= interp_weight_25_d;
-      interp_weight_28_q <= interp_weight_28_d;
-      interp_weight_31_q <= interp_weight_31_d;
-      interp_weight_33_q <= interp_weight_33_d;
-      interp_weight_35_q <= interp_weight_35_d;
-      interp_weight_37_q <= interp_weight_37_d;
+      interp_weight_0_q <= interp_weight_0_d;
+      interp_weight_1_q <= interp_weight_1_d;
+      interp_weight_2_q <= interp_weight_2_d;
+      interp_weight_3_q <= interp_weight_3_d;
+      interp_weight_4_q <= interp_weight_4_d;
+      interp_weight_5_q <= interp_weight_5_d;
       n1_x_i_s1_q <= n1_x_i;
       n2_x_i_s1_q <= n2_x_i;
       n3_x_i_s1_q <= n3_x_i;
@@ -312,28 +347,27 @@ module interp (
       n12_z_i_s1_q <= n12_z_i;
       n23_z_i_s1_q <= n23_z_i;
       n31_z_i_s1_q <= n31_z_i;
-      interp_weight_25_ovf_s1_q <= interp_weight_25_ovf_c;
-      interp_weight_28_ovf_s1_q <= interp_weight_28_ovf_c;
-      interp_weight_31_ovf_s1_q <= interp_weight_31_ovf_c;
-      interp_weight_33_ovf_s1_q <= interp_weight_33_ovf_c;
-      interp_weight_35_ovf_s1_q <= interp_weight_35_ovf_c;
-      interp_weight_37_ovf_s1_q <= interp_weight_37_ovf_c;
+      interp_weight_0_ovf_s1_q <= interp_weight_0_ovf_c;
+      interp_weight_1_ovf_s1_q <= interp_weight_1_ovf_c;
+      interp_weight_2_ovf_s1_q <= interp_weight_2_ovf_c;
+      interp_weight_3_ovf_s1_q <= interp_weight_3_ovf_c;
+      interp_weight_4_ovf_s1_q <= interp_weight_4_ovf_c;
+      interp_weight_5_ovf_s1_q <= interp_weight_5_ovf_c;
     end
     if (load_s2) begin
-      interp_out_49_q <= interp_out_49_d;
-      interp_out_61_q <= interp_out_61_d;
-      interp_out_73_q <= interp_out_73_d;
+      interp_out_0_q <= interp_out_0_d;
+      interp_out_1_q <= interp_out_1_d;
+      interp_out_2_q <= interp_out_2_d;
       ovf0_s2_q <= ovf0_or_s1;
-      interp_out_49_ovf_s2_q <= interp_out_49_ovf_c;
-      interp_out_61_ovf_s2_q <= interp_out_61_ovf_c;
-      interp_out_73_ovf_s2_q <= interp_out_73_ovf_c;
+      interp_out_0_ovf_s2_q <= interp_out_0_ovf_c;
+      interp_out_1_ovf_s2_q <= interp_out_1_ovf_c;
+      interp_out_2_ovf_s2_q <= interp_out_2_ovf_c;
     end
   end
 
   // Output buffer: the head drives the ports; the skid register takes the
   // item that leaves the last stage while the head is stalled.
-  wire [49:0] last_d =
-      {interp_out_49_q, interp_out_61_q, interp_out_73_q, (ovf0_s2_q), (ovf1_or_s2)};
+  wire [49:0] last_d = {interp_out_0_q, interp_out_1_q, interp_out_2_q, (ovf0_s2_q), (ovf1_or_s2)};
   reg  [49:0] out_q, skid_q;
   always @(posedge clk_i) begin
     if (out_load & (skid_valid | out_arrive)) out_q <= skid_valid ? skid_q : last_d;

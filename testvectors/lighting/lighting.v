@@ -106,127 +106,146 @@ module lighting (
   end
 
   // Datapath.
-  localparam [15:0] K9 = 16'hbf40;
-  localparam [15:0] K10 = 16'h3fc0;
-  localparam signed [15:0] K11 = $signed(16'h0);
-  wire signed [31:0] t12 = n_x_i * l_x_i;
-  wire signed [31:0] t13 = n_y_i * l_y_i;
-  wire signed [31:0] t14 = n_z_i * l_z_i;
-  wire signed [32:0] t15 = $signed({t12[31], t12} + {t13[31], t13});
-  wire signed [33:0] t16 = $signed({t15[32], t15} + {{2{t14[31]}}, t14});
-  wire lighting_dot_17_tie = t16[13] & ~(|t16[12:0]);
-  wire [20:0] lighting_dot_17_up = {t16[33], t16[33:14]} + {{20{1'b0}}, t16[13]};
-  wire signed [20:0] lighting_dot_17_r =
-      $signed({lighting_dot_17_up[20:1], lighting_dot_17_up[0] & ~lighting_dot_17_tie});
-  wire lighting_dot_17_ovf_c = ~((&lighting_dot_17_r[20:15]) | ~(|lighting_dot_17_r[20:15]));
-  wire signed [15:0] lighting_dot_17_d =
-      $signed(lighting_dot_17_ovf_c ? (lighting_dot_17_r[20] ? 16'h8000 : 16'h7fff)
-      : lighting_dot_17_r[15:0]);
-  reg  signed [15:0] lighting_dot_17_q;
-  wire signed [15:0] t18_a = $signed(lighting_dot_17_q);
-  wire signed [15:0] t18_b = $signed(K11);
-  wire signed [15:0] t18 = (t18_a > t18_b) ? t18_a : t18_b;
-  wire signed [31:0] t19 = n_x_i * h_x_i;
-  wire signed [31:0] t20 = n_y_i * h_y_i;
-  wire signed [31:0] t21 = n_z_i * h_z_i;
-  wire signed [32:0] t22 = $signed({t19[31], t19} + {t20[31], t20});
-  wire signed [33:0] t23 = $signed({t22[32], t22} + {{2{t21[31]}}, t21});
-  wire lighting_dot_24_tie = t23[13] & ~(|t23[12:0]);
-  wire [20:0] lighting_dot_24_up = {t23[33], t23[33:14]} + {{20{1'b0}}, t23[13]};
-  wire signed [20:0] lighting_dot_24_r =
-      $signed({lighting_dot_24_up[20:1], lighting_dot_24_up[0] & ~lighting_dot_24_tie});
-  wire lighting_dot_24_ovf_c = ~((&lighting_dot_24_r[20:15]) | ~(|lighting_dot_24_r[20:15]));
-  wire signed [15:0] lighting_dot_24_d =
-      $signed(lighting_dot_24_ovf_c ? (lighting_dot_24_r[20] ? 16'h8000 : 16'h7fff)
-      : lighting_dot_24_r[15:0]);
-  reg  signed [15:0] lighting_dot_24_q;
-  wire signed [15:0] t25_a = $signed(lighting_dot_24_q);
-  wire signed [15:0] t25_b = $signed(K11);
-  wire signed [15:0] t25 = (t25_a > t25_b) ? t25_a : t25_b;
-  wire signed [18:0] lighting_spec_26_r = $signed({t25, 3'b0});
-  wire lighting_spec_26_ovf_c = lighting_spec_26_r[18];
-  wire [17:0] lighting_spec_26_d =
-      lighting_spec_26_ovf_c ? (lighting_spec_26_r[18] ? 18'h0 : 18'h3ffff)
-      : lighting_spec_26_r[17:0];
-  reg  [17:0] lighting_spec_26_q;
-  wire [35:0] t27 = lighting_spec_26_q * lighting_spec_26_q;
-  wire lighting_spec_28_tie = t27[16] & ~(|t27[15:0]);
-  wire [19:0] lighting_spec_28_up = {1'b0, t27[35:17]} + {{19{1'b0}}, t27[16]};
-  wire [19:0] lighting_spec_28_r =
-      {lighting_spec_28_up[19:1], lighting_spec_28_up[0] & ~lighting_spec_28_tie};
-  wire lighting_spec_28_ovf_c = |lighting_spec_28_r[19:18];
-  wire [17:0] lighting_spec_28_d = lighting_spec_28_ovf_c ? 18'h3ffff : lighting_spec_28_r[17:0];
-  reg  [17:0] lighting_spec_28_q;
-  wire [35:0] t29 = lighting_spec_28_q * lighting_spec_28_q;
-  wire lighting_spec_30_tie = t29[16] & ~(|t29[15:0]);
-  wire [19:0] lighting_spec_30_up = {1'b0, t29[35:17]} + {{19{1'b0}}, t29[16]};
-  wire [19:0] lighting_spec_30_r =
-      {lighting_spec_30_up[19:1], lighting_spec_30_up[0] & ~lighting_spec_30_tie};
-  wire lighting_spec_30_ovf_c = |lighting_spec_30_r[19:18];
-  wire [17:0] lighting_spec_30_d = lighting_spec_30_ovf_c ? 18'h3ffff : lighting_spec_30_r[17:0];
-  reg  [17:0] lighting_spec_30_q;
-  wire [35:0] t31 = lighting_spec_30_q * lighting_spec_30_q;
-  wire lighting_spec_32_tie = t31[16] & ~(|t31[15:0]);
-  wire [19:0] lighting_spec_32_up = {1'b0, t31[35:17]} + {{19{1'b0}}, t31[16]};
-  wire [19:0] lighting_spec_32_r =
-      {lighting_spec_32_up[19:1], lighting_spec_32_up[0] & ~lighting_spec_32_tie};
-  wire lighting_spec_32_ovf_c = |lighting_spec_32_r[19:18];
-  wire [17:0] lighting_spec_32_d = lighting_spec_32_ovf_c ? 18'h3ffff : lighting_spec_32_r[17:0];
-  reg  [17:0] lighting_spec_32_q;
-  wire [35:0] t33 = lighting_spec_32_q * lighting_spec_32_q;
-  wire lighting_spec_34_tie = t33[16] & ~(|t33[15:0]);
-  wire [19:0] lighting_spec_34_up = {1'b0, t33[35:17]} + {{19{1'b0}}, t33[16]};
-  wire [19:0] lighting_spec_34_r =
-      {lighting_spec_34_up[19:1], lighting_spec_34_up[0] & ~lighting_spec_34_tie};
-  wire lighting_spec_34_ovf_c = |lighting_spec_34_r[19:18];
-  wire [17:0] lighting_spec_34_d = lighting_spec_34_ovf_c ? 18'h3ffff : lighting_spec_34_r[17:0];
-  reg  [17:0] lighting_spec_34_q;
-  wire signed [16:0] t35_b = $signed({1'b0, K9});
-  wire signed [31:0] t35 = t18 * t35_b;
-  wire [33:0] t36 = lighting_spec_34_q * K10;
-  reg  signed [31:0] t35_s2_q;
-  reg  signed [31:0] t35_s3_q;
-  reg  signed [31:0] t35_s4_q;
-  reg  signed [31:0] t35_s5_q;
-  reg  signed [31:0] t35_s6_q;
-  wire signed [35:0] t37 = $signed({{2{1'b0}}, t36} + {t35_s6_q[31], t35_s6_q, 3'b0});
-  wire lighting_level_38_tie = t37[24] & ~(|t37[23:0]);
-  wire [11:0] lighting_level_38_up = {t37[35], t37[35:25]} + {{11{1'b0}}, t37[24]};
-  wire signed [11:0] lighting_level_38_r =
-      $signed({lighting_level_38_up[11:1], lighting_level_38_up[0] & ~lighting_level_38_tie});
-  wire lighting_level_38_ovf_c = lighting_level_38_r[11] | (|lighting_level_38_r[10:8]);
-  wire [7:0] lighting_level_38_d =
-      lighting_level_38_ovf_c ? (lighting_level_38_r[11] ? 8'h0 : 8'hff) : lighting_level_38_r[7:0];
-  reg  [7:0] lighting_level_38_q;
-  reg  [0:0] lighting_dot_17_ovf_s1_q;
-  reg  [0:0] lighting_dot_24_ovf_s1_q;
+  localparam [15:0] lighting_level_k0 = 16'hbf40;
+  localparam [15:0] lighting_level_k1 = 16'h3fc0;
+  localparam signed [15:0] lighting_level_k2 = $signed(16'h0);
+  wire signed [31:0] lighting_dot_mul0 = n_x_i * l_x_i;
+  wire signed [31:0] lighting_dot_mul1 = n_y_i * l_y_i;
+  wire signed [31:0] lighting_dot_mul2 = n_z_i * l_z_i;
+  wire signed [32:0] lighting_dot_add0 =
+      $signed({lighting_dot_mul0[31], lighting_dot_mul0}
+      + {lighting_dot_mul1[31], lighting_dot_mul1});
+  wire signed [33:0] lighting_dot_add1 =
+      $signed({lighting_dot_add0[32], lighting_dot_add0}
+      + {{2{lighting_dot_mul2[31]}}, lighting_dot_mul2});
+  wire lighting_dot_0_tie = lighting_dot_add1[13] & ~(|lighting_dot_add1[12:0]);
+  wire [20:0] lighting_dot_0_up =
+      {lighting_dot_add1[33], lighting_dot_add1[33:14]} + {{20{1'b0}}, lighting_dot_add1[13]};
+  wire signed [20:0] lighting_dot_0_r =
+      $signed({lighting_dot_0_up[20:1], lighting_dot_0_up[0] & ~lighting_dot_0_tie});
+  wire lighting_dot_0_ovf_c = ~((&lighting_dot_0_r[20:15]) | ~(|lighting_dot_0_r[20:15]));
+  wire signed [15:0] lighting_dot_0_d =
+      $signed(lighting_dot_0_ovf_c ? (lighting_dot_0_r[20] ? 16'h8000 : 16'h7fff)
+      : lighting_dot_0_r[15:0]);
+  reg  signed [15:0] lighting_dot_0_q;
+  wire signed [15:0] lighting_level_max0_a = $signed(lighting_dot_0_q);
+  wire signed [15:0] lighting_level_max0_b = $signed(lighting_level_k2);
+  wire signed [15:0] lighting_level_max0 =
+      (lighting_level_max0_a > lighting_level_max0_b) ? lighting_level_max0_a
+      : lighting_level_max0_b;
+  wire signed [31:0] lighting_dot_mul3 = n_x_i * h_x_i;
+  wire signed [31:0] lighting_dot_mul4 = n_y_i * h_y_i;
+  wire signed [31:0] lighting_dot_mul5 = n_z_i * h_z_i;
+  wire signed [32:0] lighting_dot_add2 =
+      $signed({lighting_dot_mul3[31], lighting_dot_mul3}
+      + {lighting_dot_mul4[31], lighting_dot_mul4});
+  wire signed [33:0] lighting_dot_add3 =
+      $signed({lighting_dot_add2[32], lighting_dot_add2}
+      + {{2{lighting_dot_mul5[31]}}, lighting_dot_mul5});
+  wire lighting_dot_1_tie = lighting_dot_add3[13] & ~(|lighting_dot_add3[12:0]);
+  wire [20:0] lighting_dot_1_up =
+      {lighting_dot_add3[33], lighting_dot_add3[33:14]} + {{20{1'b0}}, lighting_dot_add3[13]};
+  wire signed [20:0] lighting_dot_1_r =
+      $signed({lighting_dot_1_up[20:1], lighting_dot_1_up[0] & ~lighting_dot_1_tie});
+  wire lighting_dot_1_ovf_c = ~((&lighting_dot_1_r[20:15]) | ~(|lighting_dot_1_r[20:15]));
+  wire signed [15:0] lighting_dot_1_d =
+      $signed(lighting_dot_1_ovf_c ? (lighting_dot_1_r[20] ? 16'h8000 : 16'h7fff)
+      : lighting_dot_1_r[15:0]);
+  reg  signed [15:0] lighting_dot_1_q;
+  wire signed [15:0] lighting_spec_max0_a = $signed(lighting_dot_1_q);
+  wire signed [15:0] lighting_spec_max0_b = $signed(lighting_level_k2);
+  wire signed [15:0] lighting_spec_max0 =
+      (lighting_spec_max0_a > lighting_spec_max0_b) ? lighting_spec_max0_a : lighting_spec_max0_b;
+  wire signed [18:0] lighting_spec_0_r = $signed({lighting_spec_max0, 3'b0});
+  wire lighting_spec_0_ovf_c = lighting_spec_0_r[18];
+  wire [17:0] lighting_spec_0_d =
+      lighting_spec_0_ovf_c ? (lighting_spec_0_r[18] ? 18'h0 : 18'h3ffff) : lighting_spec_0_r[17:0];
+  reg  [17:0] lighting_spec_0_q;
+  wire [35:0] lighting_spec_mul0 = lighting_spec_0_q * lighting_spec_0_q;
+  wire lighting_spec_1_tie = lighting_spec_mul0[16] & ~(|lighting_spec_mul0[15:0]);
+  wire [19:0] lighting_spec_1_up =
+      {1'b0, lighting_spec_mul0[35:17]} + {{19{1'b0}}, lighting_spec_mul0[16]};
+  wire [19:0] lighting_spec_1_r =
+      {lighting_spec_1_up[19:1], lighting_spec_1_up[0] & ~lighting_spec_1_tie};
+  wire lighting_spec_1_ovf_c = |lighting_spec_1_r[19:18];
+  wire [17:0] lighting_spec_1_d = lighting_spec_1_ovf_c ? 18'h3ffff : lighting_spec_1_r[17:0];
+  reg  [17:0] lighting_spec_1_q;
+  wire [35:0] lighting_spec_mul1 = lighting_spec_1_q * lighting_spec_1_q;
+  wire lighting_spec_2_tie = lighting_spec_mul1[16] & ~(|lighting_spec_mul1[15:0]);
+  wire [19:0] lighting_spec_2_up =
+      {1'b0, lighting_spec_mul1[35:17]} + {{19{1'b0}}, lighting_spec_mul1[16]};
+  wire [19:0] lighting_spec_2_r =
+      {lighting_spec_2_up[19:1], lighting_spec_2_up[0] & ~lighting_spec_2_tie};
+  wire lighting_spec_2_ovf_c = |lighting_spec_2_r[19:18];
+  wire [17:0] lighting_spec_2_d = lighting_spec_2_ovf_c ? 18'h3ffff : lighting_spec_2_r[17:0];
+  reg  [17:0] lighting_spec_2_q;
+  wire [35:0] lighting_spec_mul2 = lighting_spec_2_q * lighting_spec_2_q;
+  wire lighting_spec_3_tie = lighting_spec_mul2[16] & ~(|lighting_spec_mul2[15:0]);
+  wire [19:0] lighting_spec_3_up =
+      {1'b0, lighting_spec_mul2[35:17]} + {{19{1'b0}}, lighting_spec_mul2[16]};
+  wire [19:0] lighting_spec_3_r =
+      {lighting_spec_3_up[19:1], lighting_spec_3_up[0] & ~lighting_spec_3_tie};
+  wire lighting_spec_3_ovf_c = |lighting_spec_3_r[19:18];
+  wire [17:0] lighting_spec_3_d = lighting_spec_3_ovf_c ? 18'h3ffff : lighting_spec_3_r[17:0];
+  reg  [17:0] lighting_spec_3_q;
+  wire [35:0] lighting_spec_mul3 = lighting_spec_3_q * lighting_spec_3_q;
+  wire lighting_spec_4_tie = lighting_spec_mul3[16] & ~(|lighting_spec_mul3[15:0]);
+  wire [19:0] lighting_spec_4_up =
+      {1'b0, lighting_spec_mul3[35:17]} + {{19{1'b0}}, lighting_spec_mul3[16]};
+  wire [19:0] lighting_spec_4_r =
+      {lighting_spec_4_up[19:1], lighting_spec_4_up[0] & ~lighting_spec_4_tie};
+  wire lighting_spec_4_ovf_c = |lighting_spec_4_r[19:18];
+  wire [17:0] lighting_spec_4_d = lighting_spec_4_ovf_c ? 18'h3ffff : lighting_spec_4_r[17:0];
+  reg  [17:0] lighting_spec_4_q;
+  wire signed [16:0] lighting_level_mul0_b = $signed({1'b0, lighting_level_k0});
+  wire signed [31:0] lighting_level_mul0 = lighting_level_max0 * lighting_level_mul0_b;
+  wire [33:0] lighting_level_mul1 = lighting_spec_4_q * lighting_level_k1;
+  reg  signed [31:0] lighting_level_mul0_s2_q;
+  reg  signed [31:0] lighting_level_mul0_s3_q;
+  reg  signed [31:0] lighting_level_mul0_s4_q;
+  reg  signed [31:0] lighting_level_mul0_s5_q;
+  reg  signed [31:0] lighting_level_mul0_s6_q;
+  wire signed [35:0] lighting_level_add0 =
+      $signed({{2{1'b0}}, lighting_level_mul1}
+      + {lighting_level_mul0_s6_q[31], lighting_level_mul0_s6_q, 3'b0});
+  wire lighting_level_0_tie = lighting_level_add0[24] & ~(|lighting_level_add0[23:0]);
+  wire [11:0] lighting_level_0_up =
+      {lighting_level_add0[35], lighting_level_add0[35:25]} + {{11{1'b0}}, lighting_level_add0[24]};
+  wire signed [11:0] lighting_level_0_r =
+      $signed({lighting_level_0_up[11:1], lighting_level_0_up[0] & ~lighting_level_0_tie});
+  wire lighting_level_0_ovf_c = lighting_level_0_r[11] | (|lighting_level_0_r[10:8]);
+  wire [7:0] lighting_level_0_d =
+      lighting_level_0_ovf_c ? (lighting_level_0_r[11] ? 8'h0 : 8'hff) : lighting_level_0_r[7:0];
+  reg  [7:0] lighting_level_0_q;
+  reg  [0:0] lighting_dot_0_ovf_s1_q;
+  reg  [0:0] lighting_dot_1_ovf_s1_q;
   wire ovf0_or_s1 =
-      lighting_dot_17_ovf_s1_q | lighting_dot_24_ovf_s1_q;
+      lighting_dot_0_ovf_s1_q | lighting_dot_1_ovf_s1_q;
   reg  [0:0] ovf0_s2_q;
   reg  [0:0] ovf0_s3_q;
   reg  [0:0] ovf0_s4_q;
   reg  [0:0] ovf0_s5_q;
   reg  [0:0] ovf0_s6_q;
   reg  [0:0] ovf0_s7_q;
-  reg  [0:0] lighting_spec_26_ovf_s2_q;
-  reg  [0:0] lighting_spec_28_ovf_s3_q;
-  reg  [0:0] lighting_spec_30_ovf_s4_q;
-  reg  [0:0] lighting_spec_32_ovf_s5_q;
-  reg  [0:0] lighting_spec_34_ovf_s6_q;
+  reg  [0:0] lighting_spec_0_ovf_s2_q;
+  reg  [0:0] lighting_spec_1_ovf_s3_q;
+  reg  [0:0] lighting_spec_2_ovf_s4_q;
+  reg  [0:0] lighting_spec_3_ovf_s5_q;
+  reg  [0:0] lighting_spec_4_ovf_s6_q;
   reg  [0:0] ovf1_s3_q;
   wire ovf1_or_s3 =
-      ovf1_s3_q | lighting_spec_28_ovf_s3_q;
+      ovf1_s3_q | lighting_spec_1_ovf_s3_q;
   reg  [0:0] ovf1_s4_q;
   wire ovf1_or_s4 =
-      ovf1_s4_q | lighting_spec_30_ovf_s4_q;
+      ovf1_s4_q | lighting_spec_2_ovf_s4_q;
   reg  [0:0] ovf1_s5_q;
   wire ovf1_or_s5 =
-      ovf1_s5_q | lighting_spec_32_ovf_s5_q;
+      ovf1_s5_q | lighting_spec_3_ovf_s5_q;
   reg  [0:0] ovf1_s6_q;
   wire ovf1_or_s6 =
-      ovf1_s6_q | lighting_spec_34_ovf_s6_q;
+      ovf1_s6_q | lighting_spec_4_ovf_s6_q;
   reg  [0:0] ovf1_s7_q;
-  reg  [0:0] lighting_level_38_ovf_s7_q;
+  reg  [0:0] lighting_level_0_ovf_s7_q;
 
   // Stage loads: the item entering stage k is valid and the stages move.
   wire load_s1 = in_take;
@@ -241,57 +260,56 @@ module lighting (
   // registers load only with a valid item, so bubbles do not toggle them.
   always @(posedge clk_i) begin
     if (load_s1) begin
-      lighting_dot_17_q <= lighting_dot_17_d;
-      lighting_dot_24_q <= lighting_dot_24_d;
-      lighting_dot_17_ovf_s1_q <= lighting_dot_17_ovf_c;
-      lighting_dot_24_ovf_s1_q <= lighting_dot_24_ovf_c;
+      lighting_dot_0_q <= lighting_dot_0_d;
+      lighting_dot_1_q <= lighting_dot_1_d;
+      lighting_dot_0_ovf_s1_q <= lighting_dot_0_ovf_c;
+      lighting_dot_1_ovf_s1_q <= lighting_dot_1_ovf_c;
     end
     if (load_s2) begin
-      lighting_spec_26_q <= lighting_spec_26_d;
-      t35_s2_q <= t35;
+      lighting_spec_0_q <= lighting_spec_0_d;
+      lighting_level_mul0_s2_q <= lighting_level_mul0;
       ovf0_s2_q <= ovf0_or_s1;
-      lighting_spec_26_ovf_s2_q <= lighting_spec_26_ovf_c;
+      lighting_spec_0_ovf_s2_q <= lighting_spec_0_ovf_c;
     end
     if (load_s3) begin
-      lighting_spec_28_q <= lighting_spec_28_d;
-      t35_s3_q <= t35_s2_q;
+      lighting_spec_1_q <= lighting_spec_1_d;
+      lighting_level_mul0_s3_q <= lighting_level_mul0_s2_q;
       ovf0_s3_q <= ovf0_s2_q;
-      lighting_spec_28_ovf_s3_q <= lighting_spec_28_ovf_c;
-      ovf1_s3_q <= lighting_spec_26_ovf_s2_q;
+      lighting_spec_1_ovf_s3_q <= lighting_spec_1_ovf_c;
+      ovf1_s3_q <= lighting_spec_0_ovf_s2_q;
     end
     if (load_s4) begin
-      lighting_spec_30_q <= lighting_spec_30_d;
-      t35_s4_q <= t35_s3_q;
+      lighting_spec_2_q <= lighting_spec_2_d;
+      lighting_level_mul0_s4_q <= lighting_level_mul0_s3_q;
       ovf0_s4_q <= ovf0_s3_q;
-      lighting_spec_30_ovf_s4_q <= lighting_spec_30_ovf_c;
+      lighting_spec_2_ovf_s4_q <= lighting_spec_2_ovf_c;
       ovf1_s4_q <= ovf1_or_s3;
     end
     if (load_s5) begin
-      lighting_spec_32_q <= lighting_spec_32_d;
-      t35_s5_q <= t35_s4_q;
+      lighting_spec_3_q <= lighting_spec_3_d;
+      lighting_level_mul0_s5_q <= lighting_level_mul0_s4_q;
       ovf0_s5_q <= ovf0_s4_q;
-      lighting_spec_32_ovf_s5_q <= lighting_spec_32_ovf_c;
+      lighting_spec_3_ovf_s5_q <= lighting_spec_3_ovf_c;
       ovf1_s5_q <= ovf1_or_s4;
     end
     if (load_s6) begin
-      lighting_spec_34_q <= lighting_spec_34_d;
-      t35_s6_q <= t35_s5_q;
+      lighting_spec_4_q <= lighting_spec_4_d;
+      lighting_level_mul0_s6_q <= lighting_level_mul0_s5_q;
       ovf0_s6_q <= ovf0_s5_q;
-      lighting_spec_34_ovf_s6_q <= lighting_spec_34_ovf_c;
+      lighting_spec_4_ovf_s6_q <= lighting_spec_4_ovf_c;
       ovf1_s6_q <= ovf1_or_s5;
     end
     if (load_s7) begin
-      lighting_level_38_q <= lighting_level_38_d;
+      lighting_level_0_q <= lighting_level_0_d;
       ovf0_s7_q <= ovf0_s6_q;
       ovf1_s7_q <= ovf1_or_s6;
-      lighting_level_38_ovf_s7_q <= lighting_level_38_ovf_c;
+      lighting_level_0_ovf_s7_q <= lighting_level_0_ovf_c;
     end
   end
 
   // Output buffer: the head drives the ports; the skid register takes the
   // item that leaves the last stage while the head is stalled.
-  wire [10:0] last_d =
-      {lighting_level_38_q, (ovf0_s7_q), (ovf1_s7_q), (lighting_level_38_ovf_s7_q)};
+  wire [10:0] last_d = {lighting_level_0_q, (ovf0_s7_q), (ovf1_s7_q), (lighting_level_0_ovf_s7_q)};
   reg  [10:0] out_q, skid_q;
   always @(posedge clk_i) begin
     if (out_load & (skid_valid | out_arrive)) out_q <= skid_valid ? skid_q : last_d;

@@ -94,103 +94,117 @@ module normalize (
   end
 
   // Datapath.
-  localparam signed [17:0] K3 = $signed(18'h109c0);
-  localparam signed [17:0] K4 = $signed(18'h32875);
-  localparam signed [17:0] K5 = $signed(18'h4de0);
-  wire signed [31:0] t10 = n_x_i * n_x_i;
-  wire signed [31:0] t11 = n_y_i * n_y_i;
-  wire signed [31:0] t12 = n_z_i * n_z_i;
-  wire signed [32:0] t13 = $signed({t10[31], t10} + {t11[31], t11});
-  wire signed [33:0] t14 = $signed({t13[32], t13} + {{2{t12[31]}}, t12});
-  wire normalize_d_15_tie = t14[10] & ~(|t14[9:0]);
-  wire [23:0] normalize_d_15_up = {t14[33], t14[33:11]} + {{23{1'b0}}, t14[10]};
-  wire signed [23:0] normalize_d_15_r =
-      $signed({normalize_d_15_up[23:1], normalize_d_15_up[0] & ~normalize_d_15_tie});
-  wire normalize_d_15_ovf_c = normalize_d_15_r[23] | (|normalize_d_15_r[22:18]);
-  wire [17:0] normalize_d_15_d =
-      normalize_d_15_ovf_c ? (normalize_d_15_r[23] ? 18'h0 : 18'h3ffff) : normalize_d_15_r[17:0];
-  reg  [17:0] normalize_d_15_q;
-  wire signed [18:0] t16_b = $signed({1'b0, normalize_d_15_q});
-  wire signed [35:0] t16 = K5 * t16_b;
-  wire signed [36:0] t17 = $signed({t16[35], t16} + {{2{K4[17]}}, K4, 17'b0});
-  wire normalize_horner_18_tie = t17[16] & ~(|t17[15:0]);
-  wire [20:0] normalize_horner_18_up = {t17[36], t17[36:17]} + {{20{1'b0}}, t17[16]};
-  wire signed [20:0] normalize_horner_18_r =
-      $signed({normalize_horner_18_up[20:1], normalize_horner_18_up[0] & ~normalize_horner_18_tie});
-  wire normalize_horner_18_ovf_c =
-      ~((&normalize_horner_18_r[20:17]) | ~(|normalize_horner_18_r[20:17]));
-  wire signed [17:0] normalize_horner_18_d =
-      $signed(normalize_horner_18_ovf_c ? (normalize_horner_18_r[20] ? 18'h20000 : 18'h1ffff)
-      : normalize_horner_18_r[17:0]);
-  reg  signed [17:0] normalize_horner_18_q;
-  reg  [17:0] normalize_d_15_s2_q;
-  wire signed [18:0] t19_b = $signed({1'b0, normalize_d_15_s2_q});
-  wire signed [35:0] t19 = normalize_horner_18_q * t19_b;
-  wire signed [36:0] t20 = $signed({t19[35], t19} + {{2{K3[17]}}, K3, 17'b0});
-  wire normalize_g_21_tie = t20[14] & ~(|t20[13:0]);
-  wire [22:0] normalize_g_21_up = {t20[36], t20[36:15]} + {{22{1'b0}}, t20[14]};
-  wire signed [22:0] normalize_g_21_r =
-      $signed({normalize_g_21_up[22:1], normalize_g_21_up[0] & ~normalize_g_21_tie});
-  wire normalize_g_21_ovf_c = normalize_g_21_r[22] | (|normalize_g_21_r[21:18]);
-  wire [17:0] normalize_g_21_d =
-      normalize_g_21_ovf_c ? (normalize_g_21_r[22] ? 18'h0 : 18'h3ffff) : normalize_g_21_r[17:0];
-  reg  [17:0] normalize_g_21_q;
+  localparam signed [17:0] normalize_g_k0 = $signed(18'h109c0);
+  localparam signed [17:0] normalize_horner_k0 = $signed(18'h32875);
+  localparam signed [17:0] normalize_horner_k1 = $signed(18'h4de0);
+  wire signed [31:0] normalize_d_mul0 = n_x_i * n_x_i;
+  wire signed [31:0] normalize_d_mul1 = n_y_i * n_y_i;
+  wire signed [31:0] normalize_d_mul2 = n_z_i * n_z_i;
+  wire signed [32:0] normalize_d_add0 =
+      $signed({normalize_d_mul0[31], normalize_d_mul0} + {normalize_d_mul1[31], normalize_d_mul1});
+  wire signed [33:0] normalize_d_add1 =
+      $signed({normalize_d_add0[32], normalize_d_add0}
+      + {{2{normalize_d_mul2[31]}}, normalize_d_mul2});
+  wire normalize_d_0_tie = normalize_d_add1[10] & ~(|normalize_d_add1[9:0]);
+  wire [23:0] normalize_d_0_up =
+      {normalize_d_add1[33], normalize_d_add1[33:11]} + {{23{1'b0}}, normalize_d_add1[10]};
+  wire signed [23:0] normalize_d_0_r =
+      $signed({normalize_d_0_up[23:1], normalize_d_0_up[0] & ~normalize_d_0_tie});
+  wire normalize_d_0_ovf_c = normalize_d_0_r[23] | (|normalize_d_0_r[22:18]);
+  wire [17:0] normalize_d_0_d =
+      normalize_d_0_ovf_c ? (normalize_d_0_r[23] ? 18'h0 : 18'h3ffff) : normalize_d_0_r[17:0];
+  reg  [17:0] normalize_d_0_q;
+  wire signed [18:0] normalize_horner_mul0_b = $signed({1'b0, normalize_d_0_q});
+  wire signed [35:0] normalize_horner_mul0 = normalize_horner_k1 * normalize_horner_mul0_b;
+  wire signed [36:0] normalize_horner_add0 =
+      $signed({normalize_horner_mul0[35], normalize_horner_mul0}
+      + {{2{normalize_horner_k0[17]}}, normalize_horner_k0, 17'b0});
+  wire normalize_horner_0_tie = normalize_horner_add0[16] & ~(|normalize_horner_add0[15:0]);
+  wire [20:0] normalize_horner_0_up =
+      {normalize_horner_add0[36], normalize_horner_add0[36:17]}
+      + {{20{1'b0}}, normalize_horner_add0[16]};
+  wire signed [20:0] normalize_horner_0_r =
+      $signed({normalize_horner_0_up[20:1], normalize_horner_0_up[0] & ~normalize_horner_0_tie});
+  wire normalize_horner_0_ovf_c =
+      ~((&normalize_horner_0_r[20:17]) | ~(|normalize_horner_0_r[20:17]));
+  wire signed [17:0] normalize_horner_0_d =
+      $signed(normalize_horner_0_ovf_c ? (normalize_horner_0_r[20] ? 18'h20000 : 18'h1ffff)
+      : normalize_horner_0_r[17:0]);
+  reg  signed [17:0] normalize_horner_0_q;
+  reg  [17:0] normalize_d_0_s2_q;
+  wire signed [18:0] normalize_g_mul0_b = $signed({1'b0, normalize_d_0_s2_q});
+  wire signed [35:0] normalize_g_mul0 = normalize_horner_0_q * normalize_g_mul0_b;
+  wire signed [36:0] normalize_g_add0 =
+      $signed({normalize_g_mul0[35], normalize_g_mul0}
+      + {{2{normalize_g_k0[17]}}, normalize_g_k0, 17'b0});
+  wire normalize_g_0_tie = normalize_g_add0[14] & ~(|normalize_g_add0[13:0]);
+  wire [22:0] normalize_g_0_up =
+      {normalize_g_add0[36], normalize_g_add0[36:15]} + {{22{1'b0}}, normalize_g_add0[14]};
+  wire signed [22:0] normalize_g_0_r =
+      $signed({normalize_g_0_up[22:1], normalize_g_0_up[0] & ~normalize_g_0_tie});
+  wire normalize_g_0_ovf_c = normalize_g_0_r[22] | (|normalize_g_0_r[21:18]);
+  wire [17:0] normalize_g_0_d =
+      normalize_g_0_ovf_c ? (normalize_g_0_r[22] ? 18'h0 : 18'h3ffff) : normalize_g_0_r[17:0];
+  reg  [17:0] normalize_g_0_q;
   reg  signed [15:0] n_x_i_s1_q;
   reg  signed [15:0] n_x_i_s2_q;
   reg  signed [15:0] n_x_i_s3_q;
-  wire signed [18:0] t22_b = $signed({1'b0, normalize_g_21_q});
-  wire signed [33:0] t22 = n_x_i_s3_q * t22_b;
+  wire signed [18:0] normalize_out_mul0_b = $signed({1'b0, normalize_g_0_q});
+  wire signed [33:0] normalize_out_mul0 = n_x_i_s3_q * normalize_out_mul0_b;
   reg  signed [15:0] n_y_i_s1_q;
   reg  signed [15:0] n_y_i_s2_q;
   reg  signed [15:0] n_y_i_s3_q;
-  wire signed [18:0] t23_b = $signed({1'b0, normalize_g_21_q});
-  wire signed [33:0] t23 = n_y_i_s3_q * t23_b;
+  wire signed [18:0] normalize_out_mul1_b = $signed({1'b0, normalize_g_0_q});
+  wire signed [33:0] normalize_out_mul1 = n_y_i_s3_q * normalize_out_mul1_b;
   reg  signed [15:0] n_z_i_s1_q;
   reg  signed [15:0] n_z_i_s2_q;
   reg  signed [15:0] n_z_i_s3_q;
-  wire signed [18:0] t24_b = $signed({1'b0, normalize_g_21_q});
-  wire signed [33:0] t24 = n_z_i_s3_q * t24_b;
-  wire normalize_out_25_tie = t22[16] & ~(|t22[15:0]);
-  wire [17:0] normalize_out_25_up = {t22[33], t22[33:17]} + {{17{1'b0}}, t22[16]};
-  wire signed [17:0] normalize_out_25_r =
-      $signed({normalize_out_25_up[17:1], normalize_out_25_up[0] & ~normalize_out_25_tie});
-  wire normalize_out_25_ovf_c = ~((&normalize_out_25_r[17:15]) | ~(|normalize_out_25_r[17:15]));
-  wire signed [15:0] normalize_out_25_d =
-      $signed(normalize_out_25_ovf_c ? (normalize_out_25_r[17] ? 16'h8000 : 16'h7fff)
-      : normalize_out_25_r[15:0]);
-  reg  signed [15:0] normalize_out_25_q;
-  wire normalize_out_26_tie = t23[16] & ~(|t23[15:0]);
-  wire [17:0] normalize_out_26_up = {t23[33], t23[33:17]} + {{17{1'b0}}, t23[16]};
-  wire signed [17:0] normalize_out_26_r =
-      $signed({normalize_out_26_up[17:1], normalize_out_26_up[0] & ~normalize_out_26_tie});
-  wire normalize_out_26_ovf_c = ~((&normalize_out_26_r[17:15]) | ~(|normalize_out_26_r[17:15]));
-  wire signed [15:0] normalize_out_26_d =
-      $signed(normalize_out_26_ovf_c ? (normalize_out_26_r[17] ? 16'h8000 : 16'h7fff)
-      : normalize_out_26_r[15:0]);
-  reg  signed [15:0] normalize_out_26_q;
-  wire normalize_out_27_tie = t24[16] & ~(|t24[15:0]);
-  wire [17:0] normalize_out_27_up = {t24[33], t24[33:17]} + {{17{1'b0}}, t24[16]};
-  wire signed [17:0] normalize_out_27_r =
-      $signed({normalize_out_27_up[17:1], normalize_out_27_up[0] & ~normalize_out_27_tie});
-  wire normalize_out_27_ovf_c = ~((&normalize_out_27_r[17:15]) | ~(|normalize_out_27_r[17:15]));
-  wire signed [15:0] normalize_out_27_d =
-      $signed(normalize_out_27_ovf_c ? (normalize_out_27_r[17] ? 16'h8000 : 16'h7fff)
-      : normalize_out_27_r[15:0]);
-  reg  signed [15:0] normalize_out_27_q;
-  reg  [0:0] normalize_d_15_ovf_s1_q;
+  wire signed [18:0] normalize_out_mul2_b = $signed({1'b0, normalize_g_0_q});
+  wire signed [33:0] normalize_out_mul2 = n_z_i_s3_q * normalize_out_mul2_b;
+  wire normalize_out_0_tie = normalize_out_mul0[16] & ~(|normalize_out_mul0[15:0]);
+  wire [17:0] normalize_out_0_up =
+      {normalize_out_mul0[33], normalize_out_mul0[33:17]} + {{17{1'b0}}, normalize_out_mul0[16]};
+  wire signed [17:0] normalize_out_0_r =
+      $signed({normalize_out_0_up[17:1], normalize_out_0_up[0] & ~normalize_out_0_tie});
+  wire normalize_out_0_ovf_c = ~((&normalize_out_0_r[17:15]) | ~(|normalize_out_0_r[17:15]));
+  wire signed [15:0] normalize_out_0_d =
+      $signed(normalize_out_0_ovf_c ? (normalize_out_0_r[17] ? 16'h8000 : 16'h7fff)
+      : normalize_out_0_r[15:0]);
+  reg  signed [15:0] normalize_out_0_q;
+  wire normalize_out_1_tie = normalize_out_mul1[16] & ~(|normalize_out_mul1[15:0]);
+  wire [17:0] normalize_out_1_up =
+      {normalize_out_mul1[33], normalize_out_mul1[33:17]} + {{17{1'b0}}, normalize_out_mul1[16]};
+  wire signed [17:0] normalize_out_1_r =
+      $signed({normalize_out_1_up[17:1], normalize_out_1_up[0] & ~normalize_out_1_tie});
+  wire normalize_out_1_ovf_c = ~((&normalize_out_1_r[17:15]) | ~(|normalize_out_1_r[17:15]));
+  wire signed [15:0] normalize_out_1_d =
+      $signed(normalize_out_1_ovf_c ? (normalize_out_1_r[17] ? 16'h8000 : 16'h7fff)
+      : normalize_out_1_r[15:0]);
+  reg  signed [15:0] normalize_out_1_q;
+  wire normalize_out_2_tie = normalize_out_mul2[16] & ~(|normalize_out_mul2[15:0]);
+  wire [17:0] normalize_out_2_up =
+      {normalize_out_mul2[33], normalize_out_mul2[33:17]} + {{17{1'b0}}, normalize_out_mul2[16]};
+  wire signed [17:0] normalize_out_2_r =
+      $signed({normalize_out_2_up[17:1], normalize_out_2_up[0] & ~normalize_out_2_tie});
+  wire normalize_out_2_ovf_c = ~((&normalize_out_2_r[17:15]) | ~(|normalize_out_2_r[17:15]));
+  wire signed [15:0] normalize_out_2_d =
+      $signed(normalize_out_2_ovf_c ? (normalize_out_2_r[17] ? 16'h8000 : 16'h7fff)
+      : normalize_out_2_r[15:0]);
+  reg  signed [15:0] normalize_out_2_q;
+  reg  [0:0] normalize_d_0_ovf_s1_q;
   reg  [0:0] ovf0_s2_q;
   reg  [0:0] ovf0_s3_q;
   reg  [0:0] ovf0_s4_q;
-  reg  [0:0] normalize_horner_18_ovf_s2_q;
+  reg  [0:0] normalize_horner_0_ovf_s2_q;
   reg  [0:0] ovf1_s3_q;
   reg  [0:0] ovf1_s4_q;
-  reg  [0:0] normalize_g_21_ovf_s3_q;
+  reg  [0:0] normalize_g_0_ovf_s3_q;
   reg  [0:0] ovf2_s4_q;
-  reg  [0:0] normalize_out_25_ovf_s4_q;
-  reg  [0:0] normalize_out_26_ovf_s4_q;
-  reg  [0:0] normalize_out_27_ovf_s4_q;
+  reg  [0:0] normalize_out_0_ovf_s4_q;
+  reg  [0:0] normalize_out_1_ovf_s4_q;
+  reg  [0:0] normalize_out_2_ovf_s4_q;
   wire ovf3_or_s4 =
-      normalize_out_25_ovf_s4_q | normalize_out_26_ovf_s4_q | normalize_out_27_ovf_s4_q;
+      normalize_out_0_ovf_s4_q | normalize_out_1_ovf_s4_q | normalize_out_2_ovf_s4_q;
 
   // Stage loads: the item entering stage k is valid and the stages move.
   wire load_s1 = in_take;
@@ -202,47 +216,47 @@ module normalize (
   // registers load only with a valid item, so bubbles do not toggle them.
   always @(posedge clk_i) begin
     if (load_s1) begin
-      normalize_d_15_q <= normalize_d_15_d;
+      normalize_d_0_q <= normalize_d_0_d;
       n_x_i_s1_q <= n_x_i;
       n_y_i_s1_q <= n_y_i;
       n_z_i_s1_q <= n_z_i;
-      normalize_d_15_ovf_s1_q <= normalize_d_15_ovf_c;
+      normalize_d_0_ovf_s1_q <= normalize_d_0_ovf_c;
     end
     if (load_s2) begin
-      normalize_horner_18_q <= normalize_horner_18_d;
-      normalize_d_15_s2_q <= normalize_d_15_q;
+      normalize_horner_0_q <= normalize_horner_0_d;
+      normalize_d_0_s2_q <= normalize_d_0_q;
       n_x_i_s2_q <= n_x_i_s1_q;
       n_y_i_s2_q <= n_y_i_s1_q;
       n_z_i_s2_q <= n_z_i_s1_q;
-      ovf0_s2_q <= normalize_d_15_ovf_s1_q;
-      normalize_horner_18_ovf_s2_q <= normalize_horner_18_ovf_c;
+      ovf0_s2_q <= normalize_d_0_ovf_s1_q;
+      normalize_horner_0_ovf_s2_q <= normalize_horner_0_ovf_c;
     end
     if (load_s3) begin
-      normalize_g_21_q <= normalize_g_21_d;
+      normalize_g_0_q <= normalize_g_0_d;
       n_x_i_s3_q <= n_x_i_s2_q;
       n_y_i_s3_q <= n_y_i_s2_q;
       n_z_i_s3_q <= n_z_i_s2_q;
       ovf0_s3_q <= ovf0_s2_q;
-      ovf1_s3_q <= normalize_horner_18_ovf_s2_q;
-      normalize_g_21_ovf_s3_q <= normalize_g_21_ovf_c;
+      ovf1_s3_q <= normalize_horner_0_ovf_s2_q;
+      normalize_g_0_ovf_s3_q <= normalize_g_0_ovf_c;
     end
     if (load_s4) begin
-      normalize_out_25_q <= normalize_out_25_d;
-      normalize_out_26_q <= normalize_out_26_d;
-      normalize_out_27_q <= normalize_out_27_d;
+      normalize_out_0_q <= normalize_out_0_d;
+      normalize_out_1_q <= normalize_out_1_d;
+      normalize_out_2_q <= normalize_out_2_d;
       ovf0_s4_q <= ovf0_s3_q;
       ovf1_s4_q <= ovf1_s3_q;
-      ovf2_s4_q <= normalize_g_21_ovf_s3_q;
-      normalize_out_25_ovf_s4_q <= normalize_out_25_ovf_c;
-      normalize_out_26_ovf_s4_q <= normalize_out_26_ovf_c;
-      normalize_out_27_ovf_s4_q <= normalize_out_27_ovf_c;
+      ovf2_s4_q <= normalize_g_0_ovf_s3_q;
+      normalize_out_0_ovf_s4_q <= normalize_out_0_ovf_c;
+      normalize_out_1_ovf_s4_q <= normalize_out_1_ovf_c;
+      normalize_out_2_ovf_s4_q <= normalize_out_2_ovf_c;
     end
   end
 
   // Output buffer: the head drives the ports; the skid register takes the
   // item that leaves the last stage while the head is stalled.
   wire [51:0] last_d =
-      {normalize_out_25_q, normalize_out_26_q, normalize_out_27_q, (ovf0_s4_q), (ovf1_s4_q),
+      {normalize_out_0_q, normalize_out_1_q, normalize_out_2_q, (ovf0_s4_q), (ovf1_s4_q),
       (ovf2_s4_q), (ovf3_or_s4)};
   reg  [51:0] out_q, skid_q;
   always @(posedge clk_i) begin

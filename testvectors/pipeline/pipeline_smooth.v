@@ -342,424 +342,490 @@ module pipeline_smooth (
   assign setup_lock_d = frame_ready_d;
 
   // Datapath.
-  localparam [0:0] K27 = 1'h1;
-  localparam signed [17:0] K28 = $signed(18'hfd73);
-  localparam signed [17:0] K29 = $signed(18'h343ff);
-  localparam signed [17:0] K30 = $signed(18'h3e91);
-  localparam signed [17:0] K35 = $signed(18'hf1b2);
-  localparam signed [17:0] K36 = $signed(18'h35c98);
-  localparam signed [17:0] K37 = $signed(18'h31b6);
-  localparam signed [17:0] K42 = $signed(18'hf03d);
-  localparam signed [17:0] K43 = $signed(18'h35f86);
-  localparam signed [17:0] K44 = $signed(18'h303d);
-  localparam signed [17:0] K49 = $signed(18'hf00d);
-  localparam signed [17:0] K50 = $signed(18'h35fe6);
-  localparam signed [17:0] K51 = $signed(18'h300d);
-  localparam signed [17:0] K56 = $signed(18'hf005);
-  localparam signed [17:0] K57 = $signed(18'h35ff6);
-  localparam signed [17:0] K58 = $signed(18'h3005);
-  localparam signed [17:0] K63 = $signed(18'hf001);
-  localparam signed [17:0] K64 = $signed(18'h35ffe);
-  localparam signed [17:0] K65 = $signed(18'h3001);
-  localparam [15:0] K70 = 16'hbf40;
-  localparam [15:0] K71 = 16'h3fc0;
-  localparam signed [15:0] K72 = $signed(16'h0);
-  wire signed [17:0] t76 = $signed({{2{1'b0}}, K27, 15'b0} - {{2{1'b0}}, c1_i});
-  wire signed [18:0] t77 = $signed({t76[17], t76} - {{3{1'b0}}, c2_i});
-  wire signed [17:0] t78 = $signed({{2{1'b0}}, c1_i} - {{3{1'b0}}, K27, 14'b0});
-  wire signed [16:0] t79_a = $signed({1'b0, c1_i});
-  wire signed [33:0] t79 = t79_a * t78;
-  wire interp_weight_80_tie = t79[12] & ~(|t79[11:0]);
-  wire [21:0] interp_weight_80_up = {t79[33], t79[33:13]} + {{21{1'b0}}, t79[12]};
-  wire signed [21:0] interp_weight_80_r =
-      $signed({interp_weight_80_up[21:1], interp_weight_80_up[0] & ~interp_weight_80_tie});
-  wire interp_weight_80_ovf_c = ~((&interp_weight_80_r[21:17]) | ~(|interp_weight_80_r[21:17]));
-  wire signed [17:0] interp_weight_80_d =
-      $signed(interp_weight_80_ovf_c ? (interp_weight_80_r[21] ? 18'h20000 : 18'h1ffff)
-      : interp_weight_80_r[17:0]);
-  reg  signed [17:0] interp_weight_80_q;
-  wire signed [17:0] t81 = $signed({{2{1'b0}}, c2_i} - {{3{1'b0}}, K27, 14'b0});
-  wire signed [16:0] t82_a = $signed({1'b0, c2_i});
-  wire signed [33:0] t82 = t82_a * t81;
-  wire interp_weight_83_tie = t82[12] & ~(|t82[11:0]);
-  wire [21:0] interp_weight_83_up = {t82[33], t82[33:13]} + {{21{1'b0}}, t82[12]};
-  wire signed [21:0] interp_weight_83_r =
-      $signed({interp_weight_83_up[21:1], interp_weight_83_up[0] & ~interp_weight_83_tie});
-  wire interp_weight_83_ovf_c = ~((&interp_weight_83_r[21:17]) | ~(|interp_weight_83_r[21:17]));
-  wire signed [17:0] interp_weight_83_d =
-      $signed(interp_weight_83_ovf_c ? (interp_weight_83_r[21] ? 18'h20000 : 18'h1ffff)
-      : interp_weight_83_r[17:0]);
-  reg  signed [17:0] interp_weight_83_q;
-  wire signed [19:0] t84 = $signed({t77[18], t77} - {{5{1'b0}}, K27, 14'b0});
-  wire signed [38:0] t85 = t77 * t84;
-  wire interp_weight_86_tie = t85[12] & ~(|t85[11:0]);
-  wire [26:0] interp_weight_86_up = {t85[38], t85[38:13]} + {{26{1'b0}}, t85[12]};
-  wire signed [26:0] interp_weight_86_r =
-      $signed({interp_weight_86_up[26:1], interp_weight_86_up[0] & ~interp_weight_86_tie});
-  wire interp_weight_86_ovf_c = ~((&interp_weight_86_r[26:17]) | ~(|interp_weight_86_r[26:17]));
-  wire signed [17:0] interp_weight_86_d =
-      $signed(interp_weight_86_ovf_c ? (interp_weight_86_r[26] ? 18'h20000 : 18'h1ffff)
-      : interp_weight_86_r[17:0]);
-  reg  signed [17:0] interp_weight_86_q;
-  wire [31:0] t87 = c1_i * c2_i;
-  wire interp_weight_88_tie = t87[11] & ~(|t87[10:0]);
-  wire [20:0] interp_weight_88_up = {1'b0, t87[31:12]} + {{20{1'b0}}, t87[11]};
-  wire [20:0] interp_weight_88_r =
-      {interp_weight_88_up[20:1], interp_weight_88_up[0] & ~interp_weight_88_tie};
-  wire interp_weight_88_ovf_c = |interp_weight_88_r[20:17];
-  wire signed [17:0] interp_weight_88_d =
-      $signed(interp_weight_88_ovf_c ? 18'h1ffff : interp_weight_88_r[17:0]);
-  reg  signed [17:0] interp_weight_88_q;
-  wire signed [16:0] t89_a = $signed({1'b0, c2_i});
-  wire signed [34:0] t89 = t89_a * t77;
-  wire interp_weight_90_tie = t89[11] & ~(|t89[10:0]);
-  wire [23:0] interp_weight_90_up = {t89[34], t89[34:12]} + {{23{1'b0}}, t89[11]};
-  wire signed [23:0] interp_weight_90_r =
-      $signed({interp_weight_90_up[23:1], interp_weight_90_up[0] & ~interp_weight_90_tie});
-  wire interp_weight_90_ovf_c = ~((&interp_weight_90_r[23:17]) | ~(|interp_weight_90_r[23:17]));
-  wire signed [17:0] interp_weight_90_d =
-      $signed(interp_weight_90_ovf_c ? (interp_weight_90_r[23] ? 18'h20000 : 18'h1ffff)
-      : interp_weight_90_r[17:0]);
-  reg  signed [17:0] interp_weight_90_q;
-  wire signed [16:0] t91_b = $signed({1'b0, c1_i});
-  wire signed [34:0] t91 = t77 * t91_b;
-  wire interp_weight_92_tie = t91[11] & ~(|t91[10:0]);
-  wire [23:0] interp_weight_92_up = {t91[34], t91[34:12]} + {{23{1'b0}}, t91[11]};
-  wire signed [23:0] interp_weight_92_r =
-      $signed({interp_weight_92_up[23:1], interp_weight_92_up[0] & ~interp_weight_92_tie});
-  wire interp_weight_92_ovf_c = ~((&interp_weight_92_r[23:17]) | ~(|interp_weight_92_r[23:17]));
-  wire signed [17:0] interp_weight_92_d =
-      $signed(interp_weight_92_ovf_c ? (interp_weight_92_r[23] ? 18'h20000 : 18'h1ffff)
-      : interp_weight_92_r[17:0]);
-  reg  signed [17:0] interp_weight_92_q;
+  localparam [0:0] interp_weight_k0 = 1'h1;
+  localparam signed [17:0] normalize_g_k0 = $signed(18'hfd73);
+  localparam signed [17:0] normalize_horner_k0 = $signed(18'h343ff);
+  localparam signed [17:0] normalize_horner_k1 = $signed(18'h3e91);
+  localparam signed [17:0] normalize_g_k1 = $signed(18'hf1b2);
+  localparam signed [17:0] normalize_horner_k2 = $signed(18'h35c98);
+  localparam signed [17:0] normalize_horner_k3 = $signed(18'h31b6);
+  localparam signed [17:0] normalize_g_k2 = $signed(18'hf03d);
+  localparam signed [17:0] normalize_horner_k4 = $signed(18'h35f86);
+  localparam signed [17:0] normalize_horner_k5 = $signed(18'h303d);
+  localparam signed [17:0] normalize_g_k3 = $signed(18'hf00d);
+  localparam signed [17:0] normalize_horner_k6 = $signed(18'h35fe6);
+  localparam signed [17:0] normalize_horner_k7 = $signed(18'h300d);
+  localparam signed [17:0] normalize_g_k4 = $signed(18'hf005);
+  localparam signed [17:0] normalize_horner_k8 = $signed(18'h35ff6);
+  localparam signed [17:0] normalize_horner_k9 = $signed(18'h3005);
+  localparam signed [17:0] normalize_g_k5 = $signed(18'hf001);
+  localparam signed [17:0] normalize_horner_k10 = $signed(18'h35ffe);
+  localparam signed [17:0] normalize_horner_k11 = $signed(18'h3001);
+  localparam [15:0] lighting_level_k0 = 16'hbf40;
+  localparam [15:0] lighting_level_k1 = 16'h3fc0;
+  localparam signed [15:0] lighting_level_k2 = $signed(16'h0);
+  wire signed [17:0] interp_weight_sub0 =
+      $signed({{2{1'b0}}, interp_weight_k0, 15'b0} - {{2{1'b0}}, c1_i});
+  wire signed [18:0] interp_weight_sub1 =
+      $signed({interp_weight_sub0[17], interp_weight_sub0} - {{3{1'b0}}, c2_i});
+  wire signed [17:0] interp_weight_sub2 =
+      $signed({{2{1'b0}}, c1_i} - {{3{1'b0}}, interp_weight_k0, 14'b0});
+  wire signed [16:0] interp_weight_mul0_a = $signed({1'b0, c1_i});
+  wire signed [33:0] interp_weight_mul0 = interp_weight_mul0_a * interp_weight_sub2;
+  wire interp_weight_0_tie = interp_weight_mul0[12] & ~(|interp_weight_mul0[11:0]);
+  wire [21:0] interp_weight_0_up =
+      {interp_weight_mul0[33], interp_weight_mul0[33:13]} + {{21{1'b0}}, interp_weight_mul0[12]};
+  wire signed [21:0] interp_weight_0_r =
+      $signed({interp_weight_0_up[21:1], interp_weight_0_up[0] & ~interp_weight_0_tie});
+  wire interp_weight_0_ovf_c = ~((&interp_weight_0_r[21:17]) | ~(|interp_weight_0_r[21:17]));
+  wire signed [17:0] interp_weight_0_d =
+      $signed(interp_weight_0_ovf_c ? (interp_weight_0_r[21] ? 18'h20000 : 18'h1ffff)
+      : interp_weight_0_r[17:0]);
+  reg  signed [17:0] interp_weight_0_q;
+  wire signed [17:0] interp_weight_sub3 =
+      $signed({{2{1'b0}}, c2_i} - {{3{1'b0}}, interp_weight_k0, 14'b0});
+  wire signed [16:0] interp_weight_mul1_a = $signed({1'b0, c2_i});
+  wire signed [33:0] interp_weight_mul1 = interp_weight_mul1_a * interp_weight_sub3;
+  wire interp_weight_1_tie = interp_weight_mul1[12] & ~(|interp_weight_mul1[11:0]);
+  wire [21:0] interp_weight_1_up =
+      {interp_weight_mul1[33], interp_weight_mul1[33:13]} + {{21{1'b0}}, interp_weight_mul1[12]};
+  wire signed [21:0] interp_weight_1_r =
+      $signed({interp_weight_1_up[21:1], interp_weight_1_up[0] & ~interp_weight_1_tie});
+  wire interp_weight_1_ovf_c = ~((&interp_weight_1_r[21:17]) | ~(|interp_weight_1_r[21:17]));
+  wire signed [17:0] interp_weight_1_d =
+      $signed(interp_weight_1_ovf_c ? (interp_weight_1_r[21] ? 18'h20000 : 18'h1ffff)
+      : interp_weight_1_r[17:0]);
+  reg  signed [17:0] interp_weight_1_q;
+  wire signed [19:0] interp_weight_sub4 =
+      $signed({interp_weight_sub1[18], interp_weight_sub1} - {{5{1'b0}}, interp_weight_k0, 14'b0});
+  wire signed [38:0] interp_weight_mul2 = interp_weight_sub1 * interp_weight_sub4;
+  wire interp_weight_2_tie = interp_weight_mul2[12] & ~(|interp_weight_mul2[11:0]);
+  wire [26:0] interp_weight_2_up =
+      {interp_weight_mul2[38], interp_weight_mul2[38:13]} + {{26{1'b0}}, interp_weight_mul2[12]};
+  wire signed [26:0] interp_weight_2_r =
+      $signed({interp_weight_2_up[26:1], interp_weight_2_up[0] & ~interp_weight_2_tie});
+  wire interp_weight_2_ovf_c = ~((&interp_weight_2_r[26:17]) | ~(|interp_weight_2_r[26:17]));
+  wire signed [17:0] interp_weight_2_d =
+      $signed(interp_weight_2_ovf_c ? (interp_weight_2_r[26] ? 18'h20000 : 18'h1ffff)
+      : interp_weight_2_r[17:0]);
+  reg  signed [17:0] interp_weight_2_q;
+  wire [31:0] interp_weight_mul3 = c1_i * c2_i;
+  wire interp_weight_3_tie = interp_weight_mul3[11] & ~(|interp_weight_mul3[10:0]);
+  wire [20:0] interp_weight_3_up =
+      {1'b0, interp_weight_mul3[31:12]} + {{20{1'b0}}, interp_weight_mul3[11]};
+  wire [20:0] interp_weight_3_r =
+      {interp_weight_3_up[20:1], interp_weight_3_up[0] & ~interp_weight_3_tie};
+  wire interp_weight_3_ovf_c = |interp_weight_3_r[20:17];
+  wire signed [17:0] interp_weight_3_d =
+      $signed(interp_weight_3_ovf_c ? 18'h1ffff : interp_weight_3_r[17:0]);
+  reg  signed [17:0] interp_weight_3_q;
+  wire signed [16:0] interp_weight_mul4_a = $signed({1'b0, c2_i});
+  wire signed [34:0] interp_weight_mul4 = interp_weight_mul4_a * interp_weight_sub1;
+  wire interp_weight_4_tie = interp_weight_mul4[11] & ~(|interp_weight_mul4[10:0]);
+  wire [23:0] interp_weight_4_up =
+      {interp_weight_mul4[34], interp_weight_mul4[34:12]} + {{23{1'b0}}, interp_weight_mul4[11]};
+  wire signed [23:0] interp_weight_4_r =
+      $signed({interp_weight_4_up[23:1], interp_weight_4_up[0] & ~interp_weight_4_tie});
+  wire interp_weight_4_ovf_c = ~((&interp_weight_4_r[23:17]) | ~(|interp_weight_4_r[23:17]));
+  wire signed [17:0] interp_weight_4_d =
+      $signed(interp_weight_4_ovf_c ? (interp_weight_4_r[23] ? 18'h20000 : 18'h1ffff)
+      : interp_weight_4_r[17:0]);
+  reg  signed [17:0] interp_weight_4_q;
+  wire signed [16:0] interp_weight_mul5_b = $signed({1'b0, c1_i});
+  wire signed [34:0] interp_weight_mul5 = interp_weight_sub1 * interp_weight_mul5_b;
+  wire interp_weight_5_tie = interp_weight_mul5[11] & ~(|interp_weight_mul5[10:0]);
+  wire [23:0] interp_weight_5_up =
+      {interp_weight_mul5[34], interp_weight_mul5[34:12]} + {{23{1'b0}}, interp_weight_mul5[11]};
+  wire signed [23:0] interp_weight_5_r =
+      $signed({interp_weight_5_up[23:1], interp_weight_5_up[0] & ~interp_weight_5_tie});
+  wire interp_weight_5_ovf_c = ~((&interp_weight_5_r[23:17]) | ~(|interp_weight_5_r[23:17]));
+  wire signed [17:0] interp_weight_5_d =
+      $signed(interp_weight_5_ovf_c ? (interp_weight_5_r[23] ? 18'h20000 : 18'h1ffff)
+      : interp_weight_5_r[17:0]);
+  reg  signed [17:0] interp_weight_5_q;
   wire signed [15:0] n1_x_bank_s1 = tri_tag_q[0] ? n1_x_b1_q : n1_x_b0_q;
-  wire signed [33:0] t93 = interp_weight_80_q * n1_x_bank_s1;
+  wire signed [33:0] interp_out_mul0 = interp_weight_0_q * n1_x_bank_s1;
   wire signed [15:0] n2_x_bank_s1 = tri_tag_q[0] ? n2_x_b1_q : n2_x_b0_q;
-  wire signed [33:0] t94 = interp_weight_83_q * n2_x_bank_s1;
-  wire signed [34:0] t95 = $signed({t94[33], t94} + {t93[33], t93});
+  wire signed [33:0] interp_out_mul1 = interp_weight_1_q * n2_x_bank_s1;
+  wire signed [34:0] interp_out_add0 =
+      $signed({interp_out_mul1[33], interp_out_mul1} + {interp_out_mul0[33], interp_out_mul0});
   wire signed [15:0] n3_x_bank_s1 = tri_tag_q[0] ? n3_x_b1_q : n3_x_b0_q;
-  wire signed [33:0] t96 = interp_weight_86_q * n3_x_bank_s1;
-  wire signed [35:0] t97 = $signed({{2{t96[33]}}, t96} + {t95[34], t95});
+  wire signed [33:0] interp_out_mul2 = interp_weight_2_q * n3_x_bank_s1;
+  wire signed [35:0] interp_out_add1 =
+      $signed({{2{interp_out_mul2[33]}}, interp_out_mul2} + {interp_out_add0[34], interp_out_add0});
   wire signed [15:0] n12_x_bank_s1 = tri_tag_q[0] ? n12_x_b1_q : n12_x_b0_q;
-  wire signed [33:0] t98 = interp_weight_88_q * n12_x_bank_s1;
-  wire signed [36:0] t99 = $signed({{3{t98[33]}}, t98} + {t97[35], t97});
+  wire signed [33:0] interp_out_mul3 = interp_weight_3_q * n12_x_bank_s1;
+  wire signed [36:0] interp_out_add2 =
+      $signed({{3{interp_out_mul3[33]}}, interp_out_mul3} + {interp_out_add1[35], interp_out_add1});
   wire signed [15:0] n23_x_bank_s1 = tri_tag_q[0] ? n23_x_b1_q : n23_x_b0_q;
-  wire signed [33:0] t100 = interp_weight_90_q * n23_x_bank_s1;
-  wire signed [37:0] t101 = $signed({{4{t100[33]}}, t100} + {t99[36], t99});
+  wire signed [33:0] interp_out_mul4 = interp_weight_4_q * n23_x_bank_s1;
+  wire signed [37:0] interp_out_add3 =
+      $signed({{4{interp_out_mul4[33]}}, interp_out_mul4} + {interp_out_add2[36], interp_out_add2});
   wire signed [15:0] n31_x_bank_s1 = tri_tag_q[0] ? n31_x_b1_q : n31_x_b0_q;
-  wire signed [33:0] t102 = interp_weight_92_q * n31_x_bank_s1;
-  wire signed [38:0] t103 = $signed({{5{t102[33]}}, t102} + {t101[37], t101});
-  wire interp_out_104_tie = t103[15] & ~(|t103[14:0]);
-  wire [23:0] interp_out_104_up = {t103[38], t103[38:16]} + {{23{1'b0}}, t103[15]};
-  wire signed [23:0] interp_out_104_r =
-      $signed({interp_out_104_up[23:1], interp_out_104_up[0] & ~interp_out_104_tie});
-  wire interp_out_104_ovf_c = ~((&interp_out_104_r[23:15]) | ~(|interp_out_104_r[23:15]));
-  wire signed [15:0] interp_out_104_d =
-      $signed(interp_out_104_ovf_c ? (interp_out_104_r[23] ? 16'h8000 : 16'h7fff)
-      : interp_out_104_r[15:0]);
-  reg  signed [15:0] interp_out_104_q;
+  wire signed [33:0] interp_out_mul5 = interp_weight_5_q * n31_x_bank_s1;
+  wire signed [38:0] interp_out_add4 =
+      $signed({{5{interp_out_mul5[33]}}, interp_out_mul5} + {interp_out_add3[37], interp_out_add3});
+  wire interp_out_0_tie = interp_out_add4[15] & ~(|interp_out_add4[14:0]);
+  wire [23:0] interp_out_0_up =
+      {interp_out_add4[38], interp_out_add4[38:16]} + {{23{1'b0}}, interp_out_add4[15]};
+  wire signed [23:0] interp_out_0_r =
+      $signed({interp_out_0_up[23:1], interp_out_0_up[0] & ~interp_out_0_tie});
+  wire interp_out_0_ovf_c = ~((&interp_out_0_r[23:15]) | ~(|interp_out_0_r[23:15]));
+  wire signed [15:0] interp_out_0_d =
+      $signed(interp_out_0_ovf_c ? (interp_out_0_r[23] ? 16'h8000 : 16'h7fff)
+      : interp_out_0_r[15:0]);
+  reg  signed [15:0] interp_out_0_q;
   wire signed [15:0] n1_y_bank_s1 = tri_tag_q[0] ? n1_y_b1_q : n1_y_b0_q;
-  wire signed [33:0] t105 = interp_weight_80_q * n1_y_bank_s1;
+  wire signed [33:0] interp_out_mul6 = interp_weight_0_q * n1_y_bank_s1;
   wire signed [15:0] n2_y_bank_s1 = tri_tag_q[0] ? n2_y_b1_q : n2_y_b0_q;
-  wire signed [33:0] t106 = interp_weight_83_q * n2_y_bank_s1;
-  wire signed [34:0] t107 = $signed({t106[33], t106} + {t105[33], t105});
+  wire signed [33:0] interp_out_mul7 = interp_weight_1_q * n2_y_bank_s1;
+  wire signed [34:0] interp_out_add5 =
+      $signed({interp_out_mul7[33], interp_out_mul7} + {interp_out_mul6[33], interp_out_mul6});
   wire signed [15:0] n3_y_bank_s1 = tri_tag_q[0] ? n3_y_b1_q : n3_y_b0_q;
-  wire signed [33:0] t108 = interp_weight_86_q * n3_y_bank_s1;
-  wire signed [35:0] t109 = $signed({{2{t108[33]}}, t108} + {t107[34], t107});
+  wire signed [33:0] interp_out_mul8 = interp_weight_2_q * n3_y_bank_s1;
+  wire signed [35:0] interp_out_add6 =
+      $signed({{2{interp_out_mul8[33]}}, interp_out_mul8} + {interp_out_add5[34], interp_out_add5});
   wire signed [15:0] n12_y_bank_s1 = tri_tag_q[0] ? n12_y_b1_q : n12_y_b0_q;
-  wire signed [33:0] t110 = interp_weight_88_q * n12_y_bank_s1;
-  wire signed [36:0] t111 = $signed({{3{t110[33]}}, t110} + {t109[35], t109});
+  wire signed [33:0] interp_out_mul9 = interp_weight_3_q * n12_y_bank_s1;
+  wire signed [36:0] interp_out_add7 =
+      $signed({{3{interp_out_mul9[33]}}, interp_out_mul9} + {interp_out_add6[35], interp_out_add6});
   wire signed [15:0] n23_y_bank_s1 = tri_tag_q[0] ? n23_y_b1_q : n23_y_b0_q;
-  wire signed [33:0] t112 = interp_weight_90_q * n23_y_bank_s1;
-  wire signed [37:0] t113 = $signed({{4{t112[33]}}, t112} + {t111[36], t111});
+  wire signed [33:0] interp_out_mul10 = interp_weight_4_q * n23_y_bank_s1;
+  wire signed [37:0] interp_out_add8 =
+      $signed({{4{interp_out_mul10[33]}}, interp_out_mul10}
+      + {interp_out_add7[36], interp_out_add7});
   wire signed [15:0] n31_y_bank_s1 = tri_tag_q[0] ? n31_y_b1_q : n31_y_b0_q;
-  wire signed [33:0] t114 = interp_weight_92_q * n31_y_bank_s1;
-  wire signed [38:0] t115 = $signed({{5{t114[33]}}, t114} + {t113[37], t113});
-  wire interp_out_116_tie = t115[15] & ~(|t115[14:0]);
-  wire [23:0] interp_out_116_up = {t115[38], t115[38:16]} + {{23{1'b0}}, t115[15]};
-  wire signed [23:0] interp_out_116_r =
-      $signed({interp_out_116_up[23:1], interp_out_116_up[0] & ~interp_out_116_tie});
-  wire interp_out_116_ovf_c = ~((&interp_out_116_r[23:15]) | ~(|interp_out_116_r[23:15]));
-  wire signed [15:0] interp_out_116_d =
-      $signed(interp_out_116_ovf_c ? (interp_out_116_r[23] ? 16'h8000 : 16'h7fff)
-      : interp_out_116_r[15:0]);
-  reg  signed [15:0] interp_out_116_q;
+  wire signed [33:0] interp_out_mul11 = interp_weight_5_q * n31_y_bank_s1;
+  wire signed [38:0] interp_out_add9 =
+      $signed({{5{interp_out_mul11[33]}}, interp_out_mul11}
+      + {interp_out_add8[37], interp_out_add8});
+  wire interp_out_1_tie = interp_out_add9[15] & ~(|interp_out_add9[14:0]);
+  wire [23:0] interp_out_1_up =
+      {interp_out_add9[38], interp_out_add9[38:16]} + {{23{1'b0}}, interp_out_add9[15]};
+  wire signed [23:0] interp_out_1_r =
+      $signed({interp_out_1_up[23:1], interp_out_1_up[0] & ~interp_out_1_tie});
+  wire interp_out_1_ovf_c = ~((&interp_out_1_r[23:15]) | ~(|interp_out_1_r[23:15]));
+  wire signed [15:0] interp_out_1_d =
+      $signed(interp_out_1_ovf_c ? (interp_out_1_r[23] ? 16'h8000 : 16'h7fff)
+      : interp_out_1_r[15:0]);
+  reg  signed [15:0] interp_out_1_q;
   wire signed [15:0] n1_z_bank_s1 = tri_tag_q[0] ? n1_z_b1_q : n1_z_b0_q;
-  wire signed [33:0] t117 = interp_weight_80_q * n1_z_bank_s1;
+  wire signed [33:0] interp_out_mul12 = interp_weight_0_q * n1_z_bank_s1;
   wire signed [15:0] n2_z_bank_s1 = tri_tag_q[0] ? n2_z_b1_q : n2_z_b0_q;
-  wire signed [33:0] t118 = interp_weight_83_q * n2_z_bank_s1;
-  wire signed [34:0] t119 = $signed({t118[33], t118} + {t117[33], t117});
+  wire signed [33:0] interp_out_mul13 = interp_weight_1_q * n2_z_bank_s1;
+  wire signed [34:0] interp_out_add10 =
+      $signed({interp_out_mul13[33], interp_out_mul13} + {interp_out_mul12[33], interp_out_mul12});
   wire signed [15:0] n3_z_bank_s1 = tri_tag_q[0] ? n3_z_b1_q : n3_z_b0_q;
-  wire signed [33:0] t120 = interp_weight_86_q * n3_z_bank_s1;
-  wire signed [35:0] t121 = $signed({{2{t120[33]}}, t120} + {t119[34], t119});
+  wire signed [33:0] interp_out_mul14 = interp_weight_2_q * n3_z_bank_s1;
+  wire signed [35:0] interp_out_add11 =
+      $signed({{2{interp_out_mul14[33]}}, interp_out_mul14}
+      + {interp_out_add10[34], interp_out_add10});
   wire signed [15:0] n12_z_bank_s1 = tri_tag_q[0] ? n12_z_b1_q : n12_z_b0_q;
-  wire signed [33:0] t122 = interp_weight_88_q * n12_z_bank_s1;
-  wire signed [36:0] t123 = $signed({{3{t122[33]}}, t122} + {t121[35], t121});
+  wire signed [33:0] interp_out_mul15 = interp_weight_3_q * n12_z_bank_s1;
+  wire signed [36:0] interp_out_add12 =
+      $signed({{3{interp_out_mul15[33]}}, interp_out_mul15}
+      + {interp_out_add11[35], interp_out_add11});
   wire signed [15:0] n23_z_bank_s1 = tri_tag_q[0] ? n23_z_b1_q : n23_z_b0_q;
-  wire signed [33:0] t124 = interp_weight_90_q * n23_z_bank_s1;
-  wire signed [37:0] t125 = $signed({{4{t124[33]}}, t124} + {t123[36], t123});
+  wire signed [33:0] interp_out_mul16 = interp_weight_4_q * n23_z_bank_s1;
+  wire signed [37:0] interp_out_add13 =
+      $signed({{4{interp_out_mul16[33]}}, interp_out_mul16}
+      + {interp_out_add12[36], interp_out_add12});
   wire signed [15:0] n31_z_bank_s1 = tri_tag_q[0] ? n31_z_b1_q : n31_z_b0_q;
-  wire signed [33:0] t126 = interp_weight_92_q * n31_z_bank_s1;
-  wire signed [38:0] t127 = $signed({{5{t126[33]}}, t126} + {t125[37], t125});
-  wire interp_out_128_tie = t127[15] & ~(|t127[14:0]);
-  wire [23:0] interp_out_128_up = {t127[38], t127[38:16]} + {{23{1'b0}}, t127[15]};
-  wire signed [23:0] interp_out_128_r =
-      $signed({interp_out_128_up[23:1], interp_out_128_up[0] & ~interp_out_128_tie});
-  wire interp_out_128_ovf_c = ~((&interp_out_128_r[23:15]) | ~(|interp_out_128_r[23:15]));
-  wire signed [15:0] interp_out_128_d =
-      $signed(interp_out_128_ovf_c ? (interp_out_128_r[23] ? 16'h8000 : 16'h7fff)
-      : interp_out_128_r[15:0]);
-  reg  signed [15:0] interp_out_128_q;
-  wire normalize_normal_129_ovf_c = 1'b0;
-  wire signed [15:0] normalize_normal_129_d =
-      $signed(normalize_normal_129_ovf_c ? (interp_out_104_q[15] ? 16'h8000 : 16'h7fff)
-      : interp_out_104_q[15:0]);
-  reg  signed [15:0] normalize_normal_129_q;
-  wire normalize_normal_130_ovf_c = 1'b0;
-  wire signed [15:0] normalize_normal_130_d =
-      $signed(normalize_normal_130_ovf_c ? (interp_out_116_q[15] ? 16'h8000 : 16'h7fff)
-      : interp_out_116_q[15:0]);
-  reg  signed [15:0] normalize_normal_130_q;
-  wire normalize_normal_131_ovf_c = 1'b0;
-  wire signed [15:0] normalize_normal_131_d =
-      $signed(normalize_normal_131_ovf_c ? (interp_out_128_q[15] ? 16'h8000 : 16'h7fff)
-      : interp_out_128_q[15:0]);
-  reg  signed [15:0] normalize_normal_131_q;
-  wire signed [31:0] t132 = normalize_normal_129_q * normalize_normal_129_q;
-  wire signed [31:0] t133 = normalize_normal_130_q * normalize_normal_130_q;
-  wire signed [31:0] t134 = normalize_normal_131_q * normalize_normal_131_q;
-  wire signed [32:0] t135 = $signed({t132[31], t132} + {t133[31], t133});
-  wire signed [33:0] t136 = $signed({t135[32], t135} + {{2{t134[31]}}, t134});
-  wire normalize_d_137_tie = t136[10] & ~(|t136[9:0]);
-  wire [23:0] normalize_d_137_up = {t136[33], t136[33:11]} + {{23{1'b0}}, t136[10]};
-  wire signed [23:0] normalize_d_137_r =
-      $signed({normalize_d_137_up[23:1], normalize_d_137_up[0] & ~normalize_d_137_tie});
-  wire normalize_d_137_ovf_c = normalize_d_137_r[23] | (|normalize_d_137_r[22:18]);
-  wire [17:0] normalize_d_137_d =
-      normalize_d_137_ovf_c ? (normalize_d_137_r[23] ? 18'h0 : 18'h3ffff) : normalize_d_137_r[17:0];
-  reg  [17:0] normalize_d_137_q;
+  wire signed [33:0] interp_out_mul17 = interp_weight_5_q * n31_z_bank_s1;
+  wire signed [38:0] interp_out_add14 =
+      $signed({{5{interp_out_mul17[33]}}, interp_out_mul17}
+      + {interp_out_add13[37], interp_out_add13});
+  wire interp_out_2_tie = interp_out_add14[15] & ~(|interp_out_add14[14:0]);
+  wire [23:0] interp_out_2_up =
+      {interp_out_add14[38], interp_out_add14[38:16]} + {{23{1'b0}}, interp_out_add14[15]};
+  wire signed [23:0] interp_out_2_r =
+      $signed({interp_out_2_up[23:1], interp_out_2_up[0] & ~interp_out_2_tie});
+  wire interp_out_2_ovf_c = ~((&interp_out_2_r[23:15]) | ~(|interp_out_2_r[23:15]));
+  wire signed [15:0] interp_out_2_d =
+      $signed(interp_out_2_ovf_c ? (interp_out_2_r[23] ? 16'h8000 : 16'h7fff)
+      : interp_out_2_r[15:0]);
+  reg  signed [15:0] interp_out_2_q;
+  wire normalize_normal_0_ovf_c = 1'b0;
+  wire signed [15:0] normalize_normal_0_d =
+      $signed(normalize_normal_0_ovf_c ? (interp_out_0_q[15] ? 16'h8000 : 16'h7fff)
+      : interp_out_0_q[15:0]);
+  reg  signed [15:0] normalize_normal_0_q;
+  wire normalize_normal_1_ovf_c = 1'b0;
+  wire signed [15:0] normalize_normal_1_d =
+      $signed(normalize_normal_1_ovf_c ? (interp_out_1_q[15] ? 16'h8000 : 16'h7fff)
+      : interp_out_1_q[15:0]);
+  reg  signed [15:0] normalize_normal_1_q;
+  wire normalize_normal_2_ovf_c = 1'b0;
+  wire signed [15:0] normalize_normal_2_d =
+      $signed(normalize_normal_2_ovf_c ? (interp_out_2_q[15] ? 16'h8000 : 16'h7fff)
+      : interp_out_2_q[15:0]);
+  reg  signed [15:0] normalize_normal_2_q;
+  wire signed [31:0] normalize_d_mul0 = normalize_normal_0_q * normalize_normal_0_q;
+  wire signed [31:0] normalize_d_mul1 = normalize_normal_1_q * normalize_normal_1_q;
+  wire signed [31:0] normalize_d_mul2 = normalize_normal_2_q * normalize_normal_2_q;
+  wire signed [32:0] normalize_d_add0 =
+      $signed({normalize_d_mul0[31], normalize_d_mul0} + {normalize_d_mul1[31], normalize_d_mul1});
+  wire signed [33:0] normalize_d_add1 =
+      $signed({normalize_d_add0[32], normalize_d_add0}
+      + {{2{normalize_d_mul2[31]}}, normalize_d_mul2});
+  wire normalize_d_0_tie = normalize_d_add1[10] & ~(|normalize_d_add1[9:0]);
+  wire [23:0] normalize_d_0_up =
+      {normalize_d_add1[33], normalize_d_add1[33:11]} + {{23{1'b0}}, normalize_d_add1[10]};
+  wire signed [23:0] normalize_d_0_r =
+      $signed({normalize_d_0_up[23:1], normalize_d_0_up[0] & ~normalize_d_0_tie});
+  wire normalize_d_0_ovf_c = normalize_d_0_r[23] | (|normalize_d_0_r[22:18]);
+  wire [17:0] normalize_d_0_d =
+      normalize_d_0_ovf_c ? (normalize_d_0_r[23] ? 18'h0 : 18'h3ffff) : normalize_d_0_r[17:0];
+  reg  [17:0] normalize_d_0_q;
   wire [2:0] sel_bank_s0 = tri_cur_q ? sel_b1_q : sel_b0_q;
   reg  [2:0] sel_c_s1_q;
   reg  [2:0] sel_c_s2_q;
   reg  [2:0] sel_c_s3_q;
   reg  [2:0] sel_c_s4_q;
-  reg  signed [17:0] t75_m4;
+  reg  signed [17:0] normalize_horner_sel1_m4;
   always @* begin
     case (sel_c_s4_q)
-      3'd1: t75_m4 = $signed(K37);
-      3'd2: t75_m4 = $signed(K44);
-      3'd3: t75_m4 = $signed(K51);
-      3'd4: t75_m4 = $signed(K58);
-      3'd5: t75_m4 = $signed(K65);
-      default: t75_m4 = $signed(K30);
+      3'd1: normalize_horner_sel1_m4 = $signed(normalize_horner_k3);
+      3'd2: normalize_horner_sel1_m4 = $signed(normalize_horner_k5);
+      3'd3: normalize_horner_sel1_m4 = $signed(normalize_horner_k7);
+      3'd4: normalize_horner_sel1_m4 = $signed(normalize_horner_k9);
+      3'd5: normalize_horner_sel1_m4 = $signed(normalize_horner_k11);
+      default: normalize_horner_sel1_m4 = $signed(normalize_horner_k1);
     endcase
   end
-  wire signed [18:0] t138_b = $signed({1'b0, normalize_d_137_q});
-  wire signed [35:0] t138 = t75_m4 * t138_b;
-  reg  signed [17:0] t74_m4;
+  wire signed [18:0] normalize_horner_mul0_b = $signed({1'b0, normalize_d_0_q});
+  wire signed [35:0] normalize_horner_mul0 = normalize_horner_sel1_m4 * normalize_horner_mul0_b;
+  reg  signed [17:0] normalize_horner_sel0_m4;
   always @* begin
     case (sel_c_s4_q)
-      3'd1: t74_m4 = $signed(K36);
-      3'd2: t74_m4 = $signed(K43);
-      3'd3: t74_m4 = $signed(K50);
-      3'd4: t74_m4 = $signed(K57);
-      3'd5: t74_m4 = $signed(K64);
-      default: t74_m4 = $signed(K29);
+      3'd1: normalize_horner_sel0_m4 = $signed(normalize_horner_k2);
+      3'd2: normalize_horner_sel0_m4 = $signed(normalize_horner_k4);
+      3'd3: normalize_horner_sel0_m4 = $signed(normalize_horner_k6);
+      3'd4: normalize_horner_sel0_m4 = $signed(normalize_horner_k8);
+      3'd5: normalize_horner_sel0_m4 = $signed(normalize_horner_k10);
+      default: normalize_horner_sel0_m4 = $signed(normalize_horner_k0);
     endcase
   end
-  wire signed [36:0] t139 = $signed({t138[35], t138} + {{2{t74_m4[17]}}, t74_m4, 17'b0});
-  wire normalize_horner_140_tie = t139[16] & ~(|t139[15:0]);
-  wire [20:0] normalize_horner_140_up = {t139[36], t139[36:17]} + {{20{1'b0}}, t139[16]};
-  wire signed [20:0] normalize_horner_140_r =
-      $signed({normalize_horner_140_up[20:1], normalize_horner_140_up[0]
-      & ~normalize_horner_140_tie});
-  wire normalize_horner_140_ovf_c =
-      ~((&normalize_horner_140_r[20:17]) | ~(|normalize_horner_140_r[20:17]));
-  wire signed [17:0] normalize_horner_140_d =
-      $signed(normalize_horner_140_ovf_c ? (normalize_horner_140_r[20] ? 18'h20000 : 18'h1ffff)
-      : normalize_horner_140_r[17:0]);
-  reg  signed [17:0] normalize_horner_140_q;
-  reg  [17:0] normalize_d_137_s5_q;
-  wire signed [18:0] t141_b = $signed({1'b0, normalize_d_137_s5_q});
-  wire signed [35:0] t141 = normalize_horner_140_q * t141_b;
+  wire signed [36:0] normalize_horner_add0 =
+      $signed({normalize_horner_mul0[35], normalize_horner_mul0}
+      + {{2{normalize_horner_sel0_m4[17]}}, normalize_horner_sel0_m4, 17'b0});
+  wire normalize_horner_0_tie = normalize_horner_add0[16] & ~(|normalize_horner_add0[15:0]);
+  wire [20:0] normalize_horner_0_up =
+      {normalize_horner_add0[36], normalize_horner_add0[36:17]}
+      + {{20{1'b0}}, normalize_horner_add0[16]};
+  wire signed [20:0] normalize_horner_0_r =
+      $signed({normalize_horner_0_up[20:1], normalize_horner_0_up[0] & ~normalize_horner_0_tie});
+  wire normalize_horner_0_ovf_c =
+      ~((&normalize_horner_0_r[20:17]) | ~(|normalize_horner_0_r[20:17]));
+  wire signed [17:0] normalize_horner_0_d =
+      $signed(normalize_horner_0_ovf_c ? (normalize_horner_0_r[20] ? 18'h20000 : 18'h1ffff)
+      : normalize_horner_0_r[17:0]);
+  reg  signed [17:0] normalize_horner_0_q;
+  reg  [17:0] normalize_d_0_s5_q;
+  wire signed [18:0] normalize_g_mul0_b = $signed({1'b0, normalize_d_0_s5_q});
+  wire signed [35:0] normalize_g_mul0 = normalize_horner_0_q * normalize_g_mul0_b;
   reg  [2:0] sel_c_s5_q;
-  reg  signed [17:0] t73_m5;
+  reg  signed [17:0] normalize_g_sel0_m5;
   always @* begin
     case (sel_c_s5_q)
-      3'd1: t73_m5 = $signed(K35);
-      3'd2: t73_m5 = $signed(K42);
-      3'd3: t73_m5 = $signed(K49);
-      3'd4: t73_m5 = $signed(K56);
-      3'd5: t73_m5 = $signed(K63);
-      default: t73_m5 = $signed(K28);
+      3'd1: normalize_g_sel0_m5 = $signed(normalize_g_k1);
+      3'd2: normalize_g_sel0_m5 = $signed(normalize_g_k2);
+      3'd3: normalize_g_sel0_m5 = $signed(normalize_g_k3);
+      3'd4: normalize_g_sel0_m5 = $signed(normalize_g_k4);
+      3'd5: normalize_g_sel0_m5 = $signed(normalize_g_k5);
+      default: normalize_g_sel0_m5 = $signed(normalize_g_k0);
     endcase
   end
-  wire signed [36:0] t142 = $signed({t141[35], t141} + {{2{t73_m5[17]}}, t73_m5, 17'b0});
-  wire normalize_g_143_tie = t142[14] & ~(|t142[13:0]);
-  wire [22:0] normalize_g_143_up = {t142[36], t142[36:15]} + {{22{1'b0}}, t142[14]};
-  wire signed [22:0] normalize_g_143_r =
-      $signed({normalize_g_143_up[22:1], normalize_g_143_up[0] & ~normalize_g_143_tie});
-  wire normalize_g_143_ovf_c = normalize_g_143_r[22] | (|normalize_g_143_r[21:18]);
-  wire [17:0] normalize_g_143_d =
-      normalize_g_143_ovf_c ? (normalize_g_143_r[22] ? 18'h0 : 18'h3ffff) : normalize_g_143_r[17:0];
-  reg  [17:0] normalize_g_143_q;
-  reg  signed [15:0] normalize_normal_129_s4_q;
-  reg  signed [15:0] normalize_normal_129_s5_q;
-  reg  signed [15:0] normalize_normal_129_s6_q;
-  wire signed [18:0] t144_b = $signed({1'b0, normalize_g_143_q});
-  wire signed [33:0] t144 = normalize_normal_129_s6_q * t144_b;
-  reg  signed [15:0] normalize_normal_130_s4_q;
-  reg  signed [15:0] normalize_normal_130_s5_q;
-  reg  signed [15:0] normalize_normal_130_s6_q;
-  wire signed [18:0] t145_b = $signed({1'b0, normalize_g_143_q});
-  wire signed [33:0] t145 = normalize_normal_130_s6_q * t145_b;
-  reg  signed [15:0] normalize_normal_131_s4_q;
-  reg  signed [15:0] normalize_normal_131_s5_q;
-  reg  signed [15:0] normalize_normal_131_s6_q;
-  wire signed [18:0] t146_b = $signed({1'b0, normalize_g_143_q});
-  wire signed [33:0] t146 = normalize_normal_131_s6_q * t146_b;
-  wire normalize_out_147_tie = t144[16] & ~(|t144[15:0]);
-  wire [17:0] normalize_out_147_up = {t144[33], t144[33:17]} + {{17{1'b0}}, t144[16]};
-  wire signed [17:0] normalize_out_147_r =
-      $signed({normalize_out_147_up[17:1], normalize_out_147_up[0] & ~normalize_out_147_tie});
-  wire normalize_out_147_ovf_c = ~((&normalize_out_147_r[17:15]) | ~(|normalize_out_147_r[17:15]));
-  wire signed [15:0] normalize_out_147_d =
-      $signed(normalize_out_147_ovf_c ? (normalize_out_147_r[17] ? 16'h8000 : 16'h7fff)
-      : normalize_out_147_r[15:0]);
-  reg  signed [15:0] normalize_out_147_q;
-  wire normalize_out_148_tie = t145[16] & ~(|t145[15:0]);
-  wire [17:0] normalize_out_148_up = {t145[33], t145[33:17]} + {{17{1'b0}}, t145[16]};
-  wire signed [17:0] normalize_out_148_r =
-      $signed({normalize_out_148_up[17:1], normalize_out_148_up[0] & ~normalize_out_148_tie});
-  wire normalize_out_148_ovf_c = ~((&normalize_out_148_r[17:15]) | ~(|normalize_out_148_r[17:15]));
-  wire signed [15:0] normalize_out_148_d =
-      $signed(normalize_out_148_ovf_c ? (normalize_out_148_r[17] ? 16'h8000 : 16'h7fff)
-      : normalize_out_148_r[15:0]);
-  reg  signed [15:0] normalize_out_148_q;
-  wire normalize_out_149_tie = t146[16] & ~(|t146[15:0]);
-  wire [17:0] normalize_out_149_up = {t146[33], t146[33:17]} + {{17{1'b0}}, t146[16]};
-  wire signed [17:0] normalize_out_149_r =
-      $signed({normalize_out_149_up[17:1], normalize_out_149_up[0] & ~normalize_out_149_tie});
-  wire normalize_out_149_ovf_c = ~((&normalize_out_149_r[17:15]) | ~(|normalize_out_149_r[17:15]));
-  wire signed [15:0] normalize_out_149_d =
-      $signed(normalize_out_149_ovf_c ? (normalize_out_149_r[17] ? 16'h8000 : 16'h7fff)
-      : normalize_out_149_r[15:0]);
-  reg  signed [15:0] normalize_out_149_q;
-  wire lighting_normal_150_ovf_c = 1'b0;
-  wire signed [15:0] lighting_normal_150_d =
-      $signed(lighting_normal_150_ovf_c ? (normalize_out_147_q[15] ? 16'h8000 : 16'h7fff)
-      : normalize_out_147_q[15:0]);
-  reg  signed [15:0] lighting_normal_150_q;
-  wire lighting_normal_151_ovf_c = 1'b0;
-  wire signed [15:0] lighting_normal_151_d =
-      $signed(lighting_normal_151_ovf_c ? (normalize_out_148_q[15] ? 16'h8000 : 16'h7fff)
-      : normalize_out_148_q[15:0]);
-  reg  signed [15:0] lighting_normal_151_q;
-  wire lighting_normal_152_ovf_c = 1'b0;
-  wire signed [15:0] lighting_normal_152_d =
-      $signed(lighting_normal_152_ovf_c ? (normalize_out_149_q[15] ? 16'h8000 : 16'h7fff)
-      : normalize_out_149_q[15:0]);
-  reg  signed [15:0] lighting_normal_152_q;
-  wire signed [31:0] t153 = lighting_normal_150_q * l_x_q;
-  wire signed [31:0] t154 = lighting_normal_151_q * l_y_q;
-  wire signed [31:0] t155 = lighting_normal_152_q * l_z_q;
-  wire signed [32:0] t156 = $signed({t153[31], t153} + {t154[31], t154});
-  wire signed [33:0] t157 = $signed({t156[32], t156} + {{2{t155[31]}}, t155});
-  wire lighting_dot_158_tie = t157[13] & ~(|t157[12:0]);
-  wire [20:0] lighting_dot_158_up = {t157[33], t157[33:14]} + {{20{1'b0}}, t157[13]};
-  wire signed [20:0] lighting_dot_158_r =
-      $signed({lighting_dot_158_up[20:1], lighting_dot_158_up[0] & ~lighting_dot_158_tie});
-  wire lighting_dot_158_ovf_c = ~((&lighting_dot_158_r[20:15]) | ~(|lighting_dot_158_r[20:15]));
-  wire signed [15:0] lighting_dot_158_d =
-      $signed(lighting_dot_158_ovf_c ? (lighting_dot_158_r[20] ? 16'h8000 : 16'h7fff)
-      : lighting_dot_158_r[15:0]);
-  reg  signed [15:0] lighting_dot_158_q;
-  wire signed [15:0] t159_a = $signed(lighting_dot_158_q);
-  wire signed [15:0] t159_b = $signed(K72);
-  wire signed [15:0] t159 = (t159_a > t159_b) ? t159_a : t159_b;
-  wire signed [31:0] t160 = lighting_normal_150_q * h_x_q;
-  wire signed [31:0] t161 = lighting_normal_151_q * h_y_q;
-  wire signed [31:0] t162 = lighting_normal_152_q * h_z_q;
-  wire signed [32:0] t163 = $signed({t160[31], t160} + {t161[31], t161});
-  wire signed [33:0] t164 = $signed({t163[32], t163} + {{2{t162[31]}}, t162});
-  wire lighting_dot_165_tie = t164[13] & ~(|t164[12:0]);
-  wire [20:0] lighting_dot_165_up = {t164[33], t164[33:14]} + {{20{1'b0}}, t164[13]};
-  wire signed [20:0] lighting_dot_165_r =
-      $signed({lighting_dot_165_up[20:1], lighting_dot_165_up[0] & ~lighting_dot_165_tie});
-  wire lighting_dot_165_ovf_c = ~((&lighting_dot_165_r[20:15]) | ~(|lighting_dot_165_r[20:15]));
-  wire signed [15:0] lighting_dot_165_d =
-      $signed(lighting_dot_165_ovf_c ? (lighting_dot_165_r[20] ? 16'h8000 : 16'h7fff)
-      : lighting_dot_165_r[15:0]);
-  reg  signed [15:0] lighting_dot_165_q;
-  wire signed [15:0] t166_a = $signed(lighting_dot_165_q);
-  wire signed [15:0] t166_b = $signed(K72);
-  wire signed [15:0] t166 = (t166_a > t166_b) ? t166_a : t166_b;
-  wire signed [18:0] lighting_spec_167_r = $signed({t166, 3'b0});
-  wire lighting_spec_167_ovf_c = lighting_spec_167_r[18];
-  wire [17:0] lighting_spec_167_d =
-      lighting_spec_167_ovf_c ? (lighting_spec_167_r[18] ? 18'h0 : 18'h3ffff)
-      : lighting_spec_167_r[17:0];
-  reg  [17:0] lighting_spec_167_q;
-  wire [35:0] t168 = lighting_spec_167_q * lighting_spec_167_q;
-  wire lighting_spec_169_tie = t168[16] & ~(|t168[15:0]);
-  wire [19:0] lighting_spec_169_up = {1'b0, t168[35:17]} + {{19{1'b0}}, t168[16]};
-  wire [19:0] lighting_spec_169_r =
-      {lighting_spec_169_up[19:1], lighting_spec_169_up[0] & ~lighting_spec_169_tie};
-  wire lighting_spec_169_ovf_c = |lighting_spec_169_r[19:18];
-  wire [17:0] lighting_spec_169_d = lighting_spec_169_ovf_c ? 18'h3ffff : lighting_spec_169_r[17:0];
-  reg  [17:0] lighting_spec_169_q;
-  wire [35:0] t170 = lighting_spec_169_q * lighting_spec_169_q;
-  wire lighting_spec_171_tie = t170[16] & ~(|t170[15:0]);
-  wire [19:0] lighting_spec_171_up = {1'b0, t170[35:17]} + {{19{1'b0}}, t170[16]};
-  wire [19:0] lighting_spec_171_r =
-      {lighting_spec_171_up[19:1], lighting_spec_171_up[0] & ~lighting_spec_171_tie};
-  wire lighting_spec_171_ovf_c = |lighting_spec_171_r[19:18];
-  wire [17:0] lighting_spec_171_d = lighting_spec_171_ovf_c ? 18'h3ffff : lighting_spec_171_r[17:0];
-  reg  [17:0] lighting_spec_171_q;
-  wire [35:0] t172 = lighting_spec_171_q * lighting_spec_171_q;
-  wire lighting_spec_173_tie = t172[16] & ~(|t172[15:0]);
-  wire [19:0] lighting_spec_173_up = {1'b0, t172[35:17]} + {{19{1'b0}}, t172[16]};
-  wire [19:0] lighting_spec_173_r =
-      {lighting_spec_173_up[19:1], lighting_spec_173_up[0] & ~lighting_spec_173_tie};
-  wire lighting_spec_173_ovf_c = |lighting_spec_173_r[19:18];
-  wire [17:0] lighting_spec_173_d = lighting_spec_173_ovf_c ? 18'h3ffff : lighting_spec_173_r[17:0];
-  reg  [17:0] lighting_spec_173_q;
-  wire [35:0] t174 = lighting_spec_173_q * lighting_spec_173_q;
-  wire lighting_spec_175_tie = t174[16] & ~(|t174[15:0]);
-  wire [19:0] lighting_spec_175_up = {1'b0, t174[35:17]} + {{19{1'b0}}, t174[16]};
-  wire [19:0] lighting_spec_175_r =
-      {lighting_spec_175_up[19:1], lighting_spec_175_up[0] & ~lighting_spec_175_tie};
-  wire lighting_spec_175_ovf_c = |lighting_spec_175_r[19:18];
-  wire [17:0] lighting_spec_175_d = lighting_spec_175_ovf_c ? 18'h3ffff : lighting_spec_175_r[17:0];
-  reg  [17:0] lighting_spec_175_q;
-  wire signed [16:0] t176_b = $signed({1'b0, K70});
-  wire signed [31:0] t176 = t159 * t176_b;
-  wire [33:0] t177 = lighting_spec_175_q * K71;
-  reg  signed [31:0] t176_s10_q;
-  reg  signed [31:0] t176_s11_q;
-  reg  signed [31:0] t176_s12_q;
-  reg  signed [31:0] t176_s13_q;
-  reg  signed [31:0] t176_s14_q;
-  wire signed [35:0] t178 = $signed({{2{1'b0}}, t177} + {t176_s14_q[31], t176_s14_q, 3'b0});
-  wire lighting_level_179_tie = t178[24] & ~(|t178[23:0]);
-  wire [11:0] lighting_level_179_up = {t178[35], t178[35:25]} + {{11{1'b0}}, t178[24]};
-  wire signed [11:0] lighting_level_179_r =
-      $signed({lighting_level_179_up[11:1], lighting_level_179_up[0] & ~lighting_level_179_tie});
-  wire lighting_level_179_ovf_c = lighting_level_179_r[11] | (|lighting_level_179_r[10:8]);
-  wire [7:0] lighting_level_179_d =
-      lighting_level_179_ovf_c ? (lighting_level_179_r[11] ? 8'h0 : 8'hff)
-      : lighting_level_179_r[7:0];
-  reg  [7:0] lighting_level_179_q;
-  reg  [0:0] interp_weight_80_ovf_s1_q;
-  reg  [0:0] interp_weight_83_ovf_s1_q;
-  reg  [0:0] interp_weight_86_ovf_s1_q;
-  reg  [0:0] interp_weight_88_ovf_s1_q;
-  reg  [0:0] interp_weight_90_ovf_s1_q;
-  reg  [0:0] interp_weight_92_ovf_s1_q;
+  wire signed [36:0] normalize_g_add0 =
+      $signed({normalize_g_mul0[35], normalize_g_mul0}
+      + {{2{normalize_g_sel0_m5[17]}}, normalize_g_sel0_m5, 17'b0});
+  wire normalize_g_0_tie = normalize_g_add0[14] & ~(|normalize_g_add0[13:0]);
+  wire [22:0] normalize_g_0_up =
+      {normalize_g_add0[36], normalize_g_add0[36:15]} + {{22{1'b0}}, normalize_g_add0[14]};
+  wire signed [22:0] normalize_g_0_r =
+      $signed({normalize_g_0_up[22:1], normalize_g_0_up[0] & ~normalize_g_0_tie});
+  wire normalize_g_0_ovf_c = normalize_g_0_r[22] | (|normalize_g_0_r[21:18]);
+  wire [17:0] normalize_g_0_d =
+      normalize_g_0_ovf_c ? (normalize_g_0_r[22] ? 18'h0 : 18'h3ffff) : normalize_g_0_r[17:0];
+  reg  [17:0] normalize_g_0_q;
+  reg  signed [15:0] normalize_normal_0_s4_q;
+  reg  signed [15:0] normalize_normal_0_s5_q;
+  reg  signed [15:0] normalize_normal_0_s6_q;
+  wire signed [18:0] normalize_out_mul0_b = $signed({1'b0, normalize_g_0_q});
+  wire signed [33:0] normalize_out_mul0 = normalize_normal_0_s6_q * normalize_out_mul0_b;
+  reg  signed [15:0] normalize_normal_1_s4_q;
+  reg  signed [15:0] normalize_normal_1_s5_q;
+  reg  signed [15:0] normalize_normal_1_s6_q;
+  wire signed [18:0] normalize_out_mul1_b = $signed({1'b0, normalize_g_0_q});
+  wire signed [33:0] normalize_out_mul1 = normalize_normal_1_s6_q * normalize_out_mul1_b;
+  reg  signed [15:0] normalize_normal_2_s4_q;
+  reg  signed [15:0] normalize_normal_2_s5_q;
+  reg  signed [15:0] normalize_normal_2_s6_q;
+  wire signed [18:0] normalize_out_mul2_b = $signed({1'b0, normalize_g_0_q});
+  wire signed [33:0] normalize_out_mul2 = normalize_normal_2_s6_q * normalize_out_mul2_b;
+  wire normalize_out_0_tie = normalize_out_mul0[16] & ~(|normalize_out_mul0[15:0]);
+  wire [17:0] normalize_out_0_up =
+      {normalize_out_mul0[33], normalize_out_mul0[33:17]} + {{17{1'b0}}, normalize_out_mul0[16]};
+  wire signed [17:0] normalize_out_0_r =
+      $signed({normalize_out_0_up[17:1], normalize_out_0_up[0] & ~normalize_out_0_tie});
+  wire normalize_out_0_ovf_c = ~((&normalize_out_0_r[17:15]) | ~(|normalize_out_0_r[17:15]));
+  wire signed [15:0] normalize_out_0_d =
+      $signed(normalize_out_0_ovf_c ? (normalize_out_0_r[17] ? 16'h8000 : 16'h7fff)
+      : normalize_out_0_r[15:0]);
+  reg  signed [15:0] normalize_out_0_q;
+  wire normalize_out_1_tie = normalize_out_mul1[16] & ~(|normalize_out_mul1[15:0]);
+  wire [17:0] normalize_out_1_up =
+      {normalize_out_mul1[33], normalize_out_mul1[33:17]} + {{17{1'b0}}, normalize_out_mul1[16]};
+  wire signed [17:0] normalize_out_1_r =
+      $signed({normalize_out_1_up[17:1], normalize_out_1_up[0] & ~normalize_out_1_tie});
+  wire normalize_out_1_ovf_c = ~((&normalize_out_1_r[17:15]) | ~(|normalize_out_1_r[17:15]));
+  wire signed [15:0] normalize_out_1_d =
+      $signed(normalize_out_1_ovf_c ? (normalize_out_1_r[17] ? 16'h8000 : 16'h7fff)
+      : normalize_out_1_r[15:0]);
+  reg  signed [15:0] normalize_out_1_q;
+  wire normalize_out_2_tie = normalize_out_mul2[16] & ~(|normalize_out_mul2[15:0]);
+  wire [17:0] normalize_out_2_up =
+      {normalize_out_mul2[33], normalize_out_mul2[33:17]} + {{17{1'b0}}, normalize_out_mul2[16]};
+  wire signed [17:0] normalize_out_2_r =
+      $signed({normalize_out_2_up[17:1], normalize_out_2_up[0] & ~normalize_out_2_tie});
+  wire normalize_out_2_ovf_c = ~((&normalize_out_2_r[17:15]) | ~(|normalize_out_2_r[17:15]));
+  wire signed [15:0] normalize_out_2_d =
+      $signed(normalize_out_2_ovf_c ? (normalize_out_2_r[17] ? 16'h8000 : 16'h7fff)
+      : normalize_out_2_r[15:0]);
+  reg  signed [15:0] normalize_out_2_q;
+  wire lighting_normal_0_ovf_c = 1'b0;
+  wire signed [15:0] lighting_normal_0_d =
+      $signed(lighting_normal_0_ovf_c ? (normalize_out_0_q[15] ? 16'h8000 : 16'h7fff)
+      : normalize_out_0_q[15:0]);
+  reg  signed [15:0] lighting_normal_0_q;
+  wire lighting_normal_1_ovf_c = 1'b0;
+  wire signed [15:0] lighting_normal_1_d =
+      $signed(lighting_normal_1_ovf_c ? (normalize_out_1_q[15] ? 16'h8000 : 16'h7fff)
+      : normalize_out_1_q[15:0]);
+  reg  signed [15:0] lighting_normal_1_q;
+  wire lighting_normal_2_ovf_c = 1'b0;
+  wire signed [15:0] lighting_normal_2_d =
+      $signed(lighting_normal_2_ovf_c ? (normalize_out_2_q[15] ? 16'h8000 : 16'h7fff)
+      : normalize_out_2_q[15:0]);
+  reg  signed [15:0] lighting_normal_2_q;
+  wire signed [31:0] lighting_dot_mul0 = lighting_normal_0_q * l_x_q;
+  wire signed [31:0] lighting_dot_mul1 = lighting_normal_1_q * l_y_q;
+  wire signed [31:0] lighting_dot_mul2 = lighting_normal_2_q * l_z_q;
+  wire signed [32:0] lighting_dot_add0 =
+      $signed({lighting_dot_mul0[31], lighting_dot_mul0}
+      + {lighting_dot_mul1[31], lighting_dot_mul1});
+  wire signed [33:0] lighting_dot_add1 =
+      $signed({lighting_dot_add0[32], lighting_dot_add0}
+      + {{2{lighting_dot_mul2[31]}}, lighting_dot_mul2});
+  wire lighting_dot_0_tie = lighting_dot_add1[13] & ~(|lighting_dot_add1[12:0]);
+  wire [20:0] lighting_dot_0_up =
+      {lighting_dot_add1[33], lighting_dot_add1[33:14]} + {{20{1'b0}}, lighting_dot_add1[13]};
+  wire signed [20:0] lighting_dot_0_r =
+      $signed({lighting_dot_0_up[20:1], lighting_dot_0_up[0] & ~lighting_dot_0_tie});
+  wire lighting_dot_0_ovf_c = ~((&lighting_dot_0_r[20:15]) | ~(|lighting_dot_0_r[20:15]));
+  wire signed [15:0] lighting_dot_0_d =
+      $signed(lighting_dot_0_ovf_c ? (lighting_dot_0_r[20] ? 16'h8000 : 16'h7fff)
+      : lighting_dot_0_r[15:0]);
+  reg  signed [15:0] lighting_dot_0_q;
+  wire signed [15:0] lighting_level_max0_a = $signed(lighting_dot_0_q);
+  wire signed [15:0] lighting_level_max0_b = $signed(lighting_level_k2);
+  wire signed [15:0] lighting_level_max0 =
+      (lighting_level_max0_a > lighting_level_max0_b) ? lighting_level_max0_a
+      : lighting_level_max0_b;
+  wire signed [31:0] lighting_dot_mul3 = lighting_normal_0_q * h_x_q;
+  wire signed [31:0] lighting_dot_mul4 = lighting_normal_1_q * h_y_q;
+  wire signed [31:0] lighting_dot_mul5 = lighting_normal_2_q * h_z_q;
+  wire signed [32:0] lighting_dot_add2 =
+      $signed({lighting_dot_mul3[31], lighting_dot_mul3}
+      + {lighting_dot_mul4[31], lighting_dot_mul4});
+  wire signed [33:0] lighting_dot_add3 =
+      $signed({lighting_dot_add2[32], lighting_dot_add2}
+      + {{2{lighting_dot_mul5[31]}}, lighting_dot_mul5});
+  wire lighting_dot_1_tie = lighting_dot_add3[13] & ~(|lighting_dot_add3[12:0]);
+  wire [20:0] lighting_dot_1_up =
+      {lighting_dot_add3[33], lighting_dot_add3[33:14]} + {{20{1'b0}}, lighting_dot_add3[13]};
+  wire signed [20:0] lighting_dot_1_r =
+      $signed({lighting_dot_1_up[20:1], lighting_dot_1_up[0] & ~lighting_dot_1_tie});
+  wire lighting_dot_1_ovf_c = ~((&lighting_dot_1_r[20:15]) | ~(|lighting_dot_1_r[20:15]));
+  wire signed [15:0] lighting_dot_1_d =
+      $signed(lighting_dot_1_ovf_c ? (lighting_dot_1_r[20] ? 16'h8000 : 16'h7fff)
+      : lighting_dot_1_r[15:0]);
+  reg  signed [15:0] lighting_dot_1_q;
+  wire signed [15:0] lighting_spec_max0_a = $signed(lighting_dot_1_q);
+  wire signed [15:0] lighting_spec_max0_b = $signed(lighting_level_k2);
+  wire signed [15:0] lighting_spec_max0 =
+      (lighting_spec_max0_a > lighting_spec_max0_b) ? lighting_spec_max0_a : lighting_spec_max0_b;
+  wire signed [18:0] lighting_spec_0_r = $signed({lighting_spec_max0, 3'b0});
+  wire lighting_spec_0_ovf_c = lighting_spec_0_r[18];
+  wire [17:0] lighting_spec_0_d =
+      lighting_spec_0_ovf_c ? (lighting_spec_0_r[18] ? 18'h0 : 18'h3ffff) : lighting_spec_0_r[17:0];
+  reg  [17:0] lighting_spec_0_q;
+  wire [35:0] lighting_spec_mul0 = lighting_spec_0_q * lighting_spec_0_q;
+  wire lighting_spec_1_tie = lighting_spec_mul0[16] & ~(|lighting_spec_mul0[15:0]);
+  wire [19:0] lighting_spec_1_up =
+      {1'b0, lighting_spec_mul0[35:17]} + {{19{1'b0}}, lighting_spec_mul0[16]};
+  wire [19:0] lighting_spec_1_r =
+      {lighting_spec_1_up[19:1], lighting_spec_1_up[0] & ~lighting_spec_1_tie};
+  wire lighting_spec_1_ovf_c = |lighting_spec_1_r[19:18];
+  wire [17:0] lighting_spec_1_d = lighting_spec_1_ovf_c ? 18'h3ffff : lighting_spec_1_r[17:0];
+  reg  [17:0] lighting_spec_1_q;
+  wire [35:0] lighting_spec_mul1 = lighting_spec_1_q * lighting_spec_1_q;
+  wire lighting_spec_2_tie = lighting_spec_mul1[16] & ~(|lighting_spec_mul1[15:0]);
+  wire [19:0] lighting_spec_2_up =
+      {1'b0, lighting_spec_mul1[35:17]} + {{19{1'b0}}, lighting_spec_mul1[16]};
+  wire [19:0] lighting_spec_2_r =
+      {lighting_spec_2_up[19:1], lighting_spec_2_up[0] & ~lighting_spec_2_tie};
+  wire lighting_spec_2_ovf_c = |lighting_spec_2_r[19:18];
+  wire [17:0] lighting_spec_2_d = lighting_spec_2_ovf_c ? 18'h3ffff : lighting_spec_2_r[17:0];
+  reg  [17:0] lighting_spec_2_q;
+  wire [35:0] lighting_spec_mul2 = lighting_spec_2_q * lighting_spec_2_q;
+  wire lighting_spec_3_tie = lighting_spec_mul2[16] & ~(|lighting_spec_mul2[15:0]);
+  wire [19:0] lighting_spec_3_up =
+      {1'b0, lighting_spec_mul2[35:17]} + {{19{1'b0}}, lighting_spec_mul2[16]};
+  wire [19:0] lighting_spec_3_r =
+      {lighting_spec_3_up[19:1], lighting_spec_3_up[0] & ~lighting_spec_3_tie};
+  wire lighting_spec_3_ovf_c = |lighting_spec_3_r[19:18];
+  wire [17:0] lighting_spec_3_d = lighting_spec_3_ovf_c ? 18'h3ffff : lighting_spec_3_r[17:0];
+  reg  [17:0] lighting_spec_3_q;
+  wire [35:0] lighting_spec_mul3 = lighting_spec_3_q * lighting_spec_3_q;
+  wire lighting_spec_4_tie = lighting_spec_mul3[16] & ~(|lighting_spec_mul3[15:0]);
+  wire [19:0] lighting_spec_4_up =
+      {1'b0, lighting_spec_mul3[35:17]} + {{19{1'b0}}, lighting_spec_mul3[16]};
+  wire [19:0] lighting_spec_4_r =
+      {lighting_spec_4_up[19:1], lighting_spec_4_up[0] & ~lighting_spec_4_tie};
+  wire lighting_spec_4_ovf_c = |lighting_spec_4_r[19:18];
+  wire [17:0] lighting_spec_4_d = lighting_spec_4_ovf_c ? 18'h3ffff : lighting_spec_4_r[17:0];
+  reg  [17:0] lighting_spec_4_q;
+  wire signed [16:0] lighting_level_mul0_b = $signed({1'b0, lighting_level_k0});
+  wire signed [31:0] lighting_level_mul0 = lighting_level_max0 * lighting_level_mul0_b;
+  wire [33:0] lighting_level_mul1 = lighting_spec_4_q * lighting_level_k1;
+  reg  signed [31:0] lighting_level_mul0_s10_q;
+  reg  signed [31:0] lighting_level_mul0_s11_q;
+  reg  signed [31:0] lighting_level_mul0_s12_q;
+  reg  signed [31:0] lighting_level_mul0_s13_q;
+  reg  signed [31:0] lighting_level_mul0_s14_q;
+  wire signed [35:0] lighting_level_add0 =
+      $signed({{2{1'b0}}, lighting_level_mul1}
+      + {lighting_level_mul0_s14_q[31], lighting_level_mul0_s14_q, 3'b0});
+  wire lighting_level_0_tie = lighting_level_add0[24] & ~(|lighting_level_add0[23:0]);
+  wire [11:0] lighting_level_0_up =
+      {lighting_level_add0[35], lighting_level_add0[35:25]} + {{11{1'b0}}, lighting_level_add0[24]};
+  wire signed [11:0] lighting_level_0_r =
+      $signed({lighting_level_0_up[11:1], lighting_level_0_up[0] & ~lighting_level_0_tie});
+  wire lighting_level_0_ovf_c = lighting_level_0_r[11] | (|lighting_level_0_r[10:8]);
+  wire [7:0] lighting_level_0_d =
+      lighting_level_0_ovf_c ? (lighting_level_0_r[11] ? 8'h0 : 8'hff) : lighting_level_0_r[7:0];
+  reg  [7:0] lighting_level_0_q;
+  reg  [0:0] interp_weight_0_ovf_s1_q;
+  reg  [0:0] interp_weight_1_ovf_s1_q;
+  reg  [0:0] interp_weight_2_ovf_s1_q;
+  reg  [0:0] interp_weight_3_ovf_s1_q;
+  reg  [0:0] interp_weight_4_ovf_s1_q;
+  reg  [0:0] interp_weight_5_ovf_s1_q;
   wire ovf0_or_s1 =
-      interp_weight_80_ovf_s1_q | interp_weight_83_ovf_s1_q | interp_weight_86_ovf_s1_q
-          | interp_weight_88_ovf_s1_q
-      | interp_weight_90_ovf_s1_q | interp_weight_92_ovf_s1_q;
+      interp_weight_0_ovf_s1_q | interp_weight_1_ovf_s1_q | interp_weight_2_ovf_s1_q
+          | interp_weight_3_ovf_s1_q
+      | interp_weight_4_ovf_s1_q | interp_weight_5_ovf_s1_q;
   reg  [0:0] ovf0_s2_q;
   reg  [0:0] ovf0_s3_q;
   reg  [0:0] ovf0_s4_q;
@@ -774,11 +840,11 @@ module pipeline_smooth (
   reg  [0:0] ovf0_s13_q;
   reg  [0:0] ovf0_s14_q;
   reg  [0:0] ovf0_s15_q;
-  reg  [0:0] interp_out_104_ovf_s2_q;
-  reg  [0:0] interp_out_116_ovf_s2_q;
-  reg  [0:0] interp_out_128_ovf_s2_q;
+  reg  [0:0] interp_out_0_ovf_s2_q;
+  reg  [0:0] interp_out_1_ovf_s2_q;
+  reg  [0:0] interp_out_2_ovf_s2_q;
   wire ovf1_or_s2 =
-      interp_out_104_ovf_s2_q | interp_out_116_ovf_s2_q | interp_out_128_ovf_s2_q;
+      interp_out_0_ovf_s2_q | interp_out_1_ovf_s2_q | interp_out_2_ovf_s2_q;
   reg  [0:0] ovf1_s3_q;
   reg  [0:0] ovf1_s4_q;
   reg  [0:0] ovf1_s5_q;
@@ -792,7 +858,7 @@ module pipeline_smooth (
   reg  [0:0] ovf1_s13_q;
   reg  [0:0] ovf1_s14_q;
   reg  [0:0] ovf1_s15_q;
-  reg  [0:0] normalize_d_137_ovf_s4_q;
+  reg  [0:0] normalize_d_0_ovf_s4_q;
   reg  [0:0] ovf3_s5_q;
   reg  [0:0] ovf3_s6_q;
   reg  [0:0] ovf3_s7_q;
@@ -804,7 +870,7 @@ module pipeline_smooth (
   reg  [0:0] ovf3_s13_q;
   reg  [0:0] ovf3_s14_q;
   reg  [0:0] ovf3_s15_q;
-  reg  [0:0] normalize_horner_140_ovf_s5_q;
+  reg  [0:0] normalize_horner_0_ovf_s5_q;
   reg  [0:0] ovf4_s6_q;
   reg  [0:0] ovf4_s7_q;
   reg  [0:0] ovf4_s8_q;
@@ -815,7 +881,7 @@ module pipeline_smooth (
   reg  [0:0] ovf4_s13_q;
   reg  [0:0] ovf4_s14_q;
   reg  [0:0] ovf4_s15_q;
-  reg  [0:0] normalize_g_143_ovf_s6_q;
+  reg  [0:0] normalize_g_0_ovf_s6_q;
   reg  [0:0] ovf5_s7_q;
   reg  [0:0] ovf5_s8_q;
   reg  [0:0] ovf5_s9_q;
@@ -825,11 +891,11 @@ module pipeline_smooth (
   reg  [0:0] ovf5_s13_q;
   reg  [0:0] ovf5_s14_q;
   reg  [0:0] ovf5_s15_q;
-  reg  [0:0] normalize_out_147_ovf_s7_q;
-  reg  [0:0] normalize_out_148_ovf_s7_q;
-  reg  [0:0] normalize_out_149_ovf_s7_q;
+  reg  [0:0] normalize_out_0_ovf_s7_q;
+  reg  [0:0] normalize_out_1_ovf_s7_q;
+  reg  [0:0] normalize_out_2_ovf_s7_q;
   wire ovf6_or_s7 =
-      normalize_out_147_ovf_s7_q | normalize_out_148_ovf_s7_q | normalize_out_149_ovf_s7_q;
+      normalize_out_0_ovf_s7_q | normalize_out_1_ovf_s7_q | normalize_out_2_ovf_s7_q;
   reg  [0:0] ovf6_s8_q;
   reg  [0:0] ovf6_s9_q;
   reg  [0:0] ovf6_s10_q;
@@ -838,35 +904,35 @@ module pipeline_smooth (
   reg  [0:0] ovf6_s13_q;
   reg  [0:0] ovf6_s14_q;
   reg  [0:0] ovf6_s15_q;
-  reg  [0:0] lighting_dot_158_ovf_s9_q;
-  reg  [0:0] lighting_dot_165_ovf_s9_q;
+  reg  [0:0] lighting_dot_0_ovf_s9_q;
+  reg  [0:0] lighting_dot_1_ovf_s9_q;
   wire ovf8_or_s9 =
-      lighting_dot_158_ovf_s9_q | lighting_dot_165_ovf_s9_q;
+      lighting_dot_0_ovf_s9_q | lighting_dot_1_ovf_s9_q;
   reg  [0:0] ovf8_s10_q;
   reg  [0:0] ovf8_s11_q;
   reg  [0:0] ovf8_s12_q;
   reg  [0:0] ovf8_s13_q;
   reg  [0:0] ovf8_s14_q;
   reg  [0:0] ovf8_s15_q;
-  reg  [0:0] lighting_spec_167_ovf_s10_q;
-  reg  [0:0] lighting_spec_169_ovf_s11_q;
-  reg  [0:0] lighting_spec_171_ovf_s12_q;
-  reg  [0:0] lighting_spec_173_ovf_s13_q;
-  reg  [0:0] lighting_spec_175_ovf_s14_q;
+  reg  [0:0] lighting_spec_0_ovf_s10_q;
+  reg  [0:0] lighting_spec_1_ovf_s11_q;
+  reg  [0:0] lighting_spec_2_ovf_s12_q;
+  reg  [0:0] lighting_spec_3_ovf_s13_q;
+  reg  [0:0] lighting_spec_4_ovf_s14_q;
   reg  [0:0] ovf9_s11_q;
   wire ovf9_or_s11 =
-      ovf9_s11_q | lighting_spec_169_ovf_s11_q;
+      ovf9_s11_q | lighting_spec_1_ovf_s11_q;
   reg  [0:0] ovf9_s12_q;
   wire ovf9_or_s12 =
-      ovf9_s12_q | lighting_spec_171_ovf_s12_q;
+      ovf9_s12_q | lighting_spec_2_ovf_s12_q;
   reg  [0:0] ovf9_s13_q;
   wire ovf9_or_s13 =
-      ovf9_s13_q | lighting_spec_173_ovf_s13_q;
+      ovf9_s13_q | lighting_spec_3_ovf_s13_q;
   reg  [0:0] ovf9_s14_q;
   wire ovf9_or_s14 =
-      ovf9_s14_q | lighting_spec_175_ovf_s14_q;
+      ovf9_s14_q | lighting_spec_4_ovf_s14_q;
   reg  [0:0] ovf9_s15_q;
-  reg  [0:0] lighting_level_179_ovf_s15_q;
+  reg  [0:0] lighting_level_0_ovf_s15_q;
 
   // Stage loads: the item entering stage k is valid and the stages move.
   wire load_s1 = in_take;
@@ -889,88 +955,88 @@ module pipeline_smooth (
   // registers load only with a valid item, so bubbles do not toggle them.
   always @(posedge clk_i) begin
     if (load_s1) begin
-      interp_weight_80_q <= interp_weight_80_d;
-      interp_weight_83_q <= interp_weight_83_d;
-      interp_weight_86_q <= interp_weight_86_d;
-      interp_weight_88_q <= interp_weight_88_d;
-      interp_weight_90_q <= interp_weight_90_d;
-      interp_weight_92_q <= interp_weight_92_d;
+      interp_weight_0_q <= interp_weight_0_d;
+      interp_weight_1_q <= interp_weight_1_d;
+      interp_weight_2_q <= interp_weight_2_d;
+      interp_weight_3_q <= interp_weight_3_d;
+      interp_weight_4_q <= interp_weight_4_d;
+      interp_weight_5_q <= interp_weight_5_d;
       sel_c_s1_q <= sel_bank_s0;
-      interp_weight_80_ovf_s1_q <= interp_weight_80_ovf_c;
-      interp_weight_83_ovf_s1_q <= interp_weight_83_ovf_c;
-      interp_weight_86_ovf_s1_q <= interp_weight_86_ovf_c;
-      interp_weight_88_ovf_s1_q <= interp_weight_88_ovf_c;
-      interp_weight_90_ovf_s1_q <= interp_weight_90_ovf_c;
-      interp_weight_92_ovf_s1_q <= interp_weight_92_ovf_c;
+      interp_weight_0_ovf_s1_q <= interp_weight_0_ovf_c;
+      interp_weight_1_ovf_s1_q <= interp_weight_1_ovf_c;
+      interp_weight_2_ovf_s1_q <= interp_weight_2_ovf_c;
+      interp_weight_3_ovf_s1_q <= interp_weight_3_ovf_c;
+      interp_weight_4_ovf_s1_q <= interp_weight_4_ovf_c;
+      interp_weight_5_ovf_s1_q <= interp_weight_5_ovf_c;
     end
     if (load_s2) begin
-      interp_out_104_q <= interp_out_104_d;
-      interp_out_116_q <= interp_out_116_d;
-      interp_out_128_q <= interp_out_128_d;
+      interp_out_0_q <= interp_out_0_d;
+      interp_out_1_q <= interp_out_1_d;
+      interp_out_2_q <= interp_out_2_d;
       sel_c_s2_q <= sel_c_s1_q;
       ovf0_s2_q <= ovf0_or_s1;
-      interp_out_104_ovf_s2_q <= interp_out_104_ovf_c;
-      interp_out_116_ovf_s2_q <= interp_out_116_ovf_c;
-      interp_out_128_ovf_s2_q <= interp_out_128_ovf_c;
+      interp_out_0_ovf_s2_q <= interp_out_0_ovf_c;
+      interp_out_1_ovf_s2_q <= interp_out_1_ovf_c;
+      interp_out_2_ovf_s2_q <= interp_out_2_ovf_c;
     end
     if (load_s3) begin
-      normalize_normal_129_q <= normalize_normal_129_d;
-      normalize_normal_130_q <= normalize_normal_130_d;
-      normalize_normal_131_q <= normalize_normal_131_d;
+      normalize_normal_0_q <= normalize_normal_0_d;
+      normalize_normal_1_q <= normalize_normal_1_d;
+      normalize_normal_2_q <= normalize_normal_2_d;
       sel_c_s3_q <= sel_c_s2_q;
       ovf0_s3_q <= ovf0_s2_q;
       ovf1_s3_q <= ovf1_or_s2;
     end
     if (load_s4) begin
-      normalize_d_137_q <= normalize_d_137_d;
+      normalize_d_0_q <= normalize_d_0_d;
       sel_c_s4_q <= sel_c_s3_q;
-      normalize_normal_129_s4_q <= normalize_normal_129_q;
-      normalize_normal_130_s4_q <= normalize_normal_130_q;
-      normalize_normal_131_s4_q <= normalize_normal_131_q;
+      normalize_normal_0_s4_q <= normalize_normal_0_q;
+      normalize_normal_1_s4_q <= normalize_normal_1_q;
+      normalize_normal_2_s4_q <= normalize_normal_2_q;
       ovf0_s4_q <= ovf0_s3_q;
       ovf1_s4_q <= ovf1_s3_q;
-      normalize_d_137_ovf_s4_q <= normalize_d_137_ovf_c;
+      normalize_d_0_ovf_s4_q <= normalize_d_0_ovf_c;
     end
     if (load_s5) begin
-      normalize_horner_140_q <= normalize_horner_140_d;
-      normalize_d_137_s5_q <= normalize_d_137_q;
+      normalize_horner_0_q <= normalize_horner_0_d;
+      normalize_d_0_s5_q <= normalize_d_0_q;
       sel_c_s5_q <= sel_c_s4_q;
-      normalize_normal_129_s5_q <= normalize_normal_129_s4_q;
-      normalize_normal_130_s5_q <= normalize_normal_130_s4_q;
-      normalize_normal_131_s5_q <= normalize_normal_131_s4_q;
+      normalize_normal_0_s5_q <= normalize_normal_0_s4_q;
+      normalize_normal_1_s5_q <= normalize_normal_1_s4_q;
+      normalize_normal_2_s5_q <= normalize_normal_2_s4_q;
       ovf0_s5_q <= ovf0_s4_q;
       ovf1_s5_q <= ovf1_s4_q;
-      ovf3_s5_q <= normalize_d_137_ovf_s4_q;
-      normalize_horner_140_ovf_s5_q <= normalize_horner_140_ovf_c;
+      ovf3_s5_q <= normalize_d_0_ovf_s4_q;
+      normalize_horner_0_ovf_s5_q <= normalize_horner_0_ovf_c;
     end
     if (load_s6) begin
-      normalize_g_143_q <= normalize_g_143_d;
-      normalize_normal_129_s6_q <= normalize_normal_129_s5_q;
-      normalize_normal_130_s6_q <= normalize_normal_130_s5_q;
-      normalize_normal_131_s6_q <= normalize_normal_131_s5_q;
+      normalize_g_0_q <= normalize_g_0_d;
+      normalize_normal_0_s6_q <= normalize_normal_0_s5_q;
+      normalize_normal_1_s6_q <= normalize_normal_1_s5_q;
+      normalize_normal_2_s6_q <= normalize_normal_2_s5_q;
       ovf0_s6_q <= ovf0_s5_q;
       ovf1_s6_q <= ovf1_s5_q;
       ovf3_s6_q <= ovf3_s5_q;
-      ovf4_s6_q <= normalize_horner_140_ovf_s5_q;
-      normalize_g_143_ovf_s6_q <= normalize_g_143_ovf_c;
+      ovf4_s6_q <= normalize_horner_0_ovf_s5_q;
+      normalize_g_0_ovf_s6_q <= normalize_g_0_ovf_c;
     end
     if (load_s7) begin
-      normalize_out_147_q <= normalize_out_147_d;
-      normalize_out_148_q <= normalize_out_148_d;
-      normalize_out_149_q <= normalize_out_149_d;
+      normalize_out_0_q <= normalize_out_0_d;
+      normalize_out_1_q <= normalize_out_1_d;
+      normalize_out_2_q <= normalize_out_2_d;
       ovf0_s7_q <= ovf0_s6_q;
       ovf1_s7_q <= ovf1_s6_q;
       ovf3_s7_q <= ovf3_s6_q;
       ovf4_s7_q <= ovf4_s6_q;
-      ovf5_s7_q <= normalize_g_143_ovf_s6_q;
-      normalize_out_147_ovf_s7_q <= normalize_out_147_ovf_c;
-      normalize_out_148_ovf_s7_q <= normalize_out_148_ovf_c;
-      normalize_out_149_ovf_s7_q <= normalize_out_149_ovf_c;
+      ovf5_s7_q <= normalize_g_0_ovf_s6_q;
+      normalize_out_0_ovf_s7_q <= normalize_out_0_ovf_c;
+      normalize_out_1_ovf_s7_q <= normalize_out_1_ovf_c;
+      normalize_out_2_ovf_s7_q <= normalize_out_2_ovf_c;
     end
     if (load_s8) begin
-      lighting_normal_150_q <= lighting_normal_150_d;
-      lighting_normal_151_q <= lighting_normal_151_d;
-      lighting_normal_152_q <= lighting_normal_152_d;
+      lighting_normal_0_q <= lighting_normal_0_d;
+      lighting_normal_1_q <= lighting_normal_1_d;
+      lighting_normal_2_q <= lighting_normal_2_d;
       ovf0_s8_q <= ovf0_s7_q;
       ovf1_s8_q <= ovf1_s7_q;
       ovf3_s8_q <= ovf3_s7_q;
@@ -979,20 +1045,20 @@ module pipeline_smooth (
       ovf6_s8_q <= ovf6_or_s7;
     end
     if (load_s9) begin
-      lighting_dot_158_q <= lighting_dot_158_d;
-      lighting_dot_165_q <= lighting_dot_165_d;
+      lighting_dot_0_q <= lighting_dot_0_d;
+      lighting_dot_1_q <= lighting_dot_1_d;
       ovf0_s9_q <= ovf0_s8_q;
       ovf1_s9_q <= ovf1_s8_q;
       ovf3_s9_q <= ovf3_s8_q;
       ovf4_s9_q <= ovf4_s8_q;
       ovf5_s9_q <= ovf5_s8_q;
       ovf6_s9_q <= ovf6_s8_q;
-      lighting_dot_158_ovf_s9_q <= lighting_dot_158_ovf_c;
-      lighting_dot_165_ovf_s9_q <= lighting_dot_165_ovf_c;
+      lighting_dot_0_ovf_s9_q <= lighting_dot_0_ovf_c;
+      lighting_dot_1_ovf_s9_q <= lighting_dot_1_ovf_c;
     end
     if (load_s10) begin
-      lighting_spec_167_q <= lighting_spec_167_d;
-      t176_s10_q <= t176;
+      lighting_spec_0_q <= lighting_spec_0_d;
+      lighting_level_mul0_s10_q <= lighting_level_mul0;
       ovf0_s10_q <= ovf0_s9_q;
       ovf1_s10_q <= ovf1_s9_q;
       ovf3_s10_q <= ovf3_s9_q;
@@ -1000,11 +1066,11 @@ module pipeline_smooth (
       ovf5_s10_q <= ovf5_s9_q;
       ovf6_s10_q <= ovf6_s9_q;
       ovf8_s10_q <= ovf8_or_s9;
-      lighting_spec_167_ovf_s10_q <= lighting_spec_167_ovf_c;
+      lighting_spec_0_ovf_s10_q <= lighting_spec_0_ovf_c;
     end
     if (load_s11) begin
-      lighting_spec_169_q <= lighting_spec_169_d;
-      t176_s11_q <= t176_s10_q;
+      lighting_spec_1_q <= lighting_spec_1_d;
+      lighting_level_mul0_s11_q <= lighting_level_mul0_s10_q;
       ovf0_s11_q <= ovf0_s10_q;
       ovf1_s11_q <= ovf1_s10_q;
       ovf3_s11_q <= ovf3_s10_q;
@@ -1012,12 +1078,12 @@ module pipeline_smooth (
       ovf5_s11_q <= ovf5_s10_q;
       ovf6_s11_q <= ovf6_s10_q;
       ovf8_s11_q <= ovf8_s10_q;
-      lighting_spec_169_ovf_s11_q <= lighting_spec_169_ovf_c;
-      ovf9_s11_q <= lighting_spec_167_ovf_s10_q;
+      lighting_spec_1_ovf_s11_q <= lighting_spec_1_ovf_c;
+      ovf9_s11_q <= lighting_spec_0_ovf_s10_q;
     end
     if (load_s12) begin
-      lighting_spec_171_q <= lighting_spec_171_d;
-      t176_s12_q <= t176_s11_q;
+      lighting_spec_2_q <= lighting_spec_2_d;
+      lighting_level_mul0_s12_q <= lighting_level_mul0_s11_q;
       ovf0_s12_q <= ovf0_s11_q;
       ovf1_s12_q <= ovf1_s11_q;
       ovf3_s12_q <= ovf3_s11_q;
@@ -1025,12 +1091,12 @@ module pipeline_smooth (
       ovf5_s12_q <= ovf5_s11_q;
       ovf6_s12_q <= ovf6_s11_q;
       ovf8_s12_q <= ovf8_s11_q;
-      lighting_spec_171_ovf_s12_q <= lighting_spec_171_ovf_c;
+      lighting_spec_2_ovf_s12_q <= lighting_spec_2_ovf_c;
       ovf9_s12_q <= ovf9_or_s11;
     end
     if (load_s13) begin
-      lighting_spec_173_q <= lighting_spec_173_d;
-      t176_s13_q <= t176_s12_q;
+      lighting_spec_3_q <= lighting_spec_3_d;
+      lighting_level_mul0_s13_q <= lighting_level_mul0_s12_q;
       ovf0_s13_q <= ovf0_s12_q;
       ovf1_s13_q <= ovf1_s12_q;
       ovf3_s13_q <= ovf3_s12_q;
@@ -1038,12 +1104,12 @@ module pipeline_smooth (
       ovf5_s13_q <= ovf5_s12_q;
       ovf6_s13_q <= ovf6_s12_q;
       ovf8_s13_q <= ovf8_s12_q;
-      lighting_spec_173_ovf_s13_q <= lighting_spec_173_ovf_c;
+      lighting_spec_3_ovf_s13_q <= lighting_spec_3_ovf_c;
       ovf9_s13_q <= ovf9_or_s12;
     end
     if (load_s14) begin
-      lighting_spec_175_q <= lighting_spec_175_d;
-      t176_s14_q <= t176_s13_q;
+      lighting_spec_4_q <= lighting_spec_4_d;
+      lighting_level_mul0_s14_q <= lighting_level_mul0_s13_q;
       ovf0_s14_q <= ovf0_s13_q;
       ovf1_s14_q <= ovf1_s13_q;
       ovf3_s14_q <= ovf3_s13_q;
@@ -1051,11 +1117,11 @@ module pipeline_smooth (
       ovf5_s14_q <= ovf5_s13_q;
       ovf6_s14_q <= ovf6_s13_q;
       ovf8_s14_q <= ovf8_s13_q;
-      lighting_spec_175_ovf_s14_q <= lighting_spec_175_ovf_c;
+      lighting_spec_4_ovf_s14_q <= lighting_spec_4_ovf_c;
       ovf9_s14_q <= ovf9_or_s13;
     end
     if (load_s15) begin
-      lighting_level_179_q <= lighting_level_179_d;
+      lighting_level_0_q <= lighting_level_0_d;
       ovf0_s15_q <= ovf0_s14_q;
       ovf1_s15_q <= ovf1_s14_q;
       ovf3_s15_q <= ovf3_s14_q;
@@ -1064,16 +1130,15 @@ module pipeline_smooth (
       ovf6_s15_q <= ovf6_s14_q;
       ovf8_s15_q <= ovf8_s14_q;
       ovf9_s15_q <= ovf9_or_s14;
-      lighting_level_179_ovf_s15_q <= lighting_level_179_ovf_c;
+      lighting_level_0_ovf_s15_q <= lighting_level_0_ovf_c;
     end
   end
 
   // Output buffer: the head drives the ports; the skid register takes the
   // item that leaves the last stage while the head is stalled.
   wire [18:0] last_d =
-      {lighting_level_179_q, (ovf0_s15_q), (ovf1_s15_q), (1'b0), (ovf3_s15_q), (ovf4_s15_q),
-      (ovf5_s15_q), (ovf6_s15_q), (1'b0), (ovf8_s15_q), (ovf9_s15_q),
-      (lighting_level_179_ovf_s15_q)};
+      {lighting_level_0_q, (ovf0_s15_q), (ovf1_s15_q), (1'b0), (ovf3_s15_q), (ovf4_s15_q),
+      (ovf5_s15_q), (ovf6_s15_q), (1'b0), (ovf8_s15_q), (ovf9_s15_q), (lighting_level_0_ovf_s15_q)};
   reg  [18:0] out_q, skid_q;
   always @(posedge clk_i) begin
     if (out_load & (skid_valid | out_arrive)) out_q <= skid_valid ? skid_q : last_d;
