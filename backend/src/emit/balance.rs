@@ -155,3 +155,57 @@ impl<'a> Emitter<'a> {
         self.body.push(t);
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::datapath::{Datapath, Trace};
+    use crate::emit::{sat, test_design};
+
+    /// `y1 = Q(a + b)`, `y_{k+1} = Q(y_k + b)` for `depth` quantizations,
+    /// then `z = Q(y_depth + a)`: `a` is read at the input and again after
+    /// `depth` registered stages.
+    fn late_read(depth: usize) -> Trace {
+        let mut t = Trace::new();
+        let a = t.input_named("a", &sat("b.in", 8));
+        let b = t.input_named("b", &sat("b.in", 8));
+        let s = t.add(a, b);
+        let mut y = t.quantize(s, &sat("b.y", 12));
+        for _ in 1..depth {
+            let s = t.add(y, b);
+            y = t.quantize(s, &sat("b.y", 12));
+        }
+        let s = t.add(y, a);
+        let z = t.quantize(s, &sat("b.z", 12));
+        t.output("z", z);
+        t
+    }
+
+    /// The balancing pass carries a value read `k` stages after it is
+    /// made through exactly one register per stage it crosses (`a_i_s1_q`
+    /// … `a_i_s<k>_q`, 8 bits each: the input's width), and the
+    /// compact pipeline's latency is one stage per quantization (`depth`
+    /// of `y`, one of `z`) and one for the output register.
+    #[test]
+    fn a_late_read_is_carried_by_one_register_per_stage() {
+        for depth in 1..=5usize {
+            let e = crate::emit(&test_design(late_read(depth))).expect("emits");
+            let carried: Vec<&str> = e
+                .verilog
+                .lines()
+                .filter(|l| l.trim_start().starts_with("reg "))
+                .filter(|l| l.contains(" a_i_s"))
+                .collect();
+            assert_eq!(carried.len(), depth, "depth {depth}:\n{}", e.verilog);
+            for k in 1..=depth {
+                let name = format!("a_i_s{k}_q;");
+                assert!(
+                    carried
+                        .iter()
+                        .any(|l| l.contains("[7:0]") && l.ends_with(&name)),
+                    "no {name} at depth {depth}: {carried:?}"
+                );
+            }
+            assert_eq!(e.latency as usize, depth + 1 + 1, "depth {depth}");
+        }
+    }
+}

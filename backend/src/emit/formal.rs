@@ -210,3 +210,64 @@ pub(crate) fn formal_block_fifo(
     v += &formal_clocked(l, &shift, outs, nf, setup);
     v
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::datapath::{Datapath, Trace};
+    use crate::emit::{sat, test_design};
+    use crate::timing::Handshake;
+
+    fn chain(depth: usize) -> Trace {
+        let mut t = Trace::new();
+        let a = t.input_named("a", &sat("f.in", 8));
+        let b = t.input_named("b", &sat("f.in", 8));
+        let s = t.add(a, b);
+        let mut y = t.quantize(s, &sat("f.y", 9));
+        for _ in 1..depth {
+            let s = t.add(y, b);
+            y = t.quantize(s, &sat("f.y", 9));
+        }
+        t.output("z", y);
+        t
+    }
+
+    /// The formal pass writes one `ifdef FORMAL` block holding every
+    /// `assert`, `assume` and `cover` of the module (simulators and
+    /// synthesis never see them); under either handshake the outputs are
+    /// asserted to hold while stalled, every output port by name; and the
+    /// drain property counts idle cycles up to the number of stages, so it
+    /// speaks of every valid bit.
+    #[test]
+    fn properties_cover_every_output_and_every_stage_inside_ifdef_formal() {
+        for hs in [Handshake::Stall, Handshake::Fifo] {
+            for depth in 1..=4usize {
+                let mut d = test_design(chain(depth));
+                d.handshake = hs;
+                let v = crate::emit(&d).expect("emits").verilog;
+                let start = v.find("`ifdef FORMAL").expect("a formal block");
+                let end = start + v[start..].find("`endif").expect("its end");
+                assert_eq!(v.matches("`ifdef FORMAL").count(), 1, "{hs:?} {depth}");
+                for kw in ["assert (", "assume (", "cover ("] {
+                    let outside = v[..start].matches(kw).count() + v[end..].matches(kw).count();
+                    assert_eq!(outside, 0, "{hs:?} {depth}: {kw} outside the block");
+                }
+                let block = &v[start..end];
+                assert!(
+                    block.contains("assert ($stable(z_o));"),
+                    "{hs:?} {depth}\n{block}"
+                );
+                assert!(
+                    block.contains("assert (valid_o);"),
+                    "{hs:?} {depth}\n{block}"
+                );
+                let saturates = format!("'d{depth})");
+                assert!(
+                    block
+                        .lines()
+                        .any(|l| l.contains("f_idle ==") && l.contains(&saturates)),
+                    "{hs:?} {depth}: the drain counter does not reach {depth}\n{block}"
+                );
+            }
+        }
+    }
+}

@@ -274,3 +274,99 @@ pub(crate) fn fifo_outputs(
     v += &ports;
     v
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::datapath::{Datapath, Trace};
+    use crate::emit::{sat, test_design};
+    use crate::timing::Handshake;
+
+    /// `depth` quantizations of `a + b` in a chain, outputs `z` and the
+    /// overflow flags.
+    fn chain(depth: usize) -> Trace {
+        let mut t = Trace::new();
+        let a = t.input_named("a", &sat("h.in", 8));
+        let b = t.input_named("b", &sat("h.in", 8));
+        let s = t.add(a, b);
+        let mut y = t.quantize(s, &sat("h.y", 9));
+        for _ in 1..depth {
+            let s = t.add(y, b);
+            y = t.quantize(s, &sat("h.y", 9));
+        }
+        t.output("z", y);
+        t
+    }
+
+    /// The signal `name` is, through `wire x = y;` aliases and
+    /// `$signed(…)`/bit selects, a register of the module's text (a `reg`
+    /// declaration lists one or more names: `reg  out_valid_q, en_q;`).
+    fn is_register(v: &str, name: &str) -> bool {
+        let mut n = name.to_string();
+        for _ in 0..8 {
+            for l in v.lines().map(str::trim) {
+                if let Some(rest) = l.strip_prefix("reg ") {
+                    let names = rest.rsplit(']').next().unwrap_or(rest);
+                    if names
+                        .trim_end_matches(';')
+                        .split(',')
+                        .any(|x| x.trim() == n)
+                    {
+                        return true;
+                    }
+                }
+            }
+            let alias = v.lines().map(str::trim).find_map(|l| {
+                let rest = l.strip_prefix("wire ")?;
+                let (lhs, rhs) = rest.split_once(" = ")?;
+                (lhs.rsplit([' ', ']']).next() == Some(n.as_str())).then(|| base(rhs))
+            });
+            match alias {
+                Some(a) => n = a,
+                None => return false,
+            }
+        }
+        false
+    }
+
+    /// `$signed(out_q[51:36]);` → `out_q`.
+    fn base(rhs: &str) -> String {
+        let r = rhs.trim_end_matches(';').trim();
+        let r = r.strip_prefix("$signed(").unwrap_or(r);
+        r.split(['[', ')', ' ']).next().unwrap_or(r).to_string()
+    }
+
+    /// With either handshake and any depth, every output port is driven by
+    /// a register (no path from an input port to an output port), the
+    /// valid bits are one per stage, and the latency is one more than the
+    /// stages (stall, or a FIFO in flip-flops or LUT RAM).
+    #[test]
+    fn every_output_port_is_a_register_for_either_handshake() {
+        for hs in [Handshake::Stall, Handshake::Fifo] {
+            for depth in 1..=4usize {
+                let mut d = test_design(chain(depth));
+                d.handshake = hs;
+                let e = crate::emit(&d).expect("emits");
+                let v = &e.verilog;
+                let assigns: Vec<(&str, &str)> = v
+                    .lines()
+                    .filter_map(|l| l.trim().strip_prefix("assign "))
+                    .filter_map(|l| l.split_once(" = "))
+                    .filter(|(lhs, _)| lhs.ends_with("_o"))
+                    .collect();
+                for port in ["valid_o", "ready_o", "z_o"] {
+                    let (_, rhs) = assigns
+                        .iter()
+                        .find(|(lhs, _)| *lhs == port)
+                        .unwrap_or_else(|| panic!("{hs:?} {depth}: no assign of {port}\n{v}"));
+                    assert!(
+                        is_register(v, &base(rhs)),
+                        "{hs:?} depth {depth}: {port} = {rhs} is not a register\n{v}"
+                    );
+                }
+                let valid = format!("reg  [{}:0] valid_q;", depth - 1);
+                assert!(v.contains(&valid), "{hs:?} {depth}: no {valid}");
+                assert_eq!(e.latency as usize, depth + 1, "{hs:?} {depth}");
+            }
+        }
+    }
+}

@@ -390,3 +390,65 @@ pub(crate) fn banked_port(
 ";
     (t, extra)
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::datapath::{Datapath, Table, Trace};
+    use crate::emit::{sat, test_design};
+    use crate::format::Format;
+
+    fn negate_half(x: f64) -> f64 {
+        0.75 - 1.5 * x
+    }
+
+    /// The ROM the tables pass writes holds the table's codes, each at its
+    /// index, in two's complement of the entry width: decoded here from the
+    /// Verilog text and compared with the codes `Table::build` computed
+    /// from the tabulated function. One table read counts one read port.
+    #[test]
+    fn the_rom_holds_every_code_at_its_index() {
+        let index = Format::new(false, 4, 4).expect("U0F4");
+        let out = crate::quantize::Quant::new(
+            "t.entry",
+            Format::new(true, 8, 6).expect("I2F6"),
+            crate::quantize::Rounding::HalfEven,
+            crate::quantize::Overflow::Saturate,
+        );
+        let tb = Table::build("ramp", index, out, negate_half).expect("a table");
+        let mut t = Trace::new();
+        let i = t.input_named(
+            "i",
+            &crate::quantize::Quant::new(
+                "t.in",
+                index,
+                crate::quantize::Rounding::Trunc,
+                crate::quantize::Overflow::Wrap,
+            ),
+        );
+        let v = t.table(&tb, i);
+        let y = t.quantize(v, &sat("t.out", 8));
+        t.output("y", y);
+        let e = crate::emit(&test_design(t)).expect("emits");
+        let mut seen = 0;
+        for line in e.verilog.lines() {
+            let Some(rest) = line.trim().strip_prefix("ramp_rom[") else {
+                continue;
+            };
+            let (k, lit) = rest.split_once("] = ").expect("an entry line");
+            let k: usize = k.parse().expect("an index");
+            // `$signed(8'h30);` or `8'h30;`
+            let hex = lit.trim_end_matches(';').trim_end_matches(')');
+            let hex = hex.rsplit('h').next().expect("a literal");
+            let raw = i128::from_str_radix(hex, 16).expect("hex");
+            let code = if raw >= 128 { raw - 256 } else { raw };
+            // The closed form, independently of the table's own codes.
+            let want = (negate_half(k as f64 / 16.0) * 64.0).round_ties_even();
+            assert_eq!(code as f64, want.clamp(-128.0, 127.0), "entry {k}: {line}");
+            seen += 1;
+        }
+        assert_eq!(seen, 16, "{}", e.verilog);
+        let rom = e.hardware.roms.iter().find(|r| r.name == "ramp_rom");
+        let rom = rom.expect("the ROM is counted");
+        assert_eq!((rom.entries, rom.width, rom.reads), (16, 8, 1));
+    }
+}
