@@ -98,7 +98,7 @@ pub fn literal(width: u32, code: i128) -> String {
     } else {
         (1u128 << width) - 1
     };
-    format!("{width}'h{:x}", (code as u128) & mask)
+    format!("{width}'h{:x}", code.cast_unsigned() & mask)
 }
 
 /// The combinational logic of one quantization, as statements, given the
@@ -126,11 +126,11 @@ pub struct QuantLogic {
 /// bits with `s` bits dropped (`s > 0`: the kept bits, at least one, plus
 /// one for a nearest mode's increment) or added (`s ≤ 0`).
 pub fn rounded_width(xw: u32, s: i32, round: Rounding) -> u32 {
+    let n = s.unsigned_abs();
     if s <= 0 {
-        xw + (-s) as u32
+        xw + n
     } else {
-        let s = s as u32;
-        xw.max(s + 1) - s + (round != Rounding::Trunc) as u32
+        xw.max(n + 1) - n + u32::from(round != Rounding::Trunc)
     }
 }
 
@@ -172,7 +172,7 @@ pub fn quantize(
     let sgn = if x.signed { "signed " } else { "" };
     // r: the rounded value, in rw bits of x's signedness.
     let (r, rw) = if s <= 0 {
-        let rw = x.width + (-s) as u32;
+        let rw = x.width + s.unsigned_abs();
         if s == 0 {
             (x.expr.clone(), rw)
         } else {
@@ -180,12 +180,12 @@ pub fn quantize(
             lines.push(format!(
                 "wire {sgn}[{}:0] {name} = {};",
                 rw - 1,
-                sv(x.signed, &align(x, (-s) as u32, rw))
+                sv(x.signed, &align(x, s.unsigned_abs(), rw))
             ));
             (name, rw)
         }
     } else {
-        let s = s as u32;
+        let s = s.unsigned_abs();
         // Extend so at least one bit stays above the dropped ones.
         let xe = if x.width < s + 1 {
             let name = format!("{p}_x");
@@ -356,6 +356,14 @@ pub fn quantize(
 }
 
 #[cfg(test)]
+#[allow(
+    clippy::cast_lossless,
+    clippy::cast_possible_truncation,
+    clippy::cast_sign_loss,
+    clippy::cast_possible_wrap,
+    clippy::cast_precision_loss,
+    reason = "tests build expected values with plain conversions"
+)]
 mod tests {
     use super::*;
 

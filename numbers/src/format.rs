@@ -112,7 +112,8 @@ pub enum ConvertError {
 /// `0` below and `+∞` above.
 pub fn exp2i(e: i32) -> f64 {
     if (-1022..=1023).contains(&e) {
-        f64::from_bits(((e + 1023) as u64) << 52)
+        // `e + 1023` is in `1..=2046` here: the biased exponent field.
+        f64::from_bits(u64::from((e + 1023).unsigned_abs()) << 52)
     } else if (-1074..-1022).contains(&e) {
         f64::from_bits(1u64 << (e + 1074))
     } else if e < 0 {
@@ -132,10 +133,10 @@ impl Format {
     /// [`FormatError::Frac`] for fraction bits outside `MIN_FRAC..=MAX_FRAC`.
     pub fn new(signed: bool, width: u32, frac: i32) -> Result<Self, FormatError> {
         if width == 0 || width > MAX_WIDTH {
-            return Err(FormatError::Width(width as i64));
+            return Err(FormatError::Width(i64::from(width)));
         }
         if !(MIN_FRAC..=MAX_FRAC).contains(&frac) {
-            return Err(FormatError::Frac(frac as i64));
+            return Err(FormatError::Frac(i64::from(frac)));
         }
         Ok(Format {
             signed,
@@ -173,7 +174,8 @@ impl Format {
     }
     /// Integer bits, sign included: `width − frac` (may be negative).
     pub const fn int_bits(&self) -> i32 {
-        self.width as i32 - self.frac
+        // `width ≤ 64`: the reinterpretation is the value.
+        self.width.cast_signed() - self.frac
     }
     /// Smallest code: `−2^(W−1)` signed, `0` unsigned.
     pub const fn min_code(&self) -> i128 {
@@ -205,6 +207,10 @@ impl Format {
     }
     /// The value of a code, `code · 2^−frac` (exact when the code has at most
     /// 53 significant bits, otherwise rounded to nearest as `i128 as f64` does).
+    #[allow(
+        clippy::cast_precision_loss,
+        reason = "the documented rounding: i128 to the nearest f64"
+    )]
     pub fn to_f64(&self, code: i128) -> f64 {
         code as f64 * exp2i(-self.frac)
     }
@@ -219,12 +225,16 @@ impl Format {
         if self.signed {
             (code << sh) >> sh
         } else {
-            ((code as u128) << sh >> sh) as i128
+            (code.cast_unsigned() << sh >> sh).cast_signed()
         }
     }
     /// The code as `width` raw bits (what a `$readmemh` file holds).
+    #[allow(
+        clippy::cast_possible_truncation,
+        reason = "masked to width ≤ 64 bits first: the value fits u64"
+    )]
     pub const fn to_bits(&self, code: i128) -> u64 {
-        (code as u128 & ((1u128 << self.width) - 1)) as u64
+        (code.cast_unsigned() & ((1u128 << self.width) - 1)) as u64
     }
     /// The code from `width` raw bits (sign-extended when signed); bits above
     /// `width` are ignored.
@@ -281,14 +291,17 @@ impl FromStr for Format {
         let (int, frac) = rest.split_once(['F', 'f']).ok_or_else(syntax)?;
         let int: i64 = int.parse().map_err(|_| syntax())?;
         let frac: i64 = frac.parse().map_err(|_| syntax())?;
-        if !(MIN_FRAC as i64..=MAX_FRAC as i64).contains(&frac) {
+        if !(i64::from(MIN_FRAC)..=i64::from(MAX_FRAC)).contains(&frac) {
             return Err(FormatError::Frac(frac));
         }
         let width = int + frac;
-        if !(1..=MAX_WIDTH as i64).contains(&width) {
+        if !(1..=i64::from(MAX_WIDTH)).contains(&width) {
             return Err(FormatError::Width(width));
         }
-        Format::new(signed, width as u32, frac as i32)
+        // Both range-checked above: `1..=MAX_WIDTH` and `MIN_FRAC..=MAX_FRAC`.
+        let width = u32::try_from(width).map_err(|_| FormatError::Width(width))?;
+        let frac = i32::try_from(frac).map_err(|_| FormatError::Frac(frac))?;
+        Format::new(signed, width, frac)
     }
 }
 
@@ -308,6 +321,14 @@ impl<'de> serde::Deserialize<'de> for Format {
 }
 
 #[cfg(test)]
+#[allow(
+    clippy::cast_lossless,
+    clippy::cast_possible_truncation,
+    clippy::cast_sign_loss,
+    clippy::cast_possible_wrap,
+    clippy::cast_precision_loss,
+    reason = "tests build expected values with plain conversions"
+)]
 mod tests {
     use super::*;
 

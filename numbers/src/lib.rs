@@ -13,6 +13,16 @@
 //! This crate depends on no other fxshade crate (the workspace's layers are
 //! listed in `ARCHITECTURE.md`).
 #![warn(missing_docs, clippy::missing_errors_doc, clippy::missing_panics_doc)]
+// No bare numeric `as`: a conversion is lossless (`From`), checked
+// (`try_from`), a named reinterpretation (`cast_unsigned`, `unsigned_abs`),
+// or allowed where it stands with the reason it cannot lose anything.
+#![warn(
+    clippy::cast_lossless,
+    clippy::cast_possible_truncation,
+    clippy::cast_sign_loss,
+    clippy::cast_possible_wrap,
+    clippy::cast_precision_loss
+)]
 
 pub mod bits;
 pub mod format;

@@ -124,6 +124,16 @@ pub trait Raw:
 
 macro_rules! impl_raw {
     ($t:ty, $u:ty) => {
+        // The container's own two's-complement reinterpretations (the
+        // unsigned comparison and logical shift of `in_range` and `lshr`),
+        // and `from_i128`, which the exact-width limit keeps in range.
+        #[allow(
+            clippy::cast_possible_truncation,
+            clippy::cast_sign_loss,
+            clippy::cast_possible_wrap,
+            clippy::cast_lossless,
+            reason = "bit reinterpretations of the container, documented per method"
+        )]
         impl Raw for $t {
             const BITS: u32 = <$t>::BITS;
             const ZERO: Self = 0;
@@ -423,11 +433,11 @@ impl Step {
     pub fn apply<R: Raw>(&self, raw: R, round: Rounding, overflow: Overflow) -> Quantized<R> {
         let s = self.shift;
         let (rounded, huge) = if s > 0 {
-            (round_shift_right(raw, s as u32, round), false)
+            (round_shift_right(raw, s.unsigned_abs(), round), false)
         } else if s == 0 {
             (raw, false)
         } else {
-            let l = (-s) as u32;
+            let l = s.unsigned_abs();
             if raw.shl_fits(l) {
                 (raw << l, false)
             } else if raw == R::ZERO {
@@ -503,6 +513,10 @@ pub fn decompose(x: f64) -> (i128, i32) {
     }
     let bits = x.to_bits();
     let sign = if bits >> 63 != 0 { -1 } else { 1 };
+    #[allow(
+        clippy::cast_possible_truncation,
+        reason = "11 bits: the biased exponent field"
+    )]
     let exp = ((bits >> 52) & 0x7ff) as i32;
     let frac = bits & ((1u64 << 52) - 1);
     let (m, e) = if exp == 0 {
@@ -510,7 +524,7 @@ pub fn decompose(x: f64) -> (i128, i32) {
     } else {
         (frac | (1u64 << 52), exp - 1075)
     };
-    (sign * m as i128, e)
+    (sign * i128::from(m), e)
 }
 
 /// The exact format of a non-negative integer literal `n`: `U<b>F0` with `b`
@@ -531,6 +545,14 @@ pub fn literal(n: u64) -> Quant {
 }
 
 #[cfg(test)]
+#[allow(
+    clippy::cast_lossless,
+    clippy::cast_possible_truncation,
+    clippy::cast_sign_loss,
+    clippy::cast_possible_wrap,
+    clippy::cast_precision_loss,
+    reason = "tests build expected values with plain conversions"
+)]
 mod tests {
     use super::*;
 

@@ -1047,8 +1047,8 @@ fn block_body<R: Raw>(
                     );
                     for (k, ((o, &x), &y)) in hi[..len].iter_mut().zip(x).zip(y).enumerate() {
                         let r = div_exact(x.to_i128(), fa, y.to_i128(), fb, &q);
-                        ov[stage] += r.overflowed as u64;
-                        flags[k] |= flag * r.overflowed as u64;
+                        ov[stage] += u64::from(r.overflowed);
+                        flags[k] |= flag * u64::from(r.overflowed);
                         *o = R::from_i128(r.code);
                     }
                 }
@@ -1064,8 +1064,8 @@ fn block_body<R: Raw>(
                     let src = &lo[a * BLOCK..a * BLOCK + len];
                     for (k, (o, &x)) in hi[..len].iter_mut().zip(src).enumerate() {
                         let r = sqrt_exact(x.to_i128(), fa, &q);
-                        ov[stage] += r.overflowed as u64;
-                        flags[k] |= flag * r.overflowed as u64;
+                        ov[stage] += u64::from(r.overflowed);
+                        flags[k] |= flag * u64::from(r.overflowed);
                         *o = R::from_i128(r.code);
                     }
                 }
@@ -1109,8 +1109,8 @@ fn quant_loop<R: Raw>(
             for ((o, f), &x) in dst.iter_mut().zip(flags.iter_mut()).zip(src) {
                 let r = st.apply(x, round, overflow);
                 *o = r.code;
-                n += r.overflowed as u64;
-                *f |= flag * r.overflowed as u64;
+                n += u64::from(r.overflowed);
+                *f |= flag * u64::from(r.overflowed);
             }
             n
         }
@@ -1169,7 +1169,7 @@ fn on_i64<T>(
     let (outs, extra) = f(&refs);
     (
         outs.into_iter()
-            .map(|o| o.into_iter().map(|x| x as i128).collect())
+            .map(|o| o.into_iter().map(|x| i128::from(x)).collect())
             .collect(),
         extra,
     )

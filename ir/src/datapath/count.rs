@@ -256,7 +256,7 @@ impl Count {
         self.max_width <= 62
     }
     fn seen(&mut self, s: Sym) -> Sym {
-        self.max_width = self.max_width.max(s.width + !s.signed as u32);
+        self.max_width = self.max_width.max(s.width + u32::from(!s.signed));
         s
     }
     /// Intermediates too wide for the fixed-point model, in order.
@@ -297,8 +297,8 @@ impl Count {
         let signed = a.signed || b.signed || force_signed;
         let frac = a.frac.max(b.frac);
         // An unsigned operand needs one more integer bit in a signed result.
-        let ia = a.int_bits() + (signed && !a.signed) as i32;
-        let ib = b.int_bits() + (signed && !b.signed) as i32;
+        let ia = a.int_bits() + i32::from(signed && !a.signed);
+        let ib = b.int_bits() + i32::from(signed && !b.signed);
         let int = ia.max(ib) + grow;
         Sym {
             signed,

@@ -167,7 +167,7 @@ fn div_scaled_floor(num: i128, den: i128, k: i32) -> (i128, bool, bool) {
     let q = q as i128;
     // ⌊−x⌋ = −⌈x⌉.
     let f = if neg {
-        q.wrapping_neg().wrapping_sub(sticky as i128)
+        q.wrapping_neg().wrapping_sub(i128::from(sticky))
     } else {
         q
     };
@@ -186,7 +186,7 @@ fn round_guarded(f: i128, sticky: bool, mode: Rounding) -> i128 {
         Rounding::HalfUp => round_bit,
         Rounding::HalfEven => round_bit && (below || q & 1 == 1),
     };
-    q.wrapping_add(up as i128)
+    q.wrapping_add(i128::from(up))
 }
 
 fn overflowed(code: i128) -> Quantized {

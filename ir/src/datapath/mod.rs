@@ -233,6 +233,6 @@ impl Table {
     }
     /// Size in bits: depth × entry width.
     pub fn bits(&self) -> u64 {
-        self.depth() as u64 * self.out.format().width() as u64
+        self.depth() as u64 * u64::from(self.out.format().width())
     }
 }

@@ -79,7 +79,7 @@ fn quant_term(x: &str, wa: u32, fa: i32, q: &crate::quantize::Quant) -> (String,
         let l = (-sh) as u32;
         let rw = wa + l;
         (
-            format!("(bvshl {} {})", ext(x, wa, rw), lit(l as i128, rw)),
+            format!("(bvshl {} {})", ext(x, wa, rw), lit(i128::from(l), rw)),
             rw,
         )
     };
@@ -229,8 +229,8 @@ impl MulSplit {
                 continue;
             }
             let ps = p.a.signed || p.b.signed;
-            let xw = p.a.width + (ps && !p.a.signed) as u32;
-            let yw = p.b.width + (ps && !p.b.signed) as u32;
+            let xw = p.a.width + u32::from(ps && !p.a.signed);
+            let yw = p.b.width + u32::from(ps && !p.b.signed);
             let pw = xw + yw;
             let x = widen(slice(a, wa, &p.a), p.a.width, pw, p.a.signed);
             let y = widen(slice(b, wb, &p.b), p.b.width, pw, p.b.signed);
@@ -238,7 +238,7 @@ impl MulSplit {
             terms.push(if shift == 0 {
                 t
             } else {
-                format!("(bvshl {t} {})", lit(shift as i128, w))
+                format!("(bvshl {t} {})", lit(i128::from(shift), w))
             });
         }
         match terms.len() {
@@ -313,7 +313,7 @@ impl Trace {
                 if sh == 0 {
                     val(t, wi)
                 } else {
-                    format!("(bvshl {} {})", val(t, wi), lit(sh as i128, wi))
+                    format!("(bvshl {} {})", val(t, wi), lit(i128::from(sh), wi))
                 }
             };
             let mut ovf_def = None;
