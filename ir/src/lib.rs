@@ -16,6 +16,16 @@
 //! This crate depends only on `fxshade-numbers`; the units, the RTL backend
 //! and the flows sit above it (`ARCHITECTURE.md`).
 #![warn(missing_docs, clippy::missing_errors_doc, clippy::missing_panics_doc)]
+// No bare numeric `as` (see fxshade-numbers): lossless is `From`, checked
+// is `try_from`, reinterpretations are named, and the few narrowing ones
+// left (`narrow`, `table_slot`, `code_value`, `float_index`) say why.
+#![warn(
+    clippy::cast_lossless,
+    clippy::cast_possible_truncation,
+    clippy::cast_sign_loss,
+    clippy::cast_possible_wrap,
+    clippy::cast_precision_loss
+)]
 
 pub mod datapath;
 pub mod escape;

@@ -22,6 +22,7 @@ impl Rng {
         z ^ (z >> 31)
     }
     /// Uniform in `[0, 1)` (53 random bits).
+    #[allow(clippy::cast_precision_loss, reason = "53 bits: exact in f64")]
     pub fn unit(&mut self) -> f64 {
         (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
     }
@@ -80,7 +81,7 @@ pub fn equiangular(theta: f64, rng: &mut Rng) -> [DVec3; 3] {
     let (u, v) = axis.any_orthonormal_pair();
     let spin = rng.uniform(0.0, std::f64::consts::TAU);
     std::array::from_fn(|i| {
-        let a = spin + i as f64 * std::f64::consts::TAU / 3.0;
+        let a = spin + [0.0, 1.0, 2.0][i] * std::f64::consts::TAU / 3.0;
         (axis * h + (u * a.cos() + v * a.sin()) * r).normalize()
     })
 }

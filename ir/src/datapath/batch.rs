@@ -159,7 +159,7 @@ impl Trace {
         self.syms.push(sym);
         self.stage_ids.push(stage);
         TV {
-            id: (self.ops.len() - 1) as u32,
+            id: u32::try_from(self.ops.len() - 1).expect("fewer than 2^32 nodes"),
             frac,
             sym,
         }
@@ -237,6 +237,10 @@ impl Trace {
         &self.tables
     }
     /// The input ports, in creation order.
+    ///
+    /// # Panics
+    ///
+    /// Never for a trace of fewer than `2^32` nodes (a node id is a `u32`).
     pub fn input_ports(&self) -> Vec<Port> {
         self.ops
             .iter()
@@ -245,7 +249,7 @@ impl Trace {
                 Op::Input(slot) => Some(Port {
                     name: self.input_names[*slot].clone(),
                     value: TV {
-                        id: i as u32,
+                        id: u32::try_from(i).expect("fewer than 2^32 nodes"),
                         frac: self.fracs[i],
                         sym: self.syms[i],
                     },
@@ -273,7 +277,7 @@ impl Trace {
         for (i, op) in self.ops.iter().enumerate() {
             v[i] = match op {
                 Op::Input(slot) => inputs.get(*slot).copied().unwrap_or(0.0),
-                Op::Const(c) => *c as f64 * crate::format::exp2i(-self.fracs[i]),
+                Op::Const(c) => code_value(*c, self.fracs[i]),
                 Op::Mul(a, b) => read(&v, a) * read(&v, b),
                 Op::Add(a, b) => read(&v, a) + read(&v, b),
                 Op::Sub(a, b) => read(&v, a) - read(&v, b),
@@ -291,11 +295,9 @@ impl Trace {
                 Op::Sqrt(a, _) => read(&v, a).sqrt(),
                 Op::Select(sel, options) => {
                     let k = read(&v, sel).round();
-                    let k = if k >= 0.0 && (k as usize) < options.len() {
-                        k as usize
-                    } else {
-                        0
-                    };
+                    let k = super::float_index(k)
+                        .filter(|&k| k < options.len())
+                        .unwrap_or(0);
                     read(&v, &options[k])
                 }
             };
@@ -641,24 +643,24 @@ impl<R: Raw> Program<R> {
                 Op::Add(a, b) | Op::Sub(a, b) => instrs.push(Instr::AddSub {
                     d,
                     a: a.id as usize,
-                    sa: (f - fr(a)) as u32,
+                    sa: align(f, fr(a)),
                     b: b.id as usize,
-                    sb: (f - fr(b)) as u32,
+                    sb: align(f, fr(b)),
                     sub: matches!(op, Op::Sub(..)),
                 }),
                 Op::Max(a, b) => instrs.push(Instr::Max {
                     d,
                     a: a.id as usize,
-                    sa: (f - fr(a)) as u32,
+                    sa: align(f, fr(a)),
                     b: b.id as usize,
-                    sb: (f - fr(b)) as u32,
+                    sb: align(f, fr(b)),
                 }),
                 Op::AddSigned(a, b, s, flip) => instrs.push(Instr::AddSigned {
                     d,
                     a: a.id as usize,
-                    sa: (f - fr(a)) as u32,
+                    sa: align(f, fr(a)),
                     b: b.id as usize,
-                    sb: (f - fr(b)) as u32,
+                    sb: align(f, fr(b)),
                     s: s.id as usize,
                     flip: *flip,
                 }),
@@ -676,7 +678,7 @@ impl<R: Raw> Program<R> {
                     sel: sel.id as usize,
                     opts: opts
                         .iter()
-                        .map(|o| (o.id as usize, (f - fr(o)) as u32))
+                        .map(|o| (o.id as usize, align(f, fr(o))))
                         .collect(),
                 }),
                 Op::Table(a, t) => instrs.push(Instr::Table {
@@ -1013,11 +1015,12 @@ fn block_body<R: Raw>(
                     let s = &lo[sel * BLOCK..sel * BLOCK + len];
                     for (k, o) in hi[..len].iter_mut().enumerate() {
                         let i = s[k].to_i128();
-                        let (src, sh) = if (0..opts.len() as i128).contains(&i) {
-                            opts[i as usize]
-                        } else {
-                            opts[0]
-                        };
+                        let (src, sh) =
+                            if let Some(&o) = usize::try_from(i).ok().and_then(|i| opts.get(i)) {
+                                o
+                            } else {
+                                opts[0]
+                            };
                         *o = lo[src * BLOCK + k] << sh;
                     }
                 }
@@ -1027,7 +1030,7 @@ fn block_body<R: Raw>(
                     let t = &this.tables[table];
                     let mask = t.len() - 1;
                     for (o, &x) in hi[..len].iter_mut().zip(src) {
-                        *o = t[index.to_bits(x.to_i128()) as usize & mask];
+                        *o = t[table_slot(index.to_bits(x.to_i128()), mask)];
                     }
                 }
                 Instr::Div {
@@ -1155,6 +1158,40 @@ pub enum Compiled {
     Wide(Program<i128>),
 }
 
+/// `code · 2^−frac`, rounded to the nearest f64 (exact for codes of at
+/// most 53 significant bits).
+#[allow(clippy::cast_precision_loss, reason = "the documented rounding to f64")]
+pub(crate) fn code_value(code: i128, frac: i32) -> f64 {
+    code as f64 * crate::format::exp2i(-frac)
+}
+
+/// An input code of a program compiled narrow, as `i64`: every input
+/// format of such a program is at most 64 bits wide, so the code fits (the
+/// low 64 bits, as `as` keeps them, are the code).
+#[allow(
+    clippy::cast_possible_truncation,
+    reason = "a narrow program's input codes fit i64 (see above)"
+)]
+fn narrow(x: i128) -> i64 {
+    x as i64
+}
+
+/// The entry of a table of `mask + 1` entries (a power of two) that raw
+/// index bits select.
+#[allow(
+    clippy::cast_possible_truncation,
+    reason = "masked to the table's size, which is a usize"
+)]
+pub(crate) fn table_slot(bits: u64, mask: usize) -> usize {
+    bits as usize & mask
+}
+
+/// The left shift aligning a value of `frac` fraction bits to `to`
+/// (`to ≥ frac`: `to` is the widest operand's).
+pub(crate) fn align(to: i32, frac: i32) -> u32 {
+    u32::try_from(to - frac).expect("aligned to the widest operand's fraction")
+}
+
 /// Run `f` on `inputs` converted to `i64` codes (they fit: the program was
 /// compiled narrow), and its outputs back to `i128`.
 fn on_i64<T>(
@@ -1163,13 +1200,13 @@ fn on_i64<T>(
 ) -> (Vec<Vec<i128>>, T) {
     let ins: Vec<Vec<i64>> = inputs
         .iter()
-        .map(|s| s.iter().map(|&x| x as i64).collect())
+        .map(|s| s.iter().map(|&x| narrow(x)).collect())
         .collect();
     let refs: Vec<&[i64]> = ins.iter().map(|v| v.as_slice()).collect();
     let (outs, extra) = f(&refs);
     (
         outs.into_iter()
-            .map(|o| o.into_iter().map(|x| i128::from(x)).collect())
+            .map(|o| o.into_iter().map(i128::from).collect())
             .collect(),
         extra,
     )
@@ -1274,7 +1311,7 @@ impl Compiled {
             Compiled::Narrow(p) => {
                 let conv: Vec<Vec<i64>> = inputs
                     .iter()
-                    .map(|c| c.iter().map(|&x| x as i64).collect())
+                    .map(|c| c.iter().map(|&x| narrow(x)).collect())
                     .collect();
                 let refs: Vec<&[i64]> = conv.iter().map(|c| c.as_slice()).collect();
                 p.probe(&refs, nodes)

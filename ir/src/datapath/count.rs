@@ -35,7 +35,7 @@ impl Sym {
         }
     }
     fn int_bits(&self) -> i32 {
-        self.width as i32 - self.frac
+        self.width.cast_signed() - self.frac
     }
 }
 
@@ -302,7 +302,7 @@ impl Count {
         let int = ia.max(ib) + grow;
         Sym {
             signed,
-            width: (int + frac).max(1) as u32,
+            width: (int + frac).max(1).unsigned_abs(),
             frac,
             origin: a.origin,
         }

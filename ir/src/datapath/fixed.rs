@@ -30,7 +30,7 @@ impl<R: Raw> Fx<R> {
     /// The value as f64 (rounded to nearest when `raw` has more than 53
     /// significant bits).
     pub fn to_f64(self) -> f64 {
-        self.raw.to_i128() as f64 * crate::format::exp2i(-self.frac)
+        super::batch::code_value(self.raw.to_i128(), self.frac)
     }
 }
 
@@ -120,9 +120,9 @@ impl<R: Raw> Fixed<R> {
     #[inline(always)]
     fn align(a: Fx<R>, b: Fx<R>) -> (R, R, i32) {
         if a.frac >= b.frac {
-            (a.raw, b.raw << (a.frac - b.frac) as u32, a.frac)
+            (a.raw, b.raw << (a.frac - b.frac).unsigned_abs(), a.frac)
         } else {
-            (a.raw << (b.frac - a.frac) as u32, b.raw, b.frac)
+            (a.raw << (b.frac - a.frac).unsigned_abs(), b.raw, b.frac)
         }
     }
 }
@@ -134,17 +134,18 @@ fn div_scaled_floor(num: i128, den: i128, k: i32) -> (i128, bool, bool) {
     const LIMIT: u128 = 1 << 100;
     let neg = num < 0;
     let mag = num.unsigned_abs();
-    let d = den as u128;
-    let (q, sticky, huge) = if k >= 0 && (k as u32) < 127 && mag.leading_zeros() > k as u32 + 1 {
+    let d = den.unsigned_abs(); // den > 0
+    let ku = k.unsigned_abs();
+    let (q, sticky, huge) = if k >= 0 && ku < 127 && mag.leading_zeros() > ku + 1 {
         let n = mag << k;
-        (n / d, n % d != 0, n / d >= LIMIT)
+        (n / d, !n.is_multiple_of(d), n / d >= LIMIT)
     } else {
         // Restoring division over the bits of |num|·2^k (k ≥ 0) or
         // ⌊|num|/2^−k⌋ (k < 0; the bits shifted out go into `sticky`).
         let (n, mut sticky, extra) = if k >= 0 {
-            (mag, false, k as u32)
+            (mag, false, ku)
         } else if -k < 128 {
-            let sh = (-k) as u32;
+            let sh = ku;
             (mag >> sh, mag & ((1u128 << sh) - 1) != 0, 0)
         } else {
             (0, mag != 0, 0)
@@ -164,7 +165,8 @@ fn div_scaled_floor(num: i128, den: i128, k: i32) -> (i128, bool, bool) {
         sticky |= r != 0;
         (q, sticky, huge || q >= LIMIT)
     };
-    let q = q as i128;
+    // The low 128 bits, as documented: wrap-around reads no more.
+    let q = q.cast_signed();
     // ⌊−x⌋ = −⌈x⌉.
     let f = if neg {
         q.wrapping_neg().wrapping_sub(i128::from(sticky))
@@ -247,9 +249,10 @@ impl<R: Raw> Datapath for Fixed<R> {
     #[inline(always)]
     fn quantize(&mut self, a: Fx<R>, q: &Quant) -> Fx<R> {
         let s = a.frac - q.format().frac();
-        if s > 0 && q.round() != Rounding::Trunc && (s as u32) < R::BITS {
-            let low = a.raw & ((R::ONE << s as u32) - R::ONE);
-            if low == R::ONE << (s as u32 - 1) {
+        let su = s.unsigned_abs();
+        if s > 0 && q.round() != Rounding::Trunc && su < R::BITS {
+            let low = a.raw & ((R::ONE << su) - R::ONE);
+            if low == R::ONE << (su - 1) {
                 match self.ties.iter_mut().find(|(st, _)| *st == q.stage()) {
                     Some((_, c)) => *c += 1,
                     None => self.ties.push((q.stage(), 1)),
@@ -262,7 +265,7 @@ impl<R: Raw> Datapath for Fixed<R> {
     #[inline]
     fn table(&mut self, t: &Table, index: Fx<R>) -> Fx<R> {
         debug_assert_eq!(index.frac, t.index.frac(), "table {} index format", t.name);
-        let addr = (t.index.to_bits(index.raw.to_i128()) as usize) & (t.depth() - 1);
+        let addr = super::batch::table_slot(t.index.to_bits(index.raw.to_i128()), t.depth() - 1);
         Fx {
             raw: R::from_i128(t.codes[addr]),
             frac: t.out.format().frac(),
@@ -280,13 +283,13 @@ impl<R: Raw> Datapath for Fixed<R> {
         debug_assert_eq!(sel.frac, 0, "select code is an integer");
         let frac = options.iter().map(|o| o.frac).max().expect("an option");
         let s = sel.raw.to_i128();
-        let o = if (0..options.len() as i128).contains(&s) {
-            options[s as usize]
+        let o = if let Some(&o) = usize::try_from(s).ok().and_then(|i| options.get(i)) {
+            o
         } else {
             options[0]
         };
         Fx {
-            raw: o.raw << (frac - o.frac) as u32,
+            raw: o.raw << super::batch::align(frac, o.frac),
             frac,
         }
     }
@@ -333,16 +336,17 @@ pub fn sqrt_exact(raw: i128, frac: i32, q: &Quant) -> Quantized {
     // m = ⌊4x⌋ and t = isqrt(m) = ⌊2√x⌋: ⌊√x⌋ = t >> 1,
     // ⌊√x + ½⌋ = (t + 1) >> 1, and √x + ½ is an integer (a tie) exactly
     // when 4x is an integer and the square of the odd number t.
-    let ra = raw as u128;
+    let ra = raw.unsigned_abs(); // raw ≥ 0
     let k = 2 * f.frac() - frac + 2;
+    let ku = k.unsigned_abs();
     let (m, exact) = if k >= 0 {
-        if k >= 128 || (ra != 0 && ra.leading_zeros() < k as u32) {
+        if k >= 128 || (ra != 0 && ra.leading_zeros() < ku) {
             // 4x ≥ 2^128: √x ≥ 2^63, beyond every signed format.
             return overflowed(f.max_code());
         }
         (ra << k, true)
     } else if -k < 128 {
-        let sh = (-k) as u32;
+        let sh = ku;
         (ra >> sh, ra & ((1u128 << sh) - 1) == 0)
     } else {
         (0, ra == 0)
@@ -361,5 +365,6 @@ pub fn sqrt_exact(raw: i128, frac: i32, q: &Quant) -> Quantized {
             }
         }
     };
-    q.apply(code as i128, f.frac())
+    // t < 2^64 (the root of a u128): the reinterpretation is the value.
+    q.apply(code.cast_signed(), f.frac())
 }

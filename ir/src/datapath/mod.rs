@@ -51,6 +51,18 @@ pub use reference::Reference;
 use crate::format::{ConvertError, Format};
 use crate::quantize::Quant;
 
+/// The index a non-negative real selects (its integer part, saturating at
+/// `usize::MAX` as Rust's float-to-integer conversion does); `None` for a
+/// negative value or NaN.
+#[allow(
+    clippy::cast_possible_truncation,
+    clippy::cast_sign_loss,
+    reason = "non-negative by the test; the conversion saturates"
+)]
+pub(crate) fn float_index(x: f64) -> Option<usize> {
+    (x >= 0.0).then_some(x as usize)
+}
+
 /// The operations a unit's datapath is written in. See the module page for
 /// the semantics table.
 pub trait Datapath {

@@ -68,11 +68,9 @@ impl Datapath for Reference {
     }
     #[inline]
     fn select(&mut self, sel: f64, options: &[f64]) -> f64 {
-        let i = sel as usize;
-        if sel >= 0.0 && i < options.len() {
-            options[i]
-        } else {
-            options[0]
+        match super::float_index(sel).and_then(|i| options.get(i)) {
+            Some(&o) => o,
+            None => options[0],
         }
     }
 }

@@ -94,7 +94,7 @@ pub fn witness_search(
     // row when there are none).
     let mut pass = 0usize;
     while s.spent < s.work {
-        let found = if pass % 2 == 0 {
+        let found = if pass.is_multiple_of(2) {
             let base = wild_row(&s.formats, &mut s.rng);
             if s.listed.is_some() {
                 s.listed_witness(&base)

@@ -60,7 +60,7 @@ pub fn inputs(cfg: &Config, part: Part, seed: u64) -> Result<Vec<Vec<i128>>, Rtl
         let mut rng = Rng::new(seed);
         let span = (f.max_code() - f.min_code() + 1) as u64;
         while rows.len() < count {
-            if rows.len() % 2 == 0 {
+            if rows.len().is_multiple_of(2) {
                 let d = rng.direction() * (0.97 + 0.06 * rng.unit());
                 rows.push(row(d));
             } else {

@@ -73,7 +73,7 @@ pub fn inputs(
     if let Part::Random(count) = part {
         let (bspan, vspan) = ((bmax + 1) as u64, (vmax - vmin + 1) as u64);
         while rows.len() < count {
-            if rows.len() % 2 == 0 {
+            if rows.len().is_multiple_of(2) {
                 let theta = THETA_LADDER[rng.below(THETA_LADDER.len() as u64) as usize];
                 let c = rng.barycentric();
                 rows.push(triangle_row(&i, theta, c, &mut rng));

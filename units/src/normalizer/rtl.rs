@@ -156,7 +156,7 @@ pub fn inputs(
     let span = (f.max_code() - f.min_code() + 1) as u64;
     let mut inputs: Vec<[i128; 3]> = Vec::with_capacity(count);
     while inputs.len() < count {
-        if inputs.len() % 2 == 0 {
+        if inputs.len().is_multiple_of(2) {
             let t = sampling::triangle_meeting(theta, &mut rng);
             let p: DVec3 = sampling::lerp3(&t, rng.barycentric());
             inputs.push([0, 1, 2].map(|k| n.q.normal.apply_f64(p[k]).map(|r| r.code).unwrap_or(0)));

@@ -66,7 +66,7 @@ pub fn inputs(
     if let Part::Random(count) = part {
         let mut rng = Rng::new(seed);
         while rows.len() < count {
-            if rows.len() % 2 == 0 {
+            if rows.len().is_multiple_of(2) {
                 let el = |rng: &mut Rng| m(-q + rng.below((2 * q + 1) as u64) as i128);
                 let (al, an) = (el(&mut rng), el(&mut rng));
                 rows.push(vec![

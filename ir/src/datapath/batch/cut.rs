@@ -7,9 +7,13 @@ use super::{Op, Trace, TV};
 
 impl Trace {
     /// The value node `n` computes, read at its own binary point.
+    ///
+    /// # Panics
+    ///
+    /// If `n` is not a node of this trace, or is `2^32` or more.
     pub fn value(&self, n: usize) -> TV {
         TV {
-            id: n as u32,
+            id: u32::try_from(n).expect("fewer than 2^32 nodes"),
             frac: self.fracs[n],
             sym: self.syms[n],
         }

@@ -144,9 +144,9 @@ impl<R: Raw> Program<R> {
                     ..
                 } => {
                     let kept = if step.shift <= 0 {
-                        sh(z[a], (-step.shift) as u32)
+                        sh(z[a], step.shift.unsigned_abs())
                     } else {
-                        z[a].saturating_sub(step.shift as u32)
+                        z[a].saturating_sub(step.shift.unsigned_abs())
                     };
                     // Saturation replaces the code by an end of the format;
                     // wrap-around keeps the low bits.
@@ -257,11 +257,15 @@ impl<R: Raw> Program<R> {
                         let q = wide.apply(ox, round, Overflow::Saturate);
                         (!q.overflowed).then_some((0, q.code))
                     } else if step.shift <= 0 {
-                        shl((sx, ox), (-step.shift) as u32)
+                        shl((sx, ox), step.shift.unsigned_abs())
                     } else if step.shift < 126 && sx % (1i128 << (step.shift + 1)) == 0 {
                         Some((
                             sx >> step.shift,
-                            crate::quantize::round_shift_right(ox, step.shift as u32, round),
+                            crate::quantize::round_shift_right(
+                                ox,
+                                step.shift.unsigned_abs(),
+                                round,
+                            ),
                         ))
                     } else {
                         None
@@ -421,11 +425,12 @@ impl<R: Raw> Program<R> {
                 }
                 Instr::Select { d, sel, ref opts } if r[sel].0 == r[sel].1 => {
                     let s0 = r[sel].0;
-                    let (o, sh) = if (0..opts.len() as i128).contains(&s0) {
-                        opts[s0 as usize]
-                    } else {
-                        opts[0]
-                    };
+                    let (o, sh) =
+                        if let Some(&o) = usize::try_from(s0).ok().and_then(|i| opts.get(i)) {
+                            o
+                        } else {
+                            opts[0]
+                        };
                     r[d] = (r[o].0 << sh, r[o].1 << sh);
                 }
                 Instr::Select {
@@ -447,7 +452,7 @@ impl<R: Raw> Program<R> {
                     let v: Vec<i128> = if hi - lo < t.len() as i128 {
                         let mask = t.len() - 1;
                         (lo..=hi)
-                            .map(|x| t[index.to_bits(x) as usize & mask].to_i128())
+                            .map(|x| t[super::table_slot(index.to_bits(x), mask)].to_i128())
                             .collect()
                     } else {
                         t.iter().map(|c| c.to_i128()).collect()
@@ -470,7 +475,7 @@ fn gcd(a: i128, b: i128) -> i128 {
     while b != 0 {
         (a, b) = (b, a % b);
     }
-    a.min(i128::MAX as u128) as i128
+    i128::try_from(a).unwrap_or(i128::MAX)
 }
 
 /// A congruence scaled by `2^s`, if it fits.
@@ -480,6 +485,14 @@ fn shl((s, o): (i128, i128), sh: u32) -> Option<(i128, i128)> {
 }
 
 #[cfg(test)]
+#[allow(
+    clippy::cast_lossless,
+    clippy::cast_possible_truncation,
+    clippy::cast_sign_loss,
+    clippy::cast_possible_wrap,
+    clippy::cast_precision_loss,
+    reason = "tests build expected values with plain conversions"
+)]
 mod tests {
     use crate::datapath::{Compiled, Datapath, Trace};
     use crate::format::Format;

@@ -22,9 +22,9 @@ use crate::quantize::{Overflow, Rounding};
 /// with `m` their unsigned value.
 pub fn lit(v: i128, w: u32) -> String {
     let m = if w >= 128 {
-        v as u128
+        v.cast_unsigned()
     } else {
-        (v as u128) & ((1u128 << w) - 1)
+        v.cast_unsigned() & ((1u128 << w) - 1)
     };
     format!("(_ bv{m} {w})")
 }
@@ -45,7 +45,7 @@ fn ext(e: &str, from: u32, to: u32) -> String {
 fn quant_term(x: &str, wa: u32, fa: i32, q: &crate::quantize::Quant) -> (String, u32, String) {
     let sh = fa - q.format().frac();
     let (r, rw) = if sh > 0 {
-        let sh = sh as u32;
+        let sh = sh.unsigned_abs();
         let xe = if wa < sh + 1 {
             ext(x, wa, sh + 1)
         } else {
@@ -76,7 +76,7 @@ fn quant_term(x: &str, wa: u32, fa: i32, q: &crate::quantize::Quant) -> (String,
             Some(i) => (format!("(bvadd {t} ((_ zero_extend {}) {i}))", tw - 1), tw),
         }
     } else {
-        let l = (-sh) as u32;
+        let l = sh.unsigned_abs();
         let rw = wa + l;
         (
             format!("(bvshl {} {})", ext(x, wa, rw), lit(i128::from(l), rw)),
@@ -309,7 +309,7 @@ impl Trace {
             let wi = w(i);
             let val = |t: &TV, to: u32| self.smt_val(t.node(), to);
             let aligned = |t: &TV| {
-                let sh = (self.fracs[i] - t.frac()) as u32;
+                let sh = super::align(self.fracs[i], t.frac());
                 if sh == 0 {
                     val(t, wi)
                 } else {
@@ -582,7 +582,7 @@ impl Trace {
         let event = match m.kind {
             MutationKind::Overflow(_) => quant_term(&xa, wa, op_a.frac(), q).2,
             MutationKind::Round(_) if sh > 0 => {
-                let sh = sh as u32;
+                let sh = sh.unsigned_abs();
                 let xw = wa.max(sh + 1);
                 let xe = ext(&xa, wa, xw);
                 let bit = |k: u32| format!("((_ extract {k} {k}) {xe})");
