@@ -52,7 +52,7 @@ pub fn signals(e: &Emitted) -> Vec<String> {
 /// offered until taken, one at a time.
 pub fn stimulus(e: &Emitted) -> String {
     let ev = events(e);
-    let cycles = ev.len() as u32 * 3 + e.latency + 16;
+    let cycles = u32::try_from(ev.len()).unwrap_or(u32::MAX / 4) * 3 + e.latency + 16;
     let m = &e.module;
     let mut t = String::new();
     let _ = writeln!(
@@ -222,7 +222,10 @@ impl Wave {
         let ruler: String = shown
             .iter()
             .map(|c| match c {
-                Some(c) if c % 5 == 0 => char::from_digit((c / 5 % 10) as u32, 10).unwrap_or('?'),
+                Some(c) if c % 5 == 0 => u32::try_from(c / 5 % 10)
+                    .ok()
+                    .and_then(|d| char::from_digit(d, 10))
+                    .unwrap_or('?'),
                 Some(_) => '.',
                 None => '~',
             })

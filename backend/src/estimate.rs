@@ -196,6 +196,10 @@ pub struct AreaTerms {
 
 impl AreaTerms {
     /// The terms of `hw` on `target`.
+    #[allow(
+        clippy::cast_precision_loss,
+        reason = "bit and block counts, far below 2^53: exact in f64"
+    )]
     pub fn of(hw: &super::Hardware, target: Target) -> AreaTerms {
         let dsp = DspRules::of(target);
         let bram = BramRules::of(target);
@@ -290,6 +294,11 @@ impl AreaModel {
         target.area_model()
     }
 
+    #[allow(
+        clippy::cast_possible_truncation,
+        clippy::cast_sign_loss,
+        reason = "clamped at 0 and rounded: a whole, non-negative count (saturating)"
+    )]
     fn apply(c: &[f64; 11], t: &AreaTerms) -> u64 {
         let v = t.values();
         let s: f64 = v.iter().zip(c).map(|(x, k)| x * k).sum::<f64>() + c[10];
@@ -323,6 +332,14 @@ pub fn flip_flops(hw: &super::Hardware, target: Target) -> Option<u64> {
 pub mod fit;
 
 #[cfg(test)]
+#[allow(
+    clippy::cast_lossless,
+    clippy::cast_possible_truncation,
+    clippy::cast_sign_loss,
+    clippy::cast_possible_wrap,
+    clippy::cast_precision_loss,
+    reason = "tests build expected values with plain conversions"
+)]
 mod tests {
     use super::*;
 

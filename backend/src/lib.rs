@@ -29,6 +29,14 @@
 //! and hash), the latency and every port with its format.
 
 #![warn(missing_docs, clippy::missing_errors_doc, clippy::missing_panics_doc)]
+// No bare numeric `as` (see fxshade-numbers).
+#![warn(
+    clippy::cast_lossless,
+    clippy::cast_possible_truncation,
+    clippy::cast_sign_loss,
+    clippy::cast_possible_wrap,
+    clippy::cast_precision_loss
+)]
 
 pub mod axis;
 pub use fxshade_numbers::bits;
@@ -481,6 +489,19 @@ fn sanitize(s: &str) -> String {
         .collect()
 }
 
+/// A count of ports, flags or options as `u32` (saturating: no design
+/// comes near 2^32 of any).
+fn count(n: usize) -> u32 {
+    u32::try_from(n).unwrap_or(u32::MAX)
+}
+
+/// The left shift aligning a value of `from` fraction bits to `to`, the
+/// fraction of the sum or selection it enters (`to ≥ from`: the result's
+/// fraction is its widest operand's).
+fn shift_up(to: i32, from: i32) -> u32 {
+    u32::try_from(to - from).expect("a result's fraction is its widest operand's")
+}
+
 fn decl(signed: bool, width: u32) -> String {
     format!("{}[{}:0]", if signed { "signed " } else { "" }, width - 1)
 }
@@ -676,8 +697,8 @@ impl<'a> Emitter<'a> {
                 // unsigned operands drops again.
                 let ext = !self.model().and_then(|m| m.dsp).is_some_and(|d| d.mixed);
                 let (wa, wb) = (
-                    sa.width + (ext && sb.signed && !sa.signed) as u32,
-                    sb.width + (ext && sa.signed && !sb.signed) as u32,
+                    sa.width + u32::from(ext && sb.signed && !sa.signed),
+                    sb.width + u32::from(ext && sa.signed && !sb.signed),
                 );
                 let dm = self.model().map_or(0.0, |m| m.mul(wa, wb));
                 let (mut s, mut t0) = self.place(&[a.node(), b.node()], dm);
@@ -799,8 +820,8 @@ impl<'a> Emitter<'a> {
                 let (s, t0) = self.place(&[a.node(), b.node()], dl);
                 let (va, vb) = (self.operand(&a, s), self.operand(&b, s));
                 let w = sym.width;
-                let xa = bits::align(&va, (sym.frac - va.frac) as u32, w);
-                let xb = bits::align(&vb, (sym.frac - vb.frac) as u32, w);
+                let xa = bits::align(&va, shift_up(sym.frac, va.frac), w);
+                let xb = bits::align(&vb, shift_up(sym.frac, vb.frac), w);
                 let e = match op {
                     Op::Add(..) => {
                         self.hw.adders.push(w);
@@ -888,8 +909,8 @@ impl<'a> Emitter<'a> {
                     self.operand(&sg, s),
                 );
                 let w = sym.width;
-                let xa = bits::align(&va, (sym.frac - va.frac) as u32, w);
-                let xb = bits::align(&vb, (sym.frac - vb.frac) as u32, w);
+                let xa = bits::align(&va, shift_up(sym.frac, va.frac), w);
+                let xb = bits::align(&vb, shift_up(sym.frac, vb.frac), w);
                 // One adder/subtracter: its mode is the sign bit of `sg`
                 // (Yosys's opt_share merges the pair into one $alu).
                 self.hw.add_subs.push(w);
@@ -918,7 +939,7 @@ impl<'a> Emitter<'a> {
             Op::Select(sel, opts) => {
                 let mut all: Vec<usize> = vec![sel.node()];
                 all.extend(opts.iter().map(|o| o.node()));
-                let dl = self.model().map_or(0.0, |m| m.select(opts.len() as u32));
+                let dl = self.model().map_or(0.0, |m| m.select(count(opts.len())));
                 let (s, t0) = self.place(&all, dl);
                 let vs = self.operand(&sel, s);
                 self.case_select(i, &name, &vs.expr, vs.width, &opts, s);
@@ -1212,7 +1233,7 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
                             .any(|(_, a)| a.starts_with(&format!("{w} <= ")))
                     })
                     && !matches!(t.ops()[n], Op::Input(_));
-                s + wire as u32
+                s + u32::from(wire)
             })
         })
         .max()
@@ -1249,12 +1270,12 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
         });
     }
     let nf = flags.len();
-    e.hw.flops += latency as u64; // valid bits
-                                  // The FIFO handshake: an output FIFO with room for every item in
-                                  // flight (a power of two above the pipeline's depth) and a head
-                                  // register; the stall handshake: an output buffer of two registers
-                                  // (the head and the skid). Either way the ports are registers, one
-                                  // cycle more.
+    e.hw.flops += u64::from(latency); // valid bits
+                                      // The FIFO handshake: an output FIFO with room for every item in
+                                      // flight (a power of two above the pipeline's depth) and a head
+                                      // register; the stall handshake: an output buffer of two registers
+                                      // (the head and the skid). Either way the ports are registers, one
+                                      // cycle more.
     let fifo = d.handshake == timing::Handshake::Fifo && muts.is_empty();
     // A FIFO for a target whose memories are block RAM reads it
     // synchronously (one cycle more).
@@ -1262,27 +1283,27 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
     let block = fifo && memory == Some(targets::FifoMemory::Block);
     let depth = (latency + 2).next_power_of_two();
     let aw = depth.trailing_zeros();
-    let out_w: u32 = outs.iter().map(|p| p.format.width()).sum::<u32>() + nf as u32;
+    let out_w: u32 = outs.iter().map(|p| p.format.width()).sum::<u32>() + count(nf);
     if fifo {
         // Pointers, the count, the registered admission and output-valid
         // bits, the FIFO's entries and its head; the pointers' two
         // incrementers, the count's add and subtract, its three compares
         // with the admission bounds and the one with 2 for valid_o (the
         // pointers' equality is not an ordered compare).
-        e.hw.flops += 3 * (aw as u64 + 1) + 2 + (depth as u64 + 1) * out_w as u64;
+        e.hw.flops += 3 * (u64::from(aw) + 1) + 2 + (u64::from(depth) + 1) * u64::from(out_w);
         e.hw.adders.extend([aw + 1; 4]);
         e.hw.compares += 4;
         // Its entries, a memory synthesis may build as LUT RAM.
-        e.hw.fifo_bits += depth as u64 * out_w as u64;
+        e.hw.fifo_bits += u64::from(depth) * u64::from(out_w);
     } else {
         // The head and the skid register with their valid bits (the
         // enable's copies are counted where they are written).
-        e.hw.flops += 2 * out_w as u64 + 2;
+        e.hw.flops += 2 * u64::from(out_w) + 2;
         // The head loads the skid register or the last stage.
         e.hw.select_bits += u64::from(out_w);
     }
     let pipe_latency = latency;
-    let latency = latency + 1 + block as u32;
+    let latency = latency + 1 + u32::from(block);
     // Set-up ports: the registers of their live fields.
     let mut setup = Vec::new();
     // Held ports whose ready, while high, keeps items out.
@@ -1298,7 +1319,7 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
             if live[p.value.node()] {
                 let f = p.format;
                 regs.push((format!("{}_q", p.name), format!("{}_i", p.name), f));
-                flops += f.width() as u64;
+                flops += u64::from(f.width());
             }
         }
         if grp.banked {
@@ -1773,7 +1794,7 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
     if nf > 0 {
         out_fields.push(Field::new(
             "ovf",
-            Format::new(false, nf as u32, 0).expect("at most 64 flags"),
+            Format::new(false, count(nf), 0).expect("at most 64 flags"),
         ));
     }
     out_fields.extend(outs.iter().map(|p| Field::new(&p.name, p.format)));
@@ -1840,6 +1861,14 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
 }
 
 #[cfg(test)]
+#[allow(
+    clippy::cast_lossless,
+    clippy::cast_possible_truncation,
+    clippy::cast_sign_loss,
+    clippy::cast_possible_wrap,
+    clippy::cast_precision_loss,
+    reason = "tests build expected values with plain conversions"
+)]
 mod node_name_tests {
     use crate::datapath::{Datapath, Trace};
     use crate::emit::sat;

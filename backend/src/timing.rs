@@ -91,8 +91,8 @@ pub struct DelayModel {
 fn ceil_log(n: u32, base: u32) -> u32 {
     let mut levels = 0;
     let mut reach = 1u64;
-    while reach < n as u64 {
-        reach *= base as u64;
+    while reach < u64::from(n) {
+        reach *= u64::from(base);
         levels += 1;
     }
     levels
@@ -105,7 +105,7 @@ impl DelayModel {
     }
     /// A carry chain of `w` bits.
     pub fn carry(&self, w: u32) -> f64 {
-        self.carry_base + w as f64 * self.carry_bit
+        self.carry_base + f64::from(w) * self.carry_bit
     }
     /// An adder or subtractor of `w` result bits.
     pub fn add(&self, w: u32) -> f64 {
@@ -121,7 +121,7 @@ impl DelayModel {
     }
     /// A multiplexer of `n` inputs.
     pub fn select(&self, n: u32) -> f64 {
-        self.lut * ceil_log(n, 4).max(1) as f64
+        self.lut * f64::from(ceil_log(n, 4).max(1))
     }
     /// A multiplier of `a × b` bits (as built: an unsigned operand of a
     /// mixed product is already extended by its bit).
@@ -135,7 +135,7 @@ impl DelayModel {
                 } else {
                     1
                 };
-                d.comb + ceil_log(tiles, 2) as f64 * d.combine
+                d.comb + f64::from(ceil_log(tiles, 2)) * d.combine
             }
             None => self.lut_mul(a, b),
         }
@@ -144,7 +144,7 @@ impl DelayModel {
     /// `⌈log2 min(a, b)⌉` levels of partial-product adders, then the final
     /// carry chain.
     pub fn lut_mul(&self, a: u32, b: u32) -> f64 {
-        ceil_log(a.min(b), 2).max(1) as f64 * self.mul_row + self.carry(a + b)
+        f64::from(ceil_log(a.min(b), 2).max(1)) * self.mul_row + self.carry(a + b)
     }
     /// The rounding incrementer of a nearest mode dropping `s` bits into a
     /// `w`-bit result (`s = 0` or truncation: no logic): a carry chain fed
@@ -156,7 +156,7 @@ impl DelayModel {
             0.0
         } else {
             self.carry(w)
-                .max(self.lut * (ceil_log(s, 4).max(1) + 1) as f64)
+                .max(self.lut * f64::from(ceil_log(s, 4).max(1) + 1))
         }
     }
     /// The range check of `k` bits and the saturating multiplexer (none
@@ -165,7 +165,7 @@ impl DelayModel {
         if k == 0 {
             0.0
         } else {
-            self.lut * ceil_log(k + 1, 4).max(1) as f64
+            self.lut * f64::from(ceil_log(k + 1, 4).max(1))
                 + if saturate {
                     self.lut + self.word_select
                 } else {
@@ -221,6 +221,14 @@ pub enum Handshake {
 }
 
 #[cfg(test)]
+#[allow(
+    clippy::cast_lossless,
+    clippy::cast_possible_truncation,
+    clippy::cast_sign_loss,
+    clippy::cast_possible_wrap,
+    clippy::cast_precision_loss,
+    reason = "tests build expected values with plain conversions"
+)]
 mod tests {
     use super::*;
 

@@ -11,7 +11,7 @@ impl<'a> Emitter<'a> {
         self.body
             .push(format!("reg  {} {name};", decl(signed, width)));
         self.regs.push((stage, format!("{name} <= {src};")));
-        self.hw.flops += width as u64;
+        self.hw.flops += u64::from(width);
     }
 
     /// [`Self::reg`] for a product's own operand register
@@ -20,7 +20,7 @@ impl<'a> Emitter<'a> {
         self.body
             .push(format!("reg  {} {name};", decl(signed, width)));
         self.own_regs.push((stage, format!("{name} <= {src};")));
-        self.hw.flops += width as u64;
+        self.hw.flops += u64::from(width);
     }
 
     /// The node's value at `stage` (balancing registers created on demand).
@@ -137,7 +137,7 @@ impl<'a> Emitter<'a> {
                 let v = self.operand(o, stage);
                 bits::sv(
                     sym.signed,
-                    &bits::align(&v, (sym.frac - v.frac) as u32, sym.width),
+                    &bits::align(&v, shift_up(sym.frac, v.frac), sym.width),
                 )
             })
             .collect();
@@ -157,6 +157,14 @@ impl<'a> Emitter<'a> {
 }
 
 #[cfg(test)]
+#[allow(
+    clippy::cast_lossless,
+    clippy::cast_possible_truncation,
+    clippy::cast_sign_loss,
+    clippy::cast_possible_wrap,
+    clippy::cast_precision_loss,
+    reason = "tests build expected values with plain conversions"
+)]
 mod tests {
     use crate::datapath::{Datapath, Trace};
     use crate::emit::{sat, test_design};

@@ -122,7 +122,7 @@ pub(crate) fn out_record(
         .map(|p| (format!("{}_o", p.name), p.format.width(), p.format.signed()))
         .collect();
     if !flags.is_empty() {
-        widths.push(("ovf_o".into(), flags.len() as u32, false));
+        widths.push(("ovf_o".into(), count(flags.len()), false));
     }
     let w: u32 = widths.iter().map(|x| x.1).sum();
     let mut v = String::new();
@@ -276,6 +276,14 @@ pub(crate) fn fifo_outputs(
 }
 
 #[cfg(test)]
+#[allow(
+    clippy::cast_lossless,
+    clippy::cast_possible_truncation,
+    clippy::cast_sign_loss,
+    clippy::cast_possible_wrap,
+    clippy::cast_precision_loss,
+    reason = "tests build expected values with plain conversions"
+)]
 mod tests {
     use crate::datapath::{Datapath, Trace};
     use crate::emit::{sat, test_design};

@@ -83,7 +83,7 @@ impl<'a> Emitter<'a> {
         let drop = a.frac() - f.frac();
         let rw = bits::rounded_width(sa.width, drop, q.round());
         let nearest = q.round() != Rounding::Trunc;
-        let dr = m.round(drop.max(0) as u32, rw, nearest);
+        let dr = m.round(drop.max(0).unsigned_abs(), rw, nearest);
         let checked = if bits::can_leave(rw, sa.signed, f.width(), f.signed()) {
             rw.saturating_sub(f.width()) + 1
         } else {
@@ -188,6 +188,14 @@ pub(crate) fn sink_plan(e: &Emitter) -> Vec<Option<u32>> {
 }
 
 #[cfg(test)]
+#[allow(
+    clippy::cast_lossless,
+    clippy::cast_possible_truncation,
+    clippy::cast_sign_loss,
+    clippy::cast_possible_wrap,
+    clippy::cast_precision_loss,
+    reason = "tests build expected values with plain conversions"
+)]
 mod tests {
     use crate::datapath::{Datapath, Trace};
     use crate::emit::{sat, test_design};

@@ -103,7 +103,7 @@ impl<'a> Emitter<'a> {
         t += "end\n";
         let _ = addr_bits;
         self.rom_text.push(t);
-        self.hw.rom_bits += entries.len() as u64 * f.width() as u64;
+        self.hw.rom_bits += entries.len() as u64 * u64::from(f.width());
         self.hw.roms.push(RomHw {
             name: name.clone(),
             entries: entries.len() as u64,
@@ -314,7 +314,7 @@ pub(crate) fn banked_port(
         t += "  end
 ";
     } else {
-        extra += w as u64;
+        extra += u64::from(w);
         let (step, shift_in) = if fifo {
             ("1'b1", "in_xfer")
         } else {
@@ -392,6 +392,14 @@ pub(crate) fn banked_port(
 }
 
 #[cfg(test)]
+#[allow(
+    clippy::cast_lossless,
+    clippy::cast_possible_truncation,
+    clippy::cast_sign_loss,
+    clippy::cast_possible_wrap,
+    clippy::cast_precision_loss,
+    reason = "tests build expected values with plain conversions"
+)]
 mod tests {
     use crate::datapath::{Datapath, Table, Trace};
     use crate::emit::{sat, test_design};
