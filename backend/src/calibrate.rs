@@ -124,14 +124,6 @@ pub fn probes(target: Target) -> Vec<Probe> {
 }
 
 #[cfg(test)]
-#[allow(
-    clippy::cast_lossless,
-    clippy::cast_possible_truncation,
-    clippy::cast_sign_loss,
-    clippy::cast_possible_wrap,
-    clippy::cast_precision_loss,
-    reason = "tests build expected values with plain conversions"
-)]
 mod tests {
     use super::*;
 

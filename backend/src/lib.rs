@@ -37,6 +37,17 @@
     clippy::cast_possible_wrap,
     clippy::cast_precision_loss
 )]
+// Tests build expected values with plain conversions.
+#![cfg_attr(
+    test,
+    allow(
+        clippy::cast_lossless,
+        clippy::cast_possible_truncation,
+        clippy::cast_sign_loss,
+        clippy::cast_possible_wrap,
+        clippy::cast_precision_loss
+    )
+)]
 
 pub mod axis;
 pub use fxshade_numbers::bits;
@@ -1861,14 +1872,6 @@ fn emit_with(d: &Design, muts: &[Mutation]) -> Result<Emitted, EmitError> {
 }
 
 #[cfg(test)]
-#[allow(
-    clippy::cast_lossless,
-    clippy::cast_possible_truncation,
-    clippy::cast_sign_loss,
-    clippy::cast_possible_wrap,
-    clippy::cast_precision_loss,
-    reason = "tests build expected values with plain conversions"
-)]
 mod node_name_tests {
     use crate::datapath::{Datapath, Trace};
     use crate::emit::sat;

@@ -215,14 +215,6 @@ fn code_and_literals(text: &str) -> Vec<(&str, bool)> {
 }
 
 #[cfg(test)]
-#[allow(
-    clippy::cast_lossless,
-    clippy::cast_possible_truncation,
-    clippy::cast_sign_loss,
-    clippy::cast_possible_wrap,
-    clippy::cast_precision_loss,
-    reason = "tests build expected values with plain conversions"
-)]
 mod tests {
     use super::*;
 

@@ -26,6 +26,17 @@
     clippy::cast_possible_wrap,
     clippy::cast_precision_loss
 )]
+// Tests build expected values with plain conversions.
+#![cfg_attr(
+    test,
+    allow(
+        clippy::cast_lossless,
+        clippy::cast_possible_truncation,
+        clippy::cast_sign_loss,
+        clippy::cast_possible_wrap,
+        clippy::cast_precision_loss
+    )
+)]
 
 pub mod datapath;
 pub mod escape;

@@ -109,14 +109,6 @@ impl<'a> Emitter<'a> {
 }
 
 #[cfg(test)]
-#[allow(
-    clippy::cast_lossless,
-    clippy::cast_possible_truncation,
-    clippy::cast_sign_loss,
-    clippy::cast_possible_wrap,
-    clippy::cast_precision_loss,
-    reason = "tests build expected values with plain conversions"
-)]
 mod tests {
     use crate::datapath::{Datapath, Trace};
     use crate::emit::{sat, test_design};

@@ -212,32 +212,9 @@ pub(crate) fn formal_block_fifo(
 }
 
 #[cfg(test)]
-#[allow(
-    clippy::cast_lossless,
-    clippy::cast_possible_truncation,
-    clippy::cast_sign_loss,
-    clippy::cast_possible_wrap,
-    clippy::cast_precision_loss,
-    reason = "tests build expected values with plain conversions"
-)]
 mod tests {
-    use crate::datapath::{Datapath, Trace};
-    use crate::emit::{sat, test_design};
+    use crate::emit::{chain, test_design};
     use crate::timing::Handshake;
-
-    fn chain(depth: usize) -> Trace {
-        let mut t = Trace::new();
-        let a = t.input_named("a", &sat("f.in", 8));
-        let b = t.input_named("b", &sat("f.in", 8));
-        let s = t.add(a, b);
-        let mut y = t.quantize(s, &sat("f.y", 9));
-        for _ in 1..depth {
-            let s = t.add(y, b);
-            y = t.quantize(s, &sat("f.y", 9));
-        }
-        t.output("z", y);
-        t
-    }
 
     /// The formal pass writes one `ifdef FORMAL` block holding every
     /// `assert`, `assume` and `cover` of the module (simulators and
@@ -249,7 +226,7 @@ mod tests {
     fn properties_cover_every_output_and_every_stage_inside_ifdef_formal() {
         for hs in [Handshake::Stall, Handshake::Fifo] {
             for depth in 1..=4usize {
-                let mut d = test_design(chain(depth));
+                let mut d = test_design(chain("f", depth));
                 d.handshake = hs;
                 let v = crate::emit(&d).expect("emits").verilog;
                 let start = v.find("`ifdef FORMAL").expect("a formal block");

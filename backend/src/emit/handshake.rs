@@ -276,34 +276,9 @@ pub(crate) fn fifo_outputs(
 }
 
 #[cfg(test)]
-#[allow(
-    clippy::cast_lossless,
-    clippy::cast_possible_truncation,
-    clippy::cast_sign_loss,
-    clippy::cast_possible_wrap,
-    clippy::cast_precision_loss,
-    reason = "tests build expected values with plain conversions"
-)]
 mod tests {
-    use crate::datapath::{Datapath, Trace};
-    use crate::emit::{sat, test_design};
+    use crate::emit::{chain, test_design};
     use crate::timing::Handshake;
-
-    /// `depth` quantizations of `a + b` in a chain, outputs `z` and the
-    /// overflow flags.
-    fn chain(depth: usize) -> Trace {
-        let mut t = Trace::new();
-        let a = t.input_named("a", &sat("h.in", 8));
-        let b = t.input_named("b", &sat("h.in", 8));
-        let s = t.add(a, b);
-        let mut y = t.quantize(s, &sat("h.y", 9));
-        for _ in 1..depth {
-            let s = t.add(y, b);
-            y = t.quantize(s, &sat("h.y", 9));
-        }
-        t.output("z", y);
-        t
-    }
 
     /// The signal `name` is, through `wire x = y;` aliases and
     /// `$signed(…)`/bit selects, a register of the module's text (a `reg`
@@ -351,7 +326,7 @@ mod tests {
     fn every_output_port_is_a_register_for_either_handshake() {
         for hs in [Handshake::Stall, Handshake::Fifo] {
             for depth in 1..=4usize {
-                let mut d = test_design(chain(depth));
+                let mut d = test_design(chain("h", depth));
                 d.handshake = hs;
                 let e = crate::emit(&d).expect("emits");
                 let v = &e.verilog;

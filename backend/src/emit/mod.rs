@@ -42,3 +42,23 @@ pub(crate) fn sat(stage: &'static str, width: u32) -> crate::quantize::Quant {
         crate::quantize::Overflow::Saturate,
     )
 }
+
+/// `y_1 = Q(a + b)`, `y_{k+1} = Q(y_k + b)` for `depth` quantizations of
+/// stage `<unit>.y` (9 bits, from 8-bit inputs), output `z`: a pipeline of
+/// `depth` compact stages for the passes' tests.
+#[cfg(test)]
+pub(crate) fn chain(unit: &str, depth: usize) -> crate::datapath::Trace {
+    use crate::datapath::Datapath;
+    let stage = |s: &str| -> &'static str { Box::leak(format!("{unit}.{s}").into_boxed_str()) };
+    let mut t = crate::datapath::Trace::new();
+    let a = t.input_named("a", &sat(stage("in"), 8));
+    let b = t.input_named("b", &sat(stage("in"), 8));
+    let s = t.add(a, b);
+    let mut y = t.quantize(s, &sat(stage("y"), 9));
+    for _ in 1..depth {
+        let s = t.add(y, b);
+        y = t.quantize(s, &sat(stage("y"), 9));
+    }
+    t.output("z", y);
+    t
+}

@@ -347,14 +347,6 @@ pub(crate) fn chunk_slices(v: &Val, c: u32) -> Vec<(String, u32, bool, u32)> {
 }
 
 #[cfg(test)]
-#[allow(
-    clippy::cast_lossless,
-    clippy::cast_possible_truncation,
-    clippy::cast_sign_loss,
-    clippy::cast_possible_wrap,
-    clippy::cast_precision_loss,
-    reason = "tests build expected values with plain conversions"
-)]
 mod tests {
     use super::chunk_slices;
     use crate::bits::Val;

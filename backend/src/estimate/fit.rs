@@ -52,14 +52,6 @@ pub fn fit(rows: &[[f64; 10]], y: &[f64], nonneg: [bool; 11]) -> [f64; 11] {
 }
 
 #[cfg(test)]
-#[allow(
-    clippy::cast_lossless,
-    clippy::cast_possible_truncation,
-    clippy::cast_sign_loss,
-    clippy::cast_possible_wrap,
-    clippy::cast_precision_loss,
-    reason = "tests build expected values with plain conversions"
-)]
 mod tests {
     use super::*;
 

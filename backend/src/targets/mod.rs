@@ -264,14 +264,6 @@ impl<'de> serde::Deserialize<'de> for Target {
 }
 
 #[cfg(test)]
-#[allow(
-    clippy::cast_lossless,
-    clippy::cast_possible_truncation,
-    clippy::cast_sign_loss,
-    clippy::cast_possible_wrap,
-    clippy::cast_precision_loss,
-    reason = "tests build expected values with plain conversions"
-)]
 mod tests {
     use super::*;
 

@@ -485,14 +485,6 @@ fn shl((s, o): (i128, i128), sh: u32) -> Option<(i128, i128)> {
 }
 
 #[cfg(test)]
-#[allow(
-    clippy::cast_lossless,
-    clippy::cast_possible_truncation,
-    clippy::cast_sign_loss,
-    clippy::cast_possible_wrap,
-    clippy::cast_precision_loss,
-    reason = "tests build expected values with plain conversions"
-)]
 mod tests {
     use crate::datapath::{Compiled, Datapath, Trace};
     use crate::format::Format;
