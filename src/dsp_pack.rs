@@ -330,8 +330,8 @@ pub fn pack_mult18(netlist: &mut Value, top: &str) -> Result<PackStats> {
         }
         let outputs_ok = outputs_ok && !outs.is_empty();
         let inputs_ok = inputs_ok && operands.iter().any(|(r, _)| !r.is_empty());
-        st.kept_shared += shared as usize;
-        st.kept_enable += foreign_enable as usize;
+        st.kept_shared += usize::from(shared);
+        st.kept_enable += usize::from(foreign_enable);
         if !inputs_ok && !outputs_ok {
             continue;
         }

@@ -246,7 +246,7 @@ pub fn read_normal_map(
     })?;
     {
         let i = r.info();
-        let texels = i.width as u64 * i.height as u64;
+        let texels = u64::from(i.width) * u64::from(i.height);
         anyhow::ensure!(
             texels <= MAX_MAP_TEXELS,
             "--normal-map {}: {}×{} texels; at most {MAX_MAP_TEXELS} are read",
@@ -278,7 +278,7 @@ pub fn read_normal_map(
         .map_err(|e| anyhow::anyhow!("--normal-map {}: corrupt image data: {e}", path.display()))?;
     buf.truncate(info.buffer_size());
     let data: Vec<u16> = if bits == 8 {
-        buf.iter().map(|&b| b as u16).collect()
+        buf.iter().map(|&b| u16::from(b)).collect()
     } else {
         buf.chunks_exact(2)
             .map(|c| u16::from_be_bytes([c[0], c[1]]))

@@ -433,7 +433,11 @@ mod tests {
                 .filter_map(|t| t.split_once("</text>").map(|x| x.0.trim().to_string()))
                 .collect::<Vec<_>>()
         };
-        let t = texts((8..=12).map(|w| (w as f64, 1.0 / w as f64)).collect());
+        let t = texts(
+            (8..=12)
+                .map(|w| (f64::from(w), 1.0 / f64::from(w)))
+                .collect(),
+        );
         assert!(t.iter().any(|x| x == "9"), "{t:?}");
         assert!(
             !t.iter()

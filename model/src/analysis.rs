@@ -674,10 +674,10 @@ pub fn polar_stats(
         let m = (1usize << 18).min(total - done);
         chunk.clear();
         for _ in 0..m {
-            let al = -quarter + rng.below((2 * quarter + 1) as u64) as i128;
-            let an = -quarter + rng.below((2 * quarter + 1) as u64) as i128;
-            let bl = rng.below(turn as u64) as i128;
-            let bn = rng.below(turn as u64) as i128;
+            let al = -quarter + i128::from(rng.below((2 * quarter + 1) as u64));
+            let an = -quarter + i128::from(rng.below((2 * quarter + 1) as u64));
+            let bl = i128::from(rng.below(turn as u64));
+            let bn = i128::from(rng.below(turn as u64));
             chunk.push([elev(al), bl, elev(an), bn]);
         }
         done += m;
@@ -843,7 +843,7 @@ pub fn polar_every_code(
             crate::datapath::Compiled::Wide(p) => {
                 let c: Vec<Vec<i128>> = cols
                     .iter()
-                    .map(|c| c.iter().map(|&x| x as i128).collect())
+                    .map(|c| c.iter().map(|&x| i128::from(x)).collect())
                     .collect();
                 let r: Vec<&[i128]> = c.iter().map(|v| v.as_slice()).collect();
                 let (o, ov) = p.run(&r);
@@ -874,7 +874,7 @@ pub fn polar_every_code(
             let (out, ov) = run([&a_l, &b_l, &a_n, &b_n]);
             acc.6 += ov;
             for (r, &d) in ds.iter().enumerate() {
-                let l = crate::polar::vector_of(t(al), t(d as i128));
+                let l = crate::polar::vector_of(t(al), t(i128::from(d)));
                 for (j, (ft, fb, fnn)) in frames.iter().enumerate() {
                     let i = r * elevs + j;
                     let want = DVec3::new(l.dot(*ft), l.dot(*fb), l.dot(*fnn));
@@ -1549,7 +1549,7 @@ pub fn angles(cfg: &Config, count: usize, seed: u64) -> Result<AnglesReport, Ana
             .adders
             .iter()
             .chain(&hw.add_subs)
-            .map(|&w| w as u64)
+            .map(|&w| u64::from(w))
             .sum::<u64>(),
         flops: hw.flops,
         latency: em.latency,

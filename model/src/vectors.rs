@@ -121,7 +121,7 @@ pub(crate) fn pack(index: u32, fields: &[Field], row: &[i128]) -> (Words, usize)
     for (f, &code) in fields.iter().zip(row).rev() {
         put(f.format.to_bits(code), f.format.width() as usize, &mut pos);
     }
-    put(index as u64, 32, &mut pos);
+    put(u64::from(index), 32, &mut pos);
     (w, total)
 }
 

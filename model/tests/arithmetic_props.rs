@@ -99,7 +99,7 @@ fn arb_quant() -> impl Strategy<Value = Quant> {
 fn arb_raw() -> impl Strategy<Value = i128> {
     prop_oneof![
         -1000i128..1000,
-        (any::<i64>(), 0u32..62).prop_map(|(m, s)| (m as i128) << s),
+        (any::<i64>(), 0u32..62).prop_map(|(m, s)| i128::from(m) << s),
         any::<i128>().prop_map(|x| x >> 3),
     ]
 }
@@ -132,7 +132,7 @@ proptest! {
         let x = BigRational::new(BigInt::from(a), BigInt::from(b)) * pow2(fb - fa) * pow2(q.format().frac());
         let (code, ov) = range_step(round_rational(&x, q.round()), &q.format(), q.overflow());
         prop_assert_eq!(got.raw, code);
-        prop_assert_eq!(cx.total_overflows(), ov as u64);
+        prop_assert_eq!(cx.total_overflows(), u64::from(ov));
     }
 
     #[test]
@@ -172,7 +172,7 @@ proptest! {
             range_step(want, &q.format(), q.overflow())
         };
         prop_assert_eq!(got.raw, code);
-        prop_assert_eq!(cx.total_overflows(), ov as u64);
+        prop_assert_eq!(cx.total_overflows(), u64::from(ov));
     }
 }
 
@@ -205,28 +205,28 @@ proptest! {
     fn i16f16_ops_agree_with_fixed(a in any::<i32>(), b in any::<i32>()) {
         let f = fmt("I16F16");
         let (x, y) = (I16F16::from_bits(a), I16F16::from_bits(b));
-        prop_assert_eq!(mul_q(a as i128, b as i128, f, Overflow::Wrap), x.wrapping_mul(y).to_bits() as i128);
-        prop_assert_eq!(mul_q(a as i128, b as i128, f, Overflow::Saturate), x.saturating_mul(y).to_bits() as i128);
-        prop_assert_eq!(add_q(a as i128, b as i128, f, false), x.wrapping_add(y).to_bits() as i128);
-        prop_assert_eq!(add_q(a as i128, b as i128, f, true), x.wrapping_sub(y).to_bits() as i128);
+        prop_assert_eq!(mul_q(i128::from(a), i128::from(b), f, Overflow::Wrap), i128::from(x.wrapping_mul(y).to_bits()));
+        prop_assert_eq!(mul_q(i128::from(a), i128::from(b), f, Overflow::Saturate), i128::from(x.saturating_mul(y).to_bits()));
+        prop_assert_eq!(add_q(i128::from(a), i128::from(b), f, false), i128::from(x.wrapping_add(y).to_bits()));
+        prop_assert_eq!(add_q(i128::from(a), i128::from(b), f, true), i128::from(x.wrapping_sub(y).to_bits()));
     }
 
     #[test]
     fn i8f24_ops_agree_with_fixed(a in any::<i32>(), b in any::<i32>()) {
         let f = fmt("I8F24");
         let (x, y) = (I8F24::from_bits(a), I8F24::from_bits(b));
-        prop_assert_eq!(mul_q(a as i128, b as i128, f, Overflow::Wrap), x.wrapping_mul(y).to_bits() as i128);
-        prop_assert_eq!(mul_q(a as i128, b as i128, f, Overflow::Saturate), x.saturating_mul(y).to_bits() as i128);
-        prop_assert_eq!(add_q(a as i128, b as i128, f, true), x.wrapping_sub(y).to_bits() as i128);
+        prop_assert_eq!(mul_q(i128::from(a), i128::from(b), f, Overflow::Wrap), i128::from(x.wrapping_mul(y).to_bits()));
+        prop_assert_eq!(mul_q(i128::from(a), i128::from(b), f, Overflow::Saturate), i128::from(x.saturating_mul(y).to_bits()));
+        prop_assert_eq!(add_q(i128::from(a), i128::from(b), f, true), i128::from(x.wrapping_sub(y).to_bits()));
     }
 
     #[test]
     fn u0f16_ops_agree_with_fixed(a in any::<u16>(), b in any::<u16>()) {
         let f = fmt("U0F16");
         let (x, y) = (U0F16::from_bits(a), U0F16::from_bits(b));
-        prop_assert_eq!(mul_q(a as i128, b as i128, f, Overflow::Wrap), x.wrapping_mul(y).to_bits() as i128);
-        prop_assert_eq!(add_q(a as i128, b as i128, f, false), x.wrapping_add(y).to_bits() as i128);
-        prop_assert_eq!(add_q(a as i128, b as i128, f, true), x.wrapping_sub(y).to_bits() as i128);
+        prop_assert_eq!(mul_q(i128::from(a), i128::from(b), f, Overflow::Wrap), i128::from(x.wrapping_mul(y).to_bits()));
+        prop_assert_eq!(add_q(i128::from(a), i128::from(b), f, false), i128::from(x.wrapping_add(y).to_bits()));
+        prop_assert_eq!(add_q(i128::from(a), i128::from(b), f, true), i128::from(x.wrapping_sub(y).to_bits()));
     }
 
     #[test]
@@ -234,16 +234,16 @@ proptest! {
         // I8F24 -> I16F16 drops 8 fraction bits (toward −∞) and cannot overflow.
         let x = I8F24::from_bits(a);
         let q = Quant::new("c", fmt("I16F16"), Rounding::Trunc, Overflow::Wrap);
-        prop_assert_eq!(q.apply(a as i128, 24).code, I16F16::from_num(x).to_bits() as i128);
+        prop_assert_eq!(q.apply(i128::from(a), 24).code, i128::from(I16F16::from_num(x).to_bits()));
         // I16F16 -> I8F24 may overflow: wrapping and saturating.
         let y = I16F16::from_bits(a);
         let w = Quant::new("c", fmt("I8F24"), Rounding::Trunc, Overflow::Wrap);
         let s = Quant::new("c", fmt("I8F24"), Rounding::Trunc, Overflow::Saturate);
-        prop_assert_eq!(w.apply(a as i128, 16).code, I8F24::wrapping_from_num(y).to_bits() as i128);
-        prop_assert_eq!(s.apply(a as i128, 16).code, I8F24::saturating_from_num(y).to_bits() as i128);
+        prop_assert_eq!(w.apply(i128::from(a), 16).code, i128::from(I8F24::wrapping_from_num(y).to_bits()));
+        prop_assert_eq!(s.apply(i128::from(a), 16).code, i128::from(I8F24::saturating_from_num(y).to_bits()));
         // Round to an integer, ties to even, in I16F16.
         let e = Quant::new("c", fmt("I16F0"), Rounding::HalfEven, Overflow::Wrap);
-        prop_assert_eq!(e.apply(a as i128, 16).code << 16, y.wrapping_round_ties_even().to_bits() as i128);
+        prop_assert_eq!(e.apply(i128::from(a), 16).code << 16, i128::from(y.wrapping_round_ties_even().to_bits()));
     }
 
     #[test]
@@ -251,7 +251,7 @@ proptest! {
         // `fixed` converts floats rounding to nearest, ties to even.
         let f = fmt("I16F16");
         let ours = f.from_f64(x, Rounding::HalfEven).ok();
-        let theirs = I16F16::checked_from_num(x).map(|v| v.to_bits() as i128);
+        let theirs = I16F16::checked_from_num(x).map(|v| i128::from(v.to_bits()));
         prop_assert_eq!(ours, theirs);
     }
 }
@@ -262,6 +262,6 @@ fn signed_zero_and_negative_edges() {
     assert_eq!(f.from_f64(-0.0, Rounding::Trunc), Ok(0));
     assert_eq!(
         f.from_f64(-32768.0, Rounding::Trunc).unwrap(),
-        I16F16::MIN.to_bits() as i128
+        i128::from(I16F16::MIN.to_bits())
     );
 }

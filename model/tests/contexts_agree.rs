@@ -79,7 +79,7 @@ proptest! {
         let mut next = |f: Format| {
             st ^= st << 13; st ^= st >> 7; st ^= st << 17;
             let span = (f.max_code() - f.min_code() + 1) as u128;
-            f.min_code() + ((st as u128 * 0x9e37_79b9) % span) as i128
+            f.min_code() + ((u128::from(st) * 0x9e37_79b9) % span) as i128
         };
         let mut xs: Vec<i128> = (0..n).map(|_| next(x.format())).collect();
         let ys: Vec<i128> = (0..n).map(|_| next(y.format())).collect();

@@ -102,7 +102,7 @@ pub fn run(a: &RenderBenchArgs) -> anyhow::Result<()> {
             let (f, mut levels) = render::levels_streamed(&cfg, &scene, &base, r, &mesh, &[method])
                 .context("rendering")?;
             let img = render::image_of(&f, method, std::mem::take(&mut levels[0]));
-            Ok(img.levels.iter().map(|&x| x as u64).sum::<u64>() + img.metrics.pixels as u64)
+            Ok(img.levels.iter().map(|&x| u64::from(x)).sum::<u64>() + img.metrics.pixels as u64)
         });
         checksum ^= out?;
         fx.push(c);
@@ -121,7 +121,7 @@ pub fn run(a: &RenderBenchArgs) -> anyhow::Result<()> {
                         .clamp(0.0, 255.0) as u8
                 })
                 .collect();
-            levels.iter().map(|&x| x as u64).sum::<u64>()
+            levels.iter().map(|&x| u64::from(x)).sum::<u64>()
         });
         checksum ^= std::hint::black_box(sum);
         base_cpu.push(c);

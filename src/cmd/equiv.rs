@@ -734,7 +734,7 @@ fn counterexample(
         rtl.push((p.name.clone(), p.format.from_bits(b as u64)));
     }
     if !e.flags.is_empty() {
-        model.push(("ovf".into(), flags[0] as i128));
+        model.push(("ovf".into(), i128::from(flags[0])));
         rtl.push(("ovf".into(), value(pairs, &at("ovf_o"))? as i128));
     }
     model.push(("valid".into(), 1));

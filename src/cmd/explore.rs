@@ -1678,18 +1678,18 @@ fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow:
     let uni: Vec<(f64, f64)> = o
         .uniform
         .iter()
-        .filter_map(|&(w, _, c)| Some((w as f64, c?)))
+        .filter_map(|&(w, _, c)| Some((f64::from(w), c?)))
         .collect();
     let ok: Vec<(f64, f64)> = o
         .uniform
         .iter()
         .filter(|u| u.1)
-        .filter_map(|&(w, _, c)| Some((w as f64, c?)))
+        .filter_map(|&(w, _, c)| Some((f64::from(w), c?)))
         .collect();
     let wc = o.winner.get(&o.minimize).unwrap_or(f64::NAN);
     let span: Vec<(f64, f64)> = [optimize::UNIFORM_MIN, optimize::UNIFORM_MAX]
         .iter()
-        .map(|&w| (w as f64, wc))
+        .map(|&w| (f64::from(w), wc))
         .collect();
     let (png, svg) = crate::plot::plot(
         &crate::plot::Frame {

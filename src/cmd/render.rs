@@ -370,7 +370,7 @@ pub fn render_into(
         let errs: Vec<Option<u32>> = got
             .iter()
             .zip(want)
-            .map(|(&g, &r)| (!r.is_nan()).then(|| (g as f64 - r.round()).abs() as u32))
+            .map(|(&g, &r)| (!r.is_nan()).then(|| (f64::from(g) - r.round()).abs() as u32))
             .collect();
         let img = render::to_image(&f.raster, &errs, None);
         let file = format!("{prefix}{name}.png");
@@ -714,7 +714,7 @@ pub fn run(a: &RenderArgs) -> anyhow::Result<()> {
         StagedDir::new(&a.out)
     }
     .with_context(|| format!("cannot write the render to {}", a.out.display()))?;
-    let bar = crate::progress::bar(methods.len() as u64 * (1 + a.rtl as u64) + 1, "render");
+    let bar = crate::progress::bar(methods.len() as u64 * (1 + u64::from(a.rtl)) + 1, "render");
     let r = render_into(
         &cfg,
         &scene,

@@ -193,14 +193,14 @@ fn write_summary_plots(
                     m.method.to_string(),
                     m.points
                         .iter()
-                        .filter_map(|(w, r)| Some((*w as f64, scale * r.get(metric)?)))
+                        .filter_map(|(w, r)| Some((f64::from(*w), scale * r.get(metric)?)))
                         .collect(),
                 )
             })
             .collect()
     };
-    let w0 = *SUMMARY_WIDTHS.start() as f64;
-    let w1 = *SUMMARY_WIDTHS.end() as f64;
+    let w0 = f64::from(*SUMMARY_WIDTHS.start());
+    let w1 = f64::from(*SUMMARY_WIDTHS.end());
     let mut rel = series("pipeline.max_rel_err", 100.0);
     rel.push(("the paper's 4 % bound".into(), vec![(w0, 4.0), (w1, 4.0)]));
     let mut out = vec![

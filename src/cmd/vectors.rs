@@ -98,7 +98,7 @@ pub fn run(a: &VectorsArgs) -> anyhow::Result<()> {
         None => a.count as u64,
     };
     // At most 2^32 records of at most a few KiB: no overflow in u128.
-    let need = count as u128 * per as u128 + (1 << 20);
+    let need = u128::from(count) * per as u128 + (1 << 20);
     let parent = a
         .out
         .parent()
@@ -106,7 +106,7 @@ pub fn run(a: &VectorsArgs) -> anyhow::Result<()> {
         .unwrap_or(Path::new("."));
     if let Some(free) = free_bytes(parent) {
         anyhow::ensure!(
-            need <= free as u128,
+            need <= u128::from(free),
             "{} vectors of {} need {:.2} GB ({per} bytes each{}), and the file system of {} has {:.2} GB free: nothing was written \
              (use --no-hex, fewer vectors, or --shard)",
             count,

@@ -251,7 +251,7 @@ fn pipeline(
         rel = rel.max(mm.max_rel_intensity_err);
         bound &= mm.paper_bound_holds;
     }
-    put(m, "pipeline.max_err_levels", max as f64);
+    put(m, "pipeline.max_err_levels", f64::from(max));
     put(
         m,
         "pipeline.mean_err_levels",
@@ -309,17 +309,23 @@ fn top_cost(
         put(
             m,
             &format!("{prefix}bit_products"),
-            hw.muls.iter().map(|x| (x.a_width * x.b_width) as f64).sum(),
+            hw.muls
+                .iter()
+                .map(|x| f64::from(x.a_width * x.b_width))
+                .sum(),
         );
         put(m, &format!("{prefix}table_bits"), hw.rom_bits as f64);
         put(m, &format!("{prefix}ff"), hw.flops as f64);
-        put(m, &format!("{prefix}latency"), e.latency as f64);
+        put(m, &format!("{prefix}latency"), f64::from(e.latency));
         return;
     }
     put(
         m,
         "bit_products",
-        hw.muls.iter().map(|x| (x.a_width * x.b_width) as f64).sum(),
+        hw.muls
+            .iter()
+            .map(|x| f64::from(x.a_width * x.b_width))
+            .sum(),
     );
     put(m, "muls", hw.muls.len() as f64);
     put(
@@ -329,12 +335,12 @@ fn top_cost(
             .iter()
             .chain(&hw.add_subs)
             .chain(&hw.incrementers)
-            .map(|&w| w as f64)
+            .map(|&w| f64::from(w))
             .sum(),
     );
     put(m, "table_bits", hw.rom_bits as f64);
     put(m, "ff", hw.flops as f64);
-    put(m, "latency", e.latency as f64);
+    put(m, "latency", f64::from(e.latency));
     if let Some(t) = fxshade_model::rtl::timing::Target::from_name(target) {
         put(
             m,

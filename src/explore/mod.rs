@@ -455,7 +455,7 @@ pub fn to_csv(axes: &[String], rows: &[Row]) -> anyhow::Result<String> {
 /// else the number itself.
 pub fn axis_x(label: &str) -> Option<f64> {
     if let Ok(f) = label.parse::<fxshade_model::format::Format>() {
-        return Some(f.width() as f64);
+        return Some(f64::from(f.width()));
     }
     label.parse::<f64>().ok().filter(|x| x.is_finite())
 }

@@ -98,7 +98,7 @@ fn an_overfull_fifo_fails_the_proof() {
                 || l.starts_with("      ready_q <= ((f_wr")
                 || l.starts_with("    assert (ready_q == ((f_count <= ");
             *cont = l.starts_with("      ready_q <= ((f_wr");
-            n += hit as usize;
+            n += usize::from(hit);
             Some(if hit { bump(l) } else { l.to_string() } + "\n")
         })
         .collect();

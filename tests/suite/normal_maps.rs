@@ -54,7 +54,7 @@ fn procedural(u: f64, v: f64) -> [f64; 3] {
 fn from_height(w: usize, h: usize) -> impl Fn(f64, f64) -> [f64; 3] {
     let blobs: Vec<(f64, f64, f64)> = (0..40)
         .map(|k| {
-            let k = k as f64;
+            let k = f64::from(k);
             (
                 (k * 0.618_034).fract(),
                 (k * 0.414_214).fract(),

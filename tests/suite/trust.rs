@@ -793,7 +793,7 @@ fn decode(
                     );
                     let mut v: i128 = 0;
                     for k in (lsb..=msb).rev() {
-                        v = (v << 1) | bit(k) as i128;
+                        v = (v << 1) | i128::from(bit(k));
                     }
                     let w = msb - lsb + 1;
                     if f["signed"].as_bool().unwrap() && (v >> (w - 1)) & 1 == 1 {

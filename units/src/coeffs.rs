@@ -331,7 +331,7 @@ pub fn remez(
         .map(|i| mid - rad * (i as f64 * std::f64::consts::PI / (m - 1) as f64).cos())
         .collect();
     let grid: Vec<f64> = (0..=4096)
-        .map(|i| lo + (hi - lo) * i as f64 / 4096.0)
+        .map(|i| lo + (hi - lo) * f64::from(i) / 4096.0)
         .collect();
     let mut best = (Poly(vec![0.0; n + 1]), f64::INFINITY);
     for _ in 0..60 {
@@ -654,7 +654,7 @@ pub fn search_codes_full(
 pub fn search_grid(lo: f64, hi: f64) -> Vec<f64> {
     (0..=512)
         .map(|i| {
-            let t = (i as f64 * std::f64::consts::PI / 512.0).cos();
+            let t = (f64::from(i) * std::f64::consts::PI / 512.0).cos();
             (lo + hi) / 2.0 - (hi - lo) / 2.0 * t
         })
         .collect()

@@ -63,7 +63,7 @@ fn grid(n_u: u32, n_v: u32, f: impl Fn(f64, f64) -> (DVec3, DVec3)) -> Mesh {
     let rows = n_v + 1;
     for j in 0..rows {
         for i in 0..=n_u {
-            let (u, v) = (i as f64 / n_u as f64, j as f64 / n_v as f64);
+            let (u, v) = (f64::from(i) / f64::from(n_u), f64::from(j) / f64::from(n_v));
             let (p, n) = f(u, v);
             m.positions.push(p);
             m.normals.push(n.normalize());
@@ -422,17 +422,17 @@ pub fn load_obj(path: &std::path::Path) -> Result<Mesh, ObjError> {
         let nv = me.positions.len() / 3;
         for k in 0..nv {
             m.positions.push(DVec3::new(
-                me.positions[3 * k] as f64,
-                me.positions[3 * k + 1] as f64,
-                me.positions[3 * k + 2] as f64,
+                f64::from(me.positions[3 * k]),
+                f64::from(me.positions[3 * k + 1]),
+                f64::from(me.positions[3 * k + 2]),
             ));
         }
         if me.normals.len() == me.positions.len() {
             for k in 0..nv {
                 m.normals.push(DVec3::new(
-                    me.normals[3 * k] as f64,
-                    me.normals[3 * k + 1] as f64,
-                    me.normals[3 * k + 2] as f64,
+                    f64::from(me.normals[3 * k]),
+                    f64::from(me.normals[3 * k + 1]),
+                    f64::from(me.normals[3 * k + 2]),
                 ));
             }
         } else {
@@ -441,8 +441,8 @@ pub fn load_obj(path: &std::path::Path) -> Result<Mesh, ObjError> {
         if me.texcoords.len() / 2 == nv {
             for k in 0..nv {
                 m.uvs.push(DVec2::new(
-                    me.texcoords[2 * k] as f64,
-                    me.texcoords[2 * k + 1] as f64,
+                    f64::from(me.texcoords[2 * k]),
+                    f64::from(me.texcoords[2 * k + 1]),
                 ));
             }
         } else {

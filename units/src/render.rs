@@ -482,13 +482,13 @@ impl Metrics {
                 continue;
             }
             m.pixels += 1;
-            let e = (g as f64 - w.round()).abs() as u32;
+            let e = (f64::from(g) - w.round()).abs() as u32;
             m.max_abs_levels = m.max_abs_levels.max(e);
-            sum += e as f64;
-            sq += (e * e) as f64;
+            sum += f64::from(e);
+            sq += f64::from(e * e);
             hist[(e as usize).min(3)] += 1;
             if w >= REL_FLOOR_LEVELS {
-                let beyond = ((g as f64 - w).abs() - 0.5).max(0.0);
+                let beyond = ((f64::from(g) - w).abs() - 0.5).max(0.0);
                 m.max_rel_intensity_err = m.max_rel_intensity_err.max(beyond / w);
             }
         }
@@ -549,7 +549,7 @@ pub fn cos_phi_stats(m: &Mesh) -> CosPhiStats {
         }
     }
     if ok > 0 {
-        s.mean = sum / ok as f64;
+        s.mean = sum / f64::from(ok);
     } else {
         (s.min, s.max) = (0.0, 0.0);
     }

@@ -102,11 +102,11 @@ impl NormalTexture {
                 data.len()
             )));
         }
-        let m = max as f64;
+        let m = f64::from(max);
         let texels = data
             .chunks_exact(channels)
             .map(|p| {
-                let c = |k: usize| 2.0 * p[k] as f64 / m - 1.0;
+                let c = |k: usize| 2.0 * f64::from(p[k]) / m - 1.0;
                 let y = match green {
                     Green::OpenGl => c(1),
                     Green::DirectX => -c(1),
@@ -124,7 +124,7 @@ impl NormalTexture {
     /// Encode as RGB samples of `bits` (8 or 16) per channel, rounding to
     /// nearest: `c = round((n + 1)/2 · max)`, clipped.
     pub fn to_channels(&self, bits: u32, green: Green) -> Vec<u16> {
-        let m = ((1u32 << bits) - 1) as f64;
+        let m = f64::from((1u32 << bits) - 1);
         let q = |x: f64| (((x + 1.0) / 2.0 * m).round().clamp(0.0, m)) as u16;
         self.texels
             .iter()

@@ -233,7 +233,7 @@ pub(super) fn wild_row(
                 ][rng.below(7) as usize];
                 c.clamp(f.min_code(), f.max_code())
             }
-            _ => f.min_code() + rng.below((f.max_code() - f.min_code() + 1) as u64) as i128,
+            _ => f.min_code() + i128::from(rng.below((f.max_code() - f.min_code() + 1) as u64)),
         })
         .collect()
 }

@@ -159,8 +159,10 @@ impl Probe {
                     let (lo, hi) = (f.min_code(), f.max_code());
                     // A port of 64 bits or more: the lowest 2^64 − 1 codes
                     // (as the sweeps do), not a span cast to zero.
-                    let span = (hi - lo + 1).min(u64::MAX as i128) as u64;
-                    (0..BLOCK).map(|_| lo + rng.below(span) as i128).collect()
+                    let span = (hi - lo + 1).min(i128::from(u64::MAX)) as u64;
+                    (0..BLOCK)
+                        .map(|_| lo + i128::from(rng.below(span)))
+                        .collect()
                 })
                 .collect();
             let refs: Vec<&[i128]> = cols.iter().map(|c| c.as_slice()).collect();

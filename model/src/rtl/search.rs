@@ -534,7 +534,7 @@ pub(super) fn sweep(
                 *c = if span <= SWEEP_CODES {
                     lo + done + i as i128
                 } else {
-                    lo + rng.below(span.min(u64::MAX as i128) as u64) as i128
+                    lo + i128::from(rng.below(span.min(i128::from(u64::MAX)) as u64))
                 };
             }
             done += len as i128;
@@ -1463,14 +1463,14 @@ pub(super) mod tests {
                 let s = 1 + rng.below(5) as i32;
                 let qq = q("x", "I40F0", round, Overflow::Saturate);
                 let st = qq.step(s);
-                let stride = rng.below(70) as i128;
+                let stride = i128::from(rng.below(70));
                 let off = if stride == 0 {
-                    rng.below(400) as i128 - 200
+                    i128::from(rng.below(400)) - 200
                 } else {
-                    rng.below(stride as u64) as i128
+                    i128::from(rng.below(stride as u64))
                 };
-                let lo = rng.below(400) as i128 - 200;
-                let hi = lo + rng.below(150) as i128;
+                let lo = i128::from(rng.below(400)) - 200;
+                let hi = lo + i128::from(rng.below(150));
                 let brute = (lo..=hi).any(|x| {
                     (if stride == 0 {
                         x == off

@@ -391,7 +391,7 @@ impl UnitModel {
         for (row, r) in inputs.chunks(ni.max(1)).enumerate().take(n) {
             for (f, &c) in self.inputs().iter().zip(r) {
                 let (min, max) = (f.format.min_code(), f.format.max_code());
-                if !(min..=max).contains(&(c as i128)) {
+                if !(min..=max).contains(&i128::from(c)) {
                     return Err(ModelError::Code {
                         row,
                         port: f.name.clone(),
@@ -404,7 +404,7 @@ impl UnitModel {
             }
         }
         let cols: Vec<Vec<i128>> = (0..ni)
-            .map(|k| (0..n).map(|i| inputs[i * ni + k] as i128).collect())
+            .map(|k| (0..n).map(|i| i128::from(inputs[i * ni + k])).collect())
             .collect();
         let refs: Vec<&[i128]> = cols.iter().map(|c| c.as_slice()).collect();
         let (res, words) = self.prog.run_flags_i128(&refs);

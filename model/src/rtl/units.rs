@@ -51,7 +51,7 @@ pub fn vectors(
     let row = std::mem::size_of::<Vec<i128>>() * 2 + std::mem::size_of::<i128>() * fields;
     let need = (count as u128) * row as u128;
     if let Some(avail) = crate::files::memory_available() {
-        if need > avail as u128 {
+        if need > u128::from(avail) {
             return Err(RtlError::TooMany {
                 count: count as u128,
                 why: format!(
@@ -76,7 +76,7 @@ pub const MAX_STREAM: u64 = 1 << 32;
 ///
 /// [`RtlError::TooMany`] when `total` exceeds [`MAX_STREAM`].
 pub fn check_total(total: usize) -> Result<(), RtlError> {
-    if total as u128 > MAX_STREAM as u128 {
+    if total as u128 > u128::from(MAX_STREAM) {
         return Err(RtlError::TooMany {
             count: total as u128,
             why: format!(
@@ -452,7 +452,7 @@ fn expected_rows(
             let mut r = Vec::with_capacity(res.len() + 1);
             if nf > 0 {
                 // The model's flag word is the RTL's `ovf_o`.
-                r.push(flags[i] as i128);
+                r.push(i128::from(flags[i]));
             }
             r.extend(res.iter().map(|o| o[i]));
             r

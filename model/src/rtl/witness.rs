@@ -246,7 +246,7 @@ impl Search {
             let mut radix = 1u64;
             for (&w, r) in spans.iter().zip(&self.ranges) {
                 let w = w as u64;
-                let col = (start as u64..end as u64).map(|i| r.0 + (i / radix % w) as i128);
+                let col = (start as u64..end as u64).map(|i| r.0 + i128::from(i / radix % w));
                 cols.push(col.collect::<Vec<_>>());
                 radix *= w;
             }
@@ -402,9 +402,9 @@ impl Search {
         if span <= WITNESS_LANES {
             (lo..=hi).collect()
         } else {
-            let s = span.min(u64::MAX as i128) as u64;
+            let s = span.min(i128::from(u64::MAX)) as u64;
             (0..WITNESS_LANES)
-                .map(|_| lo + self.rng.below(s) as i128)
+                .map(|_| lo + i128::from(self.rng.below(s)))
                 .collect()
         }
     }

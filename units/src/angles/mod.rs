@@ -183,7 +183,7 @@ pub struct Consts<V> {
 /// `K_n = ∏_{i<n} √(1 + 2^−2i)`, the length gain of `n` micro-rotations.
 pub fn gain(n: u32) -> f64 {
     (0..n)
-        .map(|i| (1.0 + (-2.0 * i as f64).exp2()).sqrt())
+        .map(|i| (1.0 + (-2.0 * f64::from(i)).exp2()).sqrt())
         .product()
 }
 
@@ -198,7 +198,7 @@ pub fn csd(code: i128) -> Vec<(i8, u32)> {
             // 01 → +1; 11 → −1 and carry.
             let d: i8 = if c & 3 == 3 { -1 } else { 1 };
             v.push((d, e));
-            c -= d as i128;
+            c -= i128::from(d);
         }
         c >>= 1;
         e += 1;
@@ -209,7 +209,7 @@ pub fn csd(code: i128) -> Vec<(i8, u32)> {
 
 /// `atan(2^−i)` as a fraction of a turn.
 pub fn atan_turns(i: u32) -> f64 {
-    (-(i as f64)).exp2().atan() / std::f64::consts::TAU
+    (-f64::from(i)).exp2().atan() / std::f64::consts::TAU
 }
 
 fn require_angle(key: &'static str, q: &Quant) -> Result<(), AnglesError> {

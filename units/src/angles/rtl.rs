@@ -66,7 +66,7 @@ pub fn inputs(cfg: &Config, part: Part, seed: u64) -> Result<Vec<Vec<i128>>, Rtl
             } else {
                 rows.push(
                     (0..3)
-                        .map(|_| f.min_code() + rng.below(span) as i128)
+                        .map(|_| f.min_code() + i128::from(rng.below(span)))
                         .collect(),
                 );
             }

@@ -78,8 +78,8 @@ pub fn inputs(
                 let c = rng.barycentric();
                 rows.push(triangle_row(&i, theta, c, &mut rng));
             } else {
-                let mut r = vec![rng.below(bspan) as i128, rng.below(bspan) as i128];
-                r.extend((0..18).map(|_| vmin + rng.below(vspan) as i128));
+                let mut r = vec![i128::from(rng.below(bspan)), i128::from(rng.below(bspan))];
+                r.extend((0..18).map(|_| vmin + i128::from(rng.below(vspan))));
                 rows.push(r);
             }
         }

@@ -161,7 +161,7 @@ pub fn inputs(
             let p: DVec3 = sampling::lerp3(&t, rng.barycentric());
             inputs.push([0, 1, 2].map(|k| n.q.normal.apply_f64(p[k]).map(|r| r.code).unwrap_or(0)));
         } else {
-            inputs.push([0; 3].map(|_| f.min_code() + rng.below(span) as i128));
+            inputs.push([0; 3].map(|_| f.min_code() + i128::from(rng.below(span))));
         }
     }
     Ok(inputs.into_iter().map(|c| c.to_vec()).collect())

@@ -202,7 +202,7 @@ impl Tables {
             out: q,
             exact,
             codes,
-            storage: storage((name == "cos") as u32),
+            storage: storage(u32::from(name == "cos")),
         };
         Ok(Tables {
             sin: mk(
@@ -228,7 +228,7 @@ impl Tables {
     }
     /// Bits the RTL stores per table.
     pub fn stored_bits(&self) -> u64 {
-        self.stored_entries() as u64 * self.sin.out.format().width() as u64
+        self.stored_entries() as u64 * u64::from(self.sin.out.format().width())
     }
 }
 

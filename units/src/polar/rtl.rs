@@ -67,16 +67,16 @@ pub fn inputs(
         let mut rng = Rng::new(seed);
         while rows.len() < count {
             if rows.len().is_multiple_of(2) {
-                let el = |rng: &mut Rng| m(-q + rng.below((2 * q + 1) as u64) as i128);
+                let el = |rng: &mut Rng| m(-q + i128::from(rng.below((2 * q + 1) as u64)));
                 let (al, an) = (el(&mut rng), el(&mut rng));
                 rows.push(vec![
                     al,
-                    rng.below(turn as u64) as i128,
+                    i128::from(rng.below(turn as u64)),
                     an,
-                    rng.below(turn as u64) as i128,
+                    i128::from(rng.below(turn as u64)),
                 ]);
             } else {
-                rows.push((0..4).map(|_| rng.below(turn as u64) as i128).collect());
+                rows.push((0..4).map(|_| i128::from(rng.below(turn as u64))).collect());
             }
         }
         return Ok(rows);
@@ -112,7 +112,11 @@ pub fn inputs(
         &stages,
         8,
         100_000,
-        || (0..4).map(|_| trng.below(turn as u64) as i128).collect(),
+        || {
+            (0..4)
+                .map(|_| i128::from(trng.below(turn as u64)))
+                .collect()
+        },
         |fx, r| {
             eval(&p, fx, r);
         },

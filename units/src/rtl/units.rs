@@ -158,8 +158,8 @@ pub fn hunt_ties(
 /// zero), for tie hunting.
 pub fn structured_code(f: Format, rng: &mut crate::sampling::Rng) -> i128 {
     let span = (f.max_code() - f.min_code() + 1) as u64;
-    let c = f.min_code() + rng.below(span) as i128;
-    let tz = rng.below(f.width() as u64) as u32;
+    let c = f.min_code() + i128::from(rng.below(span));
+    let tz = rng.below(u64::from(f.width())) as u32;
     if rng.below(3) == 0 {
         0
     } else {
