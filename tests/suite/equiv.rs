@@ -252,12 +252,19 @@ fn a_partial_product_at_the_wrong_weight_gives_a_counterexample() {
     let at = ["--target", "ice40-hx8k", "--clock-ns", "14"];
     let good = emitted("normalize", &at);
     // The first level of a split product's adder tree: `… + {<pp>_q, N'b0});`
-    // becomes `(N-1)'b0`.
-    let line = good
-        .lines()
-        .find(|l| l.contains("_l0_0 = $signed(") && l.ends_with("'b0});"))
-        .expect("a split product's first sum")
+    // (the statement's last line, when it is wrapped) becomes `(N-1)'b0`.
+    let lines: Vec<&str> = good.lines().collect();
+    let start = lines
+        .iter()
+        .position(|l| l.contains("_l0_0 ="))
+        .expect("a split product's first sum");
+    let line = lines[start..]
+        .iter()
+        .find(|l| l.ends_with(';'))
+        .expect("the statement's end")
         .to_string();
+    assert!(line.ends_with("'b0});"), "{line}");
+    assert_eq!(good.matches(line.as_str()).count(), 1, "{line}");
     let (head, n) = line.trim_end_matches("'b0});").rsplit_once(", ").unwrap();
     let n: u32 = n.parse().unwrap();
     let bad_line = format!("{head}, {}'b0}});", n - 1);
