@@ -6,12 +6,12 @@
 //! |---|---|---|
 //! | `FXSHADE_CACHE_DIR`, `XDG_CACHE_HOME`, `HOME` (and the password database) | the cache root, installed into [`fxshade_model::cache`] | [`ProcessEnv::cache`] |
 //! | `FXSHADE_SEARCH` | `full` or `quick` mutant-killer search | [`ProcessEnv::search`] |
-//! | `FXSHADE_QUICK_BUILD=1` | Verilator models built without optimization | [`ProcessEnv::quick_build`] |
-//! | `FXSHADE_GEN_THREADS` | vector generator threads per simulation | [`ProcessEnv::gen_threads`] |
-//! | `FXSHADE_SMT_DUMP=DIR` | keep every SMT query in `DIR` | [`ProcessEnv::smt_dump`] |
-//! | `FXSHADE_{PROBE,BUILD,FORMAL,SYNTH,LAUNCH,SIM_IDLE}_TIMEOUT` | process limits in seconds | [`ProcessEnv::timeouts`] |
-//! | `FXSHADE_SHARD`, `FXSHADE_SHARDS`, `SLURM_ARRAY_*`, `LSB_JOBINDEX*`, `SGE_TASK_*`, `JOB_COMPLETION_INDEX` | `--shard auto` | [`ProcessEnv::job_array`] |
-//! | `PATH` | where Yosys's data directory is looked for | [`ProcessEnv::path`] |
+//! | `FXSHADE_QUICK_BUILD=1` | Verilator models built without optimization | [`Settings::quick_build`] |
+//! | `FXSHADE_GEN_THREADS` | vector generator threads per simulation | [`Settings::gen_threads`] |
+//! | `FXSHADE_SMT_DUMP=DIR` | keep every SMT query in `DIR` | [`Settings::smt_dump`] |
+//! | `FXSHADE_{PROBE,BUILD,FORMAL,SYNTH,LAUNCH,SIM_IDLE}_TIMEOUT` | process limits in seconds | [`Settings::timeouts`] |
+//! | `FXSHADE_SHARD`, `FXSHADE_SHARDS`, `SLURM_ARRAY_*`, `LSB_JOBINDEX*`, `SGE_TASK_*`, `JOB_COMPLETION_INDEX` | `--shard auto` | [`Settings::job_array`] |
+//! | `PATH` | where Yosys's data directory is looked for | [`Settings::path`] |
 //!
 //! Empty values count as unset. No value here changes a result silently:
 //! the search mode is part of every cache key, and timeouts only stop work
@@ -22,6 +22,8 @@ use std::ffi::OsString;
 use std::path::PathBuf;
 use std::sync::OnceLock;
 
+use fxshade_flows::settings::Settings;
+
 /// The variables of [`self`], as read at start-up.
 #[derive(Clone, Debug)]
 pub struct ProcessEnv {
@@ -30,27 +32,21 @@ pub struct ProcessEnv {
     /// `FXSHADE_SEARCH` as given (parsed by [`crate::cmd::search_mode`],
     /// which names the variable when the value is wrong).
     pub search: Option<OsString>,
-    /// `FXSHADE_QUICK_BUILD=1`.
-    pub quick_build: bool,
-    /// `FXSHADE_GEN_THREADS`, when a positive integer.
-    pub gen_threads: Option<usize>,
-    /// `FXSHADE_SMT_DUMP`.
-    pub smt_dump: Option<PathBuf>,
-    /// Every `FXSHADE_*_TIMEOUT` given as a positive integer, in seconds.
-    pub timeouts: BTreeMap<String, u64>,
-    /// The job-array variables `--shard auto` reads.
-    pub job_array: BTreeMap<String, String>,
-    /// `PATH`.
-    pub path: OsString,
+    /// What the flows are told ([`fxshade_flows::settings`]): the quick
+    /// build, generator threads, SMT dump, timeouts, job array and `PATH`.
+    pub flows: Settings,
 }
 
 static ENV: OnceLock<ProcessEnv> = OnceLock::new();
 
-/// Read the environment (once) and install the cache it names into the
-/// model ([`fxshade_model::cache::install`]).
+/// Read the environment (once), install the cache it names into the
+/// model ([`fxshade_model::cache::install`]) and the flows' settings
+/// ([`fxshade_flows::settings::install`]).
 pub fn init() -> &'static ProcessEnv {
     let e = get();
     fxshade_model::cache::install(e.cache.clone());
+    // A second installation keeps the first, which came from here too.
+    let _ = fxshade_flows::settings::install(e.flows.clone());
     e
 }
 
@@ -96,13 +92,15 @@ fn read() -> ProcessEnv {
     ProcessEnv {
         cache,
         search: os("FXSHADE_SEARCH"),
-        quick_build: text("FXSHADE_QUICK_BUILD").is_some_and(|v| v == "1"),
-        gen_threads: text("FXSHADE_GEN_THREADS")
-            .and_then(|s| s.parse::<usize>().ok())
-            .filter(|&n| n >= 1),
-        smt_dump: path("FXSHADE_SMT_DUMP"),
-        timeouts,
-        job_array,
-        path: std::env::var_os("PATH").unwrap_or_default(),
+        flows: Settings {
+            quick_build: text("FXSHADE_QUICK_BUILD").is_some_and(|v| v == "1"),
+            gen_threads: text("FXSHADE_GEN_THREADS")
+                .and_then(|s| s.parse::<usize>().ok())
+                .filter(|&n| n >= 1),
+            smt_dump: path("FXSHADE_SMT_DUMP"),
+            timeouts,
+            job_array,
+            path: std::env::var_os("PATH").unwrap_or_default(),
+        },
     }
 }

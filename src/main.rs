@@ -1,24 +1,17 @@
 //! `fxshade`: the command-line tool over the fxshade model.
 
 mod cmd;
-mod critical_path;
-mod device;
-mod dsp_pack;
 mod env;
-mod explore;
-mod ff_roles;
-mod netlist;
-mod netlist_corr;
-mod netlist_equiv;
 mod output;
 mod picture;
 mod plot;
-mod proc;
 mod progress;
-mod rtl_flow;
-mod shard;
-mod smt;
-mod smt2_model;
+mod shard_args;
+
+// The flows, by the names the commands use.
+use fxshade_flows::{
+    critical_path, device, explore, netlist, netlist_equiv, proc, rtl_flow, shard, smt,
+};
 
 use std::process::ExitCode;
 
@@ -97,7 +90,7 @@ enum Command {
     Merge(cmd::merge::MergeArgs),
     /// Evaluate one point of `explore --launcher` (what the launcher runs).
     #[command(hide = true)]
-    ExplorePoint(explore::launch::PointArgs),
+    ExplorePoint(cmd::explore::PointArgs),
     /// Rasterize a mesh (sphere:N, torus:N or an OBJ file), run the
     /// bit-accurate pipeline on every pixel for each method (and with --rtl
     /// the simulated RTL top, which must give the same image), and write the
@@ -146,7 +139,7 @@ fn main() -> ExitCode {
         Command::RtlCheck(a) => cmd::rtl_check::run(a),
         Command::Mutate(a) => cmd::mutate::run(a),
         Command::Merge(a) => cmd::merge::run(a),
-        Command::ExplorePoint(a) => explore::launch::run_point(a),
+        Command::ExplorePoint(a) => explore::launch::run_point(&a.job, &a.result),
         Command::Render(a) => cmd::render::run(a),
         Command::Explore(a) => cmd::explore::run(a),
         Command::Synth(a) => cmd::synth::run(a),

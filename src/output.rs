@@ -120,15 +120,4 @@ fn emit_into(
     Ok(())
 }
 
-/// A bad flag or input file: printed as `error: …` with exit status 2, as
-/// configuration errors are.
-#[derive(Debug)]
-pub struct UsageError(pub String);
-
-impl std::fmt::Display for UsageError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.0)
-    }
-}
-
-impl std::error::Error for UsageError {}
+pub use fxshade_flows::UsageError;

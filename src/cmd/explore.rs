@@ -17,6 +17,17 @@ use crate::rtl_flow::{self, Sim};
 pub const DEFAULT_MESHES: [&str; 2] = ["sphere:12", "torus:24"];
 
 /// `fxshade explore`
+/// `fxshade explore-point JOB RESULT` (hidden: what a launcher runs):
+/// evaluate one point, its metrics or its error written whole to `RESULT`;
+/// exit status 1 when the model could not evaluate it.
+#[derive(Args, Debug)]
+pub struct PointArgs {
+    /// The job file `explore --launcher` wrote.
+    pub job: std::path::PathBuf,
+    /// Where to write the outcome.
+    pub result: std::path::PathBuf,
+}
+
 #[derive(Args, Debug)]
 pub struct ExploreArgs {
     #[command(flatten)]
@@ -128,7 +139,7 @@ pub struct ExploreArgs {
     /// `--shard K/N|auto`: measure only shard K of N (0-based) of the
     /// sweep's points; combine the shards' `explore.json` with `--merge`.
     #[command(flatten)]
-    shard: crate::shard::ShardArgs,
+    shard: crate::shard_args::ShardArgs,
     /// Combine the `explore.json` files (or directories holding one) of the
     /// shards of one sweep: fails if a shard is missing or repeated, or if
     /// they belong to different sweeps.
@@ -1571,14 +1582,21 @@ fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow:
             }
         );
         let mods = super::equiv::modules("pipeline", &win_cfg, None)?;
+        let bar = crate::progress::bar(mods.len() as u64, "equiv");
+        let done = |m: &str| {
+            bar.set_message(m.to_string());
+            bar.inc(1);
+        };
         let res = super::equiv::prove_all(
             &mods,
             crate::smt::Solver::Bitwuzla,
             a.equiv_timeout,
             1,
             None,
-        )
-        .context("proving the winner's pipeline top")?;
+            &done,
+        );
+        bar.finish_and_clear();
+        let res = res.context("proving the winner's pipeline top")?;
         for e in &res {
             match e.verdict {
                 super::equiv::Verdict::Counterexample => bail!(
@@ -1771,7 +1789,7 @@ fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow:
     }
     let mut tables = vec![t, m, c];
     if let Some(cl) = &closure {
-        tables.push(cl.table(&a.synth_unit));
+        tables.push(super::synth::closure::table(cl, &a.synth_unit));
         tables.push(closed_table(cl));
     }
     if let Some(r) = &confirmed {

@@ -120,27 +120,7 @@ impl PipelineArgs {
     }
 }
 
-/// `rtl.*` overrides for a pipelining policy, a target and a period; a
-/// target or a period alone implies `rtl.pipeline = "target"`.
-pub fn pipeline_overrides(
-    pipeline: Option<&str>,
-    target: Option<&str>,
-    clock_ns: Option<f64>,
-) -> Vec<String> {
-    let mut o = Vec::new();
-    if let Some(t) = target {
-        o.push(format!("rtl.target=\"{t}\""));
-    }
-    if let Some(c) = clock_ns {
-        o.push(format!("rtl.clock_ns={c:?}"));
-    }
-    match pipeline {
-        Some(p) => o.push(format!("rtl.pipeline=\"{p}\"")),
-        None if target.is_some() || clock_ns.is_some() => o.push("rtl.pipeline=\"target\"".into()),
-        None => {}
-    }
-    o
-}
+pub use fxshade_flows::rtl_flow::pipeline_overrides;
 
 /// How thoroughly vectors' mutant killers are searched
 /// ([`fxshade_model::rtl::search::Search`]): `FXSHADE_SEARCH=quick` or

@@ -161,7 +161,7 @@ fn smt(d: &rtl::Design, m: &fxshade_model::datapath::Mutation, rlimit: u64) -> S
         return Smt::Unknown;
     };
     // FXSHADE_SMT_DUMP=DIR keeps each query, to rerun it with `z3 FILE`.
-    if let Some(dir) = &crate::env::get().smt_dump {
+    if let Some(dir) = &crate::env::get().flows.smt_dump {
         let _ = std::fs::write(
             dir.join(format!("node{}-{:?}.smt2", m.node, m.kind)),
             &script,

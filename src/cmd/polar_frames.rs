@@ -1,9 +1,8 @@
 //! `fxshade polar-frames`: how far the polar transform's implied tangent
 //! frame is from the UV-aligned frame normal maps are baked in, over a mesh.
 
-use anyhow::{bail, Context};
 use clap::Args;
-use fxshade_model::mesh::{self, Axis};
+use fxshade_model::mesh::Axis;
 use fxshade_model::polar::frames;
 
 use crate::output::{emit, OutputArgs, Table};
@@ -31,29 +30,9 @@ fn parse_axis(s: &str) -> Result<Axis, String> {
     }
 }
 
-/// Parse `sphere:N` / `torus:N`.
-pub fn procedural(spec: &str, axis: Axis) -> anyhow::Result<mesh::Mesh> {
-    let (kind, n) = spec
-        .split_once(':')
-        .with_context(|| format!("--mesh {spec}: write sphere:N or torus:N"))?;
-    if kind != "sphere" && kind != "torus" {
-        bail!("--mesh {spec}: unknown mesh `{kind}`; write sphere:N or torus:N");
-    }
-    let n: u32 = n
-        .parse()
-        .ok()
-        .filter(|&n| (4..=4096).contains(&n))
-        .with_context(|| format!("--mesh {spec}: N must be a whole number in 4..=4096"))?;
-    Ok(if kind == "sphere" {
-        mesh::sphere(n, axis)
-    } else {
-        mesh::torus(n, axis)
-    })
-}
-
 /// Run it.
 pub fn run(a: &FramesArgs) -> anyhow::Result<()> {
-    let m = procedural(&a.mesh, a.axis)?;
+    let m = fxshade_flows::scene::procedural(&a.mesh, a.axis)?;
     let c = frames::compare(&m);
     let mut t = Table::new([
         "mesh",

@@ -8,7 +8,7 @@ use std::time::Instant;
 use anyhow::{bail, Context};
 use clap::Args;
 use fxshade_model::files::StagedDir;
-use fxshade_model::mesh::{self, Mesh};
+use fxshade_model::mesh::Mesh;
 use fxshade_model::pipeline::{Path, Pipeline};
 use fxshade_model::render::{self, Frame, Metrics, RenderMethod};
 
@@ -166,29 +166,7 @@ impl SceneArgs {
     }
 }
 
-/// The mesh named by `--mesh`.
-pub fn load_mesh(spec: &str) -> anyhow::Result<Mesh> {
-    if spec.starts_with("sphere:") || spec.starts_with("torus:") {
-        // `torus:24:z` builds it about another axis (default y).
-        let mut parts = spec.splitn(3, ':');
-        let (kind, n, axis) = (parts.next(), parts.next(), parts.next());
-        let axis = match axis {
-            None | Some("y") => mesh::Axis::Y,
-            Some("x") => mesh::Axis::X,
-            Some("z") => mesh::Axis::Z,
-            Some(a) => bail!("--mesh {spec}: axis `{a}`; give x, y or z"),
-        };
-        return super::polar_frames::procedural(
-            &format!("{}:{}", kind.unwrap_or(""), n.unwrap_or("")),
-            axis,
-        );
-    }
-    let p = std::path::Path::new(spec);
-    if !p.exists() {
-        bail!("--mesh {spec}: no such file; give sphere:N, torus:N or an .obj file");
-    }
-    Ok(mesh::load_obj(p)?)
-}
+pub use fxshade_flows::scene::load_mesh;
 
 /// `WxH`.
 pub fn parse_size(s: &str) -> anyhow::Result<(usize, usize)> {

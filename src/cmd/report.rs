@@ -683,7 +683,7 @@ pub fn run(a: &ReportArgs) -> anyhow::Result<()> {
     ]
     .iter()
     .map(|&(m, axis)| -> anyhow::Result<String> {
-        let c = fxshade_model::polar::frames::compare(&super::polar_frames::procedural(m, axis)?);
+        let c = fxshade_model::polar::frames::compare(&fxshade_flows::scene::procedural(m, axis)?);
         Ok(format!(
             "* {m} about {axis:?}: {:.1} % of the surface more than 10° apart (mean {:.1}°)\n",
             100.0 * c.share_over_10_deg,

@@ -11,6 +11,7 @@ use fxshade_model::rtl::Emitted;
 
 use super::{ConfigArgs, PipelineArgs};
 use crate::output::{emit, OutputArgs, Table};
+use crate::rtl_flow::configs_all;
 
 /// `fxshade rtl`
 #[derive(Args, Debug)]
@@ -81,28 +82,6 @@ pub fn emit_all(cfg: &fxshade_model::Config) -> anyhow::Result<Vec<(&'static Rtl
         .into_iter()
         .map(|(u, c)| Ok((u, units::emit_unit(u, &c)?.1)))
         .collect()
-}
-
-/// The units and configurations of [`emit_all`]: every unit with `cfg`,
-/// and the pipeline top with each variant's overrides applied.
-pub fn configs_all(
-    cfg: &fxshade_model::Config,
-) -> anyhow::Result<Vec<(&'static RtlUnit, fxshade_model::Config)>> {
-    let mut out = Vec::new();
-    for u in units::all() {
-        if u.name == "pipeline" {
-            for (_, set) in u.variants {
-                let mut c = cfg.clone();
-                for o in units::overrides(set) {
-                    c.apply_override(o)?;
-                }
-                out.push((u, c));
-            }
-        } else {
-            out.push((u, cfg.clone()));
-        }
-    }
-    Ok(out)
 }
 
 /// `3× a, 1× b` for a list of shapes.

@@ -34,7 +34,7 @@ pub struct RtlCheckArgs {
     /// deterministic, disjoint slice of the same stream (the corner cases
     /// are in shard 0). Combine the shards' results with `fxshade merge`.
     #[command(flatten)]
-    shard: crate::shard::ShardArgs,
+    shard: crate::shard_args::ShardArgs,
     /// Build the simulator into the cache and exit (a dependency job run
     /// once before a job array, so its tasks do not all build it).
     #[arg(long)]
@@ -299,9 +299,12 @@ fn run_shard(a: &RtlCheckArgs, shard: Option<&crate::shard::Shard>) -> anyhow::R
         return Ok(());
     }
     let start = std::time::Instant::now();
-    if stream.count >= 1_000_000 {
+    let bar =
+        (stream.count >= 1_000_000).then(|| crate::progress::bar(stream.count as u64, "rtl-check"));
+    if let Some(b) = &bar {
+        let b = b.clone();
         *rtl_flow::PROGRESS.lock().unwrap_or_else(|e| e.into_inner()) =
-            Some(crate::progress::bar(stream.count as u64, "rtl-check"));
+            Some(Box::new(move |n| b.inc(n)));
     }
     let results: Vec<anyhow::Result<CheckResult>> = std::thread::scope(|s| {
         let handles: Vec<_> = (0..jobs)
@@ -322,11 +325,11 @@ fn run_shard(a: &RtlCheckArgs, shard: Option<&crate::shard::Shard>) -> anyhow::R
             .collect()
     });
     let seconds = start.elapsed().as_secs_f64();
-    if let Some(b) = rtl_flow::PROGRESS
+    rtl_flow::PROGRESS
         .lock()
         .unwrap_or_else(|e| e.into_inner())
-        .take()
-    {
+        .take();
+    if let Some(b) = bar {
         b.finish_and_clear();
     }
     let runs: Vec<CheckResult> = results.into_iter().collect::<anyhow::Result<_>>()?;

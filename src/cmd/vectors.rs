@@ -31,7 +31,7 @@ pub struct VectorsArgs {
     /// deterministic, disjoint slice of the same stream (its records carry
     /// their stream indices; the manifest says `first` and `total`).
     #[command(flatten)]
-    shard: crate::shard::ShardArgs,
+    shard: crate::shard_args::ShardArgs,
     /// Leave out `inputs.hex` and `expected.hex` (the testbench reads the
     /// binary records; the text files are for people and `$readmemh`).
     #[arg(long)]

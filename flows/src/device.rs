@@ -10,7 +10,7 @@
 //! Overview", Artix-7 table: logic cells as 6-input LUTs, flip-flops,
 //! DSP48E1 slices, 36 Kb block RAMs counted as two 18 Kb halves).
 
-use crate::cmd::synth::Target;
+use crate::synth::Target;
 
 /// One part of a family (the family's file in
 /// `fxshade_model::rtl::targets` lists its parts).
@@ -116,7 +116,7 @@ impl Use {
 /// The utilisation a placer's log reports, the resources the design uses
 /// (a resource at 0 is left out).
 pub fn placed(log: &str) -> Vec<Use> {
-    crate::cmd::synth::utilisation(log)
+    crate::synth::utilisation(log)
         .into_iter()
         .filter(|(_, used, _)| *used > 0)
         .map(|(n, used, avail)| Use::new(&n, used, avail))

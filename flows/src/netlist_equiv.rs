@@ -54,7 +54,7 @@ use std::time::Instant;
 
 use anyhow::{bail, Context};
 
-use crate::cmd::equiv::{Counterexample, Equiv, Method, Module, Verdict};
+use crate::equiv::{Counterexample, Equiv, Method, Module, Verdict};
 use std::collections::HashSet;
 
 use crate::smt::{Reply, SExpr, Solver};
@@ -492,7 +492,7 @@ pub fn prove(
             timeout.saturating_sub(t0.elapsed().as_secs()).max(1)
         }
     };
-    if let Some(d) = &crate::env::get().smt_dump {
+    if let Some(d) = &crate::settings::get().smt_dump {
         let _ = std::fs::write(
             d.join(format!("{}-netlist-reset.smt2", out.module)),
             &from_reset,
@@ -516,7 +516,7 @@ pub fn prove(
                 }
             }
         }
-        if crate::env::get().smt_dump.is_some() {
+        if crate::settings::get().smt_dump.is_some() {
             eprintln!(
                 "simulation: {} of {} candidates left, {:.1} s",
                 alive.iter().filter(|a| **a).count(),
@@ -532,7 +532,7 @@ pub fn prove(
             .filter_map(|(c, a)| a.then_some(c))
             .collect();
         let q = crate::netlist_corr::step_query(&smt2, &live, &|st| differs_in(&outs, st));
-        let dump = &crate::env::get().smt_dump;
+        let dump = &crate::settings::get().smt_dump;
         if let Some(d) = dump {
             let _ = std::fs::write(
                 Path::new(d).join(format!("{}-netlist-step.smt2", out.module)),
@@ -612,7 +612,7 @@ pub fn prove(
         match solver.check(&crate::netlist_corr::sanity_query(&smt2, &live), left())? {
             Reply::Sat(_) => {
                 let w = windows(&smt2, depth, solver, timeout, t0)?;
-                if crate::env::get().smt_dump.is_some() {
+                if crate::settings::get().smt_dump.is_some() {
                     eprintln!(
                         "window: {} at {:.1} s",
                         if matches!(w, Reply::Unsat) {

@@ -439,17 +439,17 @@ pub fn evaluate(
         cost(cfg, o, &mut m).context("generating the RTL top for its cost")?;
     }
     if let Some((target, unit)) = &o.synth {
-        let t = crate::cmd::synth::synth_target(target).ok_or_else(|| {
+        let t = crate::synth::synth_target(target).ok_or_else(|| {
             anyhow::anyhow!(
                 "--synth {target}: not a synthesis target (one of {})",
-                crate::cmd::synth::synth_targets_where(|_| true)
+                crate::synth::synth_targets_where(|_| true)
             )
         })?;
-        let (r, _) = crate::cmd::synth::cached(
+        let (r, _) = crate::synth::cached(
             unit,
             cfg,
             t,
-            crate::cmd::synth::Flow::DEFAULT,
+            crate::synth::Flow::DEFAULT,
             None,
             true,
             &|_| {},

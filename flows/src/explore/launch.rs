@@ -84,7 +84,7 @@ pub fn install(line: &str, dir: Option<&Path>) -> anyhow::Result<()> {
     let argv = shlex::split(line)
         .filter(|v| !v.is_empty())
         .ok_or_else(|| {
-            crate::output::UsageError(format!(
+            crate::UsageError(format!(
                 "--launcher {line:?}: not a command (quote it as a shell would: \
              --launcher 'srun -N1 -n1 --quiet')"
             ))
@@ -193,31 +193,29 @@ impl Launcher {
     }
 }
 
-/// `fxshade explore-point JOB RESULT` (hidden: what a launcher runs).
-#[derive(clap::Args, Debug)]
-pub struct PointArgs {
-    /// The job file `explore --launcher` wrote.
-    job: PathBuf,
-    /// Where to write the outcome.
-    result: PathBuf,
-}
-
-/// Evaluate one point: its metrics, or the evaluation's error, written
-/// whole to `RESULT`; exit status 1 when the model could not evaluate it.
-pub fn run_point(a: &PointArgs) -> anyhow::Result<()> {
-    let text = fxshade_model::files::read_text_limited(&a.job)
-        .map_err(|e| crate::output::UsageError(format!("{}: cannot read: {e}", a.job.display())))?;
-    let job: Job = serde_json::from_str(&text).with_context(|| {
+/// Evaluate the point of the job file `job` (what `explore --launcher`
+/// wrote): its metrics, or the evaluation's error, written whole to
+/// `result`.
+///
+/// # Errors
+///
+/// A job that cannot be read ([`crate::UsageError`]) or is not a job of
+/// this fxshade version; a result that cannot be written; the point's own
+/// error when the model could not evaluate it (after writing it).
+pub fn run_point(job: &Path, result: &Path) -> anyhow::Result<()> {
+    let text = fxshade_model::files::read_text_limited(job)
+        .map_err(|e| crate::UsageError(format!("{}: cannot read: {e}", job.display())))?;
+    let j: Job = serde_json::from_str(&text).with_context(|| {
         format!(
             "{}: not a job of `fxshade explore --launcher`",
-            a.job.display()
+            job.display()
         )
     })?;
-    if job.fxshade_version != env!("CARGO_PKG_VERSION") {
+    if j.fxshade_version != env!("CARGO_PKG_VERSION") {
         bail!(
             "{}: written by fxshade {}, and this is {}: run the same fxshade on every node",
-            a.job.display(),
-            job.fxshade_version,
+            job.display(),
+            j.fxshade_version,
             env!("CARGO_PKG_VERSION")
         );
     }
@@ -226,11 +224,11 @@ pub fn run_point(a: &PointArgs) -> anyhow::Result<()> {
         error: Some(e),
         environment: true,
     };
-    let outcome = match Config::parse(&job.config, &a.job.display().to_string()) {
+    let outcome = match Config::parse(&j.config, &job.display().to_string()) {
         Err(e) => node_error(e.to_string().trim().replace('\n', "; ")),
-        Ok(cfg) => match super::load_meshes(&job.options) {
+        Ok(cfg) => match super::load_meshes(&j.options) {
             Err(e) => node_error(format!("{e:#}")),
-            Ok(meshes) => match eval::evaluate(&cfg, &job.options, &meshes) {
+            Ok(meshes) => match eval::evaluate(&cfg, &j.options, &meshes) {
                 Ok(metrics) => Outcome {
                     metrics: metrics
                         .into_iter()
@@ -247,16 +245,16 @@ pub fn run_point(a: &PointArgs) -> anyhow::Result<()> {
             },
         },
     };
-    let dir = a.result.parent().unwrap_or(Path::new("."));
+    let dir = result.parent().unwrap_or(Path::new("."));
     let mut t = tempfile::NamedTempFile::new_in(dir)
-        .with_context(|| format!("cannot write {}", a.result.display()))?;
+        .with_context(|| format!("cannot write {}", result.display()))?;
     use std::io::Write;
     t.write_all(&serde_json::to_vec(&outcome)?)
         .and_then(|()| t.as_file().sync_all())
-        .with_context(|| format!("cannot write {}", a.result.display()))?;
-    t.persist(&a.result)
+        .with_context(|| format!("cannot write {}", result.display()))?;
+    t.persist(result)
         .map_err(|e| e.error)
-        .with_context(|| format!("cannot write {}", a.result.display()))?;
+        .with_context(|| format!("cannot write {}", result.display()))?;
     if let Some(e) = outcome.error {
         bail!("{e}");
     }

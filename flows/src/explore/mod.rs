@@ -173,7 +173,7 @@ impl Base {
 pub fn load_meshes(o: &Options) -> anyhow::Result<Vec<(String, fxshade_model::mesh::Mesh)>> {
     o.meshes
         .iter()
-        .map(|s| Ok((s.clone(), crate::cmd::render::load_mesh(s)?)))
+        .map(|s| Ok((s.clone(), crate::scene::load_mesh(s)?)))
         .collect()
 }
 

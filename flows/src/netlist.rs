@@ -25,8 +25,8 @@ use fxshade_model::rtl::Emitted;
 /// behaviour (MULT18X18D only as a black box; DP16KD with its parameters
 /// only): cell type and model.
 pub const MODELS: [(&str, &str); 2] = [
-    ("MULT18X18D", include_str!("../rtl/sim/MULT18X18D.v")),
-    ("DP16KD", include_str!("../rtl/sim/DP16KD.v")),
+    ("MULT18X18D", include_str!("../../rtl/sim/MULT18X18D.v")),
+    ("DP16KD", include_str!("../../rtl/sim/DP16KD.v")),
 ];
 
 /// The file of Yosys's cell models beside a netlist [`write`] wrote: a
@@ -52,7 +52,7 @@ pub struct Written {
 fn yosys_datdir() -> anyhow::Result<PathBuf> {
     let has_lib = |d: &Path| d.join("ecp5").join("cells_sim.v").is_file();
     let mut tried = Vec::new();
-    let path = &crate::env::get().path;
+    let path = &crate::settings::get().path;
     if let Some(bin) = std::env::split_paths(path)
         .map(|d| d.join("yosys"))
         .find(|p| p.is_file())
@@ -118,11 +118,11 @@ fn words(text: &str) -> impl Iterator<Item = &str> {
 
 fn run(cmd: &mut Command, dir: &Path, what: &str) -> anyhow::Result<()> {
     let log = dir.join(format!("{what}.log"));
-    crate::cmd::synth::run_logged(cmd.current_dir(dir), &log, what).map(|_| ())
+    crate::synth::run_logged(cmd.current_dir(dir), &log, what).map(|_| ())
 }
 
 /// Write the unit's module of the ECP5 netlist `placed` (the harness
-/// netlist [`crate::cmd::synth`] hands to nextpnr, the unit a module of
+/// netlist [`crate::synth`] hands to nextpnr, the unit a module of
 /// its own, registers packed as `packed` says) and its cell models into
 /// `out` (which must exist); `work` is a scratch directory for Yosys's
 /// files and logs. Nothing is written into `out` until every file's text

@@ -149,7 +149,8 @@ impl Sources {
 }
 
 /// A simulator.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "snake_case")]
 pub enum Sim {
     /// Verilator (primary).
@@ -198,12 +199,12 @@ pub fn require_tool(tool: &str, package: &str) -> anyhow::Result<()> {
 /// (`FXSHADE_QUICK_BUILD=1`, which the test suite sets: hundreds of builds,
 /// each run on a few thousand vectors).
 fn quick_build() -> bool {
-    crate::env::get().quick_build
+    crate::settings::get().quick_build
 }
 
 /// Run a build tool under [`crate::proc::Limit::build`]: on timeout the
 /// whole group (make, the C++ compiler) is killed.
-pub(crate) fn run_tool(cmd: &mut Command, what: &str) -> anyhow::Result<String> {
+pub fn run_tool(cmd: &mut Command, what: &str) -> anyhow::Result<String> {
     crate::proc::run_ok(cmd, what, crate::proc::Limit::build())
 }
 
@@ -670,15 +671,18 @@ fn remove_dead_runs(dir: &Path) {
 /// Vectors per generated chunk.
 const CHUNK: usize = 8192;
 
-/// A bar the generators of every running check advance by the vectors they
-/// hand to the simulation (set by long `rtl-check` runs).
-pub static PROGRESS: std::sync::Mutex<Option<indicatif::ProgressBar>> = std::sync::Mutex::new(None);
+/// What the generators of every running check tell of the vectors they
+/// hand to the simulation (set by long `rtl-check` runs: a progress bar).
+pub type Advance = Box<dyn Fn(u64) + Send>;
+
+/// The [`Advance`] of the running checks, if any.
+pub static PROGRESS: std::sync::Mutex<Option<Advance>> = std::sync::Mutex::new(None);
 
 /// Threads generating vectors for one simulation: `$FXSHADE_GEN_THREADS`,
 /// else the machine's cores (the simulator takes one; generation usually
 /// costs more per vector than simulation).
 fn generator_workers() -> usize {
-    crate::env::get()
+    crate::settings::get()
         .gen_threads
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
         .min(16)
@@ -844,7 +848,7 @@ fn run_built(
         );
         // Only a waveform is replaced: any other file there is the user's.
         if std::fs::metadata(t).is_ok_and(|m| m.len() > 0) && fst_complete(t).is_err() {
-            return Err(crate::output::UsageError(format!(
+            return Err(crate::UsageError(format!(
                 "--trace {}: the file exists and is not an FST waveform; nothing was written \
                  (name another file)",
                 t.display()
@@ -912,7 +916,7 @@ fn run_built(
                     v.records(start, len, &mut bi, &mut be)?;
                     busy += t0.elapsed().as_secs_f64();
                     if let Some(b) = PROGRESS.lock().unwrap_or_else(|e| e.into_inner()).as_ref() {
-                        b.inc(len as u64);
+                        b(len as u64);
                     }
                     if tx_in.send(bi).is_err() || tx_exp.send(be).is_err() {
                         break;
@@ -1098,4 +1102,53 @@ fn run_built(
         }
     }
     Ok(r)
+}
+
+/// `rtl.*` overrides for a pipelining policy, a target and a period; a
+/// target or a period alone implies `rtl.pipeline = "target"`.
+pub fn pipeline_overrides(
+    pipeline: Option<&str>,
+    target: Option<&str>,
+    clock_ns: Option<f64>,
+) -> Vec<String> {
+    let mut o = Vec::new();
+    if let Some(t) = target {
+        o.push(format!("rtl.target=\"{t}\""));
+    }
+    if let Some(c) = clock_ns {
+        o.push(format!("rtl.clock_ns={c:?}"));
+    }
+    match pipeline {
+        Some(p) => o.push(format!("rtl.pipeline=\"{p}\"")),
+        None if target.is_some() || clock_ns.is_some() => o.push("rtl.pipeline=\"target\"".into()),
+        None => {}
+    }
+    o
+}
+
+/// The units and configurations of `fxshade rtl all`: every unit with `cfg`,
+/// and the pipeline top with each variant's overrides applied.
+pub fn configs_all(
+    cfg: &fxshade_model::Config,
+) -> anyhow::Result<
+    Vec<(
+        &'static fxshade_model::rtl::units::RtlUnit,
+        fxshade_model::Config,
+    )>,
+> {
+    let mut out = Vec::new();
+    for u in fxshade_model::rtl::units::all() {
+        if u.name == "pipeline" {
+            for (_, set) in u.variants {
+                let mut c = cfg.clone();
+                for o in fxshade_model::rtl::units::overrides(set) {
+                    c.apply_override(o)?;
+                }
+                out.push((u, c));
+            }
+        } else {
+            out.push((u, cfg.clone()));
+        }
+    }
+    Ok(out)
 }

@@ -27,7 +27,7 @@ pub struct Limit {
 
 impl Limit {
     fn from_env(var: &'static str, default_s: u64) -> Limit {
-        let s = crate::env::get()
+        let s = crate::settings::get()
             .timeouts
             .get(var)
             .copied()
