@@ -8,10 +8,13 @@
 //! | [`synth`] | Yosys synthesis, nextpnr place and route, the synthesis cache, timing closure ([`synth::close`]) |
 //! | [`device`] | a part's capacity and what a design uses of it |
 //! | [`netlist`], [`dsp_pack`], [`ff_roles`], [`critical_path`] | the synthesized netlist: written for co-simulation, MULT18 packing, flip-flops by role, the placer's critical path |
+//! | [`formal`] | the handshake proofs (Yosys, yosys-smtbmc, z3) |
 //! | [`smt`], [`smt2_model`] | SMT-LIB 2 to a solver, Yosys's `write_smt2` model read back |
 //! | [`equiv`], [`netlist_equiv`], [`netlist_corr`] | RTL and netlist equivalence proofs |
+//! | [`mutate`] | mutation testing of the vectors on the RTL |
 //! | [`explore`] | sweeps and the design-space optimizer, on this machine or a launcher |
 //! | [`scene`] | the meshes a `--mesh` names |
+//! | [`report`] | the figures of `fxshade report` that run a flow |
 //! | [`shard`] | deterministic slices of a run for job arrays |
 //!
 //! The flows read no environment variable: the CLI hands them its
@@ -28,10 +31,13 @@ pub mod dsp_pack;
 pub mod equiv;
 pub mod explore;
 pub mod ff_roles;
+pub mod formal;
+pub mod mutate;
 pub mod netlist;
 pub mod netlist_corr;
 pub mod netlist_equiv;
 pub mod proc;
+pub mod report;
 pub mod rtl_flow;
 pub mod scene;
 pub mod settings;

@@ -12,9 +12,7 @@ use crate::explore::{self, eval, optimize, sweep, Base, Cache, Goal, Options, Ro
 use crate::output::{OutputArgs, Table, UsageError};
 use crate::rtl_flow::{self, Sim};
 
-/// The meshes rendered when a goal or a Pareto metric needs `pipeline.*`
-/// and no `--mesh` is given.
-pub const DEFAULT_MESHES: [&str; 2] = ["sphere:12", "torus:24"];
+pub use crate::explore::DEFAULT_MESHES;
 
 /// `fxshade explore`
 /// `fxshade explore-point JOB RESULT` (hidden: what a launcher runs):

@@ -19,6 +19,10 @@ use rayon::prelude::*;
 
 pub use eval::Options;
 
+/// The meshes rendered when a goal or a Pareto metric needs `pipeline.*`
+/// and no `--mesh` is given.
+pub const DEFAULT_MESHES: [&str; 2] = ["sphere:12", "torus:24"];
+
 /// Bumped when a metric's definition changes: cached results of older
 /// definitions are not reused.
 const CACHE_VERSION: u32 = 1;
