@@ -1,6 +1,7 @@
 //! PNG pictures: grey-level images and error heat-maps with a legend.
 
 use anyhow::Context;
+use fxshade_model::convert::narrow;
 
 /// Encode a grey-level image (8 bits a pixel) as PNG.
 pub fn gray_png(width: usize, height: usize, px: &[u8]) -> anyhow::Result<Vec<u8>> {
@@ -15,7 +16,7 @@ pub fn rgb_png(width: usize, height: usize, px: &[u8]) -> anyhow::Result<Vec<u8>
 fn encode(width: usize, height: usize, ct: png::ColorType, px: &[u8]) -> anyhow::Result<Vec<u8>> {
     let mut out = Vec::new();
     {
-        let mut e = png::Encoder::new(&mut out, width as u32, height as u32);
+        let mut e = png::Encoder::new(&mut out, narrow::<u32, _>(width), narrow::<u32, _>(height));
         e.set_color(ct);
         e.set_depth(png::BitDepth::Eight);
         let mut w = e.write_header().context("cannot encode a PNG header")?;
@@ -305,11 +306,15 @@ pub fn normal_map_png(
     let samples = t.to_channels(bits, green);
     let mut out = Vec::new();
     {
-        let mut e = png::Encoder::new(&mut out, t.width as u32, t.height as u32);
+        let mut e = png::Encoder::new(
+            &mut out,
+            narrow::<u32, _>(t.width),
+            narrow::<u32, _>(t.height),
+        );
         e.set_color(png::ColorType::Rgb);
         let data: Vec<u8> = if bits == 8 {
             e.set_depth(png::BitDepth::Eight);
-            samples.iter().map(|&s| s as u8).collect()
+            samples.iter().map(|&s| narrow::<u8, _>(s)).collect()
         } else {
             e.set_depth(png::BitDepth::Sixteen);
             samples.iter().flat_map(|s| s.to_be_bytes()).collect()

@@ -3,6 +3,7 @@
 //! binary, so a machine without fonts draws the same pictures.
 
 use anyhow::Context;
+use fxshade_model::convert::{from_f64, to_f64};
 use plotters::prelude::*;
 
 static FONT: &[u8] = include_bytes!("../assets/fonts/DejaVuSans.ttf");
@@ -70,7 +71,7 @@ fn range(v: impl Iterator<Item = f64> + Clone, log: bool) -> (f64, f64) {
 /// between (no `9.0`, no `9.5`).
 fn integer_tick(v: &f64) -> String {
     if (v - v.round()).abs() < 1e-9 {
-        format!("{}", v.round() as i64)
+        format!("{}", from_f64::<i64>(v.round()))
     } else {
         String::new()
     }
@@ -235,7 +236,7 @@ fn scale(t: f64) -> RGBColor {
         0.0
     };
     let (a, b) = ((255.0, 247.0, 188.0), (8.0, 48.0, 107.0));
-    let m = |u: f64, v: f64| (u + (v - u) * t).round() as u8;
+    let m = |u: f64, v: f64| from_f64::<u8>((u + (v - u) * t).round());
     RGBColor(m(a.0, b.0), m(a.1, b.1), m(a.2, b.2))
 }
 
@@ -262,12 +263,12 @@ where
         .margin(12)
         .x_label_area_size(44)
         .y_label_area_size(90)
-        .build_cartesian_2d(0f64..nx.max(1) as f64, 0f64..ny.max(1) as f64)
+        .build_cartesian_2d(0f64..to_f64(nx.max(1)), 0f64..to_f64(ny.max(1)))
         .map_err(e)?;
     let xl = |v: &f64| {
         let i = (v - 0.5).round();
         if (v - 0.5 - i).abs() < 1e-6 && i >= 0.0 {
-            g.x.1.get(i as usize).cloned().unwrap_or_default()
+            g.x.1.get(from_f64::<usize>(i)).cloned().unwrap_or_default()
         } else {
             String::new()
         }
@@ -275,7 +276,7 @@ where
     let yl = |v: &f64| {
         let j = (v - 0.5).round();
         if (v - 0.5 - j).abs() < 1e-6 && j >= 0.0 {
-            g.y.1.get(j as usize).cloned().unwrap_or_default()
+            g.y.1.get(from_f64::<usize>(j)).cloned().unwrap_or_default()
         } else {
             String::new()
         }
@@ -299,7 +300,7 @@ where
                 _ => 0.0,
             };
             let fill = if v.is_some() { scale(t) } else { WHITE };
-            let (x, y) = (i as f64, j as f64);
+            let (x, y) = (to_f64(i), to_f64(j));
             chart
                 .draw_series(std::iter::once(Rectangle::new(
                     [(x, y), (x + 1.0, y + 1.0)],
@@ -365,7 +366,7 @@ pub fn histogram(
                 n.clone(),
                 c.iter()
                     .enumerate()
-                    .map(|(k, &v)| (k as f64, v as f64 / total as f64))
+                    .map(|(k, &v)| (to_f64(k), to_f64(v) / to_f64(total)))
                     .collect(),
             )
         })

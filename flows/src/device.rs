@@ -11,6 +11,7 @@
 //! DSP48E1 slices, 36 Kb block RAMs counted as two 18 Kb halves).
 
 use crate::synth::Target;
+use fxshade_model::convert::to_f64;
 
 /// One part of a family (the family's file in
 /// `fxshade_model::rtl::targets` lists its parts).
@@ -107,7 +108,7 @@ impl Use {
             percent: if available == 0 {
                 f64::INFINITY
             } else {
-                100.0 * used as f64 / available as f64
+                100.0 * to_f64(used) / to_f64(available)
             },
         }
     }

@@ -23,6 +23,7 @@
 //! (`fxshade formal`): they show that a stall never changes what an item
 //! computes, so together the two cover every input sequence.
 
+use fxshade_model::convert::narrow;
 use std::fmt::Write as _;
 use std::path::Path;
 use std::time::Instant;
@@ -674,7 +675,7 @@ fn counterexample(
     let mut item = Vec::new();
     for (slot, p) in ports.iter().enumerate() {
         let b = value(pairs, &format!("in{slot}"))?;
-        item.push(p.format.from_bits(b as u64));
+        item.push(p.format.from_bits(narrow::<u64, _>(b)));
     }
     // The compiled trace's outputs and flags for the item.
     let prog = units::compile_outputs(&m.design)?;
@@ -687,14 +688,17 @@ fn counterexample(
     for (k, p) in m.design.trace.output_ports().iter().enumerate() {
         model.push((p.name.clone(), outs[k][0]));
         let b = value(pairs, &at(&format!("{}_o", p.name)))?;
-        rtl.push((p.name.clone(), p.format.from_bits(b as u64)));
+        rtl.push((p.name.clone(), p.format.from_bits(narrow::<u64, _>(b))));
     }
     if !e.flags.is_empty() {
         model.push(("ovf".into(), i128::from(flags[0])));
-        rtl.push(("ovf".into(), value(pairs, &at("ovf_o"))? as i128));
+        rtl.push(("ovf".into(), narrow::<i128, _>(value(pairs, &at("ovf_o"))?)));
     }
     model.push(("valid".into(), 1));
-    rtl.push(("valid".into(), value(pairs, &at("valid_o"))? as i128));
+    rtl.push((
+        "valid".into(),
+        narrow::<i128, _>(value(pairs, &at("valid_o"))?),
+    ));
     if model == rtl {
         bail!(
             "{module}: the solver's counterexample is none: the RTL gives what the compiled \
@@ -717,7 +721,7 @@ fn counterexample(
                 row.push(item[slot]);
             } else {
                 let b = value(pairs, &format!("(|{module}_n {}_i| s{k})", p.name))?;
-                row.push(p.format.from_bits(b as u64));
+                row.push(p.format.from_bits(narrow::<u64, _>(b)));
             }
         }
         // Vector rows are in the emitted input fields' order.

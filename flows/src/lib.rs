@@ -23,6 +23,25 @@
 //! a [`UsageError`] is a bad flag or input file (the CLI exits with
 //! status 2).
 
+// No bare numeric `as` (see fxshade-numbers).
+#![warn(
+    clippy::cast_lossless,
+    clippy::cast_possible_truncation,
+    clippy::cast_sign_loss,
+    clippy::cast_possible_wrap,
+    clippy::cast_precision_loss
+)]
+// Tests build expected values with plain conversions.
+#![cfg_attr(
+    test,
+    allow(
+        clippy::cast_lossless,
+        clippy::cast_possible_truncation,
+        clippy::cast_sign_loss,
+        clippy::cast_possible_wrap,
+        clippy::cast_precision_loss
+    )
+)]
 #![warn(missing_docs)]
 
 pub mod critical_path;

@@ -7,6 +7,7 @@
 //! agree.
 
 use anyhow::Context;
+use fxshade_model::convert::{narrow, to_f64};
 use fxshade_model::rtl::{self, mutants, search};
 
 use crate::rtl_flow::{self, Sim};
@@ -132,7 +133,7 @@ fn smt(d: &rtl::Design, m: &fxshade_model::datapath::Mutation, rlimit: u64) -> S
                     .find(|(t, _)| t.atom() == Some(name.as_str()))
                     .and_then(|(_, v)| v.bits());
                 match bits {
-                    Some((b, w)) if w == f.width() => row.push(f.from_bits(b as u64)),
+                    Some((b, w)) if w == f.width() => row.push(f.from_bits(narrow::<u64, _>(b))),
                     _ => return Smt::Unknown,
                 }
             }
@@ -361,7 +362,7 @@ pub fn run_variant(
         score: if live == 0 {
             1.0
         } else {
-            killed as f64 / live as f64
+            to_f64(killed) / to_f64(live)
         },
         results,
         seconds: start.elapsed().as_secs_f64(),

@@ -48,6 +48,7 @@
 //! cycles, every input free: a model whose products are exact, checked on
 //! the real products at its inputs, is a counterexample.
 
+use fxshade_model::convert::narrow;
 use std::fmt::Write as _;
 use std::path::Path;
 use std::time::Instant;
@@ -724,7 +725,7 @@ fn code(m: &Module, port: &str, bits: i128) -> i128 {
         .chain(&m.emitted.outputs)
         .find(|f| key(&f.name) == key(bare));
     match f {
-        Some(f) if bits >= 0 && f.format.width() < 64 => f.format.from_bits(bits as u64),
+        Some(f) if bits >= 0 && f.format.width() < 64 => f.format.from_bits(narrow::<u64, _>(bits)),
         _ => bits,
     }
 }
@@ -741,7 +742,7 @@ fn counterexample(
             .iter()
             .find(|(k, _)| k.to_string() == t)
             .and_then(|(_, v)| v.bits())
-            .map_or(-1, |(b, _)| b as i128)
+            .map_or(-1, |(b, _)| narrow::<i128, _>(b))
     };
     // (name, cycle) of each wanted term.
     let parse = |t: &str| -> Option<(String, u32)> {

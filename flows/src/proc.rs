@@ -9,6 +9,7 @@
 //! variable that raises the limit; it never changes a result. The limits
 //! are read from the environment here, in one place ([`Limit`]).
 
+use fxshade_model::convert::narrow;
 use std::io::{Read, Write};
 use std::path::Path;
 use std::process::{Command, ExitStatus, Stdio};
@@ -82,7 +83,7 @@ impl Group {
     /// Watch the group led by the child `pid` (spawned with
     /// `process_group(0)`).
     pub fn watch(pid: u32) -> Group {
-        let pgid = pid as i32;
+        let pgid = narrow::<i32, _>(pid);
         // The guard waits on a pipe only fxshade holds: when it closes
         // (fxshade finished or was killed, even by SIGKILL), the guard
         // kills the whole group.

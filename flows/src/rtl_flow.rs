@@ -8,6 +8,7 @@
 //! (`rtl/tb/fxs_vector_tb.vh`, pasted into every generated testbench) are
 //! shared.
 
+use fxshade_model::convert::{narrow, to_f64};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
@@ -551,7 +552,7 @@ pub fn fst_complete(path: &Path) -> Result<(), String> {
         }
         let end = (pos as u64 + 1).checked_add(len).filter(|_| len >= 8);
         match end {
-            Some(e) if e <= b.len() as u64 => pos = e as usize,
+            Some(e) if e <= b.len() as u64 => pos = narrow::<usize, _>(e),
             _ => {
                 return Err(format!(
                     "block {blocks} at byte {pos} claims {len} bytes, the file ends at {}",
@@ -769,7 +770,7 @@ impl std::error::Error for NoVerdict {}
 
 /// Milliseconds since `t0`, at least 1 (0 means "not set").
 fn ms_since(t0: Instant) -> u64 {
-    t0.elapsed().as_millis() as u64 + 1
+    narrow::<u64, _>(t0.elapsed().as_millis()) + 1
 }
 
 /// [`check_with_args`] on a built simulator.
@@ -830,10 +831,14 @@ fn run_built(
     };
     c.current_dir(&run)
         .arg(format!("+N={}", v.len()))
-        .arg(format!("+FIRST={}", v.first() as u32))
+        .arg(format!("+FIRST={}", narrow::<u32, _>(v.first())))
         .arg(format!("+IN={}", fin.display()))
         .arg(format!("+EXP={}", fexp.display()))
-        .arg(format!("+SEED={}", seed as u32 as i32))
+        // The seed's low 32 bits, as the testbench's signed 32-bit `$random` seed.
+        .arg(format!(
+            "+SEED={}",
+            narrow::<u32, _>(seed & u64::from(u32::MAX)).cast_signed()
+        ))
         .arg(format!("+STALL={stall}"))
         .args(extra);
     let trace_path = trace.map(|t| std::path::absolute(t).unwrap_or_else(|_| t.to_path_buf()));
@@ -875,7 +880,7 @@ fn run_built(
         .stderr(std::process::Stdio::piped())
         .spawn()
         .with_context(|| format!("cannot run the {} simulation", sim.name()))?;
-    let pid = child.id() as i32;
+    let pid = narrow::<i32, _>(child.id());
     let group = crate::proc::Group::watch(child.id());
     let idle = crate::proc::Limit::sim_idle();
     let gone = AtomicBool::new(false);
@@ -954,7 +959,7 @@ fn run_built(
         s.spawn(writer(fexp.clone(), rx_exps, 1));
         let (done_tx, done_rx) = std::sync::mpsc::channel::<()>();
         s.spawn(move || {
-            let limit = idle.time.as_millis() as u64;
+            let limit = narrow::<u64, _>(idle.time.as_millis());
             while let Err(std::sync::mpsc::RecvTimeoutError::Timeout) =
                 done_rx.recv_timeout(std::time::Duration::from_millis(500))
             {
@@ -995,10 +1000,10 @@ fn run_built(
         });
     });
     let secs = start.elapsed().as_secs_f64();
-    let cpu = rusage.ru_utime.tv_sec as f64
-        + rusage.ru_utime.tv_usec as f64 * 1e-6
-        + rusage.ru_stime.tv_sec as f64
-        + rusage.ru_stime.tv_usec as f64 * 1e-6;
+    let cpu = to_f64(rusage.ru_utime.tv_sec)
+        + to_f64(rusage.ru_utime.tv_usec) * 1e-6
+        + to_f64(rusage.ru_stime.tv_sec)
+        + to_f64(rusage.ru_stime.tv_usec) * 1e-6;
     let generate_seconds = gen_result?;
     let outputs = if dump {
         std::fs::read_to_string(run.join("outputs.hex"))
@@ -1023,10 +1028,10 @@ fn run_built(
         seconds: secs,
         sim_cpu_seconds: cpu,
         generate_seconds,
-        vectors_per_second: n as f64 / cpu.max(1e-9),
-        vectors_per_second_end_to_end: n as f64 / secs.max(1e-9),
+        vectors_per_second: to_f64(n) / cpu.max(1e-9),
+        vectors_per_second_end_to_end: to_f64(n) / secs.max(1e-9),
         build_seconds: b.seconds,
-        sim_max_rss_kib: rusage.ru_maxrss as u64,
+        sim_max_rss_kib: narrow::<u64, _>(rusage.ru_maxrss),
         mismatches: Vec::new(),
         trace: trace_path,
         errors: Vec::new(),

@@ -6,6 +6,7 @@
 //! task ([`Scheduler`]), so a merge can name missing shards in the
 //! scheduler's own terms (`sbatch --array=3,7`).
 
+use fxshade_model::convert::narrow;
 use std::collections::BTreeMap;
 
 /// The scheduler a shard came from, and how it numbers array tasks:
@@ -32,7 +33,7 @@ impl Scheduler {
 
     /// The task index of shard `k`.
     pub fn task(&self, k: usize) -> i64 {
-        self.base + k as i64 * self.step
+        self.base + narrow::<i64, _>(k) * self.step
     }
 
     /// How to run shards `ks` of `n` again, in the scheduler's own terms:
@@ -50,7 +51,7 @@ impl Scheduler {
         };
         let ids: Vec<String> = ks
             .iter()
-            .map(|&k| (self.base + k as i64).to_string())
+            .map(|&k| (self.base + narrow::<i64, _>(k)).to_string())
             .collect();
         let list = ids.join(",");
         match self.kind.as_str() {
@@ -183,10 +184,10 @@ pub fn detect(env: &BTreeMap<String, String>, shards: Option<usize>) -> Result<S
         return Err("--shards N: give 1 ≤ N".into());
     }
     let shards = match (shards, num("FXSHADE_SHARDS")?) {
-        (Some(a), Some(b)) if a as i64 != b => {
+        (Some(a), Some(b)) if narrow::<i64, _>(a) != b => {
             return Err(format!("--shards {a} and FXSHADE_SHARDS={b} disagree"))
         }
-        (Some(a), _) => Some(a as i64),
+        (Some(a), _) => Some(narrow::<i64, _>(a)),
         (None, b) => b,
     };
     if shards.is_some_and(|n| n < 1) {
@@ -198,12 +199,12 @@ pub fn detect(env: &BTreeMap<String, String>, shards: Option<usize>) -> Result<S
         if n < 1 || k < 0 || k >= n {
             return Err(format!(
                 "{what}: task {} is shard {k} of {n}: not 0 ≤ K < N",
-                s.task(k.max(0) as usize)
+                s.task(narrow::<usize, _>(k.max(0)))
             ));
         }
         Ok(Shard {
-            k: k as usize,
-            n: n as usize,
+            k: narrow::<usize, _>(k),
+            n: narrow::<usize, _>(n),
             scheduler: s,
         })
     };
@@ -215,7 +216,7 @@ pub fn detect(env: &BTreeMap<String, String>, shards: Option<usize>) -> Result<S
     };
     if let Some(v) = get("FXSHADE_SHARD") {
         let (k, n) = parse_kn(&v).map_err(|e| format!("FXSHADE_SHARD: {e}"))?;
-        if let Some(m) = shards.filter(|&m| m != n as i64) {
+        if let Some(m) = shards.filter(|&m| m != narrow::<i64, _>(n)) {
             return Err(format!(
                 "FXSHADE_SHARD={v} names {n} shards, but --shards or FXSHADE_SHARDS says {m}"
             ));

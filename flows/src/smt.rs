@@ -9,6 +9,7 @@
 //! past it answers `unknown` rather than being killed; the process limit
 //! ([`crate::proc::Limit::formal`]) only stops a hung solver.
 
+use fxshade_model::convert::narrow;
 use std::process::Command;
 
 use anyhow::{bail, Context};
@@ -332,12 +333,12 @@ impl SExpr {
                     (h.len() <= 32)
                         .then(|| u128::from_str_radix(h, 16).ok())
                         .flatten()
-                        .map(|v| (v, 4 * h.len() as u32))
+                        .map(|v| (v, 4 * narrow::<u32, _>(h.len())))
                 } else if let Some(d) = a.strip_prefix("#b") {
                     (d.len() <= 128)
                         .then(|| u128::from_str_radix(d, 2).ok())
                         .flatten()
-                        .map(|v| (v, d.len() as u32))
+                        .map(|v| (v, narrow::<u32, _>(d.len())))
                 } else {
                     match a.as_str() {
                         "true" => Some((1, 1)),
@@ -503,7 +504,7 @@ fn signed_bounds(
         if bw == 0 || bw > 64 {
             return None;
         }
-        let sv = ((v << (128 - bw)) as i128) >> (128 - bw);
+        let sv = (v << (128 - bw)).cast_signed() >> (128 - bw);
         return Some((sv, sv));
     }
     let w = term_width(t, globals, locals)?;
@@ -740,9 +741,9 @@ fn term_width(
     match t {
         SExpr::Atom(a) => {
             if let Some(b) = a.strip_prefix("#b") {
-                Some(b.len() as u32)
+                Some(narrow::<u32, _>(b.len()))
             } else if let Some(h) = a.strip_prefix("#x") {
-                Some(4 * h.len() as u32)
+                Some(4 * narrow::<u32, _>(h.len()))
             } else {
                 locals.get(a).or_else(|| globals.get(a)).copied()
             }
@@ -892,8 +893,8 @@ fn rewrite_mul(
                 }
                 let k = v.trailing_zeros();
                 // Signed w-bit value, shifted right arithmetically.
-                let sv = ((v << (128 - w)) as i128) >> (128 - w);
-                let c = (sv >> k) as u128 & (u128::MAX >> (128 - w));
+                let sv = (v << (128 - w)).cast_signed() >> (128 - w);
+                let c = (sv >> k).cast_unsigned() & (u128::MAX >> (128 - w));
                 Some((format!("(_ bv{c} {w})"), k))
             };
             let (a, b, k) = match (shift(&items[1]), shift(&items[2])) {

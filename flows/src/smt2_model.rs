@@ -11,6 +11,7 @@
 //! size: a proof by stages asks about one stage's logic instead of
 //! re-reading the whole module at every cycle.
 
+use fxshade_model::convert::narrow;
 use std::collections::{HashMap, HashSet};
 
 /// A module's functions and registers, as Yosys's model defines them.
@@ -73,7 +74,8 @@ fn definitions(smt2: &str) -> Vec<String> {
         // Parentheses outside `|…|` names.
         for (k, part) in line.split('|').enumerate() {
             if k % 2 == 0 {
-                depth += part.matches('(').count() as i64 - part.matches(')').count() as i64;
+                depth += narrow::<i64, _>(part.matches('(').count())
+                    - narrow::<i64, _>(part.matches(')').count());
             }
         }
         if depth <= 0 {

@@ -16,6 +16,7 @@
 //! nothing across its ports, as in a design that integrates it, and the
 //! module placed is the one `--netlist` writes for co-simulation.
 
+use fxshade_model::convert::{narrow, to_f64};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
@@ -201,7 +202,11 @@ pub fn harness(e: &Emitted) -> String {
     let mut wires = String::new();
     for (k, g) in e.setup.iter().enumerate() {
         // Its own register: the bit after the inputs in the shift chain.
-        conns.push(format!(".{}_valid_i(in_q[{}])", g.name, in_w + k as u32));
+        conns.push(format!(
+            ".{}_valid_i(in_q[{}])",
+            g.name,
+            in_w + narrow::<u32, _>(k)
+        ));
         conns.push(format!(".{n}_ready_o({n}_ready_d)", n = g.name));
         wires += &format!("  wire {}_ready_d;\n", g.name);
         readies.push(format!("{}_ready_d", g.name));
@@ -220,7 +225,7 @@ pub fn harness(e: &Emitted) -> String {
         conns.push(format!(".{}_o(out_d[{}:{}])", f.name, at + w - 1, at));
         at += w;
     }
-    let chain_w = in_w + e.setup.len() as u32;
+    let chain_w = in_w + narrow::<u32, _>(e.setup.len());
     let shift = if chain_w >= 2 {
         format!("{{in_q[{}:0], din_i}}", chain_w - 2)
     } else {
@@ -836,7 +841,7 @@ pub fn with_estimate(measured: u64, estimate: Option<u64>) -> String {
     match estimate {
         Some(e) => format!(
             "{measured} (est. {e}, {:+.0} %)",
-            100.0 * (e as f64 - measured as f64) / measured.max(1) as f64
+            100.0 * (to_f64(e) - to_f64(measured)) / to_f64(measured.max(1))
         ),
         None => measured.to_string(),
     }

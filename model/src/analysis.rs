@@ -8,6 +8,7 @@
 //! computed from the model's output by the bit-accurate lighting unit and
 //! compared, in 8-bit levels, with the f64 value from the exact normal.
 
+use fxshade_numbers::convert::{from_f64, narrow, to_f64};
 use glam::DVec3;
 
 use crate::config::Config;
@@ -158,8 +159,8 @@ fn measure(
         st.max_diffuse_err_levels = st.max_diffuse_err_levels.max((level - want).abs());
     }
     if st.samples > 0 {
-        st.mean_rel_err = sum / st.samples as f64;
-        st.rms_rel_err = (sum2 / st.samples as f64).sqrt();
+        st.mean_rel_err = sum / to_f64(st.samples);
+        st.rms_rel_err = (sum2 / to_f64(st.samples)).sqrt();
     }
     Ok(st)
 }
@@ -251,7 +252,7 @@ pub fn normalize(
         let st = measure(&n, &prog, &light, &lprog, &tri)?;
         triangles = merge(triangles, st);
         tri.clear();
-        progress(0.3 + 0.5 * done as f64 / count.max(1) as f64);
+        progress(0.3 + 0.5 * to_f64(done) / to_f64(count.max(1)));
     }
     let n_edges = (count / 4).max(64);
     let mut edges = VectorStats::default();
@@ -262,7 +263,7 @@ pub fn normalize(
             .map(|_| {
                 let t = sampling::triangle_meeting(theta, &mut rng);
                 let s = rng.unit();
-                let i = rng.below(3) as usize;
+                let i = narrow::<usize, _>(rng.below(3));
                 let mut c = [0.0; 3];
                 c[i] = s;
                 c[(i + 1) % 3] = 1.0 - s;
@@ -327,14 +328,14 @@ fn merge(a: VectorStats, b: VectorStats) -> VectorStats {
     if n == 0 {
         return a;
     }
-    let w = |x: f64, k: u64| x * k as f64;
+    let w = |x: f64, k: u64| x * to_f64(k);
     VectorStats {
         samples: n,
         max_rel_err: a.max_rel_err.max(b.max_rel_err),
-        mean_rel_err: (w(a.mean_rel_err, a.samples) + w(b.mean_rel_err, b.samples)) / n as f64,
+        mean_rel_err: (w(a.mean_rel_err, a.samples) + w(b.mean_rel_err, b.samples)) / to_f64(n),
         rms_rel_err: ((w(a.rms_rel_err.powi(2), a.samples) + w(b.rms_rel_err.powi(2), b.samples))
-            / n as f64)
-            .sqrt(),
+            / to_f64(n))
+        .sqrt(),
         max_lsb_err: a.max_lsb_err.max(b.max_lsb_err),
         max_diffuse_err_levels: a.max_diffuse_err_levels.max(b.max_diffuse_err_levels),
         overflows: a.overflows + b.overflows,
@@ -538,12 +539,12 @@ pub fn interp(
             sl += l;
         }
         pix.clear();
-        progress(0.2 + 0.8 * done as f64 / total.max(1) as f64);
+        progress(0.2 + 0.8 * to_f64(done) / to_f64(total.max(1)));
         if done >= total {
             break;
         }
     }
-    let k = r.samples.max(1) as f64;
+    let k = to_f64(r.samples.max(1));
     r.mean_rel_err = s1 / k;
     r.rms_rel_err = (s2 / k).sqrt();
     r.mean_angle_err_deg = sa / k;
@@ -638,7 +639,9 @@ pub fn polar_stats(
     let mut rng = Rng::new(seed);
     // Elevation codes in [−¼, ¼] turn, as codes modulo a turn.
     let elev = |c: i128| c.rem_euclid(turn);
-    let triples = (2 * quarter + 1) as u64 * turn as u64 * (2 * quarter + 1) as u64;
+    let triples = narrow::<u64, _>(2 * quarter + 1)
+        * narrow::<u64, _>(turn)
+        * narrow::<u64, _>(2 * quarter + 1);
     if triples <= exhaustive_up_to {
         // Remembered: the transform is fixed by the polar and lighting
         // stages' formats, modes and tables.
@@ -674,10 +677,10 @@ pub fn polar_stats(
         let m = (1usize << 18).min(total - done);
         chunk.clear();
         for _ in 0..m {
-            let al = -quarter + i128::from(rng.below((2 * quarter + 1) as u64));
-            let an = -quarter + i128::from(rng.below((2 * quarter + 1) as u64));
-            let bl = i128::from(rng.below(turn as u64));
-            let bn = i128::from(rng.below(turn as u64));
+            let al = -quarter + i128::from(rng.below(narrow::<u64, _>(2 * quarter + 1)));
+            let an = -quarter + i128::from(rng.below(narrow::<u64, _>(2 * quarter + 1)));
+            let bl = i128::from(rng.below(narrow::<u64, _>(turn)));
+            let bn = i128::from(rng.below(narrow::<u64, _>(turn)));
             chunk.push([elev(al), bl, elev(an), bn]);
         }
         done += m;
@@ -700,7 +703,7 @@ pub fn polar_stats(
         let mut lcols: [Vec<i128>; 6] = Default::default();
         let mut exact_l = Vec::with_capacity(chunk.len());
         for (i, r) in chunk.iter().enumerate() {
-            let t = |c: i128| c as f64 / turn as f64;
+            let t = |c: i128| to_f64(c) / to_f64(turn);
             let want = crate::polar::reference(t(r[0]), t(r[1]), t(r[2]), t(r[3]));
             exact_l.push(want);
             let got = DVec3::new(
@@ -732,7 +735,7 @@ pub fn polar_stats(
         }
     }
     st.samples = total as u64;
-    st.rms_lsb_err = (sum2 / (3.0 * total.max(1) as f64)).sqrt();
+    st.rms_lsb_err = (sum2 / (3.0 * to_f64(total.max(1)))).sqrt();
     Ok(st)
 }
 
@@ -810,7 +813,7 @@ pub fn polar_every_code(
     let prog = p.compile()?;
     let fo = p.out.format();
     let ulp = fo.ulp();
-    let t = |c: i128| c as f64 / turn as f64;
+    let t = |c: i128| to_f64(c) / to_f64(turn);
     // The exact frames of every α_N (β_N = 0), and the exact L of every
     // (α_L, Δβ) row, from the one reference (polar::vector_of, frame).
     let frames: Vec<(DVec3, DVec3, DVec3)> = (-quarter..=quarter)
@@ -826,7 +829,7 @@ pub fn polar_every_code(
     // codes where the program is narrow.
     const BLOCK: i64 = 64;
     let a_n1: Vec<i64> = (-quarter..=quarter)
-        .map(|c| c.rem_euclid(turn) as i64)
+        .map(|c| narrow::<i64, _>(c.rem_euclid(turn)))
         .collect();
     let run = |cols: [&[i64]; 4]| -> (Vec<Vec<i64>>, u64) {
         let ov_of = |ov: Vec<(&'static str, u64)>| {
@@ -849,7 +852,7 @@ pub fn polar_every_code(
                 let (o, ov) = p.run(&r);
                 (
                     o.into_iter()
-                        .map(|v| v.into_iter().map(|x| x as i64).collect())
+                        .map(|v| v.into_iter().map(|x| narrow::<i64, _>(x)).collect())
                         .collect(),
                     ov_of(ov),
                 )
@@ -858,13 +861,13 @@ pub fn polar_every_code(
     };
     let one_row = |al: i128| -> Acc {
         let mut acc: Acc = (0.0, 0.0, f64::INFINITY, 0.0, 0.0, 0.0, 0);
-        let turn64 = turn as i64;
+        let turn64 = narrow::<i64, _>(turn);
         let mut d0 = 0i64;
         while d0 < turn64 {
             let ds: Vec<i64> = (d0..(d0 + BLOCK).min(turn64)).collect();
             d0 += BLOCK;
             let lanes = ds.len() * elevs;
-            let a_l = vec![al.rem_euclid(turn) as i64; lanes];
+            let a_l = vec![narrow::<i64, _>(al.rem_euclid(turn)); lanes];
             let b_n = vec![0i64; lanes];
             let b_l: Vec<i64> = ds
                 .iter()
@@ -879,9 +882,9 @@ pub fn polar_every_code(
                     let i = r * elevs + j;
                     let want = DVec3::new(l.dot(*ft), l.dot(*fb), l.dot(*fnn));
                     let got = DVec3::new(
-                        out[0][i] as f64 * ulp,
-                        out[1][i] as f64 * ulp,
-                        out[2][i] as f64 * ulp,
+                        to_f64(out[0][i]) * ulp,
+                        to_f64(out[1][i]) * ulp,
+                        to_f64(out[2][i]) * ulp,
                     );
                     let e = got - want;
                     let e2 = e.length_squared();
@@ -933,7 +936,7 @@ pub fn polar_every_code(
     // Combined in row order, so the sums do not depend on the threads.
     let mut st = PolarStats {
         coverage: "every code (exhaustive)",
-        samples: (rows.len() * turn as usize * elevs) as u64,
+        samples: (rows.len() * narrow::<usize, _>(turn) * elevs) as u64,
         ..Default::default()
     };
     let (mut sum2, mut sin2, mut e2max) = (0.0, 0.0f64, 0.0f64);
@@ -949,7 +952,7 @@ pub fn polar_every_code(
     }
     let vec_err = e2max.sqrt();
     st.max_len_dev = (g2max.sqrt() - 1.0).max(1.0 - g2min.sqrt());
-    st.rms_lsb_err = (sum2 / (3.0 * st.samples as f64)).sqrt() / ulp;
+    st.rms_lsb_err = (sum2 / (3.0 * to_f64(st.samples))).sqrt() / ulp;
     st.max_angle_err_deg = sin2.sqrt().min(1.0).asin().to_degrees();
     st.max_vector_err = vec_err;
     let s3 = 3f64.sqrt();
@@ -1218,7 +1221,7 @@ fn beta_every_code(
     let prog = crate::datapath::Compiled::compile(&tr, &[beta])?;
     let f = a.normal.format();
     let (ulp, k) = (f.ulp(), a.out.format().width());
-    let turn = (1u64 << k) as f64;
+    let turn = to_f64(1u64 << k);
     let e_in = crate::bounds::rounding_error(&a.normal);
     let cap = crate::render::POLAR_CAP_DEG.to_radians().sin();
     let r_lo = (cap * (lo - 3f64.sqrt() * e_in)).max(0.0);
@@ -1231,18 +1234,18 @@ fn beta_every_code(
         .position(|s| *s == xy_stage)
         .map_or(0, |k| 1u64 << (nf - 1 - k));
     let (c_lo, c_hi) = (r_lo / ulp, r_hi / ulp);
-    let x_max = (c_hi.floor() as i128).min(f.max_code());
+    let x_max = (from_f64::<i128>(c_hi.floor())).min(f.max_code());
     // (max error, worst x, worst z, pairs, overflows, covered) of one x.
     type Acc = (f64, i64, i64, u64, u64, u64);
     let one_x = |x: i128| -> Acc {
         let mut acc: Acc = (0.0, 0, 0, 0, 0, 0);
-        let xf = x as f64;
-        let zmax = (c_hi * c_hi - xf * xf).max(0.0).sqrt().floor() as i128;
-        let zmin = (c_lo * c_lo - xf * xf).max(0.0).sqrt().ceil() as i128;
+        let xf = to_f64(x);
+        let zmax = from_f64::<i128>((c_hi * c_hi - xf * xf).max(0.0).sqrt().floor());
+        let zmin = from_f64::<i128>((c_lo * c_lo - xf * xf).max(0.0).sqrt().ceil());
         let zs: Vec<i128> = (-zmax..=-zmin)
             .chain(zmin..=zmax)
             .filter(|&z| {
-                let r2 = xf * xf + (z * z) as f64;
+                let r2 = xf * xf + to_f64(z * z);
                 (f.min_code()..=f.max_code()).contains(&z) && r2 >= c_lo * c_lo && r2 <= c_hi * c_hi
             })
             .collect();
@@ -1263,11 +1266,11 @@ fn beta_every_code(
                 }
                 acc.3 += 1;
                 acc.5 += if x == 0 { 1 } else { 2 };
-                let exact = xf.atan2(z as f64) / std::f64::consts::TAU;
-                let got = out[0][i] as f64 / turn;
+                let exact = xf.atan2(to_f64(z)) / std::f64::consts::TAU;
+                let got = to_f64(out[0][i]) / turn;
                 let e = ((got - exact + 0.5).rem_euclid(1.0) - 0.5).abs() * turn;
                 if e > acc.0 {
-                    (acc.0, acc.1, acc.2) = (e, x as i64, z as i64);
+                    (acc.0, acc.1, acc.2) = (e, narrow::<i64, _>(x), narrow::<i64, _>(z));
                 }
             }
         }
@@ -1461,7 +1464,7 @@ pub fn angles(cfg: &Config, count: usize, seed: u64) -> Result<AnglesReport, Ana
     let mut inputs = AnglesInputs::new(cfg, count, seed);
     let coverage = inputs.coverage;
     let k = a.out.format().width();
-    let turn = (1u64 << k) as f64;
+    let turn = to_f64(1u64 << k);
     let mut st = AnglesStats {
         coverage,
         ..Default::default()
@@ -1496,7 +1499,7 @@ pub fn angles(cfg: &Config, count: usize, seed: u64) -> Result<AnglesReport, Ana
             if n.length() < SHORTEST_NORMAL {
                 // A few LSBs long: truncation of the shifted operands
                 // dominates; reported apart.
-                let (ga, gb) = (out[0][i] as f64 / turn, out[1][i] as f64 / turn);
+                let (ga, gb) = (to_f64(out[0][i]) / turn, to_f64(out[1][i]) / turn);
                 let wrap = |d: f64| (d + 0.5).rem_euclid(1.0) - 0.5;
                 st.short_inputs += 1;
                 st.max_short_lsb = st.max_short_lsb.max(wrap(ga - ea).abs() * turn);
@@ -1505,7 +1508,7 @@ pub fn angles(cfg: &Config, count: usize, seed: u64) -> Result<AnglesReport, Ana
                 }
                 continue;
             }
-            let (ga, gb) = (out[0][i] as f64 / turn, out[1][i] as f64 / turn);
+            let (ga, gb) = (to_f64(out[0][i]) / turn, to_f64(out[1][i]) / turn);
             let wrap = |d: f64| (d + 0.5).rem_euclid(1.0) - 0.5;
             let da = wrap(ga - ea).abs() * turn;
             st.max_alpha_lsb = st.max_alpha_lsb.max(da);
@@ -1528,7 +1531,7 @@ pub fn angles(cfg: &Config, count: usize, seed: u64) -> Result<AnglesReport, Ana
         }
     }
     st.rms_lsb = if nsq > 0 {
-        (sq / nsq as f64).sqrt()
+        (sq / to_f64(nsq)).sqrt()
     } else {
         0.0
     };

@@ -23,11 +23,30 @@
 //!   mesh, beside an f64 reference, with image metrics.
 //!
 //! `model/ARITHMETIC.md` states the contract the RTL follows.
+// No bare numeric `as` (see fxshade-numbers).
+#![warn(
+    clippy::cast_lossless,
+    clippy::cast_possible_truncation,
+    clippy::cast_sign_loss,
+    clippy::cast_possible_wrap,
+    clippy::cast_precision_loss
+)]
+// Tests build expected values with plain conversions.
+#![cfg_attr(
+    test,
+    allow(
+        clippy::cast_lossless,
+        clippy::cast_possible_truncation,
+        clippy::cast_sign_loss,
+        clippy::cast_possible_wrap,
+        clippy::cast_precision_loss
+    )
+)]
 #![warn(missing_docs, clippy::missing_errors_doc, clippy::missing_panics_doc)]
 
 // The layers below, under the paths the callers were written with.
 pub use fxshade_ir::{datapath, escape, sampling};
-pub use fxshade_numbers::{format, quantize};
+pub use fxshade_numbers::{convert, format, quantize};
 pub use fxshade_units::{
     angles, bounds, coeffs, config, interp, lighting, mad_chain, mesh, normalizer, paper, pipeline,
     polar, render, texture, units,

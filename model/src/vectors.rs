@@ -19,6 +19,7 @@
 //! manifest's count (a short `$readmemh` file otherwise passes silently on
 //! uninitialised entries).
 
+use fxshade_numbers::convert::narrow;
 use std::path::Path;
 
 use crate::files::{StagedDir, WriteError};
@@ -203,7 +204,7 @@ pub trait VectorSource: Sync {
     ) -> Result<(), RtlError> {
         let (rows, exp) = self.chunk(start, len)?;
         for (k, (r, e)) in rows.iter().zip(&exp).enumerate() {
-            let idx = (self.first() + start + k) as u32;
+            let idx = narrow::<u32, _>(self.first() + start + k);
             push_record(inputs, idx, self.input_fields(), r);
             push_record(expected, idx, self.output_fields(), e);
         }
@@ -440,7 +441,7 @@ pub fn write_set(
         let (rows, exp) = src.chunk(done, len)?;
         let mut bufs: Vec<Vec<u8>> = vec![Vec::new(); files.len()];
         for (k, (r, e)) in rows.iter().zip(&exp).enumerate() {
-            let idx = (src.first() + done + k) as u32;
+            let idx = narrow::<u32, _>(src.first() + done + k);
             for (w, b) in writers.iter().zip(bufs.chunks_mut(2)) {
                 w.push(&mut b[0], idx, ins, r);
                 w.push(&mut b[1], idx, outs, e);

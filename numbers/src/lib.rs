@@ -6,6 +6,8 @@
 //!   fraction bits) and the conversion of values to codes;
 //! * [`quantize`] — the only place bits are dropped: rounding and overflow
 //!   modes, exact on `i128` codes;
+//! * [`convert`] — the named numeric conversions (nearest `f64`,
+//!   saturating from `f64`, checked narrowing) used where `From` cannot;
 //! * [`bits`] — each quantization written out bit for bit as a Verilog
 //!   expression, and the widths the rounding needs (the RTL backend writes
 //!   them; the mutation pass of the IR asks which range checks can fire).
@@ -36,6 +38,7 @@
 )]
 
 pub mod bits;
+pub mod convert;
 pub mod format;
 pub mod quantize;
 

@@ -2,6 +2,7 @@
 //! UV-aligned frame into the polar transform's implied frame, through a
 //! mesh's UV layout, and report the texels where that is not possible.
 
+use fxshade_model::convert::to_f64;
 use std::path::PathBuf;
 
 use anyhow::Context;
@@ -89,7 +90,7 @@ pub fn run(a: &BakeArgs) -> anyhow::Result<()> {
             .with_context(|| format!("cannot write {}", f.display()))?;
     }
     let c = b.counts;
-    let pct = |n: usize| format!("{:.2} %", 100.0 * n as f64 / c.texels.max(1) as f64);
+    let pct = |n: usize| format!("{:.2} %", 100.0 * to_f64(n) / to_f64(c.texels.max(1)));
     let mut t = Table::new(["texels", "count", "share", "what"]).titled(format!(
         "{} ({}×{}) on {} into the implied frame → {}",
         a.normal_map.display(),

@@ -1,6 +1,7 @@
 //! `fxshade bench`: speed of the model (figures go in BENCHMARKS.md; no test
 //! asserts a time).
 
+use fxshade_model::convert::{narrow, to_f64};
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 
@@ -83,14 +84,14 @@ fn bench_polar(a: &NormalizeBenchArgs) -> anyhow::Result<()> {
             f();
             reps += 1;
         }
-        start.elapsed().as_secs_f64() / (reps as f64 * n as f64)
+        start.elapsed().as_secs_f64() / (to_f64(reps) * to_f64(n))
     };
     let t_tbn = time(&mut || {
         for (t, b, nn, l) in black_box(&frames) {
             black_box(glam::DVec3::new(t.dot(*l), b.dot(*l), nn.dot(*l)).normalize());
         }
     });
-    let t_polar = time_program(&p.compile()?, &cols, min) / n as f64;
+    let t_polar = time_program(&p.compile()?, &cols, min) / to_f64(n);
     let mut t = Table::new(["transform", "ns per vector", "M vectors/s", "× f64 TBN"]).titled(
         format!("polar: {n} light vectors into tangent space, default formats, one core"),
     );
@@ -149,7 +150,7 @@ fn bench_normalize(a: &NormalizeBenchArgs) -> anyhow::Result<()> {
             f();
             reps += 1;
         }
-        start.elapsed().as_secs_f64() / (reps as f64 * vs.len() as f64)
+        start.elapsed().as_secs_f64() / (to_f64(reps) * to_f64(vs.len()))
     };
     let t_glam = time(&mut || {
         for v in black_box(&exact_in) {
@@ -177,7 +178,7 @@ fn bench_normalize(a: &NormalizeBenchArgs) -> anyhow::Result<()> {
             normalizer::Interval::Triangle,
             true,
         )?;
-        let secs = time_program(&n.compile()?, &codes, min) / vs.len() as f64;
+        let secs = time_program(&n.compile()?, &codes, min) / to_f64(vs.len());
         t.row([
             format!("{}, bit-accurate (compiled)", m.name()),
             format!("{:.2}", secs * 1e9),
@@ -257,7 +258,7 @@ fn time_per_mad<C: Datapath>(
         }
         reps += 1;
     }
-    start.elapsed().as_secs_f64() * 1e9 / (reps as f64 * xs.len() as f64 * coefs.len() as f64)
+    start.elapsed().as_secs_f64() * 1e9 / (to_f64(reps) * to_f64(xs.len()) * to_f64(coefs.len()))
 }
 
 fn time_fixed<R: Raw>(
@@ -297,7 +298,7 @@ fn time_compiled(
         .map(|&v| Ok(q.apply_f64(v)?.code))
         .collect::<anyhow::Result<_>>()?;
     let run = time_program(&prog, &[codes], min);
-    Ok(run * 1e9 / (xs.len() as f64 * ab.len() as f64))
+    Ok(run * 1e9 / (to_f64(xs.len()) * to_f64(ab.len())))
 }
 
 /// Seconds per run of `prog` over every lane of `cols` (the codes of each
@@ -312,13 +313,13 @@ fn time_program(prog: &Compiled, cols: &[Vec<i128>], min: Duration) -> f64 {
             black_box(p.run_into(black_box(&refs), &mut outs));
             reps += 1;
         }
-        start.elapsed().as_secs_f64() / reps as f64
+        start.elapsed().as_secs_f64() / to_f64(reps)
     }
     match prog {
         Compiled::Narrow(p) => {
             let narrow: Vec<Vec<i64>> = cols
                 .iter()
-                .map(|c| c.iter().map(|&x| x as i64).collect())
+                .map(|c| c.iter().map(|&x| narrow::<i64, _>(x)).collect())
                 .collect();
             go(p, &narrow, min)
         }

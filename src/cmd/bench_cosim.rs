@@ -20,6 +20,7 @@
 //! must end `N passed, 0 failed`: a harness that checks nothing is not
 //! measured.
 
+use fxshade_model::convert::{narrow, to_f64};
 use std::path::Path;
 use std::process::Command;
 use std::time::Instant;
@@ -82,9 +83,9 @@ fn timed(cmd: &mut Command) -> anyhow::Result<Timed> {
     // SAFETY: a zeroed rusage is a valid out-parameter.
     let mut ru: libc::rusage = unsafe { std::mem::zeroed() };
     // SAFETY: reaping our own child.
-    unsafe { libc::wait4(child.id() as i32, &mut status, 0, &mut ru) };
+    unsafe { libc::wait4(narrow::<i32, _>(child.id()), &mut status, 0, &mut ru) };
     let wall = start.elapsed().as_secs_f64();
-    let tv = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
+    let tv = |t: libc::timeval| to_f64(t.tv_sec) + to_f64(t.tv_usec) * 1e-6;
     Ok(Timed {
         wall,
         cpu: tv(ru.ru_utime) + tv(ru.ru_stime),
@@ -210,14 +211,14 @@ fn bench_one(a: &CosimArgs, name: &str, tmp: &Path) -> anyhow::Result<Row> {
         gen = r.generate_seconds;
     }
     let _ = std::fs::remove_dir_all(&dir);
-    let per = |s: f64| n as f64 / s.max(1e-9);
+    let per = |s: f64| to_f64(n) / s.max(1e-9);
     let (tool_r, min_r) = (per(median(t_tool)), per(median(t_min)));
     let (sim_w, e2e_w) = (per(median(w_tool)), per(median(e2e)));
     Ok(Row {
         unit: name.to_string(),
         variant: stream.design.variant.clone(),
         count: n,
-        cycles_per_vector: cycles.unwrap_or(f64::NAN) / n as f64,
+        cycles_per_vector: cycles.unwrap_or(f64::NAN) / to_f64(n),
         fxshade_per_cpu_second: tool_r,
         minimal_per_cpu_second: min_r,
         ratio_to_minimal: tool_r / min_r,

@@ -13,6 +13,7 @@
 //! the peak resident memory is the process's after the renderer ran (the
 //! baseline allocates one level per fragment).
 
+use fxshade_model::convert::{from_f64, to_f64};
 use std::time::Instant;
 
 use anyhow::Context;
@@ -48,7 +49,7 @@ fn cpu_now() -> f64 {
     let mut ru: libc::rusage = unsafe { std::mem::zeroed() };
     // SAFETY: RUSAGE_SELF with a valid pointer.
     unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut ru) };
-    let tv = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
+    let tv = |t: libc::timeval| to_f64(t.tv_sec) + to_f64(t.tv_usec) * 1e-6;
     tv(ru.ru_utime) + tv(ru.ru_stime)
 }
 
@@ -57,7 +58,7 @@ fn max_rss_mib() -> f64 {
     let mut ru: libc::rusage = unsafe { std::mem::zeroed() };
     // SAFETY: RUSAGE_SELF with a valid pointer.
     unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut ru) };
-    ru.ru_maxrss as f64 / 1024.0
+    to_f64(ru.ru_maxrss) / 1024.0
 }
 
 /// CPU and wall seconds of `f`.
@@ -116,9 +117,11 @@ pub fn run(a: &RenderBenchArgs) -> anyhow::Result<()> {
                     let t = mesh.triangles[fr.tri];
                     let nv = t.map(|i| raster.normals[i as usize]);
                     let nn = (nv[0] * fr.c[0] + nv[1] * fr.c[1] + nv[2] * fr.c[2]).normalize();
-                    render::shade_f64(&base.light, nn, l, hv)
-                        .round()
-                        .clamp(0.0, 255.0) as u8
+                    from_f64::<u8>(
+                        render::shade_f64(&base.light, nn, l, hv)
+                            .round()
+                            .clamp(0.0, 255.0),
+                    )
                 })
                 .collect();
             levels.iter().map(|&x| u64::from(x)).sum::<u64>()
@@ -128,7 +131,7 @@ pub fn run(a: &RenderBenchArgs) -> anyhow::Result<()> {
         base_wall.push(t);
     }
     std::hint::black_box(checksum);
-    let ns = |s: f64| s / n as f64 * 1e9;
+    let ns = |s: f64| s / to_f64(n) * 1e9;
     let (fx_ns, base_ns) = (ns(median(fx)), ns(median(base_cpu)));
     let mut t = Table::new([
         "what",

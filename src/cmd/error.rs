@@ -3,6 +3,7 @@
 
 use clap::{Args, Subcommand};
 use fxshade_model::analysis::{self, NormalizeReport, VectorStats};
+use fxshade_model::convert::{from_f64, narrow};
 
 use super::ConfigArgs;
 use crate::output::{emit, OutputArgs, Table};
@@ -174,7 +175,7 @@ fn run_angles(a: &AnglesArgs) -> anyhow::Result<()> {
                     format!("polar.index.format=\"U0F{}\"", k.min(16)),
                     format!("angles.out.format=\"U0F{k}\""),
                     format!("angles.iterations={n}"),
-                    format!("angles.xy.format=\"I4F{}\"", nf + g as i32),
+                    format!("angles.xy.format=\"I4F{}\"", nf + narrow::<i32, _>(g)),
                     format!("angles.theta.format=\"U0F{}\"", k + g),
                 ] {
                     c.apply_override(&o)?;
@@ -278,7 +279,10 @@ fn run_polar(a: &PolarArgs) -> anyhow::Result<()> {
             "polar sweep: angle_bits = {base}, organisation {}, 50 000 random samples each",
             polar.organisation.name()
         ));
-        let bar = crate::progress::bar(((base - 5) * 5) as u64, "error polar --sweep");
+        let bar = crate::progress::bar(
+            narrow::<u64, _>(((base - 5) * 5).max(0)),
+            "error polar --sweep",
+        );
         for tb in 6..=base.min(14) {
             for w in [10, 12, 14, 16, 18] {
                 let mut c = cfg.clone();
@@ -370,7 +374,7 @@ fn run_interp(a: &InterpArgs) -> anyhow::Result<()> {
     let (method, theta) = (nu.method, nu.theta);
     let bar = crate::progress::bar(1000, "error interp");
     let r = analysis::interp(&cfg, scheme, method, theta, a.count, a.seed, &mut |f| {
-        bar.set_position((f * 1000.0) as u64)
+        bar.set_position(from_f64::<u64>(f * 1000.0))
     })?;
     bar.finish_and_clear();
     let mut t = Table::new([
@@ -540,7 +544,7 @@ pub fn run(cmd: &ErrorCmd) -> anyhow::Result<()> {
     let cfg = cfg_args.resolve()?;
     let bar = crate::progress::bar(1000, "error normalize");
     let r = analysis::normalize(&cfg, a.count, a.seed, &mut |f| {
-        bar.set_position((f * 1000.0) as u64)
+        bar.set_position(from_f64::<u64>(f * 1000.0))
     })?;
     bar.finish_and_clear();
     let mut json = serde_json::to_value(&r)?;

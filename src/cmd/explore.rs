@@ -1,5 +1,6 @@
 //! `fxshade explore`: sweeps, Pareto fronts, word-length optimization.
 
+use fxshade_model::convert::{narrow, to_f64};
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context};
@@ -268,10 +269,9 @@ fn read_sweep(path: &Path) -> anyhow::Result<SweepFile> {
             }
             "samples" => {
                 f.samples = Some(
-                    item.as_integer()
+                    narrow::<usize, _>(item.as_integer()
                         .filter(|&n| n > 0)
-                        .ok_or_else(|| UsageError(format!("{here}: `samples` is a positive integer")))?
-                        as usize,
+                        .ok_or_else(|| UsageError(format!("{here}: `samples` is a positive integer")))?),
                 )
             }
             _ => {
@@ -1849,7 +1849,7 @@ fn counted_table(r: &super::synth::SynthResult, title: String) -> Table {
         e.map_or("-".into(), |e| {
             format!(
                 "{e} ({:+.0} %)",
-                100.0 * (e as f64 - m as f64) / m.max(1) as f64
+                100.0 * (to_f64(e) - to_f64(m)) / to_f64(m.max(1))
             )
         })
     };

@@ -2,6 +2,7 @@
 //! in the counting context.
 
 use clap::Args;
+use fxshade_model::convert::narrow;
 use fxshade_model::units::{OpReport, UNITS};
 
 use super::ConfigArgs;
@@ -142,7 +143,7 @@ pub fn netlist_checks(cfg: &fxshade_model::Config) -> anyhow::Result<Vec<Netlist
                 .iter()
                 .filter(|(t, _)| t == "$mul")
                 .map(|(_, c)| {
-                    let (a, b) = (p(c, "A_WIDTH") as u32, p(c, "B_WIDTH") as u32);
+                    let (a, b) = (narrow::<u32, _>(p(c, "A_WIDTH")), narrow::<u32, _>(p(c, "B_WIDTH")));
                     fxshade_model::rtl::MulHw {
                         a_width: a,
                         b_width: b,

@@ -2,6 +2,7 @@
 //! simulated RTL top) on every pixel, and write the images, error heat-maps
 //! and metrics against the f64 reference.
 
+use fxshade_model::convert::{from_f64, narrow, to_f64};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -348,7 +349,9 @@ pub fn render_into(
         let errs: Vec<Option<u32>> = got
             .iter()
             .zip(want)
-            .map(|(&g, &r)| (!r.is_nan()).then(|| (f64::from(g) - r.round()).abs() as u32))
+            .map(|(&g, &r)| {
+                (!r.is_nan()).then(|| from_f64::<u32>((f64::from(g) - r.round()).abs()))
+            })
             .collect();
         let img = render::to_image(&f.raster, &errs, None);
         let file = format!("{prefix}{name}.png");
@@ -517,7 +520,7 @@ fn run_rtl(
             .outputs
             .get(k)
             .and_then(|h| u128::from_str_radix(h, 16).ok())
-            .map(|b| fl.from_bits((b & ((1u128 << fl.width()) - 1)) as u64));
+            .map(|b| fl.from_bits(narrow::<u64, _>(b & ((1u128 << fl.width()) - 1))));
         match got {
             Some(g) => {
                 levels[i] = render::pixel_of(fl, g);
@@ -652,7 +655,7 @@ pub fn cos_phi_table(r: &RenderResult) -> Table {
         "{}: cos φ per triangle (min {:.4}, mean {:.4}, max {:.4}; {} degenerate)",
         r.mesh, r.cos_phi.min, r.cos_phi.mean, r.cos_phi.max, r.cos_phi.degenerate
     ));
-    let n = r.cos_phi.triangles.max(1) as f64;
+    let n = to_f64(r.cos_phi.triangles.max(1));
     for &(th, k) in &r.cos_phi.by_theta {
         t.row([
             if th < 0.0 {
@@ -661,7 +664,7 @@ pub fn cos_phi_table(r: &RenderResult) -> Table {
                 format!("{th}")
             },
             k.to_string(),
-            format!("{:.1} %", 100.0 * k as f64 / n),
+            format!("{:.1} %", 100.0 * to_f64(k) / n),
         ]);
     }
     t

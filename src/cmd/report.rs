@@ -1,6 +1,7 @@
 //! `fxshade report`: the main job — everything a designer needs about a
 //! configuration, in one directory with an index page.
 
+use fxshade_model::convert::{from_f64, to_f64};
 use std::path::PathBuf;
 
 use anyhow::Context;
@@ -296,7 +297,7 @@ fn write_summary_plots(
                     m.method.to_string(),
                     mm.off_by
                         .iter()
-                        .map(|&f| (f * mm.pixels as f64).round() as u64)
+                        .map(|&f| from_f64::<u64>((f * to_f64(mm.pixels)).round()))
                         .collect(),
                 )
             })

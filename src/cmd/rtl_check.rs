@@ -1,5 +1,6 @@
 //! `fxshade rtl-check <unit>`: co-simulate the unit's RTL against the model.
 
+use fxshade_model::convert::to_f64;
 use std::path::PathBuf;
 
 use anyhow::Context;
@@ -359,9 +360,9 @@ fn run_shard(a: &RtlCheckArgs, shard: Option<&crate::shard::Shard>) -> anyhow::R
         latency: runs.iter().filter_map(|r| r.latency).min(),
         jobs,
         seconds,
-        vectors_per_second: stream.count as f64 / cpu.max(1e-9),
-        vectors_per_second_all_simulators: stream.count as f64 / cpu.max(1e-9) * jobs as f64,
-        vectors_per_second_end_to_end: stream.count as f64 / seconds.max(1e-9),
+        vectors_per_second: to_f64(stream.count) / cpu.max(1e-9),
+        vectors_per_second_all_simulators: to_f64(stream.count) / cpu.max(1e-9) * to_f64(jobs),
+        vectors_per_second_end_to_end: to_f64(stream.count) / seconds.max(1e-9),
         build_seconds: b.seconds,
         runs,
     };

@@ -2,6 +2,7 @@
 //! ([`fxshade_flows::synth`] runs it), the closure loop's
 //! ([`closure`]) and the delay and area models' calibrations.
 
+use fxshade_model::convert::to_f64;
 use std::path::PathBuf;
 
 use anyhow::Context;
@@ -349,7 +350,7 @@ pub(super) fn result_tables(
             f.row([
                 role.clone(),
                 n.to_string(),
-                format!("{:.1} %", 100.0 * *n as f64 / total.max(1) as f64),
+                format!("{:.1} %", 100.0 * to_f64(*n) / to_f64(total.max(1))),
             ]);
         }
         tables.push(f);
@@ -595,8 +596,8 @@ fn calibrate_area(
     }
     bar.finish_and_clear();
     let x: Vec<[f64; 10]> = rows.iter().map(|r| r.1.values()).collect();
-    let lut_y: Vec<f64> = rows.iter().map(|r| r.2 as f64).collect();
-    let ff_y: Vec<f64> = rows.iter().map(|r| r.3 as f64).collect();
+    let lut_y: Vec<f64> = rows.iter().map(|r| to_f64(r.2)).collect();
+    let ff_y: Vec<f64> = rows.iter().map(|r| to_f64(r.3)).collect();
     // Every term costs cells; only the multiplier blocks may take
     // flip-flops away (ECP5's product registers move into them).
     let lut_fit = fit(&x, &lut_y, [true; 11]);
@@ -608,7 +609,7 @@ fn calibrate_area(
         lut: lut_fit,
         ff: ff_fit,
     };
-    let pct = |est: u64, got: u64| 100.0 * (est as f64 - got as f64) / (got.max(1) as f64);
+    let pct = |est: u64, got: u64| 100.0 * (to_f64(est) - to_f64(got)) / (to_f64(got.max(1)));
     let mut t = Table::new([
         "design",
         "LUT",

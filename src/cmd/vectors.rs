@@ -1,6 +1,7 @@
 //! `fxshade vectors <unit>`: test vectors, with the unit's generated
 //! Verilog and testbench, for a configuration.
 
+use fxshade_model::convert::{narrow, to_f64};
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
@@ -91,10 +92,9 @@ pub fn run(a: &VectorsArgs) -> anyhow::Result<()> {
         .map(|w| w.record_bytes(&emitted.inputs) + w.record_bytes(&emitted.outputs))
         .sum();
     let count = match shard {
-        Some((k, n)) => {
-            (a.count as u128 * (k as u128 + 1) / n as u128
-                - a.count as u128 * k as u128 / n as u128) as u64
-        }
+        Some((k, n)) => narrow::<u64, _>(
+            a.count as u128 * (k as u128 + 1) / n as u128 - a.count as u128 * k as u128 / n as u128,
+        ),
         None => a.count as u64,
     };
     // At most 2^32 records of at most a few KiB: no overflow in u128.
@@ -111,10 +111,10 @@ pub fn run(a: &VectorsArgs) -> anyhow::Result<()> {
              (use --no-hex, fewer vectors, or --shard)",
             count,
             u.name,
-            need as f64 / 1e9,
+            to_f64(need) / 1e9,
             if a.no_hex { "" } else { " with the hex files" },
             parent.display(),
-            free as f64 / 1e9
+            to_f64(free) / 1e9
         );
     }
     let d = if a.force {
@@ -183,6 +183,6 @@ pub fn run(a: &VectorsArgs) -> anyhow::Result<()> {
         s.design.variant,
         a.out.display(),
         secs,
-        s.count as f64 / secs.max(1e-9)
+        to_f64(s.count) / secs.max(1e-9)
     ))
 }

@@ -14,6 +14,7 @@
 use crate::lighting::Lighting;
 use crate::normalizer::{DesignError, Method, Normalizer};
 use crate::quantize::{Quant, Rounding};
+use fxshade_numbers::convert::{from_f64, to_f64};
 
 /// The largest error one quantization makes on an exact value it keeps in
 /// range: the format's LSB for `trunc` (floor), half of it for the nearest
@@ -150,16 +151,16 @@ fn scale_error(
         Rounding::Trunc => (0.0, u),
         _ => (u / 2.0, u / 2.0),
     };
-    let c_lo = (((d_lo - b) / u).floor() as i128).max(fd.min_code());
-    let c_hi = (((d_hi + a) / u).ceil() as i128).min(fd.max_code());
+    let c_lo = (from_f64::<i128>(((d_lo - b) / u).floor())).max(fd.min_code());
+    let c_hi = (from_f64::<i128>(((d_hi + a) / u).ceil())).min(fd.max_code());
     if c_lo > c_hi {
         return Ok((0.0, 0, "every d code"));
     }
     if c_hi - c_lo >= crate::normalizer::EXHAUSTIVE_CODES {
         // Too many codes: the g stage's proven bound B over the codes,
         // then D/d̂ within [1 − a/d̂, 1 + b/d̂].
-        let dmin = (c_lo as f64 * u).max(u);
-        let m = crate::normalizer::g_stage_max(n, c_lo as f64 * u, c_hi as f64 * u, None)?;
+        let dmin = (to_f64(c_lo) * u).max(u);
+        let m = crate::normalizer::g_stage_max(n, to_f64(c_lo) * u, to_f64(c_hi) * u, None)?;
         let bg = m.bound.max(m.max);
         let hi_r = ((1.0 + b / dmin).sqrt() * (1.0 + bg) - 1.0).abs();
         let lo_r = (1.0 - (1.0 - a / dmin).max(0.0).sqrt() * (1.0 - bg)).abs();
@@ -178,13 +179,13 @@ fn scale_error(
         buf.extend(start..=end);
         let (out, _) = prog.run_i128(&[&buf]);
         for (&c, &g) in buf.iter().zip(&out[0]) {
-            let lo = (c as f64 * u - a).max(d_lo);
-            let hi = (c as f64 * u + b).min(d_hi);
+            let lo = (to_f64(c) * u - a).max(d_lo);
+            let hi = (to_f64(c) * u + b).min(d_hi);
             if lo > hi {
                 continue;
             }
             codes += 1;
-            let g = g as f64 * ug;
+            let g = to_f64(g) * ug;
             let e = (lo.sqrt() * g - 1.0).abs().max((hi.sqrt() * g - 1.0).abs());
             worst = worst.max(e);
         }

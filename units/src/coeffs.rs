@@ -22,6 +22,7 @@
 
 use crate::format::Format;
 use crate::quantize::{Overflow, Quant, Rounding};
+use fxshade_numbers::convert::{from_f64, narrow, to_f64};
 
 /// How the real coefficients are constructed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
@@ -119,7 +120,7 @@ pub fn named_highest_first(values: &[f64]) -> String {
         .iter()
         .rev()
         .enumerate()
-        .map(|(k, v)| format!("{} = {v}", (b'a' + k as u8) as char))
+        .map(|(k, v)| format!("{} = {v}", (b'a' + narrow::<u8, _>(k)) as char))
         .collect::<Vec<_>>()
         .join(", ")
 }
@@ -214,7 +215,7 @@ fn design_uncached(fit: Fit, lo: f64, hi: f64, degree: usize) -> Result<Poly, Co
 pub fn chebyshev_nodes(lo: f64, hi: f64, n: usize) -> Poly {
     let (m, r) = ((lo + hi) / 2.0, (hi - lo) / 2.0);
     let xs: Vec<f64> = (0..=n)
-        .map(|k| m + r * ((2 * k + 1) as f64 * std::f64::consts::PI / (2 * n + 2) as f64).cos())
+        .map(|k| m + r * (to_f64(2 * k + 1) * std::f64::consts::PI / to_f64(2 * n + 2)).cos())
         .collect();
     let ys: Vec<f64> = xs.iter().map(|&x| rsqrt(x)).collect();
     interpolate(&xs, &ys)
@@ -229,7 +230,7 @@ pub fn interpolate(xs: &[f64], ys: &[f64]) -> Poly {
         .iter()
         .zip(ys)
         .map(|(&x, &y)| {
-            let mut row: Vec<f64> = (0..n).map(|j| x.powi(j as i32)).collect();
+            let mut row: Vec<f64> = (0..n).map(|j| x.powi(narrow::<i32, _>(j))).collect();
             row.push(y);
             row
         })
@@ -271,14 +272,14 @@ pub fn chebyshev_series(lo: f64, hi: f64, n: usize) -> Poly {
     // c_j = (2/N) Σ_k f(m + r t_k) T_j(t_k), t_k = cos((k+½)π/N); c_0 halved.
     let mut c = vec![0.0; n + 1];
     for k in 0..N {
-        let theta = (k as f64 + 0.5) * std::f64::consts::PI / N as f64;
+        let theta = (to_f64(k) + 0.5) * std::f64::consts::PI / to_f64(N);
         let f = rsqrt(m + r * theta.cos());
         for (j, cj) in c.iter_mut().enumerate() {
-            *cj += f * (j as f64 * theta).cos();
+            *cj += f * (to_f64(j) * theta).cos();
         }
     }
     for cj in &mut c {
-        *cj *= 2.0 / N as f64;
+        *cj *= 2.0 / to_f64(N);
     }
     c[0] /= 2.0;
     // Σ c_j T_j(t) with t = (d − m)/r: expand T_j in t, then t in d.
@@ -295,7 +296,8 @@ pub fn chebyshev_series(lo: f64, hi: f64, n: usize) -> Poly {
         // (d − m)^i / r^i = Σ_k binom(i,k) d^k (−m)^(i−k) / r^i
         for k in 0..=i {
             let binom = [[1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [1.0, 2.0, 1.0]][i][k];
-            d_poly[k] += ti * binom * (-m).powi((i - k) as i32) / r.powi(i as i32);
+            d_poly[k] +=
+                ti * binom * (-m).powi(narrow::<i32, _>(i - k)) / r.powi(narrow::<i32, _>(i));
         }
     }
     Poly(d_poly)
@@ -328,7 +330,7 @@ pub fn remez(
     let m = n + 2;
     let (mid, rad) = ((lo + hi) / 2.0, (hi - lo) / 2.0);
     let mut xs: Vec<f64> = (0..m)
-        .map(|i| mid - rad * (i as f64 * std::f64::consts::PI / (m - 1) as f64).cos())
+        .map(|i| mid - rad * (to_f64(i) * std::f64::consts::PI / to_f64(m - 1)).cos())
         .collect();
     let grid: Vec<f64> = (0..=4096)
         .map(|i| lo + (hi - lo) * f64::from(i) / 4096.0)
@@ -339,7 +341,9 @@ pub fn remez(
             .iter()
             .enumerate()
             .map(|(i, &x)| {
-                let mut row: Vec<f64> = (0..=n).map(|j| w(x) * x.powi(j as i32)).collect();
+                let mut row: Vec<f64> = (0..=n)
+                    .map(|j| w(x) * x.powi(narrow::<i32, _>(j)))
+                    .collect();
                 row.push(if i % 2 == 0 { -1.0 } else { 1.0 });
                 row.push(w(x) * f(x));
                 row
@@ -437,7 +441,7 @@ pub fn max_rel_err(p: &Poly, lo: f64, hi: f64) -> (f64, f64) {
     let q: Vec<f64> =
         p.0.iter()
             .enumerate()
-            .map(|(j, &c)| (2 * j + 1) as f64 * c)
+            .map(|(j, &c)| to_f64(2 * j + 1) * c)
             .collect();
     let mut cands = vec![lo, hi];
     match q.len() {
@@ -528,7 +532,9 @@ pub fn discrete_minimax(xs: &[f64], fs: &[f64], ws: &[f64], n: usize) -> (Vec<f6
             .iter()
             .enumerate()
             .map(|(k, &i)| {
-                let mut row: Vec<f64> = (0..=n).map(|j| ws[i] * xs[i].powi(j as i32)).collect();
+                let mut row: Vec<f64> = (0..=n)
+                    .map(|j| ws[i] * xs[i].powi(narrow::<i32, _>(j)))
+                    .collect();
                 row.push(if k % 2 == 0 { -1.0 } else { 1.0 });
                 row.push(ws[i] * fs[i]);
                 row
@@ -639,7 +645,7 @@ pub fn search_codes_full(
         keep: keep.max(1),
         best: Vec::new(),
         leaves: 0,
-        ulp_err: f.ulp() * hi.sqrt() * (0..=n).map(|j| hi.powi(j as i32)).sum::<f64>(),
+        ulp_err: f.ulp() * hi.sqrt() * (0..=n).map(|j| hi.powi(narrow::<i32, _>(j))).sum::<f64>(),
     };
     let e0 = s.error(&rounded.codes);
     s.offer(rounded.codes.clone(), e0);
@@ -669,7 +675,7 @@ pub fn grid_rel_err(codes: &[i128], f: Format, grid: &[f64]) -> f64 {
             let g = codes
                 .iter()
                 .rev()
-                .fold(0.0, |acc, &c| acc * d + c as f64 * h);
+                .fold(0.0, |acc, &c| acc * d + to_f64(c) * h);
             (d.sqrt() * g - 1.0).abs()
         })
         .fold(0.0, f64::max)
@@ -698,7 +704,7 @@ impl Search<'_> {
                 let g = codes
                     .iter()
                     .rev()
-                    .fold(0.0, |acc, &c| acc * d + c as f64 * self.h);
+                    .fold(0.0, |acc, &c| acc * d + to_f64(c) * self.h);
                 (s * g - 1.0).abs()
             })
             .fold(0.0, f64::max)
@@ -732,7 +738,7 @@ impl Search<'_> {
             .map(|&d| {
                 rsqrt(d)
                     - (j..fixed.len())
-                        .map(|k| fixed[k] as f64 * self.h * d.powi(k as i32))
+                        .map(|k| to_f64(fixed[k]) * self.h * d.powi(narrow::<i32, _>(k)))
                         .sum::<f64>()
             })
             .collect()
@@ -781,7 +787,10 @@ impl Search<'_> {
             }
             let (a, b) = hull(t_hi);
             let centre = (a + b) / 2.0 / self.h;
-            for c in [centre.floor() as i128, centre.ceil() as i128] {
+            for c in [
+                from_f64::<i128>(centre.floor()),
+                from_f64::<i128>(centre.ceil()),
+            ] {
                 if self.f.contains(c) {
                     fixed[0] = c;
                     let e = self.error(fixed);
@@ -810,8 +819,8 @@ impl Search<'_> {
         let mut w = 2i128;
         let start = loop {
             let (a, b) = (
-                clamp(real.floor() as i128 - w),
-                clamp(real.ceil() as i128 + w),
+                clamp(from_f64::<i128>(real.floor()) - w),
+                clamp(from_f64::<i128>(real.ceil()) + w),
             );
             let best = (a..=b)
                 .min_by(|&x, &y| lb(x, fixed).total_cmp(&lb(y, fixed)))

@@ -17,6 +17,7 @@
 //! ([`crate::datapath::MAX_EXACT_WIDTH`]) is rejected naming the stage it
 //! came from.
 
+use fxshade_numbers::convert::{narrow, to_f64};
 use std::collections::BTreeSet;
 use std::fmt;
 use std::path::Path;
@@ -393,7 +394,7 @@ fn scalar(decl: &FieldDecl, v: &TomlValue) -> Result<Value, String> {
         FieldKind::Number { min, max } => {
             let x = match v {
                 TomlValue::Float(f) => *f.value(),
-                TomlValue::Integer(i) => *i.value() as f64,
+                TomlValue::Integer(i) => to_f64(*i.value()),
                 other => return Err(format!("expected a number, found {}", kind_name(other))),
             };
             if !(x >= min && x <= max) {
@@ -818,7 +819,7 @@ impl Config {
             .iter()
             .map(|(key, q)| {
                 let f = q.format();
-                let frac = width as i32 - f.int_bits();
+                let frac = narrow::<i32, _>(width) - f.int_bits();
                 if frac < 0 {
                     return Err(format!(
                         "width.{group}={width}: {key} ({f}) has {} integer bits: give at least {} bits",

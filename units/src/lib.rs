@@ -16,6 +16,25 @@
 //!
 //! It depends on `fxshade-numbers`, `fxshade-ir` and `fxshade-backend`;
 //! the vector flow (`fxshade-model`) and the CLI sit above it.
+// No bare numeric `as` (see fxshade-numbers).
+#![warn(
+    clippy::cast_lossless,
+    clippy::cast_possible_truncation,
+    clippy::cast_sign_loss,
+    clippy::cast_possible_wrap,
+    clippy::cast_precision_loss
+)]
+// Tests build expected values with plain conversions.
+#![cfg_attr(
+    test,
+    allow(
+        clippy::cast_lossless,
+        clippy::cast_possible_truncation,
+        clippy::cast_sign_loss,
+        clippy::cast_possible_wrap,
+        clippy::cast_precision_loss
+    )
+)]
 #![warn(missing_docs, clippy::missing_errors_doc, clippy::missing_panics_doc)]
 
 pub mod angles;

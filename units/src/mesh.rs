@@ -1,6 +1,7 @@
 //! Procedural triangle meshes with normals and texture coordinates: a UV
 //! sphere and a torus at any tessellation, about any axis.
 
+use fxshade_numbers::convert::narrow;
 use glam::{DVec2, DVec3};
 
 /// A triangle mesh.
@@ -256,10 +257,12 @@ impl<R: std::io::BufRead> std::io::BufRead for LineCounter<R> {
 fn prescan_obj(path: &str, text: &str) -> Result<Vec<usize>, ObjError> {
     let lines: Vec<&str> = text.lines().collect();
     let count = |kw: &str| {
-        lines
-            .iter()
-            .filter(|l| l.split_whitespace().next() == Some(kw))
-            .count() as i64
+        narrow::<i64, _>(
+            lines
+                .iter()
+                .filter(|l| l.split_whitespace().next() == Some(kw))
+                .count(),
+        )
     };
     let totals = [count("v"), count("vt"), count("vn")];
     let mut seen = [0i64; 3];
@@ -418,7 +421,7 @@ pub fn load_obj(path: &std::path::Path) -> Result<Mesh, ObjError> {
     let mut all_uvs = true;
     for model in &models {
         let me = &model.mesh;
-        let base = m.positions.len() as u32;
+        let base = narrow::<u32, _>(m.positions.len());
         let nv = me.positions.len() / 3;
         for k in 0..nv {
             m.positions.push(DVec3::new(

@@ -20,6 +20,7 @@
 //! was).
 
 use crate::coeffs::{self, Poly};
+use fxshade_numbers::convert::narrow;
 
 /// The published tables, with their source in the header.
 pub const PAPER_CSV: &str = include_str!("../../model/data/paper_tables.csv");
@@ -161,7 +162,8 @@ pub fn rows() -> Result<Vec<Row>, PaperError> {
 
 /// Decimal places printed.
 fn decimals(text: &str) -> i32 {
-    text.split_once('.').map_or(0, |(_, f)| f.len() as i32)
+    text.split_once('.')
+        .map_or(0, |(_, f)| narrow::<i32, _>(f.len()))
 }
 
 /// Whether `x` rounds to the printed `text`.

@@ -38,6 +38,7 @@
 //! Errors are in 8-bit levels against the reference rounded to the nearest
 //! level (the reference image).
 
+use fxshade_numbers::convert::{from_f64, narrow, to_f64};
 use glam::{DVec2, DVec3};
 
 use crate::config::Config;
@@ -345,15 +346,15 @@ pub fn rasterize_in(scene: &Scene, m: &Mesh, width: usize, height: usize) -> Ras
         .map(|p| (*p - centre).length())
         .fold(0.0, f64::max)
         .max(1e-300);
-    let scale = 0.45 * width.min(height) as f64 / radius;
+    let scale = 0.45 * to_f64(width.min(height)) / radius;
     let screen: Vec<DVec3> = m
         .positions
         .iter()
         .map(|p| {
             let q = tilt(*p - centre);
             DVec3::new(
-                width as f64 / 2.0 + q.x * scale,
-                height as f64 / 2.0 - q.y * scale,
+                to_f64(width) / 2.0 + q.x * scale,
+                to_f64(height) / 2.0 - q.y * scale,
                 q.z,
             )
         })
@@ -366,13 +367,19 @@ pub fn rasterize_in(scene: &Scene, m: &Mesh, width: usize, height: usize) -> Ras
         if area.abs() < 1e-12 {
             continue;
         }
-        let x0 = p0.x.min(p1.x).min(p2.x).floor().max(0.0) as usize;
-        let x1 = (p0.x.max(p1.x).max(p2.x).ceil() as isize).clamp(0, width as isize) as usize;
-        let y0 = p0.y.min(p1.y).min(p2.y).floor().max(0.0) as usize;
-        let y1 = (p0.y.max(p1.y).max(p2.y).ceil() as isize).clamp(0, height as isize) as usize;
+        let x0 = from_f64::<usize>(p0.x.min(p1.x).min(p2.x).floor().max(0.0));
+        let x1 = narrow::<usize, _>(
+            (from_f64::<isize>(p0.x.max(p1.x).max(p2.x).ceil()))
+                .clamp(0, narrow::<isize, _>(width)),
+        );
+        let y0 = from_f64::<usize>(p0.y.min(p1.y).min(p2.y).floor().max(0.0));
+        let y1 = narrow::<usize, _>(
+            (from_f64::<isize>(p0.y.max(p1.y).max(p2.y).ceil()))
+                .clamp(0, narrow::<isize, _>(height)),
+        );
         for y in y0..y1 {
             for x in x0..x1 {
-                let (px, py) = (x as f64 + 0.5, y as f64 + 0.5);
+                let (px, py) = (to_f64(x) + 0.5, to_f64(y) + 0.5);
                 let e = |a: DVec3, b: DVec3| (b.x - a.x) * (py - a.y) - (px - a.x) * (b.y - a.y);
                 let w0 = e(p1, p2) / area;
                 let w1 = e(p2, p0) / area;
@@ -429,7 +436,10 @@ pub fn normal_map(uv: DVec2) -> DVec3 {
 /// The lighting in f64: `255·(km·max(0, n·l) + ks·max(0, n·h)^e)`, clipped.
 pub fn shade_f64(cfg_light: &crate::lighting::Lighting, n: DVec3, l: DVec3, h: DVec3) -> f64 {
     let d = n.dot(l).max(0.0);
-    let s = n.dot(h).max(0.0).powi(cfg_light.shininess as i32);
+    let s = n
+        .dot(h)
+        .max(0.0)
+        .powi(narrow::<i32, _>(cfg_light.shininess));
     (crate::lighting::LEVELS * (cfg_light.i0_km * d + cfg_light.i0_ks * s)).clamp(0.0, 255.0)
 }
 
@@ -482,7 +492,7 @@ impl Metrics {
                 continue;
             }
             m.pixels += 1;
-            let e = (f64::from(g) - w.round()).abs() as u32;
+            let e = from_f64::<u32>((f64::from(g) - w.round()).abs());
             m.max_abs_levels = m.max_abs_levels.max(e);
             sum += f64::from(e);
             sq += f64::from(e * e);
@@ -493,9 +503,9 @@ impl Metrics {
             }
         }
         if m.pixels > 0 {
-            let n = m.pixels as f64;
+            let n = to_f64(m.pixels);
             m.mean_abs_levels = sum / n;
-            m.off_by = hist.map(|h| h as f64 / n);
+            m.off_by = hist.map(|h| to_f64(h) / n);
             m.psnr_db = (sq > 0.0).then(|| 10.0 * (255.0f64 * 255.0 / (sq / n)).log10());
         }
         m.paper_bound_holds = m.pixels > 0 && m.max_rel_intensity_err < PAPER_BOUND;
@@ -1160,7 +1170,7 @@ pub fn image_of(f: &Frame, method: RenderMethod, levels: Vec<u8>) -> MethodImage
 /// signed, is shown by value rather than by its raw code. Model and RTL
 /// images both go through this.
 pub fn pixel_of(level: crate::format::Format, code: i128) -> u8 {
-    level.to_f64(code).round().clamp(0.0, 255.0) as u8
+    from_f64::<u8>(level.to_f64(code).round().clamp(0.0, 255.0))
 }
 
 /// Levels of a path's rows (skipped fragments, with empty rows, are 0).
@@ -1193,7 +1203,7 @@ pub fn levels_of(p: &Pipeline, path: Path, rows: &[Vec<i128>]) -> Result<Vec<u8>
 /// Round an f64 reference to levels.
 pub fn reference_levels(r: &[f64]) -> Vec<u8> {
     r.iter()
-        .map(|x| x.round().clamp(0.0, 255.0) as u8)
+        .map(|x| from_f64::<u8>(x.round().clamp(0.0, 255.0)))
         .collect()
 }
 

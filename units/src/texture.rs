@@ -21,6 +21,7 @@
 //! other through a mesh's UV layout, and flags the texels where that is not
 //! possible.
 
+use fxshade_numbers::convert::{from_f64, narrow, to_f64};
 use glam::{DVec2, DVec3};
 
 use crate::interp::{self, Scheme};
@@ -125,7 +126,7 @@ impl NormalTexture {
     /// nearest: `c = round((n + 1)/2 · max)`, clipped.
     pub fn to_channels(&self, bits: u32, green: Green) -> Vec<u16> {
         let m = f64::from((1u32 << bits) - 1);
-        let q = |x: f64| (((x + 1.0) / 2.0 * m).round().clamp(0.0, m)) as u16;
+        let q = |x: f64| from_f64::<u16>(((x + 1.0) / 2.0 * m).round().clamp(0.0, m));
         self.texels
             .iter()
             .flat_map(|n| {
@@ -141,9 +142,9 @@ impl NormalTexture {
     /// The texel `(column, row)` of texture coordinates `uv` (nearest,
     /// wrapping, `v` up).
     pub fn texel_of(&self, uv: DVec2) -> (usize, usize) {
-        let (w, h) = (self.width as f64, self.height as f64);
-        let x = (uv.x * w).floor().rem_euclid(w) as usize;
-        let r = (uv.y * h).floor().rem_euclid(h) as usize;
+        let (w, h) = (to_f64(self.width), to_f64(self.height));
+        let x = from_f64::<usize>((uv.x * w).floor().rem_euclid(w));
+        let r = from_f64::<usize>((uv.y * h).floor().rem_euclid(h));
         (
             x.min(self.width - 1),
             self.height - 1 - r.min(self.height - 1),
@@ -153,8 +154,8 @@ impl NormalTexture {
     /// The texture coordinates of the centre of texel `(x, y)`.
     pub fn uv_of(&self, x: usize, y: usize) -> DVec2 {
         DVec2::new(
-            (x as f64 + 0.5) / self.width as f64,
-            (self.height as f64 - y as f64 - 0.5) / self.height as f64,
+            (to_f64(x) + 0.5) / to_f64(self.width),
+            (to_f64(self.height) - to_f64(y) - 0.5) / to_f64(self.height),
         )
     }
 
@@ -298,13 +299,13 @@ pub fn bake_implied(m: &Mesh, map: &NormalTexture, scheme: Scheme) -> Result<Bak
         if den.abs() < 1e-18 {
             continue;
         }
-        let x0 = (lo.x * w as f64 - 0.5).floor() as i64;
-        let x1 = (hi.x * w as f64 - 0.5).ceil() as i64;
-        let r0 = (lo.y * h as f64 - 0.5).floor() as i64;
-        let r1 = (hi.y * h as f64 - 0.5).ceil() as i64;
+        let x0 = from_f64::<i64>((lo.x * to_f64(w) - 0.5).floor());
+        let x1 = from_f64::<i64>((hi.x * to_f64(w) - 0.5).ceil());
+        let r0 = from_f64::<i64>((lo.y * to_f64(h) - 0.5).floor());
+        let r1 = from_f64::<i64>((hi.y * to_f64(h) - 0.5).ceil());
         for r in r0..=r1 {
             for x in x0..=x1 {
-                let p = DVec2::new((x as f64 + 0.5) / w as f64, (r as f64 + 0.5) / h as f64);
+                let p = DVec2::new((to_f64(x) + 0.5) / to_f64(w), (to_f64(r) + 0.5) / to_f64(h));
                 let c1 = (uv[2] - p).perp_dot(uv[0] - p) / den;
                 let c2 = (uv[0] - p).perp_dot(uv[1] - p) / den;
                 let c0 = 1.0 - c1 - c2;
@@ -312,8 +313,8 @@ pub fn bake_implied(m: &Mesh, map: &NormalTexture, scheme: Scheme) -> Result<Bak
                 if c0 < eps || c1 < eps || c2 < eps {
                     continue;
                 }
-                let col = x.rem_euclid(w as i64) as usize;
-                let row = h - 1 - r.rem_euclid(h as i64) as usize;
+                let col = narrow::<usize, _>(x.rem_euclid(narrow::<i64, _>(w)));
+                let row = h - 1 - narrow::<usize, _>(r.rem_euclid(narrow::<i64, _>(h)));
                 let k = row * w + col;
                 let Some((tu, bu, nu)) = uv_frame(m, &tangents, ti, [c0, c1, c2], scheme) else {
                     continue;
@@ -372,7 +373,7 @@ pub fn bake_implied(m: &Mesh, map: &NormalTexture, scheme: Scheme) -> Result<Bak
         }
     }
     // Texels within one texel of a seam edge (in UV space).
-    let texel = DVec2::new(1.0 / w as f64, 1.0 / h as f64);
+    let texel = DVec2::new(1.0 / to_f64(w), 1.0 / to_f64(h));
     for t in &m.triangles {
         for k in 0..3 {
             let (a, b) = (t[k], t[(k + 1) % 3]);
@@ -380,12 +381,13 @@ pub fn bake_implied(m: &Mesh, map: &NormalTexture, scheme: Scheme) -> Result<Bak
                 continue;
             }
             let (pa, pb) = (m.uvs[a as usize], m.uvs[b as usize]);
-            let steps = (((pb - pa) / texel).abs().max_element().ceil() as usize).max(1) * 2;
+            let steps =
+                (from_f64::<usize>(((pb - pa) / texel).abs().max_element().ceil())).max(1) * 2;
             for s in 0..=steps {
-                let p = pa + (pb - pa) * (s as f64 / steps as f64);
+                let p = pa + (pb - pa) * (to_f64(s) / to_f64(steps));
                 for dy in -1i64..=1 {
                     for dx in -1i64..=1 {
-                        let q = p + DVec2::new(dx as f64, dy as f64) * texel;
+                        let q = p + DVec2::new(to_f64(dx), to_f64(dy)) * texel;
                         let (col, row) = map.texel_of(q);
                         let k = row * w + col;
                         if matches!(flags[k], TexelFlag::Converted) {

@@ -6,6 +6,7 @@
 //! `pipeline.max_err_levels`) and bare names for costs (`bit_products`,
 //! `muls`, `adder_bits`, `table_bits`, `ff`, `latency`).
 
+use fxshade_model::convert::to_f64;
 use std::collections::BTreeMap;
 
 use anyhow::Context;
@@ -244,7 +245,7 @@ fn pipeline(
             render::run_method(cfg, &f, method).with_context(|| format!("rendering {spec}"))?;
         let mm: &Metrics = img.outside_cap.as_ref().unwrap_or(&img.metrics);
         max = max.max(mm.max_abs_levels);
-        sum += mm.mean_abs_levels * mm.pixels as f64;
+        sum += mm.mean_abs_levels * to_f64(mm.pixels);
         n += mm.pixels;
         psnr = psnr.min(mm.psnr_db.unwrap_or(999.0));
         off = off.max(mm.off_by[2] + mm.off_by[3]);
@@ -255,7 +256,7 @@ fn pipeline(
     put(
         m,
         "pipeline.mean_err_levels",
-        if n == 0 { 0.0 } else { sum / n as f64 },
+        if n == 0 { 0.0 } else { sum / to_f64(n) },
     );
     put(m, "pipeline.psnr_db", psnr);
     put(m, "pipeline.off_by_gt1", off);
@@ -314,8 +315,8 @@ fn top_cost(
                 .map(|x| f64::from(x.a_width * x.b_width))
                 .sum(),
         );
-        put(m, &format!("{prefix}table_bits"), hw.rom_bits as f64);
-        put(m, &format!("{prefix}ff"), hw.flops as f64);
+        put(m, &format!("{prefix}table_bits"), to_f64(hw.rom_bits));
+        put(m, &format!("{prefix}ff"), to_f64(hw.flops));
         put(m, &format!("{prefix}latency"), f64::from(e.latency));
         return;
     }
@@ -327,7 +328,7 @@ fn top_cost(
             .map(|x| f64::from(x.a_width * x.b_width))
             .sum(),
     );
-    put(m, "muls", hw.muls.len() as f64);
+    put(m, "muls", to_f64(hw.muls.len()));
     put(
         m,
         "adder_bits",
@@ -338,25 +339,25 @@ fn top_cost(
             .map(|&w| f64::from(w))
             .sum(),
     );
-    put(m, "table_bits", hw.rom_bits as f64);
-    put(m, "ff", hw.flops as f64);
+    put(m, "table_bits", to_f64(hw.rom_bits));
+    put(m, "ff", to_f64(hw.flops));
     put(m, "latency", f64::from(e.latency));
     if let Some(t) = fxshade_model::rtl::timing::Target::from_name(target) {
         put(
             m,
             "dsp_est",
-            fxshade_model::rtl::estimate::dsp_blocks(hw, t) as f64,
+            to_f64(fxshade_model::rtl::estimate::dsp_blocks(hw, t)),
         );
         put(
             m,
             "bram_est",
-            fxshade_model::rtl::estimate::bram_blocks(hw, t) as f64,
+            to_f64(fxshade_model::rtl::estimate::bram_blocks(hw, t)),
         );
         if let Some(l) = fxshade_model::rtl::estimate::lut_cells(hw, t) {
-            put(m, "lut_est", l as f64);
+            put(m, "lut_est", to_f64(l));
         }
         if let Some(f) = fxshade_model::rtl::estimate::flip_flops(hw, t) {
-            put(m, "ff_est", f as f64);
+            put(m, "ff_est", to_f64(f));
         }
     }
 }
@@ -384,7 +385,7 @@ pub fn evaluate(
             t.max_diffuse_err_levels,
         );
         put(&mut m, "normalize.g_max_rel_err", r.g_stage.max_rel_err);
-        put(&mut m, "normalize.overflows", t.overflows as f64);
+        put(&mut m, "normalize.overflows", to_f64(t.overflows));
     }
     if o.has("interp") {
         let r = fxshade_model::analysis::interp(
@@ -455,10 +456,10 @@ pub fn evaluate(
             &|_| {},
         )
         .with_context(|| format!("synthesizing {unit} for {target}"))?;
-        put(&mut m, "lut", r.lut as f64);
-        put(&mut m, "synth_ff", (r.ff - r.harness_ff.min(r.ff)) as f64);
-        put(&mut m, "dsp", r.dsp as f64);
-        put(&mut m, "bram", r.bram as f64);
+        put(&mut m, "lut", to_f64(r.lut));
+        put(&mut m, "synth_ff", to_f64(r.ff - r.harness_ff.min(r.ff)));
+        put(&mut m, "dsp", to_f64(r.dsp));
+        put(&mut m, "bram", to_f64(r.bram));
         if let Some(f) = r.fmax_mhz {
             put(&mut m, "fmax_mhz", f);
         }

@@ -32,6 +32,7 @@
 //! chosen cost does not see is still taken when it saves hardware.
 
 use anyhow::bail;
+use fxshade_model::convert::narrow;
 use fxshade_model::Config;
 use rayon::prelude::*;
 
@@ -80,10 +81,10 @@ impl Var {
     /// Narrowest width tried: the integer part alone (no fraction bits),
     /// and at least two bits.
     pub fn min_width(&self) -> u32 {
-        self.int_bits.max(2) as u32
+        narrow::<u32, _>(self.int_bits.max(2))
     }
     fn format(&self, w: u32) -> Option<fxshade_model::format::Format> {
-        fxshade_model::format::Format::new(self.signed, w, w as i32 - self.int_bits).ok()
+        fxshade_model::format::Format::new(self.signed, w, narrow::<i32, _>(w) - self.int_bits).ok()
     }
 }
 

@@ -9,6 +9,7 @@
 //! width group (`fxshade_model::config::WIDTH_GROUPS`) to `W` bits.
 
 use anyhow::{bail, Context};
+use fxshade_model::convert::{from_f64, narrow, to_f64};
 use fxshade_model::format::Format;
 use fxshade_model::Config;
 
@@ -69,7 +70,7 @@ fn values(key: &str, spec: &str) -> anyhow::Result<Vec<String>> {
             return (fa.width()..=fb.width())
                 .step_by(step as usize)
                 .map(|w| {
-                    Format::new(fa.signed(), w, w as i32 - fa.int_bits())
+                    Format::new(fa.signed(), w, narrow::<i32, _>(w) - fa.int_bits())
                         .map(|f| f.to_string())
                         .map_err(|e| anyhow::anyhow!("{w} bits: {e}"))
                 })
@@ -86,11 +87,11 @@ fn values(key: &str, spec: &str) -> anyhow::Result<Vec<String>> {
             if ia > ib {
                 bail!("{a}..{b}: the range is empty");
             }
-            if (ib - ia) / step >= MAX_POINTS as i64 {
+            if (ib - ia) / step >= narrow::<i64, _>(MAX_POINTS) {
                 bail!("{a}..{b}: more than {MAX_POINTS} values");
             }
             return Ok((ia..=ib)
-                .step_by(step as usize)
+                .step_by(narrow::<usize, _>(step))
                 .map(|v| v.to_string())
                 .collect());
         }
@@ -107,14 +108,14 @@ fn values(key: &str, spec: &str) -> anyhow::Result<Vec<String>> {
                 bail!("{a}..{b}: the range is empty");
             }
             let n = ((xb - xa) / s + 1e-9).floor();
-            if n >= MAX_POINTS as f64 {
+            if n >= to_f64(MAX_POINTS) {
                 bail!("{a}..{b}:{step}: more than {MAX_POINTS} values");
             }
             // Print each value as the shortest decimal near a + i·s (no
             // 0.30000000000000004 from the accumulation).
-            return Ok((0..=n as usize)
+            return Ok((0..=from_f64::<usize>(n))
                 .map(|i| {
-                    let x = xa + i as f64 * s;
+                    let x = xa + to_f64(i) * s;
                     format!("{}", (x * 1e9).round() / 1e9)
                 })
                 .collect());

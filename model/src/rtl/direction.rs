@@ -13,6 +13,7 @@ use super::Design;
 use crate::datapath::{Compiled, Mutation, Op, TV};
 use crate::quantize::{round_shift_right, Overflow, Quant, Rounding, Step};
 use crate::vectors::RtlError;
+use fxshade_numbers::convert::narrow;
 
 /// Why [`sign_only`] or [`direction_proof`] proves a mutant equivalent.
 pub const WHY: &str = "equivalent: the outputs read the stage only as CORDIC steps' direction (its sign) and as the magnitude folded into the other coordinate; the mutant keeps every code's sign, and a branch and bound over the input codes keeps the stage where the design's and the mutant's folded magnitudes round alike";
@@ -73,7 +74,10 @@ fn readers(d: &Design, n: usize) -> Option<Vec<Reader>> {
             continue;
         }
         let f = a.frac().max(b.frac());
-        let (sa, sb) = ((f - a.frac()) as u32, (f - b.frac()) as u32);
+        let (sa, sb) = (
+            narrow::<u32, _>(f - a.frac()),
+            narrow::<u32, _>(f - b.frac()),
+        );
         let mut quants = Vec::new();
         for j in reads(i) {
             let Op::Quant(r, q) = &ops[j] else {
@@ -82,7 +86,7 @@ fn readers(d: &Design, n: usize) -> Option<Vec<Reader>> {
             // `r` read at another binary point than the sum's is not a
             // fold, and `a`'s term must leave the dropped bits zero.
             let shift = q.step(f).shift;
-            if r.frac() != f || shift > sa as i32 {
+            if r.frac() != f || shift > narrow::<i32, _>(sa) {
                 return None;
             }
             quants.push((shift, q.round()));
@@ -105,7 +109,7 @@ fn round_alike(u: i128, w: i128, s: i32, r: Rounding) -> bool {
     if s <= 0 {
         return false;
     }
-    let sh = s as u32;
+    let sh = narrow::<u32, _>(s);
     let tie = |v: i128| v.rem_euclid(1 << sh) == 1 << (sh - 1);
     match r {
         Rounding::Trunc => (u >> sh) == (w >> sh),

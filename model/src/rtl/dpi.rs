@@ -15,6 +15,7 @@
 //! package's [`UnitModel::layout`]) against the configuration it is given,
 //! so a package generated for other widths is refused, never misread.
 
+use fxshade_numbers::convert::narrow;
 use std::fmt::Write as _;
 
 use super::testbench;
@@ -312,7 +313,7 @@ pub fn scoreboard(m: &UnitModel) -> Result<String, DpiError> {
     if nf > 0 {
         outputs.push(Field::new(
             "ovf",
-            crate::format::Format::new(false, nf as u32, 0).expect("a flag format"),
+            crate::format::Format::new(false, narrow::<u32, _>(nf), 0).expect("a flag format"),
         ));
     }
     outputs.extend(m.outputs().iter().cloned());

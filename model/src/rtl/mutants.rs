@@ -9,6 +9,7 @@
 use super::Design;
 use crate::datapath::{Compiled, Mutation, Trace, TV};
 use crate::vectors::RtlError;
+use fxshade_numbers::convert::narrow;
 
 pub(super) fn columns(rows: &[Vec<i128>], n: usize) -> Vec<Vec<i128>> {
     (0..n)
@@ -153,7 +154,7 @@ pub fn equivalent(d: &Design, m: &Mutation) -> Result<Option<&'static str>, RtlE
             };
             let shift = q.step(a.frac()).shift;
             let zeros = prog.quant_operand_zeros(&box_, m.node).unwrap_or(0);
-            (shift <= 0 || zeros >= shift as u32).then_some(
+            (shift <= 0 || zeros >= narrow::<u32, _>(shift)).then_some(
                 "equivalent: the bits the stage drops are zero for every input code (known-zero bit analysis), so it never rounds",
             )
         }
@@ -195,7 +196,7 @@ pub(super) fn event(m: &Mutation, q: &crate::quantize::Quant, frac: i32, x: i128
             if st.shift <= 0 {
                 return false;
             }
-            let s = st.shift as u32;
+            let s = narrow::<u32, _>(st.shift);
             if s >= 127 {
                 return false;
             }
@@ -230,10 +231,13 @@ pub(super) fn wild_row(
                     -1,
                     f.min_code() + 1,
                     f.max_code() - 1,
-                ][rng.below(7) as usize];
+                ][narrow::<usize, _>(rng.below(7))];
                 c.clamp(f.min_code(), f.max_code())
             }
-            _ => f.min_code() + i128::from(rng.below((f.max_code() - f.min_code() + 1) as u64)),
+            _ => {
+                f.min_code()
+                    + i128::from(rng.below(narrow::<u64, _>(f.max_code() - f.min_code() + 1)))
+            }
         })
         .collect()
 }
@@ -346,7 +350,7 @@ pub(super) fn range_meets(
             if st.shift <= 0 || st.shift >= 120 {
                 return false;
             }
-            let s = st.shift as u32;
+            let s = narrow::<u32, _>(st.shift);
             let half = 1i128 << (s - 1);
             match q.round() {
                 Rounding::Trunc => {
@@ -386,7 +390,7 @@ pub(super) fn range_meets_mod(
     if stride == 1 || !coarse || !matches!(m.kind, MutationKind::Round(_)) {
         return coarse;
     }
-    let s = st.shift as u32;
+    let s = narrow::<u32, _>(st.shift);
     let half = 1i128 << (s - 1);
     // The first operand value ≥ lo that is ≡ x0 (mod l), within hi?
     let has = |x0: i128, l: i128| lo + (x0 - lo).rem_euclid(l) <= hi;
@@ -409,13 +413,13 @@ pub(super) fn range_meets_mod(
         0
     } else {
         // (stride/g)·t ≡ (half − off)/g (mod mg), stride/g odd.
-        let a = (stride / g) as u128;
+        let a = narrow::<u128, _>(stride / g);
         let mut inv = a;
         for _ in 0..7 {
             inv = inv.wrapping_mul(2u128.wrapping_sub(a.wrapping_mul(inv)));
         }
         let rhs = ((half - off) / g).rem_euclid(mg) as u128;
-        (rhs.wrapping_mul(inv) & (mg as u128 - 1)) as i128
+        narrow::<i128, _>(rhs.wrapping_mul(inv) & (narrow::<u128, _>(mg) - 1))
     };
     match (stride.checked_mul(t0), (stride / g).checked_mul(big_m)) {
         (Some(st0), Some(l)) => match off.checked_add(st0) {

@@ -18,6 +18,7 @@ use super::Design;
 use crate::datapath::{Compiled, Mutation, TV};
 use crate::sampling::Rng;
 use crate::vectors::RtlError;
+use fxshade_numbers::convert::narrow;
 
 /// Rows per batch.
 const BLOCK: usize = 1 << 14;
@@ -159,7 +160,7 @@ impl Probe {
                     let (lo, hi) = (f.min_code(), f.max_code());
                     // A port of 64 bits or more: the lowest 2^64 − 1 codes
                     // (as the sweeps do), not a span cast to zero.
-                    let span = (hi - lo + 1).min(i128::from(u64::MAX)) as u64;
+                    let span = narrow::<u64, _>((hi - lo + 1).min(i128::from(u64::MAX)));
                     (0..BLOCK)
                         .map(|_| lo + i128::from(rng.below(span)))
                         .collect()

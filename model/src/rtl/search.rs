@@ -48,6 +48,7 @@ use super::mutants::{columns, first_difference, range_meets, range_meets_mod, wi
 use super::Design;
 use crate::datapath::{Compiled, Mutation, MutationKind, Op, TV};
 use crate::vectors::RtlError;
+use fxshade_numbers::convert::{narrow, to_f64};
 
 /// The most codes of a cut [`event_cut`] enumerates.
 pub const MAX_CUT_CODES: i128 = 1 << 22;
@@ -165,7 +166,7 @@ pub fn event_cut(d: &Design, m: &Mutation) -> Result<CutOutcome, RtlError> {
         let mut start = lo;
         while start <= hi {
             let end = (start + CHUNK - 1).min(hi);
-            let len = (end - start + 1) as usize;
+            let len = narrow::<usize, _>(end - start + 1);
             let mut cols = vec![vec![0i128; len]; n_in];
             cols[pos] = (start..=end).collect();
             let refs: Vec<&[i128]> = cols.iter().map(|c| c.as_slice()).collect();
@@ -385,10 +386,10 @@ fn proof_over(d: &Design, m: &Mutation, sup: &[usize], budget: u64) -> Result<bo
                     (ranges[j].0, ranges[j].0)
                 };
             }
-            let w = (ranges[k].1 - ranges[k].0).max(1) as f64;
+            let w = to_f64((ranges[k].1 - ranges[k].0).max(1));
             xprog
                 .quant_operand_range(&b, m.node)
-                .map_or(1.0, |(lo, hi)| (hi - lo) as f64 / w)
+                .map_or(1.0, |(lo, hi)| to_f64(hi - lo) / w)
                 .max(1e-9)
         })
         .collect();
@@ -438,7 +439,7 @@ fn proof_over(d: &Design, m: &Mutation, sup: &[usize], budget: u64) -> Result<bo
         let widest = (0..r.len())
             .filter(|&k| r[k].0 < r[k].1)
             .max_by(|&i, &j| {
-                let w = |k: usize| (r[k].1 - r[k].0) as f64 * slope[k];
+                let w = |k: usize| to_f64(r[k].1 - r[k].0) * slope[k];
                 w(i).total_cmp(&w(j))
             })
             .unwrap_or(0);
@@ -517,7 +518,7 @@ pub(super) fn sweep(
     const CHUNK: i128 = 4096;
     let mut order = among.to_vec();
     for i in (1..order.len()).rev() {
-        order.swap(i, rng.below(i as u64 + 1) as usize);
+        order.swap(i, narrow::<usize, _>(rng.below(i as u64 + 1)));
     }
     let mut cols: Vec<Vec<i128>> = row.iter().map(|&v| vec![v; CHUNK as usize]).collect();
     for k in order.into_iter().take(inputs) {
@@ -529,12 +530,12 @@ pub(super) fn sweep(
             if *swept >= limit {
                 return None;
             }
-            let len = (total - done).min(CHUNK) as usize;
+            let len = narrow::<usize, _>((total - done).min(CHUNK));
             for (i, c) in cols[k][..len].iter_mut().enumerate() {
                 *c = if span <= SWEEP_CODES {
                     lo + done + i as i128
                 } else {
-                    lo + i128::from(rng.below(span.min(i128::from(u64::MAX)) as u64))
+                    lo + i128::from(rng.below(narrow::<u64, _>(span.min(i128::from(u64::MAX)))))
                 };
             }
             done += len as i128;
@@ -620,12 +621,12 @@ pub fn line_search(
     let random_sweeps = !matches!(m.kind, MutationKind::Overflow(_));
     while evals < budget || (random_sweeps && swept < sweep_lanes) {
         let base = if !bases.is_empty() && line % 2 == 1 {
-            bases[rng.below(bases.len() as u64) as usize].clone()
+            bases[narrow::<usize, _>(rng.below(bases.len() as u64))].clone()
         } else {
             wild_row(&formats, &mut rng)
         };
         line += 1;
-        let k = dims[rng.below(dims.len() as u64) as usize];
+        let k = dims[narrow::<usize, _>(rng.below(dims.len() as u64))];
         let mut b: Vec<(i128, i128)> = base.iter().map(|&v| (v, v)).collect();
         let mut stack = if evals < budget {
             vec![(formats[k].min_code(), formats[k].max_code())]
@@ -699,7 +700,7 @@ pub fn line_search(
         // (a ±1 difference that a later rounding absorbs): sweep every
         // input of one such row over its range, the other inputs held.
         if swept < sweep_lanes {
-            let row = &rows[rng.below(rows.len() as u64) as usize];
+            let row = &rows[narrow::<usize, _>(rng.below(rows.len() as u64))];
             if let Some(r) = sweep(
                 row,
                 &formats,

@@ -23,6 +23,7 @@
 //! every field with every row, the set-up fields included, as the vector
 //! stream does: each row is evaluated with the set-up values it carries.
 
+use fxshade_numbers::convert::narrow;
 use std::path::Path;
 
 use super::units::{self, RtlUnit};
@@ -410,7 +411,7 @@ impl UnitModel {
         let (res, words) = self.prog.run_flags_i128(&refs);
         for (k, col) in res.iter().enumerate() {
             for (i, &c) in col.iter().enumerate() {
-                outputs[i * no + k] = c as i64;
+                outputs[i * no + k] = narrow::<i64, _>(c);
             }
         }
         if let Some(f) = flags {

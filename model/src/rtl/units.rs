@@ -7,6 +7,7 @@
 //! overflow flags always come from the compiled trace, and the vector
 //! layout from the emitted module's ports.
 
+use fxshade_numbers::convert::to_f64;
 pub use fxshade_units::rtl::units::*;
 
 use super::search::Search;
@@ -57,8 +58,8 @@ pub fn vectors(
                 why: format!(
                     "held in memory they need {:.1} GB ({row} bytes each) and {:.1} GB is \
                      available",
-                    need as f64 / 1e9,
-                    avail as f64 / 1e9
+                    to_f64(need) / 1e9,
+                    to_f64(avail) / 1e9
                 ),
             });
         }

@@ -34,6 +34,7 @@ use crate::datapath::{Compiled, Mutation, TV};
 use crate::format::Format;
 use crate::sampling::Rng;
 use crate::vectors::RtlError;
+use fxshade_numbers::convert::narrow;
 
 /// Codes one pass runs a support or a port over: all of them, or this many
 /// random ones.
@@ -105,7 +106,7 @@ pub fn witness_search(
             let base = if bases.is_empty() {
                 wild_row(&s.formats, &mut s.rng)
             } else {
-                bases[s.rng.below(bases.len() as u64) as usize].clone()
+                bases[narrow::<usize, _>(s.rng.below(bases.len() as u64))].clone()
             };
             s.move_port(&base)
         };
@@ -245,8 +246,9 @@ impl Search {
             let mut cols = Vec::with_capacity(spans.len());
             let mut radix = 1u64;
             for (&w, r) in spans.iter().zip(&self.ranges) {
-                let w = w as u64;
-                let col = (start as u64..end as u64).map(|i| r.0 + i128::from(i / radix % w));
+                let w = narrow::<u64, _>(w);
+                let col = (narrow::<u64, _>(start)..narrow::<u64, _>(end))
+                    .map(|i| r.0 + i128::from(i / radix % w));
                 cols.push(col.collect::<Vec<_>>());
                 radix *= w;
             }
@@ -268,11 +270,11 @@ impl Search {
     /// held), then carrying it.
     fn listed_witness(&mut self, base: &[i128]) -> Option<Vec<i128>> {
         let listed = self.listed.as_ref().expect("listed witnesses");
-        let w = listed[self.rng.below(listed.len() as u64) as usize].clone();
+        let w = listed[narrow::<usize, _>(self.rng.below(listed.len() as u64))].clone();
         let mut row = base.to_vec();
         let mut order: Vec<usize> = (0..self.sup.len()).collect();
         for i in (1..order.len()).rev() {
-            order.swap(i, self.rng.below(i as u64 + 1) as usize);
+            order.swap(i, narrow::<usize, _>(self.rng.below(i as u64 + 1)));
         }
         let mut held = vec![false; self.sup.len()];
         for j in order {
@@ -347,7 +349,7 @@ impl Search {
         let movable: Vec<usize> = (0..self.sup.len())
             .filter(|&j| self.ranges[j].0 < self.ranges[j].1)
             .collect();
-        let j = movable[self.rng.below(movable.len() as u64) as usize];
+        let j = movable[narrow::<usize, _>(self.rng.below(movable.len() as u64))];
         let codes = self.codes(self.ranges[j]);
         let rows: Vec<Vec<i128>> = std::iter::once(base.to_vec())
             .chain((1..codes.len()).map(|_| wild_row(&self.formats, &mut self.rng)))
@@ -373,7 +375,7 @@ impl Search {
         if self.read.is_empty() {
             return None;
         }
-        let k = self.read[self.rng.below(self.read.len() as u64) as usize];
+        let k = self.read[narrow::<usize, _>(self.rng.below(self.read.len() as u64))];
         let f = self.formats[k];
         let rows: Vec<Vec<i128>> = self
             .codes((f.min_code(), f.max_code()))
@@ -402,7 +404,7 @@ impl Search {
         if span <= WITNESS_LANES {
             (lo..=hi).collect()
         } else {
-            let s = span.min(i128::from(u64::MAX)) as u64;
+            let s = narrow::<u64, _>(span.min(i128::from(u64::MAX)));
             (0..WITNESS_LANES)
                 .map(|_| lo + i128::from(self.rng.below(s)))
                 .collect()
@@ -425,7 +427,7 @@ impl Search {
     ) -> Option<Vec<i128>> {
         let mut order = movable.to_vec();
         for i in (1..order.len()).rev() {
-            order.swap(i, self.rng.below(i as u64 + 1) as usize);
+            order.swap(i, narrow::<usize, _>(self.rng.below(i as u64 + 1)));
         }
         order.sort_by_key(|&k| self.fanout[k]);
         for k in order {
@@ -452,7 +454,7 @@ impl Search {
                 }
                 let mid = lo + (hi - lo).div_euclid(2);
                 let halves = [(lo, mid), (mid + 1, hi)];
-                let first = self.rng.below(2) as usize;
+                let first = narrow::<usize, _>(self.rng.below(2));
                 stack.push(halves[first]);
                 stack.push(halves[1 - first]);
             }
@@ -508,7 +510,7 @@ impl Search {
         while self.spent < stop && !self.read.is_empty() {
             let moves: Vec<(usize, Vec<i128>)> = (0..CARRY_MOVES)
                 .map(|_| {
-                    let k = self.read[self.rng.below(self.read.len() as u64) as usize];
+                    let k = self.read[narrow::<usize, _>(self.rng.below(self.read.len() as u64))];
                     let mut moved = row.clone();
                     moved[k] = wild_row(&self.formats[k..=k], &mut self.rng)[0];
                     (k, moved)

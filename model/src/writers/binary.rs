@@ -14,7 +14,7 @@ pub fn record_bytes(fields: &[Field]) -> usize {
 pub fn push_record(out: &mut Vec<u8>, index: u32, fields: &[Field], row: &[i128]) {
     let (w, total) = pack(index, fields, row);
     for b in (0..total.div_ceil(8)).rev() {
-        out.push((w[b / 8] >> ((b % 8) * 8)) as u8);
+        out.push(w[b / 8].to_le_bytes()[b % 8]);
     }
 }
 

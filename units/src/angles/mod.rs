@@ -49,6 +49,7 @@ use crate::datapath::{Compiled, Count, Datapath, Trace};
 use crate::format::{ConvertError, Format};
 use crate::quantize::{literal, Overflow, Quant};
 use crate::units::{width_errors, OpReport, Phase};
+use fxshade_numbers::convert::narrow;
 
 pub mod rtl;
 
@@ -255,7 +256,7 @@ impl Angles {
             theta: u.theta,
             out: u
                 .out
-                .with_format(Format::new(false, k, k as i32).expect("1..=32 bits")),
+                .with_format(Format::new(false, k, narrow::<i32, _>(k)).expect("1..=32 bits")),
         };
         require_angle("theta", &a.theta)?;
         require_angle("out", &a.out)?;
@@ -323,8 +324,8 @@ impl Angles {
         mut t: C::V,
     ) -> (C::V, C::V) {
         for i in 0..self.iterations {
-            let du = cx.shl(v, -(i as i32));
-            let dv = cx.shl(u, -(i as i32));
+            let du = cx.shl(v, -(narrow::<i32, _>(i)));
+            let dv = cx.shl(u, -(narrow::<i32, _>(i)));
             let u2 = cx.add_signed(u, du, v, false);
             let v2 = cx.add_signed(v, dv, v, true);
             let t2 = cx.add_signed(t, k.atan[i as usize], v, false);
@@ -358,7 +359,7 @@ impl Angles {
                 .map_or(0, |r| r.code);
             let mut acc: Option<C::V> = None;
             for (d, e) in csd(code) {
-                let t = cx.shl(y, e as i32 - f.frac());
+                let t = cx.shl(y, narrow::<i32, _>(e) - f.frac());
                 acc = Some(match acc {
                     None if d > 0 => t,
                     None => cx.sub(k.zero, t),
@@ -445,7 +446,7 @@ fn check(cfg: &Config) -> Result<(), Vec<ConfigError>> {
     // The output format follows polar.angle_bits; one written by the user
     // (a file or a flag) must agree with it.
     let k = cfg.section::<crate::polar::PolarConfig>().angle_bits;
-    let want = Format::new(false, k, k as i32).expect("1..=24 bits");
+    let want = Format::new(false, k, narrow::<i32, _>(k)).expect("1..=24 bits");
     let given = cfg.section::<AnglesConfig>().out.format();
     // Only a format the user wrote counts: the embedded default's, or a flag
     // that sets another field of the stage (`angles.out.round=…`), follows.

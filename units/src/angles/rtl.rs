@@ -1,6 +1,7 @@
 //! The CORDIC angle unit's RTL side: its traced design (the Verilog is
 //! emitted from it, `crate::rtl`) and its input vectors.
 
+use fxshade_numbers::convert::narrow;
 use glam::DVec3;
 
 use super::{Angles, DECL};
@@ -58,7 +59,7 @@ pub fn inputs(cfg: &Config, part: Part, seed: u64) -> Result<Vec<Vec<i128>>, Rtl
     let mut rows: Vec<Vec<i128>> = Vec::new();
     if let Part::Random(count) = part {
         let mut rng = Rng::new(seed);
-        let span = (f.max_code() - f.min_code() + 1) as u64;
+        let span = narrow::<u64, _>(f.max_code() - f.min_code() + 1);
         while rows.len() < count {
             if rows.len().is_multiple_of(2) {
                 let d = rng.direction() * (0.97 + 0.06 * rng.unit());

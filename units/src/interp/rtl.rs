@@ -8,6 +8,7 @@ use crate::quantize::Rounding;
 use crate::rtl::units::Part;
 use crate::rtl::units::{hunt_ties, structured_code, RtlError};
 use crate::sampling::{self, Rng};
+use fxshade_numbers::convert::narrow;
 
 /// The unit's traced datapath for a configuration.
 ///
@@ -71,10 +72,13 @@ pub fn inputs(
     let mut rows: Vec<Row> = Vec::new();
     let (bmax, vmax, vmin) = (fb.max_code(), fv.max_code(), fv.min_code());
     if let Part::Random(count) = part {
-        let (bspan, vspan) = ((bmax + 1) as u64, (vmax - vmin + 1) as u64);
+        let (bspan, vspan) = (
+            narrow::<u64, _>(bmax + 1),
+            narrow::<u64, _>(vmax - vmin + 1),
+        );
         while rows.len() < count {
             if rows.len().is_multiple_of(2) {
-                let theta = THETA_LADDER[rng.below(THETA_LADDER.len() as u64) as usize];
+                let theta = THETA_LADDER[narrow::<usize, _>(rng.below(THETA_LADDER.len() as u64))];
                 let c = rng.barycentric();
                 rows.push(triangle_row(&i, theta, c, &mut rng));
             } else {

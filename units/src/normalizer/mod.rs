@@ -44,6 +44,7 @@ use crate::datapath::{Compiled, Count, Datapath, Trace};
 use crate::format::ConvertError;
 use crate::quantize::{literal, Quant};
 use crate::units::{width_errors, OpReport, PaperClaim, Phase};
+use fxshade_numbers::convert::{from_f64, narrow, to_f64};
 
 pub mod rtl;
 
@@ -715,8 +716,8 @@ impl Stats {
     /// Turn the sums into a mean and an RMS.
     pub fn finish(mut self) -> Self {
         if self.samples > 0 {
-            self.mean_rel_err /= self.samples as f64;
-            self.rms_rel_err = (self.rms_rel_err / self.samples as f64).sqrt();
+            self.mean_rel_err /= to_f64(self.samples);
+            self.rms_rel_err = (self.rms_rel_err / to_f64(self.samples)).sqrt();
         }
         self
     }
@@ -746,8 +747,8 @@ pub struct GMax {
 /// The codes of `d` in `[lo, hi]`.
 fn d_codes(n: &Normalizer, lo: f64, hi: f64) -> (i128, i128) {
     let fd = n.q.d.format();
-    let c_lo = ((lo / fd.ulp()).ceil() as i128).max(fd.min_code());
-    let c_hi = ((hi / fd.ulp()).floor() as i128).min(fd.max_code());
+    let c_lo = (from_f64::<i128>((lo / fd.ulp()).ceil())).max(fd.min_code());
+    let c_hi = (from_f64::<i128>((hi / fd.ulp()).floor())).min(fd.max_code());
     (c_lo, c_hi)
 }
 
@@ -786,8 +787,8 @@ pub fn g_stage_max(
     let (ud, ug) = (n.q.d.format().ulp(), n.q.g.format().ulp());
     let stop = stop_above.unwrap_or(f64::INFINITY);
     let err = |c: i128, g: i128| {
-        let d = c as f64 * ud;
-        ((g as f64 * ug) * d.sqrt() - 1.0).abs()
+        let d = to_f64(c) * ud;
+        ((to_f64(g) * ug) * d.sqrt() - 1.0).abs()
     };
     let mut best = GMax {
         max: 0.0,
@@ -802,7 +803,7 @@ pub fn g_stage_max(
             let e = err(c, g);
             if e > best.max {
                 best.max = e;
-                best.at = c as f64 * ud;
+                best.at = to_f64(c) * ud;
             }
         }
         best.max <= stop
@@ -837,8 +838,8 @@ pub fn g_stage_max(
     // Branch and bound.
     let range_bound = |a: i128, b: i128| -> Option<f64> {
         let (g0, g1) = prog.run_interval(&[(a, b)])?[0];
-        let (s0, s1) = ((a as f64 * ud).sqrt(), (b as f64 * ud).sqrt());
-        let (g0, g1) = (g0 as f64 * ug, g1 as f64 * ug);
+        let (s0, s1) = ((to_f64(a) * ud).sqrt(), (to_f64(b) * ud).sqrt());
+        let (g0, g1) = (to_f64(g0) * ug, to_f64(g1) * ug);
         let p = [g0 * s0, g0 * s1, g1 * s0, g1 * s1];
         let pmin = p.iter().cloned().fold(f64::INFINITY, f64::min);
         let pmax = p.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
@@ -951,8 +952,8 @@ pub fn g_stage_stats(n: &Normalizer, lo: f64, hi: f64) -> Result<Stats, DesignEr
         }
         let (out, ov) = prog.run_i128(&[&codes]);
         for (&c, &g) in codes.iter().zip(&out[0]) {
-            let d = c as i64 as f64 * ud;
-            st.add((g as i64 as f64 * ug * d.sqrt() - 1.0).abs(), d);
+            let d = to_f64(narrow::<i64, _>(c)) * ud;
+            st.add((to_f64(narrow::<i64, _>(g)) * ug * d.sqrt() - 1.0).abs(), d);
         }
         st.overflows += ov.iter().map(|(_, k)| k).sum::<u64>();
         start = c;

@@ -1,6 +1,7 @@
 //! The normalizer's RTL side: its traced design (the Verilog is emitted
 //! from it, `crate::rtl`) and its input vectors.
 
+use fxshade_numbers::convert::narrow;
 use glam::DVec3;
 
 use super::{from_config, Normalizer, DECL};
@@ -62,7 +63,7 @@ pub fn coefficients(n: &Normalizer) -> serde_json::Value {
     serde_json::json!({
         "order": crate::coeffs::ORDER,
         "format": q.format().to_string(),
-        "codes": n.coeffs.iter().rev().map(|&c| q.apply_f64(c).map_or(0, |r| r.code) as i64).collect::<Vec<_>>(),
+        "codes": n.coeffs.iter().rev().map(|&c| narrow::<i64, _>(q.apply_f64(c).map_or(0, |r| r.code))).collect::<Vec<_>>(),
         "values": n.coeffs.iter().rev().collect::<Vec<_>>(),
     })
 }
@@ -153,7 +154,7 @@ pub fn inputs(
         inputs.extend(tie_inputs(&n, 8, &mut rng)?);
         return Ok(inputs.into_iter().map(|c| c.to_vec()).collect());
     };
-    let span = (f.max_code() - f.min_code() + 1) as u64;
+    let span = narrow::<u64, _>(f.max_code() - f.min_code() + 1);
     let mut inputs: Vec<[i128; 3]> = Vec::with_capacity(count);
     while inputs.len() < count {
         if inputs.len().is_multiple_of(2) {

@@ -50,6 +50,7 @@
 //! `angle_interp` error; it is largest on triangles at the poles of the
 //! y axis, where `β` is undefined and its interpolation meaningless.
 
+use fxshade_numbers::convert::narrow;
 use glam::DVec3;
 
 use crate::angles::{Angles, AnglesError};
@@ -344,7 +345,7 @@ impl Pipeline {
         let k = want.width();
         let delta = Quant::new(
             "delta",
-            Format::new(true, k, k as i32).expect("1..=24 bits"),
+            Format::new(true, k, narrow::<i32, _>(k)).expect("1..=24 bits"),
             Rounding::Trunc,
             Overflow::Wrap,
         );
@@ -983,7 +984,7 @@ impl Pipeline {
     /// the RTL's padded coefficient table does.
     pub fn set_code(&self, sel: i128) -> usize {
         if (0..self.sets.len() as i128).contains(&sel) {
-            sel as usize
+            narrow::<usize, _>(sel)
         } else {
             0
         }

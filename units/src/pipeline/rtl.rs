@@ -3,6 +3,7 @@
 //! the angle interpolation, and their input vectors: pixels of small
 //! rendered meshes, random triangles, random codes.
 
+use fxshade_numbers::convert::narrow;
 use glam::DVec3;
 
 use super::{Path, Pipeline, DECL};
@@ -275,7 +276,7 @@ pub fn inputs(
     const PIXELS: usize = 4;
     let qb = |x: f64| p.interp.bary.apply_f64(x).map_or(0, |r| r.code);
     while rows.len() < count {
-        let theta = THETA_LADDER[rng.below(THETA_LADDER.len() as u64) as usize];
+        let theta = THETA_LADDER[narrow::<usize, _>(rng.below(THETA_LADDER.len() as u64))];
         let n = crate::sampling::triangle_meeting(theta, &mut rng);
         let l = rng.direction();
         let h = (l + rng.direction()).normalize_or(DVec3::Z);

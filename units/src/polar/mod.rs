@@ -36,6 +36,7 @@
 //! the difference `β_L − β_N` is computed modulo a turn, so normals either
 //! side of the seam transform continuously (both tested).
 
+use fxshade_numbers::convert::{narrow, to_f64};
 use glam::DVec3;
 
 use crate::config::{Config, ConfigError, FieldDecl, FieldKind, UnitDecl};
@@ -168,7 +169,7 @@ impl Tables {
         let n = 1usize << t;
         let quarter: Vec<i128> = (0..=n / 4)
             .map(|i| {
-                q.apply_f64((std::f64::consts::TAU * i as f64 / n as f64).sin())
+                q.apply_f64((std::f64::consts::TAU * to_f64(i) / to_f64(n)).sin())
                     .map(|r| r.code)
             })
             .collect::<Result<_, _>>()?;
@@ -188,7 +189,7 @@ impl Tables {
                 v
             }
         };
-        let index = Format::new(false, t, t as i32).expect("valid index format");
+        let index = Format::new(false, t, narrow::<i32, _>(t)).expect("valid index format");
         let storage = |phase: u32| match organisation {
             Organisation::Full => None,
             Organisation::Quarter => Some(crate::datapath::QuarterWave {
@@ -294,11 +295,12 @@ impl Polar {
         }
         let angle = Quant::new(
             "angle",
-            Format::new(false, k, k as i32).expect("1..=24 bits"),
+            Format::new(false, k, narrow::<i32, _>(k)).expect("1..=24 bits"),
             idx.round(),
             Overflow::Wrap,
         );
-        let index = idx.with_format(Format::new(false, t, t as i32).expect("1..=16 bits"));
+        let index =
+            idx.with_format(Format::new(false, t, narrow::<i32, _>(t)).expect("1..=16 bits"));
         Ok(Polar {
             angle,
             index,

@@ -8,6 +8,7 @@ use crate::quantize::Rounding;
 use crate::rtl::units::Part;
 use crate::rtl::units::{hunt_ties, RtlError};
 use crate::sampling::Rng;
+use fxshade_numbers::convert::narrow;
 
 /// The unit's traced datapath for a configuration.
 ///
@@ -67,16 +68,20 @@ pub fn inputs(
         let mut rng = Rng::new(seed);
         while rows.len() < count {
             if rows.len().is_multiple_of(2) {
-                let el = |rng: &mut Rng| m(-q + i128::from(rng.below((2 * q + 1) as u64)));
+                let el = |rng: &mut Rng| m(-q + i128::from(rng.below(narrow::<u64, _>(2 * q + 1))));
                 let (al, an) = (el(&mut rng), el(&mut rng));
                 rows.push(vec![
                     al,
-                    i128::from(rng.below(turn as u64)),
+                    i128::from(rng.below(narrow::<u64, _>(turn))),
                     an,
-                    i128::from(rng.below(turn as u64)),
+                    i128::from(rng.below(narrow::<u64, _>(turn))),
                 ]);
             } else {
-                rows.push((0..4).map(|_| i128::from(rng.below(turn as u64))).collect());
+                rows.push(
+                    (0..4)
+                        .map(|_| i128::from(rng.below(narrow::<u64, _>(turn))))
+                        .collect(),
+                );
             }
         }
         return Ok(rows);
@@ -114,7 +119,7 @@ pub fn inputs(
         100_000,
         || {
             (0..4)
-                .map(|_| i128::from(trng.below(turn as u64)))
+                .map(|_| i128::from(trng.below(narrow::<u64, _>(turn))))
                 .collect()
         },
         |fx, r| {

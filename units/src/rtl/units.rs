@@ -7,6 +7,7 @@
 use super::Design;
 use crate::config::Config;
 use crate::format::Format;
+use fxshade_numbers::convert::narrow;
 
 /// Which input rows a unit's generator makes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -157,9 +158,9 @@ pub fn hunt_ties(
 /// A random code of `f` with a random number of trailing zero bits (or
 /// zero), for tie hunting.
 pub fn structured_code(f: Format, rng: &mut crate::sampling::Rng) -> i128 {
-    let span = (f.max_code() - f.min_code() + 1) as u64;
+    let span = narrow::<u64, _>(f.max_code() - f.min_code() + 1);
     let c = f.min_code() + i128::from(rng.below(span));
-    let tz = rng.below(u64::from(f.width())) as u32;
+    let tz = narrow::<u32, _>(rng.below(u64::from(f.width())));
     if rng.below(3) == 0 {
         0
     } else {
