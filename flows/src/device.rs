@@ -63,6 +63,10 @@ impl Device {
 
     /// The part named `name` (case-insensitive) of `target`'s family; an
     /// error lists the family's parts.
+    ///
+    /// # Errors
+    ///
+    /// `Err` naming the parts of `target`'s family when it has no part `name`.
     pub fn find(target: Target, name: &str) -> Result<Device, String> {
         let family: Vec<Device> = devices().filter(|d| d.target == target).collect();
         if family.is_empty() {

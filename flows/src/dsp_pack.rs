@@ -171,6 +171,15 @@ fn plain_ff(c: &Value) -> Result<Option<(Bit, Enable)>> {
 
 /// Pack registers into every `MULT18X18D` of module `top` (see the module
 /// documentation). Deterministic: blocks in name order.
+///
+/// # Errors
+///
+/// The netlist has no module `top`, or a cell it must rewire lacks a port or a parameter.
+///
+/// # Panics
+///
+/// When the netlist's `modules` (or its top's `cells`) is neither an object nor absent: Yosys's
+/// JSON always has them.
 pub fn pack_mult18(netlist: &mut Value, top: &str) -> Result<PackStats> {
     let module = netlist["modules"]
         .get_mut(top)

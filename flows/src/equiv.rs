@@ -153,6 +153,10 @@ fn smt2_ports(smt2: &str) -> (Ports, Ports) {
 
 /// The RTL side: Yosys's word-level model of `text` (module `module`), as
 /// SMT-LIB 2 with one bit-vector per state.
+///
+/// # Errors
+///
+/// The module cannot be written to `dir`, or Yosys cannot read it or write its SMT-LIB 2 model.
 pub fn rtl_smt2(module: &str, text: &str, dir: &Path) -> anyhow::Result<String> {
     let file = format!("{module}.v");
     std::fs::write(dir.join(&file), text).context("cannot write the module")?;
@@ -483,6 +487,11 @@ fn check_staged(solver: Solver, st: &str, timeout: u64) -> anyhow::Result<Vec<Re
 
 /// Prove one module in `dir` (a scratch directory); with a
 /// counterexample, also the vector rows that replay it.
+///
+/// # Errors
+///
+/// The module's trace has no SMT function, the miter cannot be built from Yosys's model, or the
+/// solver fails to run or answers what cannot be parsed; a counterexample is an `Ok` verdict.
 pub fn prove(
     m: &Module,
     solver: Solver,
@@ -793,6 +802,11 @@ fn replay(
 }
 
 /// Every module of `unit` (or `all`) for `cfg`, with the text to prove.
+///
+/// # Errors
+///
+/// `unit` names no unit, a pipeline variant's overrides do not apply, the module cannot be
+/// emitted, or `rtl_dir` lacks its file.
 pub fn modules(
     unit: &str,
     cfg: &fxshade_model::Config,
@@ -826,6 +840,11 @@ pub fn modules(
 /// Prove `modules` with `jobs` at once; counterexamples written under
 /// `cex_dir` (none: not written or replayed); `done` is told the name of
 /// each module as its proof ends.
+///
+/// # Errors
+///
+/// No temporary directory or worker threads, or a proof's own error ([`prove`]); a
+/// counterexample or an `unknown` is a verdict, not an error.
 pub fn prove_all(
     modules: &[Module],
     solver: Solver,

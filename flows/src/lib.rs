@@ -42,7 +42,7 @@
         clippy::cast_precision_loss
     )
 )]
-#![warn(missing_docs)]
+#![warn(missing_docs, clippy::missing_errors_doc, clippy::missing_panics_doc)]
 
 pub mod critical_path;
 pub mod device;

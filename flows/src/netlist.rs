@@ -127,6 +127,11 @@ fn run(cmd: &mut Command, dir: &Path, what: &str) -> anyhow::Result<()> {
 /// `out` (which must exist); `work` is a scratch directory for Yosys's
 /// files and logs. Nothing is written into `out` until every file's text
 /// is ready, and each file is replaced atomically.
+///
+/// # Errors
+///
+/// Yosys or its cell library is missing, the placed JSON has no module of the unit, or Yosys
+/// cannot write the netlist.
 pub fn write(
     e: &Emitted,
     placed: &Path,

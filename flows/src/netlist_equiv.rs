@@ -464,6 +464,11 @@ fn solve_refined(
 
 /// Prove the netlist in `netlist` equivalent to `m`'s RTL (scratch files in
 /// `dir`).
+///
+/// # Errors
+///
+/// Yosys cannot build the miter, the correspondence or a stage query cannot be built, or the
+/// solver fails to run; a counterexample is an `Ok` verdict.
 pub fn prove(
     m: &Module,
     netlist: &Path,

@@ -138,6 +138,15 @@ impl Output {
 /// Run `cmd` to the end in a process group of its own under `limit`, with
 /// `input` on its standard input (none: `/dev/null`). On timeout the whole
 /// group is killed and the error names `what` and the limit's variable.
+///
+/// # Errors
+///
+/// The program cannot be started, or it runs past `limit` (the error names the limit's
+/// variable); a non-zero exit is in the `Output`.
+///
+/// # Panics
+///
+/// Never: standard output and error are piped before the child is taken.
 pub fn run(
     cmd: &mut Command,
     what: &str,
@@ -206,6 +215,10 @@ pub fn run(
 }
 
 /// Run `cmd` under `limit`; fail with its output when it fails.
+///
+/// # Errors
+///
+/// As [`run`], and when the program exits non-zero (its output in the error).
 pub fn run_ok(cmd: &mut Command, what: &str, limit: Limit) -> anyhow::Result<String> {
     let o = run(cmd, what, limit, None)?;
     if !o.status.success() {
@@ -217,6 +230,10 @@ pub fn run_ok(cmd: &mut Command, what: &str, limit: Limit) -> anyhow::Result<Str
 /// Write `script` to `dir/name` and run it with Yosys (`yosys -q -s
 /// name`, in `dir`) under the formal tools' limit; `what` names the run in
 /// errors. The caller reads the status and the output.
+///
+/// # Errors
+///
+/// The script cannot be written to `dir`, or Yosys cannot be run ([`run`]).
 pub fn yosys_script(dir: &Path, name: &str, script: &str, what: &str) -> anyhow::Result<Output> {
     std::fs::write(dir.join(name), script).context("cannot write the Yosys script")?;
     let mut y = Command::new("yosys");
@@ -227,6 +244,10 @@ pub fn yosys_script(dir: &Path, name: &str, script: &str, what: &str) -> anyhow:
 /// Whether `tool` is installed: `tool arg` run as a probe. `Ok(None)` when
 /// it is not on the `PATH`; its output when it ran (whatever its status);
 /// an error when it hung past [`Limit::probe`] or could not be run.
+///
+/// # Errors
+///
+/// The program runs past the probe limit; a program that is missing is `Ok(None)`.
 pub fn probe(tool: &str, arg: &str) -> anyhow::Result<Option<Output>> {
     match run(
         Command::new(tool).arg(arg),
@@ -260,6 +281,10 @@ pub fn version(tool: &str, arg: &str) -> Option<String> {
 
 /// Fail with `how` (the install command) when `tool` is missing, and with
 /// the probe's error when `tool arg` hangs.
+///
+/// # Errors
+///
+/// The program does not answer `arg`: the error says how to install it (`how`).
 pub fn require(tool: &str, arg: &str, how: &str) -> anyhow::Result<()> {
     match probe(tool, arg)? {
         Some(_) => Ok(()),

@@ -91,6 +91,11 @@ pub fn meets_summary_goals(r: &crate::explore::Row) -> bool {
 /// Sweep every stage of a width group on each method's path (the output
 /// level stays the 8-bit pixel) over [`SUMMARY_WIDTHS`], measured on the
 /// explore command's default meshes, through the explore cache.
+///
+/// # Errors
+///
+/// The meshes cannot be built, the explore cache cannot be opened, or a method's overrides do
+/// not apply.
 pub fn summary_sweep(base: &crate::explore::Base) -> anyhow::Result<Vec<MethodSweep>> {
     use crate::explore::{self, optimize, sweep::Point, Cache, Options};
     let o = Options {
@@ -192,6 +197,11 @@ pub type RtlChecks = Result<Vec<(String, String, usize, u64, u64, String)>, Stri
 /// Co-simulate every unit and the three pipeline tops on Icarus Verilog
 /// (300 vectors each, random stalls; killers searched as `search` says): `(unit, variant, count, passed,
 /// failed)`, or why not.
+///
+/// # Errors
+///
+/// `Err` with why no co-simulation was run (Icarus missing, an override that does not apply) or
+/// the first that failed to run.
 pub fn rtl_checks(
     cfg: &fxshade_model::Config,
     search: fxshade_model::rtl::search::Search,

@@ -19,6 +19,10 @@ use fxshade_model::rtl::units::RtlUnit;
 use fxshade_model::vectors::{fingerprint, RtlSources, VectorSource};
 
 /// Look a unit up by name.
+///
+/// # Errors
+///
+/// `name` is no unit; the error lists the units.
 pub fn unit(name: &str) -> anyhow::Result<&'static RtlUnit> {
     fxshade_model::rtl::units::unit(name).with_context(|| {
         format!(
@@ -97,6 +101,14 @@ impl Sources {
     }
     /// Every `*.v` file of `dir` except testbenches (`*_tb.v`) as the
     /// design, with the vector set's generated testbench.
+    ///
+    /// # Errors
+    ///
+    /// A file the unit's RTL needs is missing from `dir` or cannot be read.
+    ///
+    /// # Panics
+    ///
+    /// Never: every path listed is a file name.
     pub fn from_dir(rtl: &RtlSources, dir: &Path) -> anyhow::Result<Sources> {
         let mut files = Vec::new();
         let rd = std::fs::read_dir(dir)
@@ -185,6 +197,10 @@ impl Sim {
 }
 
 /// Fail with the install command when a tool is missing (or hangs).
+///
+/// # Errors
+///
+/// `tool` is not installed; the error names the Debian package.
 pub fn require_tool(tool: &str, package: &str) -> anyhow::Result<()> {
     crate::proc::require(
         tool,
@@ -205,11 +221,20 @@ fn quick_build() -> bool {
 
 /// Run a build tool under [`crate::proc::Limit::build`]: on timeout the
 /// whole group (make, the C++ compiler) is killed.
+///
+/// # Errors
+///
+/// The tool cannot be started, runs past the build limit, or exits non-zero (its output in the
+/// error).
 pub fn run_tool(cmd: &mut Command, what: &str) -> anyhow::Result<String> {
     crate::proc::run_ok(cmd, what, crate::proc::Limit::build())
 }
 
 /// Write the sources into `dir`; the paths of the files.
+///
+/// # Errors
+///
+/// A file cannot be written to `dir`.
 pub fn write_sources(src: &Sources, dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
     std::fs::create_dir_all(dir)?;
     let mut paths = Vec::new();
@@ -255,6 +280,11 @@ fn binary_rel(sim: Sim) -> &'static str {
 /// else is rebuilt. A build is staged, its binary synced and hashed, and
 /// the seal written last, so a full file system or a killed build leaves no
 /// entry that looks complete.
+///
+/// # Errors
+///
+/// The simulator is missing, the cache cannot be used, or the build fails (its log in the
+/// error).
 pub fn build(name: &str, sources: &Sources, sim: Sim, trace: bool) -> anyhow::Result<Build> {
     build_with(name, sources, sim, trace, false)
 }
@@ -438,6 +468,15 @@ fn build_with(
 /// section header table (the last thing the linker writes) lies inside
 /// it; for Icarus a program that ends with its whole `:file_names N;`
 /// table.
+///
+/// # Errors
+///
+/// `Err` saying why the binary at `path` is not a complete build of `sim` (missing, truncated,
+/// not an executable).
+///
+/// # Panics
+///
+/// Never: the header slice read is checked to be 8 bytes long.
 pub fn binary_complete(sim: Sim, path: &Path) -> Result<(), String> {
     let b = std::fs::read(path).map_err(|e| e.to_string())?;
     match sim {
@@ -535,6 +574,15 @@ fn check_space(dir: &Path) -> anyhow::Result<()> {
 /// of GTKWave's `fstapi`, which Verilator and Icarus both use), ending
 /// exactly at the end of the file, with no block left unfinished (type
 /// 255, `FST_BL_SKIP`).
+///
+/// # Errors
+///
+/// `Err` saying why the FST trace at `path` is incomplete (missing, truncated, a block that
+/// runs past the end).
+///
+/// # Panics
+///
+/// Never: each length read is a checked 8-byte slice.
 pub fn fst_complete(path: &Path) -> Result<(), String> {
     let b = std::fs::read(path).map_err(|e| e.to_string())?;
     if b.first() != Some(&0) {
@@ -633,6 +681,11 @@ fn parse_num(line: &str, prefix: &str) -> Option<u64> {
 
 /// Run the vectors through the testbench of `sources`; with `dump`, also
 /// read back every output the RTL produced ([`CheckResult::outputs`]).
+///
+/// # Errors
+///
+/// The build fails, the simulation cannot run or runs past its limits, or its output cannot be
+/// read; mismatches are counted in the result, not errors.
 pub fn check_with(
     v: &dyn VectorSource,
     sources: &Sources,
@@ -727,6 +780,10 @@ fn open_fifo(p: &Path, gone: &std::sync::atomic::AtomicBool) -> Option<std::fs::
 /// through named pipes to the testbench's `$fread`, and the simulation runs
 /// meanwhile. Memory stays bounded whatever the count, and nothing is
 /// written to disk.
+///
+/// # Errors
+///
+/// As [`check_with`].
 #[allow(clippy::too_many_arguments)]
 pub fn check_with_args(
     v: &dyn VectorSource,
@@ -1133,6 +1190,10 @@ pub fn pipeline_overrides(
 
 /// The units and configurations of `fxshade rtl all`: every unit with `cfg`,
 /// and the pipeline top with each variant's overrides applied.
+///
+/// # Errors
+///
+/// A pipeline variant's overrides do not apply to `cfg`.
 pub fn configs_all(
     cfg: &fxshade_model::Config,
 ) -> anyhow::Result<

@@ -5,6 +5,10 @@ use anyhow::{bail, Context};
 use fxshade_model::mesh::{self, Axis, Mesh};
 
 /// Parse `sphere:N` / `torus:N`.
+///
+/// # Errors
+///
+/// `spec` is not `sphere:N` or `torus:N` with N in 4..=4096.
 pub fn procedural(spec: &str, axis: Axis) -> anyhow::Result<Mesh> {
     let (kind, n) = spec
         .split_once(':')
@@ -25,6 +29,11 @@ pub fn procedural(spec: &str, axis: Axis) -> anyhow::Result<Mesh> {
 }
 
 /// The mesh named by `--mesh`.
+///
+/// # Errors
+///
+/// `spec` is not a procedural mesh ([`procedural`], with an axis x, y or z) nor a readable
+/// `.obj` file.
 pub fn load_mesh(spec: &str) -> anyhow::Result<Mesh> {
     if spec.starts_with("sphere:") || spec.starts_with("torus:") {
         // `torus:24:z` builds it about another axis (default y).

@@ -96,6 +96,10 @@ pub struct Shard {
 }
 
 /// `K/N` with `K < N` (0-based).
+///
+/// # Errors
+///
+/// `Err` when `s` is not `K/N` with 0 ≤ K < N.
 pub fn parse_kn(s: &str) -> Result<(usize, usize), String> {
     let bad = || format!("`{s}`: write K/N with 0 ≤ K < N (shard K of N, 0-based), or auto");
     let (k, n) = s.split_once('/').ok_or_else(bad)?;
@@ -119,6 +123,10 @@ pub enum ShardArg {
 }
 
 /// The parser of `--shard`.
+///
+/// # Errors
+///
+/// `Err` when `s` is neither `auto` nor `K/N` ([`parse_kn`]).
 pub fn parse_arg(s: &str) -> Result<ShardArg, String> {
     if s.trim() == "auto" {
         return Ok(ShardArg::Auto);
@@ -129,6 +137,10 @@ pub fn parse_arg(s: &str) -> Result<ShardArg, String> {
 /// The shard this process takes: `--shard K/N` as given, or with
 /// `--shard auto` the one the environment names ([`detect`]; `shards` is
 /// `--shards N` or `FXSHADE_SHARDS`).
+///
+/// # Errors
+///
+/// `Err` when `auto` finds no job array, or the array's task is no shard of N ([`detect`]).
 pub fn resolve(arg: Option<&ShardArg>, shards: Option<usize>) -> Result<Option<Shard>, String> {
     match arg {
         None => Ok(None),
@@ -162,6 +174,15 @@ pub fn resolve(arg: Option<&ShardArg>, shards: Option<usize>) -> Result<Option<S
 ///
 /// An error when none is set, when a set is incomplete or inconsistent,
 /// or when two disagree.
+///
+/// # Errors
+///
+/// `Err` when no scheduler's variables are set, two disagree, a value is not a number, or the
+/// task is not a shard of N.
+///
+/// # Panics
+///
+/// Never: `shards` is read only on the path where it is `Some`.
 pub fn detect(env: &BTreeMap<String, String>, shards: Option<usize>) -> Result<Shard, String> {
     // Grid Engine sets SGE_TASK_ID=undefined outside an array job: unset.
     let get = |k: &str| {

@@ -54,6 +54,10 @@ impl Solver {
         }
     }
     /// Its version, or an error saying how to install it.
+    ///
+    /// # Errors
+    ///
+    /// The solver is not installed (the error says how to install it).
     pub fn version(self) -> anyhow::Result<String> {
         let (mut c, how) = match self {
             Solver::Z3 => {
@@ -82,6 +86,10 @@ impl Solver {
     /// Run `script` (which ends with `(check-sat)` and, for a model,
     /// `(get-value (…))`), with a time limit per query of `timeout_s`
     /// seconds (0: none).
+    ///
+    /// # Errors
+    ///
+    /// As [`Solver::check_limited`].
     pub fn check(self, script: &str, timeout_s: u64) -> anyhow::Result<Reply> {
         self.check_limited(script, timeout_s, 0)
     }
@@ -90,6 +98,11 @@ impl Solver {
     /// none; a count of z3's internal steps, the same on every machine, so
     /// an answer never depends on the machine's load; Bitwuzla has none
     /// and ignores it).
+    ///
+    /// # Errors
+    ///
+    /// The solver cannot be run, runs past the formal process limit, or answers what cannot be
+    /// parsed.
     pub fn check_limited(self, script: &str, timeout_s: u64, rlimit: u64) -> anyhow::Result<Reply> {
         let mut c = self.command(timeout_s, rlimit);
         let Some(o) = run_within(&mut c, self.name(), script, timeout_s)? else {
@@ -131,6 +144,10 @@ impl Solver {
     /// all of them within `timeout_s` seconds (0: no limit): the answers
     /// in order, each `Unsat`, `Unknown` or `Sat` (no values); a run
     /// stopped at the limit ends with one `Unknown`.
+    ///
+    /// # Errors
+    ///
+    /// As [`Solver::check_limited`], or fewer answers than `check-sat`s.
     pub fn check_each(self, script: &str, timeout_s: u64) -> anyhow::Result<Vec<Reply>> {
         let mut c = self.command(timeout_s, 0);
         // The whole run within the limit too (every query at once): past
@@ -194,6 +211,10 @@ pub enum Reply {
 impl Reply {
     /// Read a solver's standard output: `sat` and a get-value list,
     /// `unsat`, `unknown` (or `timeout`); an `(error …)` fails.
+    ///
+    /// # Errors
+    ///
+    /// `text` is neither `sat` with a model, `unsat` nor `unknown`.
     pub fn parse(text: &str) -> anyhow::Result<Reply> {
         let exprs = SExpr::parse_all(text)?;
         if let Some(e) = exprs.iter().find(|e| e.head() == Some("error")) {
@@ -269,6 +290,14 @@ impl SExpr {
     }
 
     /// Every s-expression of `text`, in order (`;` comments skipped).
+    ///
+    /// # Errors
+    ///
+    /// `text` has an unbalanced parenthesis or an unterminated string or quoted symbol.
+    ///
+    /// # Panics
+    ///
+    /// Never: the stack is checked non-empty before each pop.
     pub fn parse_all(text: &str) -> anyhow::Result<Vec<SExpr>> {
         let b = text.as_bytes();
         let mut i = 0;
@@ -391,6 +420,10 @@ pub fn product_declarations() -> String {
 /// bit-blasting them; a model, though, may owe to the abstraction and must
 /// be checked on the real products. A product with an operand of at most
 /// two significant bits (a selection) is left as it is.
+///
+/// # Errors
+///
+/// The script cannot be parsed ([`parse_all`]).
 pub fn abstract_products(script: &str) -> anyhow::Result<(String, usize)> {
     abstract_products_with(script, false)
 }
@@ -401,6 +434,10 @@ pub fn abstract_products(script: &str) -> anyhow::Result<(String, usize)> {
 /// and shifts the result in the wiring (Yosys's `wreduce` does) then
 /// meets the same application as the RTL's product by `c`. Exact: `x·c
 /// mod 2^W = (x·c' mod 2^W)·2^k mod 2^W`.
+///
+/// # Errors
+///
+/// The script cannot be parsed ([`parse_all`]).
 pub fn abstract_products_with(
     script: &str,
     odd_constants: bool,
@@ -412,6 +449,10 @@ pub fn abstract_products_with(
 /// they are. Products are numbered in the order they appear, every
 /// product [`abstract_products`] would abstract counted (kept or not), so
 /// a number names the same product in every call on one script.
+///
+/// # Errors
+///
+/// The script cannot be parsed ([`parse_all`]).
 pub fn abstract_products_keep(
     script: &str,
     odd_constants: bool,
@@ -542,6 +583,10 @@ fn signed_bounds(
 
 /// As [`abstract_products_keep`], with the products that are whole
 /// function bodies listed.
+///
+/// # Errors
+///
+/// The script cannot be parsed ([`parse_all`]).
 pub fn abstract_products_sites(
     script: &str,
     odd_constants: bool,

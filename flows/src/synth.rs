@@ -358,6 +358,11 @@ pub fn parse_fmax(log: &str) -> Option<f64> {
 
 /// Run `cmd`, write its output to `log`, and fail with the output's last
 /// lines when it fails.
+///
+/// # Errors
+///
+/// The tool cannot be run or runs past the synthesis limit, the log cannot be written, or the
+/// tool exits non-zero (the log's tail in the error).
 pub fn run_logged(cmd: &mut Command, log: &Path, what: &str) -> anyhow::Result<String> {
     let o = crate::proc::run(cmd, what, crate::proc::Limit::synth(), None)?;
     let text = o.text();
@@ -403,6 +408,15 @@ impl Flow {
 }
 
 /// Synthesize (and place and route) `e` for `target` in `dir`.
+///
+/// # Errors
+///
+/// A tool is missing, Yosys or the placer fails, the design does not fit the part, or a report
+/// cannot be read.
+///
+/// # Panics
+///
+/// Never: the median seed is one of the seeds run.
 pub fn synthesize(
     unit: &str,
     e: &Emitted,
@@ -721,6 +735,10 @@ pub fn lookup(unit: &str, cfg: &fxshade_model::Config, target: Target) -> Option
 /// Synthesize a unit of a configuration, from the cache when it can: the
 /// key holds the emitted Verilog, the target, the seeds, the clock asked
 /// for and the tool versions.
+///
+/// # Errors
+///
+/// As [`cached_with_netlist`].
 pub fn cached(
     unit: &str,
     cfg: &fxshade_model::Config,
@@ -739,6 +757,11 @@ pub fn cached(
 /// placed written there ([`crate::netlist::write`]): that needs the run's
 /// own netlist, so the cache is not read (the new result replaces the
 /// cached one).
+///
+/// # Errors
+///
+/// The unit or its module cannot be emitted, the cache cannot be used, or the synthesis fails
+/// ([`synthesize`]).
 #[allow(clippy::too_many_arguments)]
 pub fn cached_with_netlist(
     unit: &str,
@@ -772,6 +795,10 @@ pub fn cached_with_netlist(
 }
 
 /// [`cached_with_netlist`] for an emitted module.
+///
+/// # Errors
+///
+/// As [`cached_with_netlist`].
 #[allow(clippy::too_many_arguments)]
 pub fn cached_emitted(
     unit: &str,

@@ -22,6 +22,11 @@ pub fn is_expr(s: &str) -> bool {
 
 impl CostExpr {
     /// Parse `s`; errors say what is wrong and where.
+    ///
+    /// # Errors
+    ///
+    /// `Err` saying where `s` is not a sum of weighted metrics (an empty term, a negative or
+    /// non-numeric weight, two metrics in a term).
     pub fn parse(s: &str) -> Result<CostExpr, String> {
         let s = s.trim();
         if s.is_empty() {

@@ -364,6 +364,11 @@ fn top_cost(
 
 /// Measure one configuration. `meshes` are the loaded `o.meshes`.
 /// An analysis that fails makes the whole point fail, with its name.
+///
+/// # Errors
+///
+/// A mesh cannot be rendered, a unit analysis fails, or an asked synthesis fails or names a
+/// target without a synthesis flow.
 pub fn evaluate(
     cfg: &Config,
     o: &Options,

@@ -80,6 +80,10 @@ pub fn get() -> Option<&'static Launcher> {
 /// Use `line` (split as a shell would, without running a shell) to start
 /// every point's evaluation; job files go into a private directory made in
 /// `dir` (default: the current directory).
+///
+/// # Errors
+///
+/// `line` is not a command line (`shlex`), names no program, or `dir` cannot be created.
 pub fn install(line: &str, dir: Option<&Path>) -> anyhow::Result<()> {
     let argv = shlex::split(line)
         .filter(|v| !v.is_empty())
@@ -124,6 +128,12 @@ impl Launcher {
     /// Evaluate `cfg` through the launcher. `Ok(Ok(metrics))` or
     /// `Ok(Err(evaluation error))` is the model's verdict (cacheable);
     /// `Err` is a failed launch (not cached).
+    ///
+    /// # Errors
+    ///
+    /// A job file cannot be written, the launcher cannot be started, or it exits without
+    /// writing a result; a point the model could not evaluate is an `Ok` outcome with its
+    /// error.
     pub fn evaluate(
         &self,
         cfg: &Config,

@@ -112,6 +112,10 @@ struct Entry {
 impl Cache {
     /// A cache in `dir` (`None`: no caching), created private to the user
     /// when missing and refused when someone else could write to it.
+    ///
+    /// # Errors
+    ///
+    /// The cache directory cannot be created or made private.
     pub fn new(dir: Option<PathBuf>) -> anyhow::Result<Cache> {
         if let Some(d) = &dir {
             fxshade_model::cache::ensure_private_dir(d, fxshade_model::cache::uid())
@@ -121,6 +125,10 @@ impl Cache {
     }
 
     /// The default: `<fxshade cache>/explore`.
+    ///
+    /// # Errors
+    ///
+    /// The cache root is not installed or cannot be resolved ([`fxshade_model::cache::root`]).
     pub fn default_dir() -> anyhow::Result<PathBuf> {
         Ok(fxshade_model::cache::subdir("explore")?)
     }
@@ -167,6 +175,10 @@ pub struct Base {
 
 impl Base {
     /// The configuration of a point (the base's overrides, then its own).
+    ///
+    /// # Errors
+    ///
+    /// `Err` with the configuration error of the base or of an override.
     pub fn resolve(&self, overrides: &[String]) -> Result<Config, String> {
         let all: Vec<String> = self.set.iter().chain(overrides).cloned().collect();
         Config::resolve(self.config.as_deref(), &all).map_err(|e| e.to_string())
@@ -174,6 +186,10 @@ impl Base {
 }
 
 /// Load the meshes of `o`.
+///
+/// # Errors
+///
+/// A mesh spec is not `sphere:N`, `torus:N` or a readable `.obj` ([`crate::scene::load_mesh`]).
 pub fn load_meshes(o: &Options) -> anyhow::Result<Vec<(String, fxshade_model::mesh::Mesh)>> {
     o.meshes
         .iter()
@@ -321,6 +337,11 @@ pub struct Goal {
 impl Goal {
     /// Parse `metric<=value`; the error names where it came from (`at`:
     /// `--goal`, or a sweep file's `file:line`).
+    ///
+    /// # Errors
+    ///
+    /// `s` is not `METRIC<=V` or `METRIC>=V` with a known metric and a number (`at` names the
+    /// flag).
     pub fn parse(s: &str, at: &str) -> anyhow::Result<Goal> {
         for op in ["<=", ">=", "<", ">"] {
             if let Some((m, v)) = s.split_once(op) {
@@ -370,6 +391,10 @@ impl std::fmt::Display for Goal {
 /// configuration file and every OBJ mesh (procedural meshes are named by
 /// their spec alone). Part of the cache key and the sweep's identity, so an
 /// edited file is measured again.
+///
+/// # Errors
+///
+/// The configuration file or an `.obj` mesh cannot be read.
 pub fn inputs_fingerprint(
     config: Option<&std::path::Path>,
     meshes: &[String],
@@ -394,6 +419,10 @@ pub fn inputs_fingerprint(
 }
 
 /// Check a metric name given on the command line.
+///
+/// # Errors
+///
+/// `m` is not a metric explore measures (`flag` names where it was given).
 pub fn check_metric(flag: &str, m: &str) -> anyhow::Result<()> {
     if eval::METRICS.iter().any(|(n, _)| *n == m) {
         Ok(())
@@ -424,6 +453,10 @@ pub fn metric_columns(rows: &[Row]) -> Vec<String> {
 
 /// The rows as CSV: index, one column per axis, `error`, every metric (as
 /// numbers), `config_hash`, `seconds`, `cached`.
+///
+/// # Errors
+///
+/// The CSV writer fails (a value it cannot write).
 pub fn to_csv(axes: &[String], rows: &[Row]) -> anyhow::Result<String> {
     let cols = metric_columns(rows);
     let mut w = csv::Writer::from_writer(Vec::new());

@@ -125,6 +125,10 @@ pub fn vars(cfg: &Config) -> (Vec<Var>, Vec<u32>) {
 /// The variables (`unit.field` keys of `vars`) a key names: `width.<group>`
 /// its members, `unit.field` or any key under it (`unit.field.format`)
 /// that stage; an error names a key that is neither.
+///
+/// # Errors
+///
+/// `Err` when `key` names no width variable of `cfg` (a `unit.field` or `width.<group>`).
 pub fn keys_named(cfg: &Config, vars: &[Var], key: &str) -> Result<Vec<String>, String> {
     let key = key.split('=').next().unwrap_or(key).trim();
     let named: Vec<String> = if let Some(group) = key.strip_prefix("width.") {
@@ -155,6 +159,10 @@ pub fn keys_named(cfg: &Config, vars: &[Var], key: &str) -> Result<Vec<String>, 
 /// `--set` keys name (the designer's choice is not searched), each
 /// `--freeze` key, and the output level (the pixel: width group `level`),
 /// less those a `--free` key names. Errors name the flag and the key.
+///
+/// # Errors
+///
+/// `Err` when a `--freeze` or `--free` key names no width variable.
 pub fn frozen(
     cfg: &Config,
     user_sets: &[String],
@@ -357,6 +365,11 @@ impl Search<'_> {
 }
 
 /// Run the search. `tick` reports each measured point.
+///
+/// # Errors
+///
+/// The baseline cannot be evaluated, no uniform width meets the goals, or an evaluation fails
+/// for a reason other than the point itself.
 #[allow(clippy::too_many_arguments)]
 pub fn run(
     base: &Base,

@@ -135,6 +135,11 @@ fn values(key: &str, spec: &str) -> anyhow::Result<Vec<String>> {
 
 /// Parse one `KEY=SPEC` against the base configuration; `origin` names
 /// where it came from in errors (`--vary`, `sweep.toml:4`).
+///
+/// # Errors
+///
+/// `spec` is not `KEY=VALUES` with a known key and values it accepts (a list, a range
+/// `a..b[/step]` of at most the allowed points).
 pub fn parse_axis(spec: &str, base: &Config, origin: &str) -> anyhow::Result<Axis> {
     let Some((key, vals)) = spec.split_once('=') else {
         bail!("{origin} `{spec}`: expected KEY=SPEC, e.g. width.normals=10..16 or normalize.method=linear,quadratic");
@@ -173,6 +178,10 @@ pub fn parse_axis(spec: &str, base: &Config, origin: &str) -> anyhow::Result<Axi
 
 /// Every point of the sweep over `axes` (one point with no overrides when
 /// there are none), the first axis varying slowest.
+///
+/// # Errors
+///
+/// The product of the axes has more points than a sweep allows.
 pub fn points(axes: &[Axis]) -> anyhow::Result<Vec<Point>> {
     let total = axes
         .iter()

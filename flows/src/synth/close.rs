@@ -138,6 +138,11 @@ impl Closure {
 /// gives the configuration with the pipelining overrides added; the first
 /// run is pipelined at `first_ns`; `flow.freq` is the goal. `progress`
 /// takes the current step, `log` a line per run finished.
+///
+/// # Errors
+///
+/// The first run fails (a later failure ends the loop with the runs before it), or a
+/// configuration cannot be resolved.
 #[allow(clippy::too_many_arguments)]
 pub fn close(
     unit: &str,
