@@ -42,6 +42,7 @@ use fxshade_numbers::convert::{from_f64, narrow, to_f64};
 use glam::{DVec2, DVec3};
 
 use crate::config::Config;
+use crate::datapath::Compiled;
 use crate::interp::{self, Scheme, THETA_LADDER};
 use crate::mesh::Mesh;
 use crate::normalizer::Method;
@@ -827,13 +828,25 @@ fn frame_core(
         f.tbn_rows.clear();
         Ok::<(), PipelineError>(())
     };
+    // Fragments come in raster order, so runs of them share a triangle:
+    // its set-up is looked up once per run.
+    let mut last: Option<(usize, Option<&Tri>)> = None;
+    let textured = want.mapped || want.mapped_interp || want.tbn || want.mapped_refs;
     for fr in &raster.fragments {
         if streamed && in_chunk == chunk {
             flush(&mut f, sink)?;
             in_chunk = 0;
         }
         in_chunk += 1;
-        let Some((st, so, mt)) = tris.get(&fr.tri).and_then(|t| t.as_ref()) else {
+        let setup = match last {
+            Some((ti, t)) if ti == fr.tri => t,
+            _ => {
+                let t = tris.get(&fr.tri).and_then(|t| t.as_ref());
+                last = Some((fr.tri, t));
+                t
+            }
+        };
+        let Some((st, so, mt)) = setup else {
             f.skipped += 1;
             if !f.skipped_triangles.contains(&fr.tri) {
                 f.skipped_triangles.push(fr.tri);
@@ -880,6 +893,12 @@ fn frame_core(
         // Mapped rows (object frame): c1, c2, the normals (CORDIC) or the
         // angle set-up (interpolated angles), angles of L and H, the texel.
         let n_obj = interp::field(&so.tri, fr.c, scheme).normalize();
+        let in_cap = n_obj.y.abs() >= cap;
+        f.polar_cap.push(in_cap);
+        // The smooth path alone reads no texture.
+        if !(textured || baked.is_some()) {
+            continue;
+        }
         let (tex, texel_ok) = match &baked {
             Some(b) => {
                 let (x, y) = b.texture.texel_of(fr.uv);
@@ -906,8 +925,6 @@ fn frame_core(
                 texc,
             ));
         }
-        let in_cap = n_obj.y.abs() >= cap;
-        f.polar_cap.push(in_cap);
         if !(want.tbn || want.mapped_refs || baked.is_some()) {
             continue;
         }
@@ -1026,12 +1043,30 @@ pub fn levels_streamed(
         .iter()
         .map(|&m| method_pipeline(cfg, m))
         .collect::<Result<_, _>>()?;
+    // Each method's program is compiled once for every chunk.
+    let progs: Vec<Option<Compiled>> = methods
+        .iter()
+        .zip(&pipes)
+        .map(|(&m, p)| {
+            (m != RenderMethod::Tbn)
+                .then(|| p.compile(m.path()))
+                .transpose()
+        })
+        .collect::<Result<_, _>>()?;
     let n = raster.fragments.len();
     let mut levels: Vec<Vec<u8>> = methods.iter().map(|_| Vec::with_capacity(n)).collect();
     let want = Wanted::methods(methods);
     let f = frame_core(scene, base, raster, mesh, want, CHUNK, &mut |f| {
-        for ((&m, p), out) in methods.iter().zip(&pipes).zip(levels.iter_mut()) {
-            out.extend(method_levels(p, m, f.rows(m))?);
+        for (((&m, p), prog), out) in methods
+            .iter()
+            .zip(&pipes)
+            .zip(&progs)
+            .zip(levels.iter_mut())
+        {
+            match prog {
+                Some(prog) => out.extend(levels_with(p, m.path(), prog, f.rows(m))),
+                None => out.extend(method_levels(p, m, f.rows(m))?),
+            }
         }
         Ok(())
     })?;
@@ -1183,21 +1218,31 @@ pub fn pixel_of(level: crate::format::Format, code: i128) -> u8 {
 ///
 /// If a non-empty row holds fewer codes than `path` has fields ([`Pipeline::run_rows`]).
 pub fn levels_of(p: &Pipeline, path: Path, rows: &[Vec<i128>]) -> Result<Vec<u8>, PipelineError> {
+    Ok(levels_with(p, path, &p.compile(path)?, rows))
+}
+
+/// [`levels_of`] with the path's program compiled already
+/// ([`Pipeline::compile`]).
+///
+/// # Panics
+///
+/// If a non-empty row holds fewer codes than `path` has fields.
+pub fn levels_with(p: &Pipeline, path: Path, prog: &Compiled, rows: &[Vec<i128>]) -> Vec<u8> {
     let idx: Vec<usize> = (0..rows.len()).filter(|&i| !rows[i].is_empty()).collect();
     // Rows are copied only when some are skipped (they are most of a
     // frame's memory).
     let out = if idx.len() == rows.len() {
-        p.run_rows(path, rows)?
+        p.run_rows_compiled(path, prog, rows)
     } else {
         let live: Vec<Vec<i128>> = idx.iter().map(|&i| rows[i].clone()).collect();
-        p.run_rows(path, &live)?
+        p.run_rows_compiled(path, prog, &live)
     };
     let fl = p.light.level.format();
     let mut levels = vec![0u8; rows.len()];
     for (k, &i) in idx.iter().enumerate() {
         levels[i] = pixel_of(fl, out[k]);
     }
-    Ok(levels)
+    levels
 }
 
 /// Round an f64 reference to levels.

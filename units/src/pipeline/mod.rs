@@ -1003,14 +1003,53 @@ impl Pipeline {
     ///
     /// If a row holds fewer codes than `path` has fields ([`Pipeline::fields`]).
     pub fn run_rows(&self, path: Path, rows: &[Vec<i128>]) -> Result<Vec<i128>, PipelineError> {
+        Ok(self.run_rows_compiled(path, &self.compile(path)?, rows))
+    }
+
+    /// [`Pipeline::run_rows`] on `path`'s program compiled already
+    /// (`prog`, from [`Pipeline::compile`]): the pixel codes of `rows`.
+    ///
+    /// # Panics
+    ///
+    /// If a row holds fewer codes than `path` has fields.
+    pub fn run_rows_compiled(&self, path: Path, prog: &Compiled, rows: &[Vec<i128>]) -> Vec<i128> {
         let width = self.fields(path).len();
-        let prog = self.compile(path)?;
-        let cols: Vec<Vec<i128>> = (0..width)
-            .map(|k| rows.iter().map(|r| r[k]).collect())
-            .collect();
-        let refs: Vec<&[i128]> = cols.iter().map(|c| c.as_slice()).collect();
-        let (mut res, _) = prog.run_i128(&refs);
-        Ok(res.swap_remove(0))
+        // One pass over the rows (each read once, front to back) into the
+        // columns the program takes, in its own code type.
+        fn columns<R: Copy + Default>(
+            rows: &[Vec<i128>],
+            width: usize,
+            f: impl Fn(i128) -> R,
+        ) -> Vec<R> {
+            // Column-major: column k is `cols[k * n..(k + 1) * n]`.
+            let n = rows.len();
+            let mut cols = vec![R::default(); width * n];
+            for (i, r) in rows.iter().enumerate() {
+                for (k, &v) in r[..width].iter().enumerate() {
+                    cols[k * n + i] = f(v);
+                }
+            }
+            cols
+        }
+        if rows.is_empty() {
+            return Vec::new();
+        }
+        let n = rows.len();
+        match prog {
+            Compiled::Narrow(p) => {
+                // The program was compiled narrow: every input code fits.
+                let cols = columns(rows, width, narrow::<i64, _>);
+                let refs: Vec<&[i64]> = cols.chunks_exact(n).collect();
+                let (mut res, _) = p.run(&refs);
+                res.swap_remove(0).into_iter().map(i128::from).collect()
+            }
+            Compiled::Wide(p) => {
+                let cols = columns(rows, width, |v| v);
+                let refs: Vec<&[i128]> = cols.chunks_exact(n).collect();
+                let (mut res, _) = p.run(&refs);
+                res.swap_remove(0)
+            }
+        }
     }
 
     /// The scalar fixed-point run of one row (the readable specification the
