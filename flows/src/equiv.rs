@@ -853,35 +853,17 @@ pub fn prove_all(
     cex_dir: Option<&Path>,
     done: &(dyn Fn(&str) + Sync),
 ) -> anyhow::Result<Vec<Equiv>> {
-    let dir = tempfile::Builder::new()
-        .prefix("fxshade-equiv-")
-        .tempdir()
-        .context("cannot create a temporary directory")?;
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(jobs)
-        .build()
-        .context("cannot start the worker threads")?;
-    let res = pool.install(|| {
-        use rayon::prelude::*;
-        modules
-            .par_iter()
-            .enumerate()
-            .map(|(k, m)| {
-                let sub = dir.path().join(k.to_string());
-                std::fs::create_dir(&sub).context("cannot create a scratch directory")?;
-                let (mut p, rows) = prove(m, solver, timeout, &sub)?;
-                record(m, &p);
-                if let Some(c) = p.counterexample.as_mut() {
-                    if let Some(cd) = cex_dir {
-                        replay(m, rows, &cd.join(&m.emitted.module), c)?;
-                    }
-                }
-                done(&m.emitted.module);
-                Ok(p)
-            })
-            .collect::<anyhow::Result<Vec<Equiv>>>()
-    });
-    res
+    crate::proc::in_scratch_dirs("fxshade-equiv-", jobs, modules, |m, sub| {
+        let (mut p, rows) = prove(m, solver, timeout, sub)?;
+        record(m, &p);
+        if let Some(c) = p.counterexample.as_mut() {
+            if let Some(cd) = cex_dir {
+                replay(m, rows, &cd.join(&m.emitted.module), c)?;
+            }
+        }
+        done(&m.emitted.module);
+        Ok(p)
+    })
 }
 
 /// The cache key of a proof of `m`: this program's fingerprint, the

@@ -215,26 +215,9 @@ pub fn prove_all(
     jobs: usize,
     done: &(dyn Fn(&str) + Sync),
 ) -> anyhow::Result<Vec<Proof>> {
-    let dir = tempfile::Builder::new()
-        .prefix("fxshade-formal-")
-        .tempdir()
-        .context("cannot create a temporary directory")?;
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(jobs)
-        .build()
-        .context("cannot start the worker threads")?;
-    pool.install(|| {
-        use rayon::prelude::*;
-        modules
-            .par_iter()
-            .enumerate()
-            .map(|(k, m)| {
-                let sub = dir.path().join(k.to_string());
-                std::fs::create_dir(&sub).context("cannot create a scratch directory")?;
-                let p = prove(&m.top, &m.text, m.latency, depth, cover, &sub)?;
-                done(&m.top);
-                Ok(p)
-            })
-            .collect()
+    crate::proc::in_scratch_dirs("fxshade-formal-", jobs, modules, |m, sub| {
+        let p = prove(&m.top, &m.text, m.latency, depth, cover, sub)?;
+        done(&m.top);
+        Ok(p)
     })
 }

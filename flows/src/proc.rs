@@ -291,3 +291,39 @@ pub fn require(tool: &str, arg: &str, how: &str) -> anyhow::Result<()> {
         None => bail!("{tool} is not installed: {how}"),
     }
 }
+
+/// `f(item, dir)` for every item on `jobs` threads, each in a scratch
+/// directory of its own (under one temporary directory named `prefix…`,
+/// removed afterwards); the results in the items' order.
+///
+/// # Errors
+///
+/// No temporary directory, scratch directory or worker threads, or the
+/// first error of `f`.
+pub fn in_scratch_dirs<T: Sync, R: Send>(
+    prefix: &str,
+    jobs: usize,
+    items: &[T],
+    f: impl Fn(&T, &Path) -> anyhow::Result<R> + Sync,
+) -> anyhow::Result<Vec<R>> {
+    use rayon::prelude::*;
+    let dir = tempfile::Builder::new()
+        .prefix(prefix)
+        .tempdir()
+        .context("cannot create a temporary directory")?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(jobs)
+        .build()
+        .context("cannot start the worker threads")?;
+    pool.install(|| {
+        items
+            .par_iter()
+            .enumerate()
+            .map(|(k, item)| {
+                let sub = dir.path().join(k.to_string());
+                std::fs::create_dir(&sub).context("cannot create a scratch directory")?;
+                f(item, &sub)
+            })
+            .collect()
+    })
+}
