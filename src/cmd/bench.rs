@@ -35,6 +35,10 @@ pub enum BenchCmd {
     /// The renderer (one method, no RTL) per covered pixel against a
     /// simple f64 shader of the same image, and its peak memory.
     Render(super::bench_render::RenderBenchArgs),
+    /// The bit-accurate engine on every instruction set this CPU has
+    /// (portable, AVX2, AVX-512) against the same program as straight-line
+    /// C compiled -O3 -march=native, outputs checked bit for bit.
+    Engine(super::bench_engine::EngineArgs),
 }
 
 /// Options of `bench normalize`.
@@ -341,6 +345,7 @@ pub fn run(cmd: &BenchCmd) -> anyhow::Result<()> {
         BenchCmd::Polar(a) => return bench_polar(a),
         BenchCmd::Cosim(a) => return super::bench_cosim::run(a),
         BenchCmd::Render(a) => return super::bench_render::run(a),
+        BenchCmd::Engine(a) => return super::bench_engine::run(a),
     };
     anyhow::ensure!(
         a.inputs > 0 && a.length > 0,

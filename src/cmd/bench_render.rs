@@ -44,7 +44,7 @@ pub struct RenderBenchArgs {
 }
 
 /// CPU seconds of this process so far (user + system).
-fn cpu_now() -> f64 {
+pub(super) fn cpu_now() -> f64 {
     // SAFETY: a zeroed rusage is a valid out-parameter.
     let mut ru: libc::rusage = unsafe { std::mem::zeroed() };
     // SAFETY: RUSAGE_SELF with a valid pointer.
@@ -68,7 +68,7 @@ fn measure<T>(f: impl FnOnce() -> T) -> (f64, f64, T) {
     (cpu_now() - c0, t0.elapsed().as_secs_f64(), r)
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
+pub(super) fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     v[v.len() / 2]
 }

@@ -3,6 +3,7 @@
 pub mod bake;
 pub mod bench;
 pub mod bench_cosim;
+pub mod bench_engine;
 pub mod bench_render;
 pub mod coeffs;
 pub mod config;

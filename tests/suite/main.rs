@@ -9,6 +9,7 @@ mod common;
 mod angles;
 mod cluster;
 mod config_cli;
+mod engine;
 mod equiv;
 mod explore;
 mod formal;

@@ -17,10 +17,12 @@ use super::{Datapath, Table, WidthError};
 use crate::format::{ConvertError, Format};
 use crate::quantize::{Overflow, Quant, Raw, Rounding, Step};
 
+mod c;
 mod cut;
 mod interval;
 mod mutation;
 mod smt;
+pub use c::CError;
 pub use mutation::{Mutation, MutationKind};
 pub use smt::{lit as smt_literal, Chunk, MulSplit, PartialProduct, SmtFunction};
 
@@ -838,6 +840,16 @@ impl<R: Raw> Program<R> {
         &self,
         inputs: &[&[R]],
         outs: &mut [Vec<R>],
+        lane_flags: Option<&mut Vec<u64>>,
+    ) -> Vec<(&'static str, u64)> {
+        self.run_lanes_on(Isa::current(), inputs, outs, lane_flags)
+    }
+
+    fn run_lanes_on(
+        &self,
+        isa: Isa,
+        inputs: &[&[R]],
+        outs: &mut [Vec<R>],
         mut lane_flags: Option<&mut Vec<u64>>,
     ) -> Vec<(&'static str, u64)> {
         assert_eq!(inputs.len(), self.inputs.len(), "one slice per input port");
@@ -863,7 +875,7 @@ impl<R: Raw> Program<R> {
             let len = BLOCK.min(n - start);
             self.load_block(&mut regs, inputs, start, len);
             flags[..len].fill(0);
-            self.block(&mut regs, len, &mut ov, &mut flags);
+            self.block_on(isa, &mut regs, len, &mut ov, &mut flags);
             for (&(o, _), out) in self.outputs.iter().zip(outs.iter_mut()) {
                 out.extend_from_slice(&regs[o * BLOCK..o * BLOCK + len]);
             }
@@ -880,19 +892,112 @@ impl<R: Raw> Program<R> {
             .collect()
     }
 
-    /// One block of lanes, on the best instruction set this CPU has: the
-    /// same body compiled twice, chosen once per process.
+    /// One block of lanes, on the instruction set [`Isa::current`] chose.
     fn block(&self, regs: &mut [R], len: usize, ov: &mut [u64], flags: &mut [u64]) {
-        #[cfg(target_arch = "x86_64")]
-        {
-            static AVX2: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
-            if *AVX2.get_or_init(|| std::arch::is_x86_feature_detected!("avx2")) {
-                // SAFETY: the CPU supports AVX2 (checked just above).
-                unsafe { block_avx2(self, regs, len, ov, flags) };
-                return;
-            }
+        self.block_on(Isa::current(), regs, len, ov, flags);
+    }
+
+    /// One block of lanes on `isa`: the same body compiled once per
+    /// instruction set.
+    fn block_on(&self, isa: Isa, regs: &mut [R], len: usize, ov: &mut [u64], flags: &mut [u64]) {
+        assert!(
+            isa.available(),
+            "{} is not available on this CPU",
+            isa.name()
+        );
+        match isa {
+            // SAFETY: the CPU supports AVX-512 F/BW/DQ/VL (asserted above).
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx512 => unsafe { block_avx512(self, regs, len, ov, flags) },
+            // SAFETY: the CPU supports AVX2 (asserted above).
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx2 => unsafe { block_avx2(self, regs, len, ov, flags) },
+            _ => block_body(self, regs, len, ov, flags),
         }
-        block_body(self, regs, len, ov, flags)
+    }
+
+    /// As [`Program::run_into`], on the instruction set `isa` rather than
+    /// the one [`Isa::current`] chose (for tests that every path computes
+    /// the same codes, and for `fxshade bench engine`).
+    ///
+    /// # Panics
+    ///
+    /// When this CPU lacks `isa` ([`Isa::available`]), or as
+    /// [`Program::run_into`] on mismatched slices.
+    pub fn run_into_on(
+        &self,
+        isa: Isa,
+        inputs: &[&[R]],
+        outs: &mut [Vec<R>],
+    ) -> Vec<(&'static str, u64)> {
+        assert!(
+            isa.available(),
+            "{} is not available on this CPU",
+            isa.name()
+        );
+        self.run_lanes_on(isa, inputs, outs, None)
+    }
+}
+
+/// An instruction set the engine's block loop is compiled for. Every path
+/// runs the same Rust body ([`block_body`]'s loops over 256 lanes), so the
+/// codes and overflow counts are identical by construction; the suite
+/// checks it on every path the test machine has
+/// (`every_instruction_set_computes_the_same_codes`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Isa {
+    /// The target's baseline: SSE2 on x86-64, NEON on aarch64 (NEON is part
+    /// of Rust's aarch64 baseline, so the portable body is the NEON path).
+    Portable,
+    /// x86-64 AVX2: 256-bit integer shifts, compares and selects.
+    Avx2,
+    /// x86-64 AVX-512 F, BW, DQ and VL: 512-bit lanes, 64-bit multiplies
+    /// (`vpmullq`) and mask registers.
+    Avx512,
+}
+
+impl Isa {
+    /// Every path, narrowest first.
+    pub const ALL: [Isa; 3] = [Isa::Portable, Isa::Avx2, Isa::Avx512];
+
+    /// Its name in `bench engine` and in errors.
+    pub fn name(self) -> &'static str {
+        match self {
+            Isa::Portable if cfg!(target_arch = "aarch64") => "neon",
+            Isa::Portable => "portable",
+            Isa::Avx2 => "avx2",
+            Isa::Avx512 => "avx512",
+        }
+    }
+
+    /// Whether this CPU runs it (detected at run time).
+    pub fn available(self) -> bool {
+        match self {
+            Isa::Portable => true,
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx2 => std::arch::is_x86_feature_detected!("avx2"),
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx512 => {
+                std::arch::is_x86_feature_detected!("avx512f")
+                    && std::arch::is_x86_feature_detected!("avx512bw")
+                    && std::arch::is_x86_feature_detected!("avx512dq")
+                    && std::arch::is_x86_feature_detected!("avx512vl")
+            }
+            #[cfg(not(target_arch = "x86_64"))]
+            _ => false,
+        }
+    }
+
+    /// The widest path this CPU has, chosen once per process.
+    pub fn current() -> Isa {
+        static BEST: std::sync::OnceLock<Isa> = std::sync::OnceLock::new();
+        *BEST.get_or_init(|| {
+            Isa::ALL
+                .into_iter()
+                .rev()
+                .find(|i| i.available())
+                .unwrap_or(Isa::Portable)
+        })
     }
 }
 
@@ -901,6 +1006,21 @@ impl<R: Raw> Program<R> {
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 fn block_avx2<R: Raw>(
+    p: &Program<R>,
+    regs: &mut [R],
+    len: usize,
+    ov: &mut [u64],
+    flags: &mut [u64],
+) {
+    block_body(p, regs, len, ov, flags)
+}
+
+/// [`Program::block`] compiled with AVX-512 enabled (512-bit vectors,
+/// native 64-bit multiplies and 64-bit arithmetic right shifts, mask
+/// registers for the selects).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512bw,avx512dq,avx512vl")]
+fn block_avx512<R: Raw>(
     p: &Program<R>,
     regs: &mut [R],
     len: usize,
@@ -1227,9 +1347,30 @@ impl Compiled {
     }
     /// Run on `i128` codes (converted at the edges).
     pub fn run_i128(&self, inputs: &[&[i128]]) -> (Vec<Vec<i128>>, Vec<(&'static str, u64)>) {
+        self.run_i128_on(Isa::current(), inputs)
+    }
+    /// As [`Compiled::run_i128`], on the instruction set `isa`.
+    ///
+    /// # Panics
+    ///
+    /// When this CPU lacks `isa` ([`Isa::available`]).
+    pub fn run_i128_on(
+        &self,
+        isa: Isa,
+        inputs: &[&[i128]],
+    ) -> (Vec<Vec<i128>>, Vec<(&'static str, u64)>) {
+        fn go<R: Raw>(
+            p: &Program<R>,
+            isa: Isa,
+            inputs: &[&[R]],
+        ) -> (Vec<Vec<R>>, Vec<(&'static str, u64)>) {
+            let mut outs: Vec<Vec<R>> = p.outputs.iter().map(|_| Vec::new()).collect();
+            let ov = p.run_into_on(isa, inputs, &mut outs);
+            (outs, ov)
+        }
         match self {
-            Compiled::Wide(p) => p.run(inputs),
-            Compiled::Narrow(p) => on_i64(inputs, |refs| p.run(refs)),
+            Compiled::Wide(p) => go(p, isa, inputs),
+            Compiled::Narrow(p) => on_i64(inputs, |refs| go(p, isa, refs)),
         }
     }
     /// Run on `i128` codes with per-lane overflow flags

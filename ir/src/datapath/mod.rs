@@ -39,8 +39,8 @@ mod reference;
 
 pub use batch::smt_literal;
 pub use batch::{
-    Chunk, CompileError, Compiled, MulSplit, Mutation, MutationKind, Op, PartialProduct, Port,
-    Program, SmtFunction, Trace, BLOCK, TV,
+    CError, Chunk, CompileError, Compiled, Isa, MulSplit, Mutation, MutationKind, Op,
+    PartialProduct, Port, Program, SmtFunction, Trace, BLOCK, TV,
 };
 pub use count::{
     Count, MulFormats, MulShape, OpCounts, QuantPoint, Sym, TableShape, WidthError, MAX_EXACT_WIDTH,
