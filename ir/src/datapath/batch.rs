@@ -1312,6 +1312,18 @@ pub(crate) fn align(to: i32, frac: i32) -> u32 {
     u32::try_from(to - frac).expect("aligned to the widest operand's fraction")
 }
 
+/// Per lane, whether the outputs `oa` with flags `fa` differ from `ob`
+/// with `fb` (any output code, or the flag word).
+fn lanes_differ<R: PartialEq>(oa: &[Vec<R>], fa: &[u64], ob: &[Vec<R>], fb: &[u64]) -> Vec<bool> {
+    let mut d: Vec<bool> = fa.iter().zip(fb).map(|(x, y)| x != y).collect();
+    for (x, y) in oa.iter().zip(ob) {
+        for ((d, x), y) in d.iter_mut().zip(x).zip(y) {
+            *d |= x != y;
+        }
+    }
+    d
+}
+
 /// Run `f` on `inputs` converted to `i64` codes (they fit: the program was
 /// compiled narrow), and its outputs back to `i128`.
 fn on_i64<T>(
@@ -1379,6 +1391,34 @@ impl Compiled {
         match self {
             Compiled::Wide(p) => p.run_flags(inputs),
             Compiled::Narrow(p) => on_i64(inputs, |refs| p.run_flags(refs)),
+        }
+    }
+    /// Whether `self` and `other` (a mutant, say) differ at each lane on the
+    /// same inputs: some output code or the overflow-flag word
+    /// ([`Program::run_flags`]) is not the same. What comparing the two
+    /// [`Compiled::run_flags_i128`] results lane by lane gives, without
+    /// converting the outputs back to `i128` (and the inputs to `i64`
+    /// once, not once per program) when both are narrow.
+    pub fn differing_lanes(&self, other: &Compiled, inputs: &[&[i128]]) -> Vec<bool> {
+        fn cmp<R: Raw>(a: &Program<R>, b: &Program<R>, inputs: &[&[R]]) -> Vec<bool> {
+            let ((oa, fa), (ob, fb)) = (a.run_flags(inputs), b.run_flags(inputs));
+            lanes_differ(&oa, &fa, &ob, &fb)
+        }
+        match (self, other) {
+            (Compiled::Narrow(a), Compiled::Narrow(b)) => {
+                let ins: Vec<Vec<i64>> = inputs
+                    .iter()
+                    .map(|s| s.iter().map(|&x| narrow(x)).collect())
+                    .collect();
+                let refs: Vec<&[i64]> = ins.iter().map(Vec::as_slice).collect();
+                cmp(a, b, &refs)
+            }
+            (Compiled::Wide(a), Compiled::Wide(b)) => cmp(a, b, inputs),
+            _ => {
+                let ((oa, fa), (ob, fb)) =
+                    (self.run_flags_i128(inputs), other.run_flags_i128(inputs));
+                lanes_differ(&oa, &fa, &ob, &fb)
+            }
         }
     }
     /// Bounds on every output over a box of input codes

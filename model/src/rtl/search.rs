@@ -170,12 +170,8 @@ pub fn event_cut(d: &Design, m: &Mutation) -> Result<CutOutcome, RtlError> {
             let mut cols = vec![vec![0i128; len]; n_in];
             cols[pos] = (start..=end).collect();
             let refs: Vec<&[i128]> = cols.iter().map(|c| c.as_slice()).collect();
-            let (a, b) = (orig.run_flags_i128(&refs), mutant.run_flags_i128(&refs));
-            codes.extend(
-                (0..len)
-                    .filter(|&i| differs(&a, &b, i))
-                    .map(|i| start + i as i128),
-            );
+            let diff = orig.differing_lanes(&mutant, &refs);
+            codes.extend((0..len).filter(|&i| diff[i]).map(|i| start + i as i128));
             start = end + 1;
         }
         let cut = EventCut {
@@ -407,10 +403,9 @@ fn proof_over(d: &Design, m: &Mutation, sup: &[usize], budget: u64) -> Result<bo
             }
         }
         let refs: Vec<&[i128]> = cols.iter().map(|c| c.as_slice()).collect();
-        let (a, z) = (orig.run_flags_i128(&refs), mutant.run_flags_i128(&refs));
-        let n = points.len();
+        let diff = orig.differing_lanes(&mutant, &refs);
         points.clear();
-        (0..n).any(|i| differs(&a, &z, i))
+        diff.contains(&true)
     };
     while let Some(r) = stack.pop() {
         boxes += 1;
@@ -473,15 +468,6 @@ pub(super) fn frontier_in(d: &Design, sup: &[usize], t: &crate::datapath::Trace)
         .collect()
 }
 
-/// Whether lane `i` of two runs differs in an output or a flag.
-pub(super) fn differs(
-    a: &(Vec<Vec<i128>>, Vec<u64>),
-    b: &(Vec<Vec<i128>>, Vec<u64>),
-    i: usize,
-) -> bool {
-    a.1[i] != b.1[i] || a.0.iter().zip(&b.0).any(|(x, y)| x[i] != y[i])
-}
-
 /// Whether `codes` (ascending) holds a code in `[lo, hi]`.
 fn holds(codes: &[i128], lo: i128, hi: i128) -> bool {
     let i = codes.partition_point(|&c| c < lo);
@@ -541,8 +527,7 @@ pub(super) fn sweep(
             done += len as i128;
             *swept += len;
             let refs: Vec<&[i128]> = cols.iter().map(|c| &c[..len]).collect();
-            let (a, b) = (orig.run_flags_i128(&refs), mutant.run_flags_i128(&refs));
-            if let Some(i) = (0..len).find(|&i| differs(&a, &b, i)) {
+            if let Some(i) = orig.differing_lanes(mutant, &refs).iter().position(|&d| d) {
                 let mut r = row.to_vec();
                 r[k] = cols[k][i];
                 return Some(r);
@@ -691,9 +676,7 @@ pub fn line_search(
             .collect();
         let cols = columns(&rows, ports.len());
         let refs: Vec<&[i128]> = cols.iter().map(|c| c.as_slice()).collect();
-        if let Some(i) =
-            first_difference(&orig.run_flags_i128(&refs), &mutant.run_flags_i128(&refs))
-        {
+        if let Some(i) = orig.differing_lanes(&mutant, &refs).iter().position(|&d| d) {
             return Ok(Some(rows[i].clone()));
         }
         // The event reaches the cut's frontier but is masked further on

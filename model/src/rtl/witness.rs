@@ -28,7 +28,7 @@
 //! moved at random, the witness realized again through another port.
 
 use super::mutants::{columns, wild_row};
-use super::search::{differs, frontier_in, full_box, quant_of, sweep, LEAVES_PER_LINE};
+use super::search::{frontier_in, full_box, quant_of, sweep, LEAVES_PER_LINE};
 use super::Design;
 use crate::datapath::{Compiled, Mutation, TV};
 use crate::format::Format;
@@ -322,24 +322,18 @@ impl Search {
     fn witness_lanes(&mut self, sup_cols: &[Vec<i128>]) -> Vec<bool> {
         let n = sup_cols[0].len();
         let refs: Vec<&[i128]> = self.order.iter().map(|&j| sup_cols[j].as_slice()).collect();
-        let (a, b) = (
-            self.front.0.run_flags_i128(&refs),
-            self.front.1.run_flags_i128(&refs),
-        );
+        let diff = self.front.0.differing_lanes(&self.front.1, &refs);
         self.spent += 2 * lanes(n) * self.ops.1;
-        (0..n).map(|i| differs(&a, &b, i)).collect()
+        diff
     }
 
     /// The first of `rows` on which design and mutant differ.
     fn killer(&mut self, rows: &[Vec<i128>]) -> Option<usize> {
         let cols = columns(rows, self.formats.len());
         let refs: Vec<&[i128]> = cols.iter().map(|c| c.as_slice()).collect();
-        let (a, b) = (
-            self.whole.0.run_flags_i128(&refs),
-            self.whole.1.run_flags_i128(&refs),
-        );
+        let diff = self.whole.0.differing_lanes(&self.whole.1, &refs);
         self.spent += 2 * lanes(rows.len()) * self.ops.0;
-        (0..rows.len()).find(|&i| differs(&a, &b, i))
+        diff.iter().position(|&d| d)
     }
 
     /// A pass moving one support over its codes: lane `i` takes the
