@@ -562,7 +562,27 @@ pub struct Program<R> {
     const_overflows: Vec<&'static str>,
     counts: super::OpCounts,
     max_width: u32,
+    pool: RegPool<R>,
 }
+
+/// Register files of earlier runs, kept for the next run of the same
+/// program (a search runs one program thousands of times on a few lanes;
+/// allocating and zeroing a register per node each time cost more than the
+/// run). A kept file needs no clearing: its constants never change, and
+/// every other register a run reads is written earlier in the same block.
+#[derive(Debug, Default)]
+struct RegPool<R>(std::sync::Mutex<Vec<Vec<R>>>);
+
+impl<R> Clone for RegPool<R> {
+    /// A clone starts with no kept files.
+    fn clone(&self) -> Self {
+        RegPool(std::sync::Mutex::new(Vec::new()))
+    }
+}
+
+/// Register files kept per program (one per thread that runs it at once,
+/// up to this many).
+const POOLED_FILES: usize = 4;
 
 /// Why a trace cannot be compiled.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -725,6 +745,7 @@ impl<R: Raw> Program<R> {
             const_overflows: trace.const_overflows.clone(),
             counts: trace.count.counts(),
             max_width: trace.count.max_width(),
+            pool: RegPool(std::sync::Mutex::new(Vec::new())),
         })
     }
 
@@ -869,7 +890,8 @@ impl<R: Raw> Program<R> {
             f.clear();
             f.reserve(n);
         }
-        let mut regs = self.fresh_regs();
+        let kept = self.pool.0.lock().ok().and_then(|mut p| p.pop());
+        let mut regs = kept.unwrap_or_else(|| self.fresh_regs());
         let mut start = 0;
         while start < n {
             let len = BLOCK.min(n - start);
@@ -883,6 +905,11 @@ impl<R: Raw> Program<R> {
                 f.extend_from_slice(&flags[..len]);
             }
             start += len;
+        }
+        if let Ok(mut p) = self.pool.0.lock() {
+            if p.len() < POOLED_FILES {
+                p.push(regs);
+            }
         }
         self.stages
             .iter()
