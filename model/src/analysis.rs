@@ -831,7 +831,8 @@ pub fn polar_every_code(
     let a_n1: Vec<i64> = (-quarter..=quarter)
         .map(|c| narrow::<i64, _>(c.rem_euclid(turn)))
         .collect();
-    let run = |cols: [&[i64]; 4]| -> (Vec<Vec<i64>>, u64) {
+    // The outputs go into `out` (its vectors reused from block to block).
+    let run = |cols: [&[i64]; 4], out: &mut Vec<Vec<i64>>| -> u64 {
         let ov_of = |ov: Vec<(&'static str, u64)>| {
             ov.iter()
                 .filter(|(s, _)| *s != "index")
@@ -840,8 +841,8 @@ pub fn polar_every_code(
         };
         match &prog {
             crate::datapath::Compiled::Narrow(p) => {
-                let (o, ov) = p.run(&cols);
-                (o, ov_of(ov))
+                out.resize_with(3, Vec::new);
+                ov_of(p.run_into(&cols, out))
             }
             crate::datapath::Compiled::Wide(p) => {
                 let c: Vec<Vec<i128>> = cols
@@ -850,12 +851,11 @@ pub fn polar_every_code(
                     .collect();
                 let r: Vec<&[i128]> = c.iter().map(|v| v.as_slice()).collect();
                 let (o, ov) = p.run(&r);
-                (
-                    o.into_iter()
-                        .map(|v| v.into_iter().map(|x| narrow::<i64, _>(x)).collect())
-                        .collect(),
-                    ov_of(ov),
-                )
+                *out = o
+                    .into_iter()
+                    .map(|v| v.into_iter().map(|x| narrow::<i64, _>(x)).collect())
+                    .collect();
+                ov_of(ov)
             }
         }
     };
@@ -863,18 +863,25 @@ pub fn polar_every_code(
         let mut acc: Acc = (0.0, 0.0, f64::INFINITY, 0.0, 0.0, 0.0, 0);
         let turn64 = narrow::<i64, _>(turn);
         let mut d0 = 0i64;
+        // The columns of a whole block, built once per row (α_L, β_N and
+        // α_N do not change from block to block; Δβ is rewritten).
+        let full = narrow::<usize, _>(BLOCK) * elevs;
+        let a_l = vec![narrow::<i64, _>(al.rem_euclid(turn)); full];
+        let b_n = vec![0i64; full];
+        let a_n: Vec<i64> = (0..BLOCK).flat_map(|_| a_n1.iter().copied()).collect();
+        let mut b_l = vec![0i64; full];
+        let mut out = Vec::new();
         while d0 < turn64 {
             let ds: Vec<i64> = (d0..(d0 + BLOCK).min(turn64)).collect();
             d0 += BLOCK;
             let lanes = ds.len() * elevs;
-            let a_l = vec![narrow::<i64, _>(al.rem_euclid(turn)); lanes];
-            let b_n = vec![0i64; lanes];
-            let b_l: Vec<i64> = ds
-                .iter()
-                .flat_map(|&d| std::iter::repeat_n(d, elevs))
-                .collect();
-            let a_n: Vec<i64> = ds.iter().flat_map(|_| a_n1.iter().copied()).collect();
-            let (out, ov) = run([&a_l, &b_l, &a_n, &b_n]);
+            for (chunk, &d) in b_l.chunks_mut(elevs).zip(&ds) {
+                chunk.fill(d);
+            }
+            let ov = run(
+                [&a_l[..lanes], &b_l[..lanes], &a_n[..lanes], &b_n[..lanes]],
+                &mut out,
+            );
             acc.6 += ov;
             for (r, &d) in ds.iter().enumerate() {
                 let l = crate::polar::vector_of(t(al), t(i128::from(d)));
