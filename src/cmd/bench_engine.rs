@@ -320,7 +320,8 @@ pub fn run(a: &EngineArgs) -> anyhow::Result<()> {
     let tmp = tempfile::tempdir().context("cannot make a temporary directory")?;
     let root = match &a.keep {
         Some(k) => {
-            if k.exists() && std::fs::read_dir(k)?.next().is_some() {
+            let listed = || std::fs::read_dir(k).with_context(|| format!("--keep {}", k.display()));
+            if k.exists() && listed()?.next().is_some() {
                 return Err(crate::output::UsageError(format!(
                     "--keep {}: not empty (it must be new or empty)",
                     k.display()
