@@ -739,6 +739,125 @@ pub fn polar_stats(
     Ok(st)
 }
 
+/// The exact frames `(T, B, N)` of every `α_N`, one column per vector
+/// component, for [`compare_row`]'s loop over `α_N`.
+struct FrameColumns {
+    /// `T.x, T.y, T.z, B.x, …, N.z`, each indexed by `α_N`.
+    c: [Vec<f64>; 9],
+}
+
+impl FrameColumns {
+    fn of(frames: &[(DVec3, DVec3, DVec3)]) -> Self {
+        FrameColumns {
+            c: std::array::from_fn(|k| {
+                frames
+                    .iter()
+                    .map(|(t, b, n)| [t, b, n][k / 3][k % 3])
+                    .collect()
+            }),
+        }
+    }
+}
+
+/// Running extremes of [`polar_every_code`], one per `α_N` (reduced once
+/// per `α_L` row: element-wise updates vectorize, reductions would not).
+struct Extremes {
+    /// Largest component error.
+    e: Vec<f64>,
+    /// Smallest `|L'|²`.
+    g2min: Vec<f64>,
+    /// Largest `|L'|²`.
+    g2max: Vec<f64>,
+    /// Largest sin² of the angle between `L'` and `L`.
+    sin2: Vec<f64>,
+    /// Largest `|L' − L|²`.
+    e2: Vec<f64>,
+}
+
+impl Extremes {
+    fn new(n: usize) -> Self {
+        Extremes {
+            e: vec![0.0; n],
+            g2min: vec![f64::INFINITY; n],
+            g2max: vec![0.0; n],
+            sin2: vec![0.0; n],
+            e2: vec![0.0; n],
+        }
+    }
+}
+
+/// One `(α_L, Δβ)` row of [`polar_every_code`] against every `α_N`: the
+/// exact `L` (`l`) in each exact frame `f`, `L' = got·ulp`, and per lane
+/// `j` `|L' − L|²` into `e2s[j]` and the extremes of `ext` updated. The
+/// same operations in the same order as `DVec3`'s `dot`, `cross` and
+/// `length_squared` (so the same values), written lane-wise so that the
+/// loop vectorizes ([`crate::datapath::Isa::run`]).
+struct CompareRow<'a> {
+    l: DVec3,
+    ulp: f64,
+    f: &'a FrameColumns,
+    got: [&'a [i64]; 3],
+    ext: &'a mut Extremes,
+    e2s: &'a mut [f64],
+}
+
+impl crate::datapath::Kernel for CompareRow<'_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn call(self) {
+        let CompareRow {
+            l,
+            ulp,
+            f,
+            got,
+            ext,
+            e2s,
+        } = self;
+        compare_row(l, ulp, f, got, ext, e2s);
+    }
+}
+
+#[inline(always)]
+fn compare_row(
+    l: DVec3,
+    ulp: f64,
+    f: &FrameColumns,
+    got: [&[i64]; 3],
+    ext: &mut Extremes,
+    e2s: &mut [f64],
+) {
+    let n = e2s.len();
+    let [tx, ty, tz, bx, by, bz, nx, ny, nz] = std::array::from_fn(|k| &f.c[k][..n]);
+    let (ox, oy, oz) = (&got[0][..n], &got[1][..n], &got[2][..n]);
+    let (em, g2lo, g2hi) = (&mut ext.e[..n], &mut ext.g2min[..n], &mut ext.g2max[..n]);
+    let (s2m, e2m) = (&mut ext.sin2[..n], &mut ext.e2[..n]);
+    for j in 0..n {
+        let wx = (l.x * tx[j]) + (l.y * ty[j]) + (l.z * tz[j]);
+        let wy = (l.x * bx[j]) + (l.y * by[j]) + (l.z * bz[j]);
+        let wz = (l.x * nx[j]) + (l.y * ny[j]) + (l.z * nz[j]);
+        let gx = to_f64(ox[j]) * ulp;
+        let gy = to_f64(oy[j]) * ulp;
+        let gz = to_f64(oz[j]) * ulp;
+        let (ex, ey, ez) = (gx - wx, gy - wy, gz - wz);
+        let e2 = (ex * ex) + (ey * ey) + (ez * ez);
+        e2s[j] = e2;
+        em[j] = em[j].max(ex.abs().max(ey.abs().max(ez.abs())));
+        let g2 = (gx * gx) + (gy * gy) + (gz * gz);
+        g2lo[j] = g2lo[j].min(g2);
+        g2hi[j] = g2hi[j].max(g2);
+        let w2 = (wx * wx) + (wy * wy) + (wz * wz);
+        let cx = gy * wz - wy * gz;
+        let cy = gz * wx - wz * gx;
+        let cz = gx * wy - wx * gy;
+        // sin² of the angle between them (its maximum gives the largest
+        // angle, for angles below 90°); none for a zero vector.
+        let s2 = ((cx * cx) + (cy * cy) + (cz * cz)) / (g2 * w2);
+        s2m[j] = s2m[j].max(if g2 > 0.0 && w2 > 0.0 { s2 } else { 0.0 });
+        e2m[j] = e2m[j].max(e2);
+    }
+}
+
 /// [`PolarStats`] of [`polar_every_code`], as the cache keeps it.
 #[derive(serde::Serialize, serde::Deserialize)]
 struct PolarExhaustive {
@@ -820,6 +939,8 @@ pub fn polar_every_code(
         .map(|an| crate::polar::frame(crate::polar::vector_of(t(an), 0.0), 0.0))
         .collect();
     let elevs = frames.len();
+    let cols = FrameColumns::of(&frames);
+    let isa = crate::datapath::Isa::current();
     let rows = (-quarter..=quarter).collect::<Vec<i128>>();
     // One α_L at a time: (max LSB, sum of squares, min and max |L'|², max
     // sin² of the angle, max |L' − L|², overflows). Squares, not lengths:
@@ -871,6 +992,8 @@ pub fn polar_every_code(
         let a_n: Vec<i64> = (0..BLOCK).flat_map(|_| a_n1.iter().copied()).collect();
         let mut b_l = vec![0i64; full];
         let mut out = Vec::new();
+        let mut ext = Extremes::new(elevs);
+        let mut e2s = vec![0.0; elevs];
         while d0 < turn64 {
             let ds: Vec<i64> = (d0..(d0 + BLOCK).min(turn64)).collect();
             d0 += BLOCK;
@@ -885,31 +1008,27 @@ pub fn polar_every_code(
             acc.6 += ov;
             for (r, &d) in ds.iter().enumerate() {
                 let l = crate::polar::vector_of(t(al), t(i128::from(d)));
-                for (j, (ft, fb, fnn)) in frames.iter().enumerate() {
-                    let i = r * elevs + j;
-                    let want = DVec3::new(l.dot(*ft), l.dot(*fb), l.dot(*fnn));
-                    let got = DVec3::new(
-                        to_f64(out[0][i]) * ulp,
-                        to_f64(out[1][i]) * ulp,
-                        to_f64(out[2][i]) * ulp,
-                    );
-                    let e = got - want;
-                    let e2 = e.length_squared();
-                    acc.0 = acc.0.max(e.abs().max_element());
+                let got = std::array::from_fn(|c| &out[c][r * elevs..(r + 1) * elevs]);
+                isa.run(CompareRow {
+                    l,
+                    ulp,
+                    f: &cols,
+                    got,
+                    ext: &mut ext,
+                    e2s: &mut e2s,
+                });
+                // Summed in lane order, one lane after another (the
+                // extremes do not depend on the order; a sum does).
+                for &e2 in &e2s {
                     acc.1 += e2;
-                    let g2 = got.length_squared();
-                    acc.2 = acc.2.min(g2);
-                    acc.3 = acc.3.max(g2);
-                    let w2 = want.length_squared();
-                    if g2 > 0.0 && w2 > 0.0 {
-                        // sin² of the angle between them (its maximum gives
-                        // the largest angle, for angles below 90°).
-                        acc.4 = acc.4.max(got.cross(want).length_squared() / (g2 * w2));
-                    }
-                    acc.5 = acc.5.max(e2);
                 }
             }
         }
+        acc.0 = ext.e.iter().fold(acc.0, |m, &x| m.max(x));
+        acc.2 = ext.g2min.iter().fold(acc.2, |m, &x| m.min(x));
+        acc.3 = ext.g2max.iter().fold(acc.3, |m, &x| m.max(x));
+        acc.4 = ext.sin2.iter().fold(acc.4, |m, &x| m.max(x));
+        acc.5 = ext.e2.iter().fold(acc.5, |m, &x| m.max(x));
         acc
     };
     let workers = std::thread::available_parallelism()

@@ -555,6 +555,12 @@ pub struct Program<R> {
     n_regs: usize,
     consts: Vec<(usize, R)>,
     inputs: Vec<(usize, Quant)>,
+    /// Per node: the input port its operations read in place, from the
+    /// caller's slice ([`IN_REGISTER`]: from its register).
+    port_of: Vec<usize>,
+    /// The input ports still copied into their registers: read lane by lane
+    /// by a select, or an output themselves.
+    loaded: Vec<usize>,
     outputs: Vec<(usize, i32)>,
     tables: Vec<Vec<R>>,
     stages: Vec<&'static str>,
@@ -579,6 +585,9 @@ impl<R> Clone for RegPool<R> {
         RegPool(std::sync::Mutex::new(Vec::new()))
     }
 }
+
+/// [`Program`]`::port_of` of a node that lives in its register.
+const IN_REGISTER: usize = usize::MAX;
 
 /// Register files kept per program (one per thread that runs it at once,
 /// up to this many).
@@ -729,12 +738,35 @@ impl<R: Raw> Program<R> {
                 }),
             }
         }
+        let outputs: Vec<(usize, i32)> = outputs.iter().map(|o| (o.id as usize, o.frac)).collect();
+        // Operations read the inputs where the caller holds them (no copy
+        // per block), except where a select reads them lane by lane or an
+        // output is an input itself: those are copied into registers.
+        let mut port_of = vec![IN_REGISTER; trace.ops.len()];
+        for (k, &(d, _)) in inputs.iter().enumerate() {
+            port_of[d] = k;
+        }
+        for ins in &instrs {
+            if let Instr::Select { opts, .. } = ins {
+                for &(o, _) in opts {
+                    port_of[o] = IN_REGISTER;
+                }
+            }
+        }
+        for &(o, _) in &outputs {
+            port_of[o] = IN_REGISTER;
+        }
+        let loaded = (0..inputs.len())
+            .filter(|&k| port_of[inputs[k].0] == IN_REGISTER)
+            .collect();
         Ok(Program {
             instrs,
             n_regs: trace.ops.len(),
             consts,
             inputs,
-            outputs: outputs.iter().map(|o| (o.id as usize, o.frac)).collect(),
+            port_of,
+            loaded,
+            outputs,
             tables: trace
                 .tables
                 .iter()
@@ -832,9 +864,11 @@ impl<R: Raw> Program<R> {
         while start < n {
             let len = BLOCK.min(n - start);
             self.load_block(&mut regs, inputs, start, len);
-            self.block(&mut regs, len, &mut ov, &mut flags);
+            let lanes = Lanes { inputs, start, len };
+            self.block(&mut regs, lanes, &mut ov, &mut flags);
             for (p, &a) in probes.iter_mut().zip(&operand) {
-                p.extend(regs[a * BLOCK..a * BLOCK + len].iter().map(|x| x.to_i128()));
+                let x = operand_of(&self.port_of, &regs, lanes, a);
+                p.extend(x.iter().map(|x| x.to_i128()));
             }
             start += len;
         }
@@ -850,10 +884,12 @@ impl<R: Raw> Program<R> {
         regs
     }
 
-    /// Lanes `start..start + len` of the inputs into their registers.
+    /// Lanes `start..start + len` of the inputs that are not read in place
+    /// ([`Program`]`::loaded`) into their registers.
     fn load_block(&self, regs: &mut [R], inputs: &[&[R]], start: usize, len: usize) {
-        for (&(d, _), src) in self.inputs.iter().zip(inputs) {
-            regs[d * BLOCK..d * BLOCK + len].copy_from_slice(&src[start..start + len]);
+        for &k in &self.loaded {
+            let d = self.inputs[k].0;
+            regs[d * BLOCK..d * BLOCK + len].copy_from_slice(&inputs[k][start..start + len]);
         }
     }
 
@@ -897,7 +933,8 @@ impl<R: Raw> Program<R> {
             let len = BLOCK.min(n - start);
             self.load_block(&mut regs, inputs, start, len);
             flags[..len].fill(0);
-            self.block_on(isa, &mut regs, len, &mut ov, &mut flags);
+            let lanes = Lanes { inputs, start, len };
+            self.block_on(isa, &mut regs, lanes, &mut ov, &mut flags);
             for (&(o, _), out) in self.outputs.iter().zip(outs.iter_mut()) {
                 out.extend_from_slice(&regs[o * BLOCK..o * BLOCK + len]);
             }
@@ -920,13 +957,20 @@ impl<R: Raw> Program<R> {
     }
 
     /// One block of lanes, on the instruction set [`Isa::current`] chose.
-    fn block(&self, regs: &mut [R], len: usize, ov: &mut [u64], flags: &mut [u64]) {
-        self.block_on(Isa::current(), regs, len, ov, flags);
+    fn block(&self, regs: &mut [R], lanes: Lanes<'_, R>, ov: &mut [u64], flags: &mut [u64]) {
+        self.block_on(Isa::current(), regs, lanes, ov, flags);
     }
 
     /// One block of lanes on `isa`: the same body compiled once per
     /// instruction set.
-    fn block_on(&self, isa: Isa, regs: &mut [R], len: usize, ov: &mut [u64], flags: &mut [u64]) {
+    fn block_on(
+        &self,
+        isa: Isa,
+        regs: &mut [R],
+        lanes: Lanes<'_, R>,
+        ov: &mut [u64],
+        flags: &mut [u64],
+    ) {
         assert!(
             isa.available(),
             "{} is not available on this CPU",
@@ -935,11 +979,11 @@ impl<R: Raw> Program<R> {
         match isa {
             // SAFETY: the CPU supports AVX-512 F/BW/DQ/VL (asserted above).
             #[cfg(target_arch = "x86_64")]
-            Isa::Avx512 => unsafe { block_avx512(self, regs, len, ov, flags) },
+            Isa::Avx512 => unsafe { block_avx512(self, regs, lanes, ov, flags) },
             // SAFETY: the CPU supports AVX2 (asserted above).
             #[cfg(target_arch = "x86_64")]
-            Isa::Avx2 => unsafe { block_avx2(self, regs, len, ov, flags) },
-            _ => block_body(self, regs, len, ov, flags),
+            Isa::Avx2 => unsafe { block_avx2(self, regs, lanes, ov, flags) },
+            _ => block_body(self, regs, lanes, ov, flags),
         }
     }
 
@@ -1028,6 +1072,58 @@ impl Isa {
     }
 }
 
+/// A computation [`Isa::run`] compiles once per instruction set. Mark
+/// [`Kernel::call`] `#[inline(always)]` (and whatever it calls in its loops):
+/// only inlined code is compiled with the path's features.
+pub trait Kernel {
+    /// What it computes.
+    type Output;
+    /// Compute it.
+    fn call(self) -> Self::Output;
+}
+
+impl Isa {
+    /// `k.call()`, from a function compiled with this instruction set
+    /// enabled, so that the loops inlined into it are vectorized for it;
+    /// on [`Isa::Portable`] a plain call. Floating-point results are those
+    /// of the same operations without the features (Rust never fuses
+    /// `a·b + c` into one rounding), so only the speed depends on the path.
+    ///
+    /// # Panics
+    ///
+    /// When this CPU lacks `self` ([`Isa::available`]).
+    pub fn run<K: Kernel>(self, k: K) -> K::Output {
+        assert!(
+            self.available(),
+            "{} is not available on this CPU",
+            self.name()
+        );
+        match self {
+            // SAFETY: the CPU supports AVX-512 F/BW/DQ/VL (asserted above).
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx512 => unsafe { run_avx512(k) },
+            // SAFETY: the CPU supports AVX2 (asserted above).
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx2 => unsafe { run_avx2(k) },
+            _ => k.call(),
+        }
+    }
+}
+
+/// [`Isa::run`] on AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn run_avx2<K: Kernel>(k: K) -> K::Output {
+    k.call()
+}
+
+/// [`Isa::run`] on AVX-512 F, BW, DQ and VL.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512bw,avx512dq,avx512vl")]
+fn run_avx512<K: Kernel>(k: K) -> K::Output {
+    k.call()
+}
+
 /// [`Program::block`] compiled with AVX2 enabled (wide integer shifts,
 /// compares and selects let the loops vectorize).
 #[cfg(target_arch = "x86_64")]
@@ -1035,11 +1131,11 @@ impl Isa {
 fn block_avx2<R: Raw>(
     p: &Program<R>,
     regs: &mut [R],
-    len: usize,
+    lanes: Lanes<'_, R>,
     ov: &mut [u64],
     flags: &mut [u64],
 ) {
-    block_body(p, regs, len, ov, flags)
+    block_body(p, regs, lanes, ov, flags)
 }
 
 /// [`Program::block`] compiled with AVX-512 enabled (512-bit vectors,
@@ -1050,21 +1146,23 @@ fn block_avx2<R: Raw>(
 fn block_avx512<R: Raw>(
     p: &Program<R>,
     regs: &mut [R],
-    len: usize,
+    lanes: Lanes<'_, R>,
     ov: &mut [u64],
     flags: &mut [u64],
 ) {
-    block_body(p, regs, len, ov, flags)
+    block_body(p, regs, lanes, ov, flags)
 }
 
 #[inline(always)]
 fn block_body<R: Raw>(
     p: &Program<R>,
     regs: &mut [R],
-    len: usize,
+    lanes: Lanes<'_, R>,
     ov: &mut [u64],
     flags: &mut [u64],
 ) {
+    let len = lanes.len;
+    let port_of = &p.port_of[..];
     {
         let this = p;
         for ins in &this.instrs {
@@ -1072,8 +1170,8 @@ fn block_body<R: Raw>(
                 Instr::Mul { d, a, b } => {
                     let (lo, hi) = regs.split_at_mut(d * BLOCK);
                     let (x, y) = (
-                        &lo[a * BLOCK..a * BLOCK + len],
-                        &lo[b * BLOCK..b * BLOCK + len],
+                        operand_of(port_of, lo, lanes, a),
+                        operand_of(port_of, lo, lanes, b),
                     );
                     for ((o, &x), &y) in hi[..len].iter_mut().zip(x).zip(y) {
                         *o = x.mul_raw(y);
@@ -1089,8 +1187,8 @@ fn block_body<R: Raw>(
                 } => {
                     let (lo, hi) = regs.split_at_mut(d * BLOCK);
                     let (x, y) = (
-                        &lo[a * BLOCK..a * BLOCK + len],
-                        &lo[b * BLOCK..b * BLOCK + len],
+                        operand_of(port_of, lo, lanes, a),
+                        operand_of(port_of, lo, lanes, b),
                     );
                     let it = hi[..len].iter_mut().zip(x).zip(y);
                     if sub {
@@ -1106,8 +1204,8 @@ fn block_body<R: Raw>(
                 Instr::Max { d, a, sa, b, sb } => {
                     let (lo, hi) = regs.split_at_mut(d * BLOCK);
                     let (x, y) = (
-                        &lo[a * BLOCK..a * BLOCK + len],
-                        &lo[b * BLOCK..b * BLOCK + len],
+                        operand_of(port_of, lo, lanes, a),
+                        operand_of(port_of, lo, lanes, b),
                     );
                     for ((o, &x), &y) in hi[..len].iter_mut().zip(x).zip(y) {
                         *o = (x << sa).max(y << sb);
@@ -1124,9 +1222,9 @@ fn block_body<R: Raw>(
                 } => {
                     let (lo, hi) = regs.split_at_mut(d * BLOCK);
                     let (x, y, sg) = (
-                        &lo[a * BLOCK..a * BLOCK + len],
-                        &lo[b * BLOCK..b * BLOCK + len],
-                        &lo[s * BLOCK..s * BLOCK + len],
+                        operand_of(port_of, lo, lanes, a),
+                        operand_of(port_of, lo, lanes, b),
+                        operand_of(port_of, lo, lanes, s),
                     );
                     for (((o, &x), &y), &sg) in hi[..len].iter_mut().zip(x).zip(y).zip(sg) {
                         *o = if (sg < R::ZERO) != flip {
@@ -1146,7 +1244,7 @@ fn block_body<R: Raw>(
                     flag,
                 } => {
                     let (lo, hi) = regs.split_at_mut(d * BLOCK);
-                    let src = &lo[a * BLOCK..a * BLOCK + len];
+                    let src = operand_of(port_of, lo, lanes, a);
                     ov[stage] += quant_loop(
                         src,
                         &mut hi[..len],
@@ -1159,7 +1257,7 @@ fn block_body<R: Raw>(
                 }
                 Instr::Select { d, sel, ref opts } => {
                     let (lo, hi) = regs.split_at_mut(d * BLOCK);
-                    let s = &lo[sel * BLOCK..sel * BLOCK + len];
+                    let s = operand_of(port_of, lo, lanes, sel);
                     for (k, o) in hi[..len].iter_mut().enumerate() {
                         let i = s[k].to_i128();
                         let (src, sh) =
@@ -1173,7 +1271,7 @@ fn block_body<R: Raw>(
                 }
                 Instr::Table { d, a, table, index } => {
                     let (lo, hi) = regs.split_at_mut(d * BLOCK);
-                    let src = &lo[a * BLOCK..a * BLOCK + len];
+                    let src = operand_of(port_of, lo, lanes, a);
                     let t = &this.tables[table];
                     let mask = t.len() - 1;
                     for (o, &x) in hi[..len].iter_mut().zip(src) {
@@ -1192,8 +1290,8 @@ fn block_body<R: Raw>(
                 } => {
                     let (lo, hi) = regs.split_at_mut(d * BLOCK);
                     let (x, y) = (
-                        &lo[a * BLOCK..a * BLOCK + len],
-                        &lo[b * BLOCK..b * BLOCK + len],
+                        operand_of(port_of, lo, lanes, a),
+                        operand_of(port_of, lo, lanes, b),
                     );
                     for (k, ((o, &x), &y)) in hi[..len].iter_mut().zip(x).zip(y).enumerate() {
                         let r = div_exact(x.to_i128(), fa, y.to_i128(), fb, &q);
@@ -1211,7 +1309,7 @@ fn block_body<R: Raw>(
                     flag,
                 } => {
                     let (lo, hi) = regs.split_at_mut(d * BLOCK);
-                    let src = &lo[a * BLOCK..a * BLOCK + len];
+                    let src = operand_of(port_of, lo, lanes, a);
                     for (k, (o, &x)) in hi[..len].iter_mut().zip(src).enumerate() {
                         let r = sqrt_exact(x.to_i128(), fa, &q);
                         ov[stage] += u64::from(r.overflowed);
@@ -1221,6 +1319,25 @@ fn block_body<R: Raw>(
                 }
             }
         }
+    }
+}
+
+/// The lanes of one block: `start..start + len` of the caller's `inputs`.
+#[derive(Clone, Copy)]
+struct Lanes<'a, R> {
+    inputs: &'a [&'a [R]],
+    start: usize,
+    len: usize,
+}
+
+/// Node `a`'s lanes of the block: from the caller's input slice when the
+/// program reads that input in place, else from its register in `lo`.
+#[inline(always)]
+fn operand_of<'a, R>(port_of: &[usize], lo: &'a [R], lanes: Lanes<'a, R>, a: usize) -> &'a [R] {
+    let Lanes { inputs, start, len } = lanes;
+    match port_of[a] {
+        IN_REGISTER => &lo[a * BLOCK..a * BLOCK + len],
+        k => &inputs[k][start..start + len],
     }
 }
 

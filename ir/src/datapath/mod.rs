@@ -39,7 +39,7 @@ mod reference;
 
 pub use batch::smt_literal;
 pub use batch::{
-    CError, Chunk, CompileError, Compiled, Isa, MulSplit, Mutation, MutationKind, Op,
+    CError, Chunk, CompileError, Compiled, Isa, Kernel, MulSplit, Mutation, MutationKind, Op,
     PartialProduct, Port, Program, SmtFunction, Trace, BLOCK, TV,
 };
 pub use count::{
