@@ -1272,8 +1272,12 @@ fn block_body<R: Raw>(
                 Instr::Table { d, a, table, index } => {
                     let (lo, hi) = regs.split_at_mut(d * BLOCK);
                     let src = operand_of(port_of, lo, lanes, a);
-                    let t = &this.tables[table];
-                    let mask = t.len() - 1;
+                    // A slice of exactly `mask + 1` entries, held in locals:
+                    // no bounds check (`slot ≤ mask`) and no reload of the
+                    // table through `p` per lane, so the loop vectorizes
+                    // (a gather).
+                    let mask = this.tables[table].len() - 1;
+                    let t: &[R] = &this.tables[table][..=mask];
                     for (o, &x) in hi[..len].iter_mut().zip(src) {
                         *o = t[table_slot(index.to_bits(x.to_i128()), mask)];
                     }
