@@ -192,7 +192,19 @@ pub struct AreaTerms {
     /// Multiplier blocks ([`dsp_blocks`]): on ECP5 their product
     /// registers move into the block ([`crate`]'s `dsp_pack`).
     pub dsp_blocks: f64,
+    /// Σ (min(a, b) − 1) · max(a, b) over the same products as
+    /// [`AreaTerms::fabric_product_bits`], `a` and `b` their operands'
+    /// value bits (a zero-extension bit excluded): the full adders of an
+    /// array multiplier. A product with a one-bit operand (a partial
+    /// product row of a multiplier the emitter split for timing, summed
+    /// by its own adders) has none.
+    #[serde(default)]
+    pub fabric_adder_bits: f64,
 }
+
+/// How many [`AreaTerms`] there are; an [`AreaModel`] holds one coefficient
+/// per term and a constant.
+pub const TERMS: usize = 11;
 
 impl AreaTerms {
     /// The terms of `hw` on `target`.
@@ -203,13 +215,12 @@ impl AreaTerms {
     pub fn of(hw: &super::Hardware, target: Target) -> AreaTerms {
         let dsp = DspRules::of(target);
         let bram = BramRules::of(target);
-        let fabric = |m: &MulHw| -> f64 {
-            let blocks = dsp.map_or(0, |r| r.blocks_of(m));
-            if blocks == 0 {
-                f64::from(m.a_width) * f64::from(m.b_width)
-            } else {
-                0.0
-            }
+        let in_fabric = |m: &&MulHw| dsp.is_none_or(|r| r.blocks_of(m) == 0);
+        let fabric = |m: &MulHw| -> f64 { f64::from(m.a_width) * f64::from(m.b_width) };
+        let adders = |m: &MulHw| -> f64 {
+            let a = m.a_width.saturating_sub(u32::from(m.a_zext));
+            let b = m.b_width.saturating_sub(u32::from(m.b_zext));
+            f64::from(a.min(b).saturating_sub(1)) * f64::from(a.max(b))
         };
         let sum = |v: &[u32]| v.iter().map(|&w| f64::from(w)).sum::<f64>();
         AreaTerms {
@@ -218,7 +229,7 @@ impl AreaTerms {
             select_bits: hw.select_bits as f64,
             check_bits: hw.check_bits as f64,
             saturate_bits: hw.saturate_bits as f64,
-            fabric_product_bits: hw.muls.iter().map(fabric).sum(),
+            fabric_product_bits: hw.muls.iter().filter(in_fabric).map(fabric).sum(),
             logic_rom_bits: hw
                 .roms
                 .iter()
@@ -228,11 +239,12 @@ impl AreaTerms {
             flops: hw.flops.saturating_sub(hw.fifo_bits) as f64,
             fifo_bits: hw.fifo_bits as f64,
             dsp_blocks: dsp_blocks(hw, target) as f64,
+            fabric_adder_bits: hw.muls.iter().filter(in_fabric).map(adders).sum(),
         }
     }
 
     /// The terms as a vector in [`AreaTerms::NAMES`] order.
-    pub fn values(&self) -> [f64; 10] {
+    pub fn values(&self) -> [f64; TERMS] {
         [
             self.carry_bits,
             self.add_sub_bits,
@@ -244,11 +256,12 @@ impl AreaTerms {
             self.flops,
             self.fifo_bits,
             self.dsp_blocks,
+            self.fabric_adder_bits,
         ]
     }
 
     /// The terms' names, as in the JSON.
-    pub const NAMES: [&'static str; 10] = [
+    pub const NAMES: [&'static str; TERMS] = [
         "carry_bits",
         "add_sub_bits",
         "select_bits",
@@ -259,6 +272,7 @@ impl AreaTerms {
         "flops",
         "fifo_bits",
         "dsp_blocks",
+        "fabric_adder_bits",
     ];
 }
 
@@ -271,8 +285,10 @@ impl AreaTerms {
 /// `fxshade synth calibrate --area --target T --json` (Yosys 0.23, the
 /// default configuration as the base) on the 40 designs of its calibration
 /// set (8 units and tops × default, 12-bit normals, wide, 24 bits with the
-/// FIFO handshake, target pipelining at 8 ns); the `refit` of its JSON,
-/// rounded. The in-sample |error| of each fit is in its doc; refit and
+/// FIFO handshake, target pipelining at 8 ns; iCE40 HX8K on the 30 unit
+/// designs, `--designs units`); the `refit` of its JSON, rounded. The fits
+/// made before [`AreaTerms::fabric_adder_bits`] existed give it 0 (ECP5,
+/// UP5K, xc7: their products are mostly in blocks). The in-sample |error| of each fit is in its doc; refit and
 /// paste after a change to the emitter or the synthesis scripts (the
 /// calibration test in `tests/suite/synth.rs` checks three configurations
 /// against Yosys).
@@ -280,10 +296,10 @@ impl AreaTerms {
 pub struct AreaModel {
     /// LUT cells (the count `fxshade synth` reports as `lut`) per term,
     /// in [`AreaTerms::NAMES`] order, and a constant last.
-    pub lut: [f64; 11],
+    pub lut: [f64; TERMS + 1],
     /// Flip-flops after synthesis (the harness's own excluded) per term,
     /// and a constant last.
-    pub ff: [f64; 11],
+    pub ff: [f64; TERMS + 1],
 }
 
 impl AreaModel {
@@ -299,9 +315,9 @@ impl AreaModel {
         clippy::cast_sign_loss,
         reason = "clamped at 0 and rounded: a whole, non-negative count (saturating)"
     )]
-    fn apply(c: &[f64; 11], t: &AreaTerms) -> u64 {
+    fn apply(c: &[f64; TERMS + 1], t: &AreaTerms) -> u64 {
         let v = t.values();
-        let s: f64 = v.iter().zip(c).map(|(x, k)| x * k).sum::<f64>() + c[10];
+        let s: f64 = v.iter().zip(c).map(|(x, k)| x * k).sum::<f64>() + c[TERMS];
         // Non-negative and finite by construction of the terms; a cell
         // count is whole.
         s.max(0.0).round() as u64
@@ -344,6 +360,27 @@ mod tests {
             b_zext,
             y_width: 0,
         }
+    }
+
+    /// Closed forms: a 16 × 16 array multiplier adds 15 rows of 16 bits
+    /// (240 full adders) and a 12-bit × (1-bit zero-extended) partial
+    /// product row none; on ECP5 the 16 × 16 is a MULT18X18D (no fabric)
+    /// and the row stays in the fabric.
+    #[test]
+    fn fabric_adders_are_those_of_array_multipliers() {
+        let hw = crate::Hardware {
+            muls: vec![
+                mul(16, 16, true, false, false),
+                mul(12, 2, true, false, true),
+            ],
+            ..Default::default()
+        };
+        let hx = AreaTerms::of(&hw, Target::from_name("ice40-hx8k").unwrap());
+        assert_eq!(hx.fabric_adder_bits, 240.0);
+        assert_eq!(hx.fabric_product_bits, 256.0 + 24.0);
+        let ecp5 = AreaTerms::of(&hw, Target::from_name("ecp5").unwrap());
+        assert_eq!(ecp5.fabric_adder_bits, 0.0);
+        assert_eq!(ecp5.fabric_product_bits, 24.0);
     }
 
     /// Closed forms: on ECP5 a product of operands up to 18 bits is one

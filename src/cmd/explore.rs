@@ -1386,10 +1386,17 @@ fn run_optimize(a: &ExploreArgs, p: &Plan, cache: &Cache, out: &Path) -> anyhow:
                 .filter(|t| t.area_model().is_some())
                 .map(|t| t.name())
                 .collect();
+            let why = if t.is_some_and(|t| t.synthesis().is_some()) {
+                format!(
+                    "which has none yet (`fxshade synth calibrate --area --target {target}` \
+                     measures one)"
+                )
+            } else {
+                "which has no LUT cells to count".to_string()
+            };
             return Err(UsageError(format!(
-                "--minimize: `{m}` needs an area model for rtl.target {target}, which has none \
-                 yet (fitted: {}; `fxshade synth calibrate --area --target {target}` measures \
-                 one); give --set 'rtl.target=\"ecp5\"' or --close-on ecp5",
+                "--minimize: `{m}` needs an area model for rtl.target {target}, {why} (fitted: \
+                 {}); give --set 'rtl.target=\"ecp5\"' or --close-on ecp5",
                 fitted.join(", ")
             ))
             .into());

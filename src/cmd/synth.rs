@@ -112,6 +112,13 @@ pub struct SynthArgs {
     /// designs gives (no place and route).
     #[arg(long)]
     area: bool,
+    /// With `calibrate --area`: which designs of the set to synthesize and
+    /// fit: `units` (the six units, 30 designs), `tops` (the two pipeline
+    /// tops, 10) or `all`. On a target whose products are all fabric logic
+    /// (iCE40 HX8K) the tops take hours; a fit of the units alone then
+    /// states its error on them.
+    #[arg(long, value_parser = ["all", "units", "tops"], default_value = "all", requires = "area")]
+    designs: String,
     /// Measure again even when a cached result exists (the new result
     /// replaces it).
     #[arg(long)]
@@ -547,15 +554,22 @@ fn calibrate_area(
     tt: fxshade_model::rtl::timing::Target,
     device: Option<crate::device::Device>,
 ) -> anyhow::Result<()> {
-    use fxshade_model::rtl::estimate::{fit::fit, AreaModel, AreaTerms};
+    use fxshade_model::rtl::estimate::{fit::fit, AreaModel, AreaTerms, TERMS};
     // A target without a fit yet is calibrated all the same: its model
     // columns are then zero and say so.
     let fitted = AreaModel::of(tt);
     let model = fitted.unwrap_or(AreaModel {
-        lut: [0.0; 11],
-        ff: [0.0; 11],
+        lut: [0.0; TERMS + 1],
+        ff: [0.0; TERMS + 1],
     });
-    let set = area_set();
+    let set: Vec<_> = area_set()
+        .into_iter()
+        .filter(|(unit, _, _)| match a.designs.as_str() {
+            "units" => unit != "pipeline",
+            "tops" => unit == "pipeline",
+            _ => true,
+        })
+        .collect();
     let bar = crate::progress::bar(set.len() as u64, "calibrate --area");
     let mut rows: Vec<(String, AreaTerms, u64, u64)> = Vec::new();
     for (unit, label, sets) in &set {
@@ -595,15 +609,15 @@ fn calibrate_area(
         ));
     }
     bar.finish_and_clear();
-    let x: Vec<[f64; 10]> = rows.iter().map(|r| r.1.values()).collect();
+    let x: Vec<[f64; TERMS]> = rows.iter().map(|r| r.1.values()).collect();
     let lut_y: Vec<f64> = rows.iter().map(|r| to_f64(r.2)).collect();
     let ff_y: Vec<f64> = rows.iter().map(|r| to_f64(r.3)).collect();
     // Every term costs cells; only the multiplier blocks may take
     // flip-flops away (ECP5's product registers move into them).
-    let lut_fit = fit(&x, &lut_y, [true; 11]);
-    let mut ff_sign = [true; 11];
+    let lut_fit = fit(&x, &lut_y, [true; TERMS + 1]);
+    let mut ff_sign = [true; TERMS + 1];
     ff_sign[9] = false;
-    ff_sign[10] = false;
+    ff_sign[TERMS] = false;
     let ff_fit = fit(&x, &ff_y, ff_sign);
     let refit = AreaModel {
         lut: lut_fit,
@@ -694,6 +708,7 @@ fn calibrate_area(
     let json = serde_json::json!({
         "target": tt.name(),
         "device": device_name(a.target),
+        "design_set": a.designs,
         "designs": json_rows,
         "model": fitted.map(|m| serde_json::json!({"lut": m.lut, "ff": m.ff})),
         "refit": {"lut": refit.lut, "ff": refit.ff},

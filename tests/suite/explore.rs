@@ -282,7 +282,7 @@ fn bad_sweeps_are_refused_with_the_flag_or_the_line() {
             vec!["--minimize", "dsp_est + pipeline.psnr_db"],
             "--minimize `pipeline.psnr_db`: not a cost",
         ),
-        // The default rtl.target (iCE40 HX8K) has no area model fitted.
+        // A standard-cell target has no LUTs to estimate.
         (
             vec![
                 "--optimize",
@@ -290,8 +290,10 @@ fn bad_sweeps_are_refused_with_the_flag_or_the_line() {
                 "normalize.max_diffuse_err_levels<=0.75",
                 "--minimize",
                 "lut",
+                "--set",
+                "rtl.target=\"asic\"",
             ],
-            "`lut_est` needs an area model for rtl.target ice40-hx8k",
+            "`lut_est` needs an area model for rtl.target asic, which has no LUT cells",
         ),
         (
             vec![

@@ -578,6 +578,32 @@ fn each_command_takes_the_families_that_have_what_it_needs() {
 }
 
 #[test]
+fn the_area_calibration_subset_needs_area_and_a_known_set() {
+    let o = fxshade(&[
+        "synth",
+        "calibrate",
+        "--target",
+        "ecp5",
+        "--designs",
+        "units",
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("--area"), "{}", text(&o));
+    let o = fxshade(&[
+        "synth",
+        "calibrate",
+        "--area",
+        "--target",
+        "ecp5",
+        "--designs",
+        "unit",
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    let t = text(&o);
+    assert!(t.contains("units") && t.contains("tops"), "{t}");
+}
+
+#[test]
 fn netlist_flags_are_refused_off_ecp5_and_into_a_used_directory() {
     let o = fxshade(&["synth", "angle_interp", "--target", "xc7", "--netlist", "x"]);
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));

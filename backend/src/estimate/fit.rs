@@ -1,17 +1,20 @@
 //! Fitting the area model to synthesis: least squares of the *relative*
 //! error, with sign constraints, by cyclic coordinate descent.
 
+use super::TERMS;
+
 /// Coefficients `c` (one per term, then a constant) minimising
 /// `Σ_i ((Σ_k x_ik·c_k + c_const − y_i) / max(y_i, 1))²` subject to
-/// `c_k ≥ 0` wherever `nonneg[k]` (the constant is index 10).
+/// `c_k ≥ 0` wherever `nonneg[k]` (the constant is the last, index
+/// [`TERMS`]).
 ///
 /// Exact coordinate minimisation of a convex quadratic with box
 /// constraints converges to the constrained optimum; the sweeps stop when
 /// no coefficient moves by more than 1e-12 of its scale, or after 200 000
 /// sweeps (deterministic: no clock is read). A term that is zero in every
 /// row gets 0. Rows with a non-finite value are rejected by the caller.
-pub fn fit(rows: &[[f64; 10]], y: &[f64], nonneg: [bool; 11]) -> [f64; 11] {
-    const K: usize = 11;
+pub fn fit(rows: &[[f64; TERMS]], y: &[f64], nonneg: [bool; TERMS + 1]) -> [f64; TERMS + 1] {
+    const K: usize = TERMS + 1;
     let mut g = [[0.0f64; K]; K];
     let mut h = [0.0f64; K];
     for (x, &yi) in rows.iter().zip(y) {
@@ -20,7 +23,7 @@ pub fn fit(rows: &[[f64; 10]], y: &[f64], nonneg: [bool; 11]) -> [f64; 11] {
         for (k, v) in x.iter().enumerate() {
             a[k] = v * w;
         }
-        a[10] = w;
+        a[TERMS] = w;
         let b = yi * w;
         for i in 0..K {
             h[i] += a[i] * b;
@@ -60,8 +63,10 @@ mod tests {
     /// unconstrained optimum would be negative.
     #[test]
     fn recovers_known_coefficients() {
-        let truth = [0.5, 1.25, 0.75, 0.0, 2.0, 0.0, 0.0625, 0.0, 0.0, 0.0, 12.0];
-        let rows: Vec<[f64; 10]> = (0..40u32)
+        let truth = [
+            0.5, 1.25, 0.75, 0.0, 2.0, 0.0, 0.0625, 0.0, 0.0, 0.0, 1.5, 12.0,
+        ];
+        let rows: Vec<[f64; TERMS]> = (0..40u32)
             .map(|i| {
                 let f = f64::from(i);
                 [
@@ -75,27 +80,32 @@ mod tests {
                     0.0,
                     0.0,
                     0.0,
+                    (f * 13.0) % 23.0,
                 ]
             })
             .collect();
         let y: Vec<f64> = rows
             .iter()
-            .map(|x| x.iter().zip(&truth).map(|(a, b)| a * b).sum::<f64>() + truth[10])
+            .map(|x| x.iter().zip(&truth).map(|(a, b)| a * b).sum::<f64>() + truth[TERMS])
             .collect();
-        let c = fit(&rows, &y, [true; 11]);
+        let c = fit(&rows, &y, [true; TERMS + 1]);
         for (got, want) in c.iter().zip(&truth) {
             assert!((got - want).abs() < 1e-6, "{c:?} against {truth:?}");
         }
         // y = 10 − x: the best slope is negative, so with the constraint it
         // is 0 and the constant takes the mean (relative weights).
-        let rows: Vec<[f64; 10]> = (1..5)
-            .map(|i| [f64::from(i), 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+        let rows: Vec<[f64; TERMS]> = (1..5)
+            .map(|i| {
+                let mut r = [0.0; TERMS];
+                r[0] = f64::from(i);
+                r
+            })
             .collect();
         let y: Vec<f64> = (1..5).map(|i| 10.0 - f64::from(i)).collect();
-        let free = fit(&rows, &y, [false; 11]);
-        assert!((free[0] + 1.0).abs() < 1e-9 && (free[10] - 10.0).abs() < 1e-9);
-        let c = fit(&rows, &y, [true; 11]);
+        let free = fit(&rows, &y, [false; TERMS + 1]);
+        assert!((free[0] + 1.0).abs() < 1e-9 && (free[TERMS] - 10.0).abs() < 1e-9);
+        let c = fit(&rows, &y, [true; TERMS + 1]);
         assert_eq!(c[0], 0.0);
-        assert!(c[10] > 6.0 && c[10] < 9.0, "{c:?}");
+        assert!(c[TERMS] > 6.0 && c[TERMS] < 9.0, "{c:?}");
     }
 }
