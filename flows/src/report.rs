@@ -226,8 +226,14 @@ pub fn rtl_checks(
             jobs.push((u, cfg.clone()));
         }
     }
-    for (u, c) in jobs {
-        let equivalence = fxshade_model::rtl::units::emit_unit(u, &c)
+    // One co-simulation per core at a time (each is one Icarus process and
+    // its generator), the pipeline tops (the longest) first; results kept
+    // in the units' order.
+    let check = |(u, c): &(
+        &'static fxshade_model::rtl::units::RtlUnit,
+        fxshade_model::Config,
+    )| {
+        let equivalence = fxshade_model::rtl::units::emit_unit(u, c)
             .ok()
             .map(|(design, emitted)| crate::equiv::Module {
                 text: emitted.verilog.clone(),
@@ -240,16 +246,47 @@ pub fn rtl_checks(
                 |v| format!("proved ({:.1} s)", v["seconds"].as_f64().unwrap_or(0.0)),
             );
         let run = || -> anyhow::Result<(String, usize, u64, u64)> {
-            let stream = fxshade_model::rtl::units::VectorStream::new(u, &c, 300, 1, None, search)?;
+            let stream = fxshade_model::rtl::units::VectorStream::new(u, c, 300, 1, None, search)?;
             let sources = rtl_flow::Sources::emitted(&stream.rtl());
             let r =
                 rtl_flow::check_with(&stream, &sources, rtl_flow::Sim::Icarus, 1, 20, None, false)?;
             Ok((stream.design.variant.clone(), r.count, r.passed, r.failed))
         };
-        match run() {
-            Ok((v, n, p, f)) => out.push((u.name.to_string(), v, n, p, f, equivalence)),
-            Err(e) => return Err(format!("{}: {e:#}", u.name)),
-        }
+        run()
+            .map(|(v, n, p, f)| (u.name.to_string(), v, n, p, f, equivalence))
+            .map_err(|e| format!("{}: {e:#}", u.name))
+    };
+    let workers = std::thread::available_parallelism()
+        .map_or(1, std::num::NonZero::get)
+        .min(jobs.len().max(1));
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let mut results: Vec<Option<Result<_, String>>> = (0..jobs.len()).map(|_| None).collect();
+    let done: Vec<Vec<(usize, Result<_, String>)>> = std::thread::scope(|s| {
+        let hs: Vec<_> = (0..workers)
+            .map(|_| {
+                s.spawn(|| {
+                    let mut v = Vec::new();
+                    loop {
+                        let k = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                        let Some(i) = jobs.len().checked_sub(k + 1) else {
+                            break;
+                        };
+                        let job = &jobs[i];
+                        v.push((i, check(job)));
+                    }
+                    v
+                })
+            })
+            .collect();
+        hs.into_iter()
+            .map(|h| h.join().unwrap_or_else(|p| std::panic::resume_unwind(p)))
+            .collect()
+    });
+    for (i, r) in done.into_iter().flatten() {
+        results[i] = Some(r);
+    }
+    for r in results.into_iter().flatten() {
+        out.push(r?);
     }
     Ok(out)
 }
