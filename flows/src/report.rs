@@ -256,36 +256,11 @@ pub fn rtl_checks(
             .map(|(v, n, p, f)| (u.name.to_string(), v, n, p, f, equivalence))
             .map_err(|e| format!("{}: {e:#}", u.name))
     };
-    let workers = std::thread::available_parallelism()
-        .map_or(1, std::num::NonZero::get)
-        .min(jobs.len().max(1));
-    let next = std::sync::atomic::AtomicUsize::new(0);
-    let mut results: Vec<Option<Result<_, String>>> = (0..jobs.len()).map(|_| None).collect();
-    let done: Vec<Vec<(usize, Result<_, String>)>> = std::thread::scope(|s| {
-        let hs: Vec<_> = (0..workers)
-            .map(|_| {
-                s.spawn(|| {
-                    let mut v = Vec::new();
-                    loop {
-                        let k = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                        let Some(i) = jobs.len().checked_sub(k + 1) else {
-                            break;
-                        };
-                        let job = &jobs[i];
-                        v.push((i, check(job)));
-                    }
-                    v
-                })
-            })
-            .collect();
-        hs.into_iter()
-            .map(|h| h.join().unwrap_or_else(|p| std::panic::resume_unwind(p)))
-            .collect()
-    });
-    for (i, r) in done.into_iter().flatten() {
-        results[i] = Some(r);
-    }
-    for r in results.into_iter().flatten() {
+    let longest_first: Vec<usize> = (0..jobs.len()).rev().collect();
+    let mut results =
+        fxshade_model::parallel::map_in_order(&longest_first, |_, &i| check(&jobs[i]));
+    results.reverse();
+    for r in results {
         out.push(r?);
     }
     Ok(out)

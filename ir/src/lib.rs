@@ -11,7 +11,8 @@
 //!   (unit vectors, triangles, barycentric coordinates) every layer draws
 //!   from;
 //! * [`escape`] — user strings made safe for the generated files and the
-//!   terminal.
+//!   terminal;
+//! * [`parallel`] — work spread over the cores, results in order.
 //!
 //! This crate depends only on `fxshade-numbers`; the units, the RTL backend
 //! and the flows sit above it (`ARCHITECTURE.md`).
@@ -40,6 +41,7 @@
 
 pub mod datapath;
 pub mod escape;
+pub mod parallel;
 pub mod sampling;
 
 // The numbers layer under the paths the datapath is written with.

@@ -1031,34 +1031,7 @@ pub fn polar_every_code(
         acc.5 = ext.e2.iter().fold(acc.5, |m, &x| m.max(x));
         acc
     };
-    let workers = std::thread::available_parallelism()
-        .map_or(1, |n| n.get())
-        .min(rows.len());
-    let next = std::sync::atomic::AtomicUsize::new(0);
-    let mut results: Vec<Option<Acc>> = vec![None; rows.len()];
-    let parts: Vec<Vec<(usize, Acc)>> = std::thread::scope(|s| {
-        let hs: Vec<_> = (0..workers)
-            .map(|_| {
-                s.spawn(|| {
-                    let mut v = Vec::new();
-                    loop {
-                        let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                        if i >= rows.len() {
-                            break;
-                        }
-                        v.push((i, one_row(rows[i])));
-                    }
-                    v
-                })
-            })
-            .collect();
-        hs.into_iter()
-            .map(|h| h.join().expect("a polar worker panicked"))
-            .collect()
-    });
-    for (i, a) in parts.into_iter().flatten() {
-        results[i] = Some(a);
-    }
+    let results = crate::parallel::map_in_order(&rows, |_, &al| one_row(al));
     // Combined in row order, so the sums do not depend on the threads.
     let mut st = PolarStats {
         coverage: "every code (exhaustive)",
@@ -1067,7 +1040,7 @@ pub fn polar_every_code(
     };
     let (mut sum2, mut sin2, mut e2max) = (0.0, 0.0f64, 0.0f64);
     let (mut g2min, mut g2max) = (f64::INFINITY, 0.0f64);
-    for a in results.into_iter().map(|a| a.expect("every row")) {
+    for a in results {
         st.max_lsb_err = st.max_lsb_err.max(a.0 / ulp);
         sum2 += a.1;
         g2min = g2min.min(a.2);
@@ -1428,35 +1401,12 @@ fn beta_every_code(
         acc
     };
     let xs: Vec<i128> = (0..=x_max).collect();
-    let workers = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let next = std::sync::atomic::AtomicUsize::new(0);
-    let parts: Vec<Vec<(usize, Acc)>> = std::thread::scope(|s| {
-        let hs: Vec<_> = (0..workers)
-            .map(|_| {
-                s.spawn(|| {
-                    let mut v = Vec::new();
-                    loop {
-                        let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                        if i >= xs.len() {
-                            break;
-                        }
-                        v.push((i, one_x(xs[i])));
-                    }
-                    v
-                })
-            })
-            .collect();
-        hs.into_iter()
-            .map(|h| h.join().expect("an angles worker panicked"))
-            .collect()
-    });
-    let mut rows: Vec<(usize, Acc)> = parts.into_iter().flatten().collect();
-    rows.sort_by_key(|r| r.0);
+    let rows = crate::parallel::map_in_order(&xs, |_, &x| one_x(x));
     let mut b = BetaExhaustive {
         r_range: (r_lo, r_hi),
         ..Default::default()
     };
-    for (_, a) in rows {
+    for a in rows {
         if a.0 > b.max_beta_lsb {
             b.max_beta_lsb = a.0;
             b.worst = (a.1, a.2);

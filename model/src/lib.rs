@@ -45,7 +45,7 @@
 #![warn(missing_docs, clippy::missing_errors_doc, clippy::missing_panics_doc)]
 
 // The layers below, under the paths the callers were written with.
-pub use fxshade_ir::{datapath, escape, sampling};
+pub use fxshade_ir::{datapath, escape, parallel, sampling};
 pub use fxshade_numbers::{convert, format, quantize};
 pub use fxshade_units::{
     angles, bounds, coeffs, config, interp, lighting, mad_chain, mesh, normalizer, paper, pipeline,

@@ -1031,43 +1031,12 @@ const SECOND_ROUND_SEED: u64 = 0x7365_636f_6e64;
 ///
 /// # Panics
 ///
-/// When `f` panics: the panic of its thread is raised again as `a search thread panicked`.
+/// When `f` panics: the panic of its thread is raised again.
 pub fn parallel_map<T: Sync, U: Send>(
     xs: &[T],
     f: impl Fn(usize, &T) -> Result<U, RtlError> + Sync,
 ) -> Result<Vec<U>, RtlError> {
-    let threads = std::thread::available_parallelism()
-        .map_or(1, |n| n.get())
-        .min(xs.len().max(1));
-    let next = std::sync::atomic::AtomicUsize::new(0);
-    let mut out: Vec<Option<Result<U, RtlError>>> = (0..xs.len()).map(|_| None).collect();
-    let parts: Vec<Vec<(usize, Result<U, RtlError>)>> = std::thread::scope(|sc| {
-        let handles: Vec<_> = (0..threads)
-            .map(|_| {
-                sc.spawn(|| {
-                    let mut v = Vec::new();
-                    loop {
-                        let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                        if i >= xs.len() {
-                            break;
-                        }
-                        v.push((i, f(i, &xs[i])));
-                    }
-                    v
-                })
-            })
-            .collect();
-        handles
-            .into_iter()
-            .map(|h| h.join().expect("a search thread panicked"))
-            .collect()
-    });
-    for (i, r) in parts.into_iter().flatten() {
-        out[i] = Some(r);
-    }
-    out.into_iter()
-        .map(|r| r.expect("every element mapped"))
-        .collect()
+    crate::parallel::map_in_order(xs, f).into_iter().collect()
 }
 
 #[cfg(test)]
