@@ -971,20 +971,13 @@ impl<R: Raw> Program<R> {
         ov: &mut [u64],
         flags: &mut [u64],
     ) {
-        assert!(
-            isa.available(),
-            "{} is not available on this CPU",
-            isa.name()
-        );
-        match isa {
-            // SAFETY: the CPU supports AVX-512 F/BW/DQ/VL (asserted above).
-            #[cfg(target_arch = "x86_64")]
-            Isa::Avx512 => unsafe { block_avx512(self, regs, lanes, ov, flags) },
-            // SAFETY: the CPU supports AVX2 (asserted above).
-            #[cfg(target_arch = "x86_64")]
-            Isa::Avx2 => unsafe { block_avx2(self, regs, lanes, ov, flags) },
-            _ => block_body(self, regs, lanes, ov, flags),
-        }
+        isa.run(Block {
+            p: self,
+            regs,
+            lanes,
+            ov,
+            flags,
+        });
     }
 
     /// As [`Program::run_into`], on the instruction set `isa` rather than
@@ -1124,33 +1117,25 @@ fn run_avx512<K: Kernel>(k: K) -> K::Output {
     k.call()
 }
 
-/// [`Program::block`] compiled with AVX2 enabled (wide integer shifts,
-/// compares and selects let the loops vectorize).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn block_avx2<R: Raw>(
-    p: &Program<R>,
-    regs: &mut [R],
-    lanes: Lanes<'_, R>,
-    ov: &mut [u64],
-    flags: &mut [u64],
-) {
-    block_body(p, regs, lanes, ov, flags)
+/// One block of lanes as an [`Isa::run`] kernel: [`block_body`] compiled
+/// once per instruction set (AVX2: wide integer shifts, compares and
+/// selects; AVX-512: 512-bit vectors, native 64-bit multiplies and
+/// arithmetic right shifts, mask registers for the selects).
+struct Block<'a, R> {
+    p: &'a Program<R>,
+    regs: &'a mut [R],
+    lanes: Lanes<'a, R>,
+    ov: &'a mut [u64],
+    flags: &'a mut [u64],
 }
 
-/// [`Program::block`] compiled with AVX-512 enabled (512-bit vectors,
-/// native 64-bit multiplies and 64-bit arithmetic right shifts, mask
-/// registers for the selects).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512bw,avx512dq,avx512vl")]
-fn block_avx512<R: Raw>(
-    p: &Program<R>,
-    regs: &mut [R],
-    lanes: Lanes<'_, R>,
-    ov: &mut [u64],
-    flags: &mut [u64],
-) {
-    block_body(p, regs, lanes, ov, flags)
+impl<R: Raw> Kernel for Block<'_, R> {
+    type Output = ();
+
+    #[inline(always)]
+    fn call(self) {
+        block_body(self.p, self.regs, self.lanes, self.ov, self.flags);
+    }
 }
 
 #[inline(always)]
