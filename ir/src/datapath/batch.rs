@@ -126,7 +126,7 @@ pub struct Port {
 /// assert_eq!((outs[0].name.as_str(), outs[0].format), ("y", f));
 /// let codes: Vec<i128> = vec![-32768, -16384, -1, 0, 1, 16384, 23170, 32767];
 /// let (out, overflows) = t.compile_outputs().unwrap().run_i128(&[&codes]);
-/// let want: Vec<i128> = codes.iter().map(|c| (c * c >> 14).min(32767)).collect();
+/// let want: Vec<i128> = codes.iter().map(|c| ((c * c) >> 14).min(32767)).collect();
 /// assert_eq!(out[0], want);
 /// // (−2)² = 4 and 1.99…² do not fit: two lanes overflowed, at stage `sq`.
 /// assert_eq!(overflows, vec![("sq", 2)]);
@@ -542,6 +542,21 @@ impl Instr {
             | Instr::Sqrt { d, .. } => d,
         }
     }
+
+    /// The registers an instruction reads.
+    fn operands(&self) -> Vec<usize> {
+        match *self {
+            Instr::Mul { a, b, .. }
+            | Instr::AddSub { a, b, .. }
+            | Instr::Max { a, b, .. }
+            | Instr::Div { a, b, .. } => vec![a, b],
+            Instr::AddSigned { a, b, s, .. } => vec![a, b, s],
+            Instr::Quant { a, .. } | Instr::Table { a, .. } | Instr::Sqrt { a, .. } => vec![a],
+            Instr::Select { sel, ref opts, .. } => std::iter::once(sel)
+                .chain(opts.iter().map(|o| o.0))
+                .collect(),
+        }
+    }
 }
 
 /// Lanes per block: registers of a block stay in the L1 cache.
@@ -562,6 +577,13 @@ pub struct Program<R> {
     /// by a select, or an output themselves.
     loaded: Vec<usize>,
     outputs: Vec<(usize, i32)>,
+    /// Per node: the output its instruction writes in place, into the
+    /// caller's output vector ([`IN_REGISTER`]: into its register).
+    out_of: Vec<usize>,
+    /// The outputs still copied out of their registers after each block:
+    /// inputs or constants themselves, read by a later instruction, or a
+    /// node given as two outputs.
+    copied: Vec<usize>,
     tables: Vec<Vec<R>>,
     stages: Vec<&'static str>,
     flag_stages: Vec<String>,
@@ -759,6 +781,31 @@ impl<R: Raw> Program<R> {
         let loaded = (0..inputs.len())
             .filter(|&k| port_of[inputs[k].0] == IN_REGISTER)
             .collect();
+        // An output that an instruction writes and no instruction reads is
+        // written straight into the caller's output vector (no copy out of
+        // each block); the others are copied from their registers.
+        let mut read = vec![false; trace.ops.len()];
+        let mut written = vec![false; trace.ops.len()];
+        for ins in &instrs {
+            written[ins.dest()] = true;
+            for a in ins.operands() {
+                read[a] = true;
+            }
+        }
+        // (A node named by two outputs stays in its register: both copy it.)
+        let mut named = vec![0usize; trace.ops.len()];
+        for &(o, _) in &outputs {
+            named[o] += 1;
+        }
+        let mut out_of = vec![IN_REGISTER; trace.ops.len()];
+        for (k, &(o, _)) in outputs.iter().enumerate() {
+            if written[o] && !read[o] && named[o] == 1 {
+                out_of[o] = k;
+            }
+        }
+        let copied = (0..outputs.len())
+            .filter(|&k| out_of[outputs[k].0] != k)
+            .collect();
         Ok(Program {
             instrs,
             n_regs: trace.ops.len(),
@@ -767,6 +814,8 @@ impl<R: Raw> Program<R> {
             port_of,
             loaded,
             outputs,
+            out_of,
+            copied,
             tables: trace
                 .tables
                 .iter()
@@ -860,12 +909,14 @@ impl<R: Raw> Program<R> {
         let mut ov = vec![0u64; self.stages.len()];
         let mut flags = [0u64; BLOCK];
         let mut regs = self.fresh_regs();
+        // The outputs written in place need somewhere to go.
+        let mut outs: Vec<Vec<R>> = self.outputs.iter().map(|_| vec![R::ZERO; n]).collect();
         let mut start = 0;
         while start < n {
             let len = BLOCK.min(n - start);
             self.load_block(&mut regs, inputs, start, len);
             let lanes = Lanes { inputs, start, len };
-            self.block(&mut regs, lanes, &mut ov, &mut flags);
+            self.block(&mut regs, lanes, &mut outs, &mut ov, &mut flags[..len]);
             for (p, &a) in probes.iter_mut().zip(&operand) {
                 let x = operand_of(&self.port_of, &regs, lanes, a);
                 p.extend(x.iter().map(|x| x.to_i128()));
@@ -916,15 +967,21 @@ impl<R: Raw> Program<R> {
             inputs.iter().all(|s| s.len() == n),
             "input slices of equal length"
         );
+        // Every output holds `n` codes before the first block: the
+        // instructions write their lanes in place (a vector already `n`
+        // long is overwritten, not cleared).
         for o in outs.iter_mut() {
-            o.clear();
-            o.reserve(n);
+            if o.len() != n {
+                o.clear();
+                o.resize(n, R::ZERO);
+            }
         }
         let mut ov = vec![0u64; self.stages.len()];
         let mut flags = [0u64; BLOCK];
+        // The lanes' flags are or-ed into zeros, in place when asked for.
         if let Some(f) = lane_flags.as_deref_mut() {
             f.clear();
-            f.reserve(n);
+            f.resize(n, 0);
         }
         let kept = self.pool.0.lock().ok().and_then(|mut p| p.pop());
         let mut regs = kept.unwrap_or_else(|| self.fresh_regs());
@@ -932,14 +989,18 @@ impl<R: Raw> Program<R> {
         while start < n {
             let len = BLOCK.min(n - start);
             self.load_block(&mut regs, inputs, start, len);
-            flags[..len].fill(0);
             let lanes = Lanes { inputs, start, len };
-            self.block_on(isa, &mut regs, lanes, &mut ov, &mut flags);
-            for (&(o, _), out) in self.outputs.iter().zip(outs.iter_mut()) {
-                out.extend_from_slice(&regs[o * BLOCK..o * BLOCK + len]);
-            }
-            if let Some(f) = lane_flags.as_deref_mut() {
-                f.extend_from_slice(&flags[..len]);
+            let block_flags = match lane_flags.as_deref_mut() {
+                Some(f) => &mut f[start..start + len],
+                None => {
+                    flags[..len].fill(0);
+                    &mut flags[..len]
+                }
+            };
+            self.block_on(isa, &mut regs, lanes, outs, &mut ov, block_flags);
+            for &k in &self.copied {
+                let o = self.outputs[k].0;
+                outs[k][start..start + len].copy_from_slice(&regs[o * BLOCK..o * BLOCK + len]);
             }
             start += len;
         }
@@ -957,8 +1018,15 @@ impl<R: Raw> Program<R> {
     }
 
     /// One block of lanes, on the instruction set [`Isa::current`] chose.
-    fn block(&self, regs: &mut [R], lanes: Lanes<'_, R>, ov: &mut [u64], flags: &mut [u64]) {
-        self.block_on(Isa::current(), regs, lanes, ov, flags);
+    fn block(
+        &self,
+        regs: &mut [R],
+        lanes: Lanes<'_, R>,
+        outs: &mut [Vec<R>],
+        ov: &mut [u64],
+        flags: &mut [u64],
+    ) {
+        self.block_on(Isa::current(), regs, lanes, outs, ov, flags);
     }
 
     /// One block of lanes on `isa`: the same body compiled once per
@@ -968,6 +1036,7 @@ impl<R: Raw> Program<R> {
         isa: Isa,
         regs: &mut [R],
         lanes: Lanes<'_, R>,
+        outs: &mut [Vec<R>],
         ov: &mut [u64],
         flags: &mut [u64],
     ) {
@@ -975,6 +1044,7 @@ impl<R: Raw> Program<R> {
             p: self,
             regs,
             lanes,
+            outs,
             ov,
             flags,
         });
@@ -1125,7 +1195,10 @@ struct Block<'a, R> {
     p: &'a Program<R>,
     regs: &'a mut [R],
     lanes: Lanes<'a, R>,
+    /// The caller's output vectors, `n` codes each.
+    outs: &'a mut [Vec<R>],
     ov: &'a mut [u64],
+    /// The block's lanes' flags (`len` of them).
     flags: &'a mut [u64],
 }
 
@@ -1134,7 +1207,9 @@ impl<R: Raw> Kernel for Block<'_, R> {
 
     #[inline(always)]
     fn call(self) {
-        block_body(self.p, self.regs, self.lanes, self.ov, self.flags);
+        block_body(
+            self.p, self.regs, self.lanes, self.outs, self.ov, self.flags,
+        );
     }
 }
 
@@ -1143,11 +1218,25 @@ fn block_body<R: Raw>(
     p: &Program<R>,
     regs: &mut [R],
     lanes: Lanes<'_, R>,
+    outs: &mut [Vec<R>],
     ov: &mut [u64],
     flags: &mut [u64],
 ) {
     let len = lanes.len;
+    let start = lanes.start;
     let port_of = &p.port_of[..];
+    let out_of = &p.out_of[..];
+    // Where instruction `d` writes its lanes: its register (in `hi`, the
+    // registers from `d` on) or, for an output no instruction reads, the
+    // caller's output vector.
+    macro_rules! dest {
+        ($hi:expr, $d:expr) => {
+            match out_of[$d] {
+                IN_REGISTER => &mut $hi[..len],
+                k => &mut outs[k][start..start + len],
+            }
+        };
+    }
     {
         let this = p;
         for ins in &this.instrs {
@@ -1158,7 +1247,7 @@ fn block_body<R: Raw>(
                         operand_of(port_of, lo, lanes, a),
                         operand_of(port_of, lo, lanes, b),
                     );
-                    for ((o, &x), &y) in hi[..len].iter_mut().zip(x).zip(y) {
+                    for ((o, &x), &y) in dest!(hi, d).iter_mut().zip(x).zip(y) {
                         *o = x.mul_raw(y);
                     }
                 }
@@ -1175,7 +1264,7 @@ fn block_body<R: Raw>(
                         operand_of(port_of, lo, lanes, a),
                         operand_of(port_of, lo, lanes, b),
                     );
-                    let it = hi[..len].iter_mut().zip(x).zip(y);
+                    let it = dest!(hi, d).iter_mut().zip(x).zip(y);
                     if sub {
                         for ((o, &x), &y) in it {
                             *o = (x << sa) - (y << sb);
@@ -1192,7 +1281,7 @@ fn block_body<R: Raw>(
                         operand_of(port_of, lo, lanes, a),
                         operand_of(port_of, lo, lanes, b),
                     );
-                    for ((o, &x), &y) in hi[..len].iter_mut().zip(x).zip(y) {
+                    for ((o, &x), &y) in dest!(hi, d).iter_mut().zip(x).zip(y) {
                         *o = (x << sa).max(y << sb);
                     }
                 }
@@ -1211,7 +1300,7 @@ fn block_body<R: Raw>(
                         operand_of(port_of, lo, lanes, b),
                         operand_of(port_of, lo, lanes, s),
                     );
-                    for (((o, &x), &y), &sg) in hi[..len].iter_mut().zip(x).zip(y).zip(sg) {
+                    for (((o, &x), &y), &sg) in dest!(hi, d).iter_mut().zip(x).zip(y).zip(sg) {
                         *o = if (sg < R::ZERO) != flip {
                             (x << sa) - (y << sb)
                         } else {
@@ -1232,7 +1321,7 @@ fn block_body<R: Raw>(
                     let src = operand_of(port_of, lo, lanes, a);
                     ov[stage] += quant_loop(
                         src,
-                        &mut hi[..len],
+                        dest!(hi, d),
                         &mut flags[..len],
                         flag,
                         &step,
@@ -1243,7 +1332,7 @@ fn block_body<R: Raw>(
                 Instr::Select { d, sel, ref opts } => {
                     let (lo, hi) = regs.split_at_mut(d * BLOCK);
                     let s = operand_of(port_of, lo, lanes, sel);
-                    for (k, o) in hi[..len].iter_mut().enumerate() {
+                    for (k, o) in dest!(hi, d).iter_mut().enumerate() {
                         let i = s[k].to_i128();
                         let (src, sh) =
                             if let Some(&o) = usize::try_from(i).ok().and_then(|i| opts.get(i)) {
@@ -1263,7 +1352,7 @@ fn block_body<R: Raw>(
                     // (a gather).
                     let mask = this.tables[table].len() - 1;
                     let t: &[R] = &this.tables[table][..=mask];
-                    for (o, &x) in hi[..len].iter_mut().zip(src) {
+                    for (o, &x) in dest!(hi, d).iter_mut().zip(src) {
                         *o = t[table_slot(index.to_bits(x.to_i128()), mask)];
                     }
                 }
@@ -1282,7 +1371,7 @@ fn block_body<R: Raw>(
                         operand_of(port_of, lo, lanes, a),
                         operand_of(port_of, lo, lanes, b),
                     );
-                    for (k, ((o, &x), &y)) in hi[..len].iter_mut().zip(x).zip(y).enumerate() {
+                    for (k, ((o, &x), &y)) in dest!(hi, d).iter_mut().zip(x).zip(y).enumerate() {
                         let r = div_exact(x.to_i128(), fa, y.to_i128(), fb, &q);
                         ov[stage] += u64::from(r.overflowed);
                         flags[k] |= flag * u64::from(r.overflowed);
@@ -1299,7 +1388,7 @@ fn block_body<R: Raw>(
                 } => {
                     let (lo, hi) = regs.split_at_mut(d * BLOCK);
                     let src = operand_of(port_of, lo, lanes, a);
-                    for (k, (o, &x)) in hi[..len].iter_mut().zip(src).enumerate() {
+                    for (k, (o, &x)) in dest!(hi, d).iter_mut().zip(src).enumerate() {
                         let r = sqrt_exact(x.to_i128(), fa, &q);
                         ov[stage] += u64::from(r.overflowed);
                         flags[k] |= flag * u64::from(r.overflowed);
@@ -1649,5 +1738,87 @@ impl Compiled {
             Compiled::Narrow(p) => p.counts(),
             Compiled::Wide(p) => p.counts(),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An output written in place (`e`) beside outputs copied out of their
+    /// registers (`y`, read by a later instruction; `x`, an input; `s`,
+    /// named twice), over seven blocks (the last one partial), on every
+    /// instruction set this CPU has, into fresh and reused vectors,
+    /// against closed forms: `y = min(⌊c²/2^14⌋, 2^15 − 1)`,
+    /// `s = clamp(y + c)`, `e = clamp(c − y)` in I2F14.
+    #[test]
+    fn outputs_in_place_and_copied_give_the_closed_forms() {
+        let f: Format = "I2F14".parse().unwrap();
+        let sq = Quant::new("sq", f, Rounding::Trunc, Overflow::Saturate);
+        let sum = Quant::new("sum", f, Rounding::Trunc, Overflow::Saturate);
+        let mut t = Trace::new();
+        let x = t.input_named("x", &sq);
+        let p = t.mul(x, x);
+        let y = t.quantize(p, &sq);
+        let s0 = t.add(y, x);
+        let s = t.quantize(s0, &sum);
+        let e0 = t.sub(x, y);
+        let e = t.quantize(e0, &sum);
+        for (name, v) in [("y", y), ("s", s), ("x", x), ("s_again", s), ("e", e)] {
+            t.output(name, v);
+        }
+        let outs: Vec<TV> = t.output_ports().iter().map(|p| p.value).collect();
+        let prog = Program::<i64>::compile(&t, &outs).unwrap();
+        assert_eq!(
+            prog.copied,
+            vec![0, 1, 2, 3],
+            "only `e` is written in place"
+        );
+
+        let codes: Vec<i64> = (-32768..32768).step_by(37).collect();
+        assert!(codes.len() > 6 * BLOCK && !codes.len().is_multiple_of(BLOCK));
+        let want_y = |c: i64| ((c * c) >> 14).min(32767);
+        let want_s = |c: i64| (want_y(c) + c).clamp(-32768, 32767);
+        let want_e = |c: i64| (c - want_y(c)).clamp(-32768, 32767);
+        let check = |got: &[Vec<i64>], lanes: &[i64]| {
+            assert_eq!(got.len(), 5);
+            for (k, &c) in lanes.iter().enumerate() {
+                let w = [want_y(c), want_s(c), c, want_s(c), want_e(c)];
+                for (o, &w) in got.iter().zip(&w) {
+                    assert_eq!(o.len(), lanes.len());
+                    assert_eq!(
+                        o[k],
+                        w,
+                        "lane {k}, code {c}: {:?}",
+                        got.iter().map(|o| o[k]).collect::<Vec<_>>()
+                    );
+                }
+            }
+        };
+        let mut reused: Vec<Vec<i64>> = vec![Vec::new(); 5];
+        for isa in Isa::ALL.into_iter().filter(|i| i.available()) {
+            let mut fresh: Vec<Vec<i64>> = vec![Vec::new(); 5];
+            prog.run_into_on(isa, &[&codes], &mut fresh);
+            check(&fresh, &codes);
+            // A vector of the right length is overwritten, one of another
+            // length replaced.
+            prog.run_into_on(isa, &[&codes], &mut reused);
+            check(&reused, &codes);
+            prog.run_into_on(isa, &[&codes[..300]], &mut reused);
+            check(&reused, &codes[..300]);
+        }
+        // Per-lane flags, written in place: a flag where y, s or e saturated.
+        let (got, flags) = prog.run_flags(&[&codes]);
+        check(&got, &codes);
+        for (&c, &fl) in codes.iter().zip(&flags) {
+            let y_ovf = (c * c) >> 14 > 32767;
+            let s_ovf = !(-32768..=32767).contains(&(want_y(c) + c));
+            let e_ovf = !(-32768..=32767).contains(&(c - want_y(c)));
+            assert_eq!(fl != 0, y_ovf || s_ovf || e_ovf, "flags of code {c}");
+        }
+        // The probe runs the same blocks: the squares before quantization.
+        let probe = prog.probe(&[&codes], &[y.node()]);
+        let sq: Vec<i128> = codes.iter().map(|&c| i128::from(c * c)).collect();
+        assert_eq!(probe[0], sq);
     }
 }
