@@ -543,18 +543,28 @@ impl Instr {
         }
     }
 
-    /// The registers an instruction reads.
-    fn operands(&self) -> Vec<usize> {
+    /// Call `f` with each register an instruction reads.
+    fn each_operand(&self, mut f: impl FnMut(usize)) {
         match *self {
             Instr::Mul { a, b, .. }
             | Instr::AddSub { a, b, .. }
             | Instr::Max { a, b, .. }
-            | Instr::Div { a, b, .. } => vec![a, b],
-            Instr::AddSigned { a, b, s, .. } => vec![a, b, s],
-            Instr::Quant { a, .. } | Instr::Table { a, .. } | Instr::Sqrt { a, .. } => vec![a],
-            Instr::Select { sel, ref opts, .. } => std::iter::once(sel)
-                .chain(opts.iter().map(|o| o.0))
-                .collect(),
+            | Instr::Div { a, b, .. } => {
+                f(a);
+                f(b);
+            }
+            Instr::AddSigned { a, b, s, .. } => {
+                f(a);
+                f(b);
+                f(s);
+            }
+            Instr::Quant { a, .. } | Instr::Table { a, .. } | Instr::Sqrt { a, .. } => f(a),
+            Instr::Select { sel, ref opts, .. } => {
+                f(sel);
+                for o in opts {
+                    f(o.0);
+                }
+            }
         }
     }
 }
@@ -585,6 +595,9 @@ pub struct Program<R> {
     /// node given as two outputs.
     copied: Vec<usize>,
     tables: Vec<Vec<R>>,
+    /// Each table's smallest and largest entry (the interval analysis'
+    /// range of a read whose index spans the table).
+    table_hulls: Vec<(i128, i128)>,
     stages: Vec<&'static str>,
     flag_stages: Vec<String>,
     const_overflows: Vec<&'static str>,
@@ -788,9 +801,7 @@ impl<R: Raw> Program<R> {
         let mut written = vec![false; trace.ops.len()];
         for ins in &instrs {
             written[ins.dest()] = true;
-            for a in ins.operands() {
-                read[a] = true;
-            }
+            ins.each_operand(|a| read[a] = true);
         }
         // (A node named by two outputs stays in its register: both copy it.)
         let mut named = vec![0usize; trace.ops.len()];
@@ -805,6 +816,15 @@ impl<R: Raw> Program<R> {
         }
         let copied = (0..outputs.len())
             .filter(|&k| out_of[outputs[k].0] != k)
+            .collect();
+        let table_hulls = trace
+            .tables
+            .iter()
+            .map(|t| {
+                let lo = t.codes.iter().copied().min().unwrap_or(0);
+                let hi = t.codes.iter().copied().max().unwrap_or(0);
+                (lo, hi)
+            })
             .collect();
         Ok(Program {
             instrs,
@@ -821,6 +841,7 @@ impl<R: Raw> Program<R> {
                 .iter()
                 .map(|t| t.codes.iter().map(|&c| R::from_i128(c)).collect())
                 .collect(),
+            table_hulls,
             stages,
             flag_stages,
             const_overflows: trace.const_overflows.clone(),

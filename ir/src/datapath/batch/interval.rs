@@ -438,26 +438,26 @@ impl<R: Raw> Program<R> {
                     sel: _,
                     ref opts,
                 } => {
-                    let v: Vec<i128> = opts
+                    r[d] = opts
                         .iter()
-                        .flat_map(|&(o, sh)| [r[o].0 << sh, r[o].1 << sh])
-                        .collect();
-                    r[d] = hull(&v);
+                        .fold((i128::MAX, i128::MIN), |(lo, hi), &(o, sh)| {
+                            (lo.min(r[o].0 << sh), hi.max(r[o].1 << sh))
+                        });
                 }
                 Instr::Table { d, a, table, index } => {
                     // The entries the index range reads (every entry when
                     // it spans the table).
                     let t = &self.tables[table];
                     let (lo, hi) = r[a];
-                    let v: Vec<i128> = if hi - lo < t.len() as i128 {
+                    r[d] = if hi - lo < t.len() as i128 {
                         let mask = t.len() - 1;
-                        (lo..=hi)
-                            .map(|x| t[super::table_slot(index.to_bits(x), mask)].to_i128())
-                            .collect()
+                        (lo..=hi).fold((i128::MAX, i128::MIN), |(mn, mx), x| {
+                            let c = t[super::table_slot(index.to_bits(x), mask)].to_i128();
+                            (mn.min(c), mx.max(c))
+                        })
                     } else {
-                        t.iter().map(|c| c.to_i128()).collect()
+                        self.table_hulls[table]
                     };
-                    r[d] = hull(&v);
                 }
                 Instr::Div { d, q, .. } | Instr::Sqrt { d, q, .. } => {
                     may[d] = true;
