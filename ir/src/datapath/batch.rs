@@ -882,7 +882,8 @@ impl<R: Raw> Program<R> {
     }
 
     /// As [`Program::run`], writing into `outs` (one vector per output,
-    /// cleared first; their capacity is reused across calls).
+    /// its contents replaced by the run's `n` codes; their capacity is
+    /// reused across calls).
     pub fn run_into(&self, inputs: &[&[R]], outs: &mut [Vec<R>]) -> Vec<(&'static str, u64)> {
         self.run_lanes(inputs, outs, None)
     }

@@ -441,7 +441,8 @@ impl<R: Raw> Program<R> {
                     r[d] = opts
                         .iter()
                         .fold((i128::MAX, i128::MIN), |(lo, hi), &(o, sh)| {
-                            (lo.min(r[o].0 << sh), hi.max(r[o].1 << sh))
+                            let (a, b) = (r[o].0 << sh, r[o].1 << sh);
+                            (lo.min(a).min(b), hi.max(a).max(b))
                         });
                 }
                 Instr::Table { d, a, table, index } => {
