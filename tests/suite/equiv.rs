@@ -78,19 +78,20 @@ fn refuted(unit: &str, bad: &std::path::Path, extra: &[&str], what: &str) -> tem
 /// Every unit of the default configuration and the smooth path's top are
 /// proved (the mapped tops, two minutes, are in BENCHMARKS.md with
 /// `fxshade equiv all`).
+/// The gate tier proves the interpolator, the normalizer, the lighting
+/// unit and the angle interpolator (seconds each); the full tier the
+/// CORDIC, polar and smooth-top proofs (a minute of solver time).
 #[test]
 fn every_unit_of_the_default_is_proved() {
-    proves(
-        &[
-            "interp",
-            "normalize",
-            "angles",
-            "polar",
-            "lighting",
-            "angle_interp",
-        ],
-        &[],
-    );
+    proves(&["interp", "normalize", "lighting", "angle_interp"], &[]);
+}
+
+/// Full tier: the CORDIC unit, the polar transform and the smooth top of
+/// the default configuration.
+#[test]
+#[ignore = "full tier: ./scripts/test --full"]
+fn the_slower_proofs_of_the_default_hold() {
+    proves(&["angles", "polar"], &[]);
     proves(&["pipeline"], &["--set", "pipeline.path=\"smooth\""]);
 }
 
@@ -99,6 +100,7 @@ fn every_unit_of_the_default_is_proved() {
 /// the random co-simulation test, another seed) is proved, every unit but
 /// the CORDIC one.
 #[test]
+#[ignore = "full tier: ./scripts/test --full"]
 fn random_accepted_configurations_are_proved() {
     let seed = std::env::var("FXSHADE_RANDOM_SEED")
         .ok()
@@ -137,21 +139,13 @@ fn random_accepted_configurations_are_proved() {
     }
 }
 
-/// Target-pipelined configurations (registers placed by the ECP5 delay
-/// model for 12 ns and 8 ns: other stages, other cut points) are proved
-/// too. At 8 ns the interpolator's widest product (20 × 19 bits) is split
-/// into four partial products summed a stage later, and on iCE40 HX8K at
-/// 14 ns the normalizer's LUT multipliers into partial products of a few
-/// bits: the model's product is written as the same sum (the split
-/// lemma), and the proof matches them.
+/// A target-pipelined unit with a split product is proved: at 8 ns (the
+/// ECP5 delay model) the interpolator's widest product (20 × 19 bits) is
+/// split into four partial products summed a stage later; the model's
+/// product is written as the same sum (the split lemma), and the proof
+/// matches them.
 #[test]
-fn a_target_pipelined_unit_is_proved() {
-    for ns in ["12", "8"] {
-        proves(
-            &["normalize", "lighting"],
-            &["--pipeline", "target", "--target", "ecp5", "--clock-ns", ns],
-        );
-    }
+fn a_split_product_is_proved() {
     let at8 = [
         "--pipeline",
         "target",
@@ -163,6 +157,21 @@ fn a_target_pipelined_unit_is_proved() {
     let v = emitted("interp", &at8);
     assert!(v.contains("_pp1_1_q"), "no split product at 8 ns");
     proves(&["interp"], &at8);
+}
+
+/// Full tier: other target-pipelined configurations (registers placed by
+/// the ECP5 delay model for 12 ns and 8 ns: other stages, other cut
+/// points), the iCE40 HX8K normalizer at 14 ns (its LUT multipliers split
+/// into partial products of a few bits) and the smooth top at 20 ns.
+#[test]
+#[ignore = "full tier: ./scripts/test --full"]
+fn a_target_pipelined_unit_is_proved() {
+    for ns in ["12", "8"] {
+        proves(
+            &["normalize", "lighting"],
+            &["--pipeline", "target", "--target", "ecp5", "--clock-ns", ns],
+        );
+    }
     // LUT multipliers split into partial products of a few bits (iCE40).
     proves(
         &["normalize"],
@@ -196,12 +205,26 @@ fn another_accepted_configuration_is_proved() {
     );
 }
 
-/// Each sabotage of the emitted normalizer — a wrong rounding (half up for
-/// half even), a dropped bit, a swapped operand, a removed register — gives
-/// a counterexample whose vector set fails on Verilator; the vector files
-/// are written and the reported RTL and model outputs differ.
+/// Sabotages of the emitted normalizer — a wrong rounding (half up for
+/// half even) and a removed register here, a dropped bit and a swapped
+/// operand in the full tier — give a counterexample whose vector set fails
+/// on Verilator; the vector files are written and the reported RTL and
+/// model outputs differ.
 #[test]
 fn each_sabotage_gives_a_counterexample_that_fails_on_verilator() {
+    sabotaged(&["wrong rounding", "removed register"]);
+}
+
+/// Full tier: the other two sabotages (a dropped bit, a swapped operand).
+#[test]
+#[ignore = "full tier: ./scripts/test --full"]
+fn more_sabotages_give_counterexamples_that_fail_on_verilator() {
+    sabotaged(&["dropped bit", "swapped operand"]);
+}
+
+/// The sabotages of the emitted normalizer named in `which`, each refuted.
+fn sabotaged(which: &[&str]) {
+    let mut done = 0;
     let rtl = tempfile::tempdir().unwrap();
     let o = fxshade(&["rtl", "normalize", "--out", rtl.path().to_str().unwrap()]);
     assert!(o.status.success(), "{}", text(&o));
@@ -228,6 +251,10 @@ fn each_sabotage_gives_a_counterexample_that_fails_on_verilator() {
             "normalize_out_mul0 = n_x_i_s2_q * normalize_out_mul0_b;",
         ),
     ] {
+        if !which.contains(&what) {
+            continue;
+        }
+        done += 1;
         assert_eq!(good.matches(from).count(), 1, "{what}: {from}");
         let bad = tempfile::tempdir().unwrap();
         std::fs::write(bad.path().join("normalize.v"), good.replace(from, to)).unwrap();
@@ -240,6 +267,11 @@ fn each_sabotage_gives_a_counterexample_that_fails_on_verilator() {
         let written = std::fs::read_to_string(dir.join("normalize.v")).unwrap();
         assert!(written.contains(to), "{what}");
     }
+    assert_eq!(
+        done,
+        which.len(),
+        "a sabotage in {which:?} is not in the list"
+    );
 }
 
 /// A split product with a partial product at the wrong weight (the
@@ -248,6 +280,7 @@ fn each_sabotage_gives_a_counterexample_that_fails_on_verilator() {
 /// too little) gives a counterexample that Verilator reproduces: the
 /// model's sum of partial products is not the RTL's.
 #[test]
+#[ignore = "full tier: ./scripts/test --full"]
 fn a_partial_product_at_the_wrong_weight_gives_a_counterexample() {
     let at = ["--target", "ice40-hx8k", "--clock-ns", "14"];
     let good = emitted("normalize", &at);
@@ -358,6 +391,7 @@ fn rtl_check_says_whether_the_module_is_proved() {
 /// registers) is proved equivalent to its RTL by register correspondence
 /// and the window: the netlist part of the proof, from a clean checkout.
 #[test]
+#[ignore = "full tier: ./scripts/test --full"]
 fn a_packed_ecp5_netlist_is_proved_equal_to_its_rtl() {
     let d = tempfile::tempdir().unwrap();
     let gl = d.path().join("gl");

@@ -474,6 +474,7 @@ fn a_sweep_file_gives_the_same_points_as_flags() {
 }
 
 #[test]
+#[ignore = "full tier: ./scripts/test --full"]
 fn optimize_meets_both_goals_beats_the_uniform_width_and_passes_the_rtl() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("opt");
@@ -645,6 +646,7 @@ fn optimize_meets_both_goals_beats_the_uniform_width_and_passes_the_rtl() {
 /// in optimized.toml; a clock out of reach fails the command after
 /// writing the files.
 #[test]
+#[ignore = "full tier: ./scripts/test --full"]
 fn optimize_searches_a_discrete_knob_and_closes_the_winners_timing() {
     let dir = tempfile::tempdir().unwrap();
     let run = |freq: &str, out: &std::path::Path| {
@@ -914,6 +916,7 @@ fn a_unit_sweep_reports_the_units_own_cost() {
 /// search used is the one synthesis reports for that module, the winner's
 /// is no larger than the baseline's, and the count is Yosys's own.
 #[test]
+#[ignore = "full tier: ./scripts/test --full"]
 fn optimize_minimizes_luts_on_the_estimate_and_confirms_the_winner_by_synthesis() {
     let dir = tempfile::tempdir().unwrap();
     let cache = dir.path().join("cache");

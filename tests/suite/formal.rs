@@ -20,11 +20,13 @@ fn proves_all(extra: &[&str]) {
 }
 
 #[test]
+#[ignore = "full tier: ./scripts/test --full"]
 fn every_module_proves_its_handshake_properties_compact() {
     proves_all(&[]);
 }
 
 #[test]
+#[ignore = "full tier: ./scripts/test --full"]
 fn every_module_proves_its_handshake_properties_target_pipelined() {
     let cfg = repo().join("tests/configs/pipelined.toml");
     proves_all(&["--config", cfg.to_str().unwrap()]);
@@ -39,6 +41,7 @@ fn every_module_proves_its_handshake_properties_target_pipelined() {
 /// (`fxshade formal all --config tests/configs/wide.toml` proves them in
 /// 28 s).
 #[test]
+#[ignore = "full tier: ./scripts/test --full"]
 fn every_module_proves_its_handshake_properties_fifo() {
     proves_all(&[
         "--set",
@@ -46,6 +49,37 @@ fn every_module_proves_its_handshake_properties_fifo() {
         "--set",
         "rtl.setup=\"pixel\"",
     ]);
+}
+
+/// Gate tier: the default normalizer (compact policy, stall handshake) and
+/// the smooth pipeline top with the FIFO handshake and set-up values
+/// carried with the pixels prove their properties (the full tier proves
+/// every module under each policy).
+#[test]
+fn the_normalizer_and_the_smooth_top_prove_their_handshake_properties() {
+    for (unit, extra) in [
+        ("normalize", &[][..]),
+        (
+            "pipeline",
+            &[
+                "--set",
+                "rtl.handshake=\"fifo\"",
+                "--set",
+                "rtl.setup=\"pixel\"",
+            ][..],
+        ),
+    ] {
+        let mut a = vec!["formal", unit, "--json"];
+        a.extend(extra);
+        let o = fxshade(&a);
+        assert!(o.status.success(), "{unit}: {}", text(&o));
+        let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        assert_eq!(j["ok"], true, "{unit}: {j}");
+        let m = j["modules"].as_array().unwrap();
+        assert_eq!(m.len(), 1, "{unit}: {j}");
+        assert_eq!(m[0]["bmc"], true, "{unit}: {j}");
+        assert_eq!(m[0]["induction"], true, "{unit}: {j}");
+    }
 }
 
 /// `--jobs 0` is refused with the flag named and status 2 (a bad flag),
@@ -179,6 +213,7 @@ fn broken_handshakes_fail_the_proof() {
 /// per-frame port waits for the pipe; the per-triangle port is
 /// double-buffered, and loading the bank an item still reads fails too.
 #[test]
+#[ignore = "full tier: ./scripts/test --full"]
 fn a_set_up_port_loading_under_a_reader_fails_the_proof() {
     let dir = tempfile::tempdir().unwrap();
     let ok = dir.path().join("ok");

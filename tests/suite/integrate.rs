@@ -9,6 +9,7 @@ use std::process::Command;
 use crate::common::*;
 
 #[test]
+#[ignore = "full tier: ./scripts/test --full"]
 fn axis_wrappers_lint_cosimulate_and_prove() {
     let dir = tempfile::tempdir().unwrap();
     let o = fxshade(&[

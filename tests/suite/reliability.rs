@@ -376,6 +376,7 @@ fn fxshade_within(secs: u32, args: &[&str]) -> std::process::Output {
 /// far above the seconds they take (BENCHMARKS.md, "Wide accepted
 /// configurations", has the times).
 #[test]
+#[ignore = "full tier: ./scripts/test --full"]
 fn wide_accepted_configurations_finish() {
     let out = tempfile::tempdir().unwrap();
     for set in [

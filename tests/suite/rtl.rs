@@ -66,21 +66,57 @@ fn the_registry_lists_every_unit_and_variant_the_issue_names() {
     );
 }
 
-/// Every unit and variant on both simulators with the default
-/// configuration; the narrow and wide configurations on Icarus (its builds
-/// take a second, Verilator's many: the random configurations below run
-/// Verilator on other widths).
+/// The gate tier's co-simulation (`./scripts/test`): each unit's first
+/// variant and every path of the pipeline top on Icarus (a build takes a
+/// second) and the pipeline top's paths (which hold the units' arithmetic)
+/// on Verilator (many seconds a build), with the default configuration.
+/// Both simulators share the killer search's cached rows. The full tier
+/// adds every unit and variant on both simulators and the narrow and wide
+/// configurations on Icarus; the random configurations below run both
+/// simulators on other widths.
 #[test]
+fn icarus_matches_the_model_for_every_unit_and_pipeline_path() {
+    for (unit, variants) in units() {
+        let v = pairs(&variants);
+        let v = if unit == "pipeline" { &v[..] } else { &v[..1] };
+        check_all(&unit, "icarus", v, &[None]);
+    }
+}
+
+/// Full tier: every unit and variant on Icarus.
+#[test]
+#[ignore = "full tier: ./scripts/test --full"]
+fn icarus_matches_the_model_for_every_unit_and_variant() {
+    for (unit, variants) in units() {
+        check_all(&unit, "icarus", &pairs(&variants), &[None]);
+    }
+}
+
+#[test]
+fn verilator_matches_the_model_for_every_pipeline_path() {
+    for (unit, variants) in units() {
+        if unit == "pipeline" {
+            check_all(&unit, "verilator", &pairs(&variants), &[None]);
+        }
+    }
+}
+
+/// Full tier: every unit and variant on Verilator.
+#[test]
+#[ignore = "full tier: ./scripts/test --full"]
 fn verilator_matches_the_model_for_every_unit_and_variant() {
     for (unit, variants) in units() {
         check_all(&unit, "verilator", &pairs(&variants), &[None]);
     }
 }
 
+/// Full tier: every unit and variant on Icarus with the narrow and wide
+/// configurations (the default one is in the gate tier).
 #[test]
+#[ignore = "full tier: ./scripts/test --full"]
 fn icarus_matches_the_model_for_every_unit_variant_and_configuration() {
     for (unit, variants) in units() {
-        check_all(&unit, "icarus", &pairs(&variants), &configs());
+        check_all(&unit, "icarus", &pairs(&variants), &configs()[1..]);
     }
 }
 
@@ -94,10 +130,12 @@ fn pipelined() -> Option<String> {
     )
 }
 
+/// Full tier: every module `rtl all` writes for the target-pipelined
+/// configuration (each unit's first variant and the pipeline top of every
+/// path) on both simulators; the gate tier runs the smooth top on Icarus.
 #[test]
-fn target_pipelined_rtl_matches_the_model_on_both_simulators() {
-    // Every module `rtl all` writes: each unit's first variant and the
-    // pipeline top of every path.
+#[ignore = "full tier: ./scripts/test --full"]
+fn target_pipelined_rtl_of_every_module_matches_the_model() {
     for (unit, variants) in units() {
         let v = pairs(&variants);
         let v = if unit == "pipeline" { &v[..] } else { &v[..1] };
@@ -105,6 +143,18 @@ fn target_pipelined_rtl_matches_the_model_on_both_simulators() {
             check_all(&unit, sim, v, &[pipelined()]);
         }
     }
+}
+
+#[test]
+fn target_pipelined_rtl_matches_the_model_on_icarus() {
+    // The smooth pipeline top (its units' registers moved too; the full
+    // tier runs every module).
+    check_all(
+        "pipeline",
+        "icarus",
+        &[("smooth", "pipeline.path=\"smooth\"")],
+        &[pipelined()],
+    );
     // The registers moved: the header states the policy and the model's
     // prediction, and the latency differs from the compact policy's.
     let dir = tempfile::tempdir().unwrap();
@@ -170,6 +220,7 @@ fn target_pipelined_rtl_matches_the_model_on_both_simulators() {
 /// flip-flops); `"pixel"` carries them as before. All are bit-exact, and a
 /// port that loads a register items still read is caught.
 #[test]
+#[ignore = "full tier: ./scripts/test --full"]
 fn set_up_ports_hold_frame_and_triangle_values_once() {
     let dir = tempfile::tempdir().unwrap();
     let emit = |path: &str, setup: &str| -> (serde_json::Value, String) {
@@ -336,6 +387,7 @@ fn set_up_ports_hold_frame_and_triangle_values_once() {
 }
 
 #[test]
+#[ignore = "full tier: ./scripts/test --full"]
 fn testbenches_reject_short_long_and_wrong_vector_files() {
     testbench_checks("normalize");
     testbench_checks("pipeline");
@@ -541,9 +593,21 @@ fn committed_verilog_and_cpp_are_ascii_with_lines_of_at_most_100_columns() {
     }
 }
 
+/// Gate tier: every module `rtl all` writes with the default and the
+/// target-pipelined configurations (split products, moved registers).
 #[test]
 fn emitted_rtl_passes_verilator_icarus_yosys_and_slang() {
-    for cfg in configs().into_iter().chain([pipelined()]) {
+    for cfg in [None, pipelined()] {
+        strict_tools(&cfg);
+    }
+}
+
+/// Full tier: the narrow and wide configurations' modules, and every
+/// variant of every unit.
+#[test]
+#[ignore = "full tier: ./scripts/test --full"]
+fn emitted_rtl_of_every_variant_and_configuration_passes_the_strict_tools() {
+    for cfg in configs().into_iter().skip(1) {
         strict_tools(&cfg);
     }
     // Every variant of every unit, default configuration otherwise. A
@@ -599,11 +663,13 @@ fn cell_models_pass_verilator_icarus_and_slang() {
 }
 
 #[test]
+#[ignore = "full tier: ./scripts/test --full"]
 fn netlist_arithmetic_is_the_traced_arithmetic() {
     netlist_checks();
 }
 
 #[test]
+#[ignore = "full tier: ./scripts/test --full"]
 fn the_hand_written_rtl_disagreements_are_bit_exact_now() {
     for (unit, sets) in [
         ("interp", &["interp.bary.format=U0F16"][..]),
@@ -723,20 +789,35 @@ pub(crate) fn random_overrides(r: &mut Lcg) -> Vec<String> {
     v
 }
 
+/// Gate tier: the first random configuration the seed draws.
 #[test]
 fn random_valid_configurations_agree_bit_for_bit() {
+    random_configurations(0, 1);
+}
+
+/// Full tier: the next three (`FXSHADE_RANDOM_CONFIGS` sets how many in
+/// all, the gate tier's first included).
+#[test]
+#[ignore = "full tier: ./scripts/test --full"]
+fn more_random_valid_configurations_agree_bit_for_bit() {
+    random_configurations(1, 4);
+}
+
+/// Draw configurations from `FXSHADE_RANDOM_SEED` (or the fixed seed) and
+/// co-simulate the valid ones numbered `first..wanted` (`wanted` from
+/// `FXSHADE_RANDOM_CONFIGS` when set).
+fn random_configurations(first: usize, wanted: usize) {
     let seed = std::env::var("FXSHADE_RANDOM_SEED")
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(20261122u64);
-    // Four configurations keep the suite inside its 15-minute budget (each
-    // is eight to fourteen simulator builds and their killer searches,
-    // about 20 CPU-s); FXSHADE_RANDOM_CONFIGS runs more, and
-    // FXSHADE_RANDOM_SEED others.
+    // Each configuration is eight to fourteen simulator builds and their
+    // killer searches (about 20 CPU-s); FXSHADE_RANDOM_CONFIGS runs more,
+    // and FXSHADE_RANDOM_SEED others.
     let wanted = std::env::var("FXSHADE_RANDOM_CONFIGS")
         .ok()
         .and_then(|s| s.parse().ok())
-        .unwrap_or(4usize);
+        .unwrap_or(wanted);
     println!(
         "random configurations: {wanted}, seed {seed} (FXSHADE_RANDOM_CONFIGS, FXSHADE_RANDOM_SEED to change)"
     );
@@ -772,15 +853,20 @@ fn random_valid_configurations_agree_bit_for_bit() {
     std::thread::scope(|s| {
         for w in 0..2 {
             s.spawn(move || {
-                for (k, sets) in valid.iter().enumerate().filter(|(k, _)| k % 2 == w) {
+                for (k, sets) in valid
+                    .iter()
+                    .enumerate()
+                    .filter(|(k, _)| *k >= first && k % 2 == w)
+                {
                     // Every unit on Icarus (a build takes a tenth of a
                     // second); on Verilator (one to five seconds a build)
                     // the pipeline top, which holds the arithmetic of the
                     // units on the configuration's path (interp, normalize
                     // and lighting, or interp, angles, polar and lighting),
-                    // and every unit of the first two configurations.
+                    // and every unit of the second configuration (the full
+                    // tier's first).
                     for unit in units {
-                        let sims: &[&str] = if k < 2 || unit == "pipeline" {
+                        let sims: &[&str] = if k == 1 || unit == "pipeline" {
                             &["verilator", "icarus"]
                         } else {
                             &["icarus"]
@@ -916,41 +1002,55 @@ fn trace_writes_a_waveform() {
     }
 }
 
-/// Mutation testing on Verilator: every mutant of the units whose vectors
-/// kill them all is killed (the interpolator, the angle interpolator, the
-/// quadratic normalizer, whose `g` stage rounded half_up passed the old
-/// vectors, the linear one, whose `g` tie only the cut search finds, and
-/// the mapped-interp pipeline top, whose polar ties behind the table reads
-/// only the witness search finds),
-/// the unmutated schema passes, and the RTL and the mutated model agree on
-/// every mutant (the command fails otherwise). A unit with survivors is
-/// reported with them and a non-zero exit.
+/// Every mutant `mutate <unit> [--variant V]` makes is killed (score 1, at
+/// least three mutants); the normalizer's `g` rounding mutant among them.
+fn all_killed(unit: &str, variant: Option<&str>) {
+    let mut a = vec!["mutate", unit, "--json"];
+    if let Some(v) = variant {
+        a.extend(["--variant", v]);
+    }
+    let o = fxshade(&a);
+    assert!(o.status.success(), "{a:?}: {}", text(&o));
+    let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    for r in j.as_array().unwrap() {
+        assert_eq!(r["score"], 1.0, "{r}");
+        assert!(r["mutants"].as_u64().unwrap() >= 3, "{r}");
+        let g_round = r["results"].as_array().unwrap().iter().any(|m| {
+            m["mutation"].as_str().unwrap().contains("normalize.g (")
+                && m["mutation"].as_str().unwrap().contains("rounding")
+                && m["killed"] == true
+        });
+        assert!(unit != "normalize" || g_round, "{r}");
+    }
+}
+
+/// Gate tier: every mutant of the quadratic normalizer is killed (the full
+/// tier's test mutates four more units and checks the SMT audit and the
+/// survivors' report).
 #[test]
+fn mutants_of_the_quadratic_normalizer_are_killed() {
+    all_killed("normalize", Some("quadratic"));
+}
+
+/// Full tier: mutation testing on Verilator: every mutant of the units
+/// whose vectors kill them all is killed (the interpolator, the angle
+/// interpolator, the linear normalizer, whose `g` tie only the cut search
+/// finds, and the mapped-interp pipeline top, whose polar ties behind the
+/// table reads only the witness search finds; the quadratic normalizer,
+/// whose `g` stage rounded half_up passed the old vectors, is in the gate
+/// tier), the unmutated schema passes, and the RTL and the mutated model
+/// agree on every mutant (the command fails otherwise). A unit with
+/// survivors is reported with them and a non-zero exit.
+#[test]
+#[ignore = "full tier: ./scripts/test --full"]
 fn mutants_are_killed_and_survivors_are_named() {
     for (unit, variant) in [
         ("interp", None),
         ("angle_interp", None),
-        ("normalize", Some("quadratic")),
         ("normalize", Some("linear")),
         ("pipeline", Some("mapped-interp")),
     ] {
-        let mut a = vec!["mutate", unit, "--json"];
-        if let Some(v) = variant {
-            a.extend(["--variant", v]);
-        }
-        let o = fxshade(&a);
-        assert!(o.status.success(), "{a:?}: {}", text(&o));
-        let j: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-        for r in j.as_array().unwrap() {
-            assert_eq!(r["score"], 1.0, "{r}");
-            assert!(r["mutants"].as_u64().unwrap() >= 3, "{r}");
-            let g_round = r["results"].as_array().unwrap().iter().any(|m| {
-                m["mutation"].as_str().unwrap().contains("normalize.g (")
-                    && m["mutation"].as_str().unwrap().contains("rounding")
-                    && m["killed"] == true
-            });
-            assert!(unit != "normalize" || g_round, "{r}");
-        }
+        all_killed(unit, variant);
     }
     // The encoding z3 is asked about is checked against the model: no
     // mutant the vectors kill is claimed equivalent, and every input z3

@@ -107,6 +107,7 @@ fn ice40_place_and_route_gives_cells_fmax_and_latency() {
 }
 
 #[test]
+#[ignore = "full tier: ./scripts/test --full"]
 fn dsp_targets_map_every_multiplier_to_a_dsp_block() {
     let n = ANGLE_INTERP_MULS;
     for target in ["ice40-up5k", "xc7", "ecp5"] {
@@ -261,6 +262,7 @@ fn explore_synthesizes_every_point() {
 }
 
 #[test]
+#[ignore = "full tier: ./scripts/test --full"]
 fn the_polar_tables_go_to_block_ram() {
     // The quarter wave's 512 registered reads (the quarter-turn entry is a
     // constant beside the ROM, so the depth is a power of two).
@@ -391,6 +393,7 @@ fn sabotage(dir: &std::path::Path, file: &str, from: &str, to: &str) {
 }
 
 #[test]
+#[ignore = "full tier: ./scripts/test --full"]
 fn ecp5_gate_level_netlists_compute_what_the_model_computes() {
     // normalize at 8 ns: products with packed operand and output registers.
     let n = 1500;
@@ -653,6 +656,7 @@ fn ecp5_cells_without_dp16kd() -> (String, std::path::PathBuf) {
 }
 
 #[test]
+#[ignore = "full tier: ./scripts/test --full"]
 fn the_dp16kd_model_simulates_yosys_mapped_rams_as_their_rtl() {
     // Two RAMs as Yosys maps them onto DP16KD: 1024 × 18, single port (a
     // read and a write of one address on one port: the write mode
@@ -751,6 +755,7 @@ fn the_dp16kd_model_simulates_yosys_mapped_rams_as_their_rtl() {
 }
 
 #[test]
+#[ignore = "full tier: ./scripts/test --full"]
 fn the_output_fifo_is_lut_ram_on_ecp5_and_block_ram_on_ice40() {
     // On ECP5 the FIFO is marked distributed: Yosys would otherwise fold
     // the harness's output register into a DP16KD read port (the smooth
@@ -804,6 +809,7 @@ fn the_output_fifo_is_lut_ram_on_ecp5_and_block_ram_on_ice40() {
 /// valid on the set-up ports too, as before, all 387 had CE tied to 0 in
 /// the flattened netlist.)
 #[test]
+#[ignore = "full tier: ./scripts/test --full"]
 fn set_up_registers_load_in_the_synthesis_harness() {
     let dir = tempfile::tempdir().unwrap();
     let keep = dir.path().join("k");
@@ -1014,6 +1020,7 @@ fn packer_rules_hold(dir: &std::path::Path, unit_module: &str) {
 /// pipeliner cannot split), so the loop stops when the corrected period
 /// emits the design already measured, and the command fails.
 #[test]
+#[ignore = "full tier: ./scripts/test --full"]
 fn synth_closes_timing_with_a_verdict_and_the_critical_path_by_stage_id() {
     let dir = tempfile::tempdir().unwrap();
     // No place and route, no closure: refused before any tool runs.
