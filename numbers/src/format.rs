@@ -212,7 +212,13 @@ impl Format {
         reason = "the documented rounding: i128 to the nearest f64"
     )]
     pub fn to_f64(&self, code: i128) -> f64 {
-        code as f64 * exp2i(-self.frac)
+        // The same rounding from `i64` (a hardware conversion) as from
+        // `i128` (a software one) for every code that fits.
+        let c = match i64::try_from(code) {
+            Ok(c) => c as f64,
+            Err(_) => code as f64,
+        };
+        c * exp2i(-self.frac)
     }
     /// Whether a code lies in `min_code ..= max_code`.
     pub const fn contains(&self, code: i128) -> bool {

@@ -472,7 +472,7 @@ fn run_rtl(
     let design = fxshade_model::pipeline::RTL.design(&c)?;
     let emitted = fxshade_model::rtl::emit(&design)?;
     let rows = f.rows(method);
-    let live: Vec<usize> = (0..rows.len()).filter(|&i| !rows[i].is_empty()).collect();
+    let live: Vec<usize> = (0..rows.len()).filter(|&i| rows.is_live(i)).collect();
     if live.is_empty() {
         bail!("no pixel of the mesh could be shaded: nothing to simulate");
     }
@@ -488,9 +488,17 @@ fn run_rtl(
         .collect();
     let mut live = live;
     if !setup_cols.is_empty() {
-        live.sort_by_key(|&i| setup_cols.iter().map(|&k| rows[i][k]).collect::<Vec<_>>());
+        live.sort_by_key(|&i| {
+            setup_cols
+                .iter()
+                .map(|&k| rows.codes()[i * rows.width() + k])
+                .collect::<Vec<_>>()
+        });
     }
-    let input_rows: Vec<Vec<i128>> = live.iter().map(|&i| rows[i].clone()).collect();
+    let input_rows: Vec<Vec<i128>> = live
+        .iter()
+        .map(|&i| rows.codes()[i * rows.width()..][..rows.width()].to_vec())
+        .collect();
     // The model's level codes (not pixels: the comparison is bit for bit in
     // the level format).
     let model = p.run_rows(path, &input_rows)?;

@@ -46,7 +46,7 @@ use crate::datapath::Compiled;
 use crate::interp::{self, Scheme, THETA_LADDER};
 use crate::mesh::Mesh;
 use crate::normalizer::Method;
-use crate::pipeline::{AngleSource, Path, Pipeline, PipelineError};
+use crate::pipeline::{AngleSource, Path, Pipeline, PipelineError, Rows};
 
 /// Tilt of the mesh about x, in degrees (towards the viewer at the top).
 pub const TILT_DEG: f64 = 30.0;
@@ -584,15 +584,16 @@ pub struct Frame {
     pub skipped: usize,
     /// Those triangles (0-based indices into the mesh), in raster order.
     pub skipped_triangles: Vec<usize>,
-    /// Smooth-path input rows (one per fragment; empty for skipped ones).
-    pub smooth_rows: Vec<Vec<i128>>,
+    /// Smooth-path input rows (one per fragment; skipped ones not live).
+    pub smooth_rows: Rows,
     /// Mapped-path input rows with CORDIC angles (the six normals).
-    pub mapped_rows: Vec<Vec<i128>>,
+    pub mapped_rows: Rows,
     /// Mapped-path input rows with interpolated angles (the angle set-up).
-    pub mapped_interp_rows: Vec<Vec<i128>>,
+    pub mapped_interp_rows: Rows,
     /// Rows of the conventional baseline: `c1, c2`, per vertex `T, B, N`,
-    /// then `L`, `H` and the texel.
-    pub tbn_rows: Vec<Vec<i128>>,
+    /// then `L`, `H` and the texel (skipped, too, where the frame is
+    /// degenerate).
+    pub tbn_rows: Rows,
     /// Whether the exactly interpolated normal lies within
     /// [`POLAR_CAP_DEG`] of the y axis, where `β` and the implied frame are
     /// singular.
@@ -625,7 +626,7 @@ pub const POLAR_CAP_DEG: f64 = 2.0;
 
 impl Frame {
     /// The input rows of a method.
-    pub fn rows(&self, method: RenderMethod) -> &[Vec<i128>] {
+    pub fn rows(&self, method: RenderMethod) -> &Rows {
         match method {
             RenderMethod::Smooth(_) => &self.smooth_rows,
             RenderMethod::Mapped(AngleSource::Cordic) => &self.mapped_rows,
@@ -715,8 +716,16 @@ pub fn frame_wanted(
     }
 }
 
+/// Codes in a smooth-path row: `sel, c1, c2`, the six normals, `L`, `H`
+/// (the fields of [`Pipeline::fields`] for [`Path::Smooth`]).
+const SMOOTH_ROW: usize = 3 + 6 * 3 + 2 * 3;
+
+/// Codes in a row of the conventional baseline: `c1, c2`, per vertex
+/// `T, B, N`, then `L`, `H` and the texel.
+const TBN_ROW: usize = 2 + 3 * 3 * 3 + 3 * 3;
+
 /// Fragments per chunk of [`levels_streamed`].
-pub const CHUNK: usize = 16_384;
+pub const CHUNK: usize = 1024;
 
 /// [`frame_wanted`] with the rows handed to `sink` every `chunk` fragments
 /// (and once for the rest): when `sink` is called, the frame's row vectors
@@ -795,13 +804,19 @@ fn frame_core(
     let wrap = |d: f64| d - d.round();
     let n = raster.fragments.len();
     let cap_if = |b: bool| if b { n } else { 0 };
+    let streamed = chunk != usize::MAX;
+    let rows_if = |b: bool, width: usize| Rows::with_capacity(width, cap_if(b).min(chunk));
+    let (w_mapped, w_interp) = (
+        Pipeline::mapped_row_width(AngleSource::Cordic),
+        Pipeline::mapped_row_width(AngleSource::Interpolate),
+    );
     let mut f = Frame {
         skipped: 0,
         skipped_triangles: Vec::new(),
-        smooth_rows: Vec::with_capacity(cap_if(want.smooth)),
-        mapped_rows: Vec::with_capacity(cap_if(want.mapped)),
-        mapped_interp_rows: Vec::with_capacity(cap_if(want.mapped_interp)),
-        tbn_rows: Vec::with_capacity(cap_if(want.tbn)),
+        smooth_rows: rows_if(want.smooth, SMOOTH_ROW),
+        mapped_rows: rows_if(want.mapped, w_mapped),
+        mapped_interp_rows: rows_if(want.mapped_interp, w_interp),
+        tbn_rows: rows_if(want.tbn, TBN_ROW),
         polar_cap: Vec::with_capacity(n),
         tbn_ref: Vec::with_capacity(cap_if(want.mapped_refs)),
         smooth_ref: Vec::with_capacity(n),
@@ -818,7 +833,6 @@ fn frame_core(
         },
     };
     let cap = (POLAR_CAP_DEG.to_radians()).cos();
-    let streamed = chunk != usize::MAX;
     let mut in_chunk = 0usize;
     let flush = |f: &mut Frame, sink: &mut dyn FnMut(&Frame) -> Result<(), PipelineError>| {
         sink(f)?;
@@ -852,16 +866,16 @@ fn frame_core(
                 f.skipped_triangles.push(fr.tri);
             }
             if want.smooth {
-                f.smooth_rows.push(Vec::new());
+                f.smooth_rows.push_skipped();
             }
             if want.mapped {
-                f.mapped_rows.push(Vec::new());
+                f.mapped_rows.push_skipped();
             }
             if want.mapped_interp {
-                f.mapped_interp_rows.push(Vec::new());
+                f.mapped_interp_rows.push_skipped();
             }
             if want.tbn {
-                f.tbn_rows.push(Vec::new());
+                f.tbn_rows.push_skipped();
             }
             f.polar_cap.push(false);
             f.smooth_ref.push(f64::NAN);
@@ -879,14 +893,14 @@ fn frame_core(
         let (c1, c2) = (qb(fr.c[0]), qb(fr.c[1]));
         // Smooth row: sel, c1, c2, the six normals, L, H.
         if want.smooth {
-            let mut r = Vec::with_capacity(3 + 3 * st.v.len() + 6);
-            r.extend_from_slice(&[st.set as i128, c1, c2]);
-            for v in &st.v {
-                r.extend_from_slice(v);
-            }
-            r.extend_from_slice(&lc);
-            r.extend_from_slice(&hc);
-            f.smooth_rows.push(r);
+            f.smooth_rows.push_with(|r| {
+                r.extend_from_slice(&[st.set as i128, c1, c2]);
+                for v in &st.v {
+                    r.extend_from_slice(v);
+                }
+                r.extend_from_slice(&lc);
+                r.extend_from_slice(&hc);
+            });
         }
         let n_exact = interp::field(&st.tri, fr.c, scheme).normalize();
         f.smooth_ref.push(shade_f64(&p.light, n_exact, l, h));
@@ -911,19 +925,19 @@ fn frame_core(
         };
         let texc = tex.to_array().map(qn);
         let lh = [al, bl, ah, bh];
-        if want.mapped {
-            f.mapped_rows
-                .push(p.mapped_row_of(AngleSource::Cordic, [c1, c2], so, mt, lh, texc));
-        }
-        if want.mapped_interp {
-            f.mapped_interp_rows.push(p.mapped_row_of(
+        for (wanted, src, rows) in [
+            (want.mapped, AngleSource::Cordic, &mut f.mapped_rows),
+            (
+                want.mapped_interp,
                 AngleSource::Interpolate,
-                [c1, c2],
-                so,
-                mt,
-                lh,
-                texc,
-            ));
+                &mut f.mapped_interp_rows,
+            ),
+        ] {
+            if wanted {
+                rows.push_with(|r| {
+                    Pipeline::mapped_row_into(src, [c1, c2], so, mt, lh, texc, r);
+                });
+            }
         }
         if !(want.tbn || want.mapped_refs || baked.is_some()) {
             continue;
@@ -969,7 +983,11 @@ fn frame_core(
         r.extend_from_slice(&tbn_tex.to_array().map(qn));
         let degenerate = frames[0].2 == DVec3::ZERO;
         if want.tbn {
-            f.tbn_rows.push(if degenerate { Vec::new() } else { r });
+            if degenerate {
+                f.tbn_rows.push_skipped();
+            } else {
+                f.tbn_rows.push(&r);
+            }
         }
         if want.mapped_refs {
             f.tbn_ref.push(if degenerate {
@@ -1010,10 +1028,14 @@ fn frame_core(
     }
     if streamed {
         flush(&mut f, sink)?;
-        f.smooth_rows = Vec::new();
-        f.mapped_rows = Vec::new();
-        f.mapped_interp_rows = Vec::new();
-        f.tbn_rows = Vec::new();
+        for rows in [
+            &mut f.smooth_rows,
+            &mut f.mapped_rows,
+            &mut f.mapped_interp_rows,
+            &mut f.tbn_rows,
+        ] {
+            *rows = Rows::new(rows.width());
+        }
     }
     f.raster.fragments = raster.fragments;
     Ok(f)
@@ -1089,14 +1111,13 @@ fn method_pipeline(cfg: &Config, method: RenderMethod) -> Result<Pipeline, Pipel
 fn method_levels(
     p: &Pipeline,
     method: RenderMethod,
-    rows: &[Vec<i128>],
+    rows: &Rows,
 ) -> Result<Vec<u8>, PipelineError> {
     if method != RenderMethod::Tbn {
         return levels_of(p, method.path(), rows);
     }
-    let idx: Vec<usize> = (0..rows.len()).filter(|&i| !rows[i].is_empty()).collect();
-    let live: Vec<Vec<i128>> = idx.iter().map(|&i| rows[i].clone()).collect();
-    let out = p.run_tbn_rows(&live)?;
+    let idx: Vec<usize> = (0..rows.len()).filter(|&i| rows.is_live(i)).collect();
+    let out = p.run_tbn_rows(&rows.live_vecs())?;
     let fl = p.light.level.format();
     let mut levels = vec![0u8; rows.len()];
     for (k, &i) in idx.iter().enumerate() {
@@ -1216,8 +1237,8 @@ pub fn pixel_of(level: crate::format::Format, code: i128) -> u8 {
 ///
 /// # Panics
 ///
-/// If a non-empty row holds fewer codes than `path` has fields ([`Pipeline::run_rows`]).
-pub fn levels_of(p: &Pipeline, path: Path, rows: &[Vec<i128>]) -> Result<Vec<u8>, PipelineError> {
+/// If the rows do not hold one code per field of `path` ([`Pipeline::fields`]).
+pub fn levels_of(p: &Pipeline, path: Path, rows: &Rows) -> Result<Vec<u8>, PipelineError> {
     Ok(levels_with(p, path, &p.compile(path)?, rows))
 }
 
@@ -1226,21 +1247,15 @@ pub fn levels_of(p: &Pipeline, path: Path, rows: &[Vec<i128>]) -> Result<Vec<u8>
 ///
 /// # Panics
 ///
-/// If a non-empty row holds fewer codes than `path` has fields.
-pub fn levels_with(p: &Pipeline, path: Path, prog: &Compiled, rows: &[Vec<i128>]) -> Vec<u8> {
-    let idx: Vec<usize> = (0..rows.len()).filter(|&i| !rows[i].is_empty()).collect();
-    // Rows are copied only when some are skipped (they are most of a
-    // frame's memory).
-    let out = if idx.len() == rows.len() {
-        p.run_rows_compiled(path, prog, rows)
-    } else {
-        let live: Vec<Vec<i128>> = idx.iter().map(|&i| rows[i].clone()).collect();
-        p.run_rows_compiled(path, prog, &live)
-    };
+/// If the rows do not hold one code per field of `path`.
+pub fn levels_with(p: &Pipeline, path: Path, prog: &Compiled, rows: &Rows) -> Vec<u8> {
+    // Rows are copied only when some are skipped.
+    let out = p.run_flat_compiled(path, prog, &rows.live_codes());
     let fl = p.light.level.format();
     let mut levels = vec![0u8; rows.len()];
-    for (k, &i) in idx.iter().enumerate() {
-        levels[i] = pixel_of(fl, out[k]);
+    let live = (0..rows.len()).filter(|&i| rows.is_live(i));
+    for (i, &code) in live.zip(&out) {
+        levels[i] = pixel_of(fl, code);
     }
     levels
 }

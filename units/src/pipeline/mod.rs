@@ -64,7 +64,10 @@ use crate::polar::{Polar, PolarError};
 use crate::quantize::{Overflow, Quant, Rounding};
 use crate::units::{OpReport, Phase};
 
+pub mod rows;
 pub mod rtl;
+
+pub use rows::Rows;
 
 /// The `[pipeline]` configuration section.
 pub static DECL: UnitDecl = UnitDecl {
@@ -846,21 +849,46 @@ impl Pipeline {
         lh: [i128; 4],
         tex: [i128; 3],
     ) -> Vec<i128> {
-        let mut r = c.to_vec();
+        let mut r = Vec::with_capacity(Self::mapped_row_width(src));
+        Self::mapped_row_into(src, c, st, mt, lh, tex, &mut r);
+        r
+    }
+
+    /// Codes in a mapped-path row for the angle source `src` (the length
+    /// of [`Pipeline::mapped_row_of`]'s rows): `c1, c2`, then the six
+    /// normals (CORDIC) or the angle set-up (interpolated angles), the four
+    /// angles of L and H and the texel.
+    pub fn mapped_row_width(src: AngleSource) -> usize {
+        match src {
+            AngleSource::Cordic => 2 + 6 * 3 + 4 + 3,
+            AngleSource::Interpolate => 2 + 2 * 3 + 4 + 3,
+        }
+    }
+
+    /// [`Pipeline::mapped_row_of`] appended to `out` (no vector of its own).
+    pub fn mapped_row_into(
+        src: AngleSource,
+        c: [i128; 2],
+        st: &SmoothTri,
+        mt: &MappedTri,
+        lh: [i128; 4],
+        tex: [i128; 3],
+        out: &mut Vec<i128>,
+    ) {
+        out.extend_from_slice(&c);
         match src {
             AngleSource::Cordic => {
                 for v in &st.v {
-                    r.extend_from_slice(v);
+                    out.extend_from_slice(v);
                 }
             }
             AngleSource::Interpolate => {
-                r.extend_from_slice(&mt.a);
-                r.extend_from_slice(&mt.b);
+                out.extend_from_slice(&mt.a);
+                out.extend_from_slice(&mt.b);
             }
         }
-        r.extend_from_slice(&lh);
-        r.extend_from_slice(&tex);
-        r
+        out.extend_from_slice(&lh);
+        out.extend_from_slice(&tex);
     }
 
     /// Set up a triangle for the mapped path: `[α3, Δα1, Δα2]` and
@@ -884,6 +912,54 @@ impl Pipeline {
         MappedTri {
             a: pack(|c| c.0),
             b: pack(|c| c.1),
+        }
+    }
+}
+
+/// Run `prog` on `n` rows of `width` codes (`row(i)` is row `i`): the
+/// rows are transposed into the columns the program takes, in its own code
+/// type, then run; the first output's codes, in row order.
+fn run_columns<'a>(
+    prog: &Compiled,
+    width: usize,
+    n: usize,
+    row: impl Fn(usize) -> &'a [i128],
+) -> Vec<i128> {
+    // Row after row (each read once, front to back), each code to its
+    // column. Columns lie `stride` codes apart, a little more than `n`: at
+    // a power-of-two distance every column's current line would fall in
+    // the same cache set.
+    fn columns<'a, R: Copy + Default>(
+        width: usize,
+        n: usize,
+        row: &impl Fn(usize) -> &'a [i128],
+        f: impl Fn(i128) -> R,
+    ) -> (Vec<R>, usize) {
+        let stride = n + 8;
+        let mut cols = vec![R::default(); width * stride];
+        for i in 0..n {
+            for (k, &v) in row(i)[..width].iter().enumerate() {
+                cols[k * stride + i] = f(v);
+            }
+        }
+        (cols, stride)
+    }
+    if n == 0 {
+        return Vec::new();
+    }
+    match prog {
+        Compiled::Narrow(p) => {
+            // The program was compiled narrow: every input code fits.
+            let (cols, stride) = columns(width, n, &row, narrow::<i64, _>);
+            let refs: Vec<&[i64]> = cols.chunks_exact(stride).map(|c| &c[..n]).collect();
+            let (mut res, _) = p.run(&refs);
+            res.swap_remove(0).into_iter().map(i128::from).collect()
+        }
+        Compiled::Wide(p) => {
+            let (cols, stride) = columns(width, n, &row, |v| v);
+            let refs: Vec<&[i128]> = cols.chunks_exact(stride).map(|c| &c[..n]).collect();
+            let (mut res, _) = p.run(&refs);
+            res.swap_remove(0)
         }
     }
 }
@@ -1014,42 +1090,20 @@ impl Pipeline {
     /// If a row holds fewer codes than `path` has fields.
     pub fn run_rows_compiled(&self, path: Path, prog: &Compiled, rows: &[Vec<i128>]) -> Vec<i128> {
         let width = self.fields(path).len();
-        // One pass over the rows (each read once, front to back) into the
-        // columns the program takes, in its own code type.
-        fn columns<R: Copy + Default>(
-            rows: &[Vec<i128>],
-            width: usize,
-            f: impl Fn(i128) -> R,
-        ) -> Vec<R> {
-            // Column-major: column k is `cols[k * n..(k + 1) * n]`.
-            let n = rows.len();
-            let mut cols = vec![R::default(); width * n];
-            for (i, r) in rows.iter().enumerate() {
-                for (k, &v) in r[..width].iter().enumerate() {
-                    cols[k * n + i] = f(v);
-                }
-            }
-            cols
-        }
-        if rows.is_empty() {
-            return Vec::new();
-        }
-        let n = rows.len();
-        match prog {
-            Compiled::Narrow(p) => {
-                // The program was compiled narrow: every input code fits.
-                let cols = columns(rows, width, narrow::<i64, _>);
-                let refs: Vec<&[i64]> = cols.chunks_exact(n).collect();
-                let (mut res, _) = p.run(&refs);
-                res.swap_remove(0).into_iter().map(i128::from).collect()
-            }
-            Compiled::Wide(p) => {
-                let cols = columns(rows, width, |v| v);
-                let refs: Vec<&[i128]> = cols.chunks_exact(n).collect();
-                let (mut res, _) = p.run(&refs);
-                res.swap_remove(0)
-            }
-        }
+        run_columns(prog, width, rows.len(), |i| &rows[i][..width])
+    }
+
+    /// [`Pipeline::run_rows_compiled`] on rows stored flat: `codes` holds
+    /// one row of `path`'s fields after another ([`Rows::live_codes`]).
+    ///
+    /// # Panics
+    ///
+    /// If `codes.len()` is not a multiple of the number of `path`'s fields.
+    pub fn run_flat_compiled(&self, path: Path, prog: &Compiled, codes: &[i128]) -> Vec<i128> {
+        let width = self.fields(path).len();
+        assert_eq!(codes.len() % width, 0, "rows of {width} codes");
+        let n = codes.len() / width;
+        run_columns(prog, width, n, |i| &codes[i * width..(i + 1) * width])
     }
 
     /// The scalar fixed-point run of one row (the readable specification the

@@ -218,7 +218,7 @@ pub fn render_rows(
             super::AngleSource::Interpolate => f.mapped_interp_rows,
         },
     };
-    rows.into_iter().filter(|r| !r.is_empty()).collect()
+    rows.live_vecs()
 }
 
 /// Input vectors of the configured path: the pixels of a 12 × 12 render of a
