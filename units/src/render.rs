@@ -765,7 +765,9 @@ fn frame_core(
     );
     // Only the triangles some pixel shows are set up (a fine mesh in a
     // small image has millions of triangles and a few thousand pixels).
+    // Fragments come in runs of one triangle: one entry per run, then sorted.
     let mut shown: Vec<usize> = raster.fragments.iter().map(|f| f.tri).collect();
+    shown.dedup();
     shown.sort_unstable();
     shown.dedup();
     let tris: std::collections::HashMap<usize, Option<Tri>> = shown
@@ -1226,6 +1228,11 @@ pub fn image_of(f: &Frame, method: RenderMethod, levels: Vec<u8>) -> MethodImage
 /// signed, is shown by value rather than by its raw code. Model and RTL
 /// images both go through this.
 pub fn pixel_of(level: crate::format::Format, code: i128) -> u8 {
+    if level.frac() == 0 {
+        // An integer level is its code: rounding leaves it, clipping is
+        // the same on the code.
+        return narrow::<u8, _>(code.clamp(0, 255));
+    }
     from_f64::<u8>(level.to_f64(code).round().clamp(0.0, 255.0))
 }
 
@@ -1279,4 +1286,32 @@ pub fn to_image<T: Copy>(raster: &Raster, v: &[T], background: T) -> Vec<T> {
 /// Which interpolation scheme a frame's references use.
 pub fn scheme_of(cfg: &Config) -> Scheme {
     interp::Interp::from_config(cfg).scheme
+}
+
+#[cfg(test)]
+mod tests {
+    use super::pixel_of;
+    use crate::format::Format;
+
+    /// The pixel of a code is its value rounded to the nearest level and
+    /// clipped, computed here in f64 from the code's value (`code·2^-frac`)
+    /// for integer and fractional, signed and unsigned level formats.
+    #[test]
+    fn pixel_of_is_the_rounded_clipped_value() {
+        for (signed, width, frac) in [
+            (false, 8, 0),
+            (true, 10, 0),
+            (false, 12, 0),
+            (false, 12, 4),
+            (true, 9, 1),
+        ] {
+            let f = Format::new(signed, width, frac).unwrap();
+            for code in f.min_code()..=f.max_code() {
+                let value = fxshade_numbers::convert::to_f64(i32::try_from(code).unwrap())
+                    / f64::from(1u32 << frac);
+                let want = value.round().clamp(0.0, 255.0);
+                assert_eq!(f64::from(pixel_of(f, code)), want, "{code} in {f:?}");
+            }
+        }
+    }
 }
