@@ -637,9 +637,15 @@ pub fn search_codes_full(
     let n = p.degree();
     let grid = search_grid(lo, hi);
     let sq: Vec<f64> = grid.iter().map(|d| d.sqrt()).collect();
+    let rs: Vec<f64> = grid.iter().map(|&d| rsqrt(d)).collect();
+    let pows: Vec<Vec<f64>> = (0..=n)
+        .map(|k| grid.iter().map(|d| d.powi(narrow::<i32, _>(k))).collect())
+        .collect();
     let mut s = Search {
         grid: &grid,
         sq: &sq,
+        rs: &rs,
+        pows: &pows,
         h: f.ulp(),
         f,
         keep: keep.max(1),
@@ -684,6 +690,10 @@ pub fn grid_rel_err(codes: &[i128], f: Format, grid: &[f64]) -> f64 {
 struct Search<'a> {
     grid: &'a [f64],
     sq: &'a [f64],
+    /// `1/√d` at every point of the grid.
+    rs: &'a [f64],
+    /// `pows[k][i]` = `d_i^k` (`powi`) at every point, for every power.
+    pows: &'a [Vec<f64>],
     h: f64,
     f: Format,
     keep: usize,
@@ -697,14 +707,14 @@ struct Search<'a> {
 
 impl Search<'_> {
     fn error(&self, codes: &[i128]) -> f64 {
+        // Each coefficient's value once, not once per point (the same
+        // products, so the same sums).
+        let vals: Vec<f64> = codes.iter().map(|&c| to_f64(c) * self.h).collect();
         self.grid
             .iter()
             .zip(self.sq)
             .map(|(&d, &s)| {
-                let g = codes
-                    .iter()
-                    .rev()
-                    .fold(0.0, |acc, &c| acc * d + to_f64(c) * self.h);
+                let g = vals.iter().rev().fold(0.0, |acc, &v| acc * d + v);
                 (s * g - 1.0).abs()
             })
             .fold(0.0, f64::max)
@@ -733,14 +743,12 @@ impl Search<'_> {
     /// `1/√d − Σ_{k ≥ j} c_k·h·d^k` at every point: what the powers below
     /// `j` must approximate once powers ≥ `j` are fixed.
     fn residual(&self, fixed: &[i128], j: usize) -> Vec<f64> {
-        self.grid
-            .iter()
-            .map(|&d| {
-                rsqrt(d)
-                    - (j..fixed.len())
-                        .map(|k| to_f64(fixed[k]) * self.h * d.powi(narrow::<i32, _>(k)))
-                        .sum::<f64>()
-            })
+        // `c_k·h` once per call and `1/√d`, `d^k` once per search: the
+        // same values, summed in the same order.
+        let ch: Vec<f64> = fixed[j..].iter().map(|&c| to_f64(c) * self.h).collect();
+        let pows = &self.pows[j..fixed.len()];
+        (0..self.grid.len())
+            .map(|i| self.rs[i] - ch.iter().zip(pows).map(|(&c, p)| c * p[i]).sum::<f64>())
             .collect()
     }
     /// The smallest error reachable with powers ≥ j fixed (`fixed[j]` set)
@@ -822,9 +830,14 @@ impl Search<'_> {
                 clamp(from_f64::<i128>(real.floor()) - w),
                 clamp(from_f64::<i128>(real.ceil()) + w),
             );
-            let best = (a..=b)
-                .min_by(|&x, &y| lb(x, fixed).total_cmp(&lb(y, fixed)))
-                .expect("non-empty");
+            // Each code's bound once (the comparison would evaluate it
+            // twice); the first of equal minima, as `min_by` picks.
+            let bounds: Vec<(i128, f64)> = (a..=b).map(|c| (c, lb(c, fixed))).collect();
+            let best = bounds
+                .iter()
+                .min_by(|x, y| x.1.total_cmp(&y.1))
+                .expect("non-empty")
+                .0;
             let on_edge =
                 (best == a && a > self.f.min_code()) || (best == b && b < self.f.max_code());
             if !on_edge || w > 1 << 20 {
