@@ -698,10 +698,11 @@ pub fn frame_in(scene: &Scene, p: &Pipeline, raster: Raster, mesh: &Mesh) -> Fra
 
 /// Set up every triangle, and build the rows and references of a raster
 /// (rasterized in the same `scene`). Fragments of triangles that cannot be
-/// set up (zero or antiparallel vertex normals) get empty rows and NaN
-/// references: [`Metrics::compare`] counts them as skipped, never as exact.
-/// Only the rows and references `want` names are built (the others stay
-/// empty: one entry-less vector each); those that are built are the same
+/// set up (zero or antiparallel vertex normals) get skipped rows
+/// ([`Rows::push_skipped`]) and NaN references: [`Metrics::compare`]
+/// counts them as skipped, never as exact. Only the rows and references
+/// `want` names are built (the others stay empty); those that are built
+/// are the same
 /// whatever else is wanted.
 pub fn frame_wanted(
     scene: &Scene,
@@ -1109,7 +1110,7 @@ fn method_pipeline(cfg: &Config, method: RenderMethod) -> Result<Pipeline, Pipel
     Ok(p)
 }
 
-/// The levels of `rows` (skipped fragments, with empty rows, are 0).
+/// The levels of `rows` (skipped rows are 0).
 fn method_levels(
     p: &Pipeline,
     method: RenderMethod,
@@ -1236,7 +1237,7 @@ pub fn pixel_of(level: crate::format::Format, code: i128) -> u8 {
     from_f64::<u8>(level.to_f64(code).round().clamp(0.0, 255.0))
 }
 
-/// Levels of a path's rows (skipped fragments, with empty rows, are 0).
+/// Levels of a path's rows (skipped rows are 0).
 ///
 /// # Errors
 ///
