@@ -836,28 +836,15 @@ impl Pipeline {
         lh: [i128; 4],
         tex: [i128; 3],
     ) -> Vec<i128> {
-        self.mapped_row_of(self.angles, c, st, mt, lh, tex)
-    }
-
-    /// [`Pipeline::mapped_row`] for the angle source `src`.
-    pub fn mapped_row_of(
-        &self,
-        src: AngleSource,
-        c: [i128; 2],
-        st: &SmoothTri,
-        mt: &MappedTri,
-        lh: [i128; 4],
-        tex: [i128; 3],
-    ) -> Vec<i128> {
-        let mut r = Vec::with_capacity(Self::mapped_row_width(src));
-        Self::mapped_row_into(src, c, st, mt, lh, tex, &mut r);
+        let mut r = Vec::with_capacity(Self::mapped_row_width(self.angles));
+        Self::mapped_row_into(self.angles, c, st, mt, lh, tex, &mut r);
         r
     }
 
     /// Codes in a mapped-path row for the angle source `src` (the length
-    /// of [`Pipeline::mapped_row_of`]'s rows): `c1, c2`, then the six
-    /// normals (CORDIC) or the angle set-up (interpolated angles), the four
-    /// angles of L and H and the texel.
+    /// of [`Pipeline::mapped_row`]'s rows with that source): `c1, c2`,
+    /// then the six normals (CORDIC) or the angle set-up (interpolated
+    /// angles), the four angles of L and H and the texel.
     pub fn mapped_row_width(src: AngleSource) -> usize {
         match src {
             AngleSource::Cordic => 2 + 6 * 3 + 4 + 3,
@@ -865,7 +852,8 @@ impl Pipeline {
         }
     }
 
-    /// [`Pipeline::mapped_row_of`] appended to `out` (no vector of its own).
+    /// [`Pipeline::mapped_row`] for the angle source `src`, appended to `out`
+    /// (no vector of its own).
     pub fn mapped_row_into(
         src: AngleSource,
         c: [i128; 2],
