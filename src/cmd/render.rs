@@ -487,18 +487,12 @@ fn run_rtl(
         .map(|(k, _)| k)
         .collect();
     let mut live = live;
+    // Every index in `live` is a live row.
+    let row = |i: usize| rows.get(i).unwrap_or_default();
     if !setup_cols.is_empty() {
-        live.sort_by_key(|&i| {
-            setup_cols
-                .iter()
-                .map(|&k| rows.codes()[i * rows.width() + k])
-                .collect::<Vec<_>>()
-        });
+        live.sort_by_key(|&i| setup_cols.iter().map(|&k| row(i)[k]).collect::<Vec<_>>());
     }
-    let input_rows: Vec<Vec<i128>> = live
-        .iter()
-        .map(|&i| rows.codes()[i * rows.width()..][..rows.width()].to_vec())
-        .collect();
+    let input_rows: Vec<Vec<i128>> = live.iter().map(|&i| row(i).to_vec()).collect();
     // The model's level codes (not pixels: the comparison is bit for bit in
     // the level format).
     let model = p.run_rows(path, &input_rows)?;

@@ -702,8 +702,7 @@ pub fn frame_in(scene: &Scene, p: &Pipeline, raster: Raster, mesh: &Mesh) -> Fra
 /// ([`Rows::push_skipped`]) and NaN references: [`Metrics::compare`]
 /// counts them as skipped, never as exact. Only the rows and references
 /// `want` names are built (the others stay empty); those that are built
-/// are the same
-/// whatever else is wanted.
+/// are the same whatever else is wanted.
 pub fn frame_wanted(
     scene: &Scene,
     p: &Pipeline,
@@ -717,12 +716,9 @@ pub fn frame_wanted(
     }
 }
 
-/// Codes in a smooth-path row: `sel, c1, c2`, the six normals, `L`, `H`
-/// (the fields of [`Pipeline::fields`] for [`Path::Smooth`]).
-const SMOOTH_ROW: usize = 3 + 6 * 3 + 2 * 3;
-
 /// Codes in a row of the conventional baseline: `c1, c2`, per vertex
-/// `T, B, N`, then `L`, `H` and the texel.
+/// `T, B, N`, then `L`, `H` and the texel (the inputs of
+/// [`Pipeline::trace_tbn`]; a unit test holds them equal).
 const TBN_ROW: usize = 2 + 3 * 3 * 3 + 3 * 3;
 
 /// Fragments per chunk of [`levels_streamed`].
@@ -809,14 +805,16 @@ fn frame_core(
     let cap_if = |b: bool| if b { n } else { 0 };
     let streamed = chunk != usize::MAX;
     let rows_if = |b: bool, width: usize| Rows::with_capacity(width, cap_if(b).min(chunk));
-    let (w_mapped, w_interp) = (
-        Pipeline::mapped_row_width(AngleSource::Cordic),
-        Pipeline::mapped_row_width(AngleSource::Interpolate),
+    // Row widths: one code per input field of the path.
+    let (w_smooth, w_mapped, w_interp) = (
+        p.fields(Path::Smooth).len(),
+        p.fields_of(Path::Mapped, AngleSource::Cordic).len(),
+        p.fields_of(Path::Mapped, AngleSource::Interpolate).len(),
     );
     let mut f = Frame {
         skipped: 0,
         skipped_triangles: Vec::new(),
-        smooth_rows: rows_if(want.smooth, SMOOTH_ROW),
+        smooth_rows: rows_if(want.smooth, w_smooth),
         mapped_rows: rows_if(want.mapped, w_mapped),
         mapped_interp_rows: rows_if(want.mapped_interp, w_interp),
         tbn_rows: rows_if(want.tbn, TBN_ROW),
@@ -1291,8 +1289,16 @@ pub fn scheme_of(cfg: &Config) -> Scheme {
 
 #[cfg(test)]
 mod tests {
-    use super::pixel_of;
+    use super::{pixel_of, TBN_ROW};
     use crate::format::Format;
+
+    /// A baseline row holds one code per input of the baseline's trace.
+    #[test]
+    fn a_baseline_row_holds_one_code_per_input_of_its_trace() {
+        let cfg = crate::config::Config::embedded();
+        let p = crate::pipeline::Pipeline::from_config(&cfg).unwrap();
+        assert_eq!(p.trace_tbn().unwrap().input_ports().len(), TBN_ROW);
+    }
 
     /// The pixel of a code is its value rounded to the nearest level and
     /// clipped, computed here in f64 from the code's value (`code·2^-frac`)

@@ -836,24 +836,14 @@ impl Pipeline {
         lh: [i128; 4],
         tex: [i128; 3],
     ) -> Vec<i128> {
-        let mut r = Vec::with_capacity(Self::mapped_row_width(self.angles));
+        let mut r = Vec::new();
         Self::mapped_row_into(self.angles, c, st, mt, lh, tex, &mut r);
         r
     }
 
-    /// Codes in a mapped-path row for the angle source `src` (the length
-    /// of [`Pipeline::mapped_row`]'s rows with that source): `c1, c2`,
-    /// then the six normals (CORDIC) or the angle set-up (interpolated
-    /// angles), the four angles of L and H and the texel.
-    pub fn mapped_row_width(src: AngleSource) -> usize {
-        match src {
-            AngleSource::Cordic => 2 + 6 * 3 + 4 + 3,
-            AngleSource::Interpolate => 2 + 2 * 3 + 4 + 3,
-        }
-    }
-
     /// [`Pipeline::mapped_row`] for the angle source `src`, appended to `out`
-    /// (no vector of its own).
+    /// (no vector of its own): the fields of [`Pipeline::fields_of`]
+    /// for [`Path::Mapped`] and `src`.
     pub fn mapped_row_into(
         src: AngleSource,
         c: [i128; 2],
@@ -981,6 +971,17 @@ impl Pipeline {
     ///
     /// Never: `U3F0` (the `sel` field) is a valid format.
     pub fn fields(&self, path: Path) -> Vec<crate::rtl::record::Field> {
+        self.fields_of(path, self.angles)
+    }
+
+    /// [`Pipeline::fields`] with the mapped path's angles from `src`
+    /// rather than the configured source (a render builds the rows of
+    /// both).
+    ///
+    /// # Panics
+    ///
+    /// Never, as [`Pipeline::fields`].
+    pub fn fields_of(&self, path: Path, src: AngleSource) -> Vec<crate::rtl::record::Field> {
         use crate::rtl::record::Field;
         let fb = self.interp.bary.format();
         let mut f = Vec::new();
@@ -1005,7 +1006,7 @@ impl Pipeline {
                     }
                 }
             }
-            Path::Mapped if self.angles == AngleSource::Cordic => {
+            Path::Mapped if src == AngleSource::Cordic => {
                 f.push(Field::new("c1", fb));
                 f.push(Field::new("c2", fb));
                 let fv = self.interp.vertex.format();
