@@ -46,7 +46,7 @@ use crate::datapath::Compiled;
 use crate::interp::{self, Scheme, THETA_LADDER};
 use crate::mesh::Mesh;
 use crate::normalizer::Method;
-use crate::pipeline::{AngleSource, Path, Pipeline, PipelineError, Rows};
+use crate::pipeline::{AngleSource, Columns, Path, Pipeline, PipelineError, Rows};
 
 /// Tilt of the mesh about x, in degrees (towards the viewer at the top).
 pub const TILT_DEG: f64 = 30.0;
@@ -710,10 +710,164 @@ pub fn frame_wanted(
     mesh: &Mesh,
     want: Wanted,
 ) -> Frame {
-    match frame_core(scene, p, raster, mesh, want, usize::MAX, &mut |_| Ok(())) {
+    let n = raster.fragments.len();
+    let [ws, wm, wi, wt] = row_widths(p);
+    let rows =
+        |b: bool, width: usize| Store::Rows(Rows::with_capacity(width, if b { n } else { 0 }));
+    let mut stores = Stores {
+        smooth: rows(want.smooth, ws),
+        mapped: rows(want.mapped, wm),
+        mapped_interp: rows(want.mapped_interp, wi),
+        tbn: rows(want.tbn, wt),
+    };
+    let mut f = match frame_core(scene, p, raster, mesh, want, &mut stores, None) {
         Ok(f) => f,
-        Err(_) => unreachable!("a sink that never fails"),
+        Err(_) => unreachable!("no sink, so no error"),
+    };
+    let take = |s: Store| match s {
+        Store::Rows(r) => r,
+        Store::Columns(_) => unreachable!("built as rows"),
+    };
+    f.smooth_rows = take(stores.smooth);
+    f.mapped_rows = take(stores.mapped);
+    f.mapped_interp_rows = take(stores.mapped_interp);
+    f.tbn_rows = take(stores.tbn);
+    f
+}
+
+/// Row widths, one code per input field of the path: smooth, mapped with
+/// CORDIC angles, mapped with interpolated angles (a render builds the rows
+/// of both sources), the conventional baseline.
+fn row_widths(p: &Pipeline) -> [usize; 4] {
+    [
+        p.fields(Path::Smooth).len(),
+        p.fields_of(Path::Mapped, AngleSource::Cordic).len(),
+        p.fields_of(Path::Mapped, AngleSource::Interpolate).len(),
+        TBN_ROW,
+    ]
+}
+
+/// Where a frame's rows of one path go: kept whole ([`Rows`]), or written
+/// chunk by chunk into a program's columns ([`Columns`]).
+enum Store {
+    Rows(Rows),
+    Columns(Columns),
+}
+
+impl Store {
+    fn push_with(&mut self, fill: impl FnOnce(&mut Vec<i128>)) {
+        match self {
+            Store::Rows(r) => r.push_with(fill),
+            Store::Columns(c) => c.push_with(fill),
+        }
     }
+
+    /// A row given whole by `fill` and, in `pixel`, by its per-pixel
+    /// codes ([`Pipeline::pixel_fields`], in field order): columns within
+    /// a run take those alone.
+    fn push_pixel(&mut self, pixel: &[i128], fill: impl FnOnce(&mut Vec<i128>)) {
+        match self {
+            Store::Columns(c) if c.in_run() => c.push_pixel(pixel),
+            _ => self.push_with(fill),
+        }
+    }
+
+    fn push(&mut self, row: &[i128]) {
+        self.push_with(|r| r.extend_from_slice(row));
+    }
+
+    fn push_skipped(&mut self) {
+        match self {
+            Store::Rows(r) => r.push_skipped(),
+            Store::Columns(c) => c.push_skipped(),
+        }
+    }
+
+    /// The rows since the last call were of one triangle.
+    fn end_run(&mut self) {
+        if let Store::Columns(c) = self {
+            c.end_run();
+        }
+    }
+
+    fn clear(&mut self) {
+        match self {
+            Store::Rows(r) => r.clear(),
+            Store::Columns(c) => c.clear(),
+        }
+    }
+
+    /// The levels of `method` (pipeline `p`, its program `prog` unless it
+    /// is the baseline) on these rows; skipped rows are 0.
+    fn levels(
+        &self,
+        p: &Pipeline,
+        method: RenderMethod,
+        prog: Option<&Compiled>,
+    ) -> Result<Vec<u8>, PipelineError> {
+        match (self, prog) {
+            (Store::Rows(r), Some(prog)) => Ok(levels_with(p, method.path(), prog, r)),
+            (Store::Rows(r), None) => method_levels(p, method, r),
+            (Store::Columns(c), Some(prog)) => Ok(levels_of_columns(p, prog, c)),
+            (Store::Columns(_), None) => unreachable!("the baseline's rows are kept as rows"),
+        }
+    }
+}
+
+/// The stores of a frame's four row kinds.
+struct Stores {
+    smooth: Store,
+    mapped: Store,
+    mapped_interp: Store,
+    tbn: Store,
+}
+
+impl Stores {
+    fn of(&self, method: RenderMethod) -> &Store {
+        match method {
+            RenderMethod::Smooth(_) => &self.smooth,
+            RenderMethod::Mapped(AngleSource::Cordic) => &self.mapped,
+            RenderMethod::Mapped(AngleSource::Interpolate) => &self.mapped_interp,
+            RenderMethod::Tbn => &self.tbn,
+        }
+    }
+
+    fn each(&mut self) -> [&mut Store; 4] {
+        [
+            &mut self.smooth,
+            &mut self.mapped,
+            &mut self.mapped_interp,
+            &mut self.tbn,
+        ]
+    }
+}
+
+/// The levels of a program run on columns (skipped rows are 0).
+fn levels_of_columns(p: &Pipeline, prog: &Compiled, c: &Columns) -> Vec<u8> {
+    let cols: Vec<&[i64]> = (0..c.width()).map(|k| c.column(k)).collect();
+    let fl = p.light.level.format();
+    let mut levels = vec![0u8; c.len()];
+    let mut put = |codes: &mut dyn Iterator<Item = i128>| {
+        for (i, code) in (0..c.len()).filter(|&i| c.is_live(i)).zip(codes) {
+            levels[i] = pixel_of(fl, code);
+        }
+    };
+    match prog {
+        Compiled::Narrow(pr) => {
+            let (res, _) = pr.run(&cols);
+            put(&mut res[0].iter().map(|&v| i128::from(v)));
+        }
+        Compiled::Wide(pr) => {
+            let wide: Vec<Vec<i128>> = cols
+                .iter()
+                .map(|col| col.iter().map(|&v| i128::from(v)).collect())
+                .collect();
+            let refs: Vec<&[i128]> = wide.iter().map(Vec::as_slice).collect();
+            let (res, _) = pr.run(&refs);
+            put(&mut res[0].iter().copied());
+        }
+    }
+    levels
 }
 
 /// Codes in a row of the conventional baseline: `c1, c2`, per vertex
@@ -724,18 +878,22 @@ const TBN_ROW: usize = 2 + 3 * 3 * 3 + 3 * 3;
 /// Fragments per chunk of [`levels_streamed`].
 pub const CHUNK: usize = 1024;
 
-/// [`frame_wanted`] with the rows handed to `sink` every `chunk` fragments
-/// (and once for the rest): when `sink` is called, the frame's row vectors
-/// hold the rows of the fragments since the previous call only, and they
-/// are emptied after it. The returned frame holds no rows.
+/// A sink for a frame's rows: called every `CHUNK` fragments
+/// (and once for the rest) with the stores holding the rows of the
+/// fragments since the previous call only; they are emptied after it.
+type Sink<'a> = &'a mut dyn FnMut(&Stores) -> Result<(), PipelineError>;
+
+/// [`frame_wanted`] with the rows written to `stores`, and with a `sink`
+/// handed to it every [`CHUNK`] fragments. The returned frame holds no
+/// rows.
 fn frame_core(
     scene: &Scene,
     p: &Pipeline,
     raster: Raster,
     mesh: &Mesh,
     want: Wanted,
-    chunk: usize,
-    sink: &mut dyn FnMut(&Frame) -> Result<(), PipelineError>,
+    stores: &mut Stores,
+    mut sink: Option<Sink<'_>>,
 ) -> Result<Frame, PipelineError> {
     // The smooth path shades in the camera frame. The mapped path works in
     // the mesh's own frame, where the implied tangent frame (fixed by the
@@ -803,21 +961,14 @@ fn frame_core(
     let wrap = |d: f64| d - d.round();
     let n = raster.fragments.len();
     let cap_if = |b: bool| if b { n } else { 0 };
-    let streamed = chunk != usize::MAX;
-    let rows_if = |b: bool, width: usize| Rows::with_capacity(width, cap_if(b).min(chunk));
-    // Row widths: one code per input field of the path.
-    let (w_smooth, w_mapped, w_interp) = (
-        p.fields(Path::Smooth).len(),
-        p.fields_of(Path::Mapped, AngleSource::Cordic).len(),
-        p.fields_of(Path::Mapped, AngleSource::Interpolate).len(),
-    );
+    let [ws, wm, wi, wt] = row_widths(p);
     let mut f = Frame {
         skipped: 0,
         skipped_triangles: Vec::new(),
-        smooth_rows: rows_if(want.smooth, w_smooth),
-        mapped_rows: rows_if(want.mapped, w_mapped),
-        mapped_interp_rows: rows_if(want.mapped_interp, w_interp),
-        tbn_rows: rows_if(want.tbn, TBN_ROW),
+        smooth_rows: Rows::new(ws),
+        mapped_rows: Rows::new(wm),
+        mapped_interp_rows: Rows::new(wi),
+        tbn_rows: Rows::new(wt),
         polar_cap: Vec::with_capacity(n),
         tbn_ref: Vec::with_capacity(cap_if(want.mapped_refs)),
         smooth_ref: Vec::with_capacity(n),
@@ -835,12 +986,15 @@ fn frame_core(
     };
     let cap = (POLAR_CAP_DEG.to_radians()).cos();
     let mut in_chunk = 0usize;
-    let flush = |f: &mut Frame, sink: &mut dyn FnMut(&Frame) -> Result<(), PipelineError>| {
-        sink(f)?;
-        f.smooth_rows.clear();
-        f.mapped_rows.clear();
-        f.mapped_interp_rows.clear();
-        f.tbn_rows.clear();
+    let flush = |stores: &mut Stores,
+                 sink: &mut dyn FnMut(&Stores) -> Result<(), PipelineError>| {
+        for s in stores.each() {
+            s.end_run();
+        }
+        sink(stores)?;
+        for s in stores.each() {
+            s.clear();
+        }
         Ok::<(), PipelineError>(())
     };
     // Fragments come in raster order, so runs of them share a triangle:
@@ -848,14 +1002,19 @@ fn frame_core(
     let mut last: Option<(usize, Option<&Tri>)> = None;
     let textured = want.mapped || want.mapped_interp || want.tbn || want.mapped_refs;
     for fr in &raster.fragments {
-        if streamed && in_chunk == chunk {
-            flush(&mut f, sink)?;
-            in_chunk = 0;
+        if let Some(sink) = sink.as_deref_mut() {
+            if in_chunk == CHUNK {
+                flush(stores, sink)?;
+                in_chunk = 0;
+            }
         }
         in_chunk += 1;
         let setup = match last {
             Some((ti, t)) if ti == fr.tri => t,
             _ => {
+                for s in stores.each() {
+                    s.end_run();
+                }
                 let t = tris.get(&fr.tri).and_then(|t| t.as_ref());
                 last = Some((fr.tri, t));
                 t
@@ -867,16 +1026,16 @@ fn frame_core(
                 f.skipped_triangles.push(fr.tri);
             }
             if want.smooth {
-                f.smooth_rows.push_skipped();
+                stores.smooth.push_skipped();
             }
             if want.mapped {
-                f.mapped_rows.push_skipped();
+                stores.mapped.push_skipped();
             }
             if want.mapped_interp {
-                f.mapped_interp_rows.push_skipped();
+                stores.mapped_interp.push_skipped();
             }
             if want.tbn {
-                f.tbn_rows.push_skipped();
+                stores.tbn.push_skipped();
             }
             f.polar_cap.push(false);
             f.smooth_ref.push(f64::NAN);
@@ -894,7 +1053,7 @@ fn frame_core(
         let (c1, c2) = (qb(fr.c[0]), qb(fr.c[1]));
         // Smooth row: sel, c1, c2, the six normals, L, H.
         if want.smooth {
-            f.smooth_rows.push_with(|r| {
+            stores.smooth.push_pixel(&[c1, c2], |r| {
                 r.extend_from_slice(&[st.set as i128, c1, c2]);
                 for v in &st.v {
                     r.extend_from_slice(v);
@@ -927,15 +1086,16 @@ fn frame_core(
         let texc = tex.to_array().map(qn);
         let lh = [al, bl, ah, bh];
         for (wanted, src, rows) in [
-            (want.mapped, AngleSource::Cordic, &mut f.mapped_rows),
+            (want.mapped, AngleSource::Cordic, &mut stores.mapped),
             (
                 want.mapped_interp,
                 AngleSource::Interpolate,
-                &mut f.mapped_interp_rows,
+                &mut stores.mapped_interp,
             ),
         ] {
             if wanted {
-                rows.push_with(|r| {
+                let pixel = [c1, c2, texc[0], texc[1], texc[2]];
+                rows.push_pixel(&pixel, |r| {
                     Pipeline::mapped_row_into(src, [c1, c2], so, mt, lh, texc, r);
                 });
             }
@@ -985,9 +1145,9 @@ fn frame_core(
         let degenerate = frames[0].2 == DVec3::ZERO;
         if want.tbn {
             if degenerate {
-                f.tbn_rows.push_skipped();
+                stores.tbn.push_skipped();
             } else {
-                f.tbn_rows.push(&r);
+                stores.tbn.push(&r);
             }
         }
         if want.mapped_refs {
@@ -1027,15 +1187,12 @@ fn frame_core(
         let hp = crate::polar::reference(ah_f, bh_f, ai, bi);
         f.mapped_interp_ref.push(shade_f64(&p.light, tex, lp, hp));
     }
-    if streamed {
-        flush(&mut f, sink)?;
-        for rows in [
-            &mut f.smooth_rows,
-            &mut f.mapped_rows,
-            &mut f.mapped_interp_rows,
-            &mut f.tbn_rows,
-        ] {
-            *rows = Rows::new(rows.width());
+    match sink {
+        Some(sink) => flush(stores, sink)?,
+        None => {
+            for s in stores.each() {
+                s.end_run();
+            }
         }
     }
     f.raster.fragments = raster.fragments;
@@ -1047,7 +1204,11 @@ fn frame_core(
 /// method's pipeline and dropped, so memory grows with the image (a level
 /// per fragment and method, the references) and not with the rows. The
 /// levels are those of [`run_method`] on a whole frame (the pipeline is
-/// per row); the frame returned holds no rows.
+/// per row); the frame returned holds no rows. A path whose methods all
+/// run narrow programs writes its rows straight into the programs' input
+/// columns ([`Columns`]): within a run of fragments of one triangle only
+/// the per-pixel fields ([`Pipeline::pixel_fields`]) are written per
+/// fragment, the per-frame and per-triangle ones filled once per run.
 ///
 /// # Errors
 ///
@@ -1079,20 +1240,50 @@ pub fn levels_streamed(
     let n = raster.fragments.len();
     let mut levels: Vec<Vec<u8>> = methods.iter().map(|_| Vec::with_capacity(n)).collect();
     let want = Wanted::methods(methods);
-    let f = frame_core(scene, base, raster, mesh, want, CHUNK, &mut |f| {
+    // A path's rows go straight into columns when every method reading
+    // them runs a narrow program (whose input codes fit i64 lanes).
+    let [ws, wm, wi, wt] = row_widths(base);
+    let store = |kind: &dyn Fn(RenderMethod) -> bool, width: usize| {
+        let users: Vec<usize> = (0..methods.len()).filter(|&i| kind(methods[i])).collect();
+        let narrow = users
+            .iter()
+            .all(|&i| matches!(progs[i], Some(Compiled::Narrow(_))));
+        // (One flag per field, as a unit test holds; rows otherwise.)
+        let pixel = match users.first() {
+            Some(&i) if narrow => Some(pipes[i].pixel_fields(methods[i].path())?),
+            _ => None,
+        };
+        Ok::<_, PipelineError>(match pixel {
+            Some(pixel) if pixel.len() == width => Store::Columns(Columns::new(pixel, CHUNK)),
+            _ => Store::Rows(Rows::with_capacity(width, CHUNK)),
+        })
+    };
+    let mut stores = Stores {
+        smooth: store(&|m| matches!(m, RenderMethod::Smooth(_)), ws)?,
+        mapped: store(&|m| m == RenderMethod::Mapped(AngleSource::Cordic), wm)?,
+        mapped_interp: store(&|m| m == RenderMethod::Mapped(AngleSource::Interpolate), wi)?,
+        tbn: Store::Rows(Rows::with_capacity(wt, CHUNK)),
+    };
+    let mut sink = |s: &Stores| {
         for (((&m, p), prog), out) in methods
             .iter()
             .zip(&pipes)
             .zip(&progs)
             .zip(levels.iter_mut())
         {
-            match prog {
-                Some(prog) => out.extend(levels_with(p, m.path(), prog, f.rows(m))),
-                None => out.extend(method_levels(p, m, f.rows(m))?),
-            }
+            out.extend(s.of(m).levels(p, m, prog.as_ref())?);
         }
         Ok(())
-    })?;
+    };
+    let f = frame_core(
+        scene,
+        base,
+        raster,
+        mesh,
+        want,
+        &mut stores,
+        Some(&mut sink),
+    )?;
     Ok((f, levels))
 }
 

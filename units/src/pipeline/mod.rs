@@ -64,9 +64,11 @@ use crate::polar::{Polar, PolarError};
 use crate::quantize::{Overflow, Quant, Rounding};
 use crate::units::{OpReport, Phase};
 
+pub mod columns;
 pub mod rows;
 pub mod rtl;
 
+pub use columns::Columns;
 pub use rows::Rows;
 
 /// The `[pipeline]` configuration section.
@@ -1278,6 +1280,39 @@ mod tests {
             for (row, g) in rows.iter().zip(&got) {
                 assert_eq!(*g, p.eval_row(pth, row).unwrap(), "{path} {row:?}");
             }
+        }
+    }
+
+    /// The per-pixel fields are the barycentrics and, on the mapped path,
+    /// the texel: named here by the vector fields ([`Pipeline::fields`]),
+    /// not by the trace's ports that `pixel_fields` reads.
+    #[test]
+    fn pixel_fields_are_the_barycentrics_and_the_texel() {
+        for (path, src, want) in [
+            (Path::Smooth, AngleSource::Cordic, &["c1", "c2"][..]),
+            (
+                Path::Mapped,
+                AngleSource::Cordic,
+                &["c1", "c2", "nx", "ny", "nz"],
+            ),
+            (
+                Path::Mapped,
+                AngleSource::Interpolate,
+                &["c1", "c2", "nx", "ny", "nz"],
+            ),
+        ] {
+            let mut p = Pipeline::from_config(&Config::embedded()).unwrap();
+            p.angles = src;
+            let fields = p.fields(path);
+            let pixel = p.pixel_fields(path).unwrap();
+            assert_eq!(pixel.len(), fields.len(), "{path:?} {src:?}");
+            let got: Vec<&str> = fields
+                .iter()
+                .zip(&pixel)
+                .filter(|(_, &v)| v)
+                .map(|(f, _)| f.name.as_str())
+                .collect();
+            assert_eq!(got, want, "{path:?} {src:?}");
         }
     }
 

@@ -126,6 +126,27 @@ pub fn setup_groups(
     ]
 }
 
+impl Pipeline {
+    /// Per input field of `path` (in the order of [`Pipeline::fields`]):
+    /// whether it changes from pixel to pixel. The others are the top's
+    /// per-frame and per-triangle values, its set-up ports
+    /// ([`setup_groups`]): one code for every pixel of a triangle.
+    ///
+    /// # Errors
+    ///
+    /// As [`Pipeline::trace`].
+    pub fn pixel_fields(&self, path: Path) -> Result<Vec<bool>, super::PipelineError> {
+        let groups = setup_groups(path, self.angles, true);
+        let set_up = |name: &str| groups.iter().any(|g| g.fields.iter().any(|f| f == name));
+        Ok(self
+            .trace(path)?
+            .input_ports()
+            .iter()
+            .map(|port| !set_up(&port.name))
+            .collect())
+    }
+}
+
 /// The angle interpolation's traced datapath (`c1, c2, a3, d1, d2 → angle`).
 ///
 /// # Errors
