@@ -239,7 +239,7 @@ pub struct Triangle {
     pub theta: Option<f64>,
 }
 
-const PAIRS: [(usize, usize); 3] = [(0, 1), (1, 2), (2, 0)];
+pub(crate) const PAIRS: [(usize, usize); 3] = [(0, 1), (1, 2), (2, 0)];
 
 /// Set up a triangle from its vertex normals (f64, exact).
 ///

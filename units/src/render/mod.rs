@@ -747,6 +747,8 @@ fn row_widths(p: &Pipeline) -> [usize; 4] {
     ]
 }
 
+mod lanes;
+
 /// Where a frame's rows of one path go: kept whole ([`Rows`]), or written
 /// chunk by chunk into a program's columns ([`Columns`]).
 enum Store {
@@ -1001,7 +1003,12 @@ fn frame_core(
     // its set-up is looked up once per run.
     let mut last: Option<(usize, Option<&Tri>)> = None;
     let textured = want.mapped || want.mapped_interp || want.tbn || want.mapped_refs;
-    for fr in &raster.fragments {
+    // The f64 work of up to LANES fragments of one triangle at once:
+    // fragments lane_start..lane_end are in `lanes`.
+    let shade = lanes::Shade::new(&p.light, l, h);
+    let mut lanes = lanes::Lanes::new();
+    let (mut lane_start, mut lane_end) = (0, 0);
+    for (i, fr) in raster.fragments.iter().enumerate() {
         if let Some(sink) = sink.as_deref_mut() {
             if in_chunk == CHUNK {
                 flush(stores, sink)?;
@@ -1050,6 +1057,23 @@ fn frame_core(
             }
             continue;
         };
+        if i >= lane_end {
+            let run = &raster.fragments[i..];
+            let len = run
+                .iter()
+                .take(lanes::LANES)
+                .take_while(|g| g.tri == fr.tri)
+                .count();
+            for (j, g) in run[..len].iter().enumerate() {
+                for (k, c) in g.c.iter().enumerate() {
+                    lanes.c[k][j] = *c;
+                }
+            }
+            lanes.len = len;
+            lanes.run(scheme, &st.tri, &so.tri, shade);
+            (lane_start, lane_end) = (i, i + len);
+        }
+        let j = i - lane_start;
         let (c1, c2) = (qb(fr.c[0]), qb(fr.c[1]));
         // Smooth row: sel, c1, c2, the six normals, L, H.
         if want.smooth {
@@ -1062,11 +1086,12 @@ fn frame_core(
                 r.extend_from_slice(&hc);
             });
         }
-        let n_exact = interp::field(&st.tri, fr.c, scheme).normalize();
-        f.smooth_ref.push(shade_f64(&p.light, n_exact, l, h));
+        // The normal interpolated exactly and shaded (lanes::Lanes is
+        // interp::field, normalize and shade_f64 over the lanes).
+        f.smooth_ref.push(lanes.smooth_ref[j]);
         // Mapped rows (object frame): c1, c2, the normals (CORDIC) or the
         // angle set-up (interpolated angles), angles of L and H, the texel.
-        let n_obj = interp::field(&so.tri, fr.c, scheme).normalize();
+        let n_obj = DVec3::new(lanes.n_obj[0][j], lanes.n_obj[1][j], lanes.n_obj[2][j]);
         let in_cap = n_obj.y.abs() >= cap;
         f.polar_cap.push(in_cap);
         // The smooth path alone reads no texture.
