@@ -882,8 +882,13 @@ pub const CHUNK: usize = 1024;
 
 /// A sink for a frame's rows: called every `CHUNK` fragments
 /// (and once for the rest) with the stores holding the rows of the
-/// fragments since the previous call only; they are emptied after it.
-type Sink<'a> = &'a mut dyn FnMut(&Stores) -> Result<(), PipelineError>;
+/// fragments since the previous call only, and those fragments' indices;
+/// the stores are emptied after it.
+type Sink<'a> = &'a mut SinkFn<'a>;
+
+/// What a [`Sink`] is: the stores, and the fragments (indices into the
+/// raster) whose rows they hold, in row order.
+type SinkFn<'a> = dyn FnMut(&Stores, &[usize]) -> Result<(), PipelineError> + 'a;
 
 /// [`frame_wanted`] with the rows written to `stores`, and with a `sink`
 /// handed to it every [`CHUNK`] fragments. The returned frame holds no
@@ -971,13 +976,14 @@ fn frame_core(
         mapped_rows: Rows::new(wm),
         mapped_interp_rows: Rows::new(wi),
         tbn_rows: Rows::new(wt),
-        polar_cap: Vec::with_capacity(n),
-        tbn_ref: Vec::with_capacity(cap_if(want.mapped_refs)),
-        smooth_ref: Vec::with_capacity(n),
-        mapped_ref: Vec::with_capacity(cap_if(want.mapped_refs)),
-        mapped_interp_ref: Vec::with_capacity(cap_if(want.mapped_refs)),
-        uv_ref: Vec::new(),
-        uv_excluded: Vec::new(),
+        // Per fragment, at its index; a skipped fragment keeps these.
+        polar_cap: vec![false; n],
+        tbn_ref: vec![f64::NAN; cap_if(want.mapped_refs)],
+        smooth_ref: vec![f64::NAN; n],
+        mapped_ref: vec![f64::NAN; cap_if(want.mapped_refs)],
+        mapped_interp_ref: vec![f64::NAN; cap_if(want.mapped_refs)],
+        uv_ref: vec![f64::NAN; cap_if(baked.is_some())],
+        uv_excluded: vec![true; cap_if(baked.is_some())],
         bake: baked.as_ref().map(|b| b.counts),
         raster: Raster {
             width: raster.width,
@@ -987,13 +993,34 @@ fn frame_core(
         },
     };
     let cap = (POLAR_CAP_DEG.to_radians()).cos();
+    // Fragments come in raster order, in runs of one triangle. The rows
+    // kept in a frame are in raster order; with a sink, fragments are taken
+    // triangle by triangle (the runs stably sorted by triangle), so that
+    // the per-triangle work is done once per triangle rather than once per
+    // run, and each result is stored at its fragment's index.
+    let mut runs: Vec<(usize, std::ops::Range<usize>)> = Vec::new();
+    for (i, fr) in raster.fragments.iter().enumerate() {
+        match runs.last_mut() {
+            Some((t, r)) if *t == fr.tri => r.end = i + 1,
+            _ => runs.push((fr.tri, i..i + 1)),
+        }
+    }
+    // Triangles that cannot be set up, in raster order.
+    for (t, _) in &runs {
+        if matches!(tris.get(t), Some(None)) && !f.skipped_triangles.contains(t) {
+            f.skipped_triangles.push(*t);
+        }
+    }
+    if sink.is_some() {
+        runs.sort_by_key(|(t, _)| *t);
+    }
+    let order: Vec<usize> = runs.into_iter().flat_map(|(_, r)| r).collect();
     let mut in_chunk = 0usize;
-    let flush = |stores: &mut Stores,
-                 sink: &mut dyn FnMut(&Stores) -> Result<(), PipelineError>| {
+    let flush = |stores: &mut Stores, chunk: &[usize], sink: &mut SinkFn<'_>| {
         for s in stores.each() {
             s.end_run();
         }
-        sink(stores)?;
+        sink(stores, chunk)?;
         for s in stores.each() {
             s.clear();
         }
@@ -1008,10 +1035,11 @@ fn frame_core(
     let shade = lanes::Shade::new(&p.light, l, h);
     let mut lanes = lanes::Lanes::new();
     let (mut lane_start, mut lane_end) = (0, 0);
-    for (i, fr) in raster.fragments.iter().enumerate() {
+    for (pos, &i) in order.iter().enumerate() {
+        let fr = &raster.fragments[i];
         if let Some(sink) = sink.as_deref_mut() {
             if in_chunk == CHUNK {
-                flush(stores, sink)?;
+                flush(stores, &order[pos - in_chunk..pos], sink)?;
                 in_chunk = 0;
             }
         }
@@ -1029,9 +1057,6 @@ fn frame_core(
         };
         let Some((st, so, mt)) = setup else {
             f.skipped += 1;
-            if !f.skipped_triangles.contains(&fr.tri) {
-                f.skipped_triangles.push(fr.tri);
-            }
             if want.smooth {
                 stores.smooth.push_skipped();
             }
@@ -1044,36 +1069,25 @@ fn frame_core(
             if want.tbn {
                 stores.tbn.push_skipped();
             }
-            f.polar_cap.push(false);
-            f.smooth_ref.push(f64::NAN);
-            if want.mapped_refs {
-                f.mapped_ref.push(f64::NAN);
-                f.mapped_interp_ref.push(f64::NAN);
-                f.tbn_ref.push(f64::NAN);
-            }
-            if baked.is_some() {
-                f.uv_ref.push(f64::NAN);
-                f.uv_excluded.push(true);
-            }
             continue;
         };
-        if i >= lane_end {
-            let run = &raster.fragments[i..];
+        if pos >= lane_end {
+            let run = &order[pos..];
             let len = run
                 .iter()
                 .take(lanes::LANES)
-                .take_while(|g| g.tri == fr.tri)
+                .take_while(|&&g| raster.fragments[g].tri == fr.tri)
                 .count();
-            for (j, g) in run[..len].iter().enumerate() {
-                for (k, c) in g.c.iter().enumerate() {
+            for (j, &g) in run[..len].iter().enumerate() {
+                for (k, c) in raster.fragments[g].c.iter().enumerate() {
                     lanes.c[k][j] = *c;
                 }
             }
             lanes.len = len;
             lanes.run(scheme, &st.tri, &so.tri, shade);
-            (lane_start, lane_end) = (i, i + len);
+            (lane_start, lane_end) = (pos, pos + len);
         }
-        let j = i - lane_start;
+        let j = pos - lane_start;
         let (c1, c2) = (qb(fr.c[0]), qb(fr.c[1]));
         // Smooth row: sel, c1, c2, the six normals, L, H.
         if want.smooth {
@@ -1088,12 +1102,12 @@ fn frame_core(
         }
         // The normal interpolated exactly and shaded (lanes::Lanes is
         // interp::field, normalize and shade_f64 over the lanes).
-        f.smooth_ref.push(lanes.smooth_ref[j]);
+        f.smooth_ref[i] = lanes.smooth_ref[j];
         // Mapped rows (object frame): c1, c2, the normals (CORDIC) or the
         // angle set-up (interpolated angles), angles of L and H, the texel.
         let n_obj = DVec3::new(lanes.n_obj[0][j], lanes.n_obj[1][j], lanes.n_obj[2][j]);
         let in_cap = n_obj.y.abs() >= cap;
-        f.polar_cap.push(in_cap);
+        f.polar_cap[i] = in_cap;
         // The smooth path alone reads no texture.
         if !(textured || baked.is_some()) {
             continue;
@@ -1176,29 +1190,22 @@ fn frame_core(
             }
         }
         if want.mapped_refs {
-            f.tbn_ref.push(if degenerate {
-                f64::NAN
-            } else {
-                tbn_f64(&p.light, frames, fr.c, lo, ho, tbn_tex)
-            });
+            if !degenerate {
+                f.tbn_ref[i] = tbn_f64(&p.light, frames, fr.c, lo, ho, tbn_tex);
+            }
             let (an, bn) = crate::polar::angles_of(n_obj);
             let lp = crate::polar::reference(al_f, bl_f, an, bn);
             let hp = crate::polar::reference(ah_f, bh_f, an, bn);
-            f.mapped_ref.push(shade_f64(&p.light, tex, lp, hp));
+            f.mapped_ref[i] = shade_f64(&p.light, tex, lp, hp);
         }
         // The original map in its UV frame, exactly.
         if let (Some(_), Some(o)) = (&baked, orig) {
             let uvf = crate::texture::uv_frame(mesh, &tangents, fr.tri, fr.c, scheme);
-            match uvf {
-                Some((t, b, nn)) => {
-                    let ts = |v: DVec3| DVec3::new(v.dot(t), v.dot(b), v.dot(nn));
-                    f.uv_ref.push(shade_f64(&p.light, o, ts(lo), ts(ho)));
-                    f.uv_excluded.push(in_cap || !texel_ok);
-                }
-                None => {
-                    f.uv_ref.push(f64::NAN);
-                    f.uv_excluded.push(true);
-                }
+            // Without a UV frame the fragment keeps NaN, excluded.
+            if let Some((t, b, nn)) = uvf {
+                let ts = |v: DVec3| DVec3::new(v.dot(t), v.dot(b), v.dot(nn));
+                f.uv_ref[i] = shade_f64(&p.light, o, ts(lo), ts(ho));
+                f.uv_excluded[i] = in_cap || !texel_ok;
             }
         }
         if !want.mapped_refs {
@@ -1210,10 +1217,10 @@ fn frame_core(
         let bi = va[2].1 + fr.c[0] * wrap(va[0].1 - va[2].1) + fr.c[1] * wrap(va[1].1 - va[2].1);
         let lp = crate::polar::reference(al_f, bl_f, ai, bi);
         let hp = crate::polar::reference(ah_f, bh_f, ai, bi);
-        f.mapped_interp_ref.push(shade_f64(&p.light, tex, lp, hp));
+        f.mapped_interp_ref[i] = shade_f64(&p.light, tex, lp, hp);
     }
     match sink {
-        Some(sink) => flush(stores, sink)?,
+        Some(sink) => flush(stores, &order[order.len() - in_chunk..], sink)?,
         None => {
             for s in stores.each() {
                 s.end_run();
@@ -1263,7 +1270,7 @@ pub fn levels_streamed(
         })
         .collect::<Result<_, _>>()?;
     let n = raster.fragments.len();
-    let mut levels: Vec<Vec<u8>> = methods.iter().map(|_| Vec::with_capacity(n)).collect();
+    let mut levels: Vec<Vec<u8>> = methods.iter().map(|_| vec![0; n]).collect();
     let want = Wanted::methods(methods);
     // A path's rows go straight into columns when every method reading
     // them runs a narrow program (whose input codes fit i64 lanes).
@@ -1289,14 +1296,18 @@ pub fn levels_streamed(
         mapped_interp: store(&|m| m == RenderMethod::Mapped(AngleSource::Interpolate), wi)?,
         tbn: Store::Rows(Rows::with_capacity(wt, CHUNK)),
     };
-    let mut sink = |s: &Stores| {
+    // A chunk's rows are those of the fragments `idx` (not in raster order).
+    let mut sink = |s: &Stores, idx: &[usize]| {
         for (((&m, p), prog), out) in methods
             .iter()
             .zip(&pipes)
             .zip(&progs)
             .zip(levels.iter_mut())
         {
-            out.extend(s.of(m).levels(p, m, prog.as_ref())?);
+            let chunk = s.of(m).levels(p, m, prog.as_ref())?;
+            for (&i, level) in idx.iter().zip(chunk) {
+                out[i] = level;
+            }
         }
         Ok(())
     };
