@@ -516,7 +516,51 @@ impl Quant {
     }
 }
 
+impl Quant {
+    /// [`Quant::apply_f64`]'s code of every value of `xs`, into `out`
+    /// (`or` for a NaN or infinite value): the same codes, from a loop
+    /// specialized on the rounding and overflow modes.
+    ///
+    /// # Panics
+    ///
+    /// If `out` is shorter than `xs`.
+    pub fn codes_f64(&self, xs: &[f64], or: i128, out: &mut [i128]) {
+        use Overflow::{Saturate, Wrap};
+        use Rounding::{HalfEven, HalfUp, Trunc};
+        let out = &mut out[..xs.len()];
+        match (self.round, self.overflow) {
+            (Trunc, Wrap) => self.codes_with(xs, or, out, Trunc, Wrap),
+            (Trunc, Saturate) => self.codes_with(xs, or, out, Trunc, Saturate),
+            (HalfUp, Wrap) => self.codes_with(xs, or, out, HalfUp, Wrap),
+            (HalfUp, Saturate) => self.codes_with(xs, or, out, HalfUp, Saturate),
+            (HalfEven, Wrap) => self.codes_with(xs, or, out, HalfEven, Wrap),
+            (HalfEven, Saturate) => self.codes_with(xs, or, out, HalfEven, Saturate),
+        }
+    }
+
+    /// [`Quant::codes_f64`] with the modes as constants of the caller.
+    #[inline(always)]
+    fn codes_with(&self, xs: &[f64], or: i128, out: &mut [i128], round: Rounding, ov: Overflow) {
+        let narrow = self.format.width() <= 62;
+        for (o, &x) in out.iter_mut().zip(xs) {
+            *o = if x.is_finite() {
+                // As apply_f64: m·2^e exactly, in i64 when the format fits.
+                let (m, e) = decompose(x);
+                let step = self.step(-e);
+                if narrow {
+                    i128::from(step.apply::<i64>(crate::convert::narrow(m), round, ov).code)
+                } else {
+                    step.apply::<i128>(m, round, ov).code
+                }
+            } else {
+                or
+            };
+        }
+    }
+}
+
 /// `x = m · 2^e` exactly, with `m` an integer of at most 53 bits.
+#[inline]
 pub fn decompose(x: f64) -> (i128, i32) {
     if x == 0.0 {
         return (0, 0);
@@ -558,6 +602,47 @@ pub fn literal(n: u64) -> Quant {
 mod tests {
     use super::*;
     use crate::format::exp2i;
+
+    /// `codes_f64` gives `apply_f64`'s code of each value (`or` for NaN
+    /// and infinities), for every mode and a narrow and a wide format.
+    #[test]
+    fn codes_f64_are_apply_f64_codes() {
+        let xs = [
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            0.25,
+            1.5,
+            -2.5,
+            0.999_99,
+            1.0,
+            7.3,
+            -7.3,
+            1e300,
+            -1e-310,
+            3.0e-5,
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            0.123_456_789,
+            2.0 / 3.0,
+        ];
+        for (signed, width, frac) in [(false, 16, 15), (true, 12, 4), (true, 64, 40)] {
+            let f = crate::format::Format::new(signed, width, frac).unwrap();
+            for round in Rounding::ALL {
+                for ov in [Overflow::Wrap, Overflow::Saturate] {
+                    let q = Quant::new("t", f, round, ov);
+                    let mut out = vec![0; xs.len()];
+                    q.codes_f64(&xs, -1, &mut out);
+                    for (x, got) in xs.iter().zip(&out) {
+                        let want = q.apply_f64(*x).map_or(-1, |r| r.code);
+                        assert_eq!(*got, want, "{x} {f:?} {round:?} {ov:?}");
+                    }
+                }
+            }
+        }
+    }
 
     /// `apply_f64` takes an `i64` path for formats up to 62 bits; it must
     /// give the code and flag of the 128-bit quantization of the same exact

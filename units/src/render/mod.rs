@@ -962,7 +962,6 @@ fn frame_core(
     } else {
         Vec::new()
     };
-    let qb = |x: f64| p.interp.bary.apply_f64(x).map_or(0, |r| r.code);
     let qn = |x: f64| p.light.normal.apply_f64(x).map_or(0, |r| r.code);
     let qv = |x: f64| p.interp.vertex.apply_f64(x).map_or(0, |r| r.code);
     let wrap = |d: f64| d - d.round();
@@ -1034,6 +1033,7 @@ fn frame_core(
     // fragments lane_start..lane_end are in `lanes`.
     let shade = lanes::Shade::new(&p.light, l, h);
     let mut lanes = lanes::Lanes::new();
+    let mut bary = [[0i128; lanes::LANES]; 2];
     let (mut lane_start, mut lane_end) = (0, 0);
     for (pos, &i) in order.iter().enumerate() {
         let fr = &raster.fragments[i];
@@ -1085,10 +1085,14 @@ fn frame_core(
             }
             lanes.len = len;
             lanes.run(scheme, &st.tri, &so.tri, shade);
+            for (q, c) in bary.iter_mut().zip(&lanes.c) {
+                p.interp.bary.codes_f64(&c[..len], 0, q);
+            }
             (lane_start, lane_end) = (pos, pos + len);
         }
         let j = pos - lane_start;
-        let (c1, c2) = (qb(fr.c[0]), qb(fr.c[1]));
+        // The quantized barycentrics, from the batch.
+        let (c1, c2) = (bary[0][j], bary[1][j]);
         // Smooth row: sel, c1, c2, the six normals, L, H.
         if want.smooth {
             stores.smooth.push_pixel(&[c1, c2], |r| {
