@@ -10,7 +10,7 @@
 //! by row, and the others are filled from the run's first row when the run
 //! ends ([`Columns::end_run`]).
 //!
-//! [`Compiled`]: crate::datapath::batch::Compiled
+//! [`Compiled`]: crate::datapath::Compiled
 
 /// Up to `cap` rows of `varying.len()` input codes each, column-major: the
 /// live rows' codes of column `k` are `codes[k * cap..k * cap + live]`.

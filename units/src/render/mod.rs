@@ -19,7 +19,9 @@
 //! * smooth path: the reference is
 //!   `255·(I0·km·max(0, N·L) + I0·ks·max(0, N·H)^n)` clipped to `[0, 255]`, with
 //!   `N` the configured interpolation scheme's field at the pixel's exact
-//!   barycentrics, normalized in f64 (glam), independent of the datapath code;
+//!   barycentrics, normalized in f64 (glam's operations, computed many
+//!   fragments at a time by the `lanes` module with the same results bit for
+//!   bit), independent of the datapath code;
 //! * mapped path, in the mesh's own (object) frame, where the implied frame
 //!   a normal map is baked for is fixed by the y axis: `L` and `H` are
 //!   brought there by [`Scene::unpose`]; the reference is the same lighting
