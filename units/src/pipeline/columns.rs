@@ -133,6 +133,34 @@ impl Columns {
         self.live.push(true);
     }
 
+    /// Append a live row: within an open run by its varying codes `pixel`
+    /// alone ([`Columns::push_pixel`]), otherwise whole from `fill`
+    /// ([`Columns::push_with`]), checking that `pixel` holds that row's
+    /// varying codes, so a caller that lists them in another order than
+    /// the columns is caught at the first row of every run.
+    ///
+    /// # Panics
+    ///
+    /// As [`Columns::push_pixel`] and [`Columns::push_with`], and if the
+    /// row opening a run does not hold `pixel` in its varying columns.
+    pub fn push_fragment(&mut self, pixel: &[i128], fill: impl FnOnce(&mut Vec<i128>)) {
+        if self.in_run() {
+            self.push_pixel(pixel);
+            return;
+        }
+        self.push_with(fill);
+        let i = self.lanes - 1;
+        assert!(
+            self.pixel.len() == pixel.len()
+                && self
+                    .pixel
+                    .iter()
+                    .zip(pixel)
+                    .all(|(&k, &v)| i128::from(self.codes[k * self.cap + i]) == v),
+            "the per-pixel codes given are the row's varying fields, in column order"
+        );
+    }
+
     /// Append a skipped row.
     pub fn push_skipped(&mut self) {
         self.live.push(false);
@@ -218,6 +246,19 @@ mod tests {
             c.clear();
             assert!(c.is_empty());
         }
+    }
+
+    /// The per-pixel codes of a run's first row must be its varying
+    /// fields: given in another order, the row is refused.
+    #[test]
+    #[should_panic(expected = "the per-pixel codes given are the row's varying fields")]
+    fn per_pixel_codes_out_of_order_are_refused() {
+        let mut c = Columns::new(vec![false, true, true], 4);
+        c.push_fragment(&[2, 3], |v| v.extend_from_slice(&[1, 2, 3]));
+        c.push_fragment(&[4, 5], |v| v.extend_from_slice(&[1, 4, 5]));
+        c.end_run();
+        assert_eq!((c.column(1), c.column(2)), (&[2, 4][..], &[3, 5][..]));
+        c.push_fragment(&[7, 6], |v| v.extend_from_slice(&[1, 6, 7]));
     }
 
     #[test]

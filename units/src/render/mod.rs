@@ -771,8 +771,8 @@ impl Store {
     /// a run take those alone.
     fn push_pixel(&mut self, pixel: &[i128], fill: impl FnOnce(&mut Vec<i128>)) {
         match self {
-            Store::Columns(c) if c.in_run() => c.push_pixel(pixel),
-            _ => self.push_with(fill),
+            Store::Columns(c) => c.push_fragment(pixel, fill),
+            Store::Rows(r) => r.push_with(fill),
         }
     }
 
