@@ -519,45 +519,113 @@ impl Quant {
 impl Quant {
     /// [`Quant::apply_f64`]'s code of every value of `xs`, into `out`
     /// (`or` for a NaN or infinite value): the same codes, from a loop
-    /// specialized on the rounding and overflow modes.
+    /// specialized on the rounding and overflow modes (for a format of at
+    /// most 62 bits, [`Quant::codes_f64_i64`]'s).
     ///
     /// # Panics
     ///
     /// If `out` is shorter than `xs`.
     pub fn codes_f64(&self, xs: &[f64], or: i128, out: &mut [i128]) {
-        use Overflow::{Saturate, Wrap};
-        use Rounding::{HalfEven, HalfUp, Trunc};
         let out = &mut out[..xs.len()];
-        match (self.round, self.overflow) {
-            (Trunc, Wrap) => self.codes_with(xs, or, out, Trunc, Wrap),
-            (Trunc, Saturate) => self.codes_with(xs, or, out, Trunc, Saturate),
-            (HalfUp, Wrap) => self.codes_with(xs, or, out, HalfUp, Wrap),
-            (HalfUp, Saturate) => self.codes_with(xs, or, out, HalfUp, Saturate),
-            (HalfEven, Wrap) => self.codes_with(xs, or, out, HalfEven, Wrap),
-            (HalfEven, Saturate) => self.codes_with(xs, or, out, HalfEven, Saturate),
+        if self.format.width() <= 62 {
+            let mut codes = [0i64; 64];
+            for (xs, out) in xs.chunks(64).zip(out.chunks_mut(64)) {
+                let codes = &mut codes[..xs.len()];
+                // (`or` only stands in for NaN and infinities; the i64
+                // run's placeholder is replaced here.)
+                self.codes_f64_i64(xs, 0, codes);
+                for ((o, &c), &x) in out.iter_mut().zip(&*codes).zip(xs) {
+                    *o = if x.is_finite() { i128::from(c) } else { or };
+                }
+            }
+            return;
+        }
+        for (o, &x) in out.iter_mut().zip(xs) {
+            *o = self.apply_f64(x).map_or(or, |q| q.code);
         }
     }
 
-    /// [`Quant::codes_f64`] with the modes as constants of the caller.
+    /// [`Quant::codes_f64`] into `i64` codes, for a format of at most 62
+    /// bits: the same codes (`or` for a NaN or infinite value). Inlined
+    /// into its caller, so that a caller compiled for a wider instruction
+    /// set (an `fxshade_ir` kernel) runs it in vector instructions.
+    ///
+    /// For `0 ≤ frac ≤ 62`, `y = x·2^frac` is exact (a power-of-two
+    /// scaling of a finite value that stays finite), and for `|y| < 2^62`
+    /// its rounding is read off `t = trunc(y)` (the conversion to `i64`)
+    /// and `d = y − t`, which is exact too (the fraction bits of `y`):
+    /// `⌊y⌋ = t − [d < 0]`, and the fraction `y − ⌊y⌋` is at least, above
+    /// or at ½ exactly when `d` is at least, above or at `±½` (`−½` for a
+    /// negative `d`, whose fraction is `1 + d`). The rounded code goes
+    /// through [`Step::apply`] at shift 0 for the range. That loop has no
+    /// branch on the data; the values outside it (and every value of a
+    /// format with `frac` outside `0..=62`) are then redone one by one by
+    /// [`Quant::apply_f64`].
+    ///
+    /// # Panics
+    ///
+    /// If the format is wider than 62 bits, or `out` is shorter than `xs`.
     #[inline(always)]
-    fn codes_with(&self, xs: &[f64], or: i128, out: &mut [i128], round: Rounding, ov: Overflow) {
-        let narrow = self.format.width() <= 62;
+    pub fn codes_f64_i64(&self, xs: &[f64], or: i64, out: &mut [i64]) {
+        use Overflow::{Saturate, Wrap};
+        use Rounding::{HalfEven, HalfUp, Trunc};
+        assert!(self.format.width() <= 62, "a format of at most 62 bits");
+        let out = &mut out[..xs.len()];
+        match (self.round, self.overflow) {
+            (Trunc, Wrap) => self.codes_with(xs, out, Trunc, Wrap),
+            (Trunc, Saturate) => self.codes_with(xs, out, Trunc, Saturate),
+            (HalfUp, Wrap) => self.codes_with(xs, out, HalfUp, Wrap),
+            (HalfUp, Saturate) => self.codes_with(xs, out, HalfUp, Saturate),
+            (HalfEven, Wrap) => self.codes_with(xs, out, HalfEven, Wrap),
+            (HalfEven, Saturate) => self.codes_with(xs, out, HalfEven, Saturate),
+        }
+        let (scaled, scale) = self.f64_path();
         for (o, &x) in out.iter_mut().zip(xs) {
-            *o = if x.is_finite() {
-                // As apply_f64: m·2^e exactly, in i64 when the format fits.
-                let (m, e) = decompose(x);
-                let step = self.step(-e);
-                if narrow {
-                    i128::from(step.apply::<i64>(crate::convert::narrow(m), round, ov).code)
-                } else {
-                    step.apply::<i128>(m, round, ov).code
-                }
-            } else {
-                or
+            let y = (x * scale).abs();
+            if !scaled || y.is_nan() || y >= F64_PATH_LIMIT {
+                *o = self
+                    .apply_f64(x)
+                    .map_or(or, |q| crate::convert::narrow(q.code));
+            }
+        }
+    }
+
+    /// Whether [`Quant::codes_f64_i64`]'s f64 path applies (`0 ≤ frac ≤
+    /// 62`), and its scale `2^frac`.
+    #[inline(always)]
+    fn f64_path(&self) -> (bool, f64) {
+        let frac = self.format.frac();
+        ((0..=62).contains(&frac), crate::format::exp2i(frac))
+    }
+
+    /// [`Quant::codes_f64_i64`]'s f64 path with the modes as constants of
+    /// the caller, for every value (those outside it are redone).
+    #[inline(always)]
+    fn codes_with(&self, xs: &[f64], out: &mut [i64], round: Rounding, ov: Overflow) {
+        let (_, scale) = self.f64_path();
+        let at_zero = self.step(self.format.frac());
+        for (o, &x) in out.iter_mut().zip(xs) {
+            let y = x * scale;
+            // Toward zero, exactly where |y| < 2^62 (saturated elsewhere,
+            // and redone).
+            let t = crate::convert::from_f64::<i64>(y);
+            let d = y - crate::convert::to_f64(t);
+            let neg = d < 0.0;
+            let floor = t - i64::from(neg);
+            let half = if neg { -0.5 } else { 0.5 };
+            // (Bitwise, not short-circuit: no branch on the data.)
+            let up = match round {
+                Rounding::Trunc => false,
+                Rounding::HalfUp => d >= half,
+                Rounding::HalfEven => (d > half) | ((d == half) & (floor & 1 == 1)),
             };
+            *o = at_zero.apply::<i64>(floor + i64::from(up), round, ov).code;
         }
     }
 }
+
+/// `2^62`: [`Quant::codes_f64_i64`]'s f64 path takes `|x·2^frac|` below it.
+const F64_PATH_LIMIT: f64 = 4_611_686_018_427_387_904.0;
 
 /// `x = m · 2^e` exactly, with `m` an integer of at most 53 bits.
 #[inline]
@@ -628,7 +696,29 @@ mod tests {
             0.123_456_789,
             2.0 / 3.0,
         ];
-        for (signed, width, frac) in [(false, 16, 15), (true, 12, 4), (true, 64, 40)] {
+        // Values near the codes' ties at every scale the formats below
+        // take the f64 path at (`k/2^s` and one ulp either side), and
+        // random bit patterns.
+        let mut xs = xs.to_vec();
+        let mut state = 0x2545_f491_4f6c_dd1d_u64;
+        for _ in 0..4000 {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            let k = i64::from_ne_bytes(state.to_ne_bytes()) >> 40;
+            let s = i32::try_from(state % 64).unwrap();
+            let x = crate::convert::to_f64(k) * exp2i(-s);
+            xs.extend([x, x.next_up(), x.next_down(), f64::from_bits(state)]);
+        }
+        for (signed, width, frac) in [
+            (false, 16, 15),
+            (true, 12, 4),
+            (true, 64, 40),
+            (true, 62, 30),
+            (false, 20, 0),
+            (true, 40, 62),
+            (true, 10, -3),
+        ] {
             let f = crate::format::Format::new(signed, width, frac).unwrap();
             for round in Rounding::ALL {
                 for ov in [Overflow::Wrap, Overflow::Saturate] {
