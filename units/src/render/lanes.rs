@@ -12,6 +12,10 @@
 //! the scalar ones bit for bit; a unit test holds them equal on every
 //! instruction set the machine has.
 //!
+//! The same call quantizes `c1, c2` to the barycentric format
+//! ([`Quant::codes_f64_i64`], inlined here so that it runs in the same
+//! vector instructions): the codes of [`Quant::apply_f64`].
+//!
 //! [`interp::field`]: crate::interp::field
 
 use glam::DVec3;
@@ -19,6 +23,7 @@ use glam::DVec3;
 use crate::datapath::{Isa, Kernel};
 use crate::interp::{Scheme, Triangle, PAIRS};
 use crate::lighting::{Lighting, LEVELS};
+use crate::quantize::Quant;
 
 /// Fragments per call of [`Lanes::run`].
 pub(super) const LANES: usize = 64;
@@ -36,6 +41,8 @@ pub(super) struct Lanes {
     pub smooth_ref: [f64; LANES],
     /// The normal interpolated in the mesh's frame, normalized.
     pub n_obj: Vec3Lanes,
+    /// `c1, c2` quantized ([`Lanes::run`] with a format).
+    pub codes: [[i64; LANES]; 2],
     /// Scratch: the camera-frame normal, the power's base and product,
     /// reciprocal lengths.
     n: Vec3Lanes,
@@ -76,6 +83,7 @@ impl Lanes {
             c: [[0.0; LANES]; 3],
             smooth_ref: [0.0; LANES],
             n_obj: [[0.0; LANES]; 3],
+            codes: [[0; LANES]; 2],
             n: [[0.0; LANES]; 3],
             w: [[0.0; LANES]; 6],
             base: [0.0; LANES],
@@ -86,14 +94,24 @@ impl Lanes {
 
     /// For lanes `0..len` (their barycentrics in [`Lanes::c`]): the
     /// smooth reference of the camera-frame triangle `smooth` and the
-    /// normalized normal of the mesh-frame triangle `object`.
-    pub fn run(&mut self, scheme: Scheme, smooth: &Triangle, object: &Triangle, shade: Shade) {
+    /// normalized normal of the mesh-frame triangle `object`; with `bary`
+    /// (a format of at most 62 bits), `c1, c2` quantized to it into
+    /// [`Lanes::codes`] (0 for NaN or ±∞).
+    pub fn run(
+        &mut self,
+        scheme: Scheme,
+        smooth: &Triangle,
+        object: &Triangle,
+        shade: Shade,
+        bary: Option<&Quant>,
+    ) {
         Isa::current().run(Run {
             lanes: self,
             scheme,
             smooth,
             object,
             shade,
+            bary,
         });
     }
 }
@@ -104,6 +122,7 @@ struct Run<'a> {
     smooth: &'a Triangle,
     object: &'a Triangle,
     shade: Shade,
+    bary: Option<&'a Quant>,
 }
 
 impl Kernel for Run<'_> {
@@ -117,6 +136,7 @@ impl Kernel for Run<'_> {
             smooth,
             object,
             shade,
+            bary,
         } = self;
         // Whole vectors of lanes: those past `len` compute on stale
         // barycentrics and are never read.
@@ -128,6 +148,11 @@ impl Kernel for Run<'_> {
         shade_lanes(&l.n, shade, len, &mut l.base, &mut l.pow, &mut l.smooth_ref);
         field(object, scheme, &l.w, len, &mut l.n_obj);
         normalize(&mut l.n_obj, &mut l.r, len);
+        if let Some(q) = bary {
+            for (c, codes) in l.c.iter().zip(&mut l.codes) {
+                q.codes_f64_i64(&c[..len], 0, &mut codes[..len]);
+            }
+        }
     }
 }
 
@@ -265,6 +290,22 @@ mod tests {
         };
         let cfg = crate::config::Config::embedded();
         let mut light = Lighting::from_config(&cfg);
+        // Barycentric formats: the default's, and every mode.
+        let mut quants = vec![
+            crate::pipeline::Pipeline::with_method(&cfg, crate::normalizer::Method::None)
+                .unwrap()
+                .interp
+                .bary,
+        ];
+        for round in crate::quantize::Rounding::ALL {
+            for ov in [
+                crate::quantize::Overflow::Wrap,
+                crate::quantize::Overflow::Saturate,
+            ] {
+                let f = crate::format::Format::new(true, 12, 9).unwrap();
+                quants.push(Quant::new("c", f, round, ov));
+            }
+        }
         for isa in Isa::ALL.into_iter().filter(|i| i.available()) {
             for (case, e) in [1u32, 2, 7, 16, 32, 255].into_iter().enumerate() {
                 light.shininess = e;
@@ -286,12 +327,14 @@ mod tests {
                         lanes.c[2][j] = 1.0 - a - b;
                     }
                     let shade = Shade::new(&light, l, h);
+                    let bary = &quants[case % quants.len()];
                     isa.run(Run {
                         lanes: &mut lanes,
                         scheme,
                         smooth: &ts,
                         object: &to,
                         shade,
+                        bary: Some(bary),
                     });
                     for j in 0..lanes.len {
                         let c = [lanes.c[0][j], lanes.c[1][j], lanes.c[2][j]];
@@ -302,6 +345,10 @@ mod tests {
                         let no = crate::interp::field(&to, c, scheme).normalize();
                         for k in 0..3 {
                             assert_eq!(lanes.n_obj[k][j].to_bits(), no[k].to_bits(), "{at}");
+                        }
+                        for (k, (codes, &x)) in lanes.codes.iter().zip(&c).enumerate() {
+                            let want = bary.apply_f64(x).unwrap().code;
+                            assert_eq!(i128::from(codes[j]), want, "{at} c{k}");
                         }
                     }
                 }

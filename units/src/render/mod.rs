@@ -40,7 +40,7 @@
 //! Errors are in 8-bit levels against the reference rounded to the nearest
 //! level (the reference image).
 
-use fxshade_numbers::convert::{from_f64, narrow, to_f64};
+use fxshade_numbers::convert::{from_f64, narrow, round_half_away, to_f64};
 use glam::{DVec2, DVec3};
 
 use crate::config::Config;
@@ -484,7 +484,8 @@ impl Metrics {
     /// others are not counted at all, not even as skipped).
     pub fn compare_where(got: &[u8], want: &[f64], keep: impl Fn(usize) -> bool) -> Metrics {
         let mut m = Metrics::default();
-        let (mut sum, mut sq) = (0.0, 0.0);
+        // The sums of integer errors, exact (as f64 sums would be below 2^53).
+        let (mut sum, mut sq) = (0u64, 0u64);
         let mut hist = [0usize; 4];
         for (k, (&g, &w)) in got.iter().zip(want).enumerate() {
             if !keep(k) {
@@ -495,21 +496,26 @@ impl Metrics {
                 continue;
             }
             m.pixels += 1;
-            let e = from_f64::<u32>((f64::from(g) - w.round()).abs());
+            let e = from_f64::<u32>((f64::from(g) - round_half_away(w)).abs());
             m.max_abs_levels = m.max_abs_levels.max(e);
-            sum += f64::from(e);
-            sq += f64::from(e * e);
+            sum += u64::from(e);
+            sq += u64::from(e * e);
             hist[(e as usize).min(3)] += 1;
-            if w >= REL_FLOOR_LEVELS {
-                let beyond = ((f64::from(g) - w).abs() - 0.5).max(0.0);
-                m.max_rel_intensity_err = m.max_rel_intensity_err.max(beyond / w);
-            }
+            // (A select rather than a branch on the data; the error is
+            // never negative, so a pixel below the floor adds 0.)
+            let beyond = ((f64::from(g) - w).abs() - 0.5).max(0.0);
+            let rel = if w >= REL_FLOOR_LEVELS {
+                beyond / w
+            } else {
+                0.0
+            };
+            m.max_rel_intensity_err = m.max_rel_intensity_err.max(rel);
         }
         if m.pixels > 0 {
             let n = to_f64(m.pixels);
-            m.mean_abs_levels = sum / n;
+            m.mean_abs_levels = to_f64(sum) / n;
             m.off_by = hist.map(|h| to_f64(h) / n);
-            m.psnr_db = (sq > 0.0).then(|| 10.0 * (255.0f64 * 255.0 / (sq / n)).log10());
+            m.psnr_db = (sq > 0).then(|| 10.0 * (255.0f64 * 255.0 / (to_f64(sq) / n)).log10());
         }
         m.paper_bound_holds = m.pixels > 0 && m.max_rel_intensity_err < PAPER_BOUND;
         m
@@ -998,7 +1004,9 @@ fn frame_core(
     // kept in a frame are in raster order; with a sink, fragments are taken
     // triangle by triangle (the runs stably sorted by triangle), so that
     // the per-triangle work is done once per triangle rather than once per
-    // run, and each result is stored at its fragment's index.
+    // run, and each result is stored at its fragment's index. (Copying the
+    // fragments into that order instead cost more than it saved: a fresh
+    // buffer of the raster's size per frame, its pages faulted in.)
     let mut runs: Vec<(usize, std::ops::Range<usize>)> = Vec::new();
     for (i, fr) in raster.fragments.iter().enumerate() {
         match runs.last_mut() {
@@ -1015,7 +1023,17 @@ fn frame_core(
     if sink.is_some() {
         runs.sort_by_key(|(t, _)| *t);
     }
-    let order: Vec<usize> = runs.into_iter().flat_map(|(_, r)| r).collect();
+    // The fragments in that order, and the groups of consecutive ones of
+    // one triangle in it: (triangle, end position).
+    let mut order: Vec<usize> = Vec::with_capacity(n);
+    let mut groups: Vec<(usize, usize)> = Vec::new();
+    for (t, r) in runs {
+        order.extend(r);
+        match groups.last_mut() {
+            Some((g, end)) if *g == t => *end = order.len(),
+            _ => groups.push((t, order.len())),
+        }
+    }
     let mut in_chunk = 0usize;
     let flush = |stores: &mut Stores, chunk: &[usize], sink: &mut SinkFn<'_>| {
         for s in stores.each() {
@@ -1027,15 +1045,18 @@ fn frame_core(
         }
         Ok::<(), PipelineError>(())
     };
-    // Fragments come in raster order, so runs of them share a triangle:
-    // its set-up is looked up once per run.
-    let mut last: Option<(usize, Option<&Tri>)> = None;
+    // A group's triangle set-up is looked up once, at its first fragment.
+    let (mut next_group, mut group_end) = (0, 0);
+    let mut setup: Option<&Tri> = None;
     let textured = want.mapped || want.mapped_interp || want.tbn || want.mapped_refs;
     // The f64 work of up to LANES fragments of one triangle at once:
     // fragments lane_start..lane_end are in `lanes`.
     let shade = lanes::Shade::new(&p.light, l, h);
     let mut lanes = lanes::Lanes::new();
     let mut bary = [[0i128; lanes::LANES]; 2];
+    // The barycentrics are quantized in the lane kernel when their format
+    // fits its i64 codes.
+    let narrow_bary = (p.interp.bary.format().width() <= 62).then_some(&p.interp.bary);
     let (mut lane_start, mut lane_end) = (0, 0);
     for (pos, &i) in order.iter().enumerate() {
         let fr = &raster.fragments[i];
@@ -1046,17 +1067,14 @@ fn frame_core(
             }
         }
         in_chunk += 1;
-        let setup = match last {
-            Some((ti, t)) if ti == fr.tri => t,
-            _ => {
-                for s in stores.each() {
-                    s.end_run();
-                }
-                let t = tris.get(&fr.tri).and_then(|t| t.as_ref());
-                last = Some((fr.tri, t));
-                t
+        if pos == group_end {
+            for s in stores.each() {
+                s.end_run();
             }
-        };
+            let (t, end) = groups[next_group];
+            (next_group, group_end) = (next_group + 1, end);
+            setup = tris.get(&t).and_then(|t| t.as_ref());
+        }
         let Some((st, so, mt)) = setup else {
             f.skipped += 1;
             if want.smooth {
@@ -1074,21 +1092,22 @@ fn frame_core(
             continue;
         };
         if pos >= lane_end {
-            let run = &order[pos..];
-            let len = run
-                .iter()
-                .take(lanes::LANES)
-                .take_while(|&&g| raster.fragments[g].tri == fr.tri)
-                .count();
-            for (j, &g) in run[..len].iter().enumerate() {
+            let len = (group_end - pos).min(lanes::LANES);
+            for (j, &g) in order[pos..pos + len].iter().enumerate() {
                 for (k, c) in raster.fragments[g].c.iter().enumerate() {
                     lanes.c[k][j] = *c;
                 }
             }
             lanes.len = len;
-            lanes.run(scheme, &st.tri, &so.tri, shade);
-            for (q, c) in bary.iter_mut().zip(&lanes.c) {
-                p.interp.bary.codes_f64(&c[..len], 0, q);
+            lanes.run(scheme, &st.tri, &so.tri, shade, narrow_bary);
+            for ((q, c), codes) in bary.iter_mut().zip(&lanes.c).zip(&lanes.codes) {
+                if narrow_bary.is_some() {
+                    for (q, &code) in q[..len].iter_mut().zip(codes) {
+                        *q = i128::from(code);
+                    }
+                } else {
+                    p.interp.bary.codes_f64(&c[..len], 0, q);
+                }
             }
             (lane_start, lane_end) = (pos, pos + len);
         }
@@ -1465,7 +1484,7 @@ pub fn pixel_of(level: crate::format::Format, code: i128) -> u8 {
         // the same on the code.
         return narrow::<u8, _>(code.clamp(0, 255));
     }
-    from_f64::<u8>(level.to_f64(code).round().clamp(0.0, 255.0))
+    from_f64::<u8>(round_half_away(level.to_f64(code)).clamp(0.0, 255.0))
 }
 
 /// Levels of a path's rows (skipped rows are 0).
@@ -1502,7 +1521,7 @@ pub fn levels_with(p: &Pipeline, path: Path, prog: &Compiled, rows: &Rows) -> Ve
 /// Round an f64 reference to levels.
 pub fn reference_levels(r: &[f64]) -> Vec<u8> {
     r.iter()
-        .map(|x| from_f64::<u8>(x.round().clamp(0.0, 255.0)))
+        .map(|x| from_f64::<u8>(round_half_away(*x).clamp(0.0, 255.0)))
         .collect()
 }
 
