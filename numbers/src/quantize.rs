@@ -580,9 +580,17 @@ impl Quant {
             (HalfEven, Saturate) => self.codes_with(xs, out, HalfEven, Saturate),
         }
         let (scaled, scale) = self.f64_path();
-        for (o, &x) in out.iter_mut().zip(xs) {
+        let outside = |x: f64| {
             let y = (x * scale).abs();
-            if !scaled || y.is_nan() || y >= F64_PATH_LIMIT {
+            !scaled | y.is_nan() | (y >= F64_PATH_LIMIT)
+        };
+        // Whether any value is outside, without a branch per value (the
+        // usual answer is no); then those values one by one.
+        if !xs.iter().fold(false, |any, &x| any | outside(x)) {
+            return;
+        }
+        for (o, &x) in out.iter_mut().zip(xs) {
+            if outside(x) {
                 *o = self
                     .apply_f64(x)
                     .map_or(or, |q| crate::convert::narrow(q.code));

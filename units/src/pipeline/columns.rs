@@ -133,6 +133,35 @@ impl Columns {
         self.live.push(true);
     }
 
+    /// Append `m` live rows within the open run by their varying codes:
+    /// `pixels[k][t]` is row `t`'s code in varying column `k` (in column
+    /// order), every slice `m` long. The same rows as `m` calls of
+    /// [`Columns::push_pixel`].
+    ///
+    /// # Panics
+    ///
+    /// As [`Columns::push_pixel`]; and if the slices differ in length.
+    pub fn push_pixels(&mut self, pixels: &[&[i128]]) {
+        assert!(self.in_run(), "a run opened by a whole row");
+        assert_eq!(
+            pixels.len(),
+            self.pixel.len(),
+            "one slice per varying column"
+        );
+        let m = pixels.first().map_or(0, |p| p.len());
+        assert!(pixels.iter().all(|p| p.len() == m), "slices of one length");
+        let i = self.lanes;
+        assert!(i + m <= self.cap, "room for {} rows", self.cap);
+        for (&k, col) in self.pixel.iter().zip(pixels) {
+            let dst = &mut self.codes[k * self.cap + i..k * self.cap + i + m];
+            for (d, &v) in dst.iter_mut().zip(*col) {
+                *d = i64::try_from(v).expect("a code that fits i64");
+            }
+        }
+        self.lanes += m;
+        self.live.resize(self.live.len() + m, true);
+    }
+
     /// Append a live row: within an open run by its varying codes `pixel`
     /// alone ([`Columns::push_pixel`]), otherwise whole from `fill`
     /// ([`Columns::push_with`]), checking that `pixel` holds that row's
@@ -259,6 +288,33 @@ mod tests {
         c.end_run();
         assert_eq!((c.column(1), c.column(2)), (&[2, 4][..], &[3, 5][..]));
         c.push_fragment(&[7, 6], |v| v.extend_from_slice(&[1, 6, 7]));
+    }
+
+    /// `push_pixels` makes the rows `push_pixel` makes one by one.
+    #[test]
+    fn pushing_pixels_at_once_is_pushing_them_one_by_one() {
+        let (mut one, mut all) = (
+            Columns::new(vec![true, false, true], 8),
+            Columns::new(vec![true, false, true], 8),
+        );
+        for c in [&mut one, &mut all] {
+            c.push_with(|v| v.extend_from_slice(&[1, 9, -1]));
+        }
+        let (a, b): (Vec<i128>, Vec<i128>) = ((2..6).collect(), (-6..-2).collect());
+        for (x, y) in a.iter().zip(&b) {
+            one.push_pixel(&[*x, *y]);
+        }
+        all.push_pixels(&[&a, &b]);
+        all.push_pixels(&[&[], &[]]);
+        for c in [&mut one, &mut all] {
+            c.end_run();
+        }
+        assert_eq!(all.len(), 5);
+        for k in 0..3 {
+            assert_eq!(one.column(k), all.column(k), "column {k}");
+        }
+        assert_eq!(all.column(2), &[-1, -6, -5, -4, -3][..]);
+        assert_eq!(all.column(1), &[9; 5][..]);
     }
 
     #[test]

@@ -782,6 +782,31 @@ impl Store {
         }
     }
 
+    /// Rows of one triangle's fragments, given by their per-pixel codes
+    /// `pixels[k][t]` (field `k` of row `t`, as [`Store::push_pixel`]) and
+    /// whole by `fill(t, row)`: columns take the first row as
+    /// [`Store::push_pixel`] does and the others by their per-pixel codes
+    /// alone; rows are filled one by one.
+    fn push_pixels(&mut self, pixels: &[&[i128]], fill: impl Fn(usize, &mut Vec<i128>)) {
+        let m = pixels.first().map_or(0, |p| p.len());
+        if m == 0 {
+            return;
+        }
+        match self {
+            Store::Columns(c) => {
+                let first: Vec<i128> = pixels.iter().map(|p| p[0]).collect();
+                c.push_fragment(&first, |r| fill(0, r));
+                let rest: Vec<&[i128]> = pixels.iter().map(|p| &p[1..]).collect();
+                c.push_pixels(&rest);
+            }
+            Store::Rows(r) => {
+                for t in 0..m {
+                    r.push_with(|row| fill(t, row));
+                }
+            }
+        }
+    }
+
     fn push(&mut self, row: &[i128]) {
         self.push_with(|r| r.extend_from_slice(row));
     }
@@ -933,11 +958,18 @@ fn frame_core(
         crate::pipeline::SmoothTri,
         crate::pipeline::MappedTri,
     );
+    // Fragments come in raster order, in runs of one triangle.
+    let mut runs: Vec<(usize, std::ops::Range<usize>)> = Vec::new();
+    for (i, fr) in raster.fragments.iter().enumerate() {
+        match runs.last_mut() {
+            Some((t, r)) if *t == fr.tri => r.end = i + 1,
+            _ => runs.push((fr.tri, i..i + 1)),
+        }
+    }
     // Only the triangles some pixel shows are set up (a fine mesh in a
-    // small image has millions of triangles and a few thousand pixels).
-    // Fragments come in runs of one triangle: one entry per run, then sorted.
-    let mut shown: Vec<usize> = raster.fragments.iter().map(|f| f.tri).collect();
-    shown.dedup();
+    // small image has millions of triangles and a few thousand pixels):
+    // one entry per run, then sorted.
+    let mut shown: Vec<usize> = runs.iter().map(|(t, _)| *t).collect();
     shown.sort_unstable();
     shown.dedup();
     let tris: std::collections::HashMap<usize, Option<Tri>> = shown
@@ -1000,26 +1032,19 @@ fn frame_core(
         },
     };
     let cap = (POLAR_CAP_DEG.to_radians()).cos();
-    // Fragments come in raster order, in runs of one triangle. The rows
-    // kept in a frame are in raster order; with a sink, fragments are taken
-    // triangle by triangle (the runs stably sorted by triangle), so that
-    // the per-triangle work is done once per triangle rather than once per
-    // run, and each result is stored at its fragment's index. (Copying the
-    // fragments into that order instead cost more than it saved: a fresh
-    // buffer of the raster's size per frame, its pages faulted in.)
-    let mut runs: Vec<(usize, std::ops::Range<usize>)> = Vec::new();
-    for (i, fr) in raster.fragments.iter().enumerate() {
-        match runs.last_mut() {
-            Some((t, r)) if *t == fr.tri => r.end = i + 1,
-            _ => runs.push((fr.tri, i..i + 1)),
-        }
-    }
     // Triangles that cannot be set up, in raster order.
     for (t, _) in &runs {
         if matches!(tris.get(t), Some(None)) && !f.skipped_triangles.contains(t) {
             f.skipped_triangles.push(*t);
         }
     }
+    // The rows kept in a frame are in raster order; with a sink, fragments
+    // are taken triangle by triangle (the runs stably sorted by triangle),
+    // so that the per-triangle work is done once per triangle rather than
+    // once per run, and each result is stored at its fragment's index.
+    // (Copying the fragments into that order instead cost more than it
+    // saved: a fresh buffer of the raster's size per frame, its pages
+    // faulted in.)
     if sink.is_some() {
         runs.sort_by_key(|(t, _)| *t);
     }
@@ -1092,7 +1117,13 @@ fn frame_core(
             continue;
         };
         if pos >= lane_end {
-            let len = (group_end - pos).min(lanes::LANES);
+            // A batch ends with its group, and before the chunk is flushed.
+            let room = if sink.is_some() {
+                CHUNK - in_chunk + 1
+            } else {
+                usize::MAX
+            };
+            let len = (group_end - pos).min(lanes::LANES).min(room);
             for (j, &g) in order[pos..pos + len].iter().enumerate() {
                 for (k, c) in raster.fragments[g].c.iter().enumerate() {
                     lanes.c[k][j] = *c;
@@ -1110,21 +1141,22 @@ fn frame_core(
                 }
             }
             (lane_start, lane_end) = (pos, pos + len);
+            // The batch's smooth rows: sel, c1, c2, the six normals, L, H.
+            if want.smooth {
+                let pixels = [&bary[0][..len], &bary[1][..len]];
+                stores.smooth.push_pixels(&pixels, |t, r| {
+                    r.extend_from_slice(&[st.set as i128, bary[0][t], bary[1][t]]);
+                    for v in &st.v {
+                        r.extend_from_slice(v);
+                    }
+                    r.extend_from_slice(&lc);
+                    r.extend_from_slice(&hc);
+                });
+            }
         }
         let j = pos - lane_start;
         // The quantized barycentrics, from the batch.
         let (c1, c2) = (bary[0][j], bary[1][j]);
-        // Smooth row: sel, c1, c2, the six normals, L, H.
-        if want.smooth {
-            stores.smooth.push_pixel(&[c1, c2], |r| {
-                r.extend_from_slice(&[st.set as i128, c1, c2]);
-                for v in &st.v {
-                    r.extend_from_slice(v);
-                }
-                r.extend_from_slice(&lc);
-                r.extend_from_slice(&hc);
-            });
-        }
         // The normal interpolated exactly and shaded (lanes::Lanes is
         // interp::field, normalize and shade_f64 over the lanes).
         f.smooth_ref[i] = lanes.smooth_ref[j];
