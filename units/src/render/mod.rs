@@ -1082,16 +1082,14 @@ fn frame_core(
     // The barycentrics are quantized in the lane kernel when their format
     // fits its i64 codes.
     let narrow_bary = (p.interp.bary.format().width() <= 62).then_some(&p.interp.bary);
-    let (mut lane_start, mut lane_end) = (0, 0);
-    for (pos, &i) in order.iter().enumerate() {
-        let fr = &raster.fragments[i];
+    let mut pos = 0;
+    while pos < n {
         if let Some(sink) = sink.as_deref_mut() {
             if in_chunk == CHUNK {
                 flush(stores, &order[pos - in_chunk..pos], sink)?;
                 in_chunk = 0;
             }
         }
-        in_chunk += 1;
         if pos == group_end {
             for s in stores.each() {
                 s.end_run();
@@ -1114,167 +1112,177 @@ fn frame_core(
             if want.tbn {
                 stores.tbn.push_skipped();
             }
+            in_chunk += 1;
+            pos += 1;
             continue;
         };
-        if pos >= lane_end {
-            // A batch ends with its group, and before the chunk is flushed.
-            let room = if sink.is_some() {
-                CHUNK - in_chunk + 1
-            } else {
-                usize::MAX
-            };
-            let len = (group_end - pos).min(lanes::LANES).min(room);
-            for (j, &g) in order[pos..pos + len].iter().enumerate() {
-                for (k, c) in raster.fragments[g].c.iter().enumerate() {
-                    lanes.c[k][j] = *c;
-                }
-            }
-            lanes.len = len;
-            lanes.run(scheme, &st.tri, &so.tri, shade, narrow_bary);
-            for ((q, c), codes) in bary.iter_mut().zip(&lanes.c).zip(&lanes.codes) {
-                if narrow_bary.is_some() {
-                    for (q, &code) in q[..len].iter_mut().zip(codes) {
-                        *q = i128::from(code);
-                    }
-                } else {
-                    p.interp.bary.codes_f64(&c[..len], 0, q);
-                }
-            }
-            (lane_start, lane_end) = (pos, pos + len);
-            // The batch's smooth rows: sel, c1, c2, the six normals, L, H.
-            if want.smooth {
-                let pixels = [&bary[0][..len], &bary[1][..len]];
-                stores.smooth.push_pixels(&pixels, |t, r| {
-                    r.extend_from_slice(&[st.set as i128, bary[0][t], bary[1][t]]);
-                    for v in &st.v {
-                        r.extend_from_slice(v);
-                    }
-                    r.extend_from_slice(&lc);
-                    r.extend_from_slice(&hc);
-                });
+        // A batch of fragments of one triangle: up to LANES, ending with
+        // its group, and before the chunk is flushed.
+        let room = if sink.is_some() {
+            CHUNK - in_chunk
+        } else {
+            usize::MAX
+        };
+        let len = (group_end - pos).min(lanes::LANES).min(room);
+        let batch = &order[pos..pos + len];
+        for (j, &g) in batch.iter().enumerate() {
+            for (k, c) in raster.fragments[g].c.iter().enumerate() {
+                lanes.c[k][j] = *c;
             }
         }
-        let j = pos - lane_start;
-        // The quantized barycentrics, from the batch.
-        let (c1, c2) = (bary[0][j], bary[1][j]);
+        lanes.len = len;
+        lanes.run(scheme, &st.tri, &so.tri, shade, narrow_bary);
+        for ((q, c), codes) in bary.iter_mut().zip(&lanes.c).zip(&lanes.codes) {
+            if narrow_bary.is_some() {
+                for (q, &code) in q[..len].iter_mut().zip(codes) {
+                    *q = i128::from(code);
+                }
+            } else {
+                p.interp.bary.codes_f64(&c[..len], 0, q);
+            }
+        }
+        in_chunk += len;
+        pos += len;
+        // The batch's smooth rows: sel, c1, c2, the six normals, L, H.
+        if want.smooth {
+            let pixels = [&bary[0][..len], &bary[1][..len]];
+            stores.smooth.push_pixels(&pixels, |t, r| {
+                r.extend_from_slice(&[st.set as i128, bary[0][t], bary[1][t]]);
+                for v in &st.v {
+                    r.extend_from_slice(v);
+                }
+                r.extend_from_slice(&lc);
+                r.extend_from_slice(&hc);
+            });
+        }
         // The normal interpolated exactly and shaded (lanes::Lanes is
-        // interp::field, normalize and shade_f64 over the lanes).
-        f.smooth_ref[i] = lanes.smooth_ref[j];
-        // Mapped rows (object frame): c1, c2, the normals (CORDIC) or the
-        // angle set-up (interpolated angles), angles of L and H, the texel.
-        let n_obj = DVec3::new(lanes.n_obj[0][j], lanes.n_obj[1][j], lanes.n_obj[2][j]);
-        let in_cap = n_obj.y.abs() >= cap;
-        f.polar_cap[i] = in_cap;
+        // interp::field, normalize and shade_f64 over the lanes), and
+        // whether the mesh-frame normal is in the polar cap.
+        for (j, &i) in batch.iter().enumerate() {
+            f.smooth_ref[i] = lanes.smooth_ref[j];
+            f.polar_cap[i] = lanes.n_obj[1][j].abs() >= cap;
+        }
         // The smooth path alone reads no texture.
         if !(textured || baked.is_some()) {
             continue;
         }
-        let (tex, texel_ok) = match &baked {
-            Some(b) => {
-                let (x, y) = b.texture.texel_of(fr.uv);
+        for (j, &i) in batch.iter().enumerate() {
+            let fr = &raster.fragments[i];
+            // The quantized barycentrics, from the batch.
+            let (c1, c2) = (bary[0][j], bary[1][j]);
+            // Mapped rows (object frame): c1, c2, the normals (CORDIC) or
+            // the angle set-up (interpolated angles), angles of L and H,
+            // the texel.
+            let n_obj = DVec3::new(lanes.n_obj[0][j], lanes.n_obj[1][j], lanes.n_obj[2][j]);
+            let in_cap = f.polar_cap[i];
+            let (tex, texel_ok) = match &baked {
+                Some(b) => {
+                    let (x, y) = b.texture.texel_of(fr.uv);
+                    (
+                        b.texture.at(fr.uv),
+                        b.flags[y * b.texture.width + x] == crate::texture::TexelFlag::Converted,
+                    )
+                }
+                None => (scene.normal_map.at(fr.uv), true),
+            };
+            let texc = tex.to_array().map(qn);
+            let lh = [al, bl, ah, bh];
+            for (wanted, src, rows) in [
+                (want.mapped, AngleSource::Cordic, &mut stores.mapped),
                 (
-                    b.texture.at(fr.uv),
-                    b.flags[y * b.texture.width + x] == crate::texture::TexelFlag::Converted,
-                )
-            }
-            None => (scene.normal_map.at(fr.uv), true),
-        };
-        let texc = tex.to_array().map(qn);
-        let lh = [al, bl, ah, bh];
-        for (wanted, src, rows) in [
-            (want.mapped, AngleSource::Cordic, &mut stores.mapped),
-            (
-                want.mapped_interp,
-                AngleSource::Interpolate,
-                &mut stores.mapped_interp,
-            ),
-        ] {
-            if wanted {
-                let pixel = [c1, c2, texc[0], texc[1], texc[2]];
-                rows.push_pixel(&pixel, |r| {
-                    Pipeline::mapped_row_into(src, [c1, c2], so, mt, lh, texc, r);
-                });
-            }
-        }
-        if !(want.tbn || want.mapped_refs || baked.is_some()) {
-            continue;
-        }
-        // The conventional baseline: a frame per vertex (the implied one, or
-        // for a UV-frame map the UV one with the original texel).
-        let orig = image.as_ref().map(|m| m.texture.at(fr.uv));
-        let (frames, tbn_tex) = match (&baked, orig) {
-            (Some(_), Some(o)) => {
-                let fr3: Option<Vec<_>> = (0..3)
-                    .map(|k| {
-                        let mut c = [0.0; 3];
-                        c[k] = 1.0;
-                        crate::texture::uv_frame(mesh, &tangents, fr.tri, c, scheme)
-                    })
-                    .collect();
-                match fr3 {
-                    Some(v) => ([v[0], v[1], v[2]], o),
-                    // No UV frame on this triangle (degenerate UVs): the
-                    // baseline has nothing to transform with.
-                    None => {
-                        let z = (DVec3::ZERO, DVec3::ZERO, DVec3::ZERO);
-                        ([z, z, z], o)
-                    }
+                    want.mapped_interp,
+                    AngleSource::Interpolate,
+                    &mut stores.mapped_interp,
+                ),
+            ] {
+                if wanted {
+                    let pixel = [c1, c2, texc[0], texc[1], texc[2]];
+                    rows.push_pixel(&pixel, |r| {
+                        Pipeline::mapped_row_into(src, [c1, c2], so, mt, lh, texc, r);
+                    });
                 }
             }
-            _ => (
-                so.tri.n.map(|nv| {
-                    let (_, b) = crate::polar::angles_of(nv);
-                    crate::polar::frame(nv, b)
-                }),
-                tex,
-            ),
-        };
-        let mut r = vec![c1, c2];
-        for (t, b, n) in &frames {
-            for v in [t, b, n] {
-                r.extend(v.to_array().map(qv));
+            if !(want.tbn || want.mapped_refs || baked.is_some()) {
+                continue;
             }
-        }
-        r.extend_from_slice(&loc);
-        r.extend_from_slice(&hoc);
-        r.extend_from_slice(&tbn_tex.to_array().map(qn));
-        let degenerate = frames[0].2 == DVec3::ZERO;
-        if want.tbn {
-            if degenerate {
-                stores.tbn.push_skipped();
-            } else {
-                stores.tbn.push(&r);
+            // The conventional baseline: a frame per vertex (the implied one, or
+            // for a UV-frame map the UV one with the original texel).
+            let orig = image.as_ref().map(|m| m.texture.at(fr.uv));
+            let (frames, tbn_tex) = match (&baked, orig) {
+                (Some(_), Some(o)) => {
+                    let fr3: Option<Vec<_>> = (0..3)
+                        .map(|k| {
+                            let mut c = [0.0; 3];
+                            c[k] = 1.0;
+                            crate::texture::uv_frame(mesh, &tangents, fr.tri, c, scheme)
+                        })
+                        .collect();
+                    match fr3 {
+                        Some(v) => ([v[0], v[1], v[2]], o),
+                        // No UV frame on this triangle (degenerate UVs): the
+                        // baseline has nothing to transform with.
+                        None => {
+                            let z = (DVec3::ZERO, DVec3::ZERO, DVec3::ZERO);
+                            ([z, z, z], o)
+                        }
+                    }
+                }
+                _ => (
+                    so.tri.n.map(|nv| {
+                        let (_, b) = crate::polar::angles_of(nv);
+                        crate::polar::frame(nv, b)
+                    }),
+                    tex,
+                ),
+            };
+            let mut r = vec![c1, c2];
+            for (t, b, n) in &frames {
+                for v in [t, b, n] {
+                    r.extend(v.to_array().map(qv));
+                }
             }
-        }
-        if want.mapped_refs {
-            if !degenerate {
-                f.tbn_ref[i] = tbn_f64(&p.light, frames, fr.c, lo, ho, tbn_tex);
+            r.extend_from_slice(&loc);
+            r.extend_from_slice(&hoc);
+            r.extend_from_slice(&tbn_tex.to_array().map(qn));
+            let degenerate = frames[0].2 == DVec3::ZERO;
+            if want.tbn {
+                if degenerate {
+                    stores.tbn.push_skipped();
+                } else {
+                    stores.tbn.push(&r);
+                }
             }
-            let (an, bn) = crate::polar::angles_of(n_obj);
-            let lp = crate::polar::reference(al_f, bl_f, an, bn);
-            let hp = crate::polar::reference(ah_f, bh_f, an, bn);
-            f.mapped_ref[i] = shade_f64(&p.light, tex, lp, hp);
-        }
-        // The original map in its UV frame, exactly.
-        if let (Some(_), Some(o)) = (&baked, orig) {
-            let uvf = crate::texture::uv_frame(mesh, &tangents, fr.tri, fr.c, scheme);
-            // Without a UV frame the fragment keeps NaN, excluded.
-            if let Some((t, b, nn)) = uvf {
-                let ts = |v: DVec3| DVec3::new(v.dot(t), v.dot(b), v.dot(nn));
-                f.uv_ref[i] = shade_f64(&p.light, o, ts(lo), ts(ho));
-                f.uv_excluded[i] = in_cap || !texel_ok;
+            if want.mapped_refs {
+                if !degenerate {
+                    f.tbn_ref[i] = tbn_f64(&p.light, frames, fr.c, lo, ho, tbn_tex);
+                }
+                let (an, bn) = crate::polar::angles_of(n_obj);
+                let lp = crate::polar::reference(al_f, bl_f, an, bn);
+                let hp = crate::polar::reference(ah_f, bh_f, an, bn);
+                f.mapped_ref[i] = shade_f64(&p.light, tex, lp, hp);
             }
+            // The original map in its UV frame, exactly.
+            if let (Some(_), Some(o)) = (&baked, orig) {
+                let uvf = crate::texture::uv_frame(mesh, &tangents, fr.tri, fr.c, scheme);
+                // Without a UV frame the fragment keeps NaN, excluded.
+                if let Some((t, b, nn)) = uvf {
+                    let ts = |v: DVec3| DVec3::new(v.dot(t), v.dot(b), v.dot(nn));
+                    f.uv_ref[i] = shade_f64(&p.light, o, ts(lo), ts(ho));
+                    f.uv_excluded[i] = in_cap || !texel_ok;
+                }
+            }
+            if !want.mapped_refs {
+                continue;
+            }
+            // The same with the angles interpolated (f64).
+            let va = so.tri.n.map(crate::polar::angles_of);
+            let ai = va[2].0 + fr.c[0] * (va[0].0 - va[2].0) + fr.c[1] * (va[1].0 - va[2].0);
+            let bi =
+                va[2].1 + fr.c[0] * wrap(va[0].1 - va[2].1) + fr.c[1] * wrap(va[1].1 - va[2].1);
+            let lp = crate::polar::reference(al_f, bl_f, ai, bi);
+            let hp = crate::polar::reference(ah_f, bh_f, ai, bi);
+            f.mapped_interp_ref[i] = shade_f64(&p.light, tex, lp, hp);
         }
-        if !want.mapped_refs {
-            continue;
-        }
-        // The same with the angles interpolated (f64).
-        let va = so.tri.n.map(crate::polar::angles_of);
-        let ai = va[2].0 + fr.c[0] * (va[0].0 - va[2].0) + fr.c[1] * (va[1].0 - va[2].0);
-        let bi = va[2].1 + fr.c[0] * wrap(va[0].1 - va[2].1) + fr.c[1] * wrap(va[1].1 - va[2].1);
-        let lp = crate::polar::reference(al_f, bl_f, ai, bi);
-        let hp = crate::polar::reference(ah_f, bh_f, ai, bi);
-        f.mapped_interp_ref[i] = shade_f64(&p.light, tex, lp, hp);
     }
     match sink {
         Some(sink) => flush(stores, &order[order.len() - in_chunk..], sink)?,
