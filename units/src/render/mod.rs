@@ -1074,8 +1074,8 @@ fn frame_core(
     let (mut next_group, mut group_end) = (0, 0);
     let mut setup: Option<&Tri> = None;
     let textured = want.mapped || want.mapped_interp || want.tbn || want.mapped_refs;
-    // The f64 work of up to LANES fragments of one triangle at once:
-    // fragments lane_start..lane_end are in `lanes`.
+    // The f64 work of a batch (up to LANES fragments of one triangle) at
+    // once, in `lanes`.
     let shade = lanes::Shade::new(&p.light, l, h);
     let mut lanes = lanes::Lanes::new();
     let mut bary = [[0i128; lanes::LANES]; 2];
