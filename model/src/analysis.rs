@@ -929,7 +929,13 @@ pub fn polar_every_code(
     let k = f.width();
     let turn = 1i128 << k;
     let quarter = turn / 4;
-    let prog = p.compile()?;
+    // The transform as its two parts (`Polar::terms_trace`, then
+    // `Polar::tilt_trace`): the terms of each (α_L, Δβ) and of each α_N are
+    // computed once, and only the tilt runs on every triple. The codes and
+    // the overflow counts are those of the whole transform: every value
+    // passed between the parts is a quantized code.
+    let front = crate::datapath::Trace::compile_outputs(&p.terms_trace())?;
+    let tilt = crate::datapath::Trace::compile_outputs(&p.tilt_trace())?;
     let fo = p.out.format();
     let ulp = fo.ulp();
     let t = |c: i128| to_f64(c) / to_f64(turn);
@@ -949,23 +955,25 @@ pub fn polar_every_code(
     // Δβ rows run BLOCK at a time (one batch of BLOCK·elevs lanes), on i64
     // codes where the program is narrow.
     const BLOCK: i64 = 64;
+    let turn64 = narrow::<i64, _>(turn);
     let a_n1: Vec<i64> = (-quarter..=quarter)
         .map(|c| narrow::<i64, _>(c.rem_euclid(turn)))
         .collect();
-    // The outputs go into `out` (its vectors reused from block to block).
-    let run = |cols: [&[i64]; 4], out: &mut Vec<Vec<i64>>| -> u64 {
+    // Runs `prog` with its outputs into `out` (its vectors reused from
+    // block to block); returns the overflows but of the index stage.
+    let run = |prog: &Compiled, cols: &[&[i64]], out: &mut Vec<Vec<i64>>, n_out: usize| -> u64 {
         let ov_of = |ov: Vec<(&'static str, u64)>| {
             ov.iter()
                 .filter(|(s, _)| *s != "index")
                 .map(|(_, n)| n)
                 .sum::<u64>()
         };
-        match &prog {
-            crate::datapath::Compiled::Narrow(p) => {
-                out.resize_with(3, Vec::new);
-                ov_of(p.run_into(&cols, out))
+        match prog {
+            Compiled::Narrow(p) => {
+                out.resize_with(n_out, Vec::new);
+                ov_of(p.run_into(cols, out))
             }
-            crate::datapath::Compiled::Wide(p) => {
+            Compiled::Wide(p) => {
                 let c: Vec<Vec<i128>> = cols
                     .iter()
                     .map(|c| c.iter().map(|&x| i128::from(x)).collect())
@@ -980,35 +988,71 @@ pub fn polar_every_code(
             }
         }
     };
+    // The reads of every α_N, repeated for a block. (The run's other
+    // quantizations, of α_L = Δβ = 0, are counted with the rows.)
+    let zeros = vec![0i64; narrow::<usize, _>(turn64).max(elevs)];
+    let full = narrow::<usize, _>(BLOCK) * elevs;
+    let (c_an, s_an) = {
+        let mut o = Vec::new();
+        run(
+            &front,
+            &[&zeros[..elevs], &zeros[..elevs], &a_n1, &zeros[..elevs]],
+            &mut o,
+            5,
+        );
+        let rep = |v: &[i64]| -> Vec<i64> { (0..BLOCK).flat_map(|_| v.iter().copied()).collect() };
+        (rep(&o[3]), rep(&o[4]))
+    };
+    let deltas: Vec<i64> = (0..turn64).collect();
     let one_row = |al: i128| -> Acc {
         let mut acc: Acc = (0.0, 0.0, f64::INFINITY, 0.0, 0.0, 0.0, 0);
-        let turn64 = narrow::<i64, _>(turn);
-        let mut d0 = 0i64;
-        // The columns of a whole block, built once per row (α_L, β_N and
-        // α_N do not change from block to block; Δβ is rewritten).
-        let full = narrow::<usize, _>(BLOCK) * elevs;
-        let a_l = vec![narrow::<i64, _>(al.rem_euclid(turn)); full];
-        let b_n = vec![0i64; full];
-        let a_n: Vec<i64> = (0..BLOCK).flat_map(|_| a_n1.iter().copied()).collect();
-        let mut b_l = vec![0i64; full];
+        let n_d = deltas.len();
+        // The terms of every Δβ of this α_L; their quantizations happen
+        // once per (α_L, Δβ), so once per α_N in the whole transform.
+        let a_l = vec![narrow::<i64, _>(al.rem_euclid(turn)); n_d];
+        let mut terms = Vec::new();
+        let ov = run(
+            &front,
+            &[&a_l, &deltas, &zeros[..n_d], &zeros[..n_d]],
+            &mut terms,
+            5,
+        );
+        acc.6 += ov * (elevs as u64);
+        // The columns of a whole block, built once per row (sin α_L and
+        // the α_N reads do not change from block to block; lyz and x are
+        // rewritten).
+        let s_al = vec![terms[0][0]; full];
+        let mut lyz = vec![0i64; full];
+        let mut x = vec![0i64; full];
         let mut out = Vec::new();
         let mut ext = Extremes::new(elevs);
         let mut e2s = vec![0.0; elevs];
+        let mut d0 = 0i64;
         while d0 < turn64 {
             let ds: Vec<i64> = (d0..(d0 + BLOCK).min(turn64)).collect();
             d0 += BLOCK;
             let lanes = ds.len() * elevs;
-            for (chunk, &d) in b_l.chunks_mut(elevs).zip(&ds) {
-                chunk.fill(d);
+            for ((lc, xc), &d) in lyz.chunks_mut(elevs).zip(x.chunks_mut(elevs)).zip(&ds) {
+                let d = narrow::<usize, _>(d);
+                lc.fill(terms[1][d]);
+                xc.fill(terms[2][d]);
             }
             let ov = run(
-                [&a_l[..lanes], &b_l[..lanes], &a_n[..lanes], &b_n[..lanes]],
+                &tilt,
+                &[
+                    &s_al[..lanes],
+                    &lyz[..lanes],
+                    &c_an[..lanes],
+                    &s_an[..lanes],
+                ],
                 &mut out,
+                2,
             );
             acc.6 += ov;
             for (r, &d) in ds.iter().enumerate() {
                 let l = crate::polar::vector_of(t(al), t(i128::from(d)));
-                let got = std::array::from_fn(|c| &out[c][r * elevs..(r + 1) * elevs]);
+                let lane = r * elevs..(r + 1) * elevs;
+                let got = [&x[lane.clone()], &out[0][lane.clone()], &out[1][lane]];
                 isa.run(CompareRow {
                     l,
                     ulp,
@@ -1660,4 +1704,71 @@ pub fn angles(cfg: &Config, count: usize, seed: u64) -> Result<AnglesReport, Ana
         stats: st,
         seed,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The exhaustive polar figures against the whole transform run on
+    /// every code triple and compared with `polar::reference` lane by lane:
+    /// 6-bit angles, once on the default formats and once on outputs of
+    /// ±½ that overflow.
+    #[test]
+    fn polar_every_code_is_the_whole_transform_on_every_triple() {
+        let mut cfg = Config::embedded();
+        for (k, v) in [("polar.angle_bits", "6"), ("polar.table_bits", "6")] {
+            cfg.apply_override(&format!("{k}={v}")).unwrap();
+        }
+        let mut narrow = cfg.clone();
+        narrow.apply_override("polar.out.format=\"I0F8\"").unwrap();
+        for (cfg, must_overflow) in [(cfg, false), (narrow, true)] {
+            let p = crate::polar::Polar::from_config(&cfg).unwrap();
+            let light = Lighting::from_config(&cfg);
+            let got = polar_every_code(&p, &light).unwrap();
+            let turn = 1i128 << p.angle.format().width();
+            let q = turn / 4;
+            let mut cols: [Vec<i128>; 4] = Default::default();
+            for al in -q..=q {
+                for d in 0..turn {
+                    for an in -q..=q {
+                        for (c, v) in cols.iter_mut().zip([al, d, an, 0]) {
+                            c.push(v.rem_euclid(turn));
+                        }
+                    }
+                }
+            }
+            let refs: Vec<&[i128]> = cols.iter().map(|c| c.as_slice()).collect();
+            let (out, ov) = p.compile().unwrap().run_i128(&refs);
+            let overflows: u64 = ov
+                .iter()
+                .filter(|(s, _)| *s != "index")
+                .map(|(_, n)| n)
+                .sum();
+            let fo = p.out.format();
+            let t = |c: i128| to_f64(c) / to_f64(turn);
+            let mut max_lsb = 0.0f64;
+            for i in 0..cols[0].len() {
+                let at = |c: usize| {
+                    if cols[c][i] >= turn / 2 {
+                        cols[c][i] - turn
+                    } else {
+                        cols[c][i]
+                    }
+                };
+                let want = crate::polar::reference(t(at(0)), t(cols[1][i]), t(at(2)), 0.0);
+                for c in 0..3 {
+                    max_lsb = max_lsb.max(((fo.to_f64(out[c][i]) - want[c]) / fo.ulp()).abs());
+                }
+            }
+            assert_eq!(got.samples, cols[0].len() as u64);
+            assert_eq!(got.overflows, overflows);
+            assert_eq!(overflows > 0, must_overflow);
+            assert!(
+                (got.max_lsb_err - max_lsb).abs() < 1e-9,
+                "{} against {max_lsb}",
+                got.max_lsb_err
+            );
+        }
+    }
 }

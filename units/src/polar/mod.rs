@@ -331,6 +331,25 @@ impl Polar {
         b_n: C::V,
     ) -> [C::V; 3] {
         cx.enter(DECL.name);
+        let t = self.terms(cx, a_l, b_l, a_n, b_n);
+        let [y, z] = self.tilt(cx, t.s_al, t.lyz, t.c_an, t.s_an);
+        cx.leave();
+        [t.x, y, z]
+    }
+
+    /// The first part of [`Polar::transform`] (inside its unit scope): the
+    /// three table indices, the six reads, `lyz = Q_lyz(cos α_L · cos Δβ)`
+    /// and `x = Q_out(cos α_L · sin Δβ)`, `Δβ = β_L − β_N`. Everything here
+    /// depends on `(α_L, Δβ)` alone or on `α_N` alone.
+    #[inline]
+    fn terms<C: Datapath>(
+        &self,
+        cx: &mut C,
+        a_l: C::V,
+        b_l: C::V,
+        a_n: C::V,
+        b_n: C::V,
+    ) -> Terms<C::V> {
         let t = &self.tables;
         let i_al = cx.quantize(a_l, &self.index);
         let d = cx.sub(b_l, b_n);
@@ -343,6 +362,28 @@ impl Polar {
         let lyz = cx.quantize(lyz, &self.lyz);
         let x = cx.mul(c_al, s_d);
         let x = cx.quantize(x, &self.out);
+        Terms {
+            s_al,
+            lyz,
+            x,
+            c_an,
+            s_an,
+        }
+    }
+
+    /// The second part of [`Polar::transform`]: the tilt by `α_N`,
+    /// `y = Q_out(sin α_L · cos α_N − lyz · sin α_N)` and
+    /// `z = Q_out(sin α_L · sin α_N + lyz · cos α_N)`, each exact before its
+    /// one quantization.
+    #[inline]
+    fn tilt<C: Datapath>(
+        &self,
+        cx: &mut C,
+        s_al: C::V,
+        lyz: C::V,
+        c_an: C::V,
+        s_an: C::V,
+    ) -> [C::V; 2] {
         let p = cx.mul(s_al, c_an);
         let q = cx.mul(lyz, s_an);
         let y = cx.sub(p, q);
@@ -350,8 +391,45 @@ impl Polar {
         let p = cx.mul(lyz, c_an);
         let z = cx.mul_add(s_al, s_an, p);
         let z = cx.quantize(z, &self.out);
-        cx.leave();
-        [x, y, z]
+        [y, z]
+    }
+
+    /// [`Polar::transform`]'s first part traced on its own (the same
+    /// operations): inputs `a_l, b_l, a_n, b_n` (angle format), outputs
+    /// `s_al, c_an, s_an` (table entry format), `lyz` (`lyz` format) and
+    /// `x` (`out` format). With [`Polar::tilt_trace`], what an analysis
+    /// runs when it holds `(α_L, Δβ)` or `α_N` fixed over many inputs:
+    /// composing the two gives [`Polar::trace`]'s codes and overflows
+    /// exactly, as every value passed between them is a quantized code.
+    pub fn terms_trace(&self) -> Trace {
+        let mut tr = Trace::new();
+        let a = ["a_l", "b_l", "a_n", "b_n"].map(|n| tr.input_named(n, &self.angle));
+        tr.enter(DECL.name);
+        let t = self.terms(&mut tr, a[0], a[1], a[2], a[3]);
+        tr.leave();
+        tr.output("s_al", t.s_al);
+        tr.output("lyz", t.lyz);
+        tr.output("x", t.x);
+        tr.output("c_an", t.c_an);
+        tr.output("s_an", t.s_an);
+        tr
+    }
+
+    /// [`Polar::transform`]'s second part traced on its own: inputs `s_al`,
+    /// `c_an`, `s_an` (table entry format) and `lyz` (`lyz` format), in
+    /// the order `s_al, lyz, c_an, s_an`; outputs `out_y, out_z`.
+    pub fn tilt_trace(&self) -> Trace {
+        let mut tr = Trace::new();
+        let s_al = tr.input_named("s_al", &self.tables.sin.out);
+        let lyz = tr.input_named("lyz", &self.lyz);
+        let c_an = tr.input_named("c_an", &self.tables.cos.out);
+        let s_an = tr.input_named("s_an", &self.tables.sin.out);
+        tr.enter(DECL.name);
+        let [y, z] = self.tilt(&mut tr, s_al, lyz, c_an, s_an);
+        tr.leave();
+        tr.output("out_y", y);
+        tr.output("out_z", z);
+        tr
     }
 
     /// Compiled for batches: inputs α_L, β_L, α_N, β_N codes; outputs L'.
@@ -386,6 +464,16 @@ impl Polar {
         self.transform(&mut cx, a, a, a, a);
         Ok(cx)
     }
+}
+
+/// What [`Polar::transform`]'s first part hands its second: `sin α_L`,
+/// `lyz`, `x` and the reads of `α_N`.
+struct Terms<V> {
+    s_al: V,
+    lyz: V,
+    x: V,
+    c_an: V,
+    s_an: V,
 }
 
 /// `(α, β)` of a unit vector, in turns: `α = asin y ∈ [−¼, ¼]`,
@@ -521,6 +609,48 @@ mod tests {
 
     fn polar() -> Polar {
         Polar::from_config(&Config::embedded()).unwrap()
+    }
+
+    /// `terms_trace` then `tilt_trace` give the whole transform's codes and
+    /// per-stage overflow counts, on the default formats and on narrow ones
+    /// (outputs of ±½, `lyz` of two fraction bits) that overflow and round
+    /// often.
+    #[test]
+    fn the_two_parts_compose_into_the_transform() {
+        let base = Config::embedded().section::<PolarConfig>();
+        let narrow_out = PolarConfig {
+            out: base.out.with_format(Format::new(true, 8, 8).unwrap()),
+            lyz: base.lyz.with_format(Format::new(true, 4, 2).unwrap()),
+            ..base
+        };
+        for (u, must_overflow) in [(base, false), (narrow_out, true)] {
+            let p = Polar::from_section(&u).unwrap();
+            let turn = 1u64 << p.angle.format().width();
+            let mut rng = crate::sampling::Rng::new(11);
+            let ins: Vec<Vec<i128>> = (0..4)
+                .map(|_| (0..5000).map(|_| i128::from(rng.below(turn))).collect())
+                .collect();
+            let refs: Vec<&[i128]> = ins.iter().map(|v| v.as_slice()).collect();
+            let (want, want_ov) = p.compile().unwrap().run_i128(&refs);
+            let (t, t_ov) = p.terms_trace().compile_outputs().unwrap().run_i128(&refs);
+            let (yz, yz_ov) = p
+                .tilt_trace()
+                .compile_outputs()
+                .unwrap()
+                .run_i128(&[&t[0], &t[1], &t[3], &t[4]]);
+            assert_eq!([&t[2], &yz[0], &yz[1]], [&want[0], &want[1], &want[2]]);
+            let per_stage = |ov: &[(&'static str, u64)], s: &str| -> u64 {
+                ov.iter().filter(|(n, _)| *n == s).map(|(_, c)| c).sum()
+            };
+            for s in ["index", "lyz", "out"] {
+                assert_eq!(
+                    per_stage(&want_ov, s),
+                    per_stage(&t_ov, s) + per_stage(&yz_ov, s),
+                    "stage {s}"
+                );
+            }
+            assert_eq!(per_stage(&want_ov, "out") > 0, must_overflow);
+        }
     }
 
     #[test]
