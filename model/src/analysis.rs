@@ -1345,15 +1345,19 @@ pub fn angles_beta_every_code(
     // Remembered: β is fixed by the unit's stages and the range.
     let key = format!("{a:?} {lo:?} {hi:?}");
     remembered("angles-beta-every-code", &[key.as_bytes()], || {
-        beta_every_code(&a, lo, hi)
+        beta_every_code(&a, lo, hi, true).map(|(b, _)| b)
     })
 }
 
+/// [`angles_beta_every_code`] uncached, and how many pairs' exact angles
+/// it took: with `screen`, only where [`atan2_screen`] cannot rule out a
+/// new maximum; without, every pair's.
 fn beta_every_code(
     a: &crate::angles::Angles,
     lo: f64,
     hi: f64,
-) -> Result<BetaExhaustive, AnalysisError> {
+    screen: bool,
+) -> Result<(BetaExhaustive, u64), AnalysisError> {
     let tr = a.trace().map_err(|e| AnalysisError::Angles(e.into()))?;
     let beta = tr
         .output_ports()
@@ -1401,21 +1405,42 @@ fn beta_every_code(
             }
         }
     };
-    // (max error, worst x, worst z, pairs, overflows, covered) of one x.
-    type Acc = (f64, i64, i64, u64, u64, u64);
+    // (max error, worst x, worst z, pairs, overflows, covered, exact
+    // angles taken) of one x.
+    type Acc = (f64, i64, i64, u64, u64, u64, u64);
+    let isa = crate::datapath::Isa::current();
+    // How far a screened error can lie below the exact one, in output
+    // LSBs: the screen's angle error over a turn, and a part in 10^12 of
+    // the turn for the roundings of either computation (each well below).
+    let margin = if screen {
+        turn * (ATAN2_SCREEN_ERROR / std::f64::consts::TAU + 1e-12)
+    } else {
+        f64::INFINITY
+    };
     let one_x = |x: i128| -> Acc {
-        let mut acc: Acc = (0.0, 0, 0, 0, 0, 0);
+        let mut acc: Acc = (0.0, 0, 0, 0, 0, 0, 0);
         let x = narrow::<i64, _>(x);
         let xf = to_f64(x);
         let zmax = from_f64::<i64>((c_hi * c_hi - xf * xf).max(0.0).sqrt().floor());
         let zmin = from_f64::<i64>((c_lo * c_lo - xf * xf).max(0.0).sqrt().ceil());
-        let zs: Vec<i64> = (-zmax..=-zmin)
-            .chain(zmin..=zmax)
-            .filter(|&z| {
-                let r2 = xf * xf + to_f64(z * z);
-                (min_code..=max_code).contains(&z) && r2 >= c_lo * c_lo && r2 <= c_hi * c_hi
-            })
-            .collect();
+        let keep = |z: i64| {
+            let r2 = xf * xf + to_f64(z * z);
+            (min_code..=max_code).contains(&z) && r2 >= c_lo * c_lo && r2 <= c_hi * c_hi
+        };
+        // The codes of each half that `keep` holds for are one run (its
+        // radius test is monotonic in |z|, exactly: integers below 2^53;
+        // the code range is one run): found from the ends.
+        let run_of = |a: i64, b: i64| {
+            let (mut a, mut b) = (a, b);
+            while a <= b && !keep(a) {
+                a += 1;
+            }
+            while a <= b && !keep(b) {
+                b -= 1;
+            }
+            a..=b
+        };
+        let zs: Vec<i64> = run_of(-zmax, -zmin).chain(run_of(zmin, zmax)).collect();
         // (zmin = 0 puts z = 0 in both halves: once only.)
         let zs: Vec<i64> = {
             let mut v = zs;
@@ -1424,9 +1449,21 @@ fn beta_every_code(
         };
         let xs = vec![x; zs.len().min(1 << 15)];
         let ys = vec![0i64; xs.len()];
+        let mut screened = Vec::new();
         for chunk in zs.chunks(1 << 15) {
             let n = chunk.len();
             let (out, flags) = run([&xs[..n], &ys[..n], chunk]);
+            // Each pair's error first from `atan2_screen` (vectorized), the
+            // exact one only where that cannot rule out a new maximum: the
+            // same maximum and the same first pair attaining it.
+            screened.resize(n, 0.0);
+            isa.run(BetaScreen {
+                x: xf,
+                zs: chunk,
+                got: &out,
+                turn,
+                e: &mut screened,
+            });
             for (i, &z) in chunk.iter().enumerate() {
                 if flags[i] & xy_flag != 0 {
                     acc.4 += 1;
@@ -1434,6 +1471,10 @@ fn beta_every_code(
                 }
                 acc.3 += 1;
                 acc.5 += if x == 0 { 1 } else { 2 };
+                if screened[i] + margin <= acc.0 {
+                    continue;
+                }
+                acc.6 += 1;
                 let exact = xf.atan2(to_f64(z)) / std::f64::consts::TAU;
                 let got = to_f64(out[i]) / turn;
                 let e = ((got - exact + 0.5).rem_euclid(1.0) - 0.5).abs() * turn;
@@ -1450,6 +1491,7 @@ fn beta_every_code(
         r_range: (r_lo, r_hi),
         ..Default::default()
     };
+    let mut exact = 0u64;
     for a in rows {
         if a.0 > b.max_beta_lsb {
             b.max_beta_lsb = a.0;
@@ -1458,9 +1500,74 @@ fn beta_every_code(
         b.pairs += a.3;
         b.overflows += a.4;
         b.covered += a.5;
+        exact += a.6;
     }
     b.max_beta_deg = b.max_beta_lsb * 360.0 / turn;
-    Ok(b)
+    Ok((b, exact))
+}
+
+/// A bound on `|atan2_screen(x, z) − atan2(x, z)|`, radians.
+///
+/// The series `atan u = u − u³/3 + u⁵/5 − …` alternates with terms
+/// decreasing in magnitude for `|u| ≤ tan(π/8) < 0.41422`, so stopping
+/// after `u²¹/21` errs by at most the next term, `0.41422²³/23 < 7·10⁻¹¹`;
+/// the f64 roundings of the reduction and of the eleven-term sum add a few
+/// times 10⁻¹⁶. Taken as 10⁻⁹.
+pub const ATAN2_SCREEN_ERROR: f64 = 1e-9;
+
+/// `atan2(x, z)` for `x ≥ 0` within [`ATAN2_SCREEN_ERROR`], written so that
+/// it vectorizes (no call, no branch): `t = min/max` of `x` and `|z|`,
+/// reduced to `|u| ≤ tan(π/8)` by `atan t = π/4 + atan((t − 1)/(t + 1))`,
+/// the series to `u²¹`, then reflected to the octant. At `x = z = 0` it
+/// gives NaN (where `atan2` gives 0), which never screens a pair out.
+#[inline(always)]
+pub fn atan2_screen(x: f64, z: f64) -> f64 {
+    use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
+    let b = z.abs();
+    let (lo, hi) = if x > b { (b, x) } else { (x, b) };
+    let t = lo / hi;
+    let big = t > 0.414_213_562_373_095_1;
+    let u = if big { (t - 1.0) / (t + 1.0) } else { t };
+    let u2 = u * u;
+    // Σ (−1)^k u^(2k) / (2k + 1), k = 0..=10, by Horner's rule in u².
+    let mut p = 1.0 / 21.0;
+    for k in (0..10u32).rev() {
+        let c = 1.0 / f64::from(2 * k + 1);
+        p = if k % 2 == 0 { c } else { -c } + u2 * p;
+    }
+    let r = u * p + if big { FRAC_PI_4 } else { 0.0 };
+    let r = if x > b { FRAC_PI_2 - r } else { r };
+    if z < 0.0 {
+        PI - r
+    } else {
+        r
+    }
+}
+
+/// One chunk of [`angles_beta_every_code`]'s pairs `(x, z)`, `z` in `zs`,
+/// `got` the β codes: each pair's error in output LSBs with
+/// [`atan2_screen`] for the exact angle, into `e`.
+struct BetaScreen<'a> {
+    x: f64,
+    zs: &'a [i64],
+    got: &'a [i64],
+    turn: f64,
+    e: &'a mut [f64],
+}
+
+impl crate::datapath::Kernel for BetaScreen<'_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn call(self) {
+        let n = self.e.len();
+        let (zs, got) = (&self.zs[..n], &self.got[..n]);
+        for j in 0..n {
+            let exact = atan2_screen(self.x, to_f64(zs[j])) / std::f64::consts::TAU;
+            let d = to_f64(got[j]) / self.turn - exact;
+            self.e[j] = (d - fxshade_numbers::convert::round_half_away(d)).abs() * self.turn;
+        }
+    }
 }
 
 /// The CORDIC angle unit's error report for one configuration.
@@ -1709,6 +1816,66 @@ pub fn angles(cfg: &Config, count: usize, seed: u64) -> Result<AnglesReport, Ana
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The screen against libm's `atan2` near every octant boundary, at
+    /// the axes, and on random points of every sign and scale: within its
+    /// stated error. (The bound itself is the alternating series', in
+    /// [`ATAN2_SCREEN_ERROR`]'s documentation; this checks the code.)
+    #[test]
+    fn atan2_screen_is_within_its_error() {
+        let mut rng = Rng::new(5);
+        let mut pts = vec![
+            (1.0, 0.0),
+            (1.0, -0.0),
+            (0.0, 1.0),
+            (0.0, -1.0),
+            (3.0, -3.0),
+        ];
+        let t8 = (std::f64::consts::PI / 8.0).tan();
+        for k in -40..=40 {
+            let t = t8 + f64::from(k) * 1e-12;
+            pts.extend([(t, 1.0), (1.0, t), (t, -1.0), (1.0, -t)]);
+        }
+        for _ in 0..200_000 {
+            let x = rng.uniform(0.0, 2f64.powi(20)).floor();
+            let z = rng.uniform(-2f64.powi(20), 2f64.powi(20));
+            pts.push((x, z.floor()));
+            pts.push((rng.uniform(0.0, 1.0), rng.uniform(-0.5, 0.5)));
+        }
+        for (x, z) in pts {
+            let (got, want) = (atan2_screen(x, z), x.atan2(z));
+            assert!(
+                (got - want).abs() <= ATAN2_SCREEN_ERROR,
+                "({x}, {z}): {got} against {want}"
+            );
+        }
+        assert!(atan2_screen(0.0, 0.0).is_nan());
+    }
+
+    /// β over every code pair with the screen gives the same maximum, the
+    /// same worst pair and the same counts as taking every pair's exact
+    /// angle, on a 9-bit fraction (about 800 000 pairs) and a truncating
+    /// output; and it takes far fewer exact angles.
+    #[test]
+    fn the_screened_beta_maximum_is_the_exact_one() {
+        for out_round in ["half_even", "trunc"] {
+            let mut cfg = Config::embedded();
+            cfg.apply_override("angles.normal.format=\"I2F9\"").unwrap();
+            cfg.apply_override(&format!("angles.out.round=\"{out_round}\""))
+                .unwrap();
+            let a = crate::angles::Angles::of(&cfg).unwrap();
+            let (lo, hi) = angles_length_range();
+            let (s, n_s) = beta_every_code(&a, lo, hi, true).unwrap();
+            let (e, n_e) = beta_every_code(&a, lo, hi, false).unwrap();
+            assert_eq!(s.max_beta_lsb.to_bits(), e.max_beta_lsb.to_bits());
+            assert_eq!(
+                (s.worst, s.pairs, s.covered, s.overflows),
+                (e.worst, e.pairs, e.covered, e.overflows)
+            );
+            assert_eq!(n_e, e.pairs);
+            assert!(n_s * 20 < n_e, "{n_s} exact angles of {n_e}");
+        }
+    }
 
     /// The exhaustive polar figures against the whole transform run on
     /// every code triple and compared with `polar::reference` lane by lane:
