@@ -604,8 +604,8 @@ pub struct PolarReport {
 }
 
 /// The most `(α_L, β_L − β_N, α_N)` code triples `error polar` and the
-/// report cover one by one: 11-bit angles (2.15·10^9 triples, 76 CPU-s,
-/// 39 s on two cores here); above, samples.
+/// report cover one by one: 11-bit angles (2.15·10^9 triples, about 35
+/// CPU-s, 18 s on two cores here); above, samples.
 pub const POLAR_EXHAUSTIVE: u64 = 1 << 32;
 
 /// The most triples an exploration point covers one by one (each point is
@@ -913,14 +913,20 @@ impl From<PolarExhaustive> for PolarStats {
 /// normal's quantization into `lighting.normal`, `e_c` the conversion of
 /// `L'` into `lighting.light`.
 ///
+/// The transform runs as its two parts ([`crate::polar::Polar::terms_trace`],
+/// [`crate::polar::Polar::tilt_trace`]): the terms of each `(α_L, Δβ)` and
+/// of each `α_N` once, the tilt on every triple; the codes and overflow
+/// counts are the whole transform's (a quantization of the first part
+/// counts once per `α_N`).
+///
 /// # Errors
 ///
-/// [`AnalysisError::Compile`] when the transform cannot be compiled.
+/// [`AnalysisError::Compile`] when either part cannot be compiled.
 ///
 /// # Panics
 ///
-/// Never: a worker only runs the compiled transform (four inputs, three outputs) on columns
-/// of one length and reads its outputs, and every row is run.
+/// Never: a worker only runs the compiled parts (four inputs, five and two outputs) on
+/// columns of one length and reads their outputs, and every row is run.
 pub fn polar_every_code(
     p: &crate::polar::Polar,
     light: &Lighting,

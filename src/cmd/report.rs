@@ -589,8 +589,21 @@ pub fn run(a: &ReportArgs) -> anyhow::Result<()> {
 
     bar.set_message("test vectors");
     let mut vector_lines = String::new();
-    for u in fxshade_model::rtl::units::all() {
-        match fxshade_model::rtl::units::vectors(u, &cfg, 1000, 1, search) {
+    // One unit per core at a time (each search is parallel inside, but not
+    // throughout), the pipeline top (the longest) first; written in the
+    // units' order.
+    let units: Vec<_> = fxshade_model::rtl::units::all().collect();
+    let mut order: Vec<usize> = (0..units.len()).collect();
+    order.sort_by_key(|&i| units[i].name != "pipeline");
+    let mut made: Vec<_> = fxshade_model::parallel::map_in_order(&order, |_, &i| {
+        (
+            i,
+            fxshade_model::rtl::units::vectors(units[i], &cfg, 1000, 1, search),
+        )
+    });
+    made.sort_by_key(|(i, _)| *i);
+    for (u, (_, v)) in units.iter().zip(made) {
+        match v {
             Ok(v) => {
                 v.write_into_dir(&dir, &format!("vectors/{}", u.name))?;
                 vector_lines += &format!(
