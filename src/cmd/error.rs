@@ -55,7 +55,7 @@ pub struct AnglesArgs {
     #[arg(long)]
     sweep: bool,
     /// Skip β over every input code pair (the exhaustive maximum beside
-    /// the samples: about 10 s on two cores for 16-bit normals).
+    /// the samples: about 15 s on two cores for 16-bit normals).
     #[arg(long)]
     sampled: bool,
     #[command(flatten)]
