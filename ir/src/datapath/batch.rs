@@ -1721,6 +1721,20 @@ impl Compiled {
             Compiled::Wide(p) => p.quant_operand_congruence(inputs, node),
         }
     }
+    /// A quantization's operand range over a box of input codes and, where
+    /// `need` asks for it, its congruence, from one interval pass
+    /// ([`Program::quant_operand_range_congruence`]).
+    pub fn quant_operand_range_congruence(
+        &self,
+        inputs: &[(i128, i128)],
+        node: usize,
+        need: impl FnOnce((i128, i128)) -> bool,
+    ) -> Option<interval::RangeCongruence> {
+        match self {
+            Compiled::Narrow(p) => p.quant_operand_range_congruence(inputs, node, need),
+            Compiled::Wide(p) => p.quant_operand_range_congruence(inputs, node, need),
+        }
+    }
     /// Low bits known zero in a quantization's operand over a box of input
     /// codes ([`Program::quant_operand_zeros`]).
     pub fn quant_operand_zeros(&self, inputs: &[(i128, i128)], node: usize) -> Option<u32> {

@@ -477,14 +477,14 @@ pub fn box_search(
         if evals > budget {
             return Ok(BoxOutcome::Unknown);
         }
-        let Some((lo, hi)) = prog.quant_operand_range(&b, m.node) else {
+        // The congruence only where the range meets, from the same
+        // interval pass.
+        let Some(((lo, hi), cong)) = prog
+            .quant_operand_range_congruence(&b, m.node, |(lo, hi)| range_meets(m, &q, &st, lo, hi))
+        else {
             return Ok(BoxOutcome::Unknown);
         };
-        if !range_meets(m, &q, &st, lo, hi) {
-            continue;
-        }
-        let cong = prog.quant_operand_congruence(&b, m.node).unwrap_or((1, 0));
-        if !range_meets_mod(m, &q, &st, lo, hi, cong) {
+        if !cong.is_some_and(|c| range_meets_mod(m, &q, &st, lo, hi, c)) {
             continue;
         }
         let widest = (0..n_in).max_by_key(|&k| b[k].1 - b[k].0).expect("inputs");

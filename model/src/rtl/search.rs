@@ -415,19 +415,20 @@ fn proof_over(d: &Design, m: &Mutation, sup: &[usize], budget: u64) -> Result<bo
         for (k, &p) in pos.iter().enumerate() {
             b[p] = r[k];
         }
-        let Some((lo, hi)) = xprog.quant_operand_range(&b, m.node) else {
+        // Congruences decide rounding ties; an overflow is a matter of
+        // range alone (and the congruence costs another pass).
+        let Some(((lo, hi), cong)) =
+            xprog.quant_operand_range_congruence(&b, m.node, |(lo, hi)| {
+                matches!(m.kind, MutationKind::Round(_)) && range_meets(m, &q, &st, lo, hi)
+            })
+        else {
             return Ok(false);
         };
         if !range_meets(m, &q, &st, lo, hi) {
             continue;
         }
-        // Congruences decide rounding ties; an overflow is a matter of
-        // range alone (and the congruence costs another interval pass).
-        if matches!(m.kind, MutationKind::Round(_)) {
-            let cong = xprog.quant_operand_congruence(&b, m.node).unwrap_or((1, 0));
-            if !range_meets_mod(m, &q, &st, lo, hi, cong) {
-                continue;
-            }
+        if cong.is_some_and(|c| !range_meets_mod(m, &q, &st, lo, hi, c)) {
+            continue;
         }
         // Split the support that spreads the operand most: its width
         // times its spread per code over the whole box.
@@ -566,18 +567,14 @@ pub fn line_search(
             Some(c) => {
                 code_range(d, &tprog, b, c.node).is_some_and(|(lo, hi)| holds(&c.codes, lo, hi))
             }
+            // The congruence is taken only where the range meets (from
+            // the same interval pass).
             None => tprog
-                .quant_operand_range(b, m.node)
-                .is_some_and(|(lo, hi)| {
+                .quant_operand_range_congruence(b, m.node, |(lo, hi)| {
                     range_meets(m, &q, &st, lo, hi)
-                        && range_meets_mod(
-                            m,
-                            &q,
-                            &st,
-                            lo,
-                            hi,
-                            tprog.quant_operand_congruence(b, m.node).unwrap_or((1, 0)),
-                        )
+                })
+                .is_some_and(|((lo, hi), cong)| {
+                    cong.is_some_and(|c| range_meets_mod(m, &q, &st, lo, hi, c))
                 }),
         }
     };

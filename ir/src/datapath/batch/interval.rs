@@ -197,6 +197,31 @@ impl<R: Raw> Program<R> {
     /// multiple of twice the step, so that every value rounds alike).
     fn congruences(&self, inputs: &[(i128, i128)]) -> Vec<(i128, i128)> {
         let (_, may) = self.box_ranges(inputs);
+        self.congruences_with(inputs, &may)
+    }
+
+    /// [`Program::quant_operand_range`] and, where `need` asks for it
+    /// given that range, [`Program::quant_operand_congruence`] (else
+    /// `None`), from one interval pass where the two calls take two; `None`
+    /// when `node` is not a quantization of the program.
+    pub fn quant_operand_range_congruence(
+        &self,
+        inputs: &[(i128, i128)],
+        node: usize,
+        need: impl FnOnce((i128, i128)) -> bool,
+    ) -> Option<RangeCongruence> {
+        let a = self.quant_operand(node)?;
+        let (r, may) = self.box_ranges(inputs);
+        let range = r[a];
+        Some((
+            range,
+            need(range).then(|| self.congruences_with(inputs, &may)[a]),
+        ))
+    }
+
+    /// [`Program::congruences`] given the box's may-overflow flags
+    /// ([`Program::box_ranges`]).
+    fn congruences_with(&self, inputs: &[(i128, i128)], may: &[bool]) -> Vec<(i128, i128)> {
         let mut c = vec![(1i128, 0i128); self.n_regs];
         for &(d, k) in &self.consts {
             c[d] = (0, k.to_i128());
@@ -471,12 +496,33 @@ impl<R: Raw> Program<R> {
 }
 
 /// Greatest common divisor (of absolute values; `gcd(0, x) = |x|`).
+/// A quantization operand's range `(lo, hi)` over a box and, if asked
+/// for, its congruence `(stride, offset)`
+/// ([`Program::quant_operand_range_congruence`]).
+pub type RangeCongruence = ((i128, i128), Option<(i128, i128)>);
+
+/// `gcd(|a|, |b|)` (`gcd(0, 0) = 0`), saturated at `i128::MAX` (only
+/// `gcd(i128::MIN, 0)` and `gcd(i128::MIN, i128::MIN)` are larger). By
+/// Stein's binary algorithm: shifts and subtractions, where Euclid's
+/// `u128` remainders are software divisions.
 fn gcd(a: i128, b: i128) -> i128 {
     let (mut a, mut b) = (a.unsigned_abs(), b.unsigned_abs());
-    while b != 0 {
-        (a, b) = (b, a % b);
+    if a == 0 || b == 0 {
+        return i128::try_from(a | b).unwrap_or(i128::MAX);
     }
-    i128::try_from(a).unwrap_or(i128::MAX)
+    let twos = (a | b).trailing_zeros();
+    a >>= a.trailing_zeros();
+    loop {
+        b >>= b.trailing_zeros();
+        if a > b {
+            std::mem::swap(&mut a, &mut b);
+        }
+        b -= a;
+        if b == 0 {
+            break;
+        }
+    }
+    i128::try_from(a << twos).unwrap_or(i128::MAX)
 }
 
 /// A congruence scaled by `2^s`, if it fits.
@@ -487,6 +533,7 @@ fn shl((s, o): (i128, i128), sh: u32) -> Option<(i128, i128)> {
 
 #[cfg(test)]
 mod tests {
+    use super::gcd;
     use crate::datapath::{Compiled, Datapath, Trace};
     use crate::format::Format;
     use crate::quantize::{Overflow, Quant, Rounding};
@@ -516,6 +563,46 @@ mod tests {
 
     /// The bounds contain every output of every input in the range
     /// (checked against the lane-by-lane run), for a Horner quadratic.
+    /// Stein's gcd against Euclid's on edge and random values of every
+    /// sign and size.
+    #[test]
+    fn binary_gcd_is_euclids() {
+        fn euclid(a: i128, b: i128) -> i128 {
+            let (mut a, mut b) = (a.unsigned_abs(), b.unsigned_abs());
+            while b != 0 {
+                (a, b) = (b, a % b);
+            }
+            i128::try_from(a).unwrap_or(i128::MAX)
+        }
+        let mut rng = crate::sampling::Rng::new(9);
+        let mut vals = vec![
+            0,
+            1,
+            -1,
+            2,
+            3,
+            6,
+            -12,
+            1 << 40,
+            i128::MAX,
+            i128::MIN,
+            i128::MIN + 1,
+        ];
+        for _ in 0..400 {
+            let k = rng.below(127) as u32;
+            let v = i128::from(rng.below(u64::MAX)) << k.min(63);
+            let v = v >> rng.below(64);
+            vals.push(if rng.below(2) == 0 { v } else { -v });
+            // Shared factors, so that the gcd is not always 1.
+            vals.push((3 * 5 * 7 * i128::from(rng.below(1 << 30))) << rng.below(40));
+        }
+        for &a in &vals {
+            for &b in vals.iter().step_by(7) {
+                assert_eq!(gcd(a, b), euclid(a, b), "gcd({a}, {b})");
+            }
+        }
+    }
+
     #[test]
     fn bounds_contain_every_lane() {
         let q = |s, f: &str, r| Quant::new(s, f.parse::<Format>().unwrap(), r, Overflow::Saturate);
@@ -625,6 +712,15 @@ mod tests {
                 }
                 let (lo, hi) = c.quant_operand_range(&bx, n).unwrap();
                 let (st, off) = c.quant_operand_congruence(&bx, n).unwrap();
+                // The two from one pass: the same, the congruence on demand.
+                assert_eq!(
+                    c.quant_operand_range_congruence(&bx, n, |r| r == (lo, hi)),
+                    Some(((lo, hi), Some((st, off))))
+                );
+                assert_eq!(
+                    c.quant_operand_range_congruence(&bx, n, |_| false),
+                    Some(((lo, hi), None))
+                );
                 for &v in &operands[k] {
                     assert!(
                         lo <= v && v <= hi,
