@@ -500,6 +500,11 @@ enum Instr {
         d: usize,
         sel: usize,
         opts: Vec<(usize, u32)>,
+        /// When every option is a constant: its slot in
+        /// [`Program`]`::select_tables`, which holds the options' aligned
+        /// values, so the lanes read a table (a vector gather) rather than
+        /// a register per lane.
+        konst: Option<usize>,
     },
     Table {
         d: usize,
@@ -595,6 +600,11 @@ pub struct Program<R> {
     /// node given as two outputs.
     copied: Vec<usize>,
     tables: Vec<Vec<R>>,
+    /// Per select of constants ([`Instr`]`::Select::konst`): the options'
+    /// values, aligned as the select shifts them, padded with option 0 to
+    /// a power of two (a slot past the options reads option 0, as the
+    /// select does).
+    select_tables: Vec<Vec<R>>,
     /// Each table's smallest and largest entry (the interval analysis'
     /// range of a read whose index spans the table).
     table_hulls: Vec<(i128, i128)>,
@@ -690,6 +700,7 @@ impl<R: Raw> Program<R> {
         let mut instrs = Vec::new();
         let mut consts = Vec::new();
         let mut inputs = Vec::new();
+        let mut select_tables: Vec<Vec<R>> = Vec::new();
         let fr = |v: &TV| v.frac;
         for (d, op) in trace.ops.iter().enumerate() {
             let f = trace.fracs[d];
@@ -739,14 +750,32 @@ impl<R: Raw> Program<R> {
                     stage: stage_index(&mut stages, q.stage()),
                     flag: flag_of(d),
                 }),
-                Op::Select(sel, opts) => instrs.push(Instr::Select {
-                    d,
-                    sel: sel.id as usize,
-                    opts: opts
+                Op::Select(sel, opts) => {
+                    let opts: Vec<(usize, u32)> = opts
                         .iter()
                         .map(|o| (o.id as usize, align(f, fr(o))))
-                        .collect(),
-                }),
+                        .collect();
+                    // The values a select of constants reads: each
+                    // option's register holds its constant in every lane.
+                    let values: Option<Vec<R>> = opts
+                        .iter()
+                        .map(|&(o, sh)| match trace.ops[o] {
+                            Op::Const(c) => Some(R::from_i128(c) << sh),
+                            _ => None,
+                        })
+                        .collect();
+                    let konst = values.map(|mut v| {
+                        v.resize(v.len().next_power_of_two(), v[0]);
+                        select_tables.push(v);
+                        select_tables.len() - 1
+                    });
+                    instrs.push(Instr::Select {
+                        d,
+                        sel: sel.id as usize,
+                        opts,
+                        konst,
+                    });
+                }
                 Op::Table(a, t) => instrs.push(Instr::Table {
                     d,
                     a: a.id as usize,
@@ -841,6 +870,7 @@ impl<R: Raw> Program<R> {
                 .iter()
                 .map(|t| t.codes.iter().map(|&c| R::from_i128(c)).collect())
                 .collect(),
+            select_tables,
             table_hulls,
             stages,
             flag_stages,
@@ -938,7 +968,12 @@ impl<R: Raw> Program<R> {
             let len = BLOCK.min(n - start);
             self.load_block(&mut regs, inputs, start, len);
             let lanes = Lanes { inputs, start, len };
-            self.block(&mut regs, lanes, &mut outs, &mut ov, &mut flags[..len]);
+            let ovf = Overflows {
+                counts: &mut ov,
+                lanes: &mut flags[..len],
+                per_lane: false,
+            };
+            self.block(&mut regs, lanes, &mut outs, ovf);
             for (p, &a) in probes.iter_mut().zip(&operand) {
                 let x = operand_of(&self.port_of, &regs, lanes, a);
                 p.extend(x.iter().map(|x| x.to_i128()));
@@ -1012,6 +1047,7 @@ impl<R: Raw> Program<R> {
             let len = BLOCK.min(n - start);
             self.load_block(&mut regs, inputs, start, len);
             let lanes = Lanes { inputs, start, len };
+            let per_lane = lane_flags.is_some();
             let block_flags = match lane_flags.as_deref_mut() {
                 Some(f) => &mut f[start..start + len],
                 None => {
@@ -1019,7 +1055,12 @@ impl<R: Raw> Program<R> {
                     &mut flags[..len]
                 }
             };
-            self.block_on(isa, &mut regs, lanes, outs, &mut ov, block_flags);
+            let ovf = Overflows {
+                counts: &mut ov,
+                lanes: block_flags,
+                per_lane,
+            };
+            self.block_on(isa, &mut regs, lanes, outs, ovf);
             for &k in &self.copied {
                 let o = self.outputs[k].0;
                 outs[k][start..start + len].copy_from_slice(&regs[o * BLOCK..o * BLOCK + len]);
@@ -1040,15 +1081,8 @@ impl<R: Raw> Program<R> {
     }
 
     /// One block of lanes, on the instruction set [`Isa::current`] chose.
-    fn block(
-        &self,
-        regs: &mut [R],
-        lanes: Lanes<'_, R>,
-        outs: &mut [Vec<R>],
-        ov: &mut [u64],
-        flags: &mut [u64],
-    ) {
-        self.block_on(Isa::current(), regs, lanes, outs, ov, flags);
+    fn block(&self, regs: &mut [R], lanes: Lanes<'_, R>, outs: &mut [Vec<R>], ovf: Overflows<'_>) {
+        self.block_on(Isa::current(), regs, lanes, outs, ovf);
     }
 
     /// One block of lanes on `isa`: the same body compiled once per
@@ -1059,16 +1093,14 @@ impl<R: Raw> Program<R> {
         regs: &mut [R],
         lanes: Lanes<'_, R>,
         outs: &mut [Vec<R>],
-        ov: &mut [u64],
-        flags: &mut [u64],
+        ovf: Overflows<'_>,
     ) {
         isa.run(Block {
             p: self,
             regs,
             lanes,
             outs,
-            ov,
-            flags,
+            ovf,
         });
     }
 
@@ -1219,9 +1251,20 @@ struct Block<'a, R> {
     lanes: Lanes<'a, R>,
     /// The caller's output vectors, `n` codes each.
     outs: &'a mut [Vec<R>],
-    ov: &'a mut [u64],
-    /// The block's lanes' flags (`len` of them).
-    flags: &'a mut [u64],
+    ovf: Overflows<'a>,
+}
+
+/// Where a block's quantizations report their overflows.
+struct Overflows<'a> {
+    /// Per stage, the overflows counted so far.
+    counts: &'a mut [u64],
+    /// Per lane of the block (`len` of them), the flag bits of the stages
+    /// that overflowed there.
+    lanes: &'a mut [u64],
+    /// Whether the caller reads `lanes`: without, quantizations only count
+    /// (the divisions and square roots, lane by lane anyway, still write
+    /// `lanes`).
+    per_lane: bool,
 }
 
 impl<R: Raw> Kernel for Block<'_, R> {
@@ -1229,9 +1272,7 @@ impl<R: Raw> Kernel for Block<'_, R> {
 
     #[inline(always)]
     fn call(self) {
-        block_body(
-            self.p, self.regs, self.lanes, self.outs, self.ov, self.flags,
-        );
+        block_body(self.p, self.regs, self.lanes, self.outs, self.ovf);
     }
 }
 
@@ -1241,9 +1282,13 @@ fn block_body<R: Raw>(
     regs: &mut [R],
     lanes: Lanes<'_, R>,
     outs: &mut [Vec<R>],
-    ov: &mut [u64],
-    flags: &mut [u64],
+    ovf: Overflows<'_>,
 ) {
+    let Overflows {
+        counts: ov,
+        lanes: flags,
+        per_lane: want_flags,
+    } = ovf;
     let len = lanes.len;
     let start = lanes.start;
     let port_of = &p.port_of[..];
@@ -1341,17 +1386,43 @@ fn block_body<R: Raw>(
                 } => {
                     let (lo, hi) = regs.split_at_mut(d * BLOCK);
                     let src = operand_of(port_of, lo, lanes, a);
-                    ov[stage] += quant_loop(
-                        src,
-                        dest!(hi, d),
-                        &mut flags[..len],
-                        flag,
-                        &step,
-                        round,
-                        overflow,
-                    );
+                    let (dst, fl) = (dest!(hi, d), &mut flags[..len]);
+                    ov[stage] += if want_flags {
+                        quant_loop::<R, true>(src, dst, fl, flag, &step, round, overflow)
+                    } else {
+                        quant_loop::<R, false>(src, dst, fl, flag, &step, round, overflow)
+                    };
                 }
-                Instr::Select { d, sel, ref opts } => {
+                Instr::Select {
+                    d,
+                    sel,
+                    ref opts,
+                    konst: Some(kt),
+                } => {
+                    let (lo, hi) = regs.split_at_mut(d * BLOCK);
+                    let s = operand_of(port_of, lo, lanes, sel);
+                    // As the general select below, from a table of the
+                    // options' values: `mask + 1` entries held in locals
+                    // (no bounds check), a selector outside `0 ..= last`
+                    // reads option 0.
+                    let mask = this.select_tables[kt].len() - 1;
+                    let t: &[R] = &this.select_tables[kt][..=mask];
+                    let last = R::from_i128(i128::from(narrow_u32(opts.len())) - 1);
+                    for (o, &x) in dest!(hi, d).iter_mut().zip(s) {
+                        let slot = if x.in_range(R::ZERO, last) {
+                            lane_slot(x)
+                        } else {
+                            0
+                        };
+                        *o = t[slot & mask];
+                    }
+                }
+                Instr::Select {
+                    d,
+                    sel,
+                    ref opts,
+                    konst: None,
+                } => {
                     let (lo, hi) = regs.split_at_mut(d * BLOCK);
                     let s = operand_of(port_of, lo, lanes, sel);
                     for (k, o) in dest!(hi, d).iter_mut().enumerate() {
@@ -1443,7 +1514,7 @@ fn operand_of<'a, R>(port_of: &[usize], lo: &'a [R], lanes: Lanes<'a, R>, a: usi
 
 /// One quantization over a block, specialized on the modes.
 #[inline(always)]
-fn quant_loop<R: Raw>(
+fn quant_loop<R: Raw, const FLAGS: bool>(
     src: &[R],
     dst: &mut [R],
     flags: &mut [u64],
@@ -1453,7 +1524,7 @@ fn quant_loop<R: Raw>(
     overflow: Overflow,
 ) -> u64 {
     #[inline(always)]
-    fn go<R: Raw>(
+    fn go<R: Raw, const FLAGS: bool>(
         src: &[R],
         dst: &mut [R],
         flags: &mut [u64],
@@ -1463,7 +1534,7 @@ fn quant_loop<R: Raw>(
         overflow: Overflow,
     ) -> u64 {
         #[inline(always)]
-        fn lanes<R: Raw>(
+        fn lanes<R: Raw, const FLAGS: bool>(
             src: &[R],
             dst: &mut [R],
             flags: &mut [u64],
@@ -1473,20 +1544,28 @@ fn quant_loop<R: Raw>(
             overflow: Overflow,
         ) -> u64 {
             let mut n = 0u64;
-            for ((o, f), &x) in dst.iter_mut().zip(flags.iter_mut()).zip(src) {
-                let r = st.apply(x, round, overflow);
-                *o = r.code;
-                n += u64::from(r.overflowed);
-                *f |= flag * u64::from(r.overflowed);
+            if FLAGS {
+                for ((o, f), &x) in dst.iter_mut().zip(flags.iter_mut()).zip(src) {
+                    let r = st.apply(x, round, overflow);
+                    *o = r.code;
+                    n += u64::from(r.overflowed);
+                    *f |= flag * u64::from(r.overflowed);
+                }
+            } else {
+                for (o, &x) in dst.iter_mut().zip(src) {
+                    let r = st.apply(x, round, overflow);
+                    *o = r.code;
+                    n += u64::from(r.overflowed);
+                }
             }
             n
         }
         // Separate loops per shift direction, so each body is straight-line.
         let st = *st;
         if st.shift > 0 {
-            lanes(src, dst, flags, flag, st, round, overflow)
+            lanes::<R, FLAGS>(src, dst, flags, flag, st, round, overflow)
         } else if st.shift == 0 {
-            lanes(
+            lanes::<R, FLAGS>(
                 src,
                 dst,
                 flags,
@@ -1496,19 +1575,19 @@ fn quant_loop<R: Raw>(
                 overflow,
             )
         } else {
-            lanes(src, dst, flags, flag, st, round, overflow)
+            lanes::<R, FLAGS>(src, dst, flags, flag, st, round, overflow)
         }
     }
     use Overflow::*;
     use Rounding::*;
     // Each arm passes constants, so `go` is inlined with the modes folded.
     match (round, overflow) {
-        (Trunc, Wrap) => go(src, dst, flags, flag, st, Trunc, Wrap),
-        (Trunc, Saturate) => go(src, dst, flags, flag, st, Trunc, Saturate),
-        (HalfUp, Wrap) => go(src, dst, flags, flag, st, HalfUp, Wrap),
-        (HalfUp, Saturate) => go(src, dst, flags, flag, st, HalfUp, Saturate),
-        (HalfEven, Wrap) => go(src, dst, flags, flag, st, HalfEven, Wrap),
-        (HalfEven, Saturate) => go(src, dst, flags, flag, st, HalfEven, Saturate),
+        (Trunc, Wrap) => go::<R, FLAGS>(src, dst, flags, flag, st, Trunc, Wrap),
+        (Trunc, Saturate) => go::<R, FLAGS>(src, dst, flags, flag, st, Trunc, Saturate),
+        (HalfUp, Wrap) => go::<R, FLAGS>(src, dst, flags, flag, st, HalfUp, Wrap),
+        (HalfUp, Saturate) => go::<R, FLAGS>(src, dst, flags, flag, st, HalfUp, Saturate),
+        (HalfEven, Wrap) => go::<R, FLAGS>(src, dst, flags, flag, st, HalfEven, Wrap),
+        (HalfEven, Saturate) => go::<R, FLAGS>(src, dst, flags, flag, st, HalfEven, Saturate),
     }
 }
 
@@ -1548,6 +1627,23 @@ fn narrow(x: i128) -> i64 {
 )]
 pub(crate) fn table_slot(bits: u64, mask: usize) -> usize {
     bits as usize & mask
+}
+
+/// A selector code's low bits as an index (the caller has checked it is
+/// in `0 ..= last` of a short list).
+#[inline(always)]
+#[allow(
+    clippy::cast_possible_truncation,
+    clippy::cast_sign_loss,
+    reason = "a code checked to be a small non-negative index"
+)]
+fn lane_slot<R: Raw>(x: R) -> usize {
+    x.to_i128() as usize
+}
+
+/// A list's length as `u32` (selects have a handful of options).
+fn narrow_u32(n: usize) -> u32 {
+    u32::try_from(n).expect("a select has fewer than 2^32 options")
 }
 
 /// The left shift aligning a value of `frac` fraction bits to `to`
@@ -1856,5 +1952,110 @@ mod tests {
         let probe = prog.probe(&[&codes], &[y.node()]);
         let sq: Vec<i128> = codes.iter().map(|&c| i128::from(c * c)).collect();
         assert_eq!(probe[0], sq);
+        // Without lane flags the quantizations still count every overflow:
+        // per stage, the lanes where y (stage `sq`), s and e (`sum`) clip.
+        let n_sq = codes.iter().filter(|&&c| (c * c) >> 14 > 32767).count();
+        let n_sum = codes
+            .iter()
+            .map(|&c| {
+                let y = want_y(c);
+                usize::from(!(-32768..=32767).contains(&(y + c)))
+                    + usize::from(!(-32768..=32767).contains(&(c - y)))
+            })
+            .sum::<usize>();
+        assert!(n_sq > 0 && n_sum > 0);
+        for isa in Isa::ALL.into_iter().filter(|i| i.available()) {
+            let ov = prog.run_into_on(isa, &[&codes], &mut reused);
+            assert_eq!(
+                ov,
+                vec![("sq", n_sq as u64), ("sum", n_sum as u64)],
+                "{}",
+                isa.name()
+            );
+        }
+    }
+
+    /// A select whose options are all constants reads them from a table
+    /// (`konst`); one whose options are inputs reads registers lane by
+    /// lane. Both against the closed form `options[sel]`, option 0 for a
+    /// selector past the last option or negative, with the options on
+    /// three binary points (aligned to the finest), over every selector
+    /// code of an 8-bit signed format and several blocks, on every
+    /// instruction set, as `i64` and `i128` codes.
+    #[test]
+    fn a_select_of_constants_reads_the_options_by_selector() {
+        let sel_q = Quant::new(
+            "sel",
+            "I8F0".parse().unwrap(),
+            Rounding::Trunc,
+            Overflow::Wrap,
+        );
+        let fmts = ["I4F2", "I4F4", "I2F6", "I4F4", "I6F0"];
+        let vals = [-1.25, 3.0625, 1.515_625, -7.9375, 21.0];
+        // Every option as a code of the finest binary point (6 bits).
+        let want_opt: Vec<i64> = vals.iter().map(|&v: &f64| (v * 64.0) as i64).collect();
+        let want = |sel: i64| -> i64 {
+            usize::try_from(sel)
+                .ok()
+                .and_then(|k| want_opt.get(k))
+                .copied()
+                .unwrap_or(want_opt[0])
+        };
+        let sels: Vec<i64> = (0..6).flat_map(|_| -128..128).collect();
+        assert!(sels.len() > 5 * BLOCK);
+        for constants in [true, false] {
+            let mut t = Trace::new();
+            let sel = t.input_named("sel", &sel_q);
+            let opts: Vec<TV> = fmts
+                .iter()
+                .zip(vals)
+                .enumerate()
+                .map(|(k, (f, v))| {
+                    let q = Quant::new("o", f.parse().unwrap(), Rounding::Trunc, Overflow::Wrap);
+                    if constants {
+                        t.constant(v, &q).unwrap()
+                    } else {
+                        t.input_named(&format!("o{k}"), &q)
+                    }
+                })
+                .collect();
+            let y = t.select(sel, &opts);
+            assert_eq!(y.frac, 6);
+            t.output("y", y);
+            let mut cols: Vec<Vec<i64>> = vec![sels.clone()];
+            if !constants {
+                for (f, v) in fmts.iter().zip(vals) {
+                    let frac = f.parse::<Format>().unwrap().frac();
+                    let code = (v * f64::from(1u32 << frac)) as i64;
+                    cols.push(vec![code; sels.len()]);
+                }
+            }
+            let narrow = Program::<i64>::compile(&t, &[y]).unwrap();
+            let wide = Program::<i128>::compile(&t, &[y]).unwrap();
+            assert_eq!(narrow.select_tables.len(), usize::from(constants));
+            assert_eq!(wide.select_tables.len(), usize::from(constants));
+            let refs: Vec<&[i64]> = cols.iter().map(Vec::as_slice).collect();
+            let wide_cols: Vec<Vec<i128>> = cols
+                .iter()
+                .map(|c| c.iter().map(|&x| i128::from(x)).collect())
+                .collect();
+            let wide_refs: Vec<&[i128]> = wide_cols.iter().map(Vec::as_slice).collect();
+            for isa in Isa::ALL.into_iter().filter(|i| i.available()) {
+                let mut got = vec![Vec::new()];
+                narrow.run_into_on(isa, &refs, &mut got);
+                let mut got_wide = vec![Vec::new()];
+                wide.run_into_on(isa, &wide_refs, &mut got_wide);
+                for (k, &sc) in sels.iter().enumerate() {
+                    let w = want(sc);
+                    assert_eq!(got[0][k], w, "{}, selector {sc}", isa.name());
+                    assert_eq!(
+                        got_wide[0][k],
+                        i128::from(w),
+                        "{}, selector {sc}",
+                        isa.name()
+                    );
+                }
+            }
+        }
     }
 }

@@ -241,7 +241,9 @@ impl Program<i64> {
                     quant(&mut body, &r(d), &r(a), step, round, overflow);
                     bad[stage].push(format!("r{d}_bad"));
                 }
-                Instr::Select { d, sel, ref opts } => {
+                Instr::Select {
+                    d, sel, ref opts, ..
+                } => {
                     // An index outside the options reads the first (as the
                     // engine does).
                     let mut e = shl(&r(opts[0].0), opts[0].1);

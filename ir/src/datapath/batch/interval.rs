@@ -448,7 +448,9 @@ impl<R: Raw> Program<R> {
                         (lo.code, hi.code)
                     };
                 }
-                Instr::Select { d, sel, ref opts } if r[sel].0 == r[sel].1 => {
+                Instr::Select {
+                    d, sel, ref opts, ..
+                } if r[sel].0 == r[sel].1 => {
                     let s0 = r[sel].0;
                     let (o, sh) =
                         if let Some(&o) = usize::try_from(s0).ok().and_then(|i| opts.get(i)) {
@@ -462,6 +464,7 @@ impl<R: Raw> Program<R> {
                     d,
                     sel: _,
                     ref opts,
+                    ..
                 } => {
                     r[d] = opts
                         .iter()
