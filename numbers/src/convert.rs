@@ -74,15 +74,24 @@ pub fn to_f64<T: ToF64>(x: T) -> f64 {
 /// Written with a conversion to `i64` (`|x| < 2^52`, where `x − trunc(x)`
 /// is exact) so that it inlines on every x86-64 (`f64::round` is a call
 /// into libm without SSE4.1); a unit test holds it equal to `f64::round`.
+/// Branch-free (a select, not an early return), so that a loop over it
+/// vectorizes.
 #[inline]
 pub fn round_half_away(x: f64) -> f64 {
-    // 2^52: at and above it every f64 is an integer.
-    if x.is_nan() || x.abs() >= 4_503_599_627_370_496.0 {
-        return x;
-    }
+    // (For NaN and |x| ≥ 2^63 the conversion saturates and the sum below
+    // wraps; both are discarded by the select.)
     let t = from_f64::<i64>(x);
     let d = x - to_f64(t);
-    to_f64(t + i64::from(d >= 0.5) - i64::from(d <= -0.5)).copysign(x)
+    let up = t
+        .wrapping_add(i64::from(d >= 0.5))
+        .wrapping_sub(i64::from(d <= -0.5));
+    let r = to_f64(up).copysign(x);
+    // 2^52: at and above it every f64 is an integer.
+    if x.is_nan() || x.abs() >= 4_503_599_627_370_496.0 {
+        x
+    } else {
+        r
+    }
 }
 
 /// `x` rounded toward zero, saturated to `T`'s range, NaN as 0 (Rust's

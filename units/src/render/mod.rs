@@ -484,33 +484,19 @@ impl Metrics {
     /// others are not counted at all, not even as skipped).
     pub fn compare_where(got: &[u8], want: &[f64], keep: impl Fn(usize) -> bool) -> Metrics {
         let mut m = Metrics::default();
+        let sums = crate::datapath::Isa::current().run(Compare {
+            got,
+            want,
+            keep: &keep,
+        });
+        m.pixels = sums.pixels.iter().map(|&n| usize_of(n)).sum();
+        m.skipped = sums.skipped.iter().map(|&n| usize_of(n)).sum();
+        m.max_abs_levels = sums.max_abs.iter().copied().max().unwrap_or(0);
         // The sums of integer errors, exact (as f64 sums would be below 2^53).
-        let (mut sum, mut sq) = (0u64, 0u64);
-        let mut hist = [0usize; 4];
-        for (k, (&g, &w)) in got.iter().zip(want).enumerate() {
-            if !keep(k) {
-                continue;
-            }
-            if w.is_nan() {
-                m.skipped += 1;
-                continue;
-            }
-            m.pixels += 1;
-            let e = from_f64::<u32>((f64::from(g) - round_half_away(w)).abs());
-            m.max_abs_levels = m.max_abs_levels.max(e);
-            sum += u64::from(e);
-            sq += u64::from(e * e);
-            hist[(e as usize).min(3)] += 1;
-            // (A select rather than a branch on the data; the error is
-            // never negative, so a pixel below the floor adds 0.)
-            let beyond = ((f64::from(g) - w).abs() - 0.5).max(0.0);
-            let rel = if w >= REL_FLOOR_LEVELS {
-                beyond / w
-            } else {
-                0.0
-            };
-            m.max_rel_intensity_err = m.max_rel_intensity_err.max(rel);
-        }
+        let sum: u64 = sums.sum.iter().sum();
+        let sq: u64 = sums.sq.iter().sum();
+        let hist = sums.hist.map(|h| h.iter().sum::<u64>());
+        m.max_rel_intensity_err = sums.max_rel.iter().fold(0.0, |a, &b| a.max(b));
         if m.pixels > 0 {
             let n = to_f64(m.pixels);
             m.mean_abs_levels = to_f64(sum) / n;
@@ -520,6 +506,100 @@ impl Metrics {
         m.paper_bound_holds = m.pixels > 0 && m.max_rel_intensity_err < PAPER_BOUND;
         m
     }
+}
+
+/// Lanes of [`Compare`]'s sums: pixel `k` goes to lane `k mod CMP_LANES`,
+/// so that the lanes' chains are independent (and vectorize); the lanes
+/// are then summed (integers: exact) or their maxima taken (exact, in any
+/// order), so the metrics are those of one pass in pixel order.
+const CMP_LANES: usize = 8;
+
+/// Per lane: the sums and maxima of [`Metrics::compare_where`].
+struct CompareSums {
+    pixels: [u64; CMP_LANES],
+    skipped: [u64; CMP_LANES],
+    max_abs: [u32; CMP_LANES],
+    sum: [u64; CMP_LANES],
+    sq: [u64; CMP_LANES],
+    hist: [[u64; CMP_LANES]; 4],
+    max_rel: [f64; CMP_LANES],
+}
+
+/// [`Metrics::compare_where`]'s pass over the pixels, as a kernel compiled
+/// for the widest instruction set ([`crate::datapath::Isa::run`]).
+struct Compare<'a, K> {
+    got: &'a [u8],
+    want: &'a [f64],
+    keep: &'a K,
+}
+
+impl<K: Fn(usize) -> bool> crate::datapath::Kernel for Compare<'_, K> {
+    type Output = CompareSums;
+
+    #[inline(always)]
+    fn call(self) -> CompareSums {
+        let mut s = CompareSums {
+            pixels: [0; CMP_LANES],
+            skipped: [0; CMP_LANES],
+            max_abs: [0; CMP_LANES],
+            sum: [0; CMP_LANES],
+            sq: [0; CMP_LANES],
+            hist: [[0; CMP_LANES]; 4],
+            max_rel: [0.0; CMP_LANES],
+        };
+        let n = self.got.len().min(self.want.len());
+        let keep = self.keep;
+        // Whole groups of lanes (the inner loop unrolled over the lanes),
+        // then the rest.
+        let whole = n - n % CMP_LANES;
+        for (c, (g, w)) in self.got[..whole]
+            .chunks_exact(CMP_LANES)
+            .zip(self.want[..whole].chunks_exact(CMP_LANES))
+            .enumerate()
+        {
+            for j in 0..CMP_LANES {
+                s.add(j, g[j], w[j], keep(c * CMP_LANES + j));
+            }
+        }
+        for k in whole..n {
+            s.add(k - whole, self.got[k], self.want[k], keep(k));
+        }
+        s
+    }
+}
+
+impl CompareSums {
+    /// Pixel `(g, w)` into lane `j` (when `kept`).
+    #[inline(always)]
+    fn add(&mut self, j: usize, g: u8, w: f64, kept: bool) {
+        // Pixels whose reference is NaN are skipped, not compared.
+        let valid = kept && !w.is_nan();
+        self.skipped[j] += u64::from(kept && w.is_nan());
+        self.pixels[j] += u64::from(valid);
+        // (Selects rather than branches on the data: an invalid pixel
+        // adds 0 and takes no maximum.)
+        let e = from_f64::<u32>((f64::from(g) - round_half_away(w)).abs());
+        let e = if valid { e } else { 0 };
+        self.max_abs[j] = self.max_abs[j].max(e);
+        self.sum[j] += u64::from(e);
+        self.sq[j] += u64::from(e) * u64::from(e);
+        for (b, h) in (0u32..).zip(self.hist.iter_mut()) {
+            h[j] += u64::from(valid && e.min(3) == b);
+        }
+        // The error is never negative, so a pixel below the floor adds 0.
+        let beyond = ((f64::from(g) - w).abs() - 0.5).max(0.0);
+        let rel = if valid && w >= REL_FLOOR_LEVELS {
+            beyond / w
+        } else {
+            0.0
+        };
+        self.max_rel[j] = self.max_rel[j].max(rel);
+    }
+}
+
+/// A count as `usize` (it counts slice elements).
+fn usize_of(n: u64) -> usize {
+    narrow::<usize, _>(n)
 }
 
 /// The distribution of `cos φ` (smallest dot product of a triangle's vertex
@@ -1581,8 +1661,91 @@ pub fn scheme_of(cfg: &Config) -> Scheme {
 
 #[cfg(test)]
 mod tests {
-    use super::{pixel_of, TBN_ROW};
+    use super::{pixel_of, Metrics, TBN_ROW};
     use crate::format::Format;
+
+    /// Metrics of five pixels worked by hand: errors 0, 2, 1 and 15 levels
+    /// and a NaN reference (skipped); the relative error is the last
+    /// pixel's `(15 − ½)/20`, the others' references being under the
+    /// floor; then the same with the last pixel left out.
+    #[test]
+    fn metrics_of_five_pixels_are_the_hand_worked_ones() {
+        let got = [10u8, 12, 200, 0, 5];
+        let want = [10.4, 10.0, f64::NAN, 0.6, 20.0];
+        let m = Metrics::compare(&got, &want);
+        assert_eq!((m.pixels, m.skipped, m.max_abs_levels), (4, 1, 15));
+        assert_eq!(m.mean_abs_levels, 4.5);
+        assert_eq!(m.off_by, [0.25; 4]);
+        let psnr = 10.0 * (255.0f64 * 255.0 / (230.0 / 4.0)).log10();
+        assert_eq!(m.psnr_db, Some(psnr));
+        assert_eq!(m.max_rel_intensity_err, 14.5 / 20.0);
+        assert!(!m.paper_bound_holds);
+        let m = Metrics::compare_where(&got, &want, |k| k != 4);
+        assert_eq!((m.pixels, m.skipped, m.max_abs_levels), (3, 1, 2));
+        assert_eq!(m.max_rel_intensity_err, 0.0);
+        assert!(m.paper_bound_holds);
+    }
+
+    /// The metrics' lanes sum and take maxima exactly: on 10 007 pixels
+    /// (NaN, far and tied references among them, a mask), the same
+    /// figures as one plain pass in pixel order, written out here.
+    #[test]
+    fn metrics_in_lanes_are_one_pass_in_order() {
+        use fxshade_numbers::convert::to_f64;
+        let mut state = 0x2545_f491_4f6c_dd1d_u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        let n = 10_007;
+        let (mut got, mut want) = (Vec::new(), Vec::new());
+        for k in 0..n {
+            let r = next();
+            got.push(u8::try_from(r % 256).unwrap());
+            want.push(match k % 97 {
+                0 => f64::NAN,
+                1 => 1.0e6,
+                2 => to_f64(i32::try_from(r % 255).unwrap()) + 0.5,
+                _ => to_f64(i32::try_from(r % 25_600).unwrap()) / 100.0,
+            });
+        }
+        let keep = |k: usize| k % 5 != 3;
+        // One pass in pixel order.
+        let (mut pixels, mut skipped, mut max_abs, mut sum, mut sq) = (0, 0, 0u32, 0u64, 0u64);
+        let (mut hist, mut max_rel) = ([0usize; 4], 0.0f64);
+        for k in (0..n).filter(|&k| keep(k)) {
+            let (g, w) = (f64::from(got[k]), want[k]);
+            if w.is_nan() {
+                skipped += 1;
+                continue;
+            }
+            pixels += 1;
+            let e = (g - w.round()).abs() as u32;
+            max_abs = max_abs.max(e);
+            sum += u64::from(e);
+            sq += u64::from(e) * u64::from(e);
+            hist[(e as usize).min(3)] += 1;
+            if w >= super::REL_FLOOR_LEVELS {
+                let rel = ((g - w).abs() - 0.5).max(0.0) / w;
+                if rel > max_rel {
+                    max_rel = rel;
+                }
+            }
+        }
+        let m = Metrics::compare_where(&got, &want, keep);
+        assert_eq!(
+            (m.pixels, m.skipped, m.max_abs_levels),
+            (pixels, skipped, max_abs)
+        );
+        assert_eq!(m.mean_abs_levels, to_f64(sum) / to_f64(pixels));
+        assert_eq!(m.off_by, hist.map(|h| to_f64(h) / to_f64(pixels)));
+        let psnr = 10.0 * (255.0f64 * 255.0 / (to_f64(sq) / to_f64(pixels))).log10();
+        assert_eq!(m.psnr_db, Some(psnr));
+        assert_eq!(m.max_rel_intensity_err.to_bits(), max_rel.to_bits());
+        assert!(max_abs > 900_000 && max_rel > 0.0 && hist.iter().all(|&h| h > 0));
+    }
 
     /// A baseline row holds one code per input of the baseline's trace.
     #[test]
