@@ -200,13 +200,12 @@ impl Columns {
     pub fn end_run(&mut self) {
         let (start, end) = (self.run, self.lanes);
         if end > start + 1 {
-            for &k in &self.constant {
-                let col = &mut self.codes[k * self.cap + start..k * self.cap + end];
-                let first = col[0];
-                for c in &mut col[1..] {
-                    *c = first;
-                }
-            }
+            crate::datapath::Isa::current().run(FillRun {
+                codes: &mut self.codes,
+                constant: &self.constant,
+                cap: self.cap,
+                rows: start..end,
+            });
         }
         self.run = end;
     }
@@ -227,6 +226,30 @@ impl Columns {
         self.lanes = 0;
         self.run = 0;
         self.live.clear();
+    }
+}
+
+/// [`Columns::end_run`]'s fills as a kernel compiled for the widest
+/// instruction set ([`crate::datapath::Isa::run`]): each constant column's
+/// rows `rows` set to the run's first row's code.
+struct FillRun<'a> {
+    codes: &'a mut [i64],
+    constant: &'a [usize],
+    cap: usize,
+    rows: std::ops::Range<usize>,
+}
+
+impl crate::datapath::Kernel for FillRun<'_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn call(self) {
+        let (start, end) = (self.rows.start, self.rows.end);
+        for &k in self.constant {
+            let col = &mut self.codes[k * self.cap + start..k * self.cap + end];
+            let first = col[0];
+            col[1..].fill(first);
+        }
     }
 }
 
