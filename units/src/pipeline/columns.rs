@@ -141,7 +141,10 @@ impl Columns {
     /// # Panics
     ///
     /// As [`Columns::push_pixel`]; and if the slices differ in length.
-    pub fn push_pixels(&mut self, pixels: &[&[i128]]) {
+    pub fn push_pixels<T: Copy>(&mut self, pixels: &[&[T]])
+    where
+        i64: TryFrom<T>,
+    {
         assert!(self.in_run(), "a run opened by a whole row");
         assert_eq!(
             pixels.len(),
@@ -155,7 +158,7 @@ impl Columns {
         for (&k, col) in self.pixel.iter().zip(pixels) {
             let dst = &mut self.codes[k * self.cap + i..k * self.cap + i + m];
             for (d, &v) in dst.iter_mut().zip(*col) {
-                *d = i64::try_from(v).expect("a code that fits i64");
+                *d = i64::try_from(v).unwrap_or_else(|_| panic!("a code that fits i64"));
             }
         }
         self.lanes += m;
@@ -328,7 +331,7 @@ mod tests {
             one.push_pixel(&[*x, *y]);
         }
         all.push_pixels(&[&a, &b]);
-        all.push_pixels(&[&[], &[]]);
+        all.push_pixels::<i128>(&[&[], &[]]);
         for c in [&mut one, &mut all] {
             c.end_run();
         }

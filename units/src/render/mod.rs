@@ -867,16 +867,22 @@ impl Store {
     /// whole by `fill(t, row)`: columns take the first row as
     /// [`Store::push_pixel`] does and the others by their per-pixel codes
     /// alone; rows are filled one by one.
-    fn push_pixels(&mut self, pixels: &[&[i128]], fill: impl Fn(usize, &mut Vec<i128>)) {
+    fn push_pixels<T: Copy + Into<i128>>(
+        &mut self,
+        pixels: &[&[T]],
+        fill: impl Fn(usize, &mut Vec<i128>),
+    ) where
+        i64: TryFrom<T>,
+    {
         let m = pixels.first().map_or(0, |p| p.len());
         if m == 0 {
             return;
         }
         match self {
             Store::Columns(c) => {
-                let first: Vec<i128> = pixels.iter().map(|p| p[0]).collect();
+                let first: Vec<i128> = pixels.iter().map(|p| p[0].into()).collect();
                 c.push_fragment(&first, |r| fill(0, r));
-                let rest: Vec<&[i128]> = pixels.iter().map(|p| &p[1..]).collect();
+                let rest: Vec<&[T]> = pixels.iter().map(|p| &p[1..]).collect();
                 c.push_pixels(&rest);
             }
             Store::Rows(r) => {
@@ -1036,7 +1042,7 @@ fn frame_core(
     type Tri = (
         crate::pipeline::SmoothTri,
         crate::pipeline::SmoothTri,
-        crate::pipeline::MappedTri,
+        Option<crate::pipeline::MappedTri>,
     );
     // Fragments come in raster order, in runs of one triangle.
     let mut runs: Vec<(usize, std::ops::Range<usize>)> = Vec::new();
@@ -1061,7 +1067,9 @@ fn frame_core(
             let setup = (|| {
                 let s = p.setup_smooth(n).ok()?;
                 let so = p.setup_smooth(no).ok()?;
-                Some((s, so, p.setup_mapped(no)))
+                // The mapped set-up only for the mapped rows.
+                let mapped = (want.mapped || want.mapped_interp).then(|| p.setup_mapped(no));
+                Some((s, so, mapped))
             })();
             (ti, setup)
         })
@@ -1225,15 +1233,22 @@ fn frame_core(
         pos += len;
         // The batch's smooth rows: sel, c1, c2, the six normals, L, H.
         if want.smooth {
-            let pixels = [&bary[0][..len], &bary[1][..len]];
-            stores.smooth.push_pixels(&pixels, |t, r| {
+            let fill = |t: usize, r: &mut Vec<i128>| {
                 r.extend_from_slice(&[st.set as i128, bary[0][t], bary[1][t]]);
                 for v in &st.v {
                     r.extend_from_slice(v);
                 }
                 r.extend_from_slice(&lc);
                 r.extend_from_slice(&hc);
-            });
+            };
+            // The lane kernel's i64 codes as they are, when it made them.
+            if narrow_bary.is_some() {
+                let pixels = [&lanes.codes[0][..len], &lanes.codes[1][..len]];
+                stores.smooth.push_pixels(&pixels, fill);
+            } else {
+                let pixels = [&bary[0][..len], &bary[1][..len]];
+                stores.smooth.push_pixels(&pixels, fill);
+            }
         }
         // The normal interpolated exactly and shaded (lanes::Lanes is
         // interp::field, normalize and shade_f64 over the lanes), and
@@ -1278,6 +1293,7 @@ fn frame_core(
                 if wanted {
                     let pixel = [c1, c2, texc[0], texc[1], texc[2]];
                     rows.push_pixel(&pixel, |r| {
+                        let mt = mt.as_ref().expect("set up for the mapped rows");
                         Pipeline::mapped_row_into(src, [c1, c2], so, mt, lh, texc, r);
                     });
                 }
