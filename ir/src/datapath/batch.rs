@@ -582,6 +582,12 @@ pub const BLOCK: usize = 256;
 #[derive(Clone, Debug)]
 pub struct Program<R> {
     instrs: Vec<Instr>,
+    /// Per instruction: a product or sum whose only reader is the next
+    /// instruction, a quantization, and which is no output: the block loop
+    /// runs the two as one pass over the lanes (the exact value stays in a
+    /// vector register, never stored), unless the caller reads the
+    /// quantization's operand ([`Program::probe`]).
+    fused: Vec<bool>,
     n_regs: usize,
     consts: Vec<(usize, R)>,
     inputs: Vec<(usize, Quant)>,
@@ -846,6 +852,19 @@ impl<R: Raw> Program<R> {
         let copied = (0..outputs.len())
             .filter(|&k| out_of[outputs[k].0] != k)
             .collect();
+        let mut readers = vec![0usize; trace.ops.len()];
+        for ins in &instrs {
+            ins.each_operand(|a| readers[a] += 1);
+        }
+        let fused = (0..instrs.len())
+            .map(|i| {
+                let d = instrs[i].dest();
+                matches!(instrs[i], Instr::Mul { .. } | Instr::AddSub { .. })
+                    && matches!(instrs.get(i + 1), Some(&Instr::Quant { a, .. }) if a == d)
+                    && readers[d] == 1
+                    && named[d] == 0
+            })
+            .collect();
         let table_hulls = trace
             .tables
             .iter()
@@ -857,6 +876,7 @@ impl<R: Raw> Program<R> {
             .collect();
         Ok(Program {
             instrs,
+            fused,
             n_regs: trace.ops.len(),
             consts,
             inputs,
@@ -973,7 +993,7 @@ impl<R: Raw> Program<R> {
                 lanes: &mut flags[..len],
                 per_lane: false,
             };
-            self.block(&mut regs, lanes, &mut outs, ovf);
+            self.block_unfused(&mut regs, lanes, &mut outs, ovf);
             for (p, &a) in probes.iter_mut().zip(&operand) {
                 let x = operand_of(&self.port_of, &regs, lanes, a);
                 p.extend(x.iter().map(|x| x.to_i128()));
@@ -1080,9 +1100,23 @@ impl<R: Raw> Program<R> {
             .collect()
     }
 
-    /// One block of lanes, on the instruction set [`Isa::current`] chose.
-    fn block(&self, regs: &mut [R], lanes: Lanes<'_, R>, outs: &mut [Vec<R>], ovf: Overflows<'_>) {
-        self.block_on(Isa::current(), regs, lanes, outs, ovf);
+    /// One block of lanes, on the instruction set [`Isa::current`] chose,
+    /// every quantization's operand in its register (nothing fused).
+    fn block_unfused(
+        &self,
+        regs: &mut [R],
+        lanes: Lanes<'_, R>,
+        outs: &mut [Vec<R>],
+        ovf: Overflows<'_>,
+    ) {
+        Isa::current().run(Block {
+            p: self,
+            regs,
+            lanes,
+            outs,
+            ovf,
+            fuse: false,
+        });
     }
 
     /// One block of lanes on `isa`: the same body compiled once per
@@ -1101,6 +1135,10 @@ impl<R: Raw> Program<R> {
             lanes,
             outs,
             ovf,
+            // The portable path keeps the pairs apart: its quantization
+            // loops vectorize apart, and fused they ran slower there
+            // (`bench engine`'s chain: 26 ns a vector against 30).
+            fuse: isa != Isa::Portable,
         });
     }
 
@@ -1128,8 +1166,10 @@ impl<R: Raw> Program<R> {
 }
 
 /// An instruction set the engine's block loop is compiled for. Every path
-/// runs the same Rust body ([`block_body`]'s loops over 256 lanes), so the
-/// codes and overflow counts are identical by construction; the suite
+/// runs the same Rust body ([`block_body`]'s loops over 256 lanes; the
+/// vector paths run a product or sum and its quantization as one loop,
+/// [`Program`]`::fused`, the same exact value then the same quantization),
+/// so the codes and overflow counts are identical by construction; the suite
 /// checks it on every path the test machine has
 /// (`every_instruction_set_computes_the_same_codes`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -1252,6 +1292,8 @@ struct Block<'a, R> {
     /// The caller's output vectors, `n` codes each.
     outs: &'a mut [Vec<R>],
     ovf: Overflows<'a>,
+    /// Whether [`Program`]`::fused` pairs run as one pass.
+    fuse: bool,
 }
 
 /// Where a block's quantizations report their overflows.
@@ -1272,7 +1314,9 @@ impl<R: Raw> Kernel for Block<'_, R> {
 
     #[inline(always)]
     fn call(self) {
-        block_body(self.p, self.regs, self.lanes, self.outs, self.ovf);
+        block_body(
+            self.p, self.regs, self.lanes, self.outs, self.ovf, self.fuse,
+        );
     }
 }
 
@@ -1283,6 +1327,7 @@ fn block_body<R: Raw>(
     lanes: Lanes<'_, R>,
     outs: &mut [Vec<R>],
     ovf: Overflows<'_>,
+    fuse: bool,
 ) {
     let Overflows {
         counts: ov,
@@ -1306,7 +1351,76 @@ fn block_body<R: Raw>(
     }
     {
         let this = p;
-        for ins in &this.instrs {
+        let mut skip = false;
+        for (i, ins) in this.instrs.iter().enumerate() {
+            if std::mem::take(&mut skip) {
+                continue;
+            }
+            if fuse && this.fused[i] {
+                let Some(&Instr::Quant {
+                    d: qd,
+                    step,
+                    round,
+                    overflow,
+                    stage,
+                    flag,
+                    ..
+                }) = this.instrs.get(i + 1)
+                else {
+                    unreachable!("a fused instruction is followed by its quantization")
+                };
+                skip = true;
+                let (lo, hi) = regs.split_at_mut(qd * BLOCK);
+                let (dst, fl) = (dest!(hi, qd), &mut flags[..len]);
+                let q = QuantOf {
+                    flag,
+                    st: &step,
+                    round,
+                    overflow,
+                };
+                ov[stage] += match *ins {
+                    Instr::Mul { a, b, .. } => q.run(
+                        operand_of(port_of, lo, lanes, a),
+                        operand_of(port_of, lo, lanes, b),
+                        |x: R, y: R| x.mul_raw(y),
+                        dst,
+                        fl,
+                        want_flags,
+                    ),
+                    Instr::AddSub {
+                        a,
+                        sa,
+                        b,
+                        sb,
+                        sub: false,
+                        ..
+                    } => q.run(
+                        operand_of(port_of, lo, lanes, a),
+                        operand_of(port_of, lo, lanes, b),
+                        move |x: R, y: R| (x << sa) + (y << sb),
+                        dst,
+                        fl,
+                        want_flags,
+                    ),
+                    Instr::AddSub {
+                        a,
+                        sa,
+                        b,
+                        sb,
+                        sub: true,
+                        ..
+                    } => q.run(
+                        operand_of(port_of, lo, lanes, a),
+                        operand_of(port_of, lo, lanes, b),
+                        move |x: R, y: R| (x << sa) - (y << sb),
+                        dst,
+                        fl,
+                        want_flags,
+                    ),
+                    _ => unreachable!("only products and sums are fused"),
+                };
+                continue;
+            }
             match *ins {
                 Instr::Mul { d, a, b } => {
                     let (lo, hi) = regs.split_at_mut(d * BLOCK);
@@ -1588,6 +1702,116 @@ fn quant_loop<R: Raw, const FLAGS: bool>(
         (HalfUp, Saturate) => go::<R, FLAGS>(src, dst, flags, flag, st, HalfUp, Saturate),
         (HalfEven, Wrap) => go::<R, FLAGS>(src, dst, flags, flag, st, HalfEven, Wrap),
         (HalfEven, Saturate) => go::<R, FLAGS>(src, dst, flags, flag, st, HalfEven, Saturate),
+    }
+}
+
+/// A quantization whose operand a fused instruction computes lane by lane
+/// ([`Program`]`::fused`).
+struct QuantOf<'a> {
+    flag: u64,
+    st: &'a Step,
+    round: Rounding,
+    overflow: Overflow,
+}
+
+impl QuantOf<'_> {
+    /// `dst[k] = Q(f(xs[k], ys[k]))` over a block, `f` exact: what the
+    /// instruction then [`quant_loop`] compute, in one pass. Returns the
+    /// overflows, and or-s `flag` into `flags` where one happened when
+    /// `want_flags`.
+    #[inline(always)]
+    fn run<R: Raw>(
+        &self,
+        xs: &[R],
+        ys: &[R],
+        f: impl Fn(R, R) -> R + Copy,
+        dst: &mut [R],
+        flags: &mut [u64],
+        want_flags: bool,
+    ) -> u64 {
+        #[inline(always)]
+        #[allow(clippy::too_many_arguments)]
+        fn go<R: Raw, const FLAGS: bool>(
+            q: &QuantOf<'_>,
+            xs: &[R],
+            ys: &[R],
+            f: impl Fn(R, R) -> R + Copy,
+            dst: &mut [R],
+            flags: &mut [u64],
+            round: Rounding,
+            overflow: Overflow,
+        ) -> u64 {
+            #[inline(always)]
+            #[allow(clippy::too_many_arguments)]
+            fn lanes<R: Raw, const FLAGS: bool>(
+                xs: &[R],
+                ys: &[R],
+                f: impl Fn(R, R) -> R + Copy,
+                dst: &mut [R],
+                flags: &mut [u64],
+                flag: u64,
+                st: Step,
+                round: Rounding,
+                overflow: Overflow,
+            ) -> u64 {
+                let mut n = 0u64;
+                if FLAGS {
+                    for (((o, fl), &x), &y) in dst.iter_mut().zip(flags.iter_mut()).zip(xs).zip(ys)
+                    {
+                        let r = st.apply(f(x, y), round, overflow);
+                        *o = r.code;
+                        n += u64::from(r.overflowed);
+                        *fl |= flag * u64::from(r.overflowed);
+                    }
+                } else {
+                    for ((o, &x), &y) in dst.iter_mut().zip(xs).zip(ys) {
+                        let r = st.apply(f(x, y), round, overflow);
+                        *o = r.code;
+                        n += u64::from(r.overflowed);
+                    }
+                }
+                n
+            }
+            // As in `quant_loop`: a loop per shift direction.
+            let st = *q.st;
+            let flag = q.flag;
+            if st.shift > 0 {
+                lanes::<R, FLAGS>(xs, ys, f, dst, flags, flag, st, round, overflow)
+            } else if st.shift == 0 {
+                let st = Step { shift: 0, ..st };
+                lanes::<R, FLAGS>(xs, ys, f, dst, flags, flag, st, round, overflow)
+            } else {
+                lanes::<R, FLAGS>(xs, ys, f, dst, flags, flag, st, round, overflow)
+            }
+        }
+        #[inline(always)]
+        fn modes<R: Raw, const FLAGS: bool>(
+            q: &QuantOf<'_>,
+            xs: &[R],
+            ys: &[R],
+            f: impl Fn(R, R) -> R + Copy,
+            dst: &mut [R],
+            flags: &mut [u64],
+        ) -> u64 {
+            use Overflow::*;
+            use Rounding::*;
+            // Each arm passes constants, so `go` is inlined with the modes folded.
+            match (q.round, q.overflow) {
+                (Trunc, Wrap) => go::<R, FLAGS>(q, xs, ys, f, dst, flags, Trunc, Wrap),
+                (Trunc, Saturate) => go::<R, FLAGS>(q, xs, ys, f, dst, flags, Trunc, Saturate),
+                (HalfUp, Wrap) => go::<R, FLAGS>(q, xs, ys, f, dst, flags, HalfUp, Wrap),
+                (HalfUp, Saturate) => go::<R, FLAGS>(q, xs, ys, f, dst, flags, HalfUp, Saturate),
+                (HalfEven, Wrap) => go::<R, FLAGS>(q, xs, ys, f, dst, flags, HalfEven, Wrap),
+                (HalfEven, Saturate) => {
+                    go::<R, FLAGS>(q, xs, ys, f, dst, flags, HalfEven, Saturate)
+                }
+            }
+        }
+        if want_flags {
+            modes::<R, true>(self, xs, ys, f, dst, flags)
+        } else {
+            modes::<R, false>(self, xs, ys, f, dst, flags)
+        }
     }
 }
 
@@ -1972,6 +2196,140 @@ mod tests {
                 "{}",
                 isa.name()
             );
+        }
+    }
+
+    /// A quantized product, sum and difference, each run as one pass with
+    /// its quantization ([`Program`]`::fused`), for every rounding and
+    /// overflow mode, as `i64` and `i128` codes, on every instruction set,
+    /// with per-lane flags and per-stage counts, against closed forms in
+    /// `i128` division (no shifts): `m = Q(a·b)` (I4F8 × I4F8 to I3F6, ten
+    /// bits dropped), `s = Q(a + c)` (c in I4F4 aligned to F8, to I3F6, two
+    /// dropped), `e = Q(a − b)` (to I4F10, two appended). The probe still
+    /// sees the exact product (it runs unfused).
+    #[test]
+    fn fused_quantizations_give_the_closed_forms() {
+        fn want(v: i128, shift: i32, width: u32, r: Rounding, o: Overflow) -> (i128, bool) {
+            let q = if shift > 0 {
+                let d = 1i128 << shift;
+                let (f, rem) = (v.div_euclid(d), v.rem_euclid(d));
+                match r {
+                    Rounding::Trunc => f,
+                    Rounding::HalfUp => f + i128::from(2 * rem >= d),
+                    Rounding::HalfEven => {
+                        f + i128::from(2 * rem > d || (2 * rem == d && f % 2 != 0))
+                    }
+                }
+            } else {
+                v * (1i128 << -shift)
+            };
+            let (min, max) = (-(1i128 << (width - 1)), (1i128 << (width - 1)) - 1);
+            let code = match o {
+                Overflow::Saturate => q.clamp(min, max),
+                Overflow::Wrap => (q - min).rem_euclid(1i128 << width) + min,
+            };
+            (code, q < min || q > max)
+        }
+        fn check<R: Raw>(prog: &Program<R>, a: &[R], b: &[R], c: &[R], r: Rounding, o: Overflow) {
+            assert_eq!(
+                prog.fused.iter().filter(|&&f| f).count(),
+                3,
+                "every pair fused"
+            );
+            let want_lane = |k: usize| {
+                let (a, b, c) = (a[k].to_i128(), b[k].to_i128(), c[k].to_i128());
+                [
+                    want(a * b, 10, 9, r, o),
+                    want(a + c * 16, 2, 9, r, o),
+                    want(a - b, -2, 14, r, o),
+                ]
+            };
+            let mut counts = [0u64; 3];
+            for k in 0..a.len() {
+                for (n, w) in counts.iter_mut().zip(want_lane(k)) {
+                    *n += u64::from(w.1);
+                }
+            }
+            assert!(
+                counts.iter().all(|&n| n > 0),
+                "{r:?} {o:?}: every stage overflows somewhere"
+            );
+            let want_ov: Vec<(&str, u64)> = ["m", "s", "e"].into_iter().zip(counts).collect();
+            for isa in Isa::ALL.into_iter().filter(|i| i.available()) {
+                let mut outs = vec![Vec::new(); 3];
+                let ov = prog.run_into_on(isa, &[a, b, c], &mut outs);
+                assert_eq!(ov, want_ov, "{} {r:?} {o:?}", isa.name());
+                for k in 0..a.len() {
+                    let got: Vec<i128> = outs.iter().map(|o| o[k].to_i128()).collect();
+                    let w: Vec<i128> = want_lane(k).iter().map(|w| w.0).collect();
+                    assert_eq!(got, w, "{} {r:?} {o:?} lane {k}", isa.name());
+                }
+            }
+            let (outs, flags) = prog.run_flags(&[a, b, c]);
+            assert_eq!(prog.flag_stages(), ["m", "s", "e"]);
+            for k in 0..a.len() {
+                let w = want_lane(k);
+                let got: Vec<i128> = outs.iter().map(|o| o[k].to_i128()).collect();
+                assert_eq!(got, w.iter().map(|w| w.0).collect::<Vec<_>>(), "lane {k}");
+                let bits = (u64::from(w[0].1) << 2) | (u64::from(w[1].1) << 1) | u64::from(w[2].1);
+                assert_eq!(flags[k], bits, "{r:?} {o:?} flags of lane {k}");
+            }
+            let probe = prog.probe(&[a, b, c], &[prog.outputs[0].0]);
+            let products: Vec<i128> = (0..a.len())
+                .map(|k| a[k].to_i128() * b[k].to_i128())
+                .collect();
+            assert_eq!(probe[0], products);
+        }
+        let (f8, f4): (Format, Format) = ("I4F8".parse().unwrap(), "I4F4".parse().unwrap());
+        // Pairs over the whole 12-bit range, from a fixed linear congruence.
+        let mut x = 12345u64;
+        let mut draw = |lo: i64, hi: i64| {
+            x = x
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            lo + i64::try_from((x >> 33) % u64::try_from(hi - lo + 1).unwrap()).unwrap()
+        };
+        let n = 5 * BLOCK + 77;
+        let a: Vec<i64> = (0..n).map(|_| draw(-2048, 2047)).collect();
+        let b: Vec<i64> = (0..n).map(|_| draw(-2048, 2047)).collect();
+        let c: Vec<i64> = (0..n).map(|_| draw(-128, 127)).collect();
+        let wide = |v: &[i64]| v.iter().map(|&x| i128::from(x)).collect::<Vec<i128>>();
+        let (aw, bw, cw) = (wide(&a), wide(&b), wide(&c));
+        for r in Rounding::ALL {
+            for o in [Overflow::Wrap, Overflow::Saturate] {
+                let mut t = Trace::new();
+                let qa = Quant::new("a", f8, Rounding::Trunc, Overflow::Saturate);
+                let qc = Quant::new("c", f4, Rounding::Trunc, Overflow::Saturate);
+                let ai = t.input_named("a", &qa);
+                let bi = t.input_named("b", &qa);
+                let ci = t.input_named("c", &qc);
+                let p = t.mul(ai, bi);
+                let m = t.quantize(p, &Quant::new("m", "I3F6".parse().unwrap(), r, o));
+                let s0 = t.add(ai, ci);
+                let s = t.quantize(s0, &Quant::new("s", "I3F6".parse().unwrap(), r, o));
+                let e0 = t.sub(ai, bi);
+                let e = t.quantize(e0, &Quant::new("e", "I4F10".parse().unwrap(), r, o));
+                for (name, v) in [("m", m), ("s", s), ("e", e)] {
+                    t.output(name, v);
+                }
+                let outs: Vec<TV> = t.output_ports().iter().map(|p| p.value).collect();
+                check(
+                    &Program::<i64>::compile(&t, &outs).unwrap(),
+                    &a,
+                    &b,
+                    &c,
+                    r,
+                    o,
+                );
+                check(
+                    &Program::<i128>::compile(&t, &outs).unwrap(),
+                    &aw,
+                    &bw,
+                    &cw,
+                    r,
+                    o,
+                );
+            }
         }
     }
 
