@@ -574,6 +574,64 @@ impl Instr {
     }
 }
 
+/// How an instruction runs when the block loop fuses ([`Program`]`::fused`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Fusion {
+    /// On its own.
+    Alone,
+    /// Not at all: the quantization that alone reads it computes it.
+    Deferred,
+    /// A quantization computing its operand, instruction `producer` (a
+    /// product or sum), in the same pass; for a sum, `product` is an
+    /// operand that is itself a deferred product: `(side_b, instruction)`.
+    Quant {
+        producer: usize,
+        product: Option<(bool, usize)>,
+    },
+}
+
+/// Which instructions fuse ([`Fusion`]): a quantization whose operand is a
+/// product or sum read by nothing else and no output computes it; a sum so
+/// computed computes an operand that is such a product too. `readers`:
+/// per node, how many operands name it; `named`: how many outputs.
+fn fusions(instrs: &[Instr], readers: &[usize], named: &[usize]) -> Vec<Fusion> {
+    let mut at = vec![usize::MAX; readers.len()];
+    for (i, ins) in instrs.iter().enumerate() {
+        at[ins.dest()] = i;
+    }
+    // Node `n`'s instruction when only one operand reads it, it is no
+    // output, and it is of a kind `ok` accepts.
+    let single = |n: usize, ok: fn(&Instr) -> bool| -> Option<usize> {
+        let i = *at.get(n)?;
+        (i != usize::MAX && readers[n] == 1 && named[n] == 0 && ok(&instrs[i])).then_some(i)
+    };
+    let mut f = vec![Fusion::Alone; instrs.len()];
+    for (j, ins) in instrs.iter().enumerate() {
+        let Instr::Quant { a, .. } = *ins else {
+            continue;
+        };
+        let Some(p) = single(a, |i| matches!(i, Instr::Mul { .. } | Instr::AddSub { .. })) else {
+            continue;
+        };
+        let is_mul: fn(&Instr) -> bool = |i| matches!(i, Instr::Mul { .. });
+        let product = match instrs[p] {
+            Instr::AddSub { a, b, .. } => single(a, is_mul)
+                .map(|m| (false, m))
+                .or_else(|| single(b, is_mul).map(|m| (true, m))),
+            _ => None,
+        };
+        f[p] = Fusion::Deferred;
+        if let Some((_, m)) = product {
+            f[m] = Fusion::Deferred;
+        }
+        f[j] = Fusion::Quant {
+            producer: p,
+            product,
+        };
+    }
+    f
+}
+
 /// Lanes per block: registers of a block stay in the L1 cache.
 pub const BLOCK: usize = 256;
 
@@ -582,12 +640,12 @@ pub const BLOCK: usize = 256;
 #[derive(Clone, Debug)]
 pub struct Program<R> {
     instrs: Vec<Instr>,
-    /// Per instruction: a product or sum whose only reader is the next
-    /// instruction, a quantization, and which is no output: the block loop
-    /// runs the two as one pass over the lanes (the exact value stays in a
-    /// vector register, never stored), unless the caller reads the
+    /// Per instruction, how it runs when the block loop fuses ([`Fusion`]):
+    /// a quantization of a product or sum that nothing else reads computes
+    /// that operand in its own pass over the lanes (the exact value stays
+    /// in a vector register, never stored), unless the caller reads the
     /// quantization's operand ([`Program::probe`]).
-    fused: Vec<bool>,
+    fused: Vec<Fusion>,
     n_regs: usize,
     consts: Vec<(usize, R)>,
     inputs: Vec<(usize, Quant)>,
@@ -856,15 +914,7 @@ impl<R: Raw> Program<R> {
         for ins in &instrs {
             ins.each_operand(|a| readers[a] += 1);
         }
-        let fused = (0..instrs.len())
-            .map(|i| {
-                let d = instrs[i].dest();
-                matches!(instrs[i], Instr::Mul { .. } | Instr::AddSub { .. })
-                    && matches!(instrs.get(i + 1), Some(&Instr::Quant { a, .. }) if a == d)
-                    && readers[d] == 1
-                    && named[d] == 0
-            })
-            .collect();
+        let fused = fusions(&instrs, &readers, &named);
         let table_hulls = trace
             .tables
             .iter()
@@ -1168,7 +1218,7 @@ impl<R: Raw> Program<R> {
 /// An instruction set the engine's block loop is compiled for. Every path
 /// runs the same Rust body ([`block_body`]'s loops over 256 lanes; the
 /// vector paths run a product or sum and its quantization as one loop,
-/// [`Program`]`::fused`, the same exact value then the same quantization),
+/// [`Program`]`::fused`, the same exact values then the same quantization),
 /// so the codes and overflow counts are identical by construction; the suite
 /// checks it on every path the test machine has
 /// (`every_instruction_set_computes_the_same_codes`).
@@ -1292,7 +1342,7 @@ struct Block<'a, R> {
     /// The caller's output vectors, `n` codes each.
     outs: &'a mut [Vec<R>],
     ovf: Overflows<'a>,
-    /// Whether [`Program`]`::fused` pairs run as one pass.
+    /// Whether [`Program`]`::fused` instructions run as one pass.
     fuse: bool,
 }
 
@@ -1351,75 +1401,85 @@ fn block_body<R: Raw>(
     }
     {
         let this = p;
-        let mut skip = false;
         for (i, ins) in this.instrs.iter().enumerate() {
-            if std::mem::take(&mut skip) {
-                continue;
-            }
-            if fuse && this.fused[i] {
-                let Some(&Instr::Quant {
-                    d: qd,
-                    step,
-                    round,
-                    overflow,
-                    stage,
-                    flag,
-                    ..
-                }) = this.instrs.get(i + 1)
-                else {
-                    unreachable!("a fused instruction is followed by its quantization")
-                };
-                skip = true;
-                let (lo, hi) = regs.split_at_mut(qd * BLOCK);
-                let (dst, fl) = (dest!(hi, qd), &mut flags[..len]);
-                let q = QuantOf {
-                    flag,
-                    st: &step,
-                    round,
-                    overflow,
-                };
-                ov[stage] += match *ins {
-                    Instr::Mul { a, b, .. } => q.run(
-                        operand_of(port_of, lo, lanes, a),
-                        operand_of(port_of, lo, lanes, b),
-                        |x: R, y: R| x.mul_raw(y),
-                        dst,
-                        fl,
-                        want_flags,
-                    ),
-                    Instr::AddSub {
-                        a,
-                        sa,
-                        b,
-                        sb,
-                        sub: false,
+            match (fuse, this.fused[i], ins) {
+                (true, Fusion::Deferred, _) => continue,
+                (
+                    true,
+                    Fusion::Quant { producer, product },
+                    &Instr::Quant {
+                        d,
+                        step,
+                        round,
+                        overflow,
+                        stage,
+                        flag,
                         ..
-                    } => q.run(
-                        operand_of(port_of, lo, lanes, a),
-                        operand_of(port_of, lo, lanes, b),
-                        move |x: R, y: R| (x << sa) + (y << sb),
-                        dst,
-                        fl,
+                    },
+                ) => {
+                    let (lo, hi) = regs.split_at_mut(d * BLOCK);
+                    let (dst, fl) = (dest!(hi, d), &mut flags[..len]);
+                    let q = QuantOf {
+                        flag,
+                        st: &step,
+                        round,
+                        overflow,
                         want_flags,
-                    ),
-                    Instr::AddSub {
-                        a,
-                        sa,
-                        b,
-                        sb,
-                        sub: true,
-                        ..
-                    } => q.run(
-                        operand_of(port_of, lo, lanes, a),
-                        operand_of(port_of, lo, lanes, b),
-                        move |x: R, y: R| (x << sa) - (y << sb),
-                        dst,
-                        fl,
-                        want_flags,
-                    ),
-                    _ => unreachable!("only products and sums are fused"),
-                };
-                continue;
+                    };
+                    let at = |n: usize| operand_of(port_of, lo, lanes, n);
+                    let mul = |m: usize| match this.instrs[m] {
+                        Instr::Mul { a, b, .. } => (at(a), at(b)),
+                        _ => unreachable!("a fused product is a product"),
+                    };
+                    ov[stage] += match (&this.instrs[producer], product) {
+                        (&Instr::Mul { a, b, .. }, _) => {
+                            q.run(at(a), at(b), at(b), dst, fl, |x: R, y: R, _| x.mul_raw(y))
+                        }
+                        (
+                            &Instr::AddSub {
+                                a, sa, b, sb, sub, ..
+                            },
+                            None,
+                        ) => {
+                            if sub {
+                                q.run(at(a), at(b), at(b), dst, fl, move |x: R, y: R, _| {
+                                    (x << sa) - (y << sb)
+                                })
+                            } else {
+                                q.run(at(a), at(b), at(b), dst, fl, move |x: R, y: R, _| {
+                                    (x << sa) + (y << sb)
+                                })
+                            }
+                        }
+                        (&Instr::AddSub { sa, b, sb, sub, .. }, Some((false, m))) => {
+                            let (x, y) = mul(m);
+                            if sub {
+                                q.run(x, y, at(b), dst, fl, move |x: R, y: R, z: R| {
+                                    (x.mul_raw(y) << sa) - (z << sb)
+                                })
+                            } else {
+                                q.run(x, y, at(b), dst, fl, move |x: R, y: R, z: R| {
+                                    (x.mul_raw(y) << sa) + (z << sb)
+                                })
+                            }
+                        }
+                        (&Instr::AddSub { a, sa, sb, sub, .. }, Some((true, m))) => {
+                            let (x, y) = mul(m);
+                            if sub {
+                                q.run(x, y, at(a), dst, fl, move |x: R, y: R, z: R| {
+                                    (z << sa) - (x.mul_raw(y) << sb)
+                                })
+                            } else {
+                                q.run(x, y, at(a), dst, fl, move |x: R, y: R, z: R| {
+                                    (z << sa) + (x.mul_raw(y) << sb)
+                                })
+                            }
+                        }
+                        _ => unreachable!("only products and sums are fused"),
+                    };
+                    continue;
+                }
+                _ => {}
             }
             match *ins {
                 Instr::Mul { d, a, b } => {
@@ -1706,111 +1766,108 @@ fn quant_loop<R: Raw, const FLAGS: bool>(
 }
 
 /// A quantization whose operand a fused instruction computes lane by lane
-/// ([`Program`]`::fused`).
+/// ([`Fusion::Quant`]).
 struct QuantOf<'a> {
     flag: u64,
     st: &'a Step,
     round: Rounding,
     overflow: Overflow,
+    /// Whether the caller reads the lanes' flags ([`Overflows`]).
+    want_flags: bool,
 }
 
 impl QuantOf<'_> {
-    /// `dst[k] = Q(f(xs[k], ys[k]))` over a block, `f` exact: what the
-    /// instruction then [`quant_loop`] compute, in one pass. Returns the
-    /// overflows, and or-s `flag` into `flags` where one happened when
-    /// `want_flags`.
+    /// `dst[k] = Q(f(xs[k], ys[k], zs[k]))` over a block, `f` exact: what
+    /// the fused instructions then [`quant_loop`] compute, in one pass.
+    /// Returns the overflows, and or-s `flag` into `flags` where one
+    /// happened when the caller reads them.
     #[inline(always)]
     fn run<R: Raw>(
         &self,
         xs: &[R],
         ys: &[R],
-        f: impl Fn(R, R) -> R + Copy,
+        zs: &[R],
         dst: &mut [R],
         flags: &mut [u64],
-        want_flags: bool,
+        f: impl Fn(R, R, R) -> R + Copy,
     ) -> u64 {
+        /// The loop, its modes and shift direction constants.
+        #[inline(always)]
+        #[allow(clippy::too_many_arguments)]
+        fn lanes<R: Raw, const FLAGS: bool>(
+            (xs, ys, zs): (&[R], &[R], &[R]),
+            dst: &mut [R],
+            flags: &mut [u64],
+            f: impl Fn(R, R, R) -> R + Copy,
+            flag: u64,
+            st: Step,
+            round: Rounding,
+            overflow: Overflow,
+        ) -> u64 {
+            let mut n = 0u64;
+            let src = xs.iter().zip(ys).zip(zs);
+            if FLAGS {
+                for ((o, fl), ((&x, &y), &z)) in dst.iter_mut().zip(flags.iter_mut()).zip(src) {
+                    let r = st.apply(f(x, y, z), round, overflow);
+                    *o = r.code;
+                    n += u64::from(r.overflowed);
+                    *fl |= flag * u64::from(r.overflowed);
+                }
+            } else {
+                for (o, ((&x, &y), &z)) in dst.iter_mut().zip(src) {
+                    let r = st.apply(f(x, y, z), round, overflow);
+                    *o = r.code;
+                    n += u64::from(r.overflowed);
+                }
+            }
+            n
+        }
+        /// As in [`quant_loop`]: a loop per shift direction.
         #[inline(always)]
         #[allow(clippy::too_many_arguments)]
         fn go<R: Raw, const FLAGS: bool>(
             q: &QuantOf<'_>,
-            xs: &[R],
-            ys: &[R],
-            f: impl Fn(R, R) -> R + Copy,
+            src: (&[R], &[R], &[R]),
             dst: &mut [R],
             flags: &mut [u64],
+            f: impl Fn(R, R, R) -> R + Copy,
             round: Rounding,
             overflow: Overflow,
         ) -> u64 {
-            #[inline(always)]
-            #[allow(clippy::too_many_arguments)]
-            fn lanes<R: Raw, const FLAGS: bool>(
-                xs: &[R],
-                ys: &[R],
-                f: impl Fn(R, R) -> R + Copy,
-                dst: &mut [R],
-                flags: &mut [u64],
-                flag: u64,
-                st: Step,
-                round: Rounding,
-                overflow: Overflow,
-            ) -> u64 {
-                let mut n = 0u64;
-                if FLAGS {
-                    for (((o, fl), &x), &y) in dst.iter_mut().zip(flags.iter_mut()).zip(xs).zip(ys)
-                    {
-                        let r = st.apply(f(x, y), round, overflow);
-                        *o = r.code;
-                        n += u64::from(r.overflowed);
-                        *fl |= flag * u64::from(r.overflowed);
-                    }
-                } else {
-                    for ((o, &x), &y) in dst.iter_mut().zip(xs).zip(ys) {
-                        let r = st.apply(f(x, y), round, overflow);
-                        *o = r.code;
-                        n += u64::from(r.overflowed);
-                    }
-                }
-                n
-            }
-            // As in `quant_loop`: a loop per shift direction.
-            let st = *q.st;
-            let flag = q.flag;
+            let (st, flag) = (*q.st, q.flag);
             if st.shift > 0 {
-                lanes::<R, FLAGS>(xs, ys, f, dst, flags, flag, st, round, overflow)
+                lanes::<R, FLAGS>(src, dst, flags, f, flag, st, round, overflow)
             } else if st.shift == 0 {
                 let st = Step { shift: 0, ..st };
-                lanes::<R, FLAGS>(xs, ys, f, dst, flags, flag, st, round, overflow)
+                lanes::<R, FLAGS>(src, dst, flags, f, flag, st, round, overflow)
             } else {
-                lanes::<R, FLAGS>(xs, ys, f, dst, flags, flag, st, round, overflow)
+                lanes::<R, FLAGS>(src, dst, flags, f, flag, st, round, overflow)
             }
         }
+        /// Each arm passes constants, so `go` is inlined with the modes folded.
         #[inline(always)]
         fn modes<R: Raw, const FLAGS: bool>(
             q: &QuantOf<'_>,
-            xs: &[R],
-            ys: &[R],
-            f: impl Fn(R, R) -> R + Copy,
+            src: (&[R], &[R], &[R]),
             dst: &mut [R],
             flags: &mut [u64],
+            f: impl Fn(R, R, R) -> R + Copy,
         ) -> u64 {
             use Overflow::*;
             use Rounding::*;
-            // Each arm passes constants, so `go` is inlined with the modes folded.
             match (q.round, q.overflow) {
-                (Trunc, Wrap) => go::<R, FLAGS>(q, xs, ys, f, dst, flags, Trunc, Wrap),
-                (Trunc, Saturate) => go::<R, FLAGS>(q, xs, ys, f, dst, flags, Trunc, Saturate),
-                (HalfUp, Wrap) => go::<R, FLAGS>(q, xs, ys, f, dst, flags, HalfUp, Wrap),
-                (HalfUp, Saturate) => go::<R, FLAGS>(q, xs, ys, f, dst, flags, HalfUp, Saturate),
-                (HalfEven, Wrap) => go::<R, FLAGS>(q, xs, ys, f, dst, flags, HalfEven, Wrap),
-                (HalfEven, Saturate) => {
-                    go::<R, FLAGS>(q, xs, ys, f, dst, flags, HalfEven, Saturate)
-                }
+                (Trunc, Wrap) => go::<R, FLAGS>(q, src, dst, flags, f, Trunc, Wrap),
+                (Trunc, Saturate) => go::<R, FLAGS>(q, src, dst, flags, f, Trunc, Saturate),
+                (HalfUp, Wrap) => go::<R, FLAGS>(q, src, dst, flags, f, HalfUp, Wrap),
+                (HalfUp, Saturate) => go::<R, FLAGS>(q, src, dst, flags, f, HalfUp, Saturate),
+                (HalfEven, Wrap) => go::<R, FLAGS>(q, src, dst, flags, f, HalfEven, Wrap),
+                (HalfEven, Saturate) => go::<R, FLAGS>(q, src, dst, flags, f, HalfEven, Saturate),
             }
         }
-        if want_flags {
-            modes::<R, true>(self, xs, ys, f, dst, flags)
+        if self.want_flags {
+            modes::<R, true>(self, (xs, ys, zs), dst, flags, f)
         } else {
-            modes::<R, false>(self, xs, ys, f, dst, flags)
+            modes::<R, false>(self, (xs, ys, zs), dst, flags, f)
         }
     }
 }
@@ -2199,13 +2256,16 @@ mod tests {
         }
     }
 
-    /// A quantized product, sum and difference, each run as one pass with
-    /// its quantization ([`Program`]`::fused`), for every rounding and
-    /// overflow mode, as `i64` and `i128` codes, on every instruction set,
-    /// with per-lane flags and per-stage counts, against closed forms in
-    /// `i128` division (no shifts): `m = Q(a·b)` (I4F8 × I4F8 to I3F6, ten
-    /// bits dropped), `s = Q(a + c)` (c in I4F4 aligned to F8, to I3F6, two
-    /// dropped), `e = Q(a − b)` (to I4F10, two appended). The probe still
+    /// Quantized products, sums, differences and multiply-adds, each run
+    /// as one pass with its quantization ([`Fusion`]; the operations
+    /// traced first and the quantizations after, so the passes run apart
+    /// from where the operations stand), for every rounding and overflow
+    /// mode, as `i64` and `i128` codes, on every instruction set, with
+    /// per-lane flags and per-stage counts, against closed forms in `i128`
+    /// division (no shifts): `m = Q(a·b)` (I4F8 × I4F8 to I3F6, ten bits
+    /// dropped), `s = Q(a + c)` (c in I4F4 aligned to F8, to I3F6, two
+    /// dropped), `e = Q(a − b)` (to I4F10, two appended), `u = Q(b·c + a)`
+    /// and `v = Q(a − b·c)` (F12, to I3F6, six dropped). The probe still
     /// sees the exact product (it runs unfused).
     #[test]
     fn fused_quantizations_give_the_closed_forms() {
@@ -2230,21 +2290,34 @@ mod tests {
             };
             (code, q < min || q > max)
         }
-        fn check<R: Raw>(prog: &Program<R>, a: &[R], b: &[R], c: &[R], r: Rounding, o: Overflow) {
-            assert_eq!(
-                prog.fused.iter().filter(|&&f| f).count(),
-                3,
-                "every pair fused"
-            );
+        fn check<R: Raw>(prog: &Program<R>, ins: [&[R]; 3], r: Rounding, o: Overflow) {
+            let quants = prog
+                .fused
+                .iter()
+                .filter(|f| matches!(f, Fusion::Quant { .. }));
+            assert_eq!(quants.count(), 5, "every quantization fused");
+            let madds = prog.fused.iter().filter(|f| {
+                matches!(
+                    f,
+                    Fusion::Quant {
+                        product: Some(_),
+                        ..
+                    }
+                )
+            });
+            assert_eq!(madds.count(), 2, "both multiply-adds fused");
+            let [a, b, c] = ins;
             let want_lane = |k: usize| {
                 let (a, b, c) = (a[k].to_i128(), b[k].to_i128(), c[k].to_i128());
                 [
                     want(a * b, 10, 9, r, o),
                     want(a + c * 16, 2, 9, r, o),
                     want(a - b, -2, 14, r, o),
+                    want(b * c + a * 16, 6, 9, r, o),
+                    want(a * 16 - b * c, 6, 9, r, o),
                 ]
             };
-            let mut counts = [0u64; 3];
+            let mut counts = [0u64; 5];
             for k in 0..a.len() {
                 for (n, w) in counts.iter_mut().zip(want_lane(k)) {
                     *n += u64::from(w.1);
@@ -2252,12 +2325,13 @@ mod tests {
             }
             assert!(
                 counts.iter().all(|&n| n > 0),
-                "{r:?} {o:?}: every stage overflows somewhere"
+                "{r:?} {o:?}: every stage overflows"
             );
-            let want_ov: Vec<(&str, u64)> = ["m", "s", "e"].into_iter().zip(counts).collect();
+            let names = ["m", "s", "e", "u", "v"];
+            let want_ov: Vec<(&str, u64)> = names.into_iter().zip(counts).collect();
             for isa in Isa::ALL.into_iter().filter(|i| i.available()) {
-                let mut outs = vec![Vec::new(); 3];
-                let ov = prog.run_into_on(isa, &[a, b, c], &mut outs);
+                let mut outs = vec![Vec::new(); 5];
+                let ov = prog.run_into_on(isa, &ins, &mut outs);
                 assert_eq!(ov, want_ov, "{} {r:?} {o:?}", isa.name());
                 for k in 0..a.len() {
                     let got: Vec<i128> = outs.iter().map(|o| o[k].to_i128()).collect();
@@ -2265,16 +2339,16 @@ mod tests {
                     assert_eq!(got, w, "{} {r:?} {o:?} lane {k}", isa.name());
                 }
             }
-            let (outs, flags) = prog.run_flags(&[a, b, c]);
-            assert_eq!(prog.flag_stages(), ["m", "s", "e"]);
+            let (outs, flags) = prog.run_flags(&ins);
+            assert_eq!(prog.flag_stages(), names);
             for k in 0..a.len() {
                 let w = want_lane(k);
                 let got: Vec<i128> = outs.iter().map(|o| o[k].to_i128()).collect();
                 assert_eq!(got, w.iter().map(|w| w.0).collect::<Vec<_>>(), "lane {k}");
-                let bits = (u64::from(w[0].1) << 2) | (u64::from(w[1].1) << 1) | u64::from(w[2].1);
+                let bits = w.iter().fold(0u64, |acc, w| (acc << 1) | u64::from(w.1));
                 assert_eq!(flags[k], bits, "{r:?} {o:?} flags of lane {k}");
             }
-            let probe = prog.probe(&[a, b, c], &[prog.outputs[0].0]);
+            let probe = prog.probe(&ins, &[prog.outputs[0].0]);
             let products: Vec<i128> = (0..a.len())
                 .map(|k| a[k].to_i128() * b[k].to_i128())
                 .collect();
@@ -2304,28 +2378,31 @@ mod tests {
                 let bi = t.input_named("b", &qa);
                 let ci = t.input_named("c", &qc);
                 let p = t.mul(ai, bi);
-                let m = t.quantize(p, &Quant::new("m", "I3F6".parse().unwrap(), r, o));
                 let s0 = t.add(ai, ci);
-                let s = t.quantize(s0, &Quant::new("s", "I3F6".parse().unwrap(), r, o));
                 let e0 = t.sub(ai, bi);
+                let pu = t.mul(bi, ci);
+                let u0 = t.add(pu, ai);
+                let pv = t.mul(bi, ci);
+                let v0 = t.sub(ai, pv);
+                let narrow: Format = "I3F6".parse().unwrap();
+                let m = t.quantize(p, &Quant::new("m", narrow, r, o));
+                let s = t.quantize(s0, &Quant::new("s", narrow, r, o));
                 let e = t.quantize(e0, &Quant::new("e", "I4F10".parse().unwrap(), r, o));
-                for (name, v) in [("m", m), ("s", s), ("e", e)] {
-                    t.output(name, v);
+                let u = t.quantize(u0, &Quant::new("u", narrow, r, o));
+                let v = t.quantize(v0, &Quant::new("v", narrow, r, o));
+                for (name, val) in [("m", m), ("s", s), ("e", e), ("u", u), ("v", v)] {
+                    t.output(name, val);
                 }
                 let outs: Vec<TV> = t.output_ports().iter().map(|p| p.value).collect();
                 check(
                     &Program::<i64>::compile(&t, &outs).unwrap(),
-                    &a,
-                    &b,
-                    &c,
+                    [&a, &b, &c],
                     r,
                     o,
                 );
                 check(
                     &Program::<i128>::compile(&t, &outs).unwrap(),
-                    &aw,
-                    &bw,
-                    &cw,
+                    [&aw, &bw, &cw],
                     r,
                     o,
                 );
