@@ -588,6 +588,52 @@ enum Fusion {
         producer: usize,
         product: Option<(bool, usize)>,
     },
+    /// A quantization of a sum of two to four products, each read by
+    /// nothing else, through sums read by nothing else: `terms[..n]`, each
+    /// a product's instruction, its left shift and whether it is
+    /// subtracted (the sums' alignments and signs carried down to it).
+    Dot { terms: [DotTerm; 4], n: usize },
+}
+
+/// One product of a [`Fusion::Dot`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+struct DotTerm {
+    mul: usize,
+    shift: u32,
+    neg: bool,
+}
+
+/// The products a sum tree below node `n` adds up ([`Fusion::Dot`]),
+/// shifted left by `shift` and negated when `neg`, appended to `out`; at
+/// most `depth` more sums deep, each of its nodes read only once.
+/// `single(n, ok)`: `n`'s instruction when it can fuse and `ok` accepts it.
+fn dot_terms(
+    n: usize,
+    shift: u32,
+    neg: bool,
+    depth: usize,
+    single: &dyn Fn(usize, fn(&Instr) -> bool) -> Option<usize>,
+    instrs: &[Instr],
+    out: &mut Vec<DotTerm>,
+) -> bool {
+    if let Some(mul) = single(n, |i| matches!(i, Instr::Mul { .. })) {
+        out.push(DotTerm { mul, shift, neg });
+        return true;
+    }
+    if depth == 0 {
+        return false;
+    }
+    let Some(i) = single(n, |i| matches!(i, Instr::AddSub { .. })) else {
+        return false;
+    };
+    let Instr::AddSub {
+        a, sa, b, sb, sub, ..
+    } = instrs[i]
+    else {
+        return false;
+    };
+    dot_terms(a, shift + sa, neg, depth - 1, single, instrs, out)
+        && dot_terms(b, shift + sb, neg != sub, depth - 1, single, instrs, out)
 }
 
 /// Which instructions fuse ([`Fusion`]): a quantization whose operand is a
@@ -613,6 +659,26 @@ fn fusions(instrs: &[Instr], readers: &[usize], named: &[usize]) -> Vec<Fusion> 
         let Some(p) = single(a, |i| matches!(i, Instr::Mul { .. } | Instr::AddSub { .. })) else {
             continue;
         };
+        let mut terms = Vec::new();
+        if dot_terms(a, 0, false, 2, &single, instrs, &mut terms) && (2..=4).contains(&terms.len())
+        {
+            // Every sum of the tree and every product runs in the pass.
+            let mut stack = vec![a];
+            while let Some(n) = stack.pop() {
+                let i = at[n];
+                f[i] = Fusion::Deferred;
+                if let Instr::AddSub { a, b, .. } = instrs[i] {
+                    stack.extend([a, b]);
+                }
+            }
+            let mut arr = [DotTerm::default(); 4];
+            arr[..terms.len()].copy_from_slice(&terms);
+            f[j] = Fusion::Dot {
+                terms: arr,
+                n: terms.len(),
+            };
+            continue;
+        }
         let is_mul: fn(&Instr) -> bool = |i| matches!(i, Instr::Mul { .. });
         let product = match instrs[p] {
             Instr::AddSub { a, b, .. } => single(a, is_mul)
@@ -1406,6 +1472,83 @@ fn block_body<R: Raw>(
                 (true, Fusion::Deferred, _) => continue,
                 (
                     true,
+                    Fusion::Dot { terms, n },
+                    &Instr::Quant {
+                        d,
+                        step,
+                        round,
+                        overflow,
+                        stage,
+                        flag,
+                        ..
+                    },
+                ) => {
+                    let (lo, hi) = regs.split_at_mut(d * BLOCK);
+                    let (dst, fl) = (dest!(hi, d), &mut flags[..len]);
+                    let q = QuantOf {
+                        flag,
+                        st: &step,
+                        round,
+                        overflow,
+                        want_flags,
+                    };
+                    let at = |n: usize| operand_of(port_of, lo, lanes, n);
+                    // The terms past `n` repeat the first (their lanes are
+                    // read, never summed).
+                    let factors: [[&[R]; 2]; 4] = std::array::from_fn(|t| {
+                        match this.instrs[terms[if t < n { t } else { 0 }].mul] {
+                            Instr::Mul { a, b, .. } => [at(a), at(b)],
+                            _ => unreachable!("a dot's term is a product"),
+                        }
+                    });
+                    let sh = terms.map(|t| t.shift);
+                    let neg = terms.map(|t| t.neg);
+                    // Σ ±(x·y << s), in wrapping arithmetic: the exact sum
+                    // fits its node, so any order gives it.
+                    let term = move |x: R, y: R, t: usize| {
+                        let p = x.mul_raw(y) << sh[t];
+                        if neg[t] {
+                            R::ZERO - p
+                        } else {
+                            p
+                        }
+                    };
+                    let [[a0, b0], [a1, b1], [a2, b2], [a3, b3]] = factors;
+                    ov[stage] += match n {
+                        2 => q.run(
+                            [a0, b0, a1, b1],
+                            dst,
+                            fl,
+                            move |[x0, y0, x1, y1]: [R; 4]| {
+                                term(x0, y0, 0).wrapping_add_raw(term(x1, y1, 1))
+                            },
+                        ),
+                        3 => q.run(
+                            [a0, b0, a1, b1, a2, b2],
+                            dst,
+                            fl,
+                            move |[x0, y0, x1, y1, x2, y2]: [R; 6]| {
+                                term(x0, y0, 0)
+                                    .wrapping_add_raw(term(x1, y1, 1))
+                                    .wrapping_add_raw(term(x2, y2, 2))
+                            },
+                        ),
+                        _ => q.run(
+                            [a0, b0, a1, b1, a2, b2, a3, b3],
+                            dst,
+                            fl,
+                            move |[x0, y0, x1, y1, x2, y2, x3, y3]: [R; 8]| {
+                                term(x0, y0, 0)
+                                    .wrapping_add_raw(term(x1, y1, 1))
+                                    .wrapping_add_raw(term(x2, y2, 2))
+                                    .wrapping_add_raw(term(x3, y3, 3))
+                            },
+                        ),
+                    };
+                    continue;
+                }
+                (
+                    true,
                     Fusion::Quant { producer, product },
                     &Instr::Quant {
                         d,
@@ -1433,7 +1576,7 @@ fn block_body<R: Raw>(
                     };
                     ov[stage] += match (&this.instrs[producer], product) {
                         (&Instr::Mul { a, b, .. }, _) => {
-                            q.run(at(a), at(b), at(b), dst, fl, |x: R, y: R, _| x.mul_raw(y))
+                            q.run([at(a), at(b)], dst, fl, |[x, y]: [R; 2]| x.mul_raw(y))
                         }
                         (
                             &Instr::AddSub {
@@ -1442,11 +1585,11 @@ fn block_body<R: Raw>(
                             None,
                         ) => {
                             if sub {
-                                q.run(at(a), at(b), at(b), dst, fl, move |x: R, y: R, _| {
+                                q.run([at(a), at(b)], dst, fl, move |[x, y]: [R; 2]| {
                                     (x << sa) - (y << sb)
                                 })
                             } else {
-                                q.run(at(a), at(b), at(b), dst, fl, move |x: R, y: R, _| {
+                                q.run([at(a), at(b)], dst, fl, move |[x, y]: [R; 2]| {
                                     (x << sa) + (y << sb)
                                 })
                             }
@@ -1454,11 +1597,11 @@ fn block_body<R: Raw>(
                         (&Instr::AddSub { sa, b, sb, sub, .. }, Some((false, m))) => {
                             let (x, y) = mul(m);
                             if sub {
-                                q.run(x, y, at(b), dst, fl, move |x: R, y: R, z: R| {
+                                q.run([x, y, at(b)], dst, fl, move |[x, y, z]: [R; 3]| {
                                     (x.mul_raw(y) << sa) - (z << sb)
                                 })
                             } else {
-                                q.run(x, y, at(b), dst, fl, move |x: R, y: R, z: R| {
+                                q.run([x, y, at(b)], dst, fl, move |[x, y, z]: [R; 3]| {
                                     (x.mul_raw(y) << sa) + (z << sb)
                                 })
                             }
@@ -1466,11 +1609,11 @@ fn block_body<R: Raw>(
                         (&Instr::AddSub { a, sa, sb, sub, .. }, Some((true, m))) => {
                             let (x, y) = mul(m);
                             if sub {
-                                q.run(x, y, at(a), dst, fl, move |x: R, y: R, z: R| {
+                                q.run([x, y, at(a)], dst, fl, move |[x, y, z]: [R; 3]| {
                                     (z << sa) - (x.mul_raw(y) << sb)
                                 })
                             } else {
-                                q.run(x, y, at(a), dst, fl, move |x: R, y: R, z: R| {
+                                q.run([x, y, at(a)], dst, fl, move |[x, y, z]: [R; 3]| {
                                     (z << sa) + (x.mul_raw(y) << sb)
                                 })
                             }
@@ -1777,47 +1920,51 @@ struct QuantOf<'a> {
 }
 
 impl QuantOf<'_> {
-    /// `dst[k] = Q(f(xs[k], ys[k], zs[k]))` over a block, `f` exact: what
-    /// the fused instructions then [`quant_loop`] compute, in one pass.
+    /// `dst[k] = Q(f([src[0][k], …]))` over a block, `f` exact: what the
+    /// fused instructions then [`quant_loop`] compute, in one pass.
     /// Returns the overflows, and or-s `flag` into `flags` where one
     /// happened when the caller reads them.
     #[inline(always)]
-    fn run<R: Raw>(
+    fn run<R: Raw, const K: usize>(
         &self,
-        xs: &[R],
-        ys: &[R],
-        zs: &[R],
+        src: [&[R]; K],
         dst: &mut [R],
         flags: &mut [u64],
-        f: impl Fn(R, R, R) -> R + Copy,
+        f: impl Fn([R; K]) -> R + Copy,
     ) -> u64 {
         /// The loop, its modes and shift direction constants.
         #[inline(always)]
         #[allow(clippy::too_many_arguments)]
-        fn lanes<R: Raw, const FLAGS: bool>(
-            (xs, ys, zs): (&[R], &[R], &[R]),
+        fn lanes<R: Raw, const K: usize, const FLAGS: bool>(
+            src: [&[R]; K],
             dst: &mut [R],
             flags: &mut [u64],
-            f: impl Fn(R, R, R) -> R + Copy,
+            f: impl Fn([R; K]) -> R + Copy,
             flag: u64,
             st: Step,
             round: Rounding,
             overflow: Overflow,
         ) -> u64 {
+            let len = dst.len();
+            // Every slice `len` long, so the loop's indexing needs no check.
+            let mut s = src;
+            for x in &mut s {
+                *x = &x[..len];
+            }
+            let flags = &mut flags[..len];
             let mut n = 0u64;
-            let src = xs.iter().zip(ys).zip(zs);
-            if FLAGS {
-                for ((o, fl), ((&x, &y), &z)) in dst.iter_mut().zip(flags.iter_mut()).zip(src) {
-                    let r = st.apply(f(x, y, z), round, overflow);
-                    *o = r.code;
-                    n += u64::from(r.overflowed);
-                    *fl |= flag * u64::from(r.overflowed);
+            for k in 0..len {
+                // A plain loop over `K` (unrolled), not `array::map`, whose
+                // drop guard kept the lanes from vectorizing.
+                let mut v = [s[0][k]; K];
+                for t in 1..K {
+                    v[t] = s[t][k];
                 }
-            } else {
-                for (o, ((&x, &y), &z)) in dst.iter_mut().zip(src) {
-                    let r = st.apply(f(x, y, z), round, overflow);
-                    *o = r.code;
-                    n += u64::from(r.overflowed);
+                let r = st.apply(f(v), round, overflow);
+                dst[k] = r.code;
+                n += u64::from(r.overflowed);
+                if FLAGS {
+                    flags[k] |= flag * u64::from(r.overflowed);
                 }
             }
             n
@@ -1825,49 +1972,51 @@ impl QuantOf<'_> {
         /// As in [`quant_loop`]: a loop per shift direction.
         #[inline(always)]
         #[allow(clippy::too_many_arguments)]
-        fn go<R: Raw, const FLAGS: bool>(
+        fn go<R: Raw, const K: usize, const FLAGS: bool>(
             q: &QuantOf<'_>,
-            src: (&[R], &[R], &[R]),
+            src: [&[R]; K],
             dst: &mut [R],
             flags: &mut [u64],
-            f: impl Fn(R, R, R) -> R + Copy,
+            f: impl Fn([R; K]) -> R + Copy,
             round: Rounding,
             overflow: Overflow,
         ) -> u64 {
             let (st, flag) = (*q.st, q.flag);
             if st.shift > 0 {
-                lanes::<R, FLAGS>(src, dst, flags, f, flag, st, round, overflow)
+                lanes::<R, K, FLAGS>(src, dst, flags, f, flag, st, round, overflow)
             } else if st.shift == 0 {
                 let st = Step { shift: 0, ..st };
-                lanes::<R, FLAGS>(src, dst, flags, f, flag, st, round, overflow)
+                lanes::<R, K, FLAGS>(src, dst, flags, f, flag, st, round, overflow)
             } else {
-                lanes::<R, FLAGS>(src, dst, flags, f, flag, st, round, overflow)
+                lanes::<R, K, FLAGS>(src, dst, flags, f, flag, st, round, overflow)
             }
         }
         /// Each arm passes constants, so `go` is inlined with the modes folded.
         #[inline(always)]
-        fn modes<R: Raw, const FLAGS: bool>(
+        fn modes<R: Raw, const K: usize, const FLAGS: bool>(
             q: &QuantOf<'_>,
-            src: (&[R], &[R], &[R]),
+            src: [&[R]; K],
             dst: &mut [R],
             flags: &mut [u64],
-            f: impl Fn(R, R, R) -> R + Copy,
+            f: impl Fn([R; K]) -> R + Copy,
         ) -> u64 {
             use Overflow::*;
             use Rounding::*;
             match (q.round, q.overflow) {
-                (Trunc, Wrap) => go::<R, FLAGS>(q, src, dst, flags, f, Trunc, Wrap),
-                (Trunc, Saturate) => go::<R, FLAGS>(q, src, dst, flags, f, Trunc, Saturate),
-                (HalfUp, Wrap) => go::<R, FLAGS>(q, src, dst, flags, f, HalfUp, Wrap),
-                (HalfUp, Saturate) => go::<R, FLAGS>(q, src, dst, flags, f, HalfUp, Saturate),
-                (HalfEven, Wrap) => go::<R, FLAGS>(q, src, dst, flags, f, HalfEven, Wrap),
-                (HalfEven, Saturate) => go::<R, FLAGS>(q, src, dst, flags, f, HalfEven, Saturate),
+                (Trunc, Wrap) => go::<R, K, FLAGS>(q, src, dst, flags, f, Trunc, Wrap),
+                (Trunc, Saturate) => go::<R, K, FLAGS>(q, src, dst, flags, f, Trunc, Saturate),
+                (HalfUp, Wrap) => go::<R, K, FLAGS>(q, src, dst, flags, f, HalfUp, Wrap),
+                (HalfUp, Saturate) => go::<R, K, FLAGS>(q, src, dst, flags, f, HalfUp, Saturate),
+                (HalfEven, Wrap) => go::<R, K, FLAGS>(q, src, dst, flags, f, HalfEven, Wrap),
+                (HalfEven, Saturate) => {
+                    go::<R, K, FLAGS>(q, src, dst, flags, f, HalfEven, Saturate)
+                }
             }
         }
         if self.want_flags {
-            modes::<R, true>(self, (xs, ys, zs), dst, flags, f)
+            modes::<R, K, true>(self, src, dst, flags, f)
         } else {
-            modes::<R, false>(self, (xs, ys, zs), dst, flags, f)
+            modes::<R, K, false>(self, src, dst, flags, f)
         }
     }
 }
@@ -2265,8 +2414,10 @@ mod tests {
     /// division (no shifts): `m = Q(a·b)` (I4F8 × I4F8 to I3F6, ten bits
     /// dropped), `s = Q(a + c)` (c in I4F4 aligned to F8, to I3F6, two
     /// dropped), `e = Q(a − b)` (to I4F10, two appended), `u = Q(b·c + a)`
-    /// and `v = Q(a − b·c)` (F12, to I3F6, six dropped). The probe still
-    /// sees the exact product (it runs unfused).
+    /// and `v = Q(a − b·c)` (F12, to I3F6, six dropped), and sums of two,
+    /// three and four products (F16, to I3F6): `w2 = Q(a·b − b·c)`,
+    /// `w3 = Q((a·a + b·b) + c·c)`, `w4 = Q((a·b − a·c) − (b·b + c·c))`.
+    /// The probe still sees the exact product (it runs unfused).
     #[test]
     fn fused_quantizations_give_the_closed_forms() {
         fn want(v: i128, shift: i32, width: u32, r: Rounding, o: Overflow) -> (i128, bool) {
@@ -2295,7 +2446,20 @@ mod tests {
                 .fused
                 .iter()
                 .filter(|f| matches!(f, Fusion::Quant { .. }));
-            assert_eq!(quants.count(), 5, "every quantization fused");
+            assert_eq!(
+                quants.count(),
+                5,
+                "the quantizations of one operation fused"
+            );
+            let dots: Vec<usize> = prog
+                .fused
+                .iter()
+                .filter_map(|f| match f {
+                    Fusion::Dot { n, .. } => Some(*n),
+                    _ => None,
+                })
+                .collect();
+            assert_eq!(dots, [2, 3, 4], "the sums of products fused");
             let madds = prog.fused.iter().filter(|f| {
                 matches!(
                     f,
@@ -2315,9 +2479,12 @@ mod tests {
                     want(a - b, -2, 14, r, o),
                     want(b * c + a * 16, 6, 9, r, o),
                     want(a * 16 - b * c, 6, 9, r, o),
+                    want(a * b - b * c * 16, 10, 9, r, o),
+                    want(a * a + b * b + c * c * 256, 10, 9, r, o),
+                    want(a * b - a * c * 16 - b * b - c * c * 256, 10, 9, r, o),
                 ]
             };
-            let mut counts = [0u64; 5];
+            let mut counts = [0u64; 8];
             for k in 0..a.len() {
                 for (n, w) in counts.iter_mut().zip(want_lane(k)) {
                     *n += u64::from(w.1);
@@ -2327,10 +2494,10 @@ mod tests {
                 counts.iter().all(|&n| n > 0),
                 "{r:?} {o:?}: every stage overflows"
             );
-            let names = ["m", "s", "e", "u", "v"];
+            let names = ["m", "s", "e", "u", "v", "w2", "w3", "w4"];
             let want_ov: Vec<(&str, u64)> = names.into_iter().zip(counts).collect();
             for isa in Isa::ALL.into_iter().filter(|i| i.available()) {
-                let mut outs = vec![Vec::new(); 5];
+                let mut outs = vec![Vec::new(); 8];
                 let ov = prog.run_into_on(isa, &ins, &mut outs);
                 assert_eq!(ov, want_ov, "{} {r:?} {o:?}", isa.name());
                 for k in 0..a.len() {
@@ -2390,7 +2557,22 @@ mod tests {
                 let e = t.quantize(e0, &Quant::new("e", "I4F10".parse().unwrap(), r, o));
                 let u = t.quantize(u0, &Quant::new("u", narrow, r, o));
                 let v = t.quantize(v0, &Quant::new("v", narrow, r, o));
-                for (name, val) in [("m", m), ("s", s), ("e", e), ("u", u), ("v", v)] {
+                let (ab, bc) = (t.mul(ai, bi), t.mul(bi, ci));
+                let w20 = t.sub(ab, bc);
+                let w2 = t.quantize(w20, &Quant::new("w2", narrow, r, o));
+                let (aa, bb, cc) = (t.mul(ai, ai), t.mul(bi, bi), t.mul(ci, ci));
+                let w30 = t.add(aa, bb);
+                let w31 = t.add(w30, cc);
+                let w3 = t.quantize(w31, &Quant::new("w3", narrow, r, o));
+                let (ab, ac, bb, cc) = (t.mul(ai, bi), t.mul(ai, ci), t.mul(bi, bi), t.mul(ci, ci));
+                let (l, rr) = (t.sub(ab, ac), t.add(bb, cc));
+                let w40 = t.sub(l, rr);
+                let w4 = t.quantize(w40, &Quant::new("w4", narrow, r, o));
+                let named = [("m", m), ("s", s), ("e", e), ("u", u), ("v", v)];
+                for (name, val) in named
+                    .into_iter()
+                    .chain([("w2", w2), ("w3", w3), ("w4", w4)])
+                {
                     t.output(name, val);
                 }
                 let outs: Vec<TV> = t.output_ports().iter().map(|p| p.value).collect();
