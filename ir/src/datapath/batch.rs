@@ -1472,7 +1472,7 @@ fn block_body<R: Raw>(
                 (true, Fusion::Deferred, _) => continue,
                 (
                     true,
-                    Fusion::Dot { terms, n },
+                    fusion @ (Fusion::Dot { .. } | Fusion::Quant { .. }),
                     &Instr::Quant {
                         d,
                         step,
@@ -1493,132 +1493,114 @@ fn block_body<R: Raw>(
                         want_flags,
                     };
                     let at = |n: usize| operand_of(port_of, lo, lanes, n);
-                    // The terms past `n` repeat the first (their lanes are
-                    // read, never summed).
-                    let factors: [[&[R]; 2]; 4] = std::array::from_fn(|t| {
-                        match this.instrs[terms[if t < n { t } else { 0 }].mul] {
-                            Instr::Mul { a, b, .. } => [at(a), at(b)],
-                            _ => unreachable!("a dot's term is a product"),
-                        }
-                    });
-                    let sh = terms.map(|t| t.shift);
-                    let neg = terms.map(|t| t.neg);
-                    // Σ ±(x·y << s), in wrapping arithmetic: the exact sum
-                    // fits its node, so any order gives it.
-                    let term = move |x: R, y: R, t: usize| {
-                        let p = x.mul_raw(y) << sh[t];
-                        if neg[t] {
-                            R::ZERO - p
-                        } else {
-                            p
-                        }
-                    };
-                    let [[a0, b0], [a1, b1], [a2, b2], [a3, b3]] = factors;
-                    ov[stage] += match n {
-                        2 => q.run(
-                            [a0, b0, a1, b1],
-                            dst,
-                            fl,
-                            move |[x0, y0, x1, y1]: [R; 4]| {
-                                term(x0, y0, 0).wrapping_add_raw(term(x1, y1, 1))
-                            },
-                        ),
-                        3 => q.run(
-                            [a0, b0, a1, b1, a2, b2],
-                            dst,
-                            fl,
-                            move |[x0, y0, x1, y1, x2, y2]: [R; 6]| {
-                                term(x0, y0, 0)
-                                    .wrapping_add_raw(term(x1, y1, 1))
-                                    .wrapping_add_raw(term(x2, y2, 2))
-                            },
-                        ),
-                        _ => q.run(
-                            [a0, b0, a1, b1, a2, b2, a3, b3],
-                            dst,
-                            fl,
-                            move |[x0, y0, x1, y1, x2, y2, x3, y3]: [R; 8]| {
-                                term(x0, y0, 0)
-                                    .wrapping_add_raw(term(x1, y1, 1))
-                                    .wrapping_add_raw(term(x2, y2, 2))
-                                    .wrapping_add_raw(term(x3, y3, 3))
-                            },
-                        ),
-                    };
-                    continue;
-                }
-                (
-                    true,
-                    Fusion::Quant { producer, product },
-                    &Instr::Quant {
-                        d,
-                        step,
-                        round,
-                        overflow,
-                        stage,
-                        flag,
-                        ..
-                    },
-                ) => {
-                    let (lo, hi) = regs.split_at_mut(d * BLOCK);
-                    let (dst, fl) = (dest!(hi, d), &mut flags[..len]);
-                    let q = QuantOf {
-                        flag,
-                        st: &step,
-                        round,
-                        overflow,
-                        want_flags,
-                    };
-                    let at = |n: usize| operand_of(port_of, lo, lanes, n);
-                    let mul = |m: usize| match this.instrs[m] {
-                        Instr::Mul { a, b, .. } => (at(a), at(b)),
-                        _ => unreachable!("a fused product is a product"),
-                    };
-                    ov[stage] += match (&this.instrs[producer], product) {
-                        (&Instr::Mul { a, b, .. }, _) => {
-                            q.run([at(a), at(b)], dst, fl, |[x, y]: [R; 2]| x.mul_raw(y))
-                        }
-                        (
-                            &Instr::AddSub {
-                                a, sa, b, sb, sub, ..
-                            },
-                            None,
-                        ) => {
-                            if sub {
-                                q.run([at(a), at(b)], dst, fl, move |[x, y]: [R; 2]| {
-                                    (x << sa) - (y << sb)
-                                })
-                            } else {
-                                q.run([at(a), at(b)], dst, fl, move |[x, y]: [R; 2]| {
-                                    (x << sa) + (y << sb)
-                                })
+                    ov[stage] += match fusion {
+                        Fusion::Dot { terms, n } => {
+                            // The terms past `n` repeat the first (their lanes are
+                            // read, never summed).
+                            let factors: [[&[R]; 2]; 4] = std::array::from_fn(|t| {
+                                match this.instrs[terms[if t < n { t } else { 0 }].mul] {
+                                    Instr::Mul { a, b, .. } => [at(a), at(b)],
+                                    _ => unreachable!("a dot's term is a product"),
+                                }
+                            });
+                            let sh = terms.map(|t| t.shift);
+                            let neg = terms.map(|t| t.neg);
+                            // Σ ±(x·y << s), in wrapping arithmetic: the exact sum
+                            // fits its node, so any order gives it.
+                            let term = move |x: R, y: R, t: usize| {
+                                let p = x.mul_raw(y) << sh[t];
+                                if neg[t] {
+                                    R::ZERO - p
+                                } else {
+                                    p
+                                }
+                            };
+                            let [[a0, b0], [a1, b1], [a2, b2], [a3, b3]] = factors;
+                            match n {
+                                2 => q.run(
+                                    [a0, b0, a1, b1],
+                                    dst,
+                                    fl,
+                                    move |[x0, y0, x1, y1]: [R; 4]| {
+                                        term(x0, y0, 0).wrapping_add_raw(term(x1, y1, 1))
+                                    },
+                                ),
+                                3 => q.run(
+                                    [a0, b0, a1, b1, a2, b2],
+                                    dst,
+                                    fl,
+                                    move |[x0, y0, x1, y1, x2, y2]: [R; 6]| {
+                                        term(x0, y0, 0)
+                                            .wrapping_add_raw(term(x1, y1, 1))
+                                            .wrapping_add_raw(term(x2, y2, 2))
+                                    },
+                                ),
+                                _ => q.run(
+                                    [a0, b0, a1, b1, a2, b2, a3, b3],
+                                    dst,
+                                    fl,
+                                    move |[x0, y0, x1, y1, x2, y2, x3, y3]: [R; 8]| {
+                                        term(x0, y0, 0)
+                                            .wrapping_add_raw(term(x1, y1, 1))
+                                            .wrapping_add_raw(term(x2, y2, 2))
+                                            .wrapping_add_raw(term(x3, y3, 3))
+                                    },
+                                ),
                             }
                         }
-                        (&Instr::AddSub { sa, b, sb, sub, .. }, Some((false, m))) => {
-                            let (x, y) = mul(m);
-                            if sub {
-                                q.run([x, y, at(b)], dst, fl, move |[x, y, z]: [R; 3]| {
-                                    (x.mul_raw(y) << sa) - (z << sb)
-                                })
-                            } else {
-                                q.run([x, y, at(b)], dst, fl, move |[x, y, z]: [R; 3]| {
-                                    (x.mul_raw(y) << sa) + (z << sb)
-                                })
+                        Fusion::Quant { producer, product } => {
+                            let mul = |m: usize| match this.instrs[m] {
+                                Instr::Mul { a, b, .. } => (at(a), at(b)),
+                                _ => unreachable!("a fused product is a product"),
+                            };
+                            match (&this.instrs[producer], product) {
+                                (&Instr::Mul { a, b, .. }, _) => {
+                                    q.run([at(a), at(b)], dst, fl, |[x, y]: [R; 2]| x.mul_raw(y))
+                                }
+                                (
+                                    &Instr::AddSub {
+                                        a, sa, b, sb, sub, ..
+                                    },
+                                    None,
+                                ) => {
+                                    if sub {
+                                        q.run([at(a), at(b)], dst, fl, move |[x, y]: [R; 2]| {
+                                            (x << sa) - (y << sb)
+                                        })
+                                    } else {
+                                        q.run([at(a), at(b)], dst, fl, move |[x, y]: [R; 2]| {
+                                            (x << sa) + (y << sb)
+                                        })
+                                    }
+                                }
+                                (&Instr::AddSub { sa, b, sb, sub, .. }, Some((false, m))) => {
+                                    let (x, y) = mul(m);
+                                    if sub {
+                                        q.run([x, y, at(b)], dst, fl, move |[x, y, z]: [R; 3]| {
+                                            (x.mul_raw(y) << sa) - (z << sb)
+                                        })
+                                    } else {
+                                        q.run([x, y, at(b)], dst, fl, move |[x, y, z]: [R; 3]| {
+                                            (x.mul_raw(y) << sa) + (z << sb)
+                                        })
+                                    }
+                                }
+                                (&Instr::AddSub { a, sa, sb, sub, .. }, Some((true, m))) => {
+                                    let (x, y) = mul(m);
+                                    if sub {
+                                        q.run([x, y, at(a)], dst, fl, move |[x, y, z]: [R; 3]| {
+                                            (z << sa) - (x.mul_raw(y) << sb)
+                                        })
+                                    } else {
+                                        q.run([x, y, at(a)], dst, fl, move |[x, y, z]: [R; 3]| {
+                                            (z << sa) + (x.mul_raw(y) << sb)
+                                        })
+                                    }
+                                }
+                                _ => unreachable!("only products and sums are fused"),
                             }
                         }
-                        (&Instr::AddSub { a, sa, sb, sub, .. }, Some((true, m))) => {
-                            let (x, y) = mul(m);
-                            if sub {
-                                q.run([x, y, at(a)], dst, fl, move |[x, y, z]: [R; 3]| {
-                                    (z << sa) - (x.mul_raw(y) << sb)
-                                })
-                            } else {
-                                q.run([x, y, at(a)], dst, fl, move |[x, y, z]: [R; 3]| {
-                                    (z << sa) + (x.mul_raw(y) << sb)
-                                })
-                            }
-                        }
-                        _ => unreachable!("only products and sums are fused"),
+                        _ => unreachable!("the arm's pattern"),
                     };
                     continue;
                 }
