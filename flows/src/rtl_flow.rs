@@ -962,19 +962,32 @@ fn run_built(
         let mut rx_ins = Vec::new();
         let mut rx_exps = Vec::new();
         let mut generators = Vec::new();
+        // Written buffers go back to the worker that filled them (fresh
+        // buffers per chunk cost page faults: the heap's top is trimmed).
+        let (mut back_ins, mut back_exps) = (Vec::new(), Vec::new());
         for w in 0..workers {
             let (tx_in, rx_in) = std::sync::mpsc::sync_channel::<Vec<u8>>(2);
             let (tx_exp, rx_exp) = std::sync::mpsc::sync_channel::<Vec<u8>>(2);
+            let (back_in, spent_in) = std::sync::mpsc::channel::<Vec<u8>>();
+            let (back_exp, spent_exp) = std::sync::mpsc::channel::<Vec<u8>>();
             rx_ins.push(rx_in);
             rx_exps.push(rx_exp);
+            back_ins.push(back_in);
+            back_exps.push(back_exp);
             generators.push(s.spawn(move || -> anyhow::Result<f64> {
                 let mut busy = 0.0;
                 let mut start = w * CHUNK;
+                let reuse = |spent: &std::sync::mpsc::Receiver<Vec<u8>>, cap: usize| {
+                    let mut b = spent.try_recv().unwrap_or_default();
+                    b.clear();
+                    b.reserve(cap);
+                    b
+                };
                 while start < v.len() {
                     let t0 = Instant::now();
                     let len = CHUNK.min(v.len() - start);
-                    let mut bi = Vec::with_capacity(len * in_rb);
-                    let mut be = Vec::with_capacity(len * out_rb);
+                    let mut bi = reuse(&spent_in, len * in_rb);
+                    let mut be = reuse(&spent_exp, len * out_rb);
                     v.records(start, len, &mut bi, &mut be)?;
                     busy += t0.elapsed().as_secs_f64();
                     if let Some(b) = PROGRESS.lock().unwrap_or_else(|e| e.into_inner()).as_ref() {
@@ -990,7 +1003,10 @@ fn run_built(
         }
         let gone = &gone;
         let (blocked, finished, stuck, group) = (&blocked, &finished, &stuck, &group);
-        let writer = |path: PathBuf, rxs: Vec<std::sync::mpsc::Receiver<Vec<u8>>>, w: usize| {
+        let writer = |path: PathBuf,
+                      rxs: Vec<std::sync::mpsc::Receiver<Vec<u8>>>,
+                      backs: Vec<std::sync::mpsc::Sender<Vec<u8>>>,
+                      w: usize| {
             move || {
                 let Some(mut f) = open_fifo(&path, gone) else {
                     return;
@@ -1009,11 +1025,13 @@ fn run_built(
                     if r.is_err() {
                         return;
                     }
+                    // The worker may have finished: then the buffer is dropped.
+                    let _ = backs[k % backs.len()].send(buf);
                 }
             }
         };
-        s.spawn(writer(fin.clone(), rx_ins, 0));
-        s.spawn(writer(fexp.clone(), rx_exps, 1));
+        s.spawn(writer(fin.clone(), rx_ins, back_ins, 0));
+        s.spawn(writer(fexp.clone(), rx_exps, back_exps, 1));
         let (done_tx, done_rx) = std::sync::mpsc::channel::<()>();
         s.spawn(move || {
             let limit = narrow::<u64, _>(idle.time.as_millis());

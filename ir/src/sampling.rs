@@ -43,11 +43,7 @@ impl Rng {
     }
     /// A unit vector uniformly distributed within angle `alpha` of `axis`.
     pub fn in_cone(&mut self, axis: DVec3, alpha: f64) -> DVec3 {
-        let cos_t = self.uniform(alpha.cos(), 1.0);
-        let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
-        let a = self.uniform(0.0, std::f64::consts::TAU);
-        let (u, v) = axis.any_orthonormal_pair();
-        (axis * cos_t + (u * a.cos() + v * a.sin()) * sin_t).normalize()
+        Cone::new(axis, alpha).sample(self)
     }
     /// Barycentric coordinates uniform over a triangle.
     pub fn barycentric(&mut self) -> [f64; 3] {
@@ -57,6 +53,45 @@ impl Rng {
             v = 1.0 - v;
         }
         [1.0 - u - v, u, v]
+    }
+}
+
+/// The cone of unit vectors within angle `alpha` of `axis`, its constants
+/// (`cos alpha`, two unit vectors orthogonal to `axis`) computed once:
+/// [`Cone::sample`] draws what [`Rng::in_cone`] draws, bit for bit.
+#[derive(Clone, Copy, Debug)]
+pub struct Cone {
+    axis: DVec3,
+    cos_alpha: f64,
+    u: DVec3,
+    v: DVec3,
+}
+
+impl Cone {
+    /// The cone around `axis` (a unit vector) of half-angle `alpha`.
+    pub fn new(axis: DVec3, alpha: f64) -> Self {
+        let (u, v) = axis.any_orthonormal_pair();
+        Cone {
+            axis,
+            cos_alpha: alpha.cos(),
+            u,
+            v,
+        }
+    }
+    /// A unit vector uniform over the cone's cap: `cos t` uniform in
+    /// `[cos alpha, 1)`, then the azimuth `a` uniform in `[0, 2π)` (two
+    /// draws of `rng`, in that order), `normalize(axis·cos t + (u cos a +
+    /// v sin a)·sin t)`.
+    pub fn sample(&self, rng: &mut Rng) -> DVec3 {
+        let cos_t = rng.uniform(self.cos_alpha, 1.0);
+        let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
+        let a = rng.uniform(0.0, std::f64::consts::TAU);
+        (self.axis * cos_t + (self.u * a.cos() + self.v * a.sin()) * sin_t).normalize()
+    }
+    /// Advance `rng` past one [`Cone::sample`] without computing it.
+    pub fn skip(rng: &mut Rng) {
+        rng.next_u64();
+        rng.next_u64();
     }
 }
 
@@ -94,12 +129,89 @@ pub fn triangle_meeting(theta: f64, rng: &mut Rng) -> [DVec3; 3] {
     let phi = theta.clamp(-1.0, 1.0).acos();
     let axis = rng.direction();
     if rng.next_u64() & 1 == 0 {
-        return std::array::from_fn(|_| rng.in_cone(axis, phi / 2.0));
+        let cone = Cone::new(axis, phi / 2.0);
+        return std::array::from_fn(|_| cone.sample(rng));
     }
+    let cone = Cone::new(axis, phi);
     loop {
-        let t: [DVec3; 3] = std::array::from_fn(|_| rng.in_cone(axis, phi));
+        // Three draws from the cone until `cos_phi(t) >= theta`. When the
+        // first two already meet below `theta` the minimum does too: the
+        // third is skipped, not computed (the same draws, the same result).
+        let (a, b) = (cone.sample(rng), cone.sample(rng));
+        if a.dot(b) < theta {
+            Cone::skip(rng);
+            continue;
+        }
+        let t = [a, b, cone.sample(rng)];
         if cos_phi(&t) >= theta {
             return t;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The sampling as first written: every draw computed, three at a time,
+    /// `alpha.cos()` and the orthonormal pair recomputed per draw.
+    fn in_cone_plain(rng: &mut Rng, axis: DVec3, alpha: f64) -> DVec3 {
+        let cos_t = rng.uniform(alpha.cos(), 1.0);
+        let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
+        let a = rng.uniform(0.0, std::f64::consts::TAU);
+        let (u, v) = axis.any_orthonormal_pair();
+        (axis * cos_t + (u * a.cos() + v * a.sin()) * sin_t).normalize()
+    }
+
+    fn triangle_meeting_plain(theta: f64, rng: &mut Rng) -> [DVec3; 3] {
+        let phi = theta.clamp(-1.0, 1.0).acos();
+        let axis = rng.direction();
+        if rng.next_u64() & 1 == 0 {
+            return std::array::from_fn(|_| in_cone_plain(rng, axis, phi / 2.0));
+        }
+        loop {
+            let t: [DVec3; 3] = std::array::from_fn(|_| in_cone_plain(rng, axis, phi));
+            if cos_phi(&t) >= theta {
+                return t;
+            }
+        }
+    }
+
+    /// The early rejection and the hoisted constants change no draw: the
+    /// same triangles, bit for bit, and the generator left in the same
+    /// state, over thresholds from a right angle to nearly parallel.
+    #[test]
+    fn triangles_are_the_plain_rejection_samplers_bit_for_bit() {
+        for theta in [0.0, 0.3, 0.5, 0.8, 0.95, 0.999] {
+            let (mut a, mut b) = (Rng::new(7), Rng::new(7));
+            for _ in 0..3000 {
+                let (t, u) = (
+                    triangle_meeting(theta, &mut a),
+                    triangle_meeting_plain(theta, &mut b),
+                );
+                for k in 0..3 {
+                    assert_eq!(
+                        t[k].to_array().map(f64::to_bits),
+                        u[k].to_array().map(f64::to_bits)
+                    );
+                }
+                assert!(cos_phi(&t) >= theta);
+            }
+            assert_eq!(
+                a.next_u64(),
+                b.next_u64(),
+                "θ = {theta}: the generators diverged"
+            );
+        }
+        let (mut a, mut b) = (Rng::new(3), Rng::new(3));
+        for _ in 0..1000 {
+            let axis = a.direction();
+            assert_eq!(axis, b.direction());
+            let (p, q) = (a.in_cone(axis, 0.7), in_cone_plain(&mut b, axis, 0.7));
+            assert_eq!(
+                p.to_array().map(f64::to_bits),
+                q.to_array().map(f64::to_bits)
+            );
         }
     }
 }

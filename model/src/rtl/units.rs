@@ -7,7 +7,7 @@
 //! overflow flags always come from the compiled trace, and the vector
 //! layout from the emitted module's ports.
 
-use fxshade_numbers::convert::to_f64;
+use fxshade_numbers::convert::{narrow, to_f64};
 pub use fxshade_units::rtl::units::*;
 
 use super::search::Search;
@@ -443,11 +443,7 @@ fn expected_rows(
     n_in: usize,
     rows: &[Vec<i128>],
 ) -> Vec<Vec<i128>> {
-    let cols: Vec<Vec<i128>> = (0..n_in)
-        .map(|k| rows.iter().map(|r| r[k]).collect())
-        .collect();
-    let refs: Vec<&[i128]> = cols.iter().map(|c| c.as_slice()).collect();
-    let (res, flags) = prog.run_flags_i128(&refs);
+    let (res, flags) = expected_columns(prog, n_in, rows);
     (0..rows.len())
         .map(|i| {
             let mut r = Vec::with_capacity(res.len() + 1);
@@ -459,6 +455,20 @@ fn expected_rows(
             r
         })
         .collect()
+}
+
+/// The compiled trace run on `rows` (their first `n_in` codes): one column
+/// of codes per output, and the per-lane overflow-flag words.
+fn expected_columns(
+    prog: &crate::datapath::Compiled,
+    n_in: usize,
+    rows: &[Vec<i128>],
+) -> (Vec<Vec<i128>>, Vec<u64>) {
+    let cols: Vec<Vec<i128>> = (0..n_in)
+        .map(|k| rows.iter().map(|r| r[k]).collect())
+        .collect();
+    let refs: Vec<&[i128]> = cols.iter().map(|c| c.as_slice()).collect();
+    prog.run_flags_i128(&refs)
 }
 
 /// A unit's vector stream, or the slice of it one shard covers, generated
@@ -631,8 +641,49 @@ impl crate::vectors::VectorSource for VectorStream {
         self.count
     }
     fn chunk(&self, start: usize, len: usize) -> Result<crate::vectors::Rows, RtlError> {
+        let rows = self.input_chunk(start, len)?;
+        let out = expected_rows(
+            &self.prog,
+            self.emitted.flags.len(),
+            self.emitted.inputs.len(),
+            &rows,
+        );
+        Ok((rows, out))
+    }
+    /// As the default, without an expected row per vector: the records are
+    /// packed from the output columns (what co-simulation streams).
+    fn records(
+        &self,
+        start: usize,
+        len: usize,
+        inputs: &mut Vec<u8>,
+        expected: &mut Vec<u8>,
+    ) -> Result<(), RtlError> {
+        use crate::vectors::push_record;
+        let rows = self.input_chunk(start, len)?;
+        let (res, flags) = expected_columns(&self.prog, self.emitted.inputs.len(), &rows);
+        let with_flags = !self.emitted.flags.is_empty();
+        let mut e = Vec::with_capacity(res.len() + 1);
+        for (k, r) in rows.iter().enumerate() {
+            let idx = narrow::<u32, _>(self.first + start + k);
+            push_record(inputs, idx, &self.emitted.inputs, r);
+            e.clear();
+            if with_flags {
+                // The model's flag word is the RTL's `ovf_o`.
+                e.push(i128::from(flags[k]));
+            }
+            e.extend(res.iter().map(|o| o[k]));
+            push_record(expected, idx, &self.emitted.outputs, &e);
+        }
+        Ok(())
+    }
+}
+
+impl VectorStream {
+    /// Input rows `[start, start + len)` of the slice.
+    fn input_chunk(&self, start: usize, len: usize) -> Result<Vec<Vec<i128>>, RtlError> {
         assert!(start + len <= self.count, "inside the slice");
-        let rows = stream_rows(
+        stream_rows(
             self.unit,
             &self.cfg,
             &self.corners,
@@ -646,13 +697,6 @@ impl crate::vectors::VectorSource for VectorStream {
                 .iter()
                 .map(|p| p.format)
                 .collect::<Vec<_>>(),
-        )?;
-        let out = expected_rows(
-            &self.prog,
-            self.emitted.flags.len(),
-            self.emitted.inputs.len(),
-            &rows,
-        );
-        Ok((rows, out))
+        )
     }
 }
