@@ -2574,6 +2574,74 @@ mod tests {
         }
     }
 
+    /// A 64-entry table read through a 6-bit index, and the same table
+    /// read through a quantized sum: lane counts off the vector widths
+    /// (the vector loops' scalar tails), on every instruction set, `i64` and
+    /// `i128`, against the entries themselves.
+    #[test]
+    fn table_reads_give_the_entries_on_every_instruction_set() {
+        let iq = Quant::new(
+            "i",
+            "U6F6".parse().unwrap(),
+            Rounding::Trunc,
+            Overflow::Wrap,
+        );
+        let out = Quant::new(
+            "t",
+            "I12F4".parse().unwrap(),
+            Rounding::Trunc,
+            Overflow::Wrap,
+        );
+        let codes: Vec<i128> = (0..64)
+            .map(|k| (k * 37 % 101) - 50 - 1000 * (k % 3))
+            .collect();
+        let table = Table {
+            name: "t",
+            index: iq.format(),
+            out,
+            exact: |x| x,
+            codes: codes.clone(),
+            storage: None,
+        };
+        for n in [1usize, 7, 9, 255, 257, 1003] {
+            let mut t = Trace::new();
+            let a = t.input_named("a", &iq);
+            let b = t.input_named("b", &iq);
+            let y = t.table(&table, a);
+            let s = t.add(a, b);
+            let w = t.quantize(s, &iq);
+            let z = t.table(&table, w);
+            t.output("y", y);
+            t.output("z", z);
+            let xs: Vec<i64> = (0..n as i64).map(|k| (k * 29 + 5) % 64).collect();
+            let ys: Vec<i64> = (0..n as i64).map(|k| (k * 13 + 60) % 64).collect();
+            let want_y: Vec<i128> = xs.iter().map(|&x| codes[x as usize]).collect();
+            let want_z: Vec<i128> = xs
+                .iter()
+                .zip(&ys)
+                .map(|(&x, &v)| codes[((x + v) % 64) as usize])
+                .collect();
+            let narrow = Program::<i64>::compile(&t, &[y, z]).unwrap();
+            let wide = Program::<i128>::compile(&t, &[y, z]).unwrap();
+            let wx: Vec<i128> = xs.iter().map(|&x| i128::from(x)).collect();
+            let wy: Vec<i128> = ys.iter().map(|&x| i128::from(x)).collect();
+            for isa in Isa::ALL.into_iter().filter(|i| i.available()) {
+                let mut got = vec![Vec::new(), Vec::new()];
+                narrow.run_into_on(isa, &[xs.as_slice(), ys.as_slice()], &mut got);
+                let mut got_wide = vec![Vec::new(), Vec::new()];
+                wide.run_into_on(isa, &[wx.as_slice(), wy.as_slice()], &mut got_wide);
+                let got: Vec<Vec<i128>> = got
+                    .iter()
+                    .map(|c| c.iter().map(|&x| i128::from(x)).collect())
+                    .collect();
+                for (g, name) in [(&got, "i64"), (&got_wide, "i128")] {
+                    assert_eq!(g[0], want_y, "{} {name}, {n} lanes: y", isa.name());
+                    assert_eq!(g[1], want_z, "{} {name}, {n} lanes: z", isa.name());
+                }
+            }
+        }
+    }
+
     /// A select whose options are all constants reads them from a table
     /// (`konst`); one whose options are inputs reads registers lane by
     /// lane. Both against the closed form `options[sel]`, option 0 for a
