@@ -447,14 +447,26 @@ fn expected_rows(
     (0..rows.len())
         .map(|i| {
             let mut r = Vec::with_capacity(res.len() + 1);
-            if nf > 0 {
-                // The model's flag word is the RTL's `ovf_o`.
-                r.push(i128::from(flags[i]));
-            }
-            r.extend(res.iter().map(|o| o[i]));
+            expected_row_into(&mut r, nf > 0, &res, &flags, i);
             r
         })
         .collect()
+}
+
+/// Append lane `i`'s expected row to `r`: the flag word first when the
+/// design has flag stages (the model's flag word is the RTL's `ovf_o`),
+/// then every output's code.
+fn expected_row_into(
+    r: &mut Vec<i128>,
+    with_flags: bool,
+    res: &[Vec<i128>],
+    flags: &[u64],
+    i: usize,
+) {
+    if with_flags {
+        r.push(i128::from(flags[i]));
+    }
+    r.extend(res.iter().map(|o| o[i]));
 }
 
 /// The compiled trace run on `rows` (their first `n_in` codes): one column
@@ -668,11 +680,7 @@ impl crate::vectors::VectorSource for VectorStream {
             let idx = narrow::<u32, _>(self.first + start + k);
             push_record(inputs, idx, &self.emitted.inputs, r);
             e.clear();
-            if with_flags {
-                // The model's flag word is the RTL's `ovf_o`.
-                e.push(i128::from(flags[k]));
-            }
-            e.extend(res.iter().map(|o| o[k]));
+            expected_row_into(&mut e, with_flags, &res, &flags, k);
             push_record(expected, idx, &self.emitted.outputs, &e);
         }
         Ok(())
