@@ -22,6 +22,7 @@ mod cut;
 mod interval;
 mod mutation;
 mod smt;
+mod specialize;
 pub use c::CError;
 pub use mutation::{Mutation, MutationKind};
 pub use smt::{lit as smt_literal, Chunk, MulSplit, PartialProduct, SmtFunction};
@@ -735,15 +736,101 @@ pub struct Program<R> {
     /// a power of two (a slot past the options reads option 0, as the
     /// select does).
     select_tables: Vec<Vec<R>>,
-    /// Each table's smallest and largest entry (the interval analysis'
-    /// range of a read whose index spans the table).
-    table_hulls: Vec<(i128, i128)>,
+    /// Each table's smallest and largest entry, whole and per block of
+    /// entries (the interval analysis' range of a read).
+    table_hulls: Vec<interval::TableHull>,
     stages: Vec<&'static str>,
     flag_stages: Vec<String>,
     const_overflows: Vec<&'static str>,
     counts: super::OpCounts,
     max_width: u32,
+    /// Flag bits every lane carries: the stages of quantizations a
+    /// [specialized](Program::specialize) program folded that overflowed
+    /// (zero for a compiled one).
+    base_flags: u64,
+    /// The stage of each such folded quantization that overflowed, once
+    /// per quantization: every lane counts it.
+    base_overflows: Vec<usize>,
     pool: RegPool<R>,
+}
+
+/// Where a program's values live ([`Program`]`::port_of`, `loaded`,
+/// `out_of`, `copied`) and which instructions fuse (`fused`): what
+/// [`Program::compile`] derives from the instruction list, and
+/// [`Program::specialize`] again from a shorter one.
+struct Layout {
+    port_of: Vec<usize>,
+    loaded: Vec<usize>,
+    out_of: Vec<usize>,
+    copied: Vec<usize>,
+    fused: Vec<Fusion>,
+}
+
+impl Layout {
+    /// The layout of `instrs` over `n_regs` registers with these input
+    /// ports and outputs.
+    fn of(
+        instrs: &[Instr],
+        inputs: &[(usize, Quant)],
+        outputs: &[(usize, i32)],
+        n_regs: usize,
+    ) -> Layout {
+        // Operations read the inputs where the caller holds them (no copy
+        // per block), except where a select reads them lane by lane or an
+        // output is an input itself: those are copied into registers.
+        let mut port_of = vec![IN_REGISTER; n_regs];
+        for (k, &(d, _)) in inputs.iter().enumerate() {
+            port_of[d] = k;
+        }
+        for ins in instrs {
+            if let Instr::Select { opts, .. } = ins {
+                for &(o, _) in opts {
+                    port_of[o] = IN_REGISTER;
+                }
+            }
+        }
+        for &(o, _) in outputs {
+            port_of[o] = IN_REGISTER;
+        }
+        let loaded = (0..inputs.len())
+            .filter(|&k| port_of[inputs[k].0] == IN_REGISTER)
+            .collect();
+        // An output that an instruction writes and no instruction reads is
+        // written straight into the caller's output vector (no copy out of
+        // each block); the others are copied from their registers.
+        let mut read = vec![false; n_regs];
+        let mut written = vec![false; n_regs];
+        for ins in instrs {
+            written[ins.dest()] = true;
+            ins.each_operand(|a| read[a] = true);
+        }
+        // (A node named by two outputs stays in its register: both copy it.)
+        let mut named = vec![0usize; n_regs];
+        for &(o, _) in outputs {
+            named[o] += 1;
+        }
+        let mut out_of = vec![IN_REGISTER; n_regs];
+        for (k, &(o, _)) in outputs.iter().enumerate() {
+            if written[o] && !read[o] && named[o] == 1 {
+                out_of[o] = k;
+            }
+        }
+        let copied = (0..outputs.len())
+            .filter(|&k| out_of[outputs[k].0] != k)
+            .collect();
+        let mut readers = vec![0usize; n_regs];
+        for ins in instrs {
+            ins.each_operand(|a| readers[a] += 1);
+        }
+        let fused = fusions(instrs, &readers, &named);
+        Layout {
+            port_of,
+            loaded,
+            out_of,
+            copied,
+            fused,
+        }
+    }
 }
 
 /// Register files of earlier runs, kept for the next run of the same
@@ -933,62 +1020,17 @@ impl<R: Raw> Program<R> {
             }
         }
         let outputs: Vec<(usize, i32)> = outputs.iter().map(|o| (o.id as usize, o.frac)).collect();
-        // Operations read the inputs where the caller holds them (no copy
-        // per block), except where a select reads them lane by lane or an
-        // output is an input itself: those are copied into registers.
-        let mut port_of = vec![IN_REGISTER; trace.ops.len()];
-        for (k, &(d, _)) in inputs.iter().enumerate() {
-            port_of[d] = k;
-        }
-        for ins in &instrs {
-            if let Instr::Select { opts, .. } = ins {
-                for &(o, _) in opts {
-                    port_of[o] = IN_REGISTER;
-                }
-            }
-        }
-        for &(o, _) in &outputs {
-            port_of[o] = IN_REGISTER;
-        }
-        let loaded = (0..inputs.len())
-            .filter(|&k| port_of[inputs[k].0] == IN_REGISTER)
-            .collect();
-        // An output that an instruction writes and no instruction reads is
-        // written straight into the caller's output vector (no copy out of
-        // each block); the others are copied from their registers.
-        let mut read = vec![false; trace.ops.len()];
-        let mut written = vec![false; trace.ops.len()];
-        for ins in &instrs {
-            written[ins.dest()] = true;
-            ins.each_operand(|a| read[a] = true);
-        }
-        // (A node named by two outputs stays in its register: both copy it.)
-        let mut named = vec![0usize; trace.ops.len()];
-        for &(o, _) in &outputs {
-            named[o] += 1;
-        }
-        let mut out_of = vec![IN_REGISTER; trace.ops.len()];
-        for (k, &(o, _)) in outputs.iter().enumerate() {
-            if written[o] && !read[o] && named[o] == 1 {
-                out_of[o] = k;
-            }
-        }
-        let copied = (0..outputs.len())
-            .filter(|&k| out_of[outputs[k].0] != k)
-            .collect();
-        let mut readers = vec![0usize; trace.ops.len()];
-        for ins in &instrs {
-            ins.each_operand(|a| readers[a] += 1);
-        }
-        let fused = fusions(&instrs, &readers, &named);
+        let Layout {
+            port_of,
+            loaded,
+            out_of,
+            copied,
+            fused,
+        } = Layout::of(&instrs, &inputs, &outputs, trace.ops.len());
         let table_hulls = trace
             .tables
             .iter()
-            .map(|t| {
-                let lo = t.codes.iter().copied().min().unwrap_or(0);
-                let hi = t.codes.iter().copied().max().unwrap_or(0);
-                (lo, hi)
-            })
+            .map(|t| interval::TableHull::of(&t.codes))
             .collect();
         Ok(Program {
             instrs,
@@ -1013,6 +1055,8 @@ impl<R: Raw> Program<R> {
             const_overflows: trace.const_overflows.clone(),
             counts: trace.count.counts(),
             max_width: trace.count.max_width(),
+            base_flags: 0,
+            base_overflows: Vec::new(),
             pool: RegPool(std::sync::Mutex::new(Vec::new())),
         })
     }
@@ -1025,7 +1069,13 @@ impl<R: Raw> Program<R> {
     pub fn output_fracs(&self) -> Vec<i32> {
         self.outputs.iter().map(|o| o.1).collect()
     }
-    /// The operation counts of one lane.
+    /// How many instructions a lane runs (fewer than the operations
+    /// [`Program::counts`] counts once [specialized](Program::specialize)).
+    pub fn instructions(&self) -> usize {
+        self.instrs.len()
+    }
+    /// The operation counts of one lane (of the program as compiled, also
+    /// after [`Program::specialize`]).
     pub fn counts(&self) -> &super::OpCounts {
         &self.counts
     }
@@ -1119,6 +1169,28 @@ impl<R: Raw> Program<R> {
         probes
     }
 
+    /// The folded quantizations' overflows ([`Program`]`::base_flags`) in
+    /// lanes `start..start + len`: counted per stage, and in the lanes'
+    /// flags when the caller reads them.
+    fn add_base_flags(
+        &self,
+        ov: &mut [u64],
+        lane_flags: Option<&mut Vec<u64>>,
+        start: usize,
+        len: usize,
+    ) {
+        for &s in &self.base_overflows {
+            ov[s] += len as u64;
+        }
+        if let Some(f) = lane_flags {
+            if self.base_flags != 0 {
+                for f in &mut f[start..start + len] {
+                    *f |= self.base_flags;
+                }
+            }
+        }
+    }
+
     /// A block of registers with the constants loaded.
     fn fresh_regs(&self) -> Vec<R> {
         let mut regs = vec![R::ZERO; self.n_regs * BLOCK];
@@ -1197,6 +1269,7 @@ impl<R: Raw> Program<R> {
                 per_lane,
             };
             self.block_on(isa, &mut regs, lanes, outs, ovf);
+            self.add_base_flags(&mut ov, lane_flags.as_deref_mut(), start, len);
             for &k in &self.copied {
                 let o = self.outputs[k].0;
                 outs[k][start..start + len].copy_from_slice(&regs[o * BLOCK..o * BLOCK + len]);
@@ -2145,6 +2218,24 @@ impl Compiled {
             Compiled::Narrow(p) => on_i64(inputs, |refs| p.run_flags(refs)),
         }
     }
+    /// This program for lanes whose inputs other than those marked in
+    /// `varying` hold the codes of `row` ([`Program::specialize`]): the
+    /// instructions no varying input reaches run once, here. `None` where
+    /// that would fold a division or a square root.
+    ///
+    /// # Panics
+    ///
+    /// When `row` or `varying` does not hold one entry per input port, or
+    /// (narrow programs) a code of `row` does not fit `i64`.
+    pub fn specialize(&self, row: &[i128], varying: &[bool]) -> Option<Compiled> {
+        match self {
+            Compiled::Wide(p) => p.specialize(row, varying).map(Compiled::Wide),
+            Compiled::Narrow(p) => {
+                let row: Vec<i64> = row.iter().map(|&c| narrow(c)).collect();
+                p.specialize(&row, varying).map(Compiled::Narrow)
+            }
+        }
+    }
     /// Whether `self` and `other` (a mutant, say) differ at each lane on the
     /// same inputs: some output code or the overflow-flag word
     /// ([`Program::run_flags`]) is not the same. What comparing the two
@@ -2276,7 +2367,16 @@ impl Compiled {
     pub fn is_narrow(&self) -> bool {
         matches!(self, Compiled::Narrow(_))
     }
-    /// The operation counts of one lane.
+    /// How many instructions a lane runs (fewer than the operations
+    /// [`Compiled::counts`] counts once [specialized](Compiled::specialize)).
+    pub fn instructions(&self) -> usize {
+        match self {
+            Compiled::Narrow(p) => p.instrs.len(),
+            Compiled::Wide(p) => p.instrs.len(),
+        }
+    }
+    /// The operation counts of one lane (of the program as compiled, also
+    /// after [`Compiled::specialize`]).
     pub fn counts(&self) -> &super::OpCounts {
         match self {
             Compiled::Narrow(p) => p.counts(),
