@@ -49,6 +49,20 @@ fn main() {
     if std::env::var("CONES").is_ok() {
         return;
     }
+    // The line search as `search::killers` runs it.
+    let line_search =
+        |m: &fxshade_model::datapath::Mutation, cut: Option<&search::EventCut>, s: u64| {
+            search::line_search(
+                &d,
+                m,
+                cut,
+                &pool,
+                search::LINE_EVALS.min(search::LINE_WORK / d.trace.ops().len().max(1)),
+                search::KILLER_SWEEP_WORK,
+                s,
+            )
+            .unwrap()
+        };
     let mut tot = [0f64; 4];
     for (i, m) in missed.iter().enumerate() {
         let t = Instant::now();
@@ -93,16 +107,7 @@ fn main() {
         let s = seed.wrapping_add(i as u64);
         if !proven.is_empty() {
             let tl = Instant::now();
-            let _ = search::line_search(
-                &d,
-                m,
-                cut.as_ref(),
-                &pool,
-                search::LINE_EVALS.min(search::LINE_WORK / d.trace.ops().len().max(1)),
-                search::KILLER_SWEEP_WORK,
-                s,
-            )
-            .unwrap();
+            let _ = line_search(m, cut.as_ref(), s);
             let line = tl.elapsed().as_secs_f64();
             let tw = Instant::now();
             let _ = witness::witness_search(&d, m, &pool, search::KILLER_WITNESS_WORK, s).unwrap();
@@ -114,16 +119,7 @@ fn main() {
             continue;
         }
         let tl = Instant::now();
-        let row = search::line_search(
-            &d,
-            m,
-            cut.as_ref(),
-            &pool,
-            search::LINE_EVALS.min(search::LINE_WORK / d.trace.ops().len().max(1)),
-            search::KILLER_SWEEP_WORK,
-            s,
-        )
-        .unwrap();
+        let row = line_search(m, cut.as_ref(), s);
         let line = tl.elapsed().as_secs_f64();
         let tw = Instant::now();
         let w = if row.is_none() {
@@ -151,44 +147,11 @@ fn main() {
 
 /// Per input port, how many of the design's nodes it reaches.
 fn reach(d: &fxshade_model::rtl::Design) {
-    use fxshade_model::datapath::Op;
     let t = &d.trace;
     let n = t.ops().len();
+    let cones: Vec<Vec<usize>> = (0..n).map(|i| t.inputs_of(i)).collect();
     for p in t.input_ports() {
-        let mut dep = vec![false; n];
-        dep[p.value.node()] = true;
-        for (i, op) in t.ops().iter().enumerate() {
-            let mut any = false;
-            let mut f = |v: &fxshade_model::datapath::TV| any |= dep[v.node()];
-            match op {
-                Op::Input(_) | Op::Const(_) => {}
-                Op::Mul(a, b)
-                | Op::Add(a, b)
-                | Op::Sub(a, b)
-                | Op::Max(a, b)
-                | Op::Div(a, b, _) => {
-                    f(a);
-                    f(b)
-                }
-                Op::Quant(a, _) | Op::Table(a, _) | Op::Sqrt(a, _) => f(a),
-                Op::Select(s, o) => {
-                    f(s);
-                    o.iter().for_each(&mut f)
-                }
-                Op::AddSigned(a, b, s, _) => {
-                    f(a);
-                    f(b);
-                    f(s)
-                }
-            }
-            if any {
-                dep[i] = true;
-            }
-        }
-        println!(
-            "{:>12} {:>4}/{n}",
-            p.name,
-            dep.iter().filter(|&&x| x).count()
-        );
+        let k = cones.iter().filter(|c| c.contains(&p.value.node())).count();
+        println!("{:>12} {k:>4}/{n}", p.name);
     }
 }

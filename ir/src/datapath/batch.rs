@@ -2225,8 +2225,9 @@ impl Compiled {
     ///
     /// # Panics
     ///
-    /// When `row` or `varying` does not hold one entry per input port, or
-    /// (narrow programs) a code of `row` does not fit `i64`.
+    /// When `row` or `varying` does not hold one entry per input port. (A
+    /// narrow program takes `row`'s codes as `i64`, as its runs take their
+    /// inputs: input codes of a narrow program fit.)
     pub fn specialize(&self, row: &[i128], varying: &[bool]) -> Option<Compiled> {
         match self {
             Compiled::Wide(p) => p.specialize(row, varying).map(Compiled::Wide),

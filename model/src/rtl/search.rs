@@ -513,6 +513,9 @@ pub(super) fn sweep(
         let span = hi - lo + 1;
         let total = span.min(SWEEP_CODES);
         let mut done = 0;
+        if *swept >= limit {
+            return None;
+        }
         // Only input `k` changes along the sweep: what it does not reach
         // is run once (the same codes, flags and lanes counted).
         let varying: Vec<bool> = (0..row.len()).map(|j| j == k).collect();

@@ -20,6 +20,10 @@ pub enum CError {
     /// Division and square root are reference operations (no RTL, no C).
     #[error("the program divides or takes a square root, which have no C form here")]
     Reference,
+    /// A [specialized](super::Program::specialize) program whose folded
+    /// quantizations overflowed: the C form does not carry those counts.
+    #[error("the program was specialized with folded overflows, which the C form does not count")]
+    Specialized,
 }
 
 /// `v` as a C `int64_t` literal (`INT64_MIN` spelled as an expression).
@@ -134,8 +138,13 @@ impl Program<i64> {
     ///
     /// # Errors
     ///
-    /// [`CError::Reference`] for a program with a division or square root.
+    /// [`CError::Reference`] for a program with a division or square root;
+    /// [`CError::Specialized`] for a specialized program with folded
+    /// overflows.
     pub fn c_source(&self) -> Result<String, CError> {
+        if !self.base_overflows.is_empty() {
+            return Err(CError::Specialized);
+        }
         let mut o = String::new();
         let _ = writeln!(
             o,

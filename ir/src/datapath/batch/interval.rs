@@ -486,8 +486,8 @@ impl<R: Raw> Program<R> {
                     } else if t.len().is_power_of_two() && t.len().trailing_zeros() <= index.width()
                     {
                         // Consecutive codes read consecutive slots (the
-                        // index's bits modulo the table's length), from
-                        // the last back to the first.
+                        // index's bits modulo the table's length), past
+                        // the last slot on from slot 0.
                         let first = super::table_slot(index.to_bits(lo), mask);
                         hull.range(t, first, narrow::<usize, _>(hi - lo) + 1)
                     } else {

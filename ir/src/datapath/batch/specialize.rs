@@ -279,6 +279,11 @@ mod tests {
                     .expect("nothing to refuse");
                 assert!(s.instrs.len() < narrow.instrs.len(), "{varying:?}");
                 folded_overflow |= s.base_flags != 0;
+                // The C form cannot count folded overflows: it says so.
+                assert_eq!(
+                    s.c_source().err(),
+                    (!s.base_overflows.is_empty()).then_some(super::super::c::CError::Specialized)
+                );
                 assert_eq!(
                     s.run_flags(&refs),
                     narrow.run_flags(&refs),
