@@ -17,12 +17,14 @@ use super::{Datapath, Table, WidthError};
 use crate::format::{ConvertError, Format};
 use crate::quantize::{Overflow, Quant, Raw, Rounding, Step};
 
+mod boxes;
 mod c;
 mod cut;
 mod interval;
 mod mutation;
 mod smt;
 mod specialize;
+pub use boxes::{BoxEval, Boxes};
 pub use c::CError;
 pub use mutation::{Mutation, MutationKind};
 pub use smt::{lit as smt_literal, Chunk, MulSplit, PartialProduct, SmtFunction};
@@ -534,6 +536,31 @@ enum Instr {
 }
 
 impl Instr {
+    /// Every register the instruction names (its destination and its
+    /// operands) replaced by `f` of it.
+    fn map_regs(&mut self, mut f: impl FnMut(usize) -> usize) {
+        match self {
+            Instr::Mul { d, a, b, .. }
+            | Instr::AddSub { d, a, b, .. }
+            | Instr::Max { d, a, b, .. }
+            | Instr::Div { d, a, b, .. } => {
+                (*d, *a, *b) = (f(*d), f(*a), f(*b));
+            }
+            Instr::AddSigned { d, a, b, s, .. } => {
+                (*d, *a, *b, *s) = (f(*d), f(*a), f(*b), f(*s));
+            }
+            Instr::Quant { d, a, .. } | Instr::Table { d, a, .. } | Instr::Sqrt { d, a, .. } => {
+                (*d, *a) = (f(*d), f(*a));
+            }
+            Instr::Select { d, sel, opts, .. } => {
+                (*d, *sel) = (f(*d), f(*sel));
+                for o in opts {
+                    o.0 = f(o.0);
+                }
+            }
+        }
+    }
+
     /// The register an instruction writes.
     fn dest(&self) -> usize {
         match *self {

@@ -39,8 +39,8 @@ mod reference;
 
 pub use batch::smt_literal;
 pub use batch::{
-    CError, Chunk, CompileError, Compiled, Isa, Kernel, MulSplit, Mutation, MutationKind, Op,
-    PartialProduct, Port, Program, SmtFunction, Trace, BLOCK, TV,
+    BoxEval, Boxes, CError, Chunk, CompileError, Compiled, Isa, Kernel, MulSplit, Mutation,
+    MutationKind, Op, PartialProduct, Port, Program, SmtFunction, Trace, BLOCK, TV,
 };
 pub use count::{
     Count, MulFormats, MulShape, OpCounts, QuantPoint, Sym, TableShape, WidthError, MAX_EXACT_WIDTH,

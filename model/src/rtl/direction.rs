@@ -10,10 +10,11 @@
 //! branch and bound over the input codes proves ([`direction_proof`]).
 
 use super::Design;
-use crate::datapath::{Compiled, Mutation, Op, TV};
+use crate::datapath::{Boxes, Compiled, Mutation, Op, TV};
 use crate::quantize::{round_shift_right, Overflow, Quant, Rounding, Step};
 use crate::vectors::RtlError;
 use fxshade_numbers::convert::narrow;
+use std::rc::Rc;
 
 /// Why [`sign_only`] or [`direction_proof`] proves a mutant equivalent.
 pub const WHY: &str = "equivalent: the outputs read the stage only as CORDIC steps' direction (its sign) and as the magnitude folded into the other coordinate; the mutant keeps every code's sign, and a branch and bound over the input codes keeps the stage where the design's and the mutant's folded magnitudes round alike";
@@ -338,14 +339,21 @@ fn proof(d: &Design, m: &Mutation, budget: u64, max_ports: usize) -> Result<bool
     };
     let prog = Compiled::compile(&cut, &[cut.value(m.node)])?;
     let ports = dims;
-    let mut stack = vec![full.clone()];
+    // Each box with the evaluated box it was split from and the port
+    // split: only what that port reaches is evaluated again.
+    let eval = Boxes::new(&prog);
+    let mut stack: Vec<(Vec<(i128, i128)>, super::search::Split)> = vec![(full.clone(), None)];
     let mut boxes = 0u64;
-    while let Some(b) = stack.pop() {
+    while let Some((b, from)) = stack.pop() {
         boxes += 1;
         if boxes > budget {
             return Ok(false);
         }
-        let (nlo, nhi) = prog.node_range(&b, m.node);
+        let e = match from {
+            Some((parent, p)) => eval.child(&parent, p, b[p]),
+            None => eval.root(&b),
+        };
+        let (nlo, nhi) = eval.node_range(&e, m.node);
         if -bound <= nlo && nhi <= bound {
             continue;
         }
@@ -361,8 +369,9 @@ fn proof(d: &Design, m: &Mutation, budget: u64, max_ports: usize) -> Result<bool
         let (mut left, mut right) = (b.clone(), b);
         left[widest] = (a, mid);
         right[widest] = (mid + 1, z);
-        stack.push(left);
-        stack.push(right);
+        let e = Rc::new(e);
+        stack.push((left, Some((Rc::clone(&e), widest))));
+        stack.push((right, Some((e, widest))));
     }
     Ok(true)
 }

@@ -46,9 +46,10 @@
 
 use super::mutants::{columns, first_difference, range_meets, range_meets_mod, wild_row};
 use super::Design;
-use crate::datapath::{Compiled, Mutation, MutationKind, Op, TV};
+use crate::datapath::{BoxEval, Boxes, Compiled, Mutation, MutationKind, Op, TV};
 use crate::vectors::RtlError;
 use fxshade_numbers::convert::{narrow, to_f64};
+use std::rc::Rc;
 
 /// The most codes of a cut [`event_cut`] enumerates.
 pub const MAX_CUT_CODES: i128 = 1 << 22;
@@ -102,6 +103,17 @@ pub(super) fn code_range(
     b: &[(i128, i128)],
     c: usize,
 ) -> Option<(i128, i128)> {
+    code_range_with(d, b, c, || prog.quant_operand_range(b, c))
+}
+
+/// [`code_range`] given the range of `c`'s operand over `b`, asked for
+/// where `c` is a quantization (`operand`).
+fn code_range_with(
+    d: &Design,
+    b: &[(i128, i128)],
+    c: usize,
+    operand: impl FnOnce() -> Option<(i128, i128)>,
+) -> Option<(i128, i128)> {
     match &d.trace.ops()[c] {
         Op::Input(_) => {
             let pos = d.trace.ops()[..c]
@@ -111,7 +123,7 @@ pub(super) fn code_range(
             Some(b[pos])
         }
         Op::Quant(a, q) => {
-            let (lo, hi) = prog.quant_operand_range(b, c)?;
+            let (lo, hi) = operand()?;
             let (ql, qh) = (q.apply(lo, a.frac()), q.apply(hi, a.frac()));
             let f = q.format();
             if (ql.overflowed || qh.overflowed) && q.overflow() == crate::quantize::Overflow::Wrap {
@@ -389,7 +401,10 @@ fn proof_over(d: &Design, m: &Mutation, sup: &[usize], budget: u64) -> Result<bo
                 .max(1e-9)
         })
         .collect();
-    let mut stack = vec![ranges];
+    // Each box with the evaluated box it was split from and the support
+    // split: only what that support reaches is evaluated again.
+    let eval = Boxes::new(&xprog);
+    let mut stack: Vec<(Vec<(i128, i128)>, Split)> = vec![(ranges, None)];
     let mut points: Vec<Vec<i128>> = Vec::new();
     let mut boxes = 0;
     let flush = |points: &mut Vec<Vec<i128>>| -> bool {
@@ -407,22 +422,29 @@ fn proof_over(d: &Design, m: &Mutation, sup: &[usize], budget: u64) -> Result<bo
         points.clear();
         diff.contains(&true)
     };
-    while let Some(r) = stack.pop() {
+    while let Some((r, from)) = stack.pop() {
         boxes += 1;
         if boxes > budget {
             return Ok(false);
         }
-        for (k, &p) in pos.iter().enumerate() {
-            b[p] = r[k];
-        }
+        let mut e = match from {
+            Some((parent, k)) => eval.child(&parent, pos[k], r[k]),
+            None => {
+                for (k, &p) in pos.iter().enumerate() {
+                    b[p] = r[k];
+                }
+                eval.root(&b)
+            }
+        };
+        let Some((lo, hi)) = eval.quant_operand_range(&e, m.node) else {
+            return Ok(false);
+        };
         // Congruences decide rounding ties; an overflow is a matter of
         // range alone (and the congruence costs another pass).
-        let Some(((lo, hi), cong)) =
-            xprog.quant_operand_range_congruence(&b, m.node, |(lo, hi)| {
-                matches!(m.kind, MutationKind::Round(_)) && range_meets(m, &q, &st, lo, hi)
-            })
-        else {
-            return Ok(false);
+        let cong = if matches!(m.kind, MutationKind::Round(_)) && range_meets(m, &q, &st, lo, hi) {
+            eval.quant_operand_congruence(&mut e, m.node)
+        } else {
+            None
         };
         if !range_meets(m, &q, &st, lo, hi) {
             continue;
@@ -451,11 +473,16 @@ fn proof_over(d: &Design, m: &Mutation, sup: &[usize], budget: u64) -> Result<bo
         let (mut left, mut right) = (r.clone(), r);
         left[widest] = (a, mid);
         right[widest] = (mid + 1, z);
-        stack.push(left);
-        stack.push(right);
+        let e = Rc::new(e);
+        stack.push((left, Some((Rc::clone(&e), widest))));
+        stack.push((right, Some((e, widest))));
     }
     Ok(!flush(&mut points))
 }
+
+/// The evaluated box a box of a branch and bound was split from, and the
+/// input split (`None` for the first box).
+pub(super) type Split = Option<(Rc<BoxEval>, usize)>;
 
 /// The frontier of the region of the cuts `sup` towards `d`'s outputs
 /// ([`crate::datapath::Trace::cut_set_frontier`]), as values of `t` (`d`'s
@@ -572,20 +599,20 @@ pub fn line_search(
     let st = q.step(frac);
     let target = cut.map_or(m.node, |c| c.node);
     let tprog = Compiled::compile(&d.trace, &[d.trace.value(target)])?;
-    let hits = |b: &[(i128, i128)]| -> bool {
+    let eval = Boxes::new(&tprog);
+    let hits = |e: &mut BoxEval| -> bool {
         match cut {
-            Some(c) => {
-                code_range(d, &tprog, b, c.node).is_some_and(|(lo, hi)| holds(&c.codes, lo, hi))
-            }
-            // The congruence is taken only where the range meets (from
-            // the same interval pass).
-            None => tprog
-                .quant_operand_range_congruence(b, m.node, |(lo, hi)| {
-                    range_meets(m, &q, &st, lo, hi)
-                })
-                .is_some_and(|((lo, hi), cong)| {
-                    cong.is_some_and(|c| range_meets_mod(m, &q, &st, lo, hi, c))
-                }),
+            Some(c) => code_range_with(d, e.inputs(), c.node, || {
+                eval.quant_operand_range(e, c.node)
+            })
+            .is_some_and(|(lo, hi)| holds(&c.codes, lo, hi)),
+            // The congruence is taken only where the range meets.
+            None => eval.quant_operand_range(e, m.node).is_some_and(|(lo, hi)| {
+                range_meets(m, &q, &st, lo, hi)
+                    && eval
+                        .quant_operand_congruence(e, m.node)
+                        .is_some_and(|c| range_meets_mod(m, &q, &st, lo, hi, c))
+            }),
         }
     };
     let ports = d.trace.input_ports();
@@ -626,13 +653,22 @@ pub fn line_search(
             Vec::new()
         };
         let mut leaves = Vec::new();
+        // The line's first box evaluated whole, the rest from it (they
+        // differ from it in input `k` only).
+        let mut first: Option<BoxEval> = None;
         while let Some((lo, hi)) = stack.pop() {
             evals += 1;
             if evals > budget {
                 break;
             }
             b[k] = (lo, hi);
-            if !hits(&b) {
+            let mut e = match &first {
+                Some(f) => eval.child(f, k, (lo, hi)),
+                None => eval.root(&b),
+            };
+            let hit = hits(&mut e);
+            first.get_or_insert(e);
+            if !hit {
                 continue;
             }
             if lo == hi {

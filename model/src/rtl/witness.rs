@@ -30,7 +30,7 @@
 use super::mutants::{columns, wild_row};
 use super::search::{frontier_in, full_box, quant_of, sweep, LEAVES_PER_LINE};
 use super::Design;
-use crate::datapath::{Compiled, Mutation, TV};
+use crate::datapath::{Boxes, Compiled, Mutation, TV};
 use crate::format::Format;
 use crate::sampling::Rng;
 use crate::vectors::RtlError;
@@ -125,8 +125,9 @@ struct Search {
     sup: Vec<usize>,
     /// Each support's range of codes over every input.
     ranges: Vec<(i128, i128)>,
-    /// The supports' codes from the input ports.
-    sprog: Compiled,
+    /// The supports' codes from the input ports (and their interval
+    /// evaluation along one port).
+    sprog: Boxes<Compiled>,
     /// Design and mutant from the supports to their region's frontier.
     front: (Compiled, Compiled),
     /// The support each input of the front programs takes.
@@ -201,7 +202,7 @@ impl Search {
             formats: ports.iter().map(|p| p.format).collect(),
             sup,
             ranges,
-            sprog,
+            sprog: Boxes::new(sprog),
             front: (
                 Compiled::compile(&t, &front)?,
                 Compiled::compile(&t.mutated(m), &front)?,
@@ -292,7 +293,7 @@ impl Search {
     fn supports_of(&mut self, rows: &[Vec<i128>]) -> Vec<Vec<i128>> {
         let cols = columns(rows, self.formats.len());
         let refs: Vec<&[i128]> = cols.iter().map(|c| c.as_slice()).collect();
-        let (out, _) = self.sprog.run_flags_i128(&refs);
+        let (out, _) = self.sprog.program().run_flags_i128(&refs);
         self.spent += lanes(rows.len()) * self.ops.2;
         (0..rows.len())
             .map(|i| out.iter().map(|o| o[i]).collect())
@@ -424,8 +425,13 @@ impl Search {
             order.swap(i, narrow::<usize, _>(self.rng.below(i as u64 + 1)));
         }
         order.sort_by_key(|&k| self.fanout[k]);
+        // Every box is `base` with one port's range: only what that port
+        // reaches is evaluated again.
+        let at_base = {
+            let b: Vec<(i128, i128)> = base.iter().map(|&v| (v, v)).collect();
+            self.sprog.root(&b)
+        };
         for k in order {
-            let mut b: Vec<(i128, i128)> = base.iter().map(|&v| (v, v)).collect();
             let f = self.formats[k];
             let mut stack = vec![(f.min_code(), f.max_code())];
             let mut evals = 0;
@@ -435,9 +441,13 @@ impl Search {
                 if evals > REALIZE_EVALS || leaves.len() >= LEAVES_PER_LINE {
                     break;
                 }
-                b[k] = (lo, hi);
                 self.spent += 4 * self.ops.2;
-                let r = self.sprog.node_ranges(&b, &self.sup);
+                let e = self.sprog.child(&at_base, k, (lo, hi));
+                let r: Vec<(i128, i128)> = self
+                    .sup
+                    .iter()
+                    .map(|&n| self.sprog.node_range(&e, n))
+                    .collect();
                 let holds = |j: usize| !held[j] || (r[j].0 <= target[j] && target[j] <= r[j].1);
                 if !(0..r.len()).all(holds) {
                     continue;

@@ -62,7 +62,7 @@ impl<R: Raw> Program<R> {
     }
 
     /// The register of the operand of the quantization at `node`.
-    fn quant_operand(&self, node: usize) -> Option<usize> {
+    pub(super) fn quant_operand(&self, node: usize) -> Option<usize> {
         self.instrs.iter().find_map(|ins| match *ins {
             Instr::Quant { d, a, .. } if d == node => Some(a),
             _ => None,
@@ -222,288 +222,325 @@ impl<R: Raw> Program<R> {
 
     /// [`Program::congruences`] given the box's may-overflow flags
     /// ([`Program::box_ranges`]).
-    fn congruences_with(&self, inputs: &[(i128, i128)], may: &[bool]) -> Vec<(i128, i128)> {
+    pub(super) fn congruences_with(
+        &self,
+        inputs: &[(i128, i128)],
+        may: &[bool],
+    ) -> Vec<(i128, i128)> {
+        let mut c = self.congruence_init(inputs);
+        for ins in &self.instrs {
+            Self::congruence_step(ins, &mut c, may);
+        }
+        c
+    }
+
+    /// The congruences before any instruction: constants' and inputs'
+    /// (a single code is itself modulo 0, a range of codes anything), the
+    /// rest unknown (`(1, 0)`).
+    pub(super) fn congruence_init(&self, inputs: &[(i128, i128)]) -> Vec<(i128, i128)> {
         let mut c = vec![(1i128, 0i128); self.n_regs];
         for &(d, k) in &self.consts {
             c[d] = (0, k.to_i128());
         }
         for (&(d, _), &(lo, hi)) in self.inputs.iter().zip(inputs) {
-            c[d] = if lo == hi { (0, lo) } else { (1, 0) };
-        }
-        for ins in &self.instrs {
-            let r = match *ins {
-                Instr::Mul { a, b, .. } => {
-                    let ((sa, oa), (sb, ob)) = (c[a], c[b]);
-                    (|| {
-                        let s = gcd(
-                            gcd(oa.checked_mul(sb)?, ob.checked_mul(sa)?),
-                            sa.checked_mul(sb)?,
-                        );
-                        Some((s, oa.checked_mul(ob)?))
-                    })()
-                }
-                Instr::AddSub {
-                    a, sa, b, sb, sub, ..
-                } => (|| {
-                    let (x, y) = (shl(c[a], sa)?, shl(c[b], sb)?);
-                    let o = if sub {
-                        x.1.checked_sub(y.1)?
-                    } else {
-                        x.1.checked_add(y.1)?
-                    };
-                    Some((gcd(x.0, y.0), o))
-                })(),
-                Instr::Max { a, sa, b, sb, .. } => (|| {
-                    let (x, y) = (shl(c[a], sa)?, shl(c[b], sb)?);
-                    Some((gcd(gcd(x.0, y.0), x.1.checked_sub(y.1)?), x.1))
-                })(),
-                Instr::AddSigned { a, sa, b, sb, .. } => (|| {
-                    let (x, y) = (shl(c[a], sa)?, shl(c[b], sb)?);
-                    Some((
-                        gcd(gcd(x.0, y.0), y.1.checked_mul(2)?),
-                        x.1.checked_add(y.1)?,
-                    ))
-                })(),
-                Instr::Quant {
-                    d,
-                    a,
-                    step,
-                    round,
-                    overflow,
-                    ..
-                } => {
-                    let (sx, ox) = c[a];
-                    // The rounded code's congruence, overflow aside.
-                    let rounded = if sx == 0 {
-                        let wide = Step {
-                            min: i128::MIN,
-                            max: i128::MAX,
-                            ..step
-                        };
-                        let q = wide.apply(ox, round, Overflow::Saturate);
-                        (!q.overflowed).then_some((0, q.code))
-                    } else if step.shift <= 0 {
-                        shl((sx, ox), step.shift.unsigned_abs())
-                    } else if step.shift < 126 && sx % (1i128 << (step.shift + 1)) == 0 {
-                        Some((
-                            sx >> step.shift,
-                            crate::quantize::round_shift_right(
-                                ox,
-                                step.shift.unsigned_abs(),
-                                round,
-                            ),
-                        ))
-                    } else {
-                        None
-                    };
-                    if !may[d] {
-                        rounded
-                    } else if overflow == Overflow::Wrap && step.width < 126 {
-                        // Wrapping subtracts a multiple of 2^width, which
-                        // keeps the code's class modulo any divisor of it.
-                        rounded.map(|(s, o)| (gcd(s, 1i128 << step.width), o))
-                    } else {
-                        None
-                    }
-                }
-                Instr::Select { ref opts, .. } => (|| {
-                    let mut acc: Option<(i128, i128)> = None;
-                    for &(o, sh) in opts {
-                        let x = shl(c[o], sh)?;
-                        acc = Some(match acc {
-                            None => x,
-                            Some(p) => (gcd(gcd(p.0, x.0), p.1.checked_sub(x.1)?), p.1),
-                        });
-                    }
-                    acc
-                })(),
-                Instr::Table { .. } | Instr::Div { .. } | Instr::Sqrt { .. } => None,
-            };
-            let d = ins.dest();
-            c[d] = match r {
-                Some((0, o)) => (0, o),
-                Some((s, o)) => (s.abs(), o.rem_euclid(s.abs())),
-                None => (1, 0),
-            };
+            c[d] = Self::input_congruence((lo, hi));
         }
         c
     }
 
+    /// An input's congruence over the codes `lo..=hi`.
+    pub(super) fn input_congruence((lo, hi): (i128, i128)) -> (i128, i128) {
+        if lo == hi {
+            (0, lo)
+        } else {
+            (1, 0)
+        }
+    }
+
+    /// One instruction of [`Program::congruences_with`]: its destination's
+    /// congruence from its operands' and whether it may overflow.
+    #[inline(always)]
+    pub(super) fn congruence_step(ins: &Instr, c: &mut [(i128, i128)], may: &[bool]) {
+        let r = match *ins {
+            Instr::Mul { a, b, .. } => {
+                let ((sa, oa), (sb, ob)) = (c[a], c[b]);
+                (|| {
+                    let s = gcd(
+                        gcd(oa.checked_mul(sb)?, ob.checked_mul(sa)?),
+                        sa.checked_mul(sb)?,
+                    );
+                    Some((s, oa.checked_mul(ob)?))
+                })()
+            }
+            Instr::AddSub {
+                a, sa, b, sb, sub, ..
+            } => (|| {
+                let (x, y) = (shl(c[a], sa)?, shl(c[b], sb)?);
+                let o = if sub {
+                    x.1.checked_sub(y.1)?
+                } else {
+                    x.1.checked_add(y.1)?
+                };
+                Some((gcd(x.0, y.0), o))
+            })(),
+            Instr::Max { a, sa, b, sb, .. } => (|| {
+                let (x, y) = (shl(c[a], sa)?, shl(c[b], sb)?);
+                Some((gcd(gcd(x.0, y.0), x.1.checked_sub(y.1)?), x.1))
+            })(),
+            Instr::AddSigned { a, sa, b, sb, .. } => (|| {
+                let (x, y) = (shl(c[a], sa)?, shl(c[b], sb)?);
+                Some((
+                    gcd(gcd(x.0, y.0), y.1.checked_mul(2)?),
+                    x.1.checked_add(y.1)?,
+                ))
+            })(),
+            Instr::Quant {
+                d,
+                a,
+                step,
+                round,
+                overflow,
+                ..
+            } => {
+                let (sx, ox) = c[a];
+                // The rounded code's congruence, overflow aside.
+                let rounded = if sx == 0 {
+                    let wide = Step {
+                        min: i128::MIN,
+                        max: i128::MAX,
+                        ..step
+                    };
+                    let q = wide.apply(ox, round, Overflow::Saturate);
+                    (!q.overflowed).then_some((0, q.code))
+                } else if step.shift <= 0 {
+                    shl((sx, ox), step.shift.unsigned_abs())
+                } else if step.shift < 126 && sx % (1i128 << (step.shift + 1)) == 0 {
+                    Some((
+                        sx >> step.shift,
+                        crate::quantize::round_shift_right(ox, step.shift.unsigned_abs(), round),
+                    ))
+                } else {
+                    None
+                };
+                if !may[d] {
+                    rounded
+                } else if overflow == Overflow::Wrap && step.width < 126 {
+                    // Wrapping subtracts a multiple of 2^width, which
+                    // keeps the code's class modulo any divisor of it.
+                    rounded.map(|(s, o)| (gcd(s, 1i128 << step.width), o))
+                } else {
+                    None
+                }
+            }
+            Instr::Select { ref opts, .. } => (|| {
+                let mut acc: Option<(i128, i128)> = None;
+                for &(o, sh) in opts {
+                    let x = shl(c[o], sh)?;
+                    acc = Some(match acc {
+                        None => x,
+                        Some(p) => (gcd(gcd(p.0, x.0), p.1.checked_sub(x.1)?), p.1),
+                    });
+                }
+                acc
+            })(),
+            Instr::Table { .. } | Instr::Div { .. } | Instr::Sqrt { .. } => None,
+        };
+        let d = ins.dest();
+        c[d] = match r {
+            Some((0, o)) => (0, o),
+            Some((s, o)) => (s.abs(), o.rem_euclid(s.abs())),
+            None => (1, 0),
+        };
+    }
+
     /// Every node's range over the box, and whether each quantization may
     /// overflow there.
-    fn box_ranges(&self, inputs: &[(i128, i128)]) -> (Vec<(i128, i128)>, Vec<bool>) {
+    pub(super) fn box_ranges(&self, inputs: &[(i128, i128)]) -> (Vec<(i128, i128)>, Vec<bool>) {
+        let (mut r, mut may) = self.interval_init(inputs);
+        for ins in &self.instrs {
+            self.interval_step(ins, &mut r, &mut may);
+        }
+        (r, may)
+    }
+
+    /// The ranges before any instruction: constants' and inputs', the
+    /// rest `(0, 0)`; no quantization overflowing.
+    pub(super) fn interval_init(&self, inputs: &[(i128, i128)]) -> (Vec<(i128, i128)>, Vec<bool>) {
         let mut r = vec![(0i128, 0i128); self.n_regs];
-        let mut may = vec![false; self.n_regs];
+        let may = vec![false; self.n_regs];
         for &(d, c) in &self.consts {
             r[d] = (c.to_i128(), c.to_i128());
         }
         for (&(d, _), &(lo, hi)) in self.inputs.iter().zip(inputs) {
             r[d] = (lo, hi);
         }
+        (r, may)
+    }
+
+    /// One instruction of [`Program::box_ranges`]: its destination's range
+    /// from its operands' and, for a quantization, whether it may
+    /// overflow (a division or square root always may).
+    #[inline(always)]
+    pub(super) fn interval_step(&self, ins: &Instr, r: &mut [(i128, i128)], may: &mut [bool]) {
         let hull = |v: &[i128]| {
             (
                 *v.iter().min().expect("some"),
                 *v.iter().max().expect("some"),
             )
         };
-        for ins in &self.instrs {
-            match *ins {
-                Instr::Mul { d, a, b } => {
-                    let (x, y) = (r[a], r[b]);
-                    r[d] = hull(&[x.0 * y.0, x.0 * y.1, x.1 * y.0, x.1 * y.1]);
-                }
-                Instr::AddSub {
-                    d,
-                    a,
-                    sa,
-                    b,
-                    sb,
-                    sub,
-                } => {
-                    let x = (r[a].0 << sa, r[a].1 << sa);
-                    let y = (r[b].0 << sb, r[b].1 << sb);
-                    r[d] = if sub {
+        match *ins {
+            Instr::Mul { d, a, b } => {
+                let (x, y) = (r[a], r[b]);
+                r[d] = hull(&[x.0 * y.0, x.0 * y.1, x.1 * y.0, x.1 * y.1]);
+            }
+            Instr::AddSub {
+                d,
+                a,
+                sa,
+                b,
+                sb,
+                sub,
+            } => {
+                let x = (r[a].0 << sa, r[a].1 << sa);
+                let y = (r[b].0 << sb, r[b].1 << sb);
+                r[d] = if sub {
+                    (x.0 - y.1, x.1 - y.0)
+                } else {
+                    (x.0 + y.0, x.1 + y.1)
+                };
+            }
+            Instr::Max { d, a, sa, b, sb } => {
+                let x = (r[a].0 << sa, r[a].1 << sa);
+                let y = (r[b].0 << sb, r[b].1 << sb);
+                r[d] = (x.0.max(y.0), x.1.max(y.1));
+            }
+            Instr::AddSigned {
+                d,
+                a,
+                sa,
+                b,
+                sb,
+                s,
+                flip,
+            } => {
+                // `a ± b` for `s` in `rs`: subtract when `s < 0`
+                // (`s ≥ 0` with `flip`), an operand that is `s` itself
+                // taken over `rs` only.
+                let half = |rs: (i128, i128), sub: bool| {
+                    let pick = |n: usize| if n == s { rs } else { r[n] };
+                    let (ra, rb) = (pick(a), pick(b));
+                    let x = (ra.0 << sa, ra.1 << sa);
+                    let y = (rb.0 << sb, rb.1 << sb);
+                    if sub {
                         (x.0 - y.1, x.1 - y.0)
                     } else {
                         (x.0 + y.0, x.1 + y.1)
+                    }
+                };
+                let rs = r[s];
+                r[d] = if rs.1 < 0 {
+                    half(rs, !flip)
+                } else if rs.0 >= 0 {
+                    half(rs, flip)
+                } else {
+                    // Either sign: each half of `s`'s range on its own
+                    // (a CORDIC step `y ∓ x·2^-i` steered by `y`'s sign
+                    // moves `y` towards zero, which the hull of the two
+                    // whole-range results loses).
+                    let (n, p) = (half((rs.0, -1), !flip), half((0, rs.1), flip));
+                    (n.0.min(p.0), n.1.max(p.1))
+                };
+            }
+            Instr::Quant {
+                d,
+                a,
+                step,
+                round,
+                overflow,
+                ..
+            } => {
+                let lo = step.apply(r[a].0, round, overflow);
+                let hi = step.apply(r[a].1, round, overflow);
+                may[d] = lo.overflowed || hi.overflowed;
+                // Rounding and saturation are monotonic; wrap-around is
+                // monotonic only within one period of 2^width codes, and
+                // may land anywhere in the format when the rounded
+                // interval spans two periods.
+                r[d] = if may[d] && overflow == Overflow::Wrap {
+                    let wide = Step {
+                        min: i128::MIN,
+                        max: i128::MAX,
+                        ..step
                     };
-                }
-                Instr::Max { d, a, sa, b, sb } => {
-                    let x = (r[a].0 << sa, r[a].1 << sa);
-                    let y = (r[b].0 << sb, r[b].1 << sb);
-                    r[d] = (x.0.max(y.0), x.1.max(y.1));
-                }
-                Instr::AddSigned {
-                    d,
-                    a,
-                    sa,
-                    b,
-                    sb,
-                    s,
-                    flip,
-                } => {
-                    // `a ± b` for `s` in `rs`: subtract when `s < 0`
-                    // (`s ≥ 0` with `flip`), an operand that is `s` itself
-                    // taken over `rs` only.
-                    let half = |rs: (i128, i128), sub: bool| {
-                        let pick = |n: usize| if n == s { rs } else { r[n] };
-                        let (ra, rb) = (pick(a), pick(b));
-                        let x = (ra.0 << sa, ra.1 << sa);
-                        let y = (rb.0 << sb, rb.1 << sb);
-                        if sub {
-                            (x.0 - y.1, x.1 - y.0)
-                        } else {
-                            (x.0 + y.0, x.1 + y.1)
-                        }
-                    };
-                    let rs = r[s];
-                    r[d] = if rs.1 < 0 {
-                        half(rs, !flip)
-                    } else if rs.0 >= 0 {
-                        half(rs, flip)
-                    } else {
-                        // Either sign: each half of `s`'s range on its own
-                        // (a CORDIC step `y ∓ x·2^-i` steered by `y`'s sign
-                        // moves `y` towards zero, which the hull of the two
-                        // whole-range results loses).
-                        let (n, p) = (half((rs.0, -1), !flip), half((0, rs.1), flip));
-                        (n.0.min(p.0), n.1.max(p.1))
-                    };
-                }
-                Instr::Quant {
-                    d,
-                    a,
-                    step,
-                    round,
-                    overflow,
-                    ..
-                } => {
-                    let lo = step.apply(r[a].0, round, overflow);
-                    let hi = step.apply(r[a].1, round, overflow);
-                    may[d] = lo.overflowed || hi.overflowed;
-                    // Rounding and saturation are monotonic; wrap-around is
-                    // monotonic only within one period of 2^width codes, and
-                    // may land anywhere in the format when the rounded
-                    // interval spans two periods.
-                    r[d] = if may[d] && overflow == Overflow::Wrap {
-                        let wide = Step {
-                            min: i128::MIN,
-                            max: i128::MAX,
-                            ..step
-                        };
-                        let (rl, rh) = (
-                            wide.apply(r[a].0, round, Overflow::Saturate),
-                            wide.apply(r[a].1, round, Overflow::Saturate),
-                        );
-                        let one_period = !rl.overflowed
-                            && !rh.overflowed
-                            && step.width < 126
-                            && rh.code - rl.code < 1i128 << step.width
-                            && lo.code <= hi.code;
-                        if one_period {
-                            (lo.code, hi.code)
-                        } else {
-                            (step.min, step.max)
-                        }
-                    } else {
+                    let (rl, rh) = (
+                        wide.apply(r[a].0, round, Overflow::Saturate),
+                        wide.apply(r[a].1, round, Overflow::Saturate),
+                    );
+                    let one_period = !rl.overflowed
+                        && !rh.overflowed
+                        && step.width < 126
+                        && rh.code - rl.code < 1i128 << step.width
+                        && lo.code <= hi.code;
+                    if one_period {
                         (lo.code, hi.code)
-                    };
-                }
-                Instr::Select {
-                    d, sel, ref opts, ..
-                } if r[sel].0 == r[sel].1 => {
-                    let s0 = r[sel].0;
-                    let (o, sh) =
-                        if let Some(&o) = usize::try_from(s0).ok().and_then(|i| opts.get(i)) {
-                            o
-                        } else {
-                            opts[0]
-                        };
-                    r[d] = (r[o].0 << sh, r[o].1 << sh);
-                }
-                Instr::Select {
-                    d,
-                    sel: _,
-                    ref opts,
-                    ..
-                } => {
-                    r[d] = opts
-                        .iter()
-                        .fold((i128::MAX, i128::MIN), |(lo, hi), &(o, sh)| {
-                            let (a, b) = (r[o].0 << sh, r[o].1 << sh);
-                            (lo.min(a).min(b), hi.max(a).max(b))
-                        });
-                }
-                Instr::Table { d, a, table, index } => {
-                    // The entries the index range reads (every entry when
-                    // it spans the table).
-                    let t = &self.tables[table];
-                    let (lo, hi) = r[a];
-                    let hull = &self.table_hulls[table];
-                    let mask = t.len().wrapping_sub(1);
-                    r[d] = if hi - lo >= t.len() as i128 {
-                        hull.whole
-                    } else if t.len().is_power_of_two() && t.len().trailing_zeros() <= index.width()
-                    {
-                        // Consecutive codes read consecutive slots (the
-                        // index's bits modulo the table's length), past
-                        // the last slot on from slot 0.
-                        let first = super::table_slot(index.to_bits(lo), mask);
-                        hull.range(t, first, narrow::<usize, _>(hi - lo) + 1)
                     } else {
-                        (lo..=hi).fold((i128::MAX, i128::MIN), |(mn, mx), x| {
-                            let c = t[super::table_slot(index.to_bits(x), mask)].to_i128();
-                            (mn.min(c), mx.max(c))
-                        })
-                    };
-                }
-                Instr::Div { d, q, .. } | Instr::Sqrt { d, q, .. } => {
-                    may[d] = true;
-                    r[d] = (q.format().min_code(), q.format().max_code());
-                }
+                        (step.min, step.max)
+                    }
+                } else {
+                    (lo.code, hi.code)
+                };
+            }
+            Instr::Select {
+                d, sel, ref opts, ..
+            } if r[sel].0 == r[sel].1 => {
+                let s0 = r[sel].0;
+                let (o, sh) = if let Some(&o) = usize::try_from(s0).ok().and_then(|i| opts.get(i)) {
+                    o
+                } else {
+                    opts[0]
+                };
+                r[d] = (r[o].0 << sh, r[o].1 << sh);
+            }
+            Instr::Select {
+                d,
+                sel: _,
+                ref opts,
+                ..
+            } => {
+                r[d] = opts
+                    .iter()
+                    .fold((i128::MAX, i128::MIN), |(lo, hi), &(o, sh)| {
+                        let (a, b) = (r[o].0 << sh, r[o].1 << sh);
+                        (lo.min(a).min(b), hi.max(a).max(b))
+                    });
+            }
+            Instr::Table { d, a, table, index } => {
+                // The entries the index range reads (every entry when
+                // it spans the table).
+                let t = &self.tables[table];
+                let (lo, hi) = r[a];
+                let hull = &self.table_hulls[table];
+                let mask = t.len().wrapping_sub(1);
+                r[d] = if hi - lo >= t.len() as i128 {
+                    hull.whole
+                } else if t.len().is_power_of_two() && t.len().trailing_zeros() <= index.width() {
+                    // Consecutive codes read consecutive slots (the
+                    // index's bits modulo the table's length), past
+                    // the last slot on from slot 0.
+                    let first = super::table_slot(index.to_bits(lo), mask);
+                    hull.range(t, first, narrow::<usize, _>(hi - lo) + 1)
+                } else {
+                    (lo..=hi).fold((i128::MAX, i128::MIN), |(mn, mx), x| {
+                        let c = t[super::table_slot(index.to_bits(x), mask)].to_i128();
+                        (mn.min(c), mx.max(c))
+                    })
+                };
+            }
+            Instr::Div { d, q, .. } | Instr::Sqrt { d, q, .. } => {
+                may[d] = true;
+                r[d] = (q.format().min_code(), q.format().max_code());
             }
         }
-        (r, may)
     }
 }
 
@@ -565,7 +602,6 @@ impl TableHull {
     }
 }
 
-/// Greatest common divisor (of absolute values; `gcd(0, x) = |x|`).
 /// A quantization operand's range `(lo, hi)` over a box and, if asked
 /// for, its congruence `(stride, offset)`
 /// ([`Program::quant_operand_range_congruence`]).

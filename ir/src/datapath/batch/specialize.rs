@@ -153,7 +153,7 @@ impl<R: Raw> Program<R> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use crate::datapath::batch::{Isa, Program, Table, Trace, TV};
     use crate::datapath::Datapath;
     use crate::quantize::{Overflow, Quant, Rounding};
@@ -163,7 +163,7 @@ mod tests {
     /// and plain products and sums, a saturating and a wrapping
     /// quantization, a maximum, a sign-steered sum, selects of constants
     /// and of values, a table read, an input and a node named as outputs.
-    fn datapath() -> (Trace, Vec<TV>) {
+    pub(in crate::datapath::batch) fn datapath() -> (Trace, Vec<TV>) {
         let q = |s: &'static str, f: &str, r, o| Quant::new(s, f.parse().unwrap(), r, o);
         let v = q("v", "I2F14", Rounding::Trunc, Overflow::Saturate);
         let sq = q("sq", "I2F14", Rounding::Trunc, Overflow::Saturate);
