@@ -793,6 +793,29 @@ struct Layout {
     fused: Vec<Fusion>,
 }
 
+impl<R> Program<R> {
+    /// This program with its layout derived again from its instructions,
+    /// inputs and outputs ([`Layout::of`]), for a program built from
+    /// another with those changed.
+    fn laid_out(self) -> Program<R> {
+        let Layout {
+            port_of,
+            loaded,
+            out_of,
+            copied,
+            fused,
+        } = Layout::of(&self.instrs, &self.inputs, &self.outputs, self.n_regs);
+        Program {
+            port_of,
+            loaded,
+            out_of,
+            copied,
+            fused,
+            ..self
+        }
+    }
+}
+
 impl Layout {
     /// The layout of `instrs` over `n_regs` registers with these input
     /// ports and outputs.

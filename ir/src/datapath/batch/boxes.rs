@@ -11,18 +11,19 @@
 //! the rest), so every figure it gives is the one the whole pass gives on
 //! the new box.
 //!
-//! That needs every register written by one instruction at most, after
-//! the constants and inputs: true of every compiled program (a register
-//! is a node of the trace); a program where it were not would be
-//! evaluated whole on every box.
+//! That needs every register written once (by a constant, an input or
+//! one instruction) and every instruction after those writing its
+//! operands: true of every compiled program (a register is a node of the
+//! trace, the instructions in trace order); a program with a register
+//! written twice is evaluated whole on every box.
 //!
 //! A program's registers are the trace's nodes, most of them unused by a
 //! program that computes one node's cone; the evaluation runs on a copy
-//! of the program with its registers numbered densely, so that a box's
-//! figures (copied from box to box) hold only the registers the program
-//! uses.
+//! of the program with the registers it uses numbered densely (constants,
+//! inputs, instructions, outputs), so that a box's figures, copied from
+//! box to box, hold only those.
 
-use super::{Compiled, Instr, Layout, Program, RegPool};
+use super::{Compiled, Instr, Program, RegPool};
 use crate::quantize::Raw;
 use std::borrow::Borrow;
 use std::sync::Arc;
@@ -113,7 +114,8 @@ impl<P: Borrow<Compiled>> Boxes<P> {
     }
 
     /// The box `inputs` (one range of codes per input port), evaluated
-    /// whole: [`Program::box_ranges`]'s ranges and overflow flags.
+    /// whole: every node's range and every quantization's overflow flag, as
+    /// [`Program::node_range`] and [`Program::may_overflow`] give them.
     ///
     /// # Panics
     ///
@@ -167,11 +169,15 @@ impl<P: Borrow<Compiled>> Boxes<P> {
 
     /// The range of node `node`'s code over the box ([`Program::node_range`];
     /// `(0, 0)` for a node the program does not compute, as there).
+    ///
+    /// # Panics
+    ///
+    /// When `node` is not a node of the program's trace (as there).
     #[must_use]
     pub fn node_range(&self, e: &BoxEval, node: usize) -> (i128, i128) {
-        match self.index.get(node) {
-            Some(&i) if i != UNUSED => e.ranges[i],
-            _ => (0, 0),
+        match self.index[node] {
+            UNUSED => (0, 0),
+            i => e.ranges[i],
         }
     }
 
@@ -188,7 +194,7 @@ impl<P: Borrow<Compiled>> Boxes<P> {
     /// ([`Program::quant_operand_congruence`]), or `None` when `node` is
     /// not a quantization of the program. Computed once per box: from the
     /// congruences of the box it came from where those were computed (the
-    /// same vector when neither the changed input's being a single code
+    /// same vector when neither the changed input's congruence
     /// nor any overflow flag changed, else the instructions the input
     /// reaches run again), whole otherwise.
     pub fn quant_operand_congruence(&self, e: &mut BoxEval, node: usize) -> Option<(i128, i128)> {
@@ -260,11 +266,13 @@ impl<P: Borrow<Compiled>> Boxes<P> {
 
 impl<R: Raw> Program<R> {
     /// This program with the registers it uses (constants, inputs,
-    /// instructions' destinations and operands, outputs) numbered
-    /// `0..n` in their order, and each register's new number ([`UNUSED`]
-    /// where it uses none). It runs as this program does.
+    /// instructions' destinations and operands, outputs) numbered `0..n`
+    /// in their order, and each register's new
+    /// number ([`UNUSED`] where it uses none). It runs as this program
+    /// does.
     fn dense(&self) -> (Program<R>, Vec<usize>) {
         let mut used = vec![false; self.n_regs];
+        // Every constant, read or not: its node's range is its value.
         for &(d, _) in &self.consts {
             used[d] = true;
         }
@@ -293,28 +301,16 @@ impl<R: Raw> Program<R> {
         let inputs: Vec<(usize, _)> = self.inputs.iter().map(|&(d, q)| (index[d], q)).collect();
         let outputs: Vec<(usize, i32)> = self.outputs.iter().map(|&(o, f)| (index[o], f)).collect();
         let consts = self.consts.iter().map(|&(d, c)| (index[d], c)).collect();
-        let Layout {
-            port_of,
-            loaded,
-            out_of,
-            copied,
-            fused,
-        } = Layout::of(&instrs, &inputs, &outputs, n);
         let p = Program {
             instrs,
-            fused,
             n_regs: n,
             consts,
             inputs,
-            port_of,
-            loaded,
             outputs,
-            out_of,
-            copied,
             pool: RegPool(std::sync::Mutex::new(Vec::new())),
             ..self.clone()
         };
-        (p, index)
+        (p.laid_out(), index)
     }
 
     /// For each input port, the indices of the instructions it reaches, in
@@ -397,7 +393,8 @@ mod tests {
 
     /// Chains of boxes, each from the one before by changing one input's
     /// range (to a sub-range or anywhere in its format, a single code or
-    /// not), on a datapath with every kind of instruction, as `i64` and
+    /// not), on a datapath with every kind of instruction but division and
+    /// square root, as `i64` and
     /// `i128` programs: every node's range and every quantization's
     /// operand range and congruence are those the whole pass gives on the
     /// same box ([`Compiled::node_ranges`] and the rest, which the
@@ -455,7 +452,7 @@ mod tests {
             );
             for _chain in 0..40 {
                 let mut e = boxes.root(&formats);
-                for step in 0..30 {
+                for _step in 0..30 {
                     let port = fxshade_numbers::convert::narrow::<usize, _>(
                         rng.below(formats.len() as u64),
                     );
@@ -491,8 +488,10 @@ mod tests {
                             shared += usize::from(std::sync::Arc::ptr_eq(pc, c));
                         }
                     }
-                    // Every other box leaves its congruences uncomputed.
-                    if step % 2 == 1 {
+                    // One box in three leaves its congruences uncomputed
+                    // (its child's come whole), the rest pass theirs on
+                    // along chains, as in a branch and bound.
+                    if rng.below(3) == 0 {
                         child.cong = None;
                     }
                     e = child;

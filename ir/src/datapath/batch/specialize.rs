@@ -16,7 +16,7 @@
 //! outputs, per-lane flags and per-stage overflow counts are the
 //! program's.
 
-use super::{Instr, Lanes, Layout, Overflows, Program, RegPool, BLOCK, IN_REGISTER};
+use super::{Instr, Lanes, Overflows, Program, RegPool, BLOCK, IN_REGISTER};
 use crate::quantize::Raw;
 
 impl<R: Raw> Program<R> {
@@ -129,26 +129,17 @@ impl<R: Raw> Program<R> {
                 p.push(regs);
             }
         }
-        let Layout {
-            port_of,
-            loaded,
-            out_of,
-            copied,
-            fused,
-        } = Layout::of(&instrs, &self.inputs, &self.outputs, self.n_regs);
-        Some(Program {
-            instrs,
-            fused,
-            consts,
-            port_of,
-            loaded,
-            out_of,
-            copied,
-            base_flags,
-            base_overflows,
-            pool: RegPool(std::sync::Mutex::new(Vec::new())),
-            ..self.clone()
-        })
+        Some(
+            Program {
+                instrs,
+                consts,
+                base_flags,
+                base_overflows,
+                pool: RegPool(std::sync::Mutex::new(Vec::new())),
+                ..self.clone()
+            }
+            .laid_out(),
+        )
     }
 }
 
